@@ -1,0 +1,54 @@
+//! The one error type of the core. Every variant says what was expected, what came and where.
+
+/// Every failure of `denavit-core`.
+///
+/// ```
+/// use denavit_core::Error;
+/// let e = Error::SizeMismatch { what: "q".into(), expected: 6, got: 7 };
+/// assert_eq!(e.to_string(), "wrong size of q: expected 6, got 7");
+/// ```
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// An array or list has the wrong length.
+    #[error("wrong size of {what}: expected {expected}, got {got}")]
+    SizeMismatch { what: String, expected: usize, got: usize },
+    /// A value is NaN or infinite.
+    #[error("{what} must be finite, got {value} at index {index}")]
+    NonFinite { what: String, index: usize, value: f64 },
+    /// A 4x4 matrix that should be a rigid transform is not.
+    #[error("{what} is not a rigid transform (SE(3)): {reason}")]
+    NotSe3 { what: String, reason: String },
+    /// An argument is outside what is allowed.
+    #[error("invalid {what}: expected {expected}, got {got}")]
+    InvalidArgument { what: String, expected: String, got: String },
+    /// Degenerate geometry (zero-length axis, coincident points, ...).
+    #[error("degenerate input: {reason}")]
+    Degenerate { reason: String },
+    /// A name that is not known.
+    #[error("unknown {kind} '{got}': expected one of {expected}")]
+    UnknownName { kind: String, got: String, expected: String },
+    /// An iterative solver stopped before meeting its tolerance.
+    #[error("not converged after {iterations} iterations: position error {position_error:.3e} m, rotation error {rotation_error:.3e} rad")]
+    NotConverged { iterations: usize, position_error: f64, rotation_error: f64 },
+}
+
+/// Result alias of the core.
+pub type Result<T> = std::result::Result<T, Error>;
+
+/// Check that every value is finite.
+pub(crate) fn check_finite(what: &str, values: &[f64]) -> Result<()> {
+    match values.iter().position(|v| !v.is_finite()) {
+        Some(index) => Err(Error::NonFinite { what: what.to_string(), index, value: values[index] }),
+        None => Ok(()),
+    }
+}
+
+/// Check a length.
+pub(crate) fn check_len(what: &str, expected: usize, got: usize) -> Result<()> {
+    if expected == got {
+        Ok(())
+    } else {
+        Err(Error::SizeMismatch { what: what.to_string(), expected, got })
+    }
+}

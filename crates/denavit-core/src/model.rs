@@ -1,0 +1,178 @@
+//! The immutable serial-chain [`Model`] and its [`Data`] workspace (docs/conventions.md, "The model").
+
+use crate::error::{check_finite, check_len, Error, Result};
+use crate::spatial::Pose;
+use nalgebra::Matrix6xX;
+
+/// How a joint moves along the z axis of its own frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum JointKind {
+    /// `Rz(q + offset)`.
+    Revolute,
+    /// `Tz(q + offset)`.
+    Prismatic,
+}
+
+impl JointKind {
+    /// Parse `"revolute"` / `"prismatic"` (also `"R"` / `"P"`).
+    ///
+    /// ```
+    /// use denavit_core::JointKind;
+    /// assert_eq!(JointKind::parse("R").unwrap(), JointKind::Revolute);
+    /// assert!(JointKind::parse("ball").is_err());
+    /// ```
+    pub fn parse(s: &str) -> Result<Self> {
+        match s.to_ascii_lowercase().as_str() {
+            "revolute" | "r" => Ok(Self::Revolute),
+            "prismatic" | "p" => Ok(Self::Prismatic),
+            _ => Err(Error::UnknownName { kind: "joint kind".into(), got: s.into(), expected: "revolute, prismatic".into() }),
+        }
+    }
+    /// The name used in files: `"revolute"` or `"prismatic"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Revolute => "revolute",
+            Self::Prismatic => "prismatic",
+        }
+    }
+}
+
+/// One joint: its fixed placement in the previous joint frame, its motion, zero offset and limits.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Joint {
+    /// Name (unique within a model).
+    pub name: String,
+    /// Revolute or prismatic about / along local z.
+    pub kind: JointKind,
+    /// `T_{i-1}_i0`: placement of this joint's frame in the previous joint frame at zero motion.
+    pub placement: Pose,
+    /// Zero offset: the motion is `M(q + offset)` (rad or m).
+    pub offset: f64,
+    /// Lower limit of `q` (rad or m).
+    pub lower: f64,
+    /// Upper limit of `q` (rad or m).
+    pub upper: f64,
+}
+
+impl Joint {
+    /// A joint with the given placement, no offset and limits (-pi, pi] for revolute, [-1, 1] m for prismatic.
+    pub fn new(name: impl Into<String>, kind: JointKind, placement: Pose) -> Self {
+        let (lower, upper) = match kind {
+            JointKind::Revolute => (-std::f64::consts::PI, std::f64::consts::PI),
+            JointKind::Prismatic => (-1.0, 1.0),
+        };
+        Self { name: name.into(), kind, placement, offset: 0.0, lower, upper }
+    }
+}
+
+/// An immutable serial chain: `T_world_tool(q) = T_world_base · Π [placement_i · M_i(q_i + offset_i)] · T_flange_tool`.
+///
+/// ```
+/// use denavit_core::{Model, Joint, JointKind, spatial::{trans, Pose}};
+/// let j = vec![Joint::new("j1", JointKind::Revolute, Pose::identity()),
+///              Joint::new("j2", JointKind::Revolute, trans(1.0, 0.0, 0.0))];
+/// let m = Model::new("planar", Pose::identity(), j, trans(1.0, 0.0, 0.0)).unwrap();
+/// assert_eq!(m.nq(), 2);
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct Model {
+    name: String,
+    t_world_base: Pose,
+    joints: Vec<Joint>,
+    t_flange_tool: Pose,
+}
+
+impl Model {
+    /// Build a model, checking finiteness, limits and unique names.
+    pub fn new(name: impl Into<String>, t_world_base: Pose, joints: Vec<Joint>, t_flange_tool: Pose) -> Result<Self> {
+        check_pose("T_world_base", &t_world_base)?;
+        check_pose("T_flange_tool", &t_flange_tool)?;
+        for (i, j) in joints.iter().enumerate() {
+            check_pose(&format!("placement of joint {} ('{}')", i + 1, j.name), &j.placement)?;
+            check_finite(&format!("offset of joint {} ('{}')", i + 1, j.name), &[j.offset])?;
+            if j.lower.is_nan() || j.upper.is_nan() || j.lower > j.upper {
+                return Err(Error::InvalidArgument {
+                    what: format!("limits of joint {} ('{}')", i + 1, j.name),
+                    expected: "lower <= upper".into(),
+                    got: format!("[{}, {}]", j.lower, j.upper),
+                });
+            }
+            if joints[..i].iter().any(|k| k.name == j.name) {
+                return Err(Error::InvalidArgument {
+                    what: format!("name of joint {}", i + 1),
+                    expected: "names unique within the model".into(),
+                    got: format!("'{}' used twice", j.name),
+                });
+            }
+        }
+        Ok(Self { name: name.into(), t_world_base, joints, t_flange_tool })
+    }
+    /// The model's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+    /// Number of joints.
+    pub fn nq(&self) -> usize {
+        self.joints.len()
+    }
+    /// The joints, base to tip.
+    pub fn joints(&self) -> &[Joint] {
+        &self.joints
+    }
+    /// `T_world_base`.
+    pub fn t_world_base(&self) -> &Pose {
+        &self.t_world_base
+    }
+    /// `T_flange_tool`.
+    pub fn t_flange_tool(&self) -> &Pose {
+        &self.t_flange_tool
+    }
+    /// A copy with another base placement.
+    pub fn with_base(&self, t_world_base: Pose) -> Result<Self> {
+        Self::new(self.name.clone(), t_world_base, self.joints.clone(), self.t_flange_tool)
+    }
+    /// A copy with another tool.
+    pub fn with_tool(&self, t_flange_tool: Pose) -> Result<Self> {
+        Self::new(self.name.clone(), self.t_world_base, self.joints.clone(), t_flange_tool)
+    }
+    /// Check that `q` has one finite value per joint.
+    pub fn check_q(&self, q: &[f64]) -> Result<()> {
+        check_len("q", self.nq(), q.len())?;
+        check_finite("q", q)
+    }
+    /// Lower limits.
+    pub fn lower(&self) -> Vec<f64> {
+        self.joints.iter().map(|j| j.lower).collect()
+    }
+    /// Upper limits.
+    pub fn upper(&self) -> Vec<f64> {
+        self.joints.iter().map(|j| j.upper).collect()
+    }
+}
+
+fn check_pose(what: &str, p: &Pose) -> Result<()> {
+    check_finite(what, p.translation.vector.as_slice())?;
+    check_finite(what, p.rotation.matrix().as_slice())
+}
+
+/// Preallocated results of the algorithms for one model (pinocchio's `Data`).
+#[derive(Debug, Clone)]
+pub struct Data {
+    /// `T_world_joint[i]`: joint frame i+1 in world, after the motion.
+    pub t_world_joint: Vec<Pose>,
+    /// `T_world_tool`.
+    pub t_world_tool: Pose,
+    /// Geometric Jacobian, rows `[v; w]` (linear velocity of the tool origin, angular velocity).
+    pub jacobian: Matrix6xX<f64>,
+}
+
+impl Data {
+    /// A workspace sized for `model`.
+    pub fn new(model: &Model) -> Self {
+        Self {
+            t_world_joint: vec![Pose::identity(); model.nq()],
+            t_world_tool: Pose::identity(),
+            jacobian: Matrix6xX::zeros(model.nq()),
+        }
+    }
+}

@@ -1,0 +1,135 @@
+//! Rigid transforms: the elementary factors of docs/conventions.md and checked conversion from 4x4 matrices.
+
+use crate::error::{check_finite, Error, Result};
+use nalgebra::{Matrix3, Matrix4, Rotation3, Translation3, Unit, Vector3};
+
+/// A rigid transform `T_a_b` (rotation matrix + translation).
+pub type Pose = nalgebra::IsometryMatrix3<f64>;
+
+/// `Rx(t)`: rotation about the local x axis.
+pub fn rx(t: f64) -> Pose {
+    Pose::from_parts(Translation3::identity(), Rotation3::from_axis_angle(&Vector3::x_axis(), t))
+}
+/// `Ry(t)`: rotation about the local y axis.
+pub fn ry(t: f64) -> Pose {
+    Pose::from_parts(Translation3::identity(), Rotation3::from_axis_angle(&Vector3::y_axis(), t))
+}
+/// `Rz(t)`: rotation about the local z axis.
+pub fn rz(t: f64) -> Pose {
+    Pose::from_parts(Translation3::identity(), Rotation3::from_axis_angle(&Vector3::z_axis(), t))
+}
+/// `Trans(a, b, c)`: translation along the local axes.
+pub fn trans(a: f64, b: f64, c: f64) -> Pose {
+    Pose::from_parts(Translation3::new(a, b, c), Rotation3::identity())
+}
+
+/// Tolerance on `|R^T R - I|` and `|det R - 1|` accepted for a rotation matrix given by a user.
+pub const SE3_TOL: f64 = 1e-9;
+
+/// Convert a 4x4 homogeneous matrix to a [`Pose`], checking that it is a rigid transform.
+///
+/// The rotation is re-orthonormalised (nearest rotation by SVD) after the check, so round-off in a
+/// file does not accumulate.
+///
+/// ```
+/// use denavit_core::spatial::{pose_from_matrix, rz};
+/// let m = rz(0.3).to_homogeneous();
+/// assert!((pose_from_matrix(&m, "tool").unwrap().to_homogeneous() - m).norm() < 1e-15);
+/// let mut bad = m; bad[(0, 0)] = 2.0;
+/// assert!(pose_from_matrix(&bad, "tool").is_err());
+/// ```
+pub fn pose_from_matrix(m: &Matrix4<f64>, what: &str) -> Result<Pose> {
+    check_finite(what, m.as_slice())?;
+    let bottom = [m[(3, 0)], m[(3, 1)], m[(3, 2)], m[(3, 3)]];
+    if bottom != [0.0, 0.0, 0.0, 1.0] {
+        return Err(Error::NotSe3 {
+            what: what.to_string(),
+            reason: format!("last row must be [0, 0, 0, 1], got {bottom:?}"),
+        });
+    }
+    let r: Matrix3<f64> = m.fixed_view::<3, 3>(0, 0).into();
+    let orth = (r.transpose() * r - Matrix3::identity()).amax();
+    let det = r.determinant();
+    if orth > SE3_TOL || (det - 1.0).abs() > SE3_TOL {
+        return Err(Error::NotSe3 {
+            what: what.to_string(),
+            reason: format!(
+                "rotation part must be orthonormal with det +1 (tolerance {SE3_TOL:e}), got |R^T R - I| = {orth:.3e}, det = {det:.6}"
+            ),
+        });
+    }
+    let t = Vector3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]);
+    Ok(Pose::from_parts(t.into(), nearest_rotation(&r)))
+}
+
+/// The rotation matrix nearest to `m` in the Frobenius norm (SVD projection).
+pub fn nearest_rotation(m: &Matrix3<f64>) -> Rotation3<f64> {
+    let svd = m.svd(true, true);
+    let (u, vt) = (svd.u.unwrap_or_else(Matrix3::identity), svd.v_t.unwrap_or_else(Matrix3::identity));
+    let mut d = Matrix3::identity();
+    if (u * vt).determinant() < 0.0 {
+        d[(2, 2)] = -1.0;
+    }
+    Rotation3::from_matrix_unchecked(u * d * vt)
+}
+
+/// A unit vector from a 3-vector, or a `Degenerate` error naming `what` when its length is (near) zero.
+pub fn unit(v: &Vector3<f64>, what: &str) -> Result<Unit<Vector3<f64>>> {
+    check_finite(what, v.as_slice())?;
+    let n = v.norm();
+    if n < 1e-12 {
+        return Err(Error::Degenerate { reason: format!("{what} must be a non-zero direction, got length {n:.3e}") });
+    }
+    Ok(Unit::new_unchecked(v / n))
+}
+
+/// Frame from an origin, a z axis and an x hint (made perpendicular to z); `fallback` is used when the
+/// hint is (nearly) parallel to z.
+pub(crate) fn frame_from_zx(origin: &Vector3<f64>, z: &Vector3<f64>, x_hint: &Vector3<f64>, fallback: &Vector3<f64>) -> Pose {
+    let x = perpendicular(x_hint, z).or_else(|| perpendicular(fallback, z)).unwrap_or_else(|| any_perpendicular(z));
+    let y = z.cross(&x);
+    let r = Matrix3::from_columns(&[x, y, *z]);
+    Pose::from_parts((*origin).into(), Rotation3::from_matrix_unchecked(r))
+}
+
+/// Unit component of `v` perpendicular to the unit vector `z`, if it is not (nearly) zero.
+pub(crate) fn perpendicular(v: &Vector3<f64>, z: &Vector3<f64>) -> Option<Vector3<f64>> {
+    let p = v - z * z.dot(v);
+    let n = p.norm();
+    (n > 1e-9 * v.norm().max(1e-300)).then(|| p / n)
+}
+
+/// A deterministic unit vector perpendicular to the unit vector `z`.
+pub(crate) fn any_perpendicular(z: &Vector3<f64>) -> Vector3<f64> {
+    let e = if z.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+    (e - z * z.dot(&e)).normalize()
+}
+
+/// Signed angle from `a` to `b` about the unit axis `n` (both taken perpendicular to `n`).
+pub(crate) fn signed_angle(a: &Vector3<f64>, b: &Vector3<f64>, n: &Vector3<f64>) -> f64 {
+    a.cross(b).dot(n).atan2(a.dot(b))
+}
+
+/// Wrap an angle to (-pi, pi].
+pub fn wrap_angle(t: f64) -> f64 {
+    let w = t.rem_euclid(std::f64::consts::TAU);
+    if w > std::f64::consts::PI {
+        w - std::f64::consts::TAU
+    } else {
+        w
+    }
+}
+
+/// Position and rotation-angle distance between two poses (metres, radians).
+pub fn pose_error(a: &Pose, b: &Pose) -> (f64, f64) {
+    let dp = (a.translation.vector - b.translation.vector).norm();
+    (dp, rotation_angle(&(a.rotation.inverse() * b.rotation)))
+}
+
+/// Rotation angle of `r` in [0, pi], accurate for small angles too (`atan2(|sin|, cos)`, not `acos`).
+pub fn rotation_angle(r: &Rotation3<f64>) -> f64 {
+    let m = r.matrix();
+    let s = Vector3::new(m[(2, 1)] - m[(1, 2)], m[(0, 2)] - m[(2, 0)], m[(1, 0)] - m[(0, 1)]).norm() / 2.0;
+    let c = (m.trace() - 1.0) / 2.0;
+    s.atan2(c)
+}
