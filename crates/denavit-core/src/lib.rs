@@ -11,8 +11,10 @@
 
 pub mod axes;
 pub mod convention;
+pub mod dynamics;
 pub mod error;
 pub mod extract;
+pub mod ik;
 pub mod kinematics;
 pub mod model;
 pub mod spatial;

@@ -1,0 +1,1 @@
+//! Rigid-body dynamics: inertial parameters, recursive Newton-Euler, mass matrix, forward dynamics.
