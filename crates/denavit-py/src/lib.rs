@@ -1,3 +1,23 @@
+//! `denavit._core`: the thin PyO3 binding of `denavit-core`. Conversions and checks live in `convert`,
+//! error mapping in `error`; one file per concept of the core.
+
 use pyo3::prelude::*;
+
+mod convert;
+mod error;
+mod kinematics;
+mod model;
+
 #[pymodule]
-fn _core(_m: &Bound<'_, PyModule>) -> PyResult<()> { Ok(()) }
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<model::PyModel>()?;
+    m.add_class::<model::PyTable>()?;
+    m.add_class::<model::PyJointAxes>()?;
+    m.add_class::<model::PyExtraction>()?;
+    m.add_class::<model::PyPair>()?;
+    m.add_function(wrap_pyfunction!(model::axes, m)?)?;
+    m.add_function(wrap_pyfunction!(model::extract, m)?)?;
+    kinematics::register(m)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

@@ -1,0 +1,284 @@
+"""Robot files: a human-readable TOML description of a robot in one convention, with declared units.
+
+Format (see docs/robot-files.md and the built-in files in ``denavit/models``)::
+
+    name = "kr5"
+    convention = "dh"            # dh | mdh | edh | poe
+    [units]
+    length = "mm"                # m | mm | cm | um | in
+    angle = "deg"                # rad | deg
+    [[joints]]                   # one per joint, base to tip
+    name = "A1"
+    type = "revolute"            # optional, default revolute
+    d = 400                      # the convention's columns (docs/conventions.md)
+    theta = 0
+    a = 180
+    alpha = 90
+    limits = [-155, 155]         # optional
+    [base]                       # optional T_world_base: xyz (length) + rpy (angle), or matrix (4x4, length)
+    xyz = [0, 0, 0]
+    rpy = [0, 0, 0]
+    [tool]                       # optional tool in the convention's last frame (poe: home pose M)
+
+POE joints give ``w = [wx, wy, wz]`` and ``v = [vx, vy, vz]`` (v in length units).
+``rpy`` is roll-pitch-yaw about fixed axes as in URDF: ``R = Rz(yaw) Ry(pitch) Rx(roll)``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import tempfile
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from . import _core
+from .errors import DenavitError
+from .units import angle_scale, length_scale
+
+CONVENTIONS = ("dh", "mdh", "edh", "poe")
+
+
+@dataclass(frozen=True)
+class Robot:
+    """A robot description: its table in one convention, joint names, limits and metadata.
+
+    Attributes are SI (m, rad). ``home`` is an optional reference configuration (e.g. a measurement home).
+    """
+
+    name: str
+    table: _core.Table
+    names: list[str]
+    lower: np.ndarray
+    upper: np.ndarray
+    description: str = ""
+    source: str = ""
+    home: np.ndarray | None = None
+    path: str = ""
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def convention(self) -> str:
+        return self.table.convention
+
+    def model(self) -> _core.Model:
+        """The kinematic model (docs/conventions.md)."""
+        return self.table.to_model(self.name, self.names, self.lower, self.upper)
+
+
+def builtin_names() -> list[str]:
+    """Names of the built-in robot files."""
+    return sorted(p.name[:-5] for p in resources.files("denavit.models").iterdir() if p.name.endswith(".toml"))
+
+
+def resolve(name_or_path: str | os.PathLike) -> Path:
+    """The file of a built-in name or a path; a clear error listing the built-ins otherwise."""
+    p = Path(name_or_path)
+    if p.suffix and p.exists():
+        return p
+    if p.exists() and p.is_file():
+        return p
+    key = str(name_or_path).lower().replace("-", "_")
+    if key in builtin_names():
+        return Path(str(resources.files("denavit.models").joinpath(key + ".toml")))
+    raise DenavitError(f"unknown model {str(name_or_path)!r}: expected a built-in name ({', '.join(builtin_names())}) or an existing robot file (.toml) or URDF (.urdf)")
+
+
+def _pose(spec: dict, ls: float, as_: float, where: str) -> np.ndarray:
+    if not isinstance(spec, dict):
+        raise DenavitError(f"{where}: expected a table with xyz/rpy or matrix, got {spec!r}")
+    unknown = set(spec) - {"xyz", "rpy", "matrix"}
+    if unknown:
+        raise DenavitError(f"{where}: unknown keys {sorted(unknown)}: expected xyz, rpy or matrix")
+    T = np.eye(4)
+    if "matrix" in spec:
+        m = np.asarray(spec["matrix"], dtype=float)
+        if m.shape != (4, 4):
+            raise DenavitError(f"{where}: matrix must be 4x4, got shape {m.shape}")
+        T = m.copy()
+        T[:3, 3] *= ls
+        return T
+    xyz = np.asarray(spec.get("xyz", [0, 0, 0]), dtype=float)
+    rpy = np.asarray(spec.get("rpy", [0, 0, 0]), dtype=float)
+    if xyz.shape != (3,) or rpy.shape != (3,):
+        raise DenavitError(f"{where}: xyz and rpy need 3 values each, got {xyz.tolist()} and {rpy.tolist()}")
+    T[:3, :3] = Rotation.from_euler("xyz", rpy * as_).as_matrix()
+    T[:3, 3] = xyz * ls
+    return T
+
+
+def _joint_lines(text: str) -> list[int]:
+    return [i + 1 for i, line in enumerate(text.splitlines()) if re.match(r"\s*\[\[\s*joints\s*\]\]", line)]
+
+
+def load(name_or_path: str | os.PathLike) -> Robot:
+    """Read a robot file (or a built-in by name) into a :class:`Robot` (SI inside)."""
+    path = resolve(name_or_path)
+    if path.suffix.lower() == ".urdf":
+        from .urdf import load_urdf  # noqa: PLC0415 (URDF support lives in its own module)
+
+        return load_urdf(path)
+    text = path.read_text(encoding="utf-8")
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise DenavitError(f"{path}: not a valid TOML robot file: {e}") from None
+    return from_dict(doc, where=str(path), joint_lines=_joint_lines(text))
+
+
+def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = None) -> Robot:
+    """Build a :class:`Robot` from the parsed TOML structure (see the module docstring)."""
+    conv = str(doc.get("convention", "")).lower()
+    if conv not in CONVENTIONS:
+        raise DenavitError(f"{where}: 'convention' must be one of {', '.join(CONVENTIONS)}, got {doc.get('convention')!r}")
+    units = doc.get("units")
+    if not isinstance(units, dict) or "length" not in units or "angle" not in units:
+        raise DenavitError(f"{where}: a [units] table with 'length' and 'angle' is required (e.g. length = \"mm\", angle = \"deg\"), got {units!r}")
+    ls = length_scale(units["length"], f"{where}, [units] length")
+    as_ = angle_scale(units["angle"], f"{where}, [units] angle")
+    joints = doc.get("joints")
+    if not isinstance(joints, list) or not joints:
+        raise DenavitError(f"{where}: expected one or more [[joints]] tables, got none")
+    cols = list(_core.Table(conv, np.zeros((0, len(_columns(conv))))).columns)
+    angle_cols = _angle_columns(conv)
+    rows, kinds, names, lower, upper = [], [], [], [], []
+    for i, j in enumerate(joints):
+        line = f" (line {joint_lines[i]})" if joint_lines and i < len(joint_lines) else ""
+        jw = f"{where}, joint {i + 1}{line}"
+        kind = str(j.get("type", "revolute")).lower()
+        if kind not in ("revolute", "prismatic"):
+            raise DenavitError(f"{jw}: type must be 'revolute' or 'prismatic', got {j.get('type')!r}")
+        kinds.append(kind)
+        names.append(str(j.get("name", f"j{i + 1}")))
+        if conv == "poe":
+            w = np.asarray(j.get("w", [0, 0, 0]), dtype=float)
+            v = np.asarray(j.get("v", [0, 0, 0]), dtype=float)
+            if w.shape != (3,) or v.shape != (3,):
+                raise DenavitError(f"{jw}: poe joints need w and v with 3 values each")
+            rows.append([*w, *(v * (ls if kind == "revolute" else 1.0))])
+        else:
+            missing = [c for c in cols if c not in j]
+            if missing:
+                raise DenavitError(f"{jw}: missing parameter(s) {', '.join(missing)} of a {conv} table (columns {', '.join(cols)})")
+            row = []
+            for c, is_angle in zip(cols, angle_cols):
+                try:
+                    val = float(j[c])
+                except (TypeError, ValueError):
+                    raise DenavitError(f"{jw}: parameter {c} must be a number, got {j[c]!r}") from None
+                if not math.isfinite(val):
+                    raise DenavitError(f"{jw}: parameter {c} must be finite, got {val}")
+                row.append(val * (as_ if is_angle else ls))
+            rows.append(row)
+        lim = j.get("limits")
+        scale = as_ if kind == "revolute" else ls
+        if lim is None:
+            lo, hi = (-math.pi, math.pi) if kind == "revolute" else (-1.0, 1.0)
+        else:
+            if len(lim) != 2 or float(lim[0]) > float(lim[1]):
+                raise DenavitError(f"{jw}: limits must be [lower, upper] with lower <= upper, got {lim!r}")
+            lo, hi = float(lim[0]) * scale, float(lim[1]) * scale
+        lower.append(lo)
+        upper.append(hi)
+    base = _pose(doc["base"], ls, as_, f"{where}, [base]") if "base" in doc else np.eye(4)
+    tool = _pose(doc["tool"], ls, as_, f"{where}, [tool]") if "tool" in doc else np.eye(4)
+    table = _core.Table(conv, np.asarray(rows, dtype=float).reshape(len(rows), len(cols)), kinds, base, tool)
+    home = doc.get("home")
+    if home is not None:
+        home = np.asarray(home, dtype=float)
+        if home.shape != (len(joints),):
+            raise DenavitError(f"{where}: home must have {len(joints)} values, got {home.shape}")
+        home = np.array([h * (as_ if k == "revolute" else ls) for h, k in zip(home, kinds)])
+    known = {"name", "description", "source", "convention", "units", "joints", "base", "tool", "home"}
+    return Robot(
+        name=str(doc.get("name", Path(where).stem)),
+        table=table,
+        names=names,
+        lower=np.array(lower),
+        upper=np.array(upper),
+        description=str(doc.get("description", "")),
+        source=str(doc.get("source", "")),
+        home=home,
+        path=where,
+        extra={k: v for k, v in doc.items() if k not in known},
+    )
+
+
+def _columns(conv: str) -> list[str]:
+    return {"dh": ["d", "theta", "a", "alpha"], "mdh": ["alpha", "a", "theta", "d"], "edh": ["alpha", "a", "b", "c", "theta"], "poe": ["wx", "wy", "wz", "vx", "vy", "vz"]}[conv]
+
+
+def _angle_columns(conv: str) -> list[bool]:
+    return list(_core.Table(conv, np.zeros((0, len(_columns(conv))))).angle_columns)
+
+
+def _pose_spec(T: np.ndarray, ls: float, as_: float) -> dict:
+    return {"xyz": [float(v) for v in T[:3, 3] / ls], "rpy": [float(v) for v in Rotation.from_matrix(T[:3, :3]).as_euler("xyz") / as_]}
+
+
+def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
+    """The TOML structure of a robot in the given units."""
+    ls, as_ = length_scale(length), angle_scale(angle)
+    t = robot.table
+    doc: dict = {"name": robot.name}
+    if robot.description:
+        doc["description"] = robot.description
+    if robot.source:
+        doc["source"] = robot.source
+    doc["convention"] = t.convention
+    if robot.home is not None:
+        doc["home"] = [float(h / (as_ if k == "revolute" else ls)) for h, k in zip(robot.home, t.kinds)]
+    doc["units"] = {"length": length, "angle": angle}
+    joints = []
+    for i, (row, kind) in enumerate(zip(t.params, t.kinds)):
+        j: dict = {"name": robot.names[i]}
+        if kind != "revolute":
+            j["type"] = kind
+        if t.convention == "poe":
+            j["w"] = [float(v) for v in row[:3]]
+            j["v"] = [float(v / (ls if kind == "revolute" else 1.0)) for v in row[3:]]
+        else:
+            for c, is_angle, v in zip(t.columns, t.angle_columns, row):
+                j[c] = float(v / (as_ if is_angle else ls))
+        scale = as_ if kind == "revolute" else ls
+        j["limits"] = [float(robot.lower[i] / scale), float(robot.upper[i] / scale)]
+        joints.append(j)
+    doc["joints"] = joints
+    if not np.allclose(t.T_world_base, np.eye(4), atol=0, rtol=0):
+        doc["base"] = _pose_spec(t.T_world_base, ls, as_)
+    if not np.allclose(t.T_last_tool, np.eye(4), atol=0, rtol=0):
+        doc["tool"] = _pose_spec(t.T_last_tool, ls, as_)
+    doc.update(robot.extra)
+    return doc
+
+
+def write_atomic(path: str | os.PathLike, text: str) -> None:
+    """Write a whole file or nothing: a temporary file in the same folder, then an atomic rename."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent or ".", prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def dumps(robot: Robot, length: str = "m", angle: str = "rad") -> str:
+    """A robot file's text."""
+    import tomli_w  # noqa: PLC0415
+
+    header = f"# {robot.description or robot.name}\n" + (f"# Source: {robot.source}\n" if robot.source else "")
+    return header + tomli_w.dumps(to_dict(robot, length, angle))
+
+
+def save(robot: Robot, path: str | os.PathLike, length: str = "m", angle: str = "rad") -> None:
+    """Write a robot file (whole or not at all)."""
+    write_atomic(path, dumps(robot, length, angle))

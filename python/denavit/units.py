@@ -1,0 +1,26 @@
+"""Units at the edges (files, CSV, CLI). Inside everything is SI: metres and radians."""
+
+from __future__ import annotations
+
+import math
+
+from .errors import DenavitError
+
+LENGTH = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "um": 1e-6, "in": 0.0254}
+ANGLE = {"rad": 1.0, "deg": math.pi / 180.0}
+
+
+def length_scale(unit: str, where: str = "") -> float:
+    """Metres per `unit` ("m", "mm", "cm", "um", "in")."""
+    try:
+        return LENGTH[str(unit).strip().lower()]
+    except KeyError:
+        raise DenavitError(f"{where + ': ' if where else ''}unknown length unit {unit!r}: expected one of {', '.join(LENGTH)}") from None
+
+
+def angle_scale(unit: str, where: str = "") -> float:
+    """Radians per `unit` ("rad", "deg")."""
+    try:
+        return ANGLE[str(unit).strip().lower()]
+    except KeyError:
+        raise DenavitError(f"{where + ': ' if where else ''}unknown angle unit {unit!r}: expected one of {', '.join(ANGLE)}") from None
