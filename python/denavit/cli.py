@@ -198,6 +198,156 @@ def export_cmd(model: ModelArg, length: str = "mm", angle: str = "deg") -> None:
     print(dumps(load(model), length, angle), end="")
 
 
+EXAMPLES = {"kr5": "kr5_90deg.csv", "kr5-90": "kr5_90deg.csv", "kr5-30": "kr5_30deg.csv"}
+
+
+def example_path(name: str) -> Path:
+    from importlib import resources  # noqa: PLC0415
+
+    key = name.lower()
+    if key not in EXAMPLES:
+        fail(f"--example: unknown example {name!r}: expected one of {', '.join(EXAMPLES)}")
+    return Path(str(resources.files("denavit.data").joinpath(EXAMPLES[key])))
+
+
+@app.command()
+def identify(
+    data: Annotated[Optional[Path], typer.Argument(help="Sweeps: long-form CSV, JSON, or a folder of j1.csv..jN.csv.")] = None,
+    example: Annotated[Optional[str], typer.Option("--example", help="Run on data shipped with the package: kr5 (90 deg protocol), kr5-30.")] = None,
+    nominal: Annotated[Optional[str], typer.Option("--nominal", help="Nominal model (built-in name or file): signs, free origins, names, limits.")] = None,
+    method: Annotated[str, typer.Option("--method", help="auto | kasa | hyper | geometric | readings | global")] = "auto",
+    convention: Annotated[str, typer.Option("--convention", help="dh | mdh | edh | poe")] = "dh",
+    json_path: Annotated[Optional[Path], typer.Option("--json", help="Write the result as JSON to this file.")] = None,
+    length: Annotated[Optional[str], typer.Option("--length", help="Length unit of the data if not declared in it; also of the output.")] = None,
+    angle: Annotated[Optional[str], typer.Option("--angle", help="Angle unit of the data if not declared in it.")] = None,
+    home: Annotated[Optional[str], typer.Option("--home", help="Per-joint files: the locked configuration, e.g. \"90,-90,90,0,90,0\" (--angle units).")] = None,
+    direction: Annotated[Optional[str], typer.Option("--direction", help="Per-joint files: +1/-1 per joint (or one for all): did the joint value increase over the recording?")] = None,
+    loss: Annotated[str, typer.Option("--loss", help="linear | soft_l1 | huber (robust loss)")] = "linear",
+    report: Annotated[Optional[Path], typer.Option("--report", help="Write a self-contained HTML report.")] = None,
+    plot: Annotated[Optional[Path], typer.Option("--plot", help="Write the static figures (PNG) into this folder.")] = None,
+) -> None:
+    """Identify the joint axes and parameters from joint sweeps (Hayat et al.), beside the nominal values."""
+    from . import identify as ident  # noqa: PLC0415
+    from . import sweeps as sw  # noqa: PLC0415
+
+    if example:
+        data = example_path(example)
+        nominal = nominal or "kr5"
+    if data is None:
+        fail("give the sweep data (a file or folder) or --example kr5")
+    with console.status("reading sweeps..."):
+        if data.is_dir():
+            if not home or not length:
+                fail("a folder of per-joint files needs --home and --length (and --angle, default deg)")
+            dirs = parse_numbers(direction, "--direction") or [1.0]
+            sweeps = sw.read_joint_files(data, home=parse_numbers(home, "--home"), length=length, angle=angle or "deg", direction=dirs if len(dirs) > 1 else dirs[0])
+        elif data.suffix.lower() == ".json":
+            sweeps = sw.read_json(data)
+        else:
+            sweeps = sw.read_long_csv(data, length=length, angle=angle)
+    nom = load(nominal) if nominal else None
+    with console.status(f"fitting {sweeps.n_joints} sweeps ({method})..."):
+        result = ident.identify(sweeps, method=method, convention=convention.lower(), nominal=nom, loss=loss)
+    out_len = length or sweeps.units.get("length", "m")
+    doc = ident.to_json(result, out_len, "deg")
+    print_identification(doc, result, out_len)
+    if json_path:
+        ident.write_json(result, json_path, out_len, "deg")
+        console.print(f"wrote {json_path}")
+    if report or plot:
+        from . import report as rep  # noqa: PLC0415
+
+        if plot:
+            for f in rep.write_figures(result, plot):
+                console.print(f"wrote {f}")
+        if report:
+            rep.write_report(result, report)
+            console.print(f"wrote {report}")
+
+
+def print_identification(doc: dict, result, length: str) -> None:
+    nt = result.nominal_table
+    console.print(f"[bold]Identified {doc['convention'].upper()} parameters[/] (method {doc['method']}; data {doc['source']})")
+    t = RichTable(caption=f"lengths in {length}, angles in deg; sigma = one standard deviation propagated from the fits")
+    for c in ("joint", "param", "nominal", "identified", "sigma", "difference"):
+        t.add_column(c, justify="right" if c not in ("joint", "param") else "left")
+    ls, as_ = length_scale(length), angle_scale("deg")
+    cols = result.table.columns
+    for i, row in enumerate(doc["parameters"]):
+        for k, c in enumerate(cols):
+            a = result.table.angle_columns[k]
+            nom = nt.params[i, k] / (as_ if a else ls) if nt is not None else None
+            diff = row[c] - nom if nom is not None else None
+            if diff is not None and a:
+                diff = (diff + 180.0) % 360.0 - 180.0
+            t.add_row(row["joint"] if k == 0 else "", c, fmt(nom, 3) if nom is not None else "-", fmt(row[c], 3), f"{row[c + '_sigma']:.3f}",
+                      fmt(diff, 3) if diff is not None else "-", end_section=k == len(cols) - 1)
+    console.print(t)
+    at = RichTable(title="Joint axes (measurement frame)")
+    for c in ("joint", f"radius [{length}]", "arc [deg]", f"rms [{length}]", f"sigma across [{length}]", "sigma dir [deg]", "outliers"):
+        at.add_column(c, justify="right")
+    for j in doc["joints"]:
+        r = j["circle"]["radius"]
+        at.add_row(j["joint"], f"{r:.3f}" if r is not None else "-", f"{j['arc_deg']:.1f}", f"{j['residuals']['rms']:.4f}", f"{j['axis']['sigma_point_perp']:.4f}",
+                   f"{j['axis']['sigma_direction_deg']:.5f}", str(len(j["residuals"]["outliers"])))
+    console.print(at)
+    b = doc["bounding_box"]
+    console.print(f"Measuring volume (minimum oriented bounding box, Hayat Table IV): {b['lengths'][0]:.3f} x {b['lengths'][1]:.3f} x {b['lengths'][2]:.3f} {length}, {b['volume_m3']:.4f} m^3; orientation (columns = box axes):")
+    for row in b["orientation"]:
+        console.print("  " + "  ".join(f"{v:7.3f}" for v in row))
+    for note in doc["notes"]:
+        console.print(f"[yellow]note:[/] {note}")
+
+
+@app.command()
+def simulate(
+    model: ModelArg,
+    output: Annotated[Path, typer.Option("-o", "--output", help="Long-form CSV to write.")],
+    home: Annotated[Optional[str], typer.Option("--home", help="Home configuration in --angle units (default: the model file's home, else zeros).")] = None,
+    ranges: Annotated[Optional[str], typer.Option("--ranges", help="Per-joint start,end pairs in --angle units, or 'paper90' / 'paper30' (Hayat Table II, the default).")] = None,
+    points: Annotated[int, typer.Option("--points", help="Points per sweep.")] = 30,
+    tool: Annotated[str, typer.Option("--tool", help="Tool point in the flange frame, in --length units.")] = "50,30,100",
+    noise: Annotated[float, typer.Option("--noise", help="Point noise (1 sigma per coordinate), --length units.")] = 0.02,
+    noise_q: Annotated[float, typer.Option("--noise-q", help="Joint-reading noise (1 sigma), --angle units.")] = 0.0,
+    seed: Annotated[int, typer.Option("--seed")] = 0,
+    length: Annotated[str, typer.Option("--length")] = "mm",
+    angle: Annotated[str, typer.Option("--angle")] = "deg",
+) -> None:
+    """Simulate joint sweeps of a model (for planning a measurement and for tests); writes the long-form CSV."""
+    from . import sweeps as sw  # noqa: PLC0415
+
+    robot = load(model)
+    m = robot.model()
+    ls, as_ = length_scale(length), angle_scale(angle)
+    n = m.nq
+    if home:
+        h = np.array(parse_numbers(home, "--home")) * as_
+    elif robot.home is not None:
+        h = robot.home
+    else:
+        h = np.zeros(n)
+    if h.shape != (n,):
+        fail(f"--home: expected {n} values, got {h.size}")
+    key = (ranges or "paper90").lower()
+    if key in ("paper90", "paper30"):
+        if n != 6:
+            fail("--ranges paper90/paper30 are Hayat Table II for a 6-joint robot; give start,end pairs for this one")
+        r = np.radians(np.array(sw.PAPER_RANGES_DEG[int(key[-2:])]))
+    else:
+        vals = parse_numbers(ranges, "--ranges")
+        if len(vals) != 2 * n:
+            fail(f"--ranges: expected {2 * n} values (start,end per joint), got {len(vals)}")
+        r = np.array(vals).reshape(n, 2) * as_
+    tp = np.array(parse_numbers(tool, "--tool")) * ls
+    if tp.shape != (3,):
+        fail(f"--tool: expected 3 values, got {tp.size}")
+    s = sw.simulate(m, home=h, ranges=r, points_per_sweep=points, tool_point=tp, noise=noise * ls, noise_q=noise_q * as_, seed=seed)
+    from .robotfile import write_atomic  # noqa: PLC0415
+
+    write_atomic(output, sw.to_long_csv(s, length, angle, f"simulated sweeps of {robot.name}: seed {seed}, noise {noise} {length}, readings noise {noise_q} {angle}"))
+    console.print(f"wrote {output}: {n} sweeps x {points} points")
+
+
 def main() -> None:
     """Entry point: every DenavitError becomes a one-line message and exit code 2."""
     try:

@@ -1,0 +1,385 @@
+"""Circle-point identification: the robot's true joint axes and parameters from joint sweeps.
+
+Hayat et al., *Identification of Denavit-Hartenberg Parameters of an Industrial Robot*: fit one circle per
+swept joint (centroid, SVD plane, algebraic circle, eq. 1-9: method ``kasa``), take each circle's normal and
+centre as the joint axis, and extract the parameters from consecutive axes by line geometry. Beyond the
+paper: bias-free and geometric fits, a fit that uses the recorded joint readings, and a ``global`` fit of
+all sweeps together (one shared tool point at home, one line per joint), covariance of every axis
+propagated to every parameter, no absurd offsets on near-parallel axes (docs/conventions.md), and the
+minimum-volume bounding box of the measured points (paper Table IV).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
+
+from . import _core, fitting
+from .errors import DegenerateError, DenavitError
+from .robotfile import Robot, write_atomic
+from .sweeps import SweepSet
+from .units import angle_scale, length_scale
+
+METHODS = ("auto", "kasa", "hyper", "geometric", "readings", "global")
+
+
+@dataclass(frozen=True)
+class Identification:
+    """The result of :func:`identify` (SI inside; measurement frame = ``world``)."""
+
+    method: str
+    convention: str
+    axes: _core.JointAxes
+    fits: list  # per joint: fitting.AxisFit (the per-sweep fit, or the global fit's view of it)
+    extraction: _core.Extraction
+    sigma: np.ndarray  # (n, k) one-sigma of every table parameter
+    axis_cov: np.ndarray  # (6n+3, 6n+3) covariance of [c1, n1, ..., cn, nn, tool point at home]
+    tool_point: np.ndarray  # (3,) tool point at home in world (m)
+    box: fitting.BoundingBox
+    sweeps: SweepSet
+    nominal: Robot | None = None
+    nominal_table: _core.Table | None = None
+    rms: float = 0.0
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def table(self) -> _core.Table:
+        return self.extraction.table
+
+    def model(self, name: str = "identified") -> _core.Model:
+        names = self.nominal.names if self.nominal else [f"j{i + 1}" for i in range(self.axes.nq)]
+        lower = self.nominal.lower if self.nominal else None
+        upper = self.nominal.upper if self.nominal else None
+        return self.table.to_model(name, names, lower, upper)
+
+
+def _rot(n: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """(m, 3, 3) rotations about the unit axis n by each angle (Rodrigues)."""
+    return Rotation.from_rotvec(np.outer(angle, n)).as_matrix()
+
+
+def _orient(fit: fitting.AxisFit, points: np.ndarray, q: np.ndarray | None) -> fitting.AxisFit:
+    """Point the axis so that the joint turns counter-clockwise about it as its value increases (readings),
+    or as time goes on (no readings). Hayat et al. rotate every joint counter-clockwise (sec. III.A)."""
+    rel = points - fit.point
+    turn = np.sum(np.einsum("ij,j->i", np.cross(rel[:-1], rel[1:]), fit.direction))
+    sign = 1.0 if turn >= 0 else -1.0
+    if q is not None and len(q) > 1:
+        dq = np.sign(np.polyfit(np.arange(len(q)), q, 1)[0]) or 1.0
+        sign *= dq
+    if sign > 0:
+        return fit
+    S = np.diag([1.0, 1, 1, -1, -1, -1])
+    return replace(fit, direction=-fit.direction, cov=S @ fit.cov @ S)
+
+
+def _per_sweep(sweeps: SweepSet, method: str, loss: str) -> list:
+    fits = []
+    for s in sweeps.sweeps:
+        where = s.where[0].rsplit(":", 1)[0] if s.where else sweeps.source
+        where = f"{where}, joint {s.joint}"
+        q = s.moving
+        if sweeps.kinds[s.joint - 1] == "prismatic":
+            f = fitting.fit_line(s.points, q=q, where=where)
+        elif method == "kasa":
+            f = fitting.fit_circle_kasa(s.points, where=where)
+        elif method == "hyper":
+            f = fitting.fit_circle_hyper(s.points, where=where)
+        elif method == "geometric":
+            f = fitting.fit_circle_geometric(s.points, loss=loss, where=where)
+        elif method in ("readings", "global"):
+            if q is None:
+                raise DenavitError(f"{where}: method '{method}' needs joint readings; this data has none (use geometric)")
+            f = fitting.fit_axis_with_readings(s.points, q, loss=loss, where=where)
+        else:
+            raise DenavitError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
+        fits.append(_orient(f, s.points, q))
+    return fits
+
+
+def _tool_point_from_readings(sweeps: SweepSet, fits: list) -> np.ndarray:
+    """Tool point at home: every measured point turned back to home about its sweep's axis, averaged."""
+    est = []
+    for s, f in zip(sweeps.sweeps, fits):
+        j = s.joint - 1
+        d = sweeps.home[j] - s.q[:, j]
+        if sweeps.kinds[j] == "prismatic":
+            est.append(s.points + np.outer(d, f.direction))
+        else:
+            R = _rot(f.direction, d)
+            est.append(f.point + np.einsum("mij,mj->mi", R, s.points - f.point))
+    return np.mean(np.vstack(est), axis=0)
+
+
+def _tool_point_geometric(sweeps: SweepSet, fits: list) -> np.ndarray:
+    """Tool point at home without readings: the measured point closest to every other sweep's circle."""
+
+    def dist_to_circle(p, f):
+        rel = p - f.point
+        h = rel @ f.direction
+        r = np.linalg.norm(rel - np.outer(h, f.direction), axis=1)
+        return np.hypot(h, r - (f.radius if np.isfinite(f.radius) else r))
+
+    best, best_score = None, np.inf
+    for s in sweeps.sweeps:
+        score = sum(dist_to_circle(s.points, f) for f in fits)
+        k = int(np.argmin(score))
+        if score[k] < best_score:
+            best, best_score = s.points[k], score[k]
+    return np.asarray(best)
+
+
+def _tangent_basis(n: np.ndarray) -> np.ndarray:
+    a = np.array([1.0, 0, 0]) if abs(n[0]) < 0.9 else np.array([0, 1.0, 0])
+    u = np.cross(n, a)
+    u /= np.linalg.norm(u)
+    return np.stack([u, np.cross(n, u)], axis=1)  # (3, 2)
+
+
+def _global_fit(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str) -> tuple[list, np.ndarray, np.ndarray, float]:
+    """One least-squares fit of all sweeps: one line per joint and one rigid tool point at home.
+
+    During the sweep of joint j only joint j moves from home, so every point is
+    ``c_j + R(n_j, q_j - home_j) (p_home - c_j)`` (revolute) or ``p_home + (q_j - home_j) n_j`` (prismatic).
+    Each line has 4 parameters (2 for the direction in its tangent plane, 2 for the point across it).
+    Returns the fitted lines as AxisFits, the (6n+3) covariance of [c_j, n_j, ..., p_home], the tool point
+    and the residual RMS.
+    """
+    n = sweeps.n_joints
+    c0 = [f.point for f in fits]
+    n0 = [f.direction for f in fits]
+    B = [_tangent_basis(v) for v in n0]
+
+    def unpack(x):
+        cs, ns = [], []
+        for j in range(n):
+            nv = n0[j] + B[j] @ x[4 * j : 4 * j + 2]
+            nv = nv / np.linalg.norm(nv)
+            cs.append(c0[j] + B[j] @ x[4 * j + 2 : 4 * j + 4])
+            ns.append(nv)
+        return cs, ns, x[4 * n : 4 * n + 3]
+
+    def residuals(x):
+        cs, ns, p = unpack(x)
+        out = []
+        for s in sweeps.sweeps:
+            j = s.joint - 1
+            d = s.q[:, j] - sweeps.home[j]
+            if sweeps.kinds[j] == "prismatic":
+                pred = p + np.outer(d, ns[j])
+            else:
+                pred = cs[j] + np.einsum("mij,j->mi", _rot(ns[j], d), p - cs[j])
+            out.append((pred - s.points).ravel())
+        return np.concatenate(out)
+
+    x0 = np.concatenate([np.zeros(4 * n), p_home])
+    sol = least_squares(residuals, x0, method="trf" if loss != "linear" else "lm", loss=loss, x_scale="jac", xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=200 * (4 * n + 3))
+    cs, ns, p = unpack(sol.x)
+    r = residuals(sol.x)
+    dof = max(len(r) - len(sol.x), 1)
+    s2 = float(r @ r) / dof
+    J = sol.jac
+    cov_x = np.linalg.pinv(J.T @ J) * s2
+    # map the local parameters to [c_j, n_j] (linear at the solution: dn = B da, dc = B ds) and p
+    M = np.zeros((6 * n + 3, 4 * n + 3))
+    for j in range(n):
+        nj = ns[j]
+        P = np.eye(3) - np.outer(nj, nj)  # normalisation removes the radial part
+        M[6 * j : 6 * j + 3, 4 * j + 2 : 4 * j + 4] = B[j]
+        M[6 * j + 3 : 6 * j + 6, 4 * j : 4 * j + 2] = P @ B[j]
+    M[6 * n :, 4 * n :] = np.eye(3)
+    cov = M @ cov_x @ M.T
+    out_fits = []
+    k = 0
+    for s, f in zip(sweeps.sweeps, fits):
+        j = s.joint - 1
+        m = len(s.points)
+        res = r[k : k + 3 * m].reshape(m, 3)
+        k += 3 * m
+        # the axis point reported is the foot of the home tool point on the axis (the circle centre)
+        c = cs[j] + ns[j] * ((p - cs[j]) @ ns[j])
+        radius = float(np.linalg.norm((p - c))) if sweeps.kinds[j] == "revolute" else math.nan
+        sig_perp = float(math.sqrt(max(np.linalg.eigvalsh(cov[6 * j : 6 * j + 3, 6 * j : 6 * j + 3])[-1], 0.0)))
+        sig_dir = float(math.sqrt(max(np.trace(cov[6 * j + 3 : 6 * j + 6, 6 * j + 3 : 6 * j + 6]), 0.0)))
+        out_fits.append(replace(f, point=c, direction=ns[j], radius=radius, residuals=np.linalg.norm(res, axis=1),
+                                             cov=cov[6 * j : 6 * j + 6, 6 * j : 6 * j + 6], sigma_point_perp=sig_perp, sigma_direction=sig_dir, method="global"))
+    rms = float(math.sqrt(np.mean(r.reshape(-1, 3).__pow__(2).sum(axis=1))))
+    return out_fits, cov, p, rms
+
+
+def _nominal_table(nominal: Robot | None, convention: str, home: np.ndarray) -> _core.Table | None:
+    if nominal is None:
+        return None
+    if nominal.convention == convention:
+        return nominal.table
+    m = nominal.model()
+    return _core.extract(_core.axes(m, np.zeros(m.nq)), convention).table
+
+
+def _axes_from(x: np.ndarray, sweeps: SweepSet, tool_R: np.ndarray, T_world_base: np.ndarray, lower, upper) -> _core.JointAxes:
+    n = sweeps.n_joints
+    pts = np.array([x[6 * j : 6 * j + 3] for j in range(n)])
+    dirs = np.array([x[6 * j + 3 : 6 * j + 6] for j in range(n)])
+    T = np.eye(4)
+    T[:3, :3] = tool_R
+    T[:3, 3] = x[6 * n : 6 * n + 3]
+    return _core.JointAxes(pts, dirs, kinds=sweeps.kinds, q_ref=sweeps.home, T_world_base=T_world_base, T_world_tool=T, lower=lower, upper=upper)
+
+
+def _propagate(x: np.ndarray, cov: np.ndarray, f) -> np.ndarray:
+    """One-sigma of f(x) (a flat vector, angles wrapped) from the covariance of x, by central differences."""
+    y0 = f(x)
+    J = np.zeros((len(y0), len(x)))
+    for i in range(len(x)):
+        h = 1e-7
+        xp, xm = x.copy(), x.copy()
+        xp[i] += h
+        xm[i] -= h
+        d = f(xp) - f(xm)
+        J[:, i] = d / (2 * h)
+    C = J @ cov @ J.T
+    return np.sqrt(np.clip(np.diag(C), 0, None))
+
+
+def identify(
+    sweeps: SweepSet,
+    *,
+    method: str = "auto",
+    convention: str = "dh",
+    nominal: Robot | None = None,
+    T_world_base=None,
+    loss: str = "linear",
+    parallel_tol: float = 1e-3,
+    intersect_tol: float | None = None,
+) -> Identification:
+    """Identify the joint axes and the parameter table of ``convention`` from ``sweeps``.
+
+    method : "auto" (the best the data allows: "global" with joint readings, else "geometric"), "kasa" (the
+        paper's eq. 1-9), "hyper" (Al-Sharadqah & Chernov 2009), "geometric" (orthogonal distance),
+        "readings" (per sweep, points as rotations of one rigid point by the recorded angles), "global".
+    nominal : a robot of any convention; breaks sign ties, fixes free origins and the last frame
+        (docs/conventions.md), gives names and limits.
+    T_world_base : (4, 4) base frame in the measurement frame (default: the measurement frame itself).
+    """
+    if method not in METHODS:
+        raise DenavitError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
+    if convention not in ("dh", "mdh", "edh", "poe"):
+        raise DenavitError(f"unknown convention {convention!r}: expected one of dh, mdh, edh, poe")
+    n = sweeps.n_joints
+    if nominal is not None and len(nominal.names) != n:
+        raise DenavitError(f"nominal model {nominal.name} has {len(nominal.names)} joints, the data has {n}")
+    if method == "auto":
+        method = "global" if sweeps.has_readings else "geometric"
+    notes = []
+    fits = _per_sweep(sweeps, method, loss)
+    if sweeps.has_readings:
+        p_home = _tool_point_from_readings(sweeps, fits)
+    else:
+        p_home = _tool_point_geometric(sweeps, fits)
+    if method == "global":
+        fits, cov, p_home, rms = _global_fit(sweeps, fits, p_home, loss)
+    else:
+        cov = np.zeros((6 * n + 3, 6 * n + 3))
+        for j, f in enumerate(fits):
+            cov[6 * j : 6 * j + 6, 6 * j : 6 * j + 6] = f.cov
+        # the tool point: the spread of its per-point estimates
+        cov[6 * n :, 6 * n :] = np.eye(3) * float(np.mean([f.rms for f in fits])) ** 2 / max(sum(f.n_points for f in fits), 1)
+        rms = float(math.sqrt(np.mean([f.rms**2 for f in fits])))
+    base = np.eye(4) if T_world_base is None else np.asarray(T_world_base, dtype=float)
+    nominal_table = _nominal_table(nominal, convention, sweeps.home)
+    if nominal is not None:
+        nm = nominal.model()
+        tool_R = (_core.fk(nm.with_tool(np.eye(4)), sweeps.home))[:3, :3]
+    else:
+        tool_R = np.eye(3)
+    lower = nominal.lower if nominal is not None else None
+    upper = nominal.upper if nominal is not None else None
+    x = np.concatenate([np.concatenate([f.point, f.direction]) for f in fits] + [p_home])
+    opts = {"parallel_tol": parallel_tol, "nominal": nominal_table}
+    if intersect_tol is not None:
+        opts["intersect_tol"] = intersect_tol
+    ax = _axes_from(x, sweeps, tool_R, base, lower, upper)
+    ex = _core.extract(ax, convention, **opts)
+    angle_cols = np.array(ex.table.angle_columns)
+    p_ref = ex.table.params
+
+    def params_of(xv):
+        a = _axes_from(xv, sweeps, tool_R, base, lower, upper)
+        p = _core.extract(a, convention, **opts).table.params
+        d = p - p_ref
+        d[:, angle_cols] = (d[:, angle_cols] + np.pi) % (2 * np.pi) - np.pi
+        return (p_ref + d).ravel()
+
+    sigma = _propagate(x, cov, params_of).reshape(p_ref.shape)
+    for pd in ex.pairs:
+        if pd.relation == "parallel" and abs(pd.hayati_beta) > 0 and convention in ("dh", "mdh"):
+            notes.append(f"axes {pd.joint}-{pd.joint + 1} treated as parallel: misalignment {math.degrees(pd.hayati_beta):.2e} deg (Hayati beta) is not representable in {convention}")
+    if convention in ("dh", "mdh") and ex.max_position_error > 1e-6:
+        notes.append(f"the {convention} table carries a tool-position error up to {ex.max_position_error * 1e3:.4f} mm (ED-H is exact)")
+    box = fitting.oriented_bounding_box(sweeps.all_points)
+    return Identification(method, convention, ax, fits, ex, sigma, cov, p_home, box, sweeps, nominal, nominal_table, rms, notes)
+
+
+def to_json(result: Identification, length: str | None = None, angle: str = "deg") -> dict:
+    """The JSON document of a result (units stated; lengths default to the input's unit)."""
+    length = length or result.sweeps.units.get("length", "m")
+    ls, as_ = length_scale(length), angle_scale(angle)
+    t = result.table
+    names = result.nominal.names if result.nominal else [f"j{i + 1}" for i in range(result.axes.nq)]
+    rows = []
+    for i, (row, sig) in enumerate(zip(t.params, result.sigma)):
+        r = {"joint": names[i]}
+        for c, a, v, s in zip(t.columns, t.angle_columns, row, sig):
+            scale = as_ if a else (ls if t.convention != "poe" or c.startswith("v") else 1.0)
+            r[c] = v / scale
+            r[f"{c}_sigma"] = s / scale
+        rows.append(r)
+    joints = []
+    for i, f in enumerate(result.fits):
+        joints.append({
+            "joint": names[i],
+            "axis": {"point": (np.asarray(result.axes.points[i]) / ls).tolist(), "direction": np.asarray(result.axes.directions[i]).tolist(),
+                     "sigma_point_perp": f.sigma_point_perp / ls, "sigma_direction_deg": math.degrees(f.sigma_direction)},
+            "circle": {"centre": (f.point / ls).tolist(), "normal": f.direction.tolist(), "radius": (f.radius / ls) if np.isfinite(f.radius) else None},
+            "residuals": {"rms": f.rms / ls, "max": float(np.max(np.abs(f.residuals))) / ls, "n_points": int(f.n_points),
+                          "outliers": [int(k) for k in np.flatnonzero(f.outliers)]},
+            "arc_deg": math.degrees(f.arc),
+        })
+    b = result.box
+    return {
+        "units": {"length": length, "angle": angle},
+        "frame": "measurement",
+        "method": result.method,
+        "convention": t.convention,
+        "source": result.sweeps.source,
+        "home": [float(v / (as_ if k == "revolute" else ls)) for v, k in zip(result.sweeps.home, result.sweeps.kinds)],
+        "joints": joints,
+        "parameters": rows,
+        "pairs": [{"joint": p.joint, "relation": p.relation, "angle_deg": math.degrees(p.angle), "distance": p.distance / ls, "hayati_beta_deg": math.degrees(p.hayati_beta)} for p in result.extraction.pairs],
+        "tool_point_home": (result.tool_point / ls).tolist(),
+        "T_world_base": _pose_json(t.T_world_base, ls),
+        "T_last_tool": _pose_json(t.T_last_tool, ls),
+        "max_tool_position_error": result.extraction.max_position_error / ls,
+        "bounding_box": {"lengths": (b.lengths / ls).tolist(), "volume_m3": b.volume, "center": (b.center / ls).tolist(), "orientation": b.axes.tolist()},
+        "rms": result.rms / ls,
+        "notes": result.notes,
+    }
+
+
+def _pose_json(T: np.ndarray, ls: float) -> list:
+    M = np.array(T, dtype=float)
+    M[:3, 3] /= ls
+    return M.tolist()
+
+
+def write_json(result: Identification, path, length: str | None = None, angle: str = "deg") -> None:
+    """Write the result as JSON (whole or not at all)."""
+    write_atomic(path, json.dumps(to_json(result, length, angle), indent=2) + "\n")
+
+
+__all__ = ["Identification", "METHODS", "identify", "to_json", "write_json", "DegenerateError"]
