@@ -223,6 +223,7 @@ def identify(
     home: Annotated[Optional[str], typer.Option("--home", help="Per-joint files: the locked configuration, e.g. \"90,-90,90,0,90,0\" (--angle units).")] = None,
     direction: Annotated[Optional[str], typer.Option("--direction", help="Per-joint files: +1/-1 per joint (or one for all): did the joint value increase over the recording?")] = None,
     loss: Annotated[str, typer.Option("--loss", help="linear | soft_l1 | huber (robust loss)")] = "linear",
+    max_sigma: Annotated[Optional[float], typer.Option("--max-sigma", help="Required axis-position accuracy (1 sigma) in --length units (default mm): sweeps predicted worse are an error.")] = None,
     report: Annotated[Optional[Path], typer.Option("--report", help="Write a self-contained HTML report.")] = None,
     plot: Annotated[Optional[Path], typer.Option("--plot", help="Write the static figures (PNG) into this folder.")] = None,
 ) -> None:
@@ -247,7 +248,8 @@ def identify(
             sweeps = sw.read_long_csv(data, length=length, angle=angle)
     nom = load(nominal) if nominal else None
     with console.status(f"fitting {sweeps.n_joints} sweeps ({method})..."):
-        result = ident.identify(sweeps, method=method, convention=convention.lower(), nominal=nom, loss=loss)
+        ms = None if max_sigma is None else max_sigma * length_scale(length or sweeps.units.get("length", "mm"))
+        result = ident.identify(sweeps, method=method, convention=convention.lower(), nominal=nom, loss=loss, max_sigma=ms)
     out_len = length or sweeps.units.get("length", "m")
     doc = ident.to_json(result, out_len, "deg")
     print_identification(doc, result, out_len)

@@ -78,24 +78,36 @@ def _orient(fit: fitting.AxisFit, points: np.ndarray, q: np.ndarray | None) -> f
     return replace(fit, direction=-fit.direction, cov=S @ fit.cov @ S)
 
 
-def _per_sweep(sweeps: SweepSet, method: str, loss: str) -> list:
+def sweep_where(s, source: str) -> str:
+    """'file lines a-b, joint j' for messages about one sweep."""
+    if not s.where:
+        return f"{source}, joint {s.joint}"
+    first, last = s.where[0], s.where[-1]
+    if ":" in first and first.rsplit(":", 1)[1].isdigit():
+        f, a = first.rsplit(":", 1)
+        b = last.rsplit(":", 1)[1]
+        return f"{f} lines {a}-{b}, joint {s.joint}"
+    return f"{first} .. {last}, joint {s.joint}"
+
+
+def _per_sweep(sweeps: SweepSet, method: str, loss: str, max_sigma: float | None) -> list:
     fits = []
     for s in sweeps.sweeps:
-        where = s.where[0].rsplit(":", 1)[0] if s.where else sweeps.source
-        where = f"{where}, joint {s.joint}"
+        where = sweep_where(s, sweeps.source)
         q = s.moving
+        kw = {"max_sigma_point": max_sigma, "where": where}
         if sweeps.kinds[s.joint - 1] == "prismatic":
-            f = fitting.fit_line(s.points, q=q, where=where)
+            f = fitting.fit_line(s.points, q=q, **kw)
         elif method == "kasa":
-            f = fitting.fit_circle_kasa(s.points, where=where)
+            f = fitting.fit_circle_kasa(s.points, **kw)
         elif method == "hyper":
-            f = fitting.fit_circle_hyper(s.points, where=where)
+            f = fitting.fit_circle_hyper(s.points, **kw)
         elif method == "geometric":
-            f = fitting.fit_circle_geometric(s.points, loss=loss, where=where)
+            f = fitting.fit_circle_geometric(s.points, loss=loss, **kw)
         elif method in ("readings", "global"):
             if q is None:
                 raise DenavitError(f"{where}: method '{method}' needs joint readings; this data has none (use geometric)")
-            f = fitting.fit_axis_with_readings(s.points, q, loss=loss, where=where)
+            f = fitting.fit_axis_with_readings(s.points, q, loss=loss, **kw)
         else:
             raise DenavitError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
         fits.append(_orient(f, s.points, q))
@@ -256,6 +268,7 @@ def identify(
     loss: str = "linear",
     parallel_tol: float = 1e-3,
     intersect_tol: float | None = None,
+    max_sigma: float | None = None,
 ) -> Identification:
     """Identify the joint axes and the parameter table of ``convention`` from ``sweeps``.
 
@@ -265,6 +278,9 @@ def identify(
     nominal : a robot of any convention; breaks sign ties, fixes free origins and the last frame
         (docs/conventions.md), gives names and limits.
     T_world_base : (4, 4) base frame in the measurement frame (default: the measurement frame itself).
+    max_sigma : float, metres, optional
+        The accuracy asked for: a sweep whose predicted axis-position uncertainty (1 sigma, across the axis)
+        exceeds it is an error that names the sweep and the predicted value (e.g. an arc too short).
     """
     if method not in METHODS:
         raise DenavitError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
@@ -276,13 +292,17 @@ def identify(
     if method == "auto":
         method = "global" if sweeps.has_readings else "geometric"
     notes = []
-    fits = _per_sweep(sweeps, method, loss)
+    fits = _per_sweep(sweeps, method, loss, max_sigma if method != "global" else None)
     if sweeps.has_readings:
         p_home = _tool_point_from_readings(sweeps, fits)
     else:
         p_home = _tool_point_geometric(sweeps, fits)
     if method == "global":
         fits, cov, p_home, rms = _global_fit(sweeps, fits, p_home, loss)
+        for s, f in zip(sweeps.sweeps, fits):
+            if max_sigma is not None and f.sigma_point_perp > max_sigma:
+                raise DegenerateError(f"{sweep_where(s, sweeps.source)}: predicted axis-position uncertainty {f.sigma_point_perp * 1e3:.3g} mm (1 sigma) "
+                                      f"exceeds the requested {max_sigma * 1e3:.3g} mm; the sweep covers {np.degrees(f.arc):.1f} deg: sweep a longer arc or measure more points")
     else:
         cov = np.zeros((6 * n + 3, 6 * n + 3))
         for j, f in enumerate(fits):

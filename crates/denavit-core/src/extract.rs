@@ -9,6 +9,10 @@ use crate::model::JointKind;
 use crate::spatial::{any_perpendicular, perpendicular, pose_error, rx, signed_angle, wrap_angle, Pose};
 use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
 
+/// Above this `|z_i x z_{i+1}|` (about 2.9 degrees) axes are never treated as parallel, however far their
+/// common normal lies (docs/conventions.md).
+pub const NEAR_PARALLEL_SIN: f64 = 0.05;
+
 /// How two consecutive joint axes relate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Relation {
@@ -102,7 +106,7 @@ fn analyze(p0: &Vector3<f64>, z0: &Vector3<f64>, p1: &Vector3<f64>, z1: &Vector3
         let den = s * s;
         let t0 = w.cross(z1).dot(&c) / den;
         let t1 = w.cross(z0).dot(&c) / den;
-        if t0.abs() <= max_offset && t1.abs() <= max_offset {
+        if (t0.abs() <= max_offset && t1.abs() <= max_offset) || s >= NEAR_PARALLEL_SIN {
             let foot0 = p0 + z0 * t0;
             let foot1 = p1 + z1 * t1;
             let distance = (foot1 - foot0).norm();
