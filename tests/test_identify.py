@@ -1,0 +1,146 @@
+"""Identification from joint sweeps (Hayat et al.): the paper's Table III, readers, and bad input."""
+
+import json
+
+import numpy as np
+import pytest
+
+import denavit as dv
+from denavit import identify as ident
+from denavit import sweeps as sw
+
+HOME = np.radians(sw.PAPER_HOME_DEG)
+
+
+def simulate(kr5, protocol, **kw):
+    return sw.simulate(kr5.model(), home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[protocol]), **kw)
+
+
+@pytest.mark.parametrize("protocol", [90, 30])
+@pytest.mark.parametrize("method", ["kasa", "hyper", "geometric", "readings", "global"])
+def test_noise_free_sweeps_reproduce_table_iii(kr5, protocol, method):
+    """Noise-free simulated KR5 sweeps over Table II's ranges give Table III's specified values to
+    1e-6 mm / 1e-6 deg (Hayat et al.; home A1 90, A2 -90, A3 90, A4 0, A5 90, A6 0)."""
+    res = ident.identify(simulate(kr5, protocol, points_per_sweep=25), method=method, nominal=kr5)
+    specified = {  # Hayat et al. Table III, "Specified" (b = d in mm, a in mm, alpha in deg)
+        "d": [400, 0, 0, 620, 0, 0], "a": [180, 600, 120, 0, 0, 0], "alpha": [90, 0, 90, 90, 90, 0], "theta": [0] * 6}
+    p = res.table.params
+    np.testing.assert_allclose(p[:, 0] * 1e3, specified["d"], atol=1e-6)
+    np.testing.assert_allclose(p[:, 2] * 1e3, specified["a"], atol=1e-6)
+    np.testing.assert_allclose(np.degrees(p[:, 3]), specified["alpha"], atol=1e-6)
+    np.testing.assert_allclose(np.degrees(p[:, 1]), specified["theta"], atol=1e-6)
+
+
+def test_every_convention_from_sweeps_matches_the_truth(kr5, rng):
+    s = simulate(kr5, 30, points_per_sweep=20, tool_point=(0.04, -0.02, 0.12))
+    truth = kr5.model()
+    flange_tool = np.eye(4)
+    flange_tool[:3, 3] = (0.04, -0.02, 0.12)
+    for conv in ("dh", "mdh", "edh", "poe"):
+        m = ident.identify(s, convention=conv, nominal=kr5).model()
+        for q in rng.uniform(-2, 2, (20, 6)):
+            p_true = dv.fk(truth, q)[:3, :3] @ flange_tool[:3, 3] + dv.fk(truth, q)[:3, 3]
+            np.testing.assert_allclose(dv.fk(m, q)[:3, 3], p_true, atol=1e-9, err_msg=conv)
+
+
+def test_noisy_sweeps_give_bounded_parameters_and_sigmas(kr5):
+    """0.02 mm noise on the 30 degree protocol: near-parallel axes 2-3 never give offsets beyond the robot's
+    size, every sigma is finite, and the identified values lie within 5 sigma of the truth."""
+    res = ident.identify(simulate(kr5, 30, points_per_sweep=40, noise=2e-5, seed=3), nominal=kr5)
+    p, sig = res.table.params, res.sigma
+    assert np.abs(p[:, [0, 2]]).max() < 1.5
+    assert np.all(np.isfinite(sig))
+    d = p - kr5.table.params
+    free = sig > 0
+    assert np.all(np.abs(d[free]) < 5 * sig[free] + 1e-9)
+    assert res.extraction.pairs[1].relation == "parallel"
+
+
+def test_json_output_has_units_rows_and_sigmas(kr5, tmp_path):
+    res = ident.identify(simulate(kr5, 90, points_per_sweep=12, noise=2e-5), nominal=kr5)
+    out = tmp_path / "r.json"
+    ident.write_json(res, out, "mm", "deg")
+    doc = json.loads(out.read_text())
+    assert doc["units"] == {"length": "mm", "angle": "deg"}
+    assert [r["joint"] for r in doc["parameters"]] == kr5.names
+    assert set(doc["parameters"][0]) >= {"d", "theta", "a", "alpha", "d_sigma", "a_sigma"}
+    assert doc["parameters"][0]["d"] == pytest.approx(400, abs=0.5)
+    assert len(doc["joints"]) == 6 and "direction" in doc["joints"][0]["axis"]
+    assert len(doc["bounding_box"]["lengths"]) == 3
+
+
+def test_long_csv_round_trip_and_units(kr5, tmp_path):
+    s = simulate(kr5, 30, points_per_sweep=8, noise=1e-5, seed=1)
+    f = tmp_path / "s.csv"
+    f.write_text(sw.to_long_csv(s, "mm", "deg"))
+    before = f.read_bytes()
+    r = sw.read_long_csv(f)
+    assert f.read_bytes() == before  # input files are never modified
+    for a, b in zip(s.sweeps, r.sweeps):
+        np.testing.assert_allclose(a.points, b.points, atol=1e-12)
+        np.testing.assert_allclose(a.q, b.q, atol=1e-10)
+    np.testing.assert_allclose(r.home, HOME, atol=1e-10)
+
+
+def test_joint_files_and_json_readers(kr5, tmp_path):
+    s = simulate(kr5, 90, points_per_sweep=10)
+    d = tmp_path / "files"
+    d.mkdir()
+    for sweep in s.sweeps:
+        rows = [f"{k * 0.1:.1f};{p[0] * 1e3:.9f};{p[1] * 1e3:.9f};{p[2] * 1e3:.9f}" for k, p in enumerate(sweep.points)]
+        (d / f"j{sweep.joint}.csv").write_text("time;x;y;z\n" + "\n".join(rows) + "\n")
+    dirs = [np.sign(r[1] - r[0]) for r in sw.PAPER_RANGES_DEG[90]]
+    fs = sw.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm", angle="deg", direction=dirs)
+    res = ident.identify(fs, nominal=kr5)
+    assert res.method == "geometric"
+    np.testing.assert_allclose(res.table.params, kr5.table.params, atol=1e-7)
+    doc = {"units": {"length": "m", "angle": "rad"}, "home": HOME.tolist(),
+           "sweeps": [{"joint": x.joint, "points": x.points.tolist(), "q": x.q.tolist()} for x in s.sweeps]}
+    (tmp_path / "s.json").write_text(json.dumps(doc))
+    js = sw.read_json(tmp_path / "s.json")
+    np.testing.assert_allclose(ident.identify(js, nominal=kr5).table.params, kr5.table.params, atol=1e-9)
+
+
+def write_csv(tmp_path, body, units="# units: length=mm angle=deg\n"):
+    f = tmp_path / "bad.csv"
+    f.write_text(units + "joint,q1,q2,x,y,z\n" + body)
+    return f
+
+
+@pytest.mark.parametrize(
+    "body, units, match",
+    [
+        ("1,0,0,1,0,0\n1,10,0,0.9,0.1,0\n2,0,0,1,0,0\n2,0,5,1,0.1,0\n2,0,10,1,0.2,0\n", None, r"bad.csv lines 3-4, joint 1: .*at least 3 points, got 2"),
+        ("1,0,0,1,0,0\n1,5,0,1,0,0\n1,10,0,1,0,0\n2,0,0,1,0,0\n2,0,5,1,0.1,0\n2,0,10,1,0.2,0.1\n", None, r"joint 1: circle fit needs distinct points, got all 3 points within"),
+        ("1,0,0,0,0,0\n1,5,0,1,0,0\n1,10,0,2,0,0\n2,0,0,1,0,0\n2,0,5,1,0.1,0\n2,0,10,1,0.2,0.1\n", None, r"joint 1: .*collinear"),
+        ("1,0,0,1,0,nan\n", None, r"bad.csv:3: column 'z' must be finite"),
+        ("3,0,0,1,0,0\n", None, r"bad.csv:3: joint index out of range: expected 1..2, got 3"),
+        ("1,0,0,1,0,0\n1,5,0,1,0,0\n1,10,0,1,0,0\n", None, r"missing sweeps of joint\(s\) 2"),
+        ("1,0,0,1,0,0\n", "# units: length=furlong angle=deg\n", r"unknown length unit 'furlong'"),
+        ("1,0,0,1,0,0\n", "", r"units not declared"),
+        ("1,0,0,1,0\n", None, r"bad.csv:3: expected 6 values, got 5"),
+    ],
+)
+def test_bad_sweep_files(tmp_path, body, units, match):
+    f = write_csv(tmp_path, body, units if units is not None else "# units: length=mm angle=deg\n")
+    before = f.read_bytes()
+    with pytest.raises(dv.DenavitError, match=match):
+        ident.identify(sw.read_long_csv(f), method="geometric")
+    assert f.read_bytes() == before
+
+
+def test_short_arc_for_requested_accuracy(kr5):
+    s = sw.simulate(kr5.model(), home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[30]) * 0.1 + HOME[:, None] * 0.9, points_per_sweep=10, noise=2e-5)
+    with pytest.raises(dv.DegenerateError, match=r"predicted axis-position uncertainty .* mm \(1 sigma\) exceeds the requested 0.01 mm"):
+        ident.identify(s, nominal=kr5, max_sigma=1e-5)
+
+
+def test_bounding_box_contains_all_points_and_beats_aligned_box(kr5):
+    s = simulate(kr5, 90, points_per_sweep=15)
+    res = ident.identify(s, nominal=kr5)
+    b = res.box
+    local = (s.all_points - b.center) @ b.axes
+    assert np.all(np.abs(local) <= b.lengths / 2 + 1e-9)
+    aligned = np.prod(s.all_points.max(0) - s.all_points.min(0))
+    assert b.volume <= aligned + 1e-12
+    assert b.volume == pytest.approx(np.prod(b.lengths))
