@@ -1,0 +1,66 @@
+"""The command line, run as a user would (a subprocess each)."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+
+def run(*args, ok=True):
+    p = subprocess.run([sys.executable, "-m", "denavit.cli", *args], capture_output=True, text=True, env={"COLUMNS": "120", "PATH": "/usr/bin:/bin"})
+    if ok:
+        assert p.returncode == 0, p.stderr
+    return p
+
+
+def test_models_lists_builtins():
+    out = json.loads(run("models", "--json").stdout)
+    assert {"kr5", "puma560", "ur5", "tiansui_mdh", "tiansui_edh"} <= {m["name"] for m in out}
+
+
+def test_fk_json_degrees():
+    doc = json.loads(run("fk", "tiansui_edh", "--q", "0,0,0,0,0,0", "--json").stdout)
+    np.testing.assert_allclose(np.array(doc["T_world_tool"])[:3, 3], [0, -0.1505, 0.92], atol=1e-12)
+    assert len(doc["T_world_joint"]) == 6
+
+
+def test_convert_json_and_file(tmp_path):
+    doc = json.loads(run("convert", "tiansui_edh", "--to", "mdh", "--json").stdout)
+    assert doc["max_tool_position_error_m"] < 1e-12 and len(doc["rows"]) == 6
+    out = tmp_path / "t.toml"
+    run("convert", "kr5", "--to", "edh", "-o", str(out))
+    assert "convention = \"edh\"" in out.read_text()
+
+
+def test_identify_example_and_json(tmp_path):
+    out = tmp_path / "r.json"
+    p = run("identify", "--example", "kr5", "--json", str(out))
+    assert "Identified DH parameters" in p.stdout and "Measuring volume" in p.stdout
+    doc = json.loads(out.read_text())
+    assert doc["units"]["length"] == "mm"
+    assert doc["parameters"][0]["d"] == pytest.approx(400, abs=0.1)
+
+
+def test_simulate_then_identify(tmp_path):
+    f = tmp_path / "s.csv"
+    run("simulate", "kr5", "-o", str(f), "--ranges", "paper30", "--points", "12", "--noise", "0.0")
+    doc = json.loads(run("identify", str(f), "--nominal", "kr5", "--convention", "mdh", "--json", str(tmp_path / "o.json")).stdout and (tmp_path / "o.json").read_text())
+    assert doc["convention"] == "mdh"
+
+
+@pytest.mark.parametrize(
+    "args, match",
+    [
+        (("fk", "nosuch"), "unknown model 'nosuch'"),
+        (("fk", "kr5", "--q", "1,2"), "--q: expected 6 joint values for kr5, got 2"),
+        (("convert", "kr5", "--to", "hayati"), "unknown convention 'hayati'"),
+        (("identify", "--example", "nope"), "unknown example 'nope'"),
+    ],
+)
+def test_errors_are_one_line_and_exit_2(args, match):
+    p = run(*args, ok=False)
+    assert p.returncode == 2
+    assert match in " ".join(p.stderr.split())
+    assert "Traceback" not in p.stderr

@@ -1,0 +1,80 @@
+"""Robot files: declared units, round trips, errors that name the file and line."""
+
+import numpy as np
+import pytest
+
+import denavit as dv
+from denavit import robotfile
+
+
+@pytest.mark.parametrize("name", ["kr5", "puma560", "ur5", "tiansui_mdh", "tiansui_edh"])
+def test_builtins_cite_source_and_units(name):
+    path = robotfile.resolve(name)
+    text = path.read_text()
+    assert "Source" in text or "source" in text
+    r = dv.load_robot(name)
+    assert r.source and r.table.params.shape == (6, len(r.table.columns))
+
+
+def test_kr5_values_in_si():
+    r = dv.load_robot("kr5")
+    assert r.table.params[0, 0] == pytest.approx(0.400)  # d1 = 400 mm (Hayat Table III)
+    assert r.table.params[0, 3] == pytest.approx(np.pi / 2)
+    np.testing.assert_allclose(np.degrees(r.home), [90, -90, 90, 0, 90, 0])
+
+
+@pytest.mark.parametrize("name", ["kr5", "ur5", "tiansui_edh"])
+@pytest.mark.parametrize("units", [("m", "rad"), ("mm", "deg")])
+def test_save_load_round_trip(tmp_path, name, units):
+    r = dv.load_robot(name)
+    f = tmp_path / "r.toml"
+    robotfile.save(r, f, *units)
+    back = dv.load_robot(f)
+    np.testing.assert_allclose(back.table.params, r.table.params, atol=1e-15)
+    np.testing.assert_allclose(back.lower, r.lower, atol=1e-15)
+    assert back.names == r.names
+
+
+def test_base_and_tool_poses(tmp_path):
+    f = tmp_path / "r.toml"
+    f.write_text('convention = "dh"\n[units]\nlength = "mm"\nangle = "deg"\n[[joints]]\nd = 0\ntheta = 0\na = 100\nalpha = 0\n'
+                 "[base]\nxyz = [10, 0, 0]\nrpy = [0, 0, 90]\n[tool]\nxyz = [0, 0, 50]\n")
+    m = dv.load_model(f)
+    T = dv.fk(m, [0.0])
+    np.testing.assert_allclose(T[:3, 3], [0.010, 0.100, 0.050], atol=1e-15)
+
+
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        ('convention = "dh"\n[[joints]]\nd=0\ntheta=0\na=0\nalpha=0\n', r"a \[units\] table with 'length' and 'angle' is required"),
+        ('convention = "xx"\n[units]\nlength="m"\nangle="rad"\n', r"'convention' must be one of dh, mdh, edh, poe, got 'xx'"),
+        ('convention = "dh"\n[units]\nlength="m"\nangle="rad"\n[[joints]]\nd=0\ntheta=0\na=0\n', r"joint 1 \(line 5\): missing parameter\(s\) alpha of a dh table"),
+        ('convention = "dh"\n[units]\nlength="m"\nangle="rad"\n[[joints]]\nd=0\ntheta=0\na=0\nalpha=0\n\n[[joints]]\nd="x"\ntheta=0\na=0\nalpha=0\n',
+         r"joint 2 \(line 11\): parameter d must be a number, got 'x'"),
+        ('convention = "dh"\n[units]\nlength="parsec"\nangle="rad"\n', r"unknown length unit 'parsec'"),
+        ('convention = "dh"\n[units]\nlength="m"\nangle="rad"\n[[joints]]\ntype="ball"\n', r"type must be 'revolute' or 'prismatic', got 'ball'"),
+        ('convention = "dh"\n[units]\nlength="m"\nangle="rad"\n[[joints]]\nd=0\ntheta=0\na=0\nalpha=0\nlimits=[1, -1]\n', r"limits must be \[lower, upper\] with lower <= upper"),
+        ('convention = "dh"\n[units\n', r"not a valid TOML robot file"),
+    ],
+)
+def test_bad_robot_files(tmp_path, text, match):
+    f = tmp_path / "bad.toml"
+    f.write_text(text)
+    with pytest.raises(dv.DenavitError, match=match):
+        dv.load_robot(f)
+    assert f.read_text() == text
+
+
+def test_failed_write_leaves_nothing(tmp_path, monkeypatch):
+    r = dv.load_robot("kr5")
+    f = tmp_path / "out.toml"
+    f.write_text("old")
+
+    def boom(*a, **k):
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(robotfile, "dumps", boom)
+    with pytest.raises(RuntimeError):
+        robotfile.save(r, f)
+    assert f.read_text() == "old" and len(list(tmp_path.iterdir())) == 1
