@@ -144,3 +144,21 @@ def test_bounding_box_contains_all_points_and_beats_aligned_box(kr5):
     aligned = np.prod(s.all_points.max(0) - s.all_points.min(0))
     assert b.volume <= aligned + 1e-12
     assert b.volume == pytest.approx(np.prod(b.lengths))
+
+
+@pytest.mark.parametrize("method", ["geometric", "readings", "global"])
+def test_prismatic_joint_identified_with_a_line_fit(method, rng):
+    """A 4-joint arm with a prismatic second joint (DH): its sweep is a line; every configuration's tool
+    position is reproduced by the identified model."""
+    params = np.array([[0.3, 0.0, 0.1, np.pi / 2], [0.2, 0.3, 0.0, -np.pi / 2], [0.0, 0.2, 0.25, np.pi / 3], [0.1, 0.0, 0.0, 0.0]])
+    truth = dv.Table("dh", params, kinds=["revolute", "prismatic", "revolute", "revolute"]).to_model("rprr", lower=[-3, -0.1, -3, -3], upper=[3, 0.4, 3, 3])
+    home = np.array([0.2, 0.1, -0.3, 0.5])
+    ranges = np.array([[-0.3, 0.6], [0.0, 0.3], [-0.8, 0.2], [0.0, 1.2]])
+    s = sw.simulate(truth, home=home, ranges=ranges, points_per_sweep=15, tool_point=(0.03, 0.02, 0.05))
+    res = ident.identify(s, method=method, convention="edh")
+    assert np.isnan(res.fits[1].radius)
+    m = res.model()
+    T_ft = np.eye(4)
+    T_ft[:3, 3] = (0.03, 0.02, 0.05)
+    for q in rng.uniform([-3, -0.1, -3, -3], [3, 0.4, 3, 3], (20, 4)):
+        np.testing.assert_allclose(dv.fk(m, q)[:3, 3], dv.fk(truth.with_tool(T_ft), q)[:3, 3], atol=1e-9)
