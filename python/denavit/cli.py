@@ -146,11 +146,27 @@ def convert(
     length: Annotated[str, typer.Option("--length", help="Length unit of the output.")] = "mm",
     angle: Annotated[str, typer.Option("--angle", help="Angle unit of the output.")] = "deg",
     parallel_tol: Annotated[float, typer.Option(help="Axes with sin(angle) below this are parallel.")] = 1e-3,
+    base_link: Annotated[Optional[str], typer.Option("--base-link", help="URDF input: the chain's base link (default: the root link).")] = None,
+    tip_link: Annotated[Optional[str], typer.Option("--tip-link", help="URDF input: the chain's tip link (default: the single leaf).")] = None,
     json_out: JsonOpt = False,
 ) -> None:
-    """Express a robot in another convention through its joint axes, with the FK-parity check."""
-    robot = load(model)
+    """Express a robot in another convention through its joint axes, with the FK-parity check.
+
+    IN is a built-in name, a robot file or a URDF; ``--to urdf`` writes URDF (meshes, inertials and limits
+    of a URDF input carried through), the others print the table with units and the consecutive-axes
+    diagnostics, or write a robot file with ``-o``.
+    """
     to = to.lower()
+    if to not in ("dh", "mdh", "edh", "poe", "urdf"):
+        fail(f"--to: expected one of dh, mdh, edh, poe, urdf, got {to!r}")
+    if base_link is not None or tip_link is not None:
+        if not str(model).lower().endswith(".urdf"):
+            fail(f"--base-link/--tip-link apply to a URDF input, got {model!r}")
+        from .urdf import load_urdf  # noqa: PLC0415
+
+        robot = load_urdf(model, base_link=base_link, tip_link=tip_link)
+    else:
+        robot = load(model)
     m = robot.model()
     if to == "urdf":
         from .urdf import dumps_urdf, save_urdf  # noqa: PLC0415
@@ -164,7 +180,7 @@ def convert(
     nominal = robot.table if robot.convention == to else None
     ex = _core.extract(_core.axes(m, np.zeros(m.nq)), to, parallel_tol=parallel_tol, nominal=nominal)
     new = Robot(name=robot.name, table=ex.table, names=robot.names, lower=robot.lower, upper=robot.upper,
-                description=f"{robot.description} -> {to}", source=robot.source, home=robot.home)
+                description=f"{robot.description} -> {to}", source=robot.source, home=robot.home, extra=robot.extra)
     if output is not None:
         save(new, output, length, angle)
         console.print(f"wrote {output}")

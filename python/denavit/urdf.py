@@ -1,0 +1,721 @@
+"""URDF in and out: the identified robot goes where users work.
+
+Import (:func:`load_urdf`, :func:`urdf_model`) reads a URDF with `yourdfpy` (lxml underneath; the XML is
+first parsed strictly, so a malformed file is an error, never a silent recovery), picks the serial chain
+between a base and a tip link and builds the one :class:`~denavit.Model` of docs/conventions.md from it.
+Export (:func:`dumps_urdf`, :func:`save_urdf`) writes any model, identified ones included, as URDF
+(XML built with lxml, floats printed with ``repr`` so export -> import is exact to about 1e-15).
+
+Mapping (docs/conventions.md, "The model")
+------------------------------------------
+A URDF joint with origin ``T`` (``xyz``, ``rpy``; ``R = Rz(y) Ry(p) Rx(r)``) and unit axis ``a`` moves its
+child link by ``L_child(q) = L_parent · T · Rot(a, q)`` (``Trans(q a)`` for a prismatic joint). The model's
+joints move about their own z axis, so joint frame *i* is the URDF link frame turned by ``R_a``, a fixed
+rotation taking z to ``a`` (:func:`z_to`, deterministic: the smallest rotation, or a half turn about x first
+when ``a`` points down)::
+
+    T_world_joint[i] = L_i · R_a_i                      (q identical in the URDF and in the model)
+    placement_i      = R_a_{i-1}^-1 · F_i · T_i · R_a_i (F_i: the fixed joints between the two, in order)
+    T_world_base     = the fixed joints from the base link to the first moving joint's parent
+    T_flange_tool    = R_a_n^-1 · (trailing fixed joints) = the tip link in the last joint frame
+
+``world`` is the base link's frame. Axes are normalised (as urdfdom does); offsets are zero.
+
+:func:`urdf_model` returns that exact model. :func:`load_urdf` returns a :class:`~denavit.Robot`, whose
+table is the ED-H table (Guo et al. eq. 1-2) extracted from the model's axes with the frame origins at
+the URDF joint origins: exact for every geometry (same axes, same tool pose; the ED-H x axes follow the
+extraction rules instead of the URDF's arbitrary link x axes). Continuous joints get infinite limits.
+
+Export writes the model's joint frames as URDF links (joint ``axis`` = z, ``origin`` = the placement with
+the zero offset folded in, so the URDF's joint values equal the model's ``q``), ``T_world_base`` as a fixed
+joint from a ``world`` root link when it is not the identity, and ``T_flange_tool`` as a fixed joint to a
+tool link. For ED-H and URDF-derived models the link frames lie on the body (their origins are on the
+joint axes, at the URDF joint origins); DH frames can lie off the body, which is why ED-H is the default
+route for identified robots.
+
+What a URDF carries beyond kinematics (visuals, collisions, inertials, materials, effort and velocity
+limits, damping and friction) is kept in ``Robot.extra["urdf"]`` (plain dicts and lists, SI, see
+:func:`load_urdf`) and written back on export when the model has the same number of joints: each body's
+meshes and inertials are re-expressed in the exported link frame through their pose at ``q = 0`` in
+``world`` (the base link frame of the imported URDF), so they stay on the body even though the link
+frames changed. Links off the chosen chain are not carried.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import yourdfpy
+from lxml import etree
+
+from . import _core
+from .errors import DenavitError
+from .robotfile import Robot, write_atomic
+
+SUPPORTED_JOINTS = ("revolute", "continuous", "prismatic", "fixed")
+UNSUPPORTED_JOINTS = ("floating", "planar")
+
+
+# --------------------------------------------------------------------------------------------------
+# small geometry helpers
+
+
+def z_to(a) -> np.ndarray:
+    """The rotation ``R_a`` (3, 3) that takes the z axis to the unit vector ``a``, deterministically.
+
+    The smallest rotation (Rodrigues, about ``z × a``); when ``a`` points into the lower half-space a half
+    turn about x comes first (``R_a = Rx(pi) · R_min``), which keeps the formula well conditioned.
+    ``z_to([0, 0, 1])`` is exactly the identity.
+    """
+    a = np.asarray(a, dtype=float)
+    a = a / np.linalg.norm(a)
+    flip = a[2] < 0.0
+    if flip:  # Rx(pi)^T a, now in the upper half-space
+        a = np.array([a[0], -a[1], -a[2]])
+    c = a[2]
+    vx, vy = -a[1], a[0]  # v = z × a
+    K = np.array([[0.0, 0.0, vy], [0.0, 0.0, -vx], [-vy, vx, 0.0]])
+    R = np.eye(3) + K + K @ K / (1.0 + c)
+    if flip:
+        R = np.diag([1.0, -1.0, -1.0]) @ R
+    return R
+
+
+def _hom(R=None, p=None) -> np.ndarray:
+    T = np.eye(4)
+    if R is not None:
+        T[:3, :3] = R
+    if p is not None:
+        T[:3, 3] = p
+    return T
+
+
+def _inv(T: np.ndarray) -> np.ndarray:
+    R, p = T[:3, :3], T[:3, 3]
+    return _hom(R.T, -R.T @ p)
+
+
+def rpy_from_matrix(R) -> tuple[float, float, float]:
+    """URDF roll, pitch, yaw (rad) of a rotation matrix: ``R = Rz(yaw) Ry(pitch) Rx(roll)``.
+
+    Yaw and pitch come first and roll from what remains (``Rx(roll) = Ry(-pitch) Rz(-yaw) R``), so the
+    three reproduce ``R`` to rounding error even at and near pitch = +-pi/2 (gimbal lock, as in UR arms).
+    """
+    R = np.asarray(R, dtype=float)
+    c = math.hypot(R[0, 0], R[1, 0])
+    pitch = math.atan2(-R[2, 0], c)
+    yaw = math.atan2(R[1, 0], R[0, 0]) if c > 1e-12 else 0.0
+    cy, sy, cp, sp = math.cos(yaw), math.sin(yaw), math.cos(pitch), math.sin(pitch)
+    Rz_t = np.array([[cy, sy, 0.0], [-sy, cy, 0.0], [0.0, 0.0, 1.0]])
+    Ry_t = np.array([[cp, 0.0, -sp], [0.0, 1.0, 0.0], [sp, 0.0, cp]])
+    M = Ry_t @ Rz_t @ R
+    roll = math.atan2(M[2, 1], M[1, 1])
+    return roll, pitch, yaw
+
+
+def _num(v: float) -> str:
+    """A float as URDF text: repr (the shortest form that reads back to the same double, <= 17
+    significant digits); rounding residue below 1e-15 (e.g. cos(pi/2) = 6e-17) is written as 0."""
+    v = float(v)
+    return "0" if abs(v) < 1e-15 else repr(v)
+
+
+def _nums(vs) -> str:
+    return " ".join(_num(v) for v in vs)
+
+
+def _mat(T) -> list[list[float]]:
+    return [[float(x) for x in row] for row in np.asarray(T, dtype=float)]
+
+
+# --------------------------------------------------------------------------------------------------
+# reading
+
+
+@dataclass(frozen=True)
+class UrdfChain:
+    """The serial chain read from a URDF (SI; see the module docstring for the mapping).
+
+    ``placements`` (n, 4, 4) are the model's ``T_{i-1}_i0``; ``axes_local`` (n, 3) the URDF axes (unit) in
+    their joint's origin frame; ``extra`` is what :func:`load_urdf` stores in ``Robot.extra["urdf"]``.
+    """
+
+    name: str
+    path: str
+    base_link: str
+    tip_link: str
+    names: list[str]
+    kinds: list[str]
+    urdf_types: list[str]
+    placements: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    T_world_base: np.ndarray
+    T_flange_tool: np.ndarray
+    axes_local: np.ndarray
+    extra: dict
+
+    def model(self) -> _core.Model:
+        """The exact model: ``T_world_joint[i] = L_i · R_a_i`` for every moving joint."""
+        return _core.Model.from_placements(
+            self.placements, self.kinds, lower=self.lower, upper=self.upper, names=self.names,
+            T_world_base=self.T_world_base, T_flange_tool=self.T_flange_tool, name=self.name,
+        )
+
+
+class _Where:
+    """Names an element of the file: ``robot.urdf: joint 'j2' (line 31)``."""
+
+    def __init__(self, path: Path, root) -> None:
+        self.path = path
+        self.lines: dict[tuple[str, str], int] = {}
+        for el in root:
+            if isinstance(el.tag, str) and el.tag in ("link", "joint") and el.get("name") is not None:
+                self.lines.setdefault((el.tag, el.get("name")), el.sourceline)
+
+    def __call__(self, tag: str, name: str) -> str:
+        line = self.lines.get((tag, name))
+        return f"{self.path}: {tag} {name!r}" + (f" (line {line})" if line else "")
+
+
+def _check_numbers(el, attr: str, n: int, what: str) -> None:
+    text = el.get(attr)
+    if text is None:
+        return
+    parts = text.replace(",", " ").split()
+    try:
+        vals = [float(t) for t in parts]
+    except ValueError:
+        raise DenavitError(f"{what}: {el.tag} {attr}={text!r}: expected {n} numbers") from None
+    if len(vals) != n or not all(math.isfinite(v) for v in vals):
+        raise DenavitError(f"{what}: {el.tag} {attr}={text!r}: expected {n} finite numbers, got {len(vals)} value(s)")
+
+
+def _precheck(path: Path, root) -> _Where:
+    """Checks yourdfpy leaves to chance (it raises bare KeyError/AttributeError or ignores them), each
+    naming the element and its line; the XML itself is already parsed by lxml."""
+    if root.tag != "robot":
+        raise DenavitError(f"{path}: expected a <robot> root element, got <{root.tag}> (line {root.sourceline})")
+    if not root.get("name"):
+        raise DenavitError(f"{path}: <robot> (line {root.sourceline}) has no name attribute")
+    where = _Where(path, root)
+    seen: dict[tuple[str, str], int] = {}
+    for el in root:
+        if not isinstance(el.tag, str) or el.tag not in ("link", "joint"):
+            continue
+        name = el.get("name")
+        if not name:
+            raise DenavitError(f"{path}: <{el.tag}> at line {el.sourceline} has no name attribute")
+        key = (el.tag, name)
+        if key in seen:
+            raise DenavitError(f"{path}: {el.tag} {name!r} is defined twice (lines {seen[key]} and {el.sourceline})")
+        seen[key] = el.sourceline
+        w = where(el.tag, name)
+        for sub in el.iter("origin"):
+            _check_numbers(sub, "xyz", 3, w)
+            _check_numbers(sub, "rpy", 3, w)
+        if el.tag == "joint":
+            for tag in ("parent", "child"):
+                sub = el.find(tag)
+                if sub is None or not sub.get("link"):
+                    raise DenavitError(f"{w}: expected a <{tag} link=\"...\"/> element, got none")
+            ax = el.find("axis")
+            if ax is not None:
+                _check_numbers(ax, "xyz", 3, w)
+            lim = el.find("limit")
+            if lim is not None:
+                for attr in ("lower", "upper", "effort", "velocity"):
+                    text = lim.get(attr)
+                    if text is not None:
+                        try:
+                            float(text)
+                        except ValueError:
+                            raise DenavitError(f"{w}: limit {attr}={text!r}: expected a number") from None
+        else:
+            for tag in ("mass",):
+                for sub in el.iter(tag):
+                    _check_numbers(sub, "value", 1, w)
+    return where
+
+
+def _read(path: str | os.PathLike) -> tuple[yourdfpy.URDF, _Where]:
+    path = Path(path)
+    if not path.is_file():
+        raise DenavitError(f"{path}: no such URDF file")
+    try:  # strict: yourdfpy's loader would fall back to lxml's recovering parser on broken XML
+        tree = etree.parse(str(path), etree.XMLParser(remove_blank_text=True, resolve_entities=False))
+    except etree.XMLSyntaxError as e:
+        line, col = (e.position if e.position else (e.lineno, 0))
+        raise DenavitError(f"{path}: malformed XML at line {line}, column {col}: {e.msg}") from None
+    where = _precheck(path, tree.getroot())
+    try:
+        urdf = yourdfpy.URDF.load(str(path), build_scene_graph=False, build_collision_scene_graph=False, load_meshes=False, load_collision_meshes=False)
+    except Exception as e:  # noqa: BLE001 (yourdfpy raises bare KeyError/ValueError/IndexError)
+        raise DenavitError(f"{path}: not a readable URDF ({type(e).__name__}: {e})") from None
+    return urdf, where
+
+
+def _geometry_dict(g) -> dict:
+    if g is None:
+        return {}
+    if g.mesh is not None:
+        d = {"filename": str(g.mesh.filename)}
+        if g.mesh.scale is not None:
+            s = np.broadcast_to(np.asarray(g.mesh.scale, dtype=float), (3,))
+            d["scale"] = [float(v) for v in s]
+        return {"mesh": d}
+    if g.box is not None:
+        return {"box": {"size": [float(v) for v in g.box.size]}}
+    if g.cylinder is not None:
+        return {"cylinder": {"radius": float(g.cylinder.radius), "length": float(g.cylinder.length)}}
+    if g.sphere is not None:
+        return {"sphere": {"radius": float(g.sphere.radius)}}
+    return {}
+
+
+def _material_dict(m) -> dict:
+    d: dict = {}
+    if m is None:
+        return d
+    if m.name:
+        d["name"] = str(m.name)
+    if m.color is not None:
+        d["rgba"] = [float(v) for v in m.color.rgba]
+    if m.texture is not None and m.texture.filename:
+        d["texture"] = str(m.texture.filename)
+    return d
+
+
+def _link_dict(link, T_world_link: np.ndarray) -> dict:
+    d: dict = {"name": link.name, "T_world_link": _mat(T_world_link)}
+    if link.inertial is not None and link.inertial.mass is not None:
+        ine = link.inertial
+        d["inertial"] = {
+            "mass": float(ine.mass),
+            "origin": _mat(np.eye(4) if ine.origin is None else ine.origin),
+            "inertia": _mat(np.zeros((3, 3)) if ine.inertia is None else ine.inertia),
+        }
+    for key, items in (("visuals", link.visuals), ("collisions", link.collisions)):
+        out = []
+        for v in items:
+            e: dict = {"origin": _mat(np.eye(4) if v.origin is None else v.origin), "geometry": _geometry_dict(v.geometry)}
+            if v.name:
+                e["name"] = str(v.name)
+            if key == "visuals":
+                mat = _material_dict(v.material)
+                if mat:
+                    e["material"] = mat
+            out.append(e)
+        if out:
+            d[key] = out
+    return d
+
+
+def _select_chain(urdf: yourdfpy.URDF, where: _Where, base_link: str | None, tip_link: str | None) -> tuple[list, str, str]:
+    """The joints from ``base_link`` to ``tip_link`` (in order), with the tree checks."""
+    path = where.path
+    robot = urdf.robot
+    links = {l.name: l for l in robot.links}
+    if not links:
+        raise DenavitError(f"{path}: the URDF defines no <link>")
+    parent_of: dict[str, object] = {}
+    children: dict[str, list] = {name: [] for name in links}
+    for j in robot.joints:
+        for role, ln in (("parent", j.parent), ("child", j.child)):
+            if ln not in links:
+                raise DenavitError(f"{where('joint', j.name)}: {role} link {ln!r} is not defined (links: {', '.join(sorted(links))})")
+        if j.child in parent_of:
+            other = parent_of[j.child].name
+            raise DenavitError(f"{where('link', j.child)} is the child of joint {other!r} and of joint {j.name!r}: kinematic loops are not supported")
+        parent_of[j.child] = j
+        children[j.parent].append(j)
+    roots = [n for n in links if n not in parent_of]
+    if not roots:
+        raise DenavitError(f"{path}: no root link (every link is some joint's child): the joints form a loop, which is not supported")
+
+    def names(ls):
+        return ", ".join(repr(x) for x in ls)
+
+    if base_link is None:
+        if len(roots) > 1:
+            raise DenavitError(f"{path}: several root links ({names(roots)}): give base_link")
+        base_link = roots[0]
+    elif base_link not in links:
+        raise DenavitError(f"{path}: base link {base_link!r} is not defined (links: {', '.join(sorted(links))})")
+    # every link below the base (a cycle without a root shows up as a revisit)
+    below, stack = [], [base_link]
+    seen = set()
+    while stack:
+        ln = stack.pop()
+        if ln in seen:
+            raise DenavitError(f"{where('link', ln)} is reached twice from {base_link!r}: kinematic loops are not supported")
+        seen.add(ln)
+        below.append(ln)
+        stack.extend(j.child for j in children[ln])
+    if tip_link is None:
+        leaves = [ln for ln in below if not children[ln]]
+        if len(leaves) != 1:
+            raise DenavitError(f"{path}: the tree below {base_link!r} has {len(leaves)} tip links ({names(sorted(leaves))}): "
+                               "a serial chain needs one; choose one with tip_link (CLI: --tip-link)")
+        tip_link = leaves[0]
+    elif tip_link not in links:
+        raise DenavitError(f"{path}: tip link {tip_link!r} is not defined (links: {', '.join(sorted(links))})")
+    elif tip_link not in seen:
+        raise DenavitError(f"{path}: tip link {tip_link!r} is not below base link {base_link!r} (links below it: {names(sorted(below))})")
+    chain = []
+    ln = tip_link
+    while ln != base_link:
+        j = parent_of[ln]
+        chain.append(j)
+        ln = j.parent
+    chain.reverse()
+    return chain, base_link, tip_link
+
+
+def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: str | None = None) -> UrdfChain:
+    """Read the serial chain ``base_link`` -> ``tip_link`` of a URDF (defaults: the root link and the single
+    leaf below it). Every error names the file and the element (joint or link, with its line)."""
+    urdf, where = _read(path)
+    path = where.path
+    chain, base_link, tip_link = _select_chain(urdf, where, base_link, tip_link)
+    links = {l.name: l for l in urdf.robot.links}
+    names, kinds, types, placements, lower, upper, axes_local = [], [], [], [], [], [], []
+    joint_info, bodies, body_links = [], [[]], [base_link]
+    acc = np.eye(4)  # the current link in the last joint frame (before the first joint: in world)
+    T_world_link = np.eye(4)  # the current link at q = 0 in world
+    T_world_base = None
+    bodies[0].append(_link_dict(links[base_link], T_world_link))
+    for j in chain:
+        w = where("joint", j.name)
+        jtype = (j.type or "").strip()
+        if jtype in UNSUPPORTED_JOINTS:
+            raise DenavitError(f"{w} is a {jtype} joint: only revolute, continuous, prismatic and fixed joints form a serial chain of this kind")
+        if jtype not in SUPPORTED_JOINTS:
+            raise DenavitError(f"{w}: unknown joint type {j.type!r}: expected one of {', '.join(SUPPORTED_JOINTS)}")
+        if j.mimic is not None:
+            raise DenavitError(f"{w} mimics joint {j.mimic.joint!r}: mimic joints (coupled joint values) are not supported")
+        O = np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)
+        T_world_link = T_world_link @ O
+        if jtype == "fixed":
+            acc = acc @ O
+            bodies[-1].append(_link_dict(links[j.child], T_world_link))
+            continue
+        a = np.asarray(j.axis, dtype=float)
+        na = float(np.linalg.norm(a))
+        if not (na > 1e-12 and np.all(np.isfinite(a))):
+            raise DenavitError(f"{w}: axis xyz={_nums(a)} has zero length: expected a nonzero direction (e.g. \"0 0 1\")")
+        a = a / na
+        Ra = _hom(z_to(a))
+        if T_world_base is None:
+            T_world_base = acc
+            placements.append(O @ Ra)
+        else:
+            placements.append(acc @ O @ Ra)
+        acc = _inv(Ra)
+        if jtype == "continuous":
+            lo, hi = -math.inf, math.inf
+        else:
+            if j.limit is None:
+                raise DenavitError(f"{w}: a {jtype} joint needs a <limit lower=... upper=... effort=... velocity=.../> (use type=\"continuous\" for an unlimited revolute joint)")
+            lo = 0.0 if j.limit.lower is None else float(j.limit.lower)  # urdfdom's defaults
+            hi = 0.0 if j.limit.upper is None else float(j.limit.upper)
+            if lo > hi:
+                raise DenavitError(f"{w}: limit lower={lo} is above upper={hi}")
+        info: dict = {"name": j.name, "type": jtype}
+        if j.limit is not None:
+            for k in ("effort", "velocity"):
+                v = getattr(j.limit, k)
+                if v is not None:
+                    info[k] = float(v)
+        if j.dynamics is not None:
+            for k in ("damping", "friction"):
+                v = getattr(j.dynamics, k)
+                if v is not None:
+                    info[k] = float(v)
+        names.append(j.name)
+        kinds.append("prismatic" if jtype == "prismatic" else "revolute")
+        types.append(jtype)
+        lower.append(lo)
+        upper.append(hi)
+        axes_local.append(a)
+        joint_info.append(info)
+        bodies.append([_link_dict(links[j.child], T_world_link)])
+        body_links.append(j.child)
+    if not names:
+        raise DenavitError(f"{path}: no revolute, continuous or prismatic joint between base link {base_link!r} and tip link {tip_link!r}")
+    extra = {
+        "note": "kept from the URDF for export: SI units (m, rad, kg); T_world_link = each link at q = 0 in the base link's frame",
+        "robot": urdf.robot.name,
+        "file": str(path),
+        "base_link": base_link,
+        "tip_link": tip_link,
+        "body_links": body_links,
+        "joints": joint_info,
+        "bodies": [{"links": b} for b in bodies],
+    }
+    mats = [_material_dict(m) for m in urdf.robot.materials]
+    mats = [m for m in mats if m.get("name")]
+    if mats:
+        extra["materials"] = mats
+    return UrdfChain(
+        name=urdf.robot.name, path=str(path), base_link=base_link, tip_link=tip_link, names=names, kinds=kinds, urdf_types=types,
+        placements=np.array(placements), lower=np.array(lower), upper=np.array(upper), T_world_base=T_world_base, T_flange_tool=acc,
+        axes_local=np.array(axes_local), extra=extra,
+    )
+
+
+def urdf_model(path: str | os.PathLike, base_link: str | None = None, tip_link: str | None = None) -> _core.Model:
+    """The exact model of a URDF's serial chain ``base_link`` -> ``tip_link`` (docs/conventions.md).
+
+    Joint frame *i* is URDF link frame *i* turned by ``R_a`` (:func:`z_to`), so every URDF link frame is
+    ``T_world_joint[i] @ R_a^-1`` and the tool is the tip link; ``world`` is the base link's frame.
+    Lengths in m, angles in rad; continuous joints have infinite limits.
+    """
+    return read_chain(path, base_link, tip_link).model()
+
+
+def load_urdf(path: str | os.PathLike, base_link: str | None = None, tip_link: str | None = None) -> Robot:
+    """Read a URDF's serial chain into a :class:`~denavit.Robot` (what ``denavit.load_robot("x.urdf")`` returns).
+
+    The table is ED-H (Guo et al. eq. 1-2), extracted through the core's line geometry from the exact
+    model's joint axes at ``q = 0`` with the frame origins at the URDF joint origins: exact for every
+    geometry (same axes, tool pose to rounding error). ``Robot.extra["urdf"]`` keeps, in SI:
+
+    * ``robot``, ``file``, ``base_link``, ``tip_link``, ``body_links`` (the base link, then each moving
+      joint's child link);
+    * ``joints``: per moving joint ``name``, URDF ``type`` and, when given, ``effort``, ``velocity``,
+      ``damping``, ``friction``;
+    * ``bodies``: per body (the base, then each moving joint's child with the links fixed to it) the
+      links with ``T_world_link`` (4x4, at q = 0 in the base link's frame), ``inertial`` (``mass``,
+      ``origin``, ``inertia`` 3x3), ``visuals`` and ``collisions`` (``origin``, ``geometry``: mesh
+      filename/scale, box, cylinder or sphere, ``material``);
+    * ``materials``: the robot-level named materials.
+
+    :func:`dumps_urdf` writes them back.
+    """
+    ch = read_chain(path, base_link, tip_link)
+    m = ch.model()
+    ex = _core.extract(_core.axes(m, np.zeros(m.nq)), "edh")
+    return Robot(
+        name=ch.name,
+        table=ex.table,
+        names=list(ch.names),
+        lower=ch.lower.copy(),
+        upper=ch.upper.copy(),
+        description=f"{ch.name} from URDF ({ch.base_link} -> {ch.tip_link}, {m.nq} joints), ED-H",
+        source=f"URDF {Path(ch.path).name}",
+        path=ch.path,
+        extra={"urdf": ch.extra},
+    )
+
+
+def urdf_table(path: str | os.PathLike, convention: str, *, base_link: str | None = None, tip_link: str | None = None, **options) -> _core.Extraction:
+    """A URDF chain's parameters in ``convention`` (dh, mdh, edh, poe) through the core's line geometry.
+
+    The :class:`~denavit.Extraction` carries the per-pair diagnostics (``relation``: parallel,
+    intersecting, skew, coincident; ``angle``, ``distance``, Hayati ``beta`` where DH/MDH cannot represent a
+    tilt) and the tool error the table carries (``max_position_error``, m; ``max_rotation_error``, rad).
+    ``options`` are those of :func:`denavit.extract`.
+    """
+    m = urdf_model(path, base_link, tip_link)
+    return _core.extract(_core.axes(m, np.zeros(m.nq)), convention, **options)
+
+
+# --------------------------------------------------------------------------------------------------
+# writing
+
+
+def _unique(name: str, taken: set) -> str:
+    out, k = name, 1
+    while out in taken:
+        k += 1
+        out = f"{name}_{k}"
+    taken.add(out)
+    return out
+
+
+def _origin(parent, T, tag: str = "origin") -> None:
+    r, p, y = rpy_from_matrix(np.asarray(T)[:3, :3])
+    etree.SubElement(parent, tag, xyz=_nums(np.asarray(T)[:3, 3]), rpy=_nums((r, p, y)))
+
+
+def _geometry(parent, g: dict) -> None:
+    ge = etree.SubElement(parent, "geometry")
+    if "mesh" in g:
+        m = etree.SubElement(ge, "mesh", filename=g["mesh"]["filename"])
+        if "scale" in g["mesh"]:
+            m.set("scale", _nums(g["mesh"]["scale"]))
+    elif "box" in g:
+        etree.SubElement(ge, "box", size=_nums(g["box"]["size"]))
+    elif "cylinder" in g:
+        etree.SubElement(ge, "cylinder", radius=_num(g["cylinder"]["radius"]), length=_num(g["cylinder"]["length"]))
+    elif "sphere" in g:
+        etree.SubElement(ge, "sphere", radius=_num(g["sphere"]["radius"]))
+
+
+def _material(parent, m: dict) -> None:
+    me = etree.SubElement(parent, "material", name=m.get("name", ""))
+    if "rgba" in m:
+        etree.SubElement(me, "color", rgba=_nums(m["rgba"]))
+    if "texture" in m:
+        etree.SubElement(me, "texture", filename=m["texture"])
+
+
+def combine_inertials(parts: list[tuple[np.ndarray, float, np.ndarray]]) -> tuple[np.ndarray, float, np.ndarray] | None:
+    """One rigid body's inertial from several: ``parts`` = (pose of each inertial frame in the body frame
+    (4, 4), mass kg, inertia (3, 3) kg m^2 about the centre of mass in that frame). Returns the pose (at the
+    common centre of mass, body orientation), the total mass and the inertia there (parallel-axis theorem,
+    Featherstone 2008 sec. 2.13); a single part is returned unchanged; None without mass."""
+    parts = [p for p in parts if p[1] > 0.0]
+    if not parts:
+        return None
+    if len(parts) == 1:
+        return parts[0]
+    M = sum(m for _, m, _ in parts)
+    c = sum(m * T[:3, 3] for T, m, _ in parts) / M
+    I = np.zeros((3, 3))
+    for T, m, Ic in parts:
+        R, d = T[:3, :3], T[:3, 3] - c
+        I += R @ Ic @ R.T + m * (d @ d * np.eye(3) - np.outer(d, d))
+    return _hom(None, c), M, I
+
+
+def _matches(info: dict | None, model: _core.Model) -> bool:
+    try:
+        return info is not None and len(info["bodies"]) == model.nq + 1 and len(info["body_links"]) == model.nq + 1
+    except (KeyError, TypeError):
+        return False
+
+
+def dumps_urdf(model: _core.Model, robot: Robot | None = None) -> str:
+    """The URDF text of ``model`` (any convention's model, identified ones included).
+
+    Link *i* is the model's joint frame *i*: ``<axis xyz="0 0 1"/>`` and ``origin`` = ``placement_i ·
+    Rz(offset_i)`` (``Tz`` for prismatic joints), so URDF joint values are the model's ``q`` and
+    ``urdf_model`` of the text reproduces every joint frame and the tool. Revolute joints with infinite
+    limits are written ``continuous``. ``robot`` (optional) gives the robot name and, when it was read
+    from a URDF (``robot.extra["urdf"]``) and has as many joints as ``model``, the link names, meshes,
+    inertials, effort/velocity limits and dynamics, re-expressed in the new link frames (module docstring).
+    Lengths in m, angles in rad, masses in kg.
+    """
+    n = model.nq
+    info = robot.extra.get("urdf") if robot is not None and isinstance(robot.extra, dict) else None
+    if not _matches(info, model):
+        info = None
+    name = robot.name if robot is not None else model.name
+    P = np.asarray(model.placements)
+    offsets, kinds = list(model.offsets), list(model.kinds)
+    lower, upper, names = list(model.lower), list(model.upper), list(model.names)
+    B, Tt = np.asarray(model.T_world_base), np.asarray(model.T_flange_tool)
+    frames = np.asarray(_core.joint_frames(model, np.zeros(n)))
+
+    root = etree.Element("robot", name=name)
+    what = f"{robot.description} ({robot.source})" if robot is not None and robot.source else (robot.description if robot is not None else model.name)
+    root.append(etree.Comment(
+        f" Written by denavit {_core.__version__} from {what.replace('--', '- -')}. "
+        "Link i is the model's joint frame i (docs/conventions.md): every joint moves about the z axis of its link; "
+        "joint values equal the model's q; metres, radians, kilograms. "))
+
+    link_names: set = set()
+    joint_names: set = set()
+    names = [_unique(nm, joint_names) for nm in names]
+    body_names = [_unique(info["body_links"][b] if info else ("base_link" if b == 0 else f"link_{b}"), link_names) for b in range(n + 1)]
+    identity_base = np.allclose(B, np.eye(4), rtol=0.0, atol=1e-15)
+    identity_tool = np.allclose(Tt, np.eye(4), rtol=0.0, atol=1e-15)
+    link_el = {}
+
+    def add_link(lname: str):
+        el = etree.SubElement(root, "link", name=lname)
+        link_el[lname] = el
+        return el
+
+    if not identity_base:
+        base_root = info["base_link"] if info and info["base_link"] != info["body_links"][0] else "world"
+        world = _unique(base_root, link_names)
+        add_link(world)
+    for b in range(n + 1):
+        add_link(body_names[b])
+    if not identity_tool:
+        tip = info["tip_link"] if info and info["tip_link"] != info["body_links"][n] else "tool0"
+        tool = _unique(tip, link_names)
+        add_link(tool)
+
+    # meshes and inertials, per body, in the new link frames (through their pose at q = 0 in world)
+    if info is not None:
+        E = [B] + [frames[i] for i in range(n)]
+        for b in range(n + 1):
+            el = link_el[body_names[b]]
+            Einv = _inv(E[b])
+            parts, vis, col = [], [], []
+            for ld in info["bodies"][b]["links"]:
+                C = Einv @ np.asarray(ld["T_world_link"], dtype=float)
+                if "inertial" in ld:
+                    ine = ld["inertial"]
+                    parts.append((C @ np.asarray(ine["origin"], dtype=float), float(ine["mass"]), np.asarray(ine["inertia"], dtype=float)))
+                vis += [(C, v) for v in ld.get("visuals", [])]
+                col += [(C, v) for v in ld.get("collisions", [])]
+            comb = combine_inertials(parts)
+            if comb is not None:
+                T, mass, I = comb
+                ie = etree.SubElement(el, "inertial")
+                _origin(ie, T)
+                etree.SubElement(ie, "mass", value=_num(mass))
+                etree.SubElement(ie, "inertia", ixx=_num(I[0, 0]), ixy=_num(I[0, 1]), ixz=_num(I[0, 2]), iyy=_num(I[1, 1]), iyz=_num(I[1, 2]), izz=_num(I[2, 2]))
+            for tag, items in (("visual", vis), ("collision", col)):
+                for C, v in items:
+                    ve = etree.SubElement(el, tag, **({"name": v["name"]} if v.get("name") else {}))
+                    _origin(ve, C @ np.asarray(v["origin"], dtype=float))
+                    _geometry(ve, v.get("geometry", {}))
+                    if tag == "visual" and v.get("material"):
+                        _material(ve, v["material"])
+        for m in info.get("materials", []):
+            _material(root, m)
+
+    def add_fixed(jname: str, parent: str, child: str, T) -> None:
+        je = etree.SubElement(root, "joint", name=_unique(jname, joint_names), type="fixed")
+        etree.SubElement(je, "parent", link=parent)
+        etree.SubElement(je, "child", link=child)
+        _origin(je, T)
+
+    if not identity_base:
+        add_fixed(f"{world}_to_{body_names[0]}", world, body_names[0], B)
+    jinfo = {j["name"]: j for j in info["joints"]} if info else {}
+    for i in range(n):
+        prismatic = kinds[i] == "prismatic"
+        M = np.eye(4)
+        if prismatic:
+            M[2, 3] = offsets[i]
+        else:
+            c, s = math.cos(offsets[i]), math.sin(offsets[i])
+            M[:2, :2] = [[c, -s], [s, c]]
+        lo, hi = lower[i], upper[i]
+        jtype = "prismatic" if prismatic else ("continuous" if math.isinf(lo) and math.isinf(hi) else "revolute")
+        je = etree.SubElement(root, "joint", name=names[i], type=jtype)
+        etree.SubElement(je, "parent", link=body_names[i])
+        etree.SubElement(je, "child", link=body_names[i + 1])
+        _origin(je, P[i] @ M)
+        etree.SubElement(je, "axis", xyz="0 0 1")
+        ji = jinfo.get(names[i], {})
+        lim = {"effort": _num(ji.get("effort", 0.0)), "velocity": _num(ji.get("velocity", 0.0))}
+        if jtype != "continuous":
+            lim = {"lower": _num(lo), "upper": _num(hi), **lim}
+        etree.SubElement(je, "limit", **lim)
+        dyn = {k: _num(ji[k]) for k in ("damping", "friction") if k in ji}
+        if dyn:
+            etree.SubElement(je, "dynamics", **dyn)
+    if not identity_tool:
+        add_fixed(f"{body_names[n]}_to_{tool}", body_names[n], tool, Tt)
+    text = etree.tostring(root, pretty_print=True, xml_declaration=True, encoding="UTF-8").decode("utf-8")
+    return text
+
+
+def save_urdf(model: _core.Model, path: str | os.PathLike, robot: Robot | None = None) -> None:
+    """Write :func:`dumps_urdf` to ``path`` (whole or not at all)."""
+    write_atomic(path, dumps_urdf(model, robot))
+
+
+__all__ = ["UrdfChain", "combine_inertials", "dumps_urdf", "load_urdf", "read_chain", "rpy_from_matrix", "save_urdf", "urdf_model", "urdf_table", "z_to"]
