@@ -202,10 +202,29 @@ def convert(
 
 
 @app.command()
-def show(model: ModelArg, length: str = "mm", angle: str = "deg") -> None:
-    """Print a robot file's table as read (with units)."""
+def show(
+    model: ModelArg,
+    length: str = "mm",
+    angle: str = "deg",
+    report: Annotated[Optional[Path], typer.Option("--report", help="Write a self-contained HTML report: 3-D frames of two conventions, origin paths, tables.")] = None,
+    plot: Annotated[Optional[Path], typer.Option("--plot", help="Write the static figures (PNG) into this folder.")] = None,
+    compare: Annotated[Optional[str], typer.Option("--compare", help="Drawn beside the robot in --report/--plot: a convention (dh|mdh|edh|poe) or another robot (built-in name or file). Default edh (mdh for an ED-H robot).")] = None,
+    q: Annotated[Optional[str], typer.Option("--q", help="Configuration drawn in --report/--plot, one value per joint (default: the file's home, else zeros).")] = None,
+    deg: Annotated[bool, typer.Option("--deg", help="--q revolute values in degrees (default radians).")] = False,
+) -> None:
+    """Print a robot file's table as read (with units); optionally draw its frames beside another convention's."""
     robot = load(model)
     print_table(robot.table, robot.names, length, angle, f"{robot.name} ({robot.convention}) — {robot.source}")
+    if report or plot:
+        from . import report as rep  # noqa: PLC0415
+
+        qv = parse_q(q, robot, deg, length) if q else None
+        if plot:
+            for f in rep.write_model_figures(robot, plot, compare=compare, q=qv, length=length):
+                console.print(f"wrote {f}")
+        if report:
+            rep.write_model_report(robot, report, compare=compare, q=qv, length=length, angle=angle)
+            console.print(f"wrote {report}")
 
 
 @app.command(name="export")

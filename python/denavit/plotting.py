@@ -1,0 +1,508 @@
+"""Static figures (matplotlib): fitted circles and axes, residuals, the bounding box, frames, origin paths, parameters.
+
+Every function returns a :class:`matplotlib.figure.Figure` built with the object-oriented API (``Figure()``,
+never ``pyplot``), so nothing depends on a display or on the user's backend: saving goes through Agg (PNG) or
+the SVG backend, and the figure's artists can be counted by tests. Artists carry ``gid`` labels
+(``circle-3``, ``axis-3``, ``frame-2``, ``path-4``, ``box-edge`` ...) that name what they show.
+
+matplotlib is an optional extra (``pip install 'denavit[plot]'``): it is imported inside the functions, and a
+missing install raises :class:`~denavit.errors.DenavitError` naming that command. The geometry helpers at the
+top of this module (circles, box edges, frame origins along a joint motion) are pure numpy and are shared with
+the HTML report (:mod:`denavit.report`).
+
+Frames and units: every input is SI in the measurement frame ``world`` (docs/conventions.md); figures show
+lengths in ``length`` units (default mm, as in Hayat et al.) and angles in degrees.
+
+Figures after the papers:
+
+* :func:`plot_circles` -- Hayat et al. Fig. 7, "fitted circle for each joint motion": full circles (not the
+  measured arcs), centres and normals.
+* :func:`plot_bounding_box` -- Hayat et al. Fig. 8 / Table IV, the minimum-volume oriented bounding box.
+* :func:`plot_frames` -- Guo et al. Figs. 6-7: the frames of two conventions side by side (MD-H frames off
+  the body and overlapping, ED-H frames on the joint axes).
+* :func:`plot_origin_paths` -- Guo et al. Fig. 3: the path of each frame origin while one joint moves.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Sequence
+
+import numpy as np
+
+from . import _core
+from .errors import DenavitError
+from .units import angle_scale, length_scale
+
+if TYPE_CHECKING:  # pragma: no cover
+    from matplotlib.figure import Figure
+
+    from .identify import Identification
+
+INSTALL_HINT = "install the plotting extra: pip install 'denavit[plot]'"
+
+#: Colours of the frame axes x, y, z (the usual red, green, blue).
+AXIS_COLOURS = ("#d62728", "#2ca02c", "#1f77b4")
+#: Per-joint colours (matplotlib's tab10, repeated).
+JOINT_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")
+
+
+def joint_colour(j: int) -> str:
+    """The colour of joint ``j`` (0-based) in every figure and in the report."""
+    return JOINT_COLOURS[j % len(JOINT_COLOURS)]
+
+
+# ------------------------------------------------------------------------------------- geometry (numpy only)
+
+
+def joint_names(result: Identification) -> list[str]:
+    """The nominal model's joint names, else j1..jn."""
+    return list(result.nominal.names) if result.nominal else [f"j{i + 1}" for i in range(result.axes.nq)]
+
+
+def perp_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors u, v with (u, v, n) right-handed and orthonormal; n : (3,) unit."""
+    n = np.asarray(n, dtype=float)
+    a = np.array([1.0, 0, 0]) if abs(n[0]) < 0.9 else np.array([0, 1.0, 0])
+    u = np.cross(n, a)
+    u /= np.linalg.norm(u)
+    return u, np.cross(n, u)
+
+
+def circle_points(centre, normal, radius: float, count: int = 181) -> np.ndarray:
+    """(count, 3) points of the full circle of ``radius`` about ``centre`` in the plane normal to ``normal``."""
+    u, v = perp_basis(normal)
+    t = np.linspace(0.0, 2.0 * math.pi, count)
+    return np.asarray(centre, dtype=float) + radius * (np.outer(np.cos(t), u) + np.outer(np.sin(t), v))
+
+
+def line_span(point, direction, points: np.ndarray, margin: float = 0.1) -> np.ndarray:
+    """(2, 3) ends of the line through ``point`` along ``direction`` covering the projections of ``points``."""
+    d = np.asarray(direction, dtype=float)
+    s = (np.asarray(points) - point) @ d
+    lo, hi = float(s.min()), float(s.max())
+    pad = margin * max(hi - lo, 1e-9)
+    return np.array([point + (lo - pad) * d, point + (hi + pad) * d])
+
+
+def box_edges(center, axes, lengths) -> list[np.ndarray]:
+    """The 12 edges of an oriented box, each (2, 3); ``axes`` (3, 3) has the box axes as columns, ``lengths`` (3,)."""
+    c, A, h = np.asarray(center, float), np.asarray(axes, float), np.asarray(lengths, float) / 2.0
+    edges = []
+    for k in range(3):  # edges parallel to box axis k: the other two coordinates at +-h
+        for s1 in (-1.0, 1.0):
+            for s2 in (-1.0, 1.0):
+                s = np.zeros(3)
+                s[(k + 1) % 3], s[(k + 2) % 3] = s1, s2
+                a, b = s.copy(), s.copy()
+                a[k], b[k] = -1.0, 1.0
+                edges.append(np.array([c + A @ (a * h), c + A @ (b * h)]))
+    return edges
+
+
+def scene_size(points: np.ndarray) -> float:
+    """The largest extent of a point cloud (m), at least 1 mm."""
+    p = np.asarray(points).reshape(-1, 3)
+    return max(float(np.max(np.ptp(p, axis=0))), 1e-3)
+
+
+def frames_along(table: _core.Table, q0, joint: int, values) -> np.ndarray:
+    """(m, n+1, 4, 4): ``table.frames(q)`` for q = q0 with joint ``joint`` (1-based) set to each of ``values``."""
+    q0 = np.asarray(q0, dtype=float)
+    out = []
+    for v in np.asarray(values, dtype=float):
+        q = q0.copy()
+        q[joint - 1] = v
+        out.append(table.frames(q))
+    return np.array(out)
+
+
+def other_convention(convention: str) -> str:
+    """The convention drawn beside ``convention`` by default: ED-H, or modified DH beside ED-H (Guo et al. Fig. 6)."""
+    return "mdh" if convention == "edh" else "edh"
+
+
+def column_scale(table: _core.Table, k: int, length: str = "mm", angle: str = "deg") -> tuple[float, str]:
+    """(SI per display unit, unit name) of table column ``k``: angles in ``angle``, POE directions unitless."""
+    if table.angle_columns[k]:
+        return angle_scale(angle), angle
+    if table.convention == "poe" and not table.columns[k].startswith("v"):
+        return 1.0, "1"
+    return length_scale(length), length
+
+
+def sweep_range(result: Identification, joint: int) -> tuple[float, float]:
+    """The swept range of ``joint`` (1-based; rad / m): the readings' span, else +-90 deg (+-0.1 m) about home."""
+    s = result.sweeps.sweep(joint)
+    if s.moving is not None and np.ptp(s.moving) > 0:
+        return float(np.min(s.moving)), float(np.max(s.moving))
+    h = float(result.sweeps.home[joint - 1])
+    w = math.pi / 2 if result.sweeps.kinds[joint - 1] == "revolute" else 0.1
+    return h - w, h + w
+
+
+def motion_range(lower, upper, q0, joint: int, kind: str = "revolute") -> tuple[float, float]:
+    """A joint's range for drawing origin paths: its limits, clipped to one turn (+-0.5 m prismatic) about q0."""
+    w = math.pi if kind == "revolute" else 0.5
+    c = float(np.asarray(q0)[joint - 1])
+    lo = -w if lower is None else float(np.asarray(lower)[joint - 1])
+    hi = w if upper is None else float(np.asarray(upper)[joint - 1])
+    return max(lo, c - w), min(hi, c + w)
+
+
+# ------------------------------------------------------------------------------------------------ matplotlib
+
+
+def _figure(**kw) -> Figure:
+    """A new headless Figure (no pyplot, so no GUI backend); 3-D projection registered."""
+    try:
+        from matplotlib.figure import Figure  # noqa: PLC0415
+        from mpl_toolkits.mplot3d import Axes3D  # noqa: F401, PLC0415  (registers projection="3d")
+    except ImportError as e:
+        raise DenavitError(f"the figures need matplotlib, which is not installed ({e}): {INSTALL_HINT}") from None
+    return Figure(**kw)
+
+
+def _equal_3d(ax, points: np.ndarray) -> None:
+    """Cubic limits around ``points`` so that circles look round and lengths compare across axes."""
+    p = np.asarray(points).reshape(-1, 3)
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    c, r = (lo + hi) / 2, max(float(np.max(hi - lo)) / 2, 1e-9) * 1.05
+    ax.set_xlim(c[0] - r, c[0] + r)
+    ax.set_ylim(c[1] - r, c[1] + r)
+    ax.set_zlim(c[2] - r, c[2] + r)
+    ax.set_box_aspect((1, 1, 1))
+
+
+def _labels_3d(ax, length: str) -> None:
+    ax.set_xlabel(f"x [{length}]")
+    ax.set_ylabel(f"y [{length}]")
+    ax.set_zlabel(f"z [{length}]")
+
+
+def plot_circles(result: Identification, *, length: str = "mm") -> Figure:
+    """Measured points, fitted full circles, centres and axis arrows per joint (Hayat et al. Fig. 7).
+
+    Parameters
+    ----------
+    result : Identification
+        From :func:`denavit.identify.identify` (points and fits in ``world``, metres).
+    length : str
+        Display unit of lengths.
+
+    Returns
+    -------
+    Figure with one 3-D axes. Per revolute joint ``j`` (1-based): a Line3D ``circle-j`` (the full fitted
+    circle), a scatter ``points-j`` (the measured points), a scatter ``centre-j`` and an arrow ``axis-j``
+    (a quiver along the identified axis, pointing so that the joint turns counter-clockwise about it as its
+    value increases); prismatic joints get a Line3D ``line-j`` instead of the circle. Outliers flagged by the
+    fit are drawn as black crosses (``outliers-j``).
+    """
+    fig = _figure(figsize=(8.0, 7.0), layout="constrained")
+    ax = fig.add_subplot(projection="3d")
+    ls = length_scale(length)
+    names = joint_names(result)
+    pts_all = result.sweeps.all_points
+    arrow = 0.25 * scene_size(pts_all)
+    drawn = [pts_all]
+    for s, f in zip(result.sweeps.sweeps, result.fits):
+        j = s.joint
+        col = joint_colour(j - 1)
+        name = names[j - 1]
+        p = s.points / ls
+        ax.scatter(*p.T, color=col, s=9, depthshade=False).set_gid(f"points-{j}")
+        if np.any(f.outliers):
+            ax.scatter(*p[f.outliers].T, color="black", marker="x", s=30, depthshade=False).set_gid(f"outliers-{j}")
+        if result.sweeps.kinds[j - 1] == "revolute" and np.isfinite(f.radius):
+            c = circle_points(f.point, f.direction, f.radius)
+            (line,) = ax.plot(*(c / ls).T, color=col, lw=1.3, label=f"{name}: r = {f.radius / ls:.4g} {length}")
+            line.set_gid(f"circle-{j}")
+            ax.scatter(*(f.point / ls), color=col, marker="o", s=28, edgecolor="black", depthshade=False).set_gid(f"centre-{j}")
+            drawn.append(c)
+        else:
+            e = line_span(f.point, f.direction, s.points)
+            (line,) = ax.plot(*(e / ls).T, color=col, lw=1.3, label=f"{name}: line")
+            line.set_gid(f"line-{j}")
+        tip = f.point + arrow * f.direction
+        q = ax.quiver(*(f.point / ls), *((tip - f.point) / ls), color=col, lw=1.8, arrow_length_ratio=0.18)
+        q.set_gid(f"axis-{j}")
+        ax.text(*(tip / ls), f" {name}", color=col, fontsize=8)
+        drawn.append(tip[None])
+    ax.scatter(*(result.tool_point / ls), color="black", marker="*", s=60, depthshade=False, label="tool point at home").set_gid("tool-point")
+    _equal_3d(ax, np.vstack(drawn) / ls)
+    _labels_3d(ax, length)
+    ax.set_title(f"Fitted circles and joint axes (method {result.method}; Hayat et al. Fig. 7)", fontsize=10)
+    ax.legend(loc="upper left", fontsize=7)
+    return fig
+
+
+def plot_residuals(result: Identification, *, length: str = "mm") -> Figure:
+    """Residual of every measured point, one axes per joint (gid ``residuals-j``), outliers in red.
+
+    Circle fits give signed orthogonal distances to the circle (positive outside); the global and readings
+    fits give the distance of each point to its prediction (docs of :class:`denavit.fitting.AxisFit`).
+    """
+    fig = _figure(figsize=(10.0, 5.5), layout="constrained")
+    ls = length_scale(length)
+    names = joint_names(result)
+    n = len(result.fits)
+    cols = min(n, 3)
+    rows = math.ceil(n / cols)
+    for k, (s, f) in enumerate(zip(result.sweeps.sweeps, result.fits)):
+        ax = fig.add_subplot(rows, cols, k + 1)
+        ax.set_gid(f"residuals-{s.joint}")
+        r = np.asarray(f.residuals) / ls
+        idx = np.arange(len(r))
+        ax.axhline(0.0, color="0.6", lw=0.8)
+        ax.plot(idx, r, "o-", color=joint_colour(s.joint - 1), ms=3, lw=0.8)
+        if np.any(f.outliers):
+            ax.plot(idx[f.outliers], r[f.outliers], "x", color="red", ms=8, mew=2)
+        ax.set_title(f"{names[s.joint - 1]}: rms {f.rms / ls:.3g} {length}, arc {math.degrees(f.arc):.0f} deg", fontsize=9)
+        ax.set_xlabel("point", fontsize=8)
+        ax.set_ylabel(f"residual [{length}]", fontsize=8)
+        ax.tick_params(labelsize=7)
+    fig.suptitle(f"Residuals per joint (method {result.method})", fontsize=10)
+    return fig
+
+
+def plot_bounding_box(result: Identification, *, length: str = "mm") -> Figure:
+    """All measured points and their minimum-volume oriented bounding box (Hayat et al. Fig. 8, Table IV).
+
+    Returns a Figure with one 3-D axes: 12 Line3D edges (gid ``box-edge``), the box axes l1, l2, l3 as
+    arrows from its centre (gid ``box-axis-1..3``) and the points coloured by sweep (``points-j``).
+    """
+    fig = _figure(figsize=(8.0, 7.0), layout="constrained")
+    ax = fig.add_subplot(projection="3d")
+    ls = length_scale(length)
+    b = result.box
+    for s in result.sweeps.sweeps:
+        ax.scatter(*(s.points / ls).T, color=joint_colour(s.joint - 1), s=7, depthshade=False).set_gid(f"points-{s.joint}")
+    edges = box_edges(b.center, b.axes, b.lengths)
+    for e in edges:
+        (line,) = ax.plot(*(e / ls).T, color="0.25", lw=1.0)
+        line.set_gid("box-edge")
+    for k in range(3):
+        v = b.axes[:, k] * b.lengths[k] / 2
+        q = ax.quiver(*(b.center / ls), *(v / ls), color=AXIS_COLOURS[k], lw=1.5, arrow_length_ratio=0.1)
+        q.set_gid(f"box-axis-{k + 1}")
+        ax.text(*((b.center + v) / ls), f" l{k + 1} = {b.lengths[k] / ls:.1f}", color=AXIS_COLOURS[k], fontsize=8)
+    _equal_3d(ax, np.vstack([np.vstack(edges), result.sweeps.all_points]) / ls)
+    _labels_3d(ax, length)
+    l1, l2, l3 = b.lengths / ls
+    ax.set_title(f"Oriented bounding box {l1:.1f} x {l2:.1f} x {l3:.1f} {length}, {b.volume:.4f} m$^3$ (Hayat et al. Table IV)", fontsize=10)
+    return fig
+
+
+def _named_tables(tables) -> list[tuple[str, _core.Table]]:
+    items = list(tables.items()) if isinstance(tables, dict) else [(t.convention, t) if isinstance(t, _core.Table) else tuple(t) for t in tables]
+    if not items:
+        raise DenavitError("expected at least one table to draw, got none")
+    n = {t.params.shape[0] for _, t in items}
+    if len(n) != 1:
+        raise DenavitError(f"the tables drawn side by side must have the same number of joints, got {sorted(n)}")
+    return items
+
+
+def _draw_frames(ax, F: np.ndarray, ls: float, size: float, *, alpha: float = 1.0, labels: bool = True) -> None:
+    o = F[:, :3, 3] / ls
+    (sk,) = ax.plot(*o.T, "-", color="0.35", lw=2.0, alpha=0.6 * alpha, marker="o", ms=3)
+    sk.set_gid("skeleton")
+    for i, T in enumerate(F):
+        for k in range(3):
+            e = np.array([T[:3, 3], T[:3, 3] + size * T[:3, k]]) / ls
+            (line,) = ax.plot(*e.T, color=AXIS_COLOURS[k], lw=1.4, alpha=alpha)
+            line.set_gid(f"frame-{i}-{'xyz'[k]}")
+        if labels:
+            ax.text(*(T[:3, 3] / ls), f" {i}", fontsize=8)
+
+
+def _distinct(points: np.ndarray, tol: float = 1e-9) -> int:
+    out: list[np.ndarray] = []
+    for p in points:
+        if all(np.linalg.norm(p - o) > tol for o in out):
+            out.append(p)
+    return len(out)
+
+
+def plot_frames(tables, q=None, *, length: str = "mm", triad: float | None = None, title: str | None = None) -> Figure:
+    """The robot as a skeleton with the frames of several conventions side by side (Guo et al. Figs. 6-7).
+
+    Parameters
+    ----------
+    tables : sequence of Table or (label, Table), or dict label -> Table
+        The same robot in different conventions, e.g. ``robot.table`` and ``denavit.to_table(model, "edh").table``
+        (frames from :meth:`Table.frames`: frames 0..n in ``world``, metres).
+    q : array-like, shape (n,), optional
+        Joint values (rad / m), default zeros.
+    triad : float, metres, optional
+        Length of the drawn frame axes (default 8 % of the robot's extent).
+
+    Returns
+    -------
+    Figure with one 3-D axes per table (gid ``frames-<label>``), all with the same limits; in each the
+    skeleton through the frame origins (Line3D ``skeleton``) and, per frame i = 0..n, three Line3D
+    ``frame-i-x``, ``frame-i-y``, ``frame-i-z`` (red, green, blue). Titles count the distinct origins:
+    modified DH frames can overlap where ED-H frames do not (Guo et al. sec. IV.A).
+    """
+    items = _named_tables(tables)
+    n = items[0][1].params.shape[0]
+    qv = np.zeros(n) if q is None else np.asarray(q, dtype=float)
+    ls = length_scale(length)
+    Fs = [t.frames(qv) for _, t in items]
+    allo = np.vstack([F[:, :3, 3] for F in Fs])
+    size = triad if triad is not None else 0.08 * scene_size(allo)
+    fig = _figure(figsize=(5.5 * len(items), 5.8), layout="constrained")
+    ends = np.vstack([allo] + [F[:, :3, 3] + size * F[:, :3, k] for F in Fs for k in range(3)])
+    for k, ((label, t), F) in enumerate(zip(items, Fs)):
+        ax = fig.add_subplot(1, len(items), k + 1, projection="3d")
+        ax.set_gid(f"frames-{label}")
+        _draw_frames(ax, F, ls, size)
+        _equal_3d(ax, ends / ls)
+        _labels_3d(ax, length)
+        ax.set_title(f"{label} ({t.convention}): {len(F)} frames, {_distinct(F[:, :3, 3])} distinct origins", fontsize=10)
+    fig.suptitle(title or "Frames of each convention (x red, y green, z blue)", fontsize=11)
+    return fig
+
+
+def plot_origin_paths(tables, joint: int, q0=None, *, limits=None, steps: int = 73, length: str = "mm", title: str | None = None) -> Figure:
+    """The path of every frame origin while joint ``joint`` moves, one 3-D axes per convention (Guo et al. Fig. 3).
+
+    The joint's own frame in modified DH and ED-H turns about its z axis and stays put; a standard-DH frame
+    sits at the far end of its link and sweeps a circle; frames placed off the body (on the extension of an
+    axis) trace paths away from the physical joint.
+
+    Parameters
+    ----------
+    tables : as in :func:`plot_frames`.
+    joint : int
+        The moving joint, 1-based.
+    q0 : array-like, shape (n,), optional
+        The other joints' values (rad / m), default zeros.
+    limits : (float, float), optional
+        The moving joint's range (rad / m), default q0 +- 90 deg (+- 0.1 m prismatic).
+
+    Returns
+    -------
+    Figure with one 3-D axes per table (gid ``paths-<label>``); in each, per frame i = 0..n a Line3D
+    ``path-i`` (frames that do not move draw a single marker), and the skeleton at ``q0`` in grey.
+    """
+    items = _named_tables(tables)
+    n = items[0][1].params.shape[0]
+    if not 1 <= joint <= n:
+        raise DenavitError(f"joint: expected 1..{n}, got {joint}")
+    qv = np.zeros(n) if q0 is None else np.asarray(q0, dtype=float)
+    kind = items[0][1].kinds[joint - 1]
+    if limits is None:
+        w = math.pi / 2 if kind == "revolute" else 0.1
+        limits = (qv[joint - 1] - w, qv[joint - 1] + w)
+    values = np.linspace(limits[0], limits[1], steps)
+    ls = length_scale(length)
+    paths = [frames_along(t, qv, joint, values)[:, :, :3, 3] for _, t in items]  # (steps, n+1, 3)
+    allp = np.vstack([p.reshape(-1, 3) for p in paths])
+    fig = _figure(figsize=(5.5 * len(items), 5.8), layout="constrained")
+    unit = "deg" if kind == "revolute" else length
+    sc = angle_scale("deg") if kind == "revolute" else ls
+    for k, ((label, t), P) in enumerate(zip(items, paths)):
+        ax = fig.add_subplot(1, len(items), k + 1, projection="3d")
+        ax.set_gid(f"paths-{label}")
+        o = t.frames(qv)[:, :3, 3] / ls
+        (sk,) = ax.plot(*o.T, "-", color="0.6", lw=1.5, marker="o", ms=2)
+        sk.set_gid("skeleton")
+        for i in range(P.shape[1]):
+            c = joint_colour(i)
+            moved = float(np.max(np.linalg.norm(P[:, i] - P[0, i], axis=1))) > 1e-9
+            if moved:
+                (line,) = ax.plot(*(P[:, i] / ls).T, color=c, lw=1.6, label=f"frame {i}")
+            else:
+                (line,) = ax.plot(*(P[:1, i] / ls).T, color=c, marker="o", ms=4, ls="none", label=f"frame {i} (fixed)")
+            line.set_gid(f"path-{i}")
+        _equal_3d(ax, allp / ls)
+        _labels_3d(ax, length)
+        ax.set_title(f"{label} ({t.convention})", fontsize=10)
+        ax.legend(loc="upper left", fontsize=7)
+    fig.suptitle(title or f"Frame origins while joint {joint} moves from {limits[0] / sc:.4g} to {limits[1] / sc:.4g} {unit} (Guo et al. Fig. 3)", fontsize=11)
+    return fig
+
+
+def parameter_errors(result: Identification, length: str = "mm", angle: str = "deg"):
+    """Per column k of the table: (name, unit, identified (n,), sigma (n,), nominal (n,) or None), display units.
+
+    Angle differences are wrapped to (-180, 180] deg when compared with the nominal.
+    """
+    t, nt = result.table, result.nominal_table
+    out = []
+    for k, c in enumerate(t.columns):
+        sc, unit = column_scale(t, k, length, angle)
+        ident = t.params[:, k] / sc
+        nom = None if nt is None or nt.convention != t.convention else nt.params[:, k] / sc
+        if nom is not None and t.angle_columns[k]:
+            half = math.pi / sc
+            nom = ident - ((ident - nom + half) % (2 * half) - half)
+        out.append((c, unit, ident, result.sigma[:, k] / sc, nom))
+    return out
+
+
+def plot_parameters(result: Identification, *, length: str = "mm", angle: str = "deg") -> Figure:
+    """Identified minus nominal parameters with one-sigma error bars, one axes per table column.
+
+    Without a nominal model the identified values themselves are drawn. Each axes (gid ``param-<column>``)
+    holds one errorbar container; the x tick labels give the joint and its nominal value.
+    """
+    fig = _figure(figsize=(3.2 * len(result.table.columns), 4.0), layout="constrained")
+    names = joint_names(result)
+    x = np.arange(1, len(names) + 1)
+    rows = parameter_errors(result, length, angle)
+    for k, (c, unit, ident, sig, nom) in enumerate(rows):
+        ax = fig.add_subplot(1, len(rows), k + 1)
+        ax.set_gid(f"param-{c}")
+        if nom is not None:
+            ax.axhline(0.0, color="0.6", lw=0.8)
+            ax.errorbar(x, ident - nom, yerr=sig, fmt="o", color="#1f77b4", ecolor="#1f77b4", capsize=3, ms=4)
+            ax.set_title(f"{c} [{unit}]: identified - nominal", fontsize=9)
+            ax.set_xticks(x, [f"{nm}\n{v:.4g}" for nm, v in zip(names, nom)], fontsize=7)
+        else:
+            ax.errorbar(x, ident, yerr=sig, fmt="o", color="#1f77b4", capsize=3, ms=4)
+            ax.set_title(f"{c} [{unit}]: identified", fontsize=9)
+            ax.set_xticks(x, names, fontsize=7)
+        ax.tick_params(axis="y", labelsize=7)
+        ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 4))
+    fig.suptitle(f"{result.table.convention.upper()} parameters, error bars one sigma propagated from the fits" + (" (tick labels: nominal)" if result.nominal_table is not None else ""), fontsize=10)
+    return fig
+
+
+def figures_for(result: Identification, *, length: str = "mm", other: str | None = None, joint: int | None = None) -> dict[str, Figure]:
+    """Every figure of an identification, by file stem: circles, residuals, bounding_box, parameters, frames,
+    origin_paths (frames of the identified convention and ``other`` at the home configuration; origin paths
+    over joint ``joint``'s swept range, default joint 2 as in Guo et al. Fig. 3)."""
+    conv = result.table.convention
+    other = other or other_convention(conv)
+    model = result.model()
+    tables = [(f"identified {conv}", result.table), (f"identified {other}", _core.extract(_core.axes(model, np.zeros(model.nq)), other).table)]
+    n = result.axes.nq
+    joint = joint or (2 if n >= 2 else 1)
+    return {
+        "circles": plot_circles(result, length=length),
+        "residuals": plot_residuals(result, length=length),
+        "bounding_box": plot_bounding_box(result, length=length),
+        "parameters": plot_parameters(result, length=length),
+        "frames": plot_frames(tables, result.sweeps.home, length=length),
+        "origin_paths": plot_origin_paths(tables, joint, result.sweeps.home, limits=sweep_range(result, joint), length=length),
+    }
+
+
+__all__ = [
+    "INSTALL_HINT",
+    "box_edges",
+    "circle_points",
+    "figures_for",
+    "frames_along",
+    "joint_colour",
+    "other_convention",
+    "parameter_errors",
+    "plot_bounding_box",
+    "plot_circles",
+    "plot_frames",
+    "plot_origin_paths",
+    "plot_parameters",
+    "plot_residuals",
+]
