@@ -1,5 +1,6 @@
 //! The immutable serial-chain [`Model`] and its [`Data`] workspace (docs/conventions.md, "The model").
 
+use crate::dynamics::Inertia;
 use crate::error::{check_finite, check_len, Error, Result};
 use crate::spatial::Pose;
 use nalgebra::Matrix6xX;
@@ -67,6 +68,9 @@ impl Joint {
 
 /// An immutable serial chain: `T_world_tool(q) = T_world_base · Π [placement_i · M_i(q_i + offset_i)] · T_flange_tool`.
 ///
+/// Each link may carry inertial parameters ([`Inertia`], expressed in its joint frame, the frame moving
+/// with link *i*); [`Model::new`] gives zero-mass links, [`Model::with_inertias`] attaches them.
+///
 /// ```
 /// use denavit_core::{Model, Joint, JointKind, spatial::{trans, Pose}};
 /// let j = vec![Joint::new("j1", JointKind::Revolute, Pose::identity()),
@@ -80,6 +84,7 @@ pub struct Model {
     t_world_base: Pose,
     joints: Vec<Joint>,
     t_flange_tool: Pose,
+    inertias: Vec<Inertia>,
 }
 
 impl Model {
@@ -105,7 +110,28 @@ impl Model {
                 });
             }
         }
-        Ok(Self { name: name.into(), t_world_base, joints, t_flange_tool })
+        let inertias = vec![Inertia::zero(); joints.len()];
+        Ok(Self { name: name.into(), t_world_base, joints, t_flange_tool, inertias })
+    }
+    /// A copy whose link *i* carries `inertias[i]`, expressed in joint frame *i* (the frame moving with
+    /// link *i*, docs/conventions.md); one inertia per joint. The tool is part of the last link.
+    ///
+    /// ```
+    /// use denavit_core::{builtin_planar2, dynamics::Inertia};
+    /// use nalgebra::{Matrix3, Vector3};
+    /// let m = builtin_planar2(1.0, 1.0);
+    /// let link = Inertia::new(2.0, Vector3::new(0.5, 0.0, 0.0), Matrix3::from_diagonal_element(0.01)).unwrap();
+    /// let m = m.with_inertias(vec![link; 2]).unwrap();
+    /// assert_eq!(m.inertias()[1].mass(), 2.0);
+    /// assert!(m.with_inertias(vec![link]).unwrap_err().to_string().contains("expected 2, got 1"));
+    /// ```
+    pub fn with_inertias(&self, inertias: Vec<Inertia>) -> Result<Self> {
+        check_len("link inertias (one per joint)", self.nq(), inertias.len())?;
+        Ok(Self { inertias, ..self.clone() })
+    }
+    /// Inertial parameters of the links, base to tip (link *i* in joint frame *i*; zero mass unless attached).
+    pub fn inertias(&self) -> &[Inertia] {
+        &self.inertias
     }
     /// The model's name.
     pub fn name(&self) -> &str {
@@ -127,13 +153,13 @@ impl Model {
     pub fn t_flange_tool(&self) -> &Pose {
         &self.t_flange_tool
     }
-    /// A copy with another base placement.
+    /// A copy with another base placement (the link inertias are kept).
     pub fn with_base(&self, t_world_base: Pose) -> Result<Self> {
-        Self::new(self.name.clone(), t_world_base, self.joints.clone(), self.t_flange_tool)
+        Self::new(self.name.clone(), t_world_base, self.joints.clone(), self.t_flange_tool)?.with_inertias(self.inertias.clone())
     }
-    /// A copy with another tool.
+    /// A copy with another tool (the link inertias are kept).
     pub fn with_tool(&self, t_flange_tool: Pose) -> Result<Self> {
-        Self::new(self.name.clone(), self.t_world_base, self.joints.clone(), t_flange_tool)
+        Self::new(self.name.clone(), self.t_world_base, self.joints.clone(), t_flange_tool)?.with_inertias(self.inertias.clone())
     }
     /// Check that `q` has one finite value per joint.
     pub fn check_q(&self, q: &[f64]) -> Result<()> {
