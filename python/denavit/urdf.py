@@ -393,7 +393,8 @@ def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: 
         w = where("joint", j.name)
         jtype = (j.type or "").strip()
         if jtype in UNSUPPORTED_JOINTS:
-            raise DenavitError(f"{w} is a {jtype} joint: only revolute, continuous, prismatic and fixed joints form a serial chain of this kind")
+            raise DenavitError(f"{w} is a {jtype} joint, which is not supported: expected revolute, continuous, prismatic or fixed "
+                               "(to import the arm alone, choose a base_link below it)")
         if jtype not in SUPPORTED_JOINTS:
             raise DenavitError(f"{w}: unknown joint type {j.type!r}: expected one of {', '.join(SUPPORTED_JOINTS)}")
         if j.mimic is not None:
@@ -407,11 +408,12 @@ def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: 
         a = np.asarray(j.axis, dtype=float)
         na = float(np.linalg.norm(a))
         if not (na > 1e-12 and np.all(np.isfinite(a))):
-            raise DenavitError(f"{w}: axis xyz={_nums(a)} has zero length: expected a nonzero direction (e.g. \"0 0 1\")")
+            raise DenavitError(f"{w}: axis xyz=\"{_nums(a)}\" has zero length: expected a nonzero direction (e.g. \"0 0 1\")")
         a = a / na
         Ra = _hom(z_to(a))
         if T_world_base is None:
             T_world_base = acc
+            body_links[0] = j.parent  # the base body's link the first moving joint hangs on
             placements.append(O @ Ra)
         else:
             placements.append(acc @ O @ Ra)
