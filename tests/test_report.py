@@ -1,0 +1,437 @@
+"""HTML reports (denavit.report): structure and numbers, then the page in a real headless browser.
+
+The browser tests drive Debian's chromium through the Chrome DevTools protocol over ``--remote-debugging-pipe``
+(file descriptors 3 and 4, NUL-separated JSON; no extra package). For each page they check:
+
+* loading: no ``console.error``/``console.assert`` call, no uncaught exception (``Runtime.exceptionThrown``), no
+  error-level browser log entry (``Log.entryAdded``), and no request other than the file itself (``Network``
+  events; name resolution is also disabled with ``--host-resolver-rules``, so the page must work offline). A
+  control page with one ``console.error`` and one uncaught exception shows that these checks do catch errors;
+* the 3-D view: plotly resolves ``newPlot`` (the page's ``data-rendered`` flag), the WebGL canvas exists, and a
+  screenshot of the scene is not blank: many distinct colours, and pixels of the joints' own colours (orange,
+  purple, brown: colours no frame or grid uses). A real mouse click on a joint's legend entry hides all of that
+  joint's traces and its colour leaves the screenshot (the legend toggles joints);
+* the tables: the DOM after rendering (``document.documentElement.outerHTML``, what ``--dump-dom`` prints) holds
+  the identified values, sigmas and nominal values, as text (formatted as the report formats them) and as
+  full-precision ``data-value``; the nominal column is Hayat et al. Table III's "specified" KR5 values, the model
+  report's tables Guo et al.'s Tables I and II.
+
+Without chromium (or chromium-browser) on PATH the browser tests are skipped with that reason; ``.ci/run``
+installs it.
+"""
+
+from __future__ import annotations
+
+import base64
+import fcntl
+import io
+import json
+import math
+import os
+import select
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from html.parser import HTMLParser
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import denavit as dv
+from denavit import identify as ident
+from denavit import report as rep
+from denavit import sweeps as sw
+from denavit.errors import DenavitError
+
+# Hayat et al. Table III, "Specified" KR5 DH parameters (d = b and a in mm, theta and alpha in deg)
+SPECIFIED = {"d": [400, 0, 0, 620, 0, 0], "theta": [0] * 6, "a": [180, 600, 120, 0, 0, 0], "alpha": [90, 0, 90, 90, 90, 0]}
+# Guo et al. Table I (MD-H) and Table II (ED-H), TianSui-One, lengths in mm, angles in deg
+GUO_MDH = {"alpha": [0, 90, 0, 0, -90, 90], "a": [0, 0, -406, -386, 0, 0], "theta": [0, -90, 0, 90, 0, 0], "d": [0, 148.5, 0, 2, 128, 0]}
+GUO_EDH = {"alpha": [0, 90, 0, 0, -90, 90], "a": [0, 0, -406, -386, 0, 0], "b": [0, 0, 0, 0, -128, 128], "c": [0, 148.5, 0, -126, 0, 0], "theta": [0, -90, 0, 90, 0, 0]}
+
+
+@pytest.fixture(scope="module")
+def result():
+    """A small simulated identification: KR5, Hayat's home and 90 degree ranges, 12 points per sweep, 20 um noise."""
+    s = sw.simulate(dv.load_model("kr5"), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=12, noise=2e-5, seed=7)
+    return ident.identify(s, nominal=dv.load_robot("kr5"))
+
+
+@pytest.fixture(scope="module")
+def report_path(result, tmp_path_factory):
+    path = tmp_path_factory.mktemp("report") / "identification.html"
+    rep.write_report(result, path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def model_report_path(tmp_path_factory):
+    path = tmp_path_factory.mktemp("model") / "tiansui.html"
+    rep.write_model_report(dv.load_robot("tiansui_mdh"), path, compare="tiansui_edh")
+    return path
+
+
+# ------------------------------------------------------------------------------------------------ reading the HTML
+
+
+class Page(HTMLParser):
+    """Tables (id -> rows of cells {class, text, value}), script tags and every external reference of a page."""
+
+    def __init__(self, text: str):
+        super().__init__(convert_charrefs=True)
+        self.tables: dict[str, list[list[dict]]] = {}
+        self.scripts: list[dict] = []  # attrs + length of inline code
+        self.refs: list[str] = []  # src / href values of tags
+        self._table = self._row = self._cell = None
+        self.feed(text)
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        for k in ("src", "href"):
+            if a.get(k) is not None:
+                self.refs.append(a[k])
+        if tag == "script":
+            self.scripts.append({**a, "code": 0})
+        elif tag == "table" and a.get("id"):
+            self._table = self.tables.setdefault(a["id"], [])
+        elif tag == "tr" and self._table is not None:
+            self._row = {"attrs": a, "cells": []}
+            self._table.append(self._row)
+        elif tag in ("td", "th") and self._row is not None:
+            self._cell = {"class": (a.get("class") or "").split(), "text": "", "value": a.get("data-value"), "tag": tag}
+            self._row["cells"].append(self._cell)
+
+    def handle_endtag(self, tag):
+        if tag in ("td", "th"):
+            self._cell = None
+        elif tag == "tr":
+            self._row = None
+        elif tag == "table":
+            self._table = None
+
+    def handle_data(self, data):
+        if self._cell is not None:
+            self._cell["text"] += data
+        if self.lasttag == "script" and self.scripts:
+            self.scripts[-1]["code"] += len(data)
+
+    def rows(self, tid: str) -> list[dict]:
+        """Body rows of table ``tid``: {"attrs": ..., "cell": {class: cell}}."""
+        out = []
+        for r in self.tables[tid]:
+            if r["cells"] and r["cells"][0]["tag"] == "td":
+                out.append({"attrs": r["attrs"], "cell": {c["class"][0]: c for c in r["cells"]}})
+        return out
+
+
+def check_parameter_table(page: Page, result) -> None:
+    """The identified values, sigmas, nominal values and differences of every joint and parameter."""
+    rows = page.rows("parameters")
+    t = result.table
+    assert len(rows) == 6 * len(t.columns)
+    for row in rows:
+        i = ["A1", "A2", "A3", "A4", "A5", "A6"].index(row["attrs"]["data-joint"])
+        k = t.columns.index(row["attrs"]["data-param"])
+        scale = math.radians(1) if t.angle_columns[k] else 1e-3
+        cell = row["cell"]
+        for cls, value in (("identified", t.params[i, k] / scale), ("sigma", result.sigma[i, k] / scale), ("nominal", SPECIFIED[t.columns[k]][i])):
+            assert cell[cls]["text"] == rep.fmt_value(value), (cls, row["attrs"])
+            assert float(cell[cls]["value"]) == pytest.approx(value, abs=1e-9), (cls, row["attrs"])
+        assert float(cell["difference"]["value"]) == pytest.approx(t.params[i, k] / scale - SPECIFIED[t.columns[k]][i], abs=1e-9)
+        assert float(cell["difference"]["value"]) == pytest.approx(0, abs=6 * result.sigma[i, k] / scale + 1e-9)  # within noise of Table III
+
+
+def check_guo_tables(page: Page) -> None:
+    for tid, golden in (("table-main", GUO_MDH), ("table-compare", GUO_EDH)):
+        rows = page.rows(tid)
+        assert [r["attrs"]["data-joint"] for r in rows] == [f"j{i}" for i in range(1, 7)]
+        for col, values in golden.items():
+            assert [float(r["cell"][col]["value"]) for r in rows] == pytest.approx(values, abs=1e-9), (tid, col)
+            assert [r["cell"][col]["text"] for r in rows] == [rep.fmt_value(v) for v in values]
+
+
+# ------------------------------------------------------------------------------------------------ static checks
+
+
+def test_report_is_self_contained(report_path):
+    text = report_path.read_text(encoding="utf-8")
+    page = Page(text)
+    assert all(r.startswith(("data:", "#")) for r in page.refs), page.refs  # no src/href to fetch
+    assert all("src" not in s for s in page.scripts)
+    bundles = [s for s in page.scripts if s["code"] > 1_000_000]
+    assert len(bundles) == 1  # plotly.js inlined once, before the figures that use it
+    assert "<link" not in text and "@import" not in text
+
+
+def test_report_tables_hold_the_identification(report_path, result):
+    page = Page(report_path.read_text(encoding="utf-8"))
+    check_parameter_table(page, result)
+    axes = page.rows("axes")
+    assert len(axes) == 6
+    for row, f in zip(axes, result.fits):
+        assert float(row["cell"]["radius"]["value"]) == pytest.approx(f.radius * 1e3, rel=1e-12)
+        assert float(row["cell"]["rms"]["value"]) == pytest.approx(f.rms * 1e3, rel=1e-12)
+    (box,) = page.rows("bounding-box")
+    assert [float(box["cell"][k]["value"]) for k in ("l1", "l2", "l3")] == pytest.approx(result.box.lengths * 1e3, rel=1e-12)
+    assert len(page.rows("pairs")) == 5
+
+
+def test_model_report_tables(model_report_path):
+    page = Page(model_report_path.read_text(encoding="utf-8"))
+    check_guo_tables(page)
+    assert len(page.rows("frames")) == 14  # 7 frames of each convention
+
+
+def test_missing_plotly_names_the_install_command(result, tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "plotly.graph_objects", None)
+    with pytest.raises(DenavitError, match=r"plotly.*pip install 'denavit\[plot\]'"):
+        rep.write_report(result, tmp_path / "r.html")
+    assert not list(tmp_path.iterdir())  # nothing written
+
+
+def cli(*args):
+    p = subprocess.run([sys.executable, "-m", "denavit.cli", *args], capture_output=True, text=True, env={**os.environ, "COLUMNS": "120"})
+    assert p.returncode == 0, p.stderr
+    return p
+
+
+def test_cli_show_report_and_plot(tmp_path):
+    cli("show", "tiansui_mdh", "--compare", "tiansui_edh", "--report", str(tmp_path / "m.html"), "--plot", str(tmp_path / "figs"))
+    check_guo_tables(Page((tmp_path / "m.html").read_text(encoding="utf-8")))
+    assert sorted(p.name for p in (tmp_path / "figs").iterdir()) == ["frames.png", "origin_paths.png"]
+
+
+def test_cli_identify_report(tmp_path):
+    cli("identify", "--example", "kr5-30", "--report", str(tmp_path / "r.html"))
+    page = Page((tmp_path / "r.html").read_text(encoding="utf-8"))
+    rows = page.rows("parameters")
+    d1 = next(r for r in rows if r["attrs"] == {"data-joint": "A1", "data-param": "d"})
+    assert float(d1["cell"]["identified"]["value"]) == pytest.approx(400, abs=0.5)  # Hayat Table III: 400.022 (30 deg)
+
+
+# ------------------------------------------------------------------------------------------------ the browser
+
+FLAGS = [
+    "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
+    "--disable-component-update", "--disable-sync", "--hide-scrollbars", "--mute-audio",
+    "--enable-unsafe-swiftshader",  # WebGL on the software rasteriser (no GPU here), without the deprecation error
+    "--host-resolver-rules=MAP * ~NOTFOUND",  # offline: no host name resolves
+]
+TIMEOUT = 90.0
+
+
+def find_chromium() -> str:
+    exe = shutil.which("chromium") or shutil.which("chromium-browser")
+    if exe is None:
+        pytest.skip("no chromium (or chromium-browser) on PATH: install Debian's chromium (apt-get install chromium; .ci/run does) to run the browser tests")
+    return exe
+
+
+class Browser:
+    """A headless chromium driven over the DevTools pipe (fd 3: commands in, fd 4: replies and events out)."""
+
+    def __init__(self, exe: str, user_dir) -> None:
+        def high(fd: int) -> int:  # above 9, so that the redirections to 3 and 4 never clobber them
+            h = fcntl.fcntl(fd, fcntl.F_DUPFD_CLOEXEC, 10)
+            os.close(fd)
+            return h
+
+        r_in, w_in = (high(fd) for fd in os.pipe())
+        r_out, w_out = (high(fd) for fd in os.pipe())
+        self.log = open(user_dir / "chromium.log", "wb")  # noqa: SIM115
+        cmd = ["bash", "-c", f'exec "$0" "$@" 3<&{r_in} 4>&{w_out} {r_in}<&- {w_out}>&-', exe, *FLAGS, "--remote-debugging-pipe", f"--user-data-dir={user_dir}", "about:blank"]
+        self.proc = subprocess.Popen(cmd, pass_fds=(r_in, w_out), stdin=subprocess.DEVNULL, stdout=self.log, stderr=self.log, start_new_session=True)
+        os.close(r_in)
+        os.close(w_out)
+        self.w, self.r = w_in, r_out
+        self.buf = b""
+        self.last_id = 0
+        self.events: list[dict] = []
+
+    def _message(self, deadline: float) -> dict:
+        while b"\0" not in self.buf:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise TimeoutError("chromium sent nothing in time")
+            if select.select([self.r], [], [], left)[0]:
+                chunk = os.read(self.r, 1 << 20)
+                if not chunk:
+                    raise RuntimeError(f"chromium closed the DevTools pipe; its log:\n{self.log_tail()}")
+                self.buf += chunk
+        msg, self.buf = self.buf.split(b"\0", 1)
+        return json.loads(msg)
+
+    def call(self, method: str, params: dict | None = None, session: str | None = None) -> dict:
+        self.last_id += 1
+        msg = {"id": self.last_id, "method": method, "params": params or {}, **({"sessionId": session} if session else {})}
+        os.write(self.w, json.dumps(msg).encode() + b"\0")
+        deadline = time.monotonic() + TIMEOUT
+        while True:
+            m = self._message(deadline)
+            if m.get("id") == self.last_id:
+                if "error" in m:
+                    raise RuntimeError(f"{method}: {m['error']}")
+                return m["result"]
+            if "method" in m:
+                self.events.append(m)
+
+    def wait_event(self, name: str) -> dict:
+        deadline = time.monotonic() + TIMEOUT
+        while not any(e["method"] == name for e in self.events):
+            m = self._message(deadline)
+            if "method" in m:
+                self.events.append(m)
+        return next(e for e in self.events if e["method"] == name)
+
+    def log_tail(self) -> str:
+        self.log.flush()
+        return open(self.log.name, "rb").read()[-3000:].decode(errors="replace")  # noqa: SIM115
+
+    def close(self) -> None:
+        try:
+            self.call("Browser.close")
+            self.proc.wait(15)
+        except Exception:  # noqa: BLE001  -- never leave our browser behind
+            os.killpg(self.proc.pid, signal.SIGKILL)
+            self.proc.wait()
+        os.close(self.w)
+        os.close(self.r)
+        self.log.close()
+
+
+class Tab:
+    """One page of the browser: navigate, evaluate, click, screenshot, and what went wrong while loading."""
+
+    def __init__(self, browser: Browser, width: int = 1300, height: int = 1000) -> None:
+        self.b = browser
+        target = browser.call("Target.createTarget", {"url": "about:blank"})["targetId"]
+        self.s = browser.call("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
+        for domain in ("Page", "Runtime", "Log", "Network"):
+            browser.call(f"{domain}.enable", session=self.s)
+        browser.call("Emulation.setDeviceMetricsOverride", {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": False}, session=self.s)
+
+    def goto(self, url: str) -> None:
+        self.b.events.clear()
+        self.b.call("Page.navigate", {"url": url}, session=self.s)
+        self.b.wait_event("Page.loadEventFired")
+
+    def eval(self, expression: str):
+        r = self.b.call("Runtime.evaluate", {"expression": expression, "returnByValue": True, "awaitPromise": True}, session=self.s)
+        if "exceptionDetails" in r:
+            raise RuntimeError(f"{expression}: {r['exceptionDetails']}")
+        return r["result"].get("value")
+
+    def wait_rendered(self, element_id: str) -> None:
+        deadline = time.monotonic() + TIMEOUT
+        while self.eval(f"document.getElementById('{element_id}').dataset.rendered") != "true":
+            assert time.monotonic() < deadline, f"plotly did not render #{element_id}; problems: {self.problems()}"
+            time.sleep(0.1)
+        self.eval("new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")  # the frame is drawn
+
+    def rect(self, selector: str) -> dict:
+        return json.loads(self.eval(f"JSON.stringify(document.querySelector({json.dumps(selector)}).getBoundingClientRect())"))
+
+    def click(self, x: float, y: float) -> None:
+        for kind in ("mouseMoved", "mousePressed", "mouseReleased"):
+            self.b.call("Input.dispatchMouseEvent", {"type": kind, "x": x, "y": y, "button": "left", "clickCount": 1}, session=self.s)
+
+    def screenshot(self, rect: dict) -> Image.Image:
+        clip = {"x": rect["x"], "y": rect["y"], "width": rect["width"], "height": rect["height"], "scale": 1}
+        data = self.b.call("Page.captureScreenshot", {"format": "png", "clip": clip}, session=self.s)["data"]
+        return Image.open(io.BytesIO(base64.b64decode(data))).convert("RGB")
+
+    def problems(self) -> list[str]:
+        out = []
+        for e in self.b.events:
+            m, p = e["method"], e.get("params", {})
+            if m == "Runtime.consoleAPICalled" and p["type"] in ("error", "assert"):
+                out.append(f"console.{p['type']}: " + " ".join(str(a.get("value", a.get("description", ""))) for a in p["args"]))
+            elif m == "Runtime.exceptionThrown":
+                d = p["exceptionDetails"]
+                out.append("uncaught: " + d.get("exception", {}).get("description", d.get("text", "")))
+            elif m == "Log.entryAdded" and p["entry"]["level"] == "error":
+                out.append(f"log: {p['entry']['text']} {p['entry'].get('url', '')}")
+        return out
+
+    def requests(self) -> list[str]:
+        return [e["params"]["request"]["url"] for e in self.b.events if e["method"] == "Network.requestWillBeSent"]
+
+
+@pytest.fixture(scope="module")
+def tab(tmp_path_factory):
+    exe = find_chromium()
+    browser = Browser(exe, tmp_path_factory.mktemp("chromium"))
+    try:
+        yield Tab(browser)
+    finally:
+        browser.close()
+
+
+def colour_pixels(img: Image.Image, hex_colour: str, tol: int = 40) -> int:
+    rgb = np.asarray(img, dtype=int)
+    c = np.array([int(hex_colour[i : i + 2], 16) for i in (1, 3, 5)])
+    return int(np.sum(np.abs(rgb - c).max(axis=2) <= tol))
+
+
+def distinct_colours(img: Image.Image) -> int:
+    rgb = np.asarray(img, dtype=np.int64).reshape(-1, 3)
+    return len(np.unique(rgb[:, 0] << 16 | rgb[:, 1] << 8 | rgb[:, 2]))
+
+
+def test_browser_checks_catch_errors(tab, tmp_path):
+    """Control: a page that logs an error and throws is caught by the same checks (they are not vacuous)."""
+    bad = tmp_path / "bad.html"
+    bad.write_text("<html><body><script>console.error('planted error'); undefinedFunction();</script></body></html>")
+    tab.goto(bad.as_uri())
+    problems = tab.problems()
+    assert any("planted error" in p for p in problems) and any("undefinedFunction" in p for p in problems), problems
+
+
+ORANGE, PURPLE, BROWN = "#ff7f0e", "#9467bd", "#8c564b"  # joints 2, 5, 6: no frame, grid or background uses them
+
+
+def test_identification_report_in_browser(tab, report_path, result):
+    tab.goto(report_path.as_uri())
+    tab.wait_rendered(rep.VIEW_ID)
+    assert tab.problems() == []
+    assert [u for u in tab.requests() if not u.startswith(("file:", "data:", "blob:"))] == []
+    assert tab.eval(f"document.querySelectorAll('#{rep.VIEW_ID} canvas').length") >= 1  # WebGL scene created
+    # legend groups: every trace of a joint shares its group, so one click toggles the joint
+    traces = tab.eval(f"document.getElementById('{rep.VIEW_ID}').data.map(t => [t.type, t.legendgroup || ''])")
+    groups = {g for _, g in traces}
+    assert {f"joint-{j}" for j in range(1, 7)} <= groups and {"frames-identified dh", "frames-identified edh"} <= groups
+    assert sum(g == "joint-2" for _, g in traces) >= 4  # points, circle, centre, axis (+ cone)
+    scene = tab.rect(f"#{rep.VIEW_ID} canvas")
+    before = tab.screenshot(scene)
+    assert before.size[0] > 400 and distinct_colours(before) > 200, "the 3-D view looks blank"
+    counts = {c: colour_pixels(before, c) for c in (ORANGE, PURPLE, BROWN)}
+    assert all(n > 30 for n in counts.values()), counts  # the joints' points, circles and axes are drawn
+    # the tables as rendered (the DOM, as --dump-dom prints it)
+    check_parameter_table(Page(tab.eval("document.documentElement.outerHTML")), result)
+    # a real click on joint 2's legend entry hides joint 2 (its orange leaves the picture), not joint 5
+    entries = tab.eval(f"Array.from(document.querySelectorAll('#{rep.VIEW_ID} .legend .traces')).map(e => {{const r = e.getBoundingClientRect(); return [e.textContent, r.x, r.y, r.height];}})")
+    name, x, y, h = next(e for e in entries if e[0].startswith("A2"))
+    tab.click(x + 40, y + h / 2)
+    deadline = time.monotonic() + 10
+    while tab.eval(f"document.getElementById('{rep.VIEW_ID}').data.filter(t => t.legendgroup === 'joint-2').every(t => t.visible === 'legendonly')") is not True:
+        assert time.monotonic() < deadline, "the legend click did not hide joint 2"
+        time.sleep(0.1)
+    tab.eval("new Promise(r => setTimeout(() => requestAnimationFrame(() => requestAnimationFrame(r)), 200))")
+    after = tab.screenshot(scene)
+    assert colour_pixels(after, ORANGE) < 0.1 * counts[ORANGE] and colour_pixels(after, PURPLE) > 0.5 * counts[PURPLE]
+    assert tab.problems() == []
+
+
+def test_model_report_in_browser(tab, model_report_path):
+    tab.goto(model_report_path.as_uri())
+    tab.wait_rendered(rep.VIEW_ID)
+    assert tab.problems() == []
+    assert [u for u in tab.requests() if not u.startswith(("file:", "data:", "blob:"))] == []
+    shot = tab.screenshot(tab.rect(f"#{rep.VIEW_ID} canvas"))
+    assert distinct_colours(shot) > 200 and colour_pixels(shot, ORANGE) > 30  # axis of joint 2 drawn
+    groups = set(tab.eval(f"document.getElementById('{rep.VIEW_ID}').data.map(t => t.legendgroup)"))
+    assert {"frames-tiansui_mdh (mdh)", "frames-tiansui_edh (edh)"} <= groups and {f"joint-{j}" for j in range(1, 7)} <= groups
+    check_guo_tables(Page(tab.eval("document.documentElement.outerHTML")))
