@@ -157,8 +157,6 @@ def convert(
     diagnostics, or write a robot file with ``-o``.
     """
     to = to.lower()
-    if to not in ("dh", "mdh", "edh", "poe", "urdf"):
-        fail(f"--to: expected one of dh, mdh, edh, poe, urdf, got {to!r}")
     if base_link is not None or tip_link is not None:
         if not str(model).lower().endswith(".urdf"):
             fail(f"--base-link/--tip-link apply to a URDF input, got {model!r}")
