@@ -10,6 +10,7 @@
 //! ```
 
 pub mod axes;
+pub mod calibration;
 pub mod convention;
 pub mod dynamics;
 pub mod error;

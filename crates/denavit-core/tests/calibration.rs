@@ -1,0 +1,180 @@
+//! Calibration chains: the chain of a convention reproduces the model's kinematics, and the analytic
+//! identification Jacobian matches central finite differences (tolerance ~ sqrt of the step).
+
+mod common;
+
+use denavit_core::calibration::{Axis, Chain, Factor};
+use denavit_core::kinematics::tool_pose;
+use denavit_core::spatial::{rx, rz, trans, Pose};
+use denavit_core::{Error, JointKind};
+use nalgebra::{Matrix3, Matrix6xX, Vector3};
+use proptest::prelude::*;
+
+/// The ED-H chain of a table (docs/conventions.md): base, Rx(alpha) Tx(a) Ty(b) Tz(c) Rz(theta + q) per row
+/// (prismatic: Rx Tx Ty Rz(theta) Tz(c + q)), tool; joint j optionally scaled by parameter `scale[j]`.
+fn edh_chain(t: &denavit_core::Table, with_scales: bool) -> (Chain, Vec<f64>) {
+    let n = t.nq();
+    let mut f = vec![Factor::Fixed(t.t_world_base)];
+    let mut x = Vec::new();
+    let mut push = |f: &mut Vec<Factor>, axis, value: f64, joint| {
+        f.push(Factor::param(axis, x.len(), joint));
+        x.push(value);
+    };
+    for i in 0..n {
+        let r: Vec<f64> = t.params.row(i).iter().copied().collect();
+        push(&mut f, Axis::Rx, r[0], None);
+        push(&mut f, Axis::Tx, r[1], None);
+        push(&mut f, Axis::Ty, r[2], None);
+        match t.kinds[i] {
+            JointKind::Revolute => {
+                push(&mut f, Axis::Tz, r[3], None);
+                push(&mut f, Axis::Rz, r[4], Some(i));
+            }
+            JointKind::Prismatic => {
+                push(&mut f, Axis::Rz, r[4], None);
+                push(&mut f, Axis::Tz, r[3], Some(i));
+            }
+        }
+    }
+    f.push(Factor::Fixed(t.t_last_tool));
+    let scales = if with_scales {
+        (0..n)
+            .map(|_| {
+                x.push(0.0);
+                Some(x.len() - 1)
+            })
+            .collect()
+    } else {
+        vec![None; n]
+    };
+    (Chain::new(f, x.len(), n, scales).unwrap(), x)
+}
+
+/// Rotation vector of a small rotation: `vee((R - R^T) / 2)` = sin(angle) axis (error O(angle^3); nalgebra's
+/// `scaled_axis` takes the angle from acos, which loses half the digits for tiny angles).
+fn log_so3(r: &Matrix3<f64>) -> Vector3<f64> {
+    Vector3::new(r[(2, 1)] - r[(1, 2)], r[(0, 2)] - r[(2, 0)], r[(1, 0)] - r[(0, 1)]) / 2.0
+}
+
+/// Central differences of [p; phi] w.r.t. every parameter (phi: world-frame rotation vector).
+fn numeric_jacobian(chain: &Chain, x: &[f64], q: &[f64], h: f64) -> Matrix6xX<f64> {
+    let mut j = Matrix6xX::zeros(x.len());
+    for k in 0..x.len() {
+        let (mut xp, mut xm) = (x.to_vec(), x.to_vec());
+        xp[k] += h;
+        xm[k] -= h;
+        let (tp, tm) = (chain.pose(&xp, q).unwrap(), chain.pose(&xm, q).unwrap());
+        let dp = (tp.translation.vector - tm.translation.vector) / (2.0 * h);
+        let dr = log_so3(&(tp.rotation.matrix() * tm.rotation.matrix().transpose())) / (2.0 * h);
+        for r in 0..3 {
+            j[(r, k)] = dp[r];
+            j[(r + 3, k)] = dr[r];
+        }
+    }
+    j
+}
+
+#[test]
+fn edh_chain_reproduces_the_model() {
+    for t in [common::tiansui_edh(), common::tiansui_mdh(), common::kr5_dh()] {
+        let t = denavit_core::extract::convert(&t, denavit_core::Convention::Edh, &Default::default()).unwrap().table;
+        let m = t.to_model("m").unwrap();
+        let (chain, x) = edh_chain(&t, false);
+        for k in 0..20 {
+            let q: Vec<f64> = (0..6).map(|i| ((k * 7 + i * 3) as f64 * 0.37).sin() * 2.0).collect();
+            let a = tool_pose(&m, &q).unwrap();
+            let b = chain.pose(&x, &q).unwrap();
+            assert!((a.to_homogeneous() - b.to_homogeneous()).amax() < 1e-12);
+        }
+    }
+}
+
+#[test]
+fn jacobian_matches_finite_differences_on_kr5_with_scales() {
+    let t = denavit_core::extract::convert(&common::kr5_dh(), denavit_core::Convention::Edh, &Default::default()).unwrap().table;
+    let t = denavit_core::Table { t_world_base: trans(0.3, -0.2, 0.1) * rx(0.4) * rz(-1.0), t_last_tool: trans(0.05, 0.03, 0.1) * rx(0.2), ..t };
+    let (chain, mut x) = edh_chain(&t, true);
+    let np = x.len();
+    for (k, v) in x.iter_mut().enumerate().skip(np - 6) {
+        *v = 0.01 * (k as f64 - 30.0);
+    }
+    let q = [0.3, -1.2, 0.8, 2.0, -0.4, 1.1];
+    let mut jac = Matrix6xX::zeros(np);
+    chain.pose_jacobian(&x, &q, &mut jac).unwrap();
+    let num = numeric_jacobian(&chain, &x, &q, 1e-6);
+    let err = (&jac - &num).amax();
+    assert!(err < 1e-8, "max |analytic - numeric| = {err:e}");
+    // the scale columns are q_j times the joint columns
+    for j in 0..6 {
+        let joint_col = 5 * j + 4;
+        assert!((jac.column(np - 6 + j) - jac.column(joint_col) * q[j]).amax() < 1e-14);
+    }
+}
+
+#[test]
+fn batch_matches_single_evaluations() {
+    let t = denavit_core::extract::convert(&common::tiansui_mdh(), denavit_core::Convention::Edh, &Default::default()).unwrap().table;
+    let (chain, x) = edh_chain(&t, true);
+    let np = chain.n_params();
+    let n = 100;
+    let qs: Vec<f64> = (0..n * 6).map(|i| (i as f64 * 0.731).sin() * 2.5).collect();
+    let (mut poses, mut jac) = (vec![0.0; 16 * n], vec![0.0; 6 * np * n]);
+    chain.evaluate_batch(&x, &qs, &mut poses, Some(&mut jac)).unwrap();
+    let mut only = vec![0.0; 16 * n];
+    chain.evaluate_batch(&x, &qs, &mut only, None).unwrap();
+    assert_eq!(poses, only);
+    let mut j1 = Matrix6xX::zeros(np);
+    for i in [0, 31, 32, 99] {
+        let t = chain.pose_jacobian(&x, &qs[6 * i..6 * i + 6], &mut j1).unwrap();
+        let h = t.to_homogeneous();
+        for r in 0..4 {
+            for c in 0..4 {
+                assert!((poses[16 * i + 4 * r + c] - h[(r, c)]).abs() < 1e-15);
+            }
+        }
+        for r in 0..6 {
+            for c in 0..np {
+                assert!((jac[i * 6 * np + r * np + c] - j1[(r, c)]).abs() < 1e-15);
+            }
+        }
+    }
+}
+
+#[test]
+fn bad_input_names_what_is_wrong() {
+    let c = Chain::new(vec![Factor::param(Axis::Rz, 0, Some(0)), Factor::param(Axis::Tx, 1, None)], 2, 1, vec![None]).unwrap();
+    assert_eq!(c.pose(&[0.0], &[0.0]).unwrap_err(), Error::SizeMismatch { what: "calibration parameters x".into(), expected: 2, got: 1 });
+    assert!(c.pose(&[0.0, f64::NAN], &[0.0]).unwrap_err().to_string().contains("calibration parameters x must be finite"));
+    assert!(c.pose(&[0.0, 1.0], &[0.0, 1.0]).unwrap_err().to_string().contains("wrong size of q: expected 1, got 2"));
+    let mut out = vec![0.0; 16];
+    assert!(c.evaluate_batch(&[0.0, 1.0], &[0.0, 1.0], &mut out, None).unwrap_err().to_string().contains("poses output"));
+    assert!(Chain::new(vec![Factor::param(Axis::Rz, 0, Some(2))], 1, 1, vec![None]).unwrap_err().to_string().contains("joint of factor 1"));
+    assert!(Chain::new(vec![], 1, 2, vec![None]).unwrap_err().to_string().contains("joint scale entries"));
+    assert!(Chain::new(vec![], 1, 1, vec![Some(4)]).unwrap_err().to_string().contains("scale parameter of joint 1"));
+}
+
+fn axis_strategy() -> impl Strategy<Value = Axis> {
+    prop_oneof![Just(Axis::Rx), Just(Axis::Ry), Just(Axis::Rz), Just(Axis::Tx), Just(Axis::Ty), Just(Axis::Tz)]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    /// Random chains (any factor order, fixed poses, shared parameters, joint factors with scales): the
+    /// analytic Jacobian equals central differences to 1e-7 (step 1e-6).
+    #[test]
+    fn random_chains_match_finite_differences(
+        spec in proptest::collection::vec((axis_strategy(), 0usize..8, proptest::option::of(0usize..3), -1.0f64..1.0), 1..14),
+        xs in proptest::collection::vec(-1.5f64..1.5, 11),
+        q in proptest::collection::vec(-3.0f64..3.0, 3),
+        fixed in proptest::collection::vec(-1.0f64..1.0, 6),
+    ) {
+        let mut f: Vec<Factor> = spec.iter().map(|&(a, p, j, _)| Factor::param(a, p, j)).collect();
+        let pose: Pose = trans(fixed[0], fixed[1], fixed[2]) * rx(fixed[3]) * rz(fixed[4]);
+        f.insert(spec.len() / 2, Factor::Fixed(pose));
+        let chain = Chain::new(f, 11, 3, vec![Some(8), None, Some(10)]).unwrap();
+        let mut jac = Matrix6xX::zeros(11);
+        chain.pose_jacobian(&xs, &q, &mut jac).unwrap();
+        let num = numeric_jacobian(&chain, &xs, &q, 1e-6);
+        prop_assert!((&jac - &num).amax() < 1e-7, "max err {:e}", (&jac - &num).amax());
+    }
+}
