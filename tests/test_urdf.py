@@ -143,6 +143,48 @@ def test_link_frames_match_yourdfpy_forward_kinematics(path):
         assert pose_err(dv.fk(m, q), u.get_transform(ch.tip_link, ch.base_link)) < 1e-12
 
 
+def pinocchio_frames(path, q, links):
+    """World poses of ``links`` at ``q`` by pinocchio's own URDF parser (continuous joints: cos, sin)."""
+    pin = pytest.importorskip("pinocchio")
+    model = pin.buildModelFromUrdf(str(path))
+    data = model.createData()
+    x = pin.neutral(model)
+    for k, j in enumerate(model.joints[1:]):
+        if j.nq == 2:
+            x[j.idx_q : j.idx_q + 2] = [math.cos(q[k]), math.sin(q[k])]
+        else:
+            x[j.idx_q] = q[k]
+    pin.forwardKinematics(model, data, x)
+    pin.updateFramePlacements(model, data)
+    return [data.oMf[model.getFrameId(link)].homogeneous for link in links]
+
+
+@pytest.mark.parametrize("path", GOOD, ids=lambda p: p.stem)
+def test_pinocchio_reads_the_same_frames(path, tmp_path):
+    """A second, independent URDF reader (pinocchio, bench extra; skipped without it): the imported model's
+    frames match pinocchio's on the test file, and the exported file's link frames are the model's joint
+    frames."""
+    ch = U.read_chain(path)
+    m = ch.model()
+    robot = U.load_urdf(path)
+    out = tmp_path / "out.urdf"
+    U.save_urdf(robot.model(), out, robot)
+    back = U.read_chain(out)
+    for q in qs_within(m, 5, seed=4):
+        T = pinocchio_frames(path, q, ch.extra["body_links"][1:] + [ch.tip_link])
+        F = dv.joint_frames(m, q)
+        for i, a in enumerate(ch.axes_local):
+            R = np.eye(4)
+            R[:3, :3] = U.z_to(a)
+            assert pose_err(F[i] @ R.T, T[i]) < 1e-12
+        assert pose_err(dv.fk(m, q), T[-1]) < 1e-12
+        T = pinocchio_frames(out, q, back.extra["body_links"][1:] + [back.tip_link])
+        F = dv.joint_frames(robot.model(), q)
+        for i in range(m.nq):
+            assert pose_err(F[i], T[i]) < 1e-12
+        assert pose_err(dv.fk(robot.model(), q), T[-1]) < 1e-12
+
+
 # --------------------------------------------------------------------------------------------------
 # round trips
 
