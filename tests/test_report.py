@@ -278,14 +278,6 @@ class Browser:
             if "method" in m:
                 self.events.append(m)
 
-    def wait_event(self, name: str) -> dict:
-        deadline = time.monotonic() + TIMEOUT
-        while not any(e["method"] == name for e in self.events):
-            m = self._message(deadline)
-            if "method" in m:
-                self.events.append(m)
-        return next(e for e in self.events if e["method"] == name)
-
     def log_tail(self) -> str:
         self.log.flush()
         return open(self.log.name, "rb").read()[-3000:].decode(errors="replace")  # noqa: SIM115
@@ -307,16 +299,19 @@ class Tab:
 
     def __init__(self, browser: Browser, width: int = 1300, height: int = 1000) -> None:
         self.b = browser
-        target = browser.call("Target.createTarget", {"url": "about:blank"})["targetId"]
-        self.s = browser.call("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
+        self.target = browser.call("Target.createTarget", {"url": "about:blank"})["targetId"]
+        self.s = browser.call("Target.attachToTarget", {"targetId": self.target, "flatten": True})["sessionId"]
         for domain in ("Page", "Runtime", "Log", "Network"):
             browser.call(f"{domain}.enable", session=self.s)
         browser.call("Emulation.setDeviceMetricsOverride", {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": False}, session=self.s)
 
     def goto(self, url: str) -> None:
-        self.b.events.clear()
+        """Open ``url`` and wait until it has loaded (events of earlier pages are forgotten)."""
         self.b.call("Page.navigate", {"url": url}, session=self.s)
-        self.b.wait_event("Page.loadEventFired")
+        deadline = time.monotonic() + TIMEOUT
+        while self.eval("location.href + ' ' + document.readyState") != f"{url} complete":
+            assert time.monotonic() < deadline, f"{url} did not load"
+            time.sleep(0.05)
 
     def eval(self, expression: str):
         r = self.b.call("Runtime.evaluate", {"expression": expression, "returnByValue": True, "awaitPromise": True}, session=self.s)
@@ -326,7 +321,7 @@ class Tab:
 
     def wait_rendered(self, element_id: str) -> None:
         deadline = time.monotonic() + TIMEOUT
-        while self.eval(f"document.getElementById('{element_id}').dataset.rendered") != "true":
+        while self.eval(f"document.getElementById('{element_id}')?.dataset.rendered") != "true":
             assert time.monotonic() < deadline, f"plotly did not render #{element_id}; problems: {self.problems()}"
             time.sleep(0.1)
         self.eval("new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")  # the frame is drawn
@@ -343,9 +338,16 @@ class Tab:
         data = self.b.call("Page.captureScreenshot", {"format": "png", "clip": clip}, session=self.s)["data"]
         return Image.open(io.BytesIO(base64.b64decode(data))).convert("RGB")
 
+    def close(self) -> None:
+        self.b.call("Target.closeTarget", {"targetId": self.target})
+
+    def events(self) -> list[dict]:
+        """The events of this tab (its own DevTools session)."""
+        return [e for e in self.b.events if e.get("sessionId") == self.s]
+
     def problems(self) -> list[str]:
         out = []
-        for e in self.b.events:
+        for e in self.events():
             m, p = e["method"], e.get("params", {})
             if m == "Runtime.consoleAPICalled" and p["type"] in ("error", "assert"):
                 out.append(f"console.{p['type']}: " + " ".join(str(a.get("value", a.get("description", ""))) for a in p["args"]))
@@ -357,17 +359,27 @@ class Tab:
         return out
 
     def requests(self) -> list[str]:
-        return [e["params"]["request"]["url"] for e in self.b.events if e["method"] == "Network.requestWillBeSent"]
+        return [e["params"]["request"]["url"] for e in self.events() if e["method"] == "Network.requestWillBeSent"]
 
 
 @pytest.fixture(scope="module")
-def tab(tmp_path_factory):
+def browser(tmp_path_factory):
     exe = find_chromium()
-    browser = Browser(exe, tmp_path_factory.mktemp("chromium"))
+    b = Browser(exe, tmp_path_factory.mktemp("chromium"))
     try:
-        yield Tab(browser)
+        yield b
     finally:
-        browser.close()
+        b.close()
+
+
+@pytest.fixture
+def tab(browser):
+    """A fresh tab per test: its events (errors, requests) are its own."""
+    t = Tab(browser)
+    try:
+        yield t
+    finally:
+        t.close()
 
 
 def colour_pixels(img: Image.Image, hex_colour: str, tol: int = 40) -> int:

@@ -303,6 +303,10 @@ def _named_tables(tables) -> list[tuple[str, _core.Table]]:
     return items
 
 
+def _label(label: str, table: _core.Table) -> str:
+    return label if table.convention in label.lower() else f"{label} ({table.convention})"
+
+
 def _draw_frames(ax, F: np.ndarray, ls: float, size: float, *, alpha: float = 1.0, labels: bool = True) -> None:
     o = F[:, :3, 3] / ls
     (sk,) = ax.plot(*o.T, "-", color="0.35", lw=2.0, alpha=0.6 * alpha, marker="o", ms=3)
@@ -316,7 +320,8 @@ def _draw_frames(ax, F: np.ndarray, ls: float, size: float, *, alpha: float = 1.
             ax.text(*(T[:3, 3] / ls), f" {i}", fontsize=8)
 
 
-def _distinct(points: np.ndarray, tol: float = 1e-9) -> int:
+def _distinct(points: np.ndarray, tol: float = 1e-4) -> int:
+    """How many of ``points`` (m) lie more than ``tol`` (default 0.1 mm) from every earlier one."""
     out: list[np.ndarray] = []
     for p in points:
         if all(np.linalg.norm(p - o) > tol for o in out):
@@ -341,8 +346,8 @@ def plot_frames(tables, q=None, *, length: str = "mm", triad: float | None = Non
     -------
     Figure with one 3-D axes per table (gid ``frames-<label>``), all with the same limits; in each the
     skeleton through the frame origins (Line3D ``skeleton``) and, per frame i = 0..n, three Line3D
-    ``frame-i-x``, ``frame-i-y``, ``frame-i-z`` (red, green, blue). Titles count the distinct origins:
-    modified DH frames can overlap where ED-H frames do not (Guo et al. sec. IV.A).
+    ``frame-i-x``, ``frame-i-y``, ``frame-i-z`` (red, green, blue). Titles count the distinct origins (0.1 mm
+    apart): modified DH frames can overlap where ED-H frames do not (Guo et al. sec. IV.A).
     """
     items = _named_tables(tables)
     n = items[0][1].params.shape[0]
@@ -359,7 +364,7 @@ def plot_frames(tables, q=None, *, length: str = "mm", triad: float | None = Non
         _draw_frames(ax, F, ls, size)
         _equal_3d(ax, ends / ls)
         _labels_3d(ax, length)
-        ax.set_title(f"{label} ({t.convention}): {len(F)} frames, {_distinct(F[:, :3, 3])} distinct origins", fontsize=10)
+        ax.set_title(f"{_label(label, t)}: {len(F)} frames, {_distinct(F[:, :3, 3])} distinct origins", fontsize=10)
     fig.suptitle(title or "Frames of each convention (x red, y green, z blue)", fontsize=11)
     return fig
 
@@ -418,7 +423,7 @@ def plot_origin_paths(tables, joint: int, q0=None, *, limits=None, steps: int = 
             line.set_gid(f"path-{i}")
         _equal_3d(ax, allp / ls)
         _labels_3d(ax, length)
-        ax.set_title(f"{label} ({t.convention})", fontsize=10)
+        ax.set_title(_label(label, t), fontsize=10)
         ax.legend(loc="upper left", fontsize=7)
     fig.suptitle(title or f"Frame origins while joint {joint} moves from {limits[0] / sc:.4g} to {limits[1] / sc:.4g} {unit} (Guo et al. Fig. 3)", fontsize=11)
     return fig
