@@ -259,6 +259,8 @@ def identify(
     max_sigma: Annotated[Optional[float], typer.Option("--max-sigma", help="Required axis-position accuracy (1 sigma) in --length units (default mm): sweeps predicted worse are an error.")] = None,
     report: Annotated[Optional[Path], typer.Option("--report", help="Write a self-contained HTML report.")] = None,
     plot: Annotated[Optional[Path], typer.Option("--plot", help="Write the static figures (PNG) into this folder.")] = None,
+    save_model: Annotated[Optional[Path], typer.Option("--save", help="Write the identified robot as a robot file (.toml, in the output units).")] = None,
+    urdf: Annotated[Optional[Path], typer.Option("--urdf", help="Write the identified robot as URDF (frames on the body).")] = None,
 ) -> None:
     """Identify the joint axes and parameters from joint sweeps (Hayat et al.), beside the nominal values."""
     from . import identify as ident  # noqa: PLC0415
@@ -289,6 +291,20 @@ def identify(
     if json_path:
         ident.write_json(result, json_path, out_len, "deg")
         console.print(f"wrote {json_path}")
+    if save_model or urdf:
+        names = nom.names if nom else [f"j{i + 1}" for i in range(sweeps.n_joints)]
+        lower = nom.lower if nom else np.full(sweeps.n_joints, -np.pi)
+        upper = nom.upper if nom else np.full(sweeps.n_joints, np.pi)
+        identified = Robot(name=f"{nom.name if nom else 'robot'}_identified", table=result.table, names=names, lower=lower, upper=upper,
+                           description=f"identified from {sweeps.source} ({result.method} fit, {result.convention})", source=str(sweeps.source), home=sweeps.home)
+        if save_model:
+            save(identified, save_model, out_len, "deg")
+            console.print(f"wrote {save_model}")
+        if urdf:
+            from .urdf import save_urdf  # noqa: PLC0415
+
+            save_urdf(identified.model(), urdf, identified)
+            console.print(f"wrote {urdf}")
     if report or plot:
         from . import report as rep  # noqa: PLC0415
 
