@@ -1,5 +1,6 @@
 //! Calibration chains: the tool pose as a product of elementary factors with named parameters, and its
-//! analytic identification Jacobian (docs/conventions.md, "Calibration").
+//! analytic identification Jacobian. The parameter names and factor orders of each convention are
+//! documented in `python/denavit/calibrate.py`, which builds the chains.
 //!
 //! A [`Chain`] is `T_world_tool(q; x) = F_1 · F_2 · ... · F_K`, each factor either a fixed pose or an
 //! elementary motion `Rx, Ry, Rz` (rad) or `Tx, Ty, Tz` (m) about / along a local axis by
@@ -314,7 +315,7 @@ impl Chain {
     pub fn evaluate_batch(&self, x: &[f64], qs: &[f64], poses: &mut [f64], jac: Option<&mut [f64]>) -> Result<()> {
         check_len("calibration parameters x", self.n_params, x.len())?;
         check_finite("calibration parameters x", x)?;
-        let count = if self.nq == 0 { poses.len() / 16 } else { qs.len() / self.nq };
+        let count = qs.len().checked_div(self.nq).unwrap_or(poses.len() / 16);
         check_len("q batch (N*n values)", count * self.nq, qs.len())?;
         check_finite("q batch", qs)?;
         check_len("poses output (N*16 values)", count * 16, poses.len())?;

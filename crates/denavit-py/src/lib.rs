@@ -3,6 +3,7 @@
 
 use pyo3::prelude::*;
 
+mod calibration;
 mod convert;
 mod error;
 mod kinematics;
@@ -18,6 +19,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(model::axes, m)?)?;
     m.add_function(wrap_pyfunction!(model::extract, m)?)?;
     kinematics::register(m)?;
+    calibration::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
