@@ -5,6 +5,7 @@ use pyo3::prelude::*;
 
 mod calibration;
 mod convert;
+mod dynamics;
 mod error;
 mod kinematics;
 mod model;
@@ -19,6 +20,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(model::axes, m)?)?;
     m.add_function(wrap_pyfunction!(model::extract, m)?)?;
     kinematics::register(m)?;
+    dynamics::register(m)?;
     calibration::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
