@@ -815,11 +815,15 @@ def _reason(pz: Parametrization, name: str, zero: bool, comb: dict, structural: 
     if name.startswith(("c_", "d_")) and (pz.convention == "edh" and name.startswith("c_") or pz.convention != "edh"):
         j = int(name.split("_")[1]) + (1 if pz.convention == "edh" else 0)
         hints.append(f"it slides joint frame {j}'s origin along axis {j}, which "
-                     + ("the tool point absorbs" if any(k.startswith("tool_") for k in kept) else "the next link absorbs"))
+                     + ("the tool absorbs" if any(k.startswith("tool_") for k in kept) else "the following links absorb"))
     if any(k.startswith("base_") for k in kept) and not name.startswith("base_"):
         hints.append("the base frame, which is identified, already places joint frame 1")
     if name == f"offset_{pz.nq}" and any(k.startswith("tool_") for k in kept):
         hints.append("the tool's position about the last axis sets the same angle")
+    if name.startswith("offset_") and pz.convention == "edh" and f"beta_{int(name.split('_')[1]) - 1}" in pz.names:
+        i = int(name.split("_")[1])
+        hints.append(f"axes {i - 1} and {i} are near-parallel, so the direction of x_{i - 1} (their common normal) is a free choice, "
+                     f"which offset_{i - 1} and the translations of link {i} absorb")
     lead = "redundant in the " + pz.convention + " parametrisation (no data can identify it)" if structural else "not determined by these measurements"
     tail = f"; {'; '.join(hints)}" if hints else ""
     return f"{lead}: {why}{tail}{joint_hint}; fixed at its start value"
@@ -1145,7 +1149,8 @@ def calibrate(
     status = []
     dropped = {u.name for u in ana.unidentifiable}
     for c, nm in enumerate(pz.names):
-        status.append("free" if c in free else "fixed" if c in user_fixed else "fixed (parametrisation)" if nm in pz.rules else "unidentifiable" if nm in dropped else "fixed")
+        status.append("free" if c in free else "fixed" if c in user_fixed else "fixed (parametrisation)" if nm in pz.rules
+                      else ("redundant" if nm in structural else "unidentifiable") if nm in dropped else "fixed")
     res_si = _table_residuals(r, pz.measure) / w[: (6 if pz.measure == "pose" else 3)]
     full_r, _, _ = _residual(pz, x_hat, meas, np.ones(6), jacobian=False)
     full_r = _table_residuals(full_r, pz.measure)
@@ -1561,8 +1566,8 @@ def to_json(cal: Calibration, length: str = "mm", angle: str = "deg") -> dict:
             "observability": ana.observability,
             "unidentifiable": [{"name": u.name, "structural": u.structural, "reason": u.reason, "combination": u.combination} for u in ana.unidentifiable],
         },
-        "covariance": {"names": cal.free_names, "matrix_si": cal.covariance.tolist()},
-        "correlation": cal.correlation.tolist(),
+        "covariance": {"names": cal.free_names, "matrix_si": _finite_or_none(cal.covariance)},
+        "correlation": _finite_or_none(cal.correlation),
         "residuals": {"rms": cal.rms / ls, "max": float(np.max(np.linalg.norm(cal.residuals[:, :3], axis=1))) / ls if cal.residuals.size else 0.0,
                       "rms_rotation": None if math.isnan(cal.rms_rotation) else cal.rms_rotation / as_, "noise_estimate": cal.noise / ls,
                       "outliers": [cal.measurements.where[i] for i in cal.outliers]},
@@ -1575,6 +1580,11 @@ def to_json(cal: Calibration, length: str = "mm", angle: str = "deg") -> dict:
         "elapsed_s": cal.elapsed,
         "notes": cal.notes,
     }
+
+
+def _finite_or_none(a: np.ndarray) -> list:
+    """A nested list with non-finite entries as None (JSON has no NaN)."""
+    return [[float(v) if math.isfinite(v) else None for v in row] for row in np.asarray(a, dtype=float)]
 
 
 def _pose_json(T: np.ndarray, ls: float) -> list:

@@ -399,6 +399,248 @@ def simulate(
     console.print(f"wrote {output}: {n} sweeps x {points} points")
 
 
+def _calib_unit(unit: str, length: str, angle: str) -> tuple[str, float]:
+    """Display unit and scale (SI per display unit) of a calibration parameter."""
+    if unit == "length":
+        return length, length_scale(length)
+    if unit == "angle":
+        return angle, angle_scale(angle)
+    return "1", 1.0
+
+
+@app.command()
+def calibrate(
+    data: Annotated[Path, typer.Argument(help="Measurements: CSV 'q1..qn,x,y,z[,rx,ry,rz]', a long-form sweep CSV (with 'joint'), or JSON.")],
+    nominal: Annotated[str, typer.Option("--nominal", help="Nominal model (built-in name, robot file or URDF).")],
+    convention: Annotated[str, typer.Option("--convention", help="edh | mdh (Hayati angle where axes are near-parallel) | dh")] = "edh",
+    fix: Annotated[Optional[str], typer.Option("--fix", help="Parameters to hold at their nominal values: names or patterns, comma-separated (e.g. 'base_*,tool_z').")] = None,
+    json_path: Annotated[Optional[Path], typer.Option("--json", help="Write the result as JSON to this file.")] = None,
+    save: Annotated[Optional[Path], typer.Option("--save", help="Write the calibrated robot file (.toml, ED-H) to this path.")] = None,
+    loss: Annotated[str, typer.Option("--loss", help="linear | soft_l1 | huber | cauchy | arctan (robust loss)")] = "linear",
+    start: Annotated[str, typer.Option("--start", help="nominal | circles (circle-point identification of sweep data)")] = "nominal",
+    holdout: Annotated[float, typer.Option("--holdout", help="Fraction of the poses held out to validate the fit.")] = 0.2,
+    scale: Annotated[bool, typer.Option("--scale", help="Also estimate a scale per joint.")] = False,
+    tool: Annotated[Optional[str], typer.Option("--tool", help="Tool point in the flange frame, --length units (default: the nominal model's tool).")] = None,
+    noise: Annotated[Optional[float], typer.Option("--noise", help="Known point noise (1 sigma per coordinate), --length units (default: from the residuals).")] = None,
+    length: Annotated[str, typer.Option("--length", help="Length unit of the output (and of the data if not declared in it).")] = "mm",
+    angle: Annotated[str, typer.Option("--angle", help="Angle unit of the output (and of the data if not declared in it).")] = "deg",
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the held-out split.")] = 0,
+) -> None:
+    """Calibrate the whole model from measured points or poses at known joint readings (one least-squares fit)."""
+    from . import calibrate as cal  # noqa: PLC0415
+
+    robot = load(nominal)
+    meas = cal.read_measurements(data, length=None, angle=None) if _declares_units(data) else cal.read_measurements(data, length=length, angle=angle)
+    ls = length_scale(length)
+    tp = None
+    if tool is not None:
+        tp = np.array(parse_numbers(tool, "--tool")) * ls
+        if tp.shape != (3,):
+            fail(f"--tool: expected 3 values (x, y, z), got {tp.size}")
+    fixes = [f.strip() for f in (fix or "").split(",") if f.strip()]
+    with console.status(f"calibrating {robot.name} ({convention}) from {meas.n} {'poses' if meas.kind == 'pose' else 'points'}..."):
+        res = cal.calibrate(meas, robot, convention=convention.lower(), fix=fixes, loss=loss, start=start, holdout=holdout, scale=scale, tool=tp,
+                            noise=None if noise is None else noise * ls, seed=seed)
+    print_calibration(res, length, angle)
+    if json_path:
+        cal.write_json(res, json_path, length, angle)
+        console.print(f"wrote {json_path}")
+    if save:
+        save_robot = res.robot()
+        from .robotfile import save as save_file  # noqa: PLC0415
+
+        save_file(save_robot, save, length, angle)
+        console.print(f"wrote {save}")
+
+
+def _declares_units(path: Path) -> bool:
+    """Whether a data file states its units (a '# units:' line or a JSON 'units' entry)."""
+    try:
+        head = path.read_text(encoding="utf-8")[:4096].lower()
+    except OSError:
+        return True  # let the reader report the problem
+    return "# units" in head or '"units"' in head
+
+
+def print_calibration(res, length: str, angle: str) -> None:
+    pz = res.parametrization
+    meas = res.measurements
+    console.print(f"[bold]Calibration of {pz.robot.name}[/] ({res.convention}, {meas.n} {'poses' if meas.kind == 'pose' else 'points'} from {meas.source}; "
+                  f"{res.elapsed * 1e3:.1f} ms, {res.evaluations} evaluations{'' if res.converged else ', NOT converged'})")
+    t = RichTable(caption="sigma: one standard deviation (covariance of the fit); change: calibrated - nominal")
+    for c in ("parameter", "unit", "nominal", "calibrated", "sigma", "change", "status"):
+        t.add_column(c, justify="left" if c in ("parameter", "unit", "status") else "right")
+    for k, name in enumerate(res.names):
+        u, s = _calib_unit(pz.units[k], length, angle)
+        nom, val, sig = res.nominal[k] / s, res.values[k] / s, res.sigma[k] / s
+        t.add_row(name, u, fmt(nom, 4), fmt(val, 4), "-" if not np.isfinite(sig) else f"{sig:.4g}", fmt(val - nom, 4), res.status[k])
+    console.print(t)
+    ana = res.identifiability
+    console.print(f"Identifiability: {ana.summary()}")
+    if ana.unidentifiable:
+        ut = RichTable(title="Parameters the data cannot identify (held at their start values)")
+        ut.add_column("parameter")
+        ut.add_column("why")
+        for u in ana.unidentifiable:
+            ut.add_row(u.name, u.reason)
+        console.print(ut)
+    ls = length_scale(length)
+    console.print(f"Residuals: rms {res.rms / ls:.4g} {length} (noise estimate {res.noise / ls:.3g} {length} per coordinate)"
+                  + (f", rotation rms {np.degrees(res.rms_rotation):.3g} deg" if meas.kind == "pose" else ""))
+    v = res.validation
+    if v is not None:
+        console.print(f"Held-out validation ({v.n_test} of {v.n_train + v.n_test} poses): tool-position error rms {v.before_rms / ls:.4g} -> {v.after_rms / ls:.4g} {length}, "
+                      f"max {v.before_max / ls:.4g} -> {v.after_max / ls:.4g} {length} (before: nominal geometry with base and tool fitted)")
+    for note in res.notes:
+        console.print(f"[yellow]note:[/] {note}")
+
+
+@app.command()
+def plan(
+    model: ModelArg,
+    ranges: Annotated[Optional[str], typer.Option("--ranges", help="Sweeps: per-joint start,end pairs in --angle units, or 'paper30' / 'paper90' (Hayat Table II).")] = None,
+    home: Annotated[Optional[str], typer.Option("--home", help="Home configuration of the sweeps in --angle units (default: the model file's home, else zeros).")] = None,
+    points: Annotated[int, typer.Option("--points", help="Points per sweep.")] = 30,
+    tool: Annotated[str, typer.Option("--tool", help="Tool point in the flange frame, --length units.")] = "50,30,100",
+    noise: Annotated[float, typer.Option("--noise", help="Point noise (1 sigma per coordinate), --length units.")] = 0.02,
+    convention: Annotated[str, typer.Option("--convention", help="edh | mdh | dh")] = "edh",
+    fix: Annotated[Optional[str], typer.Option("--fix", help="Parameters held fixed (names or patterns, comma-separated).")] = None,
+    random: Annotated[Optional[int], typer.Option("--random", help="Plan N configurations spread over the joint limits instead of sweeps.")] = None,
+    candidates: Annotated[Optional[Path], typer.Option("--candidates", help="CSV of candidate configurations (header q1..qn, --angle units; '# units:' line honoured).")] = None,
+    select: Annotated[Optional[int], typer.Option("--select", help="Pick this many most informative poses from the candidates (D-optimal).")] = None,
+    length: Annotated[str, typer.Option("--length")] = "mm",
+    angle: Annotated[str, typer.Option("--angle")] = "deg",
+    json_out: JsonOpt = False,
+) -> None:
+    """Predict every parameter's sigma (Cramer-Rao bound) and the measuring volume of a protocol, before measuring."""
+    from . import calibrate as cal  # noqa: PLC0415
+    from . import sweeps as sw  # noqa: PLC0415
+
+    robot = load(model)
+    n = len(robot.names)
+    ls, as_ = length_scale(length), angle_scale(angle)
+    tp = np.array(parse_numbers(tool, "--tool")) * ls
+    if tp.shape != (3,):
+        fail(f"--tool: expected 3 values, got {tp.size}")
+    protocol, q = None, None
+    if candidates is not None or random is not None:
+        if candidates is not None:
+            q = _read_configurations(candidates, robot, angle)
+        else:
+            if random < 1:
+                fail(f"--random: expected a positive count, got {random}")
+            q = cal.configurations(robot, random)
+    else:
+        if home:
+            h = np.array(parse_numbers(home, "--home")) * as_
+        elif robot.home is not None:
+            h = robot.home
+        else:
+            h = np.zeros(n)
+        if h.shape != (n,):
+            fail(f"--home: expected {n} values, got {h.size}")
+        key = (ranges or "paper30").lower()
+        if key in ("paper90", "paper30"):
+            if n != 6:
+                fail("--ranges paper90/paper30 are Hayat Table II for a 6-joint robot; give start,end pairs for this one")
+            r = np.radians(np.array(sw.PAPER_RANGES_DEG[int(key[-2:])]))
+        else:
+            vals = parse_numbers(ranges, "--ranges")
+            if len(vals) != 2 * n:
+                fail(f"--ranges: expected {2 * n} values (start,end per joint), got {len(vals)}")
+            r = np.array(vals).reshape(n, 2) * as_
+        protocol = cal.Protocol(h, r, points, tp)
+    fixes = [f.strip() for f in (fix or "").split(",") if f.strip()]
+    with console.status("planning..."):
+        p = cal.plan(robot, protocol, q=q, noise=noise * ls, convention=convention.lower(), fix=fixes, tool=tp, select=select)
+    pz = p.parametrization
+    if json_out:
+        doc = {"model": robot.name, "convention": pz.convention, "units": {"length": length, "angle": angle}, "noise": noise, "n_poses": len(p.q),
+               "parameters": [{"name": nm, "unit": _calib_unit(pz.units[k], length, angle)[0],
+                               "sigma": None if not np.isfinite(p.sigma[k]) else p.sigma[k] / _calib_unit(pz.units[k], length, angle)[1]} for k, nm in enumerate(p.names)],
+               "axis_sigma": [{"joint": nm, "position": a[0] / ls, "direction_deg": np.degrees(a[1]),
+                               **({"per_circle_position": c[0] / ls, "per_circle_direction_deg": np.degrees(c[1])} if c is not None else {})}
+                              for nm, a, c in zip(robot.names, p.axis_sigma, p.per_circle_sigma if p.per_circle_sigma is not None else [None] * n)],
+               "bounding_box": {"lengths": (p.box.lengths / ls).tolist(), "volume_m3": p.box.volume},
+               "identifiability": {"rank": p.identifiability.rank, "condition_number": p.identifiability.condition_number, "observability": p.identifiability.observability,
+                                   "unidentifiable": [{"name": u.name, "structural": u.structural, "reason": u.reason} for u in p.identifiability.unidentifiable]},
+               "selected": None if p.selected is None else p.selected.tolist()}
+        print(json.dumps(doc, indent=2))
+        return
+    what = f"{len(p.q)} poses" + (f" ({select} selected of the candidates)" if select else "") if protocol is None else f"sweeps of {points} points"
+    console.print(f"[bold]Plan for {robot.name}[/] ({pz.convention}): {what}, noise {noise} {length} per coordinate")
+    t = RichTable(caption="Cramer-Rao bound (one sigma) of every parameter; '-': not identifiable (see below)")
+    for c in ("parameter", "unit", "sigma"):
+        t.add_column(c, justify="right" if c == "sigma" else "left")
+    for k, nm in enumerate(p.names):
+        u, s = _calib_unit(pz.units[k], length, angle)
+        t.add_row(nm, u, "-" if not np.isfinite(p.sigma[k]) else f"{p.sigma[k] / s:.4g}")
+    console.print(t)
+    at = RichTable(title="Joint axes at home: predicted sigma across the axis and of its direction")
+    cols = ["joint", f"position [{length}]", "direction [deg]"] + ([f"per-circle position [{length}]", "ratio"] if p.per_circle_sigma is not None else [])
+    for c in cols:
+        at.add_column(c, justify="right")
+    for j, nm in enumerate(robot.names):
+        row = [nm, f"{p.axis_sigma[j, 0] / ls:.4g}", f"{np.degrees(p.axis_sigma[j, 1]):.4g}"]
+        if p.per_circle_sigma is not None:
+            row += [f"{p.per_circle_sigma[j, 0] / ls:.4g}", f"{p.per_circle_sigma[j, 0] / p.axis_sigma[j, 0]:.2f}"]
+        at.add_row(*row)
+    console.print(at)
+    b = p.box
+    console.print(f"Measuring volume (minimum oriented bounding box): {b.lengths[0] / ls:.1f} x {b.lengths[1] / ls:.1f} x {b.lengths[2] / ls:.1f} {length}, {b.volume:.4g} m^3")
+    console.print(f"Identifiability: {p.identifiability.summary()}")
+    red = [u.name for u in p.identifiability.unidentifiable if u.structural]
+    if red:
+        console.print(f"Redundant in the {pz.convention} parametrisation (held at nominal; reasons with --json): {', '.join(red)}")
+    for u in p.identifiability.unidentifiable:
+        if not u.structural:
+            console.print(f"[yellow]not identifiable from this protocol:[/] {u.name}: {u.reason}")
+    if p.selected is not None:
+        console.print(f"Selected candidates (0-based, in the order chosen): {', '.join(map(str, p.selected.tolist()))}")
+    for note in p.notes:
+        console.print(f"[yellow]note:[/] {note}")
+
+
+def _read_configurations(path: Path, robot: Robot, angle: str) -> np.ndarray:
+    """Candidate configurations from a CSV with header q1..qn (angle units from a '# units:' line or --angle)."""
+    import re  # noqa: PLC0415
+
+    if not path.exists():
+        fail(f"{path}: no such file")
+    lines = path.read_text(encoding="utf-8").splitlines()
+    unit = angle
+    rows, header = [], None
+    for ln, line in enumerate(lines, 1):
+        s = line.strip()
+        m = re.match(r"#\s*units\s*:.*angle\s*=\s*(\w+)", s, re.IGNORECASE)
+        if m:
+            unit = m.group(1)
+        if not s or s.startswith("#"):
+            continue
+        cells = [c.strip() for c in re.split(r"[;,]", s)]
+        if header is None:
+            header = [c.lower() for c in cells]
+            continue
+        try:
+            rows.append((ln, [float(c) for c in cells]))
+        except ValueError:
+            fail(f"{path}:{ln}: expected numbers, got {s!r}")
+    n = len(robot.names)
+    need = [f"q{i + 1}" for i in range(n)]
+    if header is None or any(c not in header for c in need):
+        fail(f"{path}: header must name q1..q{n}, got {header}")
+    idx = [header.index(c) for c in need]
+    scale = np.array([angle_scale(unit, str(path)) if k == "revolute" else 1.0 for k in robot.table.kinds])
+    out = []
+    for ln, r in rows:
+        if len(r) != len(header):
+            fail(f"{path}:{ln}: expected {len(header)} values, got {len(r)}")
+        out.append([r[i] for i in idx])
+    if not out:
+        fail(f"{path}: no configurations")
+    return np.array(out) * scale
+
+
 def main() -> None:
     """Entry point: every DenavitError becomes a one-line message and exit code 2."""
     try:
