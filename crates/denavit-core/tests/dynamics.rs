@@ -239,7 +239,8 @@ proptest! {
             let sl = |v: &[f64]| v[r * n..(r + 1) * n].to_vec();
             let w = Vector6::from_row_slice(&ws6[6 * r..6 * r + 6]);
             let t1 = dynamics::rnea(&m, &mut ws, &sl(&qs), &sl(&qds), &sl(&qdds), &g0(), Some(&w)).unwrap().to_vec();
-            prop_assert_eq!(&t1, &sl(&tau));
+            // the batch runs a lane-parallel kernel of another (classical) form: equal to rounding
+            prop_assert!(max_abs_diff(&t1, &sl(&tau)) < 1e-12 * scale(&t1), "{t1:?} vs {:?}", sl(&tau));
             prop_assert!(max_abs_diff(&sl(&qdd_out), &sl(&qdds)) < 1e-10);
             let m1 = dynamics::mass_matrix(&m, &mut ws, &sl(&qs)).unwrap().clone();
             let m1t = m1.transpose();
@@ -247,8 +248,10 @@ proptest! {
             let c1 = dynamics::coriolis_matrix(&m, &mut ws, &sl(&qs), &sl(&qds)).unwrap().clone();
             let c1t = c1.transpose();
             prop_assert_eq!(c1t.as_slice(), &cc[r * n * n..(r + 1) * n * n]);
-            prop_assert_eq!(dynamics::bias_forces(&m, &mut ws, &sl(&qs), &sl(&qds), &g0()).unwrap(), &sl(&bb)[..]);
-            prop_assert_eq!(dynamics::gravity_torques(&m, &mut ws, &sl(&qs), &g0()).unwrap(), &sl(&gg)[..]);
+            let b1 = dynamics::bias_forces(&m, &mut ws, &sl(&qs), &sl(&qds), &g0()).unwrap().to_vec();
+            prop_assert!(max_abs_diff(&b1, &sl(&bb)) < 1e-12 * scale(&b1));
+            let g1 = dynamics::gravity_torques(&m, &mut ws, &sl(&qs), &g0()).unwrap().to_vec();
+            prop_assert!(max_abs_diff(&g1, &sl(&gg)) < 1e-12 * scale(&g1));
         }
     }
 
