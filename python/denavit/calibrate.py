@@ -763,20 +763,29 @@ def _combinations(G: np.ndarray, L: np.ndarray, kept: list, dropped: list, norms
     return out
 
 
-def _analyze(pz: Parametrization, x, meas: Measurements, candidates: list, w: np.ndarray, structural: set | None = None, joint_hint: str = "", explain: bool = True) -> Identifiability:
+def _analyze(pz: Parametrization, x, meas: Measurements, candidates: list, w: np.ndarray, structural: Identifiability | None = None, joint_hint: str = "",
+             explain: bool = True) -> Identifiability:
     """Rank-revealing analysis of the weighted identification Jacobian at x (module docstring); with
-    ``explain=False`` only the kept / dropped sets (no reasons, no singular values)."""
+    ``explain=False`` only the kept / dropped sets (no reasons, no singular values).
+
+    With ``structural`` (the analysis of the same candidates on configurations spread over the joint limits),
+    the parameters it keeps come first: a structural dependency holds for any data, so what these data drop
+    beyond it are parameters the structural analysis kept, and holding exactly those fixed restores full rank.
+    """
     _, jac = pz.evaluate(x, meas.q, True)
     J = _rows(pz, jac, w)
     cand = set(candidates)
     order = [c for c in pz.order if c in cand]
+    if structural is not None:
+        first = set(structural.kept_idx)
+        order = [c for c in order if c in first] + [c for c in order if c not in first]
     kept, dropped, zero, norms, L, G = _rank_reveal(J, order)
     combs = _combinations(G, L, kept, dropped, norms) if explain else {}
     un = []
     for c in dropped:
         name = pz.names[c]
         comb = combs.get(c, {})
-        struct = structural is not None and name in structural
+        struct = structural is not None and c not in structural.kept_idx
         reason = _reason(pz, name, c in zero, comb, struct, joint_hint) if explain else ""
         un.append(Unidentifiable(name, reason, struct, {pz.names[k]: v for k, v in comb.items()}))
     names_order = [pz.names[c] for c in order]
@@ -1096,7 +1105,7 @@ def calibrate(
     structural = {u.name for u in struct.unidentifiable}
     still = [j for j in range(n) if np.ptp(train.q[:, j]) < 1e-9]
     hint = "".join(f"; joint {j + 1} ({robot.names[j]}) never moves in the data" for j in still)
-    ana = _analyze(pz, x_reg, train, candidates, w, structural, hint)
+    ana = _analyze(pz, x_reg, train, candidates, w, struct, hint)
     data_only = [u.name for u in ana.unidentifiable if not u.structural]
     n_eq = train.n * (6 if pz.measure == "pose" else 3)
     if n_eq <= struct.rank:
@@ -1107,7 +1116,8 @@ def calibrate(
     if still and data_only:
         vals = ", ".join(f"q{j + 1} = {train.q[0, j]:.6g}" for j in still)
         raise DenavitError(f"{meas.source}: joint(s) {', '.join(f'{j + 1} ({robot.names[j]})' for j in still)} never move in the data ({vals} in all {train.n} poses): "
-                           f"the data cannot identify {', '.join(data_only)}; move the joint(s), or fix these parameters (fix=[...])")
+                           f"the data cannot identify {', '.join(data_only)} (beyond the parameters redundant in any case); move the joint(s), "
+                           f"or hold these fixed: fix={[u.name for u in ana.unidentifiable]}")
 
     # 3) start
     x_start = x_reg.copy()
@@ -1127,19 +1137,25 @@ def calibrate(
         x_hat, sol = _solve(pz, x_hat, free, train, w, "linear", None)
         r, J, _ = _residual(pz, x_hat, train, w)
     wt = np.ones_like(r)
+    robust_s2 = None
     if loss != "linear":
-        mis = np.linalg.norm(_table_residuals(r, pz.measure)[:, :3], axis=1) / w[0]
-        robust = float(np.median(mis)) / math.sqrt(2.366) if mis.size else 1.0  # median of a chi_3 is sqrt(2.366)
-        fs = (f_scale if f_scale is not None else 3 * robust) * w[0]
-        x_hat, sol = _solve(pz, x_hat, free, train, w, loss, fs)
-        r, J, _ = _residual(pz, x_hat, train, w)
+        # f_scale: 3 robust sigmas of the misfits, re-estimated once from the robust fit (the first estimate,
+        # from the linear fit, is inflated by the outliers' pull)
+        for _ in range(2 if f_scale is None else 1):
+            mis = np.linalg.norm(_table_residuals(r, pz.measure)[:, :3], axis=1)
+            robust = float(np.median(mis)) / math.sqrt(2.366) if mis.size else 1.0  # weighted units; median of chi_3 = sqrt(2.366)
+            fs = f_scale * w[0] if f_scale is not None else 3 * robust
+            x_hat, sol = _solve(pz, x_hat, free, train, w, loss, fs)
+            r, J, _ = _residual(pz, x_hat, train, w)
+        mis = np.linalg.norm(_table_residuals(r, pz.measure)[:, :3], axis=1)
+        robust_s2 = (float(np.median(mis)) / math.sqrt(2.366)) ** 2
         wt = _loss_weight(loss, (r / fs) ** 2)
     converged = sol is None or sol.status > 0
     nfev = 0 if sol is None else int(sol.nfev)
     Jf = J[:, free] * np.sqrt(wt)[:, None]
     m_eq, p = Jf.shape
     known = noise is not None and (pz.measure == "point" or noise_rot is not None)
-    s2 = 1.0 if known else float(np.sum(wt * r**2)) / max(m_eq - p, 1)
+    s2 = 1.0 if known else robust_s2 if robust_s2 is not None else float(np.sum(r**2)) / max(m_eq - p, 1)
     cov = _covariance(Jf, s2)
     sd = np.sqrt(np.clip(np.diag(cov), 0, None))
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -1409,8 +1425,7 @@ def plan(
     rich_q = configurations(robot, max(2 * pz.n_params, 60))
     rich_p, _ = pz.evaluate(x, rich_q, False)
     rich = Measurements(rich_q, None, rich_p, "spread") if measure == "pose" else Measurements(rich_q, rich_p[:, :3, 3], None, "spread")
-    structural = {u.name for u in _analyze(pz, x, rich, candidates, w, explain=False).unidentifiable}
-    ana = _analyze(pz, x, meas, candidates, w, structural)
+    ana = _analyze(pz, x, meas, candidates, w, _analyze(pz, x, rich, candidates, w, explain=False))
     _, J, _ = _residual(pz, x, meas, w)
     free = ana.kept_idx
     cov = _covariance(J[:, free], 1.0)
