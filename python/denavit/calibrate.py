@@ -58,7 +58,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.linalg import cho_factor, cho_solve, solve_triangular
+from scipy.linalg import cho_factor, cho_solve
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
@@ -627,18 +627,31 @@ def configurations(nominal, count: int, *, skip: int = 1) -> np.ndarray:
     rev = np.array([k == "revolute" for k in robot.table.kinds])
     lo = np.where(rev, np.maximum(lo, -math.pi), lo)
     hi = np.where(rev, np.minimum(hi, math.pi), hi)
-    n = len(lo)
-    out = np.empty((count, n))
-    for j in range(n):
-        b = _PRIMES[j % len(_PRIMES)]
-        k = np.arange(skip, skip + count, dtype=float) + (j // len(_PRIMES)) * 7
-        f, r = 1.0, np.zeros(count)
-        while np.any(k > 0):
-            f /= b
-            r += f * (k % b)
-            k = np.floor(k / b)
-        out[:, j] = lo[j] + (hi[j] - lo[j]) * r
-    return out
+    return lo + (hi - lo) * _halton(count, len(lo), skip)
+
+
+_HALTON: dict = {}
+
+
+def _halton(count: int, n: int, skip: int) -> np.ndarray:
+    """(count, n) points of the Halton sequence in [0, 1) (bases the first primes), from index ``skip``."""
+    key = (count, n, skip)
+    if key not in _HALTON:
+        out = np.empty((count, n))
+        for j in range(n):
+            b = _PRIMES[j % len(_PRIMES)]
+            k = np.arange(skip, skip + count, dtype=float) + (j // len(_PRIMES)) * 7
+            f, r = 1.0, np.zeros(count)
+            while np.any(k > 0):
+                f /= b
+                r += f * (k % b)
+                k = np.floor(k / b)
+            out[:, j] = r
+        if len(_HALTON) > 64:
+            _HALTON.clear()
+        _HALTON[key] = out
+        out.flags.writeable = False
+    return _HALTON[key]
 
 
 # ------------------------------------------------------------------------------------------------ analysis
@@ -724,25 +737,25 @@ def _rank_reveal(J: np.ndarray, order: list, tol: float = RANK_TOL):
     top = norms.max() if norms.size else 0.0
     safe = np.where(norms > 0, norms, 1.0)
     G = G / np.outer(safe, safe)
-    L = np.zeros((len(order), len(order)))
+    # right-looking elimination in preference order: S is the Schur complement of the kept columns
+    S = G.copy()
+    cols = []
     kept, dropped, zero = [], [], set()
     for c in order:
         if not norms[c] > 1e-12 * top:
             dropped.append(c)
             zero.add(c)
             continue
-        k = len(kept)
-        g = G[kept, c]
-        l = solve_triangular(L[:k, :k], g, lower=True, check_finite=False) if k else np.zeros(0)
-        d = G[c, c] - l @ l
+        d = S[c, c]
         if d < tol**2:
             dropped.append(c)
-        else:
-            L[k, :k] = l
-            L[k, k] = math.sqrt(d)
-            kept.append(c)
-    k = len(kept)
-    return kept, dropped, zero, norms, L[:k, :k], G
+            continue
+        l = S[:, c] / math.sqrt(d)
+        S -= np.outer(l, l)
+        cols.append(l)
+        kept.append(c)
+    L = np.array(cols).T[kept] if kept else np.zeros((0, 0))  # G[kept][:, kept] = L L^T, lower triangular
+    return kept, dropped, zero, norms, L, G
 
 
 def _combinations(G: np.ndarray, L: np.ndarray, kept: list, dropped: list, norms: np.ndarray) -> dict:

@@ -302,8 +302,24 @@ impl Chain {
         }
     }
 
+    /// One configuration: the pose row-major into `pose` (16) and the Jacobian row-major into `jac` (6 x n_params).
+    #[inline]
+    fn pose_jacobian_into(&self, x: &[f64], q: &[f64], frames: &mut Vec<Recorded>, pose: &mut [f64], jac: &mut [f64]) {
+        let np = self.n_params;
+        let t = self.forward(x, q, frames);
+        crate::kinematics::write_pose(&t, pose);
+        jac.fill(0.0);
+        self.columns(frames, &t.translation.vector, |col, v, w| {
+            for r in 0..3 {
+                jac[r * np + col] += v[r];
+                jac[(r + 3) * np + col] += w[r];
+            }
+        });
+    }
+
     /// Batch: `qs` holds N configurations row-major (N x nq); `poses` receives N row-major 4x4 matrices
-    /// (N x 16); `jac`, if given, N row-major 6 x n_params matrices (N x 6 n_params). Runs on all cores.
+    /// (N x 16); `jac`, if given, N row-major 6 x n_params matrices (N x 6 n_params). Runs on all cores from
+    /// [`PARALLEL_MIN`] configurations on.
     ///
     /// ```
     /// use denavit_core::calibration::{Axis, Chain, Factor};
@@ -312,7 +328,7 @@ impl Chain {
     /// c.evaluate_batch(&[0.0, 2.0], &[0.0, 1.0], &mut poses, Some(&mut jac)).unwrap();
     /// assert!((poses[16 + 3] - 2.0 * 1f64.cos()).abs() < 1e-15);
     /// ```
-    pub fn evaluate_batch(&self, x: &[f64], qs: &[f64], poses: &mut [f64], jac: Option<&mut [f64]>) -> Result<()> {
+    pub fn evaluate_batch(&self, x: &[f64], qs: &[f64], poses: &mut [f64], mut jac: Option<&mut [f64]>) -> Result<()> {
         check_len("calibration parameters x", self.n_params, x.len())?;
         check_finite("calibration parameters x", x)?;
         let count = qs.len().checked_div(self.nq).unwrap_or(poses.len() / 16);
@@ -320,6 +336,24 @@ impl Chain {
         check_finite("q batch", qs)?;
         check_len("poses output (N*16 values)", count * 16, poses.len())?;
         let np = self.n_params;
+        if let Some(j) = jac.as_deref() {
+            check_len("Jacobian output (N*6*n_params values)", count * 6 * np, j.len())?;
+        }
+        if np == 0 {
+            jac = None;
+        }
+        if count < PARALLEL_MIN {
+            // small batches: one thread (waking a pool costs more than the work, and far more on a busy machine)
+            let mut frames = Vec::with_capacity(self.factors.len());
+            for (i, pk) in poses.chunks_exact_mut(16).enumerate() {
+                let q = &qs[i * self.nq..(i + 1) * self.nq];
+                match jac.as_deref_mut() {
+                    None => crate::kinematics::write_pose(&self.pose_unchecked(x, q), pk),
+                    Some(jac) => self.pose_jacobian_into(x, q, &mut frames, pk, &mut jac[6 * np * i..6 * np * (i + 1)]),
+                }
+            }
+            return Ok(());
+        }
         const CHUNK: usize = 32;
         match jac {
             None => poses.par_chunks_mut(16 * CHUNK).enumerate().for_each(|(c, o)| {
@@ -328,33 +362,22 @@ impl Chain {
                     crate::kinematics::write_pose(&self.pose_unchecked(x, &qs[i * self.nq..(i + 1) * self.nq]), ok);
                 }
             }),
-            Some(jac) => {
-                check_len("Jacobian output (N*6*n_params values)", count * 6 * np, jac.len())?;
-                if np == 0 {
-                    return self.evaluate_batch(x, qs, poses, None);
-                }
-                poses.par_chunks_mut(16 * CHUNK).zip(jac.par_chunks_mut(6 * np * CHUNK)).enumerate().for_each_init(
-                    || Vec::with_capacity(self.factors.len()),
-                    |frames, (c, (po, jo))| {
-                        for (k, (pk, jk)) in po.chunks_exact_mut(16).zip(jo.chunks_exact_mut(6 * np)).enumerate() {
-                            let i = c * CHUNK + k;
-                            let t = self.forward(x, &qs[i * self.nq..(i + 1) * self.nq], frames);
-                            crate::kinematics::write_pose(&t, pk);
-                            jk.fill(0.0);
-                            self.columns(frames, &t.translation.vector, |col, v, w| {
-                                for r in 0..3 {
-                                    jk[r * np + col] += v[r];
-                                    jk[(r + 3) * np + col] += w[r];
-                                }
-                            });
-                        }
-                    },
-                );
-            }
+            Some(jac) => poses.par_chunks_mut(16 * CHUNK).zip(jac.par_chunks_mut(6 * np * CHUNK)).enumerate().for_each_init(
+                || Vec::with_capacity(self.factors.len()),
+                |frames, (c, (po, jo))| {
+                    for (k, (pk, jk)) in po.chunks_exact_mut(16).zip(jo.chunks_exact_mut(6 * np)).enumerate() {
+                        let i = c * CHUNK + k;
+                        self.pose_jacobian_into(x, &qs[i * self.nq..(i + 1) * self.nq], frames, pk, jk);
+                    }
+                },
+            ),
         }
         Ok(())
     }
 }
+
+/// Batches smaller than this are evaluated on the calling thread.
+pub const PARALLEL_MIN: usize = 512;
 
 /// What the forward pass records for one elementary factor.
 #[derive(Debug, Clone, Copy)]

@@ -1,6 +1,8 @@
 //! Calibration chains: the chain of a convention reproduces the model's kinematics, and the analytic
 //! identification Jacobian matches central finite differences (tolerance ~ sqrt of the step).
 
+#![allow(clippy::unwrap_used)] // tests: a failed unwrap is a failed test
+
 mod common;
 
 use denavit_core::calibration::{Axis, Chain, Factor};
@@ -116,7 +118,7 @@ fn batch_matches_single_evaluations() {
     let t = denavit_core::extract::convert(&common::tiansui_mdh(), denavit_core::Convention::Edh, &Default::default()).unwrap().table;
     let (chain, x) = edh_chain(&t, true);
     let np = chain.n_params();
-    let n = 100;
+    let n = 1100; // both the one-thread path (first batch below) and the parallel one
     let qs: Vec<f64> = (0..n * 6).map(|i| (i as f64 * 0.731).sin() * 2.5).collect();
     let (mut poses, mut jac) = (vec![0.0; 16 * n], vec![0.0; 6 * np * n]);
     chain.evaluate_batch(&x, &qs, &mut poses, Some(&mut jac)).unwrap();
@@ -124,7 +126,11 @@ fn batch_matches_single_evaluations() {
     chain.evaluate_batch(&x, &qs, &mut only, None).unwrap();
     assert_eq!(poses, only);
     let mut j1 = Matrix6xX::zeros(np);
-    for i in [0, 31, 32, 99] {
+    let (mut small, mut small_jac) = (vec![0.0; 16 * 100], vec![0.0; 6 * np * 100]);
+    chain.evaluate_batch(&x, &qs[..600], &mut small, Some(&mut small_jac)).unwrap();
+    assert_eq!(small[..], poses[..1600]);
+    assert_eq!(small_jac[..], jac[..6 * np * 100]);
+    for i in [0, 31, 32, 99, 600, 1099] {
         let t = chain.pose_jacobian(&x, &qs[6 * i..6 * i + 6], &mut j1).unwrap();
         let h = t.to_homogeneous();
         for r in 0..4 {
