@@ -872,10 +872,13 @@ def _solve(pz: Parametrization, x_start, free: list, meas: Measurements, w: np.n
     if not free:
         return x_base, None
     cache = {}
+    x0 = x_base[free].copy()
 
+    # the unknowns are the changes from the start: MINPACK's first step is bounded by 100 |x| in scaled
+    # units, which is useless when the start is (nearly) zero but not exactly
     def full(z):
         x = x_base.copy()
-        x[free] = z
+        x[free] = x0 + z
         return x
 
     def evaluate(z):
@@ -886,9 +889,11 @@ def _solve(pz: Parametrization, x_start, free: list, meas: Measurements, w: np.n
             cache[key] = (r, J[:, free])
         return cache[key]
 
-    method = "lm" if loss == "linear" and len(evaluate(x_base[free])[0]) >= len(free) else "trf"
+    z0 = np.zeros(len(free))
+    method = "lm" if loss == "linear" and len(evaluate(z0)[0]) >= len(free) else "trf"
     kw = {} if loss == "linear" else {"loss": loss, "f_scale": f_scale or 1.0}
-    sol = least_squares(lambda z: evaluate(z)[0], x_base[free], jac=lambda z: evaluate(z)[1], method=method, x_scale="jac",
+    # copies: MINPACK may write into the arrays it is given, which must not corrupt the cache
+    sol = least_squares(lambda z: evaluate(z)[0].copy(), z0, jac=lambda z: evaluate(z)[1].copy(), method=method, x_scale="jac",
                         xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=max_nfev or 100 * (len(free) + 1), **kw)
     return full(sol.x), sol
 
