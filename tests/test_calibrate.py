@@ -429,3 +429,11 @@ def test_cli_calibrate_and_plan(kr5, tmp_path):
     assert doc["axis_sigma"][0]["per_circle_position"] / doc["axis_sigma"][0]["position"] > 5
     p = subprocess.run([sys.executable, "-m", "denavit.cli", "calibrate", str(f), "--nominal", "kr5", "--convention", "dh"], capture_output=True, text=True, env=env)
     assert p.returncode == 2 and "standard DH cannot calibrate kr5" in p.stderr
+
+
+def test_an_unknown_tool_point_is_found_from_a_zero_start(kr5):
+    """No tool given: the nominal tool is the flange origin (the KR5's wrist centre); the tool point is fitted."""
+    meas = cal.simulate(kr5, cal.configurations(kr5, 60), tool=TOOL, noise=NOISE, seed=6)
+    res = cal.calibrate(meas, kr5)
+    np.testing.assert_allclose([res.value(n)[0] for n in ("tool_x", "tool_y", "tool_z")], TOOL, atol=2e-5)
+    assert res.rms < 2 * NOISE
