@@ -404,8 +404,9 @@ fn cross_z(a: &Vector3<f64>) -> Vector3<f64> {
 /// kernels `__sin`, `__cos` on [-pi/4, pi/4]; `f64::sin_cos` beyond |x| = 1e5. About twice as fast as
 /// libm's `sincos` here, and it is on every link of every algorithm.
 #[inline(always)]
+#[allow(clippy::excessive_precision)] // the kernels' constants exactly as published
 pub(crate) fn sin_cos(x: f64) -> (f64, f64) {
-    const INV_PIO2: f64 = 6.36619772367581382433e-01;
+    const INV_PIO2: f64 = std::f64::consts::FRAC_2_PI;
     const PIO2_1: f64 = 1.57079632673412561417e+00; // first 33 bits of pi/2
     const PIO2_1T: f64 = 6.07710050650619224932e-11; // pi/2 - PIO2_1
     const S1: f64 = -1.66666666666666324348e-01;
@@ -420,10 +421,12 @@ pub(crate) fn sin_cos(x: f64) -> (f64, f64) {
     const C4: f64 = -2.75573143513906633035e-07;
     const C5: f64 = 2.08757232129817482790e-09;
     const C6: f64 = -1.13596475577881948265e-11;
-    if !(x.abs() < 1.0e5) {
+    if x.abs() >= 1.0e5 || x.is_nan() {
         return x.sin_cos();
     }
-    let k = (x * INV_PIO2).round();
+    // round to nearest by the 1.5 * 2^52 shift (no libm call without SSE4.1; exact for |x| < 2^51)
+    const SHIFT: f64 = 6755399441055744.0;
+    let k = (x * INV_PIO2 + SHIFT) - SHIFT;
     // k * PIO2_1 is exact for |k| < 2^20; (y0, y1) is the reduced argument as a double-double
     let r = x - k * PIO2_1;
     let w = k * PIO2_1T;
@@ -478,11 +481,19 @@ impl Rb {
     /// The same inertia in the parent's coordinates, `X* I X` with `X` the motion transform parent -> child
     /// (Featherstone eq. 2.66), without forming 6x6 matrices.
     #[inline(always)]
-    fn to_parent(&self, x: &Xf) -> Rb {
-        let h = x.r * self.h;
-        let (px, hx) = (x.p.cross_matrix(), h.cross_matrix());
-        let io = x.r * self.io * x.r.transpose() - (hx * px + px * hx) - px * px * self.m;
-        Rb { m: self.m, h: h + x.p * self.m, io }
+    fn in_parent(&self, x: &Xf) -> Rb {
+        let (r, p, m) = (&x.r, &x.p, self.m);
+        let h = mv(r, &self.h);
+        // R io Rᵀ (symmetric: 6 entries), then the translation by p with a× b× = b aᵀ - (a·b) 1:
+        // -(h× p× + p× h×) - m p× p× = -(p hᵀ + h pᵀ) - m p pᵀ + (2 h·p + m |p|²) 1
+        let t = r * self.io;
+        let e = |i: usize, j: usize| t[(i, 0)] * r[(j, 0)] + t[(i, 1)] * r[(j, 1)] + t[(i, 2)] * r[(j, 2)];
+        let d = 2.0 * h.dot(p) + m * p.norm_squared();
+        let o = |i: usize, j: usize| -(p[i] * h[j] + h[i] * p[j]) - m * p[i] * p[j];
+        let (a00, a11, a22) = (e(0, 0) + o(0, 0) + d, e(1, 1) + o(1, 1) + d, e(2, 2) + o(2, 2) + d);
+        let (a01, a02, a12) = (e(0, 1) + o(0, 1), e(0, 2) + o(0, 2), e(1, 2) + o(1, 2));
+        let io = Matrix3::new(a00, a01, a02, a01, a11, a12, a02, a12, a22);
+        Rb { m, h: h + p * m, io }
     }
     #[inline(always)]
     fn add(&mut self, o: &Rb) {
@@ -885,7 +896,7 @@ fn crba_unchecked(model: &Model, ws: &mut DynamicsData, q: &[f64]) {
             ws.mass_matrix[(k, i)] = mij;
         }
         if i > 0 {
-            let parent = ic.to_parent(&ws.x[i]);
+            let parent = ic.in_parent(&ws.x[i]);
             ws.ic[i - 1].add(&parent);
         }
     }
@@ -937,7 +948,7 @@ fn coriolis_unchecked(model: &Model, ws: &mut DynamicsData, q: &[f64], qd: &[f64
             JointKind::Prismatic => six(&Vector3::zeros(), &z),
         };
         vel += s * qd[i];
-        let iw = Rb::from(inertia).to_parent(&world).matrix6();
+        let iw = Rb::from(inertia).in_parent(&world).matrix6();
         let cm = crm(&vel);
         ws.s_w[i] = s;
         ws.sd_w[i] = cm * s;
@@ -1042,7 +1053,7 @@ fn aba_unchecked(
         let uu = ia.column(k).into_owned();
         let d = uu[k];
         let scale = ia.amax();
-        if !(d > 1e-12 * scale) || !d.is_finite() {
+        if d.is_nan() || d <= 1e-12 * scale || !d.is_finite() {
             return Err(Error::Degenerate {
                 reason: format!(
                     "joint {} ('{}') moves no inertia (articulated inertia about its axis {d:.3e}): the mass matrix is singular; attach link inertias with Model::with_inertias",
@@ -1066,14 +1077,14 @@ fn aba_unchecked(
         }
     }
     let (mut aw, mut av) = (Vector3::zeros(), -gravity_in_base(model, g));
-    for i in 0..n {
+    for (i, j) in joints.iter().enumerate() {
         (aw, av) = ws.x[i].motion_to_child(&aw, &av);
         let (cw, cv) = halves(&ws.c[i]);
         aw += cw;
         av += cv;
         let qdd = (ws.u[i] - ws.uu[i].dot(&six(&aw, &av))) / ws.dd[i];
         ws.qdd[i] = qdd;
-        match joints[i].kind {
+        match j.kind {
             JointKind::Revolute => aw.z += qdd,
             JointKind::Prismatic => av.z += qdd,
         }
@@ -1164,8 +1175,8 @@ fn fd_crba_unchecked(
     let n = model.nq();
     rnea_unchecked(model, ws, q, Some(qd), None, g, f_ext);
     crba_unchecked(model, ws, q);
-    for i in 0..n {
-        ws.qdd[i] = tau[i] - ws.tau[i];
+    for ((o, t), b) in ws.qdd.iter_mut().zip(tau).zip(&ws.tau) {
+        *o = t - b;
     }
     ws.chol.copy_from(&ws.mass_matrix);
     let scale = (0..n).map(|i| ws.chol[(i, i)].abs()).fold(0.0, f64::max);
@@ -1176,7 +1187,7 @@ fn fd_crba_unchecked(
         for k in 0..j {
             d -= l[(j, k)] * l[(j, k)];
         }
-        if !(d > 1e-13 * scale) || !d.is_finite() {
+        if d.is_nan() || d <= 1e-13 * scale || !d.is_finite() {
             return Err(Error::Degenerate {
                 reason: format!(
                     "the mass matrix is not positive definite (pivot {d:.3e} at joint {}): a joint moves no inertia; attach link inertias with Model::with_inertias",
@@ -1298,7 +1309,7 @@ fn check_row(what: &str, row: usize, v: &[f64]) -> Result<()> {
 }
 
 /// External wrenches of a batch: none, one `[f; n]` for every row (6 values), or one per row (N*6).
-fn wrench_of<'w>(f_ext: Option<&'w [f64]>, count: usize) -> Result<Option<&'w [f64]>> {
+fn wrench_of(f_ext: Option<&[f64]>, count: usize) -> Result<Option<&[f64]>> {
     match f_ext {
         None => Ok(None),
         Some(w) if w.len() == 6 || w.len() == 6 * count => {
@@ -1339,7 +1350,7 @@ where
 
 /// Number of states the batch inverse dynamics advances together (structure of arrays: every operation
 /// runs on W lanes, which the compiler turns into SIMD; the shared model constants are loaded once).
-const LANES: usize = 4;
+const LANES: usize = 2;
 
 type Lane = [f64; LANES];
 
@@ -1716,4 +1727,32 @@ pub fn forward_dynamics_batch(model: &Model, qs: &[f64], qds: &[f64], taus: &[f6
         o.copy_from_slice(&ws.qdd);
         Ok(())
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::sin_cos;
+
+    #[test]
+    fn sin_cos_matches_libm_to_an_ulp() {
+        let mut worst: f64 = 0.0;
+        let mut x = -2.0e5;
+        while x < 2.0e5 {
+            for y in [x, x * 1e-3, x * 1e-6, x * 1e-9] {
+                let (s, c) = sin_cos(y);
+                let (s0, c0) = y.sin_cos();
+                worst = worst.max((s - s0).abs()).max((c - c0).abs());
+            }
+            x += 0.987654321;
+        }
+        for k in -1000..1000 {
+            // near multiples of pi/2, where the reduction cancels
+            let y = k as f64 * std::f64::consts::FRAC_PI_2;
+            let (s, c) = sin_cos(y);
+            let (s0, c0) = y.sin_cos();
+            worst = worst.max((s - s0).abs()).max((c - c0).abs());
+        }
+        assert!(worst <= 2.3e-16, "worst absolute difference {worst:e}");
+        assert!(sin_cos(f64::NAN).0.is_nan() && sin_cos(f64::INFINITY).1.is_nan());
+    }
 }

@@ -55,10 +55,23 @@ fn vin<'py>(what: &str, obj: &Bound<'py, PyAny>, n: usize) -> PyResult<Vin<'py>>
             }
         }
     }
-    let a: ArrayIn<'py> = obj.extract().map_err(|_| value_error(format!("{what}: expected an array-like of floats of shape ({n}), got {}", type_name(obj))))?;
-    let (v, shape) = values(&a);
-    check_shape(what, &shape, &[Some(n)])?;
-    Ok(Vin::Owned(v))
+    let a = c_contiguous(what, obj, &format!("({n})"))?;
+    check_shape(what, a.shape(), &[Some(n)])?;
+    let a = a.into_any().downcast_into::<PyArray1<f64>>().map_err(|_| value_error(format!("{what}: expected a 1-D array")))?;
+    Ok(Vin::Owned(a.readonly().as_array().iter().copied().collect()))
+}
+
+/// Any array-like as a C-contiguous float64 numpy array (`numpy.ascontiguousarray`): the one slow path, which
+/// also reads Fortran-ordered and strided arrays in their logical order.
+fn c_contiguous<'py>(what: &str, obj: &Bound<'py, PyAny>, shape: &str) -> PyResult<Bound<'py, numpy::PyUntypedArray>> {
+    let py = obj.py();
+    let np = py.import("numpy")?;
+    let kwargs = PyDict::new(py);
+    kwargs.set_item("dtype", "float64")?;
+    np.getattr("ascontiguousarray")
+        .and_then(|f| f.call((obj,), Some(&kwargs)))
+        .and_then(|a| a.downcast_into::<numpy::PyUntypedArray>().map_err(Into::into))
+        .map_err(|_| value_error(format!("{what}: expected an array-like of floats of shape {shape}, got {}", type_name(obj))))
 }
 
 /// A 2-D batch input (N, k): borrowed when C-contiguous float64, else converted.
@@ -78,20 +91,22 @@ impl Min<'_> {
 
 /// A (N, k) batch; `count` fixes N when known.
 fn min<'py>(what: &str, obj: &Bound<'py, PyAny>, k: usize, count: Option<usize>) -> PyResult<(Min<'py>, usize)> {
-    if let Ok(a) = obj.downcast::<PyArray2<f64>>() {
-        if let Ok(r) = a.try_readonly() {
-            if r.as_slice().is_ok() {
-                let shape = r.shape().to_vec();
-                check_shape(what, &shape, &[count.or(Some(shape[0])), Some(k)])?;
-                return Ok((Min::Borrowed(r), shape[0]));
-            }
+    let owned;
+    let a = match obj.downcast::<PyArray2<f64>>() {
+        Ok(a) if a.is_c_contiguous() => a,
+        _ => {
+            let c = c_contiguous(what, obj, &format!("(N, {k})"))?;
+            check_shape(what, c.shape(), &[count, Some(k)])?;
+            owned = c.into_any().downcast_into::<PyArray2<f64>>().map_err(|_| value_error(format!("{what}: expected a 2-D array")))?;
+            &owned
         }
+    };
+    check_shape(what, a.shape(), &[count, Some(k)])?;
+    let rows = a.shape()[0];
+    match a.try_readonly() {
+        Ok(r) if r.as_slice().is_ok() => Ok((Min::Borrowed(r), rows)),
+        _ => Ok((Min::Owned(a.readonly().as_array().iter().copied().collect()), rows)),
     }
-    let a: ArrayIn<'py> = obj.extract().map_err(|_| value_error(format!("{what}: expected an array-like of floats of shape (N, {k}), got {}", type_name(obj))))?;
-    let (v, shape) = values(&a);
-    let rows = count.unwrap_or_else(|| shape.first().copied().unwrap_or(0));
-    check_shape(what, &shape, &[Some(rows), Some(k)])?;
-    Ok((Min::Owned(v), rows))
 }
 
 fn type_name(obj: &Bound<'_, PyAny>) -> String {

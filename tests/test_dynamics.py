@@ -1,0 +1,301 @@
+"""Dynamics through the Python API: algorithms against each other, MD-H vs ED-H frames (Guo et al. sec. IV.B),
+batches, a cross-check against pinocchio, and bad input."""
+
+import numpy as np
+import pytest
+
+import denavit as dv
+from denavit import _core
+
+G = np.array([0.0, 0.0, -9.81])
+
+# Illustrative inertials of TianSui-One (not published: plausible values for a cobot of its size), each link in
+# its ED-H joint frame; the same set as crates/denavit-core/tests/dynamics.rs and the tiansui_edh robot file.
+TIANSUI_EDH_MASSES = np.array([3.70, 8.39, 2.28, 1.22, 1.22, 0.19])
+TIANSUI_EDH_COMS = np.array(
+    [[0.0, -0.010, -0.020], [-0.203, 0.0, 0.120], [-0.193, 0.0, 0.012], [0.0, 0.010, 0.003], [0.0, -0.010, 0.003], [0.0, 0.0, -0.020]]
+)
+TIANSUI_EDH_INERTIAS = np.array(
+    [
+        [[0.0103, 0, 0], [0, 0.0103, 0], [0, 0, 0.0067]],
+        [[0.0150, 0, 0.0015], [0, 0.1340, 0], [0.0015, 0, 0.1330]],
+        [[0.0041, 0, -0.0005], [0, 0.0312, 0], [-0.0005, 0, 0.0305]],
+        [[0.0022, 0.0001, 0], [0.0001, 0.0021, 0.0002], [0, 0.0002, 0.0020]],
+        [[0.0022, -0.0001, 0], [-0.0001, 0.0021, -0.0002], [0, -0.0002, 0.0020]],
+        [[0.00010, 0, 0], [0, 0.00010, 0], [0, 0, 0.00013]],
+    ]
+)
+
+
+def random_inertias(n, rng):
+    """Solid ellipsoids of random mass and semi-axes, rotated and displaced: physically valid links."""
+    masses = rng.uniform(0.2, 5.0, n)
+    coms = rng.uniform(-0.3, 0.3, (n, 3))
+    out = np.empty((n, 3, 3))
+    for i in range(n):
+        a, b, c = rng.uniform(0.02, 0.3, 3)
+        d = masses[i] / 5 * np.diag([b * b + c * c, a * a + c * c, a * a + b * b])
+        R, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        out[i] = R @ d @ R.T
+    return masses, coms, out
+
+
+def with_random_inertias(model, rng):
+    return model.with_inertias(*random_inertias(model.nq, rng))
+
+
+def tiansui_edh():
+    return dv.load_model("tiansui_edh").with_inertias(TIANSUI_EDH_MASSES, TIANSUI_EDH_COMS, TIANSUI_EDH_INERTIAS)
+
+
+def states(n, count, rng):
+    return rng.uniform(-3, 3, (count, n)), rng.uniform(-2, 2, (count, n)), rng.uniform(-3, 3, (count, n))
+
+
+@pytest.fixture(params=["kr5", "puma560", "tiansui_edh", "tiansui_mdh", "ur5"])
+def robot(request, rng):
+    return with_random_inertias(dv.load_model(request.param), rng)
+
+
+def test_rnea_zero_acceleration_is_coriolis_plus_gravity(robot, rng):
+    for q, qd, _ in zip(*states(robot.nq, 20, rng)):
+        tau = _core.rnea(robot, q, qd, np.zeros(robot.nq))
+        c = _core.coriolis_matrix(robot, q, qd)
+        g = _core.gravity_torques(robot, q)
+        np.testing.assert_allclose(tau, c @ qd + g, rtol=0, atol=1e-12 * (1 + np.abs(tau).max()))
+        np.testing.assert_allclose(tau, _core.bias_forces(robot, q, qd), rtol=0, atol=1e-12 * (1 + np.abs(tau).max()))
+
+
+def test_mass_matrix_columns_are_unit_acceleration_torques_and_spd(robot, rng):
+    n = robot.nq
+    for q in states(n, 10, rng)[0]:
+        M = _core.mass_matrix(robot, q)
+        cols = np.column_stack([_core.rnea(robot, q, np.zeros(n), e, gravity=np.zeros(3)) for e in np.eye(n)])
+        np.testing.assert_allclose(M, cols, rtol=0, atol=1e-12 * np.abs(M).max())
+        assert np.array_equal(M, M.T)
+        assert np.linalg.eigvalsh(M).min() > 0
+        np.linalg.cholesky(M)
+
+
+def test_forward_dynamics_inverts_inverse_dynamics(robot, rng):
+    f = np.array([3.0, -2.0, 5.0, 0.4, -0.3, 0.2])
+    for q, qd, qdd in zip(*states(robot.nq, 10, rng)):
+        tau = _core.rnea(robot, q, qd, qdd, f_ext=f)
+        for method in ("aba", "crba"):
+            np.testing.assert_allclose(_core.forward_dynamics(robot, q, qd, tau, f_ext=f, method=method), qdd, rtol=0, atol=1e-10)
+
+
+def test_energy_rate_is_joint_power_and_mdot_minus_2c_is_skew(robot, rng):
+    n, h = robot.nq, 1e-5
+    for q, qd, qdd in zip(*states(n, 5, rng)):
+        def energy(t):
+            qt, qdt = q + qd * t + 0.5 * qdd * t * t, qd + qdd * t
+            return _core.kinetic_energy(robot, qt, qdt) + _core.potential_energy(robot, qt)
+
+        power = qd @ _core.rnea(robot, q, qd, qdd)
+        assert (energy(h) - energy(-h)) / (2 * h) == pytest.approx(power, abs=1e-5 * (1 + abs(power)))
+        Mdot = (_core.mass_matrix(robot, q + h * qd) - _core.mass_matrix(robot, q - h * qd)) / (2 * h)
+        N = Mdot - 2 * _core.coriolis_matrix(robot, q, qd)
+        assert np.abs(N + N.T).max() < 1e-6 * (1 + np.abs(Mdot).max())
+
+
+def test_tool_wrench_costs_jacobian_transpose(robot, rng):
+    q, qd, qdd = (s[0] for s in states(robot.nq, 1, rng))
+    f = np.array([1.0, -4.0, 2.5, 0.3, 0.7, -0.2])
+    J = dv.jacobian(robot, q, frame="tool")
+    d = _core.rnea(robot, q, qd, qdd, f_ext=f) - _core.rnea(robot, q, qd, qdd)
+    np.testing.assert_allclose(d, -J.T @ f, rtol=0, atol=1e-12 * (1 + np.abs(d).max()))
+
+
+def test_batches_equal_single_calls(robot, rng):
+    n, N = robot.nq, 301
+    qs, qds, qdds = states(n, N, rng)
+    fs = rng.normal(size=(N, 6))
+    tau = _core.rnea_batch(robot, qs, qds, qdds, f_ext=fs)
+    assert tau.shape == (N, n)
+    one_f = _core.rnea_batch(robot, qs, qds, qdds, f_ext=fs[0])
+    Ms, Cs = _core.mass_matrix_batch(robot, qs), _core.coriolis_matrix_batch(robot, qs, qds)
+    bias, grav = _core.bias_forces_batch(robot, qs, qds), _core.gravity_torques_batch(robot, qs)
+    qdd_back = _core.forward_dynamics_batch(robot, qs, qds, tau, f_ext=fs)
+    np.testing.assert_allclose(qdd_back, qdds, rtol=0, atol=1e-10)
+    for k in range(0, N, 37):
+        atol = 1e-12 * (1 + np.abs(tau[k]).max())
+        np.testing.assert_allclose(tau[k], _core.rnea(robot, qs[k], qds[k], qdds[k], f_ext=fs[k]), rtol=0, atol=atol)
+        np.testing.assert_allclose(one_f[k], _core.rnea(robot, qs[k], qds[k], qdds[k], f_ext=fs[0]), rtol=0, atol=atol)
+        np.testing.assert_array_equal(Ms[k], _core.mass_matrix(robot, qs[k]))
+        np.testing.assert_array_equal(Cs[k], _core.coriolis_matrix(robot, qs[k], qds[k]))
+        np.testing.assert_allclose(bias[k], _core.bias_forces(robot, qs[k], qds[k]), rtol=0, atol=atol)
+        np.testing.assert_allclose(grav[k], _core.gravity_torques(robot, qs[k]), rtol=0, atol=atol)
+
+
+def test_inputs_any_layout_and_dtype(rng):
+    m = tiansui_edh()
+    q, qd, qdd = (s[0] for s in states(6, 1, rng))
+    qdd = qdd.astype(np.float32)  # another dtype is converted
+    ref = _core.rnea(m, q, qd, qdd.astype(np.float64))
+    np.testing.assert_array_equal(_core.rnea(m, list(q), tuple(qd), qdd), ref)
+    big = np.zeros(12)
+    big[::2] = q
+    np.testing.assert_array_equal(_core.rnea(m, big[::2], qd, qdd), ref)  # strided view
+    qs, qds, qdds = states(6, 50, rng)
+    ref = _core.rnea_batch(m, qs, qds, qdds)
+    np.testing.assert_array_equal(_core.rnea_batch(m, np.asfortranarray(qs), qds.tolist(), qdds), ref)
+    assert _core.rnea_batch(m, np.zeros((0, 6)), np.zeros((0, 6)), np.zeros((0, 6))).shape == (0, 6)
+
+
+def test_gravity_is_given_in_world(rng):
+    """Moving the base and turning gravity with it changes no torque."""
+    m = tiansui_edh()
+    q, qd, qdd = (s[0] for s in states(6, 1, rng))
+    c, s = np.cos(0.7), np.sin(0.7)
+    T = np.array([[1, 0, 0, 0.3], [0, c, -s, -1.0], [0, s, c, 2.0], [0, 0, 0, 1.0]])
+    moved = m.with_base(T @ m.T_world_base)
+    np.testing.assert_allclose(_core.rnea(moved, q, qd, qdd, gravity=T[:3, :3] @ G), _core.rnea(m, q, qd, qdd), rtol=0, atol=1e-12)
+
+
+def test_tiansui_mdh_and_edh_frames_give_the_same_torques(rng):
+    """Guo et al. sec. IV.B: one physical robot, its inertials given once in the ED-H (on-body) frames."""
+    edh = tiansui_edh()
+    mdh = _core.transfer_inertias(edh, dv.load_model("tiansui_mdh"))
+    # the inertials differ in the frames of joints 4 and 5 only (those frames are 0.128 m apart)
+    moved = np.linalg.norm(edh.inertias["coms"] - mdh.inertias["coms"], axis=1)
+    assert moved[[0, 1, 2, 5]].max() < 1e-15 and moved[[3, 4]].min() > 0.1
+    f = np.array([2.0, -1.0, 10.0, 0.2, -0.4, 0.1])
+    qs, qds, qdds = states(6, 500, rng)
+    a = _core.rnea_batch(edh, qs, qds, qdds, f_ext=f)
+    b = _core.rnea_batch(mdh, qs, qds, qdds, f_ext=f)
+    assert np.abs(a - b).max() < 1e-10
+    assert np.abs(_core.mass_matrix_batch(edh, qs) - _core.mass_matrix_batch(mdh, qs)).max() < 1e-10
+    # the same through inertials given in world at home (as from CAD)
+    F = dv.joint_frames(edh, np.zeros(6))
+    coms_w = np.einsum("nij,nj->ni", F[:, :3, :3], edh.inertias["coms"]) + F[:, :3, 3]
+    I_w = F[:, :3, :3] @ edh.inertias["inertias"] @ F[:, :3, :3].transpose(0, 2, 1)
+    mdh2 = dv.load_model("tiansui_mdh").with_inertias(TIANSUI_EDH_MASSES, coms_w, I_w, frame="world")
+    assert np.abs(_core.rnea_batch(mdh2, qs, qds, qdds, f_ext=f) - a).max() < 1e-10
+
+
+def test_with_inertias_round_trip_and_about_origin(rng):
+    m = dv.load_model("ur5")
+    masses, coms, I = random_inertias(6, rng)
+    a = m.with_inertias(masses, coms, I)
+    b = m.with_inertias(**a.inertias)
+    for k in ("masses", "coms", "inertias"):
+        np.testing.assert_allclose(a.inertias[k], b.inertias[k], rtol=0, atol=1e-15)
+    # about the frame origin: add the parallel-axis term m (|c|^2 1 - c c^T)
+    I_o = I + masses[:, None, None] * (np.einsum("ni,ni->n", coms, coms)[:, None, None] * np.eye(3) - np.einsum("ni,nj->nij", coms, coms))
+    c = m.with_inertias(masses, coms, I_o, about="origin")
+    np.testing.assert_allclose(c.inertias["inertias"], I, rtol=0, atol=1e-14)
+    assert np.array_equal(m.inertias["masses"], np.zeros(6))  # the original is unchanged: zero-mass links
+    assert a.with_tool(np.eye(4)).inertias["masses"].tolist() == masses.tolist()  # copies keep the inertias
+
+
+def test_bad_inertias_are_rejected_with_clear_messages():
+    m = dv.load_model("ur5")
+    n = 6
+    ok_m, ok_c, ok_i = np.ones(n), np.zeros((n, 3)), np.tile(np.eye(3) * 0.01, (n, 1, 1))
+    masses = ok_m.copy()
+    masses[2] = -1.0
+    with pytest.raises(dv.DenavitError, match=r"invalid mass of link 3: expected a mass >= 0 kg, got -1 kg"):
+        m.with_inertias(masses, ok_c, ok_i)
+    bad = ok_i.copy()
+    bad[1, 0, 1] = 0.005
+    with pytest.raises(dv.DenavitError, match=r"inertia tensor of link 2: expected a symmetric 3x3 matrix"):
+        m.with_inertias(ok_m, ok_c, bad)
+    bad = ok_i.copy()
+    bad[4] = np.diag([0.1, -0.01, 0.1])
+    with pytest.raises(dv.DenavitError, match=r"inertia tensor of link 5: expected a positive semi-definite"):
+        m.with_inertias(ok_m, ok_c, bad)
+    bad = ok_i.copy()
+    bad[5] = np.diag([0.1, 0.1, 0.3])
+    with pytest.raises(dv.DenavitError, match=r"inertia tensor of link 6: expected principal moments satisfying the triangle inequality"):
+        m.with_inertias(ok_m, ok_c, bad)
+    with pytest.raises(dv.DenavitError, match=r"coms \(centres of mass, m\): expected an array of shape \(6, 3\), got shape \[6\]"):
+        m.with_inertias(ok_m, np.zeros(6), ok_i)
+    with pytest.raises(dv.DenavitError, match=r"inertias \(kg m\^2\): expected an array of shape \(6, 3, 3\), got shape \[5, 3, 3\]"):
+        m.with_inertias(ok_m, ok_c, ok_i[:5])
+    with pytest.raises(dv.DenavitError, match=r"frame: expected 'link' or 'world', got 'tool'"):
+        m.with_inertias(ok_m, ok_c, ok_i, frame="tool")
+    with pytest.raises(dv.DenavitError, match=r"mass \(kg\) of link 1 must be finite, got NaN"):
+        m.with_inertias(np.full(n, np.nan), ok_c, ok_i)
+
+
+def test_bad_arguments_are_rejected_with_clear_messages():
+    m = tiansui_edh()
+    z = np.zeros(6)
+    with pytest.raises(dv.DenavitError, match=r"q: expected an array of shape \(6\), got shape \[5\]"):
+        _core.rnea(m, np.zeros(5), z, z)
+    with pytest.raises(dv.DenavitError, match=r"qdd: expected an array of shape \(6\), got shape \[2, 3\]"):
+        _core.rnea(m, z, z, np.zeros((2, 3)))
+    with pytest.raises(dv.DenavitError, match=r"qd must be finite, got NaN at index 1"):
+        _core.rnea(m, z, np.array([0, np.nan, 0, 0, 0, 0]), z)
+    with pytest.raises(dv.DenavitError, match=r"gravity \(m/s\^2, world\): expected an array of shape \(3\)"):
+        _core.rnea(m, z, z, z, gravity=[0, -9.81])
+    with pytest.raises(dv.DenavitError, match=r"f_ext .*expected an array of shape \(6\)"):
+        _core.rnea(m, z, z, z, f_ext=np.zeros(3))
+    with pytest.raises(dv.DenavitError, match=r"method: expected 'aba' or 'crba', got 'euler'"):
+        _core.forward_dynamics(m, z, z, z, method="euler")
+    with pytest.raises(dv.DenavitError, match=r"qds: expected an array of shape \(10, 6\), got shape \[9, 6\]"):
+        _core.rnea_batch(m, np.zeros((10, 6)), np.zeros((9, 6)), np.zeros((10, 6)))
+    with pytest.raises(dv.DenavitError, match=r"qs: expected an array of shape \(N, 6\), got shape \[10\]"):
+        _core.mass_matrix_batch(m, np.zeros(10))
+    with pytest.raises(dv.DenavitError, match=r"f_ext .*expected an array of shape \(4, 6\), got shape \[3, 6\]"):
+        _core.rnea_batch(m, np.zeros((4, 6)), np.zeros((4, 6)), np.zeros((4, 6)), f_ext=np.zeros((3, 6)))
+    qs = np.zeros((4, 6))
+    qs[2, 3] = np.inf
+    with pytest.raises(dv.DenavitError, match=r"q \(row 2\) must be finite, got inf at index 3"):
+        _core.gravity_torques_batch(m, qs)
+    with pytest.raises(dv.DenavitError, match=r"joint axis 2 of the target model: expected the same joint kind and axis"):
+        _core.transfer_inertias(m, dv.load_model("ur5"))
+    # a robot without inertias has a singular mass matrix: forward dynamics says so
+    with pytest.raises(dv.DegenerateError, match=r"joint 6 \('j6'\) moves no inertia"):
+        _core.forward_dynamics(dv.load_model("tiansui_edh"), z, z, z)
+    with pytest.raises(dv.DegenerateError, match=r"not positive definite"):
+        _core.forward_dynamics(dv.load_model("tiansui_edh"), z, z, z, method="crba")
+
+
+# --------------------------------------------------------------------------------------------------------------------
+# Cross-check against pinocchio (optional): the same chain built from the joint placements
+# --------------------------------------------------------------------------------------------------------------------
+
+
+def to_pinocchio(model):
+    pin = pytest.importorskip("pinocchio")
+    pm = pin.Model()
+    parent = 0
+    P, ins = model.placements, model.inertias
+    for i, kind in enumerate(model.kinds):
+        M = model.T_world_base @ P[0] if i == 0 else P[i]
+        joint = pin.JointModelRZ() if kind == "revolute" else pin.JointModelPZ()
+        parent = pm.addJoint(parent, joint, pin.SE3(M[:3, :3], M[:3, 3]), model.names[i])
+        pm.appendBodyToJoint(parent, pin.Inertia(ins["masses"][i], ins["coms"][i], ins["inertias"][i]), pin.SE3.Identity())
+    pm.gravity = pin.Motion(G, np.zeros(3))
+    return pin, pm
+
+
+def tool_force_in_flange(pin, model, f):
+    """A tool wrench [f; n] (tool axes, about the tool origin) as a pinocchio Force in the last joint frame."""
+    T = model.T_flange_tool
+    fl = T[:3, :3] @ f[:3]
+    return pin.Force(fl, T[:3, :3] @ f[3:] + np.cross(T[:3, 3], fl))
+
+
+@pytest.mark.parametrize("name", ["kr5", "puma560", "tiansui_edh", "tiansui_mdh", "ur5"])
+def test_matches_pinocchio_on_builtin_robots(name, rng):
+    model = with_random_inertias(dv.load_model(name), rng) if name != "tiansui_edh" else tiansui_edh()
+    pin, pm = to_pinocchio(model)
+    pd = pm.createData()
+    off = np.array(model.offsets)
+    f = np.array([3.0, -2.0, 5.0, 0.4, -0.3, 0.2])
+    fext = [pin.Force.Zero() for _ in range(pm.njoints)]
+    fext[-1] = tool_force_in_flange(pin, model, f)
+    for q, qd, qdd in zip(*states(model.nq, 20, rng)):
+        qp = q + off
+        tau = _core.rnea(model, q, qd, qdd, f_ext=f)
+        np.testing.assert_allclose(tau, pin.rnea(pm, pd, qp, qd, qdd, fext), rtol=0, atol=1e-10)
+        M = pin.crba(pm, pd, qp)
+        M = np.triu(M) + np.triu(M, 1).T
+        np.testing.assert_allclose(_core.mass_matrix(model, q), M, rtol=0, atol=1e-10)
+        np.testing.assert_allclose(_core.forward_dynamics(model, q, qd, tau, f_ext=f), pin.aba(pm, pd, qp, qd, tau, fext), rtol=0, atol=1e-9)
+        np.testing.assert_allclose(_core.gravity_torques(model, q), pin.computeGeneralizedGravity(pm, pd, qp), rtol=0, atol=1e-10)
+        C = pin.computeCoriolisMatrix(pm, pd, qp, qd)
+        np.testing.assert_allclose(_core.coriolis_matrix(model, q, qd) @ qd, C @ qd, rtol=0, atol=1e-10)
