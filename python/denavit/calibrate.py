@@ -488,9 +488,9 @@ def parametrize(nominal, convention: str = "edh", *, measure: str = "point", too
         lst = ", ".join(f"{i}-{i + 1} ({math.degrees(a):.3g} deg)" for i, a in near)
         raise DegenerateError(
             f"standard DH cannot calibrate {robot.name}: axes {lst} are parallel within {math.degrees(math.asin(NEAR_PARALLEL_SIN)):.2g} deg; "
-            "a tilt of such an axis about the direction normal to both axes and their common perpendicular is not a DH parameter, "
-            "and the common normal (hence d) jumps to infinity as the axes tilt (Hayati & Mirmirani 1985): "
-            "use convention 'mdh' (Hayati angle beta) or 'edh'")
+            "a DH link can tilt the next axis only about their common normal (alpha); a tilt about the other perpendicular direction "
+            "(Hayati's beta) sends the common normal, hence d, to infinity, so the fit cannot represent the robot or diverges "
+            "(Hayati & Mirmirani 1985): use convention 'mdh' (Hayati angle beta) or 'edh'")
     ref = robot.table if robot.table.convention == conv else None
     ex = _core.extract(_core.axes(m, np.zeros(n)), conv, nominal=ref)
     table = ex.table
@@ -615,6 +615,10 @@ def parametrize(nominal, convention: str = "edh", *, measure: str = "point", too
         ana = _analyze(pz, pz.x0, target, free, np.ones(6), explain=False)
         x, _ = _solve(pz, pz.x0, ana.kept_idx, target, np.ones(6), "linear", None)
         pz = Parametrization(conv, measure, names, x, units, order, rules, factors, chain, robot, joint_factor, tool_start, base_end)
+        pred, _ = pz.evaluate(pz.x0, Q, False)
+        err = np.abs(pred[:, :3, 3] - truth[:, :3, 3]).max()
+        if err > 1e-8:
+            raise DegenerateError(f"the {conv} calibration chain cannot reproduce the nominal model {robot.name}: tool error {err * 1e3:.3g} mm after fitting it; use convention 'edh'")
     return pz
 
 
