@@ -7,6 +7,7 @@ mod calibration;
 mod convert;
 mod dynamics;
 mod error;
+mod ik;
 mod kinematics;
 mod model;
 
@@ -20,6 +21,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(model::axes, m)?)?;
     m.add_function(wrap_pyfunction!(model::extract, m)?)?;
     kinematics::register(m)?;
+    ik::register(m)?;
     dynamics::register(m)?;
     calibration::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

@@ -1,0 +1,273 @@
+//! Inverse kinematics (denavit_core::ik): single solves, warm-started paths and batches (paths and
+//! batches release the GIL; batches use every core).
+
+use crate::convert::{check_shape, pose, pose_from_slice, values, vector, ArrayIn};
+use crate::error::{value_error, IntoPy};
+use crate::model::PyModel;
+use denavit_core::ik::{self as core_ik, IkMethod, IkOptions, IkResult};
+use denavit_core::spatial::Pose;
+use numpy::{PyArray1, PyArray2, PyArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyList;
+
+/// The outcome of one IK solve; the errors are measured at the returned q.
+#[pyclass(module = "denavit._core", name = "IkResult", frozen)]
+#[derive(Clone)]
+pub struct PyIkResult {
+    pub inner: IkResult,
+}
+
+#[pymethods]
+impl PyIkResult {
+    /// (n,) the solution (rad / m), or the best configuration found when success is False.
+    #[getter]
+    fn q<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.inner.q)
+    }
+    /// position_error <= tol_position and rotation_error <= tol_rotation (and within the limits if asked).
+    #[getter]
+    fn success(&self) -> bool {
+        self.inner.success
+    }
+    /// Jacobian evaluations, summed over all attempts.
+    #[getter]
+    fn iterations(&self) -> usize {
+        self.inner.iterations
+    }
+    /// Restarts used (0 when the attempt from q0 succeeded).
+    #[getter]
+    fn restarts(&self) -> usize {
+        self.inner.restarts
+    }
+    /// |p_tool(q) - p_target| in m, measured at q.
+    #[getter]
+    fn position_error(&self) -> f64 {
+        self.inner.position_error
+    }
+    /// Rotation angle between R_tool(q) and R_target in rad, measured at q.
+    #[getter]
+    fn rotation_error(&self) -> f64 {
+        self.inner.rotation_error
+    }
+    fn __repr__(&self) -> String {
+        let r = &self.inner;
+        format!(
+            "IkResult(success={}, q={:?}, iterations={}, restarts={}, position_error={:.3e}, rotation_error={:.3e})",
+            if r.success { "True" } else { "False" },
+            r.q,
+            r.iterations,
+            r.restarts,
+            r.position_error,
+            r.rotation_error
+        )
+    }
+}
+
+/// Results of ik_path / ik_batch as arrays (and a sequence of IkResult: len, indexing, iteration).
+#[pyclass(module = "denavit._core", name = "IkBatchResult", frozen, sequence)]
+pub struct PyIkBatchResult {
+    results: Vec<IkResult>,
+    n: usize,
+}
+
+impl PyIkBatchResult {
+    fn column<T: numpy::Element + Copy>(&self, py: Python<'_>, f: impl Fn(&IkResult) -> T) -> Py<PyArray1<T>> {
+        let v: Vec<T> = self.results.iter().map(f).collect();
+        PyArray1::from_vec(py, v).unbind()
+    }
+}
+
+#[pymethods]
+impl PyIkBatchResult {
+    /// (N, n) solutions (rad / m).
+    #[getter]
+    fn q<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let v: Vec<f64> = self.results.iter().flat_map(|r| r.q.iter().copied()).collect();
+        PyArray1::from_vec(py, v).reshape([self.results.len(), self.n])
+    }
+    /// (N,) bool.
+    #[getter]
+    fn success(&self, py: Python<'_>) -> Py<PyArray1<bool>> {
+        self.column(py, |r| r.success)
+    }
+    /// (N,) Jacobian evaluations per target.
+    #[getter]
+    fn iterations(&self, py: Python<'_>) -> Py<PyArray1<i64>> {
+        self.column(py, |r| r.iterations as i64)
+    }
+    /// (N,) restarts used per target.
+    #[getter]
+    fn restarts(&self, py: Python<'_>) -> Py<PyArray1<i64>> {
+        self.column(py, |r| r.restarts as i64)
+    }
+    /// (N,) measured position errors (m).
+    #[getter]
+    fn position_error(&self, py: Python<'_>) -> Py<PyArray1<f64>> {
+        self.column(py, |r| r.position_error)
+    }
+    /// (N,) measured rotation errors (rad).
+    #[getter]
+    fn rotation_error(&self, py: Python<'_>) -> Py<PyArray1<f64>> {
+        self.column(py, |r| r.rotation_error)
+    }
+    fn __len__(&self) -> usize {
+        self.results.len()
+    }
+    fn __getitem__(&self, index: isize) -> PyResult<PyIkResult> {
+        let len = self.results.len() as isize;
+        let i = if index < 0 { index + len } else { index };
+        if i < 0 || i >= len {
+            return Err(pyo3::exceptions::PyIndexError::new_err(format!("index {index} out of range for {len} results")));
+        }
+        Ok(PyIkResult { inner: self.results[i as usize].clone() })
+    }
+    fn __iter__(&self, py: Python<'_>) -> PyResult<PyObject> {
+        let items: Vec<PyIkResult> = self.results.iter().map(|r| PyIkResult { inner: r.clone() }).collect();
+        Ok(PyList::new(py, items)?.into_any().try_iter()?.into_any().unbind())
+    }
+    fn __repr__(&self) -> String {
+        let ok = self.results.iter().filter(|r| r.success).count();
+        let worst_p = self.results.iter().map(|r| r.position_error).fold(0.0, f64::max);
+        let worst_r = self.results.iter().map(|r| r.rotation_error).fold(0.0, f64::max);
+        format!("IkBatchResult({ok}/{} solved, worst position_error={worst_p:.3e}, worst rotation_error={worst_r:.3e})", self.results.len())
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn options(method: &str, tol_position: f64, tol_rotation: f64, max_iterations: i64, restarts: i64, seed: i64, respect_limits: bool, damping: f64) -> PyResult<IkOptions> {
+    let method = IkMethod::parse(method).py()?;
+    let count = |what: &str, v: i64, min: i64| -> PyResult<usize> {
+        if v < min {
+            return Err(value_error(format!("{what}: expected an integer >= {min}, got {v}")));
+        }
+        Ok(v as usize)
+    };
+    let opts = IkOptions {
+        method,
+        tol_position,
+        tol_rotation,
+        max_iterations: count("max_iterations", max_iterations, 1)?,
+        restarts: count("restarts", restarts, 0)?,
+        seed: count("seed", seed, 0)? as u64,
+        respect_limits,
+        damping,
+    };
+    opts.check().py()?;
+    Ok(opts)
+}
+
+fn start(model: &PyModel, q0: Option<ArrayIn<'_>>, what: &str) -> PyResult<Vec<f64>> {
+    match q0 {
+        Some(a) => vector(what, &a, model.inner.nq()),
+        None => Ok(vec![0.0; model.inner.nq()]),
+    }
+}
+
+fn targets_of(targets: &ArrayIn<'_>) -> PyResult<Vec<Pose>> {
+    let (v, shape) = values(targets);
+    check_shape("targets", &shape, &[None, Some(4), Some(4)])?;
+    v.chunks_exact(16).enumerate().map(|(i, c)| pose_from_slice(&format!("targets[{i}]"), c)).collect()
+}
+
+/// Inverse kinematics of one target T_world_tool (4, 4) from q0 (n,) in rad / m (default zeros).
+///
+/// Success is decided from the measured final position and rotation errors against tol_position (m) and
+/// tol_rotation (rad). method: "lm" (Levenberg-Marquardt) or "newton" (Newton-Raphson).
+#[pyfunction]
+#[pyo3(signature = (model, T_target, q0=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=100, restarts=20, seed=0, respect_limits=true, damping=0.1))]
+#[allow(non_snake_case, clippy::too_many_arguments)]
+pub fn ik(
+    model: &PyModel,
+    T_target: ArrayIn<'_>,
+    q0: Option<ArrayIn<'_>>,
+    method: &str,
+    tol_position: f64,
+    tol_rotation: f64,
+    max_iterations: i64,
+    restarts: i64,
+    seed: i64,
+    respect_limits: bool,
+    damping: f64,
+) -> PyResult<PyIkResult> {
+    let opts = options(method, tol_position, tol_rotation, max_iterations, restarts, seed, respect_limits, damping)?;
+    let target = pose("T_target", &T_target)?;
+    let q0 = start(model, q0, "q0")?;
+    Ok(PyIkResult { inner: core_ik::ik(&model.inner, &target, &q0, &opts).py()? })
+}
+
+/// Solve targets (N, 4, 4) in order, each warm-started from the previous solution (the first from q0).
+/// Releases the GIL.
+#[pyfunction]
+#[pyo3(signature = (model, targets, q0=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=100, restarts=20, seed=0, respect_limits=true, damping=0.1))]
+#[allow(clippy::too_many_arguments)]
+pub fn ik_path(
+    py: Python<'_>,
+    model: &PyModel,
+    targets: ArrayIn<'_>,
+    q0: Option<ArrayIn<'_>>,
+    method: &str,
+    tol_position: f64,
+    tol_rotation: f64,
+    max_iterations: i64,
+    restarts: i64,
+    seed: i64,
+    respect_limits: bool,
+    damping: f64,
+) -> PyResult<PyIkBatchResult> {
+    let opts = options(method, tol_position, tol_rotation, max_iterations, restarts, seed, respect_limits, damping)?;
+    let targets = targets_of(&targets)?;
+    let q0 = start(model, q0, "q0")?;
+    let m = model.inner.clone();
+    let results = py.allow_threads(move || core_ik::ik_path(&m, &targets, &q0, &opts)).py()?;
+    Ok(PyIkBatchResult { results, n: model.inner.nq() })
+}
+
+/// Solve independent targets (N, 4, 4) from q0s ((N, n), or (n,) for all; default zeros) on every core,
+/// without the GIL. Target i's restarts are seeded from (seed, i): the results do not depend on threads.
+#[pyfunction]
+#[pyo3(signature = (model, targets, q0s=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=100, restarts=20, seed=0, respect_limits=true, damping=0.1))]
+#[allow(clippy::too_many_arguments)]
+pub fn ik_batch(
+    py: Python<'_>,
+    model: &PyModel,
+    targets: ArrayIn<'_>,
+    q0s: Option<ArrayIn<'_>>,
+    method: &str,
+    tol_position: f64,
+    tol_rotation: f64,
+    max_iterations: i64,
+    restarts: i64,
+    seed: i64,
+    respect_limits: bool,
+    damping: f64,
+) -> PyResult<PyIkBatchResult> {
+    let opts = options(method, tol_position, tol_rotation, max_iterations, restarts, seed, respect_limits, damping)?;
+    let targets = targets_of(&targets)?;
+    let n = model.inner.nq();
+    let q0s = match q0s {
+        Some(a) => {
+            let (v, shape) = values(&a);
+            if shape.len() == 1 {
+                check_shape("q0s", &shape, &[Some(n)])?;
+            } else {
+                check_shape("q0s", &shape, &[Some(targets.len()), Some(n)])?;
+            }
+            crate::convert::check_finite("q0s", &v)?;
+            v
+        }
+        None => vec![0.0; n],
+    };
+    let m = model.inner.clone();
+    let results = py.allow_threads(move || core_ik::ik_batch(&m, &targets, &q0s, &opts)).py()?;
+    Ok(PyIkBatchResult { results, n })
+}
+
+/// Register the classes and functions of this file.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyIkResult>()?;
+    m.add_class::<PyIkBatchResult>()?;
+    m.add_function(wrap_pyfunction!(ik, m)?)?;
+    m.add_function(wrap_pyfunction!(ik_path, m)?)?;
+    m.add_function(wrap_pyfunction!(ik_batch, m)?)?;
+    Ok(())
+}
