@@ -181,11 +181,11 @@ class IkBatchResult:
     def __iter__(self) -> Iterator[IkResult]: ...
 
 def ik(model: Model, T_target: ArrayLike, q0: ArrayLike | None = None, *, method: str = "lm", tol_position: float = 1e-10,
-       tol_rotation: float = 1e-10, max_iterations: int = 100, restarts: int = 20, seed: int = 0, respect_limits: bool = True,
+       tol_rotation: float = 1e-10, max_iterations: int = 100, restarts: int = 50, seed: int = 0, respect_limits: bool = True,
        damping: float = 0.1) -> IkResult: ...
 def ik_path(model: Model, targets: ArrayLike, q0: ArrayLike | None = None, *, method: str = "lm", tol_position: float = 1e-10,
-            tol_rotation: float = 1e-10, max_iterations: int = 100, restarts: int = 20, seed: int = 0,
+            tol_rotation: float = 1e-10, max_iterations: int = 100, restarts: int = 50, seed: int = 0,
             respect_limits: bool = True, damping: float = 0.1) -> IkBatchResult: ...
 def ik_batch(model: Model, targets: ArrayLike, q0s: ArrayLike | None = None, *, method: str = "lm", tol_position: float = 1e-10,
-             tol_rotation: float = 1e-10, max_iterations: int = 100, restarts: int = 20, seed: int = 0,
+             tol_rotation: float = 1e-10, max_iterations: int = 100, restarts: int = 50, seed: int = 0,
              respect_limits: bool = True, damping: float = 0.1) -> IkBatchResult: ...

@@ -73,7 +73,7 @@ impl IkMethod {
 }
 
 /// Options of the IK solvers. `Default`: LM, tolerances 1e-10 m and 1e-10 rad, 100 iterations per
-/// attempt, 20 restarts, seed 0, limits respected, initial damping μ = 0.1.
+/// attempt, 50 restarts, seed 0, limits respected, initial damping μ = 0.1.
 ///
 /// ```
 /// use denavit_core::ik::{IkOptions, IkMethod};
@@ -103,7 +103,7 @@ pub struct IkOptions {
 
 impl Default for IkOptions {
     fn default() -> Self {
-        Self { method: IkMethod::Lm, tol_position: 1e-10, tol_rotation: 1e-10, max_iterations: 100, restarts: 20, seed: 0, respect_limits: true, damping: 0.1 }
+        Self { method: IkMethod::Lm, tol_position: 1e-10, tol_rotation: 1e-10, max_iterations: 100, restarts: 50, seed: 0, respect_limits: true, damping: 0.1 }
     }
 }
 
@@ -344,50 +344,6 @@ fn cholesky_solve(a: &mut [f64], b: &mut [f64], n: usize) -> bool {
     true
 }
 
-/// Solve `a x = b` in place by LU with partial pivoting (a: n x n row-major); false if (near) singular.
-#[inline(always)]
-fn lu_solve(a: &mut [f64], b: &mut [f64], n: usize) -> bool {
-    let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    if scale.is_nan() || scale <= 0.0 {
-        return false;
-    }
-    for k in 0..n {
-        let mut p = k;
-        for i in k + 1..n {
-            if a[i * n + k].abs() > a[p * n + k].abs() {
-                p = i;
-            }
-        }
-        if a[p * n + k].is_nan() || a[p * n + k].abs() <= 1e-13 * scale {
-            return false;
-        }
-        if p != k {
-            for j in 0..n {
-                a.swap(k * n + j, p * n + j);
-            }
-            b.swap(k, p);
-        }
-        let inv = 1.0 / a[k * n + k];
-        for i in k + 1..n {
-            let f = a[i * n + k] * inv;
-            if f != 0.0 {
-                for j in k + 1..n {
-                    a[i * n + j] -= f * a[k * n + j];
-                }
-                b[i] -= f * b[k];
-            }
-        }
-    }
-    for i in (0..n).rev() {
-        let mut s = b[i];
-        for j in i + 1..n {
-            s -= a[i * n + j] * b[j];
-        }
-        b[i] = s / a[i * n + i];
-    }
-    true
-}
-
 /// `A = J^T J + lambda I` (n x n, row-major) and `g = J^T e`; `jac` is column-major 6 x n.
 #[inline(always)]
 fn normal_equations(jac: &[f64], e: &[f64; 6], lambda: f64, a: &mut [f64], g: &mut [f64], n: usize) {
@@ -402,6 +358,122 @@ fn normal_equations(jac: &[f64], e: &[f64; 6], lambda: f64, a: &mut [f64], g: &m
         }
         a[i * n + i] += lambda;
     }
+}
+
+/// [`normal_equations`] for a fixed n (fully unrolled): `jac` holds N columns of 6.
+#[inline(always)]
+fn normal_equations_fixed<const N: usize>(jac: &[[f64; 6]; N], e: &[f64; 6], lambda: f64, a: &mut [[f64; N]; N], g: &mut [f64; N]) {
+    for i in 0..N {
+        let mut gi = 0.0;
+        for r in 0..6 {
+            gi += jac[i][r] * e[r];
+        }
+        g[i] = gi;
+        for k in 0..=i {
+            let mut v = 0.0;
+            for r in 0..6 {
+                v += jac[i][r] * jac[k][r];
+            }
+            a[i][k] = v;
+            a[k][i] = v;
+        }
+        a[i][i] += lambda;
+    }
+}
+
+/// [`cholesky_solve`] for a fixed n (fully unrolled).
+#[inline(always)]
+fn cholesky_fixed<const N: usize>(a: &mut [[f64; N]; N], b: &mut [f64; N]) -> bool {
+    for j in 0..N {
+        let mut d = a[j][j];
+        for k in 0..j {
+            d -= a[j][k] * a[j][k];
+        }
+        if d.is_nan() || d <= 0.0 {
+            return false;
+        }
+        let d = d.sqrt();
+        a[j][j] = d;
+        let inv = 1.0 / d;
+        for i in j + 1..N {
+            let mut s = a[i][j];
+            for k in 0..j {
+                s -= a[i][k] * a[j][k];
+            }
+            a[i][j] = s * inv;
+        }
+    }
+    for i in 0..N {
+        let mut s = b[i];
+        for k in 0..i {
+            s -= a[i][k] * b[k];
+        }
+        b[i] = s / a[i][i];
+    }
+    for i in (0..N).rev() {
+        let mut s = b[i];
+        for k in i + 1..N {
+            s -= a[k][i] * b[k];
+        }
+        b[i] = s / a[i][i];
+    }
+    true
+}
+
+/// Solve `J x = e` for a square 6 x 6 `J` (columns `jac`) by LU with partial pivoting; false if singular.
+#[inline(always)]
+fn lu_fixed6(jac: &[[f64; 6]; 6], e: &[f64; 6], x: &mut [f64; 6]) -> bool {
+    let mut a = [[0.0; 6]; 6]; // rows
+    let mut scale: f64 = 0.0;
+    for r in 0..6 {
+        for c in 0..6 {
+            a[r][c] = jac[c][r];
+            scale = scale.max(jac[c][r].abs());
+        }
+    }
+    if scale.is_nan() || scale <= 0.0 {
+        return false;
+    }
+    *x = *e;
+    for k in 0..6 {
+        let mut p = k;
+        for i in k + 1..6 {
+            if a[i][k].abs() > a[p][k].abs() {
+                p = i;
+            }
+        }
+        if a[p][k].is_nan() || a[p][k].abs() <= 1e-13 * scale {
+            return false;
+        }
+        a.swap(k, p);
+        x.swap(k, p);
+        let inv = 1.0 / a[k][k];
+        for i in k + 1..6 {
+            let f = a[i][k] * inv;
+            for j in k + 1..6 {
+                a[i][j] -= f * a[k][j];
+            }
+            x[i] -= f * x[k];
+        }
+    }
+    for i in (0..6).rev() {
+        let mut s = x[i];
+        for j in i + 1..6 {
+            s -= a[i][j] * x[j];
+        }
+        x[i] = s / a[i][i];
+    }
+    true
+}
+
+/// The columns of a 6 x 6 Jacobian (column-major slice of 36) as arrays.
+#[inline(always)]
+fn columns6(jac: &[f64]) -> [[f64; 6]; 6] {
+    let mut c = [[0.0; 6]; 6];
+    for (k, col) in c.iter_mut().enumerate() {
+        col.copy_from_slice(&jac[6 * k..6 * k + 6]);
+    }
+    c
 }
 
 /// Iterations after which an LM attempt must have halved its squared error, else it restarts.
@@ -511,8 +583,11 @@ impl<'m> IkSolver<'m> {
             }
             let lambda = mu * cost + 1e-300;
             let ok = if n == 6 {
-                normal_equations(&self.jac, &e, lambda, &mut self.a[..36], &mut self.g[..6], 6);
-                cholesky_solve(&mut self.a[..36], &mut self.g[..6], 6)
+                let (mut a, mut g) = ([[0.0; 6]; 6], [0.0; 6]);
+                normal_equations_fixed(&columns6(&self.jac), &e, lambda, &mut a, &mut g);
+                let ok = cholesky_fixed(&mut a, &mut g);
+                self.g[..6].copy_from_slice(&g);
+                ok
             } else {
                 normal_equations(&self.jac, &e, lambda, &mut self.a[..n * n], &mut self.g[..n], n);
                 cholesky_solve(&mut self.a[..n * n], &mut self.g[..n], n)
@@ -557,14 +632,10 @@ impl<'m> IkSolver<'m> {
         let n = self.model.nq();
         let jac = self.data.jacobian.as_slice(); // column-major 6 x n
         let solved = if n == 6 {
-            let a = &mut self.a[..36];
-            for r in 0..6 {
-                for c in 0..6 {
-                    a[r * 6 + c] = jac[6 * c + r];
-                }
-            }
-            self.g[..6].copy_from_slice(e);
-            lu_solve(a, &mut self.g[..6], 6)
+            let mut x = [0.0; 6];
+            let ok = lu_fixed6(&columns6(jac), e, &mut x);
+            self.g[..6].copy_from_slice(&x);
+            ok
         } else if n < 6 {
             normal_equations(jac, e, 0.0, &mut self.a[..n * n], &mut self.g[..n], n);
             cholesky_solve(&mut self.a[..n * n], &mut self.g[..n], n)
@@ -788,15 +859,36 @@ mod tests {
     }
 
     #[test]
-    fn solvers_agree_on_spd_systems() {
-        let mut a = [4.0, 1.0, 0.5, 1.0, 3.0, 0.2, 0.5, 0.2, 2.0];
-        let mut b = [1.0, 2.0, 3.0];
-        let (mut a2, mut b2) = (a, b);
-        assert!(cholesky_solve(&mut a, &mut b, 3));
-        assert!(lu_solve(&mut a2, &mut b2, 3));
-        for i in 0..3 {
-            assert!((b[i] - b2[i]).abs() < 1e-14);
+    fn solvers_agree() {
+        // J: a well-conditioned 6 x 6 matrix (columns)
+        let mut jac = [[0.0; 6]; 6];
+        for (c, col) in jac.iter_mut().enumerate() {
+            for (r, v) in col.iter_mut().enumerate() {
+                *v = if r == c { 2.0 + r as f64 } else { 0.1 * (r as f64 - c as f64) };
+            }
         }
+        let e = [1.0, -2.0, 0.5, 0.3, -0.7, 1.1];
+        let mut x = [0.0; 6];
+        assert!(lu_fixed6(&jac, &e, &mut x));
+        // J x = e
+        for r in 0..6 {
+            let v: f64 = (0..6).map(|c| jac[c][r] * x[c]).sum();
+            assert!((v - e[r]).abs() < 1e-14);
+        }
+        // the normal equations give the same x (lambda = 0), fixed and dynamic sizes alike
+        let (mut a, mut g) = ([[0.0; 6]; 6], [0.0; 6]);
+        normal_equations_fixed(&jac, &e, 0.0, &mut a, &mut g);
+        assert!(cholesky_fixed(&mut a, &mut g));
+        let flat: Vec<f64> = jac.iter().flatten().copied().collect();
+        let (mut a2, mut g2) = (vec![0.0; 36], vec![0.0; 6]);
+        normal_equations(&flat, &e, 0.0, &mut a2, &mut g2, 6);
+        assert!(cholesky_solve(&mut a2, &mut g2, 6));
+        for i in 0..6 {
+            assert!((g[i] - x[i]).abs() < 1e-12 && (g2[i] - x[i]).abs() < 1e-12);
+        }
+        // a singular J is reported
+        jac[3] = jac[2];
+        assert!(!lu_fixed6(&jac, &e, &mut x));
     }
 
     #[test]

@@ -89,12 +89,12 @@ pub(crate) fn apply_rz(t: &mut Pose, sn: f64, cs: f64) {
     }
 }
 
-/// A pose as plain column-major arrays: the representation of the hot loops (unrolled by hand, no
-/// libm call per joint). Same arithmetic as `Pose * Pose`, up to rounding.
+/// A pose as four columns of four lanes (x, y, z axes and origin; the fourth lane is padding): the
+/// representation of the hot loops. Every column operation is on four lanes, which the compiler maps to
+/// SIMD registers; same arithmetic as `Pose * Pose`, up to rounding.
 #[derive(Clone, Copy)]
 pub(crate) struct Frame {
-    r: [f64; 9],
-    p: [f64; 3],
+    c: [[f64; 4]; 4],
 }
 
 impl Frame {
@@ -102,28 +102,29 @@ impl Frame {
     pub(crate) fn of(t: &Pose) -> Self {
         let m = t.rotation.matrix();
         let v = &t.translation.vector;
-        Self { r: [m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7], m[8]], p: [v[0], v[1], v[2]] }
+        Self { c: [[m[0], m[1], m[2], 0.0], [m[3], m[4], m[5], 0.0], [m[6], m[7], m[8], 0.0], [v[0], v[1], v[2], 0.0]] }
     }
     #[inline(always)]
     pub(crate) fn pose(&self) -> Pose {
-        Pose::from_parts(Translation3::new(self.p[0], self.p[1], self.p[2]), Rotation3::from_matrix_unchecked(Matrix3::from_column_slice(&self.r)))
+        let c = &self.c;
+        let r = Matrix3::new(c[0][0], c[1][0], c[2][0], c[0][1], c[1][1], c[2][1], c[0][2], c[1][2], c[2][2]);
+        Pose::from_parts(Translation3::new(c[3][0], c[3][1], c[3][2]), Rotation3::from_matrix_unchecked(r))
     }
     /// `self · b`.
     #[inline(always)]
     pub(crate) fn mul(&self, b: &Pose) -> Self {
-        let (a, m, v) = (&self.r, b.rotation.matrix(), &b.translation.vector);
-        let mut r = [0.0; 9];
+        let (a, m, v) = (&self.c, b.rotation.matrix(), &b.translation.vector);
+        let mut c = [[0.0; 4]; 4];
         for j in 0..3 {
             let (b0, b1, b2) = (m[3 * j], m[3 * j + 1], m[3 * j + 2]);
-            for i in 0..3 {
-                r[3 * j + i] = a[i] * b0 + a[3 + i] * b1 + a[6 + i] * b2;
+            for l in 0..4 {
+                c[j][l] = a[0][l] * b0 + a[1][l] * b1 + a[2][l] * b2;
             }
         }
-        let mut p = [0.0; 3];
-        for i in 0..3 {
-            p[i] = a[i] * v[0] + a[3 + i] * v[1] + a[6 + i] * v[2] + self.p[i];
+        for l in 0..4 {
+            c[3][l] = a[0][l] * v[0] + a[1][l] * v[1] + a[2][l] * v[2] + a[3][l];
         }
-        Self { r, p }
+        Self { c }
     }
     /// `self · M(s)`: the joint motion `Rz(s)` or `Tz(s)`.
     #[inline(always)]
@@ -131,15 +132,16 @@ impl Frame {
         match kind {
             JointKind::Revolute => {
                 let (sn, cs) = sin_cos(s);
-                for i in 0..3 {
-                    let (a, b) = (self.r[i], self.r[3 + i]);
-                    self.r[i] = cs * a + sn * b;
-                    self.r[3 + i] = cs * b - sn * a;
+                let (x, y) = (self.c[0], self.c[1]);
+                for l in 0..4 {
+                    self.c[0][l] = cs * x[l] + sn * y[l];
+                    self.c[1][l] = cs * y[l] - sn * x[l];
                 }
             }
             JointKind::Prismatic => {
-                for i in 0..3 {
-                    self.p[i] += self.r[6 + i] * s;
+                let z = self.c[2];
+                for l in 0..4 {
+                    self.c[3][l] += z[l] * s;
                 }
             }
         }
@@ -147,7 +149,17 @@ impl Frame {
     /// The z axis (third column).
     #[inline(always)]
     pub(crate) fn z(&self) -> [f64; 3] {
-        [self.r[6], self.r[7], self.r[8]]
+        [self.c[2][0], self.c[2][1], self.c[2][2]]
+    }
+    /// The origin.
+    #[inline(always)]
+    pub(crate) fn p(&self) -> [f64; 3] {
+        [self.c[3][0], self.c[3][1], self.c[3][2]]
+    }
+    /// Column `j` of the rotation.
+    #[inline(always)]
+    pub(crate) fn col(&self, j: usize) -> [f64; 3] {
+        [self.c[j][0], self.c[j][1], self.c[j][2]]
     }
 }
 
@@ -213,14 +225,15 @@ pub fn jacobian(model: &Model, data: &mut Data, q: &[f64], frame: JacobianFrame)
 pub(crate) fn jacobian_unchecked(model: &Model, data: &mut Data, q: &[f64], frame: JacobianFrame) {
     fk_unchecked(model, data, q);
     let tool = Frame::of(&data.t_world_tool);
+    let tp = tool.p();
     let n = model.nq();
     let jac = data.jacobian.as_mut_slice(); // column-major 6 x n
     for (i, (j, t)) in model.joints().iter().zip(&data.t_world_joint).enumerate().take(n) {
         let f = Frame::of(t);
-        let z = f.z();
+        let (z, fp) = (f.z(), f.p());
         let (v, w) = match j.kind {
             JointKind::Revolute => {
-                let d = [tool.p[0] - f.p[0], tool.p[1] - f.p[1], tool.p[2] - f.p[2]];
+                let d = [tp[0] - fp[0], tp[1] - fp[1], tp[2] - fp[2]];
                 ([z[1] * d[2] - z[2] * d[1], z[2] * d[0] - z[0] * d[2], z[0] * d[1] - z[1] * d[0]], z)
             }
             JointKind::Prismatic => (z, [0.0; 3]),
@@ -234,7 +247,7 @@ pub(crate) fn jacobian_unchecked(model: &Model, data: &mut Data, q: &[f64], fram
             JacobianFrame::Tool => {
                 // R^T v: rows of R^T are the columns of R
                 for k in 0..3 {
-                    let c = &tool.r[3 * k..3 * k + 3];
+                    let c = tool.col(k);
                     col[k] = c[0] * v[0] + c[1] * v[1] + c[2] * v[2];
                     col[3 + k] = c[0] * w[0] + c[1] * w[1] + c[2] * w[2];
                 }

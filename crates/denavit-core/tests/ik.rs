@@ -320,3 +320,18 @@ fn restarts_are_deterministic_and_seeded() {
     assert_ne!(a.q, b.q);
     assert!(a.iterations > 5 && a.restarts == 5);
 }
+
+/// A fixed workload for profilers (`cargo test --release --test ik -- --ignored workload`).
+#[test]
+#[ignore]
+fn workload() {
+    let m = tiansui_mdh().to_model("mdh").unwrap();
+    let targets: Vec<Pose> = lcg_qs(6, 2000, 17, PI).iter().map(|q| tool_pose(&m, q).unwrap()).collect();
+    let mut s = IkSolver::new(&m, IkOptions { tol_position: 1e-9, tol_rotation: 1e-9, ..Default::default() }).unwrap();
+    let (mut its, t0) = (0, std::time::Instant::now());
+    for t in &targets {
+        its += s.solve(t, &[0.3; 6]).unwrap().iterations;
+    }
+    let dt = t0.elapsed().as_secs_f64();
+    println!("{} solves, {its} iterations, {:.2} us/solve, {:.0} ns/iteration", targets.len(), dt * 1e6 / 2000.0, dt * 1e9 / its as f64);
+}

@@ -174,7 +174,7 @@ fn targets_of(targets: &ArrayIn<'_>) -> PyResult<Vec<Pose>> {
 /// Success is decided from the measured final position and rotation errors against tol_position (m) and
 /// tol_rotation (rad). method: "lm" (Levenberg-Marquardt) or "newton" (Newton-Raphson).
 #[pyfunction]
-#[pyo3(signature = (model, T_target, q0=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=100, restarts=20, seed=0, respect_limits=true, damping=0.1))]
+#[pyo3(signature = (model, T_target, q0=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=100, restarts=50, seed=0, respect_limits=true, damping=0.1))]
 #[allow(non_snake_case, clippy::too_many_arguments)]
 pub fn ik(
     model: &PyModel,
@@ -198,7 +198,7 @@ pub fn ik(
 /// Solve targets (N, 4, 4) in order, each warm-started from the previous solution (the first from q0).
 /// Releases the GIL.
 #[pyfunction]
-#[pyo3(signature = (model, targets, q0=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=100, restarts=20, seed=0, respect_limits=true, damping=0.1))]
+#[pyo3(signature = (model, targets, q0=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=100, restarts=50, seed=0, respect_limits=true, damping=0.1))]
 #[allow(clippy::too_many_arguments)]
 pub fn ik_path(
     py: Python<'_>,
@@ -225,7 +225,7 @@ pub fn ik_path(
 /// Solve independent targets (N, 4, 4) from q0s ((N, n), or (n,) for all; default zeros) on every core,
 /// without the GIL. Target i's restarts are seeded from (seed, i): the results do not depend on threads.
 #[pyfunction]
-#[pyo3(signature = (model, targets, q0s=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=100, restarts=20, seed=0, respect_limits=true, damping=0.1))]
+#[pyo3(signature = (model, targets, q0s=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=100, restarts=50, seed=0, respect_limits=true, damping=0.1))]
 #[allow(clippy::too_many_arguments)]
 pub fn ik_batch(
     py: Python<'_>,
