@@ -426,7 +426,10 @@ pub(crate) fn sin_cos(x: f64) -> (f64, f64) {
     }
     // round to nearest by the 1.5 * 2^52 shift (no libm call without SSE4.1; exact for |x| < 2^51)
     const SHIFT: f64 = 6755399441055744.0;
-    let k = (x * INV_PIO2 + SHIFT) - SHIFT;
+    let shifted = x * INV_PIO2 + SHIFT;
+    let k = shifted - SHIFT;
+    // the quadrant k mod 4 sits in the low mantissa bits of `shifted` (two's complement)
+    let quadrant = shifted.to_bits();
     // k * PIO2_1 is exact for |k| < 2^20; (y0, y1) is the reduced argument as a double-double
     let r = x - k * PIO2_1;
     let w = k * PIO2_1T;
@@ -443,12 +446,15 @@ pub(crate) fn sin_cos(x: f64) -> (f64, f64) {
     let hz = 0.5 * z;
     let wc = 1.0 - hz;
     let cs = wc + (((1.0 - wc) - hz) + (z * rc - y0 * y1));
-    match (k as i64) & 3 {
-        0 => (sn, cs),
-        1 => (cs, -sn),
-        2 => (-sn, -cs),
-        _ => (-cs, sn),
-    }
+    // branch-free quadrant (random angles would mispredict a match): swap on odd k, then signs
+    // sin: + + - - for k = 0, 1, 2, 3 (bit 1 of k); cos: + - - + (bit 1 of k + 1)
+    let swap = 0u64.wrapping_sub(quadrant & 1);
+    let (sb, cb) = (sn.to_bits(), cs.to_bits());
+    let s0 = (sb & !swap) | (cb & swap);
+    let c0 = (cb & !swap) | (sb & swap);
+    let s_sign = (quadrant & 2) << 62;
+    let c_sign = (quadrant.wrapping_add(1) & 2) << 62;
+    (f64::from_bits(s0 ^ s_sign), f64::from_bits(c0 ^ c_sign))
 }
 
 /// Rigid-body inertia as (mass, first moment `h = m c`, rotational inertia about the origin).
@@ -1350,7 +1356,7 @@ where
 
 /// Number of states the batch inverse dynamics advances together (structure of arrays: every operation
 /// runs on W lanes, which the compiler turns into SIMD; the shared model constants are loaded once).
-const LANES: usize = 2;
+const LANES: usize = 4;
 
 type Lane = [f64; LANES];
 
@@ -1425,6 +1431,24 @@ impl V3l {
             z: lanes!(l => r.m31 * self.x[l] + r.m32 * self.y[l] + r.m33 * self.z[l]),
         }
     }
+    /// `rᵀ self` for a classified rotation.
+    #[inline(always)]
+    fn rt_rot(&self, r: &Rot) -> V3l {
+        match r {
+            Rot::Identity => *self,
+            Rot::Rx(c, s) => V3l { x: self.x, y: lanes!(l => c * self.y[l] + s * self.z[l]), z: lanes!(l => c * self.z[l] - s * self.y[l]) },
+            Rot::General(m) => self.rt(m),
+        }
+    }
+    /// `r self` for a classified rotation.
+    #[inline(always)]
+    fn r_rot(&self, r: &Rot) -> V3l {
+        match r {
+            Rot::Identity => *self,
+            Rot::Rx(c, s) => V3l { x: self.x, y: lanes!(l => c * self.y[l] - s * self.z[l]), z: lanes!(l => s * self.y[l] + c * self.z[l]) },
+            Rot::General(m) => self.r(m),
+        }
+    }
     /// `Rz(t)ᵀ self` given cos, sin per lane.
     #[inline(always)]
     fn rz_t(&self, c: &Lane, s: &Lane) -> V3l {
@@ -1435,6 +1459,33 @@ impl V3l {
     fn rz(&self, c: &Lane, s: &Lane) -> V3l {
         V3l { x: lanes!(l => c[l] * self.x[l] - s[l] * self.y[l]), y: lanes!(l => s[l] * self.x[l] + c[l] * self.y[l]), z: self.z }
     }
+}
+
+/// A joint placement's rotation, classified once per batch so the kernel skips multiplications by 0 and 1:
+/// the identity, `Rx(alpha)` (every DH-family placement), or general.
+#[derive(Debug, Clone, Copy)]
+enum Rot {
+    Identity,
+    Rx(f64, f64),
+    General(Matrix3<f64>),
+}
+
+impl Rot {
+    fn of(r: &Matrix3<f64>) -> Self {
+        let x_fixed = r.m11 == 1.0 && r.m12 == 0.0 && r.m13 == 0.0 && r.m21 == 0.0 && r.m31 == 0.0;
+        if x_fixed && r.m22 == 1.0 && r.m33 == 1.0 && r.m23 == 0.0 && r.m32 == 0.0 {
+            Rot::Identity
+        } else if x_fixed && r.m22 == r.m33 && r.m23 == -r.m32 {
+            Rot::Rx(r.m22, r.m32)
+        } else {
+            Rot::General(*r)
+        }
+    }
+}
+
+/// Per joint of a batch: the placement rotation class and whether its translation is zero.
+fn placement_classes(model: &Model) -> Vec<(Rot, bool)> {
+    model.joints().iter().map(|j| (Rot::of(j.placement.rotation.matrix()), j.placement.translation.vector == Vector3::zeros())).collect()
 }
 
 /// Per-thread storage of the lane kernel: per link the joint's cos/sin (revolute) or displacement
@@ -1459,7 +1510,17 @@ impl LaneData {
 /// split into the shared placement and the per-lane motion. Agrees with [`rnea`] to rounding.
 #[allow(clippy::too_many_arguments)]
 #[inline]
-fn rnea_lanes(model: &Model, ld: &mut LaneData, rows: &[usize; LANES], qs: &[f64], qds: Option<&[f64]>, qdds: Option<&[f64]>, g_base: &Vector3<f64>, f_ext: Option<&[f64]>) {
+fn rnea_lanes(
+    model: &Model,
+    classes: &[(Rot, bool)],
+    ld: &mut LaneData,
+    rows: &[usize; LANES],
+    qs: &[f64],
+    qds: Option<&[f64]>,
+    qdds: Option<&[f64]>,
+    g_base: &Vector3<f64>,
+    f_ext: Option<&[f64]>,
+) {
     let n = model.nq();
     let joints = model.joints();
     let mut w = V3l::default();
@@ -1475,12 +1536,12 @@ fn rnea_lanes(model: &Model, ld: &mut LaneData, rows: &[usize; LANES], qs: &[f64
             Some(v) => lanes!(l => v[rows[l] * n + i]),
             None => [0.0; LANES],
         };
-        let r0 = j.placement.rotation.matrix();
+        let (r0, p0_zero) = &classes[i];
         let p0 = &j.placement.translation.vector;
         // to the placement frame (shared transform): a' = r0ᵀ (a + ω̇ × p0 + ω × (ω × p0))
-        let a_p = a.add(&wd.cross_s(p0)).add(&w.cross(&w.cross_s(p0))).rt(r0);
-        let w_p = w.rt(r0);
-        let wd_p = wd.rt(r0);
+        let a_p = if *p0_zero { a.rt_rot(r0) } else { a.add(&wd.cross_s(p0)).add(&w.cross(&w.cross_s(p0))).rt_rot(r0) };
+        let w_p = w.rt_rot(r0);
+        let wd_p = wd.rt_rot(r0);
         match j.kind {
             JointKind::Revolute => {
                 let mut c = [0.0; LANES];
@@ -1537,20 +1598,21 @@ fn rnea_lanes(model: &Model, ld: &mut LaneData, rows: &[usize; LANES], qs: &[f64
         };
         if i > 0 {
             let j = &joints[i];
-            let r0 = j.placement.rotation.matrix();
+            let (r0, p0_zero) = &classes[i];
             let p0 = &j.placement.translation.vector;
             let (c, sn) = &ld.cs[i];
             let (f_p, n_p) = match j.kind {
                 JointKind::Revolute => {
-                    let f_p = f.rz(c, sn).r(r0);
-                    (f_p, nn.rz(c, sn).r(r0).sub(&f_p.cross_s(p0)))
+                    let f_p = f.rz(c, sn).r_rot(r0);
+                    let n_p = nn.rz(c, sn).r_rot(r0);
+                    (f_p, if *p0_zero { n_p } else { n_p.sub(&f_p.cross_s(p0)) })
                 }
                 JointKind::Prismatic => {
                     // p = p0 + s z0: n_parent = r0 n + p × (r0 f)
-                    let f_p = f.r(r0);
-                    let z0 = r0.column(2).into_owned();
+                    let f_p = f.r_rot(r0);
+                    let z0 = j.placement.rotation.matrix().column(2).into_owned();
                     let d = V3l { x: lanes!(l => z0.x * c[l]), y: lanes!(l => z0.y * c[l]), z: lanes!(l => z0.z * c[l]) };
-                    (f_p, nn.r(r0).sub(&f_p.cross_s(p0)).add(&d.cross(&f_p)))
+                    (f_p, nn.r_rot(r0).sub(&f_p.cross_s(p0)).add(&d.cross(&f_p)))
                 }
             };
             let parent = &mut ld.f[i - 1];
@@ -1568,6 +1630,7 @@ fn rnea_batch_lanes(model: &Model, count: usize, qs: &[f64], qds: Option<&[f64]>
         return Ok(());
     }
     let g_base = gravity_in_base(model, g);
+    let classes = placement_classes(model);
     out.par_chunks_mut(n * CHUNK).enumerate().try_for_each_init(
         || LaneData::new(n),
         |ld, (c, chunk)| {
@@ -1584,7 +1647,7 @@ fn rnea_batch_lanes(model: &Model, count: usize, qs: &[f64], qds: Option<&[f64]>
             }
             for g0 in (0..rows_here).step_by(LANES) {
                 let rows: [usize; LANES] = std::array::from_fn(|l| start + (g0 + l).min(rows_here - 1));
-                rnea_lanes(model, ld, &rows, qs, qds, qdds, &g_base, f_ext);
+                rnea_lanes(model, &classes, ld, &rows, qs, qds, qdds, &g_base, f_ext);
                 for l in 0..LANES.min(rows_here - g0) {
                     let o = &mut chunk[(g0 + l) * n..(g0 + l + 1) * n];
                     for (k, t) in o.iter_mut().zip(&ld.tau) {

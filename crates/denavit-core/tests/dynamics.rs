@@ -542,3 +542,33 @@ fn force_w_tool(r: &nalgebra::Rotation3<f64>, f: &Vector3<f64>, n: &Vector3<f64>
     let (f, n) = (r * f, r * n);
     Vector6::new(f.x, f.y, f.z, n.x, n.y, n.z)
 }
+/// The batch kernel special-cases identity and Rx placements (every DH-family table): batch = single calls on
+/// the papers' robots, one with a prismatic joint too.
+#[test]
+fn batch_equals_single_on_dh_family_models() {
+    let mut kr5p = kr5_dh();
+    kr5p.kinds[2] = JointKind::Prismatic;
+    let models = [tiansui_mdh(), tiansui_edh(), kr5_dh(), kr5p];
+    for (k, table) in models.iter().enumerate() {
+        let m0 = table.to_model("m").unwrap();
+        let mut g = Rng(k as u64);
+        let m = m0.with_inertias((0..6).map(|_| g.inertia()).collect()).unwrap();
+        let count = 37;
+        let (mut qs, mut qds, mut qdds) = (vec![], vec![], vec![]);
+        for r in 0..count {
+            let (a, b, c) = random_state(r as u64 + 100 * k as u64, 6);
+            qs.extend(a);
+            qds.extend(b);
+            qdds.extend(c);
+        }
+        let f = [1.0, 2.0, -3.0, 0.1, -0.2, 0.3];
+        let mut out = vec![0.0; 6 * count];
+        dynamics::rnea_batch(&m, &qs, &qds, &qdds, &g0(), Some(&f), &mut out).unwrap();
+        let mut ws = DynamicsData::new(&m);
+        for r in 0..count {
+            let sl = |v: &[f64]| v[6 * r..6 * r + 6].to_vec();
+            let t = dynamics::rnea(&m, &mut ws, &sl(&qs), &sl(&qds), &sl(&qdds), &g0(), Some(&Vector6::from_row_slice(&f))).unwrap().to_vec();
+            assert!(max_abs_diff(&t, &sl(&out)) < 1e-12 * scale(&t), "model {k} row {r}: {t:?} vs {:?}", sl(&out));
+        }
+    }
+}
