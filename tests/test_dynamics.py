@@ -1,6 +1,8 @@
 """Dynamics through the Python API: algorithms against each other, MD-H vs ED-H frames (Guo et al. sec. IV.B),
 batches, a cross-check against pinocchio, and bad input."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -248,9 +250,9 @@ def test_bad_arguments_are_rejected_with_clear_messages():
         _core.transfer_inertias(m, dv.load_model("ur5"))
     # a robot without inertias has a singular mass matrix: forward dynamics says so
     with pytest.raises(dv.DegenerateError, match=r"joint 6 \('j6'\) moves no inertia"):
-        _core.forward_dynamics(dv.load_model("tiansui_edh"), z, z, z)
+        _core.forward_dynamics(dv.load_robot("tiansui_edh").table.to_model("bare"), z, z, z)
     with pytest.raises(dv.DegenerateError, match=r"not positive definite"):
-        _core.forward_dynamics(dv.load_model("tiansui_edh"), z, z, z, method="crba")
+        _core.forward_dynamics(dv.load_robot("tiansui_edh").table.to_model("bare"), z, z, z, method="crba")
 
 
 # --------------------------------------------------------------------------------------------------------------------
@@ -299,3 +301,135 @@ def test_matches_pinocchio_on_builtin_robots(name, rng):
         np.testing.assert_allclose(_core.gravity_torques(model, q), pin.computeGeneralizedGravity(pm, pd, qp), rtol=0, atol=1e-10)
         C = pin.computeCoriolisMatrix(pm, pd, qp, qd)
         np.testing.assert_allclose(_core.coriolis_matrix(model, q, qd) @ qd, C @ qd, rtol=0, atol=1e-10)
+
+
+# --------------------------------------------------------------------------------------------------------------------
+# Robot files with inertials, and the command line
+# --------------------------------------------------------------------------------------------------------------------
+
+
+def test_builtin_tiansui_files_carry_one_illustrative_set(rng):
+    edh, mdh = dv.load_robot("tiansui_edh"), dv.load_robot("tiansui_mdh")
+    np.testing.assert_array_equal(edh.inertials["masses"], TIANSUI_EDH_MASSES)
+    np.testing.assert_allclose(edh.inertials["coms"], TIANSUI_EDH_COMS, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(edh.inertials["inertias"], TIANSUI_EDH_INERTIAS, rtol=0, atol=1e-15)
+    for r in (edh, mdh):
+        assert "ILLUSTRATIVE" in Path(r.path).read_text(encoding="utf-8")
+    qs, qds, qdds = states(6, 200, rng)
+    a = _core.rnea_batch(edh.model(), qs, qds, qdds)
+    b = _core.rnea_batch(mdh.model(), qs, qds, qdds)
+    assert np.abs(a - b).max() < 1e-10
+
+
+FILE = """
+name = "one"
+convention = "{conv}"
+[units]
+length = "mm"
+angle = "deg"
+mass = "g"
+inertia = "{iunit}"
+[[joints]]
+name = "j1"
+{params}
+[joints.inertia]
+mass = {mass}
+com = [0, 0, 0]
+ixx = {ixx}
+iyy = 2000
+izz = 2000
+"""
+
+
+def test_robot_file_inertia_units_frames_and_round_trip(tmp_path):
+    # standard DH: the inertia is given in DH frame 1, at the end of the 500 mm link: a 2 kg point-like mass
+    p = tmp_path / "one.toml"
+    p.write_text(FILE.format(conv="dh", params="d = 0\ntheta = 0\na = 500\nalpha = 0", mass=2000, ixx=2000, iyy=2000, iunit="g mm^2"))
+    robot = dv.load_robot(p)
+    assert robot.inertials["masses"][0] == pytest.approx(2.0)
+    np.testing.assert_allclose(robot.inertials["inertias"][0], np.eye(3) * 2e-6, rtol=1e-12)
+    m = robot.model()
+    np.testing.assert_allclose(m.inertias["coms"][0], [0.5, 0, 0], atol=1e-15)  # re-expressed in the joint frame
+    g = np.array([0.0, -9.81, 0.0])
+    assert _core.gravity_torques(m, [0.0], gravity=g)[0] == pytest.approx(2.0 * 9.81 * 0.5, rel=1e-12)
+    # written back (SI units for the inertials) and read again: the same model
+    out = tmp_path / "out.toml"
+    dv.robotfile.save(robot, out, "mm", "deg")
+    again = dv.load_robot(out)
+    for k in ("masses", "coms", "inertias"):
+        np.testing.assert_allclose(again.inertials[k], robot.inertials[k], rtol=1e-12, atol=1e-18)
+
+
+@pytest.mark.parametrize(
+    ("mass", "ixx", "iunit", "drop_units", "match"),
+    [
+        (-5, 2000, "g mm^2", False, r"joint 1 \(line 9\): inertia: invalid mass of link 1: expected a mass >= 0 kg"),
+        (5, 9000, "g mm^2", False, r"joint 1 \(line 9\): inertia: invalid inertia tensor of link 1: expected principal moments satisfying the triangle inequality"),
+        (5, 2000, "kg furlong^2", False, r"unknown length unit 'furlong'"),
+        (5, 2000, "stone", False, r"unknown inertia unit 'stone'"),
+        (5, 2000, "g mm^2", True, r"\[units\] must declare 'mass' and 'inertia'"),
+    ],
+)
+def test_robot_file_inertia_errors(tmp_path, mass, ixx, iunit, drop_units, match):
+    text = FILE.format(conv="mdh", params="alpha = 0\na = 0\ntheta = 0\nd = 0", mass=mass, ixx=ixx, iunit=iunit)
+    if drop_units:
+        text = text.replace('mass = "g"\n', "")
+    p = tmp_path / "bad.toml"
+    p.write_text(text)
+    with pytest.raises(dv.DenavitError, match=match):
+        dv.load_robot(p)
+
+
+def test_robot_file_unknown_inertia_key(tmp_path):
+    p = tmp_path / "bad.toml"
+    p.write_text(FILE.format(conv="mdh", params="alpha = 0\na = 0\ntheta = 0\nd = 0", mass=1, ixx=2000, iunit="g mm^2") + "izy = 3\n")
+    with pytest.raises(dv.DenavitError, match=r"joint 1 \(line 9\): inertia: unknown keys \['izy'\]"):
+        dv.load_robot(p)
+
+
+def cli(*args, ok=True):
+    import subprocess  # noqa: PLC0415
+    import sys  # noqa: PLC0415
+
+    p = subprocess.run([sys.executable, "-m", "denavit.cli", *args], capture_output=True, text=True, env={"COLUMNS": "120", "PATH": "/usr/bin:/bin"})
+    if ok:
+        assert p.returncode == 0, p.stderr
+    return p
+
+
+def test_cli_dynamics_json_matches_the_library():
+    import json  # noqa: PLC0415
+
+    doc = json.loads(cli("dynamics", "tiansui_edh", "--q", "10,-80,70,5,60,0", "--qd", "20,0,-10,0,5,0", "--qdd", "0,30,0,0,0,10", "--deg",
+                         "--f-ext", "0,0,-20,0,0,0", "--json").stdout)
+    r = np.radians
+    tau = _core.rnea(dv.load_model("tiansui_edh"), r([10, -80, 70, 5, 60, 0]), r([20, 0, -10, 0, 5, 0]), r([0, 30, 0, 0, 0, 10]), f_ext=[0, 0, -20, 0, 0, 0])
+    np.testing.assert_allclose(doc["tau"], tau, rtol=0, atol=1e-12)
+    assert doc["tau_units"] == ["N m"] * 6 and "warning" not in doc
+    assert doc["q"] == pytest.approx([10, -80, 70, 5, 60, 0])
+    table = cli("dynamics", "tiansui_mdh", "--q", "10,-80,70,5,60,0", "--deg").stdout
+    assert "Joint efforts" in table and "of which gravity" in table
+
+
+def test_cli_dynamics_warns_without_inertials_and_rejects_bad_input():
+    import json  # noqa: PLC0415
+
+    doc = json.loads(cli("dynamics", "kr5", "--json").stdout)
+    assert "carries no inertial parameters" in doc["warning"] and doc["tau"] == [0.0] * 6
+    for args, match in [
+        (("dynamics", "kr5", "--qd", "1,2"), "--qd: expected 6 joint values for kr5, got 2"),
+        (("dynamics", "kr5", "--gravity", "0,9.81"), "--gravity: expected 3 values"),
+        (("dynamics", "kr5", "--f-ext", "1,2,3"), "--f-ext: expected 6 values"),
+    ]:
+        p = cli(*args, ok=False)
+        assert p.returncode == 2 and match in " ".join(p.stderr.split()) and "Traceback" not in p.stderr
+
+
+@pytest.mark.parametrize("to", ["dh", "mdh", "edh", "poe"])
+def test_cli_convert_carries_the_inertials(tmp_path, to, rng):
+    out = tmp_path / f"tiansui_{to}.toml"
+    cli("convert", "tiansui_edh", "--to", to, "-o", str(out), "--length", "mm")
+    qs, qds, qdds = states(6, 100, rng)
+    a = _core.rnea_batch(dv.load_model(out), qs, qds, qdds)
+    b = _core.rnea_batch(dv.load_model("tiansui_edh"), qs, qds, qdds)
+    assert np.abs(a - b).max() < 1e-10

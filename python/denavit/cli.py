@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -14,7 +15,7 @@ from rich.table import Table as RichTable
 
 from . import _core
 from .errors import DenavitError
-from .robotfile import Robot, builtin_names, dumps, load, save
+from .robotfile import Robot, builtin_names, dumps, inertials_for_table, load, save
 from .units import angle_scale, length_scale
 
 app = typer.Typer(
@@ -120,6 +121,72 @@ def fk(
     console.print(ft)
 
 
+def parse_rates(text: str | None, what: str, robot: Robot, deg: bool, unit: str) -> np.ndarray:
+    """Joint velocities or accelerations in their declared units (deg or rad per s / s^2; --unit for prismatic)."""
+    n = robot.table.params.shape[0]
+    values = parse_numbers(text, what)
+    if not values:
+        return np.zeros(n)
+    if len(values) != n:
+        fail(f"{what}: expected {n} joint values for {robot.name}, got {len(values)}")
+    a, l = angle_scale("deg" if deg else "rad"), length_scale(unit)
+    return np.array([v * (a if k == "revolute" else l) for v, k in zip(values, robot.table.kinds)])
+
+
+@app.command()
+def dynamics(
+    model: ModelArg,
+    q: Annotated[Optional[str], typer.Option("--q", help="Joint values, one per joint (default zeros).")] = None,
+    qd: Annotated[Optional[str], typer.Option("--qd", help="Joint velocities per second (default zeros).")] = None,
+    qdd: Annotated[Optional[str], typer.Option("--qdd", help="Joint accelerations per second squared (default zeros).")] = None,
+    deg: Annotated[bool, typer.Option("--deg", help="Revolute values (and their rates) in degrees (default radians).")] = False,
+    unit: Annotated[str, typer.Option("--unit", help="Length unit of prismatic values and their rates: m, mm, ...")] = "m",
+    gravity: Annotated[str, typer.Option("--gravity", help="Gravity in world, m/s^2.")] = "0,0,-9.81",
+    f_ext: Annotated[Optional[str], typer.Option("--f-ext", help="Wrench on the tool by the environment, \"fx,fy,fz,nx,ny,nz\" in N and N m, tool-frame axes, moment about the tool origin.")] = None,
+    json_out: JsonOpt = False,
+) -> None:
+    """Inverse dynamics (recursive Newton-Euler): the joint torques (N m) / forces (N) for q, qd, qdd.
+
+    Uses the link inertias of the robot file ([joints.inertia]); without them every link is massless and a
+    warning says so. Also prints the gravity part of the torques.
+    """
+    robot = load(model)
+    m = robot.model()
+    qv, qdv, qddv = parse_q(q, robot, deg, unit), parse_rates(qd, "--qd", robot, deg, unit), parse_rates(qdd, "--qdd", robot, deg, unit)
+    g = parse_numbers(gravity, "--gravity")
+    if len(g) != 3:
+        fail(f"--gravity: expected 3 values (m/s^2, world), got {len(g)}")
+    f = parse_numbers(f_ext, "--f-ext") if f_ext else None
+    if f is not None and len(f) != 6:
+        fail(f"--f-ext: expected 6 values fx,fy,fz,nx,ny,nz (N, N m, tool frame), got {len(f)}")
+    tau = _core.rnea(m, qv, qdv, qddv, gravity=g, f_ext=f)
+    tau_g = _core.gravity_torques(m, qv, gravity=g)
+    units = ["N m" if k == "revolute" else "N" for k in robot.table.kinds]
+    warning = None if robot.inertials is not None else f"{robot.name} carries no inertial parameters ([joints.inertia]): every link is massless"
+    if json_out:
+        a, l = (angle_scale("deg") if deg else 1.0), length_scale(unit)
+        back = np.array([a if k == "revolute" else l for k in robot.table.kinds])
+        doc = {
+            "model": robot.name,
+            "units": {"angle": "deg" if deg else "rad", "length": unit, "time": "s", "torque": "N m", "force": "N"},
+            "q": (qv / back).tolist(), "qd": (qdv / back).tolist(), "qdd": (qddv / back).tolist(),
+            "gravity": g, "f_ext": f, "tau": tau.tolist(), "tau_gravity": tau_g.tolist(), "tau_units": units,
+        }
+        if warning:
+            doc["warning"] = warning
+        print(json.dumps(doc, indent=2))
+        return
+    if warning:
+        err_console.print(f"[bold yellow]warning:[/] {warning}")
+    console.print(f"[bold]{robot.name}[/] ({robot.description}) — inverse dynamics, gravity {g} m/s^2 in world")
+    t = RichTable(title="Joint efforts")
+    for c in ("joint", "tau", "of which gravity", "unit"):
+        t.add_column(c, justify="right")
+    for name, v, vg, u in zip(robot.names, tau, tau_g, units):
+        t.add_row(name, fmt(v), fmt(vg), u)
+    console.print(t)
+
+
 def table_rows(table: _core.Table, length: str, angle: str) -> list[dict]:
     ls, as_ = length_scale(length), angle_scale(angle)
     rows = []
@@ -179,6 +246,11 @@ def convert(
     ex = _core.extract(_core.axes(m, np.zeros(m.nq)), to, parallel_tol=parallel_tol, nominal=nominal)
     new = Robot(name=robot.name, table=ex.table, names=robot.names, lower=robot.lower, upper=robot.upper,
                 description=f"{robot.description} -> {to}", source=robot.source, home=robot.home, extra=robot.extra)
+    if robot.inertials is not None:
+        try:  # the same physical links, re-expressed in the new convention's frames
+            new = dataclasses.replace(new, inertials=inertials_for_table(m, ex.table, robot.names, robot.lower, robot.upper))
+        except DenavitError as e:
+            err_console.print(f"[bold yellow]warning:[/] link inertias not carried over (the {to} table does not reproduce the joint axes exactly): {e}")
     if output is not None:
         save(new, output, length, angle)
         console.print(f"wrote {output}")

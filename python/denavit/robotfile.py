@@ -15,12 +15,21 @@ Format (see docs/robot-files.md and the built-in files in ``denavit/models``)::
     a = 180
     alpha = 90
     limits = [-155, 155]         # optional
+    [joints.inertia]             # optional: link i's inertial parameters in the convention's frame i
+    mass = 8.39                  # [units] mass (kg | g)
+    com = [-203, 0, 120]         # centre of mass, [units] length
+    ixx = 0.015                  # about the centre of mass, [units] inertia (e.g. "kg m^2", "g mm^2")
+    iyy = 0.134                  # ixy, ixz, iyz default to 0
+    izz = 0.133
     [base]                       # optional T_world_base: xyz (length) + rpy (angle), or matrix (4x4, length)
     xyz = [0, 0, 0]
     rpy = [0, 0, 0]
     [tool]                       # optional tool in the convention's last frame (poe: home pose M)
 
 POE joints give ``w = [wx, wy, wz]`` and ``v = [vx, vy, vz]`` (v in length units).
+Inertial parameters (for the dynamics) are given per link in frame i of the file's convention (``dh``: DH frame i
+at the end of link i; ``mdh``, ``edh``: frame i; ``poe``: the model's joint frame i), about the centre of mass;
+a file with any ``[joints.inertia]`` declares ``[units] mass`` and ``inertia``.
 ``rpy`` is roll-pitch-yaw about fixed axes as in URDF: ``R = Rz(yaw) Ry(pitch) Rx(roll)``.
 """
 
@@ -62,14 +71,52 @@ class Robot:
     home: np.ndarray | None = None
     path: str = ""
     extra: dict = field(default_factory=dict)
+    inertials: dict | None = None
+    """Link inertial parameters in frame i of the convention, SI: ``masses`` (n,) kg, ``coms`` (n, 3) m,
+    ``inertias`` (n, 3, 3) kg m^2 about each centre of mass (None: massless links)."""
 
     @property
     def convention(self) -> str:
         return self.table.convention
 
     def model(self) -> _core.Model:
-        """The kinematic model (docs/conventions.md)."""
-        return self.table.to_model(self.name, self.names, self.lower, self.upper)
+        """The model (docs/conventions.md), with the link inertias of the file if it gives them."""
+        model = self.table.to_model(self.name, self.names, self.lower, self.upper)
+        if self.inertials is None:
+            return model
+        return attach_inertials(model, self.table, self.inertials)
+
+
+def convention_frames_in_joint_frames(model: _core.Model, table: _core.Table) -> np.ndarray:
+    """(n, 4, 4) pose of the convention's frame i in the model's joint frame i (fixed: both move with link i);
+    the identity except for ``dh``, whose frame i sits at the end of link i."""
+    n = model.nq
+    if table.convention != "dh":
+        return np.tile(np.eye(4), (n, 1, 1))
+    q0 = np.zeros(n)
+    J = _core.joint_frames(model, q0)
+    F = table.frames(q0)[1:]
+    return np.linalg.inv(J) @ F
+
+
+def inertials_for_table(model: _core.Model, table: _core.Table, names: list[str], lower, upper) -> dict:
+    """The link inertias of ``model`` (same robot, same joint axes at q = 0) in frame i of ``table``'s
+    convention, as a :attr:`Robot.inertials` dict: how a conversion carries the dynamics along."""
+    target = _core.transfer_inertias(model, table.to_model("target", names, lower, upper))
+    ins = target.inertias
+    T = convention_frames_in_joint_frames(target, table)
+    R, p = T[:, :3, :3], T[:, :3, 3]
+    coms = np.einsum("nji,nj->ni", R, ins["coms"] - p)
+    return {"masses": ins["masses"], "coms": coms, "inertias": R.transpose(0, 2, 1) @ ins["inertias"] @ R}
+
+
+def attach_inertials(model: _core.Model, table: _core.Table, inertials: dict) -> _core.Model:
+    """``model`` with inertials given in frame i of ``table``'s convention (re-expressed in the joint frames)."""
+    T = convention_frames_in_joint_frames(model, table)
+    R, p = T[:, :3, :3], T[:, :3, 3]
+    coms = np.einsum("nij,nj->ni", R, np.asarray(inertials["coms"], dtype=float)) + p
+    inertias = R @ np.asarray(inertials["inertias"], dtype=float) @ R.transpose(0, 2, 1)
+    return model.with_inertias(np.asarray(inertials["masses"], dtype=float), coms, inertias)
 
 
 def builtin_names() -> list[str]:
@@ -117,6 +164,57 @@ def _joint_lines(text: str) -> list[int]:
     return [i + 1 for i, line in enumerate(text.splitlines()) if re.match(r"\s*\[\[\s*joints\s*\]\]", line)]
 
 
+MASS = {"kg": 1.0, "g": 1e-3}
+
+
+def mass_scale(unit: str, where: str = "") -> float:
+    """Kilograms per `unit` ("kg", "g")."""
+    try:
+        return MASS[str(unit).strip().lower()]
+    except KeyError:
+        raise DenavitError(f"{where + ': ' if where else ''}unknown mass unit {unit!r}: expected one of {', '.join(MASS)}") from None
+
+
+def inertia_scale(unit: str, where: str = "") -> float:
+    """kg m^2 per `unit`, a mass unit times a squared length unit: "kg m^2", "g mm^2", "kg*cm^2", ..."""
+    m = re.fullmatch(r"\s*([a-zA-Z]+)\s*[* ]\s*([a-zA-Z]+)\s*(\^2|\*\*2|2)\s*", str(unit))
+    if not m:
+        raise DenavitError(f"{where + ': ' if where else ''}unknown inertia unit {unit!r}: expected a mass unit times a squared length unit, e.g. \"kg m^2\" or \"g mm^2\"")
+    return mass_scale(m.group(1), where) * length_scale(m.group(2), where) ** 2
+
+
+INERTIA_KEYS = ("mass", "com", "ixx", "iyy", "izz", "ixy", "ixz", "iyz")
+
+
+def _inertia(spec, jw: str, units: dict | None, where: str, ls: float) -> tuple[float, list[float], np.ndarray]:
+    """One joint's ``inertia`` table -> (mass kg, com m, inertia about the com kg m^2), checked for form here
+    and for physics (mass >= 0, positive semi-definite, triangle inequality) by the core."""
+    if not isinstance(spec, dict):
+        raise DenavitError(f"{jw}: inertia must be a table with mass, com, ixx, iyy, izz (ixy, ixz, iyz), got {spec!r}")
+    unknown = set(spec) - set(INERTIA_KEYS)
+    if unknown:
+        raise DenavitError(f"{jw}: inertia: unknown keys {sorted(unknown)}: expected {', '.join(INERTIA_KEYS)}")
+    missing = [k for k in ("mass", "com", "ixx", "iyy", "izz") if k not in spec]
+    if missing:
+        raise DenavitError(f"{jw}: inertia: missing {', '.join(missing)}")
+    if not isinstance(units, dict) or "mass" not in units or "inertia" not in units:
+        raise DenavitError(f"{where}: [units] must declare 'mass' and 'inertia' (e.g. mass = \"kg\", inertia = \"kg m^2\") when a joint gives an inertia")
+    ms = mass_scale(units["mass"], f"{where}, [units] mass")
+    iscale = inertia_scale(units["inertia"], f"{where}, [units] inertia")
+    try:
+        vals = {k: float(spec.get(k, 0.0)) for k in INERTIA_KEYS if k != "com"}
+        com = [float(c) for c in spec["com"]]
+    except (TypeError, ValueError):
+        raise DenavitError(f"{jw}: inertia: mass, ixx ... iyz must be numbers and com three numbers, got {spec!r}") from None
+    if len(com) != 3:
+        raise DenavitError(f"{jw}: inertia: com needs 3 values, got {len(com)}")
+    bad = [k for k, v in vals.items() if not math.isfinite(v)] + (["com"] if not all(map(math.isfinite, com)) else [])
+    if bad:
+        raise DenavitError(f"{jw}: inertia: {', '.join(bad)} must be finite")
+    I = np.array([[vals["ixx"], vals["ixy"], vals["ixz"]], [vals["ixy"], vals["iyy"], vals["iyz"]], [vals["ixz"], vals["iyz"], vals["izz"]]])
+    return vals["mass"] * ms, [c * ls for c in com], I * iscale
+
+
 def load(name_or_path: str | os.PathLike) -> Robot:
     """Read a robot file (or a built-in by name) into a :class:`Robot` (SI inside)."""
     path = resolve(name_or_path)
@@ -148,9 +246,13 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
     cols = list(_core.Table(conv, np.zeros((0, len(_columns(conv))))).columns)
     angle_cols = _angle_columns(conv)
     rows, kinds, names, lower, upper = [], [], [], [], []
+    inert: list[tuple[float, list[float], np.ndarray] | None] = []
+    joint_where = []
     for i, j in enumerate(joints):
         line = f" (line {joint_lines[i]})" if joint_lines and i < len(joint_lines) else ""
         jw = f"{where}, joint {i + 1}{line}"
+        joint_where.append(jw)
+        inert.append(_inertia(j["inertia"], jw, units, where, ls) if "inertia" in j else None)
         kind = str(j.get("type", "revolute")).lower()
         if kind not in ("revolute", "prismatic"):
             raise DenavitError(f"{jw}: type must be 'revolute' or 'prismatic', got {j.get('type')!r}")
@@ -196,6 +298,21 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
             raise DenavitError(f"{where}: home must have {len(joints)} values, got {home.shape}")
         home = np.array([h * (as_ if k == "revolute" else ls) for h, k in zip(home, kinds)])
     known = {"name", "description", "source", "convention", "units", "joints", "base", "tool", "home"}
+    inertials = None
+    if any(x is not None for x in inert):
+        zero = (0.0, [0.0, 0.0, 0.0], np.zeros((3, 3)))
+        full = [x if x is not None else zero for x in inert]
+        inertials = {
+            "masses": np.array([x[0] for x in full]),
+            "coms": np.array([x[1] for x in full]),
+            "inertias": np.array([x[2] for x in full]),
+        }
+        try:  # the core's physical checks, reported at the joint's line
+            attach_inertials(table.to_model("check"), table, inertials)
+        except DenavitError as e:
+            m = re.search(r"of link (\d+)", str(e))
+            at = joint_where[int(m.group(1)) - 1] if m else where
+            raise DenavitError(f"{at}: inertia: {e}") from None
     return Robot(
         name=str(doc.get("name", Path(where).stem)),
         table=table,
@@ -207,6 +324,7 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         home=home,
         path=where,
         extra={k: v for k, v in doc.items() if k not in known},
+        inertials=inertials,
     )
 
 
@@ -235,6 +353,8 @@ def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
     if robot.home is not None:
         doc["home"] = [float(h / (as_ if k == "revolute" else ls)) for h, k in zip(robot.home, t.kinds)]
     doc["units"] = {"length": length, "angle": angle}
+    if robot.inertials is not None:
+        doc["units"].update({"mass": "kg", "inertia": "kg m^2"})
     joints = []
     for i, (row, kind) in enumerate(zip(t.params, t.kinds)):
         j: dict = {"name": robot.names[i]}
@@ -248,6 +368,13 @@ def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
                 j[c] = float(v / (as_ if is_angle else ls))
         scale = as_ if kind == "revolute" else ls
         j["limits"] = [float(robot.lower[i] / scale), float(robot.upper[i] / scale)]
+        if robot.inertials is not None and robot.inertials["masses"][i] > 0:
+            I = robot.inertials["inertias"][i]
+            j["inertia"] = {
+                "mass": float(robot.inertials["masses"][i]),
+                "com": [float(c / ls) for c in robot.inertials["coms"][i]],
+                **{k: float(I[a, b]) for k, (a, b) in zip(("ixx", "iyy", "izz", "ixy", "ixz", "iyz"), ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)))},
+            }
         joints.append(j)
     doc["joints"] = joints
     if not np.allclose(t.T_world_base, np.eye(4), atol=0, rtol=0):
