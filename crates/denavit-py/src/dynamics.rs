@@ -8,7 +8,7 @@ use crate::model::PyModel;
 use denavit_core::dynamics::{self, DynamicsData, Inertia, DEFAULT_GRAVITY};
 use denavit_core::Model;
 use nalgebra::{Vector3, Vector6};
-use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::cell::RefCell;
@@ -29,36 +29,30 @@ fn with_ws<R>(n: usize, f: impl FnOnce(&mut DynamicsData) -> R) -> R {
     })
 }
 
-/// A 1-D input: borrowed when it is a contiguous float64 array, else converted (lists, other dtypes).
-enum Vin<'py> {
-    Borrowed(PyReadonlyArray1<'py, f64>),
-    Owned(Vec<f64>),
-}
+/// A 1-D input of n floats, copied at once under the GIL (cheaper than registering a numpy borrow for a few
+/// values); lists, other dtypes and strided arrays go through `numpy.ascontiguousarray`.
+struct Vin(Vec<f64>);
 
-impl Vin<'_> {
+impl Vin {
     fn slice(&self) -> &[f64] {
-        match self {
-            Vin::Borrowed(a) => a.as_slice().unwrap_or(&[]),
-            Vin::Owned(v) => v,
-        }
+        &self.0
     }
 }
 
-fn vin<'py>(what: &str, obj: &Bound<'py, PyAny>, n: usize) -> PyResult<Vin<'py>> {
+fn vin(what: &str, obj: &Bound<'_, PyAny>, n: usize) -> PyResult<Vin> {
     if let Ok(a) = obj.downcast::<PyArray1<f64>>() {
-        if let Ok(r) = a.try_readonly() {
-            if r.as_slice().is_ok() {
-                if r.len() != n {
-                    return Err(value_error(format!("{what}: expected an array of shape ({n}), got shape [{}]", r.len())));
-                }
-                return Ok(Vin::Borrowed(r));
+        // a copy made at once under the GIL: cheaper than registering a borrow for a few values
+        if let Ok(v) = a.to_vec() {
+            if v.len() != n {
+                return Err(value_error(format!("{what}: expected an array of shape ({n}), got shape [{}]", v.len())));
             }
+            return Ok(Vin(v));
         }
     }
     let a = c_contiguous(what, obj, &format!("({n})"))?;
     check_shape(what, a.shape(), &[Some(n)])?;
     let a = a.into_any().downcast_into::<PyArray1<f64>>().map_err(|_| value_error(format!("{what}: expected a 1-D array")))?;
-    Ok(Vin::Owned(a.readonly().as_array().iter().copied().collect()))
+    Ok(Vin(a.readonly().as_array().iter().copied().collect()))
 }
 
 /// Any array-like as a C-contiguous float64 numpy array (`numpy.ascontiguousarray`): the one slow path, which
@@ -140,8 +134,8 @@ fn out1<'py>(py: Python<'py>, v: &[f64]) -> Bound<'py, PyArray1<f64>> {
 
 fn out_matrix<'py>(py: Python<'py>, m: &nalgebra::DMatrix<f64>) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let n = m.nrows();
-    let v: Vec<f64> = (0..n).flat_map(|r| (0..n).map(move |c| (r, c))).map(|(r, c)| m[(r, c)]).collect();
-    PyArray1::from_vec(py, v).reshape([n, n])
+    // nalgebra is column-major: its transpose's storage is the row-major matrix (one array, no reshape)
+    Ok(PyArray2::from_owned_array(py, numpy::ndarray::Array2::from_shape_fn((n, n), |(r, c)| m[(r, c)])))
 }
 
 /// Inverse dynamics (recursive Newton-Euler, Featherstone ch. 5): joint efforts (n,) in N m / N.
