@@ -404,8 +404,17 @@ fn cross_z(a: &Vector3<f64>) -> Vector3<f64> {
 /// kernels `__sin`, `__cos` on [-pi/4, pi/4]; `f64::sin_cos` beyond |x| = 1e5. About twice as fast as
 /// libm's `sincos` here, and it is on every link of every algorithm.
 #[inline(always)]
-#[allow(clippy::excessive_precision)] // the kernels' constants exactly as published
 pub(crate) fn sin_cos(x: f64) -> (f64, f64) {
+    if x.abs() >= 1.0e5 || x.is_nan() {
+        return x.sin_cos();
+    }
+    sin_cos_reduced(x)
+}
+
+/// [`sin_cos`] without the range check (|x| < 1e5, not NaN): branch-free, so a loop over lanes vectorises.
+#[inline(always)]
+#[allow(clippy::excessive_precision)] // the kernels' constants exactly as published
+fn sin_cos_reduced(x: f64) -> (f64, f64) {
     const INV_PIO2: f64 = std::f64::consts::FRAC_2_PI;
     const PIO2_1: f64 = 1.57079632673412561417e+00; // first 33 bits of pi/2
     const PIO2_1T: f64 = 6.07710050650619224932e-11; // pi/2 - PIO2_1
@@ -421,9 +430,6 @@ pub(crate) fn sin_cos(x: f64) -> (f64, f64) {
     const C4: f64 = -2.75573143513906633035e-07;
     const C5: f64 = 2.08757232129817482790e-09;
     const C6: f64 = -1.13596475577881948265e-11;
-    if x.abs() >= 1.0e5 || x.is_nan() {
-        return x.sin_cos();
-    }
     // round to nearest by the 1.5 * 2^52 shift (no libm call without SSE4.1; exact for |x| < 2^51)
     const SHIFT: f64 = 6755399441055744.0;
     let shifted = x * INV_PIO2 + SHIFT;
@@ -1546,8 +1552,14 @@ fn rnea_lanes(
             JointKind::Revolute => {
                 let mut c = [0.0; LANES];
                 let mut sn = [0.0; LANES];
-                for l in 0..LANES {
-                    (sn[l], c[l]) = sin_cos(s[l]);
+                if s.iter().all(|x| x.abs() < 1.0e5) {
+                    for l in 0..LANES {
+                        (sn[l], c[l]) = sin_cos_reduced(s[l]);
+                    }
+                } else {
+                    for l in 0..LANES {
+                        (sn[l], c[l]) = sin_cos(s[l]);
+                    }
                 }
                 let w_r = w_p.rz_t(&c, &sn);
                 // ω = Rzᵀ ω' + qd z;  ω̇ = Rzᵀ ω̇' + (Rzᵀ ω') × qd z + qdd z
