@@ -138,7 +138,13 @@ fn out_matrix<'py>(py: Python<'py>, m: &nalgebra::DMatrix<f64>) -> PyResult<Boun
     Ok(PyArray2::from_owned_array(py, numpy::ndarray::Array2::from_shape_fn((n, n), |(r, c)| m[(r, c)])))
 }
 
-/// Inverse dynamics (recursive Newton-Euler, Featherstone ch. 5): joint efforts (n,) in N m / N.
+/// Inverse dynamics by the recursive Newton-Euler algorithm (Featherstone 2008, ch. 5).
+///
+/// q, qd, qdd : array-like, shape (n,) — rad (m), rad/s (m/s), rad/s^2 (m/s^2).
+/// gravity : array-like, shape (3,), m/s^2 in world (default [0, 0, -9.81]).
+/// f_ext : array-like, shape (6,), optional — wrench [fx, fy, fz, nx, ny, nz] (N, N m) applied to the tool by
+///     the environment, tool-frame axes, moment about the tool origin (costs -J_tool^T f_ext).
+/// Returns tau, shape (n,): N m (revolute) / N (prismatic). Link inertias: Model.with_inertias.
 #[pyfunction]
 #[pyo3(signature = (model, q, qd, qdd, gravity=None, f_ext=None))]
 pub fn rnea<'py>(
@@ -158,7 +164,7 @@ pub fn rnea<'py>(
     with_ws(n, |ws| Ok(out1(py, dynamics::rnea(m, ws, q.slice(), qd.slice(), qdd.slice(), &g, w.as_ref()).py()?)))
 }
 
-/// Bias forces C(q, qd) qd + g(q), shape (n,).
+/// Bias forces C(q, qd) qd + g(q) (N m / N), shape (n,): rnea with qdd = 0. q, qd : (n,); gravity : (3,) world.
 #[pyfunction]
 #[pyo3(signature = (model, q, qd, gravity=None))]
 pub fn bias_forces<'py>(py: Python<'py>, model: &PyModel, q: &Bound<'py, PyAny>, qd: &Bound<'py, PyAny>, gravity: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyArray1<f64>>> {
@@ -169,7 +175,7 @@ pub fn bias_forces<'py>(py: Python<'py>, model: &PyModel, q: &Bound<'py, PyAny>,
     with_ws(n, |ws| Ok(out1(py, dynamics::bias_forces(m, ws, q.slice(), qd.slice(), &g).py()?)))
 }
 
-/// Gravity torques g(q), shape (n,).
+/// Gravity torques g(q) (N m / N), shape (n,). q : (n,); gravity : (3,) m/s^2 in world (default [0, 0, -9.81]).
 #[pyfunction]
 #[pyo3(signature = (model, q, gravity=None))]
 pub fn gravity_torques<'py>(py: Python<'py>, model: &PyModel, q: &Bound<'py, PyAny>, gravity: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyArray1<f64>>> {
@@ -180,7 +186,8 @@ pub fn gravity_torques<'py>(py: Python<'py>, model: &PyModel, q: &Bound<'py, PyA
     with_ws(n, |ws| Ok(out1(py, dynamics::gravity_torques(m, ws, q.slice(), &g).py()?)))
 }
 
-/// Mass matrix M(q) (n, n) by the composite rigid body algorithm (Featherstone ch. 6).
+/// Joint-space mass matrix M(q), shape (n, n), symmetric positive definite, by the composite rigid body
+/// algorithm (Featherstone 2008, ch. 6). q : (n,) rad / m.
 #[pyfunction]
 pub fn mass_matrix<'py>(py: Python<'py>, model: &PyModel, q: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let m = &model.inner;
@@ -189,7 +196,8 @@ pub fn mass_matrix<'py>(py: Python<'py>, model: &PyModel, q: &Bound<'py, PyAny>)
     with_ws(n, |ws| out_matrix(py, dynamics::mass_matrix(m, ws, q.slice()).py()?))
 }
 
-/// Coriolis matrix C(q, qd) (n, n) with dM/dt - 2C skew-symmetric and C qd + g = bias_forces.
+/// Coriolis matrix C(q, qd), shape (n, n): C qd + g(q) = bias_forces and dM/dt - 2C is skew-symmetric
+/// (Christoffel-consistent factorisation). q, qd : (n,).
 #[pyfunction]
 pub fn coriolis_matrix<'py>(py: Python<'py>, model: &PyModel, q: &Bound<'py, PyAny>, qd: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let m = &model.inner;
