@@ -59,6 +59,35 @@ def parse_q(text: str | None, robot: Robot, deg: bool, unit: str) -> np.ndarray:
     return np.array([v * (a if k == "revolute" else l) for v, k in zip(values, robot.table.kinds)])
 
 
+def parse_home(text: str | None, robot: Robot, as_: float) -> np.ndarray:
+    """--home in angle units (rad/deg scale `as_`), else the robot file's home, else zeros."""
+    n = len(robot.names)
+    if text:
+        h = np.array(parse_numbers(text, "--home")) * as_
+    elif robot.home is not None:
+        h = np.asarray(robot.home, dtype=float)
+    else:
+        h = np.zeros(n)
+    if h.shape != (n,):
+        fail(f"--home: expected {n} values, got {h.size}")
+    return h
+
+
+def parse_ranges(text: str | None, n: int, as_: float, default: str) -> np.ndarray:
+    """--ranges: 'paper90' / 'paper30' (Hayat Table II) or start,end pairs per joint in angle units."""
+    from .sweeps import PAPER_RANGES_DEG  # noqa: PLC0415
+
+    key = (text or default).lower()
+    if key in ("paper90", "paper30"):
+        if n != 6:
+            fail("--ranges paper90/paper30 are Hayat Table II for a 6-joint robot; give start,end pairs for this one")
+        return np.radians(np.array(PAPER_RANGES_DEG[int(key[-2:])]))
+    vals = parse_numbers(text, "--ranges")
+    if len(vals) != 2 * n:
+        fail(f"--ranges: expected {2 * n} values (start,end per joint), got {len(vals)}")
+    return np.array(vals).reshape(n, 2) * as_
+
+
 def pose_rows(T: np.ndarray, ls: float) -> list[list[float]]:
     M = np.array(T, dtype=float)
     M[:3, 3] /= ls
@@ -443,24 +472,8 @@ def simulate(
     m = robot.model()
     ls, as_ = length_scale(length), angle_scale(angle)
     n = m.nq
-    if home:
-        h = np.array(parse_numbers(home, "--home")) * as_
-    elif robot.home is not None:
-        h = robot.home
-    else:
-        h = np.zeros(n)
-    if h.shape != (n,):
-        fail(f"--home: expected {n} values, got {h.size}")
-    key = (ranges or "paper90").lower()
-    if key in ("paper90", "paper30"):
-        if n != 6:
-            fail("--ranges paper90/paper30 are Hayat Table II for a 6-joint robot; give start,end pairs for this one")
-        r = np.radians(np.array(sw.PAPER_RANGES_DEG[int(key[-2:])]))
-    else:
-        vals = parse_numbers(ranges, "--ranges")
-        if len(vals) != 2 * n:
-            fail(f"--ranges: expected {2 * n} values (start,end per joint), got {len(vals)}")
-        r = np.array(vals).reshape(n, 2) * as_
+    h = parse_home(home, robot, as_)
+    r = parse_ranges(ranges, n, as_, "paper90")
     tp = np.array(parse_numbers(tool, "--tool")) * ls
     if tp.shape != (3,):
         fail(f"--tool: expected 3 values, got {tp.size}")
@@ -586,7 +599,6 @@ def plan(
 ) -> None:
     """Predict every parameter's sigma (Cramer-Rao bound) and the measuring volume of a protocol, before measuring."""
     from . import calibrate as cal  # noqa: PLC0415
-    from . import sweeps as sw  # noqa: PLC0415
 
     robot = load(model)
     n = len(robot.names)
@@ -603,24 +615,8 @@ def plan(
                 fail(f"--random: expected a positive count, got {random}")
             q = cal.configurations(robot, random)
     else:
-        if home:
-            h = np.array(parse_numbers(home, "--home")) * as_
-        elif robot.home is not None:
-            h = robot.home
-        else:
-            h = np.zeros(n)
-        if h.shape != (n,):
-            fail(f"--home: expected {n} values, got {h.size}")
-        key = (ranges or "paper30").lower()
-        if key in ("paper90", "paper30"):
-            if n != 6:
-                fail("--ranges paper90/paper30 are Hayat Table II for a 6-joint robot; give start,end pairs for this one")
-            r = np.radians(np.array(sw.PAPER_RANGES_DEG[int(key[-2:])]))
-        else:
-            vals = parse_numbers(ranges, "--ranges")
-            if len(vals) != 2 * n:
-                fail(f"--ranges: expected {2 * n} values (start,end per joint), got {len(vals)}")
-            r = np.array(vals).reshape(n, 2) * as_
+        h = parse_home(home, robot, as_)
+        r = parse_ranges(ranges, n, as_, "paper30")
         protocol = cal.Protocol(h, r, points, tp)
     fixes = [f.strip() for f in (fix or "").split(",") if f.strip()]
     with console.status("planning..."):
