@@ -181,6 +181,9 @@ def test_with_inertias_round_trip_and_about_origin(rng):
     masses, coms, I = random_inertias(6, rng)
     a = m.with_inertias(masses, coms, I)
     b = m.with_inertias(**a.inertias)
+    f = m.with_inertias(masses, np.asfortranarray(coms), np.asfortranarray(I.transpose(0, 2, 1)).transpose(0, 2, 1).copy(order="F"))
+    for k in ("masses", "coms", "inertias"):  # any memory layout is read in its logical order
+        np.testing.assert_array_equal(f.inertias[k], a.inertias[k])
     for k in ("masses", "coms", "inertias"):
         np.testing.assert_allclose(a.inertias[k], b.inertias[k], rtol=0, atol=1e-15)
     # about the frame origin: add the parallel-axis term m (|c|^2 1 - c c^T)

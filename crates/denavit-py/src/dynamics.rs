@@ -2,7 +2,7 @@
 //! inertias. Single calls read contiguous float64 arrays without copying and reuse a per-thread workspace;
 //! batches release the GIL and use every core.
 
-use crate::convert::{check_shape, values, ArrayIn};
+use crate::convert::{check_shape, ArrayIn};
 use crate::error::{value_error, IntoPy};
 use crate::model::PyModel;
 use denavit_core::dynamics::{self, DynamicsData, Inertia, DEFAULT_GRAVITY};
@@ -66,6 +66,16 @@ fn c_contiguous<'py>(what: &str, obj: &Bound<'py, PyAny>, shape: &str) -> PyResu
         .and_then(|f| f.call((obj,), Some(&kwargs)))
         .and_then(|a| a.downcast_into::<numpy::PyUntypedArray>().map_err(Into::into))
         .map_err(|_| value_error(format!("{what}: expected an array-like of floats of shape {shape}, got {}", type_name(obj))))
+}
+
+/// Values of an array-like of the given shape, in C (row-major) order whatever its memory layout.
+fn c_values(what: &str, obj: &Bound<'_, PyAny>, shape: &[Option<usize>]) -> PyResult<Vec<f64>> {
+    let desc: Vec<String> = shape.iter().map(|e| e.map_or("N".to_string(), |v| v.to_string())).collect();
+    let a = c_contiguous(what, obj, &format!("({})", desc.join(", ")))?;
+    check_shape(what, a.shape(), shape)?;
+    let a = a.into_any().downcast_into::<numpy::PyArrayDyn<f64>>().map_err(|_| value_error(format!("{what}: expected a float64 array")))?;
+    let v = a.readonly().as_array().iter().copied().collect();
+    Ok(v)
 }
 
 /// A 2-D batch input (N, k): borrowed when C-contiguous float64, else converted.
@@ -432,21 +442,18 @@ pub fn forward_dynamics_batch<'py>(
 #[allow(clippy::too_many_arguments)]
 pub fn model_with_inertias(
     model: &PyModel,
-    masses: ArrayIn<'_>,
-    coms: ArrayIn<'_>,
-    inertias: ArrayIn<'_>,
+    masses: &Bound<'_, PyAny>,
+    coms: &Bound<'_, PyAny>,
+    inertias: &Bound<'_, PyAny>,
     frame: &str,
     about: &str,
     q_ref: Option<ArrayIn<'_>>,
 ) -> PyResult<PyModel> {
     let m = &model.inner;
     let n = m.nq();
-    let (mv, ms) = values(&masses);
-    check_shape("masses (kg)", &ms, &[Some(n)])?;
-    let (cv, cs) = values(&coms);
-    check_shape("coms (centres of mass, m)", &cs, &[Some(n), Some(3)])?;
-    let (iv, is) = values(&inertias);
-    check_shape("inertias (kg m^2)", &is, &[Some(n), Some(3), Some(3)])?;
+    let mv = c_values("masses (kg)", masses, &[Some(n)])?;
+    let cv = c_values("coms (centres of mass, m)", coms, &[Some(n), Some(3)])?;
+    let iv = c_values("inertias (kg m^2)", inertias, &[Some(n), Some(3), Some(3)])?;
     let mut list = match about {
         "com" => dynamics::inertias_from_slices(&mv, &cv, &iv).py()?,
         "origin" => (0..n)
