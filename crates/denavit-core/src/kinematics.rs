@@ -37,11 +37,28 @@ pub(crate) fn apply_motion(t: &mut Pose, kind: JointKind, s: f64) {
 ///
 /// Branch-free in the common case, so a loop of calls vectorises.
 #[inline(always)]
-#[allow(clippy::excessive_precision)] // fdlibm's constants, as published
 pub fn sin_cos(x: f64) -> (f64, f64) {
     if x.abs() >= 1.0e5 || x.is_nan() {
         return x.sin_cos();
     }
+    sin_cos_small(x)
+}
+
+/// [`sin_cos`] for |x| < 1e5 (unchecked), branch-free.
+#[inline(always)]
+fn sin_cos_small(x: f64) -> (f64, f64) {
+    let (a, b, m) = reduced_sin_cos(x);
+    // m = k - 4 round(k / 4) in {-2, -1, 0, 1, 2}: the quadrant k mod 4
+    let (a, b) = if m == 1.0 || m == -1.0 { (b, a) } else { (a, b) };
+    let half = m == 2.0 || m == -2.0;
+    (if half || m == -1.0 { -a } else { a }, if half || m == 1.0 { -b } else { b })
+}
+
+/// The kernel of [`sin_cos`]: `(sin r, cos r, m)` with `x = r + k pi/2`, |r| <= pi/4 and
+/// `m = k - 4 round(k / 4)`; valid for |x| < 1e5.
+#[inline(always)]
+#[allow(clippy::excessive_precision)] // fdlibm's constants, as published
+fn reduced_sin_cos(x: f64) -> (f64, f64, f64) {
     const INV_PIO2: f64 = std::f64::consts::FRAC_2_PI;
     const PIO2_1: f64 = 1.570_796_326_734_125_614_17; // first 33 bits of pi/2
     const PIO2_2: f64 = 6.077_100_506_303_965_976_60e-11; // next 33 bits
@@ -63,19 +80,15 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
         2.087_572_321_298_174_827_90e-9,
         -1.135_964_755_778_819_482_65e-11,
     ];
-    let t = x * INV_PIO2 + ROUND;
-    let quadrant = t.to_bits() & 3;
-    let k = t - ROUND;
+    let k = (x * INV_PIO2 + ROUND) - ROUND;
+    let m = k - 4.0 * ((k * 0.25 + ROUND) - ROUND);
     let r = ((x - k * PIO2_1) - k * PIO2_2) - k * PIO2_3;
     let z = r * r;
     let sn = r + r * z * (S[0] + z * (S[1] + z * (S[2] + z * (S[3] + z * (S[4] + z * S[5])))));
     let hz = 0.5 * z;
     let w = 1.0 - hz;
     let cs = w + (((1.0 - w) - hz) + z * z * (C[0] + z * (C[1] + z * (C[2] + z * (C[3] + z * (C[4] + z * C[5]))))));
-    let (a, b) = if quadrant & 1 == 0 { (sn, cs) } else { (cs, sn) };
-    let a = if quadrant & 2 == 0 { a } else { -a };
-    let b = if (quadrant + 1) & 2 == 0 { b } else { -b };
-    (a, b)
+    (sn, cs, m)
 }
 
 /// `t · Rz` given the sine and cosine of the angle.
@@ -273,8 +286,38 @@ pub(crate) fn write_pose(t: &Pose, out: &mut [f64]) {
     out[15] = 1.0;
 }
 
+/// Configurations evaluated together by the batch forward kinematics (structure of arrays).
+const LANES: usize = 8;
+
+/// [`sin_cos`] of `LANES` angles at once: the arguments are checked once, then the branch-free kernel
+/// (the quadrant is selected by float comparisons) runs over the lanes in SIMD registers.
+#[inline(always)]
+fn sin_cos_lanes(x: &[f64; LANES]) -> ([f64; LANES], [f64; LANES]) {
+    let (mut sn, mut cs) = ([0.0; LANES], [0.0; LANES]);
+    if x.iter().any(|v| v.abs() >= 1.0e5 || v.is_nan()) {
+        for l in 0..LANES {
+            (sn[l], cs[l]) = sin_cos(x[l]);
+        }
+        return (sn, cs);
+    }
+    for l in 0..LANES {
+        (sn[l], cs[l]) = sin_cos_small(x[l]);
+    }
+    (sn, cs)
+}
+
 /// Batch tool poses: `qs` holds N configurations row-major (N x n), `out` N row-major 4x4 matrices (N x 16).
-/// Runs on all cores (rayon). Values must be finite (checked).
+/// Runs on all cores (rayon), `LANES` configurations at a time in structure-of-arrays form so that every
+/// operation is a SIMD one. Values must be finite (checked). Same values as [`tool_pose`], bit for bit.
+///
+/// ```
+/// use denavit_core::{builtin_planar2, kinematics::{tool_pose, tool_pose_batch}};
+/// let m = builtin_planar2(1.0, 1.0);
+/// let qs: Vec<f64> = (0..40).map(|k| 0.1 * k as f64).collect(); // 20 configurations
+/// let mut out = vec![0.0; 20 * 16];
+/// tool_pose_batch(&m, &qs, &mut out).unwrap();
+/// assert_eq!(out[16 * 7 + 3], tool_pose(&m, &qs[14..16]).unwrap().translation.x);
+/// ```
 pub fn tool_pose_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<()> {
     let n = model.nq().max(1);
     let count = if model.nq() == 0 { out.len() / 16 } else { qs.len() / n };
@@ -282,14 +325,91 @@ pub fn tool_pose_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<()>
     check_len("output (N*16 values)", count * 16, out.len())?;
     crate::error::check_finite("q batch", qs)?;
     const CHUNK: usize = 1024;
+    let n = model.nq();
     out.par_chunks_mut(16 * CHUNK).enumerate().for_each(|(c, o)| {
         let start = c * CHUNK;
-        for (k, ok) in o.chunks_exact_mut(16).enumerate() {
-            let q = &qs[(start + k) * model.nq()..(start + k + 1) * model.nq()];
-            write_pose(&tool_pose_unchecked(model, q), ok);
+        let mut block = [0.0; 16 * LANES];
+        for (b, ob) in o.chunks_mut(16 * LANES).enumerate() {
+            let first = start + b * LANES;
+            let valid = ob.len() / 16;
+            if valid == LANES {
+                tool_pose_lanes(model, &qs[first * n..(first + LANES) * n], ob);
+            } else {
+                let mut q = vec![0.0; LANES * n];
+                q[..valid * n].copy_from_slice(&qs[first * n..(first + valid) * n]);
+                tool_pose_lanes(model, &q, &mut block);
+                ob.copy_from_slice(&block[..16 * valid]);
+            }
         }
     });
     Ok(())
+}
+
+/// Tool poses of `LANES` configurations (`qs`: LANES x n row-major) into `out` (LANES x 16 row-major).
+#[inline(always)]
+fn tool_pose_lanes(model: &Model, qs: &[f64], out: &mut [f64]) {
+    let n = model.nq();
+    // c[column][row][lane]: columns x, y, z axes and origin
+    let mut c = [[[0.0; LANES]; 3]; 4];
+    let f = Frame::of(model.t_world_base());
+    for (j, cj) in c.iter_mut().enumerate() {
+        for (r, cjr) in cj.iter_mut().enumerate() {
+            *cjr = [f.c[j][r]; LANES];
+        }
+    }
+    let mul = |c: &[[[f64; LANES]; 3]; 4], b: &Pose| {
+        let (m, v) = (b.rotation.matrix(), &b.translation.vector);
+        let mut d = [[[0.0; LANES]; 3]; 4];
+        for j in 0..3 {
+            let (b0, b1, b2) = (m[3 * j], m[3 * j + 1], m[3 * j + 2]);
+            for r in 0..3 {
+                for l in 0..LANES {
+                    d[j][r][l] = c[0][r][l] * b0 + c[1][r][l] * b1 + c[2][r][l] * b2;
+                }
+            }
+        }
+        for r in 0..3 {
+            for l in 0..LANES {
+                d[3][r][l] = c[0][r][l] * v[0] + c[1][r][l] * v[1] + c[2][r][l] * v[2] + c[3][r][l];
+            }
+        }
+        d
+    };
+    for (i, joint) in model.joints().iter().enumerate() {
+        c = mul(&c, &joint.placement);
+        let mut s = [0.0; LANES];
+        for (l, sl) in s.iter_mut().enumerate() {
+            *sl = qs[l * n + i] + joint.offset;
+        }
+        match joint.kind {
+            JointKind::Revolute => {
+                let (sn, cs) = sin_cos_lanes(&s);
+                for r in 0..3 {
+                    let (x, y) = (c[0][r], c[1][r]);
+                    for l in 0..LANES {
+                        c[0][r][l] = cs[l] * x[l] + sn[l] * y[l];
+                        c[1][r][l] = cs[l] * y[l] - sn[l] * x[l];
+                    }
+                }
+            }
+            JointKind::Prismatic => {
+                for r in 0..3 {
+                    for l in 0..LANES {
+                        c[3][r][l] += c[2][r][l] * s[l];
+                    }
+                }
+            }
+        }
+    }
+    c = mul(&c, model.t_flange_tool());
+    for (l, o) in out.chunks_exact_mut(16).enumerate() {
+        for r in 0..3 {
+            for j in 0..4 {
+                o[4 * r + j] = c[j][r][l];
+            }
+        }
+        o[12..].copy_from_slice(&[0.0, 0.0, 0.0, 1.0]);
+    }
 }
 
 /// Batch Jacobians: `out` holds N row-major 6 x n matrices (N x 6n), in the requested frame.
@@ -346,5 +466,11 @@ mod tests {
             assert!(s.to_bits() == s0.to_bits() && c.to_bits() == c0.to_bits());
         }
         assert_eq!(sin_cos(0.0), (0.0, 1.0));
+        // the lanes are the scalar function, bit for bit
+        let x: [f64; super::LANES] = std::array::from_fn(|l| -7.3 + 2.1 * l as f64);
+        let (s, c) = super::sin_cos_lanes(&x);
+        for l in 0..super::LANES {
+            assert_eq!((s[l].to_bits(), c[l].to_bits()), (sin_cos(x[l]).0.to_bits(), sin_cos(x[l]).1.to_bits()));
+        }
     }
 }

@@ -13,9 +13,10 @@ pub type ArrayIn<'py> = numpy::PyArrayLike<'py, f64, numpy::IxDyn, numpy::AllowT
 pub fn values(a: &ArrayIn<'_>) -> (Vec<f64>, Vec<usize>) {
     let ro: &PyReadonlyArrayDyn<f64> = a;
     let shape = ro.shape().to_vec();
+    // as_slice() also succeeds for Fortran-ordered arrays (memory order); only C order is logical order
     let v = match ro.as_slice() {
-        Ok(s) => s.to_vec(),
-        Err(_) => ro.as_array().iter().copied().collect(),
+        Ok(s) if ro.is_c_contiguous() => s.to_vec(),
+        _ => ro.as_array().iter().copied().collect(),
     };
     (v, shape)
 }
@@ -28,6 +29,30 @@ pub fn check_shape(what: &str, shape: &[usize], expected: &[Option<usize>]) -> P
     }
     let exp: Vec<String> = expected.iter().map(|e| e.map_or("N".to_string(), |v| v.to_string())).collect();
     Err(value_error(format!("{what}: expected an array of shape ({}), got shape {:?}", exp.join(", "), shape)))
+}
+
+/// A 1-D array of n values: a contiguous float64 numpy array is read directly (no conversion object),
+/// anything else (lists, other dtypes, strided views) through [`ArrayIn`].
+pub fn vector_fast(what: &str, obj: &Bound<'_, PyAny>, n: usize) -> PyResult<Vec<f64>> {
+    if let Ok(a) = obj.downcast::<numpy::PyArray1<f64>>() {
+        if let Ok(v) = a.to_vec() {
+            if v.len() != n {
+                return Err(value_error(format!("{what}: expected an array of shape ({n}), got shape [{}]", v.len())));
+            }
+            check_finite(what, &v)?;
+            return Ok(v);
+        }
+    }
+    let a: ArrayIn<'_> = obj.extract()?;
+    vector(what, &a, n)
+}
+
+/// A (rows, cols) numpy array copied from row-major values: one numpy-owned array, no reshape and no
+/// container object (the cheapest way to hand a small result to Python).
+pub fn matrix_out<'py>(py: Python<'py>, v: &[f64], rows: usize, cols: usize) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    use numpy::ToPyArray;
+    let a = numpy::ndarray::ArrayView2::from_shape((rows, cols), v).map_err(|e| value_error(e.to_string()))?;
+    Ok(a.to_pyarray(py))
 }
 
 /// A 1-D array of length n.

@@ -1,11 +1,11 @@
 //! Forward kinematics and Jacobians (single and batch; batches release the GIL and use every core).
 
-use crate::convert::{check_shape, pose_out, values, vector, write_pose, ArrayIn};
+use crate::convert::{check_shape, matrix_out, values, vector_fast, write_pose, ArrayIn};
 use crate::error::{value_error, IntoPy};
 use crate::model::PyModel;
 use denavit_core::kinematics::{self, JacobianFrame};
 use denavit_core::Data;
-use numpy::{PyArray2, PyArray3, PyArrayMethods};
+use numpy::{PyArray2, PyArray3, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
 fn frame_of(frame: &str) -> PyResult<JacobianFrame> {
@@ -18,15 +18,17 @@ fn frame_of(frame: &str) -> PyResult<JacobianFrame> {
 
 /// Tool pose T_world_tool (4, 4) at q (n,) in rad / m.
 #[pyfunction]
-pub fn fk<'py>(py: Python<'py>, model: &PyModel, q: ArrayIn<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    let q = vector("q", &q, model.inner.nq())?;
-    Ok(pose_out(py, &kinematics::tool_pose_unchecked(&model.inner, &q)))
+pub fn fk<'py>(py: Python<'py>, model: &PyModel, q: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let q = vector_fast("q", q, model.inner.nq())?;
+    let mut v = [0.0; 16];
+    write_pose(&kinematics::tool_pose_unchecked(&model.inner, &q), &mut v);
+    matrix_out(py, &v, 4, 4)
 }
 
 /// Joint frames T_world_joint (n, 4, 4) at q.
 #[pyfunction]
-pub fn joint_frames<'py>(py: Python<'py>, model: &PyModel, q: ArrayIn<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
-    let q = vector("q", &q, model.inner.nq())?;
+pub fn joint_frames<'py>(py: Python<'py>, model: &PyModel, q: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+    let q = vector_fast("q", q, model.inner.nq())?;
     let mut data = Data::new(&model.inner);
     kinematics::forward_kinematics(&model.inner, &mut data, &q).py()?;
     let n = model.inner.nq();
@@ -40,14 +42,33 @@ pub fn joint_frames<'py>(py: Python<'py>, model: &PyModel, q: ArrayIn<'py>) -> P
 /// Geometric Jacobian (6, n), rows [v; w] of the tool origin, in the 'world' or 'tool' frame.
 #[pyfunction]
 #[pyo3(signature = (model, q, frame="world"))]
-pub fn jacobian<'py>(py: Python<'py>, model: &PyModel, q: ArrayIn<'py>, frame: &str) -> PyResult<Bound<'py, PyArray2<f64>>> {
+pub fn jacobian<'py>(py: Python<'py>, model: &PyModel, q: &Bound<'py, PyAny>, frame: &str) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let f = frame_of(frame)?;
-    let q = vector("q", &q, model.inner.nq())?;
-    let mut data = Data::new(&model.inner);
-    kinematics::jacobian(&model.inner, &mut data, &q, f).py()?;
+    let q = vector_fast("q", q, model.inner.nq())?;
     let n = model.inner.nq();
-    let v: Vec<f64> = (0..6).flat_map(|r| (0..n).map(move |c| (r, c))).map(|(r, c)| data.jacobian[(r, c)]).collect();
-    numpy::PyArray1::from_vec(py, v).reshape([6, n])
+    let v = DATA.with(|cell| {
+        let mut slot = cell.borrow_mut();
+        let data = match slot.as_mut() {
+            Some(d) if d.t_world_joint.len() == n => d,
+            _ => slot.insert(Data::new(&model.inner)),
+        };
+        kinematics::jacobian(&model.inner, data, &q, f).map(|_| {
+            let jac = data.jacobian.as_slice(); // column-major 6 x n
+            let mut v = vec![0.0; 6 * n];
+            for c in 0..n {
+                for r in 0..6 {
+                    v[r * n + c] = jac[6 * c + r];
+                }
+            }
+            v
+        })
+    });
+    matrix_out(py, &v.py()?, 6, n)
+}
+
+thread_local! {
+    /// A workspace reused by the single-configuration calls (resized when the model's size changes).
+    static DATA: std::cell::RefCell<Option<Data>> = const { std::cell::RefCell::new(None) };
 }
 
 fn batch_q(model: &PyModel, qs: &ArrayIn<'_>) -> PyResult<(Vec<f64>, usize)> {
@@ -57,31 +78,55 @@ fn batch_q(model: &PyModel, qs: &ArrayIn<'_>) -> PyResult<(Vec<f64>, usize)> {
     Ok((v, count))
 }
 
+/// Run `kernel(model, qs, out)` without the GIL, reading a C-contiguous float64 `qs` (N, n) in place and
+/// writing straight into a new numpy array of shape (N, per...); other inputs are converted first.
+fn batch<'py, D: numpy::ndarray::Dimension>(
+    py: Python<'py>,
+    model: &PyModel,
+    qs: &Bound<'py, PyAny>,
+    shape_of: impl Fn(usize) -> D,
+    kernel: impl Fn(&denavit_core::Model, &[f64], &mut [f64]) -> denavit_core::Result<()> + Send + Sync,
+) -> PyResult<Bound<'py, numpy::PyArray<f64, D>>> {
+    let n = model.inner.nq();
+    let m: &denavit_core::Model = &model.inner;
+    if let Ok(a) = qs.downcast::<PyArray2<f64>>() {
+        if a.is_c_contiguous() {
+            let ro = a.readonly();
+            check_shape("qs", ro.shape(), &[None, Some(n)])?;
+            let out = numpy::PyArray::<f64, D>::zeros(py, shape_of(ro.shape()[0]), false);
+            {
+                let q = ro.as_slice()?;
+                let mut rw = out.readwrite();
+                let o = rw.as_slice_mut()?;
+                py.allow_threads(|| kernel(m, q, o)).py()?;
+            }
+            return Ok(out);
+        }
+    }
+    let qs: ArrayIn<'_> = qs.extract()?;
+    let (q, count) = batch_q(model, &qs)?;
+    let out = numpy::PyArray::<f64, D>::zeros(py, shape_of(count), false);
+    {
+        let mut rw = out.readwrite();
+        let o = rw.as_slice_mut()?;
+        py.allow_threads(|| kernel(m, &q, o)).py()?;
+    }
+    Ok(out)
+}
+
 /// Tool poses (N, 4, 4) for configurations qs (N, n); runs without the GIL on every core.
 #[pyfunction]
-pub fn fk_batch<'py>(py: Python<'py>, model: &PyModel, qs: ArrayIn<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
-    let (q, count) = batch_q(model, &qs)?;
-    let m = model.inner.clone();
-    let out = py.allow_threads(move || {
-        let mut out = vec![0.0; 16 * count];
-        kinematics::tool_pose_batch(&m, &q, &mut out).map(|_| out)
-    });
-    numpy::PyArray1::from_vec(py, out.py()?).reshape([count, 4, 4])
+pub fn fk_batch<'py>(py: Python<'py>, model: &PyModel, qs: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+    batch(py, model, qs, |count| numpy::ndarray::Dim([count, 4, 4]), kinematics::tool_pose_batch)
 }
 
 /// Jacobians (N, 6, n) for configurations qs (N, n).
 #[pyfunction]
 #[pyo3(signature = (model, qs, frame="world"))]
-pub fn jacobian_batch<'py>(py: Python<'py>, model: &PyModel, qs: ArrayIn<'py>, frame: &str) -> PyResult<Bound<'py, PyArray3<f64>>> {
+pub fn jacobian_batch<'py>(py: Python<'py>, model: &PyModel, qs: &Bound<'py, PyAny>, frame: &str) -> PyResult<Bound<'py, PyArray3<f64>>> {
     let f = frame_of(frame)?;
-    let (q, count) = batch_q(model, &qs)?;
-    let m = model.inner.clone();
-    let n = m.nq();
-    let out = py.allow_threads(move || {
-        let mut out = vec![0.0; 6 * n * count];
-        kinematics::jacobian_batch(&m, &q, f, &mut out).map(|_| out)
-    });
-    numpy::PyArray1::from_vec(py, out.py()?).reshape([count, 6, n])
+    let n = model.inner.nq();
+    batch(py, model, qs, |count| numpy::ndarray::Dim([count, 6, n]), move |m, q, o| kinematics::jacobian_batch(m, q, f, o))
 }
 
 /// Register the functions of this file.

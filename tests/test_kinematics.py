@@ -1,0 +1,170 @@
+"""Forward kinematics and Jacobians through the Python API: finite differences in the world and tool frames,
+batch == single, any array layout, and bad input."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import denavit as dv
+
+BUILTINS = ["tiansui_mdh", "tiansui_edh", "kr5", "puma560", "ur5"]
+
+
+def vee(S):
+    return np.array([S[2, 1] - S[1, 2], S[0, 2] - S[2, 0], S[1, 0] - S[0, 1]]) / 2
+
+
+def rot(axis, angle):
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+
+
+def pose(R, p):
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, p
+    return T
+
+
+@pytest.fixture(scope="module")
+def mixed():
+    """A skew 5-joint chain with two prismatic joints, a base and a tool."""
+    placements = np.stack([
+        pose(rot([1, 0, 0], 0.3), [0.0, 0.0, 0.2]),
+        pose(rot([0, 1, 0.2], 1.1), [0.3, 0.05, 0.0]),
+        pose(rot([1, 1, 0], -0.7), [0.0, 0.4, 0.1]),
+        pose(rot([0, 0, 1], 0.4), [0.1, 0.0, 0.3]),
+        pose(rot([1, -1, 1], 0.9), [0.0, 0.2, 0.05]),
+    ])
+    return dv.Model.from_placements(placements, ["revolute", "prismatic", "revolute", "prismatic", "revolute"],
+                                    offsets=[0.1, 0.05, -0.2, 0.0, 0.3], T_world_base=pose(rot([0, 0, 1], 0.5), [0.1, 0.2, -0.3]),
+                                    T_flange_tool=pose(rot([1, 0, 0], 0.4), [0.05, -0.02, 0.1]), name="mixed")
+
+
+def models(mixed):
+    return [dv.load_model(n) for n in BUILTINS] + [mixed]
+
+
+def fd_jacobian(model, q, frame, h=1e-6):
+    """Central differences: v = dp/dq, w = vee(dR/dq R^T) (world) or vee(R^T dR/dq) (tool)."""
+    T = dv.fk(model, q)
+    R = T[:3, :3]
+    J = np.zeros((6, len(q)))
+    for i in range(len(q)):
+        dq = np.zeros(len(q))
+        dq[i] = h
+        Tp, Tm = dv.fk(model, q + dq), dv.fk(model, q - dq)
+        dp = (Tp[:3, 3] - Tm[:3, 3]) / (2 * h)
+        dR = (Tp[:3, :3] - Tm[:3, :3]) / (2 * h)
+        if frame == "world":
+            J[:3, i], J[3:, i] = dp, vee(dR @ R.T)
+        else:
+            J[:3, i], J[3:, i] = R.T @ dp, vee(R.T @ dR)
+    return J
+
+
+@pytest.mark.parametrize("frame", ["world", "tool"])
+def test_jacobian_matches_finite_differences(mixed, frame, rng):
+    for m in models(mixed):
+        for q in rng.uniform(-np.pi, np.pi, (5, m.nq)):
+            J = dv.jacobian(m, q, frame=frame)
+            assert J.shape == (6, m.nq)
+            np.testing.assert_allclose(J, fd_jacobian(m, q, frame), atol=1e-8, err_msg=f"{m.name} {frame}")
+
+
+def test_tool_jacobian_is_the_world_jacobian_rotated(mixed, rng):
+    for m in models(mixed):
+        q = rng.uniform(-np.pi, np.pi, m.nq)
+        R = dv.fk(m, q)[:3, :3]
+        Jw, Jt = dv.jacobian(m, q), dv.jacobian(m, q, frame="tool")
+        np.testing.assert_allclose(Jt[:3], R.T @ Jw[:3], atol=1e-14)
+        np.testing.assert_allclose(Jt[3:], R.T @ Jw[3:], atol=1e-14)
+        np.testing.assert_array_equal(dv.jacobian(m, q, frame="base"), Jw)
+
+
+def test_batch_equals_single(mixed, rng):
+    for m in models(mixed):
+        qs = rng.uniform(-np.pi, np.pi, (2500, m.nq))  # more than one chunk per thread
+        Ts = dv.fk_batch(m, qs)
+        Jw, Jt = dv.jacobian_batch(m, qs), dv.jacobian_batch(m, qs, frame="tool")
+        assert Ts.shape == (2500, 4, 4) and Jw.shape == (2500, 6, m.nq)
+        for i in (0, 1, 1023, 1024, 2499):
+            np.testing.assert_allclose(Ts[i], dv.fk(m, qs[i]), atol=1e-15)
+            np.testing.assert_allclose(Jw[i], dv.jacobian(m, qs[i]), atol=1e-15)
+            np.testing.assert_allclose(Jt[i], dv.jacobian(m, qs[i], frame="tool"), atol=1e-15)
+        assert dv.fk_batch(m, np.zeros((0, m.nq))).shape == (0, 4, 4)
+
+
+def test_joint_frames_end_at_the_tool(mixed, rng):
+    for m in models(mixed):
+        q = rng.uniform(-1, 1, m.nq)
+        F = dv.joint_frames(m, q)
+        assert F.shape == (m.nq, 4, 4)
+        np.testing.assert_allclose(F[-1] @ m.T_flange_tool, dv.fk(m, q), atol=1e-14)
+        # the Jacobian's angular part of a revolute joint is its z axis in world
+        J = dv.jacobian(m, q)
+        for i, kind in enumerate(m.kinds):
+            np.testing.assert_allclose(J[3:, i] if kind == "revolute" else J[:3, i], F[i, :3, 2], atol=1e-15)
+
+
+def test_any_array_layout_and_lists(rng):
+    m = dv.load_model("puma560")
+    qs = rng.uniform(-np.pi, np.pi, (50, 6))
+    ref = dv.fk_batch(m, qs)
+    np.testing.assert_array_equal(dv.fk_batch(m, np.asfortranarray(qs)), ref)
+    wide = np.zeros((50, 12))
+    wide[:, ::2] = qs
+    np.testing.assert_array_equal(dv.fk_batch(m, wide[:, ::2]), ref)  # strided view
+    np.testing.assert_array_equal(dv.fk_batch(m, qs.tolist()), ref)
+    np.testing.assert_array_equal(dv.fk_batch(m, qs.astype(np.float32).astype(np.float64)), dv.fk_batch(m, qs.astype(np.float32)))
+    np.testing.assert_array_equal(dv.fk(m, list(qs[3])), ref[3])
+    np.testing.assert_array_equal(dv.fk(m, np.asfortranarray(qs)[3]), ref[3])
+    np.testing.assert_array_equal(dv.jacobian(m, np.zeros(6, dtype=int)), dv.jacobian(m, np.zeros(6)))
+
+
+def test_angles_far_from_zero(rng):
+    """The joint sine/cosine stays accurate for angles many turns away (and beyond 1e5 rad)."""
+    m = dv.load_model("ur5")
+    q = rng.uniform(-np.pi, np.pi, 6)
+    for k in (1, 10, 1000, 100000):
+        np.testing.assert_allclose(dv.fk(m, q + 2 * np.pi * k), dv.fk(m, q), atol=1e-9 * max(1, k / 1000))
+
+
+@settings(max_examples=100, deadline=None)
+@given(q=st.lists(st.floats(-20, 20), min_size=6, max_size=6), name=st.sampled_from(BUILTINS))
+def test_fk_is_a_rigid_transform(q, name):
+    T = dv.fk(dv.load_model(name), q)
+    np.testing.assert_allclose(T[:3, :3].T @ T[:3, :3], np.eye(3), atol=1e-14)
+    assert np.linalg.det(T[:3, :3]) == pytest.approx(1.0, abs=1e-14)
+    np.testing.assert_array_equal(T[3], [0, 0, 0, 1])
+
+
+def test_bad_input_raises_denavit_error_with_expected_and_got():
+    m = dv.load_model("kr5")
+    with pytest.raises(dv.DenavitError, match=r"q: expected an array of shape \(6\), got shape \[5\]"):
+        dv.fk(m, np.zeros(5))
+    with pytest.raises(dv.DenavitError, match=r"q: expected an array of shape \(6\), got shape \[2, 3\]"):
+        dv.jacobian(m, np.zeros((2, 3)))
+    with pytest.raises(dv.DenavitError, match=r"q: expected an array of shape \(6\), got shape \[7\]"):
+        dv.joint_frames(m, np.zeros(7))
+    with pytest.raises(dv.DenavitError, match="q must be finite, got NaN at flat index 2"):
+        dv.fk(m, [0, 0, np.nan, 0, 0, 0])
+    with pytest.raises(dv.DenavitError, match="q must be finite, got inf"):
+        dv.jacobian(m, [0, 0, 0, np.inf, 0, 0])
+    with pytest.raises(dv.DenavitError, match=r"qs: expected an array of shape \(N, 6\), got shape \[10, 5\]"):
+        dv.fk_batch(m, np.zeros((10, 5)))
+    with pytest.raises(dv.DenavitError, match=r"qs: expected an array of shape \(N, 6\), got shape \[6\]"):
+        dv.jacobian_batch(m, np.zeros(6))
+    bad = np.zeros((4, 6))
+    bad[2, 1] = np.nan
+    with pytest.raises(dv.DenavitError, match="must be finite, got NaN"):
+        dv.fk_batch(m, bad)
+    with pytest.raises(dv.DenavitError, match="must be finite, got NaN"):
+        dv.jacobian_batch(m, bad)
+    with pytest.raises(dv.DenavitError, match="frame: expected 'world' or 'tool', got 'flange'"):
+        dv.jacobian(m, np.zeros(6), frame="flange")
+    with pytest.raises(dv.DenavitError, match="frame: expected 'world' or 'tool', got 'x'"):
+        dv.jacobian_batch(m, np.zeros((2, 6)), frame="x")
+    with pytest.raises(ValueError, match="could not convert string to float"):
+        dv.fk(m, ["a"] * 6)
