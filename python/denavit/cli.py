@@ -150,6 +150,74 @@ def fk(
     console.print(ft)
 
 
+def parse_pose(text: str, deg: bool, ls: float) -> np.ndarray:
+    """A target pose from --pose: 16 (or 12) numbers, the rows of T_world_tool, or 6 numbers x,y,z,roll,pitch,yaw
+    with R = Rz(yaw) Ry(pitch) Rx(roll); positions in --unit, angles in --deg / rad."""
+    v = parse_numbers(text, "--pose")
+    if len(v) in (12, 16):
+        T = np.eye(4)
+        T[: len(v) // 4] = np.reshape(v, (len(v) // 4, 4))
+        T[:3, 3] *= ls
+        return T
+    if len(v) == 6:
+        a = angle_scale("deg" if deg else "rad")
+        r, p, y = (x * a for x in v[3:])
+        cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+        T = np.eye(4)
+        T[:3, :3] = [[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]]
+        T[:3, 3] = np.array(v[:3]) * ls
+        return T
+    fail(f"--pose: expected 16 or 12 numbers (rows of the 4x4 pose) or 6 (x,y,z,roll,pitch,yaw), got {len(v)}")
+    raise AssertionError
+
+
+@app.command()
+def ik(
+    model: ModelArg,
+    pose: Annotated[str, typer.Option("--pose", help="Target T_world_tool: 16 (or 12) numbers, the rows of the 4x4 pose, or \"x,y,z,roll,pitch,yaw\" with R = Rz(yaw) Ry(pitch) Rx(roll).")],
+    q0: Annotated[Optional[str], typer.Option("--q0", help="Start configuration, one value per joint (default zeros).")] = None,
+    deg: Annotated[bool, typer.Option("--deg", help="Angles (revolute joints, roll/pitch/yaw) in degrees (default radians).")] = False,
+    unit: Annotated[str, typer.Option("--unit", help="Length unit of --pose, prismatic values and the position error: m, mm, ...")] = "m",
+    method: Annotated[str, typer.Option("--method", help="lm (Levenberg-Marquardt) | newton (Newton-Raphson)")] = "lm",
+    tol_position: Annotated[float, typer.Option("--tol-position", help="Largest accepted position error, in --unit.")] = 1e-10,
+    tol_rotation: Annotated[float, typer.Option("--tol-rotation", help="Largest accepted rotation error, rad.")] = 1e-10,
+    restarts: Annotated[int, typer.Option("--restarts", help="Further attempts from seeded random configurations.")] = 50,
+    seed: Annotated[int, typer.Option("--seed")] = 0,
+    no_limits: Annotated[bool, typer.Option("--no-limits", help="Ignore the joint limits.")] = False,
+    json_out: JsonOpt = False,
+) -> None:
+    """Inverse kinematics: joint values that put the tool at --pose. Success is judged from the measured final
+    error against the tolerances; exit code 1 when the target is not met (the residual is printed)."""
+    robot = load(model)
+    m = robot.model()
+    ls, as_ = length_scale(unit), angle_scale("deg" if deg else "rad")
+    T = parse_pose(pose, deg, ls)
+    start = parse_q(q0, robot, deg, unit)
+    r = _core.ik(m, T, start, method=method, tol_position=tol_position * ls, tol_rotation=tol_rotation,
+                 restarts=restarts, seed=seed, respect_limits=not no_limits)
+    scale = np.array([as_ if k == "revolute" else ls for k in robot.table.kinds])
+    q_out = r.q / scale
+    if json_out:
+        print(json.dumps({"model": robot.name, "units": {"length": unit, "angle": "deg" if deg else "rad"}, "success": r.success,
+                          "q": q_out.tolist(), "iterations": r.iterations, "restarts": r.restarts,
+                          "position_error": r.position_error / ls, "rotation_error_rad": r.rotation_error,
+                          "T_world_tool": pose_rows(_core.fk(m, r.q), ls)}, indent=2))
+    else:
+        verdict = "[bold green]solved[/]" if r.success else "[bold red]not solved[/]"
+        console.print(f"[bold]{robot.name}[/] — {verdict}: position error {r.position_error / ls:.3e} {unit}, "
+                      f"rotation error {r.rotation_error:.3e} rad ({r.iterations} iterations, {r.restarts} restarts)")
+        t = RichTable(title=f"q ({'deg' if deg else 'rad'})")
+        for c in ("joint", "q"):
+            t.add_column(c, justify="right")
+        for n, v in zip(robot.names, q_out):
+            t.add_row(n, fmt(v))
+        console.print(t)
+    if not r.success:
+        raise typer.Exit(1)
+
+
 def parse_rates(text: str | None, what: str, robot: Robot, deg: bool, unit: str) -> np.ndarray:
     """Joint velocities or accelerations in their declared units (deg or rad per s / s^2; --unit for prismatic)."""
     n = robot.table.params.shape[0]
