@@ -30,6 +30,7 @@
 //! **Restarts** are deterministic: attempt 0 starts from `q0`, attempt k >= 1 from a configuration drawn
 //! uniformly within the limits (intersected with [-π, π] for revolute and [-1, 1] m for prismatic joints)
 //! by a SplitMix64 generator seeded from `seed` and k (and the target's index in a batch or path).
+#![allow(clippy::needless_range_loop)] // index loops mirror the formulas (and unroll)
 
 use crate::error::{check_finite, check_len, Error, Result};
 use crate::kinematics::{jacobian_unchecked, tool_pose_unchecked, JacobianFrame};

@@ -335,3 +335,16 @@ fn workload() {
     let dt = t0.elapsed().as_secs_f64();
     println!("{} solves, {its} iterations, {:.2} us/solve, {:.0} ns/iteration", targets.len(), dt * 1e6 / 2000.0, dt * 1e9 / its as f64);
 }
+
+/// A fixed batch-FK workload for profilers (`cargo test --release --test ik -- --ignored workload_fk`).
+#[test]
+#[ignore]
+fn workload_fk_batch() {
+    let m = tiansui_mdh().to_model("mdh").unwrap();
+    let qs: Vec<f64> = lcg_qs(6, 100_000, 3, PI).concat();
+    let mut out = vec![0.0; 16 * 100_000];
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let t0 = std::time::Instant::now();
+    one.install(|| denavit_core::kinematics::tool_pose_batch(&m, &qs, &mut out).unwrap());
+    println!("fk batch 100k, 1 thread: {:.2} ms", t0.elapsed().as_secs_f64() * 1e3);
+}
