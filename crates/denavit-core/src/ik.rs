@@ -244,7 +244,14 @@ struct Bounds {
 
 impl Bounds {
     fn new(model: &Model) -> Self {
-        let (mut b, n) = (Self { lower: vec![], upper: vec![], revolute: vec![], sample_lo: vec![], sample_hi: vec![] }, model.nq());
+        let n = model.nq();
+        let mut b = Self {
+            lower: Vec::with_capacity(n),
+            upper: Vec::with_capacity(n),
+            revolute: Vec::with_capacity(n),
+            sample_lo: Vec::with_capacity(n),
+            sample_hi: Vec::with_capacity(n),
+        };
         for j in model.joints() {
             let (lo, hi, rev) = (j.lower, j.upper, j.kind == JointKind::Revolute);
             let w = if rev { PI } else { 1.0 };
@@ -262,7 +269,6 @@ impl Bounds {
             b.sample_lo.push(a);
             b.sample_hi.push(bb);
         }
-        debug_assert_eq!(b.lower.len(), n);
         b
     }
 

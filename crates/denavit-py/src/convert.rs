@@ -83,6 +83,37 @@ pub fn pose_from_slice(what: &str, v: &[f64]) -> PyResult<Pose> {
     pose_from_matrix(&Matrix4::from_row_slice(v), what).map_err(to_py)
 }
 
+/// [`pose_from_slice`] that skips the SVD re-orthonormalisation when the rotation is already orthonormal
+/// to rounding (|R^T R - I| and |det R - 1| <= 1e-14): the common case of a pose computed by a program.
+/// Anything else (including every invalid input) goes through the full check, with its messages.
+pub fn pose_from_slice_fast(what: &str, v: &[f64]) -> PyResult<Pose> {
+    if v.len() == 16 && v.iter().all(|x| x.is_finite()) && v[12..] == [0.0, 0.0, 0.0, 1.0] {
+        let r = nalgebra::Matrix3::new(v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10]);
+        let orth = (r.transpose() * r - nalgebra::Matrix3::identity()).amax();
+        if orth <= 1e-14 && (r.determinant() - 1.0).abs() <= 1e-14 {
+            return Ok(Pose::from_parts(nalgebra::Translation3::new(v[3], v[7], v[11]), nalgebra::Rotation3::from_matrix_unchecked(r)));
+        }
+    }
+    pose_from_slice(what, v)
+}
+
+/// A 4x4 rigid transform from any array-like, reading a contiguous float64 (4, 4) array in place.
+pub fn pose_fast(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Pose> {
+    if let Ok(a) = obj.downcast::<PyArray2<f64>>() {
+        if a.is_c_contiguous() {
+            if let Ok(v) = a.to_vec() {
+                if v.len() == 16 && a.shape() == [4, 4] {
+                    return pose_from_slice_fast(what, &v);
+                }
+            }
+        }
+    }
+    let a: ArrayIn<'_> = obj.extract()?;
+    let (v, shape) = values(&a);
+    check_shape(what, &shape, &[Some(4), Some(4)])?;
+    pose_from_slice_fast(what, &v)
+}
+
 /// A 3-vector.
 #[allow(dead_code)]
 pub fn vec3(what: &str, a: &ArrayIn<'_>) -> PyResult<Vector3<f64>> {

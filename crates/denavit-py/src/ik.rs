@@ -1,7 +1,7 @@
 //! Inverse kinematics (denavit_core::ik): single solves, warm-started paths and batches (paths and
 //! batches release the GIL; batches use every core).
 
-use crate::convert::{check_shape, pose, pose_from_slice, values, vector, ArrayIn};
+use crate::convert::{check_shape, pose_fast, pose_from_slice_fast, values, vector_fast, ArrayIn};
 use crate::error::{value_error, IntoPy};
 use crate::model::PyModel;
 use denavit_core::ik::{self as core_ik, IkMethod, IkOptions, IkResult};
@@ -156,9 +156,9 @@ fn options(method: &str, tol_position: f64, tol_rotation: f64, max_iterations: i
     Ok(opts)
 }
 
-fn start(model: &PyModel, q0: Option<ArrayIn<'_>>, what: &str) -> PyResult<Vec<f64>> {
+fn start(model: &PyModel, q0: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Vec<f64>> {
     match q0 {
-        Some(a) => vector(what, &a, model.inner.nq()),
+        Some(a) => vector_fast(what, a, model.inner.nq()),
         None => Ok(vec![0.0; model.inner.nq()]),
     }
 }
@@ -166,7 +166,7 @@ fn start(model: &PyModel, q0: Option<ArrayIn<'_>>, what: &str) -> PyResult<Vec<f
 fn targets_of(targets: &ArrayIn<'_>) -> PyResult<Vec<Pose>> {
     let (v, shape) = values(targets);
     check_shape("targets", &shape, &[None, Some(4), Some(4)])?;
-    v.chunks_exact(16).enumerate().map(|(i, c)| pose_from_slice(&format!("targets[{i}]"), c)).collect()
+    v.chunks_exact(16).enumerate().map(|(i, c)| pose_from_slice_fast(&format!("targets[{i}]"), c)).collect()
 }
 
 /// Inverse kinematics of one target T_world_tool (4, 4) from q0 (n,) in rad / m (default zeros).
@@ -178,8 +178,8 @@ fn targets_of(targets: &ArrayIn<'_>) -> PyResult<Vec<Pose>> {
 #[allow(non_snake_case, clippy::too_many_arguments)]
 pub fn ik(
     model: &PyModel,
-    T_target: ArrayIn<'_>,
-    q0: Option<ArrayIn<'_>>,
+    T_target: &Bound<'_, PyAny>,
+    q0: Option<&Bound<'_, PyAny>>,
     method: &str,
     tol_position: f64,
     tol_rotation: f64,
@@ -190,7 +190,7 @@ pub fn ik(
     damping: f64,
 ) -> PyResult<PyIkResult> {
     let opts = options(method, tol_position, tol_rotation, max_iterations, restarts, seed, respect_limits, damping)?;
-    let target = pose("T_target", &T_target)?;
+    let target = pose_fast("T_target", T_target)?;
     let q0 = start(model, q0, "q0")?;
     Ok(PyIkResult { inner: core_ik::ik(&model.inner, &target, &q0, &opts).py()? })
 }
@@ -204,7 +204,7 @@ pub fn ik_path(
     py: Python<'_>,
     model: &PyModel,
     targets: ArrayIn<'_>,
-    q0: Option<ArrayIn<'_>>,
+    q0: Option<&Bound<'_, PyAny>>,
     method: &str,
     tol_position: f64,
     tol_rotation: f64,
