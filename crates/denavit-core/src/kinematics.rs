@@ -48,11 +48,13 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
 /// [`sin_cos`] for |x| < 1e5 (unchecked), branch-free.
 #[inline(always)]
 fn sin_cos_small(x: f64) -> (f64, f64) {
-    let (a, b, m) = reduced_sin_cos(x);
-    // m = k - 4 round(k / 4) in {-2, -1, 0, 1, 2}: the quadrant k mod 4
-    let (a, b) = if m == 1.0 || m == -1.0 { (b, a) } else { (a, b) };
-    let half = m == 2.0 || m == -2.0;
-    (if half || m == -1.0 { -a } else { a }, if half || m == 1.0 { -b } else { b })
+    let (sn, cs, m) = reduced_sin_cos(x);
+    // m = k - 4 round(k / 4) in {-2, -1, 0, 1, 2}; (a, b) = (cos, sin)(m pi / 2), exact small integers, so
+    // the rotation by the quadrant is exact and needs no branch or select
+    let m2 = m * m;
+    let a = 1.0 + m2 * (m2 - 7.0) * (1.0 / 6.0);
+    let b = m * (4.0 - m2) * (1.0 / 3.0);
+    (a * sn + b * cs, a * cs - b * sn)
 }
 
 /// The kernel of [`sin_cos`]: `(sin r, cos r, m)` with `x = r + k pi/2`, |r| <= pi/4 and
