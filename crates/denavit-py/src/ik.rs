@@ -192,7 +192,10 @@ pub fn ik(
     let opts = options(method, tol_position, tol_rotation, max_iterations, restarts, seed, respect_limits, damping)?;
     let target = pose_fast("T_target", T_target)?;
     let q0 = start(model, q0, "q0")?;
-    Ok(PyIkResult { inner: core_ik::ik(&model.inner, &target, &q0, &opts).py()? })
+    let m: &denavit_core::Model = &model.inner;
+    // an unreachable target runs every restart (up to a millisecond): let other threads run meanwhile
+    let r = T_target.py().allow_threads(|| core_ik::ik(m, &target, &q0, &opts));
+    Ok(PyIkResult { inner: r.py()? })
 }
 
 /// Solve targets (N, 4, 4) in order, each warm-started from the previous solution (the first from q0).
