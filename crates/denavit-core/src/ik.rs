@@ -33,8 +33,8 @@
 #![allow(clippy::needless_range_loop)] // index loops mirror the formulas (and unroll)
 
 use crate::error::{check_finite, check_len, Error, Result};
-use crate::kinematics::{jacobian_unchecked, tool_pose_unchecked, JacobianFrame};
-use crate::model::{Data, JointKind, Model};
+use crate::kinematics::{tool_pose_and_jacobian, tool_pose_unchecked};
+use crate::model::{JointKind, Model};
 use crate::spatial::{pose_error, rotation_angle, Pose, SE3_TOL};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use rayon::prelude::*;
@@ -508,7 +508,7 @@ pub struct IkSolver<'m> {
     model: &'m Model,
     opts: IkOptions,
     bounds: Bounds,
-    data: Data,
+    jac_eval: Vec<f64>,
     q: Vec<f64>,
     q_trial: Vec<f64>,
     q_best: Vec<f64>,
@@ -527,7 +527,7 @@ impl<'m> IkSolver<'m> {
             model,
             opts,
             bounds: Bounds::new(model),
-            data: Data::new(model),
+            jac_eval: vec![0.0; 6 * n],
             q: vec![0.0; n],
             q_trial: vec![0.0; n],
             q_best: vec![0.0; n],
@@ -553,8 +553,8 @@ impl<'m> IkSolver<'m> {
     #[inline]
     fn evaluate(&mut self, which_trial: bool, target: &Pose, e: &mut [f64; 6]) -> (f64, f64) {
         let q = if which_trial { &self.q_trial } else { &self.q };
-        jacobian_unchecked(self.model, &mut self.data, q, JacobianFrame::World);
-        twist(&self.data.t_world_tool, target, e)
+        let tool = tool_pose_and_jacobian(self.model, q, &mut self.jac_eval);
+        twist(&tool, target, e)
     }
 
     /// One attempt from `self.q`; leaves the attempt's best configuration in `self.q`.
@@ -573,7 +573,7 @@ impl<'m> IkSolver<'m> {
         if score(pos, rot, &self.opts) <= 1.0 || n == 0 {
             return (it, pos, rot);
         }
-        self.jac.copy_from_slice(self.data.jacobian.as_slice());
+        self.jac.copy_from_slice(&self.jac_eval);
         let mut cost: f64 = e.iter().map(|v| v * v).sum();
         // Fan & Yuan (2005): lambda = mu |e|^2 (quadratic convergence near a zero residual), mu adapted as
         // in Marquardt (1963): x 0.3 after an accepted step, x 10 after a rejected one. An attempt that has
@@ -618,7 +618,7 @@ impl<'m> IkSolver<'m> {
             let cost_t: f64 = et.iter().map(|v| v * v).sum();
             if cost_t < cost {
                 std::mem::swap(&mut self.q, &mut self.q_trial);
-                self.jac.copy_from_slice(self.data.jacobian.as_slice());
+                self.jac.copy_from_slice(&self.jac_eval);
                 (e, cost, pos, rot) = (et, cost_t, p, r);
                 if score(pos, rot, &self.opts) <= 1.0 {
                     break;
@@ -634,10 +634,10 @@ impl<'m> IkSolver<'m> {
         (it, pos, rot)
     }
 
-    /// The Newton step into `self.g[..n]` from `self.data.jacobian` and `e`.
+    /// The Newton step into `self.g[..n]` from the last evaluated Jacobian and `e`.
     fn newton_step(&mut self, e: &[f64; 6]) {
         let n = self.model.nq();
-        let jac = self.data.jacobian.as_slice(); // column-major 6 x n
+        let jac = &self.jac_eval[..]; // column-major 6 x n
         let solved = if n == 6 {
             let mut x = [0.0; 6];
             let ok = lu_fixed6(&columns6(jac), e, &mut x);

@@ -272,6 +272,38 @@ pub(crate) fn jacobian_unchecked(model: &Model, data: &mut Data, q: &[f64], fram
     }
 }
 
+/// Tool pose and world-frame Jacobian in one pass, without a [`Data`] (the inner loop of IK):
+/// `jac` (column-major 6 x n) receives the columns of [`jacobian`] with [`JacobianFrame::World`].
+#[inline]
+pub(crate) fn tool_pose_and_jacobian(model: &Model, q: &[f64], jac: &mut [f64]) -> Pose {
+    let mut t = Frame::of(model.t_world_base());
+    for ((j, &qi), col) in model.joints().iter().zip(q).zip(jac.chunks_exact_mut(6)) {
+        t = t.mul(&j.placement);
+        t.motion(j.kind, qi + j.offset);
+        // park the joint's origin and z axis in its column; the tool origin is known only at the end
+        col[..3].copy_from_slice(&t.p());
+        col[3..].copy_from_slice(&t.z());
+    }
+    let tool = t.mul(model.t_flange_tool());
+    let tp = tool.p();
+    for (j, col) in model.joints().iter().zip(jac.chunks_exact_mut(6)) {
+        let z = [col[3], col[4], col[5]];
+        match j.kind {
+            JointKind::Revolute => {
+                let d = [tp[0] - col[0], tp[1] - col[1], tp[2] - col[2]];
+                col[0] = z[1] * d[2] - z[2] * d[1];
+                col[1] = z[2] * d[0] - z[0] * d[2];
+                col[2] = z[0] * d[1] - z[1] * d[0];
+            }
+            JointKind::Prismatic => {
+                col[..3].copy_from_slice(&z);
+                col[3..].fill(0.0);
+            }
+        }
+    }
+    tool.pose()
+}
+
 /// Write a pose as a row-major 4x4 matrix into `out[..16]`.
 #[inline(always)]
 pub(crate) fn write_pose(t: &Pose, out: &mut [f64]) {
@@ -478,6 +510,25 @@ pub fn jacobian_batch(model: &Model, qs: &[f64], frame: JacobianFrame, out: &mut
 #[cfg(test)]
 mod tests {
     use super::sin_cos;
+
+    #[test]
+    fn fused_jacobian_matches_data_jacobian() {
+        use crate::spatial::{rx, trans};
+        use crate::{Data, Joint, JointKind, Model};
+        let joints = vec![
+            Joint::new("a", JointKind::Revolute, rx(0.3) * trans(0.1, 0.2, 0.3)),
+            Joint::new("b", JointKind::Prismatic, rx(-1.1) * trans(0.0, 0.4, 0.1)),
+            Joint::new("c", JointKind::Revolute, rx(0.7) * trans(0.3, 0.0, -0.2)),
+        ];
+        let m = Model::new("m", trans(0.1, 0.0, 0.2) * rx(0.2), joints, trans(0.0, 0.1, 0.2)).unwrap();
+        let q = [0.4, 0.2, -0.9];
+        let mut d = Data::new(&m);
+        super::jacobian(&m, &mut d, &q, super::JacobianFrame::World).unwrap();
+        let mut jac = vec![0.0; 18];
+        let t = super::tool_pose_and_jacobian(&m, &q, &mut jac);
+        assert_eq!(jac.as_slice(), d.jacobian.as_slice());
+        assert_eq!(t, d.t_world_tool);
+    }
 
     #[test]
     fn sin_cos_matches_libm() {
