@@ -508,6 +508,7 @@ pub fn jacobian_batch(model: &Model, qs: &[f64], frame: JacobianFrame, out: &mut
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::sin_cos;
 
