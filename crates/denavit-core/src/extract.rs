@@ -9,6 +9,10 @@ use crate::model::JointKind;
 use crate::spatial::{any_perpendicular, perpendicular, pose_error, rx, signed_angle, wrap_angle, Pose};
 use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
 
+/// ED-H takes the common normal of two axes whenever `|z_i x z_{i+1}|` exceeds this (about 45 ulps): below it
+/// the angle between unit vectors is round-off and the pair is exactly parallel for every purpose.
+pub const EXACT_PARALLEL_SIN: f64 = 1e-14;
+
 /// Above this `|z_i x z_{i+1}|` (about 2.9 degrees) axes are never treated as parallel, however far their
 /// common normal lies (docs/conventions.md).
 pub const NEAR_PARALLEL_SIN: f64 = 0.05;
@@ -357,7 +361,7 @@ fn edh_from_axes(ax: &JointAxes, opt: &ExtractOptions, geoms: &[PairGeom], nomin
         let x = if k + 1 < n {
             let c = normal_direction(&z[k], &z[k + 1]);
             let toward = origins[k + 1] - origins[k];
-            if c.norm() > 1e-12 {
+            if c.norm() > EXACT_PARALLEL_SIN {
                 orient(c.normalize(), nom_x(k + 1).as_ref(), &toward, opt.intersect_tol)
             } else if geoms[k].relation == Relation::Coincident {
                 orient(perp_or(&col(&frames[k], 0), &base_x, &z[k]), nom_x(k + 1).as_ref(), &Vector3::zeros(), opt.intersect_tol)

@@ -95,6 +95,9 @@ pub(crate) fn frame_from_zx(origin: &Vector3<f64>, z: &Vector3<f64>, x_hint: &Ve
 /// Unit component of `v` perpendicular to the unit vector `z`, if it is not (nearly) zero.
 pub(crate) fn perpendicular(v: &Vector3<f64>, z: &Vector3<f64>) -> Option<Vector3<f64>> {
     let p = v - z * z.dot(v);
+    // a second projection: when `v` is nearly along `z`, the first leaves a component along `z` of round-off
+    // relative to |v|, a large tilt relative to the small |p| ("twice is enough", Gram-Schmidt)
+    let p = p - z * z.dot(&p);
     let n = p.norm();
     (n > 1e-9 * v.norm().max(1e-300)).then(|| p / n)
 }
