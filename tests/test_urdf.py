@@ -456,6 +456,113 @@ def test_meshes_inertials_and_limits_carried_through(tmp_path):
     np.testing.assert_allclose(cc, ca, atol=1e-12)
 
 
+def gravity_torques_from_urdf(path, q, g=(0.0, 0.0, -9.81)):
+    """Torques holding a URDF chain against gravity, from yourdfpy's link poses alone: joint i carries the
+    moment about its axis of the weight of every link below it (links fixed to a moving link included)."""
+    u = yourdfpy.URDF.load(str(path), build_scene_graph=True, load_meshes=False)
+    u.update_cfg(q)
+    parent = {j.child: j.parent for j in u.robot.joints}
+    base = u.base_link
+
+    def below(link, top):
+        while link != top and link in parent:
+            link = parent[link]
+        return link == top
+
+    tau = []
+    for j in u.actuated_joints:
+        Tj = u.get_transform(j.child, base)
+        z = Tj[:3, :3] @ (np.asarray(j.axis) / np.linalg.norm(j.axis))
+        moment = np.zeros(3)
+        for link in u.robot.links:
+            if link.inertial is not None and link.inertial.mass and below(link.name, j.child):
+                c = (u.get_transform(link.name, base) @ link.inertial.origin)[:3, 3]
+                moment += np.cross(c - Tj[:3, 3], link.inertial.mass * np.asarray(g))
+        tau.append(-moment @ z)
+    return np.array(tau)
+
+
+@pytest.mark.parametrize("path", GOOD)
+def test_urdf_inertials_give_the_urdfs_gravity_torques(path):
+    """load_urdf carries the links' inertials (fixed links merged into their moving body) into the robot, so
+    `denavit dynamics x.urdf` is the URDF's dynamics: gravity torques against a sum over yourdfpy's link
+    poses; full inverse dynamics against pinocchio's URDF importer when it is installed."""
+    robot = U.load_urdf(path)
+    has_mass = any(l.inertial is not None and l.inertial.mass for l in yourdfpy.URDF.load(str(path), load_meshes=False).robot.links)
+    if not has_mass:
+        assert robot.inertials is None
+        return
+    m = robot.model()
+    for q in qs_within(m, 5, seed=4):
+        np.testing.assert_allclose(dv.gravity_torques(m, q), gravity_torques_from_urdf(path, q), rtol=0, atol=1e-11)
+
+
+def test_urdf_inertials_match_pinocchio():
+    pin = pytest.importorskip("pinocchio")
+    robot = U.load_urdf(UR)
+    m = robot.model()
+    pm = pin.buildModelFromUrdf(str(UR))
+    pd = pm.createData()
+    rng = np.random.default_rng(5)
+    for q in qs_within(m, 5, seed=6):
+        qd, qdd = rng.normal(size=6), rng.normal(size=6)
+        np.testing.assert_allclose(dv.rnea(m, q, qd, qdd), pin.rnea(pm, pd, pin_q(pm, q), qd, qdd), rtol=0, atol=1e-10)
+
+
+def pin_q(pm, q):
+    """pinocchio's configuration vector: continuous joints as (cos, sin)."""
+    out = []
+    for j, v in zip(list(pm.joints)[1:], q):
+        out += [math.cos(v), math.sin(v)] if j.nq == 2 else [v]
+    return np.array(out)
+
+
+@pytest.mark.parametrize("name", ["tiansui_edh", "tiansui_mdh"])
+def test_robot_file_inertials_survive_urdf_export(tmp_path, name):
+    """A robot file's link inertias are written into the URDF (link i = joint frame i) and read back: the
+    same torques to 1e-10 (and the same as pinocchio's importer of the written file, when installed)."""
+    robot = dv.load_robot(name)
+    m = robot.model()
+    out = tmp_path / f"{name}.urdf"
+    U.save_urdf(m, out, robot)
+    back = U.load_urdf(out).model()
+    rng = np.random.default_rng(7)
+    for _ in range(5):
+        q, qd, qdd = rng.uniform(-2, 2, 6), rng.normal(size=6), rng.normal(size=6)
+        np.testing.assert_allclose(dv.rnea(back, q, qd, qdd), dv.rnea(m, q, qd, qdd), rtol=0, atol=1e-10)
+        assert np.abs(dv.rnea(m, q, qd, qdd)).max() > 1.0  # the robot file does carry masses
+    try:
+        import pinocchio as pin
+    except ImportError:
+        return
+    pm = pin.buildModelFromUrdf(str(out))
+    q, qd, qdd = rng.uniform(-2, 2, 6), rng.normal(size=6), rng.normal(size=6)
+    np.testing.assert_allclose(pin.rnea(pm, pm.createData(), pin_q(pm, q), qd, qdd), dv.rnea(m, q, qd, qdd), rtol=0, atol=1e-10)
+
+
+@pytest.mark.parametrize("bad, why", [
+    ('<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="3"/>', "triangle"),
+    ('<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="-1"/>', "definite"),
+])
+def test_unphysical_urdf_inertia_warns_and_loads_kinematics(tmp_path, bad, why):
+    text = UR.read_text().replace('<inertia ixx="0.010267495893" ixy="0" ixz="0" iyy="0.010267495893" iyz="0" izz="0.00666"/>', bad)
+    assert bad in text
+    p = tmp_path / "bad.urdf"
+    p.write_text(text)
+    with pytest.warns(dv.DenavitWarning, match="bad.urdf: the inertial of link 'shoulder_link' .*'shoulder_pan_joint'.* not physical") as rec:
+        robot = U.load_urdf(p)
+    assert why in str(rec[0].message) and "without inertials" in str(rec[0].message)
+    assert robot.inertials is None
+    assert pose_err(dv.fk(robot.model(), np.full(6, 0.3)), dv.fk(U.load_urdf(UR).model(), np.full(6, 0.3))) < 1e-12
+
+
+def test_negative_urdf_mass_names_the_link(tmp_path):
+    p = tmp_path / "neg.urdf"
+    p.write_text(UR.read_text().replace('<mass value="2.275"/>', '<mass value="-2.275"/>'))
+    with pytest.warns(dv.DenavitWarning, match="forearm_link.*-2.275.*expected a finite mass >= 0 kg"):
+        assert U.load_urdf(p).inertials is None
+
+
 def test_model_without_robot_gets_default_names(tmp_path):
     m = dv.load_model("puma560")
     text = U.dumps_urdf(m)

@@ -31,7 +31,7 @@ from ._core import (
     rnea,
     rnea_batch,
 )
-from .errors import DegenerateError, DenavitError, NotConvergedError
+from .errors import DegenerateError, DenavitError, DenavitWarning, NotConvergedError
 from .robotfile import Robot, builtin_names
 from .robotfile import load as load_robot
 
@@ -58,6 +58,7 @@ def to_table(model: Model, convention: str, *, q_ref=None, nominal: Table | None
 __all__ = [
     "DegenerateError",
     "DenavitError",
+    "DenavitWarning",
     "Extraction",
     "IkBatchResult",
     "IkResult",

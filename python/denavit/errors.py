@@ -11,3 +11,7 @@ class NotConvergedError(DenavitError):
 
 class DegenerateError(DenavitError):
     """Input geometry is degenerate (collinear points, zero-length axis, too-short arc, ...)."""
+
+
+class DenavitWarning(UserWarning):
+    """Input that denavit can use only in part (e.g. a URDF whose inertials are not physical)."""

@@ -39,12 +39,19 @@ limits, damping and friction) is kept in ``Robot.extra["urdf"]`` (plain dicts an
 meshes and inertials are re-expressed in the exported link frame through their pose at ``q = 0`` in
 ``world`` (the base link frame of the imported URDF), so they stay on the body even though the link
 frames changed. Links off the chosen chain are not carried.
+
+Dynamics: :func:`load_urdf` also merges each moving body's inertials (its link and the links fixed to it,
+parallel-axis theorem) into ``Robot.inertials``, so the robot's model has the URDF's dynamics; an
+unphysical inertial (negative mass, inertia not positive semi-definite or breaking the triangle
+inequality) gives a :class:`~denavit.errors.DenavitWarning` naming the link, and massless links. A model
+exported without URDF information writes its own link inertias (link *i* = joint frame *i*).
 """
 
 from __future__ import annotations
 
 import math
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -53,8 +60,8 @@ import yourdfpy
 from lxml import etree
 
 from . import _core
-from .errors import DenavitError
-from .robotfile import Robot, write_atomic
+from .errors import DenavitError, DenavitWarning
+from .robotfile import Robot, inertials_for_table, write_atomic
 
 SUPPORTED_JOINTS = ("revolute", "continuous", "prismatic", "fixed")
 UNSUPPORTED_JOINTS = ("floating", "planar")
@@ -497,22 +504,64 @@ def load_urdf(path: str | os.PathLike, base_link: str | None = None, tip_link: s
       filename/scale, box, cylinder or sphere, ``material``);
     * ``materials``: the robot-level named materials.
 
-    :func:`dumps_urdf` writes them back.
+    :func:`dumps_urdf` writes them back. ``Robot.inertials`` holds each moving body's merged inertial in
+    the ED-H frames (None when the chain has no mass, or, with a warning, an unphysical inertial).
     """
     ch = read_chain(path, base_link, tip_link)
     m = ch.model()
     ex = _core.extract(_core.axes(m, np.zeros(m.nq)), "edh")
+    names, lower, upper = list(ch.names), ch.lower.copy(), ch.upper.copy()
+    inertials = None
+    try:
+        bodies = _body_inertials_in_world(ch, m)
+        if bodies is not None:
+            inertials = inertials_for_table(m.with_inertias(*bodies, frame="world"), ex.table, names, lower, upper)
+    except DenavitError as e:
+        warnings.warn(f"{ch.path}: {e}; the robot is loaded without inertials (massless links)", DenavitWarning, stacklevel=2)
     return Robot(
         name=ch.name,
         table=ex.table,
-        names=list(ch.names),
-        lower=ch.lower.copy(),
-        upper=ch.upper.copy(),
+        names=names,
+        lower=lower,
+        upper=upper,
         description=f"{ch.name} from URDF ({ch.base_link} -> {ch.tip_link}, {m.nq} joints), ED-H",
         source=f"URDF {Path(ch.path).name}",
         path=ch.path,
         extra={"urdf": ch.extra},
+        inertials=inertials,
     )
+
+
+def _body_inertials_in_world(ch: UrdfChain, model: _core.Model) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Per moving body (each joint's child with the links fixed to it) its mass (kg), centre of mass and
+    inertia about it (kg m^2), both in world at q = 0; None when no body of the chain has a mass. An
+    unphysical inertial is an error naming the URDF link(s) of its body."""
+    n = len(ch.names)
+    masses, coms, inertias = np.zeros(n), np.zeros((n, 3)), np.zeros((n, 3, 3))
+    for i, body in enumerate(ch.extra["bodies"][1:]):
+        links = [ld["name"] for ld in body["links"] if "inertial" in ld]
+        for ld in body["links"]:
+            mass = ld.get("inertial", {}).get("mass", 0.0)
+            if not (math.isfinite(mass) and mass >= 0.0):
+                raise DenavitError(f"link {ld['name']!r}: <mass value=\"{mass}\"/>: expected a finite mass >= 0 kg")
+        parts = [
+            (np.asarray(ld["T_world_link"], dtype=float) @ np.asarray(ld["inertial"]["origin"], dtype=float),
+             float(ld["inertial"]["mass"]), np.asarray(ld["inertial"]["inertia"], dtype=float))
+            for ld in body["links"] if "inertial" in ld
+        ]
+        comb = combine_inertials(parts)
+        if comb is not None:
+            T, masses[i], I = comb
+            R = T[:3, :3]
+            coms[i], inertias[i] = T[:3, 3], R @ I @ R.T
+            one = np.zeros(n)
+            one[i] = masses[i]
+            try:  # the core's physical checks, one body at a time so that the message can name its links
+                model.with_inertias(one, coms, inertias, frame="world")
+            except DenavitError as e:
+                raise DenavitError(f"the inertial of link{'s' if len(links) > 1 else ''} {', '.join(map(repr, links))} "
+                                   f"(the body moved by joint {ch.names[i]!r}) is not physical: {e}") from None
+    return (masses, coms, inertias) if masses.any() else None
 
 
 def urdf_table(path: str | os.PathLike, convention: str, *, base_link: str | None = None, tip_link: str | None = None, **options) -> _core.Extraction:
@@ -565,6 +614,13 @@ def _material(parent, m: dict) -> None:
         etree.SubElement(me, "color", rgba=_nums(m["rgba"]))
     if "texture" in m:
         etree.SubElement(me, "texture", filename=m["texture"])
+
+
+def _inertial(parent, T, mass: float, I) -> None:
+    ie = etree.SubElement(parent, "inertial")
+    _origin(ie, T)
+    etree.SubElement(ie, "mass", value=_num(mass))
+    etree.SubElement(ie, "inertia", ixx=_num(I[0, 0]), ixy=_num(I[0, 1]), ixz=_num(I[0, 2]), iyy=_num(I[1, 1]), iyz=_num(I[1, 2]), izz=_num(I[2, 2]))
 
 
 def combine_inertials(parts: list[tuple[np.ndarray, float, np.ndarray]]) -> tuple[np.ndarray, float, np.ndarray] | None:
@@ -662,11 +718,7 @@ def dumps_urdf(model: _core.Model, robot: Robot | None = None) -> str:
                 col += [(C, v) for v in ld.get("collisions", [])]
             comb = combine_inertials(parts)
             if comb is not None:
-                T, mass, I = comb
-                ie = etree.SubElement(el, "inertial")
-                _origin(ie, T)
-                etree.SubElement(ie, "mass", value=_num(mass))
-                etree.SubElement(ie, "inertia", ixx=_num(I[0, 0]), ixy=_num(I[0, 1]), ixz=_num(I[0, 2]), iyy=_num(I[1, 1]), iyz=_num(I[1, 2]), izz=_num(I[2, 2]))
+                _inertial(el, *comb)
             for tag, items in (("visual", vis), ("collision", col)):
                 for C, v in items:
                     ve = etree.SubElement(el, tag, **({"name": v["name"]} if v.get("name") else {}))
@@ -676,6 +728,11 @@ def dumps_urdf(model: _core.Model, robot: Robot | None = None) -> str:
                         _material(ve, v["material"])
         for m in info.get("materials", []):
             _material(root, m)
+    else:  # the model's own link inertias (link i = joint frame i, about the centre of mass)
+        ins = model.inertias
+        for i in range(n):
+            if ins["masses"][i] > 0.0:
+                _inertial(link_el[body_names[i + 1]], _hom(None, ins["coms"][i]), float(ins["masses"][i]), ins["inertias"][i])
 
     def add_fixed(jname: str, parent: str, child: str, T) -> None:
         je = etree.SubElement(root, "joint", name=_unique(jname, joint_names), type="fixed")
