@@ -189,3 +189,19 @@ def ik_path(model: Model, targets: ArrayLike, q0: ArrayLike | None = None, *, me
 def ik_batch(model: Model, targets: ArrayLike, q0s: ArrayLike | None = None, *, method: str = "lm", tol_position: float = 1e-10,
              tol_rotation: float = 1e-10, max_iterations: int = 100, restarts: int = 50, seed: int = 0,
              respect_limits: bool = True, damping: float = 0.1) -> IkBatchResult: ...
+
+class CalibrationChain:
+    """A chain of elementary factors with named parameters (built by `denavit.calibrate`).
+
+    axes: K of "rx" | "ry" | "rz" | "tx" | "ty" | "tz" | "fixed"; params: K parameter indices (ignored for
+    "fixed"); joints: K 0-based joints whose reading adds to the value (-1: none); fixed: (F, 4, 4) the fixed
+    poses in the order of the "fixed" entries; scales: nq indices of each joint's scale parameter (-1: none).
+    """
+    def __init__(self, axes: Sequence[str], params: Sequence[int], joints: Sequence[int], fixed: ArrayLike, n_params: int, nq: int,
+                 scales: Sequence[int]) -> None: ...
+    @property
+    def n_params(self) -> int: ...
+    @property
+    def nq(self) -> int: ...
+    def evaluate(self, x: ArrayLike, qs: ArrayLike, jacobian: bool = True) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+        """Tool poses (N, 4, 4) and, if `jacobian`, identification Jacobians (N, 6, n_params), rows [v; w] in world."""
