@@ -304,6 +304,38 @@ pub(crate) fn tool_pose_and_jacobian(model: &Model, q: &[f64], jac: &mut [f64]) 
     tool.pose()
 }
 
+/// The geometric Jacobian at `q` written row-major (6 x n) into `out`, in one pass without a [`Data`]
+/// (same values as [`jacobian`]); `q` must have n finite values (unchecked).
+pub fn jacobian_row_major_unchecked(model: &Model, q: &[f64], frame: JacobianFrame, out: &mut [f64]) {
+    let n = model.nq();
+    let mut stack = [0.0; 6 * 16];
+    let mut heap = Vec::new();
+    let jac: &mut [f64] = if n <= 16 {
+        &mut stack[..6 * n]
+    } else {
+        heap.resize(6 * n, 0.0);
+        &mut heap
+    };
+    let tool = tool_pose_and_jacobian(model, q, jac);
+    let r = tool.rotation.matrix();
+    for (c, col) in jac.chunks_exact(6).enumerate() {
+        match frame {
+            JacobianFrame::World => {
+                for k in 0..6 {
+                    out[k * n + c] = col[k];
+                }
+            }
+            JacobianFrame::Tool => {
+                // R^T v, R^T w
+                for k in 0..3 {
+                    out[k * n + c] = r[(0, k)] * col[0] + r[(1, k)] * col[1] + r[(2, k)] * col[2];
+                    out[(3 + k) * n + c] = r[(0, k)] * col[3] + r[(1, k)] * col[4] + r[(2, k)] * col[5];
+                }
+            }
+        }
+    }
+}
+
 /// Write a pose as a row-major 4x4 matrix into `out[..16]`.
 #[inline(always)]
 pub(crate) fn write_pose(t: &Pose, out: &mut [f64]) {
@@ -490,20 +522,12 @@ pub fn jacobian_batch(model: &Model, qs: &[f64], frame: JacobianFrame, out: &mut
     check_len("q batch (N*n values)", count * n, qs.len())?;
     check_len("output (N*6n values)", count * 6 * n, out.len())?;
     crate::error::check_finite("q batch", qs)?;
-    out.par_chunks_mut(6 * n * 256).enumerate().for_each_init(
-        || Data::new(model),
-        |data, (c, o)| {
-            for (k, ok) in o.chunks_exact_mut(6 * n).enumerate() {
-                let idx = c * 256 + k;
-                jacobian_unchecked(model, data, &qs[idx * n..(idx + 1) * n], frame);
-                for r in 0..6 {
-                    for col in 0..n {
-                        ok[r * n + col] = data.jacobian[(r, col)];
-                    }
-                }
-            }
-        },
-    );
+    out.par_chunks_mut(6 * n * 256).enumerate().for_each(|(c, o)| {
+        for (k, ok) in o.chunks_exact_mut(6 * n).enumerate() {
+            let idx = c * 256 + k;
+            jacobian_row_major_unchecked(model, &qs[idx * n..(idx + 1) * n], frame, ok);
+        }
+    });
     Ok(())
 }
 
@@ -529,6 +553,17 @@ mod tests {
         let t = super::tool_pose_and_jacobian(&m, &q, &mut jac);
         assert_eq!(jac.as_slice(), d.jacobian.as_slice());
         assert_eq!(t, d.t_world_tool);
+        // the row-major form of the bindings, in both frames
+        for frame in [super::JacobianFrame::World, super::JacobianFrame::Tool] {
+            super::jacobian(&m, &mut d, &q, frame).unwrap();
+            let mut rm = vec![0.0; 18];
+            super::jacobian_row_major_unchecked(&m, &q, frame, &mut rm);
+            for r in 0..6 {
+                for c in 0..3 {
+                    assert!((rm[r * 3 + c] - d.jacobian[(r, c)]).abs() < 1e-15, "{r} {c}");
+                }
+            }
+        }
     }
 
     #[test]

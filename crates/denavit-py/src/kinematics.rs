@@ -46,29 +46,12 @@ pub fn jacobian<'py>(py: Python<'py>, model: &PyModel, q: &Bound<'py, PyAny>, fr
     let f = frame_of(frame)?;
     let q = vector_fast("q", q, model.inner.nq())?;
     let n = model.inner.nq();
-    let v = DATA.with(|cell| {
-        let mut slot = cell.borrow_mut();
-        let data = match slot.as_mut() {
-            Some(d) if d.t_world_joint.len() == n => d,
-            _ => slot.insert(Data::new(&model.inner)),
-        };
-        kinematics::jacobian(&model.inner, data, &q, f).map(|_| {
-            let jac = data.jacobian.as_slice(); // column-major 6 x n
-            let mut v = vec![0.0; 6 * n];
-            for c in 0..n {
-                for r in 0..6 {
-                    v[r * n + c] = jac[6 * c + r];
-                }
-            }
-            v
-        })
-    });
-    matrix_out(py, &v.py()?, 6, n)
-}
-
-thread_local! {
-    /// A workspace reused by the single-configuration calls (resized when the model's size changes).
-    static DATA: std::cell::RefCell<Option<Data>> = const { std::cell::RefCell::new(None) };
+    let out = PyArray2::<f64>::zeros(py, [6, n], false);
+    {
+        let mut rw = out.readwrite();
+        kinematics::jacobian_row_major_unchecked(&model.inner, &q, f, rw.as_slice_mut()?);
+    }
+    Ok(out)
 }
 
 fn batch_q(model: &PyModel, qs: &ArrayIn<'_>) -> PyResult<(Vec<f64>, usize)> {
