@@ -119,6 +119,5 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(jacobian, m)?)?;
     m.add_function(wrap_pyfunction!(fk_batch, m)?)?;
     m.add_function(wrap_pyfunction!(jacobian_batch, m)?)?;
-    let _ = write_pose;
     Ok(())
 }
