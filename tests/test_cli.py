@@ -34,6 +34,19 @@ def test_convert_json_and_file(tmp_path):
     assert "convention = \"edh\"" in out.read_text()
 
 
+def test_tables_and_messages_print_their_units_and_brackets_as_written(tmp_path):
+    """Column headers carry their units ("a [mm]") and messages print bracketed text verbatim: nothing the
+    tables or errors say is taken for terminal markup."""
+    out = run("convert", "kr5", "--to", "mdh", "--length", "m", "--angle", "rad").stdout
+    for head in ("alpha [rad]", "a [m]", "theta [rad]", "d [m]", "distance [m]", "Hayati beta [deg]"):
+        assert head in out, head
+    axes = run("identify", "--example", "kr5").stdout
+    assert "radius [mm]" in axes and "sigma dir [deg]" in axes
+    bad = tmp_path / "odd [v2].toml"
+    p = run("show", str(bad), ok=False)
+    assert p.returncode == 2 and "odd [v2].toml" in p.stderr
+
+
 def test_identify_example_and_json(tmp_path):
     out = tmp_path / "r.json"
     p = run("identify", "--example", "kr5", "--json", str(out))

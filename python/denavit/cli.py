@@ -12,6 +12,7 @@ import numpy as np
 import typer
 from rich.console import Console
 from rich.table import Table as RichTable
+from rich.text import Text
 
 from . import _core
 from .errors import DenavitError
@@ -24,15 +25,22 @@ app = typer.Typer(
     help="Find the true kinematic geometry of serial robots and compute with it.",
     pretty_exceptions_enable=False,
 )
-console = Console()
-err_console = Console(stderr=True)
+# markup off: units in headers ("a [mm]"), file paths and messages are printed as written; style only through say()
+console = Console(markup=False)
+err_console = Console(stderr=True, markup=False)
+
+
+def say(style: str, head: str, rest: str = "", err: bool = False) -> None:
+    """Print `head` in a rich `style` followed by plain `rest`."""
+    (err_console if err else console).print(Text.assemble((head, style), rest))
+
 
 ModelArg = Annotated[str, typer.Argument(help="A built-in name (see `denavit models`), a robot file (.toml) or a URDF.")]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")]
 
 
 def fail(msg: str) -> None:
-    err_console.print(f"[bold red]error:[/] {msg}")
+    say("bold red", "error:", f" {msg}", err=True)
     raise typer.Exit(2)
 
 
@@ -135,7 +143,7 @@ def fk(
         print(json.dumps({"model": robot.name, "units": {"length": unit, "angle": "deg" if deg else "rad"}, "q": (qv / (angle_scale("deg") if deg else 1)).tolist(),
                           "T_world_tool": pose_rows(T, ls), "T_world_joint": {n: pose_rows(F, ls) for n, F in zip(robot.names, frames)}}, indent=2))
         return
-    console.print(f"[bold]{robot.name}[/] ({robot.description}) — lengths in {unit}")
+    say("bold", robot.name, f" ({robot.description}) — lengths in {unit}")
     t = RichTable(title="T_world_tool")
     for c in ("", "x", "y", "z", "p"):
         t.add_column(c, justify="right")
@@ -205,9 +213,9 @@ def ik(
                           "position_error": r.position_error / ls, "rotation_error_rad": r.rotation_error,
                           "T_world_tool": pose_rows(_core.fk(m, r.q), ls)}, indent=2))
     else:
-        verdict = "[bold green]solved[/]" if r.success else "[bold red]not solved[/]"
-        console.print(f"[bold]{robot.name}[/] — {verdict}: position error {r.position_error / ls:.3e} {unit}, "
-                      f"rotation error {r.rotation_error:.3e} rad ({r.iterations} iterations, {r.restarts} restarts)")
+        verdict = ("solved", "bold green") if r.success else ("not solved", "bold red")
+        console.print(Text.assemble((robot.name, "bold"), " — ", verdict, f": position error {r.position_error / ls:.3e} {unit}, "
+                                    f"rotation error {r.rotation_error:.3e} rad ({r.iterations} iterations, {r.restarts} restarts)"))
         t = RichTable(title=f"q ({'deg' if deg else 'rad'})")
         for c in ("joint", "q"):
             t.add_column(c, justify="right")
@@ -274,8 +282,8 @@ def dynamics(
         print(json.dumps(doc, indent=2))
         return
     if warning:
-        err_console.print(f"[bold yellow]warning:[/] {warning}")
-    console.print(f"[bold]{robot.name}[/] ({robot.description}) — inverse dynamics, gravity {g} m/s^2 in world")
+        say("bold yellow", "warning:", f" {warning}", err=True)
+    say("bold", robot.name, f" ({robot.description}) — inverse dynamics, gravity {g} m/s^2 in world")
     t = RichTable(title="Joint efforts")
     for c in ("joint", "tau", "of which gravity", "unit"):
         t.add_column(c, justify="right")
@@ -347,7 +355,7 @@ def convert(
         try:  # the same physical links, re-expressed in the new convention's frames
             new = dataclasses.replace(new, inertials=inertials_for_table(m, ex.table, robot.names, robot.lower, robot.upper))
         except DenavitError as e:
-            err_console.print(f"[bold yellow]warning:[/] link inertias not carried over (the {to} table does not reproduce the joint axes exactly): {e}")
+            say("bold yellow", "warning:", f" link inertias not carried over (the {to} table does not reproduce the joint axes exactly): {e}", err=True)
     if output is not None:
         save(new, output, length, angle)
         console.print(f"wrote {output}")
@@ -487,7 +495,7 @@ def identify(
 
 def print_identification(doc: dict, result, length: str) -> None:
     nt = result.nominal_table
-    console.print(f"[bold]Identified {doc['convention'].upper()} parameters[/] (method {doc['method']}; data {doc['source']})")
+    say("bold", f"Identified {doc['convention'].upper()} parameters", f" (method {doc['method']}; data {doc['source']})")
     t = RichTable(caption=f"lengths in {length}, angles in deg; sigma = one standard deviation propagated from the fits")
     for c in ("joint", "param", "nominal", "identified", "sigma", "difference"):
         t.add_column(c, justify="right" if c not in ("joint", "param") else "left")
@@ -516,7 +524,7 @@ def print_identification(doc: dict, result, length: str) -> None:
     for row in b["orientation"]:
         console.print("  " + "  ".join(f"{v:7.3f}" for v in row))
     for note in doc["notes"]:
-        console.print(f"[yellow]note:[/] {note}")
+        say("yellow", "note:", f" {note}")
 
 
 @app.command()
@@ -618,8 +626,8 @@ def _declares_units(path: Path) -> bool:
 def print_calibration(res, length: str, angle: str) -> None:
     pz = res.parametrization
     meas = res.measurements
-    console.print(f"[bold]Calibration of {pz.robot.name}[/] ({res.convention}, {meas.n} {'poses' if meas.kind == 'pose' else 'points'} from {meas.source}; "
-                  f"{res.elapsed * 1e3:.1f} ms, {res.evaluations} evaluations{'' if res.converged else ', NOT converged'})")
+    say("bold", f"Calibration of {pz.robot.name}", f" ({res.convention}, {meas.n} {'poses' if meas.kind == 'pose' else 'points'} from {meas.source}; "
+        f"{res.elapsed * 1e3:.1f} ms, {res.evaluations} evaluations{'' if res.converged else ', NOT converged'})")
     t = RichTable(caption="sigma: one standard deviation (covariance of the fit); change: calibrated - nominal")
     for c in ("parameter", "unit", "nominal", "calibrated", "sigma", "change", "status"):
         t.add_column(c, justify="left" if c in ("parameter", "unit", "status") else "right")
@@ -645,7 +653,7 @@ def print_calibration(res, length: str, angle: str) -> None:
         console.print(f"Held-out validation ({v.n_test} of {v.n_train + v.n_test} poses): tool-position error rms {v.before_rms / ls:.4g} -> {v.after_rms / ls:.4g} {length}, "
                       f"max {v.before_max / ls:.4g} -> {v.after_max / ls:.4g} {length} (before: nominal geometry with base and tool fitted)")
     for note in res.notes:
-        console.print(f"[yellow]note:[/] {note}")
+        say("yellow", "note:", f" {note}")
 
 
 @app.command()
@@ -704,7 +712,7 @@ def plan(
         print(json.dumps(doc, indent=2))
         return
     what = f"{len(p.q)} poses" + (f" ({select} selected of the candidates)" if select else "") if protocol is None else f"sweeps of {points} points"
-    console.print(f"[bold]Plan for {robot.name}[/] ({pz.convention}): {what}, noise {noise} {length} per coordinate")
+    say("bold", f"Plan for {robot.name}", f" ({pz.convention}): {what}, noise {noise} {length} per coordinate")
     t = RichTable(caption="Cramer-Rao bound (one sigma) of every parameter; '-': not identifiable (see below)")
     for c in ("parameter", "unit", "sigma"):
         t.add_column(c, justify="right" if c == "sigma" else "left")
@@ -730,11 +738,11 @@ def plan(
         console.print(f"Redundant in the {pz.convention} parametrisation (held at nominal; reasons with --json): {', '.join(red)}")
     for u in p.identifiability.unidentifiable:
         if not u.structural:
-            console.print(f"[yellow]not identifiable from this protocol:[/] {u.name}: {u.reason}")
+            say("yellow", "not identifiable from this protocol:", f" {u.name}: {u.reason}")
     if p.selected is not None:
         console.print(f"Selected candidates (0-based, in the order chosen): {', '.join(map(str, p.selected.tolist()))}")
     for note in p.notes:
-        console.print(f"[yellow]note:[/] {note}")
+        say("yellow", "note:", f" {note}")
 
 
 def _read_configurations(path: Path, robot: Robot, angle: str) -> np.ndarray:
@@ -782,7 +790,7 @@ def main() -> None:
     try:
         app()
     except DenavitError as e:
-        err_console.print(f"[bold red]error:[/] {e}")
+        say("bold red", "error:", f" {e}", err=True)
         sys.exit(2)
 
 
