@@ -182,3 +182,11 @@ def test_reported_sigmas_match_monte_carlo_spread(kr5):
     ratio = sig.mean(axis=0)[free] / spread[free]
     assert 0.9 < np.median(ratio) < 1.1, ratio
     assert np.all((ratio > 0.7) & (ratio < 1.3)), ratio
+
+
+def test_progress_reports_every_stage(kr5):
+    """The progress callback (the CLI's status line) hears of every sweep and of each later stage, in order."""
+    said = []
+    ident.identify(simulate(kr5, 30, points_per_sweep=8), nominal=kr5, progress=said.append)
+    assert [m.split(" (")[0] for m in said[:6]] == [f"fitting sweep {k} of 6" for k in range(1, 7)]
+    assert said[6].startswith("one fit of all 6 sweeps") and said[-1].startswith("measuring volume")

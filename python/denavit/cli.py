@@ -459,9 +459,9 @@ def identify(
         else:
             sweeps = sw.read_long_csv(data, length=length, angle=angle)
     nom = load(nominal) if nominal else None
-    with console.status(f"fitting {sweeps.n_joints} sweeps ({method})..."):
+    with console.status(f"fitting {sweeps.n_joints} sweeps ({method})...") as status:
         ms = None if max_sigma is None else max_sigma * length_scale(length or sweeps.units.get("length", "mm"))
-        result = ident.identify(sweeps, method=method, convention=convention.lower(), nominal=nom, loss=loss, max_sigma=ms)
+        result = ident.identify(sweeps, method=method, convention=convention.lower(), nominal=nom, loss=loss, max_sigma=ms, progress=status.update)
     out_len = length or sweeps.units.get("length", "m")
     doc = ident.to_json(result, out_len, "deg")
     print_identification(doc, result, out_len)

@@ -11,6 +11,7 @@ minimum-volume bounding box of the measured points (paper Table IV).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 import json
 import math
 from dataclasses import dataclass, field, replace
@@ -90,10 +91,11 @@ def sweep_where(s, source: str) -> str:
     return f"{first} .. {last}, joint {s.joint}"
 
 
-def _per_sweep(sweeps: SweepSet, method: str, loss: str, max_sigma: float | None) -> list:
+def _per_sweep(sweeps: SweepSet, method: str, loss: str, max_sigma: float | None, progress: Callable[[str], None]) -> list:
     fits = []
-    for s in sweeps.sweeps:
+    for k, s in enumerate(sweeps.sweeps):
         where = sweep_where(s, sweeps.source)
+        progress(f"fitting sweep {k + 1} of {len(sweeps.sweeps)} (joint {s.joint}, {len(s.points)} points, {method})")
         q = s.moving
         kw = {"max_sigma_point": max_sigma, "where": where}
         if sweeps.kinds[s.joint - 1] == "prismatic":
@@ -269,6 +271,7 @@ def identify(
     parallel_tol: float = 1e-3,
     intersect_tol: float | None = None,
     max_sigma: float | None = None,
+    progress: Callable[[str], None] | None = None,
 ) -> Identification:
     """Identify the joint axes and the parameter table of ``convention`` from ``sweeps``.
 
@@ -281,7 +284,9 @@ def identify(
     max_sigma : float, metres, optional
         The accuracy asked for: a sweep whose predicted axis-position uncertainty (1 sigma, across the axis)
         exceeds it is an error that names the sweep and the predicted value (e.g. an arc too short).
+    progress : called with a short message as each stage starts (the CLI shows it).
     """
+    progress = progress or (lambda _msg: None)
     if method not in METHODS:
         raise DenavitError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
     if convention not in ("dh", "mdh", "edh", "poe"):
@@ -292,12 +297,13 @@ def identify(
     if method == "auto":
         method = "global" if sweeps.has_readings else "geometric"
     notes = []
-    fits = _per_sweep(sweeps, method, loss, max_sigma if method != "global" else None)
+    fits = _per_sweep(sweeps, method, loss, max_sigma if method != "global" else None, progress)
     if sweeps.has_readings:
         p_home = _tool_point_from_readings(sweeps, fits)
     else:
         p_home = _tool_point_geometric(sweeps, fits)
     if method == "global":
+        progress(f"one fit of all {len(sweeps.sweeps)} sweeps (shared tool point)")
         fits, cov, p_home, rms = _global_fit(sweeps, fits, p_home, loss)
         for s, f in zip(sweeps.sweeps, fits):
             if max_sigma is not None and f.sigma_point_perp > max_sigma:
@@ -335,12 +341,14 @@ def identify(
         d[:, angle_cols] = (d[:, angle_cols] + np.pi) % (2 * np.pi) - np.pi
         return (p_ref + d).ravel()
 
+    progress(f"{convention} parameters and their sigmas")
     sigma = _propagate(x, cov, params_of).reshape(p_ref.shape)
     for pd in ex.pairs:
         if pd.relation == "parallel" and abs(pd.hayati_beta) > 0 and convention in ("dh", "mdh"):
             notes.append(f"axes {pd.joint}-{pd.joint + 1} treated as parallel: misalignment {math.degrees(pd.hayati_beta):.2e} deg (Hayati beta) is not representable in {convention}")
     if convention in ("dh", "mdh") and ex.max_position_error > 1e-6:
         notes.append(f"the {convention} table carries a tool-position error up to {ex.max_position_error * 1e3:.4f} mm (ED-H is exact)")
+    progress("measuring volume (minimum oriented bounding box)")
     box = fitting.oriented_bounding_box(sweeps.all_points)
     return Identification(method, convention, ax, fits, ex, sigma, cov, p_home, box, sweeps, nominal, nominal_table, rms, notes)
 
