@@ -1,5 +1,8 @@
 """Robot files: declared units, round trips, errors that name the file and line."""
 
+import os
+import stat
+
 import numpy as np
 import pytest
 
@@ -78,3 +81,26 @@ def test_failed_write_leaves_nothing(tmp_path, monkeypatch):
     with pytest.raises(RuntimeError):
         robotfile.save(r, f)
     assert f.read_text() == "old" and len(list(tmp_path.iterdir())) == 1
+
+
+def test_outputs_are_whole_with_ordinary_permissions(tmp_path):
+    """Outputs are replaced atomically, readable like any new file (0666 less the umask, not a temporary
+    file's 0600), keep the mode of a file they replace, and a failed write leaves the old file and no debris."""
+    robot = dv.load_robot("kr5")
+    old = os.umask(0o022)
+    try:
+        new = tmp_path / "kr5.toml"
+        robotfile.save(robot, new)
+        assert stat.S_IMODE(new.stat().st_mode) == 0o644
+        kept = tmp_path / "private.toml"
+        kept.write_text("old")
+        kept.chmod(0o640)
+        robotfile.save(robot, kept)
+        assert stat.S_IMODE(kept.stat().st_mode) == 0o640 and "convention" in kept.read_text()
+        with pytest.raises(RuntimeError), robotfile.atomic_path(kept) as tmp:
+            tmp.write_text("half")
+            raise RuntimeError("interrupted")
+        assert "convention" in kept.read_text()
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["kr5.toml", "private.toml"]
+    finally:
+        os.umask(old)

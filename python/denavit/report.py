@@ -26,8 +26,6 @@ from __future__ import annotations
 
 import html
 import math
-import os
-import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
@@ -51,7 +49,7 @@ from .plotting import (
     scene_size,
     sweep_range,
 )
-from .robotfile import CONVENTIONS, Robot, load, write_atomic
+from .robotfile import CONVENTIONS, Robot, atomic_path, load, write_atomic
 from .units import angle_scale, length_scale
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -69,15 +67,9 @@ VIEW_ID = "view3d"
 
 
 def _save_figure(fig, path: Path, dpi: int) -> Path:
-    """Save a matplotlib figure whole or not at all (temporary file in the same folder, then rename)."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
-    os.close(fd)
-    try:
+    """Save a matplotlib figure whole or not at all."""
+    with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=dpi, format=path.suffix[1:])
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return path
 
 

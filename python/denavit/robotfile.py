@@ -40,6 +40,8 @@ import os
 import re
 import tempfile
 import tomllib
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -385,17 +387,33 @@ def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
     return doc
 
 
-def write_atomic(path: str | os.PathLike, text: str) -> None:
-    """Write a whole file or nothing: a temporary file in the same folder, then an atomic rename."""
+@contextmanager
+def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
+    """A temporary path beside ``path`` to write into; when the block ends without an error it replaces ``path``
+    in one atomic rename, with the permissions of the file it replaces (a new file's: 0666 less the umask);
+    otherwise it is removed and ``path`` is untouched. Every output of denavit is written through it."""
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent or ".", prefix=f".{path.name}.", suffix=".tmp")
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix or ".tmp")
+    os.close(fd)
     try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
+        yield Path(tmp)
+        os.chmod(tmp, path.stat().st_mode & 0o7777 if path.exists() else 0o666 & ~_umask())
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def write_atomic(path: str | os.PathLike, text: str) -> None:
+    """Write a whole text file (UTF-8) or nothing (:func:`atomic_path`)."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")
 
 
 def dumps(robot: Robot, length: str = "m", angle: str = "rad") -> str:
