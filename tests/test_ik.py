@@ -124,7 +124,7 @@ def test_bad_input_raises_denavit_error_with_expected_and_got():
         dv.ik(m, T, np.zeros(5))
     bad = T.copy()
     bad[0, 3] = np.nan
-    with pytest.raises(dv.DenavitError, match="T_target must be finite, got NaN"):
+    with pytest.raises(dv.DenavitError, match=r"T_target\[0, 3\] must be finite, got NaN at index 3"):
         dv.ik(m, bad)
     skew = T.copy()
     skew[0, 1] += 0.1
@@ -142,7 +142,7 @@ def test_bad_input_raises_denavit_error_with_expected_and_got():
         dv.ik(m, T, tol_position=-1.0)
     with pytest.raises(dv.DenavitError, match=r"targets: expected an array of shape \(N, 4, 4\), got shape \[4, 4\]"):
         dv.ik_batch(m, T)
-    with pytest.raises(dv.DenavitError, match=r"targets\[1\] must be finite"):
+    with pytest.raises(dv.DenavitError, match=r"targets\[1\]\[0, 3\] must be finite"):
         dv.ik_path(m, np.stack([T, bad]))
     with pytest.raises(dv.DenavitError, match=r"q0s: expected an array of shape \(2, 6\), got shape \[3, 6\]"):
         dv.ik_batch(m, np.stack([T, T]), np.zeros((3, 6)))
@@ -190,6 +190,21 @@ def test_batch_result_is_a_sequence_and_matches_single_solves(rng):
         np.testing.assert_array_equal(s.q, b.q[i])
         assert s.iterations == b.iterations[i]
     assert "solved" in repr(b)
+
+
+def test_single_solve_equals_a_batch_and_a_path_of_one_target(rng):
+    """Restarts are seeded by (seed, target index): a single solve is target 0 of a batch or a path, so the
+    three give the same answer, restarts included."""
+    m = dv.load_model("puma560")
+    Ts = dv.fk_batch(m, rng.uniform(m.lower, m.upper, (60, 6)))
+    restarted = 0
+    for T in Ts:
+        s = dv.ik(m, T, np.zeros(6), seed=7)
+        for other in (dv.ik_batch(m, T[None], np.zeros(6), seed=7)[0], dv.ik_path(m, T[None], np.zeros(6), seed=7)[0]):
+            np.testing.assert_array_equal(other.q, s.q)
+            assert (other.restarts, other.iterations) == (s.restarts, s.iterations)
+        restarted += s.restarts > 0
+    assert restarted >= 5  # the restart path is exercised
 
 
 def test_path_warm_start_and_default_q0():

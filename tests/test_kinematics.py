@@ -73,14 +73,19 @@ def test_jacobian_matches_finite_differences(mixed, frame, rng):
             np.testing.assert_allclose(J, fd_jacobian(m, q, frame), atol=1e-8, err_msg=f"{m.name} {frame}")
 
 
-def test_tool_jacobian_is_the_world_jacobian_rotated(mixed, rng):
+def test_base_and_tool_jacobians_are_the_world_jacobian_rotated(mixed, rng):
     for m in models(mixed):
         q = rng.uniform(-np.pi, np.pi, m.nq)
         R = dv.fk(m, q)[:3, :3]
         Jw, Jt = dv.jacobian(m, q), dv.jacobian(m, q, frame="tool")
         np.testing.assert_allclose(Jt[:3], R.T @ Jw[:3], atol=1e-14)
         np.testing.assert_allclose(Jt[3:], R.T @ Jw[3:], atol=1e-14)
-        np.testing.assert_array_equal(dv.jacobian(m, q, frame="base"), Jw)
+        Rb = m.T_world_base[:3, :3]
+        Jb = dv.jacobian(m, q, frame="base")
+        np.testing.assert_allclose(Jb[:3], Rb.T @ Jw[:3], atol=1e-14)
+        np.testing.assert_allclose(Jb[3:], Rb.T @ Jw[3:], atol=1e-14)
+        np.testing.assert_allclose(dv.jacobian_batch(m, q[None], frame="base")[0], Jb, atol=1e-15)
+    assert any(not np.allclose(m.T_world_base[:3, :3], np.eye(3)) for m in models(mixed))  # the base rotation is exercised
 
 
 def test_batch_equals_single(mixed, rng):
@@ -162,9 +167,9 @@ def test_bad_input_raises_denavit_error_with_expected_and_got():
         dv.fk_batch(m, bad)
     with pytest.raises(dv.DenavitError, match="must be finite, got NaN"):
         dv.jacobian_batch(m, bad)
-    with pytest.raises(dv.DenavitError, match="frame: expected 'world' or 'tool', got 'flange'"):
+    with pytest.raises(dv.DenavitError, match="frame: expected 'world', 'base' or 'tool', got 'flange'"):
         dv.jacobian(m, np.zeros(6), frame="flange")
-    with pytest.raises(dv.DenavitError, match="frame: expected 'world' or 'tool', got 'x'"):
+    with pytest.raises(dv.DenavitError, match="frame: expected 'world', 'base' or 'tool', got 'x'"):
         dv.jacobian_batch(m, np.zeros((2, 6)), frame="x")
     with pytest.raises(ValueError, match="could not convert string to float"):
         dv.fk(m, ["a"] * 6)

@@ -1,6 +1,6 @@
 //! Joint axis lines, the robot's geometric truth (docs/conventions.md, "Joint axes").
 
-use crate::error::{check_finite, check_len, Result};
+use crate::error::{check_finite, check_len, Error, Result};
 use crate::kinematics::forward_kinematics;
 use crate::model::{Data, JointKind, Model};
 use crate::spatial::{unit, Pose};
@@ -41,12 +41,20 @@ impl JointAxes {
         upper: Vec<f64>,
     ) -> Result<Self> {
         let n = points.len();
+        if n == 0 {
+            return Err(Error::InvalidArgument { what: "joint axes".into(), expected: "at least one axis".into(), got: "none".into() });
+        }
         check_len("axis directions", n, directions.len())?;
         check_len("joint kinds", n, kinds.len())?;
         check_len("q_ref", n, q_ref.len())?;
         check_len("lower limits", n, lower.len())?;
         check_len("upper limits", n, upper.len())?;
         check_finite("q_ref", &q_ref)?;
+        for (i, (l, u)) in lower.iter().zip(&upper).enumerate() {
+            if l.is_nan() || u.is_nan() || l > u {
+                return Err(Error::InvalidArgument { what: format!("limits of axis {}", i + 1), expected: "lower <= upper".into(), got: format!("[{l}, {u}]") });
+            }
+        }
         let mut dirs = Vec::with_capacity(n);
         for (i, (p, d)) in points.iter().zip(&directions).enumerate() {
             check_finite(&format!("point of axis {}", i + 1), p.as_slice())?;

@@ -3,7 +3,7 @@
 
 use crate::axes::JointAxes;
 use crate::convention::{Convention, Table};
-use crate::error::{check_len, Result};
+use crate::error::{check_len, Error, Result};
 use crate::kinematics::tool_pose_unchecked;
 use crate::model::JointKind;
 use crate::spatial::{any_perpendicular, perpendicular, pose_error, rx, signed_angle, wrap_angle, Pose};
@@ -177,6 +177,11 @@ fn col(t: &Pose, k: usize) -> Vector3<f64> {
 /// ```
 pub fn extract(ax: &JointAxes, convention: Convention, opt: &ExtractOptions) -> Result<Extraction> {
     let n = ax.nq();
+    for (what, v) in [("parallel_tol", Some(opt.parallel_tol)), ("intersect_tol", Some(opt.intersect_tol)), ("max_offset", opt.max_offset)] {
+        if let Some(v) = v.filter(|v| !(*v >= 0.0)) {
+            return Err(Error::InvalidArgument { what: what.into(), expected: "a value >= 0".into(), got: v.to_string() });
+        }
+    }
     if let Some(nom) = &opt.nominal {
         check_len("joints of the nominal table", n, nom.nq())?;
         if nom.convention != convention {

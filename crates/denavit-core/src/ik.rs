@@ -29,7 +29,8 @@
 //!
 //! **Restarts** are deterministic: attempt 0 starts from `q0`, attempt k >= 1 from a configuration drawn
 //! uniformly within the limits (intersected with [-π, π] for revolute and [-1, 1] m for prismatic joints)
-//! by a SplitMix64 generator seeded from `seed` and k (and the target's index in a batch or path).
+//! by a SplitMix64 generator seeded from `seed`, k and the target's index in a batch or path (0 for a single
+//! solve, so a single solve and a batch or path of that one target give the same answer).
 //!
 //! **Cost.** An [`IkSolver`] allocates its workspace once; an iteration allocates nothing: one pass of
 //! forward kinematics and Jacobian, and for n = 6 fixed-size, fully unrolled 6 x 6 solves (Cholesky for LM,
@@ -550,7 +551,7 @@ impl<'m> IkSolver<'m> {
     pub fn solve(&mut self, target: &Pose, q0: &[f64]) -> Result<IkResult> {
         check_target("IK target", target)?;
         self.model.check_q(q0).map_err(|e| rename(e, "q0"))?;
-        Ok(self.solve_unchecked(target, q0, self.opts.seed))
+        Ok(self.solve_unchecked(target, q0, mix_seed(self.opts.seed, 0)))
     }
 
     /// Jacobian and error at `q`.

@@ -12,6 +12,8 @@ use rayon::prelude::*;
 pub enum JacobianFrame {
     /// `J_world_tool`: axes of the world frame.
     World,
+    /// `J_base_tool`: axes of the robot's base frame (`R_world_baseᵀ J_world_tool`).
+    Base,
     /// `J_tool_tool`: axes of the tool frame.
     Tool,
 }
@@ -242,6 +244,12 @@ pub(crate) fn jacobian_unchecked(model: &Model, data: &mut Data, q: &[f64], fram
     fk_unchecked(model, data, q);
     let tool = Frame::of(&data.t_world_tool);
     let tp = tool.p();
+    // the frame whose axes the rows use, None for world
+    let axes = match frame {
+        JacobianFrame::World => None,
+        JacobianFrame::Base => Some(Frame::of(model.t_world_base())),
+        JacobianFrame::Tool => Some(tool),
+    };
     let n = model.nq();
     let jac = data.jacobian.as_mut_slice(); // column-major 6 x n
     for (i, (j, t)) in model.joints().iter().zip(&data.t_world_joint).enumerate().take(n) {
@@ -255,15 +263,15 @@ pub(crate) fn jacobian_unchecked(model: &Model, data: &mut Data, q: &[f64], fram
             JointKind::Prismatic => (z, [0.0; 3]),
         };
         let col = &mut jac[6 * i..6 * i + 6];
-        match frame {
-            JacobianFrame::World => {
+        match &axes {
+            None => {
                 col[..3].copy_from_slice(&v);
                 col[3..].copy_from_slice(&w);
             }
-            JacobianFrame::Tool => {
+            Some(a) => {
                 // R^T v: rows of R^T are the columns of R
                 for k in 0..3 {
-                    let c = tool.col(k);
+                    let c = a.col(k);
                     col[k] = c[0] * v[0] + c[1] * v[1] + c[2] * v[2];
                     col[3 + k] = c[0] * w[0] + c[1] * w[1] + c[2] * w[2];
                 }
@@ -317,15 +325,19 @@ pub fn jacobian_row_major_unchecked(model: &Model, q: &[f64], frame: JacobianFra
         &mut heap
     };
     let tool = tool_pose_and_jacobian(model, q, jac);
-    let r = tool.rotation.matrix();
+    let axes = match frame {
+        JacobianFrame::World => None,
+        JacobianFrame::Base => Some(*model.t_world_base().rotation.matrix()),
+        JacobianFrame::Tool => Some(*tool.rotation.matrix()),
+    };
     for (c, col) in jac.chunks_exact(6).enumerate() {
-        match frame {
-            JacobianFrame::World => {
+        match &axes {
+            None => {
                 for k in 0..6 {
                     out[k * n + c] = col[k];
                 }
             }
-            JacobianFrame::Tool => {
+            Some(r) => {
                 // R^T v, R^T w
                 for k in 0..3 {
                     out[k * n + c] = r[(0, k)] * col[0] + r[(1, k)] * col[1] + r[(2, k)] * col[2];
@@ -554,7 +566,7 @@ mod tests {
         assert_eq!(jac.as_slice(), d.jacobian.as_slice());
         assert_eq!(t, d.t_world_tool);
         // the row-major form of the bindings, in both frames
-        for frame in [super::JacobianFrame::World, super::JacobianFrame::Tool] {
+        for frame in [super::JacobianFrame::World, super::JacobianFrame::Base, super::JacobianFrame::Tool] {
             super::jacobian(&m, &mut d, &q, frame).unwrap();
             let mut rm = vec![0.0; 18];
             super::jacobian_row_major_unchecked(&m, &q, frame, &mut rm);

@@ -39,7 +39,12 @@ pub const SE3_TOL: f64 = 1e-9;
 /// assert!(pose_from_matrix(&bad, "tool").is_err());
 /// ```
 pub fn pose_from_matrix(m: &Matrix4<f64>, what: &str) -> Result<Pose> {
-    check_finite(what, m.as_slice())?;
+    // row-major, as numpy holds it: the element is named [row, column], the index is the one of T.ravel()
+    for (k, v) in m.transpose().iter().enumerate() {
+        if !v.is_finite() {
+            return Err(Error::NonFinite { what: format!("{what}[{}, {}]", k / 4, k % 4), index: k, value: *v });
+        }
+    }
     let bottom = [m[(3, 0)], m[(3, 1)], m[(3, 2)], m[(3, 3)]];
     if bottom != [0.0, 0.0, 0.0, 1.0] {
         return Err(Error::NotSe3 {

@@ -10,9 +10,10 @@ use pyo3::prelude::*;
 
 fn frame_of(frame: &str) -> PyResult<JacobianFrame> {
     match frame {
-        "world" | "base" => Ok(JacobianFrame::World),
+        "world" => Ok(JacobianFrame::World),
+        "base" => Ok(JacobianFrame::Base),
         "tool" => Ok(JacobianFrame::Tool),
-        _ => Err(value_error(format!("frame: expected 'world' or 'tool', got '{frame}'"))),
+        _ => Err(value_error(format!("frame: expected 'world', 'base' or 'tool', got '{frame}'"))),
     }
 }
 

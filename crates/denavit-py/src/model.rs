@@ -419,9 +419,6 @@ fn options(parallel_tol: f64, intersect_tol: f64, max_offset: Option<f64>, nomin
         }
         None => None,
     };
-    if !(parallel_tol >= 0.0 && intersect_tol >= 0.0) {
-        return Err(value_error(format!("tolerances must be >= 0, got parallel_tol={parallel_tol}, intersect_tol={intersect_tol}")));
-    }
     Ok(ExtractOptions { parallel_tol, intersect_tol, max_offset, nominal: nominal.map(|t| t.inner.clone()), origins })
 }
 
