@@ -40,6 +40,8 @@ def test_tables_and_messages_print_their_units_and_brackets_as_written(tmp_path)
     out = run("convert", "kr5", "--to", "mdh", "--length", "m", "--angle", "rad").stdout
     for head in ("alpha [rad]", "a [m]", "theta [rad]", "d [m]", "distance [m]", "Hayati beta [deg]"):
         assert head in out, head
+    poe = run("convert", "ur5", "--to", "poe").stdout
+    assert "wx [1]" in poe and "vx [mm]" in poe  # screw directions are unitless
     axes = run("identify", "--example", "kr5").stdout
     assert "radius [mm]" in axes and "sigma dir [deg]" in axes
     bad = tmp_path / "odd [v2].toml"

@@ -17,7 +17,7 @@ from rich.text import Text
 from . import _core
 from .errors import DenavitError
 from .robotfile import Robot, builtin_names, dumps, inertials_for_table, load, save
-from .units import angle_scale, length_scale
+from .units import angle_scale, column_scale, length_scale
 
 app = typer.Typer(
     add_completion=False,
@@ -293,18 +293,16 @@ def dynamics(
 
 
 def table_rows(table: _core.Table, length: str, angle: str) -> list[dict]:
-    ls, as_ = length_scale(length), angle_scale(angle)
-    rows = []
-    for row, kind in zip(table.params, table.kinds):
-        rows.append({c: float(v / (as_ if a else (ls if table.convention != "poe" or c.startswith("v") else 1.0))) for c, a, v in zip(table.columns, table.angle_columns, row)})
-    return rows
+    """The table's rows in display units (:func:`units.column_scale`), keyed by column name."""
+    scales = [column_scale(table, k, length, angle)[0] for k in range(len(table.columns))]
+    return [{c: float(v / s) for c, s, v in zip(table.columns, scales, row)} for row in table.params]
 
 
 def print_table(table: _core.Table, names: list[str], length: str, angle: str, title: str) -> None:
     t = RichTable(title=title)
     t.add_column("joint")
-    for c, a in zip(table.columns, table.angle_columns):
-        t.add_column(f"{c} [{angle if a else length}]", justify="right")
+    for k, c in enumerate(table.columns):
+        t.add_column(f"{c} [{column_scale(table, k, length, angle)[1]}]", justify="right")
     for n, row in zip(names, table_rows(table, length, angle)):
         t.add_row(n, *(fmt(v, 4) for v in row.values()))
     console.print(t)

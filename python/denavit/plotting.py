@@ -32,7 +32,7 @@ import numpy as np
 
 from . import _core
 from .errors import DenavitError
-from .units import angle_scale, length_scale
+from .units import angle_scale, column_scale, length_scale
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
@@ -120,15 +120,6 @@ def frames_along(table: _core.Table, q0, joint: int, values) -> np.ndarray:
 def other_convention(convention: str) -> str:
     """The convention drawn beside ``convention`` by default: ED-H, or modified DH beside ED-H (Guo et al. Fig. 6)."""
     return "mdh" if convention == "edh" else "edh"
-
-
-def column_scale(table: _core.Table, k: int, length: str = "mm", angle: str = "deg") -> tuple[float, str]:
-    """(SI per display unit, unit name) of table column ``k``: angles in ``angle``, POE directions unitless."""
-    if table.angle_columns[k]:
-        return angle_scale(angle), angle
-    if table.convention == "poe" and not table.columns[k].startswith("v"):
-        return 1.0, "1"
-    return length_scale(length), length
 
 
 def sweep_range(result: Identification, joint: int) -> tuple[float, float]:

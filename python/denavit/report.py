@@ -38,7 +38,6 @@ from .plotting import (
     INSTALL_HINT,
     box_edges,
     circle_points,
-    column_scale,
     frames_along,
     joint_colour,
     joint_names,
@@ -50,7 +49,7 @@ from .plotting import (
     sweep_range,
 )
 from .robotfile import CONVENTIONS, Robot, atomic_path, load, write_atomic
-from .units import angle_scale, length_scale
+from .units import angle_scale, column_scale, length_scale
 
 if TYPE_CHECKING:  # pragma: no cover
     from .identify import Identification
