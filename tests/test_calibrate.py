@@ -437,3 +437,44 @@ def test_an_unknown_tool_point_is_found_from_a_zero_start(kr5):
     res = cal.calibrate(meas, kr5)
     np.testing.assert_allclose([res.value(n)[0] for n in ("tool_x", "tool_y", "tool_z")], TOOL, atol=2e-5)
     assert res.rms < 2 * NOISE
+
+
+def test_json_kinds_of_another_length_than_q_is_an_error(kr5, tmp_path):
+    """A JSON 'kinds' list must have one entry per column of q; a mismatch had skipped the unit scaling of q."""
+    q = np.degrees(cal.configurations(kr5, 12))
+    p = cal.simulate(kr5, np.radians(q)).points * 1e3
+    f = tmp_path / "m.json"
+    f.write_text(json.dumps({"units": {"length": "mm", "angle": "deg"}, "kinds": ["revolute"] * 5, "q": q.tolist(), "points": p.tolist()}))
+    with pytest.raises(dv.DenavitError, match=r"m.json: 'kinds': expected 6 joint kinds \(one per joint reading\), got 5"):
+        cal.read_measurements(f)
+    f.write_text(json.dumps({"units": {"length": "mm", "angle": "deg"}, "kinds": ["revolute"] * 5 + ["rotary"], "q": q.tolist(), "points": p.tolist()}))
+    with pytest.raises(dv.DenavitError, match=r"m.json: 'kinds': joint 6: expected 'revolute' or 'prismatic', got 'rotary'"):
+        cal.read_measurements(f)
+    f.write_text(json.dumps({"units": {"length": "mm", "angle": "deg"}, "kinds": ["revolute"] * 6, "q": q.tolist(), "points": p.tolist()}))
+    np.testing.assert_allclose(cal.read_measurements(f).q, np.radians(q), atol=1e-12)
+
+
+def test_prismatic_readings_take_the_length_unit(tmp_path):
+    """Readings of a prismatic joint are in the file's length unit (they had been scaled by the angle unit:
+    100 mm became 1.745 m); without the joint kinds, calibrate refuses a robot with a prismatic joint."""
+    params = np.array([[0.3, 0.0, 0.1, np.pi / 2], [0.2, 0.3, 0.0, -np.pi / 2], [0.0, 0.2, 0.25, np.pi / 3], [0.1, 0.0, 0.0, 0.0]])
+    kinds = ["revolute", "prismatic", "revolute", "revolute"]
+    model = dv.Table("dh", params, kinds=kinds).to_model("rprr", lower=[-3, -0.1, -3, -3], upper=[3, 0.4, 3, 3])
+    robot = cal._as_robot(model)
+    meas = cal.simulate(model, cal.configurations(robot, 40), tool=TOOL, noise=NOISE)
+    f = tmp_path / "m.csv"
+    f.write_text(cal.to_csv(meas, "mm", "deg"))
+    back = cal.read_measurements(f, kinds=kinds)
+    np.testing.assert_allclose(back.q, meas.q, atol=1e-10)
+    assert back.kinds == tuple(kinds)
+    res = cal.calibrate(back, robot, tool=TOOL)
+    assert res.rms < 2 * NOISE
+    with pytest.raises(dv.DenavitError, match=r"m.csv: joint 2 \(j2\) of rprr is prismatic, but its readings were read as revolute \(in deg\): pass kinds="):
+        cal.calibrate(cal.read_measurements(f), robot, tool=TOOL)
+    with pytest.raises(dv.DenavitError, match=r"m.csv: kinds given: expected 4 joint kinds \(one per joint reading\), got 3"):
+        cal.read_measurements(f, kinds=kinds[:3])
+    j = tmp_path / "m.json"
+    j.write_text(json.dumps({"units": {"length": "mm", "angle": "deg"}, "kinds": kinds, "q": [[0, 100, 0, 0]], "points": [[1, 2, 3]]}))
+    np.testing.assert_allclose(cal.read_measurements(j).q, [[0, 0.1, 0, 0]])
+    with pytest.raises(dv.DenavitError, match=r"m.json: 'kinds' \['revolute', 'prismatic', 'revolute', 'revolute'\] differ from the kinds given"):
+        cal.read_measurements(j, kinds=["revolute"] * 4)

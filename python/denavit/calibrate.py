@@ -107,6 +107,10 @@ class Measurements:
         Units of the source file (informative; everything here is SI).
     sweeps : SweepSet or None
         The sweeps these measurements were made of, if any (for ``start="circles"``).
+    kinds : tuple of str, length n, or None
+        Joint kinds (``"revolute"`` / ``"prismatic"``) of the readings; read from a file, the kinds they were
+        converted with from its units (revolute: angle unit, prismatic: length unit). :func:`calibrate`
+        refuses a nominal model of other kinds. None: not stated (readings given in SI).
     """
 
     q: np.ndarray
@@ -116,11 +120,13 @@ class Measurements:
     where: list = field(default_factory=list)
     units: dict = field(default_factory=lambda: {"length": "m", "angle": "rad"})
     sweeps: SweepSet | None = None
+    kinds: tuple | None = None
 
     def __post_init__(self):
         q = _as_array(self.q, "q", self.source)
         if q.ndim != 2 or q.shape[0] < 1:
             raise DenavitError(f"{self.source}: q must have shape (N, n) with one row per pose, got shape {q.shape}")
+        object.__setattr__(self, "kinds", _joint_kinds(self.kinds, q.shape[1], f"{self.source}: kinds"))
         _check_finite(q, "q (joint readings)", self.source, self.where, cols="joint")
         n = q.shape[0]
         poses = self.poses
@@ -166,7 +172,7 @@ class Measurements:
         """The measurements of the rows ``idx``."""
         idx = np.asarray(idx, dtype=int)
         return Measurements(self.q[idx], None if self.poses is not None else self.points[idx], None if self.poses is None else self.poses[idx],
-                            self.source, [self.where[i] for i in idx], self.units, None)
+                            self.source, [self.where[i] for i in idx], self.units, None, self.kinds)
 
     @classmethod
     def from_sweeps(cls, sweeps: SweepSet) -> Measurements:
@@ -176,7 +182,7 @@ class Measurements:
         q = np.vstack([s.q for s in sweeps.sweeps])
         p = np.vstack([s.points for s in sweeps.sweeps])
         where = [w for s in sweeps.sweeps for w in (s.where or [f"sweep {s.joint}, point {k + 1}" for k in range(len(s.points))])]
-        return cls(q, p, None, sweeps.source or "sweeps", where, dict(sweeps.units), sweeps)
+        return cls(q, p, None, sweeps.source or "sweeps", where, dict(sweeps.units), sweeps, sweeps.kinds)
 
 
 def _as_array(a, what: str, source: str) -> np.ndarray:
@@ -184,6 +190,20 @@ def _as_array(a, what: str, source: str) -> np.ndarray:
         return np.array(a, dtype=float)
     except (TypeError, ValueError) as exc:
         raise DenavitError(f"{source}: {what} must be an array of numbers ({exc})") from None
+
+
+def _joint_kinds(kinds, n: int, where: str) -> tuple | None:
+    """``kinds`` as a tuple of n joint kinds (None stays None), or an error saying what was expected."""
+    if kinds is None:
+        return None
+    if isinstance(kinds, str) or not hasattr(kinds, "__len__"):
+        raise DenavitError(f"{where}: expected a list of {n} joint kinds ('revolute' or 'prismatic'), got {kinds!r}")
+    if len(kinds) != n:
+        raise DenavitError(f"{where}: expected {n} joint kinds (one per joint reading), got {len(kinds)}: {list(kinds)}")
+    for j, k in enumerate(kinds):
+        if k not in ("revolute", "prismatic"):
+            raise DenavitError(f"{where}: joint {j + 1}: expected 'revolute' or 'prismatic', got {k!r}")
+    return tuple(kinds)
 
 
 def _row(source: str, where: list, i: int) -> str:
@@ -198,8 +218,13 @@ def _check_finite(a: np.ndarray, what: str, source: str, where: list, cols: str 
         raise DenavitError(f"{_row(source, where, i)}: {what} must be finite, got {a[i, j]} ({col}); {len(bad)} non-finite value(s) in all")
 
 
-def read_measurements(path, *, length: str | None = None, angle: str | None = None) -> Measurements:
+def read_measurements(path, *, length: str | None = None, angle: str | None = None, kinds=None) -> Measurements:
     """Read measurements from a file.
+
+    Joint readings are in the angle unit for revolute joints and in the length unit for prismatic ones:
+    ``kinds`` (one ``"revolute"`` / ``"prismatic"`` per joint, e.g. the nominal robot's ``table.kinds``; a JSON
+    file may state them as ``"kinds"``) says which; without them every joint is read as revolute and
+    :func:`calibrate` refuses a nominal model with a prismatic joint.
 
     * CSV with a ``joint`` column: the long-form sweep file of :func:`denavit.sweeps.read_long_csv`.
     * CSV with header ``q1,...,qn,x,y,z`` (points) or ``q1,...,qn,x,y,z,rx,ry,rz`` (poses; ``rx, ry, rz`` the
@@ -219,7 +244,7 @@ def read_measurements(path, *, length: str | None = None, angle: str | None = No
         except json.JSONDecodeError as e:
             raise DenavitError(f"{p}:{e.lineno}: not valid JSON: {e.msg}") from None
         if "sweeps" in doc:
-            return Measurements.from_sweeps(sw.read_json(p))
+            return Measurements.from_sweeps(sw.read_json(p))  # its own "kinds"
         units = dict(doc.get("units") or {})
         if length:
             units["length"] = length
@@ -229,22 +254,26 @@ def read_measurements(path, *, length: str | None = None, angle: str | None = No
         if "q" not in doc:
             raise DenavitError(f"{p}: expected 'q' (joint readings, one row per pose) and 'points' or 'poses'")
         q = _as_array(doc["q"], "q", str(p))
-        kinds = doc.get("kinds") or ["revolute"] * (q.shape[1] if q.ndim == 2 else 0)
-        qs = np.array([as_ if k == "revolute" else ls for k in kinds])
-        if q.ndim == 2 and q.shape[1] == len(qs):
-            q = q * qs
+        if q.ndim != 2:
+            raise DenavitError(f"{p}: q must have shape (N, n) with one row per pose, got shape {q.shape}")
+        given = _joint_kinds(kinds, q.shape[1], f"{p}: kinds given")
+        stated = _joint_kinds(doc.get("kinds"), q.shape[1], f"{p}: 'kinds'")
+        if given and stated and given != stated:
+            raise DenavitError(f"{p}: 'kinds' {list(stated)} differ from the kinds given {list(given)}")
+        kinds = stated or given or ("revolute",) * q.shape[1]
+        q = q * [as_ if k == "revolute" else ls for k in kinds]
         if "poses" in doc:
             T = _as_array(doc["poses"], "poses", str(p))
             if T.ndim == 3:
                 T[:, :3, 3] *= ls
-            return Measurements(q, None, T, str(p), [], units)
-        return Measurements(q, _as_array(doc.get("points"), "points", str(p)) * ls, None, str(p), [], units)
+            return Measurements(q, None, T, str(p), [], units, kinds=kinds)
+        return Measurements(q, _as_array(doc.get("points"), "points", str(p)) * ls, None, str(p), [], units, kinds=kinds)
     text = p.read_text(encoding="utf-8")
     lines = text.splitlines()
     header = next((ln for ln in lines if ln.strip() and not ln.lstrip().startswith("#")), "")
     cols = [c.strip().lower() for c in header.replace(";", ",").split(",")]
     if "joint" in cols:
-        return Measurements.from_sweeps(sw.read_long_csv(p, length=length, angle=angle))
+        return Measurements.from_sweeps(sw.read_long_csv(p, length=length, angle=angle, kinds=None if kinds is None else list(kinds)))
     units = sw._units_comment(lines)
     if length:
         units["length"] = length
@@ -256,6 +285,7 @@ def read_measurements(path, *, length: str | None = None, angle: str | None = No
     missing = [c for c in need if c not in cols]
     if missing or not qcols:
         raise DenavitError(f"{p}: header must be 'q1,...,qn,x,y,z' (optionally ',rx,ry,rz'), or a sweep file with a 'joint' column; missing {', '.join(missing) or 'q columns'}, got {header.strip()!r}")
+    kinds = _joint_kinds(kinds, len(qcols), f"{p}: kinds given") or ("revolute",) * len(qcols)
     has_rot = all(c in cols for c in ("rx", "ry", "rz"))
     delim = ";" if header.count(";") > header.count(",") else ","
     q, pts, rot, where = [], [], [], []
@@ -284,7 +314,7 @@ def read_measurements(path, *, length: str | None = None, angle: str | None = No
         where.append(w)
     if not q:
         raise DenavitError(f"{p}: no data rows after the header")
-    q = np.array(q) * as_  # joint readings in angle units (revolute)
+    q = np.array(q) * [as_ if k == "revolute" else ls for k in kinds]
     pts = np.array(pts)
     _check_finite(q, "q (joint readings)", str(p), where, cols="joint")
     if has_rot:
@@ -293,8 +323,8 @@ def read_measurements(path, *, length: str | None = None, angle: str | None = No
         T = np.tile(np.eye(4), (len(q), 1, 1))
         T[:, :3, :3] = Rotation.from_rotvec(rv).as_matrix()
         T[:, :3, 3] = pts
-        return Measurements(q, None, T, str(p), where, units)
-    return Measurements(q, pts, None, str(p), where, units)
+        return Measurements(q, None, T, str(p), where, units, kinds=kinds)
+    return Measurements(q, pts, None, str(p), where, units, kinds=kinds)
 
 
 def _scales(units: dict, where: str) -> tuple[float, float]:
@@ -304,14 +334,16 @@ def _scales(units: dict, where: str) -> tuple[float, float]:
 
 
 def to_csv(meas: Measurements, length: str = "mm", angle: str = "deg", comment: str = "") -> str:
-    """The CSV text of measurements (``q1..qn,x,y,z`` and ``rx,ry,rz`` for poses), units declared."""
+    """The CSV text of measurements (``q1..qn,x,y,z`` and ``rx,ry,rz`` for poses), units declared; readings of
+    prismatic joints (``meas.kinds``) in the length unit."""
     ls, as_ = length_scale(length), angle_scale(angle)
+    qs = np.array([ls if k == "prismatic" else as_ for k in (meas.kinds or ("revolute",) * meas.nq)])
     out = [f"# {c}" for c in comment.splitlines()] + [f"# units: length={length} angle={angle}"]
     cols = [f"q{i + 1}" for i in range(meas.nq)] + ["x", "y", "z"] + (["rx", "ry", "rz"] if meas.kind == "pose" else [])
     out.append(",".join(cols))
     rv = Rotation.from_matrix(meas.poses[:, :3, :3]).as_rotvec() / as_ if meas.kind == "pose" else None
     for k in range(meas.n):
-        row = [*(meas.q[k] / as_), *(meas.points[k] / ls)] + ([*rv[k]] if rv is not None else [])
+        row = [*(meas.q[k] / qs), *(meas.points[k] / ls)] + ([*rv[k]] if rv is not None else [])
         out.append(",".join(f"{v:.12g}" for v in row))
     return "\n".join(out) + "\n"
 
@@ -1079,6 +1111,11 @@ def calibrate(
     n = len(robot.names)
     if meas.nq != n:
         raise DenavitError(f"{meas.source}: the data has {meas.nq} joint readings per pose but the nominal model {robot.name} has {n} joints ({', '.join(robot.names)})")
+    for j, (got, want) in enumerate(zip(meas.kinds or robot.table.kinds, robot.table.kinds)):
+        if got != want:
+            unit = meas.units.get("angle" if got == "revolute" else "length", "?")
+            raise DenavitError(f"{meas.source}: joint {j + 1} ({robot.names[j]}) of {robot.name} is {want}, but its readings were read as {got} (in {unit}): "
+                               f"pass kinds={list(robot.table.kinds)} to read_measurements (or state \"kinds\" in a JSON file)")
     if loss not in LOSSES:
         raise DenavitError(f"unknown loss {loss!r}: expected one of {', '.join(LOSSES)}")
     if not 0.0 <= holdout < 0.9:
@@ -1561,12 +1598,12 @@ def simulate(model, q, *, tool=(0.05, 0.03, 0.10), noise: float = 0.0, noise_rot
             T[:, :3, 3] += rng.normal(0.0, noise, (len(Q), 3))
         if noise_rot > 0:
             T[:, :3, :3] = Rotation.from_rotvec(rng.normal(0.0, noise_rot, (len(Q), 3))).as_matrix() @ T[:, :3, :3]
-        return Measurements(Q, None, T, f"simulated {m.name}")
+        return Measurements(Q, None, T, f"simulated {m.name}", kinds=m.kinds)
     F = _core.fk_batch(m.with_tool(np.eye(4)), Q)
     p = F[:, :3, :3] @ np.asarray(tool, dtype=float) + F[:, :3, 3]
     if noise > 0:
         p = p + rng.normal(0.0, noise, p.shape)
-    return Measurements(Q, p, None, f"simulated {m.name}")
+    return Measurements(Q, p, None, f"simulated {m.name}", kinds=m.kinds)
 
 
 # ------------------------------------------------------------------------------------------------ output
