@@ -39,11 +39,18 @@ def test_edh_frames_on_the_body():
 
 
 def test_mdh_to_edh_and_back_reproduces_guo_tables():
-    """Converting Table I to ED-H with Table II as the nominal gives Table II's frames 1-3 and 6; the
-    conversion is exact either way."""
+    """Table I (MD-H) converted to ED-H, with the frame origins Guo places on the body (those of Table II's
+    frames) and Table II as the nominal for sign ties, gives Table II as printed; the conversion is exact
+    either way."""
     mdh = dv.load_robot("tiansui_mdh")
     edh = dv.load_robot("tiansui_edh")
-    ex = dv.to_table(mdh.model(), "edh", nominal=edh.table)
+    h = np.pi / 2
+    table_ii = np.array([  # Guo et al. Table II: alpha_{i-1}, a_{i-1}, b_{i-1}, c_{i-1}, theta_i (m, rad)
+        [0, 0, 0, 0, 0], [h, 0, 0, 0.1485, -h], [0, -0.406, 0, 0, 0],
+        [0, -0.386, 0, -0.126, h], [-h, 0, -0.128, 0, 0], [h, 0, 0.128, 0, 0]])
+    on_body = dv.joint_frames(edh.model(), np.zeros(6))[:, :3, 3]
+    ex = dv.to_table(mdh.model(), "edh", nominal=edh.table, origins=on_body)
+    np.testing.assert_allclose(ex.table.params, table_ii, atol=1e-12)
     assert ex.max_position_error < 1e-12
     back = dv.to_table(ex.table.to_model(), "mdh", nominal=mdh.table)
     np.testing.assert_allclose(back.table.params, mdh.table.params, atol=1e-12)

@@ -173,3 +173,13 @@ def test_bad_input_raises_denavit_error_with_expected_and_got():
         dv.jacobian_batch(m, np.zeros((2, 6)), frame="x")
     with pytest.raises(ValueError, match="could not convert string to float"):
         dv.fk(m, ["a"] * 6)
+
+
+@pytest.mark.parametrize("q, published", [
+    # Corke, Robotics, Vision and Control (2nd ed. 2017) sec. 7.1.1, p560.fkine(qz) and p560.fkine(qn), printed to 4 decimals
+    ([0, 0, 0, 0, 0, 0], [[1, 0, 0, 0.4521], [0, 1, 0, -0.1500], [0, 0, 1, 0.4318]]),
+    ([0, np.pi / 4, np.pi, 0, np.pi / 4, 0], [[0, 0, 1, 0.5963], [0, 1, 0, -0.1501], [-1, 0, 0, -0.0144]]),
+])
+def test_puma560_tool_pose_matches_corkes_published_values(q, published):
+    """The Puma 560 of Corke's toolbox (our built-in's source) at its named poses, against the printed values."""
+    np.testing.assert_allclose(dv.fk(dv.load_model("puma560"), q)[:3], published, atol=0.5e-4 + 1e-12)  # half the last printed digit
