@@ -252,7 +252,7 @@ def dynamics(
 ) -> None:
     """Inverse dynamics (recursive Newton-Euler): the joint torques (N m) / forces (N) for q, qd, qdd.
 
-    Uses the link inertias of the robot file ([joints.inertia]); without them every link is massless and a
+    Uses the link inertias of the robot file (\\[joints.inertia]); without them every link is massless and a
     warning says so. Also prints the gravity part of the torques.
     """
     robot = load(model)

@@ -1068,7 +1068,7 @@ fn aba_unchecked(
         if d.is_nan() || d <= 1e-12 * scale || !d.is_finite() {
             return Err(Error::Degenerate {
                 reason: format!(
-                    "joint {} ('{}') moves no inertia (articulated inertia about its axis {d:.3e}): the mass matrix is singular; attach link inertias with Model::with_inertias",
+                    "joint {} ('{}') moves no inertia (articulated inertia about its axis {d:.3e}): the mass matrix is singular; attach link inertias (Model.with_inertias / Model::with_inertias, or [joints.inertia] in a robot file)",
                     i + 1,
                     joints[i].name
                 ),
@@ -1202,7 +1202,7 @@ fn fd_crba_unchecked(
         if d.is_nan() || d <= 1e-13 * scale || !d.is_finite() {
             return Err(Error::Degenerate {
                 reason: format!(
-                    "the mass matrix is not positive definite (pivot {d:.3e} at joint {}): a joint moves no inertia; attach link inertias with Model::with_inertias",
+                    "the mass matrix is not positive definite (pivot {d:.3e} at joint {}): a joint moves no inertia; attach link inertias (Model.with_inertias / Model::with_inertias, or [joints.inertia] in a robot file)",
                     j + 1
                 ),
             });
