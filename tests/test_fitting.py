@@ -495,3 +495,19 @@ def test_bounding_box_degenerate_sets():
     assert single.volume == 0.0 and np.allclose(single.center, [1, 2, 3])
     line = fitting.oriented_bounding_box(np.outer(np.arange(5.0), [1.0, 2.0, 2.0]))
     assert line.lengths[0] == pytest.approx(12.0) and line.volume == pytest.approx(0.0, abs=1e-12)
+
+
+def test_sweep_going_back_without_readings_is_an_error():
+    """Out and back without readings: the point order cannot give the direction (circles and lines); with the
+    readings the direction follows increasing q."""
+    rng = np.random.default_rng(8)
+    normal = unit(rng)
+    p, q = arc(rng, centre=np.zeros(3), normal=normal, radius=0.5, span=0.8, m=15, noise=1e-6)
+    back, qb = np.vstack([p, p[-2::-1]]), np.r_[q, q[-2::-1]]
+    for method in ("kasa", "hyper", "geometric"):
+        with pytest.raises(DenavitError, match=r"^j2.csv, joint 2: .*net turn .* deg over an arc of 45.8 deg"):
+            fitting.fit_axis(back, method=method, where="j2.csv, joint 2")
+        assert fitting.fit_axis(back, qb, method=method).direction @ normal > 0.999
+    line = np.outer(np.r_[np.linspace(0, 0.2, 10), np.linspace(0.18, 0, 10)], normal)
+    with pytest.raises(DenavitError, match=r"net travel .* mm over a travel of 200.0 mm"):
+        fitting.fit_axis(line, method="line")

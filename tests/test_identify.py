@@ -190,3 +190,48 @@ def test_progress_reports_every_stage(kr5):
     ident.identify(simulate(kr5, 30, points_per_sweep=8), nominal=kr5, progress=said.append)
     assert [m.split(" (")[0] for m in said[:6]] == [f"fitting sweep {k} of 6" for k in range(1, 7)]
     assert said[6].startswith("one fit of all 6 sweeps") and said[-1].startswith("measuring volume")
+
+
+def truth_dh(kr5):
+    """Hayat et al. Table III, "Specified": the KR5's DH table (d, theta, a, alpha; m, rad)."""
+    return np.column_stack([np.array([400, 0, 0, 620, 0, 0]) * 1e-3, np.zeros(6), np.array([180, 600, 120, 0, 0, 0]) * 1e-3,
+                            np.radians([90, 0, 90, 90, 90, 0])])
+
+
+def reorder(s, joint, order):
+    """The sweep set with the rows of joint `joint`'s sweep taken in `order` (index array, repeats allowed)."""
+    sweeps = [sw.Sweep(x.joint, x.points[order], x.q[order], [x.where[k] for k in order]) if x.joint == joint else x for x in s.sweeps]
+    return sw.SweepSet(sweeps, s.n_joints, s.home, s.kinds, s.source, s.units)
+
+
+@pytest.mark.parametrize("method", ["kasa", "hyper", "geometric", "readings", "global"])
+def test_out_and_back_and_shuffled_sweeps_keep_the_axis_sign(kr5, method):
+    """With joint readings the axis points along increasing joint value whatever the order of the rows:
+    sweep 1 recorded -15 -> 15 -> -15 deg, and every sweep's rows shuffled, give the truth's table."""
+    s = simulate(kr5, 30, points_per_sweep=21, noise=2e-5, seed=5)
+    m = 21
+    back = reorder(s, 1, np.r_[np.arange(m), np.arange(m - 2, -1, -1)])
+    shuffled = s
+    rng = np.random.default_rng(7)
+    for j in range(1, 7):
+        shuffled = reorder(shuffled, j, rng.permutation(m))
+    for data in (back, shuffled):
+        res = ident.identify(data, method=method, nominal=kr5)
+        for k in range(6):
+            assert res.axes.directions[k] @ dv.axes(kr5.model(), HOME).directions[k] > 0.999, (method, k)
+        d = res.table.params - truth_dh(kr5)
+        d[:, [1, 3]] = (d[:, [1, 3]] + np.pi) % (2 * np.pi) - np.pi
+        assert np.all(np.abs(d) < 6 * res.sigma + 1e-9), (method, d, res.sigma)
+
+
+def test_out_and_back_sweep_without_readings_is_an_error(kr5, tmp_path):
+    """Without readings only the point order gives the direction: a sweep that returns to its start names itself."""
+    s = simulate(kr5, 90, points_per_sweep=10)
+    d = tmp_path / "files"
+    d.mkdir()
+    for sweep in s.sweeps:
+        pts = sweep.points if sweep.joint != 3 else np.vstack([sweep.points, sweep.points[-2::-1]])
+        (d / f"j{sweep.joint}.csv").write_text("\n".join(f"{p[0]},{p[1]},{p[2]}" for p in pts * 1e3) + "\n")
+    fs = sw.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm", angle="deg")
+    with pytest.raises(dv.DenavitError, match=r"j3.csv lines 1-19, joint 3: .*net turn .* over an arc of 90.0 deg"):
+        ident.identify(fs, nominal=kr5)

@@ -86,6 +86,8 @@ _CHI_4SIGMA = {1: 4.0, 2: 4.397034069908339, 3: 4.696948013014455}
 READINGS_MISMATCH = 10.0
 #: Number of best bounding-box candidates refined by Nelder-Mead.
 REFINE_STARTS = 4
+#: Without readings, a sweep's net motion in point order must be at least this fraction of its extent.
+ONE_WAY = 0.5
 LOSSES = ("linear", "soft_l1", "huber")
 METHODS = ("auto", "kasa", "hyper", "geometric", "readings", "line")
 
@@ -965,6 +967,12 @@ def fit_axis(
         Direction orientation: with ``q``, increasing ``q`` turns counter-clockwise about it (right-hand rule) or
         moves along it; without ``q``, the points in their given (time) order turn counter-clockwise about it (the
         sweep direction), or advance along it for lines.
+
+    Raises
+    ------
+    DenavitError
+        Without ``q``, if the points do not go one way (net motion in point order below ``ONE_WAY`` of the arc
+        or travel covered, e.g. an out-and-back sweep): their order cannot give the direction.
     """
     if method not in METHODS:
         raise DenavitError(f"{_pre(where)}method must be one of {', '.join(METHODS)}, got {method!r}")
@@ -982,7 +990,11 @@ def fit_axis(
     if method == "readings":
         return fit_axis_with_readings(points, q, loss=loss, f_scale=f_scale, **kw)
     if method == "line":
-        return fit_line(points, q=q, **kw)
+        fit = fit_line(points, q=q, **kw)
+        if q is None:
+            t = (np.asarray(points, dtype=float) - fit.point) @ fit.direction
+            _check_one_way(t[-1] - t[0], np.ptp(t), "travel", "a travel", 1e3, "mm", where)
+        return fit
     p = _check_points(points, 3, "circle fit", where)
     qa = None if q is None else _check_q(q, p.shape[0], where)
     if method == "geometric":
@@ -991,11 +1003,27 @@ def fit_axis(
         fit = fit_circle_kasa(p, **kw)
     else:
         fit = fit_circle_hyper(p, **kw)
-    if qa is not None:  # orient by the readings (sorted by q) rather than by the point order
-        phi = _in_plane_angles(p, fit.point, fit.direction)
-        if _net_turn(phi[np.argsort(qa, kind="stable")]) < 0:
-            fit = _flip(fit)
+    phi = _in_plane_angles(p, fit.point, fit.direction)
+    if qa is None:
+        _check_one_way(_net_turn(phi), fit.arc, "turn", "an arc", math.degrees(1), "deg", where)
+    elif _net_turn(phi[np.argsort(qa, kind="stable")]) < 0:  # orient by the readings (sorted by q), not by the point order
+        fit = _flip(fit)
     return fit
+
+
+def _check_one_way(net: float, span: float, motion: str, extent: str, scale: float, unit: str, where: str) -> None:
+    """Without readings only the point order gives the axis direction: the sweep must go one way.
+
+    ``net`` is the net motion in point order (the fit is oriented so that it is positive), ``span`` the extent
+    covered (rad or m, ``scale`` converts to ``unit``); a net motion below ``ONE_WAY`` of the extent means the
+    sweep turned back (e.g. out and back), so its direction is unknown.
+    """
+    if not net >= ONE_WAY * span:
+        raise DenavitError(
+            f"{_pre(where)}without joint readings the point order gives the axis direction, but the points go back: "
+            f"net {motion} {net * scale:.3g} {unit} over {extent} of {span * scale:.1f} {unit} (expected at least "
+            f"{ONE_WAY:.0%} of it, one way): give the joint readings, or record the sweep in one direction"
+        )
 
 
 # ----------------------------------------------------------------------------------------------- bounding box

@@ -64,21 +64,6 @@ def _rot(n: np.ndarray, angle: np.ndarray) -> np.ndarray:
     return Rotation.from_rotvec(np.outer(angle, n)).as_matrix()
 
 
-def _orient(fit: fitting.AxisFit, points: np.ndarray, q: np.ndarray | None) -> fitting.AxisFit:
-    """Point the axis so that the joint turns counter-clockwise about it as its value increases (readings),
-    or as time goes on (no readings). Hayat et al. rotate every joint counter-clockwise (sec. III.A)."""
-    rel = points - fit.point
-    turn = np.sum(np.einsum("ij,j->i", np.cross(rel[:-1], rel[1:]), fit.direction))
-    sign = 1.0 if turn >= 0 else -1.0
-    if q is not None and len(q) > 1:
-        dq = np.sign(np.polyfit(np.arange(len(q)), q, 1)[0]) or 1.0
-        sign *= dq
-    if sign > 0:
-        return fit
-    S = np.diag([1.0, 1, 1, -1, -1, -1])
-    return replace(fit, direction=-fit.direction, cov=S @ fit.cov @ S)
-
-
 def sweep_where(s, source: str) -> str:
     """'file lines a-b, joint j' for messages about one sweep."""
     if not s.where:
@@ -97,22 +82,17 @@ def _per_sweep(sweeps: SweepSet, method: str, loss: str, max_sigma: float | None
         where = sweep_where(s, sweeps.source)
         progress(f"fitting sweep {k + 1} of {len(sweeps.sweeps)} (joint {s.joint}, {len(s.points)} points, {method})")
         q = s.moving
-        kw = {"max_sigma_point": max_sigma, "where": where}
         if sweeps.kinds[s.joint - 1] == "prismatic":
-            f = fitting.fit_line(s.points, q=q, **kw)
-        elif method == "kasa":
-            f = fitting.fit_circle_kasa(s.points, **kw)
-        elif method == "hyper":
-            f = fitting.fit_circle_hyper(s.points, **kw)
-        elif method == "geometric":
-            f = fitting.fit_circle_geometric(s.points, loss=loss, **kw)
+            fm = "line"
         elif method in ("readings", "global"):
+            fm = "readings"
             if q is None:
                 raise DenavitError(f"{where}: method '{method}' needs joint readings; this data has none (use geometric)")
-            f = fitting.fit_axis_with_readings(s.points, q, loss=loss, **kw)
         else:
-            raise DenavitError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
-        fits.append(_orient(f, s.points, q))
+            fm = method
+        robust = {"loss": loss} if fm in ("geometric", "readings") else {}
+        # oriented by the readings when there are some (increasing joint value, right-hand rule), else by the point order
+        fits.append(fitting.fit_axis(s.points, q, fm, max_sigma_point=max_sigma, where=where, **robust))
     return fits
 
 
