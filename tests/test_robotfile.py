@@ -69,6 +69,34 @@ def test_bad_robot_files(tmp_path, text, match):
     assert f.read_text() == text
 
 
+UNITS = '[units]\nlength = "mm"\nangle = "deg"\n'
+JOINT = "[[joints]]\nd = 0\ntheta = 0\na = 100\nalpha = 0\n"
+
+
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        # 'kind' is not the reader's 'type': it had loaded as revolute, its limits [-100, 100] as +-1.745 rad
+        (f'convention = "dh"\n{UNITS}\n{JOINT}\n{JOINT}kind = "prismatic"\nlimits = [-100, 100]\n',
+         r"bad.toml, joint 2 \(line 12\): unknown keys \['kind'\]: expected name, type, d, theta, a, alpha, limits, inertia$"),
+        (f'convention = "dh"\n{UNITS}\n{JOINT}limit = [-10, 10]\n', r"bad.toml, joint 1 \(line 6\): unknown keys \['limit'\]: expected .*, limits, inertia$"),
+        (f'convention = "poe"\n{UNITS}\n[[joints]]\nw = [0, 0, 1]\nv = [0, 0, 0]\nd = 5\n', r"joint 1 \(line 6\): unknown keys \['d'\]: expected name, type, w, v, limits, inertia$"),
+        (f'convention = "dh"\n{UNITS}time = "s"\n\n{JOINT}', r"bad.toml, \[units\]: unknown keys \['time'\]: expected length, angle, mass, inertia$"),
+        (f'convention = "dh"\n{UNITS}\n{JOINT}\n[tool]\nxyz = [0, 0, 1]\nrpz = [0, 0, 0]\n', r"bad.toml, \[tool\]: unknown keys \['rpz'\]: expected xyz, rpy, matrix$"),
+        (f'convention = "dh"\njoints = [1]\n{UNITS}', r"bad.toml, joint 1: expected a \[\[joints\]\] table, got 1"),
+    ],
+)
+def test_unknown_keys_are_errors(tmp_path, text, match):
+    """A misspelt key must not silently fall back to a default: every table of a robot file names its keys."""
+    f = tmp_path / "bad.toml"
+    f.write_text(text)
+    with pytest.raises(dv.DenavitError, match=match):
+        dv.load_robot(f)
+    f.write_text(f'convention = "dh"\n{UNITS}\n{JOINT}\n{JOINT}type = "prismatic"\nlimits = [-100, 100]\n')
+    r = dv.load_robot(f)
+    assert r.table.kinds[1] == "prismatic" and r.upper[1] == pytest.approx(0.1)
+
+
 def test_failed_write_leaves_nothing(tmp_path, monkeypatch):
     r = dv.load_robot("kr5")
     f = tmp_path / "out.toml"

@@ -142,9 +142,7 @@ def resolve(name_or_path: str | os.PathLike) -> Path:
 def _pose(spec: dict, ls: float, as_: float, where: str) -> np.ndarray:
     if not isinstance(spec, dict):
         raise DenavitError(f"{where}: expected a table with xyz/rpy or matrix, got {spec!r}")
-    unknown = set(spec) - {"xyz", "rpy", "matrix"}
-    if unknown:
-        raise DenavitError(f"{where}: unknown keys {sorted(unknown)}: expected xyz, rpy or matrix")
+    _check_keys(spec, ("xyz", "rpy", "matrix"), where)
     T = np.eye(4)
     if "matrix" in spec:
         m = np.asarray(spec["matrix"], dtype=float)
@@ -186,6 +184,14 @@ def inertia_scale(unit: str, where: str = "") -> float:
 
 
 INERTIA_KEYS = ("mass", "com", "ixx", "iyy", "izz", "ixy", "ixz", "iyz")
+UNIT_KEYS = ("length", "angle", "mass", "inertia")
+
+
+def _check_keys(table: dict, expected, where: str) -> None:
+    """A table's keys must all be expected ones: a misspelt key must not fall back to a default."""
+    unknown = [k for k in table if k not in expected]
+    if unknown:
+        raise DenavitError(f"{where}: unknown keys {unknown}: expected {', '.join(expected)}")
 
 
 def _inertia(spec, jw: str, units: dict | None, where: str, ls: float) -> tuple[float, list[float], np.ndarray]:
@@ -193,9 +199,7 @@ def _inertia(spec, jw: str, units: dict | None, where: str, ls: float) -> tuple[
     and for physics (mass >= 0, positive semi-definite, triangle inequality) by the core."""
     if not isinstance(spec, dict):
         raise DenavitError(f"{jw}: inertia must be a table with mass, com, ixx, iyy, izz (ixy, ixz, iyz), got {spec!r}")
-    unknown = set(spec) - set(INERTIA_KEYS)
-    if unknown:
-        raise DenavitError(f"{jw}: inertia: unknown keys {sorted(unknown)}: expected {', '.join(INERTIA_KEYS)}")
+    _check_keys(spec, INERTIA_KEYS, f"{jw}: inertia")
     missing = [k for k in ("mass", "com", "ixx", "iyy", "izz") if k not in spec]
     if missing:
         raise DenavitError(f"{jw}: inertia: missing {', '.join(missing)}")
@@ -240,6 +244,7 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
     units = doc.get("units")
     if not isinstance(units, dict) or "length" not in units or "angle" not in units:
         raise DenavitError(f"{where}: a [units] table with 'length' and 'angle' is required (e.g. length = \"mm\", angle = \"deg\"), got {units!r}")
+    _check_keys(units, UNIT_KEYS, f"{where}, [units]")
     ls = length_scale(units["length"], f"{where}, [units] length")
     as_ = angle_scale(units["angle"], f"{where}, [units] angle")
     joints = doc.get("joints")
@@ -254,6 +259,9 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         line = f" (line {joint_lines[i]})" if joint_lines and i < len(joint_lines) else ""
         jw = f"{where}, joint {i + 1}{line}"
         joint_where.append(jw)
+        if not isinstance(j, dict):
+            raise DenavitError(f"{jw}: expected a [[joints]] table, got {j!r}")
+        _check_keys(j, ["name", "type", *(["w", "v"] if conv == "poe" else cols), "limits", "inertia"], jw)
         inert.append(_inertia(j["inertia"], jw, units, where, ls) if "inertia" in j else None)
         kind = str(j.get("type", "revolute")).lower()
         if kind not in ("revolute", "prismatic"):
