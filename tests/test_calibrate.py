@@ -478,3 +478,27 @@ def test_prismatic_readings_take_the_length_unit(tmp_path):
     np.testing.assert_allclose(cal.read_measurements(j).q, [[0, 0.1, 0, 0]])
     with pytest.raises(dv.DenavitError, match=r"m.json: 'kinds' \['revolute', 'prismatic', 'revolute', 'revolute'\] differ from the kinds given"):
         cal.read_measurements(j, kinds=["revolute"] * 4)
+
+
+def test_cli_calibrate_reads_prismatic_readings_in_the_length_unit(tmp_path):
+    """A robot file with a prismatic joint: the CLI reads that joint's readings in mm (not deg) and the fit
+    finds the simulated truth."""
+    import subprocess
+    import sys
+
+    f = tmp_path / "rprr.toml"
+    f.write_text('name = "rprr"\nconvention = "dh"\n[units]\nlength = "mm"\nangle = "deg"\n'
+                 '[[joints]]\nname = "j1"\nd = 300\ntheta = 0\na = 100\nalpha = 90\nlimits = [-170, 170]\n'
+                 '[[joints]]\nname = "j2"\ntype = "prismatic"\nd = 200\ntheta = 90\na = 0\nalpha = -90\nlimits = [0, 300]\n'
+                 '[[joints]]\nname = "j3"\nd = 0\ntheta = 0\na = 250\nalpha = 60\nlimits = [-170, 170]\n'
+                 '[[joints]]\nname = "j4"\nd = 100\ntheta = 0\na = 0\nalpha = 0\nlimits = [-170, 170]\n')
+    robot = dv.load_robot(f)
+    m = tmp_path / "m.csv"
+    m.write_text(cal.to_csv(cal.simulate(robot, cal.configurations(robot, 60), tool=(0.03, 0.02, 0.05), noise=NOISE), "mm", "deg"))
+    assert float(m.read_text().splitlines()[-1].split(",")[1]) > 5  # the prismatic reading is in mm, not metres
+    out = tmp_path / "r.json"
+    p = subprocess.run([sys.executable, "-m", "denavit.cli", "calibrate", str(m), "--nominal", str(f), "--tool", "30,20,50", "--json", str(out)],
+                       capture_output=True, text=True, env={"COLUMNS": "160", "PATH": "/usr/bin:/bin"})
+    assert p.returncode == 0, p.stderr
+    doc = json.loads(out.read_text())
+    assert doc["validation"]["after_rms"] < 3 * NOISE * 1e3 * np.sqrt(3), doc["validation"]  # mm: the noise, not a unit error

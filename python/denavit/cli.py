@@ -589,7 +589,8 @@ def calibrate(
     from . import calibrate as cal  # noqa: PLC0415
 
     robot = load(nominal)
-    meas = cal.read_measurements(data, length=None, angle=None) if _declares_units(data) else cal.read_measurements(data, length=length, angle=angle)
+    units = {} if _declares_units(data) else {"length": length, "angle": angle}
+    meas = cal.read_measurements(data, kinds=list(robot.table.kinds), **units)
     ls = length_scale(length)
     tp = None
     if tool is not None:
