@@ -49,6 +49,18 @@ def test_tables_and_messages_print_their_units_and_brackets_as_written(tmp_path)
     assert p.returncode == 2 and "odd [v2].toml" in p.stderr
 
 
+def test_identify_length_flag_sets_the_output_unit_of_a_file_that_declares_its_own(tmp_path):
+    """The example declares mm: --length m changes only the output's unit, not how the data are read."""
+    mm, m = tmp_path / "mm.json", tmp_path / "m.json"
+    run("identify", "--example", "kr5", "--json", str(mm))
+    run("identify", "--example", "kr5", "--length", "m", "--json", str(m))
+    a, b = json.loads(mm.read_text()), json.loads(m.read_text())
+    assert b["units"]["length"] == "m"
+    d_mm, d_m = [r["d"] for r in a["parameters"]], [r["d"] for r in b["parameters"]]
+    np.testing.assert_allclose(np.array(d_m) * 1e3, d_mm, rtol=1e-9, atol=1e-9)
+    assert abs(d_m[0] - 0.4) < 1e-3  # KR5 d1 = 400 mm (Hayat Table III)
+
+
 def test_identify_example_and_json(tmp_path):
     out = tmp_path / "r.json"
     p = run("identify", "--example", "kr5", "--json", str(out))

@@ -455,7 +455,8 @@ def identify(
         elif data.suffix.lower() == ".json":
             sweeps = sw.read_json(data)
         else:
-            sweeps = sw.read_long_csv(data, length=length, angle=angle)
+            # units the file declares win; --length/--angle are then only the output's
+            sweeps = sw.read_long_csv(data, **({} if _declares_units(data) else {"length": length, "angle": angle}))
     nom = load(nominal) if nominal else None
     with console.status(f"fitting {sweeps.n_joints} sweeps ({method})...") as status:
         ms = None if max_sigma is None else max_sigma * length_scale(length or sweeps.units.get("length", "mm"))
