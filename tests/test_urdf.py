@@ -7,6 +7,7 @@ al.'s Table III in an industrial layout (every link parallel to the base at q = 
 """
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -388,7 +389,7 @@ def test_identified_model_exports_with_frames_within_the_robot(kr5, tmp_path):
 
 def world_items(u: yourdfpy.URDF, q):
     """(key, world pose) of every visual and collision, and the total mass, COM and inertia about the COM
-    (world) of a URDF at configuration q."""
+    (world) of a URDF at configuration q (0, the origin and 0 without inertials)."""
     u.update_cfg(q)
     base = u.base_link
     items, M, mc, parts = [], 0.0, np.zeros(3), []
@@ -404,8 +405,8 @@ def world_items(u: yourdfpy.URDF, q):
             parts.append((P, link.inertial.mass, link.inertial.inertia))
             M += link.inertial.mass
             mc += link.inertial.mass * P[:3, 3]
-    c = mc / M
-    I = sum(P[:3, :3] @ Ic @ P[:3, :3].T + m * ((P[:3, 3] - c) @ (P[:3, 3] - c) * np.eye(3) - np.outer(P[:3, 3] - c, P[:3, 3] - c)) for P, m, Ic in parts)
+    c = mc / M if M else np.zeros(3)
+    I = sum((P[:3, :3] @ Ic @ P[:3, :3].T + m * ((P[:3, 3] - c) @ (P[:3, 3] - c) * np.eye(3) - np.outer(P[:3, 3] - c, P[:3, 3] - c)) for P, m, Ic in parts), np.zeros((3, 3)))
     return sorted(items, key=lambda kv: kv[0]), M, c, I
 
 
@@ -454,6 +455,71 @@ def test_meshes_inertials_and_limits_carried_through(tmp_path):
     for (ka, Ta), (kc, Tc) in zip(ia, ic):
         assert ka == kc and pose_err(Ta, Tc) < 1e-12
     np.testing.assert_allclose(cc, ca, atol=1e-12)
+
+
+# a laser tracker's frame: the robot's base link 1 rad about z and (2, -1, 0.5) m away from its origin
+TRACKER = Rz(1.0)
+TRACKER[:3, 3] = (2.0, -1.0, 0.5)
+
+
+@pytest.mark.parametrize("path", [UR, PANDA], ids=lambda p: p.stem)
+@pytest.mark.parametrize("conv", ["edh", "dh", "mdh", "poe"])
+def test_identified_in_a_measurement_frame_carries_meshes_onto_the_robot(path, conv, tmp_path):
+    """The audit's case: sweeps simulated (noise-free) in a tracker frame (the true robot's base link at
+    TRACKER), identified with the URDF as nominal, exported with its meshes. The exported file's root is the
+    identified base (the tracker frame), and every visual, collision and inertial read back by yourdfpy sits,
+    at any q, where yourdfpy puts it in the nominal URDF moved by TRACKER (the true geometry) to 1e-9 (float
+    rounding of a noise-free fit; measured ~1e-14). The old export, which read the nominal's base-link poses as
+    if they were in the tracker frame, was 2.3 m off; placing them on the identified joint frames without
+    registering the axes would still be 0.36 m off (the ED-H frame origins slide along the UR axes)."""
+    from denavit import identify as ident  # noqa: PLC0415
+    from denavit import sweeps as sw  # noqa: PLC0415
+
+    nominal = U.load_urdf(path)
+    truth = nominal.model().with_base(TRACKER)
+    home = (np.maximum(nominal.lower, -np.pi) + np.minimum(nominal.upper, np.pi)) / 2
+    s = sw.simulate(truth, home=home, ranges=np.stack([home - 0.5, home + 0.5], axis=1), points_per_sweep=10, seed=1)
+    m = ident.identify(s, convention=conv, nominal=nominal).model()
+    out = tmp_path / "identified.urdf"
+    U.save_urdf(m, out, nominal)
+    back = U.urdf_model(out)
+    assert pose_err(back.T_world_base, m.T_world_base) < 1e-12  # the root link is the identified base
+    a = yourdfpy.URDF.load(str(path), build_scene_graph=True, load_meshes=False)
+    b = yourdfpy.URDF.load(str(out), build_scene_graph=True, load_meshes=False)
+    R, p = TRACKER[:3, :3], TRACKER[:3, 3]
+    for q in qs_within(nominal.model(), 5, seed=4):
+        ia, Ma, ca, Ia = world_items(a, q)
+        ib, Mb, cb, Ib = world_items(b, q)
+        assert [k for k, _ in ia] == [k for k, _ in ib] and len(ia) >= 8
+        for (k, Ta), (_, Tb) in zip(ia, ib):
+            assert pose_err(TRACKER @ Ta, Tb) < 1e-9, k
+        assert Mb == pytest.approx(Ma, abs=1e-12) and (Ma > 0) == (path == UR)  # panda_style.urdf has no inertials
+        if Ma:
+            np.testing.assert_allclose(cb, R @ ca + p, atol=1e-9)
+            np.testing.assert_allclose(Ib, R @ Ia @ R.T, atol=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_meshes_follow_any_convention_in_another_frame(seed, tmp_path):
+    """Random chains (any axis, prismatic and fixed joints, a mesh on every link) re-expressed in a tracker
+    frame in each convention (frames at other origins along the axes and turned about them): every mesh
+    read back by yourdfpy sits where yourdfpy puts the nominal URDF's, moved by TRACKER, to 1e-12."""
+    text = re.sub(r'<link name="(l\d+)"/>', lambda mt: f'<link name="{mt.group(1)}"><visual><origin xyz="0.1 0.2 0.05" rpy="0.3 0.2 0.1"/>'
+                  f'<geometry><mesh filename="{mt.group(1)}.stl"/></geometry></visual></link>', random_urdf(seed))
+    p = write(tmp_path, text)
+    nominal = U.load_urdf(p)
+    moved = nominal.model().with_base(TRACKER @ nominal.model().T_world_base)
+    a = yourdfpy.URDF.load(str(p), build_scene_graph=True, load_meshes=False)
+    for conv in ("dh", "mdh", "edh", "poe"):
+        m = dv.to_table(moved, conv, parallel_tol=1e-9).table.to_model("t", nominal.names, nominal.lower, nominal.upper)
+        out = tmp_path / f"{conv}.urdf"
+        U.save_urdf(m, out, nominal)
+        b = yourdfpy.URDF.load(str(out), build_scene_graph=True, load_meshes=False)
+        for q in qs_within(m, 3, seed=seed):
+            ia, ib = world_items(a, q)[0], world_items(b, q)[0]
+            assert [k for k, _ in ia] == [k for k, _ in ib] and len(ia) >= 9
+            for (k, Ta), (_, Tb) in zip(ia, ib):
+                assert pose_err(TRACKER @ Ta, Tb) < 1e-12, (conv, k)
 
 
 def gravity_torques_from_urdf(path, q, g=(0.0, 0.0, -9.81)):

@@ -35,10 +35,33 @@ route for identified robots.
 
 What a URDF carries beyond kinematics (visuals, collisions, inertials, materials, effort and velocity
 limits, damping and friction) is kept in ``Robot.extra["urdf"]`` (plain dicts and lists, SI, see
-:func:`load_urdf`) and written back on export when the model has the same number of joints: each body's
-meshes and inertials are re-expressed in the exported link frame through their pose at ``q = 0`` in
-``world`` (the base link frame of the imported URDF), so they stay on the body even though the link
-frames changed. Links off the chosen chain are not carried.
+:func:`load_urdf`) and written back on export when the model has the same number of joints. Links off
+the chosen chain are not carried.
+
+Meshes and inertials of an identified robot
+-------------------------------------------
+The kept link poses are in the nominal URDF's base link frame; an identified model is in the measurement
+frame (a laser tracker's, anywhere), and its joint frames, even where the axes are the nominal's, are a
+convention's: ED-H puts the UR shoulder frame 0.36 m along the axis from the URDF joint origin, DH turns
+frames about their axes. So neither ``T_world_link`` as it stands (2.3 m off for a tracker 2 m away) nor
+its pose relative to the nominal URDF joint frame ``F_n`` (``inv(F_n) · T_world_link``) can be written on
+the model's frame directly. Export (:func:`_carry`):
+
+1. registers the nominal joint axis lines at ``q = 0`` onto the model's (``X``, :func:`_register_lines`;
+   lines only, so neither the frames' origins along their axes nor their turn about them matter);
+2. anchors each body on the axis it turns about (the base body: the first axis, which it carries):
+   ``A = X · F_n`` moved by the smallest rotation and shift that put its z axis on the model's axis line;
+3. writes each element at ``inv(E) · A · inv(F_n) · T_world_link`` in its exported link, ``E`` the link's
+   frame at ``q = 0``: the model's joint frame, or for the base body the model's base (the exported base
+   link is where the model's base is, e.g. the tracker frame; the base meshes sit on the first axis).
+
+The element then rides on the model's joint frame (at ``q`` it is moved by ``E(q) · inv(E)``), with the
+same joint zero (identify works with the robot's readings). For the
+nominal's own model, any convention, in any frame, the meshes land exactly where the nominal URDF has
+them (moved with the base); for a noise-free identification to ~1e-14, for a noisy one each body turns on
+its identified axis and the registration's error places it along and about it. Measured on the UR-style arm
+(tests): the identified ED-H frames' turn about their own axes equals the nominal's to 1e-15 (offsets
+included), but their origins slide along the axes, which the registration absorbs.
 
 Dynamics: :func:`load_urdf` also merges each moving body's inertials (its link and the links fixed to it,
 parallel-axis theorem) into ``Robot.inertials``, so the robot's model has the URDF's dynamics; an
@@ -434,7 +457,7 @@ def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: 
             hi = 0.0 if j.limit.upper is None else float(j.limit.upper)
             if lo > hi:
                 raise DenavitError(f"{w}: limit lower={lo} is above upper={hi}")
-        info: dict = {"name": j.name, "type": jtype}
+        info: dict = {"name": j.name, "type": jtype, "axis": [float(v) for v in a]}
         if j.limit is not None:
             for k in ("effort", "velocity"):
                 v = getattr(j.limit, k)
@@ -496,8 +519,8 @@ def load_urdf(path: str | os.PathLike, base_link: str | None = None, tip_link: s
 
     * ``robot``, ``file``, ``base_link``, ``tip_link``, ``body_links`` (the base link, then each moving
       joint's child link);
-    * ``joints``: per moving joint ``name``, URDF ``type`` and, when given, ``effort``, ``velocity``,
-      ``damping``, ``friction``;
+    * ``joints``: per moving joint ``name``, URDF ``type``, ``axis`` (unit, in the child link) and, when
+      given, ``effort``, ``velocity``, ``damping``, ``friction``;
     * ``bodies``: per body (the base, then each moving joint's child with the links fixed to it) the
       links with ``T_world_link`` (4x4, at q = 0 in the base link's frame), ``inertial`` (``mass``,
       ``origin``, ``inertia`` 3x3), ``visuals`` and ``collisions`` (``origin``, ``geometry``: mesh
@@ -649,6 +672,74 @@ def _matches(info: dict | None, model: _core.Model) -> bool:
         return False
 
 
+def _skew(k) -> np.ndarray:
+    return np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+
+
+def _rot_between(u, v) -> np.ndarray:
+    """The smallest rotation (3, 3) taking the unit vector ``u`` to the unit vector ``v`` (not opposite)."""
+    K = _skew(np.cross(u, v))
+    return np.eye(3) + K + K @ K / (1.0 + float(np.dot(u, v)))
+
+
+def _register_lines(Fn: np.ndarray, Fi: np.ndarray, kinds) -> np.ndarray:
+    """The rigid motion ``X`` (4, 4) that best puts the nominal joint axes on the identified ones.
+
+    ``Fn``, ``Fi`` (n, 4, 4): joint frames at q = 0 (z = the axis), of the nominal and of the identified
+    model in their own world frames. Only the axis lines are compared (directions, and for revolute joints
+    the distance of the line from the identified one), never the frames' origins along the axes nor their
+    turn about them: those are convention choices (an ED-H frame may lie 0.36 m along the UR shoulder axis
+    from the URDF joint origin). Gauss-Newton from the Kabsch rotation of the directions; dofs the lines do
+    not fix (e.g. a slide along parallel axes) keep their minimal-norm value."""
+    dn, pn, d, p = Fn[:, :3, 2], Fn[:, :3, 3], Fi[:, :3, 2], Fi[:, :3, 3]
+    U_, _, Vt = np.linalg.svd(dn.T @ d)
+    R = Vt.T @ np.diag([1.0, 1.0, np.linalg.det(Vt.T @ U_.T)]) @ U_.T
+    t = np.zeros(3)
+    for _ in range(30):
+        rows, res = [], []
+        for i, kind in enumerate(kinds):
+            e, y = R @ dn[i], R @ pn[i] + t
+            rows.append(np.hstack([-_skew(e), np.zeros((3, 3))]))
+            res.append(e - d[i])
+            if kind == "revolute":
+                P = np.eye(3) - np.outer(d[i], d[i])
+                rows.append(np.hstack([-P @ _skew(y), P]))
+                res.append(P @ (y - p[i]))
+        step = np.linalg.lstsq(np.vstack(rows), -np.concatenate(res), rcond=1e-9)[0]
+        w, v = step[:3], step[3:]
+        ang = float(np.linalg.norm(w))
+        K = _skew(w / ang) if ang > 0.0 else np.zeros((3, 3))
+        dR = np.eye(3) + math.sin(ang) * K + (1.0 - math.cos(ang)) * K @ K  # Rodrigues
+        R, t = dR @ R, dR @ t + v
+        if ang < 1e-15 and np.linalg.norm(v) < 1e-15:
+            break
+    return _hom(R, t)
+
+
+def _carry(info: dict, robot: Robot, model: _core.Model, frames: np.ndarray) -> list[np.ndarray]:
+    """Per body *b*, the matrix taking a kept link pose ``T_world_link`` (q = 0, the nominal URDF's base
+    link frame) to its pose in exported link *b* (the model's joint frame *b* - 1; the model's base for
+    the base body). Module docstring, "Meshes and inertials of an identified robot"."""
+    n = model.nq
+    joints = info["joints"]
+    if all("axis" in j for j in joints):  # the nominal URDF's joint frames: child link @ R_a
+        Fn = np.array([np.asarray(info["bodies"][i + 1]["links"][0]["T_world_link"], dtype=float) @ _hom(z_to(j["axis"]))
+                       for i, j in enumerate(joints)])
+    else:  # kept by an older version without the axes: the robot's own model is the nominal
+        Fn = np.asarray(_core.joint_frames(robot.model(), np.zeros(n)))
+    X = _register_lines(Fn, frames, list(model.kinds))
+    out = []
+    for b in range(n + 1):
+        j = max(b - 1, 0)  # the axis the body turns about (the base body: the stator of joint 1)
+        G, F = X @ Fn[j], frames[j]
+        A = _hom(_rot_between(G[:3, 2], F[:3, 2]) @ G[:3, :3], G[:3, 3])
+        if model.kinds[j] == "revolute":  # the body's bearing on the identified axis line
+            A[:3, 3] = F[:3, 3] + F[:3, 2] * (F[:3, 2] @ (G[:3, 3] - F[:3, 3]))
+        E = np.asarray(model.T_world_base) if b == 0 else frames[b - 1]
+        out.append(_inv(E) @ A @ _inv(Fn[j]))
+    return out
+
+
 def dumps_urdf(model: _core.Model, robot: Robot | None = None) -> str:
     """The URDF text of ``model`` (any convention's model, identified ones included).
 
@@ -657,7 +748,9 @@ def dumps_urdf(model: _core.Model, robot: Robot | None = None) -> str:
     ``urdf_model`` of the text reproduces every joint frame and the tool. Revolute joints with infinite
     limits are written ``continuous``. ``robot`` (optional) gives the robot name and, when it was read
     from a URDF (``robot.extra["urdf"]``) and has as many joints as ``model``, the link names, meshes,
-    inertials, effort/velocity limits and dynamics, re-expressed in the new link frames (module docstring).
+    inertials, effort/velocity limits and dynamics, each body's elements riding on the model's joint frame
+    (module docstring, "Meshes and inertials of an identified robot": ``model`` may be in another frame than
+    the URDF's base link, e.g. identified in a tracker's frame).
     Lengths in m, angles in rad, masses in kg.
     """
     n = model.nq
@@ -702,15 +795,14 @@ def dumps_urdf(model: _core.Model, robot: Robot | None = None) -> str:
         tool = _unique(tip, link_names)
         add_link(tool)
 
-    # meshes and inertials, per body, in the new link frames (through their pose at q = 0 in world)
+    # meshes and inertials, per body, riding on the model's joint frames (module docstring)
     if info is not None:
-        E = [B] + [frames[i] for i in range(n)]
+        carry = _carry(info, robot, model, frames)
         for b in range(n + 1):
             el = link_el[body_names[b]]
-            Einv = _inv(E[b])
             parts, vis, col = [], [], []
             for ld in info["bodies"][b]["links"]:
-                C = Einv @ np.asarray(ld["T_world_link"], dtype=float)
+                C = carry[b] @ np.asarray(ld["T_world_link"], dtype=float)
                 if "inertial" in ld:
                     ine = ld["inertial"]
                     parts.append((C @ np.asarray(ine["origin"], dtype=float), float(ine["mass"]), np.asarray(ine["inertia"], dtype=float)))
