@@ -32,7 +32,10 @@ Uncertainty
 Covariances are first order: ``cov(theta) = s^2 (J^T J)^-1`` with ``J`` the Jacobian of the residual vector at the
 solution and ``s^2 = SSR / (n_residuals - n_parameters)`` (``n_residuals`` counts scalar residual components: 2 per
 point for a circle -- out-of-plane and radial --, 3 per point for the readings fit, 2 per point for a line), or
-``s = noise_sigma`` when the caller knows the per-coordinate measurement noise. The Kasa and hyper fits report the
+``s = noise_sigma`` when the caller knows the per-coordinate measurement noise. With a robust loss the final weights
+``w`` enter as for weighted least squares, ``cov = s^2 A^-1 (J^T W^2 J) A^-1`` with ``A = J^T W J`` and
+``s^2 = sum((w r)^2) / (sum(w^2) - n_parameters)``, so that a down-weighted outlier does not inflate the sigmas
+(:func:`_weighted_cov`). The Kasa and hyper fits report the
 covariance of the orthogonal-distance problem evaluated at their own estimate (an approximation: they are not the
 maximum-likelihood estimator, and the Kasa fit is biased on short arcs).
 
@@ -368,22 +371,40 @@ def _loss_weight(loss: str, z: np.ndarray) -> np.ndarray:
     return np.ones_like(z)
 
 
-def _cov_from_jacobian(jw: np.ndarray, rw: np.ndarray, n_params: int, noise_sigma, what: str, where: str):
-    """cov = s^2 (J^T J)^-1 with s^2 = SSR / (n_res - n_params) or noise_sigma^2."""
-    n_res = rw.size
+def _weighted_cov(j: np.ndarray, r: np.ndarray, w: np.ndarray, n_params: int, noise_sigma=None):
+    """First-order covariance of a (robust) least-squares fit, and the singular values of ``W^1/2 J``.
+
+    ``j`` (n_res, k) and ``r`` (n_res,) are the unweighted Jacobian and residuals at the solution, ``w`` (n_res,)
+    the final weights (all 1 without a robust loss). Weighted least squares with these weights has
+    ``cov = s^2 A^+ (J^T W^2 J) A^+``, ``A = J^T W J`` (pseudo-inverse ``A^+``); ``s^2 = noise_sigma^2``, or
+    ``sum((w r)^2) / (sum(w^2) - n_params)``: the weighted residuals ``w r`` stay bounded (at most ``f_scale``) for
+    down-weighted outliers, so an outlier does not inflate the sigmas. Without a robust loss this is the usual
+    ``SSR / (n_res - n_params) (J^T J)^-1``.
+    """
+    psi = w * r
+    dof = float(np.sum(w**2)) - n_params
     if noise_sigma is not None:
         s2 = float(noise_sigma) ** 2
-    elif n_res > n_params:
-        s2 = float(rw @ rw) / (n_res - n_params)
+    elif dof > 0:
+        s2 = float(psi @ psi) / dof
     else:
         s2 = math.nan
-    _, sv, vt = np.linalg.svd(jw, full_matrices=False)
+    _, sv, vt = np.linalg.svd(j * np.sqrt(w)[:, None], full_matrices=False)
+    inv = np.where(sv > 1e-13 * sv[0], 1.0 / np.maximum(sv, 1e-300) ** 2, 0.0)
+    a_inv = (vt.T * inv) @ vt
+    jw = j * w[:, None]
+    return s2 * a_inv @ (jw.T @ jw) @ a_inv, sv
+
+
+def _cov_from_jacobian(j: np.ndarray, r: np.ndarray, w: np.ndarray, n_params: int, noise_sigma, what: str, where: str):
+    """:func:`_weighted_cov`, or a clear error when the Jacobian is singular (the axis is not identifiable)."""
+    cov, sv = _weighted_cov(j, r, w, n_params, noise_sigma)
     if sv[-1] <= 1e-13 * sv[0]:
         raise DegenerateError(
             f"{_pre(where)}{what}: the axis is not identifiable from these points "
             f"(Jacobian singular values {sv[0]:.3g} ... {sv[-1]:.3g}; expected full rank {n_params})"
         )
-    return s2 * (vt.T / sv**2) @ vt
+    return cov
 
 
 def _sigmas(cov6: np.ndarray, n: np.ndarray) -> tuple[float, float]:
@@ -447,9 +468,8 @@ def _circle_result(p, centre, n, r, method, weights, noise_sigma, where) -> Axis
         phi = -phi
     e, h, g = _circle_signed(p, centre, n, r)
     t1, t2 = _perp_basis(n)
-    sw = np.sqrt(np.concatenate([weights, weights]))
-    jac = _circle_jacobian(p, centre, n, r, np.column_stack([t1, t2])) * sw[:, None]
-    cov_t = _cov_from_jacobian(jac, np.concatenate([h, g]) * sw, 6, noise_sigma, f"{method} circle fit", where)
+    jac = _circle_jacobian(p, centre, n, r, np.column_stack([t1, t2]))
+    cov_t = _cov_from_jacobian(jac, np.concatenate([h, g]), np.concatenate([weights, weights]), 6, noise_sigma, f"{method} circle fit", where)
     tmat = np.zeros((6, 6))
     tmat[:3, :3] = np.eye(3)
     tmat[3:, 3:5] = np.column_stack([t1, t2])
@@ -646,8 +666,8 @@ def fit_circle_geometric(
     -------
     AxisFit
         ``method="geometric"`` (``"geometric+soft_l1"``...); ``direction`` oriented so that the points, in order,
-        turn counter-clockwise about it; ``cov`` from the (weighted) Jacobian at the solution,
-        ``s^2 = SSR / (2 m - 6)``.
+        turn counter-clockwise about it; ``cov`` from the Jacobian at the solution, ``s^2 = SSR / (2 m - 6)``
+        (robust losses: weighted, see the module's Uncertainty section).
     """
     _check_loss(loss, f_scale, where)
     _check_positive("max_sigma_point", max_sigma_point, where)
@@ -737,7 +757,8 @@ def fit_axis_with_readings(
         ``method="readings"``; ``point`` is the circle centre (the foot of ``p0`` on the axis), ``radius`` the
         distance of ``p0`` from the axis, ``direction`` such that increasing ``q`` turns counter-clockwise about
         it; ``residuals`` are distances to that circle, ``outliers`` are judged on the 3-D misfit;
-        ``cov`` from the (weighted) Jacobian at the solution, ``s^2 = SSR / (3 m - 7)``.
+        ``cov`` from the Jacobian at the solution, ``s^2 = SSR / (3 m - 7)`` (robust losses: weighted, see the
+        module's Uncertainty section).
 
     Raises
     ------
@@ -832,9 +853,8 @@ def _readings(p, q, loss, f_scale, noise_sigma, where) -> AxisFit:
     tt = np.column_stack([t1, t2])
     pred, _ = _readings_model(c, n, p0, delta)
     resid = pred - p
-    sw = np.repeat(np.sqrt(w), 3)
-    jac = _readings_jacobian(c, n, p0, delta, tt, tt) * sw[:, None]
-    cov_t = _cov_from_jacobian(jac, resid.ravel() * sw, 7, noise_sigma, what, where)
+    jac = _readings_jacobian(c, n, p0, delta, tt, tt)
+    cov_t = _cov_from_jacobian(jac, resid.ravel(), np.repeat(w, 3), 7, noise_sigma, what, where)
     v = p0 - c
     hv = v @ n
     centre = c + hv * n

@@ -171,14 +171,23 @@ def _global_fit(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str) -> 
             out.append((pred - s.points).ravel())
         return np.concatenate(out)
 
-    x0 = np.concatenate([np.zeros(4 * n), p_home])
-    sol = least_squares(residuals, x0, method="trf" if loss != "linear" else "lm", loss=loss, x_scale="jac", xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=200 * (4 * n + 3))
+    def misfit(x):
+        return np.linalg.norm(residuals(x).reshape(-1, 3), axis=1)
+
+    def lsq(x, w):
+        sw = np.repeat(np.sqrt(w), 3)
+        return least_squares(lambda y: residuals(y) * sw, x, method="lm", x_scale="jac", xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=200 * (4 * n + 3))
+
+    # a robust loss by reweighting, its scale 3 robust sigmas of the current misfits (as the per-sweep fits do)
+    x = lsq(np.concatenate([np.zeros(4 * n), p_home]), np.ones(len(sweeps.all_points))).x
+    x, w = fitting._irls(lambda st, wt: lsq(st, wt).x, misfit, x, loss, None, 3, "global fit", sweeps.source)
+    sol = lsq(x, w)
     cs, ns, p = unpack(sol.x)
     r = residuals(sol.x)
-    dof = max(len(r) - len(sol.x), 1)
-    s2 = float(r @ r) / dof
-    J = sol.jac
-    cov_x = np.linalg.pinv(J.T @ J) * s2
+    w3 = np.repeat(w, 3)
+    cov_x, _ = fitting._weighted_cov(sol.jac / np.sqrt(w3)[:, None], r, w3, len(sol.x))  # consistent with the weights
+    mis = np.linalg.norm(r.reshape(-1, 3), axis=1)
+    outliers = fitting._outliers(mis, 3, fitting._size(sweeps.all_points))  # flagged on the pooled robust sigma, kept
     # map the local parameters to [c_j, n_j] (linear at the solution: dn = B da, dc = B ds) and p
     M = np.zeros((6 * n + 3, 4 * n + 3))
     for j in range(n):
@@ -193,16 +202,16 @@ def _global_fit(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str) -> 
     for s, f in zip(sweeps.sweeps, fits):
         j = s.joint - 1
         m = len(s.points)
-        res = r[k : k + 3 * m].reshape(m, 3)
-        k += 3 * m
         # the axis point reported is the foot of the home tool point on the axis (the circle centre)
         c = cs[j] + ns[j] * ((p - cs[j]) @ ns[j])
         radius = float(np.linalg.norm((p - c))) if sweeps.kinds[j] == "revolute" else math.nan
         sig_perp = float(math.sqrt(max(np.linalg.eigvalsh(cov[6 * j : 6 * j + 3, 6 * j : 6 * j + 3])[-1], 0.0)))
         sig_dir = float(math.sqrt(max(np.trace(cov[6 * j + 3 : 6 * j + 6, 6 * j + 3 : 6 * j + 6]), 0.0)))
-        out_fits.append(replace(f, point=c, direction=ns[j], radius=radius, residuals=np.linalg.norm(res, axis=1),
-                                             cov=cov[6 * j : 6 * j + 6, 6 * j : 6 * j + 6], sigma_point_perp=sig_perp, sigma_direction=sig_dir, method="global"))
-    rms = float(math.sqrt(np.mean(r.reshape(-1, 3).__pow__(2).sum(axis=1))))
+        out_fits.append(replace(f, point=c, direction=ns[j], radius=radius, residuals=mis[k : k + m], rms=float(math.sqrt(np.mean(mis[k : k + m] ** 2))),
+                                cov=cov[6 * j : 6 * j + 6, 6 * j : 6 * j + 6], sigma_point_perp=sig_perp, sigma_direction=sig_dir,
+                                outliers=outliers[k : k + m], method="global" if loss == "linear" else f"global+{loss}"))
+        k += m
+    rms = float(math.sqrt(np.mean(mis**2)))
     return out_fits, cov, p, rms
 
 
@@ -261,6 +270,8 @@ def identify(
     nominal : a robot of any convention; breaks sign ties, fixes free origins and the last frame
         (docs/conventions.md), gives names and limits.
     T_world_base : (4, 4) base frame in the measurement frame (default: the measurement frame itself).
+    loss : "linear", "soft_l1" or "huber": per-point robust loss of the geometric, readings and global fits (its
+        scale 3 robust sigmas of the misfits); outlying points are flagged in each fit's ``outliers``, never dropped.
     max_sigma : float, metres, optional
         The accuracy asked for: a sweep whose predicted axis-position uncertainty (1 sigma, across the axis)
         exceeds it is an error that names the sweep and the predicted value (e.g. an arc too short).
