@@ -1,6 +1,7 @@
 """Identification from joint sweeps (Hayat et al.): the paper's Table III, readers, and bad input."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -257,3 +258,103 @@ def test_global_robust_loss_resists_an_outlier_and_flags_it(kr5, loss):
     assert not any(f.outliers.any() for k, f in enumerate(res.fits) if k != 2)
     assert res.fits[2].n_points == 15 and len(res.fits[2].residuals) == 15
     assert res.fits[2].residuals[6] == pytest.approx(5e-3, rel=0.05)
+
+
+def json_doc(s, **change):
+    """The JSON sweep document of a simulated sweep set (m, rad), with top-level entries changed."""
+    doc = {"units": {"length": "m", "angle": "rad"}, "home": s.home.tolist(),
+           "sweeps": [{"joint": x.joint, "points": x.points.tolist(), "q": x.q.tolist()} for x in s.sweeps]}
+    doc.update(change)
+    return doc
+
+
+@pytest.mark.parametrize(
+    "edit, match",
+    [
+        (lambda d: [1, 2], r"s.json: expected a JSON object"),
+        (lambda d: {**d, "home": d["home"][:2] + [float("nan")] + d["home"][3:]}, r"s.json: home\[2\]: expected a finite number, got NaN"),
+        (lambda d: {**d, "home": "90,-90"}, r"s.json: home: expected a list of one or more numbers"),
+        (lambda d: {**d, "kinds": ["revolute"] * 5}, r"s.json: kinds: expected 6 of 'revolute' / 'prismatic'"),
+        (lambda d: {**d, "units": "mm"}, r"s.json: units: expected an object"),
+        (lambda d: {**d, "sweeps": None}, r"s.json: sweeps: expected a list of sweeps"),
+        (lambda d: {**d, "sweeps": [d["sweeps"][0], 7]}, r"s.json: sweeps\[1\]: expected an object"),
+        (lambda d: {**d, "sweeps": [{**d["sweeps"][0], "points": d["sweeps"][0]["points"][:2] + [[1, 2]] + d["sweeps"][0]["points"][3:]}] + d["sweeps"][1:]},
+         r"s.json: sweeps\[0\].points\[2\]: expected a list of 3 numbers, got \[1, 2\]"),
+        (lambda d: {**d, "sweeps": [{**d["sweeps"][0], "joint": True}] + d["sweeps"][1:]}, r"s.json: sweeps\[0\]: joint index out of range: expected an integer 1..6, got true"),
+        (lambda d: {**d, "sweeps": d["sweeps"] + [d["sweeps"][2]]}, r"s.json: sweeps\[6\]: a second sweep of joint 3 \(the first is sweeps\[2\]\)"),
+        (lambda d: {**d, "sweeps": d["sweeps"][:1] + [{**d["sweeps"][1], "q": [r[:] for r in d["sweeps"][1]["q"]]}] + d["sweeps"][2:]}, None),
+        (lambda d: {**d, "sweeps": [{**d["sweeps"][0], "q": d["sweeps"][0]["q"][:4]}] + d["sweeps"][1:]}, r"s.json: sweeps\[0\]: q must have one row per point: expected 8 rows, got 4"),
+    ],
+)
+def test_bad_json_sweeps_name_file_and_place(kr5, tmp_path, edit, match):
+    doc = edit(json_doc(simulate(kr5, 30, points_per_sweep=8)))
+    if match is None:  # NaN in a locked joint's reading (sweep 2, point 3, joint 1)
+        doc["sweeps"][1]["q"][3][0] = float("nan")
+        match = r"s.json: sweeps\[1\].q\[3\]\[0\]: expected a finite number, got NaN"
+    f = tmp_path / "s.json"
+    f.write_text(json.dumps(doc))
+    with pytest.raises(dv.DenavitError, match=match):
+        sw.read_json(f)
+
+
+def write_joint_files(s, folder, header="time;x;y;z\n", scale=1e3):
+    folder.mkdir(exist_ok=True)
+    for x in s.sweeps:
+        rows = [f"{k * 0.1:.1f};{p[0]:.9f};{p[1]:.9f};{p[2]:.9f}" for k, p in enumerate(x.points * scale)]
+        (folder / f"j{x.joint}.csv").write_text(header + "\n".join(rows) + "\n")
+    return folder
+
+
+def test_joint_files_comments_headers_and_names(kr5, tmp_path):
+    """A comment before the header is skipped; only files named exactly jN.csv are sweeps."""
+    s = simulate(kr5, 90, points_per_sweep=10)
+    d = write_joint_files(s, tmp_path / "files", header="# tracker export, 2024-05-02\ntime;x;y;z\n")
+    (d / "j1_old.csv").write_text("0;1;2;3\n0.1;1;2;3\n0.2;1;2;3\n")  # an old recording lying beside j1.csv
+    (d / "notes.csv").write_text("x;y;z\n")
+    fs = sw.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm")
+    for a, b in zip(s.sweeps, fs.sweeps):
+        np.testing.assert_allclose(b.points, a.points, atol=1e-11)
+    assert fs.sweeps[0].where[0].endswith("j1.csv:3")
+    (d / "j01.csv").write_text((d / "j1.csv").read_text())
+    with pytest.raises(dv.DenavitError, match=r"files: two files for joint 1: j01.csv and j1.csv"):
+        sw.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm")
+
+
+@pytest.mark.parametrize(
+    "first_line, kw, match",
+    [
+        ("0.0;nan;1;2\n", {}, r"j2.csv:1: column 'x' must be finite, got 'nan'"),
+        ("0.0;1;inf;2\n", {}, r"j2.csv:1: column 'y' must be finite, got 'inf'"),
+        ("0.0;1,5;1;2\n", {}, r"j2.csv:1: column 'x' must be a number, got '1,5' \(a decimal comma"),
+        ("", {"direction": [1, -1]}, r"--direction: expected \+1 or -1, one for all joints or 6 \(one per joint, from --home\), got \[1.0, -1.0\]"),
+        ("", {"direction": "up"}, r"--direction: expected \+1 or -1"),
+        ("", {"home": [90, -90, float("nan"), 0, 90, 0]}, r"--home: expected one finite number per joint"),
+        ("", {"kinds": ["revolute"] * 5}, r"6 joints in --home but 5 joint kinds"),
+    ],
+)
+def test_bad_joint_files(kr5, tmp_path, first_line, kw, match):
+    """A data line with NaN is an error naming file:line (not a header: a header is a line of names)."""
+    d = write_joint_files(simulate(kr5, 90, points_per_sweep=10), tmp_path / "files", header="")
+    (d / "j2.csv").write_text(first_line + (d / "j2.csv").read_text())
+    with pytest.raises(dv.DenavitError, match=match):
+        sw.read_joint_files(d, **{"home": sw.PAPER_HOME_DEG, "length": "mm", **kw})
+
+
+@pytest.mark.parametrize("cell, got", [("inf", "inf"), ("nan", "nan"), ("1e400", "1e400"), ("1.5", "1.5")])
+def test_long_csv_joint_index_not_an_integer(tmp_path, cell, got):
+    f = write_csv(tmp_path, f"{cell},0,0,1,0,0\n")
+    with pytest.raises(dv.DenavitError, match=rf"bad.csv:3: joint index out of range: expected 1..2, got {got}"):
+        sw.read_long_csv(f)
+
+
+def test_locked_joint_drift_is_noted(kr5):
+    """Joint 2's reading drifts to -35 deg during joint 1's sweep (the points say it stayed locked): the result
+    carries a note naming the sweep, the joint and the drift; steady readings carry none."""
+    s = simulate(kr5, 30, points_per_sweep=12, noise=2e-5)
+    assert not [n for n in ident.identify(s, nominal=kr5).notes if "locked" in n]
+    q = s.sweeps[0].q.copy()
+    q[:, 1] += np.radians(np.linspace(0, 55, 12))
+    drift = sw.SweepSet([sw.Sweep(1, s.sweeps[0].points, q, s.sweeps[0].where)] + s.sweeps[1:], 6, s.home, s.kinds, s.source, s.units)
+    notes = [n for n in ident.identify(drift, nominal=kr5).notes if "locked" in n]
+    assert len(notes) == 1
+    assert re.search(r"joint 1: locked joint 2 reads -90 .. -35 deg, up to 55 deg from its home -90 deg at simulated sweep 1, point 11 \(tolerance 0.1 deg\)", notes[0]), notes

@@ -64,6 +64,31 @@ def _rot(n: np.ndarray, angle: np.ndarray) -> np.ndarray:
     return Rotation.from_rotvec(np.outer(angle, n)).as_matrix()
 
 
+#: A locked joint whose reading leaves home by more than this during another joint's sweep gets a note
+#: (rad for revolute joints, m for prismatic ones).
+LOCKED_TOL = {"revolute": math.radians(0.1), "prismatic": 1e-4}
+
+
+def _locked_notes(sweeps: SweepSet) -> list[str]:
+    """Notes on locked joints whose readings leave home beyond ``LOCKED_TOL`` (the fits use only the moving
+    joint's readings and assume the others stayed at home)."""
+    notes = []
+    for s in sweeps.sweeps:
+        if s.q is None:
+            continue
+        for i, kind in enumerate(sweeps.kinds):
+            dev = s.q[:, i] - sweeps.home[i]
+            k = int(np.argmax(np.abs(dev)))
+            if i == s.joint - 1 or abs(dev[k]) <= LOCKED_TOL[kind]:
+                continue
+            scale, unit = (math.degrees(1), "deg") if kind == "revolute" else (1e3, "mm")
+            at = f" at {s.where[k]}" if s.where else ""
+            notes.append(f"{sweep_where(s, sweeps.source)}: locked joint {i + 1} reads {s.q[:, i].min() * scale:.4g} .. {s.q[:, i].max() * scale:.4g} {unit}, "
+                         f"up to {abs(dev[k]) * scale:.3g} {unit} from its home {sweeps.home[i] * scale:.4g} {unit}{at} (tolerance {LOCKED_TOL[kind] * scale:g} {unit}); "
+                         "the fit assumes it stayed at home: check the recording")
+    return notes
+
+
 def sweep_where(s, source: str) -> str:
     """'file lines a-b, joint j' for messages about one sweep."""
     if not s.where:
@@ -287,7 +312,7 @@ def identify(
         raise DenavitError(f"nominal model {nominal.name} has {len(nominal.names)} joints, the data has {n}")
     if method == "auto":
         method = "global" if sweeps.has_readings else "geometric"
-    notes = []
+    notes = _locked_notes(sweeps)
     fits = _per_sweep(sweeps, method, loss, max_sigma if method != "global" else None, progress)
     if sweeps.has_readings:
         p_home = _tool_point_from_readings(sweeps, fits)

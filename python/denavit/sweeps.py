@@ -104,7 +104,8 @@ def _float(text: str, where: str, column: str) -> float:
     try:
         v = float(text)
     except ValueError:
-        raise DenavitError(f"{where}: column {column!r} must be a number, got {text!r}") from None
+        hint = " (a decimal comma? write numbers with a decimal point)" if re.fullmatch(r"[-+]?\d+,\d+", text) else ""
+        raise DenavitError(f"{where}: column {column!r} must be a number, got {text!r}{hint}") from None
     if not math.isfinite(v):
         raise DenavitError(f"{where}: column {column!r} must be finite, got {text!r}")
     return v
@@ -157,11 +158,12 @@ def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: 
             raise DenavitError(f"{where}: expected {len(cols)} values, got {len(cells)}")
         jtext = cells[idx["joint"]]
         try:
-            j = int(float(jtext))
+            jv = float(jtext)
         except ValueError:
             raise DenavitError(f"{where}: column 'joint' must be a joint index 1..{n}, got {jtext!r}") from None
-        if not 1 <= j <= n or float(jtext) != j:
+        if not (math.isfinite(jv) and jv == round(jv) and 1 <= jv <= n):
             raise DenavitError(f"{where}: joint index out of range: expected 1..{n}, got {jtext}")
+        j = int(jv)
         q = np.array([_float(cells[idx[f'q{i}']], where, f"q{i}") for i in range(1, n + 1)]) * qscale
         p = np.array([_float(cells[idx[c]], where, c) for c in "xyz"]) * ls
         rows.setdefault(j, []).append((q, p, where))
@@ -176,40 +178,76 @@ def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: 
     return SweepSet(sweeps, n, np.asarray(home, dtype=float), kinds, str(path), units)
 
 
+_JOINT_FILE = re.compile(r"j(\d+)\.csv", re.IGNORECASE)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def read_joint_files(folder: str | os.PathLike, *, home, length: str, angle: str = "deg", direction=1, kinds: list[str] | None = None) -> SweepSet:
     """Read one file per joint (``j1.csv`` ... ``jN.csv``): x,y,z per row, optionally a leading time column.
 
-    Comma or semicolon separated, optional header. Without joint readings, the sweep direction gives the
-    axis orientation: ``direction`` (+1 or -1, or one per joint) says whether the joint value increased over
-    the recording. ``home`` is in ``angle`` units (revolute) / ``length`` (prismatic).
+    Only files named exactly ``j<N>.csv`` count (``j1_old.csv`` is not a sweep). Comma or semicolon separated
+    (the first line that is not a ``#`` comment decides), optional header (a line of names: none of its cells
+    a number). Without joint readings, the sweep direction gives the axis orientation: ``direction`` (+1 or
+    -1, or one per joint) says whether the joint value increased over the recording. ``home`` is in ``angle``
+    units (revolute) / ``length`` (prismatic).
     """
     folder = Path(folder)
-    files = sorted(folder.glob("j*.csv"), key=lambda p: int(re.sub(r"\D", "", p.stem) or 0))
+    files: dict[int, Path] = {}
+    for f in sorted(folder.iterdir()):
+        m = _JOINT_FILE.fullmatch(f.name)
+        if m and f.is_file():
+            j = int(m.group(1))
+            if j in files:
+                raise DenavitError(f"{folder}: two files for joint {j}: {files[j].name} and {f.name}: expected one j{j}.csv")
+            files[j] = f
     if not files:
         raise DenavitError(f"{folder}: no per-joint files j1.csv ... jN.csv found")
     ls, as_ = length_scale(length, "--length"), angle_scale(angle, "--angle")
-    home = np.atleast_1d(np.asarray(home, dtype=float))
+    try:
+        home = np.atleast_1d(np.asarray(home, dtype=float))
+    except (TypeError, ValueError):
+        raise DenavitError(f"--home: expected one number per joint, got {home!r}") from None
+    if home.ndim != 1 or not np.all(np.isfinite(home)):
+        raise DenavitError(f"--home: expected one finite number per joint, got {home.tolist()}")
     n = len(home)
     kinds = kinds or ["revolute"] * n
-    dirs = np.broadcast_to(np.asarray(direction, dtype=float), (n,))
-    if not np.all(np.abs(dirs) == 1):
-        raise DenavitError(f"direction: expected +1 or -1 per joint, got {np.asarray(direction).tolist()}")
+    if len(kinds) != n:
+        raise DenavitError(f"{folder}: {n} joints in --home but {len(kinds)} joint kinds given")
+    try:
+        dirs = np.atleast_1d(np.asarray(direction, dtype=float))
+    except (TypeError, ValueError):
+        raise DenavitError(f"--direction: expected +1 or -1, one for all joints or one per joint, got {direction!r}") from None
+    if dirs.ndim != 1 or dirs.size not in (1, n) or not np.all(np.abs(dirs) == 1):
+        raise DenavitError(f"--direction: expected +1 or -1, one for all joints or {n} (one per joint, from --home), got {dirs.tolist()}")
+    dirs = np.broadcast_to(dirs, (n,))
     rows: dict[int, list] = {}
-    for f in files:
-        j = int(re.sub(r"\D", "", f.stem))
+    for j, f in sorted(files.items()):
         if not 1 <= j <= n:
             raise DenavitError(f"{f}: joint index out of range: expected 1..{n} (from --home), got {j}")
-        pts, where = [], []
+        pts, where, delim = [], [], None
         for ln, line in enumerate(f.read_text(encoding="utf-8").splitlines(), 1):
             s = line.strip()
             if not s or s.startswith("#"):
                 continue
-            cells = [c.strip() for c in re.split(r"[;,]", s) if c.strip() != ""]
-            if ln == 1 and any(re.search(r"[a-df-zA-DF-Z]", c) for c in cells):
-                continue  # header
+            first = delim is None
+            if first:
+                delim = ";" if ";" in s else ","
+            cells = [c.strip() for c in s.split(delim)]
+            if cells and cells[-1] == "":
+                cells.pop()  # a trailing separator
+            if first and not any(_is_number(c) for c in cells):
+                continue  # header: a line of names
             if len(cells) not in (3, 4):
-                raise DenavitError(f"{f}:{ln}: expected 3 values (x,y,z) or 4 (time,x,y,z), got {len(cells)}")
-            vals = [_float(c, f"{f}:{ln}", "xyz"[k - (len(cells) - 3)] if k >= len(cells) - 3 else "time") for k, c in enumerate(cells)]
+                raise DenavitError(f"{f}:{ln}: expected 3 values (x,y,z) or 4 (time,x,y,z) separated by {delim!r}, got {len(cells)}: {s!r}")
+            names = ["x", "y", "z"] if len(cells) == 3 else ["time", "x", "y", "z"]
+            vals = [_float(c, f"{f}:{ln}", name) for c, name in zip(cells, names)]
             pts.append(np.array(vals[-3:]) * ls)
             where.append(f"{f}:{ln}")
         pts_arr = np.array(pts).reshape(-1, 3)
@@ -222,40 +260,84 @@ def read_joint_files(folder: str | os.PathLike, *, home, length: str, angle: str
     return SweepSet(sweeps, n, homes, kinds, str(folder), {"length": length, "angle": angle})
 
 
+def _show(value) -> str:
+    """A short JSON rendering of a value for messages."""
+    text = json.dumps(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _json_numbers(value, n: int | None, where: str) -> np.ndarray:
+    """A JSON list of finite numbers (``n`` of them, or any number >= 1) as a float array."""
+    if not isinstance(value, list) or not value or (n is not None and len(value) != n):
+        raise DenavitError(f"{where}: expected a list of {n if n is not None else 'one or more'} numbers, got {_show(value)}")
+    out = []
+    for i, v in enumerate(value):
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise DenavitError(f"{where}[{i}]: expected a number, got {_show(v)}")
+        try:
+            v = float(v)
+        except OverflowError:
+            v = math.inf
+        if not math.isfinite(v):
+            raise DenavitError(f"{where}[{i}]: expected a finite number, got {_show(value[i])}")
+        out.append(v)
+    return np.array(out)
+
+
+def _json_rows(value, n: int, where: str) -> np.ndarray:
+    """A JSON list of rows of ``n`` finite numbers as an (m, n) float array."""
+    if not isinstance(value, list) or not value:
+        raise DenavitError(f"{where}: expected a list of rows of {n} numbers, got {_show(value)}")
+    return np.array([_json_numbers(row, n, f"{where}[{i}]") for i, row in enumerate(value)])
+
+
 def read_json(path: str | os.PathLike) -> SweepSet:
     """Read sweeps from JSON: ``{"units": {"length": "mm", "angle": "deg"}, "home": [...],
-    "kinds": [...] (optional), "sweeps": [{"joint": 1, "points": [[x, y, z], ...], "q": [[q1..qn], ...] (optional)}]}``."""
+    "kinds": [...] (optional), "sweeps": [{"joint": 1, "points": [[x, y, z], ...], "q": [[q1..qn], ...] (optional)}]}``.
+
+    One sweep per joint; every number finite; errors name the file and the place (e.g. ``sweeps[2].q[3][1]``).
+    """
     path = Path(path)
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
     except json.JSONDecodeError as e:
         raise DenavitError(f"{path}:{e.lineno}: not valid JSON: {e.msg}") from None
+    if not isinstance(doc, dict):
+        raise DenavitError(f'{path}: expected a JSON object {{"units": ..., "home": [...], "sweeps": [...]}}, got {_show(doc)}')
     units = doc.get("units") or {}
+    if not isinstance(units, dict) or not all(isinstance(v, str) for v in units.values()):
+        raise DenavitError(f'{path}: units: expected an object such as {{"length": "mm", "angle": "deg"}}, got {_show(units)}')
     ls, as_ = _scales(units, str(path))
-    home = np.asarray(doc.get("home"), dtype=float) if doc.get("home") is not None else None
-    if home is None:
+    if doc.get("home") is None:
         raise DenavitError(f"{path}: 'home' (the locked configuration) is required")
+    home = _json_numbers(doc["home"], None, f"{path}: home")
     n = len(home)
     kinds = doc.get("kinds") or ["revolute"] * n
+    if not isinstance(kinds, list) or len(kinds) != n or any(k not in ("revolute", "prismatic") for k in kinds):
+        raise DenavitError(f"{path}: kinds: expected {n} of 'revolute' / 'prismatic' (one per joint of home), got {_show(kinds)}")
     qscale = np.array([as_ if k == "revolute" else ls for k in kinds])
-    rows = {}
-    for k, s in enumerate(doc.get("sweeps") or []):
+    sweeps = doc.get("sweeps")
+    if not isinstance(sweeps, list) or not sweeps:
+        raise DenavitError(f"{path}: sweeps: expected a list of sweeps {{\"joint\": 1, \"points\": [[x, y, z], ...]}}, got {_show(sweeps)}")
+    rows: dict[int, Sweep] = {}
+    first: dict[int, int] = {}
+    for k, s in enumerate(sweeps):
         where = f"{path}: sweeps[{k}]"
+        if not isinstance(s, dict):
+            raise DenavitError(f"{where}: expected an object {{\"joint\": ..., \"points\": ...}}, got {_show(s)}")
         j = s.get("joint")
-        if not isinstance(j, int) or not 1 <= j <= n:
-            raise DenavitError(f"{where}: joint index out of range: expected 1..{n}, got {j!r}")
-        pts = np.asarray(s.get("points"), dtype=float)
-        if pts.ndim != 2 or pts.shape[1] != 3:
-            raise DenavitError(f"{where}: points must be a list of [x, y, z], got shape {pts.shape}")
-        if not np.all(np.isfinite(pts)):
-            raise DenavitError(f"{where}: points must be finite (found NaN/inf)")
+        if isinstance(j, bool) or not isinstance(j, int) or not 1 <= j <= n:
+            raise DenavitError(f"{where}: joint index out of range: expected an integer 1..{n}, got {_show(j)}")
+        if j in rows:
+            raise DenavitError(f"{where}: a second sweep of joint {j} (the first is sweeps[{first[j]}]): expected one sweep per joint")
+        pts = _json_rows(s.get("points"), 3, f"{where}.points")
         q = s.get("q")
         if q is not None:
-            q = np.asarray(q, dtype=float)
-            if q.shape != (len(pts), n):
-                raise DenavitError(f"{where}: q must have shape ({len(pts)}, {n}), got {q.shape}")
+            q = _json_rows(q, n, f"{where}.q")
+            if len(q) != len(pts):
+                raise DenavitError(f"{where}: q must have one row per point: expected {len(pts)} rows, got {len(q)}")
             q = q * qscale
-        rows[j] = Sweep(j, pts * ls, q, [f"{where}.points[{i}]" for i in range(len(pts))])
+        rows[j], first[j] = Sweep(j, pts * ls, q, [f"{where}.points[{i}]" for i in range(len(pts))]), k
     _check_complete(rows, n, str(path))
     homes = home * qscale
     return SweepSet([rows[j] for j in sorted(rows)], n, homes, kinds, str(path), units)
