@@ -516,3 +516,13 @@ def test_sweep_going_back_without_readings_is_an_error():
     line = np.outer(np.r_[np.linspace(0, 0.2, 10), np.linspace(0.18, 0, 10)], normal)
     with pytest.raises(DenavitError, match=r"net travel .* mm over a travel of 200.0 mm"):
         fitting.fit_axis(line, method="line")
+
+
+def test_collinear_message_gives_the_spread_in_mm():
+    """COLLINEAR spreads t (1, 2, 3) m, t evenly over [0, 1]: sqrt(14) * std(t) = 1194 mm RMS along the line, for every
+    fit (the iterative ones work in normalised coordinates; the message must not print those as metres)."""
+    calls = [fitting.fit_circle_kasa, fitting.fit_circle_hyper, fitting.fit_circle_geometric,
+             lambda p: fitting.fit_axis_with_readings(p, np.arange(10.0) * 0.01)]
+    for call in calls:
+        with pytest.raises(DegenerateError, match=r"RMS spread about their centroid 1.19e\+03 mm along the line, \S+ and \S+ mm across it"):
+            call(COLLINEAR)

@@ -113,7 +113,8 @@ def write_csv(tmp_path, body, units="# units: length=mm angle=deg\n"):
     [
         ("1,0,0,1,0,0\n1,10,0,0.9,0.1,0\n2,0,0,1,0,0\n2,0,5,1,0.1,0\n2,0,10,1,0.2,0\n", None, r"bad.csv lines 3-4, joint 1: .*at least 3 points, got 2"),
         ("1,0,0,1,0,0\n1,5,0,1,0,0\n1,10,0,1,0,0\n2,0,0,1,0,0\n2,0,5,1,0.1,0\n2,0,10,1,0.2,0.1\n", None, r"joint 1: circle fit needs distinct points, got all 3 points within"),
-        ("1,0,0,0,0,0\n1,5,0,1,0,0\n1,10,0,2,0,0\n2,0,0,1,0,0\n2,0,5,1,0.1,0\n2,0,10,1,0.2,0.1\n", None, r"joint 1: .*collinear"),
+        ("1,0,0,0,0,0\n1,5,0,1,0,0\n1,10,0,2,0,0\n2,0,0,1,0,0\n2,0,5,1,0.1,0\n2,0,10,1,0.2,0.1\n", None,
+         r"joint 1: .*collinear points \(RMS spread about their centroid 0.816 mm along the line, 0 and 0 mm across it"),
         ("1,0,0,1,0,nan\n", None, r"bad.csv:3: column 'z' must be finite"),
         ("3,0,0,1,0,0\n", None, r"bad.csv:3: joint index out of range: expected 1..2, got 3"),
         ("1,0,0,1,0,0\n1,5,0,1,0,0\n1,10,0,1,0,0\n", None, r"missing sweeps of joint\(s\) 2"),

@@ -274,9 +274,10 @@ def _unit_from_params(n0, t1, t2, a, b):
     return n, proj @ np.column_stack([t1, t2]) / nu
 
 
-def _plane(p: np.ndarray, what: str, where: str):
+def _plane(p: np.ndarray, what: str, where: str, length: float = 1.0):
     """[H]_ eqs. (1)-(4): centroid, SVD of the centred points, in-plane coordinates.
 
+    ``length`` is the metres per unit of ``p`` (the fits pass normalised coordinates), for messages.
     Returns the centroid (3,), the right-handed basis V (3, 3) (columns v1, v2 in the plane, v3 = v1 x v2 the
     normal), the singular values (3,) and the in-plane coordinates (m, 2) of the points about the centroid.
     """
@@ -284,10 +285,11 @@ def _plane(p: np.ndarray, what: str, where: str):
     nmat = p - centroid  # eq. (2)
     _, s, vt = np.linalg.svd(nmat, full_matrices=False)  # eq. (3)
     if s[1] <= COLLINEAR_TOL * s[0]:
+        spread = s / math.sqrt(len(p)) * length * 1e3  # RMS extent along each principal direction, mm
         raise DegenerateError(
-            f"{_pre(where)}{what} needs points spanning a plane, got collinear points "
-            f"(singular values {s[0]:.3g}, {s[1]:.3g}, {s[2]:.3g} m: sigma2/sigma1 = {s[1] / s[0]:.1e} <= {COLLINEAR_TOL:g}); "
-            "a prismatic joint needs fit_line"
+            f"{_pre(where)}{what} needs points spanning a plane, got collinear points (RMS spread about their centroid "
+            f"{spread[0]:.3g} mm along the line, {spread[1]:.3g} and {spread[2]:.3g} mm across it: "
+            f"sigma2/sigma1 = {s[1] / s[0]:.1e} <= {COLLINEAR_TOL:g}); if the joint is prismatic, declare it so (a line fit)"
         )
     v = vt.T.copy()
     v[:, 2] = np.cross(v[:, 0], v[:, 1])  # right-handed; v3 is the normal (eq. 4's third row)
@@ -524,8 +526,8 @@ def _hyper_2d(xy, what, where):
     return c1 * scale + mean[0], c2 * scale + mean[1], r * scale
 
 
-def _plane_circle(p, algo, what, where):
-    centroid, v, _, xy = _plane(p, what, where)
+def _plane_circle(p, algo, what, where, length: float = 1.0):
+    centroid, v, _, xy = _plane(p, what, where, length)
     c1, c2, r = _kasa_2d(xy) if algo == "kasa" else _hyper_2d(xy, what, where)
     return centroid + c1 * v[:, 0] + c2 * v[:, 1], v[:, 2].copy(), r
 
@@ -681,7 +683,7 @@ def _geometric(p, loss, f_scale, noise_sigma, what, where) -> AxisFit:
     origin = p.mean(axis=0)
     length = _size(p)
     pn = (p - origin) / length  # normalised coordinates: O(1) parameters
-    state = _plane_circle(pn, "hyper", what, where)
+    state = _plane_circle(pn, "hyper", what, where, length)
 
     def solve(st, w):
         c0, n0, r0 = st
@@ -791,7 +793,7 @@ def _readings(p, q, loss, f_scale, noise_sigma, where) -> AxisFit:
     delta = q - q.mean()
 
     # start: hyper circle; the normal's sign and p0 from rotating the points back by the readings
-    c0, n0, r0 = _plane_circle(pn, "hyper", what, where)
+    c0, n0, r0 = _plane_circle(pn, "hyper", what, where, length)
     best = None
     for sgn in (1.0, -1.0):
         back = c0 + np.einsum("kij,kj->ki", _rodrigues(sgn * n0, -delta), pn - c0)
