@@ -435,7 +435,7 @@ def identify(
     report: Annotated[Optional[Path], typer.Option("--report", help="Write a self-contained HTML report.")] = None,
     plot: Annotated[Optional[Path], typer.Option("--plot", help="Write the static figures (PNG) into this folder.")] = None,
     save_model: Annotated[Optional[Path], typer.Option("--save", help="Write the identified robot as a robot file (.toml, in the output units).")] = None,
-    urdf: Annotated[Optional[Path], typer.Option("--urdf", help="Write the identified robot as URDF (frames on the body).")] = None,
+    urdf: Annotated[Optional[Path], typer.Option("--urdf", help="Write the identified robot as URDF: the exact geometry (ED-H frames on the body, whatever --convention), with a URDF nominal's meshes, inertials and limits.")] = None,
 ) -> None:
     """Identify the joint axes and parameters from joint sweeps (Hayat et al.), beside the nominal values."""
     from . import identify as ident  # noqa: PLC0415
@@ -472,14 +472,15 @@ def identify(
         lower = nom.lower if nom else np.full(sweeps.n_joints, -np.pi)
         upper = nom.upper if nom else np.full(sweeps.n_joints, np.pi)
         identified = Robot(name=f"{nom.name if nom else 'robot'}_identified", table=result.table, names=names, lower=lower, upper=upper,
-                           description=f"identified from {sweeps.source} ({result.method} fit, {result.convention})", source=str(sweeps.source), home=sweeps.home)
+                           description=f"identified from {sweeps.source} ({result.method} fit, {result.convention})", source=str(sweeps.source), home=sweeps.home,
+                           extra=nom.extra if nom else {})  # a URDF nominal's meshes, inertials and limits ride along
         if save_model:
             save(identified, save_model, out_len, "deg")
             console.print(f"wrote {save_model}")
         if urdf:
             from .urdf import save_urdf  # noqa: PLC0415
 
-            save_urdf(identified.model(), urdf, identified)
+            save_urdf(result.model(convention="edh"), urdf, identified)  # the exact geometry, frames on the body
             console.print(f"wrote {urdf}")
     if report or plot:
         from . import report as rep  # noqa: PLC0415

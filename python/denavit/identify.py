@@ -52,11 +52,16 @@ class Identification:
     def table(self) -> _core.Table:
         return self.extraction.table
 
-    def model(self, name: str = "identified") -> _core.Model:
+    def model(self, name: str = "identified", convention: str | None = None) -> _core.Model:
+        """The identified model in its table's convention, or in ``convention`` (extracted from the same axes,
+        e.g. "edh" for the exact geometry whatever a DH table could represent)."""
         names = self.nominal.names if self.nominal else [f"j{i + 1}" for i in range(self.axes.nq)]
         lower = self.nominal.lower if self.nominal else None
         upper = self.nominal.upper if self.nominal else None
-        return self.table.to_model(name, names, lower, upper)
+        table = self.table
+        if convention is not None and convention != self.convention:
+            table = _core.extract(self.axes, convention, nominal=_nominal_table(self.nominal, convention, self.sweeps.home)).table
+        return table.to_model(name, names, lower, upper)
 
 
 def _rot(n: np.ndarray, angle: np.ndarray) -> np.ndarray:
@@ -334,9 +339,9 @@ def identify(
         rms = float(math.sqrt(np.mean([f.rms**2 for f in fits])))
     base = np.eye(4) if T_world_base is None else np.asarray(T_world_base, dtype=float)
     nominal_table = _nominal_table(nominal, convention, sweeps.home)
-    if nominal is not None:
-        nm = nominal.model()
-        tool_R = (_core.fk(nm.with_tool(np.eye(4)), sweeps.home))[:3, :3]
+    if nominal is not None:  # the nominal flange orientation at home, placed on the base frame in use
+        nm = nominal.model().with_base(base).with_tool(np.eye(4))
+        tool_R = _core.fk(nm, sweeps.home)[:3, :3]
     else:
         tool_R = np.eye(3)
     lower = nominal.lower if nominal is not None else None
