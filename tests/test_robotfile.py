@@ -132,3 +132,15 @@ def test_outputs_are_whole_with_ordinary_permissions(tmp_path):
         assert sorted(p.name for p in tmp_path.iterdir()) == ["kr5.toml", "private.toml"]
     finally:
         os.umask(old)
+
+
+def test_a_stray_top_level_key_is_an_error_and_extension_tables_are_kept(tmp_path):
+    text = robotfile.resolve("kr5").read_text()
+    f = tmp_path / "typo.toml"
+    f.write_text(text.replace("home = ", "hom = ", 1))
+    assert "hom = " in f.read_text()
+    with pytest.raises(dv.DenavitError, match=r"typo.toml \(top level\): unknown keys \['hom'\]: expected .*home"):
+        dv.load_robot(f)
+    g = tmp_path / "ext.toml"
+    g.write_text(text + '\n[vendor]\nserial = "A123"\n')
+    assert dv.load_robot(g).extra == {"vendor": {"serial": "A123"}}

@@ -308,6 +308,9 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
             raise DenavitError(f"{where}: home must have {len(joints)} values, got {home.shape}")
         home = np.array([h * (as_ if k == "revolute" else ls) for h, k in zip(home, kinds)])
     known = {"name", "description", "source", "convention", "units", "joints", "base", "tool", "home"}
+    # other tables (e.g. [urdf], written by `convert` from a URDF) are carried as extra; a stray plain key is
+    # most likely a typo ("hom" for "home")
+    _check_keys({k: v for k, v in doc.items() if not isinstance(v, dict)}, sorted(known), f"{where} (top level)")
     inertials = None
     if any(x is not None for x in inert):
         zero = (0.0, [0.0, 0.0, 0.0], np.zeros((3, 3)))
