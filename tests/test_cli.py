@@ -7,6 +7,8 @@ import sys
 import numpy as np
 import pytest
 
+import denavit as dv
+
 
 def run(*args, ok=True):
     p = subprocess.run([sys.executable, "-m", "denavit.cli", *args], capture_output=True, text=True, env={"COLUMNS": "120", "PATH": "/usr/bin:/bin"})
@@ -59,6 +61,36 @@ def test_identify_length_flag_sets_the_output_unit_of_a_file_that_declares_its_o
     d_mm, d_m = [r["d"] for r in a["parameters"]], [r["d"] for r in b["parameters"]]
     np.testing.assert_allclose(np.array(d_m) * 1e3, d_mm, rtol=1e-9, atol=1e-9)
     assert abs(d_m[0] - 0.4) < 1e-3  # KR5 d1 = 400 mm (Hayat Table III)
+
+
+def test_identify_in_a_tracker_frame_with_the_base_given(tmp_path):
+    """Noise-free sweeps measured in a tracker frame; with --base (that frame's pose of the robot base) the DH
+    table is Hayat's Table III and the JSON's base is the one given; without it the table is expressed from
+    the tracker frame (d1 is then no longer 400 mm)."""
+    from scipy.spatial.transform import Rotation
+
+    from denavit import sweeps as sw
+
+    B = np.eye(4)
+    B[:3, :3] = Rotation.from_euler("xyz", [2, -3, 35], degrees=True).as_matrix()
+    B[:3, 3] = [1.2, -0.4, 0.3]
+    truth = dv.load_model("kr5").with_base(B)
+    csv = tmp_path / "s.csv"
+    csv.write_text(sw.to_long_csv(sw.simulate(truth, home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=12), "mm", "deg"))
+    out = tmp_path / "r.json"
+    run("identify", str(csv), "--nominal", "kr5", "--base", "1200,-400,300,2,-3,35", "--json", str(out))
+    doc = json.loads(out.read_text())
+    table_iii = {"d": [400, 0, 0, 620, 0, 0], "a": [180, 600, 120, 0, 0, 0], "alpha": [90, 0, 90, 90, 90, 0], "theta": [0] * 6}
+    for k, v in table_iii.items():
+        # the CSV holds 10 significant digits (1e-6 mm at 1.2 m from the tracker): 1e-4 is that rounding, amplified
+        np.testing.assert_allclose([r[k] for r in doc["parameters"]], v, atol=1e-4, err_msg=k)
+    T = np.array(doc["T_world_base"])
+    np.testing.assert_allclose(T[:3, :3], B[:3, :3], atol=1e-12)
+    np.testing.assert_allclose(T[:3, 3], B[:3, 3] * 1e3, atol=1e-9)
+    run("identify", str(csv), "--nominal", "kr5", "--json", str(out))
+    assert abs(json.loads(out.read_text())["parameters"][0]["d"] - 400) > 1
+    p = run("identify", str(csv), "--base", "1,2,3", ok=False)
+    assert p.returncode == 2 and "--base: expected 16 or 12 numbers" in p.stderr
 
 
 def test_identify_example_and_json(tmp_path):

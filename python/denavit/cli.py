@@ -13,6 +13,7 @@ import typer
 from rich.console import Console
 from rich.table import Table as RichTable
 from rich.text import Text
+from scipy.spatial.transform import Rotation
 
 from . import _core
 from .errors import DenavitError
@@ -158,26 +159,22 @@ def fk(
     console.print(ft)
 
 
-def parse_pose(text: str, deg: bool, ls: float) -> np.ndarray:
-    """A target pose from --pose: 16 (or 12) numbers, the rows of T_world_tool, or 6 numbers x,y,z,roll,pitch,yaw
-    with R = Rz(yaw) Ry(pitch) Rx(roll); positions in --unit, angles in --deg / rad."""
-    v = parse_numbers(text, "--pose")
+def parse_pose(text: str, deg: bool, ls: float, what: str = "--pose") -> np.ndarray:
+    """A pose from the command line: 16 (or 12) numbers, the rows of the 4x4 matrix, or 6 numbers
+    x,y,z,roll,pitch,yaw with R = Rz(yaw) Ry(pitch) Rx(roll) (URDF's rpy); positions scaled by ``ls``
+    (metres per unit), angles in deg or rad."""
+    v = parse_numbers(text, what)
     if len(v) in (12, 16):
         T = np.eye(4)
         T[: len(v) // 4] = np.reshape(v, (len(v) // 4, 4))
         T[:3, 3] *= ls
         return T
     if len(v) == 6:
-        a = angle_scale("deg" if deg else "rad")
-        r, p, y = (x * a for x in v[3:])
-        cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
         T = np.eye(4)
-        T[:3, :3] = [[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                     [-sp, cp * sr, cp * cr]]
+        T[:3, :3] = Rotation.from_euler("xyz", v[3:], degrees=deg).as_matrix()
         T[:3, 3] = np.array(v[:3]) * ls
         return T
-    fail(f"--pose: expected 16 or 12 numbers (rows of the 4x4 pose) or 6 (x,y,z,roll,pitch,yaw), got {len(v)}")
+    fail(f"{what}: expected 16 or 12 numbers (rows of the 4x4 pose) or 6 (x,y,z,roll,pitch,yaw), got {len(v)}")
     raise AssertionError
 
 
@@ -435,6 +432,7 @@ def identify(
     report: Annotated[Optional[Path], typer.Option("--report", help="Write a self-contained HTML report.")] = None,
     plot: Annotated[Optional[Path], typer.Option("--plot", help="Write the static figures (PNG) into this folder.")] = None,
     save_model: Annotated[Optional[Path], typer.Option("--save", help="Write the identified robot as a robot file (.toml, in the output units).")] = None,
+    base: Annotated[Optional[str], typer.Option("--base", help="The robot's base frame in the measurement frame, \"x,y,z,roll,pitch,yaw\" (R = Rz(yaw) Ry(pitch) Rx(roll); output length unit, deg) or the 16 numbers of the 4x4 matrix (default: the measurement frame).")] = None,
     urdf: Annotated[Optional[Path], typer.Option("--urdf", help="Write the identified robot as URDF: the exact geometry (ED-H frames on the body, whatever --convention), with a URDF nominal's meshes, inertials and limits.")] = None,
 ) -> None:
     """Identify the joint axes and parameters from joint sweeps (Hayat et al.), beside the nominal values."""
@@ -460,7 +458,8 @@ def identify(
     nom = load(nominal) if nominal else None
     with console.status(f"fitting {sweeps.n_joints} sweeps ({method})...") as status:
         ms = None if max_sigma is None else max_sigma * length_scale(length or sweeps.units.get("length", "mm"))
-        result = ident.identify(sweeps, method=method, convention=convention.lower(), nominal=nom, loss=loss, max_sigma=ms, progress=status.update)
+        T_world_base = None if base is None else parse_pose(base, True, length_scale(length or sweeps.units.get("length", "m")), "--base")
+        result = ident.identify(sweeps, method=method, convention=convention.lower(), nominal=nom, loss=loss, max_sigma=ms, T_world_base=T_world_base, progress=status.update)
     out_len = length or sweeps.units.get("length", "m")
     doc = ident.to_json(result, out_len, "deg")
     print_identification(doc, result, out_len)

@@ -299,7 +299,9 @@ def identify(
         "readings" (per sweep, points as rotations of one rigid point by the recorded angles), "global".
     nominal : a robot of any convention; breaks sign ties, fixes free origins and the last frame
         (docs/conventions.md), gives names and limits.
-    T_world_base : (4, 4) base frame in the measurement frame (default: the measurement frame itself).
+    T_world_base : (4, 4) base frame in the measurement frame (default: the measurement frame itself). When
+        given, the nominal stands on it (its base frame is the robot base); otherwise the nominal's world is
+        taken as the measurement frame.
     loss : "linear", "soft_l1" or "huber": per-point robust loss of the geometric, readings and global fits (its
         scale 3 robust sigmas of the misfits); outlying points are flagged in each fit's ``outliers``, never dropped.
     max_sigma : float, metres, optional
@@ -338,10 +340,12 @@ def identify(
         cov[6 * n :, 6 * n :] = np.eye(3) * float(np.mean([f.rms for f in fits])) ** 2 / max(sum(f.n_points for f in fits), 1)
         rms = float(math.sqrt(np.mean([f.rms**2 for f in fits])))
     base = np.eye(4) if T_world_base is None else np.asarray(T_world_base, dtype=float)
+    if T_world_base is not None and nominal is not None:  # the nominal's base frame is the robot base given
+        t = nominal.table
+        nominal = replace(nominal, table=_core.Table(t.convention, t.params, t.kinds, base, t.T_last_tool))
     nominal_table = _nominal_table(nominal, convention, sweeps.home)
-    if nominal is not None:  # the nominal flange orientation at home, placed on the base frame in use
-        nm = nominal.model().with_base(base).with_tool(np.eye(4))
-        tool_R = _core.fk(nm, sweeps.home)[:3, :3]
+    if nominal is not None:  # the nominal flange orientation at home
+        tool_R = _core.fk(nominal.model().with_tool(np.eye(4)), sweeps.home)[:3, :3]
     else:
         tool_R = np.eye(3)
     lower = nominal.lower if nominal is not None else None
