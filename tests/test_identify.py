@@ -68,6 +68,10 @@ def test_json_output_has_units_rows_and_sigmas(kr5, tmp_path):
     assert doc["parameters"][0]["d"] == pytest.approx(400, abs=0.5)
     assert len(doc["joints"]) == 6 and "direction" in doc["joints"][0]["axis"]
     assert len(doc["bounding_box"]["lengths"]) == 3
+    # every point's residual (mm), in the file's order: 0.02 mm per coordinate gives about 0.02 * sqrt(3) mm
+    per_point = np.array([j["residuals"]["per_point"] for j in doc["joints"]])
+    assert per_point.shape == (6, 12) and 0.01 < np.sqrt(np.mean(per_point**2)) < 0.06
+    assert doc["joints"][0]["residuals"]["rms"] == pytest.approx(np.sqrt(np.mean(per_point[0] ** 2)), rel=1e-9)
 
 
 def test_long_csv_round_trip_and_units(kr5, tmp_path):

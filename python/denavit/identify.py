@@ -400,7 +400,7 @@ def to_json(result: Identification, length: str | None = None, angle: str = "deg
                      "sigma_point_perp": f.sigma_point_perp / ls, "sigma_direction_deg": math.degrees(f.sigma_direction)},
             "circle": {"centre": (f.point / ls).tolist(), "normal": f.direction.tolist(), "radius": (f.radius / ls) if np.isfinite(f.radius) else None},
             "residuals": {"rms": f.rms / ls, "max": float(np.max(np.abs(f.residuals))) / ls, "n_points": int(f.n_points),
-                          "outliers": [int(k) for k in np.flatnonzero(f.outliers)]},
+                          "outliers": [int(k) for k in np.flatnonzero(f.outliers)], "per_point": (np.asarray(f.residuals) / ls).tolist()},
             "arc_deg": math.degrees(f.arc),
         })
     b = result.box
