@@ -8,6 +8,7 @@ import pytest
 
 import denavit as dv
 from denavit import robotfile
+from denavit.io import output
 
 
 @pytest.mark.parametrize("name", ["kr5", "puma560", "ur5", "tiansui_mdh", "tiansui_edh"])
@@ -125,7 +126,7 @@ def test_outputs_are_whole_with_ordinary_permissions(tmp_path):
         kept.chmod(0o640)
         robotfile.save(robot, kept)
         assert stat.S_IMODE(kept.stat().st_mode) == 0o640 and "convention" in kept.read_text()
-        with pytest.raises(RuntimeError), robotfile.atomic_path(kept) as tmp:
+        with pytest.raises(RuntimeError), output.atomic_path(kept) as tmp:
             tmp.write_text("half")
             raise RuntimeError("interrupted")
         assert "convention" in kept.read_text()

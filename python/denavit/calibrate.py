@@ -64,9 +64,10 @@ from scipy.spatial.transform import Rotation
 
 from . import _core, fitting
 from .errors import DegenerateError, DenavitError
-from .robotfile import Robot, write_atomic
+from .io.output import write_text
+from .robotfile import Robot
 from .sweeps import PAPER_HOME_DEG, PAPER_RANGES_DEG, SweepSet
-from .units import angle_scale, length_scale
+from .io.units import angle_scale, length_scale
 
 CONVENTIONS = ("edh", "mdh", "dh")
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
@@ -1669,7 +1670,7 @@ def _pose_json(T: np.ndarray, ls: float) -> list:
 
 def write_json(cal: Calibration, path, length: str = "mm", angle: str = "deg") -> None:
     """Write the calibration as JSON (whole or not at all)."""
-    write_atomic(path, json.dumps(to_json(cal, length, angle), indent=2) + "\n")
+    write_text(path, json.dumps(to_json(cal, length, angle), indent=2) + "\n")
 
 
 __all__ = [

@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 from . import _core
 from .errors import DenavitError
 from .robotfile import Robot, builtin_names, dumps, inertials_for_table, load, save
-from .units import angle_scale, column_scale, length_scale
+from .io.units import angle_scale, column_scale, length_scale
 
 app = typer.Typer(
     add_completion=False,
@@ -553,9 +553,9 @@ def simulate(
     if tp.shape != (3,):
         fail(f"--tool: expected 3 values, got {tp.size}")
     s = sw.simulate(m, home=h, ranges=r, points_per_sweep=points, tool_point=tp, noise=noise * ls, noise_q=noise_q * as_, seed=seed)
-    from .robotfile import write_atomic  # noqa: PLC0415
+    from .io.output import write_text  # noqa: PLC0415
 
-    write_atomic(output, sw.to_long_csv(s, length, angle, f"simulated sweeps of {robot.name}: seed {seed}, noise {noise} {length}, readings noise {noise_q} {angle}"))
+    write_text(output, sw.to_long_csv(s, length, angle, f"simulated sweeps of {robot.name}: seed {seed}, noise {noise} {length}, readings noise {noise_q} {angle}"))
     console.print(f"wrote {output}: {n} sweeps x {points} points")
 
 

@@ -22,9 +22,10 @@ from scipy.spatial.transform import Rotation
 
 from . import _core, fitting
 from .errors import DegenerateError, DenavitError
-from .robotfile import Robot, write_atomic
+from .io.output import write_text
+from .robotfile import Robot
 from .sweeps import SweepSet
-from .units import angle_scale, length_scale
+from .io.units import angle_scale, length_scale
 
 METHODS = ("auto", "kasa", "hyper", "geometric", "readings", "global")
 
@@ -432,7 +433,7 @@ def _pose_json(T: np.ndarray, ls: float) -> list:
 
 def write_json(result: Identification, path, length: str | None = None, angle: str = "deg") -> None:
     """Write the result as JSON (whole or not at all)."""
-    write_atomic(path, json.dumps(to_json(result, length, angle), indent=2) + "\n")
+    write_text(path, json.dumps(to_json(result, length, angle), indent=2) + "\n")
 
 
 __all__ = ["Identification", "METHODS", "identify", "to_json", "write_json", "DegenerateError"]

@@ -32,7 +32,7 @@ import numpy as np
 
 from . import _core
 from .errors import DenavitError
-from .units import angle_scale, column_scale, length_scale
+from .io.units import angle_scale, column_scale, length_scale
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure

@@ -15,7 +15,7 @@ or a convention shows or hides all of its traces (double-click isolates it). Eve
 ``<td>`` with a class naming its column and a ``data-value`` attribute holding the full-precision value in the
 table's display unit, so that the report can be read by programs as well as people.
 
-Files are written whole or not at all (:func:`denavit.robotfile.write_atomic`). plotly and matplotlib are the
+Files are written whole or not at all (:func:`denavit.io.output.write_text`). plotly and matplotlib are the
 optional ``plot`` extra; a missing one raises :class:`~denavit.errors.DenavitError` naming
 ``pip install 'denavit[plot]'``.
 
@@ -48,8 +48,9 @@ from .plotting import (
     scene_size,
     sweep_range,
 )
-from .robotfile import CONVENTIONS, Robot, atomic_path, load, write_atomic
-from .units import angle_scale, column_scale, length_scale
+from .io.output import atomic_path, write_text
+from .robotfile import CONVENTIONS, Robot, load
+from .io.units import angle_scale, column_scale, length_scale
 
 if TYPE_CHECKING:  # pragma: no cover
     from .identify import Identification
@@ -432,7 +433,7 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
 
 def write_report(result: Identification, path, *, length: str = "mm", angle: str = "deg", title: str | None = None) -> None:
     """Write the self-contained HTML report of an identification (see the module docs) to ``path``."""
-    write_atomic(path, report_html(result, length=length, angle=angle, title=title))
+    write_text(path, report_html(result, length=length, angle=angle, title=title))
 
 
 # ------------------------------------------------------------------------------------------------ model
@@ -521,7 +522,7 @@ def write_model_report(robot: Robot, path, *, compare=None, q=None, length: str 
     q : array-like, shape (n,), optional
         Configuration drawn (rad / m), default the robot's home, else zeros.
     """
-    write_atomic(path, model_report_html(robot, compare=compare, q=q, length=length, angle=angle, title=title))
+    write_text(path, model_report_html(robot, compare=compare, q=q, length=length, angle=angle, title=title))
 
 
 __all__ = [

@@ -38,10 +38,7 @@ from __future__ import annotations
 import math
 import os
 import re
-import tempfile
 import tomllib
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -51,7 +48,8 @@ from scipy.spatial.transform import Rotation
 
 from . import _core
 from .errors import DenavitError
-from .units import angle_scale, length_scale
+from .io.output import write_text
+from .io.units import angle_scale, inertia_scale, length_scale, mass_scale
 
 CONVENTIONS = ("dh", "mdh", "edh", "poe")
 
@@ -162,25 +160,6 @@ def _pose(spec: dict, ls: float, as_: float, where: str) -> np.ndarray:
 
 def _joint_lines(text: str) -> list[int]:
     return [i + 1 for i, line in enumerate(text.splitlines()) if re.match(r"\s*\[\[\s*joints\s*\]\]", line)]
-
-
-MASS = {"kg": 1.0, "g": 1e-3}
-
-
-def mass_scale(unit: str, where: str = "") -> float:
-    """Kilograms per `unit` ("kg", "g")."""
-    try:
-        return MASS[str(unit).strip().lower()]
-    except KeyError:
-        raise DenavitError(f"{where + ': ' if where else ''}unknown mass unit {unit!r}: expected one of {', '.join(MASS)}") from None
-
-
-def inertia_scale(unit: str, where: str = "") -> float:
-    """kg m^2 per `unit`, a mass unit times a squared length unit: "kg m^2", "g mm^2", "kg*cm^2", ..."""
-    m = re.fullmatch(r"\s*([a-zA-Z]+)\s*[* ]\s*([a-zA-Z]+)\s*(\^2|\*\*2|2)\s*", str(unit))
-    if not m:
-        raise DenavitError(f"{where + ': ' if where else ''}unknown inertia unit {unit!r}: expected a mass unit times a squared length unit, e.g. \"kg m^2\" or \"g mm^2\"")
-    return mass_scale(m.group(1), where) * length_scale(m.group(2), where) ** 2
 
 
 INERTIA_KEYS = ("mass", "com", "ixx", "iyy", "izz", "ixy", "ixz", "iyz")
@@ -398,35 +377,6 @@ def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
     return doc
 
 
-@contextmanager
-def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
-    """A temporary path beside ``path`` to write into; when the block ends without an error it replaces ``path``
-    in one atomic rename, with the permissions of the file it replaces (a new file's: 0666 less the umask);
-    otherwise it is removed and ``path`` is untouched. Every output of denavit is written through it."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix or ".tmp")
-    os.close(fd)
-    try:
-        yield Path(tmp)
-        os.chmod(tmp, path.stat().st_mode & 0o7777 if path.exists() else 0o666 & ~_umask())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def _umask() -> int:
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
-
-
-def write_atomic(path: str | os.PathLike, text: str) -> None:
-    """Write a whole text file (UTF-8) or nothing (:func:`atomic_path`)."""
-    with atomic_path(path) as tmp:
-        tmp.write_text(text, encoding="utf-8")
-
-
 def dumps(robot: Robot, length: str = "m", angle: str = "rad") -> str:
     """A robot file's text."""
     import tomli_w  # noqa: PLC0415
@@ -437,4 +387,4 @@ def dumps(robot: Robot, length: str = "m", angle: str = "rad") -> str:
 
 def save(robot: Robot, path: str | os.PathLike, length: str = "m", angle: str = "rad") -> None:
     """Write a robot file (whole or not at all)."""
-    write_atomic(path, dumps(robot, length, angle))
+    write_text(path, dumps(robot, length, angle))

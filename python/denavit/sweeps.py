@@ -21,7 +21,7 @@ import numpy as np
 
 from . import _core
 from .errors import DenavitError
-from .units import angle_scale, length_scale
+from .io.units import angle_scale, length_scale
 
 # Hayat et al. Table II: range of motion given to each joint (deg), the paper's two protocols.
 PAPER_RANGES_DEG = {

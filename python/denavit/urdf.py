@@ -84,7 +84,8 @@ from lxml import etree
 
 from . import _core
 from .errors import DenavitError, DenavitWarning
-from .robotfile import Robot, inertials_for_table, write_atomic
+from .io.output import write_text
+from .robotfile import Robot, inertials_for_table
 
 SUPPORTED_JOINTS = ("revolute", "continuous", "prismatic", "fixed")
 UNSUPPORTED_JOINTS = ("floating", "planar")
@@ -866,7 +867,7 @@ def dumps_urdf(model: _core.Model, robot: Robot | None = None) -> str:
 
 def save_urdf(model: _core.Model, path: str | os.PathLike, robot: Robot | None = None) -> None:
     """Write :func:`dumps_urdf` to ``path`` (whole or not at all)."""
-    write_atomic(path, dumps_urdf(model, robot))
+    write_text(path, dumps_urdf(model, robot))
 
 
 __all__ = ["UrdfChain", "combine_inertials", "dumps_urdf", "load_urdf", "read_chain", "rpy_from_matrix", "save_urdf", "urdf_model", "urdf_table", "z_to"]
