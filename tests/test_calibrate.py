@@ -9,6 +9,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import denavit as dv
+from cli import env as cli_env
 from denavit import calibrate as cal
 from denavit import fitting
 from denavit import sweeps as sw
@@ -415,7 +416,7 @@ def test_cli_calibrate_and_plan(kr5, tmp_path):
     q = cal.configurations(kr5, 60)
     f = tmp_path / "m.csv"
     f.write_text(cal.to_csv(cal.simulate(kr5, q, tool=TOOL, noise=NOISE), "mm", "deg"))
-    env = {"COLUMNS": "160", "PATH": "/usr/bin:/bin"}
+    env = cli_env(160)
     out = tmp_path / "r.json"
     p = subprocess.run([sys.executable, "-m", "denavit.cli", "calibrate", str(f), "--nominal", "kr5", "--tool", "50,30,100", "--json", str(out),
                         "--save", str(tmp_path / "cal.toml")], capture_output=True, text=True, env=env)
@@ -498,7 +499,7 @@ def test_cli_calibrate_reads_prismatic_readings_in_the_length_unit(tmp_path):
     assert float(m.read_text().splitlines()[-1].split(",")[1]) > 5  # the prismatic reading is in mm, not metres
     out = tmp_path / "r.json"
     p = subprocess.run([sys.executable, "-m", "denavit.cli", "calibrate", str(m), "--nominal", str(f), "--tool", "30,20,50", "--json", str(out)],
-                       capture_output=True, text=True, env={"COLUMNS": "160", "PATH": "/usr/bin:/bin"})
+                       capture_output=True, text=True, env=cli_env(160))
     assert p.returncode == 0, p.stderr
     doc = json.loads(out.read_text())
     assert doc["validation"]["after_rms"] < 3 * NOISE * 1e3 * np.sqrt(3), doc["validation"]  # mm: the noise, not a unit error

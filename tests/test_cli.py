@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 
 import denavit as dv
+from cli import env as cli_env
 
 
 def run(*args, ok=True):
-    p = subprocess.run([sys.executable, "-m", "denavit.cli", *args], capture_output=True, text=True, env={"COLUMNS": "120", "PATH": "/usr/bin:/bin"})
+    p = subprocess.run([sys.executable, "-m", "denavit.cli", *args], capture_output=True, text=True, env=cli_env())
     if ok:
         assert p.returncode == 0, p.stderr
     return p

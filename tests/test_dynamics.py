@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import denavit as dv
+from cli import env as cli_env
 from denavit import _core
 
 G = np.array([0.0, 0.0, -9.81])
@@ -394,7 +395,7 @@ def cli(*args, ok=True):
     import subprocess  # noqa: PLC0415
     import sys  # noqa: PLC0415
 
-    p = subprocess.run([sys.executable, "-m", "denavit.cli", *args], capture_output=True, text=True, env={"COLUMNS": "120", "PATH": "/usr/bin:/bin"})
+    p = subprocess.run([sys.executable, "-m", "denavit.cli", *args], capture_output=True, text=True, env=cli_env())
     if ok:
         assert p.returncode == 0, p.stderr
     return p

@@ -7,6 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import denavit as dv
+from cli import env as cli_env
 
 MODELS = ["tiansui_mdh", "tiansui_edh", "kr5", "puma560", "ur5"]
 
@@ -224,7 +225,7 @@ def run_cli(*args):
     import sys  # noqa: PLC0415
 
     return subprocess.run([sys.executable, "-m", "denavit.cli", *args], capture_output=True, text=True,
-                          env={"COLUMNS": "120", "PATH": "/usr/bin:/bin"})
+                          env=cli_env())
 
 
 def test_cli_ik_solves_a_pose_in_mm_and_degrees():
