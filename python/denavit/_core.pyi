@@ -205,3 +205,9 @@ class CalibrationChain:
     def nq(self) -> int: ...
     def evaluate(self, x: ArrayLike, qs: ArrayLike, jacobian: bool = True) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
         """Tool poses (N, 4, 4) and, if `jacobian`, identification Jacobians (N, 6, n_params), rows [v; w] in world."""
+
+def convention_info(name: str) -> dict: ...
+def conventions() -> list[str]: ...
+
+NEAR_PARALLEL_SIN: float
+EXACT_PARALLEL_SIN: float

@@ -20,6 +20,10 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<model::PyPair>()?;
     m.add_function(wrap_pyfunction!(model::axes, m)?)?;
     m.add_function(wrap_pyfunction!(model::extract, m)?)?;
+    m.add_function(wrap_pyfunction!(model::convention_info, m)?)?;
+    m.add_function(wrap_pyfunction!(model::conventions, m)?)?;
+    m.add("NEAR_PARALLEL_SIN", denavit_core::extract::NEAR_PARALLEL_SIN)?;
+    m.add("EXACT_PARALLEL_SIN", denavit_core::extract::EXACT_PARALLEL_SIN)?;
     kinematics::register(m)?;
     ik::register(m)?;
     dynamics::register(m)?;

@@ -437,3 +437,22 @@ pub fn extract(axes: &PyJointAxes, convention: &str, parallel_tol: f64, intersec
     let opt = options(parallel_tol, intersect_tol, max_offset, nominal, origins, axes.inner.nq())?;
     Ok(core_extract::extract(&axes.inner, conv, &opt).py()?.into())
 }
+
+/// The convention named `name` (any accepted spelling: "dh", "SDH", "mdh", "craig", "modified-dh", "edh",
+/// "poe", ...): a dict with its canonical `name`, its `columns` in order and which of them are angles
+/// (`angle_columns`). The one parser of convention names (docs/conventions.md).
+#[pyfunction]
+pub fn convention_info(py: Python<'_>, name: &str) -> PyResult<PyObject> {
+    let c = Convention::parse(name).py()?;
+    let d = pyo3::types::PyDict::new(py);
+    d.set_item("name", c.name())?;
+    d.set_item("columns", c.columns().to_vec())?;
+    d.set_item("angle_columns", c.angle_columns().to_vec())?;
+    Ok(d.into_any().unbind())
+}
+
+/// Canonical names of every convention, in order ("dh", "mdh", "edh", "poe").
+#[pyfunction]
+pub fn conventions() -> Vec<&'static str> {
+    Convention::ALL.iter().map(|c| c.name()).collect()
+}
