@@ -103,5 +103,67 @@ impl PyChain {
 
 /// Register the classes of this file.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add_class::<PyChain>()
+    m.add_class::<PyChain>()?;
+    m.add_function(wrap_pyfunction!(parametrize, m)?)
+}
+
+/// The calibration parametrization of `table` (`dh`, `mdh`, `edh`; `denavit_core::Table::parametrize`)
+/// with the tool `T_last_tool` (4, 4) in the convention's last frame, for `measure` "point" | "pose", with a
+/// scale parameter per joint if `scale`. A dict: `chain` (CalibrationChain), the factors (`axes`, `params`,
+/// `joints` (-1: none), `fixed` (F, 4, 4) in the order of the "fixed" entries), the parameters (`names`,
+/// `x0`, `units`, `groups`, `along`: translation along a joint axis, `rules`: {name: why the
+/// parametrization holds it fixed}), `joint_factors`, `base_end`, `tool_start`, `scales` (-1: none).
+#[pyfunction]
+#[pyo3(signature = (table, T_last_tool, measure="point", scale=false, robot="robot"))]
+#[allow(non_snake_case)]
+pub fn parametrize(py: Python<'_>, table: &crate::model::PyTable, T_last_tool: ArrayIn<'_>, measure: &str, scale: bool, robot: &str) -> PyResult<PyObject> {
+    use denavit_core::convention::Measure;
+    let tool = crate::convert::pose("T_last_tool", &T_last_tool)?;
+    let p = table.inner.parametrize(robot, &tool, Measure::parse(measure).py()?, scale).py()?;
+    let mut axes = Vec::new();
+    let mut params = Vec::new();
+    let mut joints = Vec::new();
+    let mut fixed = Vec::new();
+    for f in &p.factors {
+        match f {
+            Factor::Fixed(t) => {
+                axes.push("fixed");
+                params.push(-1i64);
+                joints.push(-1i64);
+                let mut v = [0.0; 16];
+                crate::convert::write_pose(t, &mut v);
+                fixed.extend_from_slice(&v);
+            }
+            Factor::Elementary { axis, param, joint } => {
+                axes.push(axis.name());
+                params.push(*param as i64);
+                joints.push(joint.map_or(-1, |j| j as i64));
+            }
+        }
+    }
+    let nf = fixed.len() / 16;
+    let chain = Chain::new(p.factors.clone(), p.params.len(), table.inner.nq(), p.scales.clone()).py()?;
+    let d = pyo3::types::PyDict::new(py);
+    d.set_item("chain", PyChain { inner: Arc::new(chain) })?;
+    d.set_item("axes", axes)?;
+    d.set_item("params", params)?;
+    d.set_item("joints", joints)?;
+    d.set_item("fixed", numpy::PyArray1::from_vec(py, fixed).reshape([nf, 4, 4])?)?;
+    d.set_item("names", p.params.iter().map(|x| x.name.clone()).collect::<Vec<_>>())?;
+    d.set_item("x0", numpy::PyArray1::from_vec(py, p.params.iter().map(|x| x.value).collect::<Vec<_>>()))?;
+    d.set_item("units", p.params.iter().map(|x| x.unit).collect::<Vec<_>>())?;
+    d.set_item("groups", p.params.iter().map(|x| x.group).collect::<Vec<_>>())?;
+    d.set_item("along", p.params.iter().map(|x| x.along_axis).collect::<Vec<_>>())?;
+    let rules = pyo3::types::PyDict::new(py);
+    for x in &p.params {
+        if let Some(why) = &x.fixed {
+            rules.set_item(&x.name, why)?;
+        }
+    }
+    d.set_item("rules", rules)?;
+    d.set_item("joint_factors", p.joint_factors.clone())?;
+    d.set_item("base_end", p.base_end)?;
+    d.set_item("tool_start", p.tool_start)?;
+    d.set_item("scales", p.scales.iter().map(|s| s.map_or(-1, |v| v as i64)).collect::<Vec<_>>())?;
+    Ok(d.into_any().unbind())
 }
