@@ -134,7 +134,7 @@ impl PyIkBatchResult {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn options(method: &str, tol_position: f64, tol_rotation: f64, max_iterations: i64, restarts: i64, seed: i64, respect_limits: bool, damping: f64) -> PyResult<IkOptions> {
+pub(crate) fn options(method: &str, tol_position: f64, tol_rotation: f64, max_iterations: i64, restarts: i64, seed: i64, respect_limits: bool, damping: f64) -> PyResult<IkOptions> {
     let method = IkMethod::parse(method).py()?;
     let count = |what: &str, v: i64, min: i64| -> PyResult<usize> {
         if v < min {
@@ -156,14 +156,14 @@ fn options(method: &str, tol_position: f64, tol_rotation: f64, max_iterations: i
     Ok(opts)
 }
 
-fn start(model: &PyModel, q0: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Vec<f64>> {
+pub(crate) fn start(model: &PyModel, q0: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Vec<f64>> {
     match q0 {
         Some(a) => vector_fast(what, a, model.inner.nq()),
         None => Ok(vec![0.0; model.inner.nq()]),
     }
 }
 
-fn targets_of(targets: &ArrayIn<'_>) -> PyResult<Vec<Pose>> {
+pub(crate) fn targets_of(targets: &ArrayIn<'_>) -> PyResult<Vec<Pose>> {
     let (v, shape) = values(targets);
     check_shape("targets", &shape, &[None, Some(4), Some(4)])?;
     v.chunks_exact(16).enumerate().map(|(i, c)| pose_from_slice_fast(&format!("targets[{i}]"), c)).collect()
