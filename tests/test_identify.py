@@ -44,6 +44,18 @@ def test_every_convention_from_sweeps_matches_the_truth(kr5, rng):
             np.testing.assert_allclose(dv.fk(m, q)[:3, 3], p_true, atol=1e-9, err_msg=conv)
 
 
+@pytest.mark.parametrize(("name", "canonical"), [("craig", "mdh"), ("MDH", "mdh"), ("DH", "dh"), ("modified-dh", "mdh"), ("ED-H", "edh"), ("POE", "poe")])
+def test_convention_aliases_are_the_cores(kr5, name, canonical):
+    """Regression: identify(..., convention="craig") and "MDH" failed ("unknown convention") although
+    to_table accepts them; every convention name is now parsed by the core (_core.convention_info)."""
+    s = simulate(kr5, 30, points_per_sweep=8)
+    res = ident.identify(s, convention=name, nominal=kr5)
+    assert res.convention == canonical and res.table.convention == canonical
+    assert res.model(convention=name).nq == 6
+    with pytest.raises(dv.DenavitError, match="unknown convention 'denavit'"):
+        ident.identify(s, convention="denavit", nominal=kr5)
+
+
 def test_noisy_sweeps_give_bounded_parameters_and_sigmas(kr5):
     """0.02 mm noise on the 30 degree protocol: near-parallel axes 2-3 never give offsets beyond the robot's
     size, every sigma is finite, and the identified values lie within 5 sigma of the truth."""
@@ -195,7 +207,18 @@ def test_progress_reports_every_stage(kr5):
     said = []
     ident.identify(simulate(kr5, 30, points_per_sweep=8), nominal=kr5, progress=said.append)
     assert [m.split(" (")[0] for m in said[:6]] == [f"fitting sweep {k} of 6" for k in range(1, 7)]
-    assert said[6].startswith("one fit of all 6 sweeps") and said[-1].startswith("measuring volume")
+    assert said[6].startswith("one fit of all 6 sweeps") and said[-1].startswith("dh parameters and their sigmas")
+
+
+def test_bounding_box_is_computed_when_asked_for(kr5):
+    """The measuring volume (60-90 % of an identification's time) is not computed by identify itself: on first
+    access to ``result.box`` (to_json asks for it unless ``box=False``), then kept."""
+    res = ident.identify(simulate(kr5, 30, points_per_sweep=8), nominal=kr5)
+    assert "box" not in vars(res)
+    assert "bounding_box" not in ident.to_json(res, box=False) and "box" not in vars(res)
+    b = res.box
+    assert vars(res)["box"] is b and res.box is b
+    assert ident.to_json(res)["bounding_box"]["volume_m3"] == b.volume
 
 
 def truth_dh(kr5):

@@ -32,6 +32,7 @@ import numpy as np
 
 from . import _core
 from .errors import DenavitError
+from .geometry import perpendicular_basis
 from .io.units import angle_scale, column_scale, length_scale
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -60,18 +61,9 @@ def joint_names(result: Identification) -> list[str]:
     return list(result.nominal.names) if result.nominal else [f"j{i + 1}" for i in range(result.axes.nq)]
 
 
-def perp_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors u, v with (u, v, n) right-handed and orthonormal; n : (3,) unit."""
-    n = np.asarray(n, dtype=float)
-    a = np.array([1.0, 0, 0]) if abs(n[0]) < 0.9 else np.array([0, 1.0, 0])
-    u = np.cross(n, a)
-    u /= np.linalg.norm(u)
-    return u, np.cross(n, u)
-
-
 def circle_points(centre, normal, radius: float, count: int = 181) -> np.ndarray:
     """(count, 3) points of the full circle of ``radius`` about ``centre`` in the plane normal to ``normal``."""
-    u, v = perp_basis(normal)
+    u, v = perpendicular_basis(normal)
     t = np.linspace(0.0, 2.0 * math.pi, count)
     return np.asarray(centre, dtype=float) + radius * (np.outer(np.cos(t), u) + np.outer(np.sin(t), v))
 
