@@ -23,8 +23,9 @@ from __future__ import annotations
 import argparse
 import time
 
-import denavit as dv
 import numpy as np
+
+import denavit as dv
 from denavit import calibration as cal
 from denavit import identify as ident
 from denavit import sweeps as sw

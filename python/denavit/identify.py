@@ -234,7 +234,7 @@ def _global_fit(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str) -> 
         m = len(s.points)
         # the axis point reported is the foot of the home tool point on the axis (the circle centre)
         c = cs[j] + ns[j] * ((p - cs[j]) @ ns[j])
-        radius = float(np.linalg.norm((p - c))) if sweeps.kinds[j] == "revolute" else math.nan
+        radius = float(np.linalg.norm(p - c)) if sweeps.kinds[j] == "revolute" else math.nan
         sig_perp = float(math.sqrt(max(np.linalg.eigvalsh(cov[6 * j : 6 * j + 3, 6 * j : 6 * j + 3])[-1], 0.0)))
         sig_dir = float(math.sqrt(max(np.trace(cov[6 * j + 3 : 6 * j + 6, 6 * j + 3 : 6 * j + 6]), 0.0)))
         out_fits.append(replace(f, point=c, direction=ns[j], radius=radius, residuals=mis[k : k + m], rms=float(math.sqrt(np.mean(mis[k : k + m] ** 2))),

@@ -26,13 +26,16 @@ from __future__ import annotations
 
 import html
 import math
+from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from . import __version__, _core
 from .errors import DenavitError
+from .io.output import atomic_path, write_text
+from .io.units import angle_scale, column_scale, length_scale
 from .plotting import (
     AXIS_COLOURS,
     INSTALL_HINT,
@@ -48,9 +51,7 @@ from .plotting import (
     scene_size,
     sweep_range,
 )
-from .io.output import atomic_path, write_text
 from .robotfile import CONVENTIONS, Robot, load
-from .io.units import angle_scale, column_scale, length_scale
 
 if TYPE_CHECKING:  # pragma: no cover
     from .identify import Identification
