@@ -164,6 +164,24 @@ def test_bounding_box_contains_all_points_and_beats_aligned_box(kr5):
     assert b.volume == pytest.approx(np.prod(b.lengths))
 
 
+def test_json_of_a_prismatic_poe_row_keeps_its_direction_unitless():
+    """Regression: to_json scaled a prismatic POE row's v (a unit direction) as a length (1000x in mm); home
+    values follow the per-joint-kind rule (revolute: angle unit, prismatic: length unit)."""
+    params = np.array([[0.3, 0.0, 0.1, np.pi / 2], [0.2, 0.3, 0.0, -np.pi / 2], [0.0, 0.2, 0.25, np.pi / 3], [0.1, 0.0, 0.0, 0.0]])
+    truth = dv.Table("dh", params, kinds=["revolute", "prismatic", "revolute", "revolute"]).to_model("rprr", lower=[-3, -0.1, -3, -3], upper=[3, 0.4, 3, 3])
+    home = np.array([0.2, 0.1, -0.3, 0.5])
+    ranges = np.array([[-0.3, 0.6], [0.0, 0.3], [-0.8, 0.2], [0.0, 1.2]])
+    res = ident.identify(sw.simulate(truth, home=home, ranges=ranges, points_per_sweep=12, tool_point=(0.03, 0.02, 0.05)), convention="poe")
+    doc = ident.to_json(res, "mm", "deg", box=False)
+    v = [doc["parameters"][1][c] for c in ("vx", "vy", "vz")]
+    assert np.linalg.norm(v) == pytest.approx(1.0, abs=1e-9)
+    np.testing.assert_allclose(v, res.table.params[1, 3:6], atol=1e-12)
+    w = [doc["parameters"][0][c] for c in ("wx", "wy", "wz")]
+    np.testing.assert_allclose(w, res.table.params[0, :3], atol=1e-12)  # w is unitless in every row
+    np.testing.assert_allclose([doc["parameters"][0][c] for c in ("vx", "vy", "vz")], res.table.params[0, 3:6] * 1e3, atol=1e-9)  # a revolute v is a length
+    np.testing.assert_allclose(doc["home"], [np.degrees(0.2), 100.0, np.degrees(-0.3), np.degrees(0.5)], atol=1e-9)
+
+
 @pytest.mark.parametrize("method", ["geometric", "readings", "global"])
 def test_prismatic_joint_identified_with_a_line_fit(method, rng):
     """A 4-joint arm with a prismatic second joint (DH): its sweep is a line; every configuration's tool

@@ -26,7 +26,7 @@ from .fitting import AxisFit, BoundingBox, fit_axis, oriented_bounding_box
 from .fitting.robust import flag_outliers, irls, rms_spread, weighted_cov
 from .geometry import axis_angle_matrices, perpendicular_basis
 from .io.output import write_text
-from .io.units import angle_scale, length_scale
+from .io.units import cell_scale, joint_scale, length_scale
 from .robotfile import Robot
 from .sweeps import SweepSet
 
@@ -134,7 +134,7 @@ def _per_sweep(sweeps: SweepSet, method: str, loss: str, max_sigma: float | None
 def _tool_point_from_readings(sweeps: SweepSet, fits: list) -> np.ndarray:
     """Tool point at home: every measured point turned back to home about its sweep's axis, averaged."""
     est = []
-    for s, f in zip(sweeps.sweeps, fits):
+    for s, f in zip(sweeps.sweeps, fits, strict=True):
         j = s.joint - 1
         d = sweeps.home[j] - s.q[:, j]
         if sweeps.kinds[j] == "prismatic":
@@ -229,7 +229,7 @@ def _global_fit(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str) -> 
     cov = M @ cov_x @ M.T
     out_fits = []
     k = 0
-    for s, f in zip(sweeps.sweeps, fits):
+    for s, f in zip(sweeps.sweeps, fits, strict=True):
         j = s.joint - 1
         m = len(s.points)
         # the axis point reported is the foot of the home tool point on the axis (the circle centre)
@@ -327,7 +327,7 @@ def identify(
     if method == "global":
         progress(f"one fit of all {len(sweeps.sweeps)} sweeps (shared tool point)")
         fits, cov, p_home, rms = _global_fit(sweeps, fits, p_home, loss)
-        for s, f in zip(sweeps.sweeps, fits):
+        for s, f in zip(sweeps.sweeps, fits, strict=True):
             if max_sigma is not None and f.sigma_point_perp > max_sigma:
                 raise DegenerateError(f"{sweep_where(s, sweeps.source)}: predicted axis-position uncertainty {f.sigma_point_perp * 1e3:.3g} mm (1 sigma) "
                                       f"exceeds the requested {max_sigma * 1e3:.3g} mm; the sweep covers {np.degrees(f.arc):.1f} deg: sweep a longer arc or measure more points")
@@ -382,14 +382,14 @@ def to_json(result: Identification, length: str | None = None, angle: str = "deg
     was not yet); ``box=False`` leaves it out and does not compute it.
     """
     length = length or result.sweeps.units.get("length", "m")
-    ls, as_ = length_scale(length), angle_scale(angle)
+    ls = length_scale(length)
     t = result.table
     names = result.nominal.names if result.nominal else [f"j{i + 1}" for i in range(result.axes.nq)]
     rows = []
-    for i, (row, sig) in enumerate(zip(t.params, result.sigma)):
+    for i, (row, sig) in enumerate(zip(t.params, result.sigma, strict=True)):
         r = {"joint": names[i]}
-        for c, a, v, s in zip(t.columns, t.angle_columns, row, sig):
-            scale = as_ if a else (ls if t.convention != "poe" or c.startswith("v") else 1.0)
+        for k, (c, v, s) in enumerate(zip(t.columns, row, sig, strict=True)):
+            scale = cell_scale(t, i, k, length, angle)[0]
             r[c] = v / scale
             r[f"{c}_sigma"] = s / scale
         rows.append(r)
@@ -410,7 +410,7 @@ def to_json(result: Identification, length: str | None = None, angle: str = "deg
         "method": result.method,
         "convention": t.convention,
         "source": result.sweeps.source,
-        "home": [float(v / (as_ if k == "revolute" else ls)) for v, k in zip(result.sweeps.home, result.sweeps.kinds)],
+        "home": (np.asarray(result.sweeps.home) / joint_scale(result.sweeps.kinds, length, angle)).tolist(),
         "joints": joints,
         "parameters": rows,
         "pairs": [{"joint": p.joint, "relation": p.relation, "angle_deg": math.degrees(p.angle), "distance": p.distance / ls, "hayati_beta_deg": math.degrees(p.hayati_beta)} for p in result.extraction.pairs],

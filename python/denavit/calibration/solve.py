@@ -95,7 +95,7 @@ class Calibration:
     @property
     def scales(self) -> dict:
         """Joint scale corrections (``q -> q (1 + scale)``), when estimated."""
-        return {n: float(v) for n, v in zip(self.names, self.values) if n.startswith("scale_")}
+        return {n: float(v) for n, v in zip(self.names, self.values, strict=True) if n.startswith("scale_")}
 
     def model(self, name: str | None = None) -> _core.Model:
         """The calibrated kinematic model (world = the measurement frame)."""
@@ -179,7 +179,7 @@ def calibrate(
     n = len(robot.names)
     if meas.nq != n:
         raise DenavitError(f"{meas.source}: the data has {meas.nq} joint readings per pose but the nominal model {robot.name} has {n} joints ({', '.join(robot.names)})")
-    for j, (got, want) in enumerate(zip(meas.kinds or robot.table.kinds, robot.table.kinds)):
+    for j, (got, want) in enumerate(zip(meas.kinds or robot.table.kinds, robot.table.kinds, strict=True)):
         if got != want:
             unit = meas.units.get("angle" if got == "revolute" else "length", "?")
             raise DenavitError(f"{meas.source}: joint {j + 1} ({robot.names[j]}) of {robot.name} is {want}, but its readings were read as {got} (in {unit}): "
