@@ -185,6 +185,15 @@ def test_model_report_tables(model_report_path):
     assert len(page.rows("frames")) == 14  # 7 frames of each convention
 
 
+def test_model_report_compares_with_any_convention_alias(tmp_path):
+    """Regression: compare="craig" (or "MDH") was taken for a robot name ("no such robot"); convention names
+    go through the core's one parser."""
+    path = tmp_path / "kr5.html"
+    rep.write_model_report(dv.load_robot("kr5"), path, compare="craig")
+    text = path.read_text(encoding="utf-8")
+    assert Page(text).rows("table-compare") and "kr5 in mdh" in text
+
+
 def test_missing_plotly_names_the_install_command(result, tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "plotly.graph_objects", None)
     with pytest.raises(DenavitError, match=r"plotly.*pip install 'denavit\[plot\]'"):

@@ -51,7 +51,7 @@ from .plotting import (
     scene_size,
     sweep_range,
 )
-from .robotfile import CONVENTIONS, Robot, load
+from .robotfile import Robot, load
 
 if TYPE_CHECKING:  # pragma: no cover
     from .identify import Identification
@@ -99,12 +99,20 @@ def write_figures(result: Identification, folder, *, formats: Sequence[str] = FI
     return _write_all(figures_for(result, length=length), folder, formats, dpi)
 
 
+def _convention(name: str) -> str | None:
+    """The core's name of the convention ``name`` (any alias: "craig", "MDH", ...), or None if it names none."""
+    try:
+        return _core.convention_info(name)["name"]
+    except DenavitError:
+        return None
+
+
 def _compare_tables(robot: Robot, compare) -> tuple[list[tuple[str, _core.Table]], _core.Extraction | None]:
     """The robot's table and the one drawn beside it: a convention name (the robot extracted into it), a robot
     (or the name / file of one, with the same number of joints), or None (ED-H, modified DH beside ED-H)."""
     first = (f"{robot.name} ({robot.convention})", robot.table)
-    if isinstance(compare, str) and compare.lower() in CONVENTIONS or compare is None:
-        conv = other_convention(robot.convention) if compare is None else compare.lower()
+    conv = other_convention(robot.convention) if compare is None else _convention(compare) if isinstance(compare, str) else None
+    if conv is not None:
         m = robot.model()
         nominal = robot.table if robot.convention == conv else None
         ex = _core.extract(_core.axes(m, np.zeros(m.nq)), conv, nominal=nominal)

@@ -49,15 +49,9 @@ def fit_axis_with_readings(
         The joint reading at each point.
     loss : {"linear", "soft_l1", "huber"}
         Per-point loss on the 3-D misfit ``|p_k - model_k|`` (iteratively reweighted least squares).
-    f_scale : float, optional, metres
-        Soft inlier threshold of the robust loss; default 3 robust sigmas of the current fit's misfits
-        (re-estimated at each reweighting step).
-    max_sigma_point : float, optional, metres
-        Raise :class:`DegenerateError` if the predicted ``sigma_point_perp`` exceeds it.
-    noise_sigma : float, optional, metres
-        Known 1-sigma measurement noise per coordinate; used for the covariance instead of the residuals.
-    where : str
-        Prefix for error messages.
+    f_scale, max_sigma_point, noise_sigma, where
+        As for :func:`~denavit.fitting.circle.fit_circle_geometric` (``f_scale``'s default: 3 robust sigmas of
+        the current fit's 3-D misfits).
 
     Returns
     -------
