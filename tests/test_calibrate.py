@@ -409,6 +409,18 @@ def test_declared_units_win_over_the_callers(kr5, tmp_path):
     np.testing.assert_allclose(read_measurements(j, length="mm", angle="deg").points, meas.points, atol=1e-12)
 
 
+def test_calibration_convention_aliases_are_the_cores(kr5):
+    """Regression: calibrate(..., convention="craig") / "ED-H" were unknown calibration conventions; every
+    convention name (here and in Calibration.table) goes through the core's parser (_core.convention_info).
+    POE is still refused, with the reason."""
+    meas = cal.simulate(kr5, cal.configurations(kr5, 40), tool=TOOL, noise=NOISE)
+    res = cal.calibrate(meas, kr5, convention="ED-H", tool=TOOL)
+    assert res.convention == "edh" and res.table("Craig").convention == "mdh"
+    assert cal.parametrize(kr5, "craig").convention == "mdh"
+    with pytest.raises(dv.DenavitError, match="product-of-exponentials calibration is not available yet"):
+        cal.parametrize(kr5, "POE")
+
+
 def test_configurations_are_the_unscrambled_halton_sequence(kr5):
     """configurations() is the Halton sequence from index 1 (bases 2, 3, 5, ...; scipy.stats.qmc), point for
     point the radical inverses the hand-written generator it replaced gave, so seeded outcomes stay put."""

@@ -464,7 +464,7 @@ def figures_for(result: Identification, *, length: str = "mm", other: str | None
     origin_paths (frames of the identified convention and ``other`` at the home configuration; origin paths
     over joint ``joint``'s swept range, default joint 2 as in Guo et al. Fig. 3)."""
     conv = result.table.convention
-    other = other or other_convention(conv)
+    other = other_convention(conv) if other is None else _core.convention_info(other)["name"]
     model = result.model()
     tables = [(f"identified {conv}", result.table), (f"identified {other}", _core.extract(_core.axes(model, np.zeros(model.nq)), other).table)]
     n = result.axes.nq

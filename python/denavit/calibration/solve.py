@@ -104,7 +104,7 @@ class Calibration:
     def table(self, convention: str | None = None) -> _core.Table:
         """The calibrated model as a parameter table (default: the calibration convention; an MDH table
         cannot hold Hayati angles: prefer ``edh`` or :meth:`model` then)."""
-        conv = convention or self.convention
+        conv = self.convention if convention is None else _core.convention_info(convention)["name"]
         m = self.model()
         nom = self.parametrization.robot.table
         return _core.extract(_core.axes(m, np.zeros(m.nq)), conv, nominal=nom if nom.convention == conv else None).table
