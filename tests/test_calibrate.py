@@ -3,6 +3,8 @@ planning, near-parallel axes, identifiability reports and bad input (denavit.cal
 
 import ast
 import json
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -123,12 +125,12 @@ def test_monte_carlo_reaches_the_cramer_rao_bound_and_sigmas_are_honest(kr5, dat
     maha = np.einsum("ri,ij,rj->r", err, np.linalg.inv(C), err) / len(x_true)
     assert np.sqrt(maha.mean()) <= 1.1, np.sqrt(maha.mean())
     rmse_ratio = np.sqrt(np.mean(err**2, axis=0)) / np.sqrt(np.diag(C))
-    assert np.all(rmse_ratio <= 1.1 + 3 / np.sqrt(2 * runs)), dict(zip(pl.free_names, rmse_ratio.round(3)))
+    assert np.all(rmse_ratio <= 1.1 + 3 / np.sqrt(2 * runs)), dict(zip(pl.free_names, rmse_ratio.round(3), strict=True))
     spread = est.std(axis=0, ddof=1)
     reported = sig.mean(axis=0) / spread
     planned = pl.sigma[[pl.parametrization.index(n) for n in pl.free_names]] / spread
-    assert np.all(np.abs(reported - 1) < 0.2), dict(zip(pl.free_names, reported.round(3)))
-    assert np.all(np.abs(planned - 1) < 0.2), dict(zip(pl.free_names, planned.round(3)))
+    assert np.all(np.abs(reported - 1) < 0.2), dict(zip(pl.free_names, reported.round(3), strict=True))
+    assert np.all(np.abs(planned - 1) < 0.2), dict(zip(pl.free_names, planned.round(3), strict=True))
 
 
 def line_error(c_true, z_fit, c_fit):
@@ -218,7 +220,7 @@ def test_near_parallel_axes_calibrate_in_edh_and_mdh_and_dh_says_it_cannot():
         p_hat = cal.simulate(m, check, tool=np.asarray(m.T_flange_tool)[:3, 3]).points
         assert np.sqrt(np.mean(np.sum((p_hat - p_true) ** 2, axis=1))) < 2 * NOISE, conv
         assert res.validation.after_rms < 3 * NOISE < res.validation.before_rms
-        lengths = [v for v, u in zip(res.values, res.parametrization.units) if u == "length"]
+        lengths = [v for v, u in zip(res.values, res.parametrization.units, strict=True) if u == "length"]
         assert np.max(np.abs(lengths)) < 1.0
     mdh = cal.parametrize(ur5, "mdh")
     assert {"beta_2", "beta_3"} <= set(mdh.names) and set(mdh.rules) == {"d_2", "d_3"}
@@ -467,9 +469,6 @@ def test_files_round_trip_and_json(kr5, tmp_path):
 
 
 def test_cli_calibrate_and_plan(kr5, tmp_path):
-    import subprocess
-    import sys
-
     q = cal.configurations(kr5, 60)
     f = tmp_path / "m.csv"
     f.write_text(to_csv(cal.simulate(kr5, q, tool=TOOL, noise=NOISE), "mm", "deg"))
@@ -541,9 +540,6 @@ def test_prismatic_readings_take_the_length_unit(tmp_path):
 def test_cli_calibrate_reads_prismatic_readings_in_the_length_unit(tmp_path):
     """A robot file with a prismatic joint: the CLI reads that joint's readings in mm (not deg) and the fit
     finds the simulated truth."""
-    import subprocess
-    import sys
-
     f = tmp_path / "rprr.toml"
     f.write_text('name = "rprr"\nconvention = "dh"\n[units]\nlength = "mm"\nangle = "deg"\n'
                  '[[joints]]\nname = "j1"\nd = 300\ntheta = 0\na = 100\nalpha = 90\nlimits = [-170, 170]\n'

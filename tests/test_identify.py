@@ -93,7 +93,7 @@ def test_long_csv_round_trip_and_units(kr5, tmp_path):
     before = f.read_bytes()
     r = sw.read_long_csv(f)
     assert f.read_bytes() == before  # input files are never modified
-    for a, b in zip(s.sweeps, r.sweeps):
+    for a, b in zip(s.sweeps, r.sweeps, strict=True):
         np.testing.assert_allclose(a.points, b.points, atol=1e-12)
         np.testing.assert_allclose(a.q, b.q, atol=1e-10)
     np.testing.assert_allclose(r.home, HOME, atol=1e-10)
@@ -358,7 +358,7 @@ def test_joint_files_comments_headers_and_names(kr5, tmp_path):
     (d / "j1_old.csv").write_text("0;1;2;3\n0.1;1;2;3\n0.2;1;2;3\n")  # an old recording lying beside j1.csv
     (d / "notes.csv").write_text("x;y;z\n")
     fs = sw.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm")
-    for a, b in zip(s.sweeps, fs.sweeps):
+    for a, b in zip(s.sweeps, fs.sweeps, strict=True):
         np.testing.assert_allclose(b.points, a.points, atol=1e-11)
     assert fs.sweeps[0].where[0].endswith("j1.csv:3")
     (d / "j01.csv").write_text((d / "j1.csv").read_text())

@@ -171,7 +171,7 @@ def test_report_tables_hold_the_identification(report_path, result):
     check_parameter_table(page, result)
     axes = page.rows("axes")
     assert len(axes) == 6
-    for row, f in zip(axes, result.fits):
+    for row, f in zip(axes, result.fits, strict=True):
         assert float(row["cell"]["radius"]["value"]) == pytest.approx(f.radius * 1e3, rel=1e-12)
         assert float(row["cell"]["rms"]["value"]) == pytest.approx(f.rms * 1e3, rel=1e-12)
     (box,) = page.rows("bounding-box")
