@@ -44,6 +44,18 @@ def test_every_convention_from_sweeps_matches_the_truth(kr5, rng):
             np.testing.assert_allclose(dv.fk(m, q)[:3, 3], p_true, atol=1e-9, err_msg=conv)
 
 
+@pytest.mark.parametrize(("name", "canonical"), [("craig", "mdh"), ("MDH", "mdh"), ("DH", "dh"), ("modified-dh", "mdh"), ("ED-H", "edh"), ("POE", "poe")])
+def test_convention_aliases_are_the_cores(kr5, name, canonical):
+    """Regression: identify(..., convention="craig") and "MDH" failed ("unknown convention") although
+    to_table accepts them; every convention name is now parsed by the core (_core.convention_info)."""
+    s = simulate(kr5, 30, points_per_sweep=8)
+    res = ident.identify(s, convention=name, nominal=kr5)
+    assert res.convention == canonical and res.table.convention == canonical
+    assert res.model(convention=name).nq == 6
+    with pytest.raises(dv.DenavitError, match="unknown convention 'denavit'"):
+        ident.identify(s, convention="denavit", nominal=kr5)
+
+
 def test_noisy_sweeps_give_bounded_parameters_and_sigmas(kr5):
     """0.02 mm noise on the 30 degree protocol: near-parallel axes 2-3 never give offsets beyond the robot's
     size, every sigma is finite, and the identified values lie within 5 sigma of the truth."""
@@ -81,7 +93,7 @@ def test_long_csv_round_trip_and_units(kr5, tmp_path):
     before = f.read_bytes()
     r = sw.read_long_csv(f)
     assert f.read_bytes() == before  # input files are never modified
-    for a, b in zip(s.sweeps, r.sweeps):
+    for a, b in zip(s.sweeps, r.sweeps, strict=True):
         np.testing.assert_allclose(a.points, b.points, atol=1e-12)
         np.testing.assert_allclose(a.q, b.q, atol=1e-10)
     np.testing.assert_allclose(r.home, HOME, atol=1e-10)
@@ -152,6 +164,24 @@ def test_bounding_box_contains_all_points_and_beats_aligned_box(kr5):
     assert b.volume == pytest.approx(np.prod(b.lengths))
 
 
+def test_json_of_a_prismatic_poe_row_keeps_its_direction_unitless():
+    """Regression: to_json scaled a prismatic POE row's v (a unit direction) as a length (1000x in mm); home
+    values follow the per-joint-kind rule (revolute: angle unit, prismatic: length unit)."""
+    params = np.array([[0.3, 0.0, 0.1, np.pi / 2], [0.2, 0.3, 0.0, -np.pi / 2], [0.0, 0.2, 0.25, np.pi / 3], [0.1, 0.0, 0.0, 0.0]])
+    truth = dv.Table("dh", params, kinds=["revolute", "prismatic", "revolute", "revolute"]).to_model("rprr", lower=[-3, -0.1, -3, -3], upper=[3, 0.4, 3, 3])
+    home = np.array([0.2, 0.1, -0.3, 0.5])
+    ranges = np.array([[-0.3, 0.6], [0.0, 0.3], [-0.8, 0.2], [0.0, 1.2]])
+    res = ident.identify(sw.simulate(truth, home=home, ranges=ranges, points_per_sweep=12, tool_point=(0.03, 0.02, 0.05)), convention="poe")
+    doc = ident.to_json(res, "mm", "deg", box=False)
+    v = [doc["parameters"][1][c] for c in ("vx", "vy", "vz")]
+    assert np.linalg.norm(v) == pytest.approx(1.0, abs=1e-9)
+    np.testing.assert_allclose(v, res.table.params[1, 3:6], atol=1e-12)
+    w = [doc["parameters"][0][c] for c in ("wx", "wy", "wz")]
+    np.testing.assert_allclose(w, res.table.params[0, :3], atol=1e-12)  # w is unitless in every row
+    np.testing.assert_allclose([doc["parameters"][0][c] for c in ("vx", "vy", "vz")], res.table.params[0, 3:6] * 1e3, atol=1e-9)  # a revolute v is a length
+    np.testing.assert_allclose(doc["home"], [np.degrees(0.2), 100.0, np.degrees(-0.3), np.degrees(0.5)], atol=1e-9)
+
+
 @pytest.mark.parametrize("method", ["geometric", "readings", "global"])
 def test_prismatic_joint_identified_with_a_line_fit(method, rng):
     """A 4-joint arm with a prismatic second joint (DH): its sweep is a line; every configuration's tool
@@ -195,7 +225,18 @@ def test_progress_reports_every_stage(kr5):
     said = []
     ident.identify(simulate(kr5, 30, points_per_sweep=8), nominal=kr5, progress=said.append)
     assert [m.split(" (")[0] for m in said[:6]] == [f"fitting sweep {k} of 6" for k in range(1, 7)]
-    assert said[6].startswith("one fit of all 6 sweeps") and said[-1].startswith("measuring volume")
+    assert said[6].startswith("one fit of all 6 sweeps") and said[-1].startswith("dh parameters and their sigmas")
+
+
+def test_bounding_box_is_computed_when_asked_for(kr5):
+    """The measuring volume (60-90 % of an identification's time) is not computed by identify itself: on first
+    access to ``result.box`` (to_json asks for it unless ``box=False``), then kept."""
+    res = ident.identify(simulate(kr5, 30, points_per_sweep=8), nominal=kr5)
+    assert "box" not in vars(res)
+    assert "bounding_box" not in ident.to_json(res, box=False) and "box" not in vars(res)
+    b = res.box
+    assert vars(res)["box"] is b and res.box is b
+    assert ident.to_json(res)["bounding_box"]["volume_m3"] == b.volume
 
 
 def truth_dh(kr5):
@@ -317,7 +358,7 @@ def test_joint_files_comments_headers_and_names(kr5, tmp_path):
     (d / "j1_old.csv").write_text("0;1;2;3\n0.1;1;2;3\n0.2;1;2;3\n")  # an old recording lying beside j1.csv
     (d / "notes.csv").write_text("x;y;z\n")
     fs = sw.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm")
-    for a, b in zip(s.sweeps, fs.sweeps):
+    for a, b in zip(s.sweeps, fs.sweeps, strict=True):
         np.testing.assert_allclose(b.points, a.points, atol=1e-11)
     assert fs.sweeps[0].where[0].endswith("j1.csv:3")
     (d / "j01.csv").write_text((d / "j1.csv").read_text())

@@ -20,6 +20,7 @@ import denavit as dv
 from denavit import robotfile
 from denavit import urdf as U
 from denavit.cli import app
+from denavit.geometry import matrix_rpy
 
 DATA = __import__("pathlib").Path(__file__).parent / "data" / "urdf"
 UR, PANDA, KR5 = DATA / "ur_style.urdf", DATA / "panda_style.urdf", DATA / "kr5.urdf"
@@ -674,7 +675,7 @@ def test_rpy_round_trip_including_gimbal_lock(roll, pitch_special, yaw, pitch):
     Ry = np.array([[c(p), 0, s(p)], [0, 1, 0], [-s(p), 0, c(p)]])
     Rzm = np.array([[c(yaw), -s(yaw), 0], [s(yaw), c(yaw), 0], [0, 0, 1]])
     R = Rzm @ Ry @ Rx
-    r2, p2, y2 = U.rpy_from_matrix(R)
+    r2, p2, y2 = matrix_rpy(R)
     Rx2 = np.array([[1, 0, 0], [0, c(r2), -s(r2)], [0, s(r2), c(r2)]])
     Ry2 = np.array([[c(p2), 0, s(p2)], [0, 1, 0], [-s(p2), 0, c(p2)]])
     Rz2 = np.array([[c(y2), -s(y2), 0], [s(y2), c(y2), 0], [0, 0, 1]])
