@@ -25,7 +25,7 @@ import time
 import numpy as np
 
 import denavit as dv
-from denavit import calibrate as cal
+from denavit import calibration as cal
 from denavit import compensation as cp
 from denavit import identify as ident
 from denavit import sweeps as sw

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import denavit as dv
-from denavit import calibrate as cal
+from denavit import calibration as cal
 from denavit import compensation as cp
 
 TOOL = np.array([0.05, 0.03, 0.10])

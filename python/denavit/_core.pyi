@@ -191,7 +191,7 @@ def ik_batch(model: Model, targets: ArrayLike, q0s: ArrayLike | None = None, *, 
              respect_limits: bool = True, damping: float = 0.1) -> IkBatchResult: ...
 
 class CalibrationChain:
-    """A chain of elementary factors with named parameters (built by `denavit.calibrate`).
+    """A chain of elementary factors with named parameters (built by `denavit.calibration`).
 
     axes: K of "rx" | "ry" | "rz" | "tx" | "ty" | "tz" | "fixed"; params: K parameter indices (ignored for
     "fixed"); joints: K 0-based joints whose reading adds to the value (-1: none); fixed: (F, 4, 4) the fixed

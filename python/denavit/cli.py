@@ -587,11 +587,12 @@ def calibrate(
     seed: Annotated[int, typer.Option("--seed", help="Seed of the held-out split.")] = 0,
 ) -> None:
     """Calibrate the whole model from measured points or poses at known joint readings (one least-squares fit)."""
-    from . import calibrate as cal  # noqa: PLC0415
+    from . import calibration as cal  # noqa: PLC0415
+    from .io.measurements import read_measurements  # noqa: PLC0415
 
     robot = load(nominal)
     units = {} if _declares_units(data) else {"length": length, "angle": angle}
-    meas = cal.read_measurements(data, kinds=list(robot.table.kinds), **units)
+    meas = read_measurements(data, kinds=list(robot.table.kinds), **units)
     ls = length_scale(length)
     tp = None
     if tool is not None:
@@ -674,7 +675,7 @@ def plan(
     json_out: JsonOpt = False,
 ) -> None:
     """Predict every parameter's sigma (Cramer-Rao bound) and the measuring volume of a protocol, before measuring."""
-    from . import calibrate as cal  # noqa: PLC0415
+    from . import calibration as cal  # noqa: PLC0415
 
     robot = load(model)
     n = len(robot.names)

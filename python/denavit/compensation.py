@@ -109,7 +109,7 @@ def predicted_sigma(result, q) -> np.ndarray:
     """(N,) predicted tool-position error (1 sigma, 3-D RMS: ``sqrt(trace(J C J^T))``, m) of the model that
     ``result`` identified, at configurations ``q`` (N, n), from its covariance ``C``.
 
-    result : a calibration (:class:`denavit.calibrate.Calibration`: the analytic identification Jacobian of
+    result : a calibration (:class:`denavit.calibration.Calibration`: the analytic identification Jacobian of
         its chain over the estimated parameters, base registration excluded since targets live in the robot
         base frame) or an identification (:class:`denavit.identify.Identification`: the covariance of the
         axis lines and the tool point, propagated to the tool by central differences through the exact ED-H
