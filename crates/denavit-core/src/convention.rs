@@ -287,6 +287,15 @@ impl Table {
     }
 }
 
+/// `x` rounded to `digits` significant digits (printed in its shortest form: 0, 2.9, 0.0523).
+fn significant(x: f64, digits: i32) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    let scale = 10f64.powi(digits - 1 - x.abs().log10().floor() as i32);
+    (x * scale).round() / scale
+}
+
 /// What a calibration measures at each configuration: the tool point (3 values) or the whole tool pose (6).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Measure {
@@ -377,14 +386,14 @@ impl Table {
         let near = self.near_parallel_pairs()?;
         let is_near = |i: usize| near.iter().any(|&(k, _)| k == i);
         if self.convention == Convention::Dh && !near.is_empty() {
-            let list: Vec<String> = near.iter().map(|&(i, a)| format!("{}-{} ({:.3} deg)", i, i + 1, a.to_degrees())).collect();
+            let list: Vec<String> = near.iter().map(|&(i, a)| format!("{}-{} ({} deg)", i, i + 1, significant(a.to_degrees(), 3))).collect();
             return Err(Error::Degenerate {
                 reason: format!(
-                    "standard DH cannot calibrate {robot}: axes {} are parallel within {:.2} deg; a DH link can tilt the next axis only about their common normal \
+                    "standard DH cannot calibrate {robot}: axes {} are parallel within {} deg; a DH link can tilt the next axis only about their common normal \
                      (alpha); a tilt about the other perpendicular direction (Hayati's beta) sends the common normal, hence d, to infinity, so the fit cannot \
                      represent the robot or diverges (Hayati & Mirmirani 1985): use convention 'mdh' (Hayati angle beta) or 'edh'",
                     list.join(", "),
-                    crate::extract::NEAR_PARALLEL_SIN.asin().to_degrees()
+                    significant(crate::extract::NEAR_PARALLEL_SIN.asin().to_degrees(), 2)
                 ),
             });
         }

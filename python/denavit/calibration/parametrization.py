@@ -4,28 +4,11 @@ The factors are ``Rx, Ry, Rz`` (rad) and ``Tx, Ty, Tz`` (m) with named parameter
 of every parameter is computed analytically in the Rust core (``denavit_core::calibration``) in one forward
 pass per pose.
 
-Parametrisations (chain order, base to tool; joint numbers 1-based, subscripts as in the papers)
---------------------------------------------------------------------------------------------------
-* base: ``Tx(base_tx) Ty(base_ty) Tz(base_tz) · R0 · Rx(base_rx) Ry(base_ry) Rz(base_rz)``: the convention's
-  frame 0 in ``world``; ``R0`` is the nominal (or registered) base rotation, the three angles small
-  corrections about the base axes (0 at the start), so no Euler singularity is ever met.
-* ``edh`` (Guo et al. eq. 1-2), link *i*: ``Rx(alpha_{i-1}) Tx(a_{i-1}) Ty(b_{i-1}) Tz(c_{i-1}) [Ry(beta_{i-1})]
-  Rz(offset_i + q_i)``; prismatic: ``... Tz(c_{i-1}) [Ry(beta_{i-1})] Rz(theta_i) Tz(offset_i + q_i)``. Where axes
-  *i-1*, *i* are near-parallel, ED-H's common-normal direction ``x_{i-1}`` cannot turn smoothly with the axes (a
-  tilt of axis *i* about ``y_{i-1}`` would turn it by 90 degrees), so a tilt ``beta_{i-1}`` about ``y`` at frame
-  *i*'s origin is added (after Hayati & Mirmirani 1985); the direction of ``x_{i-1}`` then becomes a free choice
-  (a joint offset is reported redundant).
-* ``mdh`` (Craig) with Hayati's angle (Hayati & Mirmirani 1985) where axes *i-1*, *i* are near-parallel
-  (``|sin| < NEAR_PARALLEL_SIN``, as in docs/conventions.md): ``Rx(alpha_{i-1}) Tx(a_{i-1}) [Ry(beta_{i-1})]
-  Tz(d_i) Rz(offset_i + q_i)`` (``Tz`` commutes with ``Rz``); where ``beta_{i-1}`` is used, ``d_{i-1}`` (the
-  position of frame *i-1* along its axis, undefined for parallel axes) is fixed at its nominal value.
-* ``dh`` (Denavit & Hartenberg), link *i*: ``Rz(offset_i + q_i) Tz(d_i) Tx(a_i) Rx(alpha_i)``. Refused (with the
-  reason) when consecutive axes are near-parallel: a DH table has no parameter for a tilt about ``y`` there
-  and its ``d`` diverges (Hayati & Mirmirani 1985).
-* tool point: ``Tx(tool_x) Ty(tool_y) Tz(tool_z)``, the measured point in the convention's last frame (the
-  flange frame for ``edh``/``mdh``; DH frame *n* for ``dh``); tool frame (pose data): ``Tx Ty Tz · R0 ·
-  Rx(tool_rx) Ry(tool_ry) Rz(tool_rz)``.
-* joint scale (optional): ``q_i -> q_i (1 + scale_i)``.
+The parametrisation of each convention (factor orders, parameter names, Hayati's beta on near-parallel axes,
+the refusal of standard DH there) is built by the core, ``Table::parametrize`` (``_core.parametrize``), and
+documented once in docs/conventions.md, "Calibration parametrisations". This module names the parameters'
+roles, fits the chain to the nominal model where the convention's table lost something, and turns a
+parameter vector back into a :class:`denavit.Model`.
 
 """
 
@@ -47,7 +30,6 @@ from .least_squares import fit_parameters
 from .measurements import Measurements
 
 #: The conventions a calibration chain is built in (the core's conventions but POE).
-CONVENTIONS = ("edh", "mdh", "dh")
 
 
 def as_robot(nominal) -> Robot:
@@ -165,17 +147,6 @@ def _replace_factors(pz: Parametrization, factors) -> Parametrization:
     return Parametrization(pz.convention, pz.measure, pz.names, pz.x0, pz.units, pz.order, pz.rules, factors, chain, pz.robot, pz.joint_factor, pz.tool_start, pz.base_end)
 
 
-def _pairs_near_parallel(model: _core.Model) -> list[tuple[int, float]]:
-    """(i, angle) of consecutive axes i, i+1 (1-based) within _core.NEAR_PARALLEL_SIN of parallel (or anti-parallel)."""
-    ax = _core.axes(model, np.zeros(model.nq))
-    out = []
-    for i in range(model.nq - 1):
-        s = np.linalg.norm(np.cross(ax.directions[i], ax.directions[i + 1]))
-        if s < _core.NEAR_PARALLEL_SIN:
-            out.append((i + 1, math.asin(min(s, 1.0))))
-    return out
-
-
 def parametrize(nominal, convention: str = "edh", *, measure: str = "point", tool=None, scale: bool = False) -> Parametrization:
     """The calibration model of ``nominal`` in ``convention`` (see the module docstring for the factors).
 
@@ -193,28 +164,13 @@ def parametrize(nominal, convention: str = "edh", *, measure: str = "point", too
         Add a scale parameter per joint (``q -> q (1 + scale)``).
     """
     conv = _core.convention_info(convention)["name"]
-    if conv not in CONVENTIONS:
-        hint = " (product-of-exponentials calibration is not available yet: use edh)" if conv == "poe" else ""
-        raise DenavitError(f"calibration convention {convention!r}: expected one of {', '.join(CONVENTIONS)}{hint}")
     if measure not in ("point", "pose"):
         raise DenavitError(f"measure: expected 'point' or 'pose', got {measure!r}")
     robot = as_robot(nominal)
     m = robot.model()
     n = m.nq
-    kinds = list(m.kinds)
-    near = _pairs_near_parallel(m)
-    near_set = {i for i, _ in near}
-    if conv == "dh" and near:
-        lst = ", ".join(f"{i}-{i + 1} ({math.degrees(a):.3g} deg)" for i, a in near)
-        raise DegenerateError(
-            f"standard DH cannot calibrate {robot.name}: axes {lst} are parallel within {math.degrees(math.asin(_core.NEAR_PARALLEL_SIN)):.2g} deg; "
-            "a DH link can tilt the next axis only about their common normal (alpha); a tilt about the other perpendicular direction "
-            "(Hayati's beta) sends the common normal, hence d, to infinity, so the fit cannot represent the robot or diverges "
-            "(Hayati & Mirmirani 1985): use convention 'mdh' (Hayati angle beta) or 'edh'")
     ref = robot.table if robot.table.convention == conv else None
-    ex = _core.extract(_core.axes(m, np.zeros(n)), conv, nominal=ref)
-    table = ex.table
-    P = table.params
+    table = _core.extract(_core.axes(m, np.zeros(n)), conv, nominal=ref).table
     # tool in the convention's last frame
     F_flange = _core.joint_frames(m, np.zeros(n))[-1] if n else m.T_world_base
     C_last = table.frames(np.zeros(n))[-1]
@@ -227,101 +183,17 @@ def parametrize(nominal, convention: str = "edh", *, measure: str = "point", too
         T_tool_flange[:3, 3] = tp
     if measure == "pose" and tool is not None and T_tool_flange.shape != (4, 4):
         raise DenavitError(f"tool: expected T_flange_tool (4, 4) for pose measurements, got shape {T_tool_flange.shape}")
-    T_last_tool = np.linalg.inv(C_last) @ F_flange @ T_tool_flange
-
-    names, x0, units, factors, groups, along = [], [], [], [], [], []
-    rules = {}
-
-    def add(axis, name, value, unit, group, joint=-1, is_along=False):
-        factors.append((axis, len(names), joint, None))
-        names.append(name)
-        x0.append(float(value))
-        units.append(unit)
-        groups.append(group)
-        along.append(is_along)
-
-    def fixed(T):
-        factors.append(("fixed", -1, -1, orthonormalize(np.asarray(T, dtype=float))))
-
-    B = np.asarray(table.T_world_base)
-    for a in "xyz":
-        add(f"t{a}", f"base_t{a}", B["xyz".index(a), 3], "length", "base")
-    R0 = np.eye(4)
-    R0[:3, :3] = B[:3, :3]
-    fixed(R0)
-    for a in "xyz":
-        add(f"r{a}", f"base_r{a}", 0.0, "angle", "base")
-    base_end = len(factors)
-    joint_factor = []
-    for k in range(n):
-        i = k + 1
-        r = P[k]
-        rev = kinds[k] == "revolute"
-        if conv == "edh":  # alpha, a, b, c, theta
-            add("rx", f"alpha_{k}", r[0], "angle", "link")
-            add("tx", f"a_{k}", r[1], "length", "link")
-            add("ty", f"b_{k}", r[2], "length", "link")
-            if rev:
-                add("tz", f"c_{k}", r[3], "length", "link", is_along=True)
-                if k in near_set:  # axes k, k+1 (1-based) near-parallel: tilt about y at frame k+1's origin
-                    add("ry", f"beta_{k}", 0.0, "angle", "link")
-                joint_factor.append(len(factors))
-                add("rz", f"offset_{i}", r[4], "angle", "offset", k)
-            else:
-                if k in near_set:
-                    add("ry", f"beta_{k}", 0.0, "angle", "link")
-                add("rz", f"theta_{i}", r[4], "angle", "link")
-                joint_factor.append(len(factors))
-                add("tz", f"offset_{i}", r[3], "length", "offset", k)
-        elif conv == "mdh":  # alpha, a, theta, d
-            add("rx", f"alpha_{k}", r[0], "angle", "link")
-            add("tx", f"a_{k}", r[1], "length", "link")
-            if k in near_set:  # axes k, k+1 (1-based) near-parallel: Hayati angle
-                add("ry", f"beta_{k}", 0.0, "angle", "link")
-            if rev:
-                add("tz", f"d_{i}", r[3], "length", "link", is_along=True)
-                if i in near_set:
-                    rules[f"d_{i}"] = (f"axes {i} and {i + 1} are near-parallel: their common normal, hence the position of frame {i} along axis {i}, "
-                                       f"is undefined; Hayati's beta_{i} is used instead and d_{i} is fixed (Hayati & Mirmirani 1985)")
-                joint_factor.append(len(factors))
-                add("rz", f"offset_{i}", r[2], "angle", "offset", k)
-            else:
-                add("rz", f"theta_{i}", r[2], "angle", "link")
-                joint_factor.append(len(factors))
-                add("tz", f"offset_{i}", r[3], "length", "offset", k)
-        else:  # dh: d, theta, a, alpha; link i = Rz(theta + q) Tz(d) Tx(a) Rx(alpha)
-            if rev:
-                joint_factor.append(len(factors))
-                add("rz", f"offset_{i}", r[1], "angle", "offset", k)
-                add("tz", f"d_{i}", r[0], "length", "link", is_along=True)
-            else:
-                add("rz", f"theta_{i}", r[1], "angle", "link")
-                joint_factor.append(len(factors))
-                add("tz", f"offset_{i}", r[0], "length", "offset", k)
-            add("tx", f"a_{i}", r[2], "length", "link")
-            add("rx", f"alpha_{i}", r[3], "angle", "link")
-    tool_start = joint_factor[-1] + 1 if joint_factor else base_end
-    for a in "xyz":
-        add(f"t{a}", f"tool_{a}", T_last_tool["xyz".index(a), 3], "length", "tool")
-    Rt = np.eye(4)
-    Rt[:3, :3] = T_last_tool[:3, :3]
-    fixed(Rt)
-    if measure == "pose":
-        for a in "xyz":
-            add(f"r{a}", f"tool_r{a}", 0.0, "angle", "tool")
-    scales = [-1] * n
-    if scale:
-        for k in range(n):
-            scales[k] = len(names)
-            names.append(f"scale_{k + 1}")
-            x0.append(0.0)
-            units.append("ratio")
-            groups.append("scale")
-            along.append(False)
+    T_last_tool = orthonormalize(np.linalg.inv(C_last) @ F_flange @ T_tool_flange)
+    # the factors and parameters of the convention (the core: Table::parametrize, docs/conventions.md)
+    core = _core.parametrize(table, T_last_tool, measure, scale, robot.name)
+    fixed = iter(core["fixed"])
+    factors = [(a, p, j, next(fixed) if a == "fixed" else None) for a, p, j in zip(core["axes"], core["params"], core["joints"])]
+    names, x0, units, groups, along, rules = core["names"], core["x0"], core["units"], core["groups"], core["along"], dict(core["rules"])
+    joint_factor, tool_start, base_end = list(core["joint_factors"]), core["tool_start"], core["base_end"]
     P_ = len(names)
     rank_of = {"base": 0, "tool": 1, "link": 2, "offset": 3, "scale": 4}
     order = sorted(range(P_), key=lambda c: (5, -c) if along[c] else (rank_of[groups[c]], c))
-    chain = make_chain(factors, P_, n, scales)
+    chain = core["chain"]
     pz = Parametrization(conv, measure, names, np.array(x0), units, order, rules, factors, chain, robot, joint_factor, tool_start, base_end)
     # the chain must reproduce the nominal model (with the tool); where the convention's table lost something
     # (an MDH table has no tilt about y), the parameters are fitted to the nominal model's kinematics.
