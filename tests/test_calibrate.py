@@ -4,15 +4,15 @@ planning, near-parallel axes, identifiability reports and bad input (denavit.cal
 import ast
 import json
 
+import denavit as dv
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
-
-import denavit as dv
 from cli import env as cli_env
 from denavit import calibrate as cal
 from denavit import fitting
 from denavit import sweeps as sw
+from denavit.io import sweeps as swio
+from scipy.spatial.transform import Rotation
 
 NOISE = 2e-5  # 0.02 mm per coordinate
 TOOL = np.array([0.05, 0.03, 0.10])
@@ -396,7 +396,7 @@ def test_files_round_trip_and_json(kr5, tmp_path):
     f.write_text(cal.to_csv(poses, "mm", "deg"))
     np.testing.assert_allclose(cal.read_measurements(f).poses, poses.poses, atol=1e-10)
     s = sw.simulate(kr5.model(), home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=8, tool_point=TOOL)
-    f.write_text(sw.to_long_csv(s))
+    f.write_text(swio.to_long_csv(s))
     assert cal.read_measurements(f).sweeps is not None
     res = cal.calibrate(meas, kr5, tool=TOOL, holdout=0.25)
     out = tmp_path / "r.json"
