@@ -228,3 +228,41 @@ def test_cli_identify_accepts_every_convention_name_of_the_core(tmp_path, name, 
     out = tmp_path / "r.json"
     run("identify", "--example", "kr5", "--convention", name, "--json", out)
     assert json.loads(out.read_text())["convention"] == expected
+
+
+# -- headers are honoured ----------------------------------------------------------------------------------
+
+
+def test_a_joint_file_header_says_which_column_is_which(tmp_path):
+    """`z,y,x` had been read as x,y,z and `X,Y,Z,RMS` as time,x,y,z."""
+    from denavit.io import sweeps as swio
+
+    a, b = tmp_path / "a", tmp_path / "b"
+    for d in (a, b):
+        d.mkdir()
+    pts = np.array([[1.0, 2.0, 3.0], [2.0, 3.5, 4.0], [3.0, 4.0, 6.5]])
+    (a / "j1.csv").write_text("x,y,z\n" + "".join(f"{x},{y},{z}\n" for x, y, z in pts))
+    (b / "j1.csv").write_text("z;time;y;x\n" + "".join(f"{z};{k};{y};{x}\n" for k, (x, y, z) in enumerate(pts)))
+    ra = swio.read_joint_files(a, home=[0], length="mm")
+    rb = swio.read_joint_files(b, home=[0], length="mm")
+    np.testing.assert_allclose(rb.sweeps[0].points, ra.sweeps[0].points)
+    np.testing.assert_allclose(ra.sweeps[0].points, pts * 1e-3)
+    (b / "j1.csv").write_text("X,Y,Z,RMS\n1,2,3,0.1\n")
+    with pytest.raises(dv.DenavitError, match=r"j1.csv:1: header must name x, y, z \(and optionally time\), got 'X,Y,Z,RMS'"):
+        swio.read_joint_files(b, home=[0], length="mm")
+
+
+def test_a_column_named_twice_is_an_error(tmp_path):
+    from denavit.io import sweeps as swio
+
+    f = tmp_path / "s.csv"
+    f.write_text("# units: length=mm angle=deg\njoint,q1,x,y,x\n1,0,1,2,3\n")
+    with pytest.raises(dv.DenavitError, match=r"s.csv:2: column\(s\) x named twice in the header"):
+        swio.read_long_csv(f)
+
+
+def test_a_urdf_in_latin1_without_an_encoding_declaration_is_one_line(tmp_path):
+    f = tmp_path / "r.urdf"
+    f.write_bytes(b'<?xml version="1.0"?>\n<!-- 90\xb0 -->\n<robot name="r"><link name="a"/></robot>\n')
+    with pytest.raises(dv.DenavitError, match=r"r.urdf:2: not UTF-8 text: byte 0xb0 at offset 29"):
+        dv.load_robot(f)

@@ -146,7 +146,7 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
     joints = doc.get("joints")
     if not isinstance(joints, list) or not joints:
         raise DenavitError(f"{where}: expected one or more [[joints]] tables, got none")
-    cols, angle_cols = list(info["columns"]), list(info["angle_columns"])
+    cols = list(info["columns"])
     rows, kinds, names, lower, upper = [], [], [], [], []
     inert: list[tuple[float, list[float], np.ndarray] | None] = []
     joint_where = []
@@ -166,20 +166,20 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         if conv == "poe":
             w = np.array(_numbers(j.get("w", [0, 0, 0]), 3, f"{jw}: w (poe joints need w and v with 3 values each)"))
             v = np.array(_numbers(j.get("v", [0, 0, 0]), 3, f"{jw}: v (poe joints need w and v with 3 values each)"))
-            rows.append([*w, *(v * (ls if kind == "revolute" else 1.0))])  # a prismatic v is a unit direction
+            rows.append([*w, *v])
         else:
             missing = [c for c in cols if c not in j]
             if missing:
                 raise DenavitError(f"{jw}: missing parameter(s) {', '.join(missing)} of a {conv} table (columns {', '.join(cols)})")
             row = []
-            for c, is_angle in zip(cols, angle_cols):
+            for c in cols:
                 try:
                     val = float(j[c])
                 except (TypeError, ValueError):
                     raise DenavitError(f"{jw}: parameter {c} must be a number, got {j[c]!r}") from None
                 if not math.isfinite(val):
                     raise DenavitError(f"{jw}: parameter {c} must be finite, got {val}")
-                row.append(val * (as_ if is_angle else ls))
+                row.append(val)
             rows.append(row)
         lim = j.get("limits")
         scale = joint_scale([kind], units["length"], units["angle"], jw)[0]
@@ -193,7 +193,10 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         upper.append(hi)
     base = _pose(doc["base"], ls, as_, f"{where}, [base]") if "base" in doc else np.eye(4)
     tool = _pose(doc["tool"], ls, as_, f"{where}, [tool]") if "tool" in doc else np.eye(4)
-    table = _core.Table(conv, np.asarray(rows, dtype=float).reshape(len(rows), len(cols)), kinds, base, tool)
+    # the rows in the file's units -> SI, cell by cell (io.units.cell_scale: angles, lengths, unitless POE directions)
+    raw = _core.Table(conv, np.asarray(rows, dtype=float).reshape(len(rows), len(cols)), kinds)
+    si = [[cell_scale(raw, i, k, units["length"], units["angle"])[0] for k in range(len(cols))] for i in range(len(rows))]
+    table = _core.Table(conv, raw.params * np.asarray(si).reshape(raw.params.shape), kinds, base, tool)
     home = doc.get("home")
     if home is not None:
         home = np.asarray(_numbers(home, len(joints), f"{where}: home")) * joint_scale(kinds, units["length"], units["angle"], where)
