@@ -266,3 +266,14 @@ def test_a_urdf_in_latin1_without_an_encoding_declaration_is_one_line(tmp_path):
     f.write_bytes(b'<?xml version="1.0"?>\n<!-- 90\xb0 -->\n<robot name="r"><link name="a"/></robot>\n')
     with pytest.raises(dv.DenavitError, match=r"r.urdf:2: not UTF-8 text: byte 0xb0 at offset 29"):
         dv.load_robot(f)
+
+
+def test_identify_poe_table_prints_the_nominal_w_unitless():
+    """The POE terminal table had printed the nominal w scaled by 1000 (wz = 1000.000 beside 1.000)."""
+    out = run("identify", "--example", "kr5", "--convention", "poe").stdout
+    rows = [ln.replace("│", " ").split() for ln in out.splitlines() if ln.strip("│ ").split()[:1] in (["wz"], ["A1"])]
+    wz = [r for r in rows if "wz" in r]
+    assert len(wz) == 6
+    for r in wz:
+        nominal, identified = float(r[-4]), float(r[-3])
+        assert abs(nominal) <= 1.0 + 1e-9 and abs(nominal - identified) < 1e-3, r
