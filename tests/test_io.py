@@ -277,3 +277,10 @@ def test_identify_poe_table_prints_the_nominal_w_unitless():
     for r in wz:
         nominal, identified = float(r[-4]), float(r[-3])
         assert abs(nominal) <= 1.0 + 1e-9 and abs(nominal - identified) < 1e-3, r
+
+
+def test_simulate_to_stdout_keeps_the_csv_clean():
+    p = run("simulate", "kr5", "-o", "-", "--points", "3", "--noise", "0")
+    lines = p.stdout.splitlines()
+    assert lines[1] == "# units: length=mm angle=deg" and lines[2].startswith("joint,q1") and len(lines) == 3 + 18
+    assert "wrote -" in p.stderr

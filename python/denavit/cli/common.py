@@ -49,9 +49,9 @@ def fail(msg: str) -> None:
     raise typer.Exit(2)
 
 
-def wrote(path) -> None:
+def wrote(path, detail: str = "") -> None:
     """Say where an output went (on stderr when it went to standard output, so the output stays clean)."""
-    say("", f"wrote {path}", err=str(path) == "-")
+    say("", f"wrote {path}{detail}", err=str(path) == "-")
 
 
 def parse_numbers(text: str | None, what: str) -> list[float]:

@@ -42,4 +42,4 @@ def simulate(
         fail(f"--tool: expected 3 values, got {tp.size}")
     s = sw.simulate(m, home=h, ranges=r, points_per_sweep=points, tool_point=tp, noise=noise * ls, noise_q=noise_q * as_, seed=seed)
     write_text(output, to_long_csv(s, length, angle, f"simulated sweeps of {robot.name}: seed {seed}, noise {noise} {length}, readings noise {noise_q} {angle}"))
-    wrote(f"{output}: {m.nq} sweeps x {points} points")
+    wrote(output, f": {m.nq} sweeps x {points} points")

@@ -14,7 +14,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..errors import DenavitError
-from .sweeps import _float, _header, _rows
+from . import delimited as dl
 from .text import read_text
 from .units import input_units, joint_scale, parse_declaration
 
@@ -25,21 +25,21 @@ def read_configurations(path: str | os.PathLike, kinds: Sequence[str], *, length
     lines = read_text(path, "configurations file").splitlines()
     need_units = [u for u, k in (("angle", "revolute"), ("length", "prismatic")) if k in kinds]
     units = input_units(parse_declaration(lines, where), length, angle, where, need=need_units)
-    rows, _ = _rows(lines)
+    data, _ = dl.rows(lines)
     n = len(kinds)
     need = [f"q{i + 1}" for i in range(n)]
-    if not rows:
+    if not data:
         raise DenavitError(f"{where}: no header and no configurations: expected a header {','.join(need)}")
-    hline, header = rows[0]
-    cols = _header(header, f"{where}:{hline}")
+    hline, names = data[0]
+    cols = dl.header(names, f"{where}:{hline}")
     if any(c not in cols for c in need):
-        raise DenavitError(f"{where}:{hline}: header must name q1..q{n}, got {','.join(header)!r}")
+        raise DenavitError(f"{where}:{hline}: header must name q1..q{n}, got {','.join(names)!r}")
     idx = [cols.index(c) for c in need]
     out = []
-    for ln, cells in rows[1:]:
+    for ln, cells in data[1:]:
         if len(cells) != len(cols):
             raise DenavitError(f"{where}:{ln}: expected {len(cols)} values, got {len(cells)}")
-        out.append([_float(cells[i], f"{where}:{ln}", c) for i, c in zip(idx, need)])
+        out.append([dl.number(cells[i], f"{where}:{ln}", c) for i, c in zip(idx, need)])
     if not out:
         raise DenavitError(f"{where}: no configurations")
     return np.array(out) * joint_scale(kinds, units.get("length", "m"), units.get("angle", "rad"), where)

@@ -23,56 +23,11 @@ import numpy as np
 
 from ..errors import DenavitError
 from ..sweeps import Sweep, SweepSet
+from . import delimited as dl
 from .text import read_text
 from .units import input_units, joint_scale, length_scale, parse_declaration
 
 KINDS = ("revolute", "prismatic")
-
-
-def _float(text: str, where: str, column: str) -> float:
-    """A finite decimal number of cell ``text`` (errors name the place and the column)."""
-    try:
-        v = float(text)
-    except ValueError:
-        hint = " (a decimal comma? write numbers with a decimal point)" if re.fullmatch(r"[-+]?\d+,\d+", text) else ""
-        raise DenavitError(f"{where}: column {column!r} must be a number, got {text!r}{hint}") from None
-    if not math.isfinite(v):
-        raise DenavitError(f"{where}: column {column!r} must be finite, got {text!r}")
-    return v
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
-
-
-def _rows(lines: list[str]) -> tuple[list[tuple[int, list[str]]], str]:
-    """(line number, cells) of every line that is neither blank nor a ``#`` comment, and the separator (``;``
-    when the first such line holds more semicolons than commas, else ``,``); a trailing separator is dropped."""
-    data = [(ln, line) for ln, line in enumerate(lines, 1) if line.strip() and not line.lstrip().startswith("#")]
-    if not data:
-        return [], ","
-    first = data[0][1]
-    delim = ";" if first.count(";") > first.count(",") else ","
-    out = []
-    for ln, line in data:
-        cells = [c.strip() for c in next(csv.reader([line], delimiter=delim))]
-        if len(cells) > 1 and cells[-1] == "":
-            cells.pop()
-        out.append((ln, cells))
-    return out, delim
-
-
-def _header(cells: list[str], where: str) -> list[str]:
-    """Lower-cased column names; a name given twice is an error."""
-    cols = [c.lower() for c in cells]
-    dup = sorted({c for c in cols if cols.count(c) > 1})
-    if dup:
-        raise DenavitError(f"{where}: column(s) {', '.join(dup)} named twice in the header {','.join(cells)!r}")
-    return cols
 
 
 def _kinds(kinds, n: int, where: str, what: str) -> list[str]:
@@ -99,11 +54,11 @@ def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: 
     where = str(path)
     lines = read_text(path, "sweep file").splitlines()
     units = input_units(parse_declaration(lines, where), length, angle, where)
-    rows, _ = _rows(lines)
+    rows, _ = dl.rows(lines)
     if not rows:
         raise DenavitError(f"{where}: no header and no data: expected a header 'joint,q1,...,qn,x,y,z'")
     hline, header = rows[0]
-    cols = _header(header, f"{where}:{hline}")
+    cols = dl.header(header, f"{where}:{hline}")
     n = len([c for c in cols if re.fullmatch(r"q\d+", c)])
     need = ["joint", *[f"q{i}" for i in range(1, n + 1)], "x", "y", "z"]
     missing = [c for c in need if c not in cols]
@@ -127,8 +82,8 @@ def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: 
             raise DenavitError(f"{at}: column 'joint' must be a joint index 1..{n}, got {jtext!r}") from None
         if not (math.isfinite(jv) and jv == round(jv) and 1 <= jv <= n):
             raise DenavitError(f"{at}: joint index out of range: expected 1..{n}, got {jtext}")
-        q = np.array([_float(cells[idx[f"q{i}"]], at, f"q{i}") for i in range(1, n + 1)]) * qscale
-        p = np.array([_float(cells[idx[c]], at, c) for c in "xyz"]) * ls
+        q = np.array([dl.number(cells[idx[f"q{i}"]], at, f"q{i}") for i in range(1, n + 1)]) * qscale
+        p = np.array([dl.number(cells[idx[c]], at, c) for c in "xyz"]) * ls
         sweeps.setdefault(int(jv), []).append((q, p, at))
     _check_complete(sweeps, n, where)
     out = [Sweep(j, np.array([r[1] for r in sweeps[j]]), np.array([r[0] for r in sweeps[j]]), [r[2] for r in sweeps[j]]) for j in sorted(sweeps)]
@@ -147,11 +102,11 @@ def _joint_file(f: Path, length: str | None) -> tuple[np.ndarray, list[str]]:
     where = str(f)
     lines = read_text(f, "sweep file").splitlines()
     ls = length_scale(input_units(parse_declaration(lines, where), length, None, where, need=("length",))["length"], where)
-    rows, delim = _rows(lines)
+    rows, delim = dl.rows(lines)
     cols = None
-    if rows and not any(_is_number(c) for c in rows[0][1]):
+    if rows and not any(dl.is_number(c) for c in rows[0][1]):
         ln, header = rows.pop(0)
-        cols = _header(header, f"{where}:{ln}")
+        cols = dl.header(header, f"{where}:{ln}")
         unknown = [c for c in cols if c not in ("time", "x", "y", "z")]
         if unknown or not all(c in cols for c in "xyz"):
             raise DenavitError(f"{where}:{ln}: header must name x, y, z (and optionally time), got {','.join(header)!r}")
@@ -161,7 +116,7 @@ def _joint_file(f: Path, length: str | None) -> tuple[np.ndarray, list[str]]:
         if len(cells) != len(names) or len(cells) not in (3, 4):
             expected = f"{len(names)} values ({','.join(names)})" if cols else "3 values (x,y,z) or 4 (time,x,y,z)"
             raise DenavitError(f"{where}:{ln}: expected {expected} separated by {delim!r}, got {len(cells)}: {delim.join(cells)!r}")
-        vals = {name: _float(c, f"{where}:{ln}", name) for c, name in zip(cells, names)}
+        vals = {name: dl.number(c, f"{where}:{ln}", name) for c, name in zip(cells, names)}
         pts.append([vals[c] * ls for c in "xyz"])
         at.append(f"{where}:{ln}")
     return np.array(pts, dtype=float).reshape(-1, 3), at
