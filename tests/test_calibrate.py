@@ -6,11 +6,9 @@ import json
 import subprocess
 import sys
 
+import denavit as dv
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
-
-import denavit as dv
 from cli import env as cli_env
 from denavit import calibration as cal
 from denavit import fitting
@@ -18,6 +16,8 @@ from denavit import sweeps as sw
 from denavit.calibration.least_squares import covariance, residuals, weights
 from denavit.calibration.parametrization import as_robot
 from denavit.io.measurements import read_measurements, to_csv
+from denavit.io import sweeps as swio
+from scipy.spatial.transform import Rotation
 
 NOISE = 2e-5  # 0.02 mm per coordinate
 TOOL = np.array([0.05, 0.03, 0.10])
@@ -455,7 +455,7 @@ def test_files_round_trip_and_json(kr5, tmp_path):
     f.write_text(to_csv(poses, "mm", "deg"))
     np.testing.assert_allclose(read_measurements(f).poses, poses.poses, atol=1e-10)
     s = sw.simulate(kr5.model(), home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=8, tool_point=TOOL)
-    f.write_text(sw.to_long_csv(s))
+    f.write_text(swio.to_long_csv(s))
     assert read_measurements(f).sweeps is not None
     res = cal.calibrate(meas, kr5, tool=TOOL, holdout=0.25)
     out = tmp_path / "r.json"

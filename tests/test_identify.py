@@ -3,12 +3,12 @@
 import json
 import re
 
+import denavit as dv
 import numpy as np
 import pytest
-
-import denavit as dv
 from denavit import identify as ident
 from denavit import sweeps as sw
+from denavit.io import sweeps as swio
 
 HOME = np.radians(sw.PAPER_HOME_DEG)
 
@@ -89,9 +89,9 @@ def test_json_output_has_units_rows_and_sigmas(kr5, tmp_path):
 def test_long_csv_round_trip_and_units(kr5, tmp_path):
     s = simulate(kr5, 30, points_per_sweep=8, noise=1e-5, seed=1)
     f = tmp_path / "s.csv"
-    f.write_text(sw.to_long_csv(s, "mm", "deg"))
+    f.write_text(swio.to_long_csv(s, "mm", "deg"))
     before = f.read_bytes()
-    r = sw.read_long_csv(f)
+    r = swio.read_long_csv(f)
     assert f.read_bytes() == before  # input files are never modified
     for a, b in zip(s.sweeps, r.sweeps, strict=True):
         np.testing.assert_allclose(a.points, b.points, atol=1e-12)
@@ -107,14 +107,14 @@ def test_joint_files_and_json_readers(kr5, tmp_path):
         rows = [f"{k * 0.1:.1f};{p[0] * 1e3:.9f};{p[1] * 1e3:.9f};{p[2] * 1e3:.9f}" for k, p in enumerate(sweep.points)]
         (d / f"j{sweep.joint}.csv").write_text("time;x;y;z\n" + "\n".join(rows) + "\n")
     dirs = [np.sign(r[1] - r[0]) for r in sw.PAPER_RANGES_DEG[90]]
-    fs = sw.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm", angle="deg", direction=dirs)
+    fs = swio.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm", angle="deg", direction=dirs)
     res = ident.identify(fs, nominal=kr5)
     assert res.method == "geometric"
     np.testing.assert_allclose(res.table.params, kr5.table.params, atol=1e-7)
     doc = {"units": {"length": "m", "angle": "rad"}, "home": HOME.tolist(),
            "sweeps": [{"joint": x.joint, "points": x.points.tolist(), "q": x.q.tolist()} for x in s.sweeps]}
     (tmp_path / "s.json").write_text(json.dumps(doc))
-    js = sw.read_json(tmp_path / "s.json")
+    js = swio.read_json(tmp_path / "s.json")
     np.testing.assert_allclose(ident.identify(js, nominal=kr5).table.params, kr5.table.params, atol=1e-9)
 
 
@@ -143,7 +143,7 @@ def test_bad_sweep_files(tmp_path, body, units, match):
     f = write_csv(tmp_path, body, units if units is not None else "# units: length=mm angle=deg\n")
     before = f.read_bytes()
     with pytest.raises(dv.DenavitError, match=match):
-        ident.identify(sw.read_long_csv(f), method="geometric")
+        ident.identify(swio.read_long_csv(f), method="geometric")
     assert f.read_bytes() == before
 
 
@@ -279,7 +279,7 @@ def test_out_and_back_sweep_without_readings_is_an_error(kr5, tmp_path):
     for sweep in s.sweeps:
         pts = sweep.points if sweep.joint != 3 else np.vstack([sweep.points, sweep.points[-2::-1]])
         (d / f"j{sweep.joint}.csv").write_text("\n".join(f"{p[0]},{p[1]},{p[2]}" for p in pts * 1e3) + "\n")
-    fs = sw.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm", angle="deg")
+    fs = swio.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm", angle="deg")
     with pytest.raises(dv.DenavitError, match=r"j3.csv lines 1-19, joint 3: .*net turn .* over an arc of 90.0 deg"):
         ident.identify(fs, nominal=kr5)
 
@@ -340,7 +340,7 @@ def test_bad_json_sweeps_name_file_and_place(kr5, tmp_path, edit, match):
     f = tmp_path / "s.json"
     f.write_text(json.dumps(doc))
     with pytest.raises(dv.DenavitError, match=match):
-        sw.read_json(f)
+        swio.read_json(f)
 
 
 def write_joint_files(s, folder, header="time;x;y;z\n", scale=1e3):
@@ -357,13 +357,13 @@ def test_joint_files_comments_headers_and_names(kr5, tmp_path):
     d = write_joint_files(s, tmp_path / "files", header="# tracker export, 2024-05-02\ntime;x;y;z\n")
     (d / "j1_old.csv").write_text("0;1;2;3\n0.1;1;2;3\n0.2;1;2;3\n")  # an old recording lying beside j1.csv
     (d / "notes.csv").write_text("x;y;z\n")
-    fs = sw.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm")
+    fs = swio.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm")
     for a, b in zip(s.sweeps, fs.sweeps, strict=True):
         np.testing.assert_allclose(b.points, a.points, atol=1e-11)
     assert fs.sweeps[0].where[0].endswith("j1.csv:3")
     (d / "j01.csv").write_text((d / "j1.csv").read_text())
     with pytest.raises(dv.DenavitError, match=r"files: two files for joint 1: j01.csv and j1.csv"):
-        sw.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm")
+        swio.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm")
 
 
 @pytest.mark.parametrize(
@@ -383,14 +383,14 @@ def test_bad_joint_files(kr5, tmp_path, first_line, kw, match):
     d = write_joint_files(simulate(kr5, 90, points_per_sweep=10), tmp_path / "files", header="")
     (d / "j2.csv").write_text(first_line + (d / "j2.csv").read_text())
     with pytest.raises(dv.DenavitError, match=match):
-        sw.read_joint_files(d, **{"home": sw.PAPER_HOME_DEG, "length": "mm", **kw})
+        swio.read_joint_files(d, **{"home": sw.PAPER_HOME_DEG, "length": "mm", **kw})
 
 
 @pytest.mark.parametrize("cell, got", [("inf", "inf"), ("nan", "nan"), ("1e400", "1e400"), ("1.5", "1.5")])
 def test_long_csv_joint_index_not_an_integer(tmp_path, cell, got):
     f = write_csv(tmp_path, f"{cell},0,0,1,0,0\n")
     with pytest.raises(dv.DenavitError, match=rf"bad.csv:3: joint index out of range: expected 1..2, got {got}"):
-        sw.read_long_csv(f)
+        swio.read_long_csv(f)
 
 
 def test_locked_joint_drift_is_noted(kr5):

@@ -67,7 +67,7 @@ def _model(m, what: str) -> _core.Model:
     if hasattr(m, "model") and callable(m.model):
         return m.model()
     if isinstance(m, str) or hasattr(m, "__fspath__"):
-        from .robotfile import load  # noqa: PLC0415
+        from .robot import load  # noqa: PLC0415
 
         return load(m).model()
     raise DenavitError(f"{what}: expected a Model, a Robot, a result with .model(), a built-in name or a robot file, got {type(m).__name__}")

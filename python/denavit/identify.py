@@ -27,7 +27,7 @@ from .fitting.robust import flag_outliers, irls, rms_spread, weighted_cov
 from .geometry import axis_angle_matrices, perpendicular_basis
 from .io.output import write_text
 from .io.units import cell_scale, joint_scale, length_scale
-from .robotfile import Robot
+from .robot import Robot
 from .sweeps import SweepSet
 
 METHODS = ("auto", "kasa", "hyper", "geometric", "readings", "global")

@@ -51,7 +51,7 @@ from .plotting import (
     scene_size,
     sweep_range,
 )
-from .robotfile import Robot, load
+from .robot import Robot, load
 
 if TYPE_CHECKING:  # pragma: no cover
     from .identify import Identification

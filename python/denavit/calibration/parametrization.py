@@ -24,7 +24,7 @@ import numpy as np
 from .. import _core
 from ..errors import DegenerateError, DenavitError
 from ..geometry import orthonormalize, pose, rotvec_matrix
-from ..robotfile import Robot, load
+from ..robot import Robot, load
 from .identifiability import analyze
 from .least_squares import fit_parameters
 from .measurements import Measurements

@@ -15,7 +15,7 @@ from ..errors import DenavitError
 from ..fitting.robust import loss_weight
 from ..io.output import write_text
 from ..io.units import angle_scale, joint_scale, length_scale
-from ..robotfile import Robot
+from ..robot import Robot
 from ..sweeps import SweepSet
 from .identifiability import Identifiability, analyze
 from .least_squares import covariance, fit_parameters, register, residuals, weights
@@ -110,7 +110,7 @@ class Calibration:
         return _core.extract(_core.axes(m, np.zeros(m.nq)), conv, nominal=nom if nom.convention == conv else None).table
 
     def robot(self, name: str | None = None, convention: str = "edh") -> Robot:
-        """A :class:`Robot` of the calibrated model (for :func:`denavit.robotfile.save`)."""
+        """A :class:`Robot` of the calibrated model (for :func:`denavit.io.robotfile.save`)."""
         r = self.parametrization.robot
         return Robot(name or f"{r.name}_calibrated", self.table(convention), list(r.names), r.lower, r.upper,
                      description=f"{r.name} calibrated from {self.measurements.source} ({self.convention}, {self.measurements.n} poses)", source=self.measurements.source, home=r.home)

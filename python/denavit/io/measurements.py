@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import sweeps as sw
+from . import sweeps as sw
 from ..calibration.measurements import Measurements, as_array, check_finite, joint_kinds
 from ..errors import DenavitError
 from ..geometry import matrix_rotvec, rotvec_matrix
@@ -38,7 +38,7 @@ def read_measurements(path: str | os.PathLike, *, length: str | None = None, ang
     file may state them as ``"kinds"``) says which; without them every joint is read as revolute and
     :func:`denavit.calibration.calibrate` refuses a nominal model with a prismatic joint.
 
-    * CSV with a ``joint`` column: the long-form sweep file of :func:`denavit.sweeps.read_long_csv`.
+    * CSV with a ``joint`` column: the long-form sweep file of :func:`denavit.io.sweeps.read_long_csv`.
     * CSV with header ``q1,...,qn,x,y,z`` (points) or ``q1,...,qn,x,y,z,rx,ry,rz`` (poses; ``rx, ry, rz`` the
       rotation vector of ``R_world_tool`` in angle units): one row per pose. Units from a
       ``# units: length=mm angle=deg`` line, else ``length`` / ``angle``.
@@ -111,7 +111,7 @@ def _read_json(p: Path, text: str, length: str | None, angle: str | None, kinds)
     if not isinstance(doc, dict):
         raise DenavitError(f"{p}: expected a JSON object with 'q' and 'points' or 'poses', got {type(doc).__name__}")
     if "sweeps" in doc:
-        return Measurements.from_sweeps(sw.read_json(p))  # its own "kinds"
+        return Measurements.from_sweeps(sw.read_json(p, length=length, angle=angle))  # its own "kinds"
     declared = doc.get("units") or {}
     if not isinstance(declared, dict):
         raise DenavitError(f"{p}: 'units' must be an object like {{\"length\": \"mm\", \"angle\": \"deg\"}}, got {declared!r}")

@@ -74,27 +74,27 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import yourdfpy
-from lxml import etree
 
-from . import _core
-from .errors import DenavitError, DenavitWarning
-from .io.output import write_text
-from .robotfile import Robot, inertials_for_table
+from .. import _core
+from ..errors import DenavitError, DenavitWarning
+from ..geometry import inverse, matrix_rpy, pose, rotation_between, rotvec_matrix, skew
+from ..robot import Robot, inertials_for_table
+from .output import write_text
+from .text import decode, read_bytes
+
+if TYPE_CHECKING:
+    import yourdfpy
 
 SUPPORTED_JOINTS = ("revolute", "continuous", "prismatic", "fixed")
 UNSUPPORTED_JOINTS = ("floating", "planar")
 
-
-# --------------------------------------------------------------------------------------------------
-# small geometry helpers (the rest is denavit.geometry)
-
-from .geometry import inverse, matrix_rpy, pose, rotation_between, rotvec_matrix, skew  # noqa: E402
 
 
 def z_to(a) -> np.ndarray:
@@ -241,9 +241,15 @@ def _precheck(path: Path, root) -> _Where:
 
 
 def _read(path: str | os.PathLike) -> tuple[yourdfpy.URDF, _Where]:
+    import yourdfpy  # noqa: PLC0415 (yourdfpy and lxml load only for a URDF)
+    from lxml import etree  # noqa: PLC0415
+
     path = Path(path)
     if not path.is_file():
         raise DenavitError(f"{path}: no such URDF file")
+    data = read_bytes(path, "URDF file")
+    if not re.match(rb"\s*<\?xml[^>]*encoding=", data.lstrip(b"\xef\xbb\xbf")):
+        decode(data, str(path))  # no declared encoding: XML's default, UTF-8, with the byte offset of a bad byte
     try:  # strict: yourdfpy's loader would fall back to lxml's recovering parser on broken XML
         tree = etree.parse(str(path), etree.XMLParser(remove_blank_text=True, resolve_entities=False))
     except etree.XMLSyntaxError as e:
@@ -581,11 +587,15 @@ def _unique(name: str, taken: set) -> str:
 
 
 def _origin(parent, T, tag: str = "origin") -> None:
+    from lxml import etree  # noqa: PLC0415
+
     r, p, y = matrix_rpy(np.asarray(T)[:3, :3])
     etree.SubElement(parent, tag, xyz=_nums(np.asarray(T)[:3, 3]), rpy=_nums((r, p, y)))
 
 
 def _geometry(parent, g: dict) -> None:
+    from lxml import etree  # noqa: PLC0415
+
     ge = etree.SubElement(parent, "geometry")
     if "mesh" in g:
         m = etree.SubElement(ge, "mesh", filename=g["mesh"]["filename"])
@@ -600,6 +610,8 @@ def _geometry(parent, g: dict) -> None:
 
 
 def _material(parent, m: dict) -> None:
+    from lxml import etree  # noqa: PLC0415
+
     me = etree.SubElement(parent, "material", name=m.get("name", ""))
     if "rgba" in m:
         etree.SubElement(me, "color", rgba=_nums(m["rgba"]))
@@ -608,6 +620,8 @@ def _material(parent, m: dict) -> None:
 
 
 def _inertial(parent, T, mass: float, I) -> None:
+    from lxml import etree  # noqa: PLC0415
+
     ie = etree.SubElement(parent, "inertial")
     _origin(ie, T)
     etree.SubElement(ie, "mass", value=_num(mass))
@@ -710,6 +724,8 @@ def dumps_urdf(model: _core.Model, robot: Robot | None = None) -> str:
     the URDF's base link, e.g. identified in a tracker's frame).
     Lengths in m, angles in rad, masses in kg.
     """
+    from lxml import etree  # noqa: PLC0415
+
     n = model.nq
     info = robot.extra.get("urdf") if robot is not None and isinstance(robot.extra, dict) else None
     if not _matches(info, model):
