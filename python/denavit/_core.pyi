@@ -3,7 +3,7 @@
 Frames and units: docs/conventions.md. SI inside (m, rad); poses are (4, 4) float64 arrays `T_a_b`.
 """
 
-from typing import Iterator, Sequence
+from collections.abc import Iterator, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray

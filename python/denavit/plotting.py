@@ -33,7 +33,7 @@ import numpy as np
 from . import _core
 from .errors import DenavitError
 from .geometry import perpendicular_basis
-from .io.units import angle_scale, cell_scale, column_scale, length_scale
+from .io.units import cell_scale, column_scale, joint_scale, joint_unit, length_scale
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
@@ -388,8 +388,8 @@ def plot_origin_paths(tables, joint: int, q0=None, *, limits=None, steps: int = 
     paths = [frames_along(t, qv, joint, values)[:, :, :3, 3] for _, t in items]  # (steps, n+1, 3)
     allp = np.vstack([p.reshape(-1, 3) for p in paths])
     fig = _figure(figsize=(5.5 * len(items), 5.8), layout="constrained")
-    unit = "deg" if kind == "revolute" else length
-    sc = angle_scale("deg") if kind == "revolute" else ls
+    unit = joint_unit(kind, length, "deg")
+    sc = float(joint_scale([kind], length, "deg")[0])
     for k, ((label, t), P) in enumerate(zip(items, paths, strict=True)):
         ax = fig.add_subplot(1, len(items), k + 1, projection="3d")
         ax.set_gid(f"paths-{label}")

@@ -16,10 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import sweeps as sw
 from ..calibration.measurements import Measurements, as_array, check_finite, joint_kinds
 from ..errors import DenavitError
 from ..geometry import matrix_rotvec, rotvec_matrix
+from . import sweeps as sw
 from .text import read_text
 from .units import (
     angle_scale,
