@@ -94,3 +94,59 @@ def test_bad_input():
         cp.compensate(nominal, nominal, T, q_nominal=np.zeros((2, 5)))
     with pytest.raises(dv.DenavitError, match="expected an identification or a calibration"):
         cp.predicted_sigma(nominal, np.zeros((1, 6)))
+
+
+def write_program(path, rows, header, units="length=mm angle=deg"):
+    path.write_text(f"# units: {units}\n{header}\n" + "".join(",".join(repr(float(v)) for v in r) + "\n" for r in rows))
+
+
+def test_cli_compensates_joint_rows_and_poses(tmp_path):
+    """`denavit compensate` on joint rows (deg) and on poses (m, rotation vector): every written row reaches its
+    target on the identified robot, and the joint rows keep the program's branch."""
+    from cli import run
+
+    from denavit.geometry import matrix_rotvec
+    from denavit.io import robotfile
+    from denavit.robot import Robot
+
+    kr5, nominal, true = kr5_pair()
+    t = dv.extract(dv.axes(true.with_tool(np.eye(4)), np.zeros(6)), "dh", nominal=kr5.table).table
+    ident = tmp_path / "kr5_id.toml"
+    robotfile.save(Robot("kr5_id", t, kr5.names, kr5.lower, kr5.upper), ident, "mm", "deg")
+    Q = program(kr5, 25)
+    write_program(tmp_path / "q.csv", np.degrees(Q), "q1,q2,q3,q4,q5,q6")
+    T = dv.fk_batch(kr5.model(), Q)
+    write_program(tmp_path / "p.csv", [[*Ti[:3, 3], *matrix_rotvec(Ti[:3, :3])] for Ti in T], "x,y,z,rx,ry,rz", "length=m angle=rad")
+    for f in ("q.csv", "p.csv"):
+        out = tmp_path / f"out_{f}"
+        run("compensate", tmp_path / f, "--nominal", "kr5", "--identified", ident, "-o", out)
+        rows = np.array([[float(v) for v in line.split(",")] for line in out.read_text().splitlines()[3:]])
+        assert rows.shape == (25, 18) and (rows[:, 12] == 1).all()
+        q_id = np.radians(rows[:, 6:12])
+        reached = dv.fk_batch(dv.load_model(ident), q_id)
+        np.testing.assert_allclose(reached[:, :3, 3], T[:, :3, 3], atol=1e-9)
+        np.testing.assert_allclose(reached[:, :3, :3], T[:, :3, :3], atol=1e-9)
+        if f == "q.csv":
+            assert np.abs(q_id - Q).max() < 0.05
+
+
+def test_cli_compensate_bad_input(tmp_path):
+    from cli import run
+
+    Q = program(dv.load_robot("kr5"), 3)
+    write_program(tmp_path / "q.csv", np.degrees(Q), "q1,q2,q3,q4,q5,q6")
+    p = run("compensate", tmp_path / "q.csv", "--nominal", "kr5", "--identified", "puma560x", ok=False)
+    assert p.returncode == 2 and "unknown model 'puma560x'" in p.stderr and len(p.stderr.strip().splitlines()) == 1
+    p = run("compensate", tmp_path / "q.csv", "--nominal", "kr5", "--identified", "ur5", ok=False)
+    assert p.returncode == 1 and "no target can be sent" in p.stdout
+    T = dv.fk_batch(dv.load_model("kr5"), Q)
+    # positions in mm under a file that says metres
+    write_program(tmp_path / "p.csv", [[*(Ti[:3, 3] * 1e3), 0, 0, 0] for Ti in T], "x,y,z,rx,ry,rz", "length=m angle=rad")
+    p = run("compensate", tmp_path / "p.csv", "--nominal", "kr5", "--identified", "kr5", ok=False)
+    assert p.returncode == 2 and "p.csv:3: the target is" in p.stderr and "is the file's length unit right?" in p.stderr
+    write_program(tmp_path / "bad.csv", [[1, 2, 3]], "q1,q2,q3")
+    p = run("compensate", tmp_path / "bad.csv", "--nominal", "kr5", "--identified", "kr5", ok=False)
+    assert p.returncode == 2 and "bad.csv:2: header must be 'x,y,z,rx,ry,rz' and/or 'q1,...,q6' (6 joints)" in p.stderr
+    write_program(tmp_path / "nan.csv", [[1, 2, 3, 4, 5, float("nan")]], "q1,q2,q3,q4,q5,q6")
+    p = run("compensate", tmp_path / "nan.csv", "--nominal", "kr5", "--identified", "kr5", ok=False)
+    assert p.returncode == 2 and "nan.csv:3: column 'q6' must be finite" in p.stderr

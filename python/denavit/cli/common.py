@@ -40,7 +40,7 @@ JsonOpt = Annotated[bool, typer.Option("--json", help="Print JSON instead of tab
 
 def say(style: str, head: str, rest: str = "", err: bool = False) -> None:
     """Print `head` in a rich `style` followed by plain `rest`."""
-    (err_console if err else console).print(Text.assemble((head, style), rest))
+    (err_console if err else console).print(Text.assemble((head, style), rest), soft_wrap=True)  # one line, whatever the width
 
 
 def fail(msg: str) -> None:
