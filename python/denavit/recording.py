@@ -121,13 +121,23 @@ def _window(n_samples: int, dt: float, span: float) -> int:
 def _speed_on_grid(t: np.ndarray, x: np.ndarray, dt: float, span: float) -> tuple[np.ndarray, np.ndarray]:
     """Uniform grid (step ``dt``) over ``t`` and the smoothed speed |dx/dt| on it."""
     from scipy.interpolate import make_interp_spline  # noqa: PLC0415
+    from scipy.ndimage import label  # noqa: PLC0415
     from scipy.signal import savgol_filter  # noqa: PLC0415
 
     grid = np.arange(t[0], t[-1], dt)
     xs = make_interp_spline(t, x, k=1)(grid)
     w = _window(len(grid), dt, span)
     v = savgol_filter(xs, w, 2, deriv=1, delta=dt, axis=0)
-    return grid, np.linalg.norm(v.reshape(len(grid), -1), axis=1)
+    speed = np.linalg.norm(v.reshape(len(grid), -1), axis=1)
+    # each motion scaled to a unit peak: a point's speed is its joint's speed times a radius that differs from
+    # joint to joint, so only the shape of each motion is common to the two streams
+    noise = float(np.linalg.norm(_noise(xs.reshape(len(grid), -1), w, dt)[1]))
+    runs, k = label(speed > max(6.0 * noise, 1e-3 * float(speed.max())))
+    out = np.zeros_like(speed)
+    for i in range(1, k + 1):
+        sel = runs == i
+        out[sel] = speed[sel] / speed[sel].max()
+    return grid, out
 
 
 def _corr(a: np.ndarray, b: np.ndarray) -> float:

@@ -91,7 +91,7 @@ def read(path: str | os.PathLike, *, joint_topic: str | None = None, point_topic
         tq, q, wq, names = [], [], [], list(joint_names) if joint_names else None
         tp, T, P, wp = [], [], [], []
         frames = set()
-        for k, (con, t_bag, raw) in enumerate(reader.messages(connections=[c for c in reader.connections if c.topic in (jt, pt)])):
+        for con, t_bag, raw in reader.messages(connections=[c for c in reader.connections if c.topic in (jt, pt)]):
             msg = reader.deserialize(raw, con.msgtype)
             if con.topic == jt:
                 if names is None:

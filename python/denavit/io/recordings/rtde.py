@@ -16,8 +16,6 @@ import os
 import re
 from pathlib import Path
 
-import numpy as np
-
 from ...errors import DenavitError
 from ..text import read_text
 from .columns import data_lines, delimiter_of, numbers, poses_of, split
