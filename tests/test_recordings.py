@@ -322,6 +322,21 @@ def test_columns_file_with_three_targets_identifies_the_truth():
         assert_axes_match_truth(res)
 
 
+def test_controller_log_with_a_pose_per_row(tmp_path):
+    """x, y, z + quaternion per row (semicolons, a header the map overrides): the RTDE log's poses, written so."""
+    from scipy.spatial.transform import Rotation
+
+    rt = read_recording(DATA / "rtde.csv")
+    quat = Rotation.from_matrix(rt.poses[:, :3, :3]).as_quat()[:, [3, 0, 1, 2]]
+    f = tmp_path / "log.csv"
+    rows = ["time;j1;j2;j3;j4;j5;j6;px;py;pz;w;x;y;z"]
+    rows += [";".join(f"{v:.10g}" for v in (t, *q, *p, *o)) for t, q, p, o in zip(rt.time, rt.q, rt.poses[:, :3, 3], quat)]
+    f.write_text("\n".join(rows) + "\n")
+    rec = read_recording(f, columns="t,q1..q6,x,y,z,qw,qx,qy,qz", length="m", angle="rad")
+    np.testing.assert_allclose(rec.poses, rt.poses, atol=1e-9)
+    identify_recording(rec)
+
+
 @pytest.mark.parametrize("name", sorted(BAGS))
 def test_ros_bags_identify_the_truth(name):
     pytest.importorskip("rosbags")
@@ -418,6 +433,9 @@ def test_segmentation_finds_the_paper_sweeps_with_and_without_readings(with_read
         # the given ranges choose the same motions
         assert [(s.start, s.stop) for s in rc.segment(rec, ranges=RANGES).sweeps] == [(s.start, s.stop) for s in seg.sweeps]
         np.testing.assert_allclose([(s.q_from, s.q_to) for s in seg.sweeps], RANGES, atol=math.radians(0.05))
+    # the user's spans override the segmentation
+    given = rc.segment(rec, spans=[(j, t0 + 0.2, t1 - 0.2) for j, t0, t1 in truth])
+    assert given.method == "given" and [(s.joint, round(s.t_start, 2)) for s in given.sweeps] == [(j, round(t0 + 0.2, 2)) for j, t0, _ in truth]
 
 
 # --- bad input -------------------------------------------------------------------------------------------
@@ -478,6 +496,19 @@ def _has_rosbags():
     except ImportError:
         return False
     return True
+
+
+def test_tracker_sweep_rows_not_in_one_block(tmp_path):
+    lines = (DATA / "tracker.csv").read_text().splitlines()
+    f = tmp_path / "tracker.csv"
+    f.write_text("\n".join([*lines[:5], *lines[-3:], *lines[5:-3]]) + "\n")
+    with pytest.raises(dv.DenavitError, match=r"tracker.csv:9: a second block of joint 1's rows: expected each joint's sweep in one block") as e:
+        rc.segment(read_recording(f))
+    one_line(e)
+    g = tmp_path / "names.csv"
+    g.write_text("Point,X,Y,Z\nJ1_001,1,2,3\nbase_01,1,2,3\n")
+    with pytest.raises(dv.DenavitError, match=r"names.csv:3: point name 'base_01' does not match the sweep pattern .*: expected e.g. J1_001 or A2-17"):
+        read_recording(g, length="mm")
 
 
 def test_time_that_goes_backwards(tmp_path):

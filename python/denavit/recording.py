@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -298,7 +298,10 @@ def _refine(points: Recording, readings: Recording, al: Alignment, drift: bool |
     from .fitting import fit_axis_with_readings  # noqa: PLC0415
 
     merged = _merge(points, readings, al)
-    seg = segment(merged)
+    try:
+        seg = segment(merged)
+    except DenavitError:
+        return al  # no single-joint motions to refine on: the speed profiles' estimate stands
     spline = CubicSpline(readings.time, readings.q, axis=0)
     kinds = readings.kinds or ["revolute"] * readings.n_joints
     centres, taus, sig = [], [], []
@@ -428,12 +431,12 @@ class Segmentation:
                  f"{'#':>3} {'joint':>5} {'role':<8} {'rows':>13} {'time (s)':>19} {'from':>10} {'to':>10} {'arc':>9} {'points':>7}"]
         for k, s in enumerate(self.segments, 1):
             prism = self.kinds is not None and self.kinds[s.joint - 1] == "prismatic"
-            sc, un = (1e3, "mm") if prism else (1.0 / a, angle)
+            sc = 1e3 if prism else 1.0 / a
             fr = f"{s.q_from * sc:.3f}" if math.isfinite(s.q_from) else "-"
             to = f"{s.q_to * sc:.3f}" if math.isfinite(s.q_to) else "-"
             arc = f"{math.degrees(s.arc):.2f}" if math.isfinite(s.arc) else "-"
             lines.append(f"{k:>3} {s.joint:>5} {s.role:<8} {f'{s.start + 1}-{s.stop}':>13} {f'{s.t_start:.3f}-{s.t_stop:.3f}':>19} {fr:>10} {to:>10} {arc:>9} {s.stop - s.start:>7}")
-        lines.append(f"(joint values in {un if self.segments else angle}; arc in deg; rows 1-based)")
+        lines.append(f"(joint values in {angle}, mm for prismatic joints; arc in deg; rows 1-based; dwell excluded from every motion)")
         return "\n".join(lines)
 
 
@@ -488,7 +491,7 @@ def _runs(moving: np.ndarray, min_gap: int, min_len: int) -> list[tuple[int, int
 
 
 def segment(rec: Recording, *, ranges=None, n_joints: int | None = None, joints: Sequence[int] | None = None, threshold: float = 6.0,
-            min_dwell: float = 0.25, smoothing: float = 0.1, min_points: int = 5, use_readings: bool = True) -> Segmentation:
+            min_dwell: float = 0.25, smoothing: float = 0.1, min_points: int = 5, use_readings: bool = True, spans=None) -> Segmentation:
     """Split a continuous recording into motions and pick one sweep per joint.
 
     ranges : (n, 2) optional, the sweep of each joint from ``ranges[j][0]`` to ``ranges[j][1]`` (rad / m, as in
@@ -499,9 +502,21 @@ def segment(rec: Recording, *, ranges=None, n_joints: int | None = None, joints:
     threshold : a row moves when a speed exceeds ``threshold`` times its noise (estimated from the data).
     min_dwell : s, shorter still spans inside a motion do not split it. smoothing : s, the derivative filter's span.
     min_points : shorter motions are ignored. use_readings : False segments from the geometry even when readings exist.
+    spans : [(joint, t_start, t_stop), ...] (s) the user's sweeps, overriding all of the above (method "given").
     Rows labelled by the file (``rec.joint``) are used as they are (method "labels").
     """
     N = len(rec)
+    if spans is not None:
+        t = rec.time if rec.time is not None else np.arange(N, dtype=float)
+        segs = []
+        for j, t0, t1 in spans:
+            rows = np.flatnonzero((t >= t0) & (t <= t1))
+            if len(rows) < 3:
+                raise DenavitError(f"{rec.source}: the sweep of joint {j} at {t0:g}-{t1:g} s holds {len(rows)} rows: expected at least 3 (the recording spans {t[0]:g}-{t[-1]:g} s)")
+            a, b = int(rows[0]), int(rows[-1]) + 1
+            qf, qt = (float(rec.q[a, j - 1]), float(rec.q[b - 1, j - 1])) if rec.q is not None else (math.nan, math.nan)
+            segs.append(Segment(int(j), a, b, float(t[a]), float(t[b - 1]), "sweep", qf, qt))
+        return Segmentation(segs, "given", n_joints or rec.n_joints or max(s.joint for s in segs), 0, rec.source, rec.kinds)
     if rec.joint is not None:
         segs = []
         cuts = np.flatnonzero(np.diff(rec.joint) != 0) + 1
@@ -577,7 +592,7 @@ def segment(rec: Recording, *, ranges=None, n_joints: int | None = None, joints:
         if joints is not None:
             if len(joints) != group:
                 raise DenavitError(f"{rec.source}: {group} distinct circles found but {len(joints)} joints given: expected one joint per circle in recorded order")
-            segs = [Segment(int(joints[s.joint - 1]), *[getattr(s, k) for k in ("start", "stop", "t_start", "t_stop", "role", "q_from", "q_to", "peak_speed", "arc")]) for s in segs]
+            segs = [replace(s, joint=int(joints[s.joint - 1])) for s in segs]
     out = []
     ranges = None if ranges is None or not with_q else np.asarray(ranges, dtype=float)
     for j in sorted({s.joint for s in segs}):
@@ -588,7 +603,7 @@ def segment(rec: Recording, *, ranges=None, n_joints: int | None = None, joints:
         else:
             pick = min(mine, key=lambda k: segs[k].peak_speed)
         out.append(pick)
-    segs = [Segment(*[getattr(s, k) for k in ("joint", "start", "stop", "t_start", "t_stop")], "sweep" if k in out else "transit", s.q_from, s.q_to, s.peak_speed, s.arc) for k, s in enumerate(segs)]
+    segs = [replace(s, role="sweep" if k in out else "transit") for k, s in enumerate(segs)]
     return Segmentation(segs, "readings" if with_q else "geometry", int(n), int(dwell), rec.source, rec.kinds)
 
 
