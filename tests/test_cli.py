@@ -131,3 +131,19 @@ def test_help_does_not_import_scipy():
     assert p.returncode == 0, p.stderr
     mods = [ln.split("|")[-1].strip() for ln in p.stderr.splitlines() if ln.startswith("import time:")]
     assert "denavit.cli" in mods and not [m for m in mods if m == "scipy" or m.startswith("scipy.")]
+
+
+def test_recordings_through_the_cli(tmp_path):
+    """`denavit inspect` and `denavit identify` read instrument recordings (format from the content) and say
+    what they found: the reader, the segmentation table; the identified axes land on the robot's."""
+    rec = __import__("pathlib").Path(__file__).parent / "data" / "recordings"
+    p = run("inspect", rec / "rtde.csv")
+    assert "format rtde (detected" in p.stdout and "segmentation of" in p.stdout and "6 sweeps" in p.stdout
+    out = tmp_path / "r.json"
+    for f in ("rtde.csv", "rsi.xml", "ros2_mcap"):
+        p = run("identify", rec / f, "--nominal", "kr5", "--json", out)
+        assert "segmentation of" in p.stdout
+        doc = json.loads(out.read_text())
+        assert len(doc["joints"]) == 6
+    p = run("identify", rec / "columns.txt", "--nominal", "kr5", "--columns", "t,q1..q6,x,y,z", ok=False)
+    assert p.returncode == 2 and "columns.txt:2: expected 10 values" in p.stderr and len(p.stderr.strip().splitlines()) == 1

@@ -10,7 +10,7 @@ from __future__ import annotations
 import sys
 
 from ..errors import DenavitError
-from . import calibrate, compensate, convert, dynamics, fk, identify, ik, plan, show, simulate  # noqa: F401 (each registers its command)
+from . import calibrate, compensate, convert, dynamics, fk, identify, ik, inspect, plan, show, simulate  # noqa: F401 (each registers its command)
 from .common import app, say
 
 __all__ = ["app", "main"]

@@ -44,6 +44,11 @@ def identify(
     save_model: Annotated[Path | None, typer.Option("--save", help="Write the identified robot as a robot file (.toml, in the output units).")] = None,
     base: Annotated[str | None, typer.Option("--base", help="The robot's base frame in the measurement frame, \"x,y,z,roll,pitch,yaw\" (R = Rz(yaw) Ry(pitch) Rx(roll); output length unit, deg) or the 16 numbers of the 4x4 matrix (default: the measurement frame).")] = None,
     urdf: Annotated[Path | None, typer.Option("--urdf", help="Write the identified robot as URDF: the exact geometry (ED-H frames on the body, whatever --convention), with a URDF nominal's meshes, inertials and limits.")] = None,
+    data_format: Annotated[str, typer.Option("--format", help="sweeps (long CSV, JSON, jN.csv folder) | tracker | rtde | rsi | bag | columns | auto (from the content).")] = "auto",
+    columns: Annotated[str | None, typer.Option("--columns", help="Column map of a delimited recording, e.g. \"t,q1..q6,x,y,z\" (--format columns).")] = None,
+    sweep: Annotated[str | None, typer.Option("--sweep", help="Tracker export: where each point's sweep comes from: 'group' or a point-name pattern such as 'J{joint}_{index}'.")] = None,
+    target: Annotated[int, typer.Option("--target", help="Recordings with several targets per pose (SMRs on a nest): which one, 1-based.")] = 1,
+    readings: Annotated[Path | None, typer.Option("--readings", help="A second recording with the joint readings on another clock (e.g. a controller log beside a tracker export): aligned from the motion.")] = None,
 ) -> None:
     """Identify the joint axes and parameters from joint sweeps (Hayat et al.), beside the nominal values."""
     from .. import identify as ident  # noqa: PLC0415
@@ -58,7 +63,10 @@ def identify(
     nom = load(nominal) if nominal else None
     kinds = list(nom.table.kinds) if nom else None
     with console.status("reading sweeps..."):
-        if data.is_dir():
+        if data_format not in ("auto", "sweeps") or readings is not None or (data_format == "auto" and not _is_sweep_file(data)):
+            sweeps = read_recording_sweeps(data, data_format, columns=columns, sweep=sweep, target=target, readings=readings, length=length, angle=angle,
+                                           home=parse_numbers(home, "--home") or None, direction=parse_numbers(direction, "--direction") or None, nominal=nom)
+        elif data.is_dir():
             if not home or not length:
                 fail("a folder of per-joint files needs --home and --length (and --angle, default deg)")
             dirs = parse_numbers(direction, "--direction") or [1.0]
@@ -104,6 +112,50 @@ def identify(
         if report:
             rep.write_report(result, report)
             wrote(report)
+
+
+def _is_sweep_file(data: Path) -> bool:
+    """Our own sweep formats: a folder of jN.csv (no ROS 2 metadata), JSON, or a CSV whose header has a ``joint`` column."""
+    if data.is_dir():
+        return not (data / "metadata.yaml").exists()
+    if data.suffix.lower() == ".json":
+        return True
+    from ..io.delimited import rows  # noqa: PLC0415
+    from ..io.text import decode, read_bytes  # noqa: PLC0415
+
+    head = read_bytes(data, "sweep file")[:65536]
+    try:
+        lines = decode(head, str(data)).splitlines()
+    except Exception:  # noqa: BLE001 (a binary bag, or UTF-8 cut mid-character by the 64 kB window: not ours)
+        return False
+    found, _ = rows(lines[:50])
+    return bool(found) and "joint" in [c.lower() for c in found[0][1]]
+
+
+def read_recording_sweeps(data: Path, data_format: str, *, columns, sweep, target: int, readings, length, angle, home, direction, nominal):
+    """A recording (tracker export, controller log, ROS bag, delimited file) as sweeps: read, aligned with a
+    second clock's readings if given, segmented, one target picked; the format, alignment and segmentation
+    are printed as found."""
+    from ..io.recordings import read_recording  # noqa: PLC0415
+    from ..recording import align, segment, to_sweepset  # noqa: PLC0415
+
+    fmt_ = "auto" if data_format in ("auto", "sweeps") else data_format
+    kinds = list(nominal.table.kinds) if nominal else None
+    rec = read_recording(data, fmt_, columns=columns, length=length, angle=angle, sweep=sweep, kinds=kinds)
+    for note in rec.notes:
+        say("dim", "note:", f" {note}")
+    if readings is not None:
+        other = read_recording(readings, "auto", columns=columns, length=length, angle=angle, kinds=kinds)
+        rec, al = align(rec, other)
+        say("dim", "clocks:", f" {al}")
+    seg = segment(rec)
+    console.print(seg.table(), soft_wrap=True)
+    if home is not None:
+        from ..io.units import joint_scale  # noqa: PLC0415
+
+        n = seg.n_joints
+        home = np.asarray(home, dtype=float) * joint_scale(kinds or ["revolute"] * n, length or "mm", angle or "deg", "--home")
+    return to_sweepset(rec, seg, target=target - 1, home=home, kinds=kinds, direction=(direction if direction is None or len(direction) > 1 else direction[0]) or 1)
 
 
 def print_identification(doc: dict, result, length: str) -> None:
