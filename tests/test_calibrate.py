@@ -556,3 +556,24 @@ def test_cli_calibrate_reads_prismatic_readings_in_the_length_unit(tmp_path):
     assert p.returncode == 0, p.stderr
     doc = json.loads(out.read_text())
     assert doc["validation"]["after_rms"] < 3 * NOISE * 1e3 * np.sqrt(3), doc["validation"]  # mm: the noise, not a unit error
+
+
+def test_bad_noise_and_a_fit_that_explains_nothing(kr5, tmp_path):
+    """--noise 0 had raised ZeroDivisionError, nan 'converged' with 'noise estimate nan', a negative noise was
+    taken; degrees read as radians gave rms 814 mm with no word. Now: one-line errors, and a note."""
+    q = cal.configurations(kr5, 40)
+    meas = cal.simulate(kr5, q, tool=TOOL, noise=NOISE)
+    f = tmp_path / "m.csv"
+    f.write_text(to_csv(meas, "mm", "deg"))
+    for bad in ("0", "nan", "-1", "inf"):
+        p = subprocess.run([sys.executable, "-m", "denavit.cli", "calibrate", str(f), "--nominal", "kr5", "--tool", "50,30,100", "--noise", bad],
+                           capture_output=True, text=True, env=cli_env(160))
+        assert p.returncode == 2 and "--noise: expected the known one-sigma point noise, a finite value > 0 in mm" in p.stderr, p.stderr
+    with pytest.raises(dv.DenavitError, match="noise: expected the known one-sigma noise"):
+        cal.calibrate(meas, kr5, tool=TOOL, noise=float("nan"))
+    wrong = cal.Measurements(np.degrees(meas.q), meas.points, None, "degrees read as radians")
+    res = cal.calibrate(wrong, kr5, tool=TOOL, holdout=0)
+    assert res.notes[0].startswith("the fit explains little of the data: rms")
+    res = cal.calibrate(meas, kr5, tool=TOOL, noise=NOISE / 100, holdout=0)
+    assert "x what the declared noise" in res.notes[0]
+    assert not any("explains" in n for n in cal.calibrate(meas, kr5, tool=TOOL, noise=NOISE, holdout=0).notes)

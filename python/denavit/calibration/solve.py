@@ -190,6 +190,9 @@ def calibrate(
         raise DenavitError(f"holdout: expected a fraction in [0, 0.9), got {holdout}")
     if start not in ("nominal", "circles"):
         raise DenavitError(f"start: expected 'nominal' or 'circles', got {start!r}")
+    for what, v, unit in (("noise", noise, "m"), ("noise_rot", noise_rot, "rad")):
+        if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise DenavitError(f"{what}: expected the known one-sigma noise, a finite value > 0 ({unit}), got {v!r}")
     notes: list[str] = []
     pz = parametrize(robot, convention, measure=meas.kind, tool=tool, scale=scale)
     x = pz.x0.copy()
@@ -311,9 +314,15 @@ def calibrate(
         after = np.linalg.norm(residuals(pz, x_hat, test, np.ones(6), jacobian=False)[2][:, :3, 3] - test.points, axis=1)
         validation = Validation(train.n, test.n, float(np.sqrt(np.mean(before**2))), float(before.max()), float(np.sqrt(np.mean(after**2))), float(after.max()), test_idx)
     # notes
+    size = max(float(np.max(np.linalg.norm(meas.points - meas.points.mean(axis=0), axis=1))), 1e-3)
+    if rms > 0.01 * size:
+        notes.insert(0, f"the fit explains little of the data: rms {rms * 1e3:.4g} mm against a measured volume of {size * 1e3:.4g} mm radius "
+                        "(are the joint readings in the units declared, the joints in the nominal's order, the nominal the right robot?)")
+    elif noise is not None and rms > 10 * noise * math.sqrt(3):
+        notes.insert(0, f"the residual (rms {rms * 1e3:.4g} mm) is {rms / (noise * math.sqrt(3)):.3g} x what the declared noise ({noise * 1e3:.3g} mm per "
+                        "coordinate) explains: the model or the data has errors the noise does not cover")
     if not converged:
         notes.append(f"the least-squares solver stopped without meeting its tolerances ({sol.message})")
-    size = max(float(np.max(np.linalg.norm(meas.points - meas.points.mean(axis=0), axis=1))), 1e-3)
     lengths = [c for c in free if pz.units[c] == "length" and not pz.names[c].startswith("base_")]
     far = [pz.names[c] for c in lengths if abs(x_hat[c] - pz.x0[c]) > 10 * size]
     if far:

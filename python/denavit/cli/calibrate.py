@@ -46,6 +46,8 @@ def calibrate(
         tp = np.array(parse_numbers(tool, "--tool")) * ls
         if tp.shape != (3,):
             fail(f"--tool: expected 3 values (x, y, z), got {tp.size}")
+    if noise is not None and not (np.isfinite(noise) and noise > 0):
+        fail(f"--noise: expected the known one-sigma point noise, a finite value > 0 in {length}, got {noise}")
     fixes = [f.strip() for f in (fix or "").split(",") if f.strip()]
     with console.status(f"calibrating {robot.name} ({convention}) from {meas.n} {'poses' if meas.kind == 'pose' else 'points'}..."):
         res = cal.calibrate(meas, robot, convention=convention, fix=fixes, loss=loss, start=start, holdout=holdout, scale=scale, tool=tp,
