@@ -284,3 +284,16 @@ def test_simulate_to_stdout_keeps_the_csv_clean():
     lines = p.stdout.splitlines()
     assert lines[1] == "# units: length=mm angle=deg" and lines[2].startswith("joint,q1") and len(lines) == 3 + 18
     assert "wrote -" in p.stderr
+
+
+def test_json_outputs_are_strict_and_tables_show_nan():
+    """Bare NaN is not JSON: every JSON output goes through io.output.json_text (NaN, inf -> null, numpy values
+    plain); a NaN cell prints as 'nan', not 0.000000."""
+    import numpy as np
+
+    from denavit.cli.common import fmt
+    from denavit.io.output import json_text
+
+    doc = json.loads(json_text({"a": float("nan"), "b": [1.0, float("inf"), np.float64(2.5)], "c": np.array([[np.nan, 1.0]]), "d": "x"}))
+    assert doc == {"a": None, "b": [1.0, None, 2.5], "c": [[None, 1.0]], "d": "x"}
+    assert fmt(float("nan")) == "nan" and fmt(-1e-15) == "0.000000" and fmt(1.5, 2) == "1.50"

@@ -12,7 +12,6 @@ when first asked for).
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -25,7 +24,7 @@ from .errors import DegenerateError, DenavitError
 from .fitting import AxisFit, BoundingBox, fit_axis, oriented_bounding_box
 from .fitting.robust import flag_outliers, irls, rms_spread, weighted_cov
 from .geometry import axis_angle_matrices, perpendicular_basis
-from .io.output import write_text
+from .io.output import json_text, write_text
 from .io.units import cell_scale, joint_scale, length_scale
 from .robot import Robot
 from .sweeps import SweepSet
@@ -436,7 +435,7 @@ def _pose_json(T: np.ndarray, ls: float) -> list:
 
 def write_json(result: Identification, path, length: str | None = None, angle: str = "deg", *, box: bool = True) -> None:
     """Write the result as JSON (whole or not at all); ``box`` as in :func:`to_json`."""
-    write_text(path, json.dumps(to_json(result, length, angle, box=box), indent=2) + "\n")
+    write_text(path, json_text(to_json(result, length, angle, box=box)))
 
 
 __all__ = ["Identification", "METHODS", "identify", "to_json", "write_json", "DegenerateError"]

@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from dataclasses import dataclass, field
@@ -13,7 +12,7 @@ import numpy as np
 from .. import _core
 from ..errors import DenavitError
 from ..fitting.robust import loss_weight
-from ..io.output import write_text
+from ..io.output import json_text, write_text
 from ..io.units import angle_scale, joint_scale, length_scale
 from ..robot import Robot
 from ..sweeps import SweepSet
@@ -426,4 +425,4 @@ def _pose_json(T: np.ndarray, ls: float) -> list:
 
 def write_json(cal: Calibration, path, length: str = "mm", angle: str = "deg") -> None:
     """Write the calibration as JSON (whole or not at all)."""
-    write_text(path, json.dumps(to_json(cal, length, angle), indent=2) + "\n")
+    write_text(path, json_text(to_json(cal, length, angle)))

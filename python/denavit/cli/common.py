@@ -134,6 +134,9 @@ def pose_rows(T: np.ndarray, ls: float) -> list[list[float]]:
 
 
 def fmt(v: float, nd: int = 6) -> str:
+    """A table cell: ``nd`` decimals, "nan" for NaN (never 0.000000), -0 shown as 0."""
+    if v != v:
+        return "nan"
     return f"{v:.{nd}f}" if abs(v) >= 1e-12 else f"{0.0:.{nd}f}"
 
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from typing import Annotated
 
 import typer
@@ -64,9 +63,9 @@ def compensate(
                "residual_max": float(c.residual[c.ok].max()) / ls if c.ok.any() else None,
                "flagged_rows": [{"where": w, "why": why} for w, why in flagged]}
     if json_out:
-        from ..io.output import write_text  # noqa: PLC0415
+        from ..io.output import json_text, write_text  # noqa: PLC0415
 
-        write_text(json_out, json.dumps(summary, indent=2) + "\n")
+        write_text(json_out, json_text(summary))
         if json_out != "-":
             wrote(json_out)
     if json_out != "-" and output != "-":

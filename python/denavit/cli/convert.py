@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import json
 from pathlib import Path
 from typing import Annotated
 
@@ -13,6 +12,7 @@ from rich.table import Table as RichTable
 
 from .. import _core
 from ..errors import DenavitError
+from ..io.output import json_text
 from ..io.units import length_scale
 from ..robot import Robot, inertials_for_table, load
 from .common import JsonOpt, ModelArg, app, console, fail, fmt, print_table, say, table_rows, wrote
@@ -68,10 +68,10 @@ def convert(
         return
     ls = length_scale(length)
     if json_out:
-        print(json.dumps({"model": robot.name, "convention": to, "units": {"length": length, "angle": angle},
+        print(json_text({"model": robot.name, "convention": to, "units": {"length": length, "angle": angle},
                           "rows": [{"joint": n, **r} for n, r in zip(robot.names, table_rows(ex.table, length, angle))],
                           "pairs": [{"joint": p.joint, "relation": p.relation, "angle_rad": p.angle, "distance_m": p.distance, "hayati_beta_rad": p.hayati_beta} for p in ex.pairs],
-                          "max_tool_position_error_m": ex.max_position_error, "max_tool_rotation_error_rad": ex.max_rotation_error}, indent=2))
+                          "max_tool_position_error_m": ex.max_position_error, "max_tool_rotation_error_rad": ex.max_rotation_error}), end="")
         return
     print_table(ex.table, robot.names, length, angle, f"{robot.name} in {to}")
     pt = RichTable(title="Consecutive axes")

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import json
 from typing import Annotated
 
 import typer
 from rich.table import Table as RichTable
 
 from .. import _core
+from ..io.output import json_text
 from ..robot import load
 from .common import JsonOpt, ModelArg, app, console, fail, fmt, joint_values_out, parse_joint_values, parse_numbers, say
 
@@ -53,7 +53,7 @@ def dynamics(
         }
         if warning:
             doc["warning"] = warning
-        print(json.dumps(doc, indent=2))
+        print(json_text(doc), end="")
         return
     if warning:
         say("bold yellow", "warning:", f" {warning}", err=True)

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import json
 from typing import Annotated
 
 import typer
 from rich.table import Table as RichTable
 
 from .. import _core
+from ..io.output import json_text
 from ..io.units import length_scale
 from ..robot import load
 from .common import JsonOpt, ModelArg, app, console, fmt, joint_values_out, parse_joint_values, pose_rows, say
@@ -31,8 +31,8 @@ def fk(
     T = _core.fk(m, qv)
     frames = _core.joint_frames(m, qv)
     if json_out:
-        print(json.dumps({"model": robot.name, "units": {"length": unit, "angle": angle}, "q": joint_values_out(qv, robot, unit, angle),
-                          "T_world_tool": pose_rows(T, ls), "T_world_joint": {n: pose_rows(F, ls) for n, F in zip(robot.names, frames)}}, indent=2))
+        print(json_text({"model": robot.name, "units": {"length": unit, "angle": angle}, "q": joint_values_out(qv, robot, unit, angle),
+                          "T_world_tool": pose_rows(T, ls), "T_world_joint": {n: pose_rows(F, ls) for n, F in zip(robot.names, frames)}}), end="")
         return
     say("bold", robot.name, f" ({robot.description}) — lengths in {unit}")
     t = RichTable(title="T_world_tool")

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from typing import Annotated
 
 import typer
@@ -10,6 +9,7 @@ from rich.table import Table as RichTable
 from rich.text import Text
 
 from .. import _core
+from ..io.output import json_text
 from ..io.units import joint_unit, length_scale
 from ..robot import load
 from .common import JsonOpt, ModelArg, app, console, fmt, joint_values_out, parse_joint_values, parse_pose, pose_rows
@@ -42,10 +42,10 @@ def ik(
                  restarts=restarts, seed=seed, respect_limits=not no_limits)
     q_out = joint_values_out(r.q, robot, unit, angle)
     if json_out:
-        print(json.dumps({"model": robot.name, "units": {"length": unit, "angle": angle}, "success": r.success,
+        print(json_text({"model": robot.name, "units": {"length": unit, "angle": angle}, "success": r.success,
                           "q": q_out, "iterations": r.iterations, "restarts": r.restarts,
                           "position_error": r.position_error / ls, "rotation_error_rad": r.rotation_error,
-                          "T_world_tool": pose_rows(_core.fk(m, r.q), ls)}, indent=2))
+                          "T_world_tool": pose_rows(_core.fk(m, r.q), ls)}), end="")
     else:
         verdict = ("solved", "bold green") if r.success else ("not solved", "bold red")
         console.print(Text.assemble((robot.name, "bold"), " — ", verdict, f": position error {r.position_error / ls:.3e} {unit}, "

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Annotated
 
@@ -11,6 +10,7 @@ import typer
 from rich.table import Table as RichTable
 
 from ..io.configurations import read_configurations
+from ..io.output import json_text
 from ..io.units import length_scale
 from ..robot import load
 from .common import JsonOpt, ModelArg, app, calib_unit, console, convention_name, fail, parse_joint_values, parse_numbers, parse_ranges, say
@@ -70,7 +70,7 @@ def plan(
                "identifiability": {"rank": p.identifiability.rank, "condition_number": p.identifiability.condition_number, "observability": p.identifiability.observability,
                                    "unidentifiable": [{"name": u.name, "structural": u.structural, "reason": u.reason} for u in p.identifiability.unidentifiable]},
                "selected": None if p.selected is None else p.selected.tolist()}
-        print(json.dumps(doc, indent=2))
+        print(json_text(doc), end="")
         return
     what = f"{len(p.q)} poses" + (f" ({select} selected of the candidates)" if select else "") if protocol is None else f"sweeps of {points} points"
     say("bold", f"Plan for {robot.name}", f" ({pz.convention}): {what}, noise {noise} {length} per coordinate")

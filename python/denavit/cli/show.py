@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Annotated
 
 import typer
 from rich.table import Table as RichTable
 
+from ..io.output import json_text
 from ..robot import builtin_names, load
 from .common import JsonOpt, ModelArg, app, console, parse_joint_values, print_table, wrote
 
@@ -21,7 +21,7 @@ def models(json_out: JsonOpt = False) -> None:
         r = load(name)
         rows.append({"name": name, "convention": r.convention, "joints": len(r.names), "description": r.description, "source": r.source})
     if json_out:
-        print(json.dumps(rows, indent=2))
+        print(json_text(rows), end="")
         return
     t = RichTable(title="Built-in robots")
     for c in ("name", "convention", "joints", "description"):
