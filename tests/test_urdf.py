@@ -705,8 +705,10 @@ def test_convert_cli_prints_tables_and_writes_urdf(tmp_path):
     assert r.exit_code == 0 and "<robot" in r.output and "camera" not in r.output
     r = runner.invoke(app, ["convert", str(DATA / "two_tips.urdf"), "--to", "dh", "--base-link", "link_1", "--tip-link", "tool0", "--json"])
     assert r.exit_code == 0 and len(json.loads(r.output)["rows"]) == 1
-    r = runner.invoke(app, ["convert", str(DATA / "two_tips.urdf"), "--to", "dh"])
-    assert r.exit_code != 0 and "'camera', 'tool0'" in str(r.exception)
+    # without --tip-link, REP-199's tool0 is the tip (the camera hangs off the arm), and the choice is said
+    r = runner.invoke(app, ["convert", str(DATA / "two_tips.urdf"), "--to", "dh", "--json"])
+    assert r.exit_code == 0 and len(json.loads(r.output[r.output.index("{"):])["rows"]) == 2
+    assert dv.load_robot(DATA / "two_tips.urdf").notes == ["two_tips.urdf: tip link 'tool0' (REP-199) of 2 leaves; choose another with tip_link (CLI: --tip-link)"]
 
 
 # --------------------------------------------------------------------------------------------------
@@ -716,7 +718,7 @@ def test_convert_cli_prints_tables_and_writes_urdf(tmp_path):
 @pytest.mark.parametrize("name, match", [
     ("malformed_xml.urdf", r"malformed_xml.urdf: malformed XML at line 10.*child line 7 and joint"),
     ("missing_link.urdf", r"missing_link.urdf: joint 'j2' \(line 12\): child link 'link_2' is not defined \(links: base_link, link_1\)"),
-    ("two_tips.urdf", r"two_tips.urdf: the tree below 'base_link' has 2 tip links \('camera', 'tool0'\).*tip_link"),
+    ("two_arms.urdf", r"two_arms.urdf: the tree below 'base_link' has 2 tip links \('left' \(1 moving joints\), 'right' \(1 moving joints\)\).*tip_link"),
     ("floating_joint.urdf", r"floating_joint.urdf: joint 'free_base' \(line 7\) is a floating joint, which is not supported"),
     ("zero_axis.urdf", r"zero_axis.urdf: joint 'j2' \(line 13\): axis xyz=\"0 0 0\" has zero length"),
 ])
@@ -801,3 +803,25 @@ def test_cli_identify_urdf_writes_the_exact_geometry_with_the_nominals_meshes(tm
     exported = dv.fk_batch(U.urdf_model(out), qs)
     assert np.abs(exported - dv.fk_batch(res.model(convention="edh"), qs)).max() < 1e-12
     assert np.abs(exported[:, :3, 3] - dv.fk_batch(res.model(), qs)[:, :3, 3]).max() > 1e-7  # what the DH table would have written
+
+
+def test_every_command_picks_the_chain():
+    """--base-link/--tip-link wherever a MODEL is read, and the default tip said in one line (it was a
+    message recommending an option only convert had); load_model(path, tip_link=...) (was a TypeError)."""
+    from cli import run
+
+    f = DATA / "two_tips.urdf"
+    m = dv.load_model(f, tip_link="camera")
+    assert m.nq == 1 and dv.load_model(f).nq == 2
+    for args in (["fk", f, "--q", "0.1,0.2"], ["show", f], ["export", f], ["dynamics", f, "--q", "0,0", "--qd", "0,0", "--qdd", "0,0"],
+                 ["ik", f, "--pose", ",".join(map(str, dv.fk(dv.load_model(f), [0.1, 0.2]).ravel()))]):
+        p = run(*args)
+        assert "note: two_tips.urdf: tip link 'tool0' (REP-199)" in p.stderr, args
+        p = run(*args[:2], "--tip-link", "tool0", *args[2:])
+        assert "note:" not in p.stderr
+    p = run("fk", f, "--tip-link", "camera", "--q", "0.1")
+    assert "camera" not in p.stderr and p.returncode == 0
+    p = run("fk", "kr5", "--tip-link", "tool0", "--q", "0,0,0,0,0,0", ok=False)
+    assert p.returncode == 2 and "--base-link/--tip-link apply to a URDF MODEL, got 'kr5'" in p.stderr
+    p = run("fk", DATA / "two_arms.urdf", "--q", "0", ok=False)
+    assert p.returncode == 2 and "choose one with tip_link (CLI: --tip-link)" in p.stderr

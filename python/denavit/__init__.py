@@ -46,9 +46,10 @@ from .robot import load as load_robot
 __version__ = _core.__version__
 
 
-def load_model(name_or_path) -> Model:
-    """The model of a built-in robot name, a robot file (.toml) or a URDF."""
-    return load_robot(name_or_path).model()
+def load_model(name_or_path, *, base_link: str | None = None, tip_link: str | None = None) -> Model:
+    """The model of a built-in robot name, a robot file (.toml) or a URDF (``base_link`` / ``tip_link`` pick
+    a URDF's chain; by default its single leaf, REP-199's ``tool0``, or the leaf through the most moving joints)."""
+    return load_robot(name_or_path, base_link=base_link, tip_link=tip_link).model()
 
 
 def to_table(model: Model, convention: str, *, q_ref=None, nominal: Table | None = None, **options) -> Extraction:

@@ -38,6 +38,8 @@ class Robot:
     inertials: dict | None = None
     """Link inertial parameters in frame i of the convention, SI: ``masses`` (n,) kg, ``coms`` (n, 3) m,
     ``inertias`` (n, 3, 3) kg m^2 about each centre of mass (None: massless links)."""
+    notes: list = field(default_factory=list)
+    """What the reader chose on the user's behalf (e.g. a URDF's tip link), one line each, for the user to see."""
 
     @property
     def convention(self) -> str:

@@ -10,8 +10,7 @@ import typer
 from rich.table import Table as RichTable
 
 from ..io.units import length_scale
-from ..robot import load
-from .common import app, calib_unit, console, convention_name, fail, fmt, parse_numbers, say, wrote
+from .common import BaseLinkOpt, TipLinkOpt, app, calib_unit, console, convention_name, fail, fmt, load_robot, parse_numbers, say, wrote
 
 
 @app.command()
@@ -31,12 +30,14 @@ def calibrate(
     length: Annotated[str, typer.Option("--length", help="Length unit of the output (and of the data if not declared in it).")] = "mm",
     angle: Annotated[str, typer.Option("--angle", help="Angle unit of the output (and of the data if not declared in it).")] = "deg",
     seed: Annotated[int, typer.Option("--seed", help="Seed of the held-out split.")] = 0,
+    base_link: BaseLinkOpt = None,
+    tip_link: TipLinkOpt = None,
 ) -> None:
     """Calibrate the whole model from measured points or poses at known joint readings (one least-squares fit)."""
     from .. import calibration as cal  # noqa: PLC0415
     from ..io.measurements import read_measurements  # noqa: PLC0415
 
-    robot = load(nominal)
+    robot = load_robot(nominal, base_link, tip_link, "--nominal")
     convention = convention_name(convention)
     # the reader applies the one units rule (denavit.io.units.input_units): what the file declares wins
     meas = read_measurements(data, kinds=list(robot.table.kinds), length=length, angle=angle)

@@ -36,6 +36,21 @@ err_console = Console(stderr=True, markup=False)
 
 ModelArg = Annotated[str, typer.Argument(help="A built-in name (see `denavit models`), a robot file (.toml) or a URDF.")]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")]
+BaseLinkOpt = Annotated[str | None, typer.Option("--base-link", help="URDF model: the chain's base link (default: the root link).")]
+TipLinkOpt = Annotated[str | None, typer.Option("--tip-link", help="URDF model: the chain's tip link (default: the single leaf, REP-199's tool0, or the leaf through the most moving joints; echoed).")]
+
+
+def load_robot(model: str, base_link: str | None = None, tip_link: str | None = None, what: str = "MODEL") -> Robot:
+    """The robot of a MODEL argument (built-in name, robot file or URDF; ``base_link``/``tip_link`` pick a URDF's
+    chain), with what the reader chose on the user's behalf said in one line each."""
+    from ..robot import load  # noqa: PLC0415
+
+    if (base_link is not None or tip_link is not None) and not str(model).lower().endswith(".urdf"):
+        fail(f"--base-link/--tip-link apply to a URDF {what}, got {model!r}")
+    robot = load(model, base_link=base_link, tip_link=tip_link)
+    for note in robot.notes:
+        say("dim", "note:", f" {note}", err=True)
+    return robot
 
 
 def say(style: str, head: str, rest: str = "", err: bool = False) -> None:

@@ -8,8 +8,7 @@ import typer
 
 from ..errors import DenavitError
 from ..io.units import length_scale
-from ..robot import load
-from .common import app, console, say, wrote
+from .common import BaseLinkOpt, TipLinkOpt, app, console, load_robot, say, wrote
 
 
 @app.command()
@@ -23,6 +22,8 @@ def compensate(
     length: Annotated[str, typer.Option("--length", help="Length unit of the output (and of the targets if they declare none): mm | m | ...")] = "mm",
     angle: Annotated[str, typer.Option("--angle", help="Angle unit of the output (and of the targets if they declare none): deg | rad.")] = "deg",
     json_out: Annotated[str | None, typer.Option("--json", help="Write a JSON summary to this path ('-' for stdout).")] = None,
+    base_link: BaseLinkOpt = None,
+    tip_link: TipLinkOpt = None,
 ) -> None:
     """Compensate a program (RoboDK's "filtering"): for each target, the joint values that reach it on the
     identified robot (on the program's branch) and the pose T' = FK_nominal(q) to send to a controller that keeps
@@ -35,7 +36,9 @@ def compensate(
     from ..io.targets import read_targets, write_compensated  # noqa: PLC0415
     from ..io.units import angle_scale  # noqa: PLC0415
 
-    nom_robot, id_robot = load(nominal), load(identified)
+    nom_robot = load_robot(nominal, base_link, tip_link, "--nominal")
+    id_robot = load_robot(identified, base_link if str(identified).lower().endswith(".urdf") else None,
+                          tip_link if str(identified).lower().endswith(".urdf") else None, "--identified")
     nom, ide = nom_robot.model(), id_robot.model()
     if nom.nq != ide.nq:
         raise DenavitError(f"--identified {identified}: {ide.nq} joints, but the nominal {nom_robot.name} has {nom.nq}")

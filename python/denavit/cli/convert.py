@@ -14,8 +14,8 @@ from .. import _core
 from ..errors import DenavitError
 from ..io.output import json_text
 from ..io.units import length_scale
-from ..robot import Robot, inertials_for_table, load
-from .common import JsonOpt, ModelArg, app, console, fail, fmt, print_table, say, table_rows, wrote
+from ..robot import Robot, inertials_for_table
+from .common import BaseLinkOpt, JsonOpt, ModelArg, TipLinkOpt, app, console, fmt, load_robot, print_table, say, table_rows, wrote
 
 
 @app.command()
@@ -26,8 +26,8 @@ def convert(
     length: Annotated[str, typer.Option("--length", help="Length unit of the output.")] = "mm",
     angle: Annotated[str, typer.Option("--angle", help="Angle unit of the output.")] = "deg",
     parallel_tol: Annotated[float, typer.Option(help="Axes with sin(angle) below this are parallel.")] = 1e-3,
-    base_link: Annotated[str | None, typer.Option("--base-link", help="URDF input: the chain's base link (default: the root link).")] = None,
-    tip_link: Annotated[str | None, typer.Option("--tip-link", help="URDF input: the chain's tip link (default: the single leaf).")] = None,
+    base_link: BaseLinkOpt = None,
+    tip_link: TipLinkOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
     """Express a robot in another convention through its joint axes, with the FK-parity check.
@@ -37,9 +37,7 @@ def convert(
     diagnostics, or write a robot file with ``-o``.
     """
     to = to.lower()
-    if (base_link is not None or tip_link is not None) and not str(model).lower().endswith(".urdf"):
-        fail(f"--base-link/--tip-link apply to a URDF input, got {model!r}")
-    robot = load(model, base_link=base_link, tip_link=tip_link)
+    robot = load_robot(model, base_link, tip_link)
     m = robot.model()
     if to == "urdf":
         from ..io.urdf import dumps_urdf, save_urdf  # noqa: PLC0415

@@ -9,8 +9,7 @@ from rich.table import Table as RichTable
 
 from .. import _core
 from ..io.output import json_text
-from ..robot import load
-from .common import JsonOpt, ModelArg, app, console, fail, fmt, joint_values_out, parse_joint_values, parse_numbers, say
+from .common import BaseLinkOpt, JsonOpt, ModelArg, TipLinkOpt, app, console, fail, fmt, joint_values_out, load_robot, parse_joint_values, parse_numbers, say
 
 
 @app.command()
@@ -24,13 +23,15 @@ def dynamics(
     gravity: Annotated[str, typer.Option("--gravity", help="Gravity in world, m/s^2.")] = "0,0,-9.81",
     f_ext: Annotated[str | None, typer.Option("--f-ext", help="Wrench on the tool by the environment, \"fx,fy,fz,nx,ny,nz\" in N and N m, tool-frame axes, moment about the tool origin.")] = None,
     json_out: JsonOpt = False,
+    base_link: BaseLinkOpt = None,
+    tip_link: TipLinkOpt = None,
 ) -> None:
     """Inverse dynamics (recursive Newton-Euler): the joint torques (N m) / forces (N) for q, qd, qdd.
 
     Uses the link inertias of the robot file (\\[joints.inertia]); without them every link is massless and a
     warning says so. Also prints the gravity part of the torques.
     """
-    robot = load(model)
+    robot = load_robot(model, base_link, tip_link)
     m = robot.model()
     angle = "deg" if deg else "rad"
     qv, qdv, qddv = (parse_joint_values(t, what, robot, unit, angle) for t, what in ((q, "--q"), (qd, "--qd"), (qdd, "--qdd")))

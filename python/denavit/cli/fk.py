@@ -10,8 +10,7 @@ from rich.table import Table as RichTable
 from .. import _core
 from ..io.output import json_text
 from ..io.units import length_scale
-from ..robot import load
-from .common import JsonOpt, ModelArg, app, console, fmt, joint_values_out, parse_joint_values, pose_rows, say
+from .common import BaseLinkOpt, JsonOpt, ModelArg, TipLinkOpt, app, console, fmt, joint_values_out, load_robot, parse_joint_values, pose_rows, say
 
 
 @app.command()
@@ -21,9 +20,11 @@ def fk(
     deg: Annotated[bool, typer.Option("--deg", help="Revolute joint values in degrees (default radians).")] = False,
     unit: Annotated[str, typer.Option("--unit", help="Length unit of the output and of prismatic values: m, mm, ...")] = "m",
     json_out: JsonOpt = False,
+    base_link: BaseLinkOpt = None,
+    tip_link: TipLinkOpt = None,
 ) -> None:
     """Forward kinematics: the tool pose and every joint frame (T_world_joint)."""
-    robot = load(model)
+    robot = load_robot(model, base_link, tip_link)
     m = robot.model()
     angle = "deg" if deg else "rad"
     qv = parse_joint_values(q, "--q", robot, unit, angle)

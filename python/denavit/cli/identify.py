@@ -10,8 +10,8 @@ import typer
 from rich.table import Table as RichTable
 
 from ..io.units import cell_scale, length_scale
-from ..robot import Robot, load
-from .common import app, console, convention_name, fail, fmt, parse_numbers, parse_pose, say, wrote
+from ..robot import Robot
+from .common import BaseLinkOpt, TipLinkOpt, app, console, convention_name, fail, fmt, load_robot, parse_numbers, parse_pose, say, wrote
 
 EXAMPLES = {"kr5": "kr5_90deg.csv", "kr5-90": "kr5_90deg.csv", "kr5-30": "kr5_30deg.csv"}
 
@@ -49,6 +49,8 @@ def identify(
     sweep: Annotated[str | None, typer.Option("--sweep", help="Tracker export: where each point's sweep comes from: 'group' or a point-name pattern such as 'J{joint}_{index}'.")] = None,
     target: Annotated[int, typer.Option("--target", help="Recordings with several targets per pose (SMRs on a nest): which one, 1-based.")] = 1,
     readings: Annotated[Path | None, typer.Option("--readings", help="A second recording with the joint readings on another clock (e.g. a controller log beside a tracker export): aligned from the motion.")] = None,
+    base_link: BaseLinkOpt = None,
+    tip_link: TipLinkOpt = None,
 ) -> None:
     """Identify the joint axes and parameters from joint sweeps (Hayat et al.), beside the nominal values."""
     from .. import identify as ident  # noqa: PLC0415
@@ -60,7 +62,7 @@ def identify(
     if data is None:
         fail("give the sweep data (a file or folder) or --example kr5")
     convention = convention_name(convention)
-    nom = load(nominal) if nominal else None
+    nom = load_robot(nominal, base_link, tip_link, "--nominal") if nominal else None
     kinds = list(nom.table.kinds) if nom else None
     with console.status("reading sweeps..."):
         if data_format not in ("auto", "sweeps") or readings is not None or (data_format == "auto" and not _is_sweep_file(data)):

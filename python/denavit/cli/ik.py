@@ -11,8 +11,7 @@ from rich.text import Text
 from .. import _core
 from ..io.output import json_text
 from ..io.units import joint_unit, length_scale
-from ..robot import load
-from .common import JsonOpt, ModelArg, app, console, fmt, joint_values_out, parse_joint_values, parse_pose, pose_rows
+from .common import BaseLinkOpt, JsonOpt, ModelArg, TipLinkOpt, app, console, fmt, joint_values_out, load_robot, parse_joint_values, parse_pose, pose_rows
 
 
 @app.command()
@@ -29,10 +28,12 @@ def ik(
     seed: Annotated[int, typer.Option("--seed")] = 0,
     no_limits: Annotated[bool, typer.Option("--no-limits", help="Ignore the joint limits.")] = False,
     json_out: JsonOpt = False,
+    base_link: BaseLinkOpt = None,
+    tip_link: TipLinkOpt = None,
 ) -> None:
     """Inverse kinematics: joint values that put the tool at --pose. Success is judged from the measured final
     error against the tolerances; exit code 1 when the target is not met (the residual is printed)."""
-    robot = load(model)
+    robot = load_robot(model, base_link, tip_link)
     m = robot.model()
     angle = "deg" if deg else "rad"
     ls = length_scale(unit)

@@ -12,8 +12,7 @@ from rich.table import Table as RichTable
 from ..io.configurations import read_configurations
 from ..io.output import json_text
 from ..io.units import length_scale
-from ..robot import load
-from .common import JsonOpt, ModelArg, app, calib_unit, console, convention_name, fail, parse_joint_values, parse_numbers, parse_ranges, say
+from .common import BaseLinkOpt, JsonOpt, ModelArg, TipLinkOpt, app, calib_unit, console, convention_name, fail, load_robot, parse_joint_values, parse_numbers, parse_ranges, say
 
 
 @app.command()
@@ -32,11 +31,13 @@ def plan(
     length: Annotated[str, typer.Option("--length")] = "mm",
     angle: Annotated[str, typer.Option("--angle")] = "deg",
     json_out: JsonOpt = False,
+    base_link: BaseLinkOpt = None,
+    tip_link: TipLinkOpt = None,
 ) -> None:
     """Predict every parameter's sigma (Cramer-Rao bound) and the measuring volume of a protocol, before measuring."""
     from .. import calibration as cal  # noqa: PLC0415
 
-    robot = load(model)
+    robot = load_robot(model, base_link, tip_link)
     n = len(robot.names)
     ls = length_scale(length)
     convention = convention_name(convention)

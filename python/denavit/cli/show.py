@@ -10,7 +10,7 @@ from rich.table import Table as RichTable
 
 from ..io.output import json_text
 from ..robot import builtin_names, load
-from .common import JsonOpt, ModelArg, app, console, parse_joint_values, print_table, wrote
+from .common import BaseLinkOpt, JsonOpt, ModelArg, TipLinkOpt, app, console, load_robot, parse_joint_values, print_table, wrote
 
 
 @app.command()
@@ -41,9 +41,11 @@ def show(
     compare: Annotated[str | None, typer.Option("--compare", help="Drawn beside the robot in --report/--plot: a convention (dh|mdh|edh|poe) or another robot (built-in name or file). Default edh (mdh for an ED-H robot).")] = None,
     q: Annotated[str | None, typer.Option("--q", help="Configuration drawn in --report/--plot, one value per joint (default: the file's home, else zeros).")] = None,
     deg: Annotated[bool, typer.Option("--deg", help="--q revolute values in degrees (default radians); prismatic values in --length.")] = False,
+    base_link: BaseLinkOpt = None,
+    tip_link: TipLinkOpt = None,
 ) -> None:
     """Print a robot file's table as read (with units); optionally draw its frames beside another convention's."""
-    robot = load(model)
+    robot = load_robot(model, base_link, tip_link)
     print_table(robot.table, robot.names, length, angle, f"{robot.name} ({robot.convention}) — {robot.source}")
     if report or plot:
         from .. import report as rep  # noqa: PLC0415
@@ -58,8 +60,8 @@ def show(
 
 
 @app.command(name="export")
-def export_cmd(model: ModelArg, length: str = "mm", angle: str = "deg") -> None:
+def export_cmd(model: ModelArg, length: str = "mm", angle: str = "deg", base_link: BaseLinkOpt = None, tip_link: TipLinkOpt = None) -> None:
     """Print a robot file (TOML) in the given units."""
     from ..io.robotfile import dumps  # noqa: PLC0415
 
-    print(dumps(load(model), length, angle), end="")
+    print(dumps(load_robot(model, base_link, tip_link), length, angle), end="")

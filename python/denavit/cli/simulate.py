@@ -9,8 +9,7 @@ import numpy as np
 import typer
 
 from ..io.units import angle_scale, length_scale
-from ..robot import load
-from .common import ModelArg, app, fail, parse_joint_values, parse_numbers, parse_ranges, wrote
+from .common import BaseLinkOpt, ModelArg, TipLinkOpt, app, fail, load_robot, parse_joint_values, parse_numbers, parse_ranges, wrote
 
 
 @app.command()
@@ -26,13 +25,15 @@ def simulate(
     seed: Annotated[int, typer.Option("--seed")] = 0,
     length: Annotated[str, typer.Option("--length")] = "mm",
     angle: Annotated[str, typer.Option("--angle")] = "deg",
+    base_link: BaseLinkOpt = None,
+    tip_link: TipLinkOpt = None,
 ) -> None:
     """Simulate joint sweeps of a model (for planning a measurement and for tests); writes the long-form CSV."""
     from .. import sweeps as sw  # noqa: PLC0415
     from ..io.output import write_text  # noqa: PLC0415
     from ..io.sweeps import to_long_csv  # noqa: PLC0415
 
-    robot = load(model)
+    robot = load_robot(model, base_link, tip_link)
     m = robot.model()
     ls, as_ = length_scale(length), angle_scale(angle)
     h = parse_joint_values(home, "--home", robot, length, angle, default=robot.home)

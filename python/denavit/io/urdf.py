@@ -156,6 +156,8 @@ class UrdfChain:
     T_flange_tool: np.ndarray
     axes_local: np.ndarray
     extra: dict
+    chosen: str = ""
+    """How the tip link was chosen when none was given (empty when there was a single leaf)."""
 
     def model(self) -> _core.Model:
         """The exact model: ``T_world_joint[i] = L_i · R_a_i`` for every moving joint."""
@@ -360,12 +362,9 @@ def _select_chain(urdf: yourdfpy.URDF, where: _Where, base_link: str | None, tip
         seen.add(ln)
         below.append(ln)
         stack.extend(j.child for j in children[ln])
+    chosen = ""
     if tip_link is None:
-        leaves = [ln for ln in below if not children[ln]]
-        if len(leaves) != 1:
-            raise DenavitError(f"{path}: the tree below {base_link!r} has {len(leaves)} tip links ({names(sorted(leaves))}): "
-                               "a serial chain needs one; choose one with tip_link (CLI: --tip-link)")
-        tip_link = leaves[0]
+        tip_link, chosen = _default_tip(path, base_link, below, children, parent_of)
     elif tip_link not in links:
         raise DenavitError(f"{path}: tip link {tip_link!r} is not defined (links: {', '.join(sorted(links))})")
     elif tip_link not in seen:
@@ -377,7 +376,40 @@ def _select_chain(urdf: yourdfpy.URDF, where: _Where, base_link: str | None, tip
         chain.append(j)
         ln = j.parent
     chain.reverse()
-    return chain, base_link, tip_link
+    return chain, base_link, tip_link, chosen
+
+
+#: Joint types that move (a chain's degrees of freedom).
+MOVING = ("revolute", "continuous", "prismatic")
+
+
+def _default_tip(path, base_link: str, below: list, children: dict, parent_of: dict) -> tuple[str, str]:
+    """The tip link when none is given, and why (empty when there is a single leaf): REP-199's ``tool0`` when
+    the tree has one (ROS-Industrial descriptions also hang a ``base`` frame, sensors and flanges off the
+    arm), else the leaf reached through the most moving joints (a camera or a ``base`` frame hangs off
+    through fewer); a tie is an error listing the candidates."""
+    leaves = [ln for ln in below if not children[ln]]
+    if len(leaves) == 1:
+        return leaves[0], ""
+    if "tool0" in below:
+        return "tool0", f"tip link 'tool0' (REP-199) of {len(leaves)} leaves; choose another with tip_link (CLI: --tip-link)"
+
+    def moving(ln):
+        count = 0
+        while ln != base_link:
+            j = parent_of[ln]
+            count += (j.type or "").strip() in MOVING
+            ln = j.parent
+        return count
+
+    counts = {ln: moving(ln) for ln in leaves}
+    best = max(counts.values())
+    top = [ln for ln in leaves if counts[ln] == best]
+    if len(top) == 1:
+        return top[0], f"tip link {top[0]!r}, the leaf reached through the most moving joints ({best}) of {len(leaves)} leaves; choose another with tip_link (CLI: --tip-link)"
+    listing = ", ".join(f"{ln!r} ({counts[ln]} moving joints)" for ln in sorted(leaves, key=lambda x: (-counts[x], x)))
+    raise DenavitError(f"{path}: the tree below {base_link!r} has {len(leaves)} tip links ({listing}): "
+                       "a serial chain needs one; choose one with tip_link (CLI: --tip-link)")
 
 
 def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: str | None = None) -> UrdfChain:
@@ -385,7 +417,7 @@ def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: 
     leaf below it). Every error names the file and the element (joint or link, with its line)."""
     urdf, where = _read(path)
     path = where.path
-    chain, base_link, tip_link = _select_chain(urdf, where, base_link, tip_link)
+    chain, base_link, tip_link, chosen = _select_chain(urdf, where, base_link, tip_link)
     links = {l.name: l for l in urdf.robot.links}
     names, kinds, types, placements, lower, upper, axes_local = [], [], [], [], [], [], []
     joint_info, bodies, body_links = [], [[]], [base_link]
@@ -470,7 +502,7 @@ def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: 
     return UrdfChain(
         name=urdf.robot.name, path=str(path), base_link=base_link, tip_link=tip_link, names=names, kinds=kinds, urdf_types=types,
         placements=np.array(placements), lower=np.array(lower), upper=np.array(upper), T_world_base=T_world_base, T_flange_tool=acc,
-        axes_local=np.array(axes_local), extra=extra,
+        axes_local=np.array(axes_local), extra=extra, chosen=chosen,
     )
 
 
@@ -526,6 +558,7 @@ def load_urdf(path: str | os.PathLike, base_link: str | None = None, tip_link: s
         path=ch.path,
         extra={"urdf": ch.extra},
         inertials=inertials,
+        notes=[f"{Path(ch.path).name}: {ch.chosen}"] if ch.chosen else [],
     )
 
 
