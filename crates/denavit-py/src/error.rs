@@ -1,8 +1,9 @@
-//! The one place where core errors become Python exceptions (classes defined in `denavit.errors`).
+//! The one place where core errors become Python exceptions (classes defined in `denavit.errors`): the
+//! exception carries the variant's fields as attributes and `kind`, the variant's name.
 
 use denavit_core::Error;
 use pyo3::prelude::*;
-use pyo3::types::PyType;
+use pyo3::types::{PyDict, PyType};
 
 /// Python exception class `name` from `denavit.errors` (falls back to ValueError).
 fn class<'py>(py: Python<'py>, name: &str) -> Bound<'py, PyType> {
@@ -12,21 +13,94 @@ fn class<'py>(py: Python<'py>, name: &str) -> Bound<'py, PyType> {
         .unwrap_or_else(|_| py.get_type::<pyo3::exceptions::PyValueError>())
 }
 
-/// Convert a core error to the matching Python exception.
-pub fn to_py(e: Error) -> PyErr {
+/// The exception of a core error, its message prefixed with `context` when given; `joint` (1-based) when the
+/// binding knows which joint or link the error is about.
+fn exception(e: &Error, context: Option<&str>, joint: Option<usize>) -> PyErr {
     Python::with_gil(|py| {
-        let name = match &e {
-            Error::NotConverged { .. } => "NotConvergedError",
-            Error::Degenerate { .. } => "DegenerateError",
-            _ => "DenavitError",
+        let fields = PyDict::new(py);
+        let r = (|| -> PyResult<(&str, &str)> {
+            Ok(match e {
+                Error::SizeMismatch { what, expected, got } => {
+                    fields.set_item("what", what)?;
+                    fields.set_item("expected", expected)?;
+                    fields.set_item("got", got)?;
+                    ("SizeMismatch", "DenavitError")
+                }
+                Error::NonFinite { what, index, value } => {
+                    fields.set_item("what", what)?;
+                    fields.set_item("index", index)?;
+                    fields.set_item("value", value)?;
+                    ("NonFinite", "DenavitError")
+                }
+                Error::NotSe3 { what, reason } => {
+                    fields.set_item("what", what)?;
+                    fields.set_item("reason", reason)?;
+                    ("NotSe3", "DenavitError")
+                }
+                Error::InvalidArgument { what, expected, got } => {
+                    fields.set_item("what", what)?;
+                    fields.set_item("expected", expected)?;
+                    fields.set_item("got", got)?;
+                    ("InvalidArgument", "DenavitError")
+                }
+                Error::Degenerate { reason } => {
+                    fields.set_item("reason", reason)?;
+                    ("Degenerate", "DegenerateError")
+                }
+                // the core's `kind` (what kind of name: "convention", "joint kind") is `what` in Python, where
+                // `kind` names the variant
+                Error::UnknownName { kind, got, expected } => {
+                    fields.set_item("what", kind)?;
+                    fields.set_item("got", got)?;
+                    fields.set_item("expected", expected)?;
+                    ("UnknownName", "DenavitError")
+                }
+                Error::NotConverged { iterations, position_error, rotation_error } => {
+                    fields.set_item("iterations", iterations)?;
+                    fields.set_item("position_error", position_error)?;
+                    fields.set_item("rotation_error", rotation_error)?;
+                    ("NotConverged", "NotConvergedError")
+                }
+                _ => ("Other", "DenavitError"),
+            })
+        })();
+        let (kind, name) = match r {
+            Ok(v) => v,
+            Err(err) => return err,
         };
-        PyErr::from_type(class(py, name), e.to_string())
+        let built = (|| -> PyResult<PyErr> {
+            fields.set_item("kind", kind)?;
+            if let Some(j) = joint {
+                fields.set_item("joint", j)?;
+            }
+            let message = match context {
+                Some(c) => format!("{c}: {e}"),
+                None => e.to_string(),
+            };
+            Ok(PyErr::from_value(class(py, name).call((message,), Some(&fields))?))
+        })();
+        built.unwrap_or_else(|err| err)
     })
 }
 
-/// A `DenavitError` with a message.
-pub fn value_error(msg: impl Into<String>) -> PyErr {
-    Python::with_gil(|py| PyErr::from_type(class(py, "DenavitError"), msg.into()))
+/// Convert a core error to the matching Python exception.
+pub fn to_py(e: Error) -> PyErr {
+    exception(&e, None, None)
+}
+
+/// A core error about joint (or link) `joint` (1-based): the message starts with `label joint`.
+pub fn at_joint(e: Error, label: &str, joint: usize) -> PyErr {
+    exception(&e, Some(&format!("{label} {joint}")), Some(joint))
+}
+
+/// A core error whose message already names the joint (or link) `joint` (1-based), when known.
+pub fn of_joint(e: Error, joint: Option<usize>) -> PyErr {
+    exception(&e, None, joint)
+}
+
+/// An `InvalidArgument` error (what was expected, what came).
+pub fn invalid(what: impl Into<String>, expected: impl Into<String>, got: impl Into<String>) -> PyErr {
+    to_py(Error::InvalidArgument { what: what.into(), expected: expected.into(), got: got.into() })
 }
 
 /// `Result<T, core::Error>` -> `PyResult<T>`.
