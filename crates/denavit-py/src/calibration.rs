@@ -112,7 +112,8 @@ impl PyChain {
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
         let a = &self.args;
         let fixed = crate::convert::poses_out(py, a.fixed.iter())?;
-        (py.get_type::<Self>(), (a.axes.clone(), a.params.clone(), a.joints.clone(), fixed, self.inner.n_params(), self.inner.nq(), a.scales.clone())).into_pyobject(py)
+        (py.get_type::<Self>(), (a.axes.clone(), a.params.clone(), a.joints.clone(), fixed, self.inner.n_params(), self.inner.nq(), a.scales.clone()))
+            .into_pyobject(py)
     }
     fn __repr__(&self) -> String {
         format!("CalibrationChain({} factors, {} parameters, {} joints)", self.inner.factors().len(), self.inner.n_params(), self.inner.nq())

@@ -2,16 +2,15 @@
 //! inertias. Single calls read contiguous float64 arrays without copying and reuse a per-thread workspace;
 //! batches release the GIL and use every core.
 
-use crate::convert::{batch_out, check_len, check_shape, opt_vector, out, read, rows, shaped, vector, Rows};
-use crate::error::{at_joint, invalid, of_joint, IntoPy};
+use crate::convert::{batch_out, check_len, check_shape, opt_vector, out, read, rows, vector, Rows};
+use crate::error::{invalid, IntoPy};
 use crate::model::PyModel;
-use denavit_core::dynamics::{self, DynamicsData, Inertia, DEFAULT_GRAVITY};
+use denavit_core::dynamics::{self, DynamicsData, DEFAULT_GRAVITY};
 use denavit_core::Model;
-use nalgebra::{Matrix3, Vector3, Vector6};
+use nalgebra::{Vector3, Vector6};
 use numpy::ndarray::Dim;
 use numpy::{PyArray1, PyArray2, PyArray3};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
 use std::cell::RefCell;
 use std::sync::Arc;
 
@@ -89,7 +88,13 @@ pub fn rnea<'py>(
 /// Bias forces C(q, qd) qd + g(q) (N m / N), shape (n,): rnea with qdd = 0. q, qd : (n,); gravity : (3,) world.
 #[pyfunction]
 #[pyo3(signature = (model, q, qd, gravity=None))]
-pub fn bias_forces<'py>(py: Python<'py>, model: &PyModel, q: &Bound<'py, PyAny>, qd: &Bound<'py, PyAny>, gravity: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+pub fn bias_forces<'py>(
+    py: Python<'py>,
+    model: &PyModel,
+    q: &Bound<'py, PyAny>,
+    qd: &Bound<'py, PyAny>,
+    gravity: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let m = &model.inner;
     let n = m.nq();
     let (q, qd) = (vector("q", q)?, vector("qd", qd)?);
@@ -100,7 +105,12 @@ pub fn bias_forces<'py>(py: Python<'py>, model: &PyModel, q: &Bound<'py, PyAny>,
 /// Gravity torques g(q) (N m / N), shape (n,). q : (n,); gravity : (3,) m/s^2 in world (default [0, 0, -9.81]).
 #[pyfunction]
 #[pyo3(signature = (model, q, gravity=None))]
-pub fn gravity_torques<'py>(py: Python<'py>, model: &PyModel, q: &Bound<'py, PyAny>, gravity: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+pub fn gravity_torques<'py>(
+    py: Python<'py>,
+    model: &PyModel,
+    q: &Bound<'py, PyAny>,
+    gravity: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let m = &model.inner;
     let n = m.nq();
     let q = vector("q", q)?;
@@ -254,7 +264,13 @@ pub fn rnea_batch<'py>(
 /// Batch bias forces: qs, qds (N, n) -> (N, n).
 #[pyfunction]
 #[pyo3(signature = (model, qs, qds, gravity=None))]
-pub fn bias_forces_batch<'py>(py: Python<'py>, model: &PyModel, qs: &Bound<'py, PyAny>, qds: &Bound<'py, PyAny>, gravity: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+pub fn bias_forces_batch<'py>(
+    py: Python<'py>,
+    model: &PyModel,
+    qs: &Bound<'py, PyAny>,
+    qds: &Bound<'py, PyAny>,
+    gravity: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let m: &Model = &model.inner;
     let b = Batch::read(m, qs, &[("qds", qds)])?;
     let g = gravity_of(gravity)?;
@@ -265,7 +281,12 @@ pub fn bias_forces_batch<'py>(py: Python<'py>, model: &PyModel, qs: &Bound<'py, 
 /// Batch gravity torques: qs (N, n) -> (N, n).
 #[pyfunction]
 #[pyo3(signature = (model, qs, gravity=None))]
-pub fn gravity_torques_batch<'py>(py: Python<'py>, model: &PyModel, qs: &Bound<'py, PyAny>, gravity: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+pub fn gravity_torques_batch<'py>(
+    py: Python<'py>,
+    model: &PyModel,
+    qs: &Bound<'py, PyAny>,
+    gravity: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let m: &Model = &model.inner;
     let b = Batch::read(m, qs, &[])?;
     let g = gravity_of(gravity)?;
@@ -311,83 +332,8 @@ pub fn forward_dynamics_batch<'py>(
 }
 
 // ------------------------------------------------------------------------------------------------
-// Link inertias (Model.with_inertias / Model.inertias, defined in model.rs)
+// Link inertias between models (Model.with_inertias / Model.inertias are in model.rs)
 // ------------------------------------------------------------------------------------------------
-
-/// `Model.with_inertias`: masses (n,) kg; coms (n, 3) m; inertias (n, 3, 3) kg m^2 about each centre of
-/// mass (about="com") or about the frame origin (about="origin"); frame="link": each in its joint frame i,
-/// frame="world": in world with the robot at q_ref (default zeros). An error about a link carries `joint`.
-pub fn with_inertias(
-    model: &PyModel,
-    masses: &Bound<'_, PyAny>,
-    coms: &Bound<'_, PyAny>,
-    inertias: &Bound<'_, PyAny>,
-    frame: &str,
-    about: &str,
-    q_ref: Option<&Bound<'_, PyAny>>,
-) -> PyResult<PyModel> {
-    let m = &model.inner;
-    let world = match frame {
-        "link" => false,
-        "world" => true,
-        _ => return Err(invalid("frame", "'link' or 'world'", format!("'{frame}'"))),
-    };
-    if !world && q_ref.is_some() {
-        return Err(invalid("q_ref", "no q_ref with frame='link' (it is used with frame='world')", "a q_ref"));
-    }
-    let mv = vector("masses (kg)", masses)?;
-    let (cv, _) = shaped("coms (centres of mass, m)", coms, &[None, Some(3)])?;
-    let (iv, _) = shaped("inertias (kg m^2)", inertias, &[None, Some(3), Some(3)])?;
-    let link = |i: usize| -> Option<(Vector3<f64>, Matrix3<f64>)> {
-        Some((Vector3::from_row_slice(cv.get(3 * i..3 * i + 3)?), Matrix3::from_row_slice(iv.get(9 * i..9 * i + 9)?)))
-    };
-    let mut list = match about {
-        // the core's checks and messages ("... of link i ..."); the failing link found again for `joint`
-        "com" => dynamics::inertias_from_slices(&mv, &cv, &iv).map_err(|e| {
-            let bad = (0..mv.len()).find(|&i| link(i).is_some_and(|(c, t)| Inertia::new(mv[i], c, t).is_err()));
-            of_joint(e, bad.map(|i| i + 1))
-        })?,
-        "origin" => {
-            check_len("coms (one per link)", mv.len(), cv.len() / 3)?;
-            check_len("inertias (one per link)", mv.len(), iv.len() / 9)?;
-            (0..mv.len())
-                .map(|i| {
-                    let (c, t) = link(i).unwrap_or_default();
-                    Inertia::from_origin(mv[i], c, t).map_err(|e| at_joint(e, "link", i + 1))
-                })
-                .collect::<PyResult<Vec<_>>>()?
-        }
-        _ => return Err(invalid("about", "'com' or 'origin'", format!("'{about}'"))),
-    };
-    if world {
-        let q = opt_vector("q_ref", q_ref)?.unwrap_or_else(|| vec![0.0; m.nq()]);
-        list = dynamics::inertias_in_world(m, &q, &list).py()?;
-    }
-    Ok(PyModel { inner: Arc::new(m.with_inertias(list).py()?) })
-}
-
-/// The link inertias as arrays: masses (n,), coms (n, 3), inertias (n, 3, 3) about each centre of mass,
-/// every link in its joint frame.
-#[allow(clippy::type_complexity)]
-pub fn inertia_arrays<'py>(py: Python<'py>, model: &PyModel) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray2<f64>>, Bound<'py, PyArray3<f64>>)> {
-    let list = model.inner.inertias();
-    let n = list.len();
-    let masses: Vec<f64> = list.iter().map(|i| i.mass()).collect();
-    let coms: Vec<f64> = list.iter().flat_map(|i| i.com().iter().copied().collect::<Vec<_>>()).collect();
-    // row-major 3x3: nalgebra's column-major storage of the transpose
-    let tensors: Vec<f64> = list.iter().flat_map(|i| i.inertia_com().transpose().as_slice().to_vec()).collect();
-    Ok((PyArray1::from_vec(py, masses), out(py, &coms, [n, 3])?, out(py, &tensors, [n, 3, 3])?))
-}
-
-/// `Model.inertias`: dict with "masses" (n,), "coms" (n, 3), "inertias" (n, 3, 3).
-pub fn inertias<'py>(py: Python<'py>, model: &PyModel) -> PyResult<Bound<'py, PyDict>> {
-    let (masses, coms, tensors) = inertia_arrays(py, model)?;
-    let d = PyDict::new(py);
-    d.set_item("masses", masses)?;
-    d.set_item("coms", coms)?;
-    d.set_item("inertias", tensors)?;
-    Ok(d)
-}
 
 /// Re-express the link inertias of `source` in the joint frames of `target` (another model of the same
 /// robot, e.g. its MD-H and ED-H models) and return `target` with them. The joint axes must coincide at

@@ -13,73 +13,60 @@ fn class<'py>(py: Python<'py>, name: &str) -> Bound<'py, PyType> {
         .unwrap_or_else(|_| py.get_type::<pyo3::exceptions::PyValueError>())
 }
 
+/// Set each named variable as an item of the dict, under its own name.
+macro_rules! fields {
+    ($d:expr; $($f:ident),*) => {{
+        $( $d.set_item(stringify!($f), $f)?; )*
+    }};
+}
+
 /// The exception of a core error, its message prefixed with `context` when given; `joint` (1-based) when the
 /// binding knows which joint or link the error is about.
 fn exception(e: &Error, context: Option<&str>, joint: Option<usize>) -> PyErr {
     Python::with_gil(|py| {
-        let fields = PyDict::new(py);
-        let r = (|| -> PyResult<(&str, &str)> {
-            Ok(match e {
+        let built = || -> PyResult<PyErr> {
+            let d = PyDict::new(py);
+            // (variant, Python class); the core's UnknownName `kind` (what kind of name: "convention", "joint
+            // kind") is `what` in Python, where `kind` names the variant
+            let (kind, class_name) = match e {
                 Error::SizeMismatch { what, expected, got } => {
-                    fields.set_item("what", what)?;
-                    fields.set_item("expected", expected)?;
-                    fields.set_item("got", got)?;
+                    fields!(d; what, expected, got);
                     ("SizeMismatch", "DenavitError")
                 }
                 Error::NonFinite { what, index, value } => {
-                    fields.set_item("what", what)?;
-                    fields.set_item("index", index)?;
-                    fields.set_item("value", value)?;
+                    fields!(d; what, index, value);
                     ("NonFinite", "DenavitError")
                 }
                 Error::NotSe3 { what, reason } => {
-                    fields.set_item("what", what)?;
-                    fields.set_item("reason", reason)?;
+                    fields!(d; what, reason);
                     ("NotSe3", "DenavitError")
                 }
                 Error::InvalidArgument { what, expected, got } => {
-                    fields.set_item("what", what)?;
-                    fields.set_item("expected", expected)?;
-                    fields.set_item("got", got)?;
+                    fields!(d; what, expected, got);
                     ("InvalidArgument", "DenavitError")
                 }
                 Error::Degenerate { reason } => {
-                    fields.set_item("reason", reason)?;
+                    fields!(d; reason);
                     ("Degenerate", "DegenerateError")
                 }
-                // the core's `kind` (what kind of name: "convention", "joint kind") is `what` in Python, where
-                // `kind` names the variant
-                Error::UnknownName { kind, got, expected } => {
-                    fields.set_item("what", kind)?;
-                    fields.set_item("got", got)?;
-                    fields.set_item("expected", expected)?;
+                Error::UnknownName { kind: what, got, expected } => {
+                    fields!(d; what, got, expected);
                     ("UnknownName", "DenavitError")
                 }
                 Error::NotConverged { iterations, position_error, rotation_error } => {
-                    fields.set_item("iterations", iterations)?;
-                    fields.set_item("position_error", position_error)?;
-                    fields.set_item("rotation_error", rotation_error)?;
+                    fields!(d; iterations, position_error, rotation_error);
                     ("NotConverged", "NotConvergedError")
                 }
                 _ => ("Other", "DenavitError"),
-            })
-        })();
-        let (kind, name) = match r {
-            Ok(v) => v,
-            Err(err) => return err,
-        };
-        let built = (|| -> PyResult<PyErr> {
-            fields.set_item("kind", kind)?;
-            if let Some(j) = joint {
-                fields.set_item("joint", j)?;
-            }
+            };
+            fields!(d; kind, joint);
             let message = match context {
                 Some(c) => format!("{c}: {e}"),
                 None => e.to_string(),
             };
-            Ok(PyErr::from_value(class(py, name).call((message,), Some(&fields))?))
-        })();
-        built.unwrap_or_else(|err| err)
+            Ok(PyErr::from_value(class(py, class_name).call((message,), Some(&d))?))
+        };
+        built().unwrap_or_else(|err| err)
     })
 }
 

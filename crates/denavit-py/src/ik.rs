@@ -155,7 +155,16 @@ impl PyIkBatchResult {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn options(method: &str, tol_position: f64, tol_rotation: f64, max_iterations: i64, restarts: i64, seed: i64, respect_limits: bool, damping: f64) -> PyResult<IkOptions> {
+fn options(
+    method: &str,
+    tol_position: f64,
+    tol_rotation: f64,
+    max_iterations: i64,
+    restarts: i64,
+    seed: i64,
+    respect_limits: bool,
+    damping: f64,
+) -> PyResult<IkOptions> {
     let method = IkMethod::parse(method).py()?;
     // Python ints to the core's unsigned counts; the core checks the ranges it needs (max_iterations >= 1)
     let count = |what: &str, v: i64| usize::try_from(v).map_err(|_| invalid(what, "an integer >= 0", v.to_string()));

@@ -1,12 +1,12 @@
 //! `Model`, `Table`, `JointAxes` and `Extraction` as Python classes.
 
 use crate::convert::{check_len, opt_pose, opt_vector, out, pose, pose_out, poses, poses_out, shaped, vector, vectors3};
-use crate::error::IntoPy;
-use denavit_core::dynamics::Inertia;
+use crate::error::{at_joint, invalid, of_joint, IntoPy};
+use denavit_core::dynamics::{self, Inertia};
 use denavit_core::extract::{self as core_extract, ExtractOptions};
 use denavit_core::{Convention, Joint, JointKind};
-use nalgebra::DMatrix;
-use numpy::{PyArray2, PyArray3};
+use nalgebra::{DMatrix, Matrix3, Vector3};
+use numpy::{PyArray1, PyArray2, PyArray3};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use std::sync::Arc;
@@ -24,6 +24,19 @@ fn kinds_of(kinds: Option<Vec<String>>, n: usize) -> PyResult<Vec<JointKind>> {
 /// `functools.partial(f, **kwargs)`: how `__reduce__` passes keyword arguments to a constructor.
 fn partial<'py>(f: Bound<'py, PyAny>, kwargs: &Bound<'py, PyDict>) -> PyResult<Bound<'py, PyAny>> {
     f.py().import("functools")?.getattr("partial")?.call((f,), Some(kwargs))
+}
+
+/// The link inertias as arrays: masses (n,), coms (n, 3), inertias (n, 3, 3) about each centre of mass,
+/// every link in its joint frame.
+#[allow(clippy::type_complexity)]
+fn inertia_arrays<'py>(py: Python<'py>, model: &PyModel) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray2<f64>>, Bound<'py, PyArray3<f64>>)> {
+    let list = model.inner.inertias();
+    let n = list.len();
+    let masses: Vec<f64> = list.iter().map(|i| i.mass()).collect();
+    let coms: Vec<f64> = list.iter().flat_map(|i| i.com().iter().copied().collect::<Vec<_>>()).collect();
+    // row-major 3x3: nalgebra's column-major storage of the transpose
+    let tensors: Vec<f64> = list.iter().flat_map(|i| i.inertia_com().transpose().as_slice().to_vec()).collect();
+    Ok((PyArray1::from_vec(py, masses), out(py, &coms, [n, 3])?, out(py, &tensors, [n, 3, 3])?))
 }
 
 /// An immutable serial-chain model (docs/conventions.md, "The model").
@@ -154,22 +167,72 @@ impl PyModel {
     ///
     /// An error about one link says which (``DenavitError.joint``, 1-based).
     #[pyo3(signature = (masses, coms, inertias, frame="link", about="com", q_ref=None))]
-    fn with_inertias(&self, masses: &Bound<'_, PyAny>, coms: &Bound<'_, PyAny>, inertias: &Bound<'_, PyAny>, frame: &str, about: &str, q_ref: Option<&Bound<'_, PyAny>>) -> PyResult<Self> {
-        crate::dynamics::with_inertias(self, masses, coms, inertias, frame, about, q_ref)
+    fn with_inertias(
+        &self,
+        masses: &Bound<'_, PyAny>,
+        coms: &Bound<'_, PyAny>,
+        inertias: &Bound<'_, PyAny>,
+        frame: &str,
+        about: &str,
+        q_ref: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let m = &self.inner;
+        let world = match frame {
+            "link" => false,
+            "world" => true,
+            _ => return Err(invalid("frame", "'link' or 'world'", format!("'{frame}'"))),
+        };
+        if !world && q_ref.is_some() {
+            return Err(invalid("q_ref", "no q_ref with frame='link' (it is used with frame='world')", "a q_ref"));
+        }
+        let mv = vector("masses (kg)", masses)?;
+        let (cv, _) = shaped("coms (centres of mass, m)", coms, &[None, Some(3)])?;
+        let (iv, _) = shaped("inertias (kg m^2)", inertias, &[None, Some(3), Some(3)])?;
+        let link = |i: usize| -> Option<(Vector3<f64>, Matrix3<f64>)> {
+            Some((Vector3::from_row_slice(cv.get(3 * i..3 * i + 3)?), Matrix3::from_row_slice(iv.get(9 * i..9 * i + 9)?)))
+        };
+        let mut list = match about {
+            // the core's checks and messages ("... of link i ..."); the failing link found again for `joint`
+            "com" => dynamics::inertias_from_slices(&mv, &cv, &iv).map_err(|e| {
+                let bad = (0..mv.len()).find(|&i| link(i).is_some_and(|(c, t)| Inertia::new(mv[i], c, t).is_err()));
+                of_joint(e, bad.map(|i| i + 1))
+            })?,
+            "origin" => {
+                check_len("coms (one per link)", mv.len(), cv.len() / 3)?;
+                check_len("inertias (one per link)", mv.len(), iv.len() / 9)?;
+                (0..mv.len())
+                    .map(|i| {
+                        let (c, t) = link(i).unwrap_or_default();
+                        Inertia::from_origin(mv[i], c, t).map_err(|e| at_joint(e, "link", i + 1))
+                    })
+                    .collect::<PyResult<Vec<_>>>()?
+            }
+            _ => return Err(invalid("about", "'com' or 'origin'", format!("'{about}'"))),
+        };
+        if world {
+            let q = opt_vector("q_ref", q_ref)?.unwrap_or_else(|| vec![0.0; m.nq()]);
+            list = dynamics::inertias_in_world(m, &q, &list).py()?;
+        }
+        Ok(Self { inner: Arc::new(m.with_inertias(list).py()?) })
     }
     /// Link inertial parameters: dict with "masses" (n,) kg, "coms" (n, 3) m and "inertias" (n, 3, 3) kg m^2
     /// about each centre of mass, every link in its joint frame; ``model.with_inertias(**model.inertias)``
     /// round-trips.
     #[getter]
     fn inertias<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        crate::dynamics::inertias(py, self)
+        let (masses, coms, tensors) = inertia_arrays(py, self)?;
+        let d = PyDict::new(py);
+        d.set_item("masses", masses)?;
+        d.set_item("coms", coms)?;
+        d.set_item("inertias", tensors)?;
+        Ok(d)
     }
     /// Pickle / copy: `Model.from_placements(...)`, then `with_inertias` when a link has mass or inertia.
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
         let m = &self.inner;
         if m.inertias().iter().any(|i| *i != Inertia::zero()) {
             let bare = Self { inner: Arc::new(denavit_core::Model::new(m.name(), *m.t_world_base(), m.joints().to_vec(), *m.t_flange_tool()).py()?) };
-            let (masses, coms, inertias) = crate::dynamics::inertia_arrays(py, self)?;
+            let (masses, coms, inertias) = inertia_arrays(py, self)?;
             let args = (bare, masses, coms, inertias);
             return (py.get_type::<Self>().getattr("with_inertias")?, args).into_pyobject(py);
         }
@@ -203,7 +266,13 @@ impl PyTable {
     #[new]
     #[pyo3(signature = (convention, params, kinds=None, T_world_base=None, T_last_tool=None))]
     #[allow(non_snake_case)]
-    fn new(convention: &str, params: &Bound<'_, PyAny>, kinds: Option<Vec<String>>, T_world_base: Option<&Bound<'_, PyAny>>, T_last_tool: Option<&Bound<'_, PyAny>>) -> PyResult<Self> {
+    fn new(
+        convention: &str,
+        params: &Bound<'_, PyAny>,
+        kinds: Option<Vec<String>>,
+        T_world_base: Option<&Bound<'_, PyAny>>,
+        T_last_tool: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
         let conv = Convention::parse(convention).py()?;
         let k = conv.columns().len();
         let (v, shape) = shaped(&format!("params of a {} table (columns {})", conv.name(), conv.columns().join(", ")), params, &[None, Some(k)])?;
@@ -400,7 +469,10 @@ impl PyPair {
         (py.get_type::<Self>(), (self.joint, &self.relation, self.angle, self.distance, self.hayati_beta)).into_pyobject(py)
     }
     fn __repr__(&self) -> String {
-        format!("PairDiagnostic(joint={}, relation='{}', angle={:.6e}, distance={:.6e}, hayati_beta={:.3e})", self.joint, self.relation, self.angle, self.distance, self.hayati_beta)
+        format!(
+            "PairDiagnostic(joint={}, relation='{}', angle={:.6e}, distance={:.6e}, hayati_beta={:.3e})",
+            self.joint, self.relation, self.angle, self.distance, self.hayati_beta
+        )
     }
 }
 
@@ -455,7 +527,15 @@ pub fn axes(model: &PyModel, q: &Bound<'_, PyAny>) -> PyResult<PyJointAxes> {
 /// Extract the parameter table of `convention` from joint axes (docs/conventions.md).
 #[pyfunction]
 #[pyo3(signature = (axes, convention, *, parallel_tol=1e-3, intersect_tol=1e-9, max_offset=None, nominal=None, origins=None))]
-pub fn extract(axes: &PyJointAxes, convention: &str, parallel_tol: f64, intersect_tol: f64, max_offset: Option<f64>, nominal: Option<&PyTable>, origins: Option<&Bound<'_, PyAny>>) -> PyResult<PyExtraction> {
+pub fn extract(
+    axes: &PyJointAxes,
+    convention: &str,
+    parallel_tol: f64,
+    intersect_tol: f64,
+    max_offset: Option<f64>,
+    nominal: Option<&PyTable>,
+    origins: Option<&Bound<'_, PyAny>>,
+) -> PyResult<PyExtraction> {
     let conv = Convention::parse(convention).py()?;
     let origins = origins.map(|o| vectors3("origins", o)).transpose()?;
     let opt = ExtractOptions { parallel_tol, intersect_tol, max_offset, nominal: nominal.map(|t| t.inner.clone()), origins };
