@@ -38,8 +38,18 @@ pub fn read(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<(Vec<f64>, Vec<usize
             }
         }
     }
+    converted(what, obj)
+}
+
+/// [`read`] through `numpy.asarray(obj, dtype=float64)`, whatever the layout.
+fn converted(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<(Vec<f64>, Vec<usize>)> {
     let a: ArrayLike<'_> = obj.extract().map_err(|e| invalid(what, "an array-like of floats", format!("{} ({})", describe(obj), e.value(obj.py()))))?;
-    Ok((a.as_array().iter().copied().collect(), a.shape().to_vec()))
+    // as_slice() also succeeds for Fortran-ordered arrays (memory order): only C order is the logical order
+    let v = match a.as_slice() {
+        Ok(v) if a.is_c_contiguous() => v.to_vec(),
+        _ => a.as_array().iter().copied().collect(),
+    };
+    Ok((v, a.shape().to_vec()))
 }
 
 /// Check a shape; `None` entries match any size.
@@ -71,12 +81,15 @@ pub fn shaped(what: &str, obj: &Bound<'_, PyAny>, dims: &[Option<usize>]) -> PyR
 
 /// A 1-D array (its length is checked by the core).
 pub fn vector(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
+    // the per-call hot path (fk, jacobian, rnea of one configuration): a float64 vector copied at once
     if let Ok(a) = obj.downcast::<numpy::PyArray1<f64>>() {
         if let Ok(v) = a.to_vec() {
             return Ok(v);
         }
     }
-    Ok(shaped(what, obj, &[None])?.0)
+    let (v, shape) = converted(what, obj)?;
+    check_shape(what, &shape, &[None])?;
+    Ok(v)
 }
 
 /// [`vector`] of an optional argument, `None` when absent.
