@@ -154,6 +154,11 @@ FIELDS = ("what", "expected", "got", "index", "value", "reason", "iterations", "
     (lambda m: dv.JointAxes(np.zeros((1, 3)), [[0, 0, 0]]), dv.DegenerateError, "Degenerate", {"reason": "direction of axis 1 must be a non-zero direction, got length 0.000e0"}),
     (lambda m: m.with_inertias([1.0, -1.0], np.zeros((2, 3)), np.zeros((2, 3, 3))), dv.DenavitError, "InvalidArgument",
      {"what": "mass of link 2", "expected": "a mass >= 0 kg", "got": "-1 kg", "joint": 2}),
+
+    (lambda m: m.with_inertias(np.ones(2), np.zeros((2, 3)), np.zeros((2, 3, 3)), q_ref=np.zeros(2)), dv.DenavitError, "InvalidArgument",
+     {"what": "q_ref", "expected": "None with frame='link' (q_ref is the configuration of frame='world' inertias)", "got": "an array"}),
+    (lambda m: dv.extract(dv.axes(m, np.zeros(2)), "edh", origins=[[0, 0, 0], [0, np.nan, 0]]), dv.DenavitError, "NonFinite",
+     {"what": "ED-H origin 2", "index": 1, "value": pytest.approx(np.nan, nan_ok=True)}),
 ])
 def test_core_errors_carry_their_fields(call, cls, kind, fields):
     with pytest.raises(cls) as e:

@@ -183,7 +183,7 @@ impl PyModel {
             _ => return Err(invalid("frame", "'link' or 'world'", format!("'{frame}'"))),
         };
         if !world && q_ref.is_some() {
-            return Err(invalid("q_ref", "no q_ref with frame='link' (it is used with frame='world')", "a q_ref"));
+            return Err(invalid("q_ref", "None with frame='link' (q_ref is the configuration of frame='world' inertias)", "an array"));
         }
         let mv = vector("masses (kg)", masses)?;
         let (cv, _) = shaped("coms (centres of mass, m)", coms, &[None, Some(3)])?;
