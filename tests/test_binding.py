@@ -92,11 +92,12 @@ def test_zero_joints_and_empty_batches_never_panic():
             call()
         except BaseException as e:  # noqa: BLE001 - PanicException derives from BaseException
             assert isinstance(e, dv.DenavitError), f"{name}: {type(e).__name__}: {e}"
-    with pytest.raises(dv.DenavitError, match="invalid joint axes: expected at least one axis, got none"):
-        dv.to_table(dv.Table("dh", np.zeros((0, 4))).to_model(), "dh")
     for conv in _core.conventions():
-        with pytest.raises(dv.DenavitError, match="at least one axis"):
-            dv.extract(dv.axes(dv.Table(conv, np.zeros((0, len(_core.convention_info(conv)["columns"])))).to_model(), []), conv)
+        m = dv.Table(conv, np.zeros((0, len(_core.convention_info(conv)["columns"])))).to_model()
+        try:
+            dv.to_table(m, conv)
+        except BaseException as e:  # noqa: BLE001 - PanicException derives from BaseException
+            assert isinstance(e, dv.DenavitError), f"to_table of a 0-joint model, {conv}: {type(e).__name__}: {e}"
 
 
 BAD = [None, 1.0, np.nan, "x", [[1, 2], [3]], np.zeros(0), np.zeros((0, 0)), np.zeros((2, 0)), np.full(2, np.nan), np.zeros((4, 4)),
