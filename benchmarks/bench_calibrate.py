@@ -1,4 +1,4 @@
-"""Whole-model calibration (denavit.calibrate): speed, statistics against the Cramér-Rao bound, and accuracy
+"""Whole-model calibration (denavit.calibration): speed, statistics against the Cramér-Rao bound, and accuracy
 beside the per-circle identification methods (denavit.identify) on Hayat et al.'s protocols.
 
 Tables printed:
@@ -26,9 +26,10 @@ import time
 import numpy as np
 
 import denavit as dv
-from denavit import calibrate as cal
+from denavit import calibration as cal
 from denavit import identify as ident
 from denavit import sweeps as sw
+from denavit.calibration.least_squares import covariance, residuals, weights
 
 NOISE = 2e-5
 TOOL = np.array([0.05, 0.03, 0.10])
@@ -84,9 +85,9 @@ def table_statistics(kr5, runs):
             pl = cal.plan(kr5, prot, noise=NOISE)
         pz, x, truth, tool = truth_of(kr5, pl.free_names)
         idx = [pz.index(n) for n in pl.free_names]
-        w = cal._weights("point", NOISE, NOISE)
-        _, J, _ = cal._residual(pz, x, cal.Measurements(q, np.zeros((len(q), 3))), w)
-        crb = np.sqrt(np.diag(cal._covariance(J[:, idx], 1.0)))
+        w = weights("point", NOISE, NOISE)
+        _, J, _ = residuals(pz, x, cal.Measurements(q, np.zeros((len(q), 3))), w)
+        crb = np.sqrt(np.diag(covariance(J[:, idx], 1.0)))
         est, sig = [], []
         t0 = time.perf_counter()
         for run in range(runs):

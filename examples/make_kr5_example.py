@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 
 from denavit import sweeps as sw
-from denavit.robotfile import load, write_atomic
+from denavit.io.output import write_text
+from denavit.robotfile import load
 
 out = Path(__file__).resolve().parents[1] / "python" / "denavit" / "data"
 model = load("kr5").model()
@@ -21,5 +22,5 @@ for protocol, seed in ((90, 90), (30, 30)):
     text = sw.to_long_csv(s, "mm", "deg", f"KUKA KR5 joint sweeps, SIMULATED (not measured): Hayat et al. protocol, {protocol} deg ranges (Table II),\n"
                           f"home 90,-90,90,0,90,0 deg, tool point 50,30,100 mm in the flange frame, 0.02 mm point noise, seed {seed}.\n"
                           "Regenerate with examples/make_kr5_example.py.")
-    write_atomic(out / f"kr5_{protocol}deg.csv", text)
+    write_text(out / f"kr5_{protocol}deg.csv", text)
     print("wrote", out / f"kr5_{protocol}deg.csv")

@@ -73,6 +73,8 @@ def zero_joint_calls():
         "ik": lambda: _core.ik(m, I4),
         "ik_path": lambda: _core.ik_path(m, np.zeros((0, 4, 4))),
         "ik_batch": lambda: _core.ik_batch(m, np.zeros((0, 4, 4))),
+        "compensate": lambda: _core.compensate(m, m, np.zeros((0, 4, 4))),
+        "parametrize": lambda: _core.parametrize(t, I4),
         "Model.from_placements": lambda: _core.Model.from_placements(np.zeros((0, 4, 4)), []),
         "Model.with_base": lambda: m.with_base(I4),
         "Model.with_tool": lambda: m.with_tool(I4),
@@ -229,7 +231,8 @@ def travelling_objects():
         "Model": heavy, "Model moved": moved, "Model bare": kr5, "Model 0 joints": dv.Table("dh", np.zeros((0, 4))).to_model(),
         "Table": ex.table, "Table poe": dv.extract(ax, "poe").table, "JointAxes": ax, "Extraction": ex, "PairDiagnostic": ex.pairs[1],
         "IkResult": dv.ik(kr5, targets[0]), "IkBatchResult": dv.ik_batch(kr5, targets), "IkBatchResult empty": dv.ik_batch(kr5, np.zeros((0, 4, 4))),
-        "CalibrationChain": chain,
+        "CalibrationChain": chain, "CalibrationChain parametrized": _core.parametrize(ex.table, I4, "pose", True)["chain"],
+        "Compensation": _core.compensate(kr5, kr5.with_base(dv.fk(kr5, np.full(6, 0.01))), targets, restarts=2),
     }
 
 
@@ -239,7 +242,8 @@ def behaviour(x):
         q = np.linspace(-0.4, 0.7, x.nq)
         return [dv.fk(x, q), dv.jacobian(x, q), dv.rnea(x, q, q, q), dv.mass_matrix(x, q)]
     if isinstance(x, _core.CalibrationChain):
-        return list(x.evaluate(np.array([0.1, 0.2, 0.3, 1.01]), np.array([[0.3, -0.2], [0.1, 0.5]])))
+        rng = np.random.default_rng(3)
+        return list(x.evaluate(rng.uniform(0.5, 1, x.n_params), rng.uniform(-1, 1, (2, x.nq))))
     if isinstance(x, _core.Table):
         return [x.to_model().placements, x.frames(np.full(len(x.kinds), 0.2))]
     return []

@@ -1,18 +1,23 @@
 """Whole-model calibration: statistics against the Cramér-Rao bound, the joint fit against per-circle fits,
-planning, near-parallel axes, identifiability reports and bad input (denavit.calibrate)."""
+planning, near-parallel axes, identifiability reports and bad input (denavit.calibration, denavit.io.measurements)."""
 
 import ast
 import json
-
-import numpy as np
-import pytest
-from scipy.spatial.transform import Rotation
+import subprocess
+import sys
 
 import denavit as dv
+import numpy as np
+import pytest
 from cli import env as cli_env
-from denavit import calibrate as cal
+from denavit import calibration as cal
 from denavit import fitting
 from denavit import sweeps as sw
+from denavit.calibration.least_squares import covariance, residuals, weights
+from denavit.calibration.parametrization import as_robot
+from denavit.io.measurements import read_measurements, to_csv
+from denavit.io import sweeps as swio
+from scipy.spatial.transform import Rotation
 
 NOISE = 2e-5  # 0.02 mm per coordinate
 TOOL = np.array([0.05, 0.03, 0.10])
@@ -34,10 +39,10 @@ def perturbed(robot, names, seed, convention="edh", length=5e-4, angle=1e-3, ext
 
 def crb(pz, x, q, free_names):
     """Cramér-Rao bound of the free parameters at the truth x for points at configurations q."""
-    w = cal._weights("point", NOISE, NOISE)
-    _, J, _ = cal._residual(pz, x, cal.Measurements(q, np.zeros((len(q), 3))), w)
+    w = weights("point", NOISE, NOISE)
+    _, J, _ = residuals(pz, x, cal.Measurements(q, np.zeros((len(q), 3))), w)
     idx = [pz.index(n) for n in free_names]
-    return cal._covariance(J[:, idx], 1.0)
+    return covariance(J[:, idx], 1.0)
 
 
 # ------------------------------------------------------------------------------------------ the chain
@@ -120,12 +125,12 @@ def test_monte_carlo_reaches_the_cramer_rao_bound_and_sigmas_are_honest(kr5, dat
     maha = np.einsum("ri,ij,rj->r", err, np.linalg.inv(C), err) / len(x_true)
     assert np.sqrt(maha.mean()) <= 1.1, np.sqrt(maha.mean())
     rmse_ratio = np.sqrt(np.mean(err**2, axis=0)) / np.sqrt(np.diag(C))
-    assert np.all(rmse_ratio <= 1.1 + 3 / np.sqrt(2 * runs)), dict(zip(pl.free_names, rmse_ratio.round(3)))
+    assert np.all(rmse_ratio <= 1.1 + 3 / np.sqrt(2 * runs)), dict(zip(pl.free_names, rmse_ratio.round(3), strict=True))
     spread = est.std(axis=0, ddof=1)
     reported = sig.mean(axis=0) / spread
     planned = pl.sigma[[pl.parametrization.index(n) for n in pl.free_names]] / spread
-    assert np.all(np.abs(reported - 1) < 0.2), dict(zip(pl.free_names, reported.round(3)))
-    assert np.all(np.abs(planned - 1) < 0.2), dict(zip(pl.free_names, planned.round(3)))
+    assert np.all(np.abs(reported - 1) < 0.2), dict(zip(pl.free_names, reported.round(3), strict=True))
+    assert np.all(np.abs(planned - 1) < 0.2), dict(zip(pl.free_names, planned.round(3), strict=True))
 
 
 def line_error(c_true, z_fit, c_fit):
@@ -215,7 +220,7 @@ def test_near_parallel_axes_calibrate_in_edh_and_mdh_and_dh_says_it_cannot():
         p_hat = cal.simulate(m, check, tool=np.asarray(m.T_flange_tool)[:3, 3]).points
         assert np.sqrt(np.mean(np.sum((p_hat - p_true) ** 2, axis=1))) < 2 * NOISE, conv
         assert res.validation.after_rms < 3 * NOISE < res.validation.before_rms
-        lengths = [v for v, u in zip(res.values, res.parametrization.units) if u == "length"]
+        lengths = [v for v, u in zip(res.values, res.parametrization.units, strict=True) if u == "length"]
         assert np.max(np.abs(lengths)) < 1.0
     mdh = cal.parametrize(ur5, "mdh")
     assert {"beta_2", "beta_3"} <= set(mdh.names) and set(mdh.rules) == {"d_2", "d_3"}
@@ -372,32 +377,86 @@ def test_nan_and_mismatched_joint_counts(kr5, tmp_path):
     with pytest.raises(dv.DenavitError, match=r"the data has 5 joint readings per pose but the nominal model kr5 has 6 joints \(A1, A2"):
         cal.calibrate(cal.Measurements(q[:, :5], p), kr5)
     f = tmp_path / "m.csv"
-    text = cal.to_csv(cal.Measurements(q, p), "mm", "deg").splitlines()
+    text = to_csv(cal.Measurements(q, p), "mm", "deg").splitlines()
     cells = text[5].split(",")
     cells[7] = "nan"
     text[5] = ",".join(cells)
     f.write_text("\n".join(text) + "\n")
     with pytest.raises(dv.DenavitError, match=r"m.csv:6: points must be finite, got nan \(column y\)"):
-        cal.read_measurements(f)
+        read_measurements(f)
     f.write_text("q1,q2,x,y,z\n1,2,3,4,5\n")
     with pytest.raises(dv.DenavitError, match="units not declared"):
-        cal.read_measurements(f)
+        read_measurements(f)
+
+
+def test_declared_units_win_over_the_callers(kr5, tmp_path):
+    """Regression: a file's own '#units:' line (no space after '#') was ignored and the caller's length/angle
+    used instead (the CLI's default mm/deg), so metres were read as millimetres; what the file declares wins,
+    the caller's units only fill in, and a second, conflicting declaration is an error naming both lines."""
+    q = cal.configurations(kr5, 12)
+    meas = cal.simulate(kr5, q, tool=TOOL)
+    text = to_csv(meas, "m", "rad").replace("# units: length=m angle=rad", "#units: length=m angle=rad")
+    f = tmp_path / "m.csv"
+    f.write_text(text)
+    back = read_measurements(f, length="mm", angle="deg")
+    np.testing.assert_allclose(back.points, meas.points, atol=1e-12)
+    np.testing.assert_allclose(back.q, meas.q, atol=1e-12)
+    f.write_text(text.replace("#units: length=m angle=rad", "#units: length=m"))
+    np.testing.assert_allclose(read_measurements(f, length="mm", angle="rad").points, meas.points, atol=1e-12)
+    f.write_text("# units: length=mm angle=deg\n" + text)
+    with pytest.raises(dv.DenavitError, match=r"m.csv:2: length=m contradicts length=mm declared at line 1"):
+        read_measurements(f)
+    j = tmp_path / "m.json"
+    j.write_text(json.dumps({"units": {"length": "m", "angle": "rad"}, "q": meas.q.tolist(), "points": meas.points.tolist()}))
+    np.testing.assert_allclose(read_measurements(j, length="mm", angle="deg").points, meas.points, atol=1e-12)
+
+
+def test_calibration_convention_aliases_are_the_cores(kr5):
+    """Regression: calibrate(..., convention="craig") / "ED-H" were unknown calibration conventions; every
+    convention name (here and in Calibration.table) goes through the core's parser (_core.convention_info).
+    POE is still refused, with the reason."""
+    meas = cal.simulate(kr5, cal.configurations(kr5, 40), tool=TOOL, noise=NOISE)
+    res = cal.calibrate(meas, kr5, convention="ED-H", tool=TOOL)
+    assert res.convention == "edh" and res.table("Craig").convention == "mdh"
+    assert cal.parametrize(kr5, "craig").convention == "mdh"
+    with pytest.raises(dv.DenavitError, match="product-of-exponentials calibration is not available yet"):
+        cal.parametrize(kr5, "POE")
+
+
+def test_configurations_are_the_unscrambled_halton_sequence(kr5):
+    """configurations() is the Halton sequence from index 1 (bases 2, 3, 5, ...; scipy.stats.qmc), point for
+    point the radical inverses the hand-written generator it replaced gave, so seeded outcomes stay put."""
+
+    def radical_inverse(k, b):
+        f, r = 1.0, 0.0
+        while k > 0:
+            f /= b
+            r += f * (k % b)
+            k //= b
+        return r
+
+    robot = as_robot(kr5)
+    lo = np.maximum(robot.lower, -np.pi)
+    hi = np.minimum(robot.upper, np.pi)
+    Q = cal.configurations(kr5, 50, skip=3)
+    expected = [[lo[j] + (hi[j] - lo[j]) * radical_inverse(k, b) for j, b in enumerate((2, 3, 5, 7, 11, 13))] for k in range(3, 53)]
+    np.testing.assert_array_equal(Q, np.array(expected))
 
 
 def test_files_round_trip_and_json(kr5, tmp_path):
     q = cal.configurations(kr5, 40)
     meas = cal.simulate(kr5, q, tool=TOOL, noise=NOISE)
     f = tmp_path / "m.csv"
-    f.write_text(cal.to_csv(meas, "mm", "deg"))
-    back = cal.read_measurements(f)
+    f.write_text(to_csv(meas, "mm", "deg"))
+    back = read_measurements(f)
     np.testing.assert_allclose(back.q, meas.q, atol=1e-10)
     np.testing.assert_allclose(back.points, meas.points, atol=1e-12)
     poses = cal.simulate(kr5, q, tool=np.eye(4), measure="pose")
-    f.write_text(cal.to_csv(poses, "mm", "deg"))
-    np.testing.assert_allclose(cal.read_measurements(f).poses, poses.poses, atol=1e-10)
+    f.write_text(to_csv(poses, "mm", "deg"))
+    np.testing.assert_allclose(read_measurements(f).poses, poses.poses, atol=1e-10)
     s = sw.simulate(kr5.model(), home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=8, tool_point=TOOL)
-    f.write_text(sw.to_long_csv(s))
-    assert cal.read_measurements(f).sweeps is not None
+    f.write_text(swio.to_long_csv(s))
+    assert read_measurements(f).sweeps is not None
     res = cal.calibrate(meas, kr5, tool=TOOL, holdout=0.25)
     out = tmp_path / "r.json"
     cal.write_json(res, out)
@@ -410,12 +469,9 @@ def test_files_round_trip_and_json(kr5, tmp_path):
 
 
 def test_cli_calibrate_and_plan(kr5, tmp_path):
-    import subprocess
-    import sys
-
     q = cal.configurations(kr5, 60)
     f = tmp_path / "m.csv"
-    f.write_text(cal.to_csv(cal.simulate(kr5, q, tool=TOOL, noise=NOISE), "mm", "deg"))
+    f.write_text(to_csv(cal.simulate(kr5, q, tool=TOOL, noise=NOISE), "mm", "deg"))
     env = cli_env(160)
     out = tmp_path / "r.json"
     p = subprocess.run([sys.executable, "-m", "denavit.cli", "calibrate", str(f), "--nominal", "kr5", "--tool", "50,30,100", "--json", str(out),
@@ -447,12 +503,12 @@ def test_json_kinds_of_another_length_than_q_is_an_error(kr5, tmp_path):
     f = tmp_path / "m.json"
     f.write_text(json.dumps({"units": {"length": "mm", "angle": "deg"}, "kinds": ["revolute"] * 5, "q": q.tolist(), "points": p.tolist()}))
     with pytest.raises(dv.DenavitError, match=r"m.json: 'kinds': expected 6 joint kinds \(one per joint reading\), got 5"):
-        cal.read_measurements(f)
+        read_measurements(f)
     f.write_text(json.dumps({"units": {"length": "mm", "angle": "deg"}, "kinds": ["revolute"] * 5 + ["rotary"], "q": q.tolist(), "points": p.tolist()}))
     with pytest.raises(dv.DenavitError, match=r"m.json: 'kinds': joint 6: expected 'revolute' or 'prismatic', got 'rotary'"):
-        cal.read_measurements(f)
+        read_measurements(f)
     f.write_text(json.dumps({"units": {"length": "mm", "angle": "deg"}, "kinds": ["revolute"] * 6, "q": q.tolist(), "points": p.tolist()}))
-    np.testing.assert_allclose(cal.read_measurements(f).q, np.radians(q), atol=1e-12)
+    np.testing.assert_allclose(read_measurements(f).q, np.radians(q), atol=1e-12)
 
 
 def test_prismatic_readings_take_the_length_unit(tmp_path):
@@ -461,32 +517,29 @@ def test_prismatic_readings_take_the_length_unit(tmp_path):
     params = np.array([[0.3, 0.0, 0.1, np.pi / 2], [0.2, 0.3, 0.0, -np.pi / 2], [0.0, 0.2, 0.25, np.pi / 3], [0.1, 0.0, 0.0, 0.0]])
     kinds = ["revolute", "prismatic", "revolute", "revolute"]
     model = dv.Table("dh", params, kinds=kinds).to_model("rprr", lower=[-3, -0.1, -3, -3], upper=[3, 0.4, 3, 3])
-    robot = cal._as_robot(model)
+    robot = as_robot(model)
     meas = cal.simulate(model, cal.configurations(robot, 40), tool=TOOL, noise=NOISE)
     f = tmp_path / "m.csv"
-    f.write_text(cal.to_csv(meas, "mm", "deg"))
-    back = cal.read_measurements(f, kinds=kinds)
+    f.write_text(to_csv(meas, "mm", "deg"))
+    back = read_measurements(f, kinds=kinds)
     np.testing.assert_allclose(back.q, meas.q, atol=1e-10)
     assert back.kinds == tuple(kinds)
     res = cal.calibrate(back, robot, tool=TOOL)
     assert res.rms < 2 * NOISE
     with pytest.raises(dv.DenavitError, match=r"m.csv: joint 2 \(j2\) of rprr is prismatic, but its readings were read as revolute \(in deg\): pass kinds="):
-        cal.calibrate(cal.read_measurements(f), robot, tool=TOOL)
+        cal.calibrate(read_measurements(f), robot, tool=TOOL)
     with pytest.raises(dv.DenavitError, match=r"m.csv: kinds given: expected 4 joint kinds \(one per joint reading\), got 3"):
-        cal.read_measurements(f, kinds=kinds[:3])
+        read_measurements(f, kinds=kinds[:3])
     j = tmp_path / "m.json"
     j.write_text(json.dumps({"units": {"length": "mm", "angle": "deg"}, "kinds": kinds, "q": [[0, 100, 0, 0]], "points": [[1, 2, 3]]}))
-    np.testing.assert_allclose(cal.read_measurements(j).q, [[0, 0.1, 0, 0]])
+    np.testing.assert_allclose(read_measurements(j).q, [[0, 0.1, 0, 0]])
     with pytest.raises(dv.DenavitError, match=r"m.json: 'kinds' \['revolute', 'prismatic', 'revolute', 'revolute'\] differ from the kinds given"):
-        cal.read_measurements(j, kinds=["revolute"] * 4)
+        read_measurements(j, kinds=["revolute"] * 4)
 
 
 def test_cli_calibrate_reads_prismatic_readings_in_the_length_unit(tmp_path):
     """A robot file with a prismatic joint: the CLI reads that joint's readings in mm (not deg) and the fit
     finds the simulated truth."""
-    import subprocess
-    import sys
-
     f = tmp_path / "rprr.toml"
     f.write_text('name = "rprr"\nconvention = "dh"\n[units]\nlength = "mm"\nangle = "deg"\n'
                  '[[joints]]\nname = "j1"\nd = 300\ntheta = 0\na = 100\nalpha = 90\nlimits = [-170, 170]\n'
@@ -495,7 +548,7 @@ def test_cli_calibrate_reads_prismatic_readings_in_the_length_unit(tmp_path):
                  '[[joints]]\nname = "j4"\nd = 100\ntheta = 0\na = 0\nalpha = 0\nlimits = [-170, 170]\n')
     robot = dv.load_robot(f)
     m = tmp_path / "m.csv"
-    m.write_text(cal.to_csv(cal.simulate(robot, cal.configurations(robot, 60), tool=(0.03, 0.02, 0.05), noise=NOISE), "mm", "deg"))
+    m.write_text(to_csv(cal.simulate(robot, cal.configurations(robot, 60), tool=(0.03, 0.02, 0.05), noise=NOISE), "mm", "deg"))
     assert float(m.read_text().splitlines()[-1].split(",")[1]) > 5  # the prismatic reading is in mm, not metres
     out = tmp_path / "r.json"
     p = subprocess.run([sys.executable, "-m", "denavit.cli", "calibrate", str(m), "--nominal", str(f), "--tool", "30,20,50", "--json", str(out)],
@@ -503,3 +556,24 @@ def test_cli_calibrate_reads_prismatic_readings_in_the_length_unit(tmp_path):
     assert p.returncode == 0, p.stderr
     doc = json.loads(out.read_text())
     assert doc["validation"]["after_rms"] < 3 * NOISE * 1e3 * np.sqrt(3), doc["validation"]  # mm: the noise, not a unit error
+
+
+def test_bad_noise_and_a_fit_that_explains_nothing(kr5, tmp_path):
+    """--noise 0 had raised ZeroDivisionError, nan 'converged' with 'noise estimate nan', a negative noise was
+    taken; degrees read as radians gave rms 814 mm with no word. Now: one-line errors, and a note."""
+    q = cal.configurations(kr5, 40)
+    meas = cal.simulate(kr5, q, tool=TOOL, noise=NOISE)
+    f = tmp_path / "m.csv"
+    f.write_text(to_csv(meas, "mm", "deg"))
+    for bad in ("0", "nan", "-1", "inf"):
+        p = subprocess.run([sys.executable, "-m", "denavit.cli", "calibrate", str(f), "--nominal", "kr5", "--tool", "50,30,100", "--noise", bad],
+                           capture_output=True, text=True, env=cli_env(160))
+        assert p.returncode == 2 and "--noise: expected the known one-sigma point noise, a finite value > 0 in mm" in p.stderr, p.stderr
+    with pytest.raises(dv.DenavitError, match="noise: expected the known one-sigma noise"):
+        cal.calibrate(meas, kr5, tool=TOOL, noise=float("nan"))
+    wrong = cal.Measurements(np.degrees(meas.q), meas.points, None, "degrees read as radians")
+    res = cal.calibrate(wrong, kr5, tool=TOOL, holdout=0)
+    assert res.notes[0].startswith("the fit explains little of the data: rms")
+    res = cal.calibrate(meas, kr5, tool=TOOL, noise=NOISE / 100, holdout=0)
+    assert "x what the declared noise" in res.notes[0]
+    assert not any("explains" in n for n in cal.calibrate(meas, kr5, tool=TOOL, noise=NOISE, holdout=0).notes)

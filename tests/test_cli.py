@@ -4,10 +4,9 @@ import json
 import subprocess
 import sys
 
+import denavit as dv
 import numpy as np
 import pytest
-
-import denavit as dv
 from cli import env as cli_env
 
 
@@ -68,16 +67,16 @@ def test_identify_in_a_tracker_frame_with_the_base_given(tmp_path):
     """Noise-free sweeps measured in a tracker frame; with --base (that frame's pose of the robot base) the DH
     table is Hayat's Table III and the JSON's base is the one given; without it the table is expressed from
     the tracker frame (d1 is then no longer 400 mm)."""
-    from scipy.spatial.transform import Rotation
-
     from denavit import sweeps as sw
+    from denavit.io import sweeps as swio
+    from scipy.spatial.transform import Rotation
 
     B = np.eye(4)
     B[:3, :3] = Rotation.from_euler("xyz", [2, -3, 35], degrees=True).as_matrix()
     B[:3, 3] = [1.2, -0.4, 0.3]
     truth = dv.load_model("kr5").with_base(B)
     csv = tmp_path / "s.csv"
-    csv.write_text(sw.to_long_csv(sw.simulate(truth, home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=12), "mm", "deg"))
+    csv.write_text(swio.to_long_csv(sw.simulate(truth, home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=12), "mm", "deg"))
     out = tmp_path / "r.json"
     run("identify", str(csv), "--nominal", "kr5", "--base", "1200,-400,300,2,-3,35", "--json", str(out))
     doc = json.loads(out.read_text())
@@ -124,3 +123,27 @@ def test_errors_are_one_line_and_exit_2(args, match):
     assert p.returncode == 2
     assert match in " ".join(p.stderr.split())
     assert "Traceback" not in p.stderr
+
+
+def test_help_does_not_import_scipy():
+    """`denavit --help` pays for typer and rich only: scipy (88 % of the old import time) loads when a command needs it."""
+    p = subprocess.run([sys.executable, "-X", "importtime", "-m", "denavit.cli", "--help"], capture_output=True, text=True, env=cli_env())
+    assert p.returncode == 0, p.stderr
+    mods = [ln.split("|")[-1].strip() for ln in p.stderr.splitlines() if ln.startswith("import time:")]
+    assert "denavit.cli" in mods and not [m for m in mods if m == "scipy" or m.startswith("scipy.")]
+
+
+def test_recordings_through_the_cli(tmp_path):
+    """`denavit inspect` and `denavit identify` read instrument recordings (format from the content) and say
+    what they found: the reader, the segmentation table; the identified axes land on the robot's."""
+    rec = __import__("pathlib").Path(__file__).parent / "data" / "recordings"
+    p = run("inspect", rec / "rtde.csv")
+    assert "format rtde (detected" in p.stdout and "segmentation of" in p.stdout and "6 sweeps" in p.stdout
+    out = tmp_path / "r.json"
+    for f in ("rtde.csv", "rsi.xml", "ros2_mcap"):
+        p = run("identify", rec / f, "--nominal", "kr5", "--json", out)
+        assert "segmentation of" in p.stdout
+        doc = json.loads(out.read_text())
+        assert len(doc["joints"]) == 6
+    p = run("identify", rec / "columns.txt", "--nominal", "kr5", "--columns", "t,q1..q6,x,y,z", ok=False)
+    assert p.returncode == 2 and "columns.txt:2: expected 10 values" in p.stderr and len(p.stderr.strip().splitlines()) == 1

@@ -3,12 +3,12 @@ batches, a cross-check against pinocchio, and bad input."""
 
 from pathlib import Path
 
+import denavit as dv
 import numpy as np
 import pytest
-
-import denavit as dv
 from cli import env as cli_env
 from denavit import _core
+from denavit.io import robotfile
 
 G = np.array([0.0, 0.0, -9.81])
 
@@ -363,7 +363,7 @@ def test_robot_file_inertia_units_frames_and_round_trip(tmp_path):
     assert _core.gravity_torques(m, [0.0], gravity=g)[0] == pytest.approx(2.0 * 9.81 * 0.5, rel=1e-12)
     # written back (SI units for the inertials) and read again: the same model
     out = tmp_path / "out.toml"
-    dv.robotfile.save(robot, out, "mm", "deg")
+    robotfile.save(robot, out, "mm", "deg")
     again = dv.load_robot(out)
     for k in ("masses", "coms", "inertias"):
         np.testing.assert_allclose(again.inertials[k], robot.inertials[k], rtol=1e-12, atol=1e-18)

@@ -138,24 +138,24 @@ def test_analytic_jacobians_match_finite_differences():
     tt = np.column_stack([t1, t2])
 
     def circle(x):  # [centre (3), a, b, r]
-        n, _ = fitting._unit_from_params(n0, t1, t2, x[3], x[4])
-        _, h, _, _, g = fitting._circle_parts(p, c0 + x[:3], n, r0 + x[5])
+        n, _ = fitting.circle.unit_from_params(n0, t1, t2, x[3], x[4])
+        _, h, _, _, g = fitting.circle._circle_parts(p, c0 + x[:3], n, r0 + x[5])
         return np.concatenate([h, g])
 
     x = rng.normal(scale=0.1, size=6)
-    n, g = fitting._unit_from_params(n0, t1, t2, x[3], x[4])
-    analytic = fitting._circle_jacobian(p, c0 + x[:3], n, r0 + x[5], g)
+    n, g = fitting.circle.unit_from_params(n0, t1, t2, x[3], x[4])
+    analytic = fitting.circle._circle_jacobian(p, c0 + x[:3], n, r0 + x[5], g)
     assert np.allclose(analytic, _numerical_jacobian(circle, x), rtol=0, atol=1e-7)
 
     delta = rng.uniform(-2, 2, 8)
 
     def readings(x):  # [a, b, u, v, p0 (3)]
-        n, _ = fitting._unit_from_params(n0, t1, t2, x[0], x[1])
-        return fitting._readings_model(c0 + tt @ x[2:4], n, x[4:7], delta)[0].ravel()
+        n, _ = fitting.circle.unit_from_params(n0, t1, t2, x[0], x[1])
+        return fitting.readings._readings_model(c0 + tt @ x[2:4], n, x[4:7], delta)[0].ravel()
 
     x = np.concatenate([rng.normal(scale=0.1, size=4), rng.standard_normal(3)])
-    n, g = fitting._unit_from_params(n0, t1, t2, x[0], x[1])
-    analytic = fitting._readings_jacobian(c0 + tt @ x[2:4], n, x[4:7], delta, g, tt)
+    n, g = fitting.circle.unit_from_params(n0, t1, t2, x[0], x[1])
+    analytic = fitting.readings._readings_jacobian(c0 + tt @ x[2:4], n, x[4:7], delta, g, tt)
     assert np.allclose(analytic, _numerical_jacobian(readings, x), rtol=0, atol=1e-7)
 
 
@@ -326,10 +326,10 @@ def test_no_outliers_on_clean_data():
 
 def test_outlier_thresholds_match_chi_distribution():
     stats = pytest.importorskip("scipy.stats")
-    tail = 2 * stats.norm.sf(fitting.OUTLIER_SIGMAS)
+    tail = 2 * stats.norm.sf(fitting.robust.OUTLIER_SIGMAS)
     for k in (1, 2, 3):
-        assert fitting._CHI_MEDIAN[k] == pytest.approx(math.sqrt(stats.chi2.ppf(0.5, k)), rel=1e-12)
-        assert fitting._CHI_4SIGMA[k] == pytest.approx(math.sqrt(stats.chi2.isf(tail, k)), rel=1e-12)
+        assert fitting.robust.CHI_MEDIAN[k] == pytest.approx(math.sqrt(stats.chi2.ppf(0.5, k)), rel=1e-12)
+        assert fitting.robust.CHI_4SIGMA[k] == pytest.approx(math.sqrt(stats.chi2.isf(tail, k)), rel=1e-12)
 
 
 # ----------------------------------------------------------------------------------------------- lines

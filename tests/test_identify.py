@@ -3,12 +3,12 @@
 import json
 import re
 
+import denavit as dv
 import numpy as np
 import pytest
-
-import denavit as dv
 from denavit import identify as ident
 from denavit import sweeps as sw
+from denavit.io import sweeps as swio
 
 HOME = np.radians(sw.PAPER_HOME_DEG)
 
@@ -44,6 +44,18 @@ def test_every_convention_from_sweeps_matches_the_truth(kr5, rng):
             np.testing.assert_allclose(dv.fk(m, q)[:3, 3], p_true, atol=1e-9, err_msg=conv)
 
 
+@pytest.mark.parametrize(("name", "canonical"), [("craig", "mdh"), ("MDH", "mdh"), ("DH", "dh"), ("modified-dh", "mdh"), ("ED-H", "edh"), ("POE", "poe")])
+def test_convention_aliases_are_the_cores(kr5, name, canonical):
+    """Regression: identify(..., convention="craig") and "MDH" failed ("unknown convention") although
+    to_table accepts them; every convention name is now parsed by the core (_core.convention_info)."""
+    s = simulate(kr5, 30, points_per_sweep=8)
+    res = ident.identify(s, convention=name, nominal=kr5)
+    assert res.convention == canonical and res.table.convention == canonical
+    assert res.model(convention=name).nq == 6
+    with pytest.raises(dv.DenavitError, match="unknown convention 'denavit'"):
+        ident.identify(s, convention="denavit", nominal=kr5)
+
+
 def test_noisy_sweeps_give_bounded_parameters_and_sigmas(kr5):
     """0.02 mm noise on the 30 degree protocol: near-parallel axes 2-3 never give offsets beyond the robot's
     size, every sigma is finite, and the identified values lie within 5 sigma of the truth."""
@@ -77,11 +89,11 @@ def test_json_output_has_units_rows_and_sigmas(kr5, tmp_path):
 def test_long_csv_round_trip_and_units(kr5, tmp_path):
     s = simulate(kr5, 30, points_per_sweep=8, noise=1e-5, seed=1)
     f = tmp_path / "s.csv"
-    f.write_text(sw.to_long_csv(s, "mm", "deg"))
+    f.write_text(swio.to_long_csv(s, "mm", "deg"))
     before = f.read_bytes()
-    r = sw.read_long_csv(f)
+    r = swio.read_long_csv(f)
     assert f.read_bytes() == before  # input files are never modified
-    for a, b in zip(s.sweeps, r.sweeps):
+    for a, b in zip(s.sweeps, r.sweeps, strict=True):
         np.testing.assert_allclose(a.points, b.points, atol=1e-12)
         np.testing.assert_allclose(a.q, b.q, atol=1e-10)
     np.testing.assert_allclose(r.home, HOME, atol=1e-10)
@@ -95,14 +107,14 @@ def test_joint_files_and_json_readers(kr5, tmp_path):
         rows = [f"{k * 0.1:.1f};{p[0] * 1e3:.9f};{p[1] * 1e3:.9f};{p[2] * 1e3:.9f}" for k, p in enumerate(sweep.points)]
         (d / f"j{sweep.joint}.csv").write_text("time;x;y;z\n" + "\n".join(rows) + "\n")
     dirs = [np.sign(r[1] - r[0]) for r in sw.PAPER_RANGES_DEG[90]]
-    fs = sw.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm", angle="deg", direction=dirs)
+    fs = swio.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm", angle="deg", direction=dirs)
     res = ident.identify(fs, nominal=kr5)
     assert res.method == "geometric"
     np.testing.assert_allclose(res.table.params, kr5.table.params, atol=1e-7)
     doc = {"units": {"length": "m", "angle": "rad"}, "home": HOME.tolist(),
            "sweeps": [{"joint": x.joint, "points": x.points.tolist(), "q": x.q.tolist()} for x in s.sweeps]}
     (tmp_path / "s.json").write_text(json.dumps(doc))
-    js = sw.read_json(tmp_path / "s.json")
+    js = swio.read_json(tmp_path / "s.json")
     np.testing.assert_allclose(ident.identify(js, nominal=kr5).table.params, kr5.table.params, atol=1e-9)
 
 
@@ -131,7 +143,7 @@ def test_bad_sweep_files(tmp_path, body, units, match):
     f = write_csv(tmp_path, body, units if units is not None else "# units: length=mm angle=deg\n")
     before = f.read_bytes()
     with pytest.raises(dv.DenavitError, match=match):
-        ident.identify(sw.read_long_csv(f), method="geometric")
+        ident.identify(swio.read_long_csv(f), method="geometric")
     assert f.read_bytes() == before
 
 
@@ -150,6 +162,24 @@ def test_bounding_box_contains_all_points_and_beats_aligned_box(kr5):
     aligned = np.prod(s.all_points.max(0) - s.all_points.min(0))
     assert b.volume <= aligned + 1e-12
     assert b.volume == pytest.approx(np.prod(b.lengths))
+
+
+def test_json_of_a_prismatic_poe_row_keeps_its_direction_unitless():
+    """Regression: to_json scaled a prismatic POE row's v (a unit direction) as a length (1000x in mm); home
+    values follow the per-joint-kind rule (revolute: angle unit, prismatic: length unit)."""
+    params = np.array([[0.3, 0.0, 0.1, np.pi / 2], [0.2, 0.3, 0.0, -np.pi / 2], [0.0, 0.2, 0.25, np.pi / 3], [0.1, 0.0, 0.0, 0.0]])
+    truth = dv.Table("dh", params, kinds=["revolute", "prismatic", "revolute", "revolute"]).to_model("rprr", lower=[-3, -0.1, -3, -3], upper=[3, 0.4, 3, 3])
+    home = np.array([0.2, 0.1, -0.3, 0.5])
+    ranges = np.array([[-0.3, 0.6], [0.0, 0.3], [-0.8, 0.2], [0.0, 1.2]])
+    res = ident.identify(sw.simulate(truth, home=home, ranges=ranges, points_per_sweep=12, tool_point=(0.03, 0.02, 0.05)), convention="poe")
+    doc = ident.to_json(res, "mm", "deg", box=False)
+    v = [doc["parameters"][1][c] for c in ("vx", "vy", "vz")]
+    assert np.linalg.norm(v) == pytest.approx(1.0, abs=1e-9)
+    np.testing.assert_allclose(v, res.table.params[1, 3:6], atol=1e-12)
+    w = [doc["parameters"][0][c] for c in ("wx", "wy", "wz")]
+    np.testing.assert_allclose(w, res.table.params[0, :3], atol=1e-12)  # w is unitless in every row
+    np.testing.assert_allclose([doc["parameters"][0][c] for c in ("vx", "vy", "vz")], res.table.params[0, 3:6] * 1e3, atol=1e-9)  # a revolute v is a length
+    np.testing.assert_allclose(doc["home"], [np.degrees(0.2), 100.0, np.degrees(-0.3), np.degrees(0.5)], atol=1e-9)
 
 
 @pytest.mark.parametrize("method", ["geometric", "readings", "global"])
@@ -195,7 +225,18 @@ def test_progress_reports_every_stage(kr5):
     said = []
     ident.identify(simulate(kr5, 30, points_per_sweep=8), nominal=kr5, progress=said.append)
     assert [m.split(" (")[0] for m in said[:6]] == [f"fitting sweep {k} of 6" for k in range(1, 7)]
-    assert said[6].startswith("one fit of all 6 sweeps") and said[-1].startswith("measuring volume")
+    assert said[6].startswith("one fit of all 6 sweeps") and said[-1].startswith("dh parameters and their sigmas")
+
+
+def test_bounding_box_is_computed_when_asked_for(kr5):
+    """The measuring volume (60-90 % of an identification's time) is not computed by identify itself: on first
+    access to ``result.box`` (to_json asks for it unless ``box=False``), then kept."""
+    res = ident.identify(simulate(kr5, 30, points_per_sweep=8), nominal=kr5)
+    assert "box" not in vars(res)
+    assert "bounding_box" not in ident.to_json(res, box=False) and "box" not in vars(res)
+    b = res.box
+    assert vars(res)["box"] is b and res.box is b
+    assert ident.to_json(res)["bounding_box"]["volume_m3"] == b.volume
 
 
 def truth_dh(kr5):
@@ -238,7 +279,7 @@ def test_out_and_back_sweep_without_readings_is_an_error(kr5, tmp_path):
     for sweep in s.sweeps:
         pts = sweep.points if sweep.joint != 3 else np.vstack([sweep.points, sweep.points[-2::-1]])
         (d / f"j{sweep.joint}.csv").write_text("\n".join(f"{p[0]},{p[1]},{p[2]}" for p in pts * 1e3) + "\n")
-    fs = sw.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm", angle="deg")
+    fs = swio.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm", angle="deg")
     with pytest.raises(dv.DenavitError, match=r"j3.csv lines 1-19, joint 3: .*net turn .* over an arc of 90.0 deg"):
         ident.identify(fs, nominal=kr5)
 
@@ -299,7 +340,7 @@ def test_bad_json_sweeps_name_file_and_place(kr5, tmp_path, edit, match):
     f = tmp_path / "s.json"
     f.write_text(json.dumps(doc))
     with pytest.raises(dv.DenavitError, match=match):
-        sw.read_json(f)
+        swio.read_json(f)
 
 
 def write_joint_files(s, folder, header="time;x;y;z\n", scale=1e3):
@@ -316,13 +357,13 @@ def test_joint_files_comments_headers_and_names(kr5, tmp_path):
     d = write_joint_files(s, tmp_path / "files", header="# tracker export, 2024-05-02\ntime;x;y;z\n")
     (d / "j1_old.csv").write_text("0;1;2;3\n0.1;1;2;3\n0.2;1;2;3\n")  # an old recording lying beside j1.csv
     (d / "notes.csv").write_text("x;y;z\n")
-    fs = sw.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm")
-    for a, b in zip(s.sweeps, fs.sweeps):
+    fs = swio.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm")
+    for a, b in zip(s.sweeps, fs.sweeps, strict=True):
         np.testing.assert_allclose(b.points, a.points, atol=1e-11)
     assert fs.sweeps[0].where[0].endswith("j1.csv:3")
     (d / "j01.csv").write_text((d / "j1.csv").read_text())
     with pytest.raises(dv.DenavitError, match=r"files: two files for joint 1: j01.csv and j1.csv"):
-        sw.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm")
+        swio.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm")
 
 
 @pytest.mark.parametrize(
@@ -342,14 +383,14 @@ def test_bad_joint_files(kr5, tmp_path, first_line, kw, match):
     d = write_joint_files(simulate(kr5, 90, points_per_sweep=10), tmp_path / "files", header="")
     (d / "j2.csv").write_text(first_line + (d / "j2.csv").read_text())
     with pytest.raises(dv.DenavitError, match=match):
-        sw.read_joint_files(d, **{"home": sw.PAPER_HOME_DEG, "length": "mm", **kw})
+        swio.read_joint_files(d, **{"home": sw.PAPER_HOME_DEG, "length": "mm", **kw})
 
 
 @pytest.mark.parametrize("cell, got", [("inf", "inf"), ("nan", "nan"), ("1e400", "1e400"), ("1.5", "1.5")])
 def test_long_csv_joint_index_not_an_integer(tmp_path, cell, got):
     f = write_csv(tmp_path, f"{cell},0,0,1,0,0\n")
     with pytest.raises(dv.DenavitError, match=rf"bad.csv:3: joint index out of range: expected 1..2, got {got}"):
-        sw.read_long_csv(f)
+        swio.read_long_csv(f)
 
 
 def test_locked_joint_drift_is_noted(kr5):

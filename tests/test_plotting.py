@@ -64,7 +64,7 @@ def test_residuals_one_axes_per_joint_with_the_fit_residuals(result):
     fig = plotting.plot_residuals(result)
     axes = by_gid(fig.axes, r"residuals-\d")
     assert len(axes) == 6
-    for ax, f in zip(axes, result.fits):
+    for ax, f in zip(axes, result.fits, strict=True):
         np.testing.assert_allclose(ax.lines[1].get_ydata() * MM, f.residuals, rtol=1e-12)  # lines[0] is the zero line
 
 
@@ -114,7 +114,7 @@ def test_frames_of_a_robot_and_its_to_table_conversion():
     q = np.radians(sw.PAPER_HOME_DEG)
     fig = plotting.plot_frames([robot.table, other], q)
     assert len(fig.axes) == 2
-    for ax, t in zip(fig.axes, (robot.table, other)):
+    for ax, t in zip(fig.axes, (robot.table, other), strict=True):
         np.testing.assert_allclose(origins_drawn(ax), t.frames(q)[:, :3, 3], atol=1e-12)
 
 
@@ -127,7 +127,7 @@ def test_origin_paths_are_circles_about_the_moving_axis():
     fig = plotting.plot_origin_paths([("dh", robot.table), ("edh", edh)], 2, limits=(-1.0, 0.5))
     axis = dv.joint_frames(m, np.zeros(6))[1]
     p0, z = axis[:3, 3], axis[:3, 2]
-    for ax, label in zip(fig.axes, ("dh", "edh")):
+    for ax, label in zip(fig.axes, ("dh", "edh"), strict=True):
         paths = {int(a.get_gid().split("-")[1]): np.array(a.get_data_3d()).T * MM for a in by_gid(ax.lines, r"path-\d")}
         assert sorted(paths) == list(range(7))
         moving = [i for i, p in paths.items() if len(p) > 1]

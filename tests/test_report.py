@@ -171,7 +171,7 @@ def test_report_tables_hold_the_identification(report_path, result):
     check_parameter_table(page, result)
     axes = page.rows("axes")
     assert len(axes) == 6
-    for row, f in zip(axes, result.fits):
+    for row, f in zip(axes, result.fits, strict=True):
         assert float(row["cell"]["radius"]["value"]) == pytest.approx(f.radius * 1e3, rel=1e-12)
         assert float(row["cell"]["rms"]["value"]) == pytest.approx(f.rms * 1e3, rel=1e-12)
     (box,) = page.rows("bounding-box")
@@ -183,6 +183,15 @@ def test_model_report_tables(model_report_path):
     page = Page(model_report_path.read_text(encoding="utf-8"))
     check_guo_tables(page)
     assert len(page.rows("frames")) == 14  # 7 frames of each convention
+
+
+def test_model_report_compares_with_any_convention_alias(tmp_path):
+    """Regression: compare="craig" (or "MDH") was taken for a robot name ("no such robot"); convention names
+    go through the core's one parser."""
+    path = tmp_path / "kr5.html"
+    rep.write_model_report(dv.load_robot("kr5"), path, compare="craig")
+    text = path.read_text(encoding="utf-8")
+    assert Page(text).rows("table-compare") and "kr5 in mdh" in text
 
 
 def test_missing_plotly_names_the_install_command(result, tmp_path, monkeypatch):

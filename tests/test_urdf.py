@@ -9,17 +9,17 @@ al.'s Table III in an industrial layout (every link parallel to the base at q = 
 import math
 import re
 
+import denavit as dv
 import numpy as np
 import pytest
 import yourdfpy
+from denavit.cli import app
+from denavit.io import sweeps as swio
+from denavit.geometry import matrix_rpy
+from denavit.io import urdf as U
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
-
-import denavit as dv
-from denavit import robotfile
-from denavit import urdf as U
-from denavit.cli import app
 
 DATA = __import__("pathlib").Path(__file__).parent / "data" / "urdf"
 UR, PANDA, KR5 = DATA / "ur_style.urdf", DATA / "panda_style.urdf", DATA / "kr5.urdf"
@@ -444,7 +444,7 @@ def test_meshes_inertials_and_limits_carried_through(tmp_path):
     toml = tmp_path / "ur_dh.toml"
     r = runner.invoke(app, ["convert", str(UR), "--to", "dh", "-o", str(toml)])
     assert r.exit_code == 0, r.output
-    assert robotfile.load(toml).convention == "dh"
+    assert dv.load_robot(toml).convention == "dh"
     out2 = tmp_path / "ur_from_dh.urdf"
     r = runner.invoke(app, ["convert", str(toml), "--to", "urdf", "-o", str(out2)])
     assert r.exit_code == 0, r.output
@@ -674,7 +674,7 @@ def test_rpy_round_trip_including_gimbal_lock(roll, pitch_special, yaw, pitch):
     Ry = np.array([[c(p), 0, s(p)], [0, 1, 0], [-s(p), 0, c(p)]])
     Rzm = np.array([[c(yaw), -s(yaw), 0], [s(yaw), c(yaw), 0], [0, 0, 1]])
     R = Rzm @ Ry @ Rx
-    r2, p2, y2 = U.rpy_from_matrix(R)
+    r2, p2, y2 = matrix_rpy(R)
     Rx2 = np.array([[1, 0, 0], [0, c(r2), -s(r2)], [0, s(r2), c(r2)]])
     Ry2 = np.array([[c(p2), 0, s(p2)], [0, 1, 0], [-s(p2), 0, c(p2)]])
     Rz2 = np.array([[c(y2), -s(y2), 0], [s(y2), c(y2), 0], [0, 0, 1]])
@@ -792,13 +792,12 @@ def test_cli_identify_urdf_writes_the_exact_geometry_with_the_nominals_meshes(tm
     # noisy sweeps: the near-parallel UR axes 2-4 are no longer exactly parallel; the URDF is the exact
     # (ED-H) geometry of the identified axes, not the DH table printed by default, which drops the tilt
     from denavit import identify as ident  # noqa: PLC0415
-    from denavit import sweeps as sw  # noqa: PLC0415
 
     r = runner.invoke(app, ["simulate", str(UR), "-o", str(csv), "--noise", "0.02", "--seed", "3"])
     assert r.exit_code == 0, r.output
     r = runner.invoke(app, ["identify", str(csv), "--nominal", str(UR), "--urdf", str(out)])
     assert r.exit_code == 0, r.output
-    res = ident.identify(sw.read_long_csv(csv), nominal=U.load_urdf(UR))
+    res = ident.identify(swio.read_long_csv(csv), nominal=U.load_urdf(UR))
     exported = dv.fk_batch(U.urdf_model(out), qs)
     assert np.abs(exported - dv.fk_batch(res.model(convention="edh"), qs)).max() < 1e-12
     assert np.abs(exported[:, :3, 3] - dv.fk_batch(res.model(), qs)[:, :3, 3]).max() > 1e-7  # what the DH table would have written

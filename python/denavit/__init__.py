@@ -40,8 +40,8 @@ from ._core import (
     transfer_inertias,
 )
 from .errors import DegenerateError, DenavitError, DenavitWarning, NotConvergedError
-from .robotfile import Robot, builtin_names
-from .robotfile import load as load_robot
+from .robot import Robot, builtin_names
+from .robot import load as load_robot
 
 __version__ = _core.__version__
 

@@ -6,26 +6,28 @@ centre as the joint axis, and extract the parameters from consecutive axes by li
 paper: bias-free and geometric fits, a fit that uses the recorded joint readings, and a ``global`` fit of
 all sweeps together (one shared tool point at home, one line per joint), covariance of every axis
 propagated to every parameter, no absurd offsets on near-parallel axes (docs/conventions.md), and the
-minimum-volume bounding box of the measured points (paper Table IV).
+minimum-volume bounding box of the measured points (paper Table IV; :attr:`Identification.box`, computed
+when first asked for).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
-from scipy.optimize import least_squares
-from scipy.spatial.transform import Rotation
 
-from . import _core, fitting
+from . import _core
 from .errors import DegenerateError, DenavitError
-from .io.output import write_text
-from .robotfile import Robot
+from .fitting import AxisFit, BoundingBox, fit_axis, oriented_bounding_box
+from .fitting.robust import flag_outliers, irls, rms_spread, weighted_cov
+from .geometry import axis_angle_matrices, perpendicular_basis
+from .io.output import json_text, write_text
+from .io.units import cell_scale, joint_scale, length_scale
+from .robot import Robot
 from .sweeps import SweepSet
-from .io.units import angle_scale, length_scale
 
 METHODS = ("auto", "kasa", "hyper", "geometric", "readings", "global")
 
@@ -37,17 +39,22 @@ class Identification:
     method: str
     convention: str
     axes: _core.JointAxes
-    fits: list  # per joint: fitting.AxisFit (the per-sweep fit, or the global fit's view of it)
+    fits: list[AxisFit]  # per joint: the per-sweep fit, or the global fit's view of it
     extraction: _core.Extraction
     sigma: np.ndarray  # (n, k) one-sigma of every table parameter
     axis_cov: np.ndarray  # (6n+3, 6n+3) covariance of [c1, n1, ..., cn, nn, tool point at home]
     tool_point: np.ndarray  # (3,) tool point at home in world (m)
-    box: fitting.BoundingBox
     sweeps: SweepSet
     nominal: Robot | None = None
     nominal_table: _core.Table | None = None
     rms: float = 0.0
     notes: list[str] = field(default_factory=list)
+
+    @cached_property
+    def box(self) -> BoundingBox:
+        """The minimum-volume oriented bounding box of all measured points (the measuring volume, Hayat et al.
+        Table IV), computed when first asked for (it costs more than the rest of :func:`identify`)."""
+        return oriented_bounding_box(self.sweeps.all_points, where=self.sweeps.source)
 
     @property
     def table(self) -> _core.Table:
@@ -60,14 +67,10 @@ class Identification:
         lower = self.nominal.lower if self.nominal else None
         upper = self.nominal.upper if self.nominal else None
         table = self.table
+        convention = None if convention is None else _core.convention_info(convention)["name"]
         if convention is not None and convention != self.convention:
             table = _core.extract(self.axes, convention, nominal=_nominal_table(self.nominal, convention, self.sweeps.home)).table
         return table.to_model(name, names, lower, upper)
-
-
-def _rot(n: np.ndarray, angle: np.ndarray) -> np.ndarray:
-    """(m, 3, 3) rotations about the unit axis n by each angle (Rodrigues)."""
-    return Rotation.from_rotvec(np.outer(angle, n)).as_matrix()
 
 
 #: A locked joint whose reading leaves home by more than this during another joint's sweep gets a note
@@ -123,20 +126,20 @@ def _per_sweep(sweeps: SweepSet, method: str, loss: str, max_sigma: float | None
             fm = method
         robust = {"loss": loss} if fm in ("geometric", "readings") else {}
         # oriented by the readings when there are some (increasing joint value, right-hand rule), else by the point order
-        fits.append(fitting.fit_axis(s.points, q, fm, max_sigma_point=max_sigma, where=where, **robust))
+        fits.append(fit_axis(s.points, q, fm, max_sigma_point=max_sigma, where=where, **robust))
     return fits
 
 
 def _tool_point_from_readings(sweeps: SweepSet, fits: list) -> np.ndarray:
     """Tool point at home: every measured point turned back to home about its sweep's axis, averaged."""
     est = []
-    for s, f in zip(sweeps.sweeps, fits):
+    for s, f in zip(sweeps.sweeps, fits, strict=True):
         j = s.joint - 1
         d = sweeps.home[j] - s.q[:, j]
         if sweeps.kinds[j] == "prismatic":
             est.append(s.points + np.outer(d, f.direction))
         else:
-            R = _rot(f.direction, d)
+            R = axis_angle_matrices(f.direction, d)
             est.append(f.point + np.einsum("mij,mj->mi", R, s.points - f.point))
     return np.mean(np.vstack(est), axis=0)
 
@@ -159,13 +162,6 @@ def _tool_point_geometric(sweeps: SweepSet, fits: list) -> np.ndarray:
     return np.asarray(best)
 
 
-def _tangent_basis(n: np.ndarray) -> np.ndarray:
-    a = np.array([1.0, 0, 0]) if abs(n[0]) < 0.9 else np.array([0, 1.0, 0])
-    u = np.cross(n, a)
-    u /= np.linalg.norm(u)
-    return np.stack([u, np.cross(n, u)], axis=1)  # (3, 2)
-
-
 def _global_fit(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str) -> tuple[list, np.ndarray, np.ndarray, float]:
     """One least-squares fit of all sweeps: one line per joint and one rigid tool point at home.
 
@@ -178,7 +174,7 @@ def _global_fit(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str) -> 
     n = sweeps.n_joints
     c0 = [f.point for f in fits]
     n0 = [f.direction for f in fits]
-    B = [_tangent_basis(v) for v in n0]
+    B = [np.column_stack(perpendicular_basis(v)) for v in n0]  # (3, 2) tangent bases
 
     def unpack(x):
         cs, ns = [], []
@@ -198,12 +194,14 @@ def _global_fit(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str) -> 
             if sweeps.kinds[j] == "prismatic":
                 pred = p + np.outer(d, ns[j])
             else:
-                pred = cs[j] + np.einsum("mij,j->mi", _rot(ns[j], d), p - cs[j])
+                pred = cs[j] + np.einsum("mij,j->mi", axis_angle_matrices(ns[j], d), p - cs[j])
             out.append((pred - s.points).ravel())
         return np.concatenate(out)
 
     def misfit(x):
         return np.linalg.norm(residuals(x).reshape(-1, 3), axis=1)
+
+    from scipy.optimize import least_squares  # noqa: PLC0415 (scipy is loaded when a fit first needs it)
 
     def lsq(x, w):
         sw = np.repeat(np.sqrt(w), 3)
@@ -211,14 +209,14 @@ def _global_fit(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str) -> 
 
     # a robust loss by reweighting, its scale 3 robust sigmas of the current misfits (as the per-sweep fits do)
     x = lsq(np.concatenate([np.zeros(4 * n), p_home]), np.ones(len(sweeps.all_points))).x
-    x, w = fitting._irls(lambda st, wt: lsq(st, wt).x, misfit, x, loss, None, 3, "global fit", sweeps.source)
+    x, w = irls(lambda st, wt: lsq(st, wt).x, misfit, x, loss, None, 3, "global fit", sweeps.source)
     sol = lsq(x, w)
     cs, ns, p = unpack(sol.x)
     r = residuals(sol.x)
     w3 = np.repeat(w, 3)
-    cov_x, _ = fitting._weighted_cov(sol.jac / np.sqrt(w3)[:, None], r, w3, len(sol.x))  # consistent with the weights
+    cov_x, _ = weighted_cov(sol.jac / np.sqrt(w3)[:, None], r, w3, len(sol.x))  # consistent with the weights
     mis = np.linalg.norm(r.reshape(-1, 3), axis=1)
-    outliers = fitting._outliers(mis, 3, fitting._size(sweeps.all_points))  # flagged on the pooled robust sigma, kept
+    outliers = flag_outliers(mis, 3, rms_spread(sweeps.all_points))  # flagged on the pooled robust sigma, kept
     # map the local parameters to [c_j, n_j] (linear at the solution: dn = B da, dc = B ds) and p
     M = np.zeros((6 * n + 3, 4 * n + 3))
     for j in range(n):
@@ -230,12 +228,12 @@ def _global_fit(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str) -> 
     cov = M @ cov_x @ M.T
     out_fits = []
     k = 0
-    for s, f in zip(sweeps.sweeps, fits):
+    for s, f in zip(sweeps.sweeps, fits, strict=True):
         j = s.joint - 1
         m = len(s.points)
         # the axis point reported is the foot of the home tool point on the axis (the circle centre)
         c = cs[j] + ns[j] * ((p - cs[j]) @ ns[j])
-        radius = float(np.linalg.norm((p - c))) if sweeps.kinds[j] == "revolute" else math.nan
+        radius = float(np.linalg.norm(p - c)) if sweeps.kinds[j] == "revolute" else math.nan
         sig_perp = float(math.sqrt(max(np.linalg.eigvalsh(cov[6 * j : 6 * j + 3, 6 * j : 6 * j + 3])[-1], 0.0)))
         sig_dir = float(math.sqrt(max(np.trace(cov[6 * j + 3 : 6 * j + 6, 6 * j + 3 : 6 * j + 6]), 0.0)))
         out_fits.append(replace(f, point=c, direction=ns[j], radius=radius, residuals=mis[k : k + m], rms=float(math.sqrt(np.mean(mis[k : k + m] ** 2))),
@@ -313,8 +311,7 @@ def identify(
     progress = progress or (lambda _msg: None)
     if method not in METHODS:
         raise DenavitError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
-    if convention not in ("dh", "mdh", "edh", "poe"):
-        raise DenavitError(f"unknown convention {convention!r}: expected one of dh, mdh, edh, poe")
+    convention = _core.convention_info(convention)["name"]
     n = sweeps.n_joints
     if nominal is not None and len(nominal.names) != n:
         raise DenavitError(f"nominal model {nominal.name} has {len(nominal.names)} joints, the data has {n}")
@@ -329,7 +326,7 @@ def identify(
     if method == "global":
         progress(f"one fit of all {len(sweeps.sweeps)} sweeps (shared tool point)")
         fits, cov, p_home, rms = _global_fit(sweeps, fits, p_home, loss)
-        for s, f in zip(sweeps.sweeps, fits):
+        for s, f in zip(sweeps.sweeps, fits, strict=True):
             if max_sigma is not None and f.sigma_point_perp > max_sigma:
                 raise DegenerateError(f"{sweep_where(s, sweeps.source)}: predicted axis-position uncertainty {f.sigma_point_perp * 1e3:.3g} mm (1 sigma) "
                                       f"exceeds the requested {max_sigma * 1e3:.3g} mm; the sweep covers {np.degrees(f.arc):.1f} deg: sweep a longer arc or measure more points")
@@ -374,22 +371,24 @@ def identify(
             notes.append(f"axes {pd.joint}-{pd.joint + 1} treated as parallel: misalignment {math.degrees(pd.hayati_beta):.2e} deg (Hayati beta) is not representable in {convention}")
     if convention in ("dh", "mdh") and ex.max_position_error > 1e-6:
         notes.append(f"the {convention} table carries a tool-position error up to {ex.max_position_error * 1e3:.4f} mm (ED-H is exact)")
-    progress("measuring volume (minimum oriented bounding box)")
-    box = fitting.oriented_bounding_box(sweeps.all_points)
-    return Identification(method, convention, ax, fits, ex, sigma, cov, p_home, box, sweeps, nominal, nominal_table, rms, notes)
+    return Identification(method, convention, ax, fits, ex, sigma, cov, p_home, sweeps, nominal, nominal_table, rms, notes)
 
 
-def to_json(result: Identification, length: str | None = None, angle: str = "deg") -> dict:
-    """The JSON document of a result (units stated; lengths default to the input's unit)."""
+def to_json(result: Identification, length: str | None = None, angle: str = "deg", *, box: bool = True) -> dict:
+    """The JSON document of a result (units stated; lengths default to the input's unit).
+
+    ``box``: include the measuring volume (``"bounding_box"``, :attr:`Identification.box`, computed now if it
+    was not yet); ``box=False`` leaves it out and does not compute it.
+    """
     length = length or result.sweeps.units.get("length", "m")
-    ls, as_ = length_scale(length), angle_scale(angle)
+    ls = length_scale(length)
     t = result.table
     names = result.nominal.names if result.nominal else [f"j{i + 1}" for i in range(result.axes.nq)]
     rows = []
-    for i, (row, sig) in enumerate(zip(t.params, result.sigma)):
+    for i, (row, sig) in enumerate(zip(t.params, result.sigma, strict=True)):
         r = {"joint": names[i]}
-        for c, a, v, s in zip(t.columns, t.angle_columns, row, sig):
-            scale = as_ if a else (ls if t.convention != "poe" or c.startswith("v") else 1.0)
+        for k, (c, v, s) in enumerate(zip(t.columns, row, sig, strict=True)):
+            scale = cell_scale(t, i, k, length, angle)[0]
             r[c] = v / scale
             r[f"{c}_sigma"] = s / scale
         rows.append(r)
@@ -404,14 +403,13 @@ def to_json(result: Identification, length: str | None = None, angle: str = "deg
                           "outliers": [int(k) for k in np.flatnonzero(f.outliers)], "per_point": (np.asarray(f.residuals) / ls).tolist()},
             "arc_deg": math.degrees(f.arc),
         })
-    b = result.box
     return {
         "units": {"length": length, "angle": angle},
         "frame": "measurement",
         "method": result.method,
         "convention": t.convention,
         "source": result.sweeps.source,
-        "home": [float(v / (as_ if k == "revolute" else ls)) for v, k in zip(result.sweeps.home, result.sweeps.kinds)],
+        "home": (np.asarray(result.sweeps.home) / joint_scale(result.sweeps.kinds, length, angle)).tolist(),
         "joints": joints,
         "parameters": rows,
         "pairs": [{"joint": p.joint, "relation": p.relation, "angle_deg": math.degrees(p.angle), "distance": p.distance / ls, "hayati_beta_deg": math.degrees(p.hayati_beta)} for p in result.extraction.pairs],
@@ -419,10 +417,14 @@ def to_json(result: Identification, length: str | None = None, angle: str = "deg
         "T_world_base": _pose_json(t.T_world_base, ls),
         "T_last_tool": _pose_json(t.T_last_tool, ls),
         "max_tool_position_error": result.extraction.max_position_error / ls,
-        "bounding_box": {"lengths": (b.lengths / ls).tolist(), "volume_m3": b.volume, "center": (b.center / ls).tolist(), "orientation": b.axes.tolist()},
+        **({"bounding_box": _box_json(result.box, ls)} if box else {}),
         "rms": result.rms / ls,
         "notes": result.notes,
     }
+
+
+def _box_json(b: BoundingBox, ls: float) -> dict:
+    return {"lengths": (b.lengths / ls).tolist(), "volume_m3": b.volume, "center": (b.center / ls).tolist(), "orientation": b.axes.tolist()}
 
 
 def _pose_json(T: np.ndarray, ls: float) -> list:
@@ -431,9 +433,9 @@ def _pose_json(T: np.ndarray, ls: float) -> list:
     return M.tolist()
 
 
-def write_json(result: Identification, path, length: str | None = None, angle: str = "deg") -> None:
-    """Write the result as JSON (whole or not at all)."""
-    write_text(path, json.dumps(to_json(result, length, angle), indent=2) + "\n")
+def write_json(result: Identification, path, length: str | None = None, angle: str = "deg", *, box: bool = True) -> None:
+    """Write the result as JSON (whole or not at all); ``box`` as in :func:`to_json`."""
+    write_text(path, json_text(to_json(result, length, angle, box=box)))
 
 
 __all__ = ["Identification", "METHODS", "identify", "to_json", "write_json", "DegenerateError"]

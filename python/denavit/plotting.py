@@ -32,7 +32,8 @@ import numpy as np
 
 from . import _core
 from .errors import DenavitError
-from .io.units import angle_scale, column_scale, length_scale
+from .geometry import perpendicular_basis
+from .io.units import cell_scale, column_scale, joint_scale, joint_unit, length_scale
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
@@ -60,18 +61,9 @@ def joint_names(result: Identification) -> list[str]:
     return list(result.nominal.names) if result.nominal else [f"j{i + 1}" for i in range(result.axes.nq)]
 
 
-def perp_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors u, v with (u, v, n) right-handed and orthonormal; n : (3,) unit."""
-    n = np.asarray(n, dtype=float)
-    a = np.array([1.0, 0, 0]) if abs(n[0]) < 0.9 else np.array([0, 1.0, 0])
-    u = np.cross(n, a)
-    u /= np.linalg.norm(u)
-    return u, np.cross(n, u)
-
-
 def circle_points(centre, normal, radius: float, count: int = 181) -> np.ndarray:
     """(count, 3) points of the full circle of ``radius`` about ``centre`` in the plane normal to ``normal``."""
-    u, v = perp_basis(normal)
+    u, v = perpendicular_basis(normal)
     t = np.linspace(0.0, 2.0 * math.pi, count)
     return np.asarray(centre, dtype=float) + radius * (np.outer(np.cos(t), u) + np.outer(np.sin(t), v))
 
@@ -196,7 +188,7 @@ def plot_circles(result: Identification, *, length: str = "mm") -> Figure:
     pts_all = result.sweeps.all_points
     arrow = 0.25 * scene_size(pts_all)
     drawn = [pts_all]
-    for s, f in zip(result.sweeps.sweeps, result.fits):
+    for s, f in zip(result.sweeps.sweeps, result.fits, strict=True):
         j = s.joint
         col = joint_colour(j - 1)
         name = names[j - 1]
@@ -239,7 +231,7 @@ def plot_residuals(result: Identification, *, length: str = "mm") -> Figure:
     n = len(result.fits)
     cols = min(n, 3)
     rows = math.ceil(n / cols)
-    for k, (s, f) in enumerate(zip(result.sweeps.sweeps, result.fits)):
+    for k, (s, f) in enumerate(zip(result.sweeps.sweeps, result.fits, strict=True)):
         ax = fig.add_subplot(rows, cols, k + 1)
         ax.set_gid(f"residuals-{s.joint}")
         r = np.asarray(f.residuals) / ls
@@ -349,7 +341,7 @@ def plot_frames(tables, q=None, *, length: str = "mm", triad: float | None = Non
     size = triad if triad is not None else 0.08 * scene_size(allo)
     fig = _figure(figsize=(5.5 * len(items), 5.8), layout="constrained")
     ends = np.vstack([allo] + [F[:, :3, 3] + size * F[:, :3, k] for F in Fs for k in range(3)])
-    for k, ((label, t), F) in enumerate(zip(items, Fs)):
+    for k, ((label, t), F) in enumerate(zip(items, Fs, strict=True)):
         ax = fig.add_subplot(1, len(items), k + 1, projection="3d")
         ax.set_gid(f"frames-{label}")
         _draw_frames(ax, F, ls, size)
@@ -396,9 +388,9 @@ def plot_origin_paths(tables, joint: int, q0=None, *, limits=None, steps: int = 
     paths = [frames_along(t, qv, joint, values)[:, :, :3, 3] for _, t in items]  # (steps, n+1, 3)
     allp = np.vstack([p.reshape(-1, 3) for p in paths])
     fig = _figure(figsize=(5.5 * len(items), 5.8), layout="constrained")
-    unit = "deg" if kind == "revolute" else length
-    sc = angle_scale("deg") if kind == "revolute" else ls
-    for k, ((label, t), P) in enumerate(zip(items, paths)):
+    unit = joint_unit(kind, length, "deg")
+    sc = float(joint_scale([kind], length, "deg")[0])
+    for k, ((label, t), P) in enumerate(zip(items, paths, strict=True)):
         ax = fig.add_subplot(1, len(items), k + 1, projection="3d")
         ax.set_gid(f"paths-{label}")
         o = t.frames(qv)[:, :3, 3] / ls
@@ -428,7 +420,8 @@ def parameter_errors(result: Identification, length: str = "mm", angle: str = "d
     t, nt = result.table, result.nominal_table
     out = []
     for k, c in enumerate(t.columns):
-        sc, unit = column_scale(t, k, length, angle)
+        unit = column_scale(t, k, length, angle)[1]
+        sc = np.array([cell_scale(t, i, k, length, angle)[0] for i in range(len(t.kinds))])  # a prismatic POE v is unitless
         ident = t.params[:, k] / sc
         nom = None if nt is None or nt.convention != t.convention else nt.params[:, k] / sc
         if nom is not None and t.angle_columns[k]:
@@ -455,7 +448,7 @@ def plot_parameters(result: Identification, *, length: str = "mm", angle: str = 
             ax.axhline(0.0, color="0.6", lw=0.8)
             ax.errorbar(x, ident - nom, yerr=sig, fmt="o", color="#1f77b4", ecolor="#1f77b4", capsize=3, ms=4)
             ax.set_title(f"{c} [{unit}]: identified - nominal", fontsize=9)
-            ax.set_xticks(x, [f"{nm}\n{v:.4g}" for nm, v in zip(names, nom)], fontsize=7)
+            ax.set_xticks(x, [f"{nm}\n{v:.4g}" for nm, v in zip(names, nom, strict=True)], fontsize=7)
         else:
             ax.errorbar(x, ident, yerr=sig, fmt="o", color="#1f77b4", capsize=3, ms=4)
             ax.set_title(f"{c} [{unit}]: identified", fontsize=9)
@@ -471,7 +464,7 @@ def figures_for(result: Identification, *, length: str = "mm", other: str | None
     origin_paths (frames of the identified convention and ``other`` at the home configuration; origin paths
     over joint ``joint``'s swept range, default joint 2 as in Guo et al. Fig. 3)."""
     conv = result.table.convention
-    other = other or other_convention(conv)
+    other = other_convention(conv) if other is None else _core.convention_info(other)["name"]
     model = result.model()
     tables = [(f"identified {conv}", result.table), (f"identified {other}", _core.extract(_core.axes(model, np.zeros(model.nq)), other).table)]
     n = result.axes.nq

@@ -26,13 +26,16 @@ from __future__ import annotations
 
 import html
 import math
+from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from . import __version__, _core
 from .errors import DenavitError
+from .io.output import atomic_path, write_text
+from .io.units import angle_scale, cell_scale, column_scale, length_scale
 from .plotting import (
     AXIS_COLOURS,
     INSTALL_HINT,
@@ -48,9 +51,7 @@ from .plotting import (
     scene_size,
     sweep_range,
 )
-from .io.output import atomic_path, write_text
-from .robotfile import CONVENTIONS, Robot, load
-from .io.units import angle_scale, column_scale, length_scale
+from .robot import Robot, load
 
 if TYPE_CHECKING:  # pragma: no cover
     from .identify import Identification
@@ -98,12 +99,20 @@ def write_figures(result: Identification, folder, *, formats: Sequence[str] = FI
     return _write_all(figures_for(result, length=length), folder, formats, dpi)
 
 
+def _convention(name: str) -> str | None:
+    """The core's name of the convention ``name`` (any alias: "craig", "MDH", ...), or None if it names none."""
+    try:
+        return _core.convention_info(name)["name"]
+    except DenavitError:
+        return None
+
+
 def _compare_tables(robot: Robot, compare) -> tuple[list[tuple[str, _core.Table]], _core.Extraction | None]:
     """The robot's table and the one drawn beside it: a convention name (the robot extracted into it), a robot
     (or the name / file of one, with the same number of joints), or None (ED-H, modified DH beside ED-H)."""
     first = (f"{robot.name} ({robot.convention})", robot.table)
-    if isinstance(compare, str) and compare.lower() in CONVENTIONS or compare is None:
-        conv = other_convention(robot.convention) if compare is None else compare.lower()
+    conv = other_convention(robot.convention) if compare is None else _convention(compare) if isinstance(compare, str) else None
+    if conv is not None:
         m = robot.model()
         nominal = robot.table if robot.convention == conv else None
         ex = _core.extract(_core.axes(m, np.zeros(m.nq)), conv, nominal=nominal)
@@ -270,10 +279,10 @@ def _pairs_table(pairs, ls: float, length: str, angle: str) -> str:
 def _param_table(tid: str, table: _core.Table, names: Sequence[str], length: str, angle: str, caption: str) -> str:
     sc = [column_scale(table, k, length, angle) for k in range(len(table.columns))]
     rows = []
-    for i, (nm, kind, row) in enumerate(zip(names, table.kinds, table.params)):
-        cells = "".join(_td(c, v / s) for c, v, (s, _) in zip(table.columns, row, sc))
+    for i, (nm, kind, row) in enumerate(zip(names, table.kinds, table.params, strict=True)):
+        cells = "".join(_td(c, v / cell_scale(table, i, k, length, angle)[0]) for k, (c, v) in enumerate(zip(table.columns, row, strict=True)))
         rows.append(f'<tr data-joint="{html.escape(nm)}">{_td("joint", nm)}{_td("kind", kind)}{cells}</tr>')
-    header = ["joint", "kind"] + [f"{c} [{u}]" for c, (_, u) in zip(table.columns, sc)]
+    header = ["joint", "kind"] + [f"{c} [{u}]" for c, (_, u) in zip(table.columns, sc, strict=True)]
     return _table(tid, header, rows, caption, f"parameters {table.convention}")
 
 
@@ -286,7 +295,7 @@ def _identification_view(go, result: Identification, ls: float, length: str):
     size = scene_size(pts)
     arrow = 0.25 * size
     traces = []
-    for s, f in zip(result.sweeps.sweeps, result.fits):
+    for s, f in zip(result.sweeps.sweeps, result.fits, strict=True):
         j = s.joint
         col, nm, grp = joint_colour(j - 1), names[j - 1], f"joint-{j}"
         p = s.points / ls
@@ -344,7 +353,7 @@ def _identification_view(go, result: Identification, ls: float, length: str):
 def _residual_chart(go, result: Identification, ls: float, length: str):
     names = joint_names(result)
     fig = go.Figure()
-    for s, f in zip(result.sweeps.sweeps, result.fits):
+    for s, f in zip(result.sweeps.sweeps, result.fits, strict=True):
         r = np.asarray(f.residuals) / ls
         fig.add_trace(go.Scatter(x=np.arange(len(r)), y=r, mode="lines+markers", name=f"{names[s.joint - 1]} (rms {f.rms / ls:.3g})", marker={"color": joint_colour(s.joint - 1), "size": 5},
                                  line={"width": 1}))
@@ -384,7 +393,7 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
     rows = []
     for i, prow in enumerate(doc["parameters"]):
         for k, c in enumerate(t.columns):
-            sc, unit = column_scale(t, k, length, angle)
+            sc, unit = cell_scale(t, i, k, length, angle)
             nom = float(nt.params[i, k] / sc) if nt is not None else None
             diff = None if nom is None else prow[c] - nom
             if diff is not None and t.angle_columns[k]:
@@ -399,7 +408,7 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
     for j in doc["joints"]:
         c, a = j["circle"], j["axis"]
         arows.append(f'<tr data-joint="{html.escape(j["joint"])}">{_td("joint", j["joint"])}'
-                     + "".join(_td(f"point-{x}", v) for x, v in zip("xyz", a["point"])) + "".join(_td(f"direction-{x}", v, 6) for x, v in zip("xyz", a["direction"]))
+                     + "".join(_td(f"point-{x}", v) for x, v in zip("xyz", a["point"], strict=True)) + "".join(_td(f"direction-{x}", v, 6) for x, v in zip("xyz", a["direction"], strict=True))
                      + f'{_td("radius", c["radius"])}{_td("arc", j["arc_deg"], 1)}{_td("rms", j["residuals"]["rms"])}{_td("max-residual", j["residuals"]["max"])}'
                      f'{_td("sigma-across", a["sigma_point_perp"])}{_td("sigma-direction", a["sigma_direction_deg"], 5)}{_td("n-points", j["residuals"]["n_points"], 0)}'
                      f'{_td("outliers", len(j["residuals"]["outliers"]), 0)}</tr>')
@@ -466,11 +475,11 @@ def model_report_html(robot: Robot, *, compare=None, q=None, length: str = "mm",
         traces.append(_line3d(go, [np.array([p - 0.12 * size * z, p + 0.12 * size * z])], ls, line={"color": col, "width": 8}, name=f"axis {nm}",
                               legendgroup=f"joint-{i + 1}", showlegend=True, hoverinfo="name"))
     tri = 0.07 * size
-    for (label, _), F, dash in zip(tables, Fs, ("solid", "dash")):
+    for (label, _), F, dash in zip(tables, Fs, ("solid", "dash"), strict=True):
         traces += _frame_traces(go, label, F, ls, tri, group=f"frames-{label}", dash=dash, names=robot.names)
     for k in range(1, n + 1):
         lim = motion_range(robot.lower, robot.upper, qv, k, robot.table.kinds[k - 1])
-        for (label, t), colour, dash in zip(tables, ("#6a3d9a", "#b15928"), ("solid", "dash")):
+        for (label, t), colour, dash in zip(tables, ("#6a3d9a", "#b15928"), ("solid", "dash"), strict=True):
             traces += _path_traces(go, label, t, qv, k, lim, ls, group=f"paths-{label}-{k}", visible=True if k == 2 or n == 1 else "legendonly", colour=colour, dash=dash,
                                    name=f"{label}: origin paths, {robot.names[k - 1]} moving")
     fig = go.Figure(traces)
@@ -481,10 +490,10 @@ def model_report_html(robot: Robot, *, compare=None, q=None, length: str = "mm",
         tid = "table-main" if idx == 0 else "table-compare"
         parts.append(f"<h3>{html.escape(label)}</h3>" + _param_table(tid, t, robot.names, length, angle, f"{t.convention} columns as in docs/conventions.md; {length}, {angle}."))
     frows = []
-    for (label, _), F in zip(tables, Fs):
+    for (label, _), F in zip(tables, Fs, strict=True):
         for i, T in enumerate(F):
             frows.append(f'<tr data-convention="{html.escape(label)}" data-frame="{i}">{_td("convention", label)}{_td("frame", str(i))}'
-                         + "".join(_td(f"origin-{x}", v / ls) for x, v in zip("xyz", T[:3, 3])) + "".join(_td(f"z-{x}", v) for x, v in zip("xyz", T[:3, 2])) + "</tr>")
+                         + "".join(_td(f"origin-{x}", v / ls) for x, v in zip("xyz", T[:3, 3], strict=True)) + "".join(_td(f"z-{x}", v) for x, v in zip("xyz", T[:3, 2], strict=True)) + "</tr>")
     frames_t = _table("frames", ["convention", "frame", f"origin x [{length}]", f"origin y [{length}]", f"origin z [{length}]", "z x", "z y", "z z"], frows,
                       "Frame origins and z axes in world at the configuration drawn (Table.frames).", "frames")
     rng = np.random.default_rng(0)

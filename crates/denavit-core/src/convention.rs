@@ -286,3 +286,233 @@ impl Table {
         Ok(frames)
     }
 }
+
+/// `x` rounded to `digits` significant digits (printed in its shortest form: 0, 2.9, 0.0523).
+fn significant(x: f64, digits: i32) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    let scale = 10f64.powi(digits - 1 - x.abs().log10().floor() as i32);
+    (x * scale).round() / scale
+}
+
+/// What a calibration measures at each configuration: the tool point (3 values) or the whole tool pose (6).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Measure {
+    /// Tool points: the tool is 3 translations.
+    Point,
+    /// Tool poses: the tool is 3 translations and 3 small rotations.
+    Pose,
+}
+
+impl Measure {
+    /// Parse `"point"` / `"pose"`.
+    pub fn parse(s: &str) -> Result<Self> {
+        match s {
+            "point" => Ok(Self::Point),
+            "pose" => Ok(Self::Pose),
+            _ => Err(Error::UnknownName { kind: "measure".into(), got: s.into(), expected: "point, pose".into() }),
+        }
+    }
+}
+
+/// One parameter of a calibration parametrization.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Parameter {
+    /// Name, e.g. `alpha_0`, `a_1`, `d_2`, `offset_3`, `beta_1`, `base_tx`, `tool_z`, `scale_2` (docs/conventions.md).
+    pub name: String,
+    /// Nominal value (m, rad, or a ratio).
+    pub value: f64,
+    /// `"length"`, `"angle"` or `"ratio"`.
+    pub unit: &'static str,
+    /// `"base"`, `"link"`, `"offset"`, `"tool"` or `"scale"`.
+    pub group: &'static str,
+    /// True for a translation along the joint axis it follows (`c_i`, `d_i`): the first to drop when unidentifiable.
+    pub along_axis: bool,
+    /// Why the parametrization itself holds this parameter fixed (e.g. `d_i` of near-parallel MDH axes).
+    pub fixed: Option<String>,
+}
+
+/// A calibration parametrization of a table: the chain factors and the named parameters
+/// (docs/conventions.md, "Calibration parameters"). Scale parameters, when asked for, come last.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Parametrization {
+    /// `T_world_tool = F_1 · ... · F_K`.
+    pub factors: Vec<crate::calibration::Factor>,
+    /// The parameters, in the order of their indices.
+    pub params: Vec<Parameter>,
+    /// Index into `factors` of each joint's factor (the one its reading moves).
+    pub joint_factors: Vec<usize>,
+    /// `factors[..base_end]` form the base.
+    pub base_end: usize,
+    /// `factors[tool_start..]` form the tool (after the last joint).
+    pub tool_start: usize,
+    /// The scale parameter of each joint, if any.
+    pub scales: Vec<Option<usize>>,
+}
+
+impl Table {
+    /// Consecutive axes `(i, i+1)` (1-based `i`) of this table's model at q = 0 that are within
+    /// [`crate::extract::NEAR_PARALLEL_SIN`] of parallel or anti-parallel, with their angle (rad).
+    pub fn near_parallel_pairs(&self) -> Result<Vec<(usize, f64)>> {
+        let model = self.to_model("pairs")?;
+        let ax = crate::axes::axes(&model, &vec![0.0; self.nq()])?;
+        Ok((1..self.nq())
+            .filter_map(|i| {
+                let s = ax.directions[i - 1].cross(&ax.directions[i]).norm();
+                (s < crate::extract::NEAR_PARALLEL_SIN).then(|| (i, s.min(1.0).asin()))
+            })
+            .collect())
+    }
+
+    /// The calibration parametrization of this table (`dh`, `mdh`, `edh`) with the tool `t_last_tool`
+    /// (the tool in the convention's last frame; `robot` names the robot in messages): base `Tx Ty Tz · R0 · Rx Ry Rz` (R0 the nominal base
+    /// rotation), one link per row in the convention's factor order with the joint's reading added to its
+    /// joint factor, and the tool `Tx Ty Tz · Rt [· Rx Ry Rz]` (rotations for pose measurements). Where
+    /// consecutive axes are near-parallel, `mdh` and `edh` links get Hayati's tilt `beta` about y
+    /// (Hayati & Mirmirani 1985) and `mdh` holds `d_i` fixed; `dh` is refused there. `scale` adds a scale
+    /// parameter per joint (`q -> q (1 + scale)`).
+    ///
+    /// ```
+    /// use denavit_core::{Convention, Table, JointKind, spatial::Pose, convention::Measure};
+    /// let p = nalgebra::DMatrix::from_row_slice(2, 4, &[0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+    /// let t = Table::new(Convention::Dh, p, vec![JointKind::Revolute; 2], Pose::identity(), Pose::identity()).unwrap();
+    /// // planar 2R: parallel axes, so standard DH is refused and ED-H is the way
+    /// assert!(t.parametrize("planar", &Pose::identity(), Measure::Point, false).is_err());
+    /// ```
+    pub fn parametrize(&self, robot: &str, t_last_tool: &Pose, measure: Measure, scale: bool) -> Result<Parametrization> {
+        use crate::calibration::{Axis, Factor};
+        let n = self.nq();
+        let near = self.near_parallel_pairs()?;
+        let is_near = |i: usize| near.iter().any(|&(k, _)| k == i);
+        if self.convention == Convention::Dh && !near.is_empty() {
+            let list: Vec<String> = near.iter().map(|&(i, a)| format!("{}-{} ({} deg)", i, i + 1, significant(a.to_degrees(), 3))).collect();
+            return Err(Error::Degenerate {
+                reason: format!(
+                    "standard DH cannot calibrate {robot}: axes {} are parallel within {} deg; a DH link can tilt the next axis only about their common normal \
+                     (alpha); a tilt about the other perpendicular direction (Hayati's beta) sends the common normal, hence d, to infinity, so the fit cannot \
+                     represent the robot or diverges (Hayati & Mirmirani 1985): use convention 'mdh' (Hayati angle beta) or 'edh'",
+                    list.join(", "),
+                    significant(crate::extract::NEAR_PARALLEL_SIN.asin().to_degrees(), 2)
+                ),
+            });
+        }
+        if self.convention == Convention::Poe {
+            return Err(Error::InvalidArgument {
+                what: "calibration convention".into(),
+                expected: "dh, mdh or edh (product-of-exponentials calibration is not available yet: use edh)".into(),
+                got: "poe".into(),
+            });
+        }
+        let mut factors: Vec<Factor> = Vec::new();
+        let mut params: Vec<Parameter> = Vec::new();
+        let mut joint_factors = Vec::with_capacity(n);
+        let mut add = |factors: &mut Vec<Factor>, axis: Axis, name: String, value: f64, group: &'static str, joint: Option<usize>, along_axis: bool| {
+            factors.push(Factor::param(axis, params.len(), joint));
+            let unit = if axis.is_rotation() { "angle" } else { "length" };
+            params.push(Parameter { name, value, unit, group, along_axis, fixed: None });
+        };
+        let b = &self.t_world_base;
+        for (k, a) in [Axis::Tx, Axis::Ty, Axis::Tz].into_iter().enumerate() {
+            add(&mut factors, a, format!("base_t{}", ["x", "y", "z"][k]), b.translation.vector[k], "base", None, false);
+        }
+        factors.push(Factor::Fixed(Pose::from_parts(nalgebra::Translation3::identity(), b.rotation)));
+        for (k, a) in [Axis::Rx, Axis::Ry, Axis::Rz].into_iter().enumerate() {
+            add(&mut factors, a, format!("base_r{}", ["x", "y", "z"][k]), 0.0, "base", None, false);
+        }
+        let base_end = factors.len();
+        let mut fixed_rules: Vec<(String, String)> = Vec::new();
+        for k in 0..n {
+            let i = k + 1;
+            let r = self.row(k);
+            let rev = self.kinds[k] == JointKind::Revolute;
+            match self.convention {
+                Convention::Edh => {
+                    // Rx(alpha) Tx(a) Ty(b) Tz(c) [Ry(beta)] Rz(theta + q)  |  prismatic: ... [Ry(beta)] Rz(theta) Tz(c + q)
+                    add(&mut factors, Axis::Rx, format!("alpha_{k}"), r[0], "link", None, false);
+                    add(&mut factors, Axis::Tx, format!("a_{k}"), r[1], "link", None, false);
+                    add(&mut factors, Axis::Ty, format!("b_{k}"), r[2], "link", None, false);
+                    if rev {
+                        add(&mut factors, Axis::Tz, format!("c_{k}"), r[3], "link", None, true);
+                        if is_near(k) {
+                            add(&mut factors, Axis::Ry, format!("beta_{k}"), 0.0, "link", None, false);
+                        }
+                        joint_factors.push(factors.len());
+                        add(&mut factors, Axis::Rz, format!("offset_{i}"), r[4], "offset", Some(k), false);
+                    } else {
+                        if is_near(k) {
+                            add(&mut factors, Axis::Ry, format!("beta_{k}"), 0.0, "link", None, false);
+                        }
+                        add(&mut factors, Axis::Rz, format!("theta_{i}"), r[4], "link", None, false);
+                        joint_factors.push(factors.len());
+                        add(&mut factors, Axis::Tz, format!("offset_{i}"), r[3], "offset", Some(k), false);
+                    }
+                }
+                Convention::Mdh => {
+                    // Rx(alpha) Tx(a) [Ry(beta)] Tz(d) Rz(theta + q)  |  prismatic: ... Rz(theta) Tz(d + q)
+                    add(&mut factors, Axis::Rx, format!("alpha_{k}"), r[0], "link", None, false);
+                    add(&mut factors, Axis::Tx, format!("a_{k}"), r[1], "link", None, false);
+                    if is_near(k) {
+                        add(&mut factors, Axis::Ry, format!("beta_{k}"), 0.0, "link", None, false);
+                    }
+                    if rev {
+                        add(&mut factors, Axis::Tz, format!("d_{i}"), r[3], "link", None, true);
+                        if is_near(i) {
+                            fixed_rules.push((
+                                format!("d_{i}"),
+                                format!(
+                                    "axes {i} and {} are near-parallel: their common normal, hence the position of frame {i} along axis {i}, is undefined; \
+                                     Hayati's beta_{i} is used instead and d_{i} is fixed (Hayati & Mirmirani 1985)",
+                                    i + 1
+                                ),
+                            ));
+                        }
+                        joint_factors.push(factors.len());
+                        add(&mut factors, Axis::Rz, format!("offset_{i}"), r[2], "offset", Some(k), false);
+                    } else {
+                        add(&mut factors, Axis::Rz, format!("theta_{i}"), r[2], "link", None, false);
+                        joint_factors.push(factors.len());
+                        add(&mut factors, Axis::Tz, format!("offset_{i}"), r[3], "offset", Some(k), false);
+                    }
+                }
+                _ => {
+                    // Rz(theta + q) Tz(d) Tx(a) Rx(alpha)  |  prismatic: Rz(theta) Tz(d + q) Tx(a) Rx(alpha)
+                    if rev {
+                        joint_factors.push(factors.len());
+                        add(&mut factors, Axis::Rz, format!("offset_{i}"), r[1], "offset", Some(k), false);
+                        add(&mut factors, Axis::Tz, format!("d_{i}"), r[0], "link", None, true);
+                    } else {
+                        add(&mut factors, Axis::Rz, format!("theta_{i}"), r[1], "link", None, false);
+                        joint_factors.push(factors.len());
+                        add(&mut factors, Axis::Tz, format!("offset_{i}"), r[0], "offset", Some(k), false);
+                    }
+                    add(&mut factors, Axis::Tx, format!("a_{i}"), r[2], "link", None, false);
+                    add(&mut factors, Axis::Rx, format!("alpha_{i}"), r[3], "link", None, false);
+                }
+            }
+        }
+        let tool_start = joint_factors.last().map_or(base_end, |j| j + 1);
+        for (k, a) in [Axis::Tx, Axis::Ty, Axis::Tz].into_iter().enumerate() {
+            add(&mut factors, a, format!("tool_{}", ["x", "y", "z"][k]), t_last_tool.translation.vector[k], "tool", None, false);
+        }
+        factors.push(Factor::Fixed(Pose::from_parts(nalgebra::Translation3::identity(), t_last_tool.rotation)));
+        if measure == Measure::Pose {
+            for (k, a) in [Axis::Rx, Axis::Ry, Axis::Rz].into_iter().enumerate() {
+                add(&mut factors, a, format!("tool_r{}", ["x", "y", "z"][k]), 0.0, "tool", None, false);
+            }
+        }
+        let mut scales = vec![None; n];
+        if scale {
+            for (k, s) in scales.iter_mut().enumerate() {
+                *s = Some(params.len());
+                params.push(Parameter { name: format!("scale_{}", k + 1), value: 0.0, unit: "ratio", group: "scale", along_axis: false, fixed: None });
+            }
+        }
+        for (name, why) in fixed_rules {
+            if let Some(p) = params.iter_mut().find(|p| p.name == name) {
+                p.fixed = Some(why);
+            }
+        }
+        Ok(Parametrization { factors, params, joint_factors, base_end, tool_start, scales })
+    }
+}

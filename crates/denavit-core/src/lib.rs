@@ -11,6 +11,7 @@
 
 pub mod axes;
 pub mod calibration;
+pub mod compensate;
 pub mod convention;
 pub mod dynamics;
 pub mod error;

@@ -1,6 +1,6 @@
 //! Calibration chains (`denavit_core::calibration`): tool poses and identification Jacobians in batch.
 
-use crate::convert::{out, poses, rows, vector};
+use crate::convert::{out, poses, poses_out, rows, vector};
 use crate::error::{invalid, IntoPy};
 use denavit_core::calibration::{Axis, Chain, Factor};
 use denavit_core::spatial::Pose;
@@ -111,7 +111,7 @@ impl PyChain {
     /// Pickle / copy: `CalibrationChain(axes, params, joints, fixed, n_params, nq, scales)`.
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
         let a = &self.args;
-        let fixed = crate::convert::poses_out(py, a.fixed.iter())?;
+        let fixed = poses_out(py, a.fixed.iter())?;
         (py.get_type::<Self>(), (a.axes.clone(), a.params.clone(), a.joints.clone(), fixed, self.inner.n_params(), self.inner.nq(), a.scales.clone()))
             .into_pyobject(py)
     }
@@ -122,5 +122,70 @@ impl PyChain {
 
 /// Register the classes of this file.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add_class::<PyChain>()
+    m.add_class::<PyChain>()?;
+    m.add_function(wrap_pyfunction!(parametrize, m)?)
+}
+
+/// The calibration parametrization of `table` (`dh`, `mdh`, `edh`; `denavit_core::Table::parametrize`)
+/// with the tool `T_last_tool` (4, 4) in the convention's last frame, for `measure` "point" | "pose", with a
+/// scale parameter per joint if `scale`. A dict: `chain` (CalibrationChain), the factors (`axes`, `params`,
+/// `joints` (-1: none), `fixed` (F, 4, 4) in the order of the "fixed" entries), the parameters (`names`,
+/// `x0`, `units`, `groups`, `along`: translation along a joint axis, `rules`: {name: why the
+/// parametrization holds it fixed}), `joint_factors`, `base_end`, `tool_start`, `scales` (-1: none).
+#[pyfunction]
+#[pyo3(signature = (table, T_last_tool, measure="point", scale=false, robot="robot"))]
+#[allow(non_snake_case)]
+pub fn parametrize(
+    py: Python<'_>,
+    table: &crate::model::PyTable,
+    T_last_tool: &Bound<'_, PyAny>,
+    measure: &str,
+    scale: bool,
+    robot: &str,
+) -> PyResult<PyObject> {
+    use denavit_core::convention::Measure;
+    let tool = crate::convert::pose("T_last_tool", T_last_tool)?;
+    let p = table.inner.parametrize(robot, &tool, Measure::parse(measure).py()?, scale).py()?;
+    let (mut axes, mut params, mut joints, mut fixed) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for f in &p.factors {
+        match f {
+            Factor::Fixed(t) => {
+                axes.push("fixed".to_string());
+                params.push(-1i64);
+                joints.push(-1i64);
+                fixed.push(*t);
+            }
+            Factor::Elementary { axis, param, joint } => {
+                axes.push(axis.name().to_string());
+                params.push(*param as i64);
+                joints.push(joint.map_or(-1, |j| j as i64));
+            }
+        }
+    }
+    let scales: Vec<i64> = p.scales.iter().map(|s| s.map_or(-1, |v| v as i64)).collect();
+    let chain = Chain::new(p.factors.clone(), p.params.len(), table.inner.nq(), p.scales.clone()).py()?;
+    let args = ChainArgs { axes: axes.clone(), params: params.clone(), joints: joints.clone(), fixed: fixed.clone(), scales: scales.clone() };
+    let d = pyo3::types::PyDict::new(py);
+    d.set_item("chain", PyChain { inner: Arc::new(chain), args: Arc::new(args) })?;
+    d.set_item("axes", axes)?;
+    d.set_item("params", params)?;
+    d.set_item("joints", joints)?;
+    d.set_item("fixed", poses_out(py, fixed.iter())?)?;
+    d.set_item("names", p.params.iter().map(|x| x.name.clone()).collect::<Vec<_>>())?;
+    d.set_item("x0", numpy::PyArray1::from_vec(py, p.params.iter().map(|x| x.value).collect::<Vec<_>>()))?;
+    d.set_item("units", p.params.iter().map(|x| x.unit).collect::<Vec<_>>())?;
+    d.set_item("groups", p.params.iter().map(|x| x.group).collect::<Vec<_>>())?;
+    d.set_item("along", p.params.iter().map(|x| x.along_axis).collect::<Vec<_>>())?;
+    let rules = pyo3::types::PyDict::new(py);
+    for x in &p.params {
+        if let Some(why) = &x.fixed {
+            rules.set_item(&x.name, why)?;
+        }
+    }
+    d.set_item("rules", rules)?;
+    d.set_item("joint_factors", p.joint_factors.clone())?;
+    d.set_item("base_end", p.base_end)?;
+    d.set_item("tool_start", p.tool_start)?;
+    d.set_item("scales", scales)?;
+    Ok(d.into_any().unbind())
 }

@@ -155,7 +155,7 @@ impl PyIkBatchResult {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn options(
+pub(crate) fn options(
     method: &str,
     tol_position: f64,
     tol_rotation: f64,
@@ -182,7 +182,7 @@ fn options(
     Ok(opts)
 }
 
-fn start(model: &PyModel, q0: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Vec<f64>> {
+pub(crate) fn start(model: &PyModel, q0: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Vec<f64>> {
     Ok(opt_vector(what, q0)?.unwrap_or_else(|| vec![0.0; model.inner.nq()]))
 }
 

@@ -4,6 +4,7 @@
 use pyo3::prelude::*;
 
 mod calibration;
+mod compensate;
 mod convert;
 mod dynamics;
 mod error;
@@ -28,6 +29,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     ik::register(m)?;
     dynamics::register(m)?;
     calibration::register(m)?;
+    compensate::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -90,3 +90,27 @@ def write_text(path: str | os.PathLike, text: str) -> None:
     """Write a whole text file (UTF-8) or nothing (:func:`atomic_path`)."""
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
+
+
+def _strict(value):
+    """``value`` with every non-finite float (NaN, +-inf, numpy's too) as None, numpy scalars and arrays as
+    Python numbers and lists: what strict JSON (RFC 8259) can hold."""
+    import math  # noqa: PLC0415
+
+    if isinstance(value, dict):
+        return {k: _strict(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_strict(v) for v in value]
+    if hasattr(value, "tolist") and not isinstance(value, (str, bytes)):
+        return _strict(value.tolist())
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    return value
+
+
+def json_text(doc) -> str:
+    """Strict JSON of ``doc`` (indent 2, a final newline): NaN and infinities become ``null`` (bare ``NaN`` is
+    not JSON), numpy values plain numbers. Every JSON output of denavit is written through it."""
+    import json  # noqa: PLC0415
+
+    return json.dumps(_strict(doc), indent=2, allow_nan=False) + "\n"

@@ -37,36 +37,31 @@ def _pre(where: str) -> str:
     return f"{where}: " if where else ""
 
 
+def _lookup(units: dict[str, float], what: str, unit: str, where: str) -> float:
+    try:
+        return units[str(unit).strip().lower()]
+    except KeyError:
+        raise DenavitError(f"{_pre(where)}unknown {what} unit {unit!r}: expected one of {', '.join(units)}") from None
+
+
 def length_scale(unit: str, where: str = "") -> float:
     """Metres per `unit` ("m", "mm", "cm", "um", "in")."""
-    try:
-        return LENGTH[str(unit).strip().lower()]
-    except KeyError:
-        raise DenavitError(f"{_pre(where)}unknown length unit {unit!r}: expected one of {', '.join(LENGTH)}") from None
+    return _lookup(LENGTH, "length", unit, where)
 
 
 def angle_scale(unit: str, where: str = "") -> float:
     """Radians per `unit` ("rad", "deg")."""
-    try:
-        return ANGLE[str(unit).strip().lower()]
-    except KeyError:
-        raise DenavitError(f"{_pre(where)}unknown angle unit {unit!r}: expected one of {', '.join(ANGLE)}") from None
+    return _lookup(ANGLE, "angle", unit, where)
 
 
 def mass_scale(unit: str, where: str = "") -> float:
     """Kilograms per `unit` ("kg", "g")."""
-    try:
-        return MASS[str(unit).strip().lower()]
-    except KeyError:
-        raise DenavitError(f"{_pre(where)}unknown mass unit {unit!r}: expected one of {', '.join(MASS)}") from None
+    return _lookup(MASS, "mass", unit, where)
 
 
 def time_scale(unit: str, where: str = "") -> float:
     """Seconds per `unit` ("s", "ms", "us", "ns")."""
-    try:
-        return TIME[str(unit).strip().lower()]
-    except KeyError:
-        raise DenavitError(f"{_pre(where)}unknown time unit {unit!r}: expected one of {', '.join(TIME)}") from None
+    return _lookup(TIME, "time", unit, where)
 
 
 def inertia_scale(unit: str, where: str = "") -> float:

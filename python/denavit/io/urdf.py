@@ -74,25 +74,27 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import yourdfpy
-from lxml import etree
 
-from . import _core
-from .errors import DenavitError, DenavitWarning
-from .io.output import write_text
-from .robotfile import Robot, inertials_for_table
+from .. import _core
+from ..errors import DenavitError, DenavitWarning
+from ..geometry import inverse, matrix_rpy, pose, rotation_between, rotvec_matrix, skew
+from ..robot import Robot, inertials_for_table
+from .output import write_text
+from .text import decode, read_bytes
+
+if TYPE_CHECKING:
+    import yourdfpy
 
 SUPPORTED_JOINTS = ("revolute", "continuous", "prismatic", "fixed")
 UNSUPPORTED_JOINTS = ("floating", "planar")
 
-
-# --------------------------------------------------------------------------------------------------
-# small geometry helpers
 
 
 def z_to(a) -> np.ndarray:
@@ -107,45 +109,10 @@ def z_to(a) -> np.ndarray:
     flip = a[2] < 0.0
     if flip:  # Rx(pi)^T a, now in the upper half-space
         a = np.array([a[0], -a[1], -a[2]])
-    c = a[2]
-    vx, vy = -a[1], a[0]  # v = z × a
-    K = np.array([[0.0, 0.0, vy], [0.0, 0.0, -vx], [-vy, vx, 0.0]])
-    R = np.eye(3) + K + K @ K / (1.0 + c)
+    R = rotation_between(np.array([0.0, 0.0, 1.0]), a)
     if flip:
         R = np.diag([1.0, -1.0, -1.0]) @ R
     return R
-
-
-def _hom(R=None, p=None) -> np.ndarray:
-    T = np.eye(4)
-    if R is not None:
-        T[:3, :3] = R
-    if p is not None:
-        T[:3, 3] = p
-    return T
-
-
-def _inv(T: np.ndarray) -> np.ndarray:
-    R, p = T[:3, :3], T[:3, 3]
-    return _hom(R.T, -R.T @ p)
-
-
-def rpy_from_matrix(R) -> tuple[float, float, float]:
-    """URDF roll, pitch, yaw (rad) of a rotation matrix: ``R = Rz(yaw) Ry(pitch) Rx(roll)``.
-
-    Yaw and pitch come first and roll from what remains (``Rx(roll) = Ry(-pitch) Rz(-yaw) R``), so the
-    three reproduce ``R`` to rounding error even at and near pitch = +-pi/2 (gimbal lock, as in UR arms).
-    """
-    R = np.asarray(R, dtype=float)
-    c = math.hypot(R[0, 0], R[1, 0])
-    pitch = math.atan2(-R[2, 0], c)
-    yaw = math.atan2(R[1, 0], R[0, 0]) if c > 1e-12 else 0.0
-    cy, sy, cp, sp = math.cos(yaw), math.sin(yaw), math.cos(pitch), math.sin(pitch)
-    Rz_t = np.array([[cy, sy, 0.0], [-sy, cy, 0.0], [0.0, 0.0, 1.0]])
-    Ry_t = np.array([[cp, 0.0, -sp], [0.0, 1.0, 0.0], [sp, 0.0, cp]])
-    M = Ry_t @ Rz_t @ R
-    roll = math.atan2(M[2, 1], M[1, 1])
-    return roll, pitch, yaw
 
 
 def _num(v: float) -> str:
@@ -274,9 +241,15 @@ def _precheck(path: Path, root) -> _Where:
 
 
 def _read(path: str | os.PathLike) -> tuple[yourdfpy.URDF, _Where]:
+    import yourdfpy  # noqa: PLC0415 (yourdfpy and lxml load only for a URDF)
+    from lxml import etree  # noqa: PLC0415
+
     path = Path(path)
     if not path.is_file():
         raise DenavitError(f"{path}: no such URDF file")
+    data = read_bytes(path, "URDF file")
+    if not re.match(rb"\s*<\?xml[^>]*encoding=", data.lstrip(b"\xef\xbb\xbf")):
+        decode(data, str(path))  # no declared encoding: XML's default, UTF-8, with the byte offset of a bad byte
     try:  # strict: yourdfpy's loader would fall back to lxml's recovering parser on broken XML
         tree = etree.parse(str(path), etree.XMLParser(remove_blank_text=True, resolve_entities=False))
     except etree.XMLSyntaxError as e:
@@ -441,14 +414,14 @@ def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: 
         if not (na > 1e-12 and np.all(np.isfinite(a))):
             raise DenavitError(f"{w}: axis xyz=\"{_nums(a)}\" has zero length: expected a nonzero direction (e.g. \"0 0 1\")")
         a = a / na
-        Ra = _hom(z_to(a))
+        Ra = pose(z_to(a))
         if T_world_base is None:
             T_world_base = acc
             body_links[0] = j.parent  # the base body's link the first moving joint hangs on
             placements.append(O @ Ra)
         else:
             placements.append(acc @ O @ Ra)
-        acc = _inv(Ra)
+        acc = inverse(Ra)
         if jtype == "continuous":
             lo, hi = -math.inf, math.inf
         else:
@@ -614,11 +587,15 @@ def _unique(name: str, taken: set) -> str:
 
 
 def _origin(parent, T, tag: str = "origin") -> None:
-    r, p, y = rpy_from_matrix(np.asarray(T)[:3, :3])
+    from lxml import etree  # noqa: PLC0415
+
+    r, p, y = matrix_rpy(np.asarray(T)[:3, :3])
     etree.SubElement(parent, tag, xyz=_nums(np.asarray(T)[:3, 3]), rpy=_nums((r, p, y)))
 
 
 def _geometry(parent, g: dict) -> None:
+    from lxml import etree  # noqa: PLC0415
+
     ge = etree.SubElement(parent, "geometry")
     if "mesh" in g:
         m = etree.SubElement(ge, "mesh", filename=g["mesh"]["filename"])
@@ -633,6 +610,8 @@ def _geometry(parent, g: dict) -> None:
 
 
 def _material(parent, m: dict) -> None:
+    from lxml import etree  # noqa: PLC0415
+
     me = etree.SubElement(parent, "material", name=m.get("name", ""))
     if "rgba" in m:
         etree.SubElement(me, "color", rgba=_nums(m["rgba"]))
@@ -641,6 +620,8 @@ def _material(parent, m: dict) -> None:
 
 
 def _inertial(parent, T, mass: float, I) -> None:
+    from lxml import etree  # noqa: PLC0415
+
     ie = etree.SubElement(parent, "inertial")
     _origin(ie, T)
     etree.SubElement(ie, "mass", value=_num(mass))
@@ -663,7 +644,7 @@ def combine_inertials(parts: list[tuple[np.ndarray, float, np.ndarray]]) -> tupl
     for T, m, Ic in parts:
         R, d = T[:3, :3], T[:3, 3] - c
         I += R @ Ic @ R.T + m * (d @ d * np.eye(3) - np.outer(d, d))
-    return _hom(None, c), M, I
+    return pose(None, c), M, I
 
 
 def _matches(info: dict | None, model: _core.Model) -> bool:
@@ -671,16 +652,6 @@ def _matches(info: dict | None, model: _core.Model) -> bool:
         return info is not None and len(info["bodies"]) == model.nq + 1 and len(info["body_links"]) == model.nq + 1
     except (KeyError, TypeError):
         return False
-
-
-def _skew(k) -> np.ndarray:
-    return np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-
-
-def _rot_between(u, v) -> np.ndarray:
-    """The smallest rotation (3, 3) taking the unit vector ``u`` to the unit vector ``v`` (not opposite)."""
-    K = _skew(np.cross(u, v))
-    return np.eye(3) + K + K @ K / (1.0 + float(np.dot(u, v)))
 
 
 def _register_lines(Fn: np.ndarray, Fi: np.ndarray, kinds) -> np.ndarray:
@@ -700,21 +671,20 @@ def _register_lines(Fn: np.ndarray, Fi: np.ndarray, kinds) -> np.ndarray:
         rows, res = [], []
         for i, kind in enumerate(kinds):
             e, y = R @ dn[i], R @ pn[i] + t
-            rows.append(np.hstack([-_skew(e), np.zeros((3, 3))]))
+            rows.append(np.hstack([-skew(e), np.zeros((3, 3))]))
             res.append(e - d[i])
             if kind == "revolute":
                 P = np.eye(3) - np.outer(d[i], d[i])
-                rows.append(np.hstack([-P @ _skew(y), P]))
+                rows.append(np.hstack([-P @ skew(y), P]))
                 res.append(P @ (y - p[i]))
         step = np.linalg.lstsq(np.vstack(rows), -np.concatenate(res), rcond=1e-9)[0]
         w, v = step[:3], step[3:]
         ang = float(np.linalg.norm(w))
-        K = _skew(w / ang) if ang > 0.0 else np.zeros((3, 3))
-        dR = np.eye(3) + math.sin(ang) * K + (1.0 - math.cos(ang)) * K @ K  # Rodrigues
+        dR = rotvec_matrix(w)
         R, t = dR @ R, dR @ t + v
         if ang < 1e-15 and np.linalg.norm(v) < 1e-15:
             break
-    return _hom(R, t)
+    return pose(R, t)
 
 
 def _carry(info: dict, robot: Robot, model: _core.Model, frames: np.ndarray) -> list[np.ndarray]:
@@ -724,7 +694,7 @@ def _carry(info: dict, robot: Robot, model: _core.Model, frames: np.ndarray) -> 
     n = model.nq
     joints = info["joints"]
     if all("axis" in j for j in joints):  # the nominal URDF's joint frames: child link @ R_a
-        Fn = np.array([np.asarray(info["bodies"][i + 1]["links"][0]["T_world_link"], dtype=float) @ _hom(z_to(j["axis"]))
+        Fn = np.array([np.asarray(info["bodies"][i + 1]["links"][0]["T_world_link"], dtype=float) @ pose(z_to(j["axis"]))
                        for i, j in enumerate(joints)])
     else:  # kept by an older version without the axes: the robot's own model is the nominal
         Fn = np.asarray(_core.joint_frames(robot.model(), np.zeros(n)))
@@ -733,11 +703,11 @@ def _carry(info: dict, robot: Robot, model: _core.Model, frames: np.ndarray) -> 
     for b in range(n + 1):
         j = max(b - 1, 0)  # the axis the body turns about (the base body: the stator of joint 1)
         G, F = X @ Fn[j], frames[j]
-        A = _hom(_rot_between(G[:3, 2], F[:3, 2]) @ G[:3, :3], G[:3, 3])
+        A = pose(rotation_between(G[:3, 2], F[:3, 2]) @ G[:3, :3], G[:3, 3])
         if model.kinds[j] == "revolute":  # the body's bearing on the identified axis line
             A[:3, 3] = F[:3, 3] + F[:3, 2] * (F[:3, 2] @ (G[:3, 3] - F[:3, 3]))
         E = np.asarray(model.T_world_base) if b == 0 else frames[b - 1]
-        out.append(_inv(E) @ A @ _inv(Fn[j]))
+        out.append(inverse(E) @ A @ inverse(Fn[j]))
     return out
 
 
@@ -754,6 +724,8 @@ def dumps_urdf(model: _core.Model, robot: Robot | None = None) -> str:
     the URDF's base link, e.g. identified in a tracker's frame).
     Lengths in m, angles in rad, masses in kg.
     """
+    from lxml import etree  # noqa: PLC0415
+
     n = model.nq
     info = robot.extra.get("urdf") if robot is not None and isinstance(robot.extra, dict) else None
     if not _matches(info, model):
@@ -825,7 +797,7 @@ def dumps_urdf(model: _core.Model, robot: Robot | None = None) -> str:
         ins = model.inertias
         for i in range(n):
             if ins["masses"][i] > 0.0:
-                _inertial(link_el[body_names[i + 1]], _hom(None, ins["coms"][i]), float(ins["masses"][i]), ins["inertias"][i])
+                _inertial(link_el[body_names[i + 1]], pose(None, ins["coms"][i]), float(ins["masses"][i]), ins["inertias"][i])
 
     def add_fixed(jname: str, parent: str, child: str, T) -> None:
         je = etree.SubElement(root, "joint", name=_unique(jname, joint_names), type="fixed")
@@ -870,4 +842,4 @@ def save_urdf(model: _core.Model, path: str | os.PathLike, robot: Robot | None =
     write_text(path, dumps_urdf(model, robot))
 
 
-__all__ = ["UrdfChain", "combine_inertials", "dumps_urdf", "load_urdf", "read_chain", "rpy_from_matrix", "save_urdf", "urdf_model", "urdf_table", "z_to"]
+__all__ = ["UrdfChain", "combine_inertials", "dumps_urdf", "load_urdf", "read_chain", "save_urdf", "urdf_model", "urdf_table", "z_to"]

@@ -3,7 +3,7 @@
 Format (see docs/robot-files.md and the built-in files in ``denavit/models``)::
 
     name = "kr5"
-    convention = "dh"            # dh | mdh | edh | poe
+    convention = "dh"            # dh | mdh | edh | poe (or any name of _core.convention_info: sdh, craig, ...)
     [units]
     length = "mm"                # m | mm | cm | um | in
     angle = "deg"                # rad | deg
@@ -26,7 +26,9 @@ Format (see docs/robot-files.md and the built-in files in ``denavit/models``)::
     rpy = [0, 0, 0]
     [tool]                       # optional tool in the convention's last frame (poe: home pose M)
 
-POE joints give ``w = [wx, wy, wz]`` and ``v = [vx, vy, vz]`` (v in length units).
+POE joints give ``w = [wx, wy, wz]`` (unitless) and ``v = [vx, vy, vz]`` (length units for a revolute joint,
+v = -w x p; a unitless direction for a prismatic one). Joint values (``home``, ``limits``) are in the angle
+unit for a revolute joint and in the length unit for a prismatic one (:func:`denavit.io.units.joint_scale`).
 Inertial parameters (for the dynamics) are given per link in frame i of the file's convention (``dh``: DH frame i
 at the end of link i; ``mdh``, ``edh``: frame i; ``poe``: the model's joint frame i), about the centre of mass;
 a file with any ``[joints.inertia]`` declares ``[units] mass`` and ``inertia``.
@@ -38,103 +40,18 @@ from __future__ import annotations
 import math
 import os
 import re
-import tomllib
-from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+import tomllib
 
-from . import _core
-from .errors import DenavitError
-from .io.output import write_text
-from .io.units import angle_scale, inertia_scale, length_scale, mass_scale
-
-CONVENTIONS = ("dh", "mdh", "edh", "poe")
-
-
-@dataclass(frozen=True)
-class Robot:
-    """A robot description: its table in one convention, joint names, limits and metadata.
-
-    Attributes are SI (m, rad). ``home`` is an optional reference configuration (e.g. a measurement home).
-    """
-
-    name: str
-    table: _core.Table
-    names: list[str]
-    lower: np.ndarray
-    upper: np.ndarray
-    description: str = ""
-    source: str = ""
-    home: np.ndarray | None = None
-    path: str = ""
-    extra: dict = field(default_factory=dict)
-    inertials: dict | None = None
-    """Link inertial parameters in frame i of the convention, SI: ``masses`` (n,) kg, ``coms`` (n, 3) m,
-    ``inertias`` (n, 3, 3) kg m^2 about each centre of mass (None: massless links)."""
-
-    @property
-    def convention(self) -> str:
-        return self.table.convention
-
-    def model(self) -> _core.Model:
-        """The model (docs/conventions.md), with the link inertias of the file if it gives them."""
-        model = self.table.to_model(self.name, self.names, self.lower, self.upper)
-        if self.inertials is None:
-            return model
-        return attach_inertials(model, self.table, self.inertials)
-
-
-def convention_frames_in_joint_frames(model: _core.Model, table: _core.Table) -> np.ndarray:
-    """(n, 4, 4) pose of the convention's frame i in the model's joint frame i (fixed: both move with link i);
-    the identity except for ``dh``, whose frame i sits at the end of link i."""
-    n = model.nq
-    if table.convention != "dh":
-        return np.tile(np.eye(4), (n, 1, 1))
-    q0 = np.zeros(n)
-    J = _core.joint_frames(model, q0)
-    F = table.frames(q0)[1:]
-    return np.linalg.inv(J) @ F
-
-
-def inertials_for_table(model: _core.Model, table: _core.Table, names: list[str], lower, upper) -> dict:
-    """The link inertias of ``model`` (same robot, same joint axes at q = 0) in frame i of ``table``'s
-    convention, as a :attr:`Robot.inertials` dict: how a conversion carries the dynamics along."""
-    target = _core.transfer_inertias(model, table.to_model("target", names, lower, upper))
-    ins = target.inertias
-    T = convention_frames_in_joint_frames(target, table)
-    R, p = T[:, :3, :3], T[:, :3, 3]
-    coms = np.einsum("nji,nj->ni", R, ins["coms"] - p)
-    return {"masses": ins["masses"], "coms": coms, "inertias": R.transpose(0, 2, 1) @ ins["inertias"] @ R}
-
-
-def attach_inertials(model: _core.Model, table: _core.Table, inertials: dict) -> _core.Model:
-    """``model`` with inertials given in frame i of ``table``'s convention (re-expressed in the joint frames)."""
-    T = convention_frames_in_joint_frames(model, table)
-    R, p = T[:, :3, :3], T[:, :3, 3]
-    coms = np.einsum("nij,nj->ni", R, np.asarray(inertials["coms"], dtype=float)) + p
-    inertias = R @ np.asarray(inertials["inertias"], dtype=float) @ R.transpose(0, 2, 1)
-    return model.with_inertias(np.asarray(inertials["masses"], dtype=float), coms, inertias)
-
-
-def builtin_names() -> list[str]:
-    """Names of the built-in robot files."""
-    return sorted(p.name[:-5] for p in resources.files("denavit.models").iterdir() if p.name.endswith(".toml"))
-
-
-def resolve(name_or_path: str | os.PathLike) -> Path:
-    """The file of a built-in name or a path; a clear error listing the built-ins otherwise."""
-    p = Path(name_or_path)
-    if p.suffix and p.exists():
-        return p
-    if p.exists() and p.is_file():
-        return p
-    key = str(name_or_path).lower().replace("-", "_")
-    if key in builtin_names():
-        return Path(str(resources.files("denavit.models").joinpath(key + ".toml")))
-    raise DenavitError(f"unknown model {str(name_or_path)!r}: expected a built-in name ({', '.join(builtin_names())}) or an existing robot file (.toml) or URDF (.urdf)")
+from .. import _core
+from ..errors import DenavitError
+from ..geometry import matrix_rpy, rpy_matrix
+from ..robot import Robot, attach_inertials
+from .output import write_text
+from .text import read_text
+from .units import angle_scale, cell_scale, inertia_scale, joint_scale, length_scale, mass_scale
 
 
 def _pose(spec: dict, ls: float, as_: float, where: str) -> np.ndarray:
@@ -153,7 +70,7 @@ def _pose(spec: dict, ls: float, as_: float, where: str) -> np.ndarray:
     rpy = np.asarray(spec.get("rpy", [0, 0, 0]), dtype=float)
     if xyz.shape != (3,) or rpy.shape != (3,):
         raise DenavitError(f"{where}: xyz and rpy need 3 values each, got {xyz.tolist()} and {rpy.tolist()}")
-    T[:3, :3] = Rotation.from_euler("xyz", rpy * as_).as_matrix()
+    T[:3, :3] = rpy_matrix(rpy * as_)
     T[:3, 3] = xyz * ls
     return T
 
@@ -200,14 +117,10 @@ def _inertia(spec, jw: str, units: dict | None, where: str, ls: float) -> tuple[
     return vals["mass"] * ms, [c * ls for c in com], I * iscale
 
 
-def load(name_or_path: str | os.PathLike) -> Robot:
-    """Read a robot file (or a built-in by name) into a :class:`Robot` (SI inside)."""
-    path = resolve(name_or_path)
-    if path.suffix.lower() == ".urdf":
-        from .urdf import load_urdf  # noqa: PLC0415 (URDF support lives in its own module)
-
-        return load_urdf(path)
-    text = path.read_text(encoding="utf-8")
+def read(path: str | os.PathLike) -> Robot:
+    """Read a TOML robot file into a :class:`~denavit.robot.Robot` (SI inside); built-in names and URDFs go
+    through :func:`denavit.robot.load`."""
+    text = read_text(path, "robot file")
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
@@ -217,9 +130,13 @@ def load(name_or_path: str | os.PathLike) -> Robot:
 
 def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = None) -> Robot:
     """Build a :class:`Robot` from the parsed TOML structure (see the module docstring)."""
-    conv = str(doc.get("convention", "")).lower()
-    if conv not in CONVENTIONS:
-        raise DenavitError(f"{where}: 'convention' must be one of {', '.join(CONVENTIONS)}, got {doc.get('convention')!r}")
+    try:  # the core's one parser of convention names (dh, sdh, mdh, craig, modified-dh, edh, poe; any case)
+        info = _core.convention_info(doc["convention"]) if isinstance(doc.get("convention"), str) else None
+    except DenavitError:
+        info = None
+    if info is None:
+        raise DenavitError(f"{where}: 'convention' must be one of {', '.join(_core.conventions())}, got {doc.get('convention')!r} (aliases: sdh, craig, modified-dh, in any case)")
+    conv = info["name"]
     units = doc.get("units")
     if not isinstance(units, dict) or "length" not in units or "angle" not in units:
         raise DenavitError(f"{where}: a [units] table with 'length' and 'angle' is required (e.g. length = \"mm\", angle = \"deg\"), got {units!r}")
@@ -229,8 +146,7 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
     joints = doc.get("joints")
     if not isinstance(joints, list) or not joints:
         raise DenavitError(f"{where}: expected one or more [[joints]] tables, got none")
-    cols = list(_core.Table(conv, np.zeros((0, len(_columns(conv))))).columns)
-    angle_cols = _angle_columns(conv)
+    cols = list(info["columns"])
     rows, kinds, names, lower, upper = [], [], [], [], []
     inert: list[tuple[float, list[float], np.ndarray] | None] = []
     joint_where = []
@@ -248,44 +164,42 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         kinds.append(kind)
         names.append(str(j.get("name", f"j{i + 1}")))
         if conv == "poe":
-            w = np.asarray(j.get("w", [0, 0, 0]), dtype=float)
-            v = np.asarray(j.get("v", [0, 0, 0]), dtype=float)
-            if w.shape != (3,) or v.shape != (3,):
-                raise DenavitError(f"{jw}: poe joints need w and v with 3 values each")
-            rows.append([*w, *(v * (ls if kind == "revolute" else 1.0))])
+            w = np.array(_numbers(j.get("w", [0, 0, 0]), 3, f"{jw}: w (poe joints need w and v with 3 values each)"))
+            v = np.array(_numbers(j.get("v", [0, 0, 0]), 3, f"{jw}: v (poe joints need w and v with 3 values each)"))
+            rows.append([*w, *v])
         else:
             missing = [c for c in cols if c not in j]
             if missing:
                 raise DenavitError(f"{jw}: missing parameter(s) {', '.join(missing)} of a {conv} table (columns {', '.join(cols)})")
             row = []
-            for c, is_angle in zip(cols, angle_cols):
+            for c in cols:
                 try:
                     val = float(j[c])
                 except (TypeError, ValueError):
                     raise DenavitError(f"{jw}: parameter {c} must be a number, got {j[c]!r}") from None
                 if not math.isfinite(val):
                     raise DenavitError(f"{jw}: parameter {c} must be finite, got {val}")
-                row.append(val * (as_ if is_angle else ls))
+                row.append(val)
             rows.append(row)
         lim = j.get("limits")
-        scale = as_ if kind == "revolute" else ls
+        scale = joint_scale([kind], units["length"], units["angle"], jw)[0]
         if lim is None:
             lo, hi = (-math.pi, math.pi) if kind == "revolute" else (-1.0, 1.0)
         else:
-            if len(lim) != 2 or float(lim[0]) > float(lim[1]):
+            lo, hi = (v * scale for v in _numbers(lim, 2, f"{jw}: limits", finite=False))
+            if lo > hi:
                 raise DenavitError(f"{jw}: limits must be [lower, upper] with lower <= upper, got {lim!r}")
-            lo, hi = float(lim[0]) * scale, float(lim[1]) * scale
         lower.append(lo)
         upper.append(hi)
     base = _pose(doc["base"], ls, as_, f"{where}, [base]") if "base" in doc else np.eye(4)
     tool = _pose(doc["tool"], ls, as_, f"{where}, [tool]") if "tool" in doc else np.eye(4)
-    table = _core.Table(conv, np.asarray(rows, dtype=float).reshape(len(rows), len(cols)), kinds, base, tool)
+    # the rows in the file's units -> SI, cell by cell (io.units.cell_scale: angles, lengths, unitless POE directions)
+    raw = _core.Table(conv, np.asarray(rows, dtype=float).reshape(len(rows), len(cols)), kinds)
+    si = [[cell_scale(raw, i, k, units["length"], units["angle"])[0] for k in range(len(cols))] for i in range(len(rows))]
+    table = _core.Table(conv, raw.params * np.asarray(si).reshape(raw.params.shape), kinds, base, tool)
     home = doc.get("home")
     if home is not None:
-        home = np.asarray(home, dtype=float)
-        if home.shape != (len(joints),):
-            raise DenavitError(f"{where}: home must have {len(joints)} values, got {home.shape}")
-        home = np.array([h * (as_ if k == "revolute" else ls) for h, k in zip(home, kinds)])
+        home = np.asarray(_numbers(home, len(joints), f"{where}: home")) * joint_scale(kinds, units["length"], units["angle"], where)
     known = {"name", "description", "source", "convention", "units", "joints", "base", "tool", "home"}
     # other tables (e.g. [urdf], written by `convert` from a URDF) are carried as extra; a stray plain key is
     # most likely a typo ("hom" for "home")
@@ -320,22 +234,26 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
     )
 
 
-def _columns(conv: str) -> list[str]:
-    return {"dh": ["d", "theta", "a", "alpha"], "mdh": ["alpha", "a", "theta", "d"], "edh": ["alpha", "a", "b", "c", "theta"], "poe": ["wx", "wy", "wz", "vx", "vy", "vz"]}[conv]
-
-
-def _angle_columns(conv: str) -> list[bool]:
-    return list(_core.Table(conv, np.zeros((0, len(_columns(conv))))).angle_columns)
+def _numbers(value, n: int, where: str, finite: bool = True) -> list[float]:
+    """``n`` numbers (TOML integers or floats; not booleans, not strings), finite unless ``finite`` is False
+    (limits: a continuous joint's are -inf, inf)."""
+    if not isinstance(value, list) or len(value) != n or any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in value):
+        raise DenavitError(f"{where}: expected a list of {n} numbers, got {str(value)[:60]}")
+    out = [float(v) for v in value]
+    if any(math.isnan(v) or (finite and math.isinf(v)) for v in out):
+        raise DenavitError(f"{where}: expected finite numbers, got {out}")
+    return out
 
 
 def _pose_spec(T: np.ndarray, ls: float, as_: float) -> dict:
-    return {"xyz": [float(v) for v in T[:3, 3] / ls], "rpy": [float(v) for v in Rotation.from_matrix(T[:3, :3]).as_euler("xyz") / as_]}
+    return {"xyz": [float(v) for v in T[:3, 3] / ls], "rpy": [float(v) / as_ for v in matrix_rpy(T[:3, :3])]}
 
 
 def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
     """The TOML structure of a robot in the given units."""
     ls, as_ = length_scale(length), angle_scale(angle)
     t = robot.table
+    js = joint_scale(t.kinds, length, angle)
     doc: dict = {"name": robot.name}
     if robot.description:
         doc["description"] = robot.description
@@ -343,7 +261,7 @@ def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
         doc["source"] = robot.source
     doc["convention"] = t.convention
     if robot.home is not None:
-        doc["home"] = [float(h / (as_ if k == "revolute" else ls)) for h, k in zip(robot.home, t.kinds)]
+        doc["home"] = [float(v) for v in robot.home / js]
     doc["units"] = {"length": length, "angle": angle}
     if robot.inertials is not None:
         doc["units"].update({"mass": "kg", "inertia": "kg m^2"})
@@ -354,12 +272,11 @@ def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
             j["type"] = kind
         if t.convention == "poe":
             j["w"] = [float(v) for v in row[:3]]
-            j["v"] = [float(v / (ls if kind == "revolute" else 1.0)) for v in row[3:]]
+            j["v"] = [float(v / cell_scale(t, i, 3 + k, length, angle)[0]) for k, v in enumerate(row[3:])]
         else:
-            for c, is_angle, v in zip(t.columns, t.angle_columns, row):
-                j[c] = float(v / (as_ if is_angle else ls))
-        scale = as_ if kind == "revolute" else ls
-        j["limits"] = [float(robot.lower[i] / scale), float(robot.upper[i] / scale)]
+            for k, (c, v) in enumerate(zip(t.columns, row)):
+                j[c] = float(v / cell_scale(t, i, k, length, angle)[0])
+        j["limits"] = [float(robot.lower[i] / js[i]), float(robot.upper[i] / js[i])]
         if robot.inertials is not None and robot.inertials["masses"][i] > 0:
             I = robot.inertials["inertias"][i]
             j["inertia"] = {

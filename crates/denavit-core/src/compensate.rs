@@ -1,0 +1,154 @@
+//! Compensation ("filtering" of targets): put an identified model to work on a robot whose controller
+//! keeps its nominal model.
+//!
+//! For a target tool pose `T` (in the robot base's world frame), the identified model tells which joint
+//! values `q` really reach it: `FK_identified(q) = T`. A controller that keeps its nominal model must then
+//! be sent the pose it would compute for those joint values, `T' = FK_nominal(q)`: solving its nominal
+//! inverse kinematics for `T'` it commands `q` (on the same branch), and the robot reaches `T`.
+//!
+//! Each identified solve starts from the nominal solution of the same target (the branch the program was
+//! written for); a solution that leaves it by more than `branch_tol` on any joint is flagged, never kept
+//! silently. In `path` mode the nominal solutions are warm-started along the program ([`ik_path`]), and a
+//! joint step between consecutive nominal solutions larger than `path_jump` is flagged as a branch flip.
+
+use crate::error::{check_finite, check_len, Error, Result};
+use crate::ik::{ik_batch, ik_path, IkOptions, IkSolver};
+use crate::kinematics::tool_pose_unchecked;
+use crate::model::Model;
+use crate::spatial::{pose_error, Pose};
+use rayon::prelude::*;
+
+/// Options of [`compensate`]. `Default`: the IK defaults, independent targets, `branch_tol` 0.1 (rad or m),
+/// `path_jump` pi/4.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CompensateOptions {
+    /// Options of every IK solve (nominal and identified).
+    pub ik: IkOptions,
+    /// Targets form a path: warm-start each nominal solve from the previous solution, flag jumps.
+    pub path: bool,
+    /// Largest `|q_identified - q_nominal|` on any joint (rad / m) that is still the same branch.
+    pub branch_tol: f64,
+    /// Largest joint step between consecutive nominal solutions of a path that is not a branch flip (rad / m).
+    pub path_jump: f64,
+}
+
+impl Default for CompensateOptions {
+    fn default() -> Self {
+        Self { ik: IkOptions::default(), path: false, branch_tol: 0.1, path_jump: std::f64::consts::FRAC_PI_4 }
+    }
+}
+
+/// The compensation of one target.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Compensation {
+    /// Joint values that reach the target on the identified model (rad / m).
+    pub q: Vec<f64>,
+    /// Joint values of the nominal model for the target (given, or solved).
+    pub q_nominal: Vec<f64>,
+    /// `T' = FK_nominal(q)`: the pose to send to a controller that keeps its nominal model.
+    pub command: Pose,
+    /// The identified solve met the IK tolerances (within the limits if asked).
+    pub reached: bool,
+    /// The nominal solve met the IK tolerances (true when the nominal joint values were given).
+    pub nominal_reached: bool,
+    /// `q` left the nominal solution's branch (some joint differs by more than `branch_tol`).
+    pub branch_changed: bool,
+    /// Path mode: the nominal solution jumped from the previous target's by more than `path_jump`.
+    pub path_jump: bool,
+    /// `|p_identified(q) - p_target|` (m) and the rotation angle (rad): the residual of the identified solve.
+    pub position_error: f64,
+    /// See `position_error`.
+    pub rotation_error: f64,
+    /// What the robot would miss without compensation: `FK_identified(q_nominal)` against the target (m).
+    pub before_position: f64,
+    /// See `before_position` (rad).
+    pub before_rotation: f64,
+}
+
+fn check_models(nominal: &Model, identified: &Model) -> Result<()> {
+    check_len("joints of the identified model (those of the nominal)", nominal.nq(), identified.nq())?;
+    for (i, (a, b)) in nominal.joints().iter().zip(identified.joints()).enumerate() {
+        if a.kind != b.kind {
+            return Err(Error::InvalidArgument {
+                what: format!("joint {} of the identified model", i + 1),
+                expected: format!("a {} joint, as in the nominal model", a.kind.name()),
+                got: b.kind.name().into(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Compensate `targets` (`T_world_tool`, world of both models): see the module docs. `q_nominal`: the
+/// nominal joint values of each target (N x n, row-major), when the program was given as joint rows;
+/// otherwise they are solved on the nominal model from `q0` (n values).
+///
+/// ```
+/// use denavit_core::{builtin_planar2, kinematics::tool_pose, compensate::{compensate, CompensateOptions}};
+/// let nominal = builtin_planar2(1.0, 1.0);
+/// let identified = builtin_planar2(1.001, 0.999);
+/// let t = tool_pose(&nominal, &[0.3, 0.8]).unwrap();
+/// let c = &compensate(&nominal, &identified, &[t], None, &[0.3, 0.8], &CompensateOptions::default()).unwrap()[0];
+/// assert!(c.reached && !c.branch_changed && c.before_position > 1e-4);
+/// assert!((tool_pose(&identified, &c.q).unwrap().translation.vector - t.translation.vector).norm() < 1e-9);
+/// ```
+pub fn compensate(nominal: &Model, identified: &Model, targets: &[Pose], q_nominal: Option<&[f64]>, q0: &[f64], opts: &CompensateOptions) -> Result<Vec<Compensation>> {
+    check_models(nominal, identified)?;
+    opts.ik.check()?;
+    for (what, v) in [("branch_tol", opts.branch_tol), ("path_jump", opts.path_jump)] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(Error::InvalidArgument { what: what.into(), expected: "a finite value > 0".into(), got: v.to_string() });
+        }
+    }
+    let n = nominal.nq();
+    check_len("q0", n, q0.len())?;
+    check_finite("q0", q0)?;
+    let (qn, nominal_ok): (Vec<f64>, Vec<bool>) = match q_nominal {
+        Some(q) => {
+            check_len("q_nominal (N x n values)", targets.len() * n, q.len())?;
+            check_finite("q_nominal", q)?;
+            (q.to_vec(), vec![true; targets.len()])
+        }
+        None => {
+            let r = if opts.path { ik_path(nominal, targets, q0, &opts.ik)? } else { ik_batch(nominal, targets, q0, &opts.ik)? };
+            (r.iter().flat_map(|x| x.q.iter().copied()).collect(), r.iter().map(|x| x.success).collect())
+        }
+    };
+    for (i, t) in targets.iter().enumerate() {
+        crate::ik::check_target(&format!("target {i}"), t)?;
+    }
+    // the identified solve from the nominal solution: no restarts first (stay on its branch), then the
+    // options' restarts if that fails
+    let first = IkOptions { restarts: 0, ..opts.ik.clone() };
+    let out: Vec<Compensation> = targets
+        .par_iter()
+        .enumerate()
+        .map_init(
+            || (IkSolver::new(identified, first.clone()).expect("options checked above"), IkSolver::new(identified, opts.ik.clone()).expect("options checked above")),
+            |(quick, full), (i, t)| {
+                let qn_i = &qn[i * n..(i + 1) * n];
+                let mut r = quick.solve(t, qn_i).expect("target and q checked above");
+                if !r.success && opts.ik.restarts > 0 {
+                    r = full.solve(t, qn_i).expect("target and q checked above");
+                }
+                let branch_changed = r.q.iter().zip(qn_i).any(|(a, b)| (a - b).abs() > opts.branch_tol);
+                let path_jump = opts.path && i > 0 && qn_i.iter().zip(&qn[(i - 1) * n..i * n]).any(|(a, b)| (a - b).abs() > opts.path_jump);
+                let (bp, br) = pose_error(&tool_pose_unchecked(identified, qn_i), t);
+                Compensation {
+                    command: tool_pose_unchecked(nominal, &r.q),
+                    q_nominal: qn_i.to_vec(),
+                    reached: r.success,
+                    nominal_reached: nominal_ok[i],
+                    branch_changed,
+                    path_jump,
+                    position_error: r.position_error,
+                    rotation_error: r.rotation_error,
+                    before_position: bp,
+                    before_rotation: br,
+                    q: r.q,
+                }
+            },
+        )
+        .collect();
+    Ok(out)
+}

@@ -1,0 +1,125 @@
+"""The least-squares machinery of the calibration: weighted residuals and Jacobian rows, the solver, the
+covariance, and the registration of the measurement frame.
+
+Uncertainty: ``cov = s^2 (J^T J)^-1`` over the free parameters (``s^2`` from the residuals, or the declared
+noise), the Cramér-Rao bound of Gaussian noise evaluated at the solution.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..geometry import kabsch, matrix_rotvec
+
+if TYPE_CHECKING:
+    from .measurements import Measurements
+    from .parametrization import Parametrization
+
+#: The base is first registered (Kabsch) to the data when the nominal model at its nominal base misses the
+#: measured points by more than this (m, RMS): the measurement frame is then not the robot's base frame.
+REGISTER_RMS = 0.02
+
+
+def weights(measure: str, sigma_p: float, sigma_r: float) -> np.ndarray:
+    """(6,) weights 1/sigma of the residual rows [position (3), rotation (3)]; rotation rows 0 for points."""
+    return np.array([1 / sigma_p] * 3 + ([1 / sigma_r] * 3 if measure == "pose" else [0.0] * 3))
+
+
+def weighted_rows(pz: Parametrization, jac: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Weighted Jacobian rows (3N or 6N, P)."""
+    k = 6 if pz.measure == "pose" else 3
+    return (jac[:, :k, :] * w[:k, None]).reshape(-1, jac.shape[2])
+
+
+def gram(A: np.ndarray) -> np.ndarray:
+    """``A^T A`` by einsum. The matrices here are tall and thin (3N x P): a multithreaded BLAS / LAPACK call on
+    them can be a hundred times slower than this on a loaded machine, so every factorisation below works on
+    the small P x P Gram matrix instead."""
+    return np.einsum("ij,ik->jk", A, A)
+
+
+def residuals(pz: Parametrization, x, meas: Measurements, w: np.ndarray, jacobian: bool = True):
+    """(weighted residuals (3N or 6N,), weighted Jacobian rows (3N or 6N, P) or None, predicted poses (N, 4, 4)) at x.
+
+    Rotation residuals are the rotation vectors of ``R_pred R_meas^T`` (rad).
+    """
+    poses, jac = pz.evaluate(x, meas.q, jacobian)
+    rp = poses[:, :3, 3] - meas.points
+    if pz.measure == "pose":
+        rr = matrix_rotvec(np.einsum("nij,nkj->nik", poses[:, :3, :3], meas.poses[:, :3, :3]))
+        r = np.hstack([rp * w[0], rr * w[3]])
+    else:
+        r = rp * w[0]
+    return r.ravel(), (None if jac is None else weighted_rows(pz, jac, w)), poses
+
+
+def fit_parameters(pz: Parametrization, x_start, free: list, meas: Measurements, w: np.ndarray, loss: str, f_scale: float | None, max_nfev: int | None = None):
+    """Least squares over the parameters ``free`` (indices) from ``x_start``; returns (x, scipy result)."""
+    from scipy.optimize import least_squares  # noqa: PLC0415 (scipy is loaded when a fit first needs it)
+
+    x_base = np.array(x_start, dtype=float)
+    free = list(free)
+    if not free:
+        return x_base, None
+    cache = {}
+    x0 = x_base[free].copy()
+
+    # the unknowns are the changes from the start: MINPACK's first step is bounded by 100 |x| in scaled
+    # units, which is useless when the start is (nearly) zero but not exactly
+    def full(z):
+        x = x_base.copy()
+        x[free] = x0 + z
+        return x
+
+    def evaluate(z):
+        key = z.tobytes()
+        if key not in cache:
+            cache.clear()
+            r, J, _ = residuals(pz, full(z), meas, w)
+            cache[key] = (r, J[:, free])
+        return cache[key]
+
+    z0 = np.zeros(len(free))
+    method = "lm" if loss == "linear" and len(evaluate(z0)[0]) >= len(free) else "trf"
+    kw = {} if loss == "linear" else {"loss": loss, "f_scale": f_scale or 1.0}
+    # copies: MINPACK may write into the arrays it is given, which must not corrupt the cache
+    sol = least_squares(lambda z: evaluate(z)[0].copy(), z0, jac=lambda z: evaluate(z)[1].copy(), method=method, x_scale="jac",
+                        xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=max_nfev or 100 * (len(free) + 1), **kw)
+    return full(sol.x), sol
+
+
+def covariance(J: np.ndarray, s2: float) -> np.ndarray:
+    """``s2 (J^T J)^-1`` from the Gram matrix of the column-scaled J (stable for mixed units; see :func:`gram`)."""
+    from scipy.linalg import cho_factor, cho_solve  # noqa: PLC0415 (scipy is loaded when first needed)
+
+    if J.shape[1] == 0:
+        return np.zeros((0, 0))
+    G = gram(J)
+    d = np.sqrt(np.clip(np.diag(G), 0, None))
+    d = np.where(d > 0, d, 1.0)
+    A = G / np.outer(d, d)
+    try:
+        inv = cho_solve(cho_factor(A, lower=True, check_finite=False), np.eye(len(A)), check_finite=False)
+    except np.linalg.LinAlgError:  # singular: the pseudo-inverse (callers pass identifiable columns only)
+        ev, V = np.linalg.eigh(A)
+        inv = (V / np.maximum(ev, ev.max() * 1e-15)) @ V.T
+    return s2 * inv / np.outer(d, d)
+
+
+def register(pz: Parametrization, x, meas: Measurements, base_free: bool):
+    """Move the base so the nominal model's tool points best match the measured ones (a change of the
+    measurement frame), when that improves the fit; returns the new parametrisation and x."""
+    if not base_free or meas.n < 3:
+        return pz, x
+    pred, _ = pz.evaluate(x, meas.q, False)
+    P = pred[:, :3, 3]
+    if np.linalg.matrix_rank(P - P.mean(axis=0), tol=1e-9) < 2:
+        return pz, x
+    W = kabsch(P, meas.points)  # Kabsch / Umeyama without scale
+    before = np.sqrt(np.mean(np.sum((P - meas.points) ** 2, axis=1)))
+    after = np.sqrt(np.mean(np.sum((P @ W[:3, :3].T + W[:3, 3] - meas.points) ** 2, axis=1)))
+    if before > REGISTER_RMS and after < 0.5 * before:
+        return pz.rebased(x, W)
+    return pz, x

@@ -1,0 +1,34 @@
+"""Simulated calibration measurements of a model: tool points or poses with Gaussian noise."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import _core
+from ..geometry import rotvec_matrix
+from .measurements import Measurements
+from .parametrization import as_robot
+
+
+def simulate(model, q, *, tool=(0.05, 0.03, 0.10), noise: float = 0.0, noise_rot: float = 0.0, measure: str = "point", seed: int = 0, T_world_base=None) -> Measurements:
+    """Measurements of ``model`` (a Model / Robot / name) at configurations ``q`` (N, n): the tool point (3,)
+    in the flange frame (or, for ``measure="pose"``, ``T_flange_tool`` (4, 4)) with Gaussian noise ``noise``
+    (m, per coordinate) and ``noise_rot`` (rad, a rotation vector per pose); ``T_world_base`` moves the robot
+    in the measurement frame."""
+    m = model if isinstance(model, _core.Model) else as_robot(model).model()
+    if T_world_base is not None:
+        m = m.with_base(np.asarray(T_world_base, dtype=float))
+    Q = np.atleast_2d(np.asarray(q, dtype=float))
+    rng = np.random.default_rng(seed)
+    if measure == "pose":
+        T = _core.fk_batch(m.with_tool(np.asarray(tool, dtype=float)), Q)
+        if noise > 0:
+            T[:, :3, 3] += rng.normal(0.0, noise, (len(Q), 3))
+        if noise_rot > 0:
+            T[:, :3, :3] = rotvec_matrix(rng.normal(0.0, noise_rot, (len(Q), 3))) @ T[:, :3, :3]
+        return Measurements(Q, None, T, f"simulated {m.name}", kinds=m.kinds)
+    F = _core.fk_batch(m.with_tool(np.eye(4)), Q)
+    p = F[:, :3, :3] @ np.asarray(tool, dtype=float) + F[:, :3, 3]
+    if noise > 0:
+        p = p + rng.normal(0.0, noise, p.shape)
+    return Measurements(Q, p, None, f"simulated {m.name}", kinds=m.kinds)

@@ -1,0 +1,428 @@
+"""The calibration itself: one least-squares fit of the whole kinematic model (:func:`calibrate`), its result
+(:class:`Calibration`) and its JSON document."""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import _core
+from ..errors import DenavitError
+from ..fitting.robust import loss_weight
+from ..io.output import json_text, write_text
+from ..io.units import angle_scale, joint_scale, length_scale
+from ..robot import Robot
+from ..sweeps import SweepSet
+from .identifiability import Identifiability, analyze
+from .least_squares import covariance, fit_parameters, register, residuals, weights
+from .measurements import Measurements
+from .parametrization import (
+    Parametrization,
+    as_robot,
+    configurations,
+    parametrize,
+    resolve_fix,
+)
+
+#: scipy.optimize.least_squares' robust losses (per residual coordinate).
+LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
+#: Points whose 3-D misfit exceeds this many robust sigmas are flagged (4-sigma tail of a 1-D deviation for a
+#: 3-D misfit, as :data:`denavit.fitting.robust.CHI_4SIGMA` [3]).
+OUTLIER_SIGMAS = 4.70
+
+
+@dataclass(frozen=True)
+class Validation:
+    """Tool-position errors (m) on held-out poses, before (nominal geometry, base and tool fitted on the
+    training poses) and after calibration."""
+
+    n_train: int
+    n_test: int
+    before_rms: float
+    before_max: float
+    after_rms: float
+    after_max: float
+    test_indices: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class Calibration:
+    """The result of :func:`calibrate` (SI inside; ``world`` = the measurement frame).
+
+    ``values`` / ``sigma`` / ``status`` are per parameter (``names``); ``sigma`` is NaN for parameters not
+    estimated (``status`` "fixed" by the user or the parametrisation, or "unidentifiable": see
+    ``identifiability.unidentifiable`` for the reason). ``covariance`` and ``correlation`` are over
+    ``free_names`` (in that order).
+    """
+
+    parametrization: Parametrization
+    names: list
+    values: np.ndarray
+    sigma: np.ndarray
+    status: list
+    nominal: np.ndarray
+    start: np.ndarray
+    free_names: list
+    covariance: np.ndarray
+    correlation: np.ndarray
+    identifiability: Identifiability
+    residuals: np.ndarray
+    rms: float
+    rms_rotation: float
+    outliers: np.ndarray
+    validation: Validation | None
+    measurements: Measurements
+    loss: str
+    converged: bool
+    evaluations: int
+    elapsed: float
+    noise: float
+    notes: list = field(default_factory=list)
+
+    @property
+    def convention(self) -> str:
+        return self.parametrization.convention
+
+    def value(self, name: str) -> tuple[float, float]:
+        """(value, sigma) of one parameter (SI)."""
+        k = self.parametrization.index(name)
+        return float(self.values[k]), float(self.sigma[k])
+
+    @property
+    def scales(self) -> dict:
+        """Joint scale corrections (``q -> q (1 + scale)``), when estimated."""
+        return {n: float(v) for n, v in zip(self.names, self.values, strict=True) if n.startswith("scale_")}
+
+    def model(self, name: str | None = None) -> _core.Model:
+        """The calibrated kinematic model (world = the measurement frame)."""
+        return self.parametrization.model(self.values, name or f"{self.parametrization.robot.name} calibrated")
+
+    def table(self, convention: str | None = None) -> _core.Table:
+        """The calibrated model as a parameter table (default: the calibration convention; an MDH table
+        cannot hold Hayati angles: prefer ``edh`` or :meth:`model` then)."""
+        conv = self.convention if convention is None else _core.convention_info(convention)["name"]
+        m = self.model()
+        nom = self.parametrization.robot.table
+        return _core.extract(_core.axes(m, np.zeros(m.nq)), conv, nominal=nom if nom.convention == conv else None).table
+
+    def robot(self, name: str | None = None, convention: str = "edh") -> Robot:
+        """A :class:`Robot` of the calibrated model (for :func:`denavit.io.robotfile.save`)."""
+        r = self.parametrization.robot
+        return Robot(name or f"{r.name}_calibrated", self.table(convention), list(r.names), r.lower, r.upper,
+                     description=f"{r.name} calibrated from {self.measurements.source} ({self.convention}, {self.measurements.n} poses)", source=self.measurements.source, home=r.home)
+
+
+def _table_residuals(res: np.ndarray, measure: str) -> np.ndarray:
+    return res.reshape(-1, 6 if measure == "pose" else 3)
+
+
+def calibrate(
+    meas: Measurements | SweepSet,
+    nominal,
+    *,
+    convention: str = "edh",
+    fix=(),
+    loss: str = "linear",
+    f_scale: float | None = None,
+    start: str = "nominal",
+    scale: bool = False,
+    tool=None,
+    noise: float | None = None,
+    noise_rot: float | None = None,
+    holdout: float = 0.0,
+    seed: int = 0,
+) -> Calibration:
+    """Fit the whole kinematic model to measured tool points or poses (one least-squares problem).
+
+    Parameters
+    ----------
+    meas : Measurements or SweepSet
+        Joint readings and measured points / poses in the measurement frame.
+    nominal : Robot, Model, built-in name or robot file
+        The nominal robot: the parametrisation, the start, names and limits.
+    convention : {"edh", "mdh", "dh"}
+        Parametrisation (module docstring).
+    fix : iterable of str, or dict
+        Parameters to hold at their start values, by name or shell pattern (``"base_*"``, ``"tool_z"``); a dict
+        maps names to values (SI) to hold them at.
+    loss : {"linear", "soft_l1", "huber", "cauchy", "arctan"}
+        scipy's robust losses (per residual coordinate); ``f_scale`` (m) defaults to 3 robust sigmas of a
+        first linear fit.
+    start : {"nominal", "circles"}
+        Start from the nominal model (base registered to the data), or from the circle-point identification
+        (:func:`denavit.identify.identify`, global fit; sweep data only).
+    scale : bool
+        Also estimate a scale per joint.
+    tool : array_like, optional
+        Tool point (3,) in the flange frame, m (points), or ``T_flange_tool`` (4, 4) (poses); default nominal.
+    noise, noise_rot : float, optional
+        Known one-sigma noise per coordinate (m) and of the rotation (rad); default: estimated from the residuals.
+    holdout : float
+        Fraction of the poses held out of the fit to validate it (position error before / after).
+    seed : int
+        Seed of the held-out split.
+
+    Returns
+    -------
+    Calibration
+    """
+    t0 = time.perf_counter()
+    if isinstance(meas, SweepSet):
+        meas = Measurements.from_sweeps(meas)
+    if not isinstance(meas, Measurements):
+        raise DenavitError(f"calibrate: expected Measurements or a SweepSet, got {type(meas).__name__}")
+    robot = as_robot(nominal)
+    n = len(robot.names)
+    if meas.nq != n:
+        raise DenavitError(f"{meas.source}: the data has {meas.nq} joint readings per pose but the nominal model {robot.name} has {n} joints ({', '.join(robot.names)})")
+    for j, (got, want) in enumerate(zip(meas.kinds or robot.table.kinds, robot.table.kinds, strict=True)):
+        if got != want:
+            unit = meas.units.get("angle" if got == "revolute" else "length", "?")
+            raise DenavitError(f"{meas.source}: joint {j + 1} ({robot.names[j]}) of {robot.name} is {want}, but its readings were read as {got} (in {unit}): "
+                               f"pass kinds={list(robot.table.kinds)} to read_measurements (or state \"kinds\" in a JSON file)")
+    if loss not in LOSSES:
+        raise DenavitError(f"unknown loss {loss!r}: expected one of {', '.join(LOSSES)}")
+    if not 0.0 <= holdout < 0.9:
+        raise DenavitError(f"holdout: expected a fraction in [0, 0.9), got {holdout}")
+    if start not in ("nominal", "circles"):
+        raise DenavitError(f"start: expected 'nominal' or 'circles', got {start!r}")
+    for what, v, unit in (("noise", noise, "m"), ("noise_rot", noise_rot, "rad")):
+        if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise DenavitError(f"{what}: expected the known one-sigma noise, a finite value > 0 ({unit}), got {v!r}")
+    notes: list[str] = []
+    pz = parametrize(robot, convention, measure=meas.kind, tool=tool, scale=scale)
+    x = pz.x0.copy()
+    user_fixed = resolve_fix(pz, fix)
+    for k, v in user_fixed.items():
+        if v is not None:
+            x[k] = v
+    rule_fixed = {pz.index(nm) for nm in pz.rules}
+    candidates = [c for c in range(pz.n_params) if c not in user_fixed and c not in rule_fixed]
+
+    # held-out split
+    test_idx = np.zeros(0, dtype=int)
+    train = meas
+    if holdout > 0:
+        n_test = int(round(holdout * meas.n))
+        perm = np.random.default_rng(seed).permutation(meas.n)
+        if n_test >= 1 and 3 * (meas.n - n_test) > len(candidates) + 1:
+            test_idx = np.sort(perm[:n_test])
+            train = meas.subset(np.sort(perm[n_test:]))
+        else:
+            notes.append(f"holdout {holdout} skipped: {meas.n} poses are too few to hold any out")
+
+    # weights (1/sigma); pose data without declared noise: re-estimated after a first fit
+    sig_p = noise if noise is not None else 1e-5
+    sig_r = noise_rot if noise_rot is not None else 1e-5
+    w = weights(pz.measure, sig_p, sig_r)
+
+    # 1) register the measurement frame, then fit base and tool only: the nominal geometry at its best
+    base_idx = [c for c in candidates if pz.names[c].startswith("base_")]
+    pz, x = register(pz, x, train, base_free=len(base_idx) == 6)
+    reg_free = [c for c in candidates if pz.names[c].startswith(("base_", "tool_"))]
+    reg = analyze(pz, x, train, reg_free, w, explain=False)
+    x_reg, _ = fit_parameters(pz, x, reg.kept_idx, train, w, "linear", None)
+
+    # 2) identifiability: structural (configurations over the joint limits) and of these data
+    rich = Measurements(configurations(robot, max(2 * pz.n_params, 60)), np.zeros((max(2 * pz.n_params, 60), 3)), None, "spread configurations")
+    if pz.measure == "pose":
+        rich = Measurements(rich.q, None, np.tile(np.eye(4), (rich.n, 1, 1)), rich.source)
+    struct = analyze(pz, x_reg, rich, candidates, w, explain=False)
+    structural = {u.name for u in struct.unidentifiable}
+    still = [j for j in range(n) if np.ptp(train.q[:, j]) < 1e-9]
+    hint = "".join(f"; joint {j + 1} ({robot.names[j]}) never moves in the data" for j in still)
+    ana = analyze(pz, x_reg, train, candidates, w, struct, hint)
+    data_only = [u.name for u in ana.unidentifiable if not u.structural]
+    n_eq = train.n * (6 if pz.measure == "pose" else 3)
+    if n_eq <= struct.rank:
+        per = 6 if pz.measure == "pose" else 3
+        raise DenavitError(f"{meas.source}: too few measurements: {train.n} {'poses' if per == 6 else 'points'} give {n_eq} equations for the {struct.rank} parameters "
+                           f"this model can identify ({', '.join(struct.base_parameters)}); need at least {struct.rank // per + 1} "
+                           f"{'poses' if per == 6 else 'points'} (many more to average the noise), or fix parameters")
+    if still and data_only:
+        vals = ", ".join(f"q{j + 1} = {train.q[0, j]:.6g}" for j in still)
+        raise DenavitError(f"{meas.source}: joint(s) {', '.join(f'{j + 1} ({robot.names[j]})' for j in still)} never move in the data ({vals} in all {train.n} poses): "
+                           f"the data cannot identify {', '.join(data_only)} (beyond the parameters redundant in any case); move the joint(s), "
+                           f"or hold these fixed: fix={[u.name for u in ana.unidentifiable]}")
+
+    # 3) start
+    x_start = x_reg.copy()
+    if start == "circles":
+        x_start = _circle_start(pz, x_reg, meas, robot, convention, ana.kept_idx, notes)
+    # 4) the fit
+    free = ana.kept_idx
+    x_hat, sol = fit_parameters(pz, x_start, free, train, w, "linear", None)
+    r, J, _ = residuals(pz, x_hat, train, w)
+    if pz.measure == "pose" and (noise is None or noise_rot is None):
+        rr = _table_residuals(r, "pose")
+        dof = max(len(r) - len(free), 1) / len(r)
+        sig_p = noise if noise is not None else float(np.sqrt(np.sum((rr[:, :3] / w[0]) ** 2) / (rr[:, :3].size * dof)))
+        sig_r = noise_rot if noise_rot is not None else float(np.sqrt(np.sum((rr[:, 3:] / w[3]) ** 2) / (rr[:, 3:].size * dof)))
+        sig_p, sig_r = max(sig_p, 1e-12), max(sig_r, 1e-12)
+        w = weights(pz.measure, sig_p, sig_r)
+        x_hat, sol = fit_parameters(pz, x_hat, free, train, w, "linear", None)
+        r, J, _ = residuals(pz, x_hat, train, w)
+    wt = np.ones_like(r)
+    robust_s2 = None
+    if loss != "linear":
+        # f_scale: 3 robust sigmas of the misfits, re-estimated once from the robust fit (the first estimate,
+        # from the linear fit, is inflated by the outliers' pull)
+        for _ in range(2 if f_scale is None else 1):
+            mis = np.linalg.norm(_table_residuals(r, pz.measure)[:, :3], axis=1)
+            robust = float(np.median(mis)) / math.sqrt(2.366) if mis.size else 1.0  # weighted units; median of chi_3 = sqrt(2.366)
+            fs = f_scale * w[0] if f_scale is not None else 3 * robust
+            x_hat, sol = fit_parameters(pz, x_hat, free, train, w, loss, fs)
+            r, J, _ = residuals(pz, x_hat, train, w)
+        mis = np.linalg.norm(_table_residuals(r, pz.measure)[:, :3], axis=1)
+        robust_s2 = (float(np.median(mis)) / math.sqrt(2.366)) ** 2
+        wt = loss_weight(loss, (r / fs) ** 2)
+    converged = sol is None or sol.status > 0
+    nfev = 0 if sol is None else int(sol.nfev)
+    Jf = J[:, free] * np.sqrt(wt)[:, None]
+    m_eq, p = Jf.shape
+    known = noise is not None and (pz.measure == "point" or noise_rot is not None)
+    s2 = 1.0 if known else robust_s2 if robust_s2 is not None else float(np.sum(r**2)) / max(m_eq - p, 1)
+    cov = covariance(Jf, s2)
+    sd = np.sqrt(np.clip(np.diag(cov), 0, None))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(sd, sd)
+    sigma = np.full(pz.n_params, np.nan)
+    sigma[free] = sd
+    status = []
+    dropped = {u.name for u in ana.unidentifiable}
+    for c, nm in enumerate(pz.names):
+        status.append("free" if c in free else "fixed" if c in user_fixed else "fixed (parametrisation)" if nm in pz.rules
+                      else ("redundant" if nm in structural else "unidentifiable") if nm in dropped else "fixed")
+    res_si = _table_residuals(r, pz.measure) / w[: (6 if pz.measure == "pose" else 3)]
+    full_r, _, _ = residuals(pz, x_hat, meas, np.ones(6), jacobian=False)
+    full_r = _table_residuals(full_r, pz.measure)
+    pos = np.linalg.norm(full_r[:, :3], axis=1)
+    rms = float(np.sqrt(np.mean(pos**2)))
+    rms_rot = float(np.sqrt(np.mean(np.sum(full_r[:, 3:] ** 2, axis=1)))) if pz.measure == "pose" else math.nan
+    mis = np.linalg.norm(res_si[:, :3], axis=1)
+    robust = float(np.median(mis)) / math.sqrt(2.366) if mis.size else 0.0
+    outliers = np.flatnonzero(pos > OUTLIER_SIGMAS * max(robust, 1e-300))
+    # validation
+    validation = None
+    if test_idx.size:
+        test = meas.subset(test_idx)
+        before = np.linalg.norm(residuals(pz, x_reg, test, np.ones(6), jacobian=False)[2][:, :3, 3] - test.points, axis=1)
+        after = np.linalg.norm(residuals(pz, x_hat, test, np.ones(6), jacobian=False)[2][:, :3, 3] - test.points, axis=1)
+        validation = Validation(train.n, test.n, float(np.sqrt(np.mean(before**2))), float(before.max()), float(np.sqrt(np.mean(after**2))), float(after.max()), test_idx)
+    # notes
+    size = max(float(np.max(np.linalg.norm(meas.points - meas.points.mean(axis=0), axis=1))), 1e-3)
+    if rms > 0.01 * size:
+        notes.insert(0, f"the fit explains little of the data: rms {rms * 1e3:.4g} mm against a measured volume of {size * 1e3:.4g} mm radius "
+                        "(are the joint readings in the units declared, the joints in the nominal's order, the nominal the right robot?)")
+    elif noise is not None and rms > 10 * noise * math.sqrt(3):
+        notes.insert(0, f"the residual (rms {rms * 1e3:.4g} mm) is {rms / (noise * math.sqrt(3)):.3g} x what the declared noise ({noise * 1e3:.3g} mm per "
+                        "coordinate) explains: the model or the data has errors the noise does not cover")
+    if not converged:
+        notes.append(f"the least-squares solver stopped without meeting its tolerances ({sol.message})")
+    lengths = [c for c in free if pz.units[c] == "length" and not pz.names[c].startswith("base_")]
+    far = [pz.names[c] for c in lengths if abs(x_hat[c] - pz.x0[c]) > 10 * size]
+    if far:
+        notes.append(f"parameters moved by more than 10 x the measured volume ({', '.join(far)}): the fit may have diverged; check the nominal model and the units")
+    strong = _strong_correlations(corr, [pz.names[c] for c in free])
+    if strong:
+        notes.append("strongly correlated (their combination is far better determined than either): "
+                     + ", ".join(f"{a} / {b} (rho {rho:+.5f})" for a, b, rho in strong))
+    if outliers.size:
+        notes.append(f"{outliers.size} pose(s) with a tool-position misfit above {OUTLIER_SIGMAS} robust sigmas: {', '.join(meas.where[i] for i in outliers[:5])}{' ...' if outliers.size > 5 else ''}")
+    noise_est = math.sqrt(s2) * sig_p if not known else sig_p
+    return Calibration(pz, list(pz.names), x_hat, sigma, status, pz.x0, x_start, [pz.names[c] for c in free], cov, corr, ana, res_si, rms, rms_rot, outliers,
+                       validation, meas, loss, converged, nfev, time.perf_counter() - t0, float(noise_est), notes)
+
+
+def _strong_correlations(corr: np.ndarray, names: list, limit: float = 0.999) -> list:
+    out = []
+    for i in range(len(names)):
+        for j in range(i + 1, len(names)):
+            if abs(corr[i, j]) > limit:
+                out.append((names[i], names[j], float(corr[i, j])))
+    return sorted(out, key=lambda t: -abs(t[2]))[:5]
+
+
+def _circle_start(pz: Parametrization, x, meas: Measurements, robot: Robot, convention: str, free: list, notes: list) -> np.ndarray:
+    """Start values from the circle-point identification (global fit of the sweeps): the chain is fitted to
+    the identified model's predictions at the measured configurations."""
+    from .. import identify as ident  # noqa: PLC0415 (identify imports the fitting package: loaded for start="circles" only)
+
+    if meas.sweeps is None:
+        raise DenavitError(f"{meas.source}: start='circles' needs sweep data (Measurements.from_sweeps); these are arbitrary poses: use start='nominal'")
+    if pz.measure != "point":
+        raise DenavitError("start='circles' works with measured points (sweeps), not poses")
+    res = ident.identify(meas.sweeps, method="global", convention="edh", nominal=robot)
+    m = res.model()
+    tp = np.asarray(m.T_flange_tool)[:3, 3]
+    T = _core.fk_batch(m.with_tool(np.eye(4)), meas.q)
+    target = Measurements(meas.q, T[:, :3, :3] @ tp + T[:, :3, 3], None, "circle-point identification")
+    xs, _ = fit_parameters(pz, x, free, target, np.ones(6), "linear", None)
+    notes.append(f"started from the circle-point identification (global fit, residual rms {res.rms * 1e3:.4g} mm)")
+    return xs
+
+
+def _unit_scale(unit: str, ls: float, as_: float) -> float:
+    return ls if unit == "length" else as_ if unit == "angle" else 1.0
+
+
+def to_json(cal: Calibration, length: str = "mm", angle: str = "deg") -> dict:
+    """The JSON document of a calibration (units stated)."""
+    ls, as_ = length_scale(length), angle_scale(angle)
+    pz = cal.parametrization
+    rows = []
+    for c, nm in enumerate(cal.names):
+        s = _unit_scale(pz.units[c], ls, as_)
+        rows.append({"name": nm, "unit": {"length": length, "angle": angle, "ratio": "1"}[pz.units[c]], "nominal": cal.nominal[c] / s, "value": cal.values[c] / s,
+                     "sigma": None if not np.isfinite(cal.sigma[c]) else cal.sigma[c] / s, "status": cal.status[c]})
+    ana = cal.identifiability
+    m = cal.model()
+    v = cal.validation
+    return {
+        "units": {"length": length, "angle": angle},
+        "frame": "measurement",
+        "source": cal.measurements.source,
+        "nominal": pz.robot.name,
+        "convention": cal.convention,
+        "measure": pz.measure,
+        "n_poses": cal.measurements.n,
+        "loss": cal.loss,
+        "parameters": rows,
+        "identifiability": {
+            "rank": ana.rank, "candidates": ana.candidates, "base_parameters": ana.base_parameters, "condition_number": ana.condition_number,
+            "observability": ana.observability,
+            "unidentifiable": [{"name": u.name, "structural": u.structural, "reason": u.reason, "combination": u.combination} for u in ana.unidentifiable],
+        },
+        "covariance": {"names": cal.free_names, "matrix_si": _finite_or_none(cal.covariance)},
+        "correlation": _finite_or_none(cal.correlation),
+        "residuals": {"rms": cal.rms / ls, "max": float(np.max(np.linalg.norm(cal.residuals[:, :3], axis=1))) / ls if cal.residuals.size else 0.0,
+                      "rms_rotation": None if math.isnan(cal.rms_rotation) else cal.rms_rotation / as_, "noise_estimate": cal.noise / ls,
+                      "outliers": [cal.measurements.where[i] for i in cal.outliers]},
+        "validation": None if v is None else {"n_train": v.n_train, "n_test": v.n_test, "before_rms": v.before_rms / ls, "before_max": v.before_max / ls,
+                                             "after_rms": v.after_rms / ls, "after_max": v.after_max / ls},
+        "model": {"T_world_base": _pose_json(np.asarray(m.T_world_base), ls), "T_flange_tool": _pose_json(np.asarray(m.T_flange_tool), ls),
+                  "placements": [_pose_json(P, ls) for P in np.asarray(m.placements)], "offsets": (np.asarray(m.offsets) / joint_scale(m.kinds, length, angle)).tolist()},
+        "converged": cal.converged,
+        "evaluations": cal.evaluations,
+        "elapsed_s": cal.elapsed,
+        "notes": cal.notes,
+    }
+
+
+def _finite_or_none(a: np.ndarray) -> list:
+    """A nested list with non-finite entries as None (JSON has no NaN)."""
+    return [[float(v) if math.isfinite(v) else None for v in row] for row in np.asarray(a, dtype=float)]
+
+
+def _pose_json(T: np.ndarray, ls: float) -> list:
+    M = np.array(T, dtype=float)
+    M[:3, 3] /= ls
+    return M.tolist()
+
+
+def write_json(cal: Calibration, path, length: str = "mm", angle: str = "deg") -> None:
+    """Write the calibration as JSON (whole or not at all)."""
+    write_text(path, json_text(to_json(cal, length, angle)))

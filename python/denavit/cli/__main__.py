@@ -1,0 +1,5 @@
+"""``python -m denavit.cli``: the ``denavit`` command."""
+
+from . import main
+
+main()

@@ -1,0 +1,96 @@
+"""``calibrate``: the whole model from measured points or poses at known joint readings."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+from rich.table import Table as RichTable
+
+from ..io.units import length_scale
+from ..robot import load
+from .common import app, calib_unit, console, convention_name, fail, fmt, parse_numbers, say, wrote
+
+
+@app.command()
+def calibrate(
+    data: Annotated[Path, typer.Argument(help="Measurements: CSV 'q1..qn,x,y,z[,rx,ry,rz]', a long-form sweep CSV (with 'joint'), or JSON.")],
+    nominal: Annotated[str, typer.Option("--nominal", help="Nominal model (built-in name, robot file or URDF).")],
+    convention: Annotated[str, typer.Option("--convention", help="edh | mdh (Hayati angle where axes are near-parallel) | dh")] = "edh",
+    fix: Annotated[str | None, typer.Option("--fix", help="Parameters to hold at their nominal values: names or patterns, comma-separated (e.g. 'base_*,tool_z').")] = None,
+    json_path: Annotated[Path | None, typer.Option("--json", help="Write the result as JSON to this file ('-': standard output).")] = None,
+    save: Annotated[Path | None, typer.Option("--save", help="Write the calibrated robot file (.toml, ED-H) to this path.")] = None,
+    loss: Annotated[str, typer.Option("--loss", help="linear | soft_l1 | huber | cauchy | arctan (robust loss)")] = "linear",
+    start: Annotated[str, typer.Option("--start", help="nominal | circles (circle-point identification of sweep data)")] = "nominal",
+    holdout: Annotated[float, typer.Option("--holdout", help="Fraction of the poses held out to validate the fit.")] = 0.2,
+    scale: Annotated[bool, typer.Option("--scale", help="Also estimate a scale per joint.")] = False,
+    tool: Annotated[str | None, typer.Option("--tool", help="Tool point in the flange frame, --length units (default: the nominal model's tool).")] = None,
+    noise: Annotated[float | None, typer.Option("--noise", help="Known point noise (1 sigma per coordinate), --length units (default: from the residuals).")] = None,
+    length: Annotated[str, typer.Option("--length", help="Length unit of the output (and of the data if not declared in it).")] = "mm",
+    angle: Annotated[str, typer.Option("--angle", help="Angle unit of the output (and of the data if not declared in it).")] = "deg",
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the held-out split.")] = 0,
+) -> None:
+    """Calibrate the whole model from measured points or poses at known joint readings (one least-squares fit)."""
+    from .. import calibration as cal  # noqa: PLC0415
+    from ..io.measurements import read_measurements  # noqa: PLC0415
+
+    robot = load(nominal)
+    convention = convention_name(convention)
+    # the reader applies the one units rule (denavit.io.units.input_units): what the file declares wins
+    meas = read_measurements(data, kinds=list(robot.table.kinds), length=length, angle=angle)
+    ls = length_scale(length)
+    tp = None
+    if tool is not None:
+        tp = np.array(parse_numbers(tool, "--tool")) * ls
+        if tp.shape != (3,):
+            fail(f"--tool: expected 3 values (x, y, z), got {tp.size}")
+    if noise is not None and not (np.isfinite(noise) and noise > 0):
+        fail(f"--noise: expected the known one-sigma point noise, a finite value > 0 in {length}, got {noise}")
+    fixes = [f.strip() for f in (fix or "").split(",") if f.strip()]
+    with console.status(f"calibrating {robot.name} ({convention}) from {meas.n} {'poses' if meas.kind == 'pose' else 'points'}..."):
+        res = cal.calibrate(meas, robot, convention=convention, fix=fixes, loss=loss, start=start, holdout=holdout, scale=scale, tool=tp,
+                            noise=None if noise is None else noise * ls, seed=seed)
+    print_calibration(res, length, angle)
+    if json_path:
+        cal.write_json(res, json_path, length, angle)
+        wrote(json_path)
+    if save:
+        from ..io.robotfile import save as save_file  # noqa: PLC0415
+
+        save_file(res.robot(), save, length, angle)
+        wrote(save)
+
+
+def print_calibration(res, length: str, angle: str) -> None:
+    pz = res.parametrization
+    meas = res.measurements
+    say("bold", f"Calibration of {pz.robot.name}", f" ({res.convention}, {meas.n} {'poses' if meas.kind == 'pose' else 'points'} from {meas.source}; "
+        f"{res.elapsed * 1e3:.1f} ms, {res.evaluations} evaluations{'' if res.converged else ', NOT converged'})")
+    t = RichTable(caption="sigma: one standard deviation (covariance of the fit); change: calibrated - nominal")
+    for c in ("parameter", "unit", "nominal", "calibrated", "sigma", "change", "status"):
+        t.add_column(c, justify="left" if c in ("parameter", "unit", "status") else "right")
+    for k, name in enumerate(res.names):
+        u, s = calib_unit(pz.units[k], length, angle)
+        nom, val, sig = res.nominal[k] / s, res.values[k] / s, res.sigma[k] / s
+        t.add_row(name, u, fmt(nom, 4), fmt(val, 4), "-" if not np.isfinite(sig) else f"{sig:.4g}", fmt(val - nom, 4), res.status[k])
+    console.print(t)
+    ana = res.identifiability
+    console.print(f"Identifiability: {ana.summary()}")
+    if ana.unidentifiable:
+        ut = RichTable(title="Parameters the data cannot identify (held at their start values)")
+        ut.add_column("parameter")
+        ut.add_column("why")
+        for u in ana.unidentifiable:
+            ut.add_row(u.name, u.reason)
+        console.print(ut)
+    ls = length_scale(length)
+    console.print(f"Residuals: rms {res.rms / ls:.4g} {length} (noise estimate {res.noise / ls:.3g} {length} per coordinate)"
+                  + (f", rotation rms {np.degrees(res.rms_rotation):.3g} deg" if meas.kind == "pose" else ""))
+    v = res.validation
+    if v is not None:
+        console.print(f"Held-out validation ({v.n_test} of {v.n_train + v.n_test} poses): tool-position error rms {v.before_rms / ls:.4g} -> {v.after_rms / ls:.4g} {length}, "
+                      f"max {v.before_max / ls:.4g} -> {v.after_max / ls:.4g} {length} (before: nominal geometry with base and tool fitted)")
+    for note in res.notes:
+        say("yellow", "note:", f" {note}")

@@ -1,0 +1,91 @@
+"""``compensate``: turn a program's targets into the commands a nominal controller must be sent."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import typer
+
+from ..errors import DenavitError
+from ..io.units import length_scale
+from ..robot import load
+from .common import app, console, say, wrote
+
+
+@app.command()
+def compensate(
+    targets: Annotated[str, typer.Argument(help="The program: a CSV of tool poses 'x,y,z,rx,ry,rz' (rotation vector) and/or joint rows 'q1..qn', with a '# units:' line.")],
+    nominal: Annotated[str, typer.Option("--nominal", help="The controller's model: a built-in name, a robot file or a URDF.")],
+    identified: Annotated[str, typer.Option("--identified", help="The identified robot (e.g. from identify/calibrate --save), in the same robot base frame.")],
+    output: Annotated[str | None, typer.Option("-o", "--output", help="Write the compensated program (CSV: commands, joint values, flags, errors per row); '-' for stdout.")] = None,
+    path: Annotated[bool, typer.Option("--path", help="The targets form a path: warm-start along it and flag branch jumps.")] = False,
+    branch_tol: Annotated[float, typer.Option("--branch-tol", help="Largest joint change from the program's solution that keeps its branch, in --angle (revolute) units.")] = 5.0,
+    length: Annotated[str, typer.Option("--length", help="Length unit of the output (and of the targets if they declare none): mm | m | ...")] = "mm",
+    angle: Annotated[str, typer.Option("--angle", help="Angle unit of the output (and of the targets if they declare none): deg | rad.")] = "deg",
+    json_out: Annotated[str | None, typer.Option("--json", help="Write a JSON summary to this path ('-' for stdout).")] = None,
+) -> None:
+    """Compensate a program (RoboDK's "filtering"): for each target, the joint values that reach it on the
+    identified robot (on the program's branch) and the pose T' = FK_nominal(q) to send to a controller that keeps
+    its nominal model. Flagged rows (unreachable, branch changed, path jump) are marked, never silently kept;
+    exit code 1 when any row is flagged."""
+    import numpy as np  # noqa: PLC0415
+
+    from .. import _core  # noqa: PLC0415
+    from .. import compensation as cp  # noqa: PLC0415
+    from ..io.targets import read_targets, write_compensated  # noqa: PLC0415
+    from ..io.units import angle_scale  # noqa: PLC0415
+
+    nom_robot, id_robot = load(nominal), load(identified)
+    nom, ide = nom_robot.model(), id_robot.model()
+    if nom.nq != ide.nq:
+        raise DenavitError(f"--identified {identified}: {ide.nq} joints, but the nominal {nom_robot.name} has {nom.nq}")
+    kinds = list(nom.kinds)
+    prog = read_targets(targets, kinds, length=length, angle=angle)
+    poses = prog.poses if prog.poses is not None else _core.fk_batch(nom, prog.q)
+    # a target beyond any reach is a unit slip, not a target to flag: say so at its row
+    reach = float(np.linalg.norm(_core.fk_batch(nom, _sample(nom))[:, :3, 3] - nom.T_world_base[:3, 3], axis=1).max())
+    dist = np.linalg.norm(poses[:, :3, 3] - nom.T_world_base[:3, 3], axis=1)
+    far = np.flatnonzero(dist > 1.5 * reach)
+    if len(far):
+        k = int(far[0])
+        raise DenavitError(f"{prog.where[k]}: the target is {dist[k] / length_scale(prog.units['length']):.6g} {prog.units['length']} from the base but {nom_robot.name} "
+                           f"reaches about {reach / length_scale(prog.units['length']):.4g} {prog.units['length']} ({len(far)} such rows): is the file's length unit right?")
+    c = cp.compensate(nom, ide, poses, q_nominal=prog.q, path=path, branch_tol=branch_tol * angle_scale(angle))
+    ls = length_scale(length)
+    flagged = [(w, why) for w, ok, r, b, j in zip(prog.where, c.ok, c.reached, c.branch_changed, c.path_jump, strict=True) if not ok
+               for why in [", ".join(x for x, f in (("unreachable", not r), ("branch changed", b), ("path jump", j)) if f)]]
+    before_rms = float(np.sqrt(np.mean(c.before[c.ok] ** 2))) if c.ok.any() else float("nan")
+    if output:
+        write_compensated(output, c, kinds, length=length, angle=angle, comment=f"compensated for {nom_robot.name} -> {id_robot.name} from {targets}")
+        wrote(output, f" ({len(c)} rows, {len(flagged)} flagged)")
+    summary = {"targets": len(c), "flagged": len(flagged), "units": {"length": length, "angle": angle},
+               "before_rms": before_rms / ls, "before_max": float(c.before[c.ok].max()) / ls if c.ok.any() else None,
+               "residual_max": float(c.residual[c.ok].max()) / ls if c.ok.any() else None,
+               "flagged_rows": [{"where": w, "why": why} for w, why in flagged]}
+    if json_out:
+        from ..io.output import json_text, write_text  # noqa: PLC0415
+
+        write_text(json_out, json_text(summary))
+        if json_out != "-":
+            wrote(json_out)
+    if json_out != "-" and output != "-":
+        gain = (f"; error without compensation {summary['before_rms']:.4g} {length} RMS, max {summary['before_max']:.4g} {length}"
+                if c.ok.any() else "; no target can be sent (is the identified robot a calibration of the nominal?)")
+        say("bold", f"{nom_robot.name} -> {id_robot.name}:", f" {len(c)} targets, {len(flagged)} flagged{gain}")
+        for w, why in flagged[:20]:
+            console.print(f"  {w}: {why}")
+        if len(flagged) > 20:
+            console.print(f"  ... and {len(flagged) - 20} more (all in the output's 'ok' column)")
+    if flagged:
+        raise typer.Exit(1)
+
+
+def _sample(model):
+    """Configurations spread over the joint limits (revolute ones within +-pi), to measure the reach."""
+    import numpy as np  # noqa: PLC0415
+
+    lo, hi = np.asarray(model.lower, dtype=float), np.asarray(model.upper, dtype=float)
+    rev = np.array([k == "revolute" for k in model.kinds])
+    lo, hi = np.where(rev, np.maximum(lo, -np.pi), lo), np.where(rev, np.minimum(hi, np.pi), hi)
+    u = np.random.default_rng(0).random((512, model.nq))
+    return lo + (hi - lo) * u

@@ -1,0 +1,83 @@
+"""``convert``: a robot in another convention (or URDF), through its joint axes."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+from rich.table import Table as RichTable
+
+from .. import _core
+from ..errors import DenavitError
+from ..io.output import json_text
+from ..io.units import length_scale
+from ..robot import Robot, inertials_for_table, load
+from .common import JsonOpt, ModelArg, app, console, fail, fmt, print_table, say, table_rows, wrote
+
+
+@app.command()
+def convert(
+    model: ModelArg,
+    to: Annotated[str, typer.Option("--to", help="dh | mdh | edh | poe | urdf (or an alias: sdh, craig, ...)")],
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="Write a robot file (.toml) or URDF instead of printing ('-': standard output).")] = None,
+    length: Annotated[str, typer.Option("--length", help="Length unit of the output.")] = "mm",
+    angle: Annotated[str, typer.Option("--angle", help="Angle unit of the output.")] = "deg",
+    parallel_tol: Annotated[float, typer.Option(help="Axes with sin(angle) below this are parallel.")] = 1e-3,
+    base_link: Annotated[str | None, typer.Option("--base-link", help="URDF input: the chain's base link (default: the root link).")] = None,
+    tip_link: Annotated[str | None, typer.Option("--tip-link", help="URDF input: the chain's tip link (default: the single leaf).")] = None,
+    json_out: JsonOpt = False,
+) -> None:
+    """Express a robot in another convention through its joint axes, with the FK-parity check.
+
+    IN is a built-in name, a robot file or a URDF; ``--to urdf`` writes URDF (meshes, inertials and limits
+    of a URDF input carried through), the others print the table with units and the consecutive-axes
+    diagnostics, or write a robot file with ``-o``.
+    """
+    to = to.lower()
+    if (base_link is not None or tip_link is not None) and not str(model).lower().endswith(".urdf"):
+        fail(f"--base-link/--tip-link apply to a URDF input, got {model!r}")
+    robot = load(model, base_link=base_link, tip_link=tip_link)
+    m = robot.model()
+    if to == "urdf":
+        from ..io.urdf import dumps_urdf, save_urdf  # noqa: PLC0415
+
+        if output is None:
+            print(dumps_urdf(m, robot))
+        else:
+            save_urdf(m, output, robot)
+            wrote(output)
+        return
+    to = _core.convention_info(to)["name"]
+    nominal = robot.table if robot.convention == to else None
+    ex = _core.extract(_core.axes(m, np.zeros(m.nq)), to, parallel_tol=parallel_tol, nominal=nominal)
+    new = Robot(name=robot.name, table=ex.table, names=robot.names, lower=robot.lower, upper=robot.upper,
+                description=f"{robot.description} -> {to}", source=robot.source, home=robot.home, extra=robot.extra)
+    if robot.inertials is not None:
+        try:  # the same physical links, re-expressed in the new convention's frames
+            new = dataclasses.replace(new, inertials=inertials_for_table(m, ex.table, robot.names, robot.lower, robot.upper))
+        except DenavitError as e:
+            say("bold yellow", "warning:", f" link inertias not carried over (the {to} table does not reproduce the joint axes exactly): {e}", err=True)
+    if output is not None:
+        from ..io.robotfile import save  # noqa: PLC0415
+
+        save(new, output, length, angle)
+        wrote(output)
+        return
+    ls = length_scale(length)
+    if json_out:
+        print(json_text({"model": robot.name, "convention": to, "units": {"length": length, "angle": angle},
+                          "rows": [{"joint": n, **r} for n, r in zip(robot.names, table_rows(ex.table, length, angle))],
+                          "pairs": [{"joint": p.joint, "relation": p.relation, "angle_rad": p.angle, "distance_m": p.distance, "hayati_beta_rad": p.hayati_beta} for p in ex.pairs],
+                          "max_tool_position_error_m": ex.max_position_error, "max_tool_rotation_error_rad": ex.max_rotation_error}), end="")
+        return
+    print_table(ex.table, robot.names, length, angle, f"{robot.name} in {to}")
+    pt = RichTable(title="Consecutive axes")
+    for c in ("pair", "relation", "angle [deg]", f"distance [{length}]", "Hayati beta [deg]"):
+        pt.add_column(c, justify="right")
+    for p in ex.pairs:
+        pt.add_row(f"{p.joint}-{p.joint + 1}", p.relation, fmt(np.degrees(p.angle), 6), fmt(p.distance / ls, 6), fmt(np.degrees(p.hayati_beta), 6))
+    console.print(pt)
+    console.print(f"FK parity: max tool error {ex.max_position_error / ls:.3e} {length}, {np.degrees(ex.max_rotation_error):.3e} deg")

@@ -1,0 +1,29 @@
+"""``inspect``: what a recording holds (format, joints, rates, units, sweeps and dwell), without fitting."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from .common import app, console
+
+
+@app.command()
+def inspect(
+    recording: Annotated[Path, typer.Argument(help="A tracker export, a UR RTDE log, a KUKA RSI log, a ROS bag, or a delimited file (with --columns).")],
+    data_format: Annotated[str, typer.Option("--format", help="auto (from the content) | tracker | rtde | rsi | bag | columns")] = "auto",
+    columns: Annotated[str | None, typer.Option("--columns", help="Column map of a delimited file, e.g. \"t,q1..q6,x,y,z\".")] = None,
+    sweep: Annotated[str | None, typer.Option("--sweep", help="Tracker export: 'group' or a point-name pattern such as 'J{joint}_{index}'.")] = None,
+    length: Annotated[str | None, typer.Option("--length", help="Length unit if the file does not declare one.")] = None,
+    angle: Annotated[str | None, typer.Option("--angle", help="Angle unit if the file does not declare one.")] = None,
+) -> None:
+    """Print what a recording holds: the reader used, joints, targets, rates and units, and the sweeps the
+    segmentation finds (joint, rows, start and end, dwell left out), for checking before `identify`."""
+    from ..io.recordings import read_recording  # noqa: PLC0415
+    from ..recording import segment  # noqa: PLC0415
+
+    rec = read_recording(recording, data_format, columns=columns, length=length, angle=angle, sweep=sweep)
+    console.print(rec.describe(), soft_wrap=True)
+    console.print(segment(rec).table(), soft_wrap=True)

@@ -1,0 +1,45 @@
+"""``simulate``: joint sweeps of a model, written as the long-form CSV."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+
+from ..io.units import angle_scale, length_scale
+from ..robot import load
+from .common import ModelArg, app, fail, parse_joint_values, parse_numbers, parse_ranges, wrote
+
+
+@app.command()
+def simulate(
+    model: ModelArg,
+    output: Annotated[Path, typer.Option("-o", "--output", help="Long-form CSV to write ('-': standard output).")],
+    home: Annotated[str | None, typer.Option("--home", help="Home configuration in --angle units, prismatic joints in --length (default: the model file's home, else zeros).")] = None,
+    ranges: Annotated[str | None, typer.Option("--ranges", help="Per-joint start,end pairs in --angle units (prismatic: --length), or 'paper90' / 'paper30' (Hayat Table II, the default).")] = None,
+    points: Annotated[int, typer.Option("--points", help="Points per sweep.")] = 30,
+    tool: Annotated[str, typer.Option("--tool", help="Tool point in the flange frame, in --length units.")] = "50,30,100",
+    noise: Annotated[float, typer.Option("--noise", help="Point noise (1 sigma per coordinate), --length units.")] = 0.02,
+    noise_q: Annotated[float, typer.Option("--noise-q", help="Joint-reading noise (1 sigma), --angle units.")] = 0.0,
+    seed: Annotated[int, typer.Option("--seed")] = 0,
+    length: Annotated[str, typer.Option("--length")] = "mm",
+    angle: Annotated[str, typer.Option("--angle")] = "deg",
+) -> None:
+    """Simulate joint sweeps of a model (for planning a measurement and for tests); writes the long-form CSV."""
+    from .. import sweeps as sw  # noqa: PLC0415
+    from ..io.output import write_text  # noqa: PLC0415
+    from ..io.sweeps import to_long_csv  # noqa: PLC0415
+
+    robot = load(model)
+    m = robot.model()
+    ls, as_ = length_scale(length), angle_scale(angle)
+    h = parse_joint_values(home, "--home", robot, length, angle, default=robot.home)
+    r = parse_ranges(ranges, robot, length, angle, "paper90")
+    tp = np.array(parse_numbers(tool, "--tool")) * ls
+    if tp.shape != (3,):
+        fail(f"--tool: expected 3 values, got {tp.size}")
+    s = sw.simulate(m, home=h, ranges=r, points_per_sweep=points, tool_point=tp, noise=noise * ls, noise_q=noise_q * as_, seed=seed)
+    write_text(output, to_long_csv(s, length, angle, f"simulated sweeps of {robot.name}: seed {seed}, noise {noise} {length}, readings noise {noise_q} {angle}"))
+    wrote(output, f": {m.nq} sweeps x {points} points")

@@ -1,0 +1,45 @@
+"""Configuration files: a CSV of joint configurations, header ``q1,...,qn``, one row per configuration
+(the candidates of ``denavit plan --candidates``).
+
+Units by the one rule (:func:`denavit.io.units.input_units`): the file's ``# units:`` line wins, the caller's
+``length`` / ``angle`` fill what it does not declare; revolute values take the angle unit, prismatic ones the
+length unit (:func:`~denavit.io.units.joint_scale`).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..errors import DenavitError
+from . import delimited as dl
+from .text import read_text
+from .units import input_units, joint_scale, parse_declaration
+
+
+def read_configurations(path: str | os.PathLike, kinds: Sequence[str], *, length: str | None = None, angle: str | None = None) -> np.ndarray:
+    """(m, n) configurations (SI) of a CSV whose header names ``q1..qn`` (``n = len(kinds)``)."""
+    where = str(path)
+    lines = read_text(path, "configurations file").splitlines()
+    need_units = [u for u, k in (("angle", "revolute"), ("length", "prismatic")) if k in kinds]
+    units = input_units(parse_declaration(lines, where), length, angle, where, need=need_units)
+    data, _ = dl.rows(lines)
+    n = len(kinds)
+    need = [f"q{i + 1}" for i in range(n)]
+    if not data:
+        raise DenavitError(f"{where}: no header and no configurations: expected a header {','.join(need)}")
+    hline, names = data[0]
+    cols = dl.header(names, f"{where}:{hline}")
+    if any(c not in cols for c in need):
+        raise DenavitError(f"{where}:{hline}: header must name q1..q{n}, got {','.join(names)!r}")
+    idx = [cols.index(c) for c in need]
+    out = []
+    for ln, cells in data[1:]:
+        if len(cells) != len(cols):
+            raise DenavitError(f"{where}:{ln}: expected {len(cols)} values, got {len(cells)}")
+        out.append([dl.number(cells[i], f"{where}:{ln}", c) for i, c in zip(idx, need)])
+    if not out:
+        raise DenavitError(f"{where}: no configurations")
+    return np.array(out) * joint_scale(kinds, units.get("length", "m"), units.get("angle", "rad"), where)

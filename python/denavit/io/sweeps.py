@@ -1,0 +1,286 @@
+"""Sweep files (docs/sweeps.md): the long-form CSV, a folder of per-joint ``jN.csv`` files, JSON; and the
+long-form CSV writer. The data model is :mod:`denavit.sweeps`.
+
+One units rule for every format (:func:`denavit.io.units.input_units`): what the file declares (a
+``# units:`` line, :func:`~denavit.io.units.parse_declaration`; JSON: its ``"units"`` object) wins, the
+``length`` / ``angle`` given by the caller (the command line's ``--length`` / ``--angle``) only fill what the
+file does not declare. Joint values take the angle unit for a revolute joint and the length unit for a
+prismatic one (:func:`~denavit.io.units.joint_scale`). Text is decoded by :mod:`denavit.io.text` and split by
+the standard :mod:`csv` module.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DenavitError
+from ..sweeps import Sweep, SweepSet
+from . import delimited as dl
+from .text import read_text
+from .units import input_units, joint_scale, length_scale, parse_declaration
+
+KINDS = ("revolute", "prismatic")
+
+
+def _kinds(kinds, n: int, where: str, what: str) -> list[str]:
+    kinds = list(kinds) if kinds else ["revolute"] * n
+    if len(kinds) != n:
+        raise DenavitError(f"{where}: {n} joints in {what} but {len(kinds)} joint kinds given")
+    return kinds
+
+
+def _check_complete(sweeps: dict[int, object], n: int, where: str) -> None:
+    missing = [j for j in range(1, n + 1) if j not in sweeps]
+    if missing:
+        raise DenavitError(f"{where}: missing sweeps of joint(s) {', '.join(map(str, missing))}: every joint 1..{n} needs one (got joints {sorted(sweeps)})")
+
+
+def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: str | None = None, kinds: list[str] | None = None, home=None) -> SweepSet:
+    """Read the long-form CSV: header ``joint,q1,...,qn,x,y,z`` (optional ``time``), one row per point.
+
+    ``joint`` is the moving joint's 1-based index; q1..qn every joint reading at that instant; x, y, z the
+    point. Units: the file's ``# units: length=mm angle=deg`` line, else ``length`` / ``angle``. ``kinds``
+    (default all revolute) say which readings are lengths. ``home`` (SI) defaults to the readings of the
+    locked joints.
+    """
+    where = str(path)
+    lines = read_text(path, "sweep file").splitlines()
+    units = input_units(parse_declaration(lines, where), length, angle, where)
+    rows, _ = dl.rows(lines)
+    if not rows:
+        raise DenavitError(f"{where}: no header and no data: expected a header 'joint,q1,...,qn,x,y,z'")
+    hline, header = rows[0]
+    cols = dl.header(header, f"{where}:{hline}")
+    n = len([c for c in cols if re.fullmatch(r"q\d+", c)])
+    need = ["joint", *[f"q{i}" for i in range(1, n + 1)], "x", "y", "z"]
+    missing = [c for c in need if c not in cols]
+    unknown = [c for c in cols if c not in need and c != "time"]
+    if missing or unknown or n == 0:
+        what = f"missing {', '.join(missing) or 'q columns'}" if missing or n == 0 else f"unknown column(s) {', '.join(unknown)}"
+        raise DenavitError(f"{where}:{hline}: header must be 'joint,q1,...,qn,x,y,z' (optional 'time'); {what}, got {','.join(header)!r}")
+    kinds = _kinds(kinds, n, where, "the header")
+    qscale = joint_scale(kinds, units["length"], units["angle"], where)
+    ls = length_scale(units["length"], where)
+    idx = {c: cols.index(c) for c in need}
+    sweeps: dict[int, list] = {}
+    for ln, cells in rows[1:]:
+        at = f"{where}:{ln}"
+        if len(cells) != len(cols):
+            raise DenavitError(f"{at}: expected {len(cols)} values, got {len(cells)}")
+        jtext = cells[idx["joint"]]
+        try:
+            jv = float(jtext)
+        except ValueError:
+            raise DenavitError(f"{at}: column 'joint' must be a joint index 1..{n}, got {jtext!r}") from None
+        if not (math.isfinite(jv) and jv == round(jv) and 1 <= jv <= n):
+            raise DenavitError(f"{at}: joint index out of range: expected 1..{n}, got {jtext}")
+        q = np.array([dl.number(cells[idx[f"q{i}"]], at, f"q{i}") for i in range(1, n + 1)]) * qscale
+        p = np.array([dl.number(cells[idx[c]], at, c) for c in "xyz"]) * ls
+        sweeps.setdefault(int(jv), []).append((q, p, at))
+    _check_complete(sweeps, n, where)
+    out = [Sweep(j, np.array([r[1] for r in sweeps[j]]), np.array([r[0] for r in sweeps[j]]), [r[2] for r in sweeps[j]]) for j in sorted(sweeps)]
+    if home is None:
+        # the locked joints' readings: the median over the sweeps in which each joint does not move
+        home = np.array([np.median(np.concatenate([s.q[:, i] for s in out if s.joint != i + 1])) if n > 1 else 0.0 for i in range(n)])
+    return SweepSet(out, n, np.asarray(home, dtype=float), kinds, where, units)
+
+
+_JOINT_FILE = re.compile(r"j(\d+)\.csv", re.IGNORECASE)
+
+
+def _joint_file(f: Path, length: str | None) -> tuple[np.ndarray, list[str]]:
+    """The points (m) of one ``jN.csv``: columns x, y, z (and an optional time), by header names if the file
+    has a header (a first line of names), else by position (x,y,z or time,x,y,z)."""
+    where = str(f)
+    lines = read_text(f, "sweep file").splitlines()
+    ls = length_scale(input_units(parse_declaration(lines, where), length, None, where, need=("length",))["length"], where)
+    rows, delim = dl.rows(lines)
+    cols = None
+    if rows and not any(dl.is_number(c) for c in rows[0][1]):
+        ln, header = rows.pop(0)
+        cols = dl.header(header, f"{where}:{ln}")
+        unknown = [c for c in cols if c not in ("time", "x", "y", "z")]
+        if unknown or not all(c in cols for c in "xyz"):
+            raise DenavitError(f"{where}:{ln}: header must name x, y, z (and optionally time), got {','.join(header)!r}")
+    pts, at = [], []
+    for ln, cells in rows:
+        names = cols or (["x", "y", "z"] if len(cells) == 3 else ["time", "x", "y", "z"])
+        if len(cells) != len(names) or len(cells) not in (3, 4):
+            expected = f"{len(names)} values ({','.join(names)})" if cols else "3 values (x,y,z) or 4 (time,x,y,z)"
+            raise DenavitError(f"{where}:{ln}: expected {expected} separated by {delim!r}, got {len(cells)}: {delim.join(cells)!r}")
+        vals = {name: dl.number(c, f"{where}:{ln}", name) for c, name in zip(cells, names)}
+        pts.append([vals[c] * ls for c in "xyz"])
+        at.append(f"{where}:{ln}")
+    return np.array(pts, dtype=float).reshape(-1, 3), at
+
+
+def read_joint_files(folder: str | os.PathLike, *, home, length: str | None, angle: str | None = "deg", direction=1, kinds: list[str] | None = None) -> SweepSet:
+    """Read one file per joint (``j1.csv`` ... ``jN.csv``): x,y,z per row, optionally a time column.
+
+    Only files named exactly ``j<N>.csv`` count (``j1_old.csv`` is not a sweep). Comma or semicolon separated
+    (the first line that is not a ``#`` comment decides), optional header (a line of names, none of them a
+    number: then its names say which column is which). A file's ``# units:`` line gives its length unit, else
+    ``length``. Without joint readings, the sweep direction gives the axis orientation: ``direction`` (+1 or
+    -1, or one per joint) says whether the joint value increased over the recording. ``home`` is in ``angle``
+    units (revolute) / ``length`` units (prismatic), as ``kinds`` say (default all revolute).
+    """
+    folder = Path(folder)
+    files: dict[int, Path] = {}
+    for f in sorted(folder.iterdir()):
+        m = _JOINT_FILE.fullmatch(f.name)
+        if m and f.is_file():
+            j = int(m.group(1))
+            if j in files:
+                raise DenavitError(f"{folder}: two files for joint {j}: {files[j].name} and {f.name}: expected one j{j}.csv")
+            files[j] = f
+    if not files:
+        raise DenavitError(f"{folder}: no per-joint files j1.csv ... jN.csv found")
+    try:
+        home = np.atleast_1d(np.asarray(home, dtype=float))
+    except (TypeError, ValueError):
+        raise DenavitError(f"--home: expected one number per joint, got {home!r}") from None
+    if home.ndim != 1 or not np.all(np.isfinite(home)):
+        raise DenavitError(f"--home: expected one finite number per joint, got {home.tolist()}")
+    n = len(home)
+    kinds = _kinds(kinds, n, str(folder), "--home")
+    units = input_units({}, length, angle, str(folder), need=("length", "angle") if "revolute" in kinds else ("length",))
+    homes = home * joint_scale(kinds, units["length"], units.get("angle", "rad"), "--home")
+    try:
+        dirs = np.atleast_1d(np.asarray(direction, dtype=float))
+    except (TypeError, ValueError):
+        raise DenavitError(f"--direction: expected +1 or -1, one for all joints or one per joint, got {direction!r}") from None
+    if dirs.ndim != 1 or dirs.size not in (1, n) or not np.all(np.abs(dirs) == 1):
+        raise DenavitError(f"--direction: expected +1 or -1, one for all joints or {n} (one per joint, from --home), got {dirs.tolist()}")
+    dirs = np.broadcast_to(dirs, (n,))
+    sweeps = {}
+    for j, f in sorted(files.items()):
+        if not 1 <= j <= n:
+            raise DenavitError(f"{f}: joint index out of range: expected 1..{n} (from --home), got {j}")
+        pts, at = _joint_file(f, units["length"])
+        if dirs[j - 1] < 0:
+            pts, at = pts[::-1], at[::-1]
+        sweeps[j] = Sweep(j, pts, None, at)
+    _check_complete(sweeps, n, str(folder))
+    return SweepSet([sweeps[j] for j in sorted(sweeps)], n, homes, kinds, str(folder), units)
+
+
+def _show(value) -> str:
+    """A short JSON rendering of a value for messages."""
+    text = json.dumps(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _json_numbers(value, n: int | None, where: str) -> np.ndarray:
+    """A JSON list of finite numbers (``n`` of them, or any number >= 1) as a float array."""
+    if not isinstance(value, list) or not value or (n is not None and len(value) != n):
+        raise DenavitError(f"{where}: expected a list of {n if n is not None else 'one or more'} numbers, got {_show(value)}")
+    out = []
+    for i, v in enumerate(value):
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise DenavitError(f"{where}[{i}]: expected a number, got {_show(v)}")
+        try:
+            v = float(v)
+        except OverflowError:
+            v = math.inf
+        if not math.isfinite(v):
+            raise DenavitError(f"{where}[{i}]: expected a finite number, got {_show(value[i])}")
+        out.append(v)
+    return np.array(out)
+
+
+def _json_rows(value, n: int, where: str) -> np.ndarray:
+    """A JSON list of rows of ``n`` finite numbers as an (m, n) float array."""
+    if not isinstance(value, list) or not value:
+        raise DenavitError(f"{where}: expected a list of rows of {n} numbers, got {_show(value)}")
+    return np.array([_json_numbers(row, n, f"{where}[{i}]") for i, row in enumerate(value)])
+
+
+def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str | None = None) -> SweepSet:
+    """Read sweeps from JSON: ``{"units": {"length": "mm", "angle": "deg"}, "home": [...],
+    "kinds": [...] (optional), "sweeps": [{"joint": 1, "points": [[x, y, z], ...], "q": [[q1..qn], ...] (optional)}]}``.
+
+    One sweep per joint; every number finite; errors name the file and the place (e.g. ``sweeps[2].q[3][1]``).
+    ``"units"`` wins; ``length`` / ``angle`` fill what it does not give.
+    """
+    where = str(path)
+    try:
+        doc = json.loads(read_text(path, "sweep file"))
+    except json.JSONDecodeError as e:
+        raise DenavitError(f"{where}:{e.lineno}: not valid JSON: {e.msg}") from None
+    if not isinstance(doc, dict):
+        raise DenavitError(f'{where}: expected a JSON object {{"units": ..., "home": [...], "sweeps": [...]}}, got {_show(doc)}')
+    declared = doc.get("units") or {}
+    if not isinstance(declared, dict) or not all(isinstance(v, str) for v in declared.values()):
+        raise DenavitError(f'{where}: units: expected an object such as {{"length": "mm", "angle": "deg"}}, got {_show(declared)}')
+    units = input_units(declared, length, angle, where)
+    ls = length_scale(units["length"], where)
+    if doc.get("home") is None:
+        raise DenavitError(f"{where}: 'home' (the locked configuration) is required")
+    home = _json_numbers(doc["home"], None, f"{where}: home")
+    n = len(home)
+    kinds = doc.get("kinds") or ["revolute"] * n
+    if not isinstance(kinds, list) or len(kinds) != n or any(k not in KINDS for k in kinds):
+        raise DenavitError(f"{where}: kinds: expected {n} of 'revolute' / 'prismatic' (one per joint of home), got {_show(kinds)}")
+    qscale = joint_scale(kinds, units["length"], units["angle"], where)
+    sweeps = doc.get("sweeps")
+    if not isinstance(sweeps, list) or not sweeps:
+        raise DenavitError(f"{where}: sweeps: expected a list of sweeps {{\"joint\": 1, \"points\": [[x, y, z], ...]}}, got {_show(sweeps)}")
+    rows: dict[int, Sweep] = {}
+    first: dict[int, int] = {}
+    for k, s in enumerate(sweeps):
+        at = f"{where}: sweeps[{k}]"
+        if not isinstance(s, dict):
+            raise DenavitError(f"{at}: expected an object {{\"joint\": ..., \"points\": ...}}, got {_show(s)}")
+        j = s.get("joint")
+        if isinstance(j, bool) or not isinstance(j, int) or not 1 <= j <= n:
+            raise DenavitError(f"{at}: joint index out of range: expected an integer 1..{n}, got {_show(j)}")
+        if j in rows:
+            raise DenavitError(f"{at}: a second sweep of joint {j} (the first is sweeps[{first[j]}]): expected one sweep per joint")
+        pts = _json_rows(s.get("points"), 3, f"{at}.points")
+        q = s.get("q")
+        if q is not None:
+            q = _json_rows(q, n, f"{at}.q")
+            if len(q) != len(pts):
+                raise DenavitError(f"{at}: q must have one row per point: expected {len(pts)} rows, got {len(q)}")
+            q = q * qscale
+        rows[j], first[j] = Sweep(j, pts * ls, q, [f"{at}.points[{i}]" for i in range(len(pts))]), k
+    _check_complete(rows, n, where)
+    return SweepSet([rows[j] for j in sorted(rows)], n, home * qscale, kinds, where, units)
+
+
+def read(path: str | os.PathLike, **kw) -> SweepSet:
+    """Read sweeps from a long-form CSV, a JSON file, or a folder of per-joint files (by what ``path`` is)."""
+    p = Path(path)
+    if not p.exists():
+        raise DenavitError(f"{p}: no such file or folder")
+    if p.is_dir():
+        return read_joint_files(p, **kw)
+    if p.suffix.lower() == ".json":
+        return read_json(p, length=kw.get("length"), angle=kw.get("angle"))
+    return read_long_csv(p, **{k: v for k, v in kw.items() if k in ("length", "angle", "kinds")})
+
+
+def to_long_csv(sweeps: SweepSet, length: str = "mm", angle: str = "deg", header_comment: str = "") -> str:
+    """The long-form CSV text of a sweep set (units declared in a comment line)."""
+    ls = length_scale(length)
+    qscale = joint_scale(sweeps.kinds, length, angle)
+    out = io.StringIO()
+    for line in header_comment.splitlines():
+        out.write(f"# {line}\n")
+    out.write(f"# units: length={length} angle={angle}\n")
+    w = csv.writer(out, lineterminator="\n")
+    w.writerow(["joint", *[f"q{i}" for i in range(1, sweeps.n_joints + 1)], "x", "y", "z"])
+    for s in sweeps.sweeps:
+        if s.q is None:
+            raise DenavitError("long-form CSV needs joint readings; this sweep set has none")
+        for q, p in zip(s.q, s.points):
+            w.writerow([s.joint, *(f"{v:.10g}" for v in q / qscale), *(f"{v:.10g}" for v in p / ls)])
+    return out.getvalue()

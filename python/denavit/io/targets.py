@@ -1,0 +1,96 @@
+"""Programs of targets for compensation: tool poses and/or joint rows, one row per target.
+
+CSV (``,`` or ``;``), a header and a ``# units: length=mm angle=deg`` line (else the caller's units)::
+
+    # units: length=mm angle=deg
+    x,y,z,rx,ry,rz            # tool poses T_base_tool: position and rotation vector (as calibrate's pose files)
+    q1,...,qn                 # or joint rows computed offline with the nominal model
+    x,y,z,rx,ry,rz,q1,...,qn  # or both (the rows' nominal joint values keep the program's branches)
+
+Joint values follow the per-joint-kind rule (angle unit for revolute joints, length unit for prismatic ones).
+:func:`write_compensated` writes the compensated program in the same form, with per-row flags and errors.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import DenavitError
+from ..geometry import matrix_rotvec, rotvec_matrix
+from .delimited import header, number, rows
+from .output import write_text
+from .text import read_text
+from .units import angle_scale, input_units, joint_scale, length_scale, parse_declaration
+
+POSE = ("x", "y", "z", "rx", "ry", "rz")
+
+
+@dataclass(frozen=True)
+class Targets:
+    """A program: ``poses`` (N, 4, 4) (m) or None, ``q`` (N, n) nominal joint values (rad / m) or None,
+    ``where`` (N,) "file:line" of each row, ``units`` the file's units."""
+
+    poses: np.ndarray | None
+    q: np.ndarray | None
+    where: list
+    units: dict
+
+
+def read_targets(path: str | os.PathLike, kinds, *, length: str | None = None, angle: str | None = None) -> Targets:
+    """Read a program of targets (module docstring) for a robot with joint ``kinds``."""
+    where = str(path)
+    lines = read_text(path, "targets file").splitlines()
+    units = input_units(parse_declaration(lines, where), length, angle, where)
+    data, _ = rows(lines)
+    if not data:
+        raise DenavitError(f"{where}: no header and no rows: expected a header 'x,y,z,rx,ry,rz' and/or 'q1,...,q{len(kinds)}'")
+    hline, hcells = data[0]
+    cols = header(hcells, f"{where}:{hline}")
+    n = len(kinds)
+    qcols = [f"q{i}" for i in range(1, n + 1)]
+    has_pose = all(c in cols for c in POSE)
+    has_q = all(c in cols for c in qcols)
+    extra = [c for c in cols if c not in POSE and c not in qcols]
+    if not (has_pose or has_q) or extra or (any(c in cols for c in POSE) and not has_pose) or (any(c in cols for c in qcols) and not has_q):
+        raise DenavitError(f"{where}:{hline}: header must be 'x,y,z,rx,ry,rz' and/or 'q1,...,q{n}' ({n} joints), got {','.join(hcells)[:200]!r}")
+    if len(data) < 2:
+        raise DenavitError(f"{where}: no rows after the header")
+    ls, as_ = length_scale(units["length"], where), angle_scale(units["angle"], where)
+    vals = np.empty((len(data) - 1, len(cols)))
+    places = []
+    for r, (ln, cells) in enumerate(data[1:]):
+        w = f"{where}:{ln}"
+        if len(cells) != len(cols):
+            raise DenavitError(f"{w}: expected {len(cols)} values ({','.join(cols)}), got {len(cells)}")
+        vals[r] = [number(c, w, name) for c, name in zip(cells, cols, strict=True)]
+        places.append(w)
+    col = {c: k for k, c in enumerate(cols)}
+    poses = None
+    if has_pose:
+        poses = np.tile(np.eye(4), (len(vals), 1, 1))
+        poses[:, :3, 3] = vals[:, [col[c] for c in "xyz"]] * ls
+        poses[:, :3, :3] = rotvec_matrix(vals[:, [col[c] for c in ("rx", "ry", "rz")]] * as_)
+    q = vals[:, [col[c] for c in qcols]] * joint_scale(kinds, units["length"], units["angle"], where) if has_q else None
+    return Targets(poses, q, places, units)
+
+
+def write_compensated(path, comp, kinds, *, length: str = "mm", angle: str = "deg", comment: str = "") -> None:
+    """Write a :class:`denavit.compensation.Compensation` as a program: the commands ``T'`` (x, y, z, rx, ry,
+    rz), the identified joint values ``q1..qn``, and per row ``ok`` (1: send it), ``reached``,
+    ``branch_changed``, ``path_jump`` (0/1), ``before`` (position error without compensation) and
+    ``residual`` (of the identified solve), both in the length unit."""
+    ls, as_ = length_scale(length), angle_scale(angle)
+    js = joint_scale(kinds, length, angle)
+    n = len(kinds)
+    head = [*POSE, *(f"q{i}" for i in range(1, n + 1)), "ok", "reached", "branch_changed", "path_jump", "before", "residual"]
+    out = [f"# {comment}"] if comment else []
+    out += [f"# units: length={length} angle={angle}", ",".join(head)]
+    rv = matrix_rotvec(comp.commands[:, :3, :3]) / as_
+    for k in range(len(comp)):
+        cells = [*(comp.commands[k, :3, 3] / ls), *rv[k], *(comp.q[k] / js)]
+        flags = [int(comp.ok[k]), int(comp.reached[k]), int(comp.branch_changed[k]), int(comp.path_jump[k])]
+        out.append(",".join([*(repr(float(v)) for v in cells), *map(str, flags), repr(float(comp.before[k] / ls)), repr(float(comp.residual[k] / ls))]))
+    write_text(path, "\n".join(out) + "\n")

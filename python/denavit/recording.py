@@ -1,0 +1,653 @@
+"""Continuous recordings from instruments: time alignment of two clocks, segmentation into sweeps, sweep sets.
+
+A :class:`Recording` is what a reader of :mod:`denavit.io.recordings` returns: rows in time order, each with a
+time (s), optionally every joint reading (rad / m), and the measured target points (m, ``k`` targets per row,
+e.g. 2-4 SMRs on one nest) or a 6-DoF pose. SI inside; each reader converts the units its file declares.
+
+- :func:`align`: points and readings recorded by two clocks. The clock offset (and a drift, when the data
+  asks for it) is estimated from the motion itself: the speed of the measured point and the speed of the
+  joints are resampled on one uniform grid, smoothed and differentiated (Savitzky-Golay), cross-correlated
+  (:func:`scipy.signal.correlate`, coarse lag), then the lag is refined as the maximum of the correlation
+  coefficient over a continuous shift (:func:`scipy.optimize.minimize_scalar` on a spline of the readings'
+  speed), once over the whole overlap and once per time window; the windows' scatter gives the offset's
+  uncertainty and a straight-line fit of the window lags gives the drift. The readings are then interpolated
+  (cubic spline) at the point times.
+- :func:`segment`: which joint moves when. A row moves when a speed exceeds the noise (estimated from the
+  data: robust scatter of the residuals of a local polynomial fit, propagated through the derivative filter),
+  so dwell -- standing still within the noise -- is excluded from every motion. With readings the moving
+  joint is the one whose reading changes; without, consecutive motions about one circle (same plane normal
+  and centre) belong to one joint and a change of circle starts the next joint. Among a joint's motions the
+  sweep is the one matching the given range, else the slowest (transits to and from home run at travel
+  speed, a sweep at measuring speed).
+- :func:`to_sweepset`: the sweeps of a segmentation as the package's :class:`~denavit.sweeps.SweepSet`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .errors import DenavitError
+from .sweeps import Sweep, SweepSet
+
+
+@dataclass(frozen=True)
+class Recording:
+    """Rows of one recording in time order (SI inside).
+
+    time : (N,) s, strictly increasing, or None when the file has no time (rows in file order).
+    q : (N, n) joint readings (rad revolute, m prismatic), or None.
+    points : (N, k, 3) m, k measured targets per row (a pose's origin when ``poses`` is given), or None.
+    poses : (N, 4, 4) measured poses ``T_world_target`` (6-DoF probe, controller TCP), or None.
+    where : (N,) "file:line" (or topic and index) of each row, for messages.
+    source : the file read; format : the reader used; units : the units the file declared (or was read with).
+    joint : (N,) 1-based joint each row's sweep belongs to, when the file labels it (tracker groups / names), else None.
+    notes : what the reader guessed or chose (format detection, sweep pattern, topics), to echo to the user.
+    """
+
+    time: np.ndarray | None
+    q: np.ndarray | None
+    points: np.ndarray | None
+    where: list[str]
+    source: str
+    format: str
+    units: dict = field(default_factory=dict)
+    poses: np.ndarray | None = None
+    kinds: list[str] | None = None
+    joint: np.ndarray | None = None
+    names: list[str] | None = None
+    notes: list[str] = field(default_factory=list)
+
+    def __len__(self) -> int:
+        return len(self.where)
+
+    @property
+    def n_joints(self) -> int:
+        return 0 if self.q is None else self.q.shape[1]
+
+    @property
+    def n_targets(self) -> int:
+        return 0 if self.points is None else self.points.shape[1]
+
+    @property
+    def rate(self) -> float:
+        """Median sampling rate (Hz), nan without time."""
+        if self.time is None or len(self.time) < 2:
+            return math.nan
+        return float(1.0 / np.median(np.diff(self.time)))
+
+    def describe(self) -> str:
+        """Lines that say what was found: rows, rate, joints, targets, units, notes."""
+        what = [f"{self.source}: {self.format}, {len(self)} rows"]
+        if self.time is not None and len(self.time) > 1:
+            what.append(f"{self.time[-1] - self.time[0]:.3f} s at {self.rate:.4g} Hz")
+        what.append(f"{self.n_joints} joint readings" if self.q is not None else "no joint readings")
+        if self.poses is not None:
+            what.append("poses (position + orientation)")
+        elif self.points is not None:
+            what.append(f"{self.n_targets} target(s) per row")
+        if self.units:
+            what.append("units " + " ".join(f"{k}={v}" for k, v in self.units.items()))
+        return "\n".join([", ".join(what), *self.notes])
+
+
+def check_time(t: np.ndarray, where: Sequence[str], what: str = "time") -> None:
+    """A one-line error at the first row whose ``what`` is not after the previous row's."""
+    t = np.asarray(t, dtype=float)
+    bad = np.flatnonzero(~(np.diff(t) > 0))
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise DenavitError(f"{where[i]}: {what} goes backwards or repeats: {t[i]:.9g} s after {t[i - 1]:.9g} s at {where[i - 1]}: expected strictly increasing times")
+
+
+def _motion_signal(rec: Recording) -> tuple[np.ndarray, str]:
+    """(N, d) coordinates whose speed shows the motion: the readings, else the mean of the targets."""
+    if rec.points is not None:
+        return rec.points.mean(axis=1), "points"
+    if rec.q is not None:
+        return rec.q, "readings"
+    raise DenavitError(f"{rec.source}: neither points nor joint readings: nothing moves")
+
+
+def _window(n_samples: int, dt: float, span: float) -> int:
+    """Odd Savitzky-Golay window of about ``span`` seconds (at least 5 samples, at most the data)."""
+    w = max(5, int(round(span / dt)) | 1)
+    return min(w, n_samples - 1 if n_samples % 2 == 0 else n_samples)
+
+
+def _speed_on_grid(t: np.ndarray, x: np.ndarray, dt: float, span: float) -> tuple[np.ndarray, np.ndarray]:
+    """Uniform grid (step ``dt``) over ``t`` and the smoothed speed |dx/dt| on it."""
+    from scipy.interpolate import make_interp_spline  # noqa: PLC0415
+    from scipy.ndimage import label  # noqa: PLC0415
+    from scipy.signal import savgol_filter  # noqa: PLC0415
+
+    grid = np.arange(t[0], t[-1], dt)
+    xs = make_interp_spline(t, x, k=1)(grid)
+    w = _window(len(grid), dt, span)
+    v = savgol_filter(xs, w, 2, deriv=1, delta=dt, axis=0)
+    speed = np.linalg.norm(v.reshape(len(grid), -1), axis=1)
+    # each motion scaled to a unit peak: a point's speed is its joint's speed times a radius that differs from
+    # joint to joint, so only the shape of each motion is common to the two streams
+    noise = float(np.linalg.norm(_noise(xs.reshape(len(grid), -1), w, dt)[1]))
+    runs, k = label(speed > max(6.0 * noise, 1e-3 * float(speed.max())))
+    out = np.zeros_like(speed)
+    for i in range(1, k + 1):
+        sel = runs == i
+        out[sel] = speed[sel] / speed[sel].max()
+    return grid, out
+
+
+def _corr(a: np.ndarray, b: np.ndarray) -> float:
+    """Pearson correlation coefficient of two equal-length series (0 when one is constant)."""
+    a, b = a - a.mean(), b - b.mean()
+    den = math.sqrt(float(a @ a) * float(b @ b))
+    return float(a @ b) / den if den > 0 else 0.0
+
+
+@dataclass(frozen=True)
+class Alignment:
+    """Clock relation of a readings stream to a points stream: ``t_readings = t_points + offset + drift (t_points - t_ref)``.
+
+    offset, sigma : s; drift, drift_sigma : s/s (0 when the data does not ask for one); t_ref : s (points clock);
+    peak : correlation coefficient of the speed profiles at the offset; windows : number of window estimates;
+    dropped : rows of the points stream outside the readings' time span (not in the result).
+    """
+
+    offset: float
+    sigma: float
+    drift: float
+    drift_sigma: float
+    t_ref: float
+    peak: float
+    windows: int
+    dropped: int = 0
+
+    def readings_time(self, t_points) -> np.ndarray:
+        return np.asarray(t_points, dtype=float) + self.offset + self.drift * (np.asarray(t_points, dtype=float) - self.t_ref)
+
+    def __str__(self) -> str:
+        s = f"clock offset {self.offset * 1e3:.3f} ms +- {self.sigma * 1e3:.3f} ms (readings minus points, {self.windows} windows, correlation {self.peak:.3f})"
+        if self.drift:
+            s += f", drift {self.drift * 1e6:.1f} +- {self.drift_sigma * 1e6:.1f} ppm"
+        return s + (f"; {self.dropped} point rows outside the readings dropped" if self.dropped else "")
+
+
+#: Below this correlation coefficient of the speed profiles the two clocks are not aligned (the motions differ).
+MIN_CORRELATION = 0.5
+
+
+def estimate_offset(points: Recording, readings: Recording, *, max_offset: float | None = None, window: float | None = 10.0, drift: bool | None = None) -> Alignment:
+    """Estimate the clock offset (and drift) of ``readings`` relative to ``points`` from their motion.
+
+    points : a Recording with points (or poses) and time; readings : a Recording with joint readings and time.
+    max_offset : s, optional bound on |offset| (default: any). window : s, length of the windows whose lag
+    estimates give the uncertainty and the drift (None: no windows, the uncertainty is the grid step's). drift : True to always fit one, False never, None (default)
+    when the window lags show a slope beyond 3 sigma.
+    """
+    from scipy.interpolate import make_interp_spline  # noqa: PLC0415
+    from scipy.optimize import minimize_scalar  # noqa: PLC0415
+    from scipy.signal import correlate, correlation_lags  # noqa: PLC0415
+
+    for rec, what in ((points, "points"), (readings, "joint readings")):
+        if rec.time is None or len(rec) < 10:
+            raise DenavitError(f"{rec.source}: cannot align clocks: the {what} need a time column and at least 10 rows, got {len(rec)} rows{' without time' if rec.time is None else ''}")
+    if readings.q is None:
+        raise DenavitError(f"{readings.source}: cannot align clocks: expected joint readings, the recording has none")
+    tp, xp = points.time, _motion_signal(points)[0]
+    tr, xr = readings.time, readings.q
+    dt = min(float(np.median(np.diff(tp))), float(np.median(np.diff(tr))), 2e-3)
+    dt = max(dt, 2e-4)
+    span = 0.05
+    gp, sp = _speed_on_grid(tp, xp, dt, span)
+    gr, sr = _speed_on_grid(tr, xr, dt, span)
+    za, zb = (sp - sp.mean()) / (sp.std() or 1.0), (sr - sr.mean()) / (sr.std() or 1.0)
+    c = correlate(zb, za, mode="full", method="fft")
+    lags = correlation_lags(len(zb), len(za), mode="full")
+    shifts = gr[0] - gp[0] + lags * dt  # offset candidates: reading time of point-grid sample 0
+    # normalise by the overlap so that partial overlaps at the ends do not win
+    overlap = (np.minimum(len(za), len(zb) - lags) - np.maximum(0, -lags)).astype(float)
+    ok = overlap >= 0.5 * min(len(za), len(zb))
+    if max_offset is not None:
+        ok &= np.abs(shifts) <= max_offset
+    if not ok.any():
+        raise DenavitError(f"{points.source} and {readings.source}: cannot align clocks: the recordings do not overlap by half of the shorter one within the allowed offset")
+    score = np.where(ok, c / np.maximum(overlap, 1.0), -np.inf)
+    coarse = float(shifts[int(np.argmax(score))])
+    spline = make_interp_spline(gr, sr, k=3)
+
+    def coefficient(tau: float, sel=slice(None)) -> float:
+        g = gp[sel]
+        t = g + tau
+        inside = (t >= gr[0]) & (t <= gr[-1])
+        if inside.sum() < 10:
+            return 0.0
+        return _corr(sp[sel][inside], spline(t[inside]))
+
+    def refine(tau0: float, sel=slice(None)) -> tuple[float, float]:
+        res = minimize_scalar(lambda tau: -coefficient(tau, sel), bounds=(tau0 - 3 * dt, tau0 + 3 * dt), method="bounded", options={"xatol": dt * 1e-3})
+        return float(res.x), -float(res.fun)
+
+    tau, peak = refine(coarse)
+    if peak < MIN_CORRELATION:
+        raise DenavitError(f"{points.source} and {readings.source}: cannot align clocks: the speed profiles correlate at {peak:.2f} at best (offset {coarse * 1e3:.1f} ms), "
+                           f"expected at least {MIN_CORRELATION}: are both recordings of the same motion?")
+    # windows: the scatter of local lags gives the uncertainty, their trend the drift
+    edges = np.arange(gp[0], gp[-1] + 1e-12, window) if window else []
+    centres, taus = [], []
+    activity = sp.std()
+    for a in edges:
+        sel = (gp >= a) & (gp < a + window)
+        if sel.sum() < 20 or sp[sel].std() < 0.1 * activity:
+            continue
+        tw, cw = refine(tau, sel)
+        if cw >= MIN_CORRELATION:
+            centres.append(float(gp[sel].mean()))
+            taus.append(tw)
+    centres, taus = np.array(centres), np.array(taus)
+    t_ref = float(np.mean(centres)) if len(centres) else float(gp.mean())
+    tau = float(tau)
+    slope, slope_sigma, sigma = 0.0, 0.0, dt / math.sqrt(12.0)
+    if len(taus) >= 3:
+        A = np.column_stack([np.ones_like(centres), centres - t_ref])
+        sol, *_ = np.linalg.lstsq(A, taus, rcond=None)
+        res = taus - A @ sol
+        s2 = float(res @ res) / (len(taus) - 2)
+        cov = s2 * np.linalg.inv(A.T @ A)
+        slope_sigma = math.sqrt(cov[1, 1])
+        use = drift if drift is not None else abs(sol[1]) > 3 * slope_sigma and slope_sigma > 0
+        if use:
+            slope, tau, sigma = float(sol[1]), float(sol[0]), math.sqrt(cov[0, 0])
+        else:
+            tau = float(np.mean(taus))
+            sigma = float(np.std(taus, ddof=1)) / math.sqrt(len(taus))
+            slope_sigma = 0.0
+    elif len(taus) == 2:
+        tau = float(np.mean(taus))
+        sigma = max(abs(taus[1] - taus[0]) / 2.0, sigma)
+    return Alignment(tau, max(sigma, 1e-9), slope, slope_sigma, t_ref, peak, len(taus))
+
+
+def _merge(points: Recording, readings: Recording, al: Alignment) -> Recording:
+    """The points with the readings interpolated (cubic spline) at the point times mapped by ``al``."""
+    from scipy.interpolate import CubicSpline  # noqa: PLC0415
+
+    t_r = al.readings_time(points.time)
+    keep = (t_r >= readings.time[0]) & (t_r <= readings.time[-1])
+    if keep.sum() < 3:
+        raise DenavitError(f"{points.source} and {readings.source}: cannot align clocks: at offset {al.offset * 1e3:.1f} ms only {int(keep.sum())} point rows fall within the readings' time span "
+                           f"({readings.time[0]:.3f}-{readings.time[-1]:.3f} s)")
+    q = CubicSpline(readings.time, readings.q, axis=0)(t_r[keep])
+    idx = np.flatnonzero(keep)
+    return Recording(
+        points.time[keep], q, points.points[keep], [points.where[i] for i in idx], f"{points.source} + {readings.source}", f"{points.format}+{readings.format}",
+        {**readings.units, **points.units}, None if points.poses is None else points.poses[keep], readings.kinds, None if points.joint is None else points.joint[keep],
+        readings.names, [*points.notes, *readings.notes],
+    )
+
+
+def _refine(points: Recording, readings: Recording, al: Alignment, drift: bool | None, max_rows: int = 600) -> Alignment:
+    """Refine the offset in the fit: per revolute sweep, the lag that minimises the misfit of the points as
+    rotations of one rigid point by the interpolated readings (:func:`denavit.fitting.fit_axis_with_readings`);
+    the sweeps' scatter gives the uncertainty, their trend the drift."""
+    from scipy.interpolate import CubicSpline  # noqa: PLC0415
+    from scipy.optimize import minimize_scalar  # noqa: PLC0415
+
+    from .fitting import fit_axis_with_readings  # noqa: PLC0415
+
+    merged = _merge(points, readings, al)
+    try:
+        seg = segment(merged)
+    except DenavitError:
+        return al  # no single-joint motions to refine on: the speed profiles' estimate stands
+    spline = CubicSpline(readings.time, readings.q, axis=0)
+    kinds = readings.kinds or ["revolute"] * readings.n_joints
+    centres, taus, sig = [], [], []
+    dt = float(np.median(np.diff(readings.time)))
+    for s in seg.sweeps:
+        if kinds[s.joint - 1] != "revolute" or s.stop - s.start < 10:
+            continue
+        rows = np.linspace(s.start, s.stop - 1, min(max_rows, s.stop - s.start)).astype(int)
+        t, p = merged.time[rows], merged.points[rows].mean(axis=1)
+
+        def misfit(tau, t=t, p=p, j=s.joint - 1):
+            tt = al.readings_time(t) - al.offset + tau
+            inside = (tt >= readings.time[0]) & (tt <= readings.time[-1])
+            try:
+                return fit_axis_with_readings(p[inside], spline(tt[inside])[:, j]).rms
+            except DenavitError:
+                return 1.0  # no fit: far worse than any misfit (m)
+
+        res = minimize_scalar(misfit, bounds=(al.offset - 2 * dt, al.offset + 2 * dt), method="bounded", options={"xatol": 1e-6})
+        if res.fun < 1.0:
+            # precision of this lag: misfit per point over the point's speed, sqrt(m) points
+            v = np.linalg.norm(np.gradient(p, t, axis=0), axis=1)
+            centres.append(float(t.mean()))
+            taus.append(float(res.x))
+            sig.append(max(float(res.fun), 1e-12) / (math.sqrt(float(np.mean(v**2))) * math.sqrt(len(t))))
+    if len(taus) < 2:
+        return al
+    centres, taus, w = np.array(centres), np.array(taus), 1.0 / np.array(sig) ** 2
+    t_ref = float(np.average(centres, weights=w))
+    A = np.column_stack([np.ones_like(centres), centres - t_ref])
+    sw = np.sqrt(w)
+    sol, *_ = np.linalg.lstsq(A * sw[:, None], taus * sw, rcond=None)
+    mean = float(np.average(taus, weights=w))
+    # the scatter of the lags about their weighted mean scales the predicted precisions (at least 1)
+    chi2 = float(np.sum(w * (taus - mean) ** 2)) / (len(taus) - 1)
+    sigma = math.sqrt(max(chi2, 1.0) / float(np.sum(w)))
+    if len(taus) >= 3:
+        r = taus - A @ sol
+        cov = max(float(np.sum(w * r**2)) / (len(taus) - 2), 1.0) * np.linalg.inv((A * w[:, None]).T @ A)
+        use = drift if drift is not None else abs(sol[1]) > 3 * math.sqrt(cov[1, 1])
+        if use:
+            return Alignment(float(sol[0]), math.sqrt(cov[0, 0]), float(sol[1]), math.sqrt(cov[1, 1]), t_ref, al.peak, len(taus))
+    return Alignment(mean, max(sigma, 1e-9), 0.0, 0.0, t_ref, al.peak, len(taus))
+
+
+def align(points: Recording, readings: Recording, *, offset: float | None = None, drift: float | bool | None = None, refine: bool = True, **options) -> tuple[Recording, Alignment]:
+    """The points with the joint readings interpolated (cubic spline) at the point times.
+
+    offset : s, the readings clock minus the points clock, when known (e.g. 0.0 for one clock); None
+    estimates it: coarse from the speed profiles (:func:`estimate_offset`, ``options`` go there), then, with
+    ``refine``, in the fit (per sweep, the lag minimising the misfit of the points as rotations of one rigid
+    point by the readings); the sweeps' scatter is the uncertainty and their trend the drift (fitted when it
+    exceeds 3 sigma, or always / never with ``drift`` True / False). With ``offset`` given, ``drift`` is s/s
+    (default 0). Point rows outside the readings' time span are dropped (counted in the Alignment).
+    Returns the merged Recording and the Alignment.
+    """
+    if points.points is None:
+        raise DenavitError(f"{points.source}: expected measured points or poses to align readings with, the recording has none")
+    if readings.q is None or readings.time is None:
+        raise DenavitError(f"{readings.source}: expected timed joint readings, the recording has {'no readings' if readings.q is None else 'no time'}")
+    if points.time is None:
+        raise DenavitError(f"{points.source}: cannot align: the points have no time column")
+    if offset is None:
+        options.setdefault("window", None if refine else 10.0)
+        al = estimate_offset(points, readings, drift=None if drift is None else bool(drift), **options)
+        if refine:
+            al = _refine(points, readings, al, None if drift is None else bool(drift))
+    else:
+        al = Alignment(float(offset), 0.0, float(drift or 0.0), 0.0, float(points.time[0]), math.nan, 0)
+    merged = _merge(points, readings, al)
+    dropped = len(points) - len(merged)
+    al = Alignment(al.offset, al.sigma, al.drift, al.drift_sigma, al.t_ref, al.peak, al.windows, dropped)
+    return Recording(merged.time, merged.q, merged.points, merged.where, merged.source, merged.format, merged.units, merged.poses, merged.kinds,
+                     merged.joint, merged.names, [*merged.notes, str(al)]), al
+
+
+# --- segmentation ---------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Segment:
+    """One motion between two dwells: rows ``start`` .. ``stop - 1`` of the recording.
+
+    joint : 1-based moving joint (without readings: the order of the circles). role : "sweep" or "transit"
+    (to / from home, or a move not used). q_from / q_to : the moving joint's readings at the ends (SI) or nan.
+    peak_speed : the largest speed in the motion (rad/s or m/s with readings, m/s of the point without).
+    arc : the angle turned about the motion's axis (rad), from the readings or the fitted circle.
+    """
+
+    joint: int
+    start: int
+    stop: int
+    t_start: float
+    t_stop: float
+    role: str
+    q_from: float = math.nan
+    q_to: float = math.nan
+    peak_speed: float = math.nan
+    arc: float = math.nan
+
+    @property
+    def rows(self) -> slice:
+        return slice(self.start, self.stop)
+
+
+@dataclass(frozen=True)
+class Segmentation:
+    """The motions of a recording; ``sweeps`` are the ones used, one per joint."""
+
+    segments: list[Segment]
+    method: str  # "readings", "geometry" or "labels"
+    n_joints: int
+    dwell_rows: int
+    source: str
+    kinds: list[str] | None = None
+
+    @property
+    def sweeps(self) -> list[Segment]:
+        return [s for s in self.segments if s.role == "sweep"]
+
+    def table(self, angle: str = "deg") -> str:
+        """The motions as a table the user can check (times in s, joint values in ``angle`` / mm)."""
+        from .io.units import angle_scale  # noqa: PLC0415
+
+        a = angle_scale(angle)
+        lines = [f"segmentation of {self.source} ({self.method}): {len(self.sweeps)} sweeps, {len(self.segments)} motions, {self.dwell_rows} dwell rows excluded",
+                 f"{'#':>3} {'joint':>5} {'role':<8} {'rows':>13} {'time (s)':>19} {'from':>10} {'to':>10} {'arc':>9} {'points':>7}"]
+        for k, s in enumerate(self.segments, 1):
+            prism = self.kinds is not None and self.kinds[s.joint - 1] == "prismatic"
+            sc = 1e3 if prism else 1.0 / a
+            fr = f"{s.q_from * sc:.3f}" if math.isfinite(s.q_from) else "-"
+            to = f"{s.q_to * sc:.3f}" if math.isfinite(s.q_to) else "-"
+            arc = f"{math.degrees(s.arc):.2f}" if math.isfinite(s.arc) else "-"
+            lines.append(f"{k:>3} {s.joint:>5} {s.role:<8} {f'{s.start + 1}-{s.stop}':>13} {f'{s.t_start:.3f}-{s.t_stop:.3f}':>19} {fr:>10} {to:>10} {arc:>9} {s.stop - s.start:>7}")
+        lines.append(f"(joint values in {angle}, mm for prismatic joints; arc in deg; rows 1-based; dwell excluded from every motion)")
+        return "\n".join(lines)
+
+
+def _noise(x: np.ndarray, w: int, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per-column 1-sigma noise of ``x`` and of its Savitzky-Golay speed: robust scatter (MAD) of the residuals
+    of the smoothing, propagated through the derivative filter's coefficients."""
+    from scipy.signal import savgol_coeffs, savgol_filter  # noqa: PLC0415
+
+    r = x - savgol_filter(x, w, 2, axis=0)
+    mad = np.median(np.abs(r - np.median(r, axis=0)), axis=0) * 1.4826
+    # the residual of a degree-2 fit has variance (1 - h) sigma^2 with h the central hat value
+    h = savgol_coeffs(w, 2)[w // 2]
+    sigma = mad / math.sqrt(max(1.0 - h, 1e-6))
+    return sigma, sigma * float(np.linalg.norm(savgol_coeffs(w, 2, deriv=1, delta=dt)))
+
+
+def _trim(x: np.ndarray, runs: list[tuple[int, int]], sigma: np.ndarray, k: float) -> list[tuple[int, int]]:
+    """Each run without its rows that stand within ``k`` sigma of the dwell before / after it (the derivative
+    filter spreads a motion's start over half its window)."""
+    out, prev = [], 0
+    bounds = [*runs, (len(x), len(x))]
+    tol = k * np.maximum(sigma, 1e-15)
+    for (a, b), (na, _) in zip(runs, bounds[1:]):
+        if a > prev:
+            level = np.median(x[max(prev, a - 20):a], axis=0)
+            while a < b and np.all(np.abs(x[a] - level) <= tol):
+                a += 1
+        if na > b:
+            level = np.median(x[b:min(na, b + 20)], axis=0)
+            while b > a and np.all(np.abs(x[b - 1] - level) <= tol):
+                b -= 1
+        if b > a:
+            out.append((a, b))
+        prev = b
+    return out
+
+
+def _runs(moving: np.ndarray, min_gap: int, min_len: int) -> list[tuple[int, int]]:
+    """[start, stop) of the runs of True, gaps shorter than ``min_gap`` closed, runs shorter than ``min_len`` dropped."""
+    from scipy.ndimage import binary_closing, label  # noqa: PLC0415
+
+    m = moving.copy()
+    if min_gap > 1:
+        m = binary_closing(np.r_[False, m, False], structure=np.ones(min_gap, bool))[1:-1] | m
+    lab, k = label(m)
+    out = []
+    for i in range(1, k + 1):
+        idx = np.flatnonzero(lab == i)
+        if len(idx) >= min_len:
+            out.append((int(idx[0]), int(idx[-1]) + 1))
+    return out
+
+
+def segment(rec: Recording, *, ranges=None, n_joints: int | None = None, joints: Sequence[int] | None = None, threshold: float = 6.0,
+            min_dwell: float = 0.25, smoothing: float = 0.1, min_points: int = 5, use_readings: bool = True, spans=None) -> Segmentation:
+    """Split a continuous recording into motions and pick one sweep per joint.
+
+    ranges : (n, 2) optional, the sweep of each joint from ``ranges[j][0]`` to ``ranges[j][1]`` (rad / m, as in
+        :data:`denavit.sweeps.PAPER_RANGES_DEG` converted): with readings, the motion of the joint whose end
+        readings are closest is its sweep; without, it is not used (the slowest motion is).
+    n_joints : number of joints (default: from the readings, else the number of distinct circles).
+    joints : without readings, the joint of each circle in recorded order (default 1, 2, ...).
+    threshold : a row moves when a speed exceeds ``threshold`` times its noise (estimated from the data).
+    min_dwell : s, shorter still spans inside a motion do not split it. smoothing : s, the derivative filter's span.
+    min_points : shorter motions are ignored. use_readings : False segments from the geometry even when readings exist.
+    spans : [(joint, t_start, t_stop), ...] (s) the user's sweeps, overriding all of the above (method "given").
+    Rows labelled by the file (``rec.joint``) are used as they are (method "labels").
+    """
+    N = len(rec)
+    if spans is not None:
+        t = rec.time if rec.time is not None else np.arange(N, dtype=float)
+        segs = []
+        for j, t0, t1 in spans:
+            rows = np.flatnonzero((t >= t0) & (t <= t1))
+            if len(rows) < 3:
+                raise DenavitError(f"{rec.source}: the sweep of joint {j} at {t0:g}-{t1:g} s holds {len(rows)} rows: expected at least 3 (the recording spans {t[0]:g}-{t[-1]:g} s)")
+            a, b = int(rows[0]), int(rows[-1]) + 1
+            qf, qt = (float(rec.q[a, j - 1]), float(rec.q[b - 1, j - 1])) if rec.q is not None else (math.nan, math.nan)
+            segs.append(Segment(int(j), a, b, float(t[a]), float(t[b - 1]), "sweep", qf, qt))
+        return Segmentation(segs, "given", n_joints or rec.n_joints or max(s.joint for s in segs), 0, rec.source, rec.kinds)
+    if rec.joint is not None:
+        segs = []
+        cuts = np.flatnonzero(np.diff(rec.joint) != 0) + 1
+        for a, b in zip(np.r_[0, cuts], np.r_[cuts, N]):
+            j = int(rec.joint[a])
+            if j <= 0:
+                continue
+            t0, t1 = (float(rec.time[a]), float(rec.time[b - 1])) if rec.time is not None else (float(a), float(b - 1))
+            qf, qt = (float(rec.q[a, j - 1]), float(rec.q[b - 1, j - 1])) if rec.q is not None else (math.nan, math.nan)
+            segs.append(Segment(j, int(a), int(b), t0, t1, "sweep", qf, qt))
+        n = n_joints or (rec.n_joints or max(s.joint for s in segs))
+        seen = [s.joint for s in segs]
+        dup = sorted({j for j in seen if seen.count(j) > 1})
+        if dup:
+            second = [s for s in segs if s.joint == dup[0]][1]
+            raise DenavitError(f"{rec.where[second.start]}: a second block of joint {dup[0]}'s rows: expected each joint's sweep in one block")
+        return Segmentation(segs, "labels", n, 0, rec.source, rec.kinds)
+    if N < 3 * min_points:
+        raise DenavitError(f"{rec.source}: {N} rows: too few to segment (expected at least {3 * min_points})")
+    t = rec.time if rec.time is not None else np.arange(N, dtype=float)
+    dt = float(np.median(np.diff(t)))
+    w = _window(N, dt, smoothing)
+    from scipy.signal import savgol_filter  # noqa: PLC0415
+
+    with_q = rec.q is not None and use_readings
+    x = rec.q if with_q else _motion_signal(rec)[0]
+    v = savgol_filter(x, w, 2, deriv=1, delta=dt, axis=0)
+    sigma_x, noise = _noise(x, w, dt)
+    if with_q:
+        speed = np.abs(v)  # (N, n) per joint
+        floor = 1e-3 * speed.max(axis=0)
+        lim = np.maximum(threshold * noise, np.maximum(floor, 1e-12))
+        moving = (speed > lim).any(axis=1)
+    else:
+        speed = np.linalg.norm(v, axis=1)[:, None]
+        lim = np.maximum(threshold * np.linalg.norm(noise), max(1e-3 * speed.max(), 1e-12))
+        moving = speed[:, 0] > lim
+    runs = _runs(moving, max(1, int(round(min_dwell / dt))), 1)
+    runs = [(a, b) for a, b in _trim(x, runs, sigma_x, threshold) if b - a >= min_points]
+    if not runs:
+        raise DenavitError(f"{rec.source}: nothing moves beyond the noise (speed threshold {float(np.max(lim)):.3g}): expected sweeps")
+    dwell = N - sum(b - a for a, b in runs)
+    segs = []
+    if with_q:
+        n = n_joints or rec.n_joints
+        for a, b in runs:
+            d = np.abs(rec.q[b - 1] - rec.q[a])
+            score = (speed[a:b] > lim).sum(axis=0)
+            j = int(np.argmax(score))
+            others = [i for i in range(rec.n_joints) if i != j and score[i] > 0.5 * (b - a)]
+            if others:
+                raise DenavitError(f"{rec.where[a]} .. {rec.where[b - 1]}: joints {j + 1} and {', '.join(str(i + 1) for i in others)} move together: expected one joint at a time")
+            segs.append(Segment(j + 1, a, b, float(t[a]), float(t[b - 1]), "transit", float(rec.q[a, j]), float(rec.q[b - 1, j]), float(speed[a:b, j].max()), float(d[j])))
+    else:
+        from .fitting import fit_axis  # noqa: PLC0415
+
+        fits = []
+        for a, b in runs:
+            try:
+                fits.append(fit_axis(x[a:b], None, "kasa", where=f"{rec.where[a]} .. {rec.where[b - 1]}"))
+            except DenavitError:
+                fits.append(None)  # a straight or too short move: no circle
+        group, axis = 0, None
+        for (a, b), f in zip(runs, fits):
+            if f is None:
+                continue
+            same = axis is not None and abs(float(f.direction @ axis.direction)) > math.cos(math.radians(3.0)) and \
+                np.linalg.norm(np.cross(f.point - axis.point, axis.direction)) < 0.05 * max(f.radius, axis.radius) + 1e-3
+            if not same:
+                group, axis = group + 1, f
+            segs.append(Segment(group, a, b, float(t[a]), float(t[b - 1]), "transit", peak_speed=float(speed[a:b, 0].max()), arc=float(f.arc)))
+        n = n_joints or group
+        if joints is not None:
+            if len(joints) != group:
+                raise DenavitError(f"{rec.source}: {group} distinct circles found but {len(joints)} joints given: expected one joint per circle in recorded order")
+            segs = [replace(s, joint=int(joints[s.joint - 1])) for s in segs]
+    out = []
+    ranges = None if ranges is None or not with_q else np.asarray(ranges, dtype=float)
+    for j in sorted({s.joint for s in segs}):
+        mine = [k for k, s in enumerate(segs) if s.joint == j]
+        if ranges is not None and j <= len(ranges):
+            r = ranges[j - 1]
+            pick = min(mine, key=lambda k: abs(segs[k].q_from - r[0]) + abs(segs[k].q_to - r[1]))
+        else:
+            pick = min(mine, key=lambda k: segs[k].peak_speed)
+        out.append(pick)
+    segs = [replace(s, role="sweep" if k in out else "transit") for k, s in enumerate(segs)]
+    return Segmentation(segs, "readings" if with_q else "geometry", int(n), int(dwell), rec.source, rec.kinds)
+
+
+def to_sweepset(rec: Recording, seg: Segmentation, *, target: int = 0, tool_point=None, home=None, kinds: Sequence[str] | None = None, direction=1,
+                max_points: int | None = None) -> SweepSet:
+    """The sweeps of ``seg`` as a :class:`~denavit.sweeps.SweepSet` (one target of a multi-target recording).
+
+    target : which target (0-based) of ``rec.points`` is the swept point. tool_point : (3,) m, a point in the
+    probe frame when the recording has poses (default its origin). home : (n,) SI, the locked configuration;
+    default the median readings of each joint over the sweeps of the other joints; required without readings.
+    direction : without readings, +1 or -1 (one for all or per joint): whether the joint value increased
+    over its sweep (the point order then gives the axis orientation, as :func:`denavit.sweeps.read_joint_files`).
+    max_points : keep at most this many rows per sweep, evenly spaced (a 1 kHz tracker gives thousands).
+    """
+    if rec.points is None:
+        raise DenavitError(f"{rec.source}: no measured points: expected points or poses to make sweeps of")
+    if not 0 <= target < rec.n_targets:
+        raise DenavitError(f"{rec.source}: target {target} out of range: expected 0..{rec.n_targets - 1}")
+    n = seg.n_joints
+    picked = {s.joint: s for s in seg.sweeps}
+    missing = [j for j in range(1, n + 1) if j not in picked]
+    if missing:
+        raise DenavitError(f"{rec.source}: no sweep of joint(s) {', '.join(map(str, missing))} found: expected one sweep of each joint 1..{n} (found joints {sorted(picked)})")
+    if rec.poses is not None and tool_point is not None:
+        tp = np.asarray(tool_point, dtype=float)
+        pts = rec.poses[:, :3, :3] @ tp + rec.poses[:, :3, 3]
+    else:
+        pts = rec.points[:, target]
+    kinds = list(kinds or rec.kinds or ["revolute"] * n)
+    dirs = np.broadcast_to(np.atleast_1d(np.asarray(direction, dtype=float)), (n,))
+    sweeps = []
+    for j in range(1, n + 1):
+        s = picked[j]
+        rows = np.arange(s.start, s.stop)
+        if max_points is not None and len(rows) > max_points:
+            rows = rows[np.linspace(0, len(rows) - 1, max_points).round().astype(int)]
+        if rec.q is None and dirs[j - 1] < 0:
+            rows = rows[::-1]
+        sweeps.append(Sweep(j, pts[rows], None if rec.q is None else rec.q[rows], [rec.where[i] for i in rows]))
+    if home is None:
+        if rec.q is None:
+            raise DenavitError(f"{rec.source}: no joint readings: the home configuration must be given (one value per joint)")
+        home = np.array([np.median(np.concatenate([sw.q[:, i] for sw in sweeps if sw.joint != i + 1])) if n > 1 else 0.0 for i in range(n)])
+    home = np.asarray(home, dtype=float)
+    if home.shape != (n,):
+        raise DenavitError(f"{rec.source}: home: expected {n} values (one per joint), got {home.size}")
+    return SweepSet(sweeps, n, home, kinds, rec.source, dict(rec.units) or {"length": "m", "angle": "rad"})

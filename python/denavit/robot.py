@@ -1,0 +1,116 @@
+"""The robot record: a model in one convention's table, with the names, limits, home, inertias and provenance
+a robot file or a URDF carries, and where to find robots (:func:`load`, :func:`resolve`, :func:`builtin_names`).
+
+The file formats live in the edge layer: TOML robot files in :mod:`denavit.io.robotfile`, URDF in
+:mod:`denavit.io.urdf`. Everything here is SI (m, rad, kg).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from . import _core
+from .errors import DenavitError
+
+
+@dataclass(frozen=True)
+class Robot:
+    """A robot description: its table in one convention, joint names, limits and metadata.
+
+    Attributes are SI (m, rad). ``home`` is an optional reference configuration (e.g. a measurement home).
+    """
+
+    name: str
+    table: _core.Table
+    names: list[str]
+    lower: np.ndarray
+    upper: np.ndarray
+    description: str = ""
+    source: str = ""
+    home: np.ndarray | None = None
+    path: str = ""
+    extra: dict = field(default_factory=dict)
+    inertials: dict | None = None
+    """Link inertial parameters in frame i of the convention, SI: ``masses`` (n,) kg, ``coms`` (n, 3) m,
+    ``inertias`` (n, 3, 3) kg m^2 about each centre of mass (None: massless links)."""
+
+    @property
+    def convention(self) -> str:
+        return self.table.convention
+
+    def model(self) -> _core.Model:
+        """The model (docs/conventions.md), with the link inertias of the file if it gives them."""
+        model = self.table.to_model(self.name, self.names, self.lower, self.upper)
+        if self.inertials is None:
+            return model
+        return attach_inertials(model, self.table, self.inertials)
+
+
+def convention_frames_in_joint_frames(model: _core.Model, table: _core.Table) -> np.ndarray:
+    """(n, 4, 4) pose of the convention's frame i in the model's joint frame i (fixed: both move with link i);
+    the identity except for ``dh``, whose frame i sits at the end of link i."""
+    n = model.nq
+    if table.convention != "dh":
+        return np.tile(np.eye(4), (n, 1, 1))
+    q0 = np.zeros(n)
+    J = _core.joint_frames(model, q0)
+    F = table.frames(q0)[1:]
+    return np.linalg.inv(J) @ F
+
+
+def inertials_for_table(model: _core.Model, table: _core.Table, names: list[str], lower, upper) -> dict:
+    """The link inertias of ``model`` (same robot, same joint axes at q = 0) in frame i of ``table``'s
+    convention, as a :attr:`Robot.inertials` dict: how a conversion carries the dynamics along."""
+    target = _core.transfer_inertias(model, table.to_model("target", names, lower, upper))
+    ins = target.inertias
+    T = convention_frames_in_joint_frames(target, table)
+    R, p = T[:, :3, :3], T[:, :3, 3]
+    coms = np.einsum("nji,nj->ni", R, ins["coms"] - p)
+    return {"masses": ins["masses"], "coms": coms, "inertias": R.transpose(0, 2, 1) @ ins["inertias"] @ R}
+
+
+def attach_inertials(model: _core.Model, table: _core.Table, inertials: dict) -> _core.Model:
+    """``model`` with inertials given in frame i of ``table``'s convention (re-expressed in the joint frames)."""
+    T = convention_frames_in_joint_frames(model, table)
+    R, p = T[:, :3, :3], T[:, :3, 3]
+    coms = np.einsum("nij,nj->ni", R, np.asarray(inertials["coms"], dtype=float)) + p
+    inertias = R @ np.asarray(inertials["inertias"], dtype=float) @ R.transpose(0, 2, 1)
+    return model.with_inertias(np.asarray(inertials["masses"], dtype=float), coms, inertias)
+
+
+def builtin_names() -> list[str]:
+    """Names of the built-in robot files."""
+    return sorted(p.name[:-5] for p in resources.files("denavit.models").iterdir() if p.name.endswith(".toml"))
+
+
+def resolve(name_or_path: str | os.PathLike) -> Path:
+    """The file of a built-in name or a path; a clear error listing the built-ins otherwise."""
+    p = Path(name_or_path)
+    if p.suffix and p.exists():
+        return p
+    if p.exists() and p.is_file():
+        return p
+    key = str(name_or_path).lower().replace("-", "_")
+    if key in builtin_names():
+        return Path(str(resources.files("denavit.models").joinpath(key + ".toml")))
+    raise DenavitError(f"unknown model {str(name_or_path)!r}: expected a built-in name ({', '.join(builtin_names())}) or an existing robot file (.toml) or URDF (.urdf)")
+
+
+def load(name_or_path: str | os.PathLike, *, base_link: str | None = None, tip_link: str | None = None) -> Robot:
+    """The :class:`Robot` of a built-in name, a robot file (.toml, :mod:`denavit.io.robotfile`) or a URDF
+    (.urdf, :mod:`denavit.io.urdf`; ``base_link`` / ``tip_link`` pick its chain). SI inside."""
+    path = resolve(name_or_path)
+    if path.suffix.lower() == ".urdf":
+        from .io.urdf import load_urdf  # noqa: PLC0415 (yourdfpy and lxml load only for a URDF)
+
+        return load_urdf(path, base_link=base_link, tip_link=tip_link)
+    if base_link is not None or tip_link is not None:
+        raise DenavitError(f"{path}: base_link/tip_link apply to a URDF, got a robot file")
+    from .io.robotfile import read  # noqa: PLC0415
+
+    return read(path)

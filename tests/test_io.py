@@ -1,0 +1,299 @@
+"""The edge layer (denavit.io): outputs, input decoding, the one units rule, convention names, at every reader
+and writer of the package and through the command line."""
+
+import json
+import os
+import subprocess
+import sys
+import threading
+
+import denavit as dv
+import numpy as np
+import pytest
+from cli import env, run
+from denavit.io import output
+
+# -- outputs (denavit.io.output) -------------------------------------------------------------------------
+
+
+def test_a_symlink_is_written_through_and_kept(tmp_path):
+    target, link = tmp_path / "target.txt", tmp_path / "link.txt"
+    target.write_text("old")
+    link.symlink_to(target)
+    output.write_text(link, "new")
+    assert link.is_symlink() and os.readlink(link) == str(target)
+    assert target.read_text() == "new"
+
+
+def test_a_fifo_gets_the_bytes(tmp_path):
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    got = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_bytes()))
+    reader.start()
+    output.write_text(fifo, "through the pipe\n")
+    reader.join(10)
+    assert got == [b"through the pipe\n"]
+    assert fifo.exists() and not fifo.is_file()  # still the FIFO, not replaced by a file
+
+
+def test_dev_null_is_not_replaced():
+    before = os.stat("/dev/null")
+    output.write_text("/dev/null", "nothing")
+    after = os.stat("/dev/null")
+    assert (after.st_ino, after.st_mode, after.st_rdev) == (before.st_ino, before.st_mode, before.st_rdev)
+
+
+def test_dash_writes_to_stdout():
+    code = "from denavit.io import output; output.write_text('-', 'to stdout\\n')"
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env())
+    assert p.returncode == 0, p.stderr
+    assert p.stdout == "to stdout\n"
+
+
+def test_a_directory_is_refused_with_one_line_naming_it(tmp_path):
+    with pytest.raises(dv.DenavitError, match=r"cannot write the output: it is a directory") as e:
+        output.write_text(tmp_path, "x")
+    assert str(e.value).startswith(str(tmp_path)) and "\n" not in str(e.value)
+
+
+def test_a_missing_directory_names_the_users_path_not_the_temporary_file(tmp_path):
+    path = tmp_path / "no" / "such" / "out.toml"
+    with pytest.raises(dv.DenavitError) as e:
+        output.write_text(path, "x")
+    msg = str(e.value)
+    assert msg.startswith(str(path)) and "does not exist" in msg and ".out.toml." not in msg
+
+
+def test_cli_writers_follow_symlinks_and_stream_to_stdout(tmp_path):
+    target, link = tmp_path / "t.toml", tmp_path / "l.toml"
+    target.write_text("old")
+    link.symlink_to(target)
+    run("convert", "kr5", "--to", "mdh", "-o", link)
+    assert link.is_symlink() and 'convention = "mdh"' in target.read_text()
+    p = run("convert", "kr5", "--to", "mdh", "-o", "-")
+    assert 'convention = "mdh"' in p.stdout
+    p = run("convert", "kr5", "--to", "mdh", "-o", tmp_path, ok=False)
+    assert p.returncode == 2 and "it is a directory" in p.stderr and "Traceback" not in p.stderr
+
+
+# -- input decoding (denavit.io.text), at every text reader ------------------------------------------------
+
+ROBOT = 'name = "one"\nconvention = "dh"\n[units]\nlength = "mm"\nangle = "deg"\n[[joints]]\nd = 100\ntheta = 0\na = 0\nalpha = 0\n'
+
+
+def _sweeps_csv() -> str:
+    from denavit import sweeps as sw
+
+    m = dv.load_model("kr5")
+    s = sw.simulate(m, home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=8)
+    rows = []
+    for sw_ in s.sweeps:
+        for q, p in zip(sw_.q, sw_.points):
+            rows.append(",".join([str(sw_.joint), *(repr(float(v)) for v in np.degrees(q)), *(repr(float(v)) for v in p * 1e3)]))
+    return "joint,q1,q2,q3,q4,q5,q6,x,y,z\n" + "\n".join(rows) + "\n"
+
+
+def test_a_robot_file_with_a_bom_reads(tmp_path):
+    f = tmp_path / "bom.toml"
+    f.write_bytes(b"\xef\xbb\xbf" + ROBOT.encode())
+    assert dv.load_robot(f).table.params[0, 0] == pytest.approx(0.1)
+
+
+@pytest.mark.parametrize("kind", ["robot", "csv", "json", "folder", "candidates"])
+def test_a_latin1_degree_sign_is_one_line_naming_the_byte_offset(tmp_path, kind):
+    """Excel on Windows saves "°" as the single Latin-1 byte 0xb0: every reader says where, in one line."""
+    comment = "# home 90\xb0\n".encode("latin-1")
+    if kind == "robot":
+        f = tmp_path / "r.toml"
+        f.write_bytes(comment + ROBOT.encode())
+        args = ("show", f)
+    elif kind == "csv":
+        f = tmp_path / "s.csv"
+        f.write_bytes(comment + b"# units: length=mm angle=deg\n" + _sweeps_csv().encode())
+        args = ("identify", f)
+    elif kind == "json":
+        f = tmp_path / "s.json"
+        f.write_bytes(b'{"units": {"length": "mm", "angle": "deg"}, "home": [0], "sweeps": [], "note": "90\xb0"}')
+        args = ("identify", f)
+    elif kind == "folder":
+        f = tmp_path / "d"
+        f.mkdir()
+        for j in range(1, 7):
+            (f / f"j{j}.csv").write_bytes((comment if j == 3 else b"") + b"1,2,3\n2,3,4\n3,4,6\n")
+        f = f / "j3.csv"
+        args = ("identify", f.parent, "--home", "0,0,0,0,0,0", "--length", "mm")
+    else:
+        f = tmp_path / "c.csv"
+        f.write_bytes(comment + b"q1,q2,q3,q4,q5,q6\n0,0,0,0,0,0\n")
+        args = ("plan", "kr5", "--candidates", f)
+    p = run(*args, ok=False)
+    err = " ".join(p.stderr.split())
+    assert p.returncode == 2 and "Traceback" not in p.stderr and "UnicodeDecodeError" not in p.stderr, p.stderr
+    offset = f.read_bytes().index(b"\xb0")
+    assert f"not UTF-8 text: byte 0xb0 at offset {offset}" in err and f.name in err, err
+
+
+def test_utf16_is_one_line_with_a_hint(tmp_path):
+    f = tmp_path / "r.toml"
+    f.write_bytes(ROBOT.encode("utf-16"))
+    p = run("show", f, ok=False)
+    assert p.returncode == 2 and "not UTF-8 text" in p.stderr and "UTF-16" in p.stderr and "Traceback" not in p.stderr
+
+
+def test_a_sweep_csv_with_a_bom_reads(tmp_path):
+    f = tmp_path / "s.csv"
+    f.write_bytes(b"\xef\xbb\xbf# units: length=mm angle=deg\n" + _sweeps_csv().encode())
+    out = tmp_path / "r.json"
+    run("identify", f, "--json", out)
+    assert json.loads(out.read_text())["parameters"][0]["d"] == pytest.approx(400, abs=1e-3)
+
+
+# -- the one units rule: what a file declares wins; the command line fills what it does not ---------------
+
+
+def test_a_units_line_without_a_space_is_honoured_by_identify(tmp_path):
+    """'#units: length=mm' and --length m: the data are mm, the output m (d1 had been read as 400 m)."""
+    f = tmp_path / "s.csv"
+    f.write_text("#units: length=mm angle=deg\n" + _sweeps_csv())
+    out = tmp_path / "r.json"
+    run("identify", f, "--length", "m", "--json", out)
+    doc = json.loads(out.read_text())
+    assert doc["units"]["length"] == "m"
+    assert doc["parameters"][0]["d"] == pytest.approx(0.4, abs=1e-6)
+
+
+def test_a_units_line_without_a_space_is_honoured_by_calibrate(tmp_path):
+    """A file in metres declaring '#units:length=m,angle=rad': calibrate's default --length mm is the output's
+    unit only (a_2 had come out 93 mm against 600)."""
+    from denavit import calibration as cal
+
+    kr5 = dv.load_robot("kr5")
+    meas = cal.simulate(kr5, cal.configurations(kr5, 40), tool=(0.05, 0.03, 0.1))
+    f = tmp_path / "m.csv"
+    f.write_text("#units:length=m,angle=rad\nq1,q2,q3,q4,q5,q6,x,y,z\n"
+                 + "".join(",".join(repr(float(v)) for v in (*q, *p)) + "\n" for q, p in zip(meas.q, meas.points)))
+    out = tmp_path / "r.json"
+    run("calibrate", f, "--nominal", "kr5", "--convention", "mdh", "--tool", "50,30,100", "--json", out)
+    doc = json.loads(out.read_text())
+    a = {p["name"]: p for p in doc["parameters"]}
+    assert a["a_2"]["value"] == pytest.approx(600, abs=1e-6)
+
+
+def test_a_second_conflicting_units_line_is_an_error_naming_both_lines(tmp_path):
+    f = tmp_path / "s.csv"
+    f.write_text("# units: length=mm angle=deg\n" + _sweeps_csv() + "#units: length=m\n")
+    p = run("identify", f, ok=False)
+    n = len(f.read_text().splitlines())
+    assert p.returncode == 2 and f"s.csv:{n}: length=m contradicts length=mm declared at line 1" in " ".join(p.stderr.split())
+
+
+def test_candidates_units_line_is_the_one_parser(tmp_path):
+    """plan --candidates: '#units:angle=rad' (no space) is honoured; a second conflicting line is an error."""
+    f = tmp_path / "c.csv"
+    q = np.radians([[10, -80, 90, 5, 60, 0], [40, -60, 70, -20, 30, 50], [-30, -100, 110, 40, 80, -40]] * 6)
+    q = q + np.random.default_rng(0).normal(0, 0.2, q.shape)
+    f.write_text("#units:angle=rad\nq1,q2,q3,q4,q5,q6\n" + "".join(",".join(map(repr, map(float, r))) + "\n" for r in q))
+    a = json.loads(run("plan", "kr5", "--candidates", f, "--json").stdout)
+    g = tmp_path / "d.csv"
+    g.write_text("# units: angle=deg\nq1,q2,q3,q4,q5,q6\n" + "".join(",".join(map(repr, map(float, r))) + "\n" for r in np.degrees(q)))
+    b = json.loads(run("plan", "kr5", "--candidates", g, "--json").stdout)
+    np.testing.assert_allclose(a["bounding_box"]["lengths"], b["bounding_box"]["lengths"], rtol=1e-9)
+    g.write_text(g.read_text() + "# units: angle=rad\n")
+    p = run("plan", "kr5", "--candidates", g, ok=False)
+    assert p.returncode == 2 and "angle=rad contradicts angle=deg declared at line 1" in " ".join(p.stderr.split())
+
+
+# -- convention names: the core's one parser ---------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name, expected", [("craig", "mdh"), ("MDH", "mdh"), ("Modified-DH", "mdh"), ("SDH", "dh"), ("ED-H".replace("-", ""), "edh")])
+def test_robot_files_accept_every_convention_name_of_the_core(tmp_path, name, expected):
+    f = tmp_path / "r.toml"
+    cols = {"dh": "d = 100\ntheta = 0\na = 0\nalpha = 0\n", "mdh": "alpha = 0\na = 0\ntheta = 0\nd = 100\n", "edh": "alpha = 0\na = 0\nb = 0\nc = 100\ntheta = 0\n"}
+    f.write_text(f'name = "one"\nconvention = "{name}"\n[units]\nlength = "mm"\nangle = "deg"\n[[joints]]\n{cols[expected]}')
+    r = dv.load_robot(f)
+    assert r.convention == expected
+
+
+def test_a_robot_file_with_an_unknown_convention_names_the_core_list(tmp_path):
+    f = tmp_path / "r.toml"
+    f.write_text(ROBOT.replace('"dh"', '"hayati"'))
+    with pytest.raises(dv.DenavitError, match=r"r.toml: 'convention' must be one of dh, mdh, edh, poe, got 'hayati' \(aliases: sdh, craig, modified-dh, in any case\)"):
+        dv.load_robot(f)
+
+
+@pytest.mark.parametrize("name, expected", [("craig", "mdh"), ("MDH", "mdh")])
+def test_cli_identify_accepts_every_convention_name_of_the_core(tmp_path, name, expected):
+    out = tmp_path / "r.json"
+    run("identify", "--example", "kr5", "--convention", name, "--json", out)
+    assert json.loads(out.read_text())["convention"] == expected
+
+
+# -- headers are honoured ----------------------------------------------------------------------------------
+
+
+def test_a_joint_file_header_says_which_column_is_which(tmp_path):
+    """`z,y,x` had been read as x,y,z and `X,Y,Z,RMS` as time,x,y,z."""
+    from denavit.io import sweeps as swio
+
+    a, b = tmp_path / "a", tmp_path / "b"
+    for d in (a, b):
+        d.mkdir()
+    pts = np.array([[1.0, 2.0, 3.0], [2.0, 3.5, 4.0], [3.0, 4.0, 6.5]])
+    (a / "j1.csv").write_text("x,y,z\n" + "".join(f"{x},{y},{z}\n" for x, y, z in pts))
+    (b / "j1.csv").write_text("z;time;y;x\n" + "".join(f"{z};{k};{y};{x}\n" for k, (x, y, z) in enumerate(pts)))
+    ra = swio.read_joint_files(a, home=[0], length="mm")
+    rb = swio.read_joint_files(b, home=[0], length="mm")
+    np.testing.assert_allclose(rb.sweeps[0].points, ra.sweeps[0].points)
+    np.testing.assert_allclose(ra.sweeps[0].points, pts * 1e-3)
+    (b / "j1.csv").write_text("X,Y,Z,RMS\n1,2,3,0.1\n")
+    with pytest.raises(dv.DenavitError, match=r"j1.csv:1: header must name x, y, z \(and optionally time\), got 'X,Y,Z,RMS'"):
+        swio.read_joint_files(b, home=[0], length="mm")
+
+
+def test_a_column_named_twice_is_an_error(tmp_path):
+    from denavit.io import sweeps as swio
+
+    f = tmp_path / "s.csv"
+    f.write_text("# units: length=mm angle=deg\njoint,q1,x,y,x\n1,0,1,2,3\n")
+    with pytest.raises(dv.DenavitError, match=r"s.csv:2: column\(s\) x named twice in the header"):
+        swio.read_long_csv(f)
+
+
+def test_a_urdf_in_latin1_without_an_encoding_declaration_is_one_line(tmp_path):
+    f = tmp_path / "r.urdf"
+    f.write_bytes(b'<?xml version="1.0"?>\n<!-- 90\xb0 -->\n<robot name="r"><link name="a"/></robot>\n')
+    with pytest.raises(dv.DenavitError, match=r"r.urdf:2: not UTF-8 text: byte 0xb0 at offset 29"):
+        dv.load_robot(f)
+
+
+def test_identify_poe_table_prints_the_nominal_w_unitless():
+    """The POE terminal table had printed the nominal w scaled by 1000 (wz = 1000.000 beside 1.000)."""
+    out = run("identify", "--example", "kr5", "--convention", "poe").stdout
+    rows = [ln.replace("│", " ").split() for ln in out.splitlines() if ln.strip("│ ").split()[:1] in (["wz"], ["A1"])]
+    wz = [r for r in rows if "wz" in r]
+    assert len(wz) == 6
+    for r in wz:
+        nominal, identified = float(r[-4]), float(r[-3])
+        assert abs(nominal) <= 1.0 + 1e-9 and abs(nominal - identified) < 1e-3, r
+
+
+def test_simulate_to_stdout_keeps_the_csv_clean():
+    p = run("simulate", "kr5", "-o", "-", "--points", "3", "--noise", "0")
+    lines = p.stdout.splitlines()
+    assert lines[1] == "# units: length=mm angle=deg" and lines[2].startswith("joint,q1") and len(lines) == 3 + 18
+    assert "wrote -" in p.stderr
+
+
+def test_json_outputs_are_strict_and_tables_show_nan():
+    """Bare NaN is not JSON: every JSON output goes through io.output.json_text (NaN, inf -> null, numpy values
+    plain); a NaN cell prints as 'nan', not 0.000000."""
+    import numpy as np
+
+    from denavit.cli.common import fmt
+    from denavit.io.output import json_text
+
+    doc = json.loads(json_text({"a": float("nan"), "b": [1.0, float("inf"), np.float64(2.5)], "c": np.array([[np.nan, 1.0]]), "d": "x"}))
+    assert doc == {"a": None, "b": [1.0, None, 2.5], "c": [[None, 1.0]], "d": "x"}
+    assert fmt(float("nan")) == "nan" and fmt(-1e-15) == "0.000000" and fmt(1.5, 2) == "1.50"
