@@ -147,19 +147,22 @@ def test_fk_is_a_rigid_transform(q, name):
 
 def test_bad_input_raises_denavit_error_with_expected_and_got():
     m = dv.load_model("kr5")
-    with pytest.raises(dv.DenavitError, match=r"q: expected an array of shape \(6\), got shape \[5\]"):
+    with pytest.raises(dv.DenavitError, match=r"wrong size of q: expected 6, got 5") as e:
         dv.fk(m, np.zeros(5))
-    with pytest.raises(dv.DenavitError, match=r"q: expected an array of shape \(6\), got shape \[2, 3\]"):
+    assert (e.value.kind, e.value.what, e.value.expected, e.value.got) == ("SizeMismatch", "q", 6, 5)
+    with pytest.raises(dv.DenavitError, match=r"invalid q: expected a 1-D array, got shape \(2, 3\)"):
         dv.jacobian(m, np.zeros((2, 3)))
-    with pytest.raises(dv.DenavitError, match=r"q: expected an array of shape \(6\), got shape \[7\]"):
+    with pytest.raises(dv.DenavitError, match=r"wrong size of q: expected 6, got 7"):
         dv.joint_frames(m, np.zeros(7))
-    with pytest.raises(dv.DenavitError, match="q must be finite, got NaN at flat index 2"):
+    with pytest.raises(dv.DenavitError, match="q must be finite, got NaN at index 2") as e:
         dv.fk(m, [0, 0, np.nan, 0, 0, 0])
+    assert (e.value.kind, e.value.what, e.value.index) == ("NonFinite", "q", 2) and np.isnan(e.value.value)
     with pytest.raises(dv.DenavitError, match="q must be finite, got inf"):
         dv.jacobian(m, [0, 0, 0, np.inf, 0, 0])
-    with pytest.raises(dv.DenavitError, match=r"qs: expected an array of shape \(N, 6\), got shape \[10, 5\]"):
+    with pytest.raises(dv.DenavitError, match=r"qs: expected an array of shape \(N, 6\), got shape \(10, 5\)") as e:
         dv.fk_batch(m, np.zeros((10, 5)))
-    with pytest.raises(dv.DenavitError, match=r"qs: expected an array of shape \(N, 6\), got shape \[6\]"):
+    assert (e.value.kind, e.value.expected, e.value.got) == ("InvalidArgument", "an array of shape (N, 6)", "shape (10, 5)")
+    with pytest.raises(dv.DenavitError, match=r"qs: expected an array of shape \(N, 6\), got shape \(6,\)"):
         dv.jacobian_batch(m, np.zeros(6))
     bad = np.zeros((4, 6))
     bad[2, 1] = np.nan
@@ -171,7 +174,7 @@ def test_bad_input_raises_denavit_error_with_expected_and_got():
         dv.jacobian(m, np.zeros(6), frame="flange")
     with pytest.raises(dv.DenavitError, match="frame: expected 'world', 'base' or 'tool', got 'x'"):
         dv.jacobian_batch(m, np.zeros((2, 6)), frame="x")
-    with pytest.raises(ValueError, match="could not convert string to float"):
+    with pytest.raises(dv.DenavitError, match="invalid q: expected an array-like of floats, got list .*could not convert string to float"):
         dv.fk(m, ["a"] * 6)
 
 

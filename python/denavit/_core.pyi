@@ -1,6 +1,9 @@
 """Type stubs of the compiled extension `denavit._core` (the Rust core's binding).
 
 Frames and units: docs/conventions.md. SI inside (m, rad); poses are (4, 4) float64 arrays `T_a_b`.
+Errors are `denavit.errors.DenavitError` (or a subclass) carrying the core error's fields (`kind`, `what`,
+`expected`, `got`, `index`, ...). Every class pickles and deep-copies. tests/test_binding.py checks this stub
+against the module (names, kinds and parameter names).
 """
 
 from collections.abc import Iterator, Sequence
@@ -51,7 +54,7 @@ class Model:
                       q_ref: ArrayLike | None = None) -> Model:
         """A copy with link inertial parameters: masses (n,) kg, coms (n, 3) m, inertias (n, 3, 3) kg m^2 about each
         centre of mass (about="com") or the frame origin (about="origin"); frame="link": link i in joint frame i,
-        frame="world": in world with the robot at q_ref (default zeros)."""
+        frame="world": in world with the robot at q_ref (default zeros). An error about one link sets e.joint."""
     @property
     def inertias(self) -> dict[str, NDArray[np.float64]]:
         """{"masses": (n,), "coms": (n, 3), "inertias": (n, 3, 3)}, link i in joint frame i, about each centre of mass."""
@@ -101,6 +104,8 @@ class JointAxes:
     def T_world_tool(self) -> NDArray[np.float64]: ...
 
 class PairDiagnostic:
+    """One consecutive pair of axes as seen by an extraction."""
+    def __init__(self, joint: int, relation: str, angle: float, distance: float, hayati_beta: float) -> None: ...
     joint: int
     relation: str
     angle: float
@@ -108,6 +113,8 @@ class PairDiagnostic:
     hayati_beta: float
 
 class Extraction:
+    """The result of an extraction: the table and what it cannot represent."""
+    def __init__(self, table: Table, pairs: Sequence[PairDiagnostic], max_position_error: float, max_rotation_error: float) -> None: ...
     table: Table
     pairs: list[PairDiagnostic]
     max_position_error: float
@@ -149,6 +156,7 @@ def transfer_inertias(source: Model, target: Model, q_ref: ArrayLike | None = No
 # <= tol_rotation (and q within the limits when respect_limits). Restarts are seeded (deterministic).
 class IkResult:
     """One IK solve; the errors are measured at the returned q."""
+    def __init__(self, q: ArrayLike, success: bool, iterations: int, restarts: int, position_error: float, rotation_error: float) -> None: ...
     @property
     def q(self) -> NDArray[np.float64]: ...
     @property
@@ -164,6 +172,8 @@ class IkResult:
 
 class IkBatchResult:
     """Results of ik_path / ik_batch as arrays; also a sequence of IkResult."""
+    def __init__(self, results: Sequence[IkResult], nq: int) -> None:
+        """results: the IkResult of each target, in order; nq: joints (the width of `q` when there are none)."""
     @property
     def q(self) -> NDArray[np.float64]: ...
     @property
@@ -177,7 +187,7 @@ class IkBatchResult:
     @property
     def rotation_error(self) -> NDArray[np.float64]: ...
     def __len__(self) -> int: ...
-    def __getitem__(self, index: int) -> IkResult: ...
+    def __getitem__(self, key: int, /) -> IkResult: ...
     def __iter__(self) -> Iterator[IkResult]: ...
 
 def ik(model: Model, T_target: ArrayLike, q0: ArrayLike | None = None, *, method: str = "lm", tol_position: float = 1e-10,
@@ -214,6 +224,10 @@ EXACT_PARALLEL_SIN: float
 def parametrize(table: Table, T_last_tool: ArrayLike, measure: str = "point", scale: bool = False, robot: str = "robot") -> dict: ...
 
 class Compensation:
+    """The compensation of N targets: per target the identified and nominal joint values, the command, the flags."""
+    def __init__(self, q: ArrayLike, q_nominal: ArrayLike, commands: ArrayLike, reached: Sequence[bool], nominal_reached: Sequence[bool],
+                 branch_changed: Sequence[bool], path_jump: Sequence[bool], position_error: Sequence[float], rotation_error: Sequence[float],
+                 before_position: Sequence[float], before_rotation: Sequence[float]) -> None: ...
     def __len__(self) -> int: ...
     @property
     def q(self) -> NDArray[np.float64]: ...

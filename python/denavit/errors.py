@@ -1,8 +1,48 @@
-"""The package's exception types (one hierarchy; every message says what was expected, what came, and where)."""
+"""The package's exception types (one hierarchy; every message says what was expected, what came, and where).
+
+An error of the Rust core reaches Python as a :class:`DenavitError` (or a subclass) whose attributes carry the
+core error's fields, so callers read ``e.expected`` / ``e.got`` / ``e.joint`` instead of parsing the message.
+``kind`` names the core variant:
+
+=================  ==========================================================  =====================
+kind               attributes set (others are None)                            class
+=================  ==========================================================  =====================
+SizeMismatch       what, expected (int), got (int)                             DenavitError
+NonFinite          what, index (flat index), value                             DenavitError
+NotSe3             what, reason                                                DenavitError
+InvalidArgument    what, expected (str), got (str)                             DenavitError
+Degenerate         reason                                                      DegenerateError
+UnknownName        what (the kind of name, e.g. "convention"), got, expected   DenavitError
+NotConverged       iterations, position_error (m), rotation_error (rad)        NotConvergedError
+=================  ==========================================================  =====================
+
+``joint`` (1-based) is set where the binding knows which joint or link the error is about (e.g.
+``Model.with_inertias``). Errors raised by the Python layer itself have ``kind`` None.
+"""
+
+_FIELDS = ("what", "expected", "got", "index", "value", "reason", "iterations", "position_error", "rotation_error", "joint")
+
+
+def _rebuild(cls, message, kind, fields):
+    return cls(message, kind=kind, **fields)
 
 
 class DenavitError(ValueError):
-    """Base class of every error raised by denavit."""
+    """Base class of every error raised by denavit; see the module docstring for the attributes."""
+
+    def __init__(self, message="", *, kind=None, **fields):
+        unknown = sorted(set(fields) - set(_FIELDS))
+        if unknown:
+            raise TypeError(f"{type(self).__name__}: unknown fields {unknown}, expected some of {list(_FIELDS)}")
+        super().__init__(message)
+        self.kind = kind
+        for name in _FIELDS:
+            setattr(self, name, fields.get(name))
+
+    def __reduce__(self):
+        # the fields are keyword-only: pickle (multiprocessing, joblib) would drop them with the default reduce
+        message = self.args[0] if self.args else ""
+        return _rebuild, (type(self), message, self.kind, {name: getattr(self, name) for name in _FIELDS})
 
 
 class NotConvergedError(DenavitError):

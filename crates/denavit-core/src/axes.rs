@@ -58,7 +58,9 @@ impl JointAxes {
         let mut dirs = Vec::with_capacity(n);
         for (i, (p, d)) in points.iter().zip(&directions).enumerate() {
             check_finite(&format!("point of axis {}", i + 1), p.as_slice())?;
-            dirs.push(unit(d, &format!("direction of axis {}", i + 1))?.into_inner());
+            let u = unit(d, &format!("direction of axis {}", i + 1))?.into_inner();
+            // a direction already unit to rounding is kept bit for bit: a pickled or copied JointAxes reads back the same
+            dirs.push(if (d.norm() - 1.0).abs() <= 4.0 * f64::EPSILON { *d } else { u });
         }
         Ok(Self { t_world_base, points, directions: dirs, kinds, q_ref, t_world_tool, lower, upper })
     }

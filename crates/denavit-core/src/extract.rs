@@ -3,7 +3,7 @@
 
 use crate::axes::JointAxes;
 use crate::convention::{Convention, Table};
-use crate::error::{check_len, Error, Result};
+use crate::error::{check_finite, check_len, Error, Result};
 use crate::kinematics::tool_pose_unchecked;
 use crate::model::JointKind;
 use crate::spatial::{any_perpendicular, perpendicular, pose_error, rx, signed_angle, wrap_angle, Pose};
@@ -177,6 +177,10 @@ fn col(t: &Pose, k: usize) -> Vector3<f64> {
 /// ```
 pub fn extract(ax: &JointAxes, convention: Convention, opt: &ExtractOptions) -> Result<Extraction> {
     let n = ax.nq();
+    // the fields are public: axes of a 0-joint model (axes::axes) reach here without JointAxes::new's check
+    if n == 0 {
+        return Err(Error::InvalidArgument { what: "joint axes".into(), expected: "at least one axis".into(), got: "none".into() });
+    }
     for (what, v) in [("parallel_tol", Some(opt.parallel_tol)), ("intersect_tol", Some(opt.intersect_tol)), ("max_offset", opt.max_offset)] {
         if let Some(v) = v.filter(|v| !(*v >= 0.0)) {
             return Err(Error::InvalidArgument { what: what.into(), expected: "a value >= 0".into(), got: v.to_string() });
@@ -194,6 +198,9 @@ pub fn extract(ax: &JointAxes, convention: Convention, opt: &ExtractOptions) -> 
     }
     if let Some(o) = &opt.origins {
         check_len("ED-H origins (one per axis)", n, o.len())?;
+        for (i, p) in o.iter().enumerate() {
+            check_finite(&format!("ED-H origin {}", i + 1), p.as_slice())?;
+        }
     }
     let base_origin = ax.t_world_base.translation.vector;
     let tool_origin = ax.t_world_tool.translation.vector;

@@ -1,10 +1,12 @@
 //! Calibration chains (`denavit_core::calibration`): tool poses and identification Jacobians in batch.
 
-use crate::convert::{check_shape, pose_from_slice, values, ArrayIn};
-use crate::error::{value_error, IntoPy};
+use crate::convert::{out, poses, poses_out, rows, vector};
+use crate::error::{invalid, IntoPy};
 use denavit_core::calibration::{Axis, Chain, Factor};
-use numpy::{PyArray3, PyArrayMethods};
+use denavit_core::spatial::Pose;
+use numpy::PyArray3;
 use pyo3::prelude::*;
+use pyo3::types::PyTuple;
 use std::sync::Arc;
 
 /// Tool poses (N, 4, 4) and optional Jacobians (N, 6, n_params).
@@ -20,50 +22,61 @@ type Evaluated<'py> = (Bound<'py, PyArray3<f64>>, Option<Bound<'py, PyArray3<f64
 #[derive(Clone)]
 pub struct PyChain {
     pub inner: Arc<Chain>,
+    /// The constructor's arguments, for pickling.
+    args: Arc<ChainArgs>,
 }
 
+struct ChainArgs {
+    axes: Vec<String>,
+    params: Vec<i64>,
+    joints: Vec<i64>,
+    fixed: Vec<Pose>,
+    scales: Vec<i64>,
+}
+
+/// A Python index, -1 for none.
 fn index(what: &str, k: usize, v: i64) -> PyResult<Option<usize>> {
     match v {
         -1 => Ok(None),
-        v if v >= 0 => Ok(Some(v as usize)),
-        v => Err(value_error(format!("{what}[{k}]: expected an index >= 0 or -1 for none, got {v}"))),
+        v => usize::try_from(v).map(Some).map_err(|_| invalid(format!("{what}[{k}]"), "an index >= 0 or -1 for none", v.to_string())),
     }
+}
+
+/// A Python int as a size.
+fn size(what: &str, v: i64) -> PyResult<usize> {
+    usize::try_from(v).map_err(|_| invalid(what, "an integer >= 0", v.to_string()))
 }
 
 #[pymethods]
 impl PyChain {
     #[new]
     #[pyo3(signature = (axes, params, joints, fixed, n_params, nq, scales))]
-    fn new(axes: Vec<String>, params: Vec<i64>, joints: Vec<i64>, fixed: ArrayIn<'_>, n_params: usize, nq: usize, scales: Vec<i64>) -> PyResult<Self> {
+    fn new(axes: Vec<String>, params: Vec<i64>, joints: Vec<i64>, fixed: &Bound<'_, PyAny>, n_params: i64, nq: i64, scales: Vec<i64>) -> PyResult<Self> {
         let k = axes.len();
         if params.len() != k || joints.len() != k {
-            return Err(value_error(format!("axes, params, joints: expected the same length, got {k}, {}, {}", params.len(), joints.len())));
+            return Err(invalid("axes, params, joints", "lists of the same length", format!("lengths {k}, {}, {}", params.len(), joints.len())));
         }
-        let (fv, fs) = values(&fixed);
-        let nf = fs.first().copied().unwrap_or(0);
-        if !fv.is_empty() || fs.len() == 3 {
-            check_shape("fixed", &fs, &[Some(nf), Some(4), Some(4)])?;
-        }
-        let mut used = 0;
+        let fixed = poses("fixed", fixed)?;
+        let mut next = fixed.iter();
         let mut factors = Vec::with_capacity(k);
         for i in 0..k {
             if axes[i].eq_ignore_ascii_case("fixed") {
-                if used >= nf {
-                    return Err(value_error(format!("fixed: factor {i} is 'fixed' but only {nf} fixed poses were given")));
-                }
-                factors.push(Factor::Fixed(pose_from_slice(&format!("fixed[{used}]"), &fv[16 * used..16 * used + 16])?));
-                used += 1;
+                let count = fixed.len();
+                let t = next.next().ok_or_else(|| invalid("fixed", format!("a pose for factor {i} ('fixed')"), format!("{count} fixed poses")))?;
+                factors.push(Factor::Fixed(*t));
             } else {
                 let axis = Axis::parse(&axes[i]).py()?;
-                let p = index("params", i, params[i])?.ok_or_else(|| value_error(format!("params[{i}]: an elementary factor needs a parameter index, got -1")))?;
+                let p = index("params", i, params[i])?.ok_or_else(|| invalid(format!("params[{i}]"), "a parameter index for an elementary factor", "-1"))?;
                 factors.push(Factor::param(axis, p, index("joints", i, joints[i])?));
             }
         }
-        if used != nf {
-            return Err(value_error(format!("fixed: {nf} poses given but {used} factors are 'fixed'")));
+        let used = fixed.len() - next.len();
+        if used != fixed.len() {
+            return Err(invalid("fixed", format!("{used} poses (one per 'fixed' factor)"), format!("{} poses", fixed.len())));
         }
-        let scales = scales.iter().enumerate().map(|(j, &s)| index("scales", j, s)).collect::<PyResult<Vec<_>>>()?;
-        Ok(Self { inner: Arc::new(Chain::new(factors, n_params, nq, scales).py()?) })
+        let sc = scales.iter().enumerate().map(|(j, &s)| index("scales", j, s)).collect::<PyResult<Vec<_>>>()?;
+        let inner = Arc::new(Chain::new(factors, size("n_params", n_params)?, size("nq", nq)?, sc).py()?);
+        Ok(Self { inner, args: Arc::new(ChainArgs { axes, params, joints, fixed, scales }) })
     }
     /// Number of parameters.
     #[getter]
@@ -79,22 +92,28 @@ impl PyChain {
     /// world (derivative of the tool origin, small rotation of the tool), for parameters x (n_params,) and
     /// configurations qs (N, nq). Runs without the GIL on every core.
     #[pyo3(signature = (x, qs, jacobian=true))]
-    fn evaluate<'py>(&self, py: Python<'py>, x: ArrayIn<'py>, qs: ArrayIn<'py>, jacobian: bool) -> PyResult<Evaluated<'py>> {
-        let (xv, xs) = values(&x);
-        check_shape("x", &xs, &[Some(self.inner.n_params())])?;
-        let (q, qshape) = values(&qs);
-        check_shape("qs", &qshape, &[None, Some(self.inner.nq())])?;
-        let count = qshape[0];
-        let chain = self.inner.clone();
+    fn evaluate<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>, qs: &Bound<'py, PyAny>, jacobian: bool) -> PyResult<Evaluated<'py>> {
+        let x = vector("x", x)?;
+        let (q, count) = rows("qs", qs, self.inner.nq())?;
+        let q = q.slice();
+        let chain: &Chain = &self.inner;
         let np = chain.n_params();
-        let (poses, jac) = py.allow_threads(move || {
-            let mut poses = vec![0.0; 16 * count];
-            let mut jac = if jacobian { vec![0.0; 6 * np * count] } else { Vec::new() };
-            chain.evaluate_batch(&xv, &q, &mut poses, jacobian.then_some(jac.as_mut_slice())).map(|_| (poses, jac))
-        }).py()?;
-        let poses = numpy::PyArray1::from_vec(py, poses).reshape([count, 4, 4])?;
-        let jac = if jacobian { Some(numpy::PyArray1::from_vec(py, jac).reshape([count, 6, np])?) } else { None };
-        Ok((poses, jac))
+        let (poses, jac) = py
+            .allow_threads(|| {
+                let mut poses = vec![0.0; 16 * count];
+                let mut jac = if jacobian { vec![0.0; 6 * np * count] } else { Vec::new() };
+                chain.evaluate_batch(&x, q, &mut poses, jacobian.then_some(jac.as_mut_slice())).map(|_| (poses, jac))
+            })
+            .py()?;
+        let jac = if jacobian { Some(out(py, &jac, [count, 6, np])?) } else { None };
+        Ok((out(py, &poses, [count, 4, 4])?, jac))
+    }
+    /// Pickle / copy: `CalibrationChain(axes, params, joints, fixed, n_params, nq, scales)`.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        let a = &self.args;
+        let fixed = poses_out(py, a.fixed.iter())?;
+        (py.get_type::<Self>(), (a.axes.clone(), a.params.clone(), a.joints.clone(), fixed, self.inner.n_params(), self.inner.nq(), a.scales.clone()))
+            .into_pyobject(py)
     }
     fn __repr__(&self) -> String {
         format!("CalibrationChain({} factors, {} parameters, {} joints)", self.inner.factors().len(), self.inner.n_params(), self.inner.nq())
@@ -116,39 +135,42 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 #[pyfunction]
 #[pyo3(signature = (table, T_last_tool, measure="point", scale=false, robot="robot"))]
 #[allow(non_snake_case)]
-pub fn parametrize(py: Python<'_>, table: &crate::model::PyTable, T_last_tool: ArrayIn<'_>, measure: &str, scale: bool, robot: &str) -> PyResult<PyObject> {
+pub fn parametrize(
+    py: Python<'_>,
+    table: &crate::model::PyTable,
+    T_last_tool: &Bound<'_, PyAny>,
+    measure: &str,
+    scale: bool,
+    robot: &str,
+) -> PyResult<PyObject> {
     use denavit_core::convention::Measure;
-    let tool = crate::convert::pose("T_last_tool", &T_last_tool)?;
+    let tool = crate::convert::pose("T_last_tool", T_last_tool)?;
     let p = table.inner.parametrize(robot, &tool, Measure::parse(measure).py()?, scale).py()?;
-    let mut axes = Vec::new();
-    let mut params = Vec::new();
-    let mut joints = Vec::new();
-    let mut fixed = Vec::new();
+    let (mut axes, mut params, mut joints, mut fixed) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for f in &p.factors {
         match f {
             Factor::Fixed(t) => {
-                axes.push("fixed");
+                axes.push("fixed".to_string());
                 params.push(-1i64);
                 joints.push(-1i64);
-                let mut v = [0.0; 16];
-                crate::convert::write_pose(t, &mut v);
-                fixed.extend_from_slice(&v);
+                fixed.push(*t);
             }
             Factor::Elementary { axis, param, joint } => {
-                axes.push(axis.name());
+                axes.push(axis.name().to_string());
                 params.push(*param as i64);
                 joints.push(joint.map_or(-1, |j| j as i64));
             }
         }
     }
-    let nf = fixed.len() / 16;
+    let scales: Vec<i64> = p.scales.iter().map(|s| s.map_or(-1, |v| v as i64)).collect();
     let chain = Chain::new(p.factors.clone(), p.params.len(), table.inner.nq(), p.scales.clone()).py()?;
+    let args = ChainArgs { axes: axes.clone(), params: params.clone(), joints: joints.clone(), fixed: fixed.clone(), scales: scales.clone() };
     let d = pyo3::types::PyDict::new(py);
-    d.set_item("chain", PyChain { inner: Arc::new(chain) })?;
+    d.set_item("chain", PyChain { inner: Arc::new(chain), args: Arc::new(args) })?;
     d.set_item("axes", axes)?;
     d.set_item("params", params)?;
     d.set_item("joints", joints)?;
-    d.set_item("fixed", numpy::PyArray1::from_vec(py, fixed).reshape([nf, 4, 4])?)?;
+    d.set_item("fixed", poses_out(py, fixed.iter())?)?;
     d.set_item("names", p.params.iter().map(|x| x.name.clone()).collect::<Vec<_>>())?;
     d.set_item("x0", numpy::PyArray1::from_vec(py, p.params.iter().map(|x| x.value).collect::<Vec<_>>()))?;
     d.set_item("units", p.params.iter().map(|x| x.unit).collect::<Vec<_>>())?;
@@ -164,6 +186,6 @@ pub fn parametrize(py: Python<'_>, table: &crate::model::PyTable, T_last_tool: A
     d.set_item("joint_factors", p.joint_factors.clone())?;
     d.set_item("base_end", p.base_end)?;
     d.set_item("tool_start", p.tool_start)?;
-    d.set_item("scales", p.scales.iter().map(|s| s.map_or(-1, |v| v as i64)).collect::<Vec<_>>())?;
+    d.set_item("scales", scales)?;
     Ok(d.into_any().unbind())
 }

@@ -1,12 +1,13 @@
 //! Compensation of targets (denavit_core::compensate): batch, without the GIL, on every core.
 
-use crate::convert::{check_shape, values, write_pose, ArrayIn};
+use crate::convert::{check_len, out, poses, poses_out, shaped};
 use crate::error::IntoPy;
-use crate::ik::{options, start, targets_of};
+use crate::ik::{options, start};
 use crate::model::PyModel;
 use denavit_core::compensate::{self as core_comp, CompensateOptions};
-use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods};
+use numpy::{PyArray1, PyArray2, PyArray3};
 use pyo3::prelude::*;
+use pyo3::types::PyTuple;
 
 /// The compensation of N targets (denavit_core::compensate): per target the identified model's joint
 /// values, the nominal ones, the pose to send to a nominal controller, and the flags.
@@ -25,12 +26,83 @@ impl PyCompensation {
     }
     fn joints<'py>(&self, py: Python<'py>, f: impl Fn(&core_comp::Compensation) -> &[f64]) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let v: Vec<f64> = self.rows.iter().flat_map(|r| f(r).iter().copied()).collect();
-        PyArray1::from_vec(py, v).reshape([self.rows.len(), self.n])
+        out(py, &v, [self.rows.len(), self.n])
     }
 }
 
 #[pymethods]
 impl PyCompensation {
+    /// The per-target arrays of the getters, N rows each (q, q_nominal (N, n); commands (N, 4, 4); the rest (N,)).
+    #[new]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        q: &Bound<'_, PyAny>,
+        q_nominal: &Bound<'_, PyAny>,
+        commands: &Bound<'_, PyAny>,
+        reached: Vec<bool>,
+        nominal_reached: Vec<bool>,
+        branch_changed: Vec<bool>,
+        path_jump: Vec<bool>,
+        position_error: Vec<f64>,
+        rotation_error: Vec<f64>,
+        before_position: Vec<f64>,
+        before_rotation: Vec<f64>,
+    ) -> PyResult<Self> {
+        let (qv, qs) = shaped("q", q, &[None, None])?;
+        let (count, n) = (qs[0], qs[1]);
+        let (qn, _) = shaped("q_nominal", q_nominal, &[Some(count), Some(n)])?;
+        let commands = poses("commands", commands)?;
+        check_len("commands (one per target)", count, commands.len())?;
+        for (what, len) in
+            [("reached", reached.len()), ("nominal_reached", nominal_reached.len()), ("branch_changed", branch_changed.len()), ("path_jump", path_jump.len())]
+        {
+            check_len(&format!("{what} (one per target)"), count, len)?;
+        }
+        for (what, len) in [
+            ("position_error", position_error.len()),
+            ("rotation_error", rotation_error.len()),
+            ("before_position", before_position.len()),
+            ("before_rotation", before_rotation.len()),
+        ] {
+            check_len(&format!("{what} (one per target)"), count, len)?;
+        }
+        let rows = (0..count)
+            .map(|i| core_comp::Compensation {
+                q: qv[i * n..(i + 1) * n].to_vec(),
+                q_nominal: qn[i * n..(i + 1) * n].to_vec(),
+                command: commands[i],
+                reached: reached[i],
+                nominal_reached: nominal_reached[i],
+                branch_changed: branch_changed[i],
+                path_jump: path_jump[i],
+                position_error: position_error[i],
+                rotation_error: rotation_error[i],
+                before_position: before_position[i],
+                before_rotation: before_rotation[i],
+            })
+            .collect();
+        Ok(Self { rows, n })
+    }
+    /// Pickle / copy: `Compensation(q, q_nominal, commands, reached, ..., before_rotation)`.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        let r = &self.rows;
+        let b = |f: fn(&core_comp::Compensation) -> bool| r.iter().map(f).collect::<Vec<_>>();
+        let x = |f: fn(&core_comp::Compensation) -> f64| r.iter().map(f).collect::<Vec<_>>();
+        let args = (
+            self.q(py)?,
+            self.q_nominal(py)?,
+            self.commands(py)?,
+            b(|c| c.reached),
+            b(|c| c.nominal_reached),
+            b(|c| c.branch_changed),
+            b(|c| c.path_jump),
+            x(|c| c.position_error),
+            x(|c| c.rotation_error),
+            x(|c| c.before_position),
+            x(|c| c.before_rotation),
+        );
+        (py.get_type::<Self>(), args).into_pyobject(py)
+    }
     fn __len__(&self) -> usize {
         self.rows.len()
     }
@@ -47,11 +119,7 @@ impl PyCompensation {
     /// (N, 4, 4) T' = FK_nominal(q): the poses to send to a controller that keeps its nominal model.
     #[getter]
     fn commands<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
-        let mut v = vec![0.0; 16 * self.rows.len()];
-        for (i, r) in self.rows.iter().enumerate() {
-            write_pose(&r.command, &mut v[16 * i..16 * i + 16]);
-        }
-        PyArray1::from_vec(py, v).reshape([self.rows.len(), 4, 4])
+        poses_out(py, self.rows.iter().map(|r| &r.command))
     }
     /// (N,) the identified solve met the IK tolerances.
     #[getter]
@@ -111,8 +179,8 @@ pub fn compensate(
     py: Python<'_>,
     nominal: &PyModel,
     identified: &PyModel,
-    targets: ArrayIn<'_>,
-    q_nominal: Option<ArrayIn<'_>>,
+    targets: &Bound<'_, PyAny>,
+    q_nominal: Option<&Bound<'_, PyAny>>,
     q0: Option<&Bound<'_, PyAny>>,
     path: bool,
     branch_tol: f64,
@@ -127,16 +195,9 @@ pub fn compensate(
     damping: f64,
 ) -> PyResult<PyCompensation> {
     let ik = options(method, tol_position, tol_rotation, max_iterations, restarts, seed, respect_limits, damping)?;
-    let targets = targets_of(&targets)?;
+    let targets = poses("targets", targets)?;
     let n = nominal.inner.nq();
-    let qn = match q_nominal {
-        Some(a) => {
-            let (v, shape) = values(&a);
-            check_shape("q_nominal", &shape, &[Some(targets.len()), Some(n)])?;
-            Some(v)
-        }
-        None => None,
-    };
+    let qn = q_nominal.map(|a| shaped("q_nominal", a, &[Some(targets.len()), Some(n)]).map(|(v, _)| v)).transpose()?;
     let q0 = start(nominal, q0, "q0")?;
     let (a, b) = (nominal.inner.clone(), identified.inner.clone());
     let opts = CompensateOptions { ik, path, branch_tol, path_jump };

@@ -1,131 +1,185 @@
-//! numpy <-> nalgebra conversions with shape checks that name the argument.
+//! The one converter between Python array-likes and the core's slices and poses.
+//!
+//! It reads values in C (row-major) order and checks the shape it needs to interpret them (a pose is 4 x 4,
+//! a batch has n columns); every check of the values themselves (finiteness, lengths against the model,
+//! limits, SE(3)) is the core's. A C-contiguous float64 numpy array is read without a conversion object;
+//! anything else (lists, other dtypes, Fortran-ordered or strided arrays) goes through `numpy.asarray`.
 
-use crate::error::{to_py, value_error, IntoPy};
+use crate::error::{invalid, to_py, IntoPy};
 use denavit_core::spatial::{pose_from_matrix, Pose};
-use nalgebra::{Matrix4, Vector3};
-use numpy::{PyArray2, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use denavit_core::Error;
+use nalgebra::{Matrix3, Matrix4, Rotation3, Translation3, Vector3};
+use numpy::ndarray::{ArrayView, ShapeBuilder};
+use numpy::{PyArray, PyArray2, PyArray3, PyArrayDyn, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods, ToPyArray};
 use pyo3::prelude::*;
 
-/// Any array-like of floats as a contiguous numpy array (lists accepted).
-pub type ArrayIn<'py> = numpy::PyArrayLike<'py, f64, numpy::IxDyn, numpy::AllowTypeChange>;
+/// Any array-like of floats, converted by numpy.
+type ArrayLike<'py> = numpy::PyArrayLike<'py, f64, numpy::IxDyn, numpy::AllowTypeChange>;
 
-/// Values and shape of an array-like.
-pub fn values(a: &ArrayIn<'_>) -> (Vec<f64>, Vec<usize>) {
-    let ro: &PyReadonlyArrayDyn<f64> = a;
-    let shape = ro.shape().to_vec();
-    // as_slice() also succeeds for Fortran-ordered arrays (memory order); only C order is logical order
-    let v = match ro.as_slice() {
-        Ok(s) if ro.is_c_contiguous() => s.to_vec(),
-        _ => ro.as_array().iter().copied().collect(),
-    };
-    (v, shape)
+fn shape_text(shape: &[usize]) -> String {
+    let s: Vec<String> = shape.iter().map(|d| d.to_string()).collect();
+    if s.len() == 1 {
+        format!("({},)", s[0])
+    } else {
+        format!("({})", s.join(", "))
+    }
 }
 
-/// Check a shape; `None` entries match anything.
-pub fn check_shape(what: &str, shape: &[usize], expected: &[Option<usize>]) -> PyResult<()> {
-    let ok = shape.len() == expected.len() && shape.iter().zip(expected).all(|(s, e)| e.map_or(true, |e| e == *s));
-    if ok {
+fn describe(obj: &Bound<'_, PyAny>) -> String {
+    obj.get_type().name().map(|n| n.to_string()).unwrap_or_else(|_| "an object".into())
+}
+
+/// Values (C order) and shape of any array-like.
+pub fn read(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<(Vec<f64>, Vec<usize>)> {
+    if let Ok(a) = obj.downcast::<PyArrayDyn<f64>>() {
+        if a.is_c_contiguous() {
+            if let Ok(v) = a.to_vec() {
+                return Ok((v, a.shape().to_vec()));
+            }
+        }
+    }
+    converted(what, obj)
+}
+
+/// [`read`] through `numpy.asarray(obj, dtype=float64)`, whatever the layout.
+fn converted(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<(Vec<f64>, Vec<usize>)> {
+    let a: ArrayLike<'_> = obj.extract().map_err(|e| invalid(what, "an array-like of floats", format!("{} ({})", describe(obj), e.value(obj.py()))))?;
+    // as_slice() also succeeds for Fortran-ordered arrays (memory order): only C order is the logical order
+    let v = match a.as_slice() {
+        Ok(v) if a.is_c_contiguous() => v.to_vec(),
+        _ => a.as_array().iter().copied().collect(),
+    };
+    Ok((v, a.shape().to_vec()))
+}
+
+/// Check a shape; `None` entries match any size.
+pub fn check_shape(what: &str, shape: &[usize], dims: &[Option<usize>]) -> PyResult<()> {
+    if shape.len() == dims.len() && shape.iter().zip(dims).all(|(s, d)| d.is_none_or(|d| d == *s)) {
         return Ok(());
     }
-    let exp: Vec<String> = expected.iter().map(|e| e.map_or("N".to_string(), |v| v.to_string())).collect();
-    Err(value_error(format!("{what}: expected an array of shape ({}), got shape {:?}", exp.join(", "), shape)))
+    let want: Vec<String> = dims.iter().map(|d| d.map_or("N".to_string(), |v| v.to_string())).collect();
+    let want = match dims {
+        [None] => "a 1-D array".to_string(),
+        [Some(n)] => format!("an array of shape ({n},)"),
+        _ => format!("an array of shape ({})", want.join(", ")),
+    };
+    Err(invalid(what, want, format!("shape {}", shape_text(shape))))
 }
 
-/// A 1-D array of n values: a contiguous float64 numpy array is read directly (no conversion object),
-/// anything else (lists, other dtypes, strided views) through [`ArrayIn`].
-pub fn vector_fast(what: &str, obj: &Bound<'_, PyAny>, n: usize) -> PyResult<Vec<f64>> {
+/// Values of an array of the given shape (`None`: any size). An empty list (shape (0,)) is zero rows of a
+/// (N, ...) array.
+pub fn shaped(what: &str, obj: &Bound<'_, PyAny>, dims: &[Option<usize>]) -> PyResult<(Vec<f64>, Vec<usize>)> {
+    let (v, shape) = read(what, obj)?;
+    if v.is_empty() && shape == [0] && dims.len() > 1 && dims[0].is_none() {
+        let mut s = vec![0];
+        s.extend(dims[1..].iter().map(|d| d.unwrap_or(0)));
+        return Ok((v, s));
+    }
+    check_shape(what, &shape, dims)?;
+    Ok((v, shape))
+}
+
+/// A 1-D array (its length is checked by the core).
+pub fn vector(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
+    // the per-call hot path (fk, jacobian, rnea of one configuration): a float64 vector copied at once
     if let Ok(a) = obj.downcast::<numpy::PyArray1<f64>>() {
         if let Ok(v) = a.to_vec() {
-            if v.len() != n {
-                return Err(value_error(format!("{what}: expected an array of shape ({n}), got shape [{}]", v.len())));
-            }
-            check_finite(what, &v)?;
             return Ok(v);
         }
     }
-    let a: ArrayIn<'_> = obj.extract()?;
-    vector(what, &a, n)
-}
-
-/// A (rows, cols) numpy array copied from row-major values: one numpy-owned array, no reshape and no
-/// container object (the cheapest way to hand a small result to Python).
-pub fn matrix_out<'py>(py: Python<'py>, v: &[f64], rows: usize, cols: usize) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    use numpy::ToPyArray;
-    let a = numpy::ndarray::ArrayView2::from_shape((rows, cols), v).map_err(|e| value_error(e.to_string()))?;
-    Ok(a.to_pyarray(py))
-}
-
-/// A 1-D array of length n.
-pub fn vector(what: &str, a: &ArrayIn<'_>, n: usize) -> PyResult<Vec<f64>> {
-    let (v, shape) = values(a);
-    check_shape(what, &shape, &[Some(n)])?;
-    check_finite(what, &v)?;
+    let (v, shape) = converted(what, obj)?;
+    check_shape(what, &shape, &[None])?;
     Ok(v)
 }
 
-/// Every value finite, else an error naming the first bad index.
-pub fn check_finite(what: &str, v: &[f64]) -> PyResult<()> {
-    match v.iter().position(|x| !x.is_finite()) {
-        Some(i) => Err(value_error(format!("{what} must be finite, got {} at flat index {i}", v[i]))),
-        None => Ok(()),
+/// [`vector`] of an optional argument, `None` when absent.
+pub fn opt_vector(what: &str, obj: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Vec<f64>>> {
+    obj.map(|o| vector(what, o)).transpose()
+}
+
+/// `Error::SizeMismatch` unless `got == expected` (for lengths the binding needs before the core sees them).
+pub fn check_len(what: &str, expected: usize, got: usize) -> PyResult<()> {
+    if expected == got {
+        Ok(())
+    } else {
+        Err(to_py(Error::SizeMismatch { what: what.into(), expected, got }))
     }
 }
 
-/// A 4x4 rigid transform from an array-like.
-pub fn pose(what: &str, a: &ArrayIn<'_>) -> PyResult<Pose> {
-    let (v, shape) = values(a);
-    check_shape(what, &shape, &[Some(4), Some(4)])?;
-    pose_from_matrix(&Matrix4::from_row_slice(&v), what).py()
-}
-
-/// A 4x4 rigid transform from a row-major slice of 16 values.
-pub fn pose_from_slice(what: &str, v: &[f64]) -> PyResult<Pose> {
-    pose_from_matrix(&Matrix4::from_row_slice(v), what).map_err(to_py)
-}
-
-/// [`pose_from_slice`] that skips the SVD re-orthonormalisation when the rotation is already orthonormal
-/// to rounding (|R^T R - I| and |det R - 1| <= 1e-14): the common case of a pose computed by a program.
-/// Anything else (including every invalid input) goes through the full check, with its messages.
-pub fn pose_from_slice_fast(what: &str, v: &[f64]) -> PyResult<Pose> {
+/// A rigid transform from 16 row-major values: kept bit for bit when the rotation is orthonormal to rounding
+/// (|R^T R - I| and |det R - 1| <= 1e-14, e.g. a pose computed by a program or read back from a pickle);
+/// anything else goes through the core's check and re-orthonormalisation (`spatial::pose_from_matrix`).
+pub fn pose_from_values(what: &str, v: &[f64]) -> PyResult<Pose> {
     if v.len() == 16 && v.iter().all(|x| x.is_finite()) && v[12..] == [0.0, 0.0, 0.0, 1.0] {
-        let r = nalgebra::Matrix3::new(v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10]);
-        let orth = (r.transpose() * r - nalgebra::Matrix3::identity()).amax();
+        let r = Matrix3::new(v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10]);
+        let orth = (r.transpose() * r - Matrix3::identity()).amax();
         if orth <= 1e-14 && (r.determinant() - 1.0).abs() <= 1e-14 {
-            return Ok(Pose::from_parts(nalgebra::Translation3::new(v[3], v[7], v[11]), nalgebra::Rotation3::from_matrix_unchecked(r)));
+            return Ok(Pose::from_parts(Translation3::new(v[3], v[7], v[11]), Rotation3::from_matrix_unchecked(r)));
         }
     }
-    pose_from_slice(what, v)
+    pose_from_matrix(&Matrix4::from_row_slice(v), what).py()
 }
 
-/// A 4x4 rigid transform from any array-like, reading a contiguous float64 (4, 4) array in place.
-pub fn pose_fast(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Pose> {
+/// A (4, 4) rigid transform.
+pub fn pose(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Pose> {
+    let (v, _) = shaped(what, obj, &[Some(4), Some(4)])?;
+    pose_from_values(what, &v)
+}
+
+/// An optional (4, 4) rigid transform, identity when absent.
+pub fn opt_pose(what: &str, obj: Option<&Bound<'_, PyAny>>) -> PyResult<Pose> {
+    obj.map_or_else(|| Ok(Pose::identity()), |o| pose(what, o))
+}
+
+/// (N, 4, 4) rigid transforms, element i named `what[i]`.
+pub fn poses(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec<Pose>> {
+    let (v, _) = shaped(what, obj, &[None, Some(4), Some(4)])?;
+    v.chunks_exact(16).enumerate().map(|(i, c)| pose_from_values(&format!("{what}[{i}]"), c)).collect()
+}
+
+/// (N, 3) points or directions.
+pub fn vectors3(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec<Vector3<f64>>> {
+    let (v, _) = shaped(what, obj, &[None, Some(3)])?;
+    Ok(v.chunks_exact(3).map(Vector3::from_row_slice).collect())
+}
+
+/// A batch (N, k): borrowed in place when a C-contiguous float64 numpy array, else converted.
+pub enum Rows<'py> {
+    Borrowed(PyReadonlyArray2<'py, f64>),
+    Owned(Vec<f64>),
+}
+
+impl Rows<'_> {
+    /// The values, row-major.
+    pub fn slice(&self) -> &[f64] {
+        match self {
+            Rows::Borrowed(a) => a.as_slice().unwrap_or(&[]),
+            Rows::Owned(v) => v,
+        }
+    }
+}
+
+/// A batch (N, k) and its number of rows N (that several batches agree is the core's check).
+pub fn rows<'py>(what: &str, obj: &Bound<'py, PyAny>, k: usize) -> PyResult<(Rows<'py>, usize)> {
     if let Ok(a) = obj.downcast::<PyArray2<f64>>() {
         if a.is_c_contiguous() {
-            if let Ok(v) = a.to_vec() {
-                if v.len() == 16 && a.shape() == [4, 4] {
-                    return pose_from_slice_fast(what, &v);
+            check_shape(what, a.shape(), &[None, Some(k)])?;
+            if let Ok(r) = a.try_readonly() {
+                if r.as_slice().is_ok() {
+                    return Ok((Rows::Borrowed(r), a.shape()[0]));
                 }
             }
         }
     }
-    let a: ArrayIn<'_> = obj.extract()?;
-    let (v, shape) = values(&a);
-    check_shape(what, &shape, &[Some(4), Some(4)])?;
-    pose_from_slice_fast(what, &v)
+    let (v, shape) = shaped(what, obj, &[None, Some(k)])?;
+    Ok((Rows::Owned(v), shape[0]))
 }
 
-/// A 3-vector.
-#[allow(dead_code)]
-pub fn vec3(what: &str, a: &ArrayIn<'_>) -> PyResult<Vector3<f64>> {
-    let v = vector(what, a, 3)?;
-    Ok(Vector3::new(v[0], v[1], v[2]))
-}
-
-/// A pose as a (4, 4) numpy array.
-pub fn pose_out<'py>(py: Python<'py>, t: &Pose) -> Bound<'py, PyArray2<f64>> {
-    let mut v = vec![0.0; 16];
-    write_pose(t, &mut v);
-    numpy::PyArray1::from_vec(py, v).reshape([4, 4]).expect("16 values make a 4x4 array")
+/// Row-major values as a new numpy array of the given shape (copied into numpy-owned memory: for small
+/// results the cheapest hand-over).
+pub fn out<'py, Sh: ShapeBuilder>(py: Python<'py>, v: &[f64], shape: Sh) -> PyResult<Bound<'py, PyArray<f64, Sh::Dim>>> {
+    let a = ArrayView::from_shape(shape, v).map_err(|e| invalid("result array", "values matching its shape", e.to_string()))?;
+    Ok(a.to_pyarray(py))
 }
 
 /// Write a pose row-major into 16 values.
@@ -138,8 +192,34 @@ pub fn write_pose(t: &Pose, out: &mut [f64]) {
     }
 }
 
-/// Row-major values as a numpy array of the given shape.
-#[allow(dead_code)]
-pub fn array_out<'py>(py: Python<'py>, v: Vec<f64>, shape: &[usize]) -> PyResult<Bound<'py, numpy::PyArrayDyn<f64>>> {
-    numpy::PyArray1::from_vec(py, v).reshape(shape.to_vec())
+/// A pose as a (4, 4) numpy array.
+pub fn pose_out<'py>(py: Python<'py>, t: &Pose) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let mut v = [0.0; 16];
+    write_pose(t, &mut v);
+    out(py, &v, [4, 4])
+}
+
+/// Poses as a (N, 4, 4) numpy array.
+pub fn poses_out<'py, 'a>(py: Python<'py>, ts: impl ExactSizeIterator<Item = &'a Pose>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+    let n = ts.len();
+    let mut v = vec![0.0; 16 * n];
+    for (t, o) in ts.zip(v.chunks_exact_mut(16)) {
+        write_pose(t, o);
+    }
+    out(py, &v, [n, 4, 4])
+}
+
+/// A new (zeroed) numpy array of `shape` filled by `kernel` without the GIL (batches run on every core).
+pub fn batch_out<'py, D: numpy::ndarray::Dimension>(
+    py: Python<'py>,
+    shape: D,
+    kernel: impl FnOnce(&mut [f64]) -> denavit_core::Result<()> + Send,
+) -> PyResult<Bound<'py, PyArray<f64, D>>> {
+    let a = PyArray::<f64, D>::zeros(py, shape, false);
+    {
+        let mut rw = a.readwrite();
+        let o = rw.as_slice_mut()?;
+        py.allow_threads(|| kernel(o)).py()?;
+    }
+    Ok(a)
 }

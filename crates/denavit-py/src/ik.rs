@@ -1,14 +1,13 @@
 //! Inverse kinematics (denavit_core::ik): single solves, warm-started paths and batches (paths and
 //! batches release the GIL; batches use every core).
 
-use crate::convert::{check_shape, pose_fast, pose_from_slice_fast, values, vector_fast, ArrayIn};
-use crate::error::{value_error, IntoPy};
+use crate::convert::{check_len, check_shape, opt_vector, out, pose, poses, read, vector};
+use crate::error::{invalid, IntoPy};
 use crate::model::PyModel;
 use denavit_core::ik::{self as core_ik, IkMethod, IkOptions, IkResult};
-use denavit_core::spatial::Pose;
-use numpy::{PyArray1, PyArray2, PyArrayMethods};
+use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
-use pyo3::types::PyList;
+use pyo3::types::{PyList, PyTuple};
 
 /// The outcome of one IK solve; the errors are measured at the returned q.
 #[pyclass(module = "denavit._core", name = "IkResult", frozen)]
@@ -19,6 +18,15 @@ pub struct PyIkResult {
 
 #[pymethods]
 impl PyIkResult {
+    #[new]
+    fn new(q: &Bound<'_, PyAny>, success: bool, iterations: usize, restarts: usize, position_error: f64, rotation_error: f64) -> PyResult<Self> {
+        Ok(Self { inner: IkResult { q: vector("q", q)?, success, iterations, restarts, position_error, rotation_error } })
+    }
+    /// Pickle / copy: `IkResult(q, success, iterations, restarts, position_error, rotation_error)`.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        let r = &self.inner;
+        (py.get_type::<Self>(), (self.q(py), r.success, r.iterations, r.restarts, r.position_error, r.rotation_error)).into_pyobject(py)
+    }
     /// (n,) the solution (rad / m), or the best configuration found when success is False.
     #[getter]
     fn q<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
@@ -79,11 +87,24 @@ impl PyIkBatchResult {
 
 #[pymethods]
 impl PyIkBatchResult {
+    /// results : the IkResult of each target, in order; nq : joints (the width of `q` when there are none).
+    #[new]
+    fn new(results: Vec<PyIkResult>, nq: usize) -> PyResult<Self> {
+        for (i, r) in results.iter().enumerate() {
+            check_len(&format!("q of result {i}"), nq, r.inner.q.len())?;
+        }
+        Ok(Self { results: results.into_iter().map(|r| r.inner).collect(), n: nq })
+    }
+    /// Pickle / copy: `IkBatchResult(results, nq)`.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        let items: Vec<PyIkResult> = self.results.iter().map(|r| PyIkResult { inner: r.clone() }).collect();
+        (py.get_type::<Self>(), (items, self.n)).into_pyobject(py)
+    }
     /// (N, n) solutions (rad / m).
     #[getter]
     fn q<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let v: Vec<f64> = self.results.iter().flat_map(|r| r.q.iter().copied()).collect();
-        PyArray1::from_vec(py, v).reshape([self.results.len(), self.n])
+        out(py, &v, [self.results.len(), self.n])
     }
     /// (N,) bool.
     #[getter]
@@ -134,21 +155,26 @@ impl PyIkBatchResult {
 }
 
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn options(method: &str, tol_position: f64, tol_rotation: f64, max_iterations: i64, restarts: i64, seed: i64, respect_limits: bool, damping: f64) -> PyResult<IkOptions> {
+pub(crate) fn options(
+    method: &str,
+    tol_position: f64,
+    tol_rotation: f64,
+    max_iterations: i64,
+    restarts: i64,
+    seed: i64,
+    respect_limits: bool,
+    damping: f64,
+) -> PyResult<IkOptions> {
     let method = IkMethod::parse(method).py()?;
-    let count = |what: &str, v: i64, min: i64| -> PyResult<usize> {
-        if v < min {
-            return Err(value_error(format!("{what}: expected an integer >= {min}, got {v}")));
-        }
-        Ok(v as usize)
-    };
+    // Python ints to the core's unsigned counts; the core checks the ranges it needs (max_iterations >= 1)
+    let count = |what: &str, v: i64| usize::try_from(v).map_err(|_| invalid(what, "an integer >= 0", v.to_string()));
     let opts = IkOptions {
         method,
         tol_position,
         tol_rotation,
-        max_iterations: count("max_iterations", max_iterations, 1)?,
-        restarts: count("restarts", restarts, 0)?,
-        seed: count("seed", seed, 0)? as u64,
+        max_iterations: count("max_iterations", max_iterations)?,
+        restarts: count("restarts", restarts)?,
+        seed: count("seed", seed)? as u64,
         respect_limits,
         damping,
     };
@@ -157,16 +183,7 @@ pub(crate) fn options(method: &str, tol_position: f64, tol_rotation: f64, max_it
 }
 
 pub(crate) fn start(model: &PyModel, q0: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Vec<f64>> {
-    match q0 {
-        Some(a) => vector_fast(what, a, model.inner.nq()),
-        None => Ok(vec![0.0; model.inner.nq()]),
-    }
-}
-
-pub(crate) fn targets_of(targets: &ArrayIn<'_>) -> PyResult<Vec<Pose>> {
-    let (v, shape) = values(targets);
-    check_shape("targets", &shape, &[None, Some(4), Some(4)])?;
-    v.chunks_exact(16).enumerate().map(|(i, c)| pose_from_slice_fast(&format!("targets[{i}]"), c)).collect()
+    Ok(opt_vector(what, q0)?.unwrap_or_else(|| vec![0.0; model.inner.nq()]))
 }
 
 /// Inverse kinematics of one target T_world_tool (4, 4) from q0 (n,) in rad / m (default zeros).
@@ -190,7 +207,7 @@ pub fn ik(
     damping: f64,
 ) -> PyResult<PyIkResult> {
     let opts = options(method, tol_position, tol_rotation, max_iterations, restarts, seed, respect_limits, damping)?;
-    let target = pose_fast("T_target", T_target)?;
+    let target = pose("T_target", T_target)?;
     let q0 = start(model, q0, "q0")?;
     let m: &denavit_core::Model = &model.inner;
     // an unreachable target runs every restart (up to a millisecond): let other threads run meanwhile
@@ -206,7 +223,7 @@ pub fn ik(
 pub fn ik_path(
     py: Python<'_>,
     model: &PyModel,
-    targets: ArrayIn<'_>,
+    targets: &Bound<'_, PyAny>,
     q0: Option<&Bound<'_, PyAny>>,
     method: &str,
     tol_position: f64,
@@ -218,7 +235,7 @@ pub fn ik_path(
     damping: f64,
 ) -> PyResult<PyIkBatchResult> {
     let opts = options(method, tol_position, tol_rotation, max_iterations, restarts, seed, respect_limits, damping)?;
-    let targets = targets_of(&targets)?;
+    let targets = poses("targets", targets)?;
     let q0 = start(model, q0, "q0")?;
     let m = model.inner.clone();
     let results = py.allow_threads(move || core_ik::ik_path(&m, &targets, &q0, &opts)).py()?;
@@ -233,8 +250,8 @@ pub fn ik_path(
 pub fn ik_batch(
     py: Python<'_>,
     model: &PyModel,
-    targets: ArrayIn<'_>,
-    q0s: Option<ArrayIn<'_>>,
+    targets: &Bound<'_, PyAny>,
+    q0s: Option<&Bound<'_, PyAny>>,
     method: &str,
     tol_position: f64,
     tol_rotation: f64,
@@ -245,17 +262,15 @@ pub fn ik_batch(
     damping: f64,
 ) -> PyResult<PyIkBatchResult> {
     let opts = options(method, tol_position, tol_rotation, max_iterations, restarts, seed, respect_limits, damping)?;
-    let targets = targets_of(&targets)?;
+    let targets = poses("targets", targets)?;
     let n = model.inner.nq();
+    // (n,) for every target or (N, n): the core tells them apart by length
     let q0s = match q0s {
         Some(a) => {
-            let (v, shape) = values(&a);
-            if shape.len() == 1 {
-                check_shape("q0s", &shape, &[Some(n)])?;
-            } else {
-                check_shape("q0s", &shape, &[Some(targets.len()), Some(n)])?;
+            let (v, shape) = read("q0s", a)?;
+            if shape.len() != 1 {
+                check_shape("q0s", &shape, &[None, Some(n)])?;
             }
-            crate::convert::check_finite("q0s", &v)?;
             v
         }
         None => vec![0.0; n],

@@ -1,48 +1,42 @@
 //! `Model`, `Table`, `JointAxes` and `Extraction` as Python classes.
 
-use crate::convert::{check_shape, pose, pose_out, values, vector, write_pose, ArrayIn};
-use crate::error::{value_error, IntoPy};
+use crate::convert::{check_len, opt_pose, opt_vector, out, pose, pose_out, poses, poses_out, shaped, vector, vectors3};
+use crate::error::{at_joint, invalid, of_joint, IntoPy};
+use denavit_core::dynamics::{self, Inertia};
 use denavit_core::extract::{self as core_extract, ExtractOptions};
-use denavit_core::spatial::Pose;
 use denavit_core::{Convention, Joint, JointKind};
-use nalgebra::{DMatrix, Vector3};
-use numpy::{PyArray2, PyArray3, PyArrayMethods};
+use nalgebra::{DMatrix, Matrix3, Vector3};
+use numpy::{PyArray1, PyArray2, PyArray3};
 use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyTuple};
 use std::sync::Arc;
 
-fn kinds_from(what: &str, kinds: Vec<String>, n: usize) -> PyResult<Vec<JointKind>> {
-    if kinds.len() != n {
-        return Err(value_error(format!("{what}: expected {n} joint kinds, got {}", kinds.len())));
-    }
-    kinds.iter().map(|k| JointKind::parse(k).py()).collect()
-}
-
-fn opt_vector(what: &str, a: Option<ArrayIn<'_>>, n: usize, default: impl Fn(usize) -> f64) -> PyResult<Vec<f64>> {
-    match a {
-        Some(a) => {
-            let (v, shape) = values(&a);
-            check_shape(what, &shape, &[Some(n)])?;
-            if v.iter().any(|x| x.is_nan()) {
-                return Err(value_error(format!("{what} must not contain NaN")));
-            }
-            Ok(v)
+fn kinds_of(kinds: Option<Vec<String>>, n: usize) -> PyResult<Vec<JointKind>> {
+    match kinds {
+        Some(k) => {
+            check_len("joint kinds (one per joint)", n, k.len())?;
+            k.iter().map(|k| JointKind::parse(k).py()).collect()
         }
-        None => Ok((0..n).map(default).collect()),
+        None => Ok(vec![JointKind::Revolute; n]),
     }
 }
 
-fn default_limit(kinds: &[JointKind], upper: bool) -> impl Fn(usize) -> f64 + '_ {
-    move |i| {
-        let l = match kinds[i] {
-            JointKind::Revolute => std::f64::consts::PI,
-            JointKind::Prismatic => 1.0,
-        };
-        if upper {
-            l
-        } else {
-            -l
-        }
-    }
+/// `functools.partial(f, **kwargs)`: how `__reduce__` passes keyword arguments to a constructor.
+fn partial<'py>(f: Bound<'py, PyAny>, kwargs: &Bound<'py, PyDict>) -> PyResult<Bound<'py, PyAny>> {
+    f.py().import("functools")?.getattr("partial")?.call((f,), Some(kwargs))
+}
+
+/// The link inertias as arrays: masses (n,), coms (n, 3), inertias (n, 3, 3) about each centre of mass,
+/// every link in its joint frame.
+#[allow(clippy::type_complexity)]
+fn inertia_arrays<'py>(py: Python<'py>, model: &PyModel) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray2<f64>>, Bound<'py, PyArray3<f64>>)> {
+    let list = model.inner.inertias();
+    let n = list.len();
+    let masses: Vec<f64> = list.iter().map(|i| i.mass()).collect();
+    let coms: Vec<f64> = list.iter().flat_map(|i| i.com().iter().copied().collect::<Vec<_>>()).collect();
+    // row-major 3x3: nalgebra's column-major storage of the transpose
+    let tensors: Vec<f64> = list.iter().flat_map(|i| i.inertia_com().transpose().as_slice().to_vec()).collect();
+    Ok((PyArray1::from_vec(py, masses), out(py, &coms, [n, 3])?, out(py, &tensors, [n, 3, 3])?))
 }
 
 /// An immutable serial-chain model (docs/conventions.md, "The model").
@@ -57,40 +51,42 @@ impl PyModel {
     /// Build from joint placements.
     ///
     /// placements : (n, 4, 4) T_{i-1}_i0 in metres; kinds : n strings ("revolute"/"prismatic");
-    /// offsets, lower, upper : (n,) rad or m; names : n strings; T_world_base, T_flange_tool : (4, 4).
+    /// offsets : (n,) rad or m (default zeros); lower, upper : (n,) rad or m (default the core's, -pi..pi and
+    /// -1..1 m); names : n strings (default j1..jn); T_world_base, T_flange_tool : (4, 4).
     #[staticmethod]
     #[pyo3(signature = (placements, kinds, *, offsets=None, lower=None, upper=None, names=None, T_world_base=None, T_flange_tool=None, name="robot"))]
     #[allow(non_snake_case, clippy::too_many_arguments)]
     fn from_placements(
-        placements: ArrayIn<'_>,
+        placements: &Bound<'_, PyAny>,
         kinds: Vec<String>,
-        offsets: Option<ArrayIn<'_>>,
-        lower: Option<ArrayIn<'_>>,
-        upper: Option<ArrayIn<'_>>,
+        offsets: Option<&Bound<'_, PyAny>>,
+        lower: Option<&Bound<'_, PyAny>>,
+        upper: Option<&Bound<'_, PyAny>>,
         names: Option<Vec<String>>,
-        T_world_base: Option<ArrayIn<'_>>,
-        T_flange_tool: Option<ArrayIn<'_>>,
+        T_world_base: Option<&Bound<'_, PyAny>>,
+        T_flange_tool: Option<&Bound<'_, PyAny>>,
         name: &str,
     ) -> PyResult<Self> {
-        let (v, shape) = values(&placements);
-        let n = shape.first().copied().unwrap_or(0);
-        check_shape("placements", &shape, &[Some(n), Some(4), Some(4)])?;
-        let kinds = kinds_from("kinds", kinds, n)?;
-        let offsets = opt_vector("offsets", offsets, n, |_| 0.0)?;
-        crate::convert::check_finite("offsets", &offsets)?;
-        let lower = opt_vector("lower", lower, n, default_limit(&kinds, false))?;
-        let upper = opt_vector("upper", upper, n, default_limit(&kinds, true))?;
+        let placements = poses("placements", placements)?;
+        let n = placements.len();
+        let kinds = kinds_of(Some(kinds), n)?;
         let names = names.unwrap_or_else(|| (1..=n).map(|i| format!("j{i}")).collect());
-        if names.len() != n {
-            return Err(value_error(format!("names: expected {n} joint names, got {}", names.len())));
+        check_len("joint names (one per joint)", n, names.len())?;
+        let mut joints: Vec<Joint> = (0..n).map(|i| Joint::new(names[i].clone(), kinds[i], placements[i])).collect();
+        for (what, values) in [("offsets", offsets), ("lower", lower), ("upper", upper)] {
+            if let Some(v) = opt_vector(what, values)? {
+                check_len(&format!("{what} (one per joint)"), n, v.len())?;
+                for (j, x) in joints.iter_mut().zip(v) {
+                    *match what {
+                        "offsets" => &mut j.offset,
+                        "lower" => &mut j.lower,
+                        _ => &mut j.upper,
+                    } = x;
+                }
+            }
         }
-        let mut joints = Vec::with_capacity(n);
-        for i in 0..n {
-            let p = crate::convert::pose_from_slice(&format!("placements[{i}] (joint {})", i + 1), &v[16 * i..16 * i + 16])?;
-            joints.push(Joint { name: names[i].clone(), kind: kinds[i], placement: p, offset: offsets[i], lower: lower[i], upper: upper[i] });
-        }
-        let base = T_world_base.map(|a| pose("T_world_base", &a)).transpose()?.unwrap_or_else(Pose::identity);
-        let tool = T_flange_tool.map(|a| pose("T_flange_tool", &a)).transpose()?.unwrap_or_else(Pose::identity);
+        let base = opt_pose("T_world_base", T_world_base)?;
+        let tool = opt_pose("T_flange_tool", T_flange_tool)?;
         Ok(Self { inner: Arc::new(denavit_core::Model::new(name, base, joints, tool).py()?) })
     }
 
@@ -116,12 +112,7 @@ impl PyModel {
     /// (n, 4, 4) joint placements T_{i-1}_i0.
     #[getter]
     fn placements<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
-        let n = self.inner.nq();
-        let mut v = vec![0.0; 16 * n];
-        for (i, j) in self.inner.joints().iter().enumerate() {
-            write_pose(&j.placement, &mut v[16 * i..16 * i + 16]);
-        }
-        numpy::PyArray1::from_vec(py, v).reshape([n, 4, 4])
+        poses_out(py, self.inner.joints().iter().map(|j| &j.placement))
     }
     /// (n,) zero offsets.
     #[getter]
@@ -140,23 +131,121 @@ impl PyModel {
     }
     #[getter]
     #[allow(non_snake_case)]
-    fn T_world_base<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+    fn T_world_base<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         pose_out(py, self.inner.t_world_base())
     }
     #[getter]
     #[allow(non_snake_case)]
-    fn T_flange_tool<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+    fn T_flange_tool<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         pose_out(py, self.inner.t_flange_tool())
     }
     /// A copy with another base placement.
     #[allow(non_snake_case)]
-    fn with_base(&self, T_world_base: ArrayIn<'_>) -> PyResult<Self> {
-        Ok(Self { inner: Arc::new(self.inner.with_base(pose("T_world_base", &T_world_base)?).py()?) })
+    fn with_base(&self, T_world_base: &Bound<'_, PyAny>) -> PyResult<Self> {
+        Ok(Self { inner: Arc::new(self.inner.with_base(pose("T_world_base", T_world_base)?).py()?) })
     }
     /// A copy with another tool.
     #[allow(non_snake_case)]
-    fn with_tool(&self, T_flange_tool: ArrayIn<'_>) -> PyResult<Self> {
-        Ok(Self { inner: Arc::new(self.inner.with_tool(pose("T_flange_tool", &T_flange_tool)?).py()?) })
+    fn with_tool(&self, T_flange_tool: &Bound<'_, PyAny>) -> PyResult<Self> {
+        Ok(Self { inner: Arc::new(self.inner.with_tool(pose("T_flange_tool", T_flange_tool)?).py()?) })
+    }
+    /// A copy of the model with link inertial parameters (docs/conventions.md, "Dynamics").
+    ///
+    /// Parameters
+    /// ----------
+    /// masses : array-like, shape (n,)
+    ///     Link masses in kg (>= 0).
+    /// coms : array-like, shape (n, 3)
+    ///     Centres of mass in m.
+    /// inertias : array-like, shape (n, 3, 3)
+    ///     Rotational inertias in kg m^2: symmetric, positive semi-definite, principal moments obeying the
+    ///     triangle inequality; about each centre of mass (``about="com"``) or about the frame origin
+    ///     (``about="origin"``, the parallel-axis theorem is applied).
+    /// frame : {"link", "world"}
+    ///     ``"link"``: link i in its joint frame i (the frame moving with link i); ``"world"``: every link in
+    ///     world with the robot at ``q_ref`` (default zeros), e.g. as exported from CAD at home.
+    ///
+    /// An error about one link says which (``DenavitError.joint``, 1-based).
+    #[pyo3(signature = (masses, coms, inertias, frame="link", about="com", q_ref=None))]
+    fn with_inertias(
+        &self,
+        masses: &Bound<'_, PyAny>,
+        coms: &Bound<'_, PyAny>,
+        inertias: &Bound<'_, PyAny>,
+        frame: &str,
+        about: &str,
+        q_ref: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let m = &self.inner;
+        let world = match frame {
+            "link" => false,
+            "world" => true,
+            _ => return Err(invalid("frame", "'link' or 'world'", format!("'{frame}'"))),
+        };
+        if !world && q_ref.is_some() {
+            return Err(invalid("q_ref", "None with frame='link' (q_ref is the configuration of frame='world' inertias)", "an array"));
+        }
+        let mv = vector("masses (kg)", masses)?;
+        let (cv, _) = shaped("coms (centres of mass, m)", coms, &[None, Some(3)])?;
+        let (iv, _) = shaped("inertias (kg m^2)", inertias, &[None, Some(3), Some(3)])?;
+        let link = |i: usize| -> Option<(Vector3<f64>, Matrix3<f64>)> {
+            Some((Vector3::from_row_slice(cv.get(3 * i..3 * i + 3)?), Matrix3::from_row_slice(iv.get(9 * i..9 * i + 9)?)))
+        };
+        let mut list = match about {
+            // the core's checks and messages ("... of link i ..."); the failing link found again for `joint`
+            "com" => dynamics::inertias_from_slices(&mv, &cv, &iv).map_err(|e| {
+                let bad = (0..mv.len()).find(|&i| link(i).is_some_and(|(c, t)| Inertia::new(mv[i], c, t).is_err()));
+                of_joint(e, bad.map(|i| i + 1))
+            })?,
+            "origin" => {
+                check_len("coms (one per link)", mv.len(), cv.len() / 3)?;
+                check_len("inertias (one per link)", mv.len(), iv.len() / 9)?;
+                (0..mv.len())
+                    .map(|i| {
+                        let (c, t) = link(i).unwrap_or_default();
+                        Inertia::from_origin(mv[i], c, t).map_err(|e| at_joint(e, "link", i + 1))
+                    })
+                    .collect::<PyResult<Vec<_>>>()?
+            }
+            _ => return Err(invalid("about", "'com' or 'origin'", format!("'{about}'"))),
+        };
+        if world {
+            let q = opt_vector("q_ref", q_ref)?.unwrap_or_else(|| vec![0.0; m.nq()]);
+            list = dynamics::inertias_in_world(m, &q, &list).py()?;
+        }
+        Ok(Self { inner: Arc::new(m.with_inertias(list).py()?) })
+    }
+    /// Link inertial parameters: dict with "masses" (n,) kg, "coms" (n, 3) m and "inertias" (n, 3, 3) kg m^2
+    /// about each centre of mass, every link in its joint frame; ``model.with_inertias(**model.inertias)``
+    /// round-trips.
+    #[getter]
+    fn inertias<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let (masses, coms, tensors) = inertia_arrays(py, self)?;
+        let d = PyDict::new(py);
+        d.set_item("masses", masses)?;
+        d.set_item("coms", coms)?;
+        d.set_item("inertias", tensors)?;
+        Ok(d)
+    }
+    /// Pickle / copy: `Model.from_placements(...)`, then `with_inertias` when a link has mass or inertia.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        let m = &self.inner;
+        if m.inertias().iter().any(|i| *i != Inertia::zero()) {
+            let bare = Self { inner: Arc::new(denavit_core::Model::new(m.name(), *m.t_world_base(), m.joints().to_vec(), *m.t_flange_tool()).py()?) };
+            let (masses, coms, inertias) = inertia_arrays(py, self)?;
+            let args = (bare, masses, coms, inertias);
+            return (py.get_type::<Self>().getattr("with_inertias")?, args).into_pyobject(py);
+        }
+        let kw = PyDict::new(py);
+        kw.set_item("offsets", self.offsets())?;
+        kw.set_item("lower", self.lower())?;
+        kw.set_item("upper", self.upper())?;
+        kw.set_item("names", self.names())?;
+        kw.set_item("T_world_base", self.T_world_base(py)?)?;
+        kw.set_item("T_flange_tool", self.T_flange_tool(py)?)?;
+        kw.set_item("name", m.name())?;
+        let f = partial(py.get_type::<Self>().getattr("from_placements")?, &kw)?;
+        (f, (self.placements(py)?, self.kinds())).into_pyobject(py)
     }
     fn __repr__(&self) -> String {
         format!("Model('{}', {} joints: {})", self.inner.name(), self.inner.nq(), self.names().join(", "))
@@ -177,18 +266,20 @@ impl PyTable {
     #[new]
     #[pyo3(signature = (convention, params, kinds=None, T_world_base=None, T_last_tool=None))]
     #[allow(non_snake_case)]
-    fn new(convention: &str, params: ArrayIn<'_>, kinds: Option<Vec<String>>, T_world_base: Option<ArrayIn<'_>>, T_last_tool: Option<ArrayIn<'_>>) -> PyResult<Self> {
+    fn new(
+        convention: &str,
+        params: &Bound<'_, PyAny>,
+        kinds: Option<Vec<String>>,
+        T_world_base: Option<&Bound<'_, PyAny>>,
+        T_last_tool: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
         let conv = Convention::parse(convention).py()?;
-        let (v, shape) = values(&params);
         let k = conv.columns().len();
-        let n = shape.first().copied().unwrap_or(0);
-        check_shape(&format!("params of a {} table (columns {})", conv.name(), conv.columns().join(", ")), &shape, &[Some(n), Some(k)])?;
-        let kinds = match kinds {
-            Some(k) => kinds_from("kinds", k, n)?,
-            None => vec![JointKind::Revolute; n],
-        };
-        let base = T_world_base.map(|a| pose("T_world_base", &a)).transpose()?.unwrap_or_else(Pose::identity);
-        let tool = T_last_tool.map(|a| pose("T_last_tool", &a)).transpose()?.unwrap_or_else(Pose::identity);
+        let (v, shape) = shaped(&format!("params of a {} table (columns {})", conv.name(), conv.columns().join(", ")), params, &[None, Some(k)])?;
+        let n = shape[0];
+        let kinds = kinds_of(kinds, n)?;
+        let base = opt_pose("T_world_base", T_world_base)?;
+        let tool = opt_pose("T_last_tool", T_last_tool)?;
         Ok(Self { inner: denavit_core::Table::new(conv, DMatrix::from_row_slice(n, k, &v), kinds, base, tool).py()? })
     }
     #[getter]
@@ -210,7 +301,7 @@ impl PyTable {
     fn params<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let p = &self.inner.params;
         let v: Vec<f64> = (0..p.nrows()).flat_map(|i| (0..p.ncols()).map(move |j| p[(i, j)])).collect();
-        numpy::PyArray1::from_vec(py, v).reshape([p.nrows(), p.ncols()])
+        out(py, &v, [p.nrows(), p.ncols()])
     }
     #[getter]
     fn kinds(&self) -> Vec<&'static str> {
@@ -218,32 +309,35 @@ impl PyTable {
     }
     #[getter]
     #[allow(non_snake_case)]
-    fn T_world_base<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+    fn T_world_base<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         pose_out(py, &self.inner.t_world_base)
     }
     #[getter]
     #[allow(non_snake_case)]
-    fn T_last_tool<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+    fn T_last_tool<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         pose_out(py, &self.inner.t_last_tool)
     }
-    /// The model of this table; names / lower / upper default to j1..jn and +-pi (+-1 m).
+    /// The model of this table; names / lower / upper default to j1..jn and the core's limits (+-pi, +-1 m).
     #[pyo3(signature = (name="robot", names=None, lower=None, upper=None))]
-    fn to_model(&self, name: &str, names: Option<Vec<String>>, lower: Option<ArrayIn<'_>>, upper: Option<ArrayIn<'_>>) -> PyResult<PyModel> {
-        let n = self.inner.nq();
-        let names = names.unwrap_or_else(|| (1..=n).map(|i| format!("j{i}")).collect());
-        let lower = opt_vector("lower", lower, n, default_limit(&self.inner.kinds, false))?;
-        let upper = opt_vector("upper", upper, n, default_limit(&self.inner.kinds, true))?;
+    fn to_model(&self, name: &str, names: Option<Vec<String>>, lower: Option<&Bound<'_, PyAny>>, upper: Option<&Bound<'_, PyAny>>) -> PyResult<PyModel> {
+        let model = self.inner.to_model(name).py()?;
+        let (lower, upper) = (opt_vector("lower", lower)?, opt_vector("upper", upper)?);
+        if names.is_none() && lower.is_none() && upper.is_none() {
+            return Ok(PyModel { inner: Arc::new(model) });
+        }
+        let names = names.unwrap_or_else(|| model.joints().iter().map(|j| j.name.clone()).collect());
+        let (lower, upper) = (lower.unwrap_or_else(|| model.lower()), upper.unwrap_or_else(|| model.upper()));
         Ok(PyModel { inner: Arc::new(self.inner.to_model_with(name, &names, &lower, &upper).py()?) })
     }
     /// (n+1, 4, 4): the convention's frames 0..n in world at q.
-    fn frames<'py>(&self, py: Python<'py>, q: ArrayIn<'_>) -> PyResult<Bound<'py, PyArray3<f64>>> {
-        let q = vector("q", &q, self.inner.nq())?;
-        let f = self.inner.frames(&q).py()?;
-        let mut v = vec![0.0; 16 * f.len()];
-        for (i, t) in f.iter().enumerate() {
-            write_pose(t, &mut v[16 * i..16 * i + 16]);
-        }
-        numpy::PyArray1::from_vec(py, v).reshape([f.len(), 4, 4])
+    fn frames<'py>(&self, py: Python<'py>, q: &Bound<'_, PyAny>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let f = self.inner.frames(&vector("q", q)?).py()?;
+        poses_out(py, f.iter())
+    }
+    /// Pickle / copy: `Table(convention, params, kinds, T_world_base, T_last_tool)`.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        let args = (self.convention(), self.params(py)?, self.kinds(), self.T_world_base(py)?, self.T_last_tool(py)?);
+        (py.get_type::<Self>(), args).into_pyobject(py)
     }
     fn __repr__(&self) -> String {
         format!("Table('{}', {} joints)", self.inner.convention.name(), self.inner.nq())
@@ -259,51 +353,36 @@ pub struct PyJointAxes {
 
 #[pymethods]
 impl PyJointAxes {
-    /// points, directions : (n, 3) in world (m); kinds : n strings; q_ref : (n,); T_world_base,
-    /// T_world_tool : (4, 4); lower, upper : (n,).
+    /// points, directions : (n, 3) in world (m); kinds : n strings; q_ref : (n,) (default zeros); T_world_base,
+    /// T_world_tool : (4, 4); lower, upper : (n,) (default the core's joint limits, -pi..pi and -1..1 m).
     #[new]
     #[pyo3(signature = (points, directions, *, kinds=None, q_ref=None, T_world_base=None, T_world_tool=None, lower=None, upper=None))]
     #[allow(non_snake_case, clippy::too_many_arguments)]
     fn new(
-        points: ArrayIn<'_>,
-        directions: ArrayIn<'_>,
+        points: &Bound<'_, PyAny>,
+        directions: &Bound<'_, PyAny>,
         kinds: Option<Vec<String>>,
-        q_ref: Option<ArrayIn<'_>>,
-        T_world_base: Option<ArrayIn<'_>>,
-        T_world_tool: Option<ArrayIn<'_>>,
-        lower: Option<ArrayIn<'_>>,
-        upper: Option<ArrayIn<'_>>,
+        q_ref: Option<&Bound<'_, PyAny>>,
+        T_world_base: Option<&Bound<'_, PyAny>>,
+        T_world_tool: Option<&Bound<'_, PyAny>>,
+        lower: Option<&Bound<'_, PyAny>>,
+        upper: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let (p, ps) = values(&points);
-        let n = ps.first().copied().unwrap_or(0);
-        check_shape("points", &ps, &[Some(n), Some(3)])?;
-        crate::convert::check_finite("points", &p)?;
-        let (d, ds) = values(&directions);
-        check_shape("directions", &ds, &[Some(n), Some(3)])?;
-        crate::convert::check_finite("directions", &d)?;
-        let kinds = match kinds {
-            Some(k) => kinds_from("kinds", k, n)?,
-            None => vec![JointKind::Revolute; n],
-        };
-        let q_ref = opt_vector("q_ref", q_ref, n, |_| 0.0)?;
-        let lower = opt_vector("lower", lower, n, default_limit(&kinds, false))?;
-        let upper = opt_vector("upper", upper, n, default_limit(&kinds, true))?;
-        let base = T_world_base.map(|a| pose("T_world_base", &a)).transpose()?.unwrap_or_else(Pose::identity);
-        let tool = T_world_tool.map(|a| pose("T_world_tool", &a)).transpose()?.unwrap_or_else(Pose::identity);
-        let v3 = |v: &[f64], i: usize| Vector3::new(v[3 * i], v[3 * i + 1], v[3 * i + 2]);
-        Ok(Self {
-            inner: denavit_core::JointAxes::new(
-                base,
-                (0..n).map(|i| v3(&p, i)).collect(),
-                (0..n).map(|i| v3(&d, i)).collect(),
-                kinds,
-                q_ref,
-                tool,
-                lower,
-                upper,
-            )
-            .py()?,
-        })
+        let points = vectors3("points", points)?;
+        let n = points.len();
+        let kinds = kinds_of(kinds, n)?;
+        let defaults: Vec<Joint> = kinds.iter().map(|&k| Joint::new("", k, denavit_core::spatial::Pose::identity())).collect();
+        let inner = denavit_core::JointAxes::new(
+            opt_pose("T_world_base", T_world_base)?,
+            points,
+            vectors3("directions", directions)?,
+            kinds,
+            opt_vector("q_ref", q_ref)?.unwrap_or_else(|| vec![0.0; n]),
+            opt_pose("T_world_tool", T_world_tool)?,
+            opt_vector("lower", lower)?.unwrap_or_else(|| defaults.iter().map(|j| j.lower).collect()),
+            opt_vector("upper", upper)?.unwrap_or_else(|| defaults.iter().map(|j| j.upper).collect()),
+        );
+        Ok(Self { inner: inner.py()? })
     }
     #[getter]
     fn nq(&self) -> usize {
@@ -313,13 +392,13 @@ impl PyJointAxes {
     #[getter]
     fn points<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let v: Vec<f64> = self.inner.points.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
-        numpy::PyArray1::from_vec(py, v).reshape([self.inner.nq(), 3])
+        out(py, &v, [self.inner.nq(), 3])
     }
     /// (n, 3) unit directions (world).
     #[getter]
     fn directions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let v: Vec<f64> = self.inner.directions.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
-        numpy::PyArray1::from_vec(py, v).reshape([self.inner.nq(), 3])
+        out(py, &v, [self.inner.nq(), 3])
     }
     #[getter]
     fn kinds(&self) -> Vec<&'static str> {
@@ -339,13 +418,24 @@ impl PyJointAxes {
     }
     #[getter]
     #[allow(non_snake_case)]
-    fn T_world_base<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+    fn T_world_base<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         pose_out(py, &self.inner.t_world_base)
     }
     #[getter]
     #[allow(non_snake_case)]
-    fn T_world_tool<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+    fn T_world_tool<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         pose_out(py, &self.inner.t_world_tool)
+    }
+    /// Pickle / copy: `JointAxes(points, directions, kinds=..., q_ref=..., ...)`.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        let kw = PyDict::new(py);
+        kw.set_item("kinds", self.kinds())?;
+        kw.set_item("q_ref", self.q_ref())?;
+        kw.set_item("T_world_base", self.T_world_base(py)?)?;
+        kw.set_item("T_world_tool", self.T_world_tool(py)?)?;
+        kw.set_item("lower", self.lower())?;
+        kw.set_item("upper", self.upper())?;
+        (partial(py.get_type::<Self>().into_any(), &kw)?, (self.points(py)?, self.directions(py)?)).into_pyobject(py)
     }
     fn __repr__(&self) -> String {
         format!("JointAxes({} axes)", self.inner.nq())
@@ -359,7 +449,7 @@ pub struct PyPair {
     /// 1-based index i of the pair (i, i+1).
     pub joint: usize,
     /// "skew" | "intersecting" | "parallel" | "coincident".
-    pub relation: &'static str,
+    pub relation: String,
     /// Angle between the axes (rad).
     pub angle: f64,
     /// Common-normal length or distance between parallel lines (m).
@@ -370,8 +460,19 @@ pub struct PyPair {
 
 #[pymethods]
 impl PyPair {
+    #[new]
+    fn new(joint: usize, relation: String, angle: f64, distance: f64, hayati_beta: f64) -> Self {
+        Self { joint, relation, angle, distance, hayati_beta }
+    }
+    /// Pickle / copy: `PairDiagnostic(joint, relation, angle, distance, hayati_beta)`.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        (py.get_type::<Self>(), (self.joint, &self.relation, self.angle, self.distance, self.hayati_beta)).into_pyobject(py)
+    }
     fn __repr__(&self) -> String {
-        format!("PairDiagnostic(joint={}, relation='{}', angle={:.6e}, distance={:.6e}, hayati_beta={:.3e})", self.joint, self.relation, self.angle, self.distance, self.hayati_beta)
+        format!(
+            "PairDiagnostic(joint={}, relation='{}', angle={:.6e}, distance={:.6e}, hayati_beta={:.3e})",
+            self.joint, self.relation, self.angle, self.distance, self.hayati_beta
+        )
     }
 }
 
@@ -394,7 +495,7 @@ impl From<core_extract::Extraction> for PyExtraction {
             pairs: e
                 .pairs
                 .iter()
-                .map(|p| PyPair { joint: p.joint, relation: p.relation.name(), angle: p.angle, distance: p.distance, hayati_beta: p.hayati_beta })
+                .map(|p| PyPair { joint: p.joint, relation: p.relation.name().to_string(), angle: p.angle, distance: p.distance, hayati_beta: p.hayati_beta })
                 .collect(),
             max_position_error: e.max_position_error,
             max_rotation_error: e.max_rotation_error,
@@ -404,37 +505,40 @@ impl From<core_extract::Extraction> for PyExtraction {
 
 #[pymethods]
 impl PyExtraction {
+    #[new]
+    fn new(table: PyTable, pairs: Vec<PyPair>, max_position_error: f64, max_rotation_error: f64) -> Self {
+        Self { table, pairs, max_position_error, max_rotation_error }
+    }
+    /// Pickle / copy: `Extraction(table, pairs, max_position_error, max_rotation_error)`.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        (py.get_type::<Self>(), (self.table.clone(), self.pairs.clone(), self.max_position_error, self.max_rotation_error)).into_pyobject(py)
+    }
     fn __repr__(&self) -> String {
         format!("Extraction({}, max tool error {:.3e} m / {:.3e} rad)", self.table.__repr__(), self.max_position_error, self.max_rotation_error)
     }
 }
 
-fn options(parallel_tol: f64, intersect_tol: f64, max_offset: Option<f64>, nominal: Option<&PyTable>, origins: Option<ArrayIn<'_>>, n: usize) -> PyResult<ExtractOptions> {
-    let origins = match origins {
-        Some(o) => {
-            let (v, s) = values(&o);
-            check_shape("origins", &s, &[Some(n), Some(3)])?;
-            crate::convert::check_finite("origins", &v)?;
-            Some((0..n).map(|i| Vector3::new(v[3 * i], v[3 * i + 1], v[3 * i + 2])).collect())
-        }
-        None => None,
-    };
-    Ok(ExtractOptions { parallel_tol, intersect_tol, max_offset, nominal: nominal.map(|t| t.inner.clone()), origins })
-}
-
 /// Axes of `model` at configuration `q` (rad / m).
 #[pyfunction]
-pub fn axes(model: &PyModel, q: ArrayIn<'_>) -> PyResult<PyJointAxes> {
-    let q = vector("q", &q, model.inner.nq())?;
-    Ok(PyJointAxes { inner: denavit_core::axes::axes(&model.inner, &q).py()? })
+pub fn axes(model: &PyModel, q: &Bound<'_, PyAny>) -> PyResult<PyJointAxes> {
+    Ok(PyJointAxes { inner: denavit_core::axes::axes(&model.inner, &vector("q", q)?).py()? })
 }
 
 /// Extract the parameter table of `convention` from joint axes (docs/conventions.md).
 #[pyfunction]
 #[pyo3(signature = (axes, convention, *, parallel_tol=1e-3, intersect_tol=1e-9, max_offset=None, nominal=None, origins=None))]
-pub fn extract(axes: &PyJointAxes, convention: &str, parallel_tol: f64, intersect_tol: f64, max_offset: Option<f64>, nominal: Option<&PyTable>, origins: Option<ArrayIn<'_>>) -> PyResult<PyExtraction> {
+pub fn extract(
+    axes: &PyJointAxes,
+    convention: &str,
+    parallel_tol: f64,
+    intersect_tol: f64,
+    max_offset: Option<f64>,
+    nominal: Option<&PyTable>,
+    origins: Option<&Bound<'_, PyAny>>,
+) -> PyResult<PyExtraction> {
     let conv = Convention::parse(convention).py()?;
-    let opt = options(parallel_tol, intersect_tol, max_offset, nominal, origins, axes.inner.nq())?;
+    let origins = origins.map(|o| vectors3("origins", o)).transpose()?;
+    let opt = ExtractOptions { parallel_tol, intersect_tol, max_offset, nominal: nominal.map(|t| t.inner.clone()), origins };
     Ok(core_extract::extract(&axes.inner, conv, &opt).py()?.into())
 }
 
