@@ -140,7 +140,7 @@ pub struct Chain {
 #[inline(always)]
 fn apply(t: &mut Pose, axis: Axis, s: f64) {
     if axis.is_rotation() {
-        let (sn, cs) = s.sin_cos();
+        let (sn, cs) = crate::math::sin_cos(s);
         // columns (a, b) of R rotate: R · Rot(s) about the third axis c of (a, b, c) right-handed
         let (a, b) = match axis {
             Axis::Rx => (1, 2),

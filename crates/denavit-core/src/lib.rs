@@ -17,6 +17,7 @@ pub mod error;
 pub mod extract;
 pub mod ik;
 pub mod kinematics;
+pub mod math;
 pub mod model;
 pub mod spatial;
 
