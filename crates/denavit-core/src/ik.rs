@@ -40,7 +40,7 @@
 use crate::error::{check_finite, check_len, Error, Result};
 use crate::kinematics::{tool_pose_and_jacobian, tool_pose_unchecked};
 use crate::model::{JointKind, Model};
-use crate::spatial::{pose_error, rotation_angle, Pose, SE3_TOL};
+use crate::spatial::{check_pose, pose_error, rotation_angle, Pose};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use rayon::prelude::*;
 use std::f64::consts::{PI, TAU};
@@ -157,22 +157,6 @@ impl IkResult {
             Err(Error::NotConverged { iterations: self.iterations, position_error: self.position_error, rotation_error: self.rotation_error })
         }
     }
-}
-
-/// Check that a target pose is finite and its rotation orthonormal with det +1 (within [`SE3_TOL`]).
-pub fn check_target(what: &str, t: &Pose) -> Result<()> {
-    check_finite(what, t.translation.vector.as_slice())?;
-    let r = t.rotation.matrix();
-    check_finite(what, r.as_slice())?;
-    let orth = (r.transpose() * r - Matrix3::identity()).amax();
-    let det = r.determinant();
-    if orth > SE3_TOL || (det - 1.0).abs() > SE3_TOL {
-        return Err(Error::NotSe3 {
-            what: what.into(),
-            reason: format!("rotation part must be orthonormal with det +1 (tolerance {SE3_TOL:e}), got |R^T R - I| = {orth:.3e}, det = {det:.6}"),
-        });
-    }
-    Ok(())
 }
 
 /// SO(3) logarithm: the rotation vector (unit axis × angle in [0, π]) of a rotation matrix.
@@ -549,7 +533,7 @@ impl<'m> IkSolver<'m> {
 
     /// Solve for `target` (`T_world_tool`) from `q0`; `Err` only for bad input (size, NaN, non-SE(3)).
     pub fn solve(&mut self, target: &Pose, q0: &[f64]) -> Result<IkResult> {
-        check_target("IK target", target)?;
+        check_pose("IK target", target)?;
         self.model.check_q(q0).map_err(|e| rename(e, "q0"))?;
         Ok(self.solve_unchecked(target, q0, mix_seed(self.opts.seed, 0)))
     }
@@ -784,7 +768,7 @@ pub fn ik(model: &Model, target: &Pose, q0: &[f64], opts: &IkOptions) -> Result<
 
 fn check_targets(targets: &[Pose]) -> Result<()> {
     for (i, t) in targets.iter().enumerate() {
-        check_target(&format!("IK target {i}"), t)?;
+        check_pose(&format!("IK target {i}"), t)?;
     }
     Ok(())
 }

@@ -2,7 +2,7 @@
 
 use crate::dynamics::Inertia;
 use crate::error::{check_finite, check_len, Error, Result};
-use crate::spatial::Pose;
+use crate::spatial::{check_pose, Pose};
 use nalgebra::Matrix6xX;
 
 /// How a joint moves along the z axis of its own frame.
@@ -174,11 +174,6 @@ impl Model {
     pub fn upper(&self) -> Vec<f64> {
         self.joints.iter().map(|j| j.upper).collect()
     }
-}
-
-fn check_pose(what: &str, p: &Pose) -> Result<()> {
-    check_finite(what, p.translation.vector.as_slice())?;
-    check_finite(what, p.rotation.matrix().as_slice())
 }
 
 /// Preallocated results of the algorithms for one model (pinocchio's `Data`).

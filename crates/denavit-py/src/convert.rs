@@ -1,7 +1,7 @@
 //! numpy <-> nalgebra conversions with shape checks that name the argument.
 
-use crate::error::{to_py, value_error, IntoPy};
-use denavit_core::spatial::{pose_from_matrix, Pose};
+use crate::error::{value_error, IntoPy};
+use denavit_core::spatial::{pose_from_matrix, pose_from_row_major, Pose};
 use nalgebra::{Matrix4, Vector3};
 use numpy::{PyArray2, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -78,23 +78,10 @@ pub fn pose(what: &str, a: &ArrayIn<'_>) -> PyResult<Pose> {
     pose_from_matrix(&Matrix4::from_row_slice(&v), what).py()
 }
 
-/// A 4x4 rigid transform from a row-major slice of 16 values.
+/// A 4x4 rigid transform from a row-major slice of 16 values (the core's one SE(3) check).
 pub fn pose_from_slice(what: &str, v: &[f64]) -> PyResult<Pose> {
-    pose_from_matrix(&Matrix4::from_row_slice(v), what).map_err(to_py)
-}
-
-/// [`pose_from_slice`] that skips the SVD re-orthonormalisation when the rotation is already orthonormal
-/// to rounding (|R^T R - I| and |det R - 1| <= 1e-14): the common case of a pose computed by a program.
-/// Anything else (including every invalid input) goes through the full check, with its messages.
-pub fn pose_from_slice_fast(what: &str, v: &[f64]) -> PyResult<Pose> {
-    if v.len() == 16 && v.iter().all(|x| x.is_finite()) && v[12..] == [0.0, 0.0, 0.0, 1.0] {
-        let r = nalgebra::Matrix3::new(v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10]);
-        let orth = (r.transpose() * r - nalgebra::Matrix3::identity()).amax();
-        if orth <= 1e-14 && (r.determinant() - 1.0).abs() <= 1e-14 {
-            return Ok(Pose::from_parts(nalgebra::Translation3::new(v[3], v[7], v[11]), nalgebra::Rotation3::from_matrix_unchecked(r)));
-        }
-    }
-    pose_from_slice(what, v)
+    let v: &[f64; 16] = v.try_into().map_err(|_| value_error(format!("{what}: expected 16 values (a 4x4 matrix), got {}", v.len())))?;
+    pose_from_row_major(v, what).py()
 }
 
 /// A 4x4 rigid transform from any array-like, reading a contiguous float64 (4, 4) array in place.
@@ -103,7 +90,7 @@ pub fn pose_fast(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Pose> {
         if a.is_c_contiguous() {
             if let Ok(v) = a.to_vec() {
                 if v.len() == 16 && a.shape() == [4, 4] {
-                    return pose_from_slice_fast(what, &v);
+                    return pose_from_slice(what, &v);
                 }
             }
         }
@@ -111,7 +98,7 @@ pub fn pose_fast(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Pose> {
     let a: ArrayIn<'_> = obj.extract()?;
     let (v, shape) = values(&a);
     check_shape(what, &shape, &[Some(4), Some(4)])?;
-    pose_from_slice_fast(what, &v)
+    pose_from_slice(what, &v)
 }
 
 /// A 3-vector.

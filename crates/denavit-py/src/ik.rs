@@ -1,7 +1,7 @@
 //! Inverse kinematics (denavit_core::ik): single solves, warm-started paths and batches (paths and
 //! batches release the GIL; batches use every core).
 
-use crate::convert::{check_shape, pose_fast, pose_from_slice_fast, values, vector_fast, ArrayIn};
+use crate::convert::{check_shape, pose_fast, pose_from_slice, values, vector_fast, ArrayIn};
 use crate::error::{value_error, IntoPy};
 use crate::model::PyModel;
 use denavit_core::ik::{self as core_ik, IkMethod, IkOptions, IkResult};
@@ -166,7 +166,7 @@ fn start(model: &PyModel, q0: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult
 fn targets_of(targets: &ArrayIn<'_>) -> PyResult<Vec<Pose>> {
     let (v, shape) = values(targets);
     check_shape("targets", &shape, &[None, Some(4), Some(4)])?;
-    v.chunks_exact(16).enumerate().map(|(i, c)| pose_from_slice_fast(&format!("targets[{i}]"), c)).collect()
+    v.chunks_exact(16).enumerate().map(|(i, c)| pose_from_slice(&format!("targets[{i}]"), c)).collect()
 }
 
 /// Inverse kinematics of one target T_world_tool (4, 4) from q0 (n,) in rad / m (default zeros).
