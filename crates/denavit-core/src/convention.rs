@@ -70,8 +70,9 @@ impl Convention {
 
 /// A parameter table: one row per joint in the convention's column order, plus the base and tool poses.
 ///
-/// `t_last_tool` is the tool in the convention's last frame (frame n) for `dh`, `mdh`, `edh`, and the home
-/// pose `M = T_base_tool(q = 0)` for `poe`.
+/// `t_last_tool` is the tool in the convention's last frame (frame n), which is the flange
+/// (docs/conventions.md, "Frames: base, joint i, flange, tool"), for `dh`, `mdh`, `edh`, and the home pose
+/// `M = T_base_tool(q = 0)` for `poe`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Table {
     /// Which convention the rows follow.
@@ -123,7 +124,8 @@ impl Table {
                 j
             })
             .collect();
-        Model::new(name, self.t_world_base, joints, self.flange_tool()?)
+        let (flange, tool) = self.flange_and_tool()?;
+        Model::new(name, self.t_world_base, joints, flange, tool)
     }
 
     /// The model with the given names and limits (one each per joint).
@@ -144,7 +146,8 @@ impl Table {
                 upper: upper[i],
             })
             .collect();
-        Model::new(name, self.t_world_base, joints, self.flange_tool()?)
+        let (flange, tool) = self.flange_and_tool()?;
+        Model::new(name, self.t_world_base, joints, flange, tool)
     }
 
     fn row(&self, i: usize) -> Vec<f64> {
@@ -157,17 +160,13 @@ impl Table {
         let mut out = Vec::with_capacity(n);
         match self.convention {
             Convention::Dh => {
-                let mut prev = Pose::identity(); // Tz(d) Tx(a) Rx(alpha) of the previous row
                 for i in 0..n {
+                    let prev = if i > 0 { self.dh_link(i - 1) } else { Pose::identity() };
                     let r = self.row(i); // d, theta, a, alpha
                     match self.kinds[i] {
                         JointKind::Revolute => out.push((prev, r[1])),
                         JointKind::Prismatic => out.push((prev * rz(r[1]), r[0])),
                     }
-                    prev = match self.kinds[i] {
-                        JointKind::Revolute => trans(0.0, 0.0, r[0]) * trans(r[2], 0.0, 0.0) * rx(r[3]),
-                        JointKind::Prismatic => trans(r[2], 0.0, 0.0) * rx(r[3]),
-                    };
                 }
             }
             Convention::Mdh => {
@@ -190,8 +189,7 @@ impl Table {
             }
             Convention::Poe => {
                 let mut prev = Pose::identity();
-                for (i, f) in self.poe_home_frames()?.into_iter().enumerate() {
-                    let _ = i;
+                for f in self.poe_home_frames()? {
                     out.push((prev.inverse() * f, 0.0));
                     prev = f;
                 }
@@ -200,24 +198,45 @@ impl Table {
         Ok(out)
     }
 
-    /// The tool in the last joint frame of the model.
-    fn flange_tool(&self) -> Result<Pose> {
+    /// DH: `Tz(d_i) Tx(a_i) Rx(alpha_i)` of row `i` (0-based; prismatic: `Tx(a_i) Rx(alpha_i)`, the joint
+    /// variable and `d_i` being in the joint motion), i.e. DH frame *i* in joint frame *i* (1-based).
+    fn dh_link(&self, i: usize) -> Pose {
+        let r = self.row(i); // d, theta, a, alpha
+        match self.kinds[i] {
+            JointKind::Revolute => trans(0.0, 0.0, r[0]) * trans(r[2], 0.0, 0.0) * rx(r[3]),
+            JointKind::Prismatic => trans(r[2], 0.0, 0.0) * rx(r[3]),
+        }
+    }
+
+    /// `(T_last_flange, T_flange_tool)` of the model (docs/conventions.md, "Frames: base, joint i, flange,
+    /// tool"): `dh`: the flange is DH frame n (the last row's link transform in joint frame n), the tool the
+    /// table's; `mdh`, `edh`: the flange is joint frame n, the tool the table's; `poe`: the flange is the home
+    /// pose M's frame, no tool.
+    fn flange_and_tool(&self) -> Result<(Pose, Pose)> {
         let n = self.nq();
         Ok(match self.convention {
-            Convention::Dh if n > 0 => {
-                let r = self.row(n - 1);
-                let last = match self.kinds[n - 1] {
-                    JointKind::Revolute => trans(0.0, 0.0, r[0]) * trans(r[2], 0.0, 0.0) * rx(r[3]),
-                    JointKind::Prismatic => trans(r[2], 0.0, 0.0) * rx(r[3]),
-                };
-                last * self.t_last_tool
+            Convention::Dh if n > 0 => (self.dh_link(n - 1), self.t_last_tool),
+            Convention::Poe => {
+                let last = if n > 0 { self.poe_home_frames()?[n - 1] } else { Pose::identity() };
+                (last.inverse() * self.t_last_tool, Pose::identity())
             }
-            Convention::Poe if n > 0 => {
-                let frames = self.poe_home_frames()?;
-                frames[n - 1].inverse() * self.t_last_tool
-            }
-            _ => self.t_last_tool,
+            _ => (Pose::identity(), self.t_last_tool),
         })
+    }
+
+    /// Pose of the convention's frame *i* in the model's joint frame *i*, i = 1..n (frames move together):
+    /// `dh`: DH frame *i* = joint frame *i* · `Tz(d_i) Tx(a_i) Rx(alpha_i)` (prismatic `Tx(a_i) Rx(alpha_i)`);
+    /// `mdh`, `edh`, `poe`: the identity (joint frame *i* is the convention's frame *i*). Inertias given in
+    /// the convention's frame *i* are re-expressed in joint frame *i* by this pose.
+    ///
+    /// ```
+    /// use denavit_core::{Convention, Table, JointKind, spatial::{trans, Pose}};
+    /// let p = nalgebra::DMatrix::from_row_slice(1, 4, &[0.2, 0.0, 0.5, 0.0]);
+    /// let t = Table::new(Convention::Dh, p, vec![JointKind::Revolute], Pose::identity(), Pose::identity()).unwrap();
+    /// assert_eq!(t.link_frames(), vec![trans(0.0, 0.0, 0.2) * trans(0.5, 0.0, 0.0)]);
+    /// ```
+    pub fn link_frames(&self) -> Vec<Pose> {
+        (0..self.nq()).map(|i| if self.convention == Convention::Dh { self.dh_link(i) } else { Pose::identity() }).collect()
     }
 
     /// POE: joint frames at home in the base frame (docs/conventions.md): origin at the foot of the base
@@ -272,14 +291,7 @@ impl Table {
         match self.convention {
             Convention::Dh => {
                 // DH frame i = joint frame i · Tz(d_i) Tx(a_i) Rx(alpha_i) (revolute) / Tx(a_i) Rx(alpha_i) (prismatic)
-                for i in 0..self.nq() {
-                    let r = self.row(i);
-                    let link = match self.kinds[i] {
-                        JointKind::Revolute => trans(0.0, 0.0, r[0]) * trans(r[2], 0.0, 0.0) * rx(r[3]),
-                        JointKind::Prismatic => trans(r[2], 0.0, 0.0) * rx(r[3]),
-                    };
-                    frames.push(data.t_world_joint[i] * link);
-                }
+                frames.extend(data.t_world_joint.iter().zip(self.link_frames()).map(|(t, l)| t * l));
             }
             _ => frames.extend(data.t_world_joint.iter().copied()),
         }

@@ -329,13 +329,13 @@ pub fn inertias_in_world(model: &Model, q_ref: &[f64], inertias_world: &[Inertia
 ///
 /// ```
 /// use denavit_core::{builtin_planar2, dynamics::{self, transfer_inertias, DynamicsData, Inertia}};
-/// use denavit_core::{Model, spatial::trans};
+/// use denavit_core::{Model, spatial::{trans, Pose}};
 /// let a = builtin_planar2(1.0, 1.0)
 ///     .with_inertias(vec![Inertia::point_mass(1.0, nalgebra::Vector3::new(0.5, 0.0, 0.0)).unwrap(); 2]).unwrap();
 /// // the same arm with joint frame 2 moved 0.2 m along its axis
 /// let mut j = a.joints().to_vec();
 /// j[1].placement = trans(1.0, 0.0, 0.2);
-/// let b = Model::new("b", *a.t_world_base(), j, trans(1.0, 0.0, -0.2)).unwrap();
+/// let b = Model::new("b", *a.t_world_base(), j, trans(1.0, 0.0, -0.2), Pose::identity()).unwrap();
 /// let b = transfer_inertias(&a, &b, &[0.0, 0.0]).unwrap();
 /// assert!((b.inertias()[1].com().z + 0.2).abs() < 1e-15);
 /// ```
@@ -652,7 +652,7 @@ fn check_wrench(w: Option<&Vector6<f64>>) -> Result<()> {
 /// `[n; f]` in the last joint frame, about its origin.
 #[inline(always)]
 fn wrench_in_flange(model: &Model, w: &Vector6<f64>) -> (Vector3<f64>, Vector3<f64>) {
-    let t = model.t_flange_tool();
+    let t = model.t_last_tool();
     let r = t.rotation.matrix();
     let f = r * w.fixed_rows::<3>(0);
     let n = r * w.fixed_rows::<3>(3) + t.translation.vector.cross(&f);
@@ -1521,7 +1521,7 @@ fn rnea_lanes(
         *f_out = (nn, f);
     }
     if let Some(we) = f_ext {
-        let t = model.t_flange_tool();
+        let t = model.t_last_tool();
         let (r, p) = (t.rotation.matrix(), &t.translation.vector);
         let row = |l: usize| if we.len() == 6 { 0 } else { 6 * rows[l] };
         let fe = V3l { x: lanes!(l => we[row(l)]), y: lanes!(l => we[row(l) + 1]), z: lanes!(l => we[row(l) + 2]) }.r(r);

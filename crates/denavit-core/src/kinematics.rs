@@ -127,7 +127,7 @@ pub fn tool_pose_unchecked(model: &Model, q: &[f64]) -> Pose {
         t = t.mul(&j.placement);
         t.motion(j.kind, qi + j.offset);
     }
-    t.mul(model.t_flange_tool()).pose()
+    t.mul(model.t_last_tool()).pose()
 }
 
 /// Tool pose `T_world_tool(q)`.
@@ -158,7 +158,7 @@ pub(crate) fn fk_unchecked(model: &Model, data: &mut Data, q: &[f64]) {
         t.motion(j.kind, qi + j.offset);
         *out = t.pose();
     }
-    data.t_world_tool = t.mul(model.t_flange_tool()).pose();
+    data.t_world_tool = t.mul(model.t_last_tool()).pose();
 }
 
 /// Geometric Jacobian of the tool at `q` (rows `[v; w]`: linear velocity of the tool origin, angular
@@ -230,7 +230,7 @@ pub(crate) fn tool_pose_and_jacobian(model: &Model, q: &[f64], jac: &mut [f64]) 
         col[..3].copy_from_slice(&t.p());
         col[3..].copy_from_slice(&t.z());
     }
-    let tool = t.mul(model.t_flange_tool());
+    let tool = t.mul(model.t_last_tool());
     let tp = tool.p();
     for (j, col) in model.joints().iter().zip(jac.chunks_exact_mut(6)) {
         let z = [col[3], col[4], col[5]];
@@ -327,7 +327,7 @@ pub fn tool_pose_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<()>
     crate::error::check_finite("q batch", qs)?;
     const CHUNK: usize = 1024;
     let n = model.nq();
-    let factors: Vec<Sparse> = model.joints().iter().map(|j| Sparse::of(&j.placement)).chain([Sparse::of(model.t_flange_tool())]).collect();
+    let factors: Vec<Sparse> = model.joints().iter().map(|j| Sparse::of(&j.placement)).chain([Sparse::of(model.t_last_tool())]).collect();
     out.par_chunks_mut(16 * CHUNK).enumerate().for_each(|(c, o)| {
         let start = c * CHUNK;
         let mut block = [0.0; 16 * LANES];
@@ -476,7 +476,7 @@ mod tests {
             Joint::new("b", JointKind::Prismatic, rx(-1.1) * trans(0.0, 0.4, 0.1)),
             Joint::new("c", JointKind::Revolute, rx(0.7) * trans(0.3, 0.0, -0.2)),
         ];
-        let m = Model::new("m", trans(0.1, 0.0, 0.2) * rx(0.2), joints, trans(0.0, 0.1, 0.2)).unwrap();
+        let m = Model::new("m", trans(0.1, 0.0, 0.2) * rx(0.2), joints, trans(0.0, 0.1, 0.2), rx(0.4)).unwrap();
         let q = [0.4, 0.2, -0.9];
         let mut d = Data::new(&m);
         super::jacobian(&m, &mut d, &q, super::JacobianFrame::World).unwrap();

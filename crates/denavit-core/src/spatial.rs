@@ -206,9 +206,10 @@ mod tests {
             assert!(e.contains("orthonormal with det +1 (tolerance 1e-9)"), "{e}");
             assert_eq!(check_pose("T", &bad).unwrap_err().to_string(), e);
             let j = vec![Joint::new("j1", JointKind::Revolute, bad)];
-            assert!(Model::new("m", Pose::identity(), j, Pose::identity()).unwrap_err().to_string().contains("orthonormal"));
-            assert!(Model::new("m", bad, vec![], Pose::identity()).is_err());
-            assert!(Model::new("m", Pose::identity(), vec![], bad).is_err());
+            assert!(Model::new("m", Pose::identity(), j, Pose::identity(), Pose::identity()).unwrap_err().to_string().contains("orthonormal"));
+            assert!(Model::new("m", bad, vec![], Pose::identity(), Pose::identity()).is_err());
+            assert!(Model::new("m", Pose::identity(), vec![], bad, Pose::identity()).is_err());
+            assert!(Model::new("m", Pose::identity(), vec![], Pose::identity(), bad).is_err());
         }
         let v: [f64; 16] = std::array::from_fn(|k| good.to_homogeneous()[(k / 4, k % 4)]);
         assert_eq!(pose_from_row_major(&v, "T").unwrap(), good);

@@ -57,9 +57,10 @@ impl PyModel {
     /// Build from joint placements.
     ///
     /// placements : (n, 4, 4) T_{i-1}_i0 in metres; kinds : n strings ("revolute"/"prismatic");
-    /// offsets, lower, upper : (n,) rad or m; names : n strings; T_world_base, T_flange_tool : (4, 4).
+    /// offsets, lower, upper : (n,) rad or m; names : n strings; T_world_base : (4, 4);
+    /// T_last_flange : (4, 4) the flange in the last joint frame; T_flange_tool : (4, 4) the tool in the flange.
     #[staticmethod]
-    #[pyo3(signature = (placements, kinds, *, offsets=None, lower=None, upper=None, names=None, T_world_base=None, T_flange_tool=None, name="robot"))]
+    #[pyo3(signature = (placements, kinds, *, offsets=None, lower=None, upper=None, names=None, T_world_base=None, T_last_flange=None, T_flange_tool=None, name="robot"))]
     #[allow(non_snake_case, clippy::too_many_arguments)]
     fn from_placements(
         placements: ArrayIn<'_>,
@@ -69,6 +70,7 @@ impl PyModel {
         upper: Option<ArrayIn<'_>>,
         names: Option<Vec<String>>,
         T_world_base: Option<ArrayIn<'_>>,
+        T_last_flange: Option<ArrayIn<'_>>,
         T_flange_tool: Option<ArrayIn<'_>>,
         name: &str,
     ) -> PyResult<Self> {
@@ -90,8 +92,9 @@ impl PyModel {
             joints.push(Joint { name: names[i].clone(), kind: kinds[i], placement: p, offset: offsets[i], lower: lower[i], upper: upper[i] });
         }
         let base = T_world_base.map(|a| pose("T_world_base", &a)).transpose()?.unwrap_or_else(Pose::identity);
+        let flange = T_last_flange.map(|a| pose("T_last_flange", &a)).transpose()?.unwrap_or_else(Pose::identity);
         let tool = T_flange_tool.map(|a| pose("T_flange_tool", &a)).transpose()?.unwrap_or_else(Pose::identity);
-        Ok(Self { inner: Arc::new(denavit_core::Model::new(name, base, joints, tool).py()?) })
+        Ok(Self { inner: Arc::new(denavit_core::Model::new(name, base, joints, flange, tool).py()?) })
     }
 
     /// Number of joints.
@@ -143,17 +146,30 @@ impl PyModel {
     fn T_world_base<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
         pose_out(py, self.inner.t_world_base())
     }
+    /// The flange (mechanical flange, ROS tool0) in the last joint frame.
+    #[getter]
+    #[allow(non_snake_case)]
+    fn T_last_flange<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        pose_out(py, self.inner.t_last_flange())
+    }
+    /// The tool in the flange (identity unless a tool is attached).
     #[getter]
     #[allow(non_snake_case)]
     fn T_flange_tool<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
         pose_out(py, self.inner.t_flange_tool())
+    }
+    /// The tool in the last joint frame: T_last_flange @ T_flange_tool.
+    #[getter]
+    #[allow(non_snake_case)]
+    fn T_last_tool<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        pose_out(py, self.inner.t_last_tool())
     }
     /// A copy with another base placement.
     #[allow(non_snake_case)]
     fn with_base(&self, T_world_base: ArrayIn<'_>) -> PyResult<Self> {
         Ok(Self { inner: Arc::new(self.inner.with_base(pose("T_world_base", &T_world_base)?).py()?) })
     }
-    /// A copy with another tool.
+    /// A copy with another tool T_flange_tool (4, 4), in the flange frame (the flange is kept).
     #[allow(non_snake_case)]
     fn with_tool(&self, T_flange_tool: ArrayIn<'_>) -> PyResult<Self> {
         Ok(Self { inner: Arc::new(self.inner.with_tool(pose("T_flange_tool", &T_flange_tool)?).py()?) })
@@ -234,6 +250,16 @@ impl PyTable {
         let lower = opt_vector("lower", lower, n, default_limit(&self.inner.kinds, false))?;
         let upper = opt_vector("upper", upper, n, default_limit(&self.inner.kinds, true))?;
         Ok(PyModel { inner: Arc::new(self.inner.to_model_with(name, &names, &lower, &upper).py()?) })
+    }
+    /// (n, 4, 4): the pose of the convention's frame i in the model's joint frame i (i = 1..n; the identity
+    /// except for dh, where DH frame i = joint frame i @ Tz(d_i) Tx(a_i) Rx(alpha_i)).
+    fn link_frames<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let f = self.inner.link_frames();
+        let mut v = vec![0.0; 16 * f.len()];
+        for (i, t) in f.iter().enumerate() {
+            write_pose(t, &mut v[16 * i..16 * i + 16]);
+        }
+        numpy::PyArray1::from_vec(py, v).reshape([f.len(), 4, 4])
     }
     /// (n+1, 4, 4): the convention's frames 0..n in world at q.
     fn frames<'py>(&self, py: Python<'py>, q: ArrayIn<'_>) -> PyResult<Bound<'py, PyArray3<f64>>> {

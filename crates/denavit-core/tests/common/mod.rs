@@ -41,3 +41,20 @@ pub fn kr5_dh() -> Table {
     ]);
     Table::new(Convention::Dh, p, vec![JointKind::Revolute; 6], Pose::identity(), Pose::identity()).unwrap()
 }
+
+/// Universal Robots UR5 (CB-series), standard DH; Universal Robots, "DH parameters for calculations of
+/// kinematics and dynamics": d1 = 89.159, a2 = -425, a3 = -392.25, d4 = 109.15, d5 = 94.65, d6 = 82.3 mm;
+/// alpha = 90, 0, 0, 90, -90, 0 deg. Rows (d, theta, a, alpha) in m, rad; no tool.
+pub fn ur5_dh() -> Table {
+    use std::f64::consts::FRAC_PI_2 as H;
+    #[rustfmt::skip]
+    let p = DMatrix::from_row_slice(6, 4, &[
+        0.089159, 0.0, 0.0, H,
+        0.0, 0.0, -0.425, 0.0,
+        0.0, 0.0, -0.39225, 0.0,
+        0.10915, 0.0, 0.0, H,
+        0.09465, 0.0, 0.0, -H,
+        0.0823, 0.0, 0.0, 0.0,
+    ]);
+    Table::new(Convention::Dh, p, vec![JointKind::Revolute; 6], Pose::identity(), Pose::identity()).unwrap()
+}
