@@ -226,3 +226,18 @@ def test_link_frames_place_the_convention_frames_in_the_joint_frames(rng):
         np.testing.assert_allclose(dv.joint_frames(m, q) @ L, t.frames(q)[1:], atol=1e-14)
         if t.convention != "dh":
             np.testing.assert_array_equal(L, np.tile(np.eye(4), (m.nq, 1, 1)))
+
+
+@pytest.mark.parametrize("convention, k", [("dh", 4), ("mdh", 4), ("edh", 5), ("poe", 6)])
+def test_model_without_joints(convention, k):
+    """A 0-joint model gives empty results, never a PanicException (to_table used to panic)."""
+    tool = np.eye(4)
+    tool[:3, 3] = [0.0, 0.0, 0.1]
+    m = dv.Table(convention, np.zeros((0, k)), T_last_tool=tool).to_model()
+    np.testing.assert_allclose(dv.fk(m, []), tool, atol=1e-15)
+    assert dv.jacobian(m, []).shape == (6, 0) and dv.fk_batch(m, np.zeros((3, 0))).shape == (3, 4, 4)
+    for to in ("dh", "mdh", "edh", "poe"):
+        e = dv.to_table(m, to)
+        assert e.table.params.shape == (0, len(e.table.columns))
+        np.testing.assert_allclose(dv.fk(e.table.to_model(), []), dv.fk(m, []), atol=1e-15)
+    assert dv.ik(m, dv.fk(m, []), []).success

@@ -351,6 +351,9 @@ pub fn extract(ax: &JointAxes, convention: Convention, opt: &ExtractOptions) -> 
 
 fn edh_from_axes(ax: &JointAxes, opt: &ExtractOptions, geoms: &[PairGeom], nominal_frames: Option<&[Pose]>) -> Result<Table> {
     let n = ax.nq();
+    if n == 0 {
+        return Table::new(Convention::Edh, DMatrix::zeros(0, 5), vec![], ax.t_world_base, ax.t_world_base.inverse() * ax.t_world_tool);
+    }
     let (p, z) = (&ax.points, &ax.directions);
     let nom_x = |k: usize| nominal_frames.map(|f| col(&f[k], 0));
     let origins: Vec<Vector3<f64>> = (0..n).map(|k| project(opt.origins.as_ref().map_or(&p[k], |o| &o[k]), &p[k], &z[k])).collect();
