@@ -1,9 +1,9 @@
 //! Parameter tables of every convention and their builders into a [`Model`] (docs/conventions.md,
 //! "Parameter tables").
 
-use crate::error::{check_finite, check_len, Error, Result};
+use crate::error::{Error, Result, check_finite, check_len};
 use crate::model::{Joint, JointKind, Model};
-use crate::spatial::{frame_from_zx, rx, rz, trans, unit, Pose};
+use crate::spatial::{Pose, frame_from_zx, rx, rz, trans, unit};
 use nalgebra::{DMatrix, Vector3};
 
 /// A kinematic convention.
@@ -115,7 +115,8 @@ impl Table {
     /// assert!((tool_pose(&m, &[0.0, 0.0]).unwrap().translation.x - 2.0).abs() < 1e-15);
     /// ```
     pub fn to_model(&self, name: &str) -> Result<Model> {
-        let joints: Vec<Joint> = self.placements()?
+        let joints: Vec<Joint> = self
+            .placements()?
             .into_iter()
             .enumerate()
             .map(|(i, (placement, offset))| {
@@ -134,17 +135,11 @@ impl Table {
         check_len("joint names", n, names.len())?;
         check_len("lower limits", n, lower.len())?;
         check_len("upper limits", n, upper.len())?;
-        let joints: Vec<Joint> = self.placements()?
+        let joints: Vec<Joint> = self
+            .placements()?
             .into_iter()
             .enumerate()
-            .map(|(i, (placement, offset))| Joint {
-                name: names[i].clone(),
-                kind: self.kinds[i],
-                placement,
-                offset,
-                lower: lower[i],
-                upper: upper[i],
-            })
+            .map(|(i, (placement, offset))| Joint { name: names[i].clone(), kind: self.kinds[i], placement, offset, lower: lower[i], upper: upper[i] })
             .collect();
         let (flange, tool) = self.flange_and_tool()?;
         Model::new(name, self.t_world_base, joints, flange, tool)

@@ -37,10 +37,10 @@
 //! LU with partial pivoting for Newton); other n use the same algorithms on preallocated buffers.
 #![allow(clippy::needless_range_loop)] // index loops mirror the formulas (and unroll)
 
-use crate::error::{check_finite, check_len, Error, Result};
+use crate::error::{Error, Result, check_finite, check_len};
 use crate::kinematics::{tool_pose_and_jacobian, tool_pose_unchecked};
 use crate::model::{JointKind, Model};
-use crate::spatial::{check_pose, pose_error, rotation_angle, Pose};
+use crate::spatial::{Pose, check_pose, pose_error, rotation_angle};
 use nalgebra::{DMatrix, DVectorViewMut, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 use rayon::prelude::*;
 use std::f64::consts::{PI, TAU};
@@ -185,18 +185,20 @@ fn log_with_angle(r: &Matrix3<f64>, theta: f64) -> Vector3<f64> {
     }
     // near pi: the axis from the symmetric part (R + R^T)/2 = c I + (1 - c) a a^T
     let d = [r[(0, 0)], r[(1, 1)], r[(2, 2)]];
-    let i = if d[0] >= d[1] && d[0] >= d[2] { 0 } else if d[1] >= d[2] { 1 } else { 2 };
+    let i = if d[0] >= d[1] && d[0] >= d[2] {
+        0
+    } else if d[1] >= d[2] {
+        1
+    } else {
+        2
+    };
     let ai = ((d[i] - c) / (1.0 - c)).max(0.0).sqrt();
     let mut a = Vector3::zeros();
     for j in 0..3 {
         a[j] = if j == i { ai } else { (r[(i, j)] + r[(j, i)]) / (2.0 * (1.0 - c) * ai) };
     }
     let a = a.normalize();
-    if a.dot(&v) < 0.0 {
-        -a * theta
-    } else {
-        a * theta
-    }
+    if a.dot(&v) < 0.0 { -a * theta } else { a * theta }
 }
 
 /// SplitMix64 (Steele, Lea & Flood 2014): a small deterministic generator for restarts.

@@ -1,7 +1,7 @@
 //! Forward kinematics and the geometric Jacobian (docs/conventions.md, "The model").
 #![allow(clippy::needless_range_loop)] // index loops mirror the formulas (and unroll)
 
-use crate::error::{check_len, Result};
+use crate::error::{Result, check_len};
 use crate::math::{sin_cos, sin_cos_lanes};
 use crate::model::{Data, JointKind, Model};
 use crate::spatial::Pose;

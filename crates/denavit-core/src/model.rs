@@ -1,8 +1,8 @@
 //! The immutable serial-chain [`Model`] and its [`Data`] workspace (docs/conventions.md, "The model").
 
 use crate::dynamics::Inertia;
-use crate::error::{check_finite, check_len, Error, Result};
-use crate::spatial::{check_pose, Pose};
+use crate::error::{Error, Result, check_finite, check_len};
+use crate::spatial::{Pose, check_pose};
 use nalgebra::Matrix6xX;
 
 /// How a joint moves along the z axis of its own frame.
@@ -218,10 +218,6 @@ pub struct Data {
 impl Data {
     /// A workspace sized for `model`.
     pub fn new(model: &Model) -> Self {
-        Self {
-            t_world_joint: vec![Pose::identity(); model.nq()],
-            t_world_tool: Pose::identity(),
-            jacobian: Matrix6xX::zeros(model.nq()),
-        }
+        Self { t_world_joint: vec![Pose::identity(); model.nq()], t_world_tool: Pose::identity(), jacobian: Matrix6xX::zeros(model.nq()) }
     }
 }

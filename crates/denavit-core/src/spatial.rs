@@ -1,6 +1,6 @@
 //! Rigid transforms: the elementary factors of docs/conventions.md and checked conversion from 4x4 matrices.
 
-use crate::error::{check_finite, Error, Result};
+use crate::error::{Error, Result, check_finite};
 use nalgebra::{Matrix3, Matrix4, Rotation3, Translation3, Unit, Vector3};
 
 /// A rigid transform `T_a_b` (rotation matrix + translation).
@@ -157,11 +157,7 @@ pub(crate) fn signed_angle(a: &Vector3<f64>, b: &Vector3<f64>, n: &Vector3<f64>)
 /// Wrap an angle to (-pi, pi].
 pub fn wrap_angle(t: f64) -> f64 {
     let w = t.rem_euclid(std::f64::consts::TAU);
-    if w > std::f64::consts::PI {
-        w - std::f64::consts::TAU
-    } else {
-        w
-    }
+    if w > std::f64::consts::PI { w - std::f64::consts::TAU } else { w }
 }
 
 /// Position and rotation-angle distance between two poses (metres, radians).

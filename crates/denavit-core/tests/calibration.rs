@@ -1,13 +1,12 @@
 //! Calibration chains: the chain of a convention reproduces the model's kinematics, and the analytic
 //! identification Jacobian matches central finite differences (tolerance ~ sqrt of the step).
-
 #![allow(clippy::unwrap_used)] // tests: a failed unwrap is a failed test
 
 mod common;
 
 use denavit_core::calibration::{Axis, Chain, Factor};
 use denavit_core::kinematics::tool_pose;
-use denavit_core::spatial::{rx, rz, trans, Pose};
+use denavit_core::spatial::{Pose, rx, rz, trans};
 use denavit_core::{Error, JointKind};
 use nalgebra::{Matrix3, Matrix6xX, Vector3};
 use proptest::prelude::*;
@@ -107,9 +106,9 @@ fn jacobian_matches_finite_differences_on_kr5_with_scales() {
     let err = (&jac - &num).amax();
     assert!(err < 1e-8, "max |analytic - numeric| = {err:e}");
     // the scale columns are q_j times the joint columns
-    for j in 0..6 {
+    for (j, qj) in q.iter().enumerate() {
         let joint_col = 5 * j + 4;
-        assert!((jac.column(np - 6 + j) - jac.column(joint_col) * q[j]).amax() < 1e-14);
+        assert!((jac.column(np - 6 + j) - jac.column(joint_col) * *qj).amax() < 1e-14);
     }
 }
 

@@ -1,12 +1,13 @@
 //! Conventions: the papers' tables, and params -> axes -> params round trips (docs/conventions.md).
+#![allow(clippy::unwrap_used)] // tests and benches unwrap: a failure is the test failing
 mod common;
 use common::*;
 use denavit_core::{
-    axes::axes,
-    extract::{extract, sample_configurations, ExtractOptions, Relation, FIDELITY_SAMPLES, NEAR_PARALLEL_SIN},
-    kinematics::{forward_kinematics, tool_pose},
-    spatial::{pose_error, rx, ry, rz, trans, Pose},
     Convention, Data, Joint, JointKind, Model, Table,
+    axes::axes,
+    extract::{ExtractOptions, FIDELITY_SAMPLES, NEAR_PARALLEL_SIN, Relation, extract, sample_configurations},
+    kinematics::{forward_kinematics, tool_pose},
+    spatial::{Pose, pose_error, rx, ry, rz, trans},
 };
 use nalgebra::Vector3;
 use proptest::prelude::*;
@@ -64,10 +65,14 @@ fn kr5_dh_home_position() {
     let t = tool_pose(&m, &[0.0; 6]).unwrap();
     // Rz(0)Tz(.4)Tx(.18)Rx(90) · Tx(.6) · Tx(.12)Rx(90) · Tz(.62)Rx(90) · Rx(90)
     // x = 0.18 + 0.6 + 0.12 = 0.9; after Rx(90) twice the z of link 4 points along -y... : y = -0.62·(-1)? see below
-    let expected = trans(0.0, 0.0, 0.4) * trans(0.18, 0.0, 0.0) * rx(std::f64::consts::FRAC_PI_2)
+    let expected = trans(0.0, 0.0, 0.4)
+        * trans(0.18, 0.0, 0.0)
+        * rx(std::f64::consts::FRAC_PI_2)
         * trans(0.6, 0.0, 0.0)
-        * trans(0.12, 0.0, 0.0) * rx(std::f64::consts::FRAC_PI_2)
-        * trans(0.0, 0.0, 0.62) * rx(std::f64::consts::FRAC_PI_2)
+        * trans(0.12, 0.0, 0.0)
+        * rx(std::f64::consts::FRAC_PI_2)
+        * trans(0.0, 0.0, 0.62)
+        * rx(std::f64::consts::FRAC_PI_2)
         * rx(std::f64::consts::FRAC_PI_2);
     let (p, r) = pose_error(&t, &expected);
     assert!(p < 1e-15 && r < 1e-15);
@@ -191,8 +196,16 @@ fn nominal_reproduces_published_tables() {
 #[test]
 fn zero_axis_is_an_error() {
     let e = denavit_core::JointAxes::new(
-        Pose::identity(), vec![nalgebra::Vector3::zeros(); 2], vec![nalgebra::Vector3::z(), nalgebra::Vector3::zeros()],
-        vec![JointKind::Revolute; 2], vec![0.0; 2], Pose::identity(), vec![-1.0; 2], vec![1.0; 2]).unwrap_err();
+        Pose::identity(),
+        vec![nalgebra::Vector3::zeros(); 2],
+        vec![nalgebra::Vector3::z(), nalgebra::Vector3::zeros()],
+        vec![JointKind::Revolute; 2],
+        vec![0.0; 2],
+        Pose::identity(),
+        vec![-1.0; 2],
+        vec![1.0; 2],
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("direction of axis 2 must be a non-zero direction"), "{e}");
 }
 

@@ -1,12 +1,13 @@
 //! Dynamics: RNE, CRBA, Coriolis matrix, ABA against each other, against energy, against a closed form,
 //! and TianSui-One in modified-DH and ED-H frames (Guo et al. sec. IV.B); bad input.
+#![allow(clippy::unwrap_used)] // tests and benches unwrap: a failure is the test failing
 mod common;
 use common::*;
 use denavit_core::{
-    dynamics::{self, DynamicsData, Inertia},
-    kinematics::{jacobian, JacobianFrame},
-    spatial::{rx, ry, rz, trans, Pose},
     Data, Error, Joint, JointKind, Model,
+    dynamics::{self, DynamicsData, Inertia},
+    kinematics::{JacobianFrame, jacobian},
+    spatial::{Pose, rx, ry, rz, trans},
 };
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector6};
 use proptest::prelude::*;
@@ -318,10 +319,7 @@ fn two_link_planar_arm_matches_closed_form() {
     let i2 = tensor(Vector3::new(0.02, 0.025, 0.015), ry(-0.4) * rz(0.9));
     let (izz1, izz2) = (i1[(2, 2)], i2[(2, 2)]);
     let model = denavit_core::builtin_planar2(l1, l2)
-        .with_inertias(vec![
-            Inertia::new(m1, Vector3::new(lc1, 0.0, 0.08), i1).unwrap(),
-            Inertia::new(m2, Vector3::new(lc2, 0.0, -0.05), i2).unwrap(),
-        ])
+        .with_inertias(vec![Inertia::new(m1, Vector3::new(lc1, 0.0, 0.08), i1).unwrap(), Inertia::new(m2, Vector3::new(lc2, 0.0, -0.05), i2).unwrap()])
         .unwrap();
     let g = Vector3::new(0.0, -g0, 0.0);
     let mut ws = DynamicsData::new(&model);

@@ -1,13 +1,14 @@
 //! A model with no joints: every public algorithm gives a valid empty result or an error, never a panic.
+#![allow(clippy::unwrap_used)] // tests and benches unwrap: a failure is the test failing
 use denavit_core::{
+    Convention, Data, JointAxes, JointKind, Model, Table,
     axes::axes,
     calibration::{Axis, Chain, Factor},
     dynamics::{self, DynamicsData},
-    extract::{convert, extract, ExtractOptions},
-    ik::{ik, ik_batch, ik_path, IkMethod, IkOptions, IkSolver},
-    kinematics::{forward_kinematics, jacobian, jacobian_batch, jacobian_row_major_unchecked, tool_pose, tool_pose_batch, JacobianFrame},
-    spatial::{rx, trans, Pose},
-    Convention, Data, JointAxes, JointKind, Model, Table,
+    extract::{ExtractOptions, convert, extract},
+    ik::{IkMethod, IkOptions, IkSolver, ik, ik_batch, ik_path},
+    kinematics::{JacobianFrame, forward_kinematics, jacobian, jacobian_batch, jacobian_row_major_unchecked, tool_pose, tool_pose_batch},
+    spatial::{Pose, rx, trans},
 };
 use nalgebra::{DMatrix, Vector3, Vector6};
 
@@ -122,7 +123,17 @@ fn calibration_chain_without_joints() {
 #[test]
 fn extraction_from_axes_never_panics_on_a_single_axis() {
     // the smallest extraction (one axis) in every convention, for completeness next to the empty cases
-    let ax = JointAxes::new(Pose::identity(), vec![Vector3::zeros()], vec![Vector3::z()], vec![JointKind::Revolute], vec![0.0], trans(0.0, 0.0, 0.3), vec![-1.0], vec![1.0]).unwrap();
+    let ax = JointAxes::new(
+        Pose::identity(),
+        vec![Vector3::zeros()],
+        vec![Vector3::z()],
+        vec![JointKind::Revolute],
+        vec![0.0],
+        trans(0.0, 0.0, 0.3),
+        vec![-1.0],
+        vec![1.0],
+    )
+    .unwrap();
     for c in Convention::ALL {
         let e = extract(&ax, c, &ExtractOptions::default()).unwrap();
         assert_eq!(e.table.nq(), 1);

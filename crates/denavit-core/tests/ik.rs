@@ -4,10 +4,10 @@
 mod common;
 use common::*;
 use denavit_core::{
-    ik::{ik, ik_batch, ik_path, log_rotation, IkMethod, IkOptions, IkSolver},
-    kinematics::tool_pose,
-    spatial::{nearest_rotation, pose_error, rx, rz, trans, Pose},
     Error, Joint, JointKind, Model,
+    ik::{IkMethod, IkOptions, IkSolver, ik, ik_batch, ik_path, log_rotation},
+    kinematics::tool_pose,
+    spatial::{Pose, nearest_rotation, pose_error, rx, rz, trans},
 };
 use nalgebra::{Matrix4, Rotation3, Translation3, Vector3};
 use proptest::prelude::*;
@@ -212,7 +212,10 @@ fn bad_input_is_an_error_naming_what_was_expected() {
     let e = ik(&m, &nan, &[0.0; 6], &o).unwrap_err();
     assert!(matches!(e, Error::NonFinite { .. }) && e.to_string().contains("IK target"), "{e}");
     // a target whose rotation is not orthonormal
-    let skew = Pose::from_parts(Translation3::new(0.5, 0.0, 0.5), Rotation3::from_matrix_unchecked(nalgebra::Matrix3::new(1.0, 0.1, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)));
+    let skew = Pose::from_parts(
+        Translation3::new(0.5, 0.0, 0.5),
+        Rotation3::from_matrix_unchecked(nalgebra::Matrix3::new(1.0, 0.1, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)),
+    );
     let e = ik(&m, &skew, &[0.0; 6], &o).unwrap_err();
     assert!(matches!(e, Error::NotSe3 { .. }) && e.to_string().contains("orthonormal"), "{e}");
     // options

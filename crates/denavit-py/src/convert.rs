@@ -23,7 +23,7 @@ pub fn values(a: &ArrayIn<'_>) -> (Vec<f64>, Vec<usize>) {
 
 /// Check a shape; `None` entries match anything.
 pub fn check_shape(what: &str, shape: &[usize], expected: &[Option<usize>]) -> PyResult<()> {
-    let ok = shape.len() == expected.len() && shape.iter().zip(expected).all(|(s, e)| e.map_or(true, |e| e == *s));
+    let ok = shape.len() == expected.len() && shape.iter().zip(expected).all(|(s, e)| e.is_none() || *e == Some(*s));
     if ok {
         return Ok(());
     }

@@ -123,7 +123,15 @@ pub fn forward_dynamics<'a>(
     Ok(&ws.qdd)
 }
 
-pub(super) fn check_fd_args(model: &Model, ws: &DynamicsData, q: &[f64], qd: &[f64], tau: &[f64], g: &Vector3<f64>, f_ext: Option<&Vector6<f64>>) -> Result<()> {
+pub(super) fn check_fd_args(
+    model: &Model,
+    ws: &DynamicsData,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+    g: &Vector3<f64>,
+    f_ext: Option<&Vector6<f64>>,
+) -> Result<()> {
     ws.check(model)?;
     model.check_q(q)?;
     check_vec("qd", model.nq(), qd)?;

@@ -332,7 +332,16 @@ pub(super) fn rnea_lanes(
 /// Batch inverse dynamics with the lane kernel: rows in groups of [`LANES`] (the last group padded by
 /// repeating its last row), chunks of rows in parallel.
 #[allow(clippy::too_many_arguments)]
-pub(super) fn rnea_batch_lanes(model: &Model, count: usize, qs: &[f64], qds: Option<&[f64]>, qdds: Option<&[f64]>, g: &Vector3<f64>, f_ext: Option<&[f64]>, out: &mut [f64]) -> Result<()> {
+pub(super) fn rnea_batch_lanes(
+    model: &Model,
+    count: usize,
+    qs: &[f64],
+    qds: Option<&[f64]>,
+    qdds: Option<&[f64]>,
+    g: &Vector3<f64>,
+    f_ext: Option<&[f64]>,
+    out: &mut [f64],
+) -> Result<()> {
     let n = model.nq();
     if n == 0 || count == 0 {
         return Ok(());
@@ -483,7 +492,15 @@ pub fn coriolis_matrix_batch(model: &Model, qs: &[f64], qds: &[f64], out: &mut [
 /// dynamics::forward_dynamics_batch(&m, &[0.0; 2], &[0.0; 2], &[5.0, 2.0], &nalgebra::Vector3::zeros(), None, &mut out).unwrap();
 /// assert!((out[0] - 1.0).abs() < 1e-14 && out[1].abs() < 1e-14);
 /// ```
-pub fn forward_dynamics_batch(model: &Model, qs: &[f64], qds: &[f64], taus: &[f64], gravity: &Vector3<f64>, f_ext: Option<&[f64]>, out: &mut [f64]) -> Result<()> {
+pub fn forward_dynamics_batch(
+    model: &Model,
+    qs: &[f64],
+    qds: &[f64],
+    taus: &[f64],
+    gravity: &Vector3<f64>,
+    f_ext: Option<&[f64]>,
+    out: &mut [f64],
+) -> Result<()> {
     let n = model.nq();
     let count = batch_rows(model, &[("q", qs), ("qd", qds), ("tau", taus)], "output accelerations", n, out.len())?;
     check_gravity(gravity)?;

@@ -59,7 +59,7 @@ pub use energy::*;
 pub use inertia::*;
 pub use rnea::*;
 
-use crate::error::{check_finite, check_len, Error, Result};
+use crate::error::{Error, Result, check_finite, check_len};
 use crate::math::{sin_cos, sin_cos_lanes};
 use crate::model::{Joint, JointKind, Model};
 use crate::spatial::Pose;
@@ -82,21 +82,13 @@ pub const INERTIA_TOL: f64 = 1e-12;
 /// `r v`, written out (small fixed sizes: no loops, no bounds checks).
 #[inline(always)]
 fn mv(r: &Matrix3<f64>, v: &Vector3<f64>) -> Vector3<f64> {
-    Vector3::new(
-        r.m11 * v.x + r.m12 * v.y + r.m13 * v.z,
-        r.m21 * v.x + r.m22 * v.y + r.m23 * v.z,
-        r.m31 * v.x + r.m32 * v.y + r.m33 * v.z,
-    )
+    Vector3::new(r.m11 * v.x + r.m12 * v.y + r.m13 * v.z, r.m21 * v.x + r.m22 * v.y + r.m23 * v.z, r.m31 * v.x + r.m32 * v.y + r.m33 * v.z)
 }
 
 /// `rᵀ v`, written out.
 #[inline(always)]
 fn mtv(r: &Matrix3<f64>, v: &Vector3<f64>) -> Vector3<f64> {
-    Vector3::new(
-        r.m11 * v.x + r.m21 * v.y + r.m31 * v.z,
-        r.m12 * v.x + r.m22 * v.y + r.m32 * v.z,
-        r.m13 * v.x + r.m23 * v.y + r.m33 * v.z,
-    )
+    Vector3::new(r.m11 * v.x + r.m21 * v.y + r.m31 * v.z, r.m12 * v.x + r.m22 * v.y + r.m32 * v.z, r.m13 * v.x + r.m23 * v.y + r.m33 * v.z)
 }
 
 /// `a × b`, written out.
