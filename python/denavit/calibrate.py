@@ -26,9 +26,9 @@ Parametrisations (chain order, base to tool; joint numbers 1-based, subscripts a
 * ``dh`` (Denavit & Hartenberg), link *i*: ``Rz(offset_i + q_i) Tz(d_i) Tx(a_i) Rx(alpha_i)``. Refused (with the
   reason) when consecutive axes are near-parallel: a DH table has no parameter for a tilt about ``y`` there
   and its ``d`` diverges (Hayati & Mirmirani 1985).
-* tool point: ``Tx(tool_x) Ty(tool_y) Tz(tool_z)``, the measured point in the convention's last frame (the
-  flange frame for ``edh``/``mdh``; DH frame *n* for ``dh``); tool frame (pose data): ``Tx Ty Tz · R0 ·
-  Rx(tool_rx) Ry(tool_ry) Rz(tool_rz)``.
+* tool point: ``F · Tx(tool_x) Ty(tool_y) Tz(tool_z)``, the measured point in the flange frame (docs/conventions.md
+  "Frames": DH frame *n* for a DH robot), ``F`` the nominal flange fixed in the convention's last frame; tool frame
+  (pose data): ``F · Tx Ty Tz · R0 · Rx(tool_rx) Ry(tool_ry) Rz(tool_rz)``.
 * joint scale (optional): ``q_i -> q_i (1 + scale_i)``.
 
 Identifiability: the (weighted) identification Jacobian ``J`` with unit-norm columns is reduced by a greedy
@@ -384,7 +384,7 @@ class Parametrization:
     chain: _core.CalibrationChain
     robot: Robot
     joint_factor: list  # factor index of each joint
-    tool_start: int  # factors[tool_start:] form T_flange_tool (after the last joint)
+    tool_start: int  # factors[tool_start:] form T_flange_tool (after the flange: dh's link n factors come before)
     base_end: int  # factors[:base_end] form the base
 
     @property
@@ -425,10 +425,12 @@ class Parametrization:
             placements.append(self._product(x, prev, jf))
             offsets.append(x[self.factors[jf][1]])
             prev = jf + 1
-        # DH: the factors between the last joint and the tool belong to T_flange_tool
-        tool = self._product(x, prev, len(self.factors))
+        # the flange (docs/conventions.md "Frames"): dh's link n (Tz Tx Rx) after the last joint, else the last joint frame
+        flange = self._product(x, prev, self.tool_start)
+        tool = self._product(x, self.tool_start, len(self.factors))
         return _core.Model.from_placements(np.array(placements), self.robot.table.kinds, offsets=offsets, lower=self.robot.lower, upper=self.robot.upper,
-                                           names=self.robot.names, T_world_base=_orthonormal(self.base_pose(x)), T_flange_tool=_orthonormal(tool), name=name)
+                                           names=self.robot.names, T_world_base=_orthonormal(self.base_pose(x)), T_last_flange=_orthonormal(flange),
+                                           T_flange_tool=_orthonormal(tool), name=name)
 
     def rebased(self, x, T_world_new_old) -> tuple[Parametrization, np.ndarray]:
         """The same parametrisation with the base moved by ``T_world_new_old`` (a change of measurement frame),
@@ -500,7 +502,7 @@ def parametrize(nominal, convention: str = "edh", *, measure: str = "point", too
     measure : {"point", "pose"}
         Measured tool points (tool = 3 translations) or full tool poses (tool = 6 parameters).
     tool : array_like, optional
-        Point: the tool point (3,) in the flange frame (the last joint frame), metres; pose: ``T_flange_tool``
+        Point: the tool point (3,) in the flange frame (docs/conventions.md: DH frame n for a DH robot), metres; pose: ``T_flange_tool``
         (4, 4). Default: the nominal model's tool.
     scale : bool
         Add a scale parameter per joint (``q -> q (1 + scale)``).
@@ -529,7 +531,7 @@ def parametrize(nominal, convention: str = "edh", *, measure: str = "point", too
     table = ex.table
     P = table.params
     # tool in the convention's last frame
-    F_flange = _core.joint_frames(m, np.zeros(n))[-1] if n else m.T_world_base
+    F_flange = (_core.joint_frames(m, np.zeros(n))[-1] if n else np.asarray(m.T_world_base)) @ m.T_last_flange
     C_last = table.frames(np.zeros(n))[-1]
     T_tool_flange = np.asarray(m.T_flange_tool) if tool is None or measure == "point" else np.asarray(tool, dtype=float)
     if measure == "point" and tool is not None:
@@ -540,7 +542,6 @@ def parametrize(nominal, convention: str = "edh", *, measure: str = "point", too
         T_tool_flange[:3, 3] = tp
     if measure == "pose" and tool is not None and T_tool_flange.shape != (4, 4):
         raise DenavitError(f"tool: expected T_flange_tool (4, 4) for pose measurements, got shape {T_tool_flange.shape}")
-    T_last_tool = np.linalg.inv(C_last) @ F_flange @ T_tool_flange
 
     names, x0, units, factors, groups, along = [], [], [], [], [], []
     rules = {}
@@ -613,11 +614,12 @@ def parametrize(nominal, convention: str = "edh", *, measure: str = "point", too
                 add("tz", f"offset_{i}", r[0], "length", "offset", k)
             add("tx", f"a_{i}", r[2], "length", "link")
             add("rx", f"alpha_{i}", r[3], "angle", "link")
-    tool_start = joint_factor[-1] + 1 if joint_factor else base_end
+    fixed(np.linalg.inv(C_last) @ F_flange)  # the nominal flange in the convention's last frame: the tool is in the flange
+    tool_start = len(factors)
     for a in "xyz":
-        add(f"t{a}", f"tool_{a}", T_last_tool["xyz".index(a), 3], "length", "tool")
+        add(f"t{a}", f"tool_{a}", T_tool_flange["xyz".index(a), 3], "length", "tool")
     Rt = np.eye(4)
-    Rt[:3, :3] = T_last_tool[:3, :3]
+    Rt[:3, :3] = T_tool_flange[:3, :3]
     fixed(Rt)
     if measure == "pose":
         for a in "xyz":
@@ -1648,7 +1650,8 @@ def to_json(cal: Calibration, length: str = "mm", angle: str = "deg") -> dict:
                       "outliers": [cal.measurements.where[i] for i in cal.outliers]},
         "validation": None if v is None else {"n_train": v.n_train, "n_test": v.n_test, "before_rms": v.before_rms / ls, "before_max": v.before_max / ls,
                                              "after_rms": v.after_rms / ls, "after_max": v.after_max / ls},
-        "model": {"T_world_base": _pose_json(np.asarray(m.T_world_base), ls), "T_flange_tool": _pose_json(np.asarray(m.T_flange_tool), ls),
+        "model": {"T_world_base": _pose_json(np.asarray(m.T_world_base), ls), "T_last_flange": _pose_json(np.asarray(m.T_last_flange), ls),
+                  "T_flange_tool": _pose_json(np.asarray(m.T_flange_tool), ls),
                   "placements": [_pose_json(P, ls) for P in np.asarray(m.placements)], "offsets": [o / (as_ if k == "revolute" else ls) for o, k in zip(m.offsets, m.kinds)]},
         "converged": cal.converged,
         "evaluations": cal.evaluations,
