@@ -74,13 +74,14 @@ def zero_joint_calls():
         "ik_path": lambda: _core.ik_path(m, np.zeros((0, 4, 4))),
         "ik_batch": lambda: _core.ik_batch(m, np.zeros((0, 4, 4))),
         "compensate": lambda: _core.compensate(m, m, np.zeros((0, 4, 4))),
-        "parametrize": lambda: _core.parametrize(t, I4),
+        "parametrize": lambda: _core.parametrize(t, I4, I4),
         "Model.from_placements": lambda: _core.Model.from_placements(np.zeros((0, 4, 4)), []),
         "Model.with_base": lambda: m.with_base(I4),
         "Model.with_tool": lambda: m.with_tool(I4),
         "Model.with_inertias": lambda: m.with_inertias(z, np.zeros((0, 3)), np.zeros((0, 3, 3)), frame="world"),
         "Table.to_model": lambda: t.to_model("r", [], z, z),
         "Table.frames": lambda: t.frames(z),
+        "Table.link_frames": lambda: t.link_frames(),
         "CalibrationChain.evaluate": lambda: chain.evaluate(z, zs),
     }
 
@@ -231,7 +232,7 @@ def travelling_objects():
         "Model": heavy, "Model moved": moved, "Model bare": kr5, "Model 0 joints": dv.Table("dh", np.zeros((0, 4))).to_model(),
         "Table": ex.table, "Table poe": dv.extract(ax, "poe").table, "JointAxes": ax, "Extraction": ex, "PairDiagnostic": ex.pairs[1],
         "IkResult": dv.ik(kr5, targets[0]), "IkBatchResult": dv.ik_batch(kr5, targets), "IkBatchResult empty": dv.ik_batch(kr5, np.zeros((0, 4, 4))),
-        "CalibrationChain": chain, "CalibrationChain parametrized": _core.parametrize(ex.table, I4, "pose", True)["chain"],
+        "CalibrationChain": chain, "CalibrationChain parametrized": _core.parametrize(ex.table, I4, I4, "pose", True)["chain"],
         "Compensation": _core.compensate(kr5, kr5.with_base(dv.fk(kr5, np.full(6, 0.01))), targets, restarts=2),
     }
 

@@ -577,3 +577,17 @@ def test_bad_noise_and_a_fit_that_explains_nothing(kr5, tmp_path):
     res = cal.calibrate(meas, kr5, tool=TOOL, noise=NOISE / 100, holdout=0)
     assert "x what the declared noise" in res.notes[0]
     assert not any("explains" in n for n in cal.calibrate(meas, kr5, tool=TOOL, noise=NOISE, holdout=0).notes)
+
+
+@pytest.mark.parametrize("convention", ["edh", "mdh"])
+def test_tool_is_given_in_the_flange(convention, rng):
+    """``--tool 50,30,100`` on the UR5 used to come out as tool_z = 182.3 mm (the tool in joint frame 6): the
+    tool is in the flange (DH frame 6, docs/conventions.md "Frames"), and the calibrated model keeps the flange."""
+    ur5 = dv.load_robot("ur5")
+    pz = cal.parametrize(ur5, convention, tool=[0.05, 0.03, 0.1])
+    x = dict(zip(pz.names, pz.x0))
+    np.testing.assert_allclose([x["tool_x"], x["tool_y"], x["tool_z"]], [0.05, 0.03, 0.1], atol=1e-9)
+    m = pz.model(pz.x0)
+    np.testing.assert_allclose(m.T_flange_tool[:3, 3], [0.05, 0.03, 0.1], atol=1e-9)
+    for q in rng.uniform(-np.pi, np.pi, (10, 6)):
+        np.testing.assert_allclose(dv.fk(m.with_tool(np.eye(4)), q), ur5.table.frames(q)[-1], atol=1e-9)

@@ -283,9 +283,9 @@ def to_pinocchio(model):
     return pin, pm
 
 
-def tool_force_in_flange(pin, model, f):
+def tool_force_in_last_joint_frame(pin, model, f):
     """A tool wrench [f; n] (tool axes, about the tool origin) as a pinocchio Force in the last joint frame."""
-    T = model.T_flange_tool
+    T = model.T_last_tool
     fl = T[:3, :3] @ f[:3]
     return pin.Force(fl, T[:3, :3] @ f[3:] + np.cross(T[:3, 3], fl))
 
@@ -298,7 +298,7 @@ def test_matches_pinocchio_on_builtin_robots(name, rng):
     off = np.array(model.offsets)
     f = np.array([3.0, -2.0, 5.0, 0.4, -0.3, 0.2])
     fext = [pin.Force.Zero() for _ in range(pm.njoints)]
-    fext[-1] = tool_force_in_flange(pin, model, f)
+    fext[-1] = tool_force_in_last_joint_frame(pin, model, f)
     for q, qd, qdd in zip(*states(model.nq, 20, rng)):
         qp = q + off
         tau = _core.rnea(model, q, qd, qdd, f_ext=f)

@@ -29,7 +29,8 @@ def rot(axis, angle):
 
 def limited(model, lower, upper):
     return dv.Model.from_placements(model.placements, model.kinds, offsets=model.offsets, lower=lower, upper=upper,
-                                    names=model.names, T_world_base=model.T_world_base, T_flange_tool=model.T_flange_tool)
+                                    names=model.names, T_world_base=model.T_world_base, T_last_flange=model.T_last_flange,
+                                    T_flange_tool=model.T_flange_tool)
 
 
 def guo_T0():

@@ -106,7 +106,7 @@ def test_joint_frames_end_at_the_tool(mixed, rng):
         q = rng.uniform(-1, 1, m.nq)
         F = dv.joint_frames(m, q)
         assert F.shape == (m.nq, 4, 4)
-        np.testing.assert_allclose(F[-1] @ m.T_flange_tool, dv.fk(m, q), atol=1e-14)
+        np.testing.assert_allclose(F[-1] @ m.T_last_tool, dv.fk(m, q), atol=1e-14)
         # the Jacobian's angular part of a revolute joint is its z axis in world
         J = dv.jacobian(m, q)
         for i, kind in enumerate(m.kinds):
@@ -186,3 +186,61 @@ def test_bad_input_raises_denavit_error_with_expected_and_got():
 def test_puma560_tool_pose_matches_corkes_published_values(q, published):
     """The Puma 560 of Corke's toolbox (our built-in's source) at its named poses, against the printed values."""
     np.testing.assert_allclose(dv.fk(dv.load_model("puma560"), q)[:3], published, atol=0.5e-4 + 1e-12)  # half the last printed digit
+
+
+def test_flange_is_dh_frame_n_and_tools_are_given_in_it(rng):
+    """One flange (docs/conventions.md "Frames"): for the DH UR5 it is DH frame 6, 82.3 mm (d6) beyond joint
+    frame 6; ``fk`` without a tool reports it and a tool point given in the flange frame lands at flange @ p."""
+    robot = dv.load_robot("ur5")
+    m = robot.model()
+    np.testing.assert_array_equal(m.T_last_flange[:3, 3], [0, 0, 0.0823])
+    np.testing.assert_array_equal(m.T_flange_tool, np.eye(4))
+    np.testing.assert_array_equal(m.T_last_tool, m.T_last_flange @ m.T_flange_tool)
+    p = np.array([0.05, 0.03, 0.1])
+    tool = np.eye(4)
+    tool[:3, 3] = p
+    tooled = m.with_tool(tool)
+    np.testing.assert_array_equal(tooled.T_last_flange, m.T_last_flange)
+    np.testing.assert_array_equal(tooled.T_flange_tool, tool)
+    for q in rng.uniform(-np.pi, np.pi, (20, 6)):
+        flange = robot.table.frames(q)[-1]
+        np.testing.assert_allclose(dv.fk(tooled.with_tool(np.eye(4)), q), flange, atol=1e-15)
+        np.testing.assert_allclose(dv.fk(tooled, q)[:3, 3], flange[:3, :3] @ p + flange[:3, 3], atol=1e-15)
+
+
+def test_from_placements_flange_and_tool():
+    """``Model.from_placements`` takes the flange in the last joint frame and the tool in the flange."""
+    flange, tool = np.eye(4), np.eye(4)
+    flange[2, 3], tool[0, 3] = 0.1, 0.02
+    m = dv.Model.from_placements(np.eye(4)[None], ["revolute"], T_last_flange=flange, T_flange_tool=tool)
+    np.testing.assert_array_equal(m.T_last_tool, flange @ tool)
+    np.testing.assert_array_equal(dv.fk(m, [0.0])[:3, 3], [0.02, 0, 0.1])
+    np.testing.assert_array_equal(dv.fk(m.with_tool(np.eye(4)), [0.0])[:3, 3], [0, 0, 0.1])
+
+
+def test_link_frames_place_the_convention_frames_in_the_joint_frames(rng):
+    """``Table.link_frames()`` (n, 4, 4): convention frame i = joint frame i @ link_frames[i]."""
+    for name in BUILTINS:
+        robot = dv.load_robot(name)
+        m, t = robot.model(), robot.table
+        L = t.link_frames()
+        assert L.shape == (m.nq, 4, 4)
+        q = rng.uniform(-np.pi, np.pi, m.nq)
+        np.testing.assert_allclose(dv.joint_frames(m, q) @ L, t.frames(q)[1:], atol=1e-14)
+        if t.convention != "dh":
+            np.testing.assert_array_equal(L, np.tile(np.eye(4), (m.nq, 1, 1)))
+
+
+@pytest.mark.parametrize("convention, k", [("dh", 4), ("mdh", 4), ("edh", 5), ("poe", 6)])
+def test_model_without_joints(convention, k):
+    """A 0-joint model gives empty results, never a PanicException (to_table used to panic)."""
+    tool = np.eye(4)
+    tool[:3, 3] = [0.0, 0.0, 0.1]
+    m = dv.Table(convention, np.zeros((0, k)), T_last_tool=tool).to_model()
+    np.testing.assert_allclose(dv.fk(m, []), tool, atol=1e-15)
+    assert dv.jacobian(m, []).shape == (6, 0) and dv.fk_batch(m, np.zeros((3, 0))).shape == (3, 4, 4)
+    for to in ("dh", "mdh", "edh", "poe"):
+        e = dv.to_table(m, to)
+        assert e.table.params.shape == (0, len(e.table.columns))
+        np.testing.assert_allclose(dv.fk(e.table.to_model(), []), dv.fk(m, []), atol=1e-15)
+    assert dv.ik(m, dv.fk(m, []), []).success

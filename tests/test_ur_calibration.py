@@ -64,8 +64,12 @@ def test_bad_input():
         urc.kinematics(r.model(), dv.load_robot("tiansui_mdh").table)
     tcp = np.eye(4)
     tcp[:3, 3] = [0.05, 0, 0.1]
-    with pytest.raises(dv.DenavitError, match="mm off the axis"):
-        urc.kinematics(r.model().with_tool(tcp), r.table)
+    assert urc.kinematics(r.model().with_tool(tcp), r.table) == urc.kinematics(r.model(), r.table)  # the flange, not the TCP
+    t = r.table
+    P = t.params.copy()
+    P[5, 2] = 0.01  # a6 = 10 mm: the flange leaves axis 6
+    with pytest.raises(dv.DenavitError, match="10 mm off the axis"):
+        urc.kinematics(dv.Table("dh", P, t.kinds, t.T_world_base, t.T_last_tool).to_model(), t)
     with pytest.raises(dv.DenavitError, match="kinematics.forearm: expected x, y, z, roll, pitch, yaw"):
         urc.loads("kinematics:\n  shoulder: {x: 0, y: 0, z: 0, roll: 0, pitch: 0, yaw: 0}\n  upper_arm: {x: 0, y: 0, z: 0, roll: 0, pitch: 0, yaw: 0}\n")
     with pytest.raises(dv.DenavitError, match="top-level 'kinematics'"):

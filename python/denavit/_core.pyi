@@ -25,6 +25,7 @@ class Model:
         upper: ArrayLike | None = None,
         names: Sequence[str] | None = None,
         T_world_base: ArrayLike | None = None,
+        T_last_flange: ArrayLike | None = None,
         T_flange_tool: ArrayLike | None = None,
         name: str = "robot",
     ) -> Model: ...
@@ -47,7 +48,13 @@ class Model:
     @property
     def T_world_base(self) -> NDArray[np.float64]: ...
     @property
+    def T_last_flange(self) -> NDArray[np.float64]:
+        """The flange (mechanical flange, ROS tool0) in the last joint frame."""
+    @property
     def T_flange_tool(self) -> NDArray[np.float64]: ...
+    @property
+    def T_last_tool(self) -> NDArray[np.float64]:
+        """The tool in the last joint frame: T_last_flange @ T_flange_tool."""
     def with_base(self, T_world_base: ArrayLike) -> Model: ...
     def with_tool(self, T_flange_tool: ArrayLike) -> Model: ...
     def with_inertias(self, masses: ArrayLike, coms: ArrayLike, inertias: ArrayLike, frame: str = "link", about: str = "com",
@@ -78,6 +85,8 @@ class Table:
     @property
     def T_last_tool(self) -> NDArray[np.float64]: ...
     def to_model(self, name: str = "robot", names: Sequence[str] | None = None, lower: ArrayLike | None = None, upper: ArrayLike | None = None) -> Model: ...
+    def link_frames(self) -> NDArray[np.float64]:
+        """(n, 4, 4): the convention's frame i in the model's joint frame i."""
     def frames(self, q: ArrayLike) -> NDArray[np.float64]: ...
 
 class JointAxes:
@@ -221,7 +230,7 @@ def conventions() -> list[str]: ...
 
 NEAR_PARALLEL_SIN: float
 EXACT_PARALLEL_SIN: float
-def parametrize(table: Table, T_last_tool: ArrayLike, measure: str = "point", scale: bool = False, robot: str = "robot") -> dict: ...
+def parametrize(table: Table, T_last_flange: ArrayLike, T_flange_tool: ArrayLike, measure: str = "point", scale: bool = False, robot: str = "robot") -> dict: ...
 
 class Compensation:
     """The compensation of N targets: per target the identified and nominal joint values, the command, the flags."""

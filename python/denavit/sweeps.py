@@ -84,7 +84,7 @@ def simulate(
 ) -> SweepSet:
     """Simulate sweeps of ``model``: joint j runs from ``ranges[j][0]`` to ``ranges[j][1]`` (rad / m,
     absolute joint values, as in Hayat Table II) with the others at ``home``; the tool point (m, in the
-    flange frame, i.e. in ``T_flange_tool``'s parent frame: the last joint frame) is recorded with Gaussian
+    flange frame, i.e. in ``T_flange_tool``'s parent frame: the flange, DH frame n for a DH robot) is recorded with Gaussian
     noise ``noise`` (m, per coordinate) and the readings with noise ``noise_q`` (rad / m).
     """
     n = model.nq

@@ -1,9 +1,9 @@
 //! Joint axis lines, the robot's geometric truth (docs/conventions.md, "Joint axes").
 
-use crate::error::{check_finite, check_len, Error, Result};
+use crate::error::{Error, Result, check_finite, check_len};
 use crate::kinematics::forward_kinematics;
 use crate::model::{Data, JointKind, Model};
-use crate::spatial::{unit, Pose};
+use crate::spatial::{Pose, unit};
 use nalgebra::Vector3;
 
 /// Joint axis lines in `world` observed at configuration `q_ref`, with the base frame and the tool pose.
@@ -52,7 +52,11 @@ impl JointAxes {
         check_finite("q_ref", &q_ref)?;
         for (i, (l, u)) in lower.iter().zip(&upper).enumerate() {
             if l.is_nan() || u.is_nan() || l > u {
-                return Err(Error::InvalidArgument { what: format!("limits of axis {}", i + 1), expected: "lower <= upper".into(), got: format!("[{l}, {u}]") });
+                return Err(Error::InvalidArgument {
+                    what: format!("limits of axis {}", i + 1),
+                    expected: "lower <= upper".into(),
+                    got: format!("[{l}, {u}]"),
+                });
             }
         }
         let mut dirs = Vec::with_capacity(n);

@@ -37,7 +37,7 @@
 //! assert!((jac[(0, 3)]).abs() < 1e-15 && (jac[(1, 3)] - 1.0).abs() < 1e-15); // second link points along y
 //! ```
 
-use crate::error::{check_finite, check_len, Error, Result};
+use crate::error::{Error, Result, check_finite, check_len};
 use crate::spatial::Pose;
 use nalgebra::{Matrix6xX, Vector3};
 use rayon::prelude::*;
@@ -140,7 +140,7 @@ pub struct Chain {
 #[inline(always)]
 fn apply(t: &mut Pose, axis: Axis, s: f64) {
     if axis.is_rotation() {
-        let (sn, cs) = s.sin_cos();
+        let (sn, cs) = crate::math::sin_cos(s);
         // columns (a, b) of R rotate: R · Rot(s) about the third axis c of (a, b, c) right-handed
         let (a, b) = match axis {
             Axis::Rx => (1, 2),
@@ -194,7 +194,11 @@ impl Chain {
         for (j, s) in scales.iter().enumerate() {
             if let Some(s) = s {
                 if *s >= n_params {
-                    return Err(Error::InvalidArgument { what: format!("scale parameter of joint {}", j + 1), expected: format!("< {n_params}"), got: s.to_string() });
+                    return Err(Error::InvalidArgument {
+                        what: format!("scale parameter of joint {}", j + 1),
+                        expected: format!("< {n_params}"),
+                        got: s.to_string(),
+                    });
                 }
             }
         }

@@ -11,11 +11,11 @@
 //! silently. In `path` mode the nominal solutions are warm-started along the program ([`ik_path`]), and a
 //! joint step between consecutive nominal solutions larger than `path_jump` is flagged as a branch flip.
 
-use crate::error::{check_finite, check_len, Error, Result};
-use crate::ik::{ik_batch, ik_path, IkOptions, IkSolver};
+use crate::error::{Error, Result, check_finite, check_len};
+use crate::ik::{IkOptions, IkSolver, ik_batch, ik_path};
 use crate::kinematics::tool_pose_unchecked;
 use crate::model::Model;
-use crate::spatial::{pose_error, Pose};
+use crate::spatial::{Pose, pose_error};
 use rayon::prelude::*;
 
 /// Options of [`compensate`]. `Default`: the IK defaults, independent targets, `branch_tol` 0.1 (rad or m),
@@ -84,15 +84,28 @@ fn check_models(nominal: &Model, identified: &Model) -> Result<()> {
 /// otherwise they are solved on the nominal model from `q0` (n values).
 ///
 /// ```
-/// use denavit_core::{builtin_planar2, kinematics::tool_pose, compensate::{compensate, CompensateOptions}};
-/// let nominal = builtin_planar2(1.0, 1.0);
-/// let identified = builtin_planar2(1.001, 0.999);
-/// let t = tool_pose(&nominal, &[0.3, 0.8]).unwrap();
-/// let c = &compensate(&nominal, &identified, &[t], None, &[0.3, 0.8], &CompensateOptions::default()).unwrap()[0];
+/// use denavit_core::{Joint, JointKind, Model, kinematics::tool_pose, spatial::{trans, Pose}};
+/// use denavit_core::compensate::{compensate, CompensateOptions};
+/// // a planar 3R arm (it reaches a planar pose: x, y and the angle) and the same arm 1 mm longer in link 1
+/// let arm = |l1: f64| {
+///     let j = vec![Joint::new("j1", JointKind::Revolute, Pose::identity()), Joint::new("j2", JointKind::Revolute, trans(l1, 0.0, 0.0)),
+///                  Joint::new("j3", JointKind::Revolute, trans(1.0, 0.0, 0.0))];
+///     Model::new("planar3", Pose::identity(), j, trans(0.5, 0.0, 0.0), Pose::identity()).unwrap()
+/// };
+/// let (nominal, identified) = (arm(1.0), arm(1.001));
+/// let t = tool_pose(&nominal, &[0.3, 0.8, -0.4]).unwrap();
+/// let c = &compensate(&nominal, &identified, &[t], None, &[0.3, 0.8, -0.4], &CompensateOptions::default()).unwrap()[0];
 /// assert!(c.reached && !c.branch_changed && c.before_position > 1e-4);
 /// assert!((tool_pose(&identified, &c.q).unwrap().translation.vector - t.translation.vector).norm() < 1e-9);
 /// ```
-pub fn compensate(nominal: &Model, identified: &Model, targets: &[Pose], q_nominal: Option<&[f64]>, q0: &[f64], opts: &CompensateOptions) -> Result<Vec<Compensation>> {
+pub fn compensate(
+    nominal: &Model,
+    identified: &Model,
+    targets: &[Pose],
+    q_nominal: Option<&[f64]>,
+    q0: &[f64],
+    opts: &CompensateOptions,
+) -> Result<Vec<Compensation>> {
     check_models(nominal, identified)?;
     opts.ik.check()?;
     for (what, v) in [("branch_tol", opts.branch_tol), ("path_jump", opts.path_jump)] {
@@ -115,7 +128,7 @@ pub fn compensate(nominal: &Model, identified: &Model, targets: &[Pose], q_nomin
         }
     };
     for (i, t) in targets.iter().enumerate() {
-        crate::ik::check_target(&format!("target {i}"), t)?;
+        crate::spatial::check_pose(&format!("target {i}"), t)?;
     }
     // the identified solve from the nominal solution: no restarts first (stay on its branch), then the
     // options' restarts if that fails
@@ -124,7 +137,12 @@ pub fn compensate(nominal: &Model, identified: &Model, targets: &[Pose], q_nomin
         .par_iter()
         .enumerate()
         .map_init(
-            || (IkSolver::new(identified, first.clone()).expect("options checked above"), IkSolver::new(identified, opts.ik.clone()).expect("options checked above")),
+            || {
+                (
+                    IkSolver::new(identified, first.clone()).expect("options checked above"),
+                    IkSolver::new(identified, opts.ik.clone()).expect("options checked above"),
+                )
+            },
             |(quick, full), (i, t)| {
                 let qn_i = &qn[i * n..(i + 1) * n];
                 let mut r = quick.solve(t, qn_i).expect("target and q checked above");

@@ -1,9 +1,9 @@
 //! Parameter tables of every convention and their builders into a [`Model`] (docs/conventions.md,
 //! "Parameter tables").
 
-use crate::error::{check_finite, check_len, Error, Result};
+use crate::error::{Error, Result, check_finite, check_len};
 use crate::model::{Joint, JointKind, Model};
-use crate::spatial::{frame_from_zx, rx, rz, trans, unit, Pose};
+use crate::spatial::{Pose, frame_from_zx, rx, rz, trans, unit};
 use nalgebra::{DMatrix, Vector3};
 
 /// A kinematic convention.
@@ -70,8 +70,9 @@ impl Convention {
 
 /// A parameter table: one row per joint in the convention's column order, plus the base and tool poses.
 ///
-/// `t_last_tool` is the tool in the convention's last frame (frame n) for `dh`, `mdh`, `edh`, and the home
-/// pose `M = T_base_tool(q = 0)` for `poe`.
+/// `t_last_tool` is the tool in the convention's last frame (frame n), which is the flange
+/// (docs/conventions.md, "Frames: base, joint i, flange, tool"), for `dh`, `mdh`, `edh`, and the home pose
+/// `M = T_base_tool(q = 0)` for `poe`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Table {
     /// Which convention the rows follow.
@@ -114,7 +115,8 @@ impl Table {
     /// assert!((tool_pose(&m, &[0.0, 0.0]).unwrap().translation.x - 2.0).abs() < 1e-15);
     /// ```
     pub fn to_model(&self, name: &str) -> Result<Model> {
-        let joints: Vec<Joint> = self.placements()?
+        let joints: Vec<Joint> = self
+            .placements()?
             .into_iter()
             .enumerate()
             .map(|(i, (placement, offset))| {
@@ -123,7 +125,8 @@ impl Table {
                 j
             })
             .collect();
-        Model::new(name, self.t_world_base, joints, self.flange_tool()?)
+        let (flange, tool) = self.flange_and_tool()?;
+        Model::new(name, self.t_world_base, joints, flange, tool)
     }
 
     /// The model with the given names and limits (one each per joint).
@@ -132,19 +135,14 @@ impl Table {
         check_len("joint names", n, names.len())?;
         check_len("lower limits", n, lower.len())?;
         check_len("upper limits", n, upper.len())?;
-        let joints: Vec<Joint> = self.placements()?
+        let joints: Vec<Joint> = self
+            .placements()?
             .into_iter()
             .enumerate()
-            .map(|(i, (placement, offset))| Joint {
-                name: names[i].clone(),
-                kind: self.kinds[i],
-                placement,
-                offset,
-                lower: lower[i],
-                upper: upper[i],
-            })
+            .map(|(i, (placement, offset))| Joint { name: names[i].clone(), kind: self.kinds[i], placement, offset, lower: lower[i], upper: upper[i] })
             .collect();
-        Model::new(name, self.t_world_base, joints, self.flange_tool()?)
+        let (flange, tool) = self.flange_and_tool()?;
+        Model::new(name, self.t_world_base, joints, flange, tool)
     }
 
     fn row(&self, i: usize) -> Vec<f64> {
@@ -157,17 +155,13 @@ impl Table {
         let mut out = Vec::with_capacity(n);
         match self.convention {
             Convention::Dh => {
-                let mut prev = Pose::identity(); // Tz(d) Tx(a) Rx(alpha) of the previous row
                 for i in 0..n {
+                    let prev = if i > 0 { self.dh_link(i - 1) } else { Pose::identity() };
                     let r = self.row(i); // d, theta, a, alpha
                     match self.kinds[i] {
                         JointKind::Revolute => out.push((prev, r[1])),
                         JointKind::Prismatic => out.push((prev * rz(r[1]), r[0])),
                     }
-                    prev = match self.kinds[i] {
-                        JointKind::Revolute => trans(0.0, 0.0, r[0]) * trans(r[2], 0.0, 0.0) * rx(r[3]),
-                        JointKind::Prismatic => trans(r[2], 0.0, 0.0) * rx(r[3]),
-                    };
                 }
             }
             Convention::Mdh => {
@@ -190,8 +184,7 @@ impl Table {
             }
             Convention::Poe => {
                 let mut prev = Pose::identity();
-                for (i, f) in self.poe_home_frames()?.into_iter().enumerate() {
-                    let _ = i;
+                for f in self.poe_home_frames()? {
                     out.push((prev.inverse() * f, 0.0));
                     prev = f;
                 }
@@ -200,24 +193,45 @@ impl Table {
         Ok(out)
     }
 
-    /// The tool in the last joint frame of the model.
-    fn flange_tool(&self) -> Result<Pose> {
+    /// DH: `Tz(d_i) Tx(a_i) Rx(alpha_i)` of row `i` (0-based; prismatic: `Tx(a_i) Rx(alpha_i)`, the joint
+    /// variable and `d_i` being in the joint motion), i.e. DH frame *i* in joint frame *i* (1-based).
+    fn dh_link(&self, i: usize) -> Pose {
+        let r = self.row(i); // d, theta, a, alpha
+        match self.kinds[i] {
+            JointKind::Revolute => trans(0.0, 0.0, r[0]) * trans(r[2], 0.0, 0.0) * rx(r[3]),
+            JointKind::Prismatic => trans(r[2], 0.0, 0.0) * rx(r[3]),
+        }
+    }
+
+    /// `(T_last_flange, T_flange_tool)` of the model (docs/conventions.md, "Frames: base, joint i, flange,
+    /// tool"): `dh`: the flange is DH frame n (the last row's link transform in joint frame n), the tool the
+    /// table's; `mdh`, `edh`: the flange is joint frame n, the tool the table's; `poe`: the flange is the home
+    /// pose M's frame, no tool.
+    fn flange_and_tool(&self) -> Result<(Pose, Pose)> {
         let n = self.nq();
         Ok(match self.convention {
-            Convention::Dh if n > 0 => {
-                let r = self.row(n - 1);
-                let last = match self.kinds[n - 1] {
-                    JointKind::Revolute => trans(0.0, 0.0, r[0]) * trans(r[2], 0.0, 0.0) * rx(r[3]),
-                    JointKind::Prismatic => trans(r[2], 0.0, 0.0) * rx(r[3]),
-                };
-                last * self.t_last_tool
+            Convention::Dh if n > 0 => (self.dh_link(n - 1), self.t_last_tool),
+            Convention::Poe => {
+                let last = if n > 0 { self.poe_home_frames()?[n - 1] } else { Pose::identity() };
+                (last.inverse() * self.t_last_tool, Pose::identity())
             }
-            Convention::Poe if n > 0 => {
-                let frames = self.poe_home_frames()?;
-                frames[n - 1].inverse() * self.t_last_tool
-            }
-            _ => self.t_last_tool,
+            _ => (Pose::identity(), self.t_last_tool),
         })
+    }
+
+    /// Pose of the convention's frame *i* in the model's joint frame *i*, i = 1..n (frames move together):
+    /// `dh`: DH frame *i* = joint frame *i* · `Tz(d_i) Tx(a_i) Rx(alpha_i)` (prismatic `Tx(a_i) Rx(alpha_i)`);
+    /// `mdh`, `edh`, `poe`: the identity (joint frame *i* is the convention's frame *i*). Inertias given in
+    /// the convention's frame *i* are re-expressed in joint frame *i* by this pose.
+    ///
+    /// ```
+    /// use denavit_core::{Convention, Table, JointKind, spatial::{trans, Pose}};
+    /// let p = nalgebra::DMatrix::from_row_slice(1, 4, &[0.2, 0.0, 0.5, 0.0]);
+    /// let t = Table::new(Convention::Dh, p, vec![JointKind::Revolute], Pose::identity(), Pose::identity()).unwrap();
+    /// assert_eq!(t.link_frames(), vec![trans(0.0, 0.0, 0.2) * trans(0.5, 0.0, 0.0)]);
+    /// ```
+    pub fn link_frames(&self) -> Vec<Pose> {
+        (0..self.nq()).map(|i| if self.convention == Convention::Dh { self.dh_link(i) } else { Pose::identity() }).collect()
     }
 
     /// POE: joint frames at home in the base frame (docs/conventions.md): origin at the foot of the base
@@ -272,14 +286,7 @@ impl Table {
         match self.convention {
             Convention::Dh => {
                 // DH frame i = joint frame i · Tz(d_i) Tx(a_i) Rx(alpha_i) (revolute) / Tx(a_i) Rx(alpha_i) (prismatic)
-                for i in 0..self.nq() {
-                    let r = self.row(i);
-                    let link = match self.kinds[i] {
-                        JointKind::Revolute => trans(0.0, 0.0, r[0]) * trans(r[2], 0.0, 0.0) * rx(r[3]),
-                        JointKind::Prismatic => trans(r[2], 0.0, 0.0) * rx(r[3]),
-                    };
-                    frames.push(data.t_world_joint[i] * link);
-                }
+                frames.extend(data.t_world_joint.iter().zip(self.link_frames()).map(|(t, l)| t * l));
             }
             _ => frames.extend(data.t_world_joint.iter().copied()),
         }
@@ -345,7 +352,8 @@ pub struct Parametrization {
     pub joint_factors: Vec<usize>,
     /// `factors[..base_end]` form the base.
     pub base_end: usize,
-    /// `factors[tool_start..]` form the tool (after the last joint).
+    /// `factors[tool_start..]` form the tool in the flange (the factors between the last joint factor and
+    /// `tool_start`, dh's link n and the fixed flange, form the flange).
     pub tool_start: usize,
     /// The scale parameter of each joint, if any.
     pub scales: Vec<Option<usize>>,
@@ -365,8 +373,9 @@ impl Table {
             .collect())
     }
 
-    /// The calibration parametrization of this table (`dh`, `mdh`, `edh`) with the tool `t_last_tool`
-    /// (the tool in the convention's last frame; `robot` names the robot in messages): base `Tx Ty Tz · R0 · Rx Ry Rz` (R0 the nominal base
+    /// The calibration parametrization of this table (`dh`, `mdh`, `edh`) with the flange `t_last_flange`
+    /// (fixed, in the convention's last frame) and the tool `t_flange_tool` in the flange (docs/conventions.md,
+    /// "Frames"; `robot` names the robot in messages): base `Tx Ty Tz · R0 · Rx Ry Rz` (R0 the nominal base
     /// rotation), one link per row in the convention's factor order with the joint's reading added to its
     /// joint factor, and the tool `Tx Ty Tz · Rt [· Rx Ry Rz]` (rotations for pose measurements). Where
     /// consecutive axes are near-parallel, `mdh` and `edh` links get Hayati's tilt `beta` about y
@@ -378,9 +387,9 @@ impl Table {
     /// let p = nalgebra::DMatrix::from_row_slice(2, 4, &[0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
     /// let t = Table::new(Convention::Dh, p, vec![JointKind::Revolute; 2], Pose::identity(), Pose::identity()).unwrap();
     /// // planar 2R: parallel axes, so standard DH is refused and ED-H is the way
-    /// assert!(t.parametrize("planar", &Pose::identity(), Measure::Point, false).is_err());
+    /// assert!(t.parametrize("planar", &Pose::identity(), &Pose::identity(), Measure::Point, false).is_err());
     /// ```
-    pub fn parametrize(&self, robot: &str, t_last_tool: &Pose, measure: Measure, scale: bool) -> Result<Parametrization> {
+    pub fn parametrize(&self, robot: &str, t_last_flange: &Pose, t_flange_tool: &Pose, measure: Measure, scale: bool) -> Result<Parametrization> {
         use crate::calibration::{Axis, Factor};
         let n = self.nq();
         let near = self.near_parallel_pairs()?;
@@ -491,11 +500,13 @@ impl Table {
                 }
             }
         }
-        let tool_start = joint_factors.last().map_or(base_end, |j| j + 1);
+        // the nominal flange, fixed in the convention's last frame: the tool parameters are the tool in the flange
+        factors.push(Factor::Fixed(*t_last_flange));
+        let tool_start = factors.len();
         for (k, a) in [Axis::Tx, Axis::Ty, Axis::Tz].into_iter().enumerate() {
-            add(&mut factors, a, format!("tool_{}", ["x", "y", "z"][k]), t_last_tool.translation.vector[k], "tool", None, false);
+            add(&mut factors, a, format!("tool_{}", ["x", "y", "z"][k]), t_flange_tool.translation.vector[k], "tool", None, false);
         }
-        factors.push(Factor::Fixed(Pose::from_parts(nalgebra::Translation3::identity(), t_last_tool.rotation)));
+        factors.push(Factor::Fixed(Pose::from_parts(nalgebra::Translation3::identity(), t_flange_tool.rotation)));
         if measure == Measure::Pose {
             for (k, a) in [Axis::Rx, Axis::Ry, Axis::Rz].into_iter().enumerate() {
                 add(&mut factors, a, format!("tool_r{}", ["x", "y", "z"][k]), 0.0, "tool", None, false);

@@ -46,9 +46,5 @@ pub(crate) fn check_finite(what: &str, values: &[f64]) -> Result<()> {
 
 /// Check a length.
 pub(crate) fn check_len(what: &str, expected: usize, got: usize) -> Result<()> {
-    if expected == got {
-        Ok(())
-    } else {
-        Err(Error::SizeMismatch { what: what.to_string(), expected, got })
-    }
+    if expected == got { Ok(()) } else { Err(Error::SizeMismatch { what: what.to_string(), expected, got }) }
 }

@@ -3,10 +3,10 @@
 
 use crate::axes::JointAxes;
 use crate::convention::{Convention, Table};
-use crate::error::{check_finite, check_len, Error, Result};
+use crate::error::{Error, Result, check_finite, check_len};
 use crate::kinematics::tool_pose_unchecked;
 use crate::model::JointKind;
-use crate::spatial::{any_perpendicular, perpendicular, pose_error, rx, signed_angle, wrap_angle, Pose};
+use crate::spatial::{Pose, any_perpendicular, perpendicular, pose_error, rx, signed_angle, wrap_angle};
 use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
 
 /// ED-H takes the common normal of two axes whenever `|z_i x z_{i+1}|` exceeds this (about 45 ulps): below it
@@ -141,11 +141,7 @@ fn orient(x: Vector3<f64>, nominal: Option<&Vector3<f64>>, toward: &Vector3<f64>
         Some(r) => x.dot(r) < 0.0,
         None => x.dot(toward) < -tol,
     };
-    if flip {
-        -x
-    } else {
-        x
-    }
+    if flip { -x } else { x }
 }
 
 /// An orthonormal frame with the given origin and x axis, and z as close as possible to `z` (the part of
@@ -177,12 +173,8 @@ fn col(t: &Pose, k: usize) -> Vector3<f64> {
 /// ```
 pub fn extract(ax: &JointAxes, convention: Convention, opt: &ExtractOptions) -> Result<Extraction> {
     let n = ax.nq();
-    // the fields are public: axes of a 0-joint model (axes::axes) reach here without JointAxes::new's check
-    if n == 0 {
-        return Err(Error::InvalidArgument { what: "joint axes".into(), expected: "at least one axis".into(), got: "none".into() });
-    }
     for (what, v) in [("parallel_tol", Some(opt.parallel_tol)), ("intersect_tol", Some(opt.intersect_tol)), ("max_offset", opt.max_offset)] {
-        if let Some(v) = v.filter(|v| !(*v >= 0.0)) {
+        if let Some(v) = v.filter(|v| v.is_nan() || *v < 0.0) {
             return Err(Error::InvalidArgument { what: what.into(), expected: "a value >= 0".into(), got: v.to_string() });
         }
     }
@@ -204,12 +196,7 @@ pub fn extract(ax: &JointAxes, convention: Convention, opt: &ExtractOptions) -> 
     }
     let base_origin = ax.t_world_base.translation.vector;
     let tool_origin = ax.t_world_tool.translation.vector;
-    let size = ax
-        .points
-        .iter()
-        .chain(std::iter::once(&tool_origin))
-        .map(|p| (p - base_origin).norm())
-        .fold(0.0_f64, f64::max);
+    let size = ax.points.iter().chain(std::iter::once(&tool_origin)).map(|p| (p - base_origin).norm()).fold(0.0_f64, f64::max);
     let max_offset = opt.max_offset.unwrap_or(2.0 * size + 1e-3);
     let (p, z) = (&ax.points, &ax.directions);
     let geoms: Vec<PairGeom> = (0..n.saturating_sub(1)).map(|k| analyze(&p[k], &z[k], &p[k + 1], &z[k + 1], opt, max_offset)).collect();
@@ -233,7 +220,9 @@ pub fn extract(ax: &JointAxes, convention: Convention, opt: &ExtractOptions) -> 
 
     let table = match convention {
         Convention::Poe => poe_from_axes(ax, opt)?,
-        _ if n == 0 => Table::new(convention, DMatrix::zeros(0, convention.columns().len()), vec![], ax.t_world_base, ax.t_world_base.inverse() * ax.t_world_tool)?,
+        _ if n == 0 => {
+            Table::new(convention, DMatrix::zeros(0, convention.columns().len()), vec![], ax.t_world_base, ax.t_world_base.inverse() * ax.t_world_tool)?
+        }
         Convention::Mdh => {
             // frames F_0..F_n; F_k (k >= 1) on axis k
             let x0 = perp_or(&nom_x(0).unwrap_or(base_x), &base_y, &z[0]);
@@ -254,7 +243,9 @@ pub fn extract(ax: &JointAxes, convention: Convention, opt: &ExtractOptions) -> 
                             let x = perp_or(&(p[k + 1] - o), &col(&prev, 0), &z[k]);
                             (o, orient(x, nom_x(k + 1).as_ref(), &(p[k + 1] - o), tol))
                         }
-                        Relation::Coincident => (h + z[k] * nominal_d(k, 3), orient(perp_or(&col(&prev, 0), &base_x, &z[k]), nom_x(k + 1).as_ref(), &Vector3::zeros(), tol)),
+                        Relation::Coincident => {
+                            (h + z[k] * nominal_d(k, 3), orient(perp_or(&col(&prev, 0), &base_x, &z[k]), nom_x(k + 1).as_ref(), &Vector3::zeros(), tol))
+                        }
                     }
                 } else {
                     let d_last = opt.nominal.as_ref().map_or(0.0, |t| t.params[(n - 1, 3)]);
@@ -310,7 +301,8 @@ pub fn extract(ax: &JointAxes, convention: Convention, opt: &ExtractOptions) -> 
                         }
                     }
                 } else {
-                    let (d_n, a_n, alpha_n) = opt.nominal.as_ref().map_or((0.0, 0.0, 0.0), |t| (t.params[(n - 1, 0)], t.params[(n - 1, 2)], t.params[(n - 1, 3)]));
+                    let (d_n, a_n, alpha_n) =
+                        opt.nominal.as_ref().map_or((0.0, 0.0, 0.0), |t| (t.params[(n - 1, 0)], t.params[(n - 1, 2)], t.params[(n - 1, 3)]));
                     let d_n = if ax.kinds[n - 1] == JointKind::Prismatic { d_n + ax.q_ref[n - 1] } else { d_n };
                     let x = perp_or(&nom_x(n).unwrap_or(tool_x), &tool_y, &zp);
                     let y = zp.cross(&x);
@@ -358,6 +350,9 @@ pub fn extract(ax: &JointAxes, convention: Convention, opt: &ExtractOptions) -> 
 
 fn edh_from_axes(ax: &JointAxes, opt: &ExtractOptions, geoms: &[PairGeom], nominal_frames: Option<&[Pose]>) -> Result<Table> {
     let n = ax.nq();
+    if n == 0 {
+        return Table::new(Convention::Edh, DMatrix::zeros(0, 5), vec![], ax.t_world_base, ax.t_world_base.inverse() * ax.t_world_tool);
+    }
     let (p, z) = (&ax.points, &ax.directions);
     let nom_x = |k: usize| nominal_frames.map(|f| col(&f[k], 0));
     let origins: Vec<Vector3<f64>> = (0..n).map(|k| project(opt.origins.as_ref().map_or(&p[k], |o| &o[k]), &p[k], &z[k])).collect();

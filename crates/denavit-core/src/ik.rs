@@ -37,11 +37,11 @@
 //! LU with partial pivoting for Newton); other n use the same algorithms on preallocated buffers.
 #![allow(clippy::needless_range_loop)] // index loops mirror the formulas (and unroll)
 
-use crate::error::{check_finite, check_len, Error, Result};
+use crate::error::{Error, Result, check_finite, check_len};
 use crate::kinematics::{tool_pose_and_jacobian, tool_pose_unchecked};
 use crate::model::{JointKind, Model};
-use crate::spatial::{pose_error, rotation_angle, Pose, SE3_TOL};
-use nalgebra::{Matrix3, Rotation3, Vector3};
+use crate::spatial::{Pose, check_pose, pose_error, rotation_angle};
+use nalgebra::{DMatrix, DVectorViewMut, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 use rayon::prelude::*;
 use std::f64::consts::{PI, TAU};
 
@@ -159,22 +159,6 @@ impl IkResult {
     }
 }
 
-/// Check that a target pose is finite and its rotation orthonormal with det +1 (within [`SE3_TOL`]).
-pub fn check_target(what: &str, t: &Pose) -> Result<()> {
-    check_finite(what, t.translation.vector.as_slice())?;
-    let r = t.rotation.matrix();
-    check_finite(what, r.as_slice())?;
-    let orth = (r.transpose() * r - Matrix3::identity()).amax();
-    let det = r.determinant();
-    if orth > SE3_TOL || (det - 1.0).abs() > SE3_TOL {
-        return Err(Error::NotSe3 {
-            what: what.into(),
-            reason: format!("rotation part must be orthonormal with det +1 (tolerance {SE3_TOL:e}), got |R^T R - I| = {orth:.3e}, det = {det:.6}"),
-        });
-    }
-    Ok(())
-}
-
 /// SO(3) logarithm: the rotation vector (unit axis × angle in [0, π]) of a rotation matrix.
 ///
 /// ```
@@ -201,18 +185,20 @@ fn log_with_angle(r: &Matrix3<f64>, theta: f64) -> Vector3<f64> {
     }
     // near pi: the axis from the symmetric part (R + R^T)/2 = c I + (1 - c) a a^T
     let d = [r[(0, 0)], r[(1, 1)], r[(2, 2)]];
-    let i = if d[0] >= d[1] && d[0] >= d[2] { 0 } else if d[1] >= d[2] { 1 } else { 2 };
+    let i = if d[0] >= d[1] && d[0] >= d[2] {
+        0
+    } else if d[1] >= d[2] {
+        1
+    } else {
+        2
+    };
     let ai = ((d[i] - c) / (1.0 - c)).max(0.0).sqrt();
     let mut a = Vector3::zeros();
     for j in 0..3 {
         a[j] = if j == i { ai } else { (r[(i, j)] + r[(j, i)]) / (2.0 * (1.0 - c) * ai) };
     }
     let a = a.normalize();
-    if a.dot(&v) < 0.0 {
-        -a * theta
-    } else {
-        a * theta
-    }
+    if a.dot(&v) < 0.0 { -a * theta } else { a * theta }
 }
 
 /// SplitMix64 (Steele, Lea & Flood 2014): a small deterministic generator for restarts.
@@ -318,41 +304,21 @@ fn twist(cur: &Pose, target: &Pose, e: &mut [f64; 6]) -> (f64, f64) {
     ((cur.translation.vector - target.translation.vector).norm(), theta)
 }
 
-/// Solve `a x = b` in place (a: n x n row-major, symmetric positive definite) by Cholesky; false if not PD.
+/// Solve `a x = b` in place by nalgebra's Cholesky factorisation, `a` (n x n, symmetric positive definite,
+/// so either storage order) taken from the workspace `work` without a copy and handed back; false if `a` is
+/// not positive definite (the workspace is then reallocated: the rare, rejected step).
 #[inline(always)]
-fn cholesky_solve(a: &mut [f64], b: &mut [f64], n: usize) -> bool {
-    for j in 0..n {
-        let mut d = a[j * n + j];
-        for k in 0..j {
-            d -= a[j * n + k] * a[j * n + k];
-        }
-        if d.is_nan() || d <= 0.0 {
-            return false;
-        }
-        let d = d.sqrt();
-        a[j * n + j] = d;
-        for i in j + 1..n {
-            let mut s = a[i * n + j];
-            for k in 0..j {
-                s -= a[i * n + k] * a[j * n + k];
-            }
-            a[i * n + j] = s / d;
-        }
-    }
-    for i in 0..n {
-        let mut s = b[i];
-        for k in 0..i {
-            s -= a[i * n + k] * b[k];
-        }
-        b[i] = s / a[i * n + i];
-    }
-    for i in (0..n).rev() {
-        let mut s = b[i];
-        for k in i + 1..n {
-            s -= a[k * n + i] * b[k];
-        }
-        b[i] = s / a[i * n + i];
-    }
+fn cholesky_solve(work: &mut Vec<f64>, b: &mut [f64], n: usize) -> bool {
+    let mut v = std::mem::take(work);
+    let len = v.len();
+    v.truncate(n * n);
+    let Some(c) = DMatrix::from_vec(n, n, v).cholesky() else {
+        *work = vec![0.0; len];
+        return false;
+    };
+    c.solve_mut(&mut DVectorViewMut::from_slice(&mut b[..n], n));
+    *work = c.unpack_dirty().data.into();
+    work.resize(len, 0.0);
     true
 }
 
@@ -372,120 +338,40 @@ fn normal_equations(jac: &[f64], e: &[f64; 6], lambda: f64, a: &mut [f64], g: &m
     }
 }
 
-/// [`normal_equations`] for a fixed n (fully unrolled): `jac` holds N columns of 6.
+/// The damped Gauss-Newton step for a 6-joint chain: `(J^T J + lambda I) x = J^T e` by nalgebra's Cholesky
+/// on the stack (`jac` column-major 6 x 6); false if the matrix is not positive definite.
 #[inline(always)]
-fn normal_equations_fixed<const N: usize>(jac: &[[f64; 6]; N], e: &[f64; 6], lambda: f64, a: &mut [[f64; N]; N], g: &mut [f64; N]) {
-    for i in 0..N {
-        let mut gi = 0.0;
-        for r in 0..6 {
-            gi += jac[i][r] * e[r];
-        }
-        g[i] = gi;
-        for k in 0..=i {
-            let mut v = 0.0;
-            for r in 0..6 {
-                v += jac[i][r] * jac[k][r];
-            }
-            a[i][k] = v;
-            a[k][i] = v;
-        }
-        a[i][i] += lambda;
+fn lm_step6(jac: &[f64], e: &[f64; 6], lambda: f64, x: &mut [f64]) -> bool {
+    let j = Matrix6::from_column_slice(jac);
+    let mut a = j.tr_mul(&j);
+    for i in 0..6 {
+        a[(i, i)] += lambda;
     }
-}
-
-/// [`cholesky_solve`] for a fixed n (fully unrolled).
-#[inline(always)]
-fn cholesky_fixed<const N: usize>(a: &mut [[f64; N]; N], b: &mut [f64; N]) -> bool {
-    for j in 0..N {
-        let mut d = a[j][j];
-        for k in 0..j {
-            d -= a[j][k] * a[j][k];
-        }
-        if d.is_nan() || d <= 0.0 {
-            return false;
-        }
-        let d = d.sqrt();
-        a[j][j] = d;
-        let inv = 1.0 / d;
-        for i in j + 1..N {
-            let mut s = a[i][j];
-            for k in 0..j {
-                s -= a[i][k] * a[j][k];
-            }
-            a[i][j] = s * inv;
-        }
-    }
-    for i in 0..N {
-        let mut s = b[i];
-        for k in 0..i {
-            s -= a[i][k] * b[k];
-        }
-        b[i] = s / a[i][i];
-    }
-    for i in (0..N).rev() {
-        let mut s = b[i];
-        for k in i + 1..N {
-            s -= a[k][i] * b[k];
-        }
-        b[i] = s / a[i][i];
-    }
+    let Some(c) = a.cholesky() else { return false };
+    let mut g = j.tr_mul(&Vector6::from(*e));
+    c.solve_mut(&mut g);
+    x[..6].copy_from_slice(g.as_slice());
     true
 }
 
-/// Solve `J x = e` for a square 6 x 6 `J` (columns `jac`) by LU with partial pivoting; false if singular.
+/// Solve `J x = e` for a square 6 x 6 `J` (`jac` column-major) by nalgebra's LU with partial pivoting; false
+/// if a pivot is below 1e-13 times the largest entry of `J` (numerically singular).
 #[inline(always)]
-fn lu_fixed6(jac: &[[f64; 6]; 6], e: &[f64; 6], x: &mut [f64; 6]) -> bool {
-    let mut a = [[0.0; 6]; 6]; // rows
-    let mut scale: f64 = 0.0;
-    for r in 0..6 {
-        for c in 0..6 {
-            a[r][c] = jac[c][r];
-            scale = scale.max(jac[c][r].abs());
-        }
-    }
+fn newton_step6(jac: &[f64], e: &[f64; 6], x: &mut [f64]) -> bool {
+    let j = Matrix6::from_column_slice(jac);
+    let scale = j.amax();
     if scale.is_nan() || scale <= 0.0 {
         return false;
     }
-    *x = *e;
-    for k in 0..6 {
-        let mut p = k;
-        for i in k + 1..6 {
-            if a[i][k].abs() > a[p][k].abs() {
-                p = i;
-            }
-        }
-        if a[p][k].is_nan() || a[p][k].abs() <= 1e-13 * scale {
-            return false;
-        }
-        a.swap(k, p);
-        x.swap(k, p);
-        let inv = 1.0 / a[k][k];
-        for i in k + 1..6 {
-            let f = a[i][k] * inv;
-            for j in k + 1..6 {
-                a[i][j] -= f * a[k][j];
-            }
-            x[i] -= f * x[k];
-        }
+    let lu = j.lu();
+    let u = lu.u();
+    if (0..6).any(|k| u[(k, k)].is_nan() || u[(k, k)].abs() <= 1e-13 * scale) {
+        return false;
     }
-    for i in (0..6).rev() {
-        let mut s = x[i];
-        for j in i + 1..6 {
-            s -= a[i][j] * x[j];
-        }
-        x[i] = s / a[i][i];
-    }
-    true
-}
-
-/// The columns of a 6 x 6 Jacobian (column-major slice of 36) as arrays.
-#[inline(always)]
-fn columns6(jac: &[f64]) -> [[f64; 6]; 6] {
-    let mut c = [[0.0; 6]; 6];
-    for (k, col) in c.iter_mut().enumerate() {
-        col.copy_from_slice(&jac[6 * k..6 * k + 6]);
-    }
-    c
+    let mut v = Vector6::from(*e);
+    let ok = lu.solve_mut(&mut v);
+    x[..6].copy_from_slice(v.as_slice());
+    ok
 }
 
 /// Iterations after which an LM attempt must have halved its squared error, else it restarts.
@@ -549,7 +435,7 @@ impl<'m> IkSolver<'m> {
 
     /// Solve for `target` (`T_world_tool`) from `q0`; `Err` only for bad input (size, NaN, non-SE(3)).
     pub fn solve(&mut self, target: &Pose, q0: &[f64]) -> Result<IkResult> {
-        check_target("IK target", target)?;
+        check_pose("IK target", target)?;
         self.model.check_q(q0).map_err(|e| rename(e, "q0"))?;
         Ok(self.solve_unchecked(target, q0, mix_seed(self.opts.seed, 0)))
     }
@@ -595,14 +481,10 @@ impl<'m> IkSolver<'m> {
             }
             let lambda = mu * cost + 1e-300;
             let ok = if n == 6 {
-                let (mut a, mut g) = ([[0.0; 6]; 6], [0.0; 6]);
-                normal_equations_fixed(&columns6(&self.jac), &e, lambda, &mut a, &mut g);
-                let ok = cholesky_fixed(&mut a, &mut g);
-                self.g[..6].copy_from_slice(&g);
-                ok
+                lm_step6(&self.jac, &e, lambda, &mut self.g)
             } else {
                 normal_equations(&self.jac, &e, lambda, &mut self.a[..n * n], &mut self.g[..n], n);
-                cholesky_solve(&mut self.a[..n * n], &mut self.g[..n], n)
+                cholesky_solve(&mut self.a, &mut self.g, n)
             };
             if !ok {
                 mu *= 10.0;
@@ -644,13 +526,10 @@ impl<'m> IkSolver<'m> {
         let n = self.model.nq();
         let jac = &self.jac_eval[..]; // column-major 6 x n
         let solved = if n == 6 {
-            let mut x = [0.0; 6];
-            let ok = lu_fixed6(&columns6(jac), e, &mut x);
-            self.g[..6].copy_from_slice(&x);
-            ok
+            newton_step6(jac, e, &mut self.g)
         } else if n < 6 {
             normal_equations(jac, e, 0.0, &mut self.a[..n * n], &mut self.g[..n], n);
-            cholesky_solve(&mut self.a[..n * n], &mut self.g[..n], n)
+            cholesky_solve(&mut self.a, &mut self.g, n)
         } else {
             // minimum-norm step: dq = J^T y, (J J^T) y = e
             let a = &mut self.a[..36];
@@ -662,7 +541,7 @@ impl<'m> IkSolver<'m> {
                 }
             }
             let mut y = *e;
-            let ok = cholesky_solve(a, &mut y, 6);
+            let ok = cholesky_solve(&mut self.a, &mut y, 6);
             for k in 0..n {
                 self.g[k] = (0..6).map(|r| jac[6 * k + r] * y[r]).sum();
             }
@@ -672,7 +551,7 @@ impl<'m> IkSolver<'m> {
             // singular: a slightly damped least-squares step
             let lambda = 1e-8 * (1.0 + jac.iter().map(|v| v * v).sum::<f64>());
             normal_equations(jac, e, lambda, &mut self.a[..n * n], &mut self.g[..n], n);
-            if !cholesky_solve(&mut self.a[..n * n], &mut self.g[..n], n) {
+            if !cholesky_solve(&mut self.a, &mut self.g, n) {
                 self.g[..n].fill(0.0);
             }
         }
@@ -784,7 +663,7 @@ pub fn ik(model: &Model, target: &Pose, q0: &[f64], opts: &IkOptions) -> Result<
 
 fn check_targets(targets: &[Pose]) -> Result<()> {
     for (i, t) in targets.iter().enumerate() {
-        check_target(&format!("IK target {i}"), t)?;
+        check_pose(&format!("IK target {i}"), t)?;
     }
     Ok(())
 }
@@ -872,35 +751,37 @@ mod tests {
 
     #[test]
     fn solvers_agree() {
-        // J: a well-conditioned 6 x 6 matrix (columns)
-        let mut jac = [[0.0; 6]; 6];
-        for (c, col) in jac.iter_mut().enumerate() {
-            for (r, v) in col.iter_mut().enumerate() {
-                *v = if r == c { 2.0 + r as f64 } else { 0.1 * (r as f64 - c as f64) };
+        // J: a well-conditioned 6 x 6 matrix, column-major
+        let mut jac = [0.0; 36];
+        for c in 0..6 {
+            for r in 0..6 {
+                jac[6 * c + r] = if r == c { 2.0 + r as f64 } else { 0.1 * (r as f64 - c as f64) };
             }
         }
         let e = [1.0, -2.0, 0.5, 0.3, -0.7, 1.1];
         let mut x = [0.0; 6];
-        assert!(lu_fixed6(&jac, &e, &mut x));
+        assert!(newton_step6(&jac, &e, &mut x));
         // J x = e
         for r in 0..6 {
-            let v: f64 = (0..6).map(|c| jac[c][r] * x[c]).sum();
+            let v: f64 = (0..6).map(|c| jac[6 * c + r] * x[c]).sum();
             assert!((v - e[r]).abs() < 1e-14);
         }
         // the normal equations give the same x (lambda = 0), fixed and dynamic sizes alike
-        let (mut a, mut g) = ([[0.0; 6]; 6], [0.0; 6]);
-        normal_equations_fixed(&jac, &e, 0.0, &mut a, &mut g);
-        assert!(cholesky_fixed(&mut a, &mut g));
-        let flat: Vec<f64> = jac.iter().flatten().copied().collect();
+        let mut g = [0.0; 6];
+        assert!(lm_step6(&jac, &e, 0.0, &mut g));
         let (mut a2, mut g2) = (vec![0.0; 36], vec![0.0; 6]);
-        normal_equations(&flat, &e, 0.0, &mut a2, &mut g2, 6);
+        normal_equations(&jac, &e, 0.0, &mut a2, &mut g2, 6);
         assert!(cholesky_solve(&mut a2, &mut g2, 6));
+        assert_eq!(a2.len(), 36);
         for i in 0..6 {
             assert!((g[i] - x[i]).abs() < 1e-12 && (g2[i] - x[i]).abs() < 1e-12);
         }
-        // a singular J is reported
-        jac[3] = jac[2];
-        assert!(!lu_fixed6(&jac, &e, &mut x));
+        // a singular J is reported, and a matrix that is not positive definite
+        jac.copy_within(12..18, 18);
+        assert!(!newton_step6(&jac, &e, &mut x));
+        let mut not_pd = vec![1.0, 2.0, 2.0, 1.0];
+        assert!(!cholesky_solve(&mut not_pd, &mut [1.0, 1.0], 2));
+        assert_eq!(not_pd.len(), 4);
     }
 
     #[test]

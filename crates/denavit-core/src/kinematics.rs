@@ -1,7 +1,8 @@
 //! Forward kinematics and the geometric Jacobian (docs/conventions.md, "The model").
 #![allow(clippy::needless_range_loop)] // index loops mirror the formulas (and unroll)
 
-use crate::error::{check_len, Result};
+use crate::error::{Result, check_len};
+use crate::math::{sin_cos, sin_cos_lanes};
 use crate::model::{Data, JointKind, Model};
 use crate::spatial::Pose;
 use nalgebra::{Matrix3, Rotation3, Translation3};
@@ -31,69 +32,6 @@ pub(crate) fn apply_motion(t: &mut Pose, kind: JointKind, s: f64) {
             t.translation.vector += z * s;
         }
     }
-}
-
-/// Sine and cosine of `x` (rad) without a call into the system maths library: Cody-Waite reduction by
-/// pi/2 (three-part constant of fdlibm's `__ieee754_rem_pio2`) and fdlibm's minimax kernels
-/// `__kernel_sin` / `__kernel_cos` on [-pi/4, pi/4]. Absolute error below 2.3e-16 for |x| < 1e5 (checked
-/// against `f64::sin_cos` in the tests); other arguments (large, infinite, NaN) use `f64::sin_cos`.
-///
-/// Branch-free in the common case, so a loop of calls vectorises.
-#[inline(always)]
-pub fn sin_cos(x: f64) -> (f64, f64) {
-    if x.abs() >= 1.0e5 || x.is_nan() {
-        return x.sin_cos();
-    }
-    sin_cos_small(x)
-}
-
-/// [`sin_cos`] for |x| < 1e5 (unchecked), branch-free.
-#[inline(always)]
-fn sin_cos_small(x: f64) -> (f64, f64) {
-    let (sn, cs, m) = reduced_sin_cos(x);
-    // m = k - 4 round(k / 4) in {-2, -1, 0, 1, 2}; (a, b) = (cos, sin)(m pi / 2), exact small integers, so
-    // the rotation by the quadrant is exact and needs no branch or select
-    let m2 = m * m;
-    let a = 1.0 + m2 * (m2 - 7.0) * (1.0 / 6.0);
-    let b = m * (4.0 - m2) * (1.0 / 3.0);
-    (a * sn + b * cs, a * cs - b * sn)
-}
-
-/// The kernel of [`sin_cos`]: `(sin r, cos r, m)` with `x = r + k pi/2`, |r| <= pi/4 and
-/// `m = k - 4 round(k / 4)`; valid for |x| < 1e5.
-#[inline(always)]
-#[allow(clippy::excessive_precision)] // fdlibm's constants, as published
-fn reduced_sin_cos(x: f64) -> (f64, f64, f64) {
-    const INV_PIO2: f64 = std::f64::consts::FRAC_2_PI;
-    const PIO2_1: f64 = 1.570_796_326_734_125_614_17; // first 33 bits of pi/2
-    const PIO2_2: f64 = 6.077_100_506_303_965_976_60e-11; // next 33 bits
-    const PIO2_3: f64 = 2.022_266_248_711_166_455_80e-21; // the rest
-    const ROUND: f64 = 6_755_399_441_055_744.0; // 1.5 * 2^52: adding it rounds to an integer
-    const S: [f64; 6] = [
-        -1.666_666_666_666_663_243_48e-1,
-        8.333_333_333_322_489_461_24e-3,
-        -1.984_126_982_985_794_931_34e-4,
-        2.755_731_370_707_006_767_89e-6,
-        -2.505_076_025_340_686_341_95e-8,
-        1.589_690_995_211_550_102_21e-10,
-    ];
-    const C: [f64; 6] = [
-        4.166_666_666_666_660_190_37e-2,
-        -1.388_888_888_887_410_957_49e-3,
-        2.480_158_728_947_672_941_78e-5,
-        -2.755_731_435_139_066_330_35e-7,
-        2.087_572_321_298_174_827_90e-9,
-        -1.135_964_755_778_819_482_65e-11,
-    ];
-    let k = (x * INV_PIO2 + ROUND) - ROUND;
-    let m = k - 4.0 * ((k * 0.25 + ROUND) - ROUND);
-    let r = ((x - k * PIO2_1) - k * PIO2_2) - k * PIO2_3;
-    let z = r * r;
-    let sn = r + r * z * (S[0] + z * (S[1] + z * (S[2] + z * (S[3] + z * (S[4] + z * S[5])))));
-    let hz = 0.5 * z;
-    let w = 1.0 - hz;
-    let cs = w + (((1.0 - w) - hz) + z * z * (C[0] + z * (C[1] + z * (C[2] + z * (C[3] + z * (C[4] + z * C[5]))))));
-    (sn, cs, m)
 }
 
 /// `t · Rz` given the sine and cosine of the angle.
@@ -189,7 +127,7 @@ pub fn tool_pose_unchecked(model: &Model, q: &[f64]) -> Pose {
         t = t.mul(&j.placement);
         t.motion(j.kind, qi + j.offset);
     }
-    t.mul(model.t_flange_tool()).pose()
+    t.mul(model.t_last_tool()).pose()
 }
 
 /// Tool pose `T_world_tool(q)`.
@@ -220,7 +158,7 @@ pub(crate) fn fk_unchecked(model: &Model, data: &mut Data, q: &[f64]) {
         t.motion(j.kind, qi + j.offset);
         *out = t.pose();
     }
-    data.t_world_tool = t.mul(model.t_flange_tool()).pose();
+    data.t_world_tool = t.mul(model.t_last_tool()).pose();
 }
 
 /// Geometric Jacobian of the tool at `q` (rows `[v; w]`: linear velocity of the tool origin, angular
@@ -292,7 +230,7 @@ pub(crate) fn tool_pose_and_jacobian(model: &Model, q: &[f64], jac: &mut [f64]) 
         col[..3].copy_from_slice(&t.p());
         col[3..].copy_from_slice(&t.z());
     }
-    let tool = t.mul(model.t_flange_tool());
+    let tool = t.mul(model.t_last_tool());
     let tp = tool.p();
     for (j, col) in model.joints().iter().zip(jac.chunks_exact_mut(6)) {
         let z = [col[3], col[4], col[5]];
@@ -368,23 +306,6 @@ pub(crate) fn write_pose(t: &Pose, out: &mut [f64]) {
 /// Configurations evaluated together by the batch forward kinematics (structure of arrays).
 const LANES: usize = 8;
 
-/// [`sin_cos`] of `LANES` angles at once: the arguments are checked once, then the branch-free kernel
-/// (the quadrant is selected by float comparisons) runs over the lanes in SIMD registers.
-#[inline(always)]
-fn sin_cos_lanes(x: &[f64; LANES]) -> ([f64; LANES], [f64; LANES]) {
-    let (mut sn, mut cs) = ([0.0; LANES], [0.0; LANES]);
-    if x.iter().any(|v| v.abs() >= 1.0e5 || v.is_nan()) {
-        for l in 0..LANES {
-            (sn[l], cs[l]) = sin_cos(x[l]);
-        }
-        return (sn, cs);
-    }
-    for l in 0..LANES {
-        (sn[l], cs[l]) = sin_cos_small(x[l]);
-    }
-    (sn, cs)
-}
-
 /// Batch tool poses: `qs` holds N configurations row-major (N x n), `out` N row-major 4x4 matrices (N x 16).
 /// Runs on all cores (rayon), `LANES` configurations at a time in structure-of-arrays form so that every
 /// operation is a SIMD one. Values must be finite (checked). Same values as [`tool_pose`] up to the
@@ -406,7 +327,7 @@ pub fn tool_pose_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<()>
     crate::error::check_finite("q batch", qs)?;
     const CHUNK: usize = 1024;
     let n = model.nq();
-    let factors: Vec<Sparse> = model.joints().iter().map(|j| Sparse::of(&j.placement)).chain([Sparse::of(model.t_flange_tool())]).collect();
+    let factors: Vec<Sparse> = model.joints().iter().map(|j| Sparse::of(&j.placement)).chain([Sparse::of(model.t_last_tool())]).collect();
     out.par_chunks_mut(16 * CHUNK).enumerate().for_each(|(c, o)| {
         let start = c * CHUNK;
         let mut block = [0.0; 16 * LANES];
@@ -546,8 +467,6 @@ pub fn jacobian_batch(model: &Model, qs: &[f64], frame: JacobianFrame, out: &mut
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {
-    use super::sin_cos;
-
     #[test]
     fn fused_jacobian_matches_data_jacobian() {
         use crate::spatial::{rx, trans};
@@ -557,7 +476,7 @@ mod tests {
             Joint::new("b", JointKind::Prismatic, rx(-1.1) * trans(0.0, 0.4, 0.1)),
             Joint::new("c", JointKind::Revolute, rx(0.7) * trans(0.3, 0.0, -0.2)),
         ];
-        let m = Model::new("m", trans(0.1, 0.0, 0.2) * rx(0.2), joints, trans(0.0, 0.1, 0.2)).unwrap();
+        let m = Model::new("m", trans(0.1, 0.0, 0.2) * rx(0.2), joints, trans(0.0, 0.1, 0.2), rx(0.4)).unwrap();
         let q = [0.4, 0.2, -0.9];
         let mut d = Data::new(&m);
         super::jacobian(&m, &mut d, &q, super::JacobianFrame::World).unwrap();
@@ -575,37 +494,6 @@ mod tests {
                     assert!((rm[r * 3 + c] - d.jacobian[(r, c)]).abs() < 1e-15, "{r} {c}");
                 }
             }
-        }
-    }
-
-    #[test]
-    fn sin_cos_matches_libm() {
-        let mut worst: f64 = 0.0;
-        let mut x = -50.0;
-        while x < 50.0 {
-            let (s, c) = sin_cos(x);
-            worst = worst.max((s - x.sin()).abs()).max((c - x.cos()).abs());
-            x += 0.000_731;
-        }
-        for k in -20..=20 {
-            for d in [-1e-12, 0.0, 1e-12] {
-                let x = k as f64 * std::f64::consts::FRAC_PI_2 + d;
-                let (s, c) = sin_cos(x);
-                worst = worst.max((s - x.sin()).abs()).max((c - x.cos()).abs());
-            }
-        }
-        assert!(worst < 2.3e-16, "worst {worst:e}");
-        for x in [1e6, -3e7, f64::INFINITY, f64::NAN] {
-            let (s, c) = sin_cos(x);
-            let (s0, c0) = x.sin_cos();
-            assert!(s.to_bits() == s0.to_bits() && c.to_bits() == c0.to_bits());
-        }
-        assert_eq!(sin_cos(0.0), (0.0, 1.0));
-        // the lanes are the scalar function, bit for bit
-        let x: [f64; super::LANES] = std::array::from_fn(|l| -7.3 + 2.1 * l as f64);
-        let (s, c) = super::sin_cos_lanes(&x);
-        for l in 0..super::LANES {
-            assert_eq!((s[l].to_bits(), c[l].to_bits()), (sin_cos(x[l]).0.to_bits(), sin_cos(x[l]).1.to_bits()));
         }
     }
 }

@@ -18,6 +18,7 @@ pub mod error;
 pub mod extract;
 pub mod ik;
 pub mod kinematics;
+pub mod math;
 pub mod model;
 pub mod spatial;
 
@@ -26,9 +27,10 @@ pub use convention::{Convention, Table};
 pub use error::{Error, Result};
 pub use model::{Data, Joint, JointKind, Model};
 
-/// A planar 2R arm with link lengths `l1`, `l2` (metres) along x: used in doc examples and tests.
+/// A planar 2R arm with link lengths `l1`, `l2` (metres) along x, its flange at the end of link 2, no tool:
+/// used in doc examples and tests.
 pub fn builtin_planar2(l1: f64, l2: f64) -> Model {
-    use spatial::{trans, Pose};
+    use spatial::{Pose, trans};
     let joints = vec![Joint::new("j1", JointKind::Revolute, Pose::identity()), Joint::new("j2", JointKind::Revolute, trans(l1, 0.0, 0.0))];
-    Model::new("planar2", Pose::identity(), joints, trans(l2, 0.0, 0.0)).expect("a valid model")
+    Model::new("planar2", Pose::identity(), joints, trans(l2, 0.0, 0.0), Pose::identity()).expect("a valid model")
 }

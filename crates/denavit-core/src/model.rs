@@ -1,8 +1,8 @@
 //! The immutable serial-chain [`Model`] and its [`Data`] workspace (docs/conventions.md, "The model").
 
 use crate::dynamics::Inertia;
-use crate::error::{check_finite, check_len, Error, Result};
-use crate::spatial::Pose;
+use crate::error::{Error, Result, check_finite, check_len};
+use crate::spatial::{Pose, check_pose};
 use nalgebra::Matrix6xX;
 
 /// How a joint moves along the z axis of its own frame.
@@ -66,7 +66,13 @@ impl Joint {
     }
 }
 
-/// An immutable serial chain: `T_world_tool(q) = T_world_base · Π [placement_i · M_i(q_i + offset_i)] · T_flange_tool`.
+/// An immutable serial chain:
+/// `T_world_tool(q) = T_world_base · Π [placement_i · M_i(q_i + offset_i)] · T_last_flange · T_flange_tool`
+/// (docs/conventions.md, "Frames: base, joint i, flange, tool").
+///
+/// `T_last_flange` is the mechanical flange (ROS `tool0`; DH frame n of a DH robot) in the last joint
+/// frame, fixed by the robot; `T_flange_tool` is what is attached to the flange (identity without a tool),
+/// replaced by [`Model::with_tool`]. Their product `T_last_tool` is stored for the hot paths.
 ///
 /// Each link may carry inertial parameters ([`Inertia`], expressed in its joint frame, the frame moving
 /// with link *i*); [`Model::new`] gives zero-mass links, [`Model::with_inertias`] attaches them.
@@ -75,22 +81,27 @@ impl Joint {
 /// use denavit_core::{Model, Joint, JointKind, spatial::{trans, Pose}};
 /// let j = vec![Joint::new("j1", JointKind::Revolute, Pose::identity()),
 ///              Joint::new("j2", JointKind::Revolute, trans(1.0, 0.0, 0.0))];
-/// let m = Model::new("planar", Pose::identity(), j, trans(1.0, 0.0, 0.0)).unwrap();
+/// let m = Model::new("planar", Pose::identity(), j, trans(1.0, 0.0, 0.0), trans(0.0, 0.0, 0.1)).unwrap();
 /// assert_eq!(m.nq(), 2);
+/// assert_eq!(*m.t_last_tool(), trans(1.0, 0.0, 0.1));
 /// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct Model {
     name: String,
     t_world_base: Pose,
     joints: Vec<Joint>,
+    t_last_flange: Pose,
     t_flange_tool: Pose,
+    /// `T_last_flange · T_flange_tool`, the last factor of the kinematic loops.
+    t_last_tool: Pose,
     inertias: Vec<Inertia>,
 }
 
 impl Model {
-    /// Build a model, checking finiteness, limits and unique names.
-    pub fn new(name: impl Into<String>, t_world_base: Pose, joints: Vec<Joint>, t_flange_tool: Pose) -> Result<Self> {
+    /// Build a model, checking the poses (one rigid-transform check), limits and unique names.
+    pub fn new(name: impl Into<String>, t_world_base: Pose, joints: Vec<Joint>, t_last_flange: Pose, t_flange_tool: Pose) -> Result<Self> {
         check_pose("T_world_base", &t_world_base)?;
+        check_pose("T_last_flange", &t_last_flange)?;
         check_pose("T_flange_tool", &t_flange_tool)?;
         for (i, j) in joints.iter().enumerate() {
             check_pose(&format!("placement of joint {} ('{}')", i + 1, j.name), &j.placement)?;
@@ -111,7 +122,7 @@ impl Model {
             }
         }
         let inertias = vec![Inertia::zero(); joints.len()];
-        Ok(Self { name: name.into(), t_world_base, joints, t_flange_tool, inertias })
+        Ok(Self { name: name.into(), t_world_base, joints, t_last_flange, t_flange_tool, t_last_tool: t_last_flange * t_flange_tool, inertias })
     }
     /// A copy whose link *i* carries `inertias[i]`, expressed in joint frame *i* (the frame moving with
     /// link *i*, docs/conventions.md); one inertia per joint. The tool is part of the last link.
@@ -149,17 +160,34 @@ impl Model {
     pub fn t_world_base(&self) -> &Pose {
         &self.t_world_base
     }
-    /// `T_flange_tool`.
+    /// `T_last_flange`: the flange (mechanical flange, ROS `tool0`) in the last joint frame (identity for a
+    /// model without joints: the flange is then the base).
+    pub fn t_last_flange(&self) -> &Pose {
+        &self.t_last_flange
+    }
+    /// `T_flange_tool`: the tool in the flange (identity unless a tool is attached).
     pub fn t_flange_tool(&self) -> &Pose {
         &self.t_flange_tool
     }
+    /// `T_last_tool = T_last_flange · T_flange_tool`: the tool in the last joint frame.
+    pub fn t_last_tool(&self) -> &Pose {
+        &self.t_last_tool
+    }
     /// A copy with another base placement (the link inertias are kept).
     pub fn with_base(&self, t_world_base: Pose) -> Result<Self> {
-        Self::new(self.name.clone(), t_world_base, self.joints.clone(), self.t_flange_tool)?.with_inertias(self.inertias.clone())
+        Self::new(self.name.clone(), t_world_base, self.joints.clone(), self.t_last_flange, self.t_flange_tool)?.with_inertias(self.inertias.clone())
     }
-    /// A copy with another tool (the link inertias are kept).
+    /// A copy with another tool `T_flange_tool` (in the flange; the flange and the link inertias are kept).
+    ///
+    /// ```
+    /// use denavit_core::{builtin_planar2, kinematics::tool_pose, spatial::{trans, Pose}};
+    /// let m = builtin_planar2(1.0, 1.0).with_tool(trans(0.0, 0.5, 0.0)).unwrap();
+    /// let p = tool_pose(&m, &[0.0, 0.0]).unwrap().translation.vector;
+    /// assert_eq!((p.x, p.y), (2.0, 0.5));
+    /// assert_eq!(*m.with_tool(Pose::identity()).unwrap().t_last_tool(), trans(1.0, 0.0, 0.0));
+    /// ```
     pub fn with_tool(&self, t_flange_tool: Pose) -> Result<Self> {
-        Self::new(self.name.clone(), self.t_world_base, self.joints.clone(), t_flange_tool)?.with_inertias(self.inertias.clone())
+        Self::new(self.name.clone(), self.t_world_base, self.joints.clone(), self.t_last_flange, t_flange_tool)?.with_inertias(self.inertias.clone())
     }
     /// Check that `q` has one finite value per joint.
     pub fn check_q(&self, q: &[f64]) -> Result<()> {
@@ -176,11 +204,6 @@ impl Model {
     }
 }
 
-fn check_pose(what: &str, p: &Pose) -> Result<()> {
-    check_finite(what, p.translation.vector.as_slice())?;
-    check_finite(what, p.rotation.matrix().as_slice())
-}
-
 /// Preallocated results of the algorithms for one model (pinocchio's `Data`).
 #[derive(Debug, Clone)]
 pub struct Data {
@@ -195,10 +218,6 @@ pub struct Data {
 impl Data {
     /// A workspace sized for `model`.
     pub fn new(model: &Model) -> Self {
-        Self {
-            t_world_joint: vec![Pose::identity(); model.nq()],
-            t_world_tool: Pose::identity(),
-            jacobian: Matrix6xX::zeros(model.nq()),
-        }
+        Self { t_world_joint: vec![Pose::identity(); model.nq()], t_world_tool: Pose::identity(), jacobian: Matrix6xX::zeros(model.nq()) }
     }
 }

@@ -1,6 +1,6 @@
 //! Rigid transforms: the elementary factors of docs/conventions.md and checked conversion from 4x4 matrices.
 
-use crate::error::{check_finite, Error, Result};
+use crate::error::{Error, Result, check_finite};
 use nalgebra::{Matrix3, Matrix4, Rotation3, Translation3, Unit, Vector3};
 
 /// A rigid transform `T_a_b` (rotation matrix + translation).
@@ -23,18 +23,42 @@ pub fn trans(a: f64, b: f64, c: f64) -> Pose {
     Pose::from_parts(Translation3::new(a, b, c), Rotation3::identity())
 }
 
-/// Tolerance on `|R^T R - I|` and `|det R - 1|` accepted for a rotation matrix given by a user.
+/// The one tolerance of a rigid transform given by a user (a 4x4 matrix, a target pose, a model's fixed
+/// poses): `max |R^T R - I| <= SE3_TOL` and `|det R - 1| <= SE3_TOL` (docs/conventions.md, "Rigid
+/// transforms"). Files carry 6 to 17 significant digits, so 1e-9 accepts every honest matrix and rejects
+/// scaled or sheared ones.
 pub const SE3_TOL: f64 = 1e-9;
 
-/// Convert a 4x4 homogeneous matrix to a [`Pose`], checking that it is a rigid transform.
-///
-/// The rotation is re-orthonormalised (nearest rotation by SVD) after the check, so round-off in a
-/// file does not accumulate.
+/// Below this `|R^T R - I|` and `|det R - 1|` a rotation is orthonormal to rounding and is used as given;
+/// above it (and within [`SE3_TOL`]) it is replaced by the nearest rotation, so round-off in a file does
+/// not accumulate. Not an acceptance tolerance: it only decides whether the SVD is worth its cost.
+const ROUNDING: f64 = 1e-14;
+
+/// Check that `r` is a rotation matrix within [`SE3_TOL`] (values assumed finite) and return it,
+/// re-orthonormalised when it is not orthonormal to rounding.
+fn checked_rotation(r: &Matrix3<f64>, what: &str) -> Result<Rotation3<f64>> {
+    let orth = (r.transpose() * r - Matrix3::identity()).amax();
+    let det = r.determinant();
+    if orth <= ROUNDING && (det - 1.0).abs() <= ROUNDING {
+        return Ok(Rotation3::from_matrix_unchecked(*r));
+    }
+    if orth > SE3_TOL || (det - 1.0).abs() > SE3_TOL || orth.is_nan() {
+        return Err(Error::NotSe3 {
+            what: what.to_string(),
+            reason: format!("rotation part must be orthonormal with det +1 (tolerance {SE3_TOL:e}), got |R^T R - I| = {orth:.3e}, det = {det:.6}"),
+        });
+    }
+    Ok(nearest_rotation(r))
+}
+
+/// Convert a 4x4 homogeneous matrix to a [`Pose`], checking that it is a rigid transform: finite, last
+/// row `[0, 0, 0, 1]`, rotation within [`SE3_TOL`] (re-orthonormalised by SVD unless orthonormal to
+/// rounding). The one check of every 4x4 accepted as SE(3).
 ///
 /// ```
 /// use denavit_core::spatial::{pose_from_matrix, rz};
 /// let m = rz(0.3).to_homogeneous();
-/// assert!((pose_from_matrix(&m, "tool").unwrap().to_homogeneous() - m).norm() < 1e-15);
+/// assert_eq!(pose_from_matrix(&m, "tool").unwrap().to_homogeneous(), m);
 /// let mut bad = m; bad[(0, 0)] = 2.0;
 /// assert!(pose_from_matrix(&bad, "tool").is_err());
 /// ```
@@ -47,24 +71,36 @@ pub fn pose_from_matrix(m: &Matrix4<f64>, what: &str) -> Result<Pose> {
     }
     let bottom = [m[(3, 0)], m[(3, 1)], m[(3, 2)], m[(3, 3)]];
     if bottom != [0.0, 0.0, 0.0, 1.0] {
-        return Err(Error::NotSe3 {
-            what: what.to_string(),
-            reason: format!("last row must be [0, 0, 0, 1], got {bottom:?}"),
-        });
+        return Err(Error::NotSe3 { what: what.to_string(), reason: format!("last row must be [0, 0, 0, 1], got {bottom:?}") });
     }
     let r: Matrix3<f64> = m.fixed_view::<3, 3>(0, 0).into();
-    let orth = (r.transpose() * r - Matrix3::identity()).amax();
-    let det = r.determinant();
-    if orth > SE3_TOL || (det - 1.0).abs() > SE3_TOL {
-        return Err(Error::NotSe3 {
-            what: what.to_string(),
-            reason: format!(
-                "rotation part must be orthonormal with det +1 (tolerance {SE3_TOL:e}), got |R^T R - I| = {orth:.3e}, det = {det:.6}"
-            ),
-        });
-    }
     let t = Vector3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]);
-    Ok(Pose::from_parts(t.into(), nearest_rotation(&r)))
+    Ok(Pose::from_parts(t.into(), checked_rotation(&r, what)?))
+}
+
+/// [`pose_from_matrix`] of 16 values in row-major order (numpy's `T.ravel()`).
+///
+/// ```
+/// use denavit_core::spatial::{pose_from_row_major, trans};
+/// let v = [1.0, 0.0, 0.0, 0.5, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0];
+/// assert_eq!(pose_from_row_major(&v, "T").unwrap(), trans(0.5, 0.0, 0.0));
+/// ```
+pub fn pose_from_row_major(v: &[f64; 16], what: &str) -> Result<Pose> {
+    pose_from_matrix(&Matrix4::from_row_slice(v), what)
+}
+
+/// Check that a [`Pose`] built elsewhere is a rigid transform: finite, rotation within [`SE3_TOL`] (the
+/// check of [`pose_from_matrix`], without changing the pose).
+///
+/// ```
+/// use denavit_core::spatial::{check_pose, rz};
+/// assert!(check_pose("T", &rz(0.3)).is_ok());
+/// ```
+pub fn check_pose(what: &str, p: &Pose) -> Result<()> {
+    check_finite(what, p.translation.vector.as_slice())?;
+    let r = p.rotation.matrix();
+    check_finite(what, r.as_slice())?;
+    checked_rotation(r, what).map(|_| ())
 }
 
 /// The rotation matrix nearest to `m` in the Frobenius norm (SVD projection).
@@ -121,11 +157,7 @@ pub(crate) fn signed_angle(a: &Vector3<f64>, b: &Vector3<f64>, n: &Vector3<f64>)
 /// Wrap an angle to (-pi, pi].
 pub fn wrap_angle(t: f64) -> f64 {
     let w = t.rem_euclid(std::f64::consts::TAU);
-    if w > std::f64::consts::PI {
-        w - std::f64::consts::TAU
-    } else {
-        w
-    }
+    if w > std::f64::consts::PI { w - std::f64::consts::TAU } else { w }
 }
 
 /// Position and rotation-angle distance between two poses (metres, radians).
@@ -140,4 +172,42 @@ pub fn rotation_angle(r: &Rotation3<f64>) -> f64 {
     let s = Vector3::new(m[(2, 1)] - m[(1, 2)], m[(0, 2)] - m[(2, 0)], m[(1, 0)] - m[(0, 1)]).norm() / 2.0;
     let c = (m.trace() - 1.0) / 2.0;
     s.atan2(c)
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+    use crate::{Joint, JointKind, Model};
+
+    /// One check for every rigid transform: a 4x4, a target pose and a model's fixed poses accept and
+    /// reject alike (a model used to accept any finite matrix as a placement, e.g. a scaled rotation).
+    #[test]
+    fn one_rigid_transform_check() {
+        let good = rx(0.3) * rz(-1.2) * trans(0.1, 0.2, 0.3);
+        // orthonormal to rounding: used as given, bit for bit
+        assert_eq!(pose_from_matrix(&good.to_homogeneous(), "T").unwrap(), good);
+        // off by 1e-11 (a file with 11 digits): accepted and projected onto the rotations
+        let mut near = good.to_homogeneous();
+        near[(0, 1)] += 1e-11;
+        let p = pose_from_matrix(&near, "T").unwrap();
+        assert!((p.rotation.matrix().transpose() * p.rotation.matrix() - Matrix3::identity()).amax() <= ROUNDING);
+        // scaled (1e-6 > SE3_TOL) or reflected: rejected by the matrix check, the pose check and the model
+        let mut scaled = good;
+        *scaled.rotation.matrix_mut_unchecked() *= 1.0 + 1e-6;
+        let mut reflected = good;
+        reflected.rotation.matrix_mut_unchecked().column_mut(2).neg_mut();
+        for bad in [scaled, reflected] {
+            let e = pose_from_matrix(&bad.to_homogeneous(), "T").unwrap_err().to_string();
+            assert!(e.contains("orthonormal with det +1 (tolerance 1e-9)"), "{e}");
+            assert_eq!(check_pose("T", &bad).unwrap_err().to_string(), e);
+            let j = vec![Joint::new("j1", JointKind::Revolute, bad)];
+            assert!(Model::new("m", Pose::identity(), j, Pose::identity(), Pose::identity()).unwrap_err().to_string().contains("orthonormal"));
+            assert!(Model::new("m", bad, vec![], Pose::identity(), Pose::identity()).is_err());
+            assert!(Model::new("m", Pose::identity(), vec![], bad, Pose::identity()).is_err());
+            assert!(Model::new("m", Pose::identity(), vec![], Pose::identity(), bad).is_err());
+        }
+        let v: [f64; 16] = std::array::from_fn(|k| good.to_homogeneous()[(k / 4, k % 4)]);
+        assert_eq!(pose_from_row_major(&v, "T").unwrap(), good);
+    }
 }

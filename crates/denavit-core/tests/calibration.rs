@@ -1,13 +1,12 @@
 //! Calibration chains: the chain of a convention reproduces the model's kinematics, and the analytic
 //! identification Jacobian matches central finite differences (tolerance ~ sqrt of the step).
-
 #![allow(clippy::unwrap_used)] // tests: a failed unwrap is a failed test
 
 mod common;
 
 use denavit_core::calibration::{Axis, Chain, Factor};
 use denavit_core::kinematics::tool_pose;
-use denavit_core::spatial::{rx, rz, trans, Pose};
+use denavit_core::spatial::{Pose, rx, rz, trans};
 use denavit_core::{Error, JointKind};
 use nalgebra::{Matrix3, Matrix6xX, Vector3};
 use proptest::prelude::*;
@@ -107,9 +106,9 @@ fn jacobian_matches_finite_differences_on_kr5_with_scales() {
     let err = (&jac - &num).amax();
     assert!(err < 1e-8, "max |analytic - numeric| = {err:e}");
     // the scale columns are q_j times the joint columns
-    for j in 0..6 {
+    for (j, qj) in q.iter().enumerate() {
         let joint_col = 5 * j + 4;
-        assert!((jac.column(np - 6 + j) - jac.column(joint_col) * q[j]).amax() < 1e-14);
+        assert!((jac.column(np - 6 + j) - jac.column(joint_col) * *qj).amax() < 1e-14);
     }
 }
 
@@ -191,18 +190,21 @@ proptest! {
 /// table has none only at the wrist, so a two-joint skew arm is used).
 #[test]
 fn parametrize_reproduces_the_table_model() {
-    use denavit_core::convention::Measure;
-    use denavit_core::extract::{convert, ExtractOptions};
     use denavit_core::Convention;
+    use denavit_core::convention::Measure;
+    use denavit_core::extract::{ExtractOptions, convert};
     let tool = trans(0.05, 0.03, 0.10) * rx(0.3);
     for source in [common::kr5_dh(), common::tiansui_mdh(), common::tiansui_edh()] {
         for conv in [Convention::Edh, Convention::Mdh, Convention::Dh] {
             let t = convert(&source, conv, &ExtractOptions::default()).unwrap().table;
             for measure in [Measure::Point, Measure::Pose] {
-                let p = match t.parametrize("robot", &tool, measure, true) {
+                let p = match t.parametrize("robot", &Pose::identity(), &tool, measure, true) {
                     Ok(p) => p,
                     Err(e) => {
-                        assert!(conv == Convention::Dh && matches!(e, Error::Degenerate { .. }) && e.to_string().contains("standard DH cannot calibrate robot"), "{e}");
+                        assert!(
+                            conv == Convention::Dh && matches!(e, Error::Degenerate { .. }) && e.to_string().contains("standard DH cannot calibrate robot"),
+                            "{e}"
+                        );
                         continue;
                     }
                 };

@@ -5,11 +5,11 @@
 
 mod common;
 
-use denavit_core::compensate::{compensate, CompensateOptions};
-use denavit_core::ik::{ik, IkOptions};
+use denavit_core::compensate::{CompensateOptions, compensate};
+use denavit_core::ik::{IkOptions, ik};
 use denavit_core::kinematics::tool_pose;
-use denavit_core::spatial::{pose_error, trans, Pose};
-use denavit_core::{builtin_planar2, Joint, Model, Table};
+use denavit_core::spatial::{Pose, pose_error, trans};
+use denavit_core::{Joint, Model, Table, builtin_planar2};
 
 /// Deterministic configurations of the KR5 whose tool stays 0.1 m or more from the first axis (the shoulder
 /// singularity, where the nominal and identified solutions may leave each other's branch).
@@ -88,14 +88,24 @@ fn unreachable_targets_and_branch_changes_are_flagged() {
     // a planar 3R arm reaches a pose elbow-down or elbow-up; the identified elbow cannot bend the nominal
     // solution's way, so its solution leaves the branch
     let planar3 = |lower: f64| {
-        let mut j: Vec<Joint> = (0..3).map(|i| Joint::new(format!("j{i}"), denavit_core::JointKind::Revolute, if i == 0 { Pose::identity() } else { trans(1.0, 0.0, 0.0) })).collect();
+        let mut j: Vec<Joint> = (0..3)
+            .map(|i| Joint::new(format!("j{i}"), denavit_core::JointKind::Revolute, if i == 0 { Pose::identity() } else { trans(1.0, 0.0, 0.0) }))
+            .collect();
         j[1].lower = lower;
-        Model::new("planar3", Pose::identity(), j, trans(0.5, 0.0, 0.0)).unwrap()
+        Model::new("planar3", Pose::identity(), j, trans(0.5, 0.0, 0.0), Pose::identity()).unwrap()
     };
     let (nominal3, identified3) = (planar3(-std::f64::consts::PI), planar3(0.0));
     let elbow_down = [0.9, -0.8, 0.4];
     let t = tool_pose(&nominal3, &elbow_down).unwrap();
-    let out = compensate(&nominal3, &identified3, &[t], Some(&elbow_down), &[0.0; 3], &CompensateOptions { ik: IkOptions { restarts: 50, ..Default::default() }, ..Default::default() }).unwrap();
+    let out = compensate(
+        &nominal3,
+        &identified3,
+        &[t],
+        Some(&elbow_down),
+        &[0.0; 3],
+        &CompensateOptions { ik: IkOptions { restarts: 50, ..Default::default() }, ..Default::default() },
+    )
+    .unwrap();
     assert!(out[0].reached && out[0].branch_changed, "{:?}", out[0]);
     assert!(out[0].q[1] > 0.0);
     // a path whose nominal solutions jump
@@ -117,4 +127,3 @@ fn bad_input_is_an_error() {
     let e = compensate(&m, &m, &[t], Some(&[0.0; 5]), &[0.0; 6], &CompensateOptions::default()).unwrap_err();
     assert!(e.to_string().contains("q_nominal"), "{e}");
 }
-

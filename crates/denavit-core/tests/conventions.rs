@@ -1,13 +1,15 @@
 //! Conventions: the papers' tables, and params -> axes -> params round trips (docs/conventions.md).
+#![allow(clippy::unwrap_used)] // tests and benches unwrap: a failure is the test failing
 mod common;
 use common::*;
 use denavit_core::{
+    Convention, Data, Joint, JointKind, Model, Table,
     axes::axes,
-    extract::{extract, sample_configurations, ExtractOptions, Relation, FIDELITY_SAMPLES, NEAR_PARALLEL_SIN},
+    extract::{ExtractOptions, FIDELITY_SAMPLES, NEAR_PARALLEL_SIN, Relation, extract, sample_configurations},
     kinematics::{forward_kinematics, tool_pose},
-    spatial::{pose_error, rx, ry, rz, trans, Pose},
-    Convention, Data, Joint, JointKind, Model,
+    spatial::{Pose, pose_error, rx, ry, rz, trans},
 };
+use nalgebra::Vector3;
 use proptest::prelude::*;
 
 fn max_err(a: &Model, b: &Model, qs: &[Vec<f64>]) -> f64 {
@@ -63,10 +65,14 @@ fn kr5_dh_home_position() {
     let t = tool_pose(&m, &[0.0; 6]).unwrap();
     // Rz(0)Tz(.4)Tx(.18)Rx(90) · Tx(.6) · Tx(.12)Rx(90) · Tz(.62)Rx(90) · Rx(90)
     // x = 0.18 + 0.6 + 0.12 = 0.9; after Rx(90) twice the z of link 4 points along -y... : y = -0.62·(-1)? see below
-    let expected = trans(0.0, 0.0, 0.4) * trans(0.18, 0.0, 0.0) * rx(std::f64::consts::FRAC_PI_2)
+    let expected = trans(0.0, 0.0, 0.4)
+        * trans(0.18, 0.0, 0.0)
+        * rx(std::f64::consts::FRAC_PI_2)
         * trans(0.6, 0.0, 0.0)
-        * trans(0.12, 0.0, 0.0) * rx(std::f64::consts::FRAC_PI_2)
-        * trans(0.0, 0.0, 0.62) * rx(std::f64::consts::FRAC_PI_2)
+        * trans(0.12, 0.0, 0.0)
+        * rx(std::f64::consts::FRAC_PI_2)
+        * trans(0.0, 0.0, 0.62)
+        * rx(std::f64::consts::FRAC_PI_2)
         * rx(std::f64::consts::FRAC_PI_2);
     let (p, r) = pose_error(&t, &expected);
     assert!(p < 1e-15 && r < 1e-15);
@@ -92,7 +98,7 @@ fn chain(seed: Vec<f64>, pattern: Vec<u8>, prismatic: Vec<bool>) -> Model {
         joints.push(j);
     }
     let tool = trans(0.05, -0.02, 0.1) * rx(0.4) * rz(0.2);
-    Model::new("random", trans(0.1, 0.2, -0.3) * rz(0.5) * rx(0.2), joints, tool).unwrap()
+    Model::new("random", trans(0.1, 0.2, -0.3) * rz(0.5) * rx(0.2), joints, tool, Pose::identity()).unwrap()
 }
 
 proptest! {
@@ -157,7 +163,7 @@ fn near_parallel_dh_has_no_absurd_offsets() {
     let m = t.to_model("kr5").unwrap();
     let mut joints = m.joints().to_vec();
     joints[2].placement = joints[2].placement * ry(2e-5) * rx(1e-5);
-    let tilted = Model::new("kr5-tilted", *m.t_world_base(), joints, *m.t_flange_tool()).unwrap();
+    let tilted = Model::new("kr5-tilted", *m.t_world_base(), joints, *m.t_last_flange(), *m.t_flange_tool()).unwrap();
     let ax = axes(&tilted, &[0.0; 6]).unwrap();
     let ex = extract(&ax, Convention::Dh, &ExtractOptions { nominal: Some(t.clone()), ..Default::default() }).unwrap();
     assert_eq!(ex.pairs[1].relation, Relation::Parallel);
@@ -190,7 +196,83 @@ fn nominal_reproduces_published_tables() {
 #[test]
 fn zero_axis_is_an_error() {
     let e = denavit_core::JointAxes::new(
-        Pose::identity(), vec![nalgebra::Vector3::zeros(); 2], vec![nalgebra::Vector3::z(), nalgebra::Vector3::zeros()],
-        vec![JointKind::Revolute; 2], vec![0.0; 2], Pose::identity(), vec![-1.0; 2], vec![1.0; 2]).unwrap_err();
+        Pose::identity(),
+        vec![nalgebra::Vector3::zeros(); 2],
+        vec![nalgebra::Vector3::z(), nalgebra::Vector3::zeros()],
+        vec![JointKind::Revolute; 2],
+        vec![0.0; 2],
+        Pose::identity(),
+        vec![-1.0; 2],
+        vec![1.0; 2],
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("direction of axis 2 must be a non-zero direction"), "{e}");
+}
+
+/// The flange is DH frame n (ROS `tool0`), and a tool is given in it: on the UR5 the flange is 82.3 mm (d6)
+/// beyond the last joint frame. (Before, `with_tool` replaced the whole pose after the last joint frame, so
+/// the "flange" of `with_tool(I)` was joint frame 6 and a tool point landed d6 short.)
+#[test]
+fn flange_is_dh_frame_n_and_the_tool_is_in_the_flange() {
+    let tool = trans(0.05, 0.03, 0.1) * rx(0.2);
+    let t = Table { t_last_tool: tool, ..ur5_dh() };
+    let m = t.to_model("ur5").unwrap();
+    assert_eq!(*m.t_last_flange(), trans(0.0, 0.0, 0.0823));
+    assert_eq!(*m.t_flange_tool(), tool);
+    let bare = m.with_tool(Pose::identity()).unwrap();
+    assert_eq!(*bare.t_last_flange(), *m.t_last_flange());
+    let p = Vector3::new(0.05, 0.03, 0.1);
+    let pointed = m.with_tool(trans(p.x, p.y, p.z)).unwrap();
+    for k in 0..50 {
+        let q: Vec<f64> = (0..6).map(|j| 3.0 * (1.3 * k as f64 + 0.7 * j as f64).sin()).collect();
+        let flange = *t.frames(&q).unwrap().last().unwrap();
+        let close = |a: &Pose, b: &Pose| {
+            let (dp, dr) = pose_error(a, b);
+            assert!(dp < 1e-15 && dr < 1e-15, "{dp:e} m {dr:e} rad at {q:?}");
+        };
+        close(&tool_pose(&bare, &q).unwrap(), &flange);
+        close(&tool_pose(&m, &q).unwrap(), &(flange * tool));
+        let at = tool_pose(&pointed, &q).unwrap().translation.vector;
+        assert!((at - flange.transform_point(&p.into()).coords).norm() < 1e-15);
+    }
+}
+
+/// MDH / ED-H: the flange is joint frame n; POE: the flange is the home pose M's frame, no tool.
+#[test]
+fn flange_of_every_convention() {
+    for t in [tiansui_mdh(), tiansui_edh()] {
+        let t = Table { t_last_tool: trans(0.0, 0.0, 0.1), ..t };
+        let m = t.to_model("m").unwrap();
+        assert_eq!((*m.t_last_flange(), *m.t_flange_tool()), (Pose::identity(), trans(0.0, 0.0, 0.1)));
+    }
+    let dh = kr5_dh();
+    let poe = extract(&axes(&dh.to_model("kr5").unwrap(), &[0.0; 6]).unwrap(), Convention::Poe, &ExtractOptions::default()).unwrap().table;
+    let m = poe.to_model("poe").unwrap();
+    assert_eq!(*m.t_flange_tool(), Pose::identity());
+    let (dp, dr) = pose_error(&tool_pose(&m, &[0.0; 6]).unwrap(), &(poe.t_world_base * poe.t_last_tool));
+    assert!(dp < 1e-15 && dr < 1e-15);
+}
+
+/// `Table::link_frames`: the convention's frame i is joint frame i times link_frames[i], in every convention.
+#[test]
+fn link_frames_place_the_convention_frames_in_the_joint_frames() {
+    let kr5 = kr5_dh();
+    let ax = axes(&kr5.to_model("kr5").unwrap(), &[0.0; 6]).unwrap();
+    let poe = extract(&ax, Convention::Poe, &ExtractOptions::default()).unwrap().table;
+    for t in [ur5_dh(), kr5, tiansui_mdh(), tiansui_edh(), poe] {
+        let m = t.to_model("m").unwrap();
+        let links = t.link_frames();
+        assert_eq!(links.len(), t.nq());
+        if t.convention != Convention::Dh {
+            assert!(links.iter().all(|l| *l == Pose::identity()));
+        }
+        let q: Vec<f64> = (0..t.nq()).map(|j| 3.0 * (0.9 + 1.7 * j as f64).sin()).collect();
+        let mut d = Data::new(&m);
+        forward_kinematics(&m, &mut d, &q).unwrap();
+        let frames = t.frames(&q).unwrap();
+        for i in 0..t.nq() {
+            let (dp, dr) = pose_error(&(d.t_world_joint[i] * links[i]), &frames[i + 1]);
+            assert!(dp < 1e-15 && dr < 1e-15, "{} frame {}", t.convention.name(), i + 1);
+        }
+    }
 }

@@ -1,12 +1,13 @@
 //! Dynamics: RNE, CRBA, Coriolis matrix, ABA against each other, against energy, against a closed form,
 //! and TianSui-One in modified-DH and ED-H frames (Guo et al. sec. IV.B); bad input.
+#![allow(clippy::unwrap_used)] // tests and benches unwrap: a failure is the test failing
 mod common;
 use common::*;
 use denavit_core::{
-    dynamics::{self, DynamicsData, Inertia},
-    kinematics::{jacobian, JacobianFrame},
-    spatial::{rx, ry, rz, trans, Pose},
     Data, Error, Joint, JointKind, Model,
+    dynamics::{self, DynamicsData, Inertia},
+    kinematics::{JacobianFrame, jacobian},
+    spatial::{Pose, rx, ry, rz, trans},
 };
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector6};
 use proptest::prelude::*;
@@ -57,7 +58,7 @@ fn random_model(seed: u64, n: usize) -> Model {
     let base = Pose::from_parts(g.vec3(0.5).into(), g.rot().rotation);
     let tool = Pose::from_parts(g.vec3(0.2).into(), g.rot().rotation);
     let inertias = (0..n).map(|_| g.inertia()).collect();
-    Model::new("random", base, joints, tool).unwrap().with_inertias(inertias).unwrap()
+    Model::new("random", base, joints, tool, Pose::identity()).unwrap().with_inertias(inertias).unwrap()
 }
 
 /// A random state (q, qd, qdd).
@@ -270,8 +271,8 @@ proptest! {
             let prev = if i == 0 { Pose::identity() } else { shifts[i - 1].inverse() };
             joints[i].placement = prev * joints[i].placement * shifts[i];
         }
-        let tool = shifts[n - 1].inverse() * m.t_flange_tool();
-        let m2 = Model::new("shifted", *m.t_world_base(), joints, tool).unwrap();
+        let flange = shifts[n - 1].inverse() * m.t_last_flange();
+        let m2 = Model::new("shifted", *m.t_world_base(), joints, flange, *m.t_flange_tool()).unwrap();
         let inertias: Vec<Inertia> = m.inertias().iter().zip(&shifts).map(|(i, s)| i.transformed(&s.inverse())).collect();
         let m2 = m2.with_inertias(inertias.clone()).unwrap();
         let f = Vector6::new(0.5, 1.0, -1.5, 0.1, 0.2, 0.3);
@@ -318,10 +319,7 @@ fn two_link_planar_arm_matches_closed_form() {
     let i2 = tensor(Vector3::new(0.02, 0.025, 0.015), ry(-0.4) * rz(0.9));
     let (izz1, izz2) = (i1[(2, 2)], i2[(2, 2)]);
     let model = denavit_core::builtin_planar2(l1, l2)
-        .with_inertias(vec![
-            Inertia::new(m1, Vector3::new(lc1, 0.0, 0.08), i1).unwrap(),
-            Inertia::new(m2, Vector3::new(lc2, 0.0, -0.05), i2).unwrap(),
-        ])
+        .with_inertias(vec![Inertia::new(m1, Vector3::new(lc1, 0.0, 0.08), i1).unwrap(), Inertia::new(m2, Vector3::new(lc2, 0.0, -0.05), i2).unwrap()])
         .unwrap();
     let g = Vector3::new(0.0, -g0, 0.0);
     let mut ws = DynamicsData::new(&model);
@@ -355,7 +353,7 @@ fn two_link_planar_arm_matches_closed_form() {
 #[test]
 fn vertical_prismatic_joint() {
     let j = Joint::new("lift", JointKind::Prismatic, Pose::identity());
-    let model = Model::new("lift", Pose::identity(), vec![j], Pose::identity())
+    let model = Model::new("lift", Pose::identity(), vec![j], Pose::identity(), Pose::identity())
         .unwrap()
         .with_inertias(vec![Inertia::new(4.0, Vector3::new(0.1, 0.2, 0.3), Matrix3::from_diagonal_element(0.1)).unwrap()])
         .unwrap();
@@ -527,9 +525,9 @@ fn inertias_in_world_and_combined() {
     let mut ws = DynamicsData::new(&m);
     let a = dynamics::gravity_torques(&heavy, &mut ws, &q, &g0()).unwrap().to_vec();
     // weight of the payload at its centre, as a wrench at the tool (tool axes, moment about the tool origin)
-    let t_world_flange = d.t_world_joint[2];
-    let t_world_tool = t_world_flange * m.t_flange_tool();
-    let c_world = t_world_flange.transform_point(&(*payload.com()).into());
+    let t_world_last = d.t_world_joint[2];
+    let t_world_tool = t_world_last * m.t_last_tool();
+    let c_world = t_world_last.transform_point(&(*payload.com()).into());
     let force_w = g0() * 2.0;
     let moment_w = (c_world.coords - t_world_tool.translation.vector).cross(&force_w);
     let r = t_world_tool.rotation.inverse();

@@ -4,10 +4,10 @@
 mod common;
 use common::*;
 use denavit_core::{
-    ik::{ik, ik_batch, ik_path, log_rotation, IkMethod, IkOptions, IkSolver},
-    kinematics::tool_pose,
-    spatial::{nearest_rotation, pose_error, rx, rz, trans, Pose},
     Error, Joint, JointKind, Model,
+    ik::{IkMethod, IkOptions, IkSolver, ik, ik_batch, ik_path, log_rotation},
+    kinematics::tool_pose,
+    spatial::{Pose, nearest_rotation, pose_error, rx, rz, trans},
 };
 use nalgebra::{Matrix4, Rotation3, Translation3, Vector3};
 use proptest::prelude::*;
@@ -36,7 +36,7 @@ fn kr5_limited() -> Model {
     let m = kr5_dh().to_model("kr5").unwrap();
     let lim = [(-2.9, 2.9), (-1.5, 0.5), (-1.0, 2.5), (-3.0, 3.0), (-2.0, 2.0), (-3.0, 3.0)];
     let joints: Vec<Joint> = m.joints().iter().zip(lim).map(|(j, (lo, hi))| Joint { lower: lo, upper: hi, ..j.clone() }).collect();
-    Model::new("kr5_limited", *m.t_world_base(), joints, *m.t_flange_tool()).unwrap()
+    Model::new("kr5_limited", *m.t_world_base(), joints, *m.t_last_flange(), *m.t_flange_tool()).unwrap()
 }
 
 fn within_limits(m: &Model, q: &[f64]) -> bool {
@@ -212,7 +212,10 @@ fn bad_input_is_an_error_naming_what_was_expected() {
     let e = ik(&m, &nan, &[0.0; 6], &o).unwrap_err();
     assert!(matches!(e, Error::NonFinite { .. }) && e.to_string().contains("IK target"), "{e}");
     // a target whose rotation is not orthonormal
-    let skew = Pose::from_parts(Translation3::new(0.5, 0.0, 0.5), Rotation3::from_matrix_unchecked(nalgebra::Matrix3::new(1.0, 0.1, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)));
+    let skew = Pose::from_parts(
+        Translation3::new(0.5, 0.0, 0.5),
+        Rotation3::from_matrix_unchecked(nalgebra::Matrix3::new(1.0, 0.1, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)),
+    );
     let e = ik(&m, &skew, &[0.0; 6], &o).unwrap_err();
     assert!(matches!(e, Error::NotSe3 { .. }) && e.to_string().contains("orthonormal"), "{e}");
     // options
@@ -294,7 +297,7 @@ fn redundant_and_deficient_chains() {
     let k = kr5_dh().to_model("kr5").unwrap();
     let mut joints = k.joints().to_vec();
     joints.push(Joint::new("j7", JointKind::Revolute, trans(0.0, 0.05, 0.1) * rx(0.7)));
-    let m7 = Model::new("kr5+1", *k.t_world_base(), joints, *k.t_flange_tool()).unwrap();
+    let m7 = Model::new("kr5+1", *k.t_world_base(), joints, *k.t_last_flange(), *k.t_flange_tool()).unwrap();
     let t = tool_pose(&m7, &[0.3, -0.4, 0.5, 0.2, 0.6, -0.3, 0.4]).unwrap();
     for method in [IkMethod::Newton, IkMethod::Lm] {
         let r = ik(&m7, &t, &[0.2, -0.3, 0.4, 0.1, 0.5, -0.2, 0.3], &IkOptions { method, ..Default::default() }).unwrap();

@@ -127,25 +127,28 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 }
 
 /// The calibration parametrization of `table` (`dh`, `mdh`, `edh`; `denavit_core::Table::parametrize`)
-/// with the tool `T_last_tool` (4, 4) in the convention's last frame, for `measure` "point" | "pose", with a
+/// with the flange `T_last_flange` (4, 4) fixed in the convention's last frame and the tool `T_flange_tool`
+/// (4, 4) in the flange, for `measure` "point" | "pose", with a
 /// scale parameter per joint if `scale`. A dict: `chain` (CalibrationChain), the factors (`axes`, `params`,
 /// `joints` (-1: none), `fixed` (F, 4, 4) in the order of the "fixed" entries), the parameters (`names`,
 /// `x0`, `units`, `groups`, `along`: translation along a joint axis, `rules`: {name: why the
 /// parametrization holds it fixed}), `joint_factors`, `base_end`, `tool_start`, `scales` (-1: none).
 #[pyfunction]
-#[pyo3(signature = (table, T_last_tool, measure="point", scale=false, robot="robot"))]
+#[pyo3(signature = (table, T_last_flange, T_flange_tool, measure="point", scale=false, robot="robot"))]
 #[allow(non_snake_case)]
 pub fn parametrize(
     py: Python<'_>,
     table: &crate::model::PyTable,
-    T_last_tool: &Bound<'_, PyAny>,
+    T_last_flange: &Bound<'_, PyAny>,
+    T_flange_tool: &Bound<'_, PyAny>,
     measure: &str,
     scale: bool,
     robot: &str,
 ) -> PyResult<PyObject> {
     use denavit_core::convention::Measure;
-    let tool = crate::convert::pose("T_last_tool", T_last_tool)?;
-    let p = table.inner.parametrize(robot, &tool, Measure::parse(measure).py()?, scale).py()?;
+    let flange = crate::convert::pose("T_last_flange", T_last_flange)?;
+    let tool = crate::convert::pose("T_flange_tool", T_flange_tool)?;
+    let p = table.inner.parametrize(robot, &flange, &tool, Measure::parse(measure).py()?, scale).py()?;
     let (mut axes, mut params, mut joints, mut fixed) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for f in &p.factors {
         match f {

@@ -6,9 +6,9 @@
 //! anything else (lists, other dtypes, Fortran-ordered or strided arrays) goes through `numpy.asarray`.
 
 use crate::error::{invalid, to_py, IntoPy};
-use denavit_core::spatial::{pose_from_matrix, Pose};
+use denavit_core::spatial::{pose_from_row_major, Pose};
 use denavit_core::Error;
-use nalgebra::{Matrix3, Matrix4, Rotation3, Translation3, Vector3};
+use nalgebra::Vector3;
 use numpy::ndarray::{ArrayView, ShapeBuilder};
 use numpy::{PyArray, PyArray2, PyArray3, PyArrayDyn, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods, ToPyArray};
 use pyo3::prelude::*;
@@ -106,18 +106,10 @@ pub fn check_len(what: &str, expected: usize, got: usize) -> PyResult<()> {
     }
 }
 
-/// A rigid transform from 16 row-major values: kept bit for bit when the rotation is orthonormal to rounding
-/// (|R^T R - I| and |det R - 1| <= 1e-14, e.g. a pose computed by a program or read back from a pickle);
-/// anything else goes through the core's check and re-orthonormalisation (`spatial::pose_from_matrix`).
+/// A rigid transform from 16 row-major values (the core's one SE(3) check, `spatial::pose_from_row_major`).
 pub fn pose_from_values(what: &str, v: &[f64]) -> PyResult<Pose> {
-    if v.len() == 16 && v.iter().all(|x| x.is_finite()) && v[12..] == [0.0, 0.0, 0.0, 1.0] {
-        let r = Matrix3::new(v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10]);
-        let orth = (r.transpose() * r - Matrix3::identity()).amax();
-        if orth <= 1e-14 && (r.determinant() - 1.0).abs() <= 1e-14 {
-            return Ok(Pose::from_parts(Translation3::new(v[3], v[7], v[11]), Rotation3::from_matrix_unchecked(r)));
-        }
-    }
-    pose_from_matrix(&Matrix4::from_row_slice(v), what).py()
+    let v: &[f64; 16] = v.try_into().map_err(|_| to_py(Error::SizeMismatch { what: format!("{what} (a 4x4 matrix)"), expected: 16, got: v.len() }))?;
+    pose_from_row_major(v, what).py()
 }
 
 /// A (4, 4) rigid transform.

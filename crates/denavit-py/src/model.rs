@@ -52,9 +52,10 @@ impl PyModel {
     ///
     /// placements : (n, 4, 4) T_{i-1}_i0 in metres; kinds : n strings ("revolute"/"prismatic");
     /// offsets : (n,) rad or m (default zeros); lower, upper : (n,) rad or m (default the core's, -pi..pi and
-    /// -1..1 m); names : n strings (default j1..jn); T_world_base, T_flange_tool : (4, 4).
+    /// -1..1 m); names : n strings (default j1..jn); T_world_base : (4, 4); T_last_flange : (4, 4) the flange in
+    /// the last joint frame; T_flange_tool : (4, 4) the tool in the flange.
     #[staticmethod]
-    #[pyo3(signature = (placements, kinds, *, offsets=None, lower=None, upper=None, names=None, T_world_base=None, T_flange_tool=None, name="robot"))]
+    #[pyo3(signature = (placements, kinds, *, offsets=None, lower=None, upper=None, names=None, T_world_base=None, T_last_flange=None, T_flange_tool=None, name="robot"))]
     #[allow(non_snake_case, clippy::too_many_arguments)]
     fn from_placements(
         placements: &Bound<'_, PyAny>,
@@ -64,6 +65,7 @@ impl PyModel {
         upper: Option<&Bound<'_, PyAny>>,
         names: Option<Vec<String>>,
         T_world_base: Option<&Bound<'_, PyAny>>,
+        T_last_flange: Option<&Bound<'_, PyAny>>,
         T_flange_tool: Option<&Bound<'_, PyAny>>,
         name: &str,
     ) -> PyResult<Self> {
@@ -86,8 +88,9 @@ impl PyModel {
             }
         }
         let base = opt_pose("T_world_base", T_world_base)?;
+        let flange = opt_pose("T_last_flange", T_last_flange)?;
         let tool = opt_pose("T_flange_tool", T_flange_tool)?;
-        Ok(Self { inner: Arc::new(denavit_core::Model::new(name, base, joints, tool).py()?) })
+        Ok(Self { inner: Arc::new(denavit_core::Model::new(name, base, joints, flange, tool).py()?) })
     }
 
     /// Number of joints.
@@ -134,17 +137,30 @@ impl PyModel {
     fn T_world_base<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         pose_out(py, self.inner.t_world_base())
     }
+    /// The flange (mechanical flange, ROS tool0) in the last joint frame.
+    #[getter]
+    #[allow(non_snake_case)]
+    fn T_last_flange<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        pose_out(py, self.inner.t_last_flange())
+    }
+    /// The tool in the flange (identity unless a tool is attached).
     #[getter]
     #[allow(non_snake_case)]
     fn T_flange_tool<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         pose_out(py, self.inner.t_flange_tool())
+    }
+    /// The tool in the last joint frame: T_last_flange @ T_flange_tool.
+    #[getter]
+    #[allow(non_snake_case)]
+    fn T_last_tool<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        pose_out(py, self.inner.t_last_tool())
     }
     /// A copy with another base placement.
     #[allow(non_snake_case)]
     fn with_base(&self, T_world_base: &Bound<'_, PyAny>) -> PyResult<Self> {
         Ok(Self { inner: Arc::new(self.inner.with_base(pose("T_world_base", T_world_base)?).py()?) })
     }
-    /// A copy with another tool.
+    /// A copy with another tool T_flange_tool (4, 4), in the flange frame (the flange is kept).
     #[allow(non_snake_case)]
     fn with_tool(&self, T_flange_tool: &Bound<'_, PyAny>) -> PyResult<Self> {
         Ok(Self { inner: Arc::new(self.inner.with_tool(pose("T_flange_tool", T_flange_tool)?).py()?) })
@@ -231,7 +247,9 @@ impl PyModel {
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
         let m = &self.inner;
         if m.inertias().iter().any(|i| *i != Inertia::zero()) {
-            let bare = Self { inner: Arc::new(denavit_core::Model::new(m.name(), *m.t_world_base(), m.joints().to_vec(), *m.t_flange_tool()).py()?) };
+            let bare = Self {
+                inner: Arc::new(denavit_core::Model::new(m.name(), *m.t_world_base(), m.joints().to_vec(), *m.t_last_flange(), *m.t_flange_tool()).py()?),
+            };
             let (masses, coms, inertias) = inertia_arrays(py, self)?;
             let args = (bare, masses, coms, inertias);
             return (py.get_type::<Self>().getattr("with_inertias")?, args).into_pyobject(py);
@@ -242,6 +260,7 @@ impl PyModel {
         kw.set_item("upper", self.upper())?;
         kw.set_item("names", self.names())?;
         kw.set_item("T_world_base", self.T_world_base(py)?)?;
+        kw.set_item("T_last_flange", self.T_last_flange(py)?)?;
         kw.set_item("T_flange_tool", self.T_flange_tool(py)?)?;
         kw.set_item("name", m.name())?;
         let f = partial(py.get_type::<Self>().getattr("from_placements")?, &kw)?;
@@ -328,6 +347,11 @@ impl PyTable {
         let names = names.unwrap_or_else(|| model.joints().iter().map(|j| j.name.clone()).collect());
         let (lower, upper) = (lower.unwrap_or_else(|| model.lower()), upper.unwrap_or_else(|| model.upper()));
         Ok(PyModel { inner: Arc::new(self.inner.to_model_with(name, &names, &lower, &upper).py()?) })
+    }
+    /// (n, 4, 4): the pose of the convention's frame i in the model's joint frame i (i = 1..n; the identity
+    /// except for dh, where DH frame i = joint frame i @ Tz(d_i) Tx(a_i) Rx(alpha_i)).
+    fn link_frames<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        poses_out(py, self.inner.link_frames().iter())
     }
     /// (n+1, 4, 4): the convention's frames 0..n in world at q.
     fn frames<'py>(&self, py: Python<'py>, q: &Bound<'_, PyAny>) -> PyResult<Bound<'py, PyArray3<f64>>> {

@@ -63,7 +63,7 @@ class Parametrization:
     chain: _core.CalibrationChain
     robot: Robot
     joint_factor: list  # factor index of each joint
-    tool_start: int  # factors[tool_start:] form T_flange_tool (after the last joint)
+    tool_start: int  # factors[tool_start:] form T_flange_tool (before it, after the last joint: dh's link n and the flange)
     base_end: int  # factors[:base_end] form the base
 
     @property
@@ -104,10 +104,12 @@ class Parametrization:
             placements.append(self._product(x, prev, jf))
             offsets.append(x[self.factors[jf][1]])
             prev = jf + 1
-        # DH: the factors between the last joint and the tool belong to T_flange_tool
-        tool = self._product(x, prev, len(self.factors))
+        # the flange (docs/conventions.md "Frames"): dh's link n after the last joint and the fixed nominal flange
+        flange = self._product(x, prev, self.tool_start)
+        tool = self._product(x, self.tool_start, len(self.factors))
         return _core.Model.from_placements(np.array(placements), self.robot.table.kinds, offsets=offsets, lower=self.robot.lower, upper=self.robot.upper,
-                                           names=self.robot.names, T_world_base=orthonormalize(self.base_pose(x)), T_flange_tool=orthonormalize(tool), name=name)
+                                           names=self.robot.names, T_world_base=orthonormalize(self.base_pose(x)), T_last_flange=orthonormalize(flange),
+                                           T_flange_tool=orthonormalize(tool), name=name)
 
     def rebased(self, x, T_world_new_old) -> tuple[Parametrization, np.ndarray]:
         """The same parametrisation with the base moved by ``T_world_new_old`` (a change of measurement frame),
@@ -158,7 +160,7 @@ def parametrize(nominal, convention: str = "edh", *, measure: str = "point", too
     measure : {"point", "pose"}
         Measured tool points (tool = 3 translations) or full tool poses (tool = 6 parameters).
     tool : array_like, optional
-        Point: the tool point (3,) in the flange frame (the last joint frame), metres; pose: ``T_flange_tool``
+        Point: the tool point (3,) in the flange frame (docs/conventions.md "Frames": DH frame n for a DH robot), metres; pose: ``T_flange_tool``
         (4, 4). Default: the nominal model's tool.
     scale : bool
         Add a scale parameter per joint (``q -> q (1 + scale)``).
@@ -171,8 +173,8 @@ def parametrize(nominal, convention: str = "edh", *, measure: str = "point", too
     n = m.nq
     ref = robot.table if robot.table.convention == conv else None
     table = _core.extract(_core.axes(m, np.zeros(n)), conv, nominal=ref).table
-    # tool in the convention's last frame
-    F_flange = _core.joint_frames(m, np.zeros(n))[-1] if n else m.T_world_base
+    # the nominal flange in world and in the convention's last frame; the tool is in the flange
+    F_flange = (_core.joint_frames(m, np.zeros(n))[-1] if n else np.asarray(m.T_world_base)) @ np.asarray(m.T_last_flange)
     C_last = table.frames(np.zeros(n))[-1]
     T_tool_flange = np.asarray(m.T_flange_tool) if tool is None or measure == "point" else np.asarray(tool, dtype=float)
     if measure == "point" and tool is not None:
@@ -183,9 +185,9 @@ def parametrize(nominal, convention: str = "edh", *, measure: str = "point", too
         T_tool_flange[:3, 3] = tp
     if measure == "pose" and tool is not None and T_tool_flange.shape != (4, 4):
         raise DenavitError(f"tool: expected T_flange_tool (4, 4) for pose measurements, got shape {T_tool_flange.shape}")
-    T_last_tool = orthonormalize(np.linalg.inv(C_last) @ F_flange @ T_tool_flange)
+    T_last_flange = orthonormalize(np.linalg.inv(C_last) @ F_flange)
     # the factors and parameters of the convention (the core: Table::parametrize, docs/conventions.md)
-    core = _core.parametrize(table, T_last_tool, measure, scale, robot.name)
+    core = _core.parametrize(table, T_last_flange, orthonormalize(T_tool_flange), measure, scale, robot.name)
     fixed = iter(core["fixed"])
     factors = [(a, p, j, next(fixed) if a == "fixed" else None) for a, p, j in zip(core["axes"], core["params"], core["joints"])]
     names, x0, units, groups, along, rules = core["names"], core["x0"], core["units"], core["groups"], core["along"], dict(core["rules"])

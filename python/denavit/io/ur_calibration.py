@@ -21,7 +21,7 @@ its child link. ``base_link_inertia`` is the controller's base frame (DH frame 0
 The link frames follow ``ur_calibration``'s correction: frame i sits on axis i at the foot of its common
 normal with axis i+1 (for the nominal robot: DH frame i-1 · Rz(theta_i) · Tz(d_i)), not metres away along a
 near-parallel axis. For an identified model each frame is the nominal one carried onto the identified axis
-(origin projected onto it, x axis made perpendicular to it), and the last is ``tool0`` itself, so the file
+(origin projected onto it, x axis made perpendicular to it), and the last is the flange (``tool0``) itself, so the file
 reproduces the identified ``base -> tool0`` exactly while the meshes stay on their links.
 """
 
@@ -56,8 +56,8 @@ def _nominal_link_frames(nominal: _core.Table) -> np.ndarray:
 
 def link_frames(model: _core.Model, nominal: _core.Table, tol: float = 1e-9) -> np.ndarray:
     """(6, 4, 4) the link frames of ``model`` at q = 0 in its base frame (module docstring): the nominal
-    frames carried onto the model's axes; the last one is the model's tool (= ``tool0``), which must lie on
-    axis 6 (within ``tol`` m)."""
+    frames carried onto the model's axes; the last one is the model's flange (= ``tool0``; a tool attached
+    to it is not part of the file), which must lie on axis 6 (within ``tol`` m)."""
     if model.nq != 6 or any(k != "revolute" for k in model.kinds):
         raise DenavitError(f"model: expected a six-revolute UR arm, got {model.nq} joints ({', '.join(model.kinds)})")
     B_inv = inverse(model.T_world_base)
@@ -75,11 +75,11 @@ def link_frames(model: _core.Model, nominal: _core.Table, tol: float = 1e-9) -> 
         out[i] = np.eye(4)
         out[i][:3, :3] = np.column_stack([x, np.cross(z, x), z])
         out[i][:3, 3] = o
-    tool0 = B_inv @ _core.fk(model, np.zeros(6))
+    tool0 = B_inv @ _core.fk(model.with_tool(np.eye(4)), np.zeros(6))  # the flange
     off = np.linalg.norm(np.cross(tool0[:3, 3] - points[5], dirs[5]))
     if off > tol or abs(abs(tool0[:3, 2] @ dirs[5]) - 1.0) > tol:
-        raise DenavitError(f"model: its tool frame (taken as tool0) must sit on axis 6 with z along it: it is {off * 1e3:.3g} mm off the axis "
-                           f"and {np.degrees(np.arccos(min(1.0, abs(tool0[:3, 2] @ dirs[5])))):.3g} deg off its direction (remove the TCP: use the flange)")
+        raise DenavitError(f"model: its flange (tool0) must sit on axis 6 with z along it: it is {off * 1e3:.3g} mm off the axis "
+                           f"and {np.degrees(np.arccos(min(1.0, abs(tool0[:3, 2] @ dirs[5])))):.3g} deg off its direction: not a UR arm's flange")
     out[5] = tool0
     return out
 

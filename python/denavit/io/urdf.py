@@ -17,7 +17,7 @@ when ``a`` points down)::
     T_world_joint[i] = L_i · R_a_i                      (q identical in the URDF and in the model)
     placement_i      = R_a_{i-1}^-1 · F_i · T_i · R_a_i (F_i: the fixed joints between the two, in order)
     T_world_base     = the fixed joints from the base link to the first moving joint's parent
-    T_flange_tool    = R_a_n^-1 · (trailing fixed joints) = the tip link in the last joint frame
+    T_last_flange    = R_a_n^-1 · (trailing fixed joints) = the tip link (the flange) in the last joint frame
 
 ``world`` is the base link's frame. Axes are normalised (as urdfdom does); offsets are zero.
 
@@ -28,8 +28,8 @@ extraction rules instead of the URDF's arbitrary link x axes). Continuous joints
 
 Export writes the model's joint frames as URDF links (joint ``axis`` = z, ``origin`` = the placement with
 the zero offset folded in, so the URDF's joint values equal the model's ``q``), ``T_world_base`` as a fixed
-joint from a ``world`` root link when it is not the identity, and ``T_flange_tool`` as a fixed joint to a
-tool link. For ED-H and URDF-derived models the link frames lie on the body (their origins are on the
+joint from a ``world`` root link when it is not the identity, and ``T_last_tool`` (flange and tool) as a fixed
+joint to a tool link. For ED-H and URDF-derived models the link frames lie on the body (their origins are on the
 joint axes, at the URDF joint origins); DH frames can lie off the body, which is why ED-H is the default
 route for identified robots.
 
@@ -153,7 +153,7 @@ class UrdfChain:
     lower: np.ndarray
     upper: np.ndarray
     T_world_base: np.ndarray
-    T_flange_tool: np.ndarray
+    T_last_flange: np.ndarray
     axes_local: np.ndarray
     extra: dict
     chosen: str = ""
@@ -163,7 +163,7 @@ class UrdfChain:
         """The exact model: ``T_world_joint[i] = L_i · R_a_i`` for every moving joint."""
         return _core.Model.from_placements(
             self.placements, self.kinds, lower=self.lower, upper=self.upper, names=self.names,
-            T_world_base=self.T_world_base, T_flange_tool=self.T_flange_tool, name=self.name,
+            T_world_base=self.T_world_base, T_last_flange=self.T_last_flange, name=self.name,
         )
 
 
@@ -501,7 +501,7 @@ def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: 
         extra["materials"] = mats
     return UrdfChain(
         name=urdf.robot.name, path=str(path), base_link=base_link, tip_link=tip_link, names=names, kinds=kinds, urdf_types=types,
-        placements=np.array(placements), lower=np.array(lower), upper=np.array(upper), T_world_base=T_world_base, T_flange_tool=acc,
+        placements=np.array(placements), lower=np.array(lower), upper=np.array(upper), T_world_base=T_world_base, T_last_flange=acc,
         axes_local=np.array(axes_local), extra=extra, chosen=chosen,
     )
 
@@ -767,7 +767,7 @@ def dumps_urdf(model: _core.Model, robot: Robot | None = None) -> str:
     P = np.asarray(model.placements)
     offsets, kinds = list(model.offsets), list(model.kinds)
     lower, upper, names = list(model.lower), list(model.upper), list(model.names)
-    B, Tt = np.asarray(model.T_world_base), np.asarray(model.T_flange_tool)
+    B, Tt = np.asarray(model.T_world_base), np.asarray(model.T_last_tool)
     frames = np.asarray(_core.joint_frames(model, np.zeros(n)))
 
     root = etree.Element("robot", name=name)

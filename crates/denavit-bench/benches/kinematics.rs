@@ -2,12 +2,12 @@
 //! The user-facing comparison with other libraries is `benchmarks/bench_kinematics.py`.
 #![allow(clippy::unwrap_used)]
 
-use criterion::{black_box, criterion_group, criterion_main, BatchSize, Criterion};
+use criterion::{BatchSize, Criterion, black_box, criterion_group, criterion_main};
 use denavit_core::{
-    ik::{ik_path, IkMethod, IkOptions, IkSolver},
-    kinematics::{jacobian, tool_pose, tool_pose_batch, JacobianFrame},
-    spatial::{nearest_rotation, trans, Pose},
     Convention, Data, JointKind, Table,
+    ik::{IkMethod, IkOptions, IkSolver, ik_path},
+    kinematics::{JacobianFrame, jacobian, tool_pose, tool_pose_batch},
+    spatial::{Pose, nearest_rotation, trans},
 };
 use nalgebra::{DMatrix, Matrix3, Translation3};
 use std::f64::consts::FRAC_PI_2;
