@@ -53,24 +53,12 @@ class Robot:
         return attach_inertials(model, self.table, self.inertials)
 
 
-def convention_frames_in_joint_frames(model: _core.Model, table: _core.Table) -> np.ndarray:
-    """(n, 4, 4) pose of the convention's frame i in the model's joint frame i (fixed: both move with link i);
-    the identity except for ``dh``, whose frame i sits at the end of link i."""
-    n = model.nq
-    if table.convention != "dh":
-        return np.tile(np.eye(4), (n, 1, 1))
-    q0 = np.zeros(n)
-    J = _core.joint_frames(model, q0)
-    F = table.frames(q0)[1:]
-    return np.linalg.inv(J) @ F
-
-
 def inertials_for_table(model: _core.Model, table: _core.Table, names: list[str], lower, upper) -> dict:
     """The link inertias of ``model`` (same robot, same joint axes at q = 0) in frame i of ``table``'s
     convention, as a :attr:`Robot.inertials` dict: how a conversion carries the dynamics along."""
     target = _core.transfer_inertias(model, table.to_model("target", names, lower, upper))
     ins = target.inertias
-    T = convention_frames_in_joint_frames(target, table)
+    T = table.link_frames()  # the convention's frame i in joint frame i (the core: Table::link_frames)
     R, p = T[:, :3, :3], T[:, :3, 3]
     coms = np.einsum("nji,nj->ni", R, ins["coms"] - p)
     return {"masses": ins["masses"], "coms": coms, "inertias": R.transpose(0, 2, 1) @ ins["inertias"] @ R}
@@ -78,7 +66,7 @@ def inertials_for_table(model: _core.Model, table: _core.Table, names: list[str]
 
 def attach_inertials(model: _core.Model, table: _core.Table, inertials: dict) -> _core.Model:
     """``model`` with inertials given in frame i of ``table``'s convention (re-expressed in the joint frames)."""
-    T = convention_frames_in_joint_frames(model, table)
+    T = table.link_frames()
     R, p = T[:, :3, :3], T[:, :3, 3]
     coms = np.einsum("nij,nj->ni", R, np.asarray(inertials["coms"], dtype=float)) + p
     inertias = R @ np.asarray(inertials["inertias"], dtype=float) @ R.transpose(0, 2, 1)

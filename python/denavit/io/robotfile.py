@@ -216,8 +216,8 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         try:  # the core's physical checks, reported at the joint's line
             attach_inertials(table.to_model("check"), table, inertials)
         except DenavitError as e:
-            m = re.search(r"of link (\d+)", str(e))
-            at = joint_where[int(m.group(1)) - 1] if m else where
+            joint = getattr(e, "joint", None)  # the core error names the link it is about
+            at = joint_where[joint - 1] if joint else where
             raise DenavitError(f"{at}: inertia: {e}") from None
     return Robot(
         name=str(doc.get("name", Path(where).stem)),
