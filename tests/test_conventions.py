@@ -186,3 +186,14 @@ def test_batch_equals_single(rng):
     for k in (0, 100, 256):
         np.testing.assert_array_equal(T[k], dv.fk(m, qs[k]))
         np.testing.assert_allclose(J[k], dv.jacobian(m, qs[k]), atol=1e-15)
+
+
+def test_the_fidelity_check_is_paid_only_when_asked_for():
+    """extract(..., fidelity=False) skips the 256-configuration tool-error check (NaN errors) and returns
+    the same table; by default the errors are measured."""
+    m = dv.load_model("kr5")
+    ax = dv.axes(m, np.zeros(6))
+    for conv in ("dh", "mdh", "edh", "poe"):
+        a, b = dv.extract(ax, conv), dv.extract(ax, conv, fidelity=False)
+        np.testing.assert_array_equal(a.table.params, b.table.params)
+        assert np.isfinite(a.max_position_error) and np.isnan(b.max_position_error) and np.isnan(b.max_rotation_error)

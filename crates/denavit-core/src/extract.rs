@@ -55,11 +55,14 @@ pub struct ExtractOptions {
     pub nominal: Option<Table>,
     /// ED-H frame origins, one point per axis (default: the axes' points).
     pub origins: Option<Vec<Vector3<f64>>>,
+    /// Measure the table's tool error against the exact ED-H model of the axes over [`FIDELITY_SAMPLES`]
+    /// configurations (default true); false skips it (the errors are then NaN): a cost paid only when asked.
+    pub fidelity: bool,
 }
 
 impl Default for ExtractOptions {
     fn default() -> Self {
-        Self { parallel_tol: 1e-3, intersect_tol: 1e-9, max_offset: None, nominal: None, origins: None }
+        Self { parallel_tol: 1e-3, intersect_tol: 1e-9, max_offset: None, nominal: None, origins: None, fidelity: true }
     }
 }
 
@@ -344,7 +347,7 @@ pub fn extract(ax: &JointAxes, convention: Convention, opt: &ExtractOptions) -> 
             hayati_beta: if matches!(convention, Convention::Dh | Convention::Mdh) { betas[k] } else { 0.0 },
         })
         .collect();
-    let (max_position_error, max_rotation_error) = fidelity(ax, &table, opt)?;
+    let (max_position_error, max_rotation_error) = if opt.fidelity { fidelity(ax, &table, opt)? } else { (f64::NAN, f64::NAN) };
     Ok(Extraction { table, pairs, max_position_error, max_rotation_error })
 }
 

@@ -548,9 +548,11 @@ pub fn axes(model: &PyModel, q: &Bound<'_, PyAny>) -> PyResult<PyJointAxes> {
     Ok(PyJointAxes { inner: denavit_core::axes::axes(&model.inner, &vector("q", q)?).py()? })
 }
 
-/// Extract the parameter table of `convention` from joint axes (docs/conventions.md).
+/// Extract the parameter table of `convention` from joint axes (docs/conventions.md). `fidelity`: measure
+/// the table's tool error over 256 configurations (`max_position_error`, `max_rotation_error`; NaN when false).
 #[pyfunction]
-#[pyo3(signature = (axes, convention, *, parallel_tol=1e-3, intersect_tol=1e-9, max_offset=None, nominal=None, origins=None))]
+#[pyo3(signature = (axes, convention, *, parallel_tol=1e-3, intersect_tol=1e-9, max_offset=None, nominal=None, origins=None, fidelity=true))]
+#[allow(clippy::too_many_arguments)]
 pub fn extract(
     axes: &PyJointAxes,
     convention: &str,
@@ -559,10 +561,11 @@ pub fn extract(
     max_offset: Option<f64>,
     nominal: Option<&PyTable>,
     origins: Option<&Bound<'_, PyAny>>,
+    fidelity: bool,
 ) -> PyResult<PyExtraction> {
     let conv = Convention::parse(convention).py()?;
     let origins = origins.map(|o| vectors3("origins", o)).transpose()?;
-    let opt = ExtractOptions { parallel_tol, intersect_tol, max_offset, nominal: nominal.map(|t| t.inner.clone()), origins };
+    let opt = ExtractOptions { parallel_tol, intersect_tol, max_offset, nominal: nominal.map(|t| t.inner.clone()), origins, fidelity };
     Ok(core_extract::extract(&axes.inner, conv, &opt).py()?.into())
 }
 
