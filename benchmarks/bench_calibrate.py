@@ -64,9 +64,9 @@ def table_time(kr5, repeats):
     for n in (50, 100, 200, 500):
         q = cal.configurations(kr5, n, skip=17)
         meas = cal.simulate(kr5, q, tool=TOOL, noise=NOISE)
-        med, mn = median_time(lambda: cal.calibrate(meas, kr5, tool=TOOL), repeats)
-        medh, _ = median_time(lambda: cal.calibrate(meas, kr5, tool=TOOL, holdout=0.2), repeats)
-        jac, _ = median_time(lambda: pz.evaluate(pz.x0, q), repeats * 5)
+        med, mn = median_time(lambda meas=meas: cal.calibrate(meas, kr5, tool=TOOL), repeats)
+        medh, _ = median_time(lambda meas=meas: cal.calibrate(meas, kr5, tool=TOOL, holdout=0.2), repeats)
+        jac, _ = median_time(lambda q=q: pz.evaluate(pz.x0, q), repeats * 5)
         res = cal.calibrate(meas, kr5, tool=TOOL)
         flag = "  <- 6R from 100 poses" if n == 100 else ""
         print(f"{n:>6} {med * 1e3:>15.1f} {mn * 1e3:>9.1f} {medh * 1e3:>19.1f} {jac * 1e6:>14.0f} {res.evaluations:>12} {res.identifiability.rank:>5}{flag}")

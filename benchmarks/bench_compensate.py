@@ -33,7 +33,10 @@ from denavit import sweeps as sw
 ARCSEC = np.radians(1 / 3600)
 
 
-def perturbed(robot, rng, length=0.5e-3, angle=np.radians(0.05)):
+ARC_005 = np.radians(0.05)  # 0.05 deg
+
+
+def perturbed(robot, rng, length=0.5e-3, angle=ARC_005):
     t = robot.table
     E = rng.uniform(-1, 1, t.params.shape) * np.where(np.array(t.angle_columns), angle, length)
     return dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool).to_model("true", robot.names, robot.lower, robot.upper)

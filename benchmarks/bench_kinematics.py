@@ -156,13 +156,13 @@ def main():
         for method in ("newton", "lm"):
             res = dv.ik_path(m, targets, start, method=method)
             ok = bool(res.success.all())
-            t = once(lambda: dv.ik_path(m, targets, start, method=method), rep * 4)
+            t = once(lambda m=m, start=start, method=method: dv.ik_path(m, targets, start, method=method), rep * 4)
             fig[f"guo_{name}_{method}"] = t
             r_txt = p_txt = "-"
             if name == "MDH" and method == "lm" and have_rtb:
                 robot = rtb_robot(m)
 
-                def rtb_path():
+                def rtb_path(start=start, robot=robot):
                     q, sols = start, []
                     for T in targets:
                         s = robot.ik_LM(T, q0=q, tol=1e-20, ilimit=30, slimit=1)
@@ -177,7 +177,7 @@ def main():
             if name == "MDH" and method == "lm" and have_pin:
                 pm, pd, jid = pin_model(m)
 
-                def pin_path():
+                def pin_path(start=start, pm=pm, pd=pd, jid=jid):
                     q, sols = start, []
                     for T in targets:
                         q = pin_ik(pm, pd, jid, T, q, tol=1e-10)

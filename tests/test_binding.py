@@ -43,7 +43,6 @@ def zero_joint_calls():
     m = dv.Table("dh", np.zeros((0, 4))).to_model()
     z, zs = np.zeros(0), np.zeros((3, 0))
     t = dv.Table("dh", np.zeros((0, 4)))
-    ax = dv.axes(planar(), np.zeros(2))
     chain = _core.CalibrationChain([], [], [], np.zeros((0, 4, 4)), 0, 0, [])
     return {
         "fk": lambda: _core.fk(m, z),

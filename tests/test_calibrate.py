@@ -6,18 +6,19 @@ import json
 import subprocess
 import sys
 
-import denavit as dv
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
+
+import denavit as dv
 from cli import env as cli_env
 from denavit import calibration as cal
 from denavit import fitting
 from denavit import sweeps as sw
 from denavit.calibration.least_squares import covariance, residuals, weights
 from denavit.calibration.parametrization import as_robot
-from denavit.io.measurements import read_measurements, to_csv
 from denavit.io import sweeps as swio
-from scipy.spatial.transform import Rotation
+from denavit.io.measurements import read_measurements, to_csv
 
 NOISE = 2e-5  # 0.02 mm per coordinate
 TOOL = np.array([0.05, 0.03, 0.10])

@@ -4,9 +4,10 @@ import json
 import subprocess
 import sys
 
-import denavit as dv
 import numpy as np
 import pytest
+
+import denavit as dv
 from cli import env as cli_env
 
 
@@ -67,9 +68,10 @@ def test_identify_in_a_tracker_frame_with_the_base_given(tmp_path):
     """Noise-free sweeps measured in a tracker frame; with --base (that frame's pose of the robot base) the DH
     table is Hayat's Table III and the JSON's base is the one given; without it the table is expressed from
     the tracker frame (d1 is then no longer 400 mm)."""
+    from scipy.spatial.transform import Rotation
+
     from denavit import sweeps as sw
     from denavit.io import sweeps as swio
-    from scipy.spatial.transform import Rotation
 
     B = np.eye(4)
     B[:3, :3] = Rotation.from_euler("xyz", [2, -3, 35], degrees=True).as_matrix()

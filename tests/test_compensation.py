@@ -10,7 +10,10 @@ from denavit import compensation as cp
 TOOL = np.array([0.05, 0.03, 0.10])
 
 
-def kr5_pair(seed=3, length=0.5e-3, angle=np.radians(0.05)):
+DEG_005 = np.radians(0.05)
+
+
+def kr5_pair(seed=3, length=0.5e-3, angle=DEG_005):
     kr5 = dv.load_robot("kr5")
     t = kr5.table
     E = np.random.default_rng(seed).uniform(-1, 1, t.params.shape) * np.where(np.array(t.angle_columns), angle, length)
@@ -104,7 +107,6 @@ def test_cli_compensates_joint_rows_and_poses(tmp_path):
     """`denavit compensate` on joint rows (deg) and on poses (m, rotation vector): every written row reaches its
     target on the identified robot, and the joint rows keep the program's branch."""
     from cli import run
-
     from denavit.geometry import matrix_rotvec
     from denavit.io import robotfile
     from denavit.robot import Robot

@@ -3,9 +3,10 @@ batches, a cross-check against pinocchio, and bad input."""
 
 from pathlib import Path
 
-import denavit as dv
 import numpy as np
 import pytest
+
+import denavit as dv
 from cli import env as cli_env
 from denavit import _core
 from denavit.io import robotfile
@@ -91,7 +92,7 @@ def test_forward_dynamics_inverts_inverse_dynamics(robot, rng):
 def test_energy_rate_is_joint_power_and_mdot_minus_2c_is_skew(robot, rng):
     n, h = robot.nq, 1e-5
     for q, qd, qdd in zip(*states(n, 5, rng)):
-        def energy(t):
+        def energy(t, q=q, qd=qd, qdd=qdd):
             qt, qdt = q + qd * t + 0.5 * qdd * t * t, qd + qdd * t
             return _core.kinetic_energy(robot, qt, qdt) + _core.potential_energy(robot, qt)
 

@@ -7,9 +7,10 @@ import subprocess
 import sys
 import threading
 
-import denavit as dv
 import numpy as np
 import pytest
+
+import denavit as dv
 from cli import env, run
 from denavit.io import output
 

@@ -3,9 +3,10 @@
 import os
 import stat
 
-import denavit as dv
 import numpy as np
 import pytest
+
+import denavit as dv
 from denavit import robot
 from denavit.io import output, robotfile
 

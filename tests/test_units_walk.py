@@ -9,10 +9,11 @@ output.
 import json
 import math
 
-import denavit as dv
 import numpy as np
 import pytest
 import tomllib
+
+import denavit as dv
 from cli import run
 
 RPR = """name = "rpr"

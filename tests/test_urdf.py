@@ -9,17 +9,18 @@ al.'s Table III in an industrial layout (every link parallel to the base at q = 
 import math
 import re
 
-import denavit as dv
 import numpy as np
 import pytest
 import yourdfpy
-from denavit.cli import app
-from denavit.io import sweeps as swio
-from denavit.geometry import matrix_rpy
-from denavit.io import urdf as U
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
+
+import denavit as dv
+from denavit.cli import app
+from denavit.geometry import matrix_rpy
+from denavit.io import sweeps as swio
+from denavit.io import urdf as U
 
 DATA = __import__("pathlib").Path(__file__).parent / "data" / "urdf"
 UR, PANDA, KR5 = DATA / "ur_style.urdf", DATA / "panda_style.urdf", DATA / "kr5.urdf"
