@@ -149,3 +149,12 @@ def test_recordings_through_the_cli(tmp_path):
         assert len(doc["joints"]) == 6
     p = run("identify", rec / "columns.txt", "--nominal", "kr5", "--columns", "t,q1..q6,x,y,z", ok=False)
     assert p.returncode == 2 and "columns.txt:2: expected 10 values" in p.stderr and len(p.stderr.strip().splitlines()) == 1
+
+
+def test_import_denavit_loads_no_scipy():
+    """`import denavit` stays light (scipy had been 88 % of it): scipy, matplotlib, plotly, yourdfpy, lxml and
+    trimesh load only in the functions that need them."""
+    code = ("import sys, denavit; heavy = [m for m in ('scipy', 'matplotlib', 'plotly', 'yourdfpy', 'lxml', 'trimesh', 'typer', 'rich') "
+            "if m in sys.modules]; print(','.join(heavy))")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=cli_env())
+    assert p.returncode == 0 and p.stdout.strip() == "", p.stdout + p.stderr

@@ -11,7 +11,7 @@ use denavit_core::{Error, JointKind};
 use nalgebra::{Matrix3, Matrix6xX, Vector3};
 use proptest::prelude::*;
 
-/// The ED-H chain of a table (docs/conventions.md): base, Rx(alpha) Tx(a) Ty(b) Tz(c) Rz(theta + q) per row
+/// The ED-H chain of a table, built here independently of the core, factor by factor as docs/conventions.md writes it per row
 /// (prismatic: Rx Tx Ty Rz(theta) Tz(c + q)), tool; joint j optionally scaled by parameter `scale[j]`.
 fn edh_chain(t: &denavit_core::Table, with_scales: bool) -> (Chain, Vec<f64>) {
     let n = t.nq();
