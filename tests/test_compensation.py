@@ -152,3 +152,16 @@ def test_cli_compensate_bad_input(tmp_path):
     write_program(tmp_path / "nan.csv", [[1, 2, 3, 4, 5, float("nan")]], "q1,q2,q3,q4,q5,q6")
     p = run("compensate", tmp_path / "nan.csv", "--nominal", "kr5", "--identified", "kr5", ok=False)
     assert p.returncode == 2 and "nan.csv:3: column 'q6' must be finite" in p.stderr
+
+
+def test_identification_report_has_the_accuracy_section():
+    """The HTML report of an identification with a nominal says how accurate each model is (a table and a chart)."""
+    pytest.importorskip("plotly")
+    from denavit import identify as ident
+    from denavit import report
+    from denavit.cli.identify import example_path
+    from denavit.io import sweeps as swio
+
+    res = ident.identify(swio.read_long_csv(example_path("kr5")), nominal=dv.load_robot("kr5"))
+    page = report.report_html(res)
+    assert 'id="accuracy"' in page and "accuracy-chart" in page and "nominal (what the robot misses)" in page

@@ -156,7 +156,8 @@ def test_parameters_errorbars_are_identified_minus_nominal(result):
 
 def test_write_figures_writes_every_figure(result, tmp_path):
     paths = rep.write_figures(result, tmp_path / "figs", dpi=60)
-    assert sorted(p.name for p in paths) == sorted(f"{n}.png" for n in ("circles", "residuals", "bounding_box", "parameters", "frames", "origin_paths"))
+    figures = ("circles", "residuals", "bounding_box", "parameters", "frames", "origin_paths") + (("accuracy",) if result.nominal is not None else ())
+    assert sorted(p.name for p in paths) == sorted(f"{n}.png" for n in figures)
     for p in paths:
         with Image.open(p) as im:
             rgb = np.asarray(im.convert("RGB")).reshape(-1, 3).astype(np.int64)
@@ -180,3 +181,17 @@ def test_core_does_not_import_the_plotting_libraries():
     code = ("import sys, denavit, denavit.cli, denavit.plotting, denavit.report, denavit.identify; "
             "bad = [m for m in ('matplotlib', 'plotly') if m in sys.modules]; assert not bad, bad")
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_accuracy_figure_shows_the_nominal_error_and_the_prediction(result):
+    """The accuracy map (issue 14): histograms of the nominal model's error and of the identified model's
+    predicted error, and the nominal error over the tool positions; the numbers are the map's."""
+    from denavit.compensation import identification_accuracy
+
+    acc = identification_accuracy(result, count=200)
+    assert acc is not None and acc.nominal.shape == acc.identified.shape == (200,)
+    fig = plotting.plot_accuracy(acc)
+    hist, = by_gid(fig.axes, "accuracy-histogram")
+    assert len(hist.patches) == 2 * 39 and "nominal model: rms" in hist.get_legend().get_texts()[0].get_text()
+    amap, = by_gid(fig.axes, "accuracy-map")
+    np.testing.assert_allclose(amap.collections[0].get_offsets(), acc.points[:, :2] / MM)

@@ -140,7 +140,7 @@ def _axes_sigma(ident, q: np.ndarray) -> np.ndarray:
         T_tool = np.array(ax.T_world_tool)
         T_tool[:3, 3] = theta[6 * n:]
         a = _core.JointAxes(P[:, :3], P[:, 3:], kinds=list(ax.kinds), q_ref=ax.q_ref, T_world_base=ax.T_world_base, T_world_tool=T_tool, lower=ax.lower, upper=ax.upper)
-        return _core.fk_batch(_core.extract(a, "edh").table.to_model(), q)[:, :3, 3]
+        return _core.fk_batch(_core.extract(a, "edh", fidelity=False).table.to_model(), q)[:, :3, 3]
 
     scale = np.sqrt(np.maximum(np.diag(C), 0.0))
     J = np.zeros((len(q), 3, len(theta0)))
@@ -187,3 +187,18 @@ def accuracy_map(nominal, identified, result, q=None, *, count: int = 1000) -> A
     p_nom = _core.fk_batch(nom, q)[:, :3, 3]
     p_id = _core.fk_batch(ide, q)[:, :3, 3]
     return AccuracyMap(q, p_id, np.linalg.norm(p_id - p_nom, axis=1), predicted_sigma(result, q))
+
+
+def identification_accuracy(result, *, count: int = 1000) -> AccuracyMap | None:
+    """The :class:`AccuracyMap` of an identification against its nominal (None without one): the nominal
+    model placed as the identification placed it (its base) with the measured tool point attached so that both
+    agree at the home configuration, the identified model's exact ED-H geometry, the prediction from the axes'
+    covariance."""
+    if result.nominal is None:
+        return None
+    ident = result.model(convention="edh")
+    home = np.asarray(result.sweeps.home, dtype=float)
+    flange = result.nominal.model().with_tool(np.eye(4))
+    tool = np.linalg.inv(_core.fk(flange, home)) @ _core.fk(ident, home)
+    nominal = flange.with_tool(tool)
+    return accuracy_map(nominal, ident, result, count=count)

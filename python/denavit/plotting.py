@@ -476,7 +476,14 @@ def figures_for(result: Identification, *, length: str = "mm", other: str | None
         "parameters": plot_parameters(result, length=length),
         "frames": plot_frames(tables, result.sweeps.home, length=length),
         "origin_paths": plot_origin_paths(tables, joint, result.sweeps.home, limits=sweep_range(result, joint), length=length),
+        **({"accuracy": plot_accuracy(acc, length=length)} if (acc := _accuracy(result)) is not None else {}),
     }
+
+
+def _accuracy(result: Identification):
+    from .compensation import identification_accuracy  # noqa: PLC0415
+
+    return identification_accuracy(result)
 
 
 __all__ = [
@@ -488,6 +495,7 @@ __all__ = [
     "joint_colour",
     "other_convention",
     "parameter_errors",
+    "plot_accuracy",
     "plot_bounding_box",
     "plot_circles",
     "plot_frames",
@@ -495,3 +503,36 @@ __all__ = [
     "plot_parameters",
     "plot_residuals",
 ]
+
+
+def plot_accuracy(acc, *, length: str = "mm") -> Figure:
+    """An :class:`denavit.compensation.AccuracyMap`: the distribution of the nominal model's position error and of
+    the identified model's predicted error (gid ``accuracy-histogram``, log-spaced bins), and the nominal error
+    over the tool positions seen from above (gid ``accuracy-map``)."""
+    fig = _figure(figsize=(10.0, 4.2), layout="constrained")
+    ls = length_scale(length)
+    nom, ide = np.asarray(acc.nominal) / ls, np.asarray(acc.identified) / ls
+    ax = fig.add_subplot(1, 2, 1)
+    ax.set_gid("accuracy-histogram")
+    both = np.concatenate([nom, ide])
+    positive = both[both > 0]
+    lo, hi = (positive.min(), positive.max()) if positive.size else (1e-6, 1.0)
+    bins = np.geomspace(lo * 0.9, hi * 1.1, 40)
+    ax.hist(np.maximum(nom, lo), bins=bins, color="#c0392b", alpha=0.7, label=f"nominal model: rms {np.sqrt(np.mean(nom ** 2)):.3g} {length}")
+    ax.hist(np.maximum(ide, lo), bins=bins, color="#2471a3", alpha=0.7, label=f"identified, predicted 1σ: rms {np.sqrt(np.mean(ide ** 2)):.3g} {length}")
+    ax.set_xscale("log")
+    ax.set_xlabel(f"tool position error [{length}]", fontsize=9)
+    ax.set_ylabel("configurations", fontsize=9)
+    ax.legend(fontsize=8)
+    ax.tick_params(labelsize=8)
+    ax2 = fig.add_subplot(1, 2, 2)
+    ax2.set_gid("accuracy-map")
+    P = np.asarray(acc.points) / ls
+    sc = ax2.scatter(P[:, 0], P[:, 1], c=nom, s=6, cmap="viridis")
+    fig.colorbar(sc, ax=ax2, label=f"nominal model error [{length}]")
+    ax2.set_aspect("equal", adjustable="datalim")
+    ax2.set_xlabel(f"x [{length}]", fontsize=9)
+    ax2.set_ylabel(f"y [{length}]", fontsize=9)
+    ax2.tick_params(labelsize=8)
+    fig.suptitle(f"Accuracy over {len(P)} configurations within the joint limits", fontsize=10)
+    return fig

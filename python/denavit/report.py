@@ -376,6 +376,30 @@ def _parameter_chart(go, make_subplots, result: Identification, length: str, ang
     return fig
 
 
+def _accuracy_section(go, result: Identification, length: str) -> str:
+    """Accuracy before and after: the nominal model's error and the identified model's predicted error over the
+    workspace (denavit.compensation.identification_accuracy), a table and a histogram."""
+    from .compensation import identification_accuracy  # noqa: PLC0415
+
+    acc = identification_accuracy(result)
+    if acc is None:
+        return ""
+    ls = length_scale(length)
+    s = acc.summary()
+    rows = [f'<tr>{_td("model", label)}' + "".join(_td(k, s[key][k] / ls) for k in ("rms", "median", "p95", "max")) + "</tr>"
+            for label, key in (("nominal (what the robot misses)", "nominal"), ("identified (predicted 1σ)", "identified"))]
+    table = _table("accuracy", ["model", f"rms [{length}]", f"median [{length}]", f"95 % [{length}]", f"max [{length}]"], rows,
+                   f"Tool position error over {s['configurations']} quasi-random configurations within the joint limits: the nominal model against the "
+                   "identified one, and the identified model's error predicted from the axes' covariance (denavit.compensation).", "accuracy")
+    fig = go.Figure()
+    for v, name, colour in ((acc.nominal, "nominal", "#c0392b"), (acc.identified, "identified (predicted 1σ)", "#2471a3")):
+        fig.add_trace(go.Histogram(x=np.log10(np.maximum(np.asarray(v) / ls, 1e-12)), name=name, marker={"color": colour}, opacity=0.7, nbinsx=40))
+    fig.update_layout(barmode="overlay", height=320, margin={"l": 60, "r": 10, "t": 30, "b": 40},
+                      xaxis={"title": {"text": f"log10 tool position error [{length}]"}}, yaxis={"title": {"text": "configurations"}},
+                      title={"text": "Accuracy before and after identification", "font": {"size": 14}})
+    return f'<section id="accuracy-section"><h2>Accuracy</h2>{table}{_figure_html(fig, "accuracy-chart", first=False)}</section>'
+
+
 def report_html(result: Identification, *, length: str = "mm", angle: str = "deg", title: str | None = None) -> str:
     """The HTML text of :func:`write_report`."""
     from .identify import to_json  # noqa: PLC0415
@@ -435,6 +459,7 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
         f'<section id="results"><h2>Identified parameters</h2>{summary}{params}{pchart}</section>',
         f'<section id="fits"><h2>Joint axes and fits</h2>{axes_t}{resid}{_pairs_table(result.extraction.pairs, ls, length, angle)}</section>',
         f'<section id="box"><h2>Measuring volume</h2>{box_t}{orient_t}</section>',
+        _accuracy_section(go, result, length),
         f'<section id="notes-section"><h2>Notes</h2><ul class="notes" id="notes">{notes}</ul></section>',
     ])
     return _page(title, meta, body)

@@ -85,6 +85,14 @@ def identify(
         result = ident.identify(sweeps, method=method, convention=convention, nominal=nom, loss=loss, max_sigma=ms, T_world_base=T_world_base, progress=status.update)
     doc = ident.to_json(result, out_len, "deg")
     print_identification(doc, result, out_len)
+    if nom is not None:
+        from ..compensation import identification_accuracy  # noqa: PLC0415
+
+        s = identification_accuracy(result).summary()
+        ls_out = length_scale(out_len)
+        say("bold", "Accuracy", f" over {s['configurations']} configurations within the limits: nominal model error rms {s['nominal']['rms'] / ls_out:.4g} {out_len} "
+            f"(max {s['nominal']['max'] / ls_out:.4g}); identified model, predicted 1 sigma: rms {s['identified']['rms'] / ls_out:.4g} {out_len} "
+            f"(max {s['identified']['max'] / ls_out:.4g})")
     if json_path:
         ident.write_json(result, json_path, out_len, "deg")
         wrote(json_path)
