@@ -165,3 +165,29 @@ def test_identification_report_has_the_accuracy_section():
     res = ident.identify(swio.read_long_csv(example_path("kr5")), nominal=dv.load_robot("kr5"))
     page = report.report_html(res)
     assert 'id="accuracy"' in page and "accuracy-chart" in page and "nominal (what the robot misses)" in page
+
+
+def test_cli_exports_the_ur_kinematics_file(tmp_path):
+    """`denavit export ROBOT --ur-kinematics OUT`: the identified UR5 as ur_description reads it; another robot is
+    refused in one line."""
+    from cli import run
+    from denavit.io import robotfile, ur_calibration
+    from denavit.robot import Robot
+
+    r = dv.load_robot("ur5")
+    t = r.table
+    E = np.random.default_rng(2).normal(0, 1, t.params.shape) * np.where(np.array(t.angle_columns), np.radians(0.05), 0.5e-3)
+    E[5, 2:] = 0
+    ident = tmp_path / "ur5_id.toml"
+    robotfile.save(Robot("ur5_id", dv.Table("dh", t.params + E, t.kinds, t.T_world_base, t.T_last_tool), r.names, r.lower, r.upper), ident, "mm", "deg")
+    out = tmp_path / "cal.yaml"
+    run("export", ident, "--ur-kinematics", out)
+    origins = ur_calibration.loads(out.read_text())
+    q = np.array([0.3, -1.2, 1.0, 0.4, -0.7, 2.0])
+    T = np.eye(4)
+    for o, qi in zip(origins, q):
+        c, s = np.cos(qi), np.sin(qi)
+        T = T @ o @ np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
+    np.testing.assert_allclose(T, dv.fk(dv.load_model(ident), q), atol=1e-9)  # mm-rounded file: 17 digits
+    p = run("export", "kr5", "--ur-kinematics", out, ok=False)
+    assert p.returncode == 2 and "expected a calibration of the nominal UR arm" in p.stderr

@@ -70,6 +70,8 @@ def test_bad_input():
     P[5, 2] = 0.01  # a6 = 10 mm: the flange leaves axis 6
     with pytest.raises(dv.DenavitError, match="10 mm off the axis"):
         urc.kinematics(dv.Table("dh", P, t.kinds, t.T_world_base, t.T_last_tool).to_model(), t)
+    with pytest.raises(dv.DenavitError, match="expected a calibration of the nominal UR arm"):
+        urc.kinematics(dv.load_model("kr5"), r.table)
     with pytest.raises(dv.DenavitError, match="kinematics.forearm: expected x, y, z, roll, pitch, yaw"):
         urc.loads("kinematics:\n  shoulder: {x: 0, y: 0, z: 0, roll: 0, pitch: 0, yaw: 0}\n  upper_arm: {x: 0, y: 0, z: 0, roll: 0, pitch: 0, yaw: 0}\n")
     with pytest.raises(dv.DenavitError, match="top-level 'kinematics'"):

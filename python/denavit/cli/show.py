@@ -60,8 +60,23 @@ def show(
 
 
 @app.command(name="export")
-def export_cmd(model: ModelArg, length: str = "mm", angle: str = "deg", base_link: BaseLinkOpt = None, tip_link: TipLinkOpt = None) -> None:
-    """Print a robot file (TOML) in the given units."""
+def export_cmd(
+    model: ModelArg,
+    length: str = "mm",
+    angle: str = "deg",
+    base_link: BaseLinkOpt = None,
+    tip_link: TipLinkOpt = None,
+    ur_kinematics: Annotated[Path | None, typer.Option("--ur-kinematics", help="Write Universal Robots' kinematics-parameters YAML (what ur_description's kinematics_params_file reads) instead of a robot file ('-': standard output).")] = None,
+    ur_nominal: Annotated[str, typer.Option("--ur-nominal", help="With --ur-kinematics: the nominal UR arm (a standard DH robot file or built-in) whose link frames the file follows.")] = "ur5",
+) -> None:
+    """Print a robot file (TOML) in the given units, or write a UR kinematics-parameters file."""
+    robot = load_robot(model, base_link, tip_link)
+    if ur_kinematics is not None:
+        from ..io.ur_calibration import save  # noqa: PLC0415
+
+        save(ur_kinematics, robot.model(), load_robot(ur_nominal, what="--ur-nominal").table)
+        wrote(ur_kinematics)
+        return
     from ..io.robotfile import dumps  # noqa: PLC0415
 
-    print(dumps(load_robot(model, base_link, tip_link), length, angle), end="")
+    print(dumps(robot, length, angle), end="")

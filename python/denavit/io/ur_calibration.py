@@ -68,6 +68,11 @@ def link_frames(model: _core.Model, nominal: _core.Table, tol: float = 1e-9) -> 
     out = np.empty((6, 4, 4))
     for i in range(6):
         Fn = nominal_frames[i]
+        tilt = np.degrees(np.arccos(min(1.0, abs(float(dirs[i] @ Fn[:3, 2])))))
+        off = float(np.linalg.norm(np.cross(Fn[:3, 3] - points[i], dirs[i])))
+        if tilt > 5.0 or off > 0.05:
+            raise DenavitError(f"model: axis {i + 1} is {tilt:.3g} deg and {off * 1e3:.4g} mm from the nominal's: expected a calibration of the nominal UR arm "
+                               "(within 5 deg and 50 mm per axis)")
         z = dirs[i] if dirs[i] @ Fn[:3, 2] >= 0 else -dirs[i]
         x = Fn[:3, 0] - (Fn[:3, 0] @ z) * z
         x /= np.linalg.norm(x)
