@@ -158,3 +158,32 @@ def test_import_denavit_loads_no_scipy():
             "if m in sys.modules]; print(','.join(heavy))")
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=cli_env())
     assert p.returncode == 0 and p.stdout.strip() == "", p.stdout + p.stderr
+
+
+def test_calibrate_from_a_log_of_poses_with_pauses(tmp_path):
+    """`denavit calibrate LOG --columns ...`: a controller/tracker log of 40 random poses, 1 s pauses and 1 s
+    moves at 50 Hz (0.02 mm noise): one pose per pause (median), and the calibration explains the data."""
+    from denavit import calibration as cal
+
+    kr5 = dv.load_robot("kr5")
+    tool = np.eye(4)
+    tool[:3, 3] = [0.05, 0.03, 0.1]
+    m = kr5.model().with_tool(tool)
+    poses = cal.configurations(kr5, 40) * 0.8
+    rng = np.random.default_rng(4)
+    rows, t = [], 0.0
+    for a, b in zip(poses[:-1], poses[1:], strict=True):
+        for s in np.linspace(0, 1, 50, endpoint=False):  # a pause at a, then a smooth move to b
+            q = a if s < 0.5 else a + (b - a) * (1 - np.cos(np.pi * (s - 0.5) * 2)) / 2
+            rows.append((t, q))
+            t += 0.02
+    Q = np.array([q for _, q in rows])
+    P = dv.fk_batch(m, Q)[:, :3, 3] + rng.normal(0, 2e-5, (len(Q), 3))
+    f = tmp_path / "log.txt"
+    f.write_text("# units: length=m angle=rad time=s\n" + "".join(f"{ti!r} " + " ".join(repr(float(v)) for v in (*q, *p)) + "\n" for (ti, q), p in zip(rows, P, strict=True)))
+    out = tmp_path / "c.json"
+    p = run("calibrate", f, "--nominal", "kr5", "--columns", "t,q1..q6,x,y,z", "--tool", "50,30,100", "--json", out, "--holdout", "0")
+    assert "poses where the robot stood still" in p.stdout
+    doc = json.loads(out.read_text())
+    assert doc["n_poses"] == 39  # the last pose has no pause after it: 39 pauses of 25 rows
+    assert doc["residuals"]["rms"] < 0.05, doc["residuals"]  # mm: the noise, not the motion

@@ -536,26 +536,7 @@ def segment(rec: Recording, *, ranges=None, n_joints: int | None = None, joints:
         return Segmentation(segs, "labels", n, 0, rec.source, rec.kinds)
     if N < 3 * min_points:
         raise DenavitError(f"{rec.source}: {N} rows: too few to segment (expected at least {3 * min_points})")
-    t = rec.time if rec.time is not None else np.arange(N, dtype=float)
-    dt = float(np.median(np.diff(t)))
-    w = _window(N, dt, smoothing)
-    from scipy.signal import savgol_filter  # noqa: PLC0415
-
-    with_q = rec.q is not None and use_readings
-    x = rec.q if with_q else _motion_signal(rec)[0]
-    v = savgol_filter(x, w, 2, deriv=1, delta=dt, axis=0)
-    sigma_x, noise = _noise(x, w, dt)
-    if with_q:
-        speed = np.abs(v)  # (N, n) per joint
-        floor = 1e-3 * speed.max(axis=0)
-        lim = np.maximum(threshold * noise, np.maximum(floor, 1e-12))
-        moving = (speed > lim).any(axis=1)
-    else:
-        speed = np.linalg.norm(v, axis=1)[:, None]
-        lim = np.maximum(threshold * np.linalg.norm(noise), max(1e-3 * speed.max(), 1e-12))
-        moving = speed[:, 0] > lim
-    runs = _runs(moving, max(1, int(round(min_dwell / dt))), 1)
-    runs = [(a, b) for a, b in _trim(x, runs, sigma_x, threshold) if b - a >= min_points]
+    t, x, with_q, runs, lim, speed = _motions(rec, threshold=threshold, min_dwell=min_dwell, smoothing=smoothing, min_points=min_points, use_readings=use_readings)
     if not runs:
         raise DenavitError(f"{rec.source}: nothing moves beyond the noise (speed threshold {float(np.max(lim)):.3g}): expected sweeps")
     dwell = N - sum(b - a for a, b in runs)
@@ -605,6 +586,57 @@ def segment(rec: Recording, *, ranges=None, n_joints: int | None = None, joints:
         out.append(pick)
     segs = [replace(s, role="sweep" if k in out else "transit") for k, s in enumerate(segs)]
     return Segmentation(segs, "readings" if with_q else "geometry", int(n), int(dwell), rec.source, rec.kinds)
+
+
+
+def _motions(rec: Recording, *, threshold: float, min_dwell: float, smoothing: float, min_points: int, use_readings: bool):
+    """(time, signal, with readings, motion runs [(start, stop)], speed threshold, speed): the rows where the robot
+    moves beyond the noise (estimated from the data), joined across still spans shorter than ``min_dwell`` and
+    trimmed of rows still within the dwell's noise; the rest is dwell."""
+    N = len(rec)
+    t = rec.time if rec.time is not None else np.arange(N, dtype=float)
+    dt = float(np.median(np.diff(t)))
+    w = _window(N, dt, smoothing)
+    from scipy.signal import savgol_filter  # noqa: PLC0415
+
+    with_q = rec.q is not None and use_readings
+    x = rec.q if with_q else _motion_signal(rec)[0]
+    v = savgol_filter(x, w, 2, deriv=1, delta=dt, axis=0)
+    sigma_x, noise = _noise(x, w, dt)
+    if with_q:
+        speed = np.abs(v)  # (N, n) per joint
+        floor = 1e-3 * speed.max(axis=0)
+        lim = np.maximum(threshold * noise, np.maximum(floor, 1e-12))
+        moving = (speed > lim).any(axis=1)
+    else:
+        speed = np.linalg.norm(v, axis=1)[:, None]
+        lim = np.maximum(threshold * np.linalg.norm(noise), max(1e-3 * speed.max(), 1e-12))
+        moving = speed[:, 0] > lim
+    runs = _runs(moving, max(1, int(round(min_dwell / dt))), 1)
+    runs = [(a, b) for a, b in _trim(x, runs, sigma_x, threshold) if b - a >= min_points]
+    return t, x, with_q, runs, lim, speed
+
+
+def static_poses(rec: Recording, *, target: int = 0, min_rows: int = 3, threshold: float = 6.0, min_dwell: float = 0.25, smoothing: float = 0.1):
+    """The poses where the robot stood still: per dwell between motions of ``min_rows`` rows or more, the median
+    joint readings and the median point of ``target`` (for calibration from a log of random poses).
+    Returns (q (P, n), points (P, 3), where (P,) "file:line" of each dwell's middle row)."""
+    if rec.q is None:
+        raise DenavitError(f"{rec.source}: no joint readings: calibration needs the readings at each pose")
+    if rec.points is None:
+        raise DenavitError(f"{rec.source}: no measured points: calibration needs the measured tool point at each pose")
+    N = len(rec)
+    if rec.time is None or N < 3 * min_rows:
+        rows = [(k, k + 1) for k in range(N)]  # a list of static measurements: every row a pose
+    else:
+        _, _, _, runs, _, _ = _motions(rec, threshold=threshold, min_dwell=min_dwell, smoothing=smoothing, min_points=3, use_readings=True)
+        edges = [0, *[x for r in runs for x in r], N]
+        rows = [(a, b) for a, b in zip(edges[::2], edges[1::2]) if b - a >= min_rows]
+    if not rows:
+        raise DenavitError(f"{rec.source}: the robot never stands still for {min_rows} rows: expected a log of poses with pauses")
+    q = np.array([np.median(rec.q[a:b], axis=0) for a, b in rows])
+    pts = np.array([np.median(rec.points[a:b, target], axis=0) for a, b in rows])
+    return q, pts, [rec.where[(a + b - 1) // 2] for a, b in rows]
 
 
 def to_sweepset(rec: Recording, seg: Segmentation, *, target: int = 0, tool_point=None, home=None, kinds: Sequence[str] | None = None, direction=1,

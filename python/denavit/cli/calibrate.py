@@ -30,6 +30,9 @@ def calibrate(
     length: Annotated[str, typer.Option("--length", help="Length unit of the output (and of the data if not declared in it).")] = "mm",
     angle: Annotated[str, typer.Option("--angle", help="Angle unit of the output (and of the data if not declared in it).")] = "deg",
     seed: Annotated[int, typer.Option("--seed", help="Seed of the held-out split.")] = 0,
+    data_format: Annotated[str, typer.Option("--format", help="measurements (q1..qn,x,y,z CSV, sweep CSV, JSON) | tracker | rtde | rsi | bag | columns | auto (from the content).")] = "auto",
+    columns: Annotated[str | None, typer.Option("--columns", help="Column map of a delimited recording, e.g. \"t,q1..q6,x,y,z\".")] = None,
+    target: Annotated[int, typer.Option("--target", help="Recordings with several targets per pose: which one, 1-based.")] = 1,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
 ) -> None:
@@ -40,7 +43,18 @@ def calibrate(
     robot = load_robot(nominal, base_link, tip_link, "--nominal")
     convention = convention_name(convention)
     # the reader applies the one units rule (denavit.io.units.input_units): what the file declares wins
-    meas = read_measurements(data, kinds=list(robot.table.kinds), length=length, angle=angle)
+    if data_format == "measurements" or (data_format == "auto" and _is_measurement_file(data)):
+        meas = read_measurements(data, kinds=list(robot.table.kinds), length=length, angle=angle)
+    else:  # a recording (tracker export, controller log, bag...): one pose per pause of the robot
+        from ..io.recordings import read_recording  # noqa: PLC0415
+        from ..recording import static_poses  # noqa: PLC0415
+
+        rec = read_recording(data, "auto" if data_format == "auto" else data_format, columns=columns, length=length, angle=angle, kinds=list(robot.table.kinds))
+        for note in rec.notes:
+            say("dim", "note:", f" {note}")
+        q, pts, where = static_poses(rec, target=target - 1)
+        say("dim", "note:", f" {len(q)} poses where the robot stood still (the median of each pause)")
+        meas = cal.Measurements(q, pts, None, str(data), where, {"length": "m", "angle": "rad"}, kinds=tuple(robot.table.kinds))
     ls = length_scale(length)
     tp = None
     if tool is not None:
@@ -95,3 +109,19 @@ def print_calibration(res, length: str, angle: str) -> None:
                       f"max {v.before_max / ls:.4g} -> {v.after_max / ls:.4g} {length} (before: nominal geometry with base and tool fitted)")
     for note in res.notes:
         say("yellow", "note:", f" {note}")
+
+
+def _is_measurement_file(data: Path) -> bool:
+    """Our own measurement formats: JSON, or a CSV whose header has q1 and x (or a sweep file's joint)."""
+    if data.suffix.lower() == ".json":
+        return True
+    from ..io.delimited import rows  # noqa: PLC0415
+    from ..io.text import decode, read_bytes  # noqa: PLC0415
+
+    try:
+        lines = decode(read_bytes(data, "measurement file")[:65536], str(data)).splitlines()
+    except Exception:  # noqa: BLE001 (a binary bag, or UTF-8 cut by the 64 kB window: not ours)
+        return False
+    found, _ = rows(lines[:50])
+    cols = [c.lower() for c in found[0][1]] if found else []
+    return ("q1" in cols and "x" in cols) or "joint" in cols
