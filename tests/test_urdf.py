@@ -826,3 +826,21 @@ def test_every_command_picks_the_chain():
     assert p.returncode == 2 and "--base-link/--tip-link apply to a URDF MODEL, got 'kr5'" in p.stderr
     p = run("fk", DATA / "two_arms.urdf", "--q", "0", ok=False)
     assert p.returncode == 2 and "choose one with tip_link (CLI: --tip-link)" in p.stderr
+
+
+@pytest.mark.parametrize("edit, match", [
+    (('iyz="0"', 'iyz="-1e309"', 1), r"link 'base_link' \(line \d+\): <inertial> must hold finite numbers"),
+    (('upper="6.283185307179586"', 'upper="1e309"', 1), r"joint 'shoulder_pan_joint' \(line \d+\): limit lower=-6.28\S* upper=inf must be finite"),
+    (('lower="-6.283185307179586" ', '', 1), r"joint 'shoulder_pan_joint' \(line \d+\): <limit> lacks lower: a revolute joint needs both bounds"),
+    (('xyz="0 0 0.089159"', 'xyz="0 0 1e309"', 1), r"joint 'shoulder_pan_joint' \(line \d+\): origin xyz='0 0 1e309': expected 3 finite numbers"),
+])
+def test_non_finite_and_missing_numbers_are_errors(tmp_path, edit, match):
+    """1e309 had become an infinite limit or a NaN inertia (a RuntimeWarning deep in numpy), a limit without
+    lower/upper a silent [0, 0] (found by tests/test_fuzz.py): one-line errors naming the element."""
+    text = UR.read_text()
+    old, new, count = edit
+    assert old in text
+    f = tmp_path / "ur.urdf"
+    f.write_text(text.replace(old, new, count))
+    with pytest.raises(dv.DenavitError, match=match):
+        dv.load_robot(f)

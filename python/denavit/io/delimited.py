@@ -32,9 +32,10 @@ def is_number(text: str) -> bool:
     return True
 
 
-def rows(lines: list[str]) -> tuple[list[tuple[int, list[str]]], str]:
+def rows(lines: list[str], where: str = "") -> tuple[list[tuple[int, list[str]]], str]:
     """(line number, cells) of every line that is neither blank nor a ``#`` comment, and the separator (``;``
-    when the first such line holds more semicolons than commas, else ``,``); a trailing separator is dropped."""
+    when the first such line holds more semicolons than commas, else ``,``); a trailing separator is dropped.
+    A line the csv module cannot split (e.g. a cell over its field limit) is an error naming ``where`` and the line."""
     data = [(ln, line) for ln, line in enumerate(lines, 1) if line.strip() and not line.lstrip().startswith("#")]
     if not data:
         return [], ","
@@ -42,11 +43,19 @@ def rows(lines: list[str]) -> tuple[list[tuple[int, list[str]]], str]:
     delim = ";" if first.count(";") > first.count(",") else ","
     out = []
     for ln, line in data:
-        cells = [c.strip() for c in next(csv.reader([line], delimiter=delim))]
+        cells = split(line, delim, f"{where}:{ln}" if where else f"line {ln}")
         if len(cells) > 1 and cells[-1] == "":
             cells.pop()
         out.append((ln, cells))
     return out, delim
+
+
+def split(line: str, delim: str, where: str) -> list[str]:
+    """The cells of one line (stripped), on the csv module; what it cannot split is a one-line error at ``where``."""
+    try:
+        return [c.strip() for c in next(csv.reader([line], delimiter=delim))]
+    except csv.Error as e:
+        raise DenavitError(f"{where}: cannot split the line into cells ({e}; the line has {len(line)} characters)") from None
 
 
 def header(cells: list[str], where: str) -> list[str]:

@@ -9,7 +9,6 @@ everything is SI (:class:`denavit.calibration.Measurements`).
 
 from __future__ import annotations
 
-import csv
 import json
 import os
 from pathlib import Path
@@ -20,6 +19,7 @@ from ..calibration.measurements import Measurements, as_array, check_finite, joi
 from ..errors import DenavitError
 from ..geometry import matrix_rotvec, rotvec_matrix
 from . import sweeps as sw
+from .delimited import split
 from .text import read_text
 from .units import (
     angle_scale,
@@ -74,7 +74,7 @@ def read_measurements(path: str | os.PathLike, *, length: str | None = None, ang
             started = True
             continue
         w = f"{p}:{ln}"
-        cells = [c.strip() for c in next(csv.reader([s], delimiter=delim))]
+        cells = split(s, delim, w)
         if len(cells) != len(cols):
             raise DenavitError(f"{w}: expected {len(cols)} values, got {len(cells)}")
         vals = {}

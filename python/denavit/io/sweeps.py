@@ -54,7 +54,7 @@ def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: 
     where = str(path)
     lines = read_text(path, "sweep file").splitlines()
     units = input_units(parse_declaration(lines, where), length, angle, where)
-    rows, _ = dl.rows(lines)
+    rows, _ = dl.rows(lines, where)
     if not rows:
         raise DenavitError(f"{where}: no header and no data: expected a header 'joint,q1,...,qn,x,y,z'")
     hline, header = rows[0]
@@ -102,7 +102,7 @@ def _joint_file(f: Path, length: str | None) -> tuple[np.ndarray, list[str]]:
     where = str(f)
     lines = read_text(f, "sweep file").splitlines()
     ls = length_scale(input_units(parse_declaration(lines, where), length, None, where, need=("length",))["length"], where)
-    rows, delim = dl.rows(lines)
+    rows, delim = dl.rows(lines, where)
     cols = None
     if rows and not any(dl.is_number(c) for c in rows[0][1]):
         ln, header = rows.pop(0)

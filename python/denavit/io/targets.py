@@ -44,7 +44,7 @@ def read_targets(path: str | os.PathLike, kinds, *, length: str | None = None, a
     where = str(path)
     lines = read_text(path, "targets file").splitlines()
     units = input_units(parse_declaration(lines, where), length, angle, where)
-    data, _ = rows(lines)
+    data, _ = rows(lines, where)
     if not data:
         raise DenavitError(f"{where}: no header and no rows: expected a header 'x,y,z,rx,ry,rz' and/or 'q1,...,q{len(kinds)}'")
     hline, hcells = data[0]

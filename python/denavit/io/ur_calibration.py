@@ -143,6 +143,13 @@ def loads(text: str, where: str = "kinematics file") -> np.ndarray:
     return out
 
 
+def read(path: str | os.PathLike) -> np.ndarray:
+    """(6, 4, 4) joint origins of the kinematics-parameters file at ``path`` (:func:`loads`)."""
+    from .text import read_text  # noqa: PLC0415
+
+    return loads(read_text(path, "kinematics file"), str(path))
+
+
 def save(path: str | os.PathLike, model: _core.Model, nominal: _core.Table) -> None:
     """Write the kinematics-parameters file of ``model`` (whole or not at all)."""
     write_text(path, dumps(model, nominal))

@@ -296,10 +296,14 @@ def _material_dict(m) -> dict:
     return d
 
 
-def _link_dict(link, T_world_link: np.ndarray) -> dict:
+def _link_dict(link, T_world_link: np.ndarray, where=None) -> dict:
     d: dict = {"name": link.name, "T_world_link": _mat(T_world_link)}
     if link.inertial is not None and link.inertial.mass is not None:
         ine = link.inertial
+        values = [float(ine.mass), *np.ravel(np.zeros(3) if ine.inertia is None else ine.inertia), *np.ravel(np.eye(4) if ine.origin is None else ine.origin)]
+        if not all(math.isfinite(v) for v in values):
+            at = where("link", link.name) if where is not None else f"link {link.name!r}"
+            raise DenavitError(f"{at}: <inertial> must hold finite numbers (mass, origin, inertia), got a non-finite one")
         d["inertial"] = {
             "mass": float(ine.mass),
             "origin": _mat(np.eye(4) if ine.origin is None else ine.origin),
@@ -424,7 +428,7 @@ def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: 
     acc = np.eye(4)  # the current link in the last joint frame (before the first joint: in world)
     T_world_link = np.eye(4)  # the current link at q = 0 in world
     T_world_base = None
-    bodies[0].append(_link_dict(links[base_link], T_world_link))
+    bodies[0].append(_link_dict(links[base_link], T_world_link, where))
     for j in chain:
         w = where("joint", j.name)
         jtype = (j.type or "").strip()
@@ -439,7 +443,7 @@ def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: 
         T_world_link = T_world_link @ O
         if jtype == "fixed":
             acc = acc @ O
-            bodies[-1].append(_link_dict(links[j.child], T_world_link))
+            bodies[-1].append(_link_dict(links[j.child], T_world_link, where))
             continue
         a = np.asarray(j.axis, dtype=float)
         na = float(np.linalg.norm(a))
@@ -459,8 +463,12 @@ def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: 
         else:
             if j.limit is None:
                 raise DenavitError(f"{w}: a {jtype} joint needs a <limit lower=... upper=... effort=... velocity=.../> (use type=\"continuous\" for an unlimited revolute joint)")
-            lo = 0.0 if j.limit.lower is None else float(j.limit.lower)  # urdfdom's defaults
-            hi = 0.0 if j.limit.upper is None else float(j.limit.upper)
+            if j.limit.lower is None or j.limit.upper is None:
+                # urdfdom would default a missing bound to 0, a joint that cannot move: say so instead
+                raise DenavitError(f"{w}: <limit> lacks {'lower' if j.limit.lower is None else 'upper'}: a {jtype} joint needs both bounds (urdfdom reads a missing one as 0)")
+            lo, hi = float(j.limit.lower), float(j.limit.upper)
+            if not (math.isfinite(lo) and math.isfinite(hi)):
+                raise DenavitError(f"{w}: limit lower={lo} upper={hi} must be finite (use type=\"continuous\" for an unlimited revolute joint)")
             if lo > hi:
                 raise DenavitError(f"{w}: limit lower={lo} is above upper={hi}")
         info: dict = {"name": j.name, "type": jtype, "axis": [float(v) for v in a]}
@@ -481,7 +489,7 @@ def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: 
         upper.append(hi)
         axes_local.append(a)
         joint_info.append(info)
-        bodies.append([_link_dict(links[j.child], T_world_link)])
+        bodies.append([_link_dict(links[j.child], T_world_link, where)])
         body_links.append(j.child)
     if not names:
         raise DenavitError(f"{path}: no revolute, continuous or prismatic joint between base link {base_link!r} and tip link {tip_link!r}")

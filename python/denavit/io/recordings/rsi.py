@@ -31,8 +31,6 @@ import numpy as np
 from ...errors import DenavitError
 from ..text import read_text
 
-ROB = re.compile(r"<Rob\b.*?</Rob>", re.DOTALL)
-
 
 def is_rsi(text: str) -> bool:
     return bool(re.search(r"<Rob\b", text)) and bool(re.search(r"<(AIPos|ASPos|RIst|RSol)\b", text))
@@ -54,6 +52,21 @@ def _attrs(el, names, where, tag):
     return out
 
 
+def _records(text: str, path):
+    """(start, stop, line) of each ``<Rob ...>...</Rob>`` record, in one linear pass (a record without its
+    closing tag before the next one opens is an error at its line)."""
+    opens = [m.start() for m in re.finditer(r"<Rob\b", text)]
+    line, at = 1, 0
+    for k, s in enumerate(opens):
+        line += text.count("\n", at, s)
+        at = s
+        e = text.find("</Rob>", s)
+        nxt = opens[k + 1] if k + 1 < len(opens) else len(text)
+        if e < 0 or e > nxt:
+            raise DenavitError(f"{path}:{line}: a <Rob> record without its </Rob> before the next record")
+        yield s, e + len("</Rob>"), line
+
+
 def read(path: str | os.PathLike, *, text: str | None = None, axes: str = "AIPos", cartesian: str = "RIst"):
     """Read a KUKA RSI log: a Recording with time (IPOC, s), readings (rad) and the Cartesian poses (m)."""
     from ...geometry import rpy_matrix  # noqa: PLC0415
@@ -63,11 +76,10 @@ def read(path: str | os.PathLike, *, text: str | None = None, axes: str = "AIPos
     text = read_text(path) if text is None else text
     t, q, T, where = [], [], [], []
     names = None
-    for m in ROB.finditer(text):
-        ln = text.count("\n", 0, m.start()) + 1
+    for start, stop, ln in _records(text, path):
         w = f"{path}:{ln}"
         try:
-            rob = ET.fromstring(m.group(0))
+            rob = ET.fromstring(text[start:stop])
         except ET.ParseError as e:
             raise DenavitError(f"{w}: not a well-formed <Rob> record: {e}") from None
         ipoc = rob.find(".//IPOC")
@@ -90,7 +102,10 @@ def read(path: str | os.PathLike, *, text: str | None = None, axes: str = "AIPos
             T.append(P)
         elif T:
             raise DenavitError(f"{w}: <Rob> lacks <{cartesian}> which earlier records have")
-        t.append(int(ipoc.text.strip()) * 1e-3)
+        ms = float(ipoc.text.strip())
+        if not np.isfinite(ms):
+            raise DenavitError(f"{w}: <IPOC> {ipoc.text.strip()[:40]!r} is not a finite time stamp in ms")
+        t.append(ms * 1e-3)
         where.append(w)
     if not where:
         raise DenavitError(f"{path}: no <Rob> records: expected KUKA RSI telegrams <Rob Type=\"KUKA\">...<IPOC>...</IPOC></Rob>")
