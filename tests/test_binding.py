@@ -54,6 +54,7 @@ def zero_joint_calls():
         "extract": lambda: _core.extract(_core.axes(m, z), "dh"),
         "convention_info": lambda: _core.convention_info(""),
         "conventions": lambda: _core.conventions(),
+        "default_limits": lambda: _core.default_limits(""),
         "rnea": lambda: _core.rnea(m, z, z, z),
         "bias_forces": lambda: _core.bias_forces(m, z, z),
         "gravity_torques": lambda: _core.gravity_torques(m, z),

@@ -29,6 +29,18 @@ impl JointKind {
             _ => Err(Error::UnknownName { kind: "joint kind".into(), got: s.into(), expected: "revolute, prismatic".into() }),
         }
     }
+    /// The limits of a joint that states none: (-pi, pi] rad for revolute, [-1, 1] m for prismatic.
+    ///
+    /// ```
+    /// use denavit_core::JointKind;
+    /// assert_eq!(JointKind::Prismatic.default_limits(), (-1.0, 1.0));
+    /// ```
+    pub fn default_limits(self) -> (f64, f64) {
+        match self {
+            Self::Revolute => (-std::f64::consts::PI, std::f64::consts::PI),
+            Self::Prismatic => (-1.0, 1.0),
+        }
+    }
     /// The name used in files: `"revolute"` or `"prismatic"`.
     pub fn name(self) -> &'static str {
         match self {
@@ -58,10 +70,7 @@ pub struct Joint {
 impl Joint {
     /// A joint with the given placement, no offset and limits (-pi, pi] for revolute, [-1, 1] m for prismatic.
     pub fn new(name: impl Into<String>, kind: JointKind, placement: Pose) -> Self {
-        let (lower, upper) = match kind {
-            JointKind::Revolute => (-std::f64::consts::PI, std::f64::consts::PI),
-            JointKind::Prismatic => (-1.0, 1.0),
-        };
+        let (lower, upper) = kind.default_limits();
         Self { name: name.into(), kind, placement, offset: 0.0, lower, upper }
     }
 }

@@ -23,6 +23,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(model::extract, m)?)?;
     m.add_function(wrap_pyfunction!(model::convention_info, m)?)?;
     m.add_function(wrap_pyfunction!(model::conventions, m)?)?;
+    m.add_function(wrap_pyfunction!(model::default_limits, m)?)?;
     m.add("NEAR_PARALLEL_SIN", denavit_core::extract::NEAR_PARALLEL_SIN)?;
     m.add("EXACT_PARALLEL_SIN", denavit_core::extract::EXACT_PARALLEL_SIN)?;
     kinematics::register(m)?;

@@ -587,3 +587,9 @@ pub fn convention_info(py: Python<'_>, name: &str) -> PyResult<PyObject> {
 pub fn conventions() -> Vec<&'static str> {
     Convention::ALL.iter().map(|c| c.name()).collect()
 }
+
+/// The limits of a joint of `kind` ("revolute" | "prismatic") that states none: (lower, upper) in rad / m.
+#[pyfunction]
+pub fn default_limits(kind: &str) -> PyResult<(f64, f64)> {
+    Ok(JointKind::parse(kind).py()?.default_limits())
+}

@@ -98,8 +98,11 @@ def identify(
         wrote(json_path)
     if save_model or urdf:
         names = nom.names if nom else [f"j{i + 1}" for i in range(sweeps.n_joints)]
-        lower = nom.lower if nom else np.full(sweeps.n_joints, -np.pi)
-        upper = nom.upper if nom else np.full(sweeps.n_joints, np.pi)
+        from .. import _core  # noqa: PLC0415
+
+        limits = np.array([_core.default_limits(k) for k in sweeps.kinds])
+        lower = nom.lower if nom else limits[:, 0]
+        upper = nom.upper if nom else limits[:, 1]
         identified = Robot(name=f"{nom.name if nom else 'robot'}_identified", table=result.table, names=names, lower=lower, upper=upper,
                            description=f"identified from {sweeps.source} ({result.method} fit, {result.convention})", source=str(sweeps.source), home=sweeps.home,
                            extra=nom.extra if nom else {})  # a URDF nominal's meshes, inertials and limits ride along

@@ -184,7 +184,7 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         lim = j.get("limits")
         scale = joint_scale([kind], units["length"], units["angle"], jw)[0]
         if lim is None:
-            lo, hi = (-math.pi, math.pi) if kind == "revolute" else (-1.0, 1.0)
+            lo, hi = _core.default_limits(kind)
         else:
             lo, hi = (v * scale for v in _numbers(lim, 2, f"{jw}: limits", finite=False))
             if lo > hi:
