@@ -187,3 +187,9 @@ def test_calibrate_from_a_log_of_poses_with_pauses(tmp_path):
     doc = json.loads(out.read_text())
     assert doc["n_poses"] == 39  # the last pose has no pause after it: 39 pauses of 25 rows
     assert doc["residuals"]["rms"] < 0.05, doc["residuals"]  # mm: the noise, not the motion
+
+
+def test_version():
+    from denavit import __version__
+
+    assert run("--version").stdout.strip() == f"denavit {__version__}"

@@ -30,6 +30,19 @@ app = typer.Typer(
     help="Find the true kinematic geometry of serial robots and compute with it.",
     pretty_exceptions_enable=False,
 )
+def _version(value: bool) -> None:
+    if value:
+        from .._core import __version__  # noqa: PLC0415
+
+        print(f"denavit {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version and exit.")] = False) -> None:
+    """Find the true kinematic geometry of serial robots and compute with it."""
+
+
 # markup off: units in headers ("a [mm]"), file paths and messages are printed as written; style only through say()
 console = Console(markup=False)
 err_console = Console(stderr=True, markup=False)
