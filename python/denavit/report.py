@@ -32,7 +32,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from . import __version__, _core
+from . import _core
+from ._core import __version__
 from .errors import DenavitError
 from .io.output import atomic_path, write_text
 from .io.units import angle_scale, cell_scale, column_scale, length_scale
