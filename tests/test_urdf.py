@@ -612,14 +612,17 @@ def test_robot_file_inertials_survive_urdf_export(tmp_path, name):
     ('<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="-1"/>', "definite"),
 ])
 def test_unphysical_urdf_inertia_warns_and_loads_kinematics(tmp_path, bad, why):
+    """One unphysical inertial leaves that body alone massless, with a URDF-worded warning (it had made the
+    whole robot massless: xArm6 printed all-zero torques)."""
     text = UR.read_text().replace('<inertia ixx="0.010267495893" ixy="0" ixz="0" iyy="0.010267495893" iyz="0" izz="0.00666"/>', bad)
     assert bad in text
     p = tmp_path / "bad.urdf"
     p.write_text(text)
-    with pytest.warns(dv.DenavitWarning, match="bad.urdf: the inertial of link 'shoulder_link' .*'shoulder_pan_joint'.* not physical") as rec:
+    with pytest.warns(dv.DenavitWarning, match="bad.urdf: the <inertial> of link 'shoulder_link' .*'shoulder_pan_joint'.* not physical") as rec:
         robot = U.load_urdf(p)
-    assert why in str(rec[0].message) and "without inertials" in str(rec[0].message)
-    assert robot.inertials is None
+    assert why in str(rec[0].message) and "that body is loaded without mass, the others keep theirs" in str(rec[0].message)
+    good = U.load_urdf(UR).inertials["masses"]
+    assert robot.inertials["masses"][0] == 0 and np.array_equal(robot.inertials["masses"][1:], good[1:])
     assert pose_err(dv.fk(robot.model(), np.full(6, 0.3)), dv.fk(U.load_urdf(UR).model(), np.full(6, 0.3))) < 1e-12
 
 
@@ -844,3 +847,15 @@ def test_non_finite_and_missing_numbers_are_errors(tmp_path, edit, match):
     f.write_text(text.replace(old, new, count))
     with pytest.raises(dv.DenavitError, match=match):
         dv.load_robot(f)
+
+
+def test_a_fixed_joint_with_a_mimic_tag_loads_as_urdfdom_loads_it(tmp_path):
+    """urdfdom ignores <mimic> on a fixed joint; it had been refused."""
+    text = UR.read_text()
+    i = text.index('type="fixed"')
+    j = text.index("</joint>", i)
+    f = tmp_path / "mimic.urdf"
+    f.write_text(text[:j] + '<mimic joint="shoulder_pan_joint" multiplier="1"/>' + text[j:])
+    a, b = dv.load_model(f), dv.load_model(UR)
+    q = np.full(6, 0.3)
+    np.testing.assert_allclose(dv.fk(a, q), dv.fk(b, q), atol=1e-15)

@@ -437,7 +437,7 @@ def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: 
                                "(to import the arm alone, choose a base_link below it)")
         if jtype not in SUPPORTED_JOINTS:
             raise DenavitError(f"{w}: unknown joint type {j.type!r}: expected one of {', '.join(SUPPORTED_JOINTS)}")
-        if j.mimic is not None:
+        if j.mimic is not None and jtype != "fixed":  # urdfdom ignores a fixed joint's <mimic>, and so do we
             raise DenavitError(f"{w} mimics joint {j.mimic.joint!r}: mimic joints (coupled joint values) are not supported")
         O = np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)
         T_world_link = T_world_link @ O
@@ -597,8 +597,14 @@ def _body_inertials_in_world(ch: UrdfChain, model: _core.Model) -> tuple[np.ndar
             try:  # the core's physical checks, one body at a time so that the message can name its links
                 model.with_inertias(one, coms, inertias, frame="world")
             except DenavitError as e:
-                raise DenavitError(f"the inertial of link{'s' if len(links) > 1 else ''} {', '.join(map(repr, links))} "
-                                   f"(the body moved by joint {ch.names[i]!r}) is not physical: {e}") from None
+                # that body alone is left massless (pinocchio would keep it); the rest of the robot keeps its dynamics
+                warnings.warn(f"{ch.path}: the <inertial> of link{'s' if len(links) > 1 else ''} {', '.join(map(repr, links))} (the body moved by joint "
+                              f"{ch.names[i]!r}) is not physical ({e}); that body is loaded without mass, the others keep theirs", DenavitWarning, stacklevel=3)
+                masses[i], coms[i], inertias[i] = 0.0, 0.0, 0.0
+        massless = [ld["name"] for ld in body["links"] if "inertial" in ld and ld["inertial"]["mass"] == 0.0 and np.any(np.asarray(ld["inertial"]["inertia"]) != 0)]
+        if massless:
+            warnings.warn(f"{ch.path}: link{'s' if len(massless) > 1 else ''} {', '.join(map(repr, massless))} give{'' if len(massless) > 1 else 's'} an <inertia> "
+                          "but <mass value=\"0\"/>: the inertia of a massless link is left out", DenavitWarning, stacklevel=3)
     return (masses, coms, inertias) if masses.any() else None
 
 
