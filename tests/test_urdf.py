@@ -859,3 +859,15 @@ def test_a_fixed_joint_with_a_mimic_tag_loads_as_urdfdom_loads_it(tmp_path):
     a, b = dv.load_model(f), dv.load_model(UR)
     q = np.full(6, 0.3)
     np.testing.assert_allclose(dv.fk(a, q), dv.fk(b, q), atol=1e-15)
+
+
+def test_an_undeclared_namespace_prefix_loads_as_urdfdom_loads_it(tmp_path, capfd):
+    """A vendor tag with an undeclared prefix (drake:) is tolerated as urdfdom, pinocchio and yourdfpy do (strict
+    XML had refused the file); malformed XML is still an error."""
+    text = UR.read_text()
+    i = text.index('<link name="base_link">')
+    f = tmp_path / "ns.urdf"
+    f.write_text(text[:i] + '<drake:collision_filter_group name="g"><drake:member link="base_link"/></drake:collision_filter_group>\n  ' + text[i:])
+    q = np.full(6, 0.3)
+    np.testing.assert_allclose(dv.fk(dv.load_model(f), q), dv.fk(dv.load_model(UR), q), atol=1e-15)
+    assert "parsing approach" not in capfd.readouterr().err

@@ -252,16 +252,30 @@ def _read(path: str | os.PathLike) -> tuple[yourdfpy.URDF, _Where]:
     data = read_bytes(path, "URDF file")
     if not re.match(rb"\s*<\?xml[^>]*encoding=", data.lstrip(b"\xef\xbb\xbf")):
         decode(data, str(path))  # no declared encoding: XML's default, UTF-8, with the byte offset of a bad byte
-    try:  # strict: yourdfpy's loader would fall back to lxml's recovering parser on broken XML
-        tree = etree.parse(str(path), etree.XMLParser(remove_blank_text=True, resolve_entities=False))
+    # strict where urdfdom is strict: malformed XML is an error (yourdfpy's loader would recover from it), but an
+    # undeclared namespace prefix on a vendor tag (drake:, gazebo extensions) is tolerated, as urdfdom does
+    parser = etree.XMLParser(remove_blank_text=True, resolve_entities=False, recover=True)
+    try:
+        tree = etree.parse(str(path), parser)
     except etree.XMLSyntaxError as e:
         line, col = (e.position if e.position else (e.lineno, 0))
         raise DenavitError(f"{path}: malformed XML at line {line}, column {col}: {e.msg}") from None
+    fatal = [e for e in parser.error_log if e.level >= etree.ErrorLevels.ERROR and e.domain != etree.ErrorDomains.NAMESPACE]
+    if fatal or tree.getroot() is None:
+        e = fatal[0] if fatal else None
+        raise DenavitError(f"{path}: malformed XML at line {e.line if e else 1}, column {e.column if e else 0}: {e.message if e else 'no root element'}")
     where = _precheck(path, tree.getroot())
+    import logging  # noqa: PLC0415
+
+    log = logging.getLogger("yourdfpy")
+    level = log.level
+    log.setLevel(logging.CRITICAL)  # its "Using different parsing approach" error log, for XML we have already checked
     try:
         urdf = yourdfpy.URDF.load(str(path), build_scene_graph=False, build_collision_scene_graph=False, load_meshes=False, load_collision_meshes=False)
     except Exception as e:  # noqa: BLE001 (yourdfpy raises bare KeyError/ValueError/IndexError)
         raise DenavitError(f"{path}: not a readable URDF ({type(e).__name__}: {e})") from None
+    finally:
+        log.setLevel(level)
     return urdf, where
 
 
