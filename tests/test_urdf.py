@@ -871,3 +871,25 @@ def test_an_undeclared_namespace_prefix_loads_as_urdfdom_loads_it(tmp_path, capf
     q = np.full(6, 0.3)
     np.testing.assert_allclose(dv.fk(dv.load_model(f), q), dv.fk(dv.load_model(UR), q), atol=1e-15)
     assert "parsing approach" not in capfd.readouterr().err
+
+
+def test_calibrate_writes_urdf_with_the_nominals_meshes(tmp_path):
+    """`denavit calibrate --urdf` (it had none; --save dropped a URDF nominal's meshes): the calibrated URDF
+    reproduces the calibrated model and carries the nominal's meshes."""
+    from cli import run
+
+    from denavit import calibration as cal
+    from denavit.io.measurements import to_csv
+
+    nominal = dv.load_robot(UR)
+    q = cal.configurations(nominal, 60)
+    f = tmp_path / "m.csv"
+    f.write_text(to_csv(cal.simulate(nominal, q, tool=(0.02, 0.01, 0.05), noise=2e-5), "mm", "deg"))
+    out = tmp_path / "cal.urdf"
+    run("calibrate", f, "--nominal", UR, "--tool", "20,10,50", "--urdf", out, "--save", tmp_path / "cal.toml")
+    text = out.read_text()
+    assert text.count("<mesh") == UR.read_text().count("<mesh") > 0
+    m = dv.load_model(out)
+    cal_toml = dv.load_model(tmp_path / "cal.toml")
+    for qq in q[:10]:
+        np.testing.assert_allclose(dv.fk(m, qq)[:3, 3], dv.fk(cal_toml, qq)[:3, 3], atol=1e-9)

@@ -109,10 +109,13 @@ class Calibration:
         return _core.extract(_core.axes(m, np.zeros(m.nq)), conv, nominal=nom if nom.convention == conv else None).table
 
     def robot(self, name: str | None = None, convention: str = "edh") -> Robot:
-        """A :class:`Robot` of the calibrated model (for :func:`denavit.io.robotfile.save`)."""
+        """A :class:`Robot` of the calibrated model (for :func:`denavit.io.robotfile.save` and
+        :func:`denavit.io.urdf.save_urdf`): the nominal's names, limits, home and extras (a URDF nominal's meshes,
+        inertials and limits ride along)."""
         r = self.parametrization.robot
         return Robot(name or f"{r.name}_calibrated", self.table(convention), list(r.names), r.lower, r.upper,
-                     description=f"{r.name} calibrated from {self.measurements.source} ({self.convention}, {self.measurements.n} poses)", source=self.measurements.source, home=r.home)
+                     description=f"{r.name} calibrated from {self.measurements.source} ({self.convention}, {self.measurements.n} poses)", source=self.measurements.source, home=r.home,
+                     extra=dict(r.extra), inertials=r.inertials if r.convention == convention else None)
 
 
 def _table_residuals(res: np.ndarray, measure: str) -> np.ndarray:

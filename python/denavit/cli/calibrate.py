@@ -21,6 +21,7 @@ def calibrate(
     fix: Annotated[str | None, typer.Option("--fix", help="Parameters to hold at their nominal values: names or patterns, comma-separated (e.g. 'base_*,tool_z').")] = None,
     json_path: Annotated[Path | None, typer.Option("--json", help="Write the result as JSON to this file ('-': standard output).")] = None,
     save: Annotated[Path | None, typer.Option("--save", help="Write the calibrated robot file (.toml, ED-H) to this path.")] = None,
+    urdf: Annotated[Path | None, typer.Option("--urdf", help="Write the calibrated robot as URDF, with a URDF nominal's meshes, inertials and limits.")] = None,
     loss: Annotated[str, typer.Option("--loss", help="linear | soft_l1 | huber | cauchy | arctan (robust loss)")] = "linear",
     start: Annotated[str, typer.Option("--start", help="nominal | circles (circle-point identification of sweep data)")] = "nominal",
     holdout: Annotated[float, typer.Option("--holdout", help="Fraction of the poses held out to validate the fit.")] = 0.2,
@@ -76,6 +77,11 @@ def calibrate(
 
         save_file(res.robot(), save, length, angle)
         wrote(save)
+    if urdf:
+        from ..io.urdf import save_urdf  # noqa: PLC0415
+
+        save_urdf(res.model(), urdf, res.robot())  # the calibrated geometry, with a URDF nominal's meshes, inertials and limits
+        wrote(urdf)
 
 
 def print_calibration(res, length: str, angle: str) -> None:
