@@ -877,7 +877,6 @@ def test_calibrate_writes_urdf_with_the_nominals_meshes(tmp_path):
     """`denavit calibrate --urdf` (it had none; --save dropped a URDF nominal's meshes): the calibrated URDF
     reproduces the calibrated model and carries the nominal's meshes."""
     from cli import run
-
     from denavit import calibration as cal
     from denavit.io.measurements import to_csv
 
