@@ -23,7 +23,10 @@ import numpy as np
 from . import _core
 from .errors import DegenerateError, DenavitError
 from .fitting import AxisFit, BoundingBox, fit_axis, oriented_bounding_box
-from .fitting.robust import flag_outliers, irls, rms_spread, weighted_cov
+from .fitting.joint import fit_sweeps, locked_motion
+from .fitting.readings import READINGS_WORTHLESS
+from .fitting.result import axis_sigmas
+from .fitting.robust import flag_outliers
 from .geometry import axis_angle_matrices, perpendicular_basis
 from .io.output import write_text
 from .io.units import cell_scale, joint_scale, length_scale
@@ -95,7 +98,7 @@ def _locked_notes(sweeps: SweepSet) -> list[str]:
             at = f" at {s.where[k]}" if s.where else ""
             notes.append(f"{sweep_where(s, sweeps.source)}: locked joint {i + 1} reads {s.q[:, i].min() * scale:.4g} .. {s.q[:, i].max() * scale:.4g} {unit}, "
                          f"up to {abs(dev[k]) * scale:.3g} {unit} from its home {sweeps.home[i] * scale:.4g} {unit}{at} (tolerance {LOCKED_TOL[kind] * scale:g} {unit}); "
-                         "the fit assumes it stayed at home: check the recording")
+                         "the global fit follows the recorded readings (per-sweep fits use only the moving joint's): check the recording")
     return notes
 
 
@@ -163,86 +166,84 @@ def _tool_point_geometric(sweeps: SweepSet, fits: list) -> np.ndarray:
     return np.asarray(best)
 
 
-def _global_fit(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str) -> tuple[list, np.ndarray, np.ndarray, float]:
-    """One least-squares fit of all sweeps: one line per joint and one rigid tool point at home.
+def _motions(sweeps: SweepSet, notes: list[str]) -> list[np.ndarray]:
+    """Per sweep the joint motions from home the joint fit uses (:func:`~denavit.fitting.joint.locked_motion`),
+    noting each locked reading that moves in lock-step with the swept joint (a coupling to declare)."""
+    tol = np.array([LOCKED_TOL[k] / 100 for k in sweeps.kinds])
+    out = []
+    for s in sweeps.sweeps:
+        dq, coupled = locked_motion(s.q, s.joint - 1, sweeps.home, tol)
+        for i, slope in coupled:
+            notes.append(f"{sweep_where(s, sweeps.source)}: the reading of joint {i + 1} moves in lock-step with joint {s.joint}'s "
+                         f"({slope:+.3f} per unit): a coupling of the controller's readings to declare (e.g. joint {i + 1} = "
+                         f"reading {i + 1} {'+' if slope < 0 else '-'} reading {s.joint}, as Fanuc controllers report J3); the fit takes joint {i + 1} as held at home")
+        out.append(dq)
+    return out
 
-    During the sweep of joint j only joint j moves from home, so every point is
-    ``c_j + R(n_j, q_j - home_j) (p_home - c_j)`` (revolute) or ``p_home + (q_j - home_j) n_j`` (prismatic).
-    Each line has 4 parameters (2 for the direction in its tangent plane, 2 for the point across it).
-    Returns the fitted lines as AxisFits, the (6n+3) covariance of [c_j, n_j, ..., p_home], the tool point
-    and the residual RMS.
-    """
-    n = sweeps.n_joints
-    c0 = [f.point for f in fits]
-    n0 = [f.direction for f in fits]
-    B = [np.column_stack(perpendicular_basis(v)) for v in n0]  # (3, 2) tangent bases
 
-    def unpack(x):
-        cs, ns = [], []
-        for j in range(n):
-            nv = n0[j] + B[j] @ x[4 * j : 4 * j + 2]
-            nv = nv / np.linalg.norm(nv)
-            cs.append(c0[j] + B[j] @ x[4 * j + 2 : 4 * j + 4])
-            ns.append(nv)
-        return cs, ns, x[4 * n : 4 * n + 3]
-
-    def residuals(x):
-        cs, ns, p = unpack(x)
-        out = []
-        for s in sweeps.sweeps:
-            j = s.joint - 1
-            d = s.q[:, j] - sweeps.home[j]
-            if sweeps.kinds[j] == "prismatic":
-                pred = p + np.outer(d, ns[j])
-            else:
-                pred = cs[j] + np.einsum("mij,j->mi", axis_angle_matrices(ns[j], d), p - cs[j])
-            out.append((pred - s.points).ravel())
-        return np.concatenate(out)
-
-    def misfit(x):
-        return np.linalg.norm(residuals(x).reshape(-1, 3), axis=1)
-
-    from scipy.optimize import least_squares  # noqa: PLC0415 (scipy is loaded when a fit first needs it)
-
-    def lsq(x, w):
-        sw = np.repeat(np.sqrt(w), 3)
-        return least_squares(lambda y: residuals(y) * sw, x, method="lm", x_scale="jac", xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=200 * (4 * n + 3))
-
-    # a robust loss by reweighting, its scale 3 robust sigmas of the current misfits (as the per-sweep fits do)
-    x = lsq(np.concatenate([np.zeros(4 * n), p_home]), np.ones(len(sweeps.all_points))).x
-    x, w = irls(lambda st, wt: lsq(st, wt).x, misfit, x, loss, None, 3, "global fit", sweeps.source)
-    sol = lsq(x, w)
-    cs, ns, p = unpack(sol.x)
-    r = residuals(sol.x)
-    w3 = np.repeat(w, 3)
-    cov_x, _ = weighted_cov(sol.jac / np.sqrt(w3)[:, None], r, w3, len(sol.x))  # consistent with the weights
-    mis = np.linalg.norm(r.reshape(-1, 3), axis=1)
-    outliers = flag_outliers(mis, 3, rms_spread(sweeps.all_points))  # flagged on the pooled robust sigma, kept
-    # map the local parameters to [c_j, n_j] (linear at the solution: dn = B da, dc = B ds) and p
-    M = np.zeros((6 * n + 3, 4 * n + 3))
-    for j in range(n):
-        nj = ns[j]
-        P = np.eye(3) - np.outer(nj, nj)  # normalisation removes the radial part
-        M[6 * j : 6 * j + 3, 4 * j + 2 : 4 * j + 4] = B[j]
-        M[6 * j + 3 : 6 * j + 6, 4 * j : 4 * j + 2] = P @ B[j]
-    M[6 * n :, 4 * n :] = np.eye(3)
-    cov = M @ cov_x @ M.T
-    out_fits = []
-    k = 0
-    for s, f in zip(sweeps.sweeps, fits, strict=True):
+def _joint_fits(sweeps: SweepSet, fits: list, res: dict, loss: str, label: str) -> list:
+    """The per-joint view (AxisFit) of a joint fit's result ``res`` (:func:`~denavit.fitting.joint.fit_sweeps`)."""
+    out = []
+    ph = res["home"].mean(axis=0)
+    for k, (s, f) in enumerate(zip(sweeps.sweeps, fits, strict=True)):
         j = s.joint - 1
-        m = len(s.points)
-        # the axis point reported is the foot of the home tool point on the axis (the circle centre)
-        c = cs[j] + ns[j] * ((p - cs[j]) @ ns[j])
-        radius = float(np.linalg.norm(p - c)) if sweeps.kinds[j] == "revolute" else math.nan
-        sig_perp = float(math.sqrt(max(np.linalg.eigvalsh(cov[6 * j : 6 * j + 3, 6 * j : 6 * j + 3])[-1], 0.0)))
-        sig_dir = float(math.sqrt(max(np.trace(cov[6 * j + 3 : 6 * j + 6, 6 * j + 3 : 6 * j + 6]), 0.0)))
-        out_fits.append(replace(f, point=c, direction=ns[j], radius=radius, residuals=mis[k : k + m], rms=float(math.sqrt(np.mean(mis[k : k + m] ** 2))),
-                                cov=cov[6 * j : 6 * j + 6, 6 * j : 6 * j + 6], sigma_point_perp=sig_perp, sigma_direction=sig_dir,
-                                outliers=outliers[k : k + m], method="global" if loss == "linear" else f"global+{loss}"))
-        k += m
-    rms = float(math.sqrt(np.mean(mis**2)))
-    return out_fits, cov, p, rms
+        c, nv = res["points"][j], res["directions"][j]
+        cov6 = res["cov"][6 * j : 6 * j + 6, 6 * j : 6 * j + 6]
+        sp, sd = axis_sigmas(cov6, nv)
+        mis = res["misfit"][k]
+        radius = float(np.linalg.norm(ph - c)) if sweeps.kinds[j] == "revolute" else math.nan
+        out.append(replace(f, point=c, direction=nv, radius=radius, residuals=mis, rms=float(math.sqrt(np.mean(mis**2))), cov=cov6,
+                           sigma_point_perp=sp, sigma_direction=sd, outliers=flag_outliers(res["whitened"][k], 3, 1.0),
+                           method=label if loss == "linear" else f"{label}+{loss}", reading_sigma=res["reading_sigma"][k], noise=res["sigma"]))
+    return out
+
+
+def _with_drift(res: dict) -> tuple[np.ndarray, float]:
+    """The covariance of [c_j, n_j, ..., p] of a per-sweep-home fit: the home points averaged, and the drift
+    between sweeps (the spread of the per-sweep home points, sigma_d per coordinate) added to every axis point and
+    to the home point, since a drifting robot moves its axes with it. Returns (cov, sigma_d)."""
+    homes = res["home"]
+    S = len(homes)
+    n6 = res["cov"].shape[0] - 3 * S
+    T = np.zeros((n6 + 3, n6 + 3 * S))
+    T[:n6, :n6] = np.eye(n6)
+    for k in range(S):
+        T[n6:, n6 + 3 * k : n6 + 3 * k + 3] = np.eye(3) / S
+    cov = T @ res["cov"] @ T.T
+    sd2 = float(np.sum((homes - homes.mean(axis=0)) ** 2)) / (3 * max(S - 1, 1))
+    for j in range(n6 // 6):
+        cov[6 * j : 6 * j + 3, 6 * j : 6 * j + 3] += sd2 * np.eye(3)
+    cov[n6:, n6:] += sd2 * np.eye(3)
+    return cov, math.sqrt(sd2)
+
+
+def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: list[str], chosen: str) -> tuple[str, list, np.ndarray, np.ndarray, float]:
+    """The joint fit(s) with readings: ``chosen`` "global", or "auto" (evidence: the per-sweep fits when the
+    readings are worth nothing, else one home point or one per sweep by the AIC). Returns (method, fits, cov,
+    tool point, rms)."""
+    dqs = _motions(sweeps, notes)
+    starts = [(f.point, f.direction) for f in fits]
+    g = fit_sweeps(sweeps, dqs, starts, p_home, loss=loss, where=sweeps.source)
+    if chosen == "auto":
+        sq = [f"{math.degrees(v) * 3600:.3g}" for v in g["reading_sigma"]]
+        if np.all(g["gamma"] < READINGS_WORTHLESS):
+            notes.append(f"auto: geometric (per-sweep circles): the readings are worth nothing against the points (estimated reading error {', '.join(sq)} arcsec per sweep)")
+            return "geometric", None, None, None, math.nan
+        d = fit_sweeps(sweeps, dqs, starts, p_home, loss=loss, per_sweep_home=True, where=sweeps.source)
+        k = 3 * (len(sweeps.sweeps) - 1)
+        s2 = d["sigma"] ** 2
+        aic = (g["ss"] * g["sigma"] ** 2 - d["ss"] * s2) / s2 - 2 * k  # > 0: the drifting home explains more than it costs
+        if aic > 0:
+            cov, sd = _with_drift(d)
+            notes.append(f"auto: readings (a home point per sweep) over global (one home point): AIC lower by {aic:.3g}; the home tool point "
+                         f"moves {sd * 1e3:.3g} mm (1 sigma per coordinate) between sweeps, added to every axis's uncertainty")
+            out = _joint_fits(sweeps, fits, d, loss, "readings")
+            mis = np.concatenate(d["misfit"])
+            return "readings", out, cov, d["home"].mean(axis=0), float(math.sqrt(np.mean(mis**2)))
+        notes.append(f"auto: global (one home point) over readings (a home point per sweep): AIC lower by {-aic:.3g}; estimated reading error "
+                     f"{', '.join(sq)} arcsec per sweep, point noise {g['sigma'] * 1e3:.3g} mm")
+    mis = np.concatenate(g["misfit"])
+    return "global", _joint_fits(sweeps, fits, g, loss, "global"), g["cov"], g["home"][0], float(math.sqrt(np.mean(mis**2)))
 
 
 def _nominal_table(nominal: Robot | None, convention: str, home: np.ndarray) -> _core.Table | None:
@@ -316,22 +317,31 @@ def identify(
     n = sweeps.n_joints
     if nominal is not None and len(nominal.names) != n:
         raise DenavitError(f"nominal model {nominal.name} has {len(nominal.names)} joints, the data has {n}")
+    notes = _locked_notes(sweeps)
+    chosen = method
     if method == "auto":
         method = "global" if sweeps.has_readings else "geometric"
-    notes = _locked_notes(sweeps)
+        if method == "geometric":
+            notes.append("auto: geometric (per-sweep circles): the data has no joint readings")
     fits = _per_sweep(sweeps, method, loss, max_sigma if method != "global" else None, progress)
     if sweeps.has_readings:
         p_home = _tool_point_from_readings(sweeps, fits)
     else:
         p_home = _tool_point_geometric(sweeps, fits)
+    cov = None
     if method == "global":
         progress(f"one fit of all {len(sweeps.sweeps)} sweeps (shared tool point)")
-        fits, cov, p_home, rms = _global_fit(sweeps, fits, p_home, loss)
-        for s, f in zip(sweeps.sweeps, fits, strict=True):
-            if max_sigma is not None and f.sigma_point_perp > max_sigma:
-                raise DegenerateError(f"{sweep_where(s, sweeps.source)}: predicted axis-position uncertainty {f.sigma_point_perp * 1e3:.3g} mm (1 sigma) "
-                                      f"exceeds the requested {max_sigma * 1e3:.3g} mm; the sweep covers {np.degrees(f.arc):.1f} deg: sweep a longer arc or measure more points")
-    else:
+        method, gfits, gcov, gp, grms = _choose(sweeps, fits, p_home, loss, notes, chosen)
+        if gfits is None:  # the readings are worthless: the per-sweep geometric circles
+            fits = _per_sweep(sweeps, method, loss, max_sigma, progress)
+            p_home = _tool_point_geometric(sweeps, fits)
+        else:
+            fits, cov, p_home, rms = gfits, gcov, gp, grms
+            for s, f in zip(sweeps.sweeps, fits, strict=True):
+                if max_sigma is not None and f.sigma_point_perp > max_sigma:
+                    raise DegenerateError(f"{sweep_where(s, sweeps.source)}: predicted axis-position uncertainty {f.sigma_point_perp * 1e3:.3g} mm (1 sigma) "
+                                          f"exceeds the requested {max_sigma * 1e3:.3g} mm; the sweep covers {np.degrees(f.arc):.1f} deg: sweep a longer arc or measure more points")
+    if cov is None:
         cov = np.zeros((6 * n + 3, 6 * n + 3))
         for j, f in enumerate(fits):
             cov[6 * j : 6 * j + 6, 6 * j : 6 * j + 6] = f.cov

@@ -117,7 +117,7 @@ def tangential_variance(r, jac, t, w, gamma):
     """
     _, jw = whiten(r, jac, t, gamma)
     jw = jw * np.sqrt(w)[:, None, None]
-    a_inv = np.linalg.pinv(np.einsum("mik,mil->kl", jw, jw))
+    a_inv = np.linalg.inv(np.einsum("mik,mil->kl", jw, jw))
     jt = np.einsum("mi,mik->mk", t, jw)  # tangential rows (weighted by gamma)
     lev_t = float(np.einsum("mk,kl,ml->", jt, a_inv, jt))
     rt = np.einsum("mi,mi->m", r, t)
