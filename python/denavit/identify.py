@@ -73,7 +73,8 @@ class Identification:
         table = self.table
         convention = None if convention is None else _core.convention_info(convention)["name"]
         if convention is not None and convention != self.convention:
-            table = _core.extract(self.axes, convention, nominal=_nominal_table(self.nominal, convention, self.sweeps.home)).table
+            nominal = _nominal_table(self.nominal, convention, self.sweeps.home)
+            table = _core.extract(self.axes, convention, nominal=nominal, origins=_origins(nominal, convention, self.sweeps.home)).table
         return table.to_model(name, names, lower, upper)
 
 
@@ -181,14 +182,15 @@ def _motions(sweeps: SweepSet, notes: list[str]) -> list[np.ndarray]:
     return out
 
 
-def _joint_fits(sweeps: SweepSet, fits: list, res: dict, loss: str, label: str) -> list:
-    """The per-joint view (AxisFit) of a joint fit's result ``res`` (:func:`~denavit.fitting.joint.fit_sweeps`)."""
+def _joint_fits(sweeps: SweepSet, fits: list, res: dict, cov: np.ndarray, loss: str, label: str) -> list:
+    """The per-joint view (AxisFit) of a joint fit's result ``res`` (:func:`~denavit.fitting.joint.fit_sweeps`),
+    ``cov`` the covariance of [c_1, n_1, ..., p]."""
     out = []
     ph = res["home"].mean(axis=0)
     for k, (s, f) in enumerate(zip(sweeps.sweeps, fits, strict=True)):
         j = s.joint - 1
         c, nv = res["points"][j], res["directions"][j]
-        cov6 = res["cov"][6 * j : 6 * j + 6, 6 * j : 6 * j + 6]
+        cov6 = cov[6 * j : 6 * j + 6, 6 * j : 6 * j + 6]
         sp, sd = axis_sigmas(cov6, nv)
         mis = res["misfit"][k]
         radius = float(np.linalg.norm(ph - c)) if sweeps.kinds[j] == "revolute" else math.nan
@@ -237,13 +239,13 @@ def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: 
             cov, sd = _with_drift(d)
             notes.append(f"auto: readings (a home point per sweep) over global (one home point): AIC lower by {aic:.3g}; the home tool point "
                          f"moves {sd * 1e3:.3g} mm (1 sigma per coordinate) between sweeps, added to every axis's uncertainty")
-            out = _joint_fits(sweeps, fits, d, loss, "readings")
+            out = _joint_fits(sweeps, fits, d, cov, loss, "readings")
             mis = np.concatenate(d["misfit"])
             return "readings", out, cov, d["home"].mean(axis=0), float(math.sqrt(np.mean(mis**2)))
         notes.append(f"auto: global (one home point) over readings (a home point per sweep): AIC lower by {-aic:.3g}; estimated reading error "
                      f"{', '.join(sq)} arcsec per sweep, point noise {g['sigma'] * 1e3:.3g} mm")
     mis = np.concatenate(g["misfit"])
-    return "global", _joint_fits(sweeps, fits, g, loss, "global"), g["cov"], g["home"][0], float(math.sqrt(np.mean(mis**2)))
+    return "global", _joint_fits(sweeps, fits, g, g["cov"], loss, "global"), g["cov"], g["home"][0], float(math.sqrt(np.mean(mis**2)))
 
 
 def _nominal_table(nominal: Robot | None, convention: str, home: np.ndarray) -> _core.Table | None:
@@ -253,6 +255,15 @@ def _nominal_table(nominal: Robot | None, convention: str, home: np.ndarray) -> 
         return nominal.table
     m = nominal.model()
     return _core.extract(_core.axes(m, np.zeros(m.nq)), convention).table
+
+
+def _origins(nominal_table: _core.Table | None, convention: str, home: np.ndarray) -> np.ndarray | None:
+    """ED-H frame origins: the nominal's on-body origins at home (world points, one per axis), which the core
+    projects along each identified axis (Guo et al. sec. III: the origins are chosen on the body, not at the
+    circle centres); None without a nominal or in other conventions."""
+    if nominal_table is None or convention != "edh":
+        return None
+    return np.array(nominal_table.frames(home))[1:, :3, 3]
 
 
 def _axes_from(x: np.ndarray, sweeps: SweepSet, tool_R: np.ndarray, T_world_base: np.ndarray, lower, upper) -> _core.JointAxes:
@@ -360,7 +371,7 @@ def identify(
     lower = nominal.lower if nominal is not None else None
     upper = nominal.upper if nominal is not None else None
     x = np.concatenate([np.concatenate([f.point, f.direction]) for f in fits] + [p_home])
-    opts = {"parallel_tol": parallel_tol, "nominal": nominal_table}
+    opts = {"parallel_tol": parallel_tol, "nominal": nominal_table, "origins": _origins(nominal_table, convention, sweeps.home)}
     if intersect_tol is not None:
         opts["intersect_tol"] = intersect_tol
     ax = _axes_from(x, sweeps, tool_R, base, lower, upper)
