@@ -17,11 +17,11 @@ from .circle import (
     in_plane_angles,
     least_squares_lm,
     net_turn,
-    plane_circle,
+    robust_circle,
     unit_from_params,
 )
 from .result import AxisFit, axis_sigmas, check_sigma, flipped
-from .robust import cov_from_jacobian, flag_outliers, irls, rms_spread, robust_sigma
+from .robust import CHI_MEDIAN, cov_from_jacobian, flag_outliers, irls, rms_spread, robust_sigma
 
 #: Below this ratio of the point noise to the tangential misfit (point noise and reading noise together) the
 #: readings are worth nothing to the fit: the result is the geometric circle, oriented by the readings.
@@ -113,7 +113,8 @@ def tangential_variance(r, jac, t, w, gamma):
 
     ``r`` (m, 3) and ``jac`` (m, 3, k) unweighted residuals and Jacobian, ``t`` (m, 3) unit tangents, ``w`` (m,)
     robust weights, ``gamma`` the current tangential weight (the weights are 1 across the tangent, ``gamma``
-    along it). Returns ``tau^2`` (the units of ``r`` squared).
+    along it). Returns ``tau^2`` (the units of ``r`` squared): ``sum((w r_t)^2) / (sum(w^2) - leverage)``, as
+    :func:`~denavit.fitting.robust.weighted_cov` (a down-weighted blunder does not inflate it).
     """
     _, jw = whiten(r, jac, t, gamma)
     jw = jw * np.sqrt(w)[:, None, None]
@@ -121,8 +122,8 @@ def tangential_variance(r, jac, t, w, gamma):
     jt = np.einsum("mi,mik->mk", t, jw)  # tangential rows (weighted by gamma)
     lev_t = float(np.einsum("mk,kl,ml->", jt, a_inv, jt))
     rt = np.einsum("mi,mi->m", r, t)
-    red = len(r) - lev_t
-    return float(np.sum(w * rt**2)) / red if red > 0 else math.nan
+    red = float(np.sum(w**2)) - lev_t  # robust losses: the weighted residuals w r over the weighted count
+    return float(np.sum((w * rt) ** 2)) / red if red > 0 else math.nan
 
 
 def _readings(p, q, loss, f_scale, noise_sigma, where) -> AxisFit:
@@ -135,18 +136,20 @@ def _readings(p, q, loss, f_scale, noise_sigma, where) -> AxisFit:
     declared = None if noise_sigma is None else noise_sigma / length
 
     # start: hyper circle; the normal's sign and p0 from rotating the points back by the readings
-    c0, n0, r0 = plane_circle(pn, "hyper", what, where, length)
+    # (trimmed, so that one blunder does not spoil the start; the spread is a median, for the same reason)
+    c0, n0, r0, inliers = robust_circle(pn, what, where, length)
     best = None
     for sgn in (1.0, -1.0):
         back = c0 + np.einsum("kij,kj->ki", axis_angle_matrices(sgn * n0, -delta), pn - c0)
-        spread = math.sqrt(np.mean(np.sum((back - back.mean(axis=0)) ** 2, axis=1)))
+        mid = np.median(back[inliers], axis=0)
+        spread = float(np.median(np.linalg.norm(back - mid, axis=1))) / CHI_MEDIAN[3] * math.sqrt(3)
         if best is None or spread < best[0]:
-            best = (spread, sgn * n0, back.mean(axis=0))
+            best = (spread, sgn * n0, mid)
     spread, n0, p00 = best
     if spread > 0.25 * r0:
         raise DenavitError(
             f"{prefix(where)}{what}: the points do not move as rotations by the readings q about one axis "
-            f"(rotated back by q they scatter by {spread * length * 1e3:.3g} mm RMS on a circle of radius "
+            f"(rotated back by q they scatter by {spread * length * 1e3:.3g} mm (robust RMS) on a circle of radius "
             f"{r0 * length * 1e3:.3g} mm; expected a small fraction of the radius): are q in radians and "
             "paired with the points in the same order?"
         )
@@ -190,10 +193,10 @@ def _readings(p, q, loss, f_scale, noise_sigma, where) -> AxisFit:
 
     # the point noise from the free (hyper) circle, independent of the readings (robust losses: robust sigma)
     e0 = circle_misfit(pn, c0, n0, r0)[0]
-    s2 = float(e0 @ e0) / (2 * m - 6) if loss == "linear" and m > 3 else robust_sigma(e0, 2) ** 2
+    s2 = float(e0 @ e0) / (2 * m - 6) if loss == "linear" and m > 3 and inliers.all() else robust_sigma(e0, 2) ** 2
     if declared is not None:  # a declared point noise is a floor (misfit beyond it is not hidden)
         s2 = max(declared**2, s2)
-    state = solve((c0, n0, p00), np.ones(m))
+    state = solve((c0, n0, p00), np.ones(m) if loss == "linear" else inliers + 1e-6 * ~inliers)
     w = np.ones(m)
     t2 = s2
     for _ in range(50):  # the tangential misfit (point noise and reading error) and the weights to a fixed point
@@ -244,7 +247,7 @@ def _readings(p, q, loss, f_scale, noise_sigma, where) -> AxisFit:
     return AxisFit(
         point=centre, direction=n, radius=radius, residuals=e, rms=float(np.sqrt(np.mean(e**2))), cov=cov6,
         sigma_point_perp=sp, sigma_direction=sd, method=method,
-        outliers=flag_outliers(mis, 3, length), n_points=m, arc=arc_span(in_plane_angles(p, centre, n)),
+        outliers=~inliers if loss == "linear" else flag_outliers(mis, 3, length), n_points=m, arc=arc_span(in_plane_angles(p, centre, n)),
         reading_sigma=sigma_q, noise=math.sqrt(s2) * length,
     )
 
