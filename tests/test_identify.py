@@ -522,3 +522,20 @@ def test_exact_data_written_to_csv_gives_the_nominal_edh(kr5, tmp_path):
     noisy = ident.identify(simulate(kr5, 90, points_per_sweep=30, noise=2e-5, seed=8), nominal=kr5, convention="edh")
     bound = max(f.sigma_point_perp for f in noisy.fits)
     assert noisy.sigma[:, 1:4].max() < 20 * bound, (noisy.sigma, bound)
+
+
+def test_dwell_rows_are_found_noted_and_left_out(kr5):
+    """Each sweep stands still for 8 rows at both ends (the robot waiting): a note per sweep names the 16 rows, the
+    fits use the 40 moving rows (plus the two ends), and keep_dwell=True keeps all 56; data without dwell gets no note."""
+    m = kr5.model()
+    ranges = np.radians(sw.PAPER_RANGES_DEG[90])
+    s = recording(m, HOME, ranges, dwell=8, seed=6)
+    res = ident.identify(s, nominal=kr5)
+    notes = [n for n in res.notes if "dwell rows" in n]
+    assert len(notes) == 6, res.notes
+    assert re.search(r"joint 1: 16 dwell rows .*: 8 at the start \(recording sweep 1, row 2 \.\. recording sweep 1, row 9\) and 8 at the end "
+                     r"\(recording sweep 1, row 48 \.\. recording sweep 1, row 55\)", notes[0]), notes[0]
+    assert [f.n_points for f in res.fits] == [40] * 6
+    kept = ident.identify(s, nominal=kr5, keep_dwell=True)
+    assert [f.n_points for f in kept.fits] == [56] * 6 and not [n for n in kept.notes if "dwell" in n]
+    assert not [n for n in ident.identify(recording(m, HOME, ranges, seed=6), nominal=kr5).notes if "dwell" in n]

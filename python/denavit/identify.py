@@ -23,15 +23,16 @@ import numpy as np
 from . import _core
 from .errors import DegenerateError, DenavitError
 from .fitting import AxisFit, BoundingBox, fit_axis, oriented_bounding_box
+from .fitting.circle import circle_misfit, robust_circle
 from .fitting.joint import fit_sweeps, locked_motion
 from .fitting.readings import READINGS_WORTHLESS
 from .fitting.result import axis_sigmas
-from .fitting.robust import flag_outliers
+from .fitting.robust import flag_outliers, rms_spread, robust_sigma
 from .geometry import axis_angle_matrices, perpendicular_basis
 from .io.output import write_text
 from .io.units import cell_scale, joint_scale, length_scale
 from .robotfile import Robot
-from .sweeps import SweepSet
+from .sweeps import Sweep, SweepSet
 
 METHODS = ("auto", "kasa", "hyper", "geometric", "readings", "global")
 
@@ -101,6 +102,62 @@ def _locked_notes(sweeps: SweepSet) -> list[str]:
                          f"up to {abs(dev[k]) * scale:.3g} {unit} from its home {sweeps.home[i] * scale:.4g} {unit}{at} (tolerance {LOCKED_TOL[kind] * scale:g} {unit}); "
                          "the global fit follows the recorded readings (per-sweep fits use only the moving joint's): check the recording")
     return notes
+
+
+#: A point is still in the dwell at a sweep's end while it lies within this many point-noise sigmas (per
+#: coordinate, times sqrt(1 + 1/k) for the noise of the mean of the k rows so far) of the mean of the dwell so
+#: far (the norm of a 3-D Gaussian exceeds 5 sigma with probability 2e-5).
+DWELL_SIGMAS = 5.0
+
+
+def _dwell_rows(p: np.ndarray, noise: float) -> tuple[int, int]:
+    """(rows standing still after the first, rows standing still before the last) of a sweep in time order:
+    the run of points within ``DWELL_SIGMAS * noise`` of the running mean of the run (the first and last point
+    of each run are the sweep's real ends and stay)."""
+    tol = DWELL_SIGMAS * noise
+
+    def lead(x):
+        m = len(x)
+        run_mean = np.cumsum(x, axis=0) / np.arange(1, m + 1)[:, None]
+        k = np.arange(1, m)  # the mean of k points has noise sigma / sqrt(k) of its own
+        far = np.linalg.norm(x[1:] - run_mean[:-1], axis=1) > tol * np.sqrt(1 + 1 / k)
+        return int(np.argmax(far)) + 1 if far.any() else m  # the first row that moved: rows 1..k-1 stand with row 0
+
+    a = lead(p) - 1
+    b = lead(p[::-1]) - 1
+    a, b = max(a, 0), max(b, 0)
+    if a + b >= len(p) - 3:  # nothing moved: not a dwell to trim
+        return 0, 0
+    return a, b
+
+
+def _drop_dwell(sweeps: SweepSet, notes: list[str]) -> SweepSet:
+    """The sweeps without their dwell rows (found by :func:`_dwell_rows`, the noise from a trimmed circle or line
+    fit), with a note per sweep that had some (how many, which rows)."""
+    out = []
+    for s in sweeps.sweeps:
+        p = s.points
+        if sweeps.kinds[s.joint - 1] == "prismatic" or len(p) < 8:
+            out.append(s)
+            continue
+        try:
+            c, nv, r, _ = robust_circle(p, "dwell check", sweep_where(s, sweeps.source))
+        except DenavitError:
+            out.append(s)
+            continue
+        e = circle_misfit(p, c, nv, r)[0]
+        noise = max(robust_sigma(e, 2), 1e-12 * rms_spread(p))
+        a, b = _dwell_rows(p, noise)
+        if a + b == 0:
+            out.append(s)
+            continue
+        keep = np.r_[0, a + 1 : len(p) - b - 1, len(p) - 1]
+        name = (lambda k: s.where[k]) if s.where else (lambda k: f"point {k}")
+        parts = ([f"{a} at the start ({name(1)} .. {name(a)})"] if a else []) + ([f"{b} at the end ({name(len(p) - 1 - b)} .. {name(len(p) - 2)})"] if b else [])
+        notes.append(f"{sweep_where(s, sweeps.source)}: {a + b} dwell rows (the motion stopped within {DWELL_SIGMAS:g} sigma of the "
+                     f"point noise, {noise * 1e3:.2g} mm): {' and '.join(parts)}; left out of the fit (keep_dwell keeps them)")
+        out.append(Sweep(s.joint, p[keep], None if s.q is None else s.q[keep], [s.where[k] for k in keep] if s.where else []))
+    return replace(sweeps, sweeps=out)
 
 
 def sweep_where(s, source: str) -> str:
@@ -302,6 +359,7 @@ def identify(
     parallel_tol: float = 1e-3,
     intersect_tol: float | None = None,
     max_sigma: float | None = None,
+    keep_dwell: bool = False,
     progress: Callable[[str], None] | None = None,
 ) -> Identification:
     """Identify the joint axes and the parameter table of ``convention`` from ``sweeps``.
@@ -319,6 +377,9 @@ def identify(
     max_sigma : float, metres, optional
         The accuracy asked for: a sweep whose predicted axis-position uncertainty (1 sigma, across the axis)
         exceeds it is an error that names the sweep and the predicted value (e.g. an arc too short).
+    keep_dwell : keep the dwell rows in the fits. By default the rows where the motion stands still (within the
+        point noise) at the ends of a sweep are left out of the fits (they would weigh one end of the arc many
+        times over), with a note naming them; the result's ``sweeps`` are the rows fitted.
     progress : called with a short message as each stage starts (the CLI shows it).
     """
     progress = progress or (lambda _msg: None)
@@ -329,6 +390,8 @@ def identify(
     if nominal is not None and len(nominal.names) != n:
         raise DenavitError(f"nominal model {nominal.name} has {len(nominal.names)} joints, the data has {n}")
     notes = _locked_notes(sweeps)
+    if not keep_dwell:
+        sweeps = _drop_dwell(sweeps, notes)
     chosen = method
     if method == "auto":
         method = "global" if sweeps.has_readings else "geometric"
