@@ -21,7 +21,7 @@ from functools import cached_property
 import numpy as np
 
 from . import _core
-from .errors import DegenerateError, DenavitError
+from .errors import DegenerateError, DenavitError, NotConvergedError
 from .fitting import AxisFit, BoundingBox, fit_axis, oriented_bounding_box
 from .fitting.circle import circle_misfit, robust_circle
 from .fitting.joint import fit_sweeps, locked_motion
@@ -181,7 +181,7 @@ def _per_sweep(sweeps: SweepSet, method: str, loss: str, max_sigma: float | None
         if sweeps.kinds[s.joint - 1] == "prismatic":
             fm = "line"
         elif method in ("readings", "global"):
-            fm = "readings"
+            fm = "readings" if method == "readings" else "hyper"  # the global fit starts from the hyper circles
             if q is None:
                 raise DenavitError(f"{where}: method '{method}' needs joint readings; this data has none (use geometric)")
         else:
@@ -288,18 +288,21 @@ def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: 
         if np.all(g["gamma"] < READINGS_WORTHLESS):
             notes.append(f"auto: geometric (per-sweep circles): the readings are worth nothing against the points (estimated reading error {', '.join(sq)} arcsec per sweep)")
             return "geometric", None, None, None, math.nan
-        d = fit_sweeps(sweeps, dqs, starts, p_home, loss=loss, per_sweep_home=True, where=sweeps.source)
+        try:
+            d = fit_sweeps(sweeps, dqs, list(zip(g["points"], g["directions"], strict=True)), g["home"][0], loss=loss, per_sweep_home=True, where=sweeps.source)
+        except NotConvergedError:  # (a home per sweep on arcs too short to hold one: the shared home it is)
+            d = None
         k = 3 * (len(sweeps.sweeps) - 1)
-        s2 = d["sigma"] ** 2
-        aic = (g["ss"] * g["sigma"] ** 2 - d["ss"] * s2) / s2 - 2 * k  # > 0: the drifting home explains more than it costs
-        if aic > 0:
+        aic = -math.inf if d is None else (g["ss"] * g["sigma"] ** 2 - d["ss"] * d["sigma"] ** 2) / d["sigma"] ** 2 - 2 * k
+        if aic > 0:  # the drifting home explains more than it costs
             cov, sd = _with_drift(d)
             notes.append(f"auto: readings (a home point per sweep) over global (one home point): AIC lower by {aic:.3g}; the home tool point "
                          f"moves {sd * 1e3:.3g} mm (1 sigma per coordinate) between sweeps, added to every axis's uncertainty")
             out = _joint_fits(sweeps, fits, d, cov, loss, "readings")
             mis = np.concatenate(d["misfit"])
             return "readings", out, cov, d["home"].mean(axis=0), float(math.sqrt(np.mean(mis**2)))
-        notes.append(f"auto: global (one home point) over readings (a home point per sweep): AIC lower by {-aic:.3g}; estimated reading error "
+        why = "AIC lower by {:.3g}".format(-aic) if d is not None else "a home point per sweep does not converge on these arcs"
+        notes.append(f"auto: global (one home point) over readings (a home point per sweep): {why}; estimated reading error "
                      f"{', '.join(sq)} arcsec per sweep, point noise {g['sigma'] * 1e3:.3g} mm")
     mis = np.concatenate(g["misfit"])
     return "global", _joint_fits(sweeps, fits, g, g["cov"], loss, "global"), g["cov"], g["home"][0], float(math.sqrt(np.mean(mis**2)))

@@ -147,7 +147,7 @@ def _hyper_2d(xy, what, where):
     x, y = x / scale, y / scale
     z = x**2 + y**2
     zxy1 = np.column_stack([z, x, y, np.ones_like(x)])
-    _, s, vt = np.linalg.svd(zxy1)
+    _, s, vt = np.linalg.svd(zxy1, full_matrices=len(zxy1) < 4)  # (m, 4): never the (m, m) factor (but 4 rows of vt)
     if len(s) < 4 or s[3] < 1e-12 * s[0]:  # singular case: the points lie exactly on a circle (always for m = 3)
         coef = vt[3]
     else:

@@ -60,8 +60,8 @@ def locked_motion(q: np.ndarray, joint: int, home: np.ndarray, tol: np.ndarray):
         slope = float(t @ (qi - qi.mean()) / (t @ t)) if m > 2 else 0.0
         rest = qi - qi.mean() - slope * t
         se = math.sqrt(float(rest @ rest) / (m - 2)) if m > 2 else 0.0
-        off = off if abs(off) > 3 * se / math.sqrt(m) else 0.0
-        slope = slope if m > 2 and abs(slope) > 3 * se / math.sqrt(t @ t) else 0.0
+        off = off if abs(off) > max(3 * se / math.sqrt(m), 1e-12) else 0.0  # (1e-12 rad / m: round-off)
+        slope = slope if m > 2 and abs(slope) * m > max(3 * se * m / math.sqrt(t @ t), 1e-12) else 0.0
         dq[:, i] = off + slope * t
     return dq, coupled
 
@@ -77,12 +77,19 @@ def _pinv_sym(a: np.ndarray) -> np.ndarray:
     return (out + out.T) / 2
 
 
-def _skews(v: np.ndarray) -> np.ndarray:
-    """Cross-product matrices (m, 3, 3) of vectors (m, 3)."""
-    out = np.zeros((len(v), 3, 3))
-    out[:, 0, 1], out[:, 0, 2], out[:, 1, 2] = -v[:, 2], v[:, 1], -v[:, 0]
-    out[:, 1, 0], out[:, 2, 0], out[:, 2, 1] = v[:, 2], -v[:, 1], v[:, 0]
-    return out
+def _cross(n: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """n x x_k for one vector n (3,) and vectors x (m, 3)."""
+    return np.column_stack([n[1] * x[:, 2] - n[2] * x[:, 1], n[2] * x[:, 0] - n[0] * x[:, 2], n[0] * x[:, 1] - n[1] * x[:, 0]])
+
+
+def _crosses(v: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """v_k x b for vectors v (m, 3) and one vector b (3,)."""
+    return -_cross(b, v)
+
+
+def _rotate(n, cs, sn, x):
+    """R(n, d_k) x_k (Rodrigues) for vectors x (m, 3), with cs, sn (m, 1) the cosines and sines of the angles."""
+    return x * cs + _cross(n, x) * sn + np.outer(x @ n, n) * (1 - cs)
 
 
 def _chain(cs, ns, kinds, p, dq, active, jac: bool):
@@ -90,40 +97,51 @@ def _chain(cs, ns, kinds, p, dq, active, jac: bool):
 
     Returns ``pred``, ``blocks`` {joint: (m, 3, 4) d pred / d [a, b, s, t]} (direction in its tangent basis,
     point across the axis), ``jp`` (m, 3, 3) d pred / d p, and ``dpdq`` {joint: (m, 3)} d pred / d q_joint.
+    Rotations act on vectors (Rodrigues), so the cost is linear in the points and small per point.
     """
     m = dq.shape[0]
     y = np.broadcast_to(p, (m, 3)).copy()
-    before, rots = {}, {}
+    before, trig = {}, {}
     for i in reversed(active):
         before[i] = y
         if kinds[i] == "prismatic":
             y = y + dq[:, i, None] * ns[i]
         else:
-            rots[i] = axis_angle_matrices(ns[i], dq[:, i])
-            y = cs[i] + np.einsum("mij,mj->mi", rots[i], y - cs[i])
+            trig[i] = (np.cos(dq[:, i])[:, None], np.sin(dq[:, i])[:, None])
+            y = cs[i] + _rotate(ns[i], *trig[i], y - cs[i])
     if not jac:
         return y, None, None, None
+
+    def outer(i, x):
+        """x (m, 3) carried by the linear parts of g_1 ... g_(i-1) (the joints before i)."""
+        for k in reversed([a for a in active if a < i]):
+            if kinds[k] == "revolute":
+                x = _rotate(ns[k], *trig[k], x)
+        return x
+
     blocks, dpdq = {}, {}
-    lin = None  # linear part of g_1 ... g_(i-1), (m, 3, 3); None is the identity
     for i in active:
         B = np.column_stack(perpendicular_basis(ns[i]))
+        cols = []
         if kinds[i] == "prismatic":
-            dn = dq[:, i, None, None] * B[None]
-            local = np.concatenate([dn, np.zeros((m, 3, 2))], axis=2)
+            for c in range(2):
+                cols.append(dq[:, i, None] * B[:, c])
+            cols += [np.zeros((m, 3)), np.zeros((m, 3))]
             move = np.broadcast_to(ns[i], (m, 3))
         else:
-            R, v, d = rots[i], before[i] - cs[i], dq[:, i]
-            s, co = np.sin(d)[:, None, None], (1 - np.cos(d))[:, None, None]
-            dRv = -s * _skews(v) + co * (np.einsum("mi,i->m", v, ns[i])[:, None, None] * np.eye(3) + np.einsum("i,mj->mij", ns[i], v))
-            local = np.concatenate([dRv @ B, (np.eye(3) - R) @ B], axis=2)
-            move = np.cross(ns[i], np.einsum("mij,mj->mi", R, v))
-        if lin is None:
-            blocks[i], dpdq[i] = local, move
-        else:
-            blocks[i], dpdq[i] = lin @ local, np.einsum("mij,mj->mi", lin, move)
-        lin_i = np.eye(3) if kinds[i] == "prismatic" else rots[i]
-        lin = lin_i if lin is None else lin @ lin_i
-    jp = np.broadcast_to(np.eye(3), (m, 3, 3)) if lin is None else lin
+            co, sn = trig[i]
+            v = before[i] - cs[i]
+            nv = (v @ ns[i])[:, None]
+            for c in range(2):  # d(R v)/dn b = -sin (v x b) + (1 - cos)((n.v) b + n (v.b))
+                b = B[:, c]
+                cols.append(-sn * _crosses(v, b) + (1 - co) * (nv * b + np.outer(v @ b, ns[i])))
+            for c in range(2):  # (I - R) b, b across n: R b = b cos + (n x b) sin
+                b = B[:, c]
+                cols.append(b - (b * co + np.cross(ns[i], b) * sn))
+            move = _cross(ns[i], _rotate(ns[i], co, sn, v))
+        blocks[i] = np.stack([outer(i, c) for c in cols], axis=2)
+        dpdq[i] = outer(i, np.array(move))
+    jp = np.stack([outer(len(kinds), np.broadcast_to(e, (m, 3))) for e in np.eye(3)], axis=2)
     return y, blocks, jp, dpdq
 
 
@@ -171,8 +189,11 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         return r - (1 - g) * rt[:, None] * t, rt
 
     def normal_eq(ev):
+        """Normal matrix, its robust sandwich part, gradient, whitened cost, and per sweep (indices, weighted
+        tangential rows, tangential residuals, levers, whitened residuals). Whitening scales the component along
+        the tangent t by gamma: J_w^T J_w = J^T J - (1 - gamma^2) (t^T J)^T (t^T J), J_w^T r_w likewise."""
         A = np.zeros((npar, npar))
-        A2 = np.zeros((npar, npar))
+        A2 = np.zeros((npar, npar)) if loss != "linear" else None
         b = np.zeros(npar)
         ss = 0.0
         parts = []
@@ -181,18 +202,20 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             cols = [(4 * i, blocks[i]) for i in active[k]] + [(4 * n + 3 * (k if per_sweep_home else 0), jp)]
             idx = np.concatenate([np.arange(o, o + blk.shape[2]) for o, blk in cols])
             J = np.concatenate([blk for _, blk in cols], axis=2)
+            g2 = 1 - gam[k] ** 2
             jt = np.einsum("mi,mik->mk", t, J)
-            Jw = J - (1 - gam[k]) * t[:, :, None] * jt[:, None, :]
-            rw, rt = whitened(r, t, gam[k])
+            rt = np.einsum("mi,mi->m", r, t)
             w = ws[k]
-            Jf = Jw.reshape(-1, len(idx)) * np.repeat(np.sqrt(w), 3)[:, None]
-            A[np.ix_(idx, idx)] += Jf.T @ Jf
-            Jf2 = Jw.reshape(-1, len(idx)) * np.repeat(w, 3)[:, None]
-            A2[np.ix_(idx, idx)] += Jf2.T @ Jf2
-            b[idx] += Jf.T @ (rw.reshape(-1) * np.repeat(np.sqrt(w), 3))
+            Jf = J.reshape(-1, len(idx))
+            w3 = np.repeat(w, 3)
+            A[np.ix_(idx, idx)] += (Jf * w3[:, None]).T @ Jf - g2 * (jt * w[:, None]).T @ jt
+            if A2 is not None:
+                A2[np.ix_(idx, idx)] += (Jf * (w3**2)[:, None]).T @ Jf - g2 * (jt * (w**2)[:, None]).T @ jt
+            b[idx] += Jf.T @ (w3 * (r - g2 * rt[:, None] * t).reshape(-1))
+            rw = r - (1 - gam[k]) * rt[:, None] * t
             ss += float(np.sum(w * np.sum(rw**2, axis=1)))
             parts.append((idx, gam[k] * jt * np.sqrt(w)[:, None], rt, lever, rw))
-        return A, A2, b, ss, parts
+        return A, (A if A2 is None else A2), b, ss, parts
 
     def step(x_cs, x_ns, x_h, delta):
         new_cs, new_ns = [], []
@@ -215,7 +238,7 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         D[D <= 0] = 1.0
         # variance components: pooled point noise across the motion, each sweep's misfit along it
         A_inv = _pinv_sym(A)
-        lev_t = [float(np.einsum("mk,kl,ml->", jt, A_inv[np.ix_(idx, idx)], jt)) for idx, jt, _, _, _ in parts]
+        lev_t = [float(np.sum((jt @ A_inv[np.ix_(idx, idx)]) * jt)) for idx, jt, _, _, _ in parts]
         # (robust losses: the weighted residuals w r, bounded for outliers, over the weighted counts sum(w^2))
         ss_t = [float(np.sum(ws[k] ** 2 * rt**2)) for k, (_, _, rt, _, _) in enumerate(parts)]
         ss_o = sum(float(np.sum(ws[k] ** 2 * (np.sum(ev[k][0] ** 2, axis=1) - parts[k][2] ** 2))) for k in range(S))
@@ -230,7 +253,8 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             e = [np.linalg.norm(p[4], axis=1) for p in parts]
             f = 3.0 * max(robust_sigma(np.concatenate(e), 3), floor)
             new_ws = [loss_weight(loss, (ek / f) ** 2) for ek in e]
-        changed = np.max(np.abs(new_gam - gam) / gam) > 1e-6 or any(np.max(np.abs(a - c)) > 1e-9 for a, c in zip(new_ws, ws, strict=True))
+        # (the weights need 0.1 % / 1e-6; after 100 steps they are frozen, so that the steps settle)
+        changed = it < 100 and (np.max(np.abs(new_gam - gam) / gam) > 1e-3 or any(np.max(np.abs(a - c)) > 1e-6 for a, c in zip(new_ws, ws, strict=True)))
         if changed:
             gam, ws = new_gam, new_ws
             ev = evaluate(cs, ns, homes, True)
@@ -239,9 +263,11 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         small = np.max(np.abs(delta)) <= 1e-13 * max(size, 1e-300) + 1e-300
         tcs, tns, th = step(cs, ns, homes, delta)
         tev = evaluate(tcs, tns, th, True)
-        if cost(tev) <= ss:
+        new_cost = cost(tev)
+        if new_cost <= ss:
             cs, ns, homes, ev = tcs, tns, th, tev
             lam = max(lam / 10, 1e-12)
+            small = small or (not changed and ss - new_cost <= 1e-14 * ss)
         else:
             lam *= 10
         if small or (lam > 1e8):
