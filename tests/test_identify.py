@@ -6,8 +6,10 @@ import re
 
 import numpy as np
 import pytest
+from recording import recording
 
 import denavit as dv
+from cli import run
 from denavit import identify as ident
 from denavit import sweeps as sw
 
@@ -408,8 +410,6 @@ def test_locked_joint_drift_is_noted(kr5):
 
 
 # ------------------------------------------------------------------ real recordings (issue 12)
-from cli import run  # noqa: E402
-from recording import recording  # noqa: E402
 
 
 def axis_errors(res, truth_axes, p_home):
@@ -539,3 +539,18 @@ def test_dwell_rows_are_found_noted_and_left_out(kr5):
     kept = ident.identify(s, nominal=kr5, keep_dwell=True)
     assert [f.n_points for f in kept.fits] == [56] * 6 and not [n for n in kept.notes if "dwell" in n]
     assert not [n for n in ident.identify(recording(m, HOME, ranges, seed=6), nominal=kr5).notes if "dwell" in n]
+
+
+def test_sweep_without_readings_against_the_nominal_is_oriented_by_it(kr5):
+    """A sweep without readings listed in reverse (decreasing joint values) flipped its axis silently (alpha -90
+    against the nominal's 90, d4 = -620 mm); with a nominal it is oriented by the nominal, with a note."""
+    s = simulate(kr5, 90, points_per_sweep=20, noise=2e-5, seed=12)
+    bare = [sw.Sweep(x.joint, x.points[::-1] if x.joint == 4 else x.points, None, x.where[::-1] if x.joint == 4 else x.where) for x in s.sweeps]
+    res = ident.identify(sw.SweepSet(bare, 6, s.home, s.kinds, s.source, s.units), nominal=kr5)
+    notes = [n for n in res.notes if "against the nominal" in n]
+    r = np.array(sw.PAPER_RANGES_DEG[90])
+    against = [j + 1 for j in range(6) if (r[j, 1] < r[j, 0]) != (j == 3)]  # the paper sweeps some joints downwards
+    assert [int(re.search(r"joint (\d)", n).group(1)) for n in notes] == against, res.notes
+    d = res.table.params - truth_dh(kr5)
+    d[:, [1, 3]] = (d[:, [1, 3]] + np.pi) % (2 * np.pi) - np.pi
+    assert np.abs(d[:, [0, 2]]).max() < 2e-3 and np.abs(d[:, [1, 3]]).max() < 0.01, d

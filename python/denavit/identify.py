@@ -26,9 +26,9 @@ from .fitting import AxisFit, BoundingBox, fit_axis, oriented_bounding_box
 from .fitting.circle import circle_misfit, robust_circle
 from .fitting.joint import fit_sweeps, locked_motion
 from .fitting.readings import READINGS_WORTHLESS
-from .fitting.result import axis_sigmas
+from .fitting.result import axis_sigmas, flipped
 from .fitting.robust import flag_outliers, rms_spread, robust_sigma
-from .geometry import axis_angle_matrices, perpendicular_basis
+from .geometry import axis_angle_matrices
 from .io.output import write_text
 from .io.units import cell_scale, joint_scale, length_scale
 from .robotfile import Robot
@@ -152,8 +152,8 @@ def _drop_dwell(sweeps: SweepSet, notes: list[str]) -> SweepSet:
             out.append(s)
             continue
         keep = np.r_[0, a + 1 : len(p) - b - 1, len(p) - 1]
-        name = (lambda k: s.where[k]) if s.where else (lambda k: f"point {k}")
-        parts = ([f"{a} at the start ({name(1)} .. {name(a)})"] if a else []) + ([f"{b} at the end ({name(len(p) - 1 - b)} .. {name(len(p) - 2)})"] if b else [])
+        name = list(s.where) if s.where else [f"point {k}" for k in range(len(p))]
+        parts = ([f"{a} at the start ({name[1]} .. {name[a]})"] if a else []) + ([f"{b} at the end ({name[len(p) - 1 - b]} .. {name[len(p) - 2]})"] if b else [])
         notes.append(f"{sweep_where(s, sweeps.source)}: {a + b} dwell rows (the motion stopped within {DWELL_SIGMAS:g} sigma of the "
                      f"point noise, {noise * 1e3:.2g} mm): {' and '.join(parts)}; left out of the fit (keep_dwell keeps them)")
         out.append(Sweep(s.joint, p[keep], None if s.q is None else s.q[keep], [s.where[k] for k in keep] if s.where else []))
@@ -289,11 +289,13 @@ def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: 
             notes.append(f"auto: geometric (per-sweep circles): the readings are worth nothing against the points (estimated reading error {', '.join(sq)} arcsec per sweep)")
             return "geometric", None, None, None, math.nan
         try:
-            d = fit_sweeps(sweeps, dqs, list(zip(g["points"], g["directions"], strict=True)), g["home"][0], loss=loss, per_sweep_home=True, where=sweeps.source)
+            d = fit_sweeps(sweeps, dqs, list(zip(g["points"], g["directions"], strict=True)), g["home"][0], loss=loss, per_sweep_home=True,
+                           gamma=g["gamma"], where=sweeps.source)
         except NotConvergedError:  # (a home per sweep on arcs too short to hold one: the shared home it is)
             d = None
         k = 3 * (len(sweeps.sweeps) - 1)
-        aic = -math.inf if d is None else (g["ss"] * g["sigma"] ** 2 - d["ss"] * d["sigma"] ** 2) / d["sigma"] ** 2 - 2 * k
+        # nested models on the same weights: the chi-square gained by a home point per sweep, less twice its parameters
+        aic = -math.inf if d is None else (g["ss_m"] - d["ss_m"]) / d["sigma"] ** 2 - 2 * k
         if aic > 0:  # the drifting home explains more than it costs
             cov, sd = _with_drift(d)
             notes.append(f"auto: readings (a home point per sweep) over global (one home point): AIC lower by {aic:.3g}; the home tool point "
@@ -301,11 +303,27 @@ def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: 
             out = _joint_fits(sweeps, fits, d, cov, loss, "readings")
             mis = np.concatenate(d["misfit"])
             return "readings", out, cov, d["home"].mean(axis=0), float(math.sqrt(np.mean(mis**2)))
-        why = "AIC lower by {:.3g}".format(-aic) if d is not None else "a home point per sweep does not converge on these arcs"
+        why = f"AIC lower by {-aic:.3g}" if d is not None else "a home point per sweep does not converge on these arcs"
         notes.append(f"auto: global (one home point) over readings (a home point per sweep): {why}; estimated reading error "
                      f"{', '.join(sq)} arcsec per sweep, point noise {g['sigma'] * 1e3:.3g} mm")
     mis = np.concatenate(g["misfit"])
     return "global", _joint_fits(sweeps, fits, g, g["cov"], loss, "global"), g["cov"], g["home"][0], float(math.sqrt(np.mean(mis**2)))
+
+
+def _oriented_by_nominal(sweeps: SweepSet, fits: list, nominal: Robot, notes: list[str]) -> list:
+    """Without readings a sweep's direction comes from the point order; one that runs against the nominal's
+    axis direction (e.g. recorded with decreasing joint values, or listed newest-first) is turned to the
+    nominal's, with a note naming the joint."""
+    nom = _core.axes(nominal.model(), sweeps.home).directions
+    out = []
+    for s, f in zip(sweeps.sweeps, fits, strict=True):
+        j = s.joint - 1
+        if f.direction @ np.asarray(nom[j]) < 0:
+            notes.append(f"{sweep_where(s, sweeps.source)}: without readings the sweep runs against the nominal's axis {j + 1} "
+                         "(decreasing joint values, or rows newest-first?): oriented by the nominal")
+            f = flipped(f)
+        out.append(f)
+    return out
 
 
 def _nominal_table(nominal: Robot | None, convention: str, home: np.ndarray) -> _core.Table | None:
@@ -436,6 +454,8 @@ def identify(
         tool_R = np.eye(3)
     lower = nominal.lower if nominal is not None else None
     upper = nominal.upper if nominal is not None else None
+    if nominal is not None and not sweeps.has_readings:
+        fits = _oriented_by_nominal(sweeps, fits, nominal, notes)
     x = np.concatenate([np.concatenate([f.point, f.direction]) for f in fits] + [p_home])
     opts = {"parallel_tol": parallel_tol, "nominal": nominal_table, "origins": _origins(nominal_table, convention, sweeps.home)}
     if intersect_tol is not None:

@@ -25,7 +25,7 @@ import math
 import numpy as np
 
 from ..errors import NotConvergedError
-from ..geometry import axis_angle_matrices, perpendicular_basis
+from ..geometry import perpendicular_basis
 from .robust import loss_weight, misfit_variance, robust_sigma
 
 #: A locked reading whose correlation with the swept joint's reading exceeds this (and which moves) is coupled.
@@ -146,7 +146,7 @@ def _chain(cs, ns, kinds, p, dq, active, jac: bool):
 
 
 def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "linear", per_sweep_home: bool = False,
-               noise_sigma=None, where: str = ""):
+               noise_sigma=None, gamma=None, where: str = ""):
     """The joint fit of all sweeps (module docstring). ``dqs`` per sweep (m, n) joint motions from home
     (:func:`locked_motion`), ``starts`` per joint (point, direction) start lines, ``p0`` the start home point.
 
@@ -165,7 +165,7 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     active = [[i for i in range(n) if np.any(dq[:, i] != 0)] for dq in dqs]
     size = max(float(np.sqrt(np.mean(np.sum((s.points - s.points.mean(axis=0)) ** 2, axis=1)))) for s in sweeps.sweeps)
     floor = 1e-12 * size
-    gam = np.ones(S)
+    gam = np.ones(S) if gamma is None else np.array(gamma, dtype=float)
     ws = [np.ones(len(s.points)) for s in sweeps.sweeps]
 
     def home_of(k):
@@ -246,7 +246,7 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         red_o = 2 * sum(m_w) - (float(np.trace(A_inv @ A)) - sum(lev_t))
         sigma2 = max(ss_o / red_o if red_o > 0 else 0.0, (noise_sigma or 0.0) ** 2, floor**2)
         tau2 = [st / max(mw - lt, 1.0) for st, lt, mw in zip(ss_t, lev_t, m_w, strict=True)]
-        new_gam = np.array([1.0 if not t2 > sigma2 else max(math.sqrt(sigma2 / t2), 1e-9) for t2 in tau2])
+        new_gam = gam if gamma is not None else np.array([1.0 if not t2 > sigma2 else max(math.sqrt(sigma2 / t2), 1e-9) for t2 in tau2])
         # robust weights on the whitened misfits (in point-noise units), scale 3 robust sigmas
         new_ws = ws
         if loss != "linear":
@@ -299,5 +299,5 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     return {
         "points": np.array(feet), "directions": np.array(ns), "home": np.array([home_of(k) for k in range(S)]), "cov": cov,
         "misfit": [np.linalg.norm(e[0], axis=1) for e in ev], "weights": ws, "whitened": [np.linalg.norm(p[4], axis=1) / sigma for p in parts],
-        "sigma": sigma, "reading_sigma": reading_sigma, "ss": ss / sigma2, "n_params": npar, "gamma": gam,
+        "sigma": sigma, "reading_sigma": reading_sigma, "ss": ss / sigma2, "ss_m": ss, "n_params": npar, "gamma": gam,
     }
