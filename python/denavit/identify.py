@@ -260,7 +260,8 @@ def _joint_fits(sweeps: SweepSet, fits: list, res: dict, cov: np.ndarray, loss: 
 def _with_drift(res: dict) -> tuple[np.ndarray, float]:
     """The covariance of [c_j, n_j, ..., p] of a per-sweep-home fit: the home points averaged, and the drift
     between sweeps (the spread of the per-sweep home points, sigma_d per coordinate) added to every axis point and
-    to the home point, since a drifting robot moves its axes with it. Returns (cov, sigma_d)."""
+    to the home point, since a drifting robot moves its axes with it (the scatter beyond the home points' own
+    estimation error). Returns (cov, sigma_d)."""
     homes = res["home"]
     S = len(homes)
     n6 = res["cov"].shape[0] - 3 * S
@@ -269,7 +270,9 @@ def _with_drift(res: dict) -> tuple[np.ndarray, float]:
     for k in range(S):
         T[n6:, n6 + 3 * k : n6 + 3 * k + 3] = np.eye(3) / S
     cov = T @ res["cov"] @ T.T
-    sd2 = float(np.sum((homes - homes.mean(axis=0)) ** 2)) / (3 * max(S - 1, 1))
+    # the scatter of the home points beyond their own estimation error (sum of tr C_s (S-1)/S expected)
+    est = sum(float(np.trace(res["cov"][n6 + 3 * k : n6 + 3 * k + 3, n6 + 3 * k : n6 + 3 * k + 3])) for k in range(S)) * (S - 1) / S
+    sd2 = max(float(np.sum((homes - homes.mean(axis=0)) ** 2)) - est, 0.0) / (3 * max(S - 1, 1))
     for j in range(n6 // 6):
         cov[6 * j : 6 * j + 3, 6 * j : 6 * j + 3] += sd2 * np.eye(3)
     cov[n6:, n6:] += sd2 * np.eye(3)
@@ -385,7 +388,10 @@ def identify(
 ) -> Identification:
     """Identify the joint axes and the parameter table of ``convention`` from ``sweeps``.
 
-    method : "auto" (the best the data allows: "global" with joint readings, else "geometric"), "kasa" (the
+    method : "auto" (chosen by the evidence, with a note saying which and why: without readings "geometric";
+        with readings the joint fit with one home point ("global") or one per sweep ("readings": the home
+        drifted, and the drift is added to the sigmas) by the AIC of the two on the same weights, or the
+        "geometric" circles when the readings are worth nothing against the points), "kasa" (the
         paper's eq. 1-9), "hyper" (Al-Sharadqah & Chernov 2009), "geometric" (orthogonal distance),
         "readings" (per sweep, points as rotations of one rigid point by the recorded angles), "global".
     nominal : a robot of any convention; breaks sign ties, fixes free origins and the last frame
@@ -510,6 +516,7 @@ def to_json(result: Identification, length: str | None = None, angle: str = "deg
             "residuals": {"rms": f.rms / ls, "max": float(np.max(np.abs(f.residuals))) / ls, "n_points": int(f.n_points),
                           "outliers": [int(k) for k in np.flatnonzero(f.outliers)], "per_point": (np.asarray(f.residuals) / ls).tolist()},
             "arc_deg": math.degrees(f.arc),
+            "reading_sigma_deg": math.degrees(f.reading_sigma) if np.isfinite(f.reading_sigma) else None,
         })
     return {
         "units": {"length": length, "angle": angle},
