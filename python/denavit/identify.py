@@ -257,7 +257,7 @@ def _joint_fits(sweeps: SweepSet, fits: list, res: dict, cov: np.ndarray, loss: 
     return out
 
 
-def _with_drift(res: dict) -> tuple[np.ndarray, float]:
+def _with_drift(sweeps: SweepSet, res: dict) -> tuple[np.ndarray, float]:
     """The covariance of [c_j, n_j, ..., p] of a per-sweep-home fit: the home points averaged, and the drift
     between sweeps (the spread of the per-sweep home points, sigma_d per coordinate) added to every axis point and
     to the home point, since a drifting robot moves its axes with it (the scatter beyond the home points' own
@@ -270,9 +270,18 @@ def _with_drift(res: dict) -> tuple[np.ndarray, float]:
     for k in range(S):
         T[n6:, n6 + 3 * k : n6 + 3 * k + 3] = np.eye(3) / S
     cov = T @ res["cov"] @ T.T
-    # the scatter of the home points beyond their own estimation error (sum of tr C_s (S-1)/S expected)
-    est = sum(float(np.trace(res["cov"][n6 + 3 * k : n6 + 3 * k + 3, n6 + 3 * k : n6 + 3 * k + 3])) for k in range(S)) * (S - 1) / S
-    sd2 = max(float(np.sum((homes - homes.mean(axis=0)) ** 2)) - est, 0.0) / (3 * max(S - 1, 1))
+    # the scatter of the home points beyond their own estimation error, across each sweep's motion only (along
+    # it a home point rests on the readings, whose scale errors are not white: geometry alone is trusted)
+    dev = homes - homes.mean(axis=0)
+    ss, est = 0.0, 0.0
+    for k, sweep in enumerate(sweeps.sweeps):
+        j = sweep.joint - 1
+        t = np.cross(res["directions"][j], homes[k] - res["points"][j])
+        t = t / max(np.linalg.norm(t), 1e-300) if sweeps.kinds[j] == "revolute" else res["directions"][j]
+        P = np.eye(3) - np.outer(t, t)
+        ss += float(dev[k] @ P @ dev[k])
+        est += float(np.trace(P @ res["cov"][n6 + 3 * k : n6 + 3 * k + 3, n6 + 3 * k : n6 + 3 * k + 3] @ P)) * (S - 1) / S
+    sd2 = max(ss - est, 0.0) / (2 * max(S - 1, 1))
     for j in range(n6 // 6):
         cov[6 * j : 6 * j + 3, 6 * j : 6 * j + 3] += sd2 * np.eye(3)
     cov[n6:, n6:] += sd2 * np.eye(3)
@@ -299,8 +308,14 @@ def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: 
         k = 3 * (len(sweeps.sweeps) - 1)
         # nested models on the same weights: the chi-square gained by a home point per sweep, less twice its parameters
         aic = -math.inf if d is None else (g["ss_m"] - d["ss_m"]) / d["sigma"] ** 2 - 2 * k
-        if aic > 0:  # the drifting home explains more than it costs
-            cov, sd = _with_drift(d)
+        if aic > 0:  # the drifting home explains more than it costs: refitted with its own weights (the shared home's
+            # tangential misfit held the drift too)
+            try:
+                d = fit_sweeps(sweeps, dqs, list(zip(d["points"], d["directions"], strict=True)), d["home"].mean(axis=0), loss=loss,
+                               per_sweep_home=True, where=sweeps.source)
+            except NotConvergedError:
+                pass  # (keep the fit on the shared home's weights)
+            cov, sd = _with_drift(sweeps, d)
             notes.append(f"auto: readings (a home point per sweep) over global (one home point): AIC lower by {aic:.3g}; the home tool point "
                          f"moves {sd * 1e3:.3g} mm (1 sigma per coordinate) between sweeps, added to every axis's uncertainty")
             out = _joint_fits(sweeps, fits, d, cov, loss, "readings")
