@@ -6,7 +6,7 @@ the true circle centre from the identified line), every DH parameter's error, th
 of the identified model (DH and ED-H) over 1,000 random configurations, and how the reported sigmas compare
 with the Monte Carlo spread (ratio 1 = honest). Prints tables; run `python benchmarks/bench_identify.py --runs 100`.
 
-``--realistic RUNS``: Monte Carlo on recordings with the effects of real ones (tests/recording.py: reading errors
+``--realistic RUNS``: Monte Carlo on recordings with the effects of real ones (tests/real_effects.py: reading errors
 of 30-200 arcsec with offset and scale errors, home drift 0.2 mm, 0.02 mm tracker noise; and the exact-readings
 case): per method the RMS axis-position error, reported sigma / Monte Carlo spread of every DH parameter (median
 and the share within 0.8-1.25; theta against the truth seen through the readings: a reading offset is a theta
@@ -32,7 +32,7 @@ from denavit import identify as ident
 from denavit import sweeps as sw
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from recording import recording  # noqa: E402 (the simulator of real effects the tests use)
+from real_effects import recording  # noqa: E402 (the simulator of real effects the tests use)
 
 METHODS = ["kasa", "hyper", "geometric", "readings", "global"]
 

@@ -6,7 +6,7 @@ import re
 
 import numpy as np
 import pytest
-from recording import recording
+from real_effects import recording
 
 import denavit as dv
 from cli import run
