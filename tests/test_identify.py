@@ -554,3 +554,26 @@ def test_sweep_without_readings_against_the_nominal_is_oriented_by_it(kr5):
     d = res.table.params - truth_dh(kr5)
     d[:, [1, 3]] = (d[:, [1, 3]] + np.pi) % (2 * np.pi) - np.pi
     assert np.abs(d[:, [0, 2]]).max() < 2e-3 and np.abs(d[:, [1, 3]]).max() < 0.01, d
+
+
+def test_implausible_axes_against_the_nominal(kr5):
+    """Against the nominal (issue 16): points in the wrong unit (x1000) or the wrong robot are an error naming the
+    cause; a link 30 mm longer than the nominal's gets a note naming its joints; good data (with realistic errors
+    and drift) gets none."""
+    m = kr5.model()
+    ranges = np.radians(sw.PAPER_RANGES_DEG[90])
+    s = recording(m, HOME, ranges, seed=9)
+    x1000 = sw.SweepSet([sw.Sweep(x.joint, x.points * 1000, x.q, x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units)
+    with pytest.raises(dv.DenavitError, match=r"pairs of consecutive axes differ from the nominal kr5's .*another unit"):
+        ident.identify(x1000, nominal=kr5)
+    ur5 = dv.load_robot("ur5")
+    with pytest.raises(dv.DenavitError, match=r"differ from the nominal ur5's"):
+        ident.identify(s, nominal=ur5)
+    t = kr5.table.params.copy()
+    t[1, 2] += 0.03  # a2 = 630 mm
+    longer = dv._core.Table("dh", t, list(kr5.table.kinds), kr5.table.T_world_base, kr5.table.T_last_tool)
+    res = ident.identify(recording(longer.to_model("longer"), HOME, ranges, seed=9), nominal=kr5)
+    notes = [n for n in res.notes if "check the joint order" in n]
+    assert len(notes) == 1 and notes[0].startswith("axes A2-A3:"), res.notes
+    good = ident.identify(recording(m, HOME, ranges, reading_arcsec=(30, 200), drift=2e-4, seed=9), nominal=kr5)
+    assert not [n for n in good.notes if "check the joint order" in n], good.notes

@@ -328,6 +328,42 @@ def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: 
     return "global", _joint_fits(sweeps, fits, g, g["cov"], loss, "global"), g["cov"], g["home"][0], float(math.sqrt(np.mean(mis**2)))
 
 
+#: A pair of consecutive identified axes whose angle or distance differs from the nominal pair's by more than this
+#: (rad; fraction of the robot's size) and ``PLAUSIBLE_SIGMAS`` of its uncertainty gets a note; when more than
+#: half of the pairs differ by more than ``IMPLAUSIBLE`` the fit is an error. Pairs are compared, not the axes
+#: themselves, so that data in another frame (a tracker's, without --base) is not suspect.
+PLAUSIBLE = (math.radians(2.0), 0.02)
+IMPLAUSIBLE = (math.radians(30.0), 0.25)
+PLAUSIBLE_SIGMAS = 5.0
+
+
+def _plausibility(ex: _core.Extraction, fits: list, nominal: Robot, home: np.ndarray, names: list[str], source: str, notes: list[str]) -> None:
+    """The identified axes against the nominal's, pair by pair (issue 16): a note naming the joints of a pair
+    whose angle or distance is far from the nominal's, in units of its uncertainty and of the robot's size; a
+    :class:`DenavitError` when most pairs are far (points in the wrong unit, swapped joints, the wrong robot)."""
+    model = nominal.model()
+    ax = _core.axes(model, home)
+    nom = _core.extract(ax, "dh").pairs
+    base = np.asarray(nominal.table.T_world_base)[:3, 3]
+    size = max(max(float(np.linalg.norm(np.asarray(p) - base)) for p in ax.points), float(np.linalg.norm(_core.fk(model, home)[:3, 3] - base)), 1e-3)
+    far = []
+    for pi, pn in zip(ex.pairs, nom, strict=True):
+        k = pi.joint - 1
+        f0, f1 = fits[k], fits[k + 1]
+        sig_a = math.hypot(*(x if np.isfinite(x) else 0.0 for x in (f0.sigma_direction, f1.sigma_direction)))
+        sig_d = math.hypot(*(x if np.isfinite(x) else 0.0 for x in (f0.sigma_point_perp, f1.sigma_point_perp)))
+        da, dd = abs(pi.angle - pn.angle), abs(pi.distance - pn.distance)
+        if (da > PLAUSIBLE[0] and da > PLAUSIBLE_SIGMAS * sig_a) or (dd > PLAUSIBLE[1] * size and dd > PLAUSIBLE_SIGMAS * sig_d):
+            notes.append(f"axes {names[k]}-{names[k + 1]}: {math.degrees(pi.angle):.4g} deg apart and {pi.distance * 1e3:.5g} mm apart, the nominal's "
+                         f"{math.degrees(pn.angle):.4g} deg and {pn.distance * 1e3:.5g} mm (off by {da / max(sig_a, 1e-300):.3g} and "
+                         f"{dd / max(sig_d, 1e-300):.3g} sigma, {dd / size:.2g} robot sizes): check the joint order, the units and the nominal")
+        far.append(da > IMPLAUSIBLE[0] or dd > IMPLAUSIBLE[1] * size)
+    if far and sum(far) > len(far) / 2:
+        raise DenavitError(f"{source}: {sum(far)} of {len(far)} pairs of consecutive axes differ from the nominal {nominal.name}'s by more than "
+                           f"{math.degrees(IMPLAUSIBLE[0]):g} deg or {IMPLAUSIBLE[1]:g} robot sizes ({IMPLAUSIBLE[1] * size * 1e3:.4g} mm): expected the same robot "
+                           "(points in another unit? joints swapped or misnumbered? the wrong robot?)")
+
+
 def _oriented_by_nominal(sweeps: SweepSet, fits: list, nominal: Robot, notes: list[str]) -> list:
     """Without readings a sweep's direction comes from the point order; one that runs against the nominal's
     axis direction (e.g. recorded with decreasing joint values, or listed newest-first) is turned to the
@@ -483,6 +519,8 @@ def identify(
         opts["intersect_tol"] = intersect_tol
     ax = _axes_from(x, sweeps, tool_R, base, lower, upper)
     ex = _core.extract(ax, convention, **opts)
+    if nominal is not None:
+        _plausibility(ex, fits, nominal, sweeps.home, nominal.names, sweeps.source, notes)
     angle_cols = np.array(ex.table.angle_columns)
     p_ref = ex.table.params
 
