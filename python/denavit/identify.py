@@ -20,14 +20,18 @@ from functools import cached_property
 import numpy as np
 
 from . import _core
-from .errors import DegenerateError, DenavitError
+from .errors import DegenerateError, DenavitError, NotConvergedError
 from .fitting import AxisFit, BoundingBox, fit_axis, oriented_bounding_box
-from .fitting.robust import flag_outliers, irls, rms_spread, weighted_cov
-from .geometry import axis_angle_matrices, perpendicular_basis
+from .fitting.circle import circle_misfit, robust_circle
+from .fitting.joint import fit_sweeps, locked_motion
+from .fitting.readings import READINGS_WORTHLESS
+from .fitting.result import axis_sigmas, flipped
+from .fitting.robust import flag_outliers, rms_spread, robust_sigma
+from .geometry import axis_angle_matrices
 from .io.output import json_text, write_text
 from .io.units import cell_scale, joint_scale, length_scale
 from .robot import Robot
-from .sweeps import SweepSet
+from .sweeps import Sweep, SweepSet
 
 METHODS = ("auto", "kasa", "hyper", "geometric", "readings", "global")
 
@@ -69,7 +73,8 @@ class Identification:
         table = self.table
         convention = None if convention is None else _core.convention_info(convention)["name"]
         if convention is not None and convention != self.convention:
-            table = _core.extract(self.axes, convention, nominal=_nominal_table(self.nominal, convention, self.sweeps.home)).table
+            nominal = _nominal_table(self.nominal, convention, self.sweeps.home)
+            table = _core.extract(self.axes, convention, nominal=nominal, origins=_origins(nominal, convention, self.sweeps.home)).table
         return table.to_model(name, names, lower, upper)
 
 
@@ -94,8 +99,64 @@ def _locked_notes(sweeps: SweepSet) -> list[str]:
             at = f" at {s.where[k]}" if s.where else ""
             notes.append(f"{sweep_where(s, sweeps.source)}: locked joint {i + 1} reads {s.q[:, i].min() * scale:.4g} .. {s.q[:, i].max() * scale:.4g} {unit}, "
                          f"up to {abs(dev[k]) * scale:.3g} {unit} from its home {sweeps.home[i] * scale:.4g} {unit}{at} (tolerance {LOCKED_TOL[kind] * scale:g} {unit}); "
-                         "the fit assumes it stayed at home: check the recording")
+                         "the global fit follows the recorded readings (per-sweep fits use only the moving joint's): check the recording")
     return notes
+
+
+#: A point is still in the dwell at a sweep's end while it lies within this many point-noise sigmas (per
+#: coordinate, times sqrt(1 + 1/k) for the noise of the mean of the k rows so far) of the mean of the dwell so
+#: far (the norm of a 3-D Gaussian exceeds 5 sigma with probability 2e-5).
+DWELL_SIGMAS = 5.0
+
+
+def _dwell_rows(p: np.ndarray, noise: float) -> tuple[int, int]:
+    """(rows standing still after the first, rows standing still before the last) of a sweep in time order:
+    the run of points within ``DWELL_SIGMAS * noise`` of the running mean of the run (the first and last point
+    of each run are the sweep's real ends and stay)."""
+    tol = DWELL_SIGMAS * noise
+
+    def lead(x):
+        m = len(x)
+        run_mean = np.cumsum(x, axis=0) / np.arange(1, m + 1)[:, None]
+        k = np.arange(1, m)  # the mean of k points has noise sigma / sqrt(k) of its own
+        far = np.linalg.norm(x[1:] - run_mean[:-1], axis=1) > tol * np.sqrt(1 + 1 / k)
+        return int(np.argmax(far)) + 1 if far.any() else m  # the first row that moved: rows 1..k-1 stand with row 0
+
+    a = lead(p) - 1
+    b = lead(p[::-1]) - 1
+    a, b = max(a, 0), max(b, 0)
+    if a + b >= len(p) - 3:  # nothing moved: not a dwell to trim
+        return 0, 0
+    return a, b
+
+
+def _drop_dwell(sweeps: SweepSet, notes: list[str]) -> SweepSet:
+    """The sweeps without their dwell rows (found by :func:`_dwell_rows`, the noise from a trimmed circle or line
+    fit), with a note per sweep that had some (how many, which rows)."""
+    out = []
+    for s in sweeps.sweeps:
+        p = s.points
+        if sweeps.kinds[s.joint - 1] == "prismatic" or len(p) < 8:
+            out.append(s)
+            continue
+        try:
+            c, nv, r, _ = robust_circle(p, "dwell check", sweep_where(s, sweeps.source))
+        except DenavitError:
+            out.append(s)
+            continue
+        e = circle_misfit(p, c, nv, r)[0]
+        noise = max(robust_sigma(e, 2), 1e-12 * rms_spread(p))
+        a, b = _dwell_rows(p, noise)
+        if a + b == 0:
+            out.append(s)
+            continue
+        keep = np.r_[0, a + 1 : len(p) - b - 1, len(p) - 1]
+        name = list(s.where) if s.where else [f"point {k}" for k in range(len(p))]
+        parts = ([f"{a} at the start ({name[1]} .. {name[a]})"] if a else []) + ([f"{b} at the end ({name[len(p) - 1 - b]} .. {name[len(p) - 2]})"] if b else [])
+        notes.append(f"{sweep_where(s, sweeps.source)}: {a + b} dwell rows (the motion stopped within {DWELL_SIGMAS:g} sigma of the "
+                     f"point noise, {noise * 1e3:.2g} mm): {' and '.join(parts)}; left out of the fit (keep_dwell keeps them)")
+        out.append(Sweep(s.joint, p[keep], None if s.q is None else s.q[keep], [s.where[k] for k in keep] if s.where else []))
+    return replace(sweeps, sweeps=out)
 
 
 def sweep_where(s, source: str) -> str:
@@ -119,7 +180,7 @@ def _per_sweep(sweeps: SweepSet, method: str, loss: str, max_sigma: float | None
         if sweeps.kinds[s.joint - 1] == "prismatic":
             fm = "line"
         elif method in ("readings", "global"):
-            fm = "readings"
+            fm = "readings" if method == "readings" else "hyper"  # the global fit starts from the hyper circles
             if q is None:
                 raise DenavitError(f"{where}: method '{method}' needs joint readings; this data has none (use geometric)")
         else:
@@ -162,86 +223,160 @@ def _tool_point_geometric(sweeps: SweepSet, fits: list) -> np.ndarray:
     return np.asarray(best)
 
 
-def _global_fit(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str) -> tuple[list, np.ndarray, np.ndarray, float]:
-    """One least-squares fit of all sweeps: one line per joint and one rigid tool point at home.
+def _motions(sweeps: SweepSet, notes: list[str]) -> list[np.ndarray]:
+    """Per sweep the joint motions from home the joint fit uses (:func:`~denavit.fitting.joint.locked_motion`),
+    noting each locked reading that moves in lock-step with the swept joint (a coupling to declare)."""
+    tol = np.array([LOCKED_TOL[k] / 100 for k in sweeps.kinds])
+    out = []
+    for s in sweeps.sweeps:
+        dq, coupled = locked_motion(s.q, s.joint - 1, sweeps.home, tol)
+        for i, slope in coupled:
+            notes.append(f"{sweep_where(s, sweeps.source)}: the reading of joint {i + 1} moves in lock-step with joint {s.joint}'s "
+                         f"({slope:+.3f} per unit): a coupling of the controller's readings to declare (e.g. joint {i + 1} = "
+                         f"reading {i + 1} {'+' if slope < 0 else '-'} reading {s.joint}, as Fanuc controllers report J3); the fit takes joint {i + 1} as held at home")
+        out.append(dq)
+    return out
 
-    During the sweep of joint j only joint j moves from home, so every point is
-    ``c_j + R(n_j, q_j - home_j) (p_home - c_j)`` (revolute) or ``p_home + (q_j - home_j) n_j`` (prismatic).
-    Each line has 4 parameters (2 for the direction in its tangent plane, 2 for the point across it).
-    Returns the fitted lines as AxisFits, the (6n+3) covariance of [c_j, n_j, ..., p_home], the tool point
-    and the residual RMS.
-    """
-    n = sweeps.n_joints
-    c0 = [f.point for f in fits]
-    n0 = [f.direction for f in fits]
-    B = [np.column_stack(perpendicular_basis(v)) for v in n0]  # (3, 2) tangent bases
 
-    def unpack(x):
-        cs, ns = [], []
-        for j in range(n):
-            nv = n0[j] + B[j] @ x[4 * j : 4 * j + 2]
-            nv = nv / np.linalg.norm(nv)
-            cs.append(c0[j] + B[j] @ x[4 * j + 2 : 4 * j + 4])
-            ns.append(nv)
-        return cs, ns, x[4 * n : 4 * n + 3]
+def _joint_fits(sweeps: SweepSet, fits: list, res: dict, cov: np.ndarray, loss: str, label: str) -> list:
+    """The per-joint view (AxisFit) of a joint fit's result ``res`` (:func:`~denavit.fitting.joint.fit_sweeps`),
+    ``cov`` the covariance of [c_1, n_1, ..., p]."""
+    out = []
+    ph = res["home"].mean(axis=0)
+    for k, (s, f) in enumerate(zip(sweeps.sweeps, fits, strict=True)):
+        j = s.joint - 1
+        c, nv = res["points"][j], res["directions"][j]
+        cov6 = cov[6 * j : 6 * j + 6, 6 * j : 6 * j + 6]
+        sp, sd = axis_sigmas(cov6, nv)
+        mis = res["misfit"][k]
+        radius = float(np.linalg.norm(ph - c)) if sweeps.kinds[j] == "revolute" else math.nan
+        out.append(replace(f, point=c, direction=nv, radius=radius, residuals=mis, rms=float(math.sqrt(np.mean(mis**2))), cov=cov6,
+                           sigma_point_perp=sp, sigma_direction=sd, outliers=flag_outliers(res["whitened"][k], 3, 1.0),
+                           method=label if loss == "linear" else f"{label}+{loss}", reading_sigma=res["reading_sigma"][k], noise=res["sigma"]))
+    return out
 
-    def residuals(x):
-        cs, ns, p = unpack(x)
-        out = []
-        for s in sweeps.sweeps:
-            j = s.joint - 1
-            d = s.q[:, j] - sweeps.home[j]
-            if sweeps.kinds[j] == "prismatic":
-                pred = p + np.outer(d, ns[j])
-            else:
-                pred = cs[j] + np.einsum("mij,j->mi", axis_angle_matrices(ns[j], d), p - cs[j])
-            out.append((pred - s.points).ravel())
-        return np.concatenate(out)
 
-    def misfit(x):
-        return np.linalg.norm(residuals(x).reshape(-1, 3), axis=1)
+def _with_drift(sweeps: SweepSet, res: dict) -> tuple[np.ndarray, float]:
+    """The covariance of [c_j, n_j, ..., p] of a per-sweep-home fit: the home points averaged, and the drift
+    between sweeps (the spread of the per-sweep home points, sigma_d per coordinate) added to every axis point and
+    to the home point, since a drifting robot moves its axes with it (the scatter beyond the home points' own
+    estimation error). Returns (cov, sigma_d)."""
+    homes = res["home"]
+    S = len(homes)
+    n6 = res["cov"].shape[0] - 3 * S
+    T = np.zeros((n6 + 3, n6 + 3 * S))
+    T[:n6, :n6] = np.eye(n6)
+    for k in range(S):
+        T[n6:, n6 + 3 * k : n6 + 3 * k + 3] = np.eye(3) / S
+    cov = T @ res["cov"] @ T.T
+    # the scatter of the home points beyond their own estimation error, across each sweep's motion only (along
+    # it a home point rests on the readings, whose scale errors are not white: geometry alone is trusted)
+    dev = homes - homes.mean(axis=0)
+    ss, est = 0.0, 0.0
+    for k, sweep in enumerate(sweeps.sweeps):
+        j = sweep.joint - 1
+        t = np.cross(res["directions"][j], homes[k] - res["points"][j])
+        t = t / max(np.linalg.norm(t), 1e-300) if sweeps.kinds[j] == "revolute" else res["directions"][j]
+        P = np.eye(3) - np.outer(t, t)
+        ss += float(dev[k] @ P @ dev[k])
+        est += float(np.trace(P @ res["cov"][n6 + 3 * k : n6 + 3 * k + 3, n6 + 3 * k : n6 + 3 * k + 3] @ P)) * (S - 1) / S
+    sd2 = max(ss - est, 0.0) / (2 * max(S - 1, 1))
+    for j in range(n6 // 6):
+        cov[6 * j : 6 * j + 3, 6 * j : 6 * j + 3] += sd2 * np.eye(3)
+    cov[n6:, n6:] += sd2 * np.eye(3)
+    return cov, math.sqrt(sd2)
 
-    from scipy.optimize import least_squares  # noqa: PLC0415 (scipy is loaded when a fit first needs it)
 
-    def lsq(x, w):
-        sw = np.repeat(np.sqrt(w), 3)
-        return least_squares(lambda y: residuals(y) * sw, x, method="lm", x_scale="jac", xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=200 * (4 * n + 3))
+def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: list[str], chosen: str) -> tuple[str, list, np.ndarray, np.ndarray, float]:
+    """The joint fit(s) with readings: ``chosen`` "global", or "auto" (evidence: the per-sweep fits when the
+    readings are worth nothing, else one home point or one per sweep by the AIC). Returns (method, fits, cov,
+    tool point, rms)."""
+    dqs = _motions(sweeps, notes)
+    starts = [(f.point, f.direction) for f in fits]
+    g = fit_sweeps(sweeps, dqs, starts, p_home, loss=loss, where=sweeps.source)
+    if chosen == "auto":
+        sq = [f"{math.degrees(v) * 3600:.3g}" for v in g["reading_sigma"]]
+        if np.all(g["gamma"] < READINGS_WORTHLESS):
+            notes.append(f"auto: geometric (per-sweep circles): the readings are worth nothing against the points (estimated reading error {', '.join(sq)} arcsec per sweep)")
+            return "geometric", None, None, None, math.nan
+        try:
+            d = fit_sweeps(sweeps, dqs, list(zip(g["points"], g["directions"], strict=True)), g["home"][0], loss=loss, per_sweep_home=True,
+                           gamma=g["gamma"], where=sweeps.source)
+        except NotConvergedError:  # (a home per sweep on arcs too short to hold one: the shared home it is)
+            d = None
+        k = 3 * (len(sweeps.sweeps) - 1)
+        # nested models on the same weights: the chi-square gained by a home point per sweep, less twice its parameters
+        aic = -math.inf if d is None else (g["ss_m"] - d["ss_m"]) / d["sigma"] ** 2 - 2 * k
+        if aic > 0:  # the drifting home explains more than it costs: refitted with its own weights (the shared home's
+            # tangential misfit held the drift too)
+            try:
+                d = fit_sweeps(sweeps, dqs, list(zip(d["points"], d["directions"], strict=True)), d["home"].mean(axis=0), loss=loss,
+                               per_sweep_home=True, where=sweeps.source)
+            except NotConvergedError:
+                pass  # (keep the fit on the shared home's weights)
+            cov, sd = _with_drift(sweeps, d)
+            notes.append(f"auto: readings (a home point per sweep) over global (one home point): AIC lower by {aic:.3g}; the home tool point "
+                         f"moves {sd * 1e3:.3g} mm (1 sigma per coordinate) between sweeps, added to every axis's uncertainty")
+            out = _joint_fits(sweeps, fits, d, cov, loss, "readings")
+            mis = np.concatenate(d["misfit"])
+            return "readings", out, cov, d["home"].mean(axis=0), float(math.sqrt(np.mean(mis**2)))
+        why = f"AIC lower by {-aic:.3g}" if d is not None else "a home point per sweep does not converge on these arcs"
+        notes.append(f"auto: global (one home point) over readings (a home point per sweep): {why}; estimated reading error "
+                     f"{', '.join(sq)} arcsec per sweep, point noise {g['sigma'] * 1e3:.3g} mm")
+    mis = np.concatenate(g["misfit"])
+    return "global", _joint_fits(sweeps, fits, g, g["cov"], loss, "global"), g["cov"], g["home"][0], float(math.sqrt(np.mean(mis**2)))
 
-    # a robust loss by reweighting, its scale 3 robust sigmas of the current misfits (as the per-sweep fits do)
-    x = lsq(np.concatenate([np.zeros(4 * n), p_home]), np.ones(len(sweeps.all_points))).x
-    x, w = irls(lambda st, wt: lsq(st, wt).x, misfit, x, loss, None, 3, "global fit", sweeps.source)
-    sol = lsq(x, w)
-    cs, ns, p = unpack(sol.x)
-    r = residuals(sol.x)
-    w3 = np.repeat(w, 3)
-    cov_x, _ = weighted_cov(sol.jac / np.sqrt(w3)[:, None], r, w3, len(sol.x))  # consistent with the weights
-    mis = np.linalg.norm(r.reshape(-1, 3), axis=1)
-    outliers = flag_outliers(mis, 3, rms_spread(sweeps.all_points))  # flagged on the pooled robust sigma, kept
-    # map the local parameters to [c_j, n_j] (linear at the solution: dn = B da, dc = B ds) and p
-    M = np.zeros((6 * n + 3, 4 * n + 3))
-    for j in range(n):
-        nj = ns[j]
-        P = np.eye(3) - np.outer(nj, nj)  # normalisation removes the radial part
-        M[6 * j : 6 * j + 3, 4 * j + 2 : 4 * j + 4] = B[j]
-        M[6 * j + 3 : 6 * j + 6, 4 * j : 4 * j + 2] = P @ B[j]
-    M[6 * n :, 4 * n :] = np.eye(3)
-    cov = M @ cov_x @ M.T
-    out_fits = []
-    k = 0
+
+#: A pair of consecutive identified axes whose angle or distance differs from the nominal pair's by more than this
+#: (rad; fraction of the robot's size) and ``PLAUSIBLE_SIGMAS`` of its uncertainty gets a note; when more than
+#: half of the pairs differ by more than ``IMPLAUSIBLE`` the fit is an error. Pairs are compared, not the axes
+#: themselves, so that data in another frame (a tracker's, without --base) is not suspect.
+PLAUSIBLE = (math.radians(2.0), 0.02)
+IMPLAUSIBLE = (math.radians(30.0), 0.25)
+PLAUSIBLE_SIGMAS = 5.0
+
+
+def _plausibility(ex: _core.Extraction, fits: list, nominal: Robot, home: np.ndarray, names: list[str], source: str, notes: list[str]) -> None:
+    """The identified axes against the nominal's, pair by pair (issue 16): a note naming the joints of a pair
+    whose angle or distance is far from the nominal's, in units of its uncertainty and of the robot's size; a
+    :class:`DenavitError` when most pairs are far (points in the wrong unit, swapped joints, the wrong robot)."""
+    model = nominal.model()
+    ax = _core.axes(model, home)
+    nom = _core.extract(ax, "dh").pairs
+    base = np.asarray(nominal.table.T_world_base)[:3, 3]
+    size = max(max(float(np.linalg.norm(np.asarray(p) - base)) for p in ax.points), float(np.linalg.norm(_core.fk(model, home)[:3, 3] - base)), 1e-3)
+    far = []
+    for pi, pn in zip(ex.pairs, nom, strict=True):
+        k = pi.joint - 1
+        f0, f1 = fits[k], fits[k + 1]
+        sig_a = math.hypot(*(x if np.isfinite(x) else 0.0 for x in (f0.sigma_direction, f1.sigma_direction)))
+        sig_d = math.hypot(*(x if np.isfinite(x) else 0.0 for x in (f0.sigma_point_perp, f1.sigma_point_perp)))
+        da, dd = abs(pi.angle - pn.angle), abs(pi.distance - pn.distance)
+        if (da > PLAUSIBLE[0] and da > PLAUSIBLE_SIGMAS * sig_a) or (dd > PLAUSIBLE[1] * size and dd > PLAUSIBLE_SIGMAS * sig_d):
+            notes.append(f"axes {names[k]}-{names[k + 1]}: {math.degrees(pi.angle):.4g} deg apart and {pi.distance * 1e3:.5g} mm apart, the nominal's "
+                         f"{math.degrees(pn.angle):.4g} deg and {pn.distance * 1e3:.5g} mm (off by {da / max(sig_a, 1e-300):.3g} and "
+                         f"{dd / max(sig_d, 1e-300):.3g} sigma, {dd / size:.2g} robot sizes): check the joint order, the units and the nominal")
+        far.append(da > IMPLAUSIBLE[0] or dd > IMPLAUSIBLE[1] * size)
+    if far and sum(far) > len(far) / 2:
+        raise DenavitError(f"{source}: {sum(far)} of {len(far)} pairs of consecutive axes differ from the nominal {nominal.name}'s by more than "
+                           f"{math.degrees(IMPLAUSIBLE[0]):g} deg or {IMPLAUSIBLE[1]:g} robot sizes ({IMPLAUSIBLE[1] * size * 1e3:.4g} mm): expected the same robot "
+                           "(points in another unit? joints swapped or misnumbered? the wrong robot?)")
+
+
+def _oriented_by_nominal(sweeps: SweepSet, fits: list, nominal: Robot, notes: list[str]) -> list:
+    """Without readings a sweep's direction comes from the point order; one that runs against the nominal's
+    axis direction (e.g. recorded with decreasing joint values, or listed newest-first) is turned to the
+    nominal's, with a note naming the joint."""
+    nom = _core.axes(nominal.model(), sweeps.home).directions
+    out = []
     for s, f in zip(sweeps.sweeps, fits, strict=True):
         j = s.joint - 1
-        m = len(s.points)
-        # the axis point reported is the foot of the home tool point on the axis (the circle centre)
-        c = cs[j] + ns[j] * ((p - cs[j]) @ ns[j])
-        radius = float(np.linalg.norm(p - c)) if sweeps.kinds[j] == "revolute" else math.nan
-        sig_perp = float(math.sqrt(max(np.linalg.eigvalsh(cov[6 * j : 6 * j + 3, 6 * j : 6 * j + 3])[-1], 0.0)))
-        sig_dir = float(math.sqrt(max(np.trace(cov[6 * j + 3 : 6 * j + 6, 6 * j + 3 : 6 * j + 6]), 0.0)))
-        out_fits.append(replace(f, point=c, direction=ns[j], radius=radius, residuals=mis[k : k + m], rms=float(math.sqrt(np.mean(mis[k : k + m] ** 2))),
-                                cov=cov[6 * j : 6 * j + 6, 6 * j : 6 * j + 6], sigma_point_perp=sig_perp, sigma_direction=sig_dir,
-                                outliers=outliers[k : k + m], method="global" if loss == "linear" else f"global+{loss}"))
-        k += m
-    rms = float(math.sqrt(np.mean(mis**2)))
-    return out_fits, cov, p, rms
+        if f.direction @ np.asarray(nom[j]) < 0:
+            notes.append(f"{sweep_where(s, sweeps.source)}: without readings the sweep runs against the nominal's axis {j + 1} "
+                         "(decreasing joint values, or rows newest-first?): oriented by the nominal")
+            f = flipped(f)
+        out.append(f)
+    return out
 
 
 def _nominal_table(nominal: Robot | None, convention: str, home: np.ndarray) -> _core.Table | None:
@@ -251,6 +386,15 @@ def _nominal_table(nominal: Robot | None, convention: str, home: np.ndarray) -> 
         return nominal.table
     m = nominal.model()
     return _core.extract(_core.axes(m, np.zeros(m.nq)), convention).table
+
+
+def _origins(nominal_table: _core.Table | None, convention: str, home: np.ndarray) -> np.ndarray | None:
+    """ED-H frame origins: the nominal's on-body origins at home (world points, one per axis), which the core
+    projects along each identified axis (Guo et al. sec. III: the origins are chosen on the body, not at the
+    circle centres); None without a nominal or in other conventions."""
+    if nominal_table is None or convention != "edh":
+        return None
+    return np.array(nominal_table.frames(home))[1:, :3, 3]
 
 
 def _axes_from(x: np.ndarray, sweeps: SweepSet, tool_R: np.ndarray, T_world_base: np.ndarray, lower, upper) -> _core.JointAxes:
@@ -289,11 +433,15 @@ def identify(
     parallel_tol: float = 1e-3,
     intersect_tol: float | None = None,
     max_sigma: float | None = None,
+    keep_dwell: bool = False,
     progress: Callable[[str], None] | None = None,
 ) -> Identification:
     """Identify the joint axes and the parameter table of ``convention`` from ``sweeps``.
 
-    method : "auto" (the best the data allows: "global" with joint readings, else "geometric"), "kasa" (the
+    method : "auto" (chosen by the evidence, with a note saying which and why: without readings "geometric";
+        with readings the joint fit with one home point ("global") or one per sweep ("readings": the home
+        drifted, and the drift is added to the sigmas) by the AIC of the two on the same weights, or the
+        "geometric" circles when the readings are worth nothing against the points), "kasa" (the
         paper's eq. 1-9), "hyper" (Al-Sharadqah & Chernov 2009), "geometric" (orthogonal distance),
         "readings" (per sweep, points as rotations of one rigid point by the recorded angles), "global".
     nominal : a robot of any convention; breaks sign ties, fixes free origins and the last frame
@@ -306,6 +454,9 @@ def identify(
     max_sigma : float, metres, optional
         The accuracy asked for: a sweep whose predicted axis-position uncertainty (1 sigma, across the axis)
         exceeds it is an error that names the sweep and the predicted value (e.g. an arc too short).
+    keep_dwell : keep the dwell rows in the fits. By default the rows where the motion stands still (within the
+        point noise) at the ends of a sweep are left out of the fits (they would weigh one end of the arc many
+        times over), with a note naming them; the result's ``sweeps`` are the rows fitted.
     progress : called with a short message as each stage starts (the CLI shows it).
     """
     progress = progress or (lambda _msg: None)
@@ -315,22 +466,33 @@ def identify(
     n = sweeps.n_joints
     if nominal is not None and len(nominal.names) != n:
         raise DenavitError(f"nominal model {nominal.name} has {len(nominal.names)} joints, the data has {n}")
+    notes = _locked_notes(sweeps)
+    if not keep_dwell:
+        sweeps = _drop_dwell(sweeps, notes)
+    chosen = method
     if method == "auto":
         method = "global" if sweeps.has_readings else "geometric"
-    notes = _locked_notes(sweeps)
+        if method == "geometric":
+            notes.append("auto: geometric (per-sweep circles): the data has no joint readings")
     fits = _per_sweep(sweeps, method, loss, max_sigma if method != "global" else None, progress)
     if sweeps.has_readings:
         p_home = _tool_point_from_readings(sweeps, fits)
     else:
         p_home = _tool_point_geometric(sweeps, fits)
+    cov = None
     if method == "global":
         progress(f"one fit of all {len(sweeps.sweeps)} sweeps (shared tool point)")
-        fits, cov, p_home, rms = _global_fit(sweeps, fits, p_home, loss)
-        for s, f in zip(sweeps.sweeps, fits, strict=True):
-            if max_sigma is not None and f.sigma_point_perp > max_sigma:
-                raise DegenerateError(f"{sweep_where(s, sweeps.source)}: predicted axis-position uncertainty {f.sigma_point_perp * 1e3:.3g} mm (1 sigma) "
-                                      f"exceeds the requested {max_sigma * 1e3:.3g} mm; the sweep covers {np.degrees(f.arc):.1f} deg: sweep a longer arc or measure more points")
-    else:
+        method, gfits, gcov, gp, grms = _choose(sweeps, fits, p_home, loss, notes, chosen)
+        if gfits is None:  # the readings are worthless: the per-sweep geometric circles
+            fits = _per_sweep(sweeps, method, loss, max_sigma, progress)
+            p_home = _tool_point_geometric(sweeps, fits)
+        else:
+            fits, cov, p_home, rms = gfits, gcov, gp, grms
+            for s, f in zip(sweeps.sweeps, fits, strict=True):
+                if max_sigma is not None and f.sigma_point_perp > max_sigma:
+                    raise DegenerateError(f"{sweep_where(s, sweeps.source)}: predicted axis-position uncertainty {f.sigma_point_perp * 1e3:.3g} mm (1 sigma) "
+                                          f"exceeds the requested {max_sigma * 1e3:.3g} mm; the sweep covers {np.degrees(f.arc):.1f} deg: sweep a longer arc or measure more points")
+    if cov is None:
         cov = np.zeros((6 * n + 3, 6 * n + 3))
         for j, f in enumerate(fits):
             cov[6 * j : 6 * j + 6, 6 * j : 6 * j + 6] = f.cov
@@ -348,18 +510,22 @@ def identify(
         tool_R = np.eye(3)
     lower = nominal.lower if nominal is not None else None
     upper = nominal.upper if nominal is not None else None
+    if nominal is not None and not sweeps.has_readings:
+        fits = _oriented_by_nominal(sweeps, fits, nominal, notes)
     x = np.concatenate([np.concatenate([f.point, f.direction]) for f in fits] + [p_home])
-    opts = {"parallel_tol": parallel_tol, "nominal": nominal_table}
+    opts = {"parallel_tol": parallel_tol, "nominal": nominal_table, "origins": _origins(nominal_table, convention, sweeps.home)}
     if intersect_tol is not None:
         opts["intersect_tol"] = intersect_tol
     ax = _axes_from(x, sweeps, tool_R, base, lower, upper)
     ex = _core.extract(ax, convention, **opts)
+    if nominal is not None:
+        _plausibility(ex, fits, nominal, sweeps.home, nominal.names, sweeps.source, notes)
     angle_cols = np.array(ex.table.angle_columns)
     p_ref = ex.table.params
 
     def params_of(xv):
         a = _axes_from(xv, sweeps, tool_R, base, lower, upper)
-        p = _core.extract(a, convention, **opts).table.params
+        p = _core.extract(a, convention, fidelity=False, **opts).table.params  # the tool-error check: once, above
         d = p - p_ref
         d[:, angle_cols] = (d[:, angle_cols] + np.pi) % (2 * np.pi) - np.pi
         return (p_ref + d).ravel()
@@ -402,6 +568,7 @@ def to_json(result: Identification, length: str | None = None, angle: str = "deg
             "residuals": {"rms": f.rms / ls, "max": float(np.max(np.abs(f.residuals))) / ls, "n_points": int(f.n_points),
                           "outliers": [int(k) for k in np.flatnonzero(f.outliers)], "per_point": (np.asarray(f.residuals) / ls).tolist()},
             "arc_deg": math.degrees(f.arc),
+            "reading_sigma_deg": math.degrees(f.reading_sigma) if np.isfinite(f.reading_sigma) else None,
         })
     return {
         "units": {"length": length, "angle": angle},

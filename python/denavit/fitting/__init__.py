@@ -18,8 +18,13 @@ Methods
 ``fit_circle_geometric``
     Orthogonal-distance (maximum-likelihood for isotropic Gaussian noise) 3-D circle, started from the hyper fit.
 ``fit_axis_with_readings``
-    Uses the recorded joint angles: the points are rotations of one rigid point about the axis by the readings.
-    Much better than any circle fit on short arcs, because the angles tie down the radius.
+    Uses the recorded joint angles: the points are rotations of one rigid point about the axis by the readings,
+    weighted by what the readings are worth (their error is estimated: errors-in-variables). Much better than any
+    circle fit on short arcs when the readings are good, because the angles tie down the radius; the geometric
+    circle when they are not.
+:func:`~denavit.fitting.joint.fit_sweeps`
+    All sweeps in one fit (one line per joint, one home point, or one per sweep), the global fit of
+    :func:`denavit.identify.identify`.
 ``fit_line``
     Total-least-squares line for prismatic joints.
 ``fit_axis``
@@ -53,6 +58,7 @@ Modules
 -------
 :mod:`~denavit.fitting.circle` (Kasa, hyper, geometric), :mod:`~denavit.fitting.readings` (with joint readings),
 :mod:`~denavit.fitting.line` (prismatic axes), :mod:`~denavit.fitting.axis` (dispatch),
+:mod:`~denavit.fitting.joint` (all sweeps in one fit),
 :mod:`~denavit.fitting.robust` (robust sigma, outliers, IRLS, weighted covariance),
 :mod:`~denavit.fitting.box` (bounding box), :mod:`~denavit.fitting.result` (:class:`AxisFit`),
 :mod:`~denavit.fitting.checks` (input checks).

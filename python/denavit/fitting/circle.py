@@ -14,7 +14,7 @@ from ..errors import DegenerateError, NotConvergedError
 from ..geometry import perpendicular_basis
 from .checks import check_loss, check_points, check_positive, prefix
 from .result import AxisFit, axis_sigmas, check_sigma
-from .robust import cov_from_jacobian, flag_outliers, irls, rms_spread
+from .robust import CHI_4SIGMA, cov_from_jacobian, flag_outliers, irls, rms_spread, robust_sigma
 
 #: sigma_2 / sigma_1 of the centred points below this means "collinear" for a circle fit.
 COLLINEAR_TOL = 1e-9
@@ -102,7 +102,7 @@ def _circle_jacobian(p, centre, n, r, g):
     return np.vstack([jh, jg])
 
 
-def _circle_result(p, centre, n, r, method, weights, noise_sigma, where) -> AxisFit:
+def _circle_result(p, centre, n, r, method, weights, noise_sigma, where, outliers) -> AxisFit:
     """Assemble an AxisFit for a circle (centre, unit normal n, radius r), with orientation and covariance.
 
     The normal is oriented so that the points, in their given order, turn counter-clockwise about it (net signed
@@ -123,7 +123,7 @@ def _circle_result(p, centre, n, r, method, weights, noise_sigma, where) -> Axis
     sp, sd = axis_sigmas(cov6, n)
     return AxisFit(
         point=centre, direction=n, radius=float(r), residuals=e, rms=float(np.sqrt(np.mean(e**2))), cov=cov6,
-        sigma_point_perp=sp, sigma_direction=sd, method=method, outliers=flag_outliers(e, 2, rms_spread(p)),
+        sigma_point_perp=sp, sigma_direction=sd, method=method, outliers=outliers,
         n_points=p.shape[0], arc=arc_span(phi),
     )
 
@@ -147,7 +147,7 @@ def _hyper_2d(xy, what, where):
     x, y = x / scale, y / scale
     z = x**2 + y**2
     zxy1 = np.column_stack([z, x, y, np.ones_like(x)])
-    _, s, vt = np.linalg.svd(zxy1)
+    _, s, vt = np.linalg.svd(zxy1, full_matrices=len(zxy1) < 4)  # (m, 4): never the (m, m) factor (but 4 rows of vt)
     if len(s) < 4 or s[3] < 1e-12 * s[0]:  # singular case: the points lie exactly on a circle (always for m = 3)
         coef = vt[3]
     else:
@@ -176,6 +176,41 @@ def plane_circle(p, algo, what, where, length: float = 1.0):
     centroid, v, _, xy = _plane(p, what, where, length)
     c1, c2, r = _kasa_2d(xy) if algo == "kasa" else _hyper_2d(xy, what, where)
     return centroid + c1 * v[:, 0] + c2 * v[:, 1], v[:, 2].copy(), r
+
+
+def robust_circle(p, what, where, length: float = 1.0):
+    """(centre, unit normal, radius, inliers (m,) bool) of a trimmed hyper circle: the hyper circle of the points
+    within ``CHI_4SIGMA[2]`` robust sigmas of the previous one, repeated until that set settles (concentration
+    steps, as least trimmed squares; at most 20), started from the best (smallest median misfit) of the hyper
+    circles of all points, of the even and of the odd rows: one blunder as large as the arc moves the plain hyper
+    circle so far that neither the robust reweighting nor the outlier flags can recover, and one of the halves
+    does not hold it.
+    """
+    m = len(p)
+    floor = 1e-12 * rms_spread(p)
+    best = None
+    for rows in (slice(None), slice(0, None, 2), slice(1, None, 2)):
+        if len(p[rows]) < 3:
+            continue
+        try:
+            cand = plane_circle(p[rows], "hyper", what, where, length)
+        except DegenerateError:
+            if best is None and rows == slice(None):
+                raise
+            continue
+        score = float(np.median(np.abs(circle_misfit(p, *cand)[0])))
+        if best is None or score < best[0]:
+            best = (score, cand)
+    c, n, r = best[1]
+    inl = np.ones(m, dtype=bool)
+    for _ in range(20):
+        e = circle_misfit(p, c, n, r)[0]
+        new = np.abs(e) <= CHI_4SIGMA[2] * max(robust_sigma(e, 2), floor)
+        if new.sum() < max(3, m // 2) or (new == inl).all():
+            break
+        inl = new
+        c, n, r = plane_circle(p[inl], "hyper", what, where, length)
+    return c, n, r, inl
 
 
 def fit_circle_kasa(points, *, max_sigma_point=None, noise_sigma=None, where: str = "") -> AxisFit:
@@ -211,7 +246,7 @@ def fit_circle_kasa(points, *, max_sigma_point=None, noise_sigma=None, where: st
     check_positive("noise_sigma", noise_sigma, where)
     p = check_points(points, 3, "circle fit", where)
     centre, n, r = plane_circle(p, "kasa", "circle fit", where)
-    fit = _circle_result(p, centre, n, r, "kasa", np.ones(len(p)), noise_sigma, where)
+    fit = _circle_result(p, centre, n, r, "kasa", np.ones(len(p)), noise_sigma, where, ~robust_circle(p, "circle fit", where)[3])
     return check_sigma(fit, max_sigma_point, where)
 
 
@@ -243,7 +278,7 @@ def fit_circle_hyper(points, *, max_sigma_point=None, noise_sigma=None, where: s
     check_positive("noise_sigma", noise_sigma, where)
     p = check_points(points, 3, "circle fit", where)
     centre, n, r = plane_circle(p, "hyper", "circle fit", where)
-    fit = _circle_result(p, centre, n, r, "hyper", np.ones(len(p)), noise_sigma, where)
+    fit = _circle_result(p, centre, n, r, "hyper", np.ones(len(p)), noise_sigma, where, ~robust_circle(p, "circle fit", where)[3])
     return check_sigma(fit, max_sigma_point, where)
 
 
@@ -305,7 +340,7 @@ def _geometric(p, loss, f_scale, noise_sigma, what, where) -> AxisFit:
     origin = p.mean(axis=0)
     length = rms_spread(p)
     pn = (p - origin) / length  # normalised coordinates: O(1) parameters
-    state = plane_circle(pn, "hyper", what, where, length)
+    *state, inliers = robust_circle(pn, what, where, length)
 
     def solve(st, w):
         c0, n0, r0 = st
@@ -331,8 +366,10 @@ def _geometric(p, loss, f_scale, noise_sigma, what, where) -> AxisFit:
     def misfit(st):
         return circle_misfit(pn, *st)[0]
 
-    state = solve(state, np.ones(len(pn)))
-    state, w = irls(solve, misfit, state, loss, f_scale, 2, f"geometric {what}", where)
+    w0 = np.ones(len(pn)) if loss == "linear" else inliers.astype(float) + 1e-6 * ~inliers  # robust: start from the inliers
+    state = solve(tuple(state), w0)
+    state, w = irls(solve, misfit, state, loss, f_scale if f_scale is None else f_scale / length, 2, f"geometric {what}", where)
     c, n, r = state
     method = "geometric" if loss == "linear" else f"geometric+{loss}"
-    return _circle_result(p, origin + length * c, n, r * length, method, w, noise_sigma, where)
+    flags = ~inliers if loss == "linear" else flag_outliers(misfit(state), 2, 1.0)
+    return _circle_result(p, origin + length * c, n, r * length, method, w, noise_sigma, where, flags)

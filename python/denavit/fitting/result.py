@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -72,6 +72,8 @@ class AxisFit:
     n_points: int
     arc: float
     scale: float = math.nan
+    reading_sigma: float = math.nan
+    noise: float = math.nan
 
     def __post_init__(self):
         for name in ("point", "direction", "residuals", "cov", "outliers"):
@@ -107,8 +109,4 @@ def check_sigma(fit: AxisFit, max_sigma_point, where: str) -> AxisFit:
 def flipped(fit: AxisFit) -> AxisFit:
     """The same fit with the direction reversed (covariance cross terms change sign)."""
     f = np.diag([1, 1, 1, -1, -1, -1.0])
-    return AxisFit(
-        point=fit.point, direction=-fit.direction, radius=fit.radius, residuals=fit.residuals, rms=fit.rms,
-        cov=f @ fit.cov @ f, sigma_point_perp=fit.sigma_point_perp, sigma_direction=fit.sigma_direction,
-        method=fit.method, outliers=fit.outliers, n_points=fit.n_points, arc=fit.arc, scale=fit.scale,
-    )
+    return replace(fit, direction=-fit.direction, cov=f @ fit.cov @ f)

@@ -70,24 +70,28 @@ def weighted_cov(j: np.ndarray, r: np.ndarray, w: np.ndarray, n_params: int, noi
 
     ``j`` (n_res, k) and ``r`` (n_res,) are the unweighted Jacobian and residuals at the solution, ``w`` (n_res,)
     the final weights (all 1 without a robust loss). Weighted least squares with these weights has
-    ``cov = s^2 A^+ (J^T W^2 J) A^+``, ``A = J^T W J`` (pseudo-inverse ``A^+``); ``s^2 = noise_sigma^2``, or
+    ``cov = s^2 A^+ (J^T W^2 J) A^+``, ``A = J^T W J`` (pseudo-inverse ``A^+``), with the misfit variance
     ``sum((w r)^2) / (sum(w^2) - n_params)``: the weighted residuals ``w r`` stay bounded (at most ``f_scale``) for
     down-weighted outliers, so an outlier does not inflate the sigmas. Without a robust loss this is the usual
-    ``SSR / (n_res - n_params) (J^T J)^-1``.
+    ``SSR / (n_res - n_params) (J^T J)^-1``. A declared ``noise_sigma`` is a floor, not a replacement:
+    ``s^2 = max(noise_sigma^2, misfit variance)``, so that misfit beyond the declared noise (lack of fit)
+    inflates the sigmas instead of being hidden.
     """
-    psi = w * r
-    dof = float(np.sum(w**2)) - n_params
-    if noise_sigma is not None:
-        s2 = float(noise_sigma) ** 2
-    elif dof > 0:
-        s2 = float(psi @ psi) / dof
-    else:
-        s2 = math.nan
+    s2 = misfit_variance(w * r, float(np.sum(w**2)) - n_params, noise_sigma)
     _, sv, vt = np.linalg.svd(j * np.sqrt(w)[:, None], full_matrices=False)
     inv = np.where(sv > 1e-13 * sv[0], 1.0 / np.maximum(sv, 1e-300) ** 2, 0.0)
     a_inv = (vt.T * inv) @ vt
     jw = j * w[:, None]
     return s2 * a_inv @ (jw.T @ jw) @ a_inv, sv
+
+
+def misfit_variance(psi: np.ndarray, dof: float, noise_sigma=None) -> float:
+    """The variance factor of a covariance: ``psi @ psi / dof`` (nan without redundancy), floored at a declared
+    ``noise_sigma^2`` (which alone is used when there is no redundancy)."""
+    est = float(psi @ psi) / dof if dof > 0 else math.nan
+    if noise_sigma is None:
+        return est
+    return max(float(noise_sigma) ** 2, est) if math.isfinite(est) else float(noise_sigma) ** 2
 
 
 def cov_from_jacobian(j: np.ndarray, r: np.ndarray, w: np.ndarray, n_params: int, noise_sigma, what: str, where: str):
