@@ -352,6 +352,8 @@ def _plausibility(ex: _core.Extraction, fits: list, nominal: Robot, home: np.nda
         sig_a = math.hypot(*(x if np.isfinite(x) else 0.0 for x in (f0.sigma_direction, f1.sigma_direction)))
         sig_d = math.hypot(*(x if np.isfinite(x) else 0.0 for x in (f0.sigma_point_perp, f1.sigma_point_perp)))
         da, dd = abs(pi.angle - pn.angle), abs(pi.distance - pn.distance)
+        if "prismatic" in (model.kinds[k], model.kinds[k + 1]):
+            dd = 0.0  # a prismatic axis is a direction: where its line lies is a convention, not a measurement
         if (da > PLAUSIBLE[0] and da > PLAUSIBLE_SIGMAS * sig_a) or (dd > PLAUSIBLE[1] * size and dd > PLAUSIBLE_SIGMAS * sig_d):
             notes.append(f"axes {names[k]}-{names[k + 1]}: {math.degrees(pi.angle):.4g} deg apart and {pi.distance * 1e3:.5g} mm apart, the nominal's "
                          f"{math.degrees(pn.angle):.4g} deg and {pn.distance * 1e3:.5g} mm (off by {da / max(sig_a, 1e-300):.3g} and "

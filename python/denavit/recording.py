@@ -312,21 +312,30 @@ def _refine(points: Recording, readings: Recording, al: Alignment, drift: bool |
         rows = np.linspace(s.start, s.stop - 1, min(max_rows, s.stop - s.start)).astype(int)
         t, p = merged.time[rows], merged.points[rows].mean(axis=1)
 
-        def misfit(tau, t=t, p=p, j=s.joint - 1):
+        def fit(tau, t=t, p=p, j=s.joint - 1):
             tt = al.readings_time(t) - al.offset + tau
             inside = (tt >= readings.time[0]) & (tt <= readings.time[-1])
             try:
-                return fit_axis_with_readings(p[inside], spline(tt[inside])[:, j]).rms
+                return fit_axis_with_readings(p[inside], spline(tt[inside])[:, j])
             except DenavitError:
-                return 1.0  # no fit: far worse than any misfit (m)
+                return None
+
+        def misfit(tau):
+            # the readings' error the fit estimates (a lag shows up as reading error along the motion), as the
+            # tangential misfit it causes (m); the fit weighs readings by what they are worth, so its rms alone
+            # would flatten as the lag grows
+            f = fit(tau)
+            return 1.0 if f is None or not np.isfinite(f.reading_sigma) else float(f.reading_sigma * f.radius)
 
         res = minimize_scalar(misfit, bounds=(al.offset - 2 * dt, al.offset + 2 * dt), method="bounded", options={"xatol": 1e-6})
         if res.fun < 1.0:
-            # precision of this lag: misfit per point over the point's speed, sqrt(m) points
+            # precision of this lag: the tangential misfit per point over the point's speed, sqrt(m) points
             v = np.linalg.norm(np.gradient(p, t, axis=0), axis=1)
             centres.append(float(t.mean()))
             taus.append(float(res.x))
-            sig.append(max(float(res.fun), 1e-12) / (math.sqrt(float(np.mean(v**2))) * math.sqrt(len(t))))
+            best = fit(res.x)
+            floor = best.noise if best is not None and np.isfinite(best.noise) else 1e-12
+            sig.append(max(float(res.fun), float(floor), 1e-12) / (math.sqrt(float(np.mean(v**2))) * math.sqrt(len(t))))
     if len(taus) < 2:
         return al
     centres, taus, w = np.array(centres), np.array(taus), 1.0 / np.array(sig) ** 2
