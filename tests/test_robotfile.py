@@ -145,3 +145,15 @@ def test_a_stray_top_level_key_is_an_error_and_extension_tables_are_kept(tmp_pat
     g = tmp_path / "ext.toml"
     g.write_text(text + '\n[vendor]\nserial = "A123"\n')
     assert dv.load_robot(g).extra == {"vendor": {"serial": "A123"}}
+
+
+def test_numbers_are_numbers(tmp_path):
+    """A string that looks like a number, a boolean or a 400-digit integer is not a parameter (found by the fuzz
+    suite: OverflowError; "1" and true had been read as 1)."""
+    text = robotfile_text = (__import__("pathlib").Path(dv.__file__).parent / "models" / "kr5.toml").read_text()
+    for bad in ('"400"', "true", "9" * 400):
+        f = tmp_path / "bad.toml"
+        f.write_text(robotfile_text.replace("d = 400", f"d = {bad}", 1))
+        assert f.read_text() != text
+        with pytest.raises(dv.DenavitError, match=r"joint 1 \(line \d+\): parameter d must be a number"):
+            dv.load_robot(f)

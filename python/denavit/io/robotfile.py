@@ -103,13 +103,8 @@ def _inertia(spec, jw: str, units: dict | None, where: str, ls: float) -> tuple[
         raise DenavitError(f"{where}: [units] must declare 'mass' and 'inertia' (e.g. mass = \"kg\", inertia = \"kg m^2\") when a joint gives an inertia")
     ms = mass_scale(units["mass"], f"{where}, [units] mass")
     iscale = inertia_scale(units["inertia"], f"{where}, [units] inertia")
-    try:
-        vals = {k: float(spec.get(k, 0.0)) for k in INERTIA_KEYS if k != "com"}
-        com = [float(c) for c in spec["com"]]
-    except (TypeError, ValueError):
-        raise DenavitError(f"{jw}: inertia: mass, ixx ... iyz must be numbers and com three numbers, got {spec!r}") from None
-    if len(com) != 3:
-        raise DenavitError(f"{jw}: inertia: com needs 3 values, got {len(com)}")
+    vals = {k: _number(spec.get(k, 0.0), f"{jw}: inertia: {k}") for k in INERTIA_KEYS if k != "com"}
+    com = _numbers(spec["com"], 3, f"{jw}: inertia: com")
     bad = [k for k, v in vals.items() if not math.isfinite(v)] + (["com"] if not all(map(math.isfinite, com)) else [])
     if bad:
         raise DenavitError(f"{jw}: inertia: {', '.join(bad)} must be finite")
@@ -173,10 +168,7 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
                 raise DenavitError(f"{jw}: missing parameter(s) {', '.join(missing)} of a {conv} table (columns {', '.join(cols)})")
             row = []
             for c in cols:
-                try:
-                    val = float(j[c])
-                except (TypeError, ValueError):
-                    raise DenavitError(f"{jw}: parameter {c} must be a number, got {j[c]!r}") from None
+                val = _number(j[c], f"{jw}: parameter {c}")
                 if not math.isfinite(val):
                     raise DenavitError(f"{jw}: parameter {c} must be finite, got {val}")
                 row.append(val)
@@ -234,12 +226,23 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
     )
 
 
+def _number(value, where: str) -> float:
+    """A TOML number as a float: an integer or a float, not a boolean nor a string that looks like a number,
+    and not an integer too large for a float."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise DenavitError(f"{where} must be a number, got {str(value)[:60]!r}")
+    try:
+        return float(value)
+    except OverflowError:
+        raise DenavitError(f"{where} must be a number of float range, got an integer of {len(str(value))} digits") from None
+
+
 def _numbers(value, n: int, where: str, finite: bool = True) -> list[float]:
     """``n`` numbers (TOML integers or floats; not booleans, not strings), finite unless ``finite`` is False
     (limits: a continuous joint's are -inf, inf)."""
     if not isinstance(value, list) or len(value) != n or any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in value):
         raise DenavitError(f"{where}: expected a list of {n} numbers, got {str(value)[:60]}")
-    out = [float(v) for v in value]
+    out = [_number(v, where) for v in value]
     if any(math.isnan(v) or (finite and math.isinf(v)) for v in out):
         raise DenavitError(f"{where}: expected finite numbers, got {out}")
     return out

@@ -137,7 +137,7 @@ def loads(text: str, where: str = "kinematics file") -> np.ndarray:
         if not isinstance(block, dict) or any(k not in block for k in keys):
             raise DenavitError(f"{where}: kinematics.{name}: expected x, y, z, roll, pitch, yaw, got {block!r}"[:300])
         vals = [block[k] for k in keys]
-        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) for v in vals):
+        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and abs(v) < 1e300 and np.isfinite(float(v)) for v in vals):
             raise DenavitError(f"{where}: kinematics.{name}: x, y, z, roll, pitch, yaw must be finite numbers, got {vals!r}"[:300])
         out[i] = xyz_rpy_pose(vals[:3], vals[3:])
     return out
