@@ -259,11 +259,11 @@ def _read(path: str | os.PathLike) -> tuple[yourdfpy.URDF, _Where]:
         tree = etree.parse(str(path), parser)
     except etree.XMLSyntaxError as e:
         line, col = (e.position if e.position else (e.lineno, 0))
-        raise DenavitError(f"{path}: malformed XML at line {line}, column {col}: {e.msg}") from None
+        raise DenavitError(f"{path}: malformed XML at line {line}, column {col}: {' '.join(e.msg.split())}") from None
     fatal = [e for e in parser.error_log if e.level >= etree.ErrorLevels.ERROR and e.domain != etree.ErrorDomains.NAMESPACE]
     if fatal or tree.getroot() is None:
         e = fatal[0] if fatal else None
-        raise DenavitError(f"{path}: malformed XML at line {e.line if e else 1}, column {e.column if e else 0}: {e.message if e else 'no root element'}")
+        raise DenavitError(f"{path}: malformed XML at line {e.line if e else 1}, column {e.column if e else 0}: {' '.join(e.message.split()) if e else 'no root element'}")
     where = _precheck(path, tree.getroot())
     import logging  # noqa: PLC0415
 
