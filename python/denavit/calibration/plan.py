@@ -3,7 +3,6 @@ parameter (the Cramér-Rao bound at the nominal model) and of every axis, and D-
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -17,6 +16,7 @@ from ..fitting import (
     fit_line,
     oriented_bounding_box,
 )
+from ..fitting.result import axis_sigmas
 from ..sweeps import PAPER_HOME_DEG, PAPER_RANGES_DEG
 from .identifiability import Identifiability, analyze, rank_reveal
 from .least_squares import covariance, residuals, weights
@@ -221,10 +221,8 @@ def _axis_sigma(pz: Parametrization, x, free: list, cov: np.ndarray, q_ref) -> n
         D[:, k] = np.hstack([cp - cm, zp - zm]).ravel() / (2 * h)
     C = D @ cov @ D.T
     out = np.zeros((n, 2))
-    for j in range(n):
-        P = np.eye(3) - np.outer(base_z[j], base_z[j])
-        out[j, 0] = math.sqrt(max(np.trace(P @ C[6 * j : 6 * j + 3, 6 * j : 6 * j + 3] @ P), 0.0))
-        out[j, 1] = math.sqrt(max(np.trace(C[6 * j + 3 : 6 * j + 6, 6 * j + 3 : 6 * j + 6]), 0.0))
+    for j in range(n):  # the documented formula, one function for every fit and the plan
+        out[j] = axis_sigmas(C[6 * j : 6 * j + 6, 6 * j : 6 * j + 6], base_z[j])
     return out
 
 
