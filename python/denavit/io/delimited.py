@@ -18,9 +18,9 @@ def number(text: str, where: str, column: str) -> float:
         v = float(text)
     except ValueError:
         hint = " (a decimal comma? write numbers with a decimal point)" if re.fullmatch(r"[-+]?\d+,\d+", text) else ""
-        raise DenavitError(f"{where}: column {column!r} must be a number, got {text!r}{hint}") from None
+        raise DenavitError(f"{where}: column {column!r} must be a number, got {text[:40]!r}{hint}") from None
     if not math.isfinite(v):
-        raise DenavitError(f"{where}: column {column!r} must be finite, got {text!r}")
+        raise DenavitError(f"{where}: column {column!r} must be finite, got {text[:40]!r}")
     return v
 
 

@@ -17,7 +17,6 @@ Column map: comma-separated names, ``a..b`` ranges of numbered names (``q1..q6``
 
 from __future__ import annotations
 
-import math
 import os
 import re
 from pathlib import Path
@@ -25,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import DenavitError
+from ..delimited import number
 from ..text import read_text
 from ..units import input_units, joint_scale, length_scale, parse_declaration, time_scale
 
@@ -63,15 +63,7 @@ def numbers(rows: list[tuple[int, list[str]]], cols: list[int], names: list[str]
     out = np.empty((len(rows), len(cols)))
     for r, (ln, cells) in enumerate(rows):
         for c, (k, name) in enumerate(zip(cols, names)):
-            text = cells[k]
-            try:
-                v = float(text)
-            except ValueError:
-                hint = " (a decimal comma? write numbers with a decimal point)" if re.fullmatch(r"[-+]?\d+,\d+", text) else ""
-                raise DenavitError(f"{path}:{ln}: column {name!r} must be a number, got {text[:40]!r}{hint}") from None
-            if not math.isfinite(v):
-                raise DenavitError(f"{path}:{ln}: column {name!r} must be finite, got {text[:40]!r}")
-            out[r, c] = v
+            out[r, c] = number(cells[k], f"{path}:{ln}", name)
     return out
 
 
