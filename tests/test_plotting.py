@@ -142,6 +142,7 @@ def test_origin_paths_are_circles_about_the_moving_axis():
 
 
 def test_parameters_errorbars_are_identified_minus_nominal(result):
+    """Every determined parameter is drawn at its joint with its one-sigma bar; the held ones (sigma 0) are not."""
     fig = plotting.plot_parameters(result)
     axes = by_gid(fig.axes, "param-.*")
     assert [a.get_gid() for a in axes] == ["param-d", "param-theta", "param-a", "param-alpha"]
@@ -149,9 +150,11 @@ def test_parameters_errorbars_are_identified_minus_nominal(result):
     for k, ax in enumerate(axes):
         (eb,) = ax.containers
         scale = np.radians(1) if result.table.angle_columns[k] else MM
-        np.testing.assert_allclose(eb.lines[0].get_ydata() * scale, result.table.params[:, k] - truth[:, k], atol=1e-12)
+        drawn = np.flatnonzero(result.sigma[:, k] > 0)
+        np.testing.assert_array_equal(eb.lines[0].get_xdata(), drawn + 1)
+        np.testing.assert_allclose(eb.lines[0].get_ydata() * scale, result.table.params[drawn, k] - truth[drawn, k], atol=1e-12)
         segs = eb.lines[2][0].get_segments()  # vertical bars: +-sigma
-        np.testing.assert_allclose([(s[1, 1] - s[0, 1]) / 2 * scale for s in segs], result.sigma[:, k], atol=1e-12)
+        np.testing.assert_allclose([(s[1, 1] - s[0, 1]) / 2 * scale for s in segs], result.sigma[drawn, k], atol=1e-12)
 
 
 def test_write_figures_writes_every_figure(result, tmp_path):

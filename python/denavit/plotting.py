@@ -26,7 +26,7 @@ Figures after the papers:
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -98,6 +98,97 @@ def scene_size(points: np.ndarray) -> float:
     return max(float(np.max(np.ptp(p, axis=0))), 1e-3)
 
 
+def scene_view(points, *, min_ratio: float = 0.5, pad: float = 0.06, direction=(1.25, -1.0, 0.75)) -> dict:
+    """Axis ranges, aspect ratio and camera of a 3-D view that frames ``points`` (any length unit, (m, 3)).
+
+    The scale is the same on the three axes (circles stay round), but no axis is drawn shorter than
+    ``min_ratio`` of the longest (a tall robot keeps a readable x axis: ticks and title not squashed), and the
+    ranges are padded by ``pad`` of the half-extent on each side. The camera looks at the centre from
+    ``direction`` (plotly's scene coordinates, where the box is ``aspectratio`` wide), as far as needed for
+    the box's bounding sphere to fit plotly's 45 degree vertical field of view with 5 % to spare.
+
+    Returns ``{"ranges": (3, 2), "aspectratio": (3,) (largest 1), "eye": (3,), "center": (3,)}``.
+    """
+    p = np.asarray(points, dtype=float).reshape(-1, 3)
+    p = p[np.all(np.isfinite(p), axis=1)]
+    if not len(p):
+        raise DenavitError("scene_view: expected at least one finite point, got none")
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    centre, span = (lo + hi) / 2, hi - lo
+    half = np.maximum(span, min_ratio * max(float(span.max()), 1e-9)) / 2 * (1 + pad)
+    aspect = half / half.max()
+    radius = float(np.linalg.norm(aspect)) / 2  # plotly draws the scene box aspectratio units wide, centred on 0
+    d = np.asarray(direction, dtype=float)
+    eye = d / np.linalg.norm(d) * 1.05 * radius / math.sin(math.radians(22.5))
+    return {"ranges": np.stack([centre - half, centre + half], axis=1), "aspectratio": aspect, "eye": eye, "center": np.zeros(3)}
+
+
+def clusters(points, tol: float) -> list[list[int]]:
+    """Indices of ``points`` grouped by proximity: each point joins the first group whose first point lies
+    within ``tol`` (same unit), else starts a new one. Used to merge the labels of coincident frames
+    ("4,5,6" once, not three labels on top of each other) and to tell their triads apart."""
+    p = np.asarray(points, dtype=float).reshape(-1, 3)
+    groups: list[list[int]] = []
+    for i, x in enumerate(p):
+        for g in groups:
+            if float(np.linalg.norm(p[g[0]] - x)) <= tol:
+                g.append(i)
+                break
+        else:
+            groups.append([i])
+    return groups
+
+
+def triad_lengths(origins, size: float, tol: float | None = None) -> np.ndarray:
+    """(n,) length of each frame's drawn axes: ``size``, shortened to 70 %, 49 %, ... for the second, third...
+    frame at the same place (within ``tol``, default 2 % of ``size``), so that coincident wrist frames stay
+    visible inside each other instead of the last one hiding the others."""
+    o = np.asarray(origins, dtype=float).reshape(-1, 3)
+    out = np.full(len(o), float(size))
+    for g in clusters(o, 0.02 * size if tol is None else tol):
+        out[g] = size * 0.7 ** np.arange(len(g))
+    return out
+
+
+def frame_labels(origins, tol: float) -> list[tuple[int, str]]:
+    """(index of the first frame, label) per group of frame origins within ``tol``: "4,5,6" for coincident
+    frames 4, 5 and 6, "2" for a frame on its own."""
+    return [(g[0], ",".join(str(i) for i in g)) for g in clusters(origins, tol)]
+
+
+def chain_path(table: _core.Table, q) -> np.ndarray:
+    """(m, 3) the robot drawn along its chain: from frame 0 to frame n through the points between each link's
+    elementary translations (docs/conventions.md), so that every segment follows a frame axis.
+
+    * ``dh``: frame i-1 -> along z_{i-1} by d_i -> along x_i by a_i -> frame i;
+    * ``mdh``: frame i-1 -> along x_{i-1} by a_{i-1} -> along z_i by d_i -> frame i;
+    * ``edh``: frame i-1 -> along x_{i-1} by a -> along y' by b -> along z_i by c -> frame i (Guo et al. eq. 1-2,
+      ``y'`` the y axis after ``Rx(alpha)``), instead of a diagonal between two points of the axes;
+    * ``poe``: straight segments between the joint frames (the screws carry no link geometry).
+
+    Consecutive repeated points (a zero length) are dropped. Metres, frame ``world``.
+    """
+    F = table.frames(np.asarray(q, dtype=float))
+    conv, cols, P = table.convention, list(table.columns), table.params
+    pts = [F[0, :3, 3]]
+    for i in range(1, len(F)):
+        A, B, row = F[i - 1], F[i], P[i - 1]
+        if conv == "dh":
+            mid = [B[:3, 3] - row[cols.index("a")] * B[:3, 0]]
+        elif conv == "mdh":
+            mid = [A[:3, 3] + row[cols.index("a")] * A[:3, 0]]
+        elif conv == "edh":
+            al = row[cols.index("alpha")]
+            p1 = A[:3, 3] + row[cols.index("a")] * A[:3, 0]
+            mid = [p1, p1 + row[cols.index("b")] * (A[:3, :3] @ np.array([0.0, math.cos(al), math.sin(al)]))]
+        else:
+            mid = []
+        for x in [*mid, B[:3, 3]]:
+            if float(np.linalg.norm(x - pts[-1])) > 1e-12:
+                pts.append(x)
+    return np.array(pts)
+
+
 def frames_along(table: _core.Table, q0, joint: int, values) -> np.ndarray:
     """(m, n+1, 4, 4): ``table.frames(q)`` for q = q0 with joint ``joint`` (1-based) set to each of ``values``."""
     q0 = np.asarray(q0, dtype=float)
@@ -154,7 +245,7 @@ def _equal_3d(ax, points: np.ndarray) -> None:
     ax.set_xlim(c[0] - r, c[0] + r)
     ax.set_ylim(c[1] - r, c[1] + r)
     ax.set_zlim(c[2] - r, c[2] + r)
-    ax.set_box_aspect((1, 1, 1))
+    ax.set_box_aspect((1, 1, 1), zoom=0.86)  # room for the z label inside the figure (it was clipped on the right)
 
 
 def _labels_3d(ax, length: str) -> None:
@@ -237,7 +328,7 @@ def plot_residuals(result: Identification, *, length: str = "mm") -> Figure:
         r = np.asarray(f.residuals) / ls
         idx = np.arange(len(r))
         ax.axhline(0.0, color="0.6", lw=0.8)
-        ax.plot(idx, r, "o-", color=joint_colour(s.joint - 1), ms=3, lw=0.8)
+        ax.plot(idx, r, "o", color=joint_colour(s.joint - 1), ms=3, ls="none")  # one distance per point: not a curve
         if np.any(f.outliers):
             ax.plot(idx[f.outliers], r[f.outliers], "x", color="red", ms=8, mew=2)
         ax.set_title(f"{names[s.joint - 1]}: rms {f.rms / ls:.3g} {length}, arc {math.degrees(f.arc):.0f} deg", fontsize=9)
@@ -290,17 +381,24 @@ def _label(label: str, table: _core.Table) -> str:
     return label if table.convention in label.lower() else f"{label} ({table.convention})"
 
 
-def _draw_frames(ax, F: np.ndarray, ls: float, size: float, *, alpha: float = 1.0, labels: bool = True) -> None:
-    o = F[:, :3, 3] / ls
-    (sk,) = ax.plot(*o.T, "-", color="0.35", lw=2.0, alpha=0.6 * alpha, marker="o", ms=3)
+def _draw_frames(ax, F: np.ndarray, ls: float, size: float, *, alpha: float = 1.0, labels: bool = True, table: _core.Table | None = None, q=None) -> None:
+    """The skeleton (Line3D ``skeleton``: :func:`chain_path` when ``table`` and ``q`` are given, else straight
+    between the origins) and a triad per frame (coincident frames shorter, :func:`triad_lengths`), one label
+    per group of coincident origins (:func:`frame_labels`)."""
+    o = F[:, :3, 3]
+    path = chain_path(table, q) if table is not None else o
+    (sk,) = ax.plot(*(path / ls).T, "-", color="0.35", lw=2.0, alpha=0.6 * alpha)
     sk.set_gid("skeleton")
+    ax.plot(*(o / ls).T, "o", color="0.35", ms=3, alpha=0.6 * alpha)
+    sizes = triad_lengths(o, size)
     for i, T in enumerate(F):
         for k in range(3):
-            e = np.array([T[:3, 3], T[:3, 3] + size * T[:3, k]]) / ls
+            e = np.array([T[:3, 3], T[:3, 3] + sizes[i] * T[:3, k]]) / ls
             (line,) = ax.plot(*e.T, color=AXIS_COLOURS[k], lw=1.4, alpha=alpha)
             line.set_gid(f"frame-{i}-{'xyz'[k]}")
-        if labels:
-            ax.text(*(T[:3, 3] / ls), f" {i}", fontsize=8)
+    if labels:
+        for i, text in frame_labels(o, 0.4 * size):
+            ax.text(*(o[i] / ls), f" {text}", fontsize=8)
 
 
 def _distinct(points: np.ndarray, tol: float = 1e-4) -> int:
@@ -344,7 +442,7 @@ def plot_frames(tables, q=None, *, length: str = "mm", triad: float | None = Non
     for k, ((label, t), F) in enumerate(zip(items, Fs, strict=True)):
         ax = fig.add_subplot(1, len(items), k + 1, projection="3d")
         ax.set_gid(f"frames-{label}")
-        _draw_frames(ax, F, ls, size)
+        _draw_frames(ax, F, ls, size, table=t, q=qv)
         _equal_3d(ax, ends / ls)
         _labels_3d(ax, length)
         ax.set_title(f"{_label(label, t)}: {len(F)} frames, {_distinct(F[:, :3, 3])} distinct origins", fontsize=10)
@@ -412,50 +510,105 @@ def plot_origin_paths(tables, joint: int, q0=None, *, limits=None, steps: int = 
     return fig
 
 
-def parameter_errors(result: Identification, length: str = "mm", angle: str = "deg"):
-    """Per column k of the table: (name, unit, identified (n,), sigma (n,), nominal (n,) or None), display units.
+#: One sigma beyond which a parameter is not determined by the data and is left out of the parameter charts:
+#: lengths beyond this fraction of the measured extent, angles beyond 0.1 rad (5.7 deg), unitless screw
+#: components beyond 0.1. Such a sigma (ED-H b and c of a near-parallel pair: hundreds of millimetres) says
+#: "the data fix a combination, not this number"; the table still lists it.
+UNDETERMINED_LENGTH, UNDETERMINED_ANGLE, UNDETERMINED_RATIO = 0.05, 0.1, 0.1
+
+
+class ParameterErrors(NamedTuple):
+    """One column of a parameter table in display units: ``identified``, ``sigma`` and ``nominal`` (n,) (None
+    without a nominal of the same convention), ``shown`` (n,) bool, ``why`` (n,) "" (shown), "held" (sigma 0:
+    fixed by the convention or the fit) or "undetermined" (sigma beyond :data:`UNDETERMINED_LENGTH` ...)."""
+
+    column: str
+    unit: str
+    identified: np.ndarray
+    sigma: np.ndarray
+    nominal: np.ndarray | None
+    shown: np.ndarray
+    why: list
+
+
+def parameter_errors(result: Identification, length: str = "mm", angle: str = "deg") -> list[ParameterErrors]:
+    """Per column k of the table: its :class:`ParameterErrors` in display units (``length``, ``angle``).
 
     Angle differences are wrapped to (-180, 180] deg when compared with the nominal.
     """
     t, nt = result.table, result.nominal_table
+    extent = scene_size(result.sweeps.all_points)
     out = []
     for k, c in enumerate(t.columns):
         unit = column_scale(t, k, length, angle)[1]
-        sc = np.array([cell_scale(t, i, k, length, angle)[0] for i in range(len(t.kinds))])  # a prismatic POE v is unitless
+        cells = [cell_scale(t, i, k, length, angle) for i in range(len(t.kinds))]  # a prismatic POE v is unitless
+        sc = np.array([s for s, _ in cells])
+        limit = np.array([UNDETERMINED_ANGLE if t.angle_columns[k] else UNDETERMINED_LENGTH * extent if u == length else UNDETERMINED_RATIO for _, u in cells])
         ident = t.params[:, k] / sc
         nom = None if nt is None or nt.convention != t.convention else nt.params[:, k] / sc
         if nom is not None and t.angle_columns[k]:
             half = math.pi / sc
             nom = ident - ((ident - nom + half) % (2 * half) - half)
-        out.append((c, unit, ident, result.sigma[:, k] / sc, nom))
+        sig = np.asarray(result.sigma[:, k], dtype=float)
+        why = ["held" if s == 0 else "undetermined" if not (np.isfinite(s) and s <= lim) else "" for s, lim in zip(sig, limit, strict=True)]
+        out.append(ParameterErrors(c, unit, ident, sig / sc, nom, np.array([w == "" for w in why]), why))
     return out
+
+
+def clean_ticks(values, tol: float = 1e-9) -> np.ndarray:
+    """``values`` with round-off set to exactly 0: |v| <= ``tol`` times the largest |v| (and <= ``tol`` itself
+    when all are that small), so that a difference of -3.9e-15 mm reads 0, not a tick of its own."""
+    v = np.asarray(values, dtype=float).copy()
+    big = float(np.nanmax(np.abs(v))) if v.size and np.any(np.isfinite(v)) else 0.0
+    v[np.abs(v) <= tol * max(big, 1.0)] = 0.0
+    return v
+
+
+def symmetric_limit(values, sigma, floor: float = 1e-6) -> float:
+    """Half-height of a y axis centred on 0 holding every ``value +- sigma`` with 15 % to spare, at least
+    ``floor`` (so that zeros get a sensible axis instead of one of +-1e-15)."""
+    v, s = np.abs(np.asarray(values, dtype=float)), np.abs(np.asarray(sigma, dtype=float))
+    m = float(np.nanmax(v + np.where(np.isfinite(s), s, 0.0))) if v.size else 0.0
+    return max(1.15 * m, floor)
 
 
 def plot_parameters(result: Identification, *, length: str = "mm", angle: str = "deg") -> Figure:
     """Identified minus nominal parameters with one-sigma error bars, one axes per table column.
 
-    Without a nominal model the identified values themselves are drawn. Each axes (gid ``param-<column>``)
-    holds one errorbar container; the x tick labels give the joint and its nominal value.
+    Without a nominal model the identified values themselves are drawn. Only determined parameters are drawn
+    (:class:`ParameterErrors`: not held by the convention, sigma within :data:`UNDETERMINED_LENGTH` ...); the
+    others are named under the axes. Each axes (gid ``param-<column>``) holds one errorbar container whose x
+    data are the joint numbers drawn (1-based); tick labels are the joint names, slanted so that they never
+    overlap; round-off differences are drawn as 0 (:func:`clean_ticks`) on an axis centred on 0.
     """
-    fig = _figure(figsize=(3.2 * len(result.table.columns), 4.0), layout="constrained")
+    from matplotlib.ticker import MaxNLocator, ScalarFormatter  # noqa: PLC0415
+
+    rows = parameter_errors(result, length, angle)
+    fig = _figure(figsize=(2.9 * len(rows) + 0.6, 4.2), layout="constrained")
     names = joint_names(result)
     x = np.arange(1, len(names) + 1)
-    rows = parameter_errors(result, length, angle)
-    for k, (c, unit, ident, sig, nom) in enumerate(rows):
+    for k, r in enumerate(rows):
         ax = fig.add_subplot(1, len(rows), k + 1)
-        ax.set_gid(f"param-{c}")
-        if nom is not None:
+        ax.set_gid(f"param-{r.column}")
+        y = clean_ticks(r.identified - r.nominal if r.nominal is not None else r.identified)
+        m = r.shown
+        ax.errorbar(x[m], y[m], yerr=r.sigma[m], fmt="o", color="#1f77b4", ecolor="#1f77b4", capsize=3, ms=4)
+        if r.nominal is not None:
             ax.axhline(0.0, color="0.6", lw=0.8)
-            ax.errorbar(x, ident - nom, yerr=sig, fmt="o", color="#1f77b4", ecolor="#1f77b4", capsize=3, ms=4)
-            ax.set_title(f"{c} [{unit}]: identified - nominal", fontsize=9)
-            ax.set_xticks(x, [f"{nm}\n{v:.4g}" for nm, v in zip(names, nom, strict=True)], fontsize=7)
-        else:
-            ax.errorbar(x, ident, yerr=sig, fmt="o", color="#1f77b4", capsize=3, ms=4)
-            ax.set_title(f"{c} [{unit}]: identified", fontsize=9)
-            ax.set_xticks(x, names, fontsize=7)
+            lim = symmetric_limit(y[m], r.sigma[m], 1e-6 if not m.any() else 1e-9)
+            ax.set_ylim(-lim, lim)
+        ax.set_title(f"{r.column} [{r.unit}]" + (": identified - nominal" if r.nominal is not None else ": identified"), fontsize=9)
+        ax.set_xticks(x, names, fontsize=7, rotation=30 if max(len(nm) for nm in names) > 3 else 0, ha="right" if max(len(nm) for nm in names) > 3 else "center")
+        ax.set_xlim(0.4, len(names) + 0.6)
+        ax.yaxis.set_major_locator(MaxNLocator(6, symmetric=r.nominal is not None))
+        fmt = ScalarFormatter(useOffset=False, useMathText=True)
+        fmt.set_powerlimits((-3, 4))
+        ax.yaxis.set_major_formatter(fmt)
         ax.tick_params(axis="y", labelsize=7)
-        ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 4))
-    fig.suptitle(f"{result.table.convention.upper()} parameters, error bars one sigma propagated from the fits" + (" (tick labels: nominal)" if result.nominal_table is not None else ""), fontsize=10)
+        left = [f"{names[i]} ({w})" for i, w in enumerate(r.why) if w]
+        if left:
+            ax.set_xlabel("not drawn: " + ", ".join(left), fontsize=6.5, color="0.35", wrap=True)
+    fig.suptitle(f"{result.table.convention.upper()} parameters, error bars one sigma propagated from the fits", fontsize=10)
     return fig
 
 
@@ -494,6 +647,11 @@ __all__ = [
     "frames_along",
     "joint_colour",
     "other_convention",
+    "ParameterErrors",
+    "chain_path",
+    "clean_ticks",
+    "clusters",
+    "frame_labels",
     "parameter_errors",
     "plot_accuracy",
     "plot_bounding_box",
@@ -502,6 +660,9 @@ __all__ = [
     "plot_origin_paths",
     "plot_parameters",
     "plot_residuals",
+    "scene_view",
+    "symmetric_limit",
+    "triad_lengths",
 ]
 
 

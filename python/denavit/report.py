@@ -24,7 +24,10 @@ Units: lengths in ``length`` (default mm, as in Hayat et al.), angles in ``angle
 
 from __future__ import annotations
 
+import base64
+import functools
 import html
+import json
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -36,12 +39,18 @@ from . import _core
 from ._core import __version__
 from .errors import DenavitError
 from .io.output import atomic_path, write_text
-from .io.units import angle_scale, cell_scale, column_scale, length_scale
+from .io.units import angle_scale, cell_scale, column_scale, joint_scale, joint_unit, length_scale
 from .plotting import (
     AXIS_COLOURS,
     INSTALL_HINT,
+    UNDETERMINED_ANGLE,
+    UNDETERMINED_LENGTH,
+    UNDETERMINED_RATIO,
     box_edges,
+    chain_path,
     circle_points,
+    clean_ticks,
+    frame_labels,
     frames_along,
     joint_colour,
     joint_names,
@@ -50,7 +59,10 @@ from .plotting import (
     other_convention,
     parameter_errors,
     scene_size,
+    scene_view,
     sweep_range,
+    symmetric_limit,
+    triad_lengths,
 )
 from .robot import Robot, load
 
@@ -192,72 +204,141 @@ def _line3d(go, segs, ls: float, **kw):
     return go.Scatter3d(x=x, y=y, z=z, mode="lines", **kw)
 
 
-def _frame_traces(go, label: str, F: np.ndarray, ls: float, size: float, *, group: str, visible=True, dash: str = "solid", names=None) -> list:
-    """Skeleton through the frame origins (labelled 0..n) and the x, y, z axes of every frame, one legend group."""
-    o = F[:, :3, 3] / ls
-    hover = [f"{label}<br>frame {i}" + (f" ({names[i - 1]})" if names and i > 0 else "") + f"<br>origin {p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}" for i, p in enumerate(o)]
-    tr = [go.Scatter3d(x=o[:, 0], y=o[:, 1], z=o[:, 2], mode="lines+markers+text", text=[str(i) for i in range(len(o))], textposition="top right",
-                       hovertext=hover, hoverinfo="text", line={"color": "#555555", "width": 5, "dash": dash}, marker={"size": 3, "color": "#555555"},
-                       name=label, legendgroup=group, showlegend=True, visible=visible)]
+def _frame_traces(go, label: str, F: np.ndarray, ls: float, size: float, *, group: str, visible=True, dash: str = "solid", names=None, table=None, q=None,
+                  textposition: str = "top right") -> list:
+    """One legend group: the robot along its chain (:func:`denavit.plotting.chain_path` when ``table`` and
+    ``q`` are given), the frame origins labelled once per group of coincident frames ("4,5,6",
+    :func:`~denavit.plotting.frame_labels`), and the x, y, z axes of every frame (coincident frames shorter,
+    :func:`~denavit.plotting.triad_lengths`, so that frame 6 does not hide frames 4 and 5)."""
+    o = F[:, :3, 3]
+    path = chain_path(table, q) / ls if table is not None else o / ls
+    tr = [go.Scatter3d(x=path[:, 0], y=path[:, 1], z=path[:, 2], mode="lines", line={"color": "#555555", "width": 5, "dash": dash}, name=label, legendgroup=group,
+                       showlegend=True, visible=visible, hoverinfo="skip")]
+    labels = frame_labels(o, 0.4 * size)
+    at = np.array([o[i] for i, _ in labels]) / ls
+    hover = []
+    for i, text in labels:
+        frames = [int(k) for k in text.split(",")]
+        who = ", ".join(f"frame {k}" + (f" ({names[k - 1]})" if names and k > 0 else "") for k in frames)
+        p = o[i] / ls
+        hover.append(f"{label}<br>{who}<br>origin {p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}")
+    tr.append(go.Scatter3d(x=at[:, 0], y=at[:, 1], z=at[:, 2], mode="markers+text", text=[t for _, t in labels], textposition=textposition, textfont={"size": 11},
+                           hovertext=hover, hoverinfo="text", marker={"size": 3, "color": "#555555"}, name=f"{label} origins", legendgroup=group, showlegend=False,
+                           visible=visible))
+    sizes = triad_lengths(o, size)
     for k in range(3):
-        segs = [np.array([T[:3, 3], T[:3, 3] + size * T[:3, k]]) for T in F]
+        segs = [np.array([T[:3, 3], T[:3, 3] + sz * T[:3, k]]) for T, sz in zip(F, sizes, strict=True)]
         tr.append(_line3d(go, segs, ls, line={"color": AXIS_COLOURS[k], "width": 4, "dash": dash}, name=f"{label} {'xyz'[k]}", legendgroup=group, showlegend=False,
                           hoverinfo="skip", visible=visible))
     return tr
 
 
+def _frame_points(F: np.ndarray, size: float) -> np.ndarray:
+    """Origins and triad tips of frames ``F`` (what :func:`_frame_traces` draws), metres."""
+    return np.vstack([F[:, :3, 3]] + [F[:, :3, 3] + size * F[:, :3, k] for k in range(3)])
+
+
 def _path_traces(go, label: str, table: _core.Table, q0, joint: int, limits, ls: float, *, group: str, visible, colour: str, name: str, dash: str = "solid") -> list:
+    """The path of every frame origin while ``joint`` moves (Guo et al. Fig. 3): thin, half transparent, so
+    that the paths do not hide the robot they belong to."""
     values = np.linspace(limits[0], limits[1], 61)
     P = frames_along(table, q0, joint, values)[:, :, :3, 3]  # (m, n+1, 3)
     segs = [P[:, i] for i in range(P.shape[1]) if np.max(np.linalg.norm(P[:, i] - P[0, i], axis=1)) > 1e-9]
     if not segs:
         return []
-    return [_line3d(go, segs, ls, line={"color": colour, "width": 3, "dash": dash}, name=name, legendgroup=group, showlegend=True, visible=visible,
+    return [_line3d(go, segs, ls, line={"color": colour, "width": 2, "dash": dash}, opacity=0.55, name=name, legendgroup=group, showlegend=True, visible=visible,
                     hovertext=label, hoverinfo="name")]
 
 
-def _scene_layout(length: str, height: int = 680) -> dict:
-    ax = {"showbackground": True, "backgroundcolor": "#f4f6f8", "gridcolor": "#d0d4d8"}
+def _scene_layout(length: str, points) -> dict:
+    """The 3-D view's layout: axis ranges, aspect ratio and camera from the drawn points (display units,
+    :func:`denavit.plotting.scene_view`), the legend on the right; the height comes from the page (CSS)."""
+    v = scene_view(points)
+    ax = {"showbackground": True, "backgroundcolor": "#f4f6f8", "gridcolor": "#d0d4d8", "exponentformat": "none", "nticks": 6}
+    axes = {f"{c}axis": {"title": {"text": f"{c} [{length}]"}, "range": v["ranges"][k].tolist(), **ax} for k, c in enumerate("xyz")}
     return {
-        "scene": {"aspectmode": "data", "xaxis": {"title": {"text": f"x [{length}]"}, **ax}, "yaxis": {"title": {"text": f"y [{length}]"}, **ax},
-                  "zaxis": {"title": {"text": f"z [{length}]"}, **ax}},
-        "height": height,
-        "margin": {"l": 0, "r": 0, "t": 30, "b": 0},
-        "legend": {"groupclick": "togglegroup", "title": {"text": "click: show/hide, double-click: only this"}, "itemsizing": "constant"},
+        "scene": {"aspectmode": "manual", "aspectratio": dict(zip("xyz", v["aspectratio"].tolist(), strict=True)), **axes,
+                  "camera": {"eye": dict(zip("xyz", v["eye"].tolist(), strict=True)), "center": {"x": 0, "y": 0, "z": 0}, "up": {"x": 0, "y": 0, "z": 1}}},
+        "margin": {"l": 0, "r": 0, "t": 10, "b": 0},
+        "legend": {"groupclick": "togglegroup", "itemsizing": "constant", "font": {"size": 11}, "y": 0.94, "yanchor": "top"},
         "paper_bgcolor": "white",
+        "uirevision": "view",
     }
 
 
 _CONFIG = {"displaylogo": False, "responsive": True, "toImageButtonOptions": {"format": "png", "scale": 2}}
-_RENDERED = "document.getElementById('{plot_id}').dataset.rendered = 'true';"
+#: The partial plotly.js bundle the reports load (scatter, scatter3d, cone, ...: what they draw), gzip-compressed.
+#: plotly.js-gl3d-dist-min 4.1.1 from npm, MIT licence (denavit/data/plotly-gl3d.LICENSE); its version matches
+#: the plotly.js of plotly 6 and later, whose figure JSON it reads.
+PLOTLY_BUNDLE = "plotly-gl3d.min.js.gz"
 
 
-def _figure_html(fig, div_id: str, *, first: bool) -> str:
-    """A plotly figure as a <div>; the first one carries the whole plotly.js bundle inline (offline, no CDN)."""
-    return fig.to_html(full_html=False, include_plotlyjs=bool(first), include_mathjax=False, div_id=div_id, config=_CONFIG, post_script=_RENDERED)
+@functools.cache
+def _bundle_base64() -> str:
+    from importlib.resources import files  # noqa: PLC0415
+
+    return base64.b64encode(files("denavit.data").joinpath(PLOTLY_BUNDLE).read_bytes()).decode("ascii")
+
+
+def _figure_html(fig, div_id: str, cls: str = "plot") -> str:
+    """A plotly figure as an empty <div> and its JSON (drawn by the page's one loader, :func:`_page`); the
+    plotly.py template is dropped (plotly.js's defaults look the same and the page is 10 kB lighter)."""
+    fig.update_layout(template="none")
+    spec = fig.to_json(validate=False, pretty=False).replace("</", "<\\/")
+    return f'<div id="{div_id}" class="{cls}"></div>\n<script type="application/json" class="figure" data-for="{div_id}">{spec}</script>'
+
+
+# The one loader of a page: inflates the gzip'ed plotly.js bundle with the browser's DecompressionStream (no
+# network, no inflater of our own), runs it once, then draws every figure from its JSON; each drawn figure's
+# <div> gets data-rendered="true" (the browser tests wait for it). A failure is logged and shown on the page.
+_LOADER = """(async () => {
+  const bin = atob(document.getElementById('plotly-bundle').textContent.trim());
+  const bytes = new Uint8Array(bin.length);
+  for (let i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
+  const code = await new Response(new Blob([bytes]).stream().pipeThrough(new DecompressionStream('gzip'))).text();
+  const s = document.createElement('script');
+  s.textContent = code;
+  document.head.appendChild(s);
+  for (const el of document.querySelectorAll('script.figure')) {
+    const spec = JSON.parse(el.textContent), div = document.getElementById(el.dataset.for);
+    await Plotly.newPlot(div, spec.data, spec.layout, %s);
+    div.dataset.rendered = 'true';
+  }
+  document.body.dataset.rendered = 'true';
+})().catch(e => {
+  console.error('denavit report: the figures could not be drawn: ' + e);
+  document.body.insertAdjacentHTML('afterbegin', '<p class="error">The figures could not be drawn (' + e + '); the tables below are complete.</p>');
+});"""
 
 
 _CSS = """
-body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; margin: 0 auto; max-width: 1280px; padding: 0 16px 40px; color: #222; }
-h1 { font-size: 1.5em; margin: 16px 0 4px; } h2 { font-size: 1.2em; margin-top: 28px; border-bottom: 1px solid #ddd; }
-p.meta, p.hint { color: #555; margin: 4px 0; font-size: 0.92em; }
-#view3d { width: 100%; height: 680px; border: 1px solid #ddd; }
+body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; margin: 0 auto; max-width: 1400px; padding: 0 16px 40px; color: #222; }
+h1 { font-size: 1.5em; margin: 16px 0 4px; } h2 { font-size: 1.2em; margin-top: 28px; border-bottom: 1px solid #ddd; } h3 { font-size: 1.05em; }
+p.meta, p.hint { color: #555; margin: 4px 0; font-size: 0.92em; } p.error { color: #b00; font-weight: bold; }
+div.plot3d { width: 100%; height: min(72vh, 820px); min-height: 420px; border: 1px solid #ddd; }
+div.plot { width: 100%; }
 table { border-collapse: collapse; margin: 8px 0 16px; font-size: 0.88em; }
 caption { text-align: left; color: #555; padding: 4px 0; caption-side: top; }
 th, td { border: 1px solid #d8d8d8; padding: 3px 8px; } th { background: #f2f4f6; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; font-family: ui-monospace, Menlo, Consolas, monospace; }
 tbody tr:nth-child(even) { background: #fafbfc; }
-dl.summary { display: grid; grid-template-columns: max-content auto; gap: 2px 16px; font-size: 0.92em; }
+.scroll { overflow-x: auto; }
+dl.summary { display: grid; grid-template-columns: max-content auto; gap: 2px 16px; font-size: 0.95em; background: #f7f9fb; border: 1px solid #e1e5ea; padding: 10px 14px; }
 dl.summary dt { color: #555; } dl.summary dd { margin: 0; }
 ul.notes li { color: #8a5a00; }
 footer { margin-top: 32px; color: #888; font-size: 0.85em; }
 """
 
 
-def _page(title: str, meta: str, body: str) -> str:
+def _page(title: str, meta: str, summary: str, body: str) -> str:
+    """The whole page: the title, the summary (what an engineer reads first), the body, and once at the end
+    the compressed plotly.js bundle with its loader (:data:`_LOADER`)."""
+    loader = _LOADER % json.dumps(_CONFIG)
     return (f'<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n<meta name="viewport" content="width=device-width, initial-scale=1">\n'
-            f"<title>{html.escape(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n<header><h1>{html.escape(title)}</h1><p class=\"meta\">{meta}</p></header>\n"
-            f"{body}\n<footer>Written by denavit {html.escape(__version__)}. Self-contained: the page fetches nothing (plotly.js is inlined).</footer>\n</body>\n</html>\n")
+            f"<title>{html.escape(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n<header><h1>{html.escape(title)}</h1><p class=\"meta\">{meta}</p>"
+            f"{summary}</header>\n{body}\n<footer>Written by denavit {html.escape(__version__)}. Self-contained: the page fetches nothing (plotly.js {PLOTLY_BUNDLE} "
+            "is inlined, compressed).</footer>\n"
+            f'<script type="application/octet-stream" id="plotly-bundle">{_bundle_base64()}</script>\n<script>{loader}</script>\n</body>\n</html>\n')
 
 
 def _summary(items: Sequence[tuple[str, str]]) -> str:
@@ -295,7 +376,7 @@ def _identification_view(go, result: Identification, ls: float, length: str):
     pts = result.sweeps.all_points
     size = scene_size(pts)
     arrow = 0.25 * size
-    traces = []
+    traces, drawn = [], [pts, result.tool_point[None]]
     for s, f in zip(result.sweeps.sweeps, result.fits, strict=True):
         j = s.joint
         col, nm, grp = joint_colour(j - 1), names[j - 1], f"joint-{j}"
@@ -308,8 +389,9 @@ def _identification_view(go, result: Identification, ls: float, length: str):
             traces.append(go.Scatter3d(x=o[:, 0], y=o[:, 1], z=o[:, 2], mode="markers", marker={"size": 6, "color": "black", "symbol": "x"},
                                        name=f"{nm} outliers", legendgroup=grp, showlegend=False))
         if result.sweeps.kinds[j - 1] == "revolute" and np.isfinite(f.radius):
-            traces.append(_line3d(go, [circle_points(f.point, f.direction, f.radius)], ls, line={"color": col, "width": 3}, name=f"{nm} circle", legendgroup=grp,
-                                  showlegend=False, hoverinfo="name"))
+            circle = circle_points(f.point, f.direction, f.radius)
+            drawn.append(circle)
+            traces.append(_line3d(go, [circle], ls, line={"color": col, "width": 3}, name=f"{nm} circle", legendgroup=grp, showlegend=False, hoverinfo="name"))
             c = f.point / ls
             traces.append(go.Scatter3d(x=[c[0]], y=[c[1]], z=[c[2]], mode="markers", marker={"size": 5, "color": col, "symbol": "circle-open", "line": {"width": 2}},
                                        name=f"{nm} centre", legendgroup=grp, showlegend=False,
@@ -317,6 +399,7 @@ def _identification_view(go, result: Identification, ls: float, length: str):
         else:
             traces.append(_line3d(go, [line_span(f.point, f.direction, s.points)], ls, line={"color": col, "width": 3}, name=f"{nm} line", legendgroup=grp, showlegend=False))
         tip = f.point + arrow * f.direction
+        drawn.append(np.array([f.point - 0.3 * arrow * f.direction, tip]))
         traces.append(_line3d(go, [np.array([f.point - 0.3 * arrow * f.direction, tip])], ls, line={"color": col, "width": 6}, name=f"{nm} axis", legendgroup=grp,
                               showlegend=False, hoverinfo="name"))
         t, d = tip / ls, f.direction
@@ -326,20 +409,23 @@ def _identification_view(go, result: Identification, ls: float, length: str):
     traces.append(go.Scatter3d(x=[tp[0]], y=[tp[1]], z=[tp[2]], mode="markers", marker={"size": 6, "color": "black", "symbol": "diamond"}, name="tool point at home",
                                legendgroup="tool", showlegend=True))
     b = result.box
-    traces.append(_line3d(go, box_edges(b.center, b.axes, b.lengths), ls, line={"color": "#444444", "width": 2}, name="bounding box (Hayat Table IV)",
-                          legendgroup="box", showlegend=True, visible="legendonly"))
+    edges = box_edges(b.center, b.axes, b.lengths)
+    drawn += edges
+    traces.append(_line3d(go, edges, ls, line={"color": "#444444", "width": 2}, name="bounding box (Hayat Table IV)", legendgroup="box", showlegend=True, visible="legendonly"))
     # frames of the identified convention, of the other one, and of the nominal model, at home
     conv = result.table.convention
     other = other_convention(conv)
     model = result.model()
     other_table = _core.extract(_core.axes(model, np.zeros(model.nq)), other).table
     home = result.sweeps.home
-    Fs = [("identified " + conv, result.table.frames(home), True, "solid"), ("identified " + other, other_table.frames(home), "legendonly", "dash")]
+    tables = [("identified " + conv, result.table, True, "solid"), ("identified " + other, other_table, "legendonly", "dash")]
     if result.nominal is not None:
-        Fs.append((f"nominal {result.nominal.name} ({result.nominal.convention})", result.nominal.table.frames(home), "legendonly", "dot"))
-    tri = 0.06 * scene_size(np.vstack([F[:, :3, 3] for _, F, _, _ in Fs] + [pts]))
-    for label, F, vis, dash in Fs:
-        traces += _frame_traces(go, label, F, ls, tri, group=f"frames-{label}", visible=vis, dash=dash, names=names)
+        tables.append((f"nominal {result.nominal.name} ({result.nominal.convention})", result.nominal.table, "legendonly", "dot"))
+    Fs = [(label, t, t.frames(home), vis, dash, where) for (label, t, vis, dash), where in zip(tables, ("top right", "bottom left", "top left"), strict=False)]
+    tri = 0.06 * scene_size(np.vstack([F[:, :3, 3] for _, _, F, _, _, _ in Fs] + [pts]))
+    for label, t, F, vis, dash, where in Fs:
+        traces += _frame_traces(go, label, F, ls, tri, group=f"frames-{label}", visible=vis, dash=dash, names=names, table=t, q=home, textposition=where)
+        drawn.append(_frame_points(F, tri))
     n = result.axes.nq
     jp = 2 if n >= 2 else 1
     lim = sweep_range(result, jp)
@@ -347,44 +433,77 @@ def _identification_view(go, result: Identification, ls: float, length: str):
         traces += _path_traces(go, label, table, home, jp, lim, ls, group=f"paths-{label}", visible="legendonly", colour=colour, dash=dash,
                                name=f"{label}: frame-origin paths, {names[jp - 1]} swept")
     fig = go.Figure(traces)
-    fig.update_layout(**_scene_layout(length))
+    fig.update_layout(**_scene_layout(length, np.vstack(drawn) / ls))
     return fig
 
 
 def _residual_chart(go, result: Identification, ls: float, length: str):
+    """Every point's residual as a marker (each is the distance of one measurement, not a curve), one colour
+    per joint, each joint's points side by side; outliers as black crosses."""
     names = joint_names(result)
     fig = go.Figure()
+    start = 0
     for s, f in zip(result.sweeps.sweeps, result.fits, strict=True):
         r = np.asarray(f.residuals) / ls
-        fig.add_trace(go.Scatter(x=np.arange(len(r)), y=r, mode="lines+markers", name=f"{names[s.joint - 1]} (rms {f.rms / ls:.3g})", marker={"color": joint_colour(s.joint - 1), "size": 5},
-                                 line={"width": 1}))
-    fig.update_layout(height=340, margin={"l": 60, "r": 10, "t": 30, "b": 40}, xaxis={"title": {"text": "point"}}, yaxis={"title": {"text": f"residual [{length}]"}},
-                      title={"text": "Residuals per joint", "font": {"size": 14}})
+        x = start + np.arange(len(r))
+        fig.add_trace(go.Scatter(x=x, y=r, mode="markers", name=f"{names[s.joint - 1]} (rms {f.rms / ls:.3g} {length})", marker={"color": joint_colour(s.joint - 1), "size": 6},
+                                 hovertemplate=f"{names[s.joint - 1]} point %{{customdata}}: %{{y:.4f}} {length}<extra></extra>", customdata=np.arange(len(r))))
+        if np.any(f.outliers):
+            fig.add_trace(go.Scatter(x=x[f.outliers], y=r[f.outliers], mode="markers", marker={"color": "black", "symbol": "x", "size": 9}, showlegend=False,
+                                     name=f"{names[s.joint - 1]} outliers"))
+        start += len(r) + 3
+    fig.update_layout(height=340, margin={"l": 70, "r": 10, "t": 40, "b": 40}, xaxis={"title": {"text": "measured point (joint by joint)"}, "showticklabels": False},
+                      yaxis={"title": {"text": f"residual [{length}]"}, "exponentformat": "power", "zeroline": True},
+                      title={"text": "Residual of every measured point", "font": {"size": 14}})
     return fig
 
 
-def _parameter_chart(go, make_subplots, result: Identification, length: str, angle: str):
+def _parameter_chart(go, make_subplots, result: Identification, length: str, angle: str) -> tuple:
+    """Identified - nominal (or identified) per column, only the parameters the data determine (the others
+    named in the returned caption), with one-sigma bars; powers of ten written as such, never SI prefixes."""
     rows = parameter_errors(result, length, angle)
     names = joint_names(result)
-    nominal = result.nominal_table is not None
-    fig = make_subplots(rows=1, cols=len(rows), subplot_titles=[f"{c} [{u}]" for c, u, *_ in rows])
-    for k, (c, unit, ident, sig, nom) in enumerate(rows):
-        y = ident - nom if nom is not None else ident
-        fig.add_trace(go.Scatter(x=names, y=y, error_y={"type": "data", "array": sig, "visible": True}, mode="markers", marker={"color": "#1f77b4", "size": 7},
-                                 name=c, showlegend=False, hovertemplate="%{x}: %{y:.4g} ± %{error_y.array:.2g} " + unit + "<extra></extra>"), row=1, col=k + 1)
-    fig.update_layout(height=330, margin={"l": 50, "r": 10, "t": 60, "b": 40},
+    nominal = any(r.nominal is not None for r in rows)
+    fig = make_subplots(rows=1, cols=len(rows), subplot_titles=[f"{r.column} [{r.unit}]" for r in rows], horizontal_spacing=0.06)
+    left = []
+    for k, r in enumerate(rows):
+        y = clean_ticks(r.identified - r.nominal if r.nominal is not None else r.identified)
+        m = r.shown
+        fig.add_trace(go.Scatter(x=[names[i] for i in np.flatnonzero(m)], y=y[m], error_y={"type": "data", "array": r.sigma[m], "visible": True}, mode="markers",
+                                 marker={"color": "#1f77b4", "size": 7}, name=r.column, showlegend=False,
+                                 hovertemplate="%{x}: %{y:.4g} ± %{error_y.array:.2g} " + r.unit + "<extra></extra>"), row=1, col=k + 1)
+        yax = {"exponentformat": "power", "zeroline": True, "zerolinecolor": "#999"}
+        if r.nominal is not None:
+            lim = symmetric_limit(y[m], r.sigma[m], 1e-6)
+            yax["range"] = [-lim, lim]
+        fig.update_yaxes(**yax, row=1, col=k + 1)
+        fig.update_xaxes(categoryorder="array", categoryarray=names, range=[-0.5, len(names) - 0.5], tickangle=-30 if max(map(len, names)) > 3 else 0, row=1, col=k + 1)
+        left += [f"{names[i]} {r.column} ({w})" for i, w in enumerate(r.why) if w]
+    fig.update_layout(height=360, margin={"l": 50, "r": 10, "t": 70, "b": 60},
                       title={"text": ("Identified − nominal" if nominal else "Identified values") + ", error bars one sigma", "font": {"size": 14}})
-    return fig
+    caption = ("Not drawn (in the table above): " + ", ".join(left) + ". Held: fixed by the convention or the fit (sigma 0); undetermined: one sigma beyond "
+               f"{UNDETERMINED_LENGTH:.0%} of the measured extent for lengths, {UNDETERMINED_ANGLE} rad for angles, {UNDETERMINED_RATIO} for unitless screw components "
+               "(the data fix a combination of such parameters, not each).") if left else ""
+    return fig, caption
 
 
-def _accuracy_section(go, result: Identification, length: str) -> str:
+def _step_histogram(go, values, bins, name: str, colour: str):
+    """A histogram drawn as a filled step line (the reports' partial plotly.js has no histogram trace)."""
+    h, e = np.histogram(values, bins=bins)
+    x = np.repeat(e, 2)[1:-1]
+    y = np.repeat(h, 2)
+    return go.Scatter(x=np.r_[e[0], x, e[-1]], y=np.r_[0, y, 0], mode="lines", line={"color": colour, "width": 1.5}, fill="tozeroy", opacity=0.6, name=name)
+
+
+def _accuracy_section(go, result: Identification, length: str) -> tuple[str, dict | None]:
     """Accuracy before and after: the nominal model's error and the identified model's predicted error over the
-    workspace (denavit.compensation.identification_accuracy), a table and a histogram."""
+    workspace (denavit.compensation.identification_accuracy), a table and a histogram. Also returns the
+    summary numbers (display units) or None."""
     from .compensation import identification_accuracy  # noqa: PLC0415
 
     acc = identification_accuracy(result)
     if acc is None:
-        return ""
+        return "", None
     ls = length_scale(length)
     s = acc.summary()
     rows = [f'<tr>{_td("model", label)}' + "".join(_td(k, s[key][k] / ls) for k in ("rms", "median", "p95", "max")) + "</tr>"
@@ -392,13 +511,18 @@ def _accuracy_section(go, result: Identification, length: str) -> str:
     table = _table("accuracy", ["model", f"rms [{length}]", f"median [{length}]", f"95 % [{length}]", f"max [{length}]"], rows,
                    f"Tool position error over {s['configurations']} quasi-random configurations within the joint limits: the nominal model against the "
                    "identified one, and the identified model's error predicted from the axes' covariance (denavit.compensation).", "accuracy")
-    fig = go.Figure()
-    for v, name, colour in ((acc.nominal, "nominal", "#c0392b"), (acc.identified, "identified (predicted 1σ)", "#2471a3")):
-        fig.add_trace(go.Histogram(x=np.log10(np.maximum(np.asarray(v) / ls, 1e-12)), name=name, marker={"color": colour}, opacity=0.7, nbinsx=40))
-    fig.update_layout(barmode="overlay", height=320, margin={"l": 60, "r": 10, "t": 30, "b": 40},
-                      xaxis={"title": {"text": f"log10 tool position error [{length}]"}}, yaxis={"title": {"text": "configurations"}},
+    nom, ide = np.asarray(acc.nominal) / ls, np.asarray(acc.identified) / ls
+    both = np.concatenate([nom, ide])
+    pos = both[both > 0]
+    lo, hi = (float(pos.min()), float(pos.max())) if pos.size else (1e-6, 1.0)
+    bins = np.geomspace(lo * 0.9, hi * 1.1, 41)
+    fig = go.Figure([_step_histogram(go, np.maximum(v, lo), bins, name, colour)
+                     for v, name, colour in ((nom, "nominal", "#c0392b"), (ide, "identified (predicted 1σ)", "#2471a3"))])
+    fig.update_layout(height=320, margin={"l": 60, "r": 10, "t": 40, "b": 50},
+                      xaxis={"type": "log", "title": {"text": f"tool position error [{length}]"}, "exponentformat": "power"}, yaxis={"title": {"text": "configurations"}},
                       title={"text": "Accuracy before and after identification", "font": {"size": 14}})
-    return f'<section id="accuracy-section"><h2>Accuracy</h2>{table}{_figure_html(fig, "accuracy-chart", first=False)}</section>'
+    return (f'<section id="accuracy-section"><h2>Accuracy</h2>{table}{_figure_html(fig, "accuracy-chart")}</section>',
+            {"nominal": s["nominal"]["rms"] / ls, "identified": s["identified"]["rms"] / ls})
 
 
 def report_html(result: Identification, *, length: str = "mm", angle: str = "deg", title: str | None = None) -> str:
@@ -410,9 +534,10 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
     doc = to_json(result, length, angle)
     names = joint_names(result)
     t, nt = result.table, result.nominal_table
-    view = _figure_html(_identification_view(go, result, ls, length), VIEW_ID, first=True)
-    resid = _figure_html(_residual_chart(go, result, ls, length), "residuals-chart", first=False)
-    pchart = _figure_html(_parameter_chart(go, make_subplots, result, length, angle), "parameters-chart", first=False)
+    view = _figure_html(_identification_view(go, result, ls, length), VIEW_ID, "plot3d")
+    resid = _figure_html(_residual_chart(go, result, ls, length), "residuals-chart")
+    pfig, pcaption = _parameter_chart(go, make_subplots, result, length, angle)
+    pchart = _figure_html(pfig, "parameters-chart") + (f'<p class="hint" id="parameters-not-drawn">{html.escape(pcaption)}</p>' if pcaption else "")
 
     # parameters: one row per joint and parameter, as printed by `denavit identify`
     rows = []
@@ -437,33 +562,42 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
                      + f'{_td("radius", c["radius"])}{_td("arc", j["arc_deg"], 1)}{_td("rms", j["residuals"]["rms"])}{_td("max-residual", j["residuals"]["max"])}'
                      f'{_td("sigma-across", a["sigma_point_perp"])}{_td("sigma-direction", a["sigma_direction_deg"], 5)}{_td("n-points", j["residuals"]["n_points"], 0)}'
                      f'{_td("outliers", len(j["residuals"]["outliers"]), 0)}</tr>')
-    axes_t = _table("axes", ["joint", "point x", "point y", "point z", "dir x", "dir y", "dir z", f"radius [{length}]", "arc [deg]", f"rms [{length}]",
-                             f"max |residual| [{length}]", f"sigma across [{length}]", "sigma direction [deg]", "points", "outliers"], arows,
-                    f"Joint axes in the measurement frame ({length}): circle centre and normal (Hayat et al. eq. 1-9), fit quality, one-sigma uncertainty.", "axes")
+    axes_t = _table("axes", ["joint", f"point x [{length}]", f"point y [{length}]", f"point z [{length}]", "dir x [1]", "dir y [1]", "dir z [1]", f"radius [{length}]",
+                             "arc [deg]", f"rms [{length}]", f"max |residual| [{length}]", f"sigma across [{length}]", "sigma direction [deg]", "points", "outliers"], arows,
+                    f"Joint axes in the measurement frame: circle centre ({length}) and unit normal (Hayat et al. eq. 1-9), fit quality, one-sigma uncertainty.", "axes")
     b = doc["bounding_box"]
     brows = [f'<tr>{_td("l1", b["lengths"][0])}{_td("l2", b["lengths"][1])}{_td("l3", b["lengths"][2])}{_td("volume", b["volume_m3"])}'
              f'{_td("center", ", ".join(f"{v:.3f}" for v in b["center"]))}</tr>']
     box_t = _table("bounding-box", [f"l1 [{length}]", f"l2 [{length}]", f"l3 [{length}]", "volume [m³]", f"centre [{length}]"], brows,
                    "Minimum-volume oriented bounding box of all measured points (Hayat et al. Table IV).", "bounding-box")
     orows = [f"<tr>{''.join(_td(f'col-{k + 1}', v) for k, v in enumerate(row))}</tr>" for row in b["orientation"]]
-    orient_t = _table("bounding-box-orientation", ["l1 axis", "l2 axis", "l3 axis"], orows, "Orientation of the box: its axes as columns, in the measurement frame.", "bounding-box")
+    orient_t = _table("bounding-box-orientation", ["l1 axis [1]", "l2 axis [1]", "l3 axis [1]"], orows, "Orientation of the box: its axes as columns, in the measurement frame.",
+                      "bounding-box")
     notes = "".join(f"<li>{html.escape(n)}</li>" for n in doc["notes"]) or "<li>none</li>"
-    summary = _summary([("data", doc["source"]), ("method", doc["method"]), ("convention", t.convention), ("nominal", result.nominal.name if result.nominal else "none"),
-                        ("residual rms", f"{doc['rms']:.4f} {length}"), ("tool point at home", ", ".join(f"{v:.3f}" for v in doc["tool_point_home"]) + f" {length}"),
-                        ("tool error the table carries", f"{doc['max_tool_position_error']:.3g} {length}"),
-                        ("home", ", ".join(f"{v:.4g}" for v in doc["home"]) + f" ({angle} / {length})")])
+    acc_html, acc = _accuracy_section(go, result, length)
+    npts = sum(len(s.points) for s in result.sweeps.sweeps)
+    summary = _summary([
+        ("measured", f"{npts} points in {len(result.sweeps.sweeps)} single-joint sweeps from {doc['source']}"),
+        ("model", f"{t.convention.upper()} table of {len(names)} joints, {result.method} fit; nominal: " + (result.nominal.name if result.nominal else "none")),
+        ("fit", f"residual rms {doc['rms']:.4f} {length}; worst axis sigma across {max(j['axis']['sigma_point_perp'] for j in doc['joints']):.3g} {length}"),
+        *([("accuracy", f"tool position error rms {acc['nominal']:.3g} {length} with the nominal model -> {acc['identified']:.3g} {length} predicted with the "
+            "identified one (1σ)")] if acc else []),
+        ("tool error the table carries", f"{doc['max_tool_position_error']:.3g} {length}"),
+        ("home", ", ".join(f"{v:.4g}" for v in doc["home"]) + f" ({angle} / {length}); tool point at home " + ", ".join(f"{v:.3f}" for v in doc["tool_point_home"])
+         + f" {length}"),
+    ])
     title = title or f"denavit identification: {result.sweeps.source or 'sweeps'}"
     meta = html.escape(f"{len(names)} joints, method {result.method}, {t.convention.upper()} parameters; lengths in {length}, angles in {angle}, measurement frame.")
     body = "\n".join([
         _view_section(view, "Measured points, fitted full circles, centres and axis arrows per joint (Hayat et al. Fig. 7); frames of the identified convention "
-                      "(others, the bounding box and origin paths: switch them on in the legend)."),
-        f'<section id="results"><h2>Identified parameters</h2>{summary}{params}{pchart}</section>',
-        f'<section id="fits"><h2>Joint axes and fits</h2>{axes_t}{resid}{_pairs_table(result.extraction.pairs, ls, length, angle)}</section>',
+                      "along the chain (others, the bounding box and origin paths: switch them on in the legend)."),
+        f'<section id="results"><h2>Identified parameters</h2><div class="scroll">{params}</div>{pchart}</section>',
+        f'<section id="fits"><h2>Joint axes and fits</h2><div class="scroll">{axes_t}</div>{resid}{_pairs_table(result.extraction.pairs, ls, length, angle)}</section>',
         f'<section id="box"><h2>Measuring volume</h2>{box_t}{orient_t}</section>',
-        _accuracy_section(go, result, length),
+        acc_html,
         f'<section id="notes-section"><h2>Notes</h2><ul class="notes" id="notes">{notes}</ul></section>',
     ])
-    return _page(title, meta, body)
+    return _page(title, meta, summary, body)
 
 
 def write_report(result: Identification, path, *, length: str = "mm", angle: str = "deg", title: str | None = None) -> None:
@@ -494,23 +628,25 @@ def model_report_html(robot: Robot, *, compare=None, q=None, length: str = "mm",
     Fs = [t.frames(qv) for _, t in tables]
     allo = np.vstack([F[:, :3, 3] for F in Fs] + [J[:, :3, 3]])
     size = scene_size(allo)
-    traces = []
+    traces, drawn = [], []
     for i, T in enumerate(J):  # the joint axes: the geometric truth every convention is built on
         col, nm = joint_colour(i), robot.names[i]
         p, z = T[:3, 3], T[:3, 2]
-        traces.append(_line3d(go, [np.array([p - 0.12 * size * z, p + 0.12 * size * z])], ls, line={"color": col, "width": 8}, name=f"axis {nm}",
-                              legendgroup=f"joint-{i + 1}", showlegend=True, hoverinfo="name"))
+        seg = np.array([p - 0.12 * size * z, p + 0.12 * size * z])
+        drawn.append(seg)
+        traces.append(_line3d(go, [seg], ls, line={"color": col, "width": 8}, name=f"axis {nm}", legendgroup=f"joint-{i + 1}", showlegend=True, hoverinfo="name"))
     tri = 0.07 * size
-    for (label, _), F, dash in zip(tables, Fs, ("solid", "dash"), strict=True):
-        traces += _frame_traces(go, label, F, ls, tri, group=f"frames-{label}", dash=dash, names=robot.names)
+    for (label, t), F, dash, where in zip(tables, Fs, ("solid", "dash"), ("top right", "bottom left"), strict=True):
+        traces += _frame_traces(go, label, F, ls, tri, group=f"frames-{label}", dash=dash, names=robot.names, table=t, q=qv, textposition=where)
+        drawn += [_frame_points(F, tri), chain_path(t, qv)]
     for k in range(1, n + 1):
         lim = motion_range(robot.lower, robot.upper, qv, k, robot.table.kinds[k - 1])
         for (label, t), colour, dash in zip(tables, ("#6a3d9a", "#b15928"), ("solid", "dash"), strict=True):
-            traces += _path_traces(go, label, t, qv, k, lim, ls, group=f"paths-{label}-{k}", visible=True if k == 2 or n == 1 else "legendonly", colour=colour, dash=dash,
+            traces += _path_traces(go, label, t, qv, k, lim, ls, group=f"paths-{label}-{k}", visible="legendonly", colour=colour, dash=dash,
                                    name=f"{label}: origin paths, {robot.names[k - 1]} moving")
     fig = go.Figure(traces)
-    fig.update_layout(**_scene_layout(length))
-    view = _figure_html(fig, VIEW_ID, first=True)
+    fig.update_layout(**_scene_layout(length, np.vstack(drawn) / ls))
+    view = _figure_html(fig, VIEW_ID, "plot3d")
     parts = []
     for idx, (label, t) in enumerate(tables):
         tid = "table-main" if idx == 0 else "table-compare"
@@ -520,8 +656,8 @@ def model_report_html(robot: Robot, *, compare=None, q=None, length: str = "mm",
         for i, T in enumerate(F):
             frows.append(f'<tr data-convention="{html.escape(label)}" data-frame="{i}">{_td("convention", label)}{_td("frame", str(i))}'
                          + "".join(_td(f"origin-{x}", v / ls) for x, v in zip("xyz", T[:3, 3], strict=True)) + "".join(_td(f"z-{x}", v) for x, v in zip("xyz", T[:3, 2], strict=True)) + "</tr>")
-    frames_t = _table("frames", ["convention", "frame", f"origin x [{length}]", f"origin y [{length}]", f"origin z [{length}]", "z x", "z y", "z z"], frows,
-                      "Frame origins and z axes in world at the configuration drawn (Table.frames).", "frames")
+    frames_t = _table("frames", ["convention", "frame", f"origin x [{length}]", f"origin y [{length}]", f"origin z [{length}]", "z x [1]", "z y [1]", "z z [1]"], frows,
+                      "Frame origins and z axes (unit vectors) in world at the configuration drawn (Table.frames).", "frames")
     rng = np.random.default_rng(0)
     lo = np.maximum(np.asarray(robot.lower, dtype=float), -math.pi)
     hi = np.minimum(np.asarray(robot.upper, dtype=float), math.pi)
@@ -529,18 +665,20 @@ def model_report_html(robot: Robot, *, compare=None, q=None, length: str = "mm",
     ma, mb = tables[0][1].to_model(), tables[1][1].to_model()
     dmax = max(float(np.linalg.norm(_core.fk(ma, qq)[:3, 3] - _core.fk(mb, qq)[:3, 3])) for qq in np.vstack([qv, qs]))
     extra = _pairs_table(ex.pairs, ls, length, angle) if ex is not None else ""
+    shown_q = qv / joint_scale(list(robot.table.kinds), length, angle)
+    units = sorted({joint_unit(k, length, angle) for k in robot.table.kinds}, key=lambda u: u != angle)
     summary = _summary([("robot", f"{robot.name}: {robot.description}"), ("source", robot.source or "-"), ("conventions", " | ".join(lbl for lbl, _ in tables)),
-                        ("configuration drawn", ", ".join(f"{v:.4g}" for v in qv) + " (rad / m)"),
+                        ("configuration drawn", ", ".join(f"{v:.4g}" for v in shown_q) + f" ({' / '.join(units)})"),
                         ("FK agreement", f"max tool-position difference {dmax / ls:.3g} {length} over q and 64 random configurations within the limits")])
     title = title or f"denavit model: {robot.name}"
     meta = html.escape(f"{n} joints; {robot.convention} beside {tables[1][0]}; lengths in {length}, angles in {angle}.")
     body = "\n".join([
-        _view_section(view, "Joint axes (coloured), the frames of both conventions (x red, y green, z blue; the second dashed; Guo et al. Figs. 6-7), "
-                      "and the path of every frame origin while a joint moves over its limits (Guo et al. Fig. 3; joint 2 shown, the others in the legend)."),
-        f'<section id="tables"><h2>Parameters</h2>{summary}{"".join(parts)}{extra}</section>',
+        _view_section(view, "Joint axes (coloured), the frames of both conventions along the chain (x red, y green, z blue; the second dashed; Guo et al. Figs. 6-7); "
+                      "the path of every frame origin while a joint moves over its limits (Guo et al. Fig. 3) is in the legend."),
+        f'<section id="tables"><h2>Parameters</h2>{"".join(parts)}{extra}</section>',
         f'<section id="frames-section"><h2>Frames</h2>{frames_t}</section>',
     ])
-    return _page(title, meta, body)
+    return _page(title, meta, summary, body)
 
 
 def write_model_report(robot: Robot, path, *, compare=None, q=None, length: str = "mm", angle: str = "deg", title: str | None = None) -> None:
