@@ -105,7 +105,8 @@ def scene_view(points, *, min_ratio: float = 0.5, pad: float = 0.06, direction=(
     ``min_ratio`` of the longest (a tall robot keeps a readable x axis: ticks and title not squashed), and the
     ranges are padded by ``pad`` of the half-extent on each side. The camera looks at the centre from
     ``direction`` (plotly's scene coordinates, where the box is ``aspectratio`` wide), as far as needed for
-    the box's bounding sphere to fit plotly's 45 degree vertical field of view with 5 % to spare.
+    the box's bounding sphere to fit plotly's 45 degree vertical field of view with 15 % to spare (room for the tick
+    labels and axis titles outside the box).
 
     Returns ``{"ranges": (3, 2), "aspectratio": (3,) (largest 1), "eye": (3,), "center": (3,)}``.
     """
@@ -119,7 +120,7 @@ def scene_view(points, *, min_ratio: float = 0.5, pad: float = 0.06, direction=(
     aspect = half / half.max()
     radius = float(np.linalg.norm(aspect)) / 2  # plotly draws the scene box aspectratio units wide, centred on 0
     d = np.asarray(direction, dtype=float)
-    eye = d / np.linalg.norm(d) * 1.05 * radius / math.sin(math.radians(22.5))
+    eye = d / np.linalg.norm(d) * 1.15 * radius / math.sin(math.radians(22.5))
     return {"ranges": np.stack([centre - half, centre + half], axis=1), "aspectratio": aspect, "eye": eye, "center": np.zeros(3)}
 
 

@@ -698,13 +698,209 @@ def write_model_report(robot: Robot, path, *, compare=None, q=None, length: str 
     write_text(path, model_report_html(robot, compare=compare, q=q, length=length, angle=angle, title=title))
 
 
+# ------------------------------------------------------------------------------------------------ calibration
+
+
+def _robot_traces(go, label: str, table: _core.Table, q, ls: float, size: float, *, group: str, visible=True, dash: str = "solid", names=None,
+                  textposition: str = "top right") -> tuple[list, np.ndarray]:
+    """A robot's frames along its chain at ``q`` (:func:`_frame_traces`) and the points drawn (metres)."""
+    F = table.frames(q)
+    tr = _frame_traces(go, label, F, ls, size, group=group, visible=visible, dash=dash, names=names, table=table, q=q, textposition=textposition)
+    return tr, np.vstack([_frame_points(F, size), chain_path(table, q)])
+
+
+def _param_scale(unit: str, length: str, angle: str) -> tuple[float, str]:
+    """SI per display unit and the unit's name of a calibration parameter ("length" | "angle" | "ratio")."""
+    return (length_scale(length), length) if unit == "length" else (angle_scale(angle), angle) if unit == "angle" else (1.0, "1")
+
+
+def calibration_report_html(res, *, length: str = "mm", angle: str = "deg", title: str | None = None) -> str:
+    """The HTML text of :func:`write_calibration_report`."""
+    go, _ = _plotly()
+    ls = length_scale(length)
+    meas, pz = res.measurements, res.parametrization
+    nominal = pz.robot
+    calibrated = res.robot()
+    q0 = np.asarray(meas.q[0], dtype=float)
+    pts = np.asarray(meas.points, dtype=float)
+    test = np.zeros(len(pts), dtype=bool)
+    if res.validation is not None:
+        test[np.asarray(res.validation.test_indices, dtype=int)] = True
+    size = scene_size(np.vstack([pts, calibrated.table.frames(q0)[:, :3, 3]]))
+    traces, drawn = [], [pts]
+    for mask, name, colour in ((~test, "measured (fitted)", "#1f77b4"), (test, "measured (held out)", "#ff7f0e")):
+        if mask.any():
+            p = pts[mask] / ls
+            traces.append(go.Scatter3d(x=p[:, 0], y=p[:, 1], z=p[:, 2], mode="markers", marker={"size": 3, "color": colour}, name=name, legendgroup=name,
+                                       hovertext=[meas.where[i] for i in np.flatnonzero(mask)], hoverinfo="text"))
+    predicted = _core.fk_batch(res.model(), np.asarray(meas.q, dtype=float))[:, :3, 3]
+    p = predicted / ls
+    traces.append(go.Scatter3d(x=p[:, 0], y=p[:, 1], z=p[:, 2], mode="markers", marker={"size": 2.5, "color": "#2ca02c", "symbol": "diamond"},
+                               name="predicted by the calibrated model", legendgroup="predicted", visible="legendonly"))
+    tri = 0.07 * size
+    tr, d = _robot_traces(go, f"calibrated {calibrated.name} ({res.convention})", calibrated.table, q0, ls, tri, group="frames-calibrated", names=calibrated.names)
+    traces += tr
+    drawn.append(d)
+    tr, _ = _robot_traces(go, f"nominal {nominal.name} ({nominal.convention})", nominal.table, q0, ls, tri, group="frames-nominal", visible="legendonly", dash="dash",
+                          names=nominal.names, textposition="bottom left")
+    traces += tr
+    fig = go.Figure(traces)
+    fig.update_layout(**_scene_layout(length, np.vstack(drawn) / ls))
+    view = _figure_html(fig, VIEW_ID, "plot3d")
+
+    rows = []
+    for k, name in enumerate(res.names):
+        sc, unit = _param_scale(pz.units[k], length, angle)
+        nom, val, sig = res.nominal[k] / sc, res.values[k] / sc, res.sigma[k] / sc
+        rows.append(f'<tr data-param="{html.escape(name)}">{_td("param", name)}{_td("unit", unit)}{_td("nominal", float(nom))}{_td("calibrated", float(val))}'
+                    f'{_td("sigma", float(sig))}{_td("change", float(val - nom))}{_td("status", res.status[k])}</tr>')
+    params = _table("parameters", ["parameter", "unit", "nominal", "calibrated", "sigma (1σ)", "calibrated − nominal", "status"], rows,
+                    f"{res.convention.upper()} calibration parameters (docs/conventions.md, 'Calibration parametrisations'); sigma from the fit's covariance; "
+                    "status: free, or why the parameter is held.", "parameters")
+    r = np.linalg.norm(np.asarray(res.residuals, dtype=float).reshape(len(res.residuals), -1)[:, :3], axis=1) / ls
+    rfig = go.Figure([go.Scatter(x=np.arange(len(r)), y=r, mode="markers", marker={"size": 6, "color": "#1f77b4"}, name="fitted poses",
+                                 hovertemplate="pose %{x}: %{y:.4f} " + length + "<extra></extra>")])
+    rfig.update_layout(height=320, margin={"l": 70, "r": 10, "t": 40, "b": 40}, xaxis={"title": {"text": "fitted pose"}},
+                       yaxis={"title": {"text": f"tool position misfit [{length}]"}, "exponentformat": "power", "rangemode": "tozero"},
+                       title={"text": "Misfit of every fitted pose (calibrated model)", "font": {"size": 14}})
+    v = res.validation
+    vtable = ""
+    if v is not None:
+        vrows = [f'<tr>{_td("model", label)}{_td("rms", a / ls)}{_td("max", b / ls)}</tr>'
+                 for label, a, b in (("before: nominal geometry, base and tool fitted", v.before_rms, v.before_max), ("after: calibrated", v.after_rms, v.after_max))]
+        vtable = _table("validation", ["model", f"rms [{length}]", f"max [{length}]"], vrows,
+                        f"Tool position error on {v.n_test} held-out poses (not used by the fit) of {v.n_train + v.n_test}.", "validation")
+    notes = "".join(f"<li>{html.escape(n)}</li>" for n in res.notes) or "<li>none</li>"
+    free = sum(st == "free" for st in res.status)
+    summary = _summary([
+        ("measured", f"{meas.n} {'poses' if meas.kind == 'pose' else 'tool points'} from {meas.source}"),
+        ("model", f"{res.convention.upper()} calibration of {nominal.name}: {free} of {len(res.names)} parameters free, loss {res.loss}"
+         + ("" if res.converged else ", NOT converged")),
+        ("fit", f"misfit rms {res.rms / ls:.4g} {length} (noise estimate {res.noise / ls:.3g} {length} per coordinate)"),
+        *([("accuracy", f"held-out tool position error rms {v.before_rms / ls:.4g} -> {v.after_rms / ls:.4g} {length}, max {v.before_max / ls:.4g} -> "
+            f"{v.after_max / ls:.4g} {length}")] if v is not None else []),
+        ("identifiability", res.identifiability.summary()),
+    ])
+    title = title or f"denavit calibration: {meas.source}"
+    meta = html.escape(f"{len(calibrated.names)} joints, {res.convention.upper()} parameters; lengths in {length}, angles in {angle}, measurement frame.")
+    body = "\n".join([
+        _view_section(view, "Measured tool points (held-out ones in orange) and the calibrated robot's frames along its chain at the first pose; the nominal "
+                      "robot and the calibrated model's predictions are in the legend."),
+        f'<section id="results"><h2>Calibrated parameters</h2><div class="scroll">{params}</div></section>',
+        f'<section id="fits"><h2>Fit and validation</h2>{vtable}{_figure_html(rfig, "residuals-chart")}</section>',
+        f'<section id="notes-section"><h2>Notes</h2><ul class="notes" id="notes">{notes}</ul></section>',
+    ])
+    return _page(title, meta, summary, body)
+
+
+def write_calibration_report(res, path, *, length: str = "mm", angle: str = "deg", title: str | None = None) -> Path:
+    """Write the self-contained HTML report of a :class:`denavit.calibration.Calibration` to ``path``: a summary
+    (what was measured, the model, the misfit, the held-out accuracy before and after), the measured points with
+    the calibrated robot in 3-D, the parameter table with units and sigmas, the misfit of every pose. Returns
+    the path."""
+    write_text(path, calibration_report_html(res, length=length, angle=angle, title=title))
+    return Path(path)
+
+
+# ------------------------------------------------------------------------------------------------ compensation
+
+
+#: Rows of the compensation report's target table (all of them are in the program written by ``compensate``).
+TARGET_ROWS = 500
+
+
+def compensation_report_html(comp, nominal: Robot, identified: Robot, *, source: str = "", where=None, length: str = "mm", angle: str = "deg",
+                             title: str | None = None) -> str:
+    """The HTML text of :func:`write_compensation_report`."""
+    go, _ = _plotly()
+    ls = length_scale(length)
+    n = len(comp)
+    where = list(where) if where is not None else [f"target {i + 1}" for i in range(n)]
+    ok = np.asarray(comp.ok, dtype=bool)
+    tgt = np.asarray(comp.targets)[:, :3, 3]
+    cmd = np.asarray(comp.commands)[:, :3, 3]
+    traces, drawn = [], [tgt, cmd]
+    for mask, name, colour in ((ok, "targets", "#1f77b4"), (~ok, "flagged targets", "#d62728")):
+        if mask.any():
+            p = tgt[mask] / ls
+            traces.append(go.Scatter3d(x=p[:, 0], y=p[:, 1], z=p[:, 2], mode="markers", marker={"size": 3.5, "color": colour}, name=name, legendgroup=name,
+                                       hovertext=[f"{where[i]}: error without compensation {comp.before[i] / ls:.4f} {length}" for i in np.flatnonzero(mask)], hoverinfo="text"))
+    if ok.any():
+        traces.append(_line3d(go, [np.array([a, b]) for a, b in zip(tgt[ok], cmd[ok], strict=True)], ls, line={"color": "#ff7f0e", "width": 3},
+                              name="target -> command sent", legendgroup="commands"))
+    q0 = np.asarray(comp.q_nominal[0], dtype=float)
+    size = scene_size(np.vstack([tgt, nominal.table.frames(q0)[:, :3, 3]]))
+    tri = 0.07 * size
+    tr, d = _robot_traces(go, f"nominal {nominal.name} at target 1", nominal.table, q0, ls, tri, group="frames-nominal", names=nominal.names)
+    traces += tr
+    drawn.append(d)
+    q1 = np.asarray(comp.q[0], dtype=float)
+    if np.all(np.isfinite(q1)):
+        tr, d = _robot_traces(go, f"identified {identified.name} at target 1", identified.table, q1, ls, tri, group="frames-identified", visible="legendonly",
+                              dash="dash", names=identified.names, textposition="bottom left")
+        traces += tr
+    fig = go.Figure(traces)
+    fig.update_layout(**_scene_layout(length, np.vstack(drawn) / ls))
+    view = _figure_html(fig, VIEW_ID, "plot3d")
+
+    idx = np.arange(n)
+    efig = go.Figure([go.Scatter(x=idx[ok] + 1, y=np.asarray(comp.before)[ok] / ls, mode="markers", marker={"size": 6, "color": "#c0392b"}, name="without compensation")])
+    if comp.predicted_after is not None:
+        efig.add_trace(go.Scatter(x=idx[ok] + 1, y=np.asarray(comp.predicted_after)[ok] / ls, mode="markers", marker={"size": 6, "color": "#2471a3"},
+                                  name="with compensation (predicted 1σ)"))
+    efig.update_layout(height=320, margin={"l": 70, "r": 10, "t": 40, "b": 40}, xaxis={"title": {"text": "target"}},
+                       yaxis={"title": {"text": f"tool position error [{length}]"}, "exponentformat": "power", "rangemode": "tozero"},
+                       title={"text": "Position error of every target the robot can be sent", "font": {"size": 14}})
+    rows = []
+    for i in range(min(n, TARGET_ROWS)):
+        flags = ", ".join(x for x, f in (("unreachable", not comp.reached[i]), ("branch changed", comp.branch_changed[i]), ("path jump", comp.path_jump[i])) if f)
+        rows.append(f'<tr data-target="{i + 1}">{_td("target", where[i])}{_td("before", float(comp.before[i]) / ls)}{_td("shift", float(np.linalg.norm(cmd[i] - tgt[i])) / ls)}'
+                    f'{_td("residual", float(comp.residual[i]) / ls)}{_td("flags", flags or "ok")}</tr>')
+    targets_t = _table("targets", ["target", f"error without compensation [{length}]", f"command shift [{length}]", f"solve residual [{length}]", "flags"], rows,
+                       f"Per target (first {TARGET_ROWS} of {n})" if n > TARGET_ROWS else "Per target.", "targets")
+    before = np.asarray(comp.before)[ok] / ls
+    summary = _summary([
+        ("program", f"{n} targets" + (f" from {source}" if source else "") + f"; {int((~ok).sum())} flagged (unreachable, branch changed or path jump)"),
+        ("models", f"controller's nominal {nominal.name} -> identified {identified.name}"),
+        *([("accuracy", f"tool position error without compensation rms {np.sqrt(np.mean(before ** 2)):.4g} {length}, max {before.max():.4g} {length}; "
+            f"with it: solve residual max {np.asarray(comp.residual)[ok].max() / ls:.3g} {length}"
+            + (f", predicted rms {np.sqrt(np.mean((np.asarray(comp.predicted_after)[ok] / ls) ** 2)):.3g} {length} (1σ)" if comp.predicted_after is not None else ""))]
+          if ok.any() else [("accuracy", "no target can be sent")]),
+    ])
+    title = title or "denavit compensation" + (f": {source}" if source else "")
+    meta = html.escape(f"{n} targets; lengths in {length}, angles in {angle}, robot base frame.")
+    body = "\n".join([
+        _view_section(view, "The program's targets (flagged ones red), the shift from each target to the command sent (orange), the nominal robot at the "
+                      "first target; the identified robot is in the legend."),
+        f'<section id="errors"><h2>Errors</h2>{_figure_html(efig, "errors-chart")}</section>',
+        f'<section id="targets-section"><h2>Targets</h2><div class="scroll">{targets_t}</div></section>',
+    ])
+    return _page(title, meta, summary, body)
+
+
+def write_compensation_report(comp, nominal: Robot, identified: Robot, path, *, source: str = "", where=None, length: str = "mm", angle: str = "deg",
+                              title: str | None = None) -> Path:
+    """Write the self-contained HTML report of a :class:`denavit.compensation.Compensation` (of ``nominal`` ->
+    ``identified`` robots) to ``path``: a summary (targets, flagged ones, the error without compensation and
+    after it), the targets and the commands in 3-D with the robot, the error of every target, the table of
+    targets (``where``: a label per target, e.g. "file:line"). Returns the path."""
+    write_text(path, compensation_report_html(comp, nominal, identified, source=source, where=where, length=length, angle=angle, title=title))
+    return Path(path)
+
+
 __all__ = [
     "DECIMALS",
     "FIGURE_FORMATS",
+    "PLOTLY_BUNDLE",
+    "TARGET_ROWS",
     "VIEW_ID",
+    "calibration_report_html",
+    "compensation_report_html",
     "fmt_value",
     "model_report_html",
     "report_html",
+    "write_calibration_report",
+    "write_compensation_report",
     "write_figures",
     "write_model_figures",
     "write_model_report",
