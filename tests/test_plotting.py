@@ -198,3 +198,143 @@ def test_accuracy_figure_shows_the_nominal_error_and_the_prediction(result):
     assert len(hist.patches) == 2 * 39 and "nominal model: rms" in hist.get_legend().get_texts()[0].get_text()
     amap, = by_gid(fig.axes, "accuracy-map")
     np.testing.assert_allclose(amap.collections[0].get_offsets(), acc.points[:, :2] / MM)
+
+
+# ------------------------------------------------------------------------------------------------ issue 17: figures that explain themselves
+
+
+def test_scene_view_frames_a_tall_robot_without_squashing_an_axis():
+    """Regression: aspectmode "data" drew a 1.5 m tall, 0.2 m wide robot with a squashed x axis (ticks on top of
+    each other, no room for the title). The view keeps one scale on all axes, no axis below half the longest,
+    holds every point, and puts the camera where the box's bounding sphere fits plotly's 45 degree view."""
+    rng = np.random.default_rng(0)
+    pts = rng.uniform([-100, -50, 0], [100, 50, 1500], (200, 3))
+    v = plotting.scene_view(pts)
+    lo, hi = v["ranges"][:, 0], v["ranges"][:, 1]
+    assert np.all(pts >= lo) and np.all(pts <= hi)
+    assert v["aspectratio"].max() == 1 and v["aspectratio"].min() >= 0.5
+    np.testing.assert_allclose((hi - lo) / v["aspectratio"], (hi - lo)[2], rtol=1e-12)  # the same scale on x, y, z
+    radius = np.linalg.norm(v["aspectratio"]) / 2
+    assert radius / np.linalg.norm(v["eye"]) <= np.sin(np.radians(22.5)) / 1.1  # fits, with room for the labels
+    flat = plotting.scene_view(np.array([[0.0, 0, 0], [1, 1, 0]]))  # a planar cloud still gets a z extent
+    assert flat["ranges"][2, 1] - flat["ranges"][2, 0] > 0.5
+    with pytest.raises(DenavitError, match="at least one finite point"):
+        plotting.scene_view(np.full((2, 3), np.nan))
+
+
+def test_coincident_wrist_frames_get_one_label_and_nested_triads():
+    """Regression: the KR5's DH frames 4, 5 and 6 share an origin: three labels overlapped and frame 6's triad hid
+    frames 4 and 5. One label "4,5,6"; triads 100 %, 70 %, 49 % long."""
+    t = dv.load_robot("kr5").table
+    o = t.frames(np.zeros(6))[:, :3, 3]
+    assert [text for _, text in plotting.frame_labels(o, 1e-6)] == ["0", "1", "2", "3", "4,5,6"]
+    np.testing.assert_allclose(plotting.triad_lengths(o, 0.1), [0.1, 0.1, 0.1, 0.1, 0.1, 0.07, 0.049])
+    assert plotting.clusters(np.array([[0.0, 0, 0], [0.5, 0, 0], [2, 0, 0], [0.9, 0, 0]]), 1.0) == [[0, 1, 3], [2]]
+    fig = plotting.plot_frames([t])
+    (ax,) = fig.axes
+    assert sorted(x.get_text().strip() for x in ax.texts) == ["0", "1", "2", "3", "4,5,6"]
+
+
+@pytest.mark.parametrize("convention", ["dh", "mdh", "edh"])
+def test_chain_path_follows_the_link_transforms(convention):
+    """Regression: the skeleton went straight from one frame origin to the next, so ED-H frames (on the axes, at
+    the circle centres) zig-zagged. The chain path visits every origin in order, and each link's part has the
+    length of its translations (|d| + |a|; |a| + |b| + |c|), each segment along an axis of the link's factors."""
+    robot = dv.load_robot("kr5")
+    t = robot.table if convention == "dh" else dv.to_table(robot.model(), convention).table
+    q = np.radians([10, -20, 30, 40, 50, 60])
+    F = t.frames(q)
+    path = plotting.chain_path(t, q)
+    seg = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    at = [int(np.argmin(np.linalg.norm(path - o, axis=1))) for o in F[:, :3, 3]]
+    assert at == sorted(at) and all(np.linalg.norm(path[i] - o) < 1e-12 for i, o in zip(at, F[:, :3, 3], strict=True))
+    cols = list(t.columns)
+    lengths = [sum(abs(t.params[i, cols.index(c)]) for c in {"dh": "da", "mdh": "ad", "edh": "abc"}[convention]) for i in range(6)]
+    np.testing.assert_allclose([seg[a:b].sum() for a, b in zip(at[:-1], at[1:], strict=True)], lengths, atol=1e-12)
+    straight = np.linalg.norm(np.diff(F[:, :3, 3], axis=0), axis=1)
+    assert seg.sum() > straight.sum() + 1e-3  # not the straight skeleton
+
+
+def test_poe_chain_path_is_the_straight_skeleton():
+    t = dv.to_table(dv.load_robot("kr5").model(), "poe").table
+    F = t.frames(np.zeros(6))
+    path = plotting.chain_path(t, np.zeros(6))
+    o = F[:, :3, 3]
+    keep = [o[0]] + [b for a, b in zip(o[:-1], o[1:], strict=True) if np.linalg.norm(b - a) > 1e-12]
+    np.testing.assert_allclose(path, keep, atol=1e-15)
+
+
+def test_clean_ticks_and_symmetric_limits():
+    """Regression: a round-off difference (-3.945e-15 mm) made its own axis of +-1e-15 with unreadable ticks."""
+    np.testing.assert_array_equal(plotting.clean_ticks([-3.945e-15, 0.02, -0.01]), [0.0, 0.02, -0.01])
+    np.testing.assert_array_equal(plotting.clean_ticks([-3.945e-15, 2e-16]), [0.0, 0.0])
+    assert plotting.clean_ticks([1e-6, -2e-6])[1] == -2e-6  # a real micro difference stays
+    assert plotting.symmetric_limit([0.0, 0.0], [0.0, 0.0], 1e-6) == 1e-6
+    assert plotting.symmetric_limit([0.01, -0.03], [0.005, 0.01], 1e-6) == pytest.approx(1.15 * 0.04)
+
+
+def test_parameters_figure_has_no_round_off_ticks_nor_overlapping_names(result):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = plotting.plot_parameters(result)
+    FigureCanvasAgg(fig).draw()
+    r = fig.canvas.get_renderer()
+    for ax in by_gid(fig.axes, "param-.*"):
+        texts = [t.get_text() for t in ax.get_yticklabels()] + [ax.yaxis.get_offset_text().get_text()]
+        assert not any(re.search(r"e-1\d|\{-1\d\}", x) for x in texts), texts
+        boxes = [t.get_window_extent(r) for t in ax.get_xticklabels()]
+        assert all(a.x1 <= b.x0 + 0.5 for a, b in zip(boxes[:-1], boxes[1:], strict=True))  # joint names side by side
+
+
+@pytest.fixture(scope="module")
+def near_parallel_edh():
+    """KR5 identified in ED-H from short sweeps: the near-parallel pair 2-3 leaves a, b, theta of joint 3 (and
+    theta of joint 2) with sigmas of hundreds of millimetres / degrees (issue 17: the +-870 mm error bars)."""
+    s = sw.simulate(dv.load_model("kr5"), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=12, noise=2e-5, seed=7)
+    return ident.identify(s, nominal=dv.load_robot("kr5"), convention="edh")
+
+
+def test_undetermined_parameters_are_not_charted(near_parallel_edh):
+    res = near_parallel_edh
+    rows = {r.column: r for r in plotting.parameter_errors(res)}
+    extent = plotting.scene_size(res.sweeps.all_points)
+    for k, c in enumerate(res.table.columns):
+        limit = plotting.UNDETERMINED_ANGLE if res.table.angle_columns[k] else plotting.UNDETERMINED_LENGTH * extent
+        expected = ["held" if s == 0 else "undetermined" if s > limit else "" for s in res.sigma[:, k]]
+        assert rows[c].why == expected
+    assert rows["a"].why[2] == rows["b"].why[2] == "undetermined" and rows["alpha"].why[0] == "held"
+    fig = plotting.plot_parameters(res)
+    for ax in by_gid(fig.axes, "param-.*"):
+        (eb,) = ax.containers
+        r = rows[ax.get_gid()[len("param-"):]]
+        np.testing.assert_array_equal(eb.lines[0].get_xdata(), np.flatnonzero(r.shown) + 1)
+        assert max(abs(np.asarray(eb.lines[0].get_ydata()))) < 1.0  # no error of hundreds of mm or deg drawn
+    go = pytest.importorskip("plotly.graph_objects")
+    from plotly.subplots import make_subplots
+
+    chart, caption = rep._parameter_chart(go, make_subplots, res, "mm", "deg")
+    assert all(max(np.abs(tr.error_y.array)) < 1.0 for tr in chart.data)
+    assert "A3 a (undetermined)" in caption and "A3 b (undetermined)" in caption
+    assert all(ax.exponentformat == "power" for ax in (chart.layout[k] for k in chart.layout if k.startswith("yaxis")))  # 2×10⁻⁴, never 200µ
+
+
+def test_residuals_are_points_not_lines(result):
+    """Regression: residuals (one distance per measured point) were joined into six series of spaghetti."""
+    fig = plotting.plot_residuals(result)
+    for ax in by_gid(fig.axes, r"residuals-\d"):
+        assert ax.lines[1].get_linestyle() == "None" and ax.lines[1].get_marker() == "o"
+    go = pytest.importorskip("plotly.graph_objects")
+    assert all(tr.mode == "markers" for tr in rep._residual_chart(go, result, 1e-3, "mm").data)
+
+
+def test_frame_panels_keep_their_axis_labels_inside_the_figure():
+    """Regression: the right-hand panel's "z [mm]" was cut off at the figure's edge."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = plotting.plot_frames([("MD-H", dv.load_robot("tiansui_mdh").table), ("ED-H", dv.load_robot("tiansui_edh").table)])
+    FigureCanvasAgg(fig).draw()
+    r = fig.canvas.get_renderer()
+    for ax in fig.axes:
+        for label in (ax.xaxis.label, ax.yaxis.label, ax.zaxis.label):
+            b = label.get_window_extent(r)
+            assert label.get_text() and b.x0 >= 0 and b.x1 <= fig.bbox.x1 and b.y0 >= 0 and b.y1 <= fig.bbox.y1, (label.get_text(), b, fig.bbox)

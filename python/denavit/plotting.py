@@ -250,9 +250,9 @@ def _equal_3d(ax, points: np.ndarray) -> None:
 
 
 def _labels_3d(ax, length: str) -> None:
-    ax.set_xlabel(f"x [{length}]")
-    ax.set_ylabel(f"y [{length}]")
-    ax.set_zlabel(f"z [{length}]")
+    ax.set_xlabel(f"x [{length}]", labelpad=6)
+    ax.set_ylabel(f"y [{length}]", labelpad=6)
+    ax.set_zlabel(f"z [{length}]", labelpad=8)  # clear of the tick labels
 
 
 def plot_circles(result: Identification, *, length: str = "mm") -> Figure:
