@@ -8,9 +8,17 @@
   nominal, differences; axes; consecutive-axis relations; bounding box; notes).
 * :func:`write_model_report` -- a robot: its frames beside those of another convention or another robot file
   (Guo et al. Figs. 6-7), the path of every frame origin while each joint moves (Guo et al. Fig. 3), and the tables.
+* :func:`write_calibration_report` -- a whole-model calibration; :func:`write_compensation_report` -- a
+  compensated program.
 
-The HTML file works offline: the plotly.js bundle is inlined (``include_plotlyjs=True``, no CDN, no MathJax),
-there is no other script, style sheet, font or image to fetch. Legend entries are grouped: a click on a joint
+Every page is read in a minute: a summary first (what was measured, the model, the fit, the accuracy before
+and after where known), then the 3-D view (its camera and aspect set from what it draws,
+:func:`denavit.plotting.scene_view`), then the tables with a unit in every header.
+
+The HTML file works offline and weighs under 1 MB: plotly.js is inlined once per page, as the gzip'ed partial
+bundle :data:`PLOTLY_BUNDLE` (the trace types the reports draw), inflated by the browser's own
+``DecompressionStream`` and run by the page's one loader, which then draws every figure from its JSON. There
+is no other script, style sheet, font or image to fetch. Legend entries are grouped: a click on a joint
 or a convention shows or hides all of its traces (double-click isolates it). Every number in a table is a
 ``<td>`` with a class naming its column and a ``data-value`` attribute holding the full-precision value in the
 table's display unit, so that the report can be read by programs as well as people.
@@ -271,6 +279,8 @@ _CONFIG = {"displaylogo": False, "responsive": True, "toImageButtonOptions": {"f
 #: plotly.js-gl3d-dist-min 4.1.1 from npm, MIT licence (denavit/data/plotly-gl3d.LICENSE); its version matches
 #: the plotly.js of plotly 6 and later, whose figure JSON it reads.
 PLOTLY_BUNDLE = "plotly-gl3d.min.js.gz"
+#: Its version (the plotly.js of plotly.py 7; figures written by plotly.py 6 and later draw with it).
+PLOTLY_JS_VERSION = "4.1.1"
 
 
 @functools.cache
@@ -892,6 +902,7 @@ __all__ = [
     "DECIMALS",
     "FIGURE_FORMATS",
     "PLOTLY_BUNDLE",
+    "PLOTLY_JS_VERSION",
     "TARGET_ROWS",
     "VIEW_ID",
     "calibration_report_html",
