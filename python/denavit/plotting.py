@@ -252,7 +252,7 @@ def _equal_3d(ax, points: np.ndarray) -> None:
 def _labels_3d(ax, length: str) -> None:
     ax.set_xlabel(f"x [{length}]", labelpad=6)
     ax.set_ylabel(f"y [{length}]", labelpad=6)
-    ax.set_zlabel(f"z [{length}]", labelpad=8)  # clear of the tick labels
+    ax.set_zlabel(f"z [{length}]", labelpad=14)  # clear of the tick labels
 
 
 def plot_circles(result: Identification, *, length: str = "mm") -> Figure:
@@ -471,7 +471,7 @@ def plot_origin_paths(tables, joint: int, q0=None, *, limits=None, steps: int = 
     Returns
     -------
     Figure with one 3-D axes per table (gid ``paths-<label>``); in each, per frame i = 0..n a Line3D
-    ``path-i`` (frames that do not move draw a single marker), and the skeleton at ``q0`` in grey.
+    ``path-i`` (frames that do not move draw a single marker), and the robot at ``q0`` in grey (:func:`chain_path`).
     """
     items = _named_tables(tables)
     n = items[0][1].params.shape[0]
@@ -492,8 +492,7 @@ def plot_origin_paths(tables, joint: int, q0=None, *, limits=None, steps: int = 
     for k, ((label, t), P) in enumerate(zip(items, paths, strict=True)):
         ax = fig.add_subplot(1, len(items), k + 1, projection="3d")
         ax.set_gid(f"paths-{label}")
-        o = t.frames(qv)[:, :3, 3] / ls
-        (sk,) = ax.plot(*o.T, "-", color="0.6", lw=1.5, marker="o", ms=2)
+        (sk,) = ax.plot(*(chain_path(t, qv) / ls).T, "-", color="0.6", lw=1.5)
         sk.set_gid("skeleton")
         for i in range(P.shape[1]):
             c = joint_colour(i)

@@ -255,7 +255,7 @@ def _path_traces(go, label: str, table: _core.Table, q0, joint: int, limits, ls:
     if not segs:
         return []
     return [_line3d(go, segs, ls, line={"color": colour, "width": 2, "dash": dash}, opacity=0.55, name=name, legendgroup=group, showlegend=True, visible=visible,
-                    hovertext=label, hoverinfo="name")]
+                    hovertext=f"{label}: {name}", hoverinfo="text")]
 
 
 def _scene_layout(length: str, points) -> dict:
@@ -651,9 +651,12 @@ def model_report_html(robot: Robot, *, compare=None, q=None, length: str = "mm",
         drawn += [_frame_points(F, tri), chain_path(t, qv)]
     for k in range(1, n + 1):
         lim = motion_range(robot.lower, robot.upper, qv, k, robot.table.kinds[k - 1])
+        shown = False  # one legend entry per moving joint, for the paths of both conventions
         for (label, t), colour, dash in zip(tables, ("#6a3d9a", "#b15928"), ("solid", "dash"), strict=True):
-            traces += _path_traces(go, label, t, qv, k, lim, ls, group=f"paths-{label}-{k}", visible="legendonly", colour=colour, dash=dash,
-                                   name=f"{label}: origin paths, {robot.names[k - 1]} moving")
+            for tr in _path_traces(go, label, t, qv, k, lim, ls, group=f"paths-{k}", visible="legendonly", colour=colour, dash=dash,
+                                   name=f"origin paths, {robot.names[k - 1]} moving"):
+                tr.showlegend, shown = not shown, True
+                traces.append(tr)
     fig = go.Figure(traces)
     fig.update_layout(**_scene_layout(length, np.vstack(drawn) / ls))
     view = _figure_html(fig, VIEW_ID, "plot3d")
