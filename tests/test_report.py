@@ -201,6 +201,7 @@ def test_summary_comes_first_and_says_what_was_measured_and_how_accurate(report_
     assert text.index('id="summary"') < text.index('id="view"')
     summary = text[text.index('id="summary"'):text.index("</dl>")]
     assert "72 points in 6 single-joint sweeps" in summary and "DH table of 6 joints" in summary and "accuracy" in summary and "with the nominal model" in summary
+    assert "<dt>fit chosen</dt><dd>global (one home point) over readings" in summary  # which model won, and why
 
 
 def test_report_tables_hold_the_identification(report_path, result):

@@ -589,6 +589,7 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
     summary = _summary([
         ("measured", f"{npts} points in {len(result.sweeps.sweeps)} single-joint sweeps from {doc['source']}"),
         ("model", f"{t.convention.upper()} table of {len(names)} joints, {result.method} fit; nominal: " + (result.nominal.name if result.nominal else "none")),
+        *[("fit chosen", n[len("auto: "):]) for n in doc["notes"] if n.startswith("auto: ")],
         ("fit", f"residual rms {doc['rms']:.4f} {length}; worst axis sigma across {max(j['axis']['sigma_point_perp'] for j in doc['joints']):.3g} {length}"),
         *([("accuracy", f"tool position error rms {acc['nominal']:.3g} {length} with the nominal model -> {acc['identified']:.3g} {length} predicted with the "
             "identified one (1σ)")] if acc else []),
