@@ -352,13 +352,13 @@ def _strong_correlations(corr: np.ndarray, names: list, limit: float = 0.999) ->
 def _circle_start(pz: Parametrization, x, meas: Measurements, robot: Robot, convention: str, free: list, notes: list) -> np.ndarray:
     """Start values from the circle-point identification (global fit of the sweeps): the chain is fitted to
     the identified model's predictions at the measured configurations."""
-    from .. import identify as ident  # noqa: PLC0415 (identify imports the fitting package: loaded for start="circles" only)
+    from ..identify import identify  # noqa: PLC0415 (identify imports the fitting package: loaded for start="circles" only)
 
     if meas.sweeps is None:
         raise DenavitError(f"{meas.source}: start='circles' needs sweep data (Measurements.from_sweeps); these are arbitrary poses: use start='nominal'")
     if pz.measure != "point":
         raise DenavitError("start='circles' works with measured points (sweeps), not poses")
-    res = ident.identify(meas.sweeps, method="global", convention="edh", nominal=robot)
+    res = identify(meas.sweeps, method="global", convention="edh", nominal=robot)
     m = res.model()
     tp = np.asarray(m.T_flange_tool)[:3, 3]
     T = _core.fk_batch(m.with_tool(np.eye(4)), meas.q)

@@ -53,7 +53,8 @@ def identify(
     tip_link: TipLinkOpt = None,
 ) -> None:
     """Identify the joint axes and parameters from joint sweeps (Hayat et al.), beside the nominal values."""
-    from .. import identify as ident  # noqa: PLC0415
+    from ..identify import identify as identify_sweeps  # noqa: PLC0415
+    from ..identify import to_json, write_json  # noqa: PLC0415
     from ..io import sweeps as swio  # noqa: PLC0415
 
     if example:
@@ -82,8 +83,8 @@ def identify(
     with console.status(f"fitting {sweeps.n_joints} sweeps ({method})...") as status:
         ms = None if max_sigma is None else max_sigma * length_scale(length or sweeps.units.get("length", "mm"))
         T_world_base = None if base is None else parse_pose(base, "deg", length_scale(out_len), "--base")
-        result = ident.identify(sweeps, method=method, convention=convention, nominal=nom, loss=loss, max_sigma=ms, T_world_base=T_world_base, progress=status.update)
-    doc = ident.to_json(result, out_len, "deg")
+        result = identify_sweeps(sweeps, method=method, convention=convention, nominal=nom, loss=loss, max_sigma=ms, T_world_base=T_world_base, progress=status.update)
+    doc = to_json(result, out_len, "deg")
     print_identification(doc, result, out_len)
     if nom is not None:
         from ..compensation import identification_accuracy  # noqa: PLC0415
@@ -94,7 +95,7 @@ def identify(
             f"(max {s['nominal']['max'] / ls_out:.4g}); identified model, predicted 1 sigma: rms {s['identified']['rms'] / ls_out:.4g} {out_len} "
             f"(max {s['identified']['max'] / ls_out:.4g})")
     if json_path:
-        ident.write_json(result, json_path, out_len, "deg")
+        write_json(result, json_path, out_len, "deg")
         wrote(json_path)
     if save_model or urdf:
         names = nom.names if nom else [f"j{i + 1}" for i in range(sweeps.n_joints)]
