@@ -54,6 +54,13 @@ class Identification:
     rms: float = 0.0
     notes: list[str] = field(default_factory=list)
 
+    def __repr__(self) -> str:
+        n_pts = sum(len(s.points) for s in self.sweeps.sweeps)
+        name = self.nominal.name if self.nominal else "no nominal"
+        err = self.extraction.max_position_error
+        return (f"Identification({self.convention}, method {self.method}, {self.axes.nq} joints, {n_pts} points of {self.sweeps.source or 'sweeps'}, nominal {name})\n"
+                f"  rms {self.rms * 1e3:.4g} mm; the {self.convention} table carries a tool error up to {err * 1e3:.3g} mm; {len(self.notes)} notes")
+
     @cached_property
     def box(self) -> BoundingBox:
         """The minimum-volume oriented bounding box of all measured points (the measuring volume, Hayat et al.

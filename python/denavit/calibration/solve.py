@@ -47,6 +47,10 @@ class Validation:
     after_max: float
     test_indices: np.ndarray
 
+    def __repr__(self) -> str:
+        return (f"Validation({self.n_test} held-out of {self.n_train + self.n_test} poses: tool-position error rms {self.before_rms * 1e3:.4g} -> "
+                f"{self.after_rms * 1e3:.4g} mm, max {self.before_max * 1e3:.4g} -> {self.after_max * 1e3:.4g} mm)")
+
 
 @dataclass(frozen=True, eq=False)
 class Calibration:
@@ -85,6 +89,14 @@ class Calibration:
     @property
     def convention(self) -> str:
         return self.parametrization.convention
+
+    def __repr__(self) -> str:
+        est = int(np.count_nonzero(np.isfinite(self.sigma)))
+        v = self.validation
+        held = "" if v is None else f"; held-out error rms {v.before_rms * 1e3:.4g} -> {v.after_rms * 1e3:.4g} mm"
+        return (f"Calibration({self.parametrization.robot.name}, {self.convention}, {self.measurements.n} {self.measurements.kind}s of {self.measurements.source}, "
+                f"{est} of {len(self.names)} parameters estimated, {'converged' if self.converged else 'NOT converged'})\n"
+                f"  rms {self.rms * 1e3:.4g} mm{held}; {len(self.notes)} notes")
 
     def value(self, name: str) -> tuple[float, float]:
         """(value, sigma) of one parameter (SI)."""
