@@ -34,6 +34,8 @@ from .robot import Robot
 from .sweeps import Sweep, SweepSet
 
 METHODS = ("auto", "kasa", "hyper", "geometric", "readings", "global")
+#: The conventions whose tables hold any pair of joint axes exactly (docs/conventions.md): what :meth:`Identification.save` writes by default.
+EXACT = ("edh", "poe")
 
 
 @dataclass(frozen=True)
@@ -77,12 +79,59 @@ class Identification:
         names = self.nominal.names if self.nominal else [f"j{i + 1}" for i in range(self.axes.nq)]
         lower = self.nominal.lower if self.nominal else None
         upper = self.nominal.upper if self.nominal else None
-        table = self.table
+        return self._extraction(convention).table.to_model(name, names, lower, upper)
+
+    def _extraction(self, convention: str | None) -> _core.Extraction:
+        """The identified axes in ``convention`` (None: the result's own table)."""
         convention = None if convention is None else _core.convention_info(convention)["name"]
-        if convention is not None and convention != self.convention:
-            nominal = _nominal_table(self.nominal, convention, self.sweeps.home)
-            table = _core.extract(self.axes, convention, nominal=nominal, origins=_origins(nominal, convention, self.sweeps.home)).table
-        return table.to_model(name, names, lower, upper)
+        if convention is None or convention == self.convention:
+            return self.extraction
+        nominal = _nominal_table(self.nominal, convention, self.sweeps.home)
+        return _core.extract(self.axes, convention, nominal=nominal, origins=_origins(nominal, convention, self.sweeps.home))
+
+    def robot(self, name: str | None = None, convention: str | None = None) -> Robot:
+        """The identified robot as a :class:`Robot` (for :meth:`save` and :func:`denavit.io.urdf.save_urdf`): the
+        nominal's names, limits and extras (a URDF nominal's meshes and limits ride along), the sweeps' home.
+
+        convention : the table's convention; default the exact geometry (:data:`EXACT`: the result's own table
+            when it is ED-H or POE, else ED-H). A DH or MDH table cannot hold a near-parallel pair's tilt (Hayati
+            beta): ask for one by name.
+        """
+        conv = _core.convention_info(convention)["name"] if convention is not None else (self.convention if self.convention in EXACT else "edh")
+        n = self.axes.nq
+        names = list(self.nominal.names) if self.nominal else [f"j{i + 1}" for i in range(n)]
+        limits = np.array([_core.default_limits(k) for k in self.sweeps.kinds])
+        lower = self.nominal.lower if self.nominal else limits[:, 0]
+        upper = self.nominal.upper if self.nominal else limits[:, 1]
+        return Robot(name=name or f"{self.nominal.name if self.nominal else 'robot'}_identified", table=self._extraction(conv).table, names=names, lower=lower,
+                     upper=upper, description=f"identified from {self.sweeps.source} ({self.method} fit, {conv})", source=str(self.sweeps.source),
+                     home=self.sweeps.home, extra=dict(self.nominal.extra) if self.nominal else {})
+
+    def carried_error(self, convention: str | None = None, count: int = 256) -> tuple[float, int]:
+        """(max tool-position deviation in m, configurations checked) of the table :meth:`robot` writes in
+        ``convention`` from the identified geometry (the exact ED-H model of the axes): over the home and ``count``
+        configurations spread over the joint limits (:func:`denavit.calibration.configurations`)."""
+        from .calibration.parametrization import configurations  # noqa: PLC0415 (scipy's Halton sequence)
+
+        robot = self.robot(convention=convention)
+        exact = _core.extract(self.axes, "edh", fidelity=False).table.to_model()
+        q = np.vstack([self.sweeps.home, configurations(robot, count)])
+        d = _core.fk_batch(robot.model(), q)[:, :3, 3] - _core.fk_batch(exact, q)[:, :3, 3]
+        return float(np.linalg.norm(d, axis=1).max()), len(q)
+
+    def save(self, path, convention: str | None = None, length: str = "m", angle: str = "deg", name: str | None = None) -> None:
+        """Write the identified robot as a robot file (.toml; :mod:`denavit.io.robotfile`), by default the exact
+        geometry (:meth:`robot`), a lossy DH / MDH table only when ``convention`` asks for one. The file states in
+        a comment the tool-position error its table carries against the identified geometry (:meth:`carried_error`)."""
+        from .io.robotfile import dumps  # noqa: PLC0415
+
+        robot = self.robot(name, convention)
+        err, count = self.carried_error(convention)
+        how = (f"exactly (a {robot.convention} table holds any pair of joint axes)" if robot.convention in EXACT else
+               f"in a {robot.convention} table, which cannot hold a near-parallel pair's tilt (save without a convention for the exact ED-H geometry)")
+        note = (f"# The identified geometry, {how}.\n# Carried error: max tool-position deviation {err * 1e3:.3g} mm from the identified geometry "
+                f"over {count} configurations (the home and {count - 1} spread over the joint limits).\n")
+        write_text(path, note + dumps(robot, length, angle))
 
 
 #: A locked joint whose reading leaves home by more than this during another joint's sweep gets a note
