@@ -127,7 +127,7 @@ class Identification:
 
         robot = self.robot(name, convention)
         err, count = self.carried_error(convention)
-        how = (f"exactly (a {robot.convention} table holds any pair of joint axes)" if robot.convention in EXACT else
+        how = (f"exactly (its {robot.convention} table holds any pair of joint axes)" if robot.convention in EXACT else
                f"in a {robot.convention} table, which cannot hold a near-parallel pair's tilt (save without a convention for the exact ED-H geometry)")
         note = (f"# The identified geometry, {how}.\n# Carried error: max tool-position deviation {err * 1e3:.3g} mm from the identified geometry "
                 f"over {count} configurations (the home and {count - 1} spread over the joint limits).\n")
