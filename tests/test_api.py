@@ -179,3 +179,50 @@ def test_identify_cli_save_is_exact_unless_asked(tmp_path):
     assert dv.load_robot(tmp_path / "a.toml").convention == "edh"
     assert dv.load_robot(tmp_path / "b.toml").convention == "dh"
     assert "cannot hold" in (tmp_path / "b.toml").read_text() and "exactly" in (tmp_path / "a.toml").read_text()
+
+
+# Corke, Robotics, Vision and Control (2nd ed., Springer 2017), sec. 9.2.2 "Gravity term", the Puma 560 model of the
+# toolbox (Corke & Armstrong-Helouvry 1994's parameters): p560.gravload(qz) and p560.gravload(qn), N m.
+PUMA_GRAVLOAD = {
+    "qz": ([0, 0, 0, 0, 0, 0], [0, 37.4837, 0.2489, 0, 0, 0]),
+    "qn": ([0, np.pi / 4, np.pi, 0, np.pi / 4, 0], [0, 31.6399, 6.0351, 0, 0.0283, 0]),
+}
+
+
+@pytest.mark.parametrize("pose", sorted(PUMA_GRAVLOAD))
+def test_puma560_gravity_torques_are_the_published_ones(pose):
+    """Regression (issue 17): the built-in Puma 560 had no inertial parameters (dynamics printed zeros)."""
+    q, tau = PUMA_GRAVLOAD[pose]
+    np.testing.assert_allclose(dv.gravity_torques(dv.load_model("puma560"), np.array(q, dtype=float)), tau, rtol=0, atol=6e-5)  # 4 decimals
+
+
+def _pinocchio_dh(robot):
+    """A pinocchio model of a standard-DH robot built from its table and inertial parameters (frame i of the DH
+    convention: Rz(theta + q) then the constant d, a, alpha part), independently of our core."""
+    pin = pytest.importorskip("pinocchio")
+    model = pin.Model()
+    parent, placement = 0, pin.SE3.Identity()
+    t = robot.table
+    ins = robot.inertials
+    for i, (d, theta, a, alpha) in enumerate(np.asarray(t.params)):
+        jid = model.addJoint(parent, pin.JointModelRZ(), placement * pin.SE3(pin.utils.rotate("z", theta), np.zeros(3)), f"j{i + 1}")
+        link = pin.SE3(np.eye(3), np.array([0, 0, d])) * pin.SE3(pin.utils.rotate("x", alpha), np.array([a, 0, 0]))  # Tz(d), then Tx(a) Rx(alpha)
+        R = link.rotation
+        model.appendBodyToJoint(jid, pin.Inertia(float(ins["masses"][i]), link.act(np.asarray(ins["coms"][i])), R @ ins["inertias"][i] @ R.T), pin.SE3.Identity())
+        parent, placement = jid, link
+    return pin, model
+
+
+@pytest.mark.parametrize("name", ["puma560", "ur5"])
+def test_builtin_dynamics_match_pinocchio_on_the_same_parameters(name):
+    robot = dv.load_robot(name)
+    assert robot.inertials is not None and robot.inertials["masses"].sum() > 1.0
+    pin, model = _pinocchio_dh(robot)
+    data = model.createData()
+    m = robot.model()
+    rng = np.random.default_rng(7)
+    for _ in range(5):
+        q, qd, qdd = rng.uniform(-2, 2, (3, 6))
+        np.testing.assert_allclose(dv.rnea(m, q, qd, qdd), pin.rnea(model, data, q, qd, qdd), rtol=1e-9, atol=1e-9)
+        M = pin.crba(model, data, q)
+        np.testing.assert_allclose(dv.mass_matrix(m, q), np.triu(M) + np.triu(M, 1).T, rtol=1e-9, atol=1e-9)  # pinocchio fills the upper triangle
