@@ -122,9 +122,20 @@ class Identification:
     def save(self, path, convention: str | None = None, length: str = "m", angle: str = "deg", name: str | None = None) -> None:
         """Write the identified robot as a robot file (.toml; :mod:`denavit.io.robotfile`), by default the exact
         geometry (:meth:`robot`), a lossy DH / MDH table only when ``convention`` asks for one. The file states in
-        a comment the tool-position error its table carries against the identified geometry (:meth:`carried_error`)."""
+        a comment the tool-position error its table carries against the identified geometry (:meth:`carried_error`).
+
+        A path ending in ``.urdf`` gets the URDF of the exact geometry instead (ED-H frames on the body; a URDF
+        nominal's meshes and limits ride along; :func:`denavit.io.urdf.save_urdf`), in SI as URDF requires.
+        """
         from .io.robotfile import dumps  # noqa: PLC0415
 
+        if str(path).lower().endswith(".urdf"):
+            from .io.urdf import save_urdf  # noqa: PLC0415 (lxml loads for a URDF only)
+
+            if convention is not None and _core.convention_info(convention)["name"] != "edh":
+                raise DenavitError(f"{path}: a URDF holds the exact geometry (ED-H frames on the body), got convention {convention!r}: save a robot file (.toml) for a {convention} table")
+            save_urdf(self.model(convention="edh"), path, self.robot(name))
+            return
         robot = self.robot(name, convention)
         err, count = self.carried_error(convention)
         how = (f"exactly (its {robot.convention} table holds any pair of joint axes)" if robot.convention in EXACT else
