@@ -125,6 +125,41 @@ def test_reprs_are_short_and_carry_the_key_numbers():
             assert part in text, (type(obj).__name__, part, text)
 
 
+def test_reprs_of_recordings_segmentations_and_targets():
+    from denavit.io.targets import Targets
+    from denavit.recording import Recording, Segment, Segmentation
+
+    n = 1000
+    rec = Recording(np.arange(n) * 0.004, np.zeros((n, 6)), np.zeros((n, 1, 3)), [f"log.csv:{k + 2}" for k in range(n)], "log.csv", "rtde", {"length": "m"})
+    seg = Segmentation([Segment(1, 0, 500, 0.0, 2.0, "sweep"), Segment(1, 500, 1000, 2.0, 4.0, "transit")], "readings", 6, 12, "log.csv")
+    tg = Targets(None, np.zeros((3, 6)), ["t.csv:2", "t.csv:3", "t.csv:4"], {"length": "mm", "angle": "deg"})
+    for obj, parts in ((rec, ["1000 rows", "250 Hz", "rtde"]), (seg, ["1 sweeps, 2 motions", "12 dwell rows"]), (tg, ["3 rows of joint rows", "length=mm"])):
+        text = repr(obj)
+        assert len(text) <= REPR_LIMIT and "\n" not in text, text
+        for part in parts:
+            assert part in text, (part, text)
+
+
+def test_the_identify_module_function_takes_names_and_says_what_it_reads():
+    """The module's identify (the one dv.identify calls) takes a nominal by name as calibrate does, and a path
+    gets a one-line error naming the function that reads files (it had failed on 'str' has no attribute 'n_joints')."""
+    from denavit.identify import identify
+
+    s = dv.simulate("kr5", points_per_sweep=8)
+    assert identify(s, nominal="kr5").nominal.name == "kr5"
+    with pytest.raises(dv.DenavitError, match=r"expected a SweepSet, got str: denavit.identify\(path, nominal=...\) reads files"):
+        identify(str(EXAMPLE))
+
+
+@pytest.mark.xfail(strict=True, reason="kr5.toml keeps Table III's twists as +90 deg and theta offsets 0 (the paper gives neither signs nor "
+                   "offsets): at the paper's home the arm hangs below the base; alpha1 = alpha5 = -90 deg and theta3 = -90 deg stand it "
+                   "upright, a change to the golden tables of test_identify and the statistical tests left to the lead")
+def test_kr5_stands_on_its_base_at_the_papers_home():
+    kr5 = dv.load_robot("kr5")
+    z = np.array(dv.joint_frames(kr5.model(), kr5.home))[:, 2, 3]
+    assert z.min() >= 0 and dv.fk(kr5.model(), kr5.home)[2, 3] > 0.4
+
+
 def _tilted_kr5(deg: float = 0.05):
     """The KR5 with every axis direction tilted by ``deg`` (about a direction across it, alternating) and the
     parallel pair A2-A3 no longer parallel: what a DH table cannot hold (a Hayati beta)."""

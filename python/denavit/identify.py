@@ -529,6 +529,12 @@ def identify(
     progress : called with a short message as each stage starts (the CLI shows it).
     """
     progress = progress or (lambda _msg: None)
+    if not isinstance(sweeps, SweepSet):
+        raise DenavitError(f"identify: expected a SweepSet, got {type(sweeps).__name__}: denavit.identify(path, nominal=...) reads files and names")
+    if nominal is not None and not isinstance(nominal, Robot):
+        from .calibration.parametrization import as_robot  # noqa: PLC0415
+
+        nominal = as_robot(nominal)  # a built-in name, a robot file or a Model, as calibrate takes
     if method not in METHODS:
         raise DenavitError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
     convention = _core.convention_info(convention)["name"]
