@@ -27,7 +27,6 @@ import numpy as np
 
 import denavit as dv
 from denavit import calibration as cal
-from denavit import identify as ident
 from denavit import sweeps as sw
 from denavit.calibration.least_squares import covariance, residuals, weights
 
@@ -144,7 +143,7 @@ def table_accuracy(kr5, runs, protocols):
                     c, z = cal.axis_lines(model, HOME, p_home)
                     pt = dv.fk_batch(model, qs)[:, :3, 3]
                 else:
-                    res = ident.identify(s, method=m, nominal=kr5, convention="edh")
+                    res = dv.identify(s, method=m, nominal=kr5, convention="edh")
                     dt = time.perf_counter() - t0
                     c, z = np.array(res.axes.points), np.array(res.axes.directions)
                     pt = dv.fk_batch(res.model(), qs)[:, :3, 3]

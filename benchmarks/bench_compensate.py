@@ -27,7 +27,6 @@ import numpy as np
 import denavit as dv
 from denavit import calibration as cal
 from denavit import compensation as cp
-from denavit import identify as ident
 from denavit import sweeps as sw
 
 ARCSEC = np.radians(1 / 3600)
@@ -74,8 +73,8 @@ def main() -> None:
     home = np.radians(sw.PAPER_HOME_DEG)
     sweeps = sw.simulate(true, home=home, ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=30, tool_point=tool[:3, 3], noise=noise, seed=args.seed)
     sweeps = sw.SweepSet([sw.Sweep(s.joint, s.points, readings(s.q), s.where) for s in sweeps.sweeps], 6, sweeps.home, sweeps.kinds, sweeps.source, sweeps.units)
-    idr = ident.identify(sweeps, convention="edh", nominal=kr5)
-    idg = ident.identify(sweeps, method="geometric", convention="edh", nominal=kr5)
+    idr = dv.identify(sweeps, convention="edh", nominal=kr5)
+    idg = dv.identify(sweeps, method="geometric", convention="edh", nominal=kr5)
     # route 2: calibration from 100 poses with noisy readings
     q = cal.configurations(kr5, 100)
     meas = cal.simulate(true, q, tool=tool[:3, 3], noise=noise, seed=args.seed)

@@ -28,7 +28,6 @@ from pathlib import Path
 import numpy as np
 
 import denavit as dv
-from denavit import identify as ident
 from denavit import sweeps as sw
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
@@ -88,7 +87,7 @@ def main() -> None:
             de, pe, perr, sig, tool_dh, tool_edh = [], [], [], [], [], []
             for run in range(args.runs):
                 s = sw.simulate(truth, home=home, ranges=ranges, points_per_sweep=args.points, tool_point=tool, noise=args.noise_mm * 1e-3, seed=1000 * protocol + run)
-                res = ident.identify(s, method=m, nominal=kr5)
+                res = dv.identify(s, method=m, nominal=kr5)
                 d, p = line_errors(res, truth_axes, p_home)
                 de.append(d)
                 pe.append(p)
@@ -98,7 +97,7 @@ def main() -> None:
                 sig.append(res.sigma)
                 model_dh = res.model()
                 tool_dh.append(np.sqrt(np.mean(np.sum((dv.fk_batch(model_dh, qs)[:, :3, 3] - p_true) ** 2, axis=1))))
-                edh = ident.identify(s, method=m, nominal=kr5, convention="edh") if m in ("kasa", "global") else None
+                edh = dv.identify(s, method=m, nominal=kr5, convention="edh") if m in ("kasa", "global") else None
                 if edh is not None:
                     tool_edh.append(np.sqrt(np.mean(np.sum((dv.fk_batch(edh.model(), qs)[:, :3, 3] - p_true) ** 2, axis=1))))
             perr, sig = np.array(perr), np.array(sig)
@@ -161,7 +160,7 @@ def realistic(runs: int, points: int, methods: list) -> None:
                 est, sig, pe, chose = [], [], [], collections.Counter()
                 for run in range(runs):
                     s = recording(truth, home, ranges, points=points, seed=10_000 * protocol + run, **kw)
-                    res = ident.identify(s, method=method, nominal=kr5)
+                    res = dv.identify(s, method=method, nominal=kr5)
                     d = res.table.params - kr5.table.params
                     d[:, 1] += s.home - home  # a reading offset / scale error at home is a true theta offset
                     d[:, [1, 3]] = (d[:, [1, 3]] + np.pi) % (2 * np.pi) - np.pi
@@ -191,7 +190,7 @@ def scaling() -> None:
         s = sw.simulate(kr5.model(), home=home, ranges=ranges, points_per_sweep=m, noise=2e-5, seed=1)
         tracemalloc.start()
         t0 = time.perf_counter()
-        res = ident.identify(s, nominal=kr5)
+        res = dv.identify(s, nominal=kr5)
         dt = time.perf_counter() - t0
         peak = tracemalloc.get_traced_memory()[1]
         tracemalloc.stop()

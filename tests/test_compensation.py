@@ -157,12 +157,11 @@ def test_cli_compensate_bad_input(tmp_path):
 def test_identification_report_has_the_accuracy_section():
     """The HTML report of an identification with a nominal says how accurate each model is (a table and a chart)."""
     pytest.importorskip("plotly")
-    from denavit import identify as ident
     from denavit import report
     from denavit.cli.identify import example_path
     from denavit.io import sweeps as swio
 
-    res = ident.identify(swio.read_long_csv(example_path("kr5")), nominal=dv.load_robot("kr5"))
+    res = dv.identify(swio.read_long_csv(example_path("kr5")), nominal=dv.load_robot("kr5"))
     page = report.report_html(res)
     assert 'id="accuracy"' in page and "accuracy-chart" in page and "nominal (what the robot misses)" in page
 

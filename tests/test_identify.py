@@ -10,8 +10,8 @@ from real_effects import recording
 
 import denavit as dv
 from cli import run
-from denavit import identify as ident
 from denavit import sweeps as sw
+from denavit.identify import to_json, write_json
 from denavit.io import sweeps as swio
 
 HOME = np.radians(sw.PAPER_HOME_DEG)
@@ -26,7 +26,7 @@ def simulate(kr5, protocol, **kw):
 def test_noise_free_sweeps_reproduce_table_iii(kr5, protocol, method):
     """Noise-free simulated KR5 sweeps over Table II's ranges give Table III's specified values to
     1e-6 mm / 1e-6 deg (Hayat et al.; home A1 90, A2 -90, A3 90, A4 0, A5 90, A6 0)."""
-    res = ident.identify(simulate(kr5, protocol, points_per_sweep=25), method=method, nominal=kr5)
+    res = dv.identify(simulate(kr5, protocol, points_per_sweep=25), method=method, nominal=kr5)
     specified = {  # Hayat et al. Table III, "Specified" (b = d in mm, a in mm, alpha in deg)
         "d": [400, 0, 0, 620, 0, 0], "a": [180, 600, 120, 0, 0, 0], "alpha": [90, 0, 90, 90, 90, 0], "theta": [0] * 6}
     p = res.table.params
@@ -42,7 +42,7 @@ def test_every_convention_from_sweeps_matches_the_truth(kr5, rng):
     flange_tool = np.eye(4)
     flange_tool[:3, 3] = (0.04, -0.02, 0.12)
     for conv in ("dh", "mdh", "edh", "poe"):
-        m = ident.identify(s, convention=conv, nominal=kr5).model()
+        m = dv.identify(s, convention=conv, nominal=kr5).model()
         for q in rng.uniform(-2, 2, (20, 6)):
             p_true = dv.fk(truth, q)[:3, :3] @ flange_tool[:3, 3] + dv.fk(truth, q)[:3, 3]
             np.testing.assert_allclose(dv.fk(m, q)[:3, 3], p_true, atol=1e-9, err_msg=conv)
@@ -53,17 +53,17 @@ def test_convention_aliases_are_the_cores(kr5, name, canonical):
     """Regression: identify(..., convention="craig") and "MDH" failed ("unknown convention") although
     to_table accepts them; every convention name is now parsed by the core (_core.convention_info)."""
     s = simulate(kr5, 30, points_per_sweep=8)
-    res = ident.identify(s, convention=name, nominal=kr5)
+    res = dv.identify(s, convention=name, nominal=kr5)
     assert res.convention == canonical and res.table.convention == canonical
     assert res.model(convention=name).nq == 6
     with pytest.raises(dv.DenavitError, match="unknown convention 'denavit'"):
-        ident.identify(s, convention="denavit", nominal=kr5)
+        dv.identify(s, convention="denavit", nominal=kr5)
 
 
 def test_noisy_sweeps_give_bounded_parameters_and_sigmas(kr5):
     """0.02 mm noise on the 30 degree protocol: near-parallel axes 2-3 never give offsets beyond the robot's
     size, every sigma is finite, and the identified values lie within 5 sigma of the truth."""
-    res = ident.identify(simulate(kr5, 30, points_per_sweep=40, noise=2e-5, seed=3), nominal=kr5)
+    res = dv.identify(simulate(kr5, 30, points_per_sweep=40, noise=2e-5, seed=3), nominal=kr5)
     p, sig = res.table.params, res.sigma
     assert np.abs(p[:, [0, 2]]).max() < 1.5
     assert np.all(np.isfinite(sig))
@@ -74,9 +74,9 @@ def test_noisy_sweeps_give_bounded_parameters_and_sigmas(kr5):
 
 
 def test_json_output_has_units_rows_and_sigmas(kr5, tmp_path):
-    res = ident.identify(simulate(kr5, 90, points_per_sweep=12, noise=2e-5), nominal=kr5)
+    res = dv.identify(simulate(kr5, 90, points_per_sweep=12, noise=2e-5), nominal=kr5)
     out = tmp_path / "r.json"
-    ident.write_json(res, out, "mm", "deg")
+    write_json(res, out, "mm", "deg")
     doc = json.loads(out.read_text())
     assert doc["units"] == {"length": "mm", "angle": "deg"}
     assert [r["joint"] for r in doc["parameters"]] == kr5.names
@@ -112,14 +112,14 @@ def test_joint_files_and_json_readers(kr5, tmp_path):
         (d / f"j{sweep.joint}.csv").write_text("time;x;y;z\n" + "\n".join(rows) + "\n")
     dirs = [np.sign(r[1] - r[0]) for r in sw.PAPER_RANGES_DEG[90]]
     fs = swio.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm", angle="deg", direction=dirs)
-    res = ident.identify(fs, nominal=kr5)
+    res = dv.identify(fs, nominal=kr5)
     assert res.method == "geometric"
     np.testing.assert_allclose(res.table.params, kr5.table.params, atol=1e-7)
     doc = {"units": {"length": "m", "angle": "rad"}, "home": HOME.tolist(),
            "sweeps": [{"joint": x.joint, "points": x.points.tolist(), "q": x.q.tolist()} for x in s.sweeps]}
     (tmp_path / "s.json").write_text(json.dumps(doc))
     js = swio.read_json(tmp_path / "s.json")
-    np.testing.assert_allclose(ident.identify(js, nominal=kr5).table.params, kr5.table.params, atol=1e-9)
+    np.testing.assert_allclose(dv.identify(js, nominal=kr5).table.params, kr5.table.params, atol=1e-9)
 
 
 def write_csv(tmp_path, body, units="# units: length=mm angle=deg\n"):
@@ -147,19 +147,19 @@ def test_bad_sweep_files(tmp_path, body, units, match):
     f = write_csv(tmp_path, body, units if units is not None else "# units: length=mm angle=deg\n")
     before = f.read_bytes()
     with pytest.raises(dv.DenavitError, match=match):
-        ident.identify(swio.read_long_csv(f), method="geometric")
+        dv.identify(swio.read_long_csv(f), method="geometric")
     assert f.read_bytes() == before
 
 
 def test_short_arc_for_requested_accuracy(kr5):
     s = sw.simulate(kr5.model(), home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[30]) * 0.1 + HOME[:, None] * 0.9, points_per_sweep=10, noise=2e-5)
     with pytest.raises(dv.DegenerateError, match=r"predicted axis-position uncertainty .* mm \(1 sigma\) exceeds the requested 0.01 mm"):
-        ident.identify(s, nominal=kr5, max_sigma=1e-5)
+        dv.identify(s, nominal=kr5, max_sigma=1e-5)
 
 
 def test_bounding_box_contains_all_points_and_beats_aligned_box(kr5):
     s = simulate(kr5, 90, points_per_sweep=15)
-    res = ident.identify(s, nominal=kr5)
+    res = dv.identify(s, nominal=kr5)
     b = res.box
     local = (s.all_points - b.center) @ b.axes
     assert np.all(np.abs(local) <= b.lengths / 2 + 1e-9)
@@ -175,8 +175,8 @@ def test_json_of_a_prismatic_poe_row_keeps_its_direction_unitless():
     truth = dv.Table("dh", params, kinds=["revolute", "prismatic", "revolute", "revolute"]).to_model("rprr", lower=[-3, -0.1, -3, -3], upper=[3, 0.4, 3, 3])
     home = np.array([0.2, 0.1, -0.3, 0.5])
     ranges = np.array([[-0.3, 0.6], [0.0, 0.3], [-0.8, 0.2], [0.0, 1.2]])
-    res = ident.identify(sw.simulate(truth, home=home, ranges=ranges, points_per_sweep=12, tool_point=(0.03, 0.02, 0.05)), convention="poe")
-    doc = ident.to_json(res, "mm", "deg", box=False)
+    res = dv.identify(sw.simulate(truth, home=home, ranges=ranges, points_per_sweep=12, tool_point=(0.03, 0.02, 0.05)), convention="poe")
+    doc = to_json(res, "mm", "deg", box=False)
     v = [doc["parameters"][1][c] for c in ("vx", "vy", "vz")]
     assert np.linalg.norm(v) == pytest.approx(1.0, abs=1e-9)
     np.testing.assert_allclose(v, res.table.params[1, 3:6], atol=1e-12)
@@ -195,7 +195,7 @@ def test_prismatic_joint_identified_with_a_line_fit(method, rng):
     home = np.array([0.2, 0.1, -0.3, 0.5])
     ranges = np.array([[-0.3, 0.6], [0.0, 0.3], [-0.8, 0.2], [0.0, 1.2]])
     s = sw.simulate(truth, home=home, ranges=ranges, points_per_sweep=15, tool_point=(0.03, 0.02, 0.05))
-    res = ident.identify(s, method=method, convention="edh")
+    res = dv.identify(s, method=method, convention="edh")
     assert np.isnan(res.fits[1].radius)
     m = res.model()
     T_ft = np.eye(4)
@@ -213,7 +213,7 @@ def test_reported_sigmas_match_monte_carlo_spread(kr5):
     est, sig = [], []
     for seed in range(runs):
         s = simulate(kr5, 90, points_per_sweep=12, noise=2e-5, seed=seed)
-        res = ident.identify(s, method="global", nominal=kr5)
+        res = dv.identify(s, method="global", nominal=kr5)
         est.append(res.table.params)
         sig.append(res.sigma)
     est, sig = np.array(est), np.array(sig)
@@ -227,7 +227,7 @@ def test_reported_sigmas_match_monte_carlo_spread(kr5):
 def test_progress_reports_every_stage(kr5):
     """The progress callback (the CLI's status line) hears of every sweep and of each later stage, in order."""
     said = []
-    ident.identify(simulate(kr5, 30, points_per_sweep=8), nominal=kr5, progress=said.append)
+    dv.identify(simulate(kr5, 30, points_per_sweep=8), nominal=kr5, progress=said.append)
     assert [m.split(" (")[0] for m in said[:6]] == [f"fitting sweep {k} of 6" for k in range(1, 7)]
     assert said[6].startswith("one fit of all 6 sweeps") and said[-1].startswith("dh parameters and their sigmas")
 
@@ -235,12 +235,12 @@ def test_progress_reports_every_stage(kr5):
 def test_bounding_box_is_computed_when_asked_for(kr5):
     """The measuring volume (60-90 % of an identification's time) is not computed by identify itself: on first
     access to ``result.box`` (to_json asks for it unless ``box=False``), then kept."""
-    res = ident.identify(simulate(kr5, 30, points_per_sweep=8), nominal=kr5)
+    res = dv.identify(simulate(kr5, 30, points_per_sweep=8), nominal=kr5)
     assert "box" not in vars(res)
-    assert "bounding_box" not in ident.to_json(res, box=False) and "box" not in vars(res)
+    assert "bounding_box" not in to_json(res, box=False) and "box" not in vars(res)
     b = res.box
     assert vars(res)["box"] is b and res.box is b
-    assert ident.to_json(res)["bounding_box"]["volume_m3"] == b.volume
+    assert to_json(res)["bounding_box"]["volume_m3"] == b.volume
 
 
 def truth_dh(kr5):
@@ -267,7 +267,7 @@ def test_out_and_back_and_shuffled_sweeps_keep_the_axis_sign(kr5, method):
     for j in range(1, 7):
         shuffled = reorder(shuffled, j, rng.permutation(m))
     for data in (back, shuffled):
-        res = ident.identify(data, method=method, nominal=kr5)
+        res = dv.identify(data, method=method, nominal=kr5)
         for k in range(6):
             assert res.axes.directions[k] @ dv.axes(kr5.model(), HOME).directions[k] > 0.999, (method, k)
         d = res.table.params - truth_dh(kr5)
@@ -285,7 +285,7 @@ def test_out_and_back_sweep_without_readings_is_an_error(kr5, tmp_path):
         (d / f"j{sweep.joint}.csv").write_text("\n".join(f"{p[0]},{p[1]},{p[2]}" for p in pts * 1e3) + "\n")
     fs = swio.read_joint_files(d, home=sw.PAPER_HOME_DEG, length="mm", angle="deg")
     with pytest.raises(dv.DenavitError, match=r"j3.csv lines 1-19, joint 3: .*net turn .* over an arc of 90.0 deg"):
-        ident.identify(fs, nominal=kr5)
+        dv.identify(fs, nominal=kr5)
 
 
 @pytest.mark.parametrize("loss", ["soft_l1", "huber"])
@@ -297,8 +297,8 @@ def test_global_robust_loss_resists_an_outlier_and_flags_it(kr5, loss):
     pts = clean.sweeps[2].points.copy()
     pts[6] += np.array([3e-3, -4e-3, 0.0])
     bad = sw.SweepSet([sw.Sweep(3, pts, x.q, x.where) if x.joint == 3 else x for x in clean.sweeps], 6, clean.home, clean.kinds, clean.source, clean.units)
-    ref = ident.identify(clean, method="global", nominal=kr5)
-    res = ident.identify(bad, method="global", nominal=kr5, loss=loss)
+    ref = dv.identify(clean, method="global", nominal=kr5)
+    res = dv.identify(bad, method="global", nominal=kr5, loss=loss)
     d = res.table.params - truth_dh(kr5)
     d[:, [1, 3]] = (d[:, [1, 3]] + np.pi) % (2 * np.pi) - np.pi
     free = ref.sigma > 1e-12
@@ -401,11 +401,11 @@ def test_locked_joint_drift_is_noted(kr5):
     """Joint 2's reading drifts to -35 deg during joint 1's sweep (the points say it stayed locked): the result
     carries a note naming the sweep, the joint and the drift; steady readings carry none."""
     s = simulate(kr5, 30, points_per_sweep=12, noise=2e-5)
-    assert not [n for n in ident.identify(s, nominal=kr5).notes if "locked" in n]
+    assert not [n for n in dv.identify(s, nominal=kr5).notes if "locked" in n]
     q = s.sweeps[0].q.copy()
     q[:, 1] += np.radians(np.linspace(0, 55, 12))
     drift = sw.SweepSet([sw.Sweep(1, s.sweeps[0].points, q, s.sweeps[0].where)] + s.sweeps[1:], 6, s.home, s.kinds, s.source, s.units)
-    notes = [n for n in ident.identify(drift, nominal=kr5).notes if "locked" in n]
+    notes = [n for n in dv.identify(drift, nominal=kr5).notes if "locked" in n]
     assert len(notes) == 1
     assert re.search(r"joint 1: locked joint 2 reads -90 .. -35 deg, up to 55 deg from its home -90 deg at simulated sweep 1, point 11 \(tolerance 0.1 deg\)", notes[0]), notes
 
@@ -440,7 +440,7 @@ def test_cli_identify_does_not_refuse_noisy_readings(tmp_path):
 def test_global_axis_sigma_is_the_documented_formula(kr5):
     """The global fit's sigma_point_perp is sqrt(trace(P cov P)) (AxisFit's documented formula, as the per-sweep
     fits and `plan`), not the square root of the largest eigenvalue of the point covariance."""
-    res = ident.identify(simulate(kr5, 30, points_per_sweep=12, noise=2e-5, seed=3), method="global", nominal=kr5)
+    res = dv.identify(simulate(kr5, 30, points_per_sweep=12, noise=2e-5, seed=3), method="global", nominal=kr5)
     for f in res.fits:
         P = np.eye(3) - np.outer(f.direction, f.direction)
         assert f.sigma_point_perp == pytest.approx(math.sqrt(np.trace(P @ f.cov[:3, :3] @ P)), rel=1e-12)
@@ -451,9 +451,9 @@ def test_auto_chooses_by_evidence(kr5):
     sweep, whose drift enters the sigmas (the axes stay within 4 sigma); no readings -> geometric. Each says why."""
     home, ranges = HOME, np.radians(sw.PAPER_RANGES_DEG[90])
     m = kr5.model()
-    ok = ident.identify(recording(m, home, ranges, seed=2), nominal=kr5)
+    ok = dv.identify(recording(m, home, ranges, seed=2), nominal=kr5)
     assert ok.method == "global" and any(n.startswith("auto: global") for n in ok.notes), ok.notes
-    drift = ident.identify(recording(m, home, ranges, drift=2e-4, seed=2), nominal=kr5)
+    drift = dv.identify(recording(m, home, ranges, drift=2e-4, seed=2), nominal=kr5)
     assert drift.method == "readings" and any(n.startswith("auto: readings") and "moves" in n for n in drift.notes), drift.notes
     T = np.eye(4)
     T[:3, 3] = (0.05, 0.03, 0.10)
@@ -461,7 +461,7 @@ def test_auto_chooses_by_evidence(kr5):
     assert np.all(err < 4 * np.array([f.sigma_point_perp for f in drift.fits])), err
     s = recording(m, home, ranges, seed=2)
     bare = sw.SweepSet([sw.Sweep(x.joint, x.points, None, x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units)
-    geo = ident.identify(bare, nominal=kr5)
+    geo = dv.identify(bare, nominal=kr5)
     assert geo.method == "geometric" and any(n.startswith("auto: geometric") for n in geo.notes)
 
 
@@ -474,8 +474,8 @@ def test_locked_joints_off_home_do_not_corrupt_the_axes(kr5):
     T = np.eye(4)
     T[:3, 3] = (0.05, 0.03, 0.10)
     ax, ph = dv.axes(m, HOME), dv.fk(m.with_tool(T), HOME)[:3, 3]
-    res = ident.identify(recording(m, HOME, ranges, locked_deg=(0.001, 0.005), seed=4), method="global", nominal=kr5)
-    ref = ident.identify(recording(m, HOME, ranges, seed=4), method="global", nominal=kr5)
+    res = dv.identify(recording(m, HOME, ranges, locked_deg=(0.001, 0.005), seed=4), method="global", nominal=kr5)
+    ref = dv.identify(recording(m, HOME, ranges, seed=4), method="global", nominal=kr5)
     err, err_ref = axis_errors(res, ax, ph), axis_errors(ref, ax, ph)
     sig = np.array([f.sigma_point_perp for f in res.fits])
     assert np.all(err < 4 * sig), (err, sig)
@@ -486,7 +486,7 @@ def test_coupled_locked_reading_is_noted(kr5):
     """A Fanuc-style reading (the J3 reading moves against J2 during J2's sweep while J3 stays): a note names the
     joints and the coupling to declare, and the axes are not corrupted."""
     m = kr5.model()
-    res = ident.identify(recording(m, HOME, np.radians(sw.PAPER_RANGES_DEG[90]), coupled=(3, 2), seed=5), nominal=kr5)
+    res = dv.identify(recording(m, HOME, np.radians(sw.PAPER_RANGES_DEG[90]), coupled=(3, 2), seed=5), nominal=kr5)
     notes = [n for n in res.notes if "lock-step" in n]
     assert len(notes) == 1 and "joint 3 moves in lock-step with joint 2" in notes[0] and "coupling" in notes[0], res.notes
     d = res.table.params - truth_dh(kr5)
@@ -499,7 +499,7 @@ def test_coupled_locked_reading_is_noted(kr5):
 def test_exact_data_gives_the_nominal_in_every_convention(kr5, convention):
     """Exact sweeps: every parameter equals the nominal's to 1e-6 mm / 1e-6 deg. ED-H gave c1 = -870 mm, b2 =
     1270 mm (origins at circle centres instead of the nominal's on-body origins carried onto the axes)."""
-    res = ident.identify(simulate(kr5, 90, points_per_sweep=30), nominal=kr5, convention=convention)
+    res = dv.identify(simulate(kr5, 90, points_per_sweep=30), nominal=kr5, convention=convention)
     d = res.table.params - res.nominal_table.params
     ang = list(res.table.angle_columns)
     d[:, ang] = np.degrees((d[:, ang] + np.pi) % (2 * np.pi) - np.pi)
@@ -515,12 +515,12 @@ def test_exact_data_written_to_csv_gives_the_nominal_edh(kr5, tmp_path):
     pairs must follow the nominal's."""
     f = tmp_path / "k.csv"
     run("simulate", "kr5", "-o", f, "--noise", "0")
-    res = ident.identify(swio.read(f), nominal=kr5, convention="edh")
+    res = dv.identify(swio.read(f), nominal=kr5, convention="edh")
     d = res.table.params - res.nominal_table.params
     d[:, [0, 4]] = (d[:, [0, 4]] + np.pi) % (2 * np.pi) - np.pi
     assert np.abs(d).max() < 1e-8, d
     # and the ED-H sigmas stay bounded by the axes' own (the common normal of a noisy parallel pair swings)
-    noisy = ident.identify(simulate(kr5, 90, points_per_sweep=30, noise=2e-5, seed=8), nominal=kr5, convention="edh")
+    noisy = dv.identify(simulate(kr5, 90, points_per_sweep=30, noise=2e-5, seed=8), nominal=kr5, convention="edh")
     bound = max(f.sigma_point_perp for f in noisy.fits)
     assert noisy.sigma[:, 1:4].max() < 20 * bound, (noisy.sigma, bound)
 
@@ -531,15 +531,15 @@ def test_dwell_rows_are_found_noted_and_left_out(kr5):
     m = kr5.model()
     ranges = np.radians(sw.PAPER_RANGES_DEG[90])
     s = recording(m, HOME, ranges, dwell=8, seed=6)
-    res = ident.identify(s, nominal=kr5)
+    res = dv.identify(s, nominal=kr5)
     notes = [n for n in res.notes if "dwell rows" in n]
     assert len(notes) == 6, res.notes
     assert re.search(r"joint 1: 16 dwell rows .*: 8 at the start \(recording sweep 1, row 2 \.\. recording sweep 1, row 9\) and 8 at the end "
                      r"\(recording sweep 1, row 48 \.\. recording sweep 1, row 55\)", notes[0]), notes[0]
     assert [f.n_points for f in res.fits] == [40] * 6
-    kept = ident.identify(s, nominal=kr5, keep_dwell=True)
+    kept = dv.identify(s, nominal=kr5, keep_dwell=True)
     assert [f.n_points for f in kept.fits] == [56] * 6 and not [n for n in kept.notes if "dwell" in n]
-    assert not [n for n in ident.identify(recording(m, HOME, ranges, seed=6), nominal=kr5).notes if "dwell" in n]
+    assert not [n for n in dv.identify(recording(m, HOME, ranges, seed=6), nominal=kr5).notes if "dwell" in n]
 
 
 def test_sweep_without_readings_against_the_nominal_is_oriented_by_it(kr5):
@@ -547,7 +547,7 @@ def test_sweep_without_readings_against_the_nominal_is_oriented_by_it(kr5):
     against the nominal's 90, d4 = -620 mm); with a nominal it is oriented by the nominal, with a note."""
     s = simulate(kr5, 90, points_per_sweep=20, noise=2e-5, seed=12)
     bare = [sw.Sweep(x.joint, x.points[::-1] if x.joint == 4 else x.points, None, x.where[::-1] if x.joint == 4 else x.where) for x in s.sweeps]
-    res = ident.identify(sw.SweepSet(bare, 6, s.home, s.kinds, s.source, s.units), nominal=kr5)
+    res = dv.identify(sw.SweepSet(bare, 6, s.home, s.kinds, s.source, s.units), nominal=kr5)
     notes = [n for n in res.notes if "against the nominal" in n]
     r = np.array(sw.PAPER_RANGES_DEG[90])
     against = [j + 1 for j in range(6) if (r[j, 1] < r[j, 0]) != (j == 3)]  # the paper sweeps some joints downwards
@@ -566,15 +566,15 @@ def test_implausible_axes_against_the_nominal(kr5):
     s = recording(m, HOME, ranges, seed=9)
     x1000 = sw.SweepSet([sw.Sweep(x.joint, x.points * 1000, x.q, x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units)
     with pytest.raises(dv.DenavitError, match=r"pairs of consecutive axes differ from the nominal kr5's .*another unit"):
-        ident.identify(x1000, nominal=kr5)
+        dv.identify(x1000, nominal=kr5)
     ur5 = dv.load_robot("ur5")
     with pytest.raises(dv.DenavitError, match=r"differ from the nominal ur5's"):
-        ident.identify(s, nominal=ur5)
+        dv.identify(s, nominal=ur5)
     t = kr5.table.params.copy()
     t[1, 2] += 0.03  # a2 = 630 mm
     longer = dv._core.Table("dh", t, list(kr5.table.kinds), kr5.table.T_world_base, kr5.table.T_last_tool)
-    res = ident.identify(recording(longer.to_model("longer"), HOME, ranges, seed=9), nominal=kr5)
+    res = dv.identify(recording(longer.to_model("longer"), HOME, ranges, seed=9), nominal=kr5)
     notes = [n for n in res.notes if "check the joint order" in n]
     assert len(notes) == 1 and notes[0].startswith("axes A2-A3:"), res.notes
-    good = ident.identify(recording(m, HOME, ranges, reading_arcsec=(30, 200), drift=2e-4, seed=9), nominal=kr5)
+    good = dv.identify(recording(m, HOME, ranges, reading_arcsec=(30, 200), drift=2e-4, seed=9), nominal=kr5)
     assert not [n for n in good.notes if "check the joint order" in n], good.notes

@@ -14,7 +14,6 @@ import pytest
 from PIL import Image
 
 import denavit as dv
-from denavit import identify as ident
 from denavit import plotting
 from denavit import report as rep
 from denavit import sweeps as sw
@@ -27,7 +26,7 @@ MM = 1e-3
 def result():
     """A small simulated identification: KR5, Hayat's home and 90 degree ranges, 12 points per sweep, 20 um noise."""
     s = sw.simulate(dv.load_model("kr5"), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=12, noise=2e-5, seed=7)
-    return ident.identify(s, nominal=dv.load_robot("kr5"))
+    return dv.identify(s, nominal=dv.load_robot("kr5"))
 
 
 def by_gid(artists, pattern):

@@ -41,7 +41,6 @@ import pytest
 from PIL import Image
 
 import denavit as dv
-from denavit import identify as ident
 from denavit import report as rep
 from denavit import sweeps as sw
 from denavit.errors import DenavitError
@@ -57,7 +56,7 @@ GUO_EDH = {"alpha": [0, 90, 0, 0, -90, 90], "a": [0, 0, -406, -386, 0, 0], "b": 
 def result():
     """A small simulated identification: KR5, Hayat's home and 90 degree ranges, 12 points per sweep, 20 um noise."""
     s = sw.simulate(dv.load_model("kr5"), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=12, noise=2e-5, seed=7)
-    return ident.identify(s, nominal=dv.load_robot("kr5"))
+    return dv.identify(s, nominal=dv.load_robot("kr5"))
 
 
 @pytest.fixture(scope="module")

@@ -349,7 +349,6 @@ def test_identified_model_exports_with_frames_within_the_robot(kr5, tmp_path):
     near-parallel axes 2-3 as parallel instead of writing a far-away common normal (UR ROS driver #457:
     d2 = 574 m in a URDF); ED-H puts the frames on the axes. Export -> import reproduces FK exactly, and the
     meshes/limits of the nominal URDF are carried."""
-    from denavit import identify as ident  # noqa: PLC0415
     from denavit import sweeps as sw  # noqa: PLC0415
 
     nominal = U.load_urdf(KR5)
@@ -362,7 +361,7 @@ def test_identified_model_exports_with_frames_within_the_robot(kr5, tmp_path):
     reach = max(np.linalg.norm(F0[:, :3, 3], axis=1).max(), np.linalg.norm(dv.fk(truth, np.zeros(6))[:3, 3]))
     qs = qs_within(truth, 50)
     for conv in ("dh", "edh"):
-        res = ident.identify(s, convention=conv, nominal=nominal)
+        res = dv.identify(s, convention=conv, nominal=nominal)
         assert res.extraction.pairs[1].relation == "parallel"
         m = res.model()
         out = tmp_path / f"identified_{conv}.urdf"
@@ -473,14 +472,13 @@ def test_identified_in_a_measurement_frame_carries_meshes_onto_the_robot(path, c
     rounding of a noise-free fit; measured ~1e-14). The old export, which read the nominal's base-link poses as
     if they were in the tracker frame, was 2.3 m off; placing them on the identified joint frames without
     registering the axes would still be 0.36 m off (the ED-H frame origins slide along the UR axes)."""
-    from denavit import identify as ident  # noqa: PLC0415
     from denavit import sweeps as sw  # noqa: PLC0415
 
     nominal = U.load_urdf(path)
     truth = nominal.model().with_base(TRACKER)
     home = (np.maximum(nominal.lower, -np.pi) + np.minimum(nominal.upper, np.pi)) / 2
     s = sw.simulate(truth, home=home, ranges=np.stack([home - 0.5, home + 0.5], axis=1), points_per_sweep=10, seed=1)
-    m = ident.identify(s, convention=conv, nominal=nominal).model()
+    m = dv.identify(s, convention=conv, nominal=nominal).model()
     out = tmp_path / "identified.urdf"
     U.save_urdf(m, out, nominal)
     back = U.urdf_model(out)
@@ -634,7 +632,7 @@ def test_negative_urdf_mass_names_the_link(tmp_path):
 
 
 def test_model_without_robot_gets_default_names(tmp_path):
-    m = dv.load_model("puma560")
+    m = dv.load_model("kr5")  # massless links (the Puma 560 now carries its inertial parameters)
     text = U.dumps_urdf(m)
     assert '<link name="base_link"/>' in text and '<link name="link_6"/>' in text and 'effort="0"' in text
     assert text.startswith("<?xml") and "Written by denavit" in text
@@ -797,13 +795,12 @@ def test_cli_identify_urdf_writes_the_exact_geometry_with_the_nominals_meshes(tm
     assert np.abs(dv.fk_batch(U.urdf_model(out), qs)[:, :3, 3] - dv.fk_batch(truth, qs)[:, :3, 3]).max() < 1e-9
     # noisy sweeps: the near-parallel UR axes 2-4 are no longer exactly parallel; the URDF is the exact
     # (ED-H) geometry of the identified axes, not the DH table printed by default, which drops the tilt
-    from denavit import identify as ident  # noqa: PLC0415
 
     r = runner.invoke(app, ["simulate", str(UR), "-o", str(csv), "--noise", "0.02", "--seed", "3"])
     assert r.exit_code == 0, r.output
     r = runner.invoke(app, ["identify", str(csv), "--nominal", str(UR), "--urdf", str(out)])
     assert r.exit_code == 0, r.output
-    res = ident.identify(swio.read_long_csv(csv), nominal=U.load_urdf(UR))
+    res = dv.identify(swio.read_long_csv(csv), nominal=U.load_urdf(UR))
     exported = dv.fk_batch(U.urdf_model(out), qs)
     assert np.abs(exported - dv.fk_batch(res.model(convention="edh"), qs)).max() < 1e-12
     assert np.abs(exported[:, :3, 3] - dv.fk_batch(res.model(), qs)[:, :3, 3]).max() > 1e-7  # what the DH table would have written

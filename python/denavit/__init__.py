@@ -1,7 +1,14 @@
 """denavit: find the true kinematic geometry of serial robots and compute with it.
 
 One kinematic model for every convention (standard DH, modified DH, ED-H, POE, URDF), built from and
-extracted to joint axis lines; fast kinematics in a Rust core. Conventions: docs/conventions.md.
+extracted to joint axis lines; fast kinematics in a Rust core. Conventions: docs/conventions.md; the Python
+API by example: docs/python.md.
+
+The workflows are functions of the package, taking paths, built-in names or objects (:mod:`denavit.api`):
+:func:`identify` (circle-point identification), :func:`calibrate`, :func:`plan`, :func:`simulate`,
+:func:`compensate`. ``denavit.identify`` is the function; its module (results, JSON) is imported as
+``from denavit.identify import Identification, to_json`` (the module is loaded with the package, so a later
+``import denavit.identify`` never rebinds the package attribute).
 """
 
 from . import _core
@@ -39,6 +46,7 @@ from ._core import (
     rnea_batch,
     transfer_inertias,
 )
+from .api import calibrate, compensate, identify, plan, read_sweeps, simulate
 from .errors import DegenerateError, DenavitError, DenavitWarning, NotConvergedError
 from .robot import Robot, builtin_names
 from .robot import load as load_robot
@@ -94,6 +102,12 @@ __all__ = [
     "rnea_batch",
     "transfer_inertias",
     "builtin_names",
+    "calibrate",
+    "compensate",
+    "identify",
+    "plan",
+    "read_sweeps",
+    "simulate",
     "extract",
     "fk",
     "fk_batch",

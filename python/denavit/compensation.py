@@ -164,6 +164,11 @@ class AccuracyMap:
     nominal: np.ndarray
     identified: np.ndarray
 
+    def __repr__(self) -> str:
+        s = self.summary()
+        return (f"AccuracyMap({s['configurations']} configurations: nominal model error rms {s['nominal']['rms'] * 1e3:.4g} mm (max {s['nominal']['max'] * 1e3:.4g}), "
+                f"identified 1 sigma rms {s['identified']['rms'] * 1e3:.4g} mm (max {s['identified']['max'] * 1e3:.4g}))")
+
     def summary(self) -> dict:
         """RMS, median, 95th percentile and maximum of both, in metres."""
         def stats(v):

@@ -34,6 +34,8 @@ from .robot import Robot
 from .sweeps import Sweep, SweepSet
 
 METHODS = ("auto", "kasa", "hyper", "geometric", "readings", "global")
+#: The conventions whose tables hold any pair of joint axes exactly (docs/conventions.md): what :meth:`Identification.save` writes by default.
+EXACT = ("edh", "poe")
 
 
 @dataclass(frozen=True)
@@ -54,6 +56,13 @@ class Identification:
     rms: float = 0.0
     notes: list[str] = field(default_factory=list)
 
+    def __repr__(self) -> str:
+        n_pts = sum(len(s.points) for s in self.sweeps.sweeps)
+        name = self.nominal.name if self.nominal else "no nominal"
+        err = self.extraction.max_position_error
+        return (f"Identification({self.convention}, method {self.method}, {self.axes.nq} joints, {n_pts} points of {self.sweeps.source or 'sweeps'}, nominal {name})\n"
+                f"  rms {self.rms * 1e3:.4g} mm; the {self.convention} table carries a tool error up to {err * 1e3:.3g} mm; {len(self.notes)} notes")
+
     @cached_property
     def box(self) -> BoundingBox:
         """The minimum-volume oriented bounding box of all measured points (the measuring volume, Hayat et al.
@@ -70,12 +79,70 @@ class Identification:
         names = self.nominal.names if self.nominal else [f"j{i + 1}" for i in range(self.axes.nq)]
         lower = self.nominal.lower if self.nominal else None
         upper = self.nominal.upper if self.nominal else None
-        table = self.table
+        return self._extraction(convention).table.to_model(name, names, lower, upper)
+
+    def _extraction(self, convention: str | None) -> _core.Extraction:
+        """The identified axes in ``convention`` (None: the result's own table)."""
         convention = None if convention is None else _core.convention_info(convention)["name"]
-        if convention is not None and convention != self.convention:
-            nominal = _nominal_table(self.nominal, convention, self.sweeps.home)
-            table = _core.extract(self.axes, convention, nominal=nominal, origins=_origins(nominal, convention, self.sweeps.home)).table
-        return table.to_model(name, names, lower, upper)
+        if convention is None or convention == self.convention:
+            return self.extraction
+        nominal = _nominal_table(self.nominal, convention, self.sweeps.home)
+        return _core.extract(self.axes, convention, nominal=nominal, origins=_origins(nominal, convention, self.sweeps.home))
+
+    def robot(self, name: str | None = None, convention: str | None = None) -> Robot:
+        """The identified robot as a :class:`Robot` (for :meth:`save` and :func:`denavit.io.urdf.save_urdf`): the
+        nominal's names, limits and extras (a URDF nominal's meshes and limits ride along), the sweeps' home.
+
+        convention : the table's convention; default the exact geometry (:data:`EXACT`: the result's own table
+            when it is ED-H or POE, else ED-H). A DH or MDH table cannot hold a near-parallel pair's tilt (Hayati
+            beta): ask for one by name.
+        """
+        conv = _core.convention_info(convention)["name"] if convention is not None else (self.convention if self.convention in EXACT else "edh")
+        n = self.axes.nq
+        names = list(self.nominal.names) if self.nominal else [f"j{i + 1}" for i in range(n)]
+        limits = np.array([_core.default_limits(k) for k in self.sweeps.kinds])
+        lower = self.nominal.lower if self.nominal else limits[:, 0]
+        upper = self.nominal.upper if self.nominal else limits[:, 1]
+        return Robot(name=name or f"{self.nominal.name if self.nominal else 'robot'}_identified", table=self._extraction(conv).table, names=names, lower=lower,
+                     upper=upper, description=f"identified from {self.sweeps.source} ({self.method} fit, {conv})", source=str(self.sweeps.source),
+                     home=self.sweeps.home, extra=dict(self.nominal.extra) if self.nominal else {})
+
+    def carried_error(self, convention: str | None = None, count: int = 256) -> tuple[float, int]:
+        """(max tool-position deviation in m, configurations checked) of the table :meth:`robot` writes in
+        ``convention`` from the identified geometry (the exact ED-H model of the axes): over the home and ``count``
+        configurations spread over the joint limits (:func:`denavit.calibration.configurations`)."""
+        from .calibration.parametrization import configurations  # noqa: PLC0415 (scipy's Halton sequence)
+
+        robot = self.robot(convention=convention)
+        exact = _core.extract(self.axes, "edh", fidelity=False).table.to_model()
+        q = np.vstack([self.sweeps.home, configurations(robot, count)])
+        d = _core.fk_batch(robot.model(), q)[:, :3, 3] - _core.fk_batch(exact, q)[:, :3, 3]
+        return float(np.linalg.norm(d, axis=1).max()), len(q)
+
+    def save(self, path, convention: str | None = None, length: str = "m", angle: str = "deg", name: str | None = None) -> None:
+        """Write the identified robot as a robot file (.toml; :mod:`denavit.io.robotfile`), by default the exact
+        geometry (:meth:`robot`), a lossy DH / MDH table only when ``convention`` asks for one. The file states in
+        a comment the tool-position error its table carries against the identified geometry (:meth:`carried_error`).
+
+        A path ending in ``.urdf`` gets the URDF of the exact geometry instead (ED-H frames on the body; a URDF
+        nominal's meshes and limits ride along; :func:`denavit.io.urdf.save_urdf`), in SI as URDF requires.
+        """
+        from .io.robotfile import dumps  # noqa: PLC0415
+
+        if str(path).lower().endswith(".urdf"):
+            from .io.urdf import save_urdf  # noqa: PLC0415 (lxml loads for a URDF only)
+
+            if convention is not None and _core.convention_info(convention)["name"] != "edh":
+                raise DenavitError(f"{path}: a URDF holds the exact geometry (ED-H frames on the body), got convention {convention!r}: save a robot file (.toml) for a {convention} table")
+            save_urdf(self.model(convention="edh"), path, self.robot(name))
+            return
+        robot = self.robot(name, convention)
+        err, count = self.carried_error(convention)
+        how = (f"exactly (its {robot.convention} table holds any pair of joint axes)" if robot.convention in EXACT else
+               f"in a {robot.convention} table, which cannot hold a near-parallel pair's tilt (save without a convention for the exact ED-H geometry)")
+        note = (f"# The identified geometry, {how}.\n# Carried error: max tool-position deviation {err * 1e3:.3g} mm from the identified geometry "
+                f"over {count} configurations (the home and {count - 1} spread over the joint limits).\n")
+        write_text(path, note + dumps(robot, length, angle))
 
 
 #: A locked joint whose reading leaves home by more than this during another joint's sweep gets a note
@@ -462,6 +529,12 @@ def identify(
     progress : called with a short message as each stage starts (the CLI shows it).
     """
     progress = progress or (lambda _msg: None)
+    if not isinstance(sweeps, SweepSet):
+        raise DenavitError(f"identify: expected a SweepSet, got {type(sweeps).__name__}: denavit.identify(path, nominal=...) reads files and names")
+    if nominal is not None and not isinstance(nominal, Robot):
+        from .calibration.parametrization import as_robot  # noqa: PLC0415
+
+        nominal = as_robot(nominal)  # a built-in name, a robot file or a Model, as calibrate takes
     if method not in METHODS:
         raise DenavitError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
     convention = _core.convention_info(convention)["name"]

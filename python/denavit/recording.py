@@ -64,6 +64,9 @@ class Recording:
     def __len__(self) -> int:
         return len(self.where)
 
+    def __repr__(self) -> str:
+        return f"Recording({self.describe().splitlines()[0]})"
+
     @property
     def n_joints(self) -> int:
         return 0 if self.q is None else self.q.shape[1]
@@ -430,6 +433,9 @@ class Segmentation:
     @property
     def sweeps(self) -> list[Segment]:
         return [s for s in self.segments if s.role == "sweep"]
+
+    def __repr__(self) -> str:
+        return f"Segmentation({self.source}, {self.method}: {len(self.sweeps)} sweeps, {len(self.segments)} motions, {self.dwell_rows} dwell rows excluded)"
 
     def table(self, angle: str = "deg") -> str:
         """The motions as a table the user can check (times in s, joint values in ``angle`` / mm)."""

@@ -41,6 +41,10 @@ class Robot:
     notes: list = field(default_factory=list)
     """What the reader chose on the user's behalf (e.g. a URDF's tip link), one line each, for the user to see."""
 
+    def __repr__(self) -> str:
+        dyn = "inertial parameters" if self.inertials is not None else "no inertial parameters"
+        return f"Robot({self.name!r}, {self.convention}, {len(self.names)} joints {', '.join(self.names)}; {dyn}; source {self.source or self.path or '-'})"
+
     @property
     def convention(self) -> str:
         return self.table.convention

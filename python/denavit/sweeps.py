@@ -44,6 +44,9 @@ class Sweep:
         """(m,) readings of the moving joint, or None."""
         return None if self.q is None else self.q[:, self.joint - 1]
 
+    def __repr__(self) -> str:
+        return f"Sweep(joint {self.joint}, {len(self.points)} points, {'with' if self.q is not None else 'no'} joint readings)"
+
 
 @dataclass(frozen=True)
 class SweepSet:
@@ -55,6 +58,12 @@ class SweepSet:
     kinds: list[str]
     source: str = ""
     units: dict = field(default_factory=lambda: {"length": "m", "angle": "rad"})
+
+    def __repr__(self) -> str:
+        home = ", ".join(f"{v * 1e3:.4g} mm" if k == "prismatic" else f"{np.degrees(v):.4g}" for v, k in zip(self.home, self.kinds))
+        n_pts = sum(len(s.points) for s in self.sweeps)
+        return (f"SweepSet({self.n_joints} joints, {len(self.sweeps)} sweeps, {n_pts} points, {'with' if self.has_readings else 'no'} joint readings, "
+                f"home [{home}] deg, source {self.source or '-'})")
 
     def sweep(self, joint: int) -> Sweep:
         for s in self.sweeps:

@@ -77,6 +77,9 @@ class Identifiability:
     n_poses: int
     kept_idx: list = field(default_factory=list, repr=False)
 
+    def __repr__(self) -> str:
+        return f"Identifiability({self.summary()}; {len(self.unidentifiable)} unidentifiable)"
+
     def summary(self) -> str:
         o = self.observability
         return (f"rank {self.rank} of {len(self.candidates)} candidate parameters over {self.n_poses} poses; condition number {self.condition_number:.3g}; "

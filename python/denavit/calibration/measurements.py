@@ -51,6 +51,10 @@ class Measurements:
     sweeps: SweepSet | None = None
     kinds: tuple | None = None
 
+    def __repr__(self) -> str:
+        what = "poses" if self.poses is not None else "points"
+        return f"Measurements({self.q.shape[0]} {what}, {self.q.shape[1]} joints, source {self.source})"
+
     def __post_init__(self):
         q = as_array(self.q, "q", self.source)
         if q.ndim != 2 or q.shape[0] < 1:

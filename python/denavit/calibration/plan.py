@@ -41,6 +41,10 @@ class Protocol:
     points_per_sweep: int = 30
     tool_point: np.ndarray = field(default_factory=lambda: np.array([0.05, 0.03, 0.10]))
 
+    def __repr__(self) -> str:
+        r = np.asarray(self.ranges, dtype=float)
+        return (f"Protocol({len(r)} sweeps of {self.points_per_sweep} points, ranges {', '.join(f'{a:.4g}..{b:.4g}' for a, b in r)} (rad / m), tool point [{', '.join(f'{v * 1e3:.4g}' for v in self.tool_point)}] mm)")
+
     @classmethod
     def paper(cls, degrees: int = 30, points_per_sweep: int = 30, tool_point=(0.05, 0.03, 0.10)) -> Protocol:
         """Hayat et al.'s protocol (Table II, 90 or 30 degree ranges, home A1 90, A2 -90, A3 90, A4 0, A5 90, A6 0)."""
@@ -106,6 +110,12 @@ class Plan:
     axis_sigma: np.ndarray
     per_circle_sigma: np.ndarray | None
     notes: list = field(default_factory=list)
+
+    def __repr__(self) -> str:
+        est = int(np.count_nonzero(np.isfinite(self.sigma)))
+        return (f"Plan({self.parametrization.robot.name}, {self.parametrization.convention}, {len(self.q)} poses, noise {self.noise * 1e3:.3g} mm, "
+                f"{est} of {len(self.names)} parameters identifiable)\n"
+                f"  worst axis sigma {np.nanmax(self.axis_sigma[:, 0]) * 1e3:.3g} mm across, {np.degrees(np.nanmax(self.axis_sigma[:, 1])):.3g} deg; {len(self.notes)} notes")
 
     @cached_property
     def box(self) -> BoundingBox:

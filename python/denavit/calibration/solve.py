@@ -47,6 +47,10 @@ class Validation:
     after_max: float
     test_indices: np.ndarray
 
+    def __repr__(self) -> str:
+        return (f"Validation({self.n_test} held-out of {self.n_train + self.n_test} poses: tool-position error rms {self.before_rms * 1e3:.4g} -> "
+                f"{self.after_rms * 1e3:.4g} mm, max {self.before_max * 1e3:.4g} -> {self.after_max * 1e3:.4g} mm)")
+
 
 @dataclass(frozen=True, eq=False)
 class Calibration:
@@ -85,6 +89,14 @@ class Calibration:
     @property
     def convention(self) -> str:
         return self.parametrization.convention
+
+    def __repr__(self) -> str:
+        est = int(np.count_nonzero(np.isfinite(self.sigma)))
+        v = self.validation
+        held = "" if v is None else f"; held-out error rms {v.before_rms * 1e3:.4g} -> {v.after_rms * 1e3:.4g} mm"
+        return (f"Calibration({self.parametrization.robot.name}, {self.convention}, {self.measurements.n} {self.measurements.kind}s of {self.measurements.source}, "
+                f"{est} of {len(self.names)} parameters estimated, {'converged' if self.converged else 'NOT converged'})\n"
+                f"  rms {self.rms * 1e3:.4g} mm{held}; {len(self.notes)} notes")
 
     def value(self, name: str) -> tuple[float, float]:
         """(value, sigma) of one parameter (SI)."""
@@ -352,13 +364,13 @@ def _strong_correlations(corr: np.ndarray, names: list, limit: float = 0.999) ->
 def _circle_start(pz: Parametrization, x, meas: Measurements, robot: Robot, convention: str, free: list, notes: list) -> np.ndarray:
     """Start values from the circle-point identification (global fit of the sweeps): the chain is fitted to
     the identified model's predictions at the measured configurations."""
-    from .. import identify as ident  # noqa: PLC0415 (identify imports the fitting package: loaded for start="circles" only)
+    from ..identify import identify  # noqa: PLC0415 (identify imports the fitting package: loaded for start="circles" only)
 
     if meas.sweeps is None:
         raise DenavitError(f"{meas.source}: start='circles' needs sweep data (Measurements.from_sweeps); these are arbitrary poses: use start='nominal'")
     if pz.measure != "point":
         raise DenavitError("start='circles' works with measured points (sweeps), not poses")
-    res = ident.identify(meas.sweeps, method="global", convention="edh", nominal=robot)
+    res = identify(meas.sweeps, method="global", convention="edh", nominal=robot)
     m = res.model()
     tp = np.asarray(m.T_flange_tool)[:3, 3]
     T = _core.fk_batch(m.with_tool(np.eye(4)), meas.q)

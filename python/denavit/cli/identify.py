@@ -10,7 +10,6 @@ import typer
 from rich.table import Table as RichTable
 
 from ..io.units import cell_scale, length_scale
-from ..robot import Robot
 from .common import BaseLinkOpt, TipLinkOpt, app, console, convention_name, fail, fmt, load_robot, parse_numbers, parse_pose, say, wrote
 
 EXAMPLES = {"kr5": "kr5_90deg.csv", "kr5-90": "kr5_90deg.csv", "kr5-30": "kr5_30deg.csv"}
@@ -41,7 +40,8 @@ def identify(
     max_sigma: Annotated[float | None, typer.Option("--max-sigma", help="Required axis-position accuracy (1 sigma) in --length units (default mm): sweeps predicted worse are an error.")] = None,
     report: Annotated[Path | None, typer.Option("--report", help="Write a self-contained HTML report.")] = None,
     plot: Annotated[Path | None, typer.Option("--plot", help="Write the static figures (PNG) into this folder.")] = None,
-    save_model: Annotated[Path | None, typer.Option("--save", help="Write the identified robot as a robot file (.toml, in the output units).")] = None,
+    save_model: Annotated[Path | None, typer.Option("--save", help="Write the identified robot as a robot file (.toml, in the output units): the exact geometry (ED-H, or POE with --convention poe), its carried error stated in the file.")] = None,
+    save_convention: Annotated[str | None, typer.Option("--save-convention", help="--save a table of this convention instead (dh | mdh: lossy where axes are near-parallel; the file states the error it carries).")] = None,
     base: Annotated[str | None, typer.Option("--base", help="The robot's base frame in the measurement frame, \"x,y,z,roll,pitch,yaw\" (R = Rz(yaw) Ry(pitch) Rx(roll); output length unit, deg) or the 16 numbers of the 4x4 matrix (default: the measurement frame).")] = None,
     urdf: Annotated[Path | None, typer.Option("--urdf", help="Write the identified robot as URDF: the exact geometry (ED-H frames on the body, whatever --convention), with a URDF nominal's meshes, inertials and limits.")] = None,
     data_format: Annotated[str, typer.Option("--format", help="sweeps (long CSV, JSON, jN.csv folder) | tracker | rtde | rsi | bag | columns | auto (from the content).")] = "auto",
@@ -53,7 +53,8 @@ def identify(
     tip_link: TipLinkOpt = None,
 ) -> None:
     """Identify the joint axes and parameters from joint sweeps (Hayat et al.), beside the nominal values."""
-    from .. import identify as ident  # noqa: PLC0415
+    from ..identify import identify as identify_sweeps  # noqa: PLC0415
+    from ..identify import to_json, write_json  # noqa: PLC0415
     from ..io import sweeps as swio  # noqa: PLC0415
 
     if example:
@@ -82,8 +83,8 @@ def identify(
     with console.status(f"fitting {sweeps.n_joints} sweeps ({method})...") as status:
         ms = None if max_sigma is None else max_sigma * length_scale(length or sweeps.units.get("length", "mm"))
         T_world_base = None if base is None else parse_pose(base, "deg", length_scale(out_len), "--base")
-        result = ident.identify(sweeps, method=method, convention=convention, nominal=nom, loss=loss, max_sigma=ms, T_world_base=T_world_base, progress=status.update)
-    doc = ident.to_json(result, out_len, "deg")
+        result = identify_sweeps(sweeps, method=method, convention=convention, nominal=nom, loss=loss, max_sigma=ms, T_world_base=T_world_base, progress=status.update)
+    doc = to_json(result, out_len, "deg")
     print_identification(doc, result, out_len)
     if nom is not None:
         from ..compensation import identification_accuracy  # noqa: PLC0415
@@ -94,28 +95,16 @@ def identify(
             f"(max {s['nominal']['max'] / ls_out:.4g}); identified model, predicted 1 sigma: rms {s['identified']['rms'] / ls_out:.4g} {out_len} "
             f"(max {s['identified']['max'] / ls_out:.4g})")
     if json_path:
-        ident.write_json(result, json_path, out_len, "deg")
+        write_json(result, json_path, out_len, "deg")
         wrote(json_path)
-    if save_model or urdf:
-        names = nom.names if nom else [f"j{i + 1}" for i in range(sweeps.n_joints)]
-        from .. import _core  # noqa: PLC0415
+    if save_model:  # the exact geometry unless a lossy table is asked for, its carried error written in the file
+        result.save(save_model, None if save_convention is None else convention_name(save_convention), out_len, "deg")
+        wrote(save_model)
+    if urdf:
+        from ..io.urdf import save_urdf  # noqa: PLC0415
 
-        limits = np.array([_core.default_limits(k) for k in sweeps.kinds])
-        lower = nom.lower if nom else limits[:, 0]
-        upper = nom.upper if nom else limits[:, 1]
-        identified = Robot(name=f"{nom.name if nom else 'robot'}_identified", table=result.table, names=names, lower=lower, upper=upper,
-                           description=f"identified from {sweeps.source} ({result.method} fit, {result.convention})", source=str(sweeps.source), home=sweeps.home,
-                           extra=nom.extra if nom else {})  # a URDF nominal's meshes, inertials and limits ride along
-        if save_model:
-            from ..io.robotfile import save  # noqa: PLC0415
-
-            save(identified, save_model, out_len, "deg")
-            wrote(save_model)
-        if urdf:
-            from ..io.urdf import save_urdf  # noqa: PLC0415
-
-            save_urdf(result.model(convention="edh"), urdf, identified)  # the exact geometry, frames on the body
-            wrote(urdf)
+        save_urdf(result.model(convention="edh"), urdf, result.robot())  # the exact geometry, frames on the body; a URDF nominal's meshes and limits ride along
+        wrote(urdf)
     if report or plot:
         from .. import report as rep  # noqa: PLC0415
 

@@ -35,6 +35,9 @@ class BoundingBox:
     lengths: np.ndarray
     volume: float
 
+    def __repr__(self) -> str:
+        return f"BoundingBox({' x '.join(f'{v * 1e3:.5g}' for v in self.lengths)} mm, {self.volume:.4g} m^3, centre [{', '.join(f'{v * 1e3:.5g}' for v in self.center)}] mm)"
+
     def __post_init__(self):
         for name in ("center", "axes", "lengths"):
             a = np.array(getattr(self, name), dtype=float, copy=True)

@@ -38,6 +38,10 @@ class Targets:
     where: list
     units: dict
 
+    def __repr__(self) -> str:
+        what = " and ".join(w for w, a in (("poses", self.poses), ("joint rows", self.q)) if a is not None)
+        return f"Targets({len(self.where)} rows of {what}, file units {' '.join(f'{k}={v}' for k, v in self.units.items())})"
+
 
 def read_targets(path: str | os.PathLike, kinds, *, length: str | None = None, angle: str | None = None) -> Targets:
     """Read a program of targets (module docstring) for a robot with joint ``kinds``."""

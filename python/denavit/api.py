@@ -1,0 +1,243 @@
+"""The top-level functions: :func:`identify`, :func:`calibrate`, :func:`plan`, :func:`simulate`,
+:func:`compensate` (``denavit.identify(...)`` and so on), each taking what a user has at hand.
+
+Data may be a path (``str`` or ``os.PathLike``) of any format the command line reads (long-form sweep CSV, sweep
+JSON, a folder of ``j1.csv`` ... ``jN.csv``, measurement CSV/JSON, tracker exports, UR RTDE, KUKA RSI, ROS bags,
+delimited recordings with a column map) or the object itself (:class:`~denavit.sweeps.SweepSet`,
+:class:`~denavit.calibration.Measurements`, arrays); a robot may be a built-in name, a robot file, a URDF, a
+:class:`~denavit.Robot` or a :class:`~denavit.Model`. Everything is SI (m, rad): the units of a file are its own
+declaration, or ``length`` / ``angle`` where it declares none.
+
+The algorithms and their results live in :mod:`denavit.identify` (the module, reached as
+``sys.modules["denavit.identify"]`` or ``from denavit.identify import Identification``: the package attribute
+``denavit.identify`` is the function), :mod:`denavit.calibration` and :mod:`denavit.compensation`.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from . import _core
+from .errors import DenavitError
+from .identify import Identification
+from .identify import identify as _identify
+from .robot import Robot
+from .sweeps import PAPER_RANGES_DEG, SweepSet
+
+
+def _robot(robot) -> Robot:
+    """``robot`` (a :class:`Robot`, a :class:`Model`, a built-in name, a robot file or a URDF, as ``str`` or
+    ``os.PathLike``) as a Robot (:func:`denavit.calibration.parametrization.as_robot`)."""
+    from .calibration.parametrization import as_robot  # noqa: PLC0415
+
+    return as_robot(os.fspath(robot) if isinstance(robot, os.PathLike) else robot)
+
+
+def _header(path: Path) -> list[str] | None:
+    """The lower-case column names of a delimited file's header (None: binary, or no header)."""
+    from .io.delimited import rows  # noqa: PLC0415
+    from .io.text import decode, read_bytes  # noqa: PLC0415
+
+    try:
+        lines = decode(read_bytes(path, "data file")[:65536], str(path)).splitlines()
+    except DenavitError:  # a binary bag, or UTF-8 cut mid-character by the 64 kB window: not a delimited file of ours
+        return None
+    found, _ = rows(lines[:50])
+    return [c.lower() for c in found[0][1]] if found else None
+
+
+def _path(data) -> Path:
+    p = Path(os.fspath(data))
+    if not p.exists():
+        raise DenavitError(f"{p}: no such file or folder")
+    return p
+
+
+def read_sweeps(data, *, nominal=None, format: str = "auto", length: str | None = None, angle: str | None = None, home=None, direction=1,
+                columns: str | None = None, sweep: str | None = None, target: int = 0, readings=None) -> SweepSet:
+    """The sweeps of ``data``: a :class:`SweepSet` as it is, or a path read as the ``identify`` command reads it.
+
+    Our sweep files (long-form CSV with a ``joint`` column, sweep JSON, a folder of ``j1.csv`` ... ``jN.csv``) by
+    :mod:`denavit.io.sweeps`; anything else as a recording (:func:`denavit.io.recordings.read_recording`,
+    ``format`` "auto" detects it), segmented into sweeps (:func:`denavit.recording.segment`), aligned first with
+    the joint readings of a second recording ``readings`` if given.
+
+    nominal : robot, optional — gives the joint kinds (a prismatic joint's readings are lengths).
+    home : array-like, shape (n,), rad / m — the locked configuration (needed by per-joint files, which carry no
+        readings). direction : +1 / -1 (one, or one per joint) — per-joint files: did the joint value increase
+        over the recording? target : 0-based, the target of a multi-target recording.
+    """
+    if isinstance(data, SweepSet):
+        return data
+    if not isinstance(data, (str, os.PathLike)):
+        raise DenavitError(f"sweeps: expected a SweepSet or a path (str or os.PathLike), got {type(data).__name__}")
+    from .io import sweeps as swio  # noqa: PLC0415
+
+    p = _path(data)
+    robot = None if nominal is None else _robot(nominal)
+    kinds = None if robot is None else list(robot.table.kinds)
+    ours = format == "sweeps" or (format == "auto" and readings is None and (p.suffix.lower() == ".json" or (p.is_dir() and not (p / "metadata.yaml").exists())
+                                                                             or (p.is_file() and "joint" in (_header(p) or []))))
+    if ours:
+        if p.is_dir():
+            if home is None or length is None:
+                raise DenavitError(f"{p}: a folder of per-joint files needs home (rad / m, one value per joint) and length (the files' unit if they declare none)")
+            return swio.read_joint_files(p, home=home, length=length, angle="rad", direction=direction, kinds=kinds)
+        if p.suffix.lower() == ".json":
+            return swio.read_json(p, length=length, angle=angle)
+        return swio.read_long_csv(p, length=length, angle=angle, kinds=kinds)
+    from .io.recordings import read_recording  # noqa: PLC0415
+    from .recording import align, segment, to_sweepset  # noqa: PLC0415
+
+    rec = read_recording(p, format, columns=columns, length=length, angle=angle, sweep=sweep, kinds=kinds)
+    if readings is not None:
+        rec, _ = align(rec, read_recording(_path(readings), "auto", columns=columns, length=length, angle=angle, kinds=kinds))
+    return to_sweepset(rec, segment(rec), target=target, home=home, kinds=kinds, direction=direction)
+
+
+def identify(data, nominal=None, *, format: str = "auto", length: str | None = None, angle: str | None = None, home=None, direction=1,
+             columns: str | None = None, sweep: str | None = None, target: int = 0, readings=None, **options) -> Identification:
+    """Circle-point identification (Hayat et al.) of the joint axes and parameters from joint sweeps.
+
+    data : SweepSet or path — read by :func:`read_sweeps` (``format``, ``length``, ``angle``, ``home``,
+        ``direction``, ``columns``, ``sweep``, ``target``, ``readings`` as there).
+    nominal : built-in name, robot file, URDF, Robot or Model, optional — signs, free origins, names, limits.
+    options : those of :func:`denavit.identify.identify` (``method``, ``convention``, ``T_world_base``,
+        ``loss``, ``max_sigma``, ``keep_dwell``, ``progress``...).
+
+    >>> import denavit as dv
+    >>> dv.identify(dv.simulate("kr5", noise=2e-5), nominal="kr5").method
+    'global'
+    """
+    robot = None if nominal is None else _robot(nominal)
+    sweeps = read_sweeps(data, nominal=robot, format=format, length=length, angle=angle, home=home, direction=direction, columns=columns,
+                         sweep=sweep, target=target, readings=readings)
+    return _identify(sweeps, nominal=robot, **options)
+
+
+def _measurements(data, robot: Robot, *, points, poses, format: str, length, angle, columns, target: int):
+    from .calibration import Measurements  # noqa: PLC0415
+
+    if isinstance(data, (Measurements, SweepSet)):
+        return data
+    kinds = list(robot.table.kinds)
+    if isinstance(data, (str, os.PathLike)):
+        p = _path(data)
+        cols = None if p.is_dir() else (_header(p) or [])
+        if format == "measurements" or (format == "auto" and (p.suffix.lower() == ".json" or (cols is not None and (("q1" in cols and "x" in cols) or "joint" in cols)))):
+            from .io.measurements import read_measurements  # noqa: PLC0415
+
+            return read_measurements(p, kinds=kinds, length=length, angle=angle)
+        from .io.recordings import read_recording  # noqa: PLC0415
+        from .recording import static_poses  # noqa: PLC0415
+
+        rec = read_recording(p, format, columns=columns, length=length, angle=angle, kinds=kinds)
+        q, pts, where = static_poses(rec, target=target)
+        return Measurements(q, pts, None, str(p), where, {"length": "m", "angle": "rad"}, kinds=tuple(kinds))
+    if points is None and poses is None:
+        raise DenavitError(f"measurements: expected Measurements, a SweepSet, a path, or joint readings q with points= or poses=, got {type(data).__name__}")
+    return Measurements(np.asarray(data, dtype=float), None if points is None else np.asarray(points, dtype=float),
+                        None if poses is None else np.asarray(poses, dtype=float), "arrays", kinds=tuple(kinds))
+
+
+def calibrate(data, nominal, *, points=None, poses=None, format: str = "auto", length: str | None = None, angle: str | None = None,
+              columns: str | None = None, target: int = 0, **options):
+    """One least-squares fit of the whole kinematic model (:func:`denavit.calibration.calibrate`).
+
+    data : Measurements, SweepSet, a path (measurement CSV ``q1..qn,x,y,z[,rx,ry,rz]``, sweep CSV, JSON, or a
+        recording: one pose per pause of the robot), or joint readings ``q`` (N, n) rad / m with ``points``
+        (N, 3) m or ``poses`` (N, 4, 4).
+    nominal : built-in name, robot file, URDF, Robot or Model.
+    options : those of :func:`denavit.calibration.calibrate` (``convention``, ``fix``, ``loss``, ``holdout``...).
+    """
+    from .calibration import calibrate as _calibrate  # noqa: PLC0415
+
+    robot = _robot(nominal)
+    meas = _measurements(data, robot, points=points, poses=poses, format=format, length=length, angle=angle, columns=columns, target=target)
+    return _calibrate(meas, robot, **options)
+
+
+def _protocol_ranges(robot: Robot, ranges) -> np.ndarray:
+    """Sweep ranges: "paper90" / "paper30" (Hayat Table II, a 6-joint revolute arm) or (n, 2) start, end (rad / m)."""
+    n = len(robot.names)
+    if isinstance(ranges, str):
+        key = ranges.lower()
+        if key not in ("paper90", "paper30"):
+            raise DenavitError(f"ranges: expected 'paper90', 'paper30' or ({n}, 2) start, end values (rad / m), got {ranges!r}")
+        if n != 6 or "prismatic" in robot.table.kinds:
+            raise DenavitError(f"ranges {ranges!r} are Hayat Table II for a 6-joint revolute robot; {robot.name} needs ({n}, 2) start, end values (rad / m)")
+        return np.radians(np.array(PAPER_RANGES_DEG[int(key[-2:])]))
+    r = np.asarray(ranges, dtype=float)
+    if r.shape != (n, 2):
+        raise DenavitError(f"ranges: expected shape ({n}, 2) (start, end per joint, rad / m), got {r.shape}")
+    return r
+
+
+def _home(robot: Robot, home) -> np.ndarray:
+    return np.asarray(home if home is not None else (robot.home if robot.home is not None else np.zeros(len(robot.names))), dtype=float)
+
+
+def plan(nominal, protocol=None, *, ranges="paper30", home=None, points_per_sweep: int = 30, tool_point=(0.05, 0.03, 0.10), q=None, **options):
+    """Predicted sigmas (Cramér-Rao bound) and measuring volume before measuring (:func:`denavit.calibration.plan`).
+
+    Without ``protocol`` or ``q``: sweeps over ``ranges`` ("paper30", "paper90" or (n, 2) rad / m) about ``home``
+    (rad / m; default the robot file's home, else zeros), ``points_per_sweep`` points each, ``tool_point`` (m,
+    flange frame). options : ``noise`` (m), ``convention``, ``fix``, ``select``... as there.
+    """
+    from .calibration import Protocol  # noqa: PLC0415
+    from .calibration import plan as _plan  # noqa: PLC0415
+
+    robot = _robot(nominal)
+    if protocol is None and q is None:
+        protocol = Protocol(_home(robot, home), _protocol_ranges(robot, ranges), points_per_sweep, np.asarray(tool_point, dtype=float))
+    return _plan(robot, protocol, q=q, **options)
+
+
+def simulate(model, q=None, *, home=None, ranges="paper90", points_per_sweep: int = 30, tool_point=(0.05, 0.03, 0.10), noise: float = 0.0,
+             noise_q: float = 0.0, seed: int = 0, **options):
+    """Simulated data of ``model`` (built-in name, robot file, URDF, Robot or Model).
+
+    Without ``q``: joint sweeps, a :class:`SweepSet` (:func:`denavit.sweeps.simulate`) over ``ranges``
+    ("paper90", "paper30" or (n, 2) rad / m) about ``home`` (rad / m; default the robot file's home, else zeros),
+    ``tool_point`` (m, flange frame) with point noise ``noise`` (m) and reading noise ``noise_q`` (rad / m).
+    With ``q`` (N, n): calibration measurements at those configurations
+    (:func:`denavit.calibration.simulate`; options ``measure``, ``noise_rot``, ``T_world_base``).
+    """
+    robot = _robot(model)
+    m = model if isinstance(model, _core.Model) else robot.model()
+    if q is not None:
+        from .calibration import simulate as _simulate  # noqa: PLC0415
+
+        return _simulate(m, q, tool=tool_point, noise=noise, seed=seed, **options)
+    if options:
+        raise DenavitError(f"simulate: {', '.join(sorted(options))} apply to measurements at configurations q, not to sweeps")
+    from .sweeps import simulate as _sweeps  # noqa: PLC0415
+
+    return _sweeps(m, home=_home(robot, home), ranges=_protocol_ranges(robot, ranges), points_per_sweep=points_per_sweep, tool_point=tool_point,
+                   noise=noise, noise_q=noise_q, seed=seed)
+
+
+def compensate(nominal, identified, targets, **options):
+    """The commands a controller that keeps ``nominal`` must be sent so that the ``identified`` robot reaches
+    ``targets`` (:func:`denavit.compensation.compensate`).
+
+    nominal, identified : built-in name, robot file, URDF, Robot, Model, or a result with ``.model()``
+        (Identification, Calibration). targets : (N, 4, 4) tool poses (m), or a targets file (poses and/or joint
+        rows, units declared), read by :func:`denavit.io.targets.read_targets`.
+    """
+    from .compensation import compensate as _compensate  # noqa: PLC0415
+
+    if isinstance(targets, (str, os.PathLike)):
+        from .io.targets import read_targets  # noqa: PLC0415
+
+        nom = nominal if isinstance(nominal, _core.Model) else nominal.model() if callable(getattr(nominal, "model", None)) else _robot(nominal).model()
+        prog = read_targets(_path(targets), list(nom.kinds))
+        poses = prog.poses if prog.poses is not None else _core.fk_batch(nom, prog.q)
+        return _compensate(nom, identified, poses, q_nominal=prog.q, **options)
+    return _compensate(nominal, identified, targets, **options)
+
+
+__all__ = ["calibrate", "compensate", "identify", "plan", "read_sweeps", "simulate"]
