@@ -142,6 +142,22 @@ def test_bad_arguments_never_panic():
         _core.CalibrationChain([], [], [], [], -1, 0, [])
 
 
+def test_complex_arrays_are_refused_in_every_array_argument():
+    """Regression: a complex array was cast to float64 (numpy drops the imaginary part with a ComplexWarning).
+    Every array argument of every entry point now refuses it in one line naming the argument."""
+    checked = 0
+    for f, args in bad_input_calls():
+        for k in range(1 if isinstance(args[0], _core.Model) else 0, len(args)):
+            if not isinstance(args[k], np.ndarray):
+                continue
+            a = list(args)
+            a[k] = args[k] + 1j
+            with pytest.raises(dv.DenavitError, match=r"^invalid .*: expected an array-like of real floats, got a complex array \(dtype complex128\)$"):
+                f(*a)
+            checked += 1
+    assert checked >= 30
+
+
 # ------------------------------------------------------------------------------------------------
 # Structured errors
 # ------------------------------------------------------------------------------------------------
@@ -153,7 +169,7 @@ FIELDS = ("what", "expected", "got", "index", "value", "reason", "iterations", "
     (lambda m: dv.fk(m, np.zeros(3)), dv.DenavitError, "SizeMismatch", {"what": "q", "expected": 2, "got": 3}),
     (lambda m: dv.fk(m, [0.0, np.inf]), dv.DenavitError, "NonFinite", {"what": "q", "index": 1, "value": np.inf}),
     (lambda m: m.with_tool(np.diag([1.0, 1, 1, 2])), dv.DenavitError, "NotSe3", {"what": "T_flange_tool", "reason": "last row must be [0, 0, 0, 1], got [0.0, 0.0, 0.0, 2.0]"}),
-    (lambda m: dv.jacobian(m, np.zeros(2), frame="flange"), dv.DenavitError, "InvalidArgument", {"what": "frame", "expected": "'world', 'base' or 'tool'", "got": "'flange'"}),
+    (lambda m: dv.jacobian(m, np.zeros(2), frame="flange"), dv.DenavitError, "InvalidArgument", {"what": "frame", "expected": "'local', 'local_world_aligned', 'world' or 'base'", "got": "'flange'"}),
     (lambda m: dv.Table("hayati", np.zeros((1, 4))), dv.DenavitError, "UnknownName", {"what": "convention", "got": "hayati", "expected": "dh, mdh, edh, poe"}),
     (lambda m: dv.JointAxes(np.zeros((1, 3)), [[0, 0, 0]]), dv.DegenerateError, "Degenerate", {"reason": "direction of axis 1 must be a non-zero direction, got length 0.000e0"}),
     (lambda m: m.with_inertias([1.0, -1.0], np.zeros((2, 3)), np.zeros((2, 3, 3))), dv.DenavitError, "InvalidArgument",

@@ -106,7 +106,7 @@ def test_energy_rate_is_joint_power_and_mdot_minus_2c_is_skew(robot, rng):
 def test_tool_wrench_costs_jacobian_transpose(robot, rng):
     q, qd, qdd = (s[0] for s in states(robot.nq, 1, rng))
     f = np.array([1.0, -4.0, 2.5, 0.3, 0.7, -0.2])
-    J = dv.jacobian(robot, q, frame="tool")
+    J = dv.jacobian(robot, q, frame="local")
     d = _core.rnea(robot, q, qd, qdd, f_ext=f) - _core.rnea(robot, q, qd, qdd)
     np.testing.assert_allclose(d, -J.T @ f, rtol=0, atol=1e-12 * (1 + np.abs(d).max()))
 

@@ -695,7 +695,7 @@ pub fn ik_path(model: &Model, targets: &[Pose], q0: &[f64], opts: &IkOptions) ->
     Ok(out)
 }
 
-/// Solve independent targets on every core (rayon). `q0s` holds either one start for all (n values) or
+/// Solve independent targets on every core (rayon's pool, or as [`crate::parallel::with_threads`] says). `q0s` holds either one start for all (n values) or
 /// one per target (N x n, row-major). Target `i` uses restart seed `mix(seed, i)`: the results are the
 /// same whatever the number of threads.
 ///
@@ -715,17 +715,15 @@ pub fn ik_batch(model: &Model, targets: &[Pose], q0s: &[f64], opts: &IkOptions) 
         check_len("q0s (n values, or N*n for N targets)", targets.len() * n, q0s.len())?;
     }
     check_finite("q0s", q0s)?;
-    let results = targets
-        .par_iter()
-        .enumerate()
-        .map_init(
-            || IkSolver::new(model, opts.clone()).expect("options checked above"),
-            |s, (i, t)| {
-                let q0 = if shared { q0s } else { &q0s[i * n..(i + 1) * n] };
-                s.solve_unchecked(t, q0, mix_seed(opts.seed, i as u64))
-            },
-        )
-        .collect();
+    let solve = |s: &mut IkSolver, (i, t): (usize, &Pose)| {
+        let q0 = if shared { q0s } else { &q0s[i * n..(i + 1) * n] };
+        s.solve_unchecked(t, q0, mix_seed(opts.seed, i as u64))
+    };
+    if crate::parallel::serial() {
+        let mut s = IkSolver::new(model, opts.clone())?;
+        return Ok(targets.iter().enumerate().map(|x| solve(&mut s, x)).collect());
+    }
+    let results = targets.par_iter().enumerate().map_init(|| IkSolver::new(model, opts.clone()).expect("options checked above"), solve).collect();
     Ok(results)
 }
 
