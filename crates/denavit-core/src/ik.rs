@@ -14,14 +14,20 @@
 //! measured values, so `success` implies the errors are within the tolerance the user asked for.
 //!
 //! **Methods.**
-//! * [`IkMethod::Newton`]: Newton-Raphson `q <- q + J^-1 e` (Guo et al. sec. V; Gauss-Newton
-//!   `(J^T J)^-1 J^T e` for n < 6 and the minimum-norm step `J^T (J J^T)^-1 e` for n > 6); a singular
-//!   Jacobian falls back to a slightly damped step.
+//! * [`IkMethod::Newton`]: Newton-Raphson `q <- q + α J^-1 e` (Guo et al. sec. V; Gauss-Newton
+//!   `(J^T J)^-1 J^T e` for n < 6 and the minimum-norm step `J^T (J J^T)^-1 e` for n > 6; a singular
+//!   Jacobian falls back to a slightly damped step) with backtracking on `|e|^2` (Nocedal & Wright 2006,
+//!   Algorithm 3.1): α = 1, 1/2, 1/4, the first that lowers the error; if none does, the full step is taken
+//!   anyway (Newton's jump out of a basin; the attempt keeps its best configuration). Every trial point
+//!   counts as an iteration. An attempt with 8 steps in a row without a new best gives way to the next
+//!   restart; the last attempt (with `restarts = 0`, the only one) uses its whole budget.
 //! * [`IkMethod::Lm`]: Levenberg-Marquardt (Levenberg 1944, Marquardt 1963; damped least squares,
 //!   Wampler 1986): `(J^T J + λ I) dq = J^T e`, a step is accepted only if it lowers `|e|^2`. The damping
 //!   is `λ = μ |e|^2` (Fan & Yuan 2005: quadratic convergence to a zero residual), μ starting at
-//!   `damping`, times 0.3 after an accepted step and times 10 after a rejected one. An attempt that has not
-//!   halved `|e|^2` within 10 iterations is abandoned for the next restart (a local minimum).
+//!   `damping` and updated by the gain ratio ρ of the actual to the predicted decrease (Nielsen 1999;
+//!   Madsen, Nielsen & Tingleff 2004, Algorithm 3.16): accepted, `μ *= max(1/3, 1 - (2ρ - 1)^3)`, ν = 2;
+//!   rejected, `μ *= ν`, `ν *= 2`. An attempt that has not halved `|e|^2` within 10 iterations gives way to
+//!   the next restart (a local minimum), except the last attempt, which uses its whole budget.
 //!
 //! **Joint limits** (`respect_limits`): after every step each `q_i` is projected into `[lower_i, upper_i]`;
 //! a revolute joint is first shifted by a multiple of 2π when that brings it into the range (same pose),
@@ -374,8 +380,16 @@ fn newton_step6(jac: &[f64], e: &[f64; 6], x: &mut [f64]) -> bool {
     ok
 }
 
-/// Iterations after which an LM attempt must have halved its squared error, else it restarts.
+/// Iterations after which an LM attempt must have halved its squared error, else it gives way to the next
+/// restart (never in the last attempt, which uses its whole budget).
 const STALL_EVERY: usize = 10;
+
+/// Newton steps without a new best error after which an attempt gives way to the next restart (never in the
+/// last attempt).
+const STALL_NEWTON: usize = 8;
+
+/// Step lengths 1, 1/2, 1/4 tried by Newton's backtracking.
+const BACKTRACK: usize = 3;
 
 /// How far from success a measured error is (< = 1 means within the tolerance).
 #[inline]
@@ -403,7 +417,10 @@ pub struct IkSolver<'m> {
     q: Vec<f64>,
     q_trial: Vec<f64>,
     q_best: Vec<f64>,
+    q_cur: Vec<f64>,
+    q_jump: Vec<f64>,
     jac: Vec<f64>,
+    jac_jump: Vec<f64>,
     a: Vec<f64>,
     g: Vec<f64>,
 }
@@ -422,7 +439,10 @@ impl<'m> IkSolver<'m> {
             q: vec![0.0; n],
             q_trial: vec![0.0; n],
             q_best: vec![0.0; n],
+            q_cur: vec![0.0; n],
+            q_jump: vec![0.0; n],
             jac: vec![0.0; 6 * n],
+            jac_jump: vec![0.0; 6 * n],
             a: vec![0.0; m * m],
             g: vec![0.0; m],
         })
@@ -449,14 +469,16 @@ impl<'m> IkSolver<'m> {
     }
 
     /// One attempt from `self.q`; leaves the attempt's best configuration in `self.q`.
-    fn attempt(&mut self, target: &Pose) -> (usize, f64, f64) {
+    /// `last`: no attempt follows, so this one uses its whole iteration budget (a stalled attempt is
+    /// abandoned early only when a restart can take over).
+    fn attempt(&mut self, target: &Pose, last: bool) -> (usize, f64, f64) {
         match self.opts.method {
-            IkMethod::Lm => self.attempt_lm(target),
-            IkMethod::Newton => self.attempt_newton(target),
+            IkMethod::Lm => self.attempt_lm(target, last),
+            IkMethod::Newton => self.attempt_newton(target, last),
         }
     }
 
-    fn attempt_lm(&mut self, target: &Pose) -> (usize, f64, f64) {
+    fn attempt_lm(&mut self, target: &Pose, last: bool) -> (usize, f64, f64) {
         let n = self.model.nq();
         let mut e = [0.0; 6];
         let (mut pos, mut rot) = self.evaluate(false, target, &mut e);
@@ -466,20 +488,26 @@ impl<'m> IkSolver<'m> {
         }
         self.jac.copy_from_slice(&self.jac_eval);
         let mut cost: f64 = e.iter().map(|v| v * v).sum();
-        // Fan & Yuan (2005): lambda = mu |e|^2 (quadratic convergence near a zero residual), mu adapted as
-        // in Marquardt (1963): x 0.3 after an accepted step, x 10 after a rejected one. An attempt that has
-        // not halved |e|^2 in STALL_EVERY iterations is in a local minimum (or crawling): restart.
+        // damping lambda = mu |e|^2 (Fan & Yuan 2005: quadratic convergence to a zero residual), mu updated by
+        // the gain ratio rho = (F(q) - F(q + h)) / (L(0) - L(h)) of the actual to the predicted decrease
+        // (Nielsen 1999; Madsen, Nielsen & Tingleff 2004, eq. 3.15 and Algorithm 3.16): accepted (rho > 0):
+        // mu *= max(1/3, 1 - (2 rho - 1)^3), nu = 2; rejected: mu *= nu, nu *= 2.
         let mut mu = self.opts.damping;
+        let mut nu = 2.0;
         let mut checkpoint = cost;
+        let mut jte = vec![0.0; n]; // J^T e (n <= 6 stays on the stack in practice: a small allocation per attempt)
         while it < self.opts.max_iterations {
-            if it % STALL_EVERY == 0 {
-                // a local minimum or a crawl: restart rather than spend the remaining iterations here
+            if !last && it % STALL_EVERY == 0 {
+                // a local minimum or a crawl: leave it to the next restart
                 if cost > 0.5 * checkpoint {
                     break;
                 }
                 checkpoint = cost;
             }
-            let lambda = mu * cost + 1e-300;
+            for (i, c) in self.jac.chunks_exact(6).enumerate() {
+                jte[i] = c.iter().zip(&e).map(|(x, y)| x * y).sum();
+            }
+            let lambda = (mu * cost).max(f64::MIN_POSITIVE);
             let ok = if n == 6 {
                 lm_step6(&self.jac, &e, lambda, &mut self.g)
             } else {
@@ -487,8 +515,9 @@ impl<'m> IkSolver<'m> {
                 cholesky_solve(&mut self.a, &mut self.g, n)
             };
             if !ok {
-                mu *= 10.0;
-                if mu * cost > 1e10 {
+                mu *= nu;
+                nu *= 2.0;
+                if !(mu * cost).is_finite() || mu * cost > 1e30 {
                     break;
                 }
                 continue;
@@ -503,17 +532,22 @@ impl<'m> IkSolver<'m> {
             let (p, r) = self.evaluate(true, target, &mut et);
             it += 1;
             let cost_t: f64 = et.iter().map(|v| v * v).sum();
+            // predicted decrease of |e|^2: 2 L(0) - 2 L(h) = h^T (lambda h + J^T e)
+            let predicted: f64 = (0..n).map(|i| self.g[i] * (lambda * self.g[i] + jte[i])).sum();
             if cost_t < cost {
+                let rho = (cost - cost_t) / predicted.max(f64::MIN_POSITIVE);
                 std::mem::swap(&mut self.q, &mut self.q_trial);
                 self.jac.copy_from_slice(&self.jac_eval);
                 (e, cost, pos, rot) = (et, cost_t, p, r);
                 if score(pos, rot, &self.opts) <= 1.0 {
                     break;
                 }
-                mu = (mu * 0.3).max(1e-6);
+                mu = (mu * (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0)).max(1e-12);
+                nu = 2.0;
             } else {
-                mu *= 10.0;
-                if mu * cost > 1e10 {
+                mu *= nu;
+                nu *= 2.0;
+                if !(mu * cost).is_finite() || mu * cost > 1e30 {
                     break;
                 }
             }
@@ -524,7 +558,7 @@ impl<'m> IkSolver<'m> {
     /// The Newton step into `self.g[..n]` from the last evaluated Jacobian and `e`.
     fn newton_step(&mut self, e: &[f64; 6]) {
         let n = self.model.nq();
-        let jac = &self.jac_eval[..]; // column-major 6 x n
+        let jac = &self.jac[..]; // column-major 6 x n, at the current iterate
         let solved = if n == 6 {
             newton_step6(jac, e, &mut self.g)
         } else if n < 6 {
@@ -557,41 +591,75 @@ impl<'m> IkSolver<'m> {
         }
     }
 
-    fn attempt_newton(&mut self, target: &Pose) -> (usize, f64, f64) {
+    fn attempt_newton(&mut self, target: &Pose, last: bool) -> (usize, f64, f64) {
         let n = self.model.nq();
         let mut e = [0.0; 6];
         let (mut pos, mut rot) = self.evaluate(false, target, &mut e);
         let mut it = 1;
         let mut best = (score(pos, rot, &self.opts), pos, rot);
-        self.q_trial.copy_from_slice(&self.q);
         if best.0 <= 1.0 || n == 0 {
             return (it, pos, rot);
         }
+        // the iterate (q_cur, its Jacobian in jac, its error e); self.q keeps the attempt's best configuration
+        self.jac.copy_from_slice(&self.jac_eval);
+        self.q_cur.copy_from_slice(&self.q);
+        let mut cost: f64 = e.iter().map(|v| v * v).sum();
         let mut stalled = 0;
-        while it < self.opts.max_iterations {
+        'attempt: while it < self.opts.max_iterations {
             self.newton_step(&e);
-            for i in 0..n {
-                self.q_trial[i] += self.g[i];
+            // backtracking on |e|^2 (Nocedal & Wright 2006, Algorithm 3.1, halving): steps 1, 1/2, 1/4; when
+            // none lowers the error the full step is taken anyway (Newton's jump out of a basin)
+            let mut alpha = 1.0;
+            let mut moved = false;
+            let mut jump = None;
+            for k in 0..BACKTRACK {
+                for i in 0..n {
+                    self.q_trial[i] = self.q_cur[i] + alpha * self.g[i];
+                }
+                if self.opts.respect_limits {
+                    self.bounds.project(&mut self.q_trial);
+                }
+                if self.q_trial.iter().any(|v| !v.is_finite()) {
+                    break 'attempt;
+                }
+                let mut et = [0.0; 6];
+                let (p, r) = self.evaluate(true, target, &mut et);
+                it += 1;
+                let cost_t: f64 = et.iter().map(|v| v * v).sum();
+                if cost_t < cost {
+                    std::mem::swap(&mut self.q_cur, &mut self.q_trial);
+                    self.jac.copy_from_slice(&self.jac_eval);
+                    (e, cost, pos, rot) = (et, cost_t, p, r);
+                    moved = true;
+                    break;
+                }
+                if k == 0 {
+                    self.q_jump.copy_from_slice(&self.q_trial);
+                    self.jac_jump.copy_from_slice(&self.jac_eval);
+                    jump = Some((et, cost_t, p, r));
+                }
+                if it >= self.opts.max_iterations {
+                    break;
+                }
+                alpha *= 0.5;
             }
-            if self.opts.respect_limits {
-                self.bounds.project(&mut self.q_trial);
+            if !moved {
+                let Some(j) = jump else { break };
+                std::mem::swap(&mut self.q_cur, &mut self.q_jump);
+                std::mem::swap(&mut self.jac, &mut self.jac_jump);
+                (e, cost, pos, rot) = j;
             }
-            if self.q_trial.iter().any(|v| !v.is_finite()) {
-                break;
-            }
-            (pos, rot) = self.evaluate(true, target, &mut e);
-            it += 1;
             let s = score(pos, rot, &self.opts);
             if s < best.0 {
                 best = (s, pos, rot);
-                self.q.copy_from_slice(&self.q_trial);
+                self.q.copy_from_slice(&self.q_cur);
                 stalled = 0;
                 if s <= 1.0 {
                     break;
                 }
             } else {
                 stalled += 1;
-                if stalled >= 8 {
+                if !last && stalled >= STALL_NEWTON {
                     break;
                 }
             }
@@ -615,7 +683,7 @@ impl<'m> IkSolver<'m> {
             if self.opts.respect_limits {
                 self.bounds.project(&mut self.q);
             }
-            let (it, pos, rot) = self.attempt(target);
+            let (it, pos, rot) = self.attempt(target, attempt == self.opts.restarts);
             total += it;
             restarts = attempt;
             let s = score(pos, rot, &self.opts);
