@@ -379,3 +379,35 @@ def test_stub_matches_the_module():
             if kind == "method":
                 sparams = [p for p in sparams if p not in ("self", "cls")]
             assert sparams == params, f"{name}: stub parameters {sparams}, runtime {params}"
+
+
+# ------------------------------------------------------------------------------------------------
+# Arrays for arrays, short reprs with the key numbers
+# ------------------------------------------------------------------------------------------------
+
+def test_numeric_list_properties_are_arrays():
+    """Regression (issue 17): Model.lower / upper / offsets and JointAxes.q_ref / lower / upper were lists."""
+    m = dv.load_model("kr5")
+    ax = dv.axes(m, np.zeros(6))
+    for x in (m.lower, m.upper, m.offsets, ax.q_ref, ax.lower, ax.upper):
+        assert isinstance(x, np.ndarray) and x.dtype == np.float64 and x.shape == (6,)
+    np.testing.assert_allclose(np.degrees(m.lower[:2]), [-155, -180])  # the KR5 robot file's limits
+
+
+def test_table_repr_prints_its_rows_with_units():
+    """Regression (issue 17): repr(Table) showed no values. Rows in mm and deg as the CLI prints them."""
+    t = dv.Table("dh", [[0.4, 0.0, 0.18, np.pi / 2], [0.0, -np.pi / 2, 0.6, 0.0]], ["revolute", "prismatic"])
+    lines = repr(t).splitlines()
+    assert lines[0] == "Table('dh', 2 joints)"
+    assert lines[1].split() == ["joint", "kind", "d", "[mm]", "theta", "[deg]", "a", "[mm]", "alpha", "[deg]"]
+    assert lines[2].split() == ["1", "R", "400.000", "0.000", "180.000", "90.000"]
+    assert lines[3].split() == ["2", "P", "0.000", "-90.000", "600.000", "0.000"]
+    poe = repr(dv.to_table(t.to_model(), "poe").table).splitlines()[1].split()
+    assert poe[2:5] == ["wx", "wy", "wz"] and poe[5:7] == ["vx", "[mm]"]  # screw directions are unitless
+
+
+def test_model_repr_is_short_with_key_numbers():
+    m = dv.load_model("kr5")
+    assert repr(m) == "Model('kr5', 6 joints RRRRRR, tool at [900.0, 0.0, -220.0] mm at q = 0)"
+    heavy = m.with_inertias(np.full(6, 2.0), np.zeros((6, 3)), np.tile(np.eye(3) * 0.01, (6, 1, 1)))
+    assert repr(heavy).endswith(", 12.0000 kg)")

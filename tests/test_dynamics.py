@@ -3,6 +3,8 @@ batches, a cross-check against pinocchio, and bad input."""
 
 from pathlib import Path
 
+import pickle
+
 import numpy as np
 import pytest
 
@@ -225,8 +227,10 @@ def test_bad_inertias_are_rejected_with_clear_messages():
         m.with_inertias(ok_m, np.zeros(6), ok_i)
     with pytest.raises(dv.DenavitError, match=r"wrong size of inertia tensors \(n x 3 x 3 values\): expected 54, got 45"):
         m.with_inertias(ok_m, ok_c, ok_i[:5])
-    with pytest.raises(dv.DenavitError, match=r"frame: expected 'link' or 'world', got 'tool'"):
+    with pytest.raises(dv.DenavitError, match=r"frame: expected 'link', 'dh' or 'world', got 'tool'"):
         m.with_inertias(ok_m, ok_c, ok_i, frame="tool")
+    with pytest.raises(dv.DenavitError, match=r"^invalid frame: expected 'dh' only for a model built from a DH table .*, got 'dh' for model 'tiansui_edh', which has no DH link frames$"):
+        tiansui_edh().with_inertias(ok_m, ok_c, ok_i, frame="dh")
     with pytest.raises(dv.DenavitError, match=r"mass \(kg\) of link 1 must be finite, got NaN"):
         m.with_inertias(np.full(n, np.nan), ok_c, ok_i)
 
@@ -311,6 +315,46 @@ def test_matches_pinocchio_on_builtin_robots(name, rng):
         np.testing.assert_allclose(_core.gravity_torques(model, q), pin.computeGeneralizedGravity(pm, pd, qp), rtol=0, atol=1e-10)
         C = pin.computeCoriolisMatrix(pm, pd, qp, qd)
         np.testing.assert_allclose(_core.coriolis_matrix(model, q, qd) @ qd, C @ qd, rtol=0, atol=1e-10)
+
+
+def dh_frame(d, a, alpha):
+    """Tz(d) Tx(a) Rx(alpha): standard-DH frame i in joint frame i (Denavit & Hartenberg 1955; docs/conventions.md)."""
+    c, s = np.cos(alpha), np.sin(alpha)
+    T = np.eye(4)
+    T[:3, :3] = [[1, 0, 0], [0, c, -s], [0, s, c]]
+    T[0, 3], T[2, 3] = a, d
+    return T
+
+
+@pytest.mark.parametrize("name", ["puma560", "kr5", "ur5"])
+def test_dh_frame_inertias_match_an_independent_pinocchio_model(name, rng):
+    """Regression (issue 18): inertias given in the DH link frames (as published DH inertia tables are), passed as
+    frame="link", gave torques off by newtons with no warning; frame="dh" re-expresses them in the joint frames.
+    Reference: pinocchio with each body placed at Tz(d) Tx(a) Rx(alpha), computed here from the table's rows."""
+    pin = pytest.importorskip("pinocchio")
+    robot = dv.load_robot(name)
+    assert robot.table.convention == "dh"
+    m = robot.model()
+    masses, coms, inertias = random_inertias(m.nq, rng)
+    coms = coms + rng.uniform(-0.1, 0.1, coms.shape)  # centres of mass away from the frame origins
+    dh, wrong = m.with_inertias(masses, coms, inertias, frame="dh"), m.with_inertias(masses, coms, inertias)
+    pm, parent = pin.Model(), 0
+    for i, (P, (d, _, a, alpha)) in enumerate(zip(m.placements, robot.table.params)):
+        M = m.T_world_base @ P if i == 0 else P
+        parent = pm.addJoint(parent, pin.JointModelRZ(), pin.SE3(M[:3, :3], M[:3, 3]), m.names[i])
+        B = dh_frame(d, a, alpha)
+        pm.appendBodyToJoint(parent, pin.Inertia(masses[i], coms[i], inertias[i]), pin.SE3(B[:3, :3], B[:3, 3]))
+    pm.gravity = pin.Motion(G, np.zeros(3))
+    pd = pm.createData()
+    worst_wrong = 0.0
+    for q, qd, qdd in zip(*states(m.nq, 10, rng)):
+        ref = pin.rnea(pm, pd, q + m.offsets, qd, qdd)
+        np.testing.assert_allclose(dv.rnea(dh, q, qd, qdd), ref, rtol=0, atol=1e-10)
+        worst_wrong = max(worst_wrong, np.abs(dv.rnea(wrong, q, qd, qdd) - ref).max())
+    assert worst_wrong > 1.0  # N m: the joint frame is not the DH frame
+    back = pickle.loads(pickle.dumps(dh))
+    np.testing.assert_array_equal(back.dh_link_frames, m.dh_link_frames)
+    np.testing.assert_array_equal(dv.rnea(back, q, qd, qdd), dv.rnea(dh, q, qd, qdd))
 
 
 # --------------------------------------------------------------------------------------------------------------------
