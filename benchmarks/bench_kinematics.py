@@ -180,7 +180,7 @@ def ik_one_attempt(models, n, have_rtb, have_pin, tol=1e-9):
         Ts = dv.fk_batch(m, rng.uniform(lo, hi, (n, m.nq)))
         q0 = np.clip(np.full(m.nq, 0.3), m.lower, m.upper)
 
-        def judge(q, T):
+        def judge(q, T, m=m):
             return max(pose_error(dv.fk(m, q), T)) <= tol + 1e-15 and bool(np.all((q >= m.lower) & (q <= m.upper)))
 
         cells = []

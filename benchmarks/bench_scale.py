@@ -25,9 +25,9 @@ import json  # noqa: E402
 import time  # noqa: E402
 
 import numpy as np  # noqa: E402
+from bench_kinematics import ik_one_attempt, pin, pin_model_with_tool, rtb, rtb_robot_with_limits  # noqa: E402
 
 import denavit as dv  # noqa: E402
-from bench_kinematics import ik_one_attempt, pin, pin_model_with_tool, rtb, rtb_robot_with_limits  # noqa: E402
 
 G = np.array([0.0, 0.0, -9.81])
 
@@ -99,7 +99,7 @@ def main():
                 break
             qs = rng.uniform(-np.pi, np.pi, (N, n))
             out = alloc(N)
-            ts.append(median_time(lambda qs=qs, out=out: run(qs, out), rep if N < 10**7 else max(3, rep // 2)))
+            ts.append(median_time(lambda qs=qs, out=out, run=run: run(qs, out), rep if N < 10**7 else max(3, rep // 2)))
             ns.append(N)
             del qs, out
         cells = [fmt(t) for t in ts] + ["(memory)"] * (len(sizes) - len(ts))
@@ -134,7 +134,6 @@ def main():
     orn = np.empty((N, n))
     tr = median_time(lambda: dv.rnea_batch(mi, qs, qs, qs, out=orn), rep * 3)
     rows.append((f"batch RNE {N:,} (out=)", fmt(tr), p_r, "-", "-"))
-    del oj
     big = 10**7
     if 8 * big * (n + 16) <= args.max_bytes and not args.quick:
         qb = rng.uniform(-np.pi, np.pi, (big, n))

@@ -1,9 +1,8 @@
 """Dynamics through the Python API: algorithms against each other, MD-H vs ED-H frames (Guo et al. sec. IV.B),
 batches, a cross-check against pinocchio, and bad input."""
 
-from pathlib import Path
-
 import pickle
+from pathlib import Path
 
 import numpy as np
 import pytest
