@@ -257,6 +257,7 @@ impl<'py> Batch<'py> {
 /// Batch inverse dynamics: qs, qds, qdds (N, n) -> (N, n); f_ext None, (6,) or (N, 6).
 #[pyfunction]
 #[pyo3(signature = (model, qs, qds, qdds, gravity=None, f_ext=None, *, out=None, threads=None))]
+#[allow(clippy::too_many_arguments)]
 pub fn rnea_batch<'py>(
     py: Python<'py>,
     model: &PyModel,
@@ -348,6 +349,7 @@ pub fn coriolis_matrix_batch<'py>(
 /// Batch forward dynamics (ABA): qs, qds, taus (N, n) -> (N, n); f_ext None, (6,) or (N, 6).
 #[pyfunction]
 #[pyo3(signature = (model, qs, qds, taus, gravity=None, f_ext=None, *, out=None, threads=None))]
+#[allow(clippy::too_many_arguments)]
 pub fn forward_dynamics_batch<'py>(
     py: Python<'py>,
     model: &PyModel,
