@@ -486,3 +486,25 @@ def test_cli_convert_carries_the_inertials(tmp_path, to, rng):
     a = _core.rnea_batch(dv.load_model(out), qs, qds, qdds)
     b = _core.rnea_batch(dv.load_model("tiansui_edh"), qs, qds, qdds)
     assert np.abs(a - b).max() < 1e-10
+
+
+def test_dynamics_batches_fill_out_and_follow_threads(rng):
+    """out= (filled and returned, checked) and threads= on every dynamics batch; the same values as a fresh result."""
+    m = tiansui_edh()
+    qs, qds, qdds = states(6, 300, rng)
+    calls = {
+        "rnea_batch": (lambda **k: _core.rnea_batch(m, qs, qds, qdds, **k), (300, 6)),
+        "bias_forces_batch": (lambda **k: _core.bias_forces_batch(m, qs, qds, **k), (300, 6)),
+        "gravity_torques_batch": (lambda **k: _core.gravity_torques_batch(m, qs, **k), (300, 6)),
+        "mass_matrix_batch": (lambda **k: _core.mass_matrix_batch(m, qs, **k), (300, 6, 6)),
+        "coriolis_matrix_batch": (lambda **k: _core.coriolis_matrix_batch(m, qs, qds, **k), (300, 6, 6)),
+        "forward_dynamics_batch": (lambda **k: _core.forward_dynamics_batch(m, qs, qds, qdds, **k), (300, 6)),
+    }
+    for name, (call, shape) in calls.items():
+        ref = call()
+        out = np.full(shape, np.nan)
+        assert call(out=out, threads=1) is out, name
+        np.testing.assert_array_equal(out, ref, err_msg=name)
+        np.testing.assert_array_equal(call(threads=2), ref, err_msg=name)
+        with pytest.raises(dv.DenavitError, match=r"^invalid out: expected a C-contiguous, writeable float64 numpy array of shape \(300, "):
+            call(out=np.zeros(shape[:-1] + (shape[-1] + 1,)))
