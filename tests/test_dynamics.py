@@ -317,7 +317,8 @@ def test_matches_pinocchio_on_builtin_robots(name, rng):
 
 
 def dh_frame(d, a, alpha):
-    """Tz(d) Tx(a) Rx(alpha): standard-DH frame i in joint frame i (Denavit & Hartenberg 1955; docs/conventions.md)."""
+    """Standard-DH frame i in joint frame i: translate d along z and a along x, then rotate alpha about x
+    (Denavit & Hartenberg 1955; the factor order is written in docs/conventions.md only)."""
     c, s = np.cos(alpha), np.sin(alpha)
     T = np.eye(4)
     T[:3, :3] = [[1, 0, 0], [0, c, -s], [0, s, c]]
@@ -329,7 +330,7 @@ def dh_frame(d, a, alpha):
 def test_dh_frame_inertias_match_an_independent_pinocchio_model(name, rng):
     """Regression (issue 18): inertias given in the DH link frames (as published DH inertia tables are), passed as
     frame="link", gave torques off by newtons with no warning; frame="dh" re-expresses them in the joint frames.
-    Reference: pinocchio with each body placed at Tz(d) Tx(a) Rx(alpha), computed here from the table's rows."""
+    Reference: pinocchio with each body placed at the DH frame (dh_frame), computed here from the table's rows."""
     pin = pytest.importorskip("pinocchio")
     robot = dv.load_robot(name)
     assert robot.table.convention == "dh"
