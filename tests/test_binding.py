@@ -142,6 +142,22 @@ def test_bad_arguments_never_panic():
         _core.CalibrationChain([], [], [], [], -1, 0, [])
 
 
+def test_complex_arrays_are_refused_in_every_array_argument():
+    """Regression: a complex array was cast to float64 (numpy drops the imaginary part with a ComplexWarning).
+    Every array argument of every entry point now refuses it in one line naming the argument."""
+    checked = 0
+    for f, args in bad_input_calls():
+        for k in range(1 if isinstance(args[0], _core.Model) else 0, len(args)):
+            if not isinstance(args[k], np.ndarray):
+                continue
+            a = list(args)
+            a[k] = args[k] + 1j
+            with pytest.raises(dv.DenavitError, match=r"^invalid .*: expected an array-like of real floats, got a complex array \(dtype complex128\)$"):
+                f(*a)
+            checked += 1
+    assert checked >= 30
+
+
 # ------------------------------------------------------------------------------------------------
 # Structured errors
 # ------------------------------------------------------------------------------------------------
@@ -153,7 +169,7 @@ FIELDS = ("what", "expected", "got", "index", "value", "reason", "iterations", "
     (lambda m: dv.fk(m, np.zeros(3)), dv.DenavitError, "SizeMismatch", {"what": "q", "expected": 2, "got": 3}),
     (lambda m: dv.fk(m, [0.0, np.inf]), dv.DenavitError, "NonFinite", {"what": "q", "index": 1, "value": np.inf}),
     (lambda m: m.with_tool(np.diag([1.0, 1, 1, 2])), dv.DenavitError, "NotSe3", {"what": "T_flange_tool", "reason": "last row must be [0, 0, 0, 1], got [0.0, 0.0, 0.0, 2.0]"}),
-    (lambda m: dv.jacobian(m, np.zeros(2), frame="flange"), dv.DenavitError, "InvalidArgument", {"what": "frame", "expected": "'world', 'base' or 'tool'", "got": "'flange'"}),
+    (lambda m: dv.jacobian(m, np.zeros(2), frame="flange"), dv.DenavitError, "InvalidArgument", {"what": "frame", "expected": "'local', 'local_world_aligned', 'world' or 'base'", "got": "'flange'"}),
     (lambda m: dv.Table("hayati", np.zeros((1, 4))), dv.DenavitError, "UnknownName", {"what": "convention", "got": "hayati", "expected": "dh, mdh, edh, poe"}),
     (lambda m: dv.JointAxes(np.zeros((1, 3)), [[0, 0, 0]]), dv.DegenerateError, "Degenerate", {"reason": "direction of axis 1 must be a non-zero direction, got length 0.000e0"}),
     (lambda m: m.with_inertias([1.0, -1.0], np.zeros((2, 3)), np.zeros((2, 3, 3))), dv.DenavitError, "InvalidArgument",
@@ -363,3 +379,35 @@ def test_stub_matches_the_module():
             if kind == "method":
                 sparams = [p for p in sparams if p not in ("self", "cls")]
             assert sparams == params, f"{name}: stub parameters {sparams}, runtime {params}"
+
+
+# ------------------------------------------------------------------------------------------------
+# Arrays for arrays, short reprs with the key numbers
+# ------------------------------------------------------------------------------------------------
+
+def test_numeric_list_properties_are_arrays():
+    """Regression (issue 17): Model.lower / upper / offsets and JointAxes.q_ref / lower / upper were lists."""
+    m = dv.load_model("kr5")
+    ax = dv.axes(m, np.zeros(6))
+    for x in (m.lower, m.upper, m.offsets, ax.q_ref, ax.lower, ax.upper):
+        assert isinstance(x, np.ndarray) and x.dtype == np.float64 and x.shape == (6,)
+    np.testing.assert_allclose(np.degrees(m.lower[:2]), [-155, -180])  # the KR5 robot file's limits
+
+
+def test_table_repr_prints_its_rows_with_units():
+    """Regression (issue 17): repr(Table) showed no values. Rows in mm and deg as the CLI prints them."""
+    t = dv.Table("dh", [[0.4, 0.0, 0.18, np.pi / 2], [0.0, -np.pi / 2, 0.6, 0.0]], ["revolute", "prismatic"])
+    lines = repr(t).splitlines()
+    assert lines[0] == "Table('dh', 2 joints)"
+    assert lines[1].split() == ["joint", "kind", "d", "[mm]", "theta", "[deg]", "a", "[mm]", "alpha", "[deg]"]
+    assert lines[2].split() == ["1", "R", "400.000", "0.000", "180.000", "90.000"]
+    assert lines[3].split() == ["2", "P", "0.000", "-90.000", "600.000", "0.000"]
+    poe = repr(dv.to_table(t.to_model(), "poe").table).splitlines()[1].split()
+    assert poe[2:5] == ["wx", "wy", "wz"] and poe[5:7] == ["vx", "[mm]"]  # screw directions are unitless
+
+
+def test_model_repr_is_short_with_key_numbers():
+    m = dv.load_model("kr5")
+    assert repr(m) == "Model('kr5', 6 joints RRRRRR, tool at [900.0, 0.0, -220.0] mm at q = 0)"
+    heavy = m.with_inertias(np.full(6, 2.0), np.zeros((6, 3)), np.tile(np.eye(3) * 0.01, (6, 1, 1)))
+    assert repr(heavy).endswith(", 12.0000 kg)")

@@ -130,7 +130,7 @@ def test_near_parallel_never_absurd(kr5):
         (lambda m: dv.fk(m, np.zeros(5)), r"wrong size of q: expected 6, got 5"),
         (lambda m: dv.fk(m, [0, 0, np.nan, 0, 0, 0]), "q must be finite, got NaN at index 2"),
         (lambda m: dv.fk(m, [0, 0, np.inf, 0, 0, 0]), "must be finite"),
-        (lambda m: dv.jacobian(m, np.zeros(6), frame="flange"), "frame: expected 'world', 'base' or 'tool', got 'flange'"),
+        (lambda m: dv.jacobian(m, np.zeros(6), frame="flange"), "frame: expected 'local', 'local_world_aligned', 'world' or 'base', got 'flange'"),
         (lambda m: dv.fk_batch(m, np.zeros((4, 5))), r"qs: expected an array of shape \(N, 6\)"),
         (lambda m: m.with_tool(np.diag([2.0, 1, 1, 1])), "T_flange_tool is not a rigid transform"),
         (lambda m: m.with_base(np.ones((3, 3))), r"T_world_base: expected an array of shape \(4, 4\)"),
@@ -172,7 +172,7 @@ def test_jacobian_matches_finite_differences(rng):
             w = Rotation.from_matrix(Tp[:3, :3] @ Tm[:3, :3].T).as_rotvec() / (2 * h)
             np.testing.assert_allclose(J[:3, i], v, atol=1e-8)
             np.testing.assert_allclose(J[3:, i], w, atol=1e-8)
-        Jt = dv.jacobian(m, q, frame="tool")
+        Jt = dv.jacobian(m, q, frame="local")
         R = dv.fk(m, q)[:3, :3]
         np.testing.assert_allclose(Jt[:3], R.T @ J[:3], atol=1e-13)
         np.testing.assert_allclose(Jt[3:], R.T @ J[3:], atol=1e-13)

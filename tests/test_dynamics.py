@@ -1,6 +1,7 @@
 """Dynamics through the Python API: algorithms against each other, MD-H vs ED-H frames (Guo et al. sec. IV.B),
 batches, a cross-check against pinocchio, and bad input."""
 
+import pickle
 from pathlib import Path
 
 import numpy as np
@@ -106,7 +107,7 @@ def test_energy_rate_is_joint_power_and_mdot_minus_2c_is_skew(robot, rng):
 def test_tool_wrench_costs_jacobian_transpose(robot, rng):
     q, qd, qdd = (s[0] for s in states(robot.nq, 1, rng))
     f = np.array([1.0, -4.0, 2.5, 0.3, 0.7, -0.2])
-    J = dv.jacobian(robot, q, frame="tool")
+    J = dv.jacobian(robot, q, frame="local")
     d = _core.rnea(robot, q, qd, qdd, f_ext=f) - _core.rnea(robot, q, qd, qdd)
     np.testing.assert_allclose(d, -J.T @ f, rtol=0, atol=1e-12 * (1 + np.abs(d).max()))
 
@@ -225,8 +226,10 @@ def test_bad_inertias_are_rejected_with_clear_messages():
         m.with_inertias(ok_m, np.zeros(6), ok_i)
     with pytest.raises(dv.DenavitError, match=r"wrong size of inertia tensors \(n x 3 x 3 values\): expected 54, got 45"):
         m.with_inertias(ok_m, ok_c, ok_i[:5])
-    with pytest.raises(dv.DenavitError, match=r"frame: expected 'link' or 'world', got 'tool'"):
+    with pytest.raises(dv.DenavitError, match=r"frame: expected 'link', 'dh' or 'world', got 'tool'"):
         m.with_inertias(ok_m, ok_c, ok_i, frame="tool")
+    with pytest.raises(dv.DenavitError, match=r"^invalid frame: expected 'dh' only for a model built from a DH table .*, got 'dh' for model 'tiansui_edh', which has no DH link frames$"):
+        tiansui_edh().with_inertias(ok_m, ok_c, ok_i, frame="dh")
     with pytest.raises(dv.DenavitError, match=r"mass \(kg\) of link 1 must be finite, got NaN"):
         m.with_inertias(np.full(n, np.nan), ok_c, ok_i)
 
@@ -311,6 +314,47 @@ def test_matches_pinocchio_on_builtin_robots(name, rng):
         np.testing.assert_allclose(_core.gravity_torques(model, q), pin.computeGeneralizedGravity(pm, pd, qp), rtol=0, atol=1e-10)
         C = pin.computeCoriolisMatrix(pm, pd, qp, qd)
         np.testing.assert_allclose(_core.coriolis_matrix(model, q, qd) @ qd, C @ qd, rtol=0, atol=1e-10)
+
+
+def dh_frame(d, a, alpha):
+    """Standard-DH frame i in joint frame i: translate d along z and a along x, then rotate alpha about x
+    (Denavit & Hartenberg 1955; the factor order is written in docs/conventions.md only)."""
+    c, s = np.cos(alpha), np.sin(alpha)
+    T = np.eye(4)
+    T[:3, :3] = [[1, 0, 0], [0, c, -s], [0, s, c]]
+    T[0, 3], T[2, 3] = a, d
+    return T
+
+
+@pytest.mark.parametrize("name", ["puma560", "kr5", "ur5"])
+def test_dh_frame_inertias_match_an_independent_pinocchio_model(name, rng):
+    """Regression (issue 18): inertias given in the DH link frames (as published DH inertia tables are), passed as
+    frame="link", gave torques off by newtons with no warning; frame="dh" re-expresses them in the joint frames.
+    Reference: pinocchio with each body placed at the DH frame (dh_frame), computed here from the table's rows."""
+    pin = pytest.importorskip("pinocchio")
+    robot = dv.load_robot(name)
+    assert robot.table.convention == "dh"
+    m = robot.model()
+    masses, coms, inertias = random_inertias(m.nq, rng)
+    coms = coms + rng.uniform(-0.1, 0.1, coms.shape)  # centres of mass away from the frame origins
+    dh, wrong = m.with_inertias(masses, coms, inertias, frame="dh"), m.with_inertias(masses, coms, inertias)
+    pm, parent = pin.Model(), 0
+    for i, (P, (d, _, a, alpha)) in enumerate(zip(m.placements, robot.table.params)):
+        M = m.T_world_base @ P if i == 0 else P
+        parent = pm.addJoint(parent, pin.JointModelRZ(), pin.SE3(M[:3, :3], M[:3, 3]), m.names[i])
+        B = dh_frame(d, a, alpha)
+        pm.appendBodyToJoint(parent, pin.Inertia(masses[i], coms[i], inertias[i]), pin.SE3(B[:3, :3], B[:3, 3]))
+    pm.gravity = pin.Motion(G, np.zeros(3))
+    pd = pm.createData()
+    worst_wrong = 0.0
+    for q, qd, qdd in zip(*states(m.nq, 10, rng)):
+        ref = pin.rnea(pm, pd, q + m.offsets, qd, qdd)
+        np.testing.assert_allclose(dv.rnea(dh, q, qd, qdd), ref, rtol=0, atol=1e-10)
+        worst_wrong = max(worst_wrong, np.abs(dv.rnea(wrong, q, qd, qdd) - ref).max())
+    assert worst_wrong > 1.0  # N m: the joint frame is not the DH frame
+    back = pickle.loads(pickle.dumps(dh))
+    np.testing.assert_array_equal(back.dh_link_frames, m.dh_link_frames)
+    np.testing.assert_array_equal(dv.rnea(back, q, qd, qdd), dv.rnea(dh, q, qd, qdd))
 
 
 # --------------------------------------------------------------------------------------------------------------------
@@ -443,3 +487,25 @@ def test_cli_convert_carries_the_inertials(tmp_path, to, rng):
     a = _core.rnea_batch(dv.load_model(out), qs, qds, qdds)
     b = _core.rnea_batch(dv.load_model("tiansui_edh"), qs, qds, qdds)
     assert np.abs(a - b).max() < 1e-10
+
+
+def test_dynamics_batches_fill_out_and_follow_threads(rng):
+    """out= (filled and returned, checked) and threads= on every dynamics batch; the same values as a fresh result."""
+    m = tiansui_edh()
+    qs, qds, qdds = states(6, 300, rng)
+    calls = {
+        "rnea_batch": (lambda **k: _core.rnea_batch(m, qs, qds, qdds, **k), (300, 6)),
+        "bias_forces_batch": (lambda **k: _core.bias_forces_batch(m, qs, qds, **k), (300, 6)),
+        "gravity_torques_batch": (lambda **k: _core.gravity_torques_batch(m, qs, **k), (300, 6)),
+        "mass_matrix_batch": (lambda **k: _core.mass_matrix_batch(m, qs, **k), (300, 6, 6)),
+        "coriolis_matrix_batch": (lambda **k: _core.coriolis_matrix_batch(m, qs, qds, **k), (300, 6, 6)),
+        "forward_dynamics_batch": (lambda **k: _core.forward_dynamics_batch(m, qs, qds, qdds, **k), (300, 6)),
+    }
+    for name, (call, shape) in calls.items():
+        ref = call()
+        out = np.full(shape, np.nan)
+        assert call(out=out, threads=1) is out, name
+        np.testing.assert_array_equal(out, ref, err_msg=name)
+        np.testing.assert_array_equal(call(threads=2), ref, err_msg=name)
+        with pytest.raises(dv.DenavitError, match=r"^invalid out: expected a C-contiguous, writeable float64 numpy array of shape \(300, "):
+            call(out=np.zeros(shape[:-1] + (shape[-1] + 1,)))

@@ -1,6 +1,9 @@
 """Forward kinematics and Jacobians through the Python API: finite differences in the world and tool frames,
 batch == single, any array layout, and bad input."""
 
+import re
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -46,25 +49,29 @@ def models(mixed):
     return [dv.load_model(n) for n in BUILTINS] + [mixed]
 
 
-def fd_jacobian(model, q, frame, h=1e-6):
-    """Central differences: v = dp/dq, w = vee(dR/dq R^T) (world) or vee(R^T dR/dq) (tool)."""
-    T = dv.fk(model, q)
-    R = T[:3, :3]
+def fd_jacobian(model, q, frame, joint=None, h=1e-6):
+    """Central differences of the tool pose (or of joint frame `joint`, 1-based): v = dp/dq and w = vee(dR/dq R^T)
+    in world axes ("local_world_aligned"), both rotated into the frame's axes ("local"), or the spatial velocity
+    at the world origin v - w x p ("world"; pinocchio's meanings)."""
+    def pose(x):
+        return dv.fk(model, x) if joint is None else dv.joint_frames(model, x)[joint - 1]
+    T = pose(q)
+    R, p = T[:3, :3], T[:3, 3]
     J = np.zeros((6, len(q)))
     for i in range(len(q)):
         dq = np.zeros(len(q))
         dq[i] = h
-        Tp, Tm = dv.fk(model, q + dq), dv.fk(model, q - dq)
+        Tp, Tm = pose(q + dq), pose(q - dq)
         dp = (Tp[:3, 3] - Tm[:3, 3]) / (2 * h)
-        dR = (Tp[:3, :3] - Tm[:3, :3]) / (2 * h)
-        if frame == "world":
-            J[:3, i], J[3:, i] = dp, vee(dR @ R.T)
-        else:
-            J[:3, i], J[3:, i] = R.T @ dp, vee(R.T @ dR)
+        w = vee((Tp[:3, :3] - Tm[:3, :3]) / (2 * h) @ R.T)
+        J[:, i] = {"local_world_aligned": np.r_[dp, w], "local": np.r_[R.T @ dp, R.T @ w], "world": np.r_[dp - np.cross(w, p), w]}[frame]
     return J
 
 
-@pytest.mark.parametrize("frame", ["world", "tool"])
+FRAMES = ["local", "local_world_aligned", "world"]
+
+
+@pytest.mark.parametrize("frame", FRAMES)
 def test_jacobian_matches_finite_differences(mixed, frame, rng):
     for m in models(mixed):
         for q in rng.uniform(-np.pi, np.pi, (5, m.nq)):
@@ -73,11 +80,55 @@ def test_jacobian_matches_finite_differences(mixed, frame, rng):
             np.testing.assert_allclose(J, fd_jacobian(m, q, frame), atol=1e-8, err_msg=f"{m.name} {frame}")
 
 
-def test_base_and_tool_jacobians_are_the_world_jacobian_rotated(mixed, rng):
+@pytest.mark.parametrize("frame", FRAMES)
+def test_joint_frame_jacobians_match_finite_differences(mixed, frame, rng):
+    """Jacobian of joint frame i (1-based, or by name): the frame's own motion, columns after i zero."""
+    for m in models(mixed):
+        q = rng.uniform(-np.pi, np.pi, m.nq)
+        for i in range(1, m.nq + 1):
+            J = dv.jacobian(m, q, frame=frame, joint=i)
+            np.testing.assert_allclose(J, fd_jacobian(m, q, frame, joint=i), atol=1e-8, err_msg=f"{m.name} {frame} joint {i}")
+            assert not J[:, i:].any()
+            np.testing.assert_array_equal(dv.jacobian(m, q, frame=frame, joint=m.names[i - 1]), J)
+            np.testing.assert_array_equal(dv.jacobian_batch(m, q[None], frame, i)[0], J)
+
+
+@pytest.mark.parametrize("urdf", ["ur_style.urdf", "panda_style.urdf", "kr5.urdf"])
+def test_jacobians_match_pinocchio(urdf, rng):
+    """pinocchio's getFrameJacobian of the URDF's tip frame in LOCAL, LOCAL_WORLD_ALIGNED and WORLD, and its
+    getJointJacobian (WORLD: the body's spatial velocity, whatever the joint frame's axes) of every joint."""
+    pin = pytest.importorskip("pinocchio")
+    path = str(Path(__file__).parent / "data" / "urdf" / urdf)
+    m, pm = dv.load_model(path), pin.buildModelFromUrdf(path)
+    pd = pm.createData()
+    tip = pm.getFrameId(pm.frames[len(pm.frames) - 1].name)
+    for q in rng.uniform(-1, 1, (5, m.nq)):
+        qp = pin.integrate(pm, pin.neutral(pm), q)  # continuous joints are (cos, sin) in pinocchio
+        pin.framesForwardKinematics(pm, pd, qp)
+        pin.computeJointJacobians(pm, pd, qp)
+        np.testing.assert_allclose(dv.fk(m, q), pd.oMf[tip].homogeneous, rtol=0, atol=1e-14)
+        for frame, ref in [("local", pin.LOCAL), ("local_world_aligned", pin.LOCAL_WORLD_ALIGNED), ("world", pin.WORLD)]:
+            np.testing.assert_allclose(dv.jacobian(m, q, frame), pin.getFrameJacobian(pm, pd, tip, ref), rtol=0, atol=1e-14)
+        for i in range(1, m.nq + 1):
+            np.testing.assert_allclose(dv.jacobian(m, q, "world", i), pin.getJointJacobian(pm, pd, i, pin.WORLD), rtol=0, atol=1e-14)
+
+
+def test_jacobian_frame_and_joint_errors():
+    m = dv.load_model("kr5")
+    with pytest.raises(dv.DenavitError, match=r"invalid joint: expected None \(the tool\), a joint number 1..6 or a joint name \(.*\), got 7$"):
+        dv.jacobian(m, np.zeros(6), joint=7)
+    with pytest.raises(dv.DenavitError, match="got 0$"):
+        dv.jacobian_batch(m, np.zeros((2, 6)), joint=0)
+    with pytest.raises(dv.DenavitError, match="got 'elbow'$"):
+        dv.jacobian(m, np.zeros(6), joint="elbow")
+
+
+def test_local_and_base_jacobians_are_the_world_aligned_one_rotated(mixed, rng):
     for m in models(mixed):
         q = rng.uniform(-np.pi, np.pi, m.nq)
         R = dv.fk(m, q)[:3, :3]
-        Jw, Jt = dv.jacobian(m, q), dv.jacobian(m, q, frame="tool")
+        Jw, Jt = dv.jacobian(m, q), dv.jacobian(m, q, frame="local")
+        np.testing.assert_array_equal(Jw, dv.jacobian(m, q, frame="local_world_aligned"))  # the default
         np.testing.assert_allclose(Jt[:3], R.T @ Jw[:3], atol=1e-14)
         np.testing.assert_allclose(Jt[3:], R.T @ Jw[3:], atol=1e-14)
         Rb = m.T_world_base[:3, :3]
@@ -92,13 +143,81 @@ def test_batch_equals_single(mixed, rng):
     for m in models(mixed):
         qs = rng.uniform(-np.pi, np.pi, (2500, m.nq))  # more than one chunk per thread
         Ts = dv.fk_batch(m, qs)
-        Jw, Jt = dv.jacobian_batch(m, qs), dv.jacobian_batch(m, qs, frame="tool")
+        Jw, Jt = dv.jacobian_batch(m, qs), dv.jacobian_batch(m, qs, frame="local")
         assert Ts.shape == (2500, 4, 4) and Jw.shape == (2500, 6, m.nq)
         for i in (0, 1, 1023, 1024, 2499):
             np.testing.assert_allclose(Ts[i], dv.fk(m, qs[i]), atol=1e-15)
             np.testing.assert_allclose(Jw[i], dv.jacobian(m, qs[i]), atol=1e-15)
-            np.testing.assert_allclose(Jt[i], dv.jacobian(m, qs[i], frame="tool"), atol=1e-15)
+            np.testing.assert_allclose(Jt[i], dv.jacobian(m, qs[i], frame="local"), atol=1e-15)
         assert dv.fk_batch(m, np.zeros((0, m.nq))).shape == (0, 4, 4)
+
+
+def relative(a, b):
+    """Largest difference of each matrix relative to its largest entry."""
+    a, b = np.asarray(a), np.asarray(b)
+    scale = np.abs(b).reshape(len(b), -1).max(axis=1)
+    return (np.abs(a - b).reshape(len(b), -1).max(axis=1) / scale).max()
+
+
+def test_batch_kernels_equal_single_calls_to_1e_15_relative(mixed, rng):
+    """The lane kernels (fused multiply-adds, structure of arrays) against the single-call path, every row of a
+    batch whose length is not a multiple of the lanes, every frame, a joint frame; and the same bits whatever
+    the number of threads."""
+    for m in models(mixed):
+        qs = rng.uniform(-np.pi, np.pi, (1029, m.nq))
+        assert relative(dv.fk_batch(m, qs), [dv.fk(m, q) for q in qs]) <= 1e-15
+        for frame in [*FRAMES, "base"]:
+            for joint in (None, 2):
+                J = dv.jacobian_batch(m, qs, frame, joint)
+                assert relative(J, [dv.jacobian(m, q, frame, joint) for q in qs]) <= 1e-15, (m.name, frame, joint)
+        one = dv.fk_batch(m, qs, threads=1)
+        np.testing.assert_array_equal(one, dv.fk_batch(m, qs, threads=2))
+        np.testing.assert_array_equal(one, dv.fk_batch(m, qs, threads=3))
+        np.testing.assert_array_equal(dv.jacobian_batch(m, qs, threads=1), dv.jacobian_batch(m, qs, threads=2))
+
+
+def test_out_is_filled_and_returned(rng):
+    m = dv.load_model("kr5")
+    qs = rng.uniform(-np.pi, np.pi, (300, 6))
+    out = np.full((300, 4, 4), np.nan)
+    assert dv.fk_batch(m, qs, out=out) is out
+    np.testing.assert_array_equal(out, dv.fk_batch(m, qs))
+    J = np.full((300, 6, 6), np.nan)
+    assert dv.jacobian_batch(m, qs, "local", 3, out=J) is J  # columns after joint 3 are written (zeros) too
+    np.testing.assert_array_equal(J, dv.jacobian_batch(m, qs, "local", 3))
+
+
+@pytest.mark.parametrize("bad, got", [
+    (np.zeros((300, 4, 3)), "shape (300, 4, 3)"),
+    (np.zeros((300, 4, 4), dtype=np.float32), "dtype float32, shape (300, 4, 4)"),
+    (np.zeros((300, 4, 4), dtype=complex), "dtype complex128, shape (300, 4, 4)"),
+    (np.zeros((4, 4, 300)).T, "an array that is not C-contiguous"),
+    ([[0.0]], "list"),
+])
+def test_out_is_checked(bad, got, rng):
+    m = dv.load_model("kr5")
+    with pytest.raises(dv.DenavitError, match=r"^invalid out: expected a C-contiguous, writeable float64 numpy array of shape \(300, 4, 4\), got "
+                       + re.escape(got) + "$"):
+        dv.fk_batch(m, np.zeros((300, 6)), out=bad)
+
+
+def test_out_read_only_or_an_input_is_refused():
+    m = dv.load_model("kr5")
+    ro = np.zeros((3, 4, 4))
+    ro.flags.writeable = False
+    with pytest.raises(dv.DenavitError, match="got a read-only array$"):
+        dv.fk_batch(m, np.zeros((3, 6)), out=ro)
+    qs = np.zeros((3, 6))
+    with pytest.raises(dv.DenavitError, match=r"^invalid out: expected an array not shared with an input of the call"):
+        dv.rnea_batch(m, qs, qs, qs, out=qs)
+
+
+def test_threads_argument():
+    m = dv.load_model("kr5")
+    with pytest.raises(dv.DenavitError, match=r"^invalid threads: expected None \(RAYON_NUM_THREADS, else every core\) or a count >= 1, got 0$"):
+        dv.fk_batch(m, np.zeros((2, 6)), threads=0)
+    with pytest.raises(TypeError):
+        dv.fk_batch(m, np.zeros((2, 6)), threads="2")
 
 
 def test_joint_frames_end_at_the_tool(mixed, rng):
@@ -170,9 +289,9 @@ def test_bad_input_raises_denavit_error_with_expected_and_got():
         dv.fk_batch(m, bad)
     with pytest.raises(dv.DenavitError, match="must be finite, got NaN"):
         dv.jacobian_batch(m, bad)
-    with pytest.raises(dv.DenavitError, match="frame: expected 'world', 'base' or 'tool', got 'flange'"):
+    with pytest.raises(dv.DenavitError, match="frame: expected 'local', 'local_world_aligned', 'world' or 'base', got 'flange'"):
         dv.jacobian(m, np.zeros(6), frame="flange")
-    with pytest.raises(dv.DenavitError, match="frame: expected 'world', 'base' or 'tool', got 'x'"):
+    with pytest.raises(dv.DenavitError, match="frame: expected 'local', 'local_world_aligned', 'world' or 'base', got 'x'"):
         dv.jacobian_batch(m, np.zeros((2, 6)), frame="x")
     with pytest.raises(dv.DenavitError, match="invalid q: expected an array-like of floats, got list .*could not convert string to float"):
         dv.fk(m, ["a"] * 6)

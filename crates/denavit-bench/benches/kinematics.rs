@@ -41,7 +41,7 @@ fn bench(c: &mut Criterion) {
     let q = [0.3, -0.2, 0.5, 0.1, 0.4, -0.3];
     let mut data = Data::new(&m);
     c.bench_function("fk", |b| b.iter(|| tool_pose(&m, black_box(&q)).unwrap()));
-    c.bench_function("jacobian", |b| b.iter(|| jacobian(&m, &mut data, black_box(&q), JacobianFrame::World).unwrap()));
+    c.bench_function("jacobian", |b| b.iter(|| jacobian(&m, &mut data, black_box(&q), JacobianFrame::LocalWorldAligned).unwrap()));
 
     let qs = random_qs(100_000, 1);
     let mut out = vec![0.0; 16 * 100_000];

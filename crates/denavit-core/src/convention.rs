@@ -126,7 +126,7 @@ impl Table {
             })
             .collect();
         let (flange, tool) = self.flange_and_tool()?;
-        Model::new(name, self.t_world_base, joints, flange, tool)
+        self.with_link_frames(Model::new(name, self.t_world_base, joints, flange, tool)?)
     }
 
     /// The model with the given names and limits (one each per joint).
@@ -142,7 +142,12 @@ impl Table {
             .map(|(i, (placement, offset))| Joint { name: names[i].clone(), kind: self.kinds[i], placement, offset, lower: lower[i], upper: upper[i] })
             .collect();
         let (flange, tool) = self.flange_and_tool()?;
-        Model::new(name, self.t_world_base, joints, flange, tool)
+        self.with_link_frames(Model::new(name, self.t_world_base, joints, flange, tool)?)
+    }
+
+    /// A DH table's model records its link frames ([`Model::dh_link_frames`]).
+    fn with_link_frames(&self, m: Model) -> Result<Model> {
+        if self.convention == Convention::Dh { m.with_dh_link_frames(self.link_frames()) } else { Ok(m) }
     }
 
     fn row(&self, i: usize) -> Vec<f64> {

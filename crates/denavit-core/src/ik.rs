@@ -14,14 +14,22 @@
 //! measured values, so `success` implies the errors are within the tolerance the user asked for.
 //!
 //! **Methods.**
-//! * [`IkMethod::Newton`]: Newton-Raphson `q <- q + J^-1 e` (Guo et al. sec. V; Gauss-Newton
-//!   `(J^T J)^-1 J^T e` for n < 6 and the minimum-norm step `J^T (J J^T)^-1 e` for n > 6); a singular
-//!   Jacobian falls back to a slightly damped step.
+//! * [`IkMethod::Newton`]: Newton-Raphson `q <- q + α J^-1 e` (Guo et al. sec. V; Gauss-Newton
+//!   `(J^T J)^-1 J^T e` for n < 6 and the minimum-norm step `J^T (J J^T)^-1 e` for n > 6; a singular
+//!   Jacobian falls back to a slightly damped step) with backtracking on `|e|^2` (Nocedal & Wright 2006,
+//!   Algorithm 3.1): α = 1, 1/2, 1/4, the first that lowers the error; if none does, the full step is taken
+//!   anyway (Newton's jump out of a basin; the attempt keeps its best configuration). Every trial point
+//!   counts as an iteration. An attempt with 8 steps in a row without a new best gives way to the next
+//!   restart; the last attempt (with `restarts = 0`, the only one) uses its whole budget.
 //! * [`IkMethod::Lm`]: Levenberg-Marquardt (Levenberg 1944, Marquardt 1963; damped least squares,
 //!   Wampler 1986): `(J^T J + λ I) dq = J^T e`, a step is accepted only if it lowers `|e|^2`. The damping
 //!   is `λ = μ |e|^2` (Fan & Yuan 2005: quadratic convergence to a zero residual), μ starting at
-//!   `damping`, times 0.3 after an accepted step and times 10 after a rejected one. An attempt that has not
-//!   halved `|e|^2` within 10 iterations is abandoned for the next restart (a local minimum).
+//!   `damping` and updated by the gain ratio ρ of the actual to the predicted decrease (Nielsen 1999;
+//!   Madsen, Nielsen & Tingleff 2004, Algorithm 3.16): accepted, `μ *= max(1/3, 1 - (2ρ - 1)^3)`, ν = 2;
+//!   rejected, `μ *= ν`, `ν *= 2`. An attempt that has not halved `|e|^2` within 10 iterations gives way to
+//!   the next restart (a local minimum), except the last attempt, which uses its whole budget. A joint held
+//!   at a limit that the step would push further out is left out of the step (its Jacobian column zeroed,
+//!   an active set as in Bertsekas 1982), so the other joints do the work.
 //!
 //! **Joint limits** (`respect_limits`): after every step each `q_i` is projected into `[lower_i, upper_i]`;
 //! a revolute joint is first shifted by a multiple of 2π when that brings it into the range (same pose),
@@ -374,8 +382,16 @@ fn newton_step6(jac: &[f64], e: &[f64; 6], x: &mut [f64]) -> bool {
     ok
 }
 
-/// Iterations after which an LM attempt must have halved its squared error, else it restarts.
+/// Iterations after which an LM attempt must have halved its squared error, else it gives way to the next
+/// restart (never in the last attempt, which uses its whole budget).
 const STALL_EVERY: usize = 10;
+
+/// Newton steps without a new best error after which an attempt gives way to the next restart (never in the
+/// last attempt).
+const STALL_NEWTON: usize = 8;
+
+/// Step lengths 1, 1/2, 1/4 tried by Newton's backtracking.
+const BACKTRACK: usize = 3;
 
 /// How far from success a measured error is (< = 1 means within the tolerance).
 #[inline]
@@ -403,7 +419,10 @@ pub struct IkSolver<'m> {
     q: Vec<f64>,
     q_trial: Vec<f64>,
     q_best: Vec<f64>,
+    q_cur: Vec<f64>,
+    q_jump: Vec<f64>,
     jac: Vec<f64>,
+    jac_jump: Vec<f64>,
     a: Vec<f64>,
     g: Vec<f64>,
 }
@@ -422,7 +441,10 @@ impl<'m> IkSolver<'m> {
             q: vec![0.0; n],
             q_trial: vec![0.0; n],
             q_best: vec![0.0; n],
+            q_cur: vec![0.0; n],
+            q_jump: vec![0.0; n],
             jac: vec![0.0; 6 * n],
+            jac_jump: vec![0.0; 6 * n],
             a: vec![0.0; m * m],
             g: vec![0.0; m],
         })
@@ -449,14 +471,16 @@ impl<'m> IkSolver<'m> {
     }
 
     /// One attempt from `self.q`; leaves the attempt's best configuration in `self.q`.
-    fn attempt(&mut self, target: &Pose) -> (usize, f64, f64) {
+    /// `last`: no attempt follows, so this one uses its whole iteration budget (a stalled attempt is
+    /// abandoned early only when a restart can take over).
+    fn attempt(&mut self, target: &Pose, last: bool) -> (usize, f64, f64) {
         match self.opts.method {
-            IkMethod::Lm => self.attempt_lm(target),
-            IkMethod::Newton => self.attempt_newton(target),
+            IkMethod::Lm => self.attempt_lm(target, last),
+            IkMethod::Newton => self.attempt_newton(target, last),
         }
     }
 
-    fn attempt_lm(&mut self, target: &Pose) -> (usize, f64, f64) {
+    fn attempt_lm(&mut self, target: &Pose, last: bool) -> (usize, f64, f64) {
         let n = self.model.nq();
         let mut e = [0.0; 6];
         let (mut pos, mut rot) = self.evaluate(false, target, &mut e);
@@ -466,29 +490,35 @@ impl<'m> IkSolver<'m> {
         }
         self.jac.copy_from_slice(&self.jac_eval);
         let mut cost: f64 = e.iter().map(|v| v * v).sum();
-        // Fan & Yuan (2005): lambda = mu |e|^2 (quadratic convergence near a zero residual), mu adapted as
-        // in Marquardt (1963): x 0.3 after an accepted step, x 10 after a rejected one. An attempt that has
-        // not halved |e|^2 in STALL_EVERY iterations is in a local minimum (or crawling): restart.
+        // damping lambda = mu |e|^2 (Fan & Yuan 2005: quadratic convergence to a zero residual), mu updated by
+        // the gain ratio rho = (F(q) - F(q + h)) / (L(0) - L(h)) of the actual to the predicted decrease
+        // (Nielsen 1999; Madsen, Nielsen & Tingleff 2004, eq. 3.15 and Algorithm 3.16): accepted (rho > 0):
+        // mu *= max(1/3, 1 - (2 rho - 1)^3), nu = 2; rejected: mu *= nu, nu *= 2.
         let mut mu = self.opts.damping;
+        let mut nu = 2.0;
         let mut checkpoint = cost;
+        let mut jte = vec![0.0; n]; // J^T e (n <= 6 stays on the stack in practice: a small allocation per attempt)
         while it < self.opts.max_iterations {
-            if it % STALL_EVERY == 0 {
-                // a local minimum or a crawl: restart rather than spend the remaining iterations here
+            if !last && it % STALL_EVERY == 0 {
+                // a local minimum or a crawl: leave it to the next restart
                 if cost > 0.5 * checkpoint {
                     break;
                 }
                 checkpoint = cost;
             }
-            let lambda = mu * cost + 1e-300;
-            let ok = if n == 6 {
-                lm_step6(&self.jac, &e, lambda, &mut self.g)
-            } else {
-                normal_equations(&self.jac, &e, lambda, &mut self.a[..n * n], &mut self.g[..n], n);
-                cholesky_solve(&mut self.a, &mut self.g, n)
-            };
+            for (i, c) in self.jac.chunks_exact(6).enumerate() {
+                jte[i] = c.iter().zip(&e).map(|(x, y)| x * y).sum();
+            }
+            let lambda = (mu * cost).max(f64::MIN_POSITIVE);
+            let mut ok = self.lm_solve(&e, lambda);
+            if ok && self.blocked_by_limits() {
+                // joints held at a limit that the step pushes outwards: solve again without them
+                self.without_blocked(|s| ok = s.lm_solve(&e, lambda));
+            }
             if !ok {
-                mu *= 10.0;
-                if mu * cost > 1e10 {
+                mu *= nu;
+                nu *= 2.0;
+                if !(mu * cost).is_finite() || mu * cost > 1e30 {
                     break;
                 }
                 continue;
@@ -503,17 +533,22 @@ impl<'m> IkSolver<'m> {
             let (p, r) = self.evaluate(true, target, &mut et);
             it += 1;
             let cost_t: f64 = et.iter().map(|v| v * v).sum();
+            // predicted decrease of |e|^2: 2 L(0) - 2 L(h) = h^T (lambda h + J^T e)
+            let predicted: f64 = (0..n).map(|i| self.g[i] * (lambda * self.g[i] + jte[i])).sum();
             if cost_t < cost {
+                let rho = (cost - cost_t) / predicted.max(f64::MIN_POSITIVE);
                 std::mem::swap(&mut self.q, &mut self.q_trial);
                 self.jac.copy_from_slice(&self.jac_eval);
                 (e, cost, pos, rot) = (et, cost_t, p, r);
                 if score(pos, rot, &self.opts) <= 1.0 {
                     break;
                 }
-                mu = (mu * 0.3).max(1e-6);
+                mu = (mu * (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0)).max(1e-12);
+                nu = 2.0;
             } else {
-                mu *= 10.0;
-                if mu * cost > 1e10 {
+                mu *= nu;
+                nu *= 2.0;
+                if !(mu * cost).is_finite() || mu * cost > 1e30 {
                     break;
                 }
             }
@@ -521,10 +556,56 @@ impl<'m> IkSolver<'m> {
         (it, pos, rot)
     }
 
+    /// The damped step `(J^T J + lambda I) g = J^T e` into `self.g[..n]` from `self.jac`.
+    fn lm_solve(&mut self, e: &[f64; 6], lambda: f64) -> bool {
+        let n = self.model.nq();
+        if n == 6 {
+            lm_step6(&self.jac, e, lambda, &mut self.g)
+        } else {
+            normal_equations(&self.jac, e, lambda, &mut self.a[..n * n], &mut self.g[..n], n);
+            cholesky_solve(&mut self.a, &mut self.g, n)
+        }
+    }
+
+    /// Whether joint `i` sits at a limit (where the projection clamped it) and the LM step `self.g` pushes it
+    /// further out.
+    #[inline]
+    fn blocked(&self, i: usize) -> bool {
+        let (q, b) = (&self.q, &self.bounds);
+        (q[i] <= b.lower[i] && self.g[i] < 0.0) || (q[i] >= b.upper[i] && self.g[i] > 0.0)
+    }
+
+    /// Whether any joint is [`Self::blocked`] (only when limits are respected).
+    fn blocked_by_limits(&self) -> bool {
+        self.opts.respect_limits && (0..self.model.nq()).any(|i| self.blocked(i))
+    }
+
+    /// Recompute the LM step with `solve` on the Jacobian whose columns of the blocked joints are zero (an
+    /// active set, as in projected Newton methods for bound constraints: Bertsekas 1982), then hold those
+    /// joints: the other joints do the work instead of a step the projection would cancel. (Tried for
+    /// Newton too: it lowered the 7-joint success rate, so Newton keeps the plain projection.)
+    fn without_blocked(&mut self, solve: impl FnOnce(&mut Self)) {
+        let n = self.model.nq();
+        let blocked: Vec<bool> = (0..n).map(|i| self.blocked(i)).collect();
+        self.jac_jump.copy_from_slice(&self.jac);
+        for (i, c) in self.jac.chunks_exact_mut(6).enumerate() {
+            if blocked[i] {
+                c.fill(0.0);
+            }
+        }
+        solve(self);
+        std::mem::swap(&mut self.jac, &mut self.jac_jump);
+        for i in 0..n {
+            if blocked[i] {
+                self.g[i] = 0.0;
+            }
+        }
+    }
+
     /// The Newton step into `self.g[..n]` from the last evaluated Jacobian and `e`.
     fn newton_step(&mut self, e: &[f64; 6]) {
         let n = self.model.nq();
-        let jac = &self.jac_eval[..]; // column-major 6 x n
+        let jac = &self.jac[..]; // column-major 6 x n, at the current iterate
         let solved = if n == 6 {
             newton_step6(jac, e, &mut self.g)
         } else if n < 6 {
@@ -557,41 +638,75 @@ impl<'m> IkSolver<'m> {
         }
     }
 
-    fn attempt_newton(&mut self, target: &Pose) -> (usize, f64, f64) {
+    fn attempt_newton(&mut self, target: &Pose, last: bool) -> (usize, f64, f64) {
         let n = self.model.nq();
         let mut e = [0.0; 6];
         let (mut pos, mut rot) = self.evaluate(false, target, &mut e);
         let mut it = 1;
         let mut best = (score(pos, rot, &self.opts), pos, rot);
-        self.q_trial.copy_from_slice(&self.q);
         if best.0 <= 1.0 || n == 0 {
             return (it, pos, rot);
         }
+        // the iterate (q_cur, its Jacobian in jac, its error e); self.q keeps the attempt's best configuration
+        self.jac.copy_from_slice(&self.jac_eval);
+        self.q_cur.copy_from_slice(&self.q);
+        let mut cost: f64 = e.iter().map(|v| v * v).sum();
         let mut stalled = 0;
-        while it < self.opts.max_iterations {
+        'attempt: while it < self.opts.max_iterations {
             self.newton_step(&e);
-            for i in 0..n {
-                self.q_trial[i] += self.g[i];
+            // backtracking on |e|^2 (Nocedal & Wright 2006, Algorithm 3.1, halving): steps 1, 1/2, 1/4; when
+            // none lowers the error the full step is taken anyway (Newton's jump out of a basin)
+            let mut alpha = 1.0;
+            let mut moved = false;
+            let mut jump = None;
+            for k in 0..BACKTRACK {
+                for i in 0..n {
+                    self.q_trial[i] = self.q_cur[i] + alpha * self.g[i];
+                }
+                if self.opts.respect_limits {
+                    self.bounds.project(&mut self.q_trial);
+                }
+                if self.q_trial.iter().any(|v| !v.is_finite()) {
+                    break 'attempt;
+                }
+                let mut et = [0.0; 6];
+                let (p, r) = self.evaluate(true, target, &mut et);
+                it += 1;
+                let cost_t: f64 = et.iter().map(|v| v * v).sum();
+                if cost_t < cost {
+                    std::mem::swap(&mut self.q_cur, &mut self.q_trial);
+                    self.jac.copy_from_slice(&self.jac_eval);
+                    (e, cost, pos, rot) = (et, cost_t, p, r);
+                    moved = true;
+                    break;
+                }
+                if k == 0 {
+                    self.q_jump.copy_from_slice(&self.q_trial);
+                    self.jac_jump.copy_from_slice(&self.jac_eval);
+                    jump = Some((et, cost_t, p, r));
+                }
+                if it >= self.opts.max_iterations {
+                    break;
+                }
+                alpha *= 0.5;
             }
-            if self.opts.respect_limits {
-                self.bounds.project(&mut self.q_trial);
+            if !moved {
+                let Some(j) = jump else { break };
+                std::mem::swap(&mut self.q_cur, &mut self.q_jump);
+                std::mem::swap(&mut self.jac, &mut self.jac_jump);
+                (e, cost, pos, rot) = j;
             }
-            if self.q_trial.iter().any(|v| !v.is_finite()) {
-                break;
-            }
-            (pos, rot) = self.evaluate(true, target, &mut e);
-            it += 1;
             let s = score(pos, rot, &self.opts);
             if s < best.0 {
                 best = (s, pos, rot);
-                self.q.copy_from_slice(&self.q_trial);
+                self.q.copy_from_slice(&self.q_cur);
                 stalled = 0;
                 if s <= 1.0 {
                     break;
                 }
             } else {
                 stalled += 1;
-                if stalled >= 8 {
+                if !last && stalled >= STALL_NEWTON {
                     break;
                 }
             }
@@ -615,7 +730,7 @@ impl<'m> IkSolver<'m> {
             if self.opts.respect_limits {
                 self.bounds.project(&mut self.q);
             }
-            let (it, pos, rot) = self.attempt(target);
+            let (it, pos, rot) = self.attempt(target, attempt == self.opts.restarts);
             total += it;
             restarts = attempt;
             let s = score(pos, rot, &self.opts);
@@ -695,7 +810,7 @@ pub fn ik_path(model: &Model, targets: &[Pose], q0: &[f64], opts: &IkOptions) ->
     Ok(out)
 }
 
-/// Solve independent targets on every core (rayon). `q0s` holds either one start for all (n values) or
+/// Solve independent targets on every core (rayon's pool, or as [`crate::parallel::with_threads`] says). `q0s` holds either one start for all (n values) or
 /// one per target (N x n, row-major). Target `i` uses restart seed `mix(seed, i)`: the results are the
 /// same whatever the number of threads.
 ///
@@ -715,17 +830,15 @@ pub fn ik_batch(model: &Model, targets: &[Pose], q0s: &[f64], opts: &IkOptions) 
         check_len("q0s (n values, or N*n for N targets)", targets.len() * n, q0s.len())?;
     }
     check_finite("q0s", q0s)?;
-    let results = targets
-        .par_iter()
-        .enumerate()
-        .map_init(
-            || IkSolver::new(model, opts.clone()).expect("options checked above"),
-            |s, (i, t)| {
-                let q0 = if shared { q0s } else { &q0s[i * n..(i + 1) * n] };
-                s.solve_unchecked(t, q0, mix_seed(opts.seed, i as u64))
-            },
-        )
-        .collect();
+    let solve = |s: &mut IkSolver, (i, t): (usize, &Pose)| {
+        let q0 = if shared { q0s } else { &q0s[i * n..(i + 1) * n] };
+        s.solve_unchecked(t, q0, mix_seed(opts.seed, i as u64))
+    };
+    if crate::parallel::serial() {
+        let mut s = IkSolver::new(model, opts.clone())?;
+        return Ok(targets.iter().enumerate().map(|x| solve(&mut s, x)).collect());
+    }
+    let results = targets.par_iter().enumerate().map_init(|| IkSolver::new(model, opts.clone()).expect("options checked above"), solve).collect();
     Ok(results)
 }
 

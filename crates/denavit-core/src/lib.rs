@@ -20,6 +20,7 @@ pub mod ik;
 pub mod kinematics;
 pub mod math;
 pub mod model;
+pub mod parallel;
 pub mod spatial;
 
 pub use axes::JointAxes;

@@ -104,6 +104,9 @@ pub struct Model {
     /// `T_last_flange · T_flange_tool`, the last factor of the kinematic loops.
     t_last_tool: Pose,
     inertias: Vec<Inertia>,
+    /// `T_joint_dh[i]`: standard-DH frame i in joint frame i, for a model built from a DH table
+    /// ([`crate::Table::to_model`]; DH frame i = joint frame i · Tz(d_i) Tx(a_i) Rx(alpha_i)).
+    dh_link_frames: Option<Vec<Pose>>,
 }
 
 impl Model {
@@ -131,7 +134,16 @@ impl Model {
             }
         }
         let inertias = vec![Inertia::zero(); joints.len()];
-        Ok(Self { name: name.into(), t_world_base, joints, t_last_flange, t_flange_tool, t_last_tool: t_last_flange * t_flange_tool, inertias })
+        Ok(Self {
+            name: name.into(),
+            t_world_base,
+            joints,
+            t_last_flange,
+            t_flange_tool,
+            t_last_tool: t_last_flange * t_flange_tool,
+            inertias,
+            dh_link_frames: None,
+        })
     }
     /// A copy whose link *i* carries `inertias[i]`, expressed in joint frame *i* (the frame moving with
     /// link *i*, docs/conventions.md); one inertia per joint. The tool is part of the last link.
@@ -184,7 +196,8 @@ impl Model {
     }
     /// A copy with another base placement (the link inertias are kept).
     pub fn with_base(&self, t_world_base: Pose) -> Result<Self> {
-        Self::new(self.name.clone(), t_world_base, self.joints.clone(), self.t_last_flange, self.t_flange_tool)?.with_inertias(self.inertias.clone())
+        let m = Self::new(self.name.clone(), t_world_base, self.joints.clone(), self.t_last_flange, self.t_flange_tool)?;
+        Ok(Self { inertias: self.inertias.clone(), dh_link_frames: self.dh_link_frames.clone(), ..m })
     }
     /// A copy with another tool `T_flange_tool` (in the flange; the flange and the link inertias are kept).
     ///
@@ -196,7 +209,29 @@ impl Model {
     /// assert_eq!(*m.with_tool(Pose::identity()).unwrap().t_last_tool(), trans(1.0, 0.0, 0.0));
     /// ```
     pub fn with_tool(&self, t_flange_tool: Pose) -> Result<Self> {
-        Self::new(self.name.clone(), self.t_world_base, self.joints.clone(), self.t_last_flange, t_flange_tool)?.with_inertias(self.inertias.clone())
+        let m = Self::new(self.name.clone(), self.t_world_base, self.joints.clone(), self.t_last_flange, t_flange_tool)?;
+        Ok(Self { inertias: self.inertias.clone(), dh_link_frames: self.dh_link_frames.clone(), ..m })
+    }
+    /// The standard-DH link frames `T_joint_dh[i]` (DH frame i in joint frame i) when the model was built
+    /// from a DH table, else `None`: the frames of DH-frame inertias (`Inertia::transformed` by them).
+    ///
+    /// ```
+    /// use denavit_core::{builtin_planar2, Convention, Table, JointKind, spatial::{trans, Pose}};
+    /// let p = nalgebra::DMatrix::from_row_slice(1, 4, &[0.2, 0.0, 0.5, 0.0]);
+    /// let t = Table::new(Convention::Dh, p, vec![JointKind::Revolute], Pose::identity(), Pose::identity()).unwrap();
+    /// assert_eq!(t.to_model("m").unwrap().dh_link_frames(), Some(&[trans(0.0, 0.0, 0.2) * trans(0.5, 0.0, 0.0)][..]));
+    /// assert_eq!(builtin_planar2(1.0, 1.0).dh_link_frames(), None);
+    /// ```
+    pub fn dh_link_frames(&self) -> Option<&[Pose]> {
+        self.dh_link_frames.as_deref()
+    }
+    /// A copy that records `frames` as its standard-DH link frames (one rigid transform per joint).
+    pub fn with_dh_link_frames(&self, frames: Vec<Pose>) -> Result<Self> {
+        check_len("DH link frames (one per joint)", self.nq(), frames.len())?;
+        for (i, f) in frames.iter().enumerate() {
+            check_pose(&format!("DH link frame {}", i + 1), f)?;
+        }
+        Ok(Self { dh_link_frames: Some(frames), ..self.clone() })
     }
     /// Check that `q` has one finite value per joint.
     pub fn check_q(&self, q: &[f64]) -> Result<()> {

@@ -193,7 +193,7 @@ proptest! {
         let with = rnea(&m, &q, &qd, &qdd, &g0(), Some(&f));
         let without = rnea(&m, &q, &qd, &qdd, &g0(), None);
         let mut d = Data::new(&m);
-        jacobian(&m, &mut d, &q, JacobianFrame::Tool).unwrap();
+        jacobian(&m, &mut d, &q, JacobianFrame::Local).unwrap();
         let jtf = d.jacobian.transpose() * f;
         for i in 0..n {
             prop_assert!((with[i] - without[i] + jtf[i]).abs() < 1e-12 * scale(&with));

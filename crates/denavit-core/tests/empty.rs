@@ -24,12 +24,12 @@ fn kinematics_of_a_model_without_joints() {
     let mut d = Data::new(&m);
     forward_kinematics(&m, &mut d, &[]).unwrap();
     assert_eq!((d.t_world_joint.len(), d.t_world_tool), (0, t));
-    for frame in [JacobianFrame::World, JacobianFrame::Base, JacobianFrame::Tool] {
+    for frame in [JacobianFrame::World, JacobianFrame::LocalWorldAligned, JacobianFrame::Base, JacobianFrame::Local] {
         jacobian(&m, &mut d, &[], frame).unwrap();
         assert_eq!(d.jacobian.ncols(), 0);
-        jacobian_row_major_unchecked(&m, &[], frame, &mut []);
+        jacobian_row_major_unchecked(&m, &[], frame, None, &mut []);
         let mut out = vec![];
-        jacobian_batch(&m, &[], frame, &mut out).unwrap();
+        jacobian_batch(&m, &[], frame, None, &mut out).unwrap();
     }
     let mut out = vec![];
     tool_pose_batch(&m, &[], &mut out).unwrap();

@@ -10,7 +10,7 @@ use denavit_core::spatial::{pose_from_row_major, Pose};
 use denavit_core::Error;
 use nalgebra::Vector3;
 use numpy::ndarray::{ArrayView, ShapeBuilder};
-use numpy::{PyArray, PyArray2, PyArray3, PyArrayDyn, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods, ToPyArray};
+use numpy::{PyArray, PyArray2, PyArray3, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods, ToPyArray};
 use pyo3::prelude::*;
 
 /// Any array-like of floats, converted by numpy.
@@ -43,6 +43,16 @@ pub fn read(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<(Vec<f64>, Vec<usize
 
 /// [`read`] through `numpy.asarray(obj, dtype=float64)`, whatever the layout.
 fn converted(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<(Vec<f64>, Vec<usize>)> {
+    // numpy would cast complex to float and drop the imaginary part (a ComplexWarning): refuse it
+    if let Ok(a) = obj.downcast::<numpy::PyUntypedArray>() {
+        if a.dtype().kind() == b'c' {
+            return Err(invalid(
+                what,
+                "an array-like of real floats",
+                format!("a complex array (dtype {})", a.dtype().str().map(|d| d.to_string()).unwrap_or_default()),
+            ));
+        }
+    }
     let a: ArrayLike<'_> = obj.extract().map_err(|e| invalid(what, "an array-like of floats", format!("{} ({})", describe(obj), e.value(obj.py()))))?;
     // as_slice() also succeeds for Fortran-ordered arrays (memory order): only C order is the logical order
     let v = match a.as_slice() {
@@ -201,17 +211,53 @@ pub fn poses_out<'py, 'a>(py: Python<'py>, ts: impl ExactSizeIterator<Item = &'a
     out(py, &v, [n, 4, 4])
 }
 
-/// A new (zeroed) numpy array of `shape` filled by `kernel` without the GIL (batches run on every core).
+/// `threads=` of a batch call: None (rayon's pool: RAYON_NUM_THREADS, else every core) or a count >= 1.
+pub fn threads_of(threads: Option<i64>) -> PyResult<Option<usize>> {
+    match threads {
+        None => Ok(None),
+        Some(k) if k >= 1 => Ok(Some(k as usize)),
+        Some(k) => Err(invalid("threads", "None (RAYON_NUM_THREADS, else every core) or a count >= 1", k.to_string())),
+    }
+}
+
+/// The result array of a batch: `out` when given (checked: a numpy float64 array of exactly `shape`,
+/// C-contiguous, writeable, not one of the inputs), else a new one. `kernel` fills it without the GIL on
+/// `threads` threads (`denavit_core::parallel::with_threads`) and the array is returned.
 pub fn batch_out<'py, D: numpy::ndarray::Dimension>(
     py: Python<'py>,
     shape: D,
+    out: Option<&Bound<'py, PyAny>>,
+    threads: Option<i64>,
     kernel: impl FnOnce(&mut [f64]) -> denavit_core::Result<()> + Send,
 ) -> PyResult<Bound<'py, PyArray<f64, D>>> {
-    let a = PyArray::<f64, D>::zeros(py, shape, false);
+    let threads = threads_of(threads)?;
+    let want = || format!("a C-contiguous, writeable float64 numpy array of shape {}", shape_text(shape.slice()));
+    let a = match out {
+        None => PyArray::<f64, D>::zeros(py, shape.clone(), false),
+        Some(o) => {
+            let Ok(arr) = o.downcast::<numpy::PyUntypedArray>() else {
+                return Err(invalid("out", want(), describe(o)));
+            };
+            let dtype = arr.dtype().str().map(|d| d.to_string()).unwrap_or_default();
+            let Ok(a) = o.downcast::<PyArray<f64, D>>() else {
+                return Err(invalid("out", want(), format!("dtype {dtype}, shape {}", shape_text(arr.shape()))));
+            };
+            if a.shape() != shape.slice() {
+                return Err(invalid("out", want(), format!("shape {}", shape_text(a.shape()))));
+            }
+            if !a.is_c_contiguous() {
+                return Err(invalid("out", want(), "an array that is not C-contiguous"));
+            }
+            if !o.getattr("flags")?.getattr("writeable")?.extract::<bool>()? {
+                return Err(invalid("out", want(), "a read-only array"));
+            }
+            a.clone()
+        }
+    };
     {
-        let mut rw = a.readwrite();
+        let mut rw = a.try_readwrite().map_err(|_| invalid("out", "an array not shared with an input of the call", "an input array (or a view of one)"))?;
         let o = rw.as_slice_mut()?;
-        py.allow_threads(|| kernel(o)).py()?;
+        py.allow_threads(|| denavit_core::parallel::with_threads(threads, || kernel(o)).and_then(|r| r)).py()?;
     }
     Ok(a)
 }

@@ -193,7 +193,7 @@ pub fn potential_energy(model: &PyModel, q: &Bound<'_, PyAny>, gravity: Option<&
 }
 
 // ------------------------------------------------------------------------------------------------
-// Batches: (N, n) in, GIL released, every core
+// Batches: (N, n) in, GIL released, `out=` reused, `threads=` (docs/speed.md)
 // ------------------------------------------------------------------------------------------------
 
 /// Batch wrenches: None, one (6,) for every row, or (N, 6) (the core tells them apart by length).
@@ -232,19 +232,32 @@ impl<'py> Batch<'py> {
     fn get(&self, k: usize) -> &[f64] {
         self.rows[k].slice()
     }
-    /// (N, n) output filled by `kernel` without the GIL.
-    fn run(&self, py: Python<'py>, kernel: impl FnOnce(&mut [f64]) -> denavit_core::Result<()> + Send) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        batch_out(py, Dim([self.count, self.n]), kernel)
+    /// (N, n) output (`out` when given) filled by `kernel` without the GIL on `threads`.
+    fn run(
+        &self,
+        py: Python<'py>,
+        out: Option<&Bound<'py, PyAny>>,
+        threads: Option<i64>,
+        kernel: impl FnOnce(&mut [f64]) -> denavit_core::Result<()> + Send,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        batch_out(py, Dim([self.count, self.n]), out, threads, kernel)
     }
-    /// (N, n, n) output filled by `kernel` without the GIL.
-    fn run_matrices(&self, py: Python<'py>, kernel: impl FnOnce(&mut [f64]) -> denavit_core::Result<()> + Send) -> PyResult<Bound<'py, PyArray3<f64>>> {
-        batch_out(py, Dim([self.count, self.n, self.n]), kernel)
+    /// (N, n, n) output (`out` when given) filled by `kernel` without the GIL on `threads`.
+    fn run_matrices(
+        &self,
+        py: Python<'py>,
+        out: Option<&Bound<'py, PyAny>>,
+        threads: Option<i64>,
+        kernel: impl FnOnce(&mut [f64]) -> denavit_core::Result<()> + Send,
+    ) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        batch_out(py, Dim([self.count, self.n, self.n]), out, threads, kernel)
     }
 }
 
 /// Batch inverse dynamics: qs, qds, qdds (N, n) -> (N, n); f_ext None, (6,) or (N, 6).
 #[pyfunction]
-#[pyo3(signature = (model, qs, qds, qdds, gravity=None, f_ext=None))]
+#[pyo3(signature = (model, qs, qds, qdds, gravity=None, f_ext=None, *, out=None, threads=None))]
+#[allow(clippy::too_many_arguments)]
 pub fn rnea_batch<'py>(
     py: Python<'py>,
     model: &PyModel,
@@ -253,68 +266,90 @@ pub fn rnea_batch<'py>(
     qdds: &Bound<'py, PyAny>,
     gravity: Option<&Bound<'py, PyAny>>,
     f_ext: Option<&Bound<'py, PyAny>>,
+    out: Option<&Bound<'py, PyAny>>,
+    threads: Option<i64>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let m: &Model = &model.inner;
     let b = Batch::read(m, qs, &[("qds", qds), ("qdds", qdds)])?;
     let (g, w) = (gravity_of(gravity)?, batch_wrench(f_ext)?);
     let (q, qd, qdd) = (b.get(0), b.get(1), b.get(2));
-    b.run(py, |o| dynamics::rnea_batch(m, q, qd, qdd, &g, w.as_deref(), o))
+    b.run(py, out, threads, |o| dynamics::rnea_batch(m, q, qd, qdd, &g, w.as_deref(), o))
 }
 
 /// Batch bias forces: qs, qds (N, n) -> (N, n).
 #[pyfunction]
-#[pyo3(signature = (model, qs, qds, gravity=None))]
+#[pyo3(signature = (model, qs, qds, gravity=None, *, out=None, threads=None))]
 pub fn bias_forces_batch<'py>(
     py: Python<'py>,
     model: &PyModel,
     qs: &Bound<'py, PyAny>,
     qds: &Bound<'py, PyAny>,
     gravity: Option<&Bound<'py, PyAny>>,
+    out: Option<&Bound<'py, PyAny>>,
+    threads: Option<i64>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let m: &Model = &model.inner;
     let b = Batch::read(m, qs, &[("qds", qds)])?;
     let g = gravity_of(gravity)?;
     let (q, qd) = (b.get(0), b.get(1));
-    b.run(py, |o| dynamics::bias_forces_batch(m, q, qd, &g, o))
+    b.run(py, out, threads, |o| dynamics::bias_forces_batch(m, q, qd, &g, o))
 }
 
 /// Batch gravity torques: qs (N, n) -> (N, n).
 #[pyfunction]
-#[pyo3(signature = (model, qs, gravity=None))]
+#[pyo3(signature = (model, qs, gravity=None, *, out=None, threads=None))]
 pub fn gravity_torques_batch<'py>(
     py: Python<'py>,
     model: &PyModel,
     qs: &Bound<'py, PyAny>,
     gravity: Option<&Bound<'py, PyAny>>,
+    out: Option<&Bound<'py, PyAny>>,
+    threads: Option<i64>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let m: &Model = &model.inner;
     let b = Batch::read(m, qs, &[])?;
     let g = gravity_of(gravity)?;
     let q = b.get(0);
-    b.run(py, |o| dynamics::gravity_torques_batch(m, q, &g, o))
+    b.run(py, out, threads, |o| dynamics::gravity_torques_batch(m, q, &g, o))
 }
 
 /// Batch mass matrices: qs (N, n) -> (N, n, n).
 #[pyfunction]
-pub fn mass_matrix_batch<'py>(py: Python<'py>, model: &PyModel, qs: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+#[pyo3(signature = (model, qs, *, out=None, threads=None))]
+pub fn mass_matrix_batch<'py>(
+    py: Python<'py>,
+    model: &PyModel,
+    qs: &Bound<'py, PyAny>,
+    out: Option<&Bound<'py, PyAny>>,
+    threads: Option<i64>,
+) -> PyResult<Bound<'py, PyArray3<f64>>> {
     let m: &Model = &model.inner;
     let b = Batch::read(m, qs, &[])?;
     let q = b.get(0);
-    b.run_matrices(py, |o| dynamics::mass_matrix_batch(m, q, o))
+    b.run_matrices(py, out, threads, |o| dynamics::mass_matrix_batch(m, q, o))
 }
 
 /// Batch Coriolis matrices: qs, qds (N, n) -> (N, n, n).
 #[pyfunction]
-pub fn coriolis_matrix_batch<'py>(py: Python<'py>, model: &PyModel, qs: &Bound<'py, PyAny>, qds: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+#[pyo3(signature = (model, qs, qds, *, out=None, threads=None))]
+pub fn coriolis_matrix_batch<'py>(
+    py: Python<'py>,
+    model: &PyModel,
+    qs: &Bound<'py, PyAny>,
+    qds: &Bound<'py, PyAny>,
+    out: Option<&Bound<'py, PyAny>>,
+    threads: Option<i64>,
+) -> PyResult<Bound<'py, PyArray3<f64>>> {
     let m: &Model = &model.inner;
     let b = Batch::read(m, qs, &[("qds", qds)])?;
     let (q, qd) = (b.get(0), b.get(1));
-    b.run_matrices(py, |o| dynamics::coriolis_matrix_batch(m, q, qd, o))
+    b.run_matrices(py, out, threads, |o| dynamics::coriolis_matrix_batch(m, q, qd, o))
 }
 
 /// Batch forward dynamics (ABA): qs, qds, taus (N, n) -> (N, n); f_ext None, (6,) or (N, 6).
 #[pyfunction]
-#[pyo3(signature = (model, qs, qds, taus, gravity=None, f_ext=None))]
+#[pyo3(signature = (model, qs, qds, taus, gravity=None, f_ext=None, *, out=None, threads=None))]
+#[allow(clippy::too_many_arguments)]
 pub fn forward_dynamics_batch<'py>(
     py: Python<'py>,
     model: &PyModel,
@@ -323,12 +358,14 @@ pub fn forward_dynamics_batch<'py>(
     taus: &Bound<'py, PyAny>,
     gravity: Option<&Bound<'py, PyAny>>,
     f_ext: Option<&Bound<'py, PyAny>>,
+    out: Option<&Bound<'py, PyAny>>,
+    threads: Option<i64>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let m: &Model = &model.inner;
     let b = Batch::read(m, qs, &[("qds", qds), ("taus", taus)])?;
     let (g, w) = (gravity_of(gravity)?, batch_wrench(f_ext)?);
     let (q, qd, tau) = (b.get(0), b.get(1), b.get(2));
-    b.run(py, |o| dynamics::forward_dynamics_batch(m, q, qd, tau, &g, w.as_deref(), o))
+    b.run(py, out, threads, |o| dynamics::forward_dynamics_batch(m, q, qd, tau, &g, w.as_deref(), o))
 }
 
 // ------------------------------------------------------------------------------------------------

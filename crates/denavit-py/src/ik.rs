@@ -1,7 +1,7 @@
 //! Inverse kinematics (denavit_core::ik): single solves, warm-started paths and batches (paths and
 //! batches release the GIL; batches use every core).
 
-use crate::convert::{check_len, check_shape, opt_vector, out, pose, poses, read, vector};
+use crate::convert::{check_len, check_shape, opt_vector, out, pose, poses, read, threads_of, vector};
 use crate::error::{invalid, IntoPy};
 use crate::model::PyModel;
 use denavit_core::ik::{self as core_ik, IkMethod, IkOptions, IkResult};
@@ -245,7 +245,7 @@ pub fn ik_path(
 /// Solve independent targets (N, 4, 4) from q0s ((N, n), or (n,) for all; default zeros) on every core,
 /// without the GIL. Target i's restarts are seeded from (seed, i): the results do not depend on threads.
 #[pyfunction]
-#[pyo3(signature = (model, targets, q0s=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=100, restarts=50, seed=0, respect_limits=true, damping=0.1))]
+#[pyo3(signature = (model, targets, q0s=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=100, restarts=50, seed=0, respect_limits=true, damping=0.1, threads=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn ik_batch(
     py: Python<'_>,
@@ -260,7 +260,9 @@ pub fn ik_batch(
     seed: i64,
     respect_limits: bool,
     damping: f64,
+    threads: Option<i64>,
 ) -> PyResult<PyIkBatchResult> {
+    let threads = threads_of(threads)?;
     let opts = options(method, tol_position, tol_rotation, max_iterations, restarts, seed, respect_limits, damping)?;
     let targets = poses("targets", targets)?;
     let n = model.inner.nq();
@@ -276,7 +278,8 @@ pub fn ik_batch(
         None => vec![0.0; n],
     };
     let m = model.inner.clone();
-    let results = py.allow_threads(move || core_ik::ik_batch(&m, &targets, &q0s, &opts)).py()?;
+    let results =
+        py.allow_threads(move || denavit_core::parallel::with_threads(threads, || core_ik::ik_batch(&m, &targets, &q0s, &opts)).and_then(|r| r)).py()?;
     Ok(PyIkBatchResult { results, n })
 }
 

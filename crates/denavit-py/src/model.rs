@@ -21,6 +21,16 @@ fn kinds_of(kinds: Option<Vec<String>>, n: usize) -> PyResult<Vec<JointKind>> {
     }
 }
 
+/// `x` with `digits` decimals, without a "-0.0" for a value that rounds to zero.
+fn fixed(x: f64, digits: usize) -> String {
+    let s = format!("{x:.digits$}");
+    if s.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
+        s.trim_start_matches('-').to_string()
+    } else {
+        s
+    }
+}
+
 /// `functools.partial(f, **kwargs)`: how `__reduce__` passes keyword arguments to a constructor.
 fn partial<'py>(f: Bound<'py, PyAny>, kwargs: &Bound<'py, PyDict>) -> PyResult<Bound<'py, PyAny>> {
     f.py().import("functools")?.getattr("partial")?.call((f,), Some(kwargs))
@@ -53,9 +63,10 @@ impl PyModel {
     /// placements : (n, 4, 4) T_{i-1}_i0 in metres; kinds : n strings ("revolute"/"prismatic");
     /// offsets : (n,) rad or m (default zeros); lower, upper : (n,) rad or m (default the core's, -pi..pi and
     /// -1..1 m); names : n strings (default j1..jn); T_world_base : (4, 4); T_last_flange : (4, 4) the flange in
-    /// the last joint frame; T_flange_tool : (4, 4) the tool in the flange.
+    /// the last joint frame; T_flange_tool : (4, 4) the tool in the flange; dh_link_frames : (n, 4, 4) the
+    /// standard-DH frame i in joint frame i (what `Table("dh", ...).to_model()` records), for frame="dh" inertias.
     #[staticmethod]
-    #[pyo3(signature = (placements, kinds, *, offsets=None, lower=None, upper=None, names=None, T_world_base=None, T_last_flange=None, T_flange_tool=None, name="robot"))]
+    #[pyo3(signature = (placements, kinds, *, offsets=None, lower=None, upper=None, names=None, T_world_base=None, T_last_flange=None, T_flange_tool=None, name="robot", dh_link_frames=None))]
     #[allow(non_snake_case, clippy::too_many_arguments)]
     fn from_placements(
         placements: &Bound<'_, PyAny>,
@@ -68,6 +79,7 @@ impl PyModel {
         T_last_flange: Option<&Bound<'_, PyAny>>,
         T_flange_tool: Option<&Bound<'_, PyAny>>,
         name: &str,
+        dh_link_frames: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let placements = poses("placements", placements)?;
         let n = placements.len();
@@ -90,7 +102,11 @@ impl PyModel {
         let base = opt_pose("T_world_base", T_world_base)?;
         let flange = opt_pose("T_last_flange", T_last_flange)?;
         let tool = opt_pose("T_flange_tool", T_flange_tool)?;
-        Ok(Self { inner: Arc::new(denavit_core::Model::new(name, base, joints, flange, tool).py()?) })
+        let mut m = denavit_core::Model::new(name, base, joints, flange, tool).py()?;
+        if let Some(f) = dh_link_frames {
+            m = m.with_dh_link_frames(poses("dh_link_frames", f)?).py()?;
+        }
+        Ok(Self { inner: Arc::new(m) })
     }
 
     /// Number of joints.
@@ -117,20 +133,25 @@ impl PyModel {
     fn placements<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
         poses_out(py, self.inner.joints().iter().map(|j| &j.placement))
     }
-    /// (n,) zero offsets.
+    /// (n,) zero offsets (rad / m).
     #[getter]
-    fn offsets(&self) -> Vec<f64> {
-        self.inner.joints().iter().map(|j| j.offset).collect()
+    fn offsets<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_vec(py, self.inner.joints().iter().map(|j| j.offset).collect())
     }
-    /// (n,) lower limits.
+    /// (n,) lower limits (rad / m).
     #[getter]
-    fn lower(&self) -> Vec<f64> {
-        self.inner.lower()
+    fn lower<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_vec(py, self.inner.lower())
     }
-    /// (n,) upper limits.
+    /// (n,) upper limits (rad / m).
     #[getter]
-    fn upper(&self) -> Vec<f64> {
-        self.inner.upper()
+    fn upper<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_vec(py, self.inner.upper())
+    }
+    /// (n, 4, 4) the standard-DH frame i in joint frame i for a model built from a DH table, else None.
+    #[getter]
+    fn dh_link_frames<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArray3<f64>>>> {
+        self.inner.dh_link_frames().map(|f| poses_out(py, f.iter())).transpose()
     }
     #[getter]
     #[allow(non_snake_case)]
@@ -177,9 +198,13 @@ impl PyModel {
     ///     Rotational inertias in kg m^2: symmetric, positive semi-definite, principal moments obeying the
     ///     triangle inequality; about each centre of mass (``about="com"``) or about the frame origin
     ///     (``about="origin"``, the parallel-axis theorem is applied).
-    /// frame : {"link", "world"}
-    ///     ``"link"``: link i in its joint frame i (the frame moving with link i); ``"world"``: every link in
-    ///     world with the robot at ``q_ref`` (default zeros), e.g. as exported from CAD at home.
+    /// frame : {"link", "dh", "world"}
+    ///     ``"link"``: link i in its joint frame i (the model's frame moving with link i: z on joint i's axis,
+    ///     origin and x as the model's convention placed it; ``dv.joint_frames`` gives it in world);
+    ///     ``"dh"``: link i in standard-DH frame i (joint frame i @ Tz(d_i) Tx(a_i) Rx(alpha_i), the frame
+    ///     of published DH inertia tables such as Armstrong et al. 1986 / Corke's Puma 560), for a model built
+    ///     from a DH table (``Model.dh_link_frames``); ``"world"``: every link in world with the robot at
+    ///     ``q_ref`` (default zeros), e.g. as exported from CAD at home.
     ///
     /// An error about one link says which (``DenavitError.joint``, 1-based).
     #[pyo3(signature = (masses, coms, inertias, frame="link", about="com", q_ref=None))]
@@ -193,10 +218,20 @@ impl PyModel {
         q_ref: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let m = &self.inner;
-        let world = match frame {
-            "link" => false,
-            "world" => true,
-            _ => return Err(invalid("frame", "'link' or 'world'", format!("'{frame}'"))),
+        let (world, dh) = match frame {
+            "link" => (false, None),
+            "dh" => match m.dh_link_frames() {
+                Some(f) => (false, Some(f)),
+                None => {
+                    return Err(invalid(
+                        "frame",
+                        "'dh' only for a model built from a DH table (Table('dh', ...).to_model(), a dh robot file)",
+                        format!("'dh' for model '{}', which has no DH link frames", m.name()),
+                    ))
+                }
+            },
+            "world" => (true, None),
+            _ => return Err(invalid("frame", "'link', 'dh' or 'world'", format!("'{frame}'"))),
         };
         if !world && q_ref.is_some() {
             return Err(invalid("q_ref", "None with frame='link' (q_ref is the configuration of frame='world' inertias)", "an array"));
@@ -229,6 +264,11 @@ impl PyModel {
             let q = opt_vector("q_ref", q_ref)?.unwrap_or_else(|| vec![0.0; m.nq()]);
             list = dynamics::inertias_in_world(m, &q, &list).py()?;
         }
+        if let Some(frames) = dh {
+            check_len("link inertias (one per joint)", m.nq(), list.len())?;
+            // DH frame i in joint frame i: the inertia re-expressed in the joint frame
+            list = list.iter().zip(frames).map(|(i, t_joint_dh)| i.transformed(t_joint_dh)).collect();
+        }
         Ok(Self { inner: Arc::new(m.with_inertias(list).py()?) })
     }
     /// Link inertial parameters: dict with "masses" (n,) kg, "coms" (n, 3) m and "inertias" (n, 3, 3) kg m^2
@@ -247,27 +287,43 @@ impl PyModel {
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
         let m = &self.inner;
         if m.inertias().iter().any(|i| *i != Inertia::zero()) {
-            let bare = Self {
-                inner: Arc::new(denavit_core::Model::new(m.name(), *m.t_world_base(), m.joints().to_vec(), *m.t_last_flange(), *m.t_flange_tool()).py()?),
-            };
+            let mut bare = denavit_core::Model::new(m.name(), *m.t_world_base(), m.joints().to_vec(), *m.t_last_flange(), *m.t_flange_tool()).py()?;
+            if let Some(f) = m.dh_link_frames() {
+                bare = bare.with_dh_link_frames(f.to_vec()).py()?;
+            }
+            let bare = Self { inner: Arc::new(bare) };
             let (masses, coms, inertias) = inertia_arrays(py, self)?;
             let args = (bare, masses, coms, inertias);
             return (py.get_type::<Self>().getattr("with_inertias")?, args).into_pyobject(py);
         }
         let kw = PyDict::new(py);
-        kw.set_item("offsets", self.offsets())?;
-        kw.set_item("lower", self.lower())?;
-        kw.set_item("upper", self.upper())?;
+        kw.set_item("offsets", self.offsets(py))?;
+        kw.set_item("lower", self.lower(py))?;
+        kw.set_item("upper", self.upper(py))?;
         kw.set_item("names", self.names())?;
         kw.set_item("T_world_base", self.T_world_base(py)?)?;
         kw.set_item("T_last_flange", self.T_last_flange(py)?)?;
         kw.set_item("T_flange_tool", self.T_flange_tool(py)?)?;
         kw.set_item("name", m.name())?;
+        kw.set_item("dh_link_frames", self.dh_link_frames(py)?)?;
         let f = partial(py.get_type::<Self>().getattr("from_placements")?, &kw)?;
         (f, (self.placements(py)?, self.kinds())).into_pyobject(py)
     }
+    /// `Model('kr5', 6 joints RRRRRR, tool at [x, y, z] mm at q = 0, 12.3 kg)`.
     fn __repr__(&self) -> String {
-        format!("Model('{}', {} joints: {})", self.inner.name(), self.inner.nq(), self.names().join(", "))
+        let m = &self.inner;
+        let kinds: String = m.joints().iter().map(|j| if j.kind == JointKind::Revolute { 'R' } else { 'P' }).collect();
+        let tool = denavit_core::kinematics::tool_pose_unchecked(m, &vec![0.0; m.nq()]).translation.vector * 1e3;
+        let mass: f64 = m.inertias().iter().map(|i| i.mass()).sum();
+        let mass = if mass > 0.0 { format!(", {mass:.4} kg") } else { String::new() };
+        format!(
+            "Model('{}', {} joints {kinds}, tool at [{}, {}, {}] mm at q = 0{mass})",
+            m.name(),
+            m.nq(),
+            fixed(tool.x, 1),
+            fixed(tool.y, 1),
+            fixed(tool.z, 1)
+        )
     }
 }
 
@@ -363,8 +419,36 @@ impl PyTable {
         let args = (self.convention(), self.params(py)?, self.kinds(), self.T_world_base(py)?, self.T_last_tool(py)?);
         (py.get_type::<Self>(), args).into_pyobject(py)
     }
+    /// The rows with units, as the CLI prints tables: lengths in mm, angles in deg (POE: w unitless).
     fn __repr__(&self) -> String {
-        format!("Table('{}', {} joints)", self.inner.convention.name(), self.inner.nq())
+        let t = &self.inner;
+        let poe = t.convention == Convention::Poe;
+        let cols = t.convention.columns();
+        let angle = t.convention.angle_columns();
+        let units: Vec<(String, f64)> = cols
+            .iter()
+            .zip(angle)
+            .map(|(c, &a)| {
+                if a {
+                    (format!("{c} [deg]"), 180.0 / std::f64::consts::PI)
+                } else if poe && c.starts_with('w') {
+                    (c.to_string(), 1.0)
+                } else {
+                    (format!("{c} [mm]"), 1e3)
+                }
+            })
+            .collect();
+        let mut out = format!("Table('{}', {} joints)\n  joint kind", t.convention.name(), t.nq());
+        for (h, _) in &units {
+            out += &format!(" {h:>12}");
+        }
+        for i in 0..t.nq() {
+            out += &format!("\n  {:>5} {:>4}", i + 1, if t.kinds[i] == JointKind::Revolute { "R" } else { "P" });
+            for (k, (_, f)) in units.iter().enumerate() {
+                out += &format!(" {:>12}", fixed(t.params[(i, k)] * f, 3));
+            }
+        }
+        out
     }
 }
 
@@ -428,17 +512,20 @@ impl PyJointAxes {
     fn kinds(&self) -> Vec<&'static str> {
         self.inner.kinds.iter().map(|k| k.name()).collect()
     }
+    /// (n,) the reference configuration (rad / m).
     #[getter]
-    fn q_ref(&self) -> Vec<f64> {
-        self.inner.q_ref.clone()
+    fn q_ref<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.inner.q_ref)
     }
+    /// (n,) lower limits (rad / m).
     #[getter]
-    fn lower(&self) -> Vec<f64> {
-        self.inner.lower.clone()
+    fn lower<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.inner.lower)
     }
+    /// (n,) upper limits (rad / m).
     #[getter]
-    fn upper(&self) -> Vec<f64> {
-        self.inner.upper.clone()
+    fn upper<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.inner.upper)
     }
     #[getter]
     #[allow(non_snake_case)]
@@ -454,11 +541,11 @@ impl PyJointAxes {
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
         let kw = PyDict::new(py);
         kw.set_item("kinds", self.kinds())?;
-        kw.set_item("q_ref", self.q_ref())?;
+        kw.set_item("q_ref", self.q_ref(py))?;
         kw.set_item("T_world_base", self.T_world_base(py)?)?;
         kw.set_item("T_world_tool", self.T_world_tool(py)?)?;
-        kw.set_item("lower", self.lower())?;
-        kw.set_item("upper", self.upper())?;
+        kw.set_item("lower", self.lower(py))?;
+        kw.set_item("upper", self.upper(py))?;
         (partial(py.get_type::<Self>().into_any(), &kw)?, (self.points(py)?, self.directions(py)?)).into_pyobject(py)
     }
     fn __repr__(&self) -> String {

@@ -55,9 +55,11 @@ where
     if per_row == 0 {
         return Ok(());
     }
-    out.par_chunks_mut(per_row * CHUNK).enumerate().try_for_each_init(
+    crate::parallel::try_for_each_chunk_init(
+        out,
+        per_row * CHUNK,
         || DynamicsData::new(model),
-        |ws, (c, chunk)| {
+        |ws, c, chunk| {
             for (k, o) in chunk.chunks_exact_mut(per_row).enumerate() {
                 f(ws, c * CHUNK + k, o)?;
             }
@@ -348,9 +350,11 @@ pub(super) fn rnea_batch_lanes(
     }
     let g_base = gravity_in_base(model, g);
     let classes = placement_classes(model);
-    out.par_chunks_mut(n * CHUNK).enumerate().try_for_each_init(
+    crate::parallel::try_for_each_chunk_init(
+        out,
+        n * CHUNK,
         || LaneData::new(n),
-        |ld, (c, chunk)| {
+        |ld, c, chunk| {
             let start = c * CHUNK;
             let rows_here = chunk.len() / n;
             for r in start..start + rows_here {

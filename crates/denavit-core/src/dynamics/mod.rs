@@ -25,7 +25,7 @@
 //!
 //! Every single-call algorithm takes a preallocated [`DynamicsData`] (pinocchio's `Data`) and does not
 //! allocate; results are returned as borrows of its fields. Batch forms take row-major `(N, n)` slices and
-//! run on every core (rayon), one workspace per thread.
+//! run on every core (rayon; `crate::parallel::with_threads` chooses), one workspace per thread.
 //!
 //! ```
 //! use denavit_core::{builtin_planar2, dynamics::{self, DynamicsData, Inertia}};
@@ -64,7 +64,6 @@ use crate::math::{sin_cos, sin_cos_lanes};
 use crate::model::{Joint, JointKind, Model};
 use crate::spatial::Pose;
 use nalgebra::{DMatrix, Matrix3, Matrix6, Vector3, Vector6};
-use rayon::prelude::*;
 
 /// Default gravity in `world`: `[0, 0, -9.81]` m/s^2 (world z up).
 pub const DEFAULT_GRAVITY: [f64; 3] = [0.0, 0.0, -9.81];

@@ -1,0 +1,169 @@
+"""How denavit's batch kernels scale with N, and the kernel rows of the speed issue's table, beside pinocchio
+(and roboticstoolbox when installed). A script that prints tables, not a timed test.
+
+    python benchmarks/bench_scale.py [--quick] [--max-n 10000000] [--max-bytes 2.5e9] [--json out.json]
+
+Scale table: batch FK (into a reused `out=`), batch Jacobian (local_world_aligned, `out=`) and batch RNE (`out=`)
+of the KR5 for N = 10^3 .. 10^7 (each size only while its arrays fit in --max-bytes), median wall time over
+repeats, and the growth exponent: the slope of log t against log N fitted over N >= 10^4 (1.0 = linear).
+Kernel rows: batch FK 100,000 on one core (threads=1) and on two (threads=2), batch Jacobian 100,000, FK 10^7
+with out=, a single FK call from Python next to the binding's floor (an empty call: the `Model.nq` getter), and
+IK with one attempt (success rate and median, from benchmarks/bench_kinematics.py). pinocchio has no batch API:
+its column is a Python loop over its C++ calls (pin.forwardKinematics / computeJointJacobians / rnea) on the
+same chain, timed on fewer configurations and scaled per configuration.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+from bench_kinematics import ik_one_attempt, pin, pin_model_with_tool, rtb, rtb_robot_with_limits  # noqa: E402
+
+import denavit as dv  # noqa: E402
+
+G = np.array([0.0, 0.0, -9.81])
+
+
+def median_time(fn, repeat):
+    """Median wall time of one call (s) over `repeat` runs after one warm-up."""
+    fn()
+    runs = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        runs.append(time.perf_counter() - t)
+    return float(np.median(runs))
+
+
+def per_call(fn, number, repeat):
+    """Median over `repeat` runs of the mean time of one call (s)."""
+    fn()
+    runs = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        for _ in range(number):
+            fn()
+        runs.append((time.perf_counter() - t) / number)
+    return float(np.median(runs))
+
+
+def growth(ns, ts):
+    """Slope of log t against log N over N >= 10^4 (all sizes when fewer than two qualify)."""
+    ns, ts = np.asarray(ns, float), np.asarray(ts, float)
+    keep = ns >= 1e4 if (ns >= 1e4).sum() >= 2 else np.ones(len(ns), bool)
+    return float(np.polyfit(np.log(ns[keep]), np.log(ts[keep]), 1)[0]) if keep.sum() >= 2 else float("nan")
+
+
+def fmt(s):
+    return f"{s * 1e3:.3f} ms" if s >= 1e-3 else f"{s * 1e6:.2f} us"
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="fewer repeats, N up to 10^6 (a smoke run)")
+    ap.add_argument("--max-n", type=float, default=1e7, help="largest N of the scale table")
+    ap.add_argument("--max-bytes", type=float, default=2.5e9, help="skip a size whose arrays exceed this")
+    ap.add_argument("--json", help="also write the figures to this JSON file")
+    args = ap.parse_args()
+    rep = 3 if args.quick else 7
+    max_n = min(args.max_n, 1e6) if args.quick else args.max_n
+    m = dv.load_model("kr5")
+    n = m.nq
+    rng = np.random.default_rng(0)
+    fig = {"scale": {}, "rows": {}}
+
+    # --- scale table ---------------------------------------------------------------------------------------
+    sizes = [int(10**k) for k in range(3, 8) if 10**k <= max_n]
+    kernels = {
+        "fk_batch (out=)": (16, lambda qs, out: dv.fk_batch(m, qs, out=out), lambda N: np.empty((N, 4, 4))),
+        "jacobian_batch (out=)": (6 * n, lambda qs, out: dv.jacobian_batch(m, qs, out=out), lambda N: np.empty((N, 6, n))),
+        "rnea_batch (out=)": (n, lambda qs, out: dv.rnea_batch(m, qs, qs, qs, out=out), lambda N: np.empty((N, n))),
+    }
+    mi = m.with_inertias(np.linspace(4, 1, n), rng.uniform(-0.1, 0.1, (n, 3)), np.tile(np.eye(3) * 0.05, (n, 1, 1)))
+    kernels["rnea_batch (out=)"] = (n, lambda qs, out: dv.rnea_batch(mi, qs, qs, qs, out=out), lambda N: np.empty((N, n)))
+    print(f"denavit {dv.__version__}; {os.cpu_count()} cores; KR5; medians of {rep} runs; threads = default (RAYON_NUM_THREADS or every core)")
+    print("| kernel | " + " | ".join(f"N = 10^{len(str(N)) - 1}" for N in sizes) + " | growth exponent (N >= 10^4) |")
+    print("|---|" + "---|" * len(sizes) + "---|")
+    for name, (per_row, run, alloc) in kernels.items():
+        ns, ts = [], []
+        for N in sizes:
+            if 8 * N * (n + per_row) > args.max_bytes:
+                break
+            qs = rng.uniform(-np.pi, np.pi, (N, n))
+            out = alloc(N)
+            ts.append(median_time(lambda qs=qs, out=out, run=run: run(qs, out), rep if N < 10**7 else max(3, rep // 2)))
+            ns.append(N)
+            del qs, out
+        cells = [fmt(t) for t in ts] + ["(memory)"] * (len(sizes) - len(ts))
+        fig["scale"][name] = {"n": ns, "t": ts, "growth": growth(ns, ts)}
+        print(f"| {name} | " + " | ".join(cells) + f" | {growth(ns, ts):.3f} |")
+
+    # --- the speed issue's kernel rows -----------------------------------------------------------------------
+    rows = []  # (case, denavit, pinocchio, rtb, target)
+    N = 100_000
+    qs = rng.uniform(-np.pi, np.pi, (N, n))
+    out = np.empty((N, 4, 4))
+    t1 = median_time(lambda: dv.fk_batch(m, qs, out=out, threads=1), rep * 3)
+    t2 = median_time(lambda: dv.fk_batch(m, qs, out=out, threads=2), rep * 3)
+    tf = median_time(lambda: dv.fk_batch(m, qs, threads=1), rep * 3)
+    p_fk = p_j = p_r = r_fk = "-"
+    if pin is not None:
+        pm, pd, _ = pin_model_with_tool(m)
+        k = 5000
+        p_fk = fmt(median_time(lambda: [pin.forwardKinematics(pm, pd, q) for q in qs[:k] + m.offsets], rep) * N / k) + " (Python loop, scaled)"
+        p_j = fmt(median_time(lambda: [pin.computeJointJacobians(pm, pd, q) for q in qs[:k] + m.offsets], rep) * N / k) + " (Python loop, scaled)"
+        p_r = fmt(median_time(lambda: [pin.rnea(pm, pd, q, q, q) for q in qs[:k]], rep) * N / k) + " (Python loop, scaled)"
+    if rtb is not None:
+        ets = rtb_robot_with_limits(m).ets()
+        r_fk = fmt(median_time(lambda: ets.fkine(qs), max(3, rep // 2)))
+    rows.append((f"batch FK {N:,} (KR5 -> (N, 4, 4), out=), one core", fmt(t1), p_fk, r_fk, "<= 1.8 ms"))
+    rows.append((f"batch FK {N:,}, out=, two cores (threads=2)", fmt(t2), "-", "-", "<= 1.0 ms"))
+    rows.append((f"batch FK {N:,}, one core, a fresh result array", fmt(tf), "-", "-", "-"))
+    oj = np.empty((N, 6, n))
+    tj = median_time(lambda: dv.jacobian_batch(m, qs, out=oj), rep * 3)
+    tj1 = median_time(lambda: dv.jacobian_batch(m, qs, out=oj, threads=1), rep * 3)
+    rows.append((f"batch Jacobian {N:,} (local_world_aligned, out=), default threads / one core", f"{fmt(tj)} / {fmt(tj1)}", p_j, "-", "<= 5 ms"))
+    orn = np.empty((N, n))
+    tr = median_time(lambda: dv.rnea_batch(mi, qs, qs, qs, out=orn), rep * 3)
+    rows.append((f"batch RNE {N:,} (out=)", fmt(tr), p_r, "-", "-"))
+    big = 10**7
+    if 8 * big * (n + 16) <= args.max_bytes and not args.quick:
+        qb = rng.uniform(-np.pi, np.pi, (big, n))
+        ob = np.empty((big, 4, 4))
+        tb = median_time(lambda: dv.fk_batch(m, qb, out=ob), 3)
+        rows.append(("batch FK 10^7 with out= (default threads)", fmt(tb), "-", "-", "<= 0.25 s"))
+        del qb, ob
+    q = np.array([0.3, -0.2, 0.5, 0.1, 0.4, -0.3])
+    number = 2000 if args.quick else 20000
+    t_fk = per_call(lambda: dv.fk(m, q), number, rep)
+    t_empty = per_call(lambda: m.nq, number, rep)
+    p_one = "-"
+    if pin is not None:
+        p_one = fmt(per_call(lambda: pin.forwardKinematics(pm, pd, q), number, rep)) + " (forwardKinematics, no array returned)"
+    rows.append(("single FK from Python (returns the 4x4 array); the binding's floor (an empty call, Model.nq)", f"{fmt(t_fk)}; floor {fmt(t_empty)}", p_one, "-", "<= 0.25 us"))
+    one = ik_one_attempt([(name, dv.load_model(name)) for name in ("kr5", "ur5", "puma560")], 100 if args.quick else 300, rtb is not None, pin is not None)
+    for r in one:
+        rows.append((f"IK one attempt, {r[0]}: newton / lm (success, median)", f"{r[1]} / {r[2]}", r[5], f"{r[3]} / {r[4]}", ">= 97 %, <= 5 us"))
+
+    print()
+    print("| case | denavit | pinocchio" + ("" if pin is not None else " (not installed)") + " | roboticstoolbox"
+          + ("" if rtb is not None else " (not installed)") + " | target |")
+    print("|---|---|---|---|---|")
+    for r in rows:
+        print("| " + " | ".join(r) + " |")
+        fig["rows"][r[0]] = r[1]
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(fig, f, indent=2)
+
+
+if __name__ == "__main__":
+    main()

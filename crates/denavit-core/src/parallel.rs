@@ -1,0 +1,106 @@
+//! Where the batch kernels run: [`with_threads`] picks rayon's global pool, the calling thread, or a pool
+//! of k threads (built once per k and kept for the life of the process, so a call costs no thread start).
+//!
+//! The batch functions `kinematics::tool_pose_batch`, `kinematics::jacobian_batch`, the `dynamics::*_batch`
+//! and `ik::ik_batch` iterate through [`for_each_chunk`] / [`try_for_each_chunk_init`] or ask [`serial`], so
+//! one call of [`with_threads`] around them decides. (Other parallel code, e.g. the calibration chain, uses
+//! rayon's pool directly: inside `with_threads(Some(k), ..)` that is the k-thread pool.)
+//! Results never depend on the number of threads (each row is computed alone).
+
+use crate::error::{Error, Result};
+use rayon::prelude::*;
+use std::cell::Cell;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
+
+thread_local! {
+    /// Set while [`with_threads`]`(Some(1), ..)` runs on this thread.
+    static SERIAL: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Restores the calling thread's serial flag when a [`with_threads`] scope ends (also on unwinding).
+struct SerialScope(bool);
+
+impl Drop for SerialScope {
+    fn drop(&mut self) {
+        SERIAL.with(|s| s.set(self.0));
+    }
+}
+
+/// Run `f` with the crate's batch kernels on `threads` threads: `None` rayon's global pool
+/// (`RAYON_NUM_THREADS` threads if that variable is set, else one per core), `Some(1)` serially on the
+/// calling thread (no pool involved), `Some(k)` a pool of k threads, built at its first use and cached.
+///
+/// ```
+/// use denavit_core::{builtin_planar2, kinematics::tool_pose_batch, parallel::with_threads};
+/// let m = builtin_planar2(1.0, 1.0);
+/// let qs = vec![0.3; 2 * 1000];
+/// let (mut a, mut b) = (vec![0.0; 16 * 1000], vec![0.0; 16 * 1000]);
+/// with_threads(Some(1), || tool_pose_batch(&m, &qs, &mut a)).unwrap().unwrap();
+/// with_threads(Some(2), || tool_pose_batch(&m, &qs, &mut b)).unwrap().unwrap();
+/// assert_eq!(a, b);
+/// assert!(with_threads(Some(0), || ()).is_err());
+/// ```
+pub fn with_threads<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) -> Result<R> {
+    match threads {
+        None => Ok(f()),
+        Some(0) => Err(Error::InvalidArgument {
+            what: "threads".into(),
+            expected: "None (RAYON_NUM_THREADS, else every core) or a count >= 1".into(),
+            got: "0".into(),
+        }),
+        Some(1) => {
+            let _restore = SerialScope(SERIAL.with(|s| s.replace(true)));
+            Ok(f())
+        }
+        Some(k) => Ok(pool(k)?.install(f)),
+    }
+}
+
+/// The cached pool of `k` threads.
+fn pool(k: usize) -> Result<Arc<rayon::ThreadPool>> {
+    static POOLS: OnceLock<Mutex<HashMap<usize, Arc<rayon::ThreadPool>>>> = OnceLock::new();
+    let mut pools = POOLS.get_or_init(Default::default).lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(p) = pools.get(&k) {
+        return Ok(p.clone());
+    }
+    let p = rayon::ThreadPoolBuilder::new().num_threads(k).thread_name(move |i| format!("denavit-{k}-{i}")).build().map_err(|e| Error::InvalidArgument {
+        what: "threads".into(),
+        expected: "a thread pool the system can start".into(),
+        got: format!("{k} ({e})"),
+    })?;
+    let p = Arc::new(p);
+    pools.insert(k, p.clone());
+    Ok(p)
+}
+
+/// Whether the current thread runs batch kernels serially (inside `with_threads(Some(1), ..)`).
+#[inline]
+pub(crate) fn serial() -> bool {
+    SERIAL.with(|s| s.get())
+}
+
+/// `f(chunk_index, chunk)` over `out.chunks_mut(size)`: in parallel, or in order on this thread when
+/// [`serial`].
+pub(crate) fn for_each_chunk<T: Send>(out: &mut [T], size: usize, f: impl Fn(usize, &mut [T]) + Sync + Send) {
+    if serial() {
+        out.chunks_mut(size).enumerate().for_each(|(c, o)| f(c, o));
+    } else {
+        out.par_chunks_mut(size).enumerate().for_each(|(c, o)| f(c, o));
+    }
+}
+
+/// [`for_each_chunk`] with a workspace per worker (`init`) and early exit on the first error.
+pub(crate) fn try_for_each_chunk_init<T: Send, W>(
+    out: &mut [T],
+    size: usize,
+    init: impl Fn() -> W + Sync + Send,
+    f: impl Fn(&mut W, usize, &mut [T]) -> Result<()> + Sync + Send,
+) -> Result<()> {
+    if serial() {
+        let mut w = init();
+        out.chunks_mut(size).enumerate().try_for_each(|(c, o)| f(&mut w, c, o))
+    } else {
+        out.par_chunks_mut(size).enumerate().try_for_each_init(init, |w, (c, o)| f(w, c, o))
+    }
+}
