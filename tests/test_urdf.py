@@ -163,15 +163,15 @@ def pinocchio_frames(path, q, links):
 
 @pytest.mark.parametrize("path", GOOD, ids=lambda p: p.stem)
 def test_pinocchio_reads_the_same_frames(path, tmp_path):
-    """A second, independent URDF reader (pinocchio, bench extra; skipped without it): the imported model's
-    frames match pinocchio's on the test file, and the exported file's link frames are the model's joint
-    frames."""
+    """A second, independent URDF reader (pinocchio): the imported model's frames match pinocchio's on the
+    test file, and every link of the exported file is the original's link of the same name (issue #15: the
+    export had given the names to the model's joint frames, shoulder_link turned by 180 deg)."""
     ch = U.read_chain(path)
     m = ch.model()
     robot = U.load_urdf(path)
     out = tmp_path / "out.urdf"
     U.save_urdf(robot.model(), out, robot)
-    back = U.read_chain(out)
+    links = [l.name for l in yourdfpy.URDF.load(str(path), load_meshes=False).robot.links]
     for q in qs_within(m, 5, seed=4):
         T = pinocchio_frames(path, q, ch.extra["body_links"][1:] + [ch.tip_link])
         F = dv.joint_frames(m, q)
@@ -180,11 +180,9 @@ def test_pinocchio_reads_the_same_frames(path, tmp_path):
             R[:3, :3] = U.z_to(a)
             assert pose_err(F[i] @ R.T, T[i]) < 1e-12
         assert pose_err(dv.fk(m, q), T[-1]) < 1e-12
-        T = pinocchio_frames(out, q, back.extra["body_links"][1:] + [back.tip_link])
-        F = dv.joint_frames(robot.model(), q)
-        for i in range(m.nq):
-            assert pose_err(F[i], T[i]) < 1e-12
-        assert pose_err(dv.fk(robot.model(), q), T[-1]) < 1e-12
+        for link, Ta, Tb in zip(links, pinocchio_frames(path, q, links), pinocchio_frames(out, q, links)):
+            assert pose_err(Ta, Tb) < 1e-12, link
+        assert pose_err(dv.fk(robot.model(), q), pinocchio_frames(out, q, [ch.tip_link])[0]) < 1e-12
 
 
 # --------------------------------------------------------------------------------------------------
@@ -193,8 +191,9 @@ def test_pinocchio_reads_the_same_frames(path, tmp_path):
 
 @pytest.mark.parametrize("path", GOOD, ids=lambda p: p.stem)
 def test_urdf_model_urdf_round_trip(path, tmp_path):
-    """URDF -> Robot (ED-H) -> URDF -> model: every joint frame and the tool to 1e-12; importing the
-    exported file again gives the same ED-H table (export/import is a fixed point)."""
+    """URDF -> Robot (ED-H) -> URDF -> model: every joint frame is the original URDF's (the names are kept,
+    issue #15) and the tool to 1e-12; importing the exported file again gives the same ED-H table, and
+    exporting that is byte-identical (it had written 0.28 <-> 0.2799999999999999)."""
     robot = U.load_urdf(path)
     exact = U.urdf_model(path)
     m = robot.model()
@@ -208,11 +207,12 @@ def test_urdf_model_urdf_round_trip(path, tmp_path):
     U.save_urdf(m, out, robot)
     back = U.urdf_model(out)
     assert back.names == m.names
-    assert frames_err(back, m, qs) < 1e-12
+    assert frames_err(back, exact, qs) < 1e-12
     assert tool_err(back, m, qs) < 1e-12
     again = U.load_urdf(out)
     np.testing.assert_allclose(again.table.params, robot.table.params, atol=1e-12)
     assert frames_err(again.model(), m, qs[:10]) < 1e-12
+    assert U.dumps_urdf(again.model(), again) == out.read_text()
     # the exact model exports and re-imports exactly too
     U.save_urdf(exact, out)
     assert frames_err(U.urdf_model(out), exact, qs) < 1e-12
@@ -367,12 +367,16 @@ def test_identified_model_exports_with_frames_within_the_robot(kr5, tmp_path):
         m = res.model()
         out = tmp_path / f"identified_{conv}.urdf"
         U.save_urdf(m, out, nominal)
-        back = U.urdf_model(out)
-        assert frames_err(back, m, qs) < 1e-12
+        back = U.urdf_model(out, tip_link="tcp")  # the identified tool point, a frame fixed to tool0
+        assert tool_err(back, m, qs) < 1e-12
+        for q in qs[:5]:
+            a, b = dv.axes(back, q), dv.axes(m, q)
+            np.testing.assert_allclose(a.directions, b.directions, atol=1e-12)
+            assert np.abs(np.cross(a.points - b.points, b.directions)).max() < 1e-12
         for q in (np.zeros(6), np.radians(sw.PAPER_HOME_DEG)):
             F = dv.joint_frames(back, q)
             assert np.linalg.norm(F[:, :3, 3] - back.T_world_base[:3, 3], axis=1).max() < 2 * reach, conv
-        ch = U.read_chain(out)
+        ch = U.read_chain(out, tip_link="tcp")
         assert np.linalg.norm(ch.placements[:, :3, 3], axis=1).max() < 2 * reach
         assert ch.names == nominal.names and ch.extra["body_links"][1:] == ["link_1", "link_2", "link_3", "link_4", "link_5", "link_6"]
         np.testing.assert_allclose(back.lower, nominal.lower)
@@ -483,10 +487,11 @@ def test_identified_in_a_measurement_frame_carries_meshes_onto_the_robot(path, c
     m = ident.identify(s, convention=conv, nominal=nominal).model()
     out = tmp_path / "identified.urdf"
     U.save_urdf(m, out, nominal)
-    back = U.urdf_model(out)
-    assert pose_err(back.T_world_base, m.T_world_base) < 1e-12  # the root link is the identified base
     a = yourdfpy.URDF.load(str(path), build_scene_graph=True, load_meshes=False)
     b = yourdfpy.URDF.load(str(out), build_scene_graph=True, load_meshes=False)
+    assert b.base_link == "world" and pose_err(b.get_transform(a.base_link, "world"), TRACKER) < 1e-9  # the root is the tracker frame
+    back = U.urdf_model(out, tip_link="tcp")
+    assert tool_err(back, m, qs_within(m, 20)) < 1e-12
     R, p = TRACKER[:3, :3], TRACKER[:3, 3]
     for q in qs_within(nominal.model(), 5, seed=4):
         ia, Ma, ca, Ia = world_items(a, q)
@@ -706,6 +711,8 @@ def test_convert_cli_prints_tables_and_writes_urdf(tmp_path):
     assert r.exit_code == 0, r.output
     assert tool_err(U.urdf_model(out), dv.load_model("kr5"), qs_within(dv.load_model("kr5"), 20)) < 1e-12
     r = runner.invoke(app, ["convert", str(DATA / "two_tips.urdf"), "--to", "urdf", "--tip-link", "tool0"])
+    assert r.exit_code == 0 and "<robot" in r.output and '<link name="camera"/>' in r.output  # off-chain links kept
+    r = runner.invoke(app, ["convert", str(DATA / "two_tips.urdf"), "--to", "urdf", "--tip-link", "tool0", "--chain-only"])
     assert r.exit_code == 0 and "<robot" in r.output and "camera" not in r.output
     r = runner.invoke(app, ["convert", str(DATA / "two_tips.urdf"), "--to", "dh", "--base-link", "link_1", "--tip-link", "tool0", "--json"])
     assert r.exit_code == 0 and len(json.loads(r.output)["rows"]) == 1
