@@ -84,7 +84,7 @@ import numpy as np
 
 from .. import _core
 from ..errors import DenavitError, DenavitWarning
-from ..geometry import inverse, matrix_rpy, pose, rotation_between, rotvec_matrix, skew, xyz_rpy_pose
+from ..geometry import inverse, matrix_rotvec, matrix_rpy, pose, rotation_between, rotvec_matrix, skew, xyz_rpy_pose
 from ..robot import Robot, inertials_for_table
 from .output import write_text
 from .text import decode, read_bytes
@@ -754,20 +754,23 @@ def _matches(info: dict | None, model: _core.Model) -> bool:
         return False
 
 
-def _register_lines(Fn: np.ndarray, Fi: np.ndarray, kinds) -> np.ndarray:
+def _register_lines(Fn: np.ndarray, Fi: np.ndarray, kinds, tool_n: np.ndarray, tool_i: np.ndarray) -> np.ndarray:
     """The rigid motion ``X`` (4, 4) that best puts the nominal joint axes on the identified ones.
 
     ``Fn``, ``Fi`` (n, 4, 4): joint frames at q = 0 (z = the axis), of the nominal and of the identified
     model in their own world frames. Only the axis lines are compared (directions, and for revolute joints
     the distance of the line from the identified one), never the frames' origins along the axes nor their
     turn about them: those are convention choices (an ED-H frame may lie 0.36 m along the UR shoulder axis
-    from the URDF joint origin). Gauss-Newton from the Kabsch rotation of the directions; dofs the lines do
-    not fix (e.g. a slide along parallel axes) keep their minimal-norm value."""
+    from the URDF joint origin). Gauss-Newton from the Kabsch rotation of the directions. What the lines do
+    not fix (the slide along the axes of an all-parallel chain, a SCARA's or a planar arm's; the turn and slide
+    of a single axis) is fixed by the tools, ``tool_n`` (the nominal's tip link) onto ``tool_i`` (the model's
+    tool), both (4, 4) at q = 0: exact for the nominal's own model in any convention and frame."""
     dn, pn, d, p = Fn[:, :3, 2], Fn[:, :3, 3], Fi[:, :3, 2], Fi[:, :3, 3]
     U_, _, Vt = np.linalg.svd(dn.T @ d)
     R = Vt.T @ np.diag([1.0, 1.0, np.linalg.det(Vt.T @ U_.T)]) @ U_.T
     t = np.zeros(3)
-    for _ in range(30):
+
+    def lines(R, t):
         rows, res = [], []
         for i, kind in enumerate(kinds):
             e, y = R @ dn[i], R @ pn[i] + t
@@ -777,13 +780,30 @@ def _register_lines(Fn: np.ndarray, Fi: np.ndarray, kinds) -> np.ndarray:
                 P = np.eye(3) - np.outer(d[i], d[i])
                 rows.append(np.hstack([-P @ skew(y), P]))
                 res.append(P @ (y - p[i]))
-        step = np.linalg.lstsq(np.vstack(rows), -np.concatenate(res), rcond=1e-9)[0]
-        w, v = step[:3], step[3:]
-        ang = float(np.linalg.norm(w))
-        dR = rotvec_matrix(w)
-        R, t = dR @ R, dR @ t + v
-        if ang < 1e-15 and np.linalg.norm(v) < 1e-15:
+        return np.vstack(rows), np.concatenate(res)
+
+    def update(R, t, step):
+        dR = rotvec_matrix(step[:3])
+        return dR @ R, dR @ t + step[3:]
+
+    for _ in range(30):
+        J, r = lines(R, t)
+        step = np.linalg.lstsq(J, -r, rcond=1e-9)[0]
+        R, t = update(R, t, step)
+        if np.linalg.norm(step) < 1e-15:
             break
+    J, _ = lines(R, t)
+    _, sv, V = np.linalg.svd(J)
+    N = V[np.concatenate([sv, np.zeros(6 - len(sv))]) <= 1e-9 * sv[0]].T  # (6, k): the motions the lines leave free
+    if N.size:
+        for _ in range(30):
+            Rt, pt = R @ tool_n[:3, :3], R @ tool_n[:3, 3] + t
+            Jt = np.vstack([np.hstack([-skew(pt), np.eye(3)]), np.hstack([np.eye(3), np.zeros((3, 3))])])
+            rt = np.concatenate([pt - tool_i[:3, 3], matrix_rotvec(Rt @ tool_i[:3, :3].T)])
+            step = N @ np.linalg.lstsq(Jt @ N, -rt, rcond=1e-9)[0]
+            R, t = update(R, t, step)
+            if np.linalg.norm(step) < 1e-15:
+                break
     return pose(R, t)
 
 
@@ -795,7 +815,8 @@ def _body_maps(info: dict, model: _core.Model, frames: np.ndarray) -> list[np.nd
     n = model.nq
     Fn = np.array([np.asarray(info["bodies"][i + 1]["links"][0]["T_world_link"], dtype=float) @ pose(z_to(j["axis"]))
                    for i, j in enumerate(info["joints"])])
-    X = _register_lines(Fn, frames, list(model.kinds))
+    tool_n = np.asarray(info["bodies"][n]["links"][-1]["T_world_link"], dtype=float)  # the tip link
+    X = _register_lines(Fn, frames, list(model.kinds), tool_n, frames[n - 1] @ np.asarray(model.T_last_tool))
     out = []
     for b in range(n + 1):
         j = max(b - 1, 0)
