@@ -361,8 +361,9 @@ MOVING = ("revolute", "continuous", "prismatic")
 def _default_tip(path, base_link: str, below: list, children: dict, parent_of: dict) -> tuple[str, str]:
     """The tip link when none is given, and why (empty when there is a single leaf): REP-199's ``tool0`` when
     the tree has one (ROS-Industrial descriptions also hang a ``base`` frame, sensors and flanges off the
-    arm), else the leaf reached through the most moving joints (a camera or a ``base`` frame hangs off
-    through fewer); a tie is an error listing the candidates."""
+    arm), else the leaf reached through the most moving joints, mimic joints not counted (a camera or a
+    ``base`` frame hangs off through fewer; a gripper's mimicking finger through one fewer than the other);
+    a tie is an error listing the candidates."""
     leaves = [ln for ln in below if not children[ln]]
     if len(leaves) == 1:
         return leaves[0], ""
@@ -373,7 +374,7 @@ def _default_tip(path, base_link: str, below: list, children: dict, parent_of: d
         count = 0
         while ln != base_link:
             j = parent_of[ln]
-            count += (j.type or "").strip() in MOVING
+            count += (j.type or "").strip() in MOVING and j.mimic is None  # a mimic joint is no degree of freedom
             ln = j.parent
         return count
 
