@@ -1,10 +1,10 @@
-"""URDF in and out: the identified robot goes where users work.
+"""URDF in and out: the identified robot goes where users work (docs/urdf.md).
 
 Import (:func:`load_urdf`, :func:`urdf_model`) reads a URDF with `yourdfpy` (lxml underneath; the XML is
-first parsed strictly, so a malformed file is an error, never a silent recovery), picks the serial chain
-between a base and a tip link and builds the one :class:`~denavit.Model` of docs/conventions.md from it.
-Export (:func:`dumps_urdf`, :func:`save_urdf`) writes any model, identified ones included, as URDF
-(XML built with lxml, floats printed with ``repr`` so export -> import is exact to about 1e-15).
+first parsed strictly, so a malformed file is an error, never a silent recovery; an undeclared namespace
+prefix is tolerated as urdfdom tolerates it), picks the serial chain between a base and a tip link and builds
+the one :class:`~denavit.Model` of docs/conventions.md from it. Export (:func:`dumps_urdf`,
+:func:`save_urdf`) writes any model, identified ones included, as URDF.
 
 Mapping (docs/conventions.md, "The model")
 ------------------------------------------
@@ -23,51 +23,44 @@ when ``a`` points down)::
 
 :func:`urdf_model` returns that exact model. :func:`load_urdf` returns a :class:`~denavit.Robot`, whose
 table is the ED-H table (Guo et al. eq. 1-2) extracted from the model's axes with the frame origins at
-the URDF joint origins: exact for every geometry (same axes, same tool pose; the ED-H x axes follow the
-extraction rules instead of the URDF's arbitrary link x axes). Continuous joints get infinite limits.
+the URDF joint origins: exact for every geometry (same axes, same tool pose). Continuous joints get
+infinite limits. Its inertials are the whole body's: the links off the chain merged into the chain body that
+carries them, their movable joints locked (:func:`load_urdf`).
 
-Export writes the model's joint frames as URDF links (joint ``axis`` = z, ``origin`` = the placement with
-the zero offset folded in, so the URDF's joint values equal the model's ``q``), ``T_world_base`` as a fixed
-joint from a ``world`` root link when it is not the identity, and ``T_last_tool`` (flange and tool) as a fixed
-joint to a tool link. For ED-H and URDF-derived models the link frames lie on the body (their origins are on the
-joint axes, at the URDF joint origins); DH frames can lie off the body, which is why ED-H is the default
-route for identified robots.
+Export
+------
+A robot read from a URDF is written back as that URDF (its ``<robot>`` element is kept in
+``Robot.extra["urdf"]["xml"]``): every link and joint keeps its name, elements and frame, the links off the
+chain included (unless loaded ``chain_only``). Each chain link rides rigidly on its body; the body is moved
+from the nominal onto the model's joint axes, so only the chain joints' origins, axes and limits change, and
+only where they differ by more than :data:`SAME` (the unchanged model's text is the URDF's own, and
+export -> import -> export is byte-identical). Numbers are written with ``repr`` (the shortest text that
+reads back to the same double), rpy by :func:`denavit.geometry.matrix_rpy`.
 
-What a URDF carries beyond kinematics (visuals, collisions, inertials, materials, effort and velocity
-limits, damping and friction) is kept in ``Robot.extra["urdf"]`` (plain dicts and lists, SI, see
-:func:`load_urdf`) and written back on export when the model has the same number of joints. Links off
-the chosen chain are not carried.
-
-Meshes and inertials of an identified robot
--------------------------------------------
-The kept link poses are in the nominal URDF's base link frame; an identified model is in the measurement
-frame (a laser tracker's, anywhere), and its joint frames, even where the axes are the nominal's, are a
-convention's: ED-H puts the UR shoulder frame 0.36 m along the axis from the URDF joint origin, DH turns
-frames about their axes. So neither ``T_world_link`` as it stands (2.3 m off for a tracker 2 m away) nor
-its pose relative to the nominal URDF joint frame ``F_n`` (``inv(F_n) · T_world_link``) can be written on
-the model's frame directly. Export (:func:`_carry`):
+Identified robots
+-----------------
+An identified model is in the measurement frame (a laser tracker's, anywhere), and its joint frames, even
+where the axes are the nominal's, are a convention's: ED-H puts the UR shoulder frame 0.36 m along the axis
+from the URDF joint origin, DH turns frames about their axes. So neither the nominal link poses as they stand
+(2.3 m off for a tracker 2 m away) nor their poses relative to the model's joint frames can be written
+directly. Export (:func:`_body_maps`):
 
 1. registers the nominal joint axis lines at ``q = 0`` onto the model's (``X``, :func:`_register_lines`;
-   lines only, so neither the frames' origins along their axes nor their turn about them matter);
+   lines only, so neither the frames' origins along their axes nor their turn about them matter; what the
+   lines leave free, the slide along an all-parallel chain's axes, is fixed by the tool);
 2. anchors each body on the axis it turns about (the base body: the first axis, which it carries):
    ``A = X · F_n`` moved by the smallest rotation and shift that put its z axis on the model's axis line;
-3. writes each element at ``inv(E) · A · inv(F_n) · T_world_link`` in its exported link, ``E`` the link's
-   frame at ``q = 0``: the model's joint frame, or for the base body the model's base (the exported base
-   link is where the model's base is, e.g. the tracker frame; the base meshes sit on the first axis).
+3. places each chain link of the body at ``A · inv(F_n) · T_world_link``; a joint's origin is its child's pose
+   in its parent's, its axis the model's axis in the child link.
 
-The element then rides on the model's joint frame (at ``q`` it is moved by ``E(q) · inv(E)``), with the
-same joint zero (identify works with the robot's readings). For the
-nominal's own model, any convention, in any frame, the meshes land exactly where the nominal URDF has
-them (moved with the base); for a noise-free identification to ~1e-14, for a noisy one each body turns on
-its identified axis and the registration's error places it along and about it. Measured on the UR-style arm
-(tests): the identified ED-H frames' turn about their own axes equals the nominal's to 1e-15 (offsets
-included), but their origins slide along the axes, which the registration absorbs.
+For the nominal's own model, any convention, in any frame, every link lands exactly where the nominal URDF has
+it (moved with the base); for a noise-free identification to ~1e-14, for a noisy one each body turns on its
+identified axis and the registration's error places it along and about it. The URDF's root is the model's
+world (a ``world`` root is added when that is not the file's root) and its tool a ``tcp`` frame on the tip link
+when the model's tool is not the tip link (an identified tool point).
 
-Dynamics: :func:`load_urdf` also merges each moving body's inertials (its link and the links fixed to it,
-parallel-axis theorem) into ``Robot.inertials``, so the robot's model has the URDF's dynamics; an
-unphysical inertial (negative mass, inertia not positive semi-definite or breaking the triangle
-inequality) gives a :class:`~denavit.errors.DenavitWarning` naming the link, and massless links. A model
-exported without URDF information writes its own link inertias (link *i* = joint frame *i*).
+A model without a URDF is written with link *i* = its joint frame *i* (``base_link``, ``link_1`` ...,
+``flange``, ``tool0``; :func:`dumps_urdf`).
 """
 
 from __future__ import annotations
