@@ -163,15 +163,15 @@ def pinocchio_frames(path, q, links):
 
 @pytest.mark.parametrize("path", GOOD, ids=lambda p: p.stem)
 def test_pinocchio_reads_the_same_frames(path, tmp_path):
-    """A second, independent URDF reader (pinocchio, bench extra; skipped without it): the imported model's
-    frames match pinocchio's on the test file, and the exported file's link frames are the model's joint
-    frames."""
+    """A second, independent URDF reader (pinocchio): the imported model's frames match pinocchio's on the
+    test file, and every link of the exported file is the original's link of the same name (issue #15: the
+    export had given the names to the model's joint frames, shoulder_link turned by 180 deg)."""
     ch = U.read_chain(path)
     m = ch.model()
     robot = U.load_urdf(path)
     out = tmp_path / "out.urdf"
     U.save_urdf(robot.model(), out, robot)
-    back = U.read_chain(out)
+    links = [l.name for l in yourdfpy.URDF.load(str(path), load_meshes=False).robot.links]
     for q in qs_within(m, 5, seed=4):
         T = pinocchio_frames(path, q, ch.extra["body_links"][1:] + [ch.tip_link])
         F = dv.joint_frames(m, q)
@@ -180,11 +180,9 @@ def test_pinocchio_reads_the_same_frames(path, tmp_path):
             R[:3, :3] = U.z_to(a)
             assert pose_err(F[i] @ R.T, T[i]) < 1e-12
         assert pose_err(dv.fk(m, q), T[-1]) < 1e-12
-        T = pinocchio_frames(out, q, back.extra["body_links"][1:] + [back.tip_link])
-        F = dv.joint_frames(robot.model(), q)
-        for i in range(m.nq):
-            assert pose_err(F[i], T[i]) < 1e-12
-        assert pose_err(dv.fk(robot.model(), q), T[-1]) < 1e-12
+        for link, Ta, Tb in zip(links, pinocchio_frames(path, q, links), pinocchio_frames(out, q, links)):
+            assert pose_err(Ta, Tb) < 1e-12, link
+        assert pose_err(dv.fk(robot.model(), q), pinocchio_frames(out, q, [ch.tip_link])[0]) < 1e-12
 
 
 # --------------------------------------------------------------------------------------------------
@@ -193,8 +191,9 @@ def test_pinocchio_reads_the_same_frames(path, tmp_path):
 
 @pytest.mark.parametrize("path", GOOD, ids=lambda p: p.stem)
 def test_urdf_model_urdf_round_trip(path, tmp_path):
-    """URDF -> Robot (ED-H) -> URDF -> model: every joint frame and the tool to 1e-12; importing the
-    exported file again gives the same ED-H table (export/import is a fixed point)."""
+    """URDF -> Robot (ED-H) -> URDF -> model: every joint frame is the original URDF's (the names are kept,
+    issue #15) and the tool to 1e-12; importing the exported file again gives the same ED-H table, and
+    exporting that is byte-identical (it had written 0.28 <-> 0.2799999999999999)."""
     robot = U.load_urdf(path)
     exact = U.urdf_model(path)
     m = robot.model()
@@ -208,11 +207,12 @@ def test_urdf_model_urdf_round_trip(path, tmp_path):
     U.save_urdf(m, out, robot)
     back = U.urdf_model(out)
     assert back.names == m.names
-    assert frames_err(back, m, qs) < 1e-12
+    assert frames_err(back, exact, qs) < 1e-12
     assert tool_err(back, m, qs) < 1e-12
     again = U.load_urdf(out)
     np.testing.assert_allclose(again.table.params, robot.table.params, atol=1e-12)
     assert frames_err(again.model(), m, qs[:10]) < 1e-12
+    assert U.dumps_urdf(again.model(), again) == out.read_text()
     # the exact model exports and re-imports exactly too
     U.save_urdf(exact, out)
     assert frames_err(U.urdf_model(out), exact, qs) < 1e-12
@@ -366,12 +366,16 @@ def test_identified_model_exports_with_frames_within_the_robot(kr5, tmp_path):
         m = res.model()
         out = tmp_path / f"identified_{conv}.urdf"
         U.save_urdf(m, out, nominal)
-        back = U.urdf_model(out)
-        assert frames_err(back, m, qs) < 1e-12
+        back = U.urdf_model(out, tip_link="tcp")  # the identified tool point, a frame fixed to tool0
+        assert tool_err(back, m, qs) < 1e-12
+        for q in qs[:5]:
+            a, b = dv.axes(back, q), dv.axes(m, q)
+            np.testing.assert_allclose(a.directions, b.directions, atol=1e-12)
+            assert np.abs(np.cross(a.points - b.points, b.directions)).max() < 1e-12
         for q in (np.zeros(6), np.radians(sw.PAPER_HOME_DEG)):
             F = dv.joint_frames(back, q)
             assert np.linalg.norm(F[:, :3, 3] - back.T_world_base[:3, 3], axis=1).max() < 2 * reach, conv
-        ch = U.read_chain(out)
+        ch = U.read_chain(out, tip_link="tcp")
         assert np.linalg.norm(ch.placements[:, :3, 3], axis=1).max() < 2 * reach
         assert ch.names == nominal.names and ch.extra["body_links"][1:] == ["link_1", "link_2", "link_3", "link_4", "link_5", "link_6"]
         np.testing.assert_allclose(back.lower, nominal.lower)
@@ -481,10 +485,11 @@ def test_identified_in_a_measurement_frame_carries_meshes_onto_the_robot(path, c
     m = dv.identify(s, convention=conv, nominal=nominal).model()
     out = tmp_path / "identified.urdf"
     U.save_urdf(m, out, nominal)
-    back = U.urdf_model(out)
-    assert pose_err(back.T_world_base, m.T_world_base) < 1e-12  # the root link is the identified base
     a = yourdfpy.URDF.load(str(path), build_scene_graph=True, load_meshes=False)
     b = yourdfpy.URDF.load(str(out), build_scene_graph=True, load_meshes=False)
+    assert b.base_link == "world" and pose_err(b.get_transform(a.base_link, "world"), TRACKER) < 1e-9  # the root is the tracker frame
+    back = U.urdf_model(out, tip_link="tcp")
+    assert tool_err(back, m, qs_within(m, 20)) < 1e-12
     R, p = TRACKER[:3, :3], TRACKER[:3, 3]
     for q in qs_within(nominal.model(), 5, seed=4):
         ia, Ma, ca, Ia = world_items(a, q)
@@ -704,6 +709,8 @@ def test_convert_cli_prints_tables_and_writes_urdf(tmp_path):
     assert r.exit_code == 0, r.output
     assert tool_err(U.urdf_model(out), dv.load_model("kr5"), qs_within(dv.load_model("kr5"), 20)) < 1e-12
     r = runner.invoke(app, ["convert", str(DATA / "two_tips.urdf"), "--to", "urdf", "--tip-link", "tool0"])
+    assert r.exit_code == 0 and "<robot" in r.output and '<link name="camera"/>' in r.output  # off-chain links kept
+    r = runner.invoke(app, ["convert", str(DATA / "two_tips.urdf"), "--to", "urdf", "--tip-link", "tool0", "--chain-only"])
     assert r.exit_code == 0 and "<robot" in r.output and "camera" not in r.output
     r = runner.invoke(app, ["convert", str(DATA / "two_tips.urdf"), "--to", "dh", "--base-link", "link_1", "--tip-link", "tool0", "--json"])
     assert r.exit_code == 0 and len(json.loads(r.output)["rows"]) == 1
@@ -889,3 +896,202 @@ def test_calibrate_writes_urdf_with_the_nominals_meshes(tmp_path):
     cal_toml = dv.load_model(tmp_path / "cal.toml")
     for qq in q[:10]:
         np.testing.assert_allclose(dv.fk(m, qq)[:3, 3], dv.fk(cal_toml, qq)[:3, 3], atol=1e-9)
+
+
+PARALLEL = """<robot name="planar">
+  <link name="base_link"><visual><origin xyz="0.01 0 0.02"/><geometry><mesh filename="base.stl"/></geometry></visual></link>
+  <link name="link_1"><visual><origin xyz="0.1 0 0.03" rpy="0 0 0.2"/><geometry><mesh filename="link_1.stl"/></geometry></visual></link>
+  <link name="link_2"><visual><origin xyz="0.1 0.02 0.01"/><geometry><mesh filename="link_2.stl"/></geometry></visual></link>
+  <joint name="j1" type="revolute"><parent link="base_link"/><child link="link_1"/><origin xyz="0.05 0.02 0.3" rpy="0.1 0 0"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="10" velocity="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="link_1"/><child link="link_2"/><origin xyz="0.4 0 0.07"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="10" velocity="1"/></joint>
+</robot>"""
+
+
+@pytest.mark.parametrize("conv", ["dh", "mdh", "edh", "poe"])
+def test_meshes_of_an_all_parallel_chain_are_placed_exactly(conv, tmp_path):
+    """Two parallel axes leave the slide along them free in the axis registration (meshes had been placed
+    32.8 um off, 2.4 mm here): the tool fixes it, so every link and mesh of the export is the original's to
+    1e-12, in any convention and in a tracker frame."""
+    p = write(tmp_path, PARALLEL)
+    nominal = U.load_urdf(p)
+    a = yourdfpy.URDF.load(str(p), build_scene_graph=True, load_meshes=False)
+    for T in (np.eye(4), TRACKER):
+        moved = nominal.model().with_base(T @ nominal.model().T_world_base)
+        m = dv.to_table(moved, conv, parallel_tol=1e-9).table.to_model("t", nominal.names, nominal.lower, nominal.upper)
+        out = tmp_path / f"{conv}.urdf"
+        U.save_urdf(m, out, nominal)
+        b = yourdfpy.URDF.load(str(out), build_scene_graph=True, load_meshes=False)
+        assert "tcp" not in b.link_map
+        for q in qs_within(m, 3, seed=2):
+            ia, ib = world_items(a, q)[0], world_items(b, q)[0]
+            assert [k for k, _ in ia] == [k for k, _ in ib] and len(ia) == 3
+            for (k, Ta), (_, Tb) in zip(ia, ib):
+                assert pose_err(T @ Ta, Tb) < 1e-12, k
+
+
+def test_no_limit_is_invented(tmp_path):
+    """Effort and velocity are written as the URDF gave them; a continuous joint without a <limit> gets none
+    (it had been given <limit effort="0" velocity="0"/>, which ros_control reads as a joint that cannot move)."""
+    text = UR.read_text().replace('<limit effort="28" velocity="3.2"/>', "")
+    robot = U.load_urdf(write(tmp_path, text))
+    out = U.dumps_urdf(robot.model(), robot)
+    u = yourdfpy.URDF.load(str(write(tmp_path, out, "out.urdf")), load_meshes=False)
+    assert u.joint_map["wrist_3_joint"].limit is None and u.joint_map["wrist_3_joint"].type == "continuous"
+    assert (u.joint_map["elbow_joint"].limit.effort, u.joint_map["elbow_joint"].limit.velocity) == (150.0, 3.15)
+    text = U.dumps_urdf(dv.load_model("puma560").with_tool(Rz(0.3)))
+    assert 'type="continuous"' not in text or '<limit effort="0"' not in text
+
+
+# --------------------------------------------------------------------------------------------------
+# URDFs in the shape of real ones (issue #15): names, frames and the whole body's dynamics
+
+
+UR_ROS, IRB, HUMANOID, GRIPPER = DATA / "ur5_ros.urdf", DATA / "irb_rosi.urdf", DATA / "humanoid.urdf", DATA / "gripper.urdf"
+# (file, tip link or None for the default); the default tips: tool0, tool0, arm_right_tool_link, leftfinger
+TREES = [(UR_ROS, None), (UR_ROS, "wrist_3_link"), (IRB, None), (IRB, "link_6"), (HUMANOID, None), (HUMANOID, "xtion_rgb_optical_frame"),
+         (HUMANOID, "arm_left_hand"), (GRIPPER, None), (GRIPPER, "hand_tcp")]
+TREE_IDS = [f"{p.stem}-{t or 'default'}" for p, t in TREES]
+
+
+def all_joint_values(u: yourdfpy.URDF, robot, q, rng):
+    """A configuration of every actuated joint of the tree: the chain's at ``q``, the others random."""
+    cfg = {j.name: rng.uniform(max(j.limit.lower, -1.0), min(j.limit.upper, 1.0)) if j.limit is not None and j.limit.lower is not None and j.type != "continuous" else rng.uniform(-1, 1)
+           for j in u.actuated_joints}
+    cfg.update(zip(robot.names, q))
+    return cfg
+
+
+@pytest.mark.parametrize("path, tip", TREES, ids=TREE_IDS)
+def test_export_is_the_original_tree(path, tip, tmp_path):
+    """`convert X.urdf --to urdf` of the unchanged model is the original tree: every link of the original
+    (tool0, flange, base, the `world` root, sensor frames, off-chain arms and fingers) is in the export, and
+    each is the original's frame to 1e-12 at any configuration, read by yourdfpy and by pinocchio (the export
+    had turned shoulder_link by 180 deg, invented a tool0 82.3 mm off and dropped every off-chain link);
+    export -> import -> export is byte-identical; --chain-only writes the links from base to tip alone."""
+    pin = pytest.importorskip("pinocchio")
+    robot = U.load_urdf(path, tip_link=tip)
+    out = tmp_path / "out.urdf"
+    U.save_urdf(robot.model(), out, robot)
+    a = yourdfpy.URDF.load(str(path), build_scene_graph=True, load_meshes=False)
+    b = yourdfpy.URDF.load(str(out), build_scene_graph=True, load_meshes=False)
+    assert sorted(b.link_map) == sorted(a.link_map) and sorted(b.joint_map) == sorted(a.joint_map)
+    pa, pb = pin.buildModelFromUrdf(str(path)), pin.buildModelFromUrdf(str(out))
+    da, db = pa.createData(), pb.createData()
+    rng = np.random.default_rng(3)
+    for q in qs_within(robot.model(), 4, seed=5):
+        cfg = all_joint_values(a, robot, q, rng)
+        a.update_cfg(cfg)
+        b.update_cfg(cfg)
+        xa, xb = pin.neutral(pa), pin.neutral(pb)
+        for pm, x in ((pa, xa), (pb, xb)):
+            for k in range(1, pm.njoints):
+                uj = a.joint_map[pm.names[k]]  # a mimic joint (not actuated in yourdfpy) follows its joint
+                v = cfg[uj.name] if uj.mimic is None else (uj.mimic.multiplier or 1.0) * cfg[uj.mimic.joint] + (uj.mimic.offset or 0.0)
+                j = pm.joints[k]
+                x[j.idx_q : j.idx_q + j.nq] = [math.cos(v), math.sin(v)] if j.nq == 2 else [v]
+        pin.framesForwardKinematics(pa, da, xa)
+        pin.framesForwardKinematics(pb, db, xb)
+        for link in a.link_map:
+            assert pose_err(a.get_transform(link), b.get_transform(link)) < 1e-12, link
+            Ta, Tb = da.oMf[pa.getFrameId(link, pin.BODY)].homogeneous, db.oMf[pb.getFrameId(link, pin.BODY)].homogeneous
+            assert pose_err(Ta, Tb) < 1e-12 and pose_err(Ta, a.get_transform(link)) < 1e-12, link
+        # the tool and the axes as the model has them
+        assert pose_err(b.get_transform(robot.extra["urdf"]["tip_link"]), dv.fk(robot.model(), q)) < 1e-12
+    again = U.load_urdf(out, tip_link=tip)
+    assert U.dumps_urdf(again.model(), again) == out.read_text()
+    chain = U.load_urdf(path, tip_link=tip, chain_only=True)
+    c = yourdfpy.URDF.load(str(write(tmp_path, U.dumps_urdf(chain.model(), chain), "chain.urdf")), build_scene_graph=True, load_meshes=False)
+    assert list(c.link_map) == robot.extra["urdf"]["path_links"]
+    q = qs_within(robot.model(), 1, seed=8)[0]
+    c.update_cfg(dict(zip(robot.names, q)))
+    a.update_cfg(all_joint_values(a, robot, q, rng))
+    base = robot.extra["urdf"]["base_link"]
+    for link in c.link_map:
+        assert pose_err(c.get_transform(link), a.get_transform(link, base)) < 1e-12, link
+
+
+def reduced_pinocchio(pin, path, robot, locked=None):
+    """pinocchio's model of the full tree with every joint off the chain locked (at ``locked``, else 0)."""
+    full = pin.buildModelFromUrdf(str(path))
+    x = pin.neutral(full)
+    lock = []
+    for k in range(1, full.njoints):
+        if full.names[k] not in robot.names:
+            lock.append(k)
+            v = (locked or {}).get(full.names[k], 0.0)
+            j = full.joints[k]
+            x[j.idx_q : j.idx_q + j.nq] = [math.cos(v), math.sin(v)] if j.nq == 2 else [v]
+    red = pin.buildReducedModel(full, lock, x)
+    assert list(red.names)[1:] == robot.names
+    return red
+
+
+@pytest.mark.parametrize("path, tip", TREES, ids=TREE_IDS)
+def test_dynamics_of_the_whole_body_match_pinocchio(path, tip):
+    """The off-chain links (the other arm, the head, the wheels' carrier, fingers, a wrist camera) ride on
+    the chain body that carries them: inverse dynamics equal pinocchio's full tree with the off-chain joints
+    locked (buildReducedModel) to 1e-9 N m (they had been left out silently: TIAGo's torso 161.8 N against
+    187.7 N), and --chain-only leaves them out, as pinocchio's model of the chain alone does."""
+    pin = pytest.importorskip("pinocchio")
+    robot = U.load_urdf(path, tip_link=tip)
+    m = robot.model()
+    red = reduced_pinocchio(pin, path, robot)
+    data = red.createData()
+    rng = np.random.default_rng(11)
+    for q in qs_within(m, 5, seed=12):
+        qd, qdd = rng.normal(size=m.nq), rng.normal(size=m.nq)
+        np.testing.assert_allclose(dv.rnea(m, q, qd, qdd), pin.rnea(red, data, pin_q(red, q), qd, qdd), rtol=0, atol=1e-9)
+    merged = [ld for b in robot.extra["urdf"]["bodies"][1:] for ld in b["attached"] if ld.get("inertial", {}).get("mass", 0) > 0]
+    if merged:
+        assert any("merged" in n and f"{len(merged)} off-chain link" in n for n in robot.notes)
+        alone = U.load_urdf(path, tip_link=tip, chain_only=True)
+        assert not any("merged" in n for n in alone.notes)
+        q = qs_within(m, 1, seed=13)[0]
+        kg = sum(ld["inertial"]["mass"] for ld in merged)
+        assert np.abs(dv.gravity_torques(m, q) - dv.gravity_torques(alone.model(), q)).max() > 1e-3 * kg
+
+
+def test_locked_off_chain_joints_at_given_values():
+    """The head turned and tilted, the left arm raised: the torques equal pinocchio's reduced model locked
+    at the same values; a name that is not an off-chain joint is an error naming the choices."""
+    pin = pytest.importorskip("pinocchio")
+    locked = {"head_1_joint": 0.4, "head_2_joint": -0.3, "arm_left_1_joint": 1.1, "arm_left_2_joint": -0.5}
+    robot = U.load_urdf(HUMANOID, locked=locked)
+    m = robot.model()
+    red = reduced_pinocchio(pin, HUMANOID, robot, locked)
+    data = red.createData()
+    rng = np.random.default_rng(2)
+    for q in qs_within(m, 3, seed=3):
+        qd, qdd = rng.normal(size=m.nq), rng.normal(size=m.nq)
+        np.testing.assert_allclose(dv.rnea(m, q, qd, qdd), pin.rnea(red, data, pin_q(red, q), qd, qdd), rtol=0, atol=1e-9)
+    assert np.abs(dv.gravity_torques(m, np.zeros(m.nq)) - dv.gravity_torques(U.load_urdf(HUMANOID).model(), np.zeros(m.nq)))[1] > 1e-2  # torso_2
+    with pytest.raises(dv.DenavitError, match=r"locked joint 'arm_right_1_joint': expected off-chain movable joints \('arm_left_1_joint'"):
+        U.load_urdf(HUMANOID, locked={"arm_right_1_joint": 0.1})
+
+
+def test_identified_export_keeps_every_link_on_its_body(tmp_path):
+    """An identified UR5 (noisy sweeps in a tracker frame): the export keeps every link and joint name; each
+    chain link sits on its body (the same pose relative to the nominal's body frame to 1e-12: only chain joint
+    origins and axes changed, every <link> element, mesh and inertial is the original's text), off-chain
+    frames ride on their parents, a `world` root holds the tracker frame and `tcp` the identified tool point."""
+    from lxml import etree  # noqa: PLC0415
+
+    from denavit import identify as ident  # noqa: PLC0415
+    from denavit import sweeps as sw  # noqa: PLC0415
+
+    nominal = U.load_urdf(UR_ROS)
+    truth = nominal.model().with_base(TRACKER)
+    home = (np.maximum(nominal.lower, -np.pi) + np.minimum(nominal.upper, np.pi)) / 2
+    s = sw.simulate(truth, home=home, ranges=np.stack([home - 0.6, home + 0.6], axis=1), points_per_sweep=12, noise=2e-5, seed=4)
+    m = ident.identify(s, convention="edh", nominal=nominal).model()
+    out = tmp_path / "identified.urdf"
+    U.save_urdf(m, out, nominal)
+    src = {el.get("name"): etree.tostring(el) for el in etree.parse(str(UR_ROS), etree.XMLParser(remove_blank_text=True)).getroot() if el.tag == "link"}
+    new = {el.get("name"): etree.tostring(el) for el in etree.parse(str(out), etree.XMLParser(remove_blank_text=True)).getroot() if el.tag == "link"}
+    assert all(new[name] == text for name, text in src.items()) and set(new) - set(src) == {"world_2", "tcp"}
+    b = yourdfpy.URDF.load(str(out), build_scene_graph=True, load_meshes=False)
+    assert b.base_link == "world_2"  # the tracker frame above the file's own `world` root
+    back = U.urdf_model(out, tip_link="tcp")
+    qs = qs_within(m, 20)
+    assert tool_err(back, m, qs) < 1e-12
+    assert pose_err(b.get_transform("wrist_camera_optical_frame", "wrist_3_link"), yourdfpy.URDF.load(str(UR_ROS), build_scene_graph=True, load_meshes=False).get_transform("wrist_camera_optical_frame", "wrist_3_link")) < 1e-12

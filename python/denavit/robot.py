@@ -95,16 +95,19 @@ def resolve(name_or_path: str | os.PathLike) -> Path:
     raise DenavitError(f"unknown model {str(name_or_path)!r}: expected a built-in name ({', '.join(builtin_names())}) or an existing robot file (.toml) or URDF (.urdf)")
 
 
-def load(name_or_path: str | os.PathLike, *, base_link: str | None = None, tip_link: str | None = None) -> Robot:
+def load(name_or_path: str | os.PathLike, *, base_link: str | None = None, tip_link: str | None = None, chain_only: bool = False,
+         locked: dict | None = None) -> Robot:
     """The :class:`Robot` of a built-in name, a robot file (.toml, :mod:`denavit.io.robotfile`) or a URDF
-    (.urdf, :mod:`denavit.io.urdf`; ``base_link`` / ``tip_link`` pick its chain). SI inside."""
+    (.urdf, :mod:`denavit.io.urdf`; ``base_link`` / ``tip_link`` pick its chain; the links off it are merged
+    into the chain's dynamics, their movable joints at ``locked`` ({joint: value}, default 0), unless
+    ``chain_only``). SI inside."""
     path = resolve(name_or_path)
     if path.suffix.lower() == ".urdf":
         from .io.urdf import load_urdf  # noqa: PLC0415 (yourdfpy and lxml load only for a URDF)
 
-        return load_urdf(path, base_link=base_link, tip_link=tip_link)
-    if base_link is not None or tip_link is not None:
-        raise DenavitError(f"{path}: base_link/tip_link apply to a URDF, got a robot file")
+        return load_urdf(path, base_link=base_link, tip_link=tip_link, chain_only=chain_only, locked=locked)
+    if base_link is not None or tip_link is not None or chain_only or locked:
+        raise DenavitError(f"{path}: base_link/tip_link/chain_only/locked apply to a URDF, got a robot file")
     from .io.robotfile import read  # noqa: PLC0415
 
     return read(path)

@@ -51,16 +51,19 @@ ModelArg = Annotated[str, typer.Argument(help="A built-in name (see `denavit mod
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")]
 BaseLinkOpt = Annotated[str | None, typer.Option("--base-link", help="URDF model: the chain's base link (default: the root link).")]
 TipLinkOpt = Annotated[str | None, typer.Option("--tip-link", help="URDF model: the chain's tip link (default: the single leaf, REP-199's tool0, or the leaf through the most moving joints; echoed).")]
+ChainOnlyOpt = Annotated[bool, typer.Option("--chain-only", help="URDF model: the chain alone, without the links off it (in the dynamics and in a URDF written).")]
 
 
-def load_robot(model: str, base_link: str | None = None, tip_link: str | None = None, what: str = "MODEL") -> Robot:
+def load_robot(model: str, base_link: str | None = None, tip_link: str | None = None, what: str = "MODEL", chain_only: bool = False) -> Robot:
     """The robot of a MODEL argument (built-in name, robot file or URDF; ``base_link``/``tip_link`` pick a URDF's
     chain), with what the reader chose on the user's behalf said in one line each."""
     from ..robot import load  # noqa: PLC0415
 
     if (base_link is not None or tip_link is not None) and not str(model).lower().endswith(".urdf"):
         fail(f"--base-link/--tip-link apply to a URDF {what}, got {model!r}")
-    robot = load(model, base_link=base_link, tip_link=tip_link)
+    if chain_only and not str(model).lower().endswith(".urdf"):
+        chain_only = False  # a robot file or built-in is a chain already
+    robot = load(model, base_link=base_link, tip_link=tip_link, chain_only=chain_only)
     for note in robot.notes:
         say("dim", "note:", f" {note}", err=True)
     return robot

@@ -15,7 +15,7 @@ from ..errors import DenavitError
 from ..io.output import json_text
 from ..io.units import length_scale
 from ..robot import Robot, inertials_for_table
-from .common import BaseLinkOpt, JsonOpt, ModelArg, TipLinkOpt, app, console, fmt, load_robot, print_table, say, table_rows, wrote
+from .common import BaseLinkOpt, ChainOnlyOpt, JsonOpt, ModelArg, TipLinkOpt, app, console, fmt, load_robot, print_table, say, table_rows, wrote
 
 
 @app.command()
@@ -28,6 +28,7 @@ def convert(
     parallel_tol: Annotated[float, typer.Option(help="Axes with sin(angle) below this are parallel.")] = 1e-3,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
+    chain_only: ChainOnlyOpt = False,
     json_out: JsonOpt = False,
 ) -> None:
     """Express a robot in another convention through its joint axes, with the FK-parity check.
@@ -37,7 +38,7 @@ def convert(
     diagnostics, or write a robot file with ``-o``.
     """
     to = to.lower()
-    robot = load_robot(model, base_link, tip_link)
+    robot = load_robot(model, base_link, tip_link, chain_only=chain_only)
     m = robot.model()
     if to == "urdf":
         from ..io.urdf import dumps_urdf, save_urdf  # noqa: PLC0415

@@ -9,7 +9,7 @@ from rich.table import Table as RichTable
 
 from .. import _core
 from ..io.output import json_text
-from .common import BaseLinkOpt, JsonOpt, ModelArg, TipLinkOpt, app, console, fail, fmt, joint_values_out, load_robot, parse_joint_values, parse_numbers, say
+from .common import BaseLinkOpt, ChainOnlyOpt, JsonOpt, ModelArg, TipLinkOpt, app, console, fail, fmt, joint_values_out, load_robot, parse_joint_values, parse_numbers, say
 
 
 @app.command()
@@ -25,13 +25,14 @@ def dynamics(
     json_out: JsonOpt = False,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
+    chain_only: ChainOnlyOpt = False,
 ) -> None:
     """Inverse dynamics (recursive Newton-Euler): the joint torques (N m) / forces (N) for q, qd, qdd.
 
     Uses the link inertias of the robot file (\\[joints.inertia]); without them every link is massless and a
     warning says so. Also prints the gravity part of the torques.
     """
-    robot = load_robot(model, base_link, tip_link)
+    robot = load_robot(model, base_link, tip_link, chain_only=chain_only)
     m = robot.model()
     angle = "deg" if deg else "rad"
     qv, qdv, qddv = (parse_joint_values(t, what, robot, unit, angle) for t, what in ((q, "--q"), (qd, "--qd"), (qdd, "--qdd")))

@@ -10,7 +10,7 @@ from rich.table import Table as RichTable
 
 from ..io.output import json_text
 from ..robot import builtin_names, load
-from .common import BaseLinkOpt, JsonOpt, ModelArg, TipLinkOpt, app, console, load_robot, parse_joint_values, print_table, wrote
+from .common import BaseLinkOpt, ChainOnlyOpt, JsonOpt, ModelArg, TipLinkOpt, app, console, load_robot, parse_joint_values, print_table, wrote
 
 
 @app.command()
@@ -66,11 +66,12 @@ def export_cmd(
     angle: str = "deg",
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
+    chain_only: ChainOnlyOpt = False,
     ur_kinematics: Annotated[Path | None, typer.Option("--ur-kinematics", help="Write Universal Robots' kinematics-parameters YAML (what ur_description's kinematics_params_file reads) instead of a robot file ('-': standard output).")] = None,
     ur_nominal: Annotated[str, typer.Option("--ur-nominal", help="With --ur-kinematics: the nominal UR arm (a standard DH robot file or built-in) whose link frames the file follows.")] = "ur5",
 ) -> None:
     """Print a robot file (TOML) in the given units, or write a UR kinematics-parameters file."""
-    robot = load_robot(model, base_link, tip_link)
+    robot = load_robot(model, base_link, tip_link, chain_only=chain_only)
     if ur_kinematics is not None:
         from ..io.ur_calibration import save  # noqa: PLC0415
 

@@ -1,10 +1,10 @@
-"""URDF in and out: the identified robot goes where users work.
+"""URDF in and out: the identified robot goes where users work (docs/urdf.md).
 
 Import (:func:`load_urdf`, :func:`urdf_model`) reads a URDF with `yourdfpy` (lxml underneath; the XML is
-first parsed strictly, so a malformed file is an error, never a silent recovery), picks the serial chain
-between a base and a tip link and builds the one :class:`~denavit.Model` of docs/conventions.md from it.
-Export (:func:`dumps_urdf`, :func:`save_urdf`) writes any model, identified ones included, as URDF
-(XML built with lxml, floats printed with ``repr`` so export -> import is exact to about 1e-15).
+first parsed strictly, so a malformed file is an error, never a silent recovery; an undeclared namespace
+prefix is tolerated as urdfdom tolerates it), picks the serial chain between a base and a tip link and builds
+the one :class:`~denavit.Model` of docs/conventions.md from it. Export (:func:`dumps_urdf`,
+:func:`save_urdf`) writes any model, identified ones included, as URDF.
 
 Mapping (docs/conventions.md, "The model")
 ------------------------------------------
@@ -23,51 +23,44 @@ when ``a`` points down)::
 
 :func:`urdf_model` returns that exact model. :func:`load_urdf` returns a :class:`~denavit.Robot`, whose
 table is the ED-H table (Guo et al. eq. 1-2) extracted from the model's axes with the frame origins at
-the URDF joint origins: exact for every geometry (same axes, same tool pose; the ED-H x axes follow the
-extraction rules instead of the URDF's arbitrary link x axes). Continuous joints get infinite limits.
+the URDF joint origins: exact for every geometry (same axes, same tool pose). Continuous joints get
+infinite limits. Its inertials are the whole body's: the links off the chain merged into the chain body that
+carries them, their movable joints locked (:func:`load_urdf`).
 
-Export writes the model's joint frames as URDF links (joint ``axis`` = z, ``origin`` = the placement with
-the zero offset folded in, so the URDF's joint values equal the model's ``q``), ``T_world_base`` as a fixed
-joint from a ``world`` root link when it is not the identity, and ``T_last_tool`` (flange and tool) as a fixed
-joint to a tool link. For ED-H and URDF-derived models the link frames lie on the body (their origins are on the
-joint axes, at the URDF joint origins); DH frames can lie off the body, which is why ED-H is the default
-route for identified robots.
+Export
+------
+A robot read from a URDF is written back as that URDF (its ``<robot>`` element is kept in
+``Robot.extra["urdf"]["xml"]``): every link and joint keeps its name, elements and frame, the links off the
+chain included (unless loaded ``chain_only``). Each chain link rides rigidly on its body; the body is moved
+from the nominal onto the model's joint axes, so only the chain joints' origins, axes and limits change, and
+only where they differ by more than :data:`SAME` (the unchanged model's text is the URDF's own, and
+export -> import -> export is byte-identical). Numbers are written with ``repr`` (the shortest text that
+reads back to the same double), rpy by :func:`denavit.geometry.matrix_rpy`.
 
-What a URDF carries beyond kinematics (visuals, collisions, inertials, materials, effort and velocity
-limits, damping and friction) is kept in ``Robot.extra["urdf"]`` (plain dicts and lists, SI, see
-:func:`load_urdf`) and written back on export when the model has the same number of joints. Links off
-the chosen chain are not carried.
-
-Meshes and inertials of an identified robot
--------------------------------------------
-The kept link poses are in the nominal URDF's base link frame; an identified model is in the measurement
-frame (a laser tracker's, anywhere), and its joint frames, even where the axes are the nominal's, are a
-convention's: ED-H puts the UR shoulder frame 0.36 m along the axis from the URDF joint origin, DH turns
-frames about their axes. So neither ``T_world_link`` as it stands (2.3 m off for a tracker 2 m away) nor
-its pose relative to the nominal URDF joint frame ``F_n`` (``inv(F_n) · T_world_link``) can be written on
-the model's frame directly. Export (:func:`_carry`):
+Identified robots
+-----------------
+An identified model is in the measurement frame (a laser tracker's, anywhere), and its joint frames, even
+where the axes are the nominal's, are a convention's: ED-H puts the UR shoulder frame 0.36 m along the axis
+from the URDF joint origin, DH turns frames about their axes. So neither the nominal link poses as they stand
+(2.3 m off for a tracker 2 m away) nor their poses relative to the model's joint frames can be written
+directly. Export (:func:`_body_maps`):
 
 1. registers the nominal joint axis lines at ``q = 0`` onto the model's (``X``, :func:`_register_lines`;
-   lines only, so neither the frames' origins along their axes nor their turn about them matter);
+   lines only, so neither the frames' origins along their axes nor their turn about them matter; what the
+   lines leave free, the slide along an all-parallel chain's axes, is fixed by the tool);
 2. anchors each body on the axis it turns about (the base body: the first axis, which it carries):
    ``A = X · F_n`` moved by the smallest rotation and shift that put its z axis on the model's axis line;
-3. writes each element at ``inv(E) · A · inv(F_n) · T_world_link`` in its exported link, ``E`` the link's
-   frame at ``q = 0``: the model's joint frame, or for the base body the model's base (the exported base
-   link is where the model's base is, e.g. the tracker frame; the base meshes sit on the first axis).
+3. places each chain link of the body at ``A · inv(F_n) · T_world_link``; a joint's origin is its child's pose
+   in its parent's, its axis the model's axis in the child link.
 
-The element then rides on the model's joint frame (at ``q`` it is moved by ``E(q) · inv(E)``), with the
-same joint zero (identify works with the robot's readings). For the
-nominal's own model, any convention, in any frame, the meshes land exactly where the nominal URDF has
-them (moved with the base); for a noise-free identification to ~1e-14, for a noisy one each body turns on
-its identified axis and the registration's error places it along and about it. Measured on the UR-style arm
-(tests): the identified ED-H frames' turn about their own axes equals the nominal's to 1e-15 (offsets
-included), but their origins slide along the axes, which the registration absorbs.
+For the nominal's own model, any convention, in any frame, every link lands exactly where the nominal URDF has
+it (moved with the base); for a noise-free identification to ~1e-14, for a noisy one each body turns on its
+identified axis and the registration's error places it along and about it. The URDF's root is the model's
+world (a ``world`` root is added when that is not the file's root) and its tool a ``tcp`` frame on the tip link
+when the model's tool is not the tip link (an identified tool point).
 
-Dynamics: :func:`load_urdf` also merges each moving body's inertials (its link and the links fixed to it,
-parallel-axis theorem) into ``Robot.inertials``, so the robot's model has the URDF's dynamics; an
-unphysical inertial (negative mass, inertia not positive semi-definite or breaking the triangle
-inequality) gives a :class:`~denavit.errors.DenavitWarning` naming the link, and massless links. A model
-exported without URDF information writes its own link inertias (link *i* = joint frame *i*).
+A model without a URDF is written with link *i* = its joint frame *i* (``base_link``, ``link_1`` ...,
+``flange``, ``tool0``; :func:`dumps_urdf`).
 """
 
 from __future__ import annotations
@@ -84,7 +77,7 @@ import numpy as np
 
 from .. import _core
 from ..errors import DenavitError, DenavitWarning
-from ..geometry import inverse, matrix_rpy, pose, rotation_between, rotvec_matrix, skew
+from ..geometry import inverse, matrix_rotvec, matrix_rpy, pose, rotation_between, rotvec_matrix, skew, xyz_rpy_pose
 from ..robot import Robot, inertials_for_table
 from .output import write_text
 from .text import decode, read_bytes
@@ -242,7 +235,7 @@ def _precheck(path: Path, root) -> _Where:
     return where
 
 
-def _read(path: str | os.PathLike) -> tuple[yourdfpy.URDF, _Where]:
+def _read(path: str | os.PathLike) -> tuple[yourdfpy.URDF, _Where, object]:
     import yourdfpy  # noqa: PLC0415 (yourdfpy and lxml load only for a URDF)
     from lxml import etree  # noqa: PLC0415
 
@@ -276,38 +269,7 @@ def _read(path: str | os.PathLike) -> tuple[yourdfpy.URDF, _Where]:
         raise DenavitError(f"{path}: not a readable URDF ({type(e).__name__}: {e})") from None
     finally:
         log.setLevel(level)
-    return urdf, where
-
-
-def _geometry_dict(g) -> dict:
-    if g is None:
-        return {}
-    if g.mesh is not None:
-        d = {"filename": str(g.mesh.filename)}
-        if g.mesh.scale is not None:
-            s = np.broadcast_to(np.asarray(g.mesh.scale, dtype=float), (3,))
-            d["scale"] = [float(v) for v in s]
-        return {"mesh": d}
-    if g.box is not None:
-        return {"box": {"size": [float(v) for v in g.box.size]}}
-    if g.cylinder is not None:
-        return {"cylinder": {"radius": float(g.cylinder.radius), "length": float(g.cylinder.length)}}
-    if g.sphere is not None:
-        return {"sphere": {"radius": float(g.sphere.radius)}}
-    return {}
-
-
-def _material_dict(m) -> dict:
-    d: dict = {}
-    if m is None:
-        return d
-    if m.name:
-        d["name"] = str(m.name)
-    if m.color is not None:
-        d["rgba"] = [float(v) for v in m.color.rgba]
-    if m.texture is not None and m.texture.filename:
-        d["texture"] = str(m.texture.filename)
-    return d
+    return urdf, where, tree.getroot()
 
 
 def _link_dict(link, T_world_link: np.ndarray, where=None) -> dict:
@@ -323,24 +285,12 @@ def _link_dict(link, T_world_link: np.ndarray, where=None) -> dict:
             "origin": _mat(np.eye(4) if ine.origin is None else ine.origin),
             "inertia": _mat(np.zeros((3, 3)) if ine.inertia is None else ine.inertia),
         }
-    for key, items in (("visuals", link.visuals), ("collisions", link.collisions)):
-        out = []
-        for v in items:
-            e: dict = {"origin": _mat(np.eye(4) if v.origin is None else v.origin), "geometry": _geometry_dict(v.geometry)}
-            if v.name:
-                e["name"] = str(v.name)
-            if key == "visuals":
-                mat = _material_dict(v.material)
-                if mat:
-                    e["material"] = mat
-            out.append(e)
-        if out:
-            d[key] = out
     return d
 
 
-def _select_chain(urdf: yourdfpy.URDF, where: _Where, base_link: str | None, tip_link: str | None) -> tuple[list, str, str]:
-    """The joints from ``base_link`` to ``tip_link`` (in order), with the tree checks."""
+def _select_chain(urdf: yourdfpy.URDF, where: _Where, base_link: str | None, tip_link: str | None) -> tuple[list, str, str, str, dict, dict]:
+    """The joints from ``base_link`` to ``tip_link`` (in order), with the tree checks; also how the tip was
+    chosen, and the tree's joints by parent link (``children``) and by child link (``parent_of``)."""
     path = where.path
     robot = urdf.robot
     links = {l.name: l for l in robot.links}
@@ -394,7 +344,7 @@ def _select_chain(urdf: yourdfpy.URDF, where: _Where, base_link: str | None, tip
         chain.append(j)
         ln = j.parent
     chain.reverse()
-    return chain, base_link, tip_link, chosen
+    return chain, base_link, tip_link, chosen, children, parent_of
 
 
 #: Joint types that move (a chain's degrees of freedom).
@@ -404,8 +354,9 @@ MOVING = ("revolute", "continuous", "prismatic")
 def _default_tip(path, base_link: str, below: list, children: dict, parent_of: dict) -> tuple[str, str]:
     """The tip link when none is given, and why (empty when there is a single leaf): REP-199's ``tool0`` when
     the tree has one (ROS-Industrial descriptions also hang a ``base`` frame, sensors and flanges off the
-    arm), else the leaf reached through the most moving joints (a camera or a ``base`` frame hangs off
-    through fewer); a tie is an error listing the candidates."""
+    arm), else the leaf reached through the most moving joints, mimic joints not counted (a camera or a
+    ``base`` frame hangs off through fewer; a gripper's mimicking finger through one fewer than the other);
+    a tie is an error listing the candidates."""
     leaves = [ln for ln in below if not children[ln]]
     if len(leaves) == 1:
         return leaves[0], ""
@@ -416,7 +367,7 @@ def _default_tip(path, base_link: str, below: list, children: dict, parent_of: d
         count = 0
         while ln != base_link:
             j = parent_of[ln]
-            count += (j.type or "").strip() in MOVING
+            count += (j.type or "").strip() in MOVING and j.mimic is None  # a mimic joint is no degree of freedom
             ln = j.parent
         return count
 
@@ -430,18 +381,71 @@ def _default_tip(path, base_link: str, below: list, children: dict, parent_of: d
                        "a serial chain needs one; choose one with tip_link (CLI: --tip-link)")
 
 
-def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: str | None = None) -> UrdfChain:
+def _motion(j, value: float) -> np.ndarray:
+    """The pose a URDF joint adds after its origin at joint value ``value`` (rad or m); fixed, floating and
+    planar joints: none (held at their origin)."""
+    jtype = (j.type or "").strip()
+    if jtype not in MOVING or value == 0.0:
+        return np.eye(4)
+    a = np.asarray(j.axis if j.axis is not None else (1.0, 0.0, 0.0), dtype=float)
+    a = a / np.linalg.norm(a)
+    return pose(None, a * value) if jtype == "prismatic" else pose(rotvec_matrix(a * value))
+
+
+def _attached(urdf, where: _Where, path_links: list, body_of: dict, T_path: dict, children: dict, locked: dict) -> tuple[list, dict]:
+    """The links off the chain, each with its pose at q = 0 (off-chain movable joints at their ``locked``
+    value, 0 by default; a mimic joint at ``multiplier * value + offset`` of the joint it mimics), grouped by
+    the chain body that carries them; and the value each off-chain movable joint was locked at."""
+    links = {l.name: l for l in urdf.robot.links}
+    movable = {j.name: j for js in children.values() for j in js if (j.type or "").strip() in MOVING}
+    on_path = set(path_links)
+    off = {name: j for name, j in movable.items() if j.child not in on_path}
+    unknown = sorted(set(locked) - set(off))
+    if unknown:
+        raise DenavitError(f"{where.path}: locked joint{'s' if len(unknown) > 1 else ''} {', '.join(map(repr, unknown))}: expected off-chain movable joints "
+                           f"({', '.join(map(repr, sorted(off))) or 'none'})")
+
+    def value(j) -> float:
+        if j.name in locked:
+            return float(locked[j.name])
+        if j.mimic is not None:
+            master = off.get(j.mimic.joint)
+            v = value(master) if master is not None and master.mimic is None else float(locked.get(j.mimic.joint, 0.0))
+            return (1.0 if j.mimic.multiplier is None else float(j.mimic.multiplier)) * v + (0.0 if j.mimic.offset is None else float(j.mimic.offset))
+        return 0.0
+
+    out: list = [[] for _ in range(max(body_of.values()) + 1)]
+    used: dict = {}
+    stack = [(j, body_of[ln], T_path[ln]) for ln in path_links for j in children[ln] if j.child not in on_path]
+    while stack:
+        j, b, T_parent = stack.pop()
+        v = value(j) if j.name in off else 0.0
+        if j.name in off:
+            used[j.name] = v
+        T = T_parent @ (np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)) @ _motion(j, v)
+        out[b].append(_link_dict(links[j.child], T, where))
+        stack.extend((c, b, T) for c in children[j.child])
+    return out, used
+
+
+def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: str | None = None, *, locked: dict | None = None) -> UrdfChain:
     """Read the serial chain ``base_link`` -> ``tip_link`` of a URDF (defaults: the root link and the single
-    leaf below it). Every error names the file and the element (joint or link, with its line)."""
-    urdf, where = _read(path)
+    leaf below it). Every error names the file and the element (joint or link, with its line). ``locked``
+    ({joint: value}, rad or m) sets off-chain movable joints (fingers, a head, another arm) for the bodies
+    they are merged into (default 0; :func:`load_urdf`)."""
+    from lxml import etree  # noqa: PLC0415
+
+    urdf, where, xml_root = _read(path)
     path = where.path
-    chain, base_link, tip_link, chosen = _select_chain(urdf, where, base_link, tip_link)
+    chain, base_link, tip_link, chosen, children, parent_of = _select_chain(urdf, where, base_link, tip_link)
     links = {l.name: l for l in urdf.robot.links}
     names, kinds, types, placements, lower, upper, axes_local = [], [], [], [], [], [], []
     joint_info, bodies, body_links = [], [[]], [base_link]
     acc = np.eye(4)  # the current link in the last joint frame (before the first joint: in world)
     T_world_link = np.eye(4)  # the current link at q = 0 in world
     T_world_base = None
+    T_path = {base_link: T_world_link}
+    body_of = {base_link: 0}
     bodies[0].append(_link_dict(links[base_link], T_world_link, where))
     for j in chain:
         w = where("joint", j.name)
@@ -455,8 +459,10 @@ def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: 
             raise DenavitError(f"{w} mimics joint {j.mimic.joint!r}: mimic joints (coupled joint values) are not supported")
         O = np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)
         T_world_link = T_world_link @ O
+        T_path[j.child] = T_world_link
         if jtype == "fixed":
             acc = acc @ O
+            body_of[j.child] = len(bodies) - 1
             bodies[-1].append(_link_dict(links[j.child], T_world_link, where))
             continue
         a = np.asarray(j.axis, dtype=float)
@@ -503,24 +509,34 @@ def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: 
         upper.append(hi)
         axes_local.append(a)
         joint_info.append(info)
+        body_of[j.child] = len(bodies)
         bodies.append([_link_dict(links[j.child], T_world_link, where)])
         body_links.append(j.child)
     if not names:
         raise DenavitError(f"{path}: no revolute, continuous or prismatic joint between base link {base_link!r} and tip link {tip_link!r}")
+    path_links = [base_link] + [j.child for j in chain]
+    attached, used = _attached(urdf, where, path_links, body_of, T_path, children, dict(locked or {}))
+    T_root_base, ln = np.eye(4), base_link  # the links above the base (a `world` root): fixed to the base body
+    while ln in parent_of:
+        j = parent_of[ln]
+        T_root_base = (np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)) @ T_root_base
+        ln = j.parent
+    xml = etree.tostring(xml_root, encoding="unicode")
     extra = {
         "note": "kept from the URDF for export: SI units (m, rad, kg); T_world_link = each link at q = 0 in the base link's frame",
         "robot": urdf.robot.name,
         "file": str(path),
         "base_link": base_link,
         "tip_link": tip_link,
+        "root_link": ln,
+        "T_base_root": _mat(inverse(T_root_base)),
+        "path_links": path_links,
         "body_links": body_links,
         "joints": joint_info,
-        "bodies": [{"links": b} for b in bodies],
+        "bodies": [{"links": b, "attached": att} for b, att in zip(bodies, attached)],
+        "locked": used,
+        "xml": xml,
     }
-    mats = [_material_dict(m) for m in urdf.robot.materials]
-    mats = [m for m in mats if m.get("name")]
-    if mats:
-        extra["materials"] = mats
     return UrdfChain(
         name=urdf.robot.name, path=str(path), base_link=base_link, tip_link=tip_link, names=names, kinds=kinds, urdf_types=types,
         placements=np.array(placements), lower=np.array(lower), upper=np.array(upper), T_world_base=T_world_base, T_last_flange=acc,
@@ -538,37 +554,50 @@ def urdf_model(path: str | os.PathLike, base_link: str | None = None, tip_link: 
     return read_chain(path, base_link, tip_link).model()
 
 
-def load_urdf(path: str | os.PathLike, base_link: str | None = None, tip_link: str | None = None) -> Robot:
+def load_urdf(path: str | os.PathLike, base_link: str | None = None, tip_link: str | None = None, *, chain_only: bool = False, locked: dict | None = None) -> Robot:
     """Read a URDF's serial chain into a :class:`~denavit.Robot` (what ``denavit.load_robot("x.urdf")`` returns).
 
     The table is ED-H (Guo et al. eq. 1-2), extracted through the core's line geometry from the exact
     model's joint axes at ``q = 0`` with the frame origins at the URDF joint origins: exact for every
-    geometry (same axes, tool pose to rounding error). ``Robot.extra["urdf"]`` keeps, in SI:
+    geometry (same axes, tool pose to rounding error).
 
-    * ``robot``, ``file``, ``base_link``, ``tip_link``, ``body_links`` (the base link, then each moving
-      joint's child link);
-    * ``joints``: per moving joint ``name``, URDF ``type``, ``axis`` (unit, in the child link) and, when
-      given, ``effort``, ``velocity``, ``damping``, ``friction``;
-    * ``bodies``: per body (the base, then each moving joint's child with the links fixed to it) the
-      links with ``T_world_link`` (4x4, at q = 0 in the base link's frame), ``inertial`` (``mass``,
-      ``origin``, ``inertia`` 3x3), ``visuals`` and ``collisions`` (``origin``, ``geometry``: mesh
-      filename/scale, box, cylinder or sphere, ``material``);
-    * ``materials``: the robot-level named materials.
+    Dynamics of the whole body: each chain body's inertial merges its links', the links fixed to them and
+    every off-chain subtree it carries (fingers, a head, another arm; parallel-axis theorem, Featherstone
+    2008 sec. 2.13), off-chain movable joints held at ``locked`` ({joint: value}, rad or m; default 0, a mimic
+    joint following the joint it mimics) -- what pinocchio's ``buildReducedModel`` of the full tree gives
+    with those joints locked. ``Robot.notes`` says the mass merged, in one line. ``chain_only`` leaves the
+    off-chain links out, of the dynamics and of the export (:func:`dumps_urdf`).
 
-    :func:`dumps_urdf` writes them back. ``Robot.inertials`` holds each moving body's merged inertial in
-    the ED-H frames (None when the chain has no mass, or, with a warning, an unphysical inertial).
+    ``Robot.extra["urdf"]`` keeps, in SI: ``xml`` (the file's ``<robot>`` element, written back by
+    :func:`dumps_urdf`), ``robot``, ``file``, ``base_link``, ``tip_link``, ``root_link`` and
+    ``T_base_root`` (the tree's root in the base link), ``path_links`` (base to tip), ``body_links`` (the
+    base link, then each moving joint's child link), ``joints`` (per moving joint ``name``, URDF ``type``,
+    ``axis``, and when given ``effort``, ``velocity``, ``damping``, ``friction``), ``bodies`` (per body the
+    path ``links`` and the off-chain links ``attached`` to it, each with ``T_world_link``, 4x4 at q = 0 in the
+    base link's frame, and ``inertial``: ``mass``, ``origin``, ``inertia`` 3x3), ``locked`` (the off-chain
+    joint values used) and ``chain_only``.
+    ``Robot.inertials`` holds each moving body's inertial in the ED-H frames (None when the chain has no mass;
+    an unphysical inertial leaves its body massless, with a warning).
     """
-    ch = read_chain(path, base_link, tip_link)
+    ch = read_chain(path, base_link, tip_link, locked=locked)
+    ch.extra["chain_only"] = bool(chain_only)
     m = ch.model()
     ex = _core.extract(_core.axes(m, np.zeros(m.nq)), "edh")
     names, lower, upper = list(ch.names), ch.lower.copy(), ch.upper.copy()
     inertials = None
     try:
-        bodies = _body_inertials_in_world(ch, m)
+        bodies = _body_inertials_in_world(ch, m, chain_only)
         if bodies is not None:
             inertials = inertials_for_table(m.with_inertias(*bodies, frame="world"), ex.table, names, lower, upper)
     except DenavitError as e:
         warnings.warn(f"{ch.path}: {e}; the robot is loaded without inertials (massless links)", DenavitWarning, stacklevel=2)
+    notes = [f"{Path(ch.path).name}: {ch.chosen}"] if ch.chosen else []
+    merged = [ld for b in ch.extra["bodies"][1:] for ld in b["attached"] if ld.get("inertial", {}).get("mass", 0.0) > 0.0]
+    if merged and not chain_only:
+        kg = sum(ld["inertial"]["mass"] for ld in merged)
+        shown = ", ".join(ld["name"] for ld in merged[:4]) + (", ..." if len(merged) > 4 else "")
+        notes.append(f"{Path(ch.path).name}: merged {kg:.4g} kg of {len(merged)} off-chain link{'s' if len(merged) > 1 else ''} ({shown}) into the chain's bodies, "
+                     "off-chain joints locked; chain_only (CLI: --chain-only) leaves them out")
     return Robot(
         name=ch.name,
         table=ex.table,
@@ -580,26 +609,28 @@ def load_urdf(path: str | os.PathLike, base_link: str | None = None, tip_link: s
         path=ch.path,
         extra={"urdf": ch.extra},
         inertials=inertials,
-        notes=[f"{Path(ch.path).name}: {ch.chosen}"] if ch.chosen else [],
+        notes=notes,
     )
 
 
-def _body_inertials_in_world(ch: UrdfChain, model: _core.Model) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """Per moving body (each joint's child with the links fixed to it) its mass (kg), centre of mass and
-    inertia about it (kg m^2), both in world at q = 0; None when no body of the chain has a mass. An
-    unphysical inertial is an error naming the URDF link(s) of its body."""
+def _body_inertials_in_world(ch: UrdfChain, model: _core.Model, chain_only: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Per moving body (each joint's child with the links fixed to it and, unless ``chain_only``, the
+    off-chain links it carries) its mass (kg), centre of mass and inertia about it (kg m^2), both in world at
+    q = 0; None when no body of the chain has a mass. An unphysical inertial leaves its body massless with a
+    warning naming the URDF link(s)."""
     n = len(ch.names)
     masses, coms, inertias = np.zeros(n), np.zeros((n, 3)), np.zeros((n, 3, 3))
     for i, body in enumerate(ch.extra["bodies"][1:]):
-        links = [ld["name"] for ld in body["links"] if "inertial" in ld]
-        for ld in body["links"]:
+        lds = body["links"] + ([] if chain_only else body["attached"])
+        links = [ld["name"] for ld in lds if "inertial" in ld]
+        for ld in lds:
             mass = ld.get("inertial", {}).get("mass", 0.0)
             if not (math.isfinite(mass) and mass >= 0.0):
                 raise DenavitError(f"link {ld['name']!r}: <mass value=\"{mass}\"/>: expected a finite mass >= 0 kg")
         parts = [
             (np.asarray(ld["T_world_link"], dtype=float) @ np.asarray(ld["inertial"]["origin"], dtype=float),
              float(ld["inertial"]["mass"]), np.asarray(ld["inertial"]["inertia"], dtype=float))
-            for ld in body["links"] if "inertial" in ld
+            for ld in lds if "inertial" in ld
         ]
         comb = combine_inertials(parts)
         if comb is not None:
@@ -615,7 +646,7 @@ def _body_inertials_in_world(ch: UrdfChain, model: _core.Model) -> tuple[np.ndar
                 warnings.warn(f"{ch.path}: the <inertial> of link{'s' if len(links) > 1 else ''} {', '.join(map(repr, links))} (the body moved by joint "
                               f"{ch.names[i]!r}) is not physical ({e}); that body is loaded without mass, the others keep theirs", DenavitWarning, stacklevel=3)
                 masses[i], coms[i], inertias[i] = 0.0, 0.0, 0.0
-        massless = [ld["name"] for ld in body["links"] if "inertial" in ld and ld["inertial"]["mass"] == 0.0 and np.any(np.asarray(ld["inertial"]["inertia"]) != 0)]
+        massless = [ld["name"] for ld in lds if "inertial" in ld and ld["inertial"]["mass"] == 0.0 and np.any(np.asarray(ld["inertial"]["inertia"]) != 0)]
         if massless:
             warnings.warn(f"{ch.path}: link{'s' if len(massless) > 1 else ''} {', '.join(map(repr, massless))} give{'' if len(massless) > 1 else 's'} an <inertia> "
                           "but <mass value=\"0\"/>: the inertia of a massless link is left out", DenavitWarning, stacklevel=3)
@@ -647,44 +678,46 @@ def _unique(name: str, taken: set) -> str:
     return out
 
 
-def _origin(parent, T, tag: str = "origin") -> None:
+#: Below this (m, and rotation-matrix entries), a joint origin, axis or limit equals the URDF's and its text is
+#: kept as it was (so that export -> import -> export is byte-identical).
+SAME = 1e-12
+
+
+def _set_origin(parent, T, tag: str = "origin") -> None:
+    """Write ``T`` (4, 4) as ``<origin xyz rpy>`` into ``parent`` (replacing one already there), shortest
+    round-trip numbers, rpy by :func:`denavit.geometry.matrix_rpy` (gimbal-safe)."""
     from lxml import etree  # noqa: PLC0415
 
-    r, p, y = matrix_rpy(np.asarray(T)[:3, :3])
-    etree.SubElement(parent, tag, xyz=_nums(np.asarray(T)[:3, 3]), rpy=_nums((r, p, y)))
+    el = parent.find(tag)
+    if el is None:
+        el = etree.Element(tag)
+        parent.insert(0, el)
+    el.attrib.clear()
+    el.set("xyz", _nums(np.asarray(T)[:3, 3]))
+    el.set("rpy", _nums(matrix_rpy(np.asarray(T)[:3, :3])))
 
 
-def _geometry(parent, g: dict) -> None:
-    from lxml import etree  # noqa: PLC0415
-
-    ge = etree.SubElement(parent, "geometry")
-    if "mesh" in g:
-        m = etree.SubElement(ge, "mesh", filename=g["mesh"]["filename"])
-        if "scale" in g["mesh"]:
-            m.set("scale", _nums(g["mesh"]["scale"]))
-    elif "box" in g:
-        etree.SubElement(ge, "box", size=_nums(g["box"]["size"]))
-    elif "cylinder" in g:
-        etree.SubElement(ge, "cylinder", radius=_num(g["cylinder"]["radius"]), length=_num(g["cylinder"]["length"]))
-    elif "sphere" in g:
-        etree.SubElement(ge, "sphere", radius=_num(g["sphere"]["radius"]))
+def _origin_of(el) -> np.ndarray:
+    """The pose (4, 4) of a URDF element's ``<origin>`` (identity without one), as urdfdom reads it."""
+    o = el.find("origin")
+    if o is None:
+        return np.eye(4)
+    xyz = [float(v) for v in (o.get("xyz") or "0 0 0").replace(",", " ").split()]
+    rpy = [float(v) for v in (o.get("rpy") or "0 0 0").replace(",", " ").split()]
+    return xyz_rpy_pose(xyz, rpy)
 
 
-def _material(parent, m: dict) -> None:
-    from lxml import etree  # noqa: PLC0415
-
-    me = etree.SubElement(parent, "material", name=m.get("name", ""))
-    if "rgba" in m:
-        etree.SubElement(me, "color", rgba=_nums(m["rgba"]))
-    if "texture" in m:
-        etree.SubElement(me, "texture", filename=m["texture"])
+def _axis_of(el) -> np.ndarray:
+    ax = el.find("axis")
+    a = np.array([float(v) for v in ax.get("xyz").replace(",", " ").split()]) if ax is not None and ax.get("xyz") else np.array([1.0, 0.0, 0.0])
+    return a / np.linalg.norm(a)
 
 
 def _inertial(parent, T, mass: float, I) -> None:
     from lxml import etree  # noqa: PLC0415
 
     ie = etree.SubElement(parent, "inertial")
-    _origin(ie, T)
+    _set_origin(ie, T)
     etree.SubElement(ie, "mass", value=_num(mass))
     etree.SubElement(ie, "inertia", ixx=_num(I[0, 0]), ixy=_num(I[0, 1]), ixz=_num(I[0, 2]), iyy=_num(I[1, 1]), iyz=_num(I[1, 2]), izz=_num(I[2, 2]))
 
@@ -710,25 +743,28 @@ def combine_inertials(parts: list[tuple[np.ndarray, float, np.ndarray]]) -> tupl
 
 def _matches(info: dict | None, model: _core.Model) -> bool:
     try:
-        return info is not None and len(info["bodies"]) == model.nq + 1 and len(info["body_links"]) == model.nq + 1
+        return info is not None and "xml" in info and len(info["joints"]) == model.nq and len(info["bodies"]) == model.nq + 1
     except (KeyError, TypeError):
         return False
 
 
-def _register_lines(Fn: np.ndarray, Fi: np.ndarray, kinds) -> np.ndarray:
+def _register_lines(Fn: np.ndarray, Fi: np.ndarray, kinds, tool_n: np.ndarray, tool_i: np.ndarray) -> np.ndarray:
     """The rigid motion ``X`` (4, 4) that best puts the nominal joint axes on the identified ones.
 
     ``Fn``, ``Fi`` (n, 4, 4): joint frames at q = 0 (z = the axis), of the nominal and of the identified
     model in their own world frames. Only the axis lines are compared (directions, and for revolute joints
     the distance of the line from the identified one), never the frames' origins along the axes nor their
     turn about them: those are convention choices (an ED-H frame may lie 0.36 m along the UR shoulder axis
-    from the URDF joint origin). Gauss-Newton from the Kabsch rotation of the directions; dofs the lines do
-    not fix (e.g. a slide along parallel axes) keep their minimal-norm value."""
+    from the URDF joint origin). Gauss-Newton from the Kabsch rotation of the directions. What the lines do
+    not fix (the slide along the axes of an all-parallel chain, a SCARA's or a planar arm's; the turn and slide
+    of a single axis) is fixed by the tools, ``tool_n`` (the nominal's tip link) onto ``tool_i`` (the model's
+    tool), both (4, 4) at q = 0: exact for the nominal's own model in any convention and frame."""
     dn, pn, d, p = Fn[:, :3, 2], Fn[:, :3, 3], Fi[:, :3, 2], Fi[:, :3, 3]
     U_, _, Vt = np.linalg.svd(dn.T @ d)
     R = Vt.T @ np.diag([1.0, 1.0, np.linalg.det(Vt.T @ U_.T)]) @ U_.T
     t = np.zeros(3)
-    for _ in range(30):
+
+    def lines(R, t):
         rows, res = [], []
         for i, kind in enumerate(kinds):
             e, y = R @ dn[i], R @ pn[i] + t
@@ -738,137 +774,161 @@ def _register_lines(Fn: np.ndarray, Fi: np.ndarray, kinds) -> np.ndarray:
                 P = np.eye(3) - np.outer(d[i], d[i])
                 rows.append(np.hstack([-P @ skew(y), P]))
                 res.append(P @ (y - p[i]))
-        step = np.linalg.lstsq(np.vstack(rows), -np.concatenate(res), rcond=1e-9)[0]
-        w, v = step[:3], step[3:]
-        ang = float(np.linalg.norm(w))
-        dR = rotvec_matrix(w)
-        R, t = dR @ R, dR @ t + v
-        if ang < 1e-15 and np.linalg.norm(v) < 1e-15:
+        return np.vstack(rows), np.concatenate(res)
+
+    def update(R, t, step):
+        dR = rotvec_matrix(step[:3])
+        return dR @ R, dR @ t + step[3:]
+
+    for _ in range(30):
+        J, r = lines(R, t)
+        step = np.linalg.lstsq(J, -r, rcond=1e-9)[0]
+        R, t = update(R, t, step)
+        if np.linalg.norm(step) < 1e-15:
             break
+    J, _ = lines(R, t)
+    _, sv, V = np.linalg.svd(J)
+    N = V[np.concatenate([sv, np.zeros(6 - len(sv))]) <= 1e-9 * sv[0]].T  # (6, k): the motions the lines leave free
+    if N.size:
+        for _ in range(30):
+            Rt, pt = R @ tool_n[:3, :3], R @ tool_n[:3, 3] + t
+            Jt = np.vstack([np.hstack([-skew(pt), np.eye(3)]), np.hstack([np.eye(3), np.zeros((3, 3))])])
+            rt = np.concatenate([pt - tool_i[:3, 3], matrix_rotvec(Rt @ tool_i[:3, :3].T)])
+            step = N @ np.linalg.lstsq(Jt @ N, -rt, rcond=1e-9)[0]
+            R, t = update(R, t, step)
+            if np.linalg.norm(step) < 1e-15:
+                break
     return pose(R, t)
 
 
-def _carry(info: dict, robot: Robot, model: _core.Model, frames: np.ndarray) -> list[np.ndarray]:
-    """Per body *b*, the matrix taking a kept link pose ``T_world_link`` (q = 0, the nominal URDF's base
-    link frame) to its pose in exported link *b* (the model's joint frame *b* - 1; the model's base for
-    the base body). Module docstring, "Meshes and inertials of an identified robot"."""
+def _body_maps(info: dict, model: _core.Model, frames: np.ndarray) -> list[np.ndarray]:
+    """Per body *b* (0: the base, *i*: the child of joint *i*), the rigid motion ``M_b`` (4, 4) taking the
+    body from the nominal URDF (its base link's frame, q = 0) to the model (its world, q = 0). Module
+    docstring, "Identified robots": the nominal axis lines are registered onto the model's
+    (:func:`_register_lines`), and each body is anchored on the axis it turns about (the base on the first)."""
     n = model.nq
-    joints = info["joints"]
-    if all("axis" in j for j in joints):  # the nominal URDF's joint frames: child link @ R_a
-        Fn = np.array([np.asarray(info["bodies"][i + 1]["links"][0]["T_world_link"], dtype=float) @ pose(z_to(j["axis"]))
-                       for i, j in enumerate(joints)])
-    else:  # kept by an older version without the axes: the robot's own model is the nominal
-        Fn = np.asarray(_core.joint_frames(robot.model(), np.zeros(n)))
-    X = _register_lines(Fn, frames, list(model.kinds))
+    Fn = np.array([np.asarray(info["bodies"][i + 1]["links"][0]["T_world_link"], dtype=float) @ pose(z_to(j["axis"]))
+                   for i, j in enumerate(info["joints"])])
+    tool_n = np.asarray(info["bodies"][n]["links"][-1]["T_world_link"], dtype=float)  # the tip link
+    X = _register_lines(Fn, frames, list(model.kinds), tool_n, frames[n - 1] @ np.asarray(model.T_last_tool))
     out = []
     for b in range(n + 1):
-        j = max(b - 1, 0)  # the axis the body turns about (the base body: the stator of joint 1)
+        j = max(b - 1, 0)
         G, F = X @ Fn[j], frames[j]
         A = pose(rotation_between(G[:3, 2], F[:3, 2]) @ G[:3, :3], G[:3, 3])
-        if model.kinds[j] == "revolute":  # the body's bearing on the identified axis line
+        if model.kinds[j] == "revolute":  # the body's bearing on the model's axis line
             A[:3, 3] = F[:3, 3] + F[:3, 2] * (F[:3, 2] @ (G[:3, 3] - F[:3, 3]))
-        E = np.asarray(model.T_world_base) if b == 0 else frames[b - 1]
-        out.append(inverse(E) @ A @ inverse(Fn[j]))
+        out.append(A @ inverse(Fn[j]))
     return out
 
 
-def dumps_urdf(model: _core.Model, robot: Robot | None = None) -> str:
-    """The URDF text of ``model`` (any convention's model, identified ones included).
+def _comment(root, what: str) -> None:
+    """The one header comment, replacing an earlier export's (so that a re-export is byte-identical)."""
+    from lxml import etree  # noqa: PLC0415
 
-    Link *i* is the model's joint frame *i*: ``<axis xyz="0 0 1"/>`` and ``origin`` = ``placement_i ·
-    Rz(offset_i)`` (``Tz`` for prismatic joints), so URDF joint values are the model's ``q`` and
-    ``urdf_model`` of the text reproduces every joint frame and the tool. Revolute joints with infinite
-    limits are written ``continuous``. ``robot`` (optional) gives the robot name and, when it was read
-    from a URDF (``robot.extra["urdf"]``) and has as many joints as ``model``, the link names, meshes,
-    inertials, effort/velocity limits and dynamics, each body's elements riding on the model's joint frame
-    (module docstring, "Meshes and inertials of an identified robot": ``model`` may be in another frame than
-    the URDF's base link, e.g. identified in a tracker's frame).
-    Lengths in m, angles in rad, masses in kg.
-    """
+    for c in [c for c in root if isinstance(c, etree._Comment) and (c.text or "").startswith(" Written by denavit")]:
+        root.remove(c)
+    root.insert(0, etree.Comment(f" Written by denavit {_core.__version__}: {what}; metres, radians, kilograms. "))
+
+
+def _add_fixed(root, name: str, parent: str, child: str, T, at: int | None = None) -> None:
+    from lxml import etree  # noqa: PLC0415
+
+    je = etree.Element("joint", name=name, type="fixed")
+    etree.SubElement(je, "parent", link=parent)
+    etree.SubElement(je, "child", link=child)
+    _set_origin(je, T)
+    if at is None:
+        root.append(je)
+    else:
+        root.insert(at, je)
+
+
+def _dumps_tree(model: _core.Model, info: dict) -> str:
+    """The URDF the model was read from, with its names, links and frames (module docstring, "Export")."""
     from lxml import etree  # noqa: PLC0415
 
     n = model.nq
-    info = robot.extra.get("urdf") if robot is not None and isinstance(robot.extra, dict) else None
-    if not _matches(info, model):
-        info = None
-    name = robot.name if robot is not None else model.name
-    P = np.asarray(model.placements)
-    offsets, kinds = list(model.offsets), list(model.kinds)
-    lower, upper, names = list(model.lower), list(model.upper), list(model.names)
-    B, Tt = np.asarray(model.T_world_base), np.asarray(model.T_last_tool)
+    root = etree.fromstring(info["xml"].encode("utf-8"), etree.XMLParser(remove_blank_text=True, resolve_entities=False, recover=True))
+    joints = {el.get("name"): el for el in root if el.tag == "joint"}
+    by_child = {el.find("child").get("link"): el for el in joints.values()}
+    path = list(info["path_links"])
     frames = np.asarray(_core.joint_frames(model, np.zeros(n)))
+    maps = _body_maps(info, model, frames)
+    L_nom = {ld["name"]: np.asarray(ld["T_world_link"], dtype=float) for b in info["bodies"] for ld in b["links"]}
+    body_of = {ld["name"]: b for b, body in enumerate(info["bodies"]) for ld in body["links"]}
+    L = {ln: maps[body_of[ln]] @ L_nom[ln] for ln in path}  # each link rides rigidly on its body
+    moving = {j["name"]: i for i, j in enumerate(info["joints"])}
+    for ln in path[1:]:
+        el = by_child[ln]
+        O = inverse(L[el.find("parent").get("link")]) @ L[ln]
+        if np.abs(O - _origin_of(el)).max() > SAME:
+            _set_origin(el, O)
+        i = moving.get(el.get("name"))
+        if i is None:
+            continue
+        a = L[ln][:3, :3].T @ frames[i][:3, 2]  # the model's axis in the child link
+        if np.abs(a - _axis_of(el)).max() > SAME:
+            ax = el.find("axis")
+            if ax is None:
+                ax = etree.SubElement(el, "axis")
+            ax.set("xyz", _nums(a))
+        lim = el.find("limit")
+        for attr, v in (("lower", model.lower[i]), ("upper", model.upper[i])):
+            if lim is not None and math.isfinite(v) and lim.get(attr) is not None and abs(float(lim.get(attr)) - v) > SAME:
+                lim.set(attr, _num(v))
+    if info.get("chain_only"):
+        keep = set(path)
+        for el in list(root):
+            if (el.tag == "link" and el.get("name") not in keep) or (el.tag == "joint" and el.find("child").get("link") not in keep):
+                root.remove(el)
+            elif el.tag == "joint" and el.find("child").get("link") == path[0]:
+                root.remove(el)  # the joint above the base link
+        top, T_top = path[0], maps[0]
+    else:
+        top, T_top = info["root_link"], maps[0] @ np.asarray(info["T_base_root"], dtype=float)
+    links = {el.get("name") for el in root if el.tag == "link"}
+    names = {el.get("name") for el in root if el.tag == "joint"}
+    if np.abs(T_top - np.eye(4)).max() > SAME:  # the model's world is not the URDF's root (a tracker frame)
+        world = _unique("world", links)
+        k = next(i for i, el in enumerate(root) if el.tag == "link")
+        root.insert(k, etree.Element("link", name=world))
+        _add_fixed(root, _unique(f"{world}-{top}", names), world, top, T_top, at=k + 1)
+    tip = info["tip_link"]
+    T_tool = frames[n - 1] @ np.asarray(model.T_last_tool)
+    if np.abs(T_tool - L[tip]).max() > SAME:  # the model's tool is not the tip link: a frame of its own
+        tool = _unique("tcp", links)
+        root.append(etree.Element("link", name=tool))
+        _add_fixed(root, _unique(f"{tip}-{tool}", names), tip, tool, inverse(L[tip]) @ T_tool)
+    _comment(root, "the links and joints of the URDF read (docs/urdf.md); only the chain's joint origins, axes and limits follow the model")
+    return etree.tostring(root, pretty_print=True, xml_declaration=True, encoding="UTF-8").decode("utf-8")
 
+
+def _dumps_model(model: _core.Model, name: str) -> str:
+    """A model without a URDF of its own: ``base_link``, ``link_1`` ... ``link_n`` (link *i* is the model's
+    joint frame *i*), ``flange`` and ``tool0`` (REP-199), a ``world`` root when the base is not the identity."""
+    from lxml import etree  # noqa: PLC0415
+
+    n = model.nq
+    P = np.asarray(model.placements)
+    offsets, kinds, names = list(model.offsets), list(model.kinds), list(model.names)
+    B = np.asarray(model.T_world_base)
     root = etree.Element("robot", name=name)
-    what = f"{robot.description} ({robot.source})" if robot is not None and robot.source else (robot.description if robot is not None else model.name)
-    root.append(etree.Comment(
-        f" Written by denavit {_core.__version__} from {what.replace('--', '- -')}. "
-        "Link i is the model's joint frame i (docs/conventions.md): every joint moves about the z axis of its link; "
-        "joint values equal the model's q; metres, radians, kilograms. "))
-
     link_names: set = set()
     joint_names: set = set()
     names = [_unique(nm, joint_names) for nm in names]
-    body_names = [_unique(info["body_links"][b] if info else ("base_link" if b == 0 else f"link_{b}"), link_names) for b in range(n + 1)]
-    identity_base = np.allclose(B, np.eye(4), rtol=0.0, atol=1e-15)
-    identity_tool = np.allclose(Tt, np.eye(4), rtol=0.0, atol=1e-15)
-    link_el = {}
-
-    def add_link(lname: str):
-        el = etree.SubElement(root, "link", name=lname)
-        link_el[lname] = el
-        return el
-
-    if not identity_base:
-        base_root = info["base_link"] if info and info["base_link"] != info["body_links"][0] else "world"
-        world = _unique(base_root, link_names)
-        add_link(world)
-    for b in range(n + 1):
-        add_link(body_names[b])
-    if not identity_tool:
-        tip = info["tip_link"] if info and info["tip_link"] != info["body_links"][n] else "tool0"
-        tool = _unique(tip, link_names)
-        add_link(tool)
-
-    # meshes and inertials, per body, riding on the model's joint frames (module docstring)
-    if info is not None:
-        carry = _carry(info, robot, model, frames)
-        for b in range(n + 1):
-            el = link_el[body_names[b]]
-            parts, vis, col = [], [], []
-            for ld in info["bodies"][b]["links"]:
-                C = carry[b] @ np.asarray(ld["T_world_link"], dtype=float)
-                if "inertial" in ld:
-                    ine = ld["inertial"]
-                    parts.append((C @ np.asarray(ine["origin"], dtype=float), float(ine["mass"]), np.asarray(ine["inertia"], dtype=float)))
-                vis += [(C, v) for v in ld.get("visuals", [])]
-                col += [(C, v) for v in ld.get("collisions", [])]
-            comb = combine_inertials(parts)
-            if comb is not None:
-                _inertial(el, *comb)
-            for tag, items in (("visual", vis), ("collision", col)):
-                for C, v in items:
-                    ve = etree.SubElement(el, tag, **({"name": v["name"]} if v.get("name") else {}))
-                    _origin(ve, C @ np.asarray(v["origin"], dtype=float))
-                    _geometry(ve, v.get("geometry", {}))
-                    if tag == "visual" and v.get("material"):
-                        _material(ve, v["material"])
-        for m in info.get("materials", []):
-            _material(root, m)
-    else:  # the model's own link inertias (link i = joint frame i, about the centre of mass)
-        ins = model.inertias
-        for i in range(n):
-            if ins["masses"][i] > 0.0:
-                _inertial(link_el[body_names[i + 1]], pose(None, ins["coms"][i]), float(ins["masses"][i]), ins["inertias"][i])
-
-    def add_fixed(jname: str, parent: str, child: str, T) -> None:
-        je = etree.SubElement(root, "joint", name=_unique(jname, joint_names), type="fixed")
-        etree.SubElement(je, "parent", link=parent)
-        etree.SubElement(je, "child", link=child)
-        _origin(je, T)
-
-    if not identity_base:
-        add_fixed(f"{world}_to_{body_names[0]}", world, body_names[0], B)
-    jinfo = {j["name"]: j for j in info["joints"]} if info else {}
+    body = [_unique("base_link" if b == 0 else f"link_{b}", link_names) for b in range(n + 1)]
+    flange, tool = _unique("flange", link_names), _unique("tool0", link_names)
+    world = _unique("world", link_names) if np.abs(B - np.eye(4)).max() > SAME else None
+    for ln in ([world] if world else []) + body + [flange, tool]:
+        etree.SubElement(root, "link", name=ln)
+    link_el = {el.get("name"): el for el in root}
+    ins = model.inertias
+    for i in range(n):  # the model's own link inertias (link i = joint frame i, about the centre of mass)
+        if ins["masses"][i] > 0.0:
+            _inertial(link_el[body[i + 1]], pose(None, ins["coms"][i]), float(ins["masses"][i]), ins["inertias"][i])
+    if world:
+        _add_fixed(root, _unique(f"{world}-{body[0]}", joint_names), world, body[0], B)
     for i in range(n):
         prismatic = kinds[i] == "prismatic"
         M = np.eye(4)
@@ -877,25 +937,44 @@ def dumps_urdf(model: _core.Model, robot: Robot | None = None) -> str:
         else:
             c, s = math.cos(offsets[i]), math.sin(offsets[i])
             M[:2, :2] = [[c, -s], [s, c]]
-        lo, hi = lower[i], upper[i]
+        lo, hi = model.lower[i], model.upper[i]
         jtype = "prismatic" if prismatic else ("continuous" if math.isinf(lo) and math.isinf(hi) else "revolute")
         je = etree.SubElement(root, "joint", name=names[i], type=jtype)
-        etree.SubElement(je, "parent", link=body_names[i])
-        etree.SubElement(je, "child", link=body_names[i + 1])
-        _origin(je, P[i] @ M)
+        etree.SubElement(je, "parent", link=body[i])
+        etree.SubElement(je, "child", link=body[i + 1])
+        _set_origin(je, P[i] @ M)
         etree.SubElement(je, "axis", xyz="0 0 1")
-        ji = jinfo.get(names[i], {})
-        lim = {"effort": _num(ji.get("effort", 0.0)), "velocity": _num(ji.get("velocity", 0.0))}
-        if jtype != "continuous":
-            lim = {"lower": _num(lo), "upper": _num(hi), **lim}
-        etree.SubElement(je, "limit", **lim)
-        dyn = {k: _num(ji[k]) for k in ("damping", "friction") if k in ji}
-        if dyn:
-            etree.SubElement(je, "dynamics", **dyn)
-    if not identity_tool:
-        add_fixed(f"{body_names[n]}_to_{tool}", body_names[n], tool, Tt)
-    text = etree.tostring(root, pretty_print=True, xml_declaration=True, encoding="UTF-8").decode("utf-8")
-    return text
+        if jtype != "continuous":  # no <limit> is invented for a continuous joint (docs/urdf.md, "Limits")
+            etree.SubElement(je, "limit", lower=_num(lo), upper=_num(hi), effort="0", velocity="0")
+    _add_fixed(root, _unique(f"{body[n]}-{flange}", joint_names), body[n], flange, model.T_last_flange)
+    _add_fixed(root, _unique(f"{flange}-{tool}", joint_names), flange, tool, model.T_flange_tool)
+    _comment(root, "link i is the model's joint frame i (docs/urdf.md): every joint moves about the z axis of its link, joint values equal "
+                   "the model's q; effort and velocity limits unknown (0, urdfdom's unset value)")
+    return etree.tostring(root, pretty_print=True, xml_declaration=True, encoding="UTF-8").decode("utf-8")
+
+
+def dumps_urdf(model: _core.Model, robot: Robot | None = None) -> str:
+    """The URDF text of ``model`` (any convention's model, identified ones included); docs/urdf.md.
+
+    When ``robot`` was read from a URDF (``robot.extra["urdf"]``) with as many joints as ``model``, the text
+    is that URDF: every link and joint keeps its name, its elements (visuals, collisions, inertials, sensors,
+    vendor tags) and its frame; off the chain nothing changes (unless the robot was loaded ``chain_only``:
+    then only the links from base to tip are written). Each chain link rides rigidly on its body, the body
+    moved from the nominal onto the model's axes (module docstring, "Identified robots"), so only the chain
+    joints' origins, axes and limits change, and only where they differ from the URDF's by more than
+    :data:`SAME`: for the unchanged model the text is the URDF's own. A ``world`` root is added when the
+    model's world is not the URDF's root (a model identified in a tracker's frame), a ``tcp`` frame (fixed to the tip link)
+    when the model's tool is not the tip link (an identified tool point).
+
+    Otherwise link *i* is the model's joint frame *i* (``base_link``, ``link_1`` ... ``link_n``, then
+    ``flange`` and ``tool0``): ``<axis xyz="0 0 1"/>`` and ``origin`` = ``placement_i · Rz(offset_i)``
+    (``Tz`` for prismatic joints), so URDF joint values are the model's ``q``. Revolute joints with infinite
+    limits are written ``continuous``. Lengths in m, angles in rad, masses in kg.
+    """
+    info = robot.extra.get("urdf") if robot is not None and isinstance(robot.extra, dict) else None
+    if _matches(info, model):
+        return _dumps_tree(model, info)
+    return _dumps_model(model, robot.name if robot is not None else model.name)
 
 
 def save_urdf(model: _core.Model, path: str | os.PathLike, robot: Robot | None = None) -> None:
@@ -903,4 +982,4 @@ def save_urdf(model: _core.Model, path: str | os.PathLike, robot: Robot | None =
     write_text(path, dumps_urdf(model, robot))
 
 
-__all__ = ["UrdfChain", "combine_inertials", "dumps_urdf", "load_urdf", "read_chain", "save_urdf", "urdf_model", "urdf_table", "z_to"]
+__all__ = ["SAME", "UrdfChain", "combine_inertials", "dumps_urdf", "load_urdf", "read_chain", "save_urdf", "urdf_model", "urdf_table", "z_to"]
