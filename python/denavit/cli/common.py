@@ -158,21 +158,36 @@ def emit_json(doc, path: str | None) -> None:
 SI_UNITS = {"length": "m", "angle": "rad"}
 
 
+#: A step that lasts longer than this (s) says what it is doing.
+PATIENCE = 1.0
+
+
 @contextmanager
 def status(message: str) -> Iterator:
-    """Say what a step that may take more than a second is doing, on stderr: a spinner on a terminal (its
-    ``update(text)`` shows progress), one line otherwise (updates dropped: a log stays short)."""
+    """Say what a step that takes more than :data:`PATIENCE` is doing, on stderr: a spinner on a terminal (its
+    ``update(text)`` shows progress), else one line once the step has lasted that long (a quick step, or an
+    error found at once, prints nothing but its result)."""
     if err_console.is_terminal:
         with err_console.status(message) as s:
             yield s
-    else:
-        err_console.print(message, soft_wrap=True)
+        return
+    import threading  # noqa: PLC0415
 
-        class _Quiet:
-            def update(self, *_a, **_k) -> None:
-                pass
+    class _Line:
+        def __init__(self) -> None:
+            self.text = message
+            self.timer = threading.Timer(PATIENCE, lambda: err_console.print(self.text, soft_wrap=True))
+            self.timer.daemon = True
 
-        yield _Quiet()
+        def update(self, text, *_a, **_k) -> None:
+            self.text = f"{message} {text}" if text else message
+
+    line = _Line()
+    line.timer.start()
+    try:
+        yield line
+    finally:
+        line.timer.cancel()
 
 
 def load_robot(model: str, base_link: str | None = None, tip_link: str | None = None, what: str = "MODEL") -> Robot:
