@@ -818,7 +818,7 @@ def test_every_command_picks_the_chain():
     m = dv.load_model(f, tip_link="camera")
     assert m.nq == 1 and dv.load_model(f).nq == 2
     for args in (["fk", f, "--q", "0.1,0.2"], ["show", f], ["export", f], ["dynamics", f, "--q", "0,0", "--qd", "0,0", "--qdd", "0,0"],
-                 ["ik", f, "--pose", ",".join(map(str, dv.fk(dv.load_model(f), [0.1, 0.2]).ravel()))]):
+                 ["ik", f, "--pose", ",".join(map(str, dv.fk(dv.load_model(f), [0.1, 0.2]).ravel())), "--length", "m"]):
         p = run(*args)
         assert "note: two_tips.urdf: tip link 'tool0' (REP-199)" in p.stderr, args
         p = run(*args[:2], "--tip-link", "tool0", *args[2:])

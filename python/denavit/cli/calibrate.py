@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated
 
@@ -22,7 +23,6 @@ from .common import (
     load_robot,
     num,
     parse_point,
-    positive,
     print_rows,
     say,
     spread,
@@ -78,9 +78,9 @@ def calibrate(
         meas = cal.Measurements(q, pts, None, str(data), where, {"length": "m", "angle": "rad"}, kinds=tuple(robot.table.kinds))
     ls = length_scale(length)
     tp = None if tool is None else parse_point(tool, "--tool", ls, ())
-    sigma = positive(noise, "--noise", ls, None, length)
-    if sigma == 0:
+    if noise is not None and not (math.isfinite(noise) and noise > 0):
         fail(f"--noise: expected the known one-sigma point noise, a finite value > 0 in {length}, got {noise}")
+    sigma = None if noise is None else noise * ls
     fixes = [f.strip() for f in (fix or "").split(",") if f.strip()]
     with status(f"calibrating {robot.name} ({convention}) from {meas.n} {'poses' if meas.kind == 'pose' else 'points'}..."):
         res = cal.calibrate(meas, robot, convention=convention, fix=fixes, loss=loss, start=start, holdout=holdout, scale=scale, tool=tp, noise=sigma, seed=seed)
