@@ -387,12 +387,23 @@ def print_rows(title: str | None, headers: Sequence[str], rows: Sequence[Sequenc
     def longest_word(text: str) -> int:
         return max((len(w) for w in text.split()), default=0)
 
-    cellw = [max([longest_word(r[k]) if k in prose else len(r[k]) for r in rows] + [1]) for k in range(len(headers))]
-    need = [max(w, longest_word(h)) for w, h in zip(cellw, headers)]
-    if sum(need) + 3 * len(headers) + 1 <= console.width:
+    ks = range(len(headers))
+    least = [max([longest_word(r[k]) if k in prose else len(r[k]) for r in rows] + [longest_word(headers[k]), 1]) for k in ks]
+    width = [max([len(r[k]) for r in rows] + [len(headers[k]), 1]) for k in ks]  # headers (and prose) on one line if the console allows
+    for k in sorted(ks, key=lambda k: least[k] - width[k]):  # else wrap the widest-for-its-content first
+        excess = sum(width) + 3 * len(headers) + 1 - console.width
+        if excess <= 0:
+            break
+        width[k] = max(least[k], width[k] - excess)
+    if sum(width) + 3 * len(headers) + 1 <= console.width:
+        import textwrap  # noqa: PLC0415
+
+        # the widths are decided here (rich would shrink columns by cutting them): headers wrapped between
+        # words to their column's width, cells never wrapped but prose
         t = RichTable(title=title, caption=caption)
         for k, h in enumerate(headers):
-            t.add_column(h, justify="left" if k < labels or k in left else "right", min_width=cellw[k], overflow="fold")
+            t.add_column(textwrap.fill(h, width[k], break_long_words=False), justify="left" if k < labels or k in left else "right",
+                         width=width[k] if k in prose else None, no_wrap=k not in prose, overflow="fold")
         for i, r in enumerate(rows):
             last = i + 1 == len(rows) or rows[i + 1][0] != r[0]
             first = i == 0 or rows[i - 1][0] != r[0]
