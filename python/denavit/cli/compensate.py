@@ -8,7 +8,7 @@ import typer
 
 from ..errors import DenavitError
 from ..io.units import length_scale
-from .common import SI_UNITS, AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, TipLinkOpt, app, console, emit_json, json_target, load_robot, positive, say, spread, wrote
+from .common import SI_UNITS, AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, TipLinkOpt, app, console, emit_json, json_target, load_robot, positive, say, spread, status, wrote
 
 
 @app.command()
@@ -54,7 +54,8 @@ def compensate(
         k = int(far[0])
         raise DenavitError(f"{prog.where[k]}: the target is {dist[k] / length_scale(prog.units['length']):.6g} {prog.units['length']} from the base but {nom_robot.name} "
                            f"reaches about {reach / length_scale(prog.units['length']):.4g} {prog.units['length']} ({len(far)} such rows): is the file's length unit right?")
-    c = cp.compensate(nom, ide, poses, q_nominal=prog.q, path=path, branch_tol=positive(branch_tol, "--branch-tol", angle_scale(angle), np.radians(5.0), angle))
+    with status(f"compensating {len(poses)} targets ..."):
+        c = cp.compensate(nom, ide, poses, q_nominal=prog.q, path=path, branch_tol=positive(branch_tol, "--branch-tol", angle_scale(angle), np.radians(5.0), angle))
     ls = length_scale(length)
     flagged = [(w, why) for w, ok, r, b, j in zip(prog.where, c.ok, c.reached, c.branch_changed, c.path_jump, strict=True) if not ok
                for why in [", ".join(x for x, f in (("unreachable", not r), ("branch changed", b), ("path jump", j)) if f)]]

@@ -112,7 +112,8 @@ def identify(
         if nom is not None:
             from ..compensation import identification_accuracy  # noqa: PLC0415
 
-            s = identification_accuracy(result).summary()
+            with status("predicting the accuracy over the joint limits ..."):
+                s = identification_accuracy(result).summary()
             ls_out = length_scale(out_len)
             say("bold", "Accuracy", f" over {s['configurations']} configurations within the limits: nominal model error rms {spread(s['nominal']['rms'] / ls_out)} {out_len} "
                 f"(max {spread(s['nominal']['max'] / ls_out)}); identified model, predicted 1 sigma: rms {spread(s['identified']['rms'] / ls_out)} {out_len} "
