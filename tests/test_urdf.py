@@ -696,7 +696,7 @@ def test_convert_cli_prints_tables_and_writes_urdf(tmp_path):
     r = runner.invoke(app, ["convert", str(PANDA), "--to", "mdh", "--json"])
     assert r.exit_code == 0, r.output
     doc = json.loads(r.output)
-    assert doc["units"] == {"length": "mm", "angle": "deg"} and len(doc["rows"]) == 7
+    assert doc["units"] == {"length": "m", "angle": "rad"} and len(doc["rows"]) == 7  # JSON: SI (docs/cli.md)
     assert [p["relation"] for p in doc["pairs"]] == ["intersecting", "intersecting", "skew", "skew", "intersecting", "skew"]
     assert doc["max_tool_position_error_m"] < 1e-12
     r = runner.invoke(app, ["convert", str(UR), "--to", "dh"])

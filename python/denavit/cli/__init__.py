@@ -12,16 +12,15 @@ import sys
 
 from ..errors import DenavitError
 from . import calibrate, compensate, convert, dynamics, fk, identify, ik, inspect, plan, show, simulate  # noqa: F401 (each registers its command)
-from .common import app, json_argv, say
+from .common import app, say
 
 __all__ = ["app", "main"]
 
 
 def main() -> None:
-    """Entry point: every DenavitError becomes a one-line message and exit code 2; a bare ``--json`` means
-    standard output (:func:`~.common.json_argv`)."""
+    """Entry point: every DenavitError becomes a one-line message and exit code 2."""
     try:
-        app(args=json_argv(sys.argv[1:]), prog_name="denavit")
+        app(prog_name="denavit")
     except DenavitError as e:
         say("bold red", "error:", f" {e}", err=True)
         sys.exit(2)

@@ -52,7 +52,8 @@ def _no_flag_placeholders(params: list) -> list:
 
 
 class Command(TyperCommand):
-    """Every command: help paragraphs reflowed, flags without a type placeholder."""
+    """Every command: help paragraphs reflowed, flags without a type placeholder, a bare ``--json`` meaning
+    standard output (:func:`json_argv`)."""
 
     def __init__(self, *args, **kwargs) -> None:
         super().__init__(*args, **kwargs)
@@ -60,6 +61,15 @@ class Command(TyperCommand):
 
     def get_params(self, ctx):  # noqa: ANN001, ANN201 (click's signature)
         return _no_flag_placeholders(super().get_params(ctx))
+
+    def parse_args(self, ctx, args):  # noqa: ANN001, ANN201 (click's signature)
+        return super().parse_args(ctx, json_argv(args))
+
+    def invoke(self, ctx):  # noqa: ANN001, ANN201 (click's signature)
+        try:
+            return super().invoke(ctx)
+        finally:
+            console.file = None  # back to standard output after a --json - run (json_target), for the next in-process call
 
 
 class Group(TyperGroup):
