@@ -484,7 +484,7 @@ def test_cli_calibrate_and_plan(kr5, tmp_path):
     p = subprocess.run([sys.executable, "-m", "denavit.cli", "plan", "kr5", "--ranges", "paper30", "--json"], capture_output=True, text=True, env=env)
     assert p.returncode == 0, p.stderr
     doc = json.loads(p.stdout)
-    assert doc["axis_sigma"][0]["per_circle_position"] / doc["axis_sigma"][0]["position"] > 5
+    assert doc["axis_sigma"][0]["per_circle_position_m"] / doc["axis_sigma"][0]["position_m"] > 5
     p = subprocess.run([sys.executable, "-m", "denavit.cli", "calibrate", str(f), "--nominal", "kr5", "--convention", "dh"], capture_output=True, text=True, env=env)
     assert p.returncode == 2 and "standard DH cannot calibrate kr5" in p.stderr
 

@@ -41,7 +41,7 @@ def test_tables_and_messages_print_their_units_and_brackets_as_written(tmp_path)
     """Column headers carry their units ("a [mm]") and messages print bracketed text verbatim: nothing the
     tables or errors say is taken for terminal markup."""
     out = run("convert", "kr5", "--to", "mdh", "--length", "m", "--angle", "rad").stdout
-    for head in ("alpha [rad]", "a [m]", "theta [rad]", "d [m]", "distance [m]", "Hayati beta [deg]"):
+    for head in ("alpha [rad]", "a [m]", "theta [rad]", "d [m]", "distance [m]", "Hayati beta [rad]", "angle [rad]"):
         assert head in out, head
     poe = run("convert", "ur5", "--to", "poe").stdout
     assert "wx [1]" in poe and "vx [mm]" in poe  # screw directions are unitless
@@ -53,15 +53,17 @@ def test_tables_and_messages_print_their_units_and_brackets_as_written(tmp_path)
 
 
 def test_identify_length_flag_sets_the_output_unit_of_a_file_that_declares_its_own(tmp_path):
-    """The example declares mm: --length m changes only the output's unit, not how the data are read."""
+    """The example declares mm: --length m changes only the printed unit, not how the data are read; the
+    JSON is SI either way."""
     mm, m = tmp_path / "mm.json", tmp_path / "m.json"
-    run("identify", "--example", "kr5", "--json", str(mm))
-    run("identify", "--example", "kr5", "--length", "m", "--json", str(m))
+    a_out = run("identify", "--example", "kr5", "--json", str(mm)).stdout
+    b_out = run("identify", "--example", "kr5", "--length", "m", "--json", str(m)).stdout
     a, b = json.loads(mm.read_text()), json.loads(m.read_text())
-    assert b["units"]["length"] == "m"
+    assert a["units"] == b["units"] == {"length": "m", "angle": "rad"}
     d_mm, d_m = [r["d"] for r in a["parameters"]], [r["d"] for r in b["parameters"]]
-    np.testing.assert_allclose(np.array(d_m) * 1e3, d_mm, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(d_m, d_mm, rtol=1e-9, atol=1e-12)
     assert abs(d_m[0] - 0.4) < 1e-3  # KR5 d1 = 400 mm (Hayat Table III)
+    assert "radius [mm]" in a_out and "radius [m]" in b_out
 
 
 def test_identify_in_a_tracker_frame_with_the_base_given(tmp_path):
@@ -83,14 +85,15 @@ def test_identify_in_a_tracker_frame_with_the_base_given(tmp_path):
     run("identify", str(csv), "--nominal", "kr5", "--base", "1200,-400,300,2,-3,35", "--json", str(out))
     doc = json.loads(out.read_text())
     table_iii = {"d": [400, 0, 0, 620, 0, 0], "a": [180, 600, 120, 0, 0, 0], "alpha": [90, 0, 90, 90, 90, 0], "theta": [0] * 6}
-    for k, v in table_iii.items():
-        # the CSV holds 10 significant digits (1e-6 mm at 1.2 m from the tracker): 1e-4 is that rounding, amplified
-        np.testing.assert_allclose([r[k] for r in doc["parameters"]], v, atol=1e-4, err_msg=k)
+    for k, v in table_iii.items():  # the JSON is SI: m, rad
+        # the CSV holds 10 significant digits (1e-6 mm at 1.2 m from the tracker): 1e-4 (mm, deg) is that rounding, amplified
+        si = np.radians(v) if k in ("alpha", "theta") else np.array(v) * 1e-3
+        np.testing.assert_allclose([r[k] for r in doc["parameters"]], si, atol=np.radians(1e-4) if k in ("alpha", "theta") else 1e-7, err_msg=k)
     T = np.array(doc["T_world_base"])
     np.testing.assert_allclose(T[:3, :3], B[:3, :3], atol=1e-12)
-    np.testing.assert_allclose(T[:3, 3], B[:3, 3] * 1e3, atol=1e-9)
+    np.testing.assert_allclose(T[:3, 3], B[:3, 3], atol=1e-12)
     run("identify", str(csv), "--nominal", "kr5", "--json", str(out))
-    assert abs(json.loads(out.read_text())["parameters"][0]["d"] - 400) > 1
+    assert abs(json.loads(out.read_text())["parameters"][0]["d"] - 0.4) > 1e-3
     p = run("identify", str(csv), "--base", "1,2,3", ok=False)
     assert p.returncode == 2 and "--base: expected 16 or 12 numbers" in p.stderr
 
@@ -100,8 +103,8 @@ def test_identify_example_and_json(tmp_path):
     p = run("identify", "--example", "kr5", "--json", str(out))
     assert "Identified DH parameters" in p.stdout and "Measuring volume" in p.stdout
     doc = json.loads(out.read_text())
-    assert doc["units"]["length"] == "mm"
-    assert doc["parameters"][0]["d"] == pytest.approx(400, abs=0.1)
+    assert doc["units"] == {"length": "m", "angle": "rad"}
+    assert doc["parameters"][0]["d"] == pytest.approx(0.4, abs=1e-4)
 
 
 def test_simulate_then_identify(tmp_path):
@@ -186,7 +189,7 @@ def test_calibrate_from_a_log_of_poses_with_pauses(tmp_path):
     assert "poses where the robot stood still" in p.stdout
     doc = json.loads(out.read_text())
     assert doc["n_poses"] == 39  # the last pose has no pause after it: 39 pauses of 25 rows
-    assert doc["residuals"]["rms"] < 0.05, doc["residuals"]  # mm: the noise, not the motion
+    assert doc["residuals"]["rms"] < 5e-5, doc["residuals"]  # m (0.05 mm): the noise, not the motion
 
 
 def test_version():

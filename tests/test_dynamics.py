@@ -454,14 +454,14 @@ def cli(*args, ok=True):
 def test_cli_dynamics_json_matches_the_library():
     import json  # noqa: PLC0415
 
-    doc = json.loads(cli("dynamics", "tiansui_edh", "--q", "10,-80,70,5,60,0", "--qd", "20,0,-10,0,5,0", "--qdd", "0,30,0,0,0,10", "--deg",
+    doc = json.loads(cli("dynamics", "tiansui_edh", "--q", "10,-80,70,5,60,0", "--qd", "20,0,-10,0,5,0", "--qdd", "0,30,0,0,0,10",
                          "--f-ext", "0,0,-20,0,0,0", "--json").stdout)
     r = np.radians
     tau = _core.rnea(dv.load_model("tiansui_edh"), r([10, -80, 70, 5, 60, 0]), r([20, 0, -10, 0, 5, 0]), r([0, 30, 0, 0, 0, 10]), f_ext=[0, 0, -20, 0, 0, 0])
     np.testing.assert_allclose(doc["tau"], tau, rtol=0, atol=1e-12)
     assert doc["tau_units"] == ["N m"] * 6 and "warning" not in doc
-    assert doc["q"] == pytest.approx([10, -80, 70, 5, 60, 0])
-    table = cli("dynamics", "tiansui_mdh", "--q", "10,-80,70,5,60,0", "--deg").stdout
+    assert doc["q"] == pytest.approx(np.radians([10, -80, 70, 5, 60, 0]))  # typed in deg (the default), JSON in SI
+    table = cli("dynamics", "tiansui_mdh", "--q", "10,-80,70,5,60,0").stdout
     assert "Joint efforts" in table and "of which gravity" in table
 
 

@@ -237,25 +237,25 @@ def test_cli_ik_solves_a_pose_in_mm_and_degrees():
     T = dv.fk(m, q)
     rows = T.copy()
     rows[:3, 3] *= 1000  # mm
-    p = run_cli("ik", "kr5", "--pose", ",".join(repr(float(v)) for v in rows.ravel()), "--unit", "mm", "--deg",
+    p = run_cli("ik", "kr5", "--pose", ",".join(repr(float(v)) for v in rows.ravel()),  # mm and deg: the defaults
                 "--q0", "5,-25,35,15,30,-10", "--json")
     assert p.returncode == 0, p.stderr
     doc = json.loads(p.stdout)
-    assert doc["success"] and doc["units"] == {"length": "mm", "angle": "deg"}
-    assert doc["position_error"] <= 1e-7 and doc["rotation_error_rad"] <= 1e-10
-    np.testing.assert_allclose(dv.fk(m, np.radians(doc["q"])), T, atol=1e-9)
+    assert doc["success"] and doc["units"] == {"length": "m", "angle": "rad"}  # JSON: SI
+    assert doc["position_error_m"] <= 1e-10 and doc["rotation_error_rad"] <= 1e-10
+    np.testing.assert_allclose(dv.fk(m, doc["q"]), T, atol=1e-12)
     # x,y,z,roll,pitch,yaw form, table output
-    p = run_cli("ik", "tiansui_mdh", "--pose", "0.3,0.2,0.4,180,0,0", "--deg")
+    p = run_cli("ik", "tiansui_mdh", "--pose", "300,200,400,180,0,0")
     assert "solved" in p.stdout or "not solved" in p.stdout
 
 
 def test_cli_ik_unreachable_exits_1_with_residual_and_bad_pose_exits_2():
     import json  # noqa: PLC0415
 
-    p = run_cli("ik", "kr5", "--pose", "5,0,0.4,0,0,0", "--restarts", "2", "--json")
+    p = run_cli("ik", "kr5", "--pose", "5000,0,400,0,0,0", "--restarts", "2", "--json")
     assert p.returncode == 1
     doc = json.loads(p.stdout)
-    assert not doc["success"] and doc["position_error"] > 3.0
+    assert not doc["success"] and doc["position_error_m"] > 3.0
     p = run_cli("ik", "kr5", "--pose", "1,2,3")
     assert p.returncode == 2 and "--pose: expected 16 or 12 numbers" in p.stderr
     p = run_cli("ik", "kr5", "--pose", "1,0.5,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1")

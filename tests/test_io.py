@@ -147,7 +147,7 @@ def test_a_sweep_csv_with_a_bom_reads(tmp_path):
     f.write_bytes(b"\xef\xbb\xbf# units: length=mm angle=deg\n" + _sweeps_csv().encode())
     out = tmp_path / "r.json"
     run("identify", f, "--json", out)
-    assert json.loads(out.read_text())["parameters"][0]["d"] == pytest.approx(400, abs=1e-3)
+    assert json.loads(out.read_text())["parameters"][0]["d"] == pytest.approx(0.4, abs=1e-6)  # m: JSON is SI
 
 
 # -- the one units rule: what a file declares wins; the command line fills what it does not ---------------
@@ -178,7 +178,7 @@ def test_a_units_line_without_a_space_is_honoured_by_calibrate(tmp_path):
     run("calibrate", f, "--nominal", "kr5", "--convention", "mdh", "--tool", "50,30,100", "--json", out)
     doc = json.loads(out.read_text())
     a = {p["name"]: p for p in doc["parameters"]}
-    assert a["a_2"]["value"] == pytest.approx(600, abs=1e-6)
+    assert doc["units"]["length"] == "m" and a["a_2"]["value"] == pytest.approx(0.6, abs=1e-9)  # JSON: SI
 
 
 def test_a_second_conflicting_units_line_is_an_error_naming_both_lines(tmp_path):
@@ -199,7 +199,7 @@ def test_candidates_units_line_is_the_one_parser(tmp_path):
     g = tmp_path / "d.csv"
     g.write_text("# units: angle=deg\nq1,q2,q3,q4,q5,q6\n" + "".join(",".join(map(repr, map(float, r))) + "\n" for r in np.degrees(q)))
     b = json.loads(run("plan", "kr5", "--candidates", g, "--json").stdout)
-    np.testing.assert_allclose(a["bounding_box"]["lengths"], b["bounding_box"]["lengths"], rtol=1e-9)
+    np.testing.assert_allclose(a["bounding_box"]["lengths_m"], b["bounding_box"]["lengths_m"], rtol=1e-9)
     g.write_text(g.read_text() + "# units: angle=rad\n")
     p = run("plan", "kr5", "--candidates", g, ok=False)
     assert p.returncode == 2 and "angle=rad contradicts angle=deg declared at line 1" in " ".join(p.stderr.split())

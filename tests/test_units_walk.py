@@ -65,6 +65,11 @@ RANGES_MM_DEG = "-40,40,50,250,-60,60"
 RANGES_M_RAD = ",".join(f"{v!r}" for v in (math.radians(-40), math.radians(40), 0.05, 0.25, math.radians(-60), math.radians(60)))
 
 
+def _display(values_si, length):
+    """An RPR joint vector from the JSON (rad, m, rad) in (deg, ``length``, deg)."""
+    return np.asarray(values_si) / [math.pi / 180, 1e-3 if length == "mm" else 1.0, math.pi / 180]
+
+
 def _si(values_mm_deg):
     """(deg, mm, deg) -> (rad, m, rad) as the CLI text of --q etc."""
     a, l, b = values_mm_deg
@@ -125,9 +130,9 @@ def test_poe_prismatic_direction_is_unitless_in_files_tables_and_json(rpr, rpr_p
         np.testing.assert_allclose(j[0]["v"], v1 * k, atol=1e-9)
         np.testing.assert_allclose(j[0]["w"], w1, atol=1e-12)
         assert np.allclose(dv.load_robot(mm).table.params, poe.table.params, atol=1e-12)
-        rows = json.loads(run("convert", rpr, "--to", "poe", "--json", "--length", length).stdout)["rows"]
+        rows = json.loads(run("convert", rpr, "--to", "poe", "--json", "--length", length).stdout)["rows"]  # JSON: SI whatever --length
         np.testing.assert_allclose([rows[1][c] for c in ("vx", "vy", "vz")], v_si, atol=1e-12)
-        np.testing.assert_allclose([rows[0][c] for c in ("vx", "vy", "vz")], v1 * k, atol=1e-9)
+        np.testing.assert_allclose([rows[0][c] for c in ("vx", "vy", "vz")], v1, atol=1e-12)
         np.testing.assert_allclose([rows[0][c] for c in ("wx", "wy", "wz")], w1, atol=1e-12)
         shown = run("show", rpr_poe, "--length", length).stdout
         line = next(ln for ln in shown.splitlines() if ln.strip("│ ").startswith("j2"))
@@ -142,6 +147,7 @@ def test_poe_prismatic_direction_is_unitless_in_files_tables_and_json(rpr, rpr_p
 def test_show_and_export_tables_give_the_prismatic_offset_as_a_length(rpr):
     for length, k in (("mm", 1.0), ("m", 1e-3)):
         shown = run("show", rpr, "--length", length, "--angle", "deg").stdout
+        shown = shown[shown.index("┏"):]  # the table (the model's title and source come first)
         assert f"d [{length}]" in shown
         line = next(ln for ln in shown.splitlines() if ln.strip("│ ").startswith("j2"))
         cells = [float(c) for c in line.replace("│", " ").split()[1:]]
@@ -150,11 +156,11 @@ def test_show_and_export_tables_give_the_prismatic_offset_as_a_length(rpr):
 
 def test_fk_reads_and_echoes_prismatic_values_in_the_length_unit(rpr):
     T = dv.fk(dv.load_model(rpr), HOME_SI)
-    a = json.loads(run("fk", rpr, "--q", "10,100,20", "--deg", "--unit", "mm", "--json").stdout)
-    b = json.loads(run("fk", rpr, "--q", _si(HOME), "--unit", "m", "--json").stdout)
-    np.testing.assert_allclose(a["q"], HOME, atol=1e-12)
+    a = json.loads(run("fk", rpr, "--q", "10,100,20", "--json").stdout)  # deg, mm: the defaults; JSON SI
+    b = json.loads(run("fk", rpr, "--q", _si(HOME), "--length", "m", "--angle", "rad", "--json").stdout)
+    np.testing.assert_allclose(_display(a["q"], "mm"), HOME, atol=1e-12)
     np.testing.assert_allclose(b["q"], HOME_SI, atol=1e-15)
-    np.testing.assert_allclose(np.array(a["T_world_tool"])[:3, 3], T[:3, 3] * 1e3, atol=1e-9)
+    np.testing.assert_allclose(np.array(a["T_world_tool"])[:3, 3], T[:3, 3], atol=1e-12)
     np.testing.assert_allclose(np.array(b["T_world_tool"])[:3, 3], T[:3, 3], atol=1e-12)
 
 
@@ -165,11 +171,11 @@ def test_ik_answers_prismatic_values_in_the_length_unit(rpr):
     pose_mm = ",".join(repr(float(v)) for v in T_mm.ravel())
     pose_m = ",".join(repr(float(v)) for v in T.ravel())
     # an RPR arm reaches a 3-D point, not a 6-D pose: start next to the answer, judge the position alone
-    a = json.loads(run("ik", rpr, "--pose", pose_mm, "--q0", "12,90,25", "--deg", "--unit", "mm", "--json", "--restarts", "0",
-                       "--tol-rotation", "10", "--tol-position", "1e-6", ok=False).stdout)
-    b = json.loads(run("ik", rpr, "--pose", pose_m, "--q0", _si((12, 90, 25)), "--unit", "m", "--json", "--restarts", "0",
+    a = json.loads(run("ik", rpr, "--pose", pose_mm, "--q0", "12,90,25", "--json", "--restarts", "0",
+                       "--tol-rotation", str(math.degrees(10)), "--tol-position", "1e-6", ok=False).stdout)
+    b = json.loads(run("ik", rpr, "--pose", pose_m, "--q0", _si((12, 90, 25)), "--length", "m", "--angle", "rad", "--json", "--restarts", "0",
                        "--tol-rotation", "10", "--tol-position", "1e-9", ok=False).stdout)
-    np.testing.assert_allclose(a["q"], HOME, atol=1e-5)
+    np.testing.assert_allclose(_display(a["q"], "mm"), HOME, atol=1e-5)
     np.testing.assert_allclose(b["q"], HOME_SI, atol=1e-7)
 
 
@@ -178,13 +184,14 @@ def test_dynamics_reads_and_echoes_prismatic_values_and_rates_in_the_length_unit
     qd_si, qdd_si = [0.2, 0.05, -0.1], [0.1, 0.3, 0.2]
     tau = dv.rnea(m, HOME_SI, qd_si, qdd_si, gravity=[0, 0, -9.81])
     a = json.loads(run("dynamics", rpr, "--q", "10,100,20", "--qd", ",".join(repr(v) for v in (math.degrees(0.2), 50.0, math.degrees(-0.1))),
-                       "--qdd", ",".join(repr(v) for v in (math.degrees(0.1), 300.0, math.degrees(0.2))), "--deg", "--unit", "mm", "--json").stdout)
-    b = json.loads(run("dynamics", rpr, "--q", _si(HOME), "--qd", ",".join(map(repr, qd_si)), "--qdd", ",".join(map(repr, qdd_si)), "--unit", "m", "--json").stdout)
+                       "--qdd", ",".join(repr(v) for v in (math.degrees(0.1), 300.0, math.degrees(0.2))), "--json").stdout)
+    b = json.loads(run("dynamics", rpr, "--q", _si(HOME), "--qd", ",".join(map(repr, qd_si)), "--qdd", ",".join(map(repr, qdd_si)), "--length", "m", "--angle", "rad",
+                       "--json").stdout)
     np.testing.assert_allclose(a["tau"], tau, rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(b["tau"], tau, rtol=1e-10, atol=1e-12)
     assert a["tau_units"] == ["N m", "N", "N m"]
-    np.testing.assert_allclose(a["q"], HOME, atol=1e-12)
-    np.testing.assert_allclose(a["qd"], [math.degrees(0.2), 50.0, math.degrees(-0.1)], atol=1e-12)
+    np.testing.assert_allclose(_display(a["q"], "mm"), HOME, atol=1e-12)
+    np.testing.assert_allclose(_display(a["qd"], "mm"), [math.degrees(0.2), 50.0, math.degrees(-0.1)], atol=1e-12)
     np.testing.assert_allclose(b["qdd"], qdd_si, atol=1e-15)
 
 
@@ -216,10 +223,10 @@ def test_simulate_then_identify_with_a_prismatic_joint(rpr, tmp_path):
         run("identify", data, "--nominal", rpr, "--length", length, "--json", out)
         doc = json.loads(out.read_text())
         k = 1e3 if length == "mm" else 1.0
-        np.testing.assert_allclose(doc["home"], [10, 100 * k / 1e3, 20], atol=1e-6)
-        assert doc["units"]["length"] == length
-        np.testing.assert_allclose(doc["tool_point_home"], point * k, atol=1e-6 * k)
-        params = np.array([[r[c] for c in ("d", "theta", "a", "alpha")] for r in doc["parameters"]]) / [k, 1, k, 1]
+        np.testing.assert_allclose(_display(doc["home"], length), [10, 100 * k / 1e3, 20], atol=1e-6)
+        assert doc["units"] == {"length": "m", "angle": "rad"}  # JSON: SI whatever --length
+        np.testing.assert_allclose(doc["tool_point_home"], point, atol=1e-6)
+        params = np.array([[r[c] for c in ("d", "theta", "a", "alpha")] for r in doc["parameters"]]) * [1, 180 / math.pi, 1, 180 / math.pi]  # m, deg
         first = params if first is None else first
         np.testing.assert_allclose(params, first, atol=1e-8)  # the same geometry whatever the units in and out
         np.testing.assert_allclose(params[2, [0, 2]], [0.08, 0.12], atol=1e-8)  # joint 3: d 80 mm, a 120 mm
@@ -234,8 +241,8 @@ def test_simulate_then_identify_with_a_prismatic_joint(rpr, tmp_path):
         run("identify", folder, "--nominal", rpr, "--home", home, "--length", length, "--angle", angle, "--json", out)
         doc = json.loads(out.read_text())
         k = 1e3 if length == "mm" else 1.0
-        np.testing.assert_allclose(doc["home"], [10, 100 * k / 1e3, 20], atol=1e-6)
-        params = np.array([[r[c] for c in ("d", "theta", "a", "alpha")] for r in doc["parameters"]]) / [k, 1, k, 1]
+        np.testing.assert_allclose(_display(doc["home"], length), [10, 100 * k / 1e3, 20], atol=1e-6)
+        params = np.array([[r[c] for c in ("d", "theta", "a", "alpha")] for r in doc["parameters"]]) * [1, 180 / math.pi, 1, 180 / math.pi]  # m, deg
         np.testing.assert_allclose(params, first, atol=1e-6)  # (the home point is a measured one: no readings)
 
 
@@ -256,24 +263,24 @@ def test_calibrate_reads_prismatic_readings_in_the_length_unit_in_mm_and_m(rpr, 
         # the file declares its units: --length/--angle (default mm, deg) are the output's (and --tool's) only
         run("calibrate", f, "--nominal", rpr, "--tool", "30,20,50", "--json", out, "--holdout", "0", "--fix", "tool_*")
         doc = json.loads(out.read_text())
-        assert doc["units"]["length"] == "mm"
-        assert doc["residuals"]["rms"] < 1e-6, doc["residuals"]  # mm: exact data, read in the right units
+        assert doc["units"]["length"] == "m"  # JSON: SI
+        assert doc["residuals"]["rms"] < 1e-9, doc["residuals"]  # m (1e-6 mm): exact data, read in the right units
 
 
 def test_plan_reads_home_and_ranges_of_a_prismatic_joint_in_the_length_unit(rpr):
     a = json.loads(run("plan", rpr, "--home", "10,100,20", "--ranges", RANGES_MM_DEG, "--points", "10", "--tool", "30,20,50", "--json").stdout)
     b = json.loads(run("plan", rpr, "--home", _si(HOME), "--ranges", RANGES_M_RAD, "--points", "10", "--tool", "0.03,0.02,0.05",
                        "--noise", "2e-5", "--length", "m", "--angle", "rad", "--json").stdout)
-    np.testing.assert_allclose(np.array(b["bounding_box"]["lengths"]) * 1e3, a["bounding_box"]["lengths"], rtol=1e-9)
+    np.testing.assert_allclose(b["bounding_box"]["lengths_m"], a["bounding_box"]["lengths_m"], rtol=1e-9)  # JSON: SI
     m = dv.load_model(rpr)
     from denavit import sweeps as sw
 
     s = sw.simulate(m, home=HOME_SI, ranges=[[math.radians(-40), math.radians(40)], [0.05, 0.25], [math.radians(-60), math.radians(60)]],
                     points_per_sweep=10, tool_point=(0.03, 0.02, 0.05))
-    P = s.all_points * 1e3
+    P = s.all_points
     diameter = max(np.linalg.norm(P - p, axis=1).max() for p in P)
-    diagonal = np.linalg.norm(a["bounding_box"]["lengths"])  # the box holds every point: its diagonal spans them
-    assert diameter - 1e-6 <= diagonal <= math.sqrt(3) * diameter
+    diagonal = np.linalg.norm(a["bounding_box"]["lengths_m"])  # the box holds every point: its diagonal spans them
+    assert diameter - 1e-9 <= diagonal <= math.sqrt(3) * diameter  # m
 
 
 def test_convert_carries_prismatic_limits_and_home_in_the_length_unit(rpr, tmp_path):

@@ -699,7 +699,7 @@ def test_convert_cli_prints_tables_and_writes_urdf(tmp_path):
     r = runner.invoke(app, ["convert", str(PANDA), "--to", "mdh", "--json"])
     assert r.exit_code == 0, r.output
     doc = json.loads(r.output)
-    assert doc["units"] == {"length": "mm", "angle": "deg"} and len(doc["rows"]) == 7
+    assert doc["units"] == {"length": "m", "angle": "rad"} and len(doc["rows"]) == 7  # JSON: SI (docs/cli.md)
     assert [p["relation"] for p in doc["pairs"]] == ["intersecting", "intersecting", "skew", "skew", "intersecting", "skew"]
     assert doc["max_tool_position_error_m"] < 1e-12
     r = runner.invoke(app, ["convert", str(UR), "--to", "dh"])
@@ -822,7 +822,7 @@ def test_every_command_picks_the_chain():
     m = dv.load_model(f, tip_link="camera")
     assert m.nq == 1 and dv.load_model(f).nq == 2
     for args in (["fk", f, "--q", "0.1,0.2"], ["show", f], ["export", f], ["dynamics", f, "--q", "0,0", "--qd", "0,0", "--qdd", "0,0"],
-                 ["ik", f, "--pose", ",".join(map(str, dv.fk(dv.load_model(f), [0.1, 0.2]).ravel()))]):
+                 ["ik", f, "--pose", ",".join(map(str, dv.fk(dv.load_model(f), [0.1, 0.2]).ravel())), "--length", "m"]):
         p = run(*args)
         assert "note: two_tips.urdf: tip link 'tool0' (REP-199)" in p.stderr, args
         p = run(*args[:2], "--tip-link", "tool0", *args[2:])

@@ -2,15 +2,33 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
-from rich.table import Table as RichTable
 
-from ..io.units import length_scale
-from .common import BaseLinkOpt, TipLinkOpt, app, calib_unit, console, convention_name, fail, fmt, load_robot, parse_numbers, say, wrote
+from ..io.units import angle_scale, length_scale
+from .common import (
+    BaseLinkOpt,
+    JsonOpt,
+    TipLinkOpt,
+    app,
+    calib_unit,
+    console,
+    convention_name,
+    emit_json,
+    fail,
+    json_target,
+    load_robot,
+    num,
+    parse_point,
+    print_rows,
+    say,
+    spread,
+    status,
+    wrote,
+)
 
 
 @app.command()
@@ -19,7 +37,7 @@ def calibrate(
     nominal: Annotated[str, typer.Option("--nominal", help="Nominal model (built-in name, robot file or URDF).")],
     convention: Annotated[str, typer.Option("--convention", help="edh | mdh (Hayati angle where axes are near-parallel) | dh")] = "edh",
     fix: Annotated[str | None, typer.Option("--fix", help="Parameters to hold at their nominal values: names or patterns, comma-separated (e.g. 'base_*,tool_z').")] = None,
-    json_path: Annotated[Path | None, typer.Option("--json", help="Write the result as JSON to this file ('-': standard output).")] = None,
+    json_path: JsonOpt = None,
     save: Annotated[Path | None, typer.Option("--save", help="Write the calibrated robot file (.toml, ED-H) to this path.")] = None,
     urdf: Annotated[Path | None, typer.Option("--urdf", help="Write the calibrated robot as URDF, with a URDF nominal's meshes, inertials and limits.")] = None,
     loss: Annotated[str, typer.Option("--loss", help="linear | soft_l1 | huber | cauchy | arctan (robust loss)")] = "linear",
@@ -28,8 +46,9 @@ def calibrate(
     scale: Annotated[bool, typer.Option("--scale", help="Also estimate a scale per joint.")] = False,
     tool: Annotated[str | None, typer.Option("--tool", help="Tool point in the flange frame, --length units (default: the nominal model's tool).")] = None,
     noise: Annotated[float | None, typer.Option("--noise", help="Known point noise (1 sigma per coordinate), --length units (default: from the residuals).")] = None,
-    length: Annotated[str, typer.Option("--length", help="Length unit of the output (and of the data if not declared in it).")] = "mm",
-    angle: Annotated[str, typer.Option("--angle", help="Angle unit of the output (and of the data if not declared in it).")] = "deg",
+    length: Annotated[str, typer.Option("--length", help="Length unit of what is typed and printed, and of the data where they declare none: mm | m | cm | um | in. JSON stays SI.")] = "mm",
+    angle: Annotated[str, typer.Option("--angle", help="Angle unit of what is typed and printed, and of the data where they declare none: deg | rad. JSON stays SI.")] = "deg",
+    verbose: Annotated[bool, typer.Option("--verbose", help="Every parameter the data cannot identify, with the reason (default: their names in a few lines).")] = False,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the held-out split.")] = 0,
     data_format: Annotated[str, typer.Option("--format", help="measurements (q1..qn,x,y,z CSV, sweep CSV, JSON) | tracker | rtde | rsi | bag | columns | auto (from the content).")] = "auto",
     columns: Annotated[str | None, typer.Option("--columns", help="Column map of a delimited recording, e.g. \"t,q1..q6,x,y,z\".")] = None,
@@ -41,6 +60,7 @@ def calibrate(
     from .. import calibration as cal  # noqa: PLC0415
     from ..io.measurements import read_measurements  # noqa: PLC0415
 
+    json_path = json_target(json_path)
     robot = load_robot(nominal, base_link, tip_link, "--nominal")
     convention = convention_name(convention)
     # the reader applies the one units rule (denavit.io.units.input_units): what the file declares wins
@@ -57,21 +77,17 @@ def calibrate(
         say("dim", "note:", f" {len(q)} poses where the robot stood still (the median of each pause)")
         meas = cal.Measurements(q, pts, None, str(data), where, {"length": "m", "angle": "rad"}, kinds=tuple(robot.table.kinds))
     ls = length_scale(length)
-    tp = None
-    if tool is not None:
-        tp = np.array(parse_numbers(tool, "--tool")) * ls
-        if tp.shape != (3,):
-            fail(f"--tool: expected 3 values (x, y, z), got {tp.size}")
-    if noise is not None and not (np.isfinite(noise) and noise > 0):
+    tp = None if tool is None else parse_point(tool, "--tool", ls, ())
+    if noise is not None and not (math.isfinite(noise) and noise > 0):
         fail(f"--noise: expected the known one-sigma point noise, a finite value > 0 in {length}, got {noise}")
+    sigma = None if noise is None else noise * ls
     fixes = [f.strip() for f in (fix or "").split(",") if f.strip()]
-    with console.status(f"calibrating {robot.name} ({convention}) from {meas.n} {'poses' if meas.kind == 'pose' else 'points'}..."):
-        res = cal.calibrate(meas, robot, convention=convention, fix=fixes, loss=loss, start=start, holdout=holdout, scale=scale, tool=tp,
-                            noise=None if noise is None else noise * ls, seed=seed)
-    print_calibration(res, length, angle)
+    with status(f"calibrating {robot.name} ({convention}) from {meas.n} {'poses' if meas.kind == 'pose' else 'points'}..."):
+        res = cal.calibrate(meas, robot, convention=convention, fix=fixes, loss=loss, start=start, holdout=holdout, scale=scale, tool=tp, noise=sigma, seed=seed)
     if json_path:
-        cal.write_json(res, json_path, length, angle)
-        wrote(json_path)
+        emit_json(cal.to_json(res, "m", "rad"), json_path)
+    if json_path != "-":
+        print_calibration(res, length, angle, verbose)
     if save:
         from ..io.robotfile import save as save_file  # noqa: PLC0415
 
@@ -84,35 +100,34 @@ def calibrate(
         wrote(urdf)
 
 
-def print_calibration(res, length: str, angle: str) -> None:
+def print_calibration(res, length: str, angle: str, verbose: bool = False) -> None:
     pz = res.parametrization
     meas = res.measurements
-    say("bold", f"Calibration of {pz.robot.name}", f" ({res.convention}, {meas.n} {'poses' if meas.kind == 'pose' else 'points'} from {meas.source}; "
+    say("bold", f"Calibration of {pz.robot.name}", f" ({res.convention}, {meas.n} {'poses' if meas.kind == 'pose' else 'points'}; "
         f"{res.elapsed * 1e3:.1f} ms, {res.evaluations} evaluations{'' if res.converged else ', NOT converged'})")
-    t = RichTable(caption="sigma: one standard deviation (covariance of the fit); change: calibrated - nominal")
-    for c in ("parameter", "unit", "nominal", "calibrated", "sigma", "change", "status"):
-        t.add_column(c, justify="left" if c in ("parameter", "unit", "status") else "right")
+    console.print(f"  data: {meas.source}", soft_wrap=True)
+    rows = []
     for k, name in enumerate(res.names):
         u, s = calib_unit(pz.units[k], length, angle)
         nom, val, sig = res.nominal[k] / s, res.values[k] / s, res.sigma[k] / s
-        t.add_row(name, u, fmt(nom, 4), fmt(val, 4), "-" if not np.isfinite(sig) else f"{sig:.4g}", fmt(val - nom, 4), res.status[k])
-    console.print(t)
+        rows.append([name, u, num(nom, u), num(val, u), spread(sig), num(val - nom, u), res.status[k]])
+    print_rows(None, ["parameter", "unit", "nominal", "calibrated", "sigma", "change", "status"], rows, left=(1, 6),
+               caption="sigma: one standard deviation (covariance of the fit); change: calibrated - nominal")
     ana = res.identifiability
     console.print(f"Identifiability: {ana.summary()}")
-    if ana.unidentifiable:
-        ut = RichTable(title="Parameters the data cannot identify (held at their start values)")
-        ut.add_column("parameter")
-        ut.add_column("why")
-        for u in ana.unidentifiable:
-            ut.add_row(u.name, u.reason)
-        console.print(ut)
+    structural = [u for u in ana.unidentifiable if u.structural]
+    if structural and not verbose:
+        console.print(f"Redundant in the {res.convention} parametrisation (held at their start values; reasons with --verbose): {', '.join(u.name for u in structural)}")
+    for u in ana.unidentifiable:
+        if verbose or not u.structural:
+            say("yellow", "not identifiable:" if not u.structural else "redundant:", f" {u.name}: {u.reason}")
     ls = length_scale(length)
-    console.print(f"Residuals: rms {res.rms / ls:.4g} {length} (noise estimate {res.noise / ls:.3g} {length} per coordinate)"
-                  + (f", rotation rms {np.degrees(res.rms_rotation):.3g} deg" if meas.kind == "pose" else ""))
+    console.print(f"Residuals: rms {spread(res.rms / ls)} {length} (noise estimate {spread(res.noise / ls)} {length} per coordinate)"
+                  + (f", rotation rms {spread(res.rms_rotation / angle_scale(angle))} {angle}" if meas.kind == "pose" else ""))
     v = res.validation
     if v is not None:
-        console.print(f"Held-out validation ({v.n_test} of {v.n_train + v.n_test} poses): tool-position error rms {v.before_rms / ls:.4g} -> {v.after_rms / ls:.4g} {length}, "
-                      f"max {v.before_max / ls:.4g} -> {v.after_max / ls:.4g} {length} (before: nominal geometry with base and tool fitted)")
+        console.print(f"Held-out validation ({v.n_test} of {v.n_train + v.n_test} poses): tool-position error rms {spread(v.before_rms / ls)} -> {spread(v.after_rms / ls)} {length}, "
+                      f"max {spread(v.before_max / ls)} -> {spread(v.after_max / ls)} {length} (before: nominal geometry with base and tool fitted)")
     for note in res.notes:
         say("yellow", "note:", f" {note}")
 

@@ -4,32 +4,98 @@ joint values and poses from the command line.
 Units are declared at this edge and applied by :mod:`denavit.io.units` only: a joint value (``--q``,
 ``--home``, ``--ranges``, rates) is in the angle unit for a revolute joint and in the length unit for a
 prismatic one (:func:`~denavit.io.units.joint_scale`); table cells follow
-:func:`~denavit.io.units.cell_scale` (a POE ``w``, and a prismatic joint's ``v``, are unitless).
+:func:`~denavit.io.units.cell_scale` (a POE ``w``, and a prismatic joint's ``v``, are unitless). The grammar
+every command follows (units, physical defaults, ``--json [PATH]`` in SI, exit codes, terminal output) is
+docs/cli.md.
 """
 
 from __future__ import annotations
 
+import math
+import sys
+from contextlib import contextmanager
 from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.console import Console
 from rich.table import Table as RichTable
 from rich.text import Text
+from typer.core import TyperCommand, TyperGroup
 
-from ..io.units import cell_scale, column_scale, joint_scale
+from ..io.units import ANGLE, LENGTH, angle_scale, cell_scale, column_scale, joint_scale, joint_unit, length_scale
 
 if TYPE_CHECKING:
+    from collections.abc import Iterator, Sequence
+
     import numpy as np
 
     from .. import _core
     from ..robot import Robot
 
-app = typer.Typer(
+
+def _reflow(text: str | None) -> str | None:
+    """A docstring's paragraphs each on one line, so the help wraps them at the terminal's width (rich markup
+    mode keeps single newlines, which broke sentences mid-way in the command list)."""
+    if not text:
+        return text
+    import inspect  # noqa: PLC0415
+
+    return "\n\n".join(" ".join(p.split()) for p in inspect.cleandoc(text).split("\n\n"))
+
+
+def _no_flag_placeholders(params: list) -> list:
+    """Flags take no value: no ``<bool>`` placeholder after them in the help."""
+    for p in params:
+        if getattr(p, "is_flag", False) and p.metavar is None:
+            p.metavar = ""
+    return params
+
+
+class Command(TyperCommand):
+    """Every command: help paragraphs reflowed, flags without a type placeholder, a bare ``--json`` meaning
+    standard output (:func:`json_argv`)."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.help = _reflow(self.help)
+
+    def get_params(self, ctx):  # noqa: ANN001, ANN201 (click's signature)
+        return _no_flag_placeholders(super().get_params(ctx))
+
+    def parse_args(self, ctx, args):  # noqa: ANN001, ANN201 (click's signature)
+        return super().parse_args(ctx, json_argv(args))
+
+    def invoke(self, ctx):  # noqa: ANN001, ANN201 (click's signature)
+        try:
+            return super().invoke(ctx)
+        finally:
+            console.file = None  # back to standard output after a --json - run (json_target), for the next in-process call
+
+
+class Group(TyperGroup):
+    """The root: its own options (--version, --help) without placeholders."""
+
+    def get_params(self, ctx):  # noqa: ANN001, ANN201 (click's signature)
+        return _no_flag_placeholders(super().get_params(ctx))
+
+
+class App(typer.Typer):
+    """The typer app whose commands are :class:`Command` s."""
+
+    def command(self, *args, cls=None, **kwargs):  # noqa: ANN001, ANN201 (typer's signature)
+        return super().command(*args, cls=cls or Command, **kwargs)
+
+
+app = App(
+    cls=Group,
     add_completion=False,
     no_args_is_help=True,
-    help="Find the true kinematic geometry of serial robots and compute with it.",
+    help="Find the true kinematic geometry of serial robots and compute with it. Lengths in mm and angles in degrees "
+         "unless --length/--angle say otherwise; JSON always in SI (docs/cli.md).",
     pretty_exceptions_enable=False,
 )
+
+
 def _version(value: bool) -> None:
     if value:
         from .._core import __version__  # noqa: PLC0415
@@ -48,10 +114,91 @@ console = Console(markup=False)
 err_console = Console(stderr=True, markup=False)
 
 ModelArg = Annotated[str, typer.Argument(help="A built-in name (see `denavit models`), a robot file (.toml) or a URDF.")]
-JsonOpt = Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")]
+LengthOpt = Annotated[str, typer.Option("--length", help="Length unit of what is typed and printed: mm (default) | m | cm | um | in. JSON stays SI.")]
+AngleOpt = Annotated[str, typer.Option("--angle", help="Angle unit of what is typed and printed: deg (default) | rad. JSON stays SI.")]
+JsonOpt = Annotated[str | None, typer.Option("--json", metavar="[PATH]", help="Write the result as JSON (SI: m, rad) to PATH; '-' or no PATH: standard output, instead of the tables.")]
 BaseLinkOpt = Annotated[str | None, typer.Option("--base-link", help="URDF model: the chain's base link (default: the root link).")]
 TipLinkOpt = Annotated[str | None, typer.Option("--tip-link", help="URDF model: the chain's tip link (default: the single leaf, REP-199's tool0, or the leaf through the most moving joints; echoed).")]
 ChainOnlyOpt = Annotated[bool, typer.Option("--chain-only", help="URDF model: the chain alone, without the links off it (in the dynamics and in a URDF written).")]
+
+#: What a bare ``--json`` (no PATH after it) means: standard output.
+STDOUT = "-"
+
+
+def json_argv(argv: Sequence[str]) -> list[str]:
+    """``--json`` with no value (last, or followed by another option) becomes ``--json -``: ``--json [PATH]``
+    on every command (click has no optional option values)."""
+    out: list[str] = []
+    for k, a in enumerate(argv):
+        out.append(a)
+        if a == "--":
+            return out + list(argv[k + 1:])
+        if a == "--json":
+            nxt = argv[k + 1] if k + 1 < len(argv) else None
+            if nxt is None or (nxt.startswith("-") and nxt != STDOUT):
+                out.append(STDOUT)
+    return out
+
+
+def json_target(path) -> str | None:
+    """Where ``--json`` goes (None: nowhere). To standard output, it replaces the tables and everything else
+    printed (notes, warnings, ``wrote``) goes to stderr, so standard output holds the JSON document only."""
+    if path is None:
+        return None
+    path = str(path)
+    if path == STDOUT:
+        console.file = sys.stderr
+    return path
+
+
+def emit_json(doc, path: str | None) -> None:
+    """Write ``doc`` (SI, ``units`` stated) as strict JSON to ``path`` ('-': standard output)."""
+    from ..io.output import json_text, write_text  # noqa: PLC0415
+
+    if path is None:
+        return
+    text = json_text(doc)
+    if path == STDOUT:
+        sys.stdout.write(text)
+        sys.stdout.flush()
+    else:
+        write_text(path, text)
+        wrote(path)
+
+
+SI_UNITS = {"length": "m", "angle": "rad"}
+
+
+#: A step that lasts longer than this (s) says what it is doing.
+PATIENCE = 1.0
+
+
+@contextmanager
+def status(message: str) -> Iterator:
+    """Say what a step that takes more than :data:`PATIENCE` is doing, on stderr: a spinner on a terminal (its
+    ``update(text)`` shows progress), else one line once the step has lasted that long (a quick step, or an
+    error found at once, prints nothing but its result)."""
+    if err_console.is_terminal:
+        with err_console.status(message) as s:
+            yield s
+        return
+    import threading  # noqa: PLC0415
+
+    class _Line:
+        def __init__(self) -> None:
+            self.text = message
+            self.timer = threading.Timer(PATIENCE, lambda: err_console.print(self.text, soft_wrap=True))
+            self.timer.daemon = True
+
+        def update(self, text, *_a, **_k) -> None:
+            self.text = f"{message} {text}" if text else message
+
+    line = _Line()
+    line.timer.start()
+    try:
+        yield line
+    finally:
+        line.timer.cancel()
 
 
 def load_robot(model: str, base_link: str | None = None, tip_link: str | None = None, what: str = "MODEL", chain_only: bool = False) -> Robot:
@@ -96,10 +243,10 @@ def parse_numbers(text: str | None, what: str) -> list[float]:
         raise
 
 
-def parse_joint_values(text: str | None, what: str, robot: Robot, length: str, angle: str, default=None) -> np.ndarray:
+def parse_joint_values(text: str | None, what: str, robot: Robot, length: str, angle: str, default=None, limits: bool = True) -> np.ndarray:
     """One value per joint from the command line (``--q``, ``--qd``, ``--home``, ...), SI out: revolute values
     in ``angle``, prismatic ones in ``length`` (rates per s, per s^2). Without ``text``: ``default`` (SI),
-    else zeros."""
+    else zeros. With ``limits``, values beyond the robot's joint limits are warned about (:func:`warn_limits`)."""
     import numpy as np  # noqa: PLC0415
 
     n = len(robot.names)
@@ -108,7 +255,25 @@ def parse_joint_values(text: str | None, what: str, robot: Robot, length: str, a
         return np.zeros(n) if default is None else np.asarray(default, dtype=float)
     if len(values) != n:
         fail(f"{what}: expected {n} joint values for {robot.name}, got {len(values)}")
-    return np.array(values) * joint_scale(robot.table.kinds, length, angle, what)
+    q = np.array(values) * joint_scale(robot.table.kinds, length, angle, what)
+    if limits:
+        warn_limits(q, robot, what, length, angle)
+    return q
+
+
+def warn_limits(q, robot: Robot, what: str, length: str, angle: str) -> None:
+    """A warning on stderr for each joint value (SI) beyond the robot's limits, in the units typed; in degrees
+    the hint that radians were meant is rarely right, in radians that degrees were meant almost always is."""
+    import numpy as np  # noqa: PLC0415
+
+    lo, hi = np.asarray(robot.lower, dtype=float), np.asarray(robot.upper, dtype=float)
+    sc = joint_scale(robot.table.kinds, length, angle)
+    bad = [j for j in range(len(q)) if not lo[j] - 1e-12 <= q[j] <= hi[j] + 1e-12]
+    for j in bad:
+        u = joint_unit(robot.table.kinds[j], length, angle)
+        say("bold yellow", "warning:", f" {what}: joint {robot.names[j]} = {q[j] / sc[j]:.6g} {u} is beyond its limits [{lo[j] / sc[j]:.6g}, {hi[j] / sc[j]:.6g}] {u}", err=True)
+    if bad and angle == "rad" and all(k == "revolute" for k in robot.table.kinds):
+        say("bold yellow", "warning:", f" {what} is read in rad (--angle rad): were degrees meant?", err=True)
 
 
 def joint_values_out(values, robot: Robot, length: str, angle: str) -> list[float]:
@@ -156,6 +321,28 @@ def parse_pose(text: str, angle: str, ls: float, what: str = "--pose") -> np.nda
     raise AssertionError
 
 
+def parse_point(text: str | None, what: str, ls: float, default_si: Sequence[float]) -> np.ndarray:
+    """A point x,y,z typed in the length unit (``ls`` metres per unit), SI out; ``default_si`` (metres, a
+    physical default that keeps its size whatever the unit) without ``text``."""
+    import numpy as np  # noqa: PLC0415
+
+    if text is None:
+        return np.asarray(default_si, dtype=float)
+    p = np.array(parse_numbers(text, what)) * ls
+    if p.shape != (3,):
+        fail(f"{what}: expected 3 values (x, y, z), got {p.size}")
+    return p
+
+
+def positive(value: float | None, what: str, scale: float, default_si: float | None, unit: str) -> float | None:
+    """A non-negative quantity typed in ``unit`` (``scale`` SI per unit), SI out; ``default_si`` without a value."""
+    if value is None:
+        return default_si
+    if not (math.isfinite(value) and value >= 0):
+        fail(f"{what}: expected a finite value >= 0 in {unit}, got {value}")
+    return value * scale
+
+
 def pose_rows(T: np.ndarray, ls: float) -> list[list[float]]:
     import numpy as np  # noqa: PLC0415
 
@@ -168,7 +355,83 @@ def fmt(v: float, nd: int = 6) -> str:
     """A table cell: ``nd`` decimals, "nan" for NaN (never 0.000000), -0 shown as 0."""
     if v != v:
         return "nan"
-    return f"{v:.{nd}f}" if abs(v) >= 1e-12 else f"{0.0:.{nd}f}"
+    return f"{v:.{nd}f}" if abs(v) >= 0.5 * 10.0 ** -nd else f"{0.0:.{nd}f}"
+
+
+#: The resolution printed: 1 um for lengths, 0.001 deg for angles, 1e-6 for unitless numbers.
+RESOLUTION = {"length": 1e-6, "angle": math.radians(1e-3), "1": 1e-6}
+
+
+def decimals(unit: str) -> int:
+    """Decimals that show :data:`RESOLUTION` in ``unit`` (3 in mm, 6 in m, 3 in deg, 5 in rad, 6 unitless)."""
+    u = str(unit).strip().lower()
+    if u in LENGTH:
+        r = RESOLUTION["length"] / length_scale(u)
+    elif u in ANGLE:
+        r = RESOLUTION["angle"] / angle_scale(u)
+    else:
+        r = RESOLUTION["1"]
+    return max(0, math.ceil(-math.log10(r) - 1e-9))
+
+
+def num(v: float, unit: str) -> str:
+    """A value in ``unit`` with the digits of its resolution (:func:`decimals`)."""
+    return fmt(v, decimals(unit))
+
+
+def spread(v: float) -> str:
+    """A sigma, rms or other small positive spread: 3 significant figures (never ``0.000`` in metres); "-"
+    where it is not finite (not identifiable)."""
+    if not math.isfinite(v):
+        return "-"
+    return f"{v:.3g}"
+
+
+def print_rows(title: str | None, headers: Sequence[str], rows: Sequence[Sequence[str]], *, caption: str | None = None,
+               labels: int = 1, left: Sequence[int] = (), group: bool = False, prose: Sequence[int] = ()) -> None:
+    """A table that never cuts a number or a name: a rich table when every column fits the console at its
+    widest cell (headers may wrap between words), else a long layout, each row's ``labels`` first cells as a
+    heading and one ``header  value`` line per other cell. ``left``: columns justified left (labels are);
+    ``group``: a rich table shows the first cell only where it changes, with a line between groups; ``prose``:
+    columns of text that may wrap between words (descriptions)."""
+    headers = list(headers)
+    rows = [list(r) for r in rows]
+
+    def longest_word(text: str) -> int:
+        return max((len(w) for w in text.split()), default=0)
+
+    ks = range(len(headers))
+    least = [max([longest_word(r[k]) if k in prose else len(r[k]) for r in rows] + [longest_word(headers[k]), 1]) for k in ks]
+    width = [max([len(r[k]) for r in rows] + [len(headers[k]), 1]) for k in ks]  # headers (and prose) on one line if the console allows
+    for k in sorted(ks, key=lambda k: least[k] - width[k]):  # else wrap the widest-for-its-content first
+        excess = sum(width) + 3 * len(headers) + 1 - console.width
+        if excess <= 0:
+            break
+        width[k] = max(least[k], width[k] - excess)
+    if sum(width) + 3 * len(headers) + 1 <= console.width:
+        import textwrap  # noqa: PLC0415
+
+        # the widths are decided here (rich would shrink columns by cutting them): headers wrapped between
+        # words to their column's width, cells never wrapped but prose
+        t = RichTable(title=title, caption=caption)
+        for k, h in enumerate(headers):
+            t.add_column(textwrap.fill(h, width[k], break_long_words=False), justify="left" if k < labels or k in left else "right",
+                         width=width[k] if k in prose else None, no_wrap=k not in prose, overflow="fold")
+        for i, r in enumerate(rows):
+            last = i + 1 == len(rows) or rows[i + 1][0] != r[0]
+            first = i == 0 or rows[i - 1][0] != r[0]
+            t.add_row(*([r[0] if first else "", *r[1:]] if group else r), end_section=group and last and i + 1 < len(rows))
+        console.print(t)
+        return
+    if title:
+        say("bold", title)
+    hw = max((len(h) for h in headers[labels:]), default=0)
+    for r in rows:
+        say("bold", " ".join(c for c in r[:labels] if c))
+        for h, c in zip(headers[labels:], r[labels:]):
+            console.print(f"  {h:<{hw}}  {c}", soft_wrap=True)
+    if caption:
+        console.print(caption)
 
 
 def table_rows(table: _core.Table, length: str, angle: str) -> list[dict]:
@@ -178,14 +441,13 @@ def table_rows(table: _core.Table, length: str, angle: str) -> list[dict]:
 
 
 def print_table(table: _core.Table, names: list[str], length: str, angle: str, title: str) -> None:
+    """A parameter table with each column's unit in its header and the digits of that unit."""
     prismatic_poe = table.convention == "poe" and "prismatic" in table.kinds
-    t = RichTable(title=title, caption="v of a prismatic joint: its unit direction [1]" if prismatic_poe else None)
-    t.add_column("joint")
-    for k, c in enumerate(table.columns):
-        t.add_column(f"{c} [{column_scale(table, k, length, angle)[1]}]", justify="right")
-    for n, row in zip(names, table_rows(table, length, angle)):
-        t.add_row(n, *(fmt(v, 4) for v in row.values()))
-    console.print(t)
+    units = [column_scale(table, k, length, angle)[1] for k in range(len(table.columns))]
+    rows = [[n, *(num(v, cell_scale(table, i, k, length, angle)[1]) for k, v in enumerate(row.values()))]
+            for i, (n, row) in enumerate(zip(names, table_rows(table, length, angle)))]
+    print_rows(title, ["joint", *(f"{c} [{u}]" for c, u in zip(table.columns, units))], rows,
+               caption="v of a prismatic joint: its unit direction [1]" if prismatic_poe else None)
 
 
 def calib_unit(unit: str, length: str, angle: str) -> tuple[str, float]:

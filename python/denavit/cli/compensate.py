@@ -8,7 +8,7 @@ import typer
 
 from ..errors import DenavitError
 from ..io.units import length_scale
-from .common import BaseLinkOpt, TipLinkOpt, app, console, load_robot, say, wrote
+from .common import SI_UNITS, AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, TipLinkOpt, app, console, emit_json, json_target, load_robot, positive, say, spread, status, wrote
 
 
 @app.command()
@@ -18,10 +18,10 @@ def compensate(
     identified: Annotated[str, typer.Option("--identified", help="The identified robot (e.g. from identify/calibrate --save), in the same robot base frame.")],
     output: Annotated[str | None, typer.Option("-o", "--output", help="Write the compensated program (CSV: commands, joint values, flags, errors per row); '-' for stdout.")] = None,
     path: Annotated[bool, typer.Option("--path", help="The targets form a path: warm-start along it and flag branch jumps.")] = False,
-    branch_tol: Annotated[float, typer.Option("--branch-tol", help="Largest joint change from the program's solution that keeps its branch, in --angle (revolute) units.")] = 5.0,
-    length: Annotated[str, typer.Option("--length", help="Length unit of the output (and of the targets if they declare none): mm | m | ...")] = "mm",
-    angle: Annotated[str, typer.Option("--angle", help="Angle unit of the output (and of the targets if they declare none): deg | rad.")] = "deg",
-    json_out: Annotated[str | None, typer.Option("--json", help="Write a JSON summary to this path ('-' for stdout).")] = None,
+    branch_tol: Annotated[float | None, typer.Option("--branch-tol", help="Largest joint change from the program's solution that keeps its branch, in --angle (revolute) units (default 5 deg whatever the unit).")] = None,
+    length: LengthOpt = "mm",
+    angle: AngleOpt = "deg",
+    json_out: JsonOpt = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
 ) -> None:
@@ -36,6 +36,7 @@ def compensate(
     from ..io.targets import read_targets, write_compensated  # noqa: PLC0415
     from ..io.units import angle_scale  # noqa: PLC0415
 
+    json_out = json_target(json_out)
     nom_robot = load_robot(nominal, base_link, tip_link, "--nominal")
     id_robot = load_robot(identified, base_link if str(identified).lower().endswith(".urdf") else None,
                           tip_link if str(identified).lower().endswith(".urdf") else None, "--identified")
@@ -53,7 +54,8 @@ def compensate(
         k = int(far[0])
         raise DenavitError(f"{prog.where[k]}: the target is {dist[k] / length_scale(prog.units['length']):.6g} {prog.units['length']} from the base but {nom_robot.name} "
                            f"reaches about {reach / length_scale(prog.units['length']):.4g} {prog.units['length']} ({len(far)} such rows): is the file's length unit right?")
-    c = cp.compensate(nom, ide, poses, q_nominal=prog.q, path=path, branch_tol=branch_tol * angle_scale(angle))
+    with status(f"compensating {len(poses)} targets ..."):
+        c = cp.compensate(nom, ide, poses, q_nominal=prog.q, path=path, branch_tol=positive(branch_tol, "--branch-tol", angle_scale(angle), np.radians(5.0), angle))
     ls = length_scale(length)
     flagged = [(w, why) for w, ok, r, b, j in zip(prog.where, c.ok, c.reached, c.branch_changed, c.path_jump, strict=True) if not ok
                for why in [", ".join(x for x, f in (("unreachable", not r), ("branch changed", b), ("path jump", j)) if f)]]
@@ -61,18 +63,13 @@ def compensate(
     if output:
         write_compensated(output, c, kinds, length=length, angle=angle, comment=f"compensated for {nom_robot.name} -> {id_robot.name} from {targets}")
         wrote(output, f" ({len(c)} rows, {len(flagged)} flagged)")
-    summary = {"targets": len(c), "flagged": len(flagged), "units": {"length": length, "angle": angle},
-               "before_rms": before_rms / ls, "before_max": float(c.before[c.ok].max()) / ls if c.ok.any() else None,
-               "residual_max": float(c.residual[c.ok].max()) / ls if c.ok.any() else None,
+    summary = {"targets": len(c), "flagged": len(flagged), "units": SI_UNITS,
+               "before_rms_m": before_rms, "before_max_m": float(c.before[c.ok].max()) if c.ok.any() else None,
+               "residual_max_m": float(c.residual[c.ok].max()) if c.ok.any() else None,
                "flagged_rows": [{"where": w, "why": why} for w, why in flagged]}
-    if json_out:
-        from ..io.output import json_text, write_text  # noqa: PLC0415
-
-        write_text(json_out, json_text(summary))
-        if json_out != "-":
-            wrote(json_out)
+    emit_json(summary, json_out)
     if json_out != "-" and output != "-":
-        gain = (f"; error without compensation {summary['before_rms']:.4g} {length} RMS, max {summary['before_max']:.4g} {length}"
+        gain = (f"; error without compensation {spread(before_rms / ls)} {length} RMS, max {spread(summary['before_max_m'] / ls)} {length}"
                 if c.ok.any() else "; no target can be sent (is the identified robot a calibration of the nominal?)")
         say("bold", f"{nom_robot.name} -> {id_robot.name}:", f" {len(c)} targets, {len(flagged)} flagged{gain}")
         for w, why in flagged[:20]:

@@ -8,14 +8,33 @@ from typing import Annotated
 
 import numpy as np
 import typer
-from rich.table import Table as RichTable
 
 from .. import _core
 from ..errors import DenavitError
-from ..io.output import json_text
-from ..io.units import length_scale
+from ..io.units import angle_scale, length_scale
 from ..robot import Robot, inertials_for_table
-from .common import BaseLinkOpt, ChainOnlyOpt, JsonOpt, ModelArg, TipLinkOpt, app, console, fmt, load_robot, print_table, say, table_rows, wrote
+from .common import (
+    SI_UNITS,
+    AngleOpt,
+    BaseLinkOpt,
+    ChainOnlyOpt,
+    JsonOpt,
+    LengthOpt,
+    ModelArg,
+    TipLinkOpt,
+    app,
+    console,
+    emit_json,
+    json_target,
+    load_robot,
+    num,
+    print_rows,
+    print_table,
+    say,
+    spread,
+    table_rows,
+    wrote,
+)
 
 
 @app.command()
@@ -23,13 +42,13 @@ def convert(
     model: ModelArg,
     to: Annotated[str, typer.Option("--to", help="dh | mdh | edh | poe | urdf (or an alias: sdh, craig, ...)")],
     output: Annotated[Path | None, typer.Option("-o", "--output", help="Write a robot file (.toml) or URDF instead of printing ('-': standard output).")] = None,
-    length: Annotated[str, typer.Option("--length", help="Length unit of the output.")] = "mm",
-    angle: Annotated[str, typer.Option("--angle", help="Angle unit of the output.")] = "deg",
-    parallel_tol: Annotated[float, typer.Option(help="Axes with sin(angle) below this are parallel.")] = 1e-3,
+    length: LengthOpt = "mm",
+    angle: AngleOpt = "deg",
+    parallel_tol: Annotated[float, typer.Option(help="Axes with sin(angle) below this (unitless) are parallel.")] = 1e-3,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
     chain_only: ChainOnlyOpt = False,
-    json_out: JsonOpt = False,
+    json_out: JsonOpt = None,
 ) -> None:
     """Express a robot in another convention through its joint axes, with the FK-parity check.
 
@@ -37,6 +56,7 @@ def convert(
     of a URDF input carried through), the others print the table with units and the consecutive-axes
     diagnostics, or write a robot file with ``-o``.
     """
+    json_out = json_target(json_out)
     to = to.lower()
     robot = load_robot(model, base_link, tip_link, chain_only=chain_only)
     m = robot.model()
@@ -65,18 +85,15 @@ def convert(
         save(new, output, length, angle)
         wrote(output)
         return
-    ls = length_scale(length)
+    ls, as_ = length_scale(length), angle_scale(angle)
     if json_out:
-        print(json_text({"model": robot.name, "convention": to, "units": {"length": length, "angle": angle},
-                          "rows": [{"joint": n, **r} for n, r in zip(robot.names, table_rows(ex.table, length, angle))],
-                          "pairs": [{"joint": p.joint, "relation": p.relation, "angle_rad": p.angle, "distance_m": p.distance, "hayati_beta_rad": p.hayati_beta} for p in ex.pairs],
-                          "max_tool_position_error_m": ex.max_position_error, "max_tool_rotation_error_rad": ex.max_rotation_error}), end="")
-        return
+        emit_json({"model": robot.name, "convention": to, "units": SI_UNITS,
+                   "rows": [{"joint": n, **r} for n, r in zip(robot.names, table_rows(ex.table, "m", "rad"))],
+                   "pairs": [{"joint": p.joint, "relation": p.relation, "angle_rad": p.angle, "distance_m": p.distance, "hayati_beta_rad": p.hayati_beta} for p in ex.pairs],
+                   "max_tool_position_error_m": ex.max_position_error, "max_tool_rotation_error_rad": ex.max_rotation_error}, json_out)
+        if json_out == "-":
+            return
     print_table(ex.table, robot.names, length, angle, f"{robot.name} in {to}")
-    pt = RichTable(title="Consecutive axes")
-    for c in ("pair", "relation", "angle [deg]", f"distance [{length}]", "Hayati beta [deg]"):
-        pt.add_column(c, justify="right")
-    for p in ex.pairs:
-        pt.add_row(f"{p.joint}-{p.joint + 1}", p.relation, fmt(np.degrees(p.angle), 6), fmt(p.distance / ls, 6), fmt(np.degrees(p.hayati_beta), 6))
-    console.print(pt)
-    console.print(f"FK parity: max tool error {ex.max_position_error / ls:.3e} {length}, {np.degrees(ex.max_rotation_error):.3e} deg")
+    print_rows("Consecutive axes", ["pair", "relation", f"angle [{angle}]", f"distance [{length}]", f"Hayati beta [{angle}]"],
+               [[f"{p.joint}-{p.joint + 1}", p.relation, num(p.angle / as_, angle), num(p.distance / ls, length), num(p.hayati_beta / as_, angle)] for p in ex.pairs], labels=2)
+    console.print(f"FK parity: max tool error {spread(ex.max_position_error / ls)} {length}, {spread(ex.max_rotation_error / as_)} {angle}")

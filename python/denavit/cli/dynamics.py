@@ -5,24 +5,41 @@ from __future__ import annotations
 from typing import Annotated
 
 import typer
-from rich.table import Table as RichTable
 
 from .. import _core
-from ..io.output import json_text
-from .common import BaseLinkOpt, ChainOnlyOpt, JsonOpt, ModelArg, TipLinkOpt, app, console, fail, fmt, joint_values_out, load_robot, parse_joint_values, parse_numbers, say
+from .common import (
+    SI_UNITS,
+    AngleOpt,
+    BaseLinkOpt,
+    ChainOnlyOpt,
+    JsonOpt,
+    LengthOpt,
+    ModelArg,
+    TipLinkOpt,
+    app,
+    emit_json,
+    fail,
+    fmt,
+    json_target,
+    load_robot,
+    parse_joint_values,
+    parse_numbers,
+    print_rows,
+    say,
+)
 
 
 @app.command()
 def dynamics(
     model: ModelArg,
-    q: Annotated[str | None, typer.Option("--q", help="Joint values, one per joint (default zeros).")] = None,
-    qd: Annotated[str | None, typer.Option("--qd", help="Joint velocities per second (default zeros).")] = None,
-    qdd: Annotated[str | None, typer.Option("--qdd", help="Joint accelerations per second squared (default zeros).")] = None,
-    deg: Annotated[bool, typer.Option("--deg", help="Revolute values (and their rates) in degrees (default radians).")] = False,
-    unit: Annotated[str, typer.Option("--unit", help="Length unit of prismatic values and their rates: m, mm, ...")] = "m",
-    gravity: Annotated[str, typer.Option("--gravity", help="Gravity in world, m/s^2.")] = "0,0,-9.81",
-    f_ext: Annotated[str | None, typer.Option("--f-ext", help="Wrench on the tool by the environment, \"fx,fy,fz,nx,ny,nz\" in N and N m, tool-frame axes, moment about the tool origin.")] = None,
-    json_out: JsonOpt = False,
+    q: Annotated[str | None, typer.Option("--q", help="Joint values, one per joint, in --angle units (prismatic: --length); default zeros.")] = None,
+    qd: Annotated[str | None, typer.Option("--qd", help="Joint velocities in --angle (prismatic: --length) units per second; default zeros.")] = None,
+    qdd: Annotated[str | None, typer.Option("--qdd", help="Joint accelerations in --angle (prismatic: --length) units per second squared; default zeros.")] = None,
+    length: LengthOpt = "mm",
+    angle: AngleOpt = "deg",
+    gravity: Annotated[str, typer.Option("--gravity", help="Gravity in world, m/s^2 (SI whatever --length).")] = "0,0,-9.81",
+    f_ext: Annotated[str | None, typer.Option("--f-ext", help="Wrench on the tool by the environment, \"fx,fy,fz,nx,ny,nz\" in N and N m (SI), tool-frame axes, moment about the tool origin.")] = None,
+    json_out: JsonOpt = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
     chain_only: ChainOnlyOpt = False,
@@ -32,10 +49,11 @@ def dynamics(
     Uses the link inertias of the robot file (\\[joints.inertia]); without them every link is massless and a
     warning says so. Also prints the gravity part of the torques.
     """
+    json_out = json_target(json_out)
     robot = load_robot(model, base_link, tip_link, chain_only=chain_only)
     m = robot.model()
-    angle = "deg" if deg else "rad"
-    qv, qdv, qddv = (parse_joint_values(t, what, robot, unit, angle) for t, what in ((q, "--q"), (qd, "--qd"), (qdd, "--qdd")))
+    qv = parse_joint_values(q, "--q", robot, length, angle)
+    qdv, qddv = (parse_joint_values(t, what, robot, length, angle, limits=False) for t, what in ((qd, "--qd"), (qdd, "--qdd")))
     g = parse_numbers(gravity, "--gravity")
     if len(g) != 3:
         fail(f"--gravity: expected 3 values (m/s^2, world), got {len(g)}")
@@ -46,23 +64,19 @@ def dynamics(
     tau_g = _core.gravity_torques(m, qv, gravity=g)
     units = ["N m" if k == "revolute" else "N" for k in robot.table.kinds]
     warning = None if robot.inertials is not None else f"{robot.name} carries no inertial parameters ([joints.inertia]): every link is massless"
+    if warning:
+        say("bold yellow", "warning:", f" {warning}", err=True)
     if json_out:
         doc = {
             "model": robot.name,
-            "units": {"angle": angle, "length": unit, "time": "s", "torque": "N m", "force": "N"},
-            "q": joint_values_out(qv, robot, unit, angle), "qd": joint_values_out(qdv, robot, unit, angle), "qdd": joint_values_out(qddv, robot, unit, angle),
-            "gravity": g, "f_ext": f, "tau": tau.tolist(), "tau_gravity": tau_g.tolist(), "tau_units": units,
+            "units": {**SI_UNITS, "time": "s", "torque": "N m", "force": "N"},
+            "q": qv.tolist(), "qd": qdv.tolist(), "qdd": qddv.tolist(), "joint_units": ["rad" if k == "revolute" else "m" for k in robot.table.kinds],
+            "gravity_m_s2": g, "f_ext": f, "tau": tau.tolist(), "tau_gravity": tau_g.tolist(), "tau_units": units,
         }
         if warning:
             doc["warning"] = warning
-        print(json_text(doc), end="")
-        return
-    if warning:
-        say("bold yellow", "warning:", f" {warning}", err=True)
+        emit_json(doc, json_out)
+        if json_out == "-":
+            return
     say("bold", robot.name, f" ({robot.description}) — inverse dynamics, gravity {g} m/s^2 in world")
-    t = RichTable(title="Joint efforts")
-    for c in ("joint", "tau", "of which gravity", "unit"):
-        t.add_column(c, justify="right")
-    for name, v, vg, u in zip(robot.names, tau, tau_g, units):
-        t.add_row(name, fmt(v), fmt(vg), u)
-    console.print(t)
+    print_rows("Joint efforts", ["joint", "tau", "of which gravity", "unit"], [[n, fmt(v), fmt(vg), u] for n, v, vg, u in zip(robot.names, tau, tau_g, units)], left=(3,))

@@ -5,46 +5,38 @@ from __future__ import annotations
 from typing import Annotated
 
 import typer
-from rich.table import Table as RichTable
 
 from .. import _core
-from ..io.output import json_text
 from ..io.units import length_scale
-from .common import BaseLinkOpt, JsonOpt, ModelArg, TipLinkOpt, app, console, fmt, joint_values_out, load_robot, parse_joint_values, pose_rows, say
+from .common import SI_UNITS, AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, ModelArg, TipLinkOpt, app, emit_json, json_target, load_robot, num, parse_joint_values, pose_rows, print_rows, say
 
 
 @app.command()
 def fk(
     model: ModelArg,
-    q: Annotated[str | None, typer.Option("--q", help="Joint values, one per joint, e.g. \"90,-90,90,0,90,0\" (default zeros).")] = None,
-    deg: Annotated[bool, typer.Option("--deg", help="Revolute joint values in degrees (default radians).")] = False,
-    unit: Annotated[str, typer.Option("--unit", help="Length unit of the output and of prismatic values: m, mm, ...")] = "m",
-    json_out: JsonOpt = False,
+    q: Annotated[str | None, typer.Option("--q", help="Joint values, one per joint, in --angle units (default deg; prismatic: --length, default mm), e.g. \"90,-90,90,0,90,0\" (default zeros); beyond the limits: a warning.")] = None,
+    length: LengthOpt = "mm",
+    angle: AngleOpt = "deg",
+    json_out: JsonOpt = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
 ) -> None:
     """Forward kinematics: the tool pose and every joint frame (T_world_joint)."""
+    json_out = json_target(json_out)
     robot = load_robot(model, base_link, tip_link)
     m = robot.model()
-    angle = "deg" if deg else "rad"
-    qv = parse_joint_values(q, "--q", robot, unit, angle)
-    ls = length_scale(unit)
+    qv = parse_joint_values(q, "--q", robot, length, angle)
+    ls = length_scale(length)
     T = _core.fk(m, qv)
     frames = _core.joint_frames(m, qv)
     if json_out:
-        print(json_text({"model": robot.name, "units": {"length": unit, "angle": angle}, "q": joint_values_out(qv, robot, unit, angle),
-                          "T_world_tool": pose_rows(T, ls), "T_world_joint": {n: pose_rows(F, ls) for n, F in zip(robot.names, frames)}}), end="")
-        return
-    say("bold", robot.name, f" ({robot.description}) — lengths in {unit}")
-    t = RichTable(title="T_world_tool")
-    for c in ("", "x", "y", "z", "p"):
-        t.add_column(c, justify="right")
-    for i, row in enumerate(pose_rows(T, ls)[:3]):
-        t.add_row("xyz"[i], *(fmt(v) for v in row))
-    console.print(t)
-    ft = RichTable(title="Joint frames (origin, z axis) in world")
-    for c in ("joint", "x", "y", "z", "z_x", "z_y", "z_z"):
-        ft.add_column(c, justify="right")
-    for n, F in zip(robot.names, frames):
-        ft.add_row(n, *(fmt(v / ls) for v in F[:3, 3]), *(fmt(v) for v in F[:3, 2]))
-    console.print(ft)
+        emit_json({"model": robot.name, "units": SI_UNITS, "q": qv.tolist(), "joint_units": ["rad" if k == "revolute" else "m" for k in robot.table.kinds],
+                   "T_world_tool": pose_rows(T, 1.0), "T_world_joint": {n: pose_rows(F, 1.0) for n, F in zip(robot.names, frames)}}, json_out)
+        if json_out == "-":
+            return
+    say("bold", robot.name, f" ({robot.description})")
+    print_rows("T_world_tool", ["", "x [1]", "y [1]", "z [1]", f"p [{length}]"],
+               [["xyz"[i], *(num(v, "1") for v in row[:3]), num(row[3], length)] for i, row in enumerate(pose_rows(T, ls)[:3])])
+    print_rows("Joint frames in world: origin and z axis",
+               ["joint", f"x [{length}]", f"y [{length}]", f"z [{length}]", "z_x [1]", "z_y [1]", "z_z [1]"],
+               [[n, *(num(v / ls, length) for v in F[:3, 3]), *(num(v, "1") for v in F[:3, 2])] for n, F in zip(robot.names, frames)])

@@ -7,10 +7,29 @@ from typing import Annotated
 
 import numpy as np
 import typer
-from rich.table import Table as RichTable
 
-from ..io.units import cell_scale, length_scale
-from .common import BaseLinkOpt, TipLinkOpt, app, console, convention_name, fail, fmt, load_robot, parse_numbers, parse_pose, say, wrote
+from ..io.units import angle_scale, cell_scale, length_scale
+from .common import (
+    BaseLinkOpt,
+    JsonOpt,
+    TipLinkOpt,
+    app,
+    console,
+    convention_name,
+    emit_json,
+    fail,
+    json_target,
+    load_robot,
+    num,
+    parse_numbers,
+    parse_pose,
+    print_rows,
+    say,
+    spread,
+    status,
+    warn_limits,
+    wrote,
+)
 
 EXAMPLES = {"kr5": "kr5_90deg.csv", "kr5-90": "kr5_90deg.csv", "kr5-30": "kr5_30deg.csv"}
 
@@ -31,18 +50,18 @@ def identify(
     nominal: Annotated[str | None, typer.Option("--nominal", help="Nominal model (built-in name or file): signs, free origins, names, limits, joint kinds.")] = None,
     method: Annotated[str, typer.Option("--method", help="auto | kasa | hyper | geometric | readings | global")] = "auto",
     convention: Annotated[str, typer.Option("--convention", help="dh | mdh | edh | poe (or an alias: sdh, craig, ...)")] = "dh",
-    json_path: Annotated[Path | None, typer.Option("--json", help="Write the result as JSON to this file ('-': standard output).")] = None,
-    length: Annotated[str | None, typer.Option("--length", help="Length unit of the data if not declared in it; also of the output.")] = None,
-    angle: Annotated[str | None, typer.Option("--angle", help="Angle unit of the data if not declared in it.")] = None,
+    json_path: JsonOpt = None,
+    length: Annotated[str | None, typer.Option("--length", help="Length unit of what is typed and printed (default mm), and of the data where they declare none (then required): mm | m | cm | um | in. JSON stays SI.")] = None,
+    angle: Annotated[str | None, typer.Option("--angle", help="Angle unit of what is typed and printed (default deg), and of the data where they declare none: deg | rad. JSON stays SI.")] = None,
     home: Annotated[str | None, typer.Option("--home", help="Per-joint files: the locked configuration, e.g. \"90,-90,90,0,90,0\" (--angle units; prismatic joints --length).")] = None,
     direction: Annotated[str | None, typer.Option("--direction", help="Per-joint files: +1/-1 per joint (or one for all): did the joint value increase over the recording?")] = None,
     loss: Annotated[str, typer.Option("--loss", help="linear | soft_l1 | huber (robust loss)")] = "linear",
-    max_sigma: Annotated[float | None, typer.Option("--max-sigma", help="Required axis-position accuracy (1 sigma) in --length units (default mm): sweeps predicted worse are an error.")] = None,
+    max_sigma: Annotated[float | None, typer.Option("--max-sigma", help="Required axis-position accuracy (1 sigma) in --length units: sweeps predicted worse are an error.")] = None,
     report: Annotated[Path | None, typer.Option("--report", help="Write a self-contained HTML report.")] = None,
     plot: Annotated[Path | None, typer.Option("--plot", help="Write the static figures (PNG) into this folder.")] = None,
     save_model: Annotated[Path | None, typer.Option("--save", help="Write the identified robot as a robot file (.toml, in the output units): the exact geometry (ED-H, or POE with --convention poe), its carried error stated in the file.")] = None,
     save_convention: Annotated[str | None, typer.Option("--save-convention", help="--save a table of this convention instead (dh | mdh: lossy where axes are near-parallel; the file states the error it carries).")] = None,
-    base: Annotated[str | None, typer.Option("--base", help="The robot's base frame in the measurement frame, \"x,y,z,roll,pitch,yaw\" (R = Rz(yaw) Ry(pitch) Rx(roll); output length unit, deg) or the 16 numbers of the 4x4 matrix (default: the measurement frame).")] = None,
+    base: Annotated[str | None, typer.Option("--base", help="The robot's base frame in the measurement frame, \"x,y,z,roll,pitch,yaw\" (R = Rz(yaw) Ry(pitch) Rx(roll); --length and --angle units) or the 16 numbers of the 4x4 matrix (default: the measurement frame).")] = None,
     urdf: Annotated[Path | None, typer.Option("--urdf", help="Write the identified robot as URDF: the exact geometry (ED-H frames on the body, whatever --convention), with a URDF nominal's meshes, inertials and limits.")] = None,
     data_format: Annotated[str, typer.Option("--format", help="sweeps (long CSV, JSON, jN.csv folder) | tracker | rtde | rsi | bag | columns | auto (from the content).")] = "auto",
     columns: Annotated[str | None, typer.Option("--columns", help="Column map of a delimited recording, e.g. \"t,q1..q6,x,y,z\" (--format columns).")] = None,
@@ -54,9 +73,11 @@ def identify(
 ) -> None:
     """Identify the joint axes and parameters from joint sweeps (Hayat et al.), beside the nominal values."""
     from ..identify import identify as identify_sweeps  # noqa: PLC0415
-    from ..identify import to_json, write_json  # noqa: PLC0415
+    from ..identify import to_json  # noqa: PLC0415
     from ..io import sweeps as swio  # noqa: PLC0415
 
+    json_path = json_target(json_path)
+    out_len, out_ang = length or "mm", angle or "deg"
     if example:
         data = example_path(example)
         nominal = nominal or "kr5"
@@ -65,7 +86,7 @@ def identify(
     convention = convention_name(convention)
     nom = load_robot(nominal, base_link, tip_link, "--nominal") if nominal else None
     kinds = list(nom.table.kinds) if nom else None
-    with console.status("reading sweeps..."):
+    with status("reading sweeps..."):
         if data_format not in ("auto", "sweeps") or readings is not None or (data_format == "auto" and not _is_sweep_file(data)):
             sweeps = read_recording_sweeps(data, data_format, columns=columns, sweep=sweep, target=target, readings=readings, length=length, angle=angle,
                                            home=parse_numbers(home, "--home") or None, direction=parse_numbers(direction, "--direction") or None, nominal=nom)
@@ -73,32 +94,33 @@ def identify(
             if not home or not length:
                 fail("a folder of per-joint files needs --home and --length (and --angle, default deg)")
             dirs = parse_numbers(direction, "--direction") or [1.0]
-            sweeps = swio.read_joint_files(data, home=parse_numbers(home, "--home"), length=length, angle=angle or "deg",
+            sweeps = swio.read_joint_files(data, home=parse_numbers(home, "--home"), length=length, angle=out_ang,
                                            direction=dirs if len(dirs) > 1 else dirs[0], kinds=kinds)
+            if nom is not None and len(sweeps.home) == len(nom.names):
+                warn_limits(sweeps.home, nom, "--home", out_len, out_ang)
         elif data.suffix.lower() == ".json":
             sweeps = swio.read_json(data, length=length, angle=angle)
         else:  # units the file declares win; --length/--angle fill in what it does not declare (and are the output's)
             sweeps = swio.read_long_csv(data, length=length, angle=angle, kinds=kinds)
-    out_len = length or sweeps.units.get("length", "m")
-    with console.status(f"fitting {sweeps.n_joints} sweeps ({method})...") as status:
-        ms = None if max_sigma is None else max_sigma * length_scale(length or sweeps.units.get("length", "mm"))
-        T_world_base = None if base is None else parse_pose(base, "deg", length_scale(out_len), "--base")
-        result = identify_sweeps(sweeps, method=method, convention=convention, nominal=nom, loss=loss, max_sigma=ms, T_world_base=T_world_base, progress=status.update)
-    doc = to_json(result, out_len, "deg")
-    print_identification(doc, result, out_len)
-    if nom is not None:
-        from ..compensation import identification_accuracy  # noqa: PLC0415
-
-        s = identification_accuracy(result).summary()
-        ls_out = length_scale(out_len)
-        say("bold", "Accuracy", f" over {s['configurations']} configurations within the limits: nominal model error rms {s['nominal']['rms'] / ls_out:.4g} {out_len} "
-            f"(max {s['nominal']['max'] / ls_out:.4g}); identified model, predicted 1 sigma: rms {s['identified']['rms'] / ls_out:.4g} {out_len} "
-            f"(max {s['identified']['max'] / ls_out:.4g})")
+    with status(f"fitting {sweeps.n_joints} sweeps ({method})...") as st:
+        ms = None if max_sigma is None else max_sigma * length_scale(out_len)
+        T_world_base = None if base is None else parse_pose(base, out_ang, length_scale(out_len), "--base")
+        result = identify_sweeps(sweeps, method=method, convention=convention, nominal=nom, loss=loss, max_sigma=ms, T_world_base=T_world_base, progress=st.update)
     if json_path:
-        write_json(result, json_path, out_len, "deg")
-        wrote(json_path)
+        emit_json(to_json(result, "m", "rad"), json_path)
+    if json_path != "-":
+        print_identification(to_json(result, out_len, out_ang), result, out_len, out_ang)
+        if nom is not None:
+            from ..compensation import identification_accuracy  # noqa: PLC0415
+
+            with status("predicting the accuracy over the joint limits ..."):
+                s = identification_accuracy(result).summary()
+            ls_out = length_scale(out_len)
+            say("bold", "Accuracy", f" over {s['configurations']} configurations within the limits: nominal model error rms {spread(s['nominal']['rms'] / ls_out)} {out_len} "
+                f"(max {spread(s['nominal']['max'] / ls_out)}); identified model, predicted 1 sigma: rms {spread(s['identified']['rms'] / ls_out)} {out_len} "
+                f"(max {spread(s['identified']['max'] / ls_out)})")
     if save_model:  # the exact geometry unless a lossy table is asked for, its carried error written in the file
-        result.save(save_model, None if save_convention is None else convention_name(save_convention), out_len, "deg")
+        result.save(save_model, None if save_convention is None else convention_name(save_convention), out_len, out_ang)
         wrote(save_model)
     if urdf:
         from ..io.urdf import save_urdf  # noqa: PLC0415
@@ -109,10 +131,13 @@ def identify(
         from .. import report as rep  # noqa: PLC0415
 
         if plot:
-            for f in rep.write_figures(result, plot):
+            with status(f"drawing the figures into {plot} ..."):
+                files = rep.write_figures(result, plot, length=out_len)
+            for f in files:
                 wrote(f)
         if report:
-            rep.write_report(result, report)
+            with status(f"writing the report {report} ..."):
+                rep.write_report(result, report, length=out_len, angle=out_ang)
             wrote(report)
 
 
@@ -151,7 +176,7 @@ def read_recording_sweeps(data: Path, data_format: str, *, columns, sweep, targe
         rec, al = align(rec, other)
         say("dim", "clocks:", f" {al}")
     seg = segment(rec)
-    console.print(seg.table(), soft_wrap=True)
+    console.print(seg.table(angle or "deg"), soft_wrap=True)
     if home is not None:
         from ..io.units import joint_scale  # noqa: PLC0415
 
@@ -160,33 +185,36 @@ def read_recording_sweeps(data: Path, data_format: str, *, columns, sweep, targe
     return to_sweepset(rec, seg, target=target - 1, home=home, kinds=kinds, direction=(direction if direction is None or len(direction) > 1 else direction[0]) or 1)
 
 
-def print_identification(doc: dict, result, length: str) -> None:
+def print_identification(doc: dict, result, length: str, angle: str) -> None:
+    """The identified table beside the nominal, the joint axes and the measuring volume, in ``length`` / ``angle``."""
     nt = result.nominal_table
-    say("bold", f"Identified {doc['convention'].upper()} parameters", f" (method {doc['method']}; data {doc['source']})")
-    t = RichTable(caption=f"lengths in {length}, angles in deg; sigma = one standard deviation propagated from the fits")
-    for c in ("joint", "param", "nominal", "identified", "sigma", "difference"):
-        t.add_column(c, justify="right" if c not in ("joint", "param") else "left")
+    as_ = angle_scale(angle)
+    deg = np.pi / 180 / as_  # ``angle`` per degree (the document's ``_deg`` keys)
+    say("bold", f"Identified {doc['convention'].upper()} parameters", f" (method {doc['method']})")
+    console.print(f"  data: {doc['source']}", soft_wrap=True)
     cols = result.table.columns
+    rows = []
     for i, row in enumerate(doc["parameters"]):
         for k, c in enumerate(cols):
-            a = result.table.angle_columns[k]
-            nom = nt.params[i, k] / cell_scale(nt, i, k, length, "deg")[0] if nt is not None else None
+            scale, unit = cell_scale(result.table, i, k, length, angle)
+            nom = nt.params[i, k] / cell_scale(nt, i, k, length, angle)[0] if nt is not None else None
             diff = row[c] - nom if nom is not None else None
-            if diff is not None and a:
-                diff = (diff + 180.0) % 360.0 - 180.0
-            t.add_row(row["joint"] if k == 0 else "", c, fmt(nom, 3) if nom is not None else "-", fmt(row[c], 3), f"{row[c + '_sigma']:.3f}",
-                      fmt(diff, 3) if diff is not None else "-", end_section=k == len(cols) - 1)
-    console.print(t)
-    at = RichTable(title="Joint axes (measurement frame)")
-    for c in ("joint", f"radius [{length}]", "arc [deg]", f"rms [{length}]", f"sigma across [{length}]", "sigma dir [deg]", "outliers"):
-        at.add_column(c, justify="right")
+            if diff is not None and result.table.angle_columns[k]:
+                diff = (diff + np.pi / as_) % (2 * np.pi / as_) - np.pi / as_
+            rows.append([row["joint"], c, unit, num(nom, unit) if nom is not None else "-", num(row[c], unit), spread(row[c + "_sigma"]),
+                         num(diff, unit) if diff is not None else "-"])
+    print_rows(None, ["joint", "param", "unit", "nominal", "identified", "sigma", "difference"], rows, labels=2, left=(2,), group=True,
+               caption="sigma = one standard deviation propagated from the fits; difference = identified - nominal")
+    heads = ["joint", f"radius [{length}]", f"arc [{angle}]", f"rms [{length}]", f"sigma across [{length}]", f"sigma dir [{angle}]", "outliers"]
+    arows = []
     for j in doc["joints"]:
         r = j["circle"]["radius"]
-        at.add_row(j["joint"], f"{r:.3f}" if r is not None else "-", f"{j['arc_deg']:.1f}", f"{j['residuals']['rms']:.4f}", f"{j['axis']['sigma_point_perp']:.4f}",
-                   f"{j['axis']['sigma_direction_deg']:.5f}", str(len(j["residuals"]["outliers"])))
-    console.print(at)
+        arows.append([j["joint"], num(r, length) if r is not None else "-", f"{j['arc_deg'] * deg:.4g}", spread(j["residuals"]["rms"]), spread(j["axis"]["sigma_point_perp"]),
+                      spread(j["axis"]["sigma_direction_deg"] * deg), str(len(j["residuals"]["outliers"]))])
+    print_rows("Joint axes (measurement frame)", heads, arows)
     b = doc["bounding_box"]
-    console.print(f"Measuring volume (minimum oriented bounding box, Hayat Table IV): {b['lengths'][0]:.3f} x {b['lengths'][1]:.3f} x {b['lengths'][2]:.3f} {length}, {b['volume_m3']:.4f} m^3; orientation (columns = box axes):")
+    console.print(f"Measuring volume (minimum oriented bounding box, Hayat Table IV): {' x '.join(num(v, length) for v in b['lengths'])} {length}, {b['volume_m3']:.4g} m^3; "
+                  "orientation (columns = box axes):")
     for row in b["orientation"]:
         console.print("  " + "  ".join(f"{v:7.3f}" for v in row))
     for note in doc["notes"]:

@@ -5,57 +5,76 @@ from __future__ import annotations
 from typing import Annotated
 
 import typer
-from rich.table import Table as RichTable
 from rich.text import Text
 
 from .. import _core
-from ..io.output import json_text
-from ..io.units import joint_unit, length_scale
-from .common import BaseLinkOpt, JsonOpt, ModelArg, TipLinkOpt, app, console, fmt, joint_values_out, load_robot, parse_joint_values, parse_pose, pose_rows
+from ..io.units import angle_scale, joint_unit, length_scale
+from .common import (
+    SI_UNITS,
+    AngleOpt,
+    BaseLinkOpt,
+    JsonOpt,
+    LengthOpt,
+    ModelArg,
+    TipLinkOpt,
+    app,
+    console,
+    emit_json,
+    joint_values_out,
+    json_target,
+    load_robot,
+    num,
+    parse_joint_values,
+    parse_pose,
+    pose_rows,
+    positive,
+    print_rows,
+    spread,
+)
 
 
 @app.command()
 def ik(
     model: ModelArg,
-    pose: Annotated[str, typer.Option("--pose", help="Target T_world_tool: 16 (or 12) numbers, the rows of the 4x4 pose, or \"x,y,z,roll,pitch,yaw\" with R = Rz(yaw) Ry(pitch) Rx(roll).")],
-    q0: Annotated[str | None, typer.Option("--q0", help="Start configuration, one value per joint (default zeros).")] = None,
-    deg: Annotated[bool, typer.Option("--deg", help="Angles (revolute joints, roll/pitch/yaw) in degrees (default radians).")] = False,
-    unit: Annotated[str, typer.Option("--unit", help="Length unit of --pose, prismatic values and the position error: m, mm, ...")] = "m",
+    pose: Annotated[str, typer.Option("--pose", help="Target T_world_tool: \"x,y,z,roll,pitch,yaw\" (--length and --angle units; R = Rz(yaw) Ry(pitch) Rx(roll)) or the rows of the 4x4 pose, 16 (or 12) numbers, the translation in --length units.")],
+    q0: Annotated[str | None, typer.Option("--q0", help="Start configuration, one value per joint, in --angle units (prismatic: --length); default zeros.")] = None,
+    length: LengthOpt = "mm",
+    angle: AngleOpt = "deg",
     method: Annotated[str, typer.Option("--method", help="lm (Levenberg-Marquardt) | newton (Newton-Raphson)")] = "lm",
-    tol_position: Annotated[float, typer.Option("--tol-position", help="Largest accepted position error, in --unit.")] = 1e-10,
-    tol_rotation: Annotated[float, typer.Option("--tol-rotation", help="Largest accepted rotation error, rad.")] = 1e-10,
+    tol_position: Annotated[float | None, typer.Option("--tol-position", help="Largest accepted position error, in --length units (default 1e-10 m, whatever the unit).")] = None,
+    tol_rotation: Annotated[float | None, typer.Option("--tol-rotation", help="Largest accepted rotation error, in --angle units (default 1e-10 rad, whatever the unit).")] = None,
     restarts: Annotated[int, typer.Option("--restarts", help="Further attempts from seeded random configurations.")] = 50,
-    seed: Annotated[int, typer.Option("--seed")] = 0,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the random restarts.")] = 0,
     no_limits: Annotated[bool, typer.Option("--no-limits", help="Ignore the joint limits.")] = False,
-    json_out: JsonOpt = False,
+    json_out: JsonOpt = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
 ) -> None:
-    """Inverse kinematics: joint values that put the tool at --pose. Success is judged from the measured final
-    error against the tolerances; exit code 1 when the target is not met (the residual is printed)."""
+    """Inverse kinematics: joint values that put the tool at --pose, judged from the measured final error against the tolerances.
+
+    Exit code 1 when the target is not met (the residual is printed).
+    """
+    json_out = json_target(json_out)
     robot = load_robot(model, base_link, tip_link)
     m = robot.model()
-    angle = "deg" if deg else "rad"
-    ls = length_scale(unit)
+    ls, as_ = length_scale(length), angle_scale(angle)
     T = parse_pose(pose, angle, ls)
-    start = parse_joint_values(q0, "--q0", robot, unit, angle)
-    r = _core.ik(m, T, start, method=method, tol_position=tol_position * ls, tol_rotation=tol_rotation,
-                 restarts=restarts, seed=seed, respect_limits=not no_limits)
-    q_out = joint_values_out(r.q, robot, unit, angle)
+    start = parse_joint_values(q0, "--q0", robot, length, angle)
+    tp = positive(tol_position, "--tol-position", ls, 1e-10, length)
+    tr = positive(tol_rotation, "--tol-rotation", as_, 1e-10, angle)
+    r = _core.ik(m, T, start, method=method, tol_position=tp, tol_rotation=tr, restarts=restarts, seed=seed, respect_limits=not no_limits)
     if json_out:
-        print(json_text({"model": robot.name, "units": {"length": unit, "angle": angle}, "success": r.success,
-                          "q": q_out, "iterations": r.iterations, "restarts": r.restarts,
-                          "position_error": r.position_error / ls, "rotation_error_rad": r.rotation_error,
-                          "T_world_tool": pose_rows(_core.fk(m, r.q), ls)}), end="")
-    else:
+        emit_json({"model": robot.name, "units": SI_UNITS, "success": r.success, "q": list(map(float, r.q)),
+                   "joint_units": ["rad" if k == "revolute" else "m" for k in robot.table.kinds], "iterations": r.iterations, "restarts": r.restarts,
+                   "position_error_m": r.position_error, "rotation_error_rad": r.rotation_error, "T_world_tool": pose_rows(_core.fk(m, r.q), 1.0)}, json_out)
+    if json_out != "-":
         verdict = ("solved", "bold green") if r.success else ("not solved", "bold red")
-        console.print(Text.assemble((robot.name, "bold"), " — ", verdict, f": position error {r.position_error / ls:.3e} {unit}, "
-                                    f"rotation error {r.rotation_error:.3e} rad ({r.iterations} iterations, {r.restarts} restarts)"))
-        t = RichTable(title="q")
-        for c in ("joint", "q", "unit"):
-            t.add_column(c, justify="right")
-        for n, v, k in zip(robot.names, q_out, robot.table.kinds):
-            t.add_row(n, fmt(v), joint_unit(k, unit, angle))
-        console.print(t)
+        console.print(Text.assemble((robot.name, "bold"), " — ", verdict, f": position error {spread(r.position_error / ls)} {length}, "
+                                    f"rotation error {spread(r.rotation_error / as_)} {angle} ({r.iterations} iterations, {r.restarts} restarts)"))
+        q_out = joint_values_out(r.q, robot, length, angle)
+        print_rows("q", ["joint", "q", "unit"], [[n, num(v, joint_unit(k, length, angle)), joint_unit(k, length, angle)]
+                                                for n, v, k in zip(robot.names, q_out, robot.table.kinds)], left=(2,))
     if not r.success:
         raise typer.Exit(1)
+
+

@@ -7,12 +7,39 @@ from typing import Annotated
 
 import numpy as np
 import typer
-from rich.table import Table as RichTable
 
 from ..io.configurations import read_configurations
-from ..io.output import json_text
-from ..io.units import length_scale
-from .common import BaseLinkOpt, JsonOpt, ModelArg, TipLinkOpt, app, calib_unit, console, convention_name, fail, load_robot, parse_joint_values, parse_numbers, parse_ranges, say
+from ..io.units import angle_scale, length_scale
+from .common import (
+    SI_UNITS,
+    AngleOpt,
+    BaseLinkOpt,
+    JsonOpt,
+    LengthOpt,
+    ModelArg,
+    TipLinkOpt,
+    app,
+    calib_unit,
+    console,
+    convention_name,
+    emit_json,
+    fail,
+    json_target,
+    load_robot,
+    num,
+    parse_joint_values,
+    parse_point,
+    parse_ranges,
+    positive,
+    print_rows,
+    say,
+    spread,
+    status,
+)
+
+#: Physical defaults (SI): a tool point 50, 30, 100 mm from the flange, a tracker's 0.02 mm noise.
+TOOL_M = (0.05, 0.03, 0.1)
+NOISE_M = 2e-5
 
 
 @app.command()
@@ -21,29 +48,29 @@ def plan(
     ranges: Annotated[str | None, typer.Option("--ranges", help="Sweeps: per-joint start,end pairs in --angle units (prismatic: --length), or 'paper30' / 'paper90' (Hayat Table II).")] = None,
     home: Annotated[str | None, typer.Option("--home", help="Home configuration of the sweeps in --angle units, prismatic joints in --length (default: the model file's home, else zeros).")] = None,
     points: Annotated[int, typer.Option("--points", help="Points per sweep.")] = 30,
-    tool: Annotated[str, typer.Option("--tool", help="Tool point in the flange frame, --length units.")] = "50,30,100",
-    noise: Annotated[float, typer.Option("--noise", help="Point noise (1 sigma per coordinate), --length units.")] = 0.02,
+    tool: Annotated[str | None, typer.Option("--tool", help="Tool point in the flange frame, in --length units (default 50,30,100 mm whatever the unit).")] = None,
+    noise: Annotated[float | None, typer.Option("--noise", help="Point noise (1 sigma per coordinate), in --length units (default 0.02 mm whatever the unit).")] = None,
     convention: Annotated[str, typer.Option("--convention", help="edh | mdh | dh")] = "edh",
     fix: Annotated[str | None, typer.Option("--fix", help="Parameters held fixed (names or patterns, comma-separated).")] = None,
     random: Annotated[int | None, typer.Option("--random", help="Plan N configurations spread over the joint limits instead of sweeps.")] = None,
     candidates: Annotated[Path | None, typer.Option("--candidates", help="CSV of candidate configurations (header q1..qn, --angle / --length units unless a '# units:' line declares them).")] = None,
     select: Annotated[int | None, typer.Option("--select", help="Pick this many most informative poses from the candidates (D-optimal).")] = None,
-    length: Annotated[str, typer.Option("--length")] = "mm",
-    angle: Annotated[str, typer.Option("--angle")] = "deg",
-    json_out: JsonOpt = False,
+    length: LengthOpt = "mm",
+    angle: AngleOpt = "deg",
+    json_out: JsonOpt = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
 ) -> None:
     """Predict every parameter's sigma (Cramer-Rao bound) and the measuring volume of a protocol, before measuring."""
     from .. import calibration as cal  # noqa: PLC0415
 
+    json_out = json_target(json_out)
     robot = load_robot(model, base_link, tip_link)
     n = len(robot.names)
-    ls = length_scale(length)
+    ls, as_ = length_scale(length), angle_scale(angle)
     convention = convention_name(convention)
-    tp = np.array(parse_numbers(tool, "--tool")) * ls
-    if tp.shape != (3,):
-        fail(f"--tool: expected 3 values, got {tp.size}")
+    tp = parse_point(tool, "--tool", ls, TOOL_M)
+    sigma = positive(noise, "--noise", ls, NOISE_M, length)
     protocol, q = None, None
     if candidates is not None or random is not None:
         if candidates is not None:
@@ -57,43 +84,38 @@ def plan(
         r = parse_ranges(ranges, robot, length, angle, "paper30")
         protocol = cal.Protocol(h, r, points, tp)
     fixes = [f.strip() for f in (fix or "").split(",") if f.strip()]
-    with console.status("planning..."):
-        p = cal.plan(robot, protocol, q=q, noise=noise * ls, convention=convention, fix=fixes, tool=tp, select=select)
+    with status("planning..."):
+        p = cal.plan(robot, protocol, q=q, noise=sigma, convention=convention, fix=fixes, tool=tp, select=select)
     pz = p.parametrization
     if json_out:
-        doc = {"model": robot.name, "convention": pz.convention, "units": {"length": length, "angle": angle}, "noise": noise, "n_poses": len(p.q),
-               "parameters": [{"name": nm, "unit": calib_unit(pz.units[k], length, angle)[0],
-                               "sigma": None if not np.isfinite(p.sigma[k]) else p.sigma[k] / calib_unit(pz.units[k], length, angle)[1]} for k, nm in enumerate(p.names)],
-               "axis_sigma": [{"joint": nm, "position": a[0] / ls, "direction_deg": np.degrees(a[1]),
-                               **({"per_circle_position": c[0] / ls, "per_circle_direction_deg": np.degrees(c[1])} if c is not None else {})}
-                              for nm, a, c in zip(robot.names, p.axis_sigma, p.per_circle_sigma if p.per_circle_sigma is not None else [None] * n)],
-               "bounding_box": {"lengths": (p.box.lengths / ls).tolist(), "volume_m3": p.box.volume},
-               "identifiability": {"rank": p.identifiability.rank, "condition_number": p.identifiability.condition_number, "observability": p.identifiability.observability,
-                                   "unidentifiable": [{"name": u.name, "structural": u.structural, "reason": u.reason} for u in p.identifiability.unidentifiable]},
-               "selected": None if p.selected is None else p.selected.tolist()}
-        print(json_text(doc), end="")
-        return
+        emit_json({"model": robot.name, "convention": pz.convention, "units": SI_UNITS, "noise_m": sigma, "n_poses": len(p.q),
+                   "parameters": [{"name": nm, "unit": calib_unit(pz.units[k], "m", "rad")[0], "sigma": None if not np.isfinite(p.sigma[k]) else float(p.sigma[k])}
+                                  for k, nm in enumerate(p.names)],
+                   "axis_sigma": [{"joint": nm, "position_m": a[0], "direction_rad": a[1], **({"per_circle_position_m": c[0], "per_circle_direction_rad": c[1]} if c is not None else {})}
+                                  for nm, a, c in zip(robot.names, p.axis_sigma.tolist(), p.per_circle_sigma.tolist() if p.per_circle_sigma is not None else [None] * n)],
+                   "bounding_box": {"lengths_m": p.box.lengths.tolist(), "volume_m3": p.box.volume},
+                   "identifiability": {"rank": p.identifiability.rank, "condition_number": p.identifiability.condition_number, "observability": p.identifiability.observability,
+                                       "unidentifiable": [{"name": u.name, "structural": u.structural, "reason": u.reason} for u in p.identifiability.unidentifiable]},
+                   "selected": None if p.selected is None else p.selected.tolist()}, json_out)
+        if json_out == "-":
+            return
     what = f"{len(p.q)} poses" + (f" ({select} selected of the candidates)" if select else "") if protocol is None else f"sweeps of {points} points"
-    say("bold", f"Plan for {robot.name}", f" ({pz.convention}): {what}, noise {noise} {length} per coordinate")
-    t = RichTable(caption="Cramer-Rao bound (one sigma) of every parameter; '-': not identifiable (see below)")
-    for c in ("parameter", "unit", "sigma"):
-        t.add_column(c, justify="right" if c == "sigma" else "left")
+    say("bold", f"Plan for {robot.name}", f" ({pz.convention}): {what}, noise {spread(sigma / ls)} {length} per coordinate")
+    rows = []
     for k, nm in enumerate(p.names):
         u, s = calib_unit(pz.units[k], length, angle)
-        t.add_row(nm, u, "-" if not np.isfinite(p.sigma[k]) else f"{p.sigma[k] / s:.4g}")
-    console.print(t)
-    at = RichTable(title="Joint axes at home: predicted sigma across the axis and of its direction")
-    cols = ["joint", f"position [{length}]", "direction [deg]"] + ([f"per-circle position [{length}]", "ratio"] if p.per_circle_sigma is not None else [])
-    for c in cols:
-        at.add_column(c, justify="right")
+        rows.append([nm, u, spread(p.sigma[k] / s)])
+    print_rows(None, ["parameter", "unit", "sigma"], rows, left=(1,), caption="Cramer-Rao bound (one sigma) of every parameter; '-': not identifiable (see below)")
+    heads = ["joint", f"position [{length}]", f"direction [{angle}]"] + ([f"per-circle position [{length}]", "ratio"] if p.per_circle_sigma is not None else [])
+    arows = []
     for j, nm in enumerate(robot.names):
-        row = [nm, f"{p.axis_sigma[j, 0] / ls:.4g}", f"{np.degrees(p.axis_sigma[j, 1]):.4g}"]
+        row = [nm, spread(p.axis_sigma[j, 0] / ls), spread(p.axis_sigma[j, 1] / as_)]
         if p.per_circle_sigma is not None:
-            row += [f"{p.per_circle_sigma[j, 0] / ls:.4g}", f"{p.per_circle_sigma[j, 0] / p.axis_sigma[j, 0]:.2f}"]
-        at.add_row(*row)
-    console.print(at)
+            row += [spread(p.per_circle_sigma[j, 0] / ls), f"{p.per_circle_sigma[j, 0] / p.axis_sigma[j, 0]:.2f}"]
+        arows.append(row)
+    print_rows("Joint axes at home: predicted sigma across the axis and of its direction", heads, arows)
     b = p.box
-    console.print(f"Measuring volume (minimum oriented bounding box): {b.lengths[0] / ls:.1f} x {b.lengths[1] / ls:.1f} x {b.lengths[2] / ls:.1f} {length}, {b.volume:.4g} m^3")
+    console.print(f"Measuring volume (minimum oriented bounding box): {' x '.join(num(v / ls, length) for v in b.lengths)} {length}, {b.volume:.4g} m^3")
     console.print(f"Identifiability: {p.identifiability.summary()}")
     red = [u.name for u in p.identifiability.unidentifiable if u.structural]
     if red:

@@ -6,77 +6,118 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.table import Table as RichTable
 
-from ..io.output import json_text
-from ..robot import builtin_names, load
-from .common import BaseLinkOpt, ChainOnlyOpt, JsonOpt, ModelArg, TipLinkOpt, app, console, load_robot, parse_joint_values, print_table, wrote
+from ..robot import Robot, builtin_names, load
+from .common import (
+    SI_UNITS,
+    AngleOpt,
+    BaseLinkOpt,
+    ChainOnlyOpt,
+    JsonOpt,
+    LengthOpt,
+    ModelArg,
+    TipLinkOpt,
+    app,
+    console,
+    emit_json,
+    json_target,
+    load_robot,
+    parse_joint_values,
+    print_rows,
+    print_table,
+    say,
+    status,
+    table_rows,
+    wrote,
+)
 
 
 @app.command()
-def models(json_out: JsonOpt = False) -> None:
-    """List the built-in robots."""
+def models(json_out: JsonOpt = None) -> None:
+    """List the built-in robots (names and descriptions: no units)."""
+    json_out = json_target(json_out)
     rows = []
     for name in builtin_names():
         r = load(name)
         rows.append({"name": name, "convention": r.convention, "joints": len(r.names), "description": r.description, "source": r.source})
     if json_out:
-        print(json_text(rows), end="")
-        return
-    t = RichTable(title="Built-in robots")
-    for c in ("name", "convention", "joints", "description"):
-        t.add_column(c)
-    for r in rows:
-        t.add_row(r["name"], r["convention"], str(r["joints"]), r["description"])
-    console.print(t)
+        emit_json(rows, json_out)
+        if json_out == "-":
+            return
+    print_rows("Built-in robots", ["name", "convention", "joints", "description"], [[r["name"], r["convention"], str(r["joints"]), r["description"]] for r in rows],
+               left=(1, 3), prose=(3,))
+
+
+def robot_json(robot: Robot) -> dict:
+    """A robot as JSON, SI: its table's rows keyed by column (m, rad; POE w and a prismatic v unitless), kinds, limits, home."""
+    si = ["rad" if k == "revolute" else "m" for k in robot.table.kinds]
+    return {"model": robot.name, "convention": robot.convention, "description": robot.description, "source": robot.source, "units": SI_UNITS,
+            "joints": [{"joint": n, "kind": k, **row, "lower": float(lo), "upper": float(hi)}
+                       for n, k, row, lo, hi in zip(robot.names, robot.table.kinds, table_rows(robot.table, "m", "rad"), robot.lower, robot.upper)],
+            "joint_units": si, "home": None if robot.home is None else [float(v) for v in robot.home]}
 
 
 @app.command()
 def show(
     model: ModelArg,
-    length: str = "mm",
-    angle: str = "deg",
+    length: LengthOpt = "mm",
+    angle: AngleOpt = "deg",
     report: Annotated[Path | None, typer.Option("--report", help="Write a self-contained HTML report: 3-D frames of two conventions, origin paths, tables.")] = None,
     plot: Annotated[Path | None, typer.Option("--plot", help="Write the static figures (PNG) into this folder.")] = None,
     compare: Annotated[str | None, typer.Option("--compare", help="Drawn beside the robot in --report/--plot: a convention (dh|mdh|edh|poe) or another robot (built-in name or file). Default edh (mdh for an ED-H robot).")] = None,
-    q: Annotated[str | None, typer.Option("--q", help="Configuration drawn in --report/--plot, one value per joint (default: the file's home, else zeros).")] = None,
-    deg: Annotated[bool, typer.Option("--deg", help="--q revolute values in degrees (default radians); prismatic values in --length.")] = False,
+    q: Annotated[str | None, typer.Option("--q", help="Configuration drawn in --report/--plot, one value per joint in --angle units (prismatic: --length); default the file's home, else zeros.")] = None,
+    json_out: JsonOpt = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
 ) -> None:
     """Print a robot file's table as read (with units); optionally draw its frames beside another convention's."""
+    json_out = json_target(json_out)
     robot = load_robot(model, base_link, tip_link)
-    print_table(robot.table, robot.names, length, angle, f"{robot.name} ({robot.convention}) — {robot.source}")
+    qv = parse_joint_values(q, "--q", robot, length, angle) if q else None
+    if json_out:
+        emit_json(robot_json(robot), json_out)
+    if json_out != "-":
+        say("bold", f"{robot.name} ({robot.convention})", f" — {robot.description}")
+        if robot.source:
+            console.print(f"  source: {robot.source}", soft_wrap=True)
+        print_table(robot.table, robot.names, length, angle, f"{robot.name} in {robot.convention}")
     if report or plot:
         from .. import report as rep  # noqa: PLC0415
 
-        qv = parse_joint_values(q, "--q", robot, length, "deg" if deg else "rad") if q else None
         if plot:
-            for f in rep.write_model_figures(robot, plot, compare=compare, q=qv, length=length):
+            with status(f"drawing the figures into {plot} ..."):
+                files = rep.write_model_figures(robot, plot, compare=compare, q=qv, length=length)
+            for f in files:
                 wrote(f)
         if report:
-            rep.write_model_report(robot, report, compare=compare, q=qv, length=length, angle=angle)
+            with status(f"writing the report {report} ..."):
+                rep.write_model_report(robot, report, compare=compare, q=qv, length=length, angle=angle)
             wrote(report)
 
 
 @app.command(name="export")
 def export_cmd(
     model: ModelArg,
-    length: str = "mm",
-    angle: str = "deg",
+    length: LengthOpt = "mm",
+    angle: AngleOpt = "deg",
+    json_out: JsonOpt = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
     chain_only: ChainOnlyOpt = False,
     ur_kinematics: Annotated[Path | None, typer.Option("--ur-kinematics", help="Write Universal Robots' kinematics-parameters YAML (what ur_description's kinematics_params_file reads) instead of a robot file ('-': standard output).")] = None,
     ur_nominal: Annotated[str, typer.Option("--ur-nominal", help="With --ur-kinematics: the nominal UR arm (a standard DH robot file or built-in) whose link frames the file follows.")] = "ur5",
 ) -> None:
-    """Print a robot file (TOML) in the given units, or write a UR kinematics-parameters file."""
+    """Print a robot file (TOML) in --length / --angle units (or, with --json, the robot as JSON in SI), or write a UR kinematics-parameters file."""
+    json_out = json_target(json_out)
     robot = load_robot(model, base_link, tip_link, chain_only=chain_only)
     if ur_kinematics is not None:
         from ..io.ur_calibration import save  # noqa: PLC0415
 
         save(ur_kinematics, robot.model(), load_robot(ur_nominal, what="--ur-nominal").table)
         wrote(ur_kinematics)
+        return
+    if json_out:
+        emit_json(robot_json(robot), json_out)
         return
     from ..io.robotfile import dumps  # noqa: PLC0415
 

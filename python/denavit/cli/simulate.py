@@ -5,11 +5,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from ..io.units import angle_scale, length_scale
-from .common import BaseLinkOpt, ModelArg, TipLinkOpt, app, fail, load_robot, parse_joint_values, parse_numbers, parse_ranges, wrote
+from .common import AngleOpt, BaseLinkOpt, LengthOpt, ModelArg, TipLinkOpt, app, load_robot, parse_joint_values, parse_point, parse_ranges, positive, spread, wrote
+from .plan import NOISE_M, TOOL_M
 
 
 @app.command()
@@ -19,12 +19,12 @@ def simulate(
     home: Annotated[str | None, typer.Option("--home", help="Home configuration in --angle units, prismatic joints in --length (default: the model file's home, else zeros).")] = None,
     ranges: Annotated[str | None, typer.Option("--ranges", help="Per-joint start,end pairs in --angle units (prismatic: --length), or 'paper90' / 'paper30' (Hayat Table II, the default).")] = None,
     points: Annotated[int, typer.Option("--points", help="Points per sweep.")] = 30,
-    tool: Annotated[str, typer.Option("--tool", help="Tool point in the flange frame, in --length units.")] = "50,30,100",
-    noise: Annotated[float, typer.Option("--noise", help="Point noise (1 sigma per coordinate), --length units.")] = 0.02,
-    noise_q: Annotated[float, typer.Option("--noise-q", help="Joint-reading noise (1 sigma), --angle units.")] = 0.0,
-    seed: Annotated[int, typer.Option("--seed")] = 0,
-    length: Annotated[str, typer.Option("--length")] = "mm",
-    angle: Annotated[str, typer.Option("--angle")] = "deg",
+    tool: Annotated[str | None, typer.Option("--tool", help="Tool point in the flange frame, in --length units (default 50,30,100 mm whatever the unit).")] = None,
+    noise: Annotated[float | None, typer.Option("--noise", help="Point noise (1 sigma per coordinate), in --length units (default 0.02 mm whatever the unit).")] = None,
+    noise_q: Annotated[float, typer.Option("--noise-q", help="Joint-reading noise (1 sigma), in --angle units.")] = 0.0,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the noise.")] = 0,
+    length: LengthOpt = "mm",
+    angle: AngleOpt = "deg",
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
 ) -> None:
@@ -38,9 +38,9 @@ def simulate(
     ls, as_ = length_scale(length), angle_scale(angle)
     h = parse_joint_values(home, "--home", robot, length, angle, default=robot.home)
     r = parse_ranges(ranges, robot, length, angle, "paper90")
-    tp = np.array(parse_numbers(tool, "--tool")) * ls
-    if tp.shape != (3,):
-        fail(f"--tool: expected 3 values, got {tp.size}")
-    s = sw.simulate(m, home=h, ranges=r, points_per_sweep=points, tool_point=tp, noise=noise * ls, noise_q=noise_q * as_, seed=seed)
-    write_text(output, to_long_csv(s, length, angle, f"simulated sweeps of {robot.name}: seed {seed}, noise {noise} {length}, readings noise {noise_q} {angle}"))
+    tp = parse_point(tool, "--tool", ls, TOOL_M)
+    sigma = positive(noise, "--noise", ls, NOISE_M, length)
+    sigma_q = positive(noise_q, "--noise-q", as_, 0.0, angle)
+    s = sw.simulate(m, home=h, ranges=r, points_per_sweep=points, tool_point=tp, noise=sigma, noise_q=sigma_q, seed=seed)
+    write_text(output, to_long_csv(s, length, angle, f"simulated sweeps of {robot.name}: seed {seed}, noise {spread(sigma / ls)} {length}, readings noise {spread(sigma_q / as_)} {angle}"))
     wrote(output, f": {m.nq} sweeps x {points} points")
