@@ -290,7 +290,7 @@ def near_parallel_edh():
     """KR5 identified in ED-H from short sweeps: the near-parallel pair 2-3 leaves a, b, theta of joint 3 (and
     theta of joint 2) with sigmas of hundreds of millimetres / degrees (issue 17: the +-870 mm error bars)."""
     s = sw.simulate(dv.load_model("kr5"), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=12, noise=2e-5, seed=7)
-    return ident.identify(s, nominal=dv.load_robot("kr5"), convention="edh")
+    return dv.identify(s, nominal=dv.load_robot("kr5"), convention="edh")
 
 
 def test_undetermined_parameters_are_not_charted(near_parallel_edh):

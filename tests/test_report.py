@@ -552,7 +552,7 @@ def every_report(result, tmp_path_factory):
     out = {}
     for conv in ("dh", "mdh", "edh", "poe"):
         out[f"identify-{conv}"] = folder / f"identify-{conv}.html"
-        rep.write_report(ident.identify(result.sweeps, nominal=kr5, convention=conv), out[f"identify-{conv}"])
+        rep.write_report(dv.identify(result.sweeps, nominal=kr5, convention=conv), out[f"identify-{conv}"])
     out["show"] = folder / "show.html"
     rep.write_model_report(kr5, out["show"], q=np.radians(sw.PAPER_HOME_DEG))
     t = kr5.table
