@@ -62,9 +62,9 @@ def test_every_command_runs_on_the_urdf(name, tip, default, tmp_path):
     assert "[joints" in ok("export", f, *chain).stdout
     # fk, ik, dynamics
     T = dv.fk(robot.model(), q)
-    np.testing.assert_allclose(json.loads(ok("fk", f, "--q", numbers(q), "--json", *chain).stdout)["T_world_tool"], T, atol=1e-12)
-    ok("ik", f, "--pose", numbers(T.ravel()), *chain)
-    ok("dynamics", f, "--q", numbers(q), "--qd", numbers(np.zeros(n)), "--qdd", numbers(np.zeros(n)), *chain)
+    np.testing.assert_allclose(json.loads(ok("fk", f, "--q", numbers(q), "--length", "m", "--angle", "rad", "--json", *chain).stdout)["T_world_tool"], T, atol=1e-12)
+    ok("ik", f, "--pose", numbers(T.ravel()), "--length", "m", "--angle", "rad", *chain)
+    ok("dynamics", f, "--q", numbers(q), "--qd", numbers(np.zeros(n)), "--qdd", numbers(np.zeros(n)), "--length", "m", "--angle", "rad", *chain)
     # simulate -> inspect, identify --nominal; plan
     ranges = np.stack([mid - half, mid + half], axis=1) * np.where(prismatic, 1000.0, np.degrees(1.0))[:, None]
     home = mid * np.where(prismatic, 1000.0, np.degrees(1.0))
