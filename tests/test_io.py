@@ -298,3 +298,18 @@ def test_json_outputs_are_strict_and_tables_show_nan():
     doc = json.loads(json_text({"a": float("nan"), "b": [1.0, float("inf"), np.float64(2.5)], "c": np.array([[np.nan, 1.0]]), "d": "x"}))
     assert doc == {"a": None, "b": [1.0, None, 2.5], "c": [[None, 1.0]], "d": "x"}
     assert fmt(float("nan")) == "nan" and fmt(-1e-15) == "0.000000" and fmt(1.5, 2) == "1.50"
+
+
+# -- error messages: one line, a readable length (denavit.errors) -------------------------------------------
+
+
+def test_messages_are_one_line_and_capped_keeping_head_and_tail():
+    """A message echoing a 250 kB header had been 250 kB long, and lxml's had held line breaks."""
+    from denavit.errors import MAX_MESSAGE
+
+    e = dv.DenavitError("f.csv:2: header must be 'x,y,z', got '" + "z" * 250_000 + "' (a hint)")
+    msg = str(e)
+    assert len(msg) <= MAX_MESSAGE == 300 and msg.startswith("f.csv:2: header must be 'x,y,z', got 'zzz") and msg.endswith("zzz' (a hint)")
+    assert " [...] " in msg
+    assert str(dv.DegenerateError("line 1\n  line 2\r\nline 3")) == "line 1 line 2 line 3"
+    assert str(dv.DenavitError("short")) == "short"
