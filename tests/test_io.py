@@ -313,3 +313,43 @@ def test_messages_are_one_line_and_capped_keeping_head_and_tail():
     assert " [...] " in msg
     assert str(dv.DegenerateError("line 1\n  line 2\r\nline 3")) == "line 1 line 2 line 3"
     assert str(dv.DenavitError("short")) == "short"
+
+
+# -- numbers: ASCII decimal or scientific, finite (denavit.io.delimited) -----------------------------------
+
+
+@pytest.mark.parametrize("cell, match", [
+    ("1_000", r"column 'z' must be a number, got '1_000' \(no digit separators"),
+    ("\uff11\uff12", r"column 'z' must be a number, got '１２' \(ASCII digits 0-9 only\)"),  # full-width 12
+    ("\u0661\u0662", r"column 'z' must be a number, got '١٢' \(ASCII digits 0-9 only\)"),  # Arabic-Indic 12
+    (" nan ", r"column 'z' must be finite, got 'nan'"),
+    ("infinity", r"column 'z' must be finite, got 'infinity'"),
+    ("1e309", r"column 'z' must be finite, got '1e309' \(beyond the float range\)"),
+    ("0x10", r"column 'z' must be a number, got '0x10'"),
+])
+def test_text_cells_are_ascii_decimal_numbers(tmp_path, cell, match):
+    """float() reads all of these; a measurement file means none of them (they had been read as numbers)."""
+    from denavit.io import sweeps as swio
+    from denavit.io.delimited import number
+
+    text = _sweeps_csv().splitlines()
+    text[3] = text[3].rsplit(",", 1)[0] + "," + cell
+    f = tmp_path / "s.csv"
+    f.write_text("# units: length=mm angle=deg\n" + "\n".join(text) + "\n")
+    with pytest.raises(dv.DenavitError, match=r"s.csv:5: " + match):
+        swio.read_long_csv(f)
+    for good in ("12", "-0.5", ".5", "1e-3", "+2.E+4", "7."):
+        assert number(good, "here", "x") == float(good)
+
+
+def test_parsed_values_are_numbers_not_booleans_or_strings():
+    from denavit.io.delimited import as_number
+
+    assert as_number(3, "w") == 3.0 and as_number(float("-inf"), "w", finite=False) == float("-inf")
+    for bad, match in [(True, "w must be a number, got true"), ("1", r"w must be a number, got '1' \(a string\)"), (None, "got nothing"),
+                       ([1], "got a list"), (10**400, "w must be a number in the float range, got an integer of about 401 digits"),
+                       (float("nan"), "w must be finite, got NaN"), (float("inf"), "w must be finite, got inf")]:
+        with pytest.raises(dv.DenavitError, match=match):
+            as_number(bad, "w")
+    with pytest.raises(dv.DenavitError, match="got NaN"):
+        as_number(float("nan"), "w", finite=False)
