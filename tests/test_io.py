@@ -309,7 +309,7 @@ def test_messages_are_one_line_and_capped_keeping_head_and_tail():
 
     e = dv.DenavitError("f.csv:2: header must be 'x,y,z', got '" + "z" * 250_000 + "' (a hint)")
     msg = str(e)
-    assert len(msg) <= MAX_MESSAGE == 300 and msg.startswith("f.csv:2: header must be 'x,y,z', got 'zzz") and msg.endswith("zzz' (a hint)")
+    assert len(msg) <= MAX_MESSAGE == 500 and msg.startswith("f.csv:2: header must be 'x,y,z', got 'zzz") and msg.endswith("zzz' (a hint)")
     assert " [...] " in msg
     assert str(dv.DegenerateError("line 1\n  line 2\r\nline 3")) == "line 1 line 2 line 3"
     assert str(dv.DenavitError("short")) == "short"
@@ -346,10 +346,110 @@ def test_parsed_values_are_numbers_not_booleans_or_strings():
     from denavit.io.delimited import as_number
 
     assert as_number(3, "w") == 3.0 and as_number(float("-inf"), "w", finite=False) == float("-inf")
-    for bad, match in [(True, "w must be a number, got true"), ("1", r"w must be a number, got '1' \(a string\)"), (None, "got nothing"),
-                       ([1], "got a list"), (10**400, "w must be a number in the float range, got an integer of about 401 digits"),
-                       (float("nan"), "w must be finite, got NaN"), (float("inf"), "w must be finite, got inf")]:
+    for bad, match in [(True, "w: expected a number, got true"), ("1", r"w: expected a number, got '1' \(a string\)"), (None, "got nothing"),
+                       ([1], "got a list"), (10**400, "w: expected a number in the float range, got an integer of about 401 digits"),
+                       (float("nan"), "w: expected a finite number, got NaN"), (float("inf"), "w: expected a finite number, got inf")]:
         with pytest.raises(dv.DenavitError, match=match):
             as_number(bad, "w")
     with pytest.raises(dv.DenavitError, match="got NaN"):
         as_number(float("nan"), "w", finite=False)
+
+
+# -- JSON inputs: strict (sweeps and measurements) ----------------------------------------------------------
+
+
+def _sweeps_json_doc() -> dict:
+    from denavit import sweeps as sw
+
+    s = sw.simulate(dv.load_model("kr5"), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=5)
+    return {"units": {"length": "m", "angle": "rad"}, "home": s.home.tolist(),
+            "sweeps": [{"joint": x.joint, "points": x.points.tolist(), "q": x.q.tolist()} for x in s.sweeps]}
+
+
+@pytest.mark.parametrize("text, match", [
+    # issue 16: a RecursionError and a ValueError (Python's 4300-digit limit) had reached the user
+    ('{"home": ' + "[" * 100_000 + "]" * 100_000 + "}", r"s.json: not readable JSON: lists or objects nested too deeply$"),
+    ('{"units": {"length": "m", "angle": "rad"}, "home": [' + "9" * 5000 + "]}", r"s.json: home\[0\]: expected a finite number, got inf$"),
+    ('{"units": {"length": "m", "angle": "rad"}, "home": [Infinity]}', r"s.json: home\[0\]: expected a finite number, got inf$"),
+    ('{"units": {"length": "m", "angle": "rad"}, "home": ["1"]}', r"s.json: home\[0\]: expected a number, got '1' \(a string\)$"),
+    ('{"units": {"length": "m", "angle": "rad"}, "home": [true]}', r"s.json: home\[0\]: expected a number, got true$"),
+    ('{"units": {"length": "m", "angle": "rad"}, "home": [0], "home": [1]}', r"s.json: key\(s\) 'home' given twice in one object"),
+    ('{"units": {"length": "m", "angle": "rad"}, "hom": [0]}', r"s.json: unknown key\(s\) 'hom': expected units, home, kinds, sweeps$"),
+    ('{"home": [0,', r"s.json:1: not valid JSON: Expecting value \(column 13\)$"),
+])
+def test_bad_json_sweeps_are_one_line(tmp_path, text, match):
+    from denavit.io import sweeps as swio
+
+    f = tmp_path / "s.json"
+    f.write_text(text)
+    with pytest.raises(dv.DenavitError, match=match):
+        swio.read_json(f)
+
+
+def test_a_misspelt_q_in_one_sweep_is_an_error_not_a_set_without_readings(tmp_path):
+    """One sweep's "Q" for "q" had dropped every sweep's readings (has_readings is all-or-nothing)."""
+    from denavit.io import sweeps as swio
+
+    doc = _sweeps_json_doc()
+    f = tmp_path / "s.json"
+    f.write_text(json.dumps(doc))
+    assert swio.read_json(f).has_readings
+    doc["sweeps"][2]["Q"] = doc["sweeps"][2].pop("q")
+    f.write_text(json.dumps(doc))
+    with pytest.raises(dv.DenavitError, match=r"s.json: sweeps\[2\]: unknown key\(s\) 'Q': expected joint, points, q$"):
+        swio.read_json(f)
+
+
+def test_hand_built_sweep_sets_need_one_sweep_per_joint():
+    """A missing sweep had raised IndexError in identify, a duplicated one had been identified silently."""
+    from denavit import sweeps as sw
+
+    s = sw.simulate(dv.load_model("kr5"), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=5)
+    with pytest.raises(dv.DenavitError, match=r"missing sweeps of joint\(s\) 6: every joint 1..6 needs one sweep"):
+        sw.SweepSet(s.sweeps[:5], 6, s.home, s.kinds, "mine")
+    with pytest.raises(dv.DenavitError, match=r"mine: missing sweeps of joint\(s\) 2; a second sweep of joint\(s\) 1"):
+        sw.SweepSet([s.sweeps[0], *s.sweeps[::-1][:4], s.sweeps[0]], 6, s.home, s.kinds, "mine")
+    assert [x.joint for x in sw.SweepSet(s.sweeps[::-1], 6, s.home, s.kinds).sweeps] == [6, 5, 4, 3, 2, 1]
+
+
+@pytest.mark.parametrize("doc, match", [
+    ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, "1"]], "points": [[0, 0, 0]]}, r"m.json: q\[0\]\[1\]: expected a number, got '1' \(a string\)$"),
+    ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, True]], "points": [[0, 0, 0]]}, r"m.json: q\[0\]\[1\]: expected a number, got true$"),
+    ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, 1], [0]], "points": [[0, 0, 0]]}, r"m.json: q: rows of different lengths"),
+    ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, 1]], "point": [[0, 0, 0]]}, r"m.json: unknown key\(s\) 'point'"),
+    ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, 1]], "poses": [[[1, 0, 0, 0]] * 3]}, r"m.json: poses must have shape \(1, 4, 4\) \(one per row of q\), got shape \(1, 3, 4\)"),
+])
+def test_bad_json_measurements_are_one_line(tmp_path, doc, match):
+    from denavit.io.measurements import read_measurements
+
+    f = tmp_path / "m.json"
+    f.write_text(json.dumps(doc))
+    with pytest.raises(dv.DenavitError, match=match):
+        read_measurements(f)
+
+
+@pytest.mark.parametrize("head, match", [
+    # issue 16: 'rx,y,rz' had silently dropped the rotation; unknown columns had been ignored
+    ("q1,q2,q3,q4,q5,q6,x,y,z,rx,rz", r"m.csv:2: header must be .*; missing ry, got 'q1,q2,q3,q4,q5,q6,x,y,z,rx,rz'$"),
+    ("q1,q2,q3,q4,q5,q6,x,y,z,rms", r"m.csv:2: header must be .*; unknown column\(s\) rms, got"),
+    ("q1,q2,q3,q4,q5,q6,x,y,x", r"m.csv:2: column\(s\) x named twice in the header"),
+])
+def test_measurement_headers_are_honoured(tmp_path, head, match):
+    from denavit.io.measurements import read_measurements
+
+    f = tmp_path / "m.csv"
+    f.write_text(f"# units: length=mm angle=deg\n{head}\n" + ",".join(["1"] * len(head.split(","))) + "\n")
+    with pytest.raises(dv.DenavitError, match=match):
+        read_measurements(f)
+
+
+def test_candidates_headers_are_honoured(tmp_path):
+    from denavit.io.configurations import read_configurations
+
+    f = tmp_path / "c.csv"
+    f.write_text("# units: angle=deg\nq1,q2,q3,q4,q5,q6,note\n0,0,0,0,0,0,1\n")
+    with pytest.raises(dv.DenavitError, match=r"c.csv:2: header must name q1..q6 \(6 joints\); unknown column\(s\) note"):
+        read_configurations(f, ["revolute"] * 6)
+    f.write_text("# units: angle=deg\nq1,q2,q3,q4,q5,q6\n0,0,0,0,0,0\n0,0,\"1\n")
+    with pytest.raises(dv.DenavitError, match=r"c.csv:4: "):
+        read_configurations(f, ["revolute"] * 6)

@@ -19,7 +19,7 @@ from ..errors import DenavitError
 #: (``12``, ``-0.5``, ``.5``, ``1e-3``, ``2.E+4``). Python's ``float()`` also takes ``1_000``, full-width and
 #: Arabic-Indic digits, ``infinity``, ``nan`` and surrounding blanks: none of those is a measurement.
 NUMBER = re.compile(r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?")
-_NON_FINITE = re.compile(r"[-+]?(?:inf|infinity|nan)", re.IGNORECASE)  # float() reads these
+NON_FINITE = re.compile(r"[-+]?(?:inf|infinity|nan)", re.IGNORECASE)  # float() reads these
 
 
 def number(text: str, where: str, column: str) -> float:
@@ -30,7 +30,7 @@ def number(text: str, where: str, column: str) -> float:
         if math.isfinite(v):
             return v
         raise DenavitError(f"{where}: column {column!r} must be finite, got {text[:40]!r} (beyond the float range)")
-    if _NON_FINITE.fullmatch(text.strip()):
+    if NON_FINITE.fullmatch(text.strip()):
         raise DenavitError(f"{where}: column {column!r} must be finite, got {text[:40]!r}")
     raise DenavitError(f"{where}: column {column!r} must be a number, got {text[:40]!r}{_hint(text)}")
 
@@ -61,13 +61,13 @@ def as_number(value, where: str, *, finite: bool = True) -> float:
             shown = f"{value[:40]!r}{'...' if len(value) > 40 else ''} (a string)"
         else:
             shown = {bool: str(value).lower(), type(None): "nothing (null)", list: "a list", dict: "a table"}.get(type(value), type(value).__name__)
-        raise DenavitError(f"{where} must be a number, got {shown}")
+        raise DenavitError(f"{where}: expected a number, got {shown}")
     try:
         v = float(value)
     except OverflowError:
-        raise DenavitError(f"{where} must be a number in the float range, got an integer of about {int(value.bit_length() * math.log10(2)) + 1} digits") from None
+        raise DenavitError(f"{where}: expected a number in the float range, got an integer of about {int(value.bit_length() * math.log10(2)) + 1} digits") from None
     if math.isnan(v) or (finite and math.isinf(v)):
-        raise DenavitError(f"{where} must be finite, got {'NaN' if math.isnan(v) else v}")
+        raise DenavitError(f"{where}: expected a finite number, got {'NaN' if math.isnan(v) else v}")
     return v
 
 
