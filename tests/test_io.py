@@ -453,3 +453,48 @@ def test_candidates_headers_are_honoured(tmp_path):
     f.write_text("# units: angle=deg\nq1,q2,q3,q4,q5,q6\n0,0,0,0,0,0\n0,0,\"1\n")
     with pytest.raises(dv.DenavitError, match=r"c.csv:4: "):
         read_configurations(f, ["revolute"] * 6)
+
+
+# -- URDF attributes and UR kinematics YAML: the same number rule ------------------------------------------
+
+UR_URDF = __import__("pathlib").Path(__file__).parent / "data" / "urdf" / "ur_style.urdf"
+
+
+@pytest.mark.parametrize("old, new, match", [
+    ('damping="0"', 'damping="abc"', r"joint 'shoulder_pan_joint' \(line \d+\): dynamics damping='abc': expected 1 number"),  # had been a ValueError traceback
+    ('damping="0"', 'damping="nan"', r"dynamics damping='nan': expected 1 finite number"),
+    ('effort="150"', 'effort="1e999"', r"limit effort='1e999': expected 1 finite number"),
+    ('xyz="0 0 0.089159"', 'xyz="0 0 \uff11"', r"origin xyz='0 0 １': expected 3 numbers \(ASCII decimal\)"),  # full-width 1 had been read
+    ('xyz="0 0 0.089159"', 'xyz="0 0 1_0"', r"origin xyz='0 0 1_0': expected 3 numbers"),
+    ('<mass value="4.0"/>', '<mass value="4_0"/>', r"link 'base_link' \(line \d+\): mass value='4_0': expected 1 number"),
+    ('ixx="0.00443333156"', 'ixx="abc"', r"link 'base_link' \(line \d+\): inertia ixx='abc': expected 1 number"),
+    ('<axis xyz="0 0 1"/>', '<axis xzy="0 0 1"/>', r"joint 'shoulder_pan_joint' \(line \d+\): <axis> \(line \d+\) without xyz"),  # had been the default x axis
+])
+def test_urdf_numbers_follow_the_one_rule(tmp_path, old, new, match):
+    text = UR_URDF.read_text()
+    assert old in text
+    f = tmp_path / "ur.urdf"
+    f.write_text(text.replace(old, new, 1))
+    with pytest.raises(dv.DenavitError, match=match):
+        dv.load_robot(f)
+
+
+@pytest.mark.parametrize("new, match", [
+    ("x: 1_000", r"kinematics.shoulder.x: expected a number, got '1_000' \(a string\)"),
+    ("x: 1:30", r"kinematics.shoulder.x: expected a number, got '1:30' \(a string\)"),  # YAML 1.1 sexagesimal: 90
+    ("x: .inf", r"kinematics.shoulder.x: expected a number, got '.inf' \(a string\)"),
+    ("x: '0.0'", r"kinematics.shoulder.x: expected a number, got '0.0' \(a string\)"),
+    ("x: true", r"kinematics.shoulder.x: expected a number, got true"),
+    ("x: 1e999", r"kinematics.shoulder.x: expected a finite number, got inf"),
+    ("x: 0.0\n    x: 1.0", r"k.yaml:3: key\(s\) x given twice in one mapping"),  # PyYAML keeps the last
+    ("x: " + "[" * 5000, r"k.yaml: not readable YAML: mappings or lists nested too deeply"),
+])
+def test_ur_kinematics_numbers_follow_the_one_rule(new, match):
+    from denavit.io import ur_calibration as urc
+
+    r = dv.load_robot("ur5")
+    text = urc.dumps(r.model(), r.table)
+    assert "    x: 0.0\n" in text
+    assert np.allclose(urc.loads(text.replace("x: 0.0", "x: 0", 1), "k.yaml"), urc.loads(text, "k.yaml"))
+    with pytest.raises(dv.DenavitError, match=match):
+        urc.loads(text.replace("x: 0.0", new, 1), "k.yaml")

@@ -26,8 +26,9 @@ hint) around an elision mark, so a user reads it whole on any terminal or log.
 
 import re
 
-#: The longest message, in characters.
-MAX_MESSAGE = 300
+#: The longest message, in characters: room for a long path and a long explanation; an echo of a 250 kB
+#: header is cut to it.
+MAX_MESSAGE = 500
 _ELIDED = " [...] "
 
 _FIELDS = ("what", "expected", "got", "index", "value", "reason", "iterations", "position_error", "rotation_error", "joint")
