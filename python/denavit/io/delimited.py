@@ -35,6 +35,24 @@ def number(text: str, where: str, column: str) -> float:
     raise DenavitError(f"{where}: column {column!r} must be a number, got {text[:40]!r}{_hint(text)}")
 
 
+#: The farthest a measured point may lie from the origin of its frame, in metres: over a thousand times the
+#: Earth's radius (survey coordinates in a national grid are ~1e7 m), far below where squares overflow.
+MAX_LENGTH = 1e9
+
+
+def length(text: str, where: str, column: str, scale: float) -> float:
+    """The coordinate of cell ``text`` in metres (``scale`` metres per file unit): :func:`number`, and within
+    :data:`MAX_LENGTH` (a 1e308 mm coordinate had overflowed the calibration's residuals to a traceback)."""
+    return far(number(text, where, column) * scale, f"{where}: column {column!r}")
+
+
+def far(value_m: float, where: str) -> float:
+    """``value_m`` (metres) if within :data:`MAX_LENGTH`, else a one-line error naming ``where``."""
+    if abs(value_m) > MAX_LENGTH:
+        raise DenavitError(f"{where}: a coordinate of {value_m:.3g} m is beyond {MAX_LENGTH:.0e} m: not a measured point (a wrong unit?)")
+    return value_m
+
+
 def _hint(text: str) -> str:
     if re.fullmatch(r"[-+]?\d+,\d+", text, re.ASCII):
         return " (a decimal comma? write numbers with a decimal point)"

@@ -73,9 +73,9 @@ def read_measurements(path: str | os.PathLike, *, length: str | None = None, ang
         w = f"{p}:{ln}"
         if len(cells) != len(cols):
             raise DenavitError(f"{w}: expected {len(cols)} values ({delim.join(cols)}), got {len(cells)}")
-        vals = {c: dl.number(cells[k], w, c) for c, k in idx.items()}
+        vals = {c: dl.number(cells[k], w, c) for c, k in idx.items() if c not in "xyz"}
         q.append([vals[f"q{i}"] for i in range(1, len(qcols) + 1)])
-        pts.append([vals[c] * ls for c in "xyz"])
+        pts.append([dl.length(cells[idx[c]], w, c, ls) for c in "xyz"])
         if rot:
             rv.append([vals[c] * as_ for c in ("rx", "ry", "rz")])
         where.append(w)
@@ -118,9 +118,9 @@ def _read_json(p: Path, text: str, length: str | None, angle: str | None, kinds)
     q = q * joint_scale(kinds, units["length"], units["angle"], str(p))
     if "poses" in doc:
         T = sw.json_array(doc["poses"], 4, 3, f"{p}: poses")
-        T[:, :3, 3] *= ls
+        T[:, :3, 3] = sw.json_lengths(T[:, :3, 3], ls, f"{p}: poses' translations")
         return Measurements(q, None, T, str(p), [], units, kinds=kinds)
-    return Measurements(q, sw.json_array(doc.get("points"), 3, 2, f"{p}: points") * ls, None, str(p), [], units, kinds=kinds)
+    return Measurements(q, sw.json_lengths(sw.json_array(doc.get("points"), 3, 2, f"{p}: points"), ls, f"{p}: points"), None, str(p), [], units, kinds=kinds)
 
 
 def to_csv(meas: Measurements, length: str = "mm", angle: str = "deg", comment: str = "") -> str:

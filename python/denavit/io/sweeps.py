@@ -77,7 +77,7 @@ def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: 
         if not (math.isfinite(jv) and jv == round(jv) and 1 <= jv <= n):
             raise DenavitError(f"{at}: joint index out of range: expected 1..{n}, got {jtext}")
         q = np.array([dl.number(cells[idx[f"q{i}"]], at, f"q{i}") for i in range(1, n + 1)]) * qscale
-        p = np.array([dl.number(cells[idx[c]], at, c) for c in "xyz"]) * ls
+        p = np.array([dl.length(cells[idx[c]], at, c, ls) for c in "xyz"])
         sweeps.setdefault(int(jv), []).append((q, p, at))
     out = [Sweep(j, np.array([r[1] for r in sweeps[j]]), np.array([r[0] for r in sweeps[j]]), [r[2] for r in sweeps[j]]) for j in sorted(sweeps)]
     every = SweepSet(out, n, np.zeros(n), kinds, where, units)  # one sweep of each joint (or a one-line error)
@@ -110,8 +110,8 @@ def _joint_file(f: Path, length: str | None) -> tuple[np.ndarray, list[str]]:
         if len(cells) != len(names) or len(cells) not in (3, 4):
             expected = f"{len(names)} values ({','.join(names)})" if cols else "3 values (x,y,z) or 4 (time,x,y,z)"
             raise DenavitError(f"{where}:{ln}: expected {expected} separated by {delim!r}, got {len(cells)}: {delim.join(cells)!r}")
-        vals = {name: dl.number(c, f"{where}:{ln}", name) for c, name in zip(cells, names)}
-        pts.append([vals[c] * ls for c in "xyz"])
+        vals = {name: dl.length(c, f"{where}:{ln}", name, ls if name in "xyz" else 1.0) for c, name in zip(cells, names)}
+        pts.append([vals[c] for c in "xyz"])
         at.append(f"{where}:{ln}")
     return np.array(pts, dtype=float).reshape(-1, 3), at
 
@@ -213,6 +213,17 @@ def json_array(value, n: int | None, depth: int, where: str) -> np.ndarray:
     return np.array(rows)
 
 
+def json_lengths(values: np.ndarray, scale: float, where: str) -> np.ndarray:
+    """(m, 3) coordinates in metres (``scale`` m per file unit), each within :data:`denavit.io.delimited.MAX_LENGTH`;
+    an error names the first one beyond (``points[4][2]``)."""
+    out = np.asarray(values, dtype=float) * scale
+    bad = np.argwhere(np.abs(out) > dl.MAX_LENGTH)
+    if bad.size:
+        i, j = bad[0]
+        dl.far(out[i, j], f"{where}[{i}][{j}]")
+    return out
+
+
 def _check_keys(obj: dict, expected: tuple, where: str) -> None:
     """An object's keys must be expected ones: a misspelt key ("Q" for "q") must not be skipped."""
     unknown = [k for k in obj if k not in expected]
@@ -267,7 +278,7 @@ def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str 
             if len(q) != len(pts):
                 raise DenavitError(f"{at}: q must have one row per point: expected {len(pts)} rows, got {len(q)}")
             q = q * qscale
-        rows[j], first[j] = Sweep(j, pts * ls, q, [f"{at}.points[{i}]" for i in range(len(pts))]), k
+        rows[j], first[j] = Sweep(j, json_lengths(pts, ls, f"{at}.points"), q, [f"{at}.points[{i}]" for i in range(len(pts))]), k
     return SweepSet([rows[j] for j in sorted(rows)], n, home * qscale, kinds, where, units)
 
 
