@@ -488,6 +488,7 @@ def test_urdf_numbers_follow_the_one_rule(tmp_path, old, new, match):
     ("x: 1e999", r"kinematics.shoulder.x: expected a finite number, got inf"),
     ("x: 0.0\n    x: 1.0", r"k.yaml:3: key\(s\) x given twice in one mapping"),  # PyYAML keeps the last
     ("x: " + "[" * 5000, r"k.yaml: not readable YAML: mappings or lists nested too deeply"),
+    ("x: " + "[" * 100_000 + "]" * 100_000, r"k.yaml: not readable YAML: mappings or lists nested too deeply"),
 ])
 def test_ur_kinematics_numbers_follow_the_one_rule(new, match):
     from denavit.io import ur_calibration as urc

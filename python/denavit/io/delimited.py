@@ -78,7 +78,7 @@ def as_number(value, where: str, *, finite: bool = True) -> float:
         if isinstance(value, str):
             shown = f"{value[:40]!r}{'...' if len(value) > 40 else ''} (a string)"
         else:
-            shown = {bool: str(value).lower(), type(None): "nothing (null)", list: "a list", dict: "a table"}.get(type(value), type(value).__name__)
+            shown = str(value).lower() if isinstance(value, bool) else {type(None): "nothing (null)", list: "a list", dict: "a table"}.get(type(value), type(value).__name__)
         raise DenavitError(f"{where}: expected a number, got {shown}")
     try:
         v = float(value)

@@ -152,12 +152,14 @@ def _strict_loader(yaml, where: str):
     mapping is an error (PyYAML keeps the last)."""
     tags = ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float")
 
-    class Loader(yaml.SafeLoader):
+    from collections import Counter  # noqa: PLC0415
+
+    class Loader(yaml.SafeLoader):  # not libyaml's CSafeLoader: its composer overflows the C stack (a segfault) on deep nesting
         yaml_implicit_resolvers = {c: [(t, r) for t, r in rs if t not in tags] for c, rs in yaml.SafeLoader.yaml_implicit_resolvers.items()}
 
         def construct_mapping(self, node, deep=False):
-            keys = [self.construct_object(k, deep=deep) for k, _ in node.value]
-            twice = sorted({str(k) for k in keys if keys.count(k) > 1})
+            counts = Counter(str(self.construct_object(k, deep=deep)) for k, _ in node.value)
+            twice = sorted(k for k, c in counts.items() if c > 1)
             if twice:
                 raise DenavitError(f"{where}:{node.start_mark.line + 1}: key(s) {', '.join(twice)[:80]} given twice in one mapping: expected each once")
             return super().construct_mapping(node, deep=deep)
