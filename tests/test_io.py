@@ -519,3 +519,16 @@ def test_coordinates_beyond_a_billion_metres_are_not_measurements(tmp_path):
         read_targets(t, ["revolute"] * 6)
     t.write_text("# units: length=mm angle=deg\nx,y,z,rx,ry,rz\n100,0,1e7,0,0,0\n")  # 10 km: a survey frame
     assert read_targets(t, ["revolute"] * 6).poses[0, 2, 3] == pytest.approx(1e4) and MAX_LENGTH == 1e9
+
+
+@pytest.mark.parametrize("ipoc, match", [("--1", r"<IPOC> \(time stamp, ms\)' must be a number, got '--1'"),  # a ValueError, found by the fuzz run
+                                         ("\u0661\u0662", r"<IPOC> \(time stamp, ms\)' must be a number, got '١٢' \(ASCII digits 0-9 only\)")])
+def test_rsi_numbers_follow_the_one_rule(tmp_path, ipoc, match):
+    from denavit.io.recordings import read_recording
+
+    text = (__import__("pathlib").Path(__file__).parent / "data" / "recordings" / "rsi.xml").read_text()
+    first = text.index("<IPOC>") + len("<IPOC>")
+    f = tmp_path / "r.xml"
+    f.write_text(text[:first] + ipoc + text[text.index("</IPOC>", first):])
+    with pytest.raises(dv.DenavitError, match=r"r.xml:\d+: column '" + match):
+        read_recording(f, "rsi")
