@@ -13,12 +13,14 @@ import os
 import random
 import signal
 import tempfile
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 import denavit as dv
+from denavit.errors import MAX_MESSAGE
 
 DATA = Path(__file__).parent / "data"
 
@@ -52,6 +54,26 @@ def _targets_csv() -> str:
     return "# units: length=mm angle=deg\nq1,q2,q3,q4,q5,q6\n" + "".join(",".join(f"{v:.6f}" for v in np.degrees(q)) + "\n" for q in Q)
 
 
+def _measurements_json() -> str:
+    from denavit import calibration as cal
+
+    kr5 = dv.load_robot("kr5")
+    m = cal.simulate(kr5, cal.configurations(kr5, 8), tool=(0.05, 0.03, 0.1))
+    return json.dumps({"units": {"length": "m", "angle": "rad"}, "q": m.q.tolist(), "points": m.points.tolist()})
+
+
+def _joint_file(path: Path):
+    """A folder holding the mutated file as j1.csv, read as a one-joint set of per-joint files."""
+    import shutil
+
+    from denavit.io import sweeps as swio
+
+    folder = path.parent / "joints"
+    folder.mkdir(exist_ok=True)
+    shutil.copyfile(path, folder / "j1.csv")
+    return swio.read_joint_files(folder, home=[0.0], length="mm").sweeps[0].points
+
+
 def _ur_yaml() -> str:
     from denavit.io import ur_calibration
 
@@ -63,6 +85,7 @@ def seeds() -> dict[str, tuple[str, str, Callable[[Path], object]]]:
     """reader name -> (file suffix, valid text, read(path) -> a value whose numbers are compared)."""
     from denavit.io import robotfile, ur_calibration
     from denavit.io import sweeps as swio
+    from denavit.io.configurations import read_configurations
     from denavit.io.measurements import read_measurements
     from denavit.io.recordings import read_recording
     from denavit.io.targets import read_targets
@@ -80,6 +103,10 @@ def seeds() -> dict[str, tuple[str, str, Callable[[Path], object]]]:
         "sweep csv": (".csv", _kr5_sweeps_csv(), lambda p: nums(*[s.points for s in swio.read_long_csv(p).sweeps])),
         "sweep json": (".json", _sweeps_json(), lambda p: nums(*[s.points for s in swio.read_json(p).sweeps])),
         "measurements": (".csv", _measurements_csv(), lambda p: nums(read_measurements(p).points)),
+        "measurements json": (".json", _measurements_json(), lambda p: nums(read_measurements(p).points)),
+        "joint file": (".csv", "# units: length=mm\ntime;x;y;z\n" + "".join(f"{k * 0.1:.1f};{100 * np.cos(t):.6f};{100 * np.sin(t):.6f};5\n" for k, t in enumerate(np.linspace(0, 1, 8))),
+                       lambda p: nums(_joint_file(p))),
+        "candidates": (".csv", _targets_csv(), lambda p: nums(read_configurations(p, six))),
         "targets": (".csv", _targets_csv(), lambda p: nums(read_targets(p, six).q)),
         "ur kinematics": (".yaml", _ur_yaml(), lambda p: nums(ur_calibration.read(p))),
         "rtde": (".csv", (DATA / "recordings" / "rtde.csv").read_text(), lambda p: nums(read_recording(p, "rtde").q)),
@@ -130,10 +157,14 @@ def mutate(text: str, rng: random.Random) -> tuple[bytes, bool]:
     if kind == 3:  # encodings
         enc = rng.choice(["latin-1", "utf-16", "cp1252"])
         return (text + "# 90°\n").encode(enc, errors="replace"), False
-    if kind == 4:  # size: cut short, or the body repeated many times
-        if rng.random() < 0.5:
+    if kind == 4:  # size: cut short, the body repeated many times, or the last line up to 10^5 rows
+        r = rng.random()
+        if r < 0.5:
             return data[: rng.randrange(len(data) + 1)], False
-        return data + data[data.find(b"\n") + 1:] * rng.randint(2, 50), False
+        if r < 0.9 or not lines:
+            return data + data[data.find(b"\n") + 1:] * rng.randint(2, 50), False
+        last = next((ln for ln in reversed(lines) if ln.strip()), "\n")
+        return data + (last if last.endswith("\n") else last + "\n").encode() * rng.choice([1_000, 10_000, 100_000]), False
     if kind == 5:  # meaning kept: a byte-order mark
         return b"\xef\xbb\xbf" + data, True
     if kind == 6:  # meaning kept: CRLF line ends
@@ -160,12 +191,15 @@ def run_case(name: str, suffix: str, reader, data: bytes, reference, keeps_meani
         old = signal.signal(signal.SIGALRM, _alarm)
         signal.alarm(timeout)
         try:
-            got = reader(p)
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")  # a RuntimeWarning (numpy overflow...) is a failure, as under pytest
+                warnings.simplefilter("ignore", dv.DenavitWarning)  # the documented "usable in part" outcome
+                got = reader(p)
         except dv.DenavitError as e:
             msg = str(e)
             if keeps_meaning:  # a meaning-keeping mutation must still read
                 return f"other: meaning-keeping mutation refused: {msg[:200]}"
-            return "error" if "\n" not in msg.strip() and len(msg) < 2000 else f"other: message of {len(msg)} chars / {msg.count(chr(10)) + 1} lines"
+            return "error" if "\n" not in msg and len(msg) <= MAX_MESSAGE else f"other: message of {len(msg)} chars / {msg.count(chr(10)) + 1} lines"
         except Hang:
             return "hang"
         except BaseException as e:  # noqa: BLE001 - the contract is what is being checked

@@ -383,7 +383,7 @@ def test_nan_and_mismatched_joint_counts(kr5, tmp_path):
     cells[7] = "nan"
     text[5] = ",".join(cells)
     f.write_text("\n".join(text) + "\n")
-    with pytest.raises(dv.DenavitError, match=r"m.csv:6: points must be finite, got nan \(column y\)"):
+    with pytest.raises(dv.DenavitError, match=r"m.csv:6: column 'y' must be finite, got 'nan'"):
         read_measurements(f)
     f.write_text("q1,q2,x,y,z\n1,2,3,4,5\n")
     with pytest.raises(dv.DenavitError, match="units not declared"):

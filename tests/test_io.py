@@ -298,3 +298,237 @@ def test_json_outputs_are_strict_and_tables_show_nan():
     doc = json.loads(json_text({"a": float("nan"), "b": [1.0, float("inf"), np.float64(2.5)], "c": np.array([[np.nan, 1.0]]), "d": "x"}))
     assert doc == {"a": None, "b": [1.0, None, 2.5], "c": [[None, 1.0]], "d": "x"}
     assert fmt(float("nan")) == "nan" and fmt(-1e-15) == "0.000000" and fmt(1.5, 2) == "1.50"
+
+
+# -- error messages: one line, a readable length (denavit.errors) -------------------------------------------
+
+
+def test_messages_are_one_line_and_capped_keeping_head_and_tail():
+    """A message echoing a 250 kB header had been 250 kB long, and lxml's had held line breaks."""
+    from denavit.errors import MAX_MESSAGE
+
+    e = dv.DenavitError("f.csv:2: header must be 'x,y,z', got '" + "z" * 250_000 + "' (a hint)")
+    msg = str(e)
+    assert len(msg) <= MAX_MESSAGE == 500 and msg.startswith("f.csv:2: header must be 'x,y,z', got 'zzz") and msg.endswith("zzz' (a hint)")
+    assert " [...] " in msg
+    assert str(dv.DegenerateError("line 1\n  line 2\r\nline 3")) == "line 1 line 2 line 3"
+    assert str(dv.DenavitError("short")) == "short"
+
+
+# -- numbers: ASCII decimal or scientific, finite (denavit.io.delimited) -----------------------------------
+
+
+@pytest.mark.parametrize("cell, match", [
+    ("1_000", r"column 'z' must be a number, got '1_000' \(no digit separators"),
+    ("\uff11\uff12", r"column 'z' must be a number, got '１２' \(ASCII digits 0-9 only\)"),  # full-width 12
+    ("\u0661\u0662", r"column 'z' must be a number, got '١٢' \(ASCII digits 0-9 only\)"),  # Arabic-Indic 12
+    (" nan ", r"column 'z' must be finite, got 'nan'"),
+    ("infinity", r"column 'z' must be finite, got 'infinity'"),
+    ("1e309", r"column 'z' must be finite, got '1e309' \(beyond the float range\)"),
+    ("0x10", r"column 'z' must be a number, got '0x10'"),
+])
+def test_text_cells_are_ascii_decimal_numbers(tmp_path, cell, match):
+    """float() reads all of these; a measurement file means none of them (they had been read as numbers)."""
+    from denavit.io import sweeps as swio
+    from denavit.io.delimited import number
+
+    text = _sweeps_csv().splitlines()
+    text[3] = text[3].rsplit(",", 1)[0] + "," + cell
+    f = tmp_path / "s.csv"
+    f.write_text("# units: length=mm angle=deg\n" + "\n".join(text) + "\n")
+    with pytest.raises(dv.DenavitError, match=r"s.csv:5: " + match):
+        swio.read_long_csv(f)
+    for good in ("12", "-0.5", ".5", "1e-3", "+2.E+4", "7."):
+        assert number(good, "here", "x") == float(good)
+
+
+def test_parsed_values_are_numbers_not_booleans_or_strings():
+    from denavit.io.delimited import as_number
+
+    assert as_number(3, "w") == 3.0 and as_number(float("-inf"), "w", finite=False) == float("-inf")
+    for bad, match in [(True, "w: expected a number, got true"), ("1", r"w: expected a number, got '1' \(a string\)"), (None, "got nothing"),
+                       ([1], "got a list"), (10**400, "w: expected a number in the float range, got an integer of about 401 digits"),
+                       (float("nan"), "w: expected a finite number, got NaN"), (float("inf"), "w: expected a finite number, got inf")]:
+        with pytest.raises(dv.DenavitError, match=match):
+            as_number(bad, "w")
+    with pytest.raises(dv.DenavitError, match="got NaN"):
+        as_number(float("nan"), "w", finite=False)
+
+
+# -- JSON inputs: strict (sweeps and measurements) ----------------------------------------------------------
+
+
+def _sweeps_json_doc() -> dict:
+    from denavit import sweeps as sw
+
+    s = sw.simulate(dv.load_model("kr5"), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=5)
+    return {"units": {"length": "m", "angle": "rad"}, "home": s.home.tolist(),
+            "sweeps": [{"joint": x.joint, "points": x.points.tolist(), "q": x.q.tolist()} for x in s.sweeps]}
+
+
+@pytest.mark.parametrize("text, match", [
+    # issue 16: a RecursionError and a ValueError (Python's 4300-digit limit) had reached the user
+    ('{"home": ' + "[" * 100_000 + "]" * 100_000 + "}", r"s.json: not readable JSON: lists or objects nested too deeply$"),
+    ('{"units": {"length": "m", "angle": "rad"}, "home": [' + "9" * 5000 + "]}", r"s.json: home\[0\]: expected a finite number, got inf$"),
+    ('{"units": {"length": "m", "angle": "rad"}, "home": [Infinity]}', r"s.json: home\[0\]: expected a finite number, got inf$"),
+    ('{"units": {"length": "m", "angle": "rad"}, "home": ["1"]}', r"s.json: home\[0\]: expected a number, got '1' \(a string\)$"),
+    ('{"units": {"length": "m", "angle": "rad"}, "home": [true]}', r"s.json: home\[0\]: expected a number, got true$"),
+    ('{"units": {"length": "m", "angle": "rad"}, "home": [0], "home": [1]}', r"s.json: key\(s\) 'home' given twice in one object"),
+    ('{"units": {"length": "m", "angle": "rad"}, "hom": [0]}', r"s.json: unknown key\(s\) 'hom': expected units, home, kinds, sweeps$"),
+    ('{"home": [0,', r"s.json:1: not valid JSON: Expecting value \(column 13\)$"),
+])
+def test_bad_json_sweeps_are_one_line(tmp_path, text, match):
+    from denavit.io import sweeps as swio
+
+    f = tmp_path / "s.json"
+    f.write_text(text)
+    with pytest.raises(dv.DenavitError, match=match):
+        swio.read_json(f)
+
+
+def test_a_misspelt_q_in_one_sweep_is_an_error_not_a_set_without_readings(tmp_path):
+    """One sweep's "Q" for "q" had dropped every sweep's readings (has_readings is all-or-nothing)."""
+    from denavit.io import sweeps as swio
+
+    doc = _sweeps_json_doc()
+    f = tmp_path / "s.json"
+    f.write_text(json.dumps(doc))
+    assert swio.read_json(f).has_readings
+    doc["sweeps"][2]["Q"] = doc["sweeps"][2].pop("q")
+    f.write_text(json.dumps(doc))
+    with pytest.raises(dv.DenavitError, match=r"s.json: sweeps\[2\]: unknown key\(s\) 'Q': expected joint, points, q$"):
+        swio.read_json(f)
+
+
+def test_hand_built_sweep_sets_need_one_sweep_per_joint():
+    """A missing sweep had raised IndexError in identify, a duplicated one had been identified silently."""
+    from denavit import sweeps as sw
+
+    s = sw.simulate(dv.load_model("kr5"), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=5)
+    with pytest.raises(dv.DenavitError, match=r"missing sweeps of joint\(s\) 6: every joint 1..6 needs one sweep"):
+        sw.SweepSet(s.sweeps[:5], 6, s.home, s.kinds, "mine")
+    with pytest.raises(dv.DenavitError, match=r"mine: missing sweeps of joint\(s\) 2; a second sweep of joint\(s\) 1"):
+        sw.SweepSet([s.sweeps[0], *s.sweeps[::-1][:4], s.sweeps[0]], 6, s.home, s.kinds, "mine")
+    assert [x.joint for x in sw.SweepSet(s.sweeps[::-1], 6, s.home, s.kinds).sweeps] == [6, 5, 4, 3, 2, 1]
+
+
+@pytest.mark.parametrize("doc, match", [
+    ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, "1"]], "points": [[0, 0, 0]]}, r"m.json: q\[0\]\[1\]: expected a number, got '1' \(a string\)$"),
+    ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, True]], "points": [[0, 0, 0]]}, r"m.json: q\[0\]\[1\]: expected a number, got true$"),
+    ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, 1], [0]], "points": [[0, 0, 0]]}, r"m.json: q: rows of different lengths"),
+    ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, 1]], "point": [[0, 0, 0]]}, r"m.json: unknown key\(s\) 'point'"),
+    ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, 1]], "poses": [[[1, 0, 0, 0]] * 3]}, r"m.json: poses must have shape \(1, 4, 4\) \(one per row of q\), got shape \(1, 3, 4\)"),
+])
+def test_bad_json_measurements_are_one_line(tmp_path, doc, match):
+    from denavit.io.measurements import read_measurements
+
+    f = tmp_path / "m.json"
+    f.write_text(json.dumps(doc))
+    with pytest.raises(dv.DenavitError, match=match):
+        read_measurements(f)
+
+
+@pytest.mark.parametrize("head, match", [
+    # issue 16: 'rx,y,rz' had silently dropped the rotation; unknown columns had been ignored
+    ("q1,q2,q3,q4,q5,q6,x,y,z,rx,rz", r"m.csv:2: header must be .*; missing ry, got 'q1,q2,q3,q4,q5,q6,x,y,z,rx,rz'$"),
+    ("q1,q2,q3,q4,q5,q6,x,y,z,rms", r"m.csv:2: header must be .*; unknown column\(s\) rms, got"),
+    ("q1,q2,q3,q4,q5,q6,x,y,x", r"m.csv:2: column\(s\) x named twice in the header"),
+])
+def test_measurement_headers_are_honoured(tmp_path, head, match):
+    from denavit.io.measurements import read_measurements
+
+    f = tmp_path / "m.csv"
+    f.write_text(f"# units: length=mm angle=deg\n{head}\n" + ",".join(["1"] * len(head.split(","))) + "\n")
+    with pytest.raises(dv.DenavitError, match=match):
+        read_measurements(f)
+
+
+def test_candidates_headers_are_honoured(tmp_path):
+    from denavit.io.configurations import read_configurations
+
+    f = tmp_path / "c.csv"
+    f.write_text("# units: angle=deg\nq1,q2,q3,q4,q5,q6,note\n0,0,0,0,0,0,1\n")
+    with pytest.raises(dv.DenavitError, match=r"c.csv:2: header must name q1..q6 \(6 joints\); unknown column\(s\) note"):
+        read_configurations(f, ["revolute"] * 6)
+    f.write_text("# units: angle=deg\nq1,q2,q3,q4,q5,q6\n0,0,0,0,0,0\n0,0,\"1\n")
+    with pytest.raises(dv.DenavitError, match=r"c.csv:4: "):
+        read_configurations(f, ["revolute"] * 6)
+
+
+# -- URDF attributes and UR kinematics YAML: the same number rule ------------------------------------------
+
+UR_URDF = __import__("pathlib").Path(__file__).parent / "data" / "urdf" / "ur_style.urdf"
+
+
+@pytest.mark.parametrize("old, new, match", [
+    ('damping="0"', 'damping="abc"', r"joint 'shoulder_pan_joint' \(line \d+\): dynamics damping='abc': expected 1 number"),  # had been a ValueError traceback
+    ('damping="0"', 'damping="nan"', r"dynamics damping='nan': expected 1 finite number"),
+    ('effort="150"', 'effort="1e999"', r"limit effort='1e999': expected 1 finite number"),
+    ('xyz="0 0 0.089159"', 'xyz="0 0 \uff11"', r"origin xyz='0 0 １': expected 3 numbers \(ASCII decimal\)"),  # full-width 1 had been read
+    ('xyz="0 0 0.089159"', 'xyz="0 0 1_0"', r"origin xyz='0 0 1_0': expected 3 numbers"),
+    ('<mass value="4.0"/>', '<mass value="4_0"/>', r"link 'base_link' \(line \d+\): mass value='4_0': expected 1 number"),
+    ('ixx="0.00443333156"', 'ixx="abc"', r"link 'base_link' \(line \d+\): inertia ixx='abc': expected 1 number"),
+    ('<axis xyz="0 0 1"/>', '<axis xzy="0 0 1"/>', r"joint 'shoulder_pan_joint' \(line \d+\): <axis> \(line \d+\) without xyz"),  # had been the default x axis
+])
+def test_urdf_numbers_follow_the_one_rule(tmp_path, old, new, match):
+    text = UR_URDF.read_text()
+    assert old in text
+    f = tmp_path / "ur.urdf"
+    f.write_text(text.replace(old, new, 1))
+    with pytest.raises(dv.DenavitError, match=match):
+        dv.load_robot(f)
+
+
+@pytest.mark.parametrize("new, match", [
+    ("x: 1_000", r"kinematics.shoulder.x: expected a number, got '1_000' \(a string\)"),
+    ("x: 1:30", r"kinematics.shoulder.x: expected a number, got '1:30' \(a string\)"),  # YAML 1.1 sexagesimal: 90
+    ("x: .inf", r"kinematics.shoulder.x: expected a number, got '.inf' \(a string\)"),
+    ("x: '0.0'", r"kinematics.shoulder.x: expected a number, got '0.0' \(a string\)"),
+    ("x: true", r"kinematics.shoulder.x: expected a number, got true"),
+    ("x: 1e999", r"kinematics.shoulder.x: expected a finite number, got inf"),
+    ("x: 0.0\n    x: 1.0", r"k.yaml:3: key\(s\) x given twice in one mapping"),  # PyYAML keeps the last
+    ("x: " + "[" * 5000, r"k.yaml: not readable YAML: mappings or lists nested too deeply"),
+    ("x: " + "[" * 100_000 + "]" * 100_000, r"k.yaml: not readable YAML: mappings or lists nested too deeply"),
+])
+def test_ur_kinematics_numbers_follow_the_one_rule(new, match):
+    from denavit.io import ur_calibration as urc
+
+    r = dv.load_robot("ur5")
+    text = urc.dumps(r.model(), r.table)
+    assert "    x: 0.0\n" in text
+    assert np.allclose(urc.loads(text.replace("x: 0.0", "x: 0", 1), "k.yaml"), urc.loads(text, "k.yaml"))
+    with pytest.raises(dv.DenavitError, match=match):
+        urc.loads(text.replace("x: 0.0", new, 1), "k.yaml")
+
+
+def test_coordinates_beyond_a_billion_metres_are_not_measurements(tmp_path):
+    """A 1e308 mm coordinate had overflowed calibrate's residuals to a traceback (and identify's to RuntimeWarnings)."""
+    from denavit.io import sweeps as swio
+    from denavit.io.delimited import MAX_LENGTH
+    from denavit.io.targets import read_targets
+
+    doc = _sweeps_json_doc()
+    doc["sweeps"][1]["points"][4][2] = 1e300
+    f = tmp_path / "s.json"
+    f.write_text(json.dumps(doc))
+    with pytest.raises(dv.DenavitError, match=r"s.json: sweeps\[1\].points\[4\]\[2\]: a coordinate of 1e\+300 m is beyond 1e\+09 m"):
+        swio.read_json(f)
+    t = tmp_path / "t.csv"
+    t.write_text("# units: length=mm angle=deg\nx,y,z,rx,ry,rz\n100,0,2e12,0,0,0\n")
+    with pytest.raises(dv.DenavitError, match=r"t.csv:3: column 'z': a coordinate of 2e\+09 m"):
+        read_targets(t, ["revolute"] * 6)
+    t.write_text("# units: length=mm angle=deg\nx,y,z,rx,ry,rz\n100,0,1e7,0,0,0\n")  # 10 km: a survey frame
+    assert read_targets(t, ["revolute"] * 6).poses[0, 2, 3] == pytest.approx(1e4) and MAX_LENGTH == 1e9
+
+
+@pytest.mark.parametrize("ipoc, match", [("--1", r"<IPOC> \(time stamp, ms\)' must be a number, got '--1'"),  # a ValueError, found by the fuzz run
+                                         ("\u0661\u0662", r"<IPOC> \(time stamp, ms\)' must be a number, got '١٢' \(ASCII digits 0-9 only\)")])
+def test_rsi_numbers_follow_the_one_rule(tmp_path, ipoc, match):
+    from denavit.io.recordings import read_recording
+
+    text = (__import__("pathlib").Path(__file__).parent / "data" / "recordings" / "rsi.xml").read_text()
+    first = text.index("<IPOC>") + len("<IPOC>")
+    f = tmp_path / "r.xml"
+    f.write_text(text[:first] + ipoc + text[text.index("</IPOC>", first):])
+    with pytest.raises(dv.DenavitError, match=r"r.xml:\d+: column '" + match):
+        read_recording(f, "rsi")

@@ -55,7 +55,7 @@ def test_base_and_tool_poses(tmp_path):
         ('convention = "xx"\n[units]\nlength="m"\nangle="rad"\n', r"'convention' must be one of dh, mdh, edh, poe, got 'xx'"),
         ('convention = "dh"\n[units]\nlength="m"\nangle="rad"\n[[joints]]\nd=0\ntheta=0\na=0\n', r"joint 1 \(line 5\): missing parameter\(s\) alpha of a dh table"),
         ('convention = "dh"\n[units]\nlength="m"\nangle="rad"\n[[joints]]\nd=0\ntheta=0\na=0\nalpha=0\n\n[[joints]]\nd="x"\ntheta=0\na=0\nalpha=0\n',
-         r"joint 2 \(line 11\): parameter d must be a number, got 'x'"),
+         r"joint 2 \(line 11\): parameter d: expected a number, got 'x'"),
         ('convention = "dh"\n[units]\nlength="parsec"\nangle="rad"\n', r"unknown length unit 'parsec'"),
         ('convention = "dh"\n[units]\nlength="m"\nangle="rad"\n[[joints]]\ntype="ball"\n', r"type must be 'revolute' or 'prismatic', got 'ball'"),
         ('convention = "dh"\n[units]\nlength="m"\nangle="rad"\n[[joints]]\nd=0\ntheta=0\na=0\nalpha=0\nlimits=[1, -1]\n', r"limits must be \[lower, upper\] with lower <= upper"),
@@ -155,5 +155,40 @@ def test_numbers_are_numbers(tmp_path):
         f = tmp_path / "bad.toml"
         f.write_text(robotfile_text.replace("d = 400", f"d = {bad}", 1))
         assert f.read_text() != text
-        with pytest.raises(dv.DenavitError, match=r"joint 1 \(line \d+\): parameter d must be a number"):
+        with pytest.raises(dv.DenavitError, match=r"joint 1 \(line \d+\): parameter d: expected a number"):
             dv.load_robot(f)
+
+
+KR5 = (__import__("pathlib").Path(dv.__file__).parent / "models" / "kr5.toml").read_text()
+LIMITS = "limits = [-155, 155]"
+
+
+@pytest.mark.parametrize(
+    "old, new, match",
+    [
+        # issue 16: each had been a traceback (a ValueError from numpy, an OverflowError, a RecursionError)
+        (LIMITS, 'limits = "ab"', r"joint 1 \(line \d+\): limits: expected a list of 2 numbers, got 'ab'$"),
+        ("home = [90,", 'home = ["a",', r"kr5.toml: home\[0\]: expected a number, got 'a' \(a string\)$"),
+        ("[units]", "[base]\nmatrix = [[1, 0, 0, 0], [0, 1, 0], [0, 0, 1, 0], [0, 0, 0, 1]]\n[units]", r"\[base\]: matrix row 2: expected a list of 4 numbers, got \[0, 1, 0\]$"),
+        ("[units]", "[tool]\nxyz = [0, 0, true]\n[units]", r"\[tool\]: xyz\[2\]: expected a number, got true$"),
+        ("d = 400", "d = " + "9" * 5000, r"kr5.toml: not a readable TOML robot file: an integer of over 4300 digits$"),
+        ("d = 400", "d = " + "[" * 100_000 + "]" * 100_000, r"kr5.toml: not a readable TOML robot file: arrays or tables nested too deeply$"),
+        ("d = 400", "d = nan", r"joint 1 \(line \d+\): parameter d: expected a finite number, got NaN$"),
+        (LIMITS, "limits = [nan, 1]", r"joint 1 \(line \d+\): limits\[0\]: expected a finite number, got NaN$"),
+        ('name = "A1"', "name = 5", r"joint 1 \(line \d+\): name: expected a string, got 5$"),
+        ('name = "kr5"', "name = [1, 2]", r"kr5.toml: name: expected a string, got \[1, 2\]$"),
+    ],
+)
+def test_wrong_types_are_one_line_errors(tmp_path, old, new, match):
+    f = tmp_path / "kr5.toml"
+    f.write_text(KR5.replace(old, new, 1))
+    assert f.read_text() != KR5
+    with pytest.raises(dv.DenavitError, match=match):
+        dv.load_robot(f)
+
+
+def test_infinite_limits_are_the_one_place_a_robot_file_takes_infinity(tmp_path):
+    f = tmp_path / "kr5.toml"
+    f.write_text(KR5.replace(LIMITS, "limits = [-inf, inf]", 1))
+    r = dv.load_robot(f)
+    assert r.lower[0] == -np.inf and r.upper[0] == np.inf

@@ -18,9 +18,32 @@ NotConverged       iterations, position_error (m), rotation_error (rad)        N
 
 ``joint`` (1-based) is set where the binding knows which joint or link the error is about (e.g.
 ``Model.with_inertias``). Errors raised by the Python layer itself have ``kind`` None.
+
+Every message is one line of at most :data:`MAX_MESSAGE` characters: line breaks become spaces, and a longer
+message (one that echoes a 250 kB header, say) keeps its head (where, what was expected) and its tail (the
+hint) around an elision mark, so a user reads it whole on any terminal or log.
 """
 
+import re
+
+#: The longest message, in characters: room for a long path and a long explanation; an echo of a 250 kB
+#: header is cut to it.
+MAX_MESSAGE = 500
+_ELIDED = " [...] "
+
 _FIELDS = ("what", "expected", "got", "index", "value", "reason", "iterations", "position_error", "rotation_error", "joint")
+
+
+def readable(message: str) -> str:
+    """``message`` on one line (each line break, with the blanks around it, as one space), at most
+    :data:`MAX_MESSAGE` characters: a longer one keeps its first two thirds and its last third around an
+    elision mark."""
+    text = re.sub(r"[ \t]*[\r\n]+[ \t]*", " ", str(message))
+    if len(text) <= MAX_MESSAGE:
+        return text
+    room = MAX_MESSAGE - len(_ELIDED)
+    head = 2 * room // 3
+    return text[:head] + _ELIDED + text[len(text) - (room - head):]
 
 
 def _rebuild(cls, message, kind, fields):
@@ -34,7 +57,7 @@ class DenavitError(ValueError):
         unknown = sorted(set(fields) - set(_FIELDS))
         if unknown:
             raise TypeError(f"{type(self).__name__}: unknown fields {unknown}, expected some of {list(_FIELDS)}")
-        super().__init__(message)
+        super().__init__(readable(message))
         self.kind = kind
         for name in _FIELDS:
             setattr(self, name, fields.get(name))

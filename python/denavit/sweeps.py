@@ -59,6 +59,17 @@ class SweepSet:
     source: str = ""
     units: dict = field(default_factory=lambda: {"length": "m", "angle": "rad"})
 
+    def __post_init__(self):
+        # one sweep per joint 1..n: a hand-built set missing one had raised IndexError, one with a sweep twice
+        # had been identified with the other joint's axis silently missing
+        joints = [s.joint for s in self.sweeps]
+        wrong = {"missing sweeps of joint(s)": [j for j in range(1, self.n_joints + 1) if j not in joints],
+                 "a second sweep of joint(s)": sorted({j for j in joints if joints.count(j) > 1}),
+                 "sweeps of joint(s) out of range": [j for j in joints if not 1 <= j <= self.n_joints]}
+        what = "; ".join(f"{k} {', '.join(map(str, v))}" for k, v in wrong.items() if v)
+        if what:
+            raise DenavitError(f"{self.source or 'sweeps'}: {what}: every joint 1..{self.n_joints} needs one sweep (got joints {joints})")
+
     def __repr__(self) -> str:
         home = ", ".join(f"{v * 1e3:.4g} mm" if k == "prismatic" else f"{np.degrees(v):.4g}" for v, k in zip(self.home, self.kinds))
         n_pts = sum(len(s.points) for s in self.sweeps)

@@ -127,7 +127,8 @@ def oriented_bounding_box(points, *, where: str = "") -> BoundingBox:
         return BoundingBox(center=p.mean(axis=0), axes=np.eye(3), lengths=np.zeros(3), volume=0.0)
     centroid = p.mean(axis=0)
     pc = p - centroid
-    _, s, vt = np.linalg.svd(pc, full_matrices=False)
+    _, s, vt = np.linalg.svd(pc, full_matrices=True)  # full: three axes even for two points
+    s = np.pad(s, (0, 3 - len(s)))
     pca = vt.T.copy()
     if np.linalg.det(pca) < 0:
         pca[:, 2] = -pca[:, 2]

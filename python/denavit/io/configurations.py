@@ -25,15 +25,18 @@ def read_configurations(path: str | os.PathLike, kinds: Sequence[str], *, length
     lines = read_text(path, "configurations file").splitlines()
     need_units = [u for u, k in (("angle", "revolute"), ("length", "prismatic")) if k in kinds]
     units = input_units(parse_declaration(lines, where), length, angle, where, need=need_units)
-    data, _ = dl.rows(lines)
+    data, _ = dl.rows(lines, where)
     n = len(kinds)
     need = [f"q{i + 1}" for i in range(n)]
     if not data:
         raise DenavitError(f"{where}: no header and no configurations: expected a header {','.join(need)}")
     hline, names = data[0]
     cols = dl.header(names, f"{where}:{hline}")
-    if any(c not in cols for c in need):
-        raise DenavitError(f"{where}:{hline}: header must name q1..q{n}, got {','.join(names)!r}")
+    missing = [c for c in need if c not in cols]
+    unknown = [c for c in cols if c not in need]
+    if missing or unknown:
+        what = f"missing {', '.join(missing)}" if missing else f"unknown column(s) {', '.join(unknown)}"
+        raise DenavitError(f"{where}:{hline}: header must name q1..q{n} ({n} joints); {what}, got {','.join(names)!r}")
     idx = [cols.index(c) for c in need]
     out = []
     for ln, cells in data[1:]:

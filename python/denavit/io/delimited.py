@@ -1,6 +1,10 @@
 """Delimited text (CSV with ``,`` or ``;``) as every denavit reader splits it, on the standard :mod:`csv` module:
 ``#`` comment lines and blank lines skipped, one separator per file, numbers strictly finite decimals, header
 names unique. Errors name the file, the line and the column.
+
+This module also holds the one number rule of every reader: :func:`number` for a text cell (CSV, URDF
+attributes), :func:`as_number` for a value a TOML, JSON or YAML parser has already typed (no booleans, no
+strings that look like numbers).
 """
 
 from __future__ import annotations
@@ -11,25 +15,78 @@ import re
 
 from ..errors import DenavitError
 
+#: A number as every text reader accepts it: ASCII decimal digits, an optional sign, point and exponent
+#: (``12``, ``-0.5``, ``.5``, ``1e-3``, ``2.E+4``). Python's ``float()`` also takes ``1_000``, full-width and
+#: Arabic-Indic digits, ``infinity``, ``nan`` and surrounding blanks: none of those is a measurement.
+NUMBER = re.compile(r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?")
+NON_FINITE = re.compile(r"[-+]?(?:inf|infinity|nan)", re.IGNORECASE)  # float() reads these
+
 
 def number(text: str, where: str, column: str) -> float:
-    """A finite decimal number of cell ``text`` (errors name the place and the column)."""
-    try:
+    """The finite number of cell ``text`` (:data:`NUMBER`); anything else is a one-line error naming the place
+    (``file:line``) and the column."""
+    if NUMBER.fullmatch(text):
         v = float(text)
-    except ValueError:
-        hint = " (a decimal comma? write numbers with a decimal point)" if re.fullmatch(r"[-+]?\d+,\d+", text) else ""
-        raise DenavitError(f"{where}: column {column!r} must be a number, got {text[:40]!r}{hint}") from None
-    if not math.isfinite(v):
+        if math.isfinite(v):
+            return v
+        raise DenavitError(f"{where}: column {column!r} must be finite, got {text[:40]!r} (beyond the float range)")
+    if NON_FINITE.fullmatch(text.strip()):
         raise DenavitError(f"{where}: column {column!r} must be finite, got {text[:40]!r}")
-    return v
+    raise DenavitError(f"{where}: column {column!r} must be a number, got {text[:40]!r}{_hint(text)}")
+
+
+#: The farthest a measured point may lie from the origin of its frame, in metres: over a thousand times the
+#: Earth's radius (survey coordinates in a national grid are ~1e7 m), far below where squares overflow.
+MAX_LENGTH = 1e9
+
+
+def length(text: str, where: str, column: str, scale: float) -> float:
+    """The coordinate of cell ``text`` in metres (``scale`` metres per file unit): :func:`number`, and within
+    :data:`MAX_LENGTH` (a 1e308 mm coordinate had overflowed the calibration's residuals to a traceback)."""
+    return far(number(text, where, column) * scale, f"{where}: column {column!r}")
+
+
+def far(value_m: float, where: str) -> float:
+    """``value_m`` (metres) if within :data:`MAX_LENGTH`, else a one-line error naming ``where``."""
+    if abs(value_m) > MAX_LENGTH:
+        raise DenavitError(f"{where}: a coordinate of {value_m:.3g} m is beyond {MAX_LENGTH:.0e} m: not a measured point (a wrong unit?)")
+    return value_m
+
+
+def _hint(text: str) -> str:
+    if re.fullmatch(r"[-+]?\d+,\d+", text, re.ASCII):
+        return " (a decimal comma? write numbers with a decimal point)"
+    if "_" in text:
+        return " (no digit separators: write 1000, not 1_000)"
+    if any(c.isdigit() and not c.isascii() for c in text):
+        return " (ASCII digits 0-9 only)"
+    if text != text.strip():
+        return " (blanks around the number)"
+    return ""
 
 
 def is_number(text: str) -> bool:
+    """Whether ``text`` is a number as :func:`number` reads it (finite or not)."""
+    return NUMBER.fullmatch(text) is not None
+
+
+def as_number(value, where: str, *, finite: bool = True) -> float:
+    """A number already parsed by a TOML, JSON or YAML reader, as a float: an integer or a float, not a boolean
+    nor a string that looks like a number, within the float range; finite unless ``finite`` is False (then
+    only NaN is refused). Errors name ``where`` (e.g. ``file: home[2]``)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        if isinstance(value, str):
+            shown = f"{value[:40]!r}{'...' if len(value) > 40 else ''} (a string)"
+        else:
+            shown = str(value).lower() if isinstance(value, bool) else {type(None): "nothing (null)", list: "a list", dict: "a table"}.get(type(value), type(value).__name__)
+        raise DenavitError(f"{where}: expected a number, got {shown}")
     try:
-        float(text)
-    except ValueError:
-        return False
-    return True
+        v = float(value)
+    except OverflowError:
+        raise DenavitError(f"{where}: expected a number in the float range, got an integer of about {int(value.bit_length() * math.log10(2)) + 1} digits") from None
+    if math.isnan(v) or (finite and math.isinf(v)):
+        raise DenavitError(f"{where}: expected a finite number, got {'NaN' if math.isnan(v) else v}")
+    return v
 
 
 def rows(lines: list[str], where: str = "") -> tuple[list[tuple[int, list[str]]], str]:

@@ -9,17 +9,16 @@ everything is SI (:class:`denavit.calibration.Measurements`).
 
 from __future__ import annotations
 
-import json
 import os
 from pathlib import Path
 
 import numpy as np
 
-from ..calibration.measurements import Measurements, as_array, check_finite, joint_kinds
+from ..calibration.measurements import Measurements, joint_kinds
 from ..errors import DenavitError
 from ..geometry import matrix_rotvec, rotvec_matrix
+from . import delimited as dl
 from . import sweeps as sw
-from .delimited import split
 from .text import read_text
 from .units import (
     angle_scale,
@@ -50,78 +49,67 @@ def read_measurements(path: str | os.PathLike, *, length: str | None = None, ang
     if p.suffix.lower() == ".json":
         return _read_json(p, text, length, angle, kinds)
     lines = text.splitlines()
-    header = next((ln for ln in lines if ln.strip() and not ln.lstrip().startswith("#")), "")
-    delim = ";" if header.count(";") > header.count(",") else ","
-    cols = [c.strip().lower() for c in header.split(delim)]
-    if "joint" in cols:
+    data, delim = dl.rows(lines, str(p))
+    if data and "joint" in [c.lower() for c in data[0][1]]:
         return Measurements.from_sweeps(sw.read_long_csv(p, length=length, angle=angle, kinds=None if kinds is None else list(kinds)))
     units = input_units(parse_declaration(lines, str(p)), length, angle, str(p))
     ls, as_ = length_scale(units["length"], str(p)), angle_scale(units["angle"], str(p))
+    if not data:
+        raise DenavitError(f"{p}: no header and no data: expected a header 'q1,...,qn,x,y,z' (optionally ',rx,ry,rz'), or a sweep file with a 'joint' column")
+    hline, names = data[0]
+    cols = dl.header(names, f"{p}:{hline}")
     qcols = sorted((c for c in cols if c[:1] == "q" and c[1:].isdigit()), key=lambda c: int(c[1:]))
-    need = [f"q{i}" for i in range(1, len(qcols) + 1)] + ["x", "y", "z"]
+    rot = [c for c in ("rx", "ry", "rz") if c in cols]
+    need = [f"q{i}" for i in range(1, len(qcols) + 1)] + ["x", "y", "z"] + (["rx", "ry", "rz"] if rot else [])
     missing = [c for c in need if c not in cols]
-    if missing or not qcols:
-        raise DenavitError(f"{p}: header must be 'q1,...,qn,x,y,z' (optionally ',rx,ry,rz'), or a sweep file with a 'joint' column; missing {', '.join(missing) or 'q columns'}, got {header.strip()!r}")
+    unknown = [c for c in cols if c not in need]
+    if missing or unknown or not qcols:
+        what = f"missing {', '.join(missing) or 'q columns'}" if missing or not qcols else f"unknown column(s) {', '.join(unknown)}"
+        raise DenavitError(f"{p}:{hline}: header must be 'q1,...,qn,x,y,z' (optionally ',rx,ry,rz'), or a sweep file with a 'joint' column; {what}, got {delim.join(names)!r}")
     kinds = joint_kinds(kinds, len(qcols), f"{p}: kinds given") or ("revolute",) * len(qcols)
-    has_rot = all(c in cols for c in ("rx", "ry", "rz"))
-    q, pts, rot, where = [], [], [], []
-    started = False
-    for ln, line in enumerate(lines, 1):
-        s = line.strip()
-        if not s or s.startswith("#"):
-            continue
-        if not started:
-            started = True
-            continue
+    idx = {c: cols.index(c) for c in need}
+    q, pts, rv, where = [], [], [], []
+    for ln, cells in data[1:]:
         w = f"{p}:{ln}"
-        cells = split(s, delim, w)
         if len(cells) != len(cols):
-            raise DenavitError(f"{w}: expected {len(cols)} values, got {len(cells)}")
-        vals = {}
-        for c, v in zip(cols, cells, strict=True):
-            try:
-                vals[c] = float(v)
-            except ValueError:
-                raise DenavitError(f"{w}: column {c!r} must be a number, got {v!r}") from None
+            raise DenavitError(f"{w}: expected {len(cols)} values ({delim.join(cols)}), got {len(cells)}")
+        vals = {c: dl.number(cells[k], w, c) for c, k in idx.items() if c not in "xyz"}
         q.append([vals[f"q{i}"] for i in range(1, len(qcols) + 1)])
-        pts.append([vals[c] * ls for c in "xyz"])
-        if has_rot:
-            rot.append([vals[c] * as_ for c in ("rx", "ry", "rz")])
+        pts.append([dl.length(cells[idx[c]], w, c, ls) for c in "xyz"])
+        if rot:
+            rv.append([vals[c] * as_ for c in ("rx", "ry", "rz")])
         where.append(w)
     if not q:
         raise DenavitError(f"{p}: no data rows after the header")
     q = np.array(q) * joint_scale(kinds, units["length"], units["angle"], str(p))
     pts = np.array(pts)
-    check_finite(q, "q (joint readings)", str(p), where, cols="joint")
-    if has_rot:
-        rv = np.array(rot)
-        check_finite(rv, "rotation vector", str(p), where)
+    if rot:
         T = np.tile(np.eye(4), (len(q), 1, 1))
-        T[:, :3, :3] = rotvec_matrix(rv)
+        T[:, :3, :3] = rotvec_matrix(np.array(rv))
         T[:, :3, 3] = pts
         return Measurements(q, None, T, str(p), where, units, kinds=kinds)
     return Measurements(q, pts, None, str(p), where, units, kinds=kinds)
 
 
 def _read_json(p: Path, text: str, length: str | None, angle: str | None, kinds) -> Measurements:
-    try:
-        doc = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise DenavitError(f"{p}:{e.lineno}: not valid JSON: {e.msg}") from None
+    doc = sw.load_json(text, str(p))
     if not isinstance(doc, dict):
         raise DenavitError(f"{p}: expected a JSON object with 'q' and 'points' or 'poses', got {type(doc).__name__}")
     if "sweeps" in doc:
         return Measurements.from_sweeps(sw.read_json(p, length=length, angle=angle))  # its own "kinds"
+    unknown = [k for k in doc if k not in ("units", "kinds", "q", "points", "poses")]
+    if unknown:
+        raise DenavitError(f"{p}: unknown key(s) {', '.join(map(repr, unknown))[:80]}: expected units, kinds, q, and points or poses")
     declared = doc.get("units") or {}
     if not isinstance(declared, dict):
         raise DenavitError(f"{p}: 'units' must be an object like {{\"length\": \"mm\", \"angle\": \"deg\"}}, got {declared!r}")
-    units = input_units({k: str(v) for k, v in declared.items()}, length, angle, str(p))
+    if not all(isinstance(v, str) for v in declared.values()):
+        raise DenavitError(f"{p}: 'units' values must be unit names such as \"mm\", got {sw._show(declared)}")
+    units = input_units(declared, length, angle, str(p))
     ls = length_scale(units["length"], str(p))
     if "q" not in doc:
         raise DenavitError(f"{p}: expected 'q' (joint readings, one row per pose) and 'points' or 'poses'")
-    q = as_array(doc["q"], "q", str(p))
-    if q.ndim != 2:
-        raise DenavitError(f"{p}: q must have shape (N, n) with one row per pose, got shape {q.shape}")
+    q = sw.json_array(doc["q"], None, 2, f"{p}: q")
     given = joint_kinds(kinds, q.shape[1], f"{p}: kinds given")
     stated = joint_kinds(doc.get("kinds"), q.shape[1], f"{p}: 'kinds'")
     if given and stated and given != stated:
@@ -129,11 +117,10 @@ def _read_json(p: Path, text: str, length: str | None, angle: str | None, kinds)
     kinds = stated or given or ("revolute",) * q.shape[1]
     q = q * joint_scale(kinds, units["length"], units["angle"], str(p))
     if "poses" in doc:
-        T = as_array(doc["poses"], "poses", str(p))
-        if T.ndim == 3:
-            T[:, :3, 3] *= ls
+        T = sw.json_array(doc["poses"], 4, 3, f"{p}: poses")
+        T[:, :3, 3] = sw.json_lengths(T[:, :3, 3], ls, f"{p}: poses' translations")
         return Measurements(q, None, T, str(p), [], units, kinds=kinds)
-    return Measurements(q, as_array(doc.get("points"), "points", str(p)) * ls, None, str(p), [], units, kinds=kinds)
+    return Measurements(q, sw.json_lengths(sw.json_array(doc.get("points"), 3, 2, f"{p}: points"), ls, f"{p}: points"), None, str(p), [], units, kinds=kinds)
 
 
 def to_csv(meas: Measurements, length: str = "mm", angle: str = "deg", comment: str = "") -> str:

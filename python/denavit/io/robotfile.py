@@ -37,7 +37,6 @@ a file with any ``[joints.inertia]`` declares ``[units] mass`` and ``inertia``.
 
 from __future__ import annotations
 
-import math
 import os
 import re
 from pathlib import Path
@@ -49,6 +48,7 @@ from .. import _core
 from ..errors import DenavitError
 from ..geometry import matrix_rpy, rpy_matrix
 from ..robot import Robot, attach_inertials
+from .delimited import as_number
 from .output import write_text
 from .text import read_text
 from .units import angle_scale, cell_scale, inertia_scale, joint_scale, length_scale, mass_scale
@@ -60,16 +60,14 @@ def _pose(spec: dict, ls: float, as_: float, where: str) -> np.ndarray:
     _check_keys(spec, ("xyz", "rpy", "matrix"), where)
     T = np.eye(4)
     if "matrix" in spec:
-        m = np.asarray(spec["matrix"], dtype=float)
-        if m.shape != (4, 4):
-            raise DenavitError(f"{where}: matrix must be 4x4, got shape {m.shape}")
-        T = m.copy()
+        rows = spec["matrix"]
+        if not isinstance(rows, list) or len(rows) != 4:
+            raise DenavitError(f"{where}: matrix must be 4x4 (4 rows of 4 numbers), got {_show(rows)}")
+        T = np.array([_numbers(r, 4, f"{where}: matrix row {i + 1}") for i, r in enumerate(rows)])
         T[:3, 3] *= ls
         return T
-    xyz = np.asarray(spec.get("xyz", [0, 0, 0]), dtype=float)
-    rpy = np.asarray(spec.get("rpy", [0, 0, 0]), dtype=float)
-    if xyz.shape != (3,) or rpy.shape != (3,):
-        raise DenavitError(f"{where}: xyz and rpy need 3 values each, got {xyz.tolist()} and {rpy.tolist()}")
+    xyz = np.array(_numbers(spec.get("xyz", [0, 0, 0]), 3, f"{where}: xyz"))
+    rpy = np.array(_numbers(spec.get("rpy", [0, 0, 0]), 3, f"{where}: rpy"))
     T[:3, :3] = rpy_matrix(rpy * as_)
     T[:3, 3] = xyz * ls
     return T
@@ -105,9 +103,6 @@ def _inertia(spec, jw: str, units: dict | None, where: str, ls: float) -> tuple[
     iscale = inertia_scale(units["inertia"], f"{where}, [units] inertia")
     vals = {k: _number(spec.get(k, 0.0), f"{jw}: inertia: {k}") for k in INERTIA_KEYS if k != "com"}
     com = _numbers(spec["com"], 3, f"{jw}: inertia: com")
-    bad = [k for k, v in vals.items() if not math.isfinite(v)] + (["com"] if not all(map(math.isfinite, com)) else [])
-    if bad:
-        raise DenavitError(f"{jw}: inertia: {', '.join(bad)} must be finite")
     I = np.array([[vals["ixx"], vals["ixy"], vals["ixz"]], [vals["ixy"], vals["iyy"], vals["iyz"]], [vals["ixz"], vals["iyz"], vals["izz"]]])
     return vals["mass"] * ms, [c * ls for c in com], I * iscale
 
@@ -120,6 +115,10 @@ def read(path: str | os.PathLike) -> Robot:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise DenavitError(f"{path}: not a valid TOML robot file: {e}") from None
+    except ValueError:  # tomllib's int() of an integer of over 4300 digits (Python's conversion limit)
+        raise DenavitError(f"{path}: not a readable TOML robot file: an integer of over 4300 digits") from None
+    except RecursionError:
+        raise DenavitError(f"{path}: not a readable TOML robot file: arrays or tables nested too deeply") from None
     return from_dict(doc, where=str(path), joint_lines=_joint_lines(text))
 
 
@@ -153,11 +152,11 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
             raise DenavitError(f"{jw}: expected a [[joints]] table, got {j!r}")
         _check_keys(j, ["name", "type", *(["w", "v"] if conv == "poe" else cols), "limits", "inertia"], jw)
         inert.append(_inertia(j["inertia"], jw, units, where, ls) if "inertia" in j else None)
-        kind = str(j.get("type", "revolute")).lower()
+        kind = _text(j.get("type", "revolute"), f"{jw}: type").lower()
         if kind not in ("revolute", "prismatic"):
             raise DenavitError(f"{jw}: type must be 'revolute' or 'prismatic', got {j.get('type')!r}")
         kinds.append(kind)
-        names.append(str(j.get("name", f"j{i + 1}")))
+        names.append(_text(j.get("name", f"j{i + 1}"), f"{jw}: name"))
         if conv == "poe":
             w = np.array(_numbers(j.get("w", [0, 0, 0]), 3, f"{jw}: w (poe joints need w and v with 3 values each)"))
             v = np.array(_numbers(j.get("v", [0, 0, 0]), 3, f"{jw}: v (poe joints need w and v with 3 values each)"))
@@ -166,13 +165,7 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
             missing = [c for c in cols if c not in j]
             if missing:
                 raise DenavitError(f"{jw}: missing parameter(s) {', '.join(missing)} of a {conv} table (columns {', '.join(cols)})")
-            row = []
-            for c in cols:
-                val = _number(j[c], f"{jw}: parameter {c}")
-                if not math.isfinite(val):
-                    raise DenavitError(f"{jw}: parameter {c} must be finite, got {val}")
-                row.append(val)
-            rows.append(row)
+            rows.append([_number(j[c], f"{jw}: parameter {c}") for c in cols])
         lim = j.get("limits")
         scale = joint_scale([kind], units["length"], units["angle"], jw)[0]
         if lim is None:
@@ -212,13 +205,13 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
             at = joint_where[joint - 1] if joint else where
             raise DenavitError(f"{at}: inertia: {e}") from None
     return Robot(
-        name=str(doc.get("name", Path(where).stem)),
+        name=_text(doc.get("name", Path(where).stem), f"{where}: name"),
         table=table,
         names=names,
         lower=np.array(lower),
         upper=np.array(upper),
-        description=str(doc.get("description", "")),
-        source=str(doc.get("source", "")),
+        description=_text(doc.get("description", ""), f"{where}: description"),
+        source=_text(doc.get("source", ""), f"{where}: source"),
         home=home,
         path=where,
         extra={k: v for k, v in doc.items() if k not in known},
@@ -227,25 +220,32 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
 
 
 def _number(value, where: str) -> float:
-    """A TOML number as a float: an integer or a float, not a boolean nor a string that looks like a number,
-    and not an integer too large for a float."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise DenavitError(f"{where} must be a number, got {str(value)[:60]!r}")
-    try:
-        return float(value)
-    except OverflowError:
-        raise DenavitError(f"{where} must be a number of float range, got an integer of {len(str(value))} digits") from None
+    """A TOML number as a float (:func:`denavit.io.delimited.as_number`: not a boolean nor a string that looks
+    like a number, within the float range, finite)."""
+    return as_number(value, where)
 
 
 def _numbers(value, n: int, where: str, finite: bool = True) -> list[float]:
     """``n`` numbers (TOML integers or floats; not booleans, not strings), finite unless ``finite`` is False
     (limits: a continuous joint's are -inf, inf)."""
-    if not isinstance(value, list) or len(value) != n or any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in value):
-        raise DenavitError(f"{where}: expected a list of {n} numbers, got {str(value)[:60]}")
-    out = [_number(v, where) for v in value]
-    if any(math.isnan(v) or (finite and math.isinf(v)) for v in out):
-        raise DenavitError(f"{where}: expected finite numbers, got {out}")
-    return out
+    if not isinstance(value, list) or len(value) != n:
+        raise DenavitError(f"{where}: expected a list of {n} numbers, got {_show(value)}")
+    return [as_number(v, f"{where}[{i}]", finite=finite) for i, v in enumerate(value)]
+
+
+def _text(value, where: str) -> str:
+    """A TOML string (a name, a type, a description): not a number or a list that would print as one."""
+    if not isinstance(value, str):
+        raise DenavitError(f"{where}: expected a string, got {_show(value)}")
+    return value
+
+
+def _show(value) -> str:
+    """A short rendering of a TOML value for messages."""
+    if isinstance(value, list):
+        return f"a list of {len(value)}" if len(value) > 6 else f"[{', '.join(_show(v) for v in value)}]"
+    text = repr(value) if isinstance(value, str) else "a table" if isinstance(value, dict) else str(value)
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def _pose_spec(T: np.ndarray, ls: float, as_: float) -> dict:

@@ -17,6 +17,7 @@ import json
 import math
 import os
 import re
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -35,12 +36,6 @@ def _kinds(kinds, n: int, where: str, what: str) -> list[str]:
     if len(kinds) != n:
         raise DenavitError(f"{where}: {n} joints in {what} but {len(kinds)} joint kinds given")
     return kinds
-
-
-def _check_complete(sweeps: dict[int, object], n: int, where: str) -> None:
-    missing = [j for j in range(1, n + 1) if j not in sweeps]
-    if missing:
-        raise DenavitError(f"{where}: missing sweeps of joint(s) {', '.join(map(str, missing))}: every joint 1..{n} needs one (got joints {sorted(sweeps)})")
 
 
 def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: str | None = None, kinds: list[str] | None = None, home=None) -> SweepSet:
@@ -76,21 +71,20 @@ def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: 
         if len(cells) != len(cols):
             raise DenavitError(f"{at}: expected {len(cols)} values, got {len(cells)}")
         jtext = cells[idx["joint"]]
-        try:
-            jv = float(jtext)
-        except ValueError:
-            raise DenavitError(f"{at}: column 'joint' must be a joint index 1..{n}, got {jtext!r}") from None
+        if not (dl.is_number(jtext) or dl.NON_FINITE.fullmatch(jtext)):  # inf, nan: out of range below
+            raise DenavitError(f"{at}: column 'joint' must be a joint index 1..{n}, got {jtext[:40]!r}")
+        jv = float(jtext)
         if not (math.isfinite(jv) and jv == round(jv) and 1 <= jv <= n):
             raise DenavitError(f"{at}: joint index out of range: expected 1..{n}, got {jtext}")
         q = np.array([dl.number(cells[idx[f"q{i}"]], at, f"q{i}") for i in range(1, n + 1)]) * qscale
-        p = np.array([dl.number(cells[idx[c]], at, c) for c in "xyz"]) * ls
+        p = np.array([dl.length(cells[idx[c]], at, c, ls) for c in "xyz"])
         sweeps.setdefault(int(jv), []).append((q, p, at))
-    _check_complete(sweeps, n, where)
     out = [Sweep(j, np.array([r[1] for r in sweeps[j]]), np.array([r[0] for r in sweeps[j]]), [r[2] for r in sweeps[j]]) for j in sorted(sweeps)]
+    every = SweepSet(out, n, np.zeros(n), kinds, where, units)  # one sweep of each joint (or a one-line error)
     if home is None:
         # the locked joints' readings: the median over the sweeps in which each joint does not move
         home = np.array([np.median(np.concatenate([s.q[:, i] for s in out if s.joint != i + 1])) if n > 1 else 0.0 for i in range(n)])
-    return SweepSet(out, n, np.asarray(home, dtype=float), kinds, where, units)
+    return replace(every, home=np.asarray(home, dtype=float))
 
 
 _JOINT_FILE = re.compile(r"j(\d+)\.csv", re.IGNORECASE)
@@ -116,8 +110,8 @@ def _joint_file(f: Path, length: str | None) -> tuple[np.ndarray, list[str]]:
         if len(cells) != len(names) or len(cells) not in (3, 4):
             expected = f"{len(names)} values ({','.join(names)})" if cols else "3 values (x,y,z) or 4 (time,x,y,z)"
             raise DenavitError(f"{where}:{ln}: expected {expected} separated by {delim!r}, got {len(cells)}: {delim.join(cells)!r}")
-        vals = {name: dl.number(c, f"{where}:{ln}", name) for c, name in zip(cells, names)}
-        pts.append([vals[c] * ls for c in "xyz"])
+        vals = {name: dl.length(c, f"{where}:{ln}", name, ls if name in "xyz" else 1.0) for c, name in zip(cells, names)}
+        pts.append([vals[c] for c in "xyz"])
         at.append(f"{where}:{ln}")
     return np.array(pts, dtype=float).reshape(-1, 3), at
 
@@ -168,39 +162,73 @@ def read_joint_files(folder: str | os.PathLike, *, home, length: str | None, ang
         if dirs[j - 1] < 0:
             pts, at = pts[::-1], at[::-1]
         sweeps[j] = Sweep(j, pts, None, at)
-    _check_complete(sweeps, n, str(folder))
     return SweepSet([sweeps[j] for j in sorted(sweeps)], n, homes, kinds, str(folder), units)
 
 
 def _show(value) -> str:
     """A short JSON rendering of a value for messages."""
-    text = json.dumps(value)
+    if isinstance(value, list) and len(value) > 6:
+        return f"a list of {len(value)}"
+    try:
+        text = json.dumps(value)
+    except (ValueError, RecursionError):
+        text = type(value).__name__
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def _json_numbers(value, n: int | None, where: str) -> np.ndarray:
-    """A JSON list of finite numbers (``n`` of them, or any number >= 1) as a float array."""
-    if not isinstance(value, list) or not value or (n is not None and len(value) != n):
-        raise DenavitError(f"{where}: expected a list of {n if n is not None else 'one or more'} numbers, got {_show(value)}")
-    out = []
-    for i, v in enumerate(value):
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise DenavitError(f"{where}[{i}]: expected a number, got {_show(v)}")
-        try:
-            v = float(v)
-        except OverflowError:
-            v = math.inf
-        if not math.isfinite(v):
-            raise DenavitError(f"{where}[{i}]: expected a finite number, got {_show(value[i])}")
-        out.append(v)
-    return np.array(out)
+def load_json(text: str, where: str):
+    """The document of a JSON text, strictly: NaN and Infinity (not JSON, RFC 8259) and an integer beyond the
+    float range are read as non-finite numbers, which every reader refuses at their place; a key given twice
+    in one object, nesting deeper than Python's recursion limit and malformed JSON are one-line errors."""
+
+    def unique(pairs):
+        keys = [k for k, _ in pairs]
+        dup = sorted({k for k in keys if keys.count(k) > 1})
+        if dup:
+            raise DenavitError(f"{where}: key(s) {', '.join(map(repr, dup))[:80]} given twice in one object: expected each once")
+        return dict(pairs)
+
+    try:
+        return json.loads(text, parse_constant=float, parse_int=lambda t: int(t) if len(t) < 19 else float(t), object_pairs_hook=unique)
+    except json.JSONDecodeError as e:
+        raise DenavitError(f"{where}:{e.lineno}: not valid JSON: {e.msg} (column {e.colno})") from None
+    except RecursionError:
+        raise DenavitError(f"{where}: not readable JSON: lists or objects nested too deeply") from None
 
 
-def _json_rows(value, n: int, where: str) -> np.ndarray:
-    """A JSON list of rows of ``n`` finite numbers as an (m, n) float array."""
+def json_array(value, n: int | None, depth: int, where: str) -> np.ndarray:
+    """A JSON value of ``depth`` nested lists of finite numbers (the innermost of ``n`` numbers, or any number
+    >= 1 when ``n`` is None) as a float array; each number through :func:`denavit.io.delimited.as_number`, and
+    errors name the place (``points[3][1]``)."""
+    if depth == 1:
+        if not isinstance(value, list) or not value or (n is not None and len(value) != n):
+            raise DenavitError(f"{where}: expected a list of {n if n is not None else 'one or more'} numbers, got {_show(value)}")
+        return np.array([dl.as_number(v, f"{where}[{i}]") for i, v in enumerate(value)])
     if not isinstance(value, list) or not value:
-        raise DenavitError(f"{where}: expected a list of rows of {n} numbers, got {_show(value)}")
-    return np.array([_json_numbers(row, n, f"{where}[{i}]") for i, row in enumerate(value)])
+        raise DenavitError(f"{where}: expected a list of rows{f' of {n} numbers' if n is not None and depth == 2 else ''}, got {_show(value)}")
+    rows = [json_array(v, n, depth - 1, f"{where}[{i}]") for i, v in enumerate(value)]
+    shapes = {r.shape for r in rows}
+    if len(shapes) > 1:
+        raise DenavitError(f"{where}: rows of different lengths ({', '.join(str(sh[0]) for sh in sorted(shapes))}): expected a rectangular array")
+    return np.array(rows)
+
+
+def json_lengths(values: np.ndarray, scale: float, where: str) -> np.ndarray:
+    """(m, 3) coordinates in metres (``scale`` m per file unit), each within :data:`denavit.io.delimited.MAX_LENGTH`;
+    an error names the first one beyond (``points[4][2]``)."""
+    out = np.asarray(values, dtype=float) * scale
+    bad = np.argwhere(np.abs(out) > dl.MAX_LENGTH)
+    if bad.size:
+        i, j = bad[0]
+        dl.far(out[i, j], f"{where}[{i}][{j}]")
+    return out
+
+
+def _check_keys(obj: dict, expected: tuple, where: str) -> None:
+    """An object's keys must be expected ones: a misspelt key ("Q" for "q") must not be skipped."""
+    unknown = [k for k in obj if k not in expected]
+    if unknown:
+        raise DenavitError(f"{where}: unknown key(s) {', '.join(map(repr, unknown))[:80]}: expected {', '.join(expected)}")
 
 
 def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str | None = None) -> SweepSet:
@@ -211,12 +239,10 @@ def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str 
     ``"units"`` wins; ``length`` / ``angle`` fill what it does not give.
     """
     where = str(path)
-    try:
-        doc = json.loads(read_text(path, "sweep file"))
-    except json.JSONDecodeError as e:
-        raise DenavitError(f"{where}:{e.lineno}: not valid JSON: {e.msg}") from None
+    doc = load_json(read_text(path, "sweep file"), where)
     if not isinstance(doc, dict):
         raise DenavitError(f'{where}: expected a JSON object {{"units": ..., "home": [...], "sweeps": [...]}}, got {_show(doc)}')
+    _check_keys(doc, ("units", "home", "kinds", "sweeps"), where)
     declared = doc.get("units") or {}
     if not isinstance(declared, dict) or not all(isinstance(v, str) for v in declared.values()):
         raise DenavitError(f'{where}: units: expected an object such as {{"length": "mm", "angle": "deg"}}, got {_show(declared)}')
@@ -224,7 +250,7 @@ def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str 
     ls = length_scale(units["length"], where)
     if doc.get("home") is None:
         raise DenavitError(f"{where}: 'home' (the locked configuration) is required")
-    home = _json_numbers(doc["home"], None, f"{where}: home")
+    home = json_array(doc["home"], None, 1, f"{where}: home")
     n = len(home)
     kinds = doc.get("kinds") or ["revolute"] * n
     if not isinstance(kinds, list) or len(kinds) != n or any(k not in KINDS for k in kinds):
@@ -239,20 +265,20 @@ def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str 
         at = f"{where}: sweeps[{k}]"
         if not isinstance(s, dict):
             raise DenavitError(f"{at}: expected an object {{\"joint\": ..., \"points\": ...}}, got {_show(s)}")
+        _check_keys(s, ("joint", "points", "q"), at)
         j = s.get("joint")
         if isinstance(j, bool) or not isinstance(j, int) or not 1 <= j <= n:
             raise DenavitError(f"{at}: joint index out of range: expected an integer 1..{n}, got {_show(j)}")
         if j in rows:
             raise DenavitError(f"{at}: a second sweep of joint {j} (the first is sweeps[{first[j]}]): expected one sweep per joint")
-        pts = _json_rows(s.get("points"), 3, f"{at}.points")
+        pts = json_array(s.get("points"), 3, 2, f"{at}.points")
         q = s.get("q")
         if q is not None:
-            q = _json_rows(q, n, f"{at}.q")
+            q = json_array(q, n, 2, f"{at}.q")
             if len(q) != len(pts):
                 raise DenavitError(f"{at}: q must have one row per point: expected {len(pts)} rows, got {len(q)}")
             q = q * qscale
-        rows[j], first[j] = Sweep(j, pts * ls, q, [f"{at}.points[{i}]" for i in range(len(pts))]), k
-    _check_complete(rows, n, where)
+        rows[j], first[j] = Sweep(j, json_lengths(pts, ls, f"{at}.points"), q, [f"{at}.points[{i}]" for i in range(len(pts))]), k
     return SweepSet([rows[j] for j in sorted(rows)], n, home * qscale, kinds, where, units)
 
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import DenavitError
 from ..geometry import matrix_rotvec, rotvec_matrix
-from .delimited import header, number, rows
+from . import delimited as dl
 from .output import write_text
 from .text import read_text
 from .units import angle_scale, input_units, joint_scale, length_scale, parse_declaration
@@ -48,11 +48,11 @@ def read_targets(path: str | os.PathLike, kinds, *, length: str | None = None, a
     where = str(path)
     lines = read_text(path, "targets file").splitlines()
     units = input_units(parse_declaration(lines, where), length, angle, where)
-    data, _ = rows(lines, where)
+    data, _ = dl.rows(lines, where)
     if not data:
         raise DenavitError(f"{where}: no header and no rows: expected a header 'x,y,z,rx,ry,rz' and/or 'q1,...,q{len(kinds)}'")
     hline, hcells = data[0]
-    cols = header(hcells, f"{where}:{hline}")
+    cols = dl.header(hcells, f"{where}:{hline}")
     n = len(kinds)
     qcols = [f"q{i}" for i in range(1, n + 1)]
     has_pose = all(c in cols for c in POSE)
@@ -69,13 +69,13 @@ def read_targets(path: str | os.PathLike, kinds, *, length: str | None = None, a
         w = f"{where}:{ln}"
         if len(cells) != len(cols):
             raise DenavitError(f"{w}: expected {len(cols)} values ({','.join(cols)}), got {len(cells)}")
-        vals[r] = [number(c, w, name) for c, name in zip(cells, cols, strict=True)]
+        vals[r] = [dl.length(c, w, name, ls) if name in "xyz" else dl.number(c, w, name) for c, name in zip(cells, cols, strict=True)]  # x, y, z in m
         places.append(w)
     col = {c: k for k, c in enumerate(cols)}
     poses = None
     if has_pose:
         poses = np.tile(np.eye(4), (len(vals), 1, 1))
-        poses[:, :3, 3] = vals[:, [col[c] for c in "xyz"]] * ls
+        poses[:, :3, 3] = vals[:, [col[c] for c in "xyz"]]
         poses[:, :3, :3] = rotvec_matrix(vals[:, [col[c] for c in ("rx", "ry", "rz")]] * as_)
     q = vals[:, [col[c] for c in qcols]] * joint_scale(kinds, units["length"], units["angle"], where) if has_q else None
     return Targets(poses, q, places, units)

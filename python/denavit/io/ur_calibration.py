@@ -29,12 +29,14 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 
 import numpy as np
 
 from .. import _core
 from ..errors import DenavitError
 from ..geometry import inverse, matrix_rpy
+from .delimited import NUMBER, as_number
 from .output import write_text
 
 #: The six blocks of the file, base to tip.
@@ -122,25 +124,49 @@ def loads(text: str, where: str = "kinematics file") -> np.ndarray:
         raise DenavitError(f"{where}: reading UR kinematics files needs PyYAML: pip install pyyaml") from None
 
     try:
-        doc = yaml.safe_load(text)
+        doc = yaml.load(text, Loader=_strict_loader(yaml, where))  # noqa: S506 (a SafeLoader, numbers narrowed)
     except yaml.YAMLError as e:
         raise DenavitError(f"{where}: not valid YAML: {str(e).splitlines()[0]}") from None
+    except RecursionError:
+        raise DenavitError(f"{where}: not readable YAML: mappings or lists nested too deeply") from None
     kin = doc.get("kinematics") if isinstance(doc, dict) else None
     if not isinstance(kin, dict):
         raise DenavitError(f"{where}: expected a top-level 'kinematics' mapping with {', '.join(UR_JOINTS)}")
     from ..geometry import xyz_rpy_pose  # noqa: PLC0415
 
     out = np.empty((6, 4, 4))
+    keys = ("x", "y", "z", "roll", "pitch", "yaw")
     for i, name in enumerate(UR_JOINTS):
         block = kin.get(name)
-        keys = ("x", "y", "z", "roll", "pitch", "yaw")
         if not isinstance(block, dict) or any(k not in block for k in keys):
-            raise DenavitError(f"{where}: kinematics.{name}: expected x, y, z, roll, pitch, yaw, got {block!r}"[:300])
-        vals = [block[k] for k in keys]
-        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and abs(v) < 1e300 and np.isfinite(float(v)) for v in vals):
-            raise DenavitError(f"{where}: kinematics.{name}: x, y, z, roll, pitch, yaw must be finite numbers, got {vals!r}"[:300])
+            raise DenavitError(f"{where}: kinematics.{name}: expected x, y, z, roll, pitch, yaw, got {block!r}")
+        vals = [as_number(block[k], f"{where}: kinematics.{name}.{k}") for k in keys]
         out[i] = xyz_rpy_pose(vals[:3], vals[3:])
     return out
+
+
+def _strict_loader(yaml, where: str):
+    """PyYAML's SafeLoader with the one number rule of every reader (:data:`denavit.io.delimited.NUMBER`):
+    YAML 1.1 would also read ``1_000``, ``0x10``, ``1:30`` (sexagesimal: 90) and ``.inf`` as numbers, which
+    are then strings that :func:`~denavit.io.delimited.as_number` refuses; and a key given twice in one
+    mapping is an error (PyYAML keeps the last)."""
+    tags = ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float")
+
+    from collections import Counter  # noqa: PLC0415
+
+    class Loader(yaml.SafeLoader):  # not libyaml's CSafeLoader: its composer overflows the C stack (a segfault) on deep nesting
+        yaml_implicit_resolvers = {c: [(t, r) for t, r in rs if t not in tags] for c, rs in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+
+        def construct_mapping(self, node, deep=False):
+            counts = Counter(str(self.construct_object(k, deep=deep)) for k, _ in node.value)
+            twice = sorted(k for k, c in counts.items() if c > 1)
+            if twice:
+                raise DenavitError(f"{where}:{node.start_mark.line + 1}: key(s) {', '.join(twice)[:80]} given twice in one mapping: expected each once")
+            return super().construct_mapping(node, deep=deep)
+
+    Loader.add_implicit_resolver(tags[1], re.compile(f"^{NUMBER.pattern}$"), list("-+0123456789."))
+    Loader.add_constructor(tags[1], lambda loader, node: float(loader.construct_scalar(node)))
+    return Loader
 
 
 def read(path: str | os.PathLike) -> np.ndarray:

@@ -79,6 +79,7 @@ from .. import _core
 from ..errors import DenavitError, DenavitWarning
 from ..geometry import inverse, matrix_rotvec, matrix_rpy, pose, rotation_between, rotvec_matrix, skew, xyz_rpy_pose
 from ..robot import Robot, inertials_for_table
+from .delimited import NON_FINITE, NUMBER
 from .output import write_text
 from .text import decode, read_bytes
 
@@ -175,17 +176,30 @@ class _Where:
         return f"{self.path}: {tag} {name!r}" + (f" (line {line})" if line else "")
 
 
-def _check_numbers(el, attr: str, n: int, what: str) -> None:
+def _check_numbers(el, attr: str, n: int, what: str, finite: bool = True) -> None:
+    """Attribute ``attr`` of ``el``, if given, holds ``n`` numbers by the one number rule of every reader
+    (:data:`denavit.io.delimited.NUMBER`: yourdfpy's float() would read ``1_0`` or full-width digits), finite
+    unless ``finite`` is False (limits and inertias: their own checks say so, naming the values)."""
     text = el.get(attr)
     if text is None:
         return
     parts = text.replace(",", " ").split()
-    try:
-        vals = [float(t) for t in parts]
-    except ValueError:
-        raise DenavitError(f"{what}: {el.tag} {attr}={text!r}: expected {n} numbers") from None
-    if len(vals) != n or not all(math.isfinite(v) for v in vals):
-        raise DenavitError(f"{what}: {el.tag} {attr}={text!r}: expected {n} finite numbers, got {len(vals)} value(s)")
+    if not all(NUMBER.fullmatch(t) or NON_FINITE.fullmatch(t) for t in parts):
+        raise DenavitError(f"{what}: {el.tag} {attr}={text[:60]!r}: expected {n} number{'s' if n > 1 else ''} (ASCII decimal)")
+    if len(parts) != n or (finite and not all(math.isfinite(float(t)) for t in parts)):
+        raise DenavitError(f"{what}: {el.tag} {attr}={text[:60]!r}: expected {n} finite number{'s' if n > 1 else ''}, got {len(parts)} value(s)")
+
+
+#: The numeric attributes of URDF elements (element, attributes, numbers each, finite), checked wherever they appear.
+_NUMBERS = (
+    ("origin", ("xyz", "rpy"), 3, True), ("axis", ("xyz",), 3, True), ("mass", ("value",), 1, True),
+    ("inertia", ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"), 1, False), ("limit", ("lower", "upper"), 1, False),
+    ("limit", ("effort", "velocity"), 1, True), ("dynamics", ("damping", "friction"), 1, True),
+    ("safety_controller", ("soft_lower_limit", "soft_upper_limit", "k_position", "k_velocity"), 1, True),
+    ("mimic", ("multiplier", "offset"), 1, True), ("calibration", ("rising", "falling"), 1, True),
+    ("box", ("size",), 3, True), ("cylinder", ("radius", "length"), 1, True), ("sphere", ("radius",), 1, True),
+    ("mesh", ("scale",), 3, True), ("color", ("rgba",), 4, True),
+)
 
 
 def _precheck(path: Path, root) -> _Where:
@@ -208,30 +222,18 @@ def _precheck(path: Path, root) -> _Where:
             raise DenavitError(f"{path}: {el.tag} {name!r} is defined twice (lines {seen[key]} and {el.sourceline})")
         seen[key] = el.sourceline
         w = where(el.tag, name)
-        for sub in el.iter("origin"):
-            _check_numbers(sub, "xyz", 3, w)
-            _check_numbers(sub, "rpy", 3, w)
+        for tag, attrs, n, finite in _NUMBERS:
+            for sub in el.iter(tag):
+                for attr in attrs:
+                    _check_numbers(sub, attr, n, w, finite)
         if el.tag == "joint":
             for tag in ("parent", "child"):
                 sub = el.find(tag)
                 if sub is None or not sub.get("link"):
                     raise DenavitError(f"{w}: expected a <{tag} link=\"...\"/> element, got none")
             ax = el.find("axis")
-            if ax is not None:
-                _check_numbers(ax, "xyz", 3, w)
-            lim = el.find("limit")
-            if lim is not None:
-                for attr in ("lower", "upper", "effort", "velocity"):
-                    text = lim.get(attr)
-                    if text is not None:
-                        try:
-                            float(text)
-                        except ValueError:
-                            raise DenavitError(f"{w}: limit {attr}={text!r}: expected a number") from None
-        else:
-            for tag in ("mass",):
-                for sub in el.iter(tag):
-                    _check_numbers(sub, "value", 1, w)
+            if ax is not None and ax.get("xyz") is None:  # urdfdom would take the default 1 0 0 for a mangled <axis>
+                raise DenavitError(f"{w}: <axis> (line {ax.sourceline}) without xyz: expected e.g. <axis xyz=\"0 0 1\"/>")
     return where
 
 

@@ -20,7 +20,6 @@ Cartesian pose from ``RIst`` (``RSol`` if asked for).
 
 from __future__ import annotations
 
-import math
 import os
 import re
 import xml.etree.ElementTree as ET
@@ -29,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import DenavitError
+from ..delimited import number
 from ..text import read_text
 
 
@@ -42,13 +42,7 @@ def _attrs(el, names, where, tag):
         v = el.get(a)
         if v is None:
             raise DenavitError(f"{where}: <{tag}> lacks attribute {a}: expected {' '.join(names)}")
-        try:
-            x = float(v)
-        except ValueError:
-            raise DenavitError(f"{where}: <{tag} {a}=...> must be a number, got {v[:40]!r}") from None
-        if not math.isfinite(x):
-            raise DenavitError(f"{where}: <{tag} {a}=...> must be finite, got {v[:40]!r}")
-        out.append(x)
+        out.append(number(v.strip(), where, f"<{tag} {a}=...>"))  # the one number rule of every reader
     return out
 
 
@@ -102,9 +96,7 @@ def read(path: str | os.PathLike, *, text: str | None = None, axes: str = "AIPos
             T.append(P)
         elif T:
             raise DenavitError(f"{w}: <Rob> lacks <{cartesian}> which earlier records have")
-        ms = float(ipoc.text.strip())
-        if not np.isfinite(ms):
-            raise DenavitError(f"{w}: <IPOC> {ipoc.text.strip()[:40]!r} is not a finite time stamp in ms")
+        ms = number(ipoc.text.strip(), w, "<IPOC> (time stamp, ms)")
         t.append(ms * 1e-3)
         where.append(w)
     if not where:
