@@ -618,3 +618,33 @@ def test_tool_is_given_in_the_flange(convention, rng):
     np.testing.assert_allclose(m.T_flange_tool[:3, 3], [0.05, 0.03, 0.1], atol=1e-9)
     for q in rng.uniform(-np.pi, np.pi, (10, 6)):
         np.testing.assert_allclose(dv.fk(m.with_tool(np.eye(4)), q), ur5.table.frames(q)[-1], atol=1e-9)
+
+
+def test_the_solver_builds_jacobians_only_where_it_asks_for_them(kr5, monkeypatch):
+    """Trial points get residuals only: the poses evaluated with a Jacobian are the solver's Jacobian
+    evaluations (njev) times the poses, fewer than its residual evaluations (every one of which built a Jacobian),
+    and the Jacobian rows come a chunk at a time, equal to one call's."""
+    from denavit.calibration import least_squares as ls
+    from denavit.calibration.parametrization import Parametrization
+
+    pz = cal.parametrize(kr5, "edh", tool=TOOL)
+    meas = cal.simulate(kr5, cal.configurations(kr5, 250, skip=3), tool=TOOL, noise=NOISE, seed=2)
+    free = [c for c in range(pz.n_params) if pz.names[c] not in pz.rules][:20]
+    monkeypatch.setattr(ls, "CHUNK", 64)
+    _, jac = pz.evaluate(pz.x0, meas.q, True)
+    w = weights("point", NOISE, 1.0)
+    assert np.array_equal(ls.jacobian_rows(pz, pz.x0, meas.q, w, free)[1], (jac[:, :3][:, :, free] * w[:3, None]).reshape(-1, len(free)))
+    jac_poses = []
+    evaluate = Parametrization.evaluate
+
+    def counted(self, x, q, jacobian=True):
+        if jacobian:
+            jac_poses.append(len(q))
+        return evaluate(self, x, q, jacobian)
+
+    monkeypatch.setattr(Parametrization, "evaluate", counted)
+    x0 = pz.x0.copy()
+    x0[free] += 1e-4
+    _, sol = ls.fit_parameters(pz, x0, free, meas, w, "linear", None)
+    # (scipy evaluates the Jacobian once more at the solution, for its result's ``jac``)
+    assert sum(jac_poses) <= (sol.njev + 1) * meas.n < sol.nfev * meas.n

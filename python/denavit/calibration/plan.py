@@ -19,7 +19,7 @@ from ..fitting import (
 from ..fitting.result import axis_sigmas
 from ..sweeps import PAPER_HOME_DEG, PAPER_RANGES_DEG
 from .identifiability import Identifiability, analyze, rank_reveal
-from .least_squares import covariance, residuals, weights
+from .least_squares import covariance, jacobian_rows, residuals, weights
 from .measurements import Measurements, as_array, check_finite
 from .parametrization import (
     Parametrization,
@@ -257,11 +257,8 @@ def select_poses(pz: Parametrization, q, k: int, *, candidates=None, w=None) -> 
         raise DenavitError(f"select: expected 1 <= k <= {N} (the number of candidates), got {k}")
     w = weights(pz.measure, 1.0, 1.0) if w is None else w
     cand = list(range(pz.n_params)) if candidates is None else list(candidates)
-    _, jac = pz.evaluate(pz.x0, Q, True)
     rows = 6 if pz.measure == "pose" else 3
-    J = jac[:, :rows][:, :, cand]
-    del jac
-    J *= w[:rows, None]
+    J = jacobian_rows(pz, pz.x0, Q, w, cand)[1].reshape(N, rows, len(cand))
     kept, _, _, norms, _, _ = rank_reveal(J.reshape(-1, len(cand)), [cand.index(c) for c in pz.order if c in cand])
     Jall = J[:, :, kept]
     del J
