@@ -648,3 +648,23 @@ def test_the_solver_builds_jacobians_only_where_it_asks_for_them(kr5, monkeypatc
     _, sol = ls.fit_parameters(pz, x0, free, meas, w, "linear", None)
     # (scipy evaluates the Jacobian once more at the solution, for its result's ``jac``)
     assert sum(jac_poses) <= (sol.njev + 1) * meas.n < sol.nfev * meas.n
+
+
+def test_a_measurement_csv_reads_the_same_on_the_c_reader_and_row_by_row(kr5, tmp_path):
+    """A comment line at the end sends the file row by row: the same readings, points, poses and places; a bad
+    cell deep in the file is still named by its line and column."""
+    T_ft = np.eye(4)
+    T_ft[:3, 3] = TOOL
+    for measure, tool in (("point", TOOL), ("pose", T_ft)):
+        meas = cal.simulate(kr5, cal.configurations(kr5, 300, skip=9), tool=tool, noise=NOISE, noise_rot=1e-5 if measure == "pose" else 0.0, measure=measure, seed=1)
+        fast, slow = tmp_path / f"{measure}.csv", tmp_path / f"{measure}_slow.csv"
+        fast.write_text(to_csv(meas))
+        slow.write_text(to_csv(meas) + "# end\n")
+        a, b = read_measurements(fast), read_measurements(slow)
+        assert np.array_equal(a.q, b.q) and [w.replace("_slow", "") for w in b.where] == list(a.where) and a.where[0].endswith(":3")
+        assert np.array_equal(a.points, b.points) if measure == "point" else np.array_equal(a.poses, b.poses)
+    lines = fast.read_text().splitlines()
+    lines[200] = lines[200].rsplit(",", 1)[0] + ",abc"
+    fast.write_text("\n".join(lines) + "\n")
+    with pytest.raises(dv.DenavitError, match=r"pose.csv:201: column 'rz' must be a number, got 'abc'"):
+        read_measurements(fast)

@@ -19,7 +19,7 @@ from ..calibration.measurements import Measurements, as_array, check_finite, joi
 from ..errors import DenavitError
 from ..geometry import matrix_rotvec, rotvec_matrix
 from . import sweeps as sw
-from .delimited import split
+from .delimited import numeric_table, split
 from .text import read_text
 from .units import (
     angle_scale,
@@ -64,9 +64,9 @@ def read_measurements(path: str | os.PathLike, *, length: str | None = None, ang
         raise DenavitError(f"{p}: header must be 'q1,...,qn,x,y,z' (optionally ',rx,ry,rz'), or a sweep file with a 'joint' column; missing {', '.join(missing) or 'q columns'}, got {header.strip()!r}")
     kinds = joint_kinds(kinds, len(qcols), f"{p}: kinds given") or ("revolute",) * len(qcols)
     has_rot = all(c in cols for c in ("rx", "ry", "rz"))
-    q, pts, rot, where = [], [], [], []
+    q, pts, rot, where = _fast_rows(lines, delim, cols, len(qcols), has_rot, str(p))
     started = False
-    for ln, line in enumerate(lines, 1):
+    for ln, line in enumerate([] if where else lines, 1):
         s = line.strip()
         if not s or s.startswith("#"):
             continue
@@ -84,23 +84,36 @@ def read_measurements(path: str | os.PathLike, *, length: str | None = None, ang
             except ValueError:
                 raise DenavitError(f"{w}: column {c!r} must be a number, got {v!r}") from None
         q.append([vals[f"q{i}"] for i in range(1, len(qcols) + 1)])
-        pts.append([vals[c] * ls for c in "xyz"])
+        pts.append([vals[c] for c in "xyz"])
         if has_rot:
-            rot.append([vals[c] * as_ for c in ("rx", "ry", "rz")])
+            rot.append([vals[c] for c in ("rx", "ry", "rz")])
         where.append(w)
-    if not q:
+    if not len(q):
         raise DenavitError(f"{p}: no data rows after the header")
     q = np.array(q) * joint_scale(kinds, units["length"], units["angle"], str(p))
-    pts = np.array(pts)
+    pts = np.array(pts) * ls
     check_finite(q, "q (joint readings)", str(p), where, cols="joint")
     if has_rot:
-        rv = np.array(rot)
+        rv = np.array(rot) * as_
         check_finite(rv, "rotation vector", str(p), where)
         T = np.tile(np.eye(4), (len(q), 1, 1))
         T[:, :3, :3] = rotvec_matrix(rv)
         T[:, :3, 3] = pts
         return Measurements(q, None, T, str(p), where, units, kinds=kinds)
     return Measurements(q, pts, None, str(p), where, units, kinds=kinds)
+
+
+def _fast_rows(lines: list[str], delim: str, cols: list[str], nq: int, has_rot: bool, where: str):
+    """(q, points, rotation vectors, places) of the rows after the header, in file units, when they are a plain
+    numeric table (:func:`~denavit.io.delimited.numeric_table`, numpy's C reader); else four empty lists (the rows
+    are then read one by one, and errors name the line and column)."""
+    h = next(k for k, ln in enumerate(lines) if ln.strip() and not ln.lstrip().startswith("#"))
+    table = numeric_table("\n".join(lines[h + 1 :]).encode(), delim, len(cols))
+    if table is None:
+        return [], [], [], []
+    col = {c: k for k, c in enumerate(cols)}  # (a name given twice: its last column, as row by row)
+    rot = table[:, [col[c] for c in ("rx", "ry", "rz")]] if has_rot else []
+    return table[:, [col[f"q{i}"] for i in range(1, nq + 1)]], table[:, [col[c] for c in "xyz"]], rot, [f"{where}:{h + 2 + k}" for k in range(len(table))]
 
 
 def _read_json(p: Path, text: str, length: str | None, angle: str | None, kinds) -> Measurements:
