@@ -115,7 +115,7 @@ def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: 
     locked joints.
 
     The data rows are parsed at C speed when they are plain numbers (:func:`~denavit.io.delimited.numeric_table`:
-    a 188 MB file in about a second); otherwise, and whenever a value is wrong, row by row, each cell by
+    60-150 MB of text a second, benchmarks/bench_io.py); otherwise, and whenever a value is wrong, row by row, each cell by
     :func:`~denavit.io.delimited.number`, the error naming the line and the column.
     """
     where = str(path)
