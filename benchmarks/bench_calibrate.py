@@ -5,6 +5,9 @@ Tables printed:
 
 1. Time of ``calibrate`` for a 6R arm (KR5, ED-H, 27 identifiable parameters) from N random poses (0.02 mm
    noise), median over repeats, with the time of the Rust identification Jacobian alone.
+1b. Scale: wall and CPU time of ``calibrate`` from 10^3 to 5 x 10^4 poses (issue 18: 50,000 poses in <= 1.5 s,
+   growth <= 1.05 per decade) with the growth exponent per step, and ``plan`` selecting 50 of 10^4 and 10^5
+   candidate poses (greedy D-optimal; issue 18: <= 3 s at 10^5).
 2. Monte Carlo statistics (random poses and the 30 degree sweep protocol): RMS error / Cramér-Rao bound per
    parameter, reported sigma / Monte Carlo spread, planned sigma / spread (median, min, max over parameters).
 3. Per protocol (90 and 30 degrees, 30 points per sweep): RMS axis-position error per joint (distance of the
@@ -69,6 +72,34 @@ def table_time(kr5, repeats):
         res = cal.calibrate(meas, kr5, tool=TOOL)
         flag = "  <- 6R from 100 poses" if n == 100 else ""
         print(f"{n:>6} {med * 1e3:>15.1f} {mn * 1e3:>9.1f} {medh * 1e3:>19.1f} {jac * 1e6:>14.0f} {res.evaluations:>12} {res.identifiability.rank:>5}{flag}")
+
+
+def table_scale(kr5, repeats):
+    print("\n1b. Scale of calibrate and of plan --select (KR5, ED-H, points; median over repeats; run with OPENBLAS_NUM_THREADS=1 on a loaded machine)")
+    print(f"{'case':<34} {'wall [s]':>9} {'cpu [s]':>9} {'growth (cpu)':>13}")
+
+    def cpu_time(f):
+        w, c = [], []
+        for _ in range(repeats):
+            t0, c0 = time.perf_counter(), time.process_time()
+            f()
+            w.append(time.perf_counter() - t0)
+            c.append(time.process_time() - c0)
+        return float(np.median(w)), float(np.median(c))
+
+    prev = None
+    for n in (1_000, 5_000, 10_000, 50_000):
+        q = cal.configurations(kr5, n, skip=17)
+        meas = cal.simulate(kr5, q, tool=TOOL, noise=NOISE)
+        cal.calibrate(meas, kr5, tool=TOOL)
+        w, c = cpu_time(lambda meas=meas: cal.calibrate(meas, kr5, tool=TOOL))
+        growth = f"{np.log(c / prev[1]) / np.log(n / prev[0]):13.2f}" if prev else f"{'':>13}"
+        print(f"{f'calibrate, {n} poses':<34} {w:9.3f} {c:9.3f} {growth}", flush=True)
+        prev = (n, c)
+    for n in (10_000, 100_000):
+        q = cal.configurations(kr5, n)
+        w, c = cpu_time(lambda q=q: cal.plan(kr5, q=q, select=50, noise=NOISE, tool=TOOL))
+        print(f"{f'plan, select 50 of {n} candidates':<34} {w:9.3f} {c:9.3f}", flush=True)
 
 
 def table_statistics(kr5, runs):
@@ -168,12 +199,17 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=30, help="timing repeats of table 1")
     ap.add_argument("--protocols", default="30,90")
     ap.add_argument("--quick", action="store_true", help="runs 20, accuracy runs 3, repeats 10")
+    ap.add_argument("--scale-only", action="store_true", help="only the scale table (1b)")
     args = ap.parse_args()
     if args.quick:
         args.runs, args.accuracy_runs, args.repeats = 20, 3, 10
     kr5 = dv.load_robot("kr5")
     print(f"denavit {dv.__version__}: whole-model calibration benchmark (KR5, Hayat et al. Table III; noise {NOISE * 1e3} mm per coordinate)")
+    if args.scale_only:
+        table_scale(kr5, 3)
+        return
     table_time(kr5, args.repeats)
+    table_scale(kr5, 3)
     table_statistics(kr5, args.runs)
     table_accuracy(kr5, args.accuracy_runs, [int(p) for p in args.protocols.split(",")])
 

@@ -10,9 +10,8 @@ with the Monte Carlo spread (ratio 1 = honest). Prints tables; run `python bench
 of 30-200 arcsec with offset and scale errors, home drift 0.2 mm, 0.02 mm tracker noise; and the exact-readings
 case): per method the RMS axis-position error, reported sigma / Monte Carlo spread of every DH parameter (median
 and the share within 0.8-1.25; theta against the truth seen through the readings: a reading offset is a theta
-offset), and the model ``auto`` chose. ``--scaling``: time and peak memory (tracemalloc) of
-``identify`` on 6 sweeps of 1e4, 1e5 and 1e6 points, with the growth exponent (run with OPENBLAS_NUM_THREADS=1 on a
-loaded machine: the threaded BLAS crawls when the cores are busy).
+offset), and the model ``auto`` chose. How identify scales with the points per sweep (time, peak memory, growth
+exponent): ``benchmarks/bench_scale_identify.py``.
 """
 
 from __future__ import annotations
@@ -22,7 +21,6 @@ import collections
 import math
 import sys
 import time
-import tracemalloc
 from pathlib import Path
 
 import numpy as np
@@ -56,14 +54,11 @@ def main() -> None:
     ap.add_argument("--methods", default=",".join(METHODS), help="comma-separated subset of " + ",".join(METHODS))
     ap.add_argument("--protocols", default="90,30")
     ap.add_argument("--realistic", type=int, default=0, metavar="RUNS", help="Monte Carlo runs of the realistic cases (0: skip)")
-    ap.add_argument("--scaling", action="store_true", help="time and memory of identify at 1e4, 1e5, 1e6 points per sweep")
     ap.add_argument("--skip-paper", action="store_true", help="skip the paper protocol tables")
     args = ap.parse_args()
     methods = args.methods.split(",")
     if args.realistic:
         realistic(args.realistic, args.points, methods if "auto" in methods else [m for m in methods if m != "hyper"] + ["auto"])
-    if args.scaling:
-        scaling()
     if args.skip_paper:
         return
     kr5 = dv.load_robot("kr5")
@@ -178,27 +173,6 @@ def realistic(runs: int, points: int, methods: list) -> None:
                 pos = 1e3 * math.sqrt(np.mean(np.array(pe) ** 2))
                 print(f"{case:<40}{method:<11}{pos:12.4f}{np.median(ratio):14.2f}{100 * inband:12.0f}%   "
                       + (", ".join(f"{k} {v}" for k, v in chose.items()) if chose else ""))
-
-
-def scaling() -> None:
-    kr5 = dv.load_robot("kr5")
-    home = np.radians(sw.PAPER_HOME_DEG)
-    ranges = np.radians(sw.PAPER_RANGES_DEG[90])
-    print("\n=== identify (auto, readings) on 6 sweeps: time and peak memory (tracemalloc, identify only) ===")
-    rows = []
-    for m in (10_000, 100_000, 1_000_000):
-        s = sw.simulate(kr5.model(), home=home, ranges=ranges, points_per_sweep=m, noise=2e-5, seed=1)
-        tracemalloc.start()
-        t0 = time.perf_counter()
-        res = dv.identify(s, nominal=kr5)
-        dt = time.perf_counter() - t0
-        peak = tracemalloc.get_traced_memory()[1]
-        tracemalloc.stop()
-        rows.append((m, dt, peak))
-        print(f"{m:>9} points per sweep: {dt:7.2f} s, peak {peak / 1e6:7.0f} MB ({res.method})")
-        del s, res
-    (m0, t0_, p0), (m1, t1, p1) = rows[-2], rows[-1]
-    print(f"growth exponent 1e5 -> 1e6: time {math.log(t1 / t0_) / math.log(m1 / m0):.2f}, memory {math.log(p1 / p0) / math.log(m1 / m0):.2f}")
 
 
 if __name__ == "__main__":

@@ -199,6 +199,32 @@ def test_d_optimal_selection_beats_the_first_poses(kr5):
     assert np.mean(best.sigma[i] / first.sigma[i]) < 0.9
 
 
+@pytest.mark.parametrize("measure", ["point", "pose"])
+def test_d_optimal_selection_is_the_greedy_log_det_gain(kr5, measure):
+    """The rank-one (Woodbury) updates pick what the definition picks: at each step the candidate whose rows
+    J_c (column-normalised Jacobian of the identifiable parameters) raise log det M the most, M = ridge I + the
+    chosen rows' J^T J, computed here from scratch per candidate."""
+    from denavit.calibration.identifiability import rank_reveal
+    from denavit.calibration.plan import select_poses
+
+    T_ft = np.eye(4)
+    T_ft[:3, 3] = TOOL
+    pz = cal.parametrize(kr5, "edh", tool=TOOL if measure == "point" else T_ft, measure=measure)
+    q = cal.configurations(kr5, 120, skip=5)
+    rows = 6 if measure == "pose" else 3
+    _, jac = pz.evaluate(pz.x0, q, True)
+    J = jac[:, :rows] * weights(pz.measure, 1.0, 1.0)[:rows, None]
+    kept, _, _, norms, _, _ = rank_reveal(J.reshape(-1, pz.n_params), list(pz.order))
+    J = J[:, :, kept] / norms[kept]
+    M = np.eye(len(kept)) * 1e-6 * len(q) * rows / len(kept)
+    expected = []
+    for _ in range(12):
+        gain = [np.linalg.slogdet(M + J[c].T @ J[c])[1] if c not in expected else -np.inf for c in range(len(q))]
+        expected.append(int(np.argmax(gain)))
+        M = M + J[expected[-1]].T @ J[expected[-1]]
+    assert select_poses(pz, q, 12).tolist() == expected
+
+
 # ------------------------------------------------------------------------------------------ geometry
 
 
@@ -592,3 +618,53 @@ def test_tool_is_given_in_the_flange(convention, rng):
     np.testing.assert_allclose(m.T_flange_tool[:3, 3], [0.05, 0.03, 0.1], atol=1e-9)
     for q in rng.uniform(-np.pi, np.pi, (10, 6)):
         np.testing.assert_allclose(dv.fk(m.with_tool(np.eye(4)), q), ur5.table.frames(q)[-1], atol=1e-9)
+
+
+def test_the_solver_builds_jacobians_only_where_it_asks_for_them(kr5, monkeypatch):
+    """Trial points get residuals only: the poses evaluated with a Jacobian are the solver's Jacobian
+    evaluations (njev) times the poses, fewer than its residual evaluations (every one of which built a Jacobian),
+    and the Jacobian rows come a chunk at a time, equal to one call's."""
+    from denavit.calibration import least_squares as ls
+    from denavit.calibration.parametrization import Parametrization
+
+    pz = cal.parametrize(kr5, "edh", tool=TOOL)
+    meas = cal.simulate(kr5, cal.configurations(kr5, 250, skip=3), tool=TOOL, noise=NOISE, seed=2)
+    free = [c for c in range(pz.n_params) if pz.names[c] not in pz.rules][:20]
+    monkeypatch.setattr(ls, "CHUNK", 64)
+    _, jac = pz.evaluate(pz.x0, meas.q, True)
+    w = weights("point", NOISE, 1.0)
+    assert np.array_equal(ls.jacobian_rows(pz, pz.x0, meas.q, w, free)[1], (jac[:, :3][:, :, free] * w[:3, None]).reshape(-1, len(free)))
+    jac_poses = []
+    evaluate = Parametrization.evaluate
+
+    def counted(self, x, q, jacobian=True):
+        if jacobian:
+            jac_poses.append(len(q))
+        return evaluate(self, x, q, jacobian)
+
+    monkeypatch.setattr(Parametrization, "evaluate", counted)
+    x0 = pz.x0.copy()
+    x0[free] += 1e-4
+    _, sol = ls.fit_parameters(pz, x0, free, meas, w, "linear", None)
+    # (scipy evaluates the Jacobian once more at the solution, for its result's ``jac``)
+    assert sum(jac_poses) <= (sol.njev + 1) * meas.n < sol.nfev * meas.n
+
+
+def test_a_measurement_csv_reads_the_same_on_the_c_reader_and_row_by_row(kr5, tmp_path):
+    """A comment line at the end sends the file row by row: the same readings, points, poses and places; a bad
+    cell deep in the file is still named by its line and column."""
+    T_ft = np.eye(4)
+    T_ft[:3, 3] = TOOL
+    for measure, tool in (("point", TOOL), ("pose", T_ft)):
+        meas = cal.simulate(kr5, cal.configurations(kr5, 300, skip=9), tool=tool, noise=NOISE, noise_rot=1e-5 if measure == "pose" else 0.0, measure=measure, seed=1)
+        fast, slow = tmp_path / f"{measure}.csv", tmp_path / f"{measure}_slow.csv"
+        fast.write_text(to_csv(meas))
+        slow.write_text(to_csv(meas) + "# end\n")
+        a, b = read_measurements(fast), read_measurements(slow)
+        assert np.array_equal(a.q, b.q) and [w.replace("_slow", "") for w in b.where] == list(a.where) and a.where[0].endswith(":3")
+        assert np.array_equal(a.points, b.points) if measure == "point" else np.array_equal(a.poses, b.poses)
+    lines = fast.read_text().splitlines()
+    lines[200] = lines[200].rsplit(",", 1)[0] + ",abc"
+    fast.write_text("\n".join(lines) + "\n")
+    with pytest.raises(dv.DenavitError, match=r"pose.csv:201: column 'rz' must be a number, got 'abc'"):
+        read_measurements(fast)

@@ -525,6 +525,42 @@ def test_bounding_box_contains_points_and_beats_pca(seed, m, shape):
     assert np.all(np.abs(local) <= box.lengths / 2 + 1e-9)
 
 
+@pytest.mark.parametrize("seed, shape", [(0, "gauss"), (1, "cube"), (2, "arcs"), (3, "gauss")])
+def test_face_boxes_are_the_calipers_rectangles_of_each_face_direction(seed, shape):
+    """The silhouette calipers (all face directions at once) give, per face direction, the volume of the
+    minimum-area rectangle of the hull projected along it (brute force over the edges of scipy's 2-D hull of the
+    projection) times the extent along it."""
+    from scipy.spatial import ConvexHull
+
+    from denavit.fitting.box import _face_candidates
+
+    rng = np.random.default_rng(seed)
+    if shape == "cube":  # faces parallel to the directions: ties everywhere
+        p = np.array([[x, y, z] for x in (0, 1) for y in (0, 2) for z in (0, 3)], float) @ random_rotation(rng).T
+    elif shape == "arcs":  # points on circle arcs with noise, as sweeps
+        t = rng.uniform(0, 1.5, (3, 400))
+        p = np.vstack([np.column_stack([r * np.cos(tt), r * np.sin(tt), np.full_like(tt, z)]) for r, z, tt in zip((1.0, 0.6, 0.3), (0.0, 0.4, 0.9), t)])
+        p = p @ random_rotation(rng).T + rng.normal(0, 1e-3, p.shape)
+    else:
+        p = rng.normal(size=(300, 3)) * [3, 2, 1]
+    pc = p - p.mean(axis=0)
+    hull = ConvexHull(pc)
+    hv = pc[hull.vertices]
+    cands = _face_candidates(hull, pc, hv)
+    for vol, rot in cands:
+        n = rot[:, 2]
+        t = rot[:, :2]
+        xy = hv @ t
+        poly = xy[ConvexHull(xy).vertices]
+        e = np.roll(poly, -1, axis=0) - poly
+        u = e / np.linalg.norm(e, axis=1, keepdims=True)
+        a, b = poly @ u.T, poly @ np.column_stack([-u[:, 1], u[:, 0]]).T
+        ref = np.min(np.ptp(a, axis=0) * np.ptp(b, axis=0)) * np.ptp(hv @ n)
+        assert vol == pytest.approx(ref, rel=1e-9)
+        assert np.allclose(rot.T @ rot, np.eye(3), atol=1e-12) and np.linalg.det(rot) > 0
+    assert len(cands) >= 3
+
+
 def test_bounding_box_degenerate_sets():
     rng = np.random.default_rng(90)
     flat = np.column_stack([rng.uniform(0, 2, 30), rng.uniform(0, 1, 30), np.zeros(30)])

@@ -3,6 +3,7 @@
 import json
 import math
 import re
+import sys
 
 import numpy as np
 import pytest
@@ -578,3 +579,30 @@ def test_implausible_axes_against_the_nominal(kr5):
     assert len(notes) == 1 and notes[0].startswith("axes A2-A3:"), res.notes
     good = dv.identify(recording(m, HOME, ranges, reading_arcsec=(30, 200), drift=2e-4, seed=9), nominal=kr5)
     assert not [n for n in good.notes if "check the joint order" in n], good.notes
+
+
+def test_the_joint_fit_is_the_same_a_chunk_at_a_time_in_memory_linear_in_the_points(kr5, monkeypatch):
+    """The normal equations of the global fit accumulated CHUNK points at a time give the same fit whatever the
+    chunk (one chunk: the whole sweep at once), and the fit keeps a few numbers per point, not its Jacobian rows
+    (it held ~800 bytes per point: every sweep's Jacobian blocks, twice over at each trial step)."""
+    import tracemalloc
+
+    import denavit.identify  # noqa: F401  (the module; dv.identify is the function)
+    from denavit.fitting import joint
+
+    ident = sys.modules["denavit.identify"]
+    s = sw.simulate(kr5.model(), home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=4000, noise=2e-5, noise_q=2e-5, seed=4)
+    notes = []
+    dqs = ident._motions(s, notes)
+    fits = ident._per_sweep(s, "global", "linear", None, lambda _m: None)
+    p0 = ident._tool_point_from_readings(s, fits)
+    starts = [(f.point, f.direction) for f in fits]
+    tracemalloc.start()
+    whole = joint.fit_sweeps(s, dqs, starts, p0)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    monkeypatch.setattr(joint, "CHUNK", 333)
+    parts = joint.fit_sweeps(s, dqs, starts, p0)
+    assert np.allclose(parts["points"], whole["points"], rtol=0, atol=1e-13) and np.allclose(parts["directions"], whole["directions"], rtol=0, atol=1e-13)
+    assert np.allclose(parts["cov"], whole["cov"], rtol=1e-9, atol=0) and parts["sigma"] == pytest.approx(whole["sigma"], rel=1e-12)
+    assert peak / (6 * 4000) < 400

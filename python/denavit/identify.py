@@ -29,6 +29,7 @@ from .fitting.result import axis_sigmas, flipped
 from .fitting.robust import flag_outliers, rms_spread, robust_sigma
 from .geometry import axis_angle_matrices
 from .io.output import json_text, write_text
+from .io.sweeps import FileLines
 from .io.units import cell_scale, joint_scale, length_scale
 from .robot import Robot
 from .sweeps import Sweep, SweepSet
@@ -218,11 +219,12 @@ def _drop_dwell(sweeps: SweepSet, notes: list[str]) -> SweepSet:
             out.append(s)
             continue
         keep = np.r_[0, a + 1 : len(p) - b - 1, len(p) - 1]
-        name = list(s.where) if s.where else [f"point {k}" for k in range(len(p))]
+        name = s.where if s.where else [f"point {k}" for k in range(len(p))]
         parts = ([f"{a} at the start ({name[1]} .. {name[a]})"] if a else []) + ([f"{b} at the end ({name[len(p) - 1 - b]} .. {name[len(p) - 2]})"] if b else [])
         notes.append(f"{sweep_where(s, sweeps.source)}: {a + b} dwell rows (the motion stopped within {DWELL_SIGMAS:g} sigma of the "
                      f"point noise, {noise * 1e3:.2g} mm): {' and '.join(parts)}; left out of the fit (keep_dwell keeps them)")
-        out.append(Sweep(s.joint, p[keep], None if s.q is None else s.q[keep], [s.where[k] for k in keep] if s.where else []))
+        where = s.where[keep] if isinstance(s.where, FileLines) else [s.where[k] for k in keep] if s.where else []
+        out.append(Sweep(s.joint, p[keep], None if s.q is None else s.q[keep], where))
     return replace(sweeps, sweeps=out)
 
 

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .least_squares import gram, weighted_rows
+from .least_squares import gram, jacobian_rows
 
 if TYPE_CHECKING:
     from .measurements import Measurements
@@ -146,8 +146,7 @@ def analyze(pz: Parametrization, x, meas: Measurements, candidates: list, w: np.
     the parameters it keeps come first: a structural dependency holds for any data, so what these data drop
     beyond it are parameters the structural analysis kept, and holding exactly those fixed restores full rank.
     """
-    _, jac = pz.evaluate(x, meas.q, True)
-    J = weighted_rows(pz, jac, w)
+    J = jacobian_rows(pz, x, meas.q, w)[1]
     cand = set(candidates)
     order = [c for c in pz.order if c in cand]
     if structural is not None:

@@ -27,12 +27,6 @@ def weights(measure: str, sigma_p: float, sigma_r: float) -> np.ndarray:
     return np.array([1 / sigma_p] * 3 + ([1 / sigma_r] * 3 if measure == "pose" else [0.0] * 3))
 
 
-def weighted_rows(pz: Parametrization, jac: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Weighted Jacobian rows (3N or 6N, P)."""
-    k = 6 if pz.measure == "pose" else 3
-    return (jac[:, :k, :] * w[:k, None]).reshape(-1, jac.shape[2])
-
-
 def gram(A: np.ndarray) -> np.ndarray:
     """``A^T A`` by einsum. The matrices here are tall and thin (3N x P): a multithreaded BLAS / LAPACK call on
     them can be a hundred times slower than this on a loaded machine, so every factorisation below works on
@@ -40,30 +34,56 @@ def gram(A: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ik->jk", A, A)
 
 
-def residuals(pz: Parametrization, x, meas: Measurements, w: np.ndarray, jacobian: bool = True):
+#: Poses per call of the evaluator when Jacobians are asked for: its (poses, 6, P) output stays a few MB (memory
+#: the allocator reuses, instead of fresh pages at every evaluation) and only the columns asked for are kept.
+CHUNK = 4096
+
+
+def jacobian_rows(pz: Parametrization, x, q, w: np.ndarray, columns=None) -> tuple[np.ndarray, np.ndarray]:
+    """(predicted poses (N, 4, 4), weighted Jacobian rows (3N or 6N, len(columns))) at x for the readings q (N, n):
+    the identification Jacobian's position (and for poses rotation) rows times the weights ``w``, of the
+    parameters ``columns`` (indices; default all), evaluated :data:`CHUNK` poses at a time."""
+    k = 6 if pz.measure == "pose" else 3
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    cols = np.arange(pz.n_params) if columns is None else np.asarray(columns, dtype=int)
+    poses, J = np.empty((len(q), 4, 4)), np.empty((len(q), k, len(cols)))
+    for a in range(0, len(q), CHUNK):
+        poses[a : a + CHUNK], jac = pz.evaluate(x, q[a : a + CHUNK], True)
+        np.multiply(jac[:, :k][:, :, cols], w[:k, None], out=J[a : a + CHUNK])
+    return poses, J.reshape(-1, len(cols))
+
+
+def residuals(pz: Parametrization, x, meas: Measurements, w: np.ndarray, jacobian: bool = True, columns=None):
     """(weighted residuals (3N or 6N,), weighted Jacobian rows (3N or 6N, P) or None, predicted poses (N, 4, 4)) at x.
 
-    Rotation residuals are the rotation vectors of ``R_pred R_meas^T`` (rad).
+    Rotation residuals are the rotation vectors of ``R_pred R_meas^T`` (rad). ``columns``: the parameters
+    (indices) whose Jacobian columns are returned (default all; :func:`jacobian_rows`).
     """
-    poses, jac = pz.evaluate(x, meas.q, jacobian)
+    if jacobian:
+        poses, J = jacobian_rows(pz, x, meas.q, w, columns)
+    else:
+        (poses, _), J = pz.evaluate(x, meas.q, False), None
     rp = poses[:, :3, 3] - meas.points
     if pz.measure == "pose":
         rr = matrix_rotvec(np.einsum("nij,nkj->nik", poses[:, :3, :3], meas.poses[:, :3, :3]))
         r = np.hstack([rp * w[0], rr * w[3]])
     else:
         r = rp * w[0]
-    return r.ravel(), (None if jac is None else weighted_rows(pz, jac, w)), poses
+    return r.ravel(), J, poses
 
 
 def fit_parameters(pz: Parametrization, x_start, free: list, meas: Measurements, w: np.ndarray, loss: str, f_scale: float | None, max_nfev: int | None = None):
-    """Least squares over the parameters ``free`` (indices) from ``x_start``; returns (x, scipy result)."""
+    """Least squares over the parameters ``free`` (indices) from ``x_start``; returns (x, scipy result).
+
+    The solver's trial points get residuals only; the Jacobian (of the free columns alone) is evaluated where
+    the solver asks for it, at the points it accepts. Each call returns fresh arrays (MINPACK may write into them).
+    """
     from scipy.optimize import least_squares  # noqa: PLC0415 (scipy is loaded when a fit first needs it)
 
     x_base = np.array(x_start, dtype=float)
     free = list(free)
     if not free:
         return x_base, None
-    cache = {}
     x0 = x_base[free].copy()
 
     # the unknowns are the changes from the start: MINPACK's first step is bounded by 100 |x| in scaled
@@ -73,19 +93,16 @@ def fit_parameters(pz: Parametrization, x_start, free: list, meas: Measurements,
         x[free] = x0 + z
         return x
 
-    def evaluate(z):
-        key = z.tobytes()
-        if key not in cache:
-            cache.clear()
-            r, J, _ = residuals(pz, full(z), meas, w)
-            cache[key] = (r, J[:, free])
-        return cache[key]
+    def fun(z):
+        return residuals(pz, full(z), meas, w, jacobian=False)[0]
+
+    def jac(z):
+        return residuals(pz, full(z), meas, w, columns=free)[1]
 
     z0 = np.zeros(len(free))
-    method = "lm" if loss == "linear" and len(evaluate(z0)[0]) >= len(free) else "trf"
+    method = "lm" if loss == "linear" and meas.n * (6 if pz.measure == "pose" else 3) >= len(free) else "trf"
     kw = {} if loss == "linear" else {"loss": loss, "f_scale": f_scale or 1.0}
-    # copies: MINPACK may write into the arrays it is given, which must not corrupt the cache
-    sol = least_squares(lambda z: evaluate(z)[0].copy(), z0, jac=lambda z: evaluate(z)[1].copy(), method=method, x_scale="jac",
+    sol = least_squares(fun, z0, jac=jac, method=method, x_scale="jac",
                         xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=max_nfev or 100 * (len(free) + 1), **kw)
     return full(sol.x), sol
 

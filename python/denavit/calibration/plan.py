@@ -19,7 +19,7 @@ from ..fitting import (
 from ..fitting.result import axis_sigmas
 from ..sweeps import PAPER_HOME_DEG, PAPER_RANGES_DEG
 from .identifiability import Identifiability, analyze, rank_reveal
-from .least_squares import covariance, residuals, weights
+from .least_squares import covariance, jacobian_rows, residuals, weights
 from .measurements import Measurements, as_array, check_finite
 from .parametrization import (
     Parametrization,
@@ -255,29 +255,52 @@ def select_poses(pz: Parametrization, q, k: int, *, candidates=None, w=None) -> 
     """Greedy D-optimal selection of ``k`` configurations from the candidate set ``q`` (N, n): each step adds
     the pose maximising ``log det(I + J_c M^-1 J_c^T)`` (the gain in ``log det M``, M the information matrix of
     the column-normalised Jacobian of the identifiable parameters, started at a small ridge). Returns the
-    indices in the order chosen."""
+    indices in the order chosen.
+
+    Every candidate's ``A_c = J_c M^-1 J_c^T`` (rows x rows) is kept and updated by the Woodbury identity as
+    each pose is added (``M^-1`` changes by a term of rank ``rows``, ``V V^T``): one pass over the candidates'
+    Jacobians per step, O(N rows^2 p), instead of rebuilding every ``A_c`` from ``M^-1`` (O(N rows^2 p^2)).
+    """
     Q = as_array(q, "q", "select")
     N = Q.shape[0]
     if not 1 <= k <= N:
         raise DenavitError(f"select: expected 1 <= k <= {N} (the number of candidates), got {k}")
     w = weights(pz.measure, 1.0, 1.0) if w is None else w
     cand = list(range(pz.n_params)) if candidates is None else list(candidates)
-    _, jac = pz.evaluate(pz.x0, Q, True)
     rows = 6 if pz.measure == "pose" else 3
-    Jall = (jac[:, :rows, :] * w[:rows, None])[:, :, cand]
-    kept, _, _, norms, _, _ = rank_reveal(Jall.reshape(-1, len(cand)), [cand.index(c) for c in pz.order if c in cand])
-    Jall = Jall[:, :, kept] / norms[kept]
+    J = jacobian_rows(pz, pz.x0, Q, w, cand)[1].reshape(N, rows, len(cand))
+    kept, _, _, norms, _, _ = rank_reveal(J.reshape(-1, len(cand)), [cand.index(c) for c in pz.order if c in cand])
+    Jall = J[:, :, kept]
+    del J
+    Jall /= norms[kept]
     p = len(kept)
-    M = np.eye(p) * 1e-6 * N * rows / max(p, 1)
+    ridge = 1e-6 * N * rows / max(p, 1)
+    Minv = np.eye(p) / ridge
+    A = np.einsum("nrp,nsp->nrs", Jall, Jall) / ridge  # J_c M^-1 J_c^T at M = ridge I
+    flat = Jall.reshape(N * rows, p)
     chosen: list[int] = []
     avail = np.ones(N, dtype=bool)
+    eye = np.eye(rows)
     for _ in range(k):
-        Minv = np.linalg.inv(M)
-        A = np.einsum("nrp,pq,nsq->nrs", Jall, Minv, Jall)
-        gain = np.linalg.slogdet(np.eye(rows) + A)[1]
+        gain = _logdet(eye + A)
         gain[~avail] = -np.inf
         c = int(np.argmax(gain))
         chosen.append(c)
         avail[c] = False
-        M = M + Jall[c].T @ Jall[c]
+        # M + J_c^T J_c: M^-1 - V V^T with V = M^-1 J_c^T L^-T, L L^T = I + J_c M^-1 J_c^T (Woodbury)
+        U = Minv @ Jall[c].T
+        V = np.linalg.solve(np.linalg.cholesky(eye + Jall[c] @ U), U.T).T
+        B = (flat @ V).reshape(N, rows, rows)  # J_n V: one pass over the candidates
+        A -= np.einsum("nik,njk->nij", B, B)
+        Minv -= V @ V.T
     return np.array(chosen)
+
+
+def _logdet(S: np.ndarray) -> np.ndarray:
+    """log det of each symmetric positive definite matrix of S (N, r, r): the 3 x 3 determinant in closed form
+    (points), else numpy's slogdet."""
+    if S.shape[1] != 3:
+        return np.linalg.slogdet(S)[1]
+    a, b, c = S[:, 0, 0], S[:, 0, 1], S[:, 0, 2]
+    d, e, f = S[:, 1, 1], S[:, 1, 2], S[:, 2, 2]
+    return np.log(a * (d * f - e * e) - b * (b * f - e * c) + c * (b * e - d * c))

@@ -270,7 +270,7 @@ def calibrate(
     # 4) the fit
     free = ana.kept_idx
     x_hat, sol = fit_parameters(pz, x_start, free, train, w, "linear", None)
-    r, J, _ = residuals(pz, x_hat, train, w)
+    r = residuals(pz, x_hat, train, w, jacobian=False)[0]
     if pz.measure == "pose" and (noise is None or noise_rot is None):
         rr = _table_residuals(r, "pose")
         dof = max(len(r) - len(free), 1) / len(r)
@@ -279,7 +279,7 @@ def calibrate(
         sig_p, sig_r = max(sig_p, 1e-12), max(sig_r, 1e-12)
         w = weights(pz.measure, sig_p, sig_r)
         x_hat, sol = fit_parameters(pz, x_hat, free, train, w, "linear", None)
-        r, J, _ = residuals(pz, x_hat, train, w)
+        r = residuals(pz, x_hat, train, w, jacobian=False)[0]
     wt = np.ones_like(r)
     robust_s2 = None
     if loss != "linear":
@@ -290,13 +290,14 @@ def calibrate(
             robust = float(np.median(mis)) / math.sqrt(2.366) if mis.size else 1.0  # weighted units; median of chi_3 = sqrt(2.366)
             fs = f_scale * w[0] if f_scale is not None else 3 * robust
             x_hat, sol = fit_parameters(pz, x_hat, free, train, w, loss, fs)
-            r, J, _ = residuals(pz, x_hat, train, w)
+            r = residuals(pz, x_hat, train, w, jacobian=False)[0]
         mis = np.linalg.norm(_table_residuals(r, pz.measure)[:, :3], axis=1)
         robust_s2 = (float(np.median(mis)) / math.sqrt(2.366)) ** 2
         wt = loss_weight(loss, (r / fs) ** 2)
     converged = sol is None or sol.status > 0
     nfev = 0 if sol is None else int(sol.nfev)
-    Jf = J[:, free] * np.sqrt(wt)[:, None]
+    Jf = residuals(pz, x_hat, train, w, columns=free)[1]
+    Jf *= np.sqrt(wt)[:, None]
     m_eq, p = Jf.shape
     known = noise is not None and (pz.measure == "point" or noise_rot is not None)
     s2 = 1.0 if known else robust_s2 if robust_s2 is not None else float(np.sum(r**2)) / max(m_eq - p, 1)

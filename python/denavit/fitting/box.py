@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import DenavitError
-from ..geometry import perpendicular_basis, rotvec_matrix
+from ..geometry import rotvec_matrix
 from .checks import COINCIDENT_TOL, prefix
 
 #: Number of best bounding-box candidates refined by Nelder-Mead.
@@ -91,6 +91,69 @@ def _finish_box(rot, lo, hi) -> BoundingBox:
     return BoundingBox(center=centre, axes=axes, lengths=lengths, volume=float(np.prod(lengths)))
 
 
+def _face_candidates(hull, pc: np.ndarray, hv: np.ndarray) -> list:
+    """(volume, rotation) of the box flush with each distinct face direction ``n`` of the 3-D hull: the
+    minimum-area rectangle of the hull projected along ``n`` (rotating calipers, Toussaint 1983: a side lies along
+    an edge of the projected polygon) times the hull's extent along ``n``, all directions at once.
+
+    The projected polygon's edges are the projections of the silhouette along ``n``: the hull edges between a
+    face turned towards ``n`` and one that is not (qhull's face neighbours give the edges), so no 2-D hull is
+    computed per direction. A rectangle with a side along an edge needs the polygon's support function at the
+    edge's normal and direction, both ways: with the edges sorted by the angle of their outward normals (sorted
+    for every direction at once, each direction's angles offset by 8 rad), the vertex farthest along a direction
+    is shared by the two edges whose normals bracket it (one ``searchsorted``): O(S log S) per direction for S
+    silhouette edges. Each direction's best box is measured again on all hull vertices.
+    """
+    normals = hull.equations[:, :3] / np.linalg.norm(hull.equations[:, :3], axis=1, keepdims=True)
+    f = np.repeat(np.arange(len(hull.simplices)), 3)
+    g = hull.neighbors.ravel()
+    a = hull.simplices[:, [1, 2, 0]].ravel()  # the edge of face f opposite its vertex j is shared with neighbour j
+    b = hull.simplices[:, [2, 0, 1]].ravel()
+    once = f < g
+    f, g, a, b = f[once], g[once], a[once], b[once]
+    # one candidate per distinct face direction (n and -n give the same box; coplanar facets repeat normals)
+    sign = np.where(normals[np.arange(len(normals)), np.argmax(np.abs(normals), axis=1)] < 0, -1.0, 1.0)
+    _, first = np.unique(np.round(normals * sign[:, None], 9), axis=0, return_index=True)
+    dirs = normals[np.sort(first)]
+    t1 = np.cross(dirs, np.eye(3)[np.argmin(np.abs(dirs), axis=1)])  # geometry.perpendicular_basis, row by row
+    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
+    t2 = np.cross(dirs, t1)
+    out = []
+    for c in range(0, len(dirs), 256):  # 256 directions at a time: memory linear in the hull
+        n = dirs[c : c + 256]
+        front = normals @ n.T > 1e-12
+        i, e = np.nonzero((front[f] != front[g]).T)  # (direction, silhouette edge) pairs, grouped by direction
+        A, B = pc[a[e]], pc[b[e]]
+        xa = np.column_stack([np.einsum("pk,pk->p", A, t1[c + i]), np.einsum("pk,pk->p", A, t2[c + i])])
+        xb = np.column_stack([np.einsum("pk,pk->p", B, t1[c + i]), np.einsum("pk,pk->p", B, t2[c + i])])
+        d = xa - xb
+        lens = np.hypot(d[:, 0], d[:, 1])
+        keep = lens > 0
+        i, xa, xb, d = i[keep], xa[keep], xb[keep], d[keep] / lens[keep, None]
+        count = np.bincount(i, minlength=len(n))
+        start = np.cumsum(count) - count
+        mid = np.column_stack([np.bincount(i, xa[:, k] + xb[:, k], len(n)) for k in range(2)]) / np.maximum(2 * count, 1)[:, None]
+        nu = np.column_stack([-d[:, 1], d[:, 0]])
+        nu *= np.where(np.einsum("pk,pk->p", nu, xa - mid[i]) < 0, -1.0, 1.0)[:, None]  # outward
+        key = np.arctan2(nu[:, 1], nu[:, 0]) + 8.0 * i
+        order = np.argsort(key, kind="stable")
+        key, xa, xb, nu, d = key[order], xa[order], xb[order], nu[order], d[order]
+        psi = np.vstack([nu, -nu, d, -d])
+        gi = np.tile(i, 4)
+        k = np.searchsorted(key, np.arctan2(psi[:, 1], psi[:, 0]) + 8.0 * gi) - 1 - start[gi]
+        near = start[gi][:, None] + (k[:, None] + np.arange(2)) % count[gi][:, None]  # the two edges of the bracket
+        h = np.maximum(np.einsum("qjk,qk->qj", xa[near], psi), np.einsum("qjk,qk->qj", xb[near], psi)).max(axis=1).reshape(4, -1)
+        area = (h[0] + h[1]) * (h[2] + h[3])
+        best = np.lexsort((area, i))[start[count > 0]]  # each direction's smallest rectangle
+        j = i[best]
+        e1 = t1[c + j] * d[best, :1] + t2[c + j] * d[best, 1:]
+        rots = np.stack([e1, np.cross(n[j], e1), n[j]], axis=2)  # (k, 3, 3): columns e1, n x e1, n
+        loc = hv @ rots
+        vols = np.prod(loc.max(axis=1) - loc.min(axis=1), axis=1)
+        out += list(zip(vols.tolist(), rots, strict=True))
+    return out
+
+
 def oriented_bounding_box(points, *, where: str = "") -> BoundingBox:
     """Minimum-volume oriented bounding box of a 3-D point set ([H]_ section III.C, Table IV).
 
@@ -146,18 +209,7 @@ def oriented_bounding_box(points, *, where: str = "") -> BoundingBox:
         _, lo, hi = _box_from_rotation(pc, rot)
         return _finish_box(rot, lo + rot.T @ centroid, hi + rot.T @ centroid)
     hv = pc[hull.vertices]
-    cands = [(_box_from_rotation(hv, pca)[0], pca)]
-    normals = hull.equations[:, :3] / np.linalg.norm(hull.equations[:, :3], axis=1, keepdims=True)
-    # one candidate per distinct face direction (n and -n give the same box; coplanar facets repeat normals)
-    sign = np.where(normals[np.arange(len(normals)), np.argmax(np.abs(normals), axis=1)] < 0, -1.0, 1.0)
-    _, first = np.unique(np.round(normals * sign[:, None], 9), axis=0, return_index=True)
-    for n in normals[np.sort(first)]:
-        t1, t2 = perpendicular_basis(n)
-        area, u, _, _ = _min_area_rect(hv @ np.column_stack([t1, t2]))
-        e1 = u[0] * t1 + u[1] * t2
-        rot = np.column_stack([e1, np.cross(n, e1), n])
-        h = hv @ n
-        cands.append((area * float(h.max() - h.min()), rot))
+    cands = [(_box_from_rotation(hv, pca)[0], pca)] + _face_candidates(hull, pc, hv)
     cands.sort(key=lambda c: c[0])
     best_v, best_r = cands[0]
 

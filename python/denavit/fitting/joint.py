@@ -30,6 +30,8 @@ from .robust import loss_weight, misfit_variance, robust_sigma
 
 #: A locked reading whose correlation with the swept joint's reading exceeds this (and which moves) is coupled.
 COUPLED_CORRELATION = 0.99
+#: Points of a sweep per step of the joint fit's normal equations (their Jacobian rows, a few MB, are not kept).
+CHUNK = 8192
 
 
 def locked_motion(q: np.ndarray, joint: int, home: np.ndarray, tol: np.ndarray):
@@ -92,11 +94,12 @@ def _rotate(n, cs, sn, x):
     return x * cs + _cross(n, x) * sn + np.outer(x @ n, n) * (1 - cs)
 
 
-def _chain(cs, ns, kinds, p, dq, active, jac: bool):
+def _chain(cs, ns, kinds, p, dq, active, jac: bool, moving: int | None = None):
     """Predicted points (m, 3), and with ``jac`` the Jacobian blocks and the motion of the swept joint.
 
     Returns ``pred``, ``blocks`` {joint: (m, 3, 4) d pred / d [a, b, s, t]} (direction in its tangent basis,
     point across the axis), ``jp`` (m, 3, 3) d pred / d p, and ``dpdq`` {joint: (m, 3)} d pred / d q_joint.
+    Without ``jac`` but with ``moving`` (a joint), ``dpdq`` of that joint alone (the misfit's tangent), no blocks.
     Rotations act on vectors (Rodrigues), so the cost is linear in the points and small per point.
     """
     m = dq.shape[0]
@@ -109,7 +112,7 @@ def _chain(cs, ns, kinds, p, dq, active, jac: bool):
         else:
             trig[i] = (np.cos(dq[:, i])[:, None], np.sin(dq[:, i])[:, None])
             y = cs[i] + _rotate(ns[i], *trig[i], y - cs[i])
-    if not jac:
+    if not jac and moving is None:
         return y, None, None, None
 
     def outer(i, x):
@@ -120,6 +123,10 @@ def _chain(cs, ns, kinds, p, dq, active, jac: bool):
         return x
 
     blocks, dpdq = {}, {}
+    if not jac:
+        i = moving
+        move = ns[i] if kinds[i] == "prismatic" else _cross(ns[i], _rotate(ns[i], *trig[i], before[i] - cs[i]))
+        return y, None, None, {i: outer(i, np.broadcast_to(move, (m, 3)))}
     for i in active:
         B = np.column_stack(perpendicular_basis(ns[i]))
         cols = []
@@ -171,16 +178,16 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     def home_of(k):
         return homes[k] if per_sweep_home else homes[0]
 
-    def evaluate(cs, ns, homes_, jac):
-        out = []
-        for k, (s, dq) in enumerate(zip(sweeps.sweeps, dqs, strict=True)):
-            pred, blocks, jp, dpdq = _chain(cs, ns, kinds, homes_[k] if per_sweep_home else homes_[0], dq, active[k], jac)
-            out.append((pred - s.points, blocks, jp, dpdq))
-        return out
+    def chunks(k, cs, ns, homes_, jac):
+        """(rows, misfits r, d pred / d q of the swept joint, blocks, jp) of sweep k, CHUNK points at a time."""
+        s, dq = sweeps.sweeps[k], dqs[k]
+        j = s.joint - 1
+        for a in range(0, len(dq), CHUNK):
+            rows = slice(a, a + CHUNK)
+            pred, blocks, jp, dpdq = _chain(cs, ns, kinds, homes_[k] if per_sweep_home else homes_[0], dq[rows], active[k], jac, j)
+            yield rows, pred - s.points[rows], dpdq[j], blocks, jp
 
-    def tangent(k, dpdq):
-        j = sweeps.sweeps[k].joint - 1
-        mv = dpdq[j]
+    def tangent(mv):
         lever = np.linalg.norm(mv, axis=1)
         return mv / np.maximum(lever, 1e-300)[:, None], lever
 
@@ -188,33 +195,40 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         rt = np.einsum("mi,mi->m", r, t)
         return r - (1 - g) * rt[:, None] * t, rt
 
-    def normal_eq(ev):
-        """Normal matrix, its robust sandwich part, gradient, whitened cost, and per sweep (indices, weighted
-        tangential rows, tangential residuals, levers, whitened residuals). Whitening scales the component along
-        the tangent t by gamma: J_w^T J_w = J^T J - (1 - gamma^2) (t^T J)^T (t^T J), J_w^T r_w likewise."""
+    def normal_eq(cs, ns, homes_):
+        """Normal matrix, its robust sandwich part, gradient, whitened cost, and per sweep (indices, Gram matrix of
+        the weighted tangential rows, tangential residuals, levers, whitened residuals, misfits), accumulated sweep
+        by sweep and CHUNK points at a time (memory linear in the points, small per point). Whitening scales the
+        component along the tangent t by gamma: J_w^T J_w = J^T J - (1 - gamma^2) (t^T J)^T (t^T J), J_w^T r_w
+        likewise."""
         A = np.zeros((npar, npar))
         A2 = np.zeros((npar, npar)) if loss != "linear" else None
         b = np.zeros(npar)
         ss = 0.0
         parts = []
-        for k, (r, blocks, jp, dpdq) in enumerate(ev):
-            t, lever = tangent(k, dpdq)
-            cols = [(4 * i, blocks[i]) for i in active[k]] + [(4 * n + 3 * (k if per_sweep_home else 0), jp)]
-            idx = np.concatenate([np.arange(o, o + blk.shape[2]) for o, blk in cols])
-            J = np.concatenate([blk for _, blk in cols], axis=2)
+        for k in range(S):
             g2 = 1 - gam[k] ** 2
-            jt = np.einsum("mi,mik->mk", t, J)
-            rt = np.einsum("mi,mi->m", r, t)
-            w = ws[k]
-            Jf = J.reshape(-1, len(idx))
-            w3 = np.repeat(w, 3)
-            A[np.ix_(idx, idx)] += (Jf * w3[:, None]).T @ Jf - g2 * (jt * w[:, None]).T @ jt
-            if A2 is not None:
-                A2[np.ix_(idx, idx)] += (Jf * (w3**2)[:, None]).T @ Jf - g2 * (jt * (w**2)[:, None]).T @ jt
-            b[idx] += Jf.T @ (w3 * (r - g2 * rt[:, None] * t).reshape(-1))
-            rw = r - (1 - gam[k]) * rt[:, None] * t
-            ss += float(np.sum(w * np.sum(rw**2, axis=1)))
-            parts.append((idx, gam[k] * jt * np.sqrt(w)[:, None], rt, lever, rw))
+            idx = np.concatenate([np.arange(4 * i, 4 * i + 4) for i in active[k]] + [np.arange(4 * n + 3 * (k if per_sweep_home else 0), 4 * n + 3 * (k if per_sweep_home else 0) + 3)])
+            Gt = np.zeros((len(idx), len(idx)))
+            m = len(dqs[k])
+            rt_k, lever_k, rw_k, r_k = np.empty(m), np.empty(m), np.empty((m, 3)), np.empty((m, 3))
+            for rows, r, mv, blocks, jp in chunks(k, cs, ns, homes_, True):
+                t, lever = tangent(mv)
+                J = np.concatenate([blocks[i] for i in active[k]] + [jp], axis=2)
+                jt = np.einsum("mi,mik->mk", t, J)
+                rt = np.einsum("mi,mi->m", r, t)
+                w = ws[k][rows]
+                Jf = J.reshape(-1, len(idx))
+                w3 = np.repeat(w, 3)
+                A[np.ix_(idx, idx)] += (Jf * w3[:, None]).T @ Jf - g2 * (jt * w[:, None]).T @ jt
+                if A2 is not None:
+                    A2[np.ix_(idx, idx)] += (Jf * (w3**2)[:, None]).T @ Jf - g2 * (jt * (w**2)[:, None]).T @ jt
+                b[idx] += Jf.T @ (w3 * (r - g2 * rt[:, None] * t).reshape(-1))
+                rw = r - (1 - gam[k]) * rt[:, None] * t
+                ss += float(np.sum(w * np.sum(rw**2, axis=1)))
+                Gt += gam[k] ** 2 * (jt * w[:, None]).T @ jt
+                rt_k[rows], lever_k[rows], rw_k[rows], r_k[rows] = rt, lever, rw, r
+            parts.append((idx, Gt, rt_k, lever_k, rw_k, r_k))
         return A, (A if A2 is None else A2), b, ss, parts
 
     def step(x_cs, x_ns, x_h, delta):
@@ -226,22 +240,26 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             new_cs.append(x_cs[i] + (B @ delta[4 * i + 2 : 4 * i + 4] if kinds[i] == "revolute" else 0.0))
         return new_cs, new_ns, x_h + delta[4 * n :].reshape(-1, 3)
 
-    def cost(ev):
-        return sum(float(np.sum(ws[k] * np.sum(whitened(r, tangent(k, dpdq)[0], gam[k])[0] ** 2, axis=1))) for k, (r, _, _, dpdq) in enumerate(ev))
+    def cost(cs, ns, homes_):
+        """The whitened cost at a trial point: misfits and tangents only, no Jacobian blocks."""
+        total = 0.0
+        for k in range(S):
+            for rows, r, mv, _, _ in chunks(k, cs, ns, homes_, False):
+                total += float(np.sum(ws[k][rows] * np.sum(whitened(r, tangent(mv)[0], gam[k])[0] ** 2, axis=1)))
+        return total
 
-    ev = evaluate(cs, ns, homes, True)
     lam = 1e-6
     sigma2 = None
     for it in range(300):
-        A, A2, b, ss, parts = normal_eq(ev)
+        A, A2, b, ss, parts = normal_eq(cs, ns, homes)
         D = np.diag(A).copy()
         D[D <= 0] = 1.0
         # variance components: pooled point noise across the motion, each sweep's misfit along it
         A_inv = _pinv_sym(A)
-        lev_t = [float(np.sum((jt @ A_inv[np.ix_(idx, idx)]) * jt)) for idx, jt, _, _, _ in parts]
+        lev_t = [float(np.sum(A_inv[np.ix_(idx, idx)] * Gt)) for idx, Gt, _, _, _, _ in parts]
         # (robust losses: the weighted residuals w r, bounded for outliers, over the weighted counts sum(w^2))
-        ss_t = [float(np.sum(ws[k] ** 2 * rt**2)) for k, (_, _, rt, _, _) in enumerate(parts)]
-        ss_o = sum(float(np.sum(ws[k] ** 2 * (np.sum(ev[k][0] ** 2, axis=1) - parts[k][2] ** 2))) for k in range(S))
+        ss_t = [float(np.sum(ws[k] ** 2 * rt**2)) for k, (_, _, rt, _, _, _) in enumerate(parts)]
+        ss_o = sum(float(np.sum(ws[k] ** 2 * (np.sum(parts[k][5] ** 2, axis=1) - parts[k][2] ** 2))) for k in range(S))
         m_w = [float(np.sum(w**2)) for w in ws]
         red_o = 2 * sum(m_w) - (float(np.trace(A_inv @ A)) - sum(lev_t))
         sigma2 = max(ss_o / red_o if red_o > 0 else 0.0, (noise_sigma or 0.0) ** 2, floor**2)
@@ -257,15 +275,13 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         changed = it < 100 and (np.max(np.abs(new_gam - gam) / gam) > 1e-3 or any(np.max(np.abs(a - c)) > 1e-6 for a, c in zip(new_ws, ws, strict=True)))
         if changed:
             gam, ws = new_gam, new_ws
-            ev = evaluate(cs, ns, homes, True)
             continue
         delta = -_pinv_sym(A + lam * np.diag(D)) @ b
         small = np.max(np.abs(delta)) <= 1e-13 * max(size, 1e-300) + 1e-300
         tcs, tns, th = step(cs, ns, homes, delta)
-        tev = evaluate(tcs, tns, th, True)
-        new_cost = cost(tev)
+        new_cost = cost(tcs, tns, th)
         if new_cost <= ss:
-            cs, ns, homes, ev = tcs, tns, th, tev
+            cs, ns, homes = tcs, tns, th
             lam = max(lam / 10, 1e-12)
             small = small or (not changed and ss - new_cost <= 1e-14 * ss)
         else:
@@ -274,7 +290,7 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             break
     else:
         raise NotConvergedError(f"{where}: global fit: no convergence in 300 steps (expected the steps to settle to 1e-13 of the size)")
-    A, A2, b, ss, parts = normal_eq(ev)
+    A, A2, b, ss, parts = normal_eq(cs, ns, homes)
     psi2 = sum(float(np.sum(w**2 * np.sum(p[4] ** 2, axis=1))) for w, p in zip(ws, parts, strict=True))
     dof = 3 * sum(float(np.sum(w**2)) for w in ws) - npar
     s2 = misfit_variance(np.sqrt(psi2) * np.ones(1), dof, math.sqrt(sigma2))
@@ -298,6 +314,6 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     reading_sigma = [math.sqrt(max(sigma2 / g**2 - sigma2, 0.0)) / max(float(np.mean(p[3])), 1e-300) for g, p in zip(gam, parts, strict=True)]
     return {
         "points": np.array(feet), "directions": np.array(ns), "home": np.array([home_of(k) for k in range(S)]), "cov": cov,
-        "misfit": [np.linalg.norm(e[0], axis=1) for e in ev], "weights": ws, "whitened": [np.linalg.norm(p[4], axis=1) / sigma for p in parts],
+        "misfit": [np.linalg.norm(p[5], axis=1) for p in parts], "weights": ws, "whitened": [np.linalg.norm(p[4], axis=1) / sigma for p in parts],
         "sigma": sigma, "reading_sigma": reading_sigma, "ss": ss / sigma2, "ss_m": ss, "n_params": npar, "gamma": gam,
     }

@@ -5,13 +5,20 @@ names unique. Errors name the file, the line and the column.
 This module also holds the one number rule of every reader: :func:`number` for a text cell (CSV, URDF
 attributes), :func:`as_number` for a value a TOML, JSON or YAML parser has already typed (no booleans, no
 strings that look like numbers).
+
+Whole tables of plain numbers (a sweep file's millions of rows) take :func:`numeric_table`, numpy's C reader,
+first; whatever it does not take is read row by row with :func:`number`, whose errors name the line and column.
 """
 
 from __future__ import annotations
 
 import csv
+import io
 import math
 import re
+import warnings
+
+import numpy as np
 
 from ..errors import DenavitError
 
@@ -87,6 +94,43 @@ def as_number(value, where: str, *, finite: bool = True) -> float:
     if math.isnan(v) or (finite and math.isinf(v)):
         raise DenavitError(f"{where}: expected a finite number, got {'NaN' if math.isnan(v) else v}")
     return v
+
+
+#: The bytes a table may hold for :func:`numeric_table` besides its separator: digits, sign, point, exponent,
+#: blanks and line ends. No letters (``inf``, ``nan``), underscores, quotes or ``#`` comments.
+PLAIN = b"0123456789+-.eE \t\r\n"
+
+
+def numeric_table(data: bytes, delim: str, ncols: int) -> np.ndarray | None:
+    """The (m, ``ncols``) numbers of ``data`` (lines of ``ncols`` cells separated by ``delim``, ``\\n`` or
+    ``\\r\\n`` line ends), parsed at C speed by :func:`numpy.loadtxt`; None when it is not such a table of
+    finite plain decimals, for the caller to read row by row with :func:`number` (whose errors name the line and
+    the column).
+
+    It takes only cells ``[+-]digits[.digits][e[+-]digits]`` with blanks around them (:data:`PLAIN`: the
+    grammar left to numpy's parser, ``PyOS_string_to_double``, once letters are excluded), every one of which
+    :func:`number` takes with the same value (both round correctly); and only when every line is a row (no blank
+    lines before the last row, no comments), so that row ``k`` is line ``k + 1`` of ``data``. Anything else
+    (a word, ``nan``, a number beyond float range, a missing or extra cell, a trailing separator, a quoted cell,
+    a lone ``\\r``) gives None.
+    """
+    sep = delim.encode()
+    if len(sep) != 1 or sep in PLAIN or data.translate(None, PLAIN + sep):
+        return None
+    end = len(data)
+    while end and data[end - 1] in b" \t\r\n":  # trailing blank lines end the file; they are not rows
+        end -= 1
+    if not end or data.find(b"\n\n", 0, end) >= 0 or (b"\r" in data and (data.count(b"\r") != data.count(b"\r\n") or data.find(b"\n\r\n", 0, end) >= 0)):
+        return None  # a blank line (not a row: the line numbers would slip) or a lone carriage return
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            table = np.loadtxt(io.BytesIO(data), delimiter=delim, dtype=float, comments=None, ndmin=2, encoding="latin1")
+    except (ValueError, UserWarning):
+        return None
+    if table.shape[1] != ncols or not np.isfinite(table).all():
+        return None
+    return table
 
 
 def rows(lines: list[str], where: str = "") -> tuple[list[tuple[int, list[str]]], str]:

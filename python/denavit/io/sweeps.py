@@ -17,6 +17,7 @@ import json
 import math
 import os
 import re
+from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 
@@ -25,7 +26,7 @@ import numpy as np
 from ..errors import DenavitError
 from ..sweeps import Sweep, SweepSet
 from . import delimited as dl
-from .text import read_text
+from .text import decode, read_bytes, read_text
 from .units import input_units, joint_scale, length_scale, parse_declaration
 
 KINDS = ("revolute", "prismatic")
@@ -38,20 +39,31 @@ def _kinds(kinds, n: int, where: str, what: str) -> list[str]:
     return kinds
 
 
-def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: str | None = None, kinds: list[str] | None = None, home=None) -> SweepSet:
-    """Read the long-form CSV: header ``joint,q1,...,qn,x,y,z`` (optional ``time``), one row per point.
+class FileLines(Sequence):
+    """The ``"file:line"`` of each point (:attr:`denavit.sweeps.Sweep.where`) as the file name and an array of
+    line numbers: a sequence of strings made when asked for, not millions of them held (a 1e6-row sweep's
+    ``where`` costs 8 MB instead of 80). Slices and integer arrays give FileLines again."""
 
-    ``joint`` is the moving joint's 1-based index; q1..qn every joint reading at that instant; x, y, z the
-    point. Units: the file's ``# units: length=mm angle=deg`` line, else ``length`` / ``angle``. ``kinds``
-    (default all revolute) say which readings are lengths. ``home`` (SI) defaults to the readings of the
-    locked joints.
-    """
-    where = str(path)
-    lines = read_text(path, "sweep file").splitlines()
-    units = input_units(parse_declaration(lines, where), length, angle, where)
-    rows, _ = dl.rows(lines, where)
-    if not rows:
-        raise DenavitError(f"{where}: no header and no data: expected a header 'joint,q1,...,qn,x,y,z'")
+    __slots__ = ("source", "lines")
+
+    def __init__(self, source: str, lines):
+        self.source = source
+        self.lines = np.asarray(lines, dtype=np.int64)
+
+    def __len__(self) -> int:
+        return len(self.lines)
+
+    def __getitem__(self, k):
+        if isinstance(k, slice) or (isinstance(k, np.ndarray) and k.ndim == 1):
+            return FileLines(self.source, self.lines[k])
+        return f"{self.source}:{self.lines[k]}"
+
+    def __repr__(self) -> str:
+        return f"FileLines({self.source!r}, {len(self)} lines)"
+
+
+def _long_header(rows: list, where: str) -> tuple[list[str], int, list[str]]:
+    """(column names, number of joints, the columns needed) of the long form's header row, checked."""
     hline, header = rows[0]
     cols = dl.header(header, f"{where}:{hline}")
     n = len([c for c in cols if re.fullmatch(r"q\d+", c)])
@@ -61,30 +73,123 @@ def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: 
     if missing or unknown or n == 0:
         what = f"missing {', '.join(missing) or 'q columns'}" if missing or n == 0 else f"unknown column(s) {', '.join(unknown)}"
         raise DenavitError(f"{where}:{hline}: header must be 'joint,q1,...,qn,x,y,z' (optional 'time'); {what}, got {','.join(header)!r}")
+    return cols, n, need
+
+
+def _fast_long(data: bytes, where: str):
+    """The long form read by :func:`~denavit.io.delimited.numeric_table`: (lines before the data, the
+    table (m, columns), the line number of its first row), or None when the data rows are not a plain numeric
+    table (then the row-by-row reader reads it, and names the line and column of what is wrong)."""
+    pos = 0
+    while True:  # the comment lines and the header: up to the first line that is neither blank nor a comment
+        nl = data.find(b"\n", pos)
+        if nl < 0:
+            return None
+        try:
+            line = decode(data[pos : nl + 1], where) if pos else decode(data[: nl + 1], where)
+        except DenavitError:
+            return None
+        pos = nl + 1
+        parts = line.splitlines()
+        if any(x.strip() and not x.lstrip().startswith("#") for x in parts):
+            if len(parts) != 1:
+                return None
+            break
+    head = decode(data[:pos], where).splitlines()
+    found, delim = dl.rows(head, where)
+    table = dl.numeric_table(data[pos:], delim, len(found[0][1]))
+    return None if table is None else (head, table, len(head) + 1)
+
+
+def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: str | None = None, kinds: list[str] | None = None, home=None) -> SweepSet:
+    """Read the long-form CSV: header ``joint,q1,...,qn,x,y,z`` (optional ``time``), one row per point.
+
+    ``joint`` is the moving joint's 1-based index; q1..qn every joint reading at that instant; x, y, z the
+    point. Units: the file's ``# units: length=mm angle=deg`` line, else ``length`` / ``angle``. ``kinds``
+    (default all revolute) say which readings are lengths. ``home`` (SI) defaults to the readings of the
+    locked joints.
+
+    The data rows are parsed at C speed when they are plain numbers (:func:`~denavit.io.delimited.numeric_table`:
+    60-150 MB of text a second, benchmarks/bench_io.py); otherwise, and whenever a value is wrong, row by row, each cell by
+    :func:`~denavit.io.delimited.number`, the error naming the line and the column.
+    """
+    where = str(path)
+    data = read_bytes(path, "sweep file")
+    fast = _fast_long(data, where)
+    lines = fast[0] if fast else decode(data, where).splitlines()
+    units = input_units(parse_declaration(lines, where), length, angle, where)
+    rows, _ = dl.rows(lines, where)
+    if not rows:
+        raise DenavitError(f"{where}: no header and no data: expected a header 'joint,q1,...,qn,x,y,z'")
+    cols, n, need = _long_header(rows, where)
     kinds = _kinds(kinds, n, where, "the header")
     qscale = joint_scale(kinds, units["length"], units["angle"], where)
     ls = length_scale(units["length"], where)
-    idx = {c: cols.index(c) for c in need}
-    sweeps: dict[int, list] = {}
-    for ln, cells in rows[1:]:
-        at = f"{where}:{ln}"
-        if len(cells) != len(cols):
-            raise DenavitError(f"{at}: expected {len(cols)} values, got {len(cells)}")
-        jtext = cells[idx["joint"]]
-        if not (dl.is_number(jtext) or dl.NON_FINITE.fullmatch(jtext)):  # inf, nan: out of range below
-            raise DenavitError(f"{at}: column 'joint' must be a joint index 1..{n}, got {jtext[:40]!r}")
-        jv = float(jtext)
-        if not (math.isfinite(jv) and jv == round(jv) and 1 <= jv <= n):
-            raise DenavitError(f"{at}: joint index out of range: expected 1..{n}, got {jtext}")
-        q = np.array([dl.number(cells[idx[f"q{i}"]], at, f"q{i}") for i in range(1, n + 1)]) * qscale
-        p = np.array([dl.length(cells[idx[c]], at, c, ls) for c in "xyz"])
-        sweeps.setdefault(int(jv), []).append((q, p, at))
-    out = [Sweep(j, np.array([r[1] for r in sweeps[j]]), np.array([r[0] for r in sweeps[j]]), [r[2] for r in sweeps[j]]) for j in sorted(sweeps)]
+    take = [cols.index(c) for c in need]
+    if fast:
+        table, line = fast[1], fast[2] + np.arange(len(fast[1]))
+        starts = _blocks(table[:, take[0]])
+        jv = table[starts, take[0]]  # every row's joint value is one of its block's
+        if not np.all((jv == np.round(jv)) & (jv >= 1) & (jv <= n)):  # the row-by-row reader names the row
+            fast = None
+            rows, _ = dl.rows(decode(data, where).splitlines(), where)
+    del data
+    if not fast:
+        table, line = _slow_long(rows[1:], cols, n, take, where)
+        take = list(range(len(take)))
+        starts = _blocks(table[:, 0])
+    del fast
+    joint = table[:, take[0]]
+    ends = np.r_[starts[1:], len(table)]
+    if len(np.unique(joint[starts])) == len(starts):  # each joint's rows one block (the usual layout): slices
+        picks = {int(joint[a]): slice(a, b) for a, b in zip(starts, ends)}
+    else:
+        picks = {int(j): np.flatnonzero(joint == j) for j in np.unique(joint[starts])}
+    qcols, pcols = _columns(take[1 : n + 1]), _columns(take[n + 1 :])
+    far = np.abs(table[:, pcols]) * ls > dl.MAX_LENGTH  # a 1e308 mm point had overflowed the fits
+    if far.any():
+        r, c = np.argwhere(far)[0]
+        dl.far(table[r, pcols][c] * ls, f"{where}:{line[r]}: column {'xyz'[c]!r}")
+    sweeps = {j: Sweep(j, table[k][:, pcols] * ls, table[k][:, qcols] * qscale, FileLines(where, line[k])) for j, k in picks.items()}
+    del table
+    out = [sweeps[j] for j in sorted(sweeps)]
     every = SweepSet(out, n, np.zeros(n), kinds, where, units)  # one sweep of each joint (or a one-line error)
     if home is None:
         # the locked joints' readings: the median over the sweeps in which each joint does not move
         home = np.array([np.median(np.concatenate([s.q[:, i] for s in out if s.joint != i + 1])) if n > 1 else 0.0 for i in range(n)])
     return replace(every, home=np.asarray(home, dtype=float))
+
+
+def _blocks(joint: np.ndarray) -> np.ndarray:
+    """The first row of each run of equal values of ``joint`` (none when there are no rows)."""
+    return np.r_[0, np.flatnonzero(joint[1:] != joint[:-1]) + 1] if len(joint) else np.zeros(0, dtype=int)
+
+
+def _columns(idx: list[int]):
+    """Column indices as a slice when consecutive (a view, not a copy)."""
+    return slice(idx[0], idx[-1] + 1) if idx == list(range(idx[0], idx[-1] + 1)) else idx
+
+
+def _slow_long(rows: list, cols: list[str], n: int, take: list[int], where: str) -> tuple[np.ndarray, np.ndarray]:
+    """The data rows cell by cell: (m, 1 + n + 3) [joint, q, xyz] in file units and the line numbers; the first
+    wrong cell is an error naming its line and column."""
+    table = np.empty((len(rows), len(take)))
+    line = np.empty(len(rows), dtype=np.int64)
+    names = ["joint", *[f"q{i}" for i in range(1, n + 1)], "x", "y", "z"]
+    for r, (ln, cells) in enumerate(rows):
+        at = f"{where}:{ln}"
+        if len(cells) != len(cols):
+            raise DenavitError(f"{at}: expected {len(cols)} values, got {len(cells)}")
+        jtext = cells[take[0]]
+        if not (dl.is_number(jtext) or dl.NON_FINITE.fullmatch(jtext)):  # inf, nan: out of range below
+            raise DenavitError(f"{at}: column 'joint' must be a joint index 1..{n}, got {jtext[:40]!r}")
+        jv = float(jtext)
+        if not (math.isfinite(jv) and jv == round(jv) and 1 <= jv <= n):
+            raise DenavitError(f"{at}: joint index out of range: expected 1..{n}, got {jtext}")
+        table[r, 0] = jv
+        table[r, 1:] = [dl.number(cells[i], at, c) for i, c in zip(take[1:], names[1:])]
+        line[r] = ln
+    return table, line
 
 
 _JOINT_FILE = re.compile(r"j(\d+)\.csv", re.IGNORECASE)
@@ -294,19 +399,29 @@ def read(path: str | os.PathLike, **kw) -> SweepSet:
     return read_long_csv(p, **{k: v for k, v in kw.items() if k in ("length", "angle", "kinds")})
 
 
+#: Rows formatted per call of the writer's one ``%`` operation (its arguments held as Python floats meanwhile).
+WRITE_CHUNK = 20_000
+
+
 def to_long_csv(sweeps: SweepSet, length: str = "mm", angle: str = "deg", header_comment: str = "") -> str:
-    """The long-form CSV text of a sweep set (units declared in a comment line)."""
+    """The long-form CSV text of a sweep set (units declared in a comment line).
+
+    Numbers are written with 17 significant digits (``%.17g``), so that reading the file back gives the same
+    doubles (in the file's units); the rows are formatted a chunk at a time by one ``%`` of C-level formatting.
+    """
     ls = length_scale(length)
     qscale = joint_scale(sweeps.kinds, length, angle)
     out = io.StringIO()
     for line in header_comment.splitlines():
         out.write(f"# {line}\n")
     out.write(f"# units: length={length} angle={angle}\n")
-    w = csv.writer(out, lineterminator="\n")
-    w.writerow(["joint", *[f"q{i}" for i in range(1, sweeps.n_joints + 1)], "x", "y", "z"])
+    csv.writer(out, lineterminator="\n").writerow(["joint", *[f"q{i}" for i in range(1, sweeps.n_joints + 1)], "x", "y", "z"])
+    row = ",".join(["%d"] + ["%.17g"] * (sweeps.n_joints + 3)) + "\n"
     for s in sweeps.sweeps:
         if s.q is None:
             raise DenavitError("long-form CSV needs joint readings; this sweep set has none")
-        for q, p in zip(s.q, s.points):
-            w.writerow([s.joint, *(f"{v:.10g}" for v in q / qscale), *(f"{v:.10g}" for v in p / ls)])
+        for a in range(0, len(s.points), WRITE_CHUNK):
+            q, p = s.q[a : a + WRITE_CHUNK], s.points[a : a + WRITE_CHUNK]
+            cells = np.column_stack([np.full(len(q), s.joint), q / qscale, p / ls])
+            out.write((row * len(cells)) % tuple(cells.ravel().tolist()))
     return out.getvalue()
