@@ -252,7 +252,8 @@ def _joint_fits(sweeps: SweepSet, fits: list, res: dict, cov: np.ndarray, loss: 
         radius = float(np.linalg.norm(ph - c)) if sweeps.kinds[j] == "revolute" else math.nan
         out.append(replace(f, point=c, direction=nv, radius=radius, residuals=mis, rms=float(math.sqrt(np.mean(mis**2))), cov=cov6,
                            sigma_point_perp=sp, sigma_direction=sd, outliers=flag_outliers(res["whitened"][k], 3, 1.0),
-                           method=label if loss == "linear" else f"{label}+{loss}", reading_sigma=res["reading_sigma"][k], noise=res["sigma"]))
+                           method=label if loss == "linear" else f"{label}+{loss}", reading_sigma=res["reading_sigma"][k], noise=res["sigma"],
+                           scale=1 + res["scales"][j] if np.isfinite(res["scale_sigma"][j]) else f.scale, scale_sigma=res["scale_sigma"][j]))
     return out
 
 
@@ -287,47 +288,68 @@ def _with_drift(sweeps: SweepSet, res: dict) -> tuple[np.ndarray, float]:
     return cov, math.sqrt(sd2)
 
 
+def _bic(simple: dict, rich: dict, k: int, n_res: int) -> float:
+    """Schwarz's criterion of the richer of two nested joint fits on the same weights: the chi-square it gains,
+    less its ``k`` extra parameters times ln(residuals) (positive: the richer model wins). The AIC's 2 per
+    parameter picked a drift on exact 30 degree data in 3 % of runs (a home per sweep trades with the tilt of an
+    axis about its arc's tangent)."""
+    return (simple["ss_m"] - rich["ss_m"]) / rich["sigma"] ** 2 - k * math.log(n_res)
+
+
 def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: list[str], chosen: str) -> tuple[str, list, np.ndarray, np.ndarray, float]:
     """The joint fit(s) with readings: ``chosen`` "global", or "auto" (evidence: the per-sweep fits when the
-    readings are worth nothing, else one home point or one per sweep by the BIC). Returns (method, fits, cov,
-    tool point, rms)."""
+    readings are worth nothing, else one home point or one per sweep, and the readings' scale errors or not,
+    each by the BIC). Returns (method, fits, cov, tool point, rms)."""
     dqs = _motions(sweeps, notes)
     starts = [(f.point, f.direction) for f in fits]
     g = fit_sweeps(sweeps, dqs, starts, p_home, loss=loss, where=sweeps.source)
+    method, cov, drift = "global", g["cov"], None
     if chosen == "auto":
         sq = [f"{math.degrees(v) * 3600:.3g}" for v in g["reading_sigma"]]
         if np.all(g["gamma"] < READINGS_WORTHLESS):
             notes.append(f"auto: geometric (per-sweep circles): the readings are worth nothing against the points (estimated reading error {', '.join(sq)} arcsec per sweep)")
             return "geometric", None, None, None, math.nan
-        try:
-            d = fit_sweeps(sweeps, dqs, list(zip(g["points"], g["directions"], strict=True)), g["home"][0], loss=loss, per_sweep_home=True,
-                           gamma=g["gamma"], where=sweeps.source)
-        except NotConvergedError:  # (a home per sweep on arcs too short to hold one: the shared home it is)
-            d = None
-        k = 3 * (len(sweeps.sweeps) - 1)
-        # nested models on the same weights: the chi-square gained by a home point per sweep, less its parameters
-        # times ln(residuals) (Schwarz's BIC: the AIC's 2 per parameter picked a drift on exact data in 3 % of
-        # the 30 degree runs, where a home per sweep and a tilt of the axis about the arc's tangent trade)
         n_res = 3 * sum(len(s.points) for s in sweeps.sweeps)
-        bic = -math.inf if d is None else (g["ss_m"] - d["ss_m"]) / d["sigma"] ** 2 - k * math.log(n_res)
-        if bic > 0:  # the drifting home explains more than it costs: refitted with its own weights (the shared home's
-            # tangential misfit held the drift too)
+
+        def richer(base, **kw):
+            """(fit on base's weights, its BIC against base), or (None, -inf) when it does not converge."""
             try:
-                d = fit_sweeps(sweeps, dqs, list(zip(d["points"], d["directions"], strict=True)), d["home"].mean(axis=0), loss=loss,
-                               per_sweep_home=True, where=sweeps.source)
+                r = fit_sweeps(sweeps, dqs, list(zip(base["points"], base["directions"], strict=True)), base["home"].mean(axis=0), loss=loss,
+                               gamma=base["gamma"], where=sweeps.source, **kw)
+            except NotConvergedError:  # (e.g. a home per sweep on arcs too short to hold one)
+                return None, -math.inf
+            return r, _bic(base, r, r["n_params"] - base["n_params"], n_res)
+
+        def refit(r, **kw):
+            """r refitted with its own weights (the simpler model's tangential misfit held the effect too)."""
+            try:
+                return fit_sweeps(sweeps, dqs, list(zip(r["points"], r["directions"], strict=True)), r["home"].mean(axis=0), loss=loss,
+                                  where=sweeps.source, **kw)
             except NotConvergedError:
-                pass  # (keep the fit on the shared home's weights)
-            cov, sd = _with_drift(sweeps, d)
+                return r
+
+        d, bic = richer(g, per_sweep_home=True)
+        if bic > 0:
+            g, method = refit(d, per_sweep_home=True), "readings"
+            cov, sd = _with_drift(sweeps, g)
             notes.append(f"auto: readings (a home point per sweep) over global (one home point): BIC lower by {bic:.3g}; the home tool point "
                          f"moves {sd * 1e3:.3g} mm (1 sigma per coordinate) between sweeps, added to every axis's uncertainty")
-            out = _joint_fits(sweeps, fits, d, cov, loss, "readings")
-            mis = np.concatenate(d["misfit"])
-            return "readings", out, cov, d["home"].mean(axis=0), float(math.sqrt(np.mean(mis**2)))
-        why = f"BIC lower by {-bic:.3g}" if d is not None else "a home point per sweep does not converge on these arcs"
-        notes.append(f"auto: global (one home point) over readings (a home point per sweep): {why}; estimated reading error "
-                     f"{', '.join(sq)} arcsec per sweep, point noise {g['sigma'] * 1e3:.3g} mm")
+        else:
+            why = f"BIC lower by {-bic:.3g}" if d is not None else "a home point per sweep does not converge on these arcs"
+            notes.append(f"auto: global (one home point) over readings (a home point per sweep): {why}; estimated reading error "
+                         f"{', '.join(sq)} arcsec per sweep, point noise {g['sigma'] * 1e3:.3g} mm")
+        drift = method == "readings"
+        sc, bic = richer(g, per_sweep_home=drift, scales=True)
+        if bic > 0:
+            g = refit(sc, per_sweep_home=drift, scales=True)
+            cov = _with_drift(sweeps, g)[0] if drift else g["cov"]
+            parts = [f"joint {j + 1} {g['scales'][j] * 1e6:+.4g} +/- {g['scale_sigma'][j] * 1e6:.2g} ppm" for j in range(sweeps.n_joints) if np.isfinite(g["scale_sigma"][j])]
+            notes.append(f"auto: the readings' scale errors fitted (BIC lower by {bic:.3g}): {', '.join(parts)}")
+        else:
+            notes.append(f"auto: no reading scale errors fitted (BIC {'higher by ' + format(-bic, '.3g') if sc is not None else 'n/a: no convergence'}); "
+                         "a scale error the data cannot show moves each axis radially by about the scale times the arc's radius")
     mis = np.concatenate(g["misfit"])
-    return "global", _joint_fits(sweeps, fits, g, g["cov"], loss, "global"), g["cov"], g["home"][0], float(math.sqrt(np.mean(mis**2)))
+    return method, _joint_fits(sweeps, fits, g, cov, loss, method), cov, g["home"].mean(axis=0), float(math.sqrt(np.mean(mis**2)))
 
 
 #: A pair of consecutive identified axes whose angle or distance differs from the nominal pair's by more than this

@@ -146,13 +146,15 @@ def _chain(cs, ns, kinds, p, dq, active, jac: bool):
 
 
 def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "linear", per_sweep_home: bool = False,
-               noise_sigma=None, gamma=None, where: str = ""):
+               scales: bool = False, noise_sigma=None, gamma=None, where: str = ""):
     """The joint fit of all sweeps (module docstring). ``dqs`` per sweep (m, n) joint motions from home
     (:func:`locked_motion`), ``starts`` per joint (point, direction) start lines, ``p0`` the start home point.
 
     Returns a dict: ``points`` (n, 3) feet of the home point on each axis, ``directions`` (n, 3), ``home``
     (S, 3) home point per sweep (all equal without ``per_sweep_home``), ``cov`` of [c_1, n_1, ..., c_n, n_n,
-    p_1 (, p_2, ...)] (the axis points at those feet), ``misfit`` per sweep (m,) 3-D distances, ``weights`` per
+    p_1 (, p_2, ...)] (the axis points at those feet; with ``scales`` marginal over the scales), ``scales`` (n,)
+    each swept joint's reading scale error ``s_j`` (the joint turns by ``(1 + s_j)`` times its reading's motion;
+    zeros without ``scales``) and ``scale_sigma`` (n,) their one-sigma (nan without), ``misfit`` per sweep (m,) 3-D distances, ``weights`` per
     sweep (m,) robust weights, ``whitened`` per sweep (m,) misfits in point-noise units, ``sigma`` the point
     noise, ``reading_sigma`` per sweep, ``ss`` the whitened sum of squares and ``n_params``.
     """
@@ -161,7 +163,10 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     cs = [np.array(c, dtype=float) for c, _ in starts]
     ns = [np.array(d, dtype=float) / np.linalg.norm(d) for _, d in starts]
     homes = np.tile(np.asarray(p0, dtype=float), (S if per_sweep_home else 1, 1))
-    npar = 4 * n + 3 * len(homes)
+    swept = sorted({s.joint - 1 for s in sweeps.sweeps}) if scales else []
+    sc = np.zeros(n)
+    n_h = 4 * n + 3 * len(homes)  # the first scale's index
+    npar = n_h + len(swept)
     active = [[i for i in range(n) if np.any(dq[:, i] != 0)] for dq in dqs]
     size = max(float(np.sqrt(np.mean(np.sum((s.points - s.points.mean(axis=0)) ** 2, axis=1)))) for s in sweeps.sweeps)
     floor = 1e-12 * size
@@ -171,10 +176,10 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     def home_of(k):
         return homes[k] if per_sweep_home else homes[0]
 
-    def evaluate(cs, ns, homes_, jac):
+    def evaluate(cs, ns, homes_, sc_, jac):
         out = []
         for k, (s, dq) in enumerate(zip(sweeps.sweeps, dqs, strict=True)):
-            pred, blocks, jp, dpdq = _chain(cs, ns, kinds, homes_[k] if per_sweep_home else homes_[0], dq, active[k], jac)
+            pred, blocks, jp, dpdq = _chain(cs, ns, kinds, homes_[k] if per_sweep_home else homes_[0], dq * (1 + sc_), active[k], jac)
             out.append((pred - s.points, blocks, jp, dpdq))
         return out
 
@@ -200,6 +205,9 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         for k, (r, blocks, jp, dpdq) in enumerate(ev):
             t, lever = tangent(k, dpdq)
             cols = [(4 * i, blocks[i]) for i in active[k]] + [(4 * n + 3 * (k if per_sweep_home else 0), jp)]
+            if scales:  # d pred / d s_j = d pred / d q_j times the reading's motion
+                j = sweeps.sweeps[k].joint - 1
+                cols.append((n_h + swept.index(j), (dpdq[j] * dqs[k][:, j, None])[:, :, None]))
             idx = np.concatenate([np.arange(o, o + blk.shape[2]) for o, blk in cols])
             J = np.concatenate([blk for _, blk in cols], axis=2)
             g2 = 1 - gam[k] ** 2
@@ -217,19 +225,21 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             parts.append((idx, gam[k] * jt * np.sqrt(w)[:, None], rt, lever, rw))
         return A, (A if A2 is None else A2), b, ss, parts
 
-    def step(x_cs, x_ns, x_h, delta):
+    def step(x_cs, x_ns, x_h, x_sc, delta):
         new_cs, new_ns = [], []
         for i in range(n):
             B = np.column_stack(perpendicular_basis(x_ns[i]))
             nv = x_ns[i] + B @ delta[4 * i : 4 * i + 2]
             new_ns.append(nv / np.linalg.norm(nv))
             new_cs.append(x_cs[i] + (B @ delta[4 * i + 2 : 4 * i + 4] if kinds[i] == "revolute" else 0.0))
-        return new_cs, new_ns, x_h + delta[4 * n :].reshape(-1, 3)
+        new_sc = x_sc.copy()
+        new_sc[swept] += delta[n_h:]
+        return new_cs, new_ns, x_h + delta[4 * n : n_h].reshape(-1, 3), new_sc
 
     def cost(ev):
         return sum(float(np.sum(ws[k] * np.sum(whitened(r, tangent(k, dpdq)[0], gam[k])[0] ** 2, axis=1))) for k, (r, _, _, dpdq) in enumerate(ev))
 
-    ev = evaluate(cs, ns, homes, True)
+    ev = evaluate(cs, ns, homes, sc, True)
     lam = 1e-6
     sigma2 = None
     for it in range(300):
@@ -257,15 +267,15 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         changed = it < 100 and (np.max(np.abs(new_gam - gam) / gam) > 1e-3 or any(np.max(np.abs(a - c)) > 1e-6 for a, c in zip(new_ws, ws, strict=True)))
         if changed:
             gam, ws = new_gam, new_ws
-            ev = evaluate(cs, ns, homes, True)
+            ev = evaluate(cs, ns, homes, sc, True)
             continue
         delta = -_pinv_sym(A + lam * np.diag(D)) @ b
         small = np.max(np.abs(delta)) <= 1e-13 * max(size, 1e-300) + 1e-300
-        tcs, tns, th = step(cs, ns, homes, delta)
-        tev = evaluate(tcs, tns, th, True)
+        tcs, tns, th, tsc = step(cs, ns, homes, sc, delta)
+        tev = evaluate(tcs, tns, th, tsc, True)
         new_cost = cost(tev)
         if new_cost <= ss:
-            cs, ns, homes, ev = tcs, tns, th, tev
+            cs, ns, homes, sc, ev = tcs, tns, th, tsc, tev
             lam = max(lam / 10, 1e-12)
             small = small or (not changed and ss - new_cost <= 1e-14 * ss)
         else:
@@ -292,12 +302,15 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         if kinds[j] == "revolute":
             M[6 * j : 6 * j + 3, 4 * j + 2 : 4 * j + 4] = B
         M[6 * j + 3 : 6 * j + 6, 4 * j : 4 * j + 2] = B
-    M[6 * n :, 4 * n :] = np.eye(3 * len(homes))
+    M[6 * n :, 4 * n : n_h] = np.eye(3 * len(homes))
     cov = M @ cov_x @ M.T
+    scale_sigma = np.full(n, math.nan)
+    scale_sigma[swept] = np.sqrt(np.clip(np.diag(cov_x)[n_h:], 0, None))
     sigma = math.sqrt(sigma2)
     reading_sigma = [math.sqrt(max(sigma2 / g**2 - sigma2, 0.0)) / max(float(np.mean(p[3])), 1e-300) for g, p in zip(gam, parts, strict=True)]
     return {
         "points": np.array(feet), "directions": np.array(ns), "home": np.array([home_of(k) for k in range(S)]), "cov": cov,
         "misfit": [np.linalg.norm(e[0], axis=1) for e in ev], "weights": ws, "whitened": [np.linalg.norm(p[4], axis=1) / sigma for p in parts],
         "sigma": sigma, "reading_sigma": reading_sigma, "ss": ss / sigma2, "ss_m": ss, "n_params": npar, "gamma": gam,
+        "scales": sc, "scale_sigma": scale_sigma,
     }
