@@ -617,3 +617,26 @@ def test_reading_scale_errors_are_fitted_where_the_data_shows_them(kr5):
     assert np.all(np.abs(fitted - scale) < 4 * sig), (fitted, scale, sig)
     exact = ident.identify(recording(m, HOME, ranges, seed=11), nominal=kr5)
     assert any(n.startswith("auto: no reading scale errors fitted") for n in exact.notes) and all(np.isnan(f.scale) for f in exact.fits)
+
+
+def _write_long_csv(s: sw.SweepSet, path) -> None:
+    """A SweepSet (SI) as the long-form CSV in mm / deg."""
+    lines = ["# units: length=mm angle=deg", "joint," + ",".join(f"q{i + 1}" for i in range(s.n_joints)) + ",x,y,z"]
+    for x in s.sweeps:
+        for q, p in zip(x.q, x.points, strict=True):
+            lines.append(",".join([str(x.joint), *(f"{v:.10f}" for v in np.degrees(q)), *(f"{v:.8f}" for v in p * 1e3)]))
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_cli_keep_dwell_and_reading_sigmas(kr5, tmp_path):
+    """`identify --keep-dwell` keeps the dwell rows (default: left out, with a note); the joint-axes table shows
+    each joint's estimated reading error (arcsec): 30-200 arcsec simulated."""
+    f = tmp_path / "d.csv"
+    _write_long_csv(recording(kr5.model(), HOME, np.radians(sw.PAPER_RANGES_DEG[90]), dwell=8, reading_arcsec=(30, 200), seed=6), f)
+    out = run("identify", f, "--nominal", "kr5", "--json", tmp_path / "a.json", columns=250).stdout
+    assert "reading sigma [arcsec]" in out and "dwell rows" in out
+    doc = json.loads((tmp_path / "a.json").read_text())
+    assert all(30 * 0.5 < j["reading_sigma_deg"] * 3600 < 200 * 1.5 for j in doc["joints"]), [j["reading_sigma_deg"] * 3600 for j in doc["joints"]]
+    run("identify", f, "--nominal", "kr5", "--keep-dwell", "--json", tmp_path / "k.json")
+    kept = json.loads((tmp_path / "k.json").read_text())
+    assert [j["residuals"]["n_points"] for j in kept["joints"]] == [56] * 6 and [j["residuals"]["n_points"] for j in doc["joints"]] == [40] * 6

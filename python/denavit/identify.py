@@ -596,6 +596,8 @@ def to_json(result: Identification, length: str | None = None, angle: str = "deg
                           "outliers": [int(k) for k in np.flatnonzero(f.outliers)], "per_point": (np.asarray(f.residuals) / ls).tolist()},
             "arc_deg": math.degrees(f.arc),
             "reading_sigma_deg": math.degrees(f.reading_sigma) if np.isfinite(f.reading_sigma) else None,
+            # the joint turns (1 + value) times its reading's motion (fitted by auto where the data shows it)
+            "reading_scale": {"value": f.scale - 1, "sigma": f.scale_sigma} if np.isfinite(f.scale_sigma) else None,
         })
     return {
         "units": {"length": length, "angle": angle},

@@ -48,6 +48,7 @@ def identify(
     columns: Annotated[str | None, typer.Option("--columns", help="Column map of a delimited recording, e.g. \"t,q1..q6,x,y,z\" (--format columns).")] = None,
     sweep: Annotated[str | None, typer.Option("--sweep", help="Tracker export: where each point's sweep comes from: 'group' or a point-name pattern such as 'J{joint}_{index}'.")] = None,
     target: Annotated[int, typer.Option("--target", help="Recordings with several targets per pose (SMRs on a nest): which one, 1-based.")] = 1,
+    keep_dwell: Annotated[bool, typer.Option("--keep-dwell", help="Keep the rows where the motion stands still at a sweep's ends (left out of the fits by default, with a note naming them).")] = False,
     readings: Annotated[Path | None, typer.Option("--readings", help="A second recording with the joint readings on another clock (e.g. a controller log beside a tracker export): aligned from the motion.")] = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
@@ -82,7 +83,8 @@ def identify(
     with console.status(f"fitting {sweeps.n_joints} sweeps ({method})...") as status:
         ms = None if max_sigma is None else max_sigma * length_scale(length or sweeps.units.get("length", "mm"))
         T_world_base = None if base is None else parse_pose(base, "deg", length_scale(out_len), "--base")
-        result = ident.identify(sweeps, method=method, convention=convention, nominal=nom, loss=loss, max_sigma=ms, T_world_base=T_world_base, progress=status.update)
+        result = ident.identify(sweeps, method=method, convention=convention, nominal=nom, loss=loss, max_sigma=ms, T_world_base=T_world_base,
+                                keep_dwell=keep_dwell, progress=status.update)
     doc = ident.to_json(result, out_len, "deg")
     print_identification(doc, result, out_len)
     if nom is not None:
@@ -189,12 +191,17 @@ def print_identification(doc: dict, result, length: str) -> None:
                       fmt(diff, 3) if diff is not None else "-", end_section=k == len(cols) - 1)
     console.print(t)
     at = RichTable(title="Joint axes (measurement frame)")
-    for c in ("joint", f"radius [{length}]", "arc [deg]", f"rms [{length}]", f"sigma across [{length}]", "sigma dir [deg]", "outliers"):
+    scaled = any(j["reading_scale"] is not None for j in doc["joints"])
+    for c in ("joint", f"radius [{length}]", "arc [deg]", f"rms [{length}]", f"sigma across [{length}]", "sigma dir [deg]", "outliers", "reading sigma [arcsec]",
+              *(["reading scale [ppm]"] if scaled else [])):
         at.add_column(c, justify="right")
-    for j in doc["joints"]:
+    for j, kind in zip(doc["joints"], result.sweeps.kinds, strict=True):
         r = j["circle"]["radius"]
+        rs = j["reading_sigma_deg"]
+        sc = j["reading_scale"]
         at.add_row(j["joint"], f"{r:.3f}" if r is not None else "-", f"{j['arc_deg']:.1f}", f"{j['residuals']['rms']:.4f}", f"{j['axis']['sigma_point_perp']:.4f}",
-                   f"{j['axis']['sigma_direction_deg']:.5f}", str(len(j["residuals"]["outliers"])))
+                   f"{j['axis']['sigma_direction_deg']:.5f}", str(len(j["residuals"]["outliers"])), f"{rs * 3600:.3g}" if rs is not None and kind == "revolute" else "-",
+                   *([f"{sc['value'] * 1e6:+.4g} +/- {sc['sigma'] * 1e6:.2g}" if sc else "-"] if scaled else []))
     console.print(at)
     b = doc["bounding_box"]
     console.print(f"Measuring volume (minimum oriented bounding box, Hayat Table IV): {b['lengths'][0]:.3f} x {b['lengths'][1]:.3f} x {b['lengths'][2]:.3f} {length}, {b['volume_m3']:.4f} m^3; orientation (columns = box axes):")
