@@ -37,7 +37,7 @@ def identify(
     angle: Annotated[str | None, typer.Option("--angle", help="Angle unit of the data if not declared in it.")] = None,
     home: Annotated[str | None, typer.Option("--home", help="Per-joint files: the locked configuration, e.g. \"90,-90,90,0,90,0\" (--angle units; prismatic joints --length).")] = None,
     direction: Annotated[str | None, typer.Option("--direction", help="Per-joint files: +1/-1 per joint (or one for all): did the joint value increase over the recording?")] = None,
-    loss: Annotated[str, typer.Option("--loss", help="linear | soft_l1 | huber (robust loss)")] = "linear",
+    loss: Annotated[str, typer.Option("--loss", help="soft_l1 (default: one blunder does not move an axis; free on clean data) | huber | linear (plain least squares)")] = "soft_l1",
     max_sigma: Annotated[float | None, typer.Option("--max-sigma", help="Required axis-position accuracy (1 sigma) in --length units (default mm): sweeps predicted worse are an error.")] = None,
     report: Annotated[Path | None, typer.Option("--report", help="Write a self-contained HTML report.")] = None,
     plot: Annotated[Path | None, typer.Option("--plot", help="Write the static figures (PNG) into this folder.")] = None,

@@ -65,6 +65,20 @@ def loss_weight(loss: str, z: np.ndarray) -> np.ndarray:
     return np.ones_like(z)
 
 
+def loss_dweight(loss: str, z: np.ndarray) -> np.ndarray:
+    """d/dz of :func:`loss_weight` (``rho''(z)``), for the bread of an M-estimator's covariance."""
+    z = np.asarray(z, dtype=float)
+    if loss == "soft_l1":
+        return -0.5 * (1.0 + z) ** -1.5
+    if loss == "huber":
+        return np.where(z <= 1.0, 0.0, -0.5 * np.maximum(z, 1.0) ** -1.5)
+    if loss == "cauchy":
+        return -1.0 / (1.0 + z) ** 2
+    if loss == "arctan":
+        return -2.0 * z / (1.0 + z**2) ** 2
+    return np.zeros_like(z)
+
+
 def weighted_cov(j: np.ndarray, r: np.ndarray, w: np.ndarray, n_params: int, noise_sigma=None):
     """First-order covariance of a (robust) least-squares fit, and the singular values of ``W^1/2 J``.
 
