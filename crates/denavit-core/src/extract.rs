@@ -371,7 +371,13 @@ fn edh_from_axes(ax: &JointAxes, opt: &ExtractOptions, geoms: &[PairGeom], nomin
         let x = if k + 1 < n {
             let c = normal_direction(&z[k], &z[k + 1]);
             let toward = origins[k + 1] - origins[k];
-            if c.norm() > EXACT_PARALLEL_SIN {
+            let nominal_x = nom_x(k + 1).filter(|_| c.norm() <= opt.parallel_tol).and_then(|v| perpendicular(&v, &z[k]));
+            if let Some(xn) = nominal_x {
+                // parallel within parallel_tol, with a nominal: the nominal's x (the common normal of a pair
+                // parallel within its noise follows the noise); the tilt, below parallel_tol, is dropped
+                // (Hayati beta, and the table's tool error)
+                xn
+            } else if c.norm() > EXACT_PARALLEL_SIN {
                 orient(c.normalize(), nom_x(k + 1).as_ref(), &toward, opt.intersect_tol)
             } else if geoms[k].relation == Relation::Coincident {
                 orient(perp_or(&col(&frames[k], 0), &base_x, &z[k]), nom_x(k + 1).as_ref(), &Vector3::zeros(), opt.intersect_tol)
