@@ -12,6 +12,7 @@ from scipy.spatial.transform import Rotation
 
 import denavit as dv
 from cli import env as cli_env
+from cli import run as run_cli
 from denavit import calibration as cal
 from denavit import fitting
 from denavit import sweeps as sw
@@ -592,3 +593,23 @@ def test_tool_is_given_in_the_flange(convention, rng):
     np.testing.assert_allclose(m.T_flange_tool[:3, 3], [0.05, 0.03, 0.1], atol=1e-9)
     for q in rng.uniform(-np.pi, np.pi, (10, 6)):
         np.testing.assert_allclose(dv.fk(m.with_tool(np.eye(4)), q), ur5.table.frames(q)[-1], atol=1e-9)
+
+
+def test_cli_calibrate_refuses_a_jump_and_honours_a_coupling(tmp_path):
+    """Readings of a Fanuc (J3 read relative to the horizontal) calibrated against the plain nominal: the fit moved
+    b_2 by 1.1 m and exited 0 with no note; now it is refused (exit 2) naming the parameter and the coupling to
+    declare, and with --coupling "q3=r3+r2" it fits to the noise."""
+    kr5 = dv.load_robot("kr5")
+    q = cal.configurations(kr5, 60)
+    meas = cal.simulate(kr5.model(), q, tool=np.array([0.05, 0.03, 0.1]), noise=2e-5, seed=1)
+    r = q.copy()
+    r[:, 2] -= q[:, 1]
+    lines = ["# units: length=mm angle=deg", "q1,q2,q3,q4,q5,q6,x,y,z"]
+    lines += [",".join([*(f"{v:.8f}" for v in np.degrees(a)), *(f"{v:.6f}" for v in p * 1e3)]) for a, p in zip(r, meas.points, strict=True)]
+    f = tmp_path / "fanuc.csv"
+    f.write_text("\n".join(lines) + "\n")
+    bad = run_cli("calibrate", f, "--nominal", "kr5", "--tool", "50,30,100", ok=False)
+    assert bad.returncode == 2 and "by more than the robot's size" in bad.stderr + bad.stdout and "--coupling" in bad.stderr + bad.stdout
+    good = run_cli("calibrate", f, "--nominal", "kr5", "--tool", "50,30,100", "--coupling", "q3=r3+r2", "--json", tmp_path / "c.json")
+    assert good.returncode == 0
+    assert json.loads((tmp_path / "c.json").read_text())["residuals"]["rms"] < 0.05  # mm (0.02 mm noise)

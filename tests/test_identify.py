@@ -3,6 +3,7 @@
 import json
 import math
 import re
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -689,3 +690,41 @@ def test_mirrored_points_are_refused_against_the_nominal(kr5, readings):
     with pytest.raises(dv.DenavitError, match="mirror image of the nominal kr5's .*x and y swapped"):
         ident.identify(m, nominal=kr5)
     ident.identify(s, nominal=kr5)
+
+
+def test_declared_coupling_is_honoured(kr5, tmp_path):
+    """A Fanuc-style reading rule (the J3 reading is the joint angle minus J2's motion): the note names the
+    coupling to declare; declared (identify(coupling=...), a robot file's [couplings], or --coupling) the readings
+    become joint values: no note, and the axes are those of the uncoupled recording."""
+    from denavit.io import robotfile  # noqa: PLC0415
+
+    m = kr5.model()
+    ranges = np.radians(sw.PAPER_RANGES_DEG[90])
+    s = recording(m, HOME, ranges, coupled=(3, 2), reading_arcsec=(30, 60), seed=5)
+    ref = ident.identify(recording(m, HOME, ranges, reading_arcsec=(30, 60), seed=5), nominal=kr5)
+    noted = ident.identify(s, nominal=kr5)
+    assert any('--coupling "q3=r3+r2"' in n for n in noted.notes), noted.notes
+    C = robotfile.parse_coupling("q3 = r3 + r2", list(m.kinds), "test")
+    res = ident.identify(s, nominal=kr5, coupling=C)
+    assert not [n for n in res.notes if "lock-step" in n]
+    assert np.abs(np.asarray(res.axes.points) - np.asarray(ref.axes.points)).max() < 1e-9
+    f = tmp_path / "fanuc.toml"
+    text = robotfile.dumps(replace(kr5, coupling=C), "mm", "deg")
+    assert '[couplings]\nq3 = "r2 + r3"' in text
+    f.write_text(text)
+    fanuc = robotfile.read(f)
+    np.testing.assert_array_equal(fanuc.coupling, C)
+    assert not [n for n in ident.identify(s, nominal=fanuc).notes if "lock-step" in n]
+
+
+def test_cli_coupling_in_simulate_and_identify(tmp_path):
+    """`simulate --coupling "q3=r3+r2"` writes a Fanuc's readings (J3 relative to the horizontal); `identify` notes
+    the lock-step reading and names the option; with `--coupling` it takes the readings as declared (no note)."""
+    f = tmp_path / "fanuc.csv"
+    run("simulate", "kr5", "-o", f, "--coupling", "q3=r3+r2", "--seed", "3")
+    plain = run("identify", f, "--nominal", "kr5", "--json", tmp_path / "a.json", columns=250).stdout
+    assert "lock-step" in plain and '--coupling "q3=r3+r2"' in " ".join(plain.split()), plain
+    declared = run("identify", f, "--nominal", "kr5", "--coupling", "q3 = r3 + r2", "--json", tmp_path / "b.json", columns=250).stdout
+    assert "lock-step" not in declared
+    bad = run("identify", f, "--nominal", "kr5", "--coupling", "q3 = r3 + r9", ok=False)
+    assert bad.returncode == 2 and "--coupling: q3: reading r9 of a robot with 6 joints" in bad.stderr + bad.stdout

@@ -160,6 +160,14 @@ def _drop_dwell(sweeps: SweepSet, notes: list[str]) -> SweepSet:
     return replace(sweeps, sweeps=out)
 
 
+def decoupled(sweeps: SweepSet, coupling: np.ndarray) -> SweepSet:
+    """The sweeps with joint values ``q = coupling @ reading`` for their readings and home (a robot file's
+    ``[couplings]``, :func:`denavit.io.robotfile.parse_coupling`)."""
+    C = np.asarray(coupling, dtype=float)
+    out = [Sweep(s.joint, s.points, None if s.q is None else s.q @ C.T, s.where) for s in sweeps.sweeps]
+    return replace(sweeps, sweeps=out, home=C @ np.asarray(sweeps.home))
+
+
 def sweep_where(s, source: str) -> str:
     """'file lines a-b, joint j' for messages about one sweep."""
     if not s.where:
@@ -233,8 +241,9 @@ def _motions(sweeps: SweepSet, notes: list[str]) -> list[np.ndarray]:
         dq, coupled = locked_motion(s.q, s.joint - 1, sweeps.home, tol)
         for i, slope in coupled:
             notes.append(f"{sweep_where(s, sweeps.source)}: the reading of joint {i + 1} moves in lock-step with joint {s.joint}'s "
-                         f"({slope:+.3f} per unit): a coupling of the controller's readings to declare (e.g. joint {i + 1} = "
-                         f"reading {i + 1} {'+' if slope < 0 else '-'} reading {s.joint}, as Fanuc controllers report J3); the fit takes joint {i + 1} as held at home")
+                         f"({slope:+.3f} per unit): a coupling of the controller's readings to declare (as Fanuc controllers report J3: "
+                         f"--coupling \"q{i + 1}=r{i + 1}{'+' if slope < 0 else '-'}{format(abs(slope), '.4g') + '*' if abs(abs(slope) - 1) > 0.01 else ''}r{s.joint}\", or the robot file's "
+                         f"[couplings] q{i + 1} = \"r{i + 1} {'+' if slope < 0 else '-'} r{s.joint}\"); the fit takes joint {i + 1} as held at home")
         out.append(dq)
     return out
 
@@ -510,6 +519,7 @@ def identify(
     intersect_tol: float | None = None,
     max_sigma: float | None = None,
     keep_dwell: bool = False,
+    coupling=None,
     progress: Callable[[str], None] | None = None,
 ) -> Identification:
     """Identify the joint axes and the parameter table of ``convention`` from ``sweeps``.
@@ -536,6 +546,9 @@ def identify(
     keep_dwell : keep the dwell rows in the fits. By default the rows where the motion stands still (within the
         point noise) at the ends of a sweep are left out of the fits (they would weigh one end of the arc many
         times over), with a note naming them; the result's ``sweeps`` are the rows fitted.
+    coupling : (n, n), optional
+        Joint values from the controller's readings, ``q = coupling @ reading`` (default: the nominal's
+        ``coupling``, from its robot file's ``[couplings]``; else the readings are the joint values).
     progress : called with a short message as each stage starts (the CLI shows it).
     """
     progress = progress or (lambda _msg: None)
@@ -545,6 +558,9 @@ def identify(
     n = sweeps.n_joints
     if nominal is not None and len(nominal.names) != n:
         raise DenavitError(f"nominal model {nominal.name} has {len(nominal.names)} joints, the data has {n}")
+    coupling = coupling if coupling is not None else (nominal.coupling if nominal is not None else None)
+    if coupling is not None:
+        sweeps = decoupled(sweeps, coupling)
     notes = _locked_notes(sweeps)
     if not keep_dwell:
         sweeps = _drop_dwell(sweeps, notes)

@@ -48,6 +48,7 @@ def identify(
     columns: Annotated[str | None, typer.Option("--columns", help="Column map of a delimited recording, e.g. \"t,q1..q6,x,y,z\" (--format columns).")] = None,
     sweep: Annotated[str | None, typer.Option("--sweep", help="Tracker export: where each point's sweep comes from: 'group' or a point-name pattern such as 'J{joint}_{index}'.")] = None,
     target: Annotated[int, typer.Option("--target", help="Recordings with several targets per pose (SMRs on a nest): which one, 1-based.")] = 1,
+    coupling: Annotated[str | None, typer.Option("--coupling", help="Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; docs/robot-files.md); default: the robot file's [couplings].")] = None,
     keep_dwell: Annotated[bool, typer.Option("--keep-dwell", help="Keep the rows where the motion stands still at a sweep's ends (left out of the fits by default, with a note naming them).")] = False,
     readings: Annotated[Path | None, typer.Option("--readings", help="A second recording with the joint readings on another clock (e.g. a controller log beside a tracker export): aligned from the motion.")] = None,
     base_link: BaseLinkOpt = None,
@@ -80,11 +81,14 @@ def identify(
         else:  # units the file declares win; --length/--angle fill in what it does not declare (and are the output's)
             sweeps = swio.read_long_csv(data, length=length, angle=angle, kinds=kinds)
     out_len = length or sweeps.units.get("length", "m")
+    from ..io.robotfile import parse_coupling  # noqa: PLC0415
+
+    C = parse_coupling(coupling, list(sweeps.kinds), "--coupling") if coupling else None
     with console.status(f"fitting {sweeps.n_joints} sweeps ({method})...") as status:
         ms = None if max_sigma is None else max_sigma * length_scale(length or sweeps.units.get("length", "mm"))
         T_world_base = None if base is None else parse_pose(base, "deg", length_scale(out_len), "--base")
         result = ident.identify(sweeps, method=method, convention=convention, nominal=nom, loss=loss, max_sigma=ms, T_world_base=T_world_base,
-                                keep_dwell=keep_dwell, progress=status.update)
+                                keep_dwell=keep_dwell, coupling=C, progress=status.update)
     doc = ident.to_json(result, out_len, "deg")
     print_identification(doc, result, out_len)
     if nom is not None:
