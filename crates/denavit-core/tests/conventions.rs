@@ -286,7 +286,7 @@ fn edh_x_of_a_near_parallel_pair_follows_the_nominal() {
     let m = t.to_model("kr5").unwrap();
     let nominal = extract(&axes(&m, &[0.0; 6]).unwrap(), Convention::Edh, &ExtractOptions::default()).unwrap().table;
     let mut joints = m.joints().to_vec();
-    joints[2].placement = joints[2].placement * ry(1e-10);
+    joints[2].placement *= ry(1e-10);
     let tilted = Model::new("kr5-tilted", *m.t_world_base(), joints, *m.t_last_flange(), *m.t_flange_tool()).unwrap();
     let ax = axes(&tilted, &[0.0; 6]).unwrap();
     let plain = extract(&ax, Convention::Edh, &ExtractOptions::default()).unwrap();
