@@ -53,6 +53,7 @@ class Identification:
     nominal_table: _core.Table | None = None
     rms: float = 0.0
     notes: list[str] = field(default_factory=list)
+    param_cov: np.ndarray | None = None  # (n k + 3,) covariance of the table's parameters (row-major) and the tool translation
 
     @cached_property
     def box(self) -> BoundingBox:
@@ -493,7 +494,7 @@ def _axes_from(x: np.ndarray, sweeps: SweepSet, tool_R: np.ndarray, T_world_base
 
 
 def _propagate(x: np.ndarray, cov: np.ndarray, f) -> np.ndarray:
-    """One-sigma of f(x) (a flat vector, angles wrapped) from the covariance of x, by central differences."""
+    """The covariance of f(x) (a flat vector, angles wrapped) from the covariance of x, by central differences."""
     y0 = f(x)
     J = np.zeros((len(y0), len(x)))
     for i in range(len(x)):
@@ -503,8 +504,7 @@ def _propagate(x: np.ndarray, cov: np.ndarray, f) -> np.ndarray:
         xm[i] -= h
         d = f(xp) - f(xm)
         J[:, i] = d / (2 * h)
-    C = J @ cov @ J.T
-    return np.sqrt(np.clip(np.diag(C), 0, None))
+    return J @ cov @ J.T
 
 
 def identify(
@@ -621,20 +621,21 @@ def identify(
 
     def params_of(xv):
         a = _axes_from(xv, sweeps, tool_R, base, lower, upper)
-        p = _core.extract(a, convention, fidelity=False, **opts).table.params  # the tool-error check: once, above
-        d = p - p_ref
+        t = _core.extract(a, convention, fidelity=False, **opts).table  # the tool-error check: once, above
+        d = t.params - p_ref
         d[:, angle_cols] = (d[:, angle_cols] + np.pi) % (2 * np.pi) - np.pi
-        return (p_ref + d).ravel()
+        return np.concatenate([(p_ref + d).ravel(), np.asarray(t.T_last_tool)[:3, 3]])
 
     progress(f"{convention} parameters and their sigmas")
-    sigma = _propagate(x, cov, params_of).reshape(p_ref.shape)
+    param_cov = _propagate(x, cov, params_of)
+    sigma = np.sqrt(np.clip(np.diag(param_cov), 0, None))[: p_ref.size].reshape(p_ref.shape)
     for pd in ex.pairs:
         if pd.relation == "parallel" and abs(pd.hayati_beta) > 0 and convention in ("dh", "mdh"):
             notes.append(f"axes {pd.joint}-{pd.joint + 1} treated as parallel: misalignment {math.degrees(pd.hayati_beta):.2e} deg (Hayati beta) is not representable in {convention}")
     if convention in ("dh", "mdh", "edh") and ex.max_position_error > 1e-6:
         exact = "ED-H is exact" if convention != "edh" else f"the tilt of pairs parallel within {EDH_PARALLEL_SIGMAS:g} sigma is dropped; without a nominal ED-H is exact"
         notes.append(f"the {convention} table carries a tool-position error up to {ex.max_position_error * 1e3:.4f} mm ({exact})")
-    return Identification(method, convention, ax, fits, ex, sigma, cov, p_home, sweeps, nominal, nominal_table, rms, notes)
+    return Identification(method, convention, ax, fits, ex, sigma, cov, p_home, sweeps, nominal, nominal_table, rms, notes, param_cov)
 
 
 def to_json(result: Identification, length: str | None = None, angle: str = "deg", *, box: bool = True) -> dict:

@@ -111,7 +111,8 @@ def identify(
         upper = nom.upper if nom else limits[:, 1]
         identified = Robot(name=f"{nom.name if nom else 'robot'}_identified", table=result.table, names=names, lower=lower, upper=upper,
                            description=f"identified from {sweeps.source} ({result.method} fit, {result.convention})", source=str(sweeps.source), home=sweeps.home,
-                           extra=nom.extra if nom else {})  # a URDF nominal's meshes, inertials and limits ride along
+                           extra=nom.extra if nom else {},  # a URDF nominal's meshes, inertials and limits ride along
+                           covariance=result.param_cov)  # compensate predicts the error after compensation from it
         if save_model:
             from ..io.robotfile import save  # noqa: PLC0415
 

@@ -27,6 +27,8 @@ Format (see docs/robot-files.md and the built-in files in ``denavit/models``)::
     [tool]                       # optional tool in the convention's last frame (poe: home pose M)
     [couplings]                  # optional: joint values from the controller's readings (parse_coupling)
     q3 = "r3 + r2"               # a Fanuc reads J3 relative to the horizontal
+    [covariance]                 # optional (written by identify --save): of the joints' parameters, row by
+    matrix = [[...], ...]        # row in column order, then the tool's x, y, z; in [units] (products per cell)
 
 POE joints give ``w = [wx, wy, wz]`` (unitless) and ``v = [vx, vy, vz]`` (length units for a revolute joint,
 v = -w x p; a unitless direction for a prismatic one). Joint values (``home``, ``limits``) are in the angle
@@ -195,7 +197,8 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
     if home is not None:
         home = np.asarray(_numbers(home, len(joints), f"{where}: home")) * joint_scale(kinds, units["length"], units["angle"], where)
     coupling = parse_coupling(doc["couplings"], kinds, f"{where}, [couplings]") if "couplings" in doc else None
-    known = {"name", "description", "source", "convention", "units", "joints", "base", "tool", "home", "couplings"}
+    covariance = _covariance(doc["covariance"], table, units, f"{where}, [covariance]") if "covariance" in doc else None
+    known = {"name", "description", "source", "convention", "units", "joints", "base", "tool", "home", "couplings", "covariance"}
     # other tables (e.g. [urdf], written by `convert` from a URDF) are carried as extra; a stray plain key is
     # most likely a typo ("hom" for "home")
     _check_keys({k: v for k, v in doc.items() if not isinstance(v, dict)}, sorted(known), f"{where} (top level)")
@@ -227,7 +230,29 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         extra={k: v for k, v in doc.items() if k not in known},
         inertials=inertials,
         coupling=coupling,
+        covariance=covariance,
     )
+
+
+def _covariance_scales(table: _core.Table, length: str, angle: str) -> np.ndarray:
+    """SI per file unit of each entry of a ``[covariance]`` (the table's cells row by row, then the tool's x, y, z)."""
+    n, k = table.params.shape
+    cells = [cell_scale(table, i, c, length, angle)[0] for i in range(n) for c in range(k)]
+    return np.array(cells + [length_scale(length)] * 3)
+
+
+def _covariance(spec, table: _core.Table, units: dict, where: str) -> np.ndarray:
+    if not isinstance(spec, dict):
+        raise DenavitError(f"{where}: expected a table with 'matrix', got {spec!r}")
+    _check_keys(spec, ["matrix"], where)
+    s = _covariance_scales(table, units["length"], units["angle"])
+    rows = spec.get("matrix")
+    if not isinstance(rows, list) or len(rows) != len(s):
+        raise DenavitError(f"{where}: matrix: expected {len(s)} rows (the joints' parameters, then the tool's x, y, z), got {len(rows) if isinstance(rows, list) else rows!r}")
+    C = np.array([_numbers(r, len(s), f"{where}: matrix row {i + 1}") for i, r in enumerate(rows)]) * np.outer(s, s)
+    if not np.allclose(C, C.T, rtol=1e-9, atol=0) or np.linalg.eigvalsh((C + C.T) / 2).min() < -1e-9 * max(np.abs(np.diag(C)).max(), 1e-300):
+        raise DenavitError(f"{where}: matrix: expected a symmetric positive semi-definite covariance")
+    return C
 
 
 _TERM = re.compile(r"\s*([+-]?)\s*(?:(\d+(?:\.\d*)?(?:[eE][+-]?\d+)?|\.\d+(?:[eE][+-]?\d+)?)\s*\*?\s*)?r(\d+)\s*")
@@ -358,6 +383,9 @@ def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
         doc["base"] = _pose_spec(t.T_world_base, ls, as_)
     if not np.allclose(t.T_last_tool, np.eye(4), atol=0, rtol=0):
         doc["tool"] = _pose_spec(t.T_last_tool, ls, as_)
+    if robot.covariance is not None:
+        s = _covariance_scales(t, length, angle)
+        doc["covariance"] = {"matrix": [[float(v) for v in row] for row in np.asarray(robot.covariance) / np.outer(s, s)]}
     if robot.coupling is not None and coupling_text(robot.coupling):
         doc["couplings"] = coupling_text(robot.coupling)
     doc.update(robot.extra)
