@@ -128,6 +128,8 @@ def irls(solve, misfit, state, loss, f_scale, k, what, where):
     for the weights ``rho'((misfit / f)^2)`` (scipy's loss functions). With ``f_scale=None`` the scale is
     re-estimated at every step as ``f = 3`` robust sigmas of the current misfits (a concurrent scale estimate,
     so that the scale is not inflated by the outliers' pull on the least-squares start).
+    The misfits are in units of the points' RMS spread (the fits normalize the points), so a scale below 1e-12
+    is round-off on exact data: nothing is down-weighted (the weights of round-off never settle).
     """
     m = misfit(state).size
     w = np.ones(m)
@@ -136,8 +138,8 @@ def irls(solve, misfit, state, loss, f_scale, k, what, where):
     for _ in range(200):
         e = misfit(state)
         f = f_scale if f_scale is not None else 3.0 * robust_sigma(e, k)
-        if not f > 0:
-            return state, w  # exact data: nothing to down-weight
+        if not f > 1e-12:
+            return state, w  # exact data (misfits of round-off: the fits pass them in units of the points' spread)
         w_new = loss_weight(loss, (e / f) ** 2)
         if np.max(np.abs(w_new - w)) < 1e-9:
             return state, w_new
