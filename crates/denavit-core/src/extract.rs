@@ -53,7 +53,8 @@ pub struct ExtractOptions {
     pub max_offset: Option<f64>,
     /// A table of the same convention whose frames break sign ties and fix the last frame.
     pub nominal: Option<Table>,
-    /// ED-H frame origins, one point per axis (default: the axes' points).
+    /// ED-H frame origins, one point per axis (default: the axes' points). With a nominal as well, pairs parallel
+    /// within `parallel_tol` take the nominal's x (docs/conventions.md).
     pub origins: Option<Vec<Vector3<f64>>>,
     /// Measure the table's tool error against the exact ED-H model of the axes over [`FIDELITY_SAMPLES`]
     /// configurations (default true); false skips it (the errors are then NaN): a cost paid only when asked.
@@ -371,11 +372,12 @@ fn edh_from_axes(ax: &JointAxes, opt: &ExtractOptions, geoms: &[PairGeom], nomin
         let x = if k + 1 < n {
             let c = normal_direction(&z[k], &z[k + 1]);
             let toward = origins[k + 1] - origins[k];
-            let nominal_x = nom_x(k + 1).filter(|_| c.norm() <= opt.parallel_tol).and_then(|v| perpendicular(&v, &z[k]));
+            let nominal_x = nom_x(k + 1).filter(|_| opt.origins.is_some() && c.norm() <= opt.parallel_tol).and_then(|v| perpendicular(&v, &z[k]));
             if let Some(xn) = nominal_x {
-                // parallel within parallel_tol, with a nominal: the nominal's x (the common normal of a pair
-                // parallel within its noise follows the noise); the tilt, below parallel_tol, is dropped
-                // (Hayati beta, and the table's tool error)
+                // against a nominal with its on-body origins (Guo et al.: identified axes, the nominal's frames),
+                // a pair parallel within parallel_tol takes the nominal's x (the common normal of a pair parallel
+                // within its noise follows the noise); the tilt, below parallel_tol, is dropped (the table's tool
+                // error says how much). Without origins ED-H stays exact.
                 xn
             } else if c.norm() > EXACT_PARALLEL_SIN {
                 orient(c.normalize(), nom_x(k + 1).as_ref(), &toward, opt.intersect_tol)
