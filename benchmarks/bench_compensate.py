@@ -4,13 +4,15 @@ A "true" robot: the KR5 (Hayat Table III) with every DH parameter off by a rando
 (fixed seed), whose controller's joint readings carry errors: scale errors of 2e-4 on joints 2 and 3 (as
 seen on real arms, ../shared/ANCHORS.md) and white noise (default 10 arcsec). Two routes identify it:
 - identify: the paper's 30 degree protocol (Table II), 0.02 mm tracker noise, the default method (the
-  global fit with the readings) and the points-only geometric circle fits, ED-H;
+  global fit with the readings) and the points-only geometric circle fits, ED-H; and a longer protocol (the
+  90 degree ranges, 100 points per sweep);
 - calibrate: 100 quasi-random poses, 0.02 mm tracker noise, the readings, ED-H least squares with a scale
   parameter per joint.
 Then 1,000 random reachable targets (tool poses of random configurations, nominal joint values known, as
-an offline-programmed job) are compensated with each identified model; a controller that keeps the
-nominal model turns each command into joint values (its own IK from the program's configuration), and
-the true robot executes them. Printed: tool-position error RMS / max before (nominal commands) and after,
+an offline-programmed job) are compensated with each identified model, the joint values turned into readings
+through the route's estimated reading scales (calibrate's ``scales``; identify's where auto fitted them); a
+controller that keeps the nominal model turns each command into readings (its own IK from the program's
+configuration), and the true robot's joints turn by those readings times (1 + scale). Printed: tool-position error RMS / max before (nominal commands) and after,
 next to the RMS the identified covariance predicts, the flagged rows, and the time per target beside
 ``ik_batch``. Targets: after <= 0.05 mm RMS and within 1.5x of the prediction.
 
@@ -75,6 +77,9 @@ def main() -> None:
     sweeps = sw.SweepSet([sw.Sweep(s.joint, s.points, readings(s.q), s.where) for s in sweeps.sweeps], 6, sweeps.home, sweeps.kinds, sweeps.source, sweeps.units)
     idr = dv.identify(sweeps, convention="edh", nominal=kr5)
     idg = dv.identify(sweeps, method="geometric", convention="edh", nominal=kr5)
+    long = sw.simulate(true, home=home, ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=100, tool_point=tool[:3, 3], noise=noise, seed=args.seed)
+    long = sw.SweepSet([sw.Sweep(s.joint, s.points, readings(s.q), s.where) for s in long.sweeps], 6, long.home, long.kinds, long.source, long.units)
+    idl = dv.identify(long, convention="edh", nominal=kr5)
     # route 2: calibration from 100 poses with noisy readings
     q = cal.configurations(kr5, 100)
     meas = cal.simulate(true, q, tool=tool[:3, 3], noise=noise, seed=args.seed)
@@ -88,15 +93,25 @@ def main() -> None:
     print(f"KR5 with 0.5 mm / 0.05 deg errors per DH parameter, reading scale errors 2e-4 (J2, J3) and {args.reading_arcsec:g} arcsec noise, {args.noise_mm} mm tracker noise; "
           f"{args.targets} targets")
     print(f"{'route':<34} {'flagged':>7} {'before RMS':>11} {'before max':>11} {'after RMS':>10} {'after max':>10} {'predicted':>10} {'ratio':>6} {'us/target':>10}")
-    routes = [(f"identify (30 deg, {r.method}, ED-H)", r.model(convention="edh"), r) for r in (idr, idg)] + [("calibrate (100 poses, ED-H)", identified_2, car)]
-    for label, model, result in routes:
+    def id_scales(r):
+        return np.array([f.scale - 1 if np.isfinite(f.scale_sigma) else 0.0 for f in r.fits])
+
+    routes = [(f"identify ({p} deg, {r.method}, ED-H)", r.model(convention="edh"), r, id_scales(r)) for p, r in ((30, idr), (30, idg), (90, idl))]
+    routes.append(("calibrate (100 poses, ED-H)", identified_2, car, np.array([car.scales.get(f"scale_{j + 1}", 0.0) for j in range(6)])))
+
+    def executed(q_read):
+        """The true robot's tool points when its controller holds readings q_read (its joints turn by q (1 + scale))."""
+        return dv.fk_batch(true, q_read * (1 + scale))[:, :3, 3]
+
+    for label, model, result, s_id in routes:
         res = cp.compensate(nominal, model, T, q_nominal=Q, result=result)
+        commands = dv.fk_batch(nominal, res.q / (1 + s_id))  # the joint values as readings, through the estimated scales
         t_comp = median_time(lambda m=model: cp.compensate(nominal, m, T, q_nominal=Q))
         # the nominal controller: its own IK of each command from the program's configuration
-        ctrl = dv.ik_batch(nominal, res.commands, Q, restarts=0)
+        ctrl = dv.ik_batch(nominal, commands, Q, restarts=0)
         ok = res.ok & ctrl.success
-        p_after = dv.fk_batch(true, ctrl.q)[:, :3, 3]
-        p_before = dv.fk_batch(true, Q)[:, :3, 3]
+        p_after = executed(ctrl.q)
+        p_before = executed(Q)
         after = np.linalg.norm(p_after - T[:, :3, 3], axis=1)[ok]
         before = np.linalg.norm(p_before - T[:, :3, 3], axis=1)[ok]
         pred = float(np.sqrt(np.mean(res.predicted_after[ok] ** 2)))

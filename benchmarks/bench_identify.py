@@ -10,7 +10,9 @@ with the Monte Carlo spread (ratio 1 = honest). Prints tables; run `python bench
 of 30-200 arcsec with offset and scale errors, home drift 0.2 mm, 0.02 mm tracker noise; and the exact-readings
 case): per method the RMS axis-position error, reported sigma / Monte Carlo spread of every DH parameter (median
 and the share within 0.8-1.25; theta against the truth seen through the readings: a reading offset is a theta
-offset), and the model ``auto`` chose. How identify scales with the points per sweep (time, peak memory, growth
+offset), the multi-target check (``--targets`` targets on one body under the same motion and readings, each
+identified alone: the share of joints and target pairs whose axes agree within their combined sigmas, chi-square
+of position and direction across the axis at the 99 % level), and the model ``auto`` chose. How identify scales with the points per sweep (time, peak memory, growth
 exponent): ``benchmarks/bench_scale_identify.py``.
 """
 
@@ -29,7 +31,7 @@ import denavit as dv
 from denavit import sweeps as sw
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from real_effects import recording  # noqa: E402 (the simulator of real effects the tests use)
+from real_effects import CHI2_99, NEST, axis_chi2, recordings  # noqa: E402 (the simulator of real effects the tests use)
 
 METHODS = ["kasa", "hyper", "geometric", "readings", "global"]
 
@@ -54,11 +56,12 @@ def main() -> None:
     ap.add_argument("--methods", default=",".join(METHODS), help="comma-separated subset of " + ",".join(METHODS))
     ap.add_argument("--protocols", default="90,30")
     ap.add_argument("--realistic", type=int, default=0, metavar="RUNS", help="Monte Carlo runs of the realistic cases (0: skip)")
+    ap.add_argument("--targets", type=int, default=3, help="targets on one body for the multi-target check (1-4; 1: skip)")
     ap.add_argument("--skip-paper", action="store_true", help="skip the paper protocol tables")
     args = ap.parse_args()
     methods = args.methods.split(",")
     if args.realistic:
-        realistic(args.realistic, args.points, methods if "auto" in methods else [m for m in methods if m != "hyper"] + ["auto"])
+        realistic(args.realistic, args.points, methods if "auto" in methods else [m for m in methods if m != "hyper"] + ["auto"], args.targets)
     if args.skip_paper:
         return
     kr5 = dv.load_robot("kr5")
@@ -139,31 +142,39 @@ CASES = {
 }
 
 
-def realistic(runs: int, points: int, methods: list) -> None:
+def realistic(runs: int, points: int, methods: list, targets: int = 3) -> None:
     kr5 = dv.load_robot("kr5")
     truth = kr5.model()
     home = np.radians(sw.PAPER_HOME_DEG)
     T_ft = np.eye(4)
-    T_ft[:3, 3] = (0.05, 0.03, 0.10)
+    T_ft[:3, 3] = NEST[0]
     truth_axes, p_home = dv.axes(truth, home), dv.fk(truth.with_tool(T_ft), home)[:3, 3]
     for protocol in (90, 30):
         ranges = np.radians(sw.PAPER_RANGES_DEG[protocol])
-        print(f"\n=== realistic recordings, {protocol} degree protocol, {points} points per sweep, 0.02 mm tracker noise, {runs} runs ===")
-        print(f"{'case':<40}{'method':<11}{'axis err mm':>12}{'sigma/spread':>14}{'in 0.8-1.25':>13}   auto chose")
+        print(f"\n=== realistic recordings, {protocol} degree protocol, {points} points per sweep, 0.02 mm tracker noise, {runs} runs, "
+              f"{targets} targets ===")
+        print(f"{'case':<40}{'method':<11}{'axis err mm':>12}{'vs kasa':>8}{'sigma/spread':>14}{'in 0.8-1.25':>13}{'targets agree':>15}   auto chose")
         for case, kw in CASES.items():
+            kasa = None
             for method in methods:
-                est, sig, pe, chose = [], [], [], collections.Counter()
+                est, sig, pe, chose, agree = [], [], [], collections.Counter(), []
                 for run in range(runs):
-                    s = recording(truth, home, ranges, points=points, seed=10_000 * protocol + run, **kw)
-                    res = dv.identify(s, method=method, nominal=kr5)
+                    recs = recordings(truth, home, ranges, points=points, seed=10_000 * protocol + run, targets=NEST[:max(targets, 1)], **kw)
+                    res = dv.identify(recs[0], method=method, nominal=kr5)
                     d = res.table.params - kr5.table.params
-                    d[:, 1] += s.home - home  # a reading offset / scale error at home is a true theta offset
+                    d[:, 1] += recs[0].home - home  # a reading offset / scale error at home is a true theta offset
                     d[:, [1, 3]] = (d[:, [1, 3]] + np.pi) % (2 * np.pi) - np.pi
                     est.append(d)
                     sig.append(res.sigma)
                     pe.append(line_errors(res, truth_axes, p_home)[1])
                     if method == "auto":
                         chose[res.method] += 1
+                    others = [res] + [dv.identify(r, method=method, nominal=kr5) for r in recs[1:]]
+                    for a in range(len(others)):
+                        for b in range(a + 1, len(others)):
+                            for fa, fb, kind in zip(others[a].fits, others[b].fits, recs[0].kinds, strict=True):
+                                c2, k = axis_chi2(fa, fb, kind)
+                                agree.append(c2 <= CHI2_99[k])
                 est, sig = np.array(est), np.array(sig)
                 spread = est.std(axis=0, ddof=1)
                 free = spread > 1e-9
@@ -171,7 +182,10 @@ def realistic(runs: int, points: int, methods: list) -> None:
                 ratio = np.sqrt(np.mean(sig**2, axis=0))[free] / spread[free]
                 inband = np.mean((ratio >= 0.8) & (ratio <= 1.25))
                 pos = 1e3 * math.sqrt(np.mean(np.array(pe) ** 2))
-                print(f"{case:<40}{method:<11}{pos:12.4f}{np.median(ratio):14.2f}{100 * inband:12.0f}%   "
+                kasa = pos if method == "kasa" else kasa
+                gain = f"{kasa / pos:7.1f}x" if kasa else f"{'-':>8}"
+                ag = f"{100 * np.mean(agree):14.0f}%" if agree else f"{'-':>15}"
+                print(f"{case:<40}{method:<11}{pos:12.4f}{gain}{np.median(ratio):14.2f}{100 * inband:12.0f}%{ag}   "
                       + (", ".join(f"{k} {v}" for k, v in chose.items()) if chose else ""))
 
 

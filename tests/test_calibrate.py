@@ -12,6 +12,7 @@ from scipy.spatial.transform import Rotation
 
 import denavit as dv
 from cli import env as cli_env
+from cli import run as run_cli
 from denavit import calibration as cal
 from denavit import fitting
 from denavit import sweeps as sw
@@ -668,3 +669,21 @@ def test_a_measurement_csv_reads_the_same_on_the_c_reader_and_row_by_row(kr5, tm
     fast.write_text("\n".join(lines) + "\n")
     with pytest.raises(dv.DenavitError, match=r"pose.csv:201: column 'rz' must be a number, got 'abc'"):
         read_measurements(fast)
+def test_cli_calibrate_refuses_a_jump_and_honours_a_coupling(tmp_path):
+    """Readings of a Fanuc (J3 read relative to the horizontal) calibrated against the plain nominal: the fit moved
+    b_2 by 1.1 m and exited 0 with no note; now it is refused (exit 2) naming the parameter and the coupling to
+    declare, and with --coupling "q3=r3+r2" it fits to the noise."""
+    kr5 = dv.load_robot("kr5")
+    q = cal.configurations(kr5, 60)
+    meas = cal.simulate(kr5.model(), q, tool=np.array([0.05, 0.03, 0.1]), noise=2e-5, seed=1)
+    r = q.copy()
+    r[:, 2] -= q[:, 1]
+    lines = ["# units: length=mm angle=deg", "q1,q2,q3,q4,q5,q6,x,y,z"]
+    lines += [",".join([*(f"{v:.8f}" for v in np.degrees(a)), *(f"{v:.6f}" for v in p * 1e3)]) for a, p in zip(r, meas.points, strict=True)]
+    f = tmp_path / "fanuc.csv"
+    f.write_text("\n".join(lines) + "\n")
+    bad = run_cli("calibrate", f, "--nominal", "kr5", "--tool", "50,30,100", ok=False)
+    assert bad.returncode == 2 and "by more than the robot's size" in bad.stderr + bad.stdout and "--coupling" in bad.stderr + bad.stdout
+    good = run_cli("calibrate", f, "--nominal", "kr5", "--tool", "50,30,100", "--coupling", "q3=r3+r2", "--json", tmp_path / "c.json")
+    assert good.returncode == 0
+    assert json.loads((tmp_path / "c.json").read_text())["residuals"]["rms"] < 0.05  # mm (0.02 mm noise)

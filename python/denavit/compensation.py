@@ -129,6 +129,32 @@ def predicted_sigma(result, q) -> np.ndarray:
     raise DenavitError(f"result: expected an identification or a calibration result with a covariance, got {type(result).__name__}")
 
 
+def table_sigma(robot, q) -> np.ndarray:
+    """(N,) predicted tool-position error (1 sigma, 3-D RMS, m) at configurations ``q`` (N, n) of a robot whose
+    ``covariance`` (of its table's parameters and tool translation, e.g. read from a robot file's
+    ``[covariance]``) is known: ``sqrt(trace(J C J^T))``, ``J`` by central differences of the forward kinematics."""
+    C = np.asarray(robot.covariance, dtype=float)
+    t = robot.table
+    theta0 = np.concatenate([np.asarray(t.params).ravel(), np.asarray(t.T_last_tool)[:3, 3]])
+    if C.shape != (len(theta0), len(theta0)):
+        raise DenavitError(f"{robot.name}: covariance of shape {C.shape}, expected ({len(theta0)}, {len(theta0)}) (the table's parameters and the tool's x, y, z)")
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    n = t.params.size
+
+    def tool_points(theta):
+        T = np.array(t.T_last_tool)
+        T[:3, 3] = theta[n:]
+        return _core.fk_batch(_core.Table(t.convention, theta[:n].reshape(t.params.shape), t.kinds, t.T_world_base, T).to_model(), q)[:, :3, 3]
+
+    scale = np.sqrt(np.maximum(np.diag(C), 0.0))
+    J = np.zeros((len(q), 3, len(theta0)))
+    for k in np.flatnonzero(scale > 0):
+        e = np.zeros_like(theta0)
+        e[k] = scale[k]
+        J[:, :, k] = (tool_points(theta0 + e) - tool_points(theta0 - e)) / (2 * scale[k])
+    return np.sqrt(np.maximum(np.einsum("nij,jk,nik->n", J, C, J), 0.0))
+
+
 def _axes_sigma(ident, q: np.ndarray) -> np.ndarray:
     ax = ident.axes
     n = ax.nq

@@ -38,6 +38,12 @@ class Robot:
     inertials: dict | None = None
     """Link inertial parameters in frame i of the convention, SI: ``masses`` (n,) kg, ``coms`` (n, 3) m,
     ``inertias`` (n, 3, 3) kg m^2 about each centre of mass (None: massless links)."""
+    coupling: np.ndarray | None = None
+    """(n, n) the joint values from the controller's readings, ``q = coupling @ reading`` (a Fanuc's J3 read
+    relative to the horizontal: ``q3 = r3 + r2``); None: the readings are the joint values."""
+    covariance: np.ndarray | None = None
+    """(n k + 3, n k + 3) SI covariance of the table's parameters (row-major) and the tool's translation in the last
+    frame, from the identification or calibration that made the robot (a robot file's ``[covariance]``)."""
     notes: list = field(default_factory=list)
     """What the reader chose on the user's behalf (e.g. a URDF's tip link), one line each, for the user to see."""
 

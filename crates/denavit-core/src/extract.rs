@@ -53,7 +53,8 @@ pub struct ExtractOptions {
     pub max_offset: Option<f64>,
     /// A table of the same convention whose frames break sign ties and fix the last frame.
     pub nominal: Option<Table>,
-    /// ED-H frame origins, one point per axis (default: the axes' points).
+    /// ED-H frame origins, one point per axis (default: the axes' points). With a nominal as well, pairs parallel
+    /// within `parallel_tol` take the nominal's x (docs/conventions.md).
     pub origins: Option<Vec<Vector3<f64>>>,
     /// Measure the table's tool error against the exact ED-H model of the axes over [`FIDELITY_SAMPLES`]
     /// configurations (default true); false skips it (the errors are then NaN): a cost paid only when asked.
@@ -371,7 +372,14 @@ fn edh_from_axes(ax: &JointAxes, opt: &ExtractOptions, geoms: &[PairGeom], nomin
         let x = if k + 1 < n {
             let c = normal_direction(&z[k], &z[k + 1]);
             let toward = origins[k + 1] - origins[k];
-            if c.norm() > EXACT_PARALLEL_SIN {
+            let nominal_x = nom_x(k + 1).filter(|_| opt.origins.is_some() && c.norm() <= opt.parallel_tol).and_then(|v| perpendicular(&v, &z[k]));
+            if let Some(xn) = nominal_x {
+                // against a nominal with its on-body origins (Guo et al.: identified axes, the nominal's frames),
+                // a pair parallel within parallel_tol takes the nominal's x (the common normal of a pair parallel
+                // within its noise follows the noise); the tilt, below parallel_tol, is dropped (the table's tool
+                // error says how much). Without origins ED-H stays exact.
+                xn
+            } else if c.norm() > EXACT_PARALLEL_SIN {
                 orient(c.normalize(), nom_x(k + 1).as_ref(), &toward, opt.intersect_tol)
             } else if geoms[k].relation == Relation::Coincident {
                 orient(perp_or(&col(&frames[k], 0), &base_x, &z[k]), nom_x(k + 1).as_ref(), &Vector3::zeros(), opt.intersect_tol)

@@ -276,3 +276,27 @@ fn link_frames_place_the_convention_frames_in_the_joint_frames() {
         }
     }
 }
+
+#[test]
+fn edh_x_of_a_near_parallel_pair_follows_the_nominal() {
+    // KR5 axes 2-3 parallel; joint 3 tilted by 1e-10 rad (the round-off of measured data written to 10 digits):
+    // the common normal of the pair points anywhere (theta_2 = 45.6 deg was seen); against the nominal with its
+    // on-body origins (identify's ED-H) the pair's x is the nominal's, and every parameter is the nominal's to the
+    // size of the tilt.
+    let t = kr5_dh();
+    let m = t.to_model("kr5").unwrap();
+    let nominal = extract(&axes(&m, &[0.0; 6]).unwrap(), Convention::Edh, &ExtractOptions::default()).unwrap().table;
+    let mut joints = m.joints().to_vec();
+    joints[2].placement *= ry(1e-10);
+    let tilted = Model::new("kr5-tilted", *m.t_world_base(), joints, *m.t_last_flange(), *m.t_flange_tool()).unwrap();
+    let ax = axes(&tilted, &[0.0; 6]).unwrap();
+    let plain = extract(&ax, Convention::Edh, &ExtractOptions::default()).unwrap();
+    assert!((&plain.table.params - &nominal.params).amax() > 0.1, "{}", plain.table.params);
+    // without origins (a conversion, a calibrated table) ED-H stays exact: the common normal
+    let exact = extract(&ax, Convention::Edh, &ExtractOptions { nominal: Some(nominal.clone()), ..Default::default() }).unwrap();
+    assert!((&exact.table.params - &nominal.params).amax() > 0.1, "{}", exact.table.params);
+    let origins = (0..6).map(|k| nominal.frames(&[0.0; 6]).unwrap()[k + 1].translation.vector).collect();
+    let ex = extract(&ax, Convention::Edh, &ExtractOptions { nominal: Some(nominal.clone()), origins: Some(origins), ..Default::default() }).unwrap();
+    let diff = (&ex.table.params - &nominal.params).amax();
+    assert!(diff < 1e-9, "{}\nvs\n{}", ex.table.params, nominal.params);
+}

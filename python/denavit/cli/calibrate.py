@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 
+from ..errors import DenavitError
 from ..io.units import angle_scale, length_scale
 from .common import (
     BaseLinkOpt,
@@ -50,6 +53,7 @@ def calibrate(
     angle: Annotated[str, typer.Option("--angle", help="Angle unit of what is typed and printed, and of the data where they declare none: deg | rad. JSON stays SI.")] = "deg",
     verbose: Annotated[bool, typer.Option("--verbose", help="Every parameter the data cannot identify, with the reason (default: their names in a few lines).")] = False,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the held-out split.")] = 0,
+    coupling: Annotated[str | None, typer.Option("--coupling", help="Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; docs/robot-files.md); default: the robot file's [couplings].")] = None,
     data_format: Annotated[str, typer.Option("--format", help="measurements (q1..qn,x,y,z CSV, sweep CSV, JSON) | tracker | rtde | rsi | bag | columns | auto (from the content).")] = "auto",
     columns: Annotated[str | None, typer.Option("--columns", help="Column map of a delimited recording, e.g. \"t,q1..q6,x,y,z\".")] = None,
     target: Annotated[int, typer.Option("--target", help="Recordings with several targets per pose: which one, 1-based.")] = 1,
@@ -76,6 +80,11 @@ def calibrate(
         q, pts, where = static_poses(rec, target=target - 1)
         say("dim", "note:", f" {len(q)} poses where the robot stood still (the median of each pause)")
         meas = cal.Measurements(q, pts, None, str(data), where, {"length": "m", "angle": "rad"}, kinds=tuple(robot.table.kinds))
+    from ..io.robotfile import parse_coupling  # noqa: PLC0415
+
+    C = parse_coupling(coupling, list(robot.table.kinds), "--coupling") if coupling else robot.coupling
+    if C is not None:  # the readings -> the joint values the model turns by
+        meas = replace(meas, q=np.asarray(meas.q) @ C.T)
     ls = length_scale(length)
     tp = None if tool is None else parse_point(tool, "--tool", ls, ())
     if noise is not None and not (math.isfinite(noise) and noise > 0):
@@ -88,6 +97,7 @@ def calibrate(
         emit_json(cal.to_json(res, "m", "rad"), json_path)
     if json_path != "-":
         print_calibration(res, length, angle, verbose)
+    _refuse_jumps(res, robot, length, angle)
     if save:
         from ..io.robotfile import save as save_file  # noqa: PLC0415
 
@@ -98,6 +108,35 @@ def calibrate(
 
         save_urdf(res.model(), urdf, res.robot())  # the calibrated geometry, with a URDF nominal's meshes, inertials and limits
         wrote(urdf)
+
+
+#: calibrate notes a length parameter that moves from the nominal's by more than this fraction of the robot's size,
+#: and refuses one that moves by more than the size.
+FLAG_SIZE = 0.1
+
+
+def _refuse_jumps(res, robot, length: str, angle: str) -> None:
+    """A calibration whose length parameters move from the nominal's by more than the robot's size is not a
+    calibration of this robot (readings coupled but not declared, the wrong unit, another robot): refused; by more
+    than ``FLAG_SIZE`` of it, a note."""
+    from .. import _core  # noqa: PLC0415
+
+    m = robot.model()
+    q0 = np.zeros(m.nq) if robot.home is None else robot.home
+    base = np.asarray(m.T_world_base)[:3, 3]
+    size = max([float(np.linalg.norm(np.asarray(p) - base)) for p in _core.axes(m, q0).points] + [float(np.linalg.norm(_core.fk(m, q0)[:3, 3] - base)), 1e-3])
+    pz = res.parametrization
+    moves = [(name, abs(v - n)) for name, v, n, u in zip(res.names, res.values, res.nominal, pz.units, strict=True) if u == "length" and abs(v - n) > FLAG_SIZE * size]
+    jumps = [(name, d) for name, d in moves if d > size]
+    ls = length_scale(length)
+    if moves and not jumps:
+        say("yellow", "note:", f" {', '.join(f'{name} moves {d / ls:.4g} {length}' for name, d in moves[:4])} from the nominal, more than {FLAG_SIZE:g} of the robot's size "
+            f"({size / ls:.4g} {length}): a calibration moves parameters by millimetres; check for coupled readings (--coupling), the units and the nominal")
+    if jumps:
+        worst = ", ".join(f"{name} by {d / ls:.4g} {length}" for name, d in sorted(jumps, key=lambda x: -x[1])[:4])
+        raise DenavitError(f"{res.measurements.source}: the calibration moves {len(jumps)} parameter(s) from the nominal {robot.name}'s by more than the robot's size "
+                           f"({size / ls:.4g} {length}): {worst}; expected a calibration of this robot (readings coupled, as a Fanuc's J3? declare --coupling "
+                           "\"q3=r3+r2\" or [couplings]; points in another unit? the wrong nominal?)")
 
 
 def print_calibration(res, length: str, angle: str, verbose: bool = False) -> None:

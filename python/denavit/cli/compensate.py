@@ -60,6 +60,8 @@ def compensate(
     flagged = [(w, why) for w, ok, r, b, j in zip(prog.where, c.ok, c.reached, c.branch_changed, c.path_jump, strict=True) if not ok
                for why in [", ".join(x for x, f in (("unreachable", not r), ("branch changed", b), ("path jump", j)) if f)]]
     before_rms = float(np.sqrt(np.mean(c.before[c.ok] ** 2))) if c.ok.any() else float("nan")
+    # the predicted error after compensation (1 sigma), from the identified robot's covariance (identify --save)
+    predicted = cp.table_sigma(id_robot, c.q) if id_robot.covariance is not None else None
     if output:
         write_compensated(output, c, kinds, length=length, angle=angle, comment=f"compensated for {nom_robot.name} -> {id_robot.name} from {targets}")
         wrote(output, f" ({len(c)} rows, {len(flagged)} flagged)")
@@ -67,11 +69,20 @@ def compensate(
                "before_rms_m": before_rms, "before_max_m": float(c.before[c.ok].max()) if c.ok.any() else None,
                "residual_max_m": float(c.residual[c.ok].max()) if c.ok.any() else None,
                "flagged_rows": [{"where": w, "why": why} for w, why in flagged]}
+    if predicted is not None:
+        summary["predicted_after_rms_m"] = float(np.sqrt(np.mean(predicted[c.ok] ** 2))) if c.ok.any() else None
+        summary["predicted_after"] = [{"where": w, "sigma_m": float(p)} for w, p in zip(prog.where, predicted, strict=True)]
     emit_json(summary, json_out)
     if json_out != "-" and output != "-":
         gain = (f"; error without compensation {spread(before_rms / ls)} {length} RMS, max {spread(summary['before_max_m'] / ls)} {length}"
                 if c.ok.any() else "; no target can be sent (is the identified robot a calibration of the nominal?)")
         say("bold", f"{nom_robot.name} -> {id_robot.name}:", f" {len(c)} targets, {len(flagged)} flagged{gain}")
+        if predicted is not None and c.ok.any():
+            say("bold", "Predicted error after compensation", f" (1 sigma, from {id_robot.name}'s covariance): rms {summary['predicted_after_rms_m'] / ls:.4g} {length}, "
+                f"max {float(predicted[c.ok].max()) / ls:.4g} {length}" + (" (per row in --json)" if len(c) > 20 else ""))
+            if len(c) <= 20:
+                for w, p in zip(prog.where, predicted, strict=True):
+                    console.print(f"  {w}: {p / ls:.4g} {length}")
         for w, why in flagged[:20]:
             console.print(f"  {w}: {why}")
         if len(flagged) > 20:

@@ -55,7 +55,7 @@ def identify(
     angle: Annotated[str | None, typer.Option("--angle", help="Angle unit of what is typed and printed (default deg), and of the data where they declare none: deg | rad. JSON stays SI.")] = None,
     home: Annotated[str | None, typer.Option("--home", help="Per-joint files: the locked configuration, e.g. \"90,-90,90,0,90,0\" (--angle units; prismatic joints --length).")] = None,
     direction: Annotated[str | None, typer.Option("--direction", help="Per-joint files: +1/-1 per joint (or one for all): did the joint value increase over the recording?")] = None,
-    loss: Annotated[str, typer.Option("--loss", help="linear | soft_l1 | huber (robust loss)")] = "linear",
+    loss: Annotated[str, typer.Option("--loss", help="soft_l1 (default: one blunder does not move an axis; free on clean data) | huber | linear (plain least squares)")] = "soft_l1",
     max_sigma: Annotated[float | None, typer.Option("--max-sigma", help="Required axis-position accuracy (1 sigma) in --length units: sweeps predicted worse are an error.")] = None,
     report: Annotated[Path | None, typer.Option("--report", help="Write a self-contained HTML report.")] = None,
     plot: Annotated[Path | None, typer.Option("--plot", help="Write the static figures (PNG) into this folder.")] = None,
@@ -67,6 +67,8 @@ def identify(
     columns: Annotated[str | None, typer.Option("--columns", help="Column map of a delimited recording, e.g. \"t,q1..q6,x,y,z\" (--format columns).")] = None,
     sweep: Annotated[str | None, typer.Option("--sweep", help="Tracker export: where each point's sweep comes from: 'group' or a point-name pattern such as 'J{joint}_{index}'.")] = None,
     target: Annotated[int, typer.Option("--target", help="Recordings with several targets per pose (SMRs on a nest): which one, 1-based.")] = 1,
+    coupling: Annotated[str | None, typer.Option("--coupling", help="Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; docs/robot-files.md); default: the robot file's [couplings].")] = None,
+    keep_dwell: Annotated[bool, typer.Option("--keep-dwell", help="Keep the rows where the motion stands still at a sweep's ends (left out of the fits by default, with a note naming them).")] = False,
     readings: Annotated[Path | None, typer.Option("--readings", help="A second recording with the joint readings on another clock (e.g. a controller log beside a tracker export): aligned from the motion.")] = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
@@ -102,10 +104,14 @@ def identify(
             sweeps = swio.read_json(data, length=length, angle=angle)
         else:  # units the file declares win; --length/--angle fill in what it does not declare (and are the output's)
             sweeps = swio.read_long_csv(data, length=length, angle=angle, kinds=kinds)
+    from ..io.robotfile import parse_coupling  # noqa: PLC0415
+
+    C = parse_coupling(coupling, list(sweeps.kinds), "--coupling") if coupling else None
     with status(f"fitting {sweeps.n_joints} sweeps ({method})...") as st:
         ms = None if max_sigma is None else max_sigma * length_scale(out_len)
         T_world_base = None if base is None else parse_pose(base, out_ang, length_scale(out_len), "--base")
-        result = identify_sweeps(sweeps, method=method, convention=convention, nominal=nom, loss=loss, max_sigma=ms, T_world_base=T_world_base, progress=st.update)
+        result = identify_sweeps(sweeps, method=method, convention=convention, nominal=nom, loss=loss, max_sigma=ms, T_world_base=T_world_base,
+                                 keep_dwell=keep_dwell, coupling=C, progress=st.update)
     if json_path:
         emit_json(to_json(result, "m", "rad"), json_path)
     if json_path != "-":
@@ -205,12 +211,17 @@ def print_identification(doc: dict, result, length: str, angle: str) -> None:
                          num(diff, unit) if diff is not None else "-"])
     print_rows(None, ["joint", "param", "unit", "nominal", "identified", "sigma", "difference"], rows, labels=2, left=(2,), group=True,
                caption="sigma = one standard deviation propagated from the fits; difference = identified - nominal")
-    heads = ["joint", f"radius [{length}]", f"arc [{angle}]", f"rms [{length}]", f"sigma across [{length}]", f"sigma dir [{angle}]", "outliers"]
+    scaled = any(j["reading_scale"] is not None for j in doc["joints"])
+    heads = ["joint", f"radius [{length}]", f"arc [{angle}]", f"rms [{length}]", f"sigma across [{length}]", f"sigma dir [{angle}]", "outliers", "reading sigma [arcsec]",
+             *(["reading scale [ppm]"] if scaled else [])]
     arows = []
-    for j in doc["joints"]:
+    for j, kind in zip(doc["joints"], result.sweeps.kinds, strict=True):
         r = j["circle"]["radius"]
+        rs, sc = j["reading_sigma_deg"], j["reading_scale"]
         arows.append([j["joint"], num(r, length) if r is not None else "-", f"{j['arc_deg'] * deg:.4g}", spread(j["residuals"]["rms"]), spread(j["axis"]["sigma_point_perp"]),
-                      spread(j["axis"]["sigma_direction_deg"] * deg), str(len(j["residuals"]["outliers"]))])
+                      spread(j["axis"]["sigma_direction_deg"] * deg), str(len(j["residuals"]["outliers"])),
+                      f"{rs * 3600:.3g}" if rs is not None and kind == "revolute" else "-",
+                      *([f"{sc['value'] * 1e6:+.4g} +/- {sc['sigma'] * 1e6:.2g}" if sc else "-"] if scaled else [])])
     print_rows("Joint axes (measurement frame)", heads, arows)
     b = doc["bounding_box"]
     console.print(f"Measuring volume (minimum oriented bounding box, Hayat Table IV): {' x '.join(num(v, length) for v in b['lengths'])} {length}, {b['volume_m3']:.4g} m^3; "

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 
 from ..io.units import angle_scale, length_scale
@@ -25,12 +26,14 @@ def simulate(
     seed: Annotated[int, typer.Option("--seed", help="Seed of the noise.")] = 0,
     length: LengthOpt = "mm",
     angle: AngleOpt = "deg",
+    coupling: Annotated[str | None, typer.Option("--coupling", help="The readings written are a controller's whose joint values are, e.g., \"q3=r3+r2\" (a Fanuc's J3; docs/robot-files.md); default: the robot file's [couplings].")] = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
 ) -> None:
     """Simulate joint sweeps of a model (for planning a measurement and for tests); writes the long-form CSV."""
     from .. import sweeps as sw  # noqa: PLC0415
     from ..io.output import write_text  # noqa: PLC0415
+    from ..io.robotfile import parse_coupling  # noqa: PLC0415
     from ..io.sweeps import to_long_csv  # noqa: PLC0415
 
     robot = load_robot(model, base_link, tip_link)
@@ -42,5 +45,10 @@ def simulate(
     sigma = positive(noise, "--noise", ls, NOISE_M, length)
     sigma_q = positive(noise_q, "--noise-q", as_, 0.0, angle)
     s = sw.simulate(m, home=h, ranges=r, points_per_sweep=points, tool_point=tp, noise=sigma, noise_q=sigma_q, seed=seed)
+    C = parse_coupling(coupling, list(m.kinds), "--coupling") if coupling else robot.coupling
+    if C is not None:  # the controller reports readings r = C^-1 q
+        from ..identify import decoupled  # noqa: PLC0415
+
+        s = decoupled(s, np.linalg.inv(C))
     write_text(output, to_long_csv(s, length, angle, f"simulated sweeps of {robot.name}: seed {seed}, noise {spread(sigma / ls)} {length}, readings noise {spread(sigma_q / as_)} {angle}"))
     wrote(output, f": {m.nq} sweeps x {points} points")

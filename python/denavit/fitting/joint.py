@@ -26,7 +26,7 @@ import numpy as np
 
 from ..errors import NotConvergedError
 from ..geometry import perpendicular_basis
-from .robust import loss_weight, misfit_variance, robust_sigma
+from .robust import loss_dweight, loss_weight, misfit_variance, robust_sigma
 
 #: A locked reading whose correlation with the swept joint's reading exceeds this (and which moves) is coupled.
 COUPLED_CORRELATION = 0.99
@@ -153,13 +153,15 @@ def _chain(cs, ns, kinds, p, dq, active, jac: bool, moving: int | None = None):
 
 
 def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "linear", per_sweep_home: bool = False,
-               noise_sigma=None, gamma=None, where: str = ""):
+               scales: bool = False, noise_sigma=None, gamma=None, where: str = ""):
     """The joint fit of all sweeps (module docstring). ``dqs`` per sweep (m, n) joint motions from home
     (:func:`locked_motion`), ``starts`` per joint (point, direction) start lines, ``p0`` the start home point.
 
     Returns a dict: ``points`` (n, 3) feet of the home point on each axis, ``directions`` (n, 3), ``home``
     (S, 3) home point per sweep (all equal without ``per_sweep_home``), ``cov`` of [c_1, n_1, ..., c_n, n_n,
-    p_1 (, p_2, ...)] (the axis points at those feet), ``misfit`` per sweep (m,) 3-D distances, ``weights`` per
+    p_1 (, p_2, ...)] (the axis points at those feet; with ``scales`` marginal over the scales), ``scales`` (n,)
+    each swept joint's reading scale error ``s_j`` (the joint turns by ``(1 + s_j)`` times its reading's motion;
+    zeros without ``scales``) and ``scale_sigma`` (n,) their one-sigma (nan without), ``misfit`` per sweep (m,) 3-D distances, ``weights`` per
     sweep (m,) robust weights, ``whitened`` per sweep (m,) misfits in point-noise units, ``sigma`` the point
     noise, ``reading_sigma`` per sweep, ``ss`` the whitened sum of squares and ``n_params``.
     """
@@ -168,7 +170,10 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     cs = [np.array(c, dtype=float) for c, _ in starts]
     ns = [np.array(d, dtype=float) / np.linalg.norm(d) for _, d in starts]
     homes = np.tile(np.asarray(p0, dtype=float), (S if per_sweep_home else 1, 1))
-    npar = 4 * n + 3 * len(homes)
+    swept = sorted({s.joint - 1 for s in sweeps.sweeps}) if scales else []
+    sc = np.zeros(n)
+    n_h = 4 * n + 3 * len(homes)  # the first scale's index
+    npar = n_h + len(swept)
     active = [[i for i in range(n) if np.any(dq[:, i] != 0)] for dq in dqs]
     size = max(float(np.sqrt(np.mean(np.sum((s.points - s.points.mean(axis=0)) ** 2, axis=1)))) for s in sweeps.sweeps)
     floor = 1e-12 * size
@@ -178,13 +183,14 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     def home_of(k):
         return homes[k] if per_sweep_home else homes[0]
 
-    def chunks(k, cs, ns, homes_, jac):
-        """(rows, misfits r, d pred / d q of the swept joint, blocks, jp) of sweep k, CHUNK points at a time."""
+    def chunks(k, cs, ns, homes_, sc_, jac):
+        """(rows, misfits r, d pred / d q of the swept joint, blocks, jp) of sweep k, CHUNK points at a time (the
+        joints turning by (1 + s) times their readings' motion)."""
         s, dq = sweeps.sweeps[k], dqs[k]
         j = s.joint - 1
         for a in range(0, len(dq), CHUNK):
             rows = slice(a, a + CHUNK)
-            pred, blocks, jp, dpdq = _chain(cs, ns, kinds, homes_[k] if per_sweep_home else homes_[0], dq[rows], active[k], jac, j)
+            pred, blocks, jp, dpdq = _chain(cs, ns, kinds, homes_[k] if per_sweep_home else homes_[0], dq[rows] * (1 + sc_), active[k], jac, j)
             yield rows, pred - s.points[rows], dpdq[j], blocks, jp
 
     def tangent(mv):
@@ -195,26 +201,32 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         rt = np.einsum("mi,mi->m", r, t)
         return r - (1 - g) * rt[:, None] * t, rt
 
-    def normal_eq(cs, ns, homes_):
+    def normal_eq(cs, ns, homes_, sc_, bread=None):
         """Normal matrix, its robust sandwich part, gradient, whitened cost, and per sweep (indices, Gram matrix of
         the weighted tangential rows, tangential residuals, levers, whitened residuals, misfits), accumulated sweep
         by sweep and CHUNK points at a time (memory linear in the points, small per point). Whitening scales the
         component along the tangent t by gamma: J_w^T J_w = J^T J - (1 - gamma^2) (t^T J)^T (t^T J), J_w^T r_w
-        likewise."""
+        likewise. With ``bread`` (the robust scale f), also the M-estimator's bread term (Huber 1981 sec. 7.6):
+        2 w'(z) / f^2 (J_w^T r_w)(J_w^T r_w)^T per point (z = |r_w|^2 / f^2), added to J_w^T W J_w; without it
+        the sigmas of a robust fit on clean data came out 7 % small."""
         A = np.zeros((npar, npar))
         A2 = np.zeros((npar, npar)) if loss != "linear" else None
         b = np.zeros(npar)
         ss = 0.0
+        Bd = np.zeros((npar, npar)) if bread else None
         parts = []
         for k in range(S):
             g2 = 1 - gam[k] ** 2
-            idx = np.concatenate([np.arange(4 * i, 4 * i + 4) for i in active[k]] + [np.arange(4 * n + 3 * (k if per_sweep_home else 0), 4 * n + 3 * (k if per_sweep_home else 0) + 3)])
+            j = sweeps.sweeps[k].joint - 1
+            h0 = 4 * n + 3 * (k if per_sweep_home else 0)
+            idx = np.concatenate([np.arange(4 * i, 4 * i + 4) for i in active[k]] + [np.arange(h0, h0 + 3)] + ([[n_h + swept.index(j)]] if scales else []))
             Gt = np.zeros((len(idx), len(idx)))
             m = len(dqs[k])
             rt_k, lever_k, rw_k, r_k = np.empty(m), np.empty(m), np.empty((m, 3)), np.empty((m, 3))
-            for rows, r, mv, blocks, jp in chunks(k, cs, ns, homes_, True):
+            for rows, r, mv, blocks, jp in chunks(k, cs, ns, homes_, sc_, True):
                 t, lever = tangent(mv)
-                J = np.concatenate([blocks[i] for i in active[k]] + [jp], axis=2)
+                # (with scales: d pred / d s_j = d pred / d q_j times the reading's motion)
+                J = np.concatenate([blocks[i] for i in active[k]] + [jp] + ([(mv * dqs[k][rows, j, None])[:, :, None]] if scales else []), axis=2)
                 jt = np.einsum("mi,mik->mk", t, J)
                 rt = np.einsum("mi,mi->m", r, t)
                 w = ws[k][rows]
@@ -227,31 +239,39 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
                 rw = r - (1 - gam[k]) * rt[:, None] * t
                 ss += float(np.sum(w * np.sum(rw**2, axis=1)))
                 Gt += gam[k] ** 2 * (jt * w[:, None]).T @ jt
+                if bread:
+                    gw = np.einsum("mi,mik->mk", rw, J) - ((1 - gam[k]) * gam[k] * rt)[:, None] * jt  # J_w^T r_w per point
+                    c = 2 * loss_dweight(loss, np.sum(rw**2, axis=1) / bread**2) / bread**2
+                    Bd[np.ix_(idx, idx)] += (gw * c[:, None]).T @ gw
                 rt_k[rows], lever_k[rows], rw_k[rows], r_k[rows] = rt, lever, rw, r
             parts.append((idx, Gt, rt_k, lever_k, rw_k, r_k))
+        if bread:
+            return A + Bd, A2, b, ss, parts
         return A, (A if A2 is None else A2), b, ss, parts
 
-    def step(x_cs, x_ns, x_h, delta):
+    def step(x_cs, x_ns, x_h, x_sc, delta):
         new_cs, new_ns = [], []
         for i in range(n):
             B = np.column_stack(perpendicular_basis(x_ns[i]))
             nv = x_ns[i] + B @ delta[4 * i : 4 * i + 2]
             new_ns.append(nv / np.linalg.norm(nv))
             new_cs.append(x_cs[i] + (B @ delta[4 * i + 2 : 4 * i + 4] if kinds[i] == "revolute" else 0.0))
-        return new_cs, new_ns, x_h + delta[4 * n :].reshape(-1, 3)
+        new_sc = x_sc.copy()
+        new_sc[swept] += delta[n_h:]
+        return new_cs, new_ns, x_h + delta[4 * n : n_h].reshape(-1, 3), new_sc
 
-    def cost(cs, ns, homes_):
+    def cost(cs, ns, homes_, sc_):
         """The whitened cost at a trial point: misfits and tangents only, no Jacobian blocks."""
         total = 0.0
         for k in range(S):
-            for rows, r, mv, _, _ in chunks(k, cs, ns, homes_, False):
+            for rows, r, mv, _, _ in chunks(k, cs, ns, homes_, sc_, False):
                 total += float(np.sum(ws[k][rows] * np.sum(whitened(r, tangent(mv)[0], gam[k])[0] ** 2, axis=1)))
         return total
 
     lam = 1e-6
     sigma2 = None
     for it in range(300):
-        A, A2, b, ss, parts = normal_eq(cs, ns, homes)
+        A, A2, b, ss, parts = normal_eq(cs, ns, homes, sc)
         D = np.diag(A).copy()
         D[D <= 0] = 1.0
         # variance components: pooled point noise across the motion, each sweep's misfit along it
@@ -271,6 +291,7 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             e = [np.linalg.norm(p[4], axis=1) for p in parts]
             f = 3.0 * max(robust_sigma(np.concatenate(e), 3), floor)
             new_ws = [loss_weight(loss, (ek / f) ** 2) for ek in e]
+            f_final = f
         # (the weights need 0.1 % / 1e-6; after 100 steps they are frozen, so that the steps settle)
         changed = it < 100 and (np.max(np.abs(new_gam - gam) / gam) > 1e-3 or any(np.max(np.abs(a - c)) > 1e-6 for a, c in zip(new_ws, ws, strict=True)))
         if changed:
@@ -278,10 +299,10 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             continue
         delta = -_pinv_sym(A + lam * np.diag(D)) @ b
         small = np.max(np.abs(delta)) <= 1e-13 * max(size, 1e-300) + 1e-300
-        tcs, tns, th = step(cs, ns, homes, delta)
-        new_cost = cost(tcs, tns, th)
+        tcs, tns, th, tsc = step(cs, ns, homes, sc, delta)
+        new_cost = cost(tcs, tns, th, tsc)
         if new_cost <= ss:
-            cs, ns, homes = tcs, tns, th
+            cs, ns, homes, sc = tcs, tns, th, tsc
             lam = max(lam / 10, 1e-12)
             small = small or (not changed and ss - new_cost <= 1e-14 * ss)
         else:
@@ -290,7 +311,7 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             break
     else:
         raise NotConvergedError(f"{where}: global fit: no convergence in 300 steps (expected the steps to settle to 1e-13 of the size)")
-    A, A2, b, ss, parts = normal_eq(cs, ns, homes)
+    A, A2, b, ss, parts = normal_eq(cs, ns, homes, sc, bread=f_final if loss != "linear" else None)
     psi2 = sum(float(np.sum(w**2 * np.sum(p[4] ** 2, axis=1))) for w, p in zip(ws, parts, strict=True))
     dof = 3 * sum(float(np.sum(w**2)) for w in ws) - npar
     s2 = misfit_variance(np.sqrt(psi2) * np.ones(1), dof, math.sqrt(sigma2))
@@ -308,12 +329,15 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         if kinds[j] == "revolute":
             M[6 * j : 6 * j + 3, 4 * j + 2 : 4 * j + 4] = B
         M[6 * j + 3 : 6 * j + 6, 4 * j : 4 * j + 2] = B
-    M[6 * n :, 4 * n :] = np.eye(3 * len(homes))
+    M[6 * n :, 4 * n : n_h] = np.eye(3 * len(homes))
     cov = M @ cov_x @ M.T
+    scale_sigma = np.full(n, math.nan)
+    scale_sigma[swept] = np.sqrt(np.clip(np.diag(cov_x)[n_h:], 0, None))
     sigma = math.sqrt(sigma2)
     reading_sigma = [math.sqrt(max(sigma2 / g**2 - sigma2, 0.0)) / max(float(np.mean(p[3])), 1e-300) for g, p in zip(gam, parts, strict=True)]
     return {
         "points": np.array(feet), "directions": np.array(ns), "home": np.array([home_of(k) for k in range(S)]), "cov": cov,
         "misfit": [np.linalg.norm(p[5], axis=1) for p in parts], "weights": ws, "whitened": [np.linalg.norm(p[4], axis=1) / sigma for p in parts],
         "sigma": sigma, "reading_sigma": reading_sigma, "ss": ss / sigma2, "ss_m": ss, "n_params": npar, "gamma": gam,
+        "scales": sc, "scale_sigma": scale_sigma,
     }

@@ -55,8 +55,16 @@ class AxisFit:
         Angular span covered by the points about the axis (``2 pi`` minus the largest angular gap);
         ``nan`` for line fits.
     scale : float
-        Line fits with readings: metres of travel along ``direction`` per unit of ``q`` (a check of the joint's
-        scale, ideally 1 for ``q`` in metres). ``nan`` otherwise.
+        The joint's motion per unit of its reading: line fits with readings, metres of travel along ``direction``
+        per unit of ``q`` (a check of the joint's scale, ideally 1 for ``q`` in metres); joint fits that fit the
+        readings' scale errors (:func:`denavit.fitting.joint.fit_sweeps` with ``scales``), radians of turn per
+        radian of reading. ``nan`` otherwise.
+    scale_sigma : float
+        One-sigma of ``scale`` where the joint fit estimated it, else ``nan``.
+    reading_sigma : float, radians (metres for prismatic joints)
+        The estimated white error of the joint's readings (fits with readings), else ``nan``.
+    noise : float, metres
+        The estimated point noise per coordinate (fits with readings), else ``nan``.
     """
 
     point: np.ndarray
@@ -72,6 +80,7 @@ class AxisFit:
     n_points: int
     arc: float
     scale: float = math.nan
+    scale_sigma: float = math.nan
     reading_sigma: float = math.nan
     noise: float = math.nan
 

@@ -65,6 +65,20 @@ def loss_weight(loss: str, z: np.ndarray) -> np.ndarray:
     return np.ones_like(z)
 
 
+def loss_dweight(loss: str, z: np.ndarray) -> np.ndarray:
+    """d/dz of :func:`loss_weight` (``rho''(z)``), for the bread of an M-estimator's covariance."""
+    z = np.asarray(z, dtype=float)
+    if loss == "soft_l1":
+        return -0.5 * (1.0 + z) ** -1.5
+    if loss == "huber":
+        return np.where(z <= 1.0, 0.0, -0.5 * np.maximum(z, 1.0) ** -1.5)
+    if loss == "cauchy":
+        return -1.0 / (1.0 + z) ** 2
+    if loss == "arctan":
+        return -2.0 * z / (1.0 + z**2) ** 2
+    return np.zeros_like(z)
+
+
 def weighted_cov(j: np.ndarray, r: np.ndarray, w: np.ndarray, n_params: int, noise_sigma=None):
     """First-order covariance of a (robust) least-squares fit, and the singular values of ``W^1/2 J``.
 
@@ -114,6 +128,8 @@ def irls(solve, misfit, state, loss, f_scale, k, what, where):
     for the weights ``rho'((misfit / f)^2)`` (scipy's loss functions). With ``f_scale=None`` the scale is
     re-estimated at every step as ``f = 3`` robust sigmas of the current misfits (a concurrent scale estimate,
     so that the scale is not inflated by the outliers' pull on the least-squares start).
+    The misfits are in units of the points' RMS spread (the fits normalize the points), so a scale below 1e-12
+    is round-off on exact data: nothing is down-weighted (the weights of round-off never settle).
     """
     m = misfit(state).size
     w = np.ones(m)
@@ -122,8 +138,8 @@ def irls(solve, misfit, state, loss, f_scale, k, what, where):
     for _ in range(200):
         e = misfit(state)
         f = f_scale if f_scale is not None else 3.0 * robust_sigma(e, k)
-        if not f > 0:
-            return state, w  # exact data: nothing to down-weight
+        if not f > 1e-12:
+            return state, w  # exact data (misfits of round-off: the fits pass them in units of the points' spread)
         w_new = loss_weight(loss, (e / f) ** 2)
         if np.max(np.abs(w_new - w)) < 1e-9:
             return state, w_new

@@ -25,6 +25,10 @@ Format (see docs/robot-files.md and the built-in files in ``denavit/models``)::
     xyz = [0, 0, 0]
     rpy = [0, 0, 0]
     [tool]                       # optional tool in the convention's last frame (poe: home pose M)
+    [couplings]                  # optional: joint values from the controller's readings (parse_coupling)
+    q3 = "r3 + r2"               # a Fanuc reads J3 relative to the horizontal
+    [covariance]                 # optional (written by identify --save): of the joints' parameters, row by
+    matrix = [[...], ...]        # row in column order, then the tool's x, y, z; in [units] (products per cell)
 
 POE joints give ``w = [wx, wy, wz]`` (unitless) and ``v = [vx, vy, vz]`` (length units for a revolute joint,
 v = -w x p; a unitless direction for a prismatic one). Joint values (``home``, ``limits``) are in the angle
@@ -185,7 +189,9 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
     home = doc.get("home")
     if home is not None:
         home = np.asarray(_numbers(home, len(joints), f"{where}: home")) * joint_scale(kinds, units["length"], units["angle"], where)
-    known = {"name", "description", "source", "convention", "units", "joints", "base", "tool", "home"}
+    coupling = parse_coupling(doc["couplings"], kinds, f"{where}, [couplings]") if "couplings" in doc else None
+    covariance = _covariance(doc["covariance"], table, units, f"{where}, [covariance]") if "covariance" in doc else None
+    known = {"name", "description", "source", "convention", "units", "joints", "base", "tool", "home", "couplings", "covariance"}
     # other tables (e.g. [urdf], written by `convert` from a URDF) are carried as extra; a stray plain key is
     # most likely a typo ("hom" for "home")
     _check_keys({k: v for k, v in doc.items() if not isinstance(v, dict)}, sorted(known), f"{where} (top level)")
@@ -216,7 +222,91 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         path=where,
         extra={k: v for k, v in doc.items() if k not in known},
         inertials=inertials,
+        coupling=coupling,
+        covariance=covariance,
     )
+
+
+def _covariance_scales(table: _core.Table, length: str, angle: str) -> np.ndarray:
+    """SI per file unit of each entry of a ``[covariance]`` (the table's cells row by row, then the tool's x, y, z)."""
+    n, k = table.params.shape
+    cells = [cell_scale(table, i, c, length, angle)[0] for i in range(n) for c in range(k)]
+    return np.array(cells + [length_scale(length)] * 3)
+
+
+def _covariance(spec, table: _core.Table, units: dict, where: str) -> np.ndarray:
+    if not isinstance(spec, dict):
+        raise DenavitError(f"{where}: expected a table with 'matrix', got {spec!r}")
+    _check_keys(spec, ["matrix"], where)
+    s = _covariance_scales(table, units["length"], units["angle"])
+    rows = spec.get("matrix")
+    if not isinstance(rows, list) or len(rows) != len(s):
+        raise DenavitError(f"{where}: matrix: expected {len(s)} rows (the joints' parameters, then the tool's x, y, z), got {len(rows) if isinstance(rows, list) else rows!r}")
+    C = np.array([_numbers(r, len(s), f"{where}: matrix row {i + 1}") for i, r in enumerate(rows)]) * np.outer(s, s)
+    if not np.allclose(C, C.T, rtol=1e-9, atol=0) or np.linalg.eigvalsh((C + C.T) / 2).min() < -1e-9 * max(np.abs(np.diag(C)).max(), 1e-300):
+        raise DenavitError(f"{where}: matrix: expected a symmetric positive semi-definite covariance")
+    return C
+
+
+_TERM = re.compile(r"\s*([+-]?)\s*(?:(\d+(?:\.\d*)?(?:[eE][+-]?\d+)?|\.\d+(?:[eE][+-]?\d+)?)\s*\*?\s*)?r(\d+)\s*")
+
+
+def parse_coupling(spec, kinds: list[str], where: str) -> np.ndarray:
+    """The (n, n) matrix ``C`` of ``q = C @ reading`` from equations of joint values in readings.
+
+    ``spec``: a string ``"q3 = r3 + r2; q5 = r5 - 0.5 r4"`` (``;`` or ``,`` between equations; the CLI's
+    ``--coupling``), or a table ``{"q3": "r3 + r2"}`` (a robot file's ``[couplings]``). A joint not given reads its
+    own value (``qi = ri``). Coefficients are unitless: readings of joints of one kind only.
+    """
+    n = len(kinds)
+    if isinstance(spec, str):
+        eqs = {}
+        for part in re.split(r"[;,]", spec):
+            if not part.strip():
+                continue
+            lhs, eq, rhs = part.partition("=")
+            if not eq:
+                raise DenavitError(f"{where}: expected equations such as 'q3 = r3 + r2', got {part.strip()!r}")
+            eqs[lhs.strip()] = rhs
+    elif isinstance(spec, dict):
+        eqs = spec
+    else:
+        raise DenavitError(f"{where}: expected equations such as q3 = \"r3 + r2\", got {spec!r}")
+    C = np.eye(n)
+    for lhs, rhs in eqs.items():
+        m = re.fullmatch(r"q(\d+)", str(lhs).strip())
+        i = int(m.group(1)) - 1 if m else -1
+        if not 0 <= i < n:
+            raise DenavitError(f"{where}: expected a joint q1..q{n} on the left, got {lhs!r}")
+        if not isinstance(rhs, str) or not rhs.strip():
+            raise DenavitError(f"{where}: {lhs}: expected readings such as \"r3 + r2\", got {rhs!r}")
+        row, pos, text = np.zeros(n), 0, rhs.strip()
+        while pos < len(text):
+            t = _TERM.match(text, pos)
+            if t is None or t.end() == pos or (pos > 0 and not t.group(1)):
+                raise DenavitError(f"{where}: {lhs}: expected terms such as '+ 0.5 r2', got {text[pos:]!r} in {rhs!r}")
+            k = int(t.group(3)) - 1
+            if not 0 <= k < n:
+                raise DenavitError(f"{where}: {lhs}: reading r{k + 1} of a robot with {n} joints")
+            if kinds[k] != kinds[i]:
+                raise DenavitError(f"{where}: {lhs}: reading r{k + 1} is of a {kinds[k]} joint, q{i + 1} of a {kinds[i]} one (coefficients are unitless)")
+            row[k] += (-1.0 if t.group(1) == "-" else 1.0) * (float(t.group(2)) if t.group(2) else 1.0)
+            pos = t.end()
+        C[i] = row
+    if abs(np.linalg.det(C)) < 1e-9:
+        raise DenavitError(f"{where}: the coupling is singular (readings do not determine the joint values): {eqs}")
+    return C
+
+
+def coupling_text(C: np.ndarray) -> dict:
+    """The ``[couplings]`` table of ``C`` (rows that differ from the identity), the inverse of :func:`parse_coupling`."""
+    out = {}
+    for i, row in enumerate(np.asarray(C)):
+        if np.array_equal(row, np.eye(len(row))[i]):
+            continue
+        terms = [("-" if v < 0 else "+") + ("" if abs(v) == 1 else f" {abs(v):.12g}") + f" r{k + 1}" for k, v in enumerate(row) if v != 0]
+        out[f"q{i + 1}"] = " ".join(terms).lstrip("+ ")
+    return out
 
 
 def _number(value, where: str) -> float:
@@ -293,6 +383,11 @@ def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
         doc["base"] = _pose_spec(t.T_world_base, ls, as_)
     if not np.allclose(t.T_last_tool, np.eye(4), atol=0, rtol=0):
         doc["tool"] = _pose_spec(t.T_last_tool, ls, as_)
+    if robot.covariance is not None:
+        s = _covariance_scales(t, length, angle)
+        doc["covariance"] = {"matrix": [[float(v) for v in row] for row in np.asarray(robot.covariance) / np.outer(s, s)]}
+    if robot.coupling is not None and coupling_text(robot.coupling):
+        doc["couplings"] = coupling_text(robot.coupling)
     doc.update(robot.extra)
     return doc
 
