@@ -30,7 +30,7 @@ STAGES = ("read", "identify", "box")
 
 def child(path: str, box: bool) -> None:
     """One measurement in this process: read, identify (auto), box; prints JSON."""
-    from denavit import identify as ident
+    import denavit as dv
     from denavit import load_robot
     from denavit.io import sweeps as swio
 
@@ -44,7 +44,7 @@ def child(path: str, box: bool) -> None:
         return r
 
     s = timed("read", lambda: swio.read_long_csv(path, kinds=list(kr5.table.kinds)))
-    res = timed("identify", lambda: ident.identify(s, nominal=kr5))
+    res = timed("identify", lambda: dv.identify(s, nominal=kr5))
     if box:
         timed("box", lambda: res.box)
     out["method"] = res.method

@@ -201,7 +201,6 @@ def test_identify_save_persists_the_covariance_and_compensate_predicts_per_row(t
     import json
 
     from cli import run
-    from denavit import identify as ident
     from denavit.cli.identify import example_path
     from denavit.io import robotfile
     from denavit.io import sweeps as swio
@@ -209,7 +208,7 @@ def test_identify_save_persists_the_covariance_and_compensate_predicts_per_row(t
     saved = tmp_path / "kr5_id.toml"
     run("identify", "--example", "kr5", "--convention", "edh", "--save", saved)
     robot = robotfile.read(saved)
-    res = ident.identify(swio.read(example_path("kr5")), nominal=dv.load_robot("kr5"), convention="edh")
+    res = dv.identify(swio.read(example_path("kr5")), nominal=dv.load_robot("kr5"), convention="edh")
     np.testing.assert_allclose(robot.covariance, res.param_cov, rtol=1e-4, atol=1e-16)
     again = tmp_path / "again.toml"
     robotfile.save(robot, again, "m", "rad")

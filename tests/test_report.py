@@ -391,7 +391,10 @@ class Tab:
             self.b.call("Input.dispatchMouseEvent", {"type": kind, "x": x, "y": y, "button": "left", "clickCount": 1}, session=self.s)
 
     def screenshot(self, rect: dict) -> Image.Image:
-        clip = {"x": rect["x"], "y": rect["y"], "width": rect["width"], "height": rect["height"], "scale": 1}
+        """The pixels of ``rect`` (a :meth:`rect`, in viewport coordinates); the clip of Page.captureScreenshot is in
+        page coordinates, so the scroll offset is added (without it a page taller than before shot its header)."""
+        sx, sy = json.loads(self.eval("JSON.stringify([window.scrollX, window.scrollY])"))
+        clip = {"x": rect["x"] + sx, "y": rect["y"] + sy, "width": rect["width"], "height": rect["height"], "scale": 1}
         data = self.b.call("Page.captureScreenshot", {"format": "png", "clip": clip}, session=self.s)["data"]
         return Image.open(io.BytesIO(base64.b64decode(data))).convert("RGB")
 

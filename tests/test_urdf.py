@@ -1076,14 +1076,13 @@ def test_identified_export_keeps_every_link_on_its_body(tmp_path):
     frames ride on their parents, a `world` root holds the tracker frame and `tcp` the identified tool point."""
     from lxml import etree  # noqa: PLC0415
 
-    from denavit import identify as ident  # noqa: PLC0415
     from denavit import sweeps as sw  # noqa: PLC0415
 
     nominal = U.load_urdf(UR_ROS)
     truth = nominal.model().with_base(TRACKER)
     home = (np.maximum(nominal.lower, -np.pi) + np.minimum(nominal.upper, np.pi)) / 2
     s = sw.simulate(truth, home=home, ranges=np.stack([home - 0.6, home + 0.6], axis=1), points_per_sweep=12, noise=2e-5, seed=4)
-    m = ident.identify(s, convention="edh", nominal=nominal).model()
+    m = dv.identify(s, convention="edh", nominal=nominal).model()
     out = tmp_path / "identified.urdf"
     U.save_urdf(m, out, nominal)
     src = {el.get("name"): etree.tostring(el) for el in etree.parse(str(UR_ROS), etree.XMLParser(remove_blank_text=True)).getroot() if el.tag == "link"}
