@@ -687,3 +687,18 @@ def test_cli_calibrate_refuses_a_jump_and_honours_a_coupling(tmp_path):
     good = run_cli("calibrate", f, "--nominal", "kr5", "--tool", "50,30,100", "--coupling", "q3=r3+r2", "--json", tmp_path / "c.json")
     assert good.returncode == 0
     assert json.loads((tmp_path / "c.json").read_text())["residuals"]["rms"] < 0.05  # mm (0.02 mm noise)
+
+
+def test_cli_calibrate_writes_a_report(tmp_path):
+    """`calibrate --report`: the calibration's self-contained HTML report (what it draws: test_report's browser test)."""
+    kr5 = dv.load_robot("kr5")
+    q = cal.configurations(kr5, 30)
+    meas = cal.simulate(kr5.model(), q, tool=np.array([0.05, 0.03, 0.1]), noise=2e-5, seed=2)
+    lines = ["# units: length=mm angle=deg", "q1,q2,q3,q4,q5,q6,x,y,z"]
+    lines += [",".join([*(f"{v:.8f}" for v in np.degrees(a)), *(f"{v:.6f}" for v in p * 1e3)]) for a, p in zip(q, meas.points, strict=True)]
+    f = tmp_path / "m.csv"
+    f.write_text("\n".join(lines) + "\n")
+    page = tmp_path / "cal.html"
+    run_cli("calibrate", f, "--nominal", "kr5", "--tool", "50,30,100", "--report", page)
+    html = page.read_text()
+    assert html.startswith("<!DOCTYPE html>") and "kr5" in html and len(html) < 2e6

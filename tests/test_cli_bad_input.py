@@ -158,6 +158,9 @@ def cases(d: Path, readonly: Path | None):
         ("compensate: 1_000 in a target", ["compensate", d / "t_underscore.csv", "--nominal", "kr5", "--identified", "kr5"], "column 'q1' must be a number, got '1_000'"),
         ("inspect: a Latin-1 recording", ["inspect", d / "rtde_latin1.csv"], "not UTF-8 text"),
         ("dynamics: qd = 1e160", ["dynamics", DATA / "urdf" / "ur_style.urdf", "--qd", "1e160,0,0,0,0,0"], "the torques overflow"),
+        ("fk: 1_0 on the command line (float() had read it)", ["fk", "kr5", "--q", "1_0,0,0,0,0,0"], "--q: expected numbers (ASCII decimal"),
+        ("fk: a full-width digit on the command line", ["fk", "kr5", "--q", "\uff11,0,0,0,0,0"], "--q: expected numbers (ASCII decimal"),
+        ("simulate: nan in --tool", ["simulate", "kr5", "-o", d / "never.csv", "--tool", "nan,0,0"], "--tool: expected numbers (ASCII decimal"),
     ]
     if readonly is not None:
         out += [("convert: output in a read-only directory", ["convert", "kr5", "--to", "mdh", "-o", readonly / "x.toml"], "x.toml: cannot write"),

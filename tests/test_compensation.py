@@ -130,6 +130,11 @@ def test_cli_compensates_joint_rows_and_poses(tmp_path):
         np.testing.assert_allclose(reached[:, :3, :3], T[:, :3, :3], atol=1e-9)
         if f == "q.csv":
             assert np.abs(q_id - Q).max() < 0.05
+    # --report: the compensation's HTML report (the browser test in test_report checks what it draws)
+    page = tmp_path / "comp.html"
+    run("compensate", tmp_path / "q.csv", "--nominal", "kr5", "--identified", ident, "--report", page)
+    html = page.read_text()
+    assert html.startswith("<!DOCTYPE html>") and "kr5_id" in html and len(html) < 2e6
 
 
 def test_cli_compensate_bad_input(tmp_path):

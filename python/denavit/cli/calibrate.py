@@ -43,6 +43,7 @@ def calibrate(
     json_path: JsonOpt = None,
     save: Annotated[Path | None, typer.Option("--save", help="Write the calibrated robot file (.toml, ED-H) to this path.")] = None,
     urdf: Annotated[Path | None, typer.Option("--urdf", help="Write the calibrated robot as URDF, with a URDF nominal's meshes, inertials and limits.")] = None,
+    report: Annotated[Path | None, typer.Option("--report", help="Write a self-contained HTML report (summary, 3-D view, tables).")] = None,
     loss: Annotated[str, typer.Option("--loss", help="linear | soft_l1 | huber | cauchy | arctan (robust loss)")] = "linear",
     start: Annotated[str, typer.Option("--start", help="nominal | circles (circle-point identification of sweep data)")] = "nominal",
     holdout: Annotated[float, typer.Option("--holdout", help="Fraction of the poses held out to validate the fit.")] = 0.2,
@@ -108,6 +109,12 @@ def calibrate(
 
         save_urdf(res.model(), urdf, res.robot())  # the calibrated geometry, with a URDF nominal's meshes, inertials and limits
         wrote(urdf)
+    if report:
+        from ..report import write_calibration_report  # noqa: PLC0415
+
+        with status("writing the report ..."):
+            write_calibration_report(res, report, length=length, angle=angle)
+        wrote(report)
 
 
 #: calibrate notes a length parameter that moves from the nominal's by more than this fraction of the robot's size,

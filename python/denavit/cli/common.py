@@ -234,13 +234,18 @@ def wrote(path, detail: str = "") -> None:
 
 def parse_numbers(text: str | None, what: str) -> list[float]:
     """Numbers separated by commas and/or spaces ("90,-90,90" or "90 -90 90")."""
+    from ..io.delimited import NUMBER  # noqa: PLC0415 (the one number rule of every reader)
+
     if not text:
         return []
-    try:
-        return [float(t) for t in text.replace(",", " ").split()]
-    except ValueError:
-        fail(f"{what}: expected numbers separated by commas or spaces, got {text!r}")
-        raise
+    tokens = text.replace(",", " ").split()
+    bad = next((t for t in tokens if not NUMBER.fullmatch(t)), None)
+    if bad is not None:
+        fail(f"{what}: expected numbers (ASCII decimal, e.g. -90 or 1.5e-3) separated by commas or spaces, got {bad[:40]!r}")
+    values = [float(t) for t in tokens]
+    if not all(math.isfinite(v) for v in values):
+        fail(f"{what}: expected finite numbers, got {text[:80]!r}")
+    return values
 
 
 def parse_joint_values(text: str | None, what: str, robot: Robot, length: str, angle: str, default=None, limits: bool = True) -> np.ndarray:

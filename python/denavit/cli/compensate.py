@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Annotated
 
 import typer
@@ -22,6 +23,7 @@ def compensate(
     length: LengthOpt = "mm",
     angle: AngleOpt = "deg",
     json_out: JsonOpt = None,
+    report: Annotated[Path | None, typer.Option("--report", help="Write a self-contained HTML report (summary, 3-D view, per-target errors).")] = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
 ) -> None:
@@ -87,6 +89,12 @@ def compensate(
             console.print(f"  {w}: {why}")
         if len(flagged) > 20:
             console.print(f"  ... and {len(flagged) - 20} more (all in the output's 'ok' column)")
+    if report:
+        from ..report import write_compensation_report  # noqa: PLC0415
+
+        with status("writing the report ..."):
+            write_compensation_report(c, nom_robot, id_robot, report, source=str(targets), where=prog.where, length=length, angle=angle)
+        wrote(report)
     if flagged:
         raise typer.Exit(1)
 
