@@ -754,3 +754,20 @@ def test_cli_coupling_in_simulate_and_identify(tmp_path):
     assert "lock-step" not in declared
     bad = run("identify", f, "--nominal", "kr5", "--coupling", "q3 = r3 + r9", ok=False)
     assert bad.returncode == 2 and "--coupling: q3: reading r9 of a robot with 6 joints" in bad.stderr + bad.stdout
+
+
+def test_short_arcs_get_a_note_with_their_predicted_sigma(kr5):
+    """Arcs too short for a useful axis get a note with the predicted sigma without --max-sigma (issue 16: a 1-degree
+    arc had given FK 438 mm off with no note); when they make the axes implausible, the error says the arcs are why."""
+    from denavit.identify import SHORT_ARC, SHORT_ARC_SIGMA
+
+    def arcs(deg, readings):
+        s = sw.simulate(kr5.model(), home=HOME, ranges=np.stack([HOME - np.radians(deg / 2), HOME + np.radians(deg / 2)], 1), points_per_sweep=20, noise=2e-5, seed=3)
+        return s if readings else sw.SweepSet([sw.Sweep(x.joint, x.points, None, x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units)
+
+    res = dv.identify(arcs(5.0, readings=False), nominal=kr5)
+    short = [n for n in res.notes if "arc gives a predicted axis-position sigma" in n]
+    assert len(short) == sum(f.sigma_point_perp > SHORT_ARC_SIGMA and f.arc < SHORT_ARC for f in res.fits) > 0, res.notes
+    assert not [n for n in dv.identify(arcs(90.0, readings=False), nominal=kr5).notes if "arc gives" in n]
+    with pytest.raises(dv.DenavitError, match="the arcs are too short"):
+        dv.identify(arcs(1.0, readings=True), nominal=kr5)

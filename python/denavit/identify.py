@@ -442,7 +442,29 @@ IMPLAUSIBLE = (math.radians(30.0), 0.25)
 PLAUSIBLE_SIGMAS = 5.0
 
 
-def _plausibility(ex: _core.Extraction, fits: list, nominal: Robot, home: np.ndarray, names: list[str], source: str, notes: list[str]) -> None:
+#: An axis whose predicted position is known no better than this (1 sigma, m) gets a note naming its arc and the
+#: predicted sigma (issue 16: a 1-degree arc had given FK 438 mm off with no note unless --max-sigma was given).
+SHORT_ARC_SIGMA = 1e-3
+#: ... when its arc is shorter than this (rad): a long arc known that poorly has other causes (noise, a unit slip).
+SHORT_ARC = math.radians(20.0)
+
+
+def _short_arc_notes(sweeps: SweepSet, fits: list, notes: list[str]) -> list[str]:
+    """A note per sweep whose arc is shorter than :data:`SHORT_ARC` and whose axis-position sigma exceeds
+    :data:`SHORT_ARC_SIGMA` (too short, or too few points, for an axis worth calibrating with); the notes are also
+    returned (the plausibility error cites them)."""
+    short = []
+    for s, f in zip(sweeps.sweeps, fits, strict=True):
+        if sweeps.kinds[s.joint - 1] == "revolute" and not f.sigma_point_perp <= SHORT_ARC_SIGMA and f.arc < SHORT_ARC:
+            short.append(f"{sweep_where(s, sweeps.source)}: the {np.degrees(f.arc):.3g} deg arc gives a predicted axis-position sigma of "
+                         f"{f.sigma_point_perp * 1e3:.3g} mm (above {SHORT_ARC_SIGMA * 1e3:g} mm): sweep a longer arc or measure more points "
+                         "(--max-sigma makes this an error)")
+    notes.extend(short)
+    return short
+
+
+def _plausibility(ex: _core.Extraction, fits: list, nominal: Robot, home: np.ndarray, names: list[str], source: str, notes: list[str],
+                  short: list[str] = ()) -> None:
     """The identified axes against the nominal's, pair by pair (issue 16): a note naming the joints of a pair
     whose angle or distance is far from the nominal's, in units of its uncertainty and of the robot's size; a
     :class:`DenavitError` when most pairs are far (points in the wrong unit, swapped joints, the wrong robot)."""
@@ -469,7 +491,9 @@ def _plausibility(ex: _core.Extraction, fits: list, nominal: Robot, home: np.nda
     if far and sum(far) > len(far) / 2:
         raise DenavitError(f"{source}: {sum(far)} of {len(far)} pairs of consecutive axes differ from the nominal {nominal.name}'s by more than "
                            f"{math.degrees(IMPLAUSIBLE[0]):g} deg or {IMPLAUSIBLE[1]:g} robot sizes ({IMPLAUSIBLE[1] * size * 1e3:.4g} mm): expected the same robot "
-                           "(points in another unit? joints swapped or misnumbered? the wrong robot?)")
+                           + (f"(the arcs are too short: {len(short)} axes known no better than {SHORT_ARC_SIGMA * 1e3:g} mm, up to "
+                              f"{max(f.sigma_point_perp for f in fits) * 1e3:.3g} mm; sweep longer arcs)" if short else
+                              "(points in another unit? joints swapped or misnumbered? the wrong robot?)"))
 
 
 def _signed_distance(p0, z0, p1, z1) -> float:
@@ -690,8 +714,9 @@ def identify(
         opts["intersect_tol"] = intersect_tol
     ax = _axes_from(x, sweeps, tool_R, base, lower, upper)
     ex = _core.extract(ax, convention, **opts)
+    short = _short_arc_notes(sweeps, fits, notes)
     if nominal is not None:
-        _plausibility(ex, fits, nominal, sweeps.home, nominal.names, sweeps.source, notes)
+        _plausibility(ex, fits, nominal, sweeps.home, nominal.names, sweeps.source, notes, short)
     angle_cols = np.array(ex.table.angle_columns)
     p_ref = ex.table.params
 
