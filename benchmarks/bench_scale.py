@@ -22,37 +22,13 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
 import json  # noqa: E402
-import time  # noqa: E402
 
 import numpy as np  # noqa: E402
-from bench_kinematics import ik_one_attempt, pin, pin_model_with_tool, rtb, rtb_robot_with_limits  # noqa: E402
+from bench_kinematics import ik_one_attempt, once, per_call, pin, pin_model_with_tool, rtb, rtb_robot_with_limits  # noqa: E402
 
 import denavit as dv  # noqa: E402
 
 G = np.array([0.0, 0.0, -9.81])
-
-
-def median_time(fn, repeat):
-    """Median wall time of one call (s) over `repeat` runs after one warm-up."""
-    fn()
-    runs = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        fn()
-        runs.append(time.perf_counter() - t)
-    return float(np.median(runs))
-
-
-def per_call(fn, number, repeat):
-    """Median over `repeat` runs of the mean time of one call (s)."""
-    fn()
-    runs = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        for _ in range(number):
-            fn()
-        runs.append((time.perf_counter() - t) / number)
-    return float(np.median(runs))
 
 
 def growth(ns, ts):
@@ -99,7 +75,7 @@ def main():
                 break
             qs = rng.uniform(-np.pi, np.pi, (N, n))
             out = alloc(N)
-            ts.append(median_time(lambda qs=qs, out=out, run=run: run(qs, out), rep if N < 10**7 else max(3, rep // 2)))
+            ts.append(once(lambda qs=qs, out=out, run=run: run(qs, out), rep if N < 10**7 else max(3, rep // 2)))
             ns.append(N)
             del qs, out
         cells = [fmt(t) for t in ts] + ["(memory)"] * (len(sizes) - len(ts))
@@ -111,34 +87,34 @@ def main():
     N = 100_000
     qs = rng.uniform(-np.pi, np.pi, (N, n))
     out = np.empty((N, 4, 4))
-    t1 = median_time(lambda: dv.fk_batch(m, qs, out=out, threads=1), rep * 3)
-    t2 = median_time(lambda: dv.fk_batch(m, qs, out=out, threads=2), rep * 3)
-    tf = median_time(lambda: dv.fk_batch(m, qs, threads=1), rep * 3)
+    t1 = once(lambda: dv.fk_batch(m, qs, out=out, threads=1), rep * 3)
+    t2 = once(lambda: dv.fk_batch(m, qs, out=out, threads=2), rep * 3)
+    tf = once(lambda: dv.fk_batch(m, qs, threads=1), rep * 3)
     p_fk = p_j = p_r = r_fk = "-"
     if pin is not None:
         pm, pd, _ = pin_model_with_tool(m)
         k = 5000
-        p_fk = fmt(median_time(lambda: [pin.forwardKinematics(pm, pd, q) for q in qs[:k] + m.offsets], rep) * N / k) + " (Python loop, scaled)"
-        p_j = fmt(median_time(lambda: [pin.computeJointJacobians(pm, pd, q) for q in qs[:k] + m.offsets], rep) * N / k) + " (Python loop, scaled)"
-        p_r = fmt(median_time(lambda: [pin.rnea(pm, pd, q, q, q) for q in qs[:k]], rep) * N / k) + " (Python loop, scaled)"
+        p_fk = fmt(once(lambda: [pin.forwardKinematics(pm, pd, q) for q in qs[:k] + m.offsets], rep) * N / k) + " (Python loop, scaled)"
+        p_j = fmt(once(lambda: [pin.computeJointJacobians(pm, pd, q) for q in qs[:k] + m.offsets], rep) * N / k) + " (Python loop, scaled)"
+        p_r = fmt(once(lambda: [pin.rnea(pm, pd, q, q, q) for q in qs[:k]], rep) * N / k) + " (Python loop, scaled)"
     if rtb is not None:
         ets = rtb_robot_with_limits(m).ets()
-        r_fk = fmt(median_time(lambda: ets.fkine(qs), max(3, rep // 2)))
+        r_fk = fmt(once(lambda: ets.fkine(qs), max(3, rep // 2)))
     rows.append((f"batch FK {N:,} (KR5 -> (N, 4, 4), out=), one core", fmt(t1), p_fk, r_fk, "<= 1.8 ms"))
     rows.append((f"batch FK {N:,}, out=, two cores (threads=2)", fmt(t2), "-", "-", "<= 1.0 ms"))
     rows.append((f"batch FK {N:,}, one core, a fresh result array", fmt(tf), "-", "-", "-"))
     oj = np.empty((N, 6, n))
-    tj = median_time(lambda: dv.jacobian_batch(m, qs, out=oj), rep * 3)
-    tj1 = median_time(lambda: dv.jacobian_batch(m, qs, out=oj, threads=1), rep * 3)
+    tj = once(lambda: dv.jacobian_batch(m, qs, out=oj), rep * 3)
+    tj1 = once(lambda: dv.jacobian_batch(m, qs, out=oj, threads=1), rep * 3)
     rows.append((f"batch Jacobian {N:,} (local_world_aligned, out=), default threads / one core", f"{fmt(tj)} / {fmt(tj1)}", p_j, "-", "<= 5 ms"))
     orn = np.empty((N, n))
-    tr = median_time(lambda: dv.rnea_batch(mi, qs, qs, qs, out=orn), rep * 3)
+    tr = once(lambda: dv.rnea_batch(mi, qs, qs, qs, out=orn), rep * 3)
     rows.append((f"batch RNE {N:,} (out=)", fmt(tr), p_r, "-", "-"))
     big = 10**7
     if 8 * big * (n + 16) <= args.max_bytes and not args.quick:
         qb = rng.uniform(-np.pi, np.pi, (big, n))
         ob = np.empty((big, 4, 4))
-        tb = median_time(lambda: dv.fk_batch(m, qb, out=ob), 3)
+        tb = once(lambda: dv.fk_batch(m, qb, out=ob), 3)
         rows.append(("batch FK 10^7 with out= (default threads)", fmt(tb), "-", "-", "<= 0.25 s"))
         del qb, ob
     q = np.array([0.3, -0.2, 0.5, 0.1, 0.4, -0.3])
