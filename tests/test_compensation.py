@@ -122,7 +122,7 @@ def test_cli_compensates_joint_rows_and_poses(tmp_path):
     for f in ("q.csv", "p.csv"):
         out = tmp_path / f"out_{f}"
         run("compensate", tmp_path / f, "--nominal", "kr5", "--identified", ident, "-o", out)
-        rows = np.array([[float(v) for v in line.split(",")] for line in out.read_text().splitlines()[3:]])
+        rows = np.array([[float(v) for v in line.split(",")] for line in out.read_text().splitlines()[4:]])
         assert rows.shape == (25, 18) and (rows[:, 12] == 1).all()
         q_id = np.radians(rows[:, 6:12])
         reached = dv.fk_batch(dv.load_model(ident), q_id)

@@ -2,8 +2,11 @@
 
 For each target tool pose ``T`` (robot base frame), :func:`compensate` finds the joint values ``q`` that
 reach it on the identified model, solved from the nominal solution's branch, and the pose
-``T' = FK_nominal(q)`` to send to the controller: its nominal inverse kinematics turns ``T'`` into ``q``,
-and the robot reaches ``T`` (RoboDK calls this "filtering" a program). The solves run in the Rust core
+``T' = FK_nominal(q')`` to send to the controller: its nominal inverse kinematics turns ``T'`` into ``q'``,
+and the robot reaches ``T`` (RoboDK calls this "filtering" a program). ``q' = q`` unless the identified robot
+reads its joints otherwise than the nominal does (its reading model: a coupling, the reading scale errors that
+identify or calibrate estimated, :func:`denavit.robot.joint_values`): then ``q'`` is the nominal's joint values of
+the readings that put the identified joints at ``q``. The solves run in the Rust core
 (``denavit._core.compensate``), without the GIL, on every core.
 
 :func:`predicted_sigma` gives the predicted tool-position error (1 sigma, 3-D RMS) of an identified model
@@ -20,14 +23,17 @@ import numpy as np
 
 from . import _core
 from .errors import DenavitError
+from .robot import Robot
 
 
 @dataclass(frozen=True)
 class Compensation:
     """The compensation of N targets (SI: m, rad). Per target:
 
-    ``targets`` (N, 4, 4) as given; ``commands`` (N, 4, 4) ``T' = FK_nominal(q)``, the poses to send;
-    ``q`` (N, n) the identified model's joint values; ``q_nominal`` (N, n) the nominal ones;
+    ``targets`` (N, 4, 4) as given; ``commands`` (N, 4, 4) ``T' = FK_nominal(q_command)``, the poses to send;
+    ``q`` (N, n) the identified model's joint values; ``q_nominal`` (N, n) the program's nominal ones;
+    ``q_command`` (N, n) the nominal model's joint values of the commands (the joint rows to send: ``q`` itself
+    unless the identified robot's readings differ from the nominal's, by its reading scales or coupling);
     ``reached``, ``branch_changed``, ``path_jump`` flags (never silently kept: a row with a flag is not a
     valid command); ``residual`` (N,) position residual of the identified solve (m); ``before`` (N,) the
     position error the robot makes without compensation (m); ``predicted_after`` (N,) the predicted
@@ -46,6 +52,11 @@ class Compensation:
     before: np.ndarray
     before_rotation: np.ndarray
     predicted_after: np.ndarray | None = None
+    q_command: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.q_command is None:
+            object.__setattr__(self, "q_command", self.q)
 
     @property
     def ok(self) -> np.ndarray:
@@ -66,11 +77,42 @@ def _model(m, what: str) -> _core.Model:
         return m
     if hasattr(m, "model") and callable(m.model):
         return m.model()
+    raise DenavitError(f"{what}: expected a Model, a Robot, a result with .model(), a built-in name or a robot file, got {type(m).__name__}")
+
+
+def _loaded(m):
+    """A built-in name or a robot file as its Robot; anything else as given."""
     if isinstance(m, str) or hasattr(m, "__fspath__"):
         from .robot import load  # noqa: PLC0415
 
-        return load(m).model()
-    raise DenavitError(f"{what}: expected a Model, a Robot, a result with .model(), a built-in name or a robot file, got {type(m).__name__}")
+        return load(m)
+    return m
+
+
+def reading_model(m) -> tuple | None:
+    """(coupling, scale, reference) of how ``m`` reads its joints (:func:`denavit.robot.joint_values`), or None when
+    its readings are its joint values (a bare Model). ``m``: a Robot (its ``coupling`` and ``reading_scale`` /
+    ``reading_reference``, e.g. from a robot file's ``[couplings]`` and ``[readings]``), an identification (the
+    coupling it decoupled the sweeps with; the reading scales auto fitted, about the sweeps' home) or a calibration
+    (its scales, about zero)."""
+    if isinstance(m, Robot):
+        return (m.coupling, m.reading_scale, m.reading_reference) if m.has_reading_model else None
+    if hasattr(m, "axis_cov") and hasattr(m, "sweeps"):  # an Identification
+        scale = getattr(m, "reading_scale", None)
+        ref = None if scale is None else np.asarray(m.sweeps.home, dtype=float)
+        coupling = getattr(m, "coupling", None)
+        return None if scale is None and coupling is None else (coupling, scale, ref)
+    if hasattr(m, "parametrization") and hasattr(m, "scales"):  # a Calibration
+        sc = m.scales
+        if not sc:
+            return None
+        return (None, np.array([sc.get(f"scale_{j + 1}", 0.0) for j in range(m.parametrization.nq)]), None)
+    return None
+
+
+def _angle(R: np.ndarray) -> np.ndarray:
+    """(N,) rotation angles of (N, 3, 3) rotations."""
+    return np.arccos(np.clip((np.einsum("nii->n", R) - 1) / 2, -1.0, 1.0))
 
 
 def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: bool = False, result=None, branch_tol: float = 0.1, **ik_options) -> Compensation:
@@ -94,6 +136,7 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
     ik_options
         Options of the IK solves (``method``, ``tol_position``, ``tol_rotation``, ``restarts``, ...).
     """
+    nominal, identified = _loaded(nominal), _loaded(identified)
     nom, ide = _model(nominal, "nominal"), _model(identified, "identified")
     T = np.asarray(targets, dtype=float)
     if T.ndim == 2:
@@ -101,8 +144,53 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
     r = _core.compensate(nom, ide, T, q_nominal, q0, path=path, branch_tol=branch_tol, **ik_options)
     q = r.q
     predicted = predicted_sigma(result, q) if result is not None else None
-    return Compensation(T, r.commands, q, r.q_nominal, r.reached, r.branch_changed, r.path_jump, r.position_error, r.rotation_error,
-                        r.before_position, r.before_rotation, predicted)
+    commands, q_cmd, before, before_rot = r.commands, q, r.before_position, r.before_rotation
+    # the readings: the controller turns the nominal's joint values into readings (its coupling), the identified
+    # robot turns readings into its joint values (its coupling, else the nominal's; its reading scales)
+    rm_nom = reading_model(nominal)
+    rm_id = reading_model(identified)
+    if rm_id is not None and rm_id[0] is None and rm_nom is not None:
+        rm_id = (rm_nom[0], *rm_id[1:])
+    rm_id = rm_nom if rm_id is None else rm_id
+    if not _same_readings(rm_nom, rm_id):
+        from .robot import joint_values, readings  # noqa: PLC0415
+
+        def to_nominal(qi):
+            rd = readings(qi, *rm_id) if rm_id is not None else qi
+            return joint_values(rd, *rm_nom) if rm_nom is not None else rd
+
+        def to_identified(qn):
+            rd = readings(qn, *rm_nom) if rm_nom is not None else qn
+            return joint_values(rd, *rm_id) if rm_id is not None else rd
+
+        q_cmd = to_nominal(q)
+        commands = _core.fk_batch(nom, q_cmd)
+        exe = _core.fk_batch(ide, to_identified(r.q_nominal))  # the program run as written
+        before = np.linalg.norm(exe[:, :3, 3] - T[:, :3, 3], axis=1)
+        before_rot = _angle(np.swapaxes(T[:, :3, :3], 1, 2) @ exe[:, :3, :3])
+    return Compensation(T, commands, q, r.q_nominal, r.reached, r.branch_changed, r.path_jump, r.position_error, r.rotation_error,
+                        before, before_rot, predicted, q_cmd)
+
+
+def _same_readings(a, b) -> bool:
+    """Two reading models map readings to joint values alike."""
+    def parts(m):
+        c, s, ref = (None, None, None) if m is None else m
+        s = None if s is None or not np.any(np.asarray(s)) else np.asarray(s, dtype=float)
+        return c, s, (None if s is None or ref is None else np.asarray(ref, dtype=float))
+
+    (ca, sa, ra), (cb, sb, rb) = parts(a), parts(b)
+
+    def eq(x, y, default):
+        if x is None and y is None:
+            return True
+        return bool(np.all(np.asarray(default if x is None else x) == np.asarray(default if y is None else y)))
+
+    n = None
+    for v in (ca, cb):
+        n = len(v) if v is not None else n
+    eye = np.eye(n) if n else None
+    return eq(ca, cb, eye) and eq(sa, sb, 0.0) and (sa is None or eq(ra, rb, 0.0))
 
 
 def predicted_sigma(result, q) -> np.ndarray:
@@ -129,22 +217,33 @@ def predicted_sigma(result, q) -> np.ndarray:
     raise DenavitError(f"result: expected an identification or a calibration result with a covariance, got {type(result).__name__}")
 
 
+def _scaled(q: np.ndarray, scale, reference, theta_scale: np.ndarray) -> np.ndarray:
+    """The joint values at fixed readings when the reading scales are ``theta_scale`` instead of ``scale``: the
+    readings' motion from the reference ``(q - ref) / (1 + scale)`` times ``1 + theta_scale``."""
+    ref = 0.0 if reference is None else np.asarray(reference, dtype=float)
+    return ref + (q - ref) / (1 + np.asarray(scale, dtype=float)) * (1 + theta_scale)
+
+
 def table_sigma(robot, q) -> np.ndarray:
     """(N,) predicted tool-position error (1 sigma, 3-D RMS, m) at configurations ``q`` (N, n) of a robot whose
-    ``covariance`` (of its table's parameters and tool translation, e.g. read from a robot file's
-    ``[covariance]``) is known: ``sqrt(trace(J C J^T))``, ``J`` by central differences of the forward kinematics."""
+    ``covariance`` (of its table's parameters, tool translation and, with ``reading_scale``, its reading scales,
+    e.g. read from a robot file's ``[covariance]``) is known: ``sqrt(trace(J C J^T))``, ``J`` by central differences
+    of the forward kinematics (a scale at the readings of ``q``: the commanded readings are fixed)."""
     C = np.asarray(robot.covariance, dtype=float)
     t = robot.table
-    theta0 = np.concatenate([np.asarray(t.params).ravel(), np.asarray(t.T_last_tool)[:3, 3]])
+    rscale = getattr(robot, "reading_scale", None)
+    theta0 = np.concatenate([np.asarray(t.params).ravel(), np.asarray(t.T_last_tool)[:3, 3]] + ([np.asarray(rscale, dtype=float)] if rscale is not None else []))
     if C.shape != (len(theta0), len(theta0)):
-        raise DenavitError(f"{robot.name}: covariance of shape {C.shape}, expected ({len(theta0)}, {len(theta0)}) (the table's parameters and the tool's x, y, z)")
+        raise DenavitError(f"{robot.name}: covariance of shape {C.shape}, expected ({len(theta0)}, {len(theta0)}) (the table's parameters and the tool's x, y, z"
+                           + (", then the reading scales)" if rscale is not None else ")"))
     q = np.atleast_2d(np.asarray(q, dtype=float))
     n = t.params.size
 
     def tool_points(theta):
         T = np.array(t.T_last_tool)
-        T[:3, 3] = theta[n:]
-        return _core.fk_batch(_core.Table(t.convention, theta[:n].reshape(t.params.shape), t.kinds, t.T_world_base, T).to_model(), q)[:, :3, 3]
+        T[:3, 3] = theta[n : n + 3]
+        qs = q if rscale is None else _scaled(q, rscale, robot.reading_reference, theta[n + 3 :])
+        return _core.fk_batch(_core.Table(t.convention, theta[:n].reshape(t.params.shape), t.kinds, t.T_world_base, T).to_model(), qs)[:, :3, 3]
 
     scale = np.sqrt(np.maximum(np.diag(C), 0.0))
     J = np.zeros((len(q), 3, len(theta0)))
@@ -158,15 +257,18 @@ def table_sigma(robot, q) -> np.ndarray:
 def _axes_sigma(ident, q: np.ndarray) -> np.ndarray:
     ax = ident.axes
     n = ax.nq
-    C = np.asarray(ident.axis_cov)
-    theta0 = np.concatenate([np.concatenate([ax.points[i], ax.directions[i]]) for i in range(n)] + [ident.tool_point])
+    rscale = getattr(ident, "reading_scale", None)
+    full = getattr(ident, "axis_scale_cov", None)
+    C = np.asarray(ident.axis_cov if full is None or rscale is None else full)
+    theta0 = np.concatenate([np.concatenate([ax.points[i], ax.directions[i]]) for i in range(n)] + [ident.tool_point] + ([rscale] if len(C) > 6 * n + 3 else []))
 
     def tool_points(theta):
         P = theta[: 6 * n].reshape(n, 6)
         T_tool = np.array(ax.T_world_tool)
-        T_tool[:3, 3] = theta[6 * n:]
+        T_tool[:3, 3] = theta[6 * n : 6 * n + 3]
         a = _core.JointAxes(P[:, :3], P[:, 3:], kinds=list(ax.kinds), q_ref=ax.q_ref, T_world_base=ax.T_world_base, T_world_tool=T_tool, lower=ax.lower, upper=ax.upper)
-        return _core.fk_batch(_core.extract(a, "edh", fidelity=False).table.to_model(), q)[:, :3, 3]
+        qs = q if len(theta) == 6 * n + 3 else _scaled(q, rscale, ident.sweeps.home, theta[6 * n + 3 :])
+        return _core.fk_batch(_core.extract(a, "edh", fidelity=False).table.to_model(), qs)[:, :3, 3]
 
     scale = np.sqrt(np.maximum(np.diag(C), 0.0))
     J = np.zeros((len(q), 3, len(theta0)))

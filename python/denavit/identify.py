@@ -56,7 +56,10 @@ class Identification:
     nominal_table: _core.Table | None = None
     rms: float = 0.0
     notes: list[str] = field(default_factory=list)
-    param_cov: np.ndarray | None = None  # (n k + 3,) covariance of the table's parameters (row-major) and the tool translation
+    param_cov: np.ndarray | None = None  # (n k + 3 [+ n],) covariance of the table's parameters (row-major), the tool translation (, the reading scales)
+    reading_scale: np.ndarray | None = None  # (n,) the readings' scale errors when auto fitted them (0 where not fitted), about the home
+    axis_scale_cov: np.ndarray | None = None  # (6n+3+n,) covariance of [c1, n1, ..., tool point, reading scales] when they were fitted
+    coupling: np.ndarray | None = None  # (n, n) joint values from the readings (q = coupling @ reading) the sweeps were decoupled with
 
     def __repr__(self) -> str:
         n_pts = sum(len(s.points) for s in self.sweeps.sweeps)
@@ -88,9 +91,24 @@ class Identification:
         convention = None if convention is None else _core.convention_info(convention)["name"]
         if convention is None or convention == self.convention:
             return self.extraction
+        return _core.extract(self.axes, convention, **self._extract_options(convention))
+
+    def _extract_options(self, convention: str) -> dict:
+        """The extraction options of a table in another convention than the result's (:meth:`_extraction`)."""
         nominal = _nominal_table(self.nominal, convention, self.sweeps.home)
         tol = _edh_parallel_tol(self.fits, self.nominal, self.sweeps.home, math.inf) if convention == "edh" else 1e-3
-        return _core.extract(self.axes, convention, nominal=nominal, origins=_origins(nominal, convention, self.sweeps.home), parallel_tol=tol)
+        return {"nominal": nominal, "origins": _origins(nominal, convention, self.sweeps.home), "parallel_tol": tol}
+
+    def parameter_covariance(self, convention: str | None = None) -> np.ndarray:
+        """The SI covariance of [the ``convention`` table's parameters (row-major), the tool's translation in its last
+        frame (, the reading scales when auto fitted them)] (default: the result's own table, :attr:`param_cov`):
+        the axes' covariance propagated through the core's extraction of that table, as for the result's own."""
+        conv = self.convention if convention is None else _core.convention_info(convention)["name"]
+        if conv == self.convention:
+            return self.param_cov
+        x = np.concatenate([np.concatenate([self.axes.points[j], self.axes.directions[j]]) for j in range(self.axes.nq)] + [self.tool_point])
+        cov = self.axis_cov if self.axis_scale_cov is None else self.axis_scale_cov
+        return _parameter_cov(x, cov, self.axes, self.sweeps, conv, self._extract_options(conv), self._extraction(conv).table.params)
 
     def robot(self, name: str | None = None, convention: str | None = None) -> Robot:
         """The identified robot as a :class:`Robot` (for :meth:`save` and :func:`denavit.io.urdf.save_urdf`): the
@@ -106,10 +124,13 @@ class Identification:
         limits = np.array([_core.default_limits(k) for k in self.sweeps.kinds])
         lower = self.nominal.lower if self.nominal else limits[:, 0]
         upper = self.nominal.upper if self.nominal else limits[:, 1]
+        # compensate predicts the error after compensation from the covariance, and commands the readings through
+        # the coupling and the reading scales (about the sweeps' home, where the identified offsets hold)
         return Robot(name=name or f"{self.nominal.name if self.nominal else 'robot'}_identified", table=self._extraction(conv).table, names=names, lower=lower,
                      upper=upper, description=f"identified from {self.sweeps.source} ({self.method} fit, {conv})", source=str(self.sweeps.source),
                      home=self.sweeps.home, extra=dict(self.nominal.extra) if self.nominal else {},
-                     covariance=self.param_cov if conv == self.convention else None)  # compensate predicts the error after compensation from it
+                     covariance=self.parameter_covariance(conv), coupling=self.coupling, reading_scale=self.reading_scale,
+                     reading_reference=None if self.reading_scale is None else np.asarray(self.sweeps.home, dtype=float))
 
     def carried_error(self, convention: str | None = None, count: int = 256) -> tuple[float, int]:
         """(max tool-position deviation in m, configurations checked) of the table :meth:`robot` writes in
@@ -377,19 +398,21 @@ def _bic(simple: dict, rich: dict, k: int, n_res: int) -> float:
     return (simple["ss_m"] - rich["ss_m"]) / rich["sigma"] ** 2 - k * math.log(n_res)
 
 
-def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: list[str], chosen: str) -> tuple[str, list, np.ndarray, np.ndarray, float]:
+def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: list[str], chosen: str) -> tuple[str, list, np.ndarray, np.ndarray, float, tuple | None]:
     """The joint fit(s) with readings: ``chosen`` "global", or "auto" (evidence: the per-sweep fits when the
     readings are worth nothing, else one home point or one per sweep, and the readings' scale errors or not,
-    each by the BIC). Returns (method, fits, cov, tool point, rms)."""
+    each by the BIC). Returns (method, fits, cov, tool point, rms, scales): ``scales`` None, or when fitted
+    (values (n,), their covariance with [c_1, n_1, ..., p] (6n+3, n), their covariance (n, n)); zeros where a
+    joint's scale was not fitted."""
     dqs = _motions(sweeps, notes)
     starts = [(f.point, f.direction) for f in fits]
     g = fit_sweeps(sweeps, dqs, starts, p_home, loss=loss, where=sweeps.source)
-    method, cov, drift = "global", g["cov"], None
+    method, cov, drift, scales = "global", g["cov"], None, None
     if chosen == "auto":
         sq = [f"{math.degrees(v) * 3600:.3g}" for v in g["reading_sigma"]]
         if np.all(g["gamma"] < READINGS_WORTHLESS):
             notes.append(f"auto: geometric (per-sweep circles): the readings are worth nothing against the points (estimated reading error {', '.join(sq)} arcsec per sweep)")
-            return "geometric", None, None, None, math.nan
+            return "geometric", None, None, None, math.nan, None
         n_res = 3 * sum(len(s.points) for s in sweeps.sweeps)
 
         def richer(base, **kw):
@@ -424,13 +447,16 @@ def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: 
         if bic > 0:
             g = refit(sc, per_sweep_home=drift, scales=True)
             cov = _with_drift(sweeps, g)[0] if drift else g["cov"]
+            n6, cross = 6 * sweeps.n_joints, g["scale_cross"]
+            cross = np.vstack([cross[:n6], cross[n6:].reshape(-1, 3, sweeps.n_joints).mean(axis=0)])  # (the home points averaged, as in cov)
+            scales = (np.where(np.isfinite(g["scale_sigma"]), g["scales"], 0.0), cross, g["scale_cov"])
             parts = [f"joint {j + 1} {g['scales'][j] * 1e6:+.4g} +/- {g['scale_sigma'][j] * 1e6:.2g} ppm" for j in range(sweeps.n_joints) if np.isfinite(g["scale_sigma"][j])]
             notes.append(f"auto: the readings' scale errors fitted (BIC lower by {bic:.3g}): {', '.join(parts)}")
         else:
             notes.append(f"auto: no reading scale errors fitted (BIC {'higher by ' + format(-bic, '.3g') if sc is not None else 'n/a: no convergence'}); "
                          "a scale error the data cannot show moves each axis radially by about the scale times the arc's radius")
     mis = np.concatenate(g["misfit"])
-    return method, _joint_fits(sweeps, fits, g, cov, loss, method), cov, g["home"].mean(axis=0), float(math.sqrt(np.mean(mis**2)))
+    return method, _joint_fits(sweeps, fits, g, cov, loss, method), cov, g["home"].mean(axis=0), float(math.sqrt(np.mean(mis**2))), scales
 
 
 #: A pair of consecutive identified axes whose angle or distance differs from the nominal pair's by more than this
@@ -587,6 +613,25 @@ def _axes_from(x: np.ndarray, sweeps: SweepSet, tool_R: np.ndarray, T_world_base
     return _core.JointAxes(pts, dirs, kinds=sweeps.kinds, q_ref=sweeps.home, T_world_base=T_world_base, T_world_tool=T, lower=lower, upper=upper)
 
 
+def _parameter_cov(x: np.ndarray, cov: np.ndarray, ax: _core.JointAxes, sweeps: SweepSet, convention: str, opts: dict, p_ref: np.ndarray) -> np.ndarray:
+    """The covariance of [the ``convention`` table's parameters (row-major, angles wrapped about ``p_ref``), the tool's
+    translation (, the reading scales)] from the covariance ``cov`` of [c_1, n_1, ..., tool point (, scales)] at ``x``
+    (the scales pass through), by central differences through the core's extraction with ``opts``."""
+    n6 = 6 * sweeps.n_joints + 3
+    tool_R, base = np.asarray(ax.T_world_tool)[:3, :3], np.asarray(ax.T_world_base)
+    angle_cols = np.array(_core.Table(convention, p_ref, list(ax.kinds)).angle_columns)
+    xs = np.concatenate([x, np.zeros(len(cov) - n6)])
+
+    def params_of(xv):
+        a = _axes_from(xv[:n6], sweeps, tool_R, base, ax.lower, ax.upper)
+        t = _core.extract(a, convention, fidelity=False, **opts).table  # the tool-error check: once, by the caller
+        d = t.params - p_ref
+        d[:, angle_cols] = (d[:, angle_cols] + np.pi) % (2 * np.pi) - np.pi
+        return np.concatenate([(p_ref + d).ravel(), np.asarray(t.T_last_tool)[:3, 3], xv[n6:]])
+
+    return _propagate(xs, cov, params_of)
+
+
 def _propagate(x: np.ndarray, cov: np.ndarray, f) -> np.ndarray:
     """The covariance of f(x) (a flat vector, angles wrapped) from the covariance of x, by central differences."""
     y0 = f(x)
@@ -674,10 +719,10 @@ def identify(
         p_home = _tool_point_from_readings(sweeps, fits)
     else:
         p_home = _tool_point_geometric(sweeps, fits)
-    cov = None
+    cov, scales = None, None
     if method == "global":
         progress(f"one fit of all {len(sweeps.sweeps)} sweeps (shared tool point)")
-        method, gfits, gcov, gp, grms = _choose(sweeps, fits, p_home, loss, notes, chosen)
+        method, gfits, gcov, gp, grms, scales = _choose(sweeps, fits, p_home, loss, notes, chosen)
         if gfits is None:  # the readings are worthless: the per-sweep geometric circles
             fits = _per_sweep(sweeps, method, loss, max_sigma, progress)
             p_home = _tool_point_geometric(sweeps, fits)
@@ -717,18 +762,12 @@ def identify(
     short = _short_arc_notes(sweeps, fits, notes)
     if nominal is not None:
         _plausibility(ex, fits, nominal, sweeps.home, nominal.names, sweeps.source, notes, short)
-    angle_cols = np.array(ex.table.angle_columns)
     p_ref = ex.table.params
-
-    def params_of(xv):
-        a = _axes_from(xv, sweeps, tool_R, base, lower, upper)
-        t = _core.extract(a, convention, fidelity=False, **opts).table  # the tool-error check: once, above
-        d = t.params - p_ref
-        d[:, angle_cols] = (d[:, angle_cols] + np.pi) % (2 * np.pi) - np.pi
-        return np.concatenate([(p_ref + d).ravel(), np.asarray(t.T_last_tool)[:3, 3]])
-
+    full_cov = None
+    if scales is not None:  # [axes, tool point, reading scales]: the scales' covariance with the axes kept
+        full_cov = np.block([[cov, scales[1]], [scales[1].T, scales[2]]])
     progress(f"{convention} parameters and their sigmas")
-    param_cov = _propagate(x, cov, params_of)
+    param_cov = _parameter_cov(x, cov if full_cov is None else full_cov, ax, sweeps, convention, opts, p_ref)
     sigma = np.sqrt(np.clip(np.diag(param_cov), 0, None))[: p_ref.size].reshape(p_ref.shape)
     for pd in ex.pairs:
         if pd.relation == "parallel" and abs(pd.hayati_beta) > 0 and convention in ("dh", "mdh"):
@@ -736,7 +775,8 @@ def identify(
     if convention in ("dh", "mdh", "edh") and ex.max_position_error > 1e-6:
         exact = "ED-H is exact" if convention != "edh" else f"the tilt of pairs parallel within {EDH_PARALLEL_SIGMAS:g} sigma is dropped; without a nominal ED-H is exact"
         notes.append(f"the {convention} table carries a tool-position error up to {ex.max_position_error * 1e3:.4f} mm ({exact})")
-    return Identification(method, convention, ax, fits, ex, sigma, cov, p_home, sweeps, nominal, nominal_table, rms, notes, param_cov)
+    return Identification(method, convention, ax, fits, ex, sigma, cov, p_home, sweeps, nominal, nominal_table, rms, notes, param_cov,
+                          None if scales is None else scales[0], full_cov, coupling)
 
 
 def to_json(result: Identification, length: str | None = None, angle: str = "deg", *, box: bool = True) -> dict:

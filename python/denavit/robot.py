@@ -42,8 +42,15 @@ class Robot:
     """(n, n) the joint values from the controller's readings, ``q = coupling @ reading`` (a Fanuc's J3 read
     relative to the horizontal: ``q3 = r3 + r2``); None: the readings are the joint values."""
     covariance: np.ndarray | None = None
-    """(n k + 3, n k + 3) SI covariance of the table's parameters (row-major) and the tool's translation in the last
-    frame, from the identification or calibration that made the robot (a robot file's ``[covariance]``)."""
+    """(n k + 3 [+ n], same) SI covariance of the table's parameters (row-major), the tool's translation in the last
+    frame and, when :attr:`reading_scale` is given, the reading scales, from the identification or calibration that
+    made the robot (a robot file's ``[covariance]``)."""
+    reading_scale: np.ndarray | None = None
+    """(n,) the joints' reading scale errors: joint i turns ``1 + reading_scale[i]`` times its reading's motion from
+    :attr:`reading_reference` (:meth:`joint_values`; a robot file's ``[readings] scale``); None: no scale errors."""
+    reading_reference: np.ndarray | None = None
+    """(n,) the readings (after the coupling; rad / m) at which each joint value equals its reading, the centre of the
+    scale errors (identify: the sweeps' home; calibrate: zero; a robot file's ``[readings] reference``); None: zero."""
     notes: list = field(default_factory=list)
     """What the reader chose on the user's behalf (e.g. a URDF's tip link), one line each, for the user to see."""
 
@@ -55,12 +62,45 @@ class Robot:
     def convention(self) -> str:
         return self.table.convention
 
+    def joint_values(self, readings) -> np.ndarray:
+        """The joint values (N, n) of the model from the controller's readings (N, n) (rad / m), by the robot's
+        reading model (:func:`joint_values`)."""
+        return joint_values(readings, self.coupling, self.reading_scale, self.reading_reference)
+
+    def readings(self, q) -> np.ndarray:
+        """The controller's readings (N, n) that put the model's joints at ``q`` (N, n) (:func:`readings`)."""
+        return readings(q, self.coupling, self.reading_scale, self.reading_reference)
+
+    @property
+    def has_reading_model(self) -> bool:
+        """The readings are not the joint values (a coupling or reading scales)."""
+        return self.coupling is not None or self.reading_scale is not None
+
     def model(self) -> _core.Model:
         """The model (docs/conventions.md), with the link inertias of the file if it gives them."""
         model = self.table.to_model(self.name, self.names, self.lower, self.upper)
         if self.inertials is None:
             return model
         return attach_inertials(model, self.table, self.inertials)
+
+
+def joint_values(r, coupling=None, scale=None, reference=None) -> np.ndarray:
+    """The joint values of readings ``r`` (N, n) under a reading model: ``q = ref + (1 + scale) (coupling @ r - ref)``
+    (``ref`` the reference, default zero; no coupling: the identity; no scale: zero), rad / m."""
+    q = np.asarray(r, dtype=float) @ np.asarray(coupling).T if coupling is not None else np.array(r, dtype=float)
+    if scale is not None:
+        ref = 0.0 if reference is None else np.asarray(reference, dtype=float)
+        q = ref + (1 + np.asarray(scale, dtype=float)) * (q - ref)
+    return q
+
+
+def readings(q, coupling=None, scale=None, reference=None) -> np.ndarray:
+    """The readings that give the joint values ``q`` (N, n) under a reading model: the inverse of :func:`joint_values`."""
+    r = np.array(q, dtype=float)
+    if scale is not None:
+        ref = 0.0 if reference is None else np.asarray(reference, dtype=float)
+        r = ref + (r - ref) / (1 + np.asarray(scale, dtype=float))
+    return np.linalg.solve(np.asarray(coupling, dtype=float), r.T).T if coupling is not None else r
 
 
 def inertials_for_table(model: _core.Model, table: _core.Table, names: list[str], lower, upper) -> dict:

@@ -123,11 +123,13 @@ class Calibration:
     def robot(self, name: str | None = None, convention: str = "edh") -> Robot:
         """A :class:`Robot` of the calibrated model (for :func:`denavit.io.robotfile.save` and
         :func:`denavit.io.urdf.save_urdf`): the nominal's names, limits, home and extras (a URDF nominal's meshes,
-        inertials and limits ride along)."""
+        inertials and limits ride along), and the joint scales when estimated (``reading_scale``, about zero: what
+        compensate applies to the readings)."""
         r = self.parametrization.robot
         return Robot(name or f"{r.name}_calibrated", self.table(convention), list(r.names), r.lower, r.upper,
                      description=f"{r.name} calibrated from {self.measurements.source} ({self.convention}, {self.measurements.n} poses)", source=self.measurements.source, home=r.home,
-                     extra=dict(r.extra), inertials=r.inertials if r.convention == convention else None)
+                     extra=dict(r.extra), inertials=r.inertials if r.convention == convention else None,
+                     reading_scale=np.array([self.scales.get(f"scale_{j + 1}", 0.0) for j in range(len(r.names))]) if self.scales else None)
 
 
 def _table_residuals(res: np.ndarray, measure: str) -> np.ndarray:

@@ -17,7 +17,7 @@ def compensate(
     targets: Annotated[str, typer.Argument(help="The program: a CSV of tool poses 'x,y,z,rx,ry,rz' (rotation vector) and/or joint rows 'q1..qn', with a '# units:' line.")],
     nominal: Annotated[str, typer.Option("--nominal", help="The controller's model: a built-in name, a robot file or a URDF.")],
     identified: Annotated[str, typer.Option("--identified", help="The identified robot (e.g. from identify/calibrate --save), in the same robot base frame.")],
-    output: Annotated[str | None, typer.Option("-o", "--output", help="Write the compensated program (CSV: commands, joint values, flags, errors per row); '-' for stdout.")] = None,
+    output: Annotated[str | None, typer.Option("-o", "--output", help="Write the compensated program (CSV: commands, their joint values, flags, errors before and predicted after per row); '-' for stdout.")] = None,
     path: Annotated[bool, typer.Option("--path", help="The targets form a path: warm-start along it and flag branch jumps.")] = False,
     branch_tol: Annotated[float | None, typer.Option("--branch-tol", help="Largest joint change from the program's solution that keeps its branch, in --angle (revolute) units (default 5 deg whatever the unit).")] = None,
     length: LengthOpt = "mm",
@@ -57,7 +57,8 @@ def compensate(
         raise DenavitError(f"{prog.where[k]}: the target is {dist[k] / length_scale(prog.units['length']):.6g} {prog.units['length']} from the base but {nom_robot.name} "
                            f"reaches about {reach / length_scale(prog.units['length']):.4g} {prog.units['length']} ({len(far)} such rows): is the file's length unit right?")
     with status(f"compensating {len(poses)} targets ..."):
-        c = cp.compensate(nom, ide, poses, q_nominal=prog.q, path=path, branch_tol=positive(branch_tol, "--branch-tol", angle_scale(angle), np.radians(5.0), angle))
+        # (the robots, not their models: the identified robot's reading model, [couplings] and [readings], applies)
+        c = cp.compensate(nom_robot, id_robot, poses, q_nominal=prog.q, path=path, branch_tol=positive(branch_tol, "--branch-tol", angle_scale(angle), np.radians(5.0), angle))
     ls = length_scale(length)
     flagged = [(w, why) for w, ok, r, b, j in zip(prog.where, c.ok, c.reached, c.branch_changed, c.path_jump, strict=True) if not ok
                for why in [", ".join(x for x, f in (("unreachable", not r), ("branch changed", b), ("path jump", j)) if f)]]
@@ -65,7 +66,8 @@ def compensate(
     # the predicted error after compensation (1 sigma), from the identified robot's covariance (identify --save)
     predicted = cp.table_sigma(id_robot, c.q) if id_robot.covariance is not None else None
     if output:
-        write_compensated(output, c, kinds, length=length, angle=angle, comment=f"compensated for {nom_robot.name} -> {id_robot.name} from {targets}")
+        write_compensated(output, c, kinds, length=length, angle=angle, comment=f"compensated for {nom_robot.name} -> {id_robot.name} from {targets}",
+                          predicted_after=predicted)
         wrote(output, f" ({len(c)} rows, {len(flagged)} flagged)")
     summary = {"targets": len(c), "flagged": len(flagged), "units": SI_UNITS,
                "before_rms_m": before_rms, "before_max_m": float(c.before[c.ok].max()) if c.ok.any() else None,

@@ -161,7 +161,9 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     (S, 3) home point per sweep (all equal without ``per_sweep_home``), ``cov`` of [c_1, n_1, ..., c_n, n_n,
     p_1 (, p_2, ...)] (the axis points at those feet; with ``scales`` marginal over the scales), ``scales`` (n,)
     each swept joint's reading scale error ``s_j`` (the joint turns by ``(1 + s_j)`` times its reading's motion;
-    zeros without ``scales``) and ``scale_sigma`` (n,) their one-sigma (nan without), ``misfit`` per sweep (m,) 3-D distances, ``weights`` per
+    zeros without ``scales``) and ``scale_sigma`` (n,) their one-sigma (nan without), ``scale_cross`` (rows of
+    ``cov``, n) and ``scale_cov`` (n, n) their covariance with those parameters and among themselves (zeros where not
+    fitted), ``misfit`` per sweep (m,) 3-D distances, ``weights`` per
     sweep (m,) robust weights, ``whitened`` per sweep (m,) misfits in point-noise units, ``sigma`` the point
     noise, ``reading_sigma`` per sweep, ``ss`` the whitened sum of squares and ``n_params``.
     """
@@ -333,11 +335,15 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     cov = M @ cov_x @ M.T
     scale_sigma = np.full(n, math.nan)
     scale_sigma[swept] = np.sqrt(np.clip(np.diag(cov_x)[n_h:], 0, None))
+    # the scales' covariance with [c_j, n_j, ..., p] and among themselves (n columns, zero where not fitted)
+    Ms = np.zeros((n, npar))
+    Ms[swept, n_h + np.arange(len(swept))] = 1.0
+    scale_cross, scale_cov = M @ cov_x @ Ms.T, Ms @ cov_x @ Ms.T
     sigma = math.sqrt(sigma2)
     reading_sigma = [math.sqrt(max(sigma2 / g**2 - sigma2, 0.0)) / max(float(np.mean(p[3])), 1e-300) for g, p in zip(gam, parts, strict=True)]
     return {
         "points": np.array(feet), "directions": np.array(ns), "home": np.array([home_of(k) for k in range(S)]), "cov": cov,
         "misfit": [np.linalg.norm(p[5], axis=1) for p in parts], "weights": ws, "whitened": [np.linalg.norm(p[4], axis=1) / sigma for p in parts],
         "sigma": sigma, "reading_sigma": reading_sigma, "ss": ss / sigma2, "ss_m": ss, "n_params": npar, "gamma": gam,
-        "scales": sc, "scale_sigma": scale_sigma,
+        "scales": sc, "scale_sigma": scale_sigma, "scale_cross": scale_cross, "scale_cov": scale_cov,
     }

@@ -27,8 +27,12 @@ Format (see docs/robot-files.md and the built-in files in ``denavit/models``)::
     [tool]                       # optional tool in the convention's last frame (poe: home pose M)
     [couplings]                  # optional: joint values from the controller's readings (parse_coupling)
     q3 = "r3 + r2"               # a Fanuc reads J3 relative to the horizontal
+    [readings]                   # optional (written by identify/calibrate --save): the readings' scale errors
+    scale = [0, 2.1e-4, ...]     # joint i turns 1 + scale[i] times its reading's motion from reference[i]
+    reference = [90, -90, ...]   # where joint value = reading (angle / length units; default 0)
     [covariance]                 # optional (written by identify --save): of the joints' parameters, row by
-    matrix = [[...], ...]        # row in column order, then the tool's x, y, z; in [units] (products per cell)
+    matrix = [[...], ...]        # row in column order, then the tool's x, y, z, then [readings] scale (if
+                                 # given); in [units] (products per cell; scales unitless)
 
 POE joints give ``w = [wx, wy, wz]`` (unitless) and ``v = [vx, vy, vz]`` (length units for a revolute joint,
 v = -w x p; a unitless direction for a prismatic one). Joint values (``home``, ``limits``) are in the angle
@@ -190,8 +194,9 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
     if home is not None:
         home = np.asarray(_numbers(home, len(joints), f"{where}: home")) * joint_scale(kinds, units["length"], units["angle"], where)
     coupling = parse_coupling(doc["couplings"], kinds, f"{where}, [couplings]") if "couplings" in doc else None
-    covariance = _covariance(doc["covariance"], table, units, f"{where}, [covariance]") if "covariance" in doc else None
-    known = {"name", "description", "source", "convention", "units", "joints", "base", "tool", "home", "couplings", "covariance"}
+    scale, reference = _readings(doc["readings"], kinds, units, f"{where}, [readings]") if "readings" in doc else (None, None)
+    covariance = _covariance(doc["covariance"], table, units, f"{where}, [covariance]", scale is not None) if "covariance" in doc else None
+    known = {"name", "description", "source", "convention", "units", "joints", "base", "tool", "home", "couplings", "readings", "covariance"}
     # other tables (e.g. [urdf], written by `convert` from a URDF) are carried as extra; a stray plain key is
     # most likely a typo ("hom" for "home")
     _check_keys({k: v for k, v in doc.items() if not isinstance(v, dict)}, sorted(known), f"{where} (top level)")
@@ -224,24 +229,46 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         inertials=inertials,
         coupling=coupling,
         covariance=covariance,
+        reading_scale=scale,
+        reading_reference=reference,
     )
 
 
-def _covariance_scales(table: _core.Table, length: str, angle: str) -> np.ndarray:
-    """SI per file unit of each entry of a ``[covariance]`` (the table's cells row by row, then the tool's x, y, z)."""
+def _readings(spec, kinds: list[str], units: dict, where: str) -> tuple[np.ndarray, np.ndarray | None]:
+    """(scale, reference in SI) of a ``[readings]`` table."""
+    if not isinstance(spec, dict):
+        raise DenavitError(f"{where}: expected a table with 'scale' (and 'reference'), got {_show(spec)}")
+    _check_keys(spec, ["scale", "reference"], where)
+    n = len(kinds)
+    if "scale" not in spec:
+        raise DenavitError(f"{where}: missing 'scale' (one reading scale error per joint, unitless)")
+    scale = np.array(_numbers(spec["scale"], n, f"{where}: scale"))
+    bad = np.flatnonzero(np.abs(scale) >= 0.1)
+    if len(bad):
+        raise DenavitError(f"{where}: scale: joint {bad[0] + 1}'s scale error {scale[bad[0]]:.6g} is not a small correction (expected |scale| < 0.1: the joint turns 1 + scale times its reading)")
+    ref = None
+    if "reference" in spec:
+        ref = np.array(_numbers(spec["reference"], n, f"{where}: reference")) * joint_scale(kinds, units["length"], units["angle"], where)
+    return scale, ref
+
+
+def _covariance_scales(table: _core.Table, length: str, angle: str, scales: bool = False) -> np.ndarray:
+    """SI per file unit of each entry of a ``[covariance]`` (the table's cells row by row, then the tool's x, y, z,
+    then, with ``scales``, the unitless reading scales)."""
     n, k = table.params.shape
     cells = [cell_scale(table, i, c, length, angle)[0] for i in range(n) for c in range(k)]
-    return np.array(cells + [length_scale(length)] * 3)
+    return np.array(cells + [length_scale(length)] * 3 + ([1.0] * n if scales else []))
 
 
-def _covariance(spec, table: _core.Table, units: dict, where: str) -> np.ndarray:
+def _covariance(spec, table: _core.Table, units: dict, where: str, scales: bool = False) -> np.ndarray:
     if not isinstance(spec, dict):
         raise DenavitError(f"{where}: expected a table with 'matrix', got {spec!r}")
     _check_keys(spec, ["matrix"], where)
-    s = _covariance_scales(table, units["length"], units["angle"])
+    s = _covariance_scales(table, units["length"], units["angle"], scales)
     rows = spec.get("matrix")
     if not isinstance(rows, list) or len(rows) != len(s):
-        raise DenavitError(f"{where}: matrix: expected {len(s)} rows (the joints' parameters, then the tool's x, y, z), got {len(rows) if isinstance(rows, list) else rows!r}")
+        what = "the joints' parameters, the tool's x, y, z, then the [readings] scales" if scales else "the joints' parameters, then the tool's x, y, z"
+        raise DenavitError(f"{where}: matrix: expected {len(s)} rows ({what}), got {len(rows) if isinstance(rows, list) else rows!r}")
     C = np.array([_numbers(r, len(s), f"{where}: matrix row {i + 1}") for i, r in enumerate(rows)]) * np.outer(s, s)
     if not np.allclose(C, C.T, rtol=1e-9, atol=0) or np.linalg.eigvalsh((C + C.T) / 2).min() < -1e-9 * max(np.abs(np.diag(C)).max(), 1e-300):
         raise DenavitError(f"{where}: matrix: expected a symmetric positive semi-definite covariance")
@@ -383,8 +410,15 @@ def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
         doc["base"] = _pose_spec(t.T_world_base, ls, as_)
     if not np.allclose(t.T_last_tool, np.eye(4), atol=0, rtol=0):
         doc["tool"] = _pose_spec(t.T_last_tool, ls, as_)
+    if robot.reading_scale is not None:
+        doc["readings"] = {"scale": [float(v) for v in robot.reading_scale]}
+        if robot.reading_reference is not None:
+            doc["readings"]["reference"] = [float(v) for v in robot.reading_reference / js]
     if robot.covariance is not None:
-        s = _covariance_scales(t, length, angle)
+        s = _covariance_scales(t, length, angle, robot.reading_scale is not None)
+        if np.shape(robot.covariance) != (len(s), len(s)):
+            raise DenavitError(f"{robot.name}: covariance of shape {np.shape(robot.covariance)}, expected ({len(s)}, {len(s)}) for its table"
+                               + (" and reading scales" if robot.reading_scale is not None else ""))
         doc["covariance"] = {"matrix": [[float(v) for v in row] for row in np.asarray(robot.covariance) / np.outer(s, s)]}
     if robot.coupling is not None and coupling_text(robot.coupling):
         doc["couplings"] = coupling_text(robot.coupling)

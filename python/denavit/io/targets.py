@@ -81,20 +81,28 @@ def read_targets(path: str | os.PathLike, kinds, *, length: str | None = None, a
     return Targets(poses, q, places, units)
 
 
-def write_compensated(path, comp, kinds, *, length: str = "mm", angle: str = "deg", comment: str = "") -> None:
+def write_compensated(path, comp, kinds, *, length: str = "mm", angle: str = "deg", comment: str = "", predicted_after=None) -> None:
     """Write a :class:`denavit.compensation.Compensation` as a program: the commands ``T'`` (x, y, z, rx, ry,
-    rz), the identified joint values ``q1..qn``, and per row ``ok`` (1: send it), ``reached``,
-    ``branch_changed``, ``path_jump`` (0/1), ``before`` (position error without compensation) and
-    ``residual`` (of the identified solve), both in the length unit."""
+    rz), the joint values ``q1..qn`` of the commands on the nominal model (``T' = FK_nominal(q)``: the joint rows
+    to send; the identified model's own unless its readings differ), and per row ``ok`` (1: send it), ``reached``,
+    ``branch_changed``, ``path_jump`` (0/1), ``before`` (the position error the robot makes without compensation,
+    by the identified model), ``residual`` (of the identified solve) and, when ``predicted_after`` (N,) is given
+    (or the compensation has it), ``predicted_after`` (the predicted position error after compensation, 1 sigma,
+    from the identified parameters' covariance), in the length unit (a ``# columns:`` line says so)."""
     ls, as_ = length_scale(length), angle_scale(angle)
     js = joint_scale(kinds, length, angle)
     n = len(kinds)
-    head = [*POSE, *(f"q{i}" for i in range(1, n + 1)), "ok", "reached", "branch_changed", "path_jump", "before", "residual"]
+    pred = predicted_after if predicted_after is not None else comp.predicted_after
+    head = [*POSE, *(f"q{i}" for i in range(1, n + 1)), "ok", "reached", "branch_changed", "path_jump", "before", "residual", *(["predicted_after"] if pred is not None else [])]
     out = [f"# {comment}"] if comment else []
-    out += [f"# units: length={length} angle={angle}", ",".join(head)]
+    out += [f"# units: length={length} angle={angle}",
+            f"# columns: x,y,z {length}, rx,ry,rz (rotation vector) {angle}, q1..q{n} in {angle} (revolute) / {length} (prismatic); "
+            f"before, residual{', predicted_after (1 sigma)' if pred is not None else ''}: tool-position errors in {length}",
+            ",".join(head)]
     rv = matrix_rotvec(comp.commands[:, :3, :3]) / as_
     for k in range(len(comp)):
-        cells = [*(comp.commands[k, :3, 3] / ls), *rv[k], *(comp.q[k] / js)]
+        cells = [*(comp.commands[k, :3, 3] / ls), *rv[k], *(comp.q_command[k] / js)]
         flags = [int(comp.ok[k]), int(comp.reached[k]), int(comp.branch_changed[k]), int(comp.path_jump[k])]
-        out.append(",".join([*(repr(float(v)) for v in cells), *map(str, flags), repr(float(comp.before[k] / ls)), repr(float(comp.residual[k] / ls))]))
+        errs = [comp.before[k], comp.residual[k], *([pred[k]] if pred is not None else [])]
+        out.append(",".join([*(repr(float(v)) for v in cells), *map(str, flags), *(repr(float(e / ls)) for e in errs)]))
     write_text(path, "\n".join(out) + "\n")
