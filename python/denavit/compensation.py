@@ -224,6 +224,19 @@ def _scaled(q: np.ndarray, scale, reference, theta_scale: np.ndarray) -> np.ndar
     return ref + (q - ref) / (1 + np.asarray(scale, dtype=float)) * (1 + theta_scale)
 
 
+def _unit_screws(P: np.ndarray, kinds) -> np.ndarray:
+    """POE rows ``[w, v]`` made valid screws again: revolute ``|w| = 1``, ``w . v = 0``; prismatic ``w = 0``, ``|v| = 1``."""
+    P = np.array(P, dtype=float)
+    for i, k in enumerate(kinds):
+        w, v = P[i, :3], P[i, 3:]
+        if k == "revolute":
+            w = w / np.linalg.norm(w)
+            P[i, :3], P[i, 3:] = w, v - (w @ v) * w
+        else:
+            P[i, 3:] = v / np.linalg.norm(v)
+    return P
+
+
 def table_sigma(robot, q) -> np.ndarray:
     """(N,) predicted tool-position error (1 sigma, 3-D RMS, m) at configurations ``q`` (N, n) of a robot whose
     ``covariance`` (of its table's parameters, tool translation and, with ``reading_scale``, its reading scales,
@@ -243,7 +256,10 @@ def table_sigma(robot, q) -> np.ndarray:
         T = np.array(t.T_last_tool)
         T[:3, 3] = theta[n : n + 3]
         qs = q if rscale is None else _scaled(q, rscale, robot.reading_reference, theta[n + 3 :])
-        return _core.fk_batch(_core.Table(t.convention, theta[:n].reshape(t.params.shape), t.kinds, t.T_world_base, T).to_model(), qs)[:, :3, 3]
+        P = theta[:n].reshape(t.params.shape)
+        if t.convention == "poe":  # back onto unit screws (first order: the covariance lies in their tangent space)
+            P = _unit_screws(P, t.kinds)
+        return _core.fk_batch(_core.Table(t.convention, P, t.kinds, t.T_world_base, T).to_model(), qs)[:, :3, 3]
 
     scale = np.sqrt(np.maximum(np.diag(C), 0.0))
     J = np.zeros((len(q), 3, len(theta0)))
