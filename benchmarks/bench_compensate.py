@@ -138,7 +138,7 @@ def main() -> None:
     for label, result in routes:
         # the result's model and reading model (its reading scales): the commands are what a nominal controller needs
         res = cp.compensate(nominal, result, T, q_nominal=Q, result=result)
-        t_comp = median_time(lambda r=result: cp.compensate(nominal, r, T, q_nominal=Q))
+        t_comp = median_time(lambda r=result: cp.compensate(nominal, r, T, q_nominal=Q, predict=False))
         # the nominal controller: its own IK of each command from the program's configuration
         ctrl = dv.ik_batch(nominal, res.commands, Q, restarts=0)
         ok = res.ok & ctrl.success

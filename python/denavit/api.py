@@ -233,10 +233,11 @@ def compensate(nominal, identified, targets, **options):
     if isinstance(targets, (str, os.PathLike)):
         from .io.targets import read_targets  # noqa: PLC0415
 
-        nom = nominal if isinstance(nominal, _core.Model) else nominal.model() if callable(getattr(nominal, "model", None)) else _robot(nominal).model()
+        nominal = nominal if isinstance(nominal, _core.Model) or callable(getattr(nominal, "model", None)) else _robot(nominal)  # (a Robot keeps its coupling)
+        nom = nominal if isinstance(nominal, _core.Model) else nominal.model()
         prog = read_targets(_path(targets), list(nom.kinds))
         poses = prog.poses if prog.poses is not None else _core.fk_batch(nom, prog.q)
-        return _compensate(nom, identified, poses, q_nominal=prog.q, **options)
+        return _compensate(nominal, identified, poses, q_nominal=prog.q, **options)
     return _compensate(nominal, identified, targets, **options)
 
 

@@ -115,7 +115,8 @@ def _angle(R: np.ndarray) -> np.ndarray:
     return np.arccos(np.clip((np.einsum("nii->n", R) - 1) / 2, -1.0, 1.0))
 
 
-def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: bool = False, result=None, branch_tol: float = 0.1, **ik_options) -> Compensation:
+def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: bool = False, result=None, predict: bool = True, branch_tol: float = 0.1,
+               **ik_options) -> Compensation:
     """Compensate ``targets`` for a controller that keeps ``nominal`` while the robot is ``identified``.
 
     Parameters
@@ -130,7 +131,10 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
     path : bool
         The targets form a path: nominal solutions are warm-started along it and jumps are flagged.
     result : Identification or Calibration, optional
-        Gives ``predicted_after`` (:func:`predicted_sigma` at the compensated joint values).
+        Gives ``predicted_after`` (:func:`predicted_sigma` at the compensated joint values); default ``identified``
+        itself when it is one, or its ``covariance`` when it is a Robot that has one (:func:`table_sigma`).
+    predict : bool
+        False: no ``predicted_after`` (its central differences cost more than the solves).
     branch_tol : float
         Largest joint change (rad / m) from the nominal solution that keeps its branch.
     ik_options
@@ -143,7 +147,13 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
         T = T[None]
     r = _core.compensate(nom, ide, T, q_nominal, q0, path=path, branch_tol=branch_tol, **ik_options)
     q = r.q
-    predicted = predicted_sigma(result, q) if result is not None else None
+    predicted = None
+    if predict and result is not None:
+        predicted = predicted_sigma(result, q)
+    elif predict and (hasattr(identified, "axis_cov") or hasattr(identified, "parametrization")):
+        predicted = predicted_sigma(identified, q)  # an identification or a calibration: its own covariance
+    elif predict and isinstance(identified, Robot) and identified.covariance is not None:
+        predicted = table_sigma(identified, q)  # e.g. a robot file's [covariance]
     commands, q_cmd, before, before_rot = r.commands, q, r.before_position, r.before_rotation
     # the readings: the controller turns the nominal's joint values into readings (its coupling), the identified
     # robot turns readings into its joint values (its coupling, else the nominal's; its reading scales)

@@ -64,7 +64,7 @@ def compensate(
                for why in [", ".join(x for x, f in (("unreachable", not r), ("branch changed", b), ("path jump", j)) if f)]]
     before_rms = float(np.sqrt(np.mean(c.before[c.ok] ** 2))) if c.ok.any() else float("nan")
     # the predicted error after compensation (1 sigma), from the identified robot's covariance (identify --save)
-    predicted = cp.table_sigma(id_robot, c.q) if id_robot.covariance is not None else None
+    predicted = c.predicted_after  # (compensate's table_sigma of the robot file's [covariance], when it has one)
     if output:
         write_compensated(output, c, kinds, length=length, angle=angle, comment=f"compensated for {nom_robot.name} -> {id_robot.name} from {targets}",
                           predicted_after=predicted)
