@@ -65,6 +65,16 @@ def test_flags_and_the_path_mode():
     assert list(c.path_jump) == [False, False, True, False]
 
 
+def test_a_branch_change_at_a_wrist_singularity_is_flagged():
+    """At q5 = 1e-5 rad (the wrist stretched) the identified model reaches the target only by swinging J4 and J6 by
+    radians: the row is flagged ``branch_changed`` (not ok); the same program row with q5 = 0.6 rad is not."""
+    kr5, nominal, true = kr5_pair()
+    q = np.array([[0.3, -1.2, 1.0, 0.5, 0.6, 0.2], [0.3, -1.2, 1.0, 0.5, 1e-5, 0.2]])
+    c = cp.compensate(nominal, true, dv.fk_batch(nominal, q), q_nominal=q)
+    assert list(c.branch_changed) == [False, True] and list(c.ok) == [True, False]
+    assert np.abs(c.q[1] - q[1]).max() > 0.5 and np.abs(c.q[0] - q[0]).max() < 0.05
+
+
 def test_predicted_error_after_matches_the_real_one():
     """Calibrate from 100 simulated poses (0.02 mm noise), compensate, run on the true robot: the RMS
     position error after is within 1.5x of what the calibration covariance predicts (fixed seed)."""
@@ -354,12 +364,8 @@ def test_identify_save_carries_the_reading_scales_and_the_cli_applies_them(tmp_p
     with that file writes commands whose joint values, read by the nominal controller, put the identified robot
     (its reading model) on the targets to 1e-9 m, and a predicted_after column equal to the JSON's per-row sigma."""
     import json
-    import sys
-    from pathlib import Path
 
-    sys.path.insert(0, str(Path(__file__).parent))
     from cli import run
-
     from denavit.io import robotfile
     from denavit.io.sweeps import to_long_csv
 
