@@ -23,7 +23,7 @@ import numpy as np
 
 from . import _core
 from .errors import DenavitError
-from .robot import Robot
+from .robot import Robot, joint_values, readings
 
 
 @dataclass(frozen=True)
@@ -163,8 +163,6 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
         rm_id = (rm_nom[0], *rm_id[1:])
     rm_id = rm_nom if rm_id is None else rm_id
     if not _same_readings(rm_nom, rm_id):
-        from .robot import joint_values, readings  # noqa: PLC0415
-
         def to_nominal(qi):
             rd = readings(qi, *rm_id) if rm_id is not None else qi
             return joint_values(rd, *rm_nom) if rm_nom is not None else rd
