@@ -454,3 +454,24 @@ def test_identification_accuracy_is_calibrated_by_monte_carlo():
         predicted.append(su["identified"]["rms"] ** 2)
     ratio = np.sqrt(np.mean(actual) / np.mean(predicted))
     assert 0.8 < ratio < 1.25, ratio
+
+
+def test_convert_carries_the_covariance_and_the_reading_model(tmp_path):
+    """`denavit convert FILE --to poe|mdh -o OUT` of an identified ED-H file keeps its [readings] and propagates its
+    [covariance] through the conversion (central differences through the core's builder and extraction): the POE
+    file predicts the ED-H file's tool-position sigma to 1e-4 (both exact)."""
+    from cli import run
+    from denavit.io import robotfile
+
+    res = dv.identify(_scaled_recording(), nominal=dv.load_robot("kr5"), convention="edh")
+    src = tmp_path / "id.toml"
+    res.save(src)
+    edh = robotfile.read(src)
+    Q = program(dv.load_robot("kr5"), 30)
+    out = tmp_path / "id_poe.toml"
+    run("convert", src, "--to", "poe", "-o", out)
+    poe = robotfile.read(out)
+    np.testing.assert_allclose(poe.reading_scale, edh.reading_scale, rtol=1e-12)
+    np.testing.assert_allclose(poe.reading_reference, edh.reading_reference, rtol=1e-12)
+    np.testing.assert_allclose(dv.fk_batch(poe.model(), Q), dv.fk_batch(edh.model(), Q), atol=1e-9)
+    np.testing.assert_allclose(cp.table_sigma(poe, Q), cp.table_sigma(edh, Q), rtol=1e-4)

@@ -245,6 +245,39 @@ def _unit_screws(P: np.ndarray, kinds) -> np.ndarray:
     return P
 
 
+def converted_covariance(robot, table: _core.Table, **extract_options) -> np.ndarray:
+    """The covariance of ``table`` (``robot``'s geometry in another convention, extracted from its joint axes at
+    q = 0 with ``extract_options``) from ``robot.covariance`` (its table's parameters, tool translation and reading
+    scales, which pass through): ``J C J^T`` with ``J`` the conversion's Jacobian, by central differences through the
+    core's table builder and extraction (angles wrapped about ``table``'s)."""
+    t = robot.table
+    C = np.asarray(robot.covariance, dtype=float)
+    n = t.params.size
+    theta0 = np.concatenate([np.asarray(t.params).ravel(), np.asarray(t.T_last_tool)[:3, 3], np.zeros(len(C) - n - 3)])
+    p_ref = np.asarray(table.params)
+    angle_cols = np.array(table.angle_columns)
+
+    def converted(theta):
+        P = theta[:n].reshape(t.params.shape)
+        if t.convention == "poe":
+            P = _unit_screws(P, t.kinds)
+        T = np.array(t.T_last_tool)
+        T[:3, 3] = theta[n : n + 3]
+        m = _core.Table(t.convention, P, t.kinds, t.T_world_base, T).to_model()
+        new = _core.extract(_core.axes(m, np.zeros(m.nq)), table.convention, fidelity=False, **extract_options).table
+        d = np.asarray(new.params) - p_ref
+        d[:, angle_cols] = (d[:, angle_cols] + np.pi) % (2 * np.pi) - np.pi
+        return np.concatenate([(p_ref + d).ravel(), np.asarray(new.T_last_tool)[:3, 3], theta[n + 3 :]])
+
+    y0 = converted(theta0)
+    J = np.zeros((len(y0), len(theta0)))
+    for k in np.flatnonzero(np.diag(C) > 0):
+        e = np.zeros_like(theta0)
+        e[k] = 1e-7
+        J[:, k] = (converted(theta0 + e) - converted(theta0 - e)) / 2e-7
+    return J @ C @ J.T
+
+
 def table_sigma(robot, q) -> np.ndarray:
     """(N,) predicted tool-position error (1 sigma, 3-D RMS, m) at configurations ``q`` (N, n) of a robot whose
     ``covariance`` (of its table's parameters, tool translation and, with ``reading_scale``, its reading scales,

@@ -72,8 +72,15 @@ def convert(
     to = _core.convention_info(to)["name"]
     nominal = robot.table if robot.convention == to else None
     ex = _core.extract(_core.axes(m, np.zeros(m.nq)), to, parallel_tol=parallel_tol, nominal=nominal)
+    # the readings' model does not depend on the table; the covariance follows the table (compensation.converted_covariance)
+    cov = None
+    if robot.covariance is not None:
+        from ..compensation import converted_covariance  # noqa: PLC0415
+
+        cov = converted_covariance(robot, ex.table, parallel_tol=parallel_tol, nominal=nominal)
     new = Robot(name=robot.name, table=ex.table, names=robot.names, lower=robot.lower, upper=robot.upper,
-                description=f"{robot.description} -> {to}", source=robot.source, home=robot.home, extra=robot.extra)
+                description=f"{robot.description} -> {to}", source=robot.source, home=robot.home, extra=robot.extra,
+                coupling=robot.coupling, reading_scale=robot.reading_scale, reading_reference=robot.reading_reference, covariance=cov)
     if robot.inertials is not None:
         try:  # the same physical links, re-expressed in the new convention's frames
             new = dataclasses.replace(new, inertials=inertials_for_table(m, ex.table, robot.names, robot.lower, robot.upper))
