@@ -22,6 +22,7 @@ from rich.table import Table as RichTable
 from rich.text import Text
 from typer.core import TyperCommand, TyperGroup
 
+from ..io.output import check_writable
 from ..io.units import ANGLE, LENGTH, angle_scale, cell_scale, column_scale, joint_scale, joint_unit, length_scale
 
 if TYPE_CHECKING:
@@ -66,10 +67,24 @@ class Command(TyperCommand):
         return super().parse_args(ctx, json_argv(args))
 
     def invoke(self, ctx):  # noqa: ANN001, ANN201 (click's signature)
+        _check_outputs(ctx)
         try:
             return super().invoke(ctx)
         finally:
             console.file = None  # back to standard output after a --json - run (json_target), for the next in-process call
+
+
+#: the options that name a file the command writes (``--plot`` names a folder, made when it is written)
+OUTPUT_OPTIONS = frozenset({"-o", "--output", "--json", "--save", "--urdf", "--report", "--ur-kinematics"})
+
+
+def _check_outputs(ctx) -> None:  # noqa: ANN001 (click's context)
+    """Every output the command line names is checked before the work starts: a missing or read-only directory
+    is an error in the first second, not after a minute of fitting."""
+    for param in ctx.command.params:
+        value = ctx.params.get(param.name)
+        if value is not None and value != STDOUT and OUTPUT_OPTIONS.intersection(param.opts):
+            check_writable(value)
 
 
 class Group(TyperGroup):
