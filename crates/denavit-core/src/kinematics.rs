@@ -498,17 +498,21 @@ fn step_factor(c: &mut Frames, f: &Factor, motion: u8, s: &V, sn: &V, cs: &V) {
     }
 }
 
-/// The workspace of a block: its frames, and the joint values and their sines and cosines.
+/// The workspace of a block: its frames, the joint values and their sines and cosines, and the block's
+/// results, written here (in the L1 cache) and then copied to the caller's array at once: element by element
+/// into memory that is not in the cache, the stores would wait on the memory, 8 bytes at a time.
 struct Block {
     c: Frames,
-    s: V,
+    /// `s[joint][configuration]`: the joint values plus the offsets.
+    s: Vec<V>,
     sn: V,
     cs: V,
+    stage: Vec<f64>,
 }
 
 impl Block {
-    fn new() -> Box<Self> {
-        Box::new(Self { c: [[[0.0; BLOCK]; 3]; 4], s: [0.0; BLOCK], sn: [0.0; BLOCK], cs: [0.0; BLOCK] })
+    fn new(n: usize, per_row: usize) -> Box<Self> {
+        Box::new(Self { c: [[[0.0; BLOCK]; 3]; 4], s: vec![[0.0; BLOCK]; n], sn: [0.0; BLOCK], cs: [0.0; BLOCK], stage: vec![0.0; per_row * BLOCK] })
     }
 }
 
@@ -518,13 +522,17 @@ impl Block {
 #[inline(always)]
 fn walk_block<const N: usize>(model: &Model, chain: &Chain, qb: &[f64], cols: usize, w: &mut Block, mut each: impl FnMut(usize, &Frames)) {
     let n = if N > 0 { N } else { model.nq() };
-    let qb = &qb[..BLOCK * n];
-    for (i, j) in model.joints().iter().enumerate().take(cols) {
-        for l in 0..BLOCK {
-            w.s[l] = qb[l * n + i] + j.offset;
+    let (qb, joints, s) = (&qb[..BLOCK * n], &model.joints()[..n], &mut w.s[..n]);
+    // the transposition, once per block (a loop with a constant stride when N > 0: vectorised)
+    for l in 0..BLOCK {
+        for i in 0..n {
+            s[i][l] = qb[l * n + i] + joints[i].offset;
         }
+    }
+    for (i, j) in joints.iter().enumerate().take(cols) {
+        let s = &w.s[i];
         let motion = if j.kind == JointKind::Revolute {
-            sin_cos_slices(&w.s, &mut w.sn, &mut w.cs);
+            sin_cos_slices(s, &mut w.sn, &mut w.cs);
             MOTION_RZ
         } else {
             MOTION_TZ
@@ -536,9 +544,9 @@ fn walk_block<const N: usize>(model: &Model, chain: &Chain, qb: &[f64], cols: us
                     ckr.fill(*v);
                 }
             }
-            step_factor(&mut w.c, &IDENTITY, motion, &w.s, &w.sn, &w.cs);
+            step_factor(&mut w.c, &IDENTITY, motion, s, &w.sn, &w.cs);
         } else {
-            step_factor(&mut w.c, &chain.factors[i - 1], motion, &w.s, &w.sn, &w.cs);
+            step_factor(&mut w.c, &chain.factors[i - 1], motion, s, &w.sn, &w.cs);
         }
         each(i, &w.c);
     }
@@ -592,8 +600,10 @@ fn tool_pose_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], w: &
             &padded
         };
         walk_block::<N>(model, chain, qb, n, w, |_, _| {});
-        step_factor(&mut w.c, tool, MOTION_NONE, &w.s, &w.sn, &w.cs);
-        write_block(&w.c, ob);
+        step_factor(&mut w.c, tool, MOTION_NONE, &w.sn, &w.sn, &w.cs);
+        let stage = &mut w.stage[..ob.len()];
+        write_block(&w.c, stage);
+        ob.copy_from_slice(stage);
     }
 }
 
@@ -621,7 +631,7 @@ fn non_finite(qs: &[f64]) -> Error {
 /// ```
 pub fn tool_pose_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<()> {
     let n = model.nq();
-    let count = if n == 0 { out.len() / 16 } else { qs.len() / n };
+    let count = qs.len().checked_div(n).unwrap_or(out.len() / 16);
     check_len("q batch (N*n values)", count * n, qs.len())?;
     check_len("output (N*16 values)", count * 16, out.len())?;
     if n == 0 {
@@ -630,18 +640,23 @@ pub fn tool_pose_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<()>
         return Ok(());
     }
     let chain = Chain::of(model);
-    crate::parallel::try_for_each_chunk_init(out, 16 * CHUNK, Block::new, |w, k, o| {
-        let q = &qs[k * CHUNK * n..(k * CHUNK + o.len() / 16) * n];
-        if !crate::error::all_finite(q) {
-            return Err(non_finite(qs));
-        }
-        match n {
-            6 => tool_pose_chunk::<6>(model, &chain, q, w, o),
-            7 => tool_pose_chunk::<7>(model, &chain, q, w, o),
-            _ => tool_pose_chunk::<0>(model, &chain, q, w, o),
-        }
-        Ok(())
-    })
+    crate::parallel::try_for_each_chunk_init(
+        out,
+        16 * CHUNK,
+        || Block::new(n, 16),
+        |w, k, o| {
+            let q = &qs[k * CHUNK * n..(k * CHUNK + o.len() / 16) * n];
+            if !crate::error::all_finite(q) {
+                return Err(non_finite(qs));
+            }
+            match n {
+                6 => tool_pose_chunk::<6>(model, &chain, q, w, o),
+                7 => tool_pose_chunk::<7>(model, &chain, q, w, o),
+                _ => tool_pose_chunk::<0>(model, &chain, q, w, o),
+            }
+            Ok(())
+        },
+    )
 }
 
 /// The workspace of the batch Jacobian: a block's frames and its joints' origins and z axes (`oz[joint]`:
@@ -670,9 +685,9 @@ fn jacobian_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], frame
         let (b, oz) = (&mut *w.block, &mut w.oz);
         walk_block::<N>(model, chain, qb, cols, b, |i, c| oz[i] = [c[3][0], c[3][1], c[3][2], c[2][0], c[2][1], c[2][2]]);
         if joint.is_none() {
-            step_factor(&mut b.c, &chain.factors[n - 1], MOTION_NONE, &b.s, &b.sn, &b.cs);
+            step_factor(&mut b.c, &chain.factors[n - 1], MOTION_NONE, &b.sn, &b.sn, &b.cs);
         }
-        let c = &b.c;
+        let (c, stage) = (&b.c, &mut b.stage[..ob.len()]);
         let rows = ob.len() / (6 * n);
         for (k, j) in model.joints().iter().enumerate() {
             let ozk = &oz[k.min(cols - 1)];
@@ -686,7 +701,9 @@ fn jacobian_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], frame
                         JointKind::Prismatic => (z, [0.0; 3]),
                     };
                     let axes = match frame {
-                        JacobianFrame::Local => Some([[c[0][0][l], c[0][1][l], c[0][2][l]], [c[1][0][l], c[1][1][l], c[1][2][l]], [c[2][0][l], c[2][1][l], c[2][2][l]]]),
+                        JacobianFrame::Local => {
+                            Some([[c[0][0][l], c[0][1][l], c[0][2][l]], [c[1][0][l], c[1][1][l], c[1][2][l]], [c[2][0][l], c[2][1][l], c[2][2][l]]])
+                        }
                         JacobianFrame::Base => Some(base),
                         _ => None,
                     };
@@ -699,10 +716,11 @@ fn jacobian_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], frame
                     [0.0; 6]
                 };
                 for (r, v) in col.iter().enumerate() {
-                    ob[6 * n * l + r * n + k] = *v;
+                    stage[6 * n * l + r * n + k] = *v;
                 }
             }
         }
+        ob.copy_from_slice(stage);
     }
 }
 
@@ -733,7 +751,7 @@ pub fn jacobian_batch(model: &Model, qs: &[f64], frame: JacobianFrame, joint: Op
     crate::parallel::try_for_each_chunk_init(
         out,
         6 * n * CHUNK,
-        || JacobianWork { block: Block::new(), oz: vec![[[0.0; BLOCK]; 6]; n] },
+        || JacobianWork { block: Block::new(n, 6 * n), oz: vec![[[0.0; BLOCK]; 6]; n] },
         |w, k, o| {
             let q = &qs[k * CHUNK * n..(k * CHUNK + o.len() / (6 * n)) * n];
             if !crate::error::all_finite(q) {
