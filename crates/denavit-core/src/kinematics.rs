@@ -518,16 +518,25 @@ impl Block {
 
 /// The joint frames of a block of configurations (`qb`: BLOCK x n row-major; `N` > 0 promises n == N, so
 /// that the transposition of `qb` has a constant stride), joints 1..=`cols`, each handed to
-/// `each(i, frames)`; `w.c` ends as the frame of joint `cols`.
+/// `each(i, frames)`; `w.c` ends as the frame of joint `cols`. False (and nothing computed) if a value of
+/// `qb` is not finite.
 #[inline(always)]
-fn walk_block<const N: usize>(model: &Model, chain: &Chain, qb: &[f64], cols: usize, w: &mut Block, mut each: impl FnMut(usize, &Frames)) {
+#[must_use]
+fn walk_block<const N: usize>(model: &Model, chain: &Chain, qb: &[f64], cols: usize, w: &mut Block, mut each: impl FnMut(usize, &Frames)) -> bool {
     let n = if N > 0 { N } else { model.nq() };
     let (qb, joints, s) = (&qb[..BLOCK * n], &model.joints()[..n], &mut w.s[..n]);
-    // the transposition, once per block (a loop with a constant stride when N > 0: vectorised)
+    // the transposition, once per block (a loop with a constant stride when N > 0: vectorised), and the
+    // finiteness check in the same pass (`x * 0` is NaN exactly for an infinite or NaN `x`)
+    let mut bad = [0.0f64; BLOCK];
     for l in 0..BLOCK {
         for i in 0..n {
-            s[i][l] = qb[l * n + i] + joints[i].offset;
+            let v = qb[l * n + i];
+            bad[l] += v * 0.0;
+            s[i][l] = v + joints[i].offset;
         }
+    }
+    if !bad.iter().all(|b| *b == 0.0) {
+        return false;
     }
     for (i, j) in joints.iter().enumerate().take(cols) {
         let s = &w.s[i];
@@ -550,6 +559,7 @@ fn walk_block<const N: usize>(model: &Model, chain: &Chain, qb: &[f64], cols: us
         }
         each(i, &w.c);
     }
+    true
 }
 
 /// The identity as a [`Factor`].
@@ -587,7 +597,7 @@ fn write_block(c: &Frames, out: &mut [f64]) {
 /// Tool poses of the rows of one chunk (`q`: rows x n, `out`: rows x 16), a block at a time, the last
 /// block padded.
 #[inline(never)]
-fn tool_pose_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], w: &mut Block, out: &mut [f64]) {
+fn tool_pose_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], w: &mut Block, out: &mut [f64]) -> bool {
     let n = model.nq();
     let tool = &chain.factors[n - 1];
     let mut padded = Vec::new();
@@ -599,12 +609,15 @@ fn tool_pose_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], w: &
             padded[..qb.len()].copy_from_slice(qb);
             &padded
         };
-        walk_block::<N>(model, chain, qb, n, w, |_, _| {});
+        if !walk_block::<N>(model, chain, qb, n, w, |_, _| {}) {
+            return false;
+        }
         step_factor(&mut w.c, tool, MOTION_NONE, &w.sn, &w.sn, &w.cs);
         let stage = &mut w.stage[..ob.len()];
         write_block(&w.c, stage);
         ob.copy_from_slice(stage);
     }
+    true
 }
 
 /// The first non-finite value of a batch (after a chunk found one: the error names the first of all).
@@ -618,7 +631,7 @@ fn non_finite(qs: &[f64]) -> Error {
 /// Batch tool poses: `qs` holds N configurations row-major (N x n), `out` N row-major 4x4 matrices (N x 16).
 /// Runs on rayon's pool (or as [`crate::parallel::with_threads`] says), [`BLOCK`] configurations at a time
 /// in structure-of-arrays form so that every operation is a SIMD one, with fused multiply-adds. Values must
-/// be finite (checked chunk by chunk as the kernel reads them; after an error `out` is partly written).
+/// be finite (checked block by block in the pass that reads them; after an error `out` is partly written).
 /// Same values as [`tool_pose`] up to the sign of zeros.
 ///
 /// ```
@@ -646,15 +659,12 @@ pub fn tool_pose_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<()>
         || Block::new(n, 16),
         |w, k, o| {
             let q = &qs[k * CHUNK * n..(k * CHUNK + o.len() / 16) * n];
-            if !crate::error::all_finite(q) {
-                return Err(non_finite(qs));
-            }
-            match n {
+            let finite = match n {
                 6 => tool_pose_chunk::<6>(model, &chain, q, w, o),
                 7 => tool_pose_chunk::<7>(model, &chain, q, w, o),
                 _ => tool_pose_chunk::<0>(model, &chain, q, w, o),
-            }
-            Ok(())
+            };
+            if finite { Ok(()) } else { Err(non_finite(qs)) }
         },
     )
 }
@@ -668,7 +678,15 @@ struct JacobianWork {
 
 /// Jacobians (as [`jacobian_row_major_unchecked`]) of the rows of one chunk (`q`: rows x n, `out`: rows x 6n).
 #[inline(never)]
-fn jacobian_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], frame: JacobianFrame, joint: Option<usize>, w: &mut JacobianWork, out: &mut [f64]) {
+fn jacobian_chunk<const N: usize>(
+    model: &Model,
+    chain: &Chain,
+    q: &[f64],
+    frame: JacobianFrame,
+    joint: Option<usize>,
+    w: &mut JacobianWork,
+    out: &mut [f64],
+) -> bool {
     let n = model.nq();
     let cols = joint.map_or(n, |j| j + 1);
     let b = Frame::of(model.t_world_base());
@@ -683,7 +701,9 @@ fn jacobian_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], frame
             &padded
         };
         let (b, oz) = (&mut *w.block, &mut w.oz);
-        walk_block::<N>(model, chain, qb, cols, b, |i, c| oz[i] = [c[3][0], c[3][1], c[3][2], c[2][0], c[2][1], c[2][2]]);
+        if !walk_block::<N>(model, chain, qb, cols, b, |i, c| oz[i] = [c[3][0], c[3][1], c[3][2], c[2][0], c[2][1], c[2][2]]) {
+            return false;
+        }
         if joint.is_none() {
             step_factor(&mut b.c, &chain.factors[n - 1], MOTION_NONE, &b.sn, &b.sn, &b.cs);
         }
@@ -722,6 +742,7 @@ fn jacobian_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], frame
         }
         ob.copy_from_slice(stage);
     }
+    true
 }
 
 /// Batch Jacobians of the tool (`joint = None`) or of joint frame `joint` (0-based): `out` holds N row-major
@@ -754,15 +775,12 @@ pub fn jacobian_batch(model: &Model, qs: &[f64], frame: JacobianFrame, joint: Op
         || JacobianWork { block: Block::new(n, 6 * n), oz: vec![[[0.0; BLOCK]; 6]; n] },
         |w, k, o| {
             let q = &qs[k * CHUNK * n..(k * CHUNK + o.len() / (6 * n)) * n];
-            if !crate::error::all_finite(q) {
-                return Err(non_finite(qs));
-            }
-            match n {
+            let finite = match n {
                 6 => jacobian_chunk::<6>(model, &chain, q, frame, joint, w, o),
                 7 => jacobian_chunk::<7>(model, &chain, q, frame, joint, w, o),
                 _ => jacobian_chunk::<0>(model, &chain, q, frame, joint, w, o),
-            }
-            Ok(())
+            };
+            if finite { Ok(()) } else { Err(non_finite(qs)) }
         },
     )
 }
