@@ -46,26 +46,27 @@ def pose_error(A, B):
     return dp, float(np.arctan2(s, (np.trace(R) - 1) / 2))
 
 
-def per_call(fn, number, repeat):
-    """Median over `repeat` runs of the mean time of one call (s)."""
+def per_call(fn, number, repeat, clock=time.perf_counter):
+    """Median over `repeat` runs of the mean time of one call (s), by `clock` (as in `once`)."""
     fn()
     runs = []
     for _ in range(repeat):
-        t = time.perf_counter()
+        t = clock()
         for _ in range(number):
             fn()
-        runs.append((time.perf_counter() - t) / number)
+        runs.append((clock() - t) / number)
     return float(np.median(runs))
 
 
-def once(fn, repeat):
-    """Median over `repeat` runs of one call (s)."""
+def once(fn, repeat, clock=time.perf_counter):
+    """Median over `repeat` runs of one call (s), by `clock` (wall time; `time.thread_time` for the CPU time of
+    the calling thread, which on a loaded machine leaves out the time the thread waited for a core)."""
     fn()
     runs = []
     for _ in range(repeat):
-        t = time.perf_counter()
+        t = clock()
         fn()
-        runs.append(time.perf_counter() - t)
+        runs.append(clock() - t)
     return float(np.median(runs))
 
 

@@ -5,9 +5,11 @@
 
 Scale table: batch FK (into a reused `out=`), batch Jacobian (local_world_aligned, `out=`) and batch RNE (`out=`)
 of the KR5 for N = 10^3 .. 10^7 (each size only while its arrays fit in --max-bytes), median wall time over
-repeats, and the growth exponent: the slope of log t against log N fitted over N >= 10^4 (1.0 = linear).
-Kernel rows: batch FK 100,000 on one core (threads=1) and on two (threads=2), batch Jacobian 100,000, FK 10^7
-with out=, a single FK call from Python next to the binding's floor (an empty call: the `Model.nq` getter), and
+repeats on the default threads, then the median CPU time of the calling thread with threads=1 (on a shared,
+loaded machine the wall time also counts the waits for a core), and the growth exponent: the slope of log t
+against log N fitted over N >= 10^4 (1.0 = linear).
+Kernel rows: batch FK 100,000 on one core (threads=1; wall and thread CPU time) and on two (threads=2), batch
+Jacobian 100,000, FK 10^7 with out=, a single FK call from Python next to the binding's floor (an empty call: the `Model.nq` getter), and
 IK with one attempt (success rate and median, from benchmarks/bench_kinematics.py). pinocchio has no batch API:
 its column is a Python loop over its C++ calls (pin.forwardKinematics / computeJointJacobians / rnea) on the
 same chain, timed on fewer configurations and scaled per configuration.
@@ -22,6 +24,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
 import json  # noqa: E402
+import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 from bench_kinematics import ik_one_attempt, once, per_call, pin, pin_model_with_tool, rtb, rtb_robot_with_limits  # noqa: E402
@@ -58,29 +61,32 @@ def main():
 
     # --- scale table ---------------------------------------------------------------------------------------
     sizes = [int(10**k) for k in range(3, 8) if 10**k <= max_n]
-    kernels = {
-        "fk_batch (out=)": (16, lambda qs, out: dv.fk_batch(m, qs, out=out), lambda N: np.empty((N, 4, 4))),
-        "jacobian_batch (out=)": (6 * n, lambda qs, out: dv.jacobian_batch(m, qs, out=out), lambda N: np.empty((N, 6, n))),
-        "rnea_batch (out=)": (n, lambda qs, out: dv.rnea_batch(m, qs, qs, qs, out=out), lambda N: np.empty((N, n))),
-    }
     mi = m.with_inertias(np.linspace(4, 1, n), rng.uniform(-0.1, 0.1, (n, 3)), np.tile(np.eye(3) * 0.05, (n, 1, 1)))
-    kernels["rnea_batch (out=)"] = (n, lambda qs, out: dv.rnea_batch(mi, qs, qs, qs, out=out), lambda N: np.empty((N, n)))
-    print(f"denavit {dv.__version__}; {os.cpu_count()} cores; KR5; medians of {rep} runs; threads = default (RAYON_NUM_THREADS or every core)")
-    print("| kernel | " + " | ".join(f"N = 10^{len(str(N)) - 1}" for N in sizes) + " | growth exponent (N >= 10^4) |")
-    print("|---|" + "---|" * len(sizes) + "---|")
-    for name, (per_row, run, alloc) in kernels.items():
-        ns, ts = [], []
-        for N in sizes:
-            if 8 * N * (n + per_row) > args.max_bytes:
-                break
-            qs = rng.uniform(-np.pi, np.pi, (N, n))
-            out = alloc(N)
-            ts.append(once(lambda qs=qs, out=out, run=run: run(qs, out), rep if N < 10**7 else max(3, rep // 2)))
-            ns.append(N)
-            del qs, out
-        cells = [fmt(t) for t in ts] + ["(memory)"] * (len(sizes) - len(ts))
-        fig["scale"][name] = {"n": ns, "t": ts, "growth": growth(ns, ts)}
-        print(f"| {name} | " + " | ".join(cells) + f" | {growth(ns, ts):.3f} |")
+    kernels = {
+        "fk_batch (out=)": (16, lambda qs, out, th: dv.fk_batch(m, qs, out=out, threads=th), lambda N: np.empty((N, 4, 4))),
+        "jacobian_batch (out=)": (6 * n, lambda qs, out, th: dv.jacobian_batch(m, qs, out=out, threads=th), lambda N: np.empty((N, 6, n))),
+        "rnea_batch (out=)": (n, lambda qs, out, th: dv.rnea_batch(mi, qs, qs, qs, out=out, threads=th), lambda N: np.empty((N, n))),
+    }
+    print(f"denavit {dv.__version__}; {os.cpu_count()} cores; KR5; medians of {rep} runs; load average {os.getloadavg()[0]:.1f}")
+    for label, threads, clock in (("wall time, threads = default (RAYON_NUM_THREADS or every core)", None, time.perf_counter),
+                                  ("CPU time of the calling thread, threads=1 (leaves out waiting for a core on a loaded machine)", 1, time.thread_time)):
+        print()
+        print(label)
+        print("| kernel | " + " | ".join(f"N = 10^{len(str(N)) - 1}" for N in sizes) + " | growth exponent (N >= 10^4) |")
+        print("|---|" + "---|" * len(sizes) + "---|")
+        for name, (per_row, run, alloc) in kernels.items():
+            ns, ts = [], []
+            for N in sizes:
+                if 8 * N * (n + per_row) > args.max_bytes:
+                    break
+                qs = rng.uniform(-np.pi, np.pi, (N, n))
+                out = alloc(N)
+                ts.append(once(lambda qs=qs, out=out, run=run, th=threads: run(qs, out, th), rep if N < 10**7 else max(3, rep // 2), clock))
+                ns.append(N)
+                del qs, out
+            cells = [fmt(t) for t in ts] + ["(memory)"] * (len(sizes) - len(ts))
+            fig["scale"][f"{name}, threads={threads}"] = {"n": ns, "t": ts, "growth": growth(ns, ts)}
+            print(f"| {name} | " + " | ".join(cells) + f" | {growth(ns, ts):.3f} |")
 
     # --- the speed issue's kernel rows -----------------------------------------------------------------------
     rows = []  # (case, denavit, pinocchio, rtb, target)
@@ -88,8 +94,10 @@ def main():
     qs = rng.uniform(-np.pi, np.pi, (N, n))
     out = np.empty((N, 4, 4))
     t1 = once(lambda: dv.fk_batch(m, qs, out=out, threads=1), rep * 3)
+    c1 = once(lambda: dv.fk_batch(m, qs, out=out, threads=1), rep * 3, time.thread_time)
     t2 = once(lambda: dv.fk_batch(m, qs, out=out, threads=2), rep * 3)
     tf = once(lambda: dv.fk_batch(m, qs, threads=1), rep * 3)
+    cf = once(lambda: dv.fk_batch(m, qs, threads=1), rep * 3, time.thread_time)
     p_fk = p_j = p_r = r_fk = "-"
     if pin is not None:
         pm, pd, _ = pin_model_with_tool(m)
@@ -100,13 +108,15 @@ def main():
     if rtb is not None:
         ets = rtb_robot_with_limits(m).ets()
         r_fk = fmt(once(lambda: ets.fkine(qs), max(3, rep // 2)))
-    rows.append((f"batch FK {N:,} (KR5 -> (N, 4, 4), out=), one core", fmt(t1), p_fk, r_fk, "<= 1.8 ms"))
+    rows.append((f"batch FK {N:,} (KR5 -> (N, 4, 4), out=), one core: wall (thread CPU)", f"{fmt(t1)} ({fmt(c1)})", p_fk, r_fk, "<= 1.8 ms"))
     rows.append((f"batch FK {N:,}, out=, two cores (threads=2)", fmt(t2), "-", "-", "<= 1.0 ms"))
-    rows.append((f"batch FK {N:,}, one core, a fresh result array", fmt(tf), "-", "-", "-"))
+    rows.append((f"batch FK {N:,}, one core, a fresh result array: wall (thread CPU)", f"{fmt(tf)} ({fmt(cf)})", "-", "-", "-"))
     oj = np.empty((N, 6, n))
     tj = once(lambda: dv.jacobian_batch(m, qs, out=oj), rep * 3)
     tj1 = once(lambda: dv.jacobian_batch(m, qs, out=oj, threads=1), rep * 3)
-    rows.append((f"batch Jacobian {N:,} (local_world_aligned, out=), default threads / one core", f"{fmt(tj)} / {fmt(tj1)}", p_j, "-", "<= 5 ms"))
+    cj1 = once(lambda: dv.jacobian_batch(m, qs, out=oj, threads=1), rep * 3, time.thread_time)
+    rows.append((f"batch Jacobian {N:,} (local_world_aligned, out=), default threads / one core (thread CPU)",
+                 f"{fmt(tj)} / {fmt(tj1)} ({fmt(cj1)})", p_j, "-", "<= 5 ms"))
     orn = np.empty((N, n))
     tr = once(lambda: dv.rnea_batch(mi, qs, qs, qs, out=orn), rep * 3)
     rows.append((f"batch RNE {N:,} (out=)", fmt(tr), p_r, "-", "-"))
@@ -115,16 +125,19 @@ def main():
         qb = rng.uniform(-np.pi, np.pi, (big, n))
         ob = np.empty((big, 4, 4))
         tb = once(lambda: dv.fk_batch(m, qb, out=ob), 3)
-        rows.append(("batch FK 10^7 with out= (default threads)", fmt(tb), "-", "-", "<= 0.25 s"))
+        cb = once(lambda: dv.fk_batch(m, qb, out=ob, threads=1), 3, time.thread_time)
+        rows.append(("batch FK 10^7 with out= (default threads); one core's thread CPU", f"{fmt(tb)}; {fmt(cb)}", "-", "-", "<= 0.25 s"))
         del qb, ob
     q = np.array([0.3, -0.2, 0.5, 0.1, 0.4, -0.3])
     number = 2000 if args.quick else 20000
     t_fk = per_call(lambda: dv.fk(m, q), number, rep)
     t_empty = per_call(lambda: m.nq, number, rep)
+    c_fk = per_call(lambda: dv.fk(m, q), number, rep, time.thread_time)
     p_one = "-"
     if pin is not None:
         p_one = fmt(per_call(lambda: pin.forwardKinematics(pm, pd, q), number, rep)) + " (forwardKinematics, no array returned)"
-    rows.append(("single FK from Python (returns the 4x4 array); the binding's floor (an empty call, Model.nq)", f"{fmt(t_fk)}; floor {fmt(t_empty)}", p_one, "-", "<= 0.25 us"))
+    rows.append(("single FK from Python (returns the 4x4 array), wall (thread CPU); the binding's floor (an empty call, Model.nq)",
+                 f"{fmt(t_fk)} ({fmt(c_fk)}); floor {fmt(t_empty)}", p_one, "-", "<= 0.25 us"))
     one = ik_one_attempt([(name, dv.load_model(name)) for name in ("kr5", "ur5", "puma560")], 100 if args.quick else 300, rtb is not None, pin is not None)
     for r in one:
         rows.append((f"IK one attempt, {r[0]}: newton / lm (success, median)", f"{r[1]} / {r[2]}", r[5], f"{r[3]} / {r[4]}", ">= 97 %, <= 5 us"))

@@ -176,6 +176,21 @@ def test_batch_kernels_equal_single_calls_to_1e_15_relative(mixed, rng):
         np.testing.assert_array_equal(dv.jacobian_batch(m, qs, threads=1), dv.jacobian_batch(m, qs, threads=2))
 
 
+@pytest.mark.parametrize("threads", [1, 2])
+def test_batch_names_the_first_non_finite_value(threads, rng):
+    """The kernels check each chunk as they read it (no separate pass): the error still names the first bad
+    value of the whole batch, whichever chunk or thread meets one first."""
+    m = dv.load_model("kr5")
+    qs = rng.uniform(-np.pi, np.pi, (5000, 6))
+    qs[4500, 1], qs[1500, 4], qs[3000, 0] = np.nan, np.inf, -np.inf
+    for call in (lambda: dv.fk_batch(m, qs, threads=threads), lambda: dv.jacobian_batch(m, qs, threads=threads)):
+        with pytest.raises(dv.DenavitError) as e:
+            call()
+        assert (e.value.kind, e.value.what, e.value.index, e.value.value) == ("NonFinite", "q batch", 1500 * 6 + 4, np.inf)
+    qs[1500, 4] = 1e6  # finite but beyond the fast sine's range: the exact fallback, same value as one call
+    np.testing.assert_array_equal(dv.fk_batch(m, qs[1490:1510]), [dv.fk(m, q) for q in qs[1490:1510]])
+
+
 def test_out_is_filled_and_returned(rng):
     m = dv.load_model("kr5")
     qs = rng.uniform(-np.pi, np.pi, (300, 6))

@@ -2,7 +2,7 @@
 #![allow(clippy::needless_range_loop)] // index loops mirror the formulas (and unroll)
 
 use crate::error::{Error, Result, check_len};
-use crate::math::{sin_cos, sin_cos_lanes};
+use crate::math::{sin_cos, sin_cos_slices};
 use crate::model::{Data, JointKind, Model};
 use crate::spatial::Pose;
 use nalgebra::{Matrix3, Rotation3, Translation3};
@@ -353,16 +353,286 @@ pub(crate) fn write_pose(t: &Pose, out: &mut [f64]) {
     out[15] = 1.0;
 }
 
-/// Configurations evaluated together by the batch kernels (structure of arrays).
-const LANES: usize = 8;
+/// Configurations per structure-of-arrays block of the batch kernels: every step of the chain is a loop over
+/// the block's configurations with a straight-line body, which the compiler vectorises at the machine's full
+/// width (4 or 8 lanes) with fused multiply-adds; a block's frames (6 KB) stay in the L1 cache.
+const BLOCK: usize = 64;
 
-/// Rows of a batch per parallel work item.
+/// Rows of a batch per parallel work item (a multiple of [`BLOCK`]).
 const CHUNK: usize = 1024;
 
+/// One quantity of a block's configurations.
+type V = [f64; BLOCK];
+
+/// A block's frames: `c[column][row][configuration]`, the columns the x, y, z axes and the origin.
+type Frames = [[V; 3]; 4];
+
+/// The rotation of a constant factor of the chain, by its exact zeros and ones.
+const ROT_IDENTITY: u8 = 0;
+/// A rotation about x (x column `e_x`, first row `e_xᵀ`): what a DH or modified DH placement `Rx(alpha)` gives.
+const ROT_ABOUT_X: u8 = 1;
+/// Any other rotation.
+const ROT_GENERAL: u8 = 2;
+
+/// The joint motion that follows a factor: `Rz(s)`, `Tz(s)`, or none (the tool).
+const MOTION_RZ: u8 = 0;
+const MOTION_TZ: u8 = 1;
+const MOTION_NONE: u8 = 2;
+
+/// A constant factor of the chain (a placement or the tool) with the shape of its rotation and which
+/// components of its origin are not zero. The kernels skip the terms whose factor is an exact zero or one:
+/// that changes no value (the remaining fused sums run in the order of [`Frame::mul`], so the batch values
+/// are those of the single-configuration path up to the sign of zeros) and roughly halves the work of a DH
+/// chain.
+#[derive(Clone, Copy)]
+struct Factor {
+    /// Columns x, y, z of the rotation, then the origin.
+    b: [[f64; 3]; 4],
+    rot: u8,
+    /// Bit k set: origin component k is not zero.
+    origin: u8,
+}
+
+impl Factor {
+    fn of(t: &Pose) -> Self {
+        let f = Frame::of(t);
+        let b: [[f64; 3]; 4] = std::array::from_fn(|j| [f.c[j][0], f.c[j][1], f.c[j][2]]);
+        let about_x = b[0] == [1.0, 0.0, 0.0] && b[1][0] == 0.0 && b[2][0] == 0.0;
+        let rot = if about_x && b[1] == [0.0, 1.0, 0.0] && b[2] == [0.0, 0.0, 1.0] {
+            ROT_IDENTITY
+        } else if about_x {
+            ROT_ABOUT_X
+        } else {
+            ROT_GENERAL
+        };
+        let origin = (0..3).filter(|&k| b[3][k] != 0.0).map(|k| 1u8 << k).sum();
+        Self { b, rot, origin }
+    }
+}
+
+/// A model's chain prepared for the batch kernels: the frame of the first joint before its motion
+/// (`T_world_base · placement_1`, the same for every configuration, so computed once), then the placements
+/// of joints 2..n and the tool as [`Factor`]s.
+struct Chain {
+    first: Frame,
+    factors: Vec<Factor>,
+}
+
+impl Chain {
+    fn of(model: &Model) -> Self {
+        let base = Frame::of(model.t_world_base());
+        let joints = model.joints();
+        let first = joints.first().map_or(base, |j| base.mul(&j.placement));
+        let factors = joints.iter().skip(1).map(|j| Factor::of(&j.placement)).chain([Factor::of(model.t_last_tool())]).collect();
+        Self { first, factors }
+    }
+}
+
+/// `c <- c · b · M(s)` for a block (`sn`, `cs`: the sines and cosines of `s` for `MOTION_RZ`): the
+/// arithmetic of [`Frame::mul`] without the terms `ROT` and `ORIGIN` say are exact zeros or ones, then of
+/// [`Frame::motion`].
+#[inline(never)]
+fn step<const ROT: u8, const ORIGIN: u8, const MOTION: u8>(c: &mut Frames, b: &[[f64; 3]; 4], s: &V, sn: &V, cs: &V) {
+    for l in 0..BLOCK {
+        let a: [[f64; 3]; 4] = std::array::from_fn(|j| std::array::from_fn(|r| c[j][r][l]));
+        let dense = |j: usize| -> [f64; 3] { std::array::from_fn(|r| a[2][r].mul_add(b[j][2], a[1][r].mul_add(b[j][1], a[0][r] * b[j][0]))) };
+        let yz = |j: usize| -> [f64; 3] { std::array::from_fn(|r| a[2][r].mul_add(b[j][2], a[1][r] * b[j][1])) };
+        let (mut x, mut y, z) = match ROT {
+            ROT_IDENTITY => (a[0], a[1], a[2]),
+            ROT_ABOUT_X => (a[0], yz(1), yz(2)),
+            _ => (dense(0), dense(1), dense(2)),
+        };
+        let mut p = a[3];
+        for k in 0..3 {
+            if ORIGIN & (1 << k) != 0 {
+                p = std::array::from_fn(|r| a[k][r].mul_add(b[3][k], p[r]));
+            }
+        }
+        match MOTION {
+            MOTION_RZ => {
+                let (x0, y0) = (x, y);
+                x = std::array::from_fn(|r| cs[l].mul_add(x0[r], sn[l] * y0[r]));
+                y = std::array::from_fn(|r| cs[l].mul_add(y0[r], -(sn[l] * x0[r])));
+            }
+            MOTION_TZ => p = std::array::from_fn(|r| z[r].mul_add(s[l], p[r])),
+            _ => {}
+        }
+        for r in 0..3 {
+            c[0][r][l] = x[r];
+            c[1][r][l] = y[r];
+            c[2][r][l] = z[r];
+            c[3][r][l] = p[r];
+        }
+    }
+}
+
+/// [`step`] for a factor known only at run time.
+fn step_factor(c: &mut Frames, f: &Factor, motion: u8, s: &V, sn: &V, cs: &V) {
+    macro_rules! by_origin {
+        ($rot:expr, $motion:expr) => {
+            match f.origin {
+                0 => step::<$rot, 0, $motion>(c, &f.b, s, sn, cs),
+                1 => step::<$rot, 1, $motion>(c, &f.b, s, sn, cs),
+                2 => step::<$rot, 2, $motion>(c, &f.b, s, sn, cs),
+                3 => step::<$rot, 3, $motion>(c, &f.b, s, sn, cs),
+                4 => step::<$rot, 4, $motion>(c, &f.b, s, sn, cs),
+                5 => step::<$rot, 5, $motion>(c, &f.b, s, sn, cs),
+                6 => step::<$rot, 6, $motion>(c, &f.b, s, sn, cs),
+                _ => step::<$rot, 7, $motion>(c, &f.b, s, sn, cs),
+            }
+        };
+    }
+    macro_rules! by_rot {
+        ($motion:expr) => {
+            match f.rot {
+                ROT_IDENTITY => by_origin!(ROT_IDENTITY, $motion),
+                ROT_ABOUT_X => by_origin!(ROT_ABOUT_X, $motion),
+                _ => by_origin!(ROT_GENERAL, $motion),
+            }
+        };
+    }
+    match motion {
+        MOTION_RZ => by_rot!(MOTION_RZ),
+        MOTION_TZ => by_rot!(MOTION_TZ),
+        _ => by_rot!(MOTION_NONE),
+    }
+}
+
+/// The workspace of a block: its frames, the joint values and their sines and cosines, and the block's
+/// results, written here (in the L1 cache) and then copied to the caller's array at once: element by element
+/// into memory that is not in the cache, the stores would wait on the memory, 8 bytes at a time.
+struct Block {
+    c: Frames,
+    /// `s[joint][configuration]`: the joint values plus the offsets.
+    s: Vec<V>,
+    sn: V,
+    cs: V,
+    stage: Vec<f64>,
+}
+
+impl Block {
+    fn new(n: usize, per_row: usize) -> Box<Self> {
+        Box::new(Self { c: [[[0.0; BLOCK]; 3]; 4], s: vec![[0.0; BLOCK]; n], sn: [0.0; BLOCK], cs: [0.0; BLOCK], stage: vec![0.0; per_row * BLOCK] })
+    }
+}
+
+/// The joint frames of a block of configurations (`qb`: BLOCK x n row-major; `N` > 0 promises n == N, so
+/// that the transposition of `qb` has a constant stride), joints 1..=`cols`, each handed to
+/// `each(i, frames)`; `w.c` ends as the frame of joint `cols`. False (and nothing computed) if a value of
+/// `qb` is not finite.
+#[inline(always)]
+#[must_use]
+fn walk_block<const N: usize>(model: &Model, chain: &Chain, qb: &[f64], cols: usize, w: &mut Block, mut each: impl FnMut(usize, &Frames)) -> bool {
+    let n = if N > 0 { N } else { model.nq() };
+    let (qb, joints, s) = (&qb[..BLOCK * n], &model.joints()[..n], &mut w.s[..n]);
+    // the transposition, once per block (a loop with a constant stride when N > 0: vectorised), and the
+    // finiteness check in the same pass (`x * 0` is NaN exactly for an infinite or NaN `x`)
+    let mut bad = [0.0f64; BLOCK];
+    for l in 0..BLOCK {
+        for i in 0..n {
+            let v = qb[l * n + i];
+            bad[l] += v * 0.0;
+            s[i][l] = v + joints[i].offset;
+        }
+    }
+    if !bad.iter().all(|b| *b == 0.0) {
+        return false;
+    }
+    for (i, j) in joints.iter().enumerate().take(cols) {
+        let s = &w.s[i];
+        let motion = if j.kind == JointKind::Revolute {
+            sin_cos_slices(s, &mut w.sn, &mut w.cs);
+            MOTION_RZ
+        } else {
+            MOTION_TZ
+        };
+        if i == 0 {
+            // the first joint's frame before its motion is the same for every configuration
+            for (ck, fk) in w.c.iter_mut().zip(&chain.first.c) {
+                for (ckr, v) in ck.iter_mut().zip(fk) {
+                    ckr.fill(*v);
+                }
+            }
+            step_factor(&mut w.c, &IDENTITY, motion, s, &w.sn, &w.cs);
+        } else {
+            step_factor(&mut w.c, &chain.factors[i - 1], motion, s, &w.sn, &w.cs);
+        }
+        each(i, &w.c);
+    }
+    true
+}
+
+/// The identity as a [`Factor`].
+const IDENTITY: Factor = Factor { b: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0; 3]], rot: ROT_IDENTITY, origin: 0 };
+
+/// Write a block's frames as row-major 4x4 matrices (`out`: up to BLOCK x 16), four configurations at a
+/// time by 4x4 transposes.
+#[inline(always)]
+fn write_block(c: &Frames, out: &mut [f64]) {
+    let base = 4 * (out.len() / 64);
+    let mut groups = out.chunks_exact_mut(64);
+    for (g, o) in (&mut groups).enumerate() {
+        let l0 = 4 * g;
+        for r in 0..3 {
+            // m[j][i]: column j, row r of configuration l0 + i
+            let m: [[f64; 4]; 4] = std::array::from_fn(|j| std::array::from_fn(|i| c[j][r][l0 + i]));
+            for i in 0..4 {
+                o[16 * i + 4 * r..16 * i + 4 * r + 4].copy_from_slice(&[m[0][i], m[1][i], m[2][i], m[3][i]]);
+            }
+        }
+        for i in 0..4 {
+            o[16 * i + 12..16 * i + 16].copy_from_slice(&[0.0, 0.0, 0.0, 1.0]);
+        }
+    }
+    for (i, o) in groups.into_remainder().chunks_exact_mut(16).enumerate() {
+        for r in 0..3 {
+            for j in 0..4 {
+                o[4 * r + j] = c[j][r][base + i];
+            }
+        }
+        o[12..].copy_from_slice(&[0.0, 0.0, 0.0, 1.0]);
+    }
+}
+
+/// Tool poses of the rows of one chunk (`q`: rows x n, `out`: rows x 16), a block at a time, the last
+/// block padded.
+#[inline(never)]
+fn tool_pose_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], w: &mut Block, out: &mut [f64]) -> bool {
+    let n = model.nq();
+    let tool = &chain.factors[n - 1];
+    let mut padded = Vec::new();
+    for (qb, ob) in q.chunks(BLOCK * n).zip(out.chunks_mut(16 * BLOCK)) {
+        let qb = if qb.len() == BLOCK * n {
+            qb
+        } else {
+            padded.resize(BLOCK * n, 0.0);
+            padded[..qb.len()].copy_from_slice(qb);
+            &padded
+        };
+        if !walk_block::<N>(model, chain, qb, n, w, |_, _| {}) {
+            return false;
+        }
+        step_factor(&mut w.c, tool, MOTION_NONE, &w.sn, &w.sn, &w.cs);
+        let stage = &mut w.stage[..ob.len()];
+        write_block(&w.c, stage);
+        ob.copy_from_slice(stage);
+    }
+    true
+}
+
+/// The first non-finite value of a batch (after a chunk found one: the error names the first of all).
+fn non_finite(qs: &[f64]) -> Error {
+    match crate::error::check_finite("q batch", qs) {
+        Err(e) => e,
+        Ok(()) => Error::InvalidArgument { what: "q batch".into(), expected: "finite values".into(), got: "a non-finite value".into() },
+    }
+}
+
 /// Batch tool poses: `qs` holds N configurations row-major (N x n), `out` N row-major 4x4 matrices (N x 16).
-/// Runs on rayon's pool (or as [`crate::parallel::with_threads`] says), `LANES` configurations at a time in
-/// structure-of-arrays form so that every operation is a SIMD one, with fused multiply-adds. Values must be
-/// finite (checked). Same values as [`tool_pose`] up to the sign of zeros.
+/// Runs on rayon's pool (or as [`crate::parallel::with_threads`] says), [`BLOCK`] configurations at a time
+/// in structure-of-arrays form so that every operation is a SIMD one, with fused multiply-adds. Values must
+/// be finite (checked block by block in the pass that reads them; after an error `out` is partly written).
+/// Same values as [`tool_pose`] up to the sign of zeros.
 ///
 /// ```
 /// use denavit_core::{builtin_planar2, kinematics::{tool_pose, tool_pose_batch}};
@@ -373,193 +643,111 @@ const CHUNK: usize = 1024;
 /// assert_eq!(out[16 * 7 + 3], tool_pose(&m, &qs[14..16]).unwrap().translation.x);
 /// ```
 pub fn tool_pose_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<()> {
-    let n = model.nq().max(1);
-    let count = if model.nq() == 0 { out.len() / 16 } else { qs.len() / n };
-    check_len("q batch (N*n values)", count * model.nq(), qs.len())?;
-    check_len("output (N*16 values)", count * 16, out.len())?;
-    crate::error::check_finite("q batch", qs)?;
-    let factors = sparse_factors(model);
     let n = model.nq();
-    crate::parallel::for_each_chunk(out, 16 * CHUNK, |c, o| {
-        let start = c * CHUNK;
-        for (b, ob) in o.chunks_mut(16 * LANES).enumerate() {
-            let first = start + b * LANES;
-            let valid = ob.len() / 16;
-            if valid == LANES {
-                tool_pose_lanes(model, &factors, &qs[first * n..(first + LANES) * n], ob);
-            } else {
-                let mut q = vec![0.0; LANES * n];
-                q[..valid * n].copy_from_slice(&qs[first * n..(first + valid) * n]);
-                let mut block = [0.0; 16 * LANES];
-                tool_pose_lanes(model, &factors, &q, &mut block);
-                ob.copy_from_slice(&block[..16 * valid]);
-            }
+    let count = qs.len().checked_div(n).unwrap_or(out.len() / 16);
+    check_len("q batch (N*n values)", count * n, qs.len())?;
+    check_len("output (N*16 values)", count * 16, out.len())?;
+    if n == 0 {
+        let t = tool_pose_unchecked(model, &[]);
+        out.chunks_exact_mut(16).for_each(|o| write_pose(&t, o));
+        return Ok(());
+    }
+    let chain = Chain::of(model);
+    crate::parallel::try_for_each_chunk_init(
+        out,
+        16 * CHUNK,
+        || Block::new(n, 16),
+        |w, k, o| {
+            let q = &qs[k * CHUNK * n..(k * CHUNK + o.len() / 16) * n];
+            let finite = match n {
+                6 => tool_pose_chunk::<6>(model, &chain, q, w, o),
+                7 => tool_pose_chunk::<7>(model, &chain, q, w, o),
+                _ => tool_pose_chunk::<0>(model, &chain, q, w, o),
+            };
+            if finite { Ok(()) } else { Err(non_finite(qs)) }
+        },
+    )
+}
+
+/// The workspace of the batch Jacobian: a block's frames and its joints' origins and z axes (`oz[joint]`:
+/// `[o_x, o_y, o_z, z_x, z_y, z_z][configuration]`).
+struct JacobianWork {
+    block: Box<Block>,
+    oz: Vec<[V; 6]>,
+}
+
+/// Jacobians (as [`jacobian_row_major_unchecked`]) of the rows of one chunk (`q`: rows x n, `out`: rows x 6n).
+#[inline(never)]
+fn jacobian_chunk<const N: usize>(
+    model: &Model,
+    chain: &Chain,
+    q: &[f64],
+    frame: JacobianFrame,
+    joint: Option<usize>,
+    w: &mut JacobianWork,
+    out: &mut [f64],
+) -> bool {
+    let n = model.nq();
+    let cols = joint.map_or(n, |j| j + 1);
+    let b = Frame::of(model.t_world_base());
+    let base = [b.col(0), b.col(1), b.col(2)];
+    let mut padded = Vec::new();
+    for (qb, ob) in q.chunks(BLOCK * n).zip(out.chunks_mut(6 * n * BLOCK)) {
+        let qb = if qb.len() == BLOCK * n {
+            qb
+        } else {
+            padded.resize(BLOCK * n, 0.0);
+            padded[..qb.len()].copy_from_slice(qb);
+            &padded
+        };
+        let (b, oz) = (&mut *w.block, &mut w.oz);
+        if !walk_block::<N>(model, chain, qb, cols, b, |i, c| oz[i] = [c[3][0], c[3][1], c[3][2], c[2][0], c[2][1], c[2][2]]) {
+            return false;
         }
-    });
-    Ok(())
-}
-
-/// A constant factor of the chain (placement or tool) with its exact zeros dropped: column `j` of the
-/// product `c · b` is the sum over `terms[j]` of `c[k] * b[k][j]` (plus `c`'s origin for the origin
-/// column). Placements built from `Rx(alpha)` and translations along one or two axes are mostly zeros, so
-/// this roughly halves the work of a batch; skipping exact zeros does not change the result (the fused
-/// sums run in the order of [`Frame::mul`], so the values are those of the single-configuration path).
-#[derive(Clone, Copy)]
-struct Sparse {
-    terms: [[(usize, f64); 3]; 4],
-    count: [usize; 4],
-}
-
-impl Sparse {
-    fn of(b: &Pose) -> Self {
-        let (m, v) = (b.rotation.matrix(), &b.translation.vector);
-        let mut s = Self { terms: [[(0, 0.0); 3]; 4], count: [0; 4] };
-        for j in 0..4 {
-            for k in 0..3 {
-                let x = if j < 3 { m[3 * j + k] } else { v[k] };
-                if x != 0.0 {
-                    s.terms[j][s.count[j]] = (k, x);
-                    s.count[j] += 1;
+        if joint.is_none() {
+            step_factor(&mut b.c, &chain.factors[n - 1], MOTION_NONE, &b.sn, &b.sn, &b.cs);
+        }
+        let (c, stage) = (&b.c, &mut b.stage[..ob.len()]);
+        let rows = ob.len() / (6 * n);
+        for (k, j) in model.joints().iter().enumerate() {
+            let ozk = &oz[k.min(cols - 1)];
+            for l in 0..rows {
+                let col = if k < cols {
+                    let (o, z) = ([ozk[0][l], ozk[1][l], ozk[2][l]], [ozk[3][l], ozk[4][l], ozk[5][l]]);
+                    let p = [c[3][0][l], c[3][1][l], c[3][2][l]];
+                    let (v, w) = match j.kind {
+                        JointKind::Revolute if frame == JacobianFrame::World => (cross(o, z), z),
+                        JointKind::Revolute => (cross(z, [p[0] - o[0], p[1] - o[1], p[2] - o[2]]), z),
+                        JointKind::Prismatic => (z, [0.0; 3]),
+                    };
+                    let axes = match frame {
+                        JacobianFrame::Local => {
+                            Some([[c[0][0][l], c[0][1][l], c[0][2][l]], [c[1][0][l], c[1][1][l], c[1][2][l]], [c[2][0][l], c[2][1][l], c[2][2][l]]])
+                        }
+                        JacobianFrame::Base => Some(base),
+                        _ => None,
+                    };
+                    match axes {
+                        None => [v[0], v[1], v[2], w[0], w[1], w[2]],
+                        // R^T v: the rows of R^T are the columns of R
+                        Some(a) => [dot(a[0], v), dot(a[1], v), dot(a[2], v), dot(a[0], w), dot(a[1], w), dot(a[2], w)],
+                    }
+                } else {
+                    [0.0; 6]
+                };
+                for (r, v) in col.iter().enumerate() {
+                    stage[6 * n * l + r * n + k] = *v;
                 }
             }
         }
-        s
+        ob.copy_from_slice(stage);
     }
-}
-
-/// The joints' placements and, last, the tool, as [`Sparse`] factors.
-fn sparse_factors(model: &Model) -> Vec<Sparse> {
-    model.joints().iter().map(|j| Sparse::of(&j.placement)).chain([Sparse::of(model.t_last_tool())]).collect()
-}
-
-type Lanes = [[[f64; LANES]; 3]; 4];
-
-/// `d = c · b` for `LANES` frames at once (`c[column][row][lane]`).
-#[inline(always)]
-fn mul_lanes(c: &Lanes, b: &Sparse, d: &mut Lanes) {
-    for j in 0..4 {
-        let t = &b.terms[j];
-        for r in 0..3 {
-            let acc = if j == 3 { c[3][r] } else { [0.0; LANES] };
-            // straight-line code per count (the model's counts repeat every block: a predicted branch)
-            d[j][r] = match b.count[j] {
-                0 => acc,
-                1 => std::array::from_fn(|l| c[t[0].0][r][l].mul_add(t[0].1, acc[l])),
-                2 => std::array::from_fn(|l| c[t[1].0][r][l].mul_add(t[1].1, c[t[0].0][r][l].mul_add(t[0].1, acc[l]))),
-                _ => std::array::from_fn(|l| c[t[2].0][r][l].mul_add(t[2].1, c[t[1].0][r][l].mul_add(t[1].1, c[t[0].0][r][l].mul_add(t[0].1, acc[l])))),
-            };
-        }
-    }
-}
-
-/// The base frame in every lane.
-#[inline(always)]
-fn base_lanes(model: &Model) -> Lanes {
-    let mut c = [[[0.0; LANES]; 3]; 4];
-    let f = Frame::of(model.t_world_base());
-    for (j, cj) in c.iter_mut().enumerate() {
-        for (r, cjr) in cj.iter_mut().enumerate() {
-            *cjr = [f.c[j][r]; LANES];
-        }
-    }
-    c
-}
-
-/// `c <- c · placement_i · M(q_i)` for `LANES` configurations (`qs`: LANES x n row-major); `d` is scratch.
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn advance_lanes(c: &mut Lanes, d: &mut Lanes, factor: &Sparse, kind: JointKind, offset: f64, qs: &[f64], n: usize, i: usize) {
-    mul_lanes(c, factor, d);
-    let s: [f64; LANES] = std::array::from_fn(|l| qs[l * n + i] + offset);
-    match kind {
-        JointKind::Revolute => {
-            let (sn, cs) = sin_cos_lanes(&s);
-            for r in 0..3 {
-                let (x, y) = (d[0][r], d[1][r]);
-                c[0][r] = std::array::from_fn(|l| cs[l].mul_add(x[l], sn[l] * y[l]));
-                c[1][r] = std::array::from_fn(|l| cs[l].mul_add(y[l], -(sn[l] * x[l])));
-                c[2][r] = d[2][r];
-                c[3][r] = d[3][r];
-            }
-        }
-        JointKind::Prismatic => {
-            for r in 0..3 {
-                c[0][r] = d[0][r];
-                c[1][r] = d[1][r];
-                c[2][r] = d[2][r];
-                c[3][r] = std::array::from_fn(|l| d[2][r][l].mul_add(s[l], d[3][r][l]));
-            }
-        }
-    }
-}
-
-/// Tool poses of `LANES` configurations (`qs`: LANES x n row-major) into `out` (LANES x 16 row-major).
-#[inline(always)]
-fn tool_pose_lanes(model: &Model, factors: &[Sparse], qs: &[f64], out: &mut [f64]) {
-    let n = model.nq();
-    // c[column][row][lane]: columns x, y, z axes and origin
-    let mut c = base_lanes(model);
-    let mut d = [[[0.0; LANES]; 3]; 4];
-    for (i, joint) in model.joints().iter().enumerate() {
-        advance_lanes(&mut c, &mut d, &factors[i], joint.kind, joint.offset, qs, n, i);
-    }
-    mul_lanes(&c, &factors[n], &mut d);
-    for (l, o) in out.chunks_exact_mut(16).enumerate() {
-        for r in 0..3 {
-            for j in 0..4 {
-                o[4 * r + j] = d[j][r][l];
-            }
-        }
-        o[12..].copy_from_slice(&[0.0, 0.0, 0.0, 1.0]);
-    }
-}
-
-/// Joint origins and z axes of `LANES` configurations: `[o_x, o_y, o_z, z_x, z_y, z_z][lane]`.
-type OriginAxis = [[f64; LANES]; 6];
-
-/// Jacobians (as [`jacobian_row_major_unchecked`]) of `LANES` configurations (`qs`: LANES x n row-major) into
-/// `out` (LANES x 6n row-major); `oz` is scratch for n joints.
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn jacobian_lanes(model: &Model, factors: &[Sparse], qs: &[f64], frame: JacobianFrame, joint: Option<usize>, oz: &mut [OriginAxis], out: &mut [f64]) {
-    let n = model.nq();
-    let cols = joint.map_or(n, |j| j + 1);
-    let mut c = base_lanes(model);
-    let mut d = [[[0.0; LANES]; 3]; 4];
-    for (i, (j, ozi)) in model.joints().iter().zip(oz.iter_mut()).enumerate().take(cols) {
-        advance_lanes(&mut c, &mut d, &factors[i], j.kind, j.offset, qs, n, i);
-        *ozi = [c[3][0], c[3][1], c[3][2], c[2][0], c[2][1], c[2][2]];
-    }
-    if joint.is_none() {
-        mul_lanes(&c, &factors[n], &mut d);
-        c = d;
-    }
-    let base = axes_of(model, JacobianFrame::Base, &Frame::of(model.t_world_base()));
-    for (k, (j, ozk)) in model.joints().iter().zip(oz.iter()).enumerate() {
-        for (l, ol) in out.chunks_exact_mut(6 * n).enumerate() {
-            let col = if k < cols {
-                let p = [c[3][0][l], c[3][1][l], c[3][2][l]];
-                let axes = match frame {
-                    JacobianFrame::Local => {
-                        Some([[c[0][0][l], c[0][1][l], c[0][2][l]], [c[1][0][l], c[1][1][l], c[1][2][l]], [c[2][0][l], c[2][1][l], c[2][2][l]]])
-                    }
-                    JacobianFrame::Base => base,
-                    _ => None,
-                };
-                column(j.kind, [ozk[0][l], ozk[1][l], ozk[2][l]], [ozk[3][l], ozk[4][l], ozk[5][l]], p, frame, axes.as_ref())
-            } else {
-                [0.0; 6]
-            };
-            for (r, v) in col.iter().enumerate() {
-                ol[r * n + k] = *v;
-            }
-        }
-    }
+    true
 }
 
 /// Batch Jacobians of the tool (`joint = None`) or of joint frame `joint` (0-based): `out` holds N row-major
 /// 6 x n matrices (N x 6n), in `frame`; the values of [`jacobian_row_major_unchecked`] (up to the sign of
-/// zeros), `LANES` configurations at a time as in [`tool_pose_batch`].
+/// zeros), [`BLOCK`] configurations at a time as in [`tool_pose_batch`].
 ///
 /// ```
 /// use denavit_core::{builtin_planar2, kinematics::{jacobian_batch, jacobian_row_major_unchecked, JacobianFrame}};
@@ -580,28 +768,19 @@ pub fn jacobian_batch(model: &Model, qs: &[f64], frame: JacobianFrame, joint: Op
     let count = qs.len() / n;
     check_len("q batch (N*n values)", count * n, qs.len())?;
     check_len("output (N*6n values)", count * 6 * n, out.len())?;
-    crate::error::check_finite("q batch", qs)?;
-    let factors = sparse_factors(model);
+    let chain = Chain::of(model);
     crate::parallel::try_for_each_chunk_init(
         out,
         6 * n * CHUNK,
-        || vec![[[0.0; LANES]; 6]; n],
-        |oz, c, o| {
-            let start = c * CHUNK;
-            for (b, ob) in o.chunks_mut(6 * n * LANES).enumerate() {
-                let first = start + b * LANES;
-                let valid = ob.len() / (6 * n);
-                if valid == LANES {
-                    jacobian_lanes(model, &factors, &qs[first * n..(first + LANES) * n], frame, joint, oz, ob);
-                } else {
-                    let mut q = vec![0.0; LANES * n];
-                    q[..valid * n].copy_from_slice(&qs[first * n..(first + valid) * n]);
-                    let mut block = vec![0.0; 6 * n * LANES];
-                    jacobian_lanes(model, &factors, &q, frame, joint, oz, &mut block);
-                    ob.copy_from_slice(&block[..6 * n * valid]);
-                }
-            }
-            Ok(())
+        || JacobianWork { block: Block::new(n, 6 * n), oz: vec![[[0.0; BLOCK]; 6]; n] },
+        |w, k, o| {
+            let q = &qs[k * CHUNK * n..(k * CHUNK + o.len() / (6 * n)) * n];
+            let finite = match n {
+                6 => jacobian_chunk::<6>(model, &chain, q, frame, joint, w, o),
+                7 => jacobian_chunk::<7>(model, &chain, q, frame, joint, w, o),
+                _ => jacobian_chunk::<0>(model, &chain, q, frame, joint, w, o),
+            };
+            if finite { Ok(()) } else { Err(non_finite(qs)) }
         },
     )
 }

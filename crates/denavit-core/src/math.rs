@@ -42,6 +42,23 @@ pub(crate) fn sin_cos_lanes<const N: usize>(x: &[f64; N]) -> ([f64; N], [f64; N]
     (sn, cs)
 }
 
+/// [`sin_cos`] of every `x[i]` into `sn[i]`, `cs[i]` (slices of one length, e.g. a block of a batch): the
+/// arguments are checked once, then the branch-free kernel runs as one loop, which the compiler vectorises.
+/// Bit for bit the values of [`sin_cos`].
+#[inline(always)]
+pub(crate) fn sin_cos_slices(x: &[f64], sn: &mut [f64], cs: &mut [f64]) {
+    let (sn, cs) = (&mut sn[..x.len()], &mut cs[..x.len()]);
+    if x.iter().fold(true, |ok, v| ok & (v.abs() < REDUCED_MAX)) {
+        for i in 0..x.len() {
+            (sn[i], cs[i]) = sin_cos_reduced(x[i]);
+        }
+    } else {
+        for i in 0..x.len() {
+            (sn[i], cs[i]) = sin_cos(x[i]);
+        }
+    }
+}
+
 /// [`sin_cos`] without the range check (|x| < 1e5, not NaN): branch-free, so a loop over lanes vectorises.
 #[inline(always)]
 #[allow(clippy::excessive_precision)] // the kernels' constants exactly as published

@@ -2,7 +2,7 @@
 //! of k threads (built once per k and kept for the life of the process, so a call costs no thread start).
 //!
 //! The batch functions `kinematics::tool_pose_batch`, `kinematics::jacobian_batch`, the `dynamics::*_batch`
-//! and `ik::ik_batch` iterate through [`for_each_chunk`] / [`try_for_each_chunk_init`] or ask [`serial`], so
+//! and `ik::ik_batch` iterate through [`try_for_each_chunk_init`] or ask [`serial`], so
 //! one call of [`with_threads`] around them decides. (Other parallel code, e.g. the calibration chain, uses
 //! rayon's pool directly: inside `with_threads(Some(k), ..)` that is the k-thread pool.)
 //! Results never depend on the number of threads (each row is computed alone).
@@ -80,17 +80,8 @@ pub(crate) fn serial() -> bool {
     SERIAL.with(|s| s.get())
 }
 
-/// `f(chunk_index, chunk)` over `out.chunks_mut(size)`: in parallel, or in order on this thread when
-/// [`serial`].
-pub(crate) fn for_each_chunk<T: Send>(out: &mut [T], size: usize, f: impl Fn(usize, &mut [T]) + Sync + Send) {
-    if serial() {
-        out.chunks_mut(size).enumerate().for_each(|(c, o)| f(c, o));
-    } else {
-        out.par_chunks_mut(size).enumerate().for_each(|(c, o)| f(c, o));
-    }
-}
-
-/// [`for_each_chunk`] with a workspace per worker (`init`) and early exit on the first error.
+/// `f(workspace, chunk_index, chunk)` over `out.chunks_mut(size)`, with a workspace per worker (`init`) and
+/// early exit on the first error: in parallel, or in order on this thread when [`serial`].
 pub(crate) fn try_for_each_chunk_init<T: Send, W>(
     out: &mut [T],
     size: usize,
