@@ -12,7 +12,9 @@ case): per method the RMS axis-position error, reported sigma / Monte Carlo spre
 and the share within 0.8-1.25; theta against the truth seen through the readings: a reading offset is a theta
 offset), the multi-target check (``--targets`` targets on one body under the same motion and readings, each
 identified alone: the share of joints and target pairs whose axes agree within their combined sigmas, chi-square
-of position and direction across the axis at the 99 % level), and the model ``auto`` chose. How identify scales with the points per sweep (time, peak memory, growth
+of position and direction across the axis at the 99 % level), the model ``auto`` chose and the parameters outside
+0.8-1.25 (``--protocols`` picks the protocols here too; the band needs ~200 runs: at 40 an honest sigma falls
+outside it for ~6 % of parameters by sampling alone). How identify scales with the points per sweep (time, peak memory, growth
 exponent): ``benchmarks/bench_scale_identify.py``.
 """
 
