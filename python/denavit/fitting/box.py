@@ -190,7 +190,7 @@ def oriented_bounding_box(points, *, where: str = "") -> BoundingBox:
         return BoundingBox(center=p.mean(axis=0), axes=np.eye(3), lengths=np.zeros(3), volume=0.0)
     centroid = p.mean(axis=0)
     pc = p - centroid
-    _, s, vt = np.linalg.svd(pc, full_matrices=True)  # full: three axes even for two points
+    _, s, vt = np.linalg.svd(pc, full_matrices=len(pc) < 3)  # full (three axes) only for two points: an (m, m) U for m = 6e5 is 2.6 TiB
     s = np.pad(s, (0, 3 - len(s)))
     pca = vt.T.copy()
     if np.linalg.det(pca) < 0:

@@ -16,6 +16,11 @@ motion a point's misfit has the variance ``tau_s^2 = sigma^2 + (lever sigma_q)^2
 readings fit of :mod:`denavit.fitting.readings`). ``sigma`` (pooled across the motion) and each sweep's
 ``tau_s`` are variance components estimated over their redundancies, together with the Gauss-Newton /
 Levenberg-Marquardt steps (normal equations accumulated sweep by sweep: memory and time linear in the points).
+Each step costs one pass over the points (its robust weights from that pass's own misfits). The fit stops, once
+the variance components and the robust scale hold still, at a step of at most ``STEP_TOL`` of its own sigmas
+(its Mahalanobis length under the covariance), or when the cost changes by no more than its round-off (about
+eps times the largest coordinate times the root of the cost): a rule free of the number of points, whereas a
+relative cost decrease of 1e-14 is near the round-off of a million-point cost and had cost extra passes.
 """
 
 from __future__ import annotations
@@ -32,6 +37,13 @@ from .robust import loss_dweight, loss_weight, misfit_variance, robust_sigma
 COUPLED_CORRELATION = 0.99
 #: Points of a sweep per step of the joint fit's normal equations (their Jacobian rows, a few MB, are not kept).
 CHUNK = 8192
+#: The joint fit stops at a step of at most this many of its own sigmas (Mahalanobis length under the covariance),
+#: once the variance components and the robust scale move by less than GAMMA_TOL and SCALE_TOL (relative).
+STEP_TOL = 1e-3
+GAMMA_TOL = 1e-3
+SCALE_TOL = 1e-4
+#: Round-off of a misfit, in units of eps times the largest coordinate (the chain of rotations of the home point).
+COST_ROUNDOFF = 16.0
 
 
 def locked_motion(q: np.ndarray, joint: int, home: np.ndarray, tol: np.ndarray):
@@ -203,14 +215,15 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         rt = np.einsum("mi,mi->m", r, t)
         return r - (1 - g) * rt[:, None] * t, rt
 
-    def normal_eq(cs, ns, homes_, sc_, bread=None):
+    def normal_eq(cs, ns, homes_, sc_, f=None, bread=False):
         """Normal matrix, its robust sandwich part, gradient, whitened cost, and per sweep (indices, Gram matrix of
         the weighted tangential rows, tangential residuals, levers, whitened residuals, misfits), accumulated sweep
         by sweep and CHUNK points at a time (memory linear in the points, small per point). Whitening scales the
         component along the tangent t by gamma: J_w^T J_w = J^T J - (1 - gamma^2) (t^T J)^T (t^T J), J_w^T r_w
-        likewise. With ``bread`` (the robust scale f), also the M-estimator's bread term (Huber 1981 sec. 7.6):
-        2 w'(z) / f^2 (J_w^T r_w)(J_w^T r_w)^T per point (z = |r_w|^2 / f^2), added to J_w^T W J_w; without it
-        the sigmas of a robust fit on clean data came out 7 % small."""
+        likewise. With the robust scale ``f`` the robust weights ``ws`` are those of this point's whitened misfits
+        (z = |r_w|^2 / f^2; iteratively reweighted least squares, one pass per step); without it they stay. With
+        ``bread``, also the M-estimator's bread term (Huber 1981 sec. 7.6): 2 w'(z) / f^2 (J_w^T r_w)(J_w^T r_w)^T
+        per point, added to J_w^T W J_w; without it the sigmas of a robust fit on clean data came out 7 % small."""
         A = np.zeros((npar, npar))
         A2 = np.zeros((npar, npar)) if loss != "linear" else None
         b = np.zeros(npar)
@@ -231,6 +244,9 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
                 J = np.concatenate([blocks[i] for i in active[k]] + [jp] + ([(mv * dqs[k][rows, j, None])[:, :, None]] if scales else []), axis=2)
                 jt = np.einsum("mi,mik->mk", t, J)
                 rt = np.einsum("mi,mi->m", r, t)
+                rw = r - (1 - gam[k]) * rt[:, None] * t
+                if f is not None:
+                    ws[k][rows] = loss_weight(loss, np.sum(rw**2, axis=1) / f**2)
                 w = ws[k][rows]
                 Jf = J.reshape(-1, len(idx))
                 w3 = np.repeat(w, 3)
@@ -238,12 +254,11 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
                 if A2 is not None:
                     A2[np.ix_(idx, idx)] += (Jf * (w3**2)[:, None]).T @ Jf - g2 * (jt * (w**2)[:, None]).T @ jt
                 b[idx] += Jf.T @ (w3 * (r - g2 * rt[:, None] * t).reshape(-1))
-                rw = r - (1 - gam[k]) * rt[:, None] * t
                 ss += float(np.sum(w * np.sum(rw**2, axis=1)))
                 Gt += gam[k] ** 2 * (jt * w[:, None]).T @ jt
                 if bread:
                     gw = np.einsum("mi,mik->mk", rw, J) - ((1 - gam[k]) * gam[k] * rt)[:, None] * jt  # J_w^T r_w per point
-                    c = 2 * loss_dweight(loss, np.sum(rw**2, axis=1) / bread**2) / bread**2
+                    c = 2 * loss_dweight(loss, np.sum(rw**2, axis=1) / f**2) / f**2
                     Bd[np.ix_(idx, idx)] += (gw * c[:, None]).T @ gw
                 rt_k[rows], lever_k[rows], rw_k[rows], r_k[rows] = rt, lever, rw, r
             parts.append((idx, Gt, rt_k, lever_k, rw_k, r_k))
@@ -270,50 +285,64 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
                 total += float(np.sum(ws[k][rows] * np.sum(whitened(r, tangent(mv)[0], gam[k])[0] ** 2, axis=1)))
         return total
 
+    # Levenberg-Marquardt steps on the whitened, robustly weighted cost, one pass over the points per step; the
+    # variance components (gamma) and the robust scale (f) of each pass are those of the pass before (a fixed point
+    # of all three). Stopping is scale-free: a step of at most STEP_TOL of its own sigmas (Mahalanobis length under
+    # the covariance sigma^2 A^-1), or a cost that changes within its round-off, once gamma and f hold still.
     lam = 1e-6
-    sigma2 = None
+    sigma2 = f = f_next = None
+    eps_cost = COST_ROUNDOFF * np.finfo(float).eps * max(float(np.max(np.abs(s.points))) for s in sweeps.sweeps)
+    fresh = True
     for it in range(300):
-        A, A2, b, ss, parts = normal_eq(cs, ns, homes, sc)
-        D = np.diag(A).copy()
-        D[D <= 0] = 1.0
-        # variance components: pooled point noise across the motion, each sweep's misfit along it
-        A_inv = _pinv_sym(A)
-        lev_t = [float(np.sum(A_inv[np.ix_(idx, idx)] * Gt)) for idx, Gt, _, _, _, _ in parts]
-        # (robust losses: the weighted residuals w r, bounded for outliers, over the weighted counts sum(w^2))
-        ss_t = [float(np.sum(ws[k] ** 2 * rt**2)) for k, (_, _, rt, _, _, _) in enumerate(parts)]
-        ss_o = sum(float(np.sum(ws[k] ** 2 * (np.sum(parts[k][5] ** 2, axis=1) - parts[k][2] ** 2))) for k in range(S))
-        m_w = [float(np.sum(w**2)) for w in ws]
-        red_o = 2 * sum(m_w) - (float(np.trace(A_inv @ A)) - sum(lev_t))
-        sigma2 = max(ss_o / red_o if red_o > 0 else 0.0, (noise_sigma or 0.0) ** 2, floor**2)
-        tau2 = [st / max(mw - lt, 1.0) for st, lt, mw in zip(ss_t, lev_t, m_w, strict=True)]
-        new_gam = gam if gamma is not None else np.array([1.0 if not t2 > sigma2 else max(math.sqrt(sigma2 / t2), 1e-9) for t2 in tau2])
-        # robust weights on the whitened misfits (in point-noise units), scale 3 robust sigmas
-        new_ws = ws
-        if loss != "linear":
-            e = [np.linalg.norm(p[4], axis=1) for p in parts]
-            f = 3.0 * max(robust_sigma(np.concatenate(e), 3), floor)
-            new_ws = [loss_weight(loss, (ek / f) ** 2) for ek in e]
-            f_final = f
-        # (the weights need 0.1 % / 1e-6; after 100 steps they are frozen, so that the steps settle)
-        changed = it < 100 and (np.max(np.abs(new_gam - gam) / gam) > 1e-3 or any(np.max(np.abs(a - c)) > 1e-6 for a, c in zip(new_ws, ws, strict=True)))
-        if changed:
-            gam, ws = new_gam, new_ws
+        if fresh:
+            A, A2, b, ss, parts = normal_eq(cs, ns, homes, sc, f)
+            D = np.diag(A).copy()
+            D[D <= 0] = 1.0
+            # variance components: pooled point noise across the motion, each sweep's misfit along it
+            A_inv = _pinv_sym(A)
+            lev_t = [float(np.sum(A_inv[np.ix_(idx, idx)] * Gt)) for idx, Gt, _, _, _, _ in parts]
+            # (robust losses: the weighted residuals w r, bounded for outliers, over the weighted counts sum(w^2))
+            ss_t = [float(np.sum(ws[k] ** 2 * rt**2)) for k, (_, _, rt, _, _, _) in enumerate(parts)]
+            ss_o = sum(float(np.sum(ws[k] ** 2 * (np.sum(parts[k][5] ** 2, axis=1) - parts[k][2] ** 2))) for k in range(S))
+            m_w = [float(np.sum(w**2)) for w in ws]
+            red_o = 2 * sum(m_w) - (float(np.trace(A_inv @ A)) - sum(lev_t))
+            sigma2 = max(ss_o / red_o if red_o > 0 else 0.0, (noise_sigma or 0.0) ** 2, floor**2)
+            tau2 = [st / max(mw - lt, 1.0) for st, lt, mw in zip(ss_t, lev_t, m_w, strict=True)]
+            new_gam = gam if gamma is not None else np.array([1.0 if not t2 > sigma2 else max(math.sqrt(sigma2 / t2), 1e-9) for t2 in tau2])
+            # the robust scale of the next pass's weights: 3 robust sigmas of the whitened misfits (point-noise units)
+            if loss != "linear":
+                f_next = 3.0 * max(robust_sigma(np.concatenate([np.linalg.norm(p[4], axis=1) for p in parts]), 3), floor)
+            # how far gamma and f moved at this pass, in units of their tolerances (after 100 passes they are frozen)
+            dg = float(np.max(np.abs(new_gam - gam) / gam))
+            df = 0.0 if f_next is None else math.inf if f is None else abs(f_next - f) / f
+            moved = max(dg / GAMMA_TOL, df / SCALE_TOL) if it < 100 else 0.0
+            gross = it < 100 and max(dg, df) > 0.1
+            fresh = False
+        if gross:  # a large change (the first robust weights, a first gamma): no step on the old ones
+            gam, f, fresh = new_gam, f_next, True
             continue
         delta = -_pinv_sym(A + lam * np.diag(D)) @ b
-        small = np.max(np.abs(delta)) <= 1e-13 * max(size, 1e-300) + 1e-300
+        m2 = float(delta @ A @ delta) / sigma2  # (the step's length in its own sigmas)^2
+        tiny = m2 <= STEP_TOL**2 or np.max(np.abs(delta)) <= 1e-13 * max(size, 1e-300)
         tcs, tns, th, tsc = step(cs, ns, homes, sc, delta)
         new_cost = cost(tcs, tns, th, tsc)
-        if new_cost <= ss:
+        level = eps_cost * math.sqrt(ss) + 64 * np.finfo(float).eps * ss  # round-off of a cost difference
+        accepted = new_cost <= ss or (tiny and new_cost <= ss + level)
+        if accepted:
             cs, ns, homes, sc = tcs, tns, th, tsc
             lam = max(lam / 10, 1e-12)
-            small = small or (not changed and ss - new_cost <= 1e-14 * ss)
         else:
             lam *= 10
-        if small or (lam > 1e8):
+        # nothing left to gain beyond round-off: a tiny step, or a cost that neither fell nor was predicted to beyond it
+        settled = tiny or (new_cost - ss <= level and m2 * sigma2 <= level)
+        if (settled and moved <= 1) or lam > 1e8:
             break
+        if accepted or settled:
+            gam, f, fresh = new_gam, f_next, True
     else:
-        raise NotConvergedError(f"{where}: global fit: no convergence in 300 steps (expected the steps to settle to 1e-13 of the size)")
-    A, A2, b, ss, parts = normal_eq(cs, ns, homes, sc, bread=f_final if loss != "linear" else None)
+        raise NotConvergedError(f"{where}: global fit: no convergence in 300 steps (expected a step below {STEP_TOL:g} of its sigmas)")
+    f_final = f
+    A, A2, b, ss, parts = normal_eq(cs, ns, homes, sc, f_final, bread=loss != "linear")
     psi2 = sum(float(np.sum(w**2 * np.sum(p[4] ** 2, axis=1))) for w, p in zip(ws, parts, strict=True))
     dof = 3 * sum(float(np.sum(w**2)) for w in ws) - npar
     s2 = misfit_variance(np.sqrt(psi2) * np.ones(1), dof, math.sqrt(sigma2))

@@ -1,0 +1,50 @@
+"""The joint fit's stopping rule (issue 12, linear cost): scale-free, robust to round-off, at its fixed point."""
+
+import numpy as np
+import pytest
+from real_effects import recording
+
+import denavit as dv
+from denavit import sweeps as sw
+from denavit.fitting import joint
+
+HOME = np.radians(sw.PAPER_HOME_DEG)
+
+
+def test_joint_fit_stops_at_its_fixed_point(kr5, monkeypatch):
+    """A slowly converging fit (home drift of 0.2 mm fitted with one home point, reading errors of 30-200 arcsec,
+    90 degree protocol) stops within 1/100 of every parameter's sigma of the answer the same fit gives with every
+    tolerance at 1e-9. The stop on a relative cost decrease of 1e-14 ended this fit 0.069 sigma away."""
+    s = recording(kr5.model(), HOME, np.radians(sw.PAPER_RANGES_DEG[90]), seed=8, reading_arcsec=(30, 200), offset_deg=0.05, scale=3e-4, drift=2e-4)
+    res = dv.identify(s, method="global", nominal=kr5)
+    monkeypatch.setattr(joint, "STEP_TOL", 1e-9)
+    monkeypatch.setattr(joint, "GAMMA_TOL", 1e-9)
+    monkeypatch.setattr(joint, "SCALE_TOL", 1e-9)
+    tight = dv.identify(s, method="global", nominal=kr5)
+    free = tight.sigma > 1e-12
+    off = np.abs(res.table.params - tight.table.params)[free] / tight.sigma[free]
+    assert off.max() < 1e-2, off.max()
+    np.testing.assert_allclose(res.sigma[free], tight.sigma[free], rtol=1e-2)
+
+
+@pytest.mark.parametrize("loss", ["soft_l1", "linear"])
+def test_joint_fit_passes_do_not_grow_with_the_points(kr5, monkeypatch, loss):
+    """The passes over the points (each one Jacobian per point) of identify's joint fits are as many for 20,000
+    points per sweep as for 300 (linear cost: the stop does not wait on round-off, which shrinks relative to
+    the cost as points are added), and few: at most 25 per point for auto's three fits (63 before)."""
+    passes = {}
+    chain = joint._chain
+
+    def counted(cs, ns, kinds, p, dq, active, jac, moving=None):
+        if jac:
+            passes[n] += len(dq)
+        return chain(cs, ns, kinds, p, dq, active, jac, moving)
+
+    monkeypatch.setattr(joint, "_chain", counted)
+    for n in (300, 20_000):
+        passes[n] = 0
+        s = sw.simulate(kr5.model(), home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=n, noise=2e-5, seed=1)
+        dv.identify(s, nominal=kr5, loss=loss)
+        passes[n] /= 6 * n
+    assert passes[20_000] <= passes[300] + 1, passes
+    assert max(passes.values()) <= 25, passes
