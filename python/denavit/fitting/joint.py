@@ -446,11 +446,12 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             if rotation_sigma is None:
                 srot = max(math.sqrt(ss_r / red_r) if red_r > 0 else srot, 1e-12)
             new_wr = math.sqrt(sigma2) / srot
-        # robust weights on the whitened misfits (in point-noise units), scale 3 robust sigmas
+        # robust weights on the whitened misfits (in point-noise units), scale 3 robust sigmas (times sqrt(D / 3): a
+        # pose of D components has the norm of one point's 3 at the same per-component noise when D = 3)
         new_ws = ws
         if loss != "linear":
             e = [np.linalg.norm(p[4], axis=1) for p in parts]
-            f = 3.0 * max(robust_sigma(np.concatenate(e), D), floor)
+            f = 3.0 * math.sqrt(D / 3) * max(robust_sigma(np.concatenate(e), D), floor)
             new_ws = [loss_weight(loss, (ek / f) ** 2) for ek in e]
             f_final = f
         # (the weights need 0.1 % / 1e-6; after 100 steps they are frozen, so that the steps settle)
@@ -502,7 +503,7 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     misfit = [np.sqrt(np.sum(p[5][:, : 3 * K] ** 2, axis=1) / K) for p in parts]
     return {
         "points": np.array(feet), "directions": np.array(ns), "home": np.array([home_of(k) for k in range(S)]), "cov": cov_all[:n_out, :n_out],
-        "cov_all": cov_all, "offsets": offs, "rotation": R0, "rotation_sigma": srot if rot else math.nan, "components": D,
+        "cov_all": cov_all, "offsets": offs, "rotation": R0, "rotation_sigma": srot if rot else math.nan, "components": D, "n_homes": H,
         "misfit": misfit, "weights": ws, "whitened": [np.linalg.norm(p[4], axis=1) / sigma for p in parts],
         "sigma": sigma, "reading_sigma": reading_sigma, "ss": ss / sigma2, "ss_m": ss, "n_params": npar, "gamma": gam,
         "scales": sc, "scale_sigma": scale_sigma,
