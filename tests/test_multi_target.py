@@ -63,8 +63,8 @@ def test_three_targets_in_one_fit_beat_each_target_alone(kr5):
     assert rms[0] < min(rms[1:]), rms
     assert rotation_chi2(shared, flange_at_home(m)) < CHI2_99[3]
     assert 0 < shared.tool_rotation_sigma < math.radians(0.01)
-    np.testing.assert_allclose(shared.target_points, dv.fk(m.with_tool(np.eye(4)), HOME)[:3, :3] @ np.array(NEST[:3]).T
-                               + dv.fk(m.with_tool(np.eye(4)), HOME)[:3, 3, None], atol=5e-4)
+    T = dv.fk(m.with_tool(np.eye(4)), HOME)
+    np.testing.assert_allclose(shared.target_points, np.array(NEST[:3]) @ T[:3, :3].T + T[:3, 3], atol=2e-4)
 
 
 def test_three_targets_with_home_drift_agree_with_the_truth(kr5):
@@ -118,7 +118,8 @@ def test_6dof_poses_identify_the_axes_and_the_tool_orientation(kr5):
 
 def test_the_orientation_noise_is_estimated_or_declared(kr5):
     """The orientation residuals are weighted by their noise: estimated from the data (within 10 % of the simulated
-    3e-4 rad), or declared (``rotation_noise``), which then sets the weight."""
+    3e-4 rad), or declared (``rotation_noise``): the true value gives the estimated fit's orientation sigma (within
+    20 %); a value the data contradicts (30x too small) buys no precision, the misfit inflates the sigmas."""
     ident = sys.modules["denavit.identify"]
     from denavit.fitting import joint
 
@@ -126,12 +127,14 @@ def test_the_orientation_noise_is_estimated_or_declared(kr5):
     fits = ident._per_sweep(s, "global", "linear", None, lambda _m: None)
     starts = [(f.point, f.direction) for f in fits]
     homes, R0 = joint.start_homes(s, starts)
-    est = joint.fit_sweeps(s, ident._motions(s, []), starts, homes[0], rotation0=R0)
-    assert est["rotation_sigma"] == pytest.approx(3e-4, rel=0.1)
-    told = joint.fit_sweeps(s, ident._motions(s, []), starts, homes[0], rotation0=R0, rotation_sigma=1e-5)
-    assert told["rotation_sigma"] == 1e-5
-    # trusting the orientations 30x more narrows the orientation's sigma
-    assert np.trace(told["cov_all"][-3:, -3:]) < np.trace(est["cov_all"][-3:, -3:]) / 4
+
+    def fit(**kw):
+        r = joint.fit_sweeps(s, ident._motions(s, []), starts, homes[0], rotation0=R0, **kw)
+        return r, math.sqrt(np.trace(r["cov_all"][-3:, -3:]))
+
+    (est, s_est), (true, s_true), (small, s_small) = fit(), fit(rotation_sigma=3e-4), fit(rotation_sigma=1e-5)
+    assert est["rotation_sigma"] == pytest.approx(3e-4, rel=0.1) and true["rotation_sigma"] == 3e-4 and small["rotation_sigma"] == 1e-5
+    assert s_true == pytest.approx(s_est, rel=0.2) and s_small > 0.5 * s_est
 
 
 def test_the_joint_fit_of_several_targets_is_the_same_a_chunk_at_a_time(kr5, monkeypatch):
