@@ -204,7 +204,8 @@ def simulate(model, q=None, *, home=None, ranges="paper90", points_per_sweep: in
 
     Without ``q``: joint sweeps, a :class:`SweepSet` (:func:`denavit.sweeps.simulate`) over ``ranges``
     ("paper90", "paper30" or (n, 2) rad / m) about ``home`` (rad / m; default the robot file's home, else zeros),
-    ``tool_point`` (m, flange frame) with point noise ``noise`` (m) and reading noise ``noise_q`` (rad / m).
+    ``tool_point`` (m, flange frame) with point noise ``noise`` (m) and reading noise ``noise_q`` (rad / m);
+    options ``targets`` ((k, 3) m: several targets per pose), ``poses`` and ``noise_rot`` (6-DoF poses).
     With ``q`` (N, n): calibration measurements at those configurations
     (:func:`denavit.calibration.simulate`; options ``measure``, ``noise_rot``, ``T_world_base``).
     """
@@ -214,12 +215,13 @@ def simulate(model, q=None, *, home=None, ranges="paper90", points_per_sweep: in
         from .calibration import simulate as _simulate  # noqa: PLC0415
 
         return _simulate(m, q, tool=tool_point, noise=noise, seed=seed, **options)
-    if options:
-        raise DenavitError(f"simulate: {', '.join(sorted(options))} apply to measurements at configurations q, not to sweeps")
+    wrong = sorted(set(options) - {"targets", "poses", "noise_rot"})
+    if wrong:
+        raise DenavitError(f"simulate: {', '.join(wrong)} apply to measurements at configurations q, not to sweeps")
     from .sweeps import simulate as _sweeps  # noqa: PLC0415
 
     return _sweeps(m, home=_home(robot, home), ranges=_protocol_ranges(robot, ranges), points_per_sweep=points_per_sweep, tool_point=tool_point,
-                   noise=noise, noise_q=noise_q, seed=seed)
+                   noise=noise, noise_q=noise_q, seed=seed, **options)
 
 
 def compensate(nominal, identified, targets, **options):

@@ -660,7 +660,8 @@ def to_sweepset(rec: Recording, seg: Segmentation, *, target: int | None = None,
 
     target : which target (0-based) of ``rec.points`` is the swept point; None (default): every target (several per
         pose: :attr:`~denavit.sweeps.Sweep.targets`) and, for a recording of poses, their orientations
-        (:attr:`~denavit.sweeps.Sweep.rotations`), one fit with shared axes in identify. tool_point : (3,) m, a point in the
+        (:attr:`~denavit.sweeps.Sweep.rotations`; not when every row has the same orientation, e.g. the identity of
+        an SMR's tf: a point stream), one fit with shared axes in identify. tool_point : (3,) m, a point in the
     probe frame when the recording has poses (default its origin). home : (n,) SI, the locked configuration;
     default the median readings of each joint over the sweeps of the other joints; required without readings.
     direction : without readings, +1 or -1 (one for all or per joint): whether the joint value increased
@@ -683,6 +684,8 @@ def to_sweepset(rec: Recording, seg: Segmentation, *, target: int | None = None,
         pts = rec.points[:, target or 0]
     every = target is None and rec.n_targets > 1 and rec.poses is None
     rot = rec.poses[:, :3, :3] if target is None and rec.poses is not None else None
+    if rot is not None and np.max(np.ptp(rot, axis=0)) < 1e-9:  # a constant orientation while the joints turn: a point stream (a tf of an SMR)
+        rot = None
     kinds = list(kinds or rec.kinds or ["revolute"] * n)
     dirs = np.broadcast_to(np.atleast_1d(np.asarray(direction, dtype=float)), (n,))
     sweeps = []
