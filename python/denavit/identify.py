@@ -894,9 +894,13 @@ def _tool_frame_json(result: Identification) -> dict:
 
     R = np.asarray(result.axes.T_world_tool)[:3, :3]
     c = result.tool_rotation_cov
+    turn = None
+    if result.nominal is not None:  # the angle from the nominal's flange orientation at home
+        R_nom = _core.fk(result.nominal.model().with_tool(np.eye(4)), result.sweeps.home)[:3, :3]
+        turn = math.degrees(float(np.linalg.norm(matrix_rotvec(R @ R_nom.T))))
     return {"orientation_from": result.tool_orientation, "how": TOOL_ORIENTATION[result.tool_orientation], "R_world_tool": R.tolist(),
             "rpy_deg": np.degrees(matrix_rpy(R)).tolist(), "sigma_deg": math.degrees(result.tool_rotation_sigma) if c is not None else None,
-            "cov_rad2": c.tolist() if c is not None else None}
+            "cov_rad2": c.tolist() if c is not None else None, "angle_from_nominal_flange_deg": turn}
 
 
 def _box_json(b: BoundingBox, ls: float) -> dict:

@@ -239,7 +239,8 @@ def print_identification(doc: dict, result, length: str, angle: str) -> None:
     if tf["orientation_from"] != "nominal":
         rpy = ", ".join(f"{v * deg:.6g}" for v in tf["rpy_deg"])
         say("bold", "Tool frame", f" at home (measurement frame): orientation from {tf['orientation_from']} ({tf['how']}): roll, pitch, yaw {rpy} {angle} "
-            f"(R = Rz Ry Rx), 1 sigma {spread(tf['sigma_deg'] * deg)} {angle}")
+            f"(R = Rz Ry Rx), 1 sigma {spread(tf['sigma_deg'] * deg)} {angle}"
+            + (f"; {tf['angle_from_nominal_flange_deg'] * deg:.4g} {angle} from the nominal flange's" if tf["angle_from_nominal_flange_deg"] is not None else ""))
     if doc.get("targets_home"):
         console.print(f"  targets at home [{length}]: " + "; ".join(", ".join(num(v, length) for v in p) for p in doc["targets_home"]), soft_wrap=True)
     for note in doc["notes"]:
