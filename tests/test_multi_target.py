@@ -216,7 +216,9 @@ def test_recordings_with_several_targets_or_poses_reach_the_shared_fit(kr5):
     reaches identify with every target (one fit, the tool frame from the targets' points), ``target=`` picks one
     alone; a UR RTDE log (TCP poses) reaches it with its orientations, and the tool frame is the TCP's (the
     simulated tool frame, tilted by roll-pitch-yaw 0.1, -0.2, 0.3 rad on the flange) to the file's digits."""
-    from test_recordings import DATA, HOME as REC_HOME, NEST as REC_NEST, tool_poses
+    from test_recordings import DATA, tool_poses
+    from test_recordings import HOME as REC_HOME
+    from test_recordings import NEST as REC_NEST
 
     cols = "t,q1..q6,x1,y1,z1,x2,y2,z2,x3,y3,z3"
     s = dv.read_sweeps(DATA / "columns.txt", nominal=kr5, format="columns", columns=cols)
