@@ -14,8 +14,12 @@ offset), the multi-target check (``--targets`` targets on one body under the sam
 identified alone: the share of joints and target pairs whose axes agree within their combined sigmas, chi-square
 of position and direction across the axis at the 99 % level), the model ``auto`` chose and the parameters outside
 0.8-1.25 (``--protocols`` picks the protocols here too; the band needs ~200 runs: at 40 an honest sigma falls
-outside it for ~6 % of parameters by sampling alone). How identify scales with the points per sweep (time, peak memory, growth
-exponent): ``benchmarks/bench_scale_identify.py``.
+outside it for ~6 % of parameters by sampling alone). Then the shared fits
+(issue 12, several targets per pose and 6-DoF poses): ``auto`` on the ``--targets`` targets at once (one fit with
+shared axes, the tool orientation from the nest) and on 6-DoF poses of the first target (orientation noise 1e-4
+rad): the same columns, the share of axes within their sigmas of the truth (chi-square, 99 %) and of the tool
+orientation (3 degrees of freedom, 99 %), and its RMS error against its mean sigma. How identify scales with the
+points per sweep (time, peak memory, growth exponent): ``benchmarks/bench_scale_identify.py``.
 """
 
 from __future__ import annotations
@@ -34,6 +38,8 @@ from denavit import sweeps as sw
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from real_effects import CHI2_99, NEST, axis_chi2, recordings  # noqa: E402 (the simulator of real effects the tests use)
+
+from denavit.geometry import matrix_rotvec  # noqa: E402
 
 METHODS = ["kasa", "hyper", "geometric", "readings", "global"]
 
@@ -145,6 +151,14 @@ CASES = {
 }
 
 
+class _Truth:
+    """The true axis j at home as a fit with no uncertainty (for axis_chi2), at the foot of a fit's point."""
+
+    def __init__(self, axes, j, fit):
+        c, n = np.asarray(axes.points[j]), np.asarray(axes.directions[j])
+        self.point, self.direction, self.cov = c + n * ((fit.point - c) @ n), n, np.zeros((6, 6))
+
+
 def realistic(runs: int, points: int, methods: list, targets: int = 3, protocols=(90, 30)) -> None:
     kr5 = dv.load_robot("kr5")
     truth = kr5.model()
@@ -152,13 +166,44 @@ def realistic(runs: int, points: int, methods: list, targets: int = 3, protocols
     T_ft = np.eye(4)
     T_ft[:3, 3] = NEST[0]
     truth_axes, p_home = dv.axes(truth, home), dv.fk(truth.with_tool(T_ft), home)[:3, 3]
+    R_true = dv.fk(truth.with_tool(np.eye(4)), home)[:3, :3]
     for protocol in protocols:
         ranges = np.radians(sw.PAPER_RANGES_DEG[protocol])
         print(f"\n=== realistic recordings, {protocol} degree protocol, {points} points per sweep, 0.02 mm tracker noise, {runs} runs, "
               f"{targets} targets ===")
         print(f"{'case':<40}{'method':<11}{'axis err mm':>12}{'vs kasa':>8}{'sigma/spread':>14}{'in 0.8-1.25':>13}{'targets agree':>15}   auto chose; out of the band")
+        shared_rows = []
         for case, kw in CASES.items():
             kasa = None
+            for label, how in ([(f"auto x{targets} targets", "targets")] if targets > 1 else []) + [("auto 6-DoF", "poses")]:
+                est, sig, pe, chose, within, rot_c2, rot_e, rot_s = [], [], [], collections.Counter(), [], [], [], []
+                for run in range(runs):
+                    if how == "targets":
+                        recs = recordings(truth, home, ranges, points=points, seed=10_000 * protocol + run, targets=NEST[:targets], **kw)
+                        data = sw.merge_targets(recs, NEST[:targets])
+                    else:
+                        data = recordings(truth, home, ranges, points=points, seed=10_000 * protocol + run, poses=True, noise_rot=1e-4, **kw)[0]
+                    res = dv.identify(data, nominal=kr5)
+                    d = res.table.params - kr5.table.params
+                    d[:, 1] += data.home - home
+                    d[:, [1, 3]] = (d[:, [1, 3]] + np.pi) % (2 * np.pi) - np.pi
+                    est.append(d)
+                    sig.append(res.sigma)
+                    pe.append(line_errors(res, truth_axes, p_home)[1])
+                    chose[res.method] += 1
+                    within += [axis_chi2(f, _Truth(truth_axes, j, f), kind)[0] <= CHI2_99[4] for j, (f, kind) in enumerate(zip(res.fits, data.kinds, strict=True))]
+                    e = matrix_rotvec(np.asarray(res.axes.T_world_tool)[:3, :3] @ R_true.T)
+                    rot_c2.append(float(e @ np.linalg.solve(res.tool_rotation_cov, e)) <= CHI2_99[3])
+                    rot_e.append(float(e @ e))
+                    rot_s.append(res.tool_rotation_sigma)
+                est, sig = np.array(est), np.array(sig)
+                spread = est.std(axis=0, ddof=1)
+                free = spread > 1e-9  # (theta_6 included: the tool frame is identified here)
+                ratio = np.sqrt(np.mean(sig**2, axis=0))[free] / spread[free]
+                pos = 1e3 * math.sqrt(np.mean(np.array(pe) ** 2))
+                shared_rows.append(f"{case:<40}{label:<18}{pos:12.4f}{np.median(ratio):14.2f}{100 * np.mean((ratio >= 0.8) & (ratio <= 1.25)):12.0f}%"
+                                   f"{100 * np.mean(within):13.0f}%{100 * np.mean(rot_c2):12.0f}%{math.degrees(math.sqrt(np.mean(rot_e))) * 3600:10.3g}"
+                                   f"{math.degrees(np.mean(rot_s)) * 3600:10.3g}   " + ", ".join(f"{k} {v}" for k, v in chose.items()))
             for method in methods:
                 est, sig, pe, chose, agree = [], [], [], collections.Counter(), []
                 for run in range(runs):
@@ -192,6 +237,11 @@ def realistic(runs: int, points: int, methods: list, targets: int = 3, protocols
                 ag = f"{100 * np.mean(agree):14.0f}%" if agree else f"{'-':>15}"
                 print(f"{case:<40}{method:<11}{pos:12.4f}{gain}{np.median(ratio):14.2f}{100 * inband:12.0f}%{ag}   "
                       + (", ".join(f"{k} {v}" for k, v in chose.items()) if chose else "") + ("; " + ", ".join(names) if names else ""))
+        print(f"shared fits (one fit with shared axes; tool orientation identified), {protocol} degree protocol:")
+        print(f"{'case':<40}{'data':<18}{'axis err mm':>12}{'sigma/spread':>14}{'in 0.8-1.25':>13}{'axes in 99%':>14}{'tool in 99%':>13}"
+              f"{'tool err':>10}{'sigma':>10}   auto chose   (tool orientation error and mean sigma in arcsec)")
+        for row in shared_rows:
+            print(row)
 
 
 if __name__ == "__main__":

@@ -16,6 +16,7 @@ import numpy as np
 
 from denavit import _core
 from denavit import sweeps as sw
+from denavit.geometry import rotvec_matrix
 
 ARCSEC = math.radians(1 / 3600)
 #: The target (tool point) in the flange frame (m), and the further targets of a nest of SMRs on one body.
@@ -43,6 +44,8 @@ def recordings(
     coupled=None,
     dwell: int = 0,
     targets=(TOOL,),
+    poses: bool = False,
+    noise_rot: float = 1e-4,
     seed: int = 0,
 ) -> list[sw.SweepSet]:
     """Simulated recordings of ``model`` swept over ``ranges`` (rad, (n, 2)) about ``home`` (rad), one per target.
@@ -57,6 +60,8 @@ def recordings(
     targets : points on the last body (flange frame, m; e.g. ``NEST[:3]``) measured at every pose with their own
         tracker noise, under the same motion, readings and drift: one SweepSet per target (the first target's
         draws are those of a recording of it alone).
+    poses : the first target is a 6-DoF probe: its sweeps carry the measured orientation (the flange's) with noise
+        ``noise_rot`` (rad per component of a rotation vector, drawn after everything else).
     """
     rng = np.random.default_rng(seed)
     n = model.nq
@@ -87,14 +92,17 @@ def recordings(
         read[:, j] += rng.normal(0.0, sig_q[j], m)
         if coupled is not None and coupled[1] - 1 == j:
             read[:, coupled[0] - 1] -= q[:, j] - home[j]
+        rot = None
+        if poses:
+            rot = rotvec_matrix(np.random.default_rng([seed, j, 99]).normal(0.0, noise_rot, (m, 3))) @ T[:, :3, :3]
         for k, p in enumerate(ps):
-            out[k].append(sw.Sweep(j + 1, p, read, [f"recording sweep {j + 1}, row {r + 1}" for r in range(m)]))
+            out[k].append(sw.Sweep(j + 1, p, read, [f"recording sweep {j + 1}, row {r + 1}" for r in range(m)], None, rot if k == 0 else None))
     return [sw.SweepSet(o, n, home * (1 + sc) + offset, list(model.kinds), f"recording of {model.name}" + (f", target {k + 1}" if len(tools) > 1 else ""),
                         {"length": "m", "angle": "rad"}) for k, o in enumerate(out)]
 
 
 #: chi2.ppf(0.99, k) (scipy.stats): the 99 % level of a chi-square with k degrees of freedom.
-CHI2_99 = {2: 9.210340371976182, 4: 13.276704135987622}
+CHI2_99 = {2: 9.210340371976182, 3: 11.344866730144373, 4: 13.276704135987622}
 
 
 def axis_chi2(a, b, kind: str = "revolute") -> tuple[float, int]:

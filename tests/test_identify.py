@@ -605,8 +605,8 @@ def test_the_joint_fit_is_the_same_a_chunk_at_a_time_in_memory_linear_in_the_poi
     notes = []
     dqs = ident._motions(s, notes)
     fits = ident._per_sweep(s, "global", "linear", None, lambda _m: None)
-    p0 = ident._tool_point_from_readings(s, fits)
     starts = [(f.point, f.direction) for f in fits]
+    p0 = joint.start_homes(s, starts)[0][0]
     tracemalloc.start()
     whole = joint.fit_sweeps(s, dqs, starts, p0)
     peak = tracemalloc.get_traced_memory()[1]

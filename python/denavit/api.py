@@ -57,7 +57,7 @@ def _path(data) -> Path:
 
 
 def read_sweeps(data, *, nominal=None, format: str = "auto", length: str | None = None, angle: str | None = None, home=None, direction=1,
-                columns: str | None = None, sweep: str | None = None, target: int = 0, readings=None) -> SweepSet:
+                columns: str | None = None, sweep: str | None = None, target: int | None = None, readings=None) -> SweepSet:
     """The sweeps of ``data``: a :class:`SweepSet` as it is, or a path read as the ``identify`` command reads it.
 
     Our sweep files (long-form CSV with a ``joint`` column, sweep JSON, a folder of ``j1.csv`` ... ``jN.csv``) by
@@ -68,10 +68,11 @@ def read_sweeps(data, *, nominal=None, format: str = "auto", length: str | None 
     nominal : robot, optional — gives the joint kinds (a prismatic joint's readings are lengths).
     home : array-like, shape (n,), rad / m — the locked configuration (needed by per-joint files, which carry no
         readings). direction : +1 / -1 (one, or one per joint) — per-joint files: did the joint value increase
-        over the recording? target : 0-based, the target of a multi-target recording.
+        over the recording? target : 0-based, one target of a multi-target recording (or sweep file) alone;
+        default every target (one fit with shared axes in :func:`identify`) and a recording's 6-DoF orientations.
     """
     if isinstance(data, SweepSet):
-        return data
+        return data if target is None else data.target(target)
     if not isinstance(data, (str, os.PathLike)):
         raise DenavitError(f"sweeps: expected a SweepSet or a path (str or os.PathLike), got {type(data).__name__}")
     from .io import sweeps as swio  # noqa: PLC0415
@@ -88,7 +89,8 @@ def read_sweeps(data, *, nominal=None, format: str = "auto", length: str | None 
             return swio.read_joint_files(p, home=home, length=length, angle="rad", direction=direction, kinds=kinds)
         if p.suffix.lower() == ".json":
             return swio.read_json(p, length=length, angle=angle)
-        return swio.read_long_csv(p, length=length, angle=angle, kinds=kinds)
+        s = swio.read_long_csv(p, length=length, angle=angle, kinds=kinds)
+        return s if target is None else s.target(target)
     from .io.recordings import read_recording  # noqa: PLC0415
     from .recording import align, segment, to_sweepset  # noqa: PLC0415
 
@@ -99,7 +101,7 @@ def read_sweeps(data, *, nominal=None, format: str = "auto", length: str | None 
 
 
 def identify(data, nominal=None, *, format: str = "auto", length: str | None = None, angle: str | None = None, home=None, direction=1,
-             columns: str | None = None, sweep: str | None = None, target: int = 0, readings=None, **options) -> Identification:
+             columns: str | None = None, sweep: str | None = None, target: int | None = None, readings=None, **options) -> Identification:
     """Circle-point identification (Hayat et al.) of the joint axes and parameters from joint sweeps.
 
     data : SweepSet or path — read by :func:`read_sweeps` (``format``, ``length``, ``angle``, ``home``,
@@ -202,7 +204,8 @@ def simulate(model, q=None, *, home=None, ranges="paper90", points_per_sweep: in
 
     Without ``q``: joint sweeps, a :class:`SweepSet` (:func:`denavit.sweeps.simulate`) over ``ranges``
     ("paper90", "paper30" or (n, 2) rad / m) about ``home`` (rad / m; default the robot file's home, else zeros),
-    ``tool_point`` (m, flange frame) with point noise ``noise`` (m) and reading noise ``noise_q`` (rad / m).
+    ``tool_point`` (m, flange frame) with point noise ``noise`` (m) and reading noise ``noise_q`` (rad / m);
+    options ``targets`` ((k, 3) m: several targets per pose), ``poses`` and ``noise_rot`` (6-DoF poses).
     With ``q`` (N, n): calibration measurements at those configurations
     (:func:`denavit.calibration.simulate`; options ``measure``, ``noise_rot``, ``T_world_base``).
     """
@@ -212,12 +215,13 @@ def simulate(model, q=None, *, home=None, ranges="paper90", points_per_sweep: in
         from .calibration import simulate as _simulate  # noqa: PLC0415
 
         return _simulate(m, q, tool=tool_point, noise=noise, seed=seed, **options)
-    if options:
-        raise DenavitError(f"simulate: {', '.join(sorted(options))} apply to measurements at configurations q, not to sweeps")
+    wrong = sorted(set(options) - {"targets", "poses", "noise_rot"})
+    if wrong:
+        raise DenavitError(f"simulate: {', '.join(wrong)} apply to measurements at configurations q, not to sweeps")
     from .sweeps import simulate as _sweeps  # noqa: PLC0415
 
     return _sweeps(m, home=_home(robot, home), ranges=_protocol_ranges(robot, ranges), points_per_sweep=points_per_sweep, tool_point=tool_point,
-                   noise=noise, noise_q=noise_q, seed=seed)
+                   noise=noise, noise_q=noise_q, seed=seed, **options)
 
 
 def compensate(nominal, identified, targets, **options):

@@ -23,16 +23,15 @@ from . import _core
 from .errors import DegenerateError, DenavitError, NotConvergedError
 from .fitting import AxisFit, BoundingBox, fit_axis, oriented_bounding_box
 from .fitting.circle import circle_misfit, robust_circle
-from .fitting.joint import fit_sweeps, locked_motion
+from .fitting.joint import fit_sweeps, locked_motion, start_homes
 from .fitting.readings import READINGS_WORTHLESS
 from .fitting.result import axis_sigmas, flipped
 from .fitting.robust import flag_outliers, rms_spread, robust_sigma
-from .geometry import axis_angle_matrices
+from .geometry import matrix_rotvec, rotvec_matrix
 from .io.output import json_text, write_text
-from .io.sweeps import FileLines
 from .io.units import cell_scale, joint_scale, length_scale
 from .robot import Robot
-from .sweeps import Sweep, SweepSet
+from .sweeps import SweepSet
 
 METHODS = ("auto", "kasa", "hyper", "geometric", "readings", "global")
 #: The conventions whose tables hold any pair of joint axes exactly (docs/conventions.md): what :meth:`Identification.save` writes by default.
@@ -60,6 +59,15 @@ class Identification:
     reading_scale: np.ndarray | None = None  # (n,) the readings' scale errors when auto fitted them (0 where not fitted), about the home
     axis_scale_cov: np.ndarray | None = None  # (6n+3+n,) covariance of [c1, n1, ..., tool point, reading scales] when they were fitted
     coupling: np.ndarray | None = None  # (n, n) joint values from the readings (q = coupling @ reading) the sweeps were decoupled with
+    tool_orientation: str = "nominal"  # where the tool frame's orientation came from: "nominal", "poses", "nest" or "targets" (TOOL_ORIENTATION)
+    tool_rotation_cov: np.ndarray | None = None  # (3, 3) rad^2: covariance of the tool frame's orientation at home (a small rotation in world), None if from the nominal
+    target_points: np.ndarray | None = None  # (k, 3) m: each target's point at home in world (several targets per pose)
+
+    @property
+    def tool_rotation_sigma(self) -> float:
+        """RMS (1-sigma) angle of the tool frame's orientation error at home (rad), ``sqrt(trace(tool_rotation_cov))``;
+        nan when the orientation is the nominal's (not identified)."""
+        return math.nan if self.tool_rotation_cov is None else float(math.sqrt(max(np.trace(self.tool_rotation_cov), 0.0)))
 
     def __repr__(self) -> str:
         n_pts = sum(len(s.points) for s in self.sweeps.sweeps)
@@ -247,8 +255,7 @@ def _drop_dwell(sweeps: SweepSet, notes: list[str]) -> SweepSet:
         parts = ([f"{a} at the start ({name[1]} .. {name[a]})"] if a else []) + ([f"{b} at the end ({name[len(p) - 1 - b]} .. {name[len(p) - 2]})"] if b else [])
         notes.append(f"{sweep_where(s, sweeps.source)}: {a + b} dwell rows (the motion stopped within {DWELL_SIGMAS:g} sigma of the "
                      f"point noise, {noise * 1e3:.2g} mm): {' and '.join(parts)}; left out of the fit (keep_dwell keeps them)")
-        where = s.where[keep] if isinstance(s.where, FileLines) else [s.where[k] for k in keep] if s.where else []
-        out.append(Sweep(s.joint, p[keep], None if s.q is None else s.q[keep], where))
+        out.append(s.take(keep))
     return replace(sweeps, sweeps=out)
 
 
@@ -256,7 +263,7 @@ def decoupled(sweeps: SweepSet, coupling: np.ndarray) -> SweepSet:
     """The sweeps with joint values ``q = coupling @ reading`` for their readings and home (a robot file's
     ``[couplings]``, :func:`denavit.io.robotfile.parse_coupling`)."""
     C = np.asarray(coupling, dtype=float)
-    out = [Sweep(s.joint, s.points, None if s.q is None else s.q @ C.T, s.where) for s in sweeps.sweeps]
+    out = [replace(s, q=None if s.q is None else s.q @ C.T) for s in sweeps.sweeps]
     return replace(sweeps, sweeps=out, home=C @ np.asarray(sweeps.home))
 
 
@@ -290,20 +297,6 @@ def _per_sweep(sweeps: SweepSet, method: str, loss: str, max_sigma: float | None
         # oriented by the readings when there are some (increasing joint value, right-hand rule), else by the point order
         fits.append(fit_axis(s.points, q, fm, max_sigma_point=max_sigma, where=where, **robust))
     return fits
-
-
-def _tool_point_from_readings(sweeps: SweepSet, fits: list) -> np.ndarray:
-    """Tool point at home: every measured point turned back to home about its sweep's axis, averaged."""
-    est = []
-    for s, f in zip(sweeps.sweeps, fits, strict=True):
-        j = s.joint - 1
-        d = sweeps.home[j] - s.q[:, j]
-        if sweeps.kinds[j] == "prismatic":
-            est.append(s.points + np.outer(d, f.direction))
-        else:
-            R = axis_angle_matrices(f.direction, d)
-            est.append(f.point + np.einsum("mij,mj->mi", R, s.points - f.point))
-    return np.mean(np.vstack(est), axis=0)
 
 
 def _tool_point_geometric(sweeps: SweepSet, fits: list) -> np.ndarray:
@@ -353,7 +346,7 @@ def _joint_fits(sweeps: SweepSet, fits: list, res: dict, cov: np.ndarray, loss: 
         mis = res["misfit"][k]
         radius = float(np.linalg.norm(ph - c)) if sweeps.kinds[j] == "revolute" else math.nan
         out.append(replace(f, point=c, direction=nv, radius=radius, residuals=mis, rms=float(math.sqrt(np.mean(mis**2))), cov=cov6,
-                           sigma_point_perp=sp, sigma_direction=sd, outliers=flag_outliers(res["whitened"][k], 3, 1.0),
+                           sigma_point_perp=sp, sigma_direction=sd, outliers=flag_outliers(res["whitened"][k], res["components"], 1.0),
                            method=label if loss == "linear" else f"{label}+{loss}", reading_sigma=res["reading_sigma"][k], noise=res["sigma"],
                            scale=1 + res["scales"][j] if np.isfinite(res["scale_sigma"][j]) else f.scale, scale_sigma=res["scale_sigma"][j]))
     return out
@@ -398,28 +391,30 @@ def _bic(simple: dict, rich: dict, k: int, n_res: int) -> float:
     return (simple["ss_m"] - rich["ss_m"]) / rich["sigma"] ** 2 - k * math.log(n_res)
 
 
-def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: list[str], chosen: str) -> tuple[str, list, np.ndarray, np.ndarray, float, tuple | None]:
+def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, notes: list[str], chosen: str, rotation_noise=None):
     """The joint fit(s) with readings: ``chosen`` "global", or "auto" (evidence: the per-sweep fits when the
     readings are worth nothing, else one home point or one per sweep, and the readings' scale errors or not,
-    each by the BIC). Returns (method, fits, cov, tool point, rms, scales): ``scales`` None, or when fitted
-    (values (n,), their covariance with [c_1, n_1, ..., p] (6n+3, n), their covariance (n, n)); zeros where a
-    joint's scale was not fitted."""
+    each by the BIC). ``homes0`` (k, 3) the start home points of the targets, ``R0`` the start orientation at home
+    (6-DoF poses) or None. Returns (method, fits, cov, tool point, rms, the joint fit's result or None, scales): ``scales`` None, or
+    when fitted (values (n,), their covariance with [c_1, n_1, ..., p] (6n+3, n), their covariance (n, n)); zeros
+    where a joint's scale was not fitted."""
     dqs = _motions(sweeps, notes)
     starts = [(f.point, f.direction) for f in fits]
-    g = fit_sweeps(sweeps, dqs, starts, p_home, loss=loss, where=sweeps.source)
+    extra = {"offsets0": homes0[1:] - homes0[0], "rotation0": R0, "rotation_sigma": rotation_noise}
+    g = fit_sweeps(sweeps, dqs, starts, homes0[0], loss=loss, where=sweeps.source, **extra)
     method, cov, drift, scales = "global", g["cov"], None, None
     if chosen == "auto":
         sq = [f"{math.degrees(v) * 3600:.3g}" for v in g["reading_sigma"]]
         if np.all(g["gamma"] < READINGS_WORTHLESS):
             notes.append(f"auto: geometric (per-sweep circles): the readings are worth nothing against the points (estimated reading error {', '.join(sq)} arcsec per sweep)")
-            return "geometric", None, None, None, math.nan, None
-        n_res = 3 * sum(len(s.points) for s in sweeps.sweeps)
+            return "geometric", None, None, None, math.nan, None, None
+        n_res = g["components"] * sum(len(s.points) for s in sweeps.sweeps)
 
         def richer(base, **kw):
             """(fit on base's weights, its BIC against base), or (None, -inf) when it does not converge."""
             try:
                 r = fit_sweeps(sweeps, dqs, list(zip(base["points"], base["directions"], strict=True)), base["home"].mean(axis=0), loss=loss,
-                               gamma=base["gamma"], where=sweeps.source, **kw)
+                               gamma=base["gamma"], where=sweeps.source, offsets0=base["offsets"], rotation0=base["rotation"], rotation_sigma=rotation_noise, **kw)
             except NotConvergedError:  # (e.g. a home per sweep on arcs too short to hold one)
                 return None, -math.inf
             return r, _bic(base, r, r["n_params"] - base["n_params"], n_res)
@@ -428,7 +423,7 @@ def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: 
             """r refitted with its own weights (the simpler model's tangential misfit held the effect too)."""
             try:
                 return fit_sweeps(sweeps, dqs, list(zip(r["points"], r["directions"], strict=True)), r["home"].mean(axis=0), loss=loss,
-                                  where=sweeps.source, **kw)
+                                  where=sweeps.source, offsets0=r["offsets"], rotation0=r["rotation"], rotation_sigma=rotation_noise, **kw)
             except NotConvergedError:
                 return r
 
@@ -456,7 +451,76 @@ def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: 
             notes.append(f"auto: no reading scale errors fitted (BIC {'higher by ' + format(-bic, '.3g') if sc is not None else 'n/a: no convergence'}); "
                          "a scale error the data cannot show moves each axis radially by about the scale times the arc's radius")
     mis = np.concatenate(g["misfit"])
-    return method, _joint_fits(sweeps, fits, g, cov, loss, method), cov, g["home"].mean(axis=0), float(math.sqrt(np.mean(mis**2))), scales
+    return method, _joint_fits(sweeps, fits, g, cov, loss, method), cov, g["home"].mean(axis=0), float(math.sqrt(np.mean(mis**2))), g, scales
+
+
+#: Where the tool frame's orientation at home comes from (:attr:`Identification.tool_orientation`).
+TOOL_ORIENTATION = {
+    "nominal": "the nominal's flange orientation at home (not identified: one target per pose has no orientation)",
+    "poses": "the 6-DoF poses: the probe's frame at home, fitted with the axes",
+    "nest": "the targets' points at home against the declared nest (their positions in the tool frame): the best rotation (Kabsch)",
+    "targets": "the targets' points at home: x from target 1 to target 2, z across the plane of targets 1-3 (no nest declared)",
+}
+
+
+def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The smallest rotation taking the direction of a (3,) onto that of b (3,)."""
+    a, b = a / np.linalg.norm(a), b / np.linalg.norm(b)
+    v = np.cross(a, b)
+    return rotvec_matrix(v / max(np.linalg.norm(v), 1e-300) * math.atan2(np.linalg.norm(v), float(a @ b)))
+
+
+def _tool_frame(sweeps: SweepSet, res: dict | None, R_nominal: np.ndarray, notes: list[str]) -> tuple[np.ndarray, str, np.ndarray | None]:
+    """The tool frame's orientation at home in world, where it came from (:data:`TOOL_ORIENTATION`), and the
+    (3, p) Jacobian of its small rotation (world) with respect to the joint fit's parameters (``res["cov_all"]``),
+    None when it is the nominal's. Several targets: the frame of their home points (against the declared nest,
+    or of the points themselves); 6-DoF poses: the fitted orientation."""
+    K = sweeps.n_targets
+    if res is None or (K == 1 and res["rotation"] is None):
+        return R_nominal, "nominal", None
+    p = res["cov_all"].shape[0]
+    if res["rotation"] is not None:
+        G = np.zeros((3, p))
+        G[:, p - 3 :] = np.eye(3)
+        return res["rotation"], "poses", G
+    n6 = 6 * sweeps.n_joints
+    H = res["n_homes"]
+    nest = sweeps.nest
+    if nest is None and K < 3:
+        notes.append("tool frame: two targets per pose fix its orientation only up to a turn about the line through them; the nominal's is kept "
+                     "(declare the nest, the targets' positions in the tool frame, for the rest)")
+        return R_nominal, "nominal", None
+
+    def frame(theta):
+        homes = theta[: 3 * H].reshape(H, 3).mean(axis=0)
+        P = np.vstack([homes, homes + theta[3 * H :].reshape(K - 1, 3)])
+        if nest is None:
+            x = (P[1] - P[0]) / np.linalg.norm(P[1] - P[0])
+            z = np.cross(x, P[2] - P[0])
+            z /= np.linalg.norm(z)
+            return np.column_stack([x, np.cross(z, x), z])
+        if K == 2:
+            return _rotation_between(R_nominal @ (nest[1] - nest[0]), P[1] - P[0]) @ R_nominal
+        a, b = nest - nest.mean(axis=0), P - P.mean(axis=0)
+        u, _, vt = np.linalg.svd(b.T @ a)
+        return u @ np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))]) @ vt
+
+    theta0 = np.concatenate([res["home"][:H].ravel(), res["offsets"].ravel()])
+    R = frame(theta0)
+    J = np.zeros((3, len(theta0)))
+    for i in range(len(theta0)):
+        e = np.zeros_like(theta0)
+        e[i] = 1e-7
+        J[:, i] = (matrix_rotvec(frame(theta0 + e) @ R.T) - matrix_rotvec(frame(theta0 - e) @ R.T)) / 2e-7
+    G = np.zeros((3, p))
+    G[:, n6 : n6 + len(theta0)] = J
+    how = "nest" if nest is not None else "targets"
+    if how == "nest" and K == 2:
+        notes.append("tool frame: two targets fix its orientation up to a turn about the line through them: that turn is the nominal's")
+    if how == "targets":
+        notes.append("tool frame: no nest declared (the targets' positions in the tool frame): its orientation is the frame of the targets' "
+                     "points (x from target 1 to 2, z across the plane of targets 1-3)")
+    return R, how, G
 
 
 #: A pair of consecutive identified axes whose angle or distance differs from the nominal pair's by more than this
@@ -613,21 +677,24 @@ def _axes_from(x: np.ndarray, sweeps: SweepSet, tool_R: np.ndarray, T_world_base
     return _core.JointAxes(pts, dirs, kinds=sweeps.kinds, q_ref=sweeps.home, T_world_base=T_world_base, T_world_tool=T, lower=lower, upper=upper)
 
 
-def _parameter_cov(x: np.ndarray, cov: np.ndarray, ax: _core.JointAxes, sweeps: SweepSet, convention: str, opts: dict, p_ref: np.ndarray) -> np.ndarray:
+def _parameter_cov(x: np.ndarray, cov: np.ndarray, ax: _core.JointAxes, sweeps: SweepSet, convention: str, opts: dict, p_ref: np.ndarray,
+                   n_rot: int = 0) -> np.ndarray:
     """The covariance of [the ``convention`` table's parameters (row-major, angles wrapped about ``p_ref``), the tool's
-    translation (, the reading scales)] from the covariance ``cov`` of [c_1, n_1, ..., tool point (, scales)] at ``x``
-    (the scales pass through), by central differences through the core's extraction with ``opts``."""
+    translation (, the reading scales)] from the covariance ``cov`` of [c_1, n_1, ..., tool point (, the tool's small
+    rotation in world: ``n_rot`` = 3) (, scales)] at ``x`` (the scales pass through), by central differences through
+    the core's extraction with ``opts``."""
     n6 = 6 * sweeps.n_joints + 3
     tool_R, base = np.asarray(ax.T_world_tool)[:3, :3], np.asarray(ax.T_world_base)
     angle_cols = np.array(_core.Table(convention, p_ref, list(ax.kinds)).angle_columns)
     xs = np.concatenate([x, np.zeros(len(cov) - n6)])
 
     def params_of(xv):
-        a = _axes_from(xv[:n6], sweeps, tool_R, base, ax.lower, ax.upper)
+        R = rotvec_matrix(xv[n6 : n6 + n_rot]) @ tool_R if n_rot else tool_R
+        a = _axes_from(xv[:n6], sweeps, R, base, ax.lower, ax.upper)
         t = _core.extract(a, convention, fidelity=False, **opts).table  # the tool-error check: once, by the caller
         d = t.params - p_ref
         d[:, angle_cols] = (d[:, angle_cols] + np.pi) % (2 * np.pi) - np.pi
-        return np.concatenate([(p_ref + d).ravel(), np.asarray(t.T_last_tool)[:3, 3], xv[n6:]])
+        return np.concatenate([(p_ref + d).ravel(), np.asarray(t.T_last_tool)[:3, 3], xv[n6 + n_rot :]])
 
     return _propagate(xs, cov, params_of)
 
@@ -659,6 +726,7 @@ def identify(
     max_sigma: float | None = None,
     keep_dwell: bool = False,
     coupling=None,
+    rotation_noise: float | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> Identification:
     """Identify the joint axes and the parameter table of ``convention`` from ``sweeps``.
@@ -688,6 +756,15 @@ def identify(
     coupling : (n, n), optional
         Joint values from the controller's readings, ``q = coupling @ reading`` (default: the nominal's
         ``coupling``, from its robot file's ``[couplings]``; else the readings are the joint values).
+    rotation_noise : float, rad, optional
+        6-DoF poses: the orientation noise (1 sigma per component of the rotation vector) that weights the
+        orientation residuals against the points; default estimated from the data (a variance component).
+
+    Several targets per pose (:attr:`~denavit.sweeps.Sweep.targets`, 2-4 SMRs on a nest) and 6-DoF poses
+    (:attr:`~denavit.sweeps.Sweep.rotations`) are one joint fit with shared axes (methods "global", "readings",
+    and "auto" with readings; :func:`~denavit.fitting.joint.fit_sweeps`), and the tool frame's orientation is then
+    identified with its covariance (:attr:`Identification.tool_orientation`, :data:`TOOL_ORIENTATION`). The
+    per-sweep methods fit the first target alone.
     progress : called with a short message as each stage starts (the CLI shows it).
     """
     progress = progress or (lambda _msg: None)
@@ -715,14 +792,13 @@ def identify(
         if method == "geometric":
             notes.append("auto: geometric (per-sweep circles): the data has no joint readings")
     fits = _per_sweep(sweeps, method, loss, max_sigma if method != "global" else None, progress)
-    if sweeps.has_readings:
-        p_home = _tool_point_from_readings(sweeps, fits)
-    else:
-        p_home = _tool_point_geometric(sweeps, fits)
-    cov, scales = None, None
+    homes0, R0 = start_homes(sweeps, [(f.point, f.direction) for f in fits]) if sweeps.has_readings else (None, None)
+    p_home = homes0[0] if sweeps.has_readings else _tool_point_geometric(sweeps, fits)
+    cov, joint, scales = None, None, None
     if method == "global":
-        progress(f"one fit of all {len(sweeps.sweeps)} sweeps (shared tool point)")
-        method, gfits, gcov, gp, grms, scales = _choose(sweeps, fits, p_home, loss, notes, chosen)
+        what = f"{sweeps.n_targets} targets per pose" if sweeps.n_targets > 1 else "shared tool point"
+        progress(f"one fit of all {len(sweeps.sweeps)} sweeps ({what}{', 6-DoF poses' if sweeps.has_rotations else ''})")
+        method, gfits, gcov, gp, grms, joint, scales = _choose(sweeps, fits, homes0, R0, loss, notes, chosen, rotation_noise)
         if gfits is None:  # the readings are worthless: the per-sweep geometric circles
             fits = _per_sweep(sweeps, method, loss, max_sigma, progress)
             p_home = _tool_point_geometric(sweeps, fits)
@@ -739,6 +815,9 @@ def identify(
         # the tool point: the spread of its per-point estimates
         cov[6 * n :, 6 * n :] = np.eye(3) * float(np.mean([f.rms for f in fits])) ** 2 / max(sum(f.n_points for f in fits), 1)
         rms = float(math.sqrt(np.mean([f.rms**2 for f in fits])))
+    if joint is None and (sweeps.n_targets > 1 or sweeps.has_rotations):
+        notes.append(f"the {method} fit uses the first target's points alone: {sweeps.n_targets} targets per pose"
+                     f"{' and 6-DoF poses' if sweeps.has_rotations else ''} are one fit with shared axes in the joint fit (method global or auto, with readings)")
     base = np.eye(4) if T_world_base is None else np.asarray(T_world_base, dtype=float)
     if T_world_base is not None and nominal is not None:  # the nominal's base frame is the robot base given
         t = nominal.table
@@ -748,11 +827,28 @@ def identify(
         tool_R = _core.fk(nominal.model().with_tool(np.eye(4)), sweeps.home)[:3, :3]
     else:
         tool_R = np.eye(3)
+    tool_R, orientation, G_rot = _tool_frame(sweeps, joint, tool_R, notes)
+    rot_cov, target_points = None, None
+    if joint is not None and sweeps.n_targets > 1:
+        ph = joint["home"].mean(axis=0)
+        target_points = np.vstack([ph, ph + joint["offsets"]])
+    if G_rot is not None:  # the covariance of [axes, tool point, tool rotation]: the chosen cov, and the rotation's from the joint fit
+        ca = joint["cov_all"]
+        n6, H = 6 * n, joint["n_homes"]
+        Gf = np.zeros((n6 + 6, ca.shape[0]))
+        Gf[:n6, :n6] = np.eye(n6)
+        for k in range(H):
+            Gf[n6 : n6 + 3, n6 + 3 * k : n6 + 3 * k + 3] = np.eye(3) / H
+        Gf[n6 + 3 :] = G_rot
+        full = Gf @ ca @ Gf.T
+        full[: n6 + 3, : n6 + 3] = cov
+        rot_cov = full[n6 + 3 :, n6 + 3 :]
     lower = nominal.lower if nominal is not None else None
     upper = nominal.upper if nominal is not None else None
     if nominal is not None and not sweeps.has_readings:
         fits = _oriented_by_nominal(sweeps, fits, nominal, notes)
     x = np.concatenate([np.concatenate([f.point, f.direction]) for f in fits] + [p_home])
+    cov_full = cov if rot_cov is None else full
     tol = _edh_parallel_tol(fits, nominal, sweeps.home, parallel_tol) if convention == "edh" else parallel_tol
     opts = {"parallel_tol": tol, "nominal": nominal_table, "origins": _origins(nominal_table, convention, sweeps.home)}
     if intersect_tol is not None:
@@ -766,8 +862,15 @@ def identify(
     full_cov = None
     if scales is not None:  # [axes, tool point, reading scales]: the scales' covariance with the axes kept
         full_cov = np.block([[cov, scales[1]], [scales[1].T, scales[2]]])
+    # [axes, tool point (, tool rotation) (, reading scales)]: the tool rotation's covariance with the scales is not
+    # carried (the scales come from the same fit; their cross terms with the rotation are dropped)
+    cov_all = cov_full
+    if scales is not None:
+        n_r = len(cov_full) - len(cov)
+        cross = np.vstack([scales[1], np.zeros((n_r, scales[1].shape[1]))])
+        cov_all = np.block([[cov_full, cross], [cross.T, scales[2]]])
     progress(f"{convention} parameters and their sigmas")
-    param_cov = _parameter_cov(x, cov if full_cov is None else full_cov, ax, sweeps, convention, opts, p_ref)
+    param_cov = _parameter_cov(x, cov_all, ax, sweeps, convention, opts, p_ref, n_rot=len(cov_full) - len(cov))
     sigma = np.sqrt(np.clip(np.diag(param_cov), 0, None))[: p_ref.size].reshape(p_ref.shape)
     for pd in ex.pairs:
         if pd.relation == "parallel" and abs(pd.hayati_beta) > 0 and convention in ("dh", "mdh"):
@@ -776,7 +879,8 @@ def identify(
         exact = "ED-H is exact" if convention != "edh" else f"the tilt of pairs parallel within {EDH_PARALLEL_SIGMAS:g} sigma is dropped; without a nominal ED-H is exact"
         notes.append(f"the {convention} table carries a tool-position error up to {ex.max_position_error * 1e3:.4f} mm ({exact})")
     return Identification(method, convention, ax, fits, ex, sigma, cov, p_home, sweeps, nominal, nominal_table, rms, notes, param_cov,
-                          None if scales is None else scales[0], full_cov, coupling)
+                          reading_scale=None if scales is None else scales[0], axis_scale_cov=full_cov, coupling=coupling,
+                          tool_orientation=orientation, tool_rotation_cov=rot_cov, target_points=target_points)
 
 
 def to_json(result: Identification, length: str | None = None, angle: str = "deg", *, box: bool = True) -> dict:
@@ -822,6 +926,8 @@ def to_json(result: Identification, length: str | None = None, angle: str = "deg
         "parameters": rows,
         "pairs": [{"joint": p.joint, "relation": p.relation, "angle_deg": math.degrees(p.angle), "distance": p.distance / ls, "hayati_beta_deg": math.degrees(p.hayati_beta)} for p in result.extraction.pairs],
         "tool_point_home": (result.tool_point / ls).tolist(),
+        "tool_frame": _tool_frame_json(result),
+        **({"targets_home": (result.target_points / ls).tolist()} if result.target_points is not None else {}),
         "T_world_base": _pose_json(t.T_world_base, ls),
         "T_last_tool": _pose_json(t.T_last_tool, ls),
         "max_tool_position_error": result.extraction.max_position_error / ls,
@@ -829,6 +935,22 @@ def to_json(result: Identification, length: str | None = None, angle: str = "deg
         "rms": result.rms / ls,
         "notes": result.notes,
     }
+
+
+def _tool_frame_json(result: Identification) -> dict:
+    """The tool frame's orientation at home: where it came from, R_world_tool, its roll-pitch-yaw (deg) and its
+    covariance (a small rotation in world, rad^2; null when it is the nominal's)."""
+    from .geometry import matrix_rpy  # noqa: PLC0415
+
+    R = np.asarray(result.axes.T_world_tool)[:3, :3]
+    c = result.tool_rotation_cov
+    turn = None
+    if result.nominal is not None:  # the angle from the nominal's flange orientation at home
+        R_nom = _core.fk(result.nominal.model().with_tool(np.eye(4)), result.sweeps.home)[:3, :3]
+        turn = math.degrees(float(np.linalg.norm(matrix_rotvec(R @ R_nom.T))))
+    return {"orientation_from": result.tool_orientation, "how": TOOL_ORIENTATION[result.tool_orientation], "R_world_tool": R.tolist(),
+            "rpy_deg": np.degrees(matrix_rpy(R)).tolist(), "sigma_deg": math.degrees(result.tool_rotation_sigma) if c is not None else None,
+            "cov_rad2": c.tolist() if c is not None else None, "angle_from_nominal_flange_deg": turn}
 
 
 def _box_json(b: BoundingBox, ls: float) -> dict:

@@ -654,11 +654,14 @@ def static_poses(rec: Recording, *, target: int = 0, min_rows: int = 3, threshol
     return q, pts, [rec.where[(a + b - 1) // 2] for a, b in rows]
 
 
-def to_sweepset(rec: Recording, seg: Segmentation, *, target: int = 0, tool_point=None, home=None, kinds: Sequence[str] | None = None, direction=1,
+def to_sweepset(rec: Recording, seg: Segmentation, *, target: int | None = None, tool_point=None, home=None, kinds: Sequence[str] | None = None, direction=1,
                 max_points: int | None = None) -> SweepSet:
-    """The sweeps of ``seg`` as a :class:`~denavit.sweeps.SweepSet` (one target of a multi-target recording).
+    """The sweeps of ``seg`` as a :class:`~denavit.sweeps.SweepSet`.
 
-    target : which target (0-based) of ``rec.points`` is the swept point. tool_point : (3,) m, a point in the
+    target : which target (0-based) of ``rec.points`` is the swept point; None (default): every target (several per
+        pose: :attr:`~denavit.sweeps.Sweep.targets`) and, for a recording of poses, their orientations
+        (:attr:`~denavit.sweeps.Sweep.rotations`; not when every row has the same orientation, e.g. the identity of
+        an SMR's tf: a point stream), one fit with shared axes in identify. tool_point : (3,) m, a point in the
     probe frame when the recording has poses (default its origin). home : (n,) SI, the locked configuration;
     default the median readings of each joint over the sweeps of the other joints; required without readings.
     direction : without readings, +1 or -1 (one for all or per joint): whether the joint value increased
@@ -667,8 +670,8 @@ def to_sweepset(rec: Recording, seg: Segmentation, *, target: int = 0, tool_poin
     """
     if rec.points is None:
         raise DenavitError(f"{rec.source}: no measured points: expected points or poses to make sweeps of")
-    if not 0 <= target < rec.n_targets:
-        raise DenavitError(f"{rec.source}: target {target} out of range: expected 0..{rec.n_targets - 1}")
+    if target is not None and not 0 <= target < rec.n_targets:
+        raise DenavitError(f"{rec.source}: target {target + 1} out of range: expected 1..{rec.n_targets} (1-based)")
     n = seg.n_joints
     picked = {s.joint: s for s in seg.sweeps}
     missing = [j for j in range(1, n + 1) if j not in picked]
@@ -678,7 +681,11 @@ def to_sweepset(rec: Recording, seg: Segmentation, *, target: int = 0, tool_poin
         tp = np.asarray(tool_point, dtype=float)
         pts = rec.poses[:, :3, :3] @ tp + rec.poses[:, :3, 3]
     else:
-        pts = rec.points[:, target]
+        pts = rec.points[:, target or 0]
+    every = target is None and rec.n_targets > 1 and rec.poses is None
+    rot = rec.poses[:, :3, :3] if target is None and rec.poses is not None else None
+    if rot is not None and np.max(np.ptp(rot, axis=0)) < 1e-9:  # a constant orientation while the joints turn: a point stream (a tf of an SMR)
+        rot = None
     kinds = list(kinds or rec.kinds or ["revolute"] * n)
     dirs = np.broadcast_to(np.atleast_1d(np.asarray(direction, dtype=float)), (n,))
     sweeps = []
@@ -689,7 +696,8 @@ def to_sweepset(rec: Recording, seg: Segmentation, *, target: int = 0, tool_poin
             rows = rows[np.linspace(0, len(rows) - 1, max_points).round().astype(int)]
         if rec.q is None and dirs[j - 1] < 0:
             rows = rows[::-1]
-        sweeps.append(Sweep(j, pts[rows], None if rec.q is None else rec.q[rows], [rec.where[i] for i in rows]))
+        sweeps.append(Sweep(j, np.ascontiguousarray(pts[rows]), None if rec.q is None else rec.q[rows], [rec.where[i] for i in rows],
+                            rec.points[rows] if every else None, None if rot is None else rot[rows]))
     if home is None:
         if rec.q is None:
             raise DenavitError(f"{rec.source}: no joint readings: the home configuration must be given (one value per joint)")

@@ -8,12 +8,13 @@ joint, JSON) are read and written by :mod:`denavit.io.sweeps`. Everything is SI 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from . import _core
 from .errors import DenavitError
+from .geometry import rotvec_matrix
 
 # Hayat et al. Table II: range of motion given to each joint (deg), the paper's two protocols.
 PAPER_RANGES_DEG = {
@@ -32,12 +33,30 @@ class Sweep:
     points : (m, 3) measured points in the measurement frame (m).
     q : (m, n) joint readings at each point (rad / m), or None when not recorded.
     where : (m,) where each point came from ("file:line"), for error messages.
+    targets : (m, k, 3) every target measured at each pose (m; k = 2-4 SMRs on one nest, all on the last body),
+        ``targets[:, 0]`` being ``points``; None: one target (``points``).
+    rotations : (m, 3, 3) the measured orientation ``R_world_probe`` of a 6-DoF pose whose origin is ``points``
+        (a 6-DoF probe, the controller's TCP), or None.
     """
 
     joint: int
     points: np.ndarray
     q: np.ndarray | None
     where: list[str] = field(default_factory=list)
+    targets: np.ndarray | None = None
+    rotations: np.ndarray | None = None
+
+    @property
+    def n_targets(self) -> int:
+        """Targets measured per pose (1 without ``targets``)."""
+        return 1 if self.targets is None else self.targets.shape[1]
+
+    def take(self, rows) -> Sweep:
+        """The sweep at ``rows`` only (an index array or slice): points, readings, targets, rotations and ``where``."""
+        w = self.where
+        where = w[rows] if hasattr(w, "lines") else (list(np.asarray(w, dtype=object)[rows]) if len(w) else [])
+        return replace(self, points=self.points[rows], q=None if self.q is None else self.q[rows], where=where,
+                       targets=None if self.targets is None else self.targets[rows], rotations=None if self.rotations is None else self.rotations[rows])
 
     @property
     def moving(self) -> np.ndarray | None:
@@ -58,6 +77,7 @@ class SweepSet:
     kinds: list[str]
     source: str = ""
     units: dict = field(default_factory=lambda: {"length": "m", "angle": "rad"})
+    nest: np.ndarray | None = None  # (k, 3) m: the targets' positions in the tool frame, when declared (several targets per pose)
 
     def __post_init__(self):
         # one sweep per joint 1..n: a hand-built set missing one had raised IndexError, one with a sweep twice
@@ -69,6 +89,19 @@ class SweepSet:
         what = "; ".join(f"{k} {', '.join(map(str, v))}" for k, v in wrong.items() if v)
         if what:
             raise DenavitError(f"{self.source or 'sweeps'}: {what}: every joint 1..{self.n_joints} needs one sweep (got joints {joints})")
+        k = {s.n_targets for s in self.sweeps}
+        if len(k) > 1:
+            raise DenavitError(f"{self.source or 'sweeps'}: sweeps with different numbers of targets per pose ({sorted(k)}): expected the same targets at every pose")
+        for s in self.sweeps:
+            if s.targets is not None and (s.targets.ndim != 3 or s.targets.shape[0] != len(s.points) or s.targets.shape[2] != 3
+                                          or not np.array_equal(s.targets[:, 0], s.points)):
+                raise DenavitError(f"{self.source or 'sweeps'}, joint {s.joint}: targets of shape {s.targets.shape}: expected ({len(s.points)}, k, 3) with the first target the points")
+            if s.rotations is not None and s.rotations.shape != (len(s.points), 3, 3):
+                raise DenavitError(f"{self.source or 'sweeps'}, joint {s.joint}: rotations of shape {s.rotations.shape}: expected ({len(s.points)}, 3, 3)")
+        if len({s.rotations is None for s in self.sweeps}) > 1:
+            raise DenavitError(f"{self.source or 'sweeps'}: only some sweeps carry orientations: expected 6-DoF poses in every sweep or in none")
+        if self.nest is not None and np.shape(self.nest) != (self.n_targets, 3):
+            raise DenavitError(f"{self.source or 'sweeps'}: nest of shape {np.shape(self.nest)}: expected ({self.n_targets}, 3), one point per target")
 
     def __repr__(self) -> str:
         home = ", ".join(f"{v * 1e3:.4g} mm" if k == "prismatic" else f"{np.degrees(v):.4g}" for v, k in zip(self.home, self.kinds))
@@ -90,6 +123,37 @@ class SweepSet:
     def has_readings(self) -> bool:
         return all(s.q is not None for s in self.sweeps)
 
+    @property
+    def n_targets(self) -> int:
+        """Targets measured at every pose (:attr:`Sweep.targets`)."""
+        return self.sweeps[0].n_targets if self.sweeps else 1
+
+    @property
+    def has_rotations(self) -> bool:
+        """Whether every pose is a 6-DoF pose (:attr:`Sweep.rotations`)."""
+        return bool(self.sweeps) and all(s.rotations is not None for s in self.sweeps)
+
+    def target(self, k: int) -> SweepSet:
+        """The sweeps of target ``k`` (0-based) alone, as a one-target set (the per-target fits of the consistency check)."""
+        if not 0 <= k < self.n_targets:
+            raise DenavitError(f"{self.source or 'sweeps'}: target {k + 1} out of range: expected 1..{self.n_targets}")
+        if self.n_targets == 1:
+            return replace(self, sweeps=[replace(s, rotations=None) for s in self.sweeps], nest=None)
+        out = [replace(s, points=np.ascontiguousarray(s.targets[:, k]), targets=None, rotations=None) for s in self.sweeps]
+        return replace(self, sweeps=out, source=f"{self.source}, target {k + 1}", nest=None)
+
+
+def merge_targets(sets: list[SweepSet], nest=None) -> SweepSet:
+    """One sweep set with several targets per pose from one set per target of the same poses (same joints, readings
+    and rows: e.g. three SMRs recorded as three point lists); ``nest`` (k, 3) m, optional: the targets' positions
+    in the tool frame."""
+    first = sets[0]
+    for o in sets[1:]:
+        if [len(s.points) for s in o.sweeps] != [len(s.points) for s in first.sweeps] or [s.joint for s in o.sweeps] != [s.joint for s in first.sweeps]:
+            raise DenavitError(f"{o.source}: not the poses of {first.source}: expected the same sweeps and rows for every target")
+    out = [replace(s, targets=np.stack([o.sweeps[i].points for o in sets], axis=1), rotations=None) for i, s in enumerate(first.sweeps)]
+    return replace(first, sweeps=out, nest=None if nest is None else np.asarray(nest, dtype=float))
+
 
 def simulate(
     model: _core.Model,
@@ -101,11 +165,20 @@ def simulate(
     noise: float = 0.0,
     noise_q: float = 0.0,
     seed: int = 0,
+    targets=None,
+    poses: bool = False,
+    noise_rot: float = 0.0,
 ) -> SweepSet:
     """Simulate sweeps of ``model``: joint j runs from ``ranges[j][0]`` to ``ranges[j][1]`` (rad / m,
     absolute joint values, as in Hayat Table II) with the others at ``home``; the tool point (m, in the
     flange frame, i.e. in ``T_flange_tool``'s parent frame: the flange, DH frame n for a DH robot) is recorded with Gaussian
     noise ``noise`` (m, per coordinate) and the readings with noise ``noise_q`` (rad / m).
+
+    targets : (k, 3) m, optional -- several targets on the last body (flange frame; 2-4 SMRs on a nest), each
+        recorded at every pose with its own noise (the first replaces ``tool_point``); the set's ``nest`` is them
+        (the tool frame being the flange's orientation at the first target).
+    poses : also record each pose's orientation (a 6-DoF probe whose frame is the flange's, at the tool point),
+        with noise ``noise_rot`` (rad, a random rotation vector of that sigma per component).
     """
     n = model.nq
     home = np.asarray(home, dtype=float)
@@ -115,15 +188,21 @@ def simulate(
     if points_per_sweep < 3:
         raise DenavitError(f"simulate: points_per_sweep must be >= 3, got {points_per_sweep}")
     rng = np.random.default_rng(seed)
-    tool = np.asarray(tool_point, dtype=float)
+    tools = np.atleast_2d(np.asarray(tool_point if targets is None else targets, dtype=float))
+    if tools.ndim != 2 or tools.shape[1] != 3 or not 1 <= len(tools) <= 16:
+        raise DenavitError(f"simulate: targets: expected (k, 3) points in the flange frame (m), got shape {tools.shape}")
     flange = model.with_tool(np.eye(4))
     sweeps = []
     for j in range(n):
         qs = np.tile(home, (points_per_sweep, 1))
         qs[:, j] = np.linspace(ranges[j, 0], ranges[j, 1], points_per_sweep)
         T = _core.fk_batch(flange, qs)
-        pts = T[:, :3, :3] @ tool + T[:, :3, 3]
+        pts = np.stack([T[:, :3, :3] @ tool + T[:, :3, 3] for tool in tools], axis=1)
         pts = pts + rng.normal(0.0, noise, pts.shape) if noise > 0 else pts
         readings = qs + rng.normal(0.0, noise_q, qs.shape) if noise_q > 0 else qs
-        sweeps.append(Sweep(j + 1, pts, readings, [f"simulated sweep {j + 1}, point {k}" for k in range(points_per_sweep)]))
-    return SweepSet(sweeps, n, home, list(model.kinds), f"simulated {model.name}", {"length": "m", "angle": "rad"})
+        rot = None
+        if poses:
+            rot = T[:, :3, :3] if noise_rot <= 0 else rotvec_matrix(rng.normal(0.0, noise_rot, (len(qs), 3))) @ T[:, :3, :3]
+        sweeps.append(Sweep(j + 1, np.ascontiguousarray(pts[:, 0]), readings, [f"simulated sweep {j + 1}, point {k}" for k in range(points_per_sweep)],
+                            pts if len(tools) > 1 else None, rot))
+    return SweepSet(sweeps, n, home, list(model.kinds), f"simulated {model.name}", {"length": "m", "angle": "rad"}, tools if len(tools) > 1 else None)

@@ -23,6 +23,7 @@ from .common import (
     num,
     parse_numbers,
     parse_pose,
+    positive,
     print_rows,
     say,
     spread,
@@ -66,7 +67,8 @@ def identify(
     data_format: Annotated[str, typer.Option("--format", help="sweeps (long CSV, JSON, jN.csv folder) | tracker | rtde | rsi | bag | columns | auto (from the content).")] = "auto",
     columns: Annotated[str | None, typer.Option("--columns", help="Column map of a delimited recording, e.g. \"t,q1..q6,x,y,z\" (--format columns).")] = None,
     sweep: Annotated[str | None, typer.Option("--sweep", help="Tracker export: where each point's sweep comes from: 'group' or a point-name pattern such as 'J{joint}_{index}'.")] = None,
-    target: Annotated[int, typer.Option("--target", help="Recordings with several targets per pose (SMRs on a nest): which one, 1-based.")] = 1,
+    target: Annotated[int | None, typer.Option("--target", help="Data with several targets per pose (SMRs on a nest): fit this one alone, 1-based (default: every target, one fit with shared axes).")] = None,
+    rotation_noise: Annotated[float | None, typer.Option("--rotation-noise", help="6-DoF poses: the orientation noise (1 sigma per component), in --angle units, weighting the orientations against the points (default: estimated).")] = None,
     coupling: Annotated[str | None, typer.Option("--coupling", help="Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; docs/robot-files.md); default: the robot file's [couplings].")] = None,
     keep_dwell: Annotated[bool, typer.Option("--keep-dwell", help="Keep the rows where the motion stands still at a sweep's ends (left out of the fits by default, with a note naming them).")] = False,
     readings: Annotated[Path | None, typer.Option("--readings", help="A second recording with the joint readings on another clock (e.g. a controller log beside a tracker export): aligned from the motion.")] = None,
@@ -104,14 +106,19 @@ def identify(
             sweeps = swio.read_json(data, length=length, angle=angle)
         else:  # units the file declares win; --length/--angle fill in what it does not declare (and are the output's)
             sweeps = swio.read_long_csv(data, length=length, angle=angle, kinds=kinds)
+        if target is not None and not (data_format not in ("auto", "sweeps") or readings is not None or (data_format == "auto" and not _is_sweep_file(data))):
+            if not 1 <= target <= sweeps.n_targets:
+                fail(f"--target {target}: {data} has {sweeps.n_targets} target(s) per pose: expected 1..{sweeps.n_targets}")
+            sweeps = sweeps.target(target - 1)
     from ..io.robotfile import parse_coupling  # noqa: PLC0415
 
     C = parse_coupling(coupling, list(sweeps.kinds), "--coupling") if coupling else None
     with status(f"fitting {sweeps.n_joints} sweeps ({method})...") as st:
         ms = None if max_sigma is None else max_sigma * length_scale(out_len)
         T_world_base = None if base is None else parse_pose(base, out_ang, length_scale(out_len), "--base")
+        rn = None if rotation_noise is None else positive(rotation_noise, "--rotation-noise", angle_scale(out_ang), None, out_ang)
         result = identify_sweeps(sweeps, method=method, convention=convention, nominal=nom, loss=loss, max_sigma=ms, T_world_base=T_world_base,
-                                 keep_dwell=keep_dwell, coupling=C, progress=st.update)
+                                 keep_dwell=keep_dwell, coupling=C, rotation_noise=rn, progress=st.update)
     if json_path:
         emit_json(to_json(result, "m", "rad"), json_path)
     if json_path != "-":
@@ -188,7 +195,7 @@ def read_recording_sweeps(data: Path, data_format: str, *, columns, sweep, targe
 
         n = seg.n_joints
         home = np.asarray(home, dtype=float) * joint_scale(kinds or ["revolute"] * n, length or "mm", angle or "deg", "--home")
-    return to_sweepset(rec, seg, target=target - 1, home=home, kinds=kinds, direction=(direction if direction is None or len(direction) > 1 else direction[0]) or 1)
+    return to_sweepset(rec, seg, target=None if target is None else target - 1, home=home, kinds=kinds, direction=(direction if direction is None or len(direction) > 1 else direction[0]) or 1)
 
 
 def print_identification(doc: dict, result, length: str, angle: str) -> None:
@@ -228,5 +235,13 @@ def print_identification(doc: dict, result, length: str, angle: str) -> None:
                   "orientation (columns = box axes):")
     for row in b["orientation"]:
         console.print("  " + "  ".join(f"{v:7.3f}" for v in row))
+    tf = doc["tool_frame"]
+    if tf["orientation_from"] != "nominal":
+        rpy = ", ".join(f"{v * deg:.6g}" for v in tf["rpy_deg"])
+        say("bold", "Tool frame", f" at home (measurement frame): orientation from {tf['orientation_from']} ({tf['how']}): roll, pitch, yaw {rpy} {angle} "
+            f"(R = Rz Ry Rx), 1 sigma {spread(tf['sigma_deg'] * deg)} {angle}"
+            + (f"; {tf['angle_from_nominal_flange_deg'] * deg:.4g} {angle} from the nominal flange's" if tf["angle_from_nominal_flange_deg"] is not None else ""))
+    if doc.get("targets_home"):
+        console.print(f"  targets at home [{length}]: " + "; ".join(", ".join(num(v, length) for v in p) for p in doc["targets_home"]), soft_wrap=True)
     for note in doc["notes"]:
         say("yellow", "note:", f" {note}")

@@ -9,8 +9,11 @@ import numpy as np
 import typer
 
 from ..io.units import angle_scale, length_scale
-from .common import AngleOpt, BaseLinkOpt, LengthOpt, ModelArg, TipLinkOpt, app, load_robot, parse_joint_values, parse_point, parse_ranges, positive, spread, wrote
+from .common import AngleOpt, BaseLinkOpt, LengthOpt, ModelArg, TipLinkOpt, app, fail, load_robot, parse_joint_values, parse_point, parse_ranges, positive, spread, wrote
 from .plan import NOISE_M, TOOL_M
+
+#: The default orientation noise of simulated 6-DoF poses (rad): 0.005 deg, a 6-DoF probe's (T-Mac class) order.
+NOISE_ROT_RAD = float(np.radians(0.005))
 
 
 @app.command()
@@ -26,6 +29,9 @@ def simulate(
     seed: Annotated[int, typer.Option("--seed", help="Seed of the noise.")] = 0,
     length: LengthOpt = "mm",
     angle: AngleOpt = "deg",
+    targets: Annotated[str | None, typer.Option("--targets", help="Several targets per pose (2-4 SMRs on a nest): their points in the flange frame, \"x,y,z; x,y,z; ...\" in --length units (replaces --tool; written as columns x2,y2,z2,... and a '# nest:' line).")] = None,
+    poses: Annotated[bool, typer.Option("--poses", help="6-DoF poses: also write each pose's orientation (the flange's, at the tool point) as a quaternion qw,qx,qy,qz.")] = False,
+    noise_rot: Annotated[float | None, typer.Option("--noise-rot", help="Orientation noise of --poses (1 sigma per component of a rotation vector), in --angle units (default 0.005 deg whatever the unit).")] = None,
     coupling: Annotated[str | None, typer.Option("--coupling", help="The readings written are a controller's whose joint values are, e.g., \"q3=r3+r2\" (a Fanuc's J3; docs/robot-files.md); default: the robot file's [couplings].")] = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
@@ -42,13 +48,21 @@ def simulate(
     h = parse_joint_values(home, "--home", robot, length, angle, default=robot.home)
     r = parse_ranges(ranges, robot, length, angle, "paper90")
     tp = parse_point(tool, "--tool", ls, TOOL_M)
+    nest = None
+    if targets is not None:
+        parts = [p for p in targets.split(";") if p.strip()]
+        nest = np.array([parse_point(p, f"--targets (target {k + 1})", ls, TOOL_M) for k, p in enumerate(parts)])
+        if not 1 <= len(nest) <= 16:
+            fail(f"--targets: expected 1 to 16 points 'x,y,z' separated by ';', got {len(nest)}")
+    sigma_rot = positive(noise_rot, "--noise-rot", as_, NOISE_ROT_RAD, angle)
     sigma = positive(noise, "--noise", ls, NOISE_M, length)
     sigma_q = positive(noise_q, "--noise-q", as_, 0.0, angle)
-    s = sw.simulate(m, home=h, ranges=r, points_per_sweep=points, tool_point=tp, noise=sigma, noise_q=sigma_q, seed=seed)
+    s = sw.simulate(m, home=h, ranges=r, points_per_sweep=points, tool_point=tp, noise=sigma, noise_q=sigma_q, seed=seed, targets=nest, poses=poses, noise_rot=sigma_rot)
     C = parse_coupling(coupling, list(m.kinds), "--coupling") if coupling else robot.coupling
     if C is not None:  # the controller reports readings r = C^-1 q
         from ..identify import decoupled  # noqa: PLC0415
 
         s = decoupled(s, np.linalg.inv(C))
     write_text(output, to_long_csv(s, length, angle, f"simulated sweeps of {robot.name}: seed {seed}, noise {spread(sigma / ls)} {length}, readings noise {spread(sigma_q / as_)} {angle}"))
-    wrote(output, f": {m.nq} sweeps x {points} points")
+    what = (f", {len(nest)} targets per pose" if nest is not None and len(nest) > 1 else "") + (", 6-DoF poses" if poses else "")
+    wrote(output, f": {m.nq} sweeps x {points} points{what}")

@@ -23,7 +23,8 @@ Methods
     circle fit on short arcs when the readings are good, because the angles tie down the radius; the geometric
     circle when they are not.
 :func:`~denavit.fitting.joint.fit_sweeps`
-    All sweeps in one fit (one line per joint, one home point, or one per sweep), the global fit of
+    All sweeps in one fit (one line per joint, one home point, or one per sweep; several targets per pose, each
+    with its own home point, and 6-DoF poses, the orientation at home fitted too), the global fit of
     :func:`denavit.identify.identify`.
 ``fit_line``
     Total-least-squares line for prismatic joints.

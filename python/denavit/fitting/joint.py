@@ -11,6 +11,15 @@ joints' recorded readings smoothed over the sweep (a straight line in time: a lo
 off home, or creeps, is followed; white reading noise is averaged out), unless a locked reading moves in
 lock-step with the swept joint (a coupling of the controller's readings, then taken as locked at home).
 
+Several targets per pose (2-4 SMRs on one nest, :attr:`denavit.sweeps.Sweep.targets`): every target ``t`` has its
+own home point ``p + o_t`` on the last body (``o_1 = 0``; with a home per sweep the drift ``p_s`` moves them all),
+carried by the same joint motion, so every axis is fitted once from all targets. 6-DoF poses
+(:attr:`~denavit.sweeps.Sweep.rotations`): the measured orientation is the home orientation ``R_0`` carried by the
+rotations of the same chain, ``R_k = R(n_1, dq_1k) ... R(n_n, dq_nk) R_0``; its residual (the rotation vector of
+``R_pred R_meas^T``, rad) is weighted by ``sigma / sigma_rot``, ``sigma_rot`` the orientation noise (declared, or a
+variance component estimated from the residuals across the swept axis). A pose is then one residual vector of
+``3 k (+ 3)`` components, whose reading error moves every component along one direction (the tangent below).
+
 Errors: the points carry isotropic noise ``sigma``; the swept joint's readings carry white errors, so along the
 motion a point's misfit has the variance ``tau_s^2 = sigma^2 + (lever sigma_q)^2`` (effective variance, as the
 readings fit of :mod:`denavit.fitting.readings`). ``sigma`` (pooled across the motion) and each sweep's
@@ -30,7 +39,7 @@ import math
 import numpy as np
 
 from ..errors import NotConvergedError
-from ..geometry import perpendicular_basis
+from ..geometry import axis_angle_matrices, matrix_rotvec, perpendicular_basis
 from .robust import loss_dweight, loss_weight, misfit_variance, robust_sigma
 
 #: A locked reading whose correlation with the swept joint's reading exceeds this (and which moves) is coupled.
@@ -164,30 +173,128 @@ def _chain(cs, ns, kinds, p, dq, active, jac: bool, moving: int | None = None):
     return y, blocks, jp, dpdq
 
 
+def _chain_rotation(ns, kinds, R0, dq, active, jac: bool, moving: int | None = None):
+    """Predicted orientations ``R(n_1, dq_1) ... R(n_n, dq_n) R0`` (m, 3, 3), and with ``jac`` the Jacobian blocks
+    of the orientation residual (a small rotation in ``world``): {joint: (m, 3, 4) d r / d [a, b, s, t]} (the
+    point across the axis does not turn anything: zeros), ``jr`` (m, 3, 3) d r / d the rotation of ``R0`` (a
+    rotation vector in ``world``), and {joint: (m, 3)} d r / d q_joint (the joint's axis carried by the joints
+    before it). Without ``jac`` but with ``moving``, that joint's d r / d q alone.
+
+    Turning n by dq b (b across n) turns R(n, dq) by ``J_l(dq n) dq b = sin(dq) b + (1 - cos(dq)) n x b`` (the left
+    Jacobian of SO(3)), then carried by the joints before."""
+    m = dq.shape[0]
+    Y = np.broadcast_to(R0, (m, 3, 3)).copy()
+    trig = {}
+    for i in reversed(active):
+        if kinds[i] == "revolute":
+            trig[i] = (np.cos(dq[:, i])[:, None], np.sin(dq[:, i])[:, None])
+            for c in range(3):
+                Y[:, :, c] = _rotate(ns[i], *trig[i], Y[:, :, c])
+    if not jac and moving is None:
+        return Y, None, None, None
+
+    def outer(i, x):
+        for k in reversed([a for a in active if a < i]):
+            if kinds[k] == "revolute":
+                x = _rotate(ns[k], *trig[k], x)
+        return x
+
+    def turn(i):
+        return np.zeros((m, 3)) if kinds[i] == "prismatic" else outer(i, np.broadcast_to(ns[i], (m, 3)).copy())
+
+    if not jac:
+        return Y, None, None, {moving: turn(moving)}
+    blocks, dpdq = {}, {}
+    zero = np.zeros((m, 3))
+    for i in active:
+        if kinds[i] == "prismatic":
+            blocks[i] = np.zeros((m, 3, 4))
+        else:
+            co, sn = trig[i]
+            cols = []
+            for b in perpendicular_basis(ns[i]):
+                cols.append(outer(i, sn * b + (1 - co) * np.cross(ns[i], b)))
+            blocks[i] = np.stack([*cols, zero, zero], axis=2)
+        dpdq[i] = turn(i)
+    jr = np.stack([outer(len(kinds), np.broadcast_to(e, (m, 3)).copy()) for e in np.eye(3)], axis=2)
+    return Y, blocks, jr, dpdq
+
+
+def _chordal_mean(R: np.ndarray) -> np.ndarray:
+    """The rotation closest (Frobenius) to the mean of rotations R (m, 3, 3) (the chordal L2 mean)."""
+    u, _, vt = np.linalg.svd(np.mean(R, axis=0))
+    return u @ np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))]) @ vt
+
+
+def start_homes(sweeps, starts) -> tuple[np.ndarray, np.ndarray | None]:
+    """Start values of the joint fit: each target's point at home (k, 3) and the probe's orientation at home (3, 3)
+    (None without 6-DoF poses): every measured point (orientation) turned back to home about its sweep's start axis
+    by the swept joint's readings, averaged (orientations by their chordal mean)."""
+    K = sweeps.n_targets
+    est = [[] for _ in range(K)]
+    rots = []
+    for s, (c, nv) in zip(sweeps.sweeps, starts, strict=True):
+        j = s.joint - 1
+        d = sweeps.home[j] - s.q[:, j]
+        pts = [s.points] if s.targets is None else [s.targets[:, t] for t in range(K)]
+        if sweeps.kinds[j] == "prismatic":
+            for t, p in enumerate(pts):
+                est[t].append(p + np.outer(d, nv))
+            if s.rotations is not None:
+                rots.append(s.rotations)
+        else:
+            R = axis_angle_matrices(nv, d)
+            for t, p in enumerate(pts):
+                est[t].append(c + np.einsum("mij,mj->mi", R, p - c))
+            if s.rotations is not None:
+                rots.append(R @ s.rotations)
+    homes = np.array([np.mean(np.vstack(e), axis=0) for e in est])
+    return homes, (_chordal_mean(np.vstack(rots)) if rots else None)
+
+
 def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "linear", per_sweep_home: bool = False,
-               scales: bool = False, noise_sigma=None, gamma=None, where: str = ""):
+               scales: bool = False, noise_sigma=None, gamma=None, offsets0=None, rotation0=None, rotation_sigma=None, where: str = ""):
     """The joint fit of all sweeps (module docstring). ``dqs`` per sweep (m, n) joint motions from home
-    (:func:`locked_motion`), ``starts`` per joint (point, direction) start lines, ``p0`` the start home point.
+    (:func:`locked_motion`), ``starts`` per joint (point, direction) start lines, ``p0`` the start home point (of
+    the first target); with several targets ``offsets0`` (k - 1, 3) the start offsets of the other targets' home
+    points from it, with 6-DoF poses ``rotation0`` (3, 3) the start orientation at home (both by default from
+    :func:`start_homes`) and ``rotation_sigma`` (rad) the declared orientation noise (default: estimated).
 
     Returns a dict: ``points`` (n, 3) feet of the home point on each axis, ``directions`` (n, 3), ``home``
     (S, 3) home point per sweep (all equal without ``per_sweep_home``), ``cov`` of [c_1, n_1, ..., c_n, n_n,
-    p_1 (, p_2, ...)] (the axis points at those feet; with ``scales`` marginal over the scales), ``scales`` (n,)
+    p_1 (, p_2, ...)] (the axis points at those feet; with ``scales`` marginal over the scales), ``cov_all`` the
+    same followed by the offsets of the further targets and the rotation vector of the home orientation (world),
+    ``offsets`` (k - 1, 3), ``rotation`` (3, 3) the orientation at home (None without poses), ``rotation_sigma`` the
+    orientation noise (rad; nan without poses), ``scales`` (n,)
     each swept joint's reading scale error ``s_j`` (the joint turns by ``(1 + s_j)`` times its reading's motion;
     zeros without ``scales``) and ``scale_sigma`` (n,) their one-sigma (nan without), ``scale_cross`` (rows of
     ``cov``, n) and ``scale_cov`` (n, n) their covariance with those parameters and among themselves (zeros where not
-    fitted), ``misfit`` per sweep (m,) 3-D distances, ``weights`` per
-    sweep (m,) robust weights, ``whitened`` per sweep (m,) misfits in point-noise units, ``sigma`` the point
+    fitted), ``misfit`` per sweep (m,) 3-D distances (RMS over the targets of a pose), ``weights`` per sweep (m,)
+    robust weights, ``whitened`` per sweep (m,) misfits in point-noise units (norms of ``components`` components),
+    ``sigma`` the point
     noise, ``reading_sigma`` per sweep, ``ss`` the whitened sum of squares and ``n_params``.
     """
     kinds = sweeps.kinds
     n, S = sweeps.n_joints, len(sweeps.sweeps)
+    K = sweeps.n_targets
+    rot = sweeps.has_rotations
     cs = [np.array(c, dtype=float) for c, _ in starts]
     ns = [np.array(d, dtype=float) / np.linalg.norm(d) for _, d in starts]
+    if (K > 1 and offsets0 is None) or (rot and rotation0 is None):
+        h0, r0 = start_homes(sweeps, starts)
+        offsets0 = h0[1:] - h0[0] if offsets0 is None else offsets0
+        rotation0 = r0 if rotation0 is None else rotation0
     homes = np.tile(np.asarray(p0, dtype=float), (S if per_sweep_home else 1, 1))
+    offs = np.zeros((0, 3)) if K == 1 else np.array(offsets0, dtype=float).reshape(K - 1, 3)
+    R0 = np.array(rotation0, dtype=float) if rot else None
     swept = sorted({s.joint - 1 for s in sweeps.sweeps}) if scales else []
     sc = np.zeros(n)
-    n_h = 4 * n + 3 * len(homes)  # the first scale's index
-    npar = n_h + len(swept)
+    H = len(homes)
+    i_off = 4 * n + 3 * H  # the first offset's index, then the home rotation's, then the scales'
+    i_rot = i_off + 3 * (K - 1)
+    i_sc = i_rot + (3 if rot else 0)
+    npar = i_sc + len(swept)
+    D = 3 * K + (3 if rot else 0)  # residual components per pose
     active = [[i for i in range(n) if np.any(dq[:, i] != 0)] for dq in dqs]
     size = max(float(np.sqrt(np.mean(np.sum((s.points - s.points.mean(axis=0)) ** 2, axis=1)))) for s in sweeps.sweeps)
     floor = 1e-12 * size
@@ -197,15 +304,39 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     def home_of(k):
         return homes[k] if per_sweep_home else homes[0]
 
-    def chunks(k, cs, ns, homes_, sc_, jac):
-        """(rows, misfits r, d pred / d q of the swept joint, blocks, jp) of sweep k, CHUNK points at a time (the
-        joints turning by (1 + s) times their readings' motion)."""
+    def measured(s, rows, t):
+        return s.points[rows] if s.targets is None else s.targets[rows, t]
+
+    def chunks(k, cs, ns, homes_, offs_, R_, sc_, wr, jac):
+        """(rows, misfits r (m, D), d r / d q of the swept joint (m, D), Jacobian (m, D, local parameters) or None)
+        of sweep k, CHUNK poses at a time (the joints turning by (1 + s) times their readings' motion); the
+        orientation rows weighted by ``wr``."""
         s, dq = sweeps.sweeps[k], dqs[k]
         j = s.joint - 1
+        h = homes_[k] if per_sweep_home else homes_[0]
         for a in range(0, len(dq), CHUNK):
             rows = slice(a, a + CHUNK)
-            pred, blocks, jp, dpdq = _chain(cs, ns, kinds, homes_[k] if per_sweep_home else homes_[0], dq[rows] * (1 + sc_), active[k], jac, j)
-            yield rows, pred - s.points[rows], dpdq[j], blocks, jp
+            dqc = dq[rows] * (1 + sc_)
+            mc = len(dqc)
+            rs, mvs, Js = [], [], []
+            for t in range(K):
+                pred, blocks, jp, dpdq = _chain(cs, ns, kinds, h + (offs_[t - 1] if t else 0.0), dqc, active[k], jac, j)
+                rs.append(pred - measured(s, rows, t))
+                mvs.append(dpdq[j])
+                if jac:
+                    jo = np.zeros((mc, 3, 3 * (K - 1)))
+                    if t:
+                        jo[:, :, 3 * (t - 1) : 3 * t] = jp
+                    Js.append(np.concatenate([blocks[i] for i in active[k]] + [jp, jo] + ([np.zeros((mc, 3, 3))] if rot else [])
+                                             + ([(dpdq[j] * dq[rows, j, None])[:, :, None]] if scales else []), axis=2))
+            if rot:
+                Rp, blocks, jr, dpdq = _chain_rotation(ns, kinds, R_, dqc, active[k], jac, j)
+                rs.append(wr * matrix_rotvec(Rp @ np.swapaxes(s.rotations[rows], 1, 2)))
+                mvs.append(wr * dpdq[j])
+                if jac:
+                    Js.append(wr * np.concatenate([blocks[i] for i in active[k]] + [np.zeros((mc, 3, 3 + 3 * (K - 1))), jr]
+                                                  + ([(dpdq[j] * dq[rows, j, None])[:, :, None]] if scales else []), axis=2))
+            yield rows, np.concatenate(rs, axis=1), np.concatenate(mvs, axis=1), (np.concatenate(Js, axis=1) if jac else None)
 
     def tangent(mv):
         lever = np.linalg.norm(mv, axis=1)
@@ -215,10 +346,17 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         rt = np.einsum("mi,mi->m", r, t)
         return r - (1 - g) * rt[:, None] * t, rt
 
-    def normal_eq(cs, ns, homes_, sc_, f=None, bread=False):
+    def local(k):
+        j = sweeps.sweeps[k].joint - 1
+        h0 = 4 * n + 3 * (k if per_sweep_home else 0)
+        return np.concatenate([np.arange(4 * i, 4 * i + 4) for i in active[k]] + [np.arange(h0, h0 + 3), np.arange(i_off, i_sc)]
+                              + ([[i_sc + swept.index(j)]] if scales else [])).astype(int)
+
+    def normal_eq(cs, ns, homes_, offs_, R_, sc_, wr, f=None, bread=False):
         """Normal matrix, its robust sandwich part, gradient, whitened cost, and per sweep (indices, Gram matrix of
-        the weighted tangential rows, tangential residuals, levers, whitened residuals, misfits), accumulated sweep
-        by sweep and CHUNK points at a time (memory linear in the points, small per point). Whitening scales the
+        the weighted tangential rows, tangential residuals, levers, whitened residuals, misfits, Gram matrix of the
+        orientation rows across the swept axis, their squares), accumulated sweep by sweep and CHUNK poses at a
+        time (memory linear in the points, small per point). Whitening scales the
         component along the tangent t by gamma: J_w^T J_w = J^T J - (1 - gamma^2) (t^T J)^T (t^T J), J_w^T r_w
         likewise. With the robust scale ``f`` the robust weights ``ws`` are those of this point's whitened misfits
         (z = |r_w|^2 / f^2; iteratively reweighted least squares, one pass per step); without it they stay. With
@@ -232,16 +370,13 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         parts = []
         for k in range(S):
             g2 = 1 - gam[k] ** 2
-            j = sweeps.sweeps[k].joint - 1
-            h0 = 4 * n + 3 * (k if per_sweep_home else 0)
-            idx = np.concatenate([np.arange(4 * i, 4 * i + 4) for i in active[k]] + [np.arange(h0, h0 + 3)] + ([[n_h + swept.index(j)]] if scales else []))
+            idx = local(k)
             Gt = np.zeros((len(idx), len(idx)))
+            Gr = np.zeros((len(idx), len(idx))) if rot else None
             m = len(dqs[k])
-            rt_k, lever_k, rw_k, r_k = np.empty(m), np.empty(m), np.empty((m, 3)), np.empty((m, 3))
-            for rows, r, mv, blocks, jp in chunks(k, cs, ns, homes_, sc_, True):
+            rt_k, lever_k, rw_k, r_k, rr_k = np.empty(m), np.empty(m), np.empty((m, D)), np.empty((m, D)), np.zeros(m)
+            for rows, r, mv, J in chunks(k, cs, ns, homes_, offs_, R_, sc_, wr, True):
                 t, lever = tangent(mv)
-                # (with scales: d pred / d s_j = d pred / d q_j times the reading's motion)
-                J = np.concatenate([blocks[i] for i in active[k]] + [jp] + ([(mv * dqs[k][rows, j, None])[:, :, None]] if scales else []), axis=2)
                 jt = np.einsum("mi,mik->mk", t, J)
                 rt = np.einsum("mi,mi->m", r, t)
                 rw = r - (1 - gam[k]) * rt[:, None] * t
@@ -249,24 +384,31 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
                     ws[k][rows] = loss_weight(loss, np.sum(rw**2, axis=1) / f**2)
                 w = ws[k][rows]
                 Jf = J.reshape(-1, len(idx))
-                w3 = np.repeat(w, 3)
-                A[np.ix_(idx, idx)] += (Jf * w3[:, None]).T @ Jf - g2 * (jt * w[:, None]).T @ jt
+                wD = np.repeat(w, D)
+                A[np.ix_(idx, idx)] += (Jf * wD[:, None]).T @ Jf - g2 * (jt * w[:, None]).T @ jt
                 if A2 is not None:
-                    A2[np.ix_(idx, idx)] += (Jf * (w3**2)[:, None]).T @ Jf - g2 * (jt * (w**2)[:, None]).T @ jt
-                b[idx] += Jf.T @ (w3 * (r - g2 * rt[:, None] * t).reshape(-1))
+                    A2[np.ix_(idx, idx)] += (Jf * (wD**2)[:, None]).T @ Jf - g2 * (jt * (w**2)[:, None]).T @ jt
+                b[idx] += Jf.T @ (wD * (r - g2 * rt[:, None] * t).reshape(-1))
                 ss += float(np.sum(w * np.sum(rw**2, axis=1)))
                 Gt += gam[k] ** 2 * (jt * w[:, None]).T @ jt
+                if rot:  # the orientation rows across the swept axis (its reading error turns the probe about it)
+                    e = mv[:, -3:] / np.maximum(np.linalg.norm(mv[:, -3:], axis=1), 1e-300)[:, None]
+                    ro, Jo = r[:, -3:], J[:, -3:, :]
+                    ro = ro - np.einsum("mi,mi->m", ro, e)[:, None] * e
+                    Jo = Jo - e[:, :, None] * np.einsum("mi,mik->mk", e, Jo)[:, None, :]
+                    Gr += np.einsum("mik,mil->kl", Jo * w[:, None, None], Jo)
+                    rr_k[rows] = np.sum(ro**2, axis=1)
                 if bread:
                     gw = np.einsum("mi,mik->mk", rw, J) - ((1 - gam[k]) * gam[k] * rt)[:, None] * jt  # J_w^T r_w per point
                     c = 2 * loss_dweight(loss, np.sum(rw**2, axis=1) / f**2) / f**2
                     Bd[np.ix_(idx, idx)] += (gw * c[:, None]).T @ gw
                 rt_k[rows], lever_k[rows], rw_k[rows], r_k[rows] = rt, lever, rw, r
-            parts.append((idx, Gt, rt_k, lever_k, rw_k, r_k))
+            parts.append((idx, Gt, rt_k, lever_k, rw_k, r_k, Gr, rr_k))
         if bread:
             return A + Bd, A2, b, ss, parts
         return A, (A if A2 is None else A2), b, ss, parts
 
-    def step(x_cs, x_ns, x_h, x_sc, delta):
+    def step(x_cs, x_ns, x_h, x_o, x_R, x_sc, delta):
         new_cs, new_ns = [], []
         for i in range(n):
             B = np.column_stack(perpendicular_basis(x_ns[i]))
@@ -274,62 +416,85 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             new_ns.append(nv / np.linalg.norm(nv))
             new_cs.append(x_cs[i] + (B @ delta[4 * i + 2 : 4 * i + 4] if kinds[i] == "revolute" else 0.0))
         new_sc = x_sc.copy()
-        new_sc[swept] += delta[n_h:]
-        return new_cs, new_ns, x_h + delta[4 * n : n_h].reshape(-1, 3), new_sc
+        new_sc[swept] += delta[i_sc:]
+        new_R = axis_angle_matrices(delta[i_rot:i_sc] / max(np.linalg.norm(delta[i_rot:i_sc]), 1e-300), [np.linalg.norm(delta[i_rot:i_sc])])[0] @ x_R if rot else None
+        return new_cs, new_ns, x_h + delta[4 * n : i_off].reshape(-1, 3), x_o + delta[i_off:i_rot].reshape(-1, 3), new_R, new_sc
 
-    def cost(cs, ns, homes_, sc_):
+    def cost(cs, ns, homes_, offs_, R_, sc_, wr):
         """The whitened cost at a trial point: misfits and tangents only, no Jacobian blocks."""
         total = 0.0
         for k in range(S):
-            for rows, r, mv, _, _ in chunks(k, cs, ns, homes_, sc_, False):
+            for rows, r, mv, _ in chunks(k, cs, ns, homes_, offs_, R_, sc_, wr, False):
                 total += float(np.sum(ws[k][rows] * np.sum(whitened(r, tangent(mv)[0], gam[k])[0] ** 2, axis=1)))
         return total
 
     # Levenberg-Marquardt steps on the whitened, robustly weighted cost, one pass over the points per step; the
-    # variance components (gamma) and the robust scale (f) of each pass are those of the pass before (a fixed point
-    # of all three). Stopping is scale-free: a step of at most STEP_TOL of its own sigmas (Mahalanobis length under
-    # the covariance sigma^2 A^-1), or a cost that changes within its round-off, once gamma and f hold still.
+    # variance components (gamma, the orientation weight) and the robust scale (f) of each pass are those of the
+    # pass before (a fixed point of all of them). Stopping is scale-free: a step of at most STEP_TOL of its own sigmas
+    # (Mahalanobis length under the covariance sigma^2 A^-1), or a cost that changes within its round-off, once the
+    # variance components and f hold still.
+    wr = 0.0
+    srot = math.nan
+    if rot:  # the orientation weight sigma / sigma_rot, first from the start residuals
+        pr, rr = [], []
+        for k in range(S):
+            for _, r, _, _ in chunks(k, cs, ns, homes, offs, R0, sc, 1.0, False):
+                pr.append(np.sum(r[:, :-3] ** 2, axis=1) / (3 * K))
+                rr.append(np.sum(r[:, -3:] ** 2, axis=1) / 3)
+        srot = float(rotation_sigma) if rotation_sigma is not None else max(math.sqrt(np.median(np.concatenate(rr))), 1e-12)
+        wr = max(math.sqrt(np.median(np.concatenate(pr))), noise_sigma or 0.0, floor) / srot
     lam = 1e-6
     sigma2 = f = f_next = None
     eps_cost = COST_ROUNDOFF * np.finfo(float).eps * max(float(np.max(np.abs(s.points))) for s in sweeps.sweeps)
     fresh = True
     for it in range(300):
         if fresh:
-            A, A2, b, ss, parts = normal_eq(cs, ns, homes, sc, f)
-            D = np.diag(A).copy()
-            D[D <= 0] = 1.0
+            A, A2, b, ss, parts = normal_eq(cs, ns, homes, offs, R0, sc, wr, f)
+            D_ = np.diag(A).copy()
+            D_[D_ <= 0] = 1.0
             # variance components: pooled point noise across the motion, each sweep's misfit along it
             A_inv = _pinv_sym(A)
-            lev_t = [float(np.sum(A_inv[np.ix_(idx, idx)] * Gt)) for idx, Gt, _, _, _, _ in parts]
+            lev_t = [float(np.sum(A_inv[np.ix_(p[0], p[0])] * p[1])) for p in parts]
             # (robust losses: the weighted residuals w r, bounded for outliers, over the weighted counts sum(w^2))
-            ss_t = [float(np.sum(ws[k] ** 2 * rt**2)) for k, (_, _, rt, _, _, _) in enumerate(parts)]
+            ss_t = [float(np.sum(ws[k] ** 2 * p[2] ** 2)) for k, p in enumerate(parts)]
             ss_o = sum(float(np.sum(ws[k] ** 2 * (np.sum(parts[k][5] ** 2, axis=1) - parts[k][2] ** 2))) for k in range(S))
             m_w = [float(np.sum(w**2)) for w in ws]
-            red_o = 2 * sum(m_w) - (float(np.trace(A_inv @ A)) - sum(lev_t))
+            red_o = (D - 1) * sum(m_w) - (float(np.trace(A_inv @ A)) - sum(lev_t))
             sigma2 = max(ss_o / red_o if red_o > 0 else 0.0, (noise_sigma or 0.0) ** 2, floor**2)
             tau2 = [st / max(mw - lt, 1.0) for st, lt, mw in zip(ss_t, lev_t, m_w, strict=True)]
             new_gam = gam if gamma is not None else np.array([1.0 if not t2 > sigma2 else max(math.sqrt(sigma2 / t2), 1e-9) for t2 in tau2])
-            # the robust scale of the next pass's weights: 3 robust sigmas of the whitened misfits (point-noise units)
+            new_wr = wr
+            if rot:  # the orientation noise across the swept axis, over its redundancy (2 per pose less its leverage)
+                ss_r = sum(float(np.sum(ws[k] ** 2 * p[7])) for k, p in enumerate(parts)) / wr**2
+                red_r = 2 * sum(m_w) - sum(float(np.sum(A_inv[np.ix_(p[0], p[0])] * p[6])) for p in parts)
+                if rotation_sigma is None:
+                    srot = max(math.sqrt(ss_r / red_r) if red_r > 0 else srot, 1e-12)
+                new_wr = math.sqrt(sigma2) / srot
+            # the robust scale of the next pass's weights: 3 robust sigmas of the whitened misfits (point-noise units;
+            # times sqrt(D / 3): a pose of D components has the norm of one point's 3 at the same per-component noise)
             if loss != "linear":
-                f_next = 3.0 * max(robust_sigma(np.concatenate([np.linalg.norm(p[4], axis=1) for p in parts]), 3), floor)
-            # how far gamma and f moved at this pass, in units of their tolerances (after 100 passes they are frozen)
+                f_next = 3.0 * math.sqrt(D / 3) * max(robust_sigma(np.concatenate([np.linalg.norm(p[4], axis=1) for p in parts]), D), floor)
+            # how far the variance components and f moved at this pass, in units of their tolerances (after 100
+            # passes they are frozen)
             dg = float(np.max(np.abs(new_gam - gam) / gam))
+            if rot:
+                dg = max(dg, abs(new_wr - wr) / wr)
             df = 0.0 if f_next is None else math.inf if f is None else abs(f_next - f) / f
             moved = max(dg / GAMMA_TOL, df / SCALE_TOL) if it < 100 else 0.0
             gross = it < 100 and max(dg, df) > 0.1
             fresh = False
         if gross:  # a large change (the first robust weights, a first gamma): no step on the old ones
-            gam, f, fresh = new_gam, f_next, True
+            gam, wr, f, fresh = new_gam, new_wr, f_next, True
             continue
-        delta = -_pinv_sym(A + lam * np.diag(D)) @ b
+        delta = -_pinv_sym(A + lam * np.diag(D_)) @ b
         m2 = float(delta @ A @ delta) / sigma2  # (the step's length in its own sigmas)^2
         tiny = m2 <= STEP_TOL**2 or np.max(np.abs(delta)) <= 1e-13 * max(size, 1e-300)
-        tcs, tns, th, tsc = step(cs, ns, homes, sc, delta)
-        new_cost = cost(tcs, tns, th, tsc)
+        trial = step(cs, ns, homes, offs, R0, sc, delta)
+        new_cost = cost(*trial, wr)
         level = eps_cost * math.sqrt(ss) + 64 * np.finfo(float).eps * ss  # round-off of a cost difference
         accepted = new_cost <= ss or (tiny and new_cost <= ss + level)
         if accepted:
-            cs, ns, homes, sc = tcs, tns, th, tsc
+            cs, ns, homes, offs, R0, sc = trial
             lam = max(lam / 10, 1e-12)
         else:
             lam *= 10
@@ -342,16 +507,17 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     else:
         raise NotConvergedError(f"{where}: global fit: no convergence in 300 steps (expected a step below {STEP_TOL:g} of its sigmas)")
     f_final = f
-    A, A2, b, ss, parts = normal_eq(cs, ns, homes, sc, f_final, bread=loss != "linear")
+    A, A2, b, ss, parts = normal_eq(cs, ns, homes, offs, R0, sc, wr, f_final, bread=loss != "linear")
     psi2 = sum(float(np.sum(w**2 * np.sum(p[4] ** 2, axis=1))) for w, p in zip(ws, parts, strict=True))
-    dof = 3 * sum(float(np.sum(w**2)) for w in ws) - npar
+    dof = D * sum(float(np.sum(w**2)) for w in ws) - npar
     s2 = misfit_variance(np.sqrt(psi2) * np.ones(1), dof, math.sqrt(sigma2))
     A_inv = _pinv_sym(A)
     cov_x = s2 * A_inv @ A2 @ A_inv
-    # map the local parameters to [c_j (the foot of the home point), n_j] and the home points
+    # map the local parameters to [c_j (the foot of the home point), n_j], the home points, offsets and rotation
     ph = homes.mean(axis=0)
     feet = []
-    M = np.zeros((6 * n + 3 * len(homes), npar))
+    n_out = 6 * n + 3 * H
+    M = np.zeros((n_out + (i_sc - i_off), npar))
     for j in range(n):
         B = np.column_stack(perpendicular_basis(ns[j]))
         h = float((ph - cs[j]) @ ns[j])
@@ -360,19 +526,22 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         if kinds[j] == "revolute":
             M[6 * j : 6 * j + 3, 4 * j + 2 : 4 * j + 4] = B
         M[6 * j + 3 : 6 * j + 6, 4 * j : 4 * j + 2] = B
-    M[6 * n :, 4 * n : n_h] = np.eye(3 * len(homes))
-    cov = M @ cov_x @ M.T
+    M[6 * n : n_out, 4 * n : i_off] = np.eye(3 * H)
+    M[n_out:, i_off:i_sc] = np.eye(i_sc - i_off)
+    cov_all = M @ cov_x @ M.T
     scale_sigma = np.full(n, math.nan)
-    scale_sigma[swept] = np.sqrt(np.clip(np.diag(cov_x)[n_h:], 0, None))
+    scale_sigma[swept] = np.sqrt(np.clip(np.diag(cov_x)[i_sc:], 0, None))
     # the scales' covariance with [c_j, n_j, ..., p] and among themselves (n columns, zero where not fitted)
     Ms = np.zeros((n, npar))
-    Ms[swept, n_h + np.arange(len(swept))] = 1.0
-    scale_cross, scale_cov = M @ cov_x @ Ms.T, Ms @ cov_x @ Ms.T
+    Ms[swept, i_sc + np.arange(len(swept))] = 1.0
+    scale_cross, scale_cov = (M @ cov_x @ Ms.T)[:n_out], Ms @ cov_x @ Ms.T
     sigma = math.sqrt(sigma2)
     reading_sigma = [math.sqrt(max(sigma2 / g**2 - sigma2, 0.0)) / max(float(np.mean(p[3])), 1e-300) for g, p in zip(gam, parts, strict=True)]
+    misfit = [np.sqrt(np.sum(p[5][:, : 3 * K] ** 2, axis=1) / K) for p in parts]
     return {
-        "points": np.array(feet), "directions": np.array(ns), "home": np.array([home_of(k) for k in range(S)]), "cov": cov,
-        "misfit": [np.linalg.norm(p[5], axis=1) for p in parts], "weights": ws, "whitened": [np.linalg.norm(p[4], axis=1) / sigma for p in parts],
+        "points": np.array(feet), "directions": np.array(ns), "home": np.array([home_of(k) for k in range(S)]), "cov": cov_all[:n_out, :n_out],
+        "cov_all": cov_all, "offsets": offs, "rotation": R0, "rotation_sigma": srot if rot else math.nan, "components": D, "n_homes": H,
+        "misfit": misfit, "weights": ws, "whitened": [np.linalg.norm(p[4], axis=1) / sigma for p in parts],
         "sigma": sigma, "reading_sigma": reading_sigma, "ss": ss / sigma2, "ss_m": ss, "n_params": npar, "gamma": gam,
         "scales": sc, "scale_sigma": scale_sigma, "scale_cross": scale_cross, "scale_cov": scale_cov,
     }

@@ -17,10 +17,37 @@ from .checks import prefix
 
 #: Outlier threshold, in robust sigmas (1.4826 * MAD) of a 1-D residual.
 OUTLIER_SIGMAS = 4.0
+
+
+class _Levels(dict):
+    """Levels of the norm of k Gaussian components, tabulated for k = 1..3 and computed by scipy for more (a pose
+    of several targets, or a 6-DoF pose, has 6-15 components)."""
+
+    def __init__(self, known: dict, f):
+        super().__init__(known)
+        self._f = f
+
+    def __missing__(self, k: int) -> float:
+        v = self[k] = float(self._f(k))
+        return v
+
+
+def _chi_median(k: int) -> float:
+    from scipy.stats import chi2  # noqa: PLC0415
+
+    return math.sqrt(chi2.ppf(0.5, k))
+
+
+def _chi_4sigma(k: int) -> float:
+    from scipy.stats import chi2, norm  # noqa: PLC0415
+
+    return math.sqrt(chi2.isf(2 * norm.sf(4), k))
+
+
 #: For a misfit of k Gaussian components (sigma each): median of its norm, sqrt(chi2.ppf(0.5, k)) (scipy.stats).
-CHI_MEDIAN = {1: 0.6744897501960812, 2: 1.1774100225154749, 3: 1.5381722544550522}
+CHI_MEDIAN = _Levels({1: 0.6744897501960812, 2: 1.1774100225154749, 3: 1.5381722544550522}, _chi_median)
 #: The norm exceeded with the probability of a 1-D 4-sigma deviation, sqrt(chi2.isf(2 * norm.sf(4), k)).
-CHI_4SIGMA = {1: 4.0, 2: 4.397034069908339, 3: 4.696948013014455}
+CHI_4SIGMA = _Levels({1: 4.0, 2: 4.397034069908339, 3: 4.696948013014455}, _chi_4sigma)
 
 
 def robust_sigma(misfit: np.ndarray, k: int) -> float:

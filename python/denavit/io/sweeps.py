@@ -62,18 +62,48 @@ class FileLines(Sequence):
         return f"FileLines({self.source!r}, {len(self)} lines)"
 
 
-def _long_header(rows: list, where: str) -> tuple[list[str], int, list[str]]:
-    """(column names, number of joints, the columns needed) of the long form's header row, checked."""
+#: The orientation columns of a 6-DoF pose per row (unit quaternion, scalar first).
+QUATERNION = ("qw", "qx", "qy", "qz")
+
+
+def _long_header(rows: list, where: str) -> tuple[list[str], int, list[str], int, bool]:
+    """(column names, number of joints, the columns needed, targets per row, whether rows carry a quaternion) of the
+    long form's header row, checked."""
     hline, header = rows[0]
     cols = dl.header(header, f"{where}:{hline}")
     n = len([c for c in cols if re.fullmatch(r"q\d+", c)])
-    need = ["joint", *[f"q{i}" for i in range(1, n + 1)], "x", "y", "z"]
+    k = 1 + len([c for c in cols if re.fullmatch(r"x\d+", c)])
+    quat = any(c in cols for c in QUATERNION)
+    need = ["joint", *[f"q{i}" for i in range(1, n + 1)], "x", "y", "z", *[f"{a}{t}" for t in range(2, k + 1) for a in "xyz"], *(QUATERNION if quat else ())]
     missing = [c for c in need if c not in cols]
     unknown = [c for c in cols if c not in need and c != "time"]
     if missing or unknown or n == 0:
         what = f"missing {', '.join(missing) or 'q columns'}" if missing or n == 0 else f"unknown column(s) {', '.join(unknown)}"
-        raise DenavitError(f"{where}:{hline}: header must be 'joint,q1,...,qn,x,y,z' (optional 'time'); {what}, got {','.join(header)!r}")
-    return cols, n, need
+        raise DenavitError(f"{where}:{hline}: header must be 'joint,q1,...,qn,x,y,z' (optional 'time'; further targets x2,y2,z2,...; a pose's "
+                           f"orientation qw,qx,qy,qz); {what}, got {','.join(header)!r}")
+    return cols, n, need, k, quat
+
+
+NEST_RE = re.compile(r"^\s*#\s*nest\s*:(.*)$", re.IGNORECASE)
+
+
+def parse_nest(lines, k: int, ls: float, where: str):
+    """The ``# nest: x1,y1,z1; x2,y2,z2; ...`` line (the targets' positions in the tool frame, in the file's length
+    unit) as (k, 3) m, or None when the file declares none."""
+    for ln, line in enumerate(lines, 1):
+        m = NEST_RE.match(line)
+        if not m:
+            continue
+        here = f"{where}:{ln}"
+        parts = [p for p in m.group(1).split(";") if p.strip()]
+        try:
+            pts = np.array([[float(v) for v in p.replace(",", " ").split()] for p in parts], dtype=float)
+        except ValueError:
+            raise DenavitError(f"{here}: nest: expected 'x1,y1,z1; x2,y2,z2; ...' (numbers, the file's length unit), got {m.group(1).strip()[:60]!r}") from None
+        if pts.shape != (k, 3) or not np.isfinite(pts).all():
+            raise DenavitError(f"{here}: nest: expected {k} points of 3 coordinates (one per target of the header), got {m.group(1).strip()[:60]!r}")
+        return pts * ls
+    return None
 
 
 def _fast_long(data: bytes, where: str):
@@ -121,7 +151,7 @@ def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: 
     rows, _ = dl.rows(lines, where)
     if not rows:
         raise DenavitError(f"{where}: no header and no data: expected a header 'joint,q1,...,qn,x,y,z'")
-    cols, n, need = _long_header(rows, where)
+    cols, n, need, k_t, quat = _long_header(rows, where)
     kinds = _kinds(kinds, n, where, "the header")
     qscale = joint_scale(kinds, units["length"], units["angle"], where)
     ls = length_scale(units["length"], where)
@@ -135,7 +165,7 @@ def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: 
             rows, _ = dl.rows(decode(data, where).splitlines(), where)
     del data
     if not fast:
-        table, line = _slow_long(rows[1:], cols, n, take, where)
+        table, line = _slow_long(rows[1:], cols, need, take, where)
         take = list(range(len(take)))
         starts = _blocks(table[:, 0])
     del fast
@@ -145,15 +175,31 @@ def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: 
         picks = {int(joint[a]): slice(a, b) for a, b in zip(starts, ends)}
     else:
         picks = {int(j): np.flatnonzero(joint == j) for j in np.unique(joint[starts])}
-    qcols, pcols = _columns(take[1 : n + 1]), _columns(take[n + 1 :])
+    qcols, pcols = _columns(take[1 : n + 1]), _columns(take[n + 1 : n + 1 + 3 * k_t])
     far = np.abs(table[:, pcols]) * ls > dl.MAX_LENGTH  # a 1e308 mm point had overflowed the fits
     if far.any():
         r, c = np.argwhere(far)[0]
-        dl.far(table[r, pcols][c] * ls, f"{where}:{line[r]}: column {'xyz'[c]!r}")
-    sweeps = {j: Sweep(j, table[k][:, pcols] * ls, table[k][:, qcols] * qscale, FileLines(where, line[k])) for j, k in picks.items()}
+        dl.far(table[r, pcols][c] * ls, f"{where}:{line[r]}: column {need[n + 1 + c]!r}")
+    rot = None
+    if quat:
+        from .recordings.columns import poses_of  # noqa: PLC0415 (scipy's rotations)
+
+        qc = take[n + 1 + 3 * k_t :]
+        bad = np.flatnonzero(np.abs(np.linalg.norm(table[:, qc], axis=1) - 1) > 1e-6)
+        if bad.size:
+            raise DenavitError(f"{where}:{line[bad[0]]}: quaternion norm {np.linalg.norm(table[bad[0], qc]):.6g}: expected a unit quaternion (qw, qx, qy, qz)")
+        rot = poses_of(np.zeros((len(table), 3)), table[:, qc], "quaternion", where)[:, :3, :3]
+
+    sweeps = {}
+    for j, k in picks.items():
+        pts = table[k][:, pcols] * ls
+        tg = pts.reshape(len(pts), k_t, 3) if k_t > 1 else None
+        sweeps[j] = Sweep(j, pts if k_t == 1 else np.ascontiguousarray(pts[:, :3]), table[k][:, qcols] * qscale, FileLines(where, line[k]), tg,
+                          None if rot is None else rot[k])
     del table
     out = [sweeps[j] for j in sorted(sweeps)]
-    every = SweepSet(out, n, np.zeros(n), kinds, where, units)  # one sweep of each joint (or a one-line error)
+    nest = parse_nest(lines, k_t, ls, where) if k_t > 1 else None
+    every = SweepSet(out, n, np.zeros(n), kinds, where, units, nest)  # one sweep of each joint (or a one-line error)
     if home is None:
         # the locked joints' readings: the median over the sweeps in which each joint does not move
         home = np.array([np.median(np.concatenate([s.q[:, i] for s in out if s.joint != i + 1])) if n > 1 else 0.0 for i in range(n)])
@@ -170,12 +216,12 @@ def _columns(idx: list[int]):
     return slice(idx[0], idx[-1] + 1) if idx == list(range(idx[0], idx[-1] + 1)) else idx
 
 
-def _slow_long(rows: list, cols: list[str], n: int, take: list[int], where: str) -> tuple[np.ndarray, np.ndarray]:
-    """The data rows cell by cell: (m, 1 + n + 3) [joint, q, xyz] in file units and the line numbers; the first
+def _slow_long(rows: list, cols: list[str], names: list[str], take: list[int], where: str) -> tuple[np.ndarray, np.ndarray]:
+    """The data rows cell by cell: (m, len(names)) [joint, q, xyz, ...] in file units and the line numbers; the first
     wrong cell is an error naming its line and column."""
     table = np.empty((len(rows), len(take)))
     line = np.empty(len(rows), dtype=np.int64)
-    names = ["joint", *[f"q{i}" for i in range(1, n + 1)], "x", "y", "z"]
+    n = len([c for c in names if re.fullmatch(r"q\d+", c)])
     for r, (ln, cells) in enumerate(rows):
         at = f"{where}:{ln}"
         if len(cells) != len(cols):
@@ -404,24 +450,34 @@ WRITE_CHUNK = 20_000
 
 
 def to_long_csv(sweeps: SweepSet, length: str = "mm", angle: str = "deg", header_comment: str = "") -> str:
-    """The long-form CSV text of a sweep set (units declared in a comment line).
+    """The long-form CSV text of a sweep set (units declared in a comment line; several targets per pose as
+    columns x2, y2, z2, ... and their nest as a ``# nest:`` line; 6-DoF poses as a unit quaternion qw, qx, qy, qz).
 
     Numbers are written with 17 significant digits (``%.17g``), so that reading the file back gives the same
     doubles (in the file's units); the rows are formatted a chunk at a time by one ``%`` of C-level formatting.
     """
     ls = length_scale(length)
     qscale = joint_scale(sweeps.kinds, length, angle)
+    k, rot = sweeps.n_targets, sweeps.has_rotations
     out = io.StringIO()
     for line in header_comment.splitlines():
         out.write(f"# {line}\n")
     out.write(f"# units: length={length} angle={angle}\n")
-    csv.writer(out, lineterminator="\n").writerow(["joint", *[f"q{i}" for i in range(1, sweeps.n_joints + 1)], "x", "y", "z"])
-    row = ",".join(["%d"] + ["%.17g"] * (sweeps.n_joints + 3)) + "\n"
+    if sweeps.nest is not None:
+        out.write("# nest: " + "; ".join(",".join(f"{v:.17g}" for v in p / ls) for p in sweeps.nest) + "\n")
+    extra = [f"{a}{t}" for t in range(2, k + 1) for a in "xyz"] + list(QUATERNION if rot else ())
+    csv.writer(out, lineterminator="\n").writerow(["joint", *[f"q{i}" for i in range(1, sweeps.n_joints + 1)], "x", "y", "z", *extra])
+    row = ",".join(["%d"] + ["%.17g"] * (sweeps.n_joints + 3 + len(extra))) + "\n"
+    if rot:
+        from ..geometry import _rotation  # noqa: PLC0415 (scipy's rotations)
     for s in sweeps.sweeps:
         if s.q is None:
             raise DenavitError("long-form CSV needs joint readings; this sweep set has none")
         for a in range(0, len(s.points), WRITE_CHUNK):
             q, p = s.q[a : a + WRITE_CHUNK], s.points[a : a + WRITE_CHUNK]
-            cells = np.column_stack([np.full(len(q), s.joint), q / qscale, p / ls])
+            if k > 1:
+                p = s.targets[a : a + WRITE_CHUNK].reshape(len(q), 3 * k)
+            quat = _rotation().from_matrix(s.rotations[a : a + WRITE_CHUNK]).as_quat()[:, [3, 0, 1, 2]] if rot else np.zeros((len(q), 0))
+            cells = np.column_stack([np.full(len(q), s.joint), q / qscale, p / ls, quat])
             out.write((row * len(cells)) % tuple(cells.ravel().tolist()))
     return out.getvalue()
