@@ -489,9 +489,9 @@ def test_files_round_trip_and_json(kr5, tmp_path):
     out = tmp_path / "r.json"
     cal.write_json(res, out)
     doc = json.loads(out.read_text())  # strict JSON: no NaN
-    assert doc["units"] == {"length": "mm", "angle": "deg"}
+    assert doc["units"] == {"length": "m", "angle": "rad"}  # SI, as every JSON (docs/cli.md)
     rows = {r["name"]: r for r in doc["parameters"]}
-    assert rows["a_1"]["value"] == pytest.approx(180, abs=0.1) and rows["c_5"]["sigma"] is None and rows["c_5"]["status"] == "redundant"
+    assert rows["a_1"]["unit"] == "m" and rows["a_1"]["value"] == pytest.approx(0.180, abs=1e-4) and rows["c_5"]["sigma"] is None and rows["c_5"]["status"] == "redundant"
     assert doc["identifiability"]["rank"] == 27 and doc["validation"]["n_test"] == 10
     assert {u["name"] for u in doc["identifiability"]["unidentifiable"]} >= {"c_5", "offset_6"}
 
@@ -583,7 +583,7 @@ def test_cli_calibrate_reads_prismatic_readings_in_the_length_unit(tmp_path):
                        capture_output=True, text=True, env=cli_env(160))
     assert p.returncode == 0, p.stderr
     doc = json.loads(out.read_text())
-    assert doc["validation"]["after_rms"] < 3 * NOISE * 1e3 * np.sqrt(3), doc["validation"]  # mm: the noise, not a unit error
+    assert doc["validation"]["after_rms_m"] < 3 * NOISE * np.sqrt(3), doc["validation"]  # m: the noise, not a unit error (it had compared m with mm)
 
 
 def test_bad_noise_and_a_fit_that_explains_nothing(kr5, tmp_path):
@@ -686,7 +686,7 @@ def test_cli_calibrate_refuses_a_jump_and_honours_a_coupling(tmp_path):
     assert bad.returncode == 2 and "by more than the robot's size" in bad.stderr + bad.stdout and "--coupling" in bad.stderr + bad.stdout
     good = run_cli("calibrate", f, "--nominal", "kr5", "--tool", "50,30,100", "--coupling", "q3=r3+r2", "--json", tmp_path / "c.json")
     assert good.returncode == 0
-    assert json.loads((tmp_path / "c.json").read_text())["residuals"]["rms"] < 0.05  # mm (0.02 mm noise)
+    assert json.loads((tmp_path / "c.json").read_text())["residuals"]["rms_m"] < 5e-5  # m (0.02 mm noise; it had compared m with 0.05 "mm")
 
 
 def test_cli_calibrate_writes_a_report(tmp_path):

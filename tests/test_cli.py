@@ -189,7 +189,7 @@ def test_calibrate_from_a_log_of_poses_with_pauses(tmp_path):
     assert "poses where the robot stood still" in p.stdout
     doc = json.loads(out.read_text())
     assert doc["n_poses"] == 39  # the last pose has no pause after it: 39 pauses of 25 rows
-    assert doc["residuals"]["rms"] < 5e-5, doc["residuals"]  # m (0.05 mm): the noise, not the motion
+    assert doc["residuals"]["rms_m"] < 5e-5, doc["residuals"]  # m (0.05 mm): the noise, not the motion
 
 
 def test_version():

@@ -78,18 +78,18 @@ def test_noisy_sweeps_give_bounded_parameters_and_sigmas(kr5):
 def test_json_output_has_units_rows_and_sigmas(kr5, tmp_path):
     res = dv.identify(simulate(kr5, 90, points_per_sweep=12, noise=2e-5), nominal=kr5)
     out = tmp_path / "r.json"
-    write_json(res, out, "mm", "deg")
+    write_json(res, out)
     doc = json.loads(out.read_text())
-    assert doc["units"] == {"length": "mm", "angle": "deg"}
+    assert doc["units"] == {"length": "m", "angle": "rad"}  # SI, the unit in each scalar key (docs/cli.md)
     assert [r["joint"] for r in doc["parameters"]] == kr5.names
     assert set(doc["parameters"][0]) >= {"d", "theta", "a", "alpha", "d_sigma", "a_sigma"}
-    assert doc["parameters"][0]["d"] == pytest.approx(400, abs=0.5)
+    assert doc["parameters"][0]["d"] == pytest.approx(0.400, abs=5e-4)  # Hayat Table III: d1 = 400 mm
     assert len(doc["joints"]) == 6 and "direction" in doc["joints"][0]["axis"]
-    assert len(doc["bounding_box"]["lengths"]) == 3
-    # every point's residual (mm), in the file's order: 0.02 mm per coordinate gives about 0.02 * sqrt(3) mm
-    per_point = np.array([j["residuals"]["per_point"] for j in doc["joints"]])
-    assert per_point.shape == (6, 12) and 0.01 < np.sqrt(np.mean(per_point**2)) < 0.06
-    assert doc["joints"][0]["residuals"]["rms"] == pytest.approx(np.sqrt(np.mean(per_point[0] ** 2)), rel=1e-9)
+    assert len(doc["bounding_box"]["lengths_m"]) == 3
+    # every point's residual (m), in the file's order: 0.02 mm per coordinate gives about 0.02 * sqrt(3) mm
+    per_point = np.array([j["residuals"]["per_point_m"] for j in doc["joints"]])
+    assert per_point.shape == (6, 12) and 1e-5 < np.sqrt(np.mean(per_point**2)) < 6e-5
+    assert doc["joints"][0]["residuals"]["rms_m"] == pytest.approx(np.sqrt(np.mean(per_point[0] ** 2)), rel=1e-9)
 
 
 def test_long_csv_round_trip_and_units(kr5, tmp_path):
@@ -172,20 +172,21 @@ def test_bounding_box_contains_all_points_and_beats_aligned_box(kr5):
 
 def test_json_of_a_prismatic_poe_row_keeps_its_direction_unitless():
     """Regression: to_json scaled a prismatic POE row's v (a unit direction) as a length (1000x in mm); home
-    values follow the per-joint-kind rule (revolute: angle unit, prismatic: length unit)."""
+    values follow the per-joint-kind rule (revolute: rad, prismatic: m), as does a joint's reading sigma key."""
     params = np.array([[0.3, 0.0, 0.1, np.pi / 2], [0.2, 0.3, 0.0, -np.pi / 2], [0.0, 0.2, 0.25, np.pi / 3], [0.1, 0.0, 0.0, 0.0]])
     truth = dv.Table("dh", params, kinds=["revolute", "prismatic", "revolute", "revolute"]).to_model("rprr", lower=[-3, -0.1, -3, -3], upper=[3, 0.4, 3, 3])
     home = np.array([0.2, 0.1, -0.3, 0.5])
     ranges = np.array([[-0.3, 0.6], [0.0, 0.3], [-0.8, 0.2], [0.0, 1.2]])
     res = dv.identify(sw.simulate(truth, home=home, ranges=ranges, points_per_sweep=12, tool_point=(0.03, 0.02, 0.05)), convention="poe")
-    doc = to_json(res, "mm", "deg", box=False)
+    doc = to_json(res, box=False)
     v = [doc["parameters"][1][c] for c in ("vx", "vy", "vz")]
     assert np.linalg.norm(v) == pytest.approx(1.0, abs=1e-9)
     np.testing.assert_allclose(v, res.table.params[1, 3:6], atol=1e-12)
     w = [doc["parameters"][0][c] for c in ("wx", "wy", "wz")]
     np.testing.assert_allclose(w, res.table.params[0, :3], atol=1e-12)  # w is unitless in every row
-    np.testing.assert_allclose([doc["parameters"][0][c] for c in ("vx", "vy", "vz")], res.table.params[0, 3:6] * 1e3, atol=1e-9)  # a revolute v is a length
-    np.testing.assert_allclose(doc["home"], [np.degrees(0.2), 100.0, np.degrees(-0.3), np.degrees(0.5)], atol=1e-9)
+    np.testing.assert_allclose([doc["parameters"][0][c] for c in ("vx", "vy", "vz")], res.table.params[0, 3:6], atol=1e-12)  # a revolute v is a length (m)
+    np.testing.assert_allclose(doc["home"], home, atol=1e-15)
+    assert [("reading_sigma_rad" in j, "reading_sigma_m" in j) for j in doc["joints"]] == [(True, False), (False, True), (True, False), (True, False)]
 
 
 @pytest.mark.parametrize("method", ["geometric", "readings", "global"])
@@ -662,7 +663,8 @@ def test_cli_keep_dwell_and_reading_sigmas(kr5, tmp_path):
     out = run("identify", f, "--nominal", "kr5", "--json", tmp_path / "a.json", columns=250).stdout
     assert "reading sigma [arcsec]" in out and "dwell rows" in out
     doc = json.loads((tmp_path / "a.json").read_text())
-    assert all(30 * 0.5 < j["reading_sigma_deg"] * 3600 < 200 * 1.5 for j in doc["joints"]), [j["reading_sigma_deg"] * 3600 for j in doc["joints"]]
+    arcsec = [np.degrees(j["reading_sigma_rad"]) * 3600 for j in doc["joints"]]
+    assert all(30 * 0.5 < s < 200 * 1.5 for s in arcsec), arcsec
     run("identify", f, "--nominal", "kr5", "--keep-dwell", "--json", tmp_path / "k.json")
     kept = json.loads((tmp_path / "k.json").read_text())
     assert [j["residuals"]["n_points"] for j in kept["joints"]] == [56] * 6 and [j["residuals"]["n_points"] for j in doc["joints"]] == [40] * 6

@@ -95,7 +95,7 @@ def calibrate(
     with status(f"calibrating {robot.name} ({convention}) from {meas.n} {'poses' if meas.kind == 'pose' else 'points'}..."):
         res = cal.calibrate(meas, robot, convention=convention, fix=fixes, loss=loss, start=start, holdout=holdout, scale=scale, tool=tp, noise=sigma, seed=seed)
     if json_path:
-        emit_json(cal.to_json(res, "m", "rad"), json_path)
+        emit_json(cal.to_json(res), json_path)
     if json_path != "-":
         print_calibration(res, length, angle, verbose)
     _refuse_jumps(res, robot, length, angle)
