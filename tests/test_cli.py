@@ -130,12 +130,19 @@ def test_errors_are_one_line_and_exit_2(args, match):
     assert "Traceback" not in p.stderr
 
 
-def test_help_does_not_import_scipy():
-    """`denavit --help` pays for typer and rich only: scipy (88 % of the old import time) loads when a command needs it."""
-    p = subprocess.run([sys.executable, "-X", "importtime", "-m", "denavit.cli", "--help"], capture_output=True, text=True, env=cli_env())
+@pytest.mark.parametrize("args", [["--help"], ["fk", "--help"], ["identify", "--help"], ["--version"]])
+def test_help_imports_neither_scipy_nor_numpy(args):
+    """`denavit --help` pays for typer and rich only (issue 18: <= 0.3 s CPU, benchmarks/bench_startup.py): scipy
+    (88 % of the old import time), numpy and the Python layers behind the commands (api, robot, identify,
+    calibration) load when a command runs, not for its help."""
+    p = subprocess.run([sys.executable, "-X", "importtime", "-m", "denavit.cli", *args], capture_output=True, text=True, env=cli_env())
     assert p.returncode == 0, p.stderr
     mods = [ln.split("|")[-1].strip() for ln in p.stderr.splitlines() if ln.startswith("import time:")]
-    assert "denavit.cli" in mods and not [m for m in mods if m == "scipy" or m.startswith("scipy.")]
+    heavy = [m for m in mods if m.split(".")[0] in ("scipy", "numpy", "matplotlib", "plotly", "yourdfpy")
+             or m in ("denavit.api", "denavit.robot", "denavit.identify", "denavit.calibration", "denavit.sweeps")]
+    assert "denavit.cli" in mods and heavy == []
+    p = subprocess.run([sys.executable, "-X", "importtime", "-c", "import denavit"], capture_output=True, text=True, env=cli_env())
+    assert "numpy" not in [ln.split("|")[-1].strip() for ln in p.stderr.splitlines() if ln.startswith("import time:")]  # `import denavit`: the core only
 
 
 def test_recordings_through_the_cli(tmp_path):

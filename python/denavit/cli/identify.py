@@ -6,7 +6,6 @@ import math
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from ..io.units import angle_scale, cell_scale, length_scale
@@ -170,6 +169,8 @@ def read_recording_sweeps(data: Path, data_format: str, *, columns, sweep, targe
     """A recording (tracker export, controller log, ROS bag, delimited file) as sweeps: read, aligned with a
     second clock's readings if given, segmented, one target picked; the format, alignment and segmentation
     are printed as found."""
+    import numpy as np  # noqa: PLC0415
+
     from ..io.recordings import read_recording  # noqa: PLC0415
     from ..recording import align, segment, to_sweepset  # noqa: PLC0415
 
@@ -195,6 +196,8 @@ def read_recording_sweeps(data: Path, data_format: str, *, columns, sweep, targe
 def print_identification(doc: dict, result, length: str, angle: str) -> None:
     """The identified table beside the nominal, the joint axes and the measuring volume, in ``length`` / ``angle``
     (``doc``: the result's SI document, :func:`denavit.identify.to_json`)."""
+    import numpy as np  # noqa: PLC0415
+
     nt = result.nominal_table
     ls, as_ = length_scale(length), angle_scale(angle)
     say("bold", f"Identified {doc['convention'].upper()} parameters", f" (method {doc['method']})")

@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from ..io.units import angle_scale, length_scale
@@ -31,6 +30,8 @@ def simulate(
     tip_link: TipLinkOpt = None,
 ) -> None:
     """Simulate joint sweeps of a model (for planning a measurement and for tests); writes the long-form CSV."""
+    import numpy as np  # noqa: PLC0415
+
     from .. import sweeps as sw  # noqa: PLC0415
     from ..io.output import write_text  # noqa: PLC0415
     from ..io.robotfile import parse_coupling  # noqa: PLC0415
