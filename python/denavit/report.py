@@ -262,7 +262,9 @@ def _scene_layout(length: str, points) -> dict:
     """The 3-D view's layout: axis ranges, aspect ratio and camera from the drawn points (display units,
     :func:`denavit.plotting.scene_view`), the legend on the right; the height comes from the page (CSS)."""
     v = scene_view(points)
-    ax = {"showbackground": True, "backgroundcolor": "#f4f6f8", "gridcolor": "#d0d4d8", "exponentformat": "none", "nticks": 6}
+    # no filled walls: plotly's gl3d draws a wall over the part of a text label that its glyphs' depth puts behind
+    # it (a wrist frame's "4,5,6" near the back wall showed as "4,5,"); the grid alone keeps the box readable
+    ax = {"showbackground": False, "gridcolor": "#c8ccd0", "exponentformat": "none", "nticks": 6}
     axes = {f"{c}axis": {"title": {"text": f"{c} [{length}]"}, "range": v["ranges"][k].tolist(), **ax} for k, c in enumerate("xyz")}
     return {
         "scene": {"aspectmode": "manual", "aspectratio": dict(zip("xyz", v["aspectratio"].tolist(), strict=True)), **axes,
@@ -756,7 +758,7 @@ def calibration_report_html(res, *, length: str = "mm", angle: str = "deg", titl
     traces.append(go.Scatter3d(x=p[:, 0], y=p[:, 1], z=p[:, 2], mode="markers", marker={"size": 2.5, "color": "#2ca02c", "symbol": "diamond"},
                                name="predicted by the calibrated model", legendgroup="predicted", visible="legendonly"))
     tri = 0.07 * size
-    tr, d = _robot_traces(go, f"calibrated {calibrated.name} ({res.convention})", calibrated.table, q0, ls, tri, group="frames-calibrated", names=calibrated.names)
+    tr, d = _robot_traces(go, f"calibrated {nominal.name} ({res.convention})", calibrated.table, q0, ls, tri, group="frames-calibrated", names=calibrated.names)
     traces += tr
     drawn.append(d)
     tr, _ = _robot_traces(go, f"nominal {nominal.name} ({nominal.convention})", nominal.table, q0, ls, tri, group="frames-nominal", visible="legendonly", dash="dash",
