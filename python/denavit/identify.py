@@ -382,7 +382,14 @@ def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: 
     each by the BIC). Returns (method, fits, cov, tool point, rms)."""
     dqs = _motions(sweeps, notes)
     starts = [(f.point, f.direction) for f in fits]
-    g = fit_sweeps(sweeps, dqs, starts, p_home, loss=loss, where=sweeps.source)
+    try:
+        g = fit_sweeps(sweeps, dqs, starts, p_home, loss=loss, where=sweeps.source)
+    except NotConvergedError as e:  # say why when the arcs are short (a 1 degree protocol had ended on "no convergence")
+        short = [(s.joint, f.arc) for s, f in zip(sweeps.sweeps, fits, strict=True) if sweeps.kinds[s.joint - 1] == "revolute" and f.arc < SHORT_ARC]
+        if not short:
+            raise
+        raise NotConvergedError(f"{e} (the arcs are too short: {len(short)} sweeps under {math.degrees(SHORT_ARC):g} deg, down to "
+                                f"{math.degrees(min(a for _, a in short)):.3g} deg on joint {min(short, key=lambda x: x[1])[0]}: sweep longer arcs)") from None
     method, cov, drift = "global", g["cov"], None
     if chosen == "auto":
         sq = [f"{math.degrees(v) * 3600:.3g}" for v in g["reading_sigma"]]
