@@ -1,7 +1,8 @@
 """Regenerate the KR5 example sweeps shipped in python/denavit/data (simulated, not measured).
 
 The paper's measurements (Hayat et al., RSI controller readings) are not public, so the example is a
-simulation of the paper's protocol on the KR5's specified DH table (Table III): home A1 90, A2 -90, A3 90,
+simulation of the paper's protocol on the built-in kr5 (Table III's magnitudes with KUKA's axis senses,
+which stand the arm on its base; models/kr5.toml says why): home A1 90, A2 -90, A3 90,
 A4 0, A5 90, A6 0 deg; ranges of Table II; 40 points per sweep; a tool point 50, 30, 100 mm off the flange;
 0.02 mm Gaussian noise per coordinate on the points (a laser tracker's level) and exact joint readings.
 """

@@ -151,14 +151,26 @@ def test_the_identify_module_function_takes_names_and_says_what_it_reads():
         identify(str(EXAMPLE))
 
 
-@pytest.mark.xfail(strict=True, reason="kr5.toml keeps Table III's twists as +90 deg and theta offsets 0 (the paper gives neither signs nor "
-                   "offsets): at the paper's home the arm hangs below the base; alpha1 = alpha5 = -90 deg and theta3 = -90 deg stand it "
-                   "upright (branch h-api-kr5-upright), which moves the golden tables of test_identify, test_cli and test_report and two "
-                   "statistical tests (test_compensation's branch bound, test_calibrate's Monte Carlo efficiency on sweeps): left to the lead")
 def test_kr5_stands_on_its_base_at_the_papers_home():
+    """Regression (issue 17): with Table III's twists as printed (+90 deg) the KR5 hung 200 mm below its base at
+    the paper's home. Standing, as a KR5 arc does at A2 -90, A3 90: the shoulder 400 mm above the base, the elbow
+    600 mm above the shoulder, the wrist centre 800 mm in front of the A1 axis at 1120 mm (the 120 mm offset
+    above the elbow; KUKA's dimensions), the flange facing down at A5 90 and along the forearm at A5 0."""
     kr5 = dv.load_robot("kr5")
-    z = np.array(dv.joint_frames(kr5.model(), kr5.home))[:, 2, 3]
-    assert z.min() >= 0 and dv.fk(kr5.model(), kr5.home)[2, 3] > 0.4
+    F = np.array(dv.joint_frames(kr5.model(), kr5.home))
+    o = F[:, :3, 3]
+    assert o[:, 2].min() >= 0
+    np.testing.assert_allclose(o[[1, 2, 4], 2], [0.4, 1.0, 1.12], atol=1e-12)  # shoulder, elbow, wrist centre heights
+    np.testing.assert_allclose(np.hypot(*o[[1, 2, 4], :2].T), [0.18, 0.18, 0.8], atol=1e-12)  # their distances from the A1 axis
+    T = dv.fk(kr5.model(), kr5.home)
+    np.testing.assert_allclose(T[:3, 2], [0, 0, -1], atol=1e-12)  # A5 90: the flange faces down
+    forward = o[4, :2] / np.linalg.norm(o[4, :2])
+    q = kr5.home.copy()
+    q[4] = 0
+    np.testing.assert_allclose(dv.fk(kr5.model(), q)[:3, 2], [*forward, 0], atol=1e-12)  # A5 0: along the forearm
+    q = kr5.home.copy()
+    q[1] += 1e-3  # KUKA's sense: a positive A2 tilts the upper arm forward
+    assert (np.array(dv.joint_frames(kr5.model(), q))[2, :2, 3] - o[2, :2]) @ forward > 0
 
 
 def _tilted_kr5(deg: float = 0.05):

@@ -408,6 +408,7 @@ def test_table_repr_prints_its_rows_with_units():
 
 def test_model_repr_is_short_with_key_numbers():
     m = dv.load_model("kr5")
-    assert repr(m) == "Model('kr5', 6 joints RRRRRR, tool at [900.0, 0.0, -220.0] mm at q = 0)"
+    # at q = 0 (KUKA's zero: upper arm horizontal, forearm in line) the wrist is 180 + 600 + 620 mm out, 400 + 120 mm up
+    assert repr(m) == "Model('kr5', 6 joints RRRRRR, tool at [1400.0, 0.0, 520.0] mm at q = 0)"
     heavy = m.with_inertias(np.full(6, 2.0), np.zeros((6, 3)), np.tile(np.eye(3) * 0.01, (6, 1, 1)))
     assert repr(heavy).endswith(", 12.0000 kg)")

@@ -225,7 +225,7 @@ def test_calibrate_reads_data_and_tool_in_the_units_asked(tmp_path):
     assert va.keys() == vb.keys()
     for k in va:
         assert va[k] == pytest.approx(vb[k], abs=1e-9), k
-    assert da["residuals"]["rms"] == pytest.approx(db["residuals"]["rms"], rel=1e-6) and da["residuals"]["rms"] < 5e-5
+    assert da["residuals"]["rms_m"] == pytest.approx(db["residuals"]["rms_m"], rel=1e-6) and da["residuals"]["rms_m"] < 5e-5
     mm, m = (run("calibrate", f, "--nominal", "kr5", "--tool", t, "--holdout", "0", *u).stdout
              for f, t, u in ((a, "50,30,100", ()), (b, "0.05,0.03,0.1", SI)))
     np.testing.assert_allclose(column(mm, "calibrated")[-3:], [v * 1e3 for v in column(m, "calibrated")[-3:]], atol=2e-3)  # tool_x..z

@@ -198,10 +198,10 @@ def test_cli_simulates_and_identifies_several_targets_and_poses(tmp_path):
     run("simulate", "kr5", "-o", f, "--targets", "50,30,100; -40,60,80; 30,-70,130", "--noise-q", "0.01", "--points", "20")
     out = run("identify", f, "--nominal", "kr5", "--json", tmp_path / "t.json", columns=250).stdout
     doc = json.loads((tmp_path / "t.json").read_text())
-    assert "Tool frame at home" in out and doc["tool_frame"]["orientation_from"] == "nest" and len(doc["targets_home"]) == 3
-    assert 0 < doc["tool_frame"]["sigma_deg"] < 0.01
+    assert "Tool frame at home" in out and doc["tool_frame"]["orientation_from"] == "nest" and len(doc["targets_home_m"]) == 3
+    assert 0 < np.degrees(doc["tool_frame"]["sigma_rad"]) < 0.01
     R = np.array(doc["tool_frame"]["R_world_tool"])
-    assert np.degrees(np.linalg.norm(matrix_rotvec(R @ flange_at_home(dv.load_model("kr5")).T))) < 5 * doc["tool_frame"]["sigma_deg"]
+    assert np.degrees(np.linalg.norm(matrix_rotvec(R @ flange_at_home(dv.load_model("kr5")).T))) < 5 * np.degrees(doc["tool_frame"]["sigma_rad"])
     run("identify", f, "--nominal", "kr5", "--target", "2", "--json", tmp_path / "t2.json")
     assert json.loads((tmp_path / "t2.json").read_text())["tool_frame"]["orientation_from"] == "nominal"
     run("simulate", "kr5", "-o", p, "--poses", "--points", "20")

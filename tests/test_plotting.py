@@ -288,14 +288,14 @@ def test_parameters_figure_has_no_round_off_ticks_nor_overlapping_names(result):
 @pytest.fixture(scope="module")
 def near_parallel_edh():
     """KR5 identified in ED-H from short sweeps, with the sigmas that an ED-H extraction without the nominal's x for
-    the near-parallel pair 2-3 gives (a, b, theta of joint 3 and theta of joint 2: hundreds of millimetres /
-    degrees, issue 17's +-870 mm error bars; with the nominal they are bounded, issue 12)."""
+    the near-parallel pair 2-3 gives (a of joint 3 and theta of joints 2 and 3: a metre / a hundred degrees, issue
+    17's +-870 mm error bars; with the nominal they are bounded, issue 12)."""
     from dataclasses import replace
 
     s = sw.simulate(dv.load_model("kr5"), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=12, noise=2e-5, seed=7)
     res = dv.identify(s, nominal=dv.load_robot("kr5"), convention="edh")
     free = dv.identify(s, convention="edh")  # no nominal: the pair's x along its ill-defined common normal
-    assert free.sigma[2, 1] > 0.5 and free.sigma[2, 2] > 0.5 and res.sigma[2, 1] < 1e-3  # m: the premise
+    assert free.sigma[2, 1] > 0.5 and free.sigma[1, 4] > 0.5 and free.sigma[2, 4] > 0.5 and res.sigma[2, 1] < 1e-3  # m, rad: the premise
     return replace(res, sigma=free.sigma)
 
 
@@ -307,7 +307,7 @@ def test_undetermined_parameters_are_not_charted(near_parallel_edh):
         limit = plotting.UNDETERMINED_ANGLE if res.table.angle_columns[k] else plotting.UNDETERMINED_LENGTH * extent
         expected = ["held" if s == 0 else "undetermined" if s > limit else "" for s in res.sigma[:, k]]
         assert rows[c].why == expected
-    assert rows["a"].why[2] == rows["b"].why[2] == "undetermined" and rows["alpha"].why[0] == "held"
+    assert rows["a"].why[2] == rows["theta"].why[1] == rows["theta"].why[2] == "undetermined" and rows["alpha"].why[0] == "held"
     fig = plotting.plot_parameters(res)
     for ax in by_gid(fig.axes, "param-.*"):
         (eb,) = ax.containers
@@ -318,8 +318,10 @@ def test_undetermined_parameters_are_not_charted(near_parallel_edh):
     from plotly.subplots import make_subplots
 
     chart, caption = rep._parameter_chart(go, make_subplots, res, "mm", "deg")
-    assert all(max(np.abs(tr.error_y.array)) < 1.0 for tr in chart.data)
-    assert "A3 a (undetermined)" in caption and "A3 b (undetermined)" in caption
+    # every bar drawn is of a determined parameter (below the chart's limit, in mm / deg): none of a metre or 100 deg
+    lim = [np.degrees(plotting.UNDETERMINED_ANGLE) if res.table.angle_columns[k] else plotting.UNDETERMINED_LENGTH * extent * 1e3 for k in range(len(res.table.columns))]
+    assert all(max(np.abs(tr.error_y.array)) < lim[int(tr.xaxis[1:] or 1) - 1] for tr in chart.data)
+    assert "A3 a (undetermined)" in caption and "A3 theta (undetermined)" in caption
     assert all(ax.exponentformat == "power" for ax in (chart.layout[k] for k in chart.layout if k.startswith("yaxis")))  # 2×10⁻⁴, never 200µ
 
 

@@ -45,8 +45,9 @@ from denavit import report as rep
 from denavit import sweeps as sw
 from denavit.errors import DenavitError
 
-# Hayat et al. Table III, "Specified" KR5 DH parameters (d = b and a in mm, theta and alpha in deg)
-SPECIFIED = {"d": [400, 0, 0, 620, 0, 0], "theta": [0] * 6, "a": [180, 600, 120, 0, 0, 0], "alpha": [90, 0, 90, 90, 90, 0]}
+# Hayat et al. Table III, "Specified" KR5 DH parameters (d = b and a in mm, theta and alpha in deg), with the twist
+# signs and A3 offset Table III does not state taken as kr5.toml takes them (KUKA's axis senses, A3 0 = arm in line)
+SPECIFIED = {"d": [400, 0, 0, 620, 0, 0], "theta": [0, 0, -90, 0, 0, 0], "a": [180, 600, 120, 0, 0, 0], "alpha": [-90, 0, -90, 90, -90, 0]}
 # Guo et al. Table I (MD-H) and Table II (ED-H), TianSui-One, lengths in mm, angles in deg
 GUO_MDH = {"alpha": [0, 90, 0, 0, -90, 90], "a": [0, 0, -406, -386, 0, 0], "theta": [0, -90, 0, 90, 0, 0], "d": [0, 148.5, 0, 2, 128, 0]}
 GUO_EDH = {"alpha": [0, 90, 0, 0, -90, 90], "a": [0, 0, -406, -386, 0, 0], "b": [0, 0, 0, 0, -128, 128], "c": [0, 148.5, 0, -126, 0, 0], "theta": [0, -90, 0, 90, 0, 0]}

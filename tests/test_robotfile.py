@@ -23,7 +23,8 @@ def test_builtins_cite_source_and_units(name):
 def test_kr5_values_in_si():
     r = dv.load_robot("kr5")
     assert r.table.params[0, 0] == pytest.approx(0.400)  # d1 = 400 mm (Hayat Table III)
-    assert r.table.params[0, 3] == pytest.approx(np.pi / 2)
+    assert abs(r.table.params[0, 3]) == pytest.approx(np.pi / 2)  # |alpha1| = 90 deg (Table III; the sign, -90, is KUKA's axis sense)
+    assert r.table.params[0, 3] == pytest.approx(-np.pi / 2) and r.table.params[2, 1] == pytest.approx(-np.pi / 2)  # kr5.toml's convention (theta3 too)
     np.testing.assert_allclose(np.degrees(r.home), [90, -90, 90, 0, 90, 0])
 
 

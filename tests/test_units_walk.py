@@ -225,7 +225,7 @@ def test_simulate_then_identify_with_a_prismatic_joint(rpr, tmp_path):
         k = 1e3 if length == "mm" else 1.0
         np.testing.assert_allclose(_display(doc["home"], length), [10, 100 * k / 1e3, 20], atol=1e-6)
         assert doc["units"] == {"length": "m", "angle": "rad"}  # JSON: SI whatever --length
-        np.testing.assert_allclose(doc["tool_point_home"], point, atol=1e-6)
+        np.testing.assert_allclose(doc["tool_point_home_m"], point, atol=1e-6)
         params = np.array([[r[c] for c in ("d", "theta", "a", "alpha")] for r in doc["parameters"]]) * [1, 180 / math.pi, 1, 180 / math.pi]  # m, deg
         first = params if first is None else first
         np.testing.assert_allclose(params, first, atol=1e-8)  # the same geometry whatever the units in and out
@@ -264,7 +264,7 @@ def test_calibrate_reads_prismatic_readings_in_the_length_unit_in_mm_and_m(rpr, 
         run("calibrate", f, "--nominal", rpr, "--tool", "30,20,50", "--json", out, "--holdout", "0", "--fix", "tool_*")
         doc = json.loads(out.read_text())
         assert doc["units"]["length"] == "m"  # JSON: SI
-        assert doc["residuals"]["rms"] < 1e-9, doc["residuals"]  # m (1e-6 mm): exact data, read in the right units
+        assert doc["residuals"]["rms_m"] < 1e-9, doc["residuals"]  # m (1e-6 mm): exact data, read in the right units
 
 
 def test_plan_reads_home_and_ranges_of_a_prismatic_joint_in_the_length_unit(rpr):

@@ -7,9 +7,15 @@ API by example: docs/python.md.
 The workflows are functions of the package, taking paths, built-in names or objects (:mod:`denavit.api`):
 :func:`identify` (circle-point identification), :func:`calibrate`, :func:`plan`, :func:`simulate`,
 :func:`compensate`. ``denavit.identify`` is the function; its module (results, JSON) is imported as
-``from denavit.identify import Identification, to_json`` (the module is loaded with the package, so a later
-``import denavit.identify`` never rebinds the package attribute).
+``from denavit.identify import Identification, to_json`` (loading that module never rebinds the package
+attribute). The workflows and :class:`Robot` load on first use, so ``import denavit`` loads the Rust core only.
 """
+
+from __future__ import annotations
+
+import sys
+import types
+from importlib import import_module
 
 from . import _core
 from ._core import (
@@ -46,17 +52,52 @@ from ._core import (
     rnea_batch,
     transfer_inertias,
 )
-from .api import calibrate, compensate, identify, plan, read_sweeps, simulate
 from .errors import DegenerateError, DenavitError, DenavitWarning, NotConvergedError
-from .robot import Robot, builtin_names
-from .robot import load as load_robot
 
 __version__ = _core.__version__
+
+# The workflows and the robot record load on first use (PEP 562), so that `denavit --help` and `import
+# denavit` do not pay for numpy and the Python layers behind them: name -> (module, attribute).
+_LAZY = {
+    **{f: (".api", f) for f in ("calibrate", "compensate", "identify", "plan", "read_sweeps", "simulate")},
+    "Robot": (".robot", "Robot"),
+    "builtin_names": (".robot", "builtin_names"),
+    "load_robot": (".robot", "load"),
+}
+
+
+def __getattr__(name: str):
+    if name not in _LAZY:
+        raise AttributeError(f"module 'denavit' has no attribute {name!r}")
+    module, attr = _LAZY[name]
+    value = getattr(import_module(module, __name__), attr)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_LAZY})
+
+
+class _Package(types.ModuleType):
+    """The package module: a submodule named like a workflow (``denavit.identify``, the results module) is
+    bound as the package attribute by the import system when it loads; here that binding is refused, so
+    ``denavit.identify`` stays the function whichever loads first."""
+
+    def __setattr__(self, name: str, value) -> None:
+        if name in _LAZY and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
 
 
 def load_model(name_or_path, *, base_link: str | None = None, tip_link: str | None = None) -> Model:
     """The model of a built-in robot name, a robot file (.toml) or a URDF (``base_link`` / ``tip_link`` pick
     a URDF's chain; by default its single leaf, REP-199's ``tool0``, or the leaf through the most moving joints)."""
+    from .robot import load as load_robot  # noqa: PLC0415
+
     return load_robot(name_or_path, base_link=base_link, tip_link=tip_link).model()
 
 

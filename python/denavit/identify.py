@@ -29,7 +29,6 @@ from .fitting.result import axis_sigmas, flipped
 from .fitting.robust import flag_outliers, rms_spread, robust_sigma
 from .geometry import matrix_rotvec, rotvec_matrix
 from .io.output import json_text, write_text
-from .io.units import cell_scale, joint_scale, length_scale
 from .robot import Robot
 from .sweeps import SweepSet
 
@@ -400,8 +399,15 @@ def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, not
     where a joint's scale was not fitted."""
     dqs = _motions(sweeps, notes)
     starts = [(f.point, f.direction) for f in fits]
-    extra = {"offsets0": homes0[1:] - homes0[0], "rotation0": R0, "rotation_sigma": rotation_noise}
-    g = fit_sweeps(sweeps, dqs, starts, homes0[0], loss=loss, where=sweeps.source, **extra)
+    try:
+        extra = {"offsets0": homes0[1:] - homes0[0], "rotation0": R0, "rotation_sigma": rotation_noise}
+        g = fit_sweeps(sweeps, dqs, starts, homes0[0], loss=loss, where=sweeps.source, **extra)
+    except NotConvergedError as e:  # say why when the arcs are short (a 1 degree protocol had ended on "no convergence")
+        short = [(s.joint, f.arc) for s, f in zip(sweeps.sweeps, fits, strict=True) if sweeps.kinds[s.joint - 1] == "revolute" and f.arc < SHORT_ARC]
+        if not short:
+            raise
+        raise NotConvergedError(f"{e} (the arcs are too short: {len(short)} sweeps under {math.degrees(SHORT_ARC):g} deg, down to "
+                                f"{math.degrees(min(a for _, a in short)):.3g} deg on joint {min(short, key=lambda x: x[1])[0]}: sweep longer arcs)") from None
     method, cov, drift, scales = "global", g["cov"], None, None
     if chosen == "auto":
         sq = [f"{math.degrees(v) * 3600:.3g}" for v in g["reading_sigma"]]
@@ -883,62 +889,67 @@ def identify(
                           tool_orientation=orientation, tool_rotation_cov=rot_cov, target_points=target_points)
 
 
-def to_json(result: Identification, length: str | None = None, angle: str = "deg", *, box: bool = True) -> dict:
-    """The JSON document of a result (units stated; lengths default to the input's unit).
+def _finite(v: float) -> float | None:
+    """``v`` as a float, or None where it is not finite (JSON has no NaN)."""
+    return float(v) if np.isfinite(v) else None
 
+
+def to_json(result: Identification, *, box: bool = True) -> dict:
+    """The JSON document of a result, in SI with the unit in every scalar key's name (docs/cli.md, "--json").
+
+    Lengths in m (``_m``), angles in rad (``_rad``); the parameter rows are keyed by the convention's columns
+    in SI; a joint's ``reading_sigma`` is ``_rad`` for a revolute joint and ``_m`` for a prismatic one.
     ``box``: include the measuring volume (``"bounding_box"``, :attr:`Identification.box`, computed now if it
     was not yet); ``box=False`` leaves it out and does not compute it.
     """
-    length = length or result.sweeps.units.get("length", "m")
-    ls = length_scale(length)
     t = result.table
     names = result.nominal.names if result.nominal else [f"j{i + 1}" for i in range(result.axes.nq)]
     rows = []
     for i, (row, sig) in enumerate(zip(t.params, result.sigma, strict=True)):
         r = {"joint": names[i]}
-        for k, (c, v, s) in enumerate(zip(t.columns, row, sig, strict=True)):
-            scale = cell_scale(t, i, k, length, angle)[0]
-            r[c] = v / scale
-            r[f"{c}_sigma"] = s / scale
+        for c, v, s in zip(t.columns, row, sig, strict=True):
+            r[c] = float(v)
+            r[f"{c}_sigma"] = float(s)
         rows.append(r)
     joints = []
-    for i, f in enumerate(result.fits):
+    for i, (f, kind) in enumerate(zip(result.fits, result.sweeps.kinds, strict=True)):
         joints.append({
             "joint": names[i],
-            "axis": {"point": (np.asarray(result.axes.points[i]) / ls).tolist(), "direction": np.asarray(result.axes.directions[i]).tolist(),
-                     "sigma_point_perp": f.sigma_point_perp / ls, "sigma_direction_deg": math.degrees(f.sigma_direction)},
-            "circle": {"centre": (f.point / ls).tolist(), "normal": f.direction.tolist(), "radius": (f.radius / ls) if np.isfinite(f.radius) else None},
-            "residuals": {"rms": f.rms / ls, "max": float(np.max(np.abs(f.residuals))) / ls, "n_points": int(f.n_points),
-                          "outliers": [int(k) for k in np.flatnonzero(f.outliers)], "per_point": (np.asarray(f.residuals) / ls).tolist()},
-            "arc_deg": math.degrees(f.arc),
-            "reading_sigma_deg": math.degrees(f.reading_sigma) if np.isfinite(f.reading_sigma) else None,
+            "kind": kind,
+            "axis": {"point_m": np.asarray(result.axes.points[i]).tolist(), "direction": np.asarray(result.axes.directions[i]).tolist(),
+                     "sigma_point_perp_m": f.sigma_point_perp, "sigma_direction_rad": f.sigma_direction},
+            "circle": {"centre_m": f.point.tolist(), "normal": f.direction.tolist(), "radius_m": _finite(f.radius)},
+            "residuals": {"rms_m": f.rms, "max_m": float(np.max(np.abs(f.residuals))), "n_points": int(f.n_points),
+                          "outliers": [int(k) for k in np.flatnonzero(f.outliers)], "per_point_m": np.asarray(f.residuals).tolist()},
+            "arc_rad": _finite(f.arc),
+            ("reading_sigma_rad" if kind == "revolute" else "reading_sigma_m"): _finite(f.reading_sigma),
             # the joint turns (1 + value) times its reading's motion (fitted by auto where the data shows it)
             "reading_scale": {"value": f.scale - 1, "sigma": f.scale_sigma} if np.isfinite(f.scale_sigma) else None,
         })
     return {
-        "units": {"length": length, "angle": angle},
+        "units": {"length": "m", "angle": "rad"},
         "frame": "measurement",
         "method": result.method,
         "convention": t.convention,
         "source": result.sweeps.source,
-        "home": (np.asarray(result.sweeps.home) / joint_scale(result.sweeps.kinds, length, angle)).tolist(),
+        "home": np.asarray(result.sweeps.home, dtype=float).tolist(),
         "joints": joints,
         "parameters": rows,
-        "pairs": [{"joint": p.joint, "relation": p.relation, "angle_deg": math.degrees(p.angle), "distance": p.distance / ls, "hayati_beta_deg": math.degrees(p.hayati_beta)} for p in result.extraction.pairs],
-        "tool_point_home": (result.tool_point / ls).tolist(),
+        "pairs": [{"joint": p.joint, "relation": p.relation, "angle_rad": p.angle, "distance_m": p.distance, "hayati_beta_rad": p.hayati_beta} for p in result.extraction.pairs],
+        "tool_point_home_m": np.asarray(result.tool_point).tolist(),
         "tool_frame": _tool_frame_json(result),
-        **({"targets_home": (result.target_points / ls).tolist()} if result.target_points is not None else {}),
-        "T_world_base": _pose_json(t.T_world_base, ls),
-        "T_last_tool": _pose_json(t.T_last_tool, ls),
-        "max_tool_position_error": result.extraction.max_position_error / ls,
-        **({"bounding_box": _box_json(result.box, ls)} if box else {}),
-        "rms": result.rms / ls,
+        **({"targets_home_m": np.asarray(result.target_points).tolist()} if result.target_points is not None else {}),
+        "T_world_base": np.asarray(t.T_world_base).tolist(),
+        "T_last_tool": np.asarray(t.T_last_tool).tolist(),
+        "max_tool_position_error_m": result.extraction.max_position_error,
+        **({"bounding_box": _box_json(result.box)} if box else {}),
+        "rms_m": result.rms,
         "notes": result.notes,
     }
 
 
 def _tool_frame_json(result: Identification) -> dict:
-    """The tool frame's orientation at home: where it came from, R_world_tool, its roll-pitch-yaw (deg) and its
+    """The tool frame's orientation at home: where it came from, R_world_tool, its roll-pitch-yaw (rad) and its
     covariance (a small rotation in world, rad^2; null when it is the nominal's)."""
     from .geometry import matrix_rpy  # noqa: PLC0415
 
@@ -947,25 +958,19 @@ def _tool_frame_json(result: Identification) -> dict:
     turn = None
     if result.nominal is not None:  # the angle from the nominal's flange orientation at home
         R_nom = _core.fk(result.nominal.model().with_tool(np.eye(4)), result.sweeps.home)[:3, :3]
-        turn = math.degrees(float(np.linalg.norm(matrix_rotvec(R @ R_nom.T))))
+        turn = float(np.linalg.norm(matrix_rotvec(R @ R_nom.T)))
     return {"orientation_from": result.tool_orientation, "how": TOOL_ORIENTATION[result.tool_orientation], "R_world_tool": R.tolist(),
-            "rpy_deg": np.degrees(matrix_rpy(R)).tolist(), "sigma_deg": math.degrees(result.tool_rotation_sigma) if c is not None else None,
-            "cov_rad2": c.tolist() if c is not None else None, "angle_from_nominal_flange_deg": turn}
+            "rpy_rad": np.asarray(matrix_rpy(R)).tolist(), "sigma_rad": result.tool_rotation_sigma if c is not None else None,
+            "cov_rad2": c.tolist() if c is not None else None, "angle_from_nominal_flange_rad": turn}
 
 
-def _box_json(b: BoundingBox, ls: float) -> dict:
-    return {"lengths": (b.lengths / ls).tolist(), "volume_m3": b.volume, "center": (b.center / ls).tolist(), "orientation": b.axes.tolist()}
+def _box_json(b: BoundingBox) -> dict:
+    return {"lengths_m": b.lengths.tolist(), "volume_m3": b.volume, "centre_m": b.center.tolist(), "orientation": b.axes.tolist()}
 
 
-def _pose_json(T: np.ndarray, ls: float) -> list:
-    M = np.array(T, dtype=float)
-    M[:3, 3] /= ls
-    return M.tolist()
-
-
-def write_json(result: Identification, path, length: str | None = None, angle: str = "deg", *, box: bool = True) -> None:
-    """Write the result as JSON (whole or not at all); ``box`` as in :func:`to_json`."""
-    write_text(path, json_text(to_json(result, length, angle, box=box)))
+def write_json(result: Identification, path, *, box: bool = True) -> None:
+    """Write the result as JSON in SI (whole or not at all); ``box`` as in :func:`to_json`."""
+    write_text(path, json_text(to_json(result, box=box)))
 
 
 __all__ = ["Identification", "METHODS", "identify", "to_json", "write_json", "DegenerateError"]

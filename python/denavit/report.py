@@ -262,7 +262,9 @@ def _scene_layout(length: str, points) -> dict:
     """The 3-D view's layout: axis ranges, aspect ratio and camera from the drawn points (display units,
     :func:`denavit.plotting.scene_view`), the legend on the right; the height comes from the page (CSS)."""
     v = scene_view(points)
-    ax = {"showbackground": True, "backgroundcolor": "#f4f6f8", "gridcolor": "#d0d4d8", "exponentformat": "none", "nticks": 6}
+    # no filled walls: plotly's gl3d draws a wall over the part of a text label that its glyphs' depth puts behind
+    # it (a wrist frame's "4,5,6" near the back wall showed as "4,5,"); the grid alone keeps the box readable
+    ax = {"showbackground": False, "gridcolor": "#c8ccd0", "exponentformat": "none", "nticks": 6}
     axes = {f"{c}axis": {"title": {"text": f"{c} [{length}]"}, "range": v["ranges"][k].tolist(), **ax} for k, c in enumerate("xyz")}
     return {
         "scene": {"aspectmode": "manual", "aspectratio": dict(zip("xyz", v["aspectratio"].tolist(), strict=True)), **axes,
@@ -541,7 +543,8 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
 
     go, make_subplots = _plotly()
     ls = length_scale(length)
-    doc = to_json(result, length, angle)
+    doc = to_json(result)  # SI: scaled to length / angle below
+    as_ = angle_scale(angle)
     names = joint_names(result)
     t, nt = result.table, result.nominal_table
     view = _figure_html(_identification_view(go, result, ls, length), VIEW_ID, "plot3d")
@@ -555,12 +558,13 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
         for k, c in enumerate(t.columns):
             sc, unit = cell_scale(t, i, k, length, angle)
             nom = float(nt.params[i, k] / sc) if nt is not None else None
-            diff = None if nom is None else prow[c] - nom
+            value = prow[c] / sc
+            diff = None if nom is None else value - nom
             if diff is not None and t.angle_columns[k]:
                 half = math.pi / sc
                 diff = (diff + half) % (2 * half) - half
             rows.append(f'<tr data-joint="{html.escape(names[i])}" data-param="{c}">{_td("joint", names[i])}{_td("param", c)}{_td("unit", unit)}'
-                        f'{_td("nominal", nom)}{_td("identified", prow[c])}{_td("sigma", prow[c + "_sigma"])}{_td("difference", diff)}</tr>')
+                        f'{_td("nominal", nom)}{_td("identified", value)}{_td("sigma", prow[c + "_sigma"] / sc)}{_td("difference", diff)}</tr>')
     params = _table("parameters", ["joint", "parameter", "unit", "nominal", "identified", "sigma (1σ)", "identified − nominal"], rows,
                     f"Identified {t.convention.upper()} parameters (docs/conventions.md); sigma propagated from the fits' covariance; nominal: "
                     + (f"{result.nominal.name}" if result.nominal else "none given") + ".", "parameters")
@@ -568,16 +572,17 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
     for j in doc["joints"]:
         c, a = j["circle"], j["axis"]
         arows.append(f'<tr data-joint="{html.escape(j["joint"])}">{_td("joint", j["joint"])}'
-                     + "".join(_td(f"point-{x}", v) for x, v in zip("xyz", a["point"], strict=True)) + "".join(_td(f"direction-{x}", v, 6) for x, v in zip("xyz", a["direction"], strict=True))
-                     + f'{_td("radius", c["radius"])}{_td("arc", j["arc_deg"], 1)}{_td("rms", j["residuals"]["rms"])}{_td("max-residual", j["residuals"]["max"])}'
-                     f'{_td("sigma-across", a["sigma_point_perp"])}{_td("sigma-direction", a["sigma_direction_deg"], 5)}{_td("n-points", j["residuals"]["n_points"], 0)}'
+                     + "".join(_td(f"point-{x}", v / ls) for x, v in zip("xyz", a["point_m"], strict=True)) + "".join(_td(f"direction-{x}", v, 6) for x, v in zip("xyz", a["direction"], strict=True))
+                     + f'{_td("radius", None if c["radius_m"] is None else c["radius_m"] / ls)}{_td("arc", None if j["arc_rad"] is None else j["arc_rad"] / as_, 1)}'
+                     f'{_td("rms", j["residuals"]["rms_m"] / ls)}{_td("max-residual", j["residuals"]["max_m"] / ls)}'
+                     f'{_td("sigma-across", a["sigma_point_perp_m"] / ls)}{_td("sigma-direction", a["sigma_direction_rad"] / as_, 5)}{_td("n-points", j["residuals"]["n_points"], 0)}'
                      f'{_td("outliers", len(j["residuals"]["outliers"]), 0)}</tr>')
     axes_t = _table("axes", ["joint", f"point x [{length}]", f"point y [{length}]", f"point z [{length}]", "dir x [1]", "dir y [1]", "dir z [1]", f"radius [{length}]",
-                             "arc [deg]", f"rms [{length}]", f"max |residual| [{length}]", f"sigma across [{length}]", "sigma direction [deg]", "points", "outliers"], arows,
+                             f"arc [{angle}]", f"rms [{length}]", f"max |residual| [{length}]", f"sigma across [{length}]", f"sigma direction [{angle}]", "points", "outliers"], arows,
                     f"Joint axes in the measurement frame: circle centre ({length}) and unit normal (Hayat et al. eq. 1-9), fit quality, one-sigma uncertainty.", "axes")
     b = doc["bounding_box"]
-    brows = [f'<tr>{_td("l1", b["lengths"][0])}{_td("l2", b["lengths"][1])}{_td("l3", b["lengths"][2])}{_td("volume", b["volume_m3"])}'
-             f'{_td("center", ", ".join(f"{v:.3f}" for v in b["center"]))}</tr>']
+    brows = [f'<tr>{_td("l1", b["lengths_m"][0] / ls)}{_td("l2", b["lengths_m"][1] / ls)}{_td("l3", b["lengths_m"][2] / ls)}{_td("volume", b["volume_m3"])}'
+             f'{_td("center", ", ".join(f"{v / ls:.3f}" for v in b["centre_m"]))}</tr>']
     box_t = _table("bounding-box", [f"l1 [{length}]", f"l2 [{length}]", f"l3 [{length}]", "volume [m³]", f"centre [{length}]"], brows,
                    "Minimum-volume oriented bounding box of all measured points (Hayat et al. Table IV).", "bounding-box")
     orows = [f"<tr>{''.join(_td(f'col-{k + 1}', v) for k, v in enumerate(row))}</tr>" for row in b["orientation"]]
@@ -590,11 +595,12 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
         ("measured", f"{npts} points in {len(result.sweeps.sweeps)} single-joint sweeps from {doc['source']}"),
         ("model", f"{t.convention.upper()} table of {len(names)} joints, {result.method} fit; nominal: " + (result.nominal.name if result.nominal else "none")),
         *[("fit chosen", n[len("auto: "):]) for n in doc["notes"] if n.startswith("auto: ")],
-        ("fit", f"residual rms {doc['rms']:.4f} {length}; worst axis sigma across {max(j['axis']['sigma_point_perp'] for j in doc['joints']):.3g} {length}"),
+        ("fit", f"residual rms {doc['rms_m'] / ls:.4g} {length}; worst axis sigma across {max(j['axis']['sigma_point_perp_m'] for j in doc['joints']) / ls:.3g} {length}"),
         *([("accuracy", f"tool position error rms {acc['nominal']:.3g} {length} with the nominal model -> {acc['identified']:.3g} {length} predicted with the "
             "identified one (1σ)")] if acc else []),
-        ("tool error the table carries", f"{doc['max_tool_position_error']:.3g} {length}"),
-        ("home", ", ".join(f"{v:.4g}" for v in doc["home"]) + f" ({angle} / {length}); tool point at home " + ", ".join(f"{v:.3f}" for v in doc["tool_point_home"])
+        ("tool error the table carries", f"{doc['max_tool_position_error_m'] / ls:.3g} {length}"),
+        ("home", ", ".join(f"{v:.4g}" for v in np.asarray(doc["home"]) / joint_scale(result.sweeps.kinds, length, angle)) + f" ({angle} / {length}); tool point at home "
+         + ", ".join(f"{v / ls:.3f}" for v in doc["tool_point_home_m"])
          + f" {length}"),
     ])
     title = title or f"denavit identification: {result.sweeps.source or 'sweeps'}"
@@ -752,7 +758,7 @@ def calibration_report_html(res, *, length: str = "mm", angle: str = "deg", titl
     traces.append(go.Scatter3d(x=p[:, 0], y=p[:, 1], z=p[:, 2], mode="markers", marker={"size": 2.5, "color": "#2ca02c", "symbol": "diamond"},
                                name="predicted by the calibrated model", legendgroup="predicted", visible="legendonly"))
     tri = 0.07 * size
-    tr, d = _robot_traces(go, f"calibrated {calibrated.name} ({res.convention})", calibrated.table, q0, ls, tri, group="frames-calibrated", names=calibrated.names)
+    tr, d = _robot_traces(go, f"calibrated {nominal.name} ({res.convention})", calibrated.table, q0, ls, tri, group="frames-calibrated", names=calibrated.names)
     traces += tr
     drawn.append(d)
     tr, _ = _robot_traces(go, f"nominal {nominal.name} ({nominal.convention})", nominal.table, q0, ls, tri, group="frames-nominal", visible="legendonly", dash="dash",

@@ -13,7 +13,6 @@ from .. import _core
 from ..errors import DenavitError
 from ..fitting.robust import loss_weight
 from ..io.output import json_text, write_text
-from ..io.units import angle_scale, joint_scale, length_scale
 from ..robot import Robot
 from ..sweeps import SweepSet
 from .identifiability import Identifiability, analyze
@@ -383,24 +382,19 @@ def _circle_start(pz: Parametrization, x, meas: Measurements, robot: Robot, conv
     return xs
 
 
-def _unit_scale(unit: str, ls: float, as_: float) -> float:
-    return ls if unit == "length" else as_ if unit == "angle" else 1.0
-
-
-def to_json(cal: Calibration, length: str = "mm", angle: str = "deg") -> dict:
-    """The JSON document of a calibration (units stated)."""
-    ls, as_ = length_scale(length), angle_scale(angle)
+def to_json(cal: Calibration) -> dict:
+    """The JSON document of a calibration, in SI with the unit in every scalar key's name (docs/cli.md,
+    "--json"); a parameter row's ``unit`` (m, rad or 1) is that of its ``nominal``, ``value`` and ``sigma``."""
     pz = cal.parametrization
     rows = []
     for c, nm in enumerate(cal.names):
-        s = _unit_scale(pz.units[c], ls, as_)
-        rows.append({"name": nm, "unit": {"length": length, "angle": angle, "ratio": "1"}[pz.units[c]], "nominal": cal.nominal[c] / s, "value": cal.values[c] / s,
-                     "sigma": None if not np.isfinite(cal.sigma[c]) else cal.sigma[c] / s, "status": cal.status[c]})
+        rows.append({"name": nm, "unit": {"length": "m", "angle": "rad", "ratio": "1"}[pz.units[c]], "nominal": float(cal.nominal[c]), "value": float(cal.values[c]),
+                     "sigma": None if not np.isfinite(cal.sigma[c]) else float(cal.sigma[c]), "status": cal.status[c]})
     ana = cal.identifiability
     m = cal.model()
     v = cal.validation
     return {
-        "units": {"length": length, "angle": angle},
+        "units": {"length": "m", "angle": "rad"},
         "frame": "measurement",
         "source": cal.measurements.source,
         "nominal": pz.robot.name,
@@ -416,14 +410,14 @@ def to_json(cal: Calibration, length: str = "mm", angle: str = "deg") -> dict:
         },
         "covariance": {"names": cal.free_names, "matrix_si": _finite_or_none(cal.covariance)},
         "correlation": _finite_or_none(cal.correlation),
-        "residuals": {"rms": cal.rms / ls, "max": float(np.max(np.linalg.norm(cal.residuals[:, :3], axis=1))) / ls if cal.residuals.size else 0.0,
-                      "rms_rotation": None if math.isnan(cal.rms_rotation) else cal.rms_rotation / as_, "noise_estimate": cal.noise / ls,
+        "residuals": {"rms_m": cal.rms, "max_m": float(np.max(np.linalg.norm(cal.residuals[:, :3], axis=1))) if cal.residuals.size else 0.0,
+                      "rms_rotation_rad": None if math.isnan(cal.rms_rotation) else cal.rms_rotation, "noise_estimate_m": cal.noise,
                       "outliers": [cal.measurements.where[i] for i in cal.outliers]},
-        "validation": None if v is None else {"n_train": v.n_train, "n_test": v.n_test, "before_rms": v.before_rms / ls, "before_max": v.before_max / ls,
-                                             "after_rms": v.after_rms / ls, "after_max": v.after_max / ls},
-        "model": {"T_world_base": _pose_json(np.asarray(m.T_world_base), ls), "T_last_flange": _pose_json(np.asarray(m.T_last_flange), ls),
-                  "T_flange_tool": _pose_json(np.asarray(m.T_flange_tool), ls),
-                  "placements": [_pose_json(P, ls) for P in np.asarray(m.placements)], "offsets": (np.asarray(m.offsets) / joint_scale(m.kinds, length, angle)).tolist()},
+        "validation": None if v is None else {"n_train": v.n_train, "n_test": v.n_test, "before_rms_m": v.before_rms, "before_max_m": v.before_max,
+                                             "after_rms_m": v.after_rms, "after_max_m": v.after_max},
+        "model": {"T_world_base": np.asarray(m.T_world_base).tolist(), "T_last_flange": np.asarray(m.T_last_flange).tolist(),
+                  "T_flange_tool": np.asarray(m.T_flange_tool).tolist(),
+                  "placements": np.asarray(m.placements).tolist(), "offsets": np.asarray(m.offsets, dtype=float).tolist()},
         "converged": cal.converged,
         "evaluations": cal.evaluations,
         "elapsed_s": cal.elapsed,
@@ -436,12 +430,6 @@ def _finite_or_none(a: np.ndarray) -> list:
     return [[float(v) if math.isfinite(v) else None for v in row] for row in np.asarray(a, dtype=float)]
 
 
-def _pose_json(T: np.ndarray, ls: float) -> list:
-    M = np.array(T, dtype=float)
-    M[:3, 3] /= ls
-    return M.tolist()
-
-
-def write_json(cal: Calibration, path, length: str = "mm", angle: str = "deg") -> None:
-    """Write the calibration as JSON (whole or not at all)."""
-    write_text(path, json_text(to_json(cal, length, angle)))
+def write_json(cal: Calibration, path) -> None:
+    """Write the calibration as JSON in SI (whole or not at all)."""
+    write_text(path, json_text(to_json(cal)))

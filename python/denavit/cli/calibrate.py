@@ -7,7 +7,6 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from ..errors import DenavitError
@@ -62,6 +61,8 @@ def calibrate(
     tip_link: TipLinkOpt = None,
 ) -> None:
     """Calibrate the whole model from measured points or poses at known joint readings (one least-squares fit)."""
+    import numpy as np  # noqa: PLC0415
+
     from .. import calibration as cal  # noqa: PLC0415
     from ..io.measurements import read_measurements  # noqa: PLC0415
 
@@ -95,7 +96,7 @@ def calibrate(
     with status(f"calibrating {robot.name} ({convention}) from {meas.n} {'poses' if meas.kind == 'pose' else 'points'}..."):
         res = cal.calibrate(meas, robot, convention=convention, fix=fixes, loss=loss, start=start, holdout=holdout, scale=scale, tool=tp, noise=sigma, seed=seed)
     if json_path:
-        emit_json(cal.to_json(res, "m", "rad"), json_path)
+        emit_json(cal.to_json(res), json_path)
     if json_path != "-":
         print_calibration(res, length, angle, verbose)
     _refuse_jumps(res, robot, length, angle)
@@ -126,6 +127,8 @@ def _refuse_jumps(res, robot, length: str, angle: str) -> None:
     """A calibration whose length parameters move from the nominal's by more than the robot's size is not a
     calibration of this robot (readings coupled but not declared, the wrong unit, another robot): refused; by more
     than ``FLAG_SIZE`` of it, a note."""
+    import numpy as np  # noqa: PLC0415
+
     from .. import _core  # noqa: PLC0415
 
     m = robot.model()

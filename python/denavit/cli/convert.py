@@ -6,13 +6,10 @@ import dataclasses
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
-from .. import _core
 from ..errors import DenavitError
 from ..io.units import angle_scale, length_scale
-from ..robot import Robot, inertials_for_table
 from .common import (
     SI_UNITS,
     AngleOpt,
@@ -56,6 +53,11 @@ def convert(
     of a URDF input carried through), the others print the table with units and the consecutive-axes
     diagnostics, or write a robot file with ``-o``.
     """
+    import numpy as np  # noqa: PLC0415
+
+    from .. import _core  # noqa: PLC0415
+    from ..robot import Robot, inertials_for_table  # noqa: PLC0415
+
     json_out = json_target(json_out)
     to = to.lower()
     robot = load_robot(model, base_link, tip_link, chain_only=chain_only)

@@ -7,7 +7,6 @@ from typing import Annotated
 
 import typer
 
-from .. import _core
 from .common import (
     SI_UNITS,
     AngleOpt,
@@ -50,6 +49,8 @@ def dynamics(
     Uses the link inertias of the robot file (\\[joints.inertia]); without them every link is massless and a
     warning says so. Also prints the gravity part of the torques.
     """
+    from .. import _core  # noqa: PLC0415
+
     json_out = json_target(json_out)
     robot = load_robot(model, base_link, tip_link, chain_only=chain_only)
     m = robot.model()

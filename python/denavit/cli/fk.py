@@ -6,7 +6,6 @@ from typing import Annotated
 
 import typer
 
-from .. import _core
 from ..io.units import length_scale
 from .common import SI_UNITS, AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, ModelArg, TipLinkOpt, app, emit_json, json_target, load_robot, num, parse_joint_values, pose_rows, print_rows, say
 
@@ -22,6 +21,8 @@ def fk(
     tip_link: TipLinkOpt = None,
 ) -> None:
     """Forward kinematics: the tool pose and every joint frame (T_world_joint)."""
+    from .. import _core  # noqa: PLC0415
+
     json_out = json_target(json_out)
     robot = load_robot(model, base_link, tip_link)
     m = robot.model()

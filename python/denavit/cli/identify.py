@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from ..io.units import angle_scale, cell_scale, length_scale
@@ -120,9 +120,9 @@ def identify(
         result = identify_sweeps(sweeps, method=method, convention=convention, nominal=nom, loss=loss, max_sigma=ms, T_world_base=T_world_base,
                                  keep_dwell=keep_dwell, coupling=C, rotation_noise=rn, progress=st.update)
     if json_path:
-        emit_json(to_json(result, "m", "rad"), json_path)
+        emit_json(to_json(result), json_path)
     if json_path != "-":
-        print_identification(to_json(result, out_len, out_ang), result, out_len, out_ang)
+        print_identification(to_json(result), result, out_len, out_ang)
         if nom is not None:
             from ..compensation import identification_accuracy  # noqa: PLC0415
 
@@ -176,6 +176,8 @@ def read_recording_sweeps(data: Path, data_format: str, *, columns, sweep, targe
     """A recording (tracker export, controller log, ROS bag, delimited file) as sweeps: read, aligned with a
     second clock's readings if given, segmented, one target picked; the format, alignment and segmentation
     are printed as found."""
+    import numpy as np  # noqa: PLC0415
+
     from ..io.recordings import read_recording  # noqa: PLC0415
     from ..recording import align, segment, to_sweepset  # noqa: PLC0415
 
@@ -199,10 +201,12 @@ def read_recording_sweeps(data: Path, data_format: str, *, columns, sweep, targe
 
 
 def print_identification(doc: dict, result, length: str, angle: str) -> None:
-    """The identified table beside the nominal, the joint axes and the measuring volume, in ``length`` / ``angle``."""
+    """The identified table beside the nominal, the joint axes and the measuring volume, in ``length`` / ``angle``
+    (``doc``: the result's SI document, :func:`denavit.identify.to_json`)."""
+    import numpy as np  # noqa: PLC0415
+
     nt = result.nominal_table
-    as_ = angle_scale(angle)
-    deg = np.pi / 180 / as_  # ``angle`` per degree (the document's ``_deg`` keys)
+    ls, as_ = length_scale(length), angle_scale(angle)
     say("bold", f"Identified {doc['convention'].upper()} parameters", f" (method {doc['method']})")
     console.print(f"  data: {doc['source']}", soft_wrap=True)
     cols = result.table.columns
@@ -210,11 +214,12 @@ def print_identification(doc: dict, result, length: str, angle: str) -> None:
     for i, row in enumerate(doc["parameters"]):
         for k, c in enumerate(cols):
             scale, unit = cell_scale(result.table, i, k, length, angle)
+            value = row[c] / scale
             nom = nt.params[i, k] / cell_scale(nt, i, k, length, angle)[0] if nt is not None else None
-            diff = row[c] - nom if nom is not None else None
+            diff = value - nom if nom is not None else None
             if diff is not None and result.table.angle_columns[k]:
                 diff = (diff + np.pi / as_) % (2 * np.pi / as_) - np.pi / as_
-            rows.append([row["joint"], c, unit, num(nom, unit) if nom is not None else "-", num(row[c], unit), spread(row[c + "_sigma"]),
+            rows.append([row["joint"], c, unit, num(nom, unit) if nom is not None else "-", num(value, unit), spread(row[c + "_sigma"] / scale),
                          num(diff, unit) if diff is not None else "-"])
     print_rows(None, ["joint", "param", "unit", "nominal", "identified", "sigma", "difference"], rows, labels=2, left=(2,), group=True,
                caption="sigma = one standard deviation propagated from the fits; difference = identified - nominal")
@@ -222,26 +227,26 @@ def print_identification(doc: dict, result, length: str, angle: str) -> None:
     heads = ["joint", f"radius [{length}]", f"arc [{angle}]", f"rms [{length}]", f"sigma across [{length}]", f"sigma dir [{angle}]", "outliers", "reading sigma [arcsec]",
              *(["reading scale [ppm]"] if scaled else [])]
     arows = []
-    for j, kind in zip(doc["joints"], result.sweeps.kinds, strict=True):
-        r = j["circle"]["radius"]
-        rs, sc = j["reading_sigma_deg"], j["reading_scale"]
-        arows.append([j["joint"], num(r, length) if r is not None else "-", f"{j['arc_deg'] * deg:.4g}", spread(j["residuals"]["rms"]), spread(j["axis"]["sigma_point_perp"]),
-                      spread(j["axis"]["sigma_direction_deg"] * deg), str(len(j["residuals"]["outliers"])),
-                      f"{rs * 3600:.3g}" if rs is not None and kind == "revolute" else "-",
+    for j in doc["joints"]:
+        r, arc = j["circle"]["radius_m"], j["arc_rad"]
+        rs, sc = j.get("reading_sigma_rad"), j["reading_scale"]
+        arows.append([j["joint"], num(r / ls, length) if r is not None else "-", f"{arc / as_:.4g}" if arc is not None else "-", spread(j["residuals"]["rms_m"] / ls),
+                      spread(j["axis"]["sigma_point_perp_m"] / ls), spread(j["axis"]["sigma_direction_rad"] / as_), str(len(j["residuals"]["outliers"])),
+                      f"{math.degrees(rs) * 3600:.3g}" if rs is not None else "-",
                       *([f"{sc['value'] * 1e6:+.4g} +/- {sc['sigma'] * 1e6:.2g}" if sc else "-"] if scaled else [])])
     print_rows("Joint axes (measurement frame)", heads, arows)
     b = doc["bounding_box"]
-    console.print(f"Measuring volume (minimum oriented bounding box, Hayat Table IV): {' x '.join(num(v, length) for v in b['lengths'])} {length}, {b['volume_m3']:.4g} m^3; "
+    console.print(f"Measuring volume (minimum oriented bounding box, Hayat Table IV): {' x '.join(num(v / ls, length) for v in b['lengths_m'])} {length}, {b['volume_m3']:.4g} m^3; "
                   "orientation (columns = box axes):")
     for row in b["orientation"]:
         console.print("  " + "  ".join(f"{v:7.3f}" for v in row))
     tf = doc["tool_frame"]
     if tf["orientation_from"] != "nominal":
-        rpy = ", ".join(f"{v * deg:.6g}" for v in tf["rpy_deg"])
+        rpy = ", ".join(f"{v / as_:.6g}" for v in tf["rpy_rad"])
         say("bold", "Tool frame", f" at home (measurement frame): orientation from {tf['orientation_from']} ({tf['how']}): roll, pitch, yaw {rpy} {angle} "
-            f"(R = Rz Ry Rx), 1 sigma {spread(tf['sigma_deg'] * deg)} {angle}"
-            + (f"; {tf['angle_from_nominal_flange_deg'] * deg:.4g} {angle} from the nominal flange's" if tf["angle_from_nominal_flange_deg"] is not None else ""))
-    if doc.get("targets_home"):
-        console.print(f"  targets at home [{length}]: " + "; ".join(", ".join(num(v, length) for v in p) for p in doc["targets_home"]), soft_wrap=True)
+            f"(R = Rz Ry Rx), 1 sigma {spread(tf['sigma_rad'] / as_)} {angle}"
+            + (f"; {tf['angle_from_nominal_flange_rad'] / as_:.4g} {angle} from the nominal flange's" if tf["angle_from_nominal_flange_rad"] is not None else ""))
+    if doc.get("targets_home_m"):
+        console.print(f"  targets at home [{length}]: " + "; ".join(", ".join(num(v / ls, length) for v in p) for p in doc["targets_home_m"]), soft_wrap=True)
     for note in doc["notes"]:
         say("yellow", "note:", f" {note}")

@@ -7,7 +7,6 @@ from typing import Annotated
 import typer
 from rich.text import Text
 
-from .. import _core
 from ..io.units import angle_scale, joint_unit, length_scale
 from .common import (
     SI_UNITS,
@@ -54,6 +53,8 @@ def ik(
 
     Exit code 1 when the target is not met (the residual is printed).
     """
+    from .. import _core  # noqa: PLC0415
+
     json_out = json_target(json_out)
     robot = load_robot(model, base_link, tip_link)
     m = robot.model()

@@ -5,10 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
-from ..io.configurations import read_configurations
 from ..io.units import angle_scale, length_scale
 from .common import (
     SI_UNITS,
@@ -62,7 +60,10 @@ def plan(
     tip_link: TipLinkOpt = None,
 ) -> None:
     """Predict every parameter's sigma (Cramer-Rao bound) and the measuring volume of a protocol, before measuring."""
+    import numpy as np  # noqa: PLC0415
+
     from .. import calibration as cal  # noqa: PLC0415
+    from ..io.configurations import read_configurations  # noqa: PLC0415
 
     json_out = json_target(json_out)
     robot = load_robot(model, base_link, tip_link)

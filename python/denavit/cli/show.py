@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from ..robot import Robot, builtin_names, load
 from .common import (
     SI_UNITS,
     AngleOpt,
@@ -31,10 +30,15 @@ from .common import (
     wrote,
 )
 
+if TYPE_CHECKING:
+    from ..robot import Robot
+
 
 @app.command()
 def models(json_out: JsonOpt = None) -> None:
     """List the built-in robots (names and descriptions: no units)."""
+    from ..robot import builtin_names, load  # noqa: PLC0415
+
     json_out = json_target(json_out)
     rows = []
     for name in builtin_names():

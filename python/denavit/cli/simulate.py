@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from ..io.units import angle_scale, length_scale
@@ -13,7 +13,7 @@ from .common import AngleOpt, BaseLinkOpt, LengthOpt, ModelArg, TipLinkOpt, app,
 from .plan import NOISE_M, TOOL_M
 
 #: The default orientation noise of simulated 6-DoF poses (rad): 0.005 deg, a 6-DoF probe's (T-Mac class) order.
-NOISE_ROT_RAD = float(np.radians(0.005))
+NOISE_ROT_RAD = math.radians(0.005)
 
 
 @app.command()
@@ -37,6 +37,8 @@ def simulate(
     tip_link: TipLinkOpt = None,
 ) -> None:
     """Simulate joint sweeps of a model (for planning a measurement and for tests); writes the long-form CSV."""
+    import numpy as np  # noqa: PLC0415
+
     from .. import sweeps as sw  # noqa: PLC0415
     from ..io.output import write_text  # noqa: PLC0415
     from ..io.robotfile import parse_coupling  # noqa: PLC0415
