@@ -34,7 +34,7 @@ def offenders(doc, path="", parent=None) -> list[str]:
     if isinstance(doc, dict):
         for k, v in doc.items():
             p = f"{path}.{k}"
-            if k.startswith("T_") or k in POSES or (k in UNITLESS and (numeric(v) or flat(v))):
+            if k.startswith(("T_", "R_")) or k in POSES or (k in UNITLESS and (numeric(v) or flat(v))):
                 continue  # poses (a dict of poses by joint name included); unitless numbers, or a flat dict of them (observability, combination)
             if numeric(v):
                 ok = (k.endswith(SUFFIXES) or k in JOINT_VECTORS or ("joint" in doc and (k in TABLE_COLUMNS or k.removesuffix("_sigma") in TABLE_COLUMNS))

@@ -3,7 +3,6 @@ tool frame's orientation identified with its sigma (issue 12, "Several targets p
 
 import json
 import math
-import sys
 from types import SimpleNamespace
 
 import numpy as np
@@ -120,7 +119,9 @@ def test_the_orientation_noise_is_estimated_or_declared(kr5):
     """The orientation residuals are weighted by their noise: estimated from the data (within 10 % of the simulated
     3e-4 rad), or declared (``rotation_noise``): the true value gives the estimated fit's orientation sigma (within
     20 %); a value the data contradicts (30x too small) buys no precision, the misfit inflates the sigmas."""
-    ident = sys.modules["denavit.identify"]
+    import importlib
+
+    ident = importlib.import_module("denavit.identify")
     from denavit.fitting import joint
 
     s = sw.simulate(kr5.model(), home=HOME, ranges=RANGES, points_per_sweep=25, noise=2e-5, poses=True, noise_rot=3e-4, seed=5)
@@ -140,9 +141,10 @@ def test_the_orientation_noise_is_estimated_or_declared(kr5):
 def test_the_joint_fit_of_several_targets_is_the_same_a_chunk_at_a_time(kr5, monkeypatch):
     """Three targets and orientations per pose: the normal equations accumulated CHUNK poses at a time give the fit of
     the whole sweep at once, and the memory stays a few hundred bytes per measured component (linear in the points)."""
+    import importlib
     import tracemalloc
 
-    ident = sys.modules["denavit.identify"]
+    ident = importlib.import_module("denavit.identify")
     from denavit.fitting import joint
 
     s = sw.simulate(kr5.model(), home=HOME, ranges=RANGES, points_per_sweep=3000, noise=2e-5, noise_q=2e-5, targets=NEST[:3], poses=True, noise_rot=1e-4, seed=4)

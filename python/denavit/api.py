@@ -9,7 +9,7 @@ delimited recordings with a column map) or the object itself (:class:`~denavit.s
 declaration, or ``length`` / ``angle`` where it declares none.
 
 The algorithms and their results live in :mod:`denavit.identify` (the module, reached as
-``sys.modules["denavit.identify"]`` or ``from denavit.identify import Identification``: the package attribute
+``importlib.import_module("denavit.identify")`` or ``from denavit.identify import Identification``: the package attribute
 ``denavit.identify`` is the function), :mod:`denavit.calibration` and :mod:`denavit.compensation`.
 """
 
