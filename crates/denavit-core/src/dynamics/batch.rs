@@ -376,6 +376,17 @@ pub(super) fn rnea_batch_lanes(
                     }
                 }
             }
+            for (i, o) in chunk.chunks_exact(n).enumerate() {
+                if o.iter().all(|v| v.is_finite()) {
+                    continue; // the common case: one pass, nothing built
+                }
+                let r = start + i;
+                let row = |v: Option<&[f64]>| v.map_or(&[][..], |v| &v[r * n..(r + 1) * n]);
+                let we = f_ext.map_or(&[][..], |w| if w.len() == 6 { w } else { &w[r * 6..(r + 1) * 6] });
+                let what = format!("{} (row {r})", if qds.is_none() { "gravity torques" } else if qdds.is_none() { "bias forces" } else { "tau" });
+                let inputs = [("q", &qs[r * n..(r + 1) * n]), ("qd", row(qds)), ("qdd", row(qdds)), ("gravity", g.as_slice()), ("f_ext", we)];
+                check_result(&what, o, joint_label, &inputs)?;
+            }
             Ok(())
         },
     )
@@ -460,7 +471,7 @@ pub fn mass_matrix_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<(
         check_row("q", r, q)?;
         crba_unchecked(model, ws, q);
         copy_matrix_row_major(&ws.mass_matrix, o);
-        Ok(())
+        check_result(&format!("the mass matrix (row {r})"), o, entry_label(n, true), &[("q", q)])
     })
 }
 
@@ -482,7 +493,7 @@ pub fn coriolis_matrix_batch(model: &Model, qs: &[f64], qds: &[f64], out: &mut [
         check_row("qd", r, qd)?;
         coriolis_unchecked(model, ws, q, qd);
         copy_matrix_row_major(&ws.coriolis, o);
-        Ok(())
+        check_result(&format!("the Coriolis matrix (row {r})"), o, entry_label(n, true), &[("q", q), ("qd", qd)])
     })
 }
 
@@ -517,6 +528,7 @@ pub fn forward_dynamics_batch(
         let we = wrench_row(w, r);
         aba_unchecked(model, ws, q, qd, tau, gravity, we.as_ref())?;
         o.copy_from_slice(&ws.qdd);
-        Ok(())
+        let w = we.as_ref().map_or(&[][..], |w| w.as_slice());
+        check_result(&format!("qdd (row {r})"), o, joint_label, &[("q", q), ("qd", qd), ("tau", tau), ("gravity", gravity.as_slice()), ("f_ext", w)])
     })
 }

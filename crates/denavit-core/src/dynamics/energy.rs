@@ -26,6 +26,7 @@ pub fn kinetic_energy(model: &Model, q: &[f64], qd: &[f64]) -> Result<f64> {
         let (hn, hf) = Rb::from(inertia).apply(&w, &v);
         e += 0.5 * (w.dot(&hn) + v.dot(&hf));
     }
+    check_result("the kinetic energy", &[e], |_| "the chain".to_string(), &[("q", q), ("qd", qd)])?;
     Ok(e)
 }
 
@@ -49,5 +50,6 @@ pub fn potential_energy(model: &Model, q: &[f64], gravity: &Vector3<f64>) -> Res
         let c = t.transform_point(&(*inertia.com()).into()).coords;
         e -= inertia.mass() * gravity.dot(&c);
     }
+    check_result("the potential energy", &[e], |_| "the chain".to_string(), &[("q", q), ("gravity", gravity.as_slice())])?;
     Ok(e)
 }
