@@ -69,6 +69,8 @@ class SweepSet:
         what = "; ".join(f"{k} {', '.join(map(str, v))}" for k, v in wrong.items() if v)
         if what:
             raise DenavitError(f"{self.source or 'sweeps'}: {what}: every joint 1..{self.n_joints} needs one sweep (got joints {joints})")
+        if joints != sorted(joints):  # in joint order: the fits are by position (a set built 1, 3, 2 had fitted joint 2 with joint 3's sweep)
+            object.__setattr__(self, "sweeps", sorted(self.sweeps, key=lambda s: s.joint))
 
     def __repr__(self) -> str:
         home = ", ".join(f"{v * 1e3:.4g} mm" if k == "prismatic" else f"{np.degrees(v):.4g}" for v, k in zip(self.home, self.kinds))

@@ -8,6 +8,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
+from ..api import input_path, is_sweep_file
 from ..io.units import angle_scale, cell_scale, length_scale
 from .common import (
     BaseLinkOpt,
@@ -69,6 +70,7 @@ def identify(
     target: Annotated[int, typer.Option("--target", help="Recordings with several targets per pose (SMRs on a nest): which one, 1-based.")] = 1,
     coupling: Annotated[str | None, typer.Option("--coupling", help="Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; docs/robot-files.md); default: the robot file's [couplings].")] = None,
     keep_dwell: Annotated[bool, typer.Option("--keep-dwell", help="Keep the rows where the motion stands still at a sweep's ends (left out of the fits by default, with a note naming them).")] = False,
+    allow_implausible: Annotated[bool, typer.Option("--allow-implausible", help="Keep a fit that is implausible against --nominal (mirror image, two joints exchanged, most axes far: a unit slip or the wrong robot), with a note, instead of the error.")] = False,
     readings: Annotated[Path | None, typer.Option("--readings", help="A second recording with the joint readings on another clock (e.g. a controller log beside a tracker export): aligned from the motion.")] = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
@@ -89,7 +91,7 @@ def identify(
     nom = load_robot(nominal, base_link, tip_link, "--nominal") if nominal else None
     kinds = list(nom.table.kinds) if nom else None
     with status("reading sweeps..."):
-        if data_format not in ("auto", "sweeps") or readings is not None or (data_format == "auto" and not _is_sweep_file(data)):
+        if data_format not in ("auto", "sweeps") or readings is not None or (data_format == "auto" and not is_sweep_file(input_path(data))):
             sweeps = read_recording_sweeps(data, data_format, columns=columns, sweep=sweep, target=target, readings=readings, length=length, angle=angle,
                                            home=parse_numbers(home, "--home") or None, direction=parse_numbers(direction, "--direction") or None, nominal=nom)
         elif data.is_dir():
@@ -111,7 +113,7 @@ def identify(
         ms = None if max_sigma is None else max_sigma * length_scale(out_len)
         T_world_base = None if base is None else parse_pose(base, out_ang, length_scale(out_len), "--base")
         result = identify_sweeps(sweeps, method=method, convention=convention, nominal=nom, loss=loss, max_sigma=ms, T_world_base=T_world_base,
-                                 keep_dwell=keep_dwell, coupling=C, progress=st.update)
+                                 keep_dwell=keep_dwell, coupling=C, allow_implausible=allow_implausible, progress=st.update)
     if json_path:
         emit_json(to_json(result, "m", "rad"), json_path)
     if json_path != "-":
@@ -145,24 +147,6 @@ def identify(
             with status(f"writing the report {report} ..."):
                 rep.write_report(result, report, length=out_len, angle=out_ang)
             wrote(report)
-
-
-def _is_sweep_file(data: Path) -> bool:
-    """Our own sweep formats: a folder of jN.csv (no ROS 2 metadata), JSON, or a CSV whose header has a ``joint`` column."""
-    if data.is_dir():
-        return not (data / "metadata.yaml").exists()
-    if data.suffix.lower() == ".json":
-        return True
-    from ..io.delimited import rows  # noqa: PLC0415
-    from ..io.text import decode, read_bytes  # noqa: PLC0415
-
-    head = read_bytes(data, "sweep file")[:65536]
-    try:
-        lines = decode(head, str(data)).splitlines()
-    except Exception:  # noqa: BLE001 (a binary bag, or UTF-8 cut mid-character by the 64 kB window: not ours)
-        return False
-    found, _ = rows(lines[:50])
-    return bool(found) and "joint" in [c.lower() for c in found[0][1]]
 
 
 def read_recording_sweeps(data: Path, data_format: str, *, columns, sweep, target: int, readings, length, angle, home, direction, nominal):

@@ -331,6 +331,11 @@ pub(super) fn rnea_lanes(
     }
 }
 
+/// Row `r` of an optional (N, n) row-major input, or nothing.
+fn row_of(v: Option<&[f64]>, r: usize, n: usize) -> &[f64] {
+    v.map_or(&[][..], |v| &v[r * n..(r + 1) * n])
+}
+
 /// Batch inverse dynamics with the lane kernel: rows in groups of [`LANES`] (the last group padded by
 /// repeating its last row), chunks of rows in parallel.
 #[allow(clippy::too_many_arguments)]
@@ -381,10 +386,9 @@ pub(super) fn rnea_batch_lanes(
                     continue; // the common case: one pass, nothing built
                 }
                 let r = start + i;
-                let row = |v: Option<&[f64]>| v.map_or(&[][..], |v| &v[r * n..(r + 1) * n]);
                 let we = f_ext.map_or(&[][..], |w| if w.len() == 6 { w } else { &w[r * 6..(r + 1) * 6] });
                 let what = format!("{} (row {r})", if qds.is_none() { "gravity torques" } else if qdds.is_none() { "bias forces" } else { "tau" });
-                let inputs = [("q", &qs[r * n..(r + 1) * n]), ("qd", row(qds)), ("qdd", row(qdds)), ("gravity", g.as_slice()), ("f_ext", we)];
+                let inputs = [("q", &qs[r * n..(r + 1) * n]), ("qd", row_of(qds, r, n)), ("qdd", row_of(qdds, r, n)), ("gravity", g.as_slice()), ("f_ext", we)];
                 check_result(&what, o, joint_label, &inputs)?;
             }
             Ok(())
