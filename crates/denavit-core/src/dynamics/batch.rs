@@ -366,6 +366,7 @@ pub(super) fn rnea_batch_lanes(
                 check_row("q", r, &qs[r * n..(r + 1) * n])?;
                 if let Some(v) = qds {
                     check_row("qd", r, &v[r * n..(r + 1) * n])?;
+                    check_rates(&format!("qd (row {r})"), &v[r * n..(r + 1) * n])?;
                 }
                 if let Some(v) = qdds {
                     check_row("qdd", r, &v[r * n..(r + 1) * n])?;
@@ -387,7 +388,16 @@ pub(super) fn rnea_batch_lanes(
                 }
                 let r = start + i;
                 let we = f_ext.map_or(&[][..], |w| if w.len() == 6 { w } else { &w[r * 6..(r + 1) * 6] });
-                let what = format!("{} (row {r})", if qds.is_none() { "gravity torques" } else if qdds.is_none() { "bias forces" } else { "tau" });
+                let what = format!(
+                    "{} (row {r})",
+                    if qds.is_none() {
+                        "gravity torques"
+                    } else if qdds.is_none() {
+                        "bias forces"
+                    } else {
+                        "tau"
+                    }
+                );
                 let inputs = [("q", &qs[r * n..(r + 1) * n]), ("qd", row_of(qds, r, n)), ("qdd", row_of(qdds, r, n)), ("gravity", g.as_slice()), ("f_ext", we)];
                 check_result(&what, o, joint_label, &inputs)?;
             }
@@ -495,6 +505,7 @@ pub fn coriolis_matrix_batch(model: &Model, qs: &[f64], qds: &[f64], out: &mut [
         let (q, qd) = (&qs[r * n..(r + 1) * n], &qds[r * n..(r + 1) * n]);
         check_row("q", r, q)?;
         check_row("qd", r, qd)?;
+        check_rates(&format!("qd (row {r})"), qd)?;
         coriolis_unchecked(model, ws, q, qd);
         copy_matrix_row_major(&ws.coriolis, o);
         check_result(&format!("the Coriolis matrix (row {r})"), o, entry_label(n, true), &[("q", q), ("qd", qd)])
@@ -528,6 +539,7 @@ pub fn forward_dynamics_batch(
         let (q, qd, tau) = (&qs[r * n..(r + 1) * n], &qds[r * n..(r + 1) * n], &taus[r * n..(r + 1) * n]);
         check_row("q", r, q)?;
         check_row("qd", r, qd)?;
+        check_rates(&format!("qd (row {r})"), qd)?;
         check_row("tau", r, tau)?;
         let we = wrench_row(w, r);
         aba_unchecked(model, ws, q, qd, tau, gravity, we.as_ref())?;
