@@ -176,7 +176,7 @@ def cases(d: Path, readonly: Path | None):
         ("inspect: a Latin-1 recording", ["inspect", d / "rtde_latin1.csv"], "not UTF-8 text"),
         ("dynamics: qd = 1e160", ["dynamics", DATA / "urdf" / "ur_style.urdf", "--qd", "1e160,0,0,0,0,0"], "invalid qd at joint 1: expected joint rates whose squares are finite"),
         # plausibility against the nominal (identify) and of the fit (calibrate)
-        ("identify: points x1000", ["identify", d / "p_x1000.csv", "--nominal", "kr5"], "pairs of axes differ from the nominal kr5's"),
+        ("identify: points x1000", ["identify", d / "p_x1000.csv", "--nominal", "kr5"], "consecutive) differ from the nominal kr5's"),
         ("identify: x and y swapped", ["identify", d / "p_xy.csv", "--nominal", "kr5"], "mirror image of the nominal kr5's"),
         ("identify: j2/j3 exchanged (readings)", ["identify", d / "p_j2j3.csv", "--nominal", "kr5"], "the readings move joint 3"),
         ("identify: j2/j3 files exchanged", ["identify", d / "joints_j2j3", "--home", "90,-90,90,0,90,0", "--length", "mm", "--nominal", "kr5"],

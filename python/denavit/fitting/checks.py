@@ -112,7 +112,7 @@ def check_sweep_labels(sweeps, wheres: list[str]) -> None:
 
 #: A pair of consecutive identified axes whose angle or distance differs from the nominal pair's by more than this
 #: (rad; fraction of the robot's size) and ``PLAUSIBLE_SIGMAS`` of its uncertainty gets a note; when more than
-#: half of all pairs of axes differ by more than ``IMPLAUSIBLE`` the fit is an error. Pairs are compared, not the
+#: half of all pairs of axes, or of the consecutive ones, differ by more than ``IMPLAUSIBLE`` the fit is an error. Pairs are compared, not the
 #: axes themselves, so that data in another frame (a tracker's, without --base) is not suspect; the axes
 #: themselves are compared after the rigid motion that best carries them onto the nominal's
 #: (:func:`register_axes`), which shows joints swapped (the pairs cannot: two parallel axes exchanged keep every
@@ -230,12 +230,14 @@ def nominal_plausibility(ex, fits: list, nominal, home, names: list[str], source
         refuse(f"the identified axes are the mirror image of the nominal {nominal.name}'s ({mirror[0]} of {mirror[1]} skew pairs have their common "
                "normal's distance flipped): expected a right-handed measurement frame (x and y swapped? a left-handed tracker export? a "
                "joint's readings reversed?)")
+    far_next = 0  # consecutive pairs (the table's links) beyond IMPLAUSIBLE
     for pi, pn in zip(ex.pairs, nom, strict=True):
         k = pi.joint - 1
         sa, sd = math.hypot(sig_a[k], sig_a[k + 1]), math.hypot(sig_d[k], sig_d[k + 1])
         da, dd = abs(pi.angle - pn.angle), abs(pi.distance - pn.distance)
         if "prismatic" in (kinds[k], kinds[k + 1]):
             dd = 0.0  # a prismatic axis is a direction: where its line lies is a convention, not a measurement
+        far_next += da > IMPLAUSIBLE[0] or dd > IMPLAUSIBLE[1] * size
         if _far(da, dd, sa, sd, size):
             notes.append(f"axes {names[k]}-{names[k + 1]}: {math.degrees(pi.angle):.4g} deg apart and {pi.distance * 1e3:.5g} mm apart, the nominal's "
                          f"{math.degrees(pn.angle):.4g} deg and {pn.distance * 1e3:.5g} mm (off by {da / max(sa, 1e-300):.3g} and "
@@ -252,10 +254,10 @@ def nominal_plausibility(ex, fits: list, nominal, home, names: list[str], source
             an, ai = min(an, math.pi - an), min(ai, math.pi - ai)  # lines, not directions: signs are checked elsewhere
             if "prismatic" in (kinds[i], kinds[j]):
                 dn = di = 0.0
-            far += (abs(ai - an) > IMPLAUSIBLE[0] and abs(ai - an) > PLAUSIBLE_SIGMAS * math.hypot(sig_a[i], sig_a[j])) or \
-                   (abs(di - dn) > IMPLAUSIBLE[1] * size and abs(di - dn) > PLAUSIBLE_SIGMAS * math.hypot(sig_d[i], sig_d[j]))
-    if pairs and far > pairs / 2:
-        refuse(f"{far} of {pairs} pairs of axes differ from the nominal {nominal.name}'s by more than {math.degrees(IMPLAUSIBLE[0]):g} deg or "
+            # no sigmas here: a fit this far off is of no use however uncertain (arcs too short say so)
+            far += abs(ai - an) > IMPLAUSIBLE[0] or abs(di - dn) > IMPLAUSIBLE[1] * size
+    if pairs and (far > pairs / 2 or far_next > (n - 1) / 2):
+        refuse(f"{far} of {pairs} pairs of axes ({far_next} of {n - 1} consecutive) differ from the nominal {nominal.name}'s by more than {math.degrees(IMPLAUSIBLE[0]):g} deg or "
                f"{IMPLAUSIBLE[1]:g} robot sizes ({IMPLAUSIBLE[1] * size * 1e3:.4g} mm): expected the same robot "
                + (f"(the arcs are too short: {len(short)} axes known no better than {short_sigma * 1e3:g} mm, up to "
                   f"{max(f.sigma_point_perp for f in fits) * 1e3:.3g} mm; sweep longer arcs)" if short else
