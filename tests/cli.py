@@ -20,3 +20,17 @@ def run(*args, ok: bool = True, columns: int = 120, **kw) -> subprocess.Complete
     if ok:
         assert p.returncode == 0, p.stderr
     return p
+
+
+def error_line(stderr: str) -> str | None:
+    """The one error line of a failed command's stderr, or None when there is not exactly one (or a traceback).
+
+    A step that lasts over a second says what it is doing on stderr, one line when not on a terminal (docs/cli.md,
+    "Terminal output": every such line ends its message with "..."); those may come before the error, which must be
+    the last line, alone, starting with "error: "."""
+    lines = [ln for ln in stderr.splitlines() if ln.strip()]
+    if not lines or "Traceback" in stderr or not lines[-1].startswith("error: "):
+        return None
+    if any(ln.startswith("error") or "..." not in ln for ln in lines[:-1]):
+        return None
+    return lines[-1]

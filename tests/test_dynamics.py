@@ -509,3 +509,40 @@ def test_dynamics_batches_fill_out_and_follow_threads(rng):
         np.testing.assert_array_equal(call(threads=2), ref, err_msg=name)
         with pytest.raises(dv.DenavitError, match=r"^invalid out: expected a C-contiguous, writeable float64 numpy array of shape \(300, "):
             call(out=np.zeros(shape[:-1] + (shape[-1] + 1,)))
+
+
+def test_rates_and_results_beyond_double_precision_are_refused_not_nan():
+    """qd = 1e160 (its square 1e320) had given NaN torques from every dynamics function, caught only by the CLI
+    (issue 16). The core refuses it in every entry point, single and batch, with the argument, row and joint; a
+    result that overflows all the same (masses of 1e300) is an error naming the result (kind Overflow)."""
+    import denavit as dv
+    from denavit import _core
+
+    m = dv.load_model("puma560")
+    q, qd, z = np.zeros(6), np.array([0.0, 1e160, 0, 0, 0, 0]), np.zeros(6)
+    single = {
+        "rnea": lambda: _core.rnea(m, q, qd, z), "bias_forces": lambda: _core.bias_forces(m, q, qd),
+        "forward_dynamics": lambda: _core.forward_dynamics(m, q, qd, z), "coriolis_matrix": lambda: _core.coriolis_matrix(m, q, qd),
+        "kinetic_energy": lambda: _core.kinetic_energy(m, q, qd),
+    }
+    for name, f in single.items():
+        with pytest.raises(dv.DenavitError, match=r"^invalid qd at joint 2: expected joint rates whose squares are finite \(\|qd\| <= 1.3408e154 rad/s or m/s\), got 1e160$") as e:
+            f()
+        assert e.value.kind == "InvalidArgument" and e.value.what == "qd at joint 2", name
+    qs, qds = np.zeros((5, 6)), np.zeros((5, 6))
+    qds[3] = qd
+    batch = {
+        "rnea_batch": lambda: _core.rnea_batch(m, qs, qds, qs), "bias_forces_batch": lambda: _core.bias_forces_batch(m, qs, qds),
+        "forward_dynamics_batch": lambda: _core.forward_dynamics_batch(m, qs, qds, qs), "coriolis_matrix_batch": lambda: _core.coriolis_matrix_batch(m, qs, qds),
+    }
+    for f in batch.values():
+        with pytest.raises(dv.DenavitError, match=r"^invalid qd \(row 3\) at joint 2: expected joint rates whose squares are finite"):
+            f()
+    assert np.isfinite(_core.rnea(m, q, np.array([0.0, 1e100, 0, 0, 0, 0]), z)).all()  # large but representable
+    huge = m.with_inertias(np.full(6, 1e300), np.tile([1e10, 0.0, 0.0], (6, 1)), np.zeros((6, 3, 3)))
+    for name, f in {"gravity_torques": lambda: _core.gravity_torques(huge, q), "mass_matrix": lambda: _core.mass_matrix(huge, q),
+                    "rnea": lambda: _core.rnea(huge, q, z, z), "gravity_torques_batch": lambda: _core.gravity_torques_batch(huge, qs),
+                    "mass_matrix_batch": lambda: _core.mass_matrix_batch(huge, qs)}.items():
+        with pytest.raises(dv.DenavitError, match=r"is not finite \(.* at (joint \d|entry \(\d, \d\)|the chain)\): the inputs are moderate: the model's parameters") as e:
+            f()
+        assert e.value.kind == "Overflow" and e.value.cause.startswith("the inputs are moderate"), name

@@ -409,7 +409,8 @@ def test_hand_built_sweep_sets_need_one_sweep_per_joint():
         sw.SweepSet(s.sweeps[:5], 6, s.home, s.kinds, "mine")
     with pytest.raises(dv.DenavitError, match=r"mine: missing sweeps of joint\(s\) 2; a second sweep of joint\(s\) 1"):
         sw.SweepSet([s.sweeps[0], *s.sweeps[::-1][:4], s.sweeps[0]], 6, s.home, s.kinds, "mine")
-    assert [x.joint for x in sw.SweepSet(s.sweeps[::-1], 6, s.home, s.kinds).sweeps] == [6, 5, 4, 3, 2, 1]
+    # in joint order whatever the order given: the fits go by position (reversed, joint 1 had got joint 6's sweep)
+    assert [x.joint for x in sw.SweepSet(s.sweeps[::-1], 6, s.home, s.kinds).sweeps] == [1, 2, 3, 4, 5, 6]
 
 
 @pytest.mark.parametrize("doc, match", [

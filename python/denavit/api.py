@@ -49,7 +49,23 @@ def _header(path: Path) -> list[str] | None:
     return [c.lower() for c in found[0][1]] if found else None
 
 
-def _path(data) -> Path:
+def is_sweep_file(p: Path) -> bool:
+    """Our own sweep formats (read by :mod:`denavit.io.sweeps`): a folder of ``jN.csv`` (no ROS 2 bag's
+    ``metadata.yaml``), JSON, or a delimited file whose header has a ``joint`` column; anything else is a recording."""
+    return p.suffix.lower() == ".json" or (p.is_dir() and not (p / "metadata.yaml").exists()) or (p.is_file() and "joint" in (_header(p) or []))
+
+
+def is_measurement_file(p: Path) -> bool:
+    """Our own measurement formats (read by :func:`denavit.io.measurements.read_measurements`): JSON, or a
+    delimited file whose header has ``q1`` and ``x`` (or a sweep file's ``joint``); anything else is a recording."""
+    if p.suffix.lower() == ".json":
+        return True
+    cols = None if p.is_dir() else (_header(p) or [])
+    return cols is not None and (("q1" in cols and "x" in cols) or "joint" in cols)
+
+
+def input_path(data) -> Path:
+    """``data`` (str or os.PathLike) as a Path that exists, or a one-line error naming it."""
     p = Path(os.fspath(data))
     if not p.exists():
         raise DenavitError(f"{p}: no such file or folder")
@@ -77,11 +93,10 @@ def read_sweeps(data, *, nominal=None, format: str = "auto", length: str | None 
         raise DenavitError(f"sweeps: expected a SweepSet or a path (str or os.PathLike), got {type(data).__name__}")
     from .io import sweeps as swio  # noqa: PLC0415
 
-    p = _path(data)
+    p = input_path(data)
     robot = None if nominal is None else _robot(nominal)
     kinds = None if robot is None else list(robot.table.kinds)
-    ours = format == "sweeps" or (format == "auto" and readings is None and (p.suffix.lower() == ".json" or (p.is_dir() and not (p / "metadata.yaml").exists())
-                                                                             or (p.is_file() and "joint" in (_header(p) or []))))
+    ours = format == "sweeps" or (format == "auto" and readings is None and is_sweep_file(p))
     if ours:
         if p.is_dir():
             if home is None or length is None:
@@ -96,7 +111,7 @@ def read_sweeps(data, *, nominal=None, format: str = "auto", length: str | None 
 
     rec = read_recording(p, format, columns=columns, length=length, angle=angle, sweep=sweep, kinds=kinds)
     if readings is not None:
-        rec, _ = align(rec, read_recording(_path(readings), "auto", columns=columns, length=length, angle=angle, kinds=kinds))
+        rec, _ = align(rec, read_recording(input_path(readings), "auto", columns=columns, length=length, angle=angle, kinds=kinds))
     return to_sweepset(rec, segment(rec), target=target, home=home, kinds=kinds, direction=direction)
 
 
@@ -127,9 +142,8 @@ def _measurements(data, robot: Robot, *, points, poses, format: str, length, ang
         return data
     kinds = list(robot.table.kinds)
     if isinstance(data, (str, os.PathLike)):
-        p = _path(data)
-        cols = None if p.is_dir() else (_header(p) or [])
-        if format == "measurements" or (format == "auto" and (p.suffix.lower() == ".json" or (cols is not None and (("q1" in cols and "x" in cols) or "joint" in cols)))):
+        p = input_path(data)
+        if format == "measurements" or (format == "auto" and is_measurement_file(p)):
             from .io.measurements import read_measurements  # noqa: PLC0415
 
             return read_measurements(p, kinds=kinds, length=length, angle=angle)
@@ -239,7 +253,7 @@ def compensate(nominal, identified, targets, **options):
 
         nominal = nominal if isinstance(nominal, _core.Model) or callable(getattr(nominal, "model", None)) else _robot(nominal)  # (a Robot keeps its coupling)
         nom = nominal if isinstance(nominal, _core.Model) else nominal.model()
-        prog = read_targets(_path(targets), list(nom.kinds))
+        prog = read_targets(input_path(targets), list(nom.kinds))
         poses = prog.poses if prog.poses is not None else _core.fk_batch(nom, prog.q)
         return _compensate(nominal, identified, poses, q_nominal=prog.q, **options)
     return _compensate(nominal, identified, targets, **options)

@@ -9,6 +9,7 @@ kind               attributes set (others are None)                            c
 =================  ==========================================================  =====================
 SizeMismatch       what, expected (int), got (int)                             DenavitError
 NonFinite          what, index (flat index), value                             DenavitError
+Overflow           what (the result), at ("joint 2"), value, cause             DenavitError
 NotSe3             what, reason                                                DenavitError
 InvalidArgument    what, expected (str), got (str)                             DenavitError
 Degenerate         reason                                                      DegenerateError
@@ -31,7 +32,7 @@ import re
 MAX_MESSAGE = 500
 _ELIDED = " [...] "
 
-_FIELDS = ("what", "expected", "got", "index", "value", "reason", "iterations", "position_error", "rotation_error", "joint")
+_FIELDS = ("what", "expected", "got", "index", "value", "reason", "iterations", "position_error", "rotation_error", "at", "cause", "joint")
 
 
 def readable(message: str) -> str:

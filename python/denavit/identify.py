@@ -22,6 +22,7 @@ import numpy as np
 from . import _core
 from .errors import DegenerateError, DenavitError, NotConvergedError
 from .fitting import AxisFit, BoundingBox, fit_axis, oriented_bounding_box
+from .fitting.checks import check_sweep_labels, misfit_notes, nominal_plausibility
 from .fitting.circle import circle_misfit, robust_circle
 from .fitting.joint import fit_sweeps, locked_motion, start_homes
 from .fitting.readings import READINGS_WORTHLESS
@@ -529,15 +530,6 @@ def _tool_frame(sweeps: SweepSet, res: dict | None, R_nominal: np.ndarray, notes
     return R, how, G
 
 
-#: A pair of consecutive identified axes whose angle or distance differs from the nominal pair's by more than this
-#: (rad; fraction of the robot's size) and ``PLAUSIBLE_SIGMAS`` of its uncertainty gets a note; when more than
-#: half of the pairs differ by more than ``IMPLAUSIBLE`` the fit is an error. Pairs are compared, not the axes
-#: themselves, so that data in another frame (a tracker's, without --base) is not suspect.
-PLAUSIBLE = (math.radians(2.0), 0.02)
-IMPLAUSIBLE = (math.radians(30.0), 0.25)
-PLAUSIBLE_SIGMAS = 5.0
-
-
 #: An axis whose predicted position is known no better than this (1 sigma, m) gets a note naming its arc and the
 #: predicted sigma (issue 16: a 1-degree arc had given FK 438 mm off with no note unless --max-sigma was given).
 SHORT_ARC_SIGMA = 1e-3
@@ -557,68 +549,6 @@ def _short_arc_notes(sweeps: SweepSet, fits: list, notes: list[str]) -> list[str
                          "(--max-sigma makes this an error)")
     notes.extend(short)
     return short
-
-
-def _plausibility(ex: _core.Extraction, fits: list, nominal: Robot, home: np.ndarray, names: list[str], source: str, notes: list[str],
-                  short: list[str] = ()) -> None:
-    """The identified axes against the nominal's, pair by pair (issue 16): a note naming the joints of a pair
-    whose angle or distance is far from the nominal's, in units of its uncertainty and of the robot's size; a
-    :class:`DenavitError` when most pairs are far (points in the wrong unit, swapped joints, the wrong robot)."""
-    model = nominal.model()
-    ax = _core.axes(model, home)
-    nom = _core.extract(ax, "dh").pairs
-    base = np.asarray(nominal.table.T_world_base)[:3, 3]
-    size = max(max(float(np.linalg.norm(np.asarray(p) - base)) for p in ax.points), float(np.linalg.norm(_core.fk(model, home)[:3, 3] - base)), 1e-3)
-    _check_handedness(ex, fits, ax, size, nominal, source)
-    far = []
-    for pi, pn in zip(ex.pairs, nom, strict=True):
-        k = pi.joint - 1
-        f0, f1 = fits[k], fits[k + 1]
-        sig_a = math.hypot(*(x if np.isfinite(x) else 0.0 for x in (f0.sigma_direction, f1.sigma_direction)))
-        sig_d = math.hypot(*(x if np.isfinite(x) else 0.0 for x in (f0.sigma_point_perp, f1.sigma_point_perp)))
-        da, dd = abs(pi.angle - pn.angle), abs(pi.distance - pn.distance)
-        if "prismatic" in (model.kinds[k], model.kinds[k + 1]):
-            dd = 0.0  # a prismatic axis is a direction: where its line lies is a convention, not a measurement
-        if (da > PLAUSIBLE[0] and da > PLAUSIBLE_SIGMAS * sig_a) or (dd > PLAUSIBLE[1] * size and dd > PLAUSIBLE_SIGMAS * sig_d):
-            notes.append(f"axes {names[k]}-{names[k + 1]}: {math.degrees(pi.angle):.4g} deg apart and {pi.distance * 1e3:.5g} mm apart, the nominal's "
-                         f"{math.degrees(pn.angle):.4g} deg and {pn.distance * 1e3:.5g} mm (off by {da / max(sig_a, 1e-300):.3g} and "
-                         f"{dd / max(sig_d, 1e-300):.3g} sigma, {dd / size:.2g} robot sizes): check the joint order, the units and the nominal")
-        far.append(da > IMPLAUSIBLE[0] or dd > IMPLAUSIBLE[1] * size)
-    if far and sum(far) > len(far) / 2:
-        raise DenavitError(f"{source}: {sum(far)} of {len(far)} pairs of consecutive axes differ from the nominal {nominal.name}'s by more than "
-                           f"{math.degrees(IMPLAUSIBLE[0]):g} deg or {IMPLAUSIBLE[1]:g} robot sizes ({IMPLAUSIBLE[1] * size * 1e3:.4g} mm): expected the same robot "
-                           + (f"(the arcs are too short: {len(short)} axes known no better than {SHORT_ARC_SIGMA * 1e3:g} mm, up to "
-                              f"{max(f.sigma_point_perp for f in fits) * 1e3:.3g} mm; sweep longer arcs)" if short else
-                              "(points in another unit? joints swapped or misnumbered? the wrong robot?)"))
-
-
-def _signed_distance(p0, z0, p1, z1) -> float:
-    """The distance of two skew lines along their common normal z0 x z1, signed: a mirror image (a reflection of
-    the points, e.g. x and y swapped) flips it, a rigid motion does not."""
-    c = np.cross(z0, z1)
-    return float((np.asarray(p1) - np.asarray(p0)) @ c / np.linalg.norm(c))
-
-
-def _check_handedness(ex: _core.Extraction, fits: list, nominal_axes: _core.JointAxes, size: float, nominal: Robot, source: str) -> None:
-    """A :class:`DenavitError` when the identified axes are the mirror image of the nominal's: the pairwise angles
-    and distances of :func:`_plausibility` do not see a reflection, the signed common-normal distances do (skew
-    pairs, in both models clearly skew, the distance beyond 2 % of the robot and 5 sigma; most of them flipped)."""
-    pts, dirs = np.asarray(nominal_axes.points), np.asarray(nominal_axes.directions)
-    flips = []
-    for pi in ex.pairs:
-        k = pi.joint - 1
-        zi0, zi1 = fits[k].direction, fits[k + 1].direction
-        if "prismatic" in (nominal.table.kinds[k], nominal.table.kinds[k + 1]) or min(np.linalg.norm(np.cross(zi0, zi1)), np.linalg.norm(np.cross(dirs[k], dirs[k + 1]))) < 0.05:
-            continue
-        dn = _signed_distance(pts[k], dirs[k], pts[k + 1], dirs[k + 1])
-        di = _signed_distance(fits[k].point, zi0, fits[k + 1].point, zi1)
-        sig = math.hypot(fits[k].sigma_point_perp, fits[k + 1].sigma_point_perp)
-        if min(abs(dn), abs(di)) > max(0.02 * size, 5 * (sig if np.isfinite(sig) else 0.0)):
-            flips.append(np.sign(dn) != np.sign(di))
-    if len(flips) >= 2 and sum(flips) > len(flips) / 2:
-        raise DenavitError(f"{source}: the identified axes are the mirror image of the nominal {nominal.name}'s ({sum(flips)} of {len(flips)} skew pairs "
-                           "have their common normal's distance flipped): expected a right-handed measurement frame (x and y swapped? a "
-                           "left-handed tracker export? a joint's readings reversed?)")
 
 
 def _oriented_by_nominal(sweeps: SweepSet, fits: list, nominal: Robot, notes: list[str]) -> list:
@@ -733,6 +663,7 @@ def identify(
     keep_dwell: bool = False,
     coupling=None,
     rotation_noise: float | None = None,
+    allow_implausible: bool = False,
     progress: Callable[[str], None] | None = None,
 ) -> Identification:
     """Identify the joint axes and the parameter table of ``convention`` from ``sweeps``.
@@ -771,6 +702,9 @@ def identify(
     and "auto" with readings; :func:`~denavit.fitting.joint.fit_sweeps`), and the tool frame's orientation is then
     identified with its covariance (:attr:`Identification.tool_orientation`, :data:`TOOL_ORIENTATION`). The
     per-sweep methods fit the first target alone.
+    allow_implausible : keep a fit that is implausible against the nominal (the axes its mirror image, matching it
+        with two joints exchanged, or most pairs of axes far from its: a unit slip, the wrong robot), with a note;
+        by default it is an error (issue 16: such fits had come back with small sigmas and no word).
     progress : called with a short message as each stage starts (the CLI shows it).
     """
     progress = progress or (lambda _msg: None)
@@ -789,6 +723,7 @@ def identify(
     coupling = coupling if coupling is not None else (nominal.coupling if nominal is not None else None)
     if coupling is not None:
         sweeps = decoupled(sweeps, coupling)
+    check_sweep_labels(sweeps, [sweep_where(x, sweeps.source) for x in sweeps.sweeps])
     notes = _locked_notes(sweeps)
     if not keep_dwell:
         sweeps = _drop_dwell(sweeps, notes)
@@ -862,8 +797,9 @@ def identify(
     ax = _axes_from(x, sweeps, tool_R, base, lower, upper)
     ex = _core.extract(ax, convention, **opts)
     short = _short_arc_notes(sweeps, fits, notes)
+    misfit_notes(sweeps, fits, [sweep_where(x, sweeps.source) for x in sweeps.sweeps], notes)
     if nominal is not None:
-        _plausibility(ex, fits, nominal, sweeps.home, nominal.names, sweeps.source, notes, short)
+        nominal_plausibility(ex, fits, nominal, sweeps.home, nominal.names, sweeps.source, notes, short, SHORT_ARC_SIGMA, allow_implausible)
     p_ref = ex.table.params
     full_cov = None
     if scales is not None:  # [axes, tool point, reading scales]: the scales' covariance with the axes kept

@@ -89,6 +89,8 @@ class SweepSet:
         what = "; ".join(f"{k} {', '.join(map(str, v))}" for k, v in wrong.items() if v)
         if what:
             raise DenavitError(f"{self.source or 'sweeps'}: {what}: every joint 1..{self.n_joints} needs one sweep (got joints {joints})")
+        if joints != sorted(joints):  # in joint order: the fits are by position (a set built 1, 3, 2 had fitted joint 2 with joint 3's sweep)
+            object.__setattr__(self, "sweeps", sorted(self.sweeps, key=lambda s: s.joint))
         k = {s.n_targets for s in self.sweeps}
         if len(k) > 1:
             raise DenavitError(f"{self.source or 'sweeps'}: sweeps with different numbers of targets per pose ({sorted(k)}): expected the same targets at every pose")

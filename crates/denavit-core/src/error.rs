@@ -28,6 +28,10 @@ pub enum Error {
     /// A name that is not known.
     #[error("unknown {kind} '{got}': expected one of {expected}")]
     UnknownName { kind: String, got: String, expected: String },
+    /// A computed result is NaN or infinite although every input was finite: the inputs (or the model's
+    /// parameters) are too large for double precision (e.g. joint velocities of 1e160, whose square overflows).
+    #[error("{what} is not finite ({value} at {at}): {cause}")]
+    Overflow { what: String, at: String, value: f64, cause: String },
     /// An iterative solver stopped before meeting its tolerance.
     #[error("not converged after {iterations} iterations: position error {position_error:.3e} m, rotation error {rotation_error:.3e} rad")]
     NotConverged { iterations: usize, position_error: f64, rotation_error: f64 },

@@ -570,3 +570,62 @@ fn batch_equals_single_on_dh_family_models() {
         }
     }
 }
+
+/// Finite inputs too large for double precision gave NaN torques and accelerations, which only the CLI caught
+/// (issue 16: qd = 1e160, whose square is 1e320): every dynamics entry point, single and batch, refuses joint
+/// rates beyond `MAX_RATE` naming the argument, the row and the joint; a result that is not finite all the same
+/// (masses of 1e300) is `Error::Overflow` naming the result, where, and what to blame.
+#[test]
+fn overflowing_inputs_are_an_error_naming_the_argument_not_nan() {
+    let m = random_model(7, 4);
+    let g = g0();
+    let (q, mut qd, qdd) = random_state(7, 4);
+    qd[1] = 1e160;
+    let mut ws = DynamicsData::new(&m);
+    let refused = |e: Error, what: &str| {
+        let msg = e.to_string();
+        assert!(matches!(e, Error::InvalidArgument { .. }), "{msg}");
+        assert_eq!(msg, format!("invalid {what} at joint 2: expected joint rates whose squares are finite (|qd| <= 1.3408e154 rad/s or m/s), got 1e160"));
+    };
+    refused(dynamics::rnea(&m, &mut ws, &q, &qd, &qdd, &g, None).unwrap_err(), "qd");
+    refused(dynamics::bias_forces(&m, &mut ws, &q, &qd, &g).unwrap_err(), "qd");
+    let tau = [1.0; 4];
+    refused(dynamics::forward_dynamics(&m, &mut ws, &q, &qd, &tau, &g, None).unwrap_err(), "qd");
+    refused(dynamics::forward_dynamics_crba(&m, &mut ws, &q, &qd, &tau, &g, None).unwrap_err(), "qd");
+    refused(dynamics::coriolis_matrix(&m, &mut ws, &q, &qd).unwrap_err(), "qd");
+    refused(dynamics::kinetic_energy(&m, &q, &qd).unwrap_err(), "qd");
+    // batches: the row is named (the batch kernel had given finite round-off garbage, 1e161 N m, for this row)
+    let rows = 9;
+    let qs: Vec<f64> = (0..rows).flat_map(|_| q.clone()).collect();
+    let qds: Vec<f64> = (0..rows).flat_map(|r| if r == 6 { qd.clone() } else { vec![0.1; 4] }).collect();
+    let qdds = vec![0.2; rows * 4];
+    let mut out = vec![0.0; rows * 4];
+    refused(dynamics::rnea_batch(&m, &qs, &qds, &qdds, &g, None, &mut out).unwrap_err(), "qd (row 6)");
+    refused(dynamics::bias_forces_batch(&m, &qs, &qds, &g, &mut out).unwrap_err(), "qd (row 6)");
+    refused(dynamics::forward_dynamics_batch(&m, &qs, &qds, &vec![1.0; rows * 4], &g, None, &mut out).unwrap_err(), "qd (row 6)");
+    let mut out2 = vec![0.0; rows * 16];
+    refused(dynamics::coriolis_matrix_batch(&m, &qs, &qds, &mut out2).unwrap_err(), "qd (row 6)");
+    // large but representable rates still compute
+    qd[1] = 1e100;
+    assert!(dynamics::rnea(&m, &mut ws, &q, &qd, &qdd, &g, None).unwrap().iter().all(|v| v.is_finite()));
+    // a model whose masses overflow: every result names itself, where, and blames the model, not an input
+    let huge = Inertia::point_mass(1e300, Vector3::new(1e10, 0.0, 0.0)).unwrap();
+    let mh = m.with_inertias(vec![huge; 4]).unwrap();
+    let mut wh = DynamicsData::new(&mh);
+    let overflow = |e: Error, start: &str| {
+        let msg = e.to_string();
+        assert!(
+            matches!(e, Error::Overflow { .. })
+                && msg.starts_with(start)
+                && msg.ends_with("the inputs are moderate: the model's parameters (inertias, lengths) overflow double precision"),
+            "{msg}"
+        );
+    };
+    overflow(dynamics::mass_matrix(&mh, &mut wh, &q).unwrap_err(), "the mass matrix is not finite (");
+    overflow(dynamics::mass_matrix_batch(&mh, &qs, &mut out2).unwrap_err(), "the mass matrix (row 0) is not finite (");
+    overflow(dynamics::gravity_torques(&mh, &mut wh, &q, &g).unwrap_err(), "gravity torques is not finite (");
+    overflow(dynamics::gravity_torques_batch(&mh, &qs, &g, &mut out).unwrap_err(), "gravity torques (row 0) is not finite (");
+    overflow(dynamics::rnea(&mh, &mut wh, &q, &[0.1; 4], &qdd, &g, None).unwrap_err(), "tau is not finite (");
+    overflow(dynamics::rnea_batch(&mh, &qs, &vec![0.1; rows * 4], &qdds, &g, None, &mut out).unwrap_err(), "tau (row 0) is not finite (");
+    overflow(dynamics::potential_energy(&mh, &q, &g).unwrap_err(), "the potential energy is not finite (");
+}

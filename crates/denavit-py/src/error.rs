@@ -53,6 +53,10 @@ fn exception(e: &Error, context: Option<&str>, joint: Option<usize>) -> PyErr {
                     fields!(d; what, got, expected);
                     ("UnknownName", "DenavitError")
                 }
+                Error::Overflow { what, at, value, cause } => {
+                    fields!(d; what, at, value, cause);
+                    ("Overflow", "DenavitError")
+                }
                 Error::NotConverged { iterations, position_error, rotation_error } => {
                     fields!(d; iterations, position_error, rotation_error);
                     ("NotConverged", "NotConvergedError")

@@ -64,13 +64,14 @@ def calibrate(
     import numpy as np  # noqa: PLC0415
 
     from .. import calibration as cal  # noqa: PLC0415
+    from ..api import input_path, is_measurement_file  # noqa: PLC0415
     from ..io.measurements import read_measurements  # noqa: PLC0415
 
     json_path = json_target(json_path)
     robot = load_robot(nominal, base_link, tip_link, "--nominal")
     convention = convention_name(convention)
     # the reader applies the one units rule (denavit.io.units.input_units): what the file declares wins
-    if data_format == "measurements" or (data_format == "auto" and _is_measurement_file(data)):
+    if data_format == "measurements" or (data_format == "auto" and is_measurement_file(input_path(data))):
         meas = read_measurements(data, kinds=list(robot.table.kinds), length=length, angle=angle)
     else:  # a recording (tracker export, controller log, bag...): one pose per pause of the robot
         from ..io.recordings import read_recording  # noqa: PLC0415
@@ -181,17 +182,3 @@ def print_calibration(res, length: str, angle: str, verbose: bool = False) -> No
         say("yellow", "note:", f" {note}")
 
 
-def _is_measurement_file(data: Path) -> bool:
-    """Our own measurement formats: JSON, or a CSV whose header has q1 and x (or a sweep file's joint)."""
-    if data.suffix.lower() == ".json":
-        return True
-    from ..io.delimited import rows  # noqa: PLC0415
-    from ..io.text import decode, read_bytes  # noqa: PLC0415
-
-    try:
-        lines = decode(read_bytes(data, "measurement file")[:65536], str(data)).splitlines()
-    except Exception:  # noqa: BLE001 (a binary bag, or UTF-8 cut by the 64 kB window: not ours)
-        return False
-    found, _ = rows(lines[:50])
-    cols = [c.lower() for c in found[0][1]] if found else []
-    return ("q1" in cols and "x" in cols) or "joint" in cols

@@ -71,11 +71,13 @@ def identify(
     rotation_noise: Annotated[float | None, typer.Option("--rotation-noise", help="6-DoF poses: the orientation noise (1 sigma per component), in --angle units, weighting the orientations against the points (default: estimated).")] = None,
     coupling: Annotated[str | None, typer.Option("--coupling", help="Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; docs/robot-files.md); default: the robot file's [couplings].")] = None,
     keep_dwell: Annotated[bool, typer.Option("--keep-dwell", help="Keep the rows where the motion stands still at a sweep's ends (left out of the fits by default, with a note naming them).")] = False,
+    allow_implausible: Annotated[bool, typer.Option("--allow-implausible", help="Keep a fit that is implausible against --nominal (mirror image, two joints exchanged, most axes far: a unit slip or the wrong robot), with a note, instead of the error.")] = False,
     readings: Annotated[Path | None, typer.Option("--readings", help="A second recording with the joint readings on another clock (e.g. a controller log beside a tracker export): aligned from the motion.")] = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
 ) -> None:
     """Identify the joint axes and parameters from joint sweeps (Hayat et al.), beside the nominal values."""
+    from ..api import input_path, is_sweep_file  # noqa: PLC0415
     from ..identify import identify as identify_sweeps  # noqa: PLC0415
     from ..identify import to_json  # noqa: PLC0415
     from ..io import sweeps as swio  # noqa: PLC0415
@@ -91,7 +93,7 @@ def identify(
     nom = load_robot(nominal, base_link, tip_link, "--nominal") if nominal else None
     kinds = list(nom.table.kinds) if nom else None
     with status("reading sweeps..."):
-        if data_format not in ("auto", "sweeps") or readings is not None or (data_format == "auto" and not _is_sweep_file(data)):
+        if data_format not in ("auto", "sweeps") or readings is not None or (data_format == "auto" and not is_sweep_file(input_path(data))):
             sweeps = read_recording_sweeps(data, data_format, columns=columns, sweep=sweep, target=target, readings=readings, length=length, angle=angle,
                                            home=parse_numbers(home, "--home") or None, direction=parse_numbers(direction, "--direction") or None, nominal=nom)
         elif data.is_dir():
@@ -106,7 +108,7 @@ def identify(
             sweeps = swio.read_json(data, length=length, angle=angle)
         else:  # units the file declares win; --length/--angle fill in what it does not declare (and are the output's)
             sweeps = swio.read_long_csv(data, length=length, angle=angle, kinds=kinds)
-        if target is not None and not (data_format not in ("auto", "sweeps") or readings is not None or (data_format == "auto" and not _is_sweep_file(data))):
+        if target is not None and not (data_format not in ("auto", "sweeps") or readings is not None or (data_format == "auto" and not is_sweep_file(input_path(data)))):
             if not 1 <= target <= sweeps.n_targets:
                 fail(f"--target {target}: {data} has {sweeps.n_targets} target(s) per pose: expected 1..{sweeps.n_targets}")
             sweeps = sweeps.target(target - 1)
@@ -118,7 +120,7 @@ def identify(
         T_world_base = None if base is None else parse_pose(base, out_ang, length_scale(out_len), "--base")
         rn = None if rotation_noise is None else positive(rotation_noise, "--rotation-noise", angle_scale(out_ang), None, out_ang)
         result = identify_sweeps(sweeps, method=method, convention=convention, nominal=nom, loss=loss, max_sigma=ms, T_world_base=T_world_base,
-                                 keep_dwell=keep_dwell, coupling=C, rotation_noise=rn, progress=st.update)
+                                 keep_dwell=keep_dwell, coupling=C, rotation_noise=rn, allow_implausible=allow_implausible, progress=st.update)
     if json_path:
         emit_json(to_json(result), json_path)
     if json_path != "-":
@@ -152,24 +154,6 @@ def identify(
             with status(f"writing the report {report} ..."):
                 rep.write_report(result, report, length=out_len, angle=out_ang)
             wrote(report)
-
-
-def _is_sweep_file(data: Path) -> bool:
-    """Our own sweep formats: a folder of jN.csv (no ROS 2 metadata), JSON, or a CSV whose header has a ``joint`` column."""
-    if data.is_dir():
-        return not (data / "metadata.yaml").exists()
-    if data.suffix.lower() == ".json":
-        return True
-    from ..io.delimited import rows  # noqa: PLC0415
-    from ..io.text import decode, read_bytes  # noqa: PLC0415
-
-    head = read_bytes(data, "sweep file")[:65536]
-    try:
-        lines = decode(head, str(data)).splitlines()
-    except Exception:  # noqa: BLE001 (a binary bag, or UTF-8 cut mid-character by the 64 kB window: not ours)
-        return False
-    found, _ = rows(lines[:50])
-    return bool(found) and "joint" in [c.lower() for c in found[0][1]]
 
 
 def read_recording_sweeps(data: Path, data_format: str, *, columns, sweep, target: int, readings, length, angle, home, direction, nominal):

@@ -1,9 +1,15 @@
-"""Input checks shared by the fits: points, joint readings, losses and positive lengths (one-line errors)."""
+"""Checks shared by the fits (one-line errors and notes): their inputs (points, joint readings, losses, positive
+lengths, sweeps labelled with the joint they move), and their results against a nominal robot (issue 16: a unit
+slip, a mirrored frame, swapped joints or the wrong robot must not pass with small sigmas) and against a circle
+(a systematic misfit far above the point-to-point noise)."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from .. import _core
 from ..errors import DegenerateError, DenavitError
 
 #: Points closer than this to their centroid (m) are "coincident".
@@ -70,3 +76,286 @@ def check_positive(name: str, value, where: str) -> None:
     """``value`` a positive length (m) or None, or a clear error naming ``name``."""
     if value is not None and not (np.isfinite(value) and value > 0):
         raise DenavitError(f"{prefix(where)}{name} must be a positive length in metres or None, got {value!r}")
+
+
+#: Two sweeps whose points agree to this (m, every coordinate) are one sweep twice: a tracker's noise alone
+#: (0.02 mm) keeps two recordings of the same motion a thousand times further apart.
+DUPLICATE_TOL = 1e-9
+#: A sweep's own joint must move at least this fraction of the most moving other reading.
+MOVING_FRACTION = 0.01
+
+
+def check_sweep_labels(sweeps, wheres: list[str]) -> None:
+    """A :class:`DenavitError` for a sweep that is another's copy (the same points: a file copied over another)
+    or that, by its readings, moves another joint than its label (files or labels exchanged). ``wheres``: a
+    description of each sweep for the message (file and lines)."""
+    ss = sweeps.sweeps
+    for a in range(len(ss)):
+        for b in range(a + 1, len(ss)):
+            pa, pb = ss[a].points, ss[b].points
+            if pa.shape == pb.shape and np.all(np.abs(pa - pb) <= DUPLICATE_TOL):
+                raise DenavitError(f"{wheres[b]}: the sweep repeats the {len(pa)} points of {wheres[a]} (within {DUPLICATE_TOL * 1e3:g} mm): "
+                                   f"expected a recording of joint {ss[b].joint} moving (a file copied over another?)")
+    for s, w in zip(ss, wheres, strict=True):
+        if s.q is None or not np.isfinite(s.q).all():
+            continue  # the readings' own checks name the bad values
+        span = np.ptp(s.q, axis=0)
+        j = s.joint - 1
+        others = np.delete(span, j)
+        if others.size and others.max() > 0 and span[j] < MOVING_FRACTION * others.max():
+            k = int(np.argmax(np.where(np.arange(len(span)) == j, -1.0, span)))
+            unit = (1.0, "m") if sweeps.kinds[k] == "prismatic" else (math.degrees(1.0), "deg")
+            raise DenavitError(f"{w}: the readings move joint {k + 1} (over {span[k] * unit[0]:.4g} {unit[1]}) while joint {s.joint} "
+                               f"moves {span[j] * (1.0 if sweeps.kinds[j] == 'prismatic' else math.degrees(1.0)):.3g}: expected joint "
+                               f"{s.joint} moving (the sweeps of joints {s.joint} and {k + 1} exchanged, or misnumbered?)")
+
+
+#: A pair of consecutive identified axes whose angle or distance differs from the nominal pair's by more than this
+#: (rad; fraction of the robot's size) and ``PLAUSIBLE_SIGMAS`` of its uncertainty gets a note; when more than
+#: half of all pairs of axes, or of the consecutive ones, differ by more than ``IMPLAUSIBLE`` the fit is an error. Pairs are compared, not the
+#: axes themselves, so that data in another frame (a tracker's, without --base) is not suspect; the axes
+#: themselves are compared after the rigid motion that best carries them onto the nominal's
+#: (:func:`register_axes`), which shows joints swapped (the pairs cannot: two parallel axes exchanged keep every
+#: pairwise angle and distance).
+PLAUSIBLE = (math.radians(2.0), 0.02)
+IMPLAUSIBLE = (math.radians(30.0), 0.25)
+PLAUSIBLE_SIGMAS = 5.0
+
+
+def _line_pair(p0, z0, p1, z1, parallel: bool) -> tuple[float, float]:
+    """(angle, distance) of two lines: the angle of their directions (0..pi) and the length of their common
+    normal, or for a pair taken as parallel the distance of the second point from the first line measured across
+    their mean direction (the common normal of nearly parallel lines can lie anywhere: it is no measure of them)."""
+    ang = math.acos(max(-1.0, min(1.0, float(np.dot(z0, z1)))))
+    d = np.asarray(p1, dtype=float) - np.asarray(p0, dtype=float)
+    if parallel:
+        m = np.asarray(z0) + np.sign(np.dot(z0, z1) or 1.0) * np.asarray(z1)
+        m = m / np.linalg.norm(m)
+        return ang, float(np.linalg.norm(d - m * (d @ m)))
+    c = np.cross(z0, z1)
+    return ang, abs(float(d @ c)) / float(np.linalg.norm(c))
+
+
+def robot_size(nominal, home) -> float:
+    """The robot's size (m): the farthest of its axis points and its tool from its base at ``home``."""
+    model = nominal.model()
+    ax = _core.axes(model, home)
+    base = np.asarray(nominal.table.T_world_base)[:3, 3]
+    return max(max(float(np.linalg.norm(np.asarray(p) - base)) for p in ax.points), float(np.linalg.norm(_core.fk(model, home)[:3, 3] - base)), 1e-3)
+
+
+def _far(da: float, dd: float, sig_a: float, sig_d: float, size: float) -> bool:
+    return (da > PLAUSIBLE[0] and da > PLAUSIBLE_SIGMAS * sig_a) or (dd > PLAUSIBLE[1] * size and dd > PLAUSIBLE_SIGMAS * sig_d)
+
+
+def _finite(x: float) -> float:
+    return x if np.isfinite(x) else 0.0
+
+
+def _kabsch(D, N) -> np.ndarray:
+    """The rotation R minimising sum |R d_k - n_k|^2 (Kabsch 1976), a proper one (det +1)."""
+    U, _, Vt = np.linalg.svd(D.T @ N)
+    return Vt.T @ np.diag([1.0, 1.0, np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0]) @ U.T
+
+
+def register_axes(points, dirs, nom_points, nom_dirs, kinds, size: float, R_start=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The rigid motion (R, t) that best carries the identified axes (``points``, ``dirs``: (n, 3)) onto the
+    nominal's, as lines (a direction's sign, which without readings comes from the point order, does not count;
+    directions weighted by the robot's ``size``, positions across each nominal axis; a prismatic axis by its
+    direction only), and each axis's (angle (rad, 0..pi/2), distance (m)) from its nominal after it:
+    (R, t, dev (n, 2)). ``R_start``: a first guess (default: from the directions, the frames taken as near)."""
+    from scipy.optimize import least_squares  # noqa: PLC0415 (scipy loads with the fits that need it)
+    from scipy.spatial.transform import Rotation  # noqa: PLC0415
+
+    P, D, C, N = (np.asarray(a, dtype=float) for a in (points, dirs, nom_points, nom_dirs))
+    rev = np.array([k != "prismatic" for k in kinds])
+    A = np.eye(3) - N[:, :, None] * N[:, None, :]  # projectors across each nominal axis
+    R0 = np.eye(3) if R_start is None else np.asarray(R_start, dtype=float)
+    for _ in range(3):  # each direction's sign to its nominal's under the rotation so far, then the rotation again
+        D = D * np.where(np.einsum("ki,ki->k", D @ R0.T, N) < 0, -1.0, 1.0)[:, None]
+        R0 = _kabsch(D, N)
+    D = D * np.where(np.einsum("ki,ki->k", D @ R0.T, N) < 0, -1.0, 1.0)[:, None]
+    t0 = np.linalg.lstsq(A[rev].sum(axis=0), np.einsum("kij,kj->i", A[rev], C[rev] - P[rev] @ R0.T), rcond=None)[0] if rev.any() else np.zeros(3)
+
+    def across(R, t):
+        e = np.einsum("kij,kj->ki", A, P @ R.T + t - C)
+        e[~rev] = 0.0
+        return e
+
+    def resid(x):
+        R = Rotation.from_rotvec(x[:3]).as_matrix() @ R0
+        return np.concatenate([((D @ R.T) - N).ravel() * size, across(R, x[3:]).ravel()])
+
+    x = least_squares(resid, np.concatenate([np.zeros(3), t0]), x_scale=np.r_[np.ones(3), np.full(3, size)]).x
+    R = Rotation.from_rotvec(x[:3]).as_matrix() @ R0
+    ang = np.arccos(np.clip(np.abs(np.einsum("ki,ki->k", D @ R.T, N)), 0.0, 1.0))
+    return R, x[3:], np.column_stack([ang, np.linalg.norm(across(R, x[3:]), axis=1)])
+
+
+def nominal_plausibility(ex, fits: list, nominal, home, names: list[str], source: str, notes: list[str], short: list[str] = (),
+                         short_sigma: float = math.inf, allow: bool = False) -> None:
+    """The identified axes against the nominal's (issue 16), in units of their uncertainty and of the robot's size:
+
+    - a note naming the joints of each consecutive pair whose angle or distance is far from the nominal pair's;
+    - an error when the axes are the nominal's mirror image (x and y swapped), when they match the nominal's far
+      better with two joints exchanged (files of two joints exchanged), or when most pairs of axes are far (a unit
+      slip, the wrong robot). ``allow``: these become notes (the fit is returned as it is).
+
+    ``short``: the notes of arcs too short for their axis (``short_sigma``, m), which the error cites as the cause."""
+    model = nominal.model()
+    ax = _core.axes(model, home)
+    kinds = list(model.kinds)
+    size = robot_size(nominal, home)
+    nom = _core.extract(ax, "dh").pairs
+    npts, ndirs = np.asarray(ax.points), np.asarray(ax.directions)
+    sig_a = np.array([_finite(f.sigma_direction) for f in fits])
+    sig_d = np.array([_finite(f.sigma_point_perp) for f in fits])
+
+    def refuse(message: str) -> None:
+        if not allow:
+            raise DenavitError(f"{source}: {message}; --allow-implausible (allow_implausible=True) keeps the fit")
+        notes.append(f"implausible against the nominal {nominal.name} (kept as asked): {message}")
+
+    swap = _swapped(fits, npts, ndirs, kinds, size, sig_a, sig_d)
+    if swap:
+        (a, b), dev = swap
+        refuse(f"the axes match the nominal {nominal.name}'s with joints {names[a]} and {names[b]} exchanged: in the order given {names[a]} is "
+               f"{dev[a, 1] * 1e3:.4g} mm and {math.degrees(dev[a, 0]):.3g} deg off its nominal, {names[b]} {dev[b, 1] * 1e3:.4g} mm and "
+               f"{math.degrees(dev[b, 0]):.3g} deg (after the best rigid fit of all axes); exchanged, every axis is within "
+               f"{PLAUSIBLE[1] * size * 1e3:.3g} mm and {math.degrees(PLAUSIBLE[0]):g} deg (the files of joints {a + 1} and {b + 1} exchanged, "
+               "or the joints misnumbered?)")
+        return
+    mirror = _mirrored(fits, npts, ndirs, kinds, size)
+    if mirror:
+        refuse(f"the identified axes are the mirror image of the nominal {nominal.name}'s ({mirror[0]} of {mirror[1]} skew pairs have their common "
+               "normal's distance flipped): expected a right-handed measurement frame (x and y swapped? a left-handed tracker export? a "
+               "joint's readings reversed?)")
+    far_next = 0  # consecutive pairs (the table's links) beyond IMPLAUSIBLE
+    for pi, pn in zip(ex.pairs, nom, strict=True):
+        k = pi.joint - 1
+        sa, sd = math.hypot(sig_a[k], sig_a[k + 1]), math.hypot(sig_d[k], sig_d[k + 1])
+        da, dd = abs(pi.angle - pn.angle), abs(pi.distance - pn.distance)
+        if "prismatic" in (kinds[k], kinds[k + 1]):
+            dd = 0.0  # a prismatic axis is a direction: where its line lies is a convention, not a measurement
+        far_next += da > IMPLAUSIBLE[0] or dd > IMPLAUSIBLE[1] * size
+        if _far(da, dd, sa, sd, size):
+            notes.append(f"axes {names[k]}-{names[k + 1]}: {math.degrees(pi.angle):.4g} deg apart and {pi.distance * 1e3:.5g} mm apart, the nominal's "
+                         f"{math.degrees(pn.angle):.4g} deg and {pn.distance * 1e3:.5g} mm (off by {da / max(sa, 1e-300):.3g} and "
+                         f"{dd / max(sd, 1e-300):.3g} sigma, {dd / size:.2g} robot sizes): check the joint order, the units and the nominal")
+    # every pair of axes, not only consecutive ones: a wrong robot can match some links by chance
+    n = len(fits)
+    far, pairs = 0, 0
+    for i in range(n):
+        for j in range(i + 1, n):
+            pairs += 1
+            par = abs(float(np.dot(ndirs[i], ndirs[j]))) > math.cos(math.radians(10.0))  # nominally near-parallel: distance across
+            an, dn = _line_pair(npts[i], ndirs[i], npts[j], ndirs[j], par)
+            ai, di = _line_pair(fits[i].point, fits[i].direction, fits[j].point, fits[j].direction, par)
+            an, ai = min(an, math.pi - an), min(ai, math.pi - ai)  # lines, not directions: signs are checked elsewhere
+            if "prismatic" in (kinds[i], kinds[j]):
+                dn = di = 0.0
+            # no sigmas here: a fit this far off is of no use however uncertain (arcs too short say so)
+            far += abs(ai - an) > IMPLAUSIBLE[0] or abs(di - dn) > IMPLAUSIBLE[1] * size
+    if pairs and (far > pairs / 2 or far_next > (n - 1) / 2):
+        refuse(f"{far} of {pairs} pairs of axes ({far_next} of {n - 1} consecutive) differ from the nominal {nominal.name}'s by more than {math.degrees(IMPLAUSIBLE[0]):g} deg or "
+               f"{IMPLAUSIBLE[1]:g} robot sizes ({IMPLAUSIBLE[1] * size * 1e3:.4g} mm): expected the same robot "
+               + (f"(the arcs are too short: {len(short)} axes known no better than {short_sigma * 1e3:g} mm, up to "
+                  f"{max(f.sigma_point_perp for f in fits) * 1e3:.3g} mm; sweep longer arcs)" if short else
+                  "(points in another unit? joints swapped or misnumbered? the wrong robot?)"))
+
+
+def _mirrored(fits: list, pts, dirs, kinds, size: float) -> tuple[int, int] | None:
+    """(flipped, compared) when the identified axes are the mirror image of the nominal's: the pairwise angles and
+    distances do not see a reflection, the signed common-normal distances do (skew pairs, in both models clearly
+    skew, the distance beyond 2 % of the robot and 5 sigma; most of them flipped)."""
+    flips = []
+    for k in range(len(fits) - 1):
+        zi0, zi1 = fits[k].direction, fits[k + 1].direction
+        if "prismatic" in (kinds[k], kinds[k + 1]) or min(np.linalg.norm(np.cross(zi0, zi1)), np.linalg.norm(np.cross(dirs[k], dirs[k + 1]))) < 0.05:
+            continue
+        dn = _signed_distance(pts[k], dirs[k], pts[k + 1], dirs[k + 1])
+        di = _signed_distance(fits[k].point, zi0, fits[k + 1].point, zi1)
+        sig = math.hypot(fits[k].sigma_point_perp, fits[k + 1].sigma_point_perp)
+        if min(abs(dn), abs(di)) > max(0.02 * size, 5 * _finite(sig)):
+            flips.append(np.sign(dn) != np.sign(di))
+    return (int(sum(flips)), len(flips)) if len(flips) >= 2 and sum(flips) > len(flips) / 2 else None
+
+
+def _signed_distance(p0, z0, p1, z1) -> float:
+    """The distance of two skew lines along their common normal z0 x z1, signed: a mirror image (a reflection of
+    the points, e.g. x and y swapped) flips it, a rigid motion does not."""
+    c = np.cross(z0, z1)
+    return float((np.asarray(p1) - np.asarray(p0)) @ c / np.linalg.norm(c))
+
+
+def _swapped(fits: list, pts, dirs, kinds, size: float, sig_a, sig_d):
+    """((a, b), deviations in the order given) when, after the best rigid fit of the axes onto the nominal's, some
+    axes are far from their nominal in the order given and every axis is near its nominal with joints a and b
+    (0-based, of one kind) exchanged; else None."""
+    P = np.array([f.point for f in fits])
+    D = np.array([f.direction for f in fits])
+
+    def far_joints(order, R_start=None):
+        R, _, dev = register_axes(P, D, pts[order], dirs[order], [kinds[k] for k in order], size, R_start)
+        return [k for k in range(len(fits)) if _far(dev[k, 0], dev[k, 1], sig_a[k], sig_d[k], size)], dev, R
+
+    bad, dev, R = far_joints(list(range(len(fits))))
+    if len(bad) < 2:
+        return None
+    for a in bad:
+        for b in bad:
+            if a < b and kinds[a] == kinds[b]:
+                order = list(range(len(fits)))
+                order[a], order[b] = b, a
+                if not far_joints(order, R)[0]:
+                    return (a, b), dev
+    return None
+
+
+#: A circle fit whose misfit, varying smoothly along the arc, is this many times the point-to-point noise and
+#: ``SYSTEMATIC_Z`` standard deviations from what white noise gives gets a note (issue 16: a 5 % ellipse had
+#: been fitted as a circle with small sigmas and no word).
+SYSTEMATIC_RATIO = 2.0
+SYSTEMATIC_Z = 4.0
+#: ... and above this rms (m): the smooth misfit of noise-free data at the fits' convergence tolerance is not news.
+SYSTEMATIC_FLOOR = 1e-6
+#: Fewer points than this say nothing about the misfit's structure.
+SYSTEMATIC_MIN_POINTS = 12
+
+
+def systematic_misfit(points, centre, direction) -> tuple[float, float]:
+    """(rms, point-to-point noise) of the points' misfit to the circle about the axis (``centre``, ``direction``):
+    the radial and axial offsets from their means, in order along the arc. The noise is the von Neumann estimate
+    from successive differences (``sqrt(sum |e_k+1 - e_k|^2 / (2 (m - 1)))``), which a misfit that varies smoothly
+    along the arc (an ellipse, a deflection) leaves out: white noise gives a ratio near 1, a shape other than a
+    circle a ratio far above it (von Neumann 1941, the ratio of the mean square successive difference to the variance)."""
+    p = np.asarray(points, dtype=float) - np.asarray(centre, dtype=float)
+    n = np.asarray(direction, dtype=float)
+    h = p @ n
+    w = p - np.outer(h, n)
+    u = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    theta = np.arctan2(w @ np.cross(n, u), w @ u)
+    order = np.argsort(theta)
+    gaps = np.diff(np.r_[theta[order], theta[order[0]] + 2 * np.pi])
+    order = np.roll(order, -(int(np.argmax(gaps)) + 1))  # start after the largest gap: in order along the arc
+    e = np.column_stack([np.linalg.norm(w, axis=1), h])[order]
+    e -= e.mean(axis=0)
+    rms = float(np.sqrt(np.mean(np.sum(e**2, axis=1))))
+    noise = float(np.sqrt(np.sum(np.diff(e, axis=0) ** 2) / (2 * (len(e) - 1))))
+    return rms, noise
+
+
+def misfit_notes(sweeps, fits: list, wheres: list[str], notes: list[str]) -> None:
+    """A note (one line) per circle fit whose misfit is systematic and far above the noise the points show: the
+    data is not a circle about the fitted axis, and the axis and its sigmas (which assume one) are not to be trusted."""
+    for s, f, w in zip(sweeps.sweeps, fits, wheres, strict=True):
+        if sweeps.kinds[s.joint - 1] == "prismatic" or not np.isfinite(f.radius) or len(s.points) < SYSTEMATIC_MIN_POINTS:
+            continue
+        rms, noise = systematic_misfit(s.points, f.point, f.direction)
+        # white noise: (noise / rms)^2, half the von Neumann ratio, is 1 with a standard deviation of about 1 / sqrt(m)
+        z = (1.0 - (noise / rms) ** 2) * math.sqrt(len(s.points)) if rms > 0 else 0.0
+        if rms > SYSTEMATIC_FLOOR and rms > SYSTEMATIC_RATIO * noise and z > SYSTEMATIC_Z:
+            notes.append(f"{w}: the points leave the fitted circle systematically, rms {rms * 1e3:.3g} mm against a point-to-point noise of "
+                         f"{noise * 1e3:.2g} mm ({rms / max(noise, 1e-300):.3g} x), varying smoothly along the arc: not a circle (an ellipse? "
+                         f"the arm deflecting under load? a loose joint?; {z:.3g} sigma from white noise): the axis and its sigmas assume a circle")

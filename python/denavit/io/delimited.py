@@ -21,6 +21,7 @@ import warnings
 import numpy as np
 
 from ..errors import DenavitError
+from .text import decode
 
 #: A number as every text reader accepts it: ASCII decimal digits, an optional sign, point and exponent
 #: (``12``, ``-0.5``, ``.5``, ``1e-3``, ``2.E+4``). Python's ``float()`` also takes ``1_000``, full-width and
@@ -166,3 +167,29 @@ def header(cells: list[str], where: str) -> list[str]:
     if dup:
         raise DenavitError(f"{where}: column(s) {', '.join(dup)} named twice in the header {','.join(cells)!r}")
     return cols
+
+
+def fast_table(data: bytes, where: str):
+    """A delimited file's bytes read by :func:`numeric_table`, without splitting its rows in Python: (the
+    lines up to the header, decoded, the table (m, columns of the header), the line number of its first row), or
+    None when the data rows are not a plain numeric table (then the caller's row-by-row reader reads it, and
+    names the line and column of what is wrong). The sweep and measurement CSV readers' fast path."""
+    pos = 0
+    while True:  # the comment lines and the header: up to the first line that is neither blank nor a comment
+        nl = data.find(b"\n", pos)
+        if nl < 0:
+            return None
+        try:
+            line = decode(data[pos : nl + 1], where) if pos else decode(data[: nl + 1], where)
+        except DenavitError:
+            return None
+        pos = nl + 1
+        parts = line.splitlines()
+        if any(x.strip() and not x.lstrip().startswith("#") for x in parts):
+            if len(parts) != 1:
+                return None
+            break
+    head = decode(data[:pos], where).splitlines()
+    found, delim = rows(head, where)
+    table = numeric_table(data[pos:], delim, len(found[0][1]))
+    return None if table is None else (head, table, len(head) + 1)

@@ -19,7 +19,7 @@ from ..errors import DenavitError
 from ..geometry import matrix_rotvec, rotvec_matrix
 from . import delimited as dl
 from . import sweeps as sw
-from .text import read_text
+from .text import decode, read_bytes, read_text
 from .units import (
     angle_scale,
     input_units,
@@ -45,10 +45,12 @@ def read_measurements(path: str | os.PathLike, *, length: str | None = None, ang
       translations in length units), or a sweep JSON (``"sweeps"``).
     """
     p = Path(path)
-    text = read_text(p, "measurement file")
     if p.suffix.lower() == ".json":
-        return _read_json(p, text, length, angle, kinds)
-    lines = text.splitlines()
+        return _read_json(p, read_text(p, "measurement file"), length, angle, kinds)
+    raw = read_bytes(p, "measurement file")
+    fast = dl.fast_table(raw, str(p))  # plain numbers at C speed, the rows never split in Python (else row by row)
+    lines = fast[0] if fast else decode(raw, str(p)).splitlines()
+    del raw
     data, delim = dl.rows(lines, str(p))
     if data and "joint" in [c.lower() for c in data[0][1]]:
         return Measurements.from_sweeps(sw.read_long_csv(p, length=length, angle=angle, kinds=None if kinds is None else list(kinds)))
@@ -68,9 +70,9 @@ def read_measurements(path: str | os.PathLike, *, length: str | None = None, ang
         raise DenavitError(f"{p}:{hline}: header must be 'q1,...,qn,x,y,z' (optionally ',rx,ry,rz'), or a sweep file with a 'joint' column; {what}, got {delim.join(names)!r}")
     kinds = joint_kinds(kinds, len(qcols), f"{p}: kinds given") or ("revolute",) * len(qcols)
     idx = {c: cols.index(c) for c in need}
-    table = dl.numeric_table("\n".join(lines[hline:]).encode(), delim, len(cols))  # C speed for plain numbers
-    if table is not None:
-        where = [f"{p}:{ln}" for ln, _ in data[1:]]
+    if fast:
+        table = fast[1]
+        where = sw.FileLines(str(p), fast[2] + np.arange(len(table)))
         q = table[:, [idx[f"q{i}"] for i in range(1, len(qcols) + 1)]]
         pts = table[:, [idx[c] for c in "xyz"]] * ls
         far = np.abs(pts) > dl.MAX_LENGTH

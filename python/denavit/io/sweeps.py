@@ -106,31 +106,6 @@ def parse_nest(lines, k: int, ls: float, where: str):
     return None
 
 
-def _fast_long(data: bytes, where: str):
-    """The long form read by :func:`~denavit.io.delimited.numeric_table`: (lines before the data, the
-    table (m, columns), the line number of its first row), or None when the data rows are not a plain numeric
-    table (then the row-by-row reader reads it, and names the line and column of what is wrong)."""
-    pos = 0
-    while True:  # the comment lines and the header: up to the first line that is neither blank nor a comment
-        nl = data.find(b"\n", pos)
-        if nl < 0:
-            return None
-        try:
-            line = decode(data[pos : nl + 1], where) if pos else decode(data[: nl + 1], where)
-        except DenavitError:
-            return None
-        pos = nl + 1
-        parts = line.splitlines()
-        if any(x.strip() and not x.lstrip().startswith("#") for x in parts):
-            if len(parts) != 1:
-                return None
-            break
-    head = decode(data[:pos], where).splitlines()
-    found, delim = dl.rows(head, where)
-    table = dl.numeric_table(data[pos:], delim, len(found[0][1]))
-    return None if table is None else (head, table, len(head) + 1)
-
-
 def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: str | None = None, kinds: list[str] | None = None, home=None) -> SweepSet:
     """Read the long-form CSV: header ``joint,q1,...,qn,x,y,z`` (optional ``time``), one row per point.
 
@@ -145,7 +120,7 @@ def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: 
     """
     where = str(path)
     data = read_bytes(path, "sweep file")
-    fast = _fast_long(data, where)
+    fast = dl.fast_table(data, where)
     lines = fast[0] if fast else decode(data, where).splitlines()
     units = input_units(parse_declaration(lines, where), length, angle, where)
     rows, _ = dl.rows(lines, where)

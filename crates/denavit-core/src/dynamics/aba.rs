@@ -120,7 +120,14 @@ pub fn forward_dynamics<'a>(
 ) -> Result<&'a [f64]> {
     check_fd_args(model, ws, q, qd, tau, gravity, f_ext)?;
     aba_unchecked(model, ws, q, qd, tau, gravity, f_ext)?;
+    check_fd_result(ws, q, qd, tau, gravity, f_ext)?;
     Ok(&ws.qdd)
+}
+
+/// The accelerations of a forward dynamics call finite, or [`Error::Overflow`] naming the input to blame.
+pub(super) fn check_fd_result(ws: &DynamicsData, q: &[f64], qd: &[f64], tau: &[f64], g: &Vector3<f64>, f_ext: Option<&Vector6<f64>>) -> Result<()> {
+    let w = f_ext.map_or(&[][..], |w| w.as_slice());
+    check_result("qdd", &ws.qdd, joint_label, &[("q", q), ("qd", qd), ("tau", tau), ("gravity", g.as_slice()), ("f_ext", w)])
 }
 
 pub(super) fn check_fd_args(
@@ -135,6 +142,7 @@ pub(super) fn check_fd_args(
     ws.check(model)?;
     model.check_q(q)?;
     check_vec("qd", model.nq(), qd)?;
+    check_rates("qd", qd)?;
     check_vec("tau", model.nq(), tau)?;
     check_gravity(g)?;
     check_wrench(f_ext)
@@ -166,6 +174,7 @@ pub fn forward_dynamics_crba<'a>(
 ) -> Result<&'a [f64]> {
     check_fd_args(model, ws, q, qd, tau, gravity, f_ext)?;
     fd_crba_unchecked(model, ws, q, qd, tau, gravity, f_ext)?;
+    check_fd_result(ws, q, qd, tau, gravity, f_ext)?;
     Ok(&ws.qdd)
 }
 

@@ -331,6 +331,11 @@ pub(super) fn rnea_lanes(
     }
 }
 
+/// Row `r` of an optional (N, n) row-major input, or nothing.
+fn row_of(v: Option<&[f64]>, r: usize, n: usize) -> &[f64] {
+    v.map_or(&[][..], |v| &v[r * n..(r + 1) * n])
+}
+
 /// Batch inverse dynamics with the lane kernel: rows in groups of [`LANES`] (the last group padded by
 /// repeating its last row), chunks of rows in parallel.
 #[allow(clippy::too_many_arguments)]
@@ -361,6 +366,7 @@ pub(super) fn rnea_batch_lanes(
                 check_row("q", r, &qs[r * n..(r + 1) * n])?;
                 if let Some(v) = qds {
                     check_row("qd", r, &v[r * n..(r + 1) * n])?;
+                    check_rates(&format!("qd (row {r})"), &v[r * n..(r + 1) * n])?;
                 }
                 if let Some(v) = qdds {
                     check_row("qdd", r, &v[r * n..(r + 1) * n])?;
@@ -375,6 +381,25 @@ pub(super) fn rnea_batch_lanes(
                         *k = t[l];
                     }
                 }
+            }
+            for (i, o) in chunk.chunks_exact(n).enumerate() {
+                if o.iter().all(|v| v.is_finite()) {
+                    continue; // the common case: one pass, nothing built
+                }
+                let r = start + i;
+                let we = f_ext.map_or(&[][..], |w| if w.len() == 6 { w } else { &w[r * 6..(r + 1) * 6] });
+                let what = format!(
+                    "{} (row {r})",
+                    if qds.is_none() {
+                        "gravity torques"
+                    } else if qdds.is_none() {
+                        "bias forces"
+                    } else {
+                        "tau"
+                    }
+                );
+                let inputs = [("q", &qs[r * n..(r + 1) * n]), ("qd", row_of(qds, r, n)), ("qdd", row_of(qdds, r, n)), ("gravity", g.as_slice()), ("f_ext", we)];
+                check_result(&what, o, joint_label, &inputs)?;
             }
             Ok(())
         },
@@ -460,7 +485,7 @@ pub fn mass_matrix_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<(
         check_row("q", r, q)?;
         crba_unchecked(model, ws, q);
         copy_matrix_row_major(&ws.mass_matrix, o);
-        Ok(())
+        check_result(&format!("the mass matrix (row {r})"), o, entry_label(n, true), &[("q", q)])
     })
 }
 
@@ -480,9 +505,10 @@ pub fn coriolis_matrix_batch(model: &Model, qs: &[f64], qds: &[f64], out: &mut [
         let (q, qd) = (&qs[r * n..(r + 1) * n], &qds[r * n..(r + 1) * n]);
         check_row("q", r, q)?;
         check_row("qd", r, qd)?;
+        check_rates(&format!("qd (row {r})"), qd)?;
         coriolis_unchecked(model, ws, q, qd);
         copy_matrix_row_major(&ws.coriolis, o);
-        Ok(())
+        check_result(&format!("the Coriolis matrix (row {r})"), o, entry_label(n, true), &[("q", q), ("qd", qd)])
     })
 }
 
@@ -513,10 +539,12 @@ pub fn forward_dynamics_batch(
         let (q, qd, tau) = (&qs[r * n..(r + 1) * n], &qds[r * n..(r + 1) * n], &taus[r * n..(r + 1) * n]);
         check_row("q", r, q)?;
         check_row("qd", r, qd)?;
+        check_rates(&format!("qd (row {r})"), qd)?;
         check_row("tau", r, tau)?;
         let we = wrench_row(w, r);
         aba_unchecked(model, ws, q, qd, tau, gravity, we.as_ref())?;
         o.copy_from_slice(&ws.qdd);
-        Ok(())
+        let w = we.as_ref().map_or(&[][..], |w| w.as_slice());
+        check_result(&format!("qdd (row {r})"), o, joint_label, &[("q", q), ("qd", qd), ("tau", tau), ("gravity", gravity.as_slice()), ("f_ext", w)])
     })
 }

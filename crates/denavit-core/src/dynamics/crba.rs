@@ -54,6 +54,7 @@ pub fn mass_matrix<'a>(model: &Model, ws: &'a mut DynamicsData, q: &[f64]) -> Re
     ws.check(model)?;
     model.check_q(q)?;
     crba_unchecked(model, ws, q);
+    check_result("the mass matrix", ws.mass_matrix.as_slice(), entry_label(model.nq(), false), &[("q", q)])?;
     Ok(&ws.mass_matrix)
 }
 
@@ -127,6 +128,8 @@ pub fn coriolis_matrix<'a>(model: &Model, ws: &'a mut DynamicsData, q: &[f64], q
     ws.check(model)?;
     model.check_q(q)?;
     check_vec("qd", model.nq(), qd)?;
+    check_rates("qd", qd)?;
     coriolis_unchecked(model, ws, q, qd);
+    check_result("the Coriolis matrix", ws.coriolis.as_slice(), entry_label(model.nq(), false), &[("q", q), ("qd", qd)])?;
     Ok(&ws.coriolis)
 }

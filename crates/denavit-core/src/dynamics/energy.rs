@@ -14,6 +14,7 @@ use super::*;
 pub fn kinetic_energy(model: &Model, q: &[f64], qd: &[f64]) -> Result<f64> {
     model.check_q(q)?;
     check_vec("qd", model.nq(), qd)?;
+    check_rates("qd", qd)?;
     let (mut w, mut v) = (Vector3::zeros(), Vector3::zeros());
     let mut e = 0.0;
     for (i, (j, inertia)) in model.joints().iter().zip(model.inertias()).enumerate() {
@@ -26,6 +27,7 @@ pub fn kinetic_energy(model: &Model, q: &[f64], qd: &[f64]) -> Result<f64> {
         let (hn, hf) = Rb::from(inertia).apply(&w, &v);
         e += 0.5 * (w.dot(&hn) + v.dot(&hf));
     }
+    check_result("the kinetic energy", &[e], |_| "the chain".to_string(), &[("q", q), ("qd", qd)])?;
     Ok(e)
 }
 
@@ -49,5 +51,6 @@ pub fn potential_energy(model: &Model, q: &[f64], gravity: &Vector3<f64>) -> Res
         let c = t.transform_point(&(*inertia.com()).into()).coords;
         e -= inertia.mass() * gravity.dot(&c);
     }
+    check_result("the potential energy", &[e], |_| "the chain".to_string(), &[("q", q), ("gravity", gravity.as_slice())])?;
     Ok(e)
 }

@@ -338,6 +338,61 @@ fn check_vec(what: &str, n: usize, v: &[f64]) -> Result<()> {
     check_finite(what, v)
 }
 
+/// The largest joint rate (rad/s, m/s) the dynamics takes: `sqrt(f64::MAX)`, beyond which its square, and so the
+/// velocity-product (centrifugal, Coriolis) terms, overflow double precision.
+pub const MAX_RATE: f64 = 1.340_780_792_994_259_6e154;
+
+/// Joint rates within [`MAX_RATE`], or [`Error::InvalidArgument`] naming the argument (`what`, e.g. "qd" or
+/// "qd (row 6)") and the joint: with qd = 1e160 the torques had come out NaN (or, in the batch kernel's other
+/// order of operations, finite round-off garbage).
+pub(super) fn check_rates(what: &str, v: &[f64]) -> Result<()> {
+    match v.iter().position(|x| x.abs() > MAX_RATE) {
+        Some(i) => Err(Error::InvalidArgument {
+            what: format!("{what} at joint {}", i + 1),
+            expected: format!("joint rates whose squares are finite (|{}| <= {MAX_RATE:.4e} rad/s or m/s)", what.split(' ').next().unwrap_or(what)),
+            got: format!("{:e}", v[i]),
+        }),
+        None => Ok(()),
+    }
+}
+
+/// A result of the dynamics must be finite: with finite inputs (and rates within [`MAX_RATE`]) a NaN or infinity can
+/// only come from an overflow of double precision (accelerations of 1e300, masses of 1e300), and it becomes [`Error::Overflow`] naming the result, where the
+/// first non-finite value is (`label(k)` for flat index `k`: "joint 2", "entry (1, 3)", ...) and the largest
+/// of the `inputs` (the argument and joint to blame), instead of a NaN handed to the caller.
+pub(super) fn check_result(what: &str, out: &[f64], label: impl Fn(usize) -> String, inputs: &[(&str, &[f64])]) -> Result<()> {
+    let Some(k) = out.iter().position(|v| !v.is_finite()) else {
+        return Ok(());
+    };
+    let mut big: Option<(&str, usize, f64)> = None;
+    for (name, v) in inputs {
+        for (i, x) in v.iter().enumerate() {
+            if big.is_none_or(|b| x.abs() > b.2) {
+                big = Some((name, i, x.abs()));
+            }
+        }
+    }
+    let cause = match big {
+        Some((name, i, x)) if x > 1e100 => format!("the input {name} at joint {} is {x:e}: too large for double precision", i + 1),
+        _ => "the inputs are moderate: the model's parameters (inertias, lengths) overflow double precision".to_string(),
+    };
+    Err(Error::Overflow { what: what.to_string(), at: label(k), value: out[k], cause })
+}
+
+/// The label of flat index `k` of a vector over the joints: "joint k+1".
+pub(super) fn joint_label(k: usize) -> String {
+    format!("joint {}", k + 1)
+}
+
+/// The label of flat index `k` of an n x n matrix, row-major (batch outputs) or column-major (nalgebra's
+/// storage): "entry (row, column)", 1-based.
+pub(super) fn entry_label(n: usize, row_major: bool) -> impl Fn(usize) -> String {
+    move |k| {
+        let (r, c) = if row_major { (k / n, k % n) } else { (k % n, k / n) };
+        format!("entry ({}, {})", r + 1, c + 1)
+    }
+}
+
 fn check_gravity(g: &Vector3<f64>) -> Result<()> {
     check_finite("gravity (m/s^2, world)", g.as_slice())
 }

@@ -103,10 +103,13 @@ pub fn rnea<'a>(
     ws.check(model)?;
     model.check_q(q)?;
     check_vec("qd", model.nq(), qd)?;
+    check_rates("qd", qd)?;
     check_vec("qdd", model.nq(), qdd)?;
     check_gravity(gravity)?;
     check_wrench(f_ext)?;
     rnea_unchecked(model, ws, q, Some(qd), Some(qdd), gravity, f_ext);
+    let w = f_ext.map_or(&[][..], |w| w.as_slice());
+    check_result("tau", &ws.tau, joint_label, &[("q", q), ("qd", qd), ("qdd", qdd), ("gravity", gravity.as_slice()), ("f_ext", w)])?;
     Ok(&ws.tau)
 }
 
@@ -126,8 +129,10 @@ pub fn bias_forces<'a>(model: &Model, ws: &'a mut DynamicsData, q: &[f64], qd: &
     ws.check(model)?;
     model.check_q(q)?;
     check_vec("qd", model.nq(), qd)?;
+    check_rates("qd", qd)?;
     check_gravity(gravity)?;
     rnea_unchecked(model, ws, q, Some(qd), None, gravity, None);
+    check_result("bias forces", &ws.tau, joint_label, &[("q", q), ("qd", qd), ("gravity", gravity.as_slice())])?;
     Ok(&ws.tau)
 }
 
@@ -145,5 +150,6 @@ pub fn gravity_torques<'a>(model: &Model, ws: &'a mut DynamicsData, q: &[f64], g
     model.check_q(q)?;
     check_gravity(gravity)?;
     rnea_unchecked(model, ws, q, None, None, gravity, None);
+    check_result("gravity torques", &ws.tau, joint_label, &[("q", q), ("gravity", gravity.as_slice())])?;
     Ok(&ws.tau)
 }
