@@ -87,12 +87,16 @@ MOVING_FRACTION = 0.01
 
 def check_sweep_labels(sweeps, wheres: list[str]) -> None:
     """A :class:`DenavitError` for a sweep that is another's copy (the same points: a file copied over another)
-    or that, by its readings, moves another joint than its label (files or labels exchanged). ``wheres``: a
+    or that, by its readings, moves another joint than its label (files or labels exchanged). Two sweeps with the
+    same points and their own, different readings are not a copy: coaxial joints at home trace one circle. ``wheres``: a
     description of each sweep for the message (file and lines)."""
     ss = sweeps.sweeps
     for a in range(len(ss)):
         for b in range(a + 1, len(ss)):
             pa, pb = ss[a].points, ss[b].points
+            qa, qb = ss[a].q, ss[b].q
+            if qa is not None and qb is not None and qa.shape == qb.shape and not np.array_equal(qa, qb):
+                continue  # each its own readings: two coaxial joints at home (a wrist's 4 and 6, a Panda's 1 and 3) trace one circle
             if pa.shape == pb.shape and np.all(np.abs(pa - pb) <= DUPLICATE_TOL):
                 raise DenavitError(f"{wheres[b]}: the sweep repeats the {len(pa)} points of {wheres[a]} (within {DUPLICATE_TOL * 1e3:g} mm): "
                                    f"expected a recording of joint {ss[b].joint} moving (a file copied over another?)")
