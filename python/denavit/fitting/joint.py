@@ -153,9 +153,12 @@ def _chain(cs, ns, kinds, p, dq, active, jac: bool, moving: int | None = None):
 
 
 def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "linear", per_sweep_home: bool = False,
-               scales: bool = False, noise_sigma=None, gamma=None, where: str = ""):
+               scales=False, noise_sigma=None, gamma=None, where: str = ""):
     """The joint fit of all sweeps (module docstring). ``dqs`` per sweep (m, n) joint motions from home
     (:func:`locked_motion`), ``starts`` per joint (point, direction) start lines, ``p0`` the start home point.
+
+    ``scales``: False (none), True (every swept joint's reading scale error is a parameter) or the joints
+    (0-based) whose scale is one (:func:`denavit.identify._choose` selects them joint by joint).
 
     Returns a dict: ``points`` (n, 3) feet of the home point on each axis, ``directions`` (n, 3), ``home``
     (S, 3) home point per sweep (all equal without ``per_sweep_home``), ``cov`` of [c_1, n_1, ..., c_n, n_n,
@@ -172,7 +175,9 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     cs = [np.array(c, dtype=float) for c, _ in starts]
     ns = [np.array(d, dtype=float) / np.linalg.norm(d) for _, d in starts]
     homes = np.tile(np.asarray(p0, dtype=float), (S if per_sweep_home else 1, 1))
-    swept = sorted({s.joint - 1 for s in sweeps.sweeps}) if scales else []
+    # the joints whose reading scale is fitted: every swept joint (scales True), or those given (0-based)
+    all_swept = sorted({s.joint - 1 for s in sweeps.sweeps})
+    swept = (all_swept if scales is True else sorted({int(j) for j in scales} & set(all_swept))) if scales is not False and scales is not None else []
     sc = np.zeros(n)
     n_h = 4 * n + 3 * len(homes)  # the first scale's index
     npar = n_h + len(swept)
@@ -221,14 +226,15 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             g2 = 1 - gam[k] ** 2
             j = sweeps.sweeps[k].joint - 1
             h0 = 4 * n + 3 * (k if per_sweep_home else 0)
-            idx = np.concatenate([np.arange(4 * i, 4 * i + 4) for i in active[k]] + [np.arange(h0, h0 + 3)] + ([[n_h + swept.index(j)]] if scales else []))
+            fit_s = j in swept  # (this sweep's joint has a scale parameter)
+            idx = np.concatenate([np.arange(4 * i, 4 * i + 4) for i in active[k]] + [np.arange(h0, h0 + 3)] + ([[n_h + swept.index(j)]] if fit_s else []))
             Gt = np.zeros((len(idx), len(idx)))
             m = len(dqs[k])
             rt_k, lever_k, rw_k, r_k = np.empty(m), np.empty(m), np.empty((m, 3)), np.empty((m, 3))
             for rows, r, mv, blocks, jp in chunks(k, cs, ns, homes_, sc_, True):
                 t, lever = tangent(mv)
                 # (with scales: d pred / d s_j = d pred / d q_j times the reading's motion)
-                J = np.concatenate([blocks[i] for i in active[k]] + [jp] + ([(mv * dqs[k][rows, j, None])[:, :, None]] if scales else []), axis=2)
+                J = np.concatenate([blocks[i] for i in active[k]] + [jp] + ([(mv * dqs[k][rows, j, None])[:, :, None]] if fit_s else []), axis=2)
                 jt = np.einsum("mi,mik->mk", t, J)
                 rt = np.einsum("mi,mi->m", r, t)
                 w = ws[k][rows]
