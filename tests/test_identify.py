@@ -640,7 +640,9 @@ def test_reading_scale_errors_are_fitted_where_the_data_shows_them(kr5):
     assert np.all(err < 4 * np.array([f.sigma_point_perp for f in res.fits])), err
     fitted = np.array([f.scale - 1 for f in res.fits])
     sig = np.array([f.scale_sigma for f in res.fits])
-    assert np.all(np.abs(fitted - scale) < 4 * sig), (fitted, scale, sig)
+    on = np.isfinite(sig)  # (joint by joint: a scale the data cannot show is left out, its sigma kept in the axes')
+    assert on.sum() >= 3 and np.all(np.abs(fitted[on] - scale[on]) < 4 * sig[on]), (fitted, scale, sig)
+    assert on.all() or any("not fitted (the data cannot show them" in n for n in res.notes), res.notes
     exact = dv.identify(recording(m, HOME, ranges, seed=11), nominal=kr5)
     assert any(n.startswith("auto: no reading scale errors fitted") for n in exact.notes) and all(np.isnan(f.scale) for f in exact.fits)
 

@@ -404,14 +404,18 @@ def _select_scales(sweeps: SweepSet, base: dict, richer: Callable, drift: bool, 
     below ln(residuals) (the BIC's price of one parameter) left out and the rest refitted, until every scale left
     pays for itself. The scales hardly correlate with each other (|r| < 0.25 on the paper's protocols: each trades
     with its own axis's position, r ~ 0.99, on arcs away from home), so the weak ones are dropped together. A
-    scale left out is taken as exact (the model the evidence chose; its sigma from the full fit is given in the
-    note): fitted, a wrist scale known to +/- 470 ppm from a 30 degree arc of 58 mm radius carried its sigma over
-    the targets' +/- 300 degrees and tripled the predicted (and the measured) error after compensation
-    (benchmarks/bench_compensate.py). Returns (fit, its BIC against ``base``, the joints fitted (0-based), the
-    joints left out as (joint, value, sigma) in the full fit)."""
+    scale left out is taken as zero, not as exact: its sigma in the full fit stays in the axes' covariance (``extra``:
+    ``X S X^T``, ``X`` its covariance with [c_1, n_1, ..., p], ``S`` its inverse variance), since a real scale below
+    the BIC's bound moves its axis (test_reading_scale_errors_are_fitted_where_the_data_shows_them: taken as exact,
+    a dropped joint-5 scale put its axis 5 sigma off). Only when some scale is fitted: readings that show no scale
+    error on any joint are taken as exact in scale, as before (on exact readings and 30 degree arcs the full fit's
+    wrist-scale sigmas would put 0.23 mm on every axis). Fitted, a wrist scale known to +/- 470 ppm from a 30 degree
+    arc of 58 mm radius carried its value's error over the targets' +/- 300 degrees (benchmarks/bench_compensate.py).
+    Returns (fit, its BIC against ``base``, the joints fitted (0-based), the joints left out as (joint, value,
+    sigma) in the full fit, ``extra`` (6n+3, 6n+3) or None)."""
     sc, bic = richer(base, per_sweep_home=drift, scales=True)
     if sc is None:
-        return None, bic, [], []
+        return None, bic, [], [], None
     chosen = [j for j in range(sweeps.n_joints) if np.isfinite(sc["scale_sigma"][j])]
     full, dropped = sc, []
     while chosen:
@@ -425,7 +429,15 @@ def _select_scales(sweeps: SweepSet, base: dict, richer: Callable, drift: bool, 
             sc, bic = richer(base, per_sweep_home=drift, scales=chosen)
             if sc is None:
                 return None, bic, [], []
-    return (sc, bic, chosen, sorted(dropped)) if chosen else (None, -math.inf, [], sorted(dropped))
+    # what the dropped scales' own uncertainty (their sigma in the full fit) adds to [c_1, n_1, ..., p]: a scale left
+    # out may be real below the BIC's bound and, trading with its axis's position, moves the axis by up to that
+    dj = [j for j, _, _ in dropped]
+    extra = None
+    if dj:
+        n6, cross = 6 * sweeps.n_joints, full["scale_cross"]
+        cross = np.vstack([cross[:n6], cross[n6:].reshape(-1, 3, sweeps.n_joints).mean(axis=0)])[:, dj]
+        extra = cross @ np.linalg.pinv(full["scale_cov"][np.ix_(dj, dj)]) @ cross.T
+    return (sc, bic, chosen, sorted(dropped), extra) if chosen else (None, -math.inf, [], sorted(dropped), extra)
 
 
 def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: list[str], chosen: str) -> tuple[str, list, np.ndarray, np.ndarray, float, tuple | None]:
@@ -473,10 +485,11 @@ def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: 
             notes.append(f"auto: global (one home point) over readings (a home point per sweep): {why}; estimated reading error "
                          f"{', '.join(sq)} arcsec per sweep, point noise {g['sigma'] * 1e3:.3g} mm")
         drift = method == "readings"
-        sc, bic, chosen_scales, dropped = _select_scales(sweeps, g, richer, drift, n_res)
+        sc, bic, chosen_scales, dropped, extra = _select_scales(sweeps, g, richer, drift, n_res)
         if chosen_scales and bic > 0:
             g = refit(sc, per_sweep_home=drift, scales=chosen_scales)
             cov = _with_drift(sweeps, g)[0] if drift else g["cov"]
+            cov = cov if extra is None else cov + extra
             n6, cross = 6 * sweeps.n_joints, g["scale_cross"]
             cross = np.vstack([cross[:n6], cross[n6:].reshape(-1, 3, sweeps.n_joints).mean(axis=0)])  # (the home points averaged, as in cov)
             scales = (np.where(np.isfinite(g["scale_sigma"]), g["scales"], 0.0), cross, g["scale_cov"])
