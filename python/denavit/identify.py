@@ -474,6 +474,7 @@ def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: 
             except NotConvergedError:
                 return r
 
+        g_global = g
         d, bic = richer(g, per_sweep_home=True)
         if bic > 0:
             g, method = refit(d, per_sweep_home=True), "readings"
@@ -486,6 +487,20 @@ def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: 
                          f"{', '.join(sq)} arcsec per sweep, point noise {g['sigma'] * 1e3:.3g} mm")
         drift = method == "readings"
         sc, bic, chosen_scales, dropped, extra = _select_scales(sweeps, g, richer, drift, n_res)
+        if drift and chosen_scales and bic > 0:
+            # the drift was chosen before the scales: unmodelled scale errors look like a drift; with the scales
+            # fitted, a home point per sweep must pay for itself again (the BIC, on the same weights)
+            gs, _ = richer(g_global, scales=chosen_scales)
+            gs = refit(gs, scales=chosen_scales) if gs is not None else None
+            dd, bic_d = richer(gs, per_sweep_home=True, scales=chosen_scales) if gs is not None else (None, math.inf)
+            if bic_d <= 0:
+                why = f"BIC higher by {-bic_d:.3g}" if dd is not None else "a home point per sweep does not converge with the scales"
+                notes.append(f"auto: with the scales of joints {', '.join(str(j + 1) for j in chosen_scales)} fitted, one home point again ({why}): "
+                             "the drift was the scale errors")
+                # the scales chosen again about one home point (their sigmas and the dropped ones' covariance with it)
+                method, drift, cov = "global", False, g_global["cov"]
+                g = g_global
+                sc, bic, chosen_scales, dropped, extra = _select_scales(sweeps, g, richer, drift, n_res)
         if chosen_scales and bic > 0:
             g = refit(sc, per_sweep_home=drift, scales=chosen_scales)
             cov = _with_drift(sweeps, g)[0] if drift else g["cov"]

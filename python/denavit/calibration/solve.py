@@ -133,7 +133,7 @@ class Calibration:
                      reading_scale=np.array([self.scales.get(f"scale_{j + 1}", 0.0) for j in range(len(r.names))]) if self.scales else None,
                      covariance=self.table_covariance(table))
 
-    def table_covariance(self, table: _core.Table) -> np.ndarray:
+    def table_covariance(self, table: _core.Table) -> np.ndarray | None:
         """The SI covariance of [``table``'s parameters (row-major), its tool translation in the last frame (, the
         joint scales, when estimated)], the robot file's ``[covariance]``: :attr:`covariance` of the free parameters
         mapped through this calibration's model and the core's extraction of ``table`` (``J C J^T``, ``J`` by central
@@ -165,7 +165,7 @@ class Calibration:
             J[:, c] = (converted(self.values + e) - converted(self.values - e)) / 2e-7
         C = np.asarray(self.covariance)[np.ix_(keep, keep)]
         out = J @ C @ J.T
-        return (out + out.T) / 2
+        return (out + out.T) / 2 if np.all(np.isfinite(out)) else None  # (None: no [covariance], a fit without one)
 
 
 def _table_residuals(res: np.ndarray, measure: str) -> np.ndarray:
