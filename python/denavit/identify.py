@@ -442,8 +442,8 @@ def _select_scales(sweeps: SweepSet, base: dict, richer: Callable, drift: bool, 
 
 def _choose(sweeps: SweepSet, fits: list, p_home: np.ndarray, loss: str, notes: list[str], chosen: str) -> tuple[str, list, np.ndarray, np.ndarray, float, tuple | None]:
     """The joint fit(s) with readings: ``chosen`` "global", or "auto" (evidence: the per-sweep fits when the
-    readings are worth nothing, else one home point or one per sweep, and the readings' scale errors or not,
-    each by the BIC). Returns (method, fits, cov, tool point, rms, scales): ``scales`` None, or when fitted
+    readings are worth nothing, else one home point or one per sweep, and the readings' scale errors joint by
+    joint (:func:`_select_scales`), each by the BIC; with scales fitted, a home point per sweep must win again). Returns (method, fits, cov, tool point, rms, scales): ``scales`` None, or when fitted
     (values (n,), their covariance with [c_1, n_1, ..., p] (6n+3, n), their covariance (n, n)); zeros where a
     joint's scale was not fitted."""
     dqs = _motions(sweeps, notes)
