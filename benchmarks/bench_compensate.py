@@ -9,7 +9,8 @@ Two routes identify it:
   home, recorded as a laser tracker streams them: a point every 1 / rate (default 100 Hz) while the joint
   turns at a constant speed (default 1 deg/s: a 30 degree sweep gives 3,000 points), 0.02 mm tracker noise,
   every joint's readings recorded (with their noise); the default method (auto: the global fit with the readings,
-  the readings' scale errors where the BIC supports them) and, for comparison, the points-only geometric
+  the readings' scale errors joint by joint where the BIC supports them; ``--rate-hz 1000`` streams 30,000 points
+  per 30 degree sweep) and, for comparison, the points-only geometric
   circle fits; ED-H;
 - calibrate: 100 quasi-random poses, 0.02 mm tracker noise, the readings, ED-H least squares with a scale
   parameter per joint.

@@ -485,3 +485,33 @@ def test_convert_carries_the_covariance_and_the_reading_model(tmp_path):
     np.testing.assert_allclose(poe.reading_reference, edh.reading_reference, rtol=1e-12)
     np.testing.assert_allclose(dv.fk_batch(poe.model(), Q), dv.fk_batch(edh.model(), Q), atol=1e-9)
     np.testing.assert_allclose(cp.table_sigma(poe, Q), cp.table_sigma(edh, Q), rtol=1e-4)
+
+
+def test_calibrate_save_writes_the_covariance_and_compensate_predicts_the_same_sigma(tmp_path):
+    """`calibrate --save` writes the [covariance] of the saved ED-H table, its tool and its joint scales (the free
+    parameters' covariance mapped through the extraction, the base registration left out); `compensate` of the
+    file predicts per target the sigma calibrate itself predicts (predicted_sigma of the Calibration: its own
+    analytic Jacobian), within 3 % (the two differ by the finite differences through the extraction only)."""
+    from denavit.io import robotfile
+
+    kr5 = dv.load_robot("kr5")
+    rng = np.random.default_rng(3)
+    t = kr5.table
+    E = rng.uniform(-1, 1, t.params.shape) * np.where(np.array(t.angle_columns), np.radians(0.05), 5e-4)
+    true = dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool).to_model("true", kr5.names, kr5.lower, kr5.upper)
+    q = cal.configurations(kr5, 60)
+    meas = cal.simulate(true, q, tool=TOOL, noise=2e-5, seed=2)
+    c = cal.calibrate(meas, kr5, tool=TOOL, scale=True)
+    saved = tmp_path / "kr5_cal.toml"
+    robotfile.save(c.robot(), saved, "mm", "deg")
+    back = robotfile.read(saved)
+    k = back.table.params.size + 3 + 6  # the table's cells, the tool's x, y, z, the six joint scales
+    assert back.covariance is not None and back.covariance.shape == (k, k)
+    Q = rng.uniform(kr5.lower, kr5.upper, (50, 6)) * 0.9
+    own = cp.predicted_sigma(c, Q)
+    np.testing.assert_allclose(cp.table_sigma(back, Q), own, rtol=0.03)
+    tool = np.eye(4)
+    tool[:3, 3] = TOOL
+    nominal = kr5.model().with_tool(tool)
+    comp = cp.compensate(nominal, back, dv.fk_batch(nominal, Q), q_nominal=Q)
+    np.testing.assert_allclose(comp.predicted_after, own, rtol=0.03)

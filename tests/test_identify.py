@@ -650,7 +650,9 @@ def test_reading_scale_errors_are_fitted_where_the_data_shows_them(kr5):
     assert np.all(err < 4 * np.array([f.sigma_point_perp for f in res.fits])), err
     fitted = np.array([f.scale - 1 for f in res.fits])
     sig = np.array([f.scale_sigma for f in res.fits])
-    assert np.all(np.abs(fitted - scale) < 4 * sig), (fitted, scale, sig)
+    on = np.isfinite(sig)  # (joint by joint: a scale the data cannot show is left out, its sigma kept in the axes')
+    assert on.sum() >= 3 and np.all(np.abs(fitted[on] - scale[on]) < 4 * sig[on]), (fitted, scale, sig)
+    assert on.all() or any("not fitted (the data cannot show them" in n for n in res.notes), res.notes
     exact = dv.identify(recording(m, HOME, ranges, seed=11), nominal=kr5)
     assert any(n.startswith("auto: no reading scale errors fitted") for n in exact.notes) and all(np.isnan(f.scale) for f in exact.fits)
 
@@ -790,3 +792,35 @@ def test_short_arcs_get_a_note_with_their_predicted_sigma(kr5):
     assert not [n for n in dv.identify(arcs(90.0, readings=False), nominal=kr5).notes if "arc gives" in n]
     with pytest.raises(dv.DenavitError, match="the arcs are too short"):
         dv.identify(arcs(1.0, readings=True), nominal=kr5)
+
+
+def test_reading_scales_are_selected_joint_by_joint():
+    """auto selects the reading scales joint by joint (backward elimination by the BIC): readings whose joint 2
+    turns 1 + 1e-3 times its reading, every other joint exact, on the 30 degree protocol (300 points per sweep,
+    0.02 mm tracker noise, 10 arcsec reading noise): joint 2's scale is fitted (about 15 sigma) and within 4 sigma
+    of the truth, and no other joint's (each would pass the BIC's bound sqrt(ln(5400)) = 2.9 sigma by chance in
+    0.4 % of runs), in at least 2 of 3 seeds; the note names the joints left out."""
+    kr5 = dv.load_robot("kr5")
+    tool = np.eye(4)
+    tool[:3, 3] = (0.05, 0.03, 0.10)
+    m = kr5.model().with_tool(np.eye(4))
+    scale = np.array([0, 1e-3, 0, 0, 0, 0])
+    ranges = np.radians(sw.PAPER_RANGES_DEG[30])
+    good = 0
+    for seed in (1, 2, 3):
+        rng = np.random.default_rng(seed)
+        out = []
+        for j in range(6):
+            r = np.tile(HOME, (300, 1))
+            r[:, j] = np.linspace(*ranges[j], 300)
+            T = dv.fk_batch(m, r * (1 + scale))
+            p = T[:, :3, :3] @ tool[:3, 3] + T[:, :3, 3] + rng.normal(0, 2e-5, (300, 3))
+            out.append(sw.Sweep(j + 1, p, r + rng.normal(0, np.radians(10 / 3600), r.shape), []))
+        s = sw.SweepSet(out, 6, np.asarray(HOME, dtype=float), ["revolute"] * 6, "simulated", {"length": "m", "angle": "rad"})
+        res = dv.identify(s, nominal=kr5)
+        fitted = [j for j, f in enumerate(res.fits) if np.isfinite(f.scale_sigma)]
+        f2 = res.fits[1]
+        if fitted == [1] and abs(f2.scale - 1 - 1e-3) < 4 * f2.scale_sigma:
+            good += 1
+            assert any("not fitted (the data cannot show them" in n for n in res.notes), res.notes
+    assert good >= 2, good

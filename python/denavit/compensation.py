@@ -215,7 +215,7 @@ def predicted_sigma(result, q) -> np.ndarray:
     if hasattr(result, "parametrization") and hasattr(result, "covariance"):
         pz = result.parametrization
         free = [pz.index(n) for n in result.free_names]
-        keep = list(range(len(free)))
+        keep = [k for k, name in enumerate(result.free_names) if not name.startswith("base_")]  # (the registration)
         _, J = pz.evaluate(result.values, q, True)
         Jp = J[:, :3, :][:, :, [free[k] for k in keep]]
         C = np.asarray(result.covariance)[np.ix_(keep, keep)]

@@ -391,10 +391,52 @@ def _bic(simple: dict, rich: dict, k: int, n_res: int) -> float:
     return (simple["ss_m"] - rich["ss_m"]) / rich["sigma"] ** 2 - k * math.log(n_res)
 
 
+def _select_scales(sweeps: SweepSet, base: dict, richer: Callable, drift: bool, n_res: int) -> tuple[dict | None, float, list[int], list[tuple]]:
+    """The joints whose reading scale error the data shows, by Schwarz's criterion joint by joint (backward
+    elimination): all swept joints' scales fitted, then every scale whose chi-square gain ``(s / sigma)^2`` is
+    below ln(residuals) (the BIC's price of one parameter) left out and the rest refitted, until every scale left
+    pays for itself. The scales hardly correlate with each other (|r| < 0.25 on the paper's protocols: each trades
+    with its own axis's position, r ~ 0.99, on arcs away from home), so the weak ones are dropped together. A
+    scale left out is taken as zero, not as exact: its sigma in the full fit stays in the axes' covariance (``extra``:
+    ``X S X^T``, ``X`` its covariance with [c_1, n_1, ..., p], ``S`` its inverse variance), since a real scale below
+    the BIC's bound moves its axis (test_reading_scale_errors_are_fitted_where_the_data_shows_them: taken as exact,
+    a dropped joint-5 scale put its axis 5 sigma off). Only when some scale is fitted: readings that show no scale
+    error on any joint are taken as exact in scale, as before (on exact readings and 30 degree arcs the full fit's
+    wrist-scale sigmas would put 0.23 mm on every axis). Fitted, a wrist scale known to +/- 470 ppm from a 30 degree
+    arc of 58 mm radius carried its value's error over the targets' +/- 300 degrees (benchmarks/bench_compensate.py).
+    Returns (fit, its BIC against ``base``, the joints fitted (0-based), the joints left out as (joint, value,
+    sigma) in the full fit, ``extra`` (6n+3, 6n+3) or None)."""
+    sc, bic = richer(base, per_sweep_home=drift, scales=True)
+    if sc is None:
+        return None, bic, [], [], None
+    chosen = [j for j in range(sweeps.n_joints) if np.isfinite(sc["scale_sigma"][j])]
+    full, dropped = sc, []
+    while chosen:
+        z2 = {j: (sc["scales"][j] / sc["scale_sigma"][j]) ** 2 if sc["scale_sigma"][j] > 0 else 0.0 for j in chosen}
+        weak = [j for j in chosen if z2[j] < math.log(n_res)]
+        if not weak:
+            break
+        dropped += [(j, float(full["scales"][j]), float(full["scale_sigma"][j])) for j in weak]
+        chosen = [j for j in chosen if j not in weak]
+        if chosen:
+            sc, bic = richer(base, per_sweep_home=drift, scales=chosen)
+            if sc is None:
+                return None, bic, [], [], None
+    # what the dropped scales' own uncertainty (their sigma in the full fit) adds to [c_1, n_1, ..., p]: a scale left
+    # out may be real below the BIC's bound and, trading with its axis's position, moves the axis by up to that
+    dj = [j for j, _, _ in dropped]
+    extra = None
+    if dj:
+        n6, cross = 6 * sweeps.n_joints, full["scale_cross"]
+        cross = np.vstack([cross[:n6], cross[n6:].reshape(-1, 3, sweeps.n_joints).mean(axis=0)])[:, dj]
+        extra = cross @ np.linalg.pinv(full["scale_cov"][np.ix_(dj, dj)]) @ cross.T
+    return (sc, bic, chosen, sorted(dropped), extra) if chosen else (None, -math.inf, [], sorted(dropped), extra)
+
+
 def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, notes: list[str], chosen: str, rotation_noise=None):
     """The joint fit(s) with readings: ``chosen`` "global", or "auto" (evidence: the per-sweep fits when the
-    readings are worth nothing, else one home point or one per sweep, and the readings' scale errors or not,
-    each by the BIC). ``homes0`` (k, 3) the start home points of the targets, ``R0`` the start orientation at home
+    readings are worth nothing, else one home point or one per sweep, and the readings' scale errors joint by
+    joint (:func:`_select_scales`), each by the BIC; with scales fitted, a home point per sweep must win again). ``homes0`` (k, 3) the start home points of the targets, ``R0`` the start orientation at home
     (6-DoF poses) or None. Returns (method, fits, cov, tool point, rms, the joint fit's result or None, scales): ``scales`` None, or
     when fitted (values (n,), their covariance with [c_1, n_1, ..., p] (6n+3, n), their covariance (n, n)); zeros
     where a joint's scale was not fitted."""
@@ -434,6 +476,7 @@ def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, not
             except NotConvergedError:
                 return r
 
+        g_global = g
         d, bic = richer(g, per_sweep_home=True)
         if bic > 0:
             g, method = refit(d, per_sweep_home=True), "readings"
@@ -445,17 +488,37 @@ def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, not
             notes.append(f"auto: global (one home point) over readings (a home point per sweep): {why}; estimated reading error "
                          f"{', '.join(sq)} arcsec per sweep, point noise {g['sigma'] * 1e3:.3g} mm")
         drift = method == "readings"
-        sc, bic = richer(g, per_sweep_home=drift, scales=True)
-        if bic > 0:
-            g = refit(sc, per_sweep_home=drift, scales=True)
+        sc, bic, chosen_scales, dropped, extra = _select_scales(sweeps, g, richer, drift, n_res)
+        if drift and chosen_scales and bic > 0:
+            # the drift was chosen before the scales: unmodelled scale errors look like a drift; with the scales
+            # fitted, a home point per sweep must pay for itself again (the BIC, on the same weights)
+            gs, _ = richer(g_global, scales=chosen_scales)
+            gs = refit(gs, scales=chosen_scales) if gs is not None else None
+            dd, bic_d = richer(gs, per_sweep_home=True, scales=chosen_scales) if gs is not None else (None, math.inf)
+            if bic_d <= 0:
+                why = f"BIC higher by {-bic_d:.3g}" if dd is not None else "a home point per sweep does not converge with the scales"
+                notes.append(f"auto: with the scales of joints {', '.join(str(j + 1) for j in chosen_scales)} fitted, one home point again ({why}): "
+                             "the drift was the scale errors")
+                # the scales chosen again about one home point (their sigmas and the dropped ones' covariance with it)
+                method, drift, cov = "global", False, g_global["cov"]
+                g = g_global
+                sc, bic, chosen_scales, dropped, extra = _select_scales(sweeps, g, richer, drift, n_res)
+        if chosen_scales and bic > 0:
+            g = refit(sc, per_sweep_home=drift, scales=chosen_scales)
             cov = _with_drift(sweeps, g)[0] if drift else g["cov"]
+            cov = cov if extra is None else cov + extra
             n6, cross = 6 * sweeps.n_joints, g["scale_cross"]
             cross = np.vstack([cross[:n6], cross[n6:].reshape(-1, 3, sweeps.n_joints).mean(axis=0)])  # (the home points averaged, as in cov)
             scales = (np.where(np.isfinite(g["scale_sigma"]), g["scales"], 0.0), cross, g["scale_cov"])
             parts = [f"joint {j + 1} {g['scales'][j] * 1e6:+.4g} +/- {g['scale_sigma'][j] * 1e6:.2g} ppm" for j in range(sweeps.n_joints) if np.isfinite(g["scale_sigma"][j])]
-            notes.append(f"auto: the readings' scale errors fitted (BIC lower by {bic:.3g}): {', '.join(parts)}")
+            notes.append(f"auto: the readings' scale errors fitted (BIC lower by {bic:.3g}): {', '.join(parts)}"
+                         + (f"; not fitted (the data cannot show them, |scale| < {math.sqrt(math.log(n_res)):.2g} sigma, the BIC's bound): "
+                            + ", ".join(f"joint {j + 1} {v * 1e6:+.3g} +/- {e * 1e6:.2g} ppm" for j, v, e in dropped) if dropped else ""))
         else:
-            notes.append(f"auto: no reading scale errors fitted (BIC {'higher by ' + format(-bic, '.3g') if sc is not None else 'n/a: no convergence'}); "
+            why = ("BIC higher by " + format(-bic, ".3g") if sc is not None else
+                   f"each below {math.sqrt(math.log(n_res)):.2g} sigma, the BIC's bound: " + ", ".join(f"joint {j + 1} {v * 1e6:+.3g} +/- {e * 1e6:.2g} ppm" for j, v, e in dropped)
+                   if dropped else "n/a: no convergence")
+            notes.append(f"auto: no reading scale errors fitted ({why}); "
                          "a scale error the data cannot show moves each axis radially by about the scale times the arc's radius")
     mis = np.concatenate(g["misfit"])
     return method, _joint_fits(sweeps, fits, g, cov, loss, method), cov, g["home"].mean(axis=0), float(math.sqrt(np.mean(mis**2))), g, scales

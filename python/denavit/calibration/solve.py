@@ -125,10 +125,46 @@ class Calibration:
         inertials and limits ride along), and the joint scales when estimated (``reading_scale``, about zero: what
         compensate applies to the readings)."""
         r = self.parametrization.robot
-        return Robot(name or f"{r.name}_calibrated", self.table(convention), list(r.names), r.lower, r.upper,
+        table = self.table(convention)
+        return Robot(name or f"{r.name}_calibrated", table, list(r.names), r.lower, r.upper,
                      description=f"{r.name} calibrated from {self.measurements.source} ({self.convention}, {self.measurements.n} poses)", source=self.measurements.source, home=r.home,
                      extra=dict(r.extra), inertials=r.inertials if r.convention == convention else None,
-                     reading_scale=np.array([self.scales.get(f"scale_{j + 1}", 0.0) for j in range(len(r.names))]) if self.scales else None)
+                     reading_scale=np.array([self.scales.get(f"scale_{j + 1}", 0.0) for j in range(len(r.names))]) if self.scales else None,
+                     covariance=self.table_covariance(table))
+
+    def table_covariance(self, table: _core.Table) -> np.ndarray | None:
+        """The SI covariance of [``table``'s parameters (row-major), its tool translation in the last frame (, the
+        joint scales, when estimated)], the robot file's ``[covariance]``: :attr:`covariance` of the free parameters
+        mapped through this calibration's model and the core's extraction of ``table`` (``J C J^T``, ``J`` by central
+        differences; angles wrapped about ``table``'s). The base registration is left out (it is where the measurement
+        frame stands, not the robot's geometry: targets are given in the robot base frame, as ``compensate`` assumes)."""
+        pz = self.parametrization
+        nom = pz.robot.table
+        n = len(pz.robot.names)
+        free = [pz.index(k) for k in self.free_names]
+        keep = [i for i, k in enumerate(self.free_names) if not k.startswith("base_")]
+        p_ref = np.asarray(table.params)
+        angle_cols = np.array(table.angle_columns)
+        scale_idx = [pz.index(f"scale_{j + 1}") if f"scale_{j + 1}" in self.names else None for j in range(n)]
+        has_scales = bool(self.scales)
+
+        def converted(x):
+            m = pz.model(x)
+            new = _core.extract(_core.axes(m, np.zeros(m.nq)), table.convention, nominal=nom if nom.convention == table.convention else None, fidelity=False).table
+            d = np.asarray(new.params) - p_ref
+            d[:, angle_cols] = (d[:, angle_cols] + np.pi) % (2 * np.pi) - np.pi
+            sc = [x[i] if i is not None else 0.0 for i in scale_idx] if has_scales else []
+            return np.concatenate([(p_ref + d).ravel(), np.asarray(new.T_last_tool)[:3, 3], sc])
+
+        y0 = converted(self.values)
+        J = np.zeros((len(y0), len(keep)))
+        for c, i in enumerate(keep):
+            e = np.zeros_like(self.values)
+            e[free[i]] = 1e-7
+            J[:, c] = (converted(self.values + e) - converted(self.values - e)) / 2e-7
+        C = np.asarray(self.covariance)[np.ix_(keep, keep)]
+        out = J @ C @ J.T
+        return (out + out.T) / 2 if np.all(np.isfinite(out)) else None  # (None: no [covariance], a fit without one)
 
 
 def _table_residuals(res: np.ndarray, measure: str) -> np.ndarray:

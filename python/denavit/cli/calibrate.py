@@ -40,7 +40,7 @@ def calibrate(
     convention: Annotated[str, typer.Option("--convention", help="edh | mdh (Hayati angle where axes are near-parallel) | dh")] = "edh",
     fix: Annotated[str | None, typer.Option("--fix", help="Parameters to hold at their nominal values: names or patterns, comma-separated (e.g. 'base_*,tool_z').")] = None,
     json_path: JsonOpt = None,
-    save: Annotated[Path | None, typer.Option("--save", help="Write the calibrated robot file (.toml, ED-H) to this path.")] = None,
+    save: Annotated[Path | None, typer.Option("--save", help="Write the calibrated robot file (.toml, ED-H, with its [covariance]: compensate predicts the error after) to this path.")] = None,
     urdf: Annotated[Path | None, typer.Option("--urdf", help="Write the calibrated robot as URDF, with a URDF nominal's meshes, inertials and limits.")] = None,
     report: Annotated[Path | None, typer.Option("--report", help="Write a self-contained HTML report (summary, 3-D view, tables).")] = None,
     loss: Annotated[str, typer.Option("--loss", help="linear | soft_l1 | huber | cauchy | arctan (robust loss)")] = "linear",

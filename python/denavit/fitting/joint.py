@@ -253,12 +253,15 @@ def start_homes(sweeps, starts) -> tuple[np.ndarray, np.ndarray | None]:
 
 
 def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "linear", per_sweep_home: bool = False,
-               scales: bool = False, noise_sigma=None, gamma=None, offsets0=None, rotation0=None, rotation_sigma=None, where: str = ""):
+               scales=False, noise_sigma=None, gamma=None, offsets0=None, rotation0=None, rotation_sigma=None, where: str = ""):
     """The joint fit of all sweeps (module docstring). ``dqs`` per sweep (m, n) joint motions from home
     (:func:`locked_motion`), ``starts`` per joint (point, direction) start lines, ``p0`` the start home point (of
     the first target); with several targets ``offsets0`` (k - 1, 3) the start offsets of the other targets' home
     points from it, with 6-DoF poses ``rotation0`` (3, 3) the start orientation at home (both by default from
     :func:`start_homes`) and ``rotation_sigma`` (rad) the declared orientation noise (default: estimated).
+
+    ``scales``: False (none), True (every swept joint's reading scale error is a parameter) or the joints
+    (0-based) whose scale is one (:func:`denavit.identify._choose` selects them joint by joint).
 
     Returns a dict: ``points`` (n, 3) feet of the home point on each axis, ``directions`` (n, 3), ``home``
     (S, 3) home point per sweep (all equal without ``per_sweep_home``), ``cov`` of [c_1, n_1, ..., c_n, n_n,
@@ -287,7 +290,9 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     homes = np.tile(np.asarray(p0, dtype=float), (S if per_sweep_home else 1, 1))
     offs = np.zeros((0, 3)) if K == 1 else np.array(offsets0, dtype=float).reshape(K - 1, 3)
     R0 = np.array(rotation0, dtype=float) if rot else None
-    swept = sorted({s.joint - 1 for s in sweeps.sweeps}) if scales else []
+    # the joints whose reading scale is fitted: every swept joint (scales True), or those given (0-based)
+    all_swept = sorted({s.joint - 1 for s in sweeps.sweeps})
+    swept = (all_swept if scales is True else sorted({int(j) for j in scales} & set(all_swept))) if scales is not False and scales is not None else []
     sc = np.zeros(n)
     H = len(homes)
     i_off = 4 * n + 3 * H  # the first offset's index, then the home rotation's, then the scales'
@@ -328,14 +333,14 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
                     if t:
                         jo[:, :, 3 * (t - 1) : 3 * t] = jp
                     Js.append(np.concatenate([blocks[i] for i in active[k]] + [jp, jo] + ([np.zeros((mc, 3, 3))] if rot else [])
-                                             + ([(dpdq[j] * dq[rows, j, None])[:, :, None]] if scales else []), axis=2))
+                                             + ([(dpdq[j] * dq[rows, j, None])[:, :, None]] if j in swept else []), axis=2))
             if rot:
                 Rp, blocks, jr, dpdq = _chain_rotation(ns, kinds, R_, dqc, active[k], jac, j)
                 rs.append(wr * matrix_rotvec(Rp @ np.swapaxes(s.rotations[rows], 1, 2)))
                 mvs.append(wr * dpdq[j])
                 if jac:
                     Js.append(wr * np.concatenate([blocks[i] for i in active[k]] + [np.zeros((mc, 3, 3 + 3 * (K - 1))), jr]
-                                                  + ([(dpdq[j] * dq[rows, j, None])[:, :, None]] if scales else []), axis=2))
+                                                  + ([(dpdq[j] * dq[rows, j, None])[:, :, None]] if j in swept else []), axis=2))
             yield rows, np.concatenate(rs, axis=1), np.concatenate(mvs, axis=1), (np.concatenate(Js, axis=1) if jac else None)
 
     def tangent(mv):
@@ -350,7 +355,7 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         j = sweeps.sweeps[k].joint - 1
         h0 = 4 * n + 3 * (k if per_sweep_home else 0)
         return np.concatenate([np.arange(4 * i, 4 * i + 4) for i in active[k]] + [np.arange(h0, h0 + 3), np.arange(i_off, i_sc)]
-                              + ([[i_sc + swept.index(j)]] if scales else [])).astype(int)
+                              + ([[i_sc + swept.index(j)]] if j in swept else [])).astype(int)
 
     def normal_eq(cs, ns, homes_, offs_, R_, sc_, wr, f=None, bread=False):
         """Normal matrix, its robust sandwich part, gradient, whitened cost, and per sweep (indices, Gram matrix of
@@ -377,6 +382,7 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             rt_k, lever_k, rw_k, r_k, rr_k = np.empty(m), np.empty(m), np.empty((m, D)), np.empty((m, D)), np.zeros(m)
             for rows, r, mv, J in chunks(k, cs, ns, homes_, offs_, R_, sc_, wr, True):
                 t, lever = tangent(mv)
+
                 jt = np.einsum("mi,mik->mk", t, J)
                 rt = np.einsum("mi,mi->m", r, t)
                 rw = r - (1 - gam[k]) * rt[:, None] * t

@@ -30,7 +30,7 @@ Format (see docs/robot-files.md and the built-in files in ``denavit/models``)::
     [readings]                   # optional (written by identify/calibrate --save): the readings' scale errors
     scale = [0, 2.1e-4, ...]     # joint i turns 1 + scale[i] times its reading's motion from reference[i]
     reference = [90, -90, ...]   # where joint value = reading (angle / length units; default 0)
-    [covariance]                 # optional (written by identify --save): of the joints' parameters, row by
+    [covariance]                 # optional (written by identify, calibrate --save): of the joints' parameters, row by
     matrix = [[...], ...]        # row in column order, then the tool's x, y, z, then [readings] scale (if
                                  # given); in [units] (products per cell; scales unitless)
 
