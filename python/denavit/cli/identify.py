@@ -62,7 +62,7 @@ def identify(
     plot: Annotated[Path | None, typer.Option("--plot", help="Write the static figures (PNG) into this folder.")] = None,
     save_model: Annotated[Path | None, typer.Option("--save", help="Write the identified robot as a robot file (.toml, in the output units): the exact geometry (ED-H, or POE with --convention poe), its carried error stated in the file.")] = None,
     save_convention: Annotated[str | None, typer.Option("--save-convention", help="--save a table of this convention instead (dh | mdh: lossy where axes are near-parallel; the file states the error it carries).")] = None,
-    base: Annotated[str | None, typer.Option("--base", help="The robot's base frame in the measurement frame, \"x,y,z,roll,pitch,yaw\" (R = Rz(yaw) Ry(pitch) Rx(roll); --length and --angle units) or the 16 numbers of the 4x4 matrix (default: the measurement frame).")] = None,
+    base: Annotated[str | None, typer.Option("--base", help="The robot's base frame in the measurement frame, x, y, z, roll, pitch, yaw (six numbers separated by commas) (R = Rz(yaw) Ry(pitch) Rx(roll); --length and --angle units) or the 16 numbers of the 4x4 matrix (default: the measurement frame).")] = None,
     urdf: Annotated[Path | None, typer.Option("--urdf", help="Write the identified robot as URDF: the exact geometry (ED-H frames on the body, whatever --convention), with a URDF nominal's meshes, inertials and limits.")] = None,
     data_format: Annotated[str, typer.Option("--format", help="sweeps (long CSV, JSON, jN.csv folder) | tracker | rtde | rsi | bag | columns | auto (from the content).")] = "auto",
     columns: Annotated[str | None, typer.Option("--columns", help="Column map of a delimited recording, e.g. \"t,q1..q6,x,y,z\" (--format columns).")] = None,

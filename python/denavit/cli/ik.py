@@ -35,7 +35,7 @@ from .common import (
 @app.command()
 def ik(
     model: ModelArg,
-    pose: Annotated[str, typer.Option("--pose", help="Target T_world_tool: \"x,y,z,roll,pitch,yaw\" (--length and --angle units; R = Rz(yaw) Ry(pitch) Rx(roll)) or the rows of the 4x4 pose, 16 (or 12) numbers, the translation in --length units.")],
+    pose: Annotated[str, typer.Option("--pose", help="Target T_world_tool: x, y, z, roll, pitch, yaw (six numbers separated by commas) (--length and --angle units; R = Rz(yaw) Ry(pitch) Rx(roll)) or the rows of the 4x4 pose, 16 (or 12) numbers, the translation in --length units.")],
     q0: Annotated[str | None, typer.Option("--q0", help="Start configuration, one value per joint, in --angle units (prismatic: --length); default zeros.")] = None,
     length: LengthOpt = "mm",
     angle: AngleOpt = "deg",
