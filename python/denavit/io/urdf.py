@@ -762,7 +762,10 @@ def _register_lines(Fn: np.ndarray, Fi: np.ndarray, kinds, tool_n: np.ndarray, t
     of a single axis) is fixed by the tools, ``tool_n`` (the nominal's tip link) onto ``tool_i`` (the model's
     tool), both (4, 4) at q = 0: exact for the nominal's own model in any convention and frame."""
     dn, pn, d, p = Fn[:, :3, 2], Fn[:, :3, 3], Fi[:, :3, 2], Fi[:, :3, 3]
-    U_, _, Vt = np.linalg.svd(dn.T @ d)
+    # (the Kabsch start from the directions, and with a small weight the tools' axes: parallel directions leave the
+    # turn about them to the SVD's round-off, and a start half a turn off is a stationary point of the line fit:
+    # an all-parallel chain's links had come out turned by 180 degrees on one CPU and not on another)
+    U_, _, Vt = np.linalg.svd(dn.T @ d + 1e-3 * tool_n[:3, :3] @ tool_i[:3, :3].T)
     R = Vt.T @ np.diag([1.0, 1.0, np.linalg.det(Vt.T @ U_.T)]) @ U_.T
     t = np.zeros(3)
 
