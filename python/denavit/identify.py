@@ -391,6 +391,13 @@ def _bic(simple: dict, rich: dict, k: int, n_res: int) -> float:
     return (simple["ss_m"] - rich["ss_m"]) / rich["sigma"] ** 2 - k * math.log(n_res)
 
 
+def _scale_cross(g: dict, n: int) -> np.ndarray:
+    """The joint fit's scales' covariance with [c_1, n_1, ..., p] (6n+3, n): its home points averaged, as in the
+    axes' covariance."""
+    n6, cross = 6 * n, g["scale_cross"]
+    return np.vstack([cross[:n6], cross[n6:].reshape(-1, 3, n).mean(axis=0)])
+
+
 def _select_scales(sweeps: SweepSet, base: dict, richer: Callable, drift: bool, n_res: int) -> tuple[dict | None, float, list[int], list[tuple]]:
     """The joints whose reading scale error the data shows, by Schwarz's criterion joint by joint (backward
     elimination): all swept joints' scales fitted, then every scale whose chi-square gain ``(s / sigma)^2`` is
@@ -427,8 +434,7 @@ def _select_scales(sweeps: SweepSet, base: dict, richer: Callable, drift: bool, 
     dj = [j for j, _, _ in dropped]
     extra = None
     if dj:
-        n6, cross = 6 * sweeps.n_joints, full["scale_cross"]
-        cross = np.vstack([cross[:n6], cross[n6:].reshape(-1, 3, sweeps.n_joints).mean(axis=0)])[:, dj]
+        cross = _scale_cross(full, sweeps.n_joints)[:, dj]
         extra = cross @ np.linalg.pinv(full["scale_cov"][np.ix_(dj, dj)]) @ cross.T
     return (sc, bic, chosen, sorted(dropped), extra) if chosen else (None, -math.inf, [], sorted(dropped), extra)
 
@@ -443,8 +449,8 @@ def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, not
     dqs = _motions(sweeps, notes)
     starts = [(f.point, f.direction) for f in fits]
     try:
-        extra = {"offsets0": homes0[1:] - homes0[0], "rotation0": R0, "rotation_sigma": rotation_noise}
-        g = fit_sweeps(sweeps, dqs, starts, homes0[0], loss=loss, where=sweeps.source, **extra)
+        start = {"offsets0": homes0[1:] - homes0[0], "rotation0": R0, "rotation_sigma": rotation_noise}
+        g = fit_sweeps(sweeps, dqs, starts, homes0[0], loss=loss, where=sweeps.source, **start)
     except NotConvergedError as e:  # say why when the arcs are short (a 1 degree protocol had ended on "no convergence")
         short = [(s.joint, f.arc) for s, f in zip(sweeps.sweeps, fits, strict=True) if sweeps.kinds[s.joint - 1] == "revolute" and f.arc < SHORT_ARC]
         if not short:
@@ -507,9 +513,7 @@ def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, not
             g = refit(sc, per_sweep_home=drift, scales=chosen_scales)
             cov = _with_drift(sweeps, g)[0] if drift else g["cov"]
             cov = cov if extra is None else cov + extra
-            n6, cross = 6 * sweeps.n_joints, g["scale_cross"]
-            cross = np.vstack([cross[:n6], cross[n6:].reshape(-1, 3, sweeps.n_joints).mean(axis=0)])  # (the home points averaged, as in cov)
-            scales = (np.where(np.isfinite(g["scale_sigma"]), g["scales"], 0.0), cross, g["scale_cov"])
+            scales = (np.where(np.isfinite(g["scale_sigma"]), g["scales"], 0.0), _scale_cross(g, sweeps.n_joints), g["scale_cov"])
             parts = [f"joint {j + 1} {g['scales'][j] * 1e6:+.4g} +/- {g['scale_sigma'][j] * 1e6:.2g} ppm" for j in range(sweeps.n_joints) if np.isfinite(g["scale_sigma"][j])]
             notes.append(f"auto: the readings' scale errors fitted (BIC lower by {bic:.3g}): {', '.join(parts)}"
                          + (f"; not fitted (the data cannot show them, |scale| < {math.sqrt(math.log(n_res)):.2g} sigma, the BIC's bound): "

@@ -52,21 +52,26 @@ def _target(path: str | os.PathLike) -> tuple[Path, str]:
     raise DenavitError(f"{path}: cannot write the output: it is {kind}, expected a regular file, a FIFO, a character device or '-'")
 
 
+def _temporary(path, parent: Path, name: str, suffix: str) -> str:
+    """A new empty hidden file beside the output (in ``parent``), or the error that names the user's ``path``."""
+    try:
+        fd, tmp = tempfile.mkstemp(dir=parent, prefix=f".{name}.", suffix=suffix)
+    except FileNotFoundError:
+        raise DenavitError(f"{path}: cannot write: the directory {parent} does not exist") from None
+    except OSError as e:
+        raise DenavitError(f"{path}: cannot write in {parent}: {e.strerror or e}") from None
+    os.close(fd)
+    return tmp
+
+
 def check_writable(path: str | os.PathLike) -> None:
     """Refuse, before any work is done, an output that :func:`atomic_path` could not write: a path whose kind it
     refuses, or a new or regular file in a directory that is missing or not writable (the same messages)."""
     target, how = _target(path)
     if how != "replace":
         return
-    parent = target.parent
-    try:  # a probe, as atomic_path will write (permission bits alone do not tell: root, sysfs, read-only mounts)
-        fd, tmp = tempfile.mkstemp(dir=parent, prefix=f".{target.name}.", suffix=".probe")
-    except FileNotFoundError:
-        raise DenavitError(f"{path}: cannot write: the directory {parent} does not exist") from None
-    except OSError as e:
-        raise DenavitError(f"{path}: cannot write in {parent}: {e.strerror or e}") from None
-    os.close(fd)
-    os.unlink(tmp)
+    # a probe, as atomic_path will write (permission bits alone do not tell: root, sysfs, read-only mounts)
+    os.unlink(_temporary(path, target.parent, target.name, ".probe"))
 
 
 @contextmanager
@@ -77,13 +82,7 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     target, how = _target(path)
     parent = target.parent if how == "replace" else Path(tempfile.gettempdir())
     suffix = target.suffix or ".tmp"
-    try:
-        fd, tmp = tempfile.mkstemp(dir=parent, prefix=f".{target.name}.", suffix=suffix)
-    except FileNotFoundError:
-        raise DenavitError(f"{path}: cannot write: the directory {parent} does not exist") from None
-    except OSError as e:
-        raise DenavitError(f"{path}: cannot write in {parent}: {e.strerror or e}") from None
-    os.close(fd)
+    tmp = _temporary(path, parent, target.name, suffix)
     try:
         yield Path(tmp)
         if how == "replace":
