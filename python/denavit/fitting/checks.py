@@ -152,6 +152,11 @@ def _far(da: float, dd: float, sig_a: float, sig_d: float, size: float) -> bool:
     return (da > PLAUSIBLE[0] and da > PLAUSIBLE_SIGMAS * sig_a) or (dd > PLAUSIBLE[1] * size and dd > PLAUSIBLE_SIGMAS * sig_d)
 
 
+def _far_axes(dev, sig_a, sig_d, size: float) -> list[int]:
+    """The axes (0-based) whose (angle, distance) from their nominal (``dev``, (n, 2)) are far (:func:`_far`)."""
+    return [k for k in range(len(dev)) if _far(dev[k, 0], dev[k, 1], sig_a[k], sig_d[k], size)]
+
+
 def _finite(x: float) -> float:
     return x if np.isfinite(x) else 0.0
 
@@ -160,6 +165,38 @@ def _kabsch(D, N) -> np.ndarray:
     """The rotation R minimising sum |R d_k - n_k|^2 (Kabsch 1976), a proper one (det +1)."""
     U, _, Vt = np.linalg.svd(D.T @ N)
     return Vt.T @ np.diag([1.0, 1.0, np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0]) @ U.T
+
+
+#: The reflection a mirrored measurement frame applies (any one serves: with the rotations it makes them all).
+REFLECTION = np.diag([1.0, 1.0, -1.0])
+
+
+def register_axes_globally(points, dirs, nom_points, nom_dirs, kinds, size: float, sig_a, sig_d, mirrored: bool = False):
+    """:func:`register_axes` from every start the directions allow, the best kept: (R, t, dev). The directions'
+    signs are free (lines), so a rotation from the directions alone is ambiguous (at the KR5's home its axes run
+    along three lines only, and four rotations carry them onto the nominal's); each sign pattern's Kabsch
+    rotation is a start, and the registration that leaves the fewest axes far from their nominal (:func:`_far`,
+    with the axes' sigmas ``sig_a`` (rad), ``sig_d`` (m)) wins, then the least misfit (angles times the robot's
+    size, and distances): two exchanged axes stay two far axes, not a compromise that moves all of them.
+    ``mirrored``: the axes reflected (``REFLECTION``) first, so that (R, t) with the reflection carries the axes
+    onto the nominal's as a left-handed frame would."""
+    import itertools  # noqa: PLC0415
+
+    P, D, N = (np.asarray(a, dtype=float) for a in (points, dirs, nom_dirs))
+    if mirrored:
+        P, D = P @ REFLECTION, D @ REFLECTION
+    starts: list[np.ndarray] = []
+    for signs in itertools.product((1.0, -1.0), repeat=len(D) - 1):
+        R = _kabsch(D * np.r_[1.0, signs][:, None], N)
+        if not any(np.abs(R - S).max() < 1e-3 for S in starts):
+            starts.append(R)
+    best = None
+    for R in starts:
+        reg = register_axes(P, D, nom_points, N, kinds, size, R)
+        cost = (len(_far_axes(reg[2], sig_a, sig_d, size)), float(np.sum((reg[2][:, 0] * size) ** 2 + reg[2][:, 1] ** 2)))
+        if best is None or cost < best[0]:
+            best = (cost, reg)
+    return best[1]
 
 
 def register_axes(points, dirs, nom_points, nom_dirs, kinds, size: float, R_start=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -234,6 +271,12 @@ def nominal_plausibility(ex, fits: list, nominal, home, names: list[str], source
         refuse(f"the identified axes are the mirror image of the nominal {nominal.name}'s ({mirror[0]} of {mirror[1]} skew pairs have their common "
                "normal's distance flipped): expected a right-handed measurement frame (x and y swapped? a left-handed tracker export? a "
                "joint's readings reversed?)")
+    else:
+        lines = _mirrored_lines(fits, npts, ndirs, kinds, size, sig_a, sig_d)
+        if lines:
+            refuse(f"the identified axes are the mirror image of the nominal {nominal.name}'s (after the best rigid fit {lines[0]} of {len(fits)} "
+                   f"axes are far from their nominal, up to {lines[1] * 1e3:.4g} mm and {math.degrees(lines[2]):.3g} deg; after the best "
+                   "reflection none): expected a right-handed measurement frame (x and y swapped? a left-handed tracker export?)")
     far_next = 0  # consecutive pairs (the table's links) beyond IMPLAUSIBLE
     for pi, pn in zip(ex.pairs, nom, strict=True):
         k = pi.joint - 1
@@ -285,6 +328,25 @@ def _mirrored(fits: list, pts, dirs, kinds, size: float) -> tuple[int, int] | No
     return (int(sum(flips)), len(flips)) if len(flips) >= 2 and sum(flips) > len(flips) / 2 else None
 
 
+def _mirrored_lines(fits: list, pts, dirs, kinds, size: float, sig_a, sig_d) -> tuple[int, float, float] | None:
+    """(far axes, their largest distance (m) and angle (rad)) when the identified axes, as lines (without
+    readings a sweep's sense is not measured), match the nominal's after a reflection and not after any rigid
+    motion; else None. Where the nominal's axes at home are their own mirror image as lines (the KR5 at the
+    paper's home: every axis lies in the arm's plane or across it), both fit and no check on the lines can see
+    a reflection: the readings' senses (``_mirrored``) or another home can."""
+    P = np.array([f.point for f in fits])
+    D = np.array([f.direction for f in fits])
+
+    def far(mirrored):
+        dev = register_axes_globally(P, D, pts, dirs, kinds, size, sig_a, sig_d, mirrored)[2]
+        return _far_axes(dev, sig_a, sig_d, size), dev
+
+    bad, dev = far(False)
+    if len(bad) < 2 or far(True)[0]:
+        return None
+    return len(bad), float(dev[bad, 1].max()), float(dev[bad, 0].max())
+
+
 def _signed_distance(p0, z0, p1, z1) -> float:
     """The distance of two skew lines along their common normal z0 x z1, signed: a mirror image (a reflection of
     the points, e.g. x and y swapped) flips it, a rigid motion does not."""
@@ -301,9 +363,10 @@ def _swapped(fits: list, pts, dirs, kinds, size: float, sig_a, sig_d):
 
     def far_joints(order, R_start=None):
         R, _, dev = register_axes(P, D, pts[order], dirs[order], [kinds[k] for k in order], size, R_start)
-        return [k for k in range(len(fits)) if _far(dev[k, 0], dev[k, 1], sig_a[k], sig_d[k], size)], dev, R
+        return _far_axes(dev, sig_a, sig_d, size), dev, R
 
-    bad, dev, R = far_joints(list(range(len(fits))))
+    R, _, dev = register_axes_globally(P, D, pts, dirs, kinds, size, sig_a, sig_d)
+    bad = _far_axes(dev, sig_a, sig_d, size)
     if len(bad) < 2:
         return None
     for a in bad:
