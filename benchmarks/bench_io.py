@@ -5,11 +5,11 @@ Printed, median of ``--repeats`` runs (wall and CPU seconds, peak resident memor
 1. ``denavit simulate kr5 --points N`` as the command runs it: simulate the sweeps and write the long-form CSV
    (numbers with 17 digits, formatted a chunk of rows at a time), for N = 500,000 (3 million rows).
 2. :func:`denavit.io.sweeps.read_long_csv` of a file of about 188 MB (6 x 333,333 points) on the C-speed path
-   (numpy's reader), and of a smaller one (6 x 50,000) on both paths: the same file with a comment line at its
+   (Arrow's CSV reader, on both cores), and of a smaller one (6 x 50,000) on both paths: the same file with a comment line at its
    end is read row by row (the path that names the line and column of a bad cell), for the ratio.
 3. :func:`denavit.io.measurements.read_measurements` of a calibration CSV (``q1..q6,x,y,z``) of 10^5 and 10^6
    rows on the C-speed path, and the growth exponent of its CPU time (1: linear; it had split every row in
-   Python before trying numpy's reader).
+   Python before trying a C reader).
 
 Run ``python benchmarks/bench_io.py`` (``--repeats 3``, ``--points 500000``, ``--read-points 333333``,
 ``--measurement-rows 1000000``; ``--only measurements`` for item 3 alone).
@@ -71,14 +71,14 @@ def main() -> None:
         big = tmp / "big.csv"
         simulate(args.read_points, big)
         w, c = timed(lambda: swio.read_long_csv(big), args.repeats)
-        print(f"{f'read_long_csv, 6 x {args.read_points} points (numpy C reader)':<58} {big.stat().st_size / 1e6:>7.1f} {w:>8.2f} {c:>8.2f}", flush=True)
+        print(f"{f'read_long_csv, 6 x {args.read_points} points (C reader)':<58} {big.stat().st_size / 1e6:>7.1f} {w:>8.2f} {c:>8.2f}", flush=True)
         big.unlink()
         small, slow = tmp / "small.csv", tmp / "slow.csv"
         simulate(50_000, small)
         slow.write_text(small.read_text() + "# a comment line at the end: read row by row\n")
         fast_t = timed(lambda: swio.read_long_csv(small), args.repeats)
         slow_t = timed(lambda: swio.read_long_csv(slow), args.repeats)
-        print(f"{'read_long_csv, 6 x 50000 points (numpy C reader)':<58} {small.stat().st_size / 1e6:>7.1f} {fast_t[0]:>8.2f} {fast_t[1]:>8.2f}")
+        print(f"{'read_long_csv, 6 x 50000 points (C reader)':<58} {small.stat().st_size / 1e6:>7.1f} {fast_t[0]:>8.2f} {fast_t[1]:>8.2f}")
         print(f"{'read_long_csv, 6 x 50000 points (row by row, a comment at the end)':<58} {slow.stat().st_size / 1e6:>7.1f} {slow_t[0]:>8.2f} {slow_t[1]:>8.2f}"
               f"   ({slow_t[1] / fast_t[1]:.0f}x the C reader's CPU)")
         measurements(tmp, args.measurement_rows, args.repeats)
@@ -97,7 +97,7 @@ def measurements(tmp: Path, rows: int, repeats: int) -> None:
             np.savetxt(fh, table, fmt="%.10g", delimiter=",")
         w, c = timed(lambda f=f: read_measurements(f), repeats)
         cpu.append(c)
-        print(f"{f'read_measurements, {n} rows q1..q6,x,y,z (numpy C reader)':<58} {f.stat().st_size / 1e6:>7.1f} {w:>8.2f} {c:>8.2f}", flush=True)
+        print(f"{f'read_measurements, {n} rows q1..q6,x,y,z (C reader)':<58} {f.stat().st_size / 1e6:>7.1f} {w:>8.2f} {c:>8.2f}", flush=True)
         f.unlink()
     print(f"read_measurements growth, {rows // 10} -> {rows} rows: CPU x {cpu[1] / cpu[0]:.1f}, exponent {np.log10(cpu[1] / cpu[0]):.2f}")
 
