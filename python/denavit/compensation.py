@@ -37,7 +37,8 @@ class Compensation:
     ``reached``, ``branch_changed``, ``path_jump`` flags (never silently kept: a row with a flag is not a
     valid command); ``residual`` (N,) position residual of the identified solve (m); ``before`` (N,) the
     position error the robot makes without compensation (m); ``predicted_after`` (N,) the predicted
-    position error after it (1 sigma, m) when a result with a covariance was given, else None.
+    position error after it (1 sigma, m) when a result with a covariance was given, else None; ``notes`` what
+    the compensation assumed (e.g. the flange compensated when only the identified robot has a tool).
     """
 
     targets: np.ndarray
@@ -53,6 +54,7 @@ class Compensation:
     before_rotation: np.ndarray
     predicted_after: np.ndarray | None = None
     q_command: np.ndarray | None = None
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self):
         if self.q_command is None:
@@ -142,6 +144,20 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
     """
     nominal, identified = _loaded(nominal), _loaded(identified)
     nom, ide = _model(nominal, "nominal"), _model(identified, "identified")
+    notes = []
+    off = np.asarray(ide.T_flange_tool)[:3, 3]
+    if _is_identity(nom.T_flange_tool) and np.linalg.norm(off) > TOOL_FRACTION * _size(nom):
+        # identify's tool is the point it measured (a reflector on the flange), not the controller's tool: with a
+        # nominal that has none, the targets and the commands are the flange's, and so is the identified robot
+        ide = ide.with_tool(np.eye(4))
+        at = "the flange"
+        if isinstance(identified, Robot):
+            identified = _without_tool(identified)
+        else:
+            at = "the identified tool point (its covariance is of that point)"
+        notes.append(f"the nominal {getattr(nominal, 'name', 'model')} has no tool and the identified robot has one ({np.linalg.norm(off) * 1e3:.4g} mm from the "
+                     f"flange: the point it was measured at): the flange compensated, the prediction after it at {at}; give the nominal a tool to compensate "
+                     "tool poses")
     T = np.asarray(targets, dtype=float)
     if T.ndim == 2:
         T = T[None]
@@ -177,7 +193,40 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
         before = np.linalg.norm(exe[:, :3, 3] - T[:, :3, 3], axis=1)
         before_rot = _angle(np.swapaxes(T[:, :3, :3], 1, 2) @ exe[:, :3, :3])
     return Compensation(T, commands, q, r.q_nominal, r.reached, r.branch_changed, r.path_jump, r.position_error, r.rotation_error,
-                        before, before_rot, predicted, q_cmd)
+                        before, before_rot, predicted, q_cmd, tuple(notes))
+
+
+#: An identified tool farther than this fraction of the robot's size from the flange is a tool (identify's measured
+#: point), not the flange's own error: the plausibility checks' bound on an axis's error (fitting.checks.PLAUSIBLE,
+#: 2 %: 27 mm on the KR5), beyond which identify calls a link implausible.
+TOOL_FRACTION = 0.02
+
+
+def _size(model: _core.Model) -> float:
+    """The robot's size (m): the farthest joint axis point and flange from its base at zero."""
+    base = np.asarray(model.T_world_base)[:3, 3]
+    q = np.zeros(model.nq)
+    pts = np.vstack([np.asarray(_core.axes(model, q).points), _core.fk(model.with_tool(np.eye(4)), q)[:3, 3]])
+    return float(np.linalg.norm(pts - base, axis=1).max())
+
+
+def _is_identity(T) -> bool:
+    return bool(np.allclose(np.asarray(T, dtype=float), np.eye(4), rtol=0.0, atol=1e-12))
+
+
+def _without_tool(robot: Robot) -> Robot:
+    """``robot`` with its tool taken off (the flange its tool frame); its covariance (if any) without the tool's
+    translation (its rows and columns zero: the flange's position does not depend on it)."""
+    from dataclasses import replace  # noqa: PLC0415
+
+    t = robot.table
+    C = robot.covariance
+    if C is not None:
+        C = np.array(C, dtype=float)
+        k = np.asarray(t.params).size
+        C[k : k + 3, :] = 0.0
+        C[:, k : k + 3] = 0.0
+    return replace(robot, table=_core.Table(t.convention, t.params, t.kinds, t.T_world_base, np.eye(4)), covariance=C)
 
 
 def _same_readings(a, b) -> bool:

@@ -59,6 +59,8 @@ def compensate(
     with status(f"compensating {len(poses)} targets ..."):
         # (the robots, not their models: the identified robot's reading model, [couplings] and [readings], applies)
         c = cp.compensate(nom_robot, id_robot, poses, q_nominal=prog.q, path=path, branch_tol=positive(branch_tol, "--branch-tol", angle_scale(angle), np.radians(5.0), angle))
+    for n in c.notes:
+        say("yellow", "note:", f" {n}")
     ls = length_scale(length)
     flagged = [(w, why) for w, ok, r, b, j in zip(prog.where, c.ok, c.reached, c.branch_changed, c.path_jump, strict=True) if not ok
                for why in [", ".join(x for x, f in (("unreachable", not r), ("branch changed", b), ("path jump", j)) if f)]]
@@ -72,7 +74,7 @@ def compensate(
     summary = {"targets": len(c), "flagged": len(flagged), "units": SI_UNITS,
                "before_rms_m": before_rms, "before_max_m": float(c.before[c.ok].max()) if c.ok.any() else None,
                "residual_max_m": float(c.residual[c.ok].max()) if c.ok.any() else None,
-               "flagged_rows": [{"where": w, "why": why} for w, why in flagged]}
+               "flagged_rows": [{"where": w, "why": why} for w, why in flagged], "notes": list(c.notes)}
     if predicted is not None:
         summary["predicted_after_rms_m"] = float(np.sqrt(np.mean(predicted[c.ok] ** 2))) if c.ok.any() else None
         summary["predicted_after"] = [{"where": w, "sigma_m": float(p)} for w, p in zip(prog.where, predicted, strict=True)]
