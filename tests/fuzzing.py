@@ -49,6 +49,16 @@ def _sweeps_json() -> str:
                        "sweeps": [{"joint": x.joint, "points": x.points.tolist(), "q": x.q.tolist()} for x in s.sweeps]})
 
 
+def _sweeps_json_targets_poses() -> str:
+    """A sweep JSON with three targets per pose, their nest and 6-DoF orientations (io.sweeps.to_json)."""
+    from denavit import sweeps as sw
+    from denavit.io import sweeps as swio
+
+    s = sw.simulate(dv.load_model("kr5"), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=5,
+                    targets=[(0.05, 0.03, 0.1), (-0.04, 0.06, 0.08), (0.03, -0.07, 0.13)], poses=True)
+    return json.dumps(swio.to_json(s, "mm", "deg"))
+
+
 def _targets_csv() -> str:
     Q = np.radians(np.array([[10, -80, 90, 0, 45, 0], [20, -70, 80, 10, 40, 5], [30, -60, 70, 20, 35, 10]]))
     return "# units: length=mm angle=deg\nq1,q2,q3,q4,q5,q6\n" + "".join(",".join(f"{v:.6f}" for v in np.degrees(q)) + "\n" for q in Q)
@@ -102,6 +112,8 @@ def seeds() -> dict[str, tuple[str, str, Callable[[Path], object]]]:
         "urdf": (".urdf", (DATA / "urdf" / "ur_style.urdf").read_text(), lambda p: nums(load_urdf(p).table.params)),
         "sweep csv": (".csv", _kr5_sweeps_csv(), lambda p: nums(*[s.points for s in swio.read_long_csv(p).sweeps])),
         "sweep json": (".json", _sweeps_json(), lambda p: nums(*[s.points for s in swio.read_json(p).sweeps])),
+        "sweep json, targets and poses": (".json", _sweeps_json_targets_poses(),
+                                          lambda p: nums(*[x for s in swio.read_json(p).sweeps for x in (s.targets, s.rotations)], swio.read_json(p).nest)),
         "measurements": (".csv", _measurements_csv(), lambda p: nums(read_measurements(p).points)),
         "measurements json": (".json", _measurements_json(), lambda p: nums(read_measurements(p).points)),
         "joint file": (".csv", "# units: length=mm\ntime;x;y;z\n" + "".join(f"{k * 0.1:.1f};{100 * np.cos(t):.6f};{100 * np.sin(t):.6f};5\n" for k, t in enumerate(np.linspace(0, 1, 8))),

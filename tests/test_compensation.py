@@ -509,13 +509,15 @@ def test_convert_carries_the_covariance_and_the_reading_model(tmp_path):
     np.testing.assert_allclose(cp.table_sigma(poe, Q), cp.table_sigma(edh, Q), rtol=1e-4)
 
 
-@pytest.mark.xfail(strict=True, reason=("merged with the standing KR5 (issue 17): 49 of 50 configurations agree within 3 %, one (row 43) "
-                                        "differs by 19 % between the saved file's sigma and calibrate's own; not investigated yet"))
 def test_calibrate_save_writes_the_covariance_and_compensate_predicts_the_same_sigma(tmp_path):
     """`calibrate --save` writes the [covariance] of the saved ED-H table, its tool and its joint scales (the free
-    parameters' covariance mapped through the extraction, the base registration left out); `compensate` of the
-    file predicts per target the sigma calibrate itself predicts (predicted_sigma of the Calibration: its own
-    analytic Jacobian), within 3 % (the two differ by the finite differences through the extraction only)."""
+    parameters' covariance mapped through the extraction, the base registration left out): the file's sigma at
+    the configurations is the one calibrate itself predicts (predicted_sigma of the Calibration: its own analytic
+    Jacobian) within 1 % (they differ by the finite differences through the extraction only: 0.19 % at most here).
+    `compensate` of the file predicts the same at the joint values it solved, which are not the programmed ones on
+    a flagged row: of these 50 random configurations (not kept clear of the singularities as `program` is) 4 are
+    flagged; row 43, 2.7 deg from the stretched arm (condition of the Jacobian 179, median 19), is reached only on
+    the other shoulder branch (q1 +180 deg), where the sigma is 13.1 um against 16.2 um at the programmed joints."""
     from denavit.io import robotfile
 
     kr5 = dv.load_robot("kr5")
@@ -532,10 +534,9 @@ def test_calibrate_save_writes_the_covariance_and_compensate_predicts_the_same_s
     k = back.table.params.size + 3 + 6  # the table's cells, the tool's x, y, z, the six joint scales
     assert back.covariance is not None and back.covariance.shape == (k, k)
     Q = rng.uniform(kr5.lower, kr5.upper, (50, 6)) * 0.9
-    own = cp.predicted_sigma(c, Q)
-    np.testing.assert_allclose(cp.table_sigma(back, Q), own, rtol=0.03)
+    np.testing.assert_allclose(cp.table_sigma(back, Q), cp.predicted_sigma(c, Q), rtol=0.01)
     tool = np.eye(4)
     tool[:3, 3] = TOOL
     nominal = kr5.model().with_tool(tool)
     comp = cp.compensate(nominal, back, dv.fk_batch(nominal, Q), q_nominal=Q)
-    np.testing.assert_allclose(comp.predicted_after, own, rtol=0.03)
+    np.testing.assert_allclose(comp.predicted_after, cp.predicted_sigma(c, comp.q), rtol=0.01)

@@ -374,7 +374,7 @@ def _sweeps_json_doc() -> dict:
     ('{"units": {"length": "m", "angle": "rad"}, "home": ["1"]}', r"s.json: home\[0\]: expected a number, got '1' \(a string\)$"),
     ('{"units": {"length": "m", "angle": "rad"}, "home": [true]}', r"s.json: home\[0\]: expected a number, got true$"),
     ('{"units": {"length": "m", "angle": "rad"}, "home": [0], "home": [1]}', r"s.json: key\(s\) 'home' given twice in one object"),
-    ('{"units": {"length": "m", "angle": "rad"}, "hom": [0]}', r"s.json: unknown key\(s\) 'hom': expected units, home, kinds, sweeps$"),
+    ('{"units": {"length": "m", "angle": "rad"}, "hom": [0]}', r"s.json: unknown key\(s\) 'hom': expected units, home, kinds, nest, sweeps$"),
     ('{"home": [0,', r"s.json:1: not valid JSON: Expecting value \(column 13\)$"),
 ])
 def test_bad_json_sweeps_are_one_line(tmp_path, text, match):
@@ -396,7 +396,7 @@ def test_a_misspelt_q_in_one_sweep_is_an_error_not_a_set_without_readings(tmp_pa
     assert swio.read_json(f).has_readings
     doc["sweeps"][2]["Q"] = doc["sweeps"][2].pop("q")
     f.write_text(json.dumps(doc))
-    with pytest.raises(dv.DenavitError, match=r"s.json: sweeps\[2\]: unknown key\(s\) 'Q': expected joint, points, q$"):
+    with pytest.raises(dv.DenavitError, match=r"s.json: sweeps\[2\]: unknown key\(s\) 'Q': expected joint, points, targets, q, quaternions$"):
         swio.read_json(f)
 
 
@@ -416,7 +416,7 @@ def test_hand_built_sweep_sets_need_one_sweep_per_joint():
 @pytest.mark.parametrize("doc, match", [
     ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, "1"]], "points": [[0, 0, 0]]}, r"m.json: q\[0\]\[1\]: expected a number, got '1' \(a string\)$"),
     ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, True]], "points": [[0, 0, 0]]}, r"m.json: q\[0\]\[1\]: expected a number, got true$"),
-    ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, 1], [0]], "points": [[0, 0, 0]]}, r"m.json: q: rows of different lengths"),
+    ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, 1], [0]], "points": [[0, 0, 0]]}, r"m.json: q\[1\]: rows of different lengths \(1 here, 2 in the first row\): expected a rectangular array$"),
     ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, 1]], "point": [[0, 0, 0]]}, r"m.json: unknown key\(s\) 'point'"),
     ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, 1]], "poses": [[[1, 0, 0, 0]] * 3]}, r"m.json: poses must have shape \(1, 4, 4\) \(one per row of q\), got shape \(1, 3, 4\)"),
 ])

@@ -196,6 +196,79 @@ def test_bad_target_and_orientation_columns_are_one_line_errors(tmp_path, text, 
         swio.read_long_csv(f)
 
 
+def _same_sweeps(a, b):
+    """Two sweep sets hold the same doubles (orientations: the rotations of the same quaternions)."""
+    assert (a.n_joints, list(a.kinds), a.units, a.n_targets, a.has_rotations) == (b.n_joints, list(b.kinds), b.units, b.n_targets, b.has_rotations)
+    assert np.array_equal(a.home, b.home) and (a.nest is None) == (b.nest is None) and (a.nest is None or np.array_equal(a.nest, b.nest))
+    for x, y in zip(a.sweeps, b.sweeps, strict=True):
+        assert x.joint == y.joint and np.array_equal(x.points, y.points) and np.array_equal(x.q, y.q)
+        assert (x.targets is None) == (y.targets is None) and (x.targets is None or np.array_equal(x.targets, y.targets))
+        assert (x.rotations is None) == (y.rotations is None) and (x.rotations is None or np.allclose(x.rotations, y.rotations, rtol=0, atol=1e-15))
+
+
+@pytest.mark.parametrize(("targets", "poses"), [(3, True), (2, False), (1, True)])
+def test_sweep_json_carries_what_the_csv_carries(tmp_path, targets, poses):
+    """The sweep JSON holds the long-form CSV's further targets ("targets", per pose a list of [x, y, z]), its nest
+    ("nest") and its orientations ("quaternions", qw, qx, qy, qz): CSV -> JSON and JSON -> CSV give the same sweep
+    set (the same doubles; the rotations to 1e-15, a quaternion computed again from its matrix), and one target of
+    either file is the same set."""
+    m = dv.load_model("kr5")
+    s = sw.simulate(m, home=HOME, ranges=RANGES, points_per_sweep=6, noise=2e-5, targets=NEST[:targets] if targets > 1 else None, poses=poses, noise_rot=1e-4, seed=1)
+    c, j = tmp_path / "s.csv", tmp_path / "s.json"
+    c.write_text(swio.to_long_csv(s, "mm", "deg"))
+    from_csv = swio.read_long_csv(c)
+    doc = swio.to_json(from_csv, "mm", "deg")
+    j.write_text(json.dumps(doc))
+    assert ("nest" in doc) == (targets > 1) and all(("targets" in d) == (targets > 1) and ("quaternions" in d) == poses for d in doc["sweeps"])
+    from_json = swio.read_json(j)
+    _same_sweeps(from_json, from_csv)
+    c2 = tmp_path / "s2.csv"
+    c2.write_text(swio.to_long_csv(from_json, "mm", "deg"))
+    _same_sweeps(swio.read_long_csv(c2), from_json)
+    for k in range(targets):
+        _same_sweeps(dv.read_sweeps(j, target=k), dv.read_sweeps(c, target=k))
+
+
+def _bad_sweeps_doc() -> dict:
+    s = sw.simulate(dv.load_model("kr5"), home=HOME, ranges=RANGES, points_per_sweep=6, targets=NEST[:3], poses=True, seed=1)
+    return swio.to_json(s, "mm", "deg")
+
+
+def _edit(doc, k, key, value):
+    out = json.loads(json.dumps(doc))
+    if value is None:
+        out["sweeps"][k].pop(key)
+    else:
+        out["sweeps"][k][key] = value
+    return out
+
+
+@pytest.mark.parametrize(("change", "match"), [
+    (lambda d: _edit(d, 0, "points", [[1, 2, 3]] * 6), r"s\.json: sweeps\[0\]: expected 'points' \(one target per pose\) or 'targets' .*got both$"),
+    (lambda d: _edit(d, 0, "targets", None), r"s\.json: sweeps\[0\]: expected 'points' .*got neither$"),
+    (lambda d: _edit(d, 2, "targets", [t[:2] for t in d["sweeps"][2]["targets"]]), r"s\.json: sweeps\[2\]\.targets: 2 target\(s\) per pose, but sweeps\[0\] has 3: expected the same targets"),
+    (lambda d: _edit(d, 1, "targets", [t[:2] if i == 3 else t for i, t in enumerate(d["sweeps"][1]["targets"])]),
+     r"s\.json: sweeps\[1\]\.targets\[3\]: rows of different lengths \(2 here, 3 in the first row\): expected a rectangular array$"),
+    (lambda d: _edit(d, 1, "targets", [[[1e300, 0, 0]] * 3 if i == 4 else t for i, t in enumerate(d["sweeps"][1]["targets"])]),
+     r"s\.json: sweeps\[1\]\.targets\[4\]\[0\]\[0\]: a coordinate of 1e\+297 m is beyond"),
+    (lambda d: _edit(d, 3, "quaternions", None), r"s\.json: sweeps\[3\]: sweeps\[0\] has 'quaternions', sweeps\[3\] has none: expected 6-DoF poses in every sweep or in none$"),
+    (lambda d: _edit(d, 1, "quaternions", [[0.9, 0, 0, 0]] * 6), r"s\.json: sweeps\[1\]\.quaternions\[0\]: quaternion norm 0\.9: expected a unit quaternion \(qw, qx, qy, qz\)$"),
+    (lambda d: _edit(d, 1, "quaternions", [[1, 0, 0]] * 6), r"s\.json: sweeps\[1\]\.quaternions\[0\]: expected a list of 4 numbers, got \[1, 0, 0\]$"),
+    (lambda d: _edit(d, 1, "quaternions", [[1, 0, 0, 0]] * 5), r"s\.json: sweeps\[1\]: quaternions must have one row per point: expected 6 rows, got 5$"),
+    (lambda d: _edit(d, 1, "quaternion", [[1, 0, 0, 0]] * 6), r"s\.json: sweeps\[1\]: unknown key\(s\) 'quaternion': expected joint, points, targets, q, quaternions$"),
+    (lambda d: {**d, "nest": d["nest"][:2]}, r"s\.json: nest: expected 3 points \[x, y, z\] \(one per target of the sweeps\), got 2$"),
+    (lambda d: {**d, "nest": [[1, 2, "a"]] * 3}, r"s\.json: nest\[0\]\[2\]: expected a number, got 'a' \(a string\)$"),
+])
+def test_bad_targets_nest_and_quaternions_in_sweep_json_are_one_line_errors(tmp_path, change, match):
+    f = tmp_path / "s.json"
+    doc = _bad_sweeps_doc()
+    f.write_text(json.dumps(doc))
+    assert swio.read_json(f).n_targets == 3
+    f.write_text(json.dumps(change(doc)))
+    with pytest.raises(dv.DenavitError, match=match):
+        swio.read_json(f)
+
+
 def test_cli_simulates_and_identifies_several_targets_and_poses(tmp_path):
     """`denavit simulate --targets ... / --poses` writes such files; `denavit identify` fits every target at once and
     prints and writes the tool frame's orientation with its sigma; `--target 2` fits that target alone."""

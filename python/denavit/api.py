@@ -102,9 +102,7 @@ def read_sweeps(data, *, nominal=None, format: str = "auto", length: str | None 
             if home is None or length is None:
                 raise DenavitError(f"{p}: a folder of per-joint files needs home (rad / m, one value per joint) and length (the files' unit if they declare none)")
             return swio.read_joint_files(p, home=home, length=length, angle="rad", direction=direction, kinds=kinds)
-        if p.suffix.lower() == ".json":
-            return swio.read_json(p, length=length, angle=angle)
-        s = swio.read_long_csv(p, length=length, angle=angle, kinds=kinds)
+        s = swio.read_json(p, length=length, angle=angle) if p.suffix.lower() == ".json" else swio.read_long_csv(p, length=length, angle=angle, kinds=kinds)
         return s if target is None else s.target(target)
     from .io.recordings import read_recording  # noqa: PLC0415
     from .recording import align, segment, to_sweepset  # noqa: PLC0415

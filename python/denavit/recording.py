@@ -468,24 +468,47 @@ def _noise(x: np.ndarray, w: int, dt: float) -> tuple[np.ndarray, np.ndarray]:
     return sigma, sigma * float(np.linalg.norm(savgol_coeffs(w, 2, deriv=1, delta=dt)))
 
 
-def _trim(x: np.ndarray, runs: list[tuple[int, int]], sigma: np.ndarray, k: float) -> list[tuple[int, int]]:
-    """Each run without its rows that stand within ``k`` sigma of the dwell before / after it (the derivative
-    filter spreads a motion's start over half its window)."""
+#: Rows of a dwell next to a motion whose median is the dwell's level (:func:`_ends`).
+DWELL_ROWS = 50
+
+
+def _ends(x: np.ndarray, runs: list[tuple[int, int]], sigma: np.ndarray, k: float, joint_wise: bool) -> list[tuple[int, int]]:
+    """Each run's ends moved to where the rows leave the dwell before / after it by more than ``k`` sigma: rows
+    still within the dwell's noise taken off (the derivative filter spreads a motion's start over half its window),
+    rows beyond it added (the speed test misses the slow start and stop of a motion, where a point near its axis
+    moves less per sample than the speed's noise). The dwell's level is the median of up to :data:`DWELL_ROWS` of
+    its rows. ``joint_wise`` (readings): a row has left the dwell when one joint is beyond ``k`` sigma; else (points)
+    when its distance from the dwell in noise units is beyond the quantile of the same false-alarm rate in as many
+    dimensions (a direction-free test: the tracker's axes are arbitrary)."""
+    from scipy.stats import chi2, norm  # noqa: PLC0415
+
+    s = np.maximum(sigma, 1e-15)
+    if joint_wise:
+        def off(row, level):
+            return bool(np.max(np.abs(row - level) / s) > k)
+    else:
+        kd = math.sqrt(float(chi2.isf(2 * norm.sf(k), x.shape[1])))
+
+        def off(row, level):
+            return bool(np.linalg.norm((row - level) / s) > kd)
     out, prev = [], 0
     bounds = [*runs, (len(x), len(x))]
-    tol = k * np.maximum(sigma, 1e-15)
     for (a, b), (na, _) in zip(runs, bounds[1:]):
         if a > prev:
-            level = np.median(x[max(prev, a - 20):a], axis=0)
-            while a < b and np.all(np.abs(x[a] - level) <= tol):
+            level = np.median(x[max(prev, a - DWELL_ROWS):a], axis=0)
+            while a > prev and off(x[a - 1], level):
+                a -= 1
+            while a < b and not off(x[a], level):
                 a += 1
         if na > b:
-            level = np.median(x[b:min(na, b + 20)], axis=0)
-            while b > a and np.all(np.abs(x[b - 1] - level) <= tol):
+            level = np.median(x[b:min(na, b + DWELL_ROWS)], axis=0)
+            while b < na and off(x[b], level):
+                b += 1
+            while b > a and not off(x[b - 1], level):
                 b -= 1
         if b > a:
             out.append((a, b))
-        prev = b
+            prev = b
     return out
 
 
@@ -606,8 +629,8 @@ def segment(rec: Recording, *, ranges=None, n_joints: int | None = None, joints:
 
 def _motions(rec: Recording, *, threshold: float, min_dwell: float, smoothing: float, min_points: int, use_readings: bool):
     """(time, signal, with readings, motion runs [(start, stop)], speed threshold, speed): the rows where the robot
-    moves beyond the noise (estimated from the data), joined across still spans shorter than ``min_dwell`` and
-    trimmed of rows still within the dwell's noise; the rest is dwell."""
+    moves beyond the noise (estimated from the data), joined across still spans shorter than ``min_dwell``, their
+    ends where the rows leave the dwell's noise (:func:`_ends`); the rest is dwell."""
     N = len(rec)
     t = rec.time if rec.time is not None else np.arange(N, dtype=float)
     dt = float(np.median(np.diff(t)))
@@ -628,7 +651,7 @@ def _motions(rec: Recording, *, threshold: float, min_dwell: float, smoothing: f
         lim = np.maximum(threshold * np.linalg.norm(noise), max(1e-3 * speed.max(), 1e-12))
         moving = speed[:, 0] > lim
     runs = _runs(moving, max(1, int(round(min_dwell / dt))), 1)
-    runs = [(a, b) for a, b in _trim(x, runs, sigma_x, threshold) if b - a >= min_points]
+    runs = [(a, b) for a, b in _ends(x, runs, sigma_x, threshold, with_q) if b - a >= min_points]
     return t, x, with_q, runs, lim, speed
 
 

@@ -1,5 +1,5 @@
-"""Sweep files (docs/sweeps.md): the long-form CSV, a folder of per-joint ``jN.csv`` files, JSON; and the
-long-form CSV writer. The data model is :mod:`denavit.sweeps`.
+"""Sweep files (docs/robot-files.md, "Sweep data"): the long-form CSV, a folder of per-joint ``jN.csv`` files, JSON;
+and the long-form CSV and JSON writers. The data model is :mod:`denavit.sweeps`.
 
 One units rule for every format (:func:`denavit.io.units.input_units`): what the file declares (a
 ``# units:`` line, :func:`~denavit.io.units.parse_declaration`; JSON: its ``"units"`` object) wins, the
@@ -333,9 +333,11 @@ def json_array(value, n: int | None, depth: int, where: str) -> np.ndarray:
     if not isinstance(value, list) or not value:
         raise DenavitError(f"{where}: expected a list of rows{f' of {n} numbers' if n is not None and depth == 2 else ''}, got {_show(value)}")
     rows = [json_array(v, n, depth - 1, f"{where}[{i}]") for i, v in enumerate(value)]
-    shapes = {r.shape for r in rows}
-    if len(shapes) > 1:
-        raise DenavitError(f"{where}: rows of different lengths ({', '.join(str(sh[0]) for sh in sorted(shapes))}): expected a rectangular array")
+    bad = next((i for i, r in enumerate(rows) if r.shape != rows[0].shape), None)
+    if bad is not None:
+        a, b = rows[bad].shape, rows[0].shape
+        a, b = (a[0], b[0]) if a[0] != b[0] else (a, b)
+        raise DenavitError(f"{where}[{bad}]: rows of different lengths ({a} here, {b} in the first row): expected a rectangular array")
     return np.array(rows)
 
 
@@ -358,17 +360,21 @@ def _check_keys(obj: dict, expected: tuple, where: str) -> None:
 
 
 def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str | None = None) -> SweepSet:
-    """Read sweeps from JSON: ``{"units": {"length": "mm", "angle": "deg"}, "home": [...],
-    "kinds": [...] (optional), "sweeps": [{"joint": 1, "points": [[x, y, z], ...], "q": [[q1..qn], ...] (optional)}]}``.
+    """Read sweeps from JSON: ``{"units": {"length": "mm", "angle": "deg"}, "home": [...], "kinds": [...] (optional),
+    "nest": [[x, y, z], ...] (optional), "sweeps": [{"joint": 1, "points": [[x, y, z], ...] or "targets": [[[x1, y1, z1],
+    [x2, y2, z2], ...], ...], "q": [[q1..qn], ...] (optional), "quaternions": [[qw, qx, qy, qz], ...] (optional)}]}``.
 
-    One sweep per joint; every number finite; errors name the file and the place (e.g. ``sweeps[2].q[3][1]``).
+    One sweep per joint; ``"targets"`` instead of ``"points"`` when 2-4 targets are measured per pose (the same number
+    in every sweep; ``"nest"`` their positions in the tool frame, one per target), ``"quaternions"`` a 6-DoF pose's
+    orientation per row (unit, scalar first; in every sweep or in none): what the long-form CSV carries as x2..zk,
+    ``# nest:`` and qw..qz. Every number finite; errors name the file and the place (e.g. ``sweeps[2].q[3][1]``).
     ``"units"`` wins; ``length`` / ``angle`` fill what it does not give.
     """
     where = str(path)
     doc = load_json(read_text(path, "sweep file"), where)
     if not isinstance(doc, dict):
         raise DenavitError(f'{where}: expected a JSON object {{"units": ..., "home": [...], "sweeps": [...]}}, got {_show(doc)}')
-    _check_keys(doc, ("units", "home", "kinds", "sweeps"), where)
+    _check_keys(doc, ("units", "home", "kinds", "nest", "sweeps"), where)
     declared = doc.get("units") or {}
     if not isinstance(declared, dict) or not all(isinstance(v, str) for v in declared.values()):
         raise DenavitError(f'{where}: units: expected an object such as {{"length": "mm", "angle": "deg"}}, got {_show(declared)}')
@@ -387,25 +393,61 @@ def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str 
         raise DenavitError(f"{where}: sweeps: expected a list of sweeps {{\"joint\": 1, \"points\": [[x, y, z], ...]}}, got {_show(sweeps)}")
     rows: dict[int, Sweep] = {}
     first: dict[int, int] = {}
+    k_first = poses_first = None  # (targets per pose, sweep index), (has quaternions, sweep index) of sweeps[0]
     for k, s in enumerate(sweeps):
         at = f"{where}: sweeps[{k}]"
         if not isinstance(s, dict):
             raise DenavitError(f"{at}: expected an object {{\"joint\": ..., \"points\": ...}}, got {_show(s)}")
-        _check_keys(s, ("joint", "points", "q"), at)
+        _check_keys(s, ("joint", "points", "targets", "q", "quaternions"), at)
         j = s.get("joint")
         if isinstance(j, bool) or not isinstance(j, int) or not 1 <= j <= n:
             raise DenavitError(f"{at}: joint index out of range: expected an integer 1..{n}, got {_show(j)}")
         if j in rows:
             raise DenavitError(f"{at}: a second sweep of joint {j} (the first is sweeps[{first[j]}]): expected one sweep per joint")
-        pts = json_array(s.get("points"), 3, 2, f"{at}.points")
+        if ("points" in s) == ("targets" in s):
+            raise DenavitError(f"{at}: expected 'points' (one target per pose) or 'targets' (several: per pose a list of [x, y, z]), "
+                               f"got {'both' if 'points' in s else 'neither'}")
+        key = "points" if "points" in s else "targets"
+        tg = json_array(s[key], 3, 2 if key == "points" else 3, f"{at}.{key}")
+        tg = tg[:, None, :] if key == "points" else tg
+        k_first = (tg.shape[1], k) if k_first is None else k_first
+        if tg.shape[1] != k_first[0]:
+            raise DenavitError(f"{at}.{key}: {tg.shape[1]} target(s) per pose, but sweeps[{k_first[1]}] has {k_first[0]}: expected the same targets at every pose")
+        tg = tg * ls
+        far = np.argwhere(np.abs(tg[:, 0] if key == "points" else tg) > dl.MAX_LENGTH)
+        if far.size:
+            dl.far(tg[:, 0][tuple(far[0])] if key == "points" else tg[tuple(far[0])], f"{at}.{key}" + "".join(f"[{i}]" for i in far[0]))
+        m = len(tg)
         q = s.get("q")
         if q is not None:
             q = json_array(q, n, 2, f"{at}.q")
-            if len(q) != len(pts):
-                raise DenavitError(f"{at}: q must have one row per point: expected {len(pts)} rows, got {len(q)}")
+            if len(q) != m:
+                raise DenavitError(f"{at}: q must have one row per point: expected {m} rows, got {len(q)}")
             q = q * qscale
-        rows[j], first[j] = Sweep(j, json_lengths(pts, ls, f"{at}.points"), q, [f"{at}.points[{i}]" for i in range(len(pts))]), k
-    return SweepSet([rows[j] for j in sorted(rows)], n, home * qscale, kinds, where, units)
+        poses_first = ("quaternions" in s, k) if poses_first is None else poses_first
+        if ("quaternions" in s) != poses_first[0]:
+            has, hasnt = (k, poses_first[1]) if "quaternions" in s else (poses_first[1], k)
+            raise DenavitError(f"{at}: sweeps[{has}] has 'quaternions', sweeps[{hasnt}] has none: expected 6-DoF poses in every sweep or in none")
+        rot = None
+        if "quaternions" in s:
+            quat = json_array(s["quaternions"], 4, 2, f"{at}.quaternions")
+            if len(quat) != m:
+                raise DenavitError(f"{at}: quaternions must have one row per point: expected {m} rows, got {len(quat)}")
+            bad = np.flatnonzero(np.abs(np.linalg.norm(quat, axis=1) - 1) > 1e-6)
+            if bad.size:
+                raise DenavitError(f"{at}.quaternions[{bad[0]}]: quaternion norm {np.linalg.norm(quat[bad[0]]):.6g}: expected a unit quaternion (qw, qx, qy, qz)")
+            from .recordings.columns import poses_of  # noqa: PLC0415 (scipy's rotations)
+
+            rot = poses_of(np.zeros((m, 3)), quat, "quaternion", at)[:, :3, :3]
+        pts = np.ascontiguousarray(tg[:, 0])
+        rows[j] = Sweep(j, pts, q, [f"{at}.{key}[{i}]" for i in range(m)], tg if tg.shape[1] > 1 else None, rot)
+        first[j] = k
+    nest = None
+    if doc.get("nest") is not None:
+        nest = json_lengths(json_array(doc["nest"], 3, 2, f"{where}: nest"), ls, f"{where}: nest")
+        if len(nest) != k_first[0]:
+            raise DenavitError(f"{where}: nest: expected {k_first[0]} points [x, y, z] (one per target of the sweeps), got {len(nest)}")
+    return SweepSet([rows[j] for j in sorted(rows)], n, home * qscale, kinds, where, units, nest)
 
 
 def read(path: str | os.PathLike, **kw) -> SweepSet:
@@ -443,8 +485,6 @@ def to_long_csv(sweeps: SweepSet, length: str = "mm", angle: str = "deg", header
     extra = [f"{a}{t}" for t in range(2, k + 1) for a in "xyz"] + list(QUATERNION if rot else ())
     csv.writer(out, lineterminator="\n").writerow(["joint", *[f"q{i}" for i in range(1, sweeps.n_joints + 1)], "x", "y", "z", *extra])
     row = ",".join(["%d"] + ["%.17g"] * (sweeps.n_joints + 3 + len(extra))) + "\n"
-    if rot:
-        from ..geometry import _rotation  # noqa: PLC0415 (scipy's rotations)
     for s in sweeps.sweeps:
         if s.q is None:
             raise DenavitError("long-form CSV needs joint readings; this sweep set has none")
@@ -452,7 +492,39 @@ def to_long_csv(sweeps: SweepSet, length: str = "mm", angle: str = "deg", header
             q, p = s.q[a : a + WRITE_CHUNK], s.points[a : a + WRITE_CHUNK]
             if k > 1:
                 p = s.targets[a : a + WRITE_CHUNK].reshape(len(q), 3 * k)
-            quat = _rotation().from_matrix(s.rotations[a : a + WRITE_CHUNK]).as_quat()[:, [3, 0, 1, 2]] if rot else np.zeros((len(q), 0))
+            quat = _quaternions(s.rotations[a : a + WRITE_CHUNK]) if rot else np.zeros((len(q), 0))
             cells = np.column_stack([np.full(len(q), s.joint), q / qscale, p / ls, quat])
             out.write((row * len(cells)) % tuple(cells.ravel().tolist()))
     return out.getvalue()
+
+
+def _quaternions(R: np.ndarray) -> np.ndarray:
+    """(m, 4) unit quaternions (qw, qx, qy, qz) of (m, 3, 3) rotations."""
+    from ..geometry import _rotation  # noqa: PLC0415 (scipy's rotations)
+
+    return _rotation().from_matrix(R).as_quat()[:, [3, 0, 1, 2]]
+
+
+def to_json(sweeps: SweepSet, length: str = "mm", angle: str = "deg") -> dict:
+    """The sweep JSON document of a sweep set (:func:`read_json`; write it with ``json.dumps``, whose numbers read back
+    as the same doubles in the file's units): its units, home, kinds, nest; per sweep the points (several targets per
+    pose: ``"targets"``), the joint readings when recorded, a 6-DoF pose's orientation as ``"quaternions"``."""
+    ls = length_scale(length)
+    qscale = joint_scale(sweeps.kinds, length, angle)
+    doc = {"units": {"length": length, "angle": angle}, "home": (np.asarray(sweeps.home, dtype=float) / qscale).tolist(), "kinds": list(sweeps.kinds)}
+    if sweeps.nest is not None:
+        doc["nest"] = (np.asarray(sweeps.nest, dtype=float) / ls).tolist()
+    out = []
+    for s in sweeps.sweeps:
+        d = {"joint": int(s.joint)}
+        if s.n_targets > 1:
+            d["targets"] = (s.targets / ls).tolist()
+        else:
+            d["points"] = (s.points / ls).tolist()
+        if s.q is not None:
+            d["q"] = (s.q / qscale).tolist()
+        if s.rotations is not None:
+            d["quaternions"] = _quaternions(s.rotations).tolist()
+        out.append(d)
+    doc["sweeps"] = out
+    return doc
