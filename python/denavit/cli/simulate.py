@@ -21,7 +21,7 @@ def simulate(
     model: ModelArg,
     output: Annotated[Path, typer.Option("-o", "--output", help="Long-form CSV to write ('-': standard output).")],
     home: Annotated[str | None, typer.Option("--home", help="Home configuration in --angle units, prismatic joints in --length (default: the model file's home, else zeros).")] = None,
-    ranges: Annotated[str | None, typer.Option("--ranges", help="Per-joint start,end pairs in --angle units (prismatic: --length), or 'paper90' / 'paper30' (Hayat Table II, the default).")] = None,
+    ranges: Annotated[str | None, typer.Option("--ranges", help="Per-joint start,end pairs in --angle units (prismatic: --length), or 'paper90' (the default) / 'paper30' (Hayat Table II).")] = None,
     points: Annotated[int, typer.Option("--points", help="Points per sweep.")] = 30,
     tool: Annotated[str | None, typer.Option("--tool", help="Tool point in the flange frame, in --length units (default 50,30,100 mm whatever the unit).")] = None,
     noise: Annotated[float | None, typer.Option("--noise", help="Point noise (1 sigma per coordinate), in --length units (default 0.02 mm whatever the unit).")] = None,
