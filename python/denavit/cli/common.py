@@ -372,9 +372,12 @@ def pose_rows(T: np.ndarray, ls: float) -> list[list[float]]:
 
 
 def fmt(v: float, nd: int = 6) -> str:
-    """A table cell: ``nd`` decimals, "nan" for NaN (never 0.000000), -0 shown as 0."""
+    """A table cell: ``nd`` decimals, "nan" for NaN (never 0.000000), -0 shown as 0; from 1e15 on in exponent
+    form (beyond a double's 16 digits the decimals are noise, and 1e300 had printed 300 digits)."""
     if v != v:
         return "nan"
+    if abs(v) >= 1e15:
+        return f"{v:.{max(nd, 6)}e}"
     return f"{v:.{nd}f}" if abs(v) >= 0.5 * 10.0 ** -nd else f"{0.0:.{nd}f}"
 
 

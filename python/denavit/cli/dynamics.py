@@ -55,6 +55,7 @@ def dynamics(
     m = robot.model()
     qv = parse_joint_values(q, "--q", robot, length, angle)
     qdv, qddv = (parse_joint_values(t, what, robot, length, angle, limits=False) for t, what in ((qd, "--qd"), (qdd, "--qdd")))
+    _check_rates(qdv, robot, length, angle)
     g = parse_numbers(gravity, "--gravity")
     if len(g) != 3:
         fail(f"--gravity: expected 3 values (m/s^2, world), got {len(g)}")
@@ -81,3 +82,20 @@ def dynamics(
             return
     say("bold", robot.name, f" ({robot.description}) — inverse dynamics, gravity {g} m/s^2 in world")
     print_rows("Joint efforts", ["joint", "tau", "of which gravity", "unit"], [[n, fmt(v), fmt(vg), u] for n, v, vg, u in zip(robot.names, tau, tau_g, units)], left=(3,))
+
+
+def _check_rates(qd, robot, length: str, angle: str) -> None:
+    """Joint rates whose squares are finite (the core's bound, sqrt of the largest double per SI unit), or a
+    one-line error in the units typed (the core's own names rad/s)."""
+    import math  # noqa: PLC0415
+
+    import numpy as np  # noqa: PLC0415
+
+    from ..io.units import joint_scale, joint_unit  # noqa: PLC0415
+
+    sc = joint_scale(robot.table.kinds, length, angle)
+    bound = math.sqrt(float(np.finfo(float).max))
+    for j, v in enumerate(qd):
+        if abs(v) > bound:
+            u = joint_unit(robot.table.kinds[j], length, angle)
+            fail(f"--qd: joint {robot.names[j]} = {v / sc[j]:.6g} {u}/s: expected |qd| <= {bound / sc[j]:.5g} {u}/s (rates whose squares are finite)")
