@@ -31,9 +31,16 @@
 //!   at a limit that the step would push further out is left out of the step (its Jacobian column zeroed,
 //!   an active set as in Bertsekas 1982), so the other joints do the work.
 //!
-//! **Joint limits** (`respect_limits`): after every step each `q_i` is projected into `[lower_i, upper_i]`;
-//! a revolute joint is first shifted by a multiple of 2π when that brings it into the range (same pose),
-//! otherwise clamped.
+//! **Joint limits** (`respect_limits`): after every step each `q_i` is projected into `[lower_i, upper_i]`,
+//! first by moves that keep the tool pose: a revolute joint is shifted by a multiple of 2π when that brings it
+//! into the range, and a spherical wrist (joints i..i+2 whose flip `θ_i + π, -θ_(i+1), θ_(i+2) + π` gives the same
+//! pose, found numerically) with a joint still outside is flipped when the flipped wrist is within its limits
+//! (one attempt on the Puma 560: Newton 73.2 -> 81.8 %, LM 77.6 -> 82.4 %). What is still outside is clamped (the start and LM, whose active set holds joints at a limit) or, in Newton's trial
+//! points, mirrored at the limit it crossed and then clamped (reflective Newton methods for bounds: Coleman
+//! & Li 1996): a clamped Newton iterate tends to stay at the limit, converging towards an IK branch outside
+//! the range; the mirrored one moves back inside. One attempt, random reachable targets
+//! (benchmarks/bench_kinematics.py): KR5 87.0 -> 92.2 %, Puma 560 68.6 -> 73.2 % (for LM, mirroring lowered
+//! the Puma's rate, 77.6 -> 65.8 %, so LM keeps clamping).
 //!
 //! **Restarts** are deterministic: attempt 0 starts from `q0`, attempt k >= 1 from a configuration drawn
 //! uniformly within the limits (intersected with [-π, π] for revolute and [-1, 1] m for prismatic joints)
@@ -51,6 +58,7 @@ use crate::model::{JointKind, Model};
 use crate::spatial::{Pose, check_pose, pose_error, rotation_angle};
 use nalgebra::{DMatrix, DVectorViewMut, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 use rayon::prelude::*;
+use std::cell::OnceCell;
 use std::f64::consts::{PI, TAU};
 
 /// The iterative method of [`ik`].
@@ -237,8 +245,11 @@ struct Bounds {
     lower: Vec<f64>,
     upper: Vec<f64>,
     revolute: Vec<bool>,
+    offset: Vec<f64>,
     sample_lo: Vec<f64>,
     sample_hi: Vec<f64>,
+    /// The first joints of the wrist flips ([`wrist_flips`]), found when a projection first needs them.
+    flips: OnceCell<Vec<usize>>,
 }
 
 impl Bounds {
@@ -248,8 +259,10 @@ impl Bounds {
             lower: Vec::with_capacity(n),
             upper: Vec::with_capacity(n),
             revolute: Vec::with_capacity(n),
+            offset: Vec::with_capacity(n),
             sample_lo: Vec::with_capacity(n),
             sample_hi: Vec::with_capacity(n),
+            flips: OnceCell::new(),
         };
         for j in model.joints() {
             let (lo, hi, rev) = (j.lower, j.upper, j.kind == JointKind::Revolute);
@@ -265,6 +278,7 @@ impl Bounds {
             b.lower.push(lo);
             b.upper.push(hi);
             b.revolute.push(rev);
+            b.offset.push(j.offset);
             b.sample_lo.push(a);
             b.sample_hi.push(bb);
         }
@@ -272,18 +286,51 @@ impl Bounds {
     }
 
     #[inline]
-    fn project(&self, q: &mut [f64]) {
+    fn fits(&self, i: usize, v: f64) -> bool {
+        v >= self.lower[i] && v <= self.upper[i]
+    }
+
+    /// `v`, or `v` shifted by a multiple of 2π into the range of revolute joint `i` when that exists.
+    #[inline]
+    fn wrap(&self, i: usize, v: f64) -> f64 {
+        if self.fits(i, v) || !self.revolute[i] || !self.lower[i].is_finite() {
+            return v;
+        }
+        let shifted = v - TAU * ((v - self.lower[i]) / TAU).floor();
+        if self.fits(i, shifted) { shifted } else { v }
+    }
+
+    /// Project `q` into the limits, first by moves that keep the tool pose: a revolute joint outside its range
+    /// is shifted by a multiple of 2π when that brings it in; a wrist ([`wrist_flips`]) with a joint still
+    /// outside is flipped when the flipped wrist is within its limits. What is still outside is clamped,
+    /// after `reflect` has mirrored it at the limit it crossed (`2 upper - q`, `2 lower - q`, as in reflective
+    /// Newton methods for bounds: Coleman & Li 1996).
+    #[inline]
+    fn project(&self, model: &Model, q: &mut [f64], reflect: bool) {
+        let mut inside = true;
         for (i, qi) in q.iter_mut().enumerate() {
-            let (lo, hi) = (self.lower[i], self.upper[i]);
-            if *qi >= lo && *qi <= hi {
+            *qi = self.wrap(i, *qi);
+            inside &= self.fits(i, *qi);
+        }
+        if inside {
+            return;
+        }
+        for &i in self.flips.get_or_init(|| wrist_flips(model)) {
+            if (i..i + 3).all(|k| self.fits(k, q[k])) {
                 continue;
             }
-            if self.revolute[i] && lo.is_finite() {
-                let shifted = *qi - TAU * ((*qi - lo) / TAU).floor();
-                if shifted >= lo && shifted <= hi {
-                    *qi = shifted;
-                    continue;
-                }
+            let f = [self.wrap(i, q[i] + PI), self.wrap(i + 1, -q[i + 1] - 2.0 * self.offset[i + 1]), self.wrap(i + 2, q[i + 2] + PI)];
+            if (0..3).all(|k| self.fits(i + k, f[k])) {
+                q[i..i + 3].copy_from_slice(&f);
+            }
+        }
+        for (i, qi) in q.iter_mut().enumerate() {
+            let (lo, hi) = (self.lower[i], self.upper[i]);
+            if self.fits(i, *qi) {
+                continue;
+            }
+            if reflect {
+                *qi = if *qi > hi { 2.0 * hi - *qi } else { 2.0 * lo - *qi };
             }
             *qi = qi.clamp(lo, hi);
         }
@@ -298,6 +345,36 @@ impl Bounds {
             *qi = self.sample_lo[i] + (self.sample_hi[i] - self.sample_lo[i]) * rng.uniform();
         }
     }
+}
+
+/// The wrists of `model`: the joints `i` such that revolute joints `i, i+1, i+2` reach every pose of theirs twice,
+/// `θ_i + π, -θ_(i+1), θ_(i+2) + π` (θ = q + offset) giving the tool pose of `θ_i, θ_(i+1), θ_(i+2)`: a spherical
+/// wrist (three axes through one point, the middle one perpendicular to the others; Paul 1981, ch. 3, the
+/// "flip" of the wrist). Found numerically: the flip moves the tool by less than 1e-12 (m and rad, relative to
+/// the chain's size) at two pseudo-random configurations (an identity of the chain holds at every configuration;
+/// a chain without it fails at almost every one).
+fn wrist_flips(model: &Model) -> Vec<usize> {
+    let n = model.nq();
+    let joints = model.joints();
+    let size = 1.0 + joints.iter().map(|j| j.placement.translation.vector.norm()).sum::<f64>() + model.t_last_tool().translation.vector.norm();
+    let mut rng = SplitMix64(0x5EED_F11B);
+    let mut q = vec![0.0; n];
+    (0..n.saturating_sub(2))
+        .filter(|&i| {
+            joints[i..i + 3].iter().all(|j| j.kind == JointKind::Revolute)
+                && (0..2).all(|_| {
+                    for v in q.iter_mut() {
+                        *v = PI * (2.0 * rng.uniform() - 1.0);
+                    }
+                    let before = tool_pose_unchecked(model, &q);
+                    q[i] += PI;
+                    q[i + 1] = -q[i + 1] - 2.0 * joints[i + 1].offset;
+                    q[i + 2] += PI;
+                    let (dp, dr) = pose_error(&tool_pose_unchecked(model, &q), &before);
+                    dp <= 1e-12 * size && dr <= 1e-12
+                })
+        })
+        .collect()
 }
 
 /// Error twist and measured errors of a current pose against the target.
@@ -527,7 +604,7 @@ impl<'m> IkSolver<'m> {
                 self.q_trial[i] = self.q[i] + self.g[i];
             }
             if self.opts.respect_limits {
-                self.bounds.project(&mut self.q_trial);
+                self.bounds.project(self.model, &mut self.q_trial, false);
             }
             let mut et = [0.0; 6];
             let (p, r) = self.evaluate(true, target, &mut et);
@@ -664,7 +741,7 @@ impl<'m> IkSolver<'m> {
                     self.q_trial[i] = self.q_cur[i] + alpha * self.g[i];
                 }
                 if self.opts.respect_limits {
-                    self.bounds.project(&mut self.q_trial);
+                    self.bounds.project(self.model, &mut self.q_trial, true);
                 }
                 if self.q_trial.iter().any(|v| !v.is_finite()) {
                     break 'attempt;
@@ -728,7 +805,7 @@ impl<'m> IkSolver<'m> {
                 self.bounds.sample(&mut rng, &mut self.q);
             }
             if self.opts.respect_limits {
-                self.bounds.project(&mut self.q);
+                self.bounds.project(self.model, &mut self.q, false);
             }
             let (it, pos, rot) = self.attempt(target, attempt == self.opts.restarts);
             total += it;
@@ -898,12 +975,56 @@ mod tests {
     }
 
     #[test]
-    fn projection_wraps_revolute_then_clamps() {
+    fn projection_wraps_revolute_then_clamps_or_reflects() {
         let m = crate::builtin_planar2(1.0, 1.0);
         let b = Bounds::new(&m);
-        let mut q = vec![3.5, -10.0];
-        b.project(&mut q);
-        assert!((q[0] - (3.5 - TAU)).abs() < 1e-15);
-        assert!((q[1] - (-10.0 + 2.0 * TAU)).abs() < 1e-14);
+        for reflect in [false, true] {
+            let mut q = vec![3.5, -10.0];
+            b.project(&m, &mut q, reflect);
+            assert!((q[0] - (3.5 - TAU)).abs() < 1e-15);
+            assert!((q[1] - (-10.0 + 2.0 * TAU)).abs() < 1e-14);
+        }
+        // a range narrower than 2 pi: clamped, or mirrored at the limit crossed (clamped if that overshoots)
+        let mut j = m.joints().to_vec();
+        (j[0].lower, j[0].upper, j[1].lower, j[1].upper) = (-1.0, 1.0, -0.5, 0.5);
+        let m = Model::new("narrow", *m.t_world_base(), j, *m.t_last_flange(), *m.t_flange_tool()).expect("a valid model");
+        let b = Bounds::new(&m);
+        let (mut clamped, mut reflected) = (vec![1.25, -2.0], vec![1.25, -2.0]);
+        b.project(&m, &mut clamped, false);
+        b.project(&m, &mut reflected, true);
+        assert_eq!(clamped, vec![1.0, -0.5]);
+        assert_eq!(reflected, vec![0.75, 0.5]);
+    }
+
+    /// A spherical wrist behind a shoulder joint (axes z, then x-turned by -90 and 90 deg through one point, an
+    /// offset on the middle joint) has one flip, at joint 1; moving the middle axis off the point removes it.
+    #[test]
+    fn wrist_flips_found_on_spherical_wrists_only() {
+        use crate::Joint;
+        use crate::spatial::{rx, trans};
+        let wrist = |shift: f64| {
+            let mut joints = vec![
+                Joint::new("s", JointKind::Revolute, Pose::identity()),
+                Joint::new("w1", JointKind::Revolute, trans(0.3, 0.0, 0.2)),
+                Joint::new("w2", JointKind::Revolute, trans(0.0, shift, 0.0) * rx(-PI / 2.0)),
+                Joint::new("w3", JointKind::Revolute, rx(PI / 2.0)),
+            ];
+            joints[2].offset = 0.4;
+            (joints[1].lower, joints[1].upper, joints[2].lower, joints[2].upper) = (-2.0, 2.0, -0.5, 2.5);
+            Model::new("wrist", Pose::identity(), joints, trans(0.0, 0.0, 0.1), Pose::identity()).expect("a valid model")
+        };
+        let m = wrist(0.0);
+        assert_eq!(wrist_flips(&m), vec![1]);
+        assert!(wrist_flips(&wrist(0.05)).is_empty());
+        assert!(wrist_flips(&crate::builtin_planar2(1.0, 1.0)).is_empty());
+        // a wrist outside its limits is flipped into them (same pose), not clamped
+        let b = Bounds::new(&m);
+        let q = vec![0.2, 1.0 - PI, -2.0, 0.5];
+        let mut p = q.clone();
+        b.project(&m, &mut p, false);
+        let flipped = [0.2, 1.0, 2.0 - 0.8, 0.5 + PI - TAU];
+        assert!(p.iter().zip(flipped).all(|(a, b)| (a - b).abs() < 1e-15), "{p:?}");
+        let (dp, dr) = pose_error(&tool_pose_unchecked(&m, &p), &tool_pose_unchecked(&m, &q));
+        assert!(dp < 1e-14 && dr < 1e-14);
     }
 }
