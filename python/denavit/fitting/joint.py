@@ -380,12 +380,13 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
                     ws[k][rows] = loss_weight(loss, np.sum(rw**2, axis=0) / f**2)
                 w = ws[k][rows]
                 Jf = J.reshape(len(idx), -1)
-                A[np.ix_(idx, idx)] += (J * w).reshape(len(idx), -1) @ Jf.T - g2 * (jt * w) @ jt.T
+                tt = (jt * w) @ jt.T
+                A[np.ix_(idx, idx)] += (J * w).reshape(len(idx), -1) @ Jf.T - g2 * tt
                 if A2 is not None:
                     A2[np.ix_(idx, idx)] += (J * w**2).reshape(len(idx), -1) @ Jf.T - g2 * (jt * w**2) @ jt.T
                 b[idx] += Jf @ (w * (r - g2 * rt * t)).reshape(-1)
                 ss += float(np.sum(w * np.sum(rw**2, axis=0)))
-                Gt += gam[k] ** 2 * (jt * w) @ jt.T
+                Gt += gam[k] ** 2 * tt
                 if rot:  # the orientation rows across the swept axis (its reading error turns the probe about it)
                     e = mv[-3:] / np.maximum(np.linalg.norm(mv[-3:], axis=0), 1e-300)
                     ro, Jo = r[-3:], J[:, -3:]
@@ -442,7 +443,13 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     sigma2 = f = f_next = None
     eps_cost = COST_ROUNDOFF * np.finfo(float).eps * max(float(np.max(np.abs(s.points))) for s in sweeps.sweeps)
     fresh = True
-    for it in range(300):
+    first = 0
+    if gamma is not None and not rot and loss != "linear":
+        # the variance components are given: the first pass would only give the first robust scale (its normal
+        # equations, on weights of one, make way for those of that scale), from the start's whitened misfits alone
+        norms = [np.linalg.norm(whitened(r, tangent(mv)[0], gam[k])[0], axis=0) for k in range(S) for _, r, mv, _ in chunks(k, cs, ns, homes, offs, R0, sc, wr, False)]
+        f, first = 3.0 * math.sqrt(D / 3) * max(robust_sigma(np.concatenate(norms), D), floor), 1
+    for it in range(first, 300):
         if fresh:
             A, A2, b, ss, parts = normal_eq(cs, ns, homes, offs, R0, sc, wr, f)
             D_ = np.diag(A).copy()
