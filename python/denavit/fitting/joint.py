@@ -231,11 +231,11 @@ def start_homes(sweeps, starts) -> tuple[np.ndarray, np.ndarray | None]:
             if s.rotations is not None:
                 rots.append(s.rotations)
         else:
-            R = axis_angle_matrices(nv, d)
+            turn = _turn(np.asarray(nv, dtype=float), d)
             for t, p in enumerate(pts):
-                est[t].append(c + np.einsum("mij,mj->mi", R, p - c))
+                est[t].append(c + _rotate(turn, p.T - c[:, None]).T)
             if s.rotations is not None:
-                rots.append(R @ s.rotations)
+                rots.append(axis_angle_matrices(nv, d) @ s.rotations)
     homes = np.array([np.mean(np.vstack(e), axis=0) for e in est])
     return homes, (_chordal_mean(np.vstack(rots)) if rots else None)
 
