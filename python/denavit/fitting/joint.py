@@ -100,11 +100,16 @@ def _pinv_sym(a: np.ndarray) -> np.ndarray:
     return (out + out.T) / 2
 
 
-def _turn(n: np.ndarray, d: np.ndarray) -> tuple:
-    """A revolute joint's rotations R(n, d_k) for the angles d (m,): (n, K with K x = n x x, cos, sin, 1 - cos),
-    for :func:`_rotate`."""
+def _trig(d: np.ndarray) -> tuple:
+    """(cos, sin, 1 - cos) of the angles d (m,)."""
     co = np.cos(d)
-    return n, skew(n), co, np.sin(d), 1 - co
+    return co, np.sin(d), 1 - co
+
+
+def _turn(n: np.ndarray, d: np.ndarray, trig: tuple | None = None) -> tuple:
+    """A revolute joint's rotations R(n, d_k) for the angles d (m,): (n, K with K x = n x x, cos, sin, 1 - cos),
+    for :func:`_rotate`; ``trig`` the angles' :func:`_trig` when known."""
+    return (n, skew(n), *(_trig(d) if trig is None else trig))
 
 
 def _rotate(turn: tuple, x: np.ndarray) -> np.ndarray:
@@ -123,7 +128,7 @@ def _carried(turns: dict, active: list, i: int, x: np.ndarray) -> np.ndarray:
     return x
 
 
-def _chain(cs, ns, kinds, p, dq, active, jac: bool, moving: int | None = None):
+def _chain(cs, ns, kinds, p, dq, active, jac: bool, moving: int | None = None, trig: dict | None = None):
     """Predicted points (3, m), and with ``jac`` the Jacobian blocks and the motion of the swept joint.
 
     Returns ``pred``, ``blocks`` {joint: (4, 3, m) d pred / d [a, b, s, t]} (direction in its tangent basis,
@@ -131,10 +136,11 @@ def _chain(cs, ns, kinds, p, dq, active, jac: bool, moving: int | None = None):
     parameter first, then the components, the points last, as in a chunk's Jacobian). Without ``jac`` but with
     ``moving`` (a joint), ``dpdq`` of that joint alone (the misfit's tangent), no blocks. Rotations act on
     vectors (Rodrigues), a vector the same for every point (the home point before the first joint turns it) as
-    one column, so the cost is linear in the points and small per point.
+    one column, so the cost is linear in the points and small per point. ``trig`` {joint: :func:`_trig` of its
+    motion dq[:, joint]} when known (the fit keeps them between passes).
     """
     m = dq.shape[0]
-    turns = {i: _turn(ns[i], dq[:, i]) for i in active if kinds[i] == "revolute"}
+    turns = {i: _turn(ns[i], dq[:, i], trig.get(i) if trig else None) for i in active if kinds[i] == "revolute"}
     y = np.asarray(p, dtype=float)[:, None]
     before, turned = {}, {}
     for i in reversed(active):
@@ -174,7 +180,7 @@ def _chain(cs, ns, kinds, p, dq, active, jac: bool, moving: int | None = None):
     return y, blocks, jp, dpdq
 
 
-def _chain_rotation(ns, kinds, R0, dq, active, jac: bool, moving: int | None = None):
+def _chain_rotation(ns, kinds, R0, dq, active, jac: bool, moving: int | None = None, trig: dict | None = None):
     """Predicted orientations ``R(n_1, dq_1) ... R(n_n, dq_n) R0`` (m, 3, 3), and with ``jac`` the Jacobian blocks
     of the orientation residual (a small rotation in ``world``): {joint: (4, 3, m) d r / d [a, b, s, t]} (the
     point across the axis does not turn anything: zeros), ``jr`` (3, 3, m) d r / d the rotation of ``R0`` (a
@@ -182,9 +188,9 @@ def _chain_rotation(ns, kinds, R0, dq, active, jac: bool, moving: int | None = N
     before it). Without ``jac`` but with ``moving``, that joint's d r / d q alone.
 
     Turning n by dq b (b across n) turns R(n, dq) by ``J_l(dq n) dq b = sin(dq) b + (1 - cos(dq)) n x b`` (the left
-    Jacobian of SO(3)), then carried by the joints before."""
+    Jacobian of SO(3)), then carried by the joints before. ``trig`` as for :func:`_chain`."""
     m = dq.shape[0]
-    turns = {i: _turn(ns[i], dq[:, i]) for i in active if kinds[i] == "revolute"}
+    turns = {i: _turn(ns[i], dq[:, i], trig.get(i) if trig else None) for i in active if kinds[i] == "revolute"}
     # the columns of R0 (column, component, 1), turned by every joint; then (m, row, column)
     Y = np.transpose(np.broadcast_to(_carried(turns, active, len(kinds), np.asarray(R0, dtype=float).T[:, :, None]), (3, 3, m)), (2, 1, 0))
     if not jac and moving is None:
@@ -300,6 +306,8 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     def measured(s, rows, t):
         return (s.points[rows] if s.targets is None else s.targets[rows, t]).T
 
+    trig = {}  # (sweep, first row of a chunk): (the scales of its active joints, {joint: _trig of its motion})
+
     def chunks(k, cs, ns, homes_, offs_, R_, sc_, wr, jac):
         """(rows, misfits r (D, m), d r / d q of the swept joint (D, m), Jacobian (local parameters, D, m) or None)
         of sweep k, CHUNK poses at a time (the joints turning by (1 + s) times their readings' motion); the
@@ -311,9 +319,14 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             rows = slice(a, a + CHUNK)
             dqc = dq[rows] * (1 + sc_)
             mc = len(dqc)
+            # the cosines and sines of the chunk's joint motions, kept while the reading scales they were made with hold
+            key = tuple(float(sc_[i]) for i in active[k])
+            if trig.get((k, a), (None,))[0] != key:
+                trig[(k, a)] = (key, {i: _trig(dqc[:, i]) for i in active[k] if kinds[i] == "revolute"})
+            tc = trig[(k, a)][1]
             rs, mvs, Js = [], [], []
             for t in range(K):
-                pred, blocks, jp, dpdq = _chain(cs, ns, kinds, h + (offs_[t - 1] if t else 0.0), dqc, active[k], jac, j)
+                pred, blocks, jp, dpdq = _chain(cs, ns, kinds, h + (offs_[t - 1] if t else 0.0), dqc, active[k], jac, j, trig=tc)
                 rs.append(pred - measured(s, rows, t))
                 mvs.append(dpdq[j])
                 if jac:
@@ -323,7 +336,7 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
                     Js.append(np.concatenate([blocks[i] for i in active[k]] + [jp, jo] + ([np.zeros((3, 3, mc))] if rot else [])
                                              + ([(dpdq[j] * dq[rows, j])[None]] if j in swept else [])))
             if rot:
-                Rp, blocks, jr, dpdq = _chain_rotation(ns, kinds, R_, dqc, active[k], jac, j)
+                Rp, blocks, jr, dpdq = _chain_rotation(ns, kinds, R_, dqc, active[k], jac, j, trig=tc)
                 rs.append(wr * matrix_rotvec(Rp @ np.swapaxes(s.rotations[rows], 1, 2)).T)
                 mvs.append(wr * dpdq[j])
                 if jac:
