@@ -35,10 +35,10 @@ def test_joint_fit_passes_do_not_grow_with_the_points(kr5, monkeypatch, loss):
     passes = {}
     chain = joint._chain
 
-    def counted(cs, ns, kinds, p, dq, active, jac, moving=None):
+    def counted(cs, ns, kinds, p, dq, active, jac, moving=None, **kw):
         if jac:
             passes[n] += len(dq)
-        return chain(cs, ns, kinds, p, dq, active, jac, moving)
+        return chain(cs, ns, kinds, p, dq, active, jac, moving, **kw)
 
     monkeypatch.setattr(joint, "_chain", counted)
     for n in (300, 20_000):

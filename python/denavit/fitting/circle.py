@@ -14,7 +14,7 @@ from ..errors import DegenerateError, NotConvergedError
 from ..geometry import perpendicular_basis
 from .checks import check_loss, check_points, check_positive, prefix
 from .result import AxisFit, axis_sigmas, check_sigma
-from .robust import CHI_4SIGMA, cov_from_jacobian, flag_outliers, irls, rms_spread, robust_sigma
+from .robust import CHI_4SIGMA, cov_from_jacobian, flag_outliers, irls, rms_spread, robust_sigma, tall_svd
 
 #: sigma_2 / sigma_1 of the centred points below this means "collinear" for a circle fit.
 COLLINEAR_TOL = 1e-9
@@ -38,7 +38,7 @@ def _plane(p: np.ndarray, what: str, where: str, length: float = 1.0):
     """
     centroid = p.mean(axis=0)  # eq. (1)
     nmat = p - centroid  # eq. (2)
-    _, s, vt = np.linalg.svd(nmat, full_matrices=False)  # eq. (3)
+    s, vt = tall_svd(nmat) if len(nmat) >= 3 else np.linalg.svd(nmat, full_matrices=False)[1:]  # eq. (3)
     if s[1] <= COLLINEAR_TOL * s[0]:
         spread = s / math.sqrt(len(p)) * length * 1e3  # RMS extent along each principal direction, mm
         raise DegenerateError(
@@ -72,10 +72,10 @@ def net_turn(phi: np.ndarray) -> float:
 
 
 def _circle_parts(p, centre, n, r):
-    d = p - centre
+    d = (p.T - centre[:, None]).T  # (the per-point sums over the coordinates of the (3, m) view: whole rows for numpy)
     h = d @ n
-    w = d - np.outer(h, n)
-    rho = np.linalg.norm(w, axis=1)
+    w = (d.T - n[:, None] * h).T
+    rho = np.sqrt(w[:, 0] ** 2 + w[:, 1] ** 2 + w[:, 2] ** 2)
     return d, h, w, rho, rho - r
 
 
@@ -147,7 +147,7 @@ def _hyper_2d(xy, what, where):
     x, y = x / scale, y / scale
     z = x**2 + y**2
     zxy1 = np.column_stack([z, x, y, np.ones_like(x)])
-    _, s, vt = np.linalg.svd(zxy1, full_matrices=len(zxy1) < 4)  # (m, 4): never the (m, m) factor (but 4 rows of vt)
+    s, vt = tall_svd(zxy1) if len(zxy1) >= 4 else np.linalg.svd(zxy1)[1:]  # (m, 4): never the (m, m) factor (but 4 rows of vt)
     if len(s) < 4 or s[3] < 1e-12 * s[0]:  # singular case: the points lie exactly on a circle (always for m = 3)
         coef = vt[3]
     else:

@@ -39,7 +39,7 @@ import math
 import numpy as np
 
 from ..errors import NotConvergedError
-from ..geometry import axis_angle_matrices, matrix_rotvec, perpendicular_basis
+from ..geometry import axis_angle_matrices, matrix_rotvec, perpendicular_basis, skew
 from .robust import loss_dweight, loss_weight, misfit_variance, robust_sigma
 
 #: A locked reading whose correlation with the swept joint's reading exceeds this (and which moves) is coupled.
@@ -100,123 +100,117 @@ def _pinv_sym(a: np.ndarray) -> np.ndarray:
     return (out + out.T) / 2
 
 
-def _cross(n: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """n x x_k for one vector n (3,) and vectors x (m, 3)."""
-    return np.column_stack([n[1] * x[:, 2] - n[2] * x[:, 1], n[2] * x[:, 0] - n[0] * x[:, 2], n[0] * x[:, 1] - n[1] * x[:, 0]])
+def _trig(d: np.ndarray) -> tuple:
+    """(cos, sin, 1 - cos) of the angles d (m,)."""
+    co = np.cos(d)
+    return co, np.sin(d), 1 - co
 
 
-def _crosses(v: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """v_k x b for vectors v (m, 3) and one vector b (3,)."""
-    return -_cross(b, v)
+def _turn(n: np.ndarray, d: np.ndarray, trig: tuple | None = None) -> tuple:
+    """A revolute joint's rotations R(n, d_k) for the angles d (m,): (n, K with K x = n x x, cos, sin, 1 - cos),
+    for :func:`_rotate`; ``trig`` the angles' :func:`_trig` when known."""
+    return (n, skew(n), *(_trig(d) if trig is None else trig))
 
 
-def _rotate(n, cs, sn, x):
-    """R(n, d_k) x_k (Rodrigues) for vectors x (m, 3), with cs, sn (m, 1) the cosines and sines of the angles."""
-    return x * cs + _cross(n, x) * sn + np.outer(x @ n, n) * (1 - cs)
+def _rotate(turn: tuple, x: np.ndarray) -> np.ndarray:
+    """R(n, d_k) x_k (Rodrigues) for vectors x (..., 3, m), or x (..., 3, 1) the same for every point; ``turn``
+    from :func:`_turn`. Stacks of vectors (the leading axes) turn at once; components first, points last (the
+    per-point factors then broadcast along whole rows: an (m, 3) layout had numpy loop over rows of three)."""
+    n, K, co, sn, omc = turn
+    return x * co + (K @ x) * sn + n[:, None] * ((n @ x) * omc)[..., None, :]
 
 
-def _chain(cs, ns, kinds, p, dq, active, jac: bool, moving: int | None = None):
-    """Predicted points (m, 3), and with ``jac`` the Jacobian blocks and the motion of the swept joint.
+def _carried(turns: dict, active: list, i: int, x: np.ndarray) -> np.ndarray:
+    """x (k, 3, m or 1) carried by the linear parts of g_1 ... g_(i-1) (the active revolute joints before i)."""
+    for a in reversed(active):
+        if a < i and a in turns:
+            x = _rotate(turns[a], x)
+    return x
 
-    Returns ``pred``, ``blocks`` {joint: (m, 3, 4) d pred / d [a, b, s, t]} (direction in its tangent basis,
-    point across the axis), ``jp`` (m, 3, 3) d pred / d p, and ``dpdq`` {joint: (m, 3)} d pred / d q_joint.
-    Without ``jac`` but with ``moving`` (a joint), ``dpdq`` of that joint alone (the misfit's tangent), no blocks.
-    Rotations act on vectors (Rodrigues), so the cost is linear in the points and small per point.
+
+def _chain(cs, ns, kinds, p, dq, active, jac: bool, moving: int | None = None, trig: dict | None = None):
+    """Predicted points (3, m), and with ``jac`` the Jacobian blocks and the motion of the swept joint.
+
+    Returns ``pred``, ``blocks`` {joint: (4, 3, m) d pred / d [a, b, s, t]} (direction in its tangent basis,
+    point across the axis), ``jp`` (3, 3, m) d pred / d p, and ``dpdq`` {joint: (3, m)} d pred / d q_joint (the
+    parameter first, then the components, the points last, as in a chunk's Jacobian). Without ``jac`` but with
+    ``moving`` (a joint), ``dpdq`` of that joint alone (the misfit's tangent), no blocks. Rotations act on
+    vectors (Rodrigues), a vector the same for every point (the home point before the first joint turns it) as
+    one column, so the cost is linear in the points and small per point. ``trig`` {joint: :func:`_trig` of its
+    motion dq[:, joint]} when known (the fit keeps them between passes).
     """
     m = dq.shape[0]
-    y = np.broadcast_to(p, (m, 3)).copy()
-    before, trig = {}, {}
+    turns = {i: _turn(ns[i], dq[:, i], trig.get(i) if trig else None) for i in active if kinds[i] == "revolute"}
+    y = np.asarray(p, dtype=float)[:, None]
+    before, turned = {}, {}
     for i in reversed(active):
         before[i] = y
         if kinds[i] == "prismatic":
-            y = y + dq[:, i, None] * ns[i]
+            y = y + ns[i][:, None] * dq[:, i]
         else:
-            trig[i] = (np.cos(dq[:, i])[:, None], np.sin(dq[:, i])[:, None])
-            y = cs[i] + _rotate(ns[i], *trig[i], y - cs[i])
+            turned[i] = _rotate(turns[i], y - cs[i][:, None])
+            y = cs[i][:, None] + turned[i]
+    y = np.broadcast_to(y, (3, m))
     if not jac and moving is None:
         return y, None, None, None
 
-    def outer(i, x):
-        """x (m, 3) carried by the linear parts of g_1 ... g_(i-1) (the joints before i)."""
-        for k in reversed([a for a in active if a < i]):
-            if kinds[k] == "revolute":
-                x = _rotate(ns[k], *trig[k], x)
-        return x
+    def move(i):
+        """d pred / d q_i before the joints ahead of i carry it: n (prismatic), n x R (y - c) (revolute)."""
+        return ns[i][None, :, None] if kinds[i] == "prismatic" else (turns[i][1] @ turned[i])[None]
 
-    blocks, dpdq = {}, {}
     if not jac:
-        i = moving
-        move = ns[i] if kinds[i] == "prismatic" else _cross(ns[i], _rotate(ns[i], *trig[i], before[i] - cs[i]))
-        return y, None, None, {i: outer(i, np.broadcast_to(move, (m, 3)))}
+        return y, None, None, {moving: np.broadcast_to(_carried(turns, active, moving, move(moving))[0], (3, m))}
+    blocks, dpdq = {}, {}
     for i in active:
-        B = np.column_stack(perpendicular_basis(ns[i]))
-        cols = []
+        B = [b[:, None] for b in perpendicular_basis(ns[i])]
+        n = ns[i][:, None]
         if kinds[i] == "prismatic":
-            for c in range(2):
-                cols.append(dq[:, i, None] * B[:, c])
-            cols += [np.zeros((m, 3)), np.zeros((m, 3))]
-            move = np.broadcast_to(ns[i], (m, 3))
+            cols = [b * dq[:, i] for b in B] + [np.zeros((3, m)), np.zeros((3, m)), move(i)[0]]
         else:
-            co, sn = trig[i]
-            v = before[i] - cs[i]
-            nv = (v @ ns[i])[:, None]
-            for c in range(2):  # d(R v)/dn b = -sin (v x b) + (1 - cos)((n.v) b + n (v.b))
-                b = B[:, c]
-                cols.append(-sn * _crosses(v, b) + (1 - co) * (nv * b + np.outer(v @ b, ns[i])))
-            for c in range(2):  # (I - R) b, b across n: R b = b cos + (n x b) sin
-                b = B[:, c]
-                cols.append(b - (b * co + np.cross(ns[i], b) * sn))
-            move = _cross(ns[i], _rotate(ns[i], co, sn, v))
-        blocks[i] = np.stack([outer(i, c) for c in cols], axis=2)
-        dpdq[i] = outer(i, np.array(move))
-    jp = np.stack([outer(len(kinds), np.broadcast_to(e, (m, 3))) for e in np.eye(3)], axis=2)
+            _, K, co, sn, omc = turns[i]
+            v = before[i] - cs[i][:, None]
+            nv = ns[i] @ v
+            # d(R v)/dn b = -sin (v x b) + (1 - cos)((n.v) b + n (v.b)); (I - R) b, b across n: R b = b cos + (n x b) sin
+            cols = [sn * (skew(b[:, 0]) @ v) + omc * (b * nv + n * (b[:, 0] @ v)) for b in B]
+            cols += [b - (b * co + (K @ b) * sn) for b in B]
+            cols.append(move(i)[0])
+        X = _carried(turns, active, i, np.stack([np.broadcast_to(c, (3, m)) for c in cols]))
+        blocks[i], dpdq[i] = X[:4], X[4]
+    jp = np.broadcast_to(_carried(turns, active, len(kinds), np.eye(3)[:, :, None]), (3, 3, m))
     return y, blocks, jp, dpdq
 
 
-def _chain_rotation(ns, kinds, R0, dq, active, jac: bool, moving: int | None = None):
+def _chain_rotation(ns, kinds, R0, dq, active, jac: bool, moving: int | None = None, trig: dict | None = None):
     """Predicted orientations ``R(n_1, dq_1) ... R(n_n, dq_n) R0`` (m, 3, 3), and with ``jac`` the Jacobian blocks
-    of the orientation residual (a small rotation in ``world``): {joint: (m, 3, 4) d r / d [a, b, s, t]} (the
-    point across the axis does not turn anything: zeros), ``jr`` (m, 3, 3) d r / d the rotation of ``R0`` (a
-    rotation vector in ``world``), and {joint: (m, 3)} d r / d q_joint (the joint's axis carried by the joints
+    of the orientation residual (a small rotation in ``world``): {joint: (4, 3, m) d r / d [a, b, s, t]} (the
+    point across the axis does not turn anything: zeros), ``jr`` (3, 3, m) d r / d the rotation of ``R0`` (a
+    rotation vector in ``world``), and {joint: (3, m)} d r / d q_joint (the joint's axis carried by the joints
     before it). Without ``jac`` but with ``moving``, that joint's d r / d q alone.
 
     Turning n by dq b (b across n) turns R(n, dq) by ``J_l(dq n) dq b = sin(dq) b + (1 - cos(dq)) n x b`` (the left
-    Jacobian of SO(3)), then carried by the joints before."""
+    Jacobian of SO(3)), then carried by the joints before. ``trig`` as for :func:`_chain`."""
     m = dq.shape[0]
-    Y = np.broadcast_to(R0, (m, 3, 3)).copy()
-    trig = {}
-    for i in reversed(active):
-        if kinds[i] == "revolute":
-            trig[i] = (np.cos(dq[:, i])[:, None], np.sin(dq[:, i])[:, None])
-            for c in range(3):
-                Y[:, :, c] = _rotate(ns[i], *trig[i], Y[:, :, c])
+    turns = {i: _turn(ns[i], dq[:, i], trig.get(i) if trig else None) for i in active if kinds[i] == "revolute"}
+    # the columns of R0 (column, component, 1), turned by every joint; then (m, row, column)
+    Y = np.transpose(np.broadcast_to(_carried(turns, active, len(kinds), np.asarray(R0, dtype=float).T[:, :, None]), (3, 3, m)), (2, 1, 0))
     if not jac and moving is None:
         return Y, None, None, None
 
-    def outer(i, x):
-        for k in reversed([a for a in active if a < i]):
-            if kinds[k] == "revolute":
-                x = _rotate(ns[k], *trig[k], x)
-        return x
-
     def turn(i):
-        return np.zeros((m, 3)) if kinds[i] == "prismatic" else outer(i, np.broadcast_to(ns[i], (m, 3)).copy())
+        return np.zeros((3, m)) if kinds[i] == "prismatic" else np.broadcast_to(_carried(turns, active, i, ns[i][None, :, None])[0], (3, m))
 
     if not jac:
         return Y, None, None, {moving: turn(moving)}
     blocks, dpdq = {}, {}
-    zero = np.zeros((m, 3))
     for i in active:
         if kinds[i] == "prismatic":
-            blocks[i] = np.zeros((m, 3, 4))
+            blocks[i] = np.zeros((4, 3, m))
         else:
-            co, sn = trig[i]
-            cols = []
-            for b in perpendicular_basis(ns[i]):
-                cols.append(outer(i, sn * b + (1 - co) * np.cross(ns[i], b)))
-            blocks[i] = np.stack([*cols, zero, zero], axis=2)
+            _, K, co, sn, omc = turns[i]
+            cols = _carried(turns, active, i, np.stack([b[:, None] * sn + (K @ b)[:, None] * omc for b in perpendicular_basis(ns[i])]))
+            blocks[i] = np.concatenate([cols, np.zeros((2, 3, m))])
         dpdq[i] = turn(i)
-    jr = np.stack([outer(len(kinds), np.broadcast_to(e, (m, 3)).copy()) for e in np.eye(3)], axis=2)
+    jr = np.broadcast_to(_carried(turns, active, len(kinds), np.eye(3)[:, :, None]), (3, 3, m))
     return Y, blocks, jr, dpdq
 
 
@@ -243,11 +237,11 @@ def start_homes(sweeps, starts) -> tuple[np.ndarray, np.ndarray | None]:
             if s.rotations is not None:
                 rots.append(s.rotations)
         else:
-            R = axis_angle_matrices(nv, d)
+            turn = _turn(np.asarray(nv, dtype=float), d)
             for t, p in enumerate(pts):
-                est[t].append(c + np.einsum("mij,mj->mi", R, p - c))
+                est[t].append(c + _rotate(turn, p.T - c[:, None]).T)
             if s.rotations is not None:
-                rots.append(R @ s.rotations)
+                rots.append(axis_angle_matrices(nv, d) @ s.rotations)
     homes = np.array([np.mean(np.vstack(e), axis=0) for e in est])
     return homes, (_chordal_mean(np.vstack(rots)) if rots else None)
 
@@ -310,12 +304,14 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         return homes[k] if per_sweep_home else homes[0]
 
     def measured(s, rows, t):
-        return s.points[rows] if s.targets is None else s.targets[rows, t]
+        return (s.points[rows] if s.targets is None else s.targets[rows, t]).T
+
+    trig = {}  # (sweep, first row of a chunk): (the scales of its active joints, {joint: _trig of its motion})
 
     def chunks(k, cs, ns, homes_, offs_, R_, sc_, wr, jac):
-        """(rows, misfits r (m, D), d r / d q of the swept joint (m, D), Jacobian (m, D, local parameters) or None)
+        """(rows, misfits r (D, m), d r / d q of the swept joint (D, m), Jacobian (local parameters, D, m) or None)
         of sweep k, CHUNK poses at a time (the joints turning by (1 + s) times their readings' motion); the
-        orientation rows weighted by ``wr``."""
+        orientation rows weighted by ``wr``. Components first, points last (:func:`_rotate`)."""
         s, dq = sweeps.sweeps[k], dqs[k]
         j = s.joint - 1
         h = homes_[k] if per_sweep_home else homes_[0]
@@ -323,33 +319,40 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             rows = slice(a, a + CHUNK)
             dqc = dq[rows] * (1 + sc_)
             mc = len(dqc)
+            # the cosines and sines of the chunk's joint motions, kept while the reading scales they were made with hold
+            key = tuple(float(sc_[i]) for i in active[k])
+            if trig.get((k, a), (None,))[0] != key:
+                trig[(k, a)] = (key, {i: _trig(dqc[:, i]) for i in active[k] if kinds[i] == "revolute"})
+            tc = trig[(k, a)][1]
             rs, mvs, Js = [], [], []
             for t in range(K):
-                pred, blocks, jp, dpdq = _chain(cs, ns, kinds, h + (offs_[t - 1] if t else 0.0), dqc, active[k], jac, j)
+                pred, blocks, jp, dpdq = _chain(cs, ns, kinds, h + (offs_[t - 1] if t else 0.0), dqc, active[k], jac, j, trig=tc)
                 rs.append(pred - measured(s, rows, t))
                 mvs.append(dpdq[j])
                 if jac:
-                    jo = np.zeros((mc, 3, 3 * (K - 1)))
+                    jo = np.zeros((3 * (K - 1), 3, mc))
                     if t:
-                        jo[:, :, 3 * (t - 1) : 3 * t] = jp
-                    Js.append(np.concatenate([blocks[i] for i in active[k]] + [jp, jo] + ([np.zeros((mc, 3, 3))] if rot else [])
-                                             + ([(dpdq[j] * dq[rows, j, None])[:, :, None]] if j in swept else []), axis=2))
+                        jo[3 * (t - 1) : 3 * t] = jp
+                    Js.append(np.concatenate([blocks[i] for i in active[k]] + [jp, jo] + ([np.zeros((3, 3, mc))] if rot else [])
+                                             + ([(dpdq[j] * dq[rows, j])[None]] if j in swept else [])))
             if rot:
-                Rp, blocks, jr, dpdq = _chain_rotation(ns, kinds, R_, dqc, active[k], jac, j)
-                rs.append(wr * matrix_rotvec(Rp @ np.swapaxes(s.rotations[rows], 1, 2)))
+                Rp, blocks, jr, dpdq = _chain_rotation(ns, kinds, R_, dqc, active[k], jac, j, trig=tc)
+                rs.append(wr * matrix_rotvec(Rp @ np.swapaxes(s.rotations[rows], 1, 2)).T)
                 mvs.append(wr * dpdq[j])
                 if jac:
-                    Js.append(wr * np.concatenate([blocks[i] for i in active[k]] + [np.zeros((mc, 3, 3 + 3 * (K - 1))), jr]
-                                                  + ([(dpdq[j] * dq[rows, j, None])[:, :, None]] if j in swept else []), axis=2))
-            yield rows, np.concatenate(rs, axis=1), np.concatenate(mvs, axis=1), (np.concatenate(Js, axis=1) if jac else None)
+                    Js.append(wr * np.concatenate([blocks[i] for i in active[k]] + [np.zeros((3 + 3 * (K - 1), 3, mc)), jr]
+                                                  + ([(dpdq[j] * dq[rows, j])[None]] if j in swept else [])))
+            one = len(rs) == 1
+            yield (rows, rs[0] if one else np.concatenate(rs), mvs[0] if one else np.concatenate(mvs),
+                   (Js[0] if one else np.concatenate(Js, axis=1)) if jac else None)
 
     def tangent(mv):
-        lever = np.linalg.norm(mv, axis=1)
-        return mv / np.maximum(lever, 1e-300)[:, None], lever
+        lever = np.linalg.norm(mv, axis=0)
+        return mv / np.maximum(lever, 1e-300), lever
 
     def whitened(r, t, g):
-        rt = np.einsum("mi,mi->m", r, t)
-        return r - (1 - g) * rt[:, None] * t, rt
+        rt = np.einsum("im,im->m", r, t)
+        return r - (1 - g) * rt * t, rt
 
     def local(k):
         j = sweeps.sweeps[k].joint - 1
@@ -358,9 +361,10 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
                               + ([[i_sc + swept.index(j)]] if j in swept else [])).astype(int)
 
     def normal_eq(cs, ns, homes_, offs_, R_, sc_, wr, f=None, bread=False):
-        """Normal matrix, its robust sandwich part, gradient, whitened cost, and per sweep (indices, Gram matrix of
-        the weighted tangential rows, tangential residuals, levers, whitened residuals, misfits, Gram matrix of the
-        orientation rows across the swept axis, their squares), accumulated sweep by sweep and CHUNK poses at a
+        """Normal matrix, its robust sandwich part (with ``bread``, the final pass; else the normal matrix again),
+        gradient, whitened cost, and per sweep (indices, Gram matrix of the weighted tangential rows, tangential
+        residuals, levers, whitened residuals and misfits (D, m), Gram matrix of the orientation rows across the
+        swept axis, their squares), accumulated sweep by sweep and CHUNK poses at a
         time (memory linear in the points, small per point). Whitening scales the
         component along the tangent t by gamma: J_w^T J_w = J^T J - (1 - gamma^2) (t^T J)^T (t^T J), J_w^T r_w
         likewise. With the robust scale ``f`` the robust weights ``ws`` are those of this point's whitened misfits
@@ -368,7 +372,7 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         ``bread``, also the M-estimator's bread term (Huber 1981 sec. 7.6): 2 w'(z) / f^2 (J_w^T r_w)(J_w^T r_w)^T
         per point, added to J_w^T W J_w; without it the sigmas of a robust fit on clean data came out 7 % small."""
         A = np.zeros((npar, npar))
-        A2 = np.zeros((npar, npar)) if loss != "linear" else None
+        A2 = np.zeros((npar, npar)) if bread else None
         b = np.zeros(npar)
         ss = 0.0
         Bd = np.zeros((npar, npar)) if bread else None
@@ -379,40 +383,39 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             Gt = np.zeros((len(idx), len(idx)))
             Gr = np.zeros((len(idx), len(idx))) if rot else None
             m = len(dqs[k])
-            rt_k, lever_k, rw_k, r_k, rr_k = np.empty(m), np.empty(m), np.empty((m, D)), np.empty((m, D)), np.zeros(m)
+            rt_k, lever_k, rw_k, r_k, rr_k = np.empty(m), np.empty(m), np.empty((D, m)), np.empty((D, m)), np.zeros(m)
             for rows, r, mv, J in chunks(k, cs, ns, homes_, offs_, R_, sc_, wr, True):
                 t, lever = tangent(mv)
 
-                jt = np.einsum("mi,mik->mk", t, J)
-                rt = np.einsum("mi,mi->m", r, t)
-                rw = r - (1 - gam[k]) * rt[:, None] * t
+                jt = np.einsum("im,pim->pm", t, J)
+                rw, rt = whitened(r, t, gam[k])
                 if f is not None:
-                    ws[k][rows] = loss_weight(loss, np.sum(rw**2, axis=1) / f**2)
+                    ws[k][rows] = loss_weight(loss, np.sum(rw**2, axis=0) / f**2)
                 w = ws[k][rows]
-                Jf = J.reshape(-1, len(idx))
-                wD = np.repeat(w, D)
-                A[np.ix_(idx, idx)] += (Jf * wD[:, None]).T @ Jf - g2 * (jt * w[:, None]).T @ jt
+                Jf = J.reshape(len(idx), -1)
+                tt = (jt * w) @ jt.T
+                A[np.ix_(idx, idx)] += (J * w).reshape(len(idx), -1) @ Jf.T - g2 * tt
                 if A2 is not None:
-                    A2[np.ix_(idx, idx)] += (Jf * (wD**2)[:, None]).T @ Jf - g2 * (jt * (w**2)[:, None]).T @ jt
-                b[idx] += Jf.T @ (wD * (r - g2 * rt[:, None] * t).reshape(-1))
-                ss += float(np.sum(w * np.sum(rw**2, axis=1)))
-                Gt += gam[k] ** 2 * (jt * w[:, None]).T @ jt
+                    A2[np.ix_(idx, idx)] += (J * w**2).reshape(len(idx), -1) @ Jf.T - g2 * (jt * w**2) @ jt.T
+                b[idx] += Jf @ (w * (r - g2 * rt * t)).reshape(-1)
+                ss += float(np.sum(w * np.sum(rw**2, axis=0)))
+                Gt += gam[k] ** 2 * tt
                 if rot:  # the orientation rows across the swept axis (its reading error turns the probe about it)
-                    e = mv[:, -3:] / np.maximum(np.linalg.norm(mv[:, -3:], axis=1), 1e-300)[:, None]
-                    ro, Jo = r[:, -3:], J[:, -3:, :]
-                    ro = ro - np.einsum("mi,mi->m", ro, e)[:, None] * e
-                    Jo = Jo - e[:, :, None] * np.einsum("mi,mik->mk", e, Jo)[:, None, :]
-                    Gr += np.einsum("mik,mil->kl", Jo * w[:, None, None], Jo)
-                    rr_k[rows] = np.sum(ro**2, axis=1)
+                    e = mv[-3:] / np.maximum(np.linalg.norm(mv[-3:], axis=0), 1e-300)
+                    ro, Jo = r[-3:], J[:, -3:]
+                    ro = ro - np.einsum("im,im->m", ro, e) * e
+                    Jo = Jo - e * np.einsum("im,pim->pm", e, Jo)[:, None, :]
+                    Gr += np.einsum("pim,qim->pq", Jo * w, Jo)
+                    rr_k[rows] = np.sum(ro**2, axis=0)
                 if bread:
-                    gw = np.einsum("mi,mik->mk", rw, J) - ((1 - gam[k]) * gam[k] * rt)[:, None] * jt  # J_w^T r_w per point
-                    c = 2 * loss_dweight(loss, np.sum(rw**2, axis=1) / f**2) / f**2
-                    Bd[np.ix_(idx, idx)] += (gw * c[:, None]).T @ gw
-                rt_k[rows], lever_k[rows], rw_k[rows], r_k[rows] = rt, lever, rw, r
+                    gw = np.einsum("im,pim->pm", rw, J) - (1 - gam[k]) * gam[k] * rt * jt  # J_w^T r_w per point
+                    c = 2 * loss_dweight(loss, np.sum(rw**2, axis=0) / f**2) / f**2
+                    Bd[np.ix_(idx, idx)] += (gw * c) @ gw.T
+                rt_k[rows], lever_k[rows], rw_k[:, rows], r_k[:, rows] = rt, lever, rw, r
             parts.append((idx, Gt, rt_k, lever_k, rw_k, r_k, Gr, rr_k))
         if bread:
             return A + Bd, A2, b, ss, parts
-        return A, (A if A2 is None else A2), b, ss, parts
+        return A, A, b, ss, parts
 
     def step(x_cs, x_ns, x_h, x_o, x_R, x_sc, delta):
         new_cs, new_ns = [], []
@@ -431,7 +434,7 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         total = 0.0
         for k in range(S):
             for rows, r, mv, _ in chunks(k, cs, ns, homes_, offs_, R_, sc_, wr, False):
-                total += float(np.sum(ws[k][rows] * np.sum(whitened(r, tangent(mv)[0], gam[k])[0] ** 2, axis=1)))
+                total += float(np.sum(ws[k][rows] * np.sum(whitened(r, tangent(mv)[0], gam[k])[0] ** 2, axis=0)))
         return total
 
     # Levenberg-Marquardt steps on the whitened, robustly weighted cost, one pass over the points per step; the
@@ -445,15 +448,21 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         pr, rr = [], []
         for k in range(S):
             for _, r, _, _ in chunks(k, cs, ns, homes, offs, R0, sc, 1.0, False):
-                pr.append(np.sum(r[:, :-3] ** 2, axis=1) / (3 * K))
-                rr.append(np.sum(r[:, -3:] ** 2, axis=1) / 3)
+                pr.append(np.sum(r[:-3] ** 2, axis=0) / (3 * K))
+                rr.append(np.sum(r[-3:] ** 2, axis=0) / 3)
         srot = float(rotation_sigma) if rotation_sigma is not None else max(math.sqrt(np.median(np.concatenate(rr))), 1e-12)
         wr = max(math.sqrt(np.median(np.concatenate(pr))), noise_sigma or 0.0, floor) / srot
     lam = 1e-6
     sigma2 = f = f_next = None
     eps_cost = COST_ROUNDOFF * np.finfo(float).eps * max(float(np.max(np.abs(s.points))) for s in sweeps.sweeps)
     fresh = True
-    for it in range(300):
+    first = 0
+    if gamma is not None and not rot and loss != "linear":
+        # the variance components are given: the first pass would only give the first robust scale (its normal
+        # equations, on weights of one, make way for those of that scale), from the start's whitened misfits alone
+        norms = [np.linalg.norm(whitened(r, tangent(mv)[0], gam[k])[0], axis=0) for k in range(S) for _, r, mv, _ in chunks(k, cs, ns, homes, offs, R0, sc, wr, False)]
+        f, first = 3.0 * math.sqrt(D / 3) * max(robust_sigma(np.concatenate(norms), D), floor), 1
+    for it in range(first, 300):
         if fresh:
             A, A2, b, ss, parts = normal_eq(cs, ns, homes, offs, R0, sc, wr, f)
             D_ = np.diag(A).copy()
@@ -463,7 +472,7 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             lev_t = [float(np.sum(A_inv[np.ix_(p[0], p[0])] * p[1])) for p in parts]
             # (robust losses: the weighted residuals w r, bounded for outliers, over the weighted counts sum(w^2))
             ss_t = [float(np.sum(ws[k] ** 2 * p[2] ** 2)) for k, p in enumerate(parts)]
-            ss_o = sum(float(np.sum(ws[k] ** 2 * (np.sum(parts[k][5] ** 2, axis=1) - parts[k][2] ** 2))) for k in range(S))
+            ss_o = sum(float(np.sum(ws[k] ** 2 * (np.sum(parts[k][5] ** 2, axis=0) - parts[k][2] ** 2))) for k in range(S))
             m_w = [float(np.sum(w**2)) for w in ws]
             red_o = (D - 1) * sum(m_w) - (float(np.trace(A_inv @ A)) - sum(lev_t))
             sigma2 = max(ss_o / red_o if red_o > 0 else 0.0, (noise_sigma or 0.0) ** 2, floor**2)
@@ -479,7 +488,7 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             # the robust scale of the next pass's weights: 3 robust sigmas of the whitened misfits (point-noise units;
             # times sqrt(D / 3): a pose of D components has the norm of one point's 3 at the same per-component noise)
             if loss != "linear":
-                f_next = 3.0 * math.sqrt(D / 3) * max(robust_sigma(np.concatenate([np.linalg.norm(p[4], axis=1) for p in parts]), D), floor)
+                f_next = 3.0 * math.sqrt(D / 3) * max(robust_sigma(np.concatenate([np.linalg.norm(p[4], axis=0) for p in parts]), D), floor)
             # how far the variance components and f moved at this pass, in units of their tolerances (after 100
             # passes they are frozen)
             dg = float(np.max(np.abs(new_gam - gam) / gam))
@@ -514,7 +523,7 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         raise NotConvergedError(f"{where}: global fit: no convergence in 300 steps (expected a step below {STEP_TOL:g} of its sigmas)")
     f_final = f
     A, A2, b, ss, parts = normal_eq(cs, ns, homes, offs, R0, sc, wr, f_final, bread=loss != "linear")
-    psi2 = sum(float(np.sum(w**2 * np.sum(p[4] ** 2, axis=1))) for w, p in zip(ws, parts, strict=True))
+    psi2 = sum(float(np.sum(w**2 * np.sum(p[4] ** 2, axis=0))) for w, p in zip(ws, parts, strict=True))
     dof = D * sum(float(np.sum(w**2)) for w in ws) - npar
     s2 = misfit_variance(np.sqrt(psi2) * np.ones(1), dof, math.sqrt(sigma2))
     A_inv = _pinv_sym(A)
@@ -543,11 +552,11 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     scale_cross, scale_cov = (M @ cov_x @ Ms.T)[:n_out], Ms @ cov_x @ Ms.T
     sigma = math.sqrt(sigma2)
     reading_sigma = [math.sqrt(max(sigma2 / g**2 - sigma2, 0.0)) / max(float(np.mean(p[3])), 1e-300) for g, p in zip(gam, parts, strict=True)]
-    misfit = [np.sqrt(np.sum(p[5][:, : 3 * K] ** 2, axis=1) / K) for p in parts]
+    misfit = [np.sqrt(np.sum(p[5][: 3 * K] ** 2, axis=0) / K) for p in parts]
     return {
         "points": np.array(feet), "directions": np.array(ns), "home": np.array([home_of(k) for k in range(S)]), "cov": cov_all[:n_out, :n_out],
         "cov_all": cov_all, "offsets": offs, "rotation": R0, "rotation_sigma": srot if rot else math.nan, "components": D, "n_homes": H,
-        "misfit": misfit, "weights": ws, "whitened": [np.linalg.norm(p[4], axis=1) / sigma for p in parts],
+        "misfit": misfit, "weights": ws, "whitened": [np.linalg.norm(p[4], axis=0) / sigma for p in parts],
         "sigma": sigma, "reading_sigma": reading_sigma, "ss": ss / sigma2, "ss_m": ss, "n_params": npar, "gamma": gam,
         "scales": sc, "scale_sigma": scale_sigma, "scale_cross": scale_cross, "scale_cov": scale_cov,
     }

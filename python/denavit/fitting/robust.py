@@ -106,6 +106,14 @@ def loss_dweight(loss: str, z: np.ndarray) -> np.ndarray:
     return np.zeros_like(z)
 
 
+def tall_svd(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(singular values, V^T) of a tall matrix ``a`` (m, k), m >= k: the SVD of its R factor (Householder QR), the
+    values and vectors of ``np.linalg.svd(a, full_matrices=False)`` without its (m, k) U factor (a third of the
+    time for m = 1e5)."""
+    _, s, vt = np.linalg.svd(np.linalg.qr(a, mode="r"))
+    return s, vt
+
+
 def weighted_cov(j: np.ndarray, r: np.ndarray, w: np.ndarray, n_params: int, noise_sigma=None):
     """First-order covariance of a (robust) least-squares fit, and the singular values of ``W^1/2 J``.
 
@@ -119,7 +127,7 @@ def weighted_cov(j: np.ndarray, r: np.ndarray, w: np.ndarray, n_params: int, noi
     inflates the sigmas instead of being hidden.
     """
     s2 = misfit_variance(w * r, float(np.sum(w**2)) - n_params, noise_sigma)
-    _, sv, vt = np.linalg.svd(j * np.sqrt(w)[:, None], full_matrices=False)
+    sv, vt = tall_svd(j * np.sqrt(w)[:, None]) if len(j) >= j.shape[1] else np.linalg.svd(j * np.sqrt(w)[:, None], full_matrices=False)[1:]
     inv = np.where(sv > 1e-13 * sv[0], 1.0 / np.maximum(sv, 1e-300) ** 2, 0.0)
     a_inv = (vt.T * inv) @ vt
     jw = j * w[:, None]
