@@ -879,6 +879,63 @@ pub fn jacobian_batch(model: &Model, qs: &[f64], frame: JacobianFrame, joint: Op
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {
+    /// The one-pass kernel of DH-like chains (6 and 7 joints, offsets in x and z only or in all three
+    /// components), the identity tool skipped, and the joint-by-joint kernel of a chain with a prismatic
+    /// joint: every row of a batch (three blocks and a padded one) equal to the single-configuration path
+    /// (`==`: up to the sign of zeros), including a row beyond the fast sine's range.
+    #[test]
+    fn batch_kernels_equal_the_single_path() {
+        use crate::spatial::{Pose, rx, trans};
+        use crate::{Convention, JointKind, Table};
+        let r = JointKind::Revolute;
+        let base = trans(0.1, -0.2, 0.3) * rx(0.2);
+        let cases = [
+            // d, theta, a, alpha: offsets in x and z
+            (
+                Convention::Dh,
+                vec![0.4, 0.0, 0.18, -1.5707963267948966, 0.0, 0.0, 0.6, 0.0, 0.0, -1.5707963267948966, 0.12, -1.5707963267948966],
+                Pose::identity(),
+            ),
+            // alpha, a, theta, d: Rx(alpha) Tx(a) Tz(d) has an offset in y as well
+            (
+                Convention::Mdh,
+                vec![0.0, 0.0, 0.0, 0.3, 1.5707963267948966, 0.1, -1.5707963267948966, 0.15, 0.0, -0.4, 0.0, 0.0, 0.3, -0.39, 0.5, 0.1],
+                trans(0.0, 0.0, 0.1),
+            ),
+        ];
+        let mut state = 7u64;
+        let mut rand = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 6.0
+        };
+        for (convention, params, tool) in cases {
+            let rows = params.len() / 4;
+            for n in [6, 7] {
+                // repeat the rows to n joints
+                let p: Vec<f64> = (0..n).flat_map(|i| params[4 * (i % rows)..4 * (i % rows) + 4].to_vec()).collect();
+                let table = nalgebra::DMatrix::from_row_slice(n, 4, &p);
+                let mut kinds = vec![r; n];
+                for prismatic in [false, true] {
+                    if prismatic {
+                        kinds[2] = JointKind::Prismatic;
+                    }
+                    let m = Table::new(convention, table.clone(), kinds.clone(), base, tool).unwrap().to_model("m").unwrap();
+                    let count = 3 * super::BLOCK + 5;
+                    let mut qs: Vec<f64> = (0..count * n).map(|_| rand()).collect();
+                    qs[n * 70 + 1] = 3.0e5;
+                    let mut out = vec![0.0; 16 * count];
+                    crate::parallel::with_threads(Some(1), || super::tool_pose_batch(&m, &qs, &mut out)).unwrap().unwrap();
+                    for (q, o) in qs.chunks(n).zip(out.chunks(16)) {
+                        let mut one = [0.0; 16];
+                        super::write_pose(&super::tool_pose(&m, q).unwrap(), &mut one);
+                        assert_eq!(o, &one, "{convention:?} n = {n} prismatic {prismatic} q = {q:?}");
+                    }
+                    assert_eq!(super::Chain::of(&m).about_x.is_some(), !prismatic);
+                }
+            }
+        }
+    }
+
     #[test]
     fn fused_jacobian_matches_data_jacobian() {
         use crate::spatial::{rx, trans};
