@@ -887,21 +887,14 @@ mod tests {
     fn batch_kernels_equal_the_single_path() {
         use crate::spatial::{Pose, rx, trans};
         use crate::{Convention, JointKind, Table};
+        const H: f64 = std::f64::consts::FRAC_PI_2;
         let r = JointKind::Revolute;
         let base = trans(0.1, -0.2, 0.3) * rx(0.2);
         let cases = [
             // d, theta, a, alpha: offsets in x and z
-            (
-                Convention::Dh,
-                vec![0.4, 0.0, 0.18, -1.5707963267948966, 0.0, 0.0, 0.6, 0.0, 0.0, -1.5707963267948966, 0.12, -1.5707963267948966],
-                Pose::identity(),
-            ),
+            (Convention::Dh, vec![0.4, 0.0, 0.18, -H, 0.0, 0.0, 0.6, 0.0, 0.0, -H, 0.12, -H], Pose::identity()),
             // alpha, a, theta, d: Rx(alpha) Tx(a) Tz(d) has an offset in y as well
-            (
-                Convention::Mdh,
-                vec![0.0, 0.0, 0.0, 0.3, 1.5707963267948966, 0.1, -1.5707963267948966, 0.15, 0.0, -0.4, 0.0, 0.0, 0.3, -0.39, 0.5, 0.1],
-                trans(0.0, 0.0, 0.1),
-            ),
+            (Convention::Mdh, vec![0.0, 0.0, 0.0, 0.3, H, 0.1, -H, 0.15, 0.0, -0.4, 0.0, 0.0, 0.3, -0.39, 0.5, 0.1], trans(0.0, 0.0, 0.1)),
         ];
         let mut state = 7u64;
         let mut rand = move || {
