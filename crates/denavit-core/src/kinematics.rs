@@ -2,7 +2,7 @@
 #![allow(clippy::needless_range_loop)] // index loops mirror the formulas (and unroll)
 
 use crate::error::{Error, Result, check_len};
-use crate::math::{sin_cos, sin_cos_slices};
+use crate::math::{sin_cos, sin_cos_lanes, sin_cos_slices};
 use crate::model::{Data, JointKind, Model};
 use crate::spatial::Pose;
 use nalgebra::{Matrix3, Rotation3, Translation3};
@@ -168,12 +168,11 @@ impl Frame {
         }
         Self { c }
     }
-    /// `self · M(s)`: the joint motion `Rz(s)` or `Tz(s)`.
+    /// `self · M(s)`: the joint motion `Rz(s)` (given `sin s`, `cos s`) or `Tz(s)`.
     #[inline(always)]
-    pub(crate) fn motion(&mut self, kind: JointKind, s: f64) {
+    pub(crate) fn motion(&mut self, kind: JointKind, s: f64, sn: f64, cs: f64) {
         match kind {
             JointKind::Revolute => {
-                let (sn, cs) = sin_cos(s);
                 let (x, y) = (self.c[0], self.c[1]);
                 for l in 0..4 {
                     self.c[0][l] = cs.mul_add(x[l], sn * y[l]);
@@ -205,15 +204,40 @@ impl Frame {
     }
 }
 
+/// The frames of joints 1..=`count` at `q` (unchecked: `q` has `model.nq()` entries, `count <= nq`), each
+/// handed to `each(i, frame)`; returns the frame of joint `count`. The sines and cosines of a chain of up to
+/// 8 joints come from one call of the lane kernel (vectorised), the same values as one call per joint.
+#[inline(always)]
+fn walk(model: &Model, q: &[f64], count: usize, mut each: impl FnMut(usize, &Frame)) -> Frame {
+    let joints = &model.joints()[..count];
+    let mut t = Frame::of(model.t_world_base());
+    if joints.len() <= 8 {
+        let mut s = [0.0; 8];
+        for ((si, j), &qi) in s.iter_mut().zip(joints).zip(q) {
+            *si = qi + j.offset;
+        }
+        let (sn, cs) = sin_cos_lanes(&s);
+        for (i, j) in joints.iter().enumerate() {
+            t = t.mul(&j.placement);
+            t.motion(j.kind, s[i], sn[i], cs[i]);
+            each(i, &t);
+        }
+    } else {
+        for (i, (j, &qi)) in joints.iter().zip(q).enumerate() {
+            let s = qi + j.offset;
+            let (sn, cs) = sin_cos(s);
+            t = t.mul(&j.placement);
+            t.motion(j.kind, s, sn, cs);
+            each(i, &t);
+        }
+    }
+    t
+}
+
 /// Tool pose `T_world_tool(q)` without filling a [`Data`]; `q` must have `model.nq()` entries (unchecked here).
 #[inline]
 pub fn tool_pose_unchecked(model: &Model, q: &[f64]) -> Pose {
-    let mut t = Frame::of(model.t_world_base());
-    for (j, &qi) in model.joints().iter().zip(q) {
-        t = t.mul(&j.placement);
-        t.motion(j.kind, qi + j.offset);
-    }
-    t.mul(model.t_last_tool()).pose()
+    walk(model, q, model.nq(), |_, _| {}).mul(model.t_last_tool()).pose()
 }
 
 /// Tool pose `T_world_tool(q)`.
@@ -238,12 +262,8 @@ pub fn forward_kinematics(model: &Model, data: &mut Data, q: &[f64]) -> Result<(
 
 #[inline]
 pub(crate) fn fk_unchecked(model: &Model, data: &mut Data, q: &[f64]) {
-    let mut t = Frame::of(model.t_world_base());
-    for ((j, &qi), out) in model.joints().iter().zip(q).zip(data.t_world_joint.iter_mut()) {
-        t = t.mul(&j.placement);
-        t.motion(j.kind, qi + j.offset);
-        *out = t.pose();
-    }
+    let frames = &mut data.t_world_joint;
+    let t = walk(model, q, model.nq(), |i, t| frames[i] = t.pose());
     data.t_world_tool = t.mul(model.t_last_tool()).pose();
 }
 
@@ -279,14 +299,11 @@ pub(crate) fn jacobian_unchecked(model: &Model, data: &mut Data, q: &[f64], fram
 /// `jac` (column-major 6 x n) receives the columns of [`jacobian`] with [`JacobianFrame::LocalWorldAligned`].
 #[inline]
 pub(crate) fn tool_pose_and_jacobian(model: &Model, q: &[f64], jac: &mut [f64]) -> Pose {
-    let mut t = Frame::of(model.t_world_base());
-    for ((j, &qi), col) in model.joints().iter().zip(q).zip(jac.chunks_exact_mut(6)) {
-        t = t.mul(&j.placement);
-        t.motion(j.kind, qi + j.offset);
-        // park the joint's origin and z axis in its column; the tool origin is known only at the end
-        col[..3].copy_from_slice(&t.p());
-        col[3..].copy_from_slice(&t.z());
-    }
+    // park each joint's origin and z axis in its column; the tool origin is known only at the end
+    let t = walk(model, q, model.nq(), |i, t| {
+        jac[6 * i..6 * i + 3].copy_from_slice(&t.p());
+        jac[6 * i + 3..6 * i + 6].copy_from_slice(&t.z());
+    });
     let tool = t.mul(model.t_last_tool());
     let tp = tool.p();
     for (j, col) in model.joints().iter().zip(jac.chunks_exact_mut(6)) {
@@ -319,13 +336,10 @@ pub fn jacobian_row_major_unchecked(model: &Model, q: &[f64], frame: JacobianFra
         &mut heap
     };
     let cols = joint.map_or(n, |j| j + 1);
-    let mut t = Frame::of(model.t_world_base());
-    for ((j, &qi), ozi) in model.joints().iter().zip(q).zip(oz.iter_mut()).take(cols) {
-        t = t.mul(&j.placement);
-        t.motion(j.kind, qi + j.offset);
+    let t = walk(model, q, cols, |i, t| {
         let (p, z) = (t.p(), t.z());
-        *ozi = [p[0], p[1], p[2], z[0], z[1], z[2]];
-    }
+        oz[i] = [p[0], p[1], p[2], z[0], z[1], z[2]];
+    });
     let f = if joint.is_none() { t.mul(model.t_last_tool()) } else { t };
     let axes = axes_of(model, frame, &f);
     for (k, (j, ozk)) in model.joints().iter().zip(oz.iter()).enumerate() {
@@ -416,6 +430,9 @@ impl Factor {
 struct Chain {
     first: Frame,
     factors: Vec<Factor>,
+    /// For [`revolute_about_x`]: `Some(origin bits of all placements 2..n)` when every joint is revolute
+    /// and every placement rotates about x only (DH, modified DH, ED-H tables).
+    about_x: Option<u8>,
 }
 
 impl Chain {
@@ -423,8 +440,50 @@ impl Chain {
         let base = Frame::of(model.t_world_base());
         let joints = model.joints();
         let first = joints.first().map_or(base, |j| base.mul(&j.placement));
-        let factors = joints.iter().skip(1).map(|j| Factor::of(&j.placement)).chain([Factor::of(model.t_last_tool())]).collect();
-        Self { first, factors }
+        let factors: Vec<Factor> = joints.iter().skip(1).map(|j| Factor::of(&j.placement)).chain([Factor::of(model.t_last_tool())]).collect();
+        let placements = &factors[..factors.len() - 1];
+        let about_x = (joints.iter().all(|j| j.kind == JointKind::Revolute) && placements.iter().all(|f| f.rot != ROT_GENERAL))
+            .then(|| placements.iter().fold(0, |bits, f| bits | f.origin));
+        Self { first, factors, about_x }
+    }
+}
+
+/// The frames of joint `N` of a block (into `c`) for a chain of `N` revolute joints whose placements
+/// 2..N rotate about x only (`factors`: those placements; `sn`, `cs`: the sines and cosines of the joint
+/// angles, per joint), the whole chain in one pass over the configurations, the frame in registers (the
+/// joint-by-joint [`step`]s store and reload it at every joint). The arithmetic of [`step`] with
+/// `ROT_ABOUT_X` and `ORIGIN` for every placement (an identity's or a zero origin component's terms then
+/// add exact zeros: the same values up to the sign of zeros).
+#[inline(never)]
+fn revolute_about_x<const N: usize, const ORIGIN: u8>(first: &Frame, factors: &[Factor], sn: &[V], cs: &[V], c: &mut Frames) {
+    let (factors, sn, cs, f) = (&factors[..N - 1], &sn[..N], &cs[..N], &first.c);
+    for l in 0..BLOCK {
+        // joint 1: the first frame, the same for every configuration, turned
+        let (s, k) = (sn[0][l], cs[0][l]);
+        let mut x: [f64; 3] = std::array::from_fn(|r| k.mul_add(f[0][r], s * f[1][r]));
+        let mut y: [f64; 3] = std::array::from_fn(|r| k.mul_add(f[1][r], -(s * f[0][r])));
+        let mut z: [f64; 3] = std::array::from_fn(|r| f[2][r]);
+        let mut p: [f64; 3] = std::array::from_fn(|r| f[3][r]);
+        for (i, b) in factors.iter().enumerate() {
+            let b = &b.b;
+            let a = [x, y, z];
+            for k in 0..3 {
+                if ORIGIN & (1 << k) != 0 {
+                    p = std::array::from_fn(|r| a[k][r].mul_add(b[3][k], p[r]));
+                }
+            }
+            let y1: [f64; 3] = std::array::from_fn(|r| z[r].mul_add(b[1][2], y[r] * b[1][1]));
+            z = std::array::from_fn(|r| z[r].mul_add(b[2][2], y[r] * b[2][1]));
+            let (s, k) = (sn[i + 1][l], cs[i + 1][l]);
+            y = std::array::from_fn(|r| k.mul_add(y1[r], -(s * x[r])));
+            x = std::array::from_fn(|r| k.mul_add(x[r], s * y1[r]));
+        }
+        for r in 0..3 {
+            c[0][r][l] = x[r];
+            c[1][r][l] = y[r];
+            c[2][r][l] = z[r];
+            c[3][r][l] = p[r];
+        }
     }
 }
 
@@ -498,22 +557,45 @@ fn step_factor(c: &mut Frames, f: &Factor, motion: u8, s: &V, sn: &V, cs: &V) {
     }
 }
 
-/// The workspace of a block: its frames, the joint values and their sines and cosines, and the block's
-/// results, written here (in the L1 cache) and then copied to the caller's array at once: element by element
-/// into memory that is not in the cache, the stores would wait on the memory, 8 bytes at a time.
+/// The workspace of a block: its frames, the joint values and their sines and cosines, and (for the
+/// Jacobian, `per_row` values per configuration) the block's results, written here (in the L1 cache) and
+/// then copied to the caller's array at once: element by element into memory that is not in the cache, the
+/// Jacobian's scattered stores would wait on the memory, 8 bytes at a time.
 struct Block {
     c: Frames,
-    /// `s[joint][configuration]`: the joint values plus the offsets.
+    /// `s[joint][configuration]`: the joint values plus the offsets; `sn`, `cs` their sines and cosines.
     s: Vec<V>,
-    sn: V,
-    cs: V,
+    sn: Vec<V>,
+    cs: Vec<V>,
     stage: Vec<f64>,
 }
 
 impl Block {
     fn new(n: usize, per_row: usize) -> Box<Self> {
-        Box::new(Self { c: [[[0.0; BLOCK]; 3]; 4], s: vec![[0.0; BLOCK]; n], sn: [0.0; BLOCK], cs: [0.0; BLOCK], stage: vec![0.0; per_row * BLOCK] })
+        let v = || vec![[0.0; BLOCK]; n.max(1)];
+        Box::new(Self { c: [[[0.0; BLOCK]; 3]; 4], s: v(), sn: v(), cs: v(), stage: vec![0.0; per_row * BLOCK] })
     }
+}
+
+/// The joint values of a block of configurations (`qb`: BLOCK x n row-major; `N` > 0 promises n == N, so
+/// that the transposition of `qb` has a constant stride) plus the offsets into `s[joint][configuration]`.
+/// False if a value of `qb` is not finite.
+#[inline(always)]
+#[must_use]
+fn load_block<const N: usize>(model: &Model, qb: &[f64], s: &mut [V]) -> bool {
+    let n = if N > 0 { N } else { model.nq() };
+    let (qb, joints, s) = (&qb[..BLOCK * n], &model.joints()[..n], &mut s[..n]);
+    // the transposition, once per block, and the finiteness check in the same pass (`x * 0` is NaN
+    // exactly for an infinite or NaN `x`)
+    let mut bad = [0.0f64; BLOCK];
+    for l in 0..BLOCK {
+        for i in 0..n {
+            let v = qb[l * n + i];
+            bad[l] += v * 0.0;
+            s[i][l] = v + joints[i].offset;
+        }
+    }
+    bad.iter().all(|b| *b == 0.0)
 }
 
 /// The joint frames of a block of configurations (`qb`: BLOCK x n row-major; `N` > 0 promises n == N, so
@@ -523,25 +605,13 @@ impl Block {
 #[inline(always)]
 #[must_use]
 fn walk_block<const N: usize>(model: &Model, chain: &Chain, qb: &[f64], cols: usize, w: &mut Block, mut each: impl FnMut(usize, &Frames)) -> bool {
-    let n = if N > 0 { N } else { model.nq() };
-    let (qb, joints, s) = (&qb[..BLOCK * n], &model.joints()[..n], &mut w.s[..n]);
-    // the transposition, once per block (a loop with a constant stride when N > 0: vectorised), and the
-    // finiteness check in the same pass (`x * 0` is NaN exactly for an infinite or NaN `x`)
-    let mut bad = [0.0f64; BLOCK];
-    for l in 0..BLOCK {
-        for i in 0..n {
-            let v = qb[l * n + i];
-            bad[l] += v * 0.0;
-            s[i][l] = v + joints[i].offset;
-        }
-    }
-    if !bad.iter().all(|b| *b == 0.0) {
+    if !load_block::<N>(model, qb, &mut w.s) {
         return false;
     }
-    for (i, j) in joints.iter().enumerate().take(cols) {
+    for (i, j) in model.joints().iter().enumerate().take(cols) {
         let s = &w.s[i];
         let motion = if j.kind == JointKind::Revolute {
-            sin_cos_slices(s, &mut w.sn, &mut w.cs);
+            sin_cos_slices(s, &mut w.sn[0], &mut w.cs[0]);
             MOTION_RZ
         } else {
             MOTION_TZ
@@ -553,9 +623,9 @@ fn walk_block<const N: usize>(model: &Model, chain: &Chain, qb: &[f64], cols: us
                     ckr.fill(*v);
                 }
             }
-            step_factor(&mut w.c, &IDENTITY, motion, s, &w.sn, &w.cs);
+            step_factor(&mut w.c, &IDENTITY, motion, s, &w.sn[0], &w.cs[0]);
         } else {
-            step_factor(&mut w.c, &chain.factors[i - 1], motion, s, &w.sn, &w.cs);
+            step_factor(&mut w.c, &chain.factors[i - 1], motion, s, &w.sn[0], &w.cs[0]);
         }
         each(i, &w.c);
     }
@@ -609,13 +679,34 @@ fn tool_pose_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], w: &
             padded[..qb.len()].copy_from_slice(qb);
             &padded
         };
-        if !walk_block::<N>(model, chain, qb, n, w, |_, _| {}) {
-            return false;
+        match chain.about_x {
+            Some(origin) if N > 0 => {
+                if !load_block::<N>(model, qb, &mut w.s) {
+                    return false;
+                }
+                for ((s, sn), cs) in w.s.iter().zip(&mut w.sn).zip(&mut w.cs) {
+                    sin_cos_slices(s, sn, cs);
+                }
+                let (first, f, sn, cs, c) = (&chain.first, &chain.factors, &w.sn, &w.cs, &mut w.c);
+                // x and z offsets (DH tables) or any
+                if origin & !0b101 == 0 {
+                    revolute_about_x::<N, 0b101>(first, f, sn, cs, c);
+                } else {
+                    revolute_about_x::<N, 0b111>(first, f, sn, cs, c);
+                }
+            }
+            _ => {
+                if !walk_block::<N>(model, chain, qb, n, w, |_, _| {}) {
+                    return false;
+                }
+            }
         }
-        step_factor(&mut w.c, tool, MOTION_NONE, &w.sn, &w.sn, &w.cs);
-        let stage = &mut w.stage[..ob.len()];
-        write_block(&w.c, stage);
-        ob.copy_from_slice(stage);
+        if tool.rot != ROT_IDENTITY || tool.origin != 0 {
+            step_factor(&mut w.c, tool, MOTION_NONE, &w.sn[0], &w.sn[0], &w.cs[0]);
+        }
+        // straight into the caller's array: whole 4-value rows, in order (a copy through an L1 stage
+        // cost a fifth of the time)
+        write_block(&w.c, ob);
     }
     true
 }
@@ -656,7 +747,7 @@ pub fn tool_pose_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<()>
     crate::parallel::try_for_each_chunk_init(
         out,
         16 * CHUNK,
-        || Block::new(n, 16),
+        || Block::new(n, 0),
         |w, k, o| {
             let q = &qs[k * CHUNK * n..(k * CHUNK + o.len() / 16) * n];
             let finite = match n {
@@ -705,7 +796,7 @@ fn jacobian_chunk<const N: usize>(
             return false;
         }
         if joint.is_none() {
-            step_factor(&mut b.c, &chain.factors[n - 1], MOTION_NONE, &b.sn, &b.sn, &b.cs);
+            step_factor(&mut b.c, &chain.factors[n - 1], MOTION_NONE, &b.sn[0], &b.sn[0], &b.cs[0]);
         }
         let (c, stage) = (&b.c, &mut b.stage[..ob.len()]);
         let rows = ob.len() / (6 * n);
@@ -788,6 +879,56 @@ pub fn jacobian_batch(model: &Model, qs: &[f64], frame: JacobianFrame, joint: Op
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {
+    /// The one-pass kernel of DH-like chains (6 and 7 joints, offsets in x and z only or in all three
+    /// components), the identity tool skipped, and the joint-by-joint kernel of a chain with a prismatic
+    /// joint: every row of a batch (three blocks and a padded one) equal to the single-configuration path
+    /// (`==`: up to the sign of zeros), including a row beyond the fast sine's range.
+    #[test]
+    fn batch_kernels_equal_the_single_path() {
+        use crate::spatial::{Pose, rx, trans};
+        use crate::{Convention, JointKind, Table};
+        const H: f64 = std::f64::consts::FRAC_PI_2;
+        let r = JointKind::Revolute;
+        let base = trans(0.1, -0.2, 0.3) * rx(0.2);
+        let cases = [
+            // d, theta, a, alpha: offsets in x and z
+            (Convention::Dh, vec![0.4, 0.0, 0.18, -H, 0.0, 0.0, 0.6, 0.0, 0.0, -H, 0.12, -H], Pose::identity()),
+            // alpha, a, theta, d: Rx(alpha) Tx(a) Tz(d) has an offset in y as well
+            (Convention::Mdh, vec![0.0, 0.0, 0.0, 0.3, H, 0.1, -H, 0.15, 0.0, -0.4, 0.0, 0.0, 0.3, -0.39, 0.5, 0.1], trans(0.0, 0.0, 0.1)),
+        ];
+        let mut state = 7u64;
+        let mut rand = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 6.0
+        };
+        for (convention, params, tool) in cases {
+            let rows = params.len() / 4;
+            for n in [6, 7] {
+                // repeat the rows to n joints
+                let p: Vec<f64> = (0..n).flat_map(|i| params[4 * (i % rows)..4 * (i % rows) + 4].to_vec()).collect();
+                let table = nalgebra::DMatrix::from_row_slice(n, 4, &p);
+                let mut kinds = vec![r; n];
+                for prismatic in [false, true] {
+                    if prismatic {
+                        kinds[2] = JointKind::Prismatic;
+                    }
+                    let m = Table::new(convention, table.clone(), kinds.clone(), base, tool).unwrap().to_model("m").unwrap();
+                    let count = 3 * super::BLOCK + 5;
+                    let mut qs: Vec<f64> = (0..count * n).map(|_| rand()).collect();
+                    qs[n * 70 + 1] = 3.0e5;
+                    let mut out = vec![0.0; 16 * count];
+                    crate::parallel::with_threads(Some(1), || super::tool_pose_batch(&m, &qs, &mut out)).unwrap().unwrap();
+                    for (q, o) in qs.chunks(n).zip(out.chunks(16)) {
+                        let mut one = [0.0; 16];
+                        super::write_pose(&super::tool_pose(&m, q).unwrap(), &mut one);
+                        assert_eq!(o, &one, "{convention:?} n = {n} prismatic {prismatic} q = {q:?}");
+                    }
+                    assert_eq!(super::Chain::of(&m).about_x.is_some(), !prismatic);
+                }
+            }
+        }
+    }
+
     #[test]
     fn fused_jacobian_matches_data_jacobian() {
         use crate::spatial::{rx, trans};
