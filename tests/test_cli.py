@@ -180,6 +180,17 @@ def test_the_command_list_is_each_commands_own_summary():
     assert p.returncode == 2 and "No such command 'fik'. Did you mean 'ik', 'fk'?" in p.stderr
 
 
+def test_the_help_formatter_loads_markdown_and_tracebacks_on_first_use():
+    """typer's help formatter is imported without rich.markdown and rich.traceback (which help in rich markup
+    never uses); its Markdown and Traceback still make the real ones, imported then."""
+    code = ("import sys; from denavit.cli.common import import_rich_utils; import_rich_utils(); import typer.rich_utils as ru; "
+            "before = [m for m in ('rich.markdown', 'rich.traceback', 'pygments') if m in sys.modules]; "
+            "import rich.markdown, rich.traceback; md = ru.Markdown('**x**'); "
+            "print(before, type(md) is rich.markdown.Markdown, ru.Traceback.from_exception == rich.traceback.Traceback.from_exception)")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=cli_env())
+    assert p.stdout.split() == ["[]", "True", "True"], p.stdout + p.stderr
+
+
 def test_recordings_through_the_cli(tmp_path):
     """`denavit inspect` and `denavit identify` read instrument recordings (format from the content) and say
     what they found: the reader, the segmentation table; the identified axes land on the robot's."""
