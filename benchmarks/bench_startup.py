@@ -3,17 +3,23 @@ no scipy").
 
 Printed: the median CPU seconds (user + system of the child process) over ``--repeats`` fresh interpreters of
 
-* ``python -c pass`` and ``import typer, typer.rich_utils`` (what typer's help costs by itself: the floor),
+* ``python -c pass``, ``import click``, ``import typer`` and ``import typer, rich.console`` (the floor: typer
+  and the console every command prints with), ``import typer, typer.rich_utils`` (typer's help formatter as
+  typer imports it, with rich.markdown and rich.traceback, markdown-it and pygments behind them, which the
+  command line leaves out),
 * ``import denavit`` (the Rust core only: the workflows load on first use),
-* ``denavit --help``, ``denavit fk --help``, ``denavit --version`` (run as the console script runs them),
+* ``denavit --help``, ``denavit fk --help``, ``denavit identify --help`` (the longest help), ``denavit --version``
+  (run as the console script runs them),
 
-and whether numpy / scipy were imported (``-X importtime``). Run ``python benchmarks/bench_startup.py``
-(``--repeats 15``).
+and whether numpy / scipy were imported (``-X importtime``), and whether denavit's bytecode was cached (with
+PYTHONDONTWRITEBYTECODE set and no ``__pycache__``, every run compiles the modules it imports, as an installed
+package does not). Run ``python benchmarks/bench_startup.py`` (``--repeats 15``).
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import os
 import resource
 import statistics
@@ -49,12 +55,19 @@ def main() -> None:
     py = sys.executable
     cases = [
         ("python -c pass", [py, "-c", "pass"], None),
-        ("import typer, typer.rich_utils (floor)", [py, "-c", "import typer, typer.rich_utils"], None),
+        ("import click", [py, "-c", "import click"], None),
+        ("import typer", [py, "-c", "import typer"], None),
+        ("import typer, rich.console (floor)", [py, "-c", "import typer, rich.console"], None),
+        ("import typer, typer.rich_utils", [py, "-c", "import typer, typer.rich_utils"], None),
         ("import denavit", [py, "-c", "import denavit"], None),
         ("denavit --help", [py, "-c", CLI, "--help"], 0.3),
         ("denavit fk --help", [py, "-c", CLI, "fk", "--help"], None),
+        ("denavit identify --help", [py, "-c", CLI, "identify", "--help"], None),
         ("denavit --version", [py, "-c", CLI, "--version"], None),
     ]
+    common = importlib.util.find_spec("denavit.cli.common").origin
+    cached = os.path.exists(importlib.util.cache_from_source(common))
+    print(f"denavit from {os.path.dirname(os.path.dirname(common))}, bytecode {'cached' if cached else 'NOT cached (compiled at every run)'}\n")
     print(f"| case | CPU median [s] ({a.repeats} runs) | imports | target |")
     print("|---|---|---|---|")
     for name, args, target in cases:

@@ -140,15 +140,55 @@ def test_errors_are_one_line_and_exit_2(args, match):
 def test_help_imports_neither_scipy_nor_numpy(args):
     """`denavit --help` pays for typer and rich only (issue 18: <= 0.3 s CPU, benchmarks/bench_startup.py): scipy
     (88 % of the old import time), numpy and the Python layers behind the commands (api, robot, identify,
-    calibration) load when a command runs, not for its help."""
+    calibration) load when a command runs, not for its help; a command's help loads that command's module
+    only, and neither the pydantic typer coerces values with nor the markdown and syntax highlighting (markdown-it,
+    pygments) of typer's help formatter."""
+    from denavit.cli.common import COMMANDS
+
     p = subprocess.run([sys.executable, "-X", "importtime", "-m", "denavit.cli", *args], capture_output=True, text=True, env=cli_env())
     assert p.returncode == 0, p.stderr
     mods = [ln.split("|")[-1].strip() for ln in p.stderr.splitlines() if ln.startswith("import time:")]
-    heavy = [m for m in mods if m.split(".")[0] in ("scipy", "numpy", "matplotlib", "plotly", "yourdfpy")
+    heavy = [m for m in mods if m.split(".")[0] in ("scipy", "numpy", "matplotlib", "plotly", "yourdfpy", "pydantic", "markdown_it", "pygments")
              or m in ("denavit.api", "denavit.robot", "denavit.identify", "denavit.calibration", "denavit.sweeps")]
     assert "denavit.cli" in mods and heavy == []
+    own = [f"denavit.cli.{COMMANDS[args[0]][0]}"] if args[0] in COMMANDS else []
+    assert [m for m in mods if m.startswith("denavit.cli.") and m != "denavit.cli.common"] == own
     p = subprocess.run([sys.executable, "-X", "importtime", "-c", "import denavit"], capture_output=True, text=True, env=cli_env())
     assert "numpy" not in [ln.split("|")[-1].strip() for ln in p.stderr.splitlines() if ln.startswith("import time:")]  # `import denavit`: the core only
+
+
+def test_the_command_list_is_each_commands_own_summary():
+    """`denavit --help` lists every command with its summary without importing the command modules
+    (:data:`denavit.cli.common.COMMANDS`): the list holds every command registered, in its module, and each
+    summary is the first paragraph of the command's own help; a mistyped command is still answered with the
+    nearest names."""
+    from typer.main import get_command
+
+    from denavit.cli import app
+    from denavit.cli.common import COMMANDS, commands
+
+    group = get_command(app)
+    built = {name: group.get_command(None, name) for name in COMMANDS}  # imports every command module
+    assert sorted(COMMANDS) == sorted(i.name or i.callback.__name__ for i in commands.registered_commands)
+    for name, (module, summary) in COMMANDS.items():
+        assert built[name].callback.__module__ == f"denavit.cli.{module}", name
+        assert built[name].help.split("\n\n")[0] == summary, name
+    p = subprocess.run([sys.executable, "-m", "denavit.cli", "--help"], capture_output=True, text=True, env={**cli_env(), "COLUMNS": "1000"})
+    listed = " ".join(p.stdout.split())
+    assert all(f"{name} {summary}" in listed for name, (_, summary) in COMMANDS.items())
+    p = run("fik", ok=False)
+    assert p.returncode == 2 and "No such command 'fik'. Did you mean 'ik', 'fk'?" in p.stderr
+
+
+def test_the_help_formatter_loads_markdown_and_tracebacks_on_first_use():
+    """typer's help formatter is imported without rich.markdown and rich.traceback (which help in rich markup
+    never uses); its Markdown and Traceback still make the real ones, imported then."""
+    code = ("import sys; from denavit.cli.common import import_rich_utils; import_rich_utils(); import typer.rich_utils as ru; "
+            "before = [m for m in ('rich.markdown', 'rich.traceback', 'pygments') if m in sys.modules]; "
+            "import rich.markdown, rich.traceback; md = ru.Markdown('**x**'); "
+            "print(before, type(md) is rich.markdown.Markdown, ru.Traceback.from_exception == rich.traceback.Traceback.from_exception)")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=cli_env())
+    assert p.stdout.split() == ["[]", "True", "True"], p.stdout + p.stderr
 
 
 def test_recordings_through_the_cli(tmp_path):

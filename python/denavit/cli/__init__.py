@@ -1,4 +1,5 @@
-"""The ``denavit`` command line (typer + rich): one module per command, sharing :mod:`.common`.
+"""The ``denavit`` command line (typer + rich): one module per command, sharing :mod:`.common`, imported when
+that command runs or shows its help (:data:`.common.COMMANDS`).
 
 One grammar (docs/cli.md): ``--length mm|m`` and ``--angle deg|rad`` on every command (mm and degrees by
 default), applied by :mod:`denavit.io.units`; ``--json [PATH]`` in SI; exit codes 0 / 1 (not met) / 2 (bad
@@ -11,7 +12,6 @@ from __future__ import annotations
 import sys
 
 from ..errors import DenavitError
-from . import calibrate, compensate, convert, dynamics, fk, identify, ik, inspect, plan, show, simulate  # noqa: F401 (each registers its command)
 from .common import app, say
 
 __all__ = ["app", "main"]

@@ -15,8 +15,8 @@ from .common import (
     BaseLinkOpt,
     JsonOpt,
     TipLinkOpt,
-    app,
     calib_unit,
+    commands,
     console,
     convention_name,
     emit_json,
@@ -33,7 +33,7 @@ from .common import (
 )
 
 
-@app.command()
+@commands.command()
 def calibrate(
     data: Annotated[Path, typer.Argument(help="Measurements: CSV 'q1..qn,x,y,z[,rx,ry,rz]', a long-form sweep CSV (with 'joint'), or JSON.")],
     nominal: Annotated[str, typer.Option("--nominal", help="Nominal model (built-in name, robot file or URDF).")],

@@ -22,6 +22,11 @@ from rich.table import Table as RichTable
 from rich.text import Text
 from typer.core import TyperCommand, TyperGroup
 
+try:
+    from typer._coercion import PassThroughRuntimeParam  # typer >= 0.2x coerces values with pydantic (see _flags)
+except ImportError:
+    PassThroughRuntimeParam = None
+
 from ..io.output import check_writable
 from ..io.units import ANGLE, LENGTH, angle_scale, cell_scale, column_scale, joint_scale, joint_unit, length_scale
 
@@ -44,11 +49,16 @@ def _reflow(text: str | None) -> str | None:
     return "\n\n".join(" ".join(p.split()) for p in inspect.cleandoc(text).split("\n\n"))
 
 
-def _no_flag_placeholders(params: list) -> list:
-    """Flags take no value: no ``<bool>`` placeholder after them in the help."""
+def _flags(params: list) -> list:
+    """Flags take no value: no ``<bool>`` placeholder after them in the help, and no coercion of the bool (or
+    None, when absent) they yield: typer would build a pydantic TypeAdapter for it, importing pydantic (a
+    tenth of a second) on every ``--help``."""
     for p in params:
-        if getattr(p, "is_flag", False) and p.metavar is None:
-            p.metavar = ""
+        if getattr(p, "is_flag", False):
+            if p.metavar is None:
+                p.metavar = ""
+            if PassThroughRuntimeParam is not None and getattr(p, "_runtime_param", False) is None and p.type_descriptor.annotation is bool:
+                p._runtime_param = PassThroughRuntimeParam(annotation=bool, parameter_info=p.type_descriptor.parameter_info)
     return params
 
 
@@ -61,7 +71,11 @@ class Command(TyperCommand):
         self.help = _reflow(self.help)
 
     def get_params(self, ctx):  # noqa: ANN001, ANN201 (click's signature)
-        return _no_flag_placeholders(super().get_params(ctx))
+        return _flags(super().get_params(ctx))
+
+    def format_help(self, ctx, formatter) -> None:  # noqa: ANN001 (click's signature)
+        import_rich_utils()
+        super().format_help(ctx, formatter)
 
     def parse_args(self, ctx, args):  # noqa: ANN001, ANN201 (click's signature)
         return super().parse_args(ctx, json_argv(args))
@@ -87,11 +101,104 @@ def _check_outputs(ctx) -> None:  # noqa: ANN001 (click's context)
             check_writable(value)
 
 
+#: Every command, in the order of ``denavit --help``: its module (imported when the command runs or shows its
+#: help) and its summary, the first paragraph of its docstring, listed by ``denavit --help`` without importing
+#: the module (tests/test_cli.py checks the two agree).
+COMMANDS = {
+    "calibrate": ("calibrate", "Calibrate the whole model from measured points or poses at known joint readings (one least-squares fit)."),
+    "compensate": ("compensate", "Compensate a program (RoboDK's \"filtering\"): for each target, the joint values that reach it on the "
+                   "identified robot (on the program's branch) and the pose T' = FK_nominal(q) to send to a controller that keeps "
+                   "its nominal model. Flagged rows (unreachable, branch changed, path jump) are marked, never silently kept; exit "
+                   "code 1 when any row is flagged."),
+    "convert": ("convert", "Express a robot in another convention through its joint axes, with the FK-parity check."),
+    "dynamics": ("dynamics", "Inverse dynamics (recursive Newton-Euler): the joint torques (N m) / forces (N) for q, qd, qdd."),
+    "fk": ("fk", "Forward kinematics: the tool pose and every joint frame (T_world_joint)."),
+    "identify": ("identify", "Identify the joint axes and parameters from joint sweeps (Hayat et al.), beside the nominal values."),
+    "ik": ("ik", "Inverse kinematics: joint values that put the tool at --pose, judged from the measured final error against the tolerances."),
+    "inspect": ("inspect", "Print what a recording holds: the reader used, joints, targets, rates and units, and the sweeps the segmentation "
+                "finds (joint, rows, start and end, dwell left out), for checking before `identify`."),
+    "plan": ("plan", "Predict every parameter's sigma (Cramer-Rao bound) and the measuring volume of a protocol, before measuring."),
+    "models": ("show", "List the built-in robots (names and descriptions: no units)."),
+    "show": ("show", "Print a robot file's table as read (with units); optionally draw its frames beside another convention's."),
+    "export": ("show", "Print a robot file (TOML) in --length / --angle units (or, with --json, the robot as JSON in SI), or write a UR "
+               "kinematics-parameters file."),
+    "simulate": ("simulate", "Simulate joint sweeps of a model (for planning a measurement and for tests); writes the long-form CSV."),
+}
+
+
 class Group(TyperGroup):
-    """The root: its own options (--version, --help) without placeholders."""
+    """The root: its own options (--version, --help) without placeholders; each command built from its module
+    (:data:`COMMANDS`) when it is run or shows its help, so a command's start-up pays for that command only."""
+
+    listing = False  # while the root's help is formatted: commands are their summaries, nothing is imported
 
     def get_params(self, ctx):  # noqa: ANN001, ANN201 (click's signature)
-        return _no_flag_placeholders(super().get_params(ctx))
+        return _flags(super().get_params(ctx))
+
+    def list_commands(self, ctx) -> list[str]:  # noqa: ANN001 (click's context)
+        return list(COMMANDS)
+
+    def get_command(self, ctx, cmd_name: str):  # noqa: ANN001, ANN201 (click's signature)
+        if cmd_name not in COMMANDS:
+            return None
+        if cmd_name not in self.commands:
+            if self.listing:
+                return TyperCommand(cmd_name, help=COMMANDS[cmd_name][1])
+            self.commands[cmd_name] = build_command(cmd_name)
+        return self.commands[cmd_name]
+
+    def resolve_command(self, ctx, args):  # noqa: ANN001, ANN201 (click's signature)
+        if args and args[0] not in COMMANDS and not args[0].startswith("-"):  # a typo: typer's "Did you mean" picks from the commands built
+            for name in COMMANDS:
+                self.get_command(ctx, name)
+        return super().resolve_command(ctx, args)
+
+    def format_help(self, ctx, formatter) -> None:  # noqa: ANN001 (click's signature)
+        import_rich_utils()
+        self.listing = True
+        try:
+            super().format_help(ctx, formatter)
+        finally:
+            self.listing = False
+
+
+def build_command(name: str) -> TyperCommand:
+    """The click command ``name``: its module imported (which registers it on :data:`commands`), then built by typer."""
+    __import__(f"{__package__}.{COMMANDS[name][0]}")  # not importlib.import_module, which -X importtime does not see
+    info = next(i for i in commands.registered_commands if (i.name or typer.main.get_command_name(i.callback.__name__)) == name)
+    return typer.main.get_command_from_info(info, pretty_exceptions_short=app.pretty_exceptions_short, rich_markup_mode=app.rich_markup_mode)
+
+
+def import_rich_utils() -> None:
+    """Import typer's help formatter (typer.rich_utils) without the modules it imports for markdown help and rich
+    tracebacks, rich.markdown and rich.traceback (markdown-it and pygments behind them: 0.1-0.2 s CPU of
+    ``--help``), which this command line never uses (rich markup, pretty exceptions off): while it loads, stand-ins
+    that import the real class on first use."""
+    if "typer.rich_utils" in sys.modules:
+        return
+    from importlib import import_module  # noqa: PLC0415
+    from types import ModuleType  # noqa: PLC0415
+
+    class Deferred(type):
+        def __getattr__(cls, attr: str):  # noqa: ANN204 (the real class's attribute)
+            return getattr(cls.real(), attr)
+
+    def deferred(module: str, name: str) -> type:
+        def real() -> type:
+            return getattr(import_module(module), name)
+
+        return Deferred(name, (), {"__new__": lambda _cls, *a, **k: real()(*a, **k), "real": staticmethod(real)})
+
+    stand_ins = {}
+    for module, name in (("rich.markdown", "Markdown"), ("rich.traceback", "Traceback")):
+        if module not in sys.modules:
+            stand_ins[module] = sys.modules[module] = ModuleType(module)
+            setattr(stand_ins[module], name, deferred(module, name))
+    try:
+        import typer.rich_utils  # noqa: F401, PLC0415
+    finally:
+        for module in stand_ins:
+            del sys.modules[module]
 
 
 class App(typer.Typer):
@@ -100,6 +207,9 @@ class App(typer.Typer):
     def command(self, *args, cls=None, **kwargs):  # noqa: ANN001, ANN201 (typer's signature)
         return super().command(*args, cls=cls or Command, **kwargs)
 
+
+#: Where each command module registers its command (``@commands.command()``); :class:`Group` builds it from here.
+commands = App()
 
 app = App(
     cls=Group,

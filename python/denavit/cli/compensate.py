@@ -9,10 +9,10 @@ import typer
 
 from ..errors import DenavitError
 from ..io.units import length_scale
-from .common import SI_UNITS, AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, TipLinkOpt, app, console, emit_json, json_target, load_robot, positive, say, spread, status, wrote
+from .common import SI_UNITS, AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, TipLinkOpt, commands, console, emit_json, json_target, load_robot, positive, say, spread, status, wrote
 
 
-@app.command()
+@commands.command()
 def compensate(
     targets: Annotated[str, typer.Argument(help="The program: a CSV of tool poses 'x,y,z,rx,ry,rz' (rotation vector) and/or joint rows 'q1..qn', with a '# units:' line.")],
     nominal: Annotated[str, typer.Option("--nominal", help="The controller's model: a built-in name, a robot file or a URDF.")],

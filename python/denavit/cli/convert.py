@@ -19,7 +19,7 @@ from .common import (
     LengthOpt,
     ModelArg,
     TipLinkOpt,
-    app,
+    commands,
     console,
     emit_json,
     json_target,
@@ -34,7 +34,7 @@ from .common import (
 )
 
 
-@app.command()
+@commands.command()
 def convert(
     model: ModelArg,
     to: Annotated[str, typer.Option("--to", help="dh | mdh | edh | poe | urdf (or an alias: sdh, craig, ...)")],

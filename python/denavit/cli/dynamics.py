@@ -15,7 +15,7 @@ from .common import (
     LengthOpt,
     ModelArg,
     TipLinkOpt,
-    app,
+    commands,
     emit_json,
     fail,
     fmt,
@@ -28,7 +28,7 @@ from .common import (
 )
 
 
-@app.command()
+@commands.command()
 def dynamics(
     model: ModelArg,
     q: Annotated[str | None, typer.Option("--q", help="Joint values, one per joint, in --angle units (prismatic: --length); default zeros.")] = None,

@@ -7,10 +7,10 @@ from typing import Annotated
 import typer
 
 from ..io.units import length_scale
-from .common import SI_UNITS, AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, ModelArg, TipLinkOpt, app, emit_json, json_target, load_robot, num, parse_joint_values, pose_rows, print_rows, say
+from .common import SI_UNITS, AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, ModelArg, TipLinkOpt, commands, emit_json, json_target, load_robot, num, parse_joint_values, pose_rows, print_rows, say
 
 
-@app.command()
+@commands.command()
 def fk(
     model: ModelArg,
     q: Annotated[str | None, typer.Option("--q", help="Joint values, one per joint, in --angle units (default deg; prismatic: --length, default mm), e.g. \"90,-90,90,0,90,0\" (default zeros); beyond the limits: a warning.")] = None,

@@ -13,7 +13,7 @@ from .common import (
     BaseLinkOpt,
     JsonOpt,
     TipLinkOpt,
-    app,
+    commands,
     console,
     convention_name,
     emit_json,
@@ -44,7 +44,7 @@ def example_path(name: str) -> Path:
     return Path(str(resources.files("denavit.data").joinpath(EXAMPLES[key])))
 
 
-@app.command()
+@commands.command()
 def identify(
     data: Annotated[Path | None, typer.Argument(help="Sweeps: long-form CSV, JSON, or a folder of j1.csv..jN.csv.")] = None,
     example: Annotated[str | None, typer.Option("--example", help="Run on data shipped with the package: kr5 (90 deg protocol), kr5-30.")] = None,

@@ -16,7 +16,7 @@ from .common import (
     LengthOpt,
     ModelArg,
     TipLinkOpt,
-    app,
+    commands,
     console,
     emit_json,
     joint_values_out,
@@ -32,7 +32,7 @@ from .common import (
 )
 
 
-@app.command()
+@commands.command()
 def ik(
     model: ModelArg,
     pose: Annotated[str, typer.Option("--pose", help="Target T_world_tool: x, y, z, roll, pitch, yaw (six numbers separated by commas) (--length and --angle units; R = Rz(yaw) Ry(pitch) Rx(roll)) or the rows of the 4x4 pose, 16 (or 12) numbers, the translation in --length units.")],

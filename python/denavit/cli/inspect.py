@@ -7,10 +7,10 @@ from typing import Annotated
 
 import typer
 
-from .common import app, console
+from .common import commands, console
 
 
-@app.command()
+@commands.command()
 def inspect(
     recording: Annotated[Path, typer.Argument(help="A tracker export, a UR RTDE log, a KUKA RSI log, a ROS bag, or a delimited file (with --columns).")],
     data_format: Annotated[str, typer.Option("--format", help="auto (from the content) | tracker | rtde | rsi | bag | columns")] = "auto",

@@ -16,8 +16,8 @@ from .common import (
     LengthOpt,
     ModelArg,
     TipLinkOpt,
-    app,
     calib_unit,
+    commands,
     console,
     convention_name,
     emit_json,
@@ -40,7 +40,7 @@ TOOL_M = (0.05, 0.03, 0.1)
 NOISE_M = 2e-5
 
 
-@app.command()
+@commands.command()
 def plan(
     model: ModelArg,
     ranges: Annotated[str | None, typer.Option("--ranges", help="Sweeps: per-joint start,end pairs in --angle units (prismatic: --length), or 'paper30' / 'paper90' (Hayat Table II).")] = None,

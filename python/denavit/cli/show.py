@@ -16,7 +16,7 @@ from .common import (
     LengthOpt,
     ModelArg,
     TipLinkOpt,
-    app,
+    commands,
     console,
     emit_json,
     json_target,
@@ -34,7 +34,7 @@ if TYPE_CHECKING:
     from ..robot import Robot
 
 
-@app.command()
+@commands.command()
 def models(json_out: JsonOpt = None) -> None:
     """List the built-in robots (names and descriptions: no units)."""
     from ..robot import builtin_names, load  # noqa: PLC0415
@@ -61,7 +61,7 @@ def robot_json(robot: Robot) -> dict:
             "joint_units": si, "home": None if robot.home is None else [float(v) for v in robot.home]}
 
 
-@app.command()
+@commands.command()
 def show(
     model: ModelArg,
     length: LengthOpt = "mm",
@@ -99,7 +99,7 @@ def show(
             wrote(report)
 
 
-@app.command(name="export")
+@commands.command(name="export")
 def export_cmd(
     model: ModelArg,
     length: LengthOpt = "mm",

@@ -9,14 +9,14 @@ from typing import Annotated
 import typer
 
 from ..io.units import angle_scale, length_scale
-from .common import AngleOpt, BaseLinkOpt, LengthOpt, ModelArg, TipLinkOpt, app, fail, load_robot, parse_joint_values, parse_point, parse_ranges, positive, spread, wrote
+from .common import AngleOpt, BaseLinkOpt, LengthOpt, ModelArg, TipLinkOpt, commands, fail, load_robot, parse_joint_values, parse_point, parse_ranges, positive, spread, wrote
 from .plan import NOISE_M, TOOL_M
 
 #: The default orientation noise of simulated 6-DoF poses (rad): 0.005 deg, a 6-DoF probe's (T-Mac class) order.
 NOISE_ROT_RAD = math.radians(0.005)
 
 
-@app.command()
+@commands.command()
 def simulate(
     model: ModelArg,
     output: Annotated[Path, typer.Option("-o", "--output", help="Long-form CSV to write ('-': standard output).")],
