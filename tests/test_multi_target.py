@@ -147,7 +147,7 @@ def test_the_joint_fit_of_several_targets_is_the_same_a_chunk_at_a_time(kr5, mon
     ident = importlib.import_module("denavit.identify")
     from denavit.fitting import joint
 
-    s = sw.simulate(kr5.model(), home=HOME, ranges=RANGES, points_per_sweep=3000, noise=2e-5, noise_q=2e-5, targets=NEST[:3], poses=True, noise_rot=1e-4, seed=4)
+    s = sw.simulate(kr5.model(), home=HOME, ranges=RANGES, points_per_sweep=1500, noise=2e-5, noise_q=2e-5, targets=NEST[:3], poses=True, noise_rot=1e-4, seed=4)
     dqs = ident._motions(s, [])
     starts = [(f.point, f.direction) for f in ident._per_sweep(s, "global", "linear", None, lambda _m: None)]
     homes, R0 = joint.start_homes(s, starts)
@@ -162,7 +162,7 @@ def test_the_joint_fit_of_several_targets_is_the_same_a_chunk_at_a_time(kr5, mon
     # the sigmas' product, has no relative precision of its own)
     a, c = whole["cov_all"], parts["cov_all"]
     assert np.allclose(parts["points"], whole["points"], rtol=0, atol=1e-12) and np.max(np.abs(c - a) / np.sqrt(np.outer(np.diag(a), np.diag(a)))) < 1e-8
-    assert whole["components"] == 12 and peak / (6 * 3000 * 12) < 400
+    assert whole["components"] == 12 and peak / (6 * 1500 * 12) < 400
 
 
 def test_sweep_files_carry_targets_nest_and_orientations(tmp_path):
