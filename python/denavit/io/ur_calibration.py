@@ -116,6 +116,11 @@ def dumps(model: _core.Model, nominal: _core.Table) -> str:
     return "\n".join(lines) + "\n"
 
 
+#: The largest kinematics-parameters file read (characters): the one ur_calibration writes is about 1 kB; a
+#: 3.4 MB fuzzed file had taken over 10 s of CPU in PyYAML's pure-Python loader (libyaml's overflows the C stack).
+MAX_CHARS = 1_000_000
+
+
 def loads(text: str, where: str = "kinematics file") -> np.ndarray:
     """(6, 4, 4) joint origins of a kinematics-parameters file's text (m); one-line errors naming the block."""
     try:
@@ -123,6 +128,8 @@ def loads(text: str, where: str = "kinematics file") -> np.ndarray:
     except ImportError:
         raise DenavitError(f"{where}: reading UR kinematics files needs PyYAML: pip install pyyaml") from None
 
+    if len(text) > MAX_CHARS:  # PyYAML's pure-Python loader reads about 0.3 MB a second
+        raise DenavitError(f"{where}: {len(text) / 1e6:.3g} MB: expected a UR kinematics-parameters file of a few kB (6 joints, 6 numbers each)")
     try:
         doc = yaml.load(text, Loader=_strict_loader(yaml, where))  # noqa: S506 (a SafeLoader, numbers narrowed)
     except yaml.YAMLError as e:
