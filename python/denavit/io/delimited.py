@@ -6,8 +6,8 @@ This module also holds the one number rule of every reader: :func:`number` for a
 attributes), :func:`as_number` for a value a TOML, JSON or YAML parser has already typed (no booleans, no
 strings that look like numbers).
 
-Whole tables of plain numbers (a sweep file's millions of rows) take :func:`numeric_table`, Apache Arrow's
-multithreaded CSV reader (numpy's C reader where Arrow declines), first; whatever they do not take is read row by
+Whole tables of plain numbers (a sweep file's millions of rows) take :func:`numeric_table`, Apache Arrow's CSV
+reader for big ones and numpy's C reader for the rest, first; whatever they do not take is read row by
 row with :func:`number`, whose errors name the line and column.
 """
 
@@ -105,9 +105,9 @@ PLAIN = b"0123456789+-.eE \t\r\n"
 
 def numeric_table(data: bytes, delim: str, ncols: int) -> np.ndarray | None:
     """The (m, ``ncols``) numbers of ``data`` (lines of ``ncols`` cells separated by ``delim``, ``\\n`` or
-    ``\\r\\n`` line ends), parsed at C speed: by :func:`pyarrow.csv.read_csv` (on every core; a quarter of
-    numpy's reader's CPU on a 184 MB sweep file, benchmarks/bench_io.py), or by :func:`numpy.loadtxt` where Arrow
-    declines (blanks around a cell); None when it is not such a table of finite plain decimals, for the caller to
+    ``\\r\\n`` line ends), parsed at C speed: beyond :data:`ARROW_BYTES` by :func:`pyarrow.csv.read_csv` (a
+    quarter of numpy's reader's CPU on a 184 MB sweep file, benchmarks/bench_io.py), else or where Arrow declines
+    (blanks around a cell) by :func:`numpy.loadtxt`; None when it is not such a table of finite plain decimals, for the caller to
     read row by row with :func:`number` (whose errors name the line and the column).
 
     It takes only cells ``[+-]digits[.digits][e[+-]digits]`` with blanks around them (:data:`PLAIN`: the
@@ -126,7 +126,7 @@ def numeric_table(data: bytes, delim: str, ncols: int) -> np.ndarray | None:
         end -= 1
     if not end or data.find(b"\n\n", 0, end) >= 0 or (b"\r" in data and (data.count(b"\r") != data.count(b"\r\n") or data.find(b"\n\r\n", 0, end) >= 0)):
         return None  # a blank line (not a row: the line numbers would slip) or a lone carriage return
-    table = _arrow_table(data[:end], delim, ncols)
+    table = _arrow_table(data[:end], delim, ncols) if end > ARROW_BYTES else None
     if table is None:
         try:
             with warnings.catch_warnings():
@@ -137,6 +137,12 @@ def numeric_table(data: bytes, delim: str, ncols: int) -> np.ndarray | None:
     if table.shape[1] != ncols or not np.isfinite(table).all():
         return None
     return table
+
+
+#: Tables of more bytes than this go to Arrow's reader, smaller ones to numpy's. Arrow reads serially
+#: (``use_threads=False``): a command that exited right after reading with Arrow's thread pool running had once
+#: been aborted at exit ("terminate called without an active exception"); serially it costs the same CPU.
+ARROW_BYTES = 8_000_000
 
 
 def _arrow_table(data: bytes, delim: str, ncols: int) -> np.ndarray | None:
@@ -150,7 +156,7 @@ def _arrow_table(data: bytes, delim: str, ncols: int) -> np.ndarray | None:
     try:
         t = pacsv.read_csv(
             io.BytesIO(data),
-            read_options=pacsv.ReadOptions(column_names=names),
+            read_options=pacsv.ReadOptions(column_names=names, use_threads=False),
             parse_options=pacsv.ParseOptions(delimiter=delim, quote_char=False, double_quote=False, escape_char=False, ignore_empty_lines=False),
             convert_options=pacsv.ConvertOptions(column_types=dict.fromkeys(names, pa.float64()), null_values=[], true_values=[], false_values=[],
                                                  strings_can_be_null=False, quoted_strings_can_be_null=False),
