@@ -760,7 +760,7 @@ def test_a_mirror_without_readings_at_a_symmetric_home_is_a_rigid_motion(kr5):
         home[3] = math.radians(a4)
         ax = _core.axes(kr5.model(), home)
         P, D = np.asarray(ax.points), np.asarray(ax.directions)
-        R, _, dev = register_axes_globally(P, D, P, D, kinds, robot_size(kr5, home), zero, zero, mirrored=True)
+        R, _, dev = register_axes_globally(P, D, P, D, kinds, robot_size(kr5.model(), home), zero, zero, mirrored=True)
         assert (dev.max() < 1e-7) == symmetric, (a4, dev)  # (angles from an arccos: resolved to ~3e-8 rad)
     s = recording(kr5.model(), HOME, np.radians(sw.PAPER_RANGES_DEG[90]), reading_arcsec=(30, 200), seed=1)
     plain = dv.identify(sw.SweepSet([sw.Sweep(x.joint, x.points, None, x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units), nominal=kr5)

@@ -23,6 +23,7 @@ import numpy as np
 
 from . import _core
 from .errors import DenavitError
+from .fitting.checks import robot_size
 from .robot import Robot, joint_values, readings
 
 
@@ -146,7 +147,7 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
     nom, ide = _model(nominal, "nominal"), _model(identified, "identified")
     notes = []
     off = np.asarray(ide.T_flange_tool)[:3, 3]
-    if _is_identity(nom.T_flange_tool) and np.linalg.norm(off) > TOOL_FRACTION * _size(nom):
+    if _is_identity(nom.T_flange_tool) and np.linalg.norm(off) > TOOL_FRACTION * robot_size(nom, np.zeros(nom.nq)):
         # identify's tool is the point it measured (a reflector on the flange), not the controller's tool: with a
         # nominal that has none, the targets and the commands are the flange's, and so is the identified robot
         ide = ide.with_tool(np.eye(4))
@@ -200,14 +201,6 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
 #: point), not the flange's own error: the plausibility checks' bound on an axis's error (fitting.checks.PLAUSIBLE,
 #: 2 %: 27 mm on the KR5), beyond which identify calls a link implausible.
 TOOL_FRACTION = 0.02
-
-
-def _size(model: _core.Model) -> float:
-    """The robot's size (m): the farthest joint axis point and flange from its base at zero."""
-    base = np.asarray(model.T_world_base)[:3, 3]
-    q = np.zeros(model.nq)
-    pts = np.vstack([np.asarray(_core.axes(model, q).points), _core.fk(model.with_tool(np.eye(4)), q)[:3, 3]])
-    return float(np.linalg.norm(pts - base, axis=1).max())
 
 
 def _is_identity(T) -> bool:

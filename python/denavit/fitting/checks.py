@@ -140,12 +140,11 @@ def _line_pair(p0, z0, p1, z1, parallel: bool) -> tuple[float, float]:
     return ang, abs(float(d @ c)) / float(np.linalg.norm(c))
 
 
-def robot_size(nominal, home) -> float:
-    """The robot's size (m): the farthest of its axis points and its tool from its base at ``home``."""
-    model = nominal.model()
-    ax = _core.axes(model, home)
-    base = np.asarray(nominal.table.T_world_base)[:3, 3]
-    return max(max(float(np.linalg.norm(np.asarray(p) - base)) for p in ax.points), float(np.linalg.norm(_core.fk(model, home)[:3, 3] - base)), 1e-3)
+def robot_size(model: _core.Model, q) -> float:
+    """The robot's size (m): the farthest of its axis points and its tool from its base at ``q`` (at least 1 mm)."""
+    base = np.asarray(model.T_world_base)[:3, 3]
+    pts = np.vstack([np.asarray(_core.axes(model, q).points), _core.fk(model, q)[:3, 3]])
+    return max(float(np.linalg.norm(pts - base, axis=1).max()), 1e-3)
 
 
 def _far(da: float, dd: float, sig_a: float, sig_d: float, size: float) -> bool:
@@ -246,7 +245,7 @@ def nominal_plausibility(ex, fits: list, nominal, home, names: list[str], source
     model = nominal.model()
     ax = _core.axes(model, home)
     kinds = list(model.kinds)
-    size = robot_size(nominal, home)
+    size = robot_size(nominal.model(), home)
     nom = _core.extract(ax, "dh").pairs
     npts, ndirs = np.asarray(ax.points), np.asarray(ax.directions)
     sig_a = np.array([_finite(f.sigma_direction) for f in fits])
