@@ -58,7 +58,6 @@ use crate::model::{JointKind, Model};
 use crate::spatial::{Pose, check_pose, pose_error, rotation_angle};
 use nalgebra::{DMatrix, DVectorViewMut, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 use rayon::prelude::*;
-use std::cell::OnceCell;
 use std::f64::consts::{PI, TAU};
 
 /// The iterative method of [`ik`].
@@ -239,21 +238,22 @@ fn mix_seed(seed: u64, index: u64) -> u64 {
     SplitMix64(seed ^ index.wrapping_mul(0xD1B5_4A32_D192_ED03)).next_u64()
 }
 
-/// Per-joint data used by the projection and the restarts.
+/// Per-joint data used by the projection and the restarts, and the model's wrist flips; derived from the
+/// joints once per model ([`Model::ik_bounds`]).
 #[derive(Debug, Clone)]
-struct Bounds {
+pub(crate) struct Bounds {
     lower: Vec<f64>,
     upper: Vec<f64>,
     revolute: Vec<bool>,
     offset: Vec<f64>,
     sample_lo: Vec<f64>,
     sample_hi: Vec<f64>,
-    /// The first joints of the wrist flips ([`wrist_flips`]), found when a projection first needs them.
-    flips: OnceCell<Vec<usize>>,
+    /// The first joints of the wrist flips ([`wrist_flips`]).
+    flips: Vec<usize>,
 }
 
 impl Bounds {
-    fn new(model: &Model) -> Self {
+    pub(crate) fn new(model: &Model) -> Self {
         let n = model.nq();
         let mut b = Self {
             lower: Vec::with_capacity(n),
@@ -262,7 +262,7 @@ impl Bounds {
             offset: Vec::with_capacity(n),
             sample_lo: Vec::with_capacity(n),
             sample_hi: Vec::with_capacity(n),
-            flips: OnceCell::new(),
+            flips: wrist_flips(model),
         };
         for j in model.joints() {
             let (lo, hi, rev) = (j.lower, j.upper, j.kind == JointKind::Revolute);
@@ -306,7 +306,7 @@ impl Bounds {
     /// after `reflect` has mirrored it at the limit it crossed (`2 upper - q`, `2 lower - q`, as in reflective
     /// Newton methods for bounds: Coleman & Li 1996).
     #[inline]
-    fn project(&self, model: &Model, q: &mut [f64], reflect: bool) {
+    fn project(&self, q: &mut [f64], reflect: bool) {
         let mut inside = true;
         for (i, qi) in q.iter_mut().enumerate() {
             *qi = self.wrap(i, *qi);
@@ -315,7 +315,7 @@ impl Bounds {
         if inside {
             return;
         }
-        for &i in self.flips.get_or_init(|| wrist_flips(model)) {
+        for &i in &self.flips {
             if (i..i + 3).all(|k| self.fits(k, q[k])) {
                 continue;
             }
@@ -491,7 +491,7 @@ fn score(pos: f64, rot: f64, o: &IkOptions) -> f64 {
 pub struct IkSolver<'m> {
     model: &'m Model,
     opts: IkOptions,
-    bounds: Bounds,
+    bounds: &'m Bounds,
     jac_eval: Vec<f64>,
     q: Vec<f64>,
     q_trial: Vec<f64>,
@@ -513,7 +513,7 @@ impl<'m> IkSolver<'m> {
         Ok(Self {
             model,
             opts,
-            bounds: Bounds::new(model),
+            bounds: model.ik_bounds(),
             jac_eval: vec![0.0; 6 * n],
             q: vec![0.0; n],
             q_trial: vec![0.0; n],
@@ -604,7 +604,7 @@ impl<'m> IkSolver<'m> {
                 self.q_trial[i] = self.q[i] + self.g[i];
             }
             if self.opts.respect_limits {
-                self.bounds.project(self.model, &mut self.q_trial, false);
+                self.bounds.project(&mut self.q_trial, false);
             }
             let mut et = [0.0; 6];
             let (p, r) = self.evaluate(true, target, &mut et);
@@ -741,7 +741,7 @@ impl<'m> IkSolver<'m> {
                     self.q_trial[i] = self.q_cur[i] + alpha * self.g[i];
                 }
                 if self.opts.respect_limits {
-                    self.bounds.project(self.model, &mut self.q_trial, true);
+                    self.bounds.project(&mut self.q_trial, true);
                 }
                 if self.q_trial.iter().any(|v| !v.is_finite()) {
                     break 'attempt;
@@ -805,7 +805,7 @@ impl<'m> IkSolver<'m> {
                 self.bounds.sample(&mut rng, &mut self.q);
             }
             if self.opts.respect_limits {
-                self.bounds.project(self.model, &mut self.q, false);
+                self.bounds.project(&mut self.q, false);
             }
             let (it, pos, rot) = self.attempt(target, attempt == self.opts.restarts);
             total += it;
@@ -980,7 +980,7 @@ mod tests {
         let b = Bounds::new(&m);
         for reflect in [false, true] {
             let mut q = vec![3.5, -10.0];
-            b.project(&m, &mut q, reflect);
+            b.project(&mut q, reflect);
             assert!((q[0] - (3.5 - TAU)).abs() < 1e-15);
             assert!((q[1] - (-10.0 + 2.0 * TAU)).abs() < 1e-14);
         }
@@ -990,8 +990,8 @@ mod tests {
         let m = Model::new("narrow", *m.t_world_base(), j, *m.t_last_flange(), *m.t_flange_tool()).expect("a valid model");
         let b = Bounds::new(&m);
         let (mut clamped, mut reflected) = (vec![1.25, -2.0], vec![1.25, -2.0]);
-        b.project(&m, &mut clamped, false);
-        b.project(&m, &mut reflected, true);
+        b.project(&mut clamped, false);
+        b.project(&mut reflected, true);
         assert_eq!(clamped, vec![1.0, -0.5]);
         assert_eq!(reflected, vec![0.75, 0.5]);
     }
@@ -1021,7 +1021,7 @@ mod tests {
         let b = Bounds::new(&m);
         let q = vec![0.2, 1.0 - PI, -2.0, 0.5];
         let mut p = q.clone();
-        b.project(&m, &mut p, false);
+        b.project(&mut p, false);
         let flipped = [0.2, 1.0, 2.0 - 0.8, 0.5 + PI - TAU];
         assert!(p.iter().zip(flipped).all(|(a, b)| (a - b).abs() < 1e-15), "{p:?}");
         let (dp, dr) = pose_error(&tool_pose_unchecked(&m, &p), &tool_pose_unchecked(&m, &q));
