@@ -413,12 +413,14 @@ def _scale_spread(s: np.ndarray, sigma: np.ndarray) -> float:
     from scipy.optimize import brentq  # noqa: PLC0415 (scipy is loaded by the fits already)
     from scipy.stats import chi2  # noqa: PLC0415
 
-    bound = float(chi2.ppf(SCALE_SPREAD_LEVEL, len(s))) if len(s) else 0.0
+    if len(s) == 0:
+        return 0.0
+    bound = float(chi2.ppf(SCALE_SPREAD_LEVEL, len(s)))
 
     def excess(t):
         return float(np.sum(s**2 / (sigma**2 + t)) - bound)
 
-    if len(s) == 0 or excess(0.0) <= 0:
+    if excess(0.0) <= 0:
         return 0.0
     return float(brentq(excess, 0.0, float(np.sum(s**2)), xtol=1e-300, rtol=1e-12))
 
@@ -431,7 +433,7 @@ def _spread_note(tau: float) -> str:
             "of its variance in the axes' uncertainty")
 
 
-def _select_scales(sweeps: SweepSet, base: dict, richer: Callable, drift: bool, n_res: int) -> tuple[dict | None, float, list[int], list[tuple]]:
+def _select_scales(sweeps: SweepSet, base: dict, richer: Callable, drift: bool, n_res: int) -> tuple[dict | None, float, list[int], list[tuple], np.ndarray | None, float]:
     """The joints whose reading scale error the data shows, by Schwarz's criterion joint by joint (backward
     elimination): all swept joints' scales fitted, then every scale whose chi-square gain ``(s / sigma)^2`` is
     below ln(residuals) (the BIC's price of one parameter) left out and the rest refitted, until every scale left
@@ -468,8 +470,9 @@ def _select_scales(sweeps: SweepSet, base: dict, richer: Callable, drift: bool, 
             sc, bic = richer(base, per_sweep_home=drift, scales=chosen)
             if sc is None:
                 return None, bic, [], [], None, math.nan
-    # what the dropped scales' own uncertainty (their sigma in the full fit) adds to [c_1, n_1, ..., p]: a scale left
-    # out may be real below the BIC's bound and, trading with its axis's position, moves the axis by up to that
+    # what the dropped scales' uncertainty (the share of their full-fit variance the joints' scatter gives them) adds
+    # to [c_1, n_1, ..., p]: a scale left out may be real below the BIC's bound and, trading with its axis's position,
+    # moves the axis
     dj = [j for j, _, _ in dropped]
     extra = None
     fitted = np.isfinite(full["scale_sigma"])
@@ -554,20 +557,19 @@ def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, not
         if chosen_scales and bic > 0:
             g = refit(sc, per_sweep_home=drift, scales=chosen_scales)
             cov = _with_drift(sweeps, g)[0] if drift else g["cov"]
-            cov = cov if extra is None else cov + extra
             scales = (np.where(np.isfinite(g["scale_sigma"]), g["scales"], 0.0), _scale_cross(g, sweeps.n_joints), g["scale_cov"])
             parts = [f"joint {j + 1} {g['scales'][j] * 1e6:+.4g} +/- {g['scale_sigma'][j] * 1e6:.2g} ppm" for j in range(sweeps.n_joints) if np.isfinite(g["scale_sigma"][j])]
             notes.append(f"auto: the readings' scale errors fitted (BIC lower by {bic:.3g}): {', '.join(parts)}"
                          + (f"; not fitted (the data cannot show them, |scale| < {math.sqrt(math.log(n_res)):.2g} sigma, the BIC's bound): "
                             + ", ".join(f"joint {j + 1} {v * 1e6:+.3g} +/- {e * 1e6:.2g} ppm" for j, v, e in dropped) + _spread_note(tau) if dropped else ""))
         else:
-            cov = cov if extra is None else cov + extra
             why = ("BIC higher by " + format(-bic, ".3g") if sc is not None else
                    f"each below {math.sqrt(math.log(n_res)):.2g} sigma, the BIC's bound: " + ", ".join(f"joint {j + 1} {v * 1e6:+.3g} +/- {e * 1e6:.2g} ppm" for j, v, e in dropped)
                    if dropped else "n/a: no convergence")
             notes.append(f"auto: no reading scale errors fitted ({why}); "
                          "a scale error the data cannot show moves each axis radially by about the scale times the arc's radius"
                          + (_spread_note(tau) if dropped else ""))
+        cov = cov if extra is None else cov + extra
     mis = np.concatenate(g["misfit"])
     return method, _joint_fits(sweeps, fits, g, cov, loss, method), cov, g["home"].mean(axis=0), float(math.sqrt(np.mean(mis**2))), g, scales
 
