@@ -481,10 +481,18 @@ def test_auto_chooses_by_evidence(kr5):
 def test_auto_does_not_find_a_drift_in_exact_readings_on_short_arcs(kr5, seed):
     """Exact readings, no drift, 30 degree arcs: auto chose a home point per sweep on these seeds (the AIC's 2
     per parameter; a home per sweep trades with the tilt of an axis about its arc's tangent), reported a drift of
-    0.24 mm and sigmas 15x the true error. The BIC keeps one home point."""
-    res = dv.identify(recording(kr5.model(), HOME, np.radians(sw.PAPER_RANGES_DEG[30]), seed=seed), nominal=kr5)
+    0.24 mm and sigmas 15x the true error. The BIC keeps one home point, and no axis's sigma is more than 5x its
+    true error (or 0.02 mm, the noise, where the error is smaller). (On seed 300043 the joints' scale estimates scatter
+    beyond their sigmas by chance, so the scales are fitted with that spread as their prior: axes 2 and 3 move by 0.1
+    mm and say so, sigmas 0.16 / 0.13 mm.)"""
+    m = kr5.model()
+    res = dv.identify(recording(m, HOME, np.radians(sw.PAPER_RANGES_DEG[30]), seed=seed), nominal=kr5)
     assert res.method == "global", res.notes
-    assert max(f.sigma_point_perp for f in res.fits) < 5e-5
+    T = np.eye(4)
+    T[:3, 3] = (0.05, 0.03, 0.10)
+    err = axis_errors(res, dv.axes(m, HOME), dv.fk(m.with_tool(T), HOME)[:3, 3])
+    sig = np.array([f.sigma_point_perp for f in res.fits])
+    assert np.all(sig < 5 * np.maximum(err, 2e-5)), (sig, err)
 
 
 def test_locked_joints_off_home_do_not_corrupt_the_axes(kr5):
@@ -629,8 +637,9 @@ def test_the_joint_fit_is_the_same_a_chunk_at_a_time_in_memory_linear_in_the_poi
 def test_reading_scale_errors_are_fitted_where_the_data_shows_them(kr5):
     """Readings 0.1 % off in scale (the joint turns 1.001 times what it reads) on the 90 degree protocol: the joint
     fit with exact scales puts the axes 0.1-0.5 mm off (about the scale times the radius) with sigmas of 0.02 mm;
-    auto fits the scales (the BIC says so, a note gives them), and every axis is within 4 sigma of the truth and
-    every scale within 4 sigma of the simulated one. Exact readings get no scales (one line saying so)."""
+    auto fits the scales (their estimates scatter beyond their sigmas; a note gives them), and every axis is within 4
+    sigma of the truth and every scale within 4 sigma of the simulated one. On exact readings every axis is within 4
+    sigma of the truth and the scales, when their chance scatter gets them fitted, within 4 sigma of zero."""
     m = kr5.model()
     ranges = np.radians(sw.PAPER_RANGES_DEG[90])
     T = np.eye(4)
@@ -650,11 +659,13 @@ def test_reading_scale_errors_are_fitted_where_the_data_shows_them(kr5):
     assert np.all(err < 4 * np.array([f.sigma_point_perp for f in res.fits])), err
     fitted = np.array([f.scale - 1 for f in res.fits])
     sig = np.array([f.scale_sigma for f in res.fits])
-    on = np.isfinite(sig)  # (joint by joint: a scale the data cannot show is left out, its sigma kept in the axes')
-    assert on.sum() >= 3 and np.all(np.abs(fitted[on] - scale[on]) < 4 * sig[on]), (fitted, scale, sig)
-    assert on.all() or any("not fitted (the data cannot show them" in n for n in res.notes), res.notes
+    assert np.all(np.isfinite(sig)) and np.all(np.abs(fitted - scale) < 4 * sig), (fitted, scale, sig)
     exact = dv.identify(recording(m, HOME, ranges, seed=11), nominal=kr5)
-    assert any(n.startswith("auto: no reading scale errors fitted") for n in exact.notes) and all(np.isnan(f.scale) for f in exact.fits)
+    assert np.all(axis_errors(exact, ax, ph) < 4 * np.array([f.sigma_point_perp for f in exact.fits]))
+    if any(n.startswith("auto: no reading scale errors fitted") for n in exact.notes):
+        assert all(np.isnan(f.scale) for f in exact.fits)
+    else:  # the exact scales scatter beyond their sigmas by chance (about every other recording): fitted near zero
+        assert all(abs(f.scale - 1) < 4 * f.scale_sigma for f in exact.fits), [(f.scale - 1, f.scale_sigma) for f in exact.fits]
 
 
 def _write_long_csv(s: sw.SweepSet, path) -> None:
@@ -726,18 +737,14 @@ def test_robust_global_fit_sigmas_are_those_of_least_squares_on_clean_data(kr5):
 
 
 def test_sigmas_do_not_jump_with_a_marginal_reading_scale(kr5):
-    """A joint-6 scale at the BIC's bound (exact readings, 30 degree arcs: +9738 +/- 3700 ppm, a chance 2.6 sigma) is
-    fitted with the linear loss and left out with soft_l1. Every axis's sigma had jumped 10x with that choice (a
-    left-out scale's sigma was kept only when some other scale was fitted); now the other joints' follow the
-    joints' scale scatter on both sides, within 2x of each other. Joint 6's own sigma still changes with its own
-    choice: fitted, its scale's full sigma is in it; left out, only the scatter's share (after model selection no
-    sigma can be right on both sides: Leeb and Poetscher 2005)."""
+    """A joint-6 scale at the BIC's bound (exact readings, 30 degree arcs: +9738 +/- 3700 ppm, a chance 2.6 sigma) had
+    been fitted with the linear loss and left out with soft_l1, and every axis's sigma jumped 10x with that choice
+    (joint by joint selection). The scales are now one population whose spread the data give (no choice per joint):
+    the two losses' sigmas agree within 2x on every joint, joint 6 included."""
     s = recording(kr5.model(), HOME, np.radians(sw.PAPER_RANGES_DEG[30]), seed=1)
     lin, rob = dv.identify(s, nominal=kr5, loss="linear"), dv.identify(s, nominal=kr5, loss="soft_l1")
-    assert np.isfinite(lin.fits[5].scale_sigma) and all(np.isnan(f.scale) for f in rob.fits)  # the choice differs at the bound
-    ratio = np.array([b.sigma_point_perp / a.sigma_point_perp for a, b in zip(lin.fits[:5], rob.fits[:5], strict=True)])
+    ratio = np.array([b.sigma_point_perp / a.sigma_point_perp for a, b in zip(lin.fits, rob.fits, strict=True)])
     assert np.all((ratio > 0.5) & (ratio < 2)), ratio
-    assert any("scatter by" in n for n in rob.notes), rob.notes
 
 
 def mirrored(s: sw.SweepSet, readings: bool) -> sw.SweepSet:
@@ -842,19 +849,19 @@ def test_short_arcs_get_a_note_with_their_predicted_sigma(kr5):
         dv.identify(arcs(1.0, readings=True), nominal=kr5)
 
 
-def test_reading_scales_are_selected_joint_by_joint():
-    """auto selects the reading scales joint by joint (backward elimination by the BIC): readings whose joint 2
-    turns 1 + 1e-3 times its reading, every other joint exact, on the 30 degree protocol (300 points per sweep,
-    0.02 mm tracker noise, 10 arcsec reading noise): joint 2's scale is fitted (about 15 sigma) and within 4 sigma
-    of the truth, and no other joint's (each would pass the BIC's bound sqrt(ln(5400)) = 2.9 sigma by chance in
-    0.4 % of runs), in at least 2 of 3 seeds; the note names the joints left out."""
+def test_a_reading_scale_the_data_show_is_fitted_and_the_others_are_within_their_sigmas_of_zero():
+    """Readings whose joint 2 turns 1 + 1e-3 times its reading, every other joint exact, on the 30 degree protocol
+    (300 points per sweep, 0.02 mm tracker noise, 10 arcsec reading noise): the scales are fitted as one population
+    (their spread from the data, the prior of each): joint 2's is within 4 sigma of the truth and shown by the data
+    (over 5 sigma from zero), every other joint's is within 4 sigma of zero, on every seed; the note gives the spread.
+    (One real scale among six exact ones is no normal population: the spread is then about 1e-3 / sqrt(6), so the
+    wrist scales, whose sigmas are of that size on 30 degree arcs, are only partly drawn to zero, and say so.)"""
     kr5 = dv.load_robot("kr5")
     tool = np.eye(4)
     tool[:3, 3] = (0.05, 0.03, 0.10)
     m = kr5.model().with_tool(np.eye(4))
     scale = np.array([0, 1e-3, 0, 0, 0, 0])
     ranges = np.radians(sw.PAPER_RANGES_DEG[30])
-    good = 0
     for seed in (1, 2, 3):
         rng = np.random.default_rng(seed)
         out = []
@@ -866,9 +873,9 @@ def test_reading_scales_are_selected_joint_by_joint():
             out.append(sw.Sweep(j + 1, p, r + rng.normal(0, np.radians(10 / 3600), r.shape), []))
         s = sw.SweepSet(out, 6, np.asarray(HOME, dtype=float), ["revolute"] * 6, "simulated", {"length": "m", "angle": "rad"})
         res = dv.identify(s, nominal=kr5)
-        fitted = [j for j, f in enumerate(res.fits) if np.isfinite(f.scale_sigma)]
-        f2 = res.fits[1]
-        if fitted == [1] and abs(f2.scale - 1 - 1e-3) < 4 * f2.scale_sigma:
-            good += 1
-            assert any("not fitted (the data cannot show them" in n for n in res.notes), res.notes
-    assert good >= 2, good
+        value = np.array([f.scale - 1 for f in res.fits])
+        sig = np.array([f.scale_sigma for f in res.fits])
+        assert abs(value[1] - 1e-3) < 4 * sig[1] and value[1] > 5 * sig[1], (seed, value, sig)
+        others = np.arange(6) != 1
+        assert np.all(np.abs(value[others]) < 4 * sig[others]), (seed, value, sig)
+        assert any("scatter by tau = " in n for n in res.notes), res.notes

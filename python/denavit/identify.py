@@ -398,18 +398,19 @@ def _scale_cross(g: dict, n: int) -> np.ndarray:
     return np.vstack([cross[:n6], cross[n6:].reshape(-1, 3, n).mean(axis=0)])
 
 
-#: Confidence of the lower bound on the joints' scale scatter (:func:`_scale_spread`): chance scatter of exact
-#: readings gives no scatter in 90 % of recordings (the point estimate, Paule-Mandel's, gave some in about 40 %,
-#: 10x the true error on some exact-readings runs: test_auto_does_not_find_a_drift_in_exact_readings_on_short_arcs).
-SCALE_SPREAD_LEVEL = 0.90
+#: The joints' scale spread tau^2 is the Q-profile's tau^2 at this level of its chi-square (:func:`_scale_spread`): at
+#: 0.5, the median-unbiased estimate. Its 90 % lower bound (used before) took real scale errors as smaller than they
+#: are whenever few joints showed them (one 1.2 m joint-2 axis 60 um off at 3 of its sigmas), and fitting scales
+#: joint by joint by the BIC put a chance 2.9-sigma joint-2 scale on exact 30 degree readings at full weight (d1, a1,
+#: theta2 and a2 off by 2.7-2.9 of their sigmas): 0.6x the Monte Carlo spread in sigma on that protocol.
+SCALE_SPREAD_LEVEL = 0.5
 
 
 def _scale_spread(s: np.ndarray, sigma: np.ndarray) -> float:
     """The spread tau^2 of the joints' true reading scale errors, taken as a zero-mean normal population, from their
-    estimates ``s`` with one-sigma ``sigma``: the lower one-sided ``SCALE_SPREAD_LEVEL`` confidence bound of the
-    Q-profile (Viechtbauer 2007; the mean known to be zero), the tau^2 at which sum s^2 / (sigma^2 + tau^2) equals
-    the chi-square quantile at that level with one degree per joint; zero when the estimates scatter less.
-    Continuous in the estimates."""
+    estimates ``s`` with one-sigma ``sigma``: the tau^2 at which the Q statistic sum s^2 / (sigma^2 + tau^2) equals
+    its chi-square quantile at ``SCALE_SPREAD_LEVEL`` with one degree per joint (the Q-profile, Viechtbauer 2007, with
+    the mean known to be zero); zero when the estimates scatter less. Continuous in the estimates."""
     from scipy.optimize import brentq  # noqa: PLC0415 (scipy is loaded by the fits already)
     from scipy.stats import chi2  # noqa: PLC0415
 
@@ -425,69 +426,34 @@ def _scale_spread(s: np.ndarray, sigma: np.ndarray) -> float:
     return float(brentq(excess, 0.0, float(np.sum(s**2)), xtol=1e-300, rtol=1e-12))
 
 
-def _spread_note(tau: float) -> str:
-    """The notes' words on the uncertainty a left-out scale keeps (:func:`_select_scales`)."""
+def _reading_scales(richer: Callable, base: dict, drift: bool) -> tuple[dict | None, dict | None, float]:
+    """The readings' scale errors as a population (empirical Bayes): every swept joint's scale fitted once freely
+    (``full``), the joints' spread tau from those estimates (:func:`_scale_spread`), then every scale refitted with
+    the prior N(0, tau^2) (:func:`~denavit.fitting.joint.fit_sweeps`' ``scale_prior``): a scale the data show
+    (sigma << tau) keeps its value, one they cannot show (sigma >> tau) stays near zero with about tau of uncertainty
+    in its axis, continuously (no joint-by-joint choice: a chance 2.9-sigma scale on exact readings no longer moves
+    its axis by 2.9 of its full sigmas). Readings whose scales scatter within their sigmas (tau = 0) are taken as exact
+    in scale. Returns (the fit with the prior or None when tau = 0 or a fit does not converge, the free fit or None,
+    tau (nan without the free fit))."""
+    full, _ = richer(base, per_sweep_home=drift, scales=True)
+    if full is None:
+        return None, None, math.nan
+    on = np.isfinite(full["scale_sigma"])
+    tau = math.sqrt(_scale_spread(full["scales"][on], full["scale_sigma"][on]))
     if not tau > 0:
-        return "; their scatter is within their sigmas: taken as exact in scale"
-    return (f"; the scales scatter by {tau * 1e6:.2g} ppm beyond their sigmas, so each left-out scale keeps tau^2 / (sigma^2 + tau^2) "
-            "of its variance in the axes' uncertainty")
+        return None, full, 0.0
+    post, _ = richer(base, per_sweep_home=drift, scales=True, scale_prior=(tau, base["sigma"]))
+    return post, full, tau
 
 
-def _select_scales(sweeps: SweepSet, base: dict, richer: Callable, drift: bool, n_res: int) -> tuple[dict | None, float, list[int], list[tuple], np.ndarray | None, float]:
-    """The joints whose reading scale error the data shows, by Schwarz's criterion joint by joint (backward
-    elimination): all swept joints' scales fitted, then every scale whose chi-square gain ``(s / sigma)^2`` is
-    below ln(residuals) (the BIC's price of one parameter) left out and the rest refitted, until every scale left
-    pays for itself. The scales hardly correlate with each other (|r| < 0.25 on the paper's protocols: each trades
-    with its own axis's position, r ~ 0.99, on arcs away from home), so the weak ones are dropped together. A
-    scale left out is taken as zero, not as exact, since a real scale below the BIC's bound moves its axis
-    (test_reading_scale_errors_are_fitted_where_the_data_shows_them: taken as exact, a dropped joint-5 scale put its
-    axis 5 sigma off): its uncertainty stays in the axes' covariance (``extra``: ``G V G^T``, ``G`` the full fit's
-    regression of [c_1, n_1, ..., p] on the dropped scales, ``V`` each one's shrinkage variance
-    ``sigma^2 tau^2 / (sigma^2 + tau^2)``, its variance given its estimate when the joints' scales are a zero-mean
-    normal population of spread ``tau^2`` (:func:`_scale_spread`, from every joint's estimate in the full fit)).
-    Readings whose scale estimates scatter no more than their sigmas (tau = 0) are taken as exact in scale (on exact
-    readings and 30 degree arcs the full fit's wrist-scale sigmas would put 0.23 mm on every axis); the more the
-    joints' scales scatter, the more of each dropped scale's full-fit sigma is kept, continuously: the sigmas do not
-    jump when one marginal scale crosses the BIC's bound (it had been all or nothing on whether any scale was
-    fitted: 10x on the wrist axes, test_sigmas_do_not_jump_with_a_marginal_reading_scale). Fitted, a wrist scale known
-    to +/- 470 ppm from a 30 degree arc of 58 mm radius carried its value's error over the targets' +/- 300 degrees
-    (benchmarks/bench_compensate.py).
-    Returns (fit, its BIC against ``base``, the joints fitted (0-based), the joints left out as (joint, value,
-    sigma) in the full fit, ``extra`` (6n+3, 6n+3) or None, tau (nan when the full fit does not converge))."""
-    sc, bic = richer(base, per_sweep_home=drift, scales=True)
-    if sc is None:
-        return None, bic, [], [], None, math.nan
-    chosen = [j for j in range(sweeps.n_joints) if np.isfinite(sc["scale_sigma"][j])]
-    full, dropped = sc, []
-    while chosen:
-        z2 = {j: (sc["scales"][j] / sc["scale_sigma"][j]) ** 2 if sc["scale_sigma"][j] > 0 else 0.0 for j in chosen}
-        weak = [j for j in chosen if z2[j] < math.log(n_res)]
-        if not weak:
-            break
-        dropped += [(j, float(full["scales"][j]), float(full["scale_sigma"][j])) for j in weak]
-        chosen = [j for j in chosen if j not in weak]
-        if chosen:
-            sc, bic = richer(base, per_sweep_home=drift, scales=chosen)
-            if sc is None:
-                return None, bic, [], [], None, math.nan
-    # what the dropped scales' uncertainty (the share of their full-fit variance the joints' scatter gives them) adds
-    # to [c_1, n_1, ..., p]: a scale left out may be real below the BIC's bound and, trading with its axis's position,
-    # moves the axis
-    dj = [j for j, _, _ in dropped]
-    extra = None
-    fitted = np.isfinite(full["scale_sigma"])
-    tau2 = _scale_spread(full["scales"][fitted], full["scale_sigma"][fitted])
-    if dj:
-        v = full["scale_sigma"][dj] ** 2
-        g = _scale_cross(full, sweeps.n_joints)[:, dj] @ np.linalg.pinv(full["scale_cov"][np.ix_(dj, dj)])  # d[c, n, p] / d scale
-        extra = (g * (v * tau2 / (v + tau2))) @ g.T
-    return (sc, bic, chosen, sorted(dropped), extra, math.sqrt(tau2)) if chosen else (None, -math.inf, [], sorted(dropped), extra, math.sqrt(tau2))
+def _scale_list(g: dict, n: int) -> str:
+    return ", ".join(f"joint {j + 1} {g['scales'][j] * 1e6:+.4g} +/- {g['scale_sigma'][j] * 1e6:.2g} ppm" for j in range(n) if np.isfinite(g["scale_sigma"][j]))
 
 
 def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, notes: list[str], chosen: str, rotation_noise=None):
     """The joint fit(s) with readings: ``chosen`` "global", or "auto" (evidence: the per-sweep fits when the
     readings are worth nothing, else one home point or one per sweep, and the readings' scale errors joint by
-    joint (:func:`_select_scales`), each by the BIC; with scales fitted, a home point per sweep must win again). ``homes0`` (k, 3) the start home points of the targets, ``R0`` the start orientation at home
+    (:func:`_reading_scales`), each by the BIC or their spread; with scales fitted, a home point per sweep must win again). ``homes0`` (k, 3) the start home points of the targets, ``R0`` the start orientation at home
     (6-DoF poses) or None. Returns (method, fits, cov, tool point, rms, the joint fit's result or None, scales): ``scales`` None, or
     when fitted (values (n,), their covariance with [c_1, n_1, ..., p] (6n+3, n), their covariance (n, n)); zeros
     where a joint's scale was not fitted."""
@@ -539,37 +505,29 @@ def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, not
             notes.append(f"auto: global (one home point) over readings (a home point per sweep): {why}; estimated reading error "
                          f"{', '.join(sq)} arcsec per sweep, point noise {g['sigma'] * 1e3:.3g} mm")
         drift = method == "readings"
-        sc, bic, chosen_scales, dropped, extra, tau = _select_scales(sweeps, g, richer, drift, n_res)
-        if drift and chosen_scales and bic > 0:
+        post, full, tau = _reading_scales(richer, g, drift)
+        if drift and post is not None:
             # the drift was chosen before the scales: unmodelled scale errors look like a drift; with the scales
             # fitted, a home point per sweep must pay for itself again (the BIC, on the same weights)
-            gs, _ = richer(g_global, scales=chosen_scales)
-            gs = refit(gs, scales=chosen_scales) if gs is not None else None
-            dd, bic_d = richer(gs, per_sweep_home=True, scales=chosen_scales) if gs is not None else (None, math.inf)
+            gs, _ = richer(g_global, scales=True, scale_prior=(tau, g_global["sigma"]))
+            gs = refit(gs, scales=True, scale_prior=(tau, g_global["sigma"])) if gs is not None else None
+            dd, bic_d = richer(gs, per_sweep_home=True, scales=True, scale_prior=(tau, g_global["sigma"])) if gs is not None else (None, math.inf)
             if bic_d <= 0:
                 why = f"BIC higher by {-bic_d:.3g}" if dd is not None else "a home point per sweep does not converge with the scales"
-                notes.append(f"auto: with the scales of joints {', '.join(str(j + 1) for j in chosen_scales)} fitted, one home point again ({why}): "
-                             "the drift was the scale errors")
-                # the scales chosen again about one home point (their sigmas and the dropped ones' covariance with it)
-                method, drift, cov = "global", False, g_global["cov"]
-                g = g_global
-                sc, bic, chosen_scales, dropped, extra, tau = _select_scales(sweeps, g, richer, drift, n_res)
-        if chosen_scales and bic > 0:
-            g = refit(sc, per_sweep_home=drift, scales=chosen_scales)
+                notes.append(f"auto: with the reading scales fitted, one home point again ({why}): the drift was the scale errors")
+                method, drift, cov, g = "global", False, g_global["cov"], g_global
+                post, full, tau = _reading_scales(richer, g, drift)
+        if post is not None:
+            g = refit(post, per_sweep_home=drift, scales=True, scale_prior=(tau, g["sigma"]))
             cov = _with_drift(sweeps, g)[0] if drift else g["cov"]
-            scales = (np.where(np.isfinite(g["scale_sigma"]), g["scales"], 0.0), _scale_cross(g, sweeps.n_joints), g["scale_cov"])
-            parts = [f"joint {j + 1} {g['scales'][j] * 1e6:+.4g} +/- {g['scale_sigma'][j] * 1e6:.2g} ppm" for j in range(sweeps.n_joints) if np.isfinite(g["scale_sigma"][j])]
-            notes.append(f"auto: the readings' scale errors fitted (BIC lower by {bic:.3g}): {', '.join(parts)}"
-                         + (f"; not fitted (the data cannot show them, |scale| < {math.sqrt(math.log(n_res)):.2g} sigma, the BIC's bound): "
-                            + ", ".join(f"joint {j + 1} {v * 1e6:+.3g} +/- {e * 1e6:.2g} ppm" for j, v, e in dropped) + _spread_note(tau) if dropped else ""))
+            scales = (g["scales"].copy(), _scale_cross(g, sweeps.n_joints), g["scale_cov"])
+            notes.append(f"auto: the readings' scale errors fitted (the joints' scales scatter by tau = {tau * 1e6:.3g} ppm beyond their sigmas, "
+                         f"each fitted with that spread as its prior: one the data cannot show stays near zero): {_scale_list(g, sweeps.n_joints)}")
         else:
-            why = ("BIC higher by " + format(-bic, ".3g") if sc is not None else
-                   f"each below {math.sqrt(math.log(n_res)):.2g} sigma, the BIC's bound: " + ", ".join(f"joint {j + 1} {v * 1e6:+.3g} +/- {e * 1e6:.2g} ppm" for j, v, e in dropped)
-                   if dropped else "n/a: no convergence")
-            notes.append(f"auto: no reading scale errors fitted ({why}); "
-                         "a scale error the data cannot show moves each axis radially by about the scale times the arc's radius"
-                         + (_spread_note(tau) if dropped else ""))
-        cov = cov if extra is None else cov + extra
+            why = (f"the joints' scale estimates scatter within their sigmas: {_scale_list(full, sweeps.n_joints)}; taken as exact in scale"
+                   if full is not None else "n/a: no convergence")
+            notes.append(f"auto: no reading scale errors fitted ({why}); a scale error the data cannot show moves each axis radially by about the "
+                         "scale times the arc's radius")
     mis = np.concatenate(g["misfit"])
     return method, _joint_fits(sweeps, fits, g, cov, loss, method), cov, g["home"].mean(axis=0), float(math.sqrt(np.mean(mis**2))), g, scales
 

@@ -247,7 +247,8 @@ def start_homes(sweeps, starts) -> tuple[np.ndarray, np.ndarray | None]:
 
 
 def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "linear", per_sweep_home: bool = False,
-               scales=False, noise_sigma=None, gamma=None, offsets0=None, rotation0=None, rotation_sigma=None, where: str = ""):
+               scales=False, scale_prior=None, noise_sigma=None, gamma=None, offsets0=None, rotation0=None, rotation_sigma=None,
+               where: str = ""):
     """The joint fit of all sweeps (module docstring). ``dqs`` per sweep (m, n) joint motions from home
     (:func:`locked_motion`), ``starts`` per joint (point, direction) start lines, ``p0`` the start home point (of
     the first target); with several targets ``offsets0`` (k - 1, 3) the start offsets of the other targets' home
@@ -255,7 +256,10 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     :func:`start_homes`) and ``rotation_sigma`` (rad) the declared orientation noise (default: estimated).
 
     ``scales``: False (none), True (every swept joint's reading scale error is a parameter) or the joints
-    (0-based) whose scale is one (:func:`denavit.identify._choose` selects them joint by joint).
+    (0-based) whose scale is one. ``scale_prior``: None, or ``(tau, sigma)``: every fitted scale is drawn from a
+    zero-mean normal population of standard deviation ``tau`` (a pseudo-observation ``s_j / tau`` weighted against the
+    points as ``(sigma / tau)^2``, ``sigma`` the point noise of the caller's simpler fit), so the fit is the posterior
+    mode and its covariance the posterior's (:func:`denavit.identify._reading_scales`).
 
     Returns a dict: ``points`` (n, 3) feet of the home point on each axis, ``directions`` (n, 3), ``home``
     (S, 3) home point per sweep (all equal without ``per_sweep_home``), ``cov`` of [c_1, n_1, ..., c_n, n_n,
@@ -293,6 +297,8 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     i_rot = i_off + 3 * (K - 1)
     i_sc = i_rot + (3 if rot else 0)
     npar = i_sc + len(swept)
+    prior_w = 0.0 if scale_prior is None or not swept else (scale_prior[1] / scale_prior[0]) ** 2
+    i_prior = np.arange(i_sc, npar)
     D = 3 * K + (3 if rot else 0)  # residual components per pose
     active = [[i for i in range(n) if np.any(dq[:, i] != 0)] for dq in dqs]
     size = max(float(np.sqrt(np.mean(np.sum((s.points - s.points.mean(axis=0)) ** 2, axis=1)))) for s in sweeps.sweeps)
@@ -413,6 +419,11 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
                     Bd[np.ix_(idx, idx)] += (gw * c) @ gw.T
                 rt_k[rows], lever_k[rows], rw_k[:, rows], r_k[:, rows] = rt, lever, rw, r
             parts.append((idx, Gt, rt_k, lever_k, rw_k, r_k, Gr, rr_k))
+        if prior_w:  # the scales' prior: the pseudo-observations s_j / tau, at the points' weight
+            for M_ in (A, A2) if A2 is not None else (A,):
+                M_[i_prior, i_prior] += prior_w
+            b[i_prior] += prior_w * sc_[swept]
+            ss += prior_w * float(np.sum(sc_[swept] ** 2))
         if bread:
             return A + Bd, A2, b, ss, parts
         return A, A, b, ss, parts
@@ -435,7 +446,7 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         for k in range(S):
             for rows, r, mv, _ in chunks(k, cs, ns, homes_, offs_, R_, sc_, wr, False):
                 total += float(np.sum(ws[k][rows] * np.sum(whitened(r, tangent(mv)[0], gam[k])[0] ** 2, axis=0)))
-        return total
+        return total + prior_w * float(np.sum(sc_[swept] ** 2))
 
     # Levenberg-Marquardt steps on the whitened, robustly weighted cost, one pass over the points per step; the
     # variance components (gamma, the orientation weight) and the robust scale (f) of each pass are those of the
