@@ -66,11 +66,12 @@ def main() -> None:
     ap.add_argument("--realistic", type=int, default=0, metavar="RUNS", help="Monte Carlo runs of the realistic cases (0: skip)")
     ap.add_argument("--targets", type=int, default=3, help="targets on one body for the multi-target check (1-4; 1: skip)")
     ap.add_argument("--skip-paper", action="store_true", help="skip the paper protocol tables")
+    ap.add_argument("--no-shared", action="store_true", help="skip the shared fits (several targets at once, 6-DoF poses) of --realistic")
     args = ap.parse_args()
     methods = args.methods.split(",")
     if args.realistic:
         realistic(args.realistic, args.points, methods if "auto" in methods else [m for m in methods if m != "hyper"] + ["auto"], args.targets,
-                  [int(p) for p in args.protocols.split(",")])
+                  [int(p) for p in args.protocols.split(",")], shared=not args.no_shared)
     if args.skip_paper:
         return
     kr5 = dv.load_robot("kr5")
@@ -159,7 +160,7 @@ class _Truth:
         self.point, self.direction, self.cov = c + n * ((fit.point - c) @ n), n, np.zeros((6, 6))
 
 
-def realistic(runs: int, points: int, methods: list, targets: int = 3, protocols=(90, 30)) -> None:
+def realistic(runs: int, points: int, methods: list, targets: int = 3, protocols=(90, 30), shared: bool = True) -> None:
     kr5 = dv.load_robot("kr5")
     truth = kr5.model()
     home = np.radians(sw.PAPER_HOME_DEG)
@@ -175,7 +176,7 @@ def realistic(runs: int, points: int, methods: list, targets: int = 3, protocols
         shared_rows = []
         for case, kw in CASES.items():
             kasa = None
-            for label, how in ([(f"auto x{targets} targets", "targets")] if targets > 1 else []) + [("auto 6-DoF", "poses")]:
+            for label, how in (([(f"auto x{targets} targets", "targets")] if targets > 1 else []) + [("auto 6-DoF", "poses")]) * shared:
                 est, sig, pe, chose, within, rot_c2, rot_e, rot_s = [], [], [], collections.Counter(), [], [], [], []
                 for run in range(runs):
                     if how == "targets":
@@ -237,6 +238,8 @@ def realistic(runs: int, points: int, methods: list, targets: int = 3, protocols
                 ag = f"{100 * np.mean(agree):14.0f}%" if agree else f"{'-':>15}"
                 print(f"{case:<40}{method:<11}{pos:12.4f}{gain}{np.median(ratio):14.2f}{100 * inband:12.0f}%{ag}   "
                       + (", ".join(f"{k} {v}" for k, v in chose.items()) if chose else "") + ("; " + ", ".join(names) if names else ""))
+        if not shared:
+            continue
         print(f"shared fits (one fit with shared axes; tool orientation identified), {protocol} degree protocol:")
         print(f"{'case':<40}{'data':<18}{'axis err mm':>12}{'sigma/spread':>14}{'in 0.8-1.25':>13}{'axes in 99%':>14}{'tool in 99%':>13}"
               f"{'tool err':>10}{'sigma':>10}   auto chose   (tool orientation error and mean sigma in arcsec)")
