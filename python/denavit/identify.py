@@ -62,6 +62,7 @@ class Identification:
     tool_orientation: str = "nominal"  # where the tool frame's orientation came from: "nominal", "poses", "nest" or "targets" (TOOL_ORIENTATION)
     tool_rotation_cov: np.ndarray | None = None  # (3, 3) rad^2: covariance of the tool frame's orientation at home (a small rotation in world), None if from the nominal
     target_points: np.ndarray | None = None  # (k, 3) m: each target's point at home in world (several targets per pose)
+    tracker_noise: TrackerNoise | None = None  # the tracker's range/angle noise model the joint fit weighted the points by (None: isotropic)
 
     @property
     def tool_rotation_sigma(self) -> float:
@@ -913,7 +914,8 @@ def identify(
         notes.append(f"the {convention} table carries a tool-position error up to {ex.max_position_error * 1e3:.4f} mm ({exact})")
     return Identification(method, convention, ax, fits, ex, sigma, cov, p_home, sweeps, nominal, nominal_table, rms, notes, param_cov,
                           reading_scale=None if scales is None else scales[0], axis_scale_cov=full_cov, coupling=coupling,
-                          tool_orientation=orientation, tool_rotation_cov=rot_cov, target_points=target_points)
+                          tool_orientation=orientation, tool_rotation_cov=rot_cov, target_points=target_points,
+                          tracker_noise=tracker if joint is not None else None)
 
 
 def _finite(v: float) -> float | None:
@@ -971,6 +973,9 @@ def to_json(result: Identification, *, box: bool = True) -> dict:
         "max_tool_position_error_m": result.extraction.max_position_error,
         **({"bounding_box": _box_json(result.box)} if box else {}),
         "rms_m": result.rms,
+        # the tracker's range/angle noise model the joint fit weighted the points by (null: isotropic point noise)
+        "tracker_noise": None if (tn := result.tracker_noise) is None else {"sigma_range_m": tn.sigma_range, "sigma_angle_rad": tn.sigma_angle,
+                                                                             "position_m": list(tn.position)},
         "notes": result.notes,
     }
 

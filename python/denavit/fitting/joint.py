@@ -103,7 +103,7 @@ def as_tracker_noise(value) -> TrackerNoise | None:
     if value is None or isinstance(value, TrackerNoise):
         return value
     try:
-        items = list(value)
+        items = None if isinstance(value, (str, bytes)) else list(value)
     except TypeError:
         items = None
     if items is None or len(items) not in (2, 3):
