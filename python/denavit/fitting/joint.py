@@ -20,7 +20,7 @@ rotations of the same chain, ``R_k = R(n_1, dq_1k) ... R(n_n, dq_nk) R_0``; its 
 variance component estimated from the residuals across the swept axis). A pose is then one residual vector of
 ``3 k (+ 3)`` components, whose reading error moves every component along one direction (the tangent below).
 
-Errors: the points carry isotropic noise ``sigma``; the swept joint's readings carry white errors, so along the
+Errors: the points carry isotropic noise ``sigma`` (or a tracker's range/angle noise, below); the swept joint's readings carry white errors, so along the
 motion a point's misfit has the variance ``tau_s^2 = sigma^2 + (lever sigma_q)^2`` (effective variance, as the
 readings fit of :mod:`denavit.fitting.readings`). ``sigma`` (pooled across the motion) and each sweep's
 ``tau_s`` are variance components estimated over their redundancies, together with the Gauss-Newton /
@@ -30,6 +30,20 @@ the variance components and the robust scale hold still, at a step of at most ``
 (its Mahalanobis length under the covariance), or when the cost changes by no more than its round-off (about
 eps times the largest coordinate times the root of the cost): a rule free of the number of points, whereas a
 relative cost decrease of 1e-14 is near the round-off of a million-point cost and had cost extra passes.
+
+A laser tracker's noise is not isotropic: the distance (ADM / interferometer) is precise, the two angles less so, so
+across the line of sight the noise grows with the range. With a tracker model (``tracker``, :class:`TrackerNoise`:
+the tracker's position, ``sigma_range`` and ``sigma_angle``) a point's covariance is
+``sigma^2 A_k``, ``A_k = (sigma_range^2 u u^T + (sigma_angle rho_k)^2 (I - u u^T)) / ref^2`` (``u`` the unit line of
+sight from the tracker to the measured point, ``rho_k`` its range, ``ref^2`` the mean of the declared per-coordinate
+variance over all points: ``sigma`` stays the point noise in metres, RMS per coordinate, and the variance component
+that scales the declared shape). Each target's residual, Jacobian rows and motion ``d p / d q`` are whitened by
+``A_k^(-1/2) = a^(-1/2) u u^T + b^(-1/2) (I - u u^T)``; the effective covariance ``sigma^2 A_k + (lever sigma_q)^2 t
+t^T`` is then ``sigma^2 I + (lever sigma_q)^2 v v^T``, ``v = A_k^(-1/2) t``, and the reading error's whitening applies
+along the unit ``v``, with a factor per pose, ``gamma_k = sigma / sqrt(sigma^2 + (|v| lever sigma_q)^2)`` (the
+whitened lever changes along the arc as the motion turns against the line of sight); each sweep's variance
+component is its ``gamma`` at a reference lever (the RMS of its poses' at the start). Without it (the default) the
+points are isotropic and nothing of this runs.
 """
 
 from __future__ import annotations
@@ -328,7 +342,9 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     (0-based) whose scale is one. ``scale_prior``: None, or ``(tau, sigma)``: every fitted scale is drawn from a
     zero-mean normal population of standard deviation ``tau`` (a pseudo-observation ``s_j / tau`` weighted against the
     points as ``(sigma / tau)^2``, ``sigma`` the point noise of the caller's simpler fit), so the fit is the posterior
-    mode and its covariance the posterior's (:func:`denavit.identify._reading_scales`).
+    mode and its covariance the posterior's (:func:`denavit.identify._reading_scales`). ``tracker`` a
+    :class:`TrackerNoise` (or (sigma_range m, sigma_angle rad[, position m])): the points' covariances take its
+    range/angle shape (module docstring); None: isotropic.
 
     Returns a dict: ``points`` (n, 3) feet of the home point on each axis, ``directions`` (n, 3), ``home``
     (S, 3) home point per sweep (all equal without ``per_sweep_home``), ``cov`` of [c_1, n_1, ..., c_n, n_n,
@@ -342,7 +358,9 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     fitted), ``misfit`` per sweep (m,) 3-D distances (RMS over the targets of a pose), ``weights`` per sweep (m,)
     robust weights, ``whitened`` per sweep (m,) misfits in point-noise units (norms of ``components`` components),
     ``sigma`` the point
-    noise, ``reading_sigma`` per sweep, ``ss`` the whitened sum of squares and ``n_params``.
+    noise, ``reading_sigma`` per sweep, ``ss`` the whitened sum of squares and ``n_params``; ``tracker_ref2`` the
+    tracker model's reference variance (m^2: ``sigma / sqrt(tracker_ref2)`` is the point noise over the declared; nan
+    without a model).
     """
     kinds = sweeps.kinds
     n, S = sweeps.n_joints, len(sweeps.sweeps)
