@@ -20,6 +20,12 @@ shared axes, the tool orientation from the nest) and on 6-DoF poses of the first
 rad): the same columns, the share of axes within their sigmas of the truth (chi-square, 99 %) and of the tool
 orientation (3 degrees of freedom, 99 %), and its RMS error against its mean sigma. How identify scales with the
 points per sweep (time, peak memory, growth exponent): ``benchmarks/bench_scale_identify.py``.
+
+``--tracker RUNS``: Monte Carlo of the tracker's range/angle noise model (issue 12; the points drawn with a tracker's
+noise, ``--tracker-noise`` "sigma_range_um,sigma_angle_arcsec,x,y,z_m", default 5 um, 5 arcsec at (3, 0, 1) m,
+2.1-3.2 m from the KR5's points; exact readings, or ``--tracker-readings`` lo,hi arcsec): the global fit with the
+model and the isotropic one on the same data, per joint the RMS axis-position error, its ratio to the mean reported
+sigma (1 = honest) and the isotropic fit's RMS error over the model's (the accuracy gained).
 """
 
 from __future__ import annotations
@@ -37,8 +43,9 @@ import denavit as dv
 from denavit import sweeps as sw
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from real_effects import CHI2_99, NEST, axis_chi2, recordings  # noqa: E402 (the simulator of real effects the tests use)
+from real_effects import ARCSEC, CHI2_99, NEST, axis_chi2, recordings  # noqa: E402 (the simulator of real effects the tests use)
 
+from denavit.fitting.joint import TrackerNoise  # noqa: E402
 from denavit.geometry import matrix_rotvec  # noqa: E402
 
 METHODS = ["kasa", "hyper", "geometric", "readings", "global"]
@@ -56,6 +63,35 @@ def line_errors(res, truth_axes, p_tool_home):
     return np.array(d_err), np.array(p_err)
 
 
+def tracker_mc(runs: int, points: int, tracker: TrackerNoise, reading_arcsec, protocols) -> None:
+    """The tracker noise model against the isotropic fit on the same data (module docstring, ``--tracker``)."""
+    truth = dv.load_robot("kr5").model()
+    home = np.radians(sw.PAPER_HOME_DEG)
+    T = np.eye(4)
+    T[:3, 3] = (0.05, 0.03, 0.10)
+    ax, ph = dv.axes(truth, home), dv.fk(truth.with_tool(T), home)[:3, 3]
+    for protocol in protocols:
+        ranges = np.radians(sw.PAPER_RANGES_DEG[protocol])
+        err, sig, err_iso, sig_iso = [], [], [], []
+        t0 = time.perf_counter()
+        for run in range(runs):
+            s = recordings(truth, home, ranges, points=points, tracker_noise=tracker, reading_arcsec=reading_arcsec, seed=run)[0]
+            for e, sg, kw in ((err, sig, {"tracker_noise": tracker}), (err_iso, sig_iso, {})):
+                res = dv.identify(s, method="global", **kw)
+                e.append(line_errors(res, ax, ph)[1])
+                sg.append([f.sigma_point_perp for f in res.fits])
+        err, sig, err_iso, sig_iso = map(np.array, (err, sig, err_iso, sig_iso))
+        rms, rms_iso = np.sqrt(np.mean(err**2, axis=0)), np.sqrt(np.mean(err_iso**2, axis=0))
+        print(f"\n=== tracker noise {tracker.sigma_range * 1e6:g} um, {tracker.sigma_angle / ARCSEC:g} arcsec at {tracker.position} m, {protocol} degree "
+              f"protocol, {points} points per sweep, readings {str(reading_arcsec) + ' arcsec' if reading_arcsec else 'exact'}, {runs} runs ({time.perf_counter() - t0:.1f} s)")
+        print("joint   rms err model [um]   err / sigma model   rms err isotropic [um]   err / sigma isotropic   gain (isotropic / model)")
+        for j in range(6):
+            print(f"{j + 1:5d}   {rms[j] * 1e6:20.3g}   {rms[j] / sig[:, j].mean():17.3f}   {rms_iso[j] * 1e6:22.3g}   {rms_iso[j] / sig_iso[:, j].mean():21.3f}   "
+                  f"{rms_iso[j] / rms[j]:24.3f}")
+        print(f"pooled err / sigma: model {np.sqrt(np.mean((err / sig) ** 2)):.3f}, isotropic {np.sqrt(np.mean((err_iso / sig_iso) ** 2)):.3f}; "
+              f"gain geometric mean {math.exp(np.mean(np.log(rms_iso / rms))):.3f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--runs", type=int, default=40)
@@ -67,8 +103,15 @@ def main() -> None:
     ap.add_argument("--targets", type=int, default=3, help="targets on one body for the multi-target check (1-4; 1: skip)")
     ap.add_argument("--skip-paper", action="store_true", help="skip the paper protocol tables")
     ap.add_argument("--no-shared", action="store_true", help="skip the shared fits (several targets at once, 6-DoF poses) of --realistic")
+    ap.add_argument("--tracker", type=int, default=0, metavar="RUNS", help="Monte Carlo runs of the tracker noise model (0: skip)")
+    ap.add_argument("--tracker-noise", default="5,5,3,0,1", help="sigma_range um, sigma_angle arcsec, tracker x, y, z m")
+    ap.add_argument("--tracker-readings", default=None, help="lo,hi arcsec: the readings' white error (default exact)")
     args = ap.parse_args()
     methods = args.methods.split(",")
+    if args.tracker:
+        v = [float(x) for x in args.tracker_noise.split(",")]
+        rd = None if args.tracker_readings is None else tuple(float(x) for x in args.tracker_readings.split(","))
+        tracker_mc(args.tracker, args.points, TrackerNoise(v[0] * 1e-6, v[1] * ARCSEC, tuple(v[2:5])), rd, [int(p) for p in args.protocols.split(",")])
     if args.realistic:
         realistic(args.realistic, args.points, methods if "auto" in methods else [m for m in methods if m != "hyper"] + ["auto"], args.targets,
                   [int(p) for p in args.protocols.split(",")], shared=not args.no_shared)

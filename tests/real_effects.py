@@ -16,6 +16,7 @@ import numpy as np
 
 from denavit import _core
 from denavit import sweeps as sw
+from denavit.fitting.joint import as_tracker_noise
 from denavit.geometry import rotvec_matrix
 
 ARCSEC = math.radians(1 / 3600)
@@ -46,6 +47,7 @@ def recordings(
     targets=(TOOL,),
     poses: bool = False,
     noise_rot: float = 1e-4,
+    tracker_noise=None,
     seed: int = 0,
 ) -> list[sw.SweepSet]:
     """Simulated recordings of ``model`` swept over ``ranges`` (rad, (n, 2)) about ``home`` (rad), one per target.
@@ -62,8 +64,13 @@ def recordings(
         draws are those of a recording of it alone).
     poses : the first target is a 6-DoF probe: its sweeps carry the measured orientation (the flange's) with noise
         ``noise_rot`` (rad per component of a rotation vector, drawn after everything else).
+    tracker_noise : a :class:`denavit.fitting.joint.TrackerNoise` (or (sigma_range m, sigma_angle rad[, position m])):
+        the tracker's range/angle noise instead of the isotropic ``noise``: the same standard normal draws, their
+        component along the line of sight from the tracker to the true point times sigma_range, across it times
+        sigma_angle times the range.
     """
     rng = np.random.default_rng(seed)
+    tracker = as_tracker_noise(tracker_noise)
     n = model.nq
     home = np.asarray(home, dtype=float)
     flange = model.with_tool(np.eye(4))
@@ -84,7 +91,10 @@ def recordings(
         m = len(q)
         T = _core.fk_batch(flange, q)
         ps = [T[:, :3, :3] @ tool + T[:, :3, 3] for tool in tools]
-        ps = [p + (rng if k == 0 else np.random.default_rng([seed, j, k])).normal(0.0, noise, p.shape) for k, p in enumerate(ps)]
+        if tracker is None:
+            ps = [p + (rng if k == 0 else np.random.default_rng([seed, j, k])).normal(0.0, noise, p.shape) for k, p in enumerate(ps)]
+        else:
+            ps = [p + _tracker_draw(tracker, p, (rng if k == 0 else np.random.default_rng([seed, j, k])).normal(0.0, 1.0, p.shape)) for k, p in enumerate(ps)]
         if drift:
             d = rng.normal(0.0, drift / math.sqrt(3), 3)
             ps = [p + d for p in ps]
@@ -99,6 +109,15 @@ def recordings(
             out[k].append(sw.Sweep(j + 1, p, read, [f"recording sweep {j + 1}, row {r + 1}" for r in range(m)], None, rot if k == 0 else None))
     return [sw.SweepSet(o, n, home * (1 + sc) + offset, list(model.kinds), f"recording of {model.name}" + (f", target {k + 1}" if len(tools) > 1 else ""),
                         {"length": "m", "angle": "rad"}) for k, o in enumerate(out)]
+
+
+def _tracker_draw(tracker, p: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """The tracker's noise at the true points p (m, 3) from standard normal draws z (m, 3): along the line of sight
+    times sigma_range, across it times sigma_angle times the range."""
+    u, va, vb = tracker.shape(p.T)
+    zu = np.einsum("im,mi->m", u, z)
+    along = zu[:, None] * u.T
+    return along * np.sqrt(va)[:, None] + (z - along) * np.sqrt(vb)[:, None]
 
 
 #: chi2.ppf(0.99, k) (scipy.stats): the 99 % level of a chi-square with k degrees of freedom.

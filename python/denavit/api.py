@@ -121,7 +121,7 @@ def identify(data, nominal=None, *, format: str = "auto", length: str | None = N
         ``direction``, ``columns``, ``sweep``, ``target``, ``readings`` as there).
     nominal : built-in name, robot file, URDF, Robot or Model, optional — signs, free origins, names, limits.
     options : those of :func:`denavit.identify.identify` (``method``, ``convention``, ``T_world_base``,
-        ``loss``, ``max_sigma``, ``keep_dwell``, ``progress``...).
+        ``loss``, ``max_sigma``, ``keep_dwell``, ``tracker_noise``, ``progress``...).
 
     >>> import denavit as dv
     >>> dv.identify(dv.simulate("kr5", noise=2e-5), nominal="kr5").method

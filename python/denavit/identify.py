@@ -24,7 +24,7 @@ from .errors import DegenerateError, DenavitError, NotConvergedError
 from .fitting import AxisFit, BoundingBox, fit_axis, oriented_bounding_box
 from .fitting.checks import check_sweep_labels, misfit_notes, nominal_plausibility
 from .fitting.circle import circle_misfit, robust_circle
-from .fitting.joint import fit_sweeps, locked_motion, start_homes
+from .fitting.joint import TrackerNoise, as_tracker_noise, fit_sweeps, locked_motion, start_homes
 from .fitting.readings import READINGS_WORTHLESS
 from .fitting.result import axis_sigmas, flipped
 from .fitting.robust import flag_outliers, rms_spread, robust_sigma
@@ -62,6 +62,7 @@ class Identification:
     tool_orientation: str = "nominal"  # where the tool frame's orientation came from: "nominal", "poses", "nest" or "targets" (TOOL_ORIENTATION)
     tool_rotation_cov: np.ndarray | None = None  # (3, 3) rad^2: covariance of the tool frame's orientation at home (a small rotation in world), None if from the nominal
     target_points: np.ndarray | None = None  # (k, 3) m: each target's point at home in world (several targets per pose)
+    tracker_noise: TrackerNoise | None = None  # the tracker's range/angle noise model the joint fit weighted the points by (None: isotropic)
 
     @property
     def tool_rotation_sigma(self) -> float:
@@ -454,17 +455,18 @@ def _scale_list(g: dict, n: int) -> str:
     return ", ".join(f"joint {j + 1} {g['scales'][j] * 1e6:+.4g} +/- {g['scale_sigma'][j] * 1e6:.2g} ppm" for j in range(n) if np.isfinite(g["scale_sigma"][j]))
 
 
-def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, notes: list[str], chosen: str, rotation_noise=None):
+def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, notes: list[str], chosen: str, rotation_noise=None,
+            tracker: TrackerNoise | None = None):
     """The joint fit(s) with readings: ``chosen`` "global", or "auto" (evidence: the per-sweep fits when the
     readings are worth nothing, else one home point or one per sweep, and the readings' scale errors joint by
     (:func:`_reading_scales`), each by the BIC or their spread; with scales fitted, a home point per sweep must win again). ``homes0`` (k, 3) the start home points of the targets, ``R0`` the start orientation at home
     (6-DoF poses) or None. Returns (method, fits, cov, tool point, rms, the joint fit's result or None, scales): ``scales`` None, or
     when fitted (values (n,), their covariance with [c_1, n_1, ..., p] (6n+3, n), their covariance (n, n)); zeros
-    where a joint's scale was not fitted."""
+    where a joint's scale was not fitted. ``tracker`` the tracker's range/angle noise model, or None (isotropic)."""
     dqs = _motions(sweeps, notes)
     starts = [(f.point, f.direction) for f in fits]
     try:
-        start = {"offsets0": homes0[1:] - homes0[0], "rotation0": R0, "rotation_sigma": rotation_noise}
+        start = {"offsets0": homes0[1:] - homes0[0], "rotation0": R0, "rotation_sigma": rotation_noise, "tracker": tracker}
         g = fit_sweeps(sweeps, dqs, starts, homes0[0], loss=loss, where=sweeps.source, **start)
     except NotConvergedError as e:  # say why when the arcs are short (a 1 degree protocol had ended on "no convergence")
         short = [(s.joint, f.arc) for s, f in zip(sweeps.sweeps, fits, strict=True) if sweeps.kinds[s.joint - 1] == "revolute" and f.arc < SHORT_ARC]
@@ -484,7 +486,8 @@ def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, not
             """(fit on base's weights, its BIC against base), or (None, -inf) when it does not converge."""
             try:
                 r = fit_sweeps(sweeps, dqs, list(zip(base["points"], base["directions"], strict=True)), base["home"].mean(axis=0), loss=loss,
-                               gamma=base["gamma"], where=sweeps.source, offsets0=base["offsets"], rotation0=base["rotation"], rotation_sigma=rotation_noise, **kw)
+                               gamma=base["gamma"], where=sweeps.source, offsets0=base["offsets"], rotation0=base["rotation"], rotation_sigma=rotation_noise,
+                               tracker=tracker, **kw)
             except NotConvergedError:  # (e.g. a home per sweep on arcs too short to hold one)
                 return None, -math.inf
             return r, _bic(base, r, r["n_params"] - base["n_params"], n_res)
@@ -493,7 +496,8 @@ def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, not
             """r refitted with its own weights (the simpler model's tangential misfit held the effect too)."""
             try:
                 return fit_sweeps(sweeps, dqs, list(zip(r["points"], r["directions"], strict=True)), r["home"].mean(axis=0), loss=loss,
-                                  where=sweeps.source, offsets0=r["offsets"], rotation0=r["rotation"], rotation_sigma=rotation_noise, **kw)
+                                  where=sweeps.source, offsets0=r["offsets"], rotation0=r["rotation"], rotation_sigma=rotation_noise,
+                                  tracker=tracker, **kw)
             except NotConvergedError:
                 return r
 
@@ -739,6 +743,7 @@ def identify(
     keep_dwell: bool = False,
     coupling=None,
     rotation_noise: float | None = None,
+    tracker_noise: TrackerNoise | tuple | None = None,
     allow_implausible: bool = False,
     progress: Callable[[str], None] | None = None,
 ) -> Identification:
@@ -772,6 +777,13 @@ def identify(
     rotation_noise : float, rad, optional
         6-DoF poses: the orientation noise (1 sigma per component of the rotation vector) that weights the
         orientation residuals against the points; default estimated from the data (a variance component).
+    tracker_noise : :class:`~denavit.fitting.joint.TrackerNoise` or (sigma_range m, sigma_angle rad[, position (3,)
+        m]), optional
+        The tracker's range/angle noise model: each point's noise is sigma_range along the line of sight from the
+        tracker (at ``position`` in the data's frame, default the origin: a tracker's own frame) and sigma_angle
+        times the range across it; the joint fit weights every point by the inverse of that covariance, whose
+        overall scale stays estimated from the data (its shape only is declared). Default: isotropic point noise.
+        The per-sweep methods (kasa, hyper, geometric, readings) take the points as isotropic (with a note).
 
     Several targets per pose (:attr:`~denavit.sweeps.Sweep.targets`, 2-4 SMRs on a nest) and 6-DoF poses
     (:attr:`~denavit.sweeps.Sweep.rotations`) are one joint fit with shared axes (methods "global", "readings",
@@ -793,6 +805,7 @@ def identify(
     if method not in METHODS:
         raise DenavitError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
     convention = _core.convention_info(convention)["name"]
+    tracker = as_tracker_noise(tracker_noise)
     n = sweeps.n_joints
     if nominal is not None and len(nominal.names) != n:
         raise DenavitError(f"nominal model {nominal.name} has {len(nominal.names)} joints, the data has {n}")
@@ -815,7 +828,7 @@ def identify(
     if method == "global":
         what = f"{sweeps.n_targets} targets per pose" if sweeps.n_targets > 1 else "shared tool point"
         progress(f"one fit of all {len(sweeps.sweeps)} sweeps ({what}{', 6-DoF poses' if sweeps.has_rotations else ''})")
-        method, gfits, gcov, gp, grms, joint, scales = _choose(sweeps, fits, homes0, R0, loss, notes, chosen, rotation_noise)
+        method, gfits, gcov, gp, grms, joint, scales = _choose(sweeps, fits, homes0, R0, loss, notes, chosen, rotation_noise, tracker)
         if gfits is None:  # the readings are worthless: the per-sweep geometric circles
             fits = _per_sweep(sweeps, method, loss, max_sigma, progress)
             p_home = _tool_point_geometric(sweeps, fits)
@@ -832,6 +845,14 @@ def identify(
         # the tool point: the spread of its per-point estimates
         cov[6 * n :, 6 * n :] = np.eye(3) * float(np.mean([f.rms for f in fits])) ** 2 / max(sum(f.n_points for f in fits), 1)
         rms = float(math.sqrt(np.mean([f.rms**2 for f in fits])))
+    if tracker is not None:
+        model = (f"the tracker's noise model (range {tracker.sigma_range * 1e6:.3g} um, angles {math.degrees(tracker.sigma_angle) * 3600:.3g} arcsec, "
+                 f"tracker at {', '.join(f'{v:.4g}' for v in tracker.position)} m)")
+        if joint is not None:
+            notes.append(f"{model} weights the points (its shape; the scale from the data): point noise {joint['sigma'] * 1e3:.3g} mm RMS per "
+                         f"coordinate, {joint['sigma'] / math.sqrt(joint['tracker_ref2']):.3g} times the declared")
+        else:
+            notes.append(f"{model} is used by the joint fit (method global or auto, with readings); the {method} fit takes the points as isotropic")
     if joint is None and (sweeps.n_targets > 1 or sweeps.has_rotations):
         notes.append(f"the {method} fit uses the first target's points alone: {sweeps.n_targets} targets per pose"
                      f"{' and 6-DoF poses' if sweeps.has_rotations else ''} are one fit with shared axes in the joint fit (method global or auto, with readings)")
@@ -898,7 +919,8 @@ def identify(
         notes.append(f"the {convention} table carries a tool-position error up to {ex.max_position_error * 1e3:.4f} mm ({exact})")
     return Identification(method, convention, ax, fits, ex, sigma, cov, p_home, sweeps, nominal, nominal_table, rms, notes, param_cov,
                           reading_scale=None if scales is None else scales[0], axis_scale_cov=full_cov, coupling=coupling,
-                          tool_orientation=orientation, tool_rotation_cov=rot_cov, target_points=target_points)
+                          tool_orientation=orientation, tool_rotation_cov=rot_cov, target_points=target_points,
+                          tracker_noise=tracker if joint is not None else None)
 
 
 def _finite(v: float) -> float | None:
@@ -956,6 +978,9 @@ def to_json(result: Identification, *, box: bool = True) -> dict:
         "max_tool_position_error_m": result.extraction.max_position_error,
         **({"bounding_box": _box_json(result.box)} if box else {}),
         "rms_m": result.rms,
+        # the tracker's range/angle noise model the joint fit weighted the points by (null: isotropic point noise)
+        "tracker_noise": None if (tn := result.tracker_noise) is None else {"sigma_range_m": tn.sigma_range, "sigma_angle_rad": tn.sigma_angle,
+                                                                             "position_m": list(tn.position)},
         "notes": result.notes,
     }
 

@@ -22,6 +22,7 @@ from .common import (
     load_robot,
     num,
     parse_numbers,
+    parse_point,
     parse_pose,
     positive,
     print_rows,
@@ -68,6 +69,8 @@ def identify(
     columns: Annotated[str | None, typer.Option("--columns", help="Column map of a delimited recording, e.g. \"t,q1..q6,x,y,z\" (--format columns).")] = None,
     sweep: Annotated[str | None, typer.Option("--sweep", help="Tracker export: where each point's sweep comes from: 'group' or a point-name pattern such as 'J{joint}_{index}'.")] = None,
     target: Annotated[int | None, typer.Option("--target", help="Data with several targets per pose (SMRs on a nest): fit this one alone, 1-based (default: every target, one fit with shared axes).")] = None,
+    tracker_noise: Annotated[str | None, typer.Option("--tracker-noise", help="The tracker's range/angle noise (1 sigma): the distance's, then each angle's, e.g. \"5 um, 1 arcsec\" (a number without a unit is in --length / --angle units; angles also in arcsec): the joint fit weights each point by its covariance (noise along the line of sight from the tracker, angle x range across it), the scale estimated from the data. Default: isotropic point noise.")] = None,
+    tracker_position: Annotated[str | None, typer.Option("--tracker-position", help="With --tracker-noise: the tracker's position in the data's frame, x,y,z in --length units (default 0,0,0: a tracker export's own frame).")] = None,
     rotation_noise: Annotated[float | None, typer.Option("--rotation-noise", help="6-DoF poses: the orientation noise (1 sigma per component), in --angle units, weighting the orientations against the points (default: estimated).")] = None,
     coupling: Annotated[str | None, typer.Option("--coupling", help="Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; robot-files.md in docs); default: the robot file's [couplings].")] = None,
     keep_dwell: Annotated[bool, typer.Option("--keep-dwell", help="Keep the rows where the motion stands still at a sweep's ends (left out of the fits by default, with a note naming them).")] = False,
@@ -119,8 +122,10 @@ def identify(
         ms = None if max_sigma is None else max_sigma * length_scale(out_len)
         T_world_base = None if base is None else parse_pose(base, out_ang, length_scale(out_len), "--base")
         rn = None if rotation_noise is None else positive(rotation_noise, "--rotation-noise", angle_scale(out_ang), None, out_ang)
+        tn = parse_tracker_noise(tracker_noise, tracker_position, out_len, out_ang)
         result = identify_sweeps(sweeps, method=method, convention=convention, nominal=nom, loss=loss, max_sigma=ms, T_world_base=T_world_base,
-                                 keep_dwell=keep_dwell, coupling=C, rotation_noise=rn, allow_implausible=allow_implausible, progress=st.update)
+                                 keep_dwell=keep_dwell, coupling=C, rotation_noise=rn, tracker_noise=tn, allow_implausible=allow_implausible,
+                                 progress=st.update)
     if json_path:
         emit_json(to_json(result), json_path)
     if json_path != "-":
@@ -154,6 +159,44 @@ def identify(
             with status(f"writing the report {report} ..."):
                 rep.write_report(result, report, length=out_len, angle=out_ang)
             wrote(report)
+
+
+#: Angle units of ``--tracker-noise`` beyond --angle's (a tracker maker's spec is in arcsec), radians per unit.
+TRACKER_ANGLE = {"arcsec": math.pi / 648000}
+
+
+def parse_tracker_noise(text: str | None, position: str | None, length: str, angle: str):
+    """``--tracker-noise "RANGE, ANGLE"`` (each a number with an optional unit: a length unit, an angle unit or arcsec;
+    bare numbers in ``length`` / ``angle``) and ``--tracker-position "x,y,z"`` (``length``) as a
+    :class:`~denavit.fitting.joint.TrackerNoise` (SI), or None without ``text``; bad input is a one-line error."""
+    import re  # noqa: PLC0415
+
+    from ..fitting.joint import TrackerNoise  # noqa: PLC0415
+    from ..io.delimited import NUMBER  # noqa: PLC0415
+    from ..io.units import ANGLE, LENGTH  # noqa: PLC0415
+
+    if text is None:
+        if position is not None:
+            fail("--tracker-position: needs --tracker-noise (the tracker's range and angle noise)")
+        return None
+    expected = (f"--tracker-noise: expected the range and the angle noise (1 sigma), two values separated by a comma, each a number > 0 with an "
+                f"optional unit, e.g. \"5 um, 1 arcsec\" (bare numbers in {length} and {angle})")
+    items = text.split(",")
+    if len(items) != 2:
+        fail(f"{expected}, got {text[:80]!r}")
+    values = []
+    for item, default, units, what in ((items[0], length, LENGTH, "range"), (items[1], angle, {**ANGLE, **TRACKER_ANGLE}, "angle")):
+        m = re.fullmatch(rf"\s*({NUMBER.pattern})\s*([A-Za-z]*)\s*", item)
+        if m is None:
+            fail(f"{expected}, got {item.strip()[:40]!r} for the {what} noise")
+        unit = m.group(2).lower() or default
+        if unit not in units:
+            fail(f"--tracker-noise: the {what} noise's unit must be one of {', '.join(units)}, got {m.group(2)!r}")
+        v = float(m.group(1))
+        if not (math.isfinite(v) and v > 0):
+            fail(f"--tracker-noise: expected a finite {what} noise > 0, got {item.strip()[:40]!r}")
+        values.append(v * units[unit])
+    return TrackerNoise(values[0], values[1], tuple(parse_point(position, "--tracker-position", length_scale(length), (0.0, 0.0, 0.0))))
 
 
 def read_recording_sweeps(data: Path, data_format: str, *, columns, sweep, target: int, readings, length, angle, home, direction, nominal):

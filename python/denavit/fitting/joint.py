@@ -20,7 +20,7 @@ rotations of the same chain, ``R_k = R(n_1, dq_1k) ... R(n_n, dq_nk) R_0``; its 
 variance component estimated from the residuals across the swept axis). A pose is then one residual vector of
 ``3 k (+ 3)`` components, whose reading error moves every component along one direction (the tangent below).
 
-Errors: the points carry isotropic noise ``sigma``; the swept joint's readings carry white errors, so along the
+Errors: the points carry isotropic noise ``sigma`` (or a tracker's range/angle noise, below); the swept joint's readings carry white errors, so along the
 motion a point's misfit has the variance ``tau_s^2 = sigma^2 + (lever sigma_q)^2`` (effective variance, as the
 readings fit of :mod:`denavit.fitting.readings`). ``sigma`` (pooled across the motion) and each sweep's
 ``tau_s`` are variance components estimated over their redundancies, together with the Gauss-Newton /
@@ -30,15 +30,30 @@ the variance components and the robust scale hold still, at a step of at most ``
 (its Mahalanobis length under the covariance), or when the cost changes by no more than its round-off (about
 eps times the largest coordinate times the root of the cost): a rule free of the number of points, whereas a
 relative cost decrease of 1e-14 is near the round-off of a million-point cost and had cost extra passes.
+
+A laser tracker's noise is not isotropic: the distance (ADM / interferometer) is precise, the two angles less so, so
+across the line of sight the noise grows with the range. With a tracker model (``tracker``, :class:`TrackerNoise`:
+the tracker's position, ``sigma_range`` and ``sigma_angle``) a point's covariance is
+``sigma^2 A_k``, ``A_k = (sigma_range^2 u u^T + (sigma_angle rho_k)^2 (I - u u^T)) / ref^2`` (``u`` the unit line of
+sight from the tracker to the measured point, ``rho_k`` its range, ``ref^2`` the mean of the declared per-coordinate
+variance over all points: ``sigma`` stays the point noise in metres, RMS per coordinate, and the variance component
+that scales the declared shape). Each target's residual, Jacobian rows and motion ``d p / d q`` are whitened by
+``A_k^(-1/2) = a^(-1/2) u u^T + b^(-1/2) (I - u u^T)``; the effective covariance ``sigma^2 A_k + (lever sigma_q)^2 t
+t^T`` is then ``sigma^2 I + (lever sigma_q)^2 v v^T``, ``v = A_k^(-1/2) t``, and the reading error's whitening applies
+along the unit ``v``, with a factor per pose, ``gamma_k = sigma / sqrt(sigma^2 + (|v| lever sigma_q)^2)`` (the
+whitened lever changes along the arc as the motion turns against the line of sight); each sweep's variance
+component is its ``gamma`` at a reference lever (the RMS of its poses' at the start). Without it (the default) the
+points are isotropic and nothing of this runs.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import NotConvergedError
+from ..errors import DenavitError, NotConvergedError
 from ..geometry import axis_angle_matrices, matrix_rotvec, perpendicular_basis, skew
 from .robust import loss_dweight, loss_weight, misfit_variance, robust_sigma
 
@@ -53,6 +68,74 @@ GAMMA_TOL = 1e-3
 SCALE_TOL = 1e-4
 #: Round-off of a misfit, in units of eps times the largest coordinate (the chain of rotations of the home point).
 COST_ROUNDOFF = 16.0
+
+
+@dataclass(frozen=True)
+class TrackerNoise:
+    """A laser tracker's point noise, the range/angle model: the distance (ADM / interferometer) to a point has the
+    noise ``sigma_range`` (m, 1 sigma) along the line of sight ``u`` from the tracker at ``position`` (m, in the data's
+    frame; default the origin: a tracker's export is in its own frame), each of the two angles ``sigma_angle`` (rad),
+    so across the line of sight the noise is ``sigma_angle`` times the range ``rho``::
+
+        Sigma_k = sigma_range^2 u u^T + (sigma_angle rho_k)^2 (I - u u^T)
+
+    (typical: 5 um and 0.5-1 arcsec, i.e. 7-15 um across at 2-3 m; cf. the makers' MPE of the form 15 um + 6 um/m,
+    ASME B89.4.19). The joint fit takes the shape of these covariances from the declared values, and their scale
+    from the data (:func:`fit_sweeps`)."""
+
+    sigma_range: float
+    sigma_angle: float
+    position: tuple = (0.0, 0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        for name, unit in (("sigma_range", "m"), ("sigma_angle", "rad")):
+            v = getattr(self, name)
+            try:
+                ok = math.isfinite(float(v)) and float(v) > 0
+            except (TypeError, ValueError):
+                ok = False
+            if not ok:
+                raise DenavitError(f"tracker noise: {name} must be a finite value > 0 in {unit}, got {v!r}")
+            object.__setattr__(self, name, float(v))
+        try:
+            pos = np.asarray(self.position, dtype=float)
+        except (TypeError, ValueError):
+            pos = None
+        if pos is None or pos.shape != (3,) or not np.all(np.isfinite(pos)):
+            raise DenavitError(f"tracker noise: position must be 3 finite values (x, y, z in m), got {self.position!r}")
+        object.__setattr__(self, "position", tuple(float(v) for v in pos))
+
+    def shape(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The points x (3, m): their lines of sight u (3, m), and the variances along (m,) and across them (m,), m^2."""
+        d = x - np.asarray(self.position)[:, None]
+        rho = np.linalg.norm(d, axis=0)
+        return d / np.maximum(rho, 1e-300), np.full(rho.shape, self.sigma_range**2), (self.sigma_angle * rho) ** 2
+
+
+def as_tracker_noise(value) -> TrackerNoise | None:
+    """``value`` as a :class:`TrackerNoise`: one already, None, or (sigma_range m, sigma_angle rad[, position m])."""
+    if value is None or isinstance(value, TrackerNoise):
+        return value
+    try:
+        items = None if isinstance(value, (str, bytes)) else list(value)
+    except TypeError:
+        items = None
+    if items is None or len(items) not in (2, 3):
+        raise DenavitError(f"tracker noise: expected a TrackerNoise or (sigma_range m, sigma_angle rad[, position (x, y, z) m]), got {value!r}")
+    return TrackerNoise(*items)
+
+
+def _whitener(tracker: TrackerNoise, ref2: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The whitening Sigma_k^(-1/2) of the points x (3, m) (their covariance shapes over ``ref2``, m^2): (u, the
+    factors along u and across it), applied by :func:`_whiten`."""
+    u, va, vb = tracker.shape(x)
+    return u, np.sqrt(ref2 / va), np.sqrt(ref2 / vb)
+
+
+def _whiten(w: tuple, x: np.ndarray) -> np.ndarray:
+    """x (..., 3, m) whitened per point by ``w`` (:func:`_whitener`): ib x + (ia - ib) u (u . x)."""
+    u, ia, ib = w
+    return x * ib + u * ((ia - ib) * np.einsum("im,...im->...m", u, x))[..., None, :]
 
 
 def locked_motion(q: np.ndarray, joint: int, home: np.ndarray, tol: np.ndarray):
@@ -248,7 +331,7 @@ def start_homes(sweeps, starts) -> tuple[np.ndarray, np.ndarray | None]:
 
 def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "linear", per_sweep_home: bool = False,
                scales=False, scale_prior=None, noise_sigma=None, gamma=None, offsets0=None, rotation0=None, rotation_sigma=None,
-               where: str = ""):
+               tracker=None, where: str = ""):
     """The joint fit of all sweeps (module docstring). ``dqs`` per sweep (m, n) joint motions from home
     (:func:`locked_motion`), ``starts`` per joint (point, direction) start lines, ``p0`` the start home point (of
     the first target); with several targets ``offsets0`` (k - 1, 3) the start offsets of the other targets' home
@@ -259,7 +342,9 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     (0-based) whose scale is one. ``scale_prior``: None, or ``(tau, sigma)``: every fitted scale is drawn from a
     zero-mean normal population of standard deviation ``tau`` (a pseudo-observation ``s_j / tau`` weighted against the
     points as ``(sigma / tau)^2``, ``sigma`` the point noise of the caller's simpler fit), so the fit is the posterior
-    mode and its covariance the posterior's (:func:`denavit.identify._reading_scales`).
+    mode and its covariance the posterior's (:func:`denavit.identify._reading_scales`). ``tracker`` a
+    :class:`TrackerNoise` (or (sigma_range m, sigma_angle rad[, position m])): the points' covariances take its
+    range/angle shape (module docstring); None: isotropic.
 
     Returns a dict: ``points`` (n, 3) feet of the home point on each axis, ``directions`` (n, 3), ``home``
     (S, 3) home point per sweep (all equal without ``per_sweep_home``), ``cov`` of [c_1, n_1, ..., c_n, n_n,
@@ -273,7 +358,9 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     fitted), ``misfit`` per sweep (m,) 3-D distances (RMS over the targets of a pose), ``weights`` per sweep (m,)
     robust weights, ``whitened`` per sweep (m,) misfits in point-noise units (norms of ``components`` components),
     ``sigma`` the point
-    noise, ``reading_sigma`` per sweep, ``ss`` the whitened sum of squares and ``n_params``.
+    noise, ``reading_sigma`` per sweep, ``ss`` the whitened sum of squares and ``n_params``; ``tracker_ref2`` the
+    tracker model's reference variance (m^2: ``sigma / sqrt(tracker_ref2)`` is the point noise over the declared; nan
+    without a model).
     """
     kinds = sweeps.kinds
     n, S = sweeps.n_joints, len(sweeps.sweeps)
@@ -312,12 +399,24 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     def measured(s, rows, t):
         return (s.points[rows] if s.targets is None else s.targets[rows, t]).T
 
+    tracker = as_tracker_noise(tracker)
+    ref2 = lref = None
+    wmax = 1.0
+    if tracker is not None:
+        # the points' covariance shapes over their mean variance per coordinate (every point of every target): the
+        # fit's sigma stays the point noise in metres (RMS per coordinate), its scale a variance component
+        shapes = [tracker.shape(measured(s, slice(None), t)) for s in sweeps.sweeps for t in range(K)]
+        ref2 = float(np.mean(np.concatenate([(va + 2 * vb) / 3 for _, va, vb in shapes])))
+        wmax = math.sqrt(ref2 / min(float(np.min(np.minimum(va, vb))) for _, va, vb in shapes))
+
     trig = {}  # (sweep, first row of a chunk): (the scales of its active joints, {joint: _trig of its motion})
 
     def chunks(k, cs, ns, homes_, offs_, R_, sc_, wr, jac):
-        """(rows, misfits r (D, m), d r / d q of the swept joint (D, m), Jacobian (local parameters, D, m) or None)
-        of sweep k, CHUNK poses at a time (the joints turning by (1 + s) times their readings' motion); the
-        orientation rows weighted by ``wr``. Components first, points last (:func:`_rotate`)."""
+        """(rows, misfits r (D, m), d r / d q of the swept joint (D, m), Jacobian (local parameters, D, m) or None,
+        None or with a tracker model the 3-D misfits (m,) (RMS over the targets)) of sweep k, CHUNK poses at a time
+        (the joints turning by (1 + s) times their readings' motion); the orientation rows weighted by ``wr``, with a
+        tracker model each target's rows whitened by its point's Sigma_k^(-1/2). Components first, points last
+        (:func:`_rotate`)."""
         s, dq = sweeps.sweeps[k], dqs[k]
         j = s.joint - 1
         h = homes_[k] if per_sweep_home else homes_[0]
@@ -331,16 +430,23 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
                 trig[(k, a)] = (key, {i: _trig(dqc[:, i]) for i in active[k] if kinds[i] == "revolute"})
             tc = trig[(k, a)][1]
             rs, mvs, Js = [], [], []
+            dist = None if tracker is None else np.zeros(mc)
             for t in range(K):
                 pred, blocks, jp, dpdq = _chain(cs, ns, kinds, h + (offs_[t - 1] if t else 0.0), dqc, active[k], jac, j, trig=tc)
-                rs.append(pred - measured(s, rows, t))
-                mvs.append(dpdq[j])
+                r_t, mv_t = pred - measured(s, rows, t), dpdq[j]
+                if tracker is not None:
+                    w_t = _whitener(tracker, ref2, measured(s, rows, t))
+                    dist += np.sum(r_t**2, axis=0) / K
+                    r_t, mv_t = _whiten(w_t, r_t), _whiten(w_t, mv_t)
+                rs.append(r_t)
+                mvs.append(mv_t)
                 if jac:
                     jo = np.zeros((3 * (K - 1), 3, mc))
                     if t:
                         jo[3 * (t - 1) : 3 * t] = jp
-                    Js.append(np.concatenate([blocks[i] for i in active[k]] + [jp, jo] + ([np.zeros((3, 3, mc))] if rot else [])
-                                             + ([(dpdq[j] * dq[rows, j])[None]] if j in swept else [])))
+                    J_t = np.concatenate([blocks[i] for i in active[k]] + [jp, jo] + ([np.zeros((3, 3, mc))] if rot else [])
+                                         + ([(dpdq[j] * dq[rows, j])[None]] if j in swept else []))
+                    Js.append(J_t if tracker is None else _whiten(w_t, J_t))
             if rot:
                 Rp, blocks, jr, dpdq = _chain_rotation(ns, kinds, R_, dqc, active[k], jac, j, trig=tc)
                 rs.append(wr * matrix_rotvec(Rp @ np.swapaxes(s.rotations[rows], 1, 2)).T)
@@ -350,7 +456,7 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
                                                   + ([(dpdq[j] * dq[rows, j])[None]] if j in swept else [])))
             one = len(rs) == 1
             yield (rows, rs[0] if one else np.concatenate(rs), mvs[0] if one else np.concatenate(mvs),
-                   (Js[0] if one else np.concatenate(Js, axis=1)) if jac else None)
+                   (Js[0] if one else np.concatenate(Js, axis=1)) if jac else None, None if dist is None else np.sqrt(dist))
 
     def tangent(mv):
         lever = np.linalg.norm(mv, axis=0)
@@ -359,6 +465,14 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     def whitened(r, t, g):
         rt = np.einsum("im,im->m", r, t)
         return r - (1 - g) * rt * t, rt
+
+    def g_of(k, lever):
+        """The whitening factor along the tangent: the sweep's gamma (its poses' levers are alike), or with a tracker
+        model one per pose (m,): the sweep's reading variance, gamma at its reference lever ``lref``, at each pose's
+        whitened lever |Sigma_k^(-1/2) d p / d q| (the line of sight turns against the motion along the arc)."""
+        if lref is None:
+            return gam[k]
+        return 1 / np.sqrt(1 + (1 / gam[k] ** 2 - 1) * (lever / lref[k]) ** 2)
 
     def local(k):
         j = sweeps.sweeps[k].joint - 1
@@ -384,28 +498,33 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         Bd = np.zeros((npar, npar)) if bread else None
         parts = []
         for k in range(S):
-            g2 = 1 - gam[k] ** 2
             idx = local(k)
             Gt = np.zeros((len(idx), len(idx)))
             Gr = np.zeros((len(idx), len(idx))) if rot else None
             m = len(dqs[k])
             rt_k, lever_k, rw_k, r_k, rr_k = np.empty(m), np.empty(m), np.empty((D, m)), np.empty((D, m)), np.zeros(m)
-            for rows, r, mv, J in chunks(k, cs, ns, homes_, offs_, R_, sc_, wr, True):
+            dist_k = None if tracker is None else np.empty(m)
+            for rows, r, mv, J, dist in chunks(k, cs, ns, homes_, offs_, R_, sc_, wr, True):
                 t, lever = tangent(mv)
-
+                g = g_of(k, lever)
+                g2 = 1 - g**2
                 jt = np.einsum("im,pim->pm", t, J)
-                rw, rt = whitened(r, t, gam[k])
+                rw, rt = whitened(r, t, g)
                 if f is not None:
                     ws[k][rows] = loss_weight(loss, np.sum(rw**2, axis=0) / f**2)
                 w = ws[k][rows]
                 Jf = J.reshape(len(idx), -1)
-                tt = (jt * w) @ jt.T
-                A[np.ix_(idx, idx)] += (J * w).reshape(len(idx), -1) @ Jf.T - g2 * tt
+                if np.ndim(g):  # per pose (a tracker model)
+                    A_t, G_t = (jt * (w * g2)) @ jt.T, (jt * (w * g**2)) @ jt.T
+                else:
+                    tt = (jt * w) @ jt.T
+                    A_t, G_t = g2 * tt, g**2 * tt
+                A[np.ix_(idx, idx)] += (J * w).reshape(len(idx), -1) @ Jf.T - A_t
                 if A2 is not None:
                     A2[np.ix_(idx, idx)] += (J * w**2).reshape(len(idx), -1) @ Jf.T - g2 * (jt * w**2) @ jt.T
                 b[idx] += Jf @ (w * (r - g2 * rt * t)).reshape(-1)
                 ss += float(np.sum(w * np.sum(rw**2, axis=0)))
-                Gt += gam[k] ** 2 * tt
+                Gt += G_t
                 if rot:  # the orientation rows across the swept axis (its reading error turns the probe about it)
                     e = mv[-3:] / np.maximum(np.linalg.norm(mv[-3:], axis=0), 1e-300)
                     ro, Jo = r[-3:], J[:, -3:]
@@ -414,11 +533,13 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
                     Gr += np.einsum("pim,qim->pq", Jo * w, Jo)
                     rr_k[rows] = np.sum(ro**2, axis=0)
                 if bread:
-                    gw = np.einsum("im,pim->pm", rw, J) - (1 - gam[k]) * gam[k] * rt * jt  # J_w^T r_w per point
+                    gw = np.einsum("im,pim->pm", rw, J) - (1 - g) * g * rt * jt  # J_w^T r_w per point
                     c = 2 * loss_dweight(loss, np.sum(rw**2, axis=0) / f**2) / f**2
                     Bd[np.ix_(idx, idx)] += (gw * c) @ gw.T
                 rt_k[rows], lever_k[rows], rw_k[:, rows], r_k[:, rows] = rt, lever, rw, r
-            parts.append((idx, Gt, rt_k, lever_k, rw_k, r_k, Gr, rr_k))
+                if dist_k is not None:
+                    dist_k[rows] = dist
+            parts.append((idx, Gt, rt_k, lever_k, rw_k, r_k, Gr, rr_k, dist_k))
         if prior_w:  # the scales' prior: the pseudo-observations s_j / tau, at the points' weight
             for M_ in (A, A2) if A2 is not None else (A,):
                 M_[i_prior, i_prior] += prior_w
@@ -444,8 +565,9 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         """The whitened cost at a trial point: misfits and tangents only, no Jacobian blocks."""
         total = 0.0
         for k in range(S):
-            for rows, r, mv, _ in chunks(k, cs, ns, homes_, offs_, R_, sc_, wr, False):
-                total += float(np.sum(ws[k][rows] * np.sum(whitened(r, tangent(mv)[0], gam[k])[0] ** 2, axis=0)))
+            for rows, r, mv, _, _ in chunks(k, cs, ns, homes_, offs_, R_, sc_, wr, False):
+                t, lever = tangent(mv)
+                total += float(np.sum(ws[k][rows] * np.sum(whitened(r, t, g_of(k, lever))[0] ** 2, axis=0)))
         return total + prior_w * float(np.sum(sc_[swept] ** 2))
 
     # Levenberg-Marquardt steps on the whitened, robustly weighted cost, one pass over the points per step; the
@@ -458,20 +580,24 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     if rot:  # the orientation weight sigma / sigma_rot, first from the start residuals
         pr, rr = [], []
         for k in range(S):
-            for _, r, _, _ in chunks(k, cs, ns, homes, offs, R0, sc, 1.0, False):
+            for _, r, _, _, _ in chunks(k, cs, ns, homes, offs, R0, sc, 1.0, False):
                 pr.append(np.sum(r[:-3] ** 2, axis=0) / (3 * K))
                 rr.append(np.sum(r[-3:] ** 2, axis=0) / 3)
         srot = float(rotation_sigma) if rotation_sigma is not None else max(math.sqrt(np.median(np.concatenate(rr))), 1e-12)
         wr = max(math.sqrt(np.median(np.concatenate(pr))), noise_sigma or 0.0, floor) / srot
     lam = 1e-6
     sigma2 = f = f_next = None
-    eps_cost = COST_ROUNDOFF * np.finfo(float).eps * max(float(np.max(np.abs(s.points))) for s in sweeps.sweeps)
+    eps_cost = COST_ROUNDOFF * np.finfo(float).eps * max(float(np.max(np.abs(s.points))) for s in sweeps.sweeps) * wmax
+    if tracker is not None:  # each sweep's reference lever: the RMS of its poses' whitened levers at the start
+        lref = np.array([math.sqrt(np.mean(np.concatenate([tangent(mv)[1] ** 2 for _, _, mv, _, _ in chunks(k, cs, ns, homes, offs, R0, sc, wr, False)])))
+                         for k in range(S)])
     fresh = True
     first = 0
     if gamma is not None and not rot and loss != "linear":
         # the variance components are given: the first pass would only give the first robust scale (its normal
         # equations, on weights of one, make way for those of that scale), from the start's whitened misfits alone
-        norms = [np.linalg.norm(whitened(r, tangent(mv)[0], gam[k])[0], axis=0) for k in range(S) for _, r, mv, _ in chunks(k, cs, ns, homes, offs, R0, sc, wr, False)]
+        norms = [np.linalg.norm(whitened(r, tangent(mv)[0], g_of(k, tangent(mv)[1]))[0], axis=0)
+                 for k in range(S) for _, r, mv, _, _ in chunks(k, cs, ns, homes, offs, R0, sc, wr, False)]
         f, first = 3.0 * math.sqrt(D / 3) * max(robust_sigma(np.concatenate(norms), D), floor), 1
     for it in range(first, 300):
         if fresh:
@@ -488,6 +614,8 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             red_o = (D - 1) * sum(m_w) - (float(np.trace(A_inv @ A)) - sum(lev_t))
             sigma2 = max(ss_o / red_o if red_o > 0 else 0.0, (noise_sigma or 0.0) ** 2, floor**2)
             tau2 = [st / max(mw - lt, 1.0) for st, lt, mw in zip(ss_t, lev_t, m_w, strict=True)]
+            if lref is not None:  # per pose sigma^2 + (lever sigma_q)^2: the reading variance over the mean lever^2, at lref
+                tau2 = [sigma2 + lref[k] ** 2 * (t2 - sigma2) / max(float(np.sum(ws[k] ** 2 * parts[k][3] ** 2)) / m_w[k], 1e-300) for k, t2 in enumerate(tau2)]
             new_gam = gam if gamma is not None else np.array([1.0 if not t2 > sigma2 else max(math.sqrt(sigma2 / t2), 1e-9) for t2 in tau2])
             new_wr = wr
             if rot:  # the orientation noise across the swept axis, over its redundancy (2 per pose less its leverage)
@@ -562,12 +690,14 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     Ms[swept, i_sc + np.arange(len(swept))] = 1.0
     scale_cross, scale_cov = (M @ cov_x @ Ms.T)[:n_out], Ms @ cov_x @ Ms.T
     sigma = math.sqrt(sigma2)
-    reading_sigma = [math.sqrt(max(sigma2 / g**2 - sigma2, 0.0)) / max(float(np.mean(p[3])), 1e-300) for g, p in zip(gam, parts, strict=True)]
-    misfit = [np.sqrt(np.sum(p[5][: 3 * K] ** 2, axis=0) / K) for p in parts]
+    levers = [float(np.mean(p[3])) for p in parts] if lref is None else lref
+    reading_sigma = [math.sqrt(max(sigma2 / g**2 - sigma2, 0.0)) / max(lv, 1e-300) for g, lv in zip(gam, levers, strict=True)]
+    misfit = [np.sqrt(np.sum(p[5][: 3 * K] ** 2, axis=0) / K) if p[8] is None else p[8] for p in parts]
     return {
         "points": np.array(feet), "directions": np.array(ns), "home": np.array([home_of(k) for k in range(S)]), "cov": cov_all[:n_out, :n_out],
         "cov_all": cov_all, "offsets": offs, "rotation": R0, "rotation_sigma": srot if rot else math.nan, "components": D, "n_homes": H,
         "misfit": misfit, "weights": ws, "whitened": [np.linalg.norm(p[4], axis=0) / sigma for p in parts],
         "sigma": sigma, "reading_sigma": reading_sigma, "ss": ss / sigma2, "ss_m": ss, "n_params": npar, "gamma": gam,
         "scales": sc, "scale_sigma": scale_sigma, "scale_cross": scale_cross, "scale_cov": scale_cov,
+        "tracker_ref2": math.nan if ref2 is None else ref2,
     }
