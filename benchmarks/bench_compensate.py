@@ -8,8 +8,8 @@ Two routes identify it:
 - identify: the paper's protocols (Table II: the 30 degree ranges, and the 90 degree ones) about the paper's
   home, recorded as a laser tracker streams them: a point every 1 / rate while the joint turns at a constant
   speed (default 1 deg/s), 0.02 mm tracker noise, every joint's readings recorded (with their noise); the
-  default method (auto: the global fit with the readings, the readings' scale errors as one population whose
-  spread the data give) and, for comparison, the
+  default method (auto: the global fit with the readings, the readings' scale errors joint by joint where the
+  BIC supports them) and, for comparison, the
   points-only geometric circle fits; ED-H. The default rate is 1 kHz (``--rate-hz``): laser trackers stream at
   up to 1 kHz and controllers log their readings at 250 Hz-1 kHz, 1e5 points per sweep being normal (issue 12);
   a 30 degree sweep at 1 deg/s is then 30,000 points. The 30 degree protocol is also run at ``--also-rate-hz``

@@ -399,29 +399,25 @@ def _scale_cross(g: dict, n: int) -> np.ndarray:
     return np.vstack([cross[:n6], cross[n6:].reshape(-1, 3, n).mean(axis=0)])
 
 
-#: The joints' reading scales are fitted when their scatter beyond their sigmas is significant at this level (the
-#: Q-profile's lower confidence bound on tau^2 above zero, :func:`_scale_spread`): exact readings then fit none in
-#: 90 % of recordings (taken as exact in scale). Chance scales on exact 30 degree readings otherwise moved the
-#: joint-2 and joint-3 axes by 0.05-0.1 mm (honestly, but four times the error of the fit without them).
-SCALE_EVIDENCE_LEVEL = 0.90
-#: The spread tau^2 they are then fitted with is the Q-profile's at this level: 0.5, the median-unbiased estimate.
-#: The 90 % lower bound as the spread took real scale errors as smaller than they are whenever few joints showed
-#: them, and fitting scales joint by joint by the BIC put a chance 2.9-sigma joint-2 scale on exact 30 degree
-#: readings at full weight (d1, a1, theta2 and a2 off by 2.7-2.9 of their sigmas; 0.6x the Monte Carlo spread).
+#: The joints' scale spread tau^2 is the Q-profile's tau^2 at this level of its chi-square (:func:`_scale_spread`): at
+#: 0.5, the median-unbiased estimate. Its 90 % lower bound (used before) took real scale errors as smaller than they
+#: are whenever few joints showed them (one 1.2 m joint-2 axis 60 um off at 3 of its sigmas), and fitting scales
+#: joint by joint by the BIC put a chance 2.9-sigma joint-2 scale on exact 30 degree readings at full weight (d1, a1,
+#: theta2 and a2 off by 2.7-2.9 of their sigmas): 0.6x the Monte Carlo spread in sigma on that protocol.
 SCALE_SPREAD_LEVEL = 0.5
 
 
-def _scale_spread(s: np.ndarray, sigma: np.ndarray, level: float = SCALE_SPREAD_LEVEL) -> float:
+def _scale_spread(s: np.ndarray, sigma: np.ndarray) -> float:
     """The spread tau^2 of the joints' true reading scale errors, taken as a zero-mean normal population, from their
     estimates ``s`` with one-sigma ``sigma``: the tau^2 at which the Q statistic sum s^2 / (sigma^2 + tau^2) equals
-    its chi-square quantile at ``level`` with one degree per joint (the Q-profile, Viechtbauer 2007, with
+    its chi-square quantile at ``SCALE_SPREAD_LEVEL`` with one degree per joint (the Q-profile, Viechtbauer 2007, with
     the mean known to be zero); zero when the estimates scatter less. Continuous in the estimates."""
     from scipy.optimize import brentq  # noqa: PLC0415 (scipy is loaded by the fits already)
     from scipy.stats import chi2  # noqa: PLC0415
 
     if len(s) == 0:
         return 0.0
-    bound = float(chi2.ppf(level, len(s)))
+    bound = float(chi2.ppf(SCALE_SPREAD_LEVEL, len(s)))
 
     def excess(t):
         return float(np.sum(s**2 / (sigma**2 + t)) - bound)
@@ -433,20 +429,20 @@ def _scale_spread(s: np.ndarray, sigma: np.ndarray, level: float = SCALE_SPREAD_
 
 def _reading_scales(richer: Callable, base: dict, drift: bool) -> tuple[dict | None, dict | None, float]:
     """The readings' scale errors as a population (empirical Bayes): every swept joint's scale fitted once freely
-    (``full``); when their scatter beyond their sigmas is significant (``SCALE_EVIDENCE_LEVEL``), their spread tau
-    from those estimates (:func:`_scale_spread`) and every scale refitted with the prior N(0, tau^2) (:func:`~denavit.fitting.joint.fit_sweeps`' ``scale_prior``): a scale the data show
+    (``full``), the joints' spread tau from those estimates (:func:`_scale_spread`), then every scale refitted with
+    the prior N(0, tau^2) (:func:`~denavit.fitting.joint.fit_sweeps`' ``scale_prior``): a scale the data show
     (sigma << tau) keeps its value, one they cannot show (sigma >> tau) stays near zero with about tau of uncertainty
     in its axis, continuously (no joint-by-joint choice: a chance 2.9-sigma scale on exact readings no longer moves
-    its axis by 2.9 of its full sigmas). Readings whose scales do not scatter significantly are taken as exact in
-    scale. Returns (the fit with the prior or None when tau = 0 or a fit does not converge, the free fit or None,
+    its axis by 2.9 of its full sigmas). Readings whose scales scatter within their sigmas (tau = 0) are taken as exact
+    in scale. Returns (the fit with the prior or None when tau = 0 or a fit does not converge, the free fit or None,
     tau (nan without the free fit))."""
     full, _ = richer(base, per_sweep_home=drift, scales=True)
     if full is None:
         return None, None, math.nan
     on = np.isfinite(full["scale_sigma"])
-    if not _scale_spread(full["scales"][on], full["scale_sigma"][on], SCALE_EVIDENCE_LEVEL) > 0:
-        return None, full, 0.0
     tau = math.sqrt(_scale_spread(full["scales"][on], full["scale_sigma"][on]))
+    if not tau > 0:
+        return None, full, 0.0
     post, _ = richer(base, per_sweep_home=drift, scales=True, scale_prior=(tau, base["sigma"]))
     return post, full, tau
 
@@ -532,8 +528,7 @@ def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, not
             notes.append(f"auto: the readings' scale errors fitted (the joints' scales scatter by tau = {tau * 1e6:.3g} ppm beyond their sigmas, "
                          f"each fitted with that spread as its prior: one the data cannot show stays near zero): {_scale_list(g, sweeps.n_joints)}")
         else:
-            why = (f"the joints' scale estimates do not scatter beyond their sigmas at {SCALE_EVIDENCE_LEVEL:.0%} confidence: "
-                   f"{_scale_list(full, sweeps.n_joints)}; taken as exact in scale"
+            why = (f"the joints' scale estimates scatter within their sigmas: {_scale_list(full, sweeps.n_joints)}; taken as exact in scale"
                    if full is not None else "n/a: no convergence")
             notes.append(f"auto: no reading scale errors fitted ({why}); a scale error the data cannot show moves each axis radially by about the "
                          "scale times the arc's radius")
