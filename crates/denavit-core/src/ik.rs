@@ -60,6 +60,10 @@ use nalgebra::{DMatrix, DVectorViewMut, Matrix3, Matrix6, Rotation3, Vector3, Ve
 use rayon::prelude::*;
 use std::f64::consts::{PI, TAU};
 
+mod closed_form;
+pub use closed_form::Structure;
+use closed_form::{ClosedForm, MAX_BRANCHES};
+
 /// The iterative method of [`ik`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum IkMethod {
@@ -250,6 +254,8 @@ pub(crate) struct Bounds {
     sample_hi: Vec<f64>,
     /// The first joints of the wrist flips ([`wrist_flips`]).
     flips: Vec<usize>,
+    /// The closed form of a recognised 6R structure (the seeds of the first attempt).
+    closed_form: Option<ClosedForm>,
 }
 
 impl Bounds {
@@ -263,6 +269,7 @@ impl Bounds {
             sample_lo: Vec::with_capacity(n),
             sample_hi: Vec::with_capacity(n),
             flips: wrist_flips(model),
+            closed_form: ClosedForm::new(model),
         };
         for j in model.joints() {
             let (lo, hi, rev) = (j.lower, j.upper, j.kind == JointKind::Revolute);
@@ -334,6 +341,30 @@ impl Bounds {
             }
             *qi = qi.clamp(lo, hi);
         }
+    }
+
+    /// Place a closed-form branch near `q0`: each revolute joint shifted by the multiple of 2π nearest to
+    /// `q0_i` and, when `respect_limits`, then by ±2π if that brings it within its range; false if a joint is
+    /// still outside (with `respect_limits`).
+    #[inline]
+    fn place(&self, q: &mut [f64; 6], q0: &[f64], respect_limits: bool) -> bool {
+        for i in 0..6 {
+            let v = q0[i] + crate::spatial::wrap_angle(q[i] - q0[i]);
+            q[i] = v;
+            if !respect_limits || self.fits(i, v) {
+                continue;
+            }
+            // the other side of q0 first (the nearer of v ± 2π to q0)
+            let (a, b) = if v > q0[i] { (v - TAU, v + TAU) } else { (v + TAU, v - TAU) };
+            if self.fits(i, a) {
+                q[i] = a;
+            } else if self.fits(i, b) {
+                q[i] = b;
+            } else {
+                return false;
+            }
+        }
+        true
     }
 
     fn within(&self, q: &[f64]) -> bool {
@@ -498,6 +529,10 @@ const STALL_EVERY: usize = 10;
 /// last attempt).
 const STALL_NEWTON: usize = 8;
 
+/// Jacobian evaluations of the Newton polish of one closed-form seed (within attempt 0's `max_iterations`): an
+/// exact seed needs 1, a seed of an identified robot (axes ~1 mm / 1 mrad off the ideal structure) about 4.
+const POLISH: usize = 10;
+
 /// Step lengths 1, 1/2, 1/4 tried by Newton's backtracking.
 const BACKTRACK: usize = 3;
 
@@ -581,14 +616,15 @@ impl<'m> IkSolver<'m> {
     /// One attempt from `self.q`; leaves the attempt's best configuration in `self.q`.
     /// `last`: no attempt follows, so this one uses its whole iteration budget (a stalled attempt is
     /// abandoned early only when a restart can take over).
-    fn attempt(&mut self, target: &Pose, last: bool) -> (usize, f64, f64) {
+    /// `budget`: the Jacobian evaluations it may use (`max_iterations`, less what the seeds used in attempt 0).
+    fn attempt(&mut self, target: &Pose, last: bool, budget: usize) -> (usize, f64, f64) {
         match self.opts.method {
-            IkMethod::Lm => self.attempt_lm(target, last),
-            IkMethod::Newton => self.attempt_newton(target, last),
+            IkMethod::Lm => self.attempt_lm(target, last, budget),
+            IkMethod::Newton => self.attempt_newton(target, last, budget),
         }
     }
 
-    fn attempt_lm(&mut self, target: &Pose, last: bool) -> (usize, f64, f64) {
+    fn attempt_lm(&mut self, target: &Pose, last: bool, budget: usize) -> (usize, f64, f64) {
         let n = self.model.nq();
         let mut e = [0.0; 6];
         let (mut pos, mut rot) = self.evaluate(false, target, &mut e);
@@ -606,7 +642,7 @@ impl<'m> IkSolver<'m> {
         let mut nu = 2.0;
         let mut checkpoint = cost;
         let mut jte = vec![0.0; n]; // J^T e (n <= 6 stays on the stack in practice: a small allocation per attempt)
-        while it < self.opts.max_iterations {
+        while it < budget {
             if !last && it % STALL_EVERY == 0 {
                 // a local minimum or a crawl: leave it to the next restart
                 if cost > 0.5 * checkpoint {
@@ -746,7 +782,7 @@ impl<'m> IkSolver<'m> {
         }
     }
 
-    fn attempt_newton(&mut self, target: &Pose, last: bool) -> (usize, f64, f64) {
+    fn attempt_newton(&mut self, target: &Pose, last: bool, budget: usize) -> (usize, f64, f64) {
         let n = self.model.nq();
         let mut e = [0.0; 6];
         let (mut pos, mut rot) = self.evaluate(false, target, &mut e);
@@ -760,7 +796,7 @@ impl<'m> IkSolver<'m> {
         self.q_cur.copy_from_slice(&self.q);
         let mut cost: f64 = e.iter().map(|v| v * v).sum();
         let mut stalled = 0;
-        'attempt: while it < self.opts.max_iterations {
+        'attempt: while it < budget {
             self.newton_step(&e);
             // backtracking on |e|^2 (Nocedal & Wright 2006, Algorithm 3.1, halving): steps 1, 1/2, 1/4; when
             // none lowers the error the full step is taken anyway (Newton's jump out of a basin)
@@ -793,7 +829,7 @@ impl<'m> IkSolver<'m> {
                     self.jac_jump.copy_from_slice(&self.jac_eval);
                     jump = Some((et, cost_t, p, r));
                 }
-                if it >= self.opts.max_iterations {
+                if it >= budget {
                     break;
                 }
                 alpha *= 0.5;
@@ -822,13 +858,67 @@ impl<'m> IkSolver<'m> {
         (it, best.1, best.2)
     }
 
+    /// The closed-form seeds of a recognised structure ([`Structure`]): the branches placed near `q0`
+    /// ([`Bounds::place`]; those outside the limits dropped when `respect_limits`), nearest to `q0` first, each
+    /// polished by a Newton attempt on the model until one meets the tolerance. Returns the Jacobian
+    /// evaluations and the best score, with its configuration in `self.q_best`; `None` without a closed form.
+    fn attempt_seeds(&mut self, target: &Pose, q0: &[f64]) -> Option<(usize, f64)> {
+        let bounds: &'m Bounds = self.bounds;
+        let cf = bounds.closed_form.as_ref()?;
+        let mut branches = [[0.0; 6]; MAX_BRANCHES];
+        let count = cf.branches(target, q0, &mut branches);
+        // the branches placed near q0 and within the limits, by distance from q0 (insertion sort of <= 8)
+        let mut order = [(0.0, 0); MAX_BRANCHES];
+        let mut kept = 0;
+        for (k, b) in branches[..count].iter_mut().enumerate() {
+            if !bounds.place(b, q0, self.opts.respect_limits) || b.iter().any(|v| !v.is_finite()) {
+                continue;
+            }
+            let d: f64 = b.iter().zip(q0).map(|(x, y)| (x - y) * (x - y)).sum();
+            let mut j = kept;
+            while j > 0 && order[j - 1].0 > d {
+                order[j] = order[j - 1];
+                j -= 1;
+            }
+            order[j] = (d, k);
+            kept += 1;
+        }
+        let mut total = 0;
+        let mut best = f64::INFINITY;
+        for &(_, k) in &order[..kept] {
+            let budget = POLISH.min(self.opts.max_iterations - total);
+            if budget == 0 {
+                break;
+            }
+            self.q.copy_from_slice(&branches[k]);
+            let (it, pos, rot) = self.attempt_newton(target, false, budget);
+            total += it;
+            let s = score(pos, rot, &self.opts);
+            if s < best {
+                best = s;
+                self.q_best.copy_from_slice(&self.q);
+                if s <= 1.0 {
+                    break;
+                }
+            }
+        }
+        Some((total, best))
+    }
+
     /// Solve without checking the input; `seed` drives the restarts.
     pub(crate) fn solve_unchecked(&mut self, target: &Pose, q0: &[f64], seed: u64) -> IkResult {
         let n = self.model.nq();
         let mut total = 0;
         let mut best_score = f64::INFINITY;
         let mut restarts = 0;
+        let mut seeded = false;
+        if let Some((it, s)) = self.attempt_seeds(target, q0) {
+            (total, best_score, seeded) = (it, s, s.is_finite());
+        }
         for attempt in 0..=self.opts.restarts {
+            if best_score <= 1.0 {
+                break;
+            }
             if attempt == 0 {
                 self.q.copy_from_slice(q0);
             } else {
@@ -838,11 +928,15 @@ impl<'m> IkSolver<'m> {
             if self.opts.respect_limits {
                 self.bounds.project(&mut self.q, false);
             }
-            let (it, pos, rot) = self.attempt(target, attempt == self.opts.restarts);
+            let budget = if attempt == 0 { self.opts.max_iterations - total } else { self.opts.max_iterations };
+            if budget == 0 {
+                continue; // the seeds used attempt 0's budget
+            }
+            let (it, pos, rot) = self.attempt(target, attempt == self.opts.restarts, budget);
             total += it;
             restarts = attempt;
             let s = score(pos, rot, &self.opts);
-            if s < best_score || attempt == 0 {
+            if s < best_score || (attempt == 0 && !seeded) {
                 best_score = s;
                 self.q_best.copy_from_slice(&self.q);
             }
@@ -882,6 +976,29 @@ fn rename(e: Error, what: &str) -> Error {
 /// ```
 pub fn ik(model: &Model, target: &Pose, q0: &[f64], opts: &IkOptions) -> Result<IkResult> {
     IkSolver::new(model, opts.clone())?.solve(target, q0)
+}
+
+/// The structure of `model` that IK solves in closed form for the seeds of its first attempt (module docs,
+/// "Closed-form seeds"), or `None`.
+///
+/// ```
+/// use denavit_core::{builtin_planar2, ik::closed_form_structure};
+/// assert_eq!(closed_form_structure(&builtin_planar2(1.0, 1.0)), None);
+/// ```
+pub fn closed_form_structure(model: &Model) -> Option<Structure> {
+    model.ik_bounds().closed_form.as_ref().map(|c| c.structure)
+}
+
+/// Every closed-form branch of `target` (`T_world_tool`) on the ideal structure nearest to `model`'s axes
+/// (up to 8; each joint wrapped to (-π, π], limits not applied; a joint left free by a singularity is 0), or
+/// `None` when the model has no recognised [`Structure`]. On a model with the exact structure each branch
+/// reproduces the target (a reachable one); on an identified model they are the seeds that IK polishes.
+pub fn closed_form_branches(model: &Model, target: &Pose) -> Result<Option<Vec<Vec<f64>>>> {
+    check_pose("IK target", target)?;
+    let Some(cf) = model.ik_bounds().closed_form.as_ref() else { return Ok(None) };
+    let mut b = [[0.0; 6]; MAX_BRANCHES];
+    let count = cf.branches(target, &[0.0; 6], &mut b);
+    Ok(Some(b[..count].iter().map(|q| q.iter().map(|&v| crate::spatial::wrap_angle(v)).collect()).collect()))
 }
 
 fn check_targets(targets: &[Pose]) -> Result<()> {
