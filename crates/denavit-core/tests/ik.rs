@@ -536,3 +536,42 @@ fn unreachable_targets_fail_honestly_with_a_closed_form() {
         assert_eq!(r.position_error, pose_error(&tool_pose(&m, &r.q).unwrap(), &far).0);
     }
 }
+
+#[test]
+#[ignore = "timing"]
+fn tmp_timing() {
+    for (m, _) in builtins_6r() {
+        let q0: Vec<f64> = m.joints().iter().map(|j| 0.3f64.clamp(j.lower, j.upper)).collect();
+        let ts: Vec<Pose> = qs_within(&m, 500, 7).iter().map(|q| tool_pose(&m, q).unwrap()).collect();
+        for method in [IkMethod::Newton, IkMethod::Lm] {
+            let opts = IkOptions { method, restarts: 0, tol_position: 1e-9, tol_rotation: 1e-9, ..Default::default() };
+            let mut d = vec![];
+            let reps = if std::env::var("IK_REPS").is_ok() { 40 } else { 1 };
+            for t in ts.iter().cycle().take(500 * reps) {
+                let s = std::time::Instant::now();
+                let r = ik(&m, t, &q0, &opts).unwrap();
+                d.push(s.elapsed().as_nanos());
+                std::hint::black_box(r);
+            }
+            d.sort();
+            let mut b = [[0.0; 6]; 8];
+            let s = std::time::Instant::now();
+            for t in &ts {
+                std::hint::black_box(closed_form_branches(&m, t).unwrap());
+            }
+            let cf = s.elapsed().as_nanos() / 500;
+            let _ = &mut b;
+            let s = std::time::Instant::now();
+            for _ in 0..500 {
+                std::hint::black_box(tool_pose(&m, &q0).unwrap());
+            }
+            let fk = s.elapsed().as_nanos() / 500;
+            let s = std::time::Instant::now();
+            for t in &ts {
+                std::hint::black_box(denavit_core::spatial::check_pose("x", t).unwrap());
+            }
+            let cp = s.elapsed().as_nanos() / 500;
+            println!("{} {}: median {} ns; closed_form_branches {} ns, fk {fk} ns, check_pose {cp} ns", m.name(), method.name(), d[d.len() / 2], cf);
+        }
+    }
+}

@@ -25,29 +25,36 @@
 //! A robot whose axes are near such a structure (an identified robot: axes off by up to [`ANGLE_TOL`] rad
 //! and [`DISTANCE_TOL`] times its size) is solved on the *nearest ideal structure*: parallel directions
 //! replaced by their mean, meeting lines by the point nearest to them; the branches are then seeds that
-//! the caller polishes on the true model. An equation without an exact solution (a target out of reach of
-//! the ideal structure) gives its nearest angle (the arm stretched towards it); a joint left free by a
+//! the caller polishes on the true model. An equation without an exact solution gives its nearest angle (the
+//! arm stretched towards the target) when it misses by a relative 1e-6 at most (rounding at a stretched arm or
+//! wrist), else no branch (a target out of reach); a joint left free by a
 //! singularity (q1 with the wrist centre on axis 1, q4 / q6 with the wrist axes aligned) takes its value in
 //! the start configuration.
 //!
-//! No allocation: the branches are written into a fixed array.
+//! No allocation and no trigonometric function: the angles are carried as (cos, sin) pairs ([`Cs`]; SP4 and SP1
+//! give them by square roots and divisions) into a fixed array, and turned into angles by the caller only for
+//! the branches it tries (one `atan2` costs about as much as the whole closed form of a branch).
 
 use crate::axes::axes;
 use crate::kinematics::tool_pose_unchecked;
 use crate::model::{JointKind, Model};
 use crate::spatial::{Pose, any_perpendicular};
-use nalgebra::{Matrix3, Point3, Rotation3, Unit, Vector3};
+use nalgebra::{Matrix3, Point3, Vector3};
 
 type V3 = Vector3<f64>;
 
-/// Largest angle (rad) between axes taken as parallel, and smallest sine of the angle between axes that must
-/// not be parallel is `NOT_PARALLEL`.
+/// Largest angle (rad) between axes taken as parallel.
 pub(crate) const ANGLE_TOL: f64 = 5e-3;
 /// Largest distance, relative to the chain's size (the sum of the distances between consecutive axis points
 /// and the tool), between axis lines taken as meeting in one point.
 pub(crate) const DISTANCE_TOL: f64 = 5e-3;
 /// Smallest sine of the angle between axes that the subproblems need not parallel.
 const NOT_PARALLEL: f64 = 0.1;
+
+/// How far `|C| / sqrt(A² + B²)` of [`sp4`] may exceed 1 for the nearest angle to stand in for a solution
+/// (rounding, or an identified robot a little off its ideal structure, at the edge of its reach); beyond it,
+/// none.
+const SP4_SLACK: f64 = 1e-6;
 
 /// The two structures solved in closed form.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -68,6 +75,81 @@ impl Structure {
     }
 }
 
+/// An angle as its cosine and sine (a unit complex number: products add angles).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Cs {
+    pub(crate) c: f64,
+    pub(crate) s: f64,
+}
+
+impl Cs {
+    const ZERO: Self = Self { c: 1.0, s: 0.0 };
+    #[inline(always)]
+    fn of(t: f64) -> Self {
+        let (s, c) = t.sin_cos();
+        Self { c, s }
+    }
+    /// The angle in (-π, π].
+    #[inline(always)]
+    pub(crate) fn angle(self) -> f64 {
+        self.s.atan2(self.c)
+    }
+    /// The angle in (-π, π] to about 3e-7 rad (a polynomial, a tenth of the time of `atan2`).
+    #[inline(always)]
+    pub(crate) fn angle_approx(self) -> f64 {
+        atan2_approx(self.s, self.c)
+    }
+    #[inline(always)]
+    fn neg(self) -> Self {
+        Self { c: self.c, s: -self.s }
+    }
+    /// The sum of the angles.
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        Self { c: self.c * o.c - self.s * o.s, s: self.s * o.c + self.c * o.s }
+    }
+    /// `self` times the sign `sign` (±1).
+    #[inline(always)]
+    fn times(self, sign: f64) -> Self {
+        Self { c: self.c, s: self.s * sign }
+    }
+}
+
+/// `atan2(y, x)` to about 3e-7 rad: a degree-15 odd polynomial of atan on [0, 1] (Chebyshev fit) and the
+/// octant's symmetries.
+#[inline(always)]
+fn atan2_approx(y: f64, x: f64) -> f64 {
+    const C: [f64; 8] = [
+        9.999_999_227_775_81e-1,
+        -3.333_223_261_884_783e-1,
+        1.997_402_857_781_987e-1,
+        -1.404_782_123_129_534e-1,
+        1.000_220_525_551_376_7e-1,
+        -6.087_448_221_659_648e-2,
+        2.533_170_106_166_051e-2,
+        -5.021_063_910_921_498e-3,
+    ];
+    let (ax, ay) = (x.abs(), y.abs());
+    let (lo, hi) = if ay > ax { (ax, ay) } else { (ay, ax) };
+    if hi == 0.0 {
+        return 0.0;
+    }
+    let a = lo / hi;
+    let t = a * a;
+    let mut p = C[7];
+    for k in (0..7).rev() {
+        p = p * t + C[k];
+    }
+    let mut r = a * p;
+    if ay > ax {
+        r = std::f64::consts::FRAC_PI_2 - r;
+    }
+    if x < 0.0 {
+        r = std::f64::consts::PI - r;
+    }
+    if y < 0.0 { -r } else { r }
+}
+
 /// The ideal axis lines of a recognised 6R chain at `q = 0` and `T_world_tool(0)^-1` (derived once per model).
 #[derive(Debug, Clone)]
 pub(crate) struct ClosedForm {
@@ -76,10 +158,15 @@ pub(crate) struct ClosedForm {
     p: [V3; 6],
     /// Unit directions of the ideal axis lines (world).
     h: [V3; 6],
-    /// The shared direction of the parallel axes (`h_2` for both structures).
+    /// The shared direction of the parallel axes (`h_2`).
     hp: V3,
+    /// The sense of each parallel axis along `hp` (±1; 1 for the others).
+    sense: [f64; 6],
     /// The point where the meeting axes meet: the wrist centre, or the point of axes 5 and 6.
     c: V3,
+    /// A unit vector perpendicular to `h_6`, and one perpendicular to `hp`.
+    x6: V3,
+    xp: V3,
     /// `T_world_tool(0)^-1`.
     t0_inv: Pose,
 }
@@ -89,74 +176,63 @@ pub(crate) const MAX_BRANCHES: usize = 8;
 
 /// `R(k, θ) v` (Rodrigues).
 #[inline(always)]
-fn rot(k: &V3, (s, c): (f64, f64), v: &V3) -> V3 {
-    v * c + k.cross(v) * s + k * (k.dot(v) * (1.0 - c))
-}
-
-#[inline(always)]
-fn rot_m(k: &V3, t: f64) -> Matrix3<f64> {
-    *Rotation3::from_axis_angle(&Unit::new_unchecked(*k), t).matrix()
+fn rot(k: &V3, a: Cs, v: &V3) -> V3 {
+    v * a.c + k.cross(v) * a.s + k * (k.dot(v) * (1.0 - a.c))
 }
 
 /// SP1: `θ` with `R(k, θ) a = b` in the least-squares sense (the angle between the components of `a` and `b`
 /// perpendicular to `k`); `None` when one of them is (nearly) along `k` (every `θ` does as well).
 #[inline(always)]
-fn sp1(k: &V3, a: &V3, b: &V3) -> Option<f64> {
+fn sp1(k: &V3, a: &V3, b: &V3) -> Option<Cs> {
     let (ka, kb) = (k.dot(a), k.dot(b));
     let y = k.dot(&a.cross(b));
     let x = a.dot(b) - ka * kb;
-    let na = (a.norm_squared() - ka * ka).max(0.0);
-    let nb = (b.norm_squared() - kb * kb).max(0.0);
-    (na * nb > 1e-20 * (a.norm_squared() * b.norm_squared()).max(1e-300)).then(|| y.atan2(x))
+    let r = (x * x + y * y).sqrt();
+    (r > 1e-10 * (a.norm_squared() * b.norm_squared()).sqrt()).then(|| Cs { c: x / r, s: y / r })
 }
 
 /// The solutions of SP4.
 #[derive(Debug, Clone, Copy)]
 enum Sp4 {
     /// The first 0, 1 or 2 angles (one when the equation has no exact solution: the nearest).
-    Angles([f64; 2], usize),
+    Angles([Cs; 2], usize),
     /// Every angle solves it (`h^T R(k, θ) p` does not depend on `θ`).
     Any,
 }
 
-/// How far `|C| / sqrt(A² + B²)` of [`sp4`] may exceed 1 for the nearest angle to stand in for a solution
-/// (rounding, or an identified robot a little off its ideal structure, at the edge of its reach); beyond it,
-/// none.
-const SP4_SLACK: f64 = 1e-6;
-
-/// SP4: the angles `θ` with `h^T R(k, θ) p = d` (`k` unit): `A cos θ + B sin θ = C`; without an exact
-/// solution but within [`SP4_SLACK`], the `θ` nearest to one (the maximum or minimum of the left side); else none.
+/// SP4: the angles `θ` with `h^T R(k, θ) p = d` (`k` unit): `A cos θ + B sin θ = C`, i.e. `cos(θ - φ) = C / r`
+/// with `(cos φ, sin φ) = (A, B) / r`, `r = sqrt(A² + B²)`; without an exact solution but within [`SP4_SLACK`],
+/// the `θ` nearest to one (`θ = φ` or `φ + π`); else none.
 #[inline(always)]
 fn sp4(h: &V3, k: &V3, p: &V3, d: f64) -> Sp4 {
     let kp = k.dot(p);
-    let pp = p - k * kp;
-    let a = h.dot(&pp);
+    let a = h.dot(p) - h.dot(k) * kp; // h · (p - k (k · p))
     let b = h.dot(&k.cross(p));
     let c = d - h.dot(k) * kp;
-    let r = a.hypot(b);
+    let r = (a * a + b * b).sqrt();
     if r <= 1e-12 * (h.norm() * p.norm()).max(1e-300) {
         return Sp4::Any;
     }
-    let phi = b.atan2(a);
+    let phi = Cs { c: a / r, s: b / r };
     let x = c / r;
     if x.abs() > 1.0 + SP4_SLACK {
-        Sp4::Angles([0.0, 0.0], 0)
+        Sp4::Angles([Cs::ZERO; 2], 0)
     } else if x >= 1.0 {
         Sp4::Angles([phi, phi], 1)
     } else if x <= -1.0 {
-        Sp4::Angles([phi + std::f64::consts::PI, 0.0], 1)
+        Sp4::Angles([Cs { c: -phi.c, s: -phi.s }, phi], 1)
     } else {
-        let t = x.acos();
-        Sp4::Angles([phi + t, phi - t], 2)
+        let t = Cs { c: x, s: (1.0 - x * x).sqrt() };
+        Sp4::Angles([phi.add(t), phi.add(t.neg())], 2)
     }
 }
 
 /// The angles of an SP4 result, `free` standing in for an unconstrained angle.
 #[inline(always)]
-fn angles(s: Sp4, free: f64) -> ([f64; 2], usize) {
+fn angles(s: Sp4, free: f64) -> ([Cs; 2], usize) {
     match s {
         Sp4::Angles(a, n) => (a, n),
-        Sp4::Any => ([free, free], 1),
+        Sp4::Any => ([Cs::of(free); 2], 1),
     }
 }
 
@@ -190,70 +266,63 @@ impl ClosedForm {
         let size = (1..6).map(|i| (p[i] - p[i - 1]).norm()).sum::<f64>() + (t0.translation.vector - p[5]).norm();
         let dist_tol = DISTANCE_TOL * size.max(1e-3);
         let sin = |a: &V3, b: &V3| a.cross(b).norm();
-        // the mean direction of parallel axes, each keeping its own sense; None if one is not parallel
+        // the mean direction of parallel axes and each one's sense along it; None if one is not parallel
         let parallel = |idx: &[usize]| -> Option<(V3, [f64; 6])> {
-            let mut sign = [1.0; 6];
+            let mut sense = [1.0; 6];
             let mut sum = V3::zeros();
             for &i in idx {
-                let s = h[idx[0]].dot(&h[i]).signum();
                 if sin(&h[idx[0]], &h[i]) > ANGLE_TOL.sin() {
                     return None;
                 }
-                sign[i] = s;
-                sum += h[i] * s;
+                sense[i] = h[idx[0]].dot(&h[i]).signum();
+                sum += h[i] * sense[i];
             }
-            Some((sum.normalize(), sign))
+            Some((sum.normalize(), sense))
         };
         // distance between two parallel lines of direction d
         let apart = |i: usize, j: usize, d: &V3| {
             let v = p[j] - p[i];
             (v - d * d.dot(&v)).norm()
         };
-        let mut ideal_h = h;
-        let mut ideal_p = p;
+        let make = |structure, parallel: &[usize], hp: V3, sense: [f64; 6], meeting: &[usize], c: V3| {
+            let mut ideal_h = h;
+            let mut ideal_p = p;
+            for &i in parallel {
+                ideal_h[i] = hp * sense[i];
+            }
+            for &i in meeting {
+                ideal_p[i] = c;
+            }
+            let x6 = any_perpendicular(&ideal_h[5]);
+            Self { structure, p: ideal_p, h: ideal_h, hp, sense, c, x6, xp: any_perpendicular(&hp), t0_inv: t0.inverse() }
+        };
         // spherical wrist, parallel shoulder
-        if let Some((hp, sign)) = parallel(&[1, 2]) {
-            let meet = meeting_point(&[(p[3], h[3]), (p[4], h[4]), (p[5], h[5])]);
-            if let Some((w, worst)) = meet {
+        if let Some((hp, sense)) = parallel(&[1, 2]) {
+            if let Some((w, worst)) = meeting_point(&[(p[3], h[3]), (p[4], h[4]), (p[5], h[5])]) {
                 if worst <= dist_tol
                     && sin(&h[0], &hp) >= NOT_PARALLEL
                     && sin(&h[3], &h[4]) >= NOT_PARALLEL
                     && sin(&h[4], &h[5]) >= NOT_PARALLEL
                     && apart(1, 2, &hp) > dist_tol
                 {
-                    for i in 1..3 {
-                        ideal_h[i] = hp * sign[i];
-                    }
-                    for pi in &mut ideal_p[3..6] {
-                        *pi = w;
-                    }
-                    return Some(Self { structure: Structure::SphericalWrist, p: ideal_p, h: ideal_h, hp: ideal_h[1], c: w, t0_inv: t0.inverse() });
+                    return Some(make(Structure::SphericalWrist, &[1, 2], hp, sense, &[3, 4, 5], w));
                 }
             }
         }
         // three parallel axes, axes 5 and 6 meeting
-        let (hp, sign) = parallel(&[1, 2, 3])?;
+        let (hp, sense) = parallel(&[1, 2, 3])?;
         let (c, worst) = meeting_point(&[(p[4], h[4]), (p[5], h[5])])?;
-        if worst <= dist_tol
+        (worst <= dist_tol
             && sin(&h[0], &hp) >= NOT_PARALLEL
             && sin(&h[4], &hp) >= NOT_PARALLEL
             && sin(&h[4], &h[5]) >= NOT_PARALLEL
-            && apart(1, 2, &hp) > dist_tol
-        {
-            for i in 1..4 {
-                ideal_h[i] = hp * sign[i];
-            }
-            ideal_p[4] = c;
-            ideal_p[5] = c;
-            return Some(Self { structure: Structure::ThreeParallel, p: ideal_p, h: ideal_h, hp: ideal_h[1], c, t0_inv: t0.inverse() });
-        }
-        None
+            && apart(1, 2, &hp) > dist_tol)
+            .then(|| make(Structure::ThreeParallel, &[1, 2, 3], hp, sense, &[4, 5], c))
     }
 
     /// The branches of `target` (`T_world_tool`) on the ideal structure into `out`, their number returned
-    /// (up to [`MAX_BRANCHES`]); `start` gives the joints left free by a singularity. Angles as computed (not
-    /// wrapped).
-    pub(crate) fn branches(&self, target: &Pose, start: &[f64], out: &mut [[f64; 6]; MAX_BRANCHES]) -> usize {
+    /// (up to [`MAX_BRANCHES`]); `start` gives the joints left free by a singularity.
+    pub(crate) fn branches(&self, target: &Pose, start: &[f64], out: &mut [[Cs; 6]; MAX_BRANCHES]) -> usize {
         let g = target * self.t0_inv;
         match self.structure {
             Structure::SphericalWrist => self.spherical_wrist(&g, start, out),
@@ -263,106 +332,139 @@ impl ClosedForm {
 
     /// `e_i(θ)^-1 x`.
     #[inline(always)]
-    fn undo(&self, i: usize, t: f64, x: &V3) -> V3 {
-        self.p[i] + rot(&self.h[i], (-t.sin(), t.cos()), &(x - self.p[i]))
+    fn undo(&self, i: usize, a: Cs, x: &V3) -> V3 {
+        self.p[i] + rot(&self.h[i], a.neg(), &(x - self.p[i]))
     }
 
     /// The planar 2R problem of the parallel axes 2 and 3: `(q2, q3)` with `e_2(q2) e_3(q3) x = v` (in the
     /// plane normal to `h`: the components along `h` are left to the other joints); up to 2 pairs.
     #[inline(always)]
-    fn planar(&self, x: &V3, v: &V3, free: (f64, f64), out: &mut [[f64; 2]; 2]) -> usize {
+    fn planar(&self, x: &V3, v: &V3, free: (f64, f64), out: &mut [[Cs; 2]; 2]) -> usize {
         let hp = &self.hp;
         let (h2, h3) = (&self.h[1], &self.h[2]);
         let flat = |u: V3| u - hp * hp.dot(&u);
         let u = flat(x - self.p[2]);
         let c = flat(self.p[1] - self.p[2]);
         let target = flat(v - self.p[1]);
-        let d2 = target.norm_squared();
         // |R(h3, q3) u - c| = |target|: SP3 as SP4
-        let (q3s, n) = angles(sp4(&c, h3, &u, (u.norm_squared() + c.norm_squared() - d2) / 2.0), free.1);
+        let (q3s, n) = angles(sp4(&c, h3, &u, (u.norm_squared() + c.norm_squared() - target.norm_squared()) / 2.0), free.1);
         for k in 0..n {
-            let q3 = q3s[k];
-            let moved = rot(h3, q3.sin_cos(), &u) - c; // e_3 x - p_2, flattened
-            let q2 = sp1(h2, &moved, &target).unwrap_or(free.0);
-            out[k] = [q2, q3];
+            let moved = rot(h3, q3s[k], &u) - c; // e_3 x - p_2, flattened
+            let q2 = sp1(h2, &moved, &target).unwrap_or_else(|| Cs::of(free.0));
+            out[k] = [q2, q3s[k]];
         }
         n
     }
 
-    fn spherical_wrist(&self, g: &Pose, start: &[f64], out: &mut [[f64; 6]; MAX_BRANCHES]) -> usize {
+    fn spherical_wrist(&self, g: &Pose, start: &[f64], out: &mut [[Cs; 6]; MAX_BRANCHES]) -> usize {
         let (p, h, w) = (&self.p, &self.h, &self.c);
         let rg = g.rotation.matrix();
         let wd = (g * Point3::from(*w)).coords;
+        // the wrist needs R_rem = (R1 R2 R3)^T R_G only applied to h6 and x6: rotate R_G h6, R_G x6 back
+        let (gh6, gx6) = (rg * h[5], rg * self.x6);
         // q1: h · e_1^-1(w*) = h · w, i.e. h^T R(h1, -q1) (w* - p1) = h · (w - p1)
-        let (q1s, n1) = angles(sp4(&self.hp, &h[0], &(wd - p[0]), self.hp.dot(&(w - p[0]))), -start[0]);
+        let (m1s, n1) = angles(sp4(&self.hp, &h[0], &(wd - p[0]), self.hp.dot(&(w - p[0]))), -start[0]);
         let mut n = 0;
-        for &m1 in &q1s[..n1] {
-            let q1 = -m1;
+        for &m1 in &m1s[..n1] {
+            let q1 = m1.neg();
             let v = self.undo(0, q1, &wd);
-            let mut shoulder = [[0.0; 2]; 2];
+            let (h6_1, x6_1) = (rot(&h[0], m1, &gh6), rot(&h[0], m1, &gx6));
+            let mut shoulder = [[Cs::ZERO; 2]; 2];
             let n23 = self.planar(w, &v, (start[1], start[2]), &mut shoulder);
             for &[q2, q3] in &shoulder[..n23] {
-                let r123 = rot_m(&h[0], q1) * rot_m(&h[1], q2) * rot_m(&h[2], q3);
-                let rrem = r123.transpose() * rg;
-                n += self.wrist(&rrem, [q1, q2, q3], start, &mut out[n..]);
+                // R2 R3 = R(h, s2 q2 + s3 q3)
+                let back = q2.times(self.sense[1]).add(q3.times(self.sense[2])).neg();
+                let rem = [rot(&self.hp, back, &h6_1), rot(&self.hp, back, &x6_1)];
+                n += self.wrist(&rem, [q1, q2, q3], start, &mut out[n..]);
             }
         }
         n
     }
 
-    /// The spherical wrist `R(h4, q4) R(h5, q5) R(h6, q6) = rrem`: up to 2 branches after `head`.
+    /// The spherical wrist `R(h4, q4) R(h5, q5) R(h6, q6) = R_rem`, given `[R_rem h6, R_rem x6]`: up to 2
+    /// branches after `head`.
     #[inline(always)]
-    fn wrist(&self, rrem: &Matrix3<f64>, head: [f64; 3], start: &[f64], out: &mut [[f64; 6]]) -> usize {
+    fn wrist(&self, rem: &[V3; 2], head: [Cs; 3], start: &[f64], out: &mut [[Cs; 6]]) -> usize {
         let h = &self.h;
-        let target6 = rrem * h[5];
-        let (q5s, n5) = angles(sp4(&h[3], &h[4], &h[5], h[3].dot(&target6)), start[4]);
-        let x = any_perpendicular(&h[5]);
+        let (q5s, n5) = angles(sp4(&h[3], &h[4], &h[5], h[3].dot(&rem[0])), start[4]);
         for k in 0..n5 {
             let q5 = q5s[k];
-            let r5 = rot_m(&h[4], q5);
-            let q4 = sp1(&h[3], &(r5 * h[5]), &target6).unwrap_or(start[3]);
-            let r6 = (rot_m(&h[3], q4) * r5).transpose() * rrem;
-            let q6 = sp1(&h[5], &x, &(r6 * x)).unwrap_or(start[5]);
+            let q4 = sp1(&h[3], &rot(&h[4], q5, &h[5]), &rem[0]).unwrap_or_else(|| Cs::of(start[3]));
+            // R6 x6 = R5^T R4^T R_rem x6
+            let r6x6 = rot(&h[4], q5.neg(), &rot(&h[3], q4.neg(), &rem[1]));
+            let q6 = sp1(&h[5], &self.x6, &r6x6).unwrap_or_else(|| Cs::of(start[5]));
             out[k] = [head[0], head[1], head[2], q4, q5, q6];
         }
         n5
     }
 
-    fn three_parallel(&self, g: &Pose, start: &[f64], out: &mut [[f64; 6]; MAX_BRANCHES]) -> usize {
-        let (p, h, c, hp) = (&self.p, &self.h, &self.c, &self.hp);
+    fn three_parallel(&self, g: &Pose, start: &[f64], out: &mut [[Cs; 6]; MAX_BRANCHES]) -> usize {
+        let (p, h, c, hp, sense) = (&self.p, &self.h, &self.c, &self.hp, &self.sense);
         let rg = g.rotation.matrix();
         let cd = (g * Point3::from(*c)).coords;
+        let gh6 = rg * h[5];
         // q1: h · e_1^-1(G c) = h · c
-        let (q1s, n1) = angles(sp4(hp, &h[0], &(cd - p[0]), hp.dot(&(c - p[0]))), -start[0]);
+        let (m1s, n1) = angles(sp4(hp, &h[0], &(cd - p[0]), hp.dot(&(c - p[0]))), -start[0]);
         let mut n = 0;
-        for &m1 in &q1s[..n1] {
-            let q1 = -m1;
-            let r1 = rot_m(&h[0], q1);
+        for &m1 in &m1s[..n1] {
+            let q1 = m1.neg();
+            // R1 h, and R_G^T R1 h
+            let h_1 = rot(&h[0], q1, hp);
+            let gt_h1 = rg.tr_mul(&h_1);
             // q5: h^T R1^T R_G h6 = h^T R5 h6
-            let d = hp.dot(&(r1.transpose() * rg * h[5]));
-            let (q5s, n5) = angles(sp4(hp, &h[4], &h[5], d), start[4]);
+            let (q5s, n5) = angles(sp4(hp, &h[4], &h[5], h_1.dot(&gh6)), start[4]);
             for &q5 in &q5s[..n5] {
-                let r5 = rot_m(&h[4], q5);
                 // q6: R6 (R_G^T R1 h) = R5^T h
-                let q6 = sp1(&h[5], &(rg.transpose() * r1 * hp), &(r5.transpose() * hp)).unwrap_or(start[5]);
-                let r6 = rot_m(&h[5], q6);
+                let q6 = sp1(&h[5], &gt_h1, &rot(&h[4], q5.neg(), hp)).unwrap_or_else(|| Cs::of(start[5]));
                 // e_2 e_3 e_4 = e_1^-1 G e_6^-1 e_5^-1 =: H; a point of axis 4 goes to v = H p4
                 let x = self.undo(5, q6, &self.undo(4, q5, &p[3]));
                 let v = self.undo(0, q1, &(g * Point3::from(x)).coords);
-                let rh = r1.transpose() * rg * r6.transpose() * r5.transpose(); // R(h, q2 + q3 + q4)
-                let y = any_perpendicular(hp);
-                let s = |i: usize| h[i].dot(hp).signum();
-                let total = sp1(hp, &y, &(rh * y)).unwrap_or(s(1) * start[1] + s(2) * start[2] + s(3) * start[3]);
-                let mut shoulder = [[0.0; 2]; 2];
+                // R(h, s2 q2 + s3 q3 + s4 q4) = R1^T R_G R6^T R5^T, applied to xp
+                let hx = rot(&h[0], q1.neg(), &(rg * rot(&h[5], q6.neg(), &rot(&h[4], q5.neg(), &self.xp))));
+                let total = sp1(hp, &self.xp, &hx).unwrap_or_else(|| Cs::of(sense[1] * start[1] + sense[2] * start[2] + sense[3] * start[3]));
+                let mut shoulder = [[Cs::ZERO; 2]; 2];
                 let n23 = self.planar(&p[3], &v, (start[1], start[2]), &mut shoulder);
                 for &[q2, q3] in &shoulder[..n23] {
-                    // R(h2, q2) R(h3, q3) R(h4, q4) = R(h, s2 q2 + s3 q3 + s4 q4), s_i = ±1 the sense of h_i along h
-                    let q4 = s(3) * (total - s(1) * q2 - s(2) * q3);
+                    let q4 = total.add(q2.times(-sense[1])).add(q3.times(-sense[2])).times(sense[3]);
                     out[n] = [q1, q2, q3, q4, q5, q6];
                     n += 1;
                 }
             }
         }
         n
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn atan2_approx_within_3e_7() {
+        let mut worst: f64 = 0.0;
+        for k in 0..20000 {
+            let t = -std::f64::consts::PI + (k as f64 + 0.5) * std::f64::consts::TAU / 20000.0;
+            let r = 0.1 + (k % 7) as f64;
+            worst = worst.max((atan2_approx(r * t.sin(), r * t.cos()) - t).abs());
+        }
+        assert!(worst < 3e-7, "{worst}");
+        assert_eq!(atan2_approx(0.0, 0.0), 0.0);
+    }
+
+    #[test]
+    fn subproblems_solve_their_equations() {
+        let k = V3::new(0.3, -0.4, 0.5).normalize();
+        let (a, t) = (V3::new(0.2, 0.7, -0.1), Cs::of(1.1));
+        let b = rot(&k, t, &a);
+        let s = sp1(&k, &a, &b).unwrap();
+        assert!((s.angle() - 1.1).abs() < 1e-14 && (b - nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(k), 1.1) * a).norm() < 1e-15);
+        let h = V3::new(-0.6, 0.2, 0.9);
+        let Sp4::Angles(ts, 2) = sp4(&h, &k, &a, h.dot(&b)) else { panic!("two solutions") };
+        assert!(ts.iter().any(|x| (x.angle() - 1.1).abs() < 1e-12));
+        for x in ts {
+            assert!((h.dot(&rot(&k, x, &a)) - h.dot(&b)).abs() < 1e-15);
+        }
+        assert!(matches!(sp4(&h, &k, &a, 10.0), Sp4::Angles(_, 0)));
+        assert!(matches!(sp4(&k, &k, &a, 0.0), Sp4::Any));
     }
 }
