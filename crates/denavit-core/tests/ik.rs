@@ -575,3 +575,17 @@ fn tmp_timing() {
         }
     }
 }
+
+#[test]
+#[ignore = "timing"]
+fn tmp_instr() {
+    let which: usize = std::env::var("IK_ROBOT").map(|v| v.parse().unwrap()).unwrap_or(0);
+    let (m, _) = builtins_6r().swap_remove(which);
+    let q0: Vec<f64> = m.joints().iter().map(|j| 0.3f64.clamp(j.lower, j.upper)).collect();
+    let ts: Vec<Pose> = qs_within(&m, 500, 7).iter().map(|q| tool_pose(&m, q).unwrap()).collect();
+    let opts = IkOptions { method: IkMethod::Newton, restarts: 0, tol_position: 1e-9, tol_rotation: 1e-9, ..Default::default() };
+    let reps: usize = std::env::var("IK_N").map(|v| v.parse().unwrap()).unwrap_or(0);
+    for t in ts.iter().cycle().take(500 * reps) {
+        std::hint::black_box(ik(&m, t, &q0, &opts).unwrap());
+    }
+}
