@@ -550,6 +550,10 @@ const STALL_EVERY: usize = 10;
 /// last attempt).
 const STALL_NEWTON: usize = 8;
 
+/// A closed-form seed that meets the tolerance as it is: the configuration and its measured position and
+/// rotation errors.
+type MetSeed = ([f64; 6], f64, f64);
+
 /// Jacobian evaluations of the Newton polish of one closed-form seed (within attempt 0's `max_iterations`): an
 /// exact seed needs 1, a seed of an identified robot (axes ~1 mm / 1 mrad off the ideal structure) about 4.
 const POLISH: usize = 10;
@@ -905,7 +909,7 @@ impl<'m> IkSolver<'m> {
     /// polished by a Newton attempt on the model until one meets the tolerance. Returns the Jacobian
     /// evaluations, the best score (its configuration in `self.q_best`) and, for a seed met as it is, its
     /// measured errors; `None` without a closed form.
-    fn attempt_seeds(&mut self, target: &Pose, q0: &[f64]) -> Option<(usize, f64, Option<([f64; 6], f64, f64)>)> {
+    fn attempt_seeds(&mut self, target: &Pose, q0: &[f64]) -> Option<(usize, f64, Option<MetSeed>)> {
         let bounds: &'m Bounds = self.bounds;
         let cf = bounds.closed_form.as_ref()?;
         let mut branches = [[closed_form::Cs { c: 1.0, s: 0.0 }; 6]; MAX_BRANCHES];

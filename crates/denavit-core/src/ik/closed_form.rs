@@ -456,7 +456,7 @@ mod tests {
         let k = V3::new(0.3, -0.4, 0.5).normalize();
         let (a, t) = (V3::new(0.2, 0.7, -0.1), Cs::of(1.1));
         let b = rot(&k, t, &a);
-        let s = sp1(&k, &a, &b).unwrap();
+        let s = sp1(&k, &a, &b).expect("a and b off the axis");
         assert!((s.angle() - 1.1).abs() < 1e-14 && (b - nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(k), 1.1) * a).norm() < 1e-15);
         let h = V3::new(-0.6, 0.2, 0.9);
         let Sp4::Angles(ts, 2) = sp4(&h, &k, &a, h.dot(&b)) else { panic!("two solutions") };
