@@ -86,7 +86,7 @@ impl Cs {
     const ZERO: Self = Self { c: 1.0, s: 0.0 };
     #[inline(always)]
     fn of(t: f64) -> Self {
-        let (s, c) = t.sin_cos();
+        let (s, c) = crate::math::sin_cos(t);
         Self { c, s }
     }
     /// The angle in (-π, π].
