@@ -84,7 +84,7 @@ use std::f64::consts::{PI, TAU};
 
 mod closed_form;
 pub use closed_form::Structure;
-use closed_form::{ClosedForm, MAX_BRANCHES};
+use closed_form::{ClosedForm, Cs, MAX_BRANCHES, MAX_PARTIALS, Partial};
 
 /// The iterative method of [`ik`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -366,29 +366,19 @@ impl Bounds {
         }
     }
 
-    /// Place a closed-form branch near `q0`: each revolute joint shifted by the multiple of 2π nearest to
-    /// `q0_i` and, when `respect_limits`, then by ±2π if that brings it within its range; false if a joint is
-    /// still outside (with `respect_limits`).
+    /// Place angle `v` of revolute joint `i` near `q0_i`: shifted by the multiple of 2π nearest to `q0_i` and,
+    /// when `respect_limits`, then by ±2π if that brings it within its range; `None` if it is still outside
+    /// (with `respect_limits`).
     #[inline]
-    fn place(&self, q: &mut [f64; 6], q0: &[f64], respect_limits: bool) -> bool {
-        for i in 0..6 {
-            let d = q[i] - q0[i];
-            let v = q0[i] + (d - TAU * (d / TAU).round()); // the nearest to q0_i (fmod is slow)
-            q[i] = v;
-            if !respect_limits || self.fits(i, v) {
-                continue;
-            }
-            // the other side of q0 first (the nearer of v ± 2π to q0)
-            let (a, b) = if v > q0[i] { (v - TAU, v + TAU) } else { (v + TAU, v - TAU) };
-            if self.fits(i, a) {
-                q[i] = a;
-            } else if self.fits(i, b) {
-                q[i] = b;
-            } else {
-                return false;
-            }
+    fn place_joint(&self, i: usize, v: f64, q0_i: f64, respect_limits: bool) -> Option<f64> {
+        let d = v - q0_i;
+        let v = q0_i + (d - TAU * (d / TAU).round()); // the nearest to q0_i (fmod is slow)
+        if !respect_limits || self.fits(i, v) {
+            return Some(v);
         }
-        true
+        // the other side of q0 first (the nearer of v ± 2π to q0)
+        let (a, b) = if v > q0_i { (v - TAU, v + TAU) } else { (v + TAU, v - TAU) };
+        [a, b].into_iter().find(|&x| self.fits(i, x))
     }
 
     fn within(&self, q: &[f64]) -> bool {
@@ -907,52 +897,87 @@ impl<'m> IkSolver<'m> {
         (it, best.1, best.2)
     }
 
-    /// The closed-form seeds of a recognised structure ([`Structure`]): the branches placed near `q0`
-    /// ([`Bounds::place`]; those outside the limits dropped when `respect_limits`), nearest to `q0` first, each
-    /// polished by a Newton attempt on the model until one meets the tolerance. Returns the Jacobian
-    /// evaluations, the best score (its configuration in `self.q_best`) and, for a seed met as it is, its
-    /// measured errors; `None` without a closed form.
+    /// The closed-form seeds of a recognised structure ([`Structure`]): the branches placed near `q0` (each
+    /// joint by [`Bounds::place_joint`]; those outside the limits dropped when `respect_limits`), nearest to
+    /// `q0` first, each checked by FK and, if not within the tolerance as it is, polished by a Newton attempt on
+    /// the model, until one meets the tolerance. Returns the Jacobian evaluations, the best score (its
+    /// configuration in `self.q_best`) and, for a seed met as it is, its measured errors; `None` without a
+    /// closed form.
+    ///
+    /// The order is found best-first on the closed form's two levels ([`ClosedForm::levels`]): a first level
+    /// (three joints) is completed to its branches only when its own distance from `q0`, a lower bound of its
+    /// branches', is below that of every branch found so far, so the branches of arms far from `q0` are not
+    /// computed. Distances come from the angles to 3e-7 rad ([`closed_form::Cs::angle_approx`]: `atan2` costs
+    /// about as much as the closed form of a branch); a branch is tried with its exact angles.
     fn attempt_seeds(&mut self, target: &Pose, q0: &[f64]) -> Option<(usize, f64, Option<MetSeed>)> {
         let bounds: &'m Bounds = self.bounds;
         let cf = bounds.closed_form.as_ref()?;
-        let mut branches = [[closed_form::Cs { c: 1.0, s: 0.0 }; 6]; MAX_BRANCHES];
-        let count = cf.branches(target, q0, &mut branches);
-        // the order by distance from q0 (insertion sort of <= 8), from the angles to 3e-7 rad (atan2 itself
-        // costs about as much as the closed form of a branch: it is left to the branches tried)
-        let mut order = [(0.0, 0); MAX_BRANCHES];
+        let respect = self.opts.respect_limits;
+        let (first, second) = cf.levels();
+        // the first levels within the limits, by their distance from q0
+        let mut parts = [Partial::EMPTY; MAX_PARTIALS];
+        let np = cf.partials(target, q0, &mut parts);
+        let mut part_order = [(0.0f64, 0); MAX_PARTIALS];
         let mut kept = 0;
-        // consecutive branches share joints (2 or 4 of them one q1, pairs the arm or q5, q6): each joint's angle
-        // computed once
-        let mut prev = [(closed_form::Cs { c: f64::NAN, s: f64::NAN }, 0.0); 6];
-        for (k, b) in branches[..count].iter().enumerate() {
-            let mut q = [0.0; 6];
-            for i in 0..6 {
-                if b[i] != prev[i].0 {
-                    prev[i] = (b[i], b[i].angle_approx());
-                }
-                q[i] = prev[i].1;
+        'parts: for (k, part) in parts[..np].iter().enumerate() {
+            let mut d = 0.0;
+            for &i in &first {
+                let Some(v) = bounds.place_joint(i, part.q[i].angle_approx(), q0[i], respect) else { continue 'parts };
+                d += (v - q0[i]) * (v - q0[i]);
             }
-            if !bounds.place(&mut q, q0, self.opts.respect_limits) || q.iter().any(|v| !v.is_finite()) {
+            if !d.is_finite() {
                 continue;
             }
-            let d: f64 = q.iter().zip(q0).map(|(x, y)| (x - y) * (x - y)).sum();
             let mut j = kept;
-            while j > 0 && order[j - 1].0 > d {
-                order[j] = order[j - 1];
+            while j > 0 && part_order[j - 1].0 > d {
+                part_order[j] = part_order[j - 1];
                 j -= 1;
             }
-            order[j] = (d, k);
+            part_order[j] = (d, k);
             kept += 1;
         }
+        // the branches found, their distances, and whether tried
+        let mut found = [(0.0f64, [Cs::ZERO; 6], false); MAX_BRANCHES];
+        let (mut nf, mut next) = (0, 0);
         let mut total = 0;
         let mut best = f64::INFINITY;
-        for &(_, k) in &order[..kept] {
+        loop {
+            let nearest = (0..nf).filter(|&c| !found[c].2).min_by(|&a, &b| found[a].0.total_cmp(&found[b].0));
+            if next < kept && nearest.is_none_or(|c| part_order[next].0 < found[c].0) {
+                // a first level that may hold a nearer branch: complete it
+                let (pd, k) = part_order[next];
+                next += 1;
+                let mut leaves = [[Cs::ZERO; 6]; 2];
+                let nl = cf.complete(&parts[k], q0, &mut leaves);
+                'leaves: for leaf in &leaves[..nl] {
+                    let mut d = pd;
+                    for &i in &second {
+                        let Some(v) = bounds.place_joint(i, leaf[i].angle_approx(), q0[i], respect) else { continue 'leaves };
+                        d += (v - q0[i]) * (v - q0[i]);
+                    }
+                    if d.is_finite() {
+                        found[nf] = (d, *leaf, false);
+                        nf += 1;
+                    }
+                }
+                continue;
+            }
+            let Some(c) = nearest else { break };
+            found[c].2 = true;
             let budget = POLISH.min(self.opts.max_iterations - total);
             if budget == 0 {
                 break;
             }
-            let mut q: [f64; 6] = std::array::from_fn(|i| branches[k][i].angle());
-            if !bounds.place(&mut q, q0, self.opts.respect_limits) {
+            // the exact angles, placed again (a joint at a limit may fall outside by them)
+            let mut q = [0.0; 6];
+            let mut placed = true;
+            for i in 0..6 {
+                match bounds.place_joint(i, found[c].1[i].angle(), q0[i], respect) {
+                    Some(v) => q[i] = v,
+                    None => placed = false,
+                }
+            }
+            if !placed {
                 continue;
             }
             // an exact seed is checked by the verdict's own measurement (forward kinematics alone, counted as one
@@ -1075,7 +1100,7 @@ pub fn closed_form_structure(model: &Model) -> Option<Structure> {
 pub fn closed_form_branches(model: &Model, target: &Pose) -> Result<Option<Vec<Vec<f64>>>> {
     check_pose("IK target", target)?;
     let Some(cf) = model.ik_bounds().closed_form.as_ref() else { return Ok(None) };
-    let mut b = [[closed_form::Cs { c: 1.0, s: 0.0 }; 6]; MAX_BRANCHES];
+    let mut b = [[Cs::ZERO; 6]; MAX_BRANCHES];
     let count = cf.branches(target, &[0.0; 6], &mut b);
     Ok(Some(b[..count].iter().map(|q| q.iter().map(|a| a.angle()).collect()).collect()))
 }

@@ -83,7 +83,7 @@ pub(crate) struct Cs {
 }
 
 impl Cs {
-    const ZERO: Self = Self { c: 1.0, s: 0.0 };
+    pub(crate) const ZERO: Self = Self { c: 1.0, s: 0.0 };
     #[inline(always)]
     fn of(t: f64) -> Self {
         let (s, c) = crate::math::sin_cos(t);
@@ -173,6 +173,25 @@ pub(crate) struct ClosedForm {
 
 /// Most branches of a 6R chain.
 pub(crate) const MAX_BRANCHES: usize = 8;
+
+/// Most first levels of the branches ([`ClosedForm::partials`]).
+pub(crate) const MAX_PARTIALS: usize = 4;
+
+/// The first level of a branch: three joints set ([`ClosedForm::levels`]), the rest to be
+/// [`ClosedForm::complete`]d from what they need (`ctx`, `total`).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Partial {
+    /// The joints set so far (the others zero).
+    pub(crate) q: [Cs; 6],
+    /// The spherical wrist's `[R_rem h6, R_rem x6]`, or the point `v = H p4` of three parallel axes.
+    ctx: [V3; 2],
+    /// Three parallel axes: the angle `s2 q2 + s3 q3 + s4 q4`.
+    total: Cs,
+}
+
+impl Partial {
+    pub(crate) const EMPTY: Self = Self { q: [Cs::ZERO; 6], ctx: [V3::new(0.0, 0.0, 0.0); 2], total: Cs::ZERO };
+}
 
 /// `R(k, θ) v` (Rodrigues).
 #[inline(always)]
@@ -323,10 +342,41 @@ impl ClosedForm {
     /// The branches of `target` (`T_world_tool`) on the ideal structure into `out`, their number returned
     /// (up to [`MAX_BRANCHES`]); `start` gives the joints left free by a singularity.
     pub(crate) fn branches(&self, target: &Pose, start: &[f64], out: &mut [[Cs; 6]; MAX_BRANCHES]) -> usize {
+        let mut parts = [Partial::EMPTY; MAX_PARTIALS];
+        let np = self.partials(target, start, &mut parts);
+        let mut n = 0;
+        for part in &parts[..np] {
+            let mut leaves = [[Cs::ZERO; 6]; 2];
+            let nl = self.complete(part, start, &mut leaves);
+            out[n..n + nl].copy_from_slice(&leaves[..nl]);
+            n += nl;
+        }
+        n
+    }
+
+    /// The joints a [`Partial`] fixes (the first level of the solution tree) and those [`Self::complete`] adds.
+    pub(crate) fn levels(&self) -> ([usize; 3], [usize; 3]) {
+        match self.structure {
+            Structure::SphericalWrist => ([0, 1, 2], [3, 4, 5]),
+            Structure::ThreeParallel => ([0, 4, 5], [1, 2, 3]),
+        }
+    }
+
+    /// The first level of the branches of `target` (up to [`MAX_PARTIALS`]): the spherical wrist's arm
+    /// (q1, q2, q3), or q1, q5, q6 of three parallel axes; each [`Self::complete`]s to up to 2 branches.
+    pub(crate) fn partials(&self, target: &Pose, start: &[f64], out: &mut [Partial; MAX_PARTIALS]) -> usize {
         let g = target * self.t0_inv;
         match self.structure {
-            Structure::SphericalWrist => self.spherical_wrist(&g, start, out),
-            Structure::ThreeParallel => self.three_parallel(&g, start, out),
+            Structure::SphericalWrist => self.arms(&g, start, out),
+            Structure::ThreeParallel => self.outer(&g, start, out),
+        }
+    }
+
+    /// The branches (up to 2) that complete `part`, every joint set.
+    pub(crate) fn complete(&self, part: &Partial, start: &[f64], out: &mut [[Cs; 6]; 2]) -> usize {
+        match self.structure {
+            Structure::SphericalWrist => self.wrist(part, start, out),
+            Structure::ThreeParallel => self.inner(part, start, out),
         }
     }
 
@@ -356,11 +406,13 @@ impl ClosedForm {
         n
     }
 
-    fn spherical_wrist(&self, g: &Pose, start: &[f64], out: &mut [[Cs; 6]; MAX_BRANCHES]) -> usize {
+    /// The arms of a spherical wrist: (q1, q2, q3) placing the wrist centre, and `R_rem = (R1 R2 R3)^T R_G`
+    /// applied to h6 and x6 for the wrist.
+    fn arms(&self, g: &Pose, start: &[f64], out: &mut [Partial; MAX_PARTIALS]) -> usize {
         let (p, h, w) = (&self.p, &self.h, &self.c);
         let rg = g.rotation.matrix();
         let wd = (g * Point3::from(*w)).coords;
-        // the wrist needs R_rem = (R1 R2 R3)^T R_G only applied to h6 and x6: rotate R_G h6, R_G x6 back
+        // the wrist needs R_rem only applied to h6 and x6: rotate R_G h6, R_G x6 back
         let (gh6, gx6) = (rg * h[5], rg * self.x6);
         // q1: h · e_1^-1(w*) = h · w, i.e. h^T R(h1, -q1) (w* - p1) = h · (w - p1)
         let (m1s, n1) = angles(sp4(&self.hp, &h[0], &(wd - p[0]), self.hp.dot(&(w - p[0]))), -start[0]);
@@ -374,18 +426,18 @@ impl ClosedForm {
             for &[q2, q3] in &shoulder[..n23] {
                 // R2 R3 = R(h, s2 q2 + s3 q3)
                 let back = q2.times(self.sense[1]).add(q3.times(self.sense[2])).neg();
-                let rem = [rot(&self.hp, back, &h6_1), rot(&self.hp, back, &x6_1)];
-                n += self.wrist(&rem, [q1, q2, q3], start, &mut out[n..]);
+                let mut q = [Cs::ZERO; 6];
+                q[..3].copy_from_slice(&[q1, q2, q3]);
+                out[n] = Partial { q, ctx: [rot(&self.hp, back, &h6_1), rot(&self.hp, back, &x6_1)], total: Cs::ZERO };
+                n += 1;
             }
         }
         n
     }
 
-    /// The spherical wrist `R(h4, q4) R(h5, q5) R(h6, q6) = R_rem`, given `[R_rem h6, R_rem x6]`: up to 2
-    /// branches after `head`.
-    #[inline(always)]
-    fn wrist(&self, rem: &[V3; 2], head: [Cs; 3], start: &[f64], out: &mut [[Cs; 6]]) -> usize {
-        let h = &self.h;
+    /// The spherical wrist `R(h4, q4) R(h5, q5) R(h6, q6) = R_rem` of an arm, given `[R_rem h6, R_rem x6]`.
+    fn wrist(&self, part: &Partial, start: &[f64], out: &mut [[Cs; 6]; 2]) -> usize {
+        let (h, rem) = (&self.h, &part.ctx);
         let (q5s, n5) = angles(sp4(&h[3], &h[4], &h[5], h[3].dot(&rem[0])), start[4]);
         for k in 0..n5 {
             let q5 = q5s[k];
@@ -393,12 +445,15 @@ impl ClosedForm {
             // R6 x6 = R5^T R4^T R_rem x6
             let r6x6 = rot(&h[4], q5.neg(), &rot(&h[3], q4.neg(), &rem[1]));
             let q6 = sp1(&h[5], &self.x6, &r6x6).unwrap_or_else(|| Cs::of(start[5]));
-            out[k] = [head[0], head[1], head[2], q4, q5, q6];
+            out[k] = part.q;
+            out[k][3..].copy_from_slice(&[q4, q5, q6]);
         }
         n5
     }
 
-    fn three_parallel(&self, g: &Pose, start: &[f64], out: &mut [[Cs; 6]; MAX_BRANCHES]) -> usize {
+    /// The outer joints of three parallel axes: q1, q5, q6, with the point `v = H p4` and the angle
+    /// `s2 q2 + s3 q3 + s4 q4` of `H = e_2 e_3 e_4` for the inner ones.
+    fn outer(&self, g: &Pose, start: &[f64], out: &mut [Partial; MAX_PARTIALS]) -> usize {
         let (p, h, c, hp, sense) = (&self.p, &self.h, &self.c, &self.hp, &self.sense);
         let rg = g.rotation.matrix();
         let cd = (g * Point3::from(*c)).coords;
@@ -422,16 +477,26 @@ impl ClosedForm {
                 // R(h, s2 q2 + s3 q3 + s4 q4) = R1^T R_G R6^T R5^T, applied to xp
                 let hx = rot(&h[0], q1.neg(), &(rg * rot(&h[5], q6.neg(), &rot(&h[4], q5.neg(), &self.xp))));
                 let total = sp1(hp, &self.xp, &hx).unwrap_or_else(|| Cs::of(sense[1] * start[1] + sense[2] * start[2] + sense[3] * start[3]));
-                let mut shoulder = [[Cs::ZERO; 2]; 2];
-                let n23 = self.planar(&p[3], &v, (start[1], start[2]), &mut shoulder);
-                for &[q2, q3] in &shoulder[..n23] {
-                    let q4 = total.add(q2.times(-sense[1])).add(q3.times(-sense[2])).times(sense[3]);
-                    out[n] = [q1, q2, q3, q4, q5, q6];
-                    n += 1;
-                }
+                let mut q = [Cs::ZERO; 6];
+                (q[0], q[4], q[5]) = (q1, q5, q6);
+                out[n] = Partial { q, ctx: [v, V3::zeros()], total };
+                n += 1;
             }
         }
         n
+    }
+
+    /// The inner joints q2, q3, q4 of three parallel axes: the planar 2R problem on p4, then q4 from the angle.
+    fn inner(&self, part: &Partial, start: &[f64], out: &mut [[Cs; 6]; 2]) -> usize {
+        let sense = &self.sense;
+        let mut shoulder = [[Cs::ZERO; 2]; 2];
+        let n23 = self.planar(&self.p[3], &part.ctx[0], (start[1], start[2]), &mut shoulder);
+        for (k, &[q2, q3]) in shoulder[..n23].iter().enumerate() {
+            let q4 = part.total.add(q2.times(-sense[1])).add(q3.times(-sense[2])).times(sense[3]);
+            out[k] = part.q;
+            out[k][1..4].copy_from_slice(&[q2, q3, q4]);
+        }
+        n23
     }
 }
 
