@@ -381,7 +381,14 @@ fn builtins_6r() -> Vec<(Model, Structure)> {
     );
     let ur5 = with_limits(ur5_dh().to_model("ur5").unwrap(), [(-360.0, 360.0); 6]);
     let tiansui = tiansui_mdh().to_model("tiansui_mdh").unwrap();
-    vec![(kr5, Structure::SphericalWrist), (puma, Structure::SphericalWrist), (ur5, Structure::ThreeParallel), (tiansui, Structure::ThreeParallel)]
+    let tiansui_edh = tiansui_edh().to_model("tiansui_edh").unwrap();
+    vec![
+        (kr5, Structure::SphericalWrist),
+        (puma, Structure::SphericalWrist),
+        (ur5, Structure::ThreeParallel),
+        (tiansui, Structure::ThreeParallel),
+        (tiansui_edh, Structure::ThreeParallel),
+    ]
 }
 
 /// `count` configurations uniform within the limits (clipped to +-pi), from an LCG.
