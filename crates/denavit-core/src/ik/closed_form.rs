@@ -31,9 +31,11 @@
 //! singularity (q1 with the wrist centre on axis 1, q4 / q6 with the wrist axes aligned) takes its value in
 //! the start configuration.
 //!
-//! No allocation and no trigonometric function: the angles are carried as (cos, sin) pairs ([`Cs`]; SP4 and SP1
-//! give them by square roots and divisions) into a fixed array, and turned into angles by the caller only for
-//! the branches it tries (one `atan2` costs about as much as the whole closed form of a branch).
+//! Each structure is solved in two levels ([`ClosedForm::partials`]: up to 4 sets of three joints; then
+//! [`ClosedForm::complete`]: up to 2 branches each), so that the caller can leave unfinished the partial
+//! branches far from its start. No allocation and no trigonometric function: the angles are carried as
+//! (cos, sin) pairs ([`Cs`]; SP4 and SP1 give them by square roots and divisions) in fixed arrays, and turned
+//! into angles by the caller (48 `atan2` for 8 branches would cost more than their closed form).
 
 use crate::axes::axes;
 use crate::kinematics::tool_pose_unchecked;
