@@ -176,7 +176,9 @@ def ik_one_attempt(models, n, have_rtb, have_pin, tol=1e-9):
     (slimit=1: one search from the same q0, ilimit=100, joint_limits=True) and pinocchio's CLIK (a Python loop
     over its C++ calls). rtb gets the same targets and start on the same chain, built from denavit's table (its
     own models.DH.Puma560 / UR5 / KR5 are other robots: a 0.672 m base height, d1 = 89.459 mm and +-180 deg
-    limits, other axis senses; checked here by FK at 5 configurations)."""
+    limits, other axis senses; checked here by FK at 5 configurations). denavit's first attempt starts from the
+    closed-form branches of the 6R built-ins (within the limits, nearest q0 first, polished by Newton) whatever
+    the method; the 7-joint arm has no closed form."""
     rows = []
     for name, m in models:
         rng = np.random.default_rng(7)

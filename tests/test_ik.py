@@ -33,6 +33,17 @@ def limited(model, lower, upper):
                                     T_flange_tool=model.T_flange_tool)
 
 
+def without_closed_form(model):
+    """``model`` with axis 6 moved 30 mm off axis 5 (perpendicular to both): no longer one of the structures IK
+    solves in closed form, so one attempt is the iterative one alone."""
+    P = np.array(model.placements)
+    d = np.cross([0.0, 0.0, 1.0], P[5][:3, 2])
+    P[5][:3, 3] += 0.03 * d / np.linalg.norm(d)
+    return dv.Model.from_placements(P, model.kinds, offsets=model.offsets, lower=model.lower, upper=model.upper,
+                                    names=model.names, T_world_base=model.T_world_base, T_last_flange=model.T_last_flange,
+                                    T_flange_tool=model.T_flange_tool)
+
+
 def guo_T0():
     """Guo et al. sec. V, initial tool pose 0T (4 decimals), re-orthonormalised by SVD."""
     T = np.array([[-0.7598, 0.4151, 0.5004, -0.3655],
@@ -196,8 +207,9 @@ def test_batch_result_is_a_sequence_and_matches_single_solves(rng):
 
 def test_single_solve_equals_a_batch_and_a_path_of_one_target(rng):
     """Restarts are seeded by (seed, target index): a single solve is target 0 of a batch or a path, so the
-    three give the same answer, restarts included."""
-    m = dv.load_model("puma560")
+    three give the same answer, restarts included (on a Puma 560 without its closed form, which would solve
+    every target in the first attempt)."""
+    m = without_closed_form(dv.load_model("puma560"))
     Ts = dv.fk_batch(m, rng.uniform(m.lower, m.upper, (60, 6)))
     restarted = 0
     for T in Ts:
@@ -267,13 +279,15 @@ def test_one_attempt_uses_its_budget(method):
     """Regression (issue 18): with restarts=0 an attempt was abandoned by the restart rules (Newton after 8 steps
     without a new best: 53 % of UR5 targets solved, failures stopping after 10-43 iterations; LM when |e|^2 had not
     halved in 10 iterations: failures always at 20, 30 or 40). The last attempt now keeps going (Newton with
-    backtracking, LM until its gain-ratio damping gives up at a local minimum)."""
-    m = dv.load_model("ur5")
+    backtracking, LM until its gain-ratio damping gives up at a local minimum). The UR5 is now solved in closed
+    form first (every target in one attempt), so the iterative attempt is checked on a UR5 whose axis 6 misses
+    axis 5 by 30 mm (one attempt there: Newton 88 %, LM 84 % of these targets; the UR5 itself had 91 %)."""
+    m = without_closed_form(dv.load_model("ur5"))
     rng = np.random.default_rng(3)
     lo, hi = np.maximum(m.lower, -np.pi), np.minimum(m.upper, np.pi)
     Ts = dv.fk_batch(m, rng.uniform(lo, hi, (200, 6)))
     r = dv.ik_batch(m, Ts, np.full(6, 0.3), method=method, restarts=0)
-    assert r.success.mean() >= 0.85
+    assert r.success.mean() >= 0.80
     failed = r.iterations[~r.success]
     for T, q, ok in zip(Ts, r.q, r.success):  # never a success that is not met
         assert not ok or max(measured(m, q, T)) <= 1e-10 + 1e-15
@@ -288,8 +302,9 @@ def test_one_attempt_leaves_the_limits_it_crosses():
     there, converging towards an IK branch outside the range. Now a wrist outside its limits is flipped into them
     (same pose), and Newton mirrors a joint at the limit it crossed. 500 random reachable targets (the
     benchmark's draw), one attempt from 0.3 rad: Newton KR5 87.0 % before, 92.2 % after; Puma 560 68.6 % / 81.8 %;
-    LM Puma 560 77.6 % / 82.4 %. Every success is measured within the tolerance and the limits."""
-    for name, method, rate in (("kr5", "newton", 0.90), ("puma560", "newton", 0.80), ("puma560", "lm", 0.80)):
+    LM Puma 560 77.6 % / 82.4 %. Every success is measured within the tolerance and the limits. Since then the
+    closed-form seeds (branches within the limits, nearest to q0 first) solve every one of these targets."""
+    for name, method, rate in (("kr5", "newton", 0.97), ("puma560", "newton", 0.97), ("puma560", "lm", 0.97)):
         m = dv.load_model(name)
         rng = np.random.default_rng(7)
         lo, hi = np.maximum(m.lower, -np.pi), np.minimum(m.upper, np.pi)
@@ -299,3 +314,22 @@ def test_one_attempt_leaves_the_limits_it_crosses():
         assert r.success.mean() >= rate, (name, method, r.success.mean())
         for T, q, ok in zip(Ts, r.q, r.success):
             assert not ok or (max(measured(m, q, T)) <= 1e-9 + 1e-15 and np.all((q >= m.lower) & (q <= m.upper)))
+
+
+@pytest.mark.parametrize("name", ["kr5", "ur5", "puma560", "tiansui_mdh"])
+def test_one_attempt_from_closed_form_seeds(name):
+    """Issue 18, "IK one attempt": the 6R built-ins are solved in closed form first (their branches within the
+    limits, nearest to q0 first, polished on the model), so one attempt from 0.3 rad solves >= 97 % of 500
+    random reachable targets (the benchmark's draw; it was 82-92 % with the iterative attempt alone), judged here
+    from the pose error measured in numpy and the limits."""
+    m = dv.load_model(name)
+    rng = np.random.default_rng(7)
+    lo, hi = np.maximum(m.lower, -np.pi), np.minimum(m.upper, np.pi)
+    Ts = dv.fk_batch(m, rng.uniform(lo, hi, (500, 6)))
+    q0 = np.clip(np.full(6, 0.3), m.lower, m.upper)
+    for method in ("newton", "lm"):
+        r = dv.ik_batch(m, Ts, q0, method=method, restarts=0, tol_position=1e-9, tol_rotation=1e-9)
+        ok = np.array([max(measured(m, q, T)) <= 1e-9 and bool(np.all((q >= m.lower) & (q <= m.upper)))
+                       for q, T in zip(r.q, Ts)])
+        assert ok.mean() >= 0.97, (name, method, ok.mean())
+        assert not (r.success & ~ok).any()

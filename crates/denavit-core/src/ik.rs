@@ -42,6 +42,27 @@
 //! (benchmarks/bench_kinematics.py): KR5 87.0 -> 92.2 %, Puma 560 68.6 -> 73.2 % (for LM, mirroring lowered
 //! the Puma's rate, 77.6 -> 65.8 %, so LM keeps clamping).
 //!
+//! **Closed-form seeds.** A 6R chain whose joint axes (at `q = 0`) have one of the two structures of industrial
+//! arms ([`Structure`]: a spherical wrist behind two parallel shoulder axes, as on the KUKA KR5 and the Puma 560;
+//! three parallel axes with axes 5 and 6 meeting, as on the UR5 and the TianSui-One) is solved in closed form
+//! first, by Paden-Kahan subproblems on its axis lines (`closed_form` module; Elias & Wen 2022, "IK-Geo";
+//! Murray, Li & Sastry 1994, ch. 3): up to 8 branches, found once per model ([`closed_form_structure`]) with a
+//! tolerance (5 mrad, 0.5 % of the chain's size), so that an identified robot is solved on the nearest ideal
+//! structure. Attempt 0 places each branch near `q0` (each revolute joint by the multiple of 2π nearest to
+//! `q0_i`, or the next one when that is within its limits), drops those outside the limits (with
+//! `respect_limits`), and tries them nearest to `q0` first (squared distance in joint space; found best-first, so
+//! that the branches of arms far from `q0` are not computed): each is checked by forward kinematics and, if not
+//! within the tolerance as it is, polished on the model by a Newton attempt of at most 10 Jacobian evaluations,
+//! until one meets the tolerance: an exact branch at once, a branch of an identified robot (axes 0.5 mm /
+//! 0.5 mrad off) in 3 (the median). If none does, the iterative attempt from `q0` follows with the rest
+//! of attempt 0's `max_iterations`. This is part of every method's
+//! first attempt: the method is the iteration of the fallback and the restarts; success is still judged
+//! from the measured error alone. One iterative attempt could not reach another IK branch (the KR5 and Puma
+//! converging to a branch outside the limits) or stalled at the stretched elbow (UR5, TianSui); one attempt on
+//! random reachable targets (benchmarks/bench_kinematics.py --ik-one-attempt), Newton / LM: KR5 92.2 / 65.8 ->
+//! 100 / 100 %, UR5 91.6 / 91.4 -> 100 / 100 %, Puma 560 81.8 / 82.4 -> 100 / 100 %, TianSui 87.0 / 90.2 ->
+//! 100 / 100 %. Other chains (7 joints, prismatic joints, other geometries) are solved as before.
+//!
 //! **Restarts** are deterministic: attempt 0 starts from `q0`, attempt k >= 1 from a configuration drawn
 //! uniformly within the limits (intersected with [-π, π] for revolute and [-1, 1] m for prismatic joints)
 //! by a SplitMix64 generator seeded from `seed`, k and the target's index in a batch or path (0 for a single
@@ -49,7 +70,10 @@
 //!
 //! **Cost.** An [`IkSolver`] allocates its workspace once; an iteration allocates nothing: one pass of
 //! forward kinematics and Jacobian, and for n = 6 fixed-size, fully unrolled 6 x 6 solves (Cholesky for LM,
-//! LU with partial pivoting for Newton); other n use the same algorithms on preallocated buffers.
+//! LU with partial pivoting for Newton); other n use the same algorithms on preallocated buffers. The workspace
+//! is allocated at the first iteration: a solve met by an exact closed-form seed (the closed form of its
+//! branches near `q0`, their ranking and one forward kinematics: about 7 k instructions on the KR5) allocates only its
+//! result.
 #![allow(clippy::needless_range_loop)] // index loops mirror the formulas (and unroll)
 
 use crate::error::{Error, Result, check_finite, check_len};
@@ -59,6 +83,10 @@ use crate::spatial::{Pose, check_pose, pose_error, rotation_angle};
 use nalgebra::{DMatrix, DVectorViewMut, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 use rayon::prelude::*;
 use std::f64::consts::{PI, TAU};
+
+mod closed_form;
+pub use closed_form::Structure;
+use closed_form::{ClosedForm, Cs, MAX_BRANCHES, MAX_PARTIALS, Partial};
 
 /// The iterative method of [`ik`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -110,7 +138,7 @@ pub struct IkOptions {
     pub tol_position: f64,
     /// Largest accepted rotation angle between the tool and the target orientation (rad).
     pub tol_rotation: f64,
-    /// Jacobian evaluations per attempt.
+    /// Jacobian evaluations per attempt (attempt 0's include the polish of the closed-form seeds).
     pub max_iterations: usize,
     /// Further attempts from random configurations after the one from `q0` fails.
     pub restarts: usize,
@@ -153,7 +181,8 @@ pub struct IkResult {
     pub q: Vec<f64>,
     /// `position_error <= tol_position && rotation_error <= tol_rotation` (and within limits if asked).
     pub success: bool,
-    /// Jacobian evaluations, summed over all attempts.
+    /// Jacobian evaluations, summed over all attempts (a closed-form seed that meets the tolerance as it is,
+    /// checked by forward kinematics alone, counts as one).
     pub iterations: usize,
     /// Restarts used (0 when the attempt from `q0` succeeded).
     pub restarts: usize,
@@ -250,6 +279,8 @@ pub(crate) struct Bounds {
     sample_hi: Vec<f64>,
     /// The first joints of the wrist flips ([`wrist_flips`]).
     flips: Vec<usize>,
+    /// The closed form of a recognised 6R structure (the seeds of the first attempt).
+    closed_form: Option<ClosedForm>,
 }
 
 impl Bounds {
@@ -263,6 +294,7 @@ impl Bounds {
             sample_lo: Vec::with_capacity(n),
             sample_hi: Vec::with_capacity(n),
             flips: wrist_flips(model),
+            closed_form: ClosedForm::new(model),
         };
         for j in model.joints() {
             let (lo, hi, rev) = (j.lower, j.upper, j.kind == JointKind::Revolute);
@@ -334,6 +366,21 @@ impl Bounds {
             }
             *qi = qi.clamp(lo, hi);
         }
+    }
+
+    /// Place angle `v` of revolute joint `i` near `q0_i`: shifted by the multiple of 2π nearest to `q0_i` and,
+    /// when `respect_limits`, then by ±2π if that brings it within its range; `None` if it is still outside
+    /// (with `respect_limits`).
+    #[inline]
+    fn place_joint(&self, i: usize, v: f64, q0_i: f64, respect_limits: bool) -> Option<f64> {
+        let d = v - q0_i;
+        let v = q0_i + (d - TAU * (d / TAU).round()); // the nearest to q0_i (fmod is slow)
+        if !respect_limits || self.fits(i, v) {
+            return Some(v);
+        }
+        // the other side of q0 first (the nearer of v ± 2π to q0)
+        let (a, b) = if v > q0_i { (v - TAU, v + TAU) } else { (v + TAU, v - TAU) };
+        [a, b].into_iter().find(|&x| self.fits(i, x))
     }
 
     fn within(&self, q: &[f64]) -> bool {
@@ -498,6 +545,15 @@ const STALL_EVERY: usize = 10;
 /// last attempt).
 const STALL_NEWTON: usize = 8;
 
+/// A closed-form seed that meets the tolerance as it is: the configuration and its measured position and
+/// rotation errors.
+type MetSeed = ([f64; 6], f64, f64);
+
+/// Jacobian evaluations of the Newton polish of one closed-form seed (within attempt 0's `max_iterations`): an
+/// exact seed needs none (it is met as it is, checked by forward kinematics), a seed of an identified robot (axes
+/// 0.5 mm / 0.5 mrad off the ideal structure) 3 (the median).
+const POLISH: usize = 10;
+
 /// Step lengths 1, 1/2, 1/4 tried by Newton's backtracking.
 const BACKTRACK: usize = 3;
 
@@ -523,6 +579,8 @@ pub struct IkSolver<'m> {
     model: &'m Model,
     opts: IkOptions,
     bounds: &'m Bounds,
+    /// Whether the workspace below is allocated ([`Self::workspace`]).
+    ready: bool,
     jac_eval: Vec<f64>,
     q: Vec<f64>,
     q_trial: Vec<f64>,
@@ -539,23 +597,42 @@ impl<'m> IkSolver<'m> {
     /// A workspace for `model` with checked options.
     pub fn new(model: &'m Model, opts: IkOptions) -> Result<Self> {
         opts.check()?;
-        let n = model.nq();
-        let m = n.max(6);
         Ok(Self {
             model,
             opts,
             bounds: model.ik_bounds(),
-            jac_eval: vec![0.0; 6 * n],
-            q: vec![0.0; n],
-            q_trial: vec![0.0; n],
-            q_best: vec![0.0; n],
-            q_cur: vec![0.0; n],
-            q_jump: vec![0.0; n],
-            jac: vec![0.0; 6 * n],
-            jac_jump: vec![0.0; 6 * n],
-            a: vec![0.0; m * m],
-            g: vec![0.0; m],
+            ready: false,
+            jac_eval: Vec::new(),
+            q: Vec::new(),
+            q_trial: Vec::new(),
+            q_best: Vec::new(),
+            q_cur: Vec::new(),
+            q_jump: Vec::new(),
+            jac: Vec::new(),
+            jac_jump: Vec::new(),
+            a: Vec::new(),
+            g: Vec::new(),
         })
+    }
+
+    /// Allocate the iterations' workspace on first use (a single solve met by an exact closed-form seed needs
+    /// none: ten allocations were a third of its time).
+    #[inline]
+    fn workspace(&mut self) {
+        if self.ready {
+            return;
+        }
+        let n = self.model.nq();
+        let m = n.max(6);
+        for v in [&mut self.q, &mut self.q_trial, &mut self.q_best, &mut self.q_cur, &mut self.q_jump] {
+            *v = vec![0.0; n];
+        }
+        for v in [&mut self.jac_eval, &mut self.jac, &mut self.jac_jump] {
+            *v = vec![0.0; 6 * n];
+        }
+        self.a = vec![0.0; m * m];
+        self.g = vec![0.0; m];
+        self.ready = true;
     }
 
     /// The options in use.
@@ -581,14 +658,15 @@ impl<'m> IkSolver<'m> {
     /// One attempt from `self.q`; leaves the attempt's best configuration in `self.q`.
     /// `last`: no attempt follows, so this one uses its whole iteration budget (a stalled attempt is
     /// abandoned early only when a restart can take over).
-    fn attempt(&mut self, target: &Pose, last: bool) -> (usize, f64, f64) {
+    /// `budget`: the Jacobian evaluations it may use (`max_iterations`, less what the seeds used in attempt 0).
+    fn attempt(&mut self, target: &Pose, last: bool, budget: usize) -> (usize, f64, f64) {
         match self.opts.method {
-            IkMethod::Lm => self.attempt_lm(target, last),
-            IkMethod::Newton => self.attempt_newton(target, last),
+            IkMethod::Lm => self.attempt_lm(target, last, budget),
+            IkMethod::Newton => self.attempt_newton(target, last, budget),
         }
     }
 
-    fn attempt_lm(&mut self, target: &Pose, last: bool) -> (usize, f64, f64) {
+    fn attempt_lm(&mut self, target: &Pose, last: bool, budget: usize) -> (usize, f64, f64) {
         let n = self.model.nq();
         let mut e = [0.0; 6];
         let (mut pos, mut rot) = self.evaluate(false, target, &mut e);
@@ -606,7 +684,7 @@ impl<'m> IkSolver<'m> {
         let mut nu = 2.0;
         let mut checkpoint = cost;
         let mut jte = vec![0.0; n]; // J^T e (n <= 6 stays on the stack in practice: a small allocation per attempt)
-        while it < self.opts.max_iterations {
+        while it < budget {
             if !last && it % STALL_EVERY == 0 {
                 // a local minimum or a crawl: leave it to the next restart
                 if cost > 0.5 * checkpoint {
@@ -746,7 +824,7 @@ impl<'m> IkSolver<'m> {
         }
     }
 
-    fn attempt_newton(&mut self, target: &Pose, last: bool) -> (usize, f64, f64) {
+    fn attempt_newton(&mut self, target: &Pose, last: bool, budget: usize) -> (usize, f64, f64) {
         let n = self.model.nq();
         let mut e = [0.0; 6];
         let (mut pos, mut rot) = self.evaluate(false, target, &mut e);
@@ -760,7 +838,7 @@ impl<'m> IkSolver<'m> {
         self.q_cur.copy_from_slice(&self.q);
         let mut cost: f64 = e.iter().map(|v| v * v).sum();
         let mut stalled = 0;
-        'attempt: while it < self.opts.max_iterations {
+        'attempt: while it < budget {
             self.newton_step(&e);
             // backtracking on |e|^2 (Nocedal & Wright 2006, Algorithm 3.1, halving): steps 1, 1/2, 1/4; when
             // none lowers the error the full step is taken anyway (Newton's jump out of a basin)
@@ -793,7 +871,7 @@ impl<'m> IkSolver<'m> {
                     self.jac_jump.copy_from_slice(&self.jac_eval);
                     jump = Some((et, cost_t, p, r));
                 }
-                if it >= self.opts.max_iterations {
+                if it >= budget {
                     break;
                 }
                 alpha *= 0.5;
@@ -822,13 +900,132 @@ impl<'m> IkSolver<'m> {
         (it, best.1, best.2)
     }
 
+    /// The closed-form seeds of a recognised structure ([`Structure`]): the branches placed near `q0` (each
+    /// joint by [`Bounds::place_joint`]; those outside the limits dropped when `respect_limits`), nearest to
+    /// `q0` first, each checked by FK and, if not within the tolerance as it is, polished by a Newton attempt on
+    /// the model, until one meets the tolerance. Returns the Jacobian evaluations, the best score (its
+    /// configuration in `self.q_best`) and, for a seed met as it is, its measured errors; `None` without a
+    /// closed form.
+    ///
+    /// The order is found best-first on the closed form's two levels ([`ClosedForm::levels`]): a first level
+    /// (three joints) is completed to its branches only when its own distance from `q0`, a lower bound of its
+    /// branches', is below that of every branch found so far, so the branches of arms far from `q0` are not
+    /// computed. Distances come from the angles to 3e-7 rad ([`closed_form::Cs::angle_approx`]: `atan2` costs
+    /// about as much as the closed form of a branch); a branch is tried with its exact angles.
+    fn attempt_seeds(&mut self, target: &Pose, q0: &[f64]) -> Option<(usize, f64, Option<MetSeed>)> {
+        let bounds: &'m Bounds = self.bounds;
+        let cf = bounds.closed_form.as_ref()?;
+        let respect = self.opts.respect_limits;
+        let (first, second) = cf.levels();
+        // the first levels within the limits, by their distance from q0
+        let mut parts = [Partial::EMPTY; MAX_PARTIALS];
+        let np = cf.partials(target, q0, &mut parts);
+        let mut part_order = [(0.0f64, 0); MAX_PARTIALS];
+        let mut kept = 0;
+        'parts: for (k, part) in parts[..np].iter().enumerate() {
+            let mut d = 0.0;
+            for &i in &first {
+                let Some(v) = bounds.place_joint(i, part.q[i].angle_approx(), q0[i], respect) else { continue 'parts };
+                d += (v - q0[i]) * (v - q0[i]);
+            }
+            if !d.is_finite() {
+                continue;
+            }
+            let mut j = kept;
+            while j > 0 && part_order[j - 1].0 > d {
+                part_order[j] = part_order[j - 1];
+                j -= 1;
+            }
+            part_order[j] = (d, k);
+            kept += 1;
+        }
+        // the branches found, their distances, and whether tried
+        let mut found = [(0.0f64, [Cs::ZERO; 6], false); MAX_BRANCHES];
+        let (mut nf, mut next) = (0, 0);
+        let mut total = 0;
+        let mut best = f64::INFINITY;
+        loop {
+            let nearest = (0..nf).filter(|&c| !found[c].2).min_by(|&a, &b| found[a].0.total_cmp(&found[b].0));
+            if next < kept && nearest.is_none_or(|c| part_order[next].0 < found[c].0) {
+                // a first level that may hold a nearer branch: complete it
+                let (pd, k) = part_order[next];
+                next += 1;
+                let mut leaves = [[Cs::ZERO; 6]; 2];
+                let nl = cf.complete(&parts[k], q0, &mut leaves);
+                'leaves: for leaf in &leaves[..nl] {
+                    let mut d = pd;
+                    for &i in &second {
+                        let Some(v) = bounds.place_joint(i, leaf[i].angle_approx(), q0[i], respect) else { continue 'leaves };
+                        d += (v - q0[i]) * (v - q0[i]);
+                    }
+                    if d.is_finite() {
+                        found[nf] = (d, *leaf, false);
+                        nf += 1;
+                    }
+                }
+                continue;
+            }
+            let Some(c) = nearest else { break };
+            found[c].2 = true;
+            let budget = POLISH.min(self.opts.max_iterations - total);
+            if budget == 0 {
+                break;
+            }
+            // the exact angles, placed again (a joint at a limit may fall outside by them)
+            let mut q = [0.0; 6];
+            let mut placed = true;
+            for i in 0..6 {
+                match bounds.place_joint(i, found[c].1[i].angle(), q0[i], respect) {
+                    Some(v) => q[i] = v,
+                    None => placed = false,
+                }
+            }
+            if !placed {
+                continue;
+            }
+            // an exact seed is checked by the verdict's own measurement (forward kinematics alone, counted as one
+            // evaluation), which then stands as the verdict
+            let (pos, rot) = pose_error(&tool_pose_unchecked(self.model, &q), target);
+            if score(pos, rot, &self.opts) <= 1.0 {
+                return Some((total + 1, 1.0, Some((q, pos, rot))));
+            }
+            self.workspace();
+            self.q.copy_from_slice(&q);
+            let (it, pos, rot) = self.attempt_newton(target, false, budget);
+            total += it;
+            let s = score(pos, rot, &self.opts);
+            if s < best {
+                best = s;
+                self.q_best.copy_from_slice(&self.q);
+                if s <= 1.0 {
+                    break;
+                }
+            }
+        }
+        Some((total, best, None))
+    }
+
     /// Solve without checking the input; `seed` drives the restarts.
     pub(crate) fn solve_unchecked(&mut self, target: &Pose, q0: &[f64], seed: u64) -> IkResult {
         let n = self.model.nq();
         let mut total = 0;
         let mut best_score = f64::INFINITY;
         let mut restarts = 0;
+        let mut seeded = false;
+        if let Some((it, s, exact)) = self.attempt_seeds(target, q0) {
+            if let Some((q, position_error, rotation_error)) = exact {
+                // met by a seed as it is (within the limits by construction): its measurement is the verdict
+                let within = !self.opts.respect_limits || self.bounds.within(&q);
+                let success = position_error <= self.opts.tol_position && rotation_error <= self.opts.tol_rotation && within;
+                return IkResult { q: q.to_vec(), success, iterations: it, restarts: 0, position_error, rotation_error };
+            }
+            (total, best_score, seeded) = (it, s, s.is_finite());
+        }
+        self.workspace();
         for attempt in 0..=self.opts.restarts {
+            if best_score <= 1.0 {
+                break;
+            }
             if attempt == 0 {
                 self.q.copy_from_slice(q0);
             } else {
@@ -838,11 +1035,15 @@ impl<'m> IkSolver<'m> {
             if self.opts.respect_limits {
                 self.bounds.project(&mut self.q, false);
             }
-            let (it, pos, rot) = self.attempt(target, attempt == self.opts.restarts);
+            let budget = if attempt == 0 { self.opts.max_iterations - total } else { self.opts.max_iterations };
+            if budget == 0 {
+                continue; // the seeds used attempt 0's budget
+            }
+            let (it, pos, rot) = self.attempt(target, attempt == self.opts.restarts, budget);
             total += it;
             restarts = attempt;
             let s = score(pos, rot, &self.opts);
-            if s < best_score || attempt == 0 {
+            if s < best_score || (attempt == 0 && !seeded) {
                 best_score = s;
                 self.q_best.copy_from_slice(&self.q);
             }
@@ -882,6 +1083,29 @@ fn rename(e: Error, what: &str) -> Error {
 /// ```
 pub fn ik(model: &Model, target: &Pose, q0: &[f64], opts: &IkOptions) -> Result<IkResult> {
     IkSolver::new(model, opts.clone())?.solve(target, q0)
+}
+
+/// The structure of `model` that IK solves in closed form for the seeds of its first attempt (module docs,
+/// "Closed-form seeds"), or `None`.
+///
+/// ```
+/// use denavit_core::{builtin_planar2, ik::closed_form_structure};
+/// assert_eq!(closed_form_structure(&builtin_planar2(1.0, 1.0)), None);
+/// ```
+pub fn closed_form_structure(model: &Model) -> Option<Structure> {
+    model.ik_bounds().closed_form.as_ref().map(|c| c.structure)
+}
+
+/// Every closed-form branch of `target` (`T_world_tool`) on the ideal structure nearest to `model`'s axes
+/// (up to 8; each joint wrapped to (-π, π], limits not applied; a joint left free by a singularity is 0), or
+/// `None` when the model has no recognised [`Structure`]. On a model with the exact structure each branch
+/// reproduces the target (a reachable one); on an identified model they are the seeds that IK polishes.
+pub fn closed_form_branches(model: &Model, target: &Pose) -> Result<Option<Vec<Vec<f64>>>> {
+    check_pose("IK target", target)?;
+    let Some(cf) = model.ik_bounds().closed_form.as_ref() else { return Ok(None) };
+    let mut b = [[Cs::ZERO; 6]; MAX_BRANCHES];
+    let count = cf.branches(target, &[0.0; 6], &mut b);
+    Ok(Some(b[..count].iter().map(|q| q.iter().map(|a| a.angle()).collect()).collect()))
 }
 
 fn check_targets(targets: &[Pose]) -> Result<()> {

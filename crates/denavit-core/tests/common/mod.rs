@@ -58,3 +58,18 @@ pub fn ur5_dh() -> Table {
     ]);
     Table::new(Convention::Dh, p, vec![JointKind::Revolute; 6], Pose::identity(), Pose::identity()).unwrap()
 }
+
+/// Unimation Puma 560, standard DH (Corke 1996, mdl_puma560): rows (d, theta, a, alpha) in m, rad; no tool.
+pub fn puma560_dh() -> Table {
+    use std::f64::consts::FRAC_PI_2 as H;
+    #[rustfmt::skip]
+    let p = DMatrix::from_row_slice(6, 4, &[
+        0.0, 0.0, 0.0, H,
+        0.0, 0.0, 0.4318, 0.0,
+        0.15005, 0.0, 0.0203, -H,
+        0.4318, 0.0, 0.0, H,
+        0.0, 0.0, 0.0, -H,
+        0.0, 0.0, 0.0, 0.0,
+    ]);
+    Table::new(Convention::Dh, p, vec![JointKind::Revolute; 6], Pose::identity(), Pose::identity()).unwrap()
+}
