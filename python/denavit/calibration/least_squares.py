@@ -39,10 +39,11 @@ def gram(A: np.ndarray) -> np.ndarray:
 CHUNK = 4096
 
 
-def jacobian_rows(pz: Parametrization, x, q, w: np.ndarray, columns=None) -> tuple[np.ndarray, np.ndarray]:
+def jacobian_rows(pz: Parametrization, x, q, w: np.ndarray, columns=None, whitening=None) -> tuple[np.ndarray, np.ndarray]:
     """(predicted poses (N, 4, 4), weighted Jacobian rows (3N or 6N, len(columns))) at x for the readings q (N, n):
-    the identification Jacobian's position (and for poses rotation) rows times the weights ``w``, of the
-    parameters ``columns`` (indices; default all), evaluated :data:`CHUNK` poses at a time."""
+    the identification Jacobian's position (and for poses rotation) rows times the weights ``w`` (and each point's
+    position rows by its ``whitening`` (N, 3, 3) matrix, :attr:`Measurements.whitening`), of the parameters
+    ``columns`` (indices; default all), evaluated :data:`CHUNK` poses at a time."""
     k = 6 if pz.measure == "pose" else 3
     q = np.atleast_2d(np.asarray(q, dtype=float))
     cols = np.arange(pz.n_params) if columns is None else np.asarray(columns, dtype=int)
@@ -50,20 +51,24 @@ def jacobian_rows(pz: Parametrization, x, q, w: np.ndarray, columns=None) -> tup
     for a in range(0, len(q), CHUNK):
         poses[a : a + CHUNK], jac = pz.evaluate(x, q[a : a + CHUNK], True)
         np.multiply(jac[:, :k][:, :, cols], w[:k, None], out=J[a : a + CHUNK])
+        if whitening is not None:
+            J[a : a + CHUNK, :3] = np.einsum("nij,njp->nip", whitening[a : a + CHUNK], J[a : a + CHUNK, :3])
     return poses, J.reshape(-1, len(cols))
 
 
 def residuals(pz: Parametrization, x, meas: Measurements, w: np.ndarray, jacobian: bool = True, columns=None):
     """(weighted residuals (3N or 6N,), weighted Jacobian rows (3N or 6N, P) or None, predicted poses (N, 4, 4)) at x.
 
-    Rotation residuals are the rotation vectors of ``R_pred R_meas^T`` (rad). ``columns``: the parameters
+    Position residuals are whitened by ``meas.whitening`` where it is given (the tracker's noise model). Rotation residuals are the rotation vectors of ``R_pred R_meas^T`` (rad). ``columns``: the parameters
     (indices) whose Jacobian columns are returned (default all; :func:`jacobian_rows`).
     """
     if jacobian:
-        poses, J = jacobian_rows(pz, x, meas.q, w, columns)
+        poses, J = jacobian_rows(pz, x, meas.q, w, columns, meas.whitening)
     else:
         (poses, _), J = pz.evaluate(x, meas.q, False), None
     rp = poses[:, :3, 3] - meas.points
+    if meas.whitening is not None:
+        rp = np.einsum("nij,nj->ni", meas.whitening, rp)
     if pz.measure == "pose":
         rr = matrix_rotvec(np.einsum("nij,nkj->nik", poses[:, :3, :3], meas.poses[:, :3, :3]))
         r = np.hstack([rp * w[0], rr * w[3]])

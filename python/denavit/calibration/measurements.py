@@ -36,6 +36,9 @@ class Measurements:
         Units of the source file (informative; everything here is SI).
     sweeps : SweepSet or None
         The sweeps these measurements were made of, if any (for ``start="circles"``).
+    whitening : ndarray, shape (N, 3, 3), or None
+        Per point the matrix that whitens its position residual (the tracker's range/angle noise model,
+        :meth:`denavit.fitting.joint.TrackerNoise.whitening`: covariance ``ref^2 I`` after it); None: isotropic.
     kinds : tuple of str, length n, or None
         Joint kinds (``"revolute"`` / ``"prismatic"``) of the readings; read from a file, the kinds they were
         converted with from its units (revolute: angle unit, prismatic: length unit). :func:`calibrate`
@@ -50,6 +53,7 @@ class Measurements:
     units: dict = field(default_factory=lambda: {"length": "m", "angle": "rad"})
     sweeps: SweepSet | None = None
     kinds: tuple | None = None
+    whitening: np.ndarray | None = None
 
     def __repr__(self) -> str:
         what = "poses" if self.poses is not None else "points"
@@ -105,7 +109,8 @@ class Measurements:
         """The measurements of the rows ``idx``."""
         idx = np.asarray(idx, dtype=int)
         return Measurements(self.q[idx], None if self.poses is not None else self.points[idx], None if self.poses is None else self.poses[idx],
-                            self.source, [self.where[i] for i in idx], self.units, None, self.kinds)
+                            self.source, [self.where[i] for i in idx], self.units, None, self.kinds,
+                            None if self.whitening is None else self.whitening[idx])
 
     @classmethod
     def from_sweeps(cls, sweeps: SweepSet) -> Measurements:

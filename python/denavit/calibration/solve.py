@@ -5,12 +5,13 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from .. import _core
 from ..errors import DenavitError
+from ..fitting.joint import as_tracker_noise
 from ..fitting.robust import loss_weight
 from ..io.output import json_text, write_text
 from ..robot import Robot
@@ -184,6 +185,7 @@ def calibrate(
     tool=None,
     noise: float | None = None,
     noise_rot: float | None = None,
+    tracker_noise=None,
     holdout: float = 0.0,
     seed: int = 0,
 ) -> Calibration:
@@ -212,6 +214,11 @@ def calibrate(
         Tool point (3,) in the flange frame, m (points), or ``T_flange_tool`` (4, 4) (poses); default nominal.
     noise, noise_rot : float, optional
         Known one-sigma noise per coordinate (m) and of the rotation (rad); default: estimated from the residuals.
+    tracker_noise : :class:`~denavit.fitting.joint.TrackerNoise` or (sigma_range m, sigma_angle rad[, position (3,) m]), optional
+        The tracker's range/angle noise model (as :func:`denavit.identify.identify`'s): each point's position
+        residual is whitened by its covariance's shape (noise ``sigma_range`` along the line of sight from the
+        tracker, ``sigma_angle`` times the range across it), the scale estimated from the residuals (so not with
+        ``noise``). Default: isotropic.
     holdout : float
         Fraction of the poses held out of the fit to validate it (position error before / after).
     seed : int
@@ -245,6 +252,17 @@ def calibrate(
         if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
             raise DenavitError(f"{what}: expected the known one-sigma noise, a finite value > 0 ({unit}), got {v!r}")
     notes: list[str] = []
+    tracker = as_tracker_noise(tracker_noise)
+    ref = None
+    if tracker is not None:
+        if noise is not None:
+            raise DenavitError(f"noise = {noise!r} and tracker_noise: give one (the tracker's model declares the shape of each point's noise, "
+                               "its scale is estimated from the residuals)")
+        W, ref = tracker.whitening(meas.points)
+        meas = replace(meas, whitening=W)
+        notes.append(f"points weighted by the tracker's noise model (range {tracker.sigma_range * 1e6:.3g} um, angles "
+                     f"{math.degrees(tracker.sigma_angle) * 3600:.3g} arcsec, tracker at {', '.join(f'{v:.4g}' for v in tracker.position)} m; "
+                     f"{ref * 1e3:.3g} mm per coordinate on average), the scale estimated from the residuals")
     pz = parametrize(robot, convention, measure=meas.kind, tool=tool, scale=scale)
     x = pz.x0.copy()
     user_fixed = resolve_fix(pz, fix)
@@ -267,7 +285,7 @@ def calibrate(
             notes.append(f"holdout {holdout} skipped: {meas.n} poses are too few to hold any out")
 
     # weights (1/sigma); pose data without declared noise: re-estimated after a first fit
-    sig_p = noise if noise is not None else 1e-5
+    sig_p = noise if noise is not None else ref if ref is not None else 1e-5
     sig_r = noise_rot if noise_rot is not None else 1e-5
     w = weights(pz.measure, sig_p, sig_r)
 
@@ -350,7 +368,7 @@ def calibrate(
         status.append("free" if c in free else "fixed" if c in user_fixed else "fixed (parametrisation)" if nm in pz.rules
                       else ("redundant" if nm in structural else "unidentifiable") if nm in dropped else "fixed")
     res_si = _table_residuals(r, pz.measure) / w[: (6 if pz.measure == "pose" else 3)]
-    full_r, _, _ = residuals(pz, x_hat, meas, np.ones(6), jacobian=False)
+    full_r, _, _ = residuals(pz, x_hat, replace(meas, whitening=None), np.ones(6), jacobian=False)
     full_r = _table_residuals(full_r, pz.measure)
     pos = np.linalg.norm(full_r[:, :3], axis=1)
     rms = float(np.sqrt(np.mean(pos**2)))

@@ -49,6 +49,8 @@ def calibrate(
     scale: Annotated[bool, typer.Option("--scale", help="Also estimate a scale per joint.")] = False,
     tool: Annotated[str | None, typer.Option("--tool", help="Tool point in the flange frame, --length units (default: the nominal model's tool).")] = None,
     noise: Annotated[float | None, typer.Option("--noise", help="Known point noise (1 sigma per coordinate), --length units (default: from the residuals).")] = None,
+    tracker_noise: Annotated[str | None, typer.Option("--tracker-noise", help="The tracker's range/angle noise (1 sigma), as identify's: e.g. \"5 um, 1 arcsec\"; each point's residual is weighted by its covariance (the scale from the residuals; not with --noise).")] = None,
+    tracker_position: Annotated[str | None, typer.Option("--tracker-position", help="With --tracker-noise: the tracker's position in the data's frame, x,y,z in --length units (default 0,0,0).")] = None,
     length: Annotated[str, typer.Option("--length", help="Length unit of what is typed and printed, and of the data where they declare none: mm | m | cm | um | in. JSON stays SI.")] = "mm",
     angle: Annotated[str, typer.Option("--angle", help="Angle unit of what is typed and printed, and of the data where they declare none: deg | rad. JSON stays SI.")] = "deg",
     verbose: Annotated[bool, typer.Option("--verbose", help="Every parameter the data cannot identify, with the reason (default: their names in a few lines).")] = False,
@@ -93,9 +95,14 @@ def calibrate(
     if noise is not None and not (math.isfinite(noise) and noise > 0):
         fail(f"--noise: expected the known one-sigma point noise, a finite value > 0 in {length}, got {noise}")
     sigma = None if noise is None else noise * ls
+    from .identify import parse_tracker_noise  # noqa: PLC0415 (one parser of the option for both commands)
+
+    tn = parse_tracker_noise(tracker_noise, tracker_position, length, angle)
+    if tn is not None and sigma is not None:
+        fail("--noise and --tracker-noise: give one (the tracker's model declares each point's noise shape; its scale is estimated from the residuals)")
     fixes = [f.strip() for f in (fix or "").split(",") if f.strip()]
     with status(f"calibrating {robot.name} ({convention}) from {meas.n} {'poses' if meas.kind == 'pose' else 'points'}..."):
-        res = cal.calibrate(meas, robot, convention=convention, fix=fixes, loss=loss, start=start, holdout=holdout, scale=scale, tool=tp, noise=sigma, seed=seed)
+        res = cal.calibrate(meas, robot, convention=convention, fix=fixes, loss=loss, start=start, holdout=holdout, scale=scale, tool=tp, noise=sigma, tracker_noise=tn, seed=seed)
     if json_path:
         emit_json(cal.to_json(res), json_path)
     if json_path != "-":

@@ -111,6 +111,15 @@ class TrackerNoise:
         rho = np.linalg.norm(d, axis=0)
         return d / np.maximum(rho, 1e-300), np.full(rho.shape, self.sigma_range**2), (self.sigma_angle * rho) ** 2
 
+    def whitening(self, points: np.ndarray) -> tuple[np.ndarray, float]:
+        """Per point (N, 3) the matrix ``W_k = ref Sigma_k^(-1/2)`` (N, 3, 3) and ``ref`` (m): the root of the mean
+        declared variance per coordinate over the points, so that ``W_k r_k`` has the covariance ``ref^2 I`` and
+        stays in metres (calibrate's weighting of its points)."""
+        u, a, b = self.shape(np.asarray(points, dtype=float).T)
+        ref = math.sqrt(float(np.mean((a + 2 * b) / 3)))
+        uu = np.einsum("in,jn->nij", u, u)
+        return ref * (uu / np.sqrt(a)[:, None, None] + (np.eye(3) - uu) / np.sqrt(b)[:, None, None]), ref
+
 
 def as_tracker_noise(value) -> TrackerNoise | None:
     """``value`` as a :class:`TrackerNoise`: one already, None, or (sigma_range m, sigma_angle rad[, position m])."""
