@@ -208,9 +208,10 @@ def test_calibrate_with_the_tracker_model_is_honest_and_more_accurate(kr5):
     the RMS error of every free parameter within 0.65-1.4x its mean reported sigma (sampling: about 9 % per
     parameter) and the median within 0.85-1.15; the isotropic fit's errors are on geometric mean over 2x the
     model's (measured: 5.1x over 100 runs, sigma ratios 0.77-1.12)."""
-    from denavit import calibration as cal  # noqa: PLC0415
     from test_calibrate import TOOL as CAL_TOOL  # noqa: PLC0415
     from test_calibrate import perturbed  # noqa: PLC0415
+
+    from denavit import calibration as cal  # noqa: PLC0415
 
     q = cal.configurations(kr5, 100, skip=50)
     free = cal.plan(kr5, q=q, noise=2e-5, tool=CAL_TOOL).free_names
