@@ -280,7 +280,7 @@ def sweep_where(s, source: str) -> str:
     return f"{first} .. {last}, joint {s.joint}"
 
 
-def _per_sweep(sweeps: SweepSet, method: str, loss: str, max_sigma: float | None, progress: Callable[[str], None]) -> list:
+def _per_sweep(sweeps: SweepSet, method: str, loss: str, max_sigma: float | None, progress: Callable[[str], None], tracker: TrackerNoise | None = None) -> list:
     fits = []
     for k, s in enumerate(sweeps.sweeps):
         where = sweep_where(s, sweeps.source)
@@ -295,6 +295,8 @@ def _per_sweep(sweeps: SweepSet, method: str, loss: str, max_sigma: float | None
         else:
             fm = method
         robust = {"loss": loss} if fm in ("geometric", "readings") else {}
+        if fm == "geometric" and tracker is not None:  # the tracker's noise model (the other per-sweep fits: isotropic)
+            robust["tracker"] = tracker
         # oriented by the readings when there are some (increasing joint value, right-hand rule), else by the point order
         fits.append(fit_axis(s.points, q, fm, max_sigma_point=max_sigma, where=where, **robust))
     return fits
@@ -778,7 +780,8 @@ def identify(
         tracker (at ``position`` in the data's frame, default the origin: a tracker's own frame) and sigma_angle
         times the range across it; the joint fit weights every point by the inverse of that covariance, whose
         overall scale stays estimated from the data (its shape only is declared). Default: isotropic point noise.
-        The per-sweep methods (kasa, hyper, geometric, readings) take the points as isotropic (with a note).
+        The geometric circles weight their points by it too; the other per-sweep methods (kasa, hyper: algebraic;
+        readings) take the points as isotropic (with a note).
 
     Several targets per pose (:attr:`~denavit.sweeps.Sweep.targets`, 2-4 SMRs on a nest) and 6-DoF poses
     (:attr:`~denavit.sweeps.Sweep.rotations`) are one joint fit with shared axes (methods "global", "readings",
@@ -816,7 +819,7 @@ def identify(
         method = "global" if sweeps.has_readings else "geometric"
         if method == "geometric":
             notes.append("auto: geometric (per-sweep circles): the data has no joint readings")
-    fits = _per_sweep(sweeps, method, loss, max_sigma if method != "global" else None, progress)
+    fits = _per_sweep(sweeps, method, loss, max_sigma if method != "global" else None, progress, tracker)
     homes0, R0 = start_homes(sweeps, [(f.point, f.direction) for f in fits]) if sweeps.has_readings else (None, None)
     p_home = homes0[0] if sweeps.has_readings else _tool_point_geometric(sweeps, fits)
     cov, joint, scales = None, None, None
@@ -825,7 +828,7 @@ def identify(
         progress(f"one fit of all {len(sweeps.sweeps)} sweeps ({what}{', 6-DoF poses' if sweeps.has_rotations else ''})")
         method, gfits, gcov, gp, grms, joint, scales = _choose(sweeps, fits, homes0, R0, loss, notes, chosen, rotation_noise, tracker)
         if gfits is None:  # the readings are worthless: the per-sweep geometric circles
-            fits = _per_sweep(sweeps, method, loss, max_sigma, progress)
+            fits = _per_sweep(sweeps, method, loss, max_sigma, progress, tracker)
             p_home = _tool_point_geometric(sweeps, fits)
         else:
             fits, cov, p_home, rms = gfits, gcov, gp, grms
@@ -846,8 +849,11 @@ def identify(
         if joint is not None:
             notes.append(f"{model} weights the points (its shape; the scale from the data): point noise {joint['sigma'] * 1e3:.3g} mm RMS per "
                          f"coordinate, {joint['sigma'] / math.sqrt(joint['tracker_ref2']):.3g} times the declared")
+        elif method == "geometric":
+            notes.append(f"{model} weights each circle's points (its shape; the scale from the data)")
         else:
-            notes.append(f"{model} is used by the joint fit (method global or auto, with readings); the {method} fit takes the points as isotropic")
+            notes.append(f"{model} is used by the joint fit (method global or auto, with readings) and the geometric circles; the {method} fit takes the "
+                         "points as isotropic")
     if joint is None and (sweeps.n_targets > 1 or sweeps.has_rotations):
         notes.append(f"the {method} fit uses the first target's points alone: {sweeps.n_targets} targets per pose"
                      f"{' and 6-DoF poses' if sweeps.has_rotations else ''} are one fit with shared axes in the joint fit (method global or auto, with readings)")
@@ -915,7 +921,7 @@ def identify(
     return Identification(method, convention, ax, fits, ex, sigma, cov, p_home, sweeps, nominal, nominal_table, rms, notes, param_cov,
                           reading_scale=None if scales is None else scales[0], axis_scale_cov=full_cov, coupling=coupling,
                           tool_orientation=orientation, tool_rotation_cov=rot_cov, target_points=target_points,
-                          tracker_noise=tracker if joint is not None else None)
+                          tracker_noise=tracker if joint is not None or method == "geometric" else None)
 
 
 def _finite(v: float) -> float | None:

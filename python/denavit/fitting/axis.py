@@ -27,7 +27,7 @@ METHODS = ("auto", "kasa", "hyper", "geometric", "readings", "line")
 
 def fit_axis(
     points, q=None, method: str = "auto", *, loss: str = "linear", f_scale=None, max_sigma_point=None,
-    noise_sigma=None, where: str = "",
+    noise_sigma=None, tracker=None, where: str = "",
 ) -> AxisFit:
     """Fit a joint axis from a sweep of one joint (dispatch to the fits of this module).
 
@@ -46,6 +46,9 @@ def fit_axis(
         Raise :class:`DegenerateError` if the predicted ``sigma_point_perp`` exceeds it.
     noise_sigma : float, optional, metres
         Known 1-sigma measurement noise per coordinate (covariance scale).
+    tracker : :class:`~denavit.fitting.joint.TrackerNoise`, optional
+        The tracker's range/angle noise model, for ``"geometric"`` (:func:`fit_circle_geometric`); the other fits
+        take the points as isotropic.
     where : str
         Prefix for error messages.
 
@@ -86,7 +89,7 @@ def fit_axis(
     p = check_points(points, 3, "circle fit", where)
     qa = None if q is None else check_q(q, p.shape[0], where)
     if method == "geometric":
-        fit = fit_circle_geometric(p, loss=loss, f_scale=f_scale, **kw)
+        fit = fit_circle_geometric(p, loss=loss, f_scale=f_scale, tracker=tracker, **kw)
     elif method == "kasa":
         fit = fit_circle_kasa(p, **kw)
     else:

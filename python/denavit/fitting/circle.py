@@ -102,7 +102,31 @@ def _circle_jacobian(p, centre, n, r, g):
     return np.vstack([jh, jg])
 
 
-def _circle_result(p, centre, n, r, method, weights, noise_sigma, where, outliers) -> AxisFit:
+def _tracker_whitening(shape, p, centre, n, r):
+    """Per point the lower-triangular inverse ``(l11, l21, l22)`` (3 arrays (m,)) of the Cholesky factor of the
+    covariance of its residuals [h, rho - r] (the out-of-plane and radial directions n and e_k), from the tracker's
+    covariance shape ``shape`` = (u (3, m) lines of sight, variances along and across them (m,), over their mean):
+    ``x^T S y = b x.y + (a - b)(x.u)(y.u)``. The tangential component is not a residual (orthogonal distance)."""
+    u, a, b = shape
+    _, _, w, rho, _ = _circle_parts(p, centre, n, r)
+    e = w / np.maximum(rho, 1e-300)[:, None]
+    nu, eu = n @ u, np.einsum("mi,im->m", e, u)
+    mnn, mee, mne = b + (a - b) * nu**2, b + (a - b) * eu**2, (a - b) * nu * eu
+    l11 = np.sqrt(mnn)
+    l21 = mne / l11
+    l22 = np.sqrt(np.maximum(mee - l21**2, 1e-300))
+    return 1 / l11, -l21 / (l11 * l22), 1 / l22
+
+
+def _whiten(wt, h, g):
+    """[h, g] (two stacked blocks of m rows, residuals or Jacobian rows) whitened by :func:`_tracker_whitening`."""
+    i11, i21, i22 = wt
+    if np.ndim(h) == 2:
+        i11, i21, i22 = i11[:, None], i21[:, None], i22[:, None]
+    return np.concatenate([i11 * h, i21 * h + i22 * g])
+
+
+def _circle_result(p, centre, n, r, method, weights, noise_sigma, where, outliers, shape=None) -> AxisFit:
     """Assemble an AxisFit for a circle (centre, unit normal n, radius r), with orientation and covariance.
 
     The normal is oriented so that the points, in their given order, turn counter-clockwise about it (net signed
@@ -115,7 +139,12 @@ def _circle_result(p, centre, n, r, method, weights, noise_sigma, where, outlier
     e, h, g = circle_misfit(p, centre, n, r)
     t1, t2 = perpendicular_basis(n)
     jac = _circle_jacobian(p, centre, n, r, np.column_stack([t1, t2]))
-    cov_t = cov_from_jacobian(jac, np.concatenate([h, g]), np.concatenate([weights, weights]), 6, noise_sigma, f"{method} circle fit", where)
+    res = np.concatenate([h, g])
+    if shape is not None:  # the tracker's noise model: residuals and Jacobian rows whitened (the shape's mean scale)
+        wt = _tracker_whitening(shape, p, centre, n, r)
+        m = len(h)
+        jac, res = _whiten(wt, jac[:m], jac[m:]), _whiten(wt, h, g)
+    cov_t = cov_from_jacobian(jac, res, np.concatenate([weights, weights]), 6, noise_sigma, f"{method} circle fit", where)
     tmat = np.zeros((6, 6))
     tmat[:3, :3] = np.eye(3)
     tmat[3:, 3:5] = np.column_stack([t1, t2])
@@ -294,7 +323,7 @@ def least_squares_lm(fun, jac, x0, what, where):
 
 
 def fit_circle_geometric(
-    points, *, loss: str = "linear", f_scale=None, max_sigma_point=None, noise_sigma=None, where: str = ""
+    points, *, loss: str = "linear", f_scale=None, max_sigma_point=None, noise_sigma=None, tracker=None, where: str = ""
 ) -> AxisFit:
     """Orthogonal-distance 3-D circle fit ([S]_; [C]_ ch. 4), started from the hyper fit.
 
@@ -318,6 +347,10 @@ def fit_circle_geometric(
         Raise :class:`DegenerateError` if the predicted ``sigma_point_perp`` exceeds it.
     noise_sigma : float, optional, metres
         Known 1-sigma measurement noise per coordinate; used for the covariance instead of the residuals.
+    tracker : :class:`~denavit.fitting.joint.TrackerNoise`, optional
+        The tracker's range/angle noise model: each point's residuals [h, rho - r] are whitened by their covariance
+        (the point's covariance shape seen in the out-of-plane and radial directions, to first order), its scale
+        estimated; the whitening follows the fit (re-evaluated until the circle holds still). Default: isotropic.
     where : str
         Prefix for error messages.
 
@@ -332,20 +365,32 @@ def fit_circle_geometric(
     check_positive("max_sigma_point", max_sigma_point, where)
     check_positive("noise_sigma", noise_sigma, where)
     p = check_points(points, 3, "circle fit", where)
-    fit = _geometric(p, loss, f_scale, noise_sigma, "circle fit", where)
+    fit = _geometric(p, loss, f_scale, noise_sigma, "circle fit", where, tracker)
     return check_sigma(fit, max_sigma_point, where)
 
 
-def _geometric(p, loss, f_scale, noise_sigma, what, where) -> AxisFit:
+#: With the tracker's noise model, the geometric fit re-evaluates its whitening (it follows the circle's normal and
+#: radial directions) at most this many times, until the centre moves by less than 1e-9 of the spread.
+WHITENING_PASSES = 5
+
+
+def _geometric(p, loss, f_scale, noise_sigma, what, where, tracker=None) -> AxisFit:
     origin = p.mean(axis=0)
     length = rms_spread(p)
     pn = (p - origin) / length  # normalised coordinates: O(1) parameters
     *state, inliers = robust_circle(pn, what, where, length)
+    shape = None
+    if tracker is not None:
+        u, a, b = tracker.shape(p.T)
+        ref2 = float(np.mean((a + 2 * b) / 3))
+        shape = (u, a / ref2, b / ref2)
 
     def solve(st, w):
         c0, n0, r0 = st
         t1, t2 = perpendicular_basis(n0)
         sw = np.sqrt(np.concatenate([w, w]))
+        wt = None if shape is None else _tracker_whitening(shape, pn, c0, n0, r0)
+        m = len(pn)
 
         def unpack(x):
             n, g = unit_from_params(n0, t1, t2, x[3], x[4])
@@ -354,13 +399,21 @@ def _geometric(p, loss, f_scale, noise_sigma, what, where) -> AxisFit:
         def fun(x):
             c, n, r, _ = unpack(x)
             _, h, _, _, gg = _circle_parts(pn, c, n, r)
-            return np.concatenate([h, gg]) * sw
+            return (np.concatenate([h, gg]) if wt is None else _whiten(wt, h, gg)) * sw
 
         def jac(x):
             c, n, r, g = unpack(x)
-            return _circle_jacobian(pn, c, n, r, g) * sw[:, None]
+            J = _circle_jacobian(pn, c, n, r, g)
+            return (J if wt is None else _whiten(wt, J[:m], J[m:])) * sw[:, None]
 
         c, n, r, _ = unpack(least_squares_lm(fun, jac, np.zeros(6), f"geometric {what}", where))
+        for _ in range(WHITENING_PASSES if wt is not None else 0):  # the whitening at the fitted circle's directions
+            wt = _tracker_whitening(shape, pn, c, n, r)
+            c0, n0, r0 = c, n, r
+            t1, t2 = perpendicular_basis(n0)
+            c, n, r, _ = unpack(least_squares_lm(fun, jac, np.zeros(6), f"geometric {what}", where))
+            if np.linalg.norm(c - c0) < 1e-9:
+                break
         return c, n, r
 
     def misfit(st):
@@ -372,4 +425,4 @@ def _geometric(p, loss, f_scale, noise_sigma, what, where) -> AxisFit:
     c, n, r = state
     method = "geometric" if loss == "linear" else f"geometric+{loss}"
     flags = ~inliers if loss == "linear" else flag_outliers(misfit(state), 2, 1.0)
-    return _circle_result(p, origin + length * c, n, r * length, method, w, noise_sigma, where, flags)
+    return _circle_result(p, origin + length * c, n, r * length, method, w, noise_sigma, where, flags, shape)
