@@ -530,8 +530,8 @@ def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, not
             notes.append(f"auto: the readings' scale errors fitted (the joints' scales scatter by tau = {tau * 1e6:.3g} ppm beyond their sigmas, "
                          f"each fitted with that spread as its prior: one the data cannot show stays near zero): {_scale_list(g, sweeps.n_joints)}")
         else:
-            why = (f"the joints' scale estimates scatter within their sigmas: {_scale_list(full, sweeps.n_joints)}; taken as exact in scale"
-                   if full is not None else "n/a: no convergence")
+            why = ("n/a: no convergence" if full is None or tau > 0 else  # (tau > 0 without a fit: the one with the prior did not converge)
+                   f"the joints' scale estimates scatter within their sigmas: {_scale_list(full, sweeps.n_joints)}; taken as exact in scale")
             notes.append(f"auto: no reading scale errors fitted ({why}); a scale error the data cannot show moves each axis radially by about the "
                          "scale times the arc's radius")
     mis = np.concatenate(g["misfit"])
