@@ -31,7 +31,9 @@ def test_joint_fit_stops_at_its_fixed_point(kr5, monkeypatch):
 def test_joint_fit_passes_do_not_grow_with_the_points(kr5, monkeypatch, loss):
     """The passes over the points (each one Jacobian per point) of identify's joint fits are as many for 20,000
     points per sweep as for 300 (linear cost: the stop does not wait on round-off, which shrinks relative to
-    the cost as points are added), and few: at most 25 per point for auto's three fits (63 before)."""
+    the cost as points are added), and few: at most 32 per point for auto's up to four fits (63 before for three): one
+    home point, a home per sweep (the BIC's test), the reading scales free and, where they scatter beyond their sigmas
+    (here with soft_l1: 30 passes at 300 points, 31 at 20,000), the scales with their population's prior."""
     passes = {}
     chain = joint._chain
 
@@ -47,4 +49,4 @@ def test_joint_fit_passes_do_not_grow_with_the_points(kr5, monkeypatch, loss):
         dv.identify(s, nominal=kr5, loss=loss)
         passes[n] /= 6 * n
     assert passes[20_000] <= passes[300] + 1, passes
-    assert max(passes.values()) <= 25, passes
+    assert max(passes.values()) <= 32, passes

@@ -429,7 +429,7 @@ def _scale_spread(s: np.ndarray, sigma: np.ndarray) -> float:
     return float(brentq(excess, 0.0, float(np.sum(s**2)), xtol=1e-300, rtol=1e-12))
 
 
-def _reading_scales(richer: Callable, base: dict, drift: bool) -> tuple[dict | None, dict | None, float]:
+def _reading_scales(richer: Callable, refit: Callable, base: dict, drift: bool) -> tuple[dict | None, dict | None, float]:
     """The readings' scale errors as a population (empirical Bayes): every swept joint's scale fitted once freely
     (``full``), the joints' spread tau from those estimates (:func:`_scale_spread`), then every scale refitted with
     the prior N(0, tau^2) (:func:`~denavit.fitting.joint.fit_sweeps`' ``scale_prior``): a scale the data show
@@ -445,7 +445,8 @@ def _reading_scales(richer: Callable, base: dict, drift: bool) -> tuple[dict | N
     tau = math.sqrt(_scale_spread(full["scales"][on], full["scale_sigma"][on]))
     if not tau > 0:
         return None, full, 0.0
-    post, _ = richer(base, per_sweep_home=drift, scales=True, scale_prior=(tau, base["sigma"]))
+    # (with its own weights: the variance components estimated with the scales, as a refit would)
+    post = refit(full, per_sweep_home=drift, scales=True, scale_prior=(tau, base["sigma"]), strict=True)
     return post, full, tau
 
 
@@ -490,14 +491,15 @@ def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, not
                 return None, -math.inf
             return r, _bic(base, r, r["n_params"] - base["n_params"], n_res)
 
-        def refit(r, **kw):
-            """r refitted with its own weights (the simpler model's tangential misfit held the effect too)."""
+        def refit(r, strict=False, **kw):
+            """r refitted with its own weights (the simpler model's tangential misfit held the effect too); r itself, or
+            with ``strict`` None, when that does not converge."""
             try:
                 return fit_sweeps(sweeps, dqs, list(zip(r["points"], r["directions"], strict=True)), r["home"].mean(axis=0), loss=loss,
                                   where=sweeps.source, offsets0=r["offsets"], rotation0=r["rotation"], rotation_sigma=rotation_noise,
                                   tracker=tracker, **kw)
             except NotConvergedError:
-                return r
+                return None if strict else r
 
         g_global = g
         d, bic = richer(g, per_sweep_home=True)
@@ -511,20 +513,19 @@ def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, not
             notes.append(f"auto: global (one home point) over readings (a home point per sweep): {why}; estimated reading error "
                          f"{', '.join(sq)} arcsec per sweep, point noise {g['sigma'] * 1e3:.3g} mm")
         drift = method == "readings"
-        post, full, tau = _reading_scales(richer, g, drift)
+        post, full, tau = _reading_scales(richer, refit, g, drift)
         if drift and post is not None:
             # the drift was chosen before the scales: unmodelled scale errors look like a drift; with the scales
             # fitted, a home point per sweep must pay for itself again (the BIC, on the same weights)
-            gs, _ = richer(g_global, scales=True, scale_prior=(tau, g_global["sigma"]))
-            gs = refit(gs, scales=True, scale_prior=(tau, g_global["sigma"])) if gs is not None else None
+            gs = refit(g_global, scales=True, scale_prior=(tau, g_global["sigma"]), strict=True)
             dd, bic_d = richer(gs, per_sweep_home=True, scales=True, scale_prior=(tau, g_global["sigma"])) if gs is not None else (None, math.inf)
             if bic_d <= 0:
                 why = f"BIC higher by {-bic_d:.3g}" if dd is not None else "a home point per sweep does not converge with the scales"
                 notes.append(f"auto: with the reading scales fitted, one home point again ({why}): the drift was the scale errors")
                 method, drift, cov, g = "global", False, g_global["cov"], g_global
-                post, full, tau = _reading_scales(richer, g, drift)
+                post, full, tau = _reading_scales(richer, refit, g, drift)
         if post is not None:
-            g = refit(post, per_sweep_home=drift, scales=True, scale_prior=(tau, g["sigma"]))
+            g = post
             cov = _with_drift(sweeps, g)[0] if drift else g["cov"]
             scales = (g["scales"].copy(), _scale_cross(g, sweeps.n_joints), g["scale_cov"])
             notes.append(f"auto: the readings' scale errors fitted (the joints' scales scatter by tau = {tau * 1e6:.3g} ppm beyond their sigmas, "
