@@ -382,7 +382,7 @@ def _geometric(p, loss, f_scale, noise_sigma, what, where, tracker=None) -> Axis
     shape = None
     if tracker is not None:
         u, a, b = tracker.shape(p.T)
-        ref2 = float(np.mean((a + 2 * b) / 3))
+        ref2 = tracker.reference_variance(p.T)
         shape = (u, a / ref2, b / ref2)
 
     def solve(st, w):

@@ -111,14 +111,19 @@ class TrackerNoise:
         rho = np.linalg.norm(d, axis=0)
         return d / np.maximum(rho, 1e-300), np.full(rho.shape, self.sigma_range**2), (self.sigma_angle * rho) ** 2
 
+    def reference_variance(self, x: np.ndarray) -> float:
+        """The mean declared variance per coordinate (m^2) over the points x (3, m): the scale the fits whiten to."""
+        _, a, b = self.shape(x)
+        return float(np.mean((a + 2 * b) / 3))
+
     def whitening(self, points: np.ndarray) -> tuple[np.ndarray, float]:
-        """Per point (N, 3) the matrix ``W_k = ref Sigma_k^(-1/2)`` (N, 3, 3) and ``ref`` (m): the root of the mean
-        declared variance per coordinate over the points, so that ``W_k r_k`` has the covariance ``ref^2 I`` and
-        stays in metres (calibrate's weighting of its points)."""
-        u, a, b = self.shape(np.asarray(points, dtype=float).T)
-        ref = math.sqrt(float(np.mean((a + 2 * b) / 3)))
-        uu = np.einsum("in,jn->nij", u, u)
-        return ref * (uu / np.sqrt(a)[:, None, None] + (np.eye(3) - uu) / np.sqrt(b)[:, None, None]), ref
+        """Per point (N, 3) the matrix ``W_k = ref Sigma_k^(-1/2)`` (N, 3, 3) and ``ref`` (m): the root of
+        :meth:`reference_variance`, so that ``W_k r_k`` has the covariance ``ref^2 I`` and stays in metres
+        (calibrate's weighting of its points; the joint fit's :func:`_whitener` as matrices)."""
+        x = np.asarray(points, dtype=float).T
+        ref2 = self.reference_variance(x)
+        u, ia, ib = _whitener(self, ref2, x)
+        return ib[:, None, None] * np.eye(3) + ((ia - ib)[:, None, None] * np.einsum("in,jn->nij", u, u)), math.sqrt(ref2)
 
 
 def as_tracker_noise(value) -> TrackerNoise | None:
