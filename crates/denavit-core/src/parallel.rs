@@ -81,14 +81,15 @@ pub(crate) fn serial() -> bool {
 }
 
 /// `f(workspace, chunk_index, chunk)` over `out.chunks_mut(size)`, with a workspace per worker (`init`) and
-/// early exit on the first error: in parallel, or in order on this thread when [`serial`].
+/// early exit on the first error: in parallel, or in order on this thread when [`serial`] or when there is only
+/// one chunk (a small batch pays no worker wake-up: one row through the pool had cost 7 us).
 pub(crate) fn try_for_each_chunk_init<T: Send, W>(
     out: &mut [T],
     size: usize,
     init: impl Fn() -> W + Sync + Send,
     f: impl Fn(&mut W, usize, &mut [T]) -> Result<()> + Sync + Send,
 ) -> Result<()> {
-    if serial() {
+    if serial() || out.len() <= size {
         let mut w = init();
         out.chunks_mut(size).enumerate().try_for_each(|(c, o)| f(&mut w, c, o))
     } else {
