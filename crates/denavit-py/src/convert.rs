@@ -124,6 +124,15 @@ pub fn pose_from_values(what: &str, v: &[f64]) -> PyResult<Pose> {
 
 /// A (4, 4) rigid transform.
 pub fn pose(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Pose> {
+    // the per-call hot path (ik of one target): a C-contiguous float64 (4, 4) copied at once (to_vec takes no
+    // borrow: numpy's borrow tracking would cost more than the copy)
+    if let Ok(a) = obj.downcast::<PyArray2<f64>>() {
+        if a.shape() == [4, 4] {
+            if let Ok(v) = a.to_vec() {
+                return pose_from_values(what, &v);
+            }
+        }
+    }
     let (v, _) = shaped(what, obj, &[Some(4), Some(4)])?;
     pose_from_values(what, &v)
 }
