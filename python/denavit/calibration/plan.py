@@ -257,9 +257,11 @@ def select_poses(pz: Parametrization, q, k: int, *, candidates=None, w=None) -> 
     the column-normalised Jacobian of the identifiable parameters, started at a small ridge). Returns the
     indices in the order chosen.
 
-    Every candidate's ``A_c = J_c M^-1 J_c^T`` (rows x rows) is kept and updated by the Woodbury identity as
+    Every candidate's ``S_c = I + J_c M^-1 J_c^T`` (rows x rows) is kept and updated by the Woodbury identity as
     each pose is added (``M^-1`` changes by a term of rank ``rows``, ``V V^T``): one pass over the candidates'
-    Jacobians per step, O(N rows^2 p), instead of rebuilding every ``A_c`` from ``M^-1`` (O(N rows^2 p^2)).
+    Jacobians per step, O(N rows^2 p), instead of rebuilding every ``S_c`` from ``M^-1`` (O(N rows^2 p^2)).
+    The candidates' Jacobians and ``S`` are held components first (the candidate index last and contiguous), so
+    each update is a few BLAS products and whole-vector operations over the candidates.
     """
     Q = as_array(q, "q", "select")
     N = Q.shape[0]
@@ -270,37 +272,49 @@ def select_poses(pz: Parametrization, q, k: int, *, candidates=None, w=None) -> 
     rows = 6 if pz.measure == "pose" else 3
     J = jacobian_rows(pz, pz.x0, Q, w, cand)[1].reshape(N, rows, len(cand))
     kept, _, _, norms, _, _ = rank_reveal(J.reshape(-1, len(cand)), [cand.index(c) for c in pz.order if c in cand])
-    Jall = J[:, :, kept]
+    # Jt[i, :, n]: row i of candidate n's column-normalised Jacobian
+    Jt = np.ascontiguousarray(J[:, :, kept].transpose(1, 2, 0))
     del J
-    Jall /= norms[kept]
+    Jt /= norms[kept][None, :, None]
     p = len(kept)
     ridge = 1e-6 * N * rows / max(p, 1)
     Minv = np.eye(p) / ridge
-    A = np.einsum("nrp,nsp->nrs", Jall, Jall) / ridge  # J_c M^-1 J_c^T at M = ridge I
-    flat = Jall.reshape(N * rows, p)
+    S = np.empty((rows, rows, N))  # I + J_c M^-1 J_c^T at M = ridge I
+    for i in range(rows):
+        for j in range(i + 1):
+            S[i, j] = np.einsum("pn,pn->n", Jt[i], Jt[j]) / ridge + (i == j)
+            S[j, i] = S[i, j]
     chosen: list[int] = []
     avail = np.ones(N, dtype=bool)
     eye = np.eye(rows)
     for _ in range(k):
-        gain = _logdet(eye + A)
+        gain = _logdet(S)
         gain[~avail] = -np.inf
         c = int(np.argmax(gain))
         chosen.append(c)
         avail[c] = False
         # M + J_c^T J_c: M^-1 - V V^T with V = M^-1 J_c^T L^-T, L L^T = I + J_c M^-1 J_c^T (Woodbury)
-        U = Minv @ Jall[c].T
-        V = np.linalg.solve(np.linalg.cholesky(eye + Jall[c] @ U), U.T).T
-        B = (flat @ V).reshape(N, rows, rows)  # J_n V: one pass over the candidates
-        A -= np.einsum("nik,njk->nij", B, B)
+        Jc = Jt[:, :, c]
+        U = Minv @ Jc.T
+        V = np.linalg.solve(np.linalg.cholesky(eye + Jc @ U), U.T).T
+        B = np.matmul(V.T, Jt)  # B[i, k, n] = (J_n V)[i, k]: one pass over the candidates
+        for i in range(rows):
+            for j in range(i + 1):
+                d = B[i, 0] * B[j, 0]
+                for m in range(1, rows):
+                    d += B[i, m] * B[j, m]
+                S[i, j] -= d
+                if j != i:
+                    S[j, i] -= d
         Minv -= V @ V.T
     return np.array(chosen)
 
 
 def _logdet(S: np.ndarray) -> np.ndarray:
-    """log det of each symmetric positive definite matrix of S (N, r, r): the 3 x 3 determinant in closed form
-    (points), else numpy's slogdet."""
-    if S.shape[1] != 3:
-        return np.linalg.slogdet(S)[1]
-    a, b, c = S[:, 0, 0], S[:, 0, 1], S[:, 0, 2]
-    d, e, f = S[:, 1, 1], S[:, 1, 2], S[:, 2, 2]
+    """log det of each symmetric positive definite matrix of S (r, r, N), components first: the 3 x 3
+    determinant in closed form (points), else numpy's slogdet."""
+    if S.shape[0] != 3:
+        return np.linalg.slogdet(S.transpose(2, 0, 1))[1]
+    a, b, c = S[0, 0], S[0, 1], S[0, 2]
+    d, e, f = S[1, 1], S[1, 2], S[2, 2]
     return np.log(a * (d * f - e * e) - b * (b * f - e * c) + c * (b * e - d * c))
