@@ -1,6 +1,7 @@
 """Forward kinematics and Jacobians through the Python API: finite differences in the world and tool frames,
 batch == single, any array layout, and bad input."""
 
+import os
 import re
 from pathlib import Path
 
@@ -228,9 +229,14 @@ def test_out_read_only_or_an_input_is_refused():
 
 
 def test_threads_argument():
+    """threads: 1 .. 4 per core; a count beyond is refused at once (it had started a pool of that many threads:
+    10**12 never returned)."""
     m = dv.load_model("kr5")
-    with pytest.raises(dv.DenavitError, match=r"^invalid threads: expected None \(RAYON_NUM_THREADS, else every core\) or a count >= 1, got 0$"):
-        dv.fk_batch(m, np.zeros((2, 6)), threads=0)
+    most = 4 * os.cpu_count()
+    for bad in (0, -1, most + 1, 10**12):
+        with pytest.raises(dv.DenavitError, match=rf"^invalid threads: expected None \(RAYON_NUM_THREADS, else every core\) or a count 1\.\.={most} \(4 per core\), got {bad}$"):
+            dv.fk_batch(m, np.zeros((2, 6)), threads=bad)
+    assert dv.fk_batch(m, np.zeros((2, 6)), threads=most).shape == (2, 4, 4)
     with pytest.raises(TypeError):
         dv.fk_batch(m, np.zeros((2, 6)), threads="2")
 

@@ -27,9 +27,16 @@ impl Drop for SerialScope {
     }
 }
 
+/// The most threads a call may ask for: 4 per core of this machine (more only adds threads waiting for a core;
+/// every count asked for keeps its pool for the life of the process).
+pub fn max_threads() -> usize {
+    4 * std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
 /// Run `f` with the crate's batch kernels on `threads` threads: `None` rayon's global pool
 /// (`RAYON_NUM_THREADS` threads if that variable is set, else one per core), `Some(1)` serially on the
-/// calling thread (no pool involved), `Some(k)` a pool of k threads, built at its first use and cached.
+/// calling thread (no pool involved), `Some(k)` a pool of k threads (k <= [`max_threads`]), built at its
+/// first use and cached.
 ///
 /// ```
 /// use denavit_core::{builtin_planar2, kinematics::tool_pose_batch, parallel::with_threads};
@@ -40,14 +47,15 @@ impl Drop for SerialScope {
 /// with_threads(Some(2), || tool_pose_batch(&m, &qs, &mut b)).unwrap().unwrap();
 /// assert_eq!(a, b);
 /// assert!(with_threads(Some(0), || ()).is_err());
+/// assert!(with_threads(Some(denavit_core::parallel::max_threads() + 1), || ()).is_err());
 /// ```
 pub fn with_threads<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) -> Result<R> {
     match threads {
         None => Ok(f()),
-        Some(0) => Err(Error::InvalidArgument {
+        Some(k) if k == 0 || k > max_threads() => Err(Error::InvalidArgument {
             what: "threads".into(),
-            expected: "None (RAYON_NUM_THREADS, else every core) or a count >= 1".into(),
-            got: "0".into(),
+            expected: format!("None (RAYON_NUM_THREADS, else every core) or a count 1..={} (4 per core)", max_threads()),
+            got: k.to_string(),
         }),
         Some(1) => {
             let _restore = SerialScope(SERIAL.with(|s| s.replace(true)));

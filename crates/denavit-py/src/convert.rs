@@ -220,12 +220,16 @@ pub fn poses_out<'py, 'a>(py: Python<'py>, ts: impl ExactSizeIterator<Item = &'a
     out(py, &v, [n, 4, 4])
 }
 
-/// `threads=` of a batch call: None (rayon's pool: RAYON_NUM_THREADS, else every core) or a count >= 1.
+/// `threads=` of a batch call: None (rayon's pool: RAYON_NUM_THREADS, else every core) or a count 1..=4 per core.
 pub fn threads_of(threads: Option<i64>) -> PyResult<Option<usize>> {
     match threads {
         None => Ok(None),
-        Some(k) if k >= 1 => Ok(Some(k as usize)),
-        Some(k) => Err(invalid("threads", "None (RAYON_NUM_THREADS, else every core) or a count >= 1", k.to_string())),
+        Some(k) if k >= 1 && k as u64 <= denavit_core::parallel::max_threads() as u64 => Ok(Some(k as usize)),
+        Some(k) => Err(invalid(
+            "threads",
+            format!("None (RAYON_NUM_THREADS, else every core) or a count 1..={} (4 per core)", denavit_core::parallel::max_threads()),
+            k.to_string(),
+        )),
     }
 }
 
