@@ -241,3 +241,47 @@ def test_messages_do_not_wrap_when_not_on_a_terminal(files):
     """A long message stays one line whatever COLUMNS says (stderr is a pipe here)."""
     p = run("identify", files / "s_long.csv", ok=False, columns=20)
     assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and len(p.stderr.strip()) <= 510, p.stderr[:600]
+
+
+def test_an_output_never_replaces_an_input(files, tmp_path):
+    """An output that is one of the command's input files, by its own path or through a link, is refused before any
+    work (the audit's tracker sweeps had been replaced by the JSON result, a program by its compensation), and a
+    --plot folder that is an existing file is a one-line error (it had been a traceback after --save was written)."""
+    data = tmp_path / "sweeps.csv"
+    data.write_bytes((files / "s.csv").read_bytes())
+    alias = tmp_path / "alias.toml"
+    alias.symlink_to(data)
+    robot = tmp_path / "robot.toml"
+    robot.write_text(KR5)
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    before = {f: f.read_bytes() for f in (data, robot, afile)}
+    cases = [
+        (["identify", data, "--json", data], f"--json {data}: is the input file {data} (DATA): an output never replaces an input"),
+        (["identify", data, "--save", alias], f"--save {alias}: is the input file {data} (DATA)"),
+        (["convert", robot, "--to", "mdh", "-o", robot], f"--output {robot}: is the input file {robot}"),
+        (["identify", data, "--save", tmp_path / "new.toml", "--plot", afile], f"--plot {afile}: expected a folder (made when missing), got an existing file"),
+    ]
+    for args, expected in cases:
+        p = run(*args, ok=False)
+        line = error_line(p.stderr)
+        assert p.returncode == 2 and line is not None and expected in line, (args, p.stderr[-600:])
+    assert {f: f.read_bytes() for f in before} == before
+    assert alias.is_symlink() and not (tmp_path / "new.toml").exists()
+
+
+def test_an_unexpected_error_is_one_line_and_exit_3(monkeypatch, capfd):
+    """The last resort: an exception that is no DenavitError nor an OS error (a defect) reaches the user as one line
+    and exit code 3, not a traceback; an OS error as one line naming its file and exit code 2."""
+    import denavit.cli as cli
+
+    for exc, code, expected in ((RuntimeError("boom"), 3, "error: internal error, please report it with the command line: RuntimeError: boom"),
+                                (FileExistsError(17, "File exists", "afile"), 2, "error: afile: File exists")):
+        def fail(exc=exc, **kw):
+            raise exc
+
+        monkeypatch.setattr(cli, "app", fail)
+        with pytest.raises(SystemExit) as e:
+            cli.main()
+        err = capfd.readouterr().err
+        assert e.value.code == code and "Traceback" not in err and err.strip().startswith(expected), err

@@ -9,6 +9,7 @@ rich only: numpy's heavy friends (scipy, matplotlib, yourdfpy) load inside the c
 
 from __future__ import annotations
 
+import os
 import sys
 
 from ..errors import DenavitError
@@ -18,9 +19,21 @@ __all__ = ["app", "main"]
 
 
 def main() -> None:
-    """Entry point: every DenavitError becomes a one-line message and exit code 2."""
+    """Entry point: every DenavitError, and any error of the operating system (a file, a folder, the disk), becomes
+    a one-line message and exit code 2; anything else, a defect of denavit, a one-line message and exit code 3
+    (``DENAVIT_TRACEBACK=1`` shows its traceback, for a report)."""
     try:
         app(prog_name="denavit")
     except DenavitError as e:
         say("bold red", "error:", f" {e}", err=True)
         sys.exit(2)
+    except OSError as e:
+        where = f"{e.filename}: " if e.filename else ""
+        say("bold red", "error:", f" {where}{e.strerror or e}", err=True)
+        sys.exit(2)
+    except Exception as e:  # noqa: BLE001 (the last resort: no traceback reaches a user)
+        if os.environ.get("DENAVIT_TRACEBACK"):
+            raise
+        say("bold red", "error:", f" internal error, please report it with the command line: {type(e).__name__}: {e} "
+            "(DENAVIT_TRACEBACK=1 shows where)", err=True)
+        sys.exit(3)

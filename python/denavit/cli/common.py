@@ -12,6 +12,7 @@ docs/cli.md.
 from __future__ import annotations
 
 import math
+import os
 import sys
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, Annotated
@@ -27,6 +28,7 @@ try:
 except ImportError:
     PassThroughRuntimeParam = None
 
+from ..errors import DenavitError
 from ..io.output import check_writable
 from ..io.units import ANGLE, LENGTH, angle_scale, cell_scale, column_scale, joint_scale, joint_unit, length_scale
 
@@ -94,11 +96,35 @@ OUTPUT_OPTIONS = frozenset({"-o", "--output", "--json", "--save", "--urdf", "--r
 
 def _check_outputs(ctx) -> None:  # noqa: ANN001 (click's context)
     """Every output the command line names is checked before the work starts: a missing or read-only directory
-    is an error in the first second, not after a minute of fitting."""
+    is an error in the first second, not after a minute of fitting; an output that is one of the command's input
+    files (the same path, or a link to it) is refused, as is a ``--plot`` folder that is an existing file."""
+    inputs, outputs = [], []
     for param in ctx.command.params:
         value = ctx.params.get(param.name)
-        if value is not None and value != STDOUT and OUTPUT_OPTIONS.intersection(param.opts):
-            check_writable(value)
+        if value is None:
+            continue
+        if OUTPUT_OPTIONS.intersection(param.opts):
+            if value != STDOUT:
+                check_writable(value)
+                outputs.append((param.opts[-1], value))
+        elif "--plot" in param.opts:
+            if os.path.exists(value) and not os.path.isdir(value):
+                raise DenavitError(f"--plot {value}: expected a folder (made when missing), got an existing file")
+            outputs.append(("--plot", value))
+        else:
+            inputs += [(param, v) for v in (value if isinstance(value, list | tuple) else [value]) if isinstance(v, str | os.PathLike) and _is_file(v)]
+    for opt, out in outputs:
+        for param, inp in inputs:
+            if _is_file(out) and os.path.samefile(out, inp):
+                name = param.opts[-1] if param.opts[-1].startswith("-") else param.name.upper()
+                raise DenavitError(f"{opt} {out}: is the input file {inp} ({name}): an output never replaces an input; name another file")
+
+
+def _is_file(path) -> bool:  # noqa: ANN001 (any path-like)
+    try:
+        return os.path.isfile(path)
+    except (OSError, ValueError):
+        return False
 
 
 #: Every command, in the order of ``denavit --help``: its module (imported when the command runs or shows its
