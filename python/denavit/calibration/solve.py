@@ -117,8 +117,51 @@ class Calibration:
         cannot hold Hayati angles: prefer ``edh`` or :meth:`model` then)."""
         conv = self.convention if convention is None else _core.convention_info(convention)["name"]
         m = self.model()
-        nom = self.parametrization.robot.table
-        return _core.extract(_core.axes(m, np.zeros(m.nq)), conv, nominal=nom if nom.convention == conv else None).table
+        return _core.extract(_core.axes(m, np.zeros(m.nq)), conv, **self._extract_options(conv)).table
+
+    def _extract_options(self, convention: str) -> dict:
+        """The extraction of a ``convention`` table against the nominal's own table in that convention (and, for
+        ED-H, the nominal's frame origins on the body): without that reference a pair of axes that is parallel on
+        the nominal takes the common normal of its small tilt, which slides along the axes with the noise (a KR5's
+        b_2, b_3 and theta_2 had sigmas of 2.5 m and 1.5 rad in the saved covariance)."""
+        from ..identify import _nominal_table, _origins  # noqa: PLC0415 (identify imports this package)
+
+        robot = self.parametrization.robot
+        home = np.zeros(len(robot.names))
+        ref = _nominal_table(robot, convention, home)
+        opts = {"nominal": ref, "origins": _origins(ref, convention, home)}
+        if convention == "edh":
+            opts["parallel_tol"] = self._edh_parallel_tol()
+        return opts
+
+    def _edh_parallel_tol(self) -> float:
+        """ED-H's ``parallel_tol`` against the nominal, as identify's (``identify.EDH_PARALLEL_SIGMAS`` sigmas of the
+        tilt of the pairs of axes the nominal has parallel, at least 1e-9): only a tilt the data cannot tell from zero
+        is dropped. The tilt ``z_i x z_(i+1)`` and its covariance from this calibration's, by central differences."""
+        from ..identify import EDH_PARALLEL_SIGMAS  # noqa: PLC0415
+
+        pz = self.parametrization
+        nom = pz.robot.model()
+        z = np.asarray(_core.axes(nom, np.zeros(nom.nq)).directions)
+        pairs = [k for k in range(len(z) - 1) if np.linalg.norm(np.cross(z[k], z[k + 1])) < 1e-9]
+        if not pairs:
+            return 1e-3
+
+        def tilts(x):
+            m = pz.model(x)
+            d = np.asarray(_core.axes(m, np.zeros(m.nq)).directions)
+            return np.concatenate([np.cross(d[k], d[k + 1]) for k in pairs])
+
+        free = [pz.index(k) for k in self.free_names]
+        J = np.zeros((3 * len(pairs), len(free)))
+        for c, i in enumerate(free):
+            e = np.zeros_like(self.values)
+            e[i] = 1e-7
+            J[:, c] = (tilts(self.values + e) - tilts(self.values - e)) / 2e-7
+        C = J @ np.asarray(self.covariance) @ J.T
+        sig = [math.sqrt(max(np.trace(C[3 * k : 3 * k + 3, 3 * k : 3 * k + 3]), 0.0)) for k in range(len(pairs))]
+        sig = [v for v in sig if math.isfinite(v)]
+        return min(1e-3, max(EDH_PARALLEL_SIGMAS * max(sig, default=0.0), 1e-9))
 
     def robot(self, name: str | None = None, convention: str = "edh") -> Robot:
         """A :class:`Robot` of the calibrated model (for :func:`denavit.io.robotfile.save` and
@@ -140,7 +183,7 @@ class Calibration:
         differences; angles wrapped about ``table``'s). The base registration is left out (it is where the measurement
         frame stands, not the robot's geometry: targets are given in the robot base frame, as ``compensate`` assumes)."""
         pz = self.parametrization
-        nom = pz.robot.table
+        opts = self._extract_options(table.convention)
         n = len(pz.robot.names)
         free = [pz.index(k) for k in self.free_names]
         keep = [i for i, k in enumerate(self.free_names) if not k.startswith("base_")]
@@ -151,7 +194,7 @@ class Calibration:
 
         def converted(x):
             m = pz.model(x)
-            new = _core.extract(_core.axes(m, np.zeros(m.nq)), table.convention, nominal=nom if nom.convention == table.convention else None, fidelity=False).table
+            new = _core.extract(_core.axes(m, np.zeros(m.nq)), table.convention, fidelity=False, **opts).table
             d = np.asarray(new.params) - p_ref
             d[:, angle_cols] = (d[:, angle_cols] + np.pi) % (2 * np.pi) - np.pi
             sc = [x[i] if i is not None else 0.0 for i in scale_idx] if has_scales else []
