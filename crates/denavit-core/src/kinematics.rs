@@ -641,6 +641,30 @@ const IDENTITY: Factor = Factor { b: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.
 fn write_block(c: &Frames, out: &mut [f64]) {
     let base = 4 * (out.len() / 64);
     let mut groups = out.chunks_exact_mut(64);
+    #[cfg(all(any(target_arch = "x86", target_arch = "x86_64"), target_feature = "avx"))]
+    for (g, o) in (&mut groups).enumerate() {
+        // the transposes in AVX shuffles (the compiler's own code moved the values one by one): per row r
+        // of four configurations, the unpacks pair (x, y) and (z, p) of configurations 0/2 and 1/3, the
+        // 128-bit permutes join the pairs into the four rows, each stored whole
+        use safe_arch::{load_unaligned_m256d as load, permute2z_m256d as join, store_unaligned_m256d as store};
+        use safe_arch::{unpack_hi_m256d as hi, unpack_lo_m256d as lo};
+        let l0 = 4 * g;
+        let load4 = |j: usize, r: usize| c[j][r][l0..].first_chunk::<4>().map_or(safe_arch::zeroed_m256d(), load);
+        for r in 0..3 {
+            let (x, y, z, p) = (load4(0, r), load4(1, r), load4(2, r), load4(3, r));
+            let (xy0, xy1, zp0, zp1) = (lo(x, y), hi(x, y), lo(z, p), hi(z, p));
+            let rows = [join::<0x20>(xy0, zp0), join::<0x20>(xy1, zp1), join::<0x31>(xy0, zp0), join::<0x31>(xy1, zp1)];
+            for (i, row) in rows.into_iter().enumerate() {
+                if let Some(d) = o[16 * i + 4 * r..].first_chunk_mut::<4>() {
+                    store(d, row);
+                }
+            }
+        }
+        for i in 0..4 {
+            o[16 * i + 12..16 * i + 16].copy_from_slice(&[0.0, 0.0, 0.0, 1.0]);
+        }
+    }
+    #[cfg(not(all(any(target_arch = "x86", target_arch = "x86_64"), target_feature = "avx")))]
     for (g, o) in (&mut groups).enumerate() {
         let l0 = 4 * g;
         for r in 0..3 {
