@@ -581,7 +581,7 @@ fn write_jacobians_avx<const N: usize>(jac: &[V], out: &mut [f64]) -> usize {
     use safe_arch::{cast_to_m128d_from_m256d as low, extract_m128d_from_m256d as high, store_unaligned_m128d as store2};
     use safe_arch::{load_unaligned_m256d as load, permute2z_m256d as join, store_unaligned_m256d as store};
     use safe_arch::{unpack_hi_m256d as hi, unpack_lo_m256d as lo};
-    let per = 6 * N;
+    let (per, jac) = (6 * N, &jac[..6 * N]);
     let mut groups = out.chunks_exact_mut(4 * per);
     for (g, o) in (&mut groups).enumerate() {
         let l0 = 4 * g;
