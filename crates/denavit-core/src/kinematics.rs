@@ -456,28 +456,9 @@ impl Chain {
 /// add exact zeros: the same values up to the sign of zeros).
 #[inline(never)]
 fn revolute_about_x<const N: usize, const ORIGIN: u8>(first: &Frame, factors: &[Factor], sn: &[V], cs: &[V], c: &mut Frames) {
-    let (factors, sn, cs, f) = (&factors[..N - 1], &sn[..N], &cs[..N], &first.c);
+    let (factors, sn, cs) = (&factors[..N - 1], &sn[..N], &cs[..N]);
     for l in 0..BLOCK {
-        // joint 1: the first frame, the same for every configuration, turned
-        let (s, k) = (sn[0][l], cs[0][l]);
-        let mut x: [f64; 3] = std::array::from_fn(|r| k.mul_add(f[0][r], s * f[1][r]));
-        let mut y: [f64; 3] = std::array::from_fn(|r| k.mul_add(f[1][r], -(s * f[0][r])));
-        let mut z: [f64; 3] = std::array::from_fn(|r| f[2][r]);
-        let mut p: [f64; 3] = std::array::from_fn(|r| f[3][r]);
-        for (i, b) in factors.iter().enumerate() {
-            let b = &b.b;
-            let a = [x, y, z];
-            for k in 0..3 {
-                if ORIGIN & (1 << k) != 0 {
-                    p = std::array::from_fn(|r| a[k][r].mul_add(b[3][k], p[r]));
-                }
-            }
-            let y1: [f64; 3] = std::array::from_fn(|r| z[r].mul_add(b[1][2], y[r] * b[1][1]));
-            z = std::array::from_fn(|r| z[r].mul_add(b[2][2], y[r] * b[2][1]));
-            let (s, k) = (sn[i + 1][l], cs[i + 1][l]);
-            y = std::array::from_fn(|r| k.mul_add(y1[r], -(s * x[r])));
-            x = std::array::from_fn(|r| k.mul_add(x[r], s * y1[r]));
-        }
+        let [x, y, z, p] = chain_about_x::<ORIGIN>(first, factors, sn, cs, l, |_, _, _| {});
         for r in 0..3 {
             c[0][r][l] = x[r];
             c[1][r][l] = y[r];
@@ -485,6 +466,168 @@ fn revolute_about_x<const N: usize, const ORIGIN: u8>(first: &Frame, factors: &[
             c[3][r][l] = p[r];
         }
     }
+}
+
+/// The body of [`revolute_about_x`] for configuration `l` of a block: the frame of the last joint (x, y,
+/// z axes and origin), each joint's z axis and origin handed to `each(joint, z, p)` on the way.
+#[inline(always)]
+fn chain_about_x<const ORIGIN: u8>(
+    first: &Frame,
+    factors: &[Factor],
+    sn: &[V],
+    cs: &[V],
+    l: usize,
+    mut each: impl FnMut(usize, &[f64; 3], &[f64; 3]),
+) -> [[f64; 3]; 4] {
+    let f = &first.c;
+    // joint 1: the first frame, the same for every configuration, turned
+    let (s, k) = (sn[0][l], cs[0][l]);
+    let mut x: [f64; 3] = std::array::from_fn(|r| k.mul_add(f[0][r], s * f[1][r]));
+    let mut y: [f64; 3] = std::array::from_fn(|r| k.mul_add(f[1][r], -(s * f[0][r])));
+    let mut z: [f64; 3] = std::array::from_fn(|r| f[2][r]);
+    let mut p: [f64; 3] = std::array::from_fn(|r| f[3][r]);
+    each(0, &z, &p);
+    for (i, b) in factors.iter().enumerate() {
+        let b = &b.b;
+        let a = [x, y, z];
+        for k in 0..3 {
+            if ORIGIN & (1 << k) != 0 {
+                p = std::array::from_fn(|r| a[k][r].mul_add(b[3][k], p[r]));
+            }
+        }
+        let y1: [f64; 3] = std::array::from_fn(|r| z[r].mul_add(b[1][2], y[r] * b[1][1]));
+        z = std::array::from_fn(|r| z[r].mul_add(b[2][2], y[r] * b[2][1]));
+        let (s, k) = (sn[i + 1][l], cs[i + 1][l]);
+        y = std::array::from_fn(|r| k.mul_add(y1[r], -(s * x[r])));
+        x = std::array::from_fn(|r| k.mul_add(x[r], s * y1[r]));
+        each(i + 1, &z, &p);
+    }
+    [x, y, z, p]
+}
+
+/// The frames of [`jacobian_about_x`]'s const parameter, as [`JacobianFrame`].
+const FRAME_LWA: u8 = 0;
+const FRAME_WORLD: u8 = 1;
+const FRAME_BASE: u8 = 2;
+const FRAME_LOCAL: u8 = 3;
+
+const fn frame_of(f: u8) -> JacobianFrame {
+    match f {
+        FRAME_WORLD => JacobianFrame::World,
+        FRAME_BASE => JacobianFrame::Base,
+        FRAME_LOCAL => JacobianFrame::Local,
+        _ => JacobianFrame::LocalWorldAligned,
+    }
+}
+
+/// The tool Jacobians of a block (into `jac[r * N + k]`: row r, column k; the frame `FRAME`) for the chains
+/// of [`revolute_about_x`], in one pass over the configurations: the chain's frames in registers, each
+/// joint's origin and z axis kept as the chain passes it, then the tool (`tool`, as [`Frame::mul`]) and the
+/// columns (as [`column`]: the values of [`jacobian_row_major_unchecked`] up to the sign of zeros), stored
+/// lane by lane. `base`: the base frame's axes (for `FRAME_BASE`).
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+fn jacobian_about_x<const N: usize, const ORIGIN: u8, const FRAME: u8>(
+    first: &Frame,
+    factors: &[Factor],
+    tool: &Factor,
+    base: &[[f64; 3]; 3],
+    sn: &[V],
+    cs: &[V],
+    jac: &mut [V],
+) {
+    let (factors, sn, cs, jac, b) = (&factors[..N - 1], &sn[..N], &cs[..N], &mut jac[..6 * N], &tool.b);
+    let frame = frame_of(FRAME);
+    for l in 0..BLOCK {
+        let (mut o, mut zs) = ([[0.0; 3]; N], [[0.0; 3]; N]);
+        let [x, y, z, p] = chain_about_x::<ORIGIN>(first, factors, sn, cs, l, |i, zi, pi| {
+            zs[i] = *zi;
+            o[i] = *pi;
+        });
+        let a = [x, y, z];
+        let tp: [f64; 3] = std::array::from_fn(|r| a[2][r].mul_add(b[3][2], a[1][r].mul_add(b[3][1], a[0][r].mul_add(b[3][0], p[r]))));
+        let axes: Option<[[f64; 3]; 3]> = match FRAME {
+            FRAME_LOCAL => Some(std::array::from_fn(|j| std::array::from_fn(|r| a[2][r].mul_add(b[j][2], a[1][r].mul_add(b[j][1], a[0][r] * b[j][0]))))),
+            FRAME_BASE => Some(*base),
+            _ => None,
+        };
+        for k in 0..N {
+            let col = column(JointKind::Revolute, o[k], zs[k], tp, frame, axes.as_ref());
+            for r in 0..6 {
+                jac[r * N + k][l] = col[r];
+            }
+        }
+    }
+}
+
+/// Write a block's Jacobians (`jac[i][configuration]`, `i` the index in the row-major 6 x n matrix) as
+/// row-major matrices (`out`: up to BLOCK x 6n): four configurations at a time by transposes in AVX
+/// shuffles where the build has AVX, the rest value by value.
+#[inline(always)]
+fn write_jacobians<const N: usize>(jac: &[V], out: &mut [f64]) {
+    let per = 6 * N;
+    let done = write_jacobians_avx::<N>(jac, out);
+    for (l, o) in out.chunks_exact_mut(per).enumerate().skip(done) {
+        for (i, v) in o.iter_mut().enumerate() {
+            *v = jac[i][l];
+        }
+    }
+}
+
+/// The groups of four configurations of [`write_jacobians`]; returns the number of configurations written.
+#[cfg(all(any(target_arch = "x86", target_arch = "x86_64"), target_feature = "avx"))]
+#[inline(always)]
+fn write_jacobians_avx<const N: usize>(jac: &[V], out: &mut [f64]) -> usize {
+    use safe_arch::{cast_to_m128d_from_m256d as low, extract_m128d_from_m256d as high, store_unaligned_m128d as store2};
+    use safe_arch::{load_unaligned_m256d as load, permute2z_m256d as join, store_unaligned_m256d as store};
+    use safe_arch::{unpack_hi_m256d as hi, unpack_lo_m256d as lo};
+    let (per, jac) = (6 * N, &jac[..6 * N]);
+    let mut groups = out.chunks_exact_mut(4 * per);
+    for (g, o) in (&mut groups).enumerate() {
+        let l0 = 4 * g;
+        let load4 = |i: usize| jac[i][l0..].first_chunk::<4>().map_or(safe_arch::zeroed_m256d(), load);
+        for r in 0..6 {
+            let i0 = N * r;
+            let mut k = 0;
+            // columns k..k+4 of row r of the four configurations: a 4x4 transpose
+            while k + 4 <= N {
+                let (a, b, c, d) = (load4(i0 + k), load4(i0 + k + 1), load4(i0 + k + 2), load4(i0 + k + 3));
+                let (ab0, ab1, cd0, cd1) = (lo(a, b), hi(a, b), lo(c, d), hi(c, d));
+                let rows = [join::<0x20>(ab0, cd0), join::<0x20>(ab1, cd1), join::<0x31>(ab0, cd0), join::<0x31>(ab1, cd1)];
+                for (i, v) in rows.into_iter().enumerate() {
+                    if let Some(d) = o[per * i + i0 + k..].first_chunk_mut::<4>() {
+                        store(d, v);
+                    }
+                }
+                k += 4;
+            }
+            // two columns: the unpacks' halves
+            while k + 2 <= N {
+                let (a, b) = (load4(i0 + k), load4(i0 + k + 1));
+                let (ab0, ab1) = (lo(a, b), hi(a, b));
+                let pairs = [low(ab0), low(ab1), high::<1>(ab0), high::<1>(ab1)];
+                for (i, v) in pairs.into_iter().enumerate() {
+                    if let Some(d) = o[per * i + i0 + k..].first_chunk_mut::<2>() {
+                        store2(d, v);
+                    }
+                }
+                k += 2;
+            }
+            if k < N {
+                for i in 0..4 {
+                    o[per * i + i0 + k] = jac[i0 + k][l0 + i];
+                }
+            }
+        }
+    }
+    4 * (out.len() / (4 * per))
+}
+
+/// Without AVX: none (the caller writes every configuration value by value).
+#[cfg(not(all(any(target_arch = "x86", target_arch = "x86_64"), target_feature = "avx")))]
+#[inline(always)]
+fn write_jacobians_avx<const N: usize>(_: &[V], _: &mut [f64]) -> usize {
+    0
 }
 
 /// `c <- c · b · M(s)` for a block (`sn`, `cs`: the sines and cosines of `s` for `MOTION_RZ`): the
@@ -641,6 +784,30 @@ const IDENTITY: Factor = Factor { b: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.
 fn write_block(c: &Frames, out: &mut [f64]) {
     let base = 4 * (out.len() / 64);
     let mut groups = out.chunks_exact_mut(64);
+    #[cfg(all(any(target_arch = "x86", target_arch = "x86_64"), target_feature = "avx"))]
+    for (g, o) in (&mut groups).enumerate() {
+        // the transposes in AVX shuffles (the compiler's own code moved the values one by one): per row r
+        // of four configurations, the unpacks pair (x, y) and (z, p) of configurations 0/2 and 1/3, the
+        // 128-bit permutes join the pairs into the four rows, each stored whole
+        use safe_arch::{load_unaligned_m256d as load, permute2z_m256d as join, store_unaligned_m256d as store};
+        use safe_arch::{unpack_hi_m256d as hi, unpack_lo_m256d as lo};
+        let l0 = 4 * g;
+        let load4 = |j: usize, r: usize| c[j][r][l0..].first_chunk::<4>().map_or(safe_arch::zeroed_m256d(), load);
+        for r in 0..3 {
+            let (x, y, z, p) = (load4(0, r), load4(1, r), load4(2, r), load4(3, r));
+            let (xy0, xy1, zp0, zp1) = (lo(x, y), hi(x, y), lo(z, p), hi(z, p));
+            let rows = [join::<0x20>(xy0, zp0), join::<0x20>(xy1, zp1), join::<0x31>(xy0, zp0), join::<0x31>(xy1, zp1)];
+            for (i, row) in rows.into_iter().enumerate() {
+                if let Some(d) = o[16 * i + 4 * r..].first_chunk_mut::<4>() {
+                    store(d, row);
+                }
+            }
+        }
+        for i in 0..4 {
+            o[16 * i + 12..16 * i + 16].copy_from_slice(&[0.0, 0.0, 0.0, 1.0]);
+        }
+    }
+    #[cfg(not(all(any(target_arch = "x86", target_arch = "x86_64"), target_feature = "avx")))]
     for (g, o) in (&mut groups).enumerate() {
         let l0 = 4 * g;
         for r in 0..3 {
@@ -765,6 +932,8 @@ pub fn tool_pose_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<()>
 struct JacobianWork {
     block: Box<Block>,
     oz: Vec<[V; 6]>,
+    /// The block's Jacobians of [`jacobian_about_x`] (`jac[row * n + column][configuration]`).
+    jac: Vec<V>,
 }
 
 /// Jacobians (as [`jacobian_row_major_unchecked`]) of the rows of one chunk (`q`: rows x n, `out`: rows x 6n).
@@ -791,6 +960,34 @@ fn jacobian_chunk<const N: usize>(
             padded[..qb.len()].copy_from_slice(qb);
             &padded
         };
+        if let (Some(origin), true, None) = (chain.about_x, N > 0, joint) {
+            let b = &mut *w.block;
+            if !load_block::<N>(model, qb, &mut b.s) {
+                return false;
+            }
+            for ((s, sn), cs) in b.s.iter().zip(&mut b.sn).zip(&mut b.cs) {
+                sin_cos_slices(s, sn, cs);
+            }
+            let (first, f, tool, sn, cs, jac) = (&chain.first, &chain.factors, &chain.factors[n - 1], &b.sn, &b.cs, &mut w.jac);
+            macro_rules! by_frame {
+                ($origin:expr) => {
+                    match frame {
+                        JacobianFrame::LocalWorldAligned => jacobian_about_x::<N, $origin, FRAME_LWA>(first, f, tool, &base, sn, cs, jac),
+                        JacobianFrame::World => jacobian_about_x::<N, $origin, FRAME_WORLD>(first, f, tool, &base, sn, cs, jac),
+                        JacobianFrame::Base => jacobian_about_x::<N, $origin, FRAME_BASE>(first, f, tool, &base, sn, cs, jac),
+                        JacobianFrame::Local => jacobian_about_x::<N, $origin, FRAME_LOCAL>(first, f, tool, &base, sn, cs, jac),
+                    }
+                };
+            }
+            // x and z offsets (DH tables) or any
+            if origin & !0b101 == 0 {
+                by_frame!(0b101)
+            } else {
+                by_frame!(0b111)
+            }
+            write_jacobians::<N>(jac, ob);
+            continue;
+        }
         let (b, oz) = (&mut *w.block, &mut w.oz);
         if !walk_block::<N>(model, chain, qb, cols, b, |i, c| oz[i] = [c[3][0], c[3][1], c[3][2], c[2][0], c[2][1], c[2][2]]) {
             return false;
@@ -863,7 +1060,7 @@ pub fn jacobian_batch(model: &Model, qs: &[f64], frame: JacobianFrame, joint: Op
     crate::parallel::try_for_each_chunk_init(
         out,
         6 * n * CHUNK,
-        || JacobianWork { block: Block::new(n, 6 * n), oz: vec![[[0.0; BLOCK]; 6]; n] },
+        || JacobianWork { block: Block::new(n, 6 * n), oz: vec![[[0.0; BLOCK]; 6]; n], jac: vec![[0.0; BLOCK]; 6 * n] },
         |w, k, o| {
             let q = &qs[k * CHUNK * n..(k * CHUNK + o.len() / (6 * n)) * n];
             let finite = match n {
@@ -922,6 +1119,21 @@ mod tests {
                         let mut one = [0.0; 16];
                         super::write_pose(&super::tool_pose(&m, q).unwrap(), &mut one);
                         assert_eq!(o, &one, "{convention:?} n = {n} prismatic {prismatic} q = {q:?}");
+                    }
+                    // the Jacobians (the one-pass kernel for the tool of a revolute chain, the joint-by-joint
+                    // one for a joint frame), in every frame
+                    for frame in [super::JacobianFrame::LocalWorldAligned, super::JacobianFrame::World, super::JacobianFrame::Base, super::JacobianFrame::Local]
+                    {
+                        for joint in [None, Some(n - 3)] {
+                            let mut jac = vec![0.0; 6 * n * count];
+                            let run = || super::jacobian_batch(&m, &qs, frame, joint, &mut jac);
+                            crate::parallel::with_threads(Some(1), run).unwrap().unwrap();
+                            for (q, o) in qs.chunks(n).zip(jac.chunks(6 * n)) {
+                                let mut one = vec![0.0; 6 * n];
+                                super::jacobian_row_major_unchecked(&m, q, frame, joint, &mut one);
+                                assert_eq!(o, &one, "{convention:?} n = {n} prismatic {prismatic} {frame:?} {joint:?} q = {q:?}");
+                            }
+                        }
                     }
                     assert_eq!(super::Chain::of(&m).about_x.is_some(), !prismatic);
                 }
