@@ -22,6 +22,7 @@ import numpy as np
 from . import _core
 from .errors import DegenerateError, DenavitError, NotConvergedError
 from .fitting import AxisFit, BoundingBox, fit_axis, oriented_bounding_box
+from .fitting.axis import axis_start
 from .fitting.checks import check_sweep_labels, misfit_notes, nominal_plausibility
 from .fitting.circle import circle_misfit, robust_circle
 from .fitting.joint import TrackerNoise, as_tracker_noise, fit_sweeps, locked_motion, start_homes
@@ -298,6 +299,9 @@ def _per_sweep(sweeps: SweepSet, method: str, loss: str, max_sigma: float | None
         if fm == "geometric" and tracker is not None:  # the tracker's noise model (the other per-sweep fits: isotropic)
             robust["tracker"] = tracker
         # oriented by the readings when there are some (increasing joint value, right-hand rule), else by the point order
+        if method == "global" and fm == "hyper":  # the joint fit's start: its own covariance and outlier flags replace the circle's
+            fits.append(axis_start(s.points, q, where=where))
+            continue
         fits.append(fit_axis(s.points, q, fm, max_sigma_point=max_sigma, where=where, **robust))
     return fits
 

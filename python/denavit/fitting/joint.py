@@ -333,18 +333,25 @@ def _basis_coefficients(n: np.ndarray, K: np.ndarray, v: np.ndarray) -> tuple[np
 
 class _Basis:
     """A chunk's Jacobian (parameters, 3, m) as ``F`` (b, m), the points' basis functions (1, cos, sin of the moving
-    joint's motion, and those times the reading's motion for a scale's column), and ``C`` (b, parameters, 3) their
-    coefficients: J[:, :, k] = sum_a F[a, k] C[a] (:func:`_basis_chain`)."""
+    joint's motion, and with ``scaled`` those times the reading's motion ``F[3]`` for a scale's column, the last), and
+    ``C`` (b, parameters, 3) their coefficients: J[:, :, k] = sum_a F[a, k] C[a] (:func:`_basis_chain`)."""
 
-    __slots__ = ("F", "C", "Cf")
+    __slots__ = ("F", "C", "Cf", "scaled")
 
-    def __init__(self, F: np.ndarray, C: np.ndarray):
-        self.F, self.C = F, C
-        self.Cf = np.ascontiguousarray(C.transpose(1, 0, 2)).reshape(C.shape[1], -1)  # (parameters, b 3)
+    def __init__(self, F: np.ndarray, C: np.ndarray, scaled: bool = False):
+        self.F, self.C, self.scaled = F, C, scaled
+        # (parameters, 3 basis functions x 3 components); a scale's column on (1, cos, sin), times the reading after
+        Cf = C[:3].copy()
+        if scaled:
+            Cf[:, -1] = C[3:, -1]
+        self.Cf = np.ascontiguousarray(Cf.transpose(1, 0, 2)).reshape(C.shape[1], -1)
 
     def dot(self, x: np.ndarray) -> np.ndarray:
         """sum_i J[p, i, k] x[i, k] (parameters, m) for x (3, m)."""
-        return self.Cf @ (self.F[:, None, :] * x[None]).reshape(-1, x.shape[1])
+        out = self.Cf @ (self.F[:3, None, :] * x[None]).reshape(-1, x.shape[1])
+        if self.scaled:
+            out[-1] *= self.F[3]
+        return out
 
     def gram(self, w: np.ndarray) -> np.ndarray:
         """sum_k w_k J_k^T J_k (parameters, parameters)."""
@@ -537,7 +544,7 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
                     if j in swept:  # the scale's column: d pred / d q times the reading's motion
                         C[3:, 7] = blocks[j][4].T
                         F += [dq[rows, j], dq[rows, j] * co, dq[rows, j] * sn]
-                    Js.append(_Basis(np.array(F), C))
+                    Js.append(_Basis(np.array(F), C, j in swept))
                     rs.append(r_t)
                     mvs.append(mv_t)
                     continue
