@@ -668,6 +668,31 @@ def test_reading_scale_errors_are_fitted_where_the_data_shows_them(kr5):
         assert all(abs(f.scale - 1) < 4 * f.scale_sigma for f in exact.fits), [(f.scale - 1, f.scale_sigma) for f in exact.fits]
 
 
+def test_scale_spread_is_the_q_profile_root():
+    """The joints' scale spread tau^2 (auto's reading scales) is the root of the Q-profile at the chi-square's median:
+    the tabulated medians are scipy's, and Newton's steps (no scipy import in identify) give scipy's brentq root."""
+    stats = pytest.importorskip("scipy.stats")
+    optimize = pytest.importorskip("scipy.optimize")
+    ident = sys.modules["denavit.identify"]
+    for k in range(1, 16):
+        assert ident.CHI2_MEDIAN[k] == pytest.approx(stats.chi2.ppf(0.5, k), rel=1e-14)
+    rng = np.random.default_rng(5)
+    fitted = 0
+    for _ in range(300):
+        k = int(rng.integers(2, 8))
+        sig = 10 ** rng.uniform(-7, -4, k)
+        s = rng.normal(0, 1, k) * (sig * rng.uniform(0, 5) + 10 ** rng.uniform(-7, -4))
+        bound = stats.chi2.ppf(0.5, k)
+        if np.sum(s**2 / sig**2) <= bound:
+            assert ident._scale_spread(s, sig) == 0.0
+            continue
+        ref = optimize.brentq(lambda t, s=s, sig=sig, bound=bound: np.sum(s**2 / (sig**2 + t)) - bound, 0.0, np.sum(s**2), xtol=1e-300, rtol=1e-13)
+        assert ident._scale_spread(s, sig) == pytest.approx(ref, rel=1e-11)
+        fitted += 1
+    assert fitted > 100
+    assert ident._scale_spread(np.zeros(0), np.zeros(0)) == 0.0
+
+
 def _write_long_csv(s: sw.SweepSet, path) -> None:
     """A SweepSet (SI) as the long-form CSV in mm / deg."""
     lines = ["# units: length=mm angle=deg", "joint," + ",".join(f"q{i + 1}" for i in range(s.n_joints)) + ",x,y,z"]

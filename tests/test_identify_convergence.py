@@ -50,3 +50,23 @@ def test_joint_fit_passes_do_not_grow_with_the_points(kr5, monkeypatch, loss):
         passes[n] /= 6 * n
     assert passes[20_000] <= passes[300] + 1, passes
     assert max(passes.values()) <= 32, passes
+
+
+@pytest.mark.parametrize("loss", ["soft_l1", "linear"])
+def test_joint_fit_by_moments_is_the_per_point_fit(kr5, monkeypatch, loss):
+    """Where one revolute joint alone moves, the joint fit's normal equations come from the points' weighted moments of
+    (1, cos, sin) of its motion (joint._Basis) instead of a Jacobian per point: the same sums in another order, so
+    auto's fits (one home, a home per sweep, the reading scales free and with their prior) give the same axes,
+    sigmas and notes as the per-point Jacobian, to round-off."""
+    s = recording(kr5.model(), HOME, np.radians(sw.PAPER_RANGES_DEG[90]), seed=11, reading_arcsec=(30, 60), scale=1e-3)
+    fast = dv.identify(s, nominal=kr5, loss=loss)
+    monkeypatch.setattr(joint, "_one_turn", lambda kinds, active: False)
+    slow = dv.identify(s, nominal=kr5, loss=loss)
+    assert any(n.startswith("auto: the readings' scale errors fitted") for n in slow.notes), slow.notes
+    assert fast.notes == slow.notes and fast.method == slow.method
+    free = slow.sigma > 1e-12
+    off = np.abs(fast.table.params - slow.table.params)[free] / slow.sigma[free]
+    assert off.max() < 1e-6, off.max()
+    # (the parameters' sigmas pass through central differences of step 1e-7: round-off of the axes shows at 1e-9)
+    np.testing.assert_allclose(fast.sigma[free], slow.sigma[free], rtol=1e-7)
+    np.testing.assert_allclose([f.scale for f in fast.fits], [f.scale for f in slow.fits], rtol=0, atol=1e-12)

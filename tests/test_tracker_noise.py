@@ -74,6 +74,9 @@ def test_an_isotropic_shape_through_the_whitening_is_the_isotropic_fit(kr5, monk
     fits = ident._per_sweep(s, "global", "linear", None, lambda _m: None)
     starts = [(f.point, f.direction) for f in fits]
     p0 = joint.start_homes(s, starts)[0][0]
+    # (both fits with a Jacobian per point: the isotropic fit's normal equations by moments, joint._Basis, sum the same
+    # terms in another order; test_identify_convergence compares the two)
+    monkeypatch.setattr(joint, "_one_turn", lambda kinds, active: False)
     iso = joint.fit_sweeps(s, dqs, starts, p0, gamma=np.ones(6))
     monkeypatch.setattr(TrackerNoise, "shape", lambda self, x: (x / np.linalg.norm(x, axis=0), np.full(x.shape[1], 3e-10), np.full(x.shape[1], 3e-10)))
     sph = joint.fit_sweeps(s, dqs, starts, p0, gamma=np.ones(6), tracker=TRACKER)

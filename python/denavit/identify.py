@@ -22,12 +22,13 @@ import numpy as np
 from . import _core
 from .errors import DegenerateError, DenavitError, NotConvergedError
 from .fitting import AxisFit, BoundingBox, fit_axis, oriented_bounding_box
+from .fitting.axis import axis_start
 from .fitting.checks import check_sweep_labels, misfit_notes, nominal_plausibility
 from .fitting.circle import circle_misfit, robust_circle
 from .fitting.joint import TrackerNoise, as_tracker_noise, fit_sweeps, locked_motion, start_homes
 from .fitting.readings import READINGS_WORTHLESS
 from .fitting.result import axis_sigmas, flipped
-from .fitting.robust import flag_outliers, rms_spread, robust_sigma
+from .fitting.robust import _Levels, flag_outliers, rms_spread, robust_sigma
 from .geometry import matrix_rotvec, rotvec_matrix
 from .io.output import json_text, write_text
 from .robot import Robot
@@ -298,6 +299,9 @@ def _per_sweep(sweeps: SweepSet, method: str, loss: str, max_sigma: float | None
         if fm == "geometric" and tracker is not None:  # the tracker's noise model (the other per-sweep fits: isotropic)
             robust["tracker"] = tracker
         # oriented by the readings when there are some (increasing joint value, right-hand rule), else by the point order
+        if method == "global" and fm == "hyper":  # the joint fit's start: its own covariance and outlier flags replace the circle's
+            fits.append(axis_start(s.points, q, where=where))
+            continue
         fits.append(fit_axis(s.points, q, fm, max_sigma_point=max_sigma, where=where, **robust))
     return fits
 
@@ -413,20 +417,37 @@ def _scale_spread(s: np.ndarray, sigma: np.ndarray) -> float:
     """The spread tau^2 of the joints' true reading scale errors, taken as a zero-mean normal population, from their
     estimates ``s`` with one-sigma ``sigma``: the tau^2 at which the Q statistic sum s^2 / (sigma^2 + tau^2) equals
     its chi-square quantile at ``SCALE_SPREAD_LEVEL`` with one degree per joint (the Q-profile, Viechtbauer 2007, with
-    the mean known to be zero); zero when the estimates scatter less. Continuous in the estimates."""
-    from scipy.optimize import brentq  # noqa: PLC0415 (scipy is loaded by the fits already)
-    from scipy.stats import chi2  # noqa: PLC0415
+    the mean known to be zero); zero when the estimates scatter less. Continuous in the estimates.
 
+    Q is convex and falling in tau^2, so Newton's steps from zero rise to the root without passing it (no bracket;
+    no scipy: importing scipy.stats and scipy.optimize for this had cost identify 2-3 s)."""
     if len(s) == 0:
         return 0.0
-    bound = float(chi2.ppf(SCALE_SPREAD_LEVEL, len(s)))
-
-    def excess(t):
-        return float(np.sum(s**2 / (sigma**2 + t)) - bound)
-
-    if excess(0.0) <= 0:
+    bound = CHI2_MEDIAN[len(s)] if SCALE_SPREAD_LEVEL == 0.5 else _chi2_quantile(SCALE_SPREAD_LEVEL, len(s))
+    s2, v = np.asarray(s, dtype=float) ** 2, np.asarray(sigma, dtype=float) ** 2
+    t = 0.0
+    if float(np.sum(s2 / v)) <= bound:
         return 0.0
-    return float(brentq(excess, 0.0, float(np.sum(s**2)), xtol=1e-300, rtol=1e-12))
+    for _ in range(500):
+        w = s2 / (v + t)
+        step = (float(np.sum(w)) - bound) / float(np.sum(w / (v + t)))
+        t += step
+        if abs(step) <= 1e-15 * t:
+            break
+    return float(max(t, 0.0))
+
+
+def _chi2_quantile(level: float, k: int) -> float:
+    from scipy.stats import chi2  # noqa: PLC0415 (scipy is loaded when first needed)
+
+    return float(chi2.ppf(level, k))
+
+
+#: The chi-square's median (scipy.stats chi2.ppf(0.5, k)) for k degrees of freedom: the Q-profile's level
+#: (:func:`_scale_spread`), k one per swept joint; more joints from scipy.
+CHI2_MEDIAN = _Levels({1: 0.454936423119572, 2: 1.386294361119891, 3: 2.3659738843753377, 4: 3.3566939800333224, 5: 4.351460191095526,
+                       6: 5.348120627447118, 7: 6.345811195521515, 8: 7.344121497701794, 9: 8.342832692252955, 10: 9.34181776559197,
+                       11: 10.340998074391827, 12: 11.34032237742414}, lambda k: _chi2_quantile(0.5, k))
 
 
 def _reading_scales(richer: Callable, refit: Callable, base: dict, drift: bool) -> tuple[dict | None, dict | None, float]:

@@ -12,6 +12,7 @@ from .circle import (
     fit_circle_geometric,
     fit_circle_hyper,
     fit_circle_kasa,
+    hyper_start,
     in_plane_angles,
     net_turn,
 )
@@ -98,6 +99,19 @@ def fit_axis(
     if qa is None:
         _check_one_way(net_turn(phi), fit.arc, "turn", "an arc", math.degrees(1), "deg", where)
     elif net_turn(phi[np.argsort(qa, kind="stable")]) < 0:  # orient by the readings (sorted by q), not by the point order
+        fit = flipped(fit)
+    return fit
+
+
+def axis_start(points, q, where: str = "") -> AxisFit:
+    """:func:`fit_axis` with ``method="hyper"`` and readings ``q`` without the circle's covariance and outlier flags
+    (:func:`~denavit.fitting.circle.hyper_start`): the same circle, orientation and arc, as the start of the joint fit
+    (which makes its own covariance and flags)."""
+    p = check_points(points, 3, "circle fit", where)
+    qa = check_q(q, p.shape[0], where)
+    fit = hyper_start(p, where)
+    phi = in_plane_angles(p, fit.point, fit.direction)
+    if net_turn(phi[np.argsort(qa, kind="stable")]) < 0:  # orient by the readings (sorted by q), as fit_axis
         fit = flipped(fit)
     return fit
 

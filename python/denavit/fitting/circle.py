@@ -126,17 +126,22 @@ def _whiten(wt, h, g):
     return np.concatenate([i11 * h, i21 * h + i22 * g])
 
 
-def _circle_result(p, centre, n, r, method, weights, noise_sigma, where, outliers, shape=None) -> AxisFit:
+def _circle_result(p, centre, n, r, method, weights, noise_sigma, where, outliers, shape=None, covariance: bool = True) -> AxisFit:
     """Assemble an AxisFit for a circle (centre, unit normal n, radius r), with orientation and covariance.
 
     The normal is oriented so that the points, in their given order, turn counter-clockwise about it (net signed
-    angle > 0; each step taken in (-pi, pi]).
+    angle > 0; each step taken in (-pi, pi]). ``covariance`` False: the circle, its orientation, misfits and arc
+    alone (the covariance and sigmas nan, no outliers flagged: a start value, :func:`hyper_start`).
     """
     phi = in_plane_angles(p, centre, n)
     if net_turn(phi) < 0:
         n = -n
         phi = -phi
     e, h, g = circle_misfit(p, centre, n, r)
+    if not covariance:
+        return AxisFit(point=centre, direction=n, radius=float(r), residuals=e, rms=float(np.sqrt(np.mean(e**2))), cov=np.full((6, 6), math.nan),
+                       sigma_point_perp=math.nan, sigma_direction=math.nan, method=method, outliers=np.zeros(len(p), dtype=bool),
+                       n_points=p.shape[0], arc=arc_span(phi))
     t1, t2 = perpendicular_basis(n)
     jac = _circle_jacobian(p, centre, n, r, np.column_stack([t1, t2]))
     res = np.concatenate([h, g])
@@ -309,6 +314,13 @@ def fit_circle_hyper(points, *, max_sigma_point=None, noise_sigma=None, where: s
     centre, n, r = plane_circle(p, "hyper", "circle fit", where)
     fit = _circle_result(p, centre, n, r, "hyper", np.ones(len(p)), noise_sigma, where, ~robust_circle(p, "circle fit", where)[3])
     return check_sigma(fit, max_sigma_point, where)
+
+
+def hyper_start(p, where: str = "") -> AxisFit:
+    """:func:`fit_circle_hyper`'s circle (centre, normal oriented by the point order, radius, misfits, arc) without
+    its covariance and outlier flags (nan, none): the start of a fit that makes its own (the joint fit's)."""
+    centre, n, r = plane_circle(p, "hyper", "circle fit", where)
+    return _circle_result(p, centre, n, r, "hyper", None, None, where, None, covariance=False)
 
 
 def least_squares_lm(fun, jac, x0, what, where):

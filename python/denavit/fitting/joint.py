@@ -225,7 +225,7 @@ def _carried(turns: dict, active: list, i: int, x: np.ndarray) -> np.ndarray:
     return x
 
 
-def _chain(cs, ns, kinds, p, dq, active, jac: bool, moving: int | None = None, trig: dict | None = None):
+def _chain(cs, ns, kinds, p, dq, active, jac: bool, moving: int | None = None, trig: dict | None = None, basis: bool = False):
     """Predicted points (3, m), and with ``jac`` the Jacobian blocks and the motion of the swept joint.
 
     Returns ``pred``, ``blocks`` {joint: (4, 3, m) d pred / d [a, b, s, t]} (direction in its tangent basis,
@@ -235,7 +235,13 @@ def _chain(cs, ns, kinds, p, dq, active, jac: bool, moving: int | None = None, t
     vectors (Rodrigues), a vector the same for every point (the home point before the first joint turns it) as
     one column, so the cost is linear in the points and small per point. ``trig`` {joint: :func:`_trig` of its
     motion dq[:, joint]} when known (the fit keeps them between passes).
+
+    ``basis`` (with ``jac``, when one revolute joint moves, :func:`_basis_chain`): the blocks (with d pred / d q
+    fifth) and ``jp`` as their coefficients on (1, cos, sin) of that joint's motion, (..., 3) in place of (..., m);
+    ``dpdq`` per point.
     """
+    if jac and basis and _one_turn(kinds, active):
+        return _basis_chain(cs, ns, p, dq, active[0], trig.get(active[0]) if trig else None)
     m = dq.shape[0]
     turns = {i: _turn(ns[i], dq[:, i], trig.get(i) if trig else None) for i in active if kinds[i] == "revolute"}
     y = np.asarray(p, dtype=float)[:, None]
@@ -275,6 +281,86 @@ def _chain(cs, ns, kinds, p, dq, active, jac: bool, moving: int | None = None, t
         blocks[i], dpdq[i] = X[:4], X[4]
     jp = np.broadcast_to(_carried(turns, active, len(kinds), np.eye(3)[:, :, None]), (3, 3, m))
     return y, blocks, jp, dpdq
+
+
+def _one_turn(kinds, active) -> bool:
+    """Whether one revolute joint alone moves (the locked joints at home): the Jacobian is then linear in the
+    cosine and sine of its motion (:func:`_basis_chain`)."""
+    return len(active) == 1 and kinds[active[0]] == "revolute"
+
+
+def _basis_chain(cs, ns, p, dq, i: int, trig: tuple | None = None):
+    """:func:`_chain` with ``jac`` when joint ``i`` alone moves, revolute: ``pred`` (3, m), the Jacobian blocks
+    {i: (5, 3, 3)} (the four parameters' columns, then d pred / d q_i) and ``jp`` (3, 3, 3) as their coefficients on
+    (1, cos dq_k, sin dq_k) (the last axis), and ``dpdq`` {i: (3, m)} per point. A rotation R(n, d) x = n (n.x) +
+    (x - n (n.x)) cos d + (n x x) sin d, so every column of the Jacobian is three fixed vectors combined by the
+    point's cosine and sine: the normal equations
+    take the points' weighted moments of (1, cos, sin) (:class:`_Basis`) instead of a (parameters, 3) Jacobian per
+    point (the same sums, in another order)."""
+    n, c = ns[i], cs[i]
+    K, (co, sn, omc) = skew(n), (_trig(dq[:, i]) if trig is None else trig)
+    v = np.asarray(p, dtype=float) - c
+    turned = _rotate((n, K, co, sn, omc), v[:, None])
+    y = c[:, None] + turned
+    key = (n.tobytes(), v.tobytes())
+    last = _BASIS_LAST[0]  # (one reference read: threads each keep the pair they read or made)
+    if last is None or last[0] != key:  # the coefficients hold for every chunk of a sweep in a pass
+        last = _BASIS_LAST[0] = (key, _basis_coefficients(n, K, v))
+    cols, jp = last[1]
+    return y, {i: cols}, jp, {i: K @ turned}
+
+
+#: (the axis direction and the home point's lever of the last :func:`_basis_chain`, their coefficients), read-only
+_BASIS_LAST: list = [None]
+
+
+def _basis_coefficients(n: np.ndarray, K: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_basis_chain`'s coefficients of the columns (5, 3, 3) and of ``jp`` (3, 3, 3) for the axis direction
+    ``n`` (K = skew(n)) and the home point's lever ``v`` (from a point of the axis)."""
+    nv = float(n @ v)
+    cols = []
+    for b in perpendicular_basis(n):
+        q = b * nv + n * float(b @ v)  # the direction's column: sin (b x v) + (1 - cos) q
+        cols.append(np.stack([q, -q, skew(b) @ v], axis=-1))
+    for b in perpendicular_basis(n):  # the point's: b - R b
+        cols.append(np.stack([b, -b, -(K @ b)], axis=-1))
+    Kv = K @ v
+    cols.append(np.stack([np.zeros(3), Kv, K @ Kv], axis=-1))  # the motion's: n x R v = (n x v) cos + n x (n x v) sin
+    nn = np.outer(n, n)
+    jp = np.stack([nn, np.eye(3) - nn, K], axis=-1).transpose(1, 0, 2)  # [l, :, a]: R e_l
+    return np.array(cols), jp
+
+
+class _Basis:
+    """A chunk's Jacobian (parameters, 3, m) as ``F`` (b, m), the points' basis functions (1, cos, sin of the moving
+    joint's motion, and with ``scaled`` those times the reading's motion ``F[3]`` for a scale's column, the last), and
+    ``C`` (b, parameters, 3) their coefficients: J[:, :, k] = sum_a F[a, k] C[a] (:func:`_basis_chain`)."""
+
+    __slots__ = ("F", "C", "Cf", "scaled")
+
+    def __init__(self, F: np.ndarray, C: np.ndarray, scaled: bool = False):
+        self.F, self.C, self.scaled = F, C, scaled
+        # (parameters, 3 basis functions x 3 components); a scale's column on (1, cos, sin), times the reading after
+        Cf = C[:3].copy()
+        if scaled:
+            Cf[:, -1] = C[3:, -1]
+        self.Cf = np.ascontiguousarray(Cf.transpose(1, 0, 2)).reshape(C.shape[1], -1)
+
+    def dot(self, x: np.ndarray) -> np.ndarray:
+        """sum_i J[p, i, k] x[i, k] (parameters, m) for x (3, m)."""
+        out = self.Cf @ (self.F[:3, None, :] * x[None]).reshape(-1, x.shape[1])
+        if self.scaled:
+            out[-1] *= self.F[3]
+        return out
+
+    def gram(self, w: np.ndarray) -> np.ndarray:
+        """sum_k w_k J_k^T J_k (parameters, parameters)."""
+        M = (self.F * w) @ self.F.T
+        return np.einsum("ab,api,bqi->pq", M, self.C, self.C)
+
+    def rdot(self, e: np.ndarray) -> np.ndarray:
+        """sum_k J_k^T e_k (parameters,) for e (3, m)."""
+        return np.einsum("api,ai->p", self.C, self.F @ e.T)
 
 
 def _chain_rotation(ns, kinds, R0, dq, active, jac: bool, moving: int | None = None, trig: dict | None = None):
@@ -423,7 +509,8 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         ref2 = float(np.mean(np.concatenate([(va + 2 * vb) / 3 for _, va, vb in shapes])))
         wmax = math.sqrt(ref2 / min(float(np.min(np.minimum(va, vb))) for _, va, vb in shapes))
 
-    trig = {}  # (sweep, first row of a chunk): (the scales of its active joints, {joint: _trig of its motion})
+    trig = {}  # (sweep, first row of a chunk): (the scales of its active joints, {joint: _trig of its motion}, the motion)
+    simple = tracker is None and not rot and K == 1  # a pose one point, isotropic: the Jacobian of one turning joint by moments
 
     def chunks(k, cs, ns, homes_, offs_, R_, sc_, wr, jac):
         """(rows, misfits r (D, m), d r / d q of the swept joint (D, m), Jacobian (local parameters, D, m) or None,
@@ -434,20 +521,33 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         s, dq = sweeps.sweeps[k], dqs[k]
         j = s.joint - 1
         h = homes_[k] if per_sweep_home else homes_[0]
+        npl = len(local(k))
         for a in range(0, len(dq), CHUNK):
             rows = slice(a, a + CHUNK)
-            dqc = dq[rows] * (1 + sc_)
-            mc = len(dqc)
-            # the cosines and sines of the chunk's joint motions, kept while the reading scales they were made with hold
+            # the chunk's joint motions and their cosines and sines, kept while the reading scales they were made with hold
             key = tuple(float(sc_[i]) for i in active[k])
             if trig.get((k, a), (None,))[0] != key:
-                trig[(k, a)] = (key, {i: _trig(dqc[:, i]) for i in active[k] if kinds[i] == "revolute"})
-            tc = trig[(k, a)][1]
+                dqc = dq[rows] * (1 + sc_)
+                trig[(k, a)] = (key, {i: _trig(dqc[:, i]) for i in active[k] if kinds[i] == "revolute"}, dqc)
+            _, tc, dqc = trig[(k, a)]
+            mc = len(dqc)
             rs, mvs, Js = [], [], []
             dist = None if tracker is None else np.zeros(mc)
             for t in range(K):
-                pred, blocks, jp, dpdq = _chain(cs, ns, kinds, h + (offs_[t - 1] if t else 0.0), dqc, active[k], jac, j, trig=tc)
+                pred, blocks, jp, dpdq = _chain(cs, ns, kinds, h + (offs_[t - 1] if t else 0.0), dqc, active[k], jac, j, trig=tc, basis=simple)
                 r_t, mv_t = pred - measured(s, rows, t), dpdq[j]
+                if jac and simple and _one_turn(kinds, active[k]):  # the Jacobian on the points' (1, cos, sin) (:class:`_Basis`)
+                    co, sn = tc[j][0], tc[j][1]
+                    C = np.zeros((6 if j in swept else 3, npl, 3))
+                    C[:3, :7] = np.concatenate([blocks[j][:4], jp]).transpose(2, 0, 1)
+                    F = [np.ones(mc), co, sn]
+                    if j in swept:  # the scale's column: d pred / d q times the reading's motion
+                        C[3:, 7] = blocks[j][4].T
+                        F += [dq[rows, j], dq[rows, j] * co, dq[rows, j] * sn]
+                    Js.append(_Basis(np.array(F), C, j in swept))
+                    rs.append(r_t)
+                    mvs.append(mv_t)
+                    continue
                 if tracker is not None:
                     w_t = _whitener(tracker, ref2, measured(s, rows, t))
                     dist += np.sum(r_t**2, axis=0) / K
@@ -522,21 +622,23 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
                 t, lever = tangent(mv)
                 g = g_of(k, lever)
                 g2 = 1 - g**2
-                jt = np.einsum("im,pim->pm", t, J)
+                moments = isinstance(J, _Basis)
+                jt = J.dot(t) if moments else np.einsum("im,pim->pm", t, J)
                 rw, rt = whitened(r, t, g)
                 if f is not None:
                     ws[k][rows] = loss_weight(loss, np.sum(rw**2, axis=0) / f**2)
                 w = ws[k][rows]
-                Jf = J.reshape(len(idx), -1)
+                Jf = None if moments else J.reshape(len(idx), -1)
                 if np.ndim(g):  # per pose (a tracker model)
                     A_t, G_t = (jt * (w * g2)) @ jt.T, (jt * (w * g**2)) @ jt.T
                 else:
                     tt = (jt * w) @ jt.T
                     A_t, G_t = g2 * tt, g**2 * tt
-                A[np.ix_(idx, idx)] += (J * w).reshape(len(idx), -1) @ Jf.T - A_t
+                A[np.ix_(idx, idx)] += (J.gram(w) if moments else (J * w).reshape(len(idx), -1) @ Jf.T) - A_t
                 if A2 is not None:
-                    A2[np.ix_(idx, idx)] += (J * w**2).reshape(len(idx), -1) @ Jf.T - g2 * (jt * w**2) @ jt.T
-                b[idx] += Jf @ (w * (r - g2 * rt * t)).reshape(-1)
+                    A2[np.ix_(idx, idx)] += (J.gram(w**2) if moments else (J * w**2).reshape(len(idx), -1) @ Jf.T) - g2 * (jt * w**2) @ jt.T
+                e = w * (r - g2 * rt * t)
+                b[idx] += J.rdot(e) if moments else Jf @ e.reshape(-1)
                 ss += float(np.sum(w * np.sum(rw**2, axis=0)))
                 Gt += G_t
                 if rot:  # the orientation rows across the swept axis (its reading error turns the probe about it)
@@ -547,7 +649,7 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
                     Gr += np.einsum("pim,qim->pq", Jo * w, Jo)
                     rr_k[rows] = np.sum(ro**2, axis=0)
                 if bread:
-                    gw = np.einsum("im,pim->pm", rw, J) - (1 - g) * g * rt * jt  # J_w^T r_w per point
+                    gw = (J.dot(rw) if moments else np.einsum("im,pim->pm", rw, J)) - (1 - g) * g * rt * jt  # J_w^T r_w per point
                     c = 2 * loss_dweight(loss, np.sum(rw**2, axis=0) / f**2) / f**2
                     Bd[np.ix_(idx, idx)] += (gw * c) @ gw.T
                 rt_k[rows], lever_k[rows], rw_k[:, rows], r_k[:, rows] = rt, lever, rw, r
