@@ -274,3 +274,11 @@ def test_builtin_dynamics_match_pinocchio_on_the_same_parameters(name):
         np.testing.assert_allclose(dv.rnea(m, q, qd, qdd), pin.rnea(model, data, q, qd, qdd), rtol=1e-9, atol=1e-9)
         M = pin.crba(model, data, q)
         np.testing.assert_allclose(dv.mass_matrix(m, q), np.triu(M) + np.triu(M, 1).T, rtol=1e-9, atol=1e-9)  # pinocchio fills the upper triangle
+
+
+@pytest.mark.parametrize("kw", [{"noise": float("nan")}, {"noise": -1e-5}, {"noise_q": float("inf")}, {"noise_rot": -0.1}])
+def test_simulate_refuses_a_sigma_that_is_not_one(kw):
+    """A NaN or negative sigma is an error (it had given noise-free data without a word; the CLI refused it)."""
+    name = next(iter(kw))
+    with pytest.raises(dv.DenavitError, match=rf"^simulate: {name} must be a finite sigma >= 0 in .*, got {kw[name]!r}$"):
+        dv.simulate("kr5", **kw)

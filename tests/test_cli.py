@@ -249,3 +249,11 @@ def test_version():
     from denavit import __version__
 
     assert run("--version").stdout.strip() == f"denavit {__version__}"
+
+
+def test_help_keeps_the_robot_files_table_names():
+    """A robot file's table named in a help text ([covariance], [couplings]) is printed, not taken for rich markup
+    (the help had read "with its : compensate predicts" and "default: the robot file's .")."""
+    for cmd, name in (("calibrate", "[covariance]"), ("calibrate", "[couplings]"), ("identify", "[couplings]"), ("simulate", "[couplings]")):
+        out = " ".join(run(cmd, "--help").stdout.split())
+        assert name in out, (cmd, name)

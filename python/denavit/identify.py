@@ -23,7 +23,7 @@ from . import _core
 from .errors import DegenerateError, DenavitError, NotConvergedError
 from .fitting import AxisFit, BoundingBox, fit_axis, oriented_bounding_box
 from .fitting.axis import axis_start
-from .fitting.checks import check_sweep_labels, misfit_notes, nominal_plausibility
+from .fitting.checks import check_loss, check_positive, check_sweep_labels, misfit_notes, nominal_plausibility
 from .fitting.circle import circle_misfit, robust_circle
 from .fitting.joint import TrackerNoise, as_tracker_noise, fit_sweeps, locked_motion, start_homes
 from .fitting.readings import READINGS_WORTHLESS
@@ -824,6 +824,8 @@ def identify(
         nominal = as_robot(nominal)  # a built-in name, a robot file or a Model, as calibrate takes
     if method not in METHODS:
         raise DenavitError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
+    check_loss(loss, None, "identify")
+    check_positive("max_sigma", max_sigma, "identify")
     convention = _core.convention_info(convention)["name"]
     tracker = as_tracker_noise(tracker_noise)
     n = sweeps.n_joints

@@ -189,6 +189,9 @@ def simulate(
         raise DenavitError(f"simulate: expected home ({n},) and ranges ({n}, 2), got {home.shape} and {ranges.shape}")
     if points_per_sweep < 3:
         raise DenavitError(f"simulate: points_per_sweep must be >= 3, got {points_per_sweep}")
+    for name, value, unit in (("noise", noise, "m"), ("noise_q", noise_q, "rad or m"), ("noise_rot", noise_rot, "rad")):
+        if not (np.isfinite(value) and value >= 0):  # NaN or a negative sigma had given exact data without a word
+            raise DenavitError(f"simulate: {name} must be a finite sigma >= 0 in {unit}, got {value!r}")
     rng = np.random.default_rng(seed)
     tools = np.atleast_2d(np.asarray(tool_point if targets is None else targets, dtype=float))
     if tools.ndim != 2 or tools.shape[1] != 3 or not 1 <= len(tools) <= 16:

@@ -72,7 +72,7 @@ def identify(
     tracker_noise: Annotated[str | None, typer.Option("--tracker-noise", help="The tracker's range/angle noise (1 sigma): the distance's, then each angle's, e.g. \"5 um, 1 arcsec\" (a number without a unit is in --length / --angle units; angles also in arcsec): the joint fit weights each point by its covariance (noise along the line of sight from the tracker, angle x range across it), the scale estimated from the data. Default: isotropic point noise.")] = None,
     tracker_position: Annotated[str | None, typer.Option("--tracker-position", help="With --tracker-noise: the tracker's position in the data's frame, x,y,z in --length units (default 0,0,0: a tracker export's own frame).")] = None,
     rotation_noise: Annotated[float | None, typer.Option("--rotation-noise", help="6-DoF poses: the orientation noise (1 sigma per component), in --angle units, weighting the orientations against the points (default: estimated).")] = None,
-    coupling: Annotated[str | None, typer.Option("--coupling", help="Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; robot-files.md in docs); default: the robot file's [couplings].")] = None,
+    coupling: Annotated[str | None, typer.Option("--coupling", help="Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; robot-files.md in docs); default: the robot file's \\[couplings].")] = None,
     keep_dwell: Annotated[bool, typer.Option("--keep-dwell", help="Keep the rows where the motion stands still at a sweep's ends (left out of the fits by default, with a note naming them).")] = False,
     allow_implausible: Annotated[bool, typer.Option("--allow-implausible", help="Keep a fit that is implausible against --nominal (mirror image, two joints exchanged, most axes far: a unit slip or the wrong robot), with a note, instead of the error.")] = False,
     readings: Annotated[Path | None, typer.Option("--readings", help="A second recording with the joint readings on another clock (e.g. a controller log beside a tracker export): aligned from the motion.")] = None,
@@ -119,6 +119,8 @@ def identify(
 
     C = parse_coupling(coupling, list(sweeps.kinds), "--coupling") if coupling else None
     with status(f"fitting {sweeps.n_joints} sweeps ({method})...") as st:
+        if max_sigma is not None and not (math.isfinite(max_sigma) and max_sigma > 0):
+            fail(f"--max-sigma: expected the required axis-position sigma, a finite value > 0 in {out_len}, got {max_sigma}")
         ms = None if max_sigma is None else max_sigma * length_scale(out_len)
         T_world_base = None if base is None else parse_pose(base, out_ang, length_scale(out_len), "--base")
         rn = None if rotation_noise is None else positive(rotation_noise, "--rotation-noise", angle_scale(out_ang), None, out_ang)

@@ -32,7 +32,7 @@ def simulate(
     targets: Annotated[str | None, typer.Option("--targets", help="Several targets per pose (2-4 SMRs on a nest): their points in the flange frame, \"x,y,z; x,y,z; ...\" in --length units (replaces --tool; written as columns x2,y2,z2,... and a '# nest:' line).")] = None,
     poses: Annotated[bool, typer.Option("--poses", help="6-DoF poses: also write each pose's orientation (the flange's, at the tool point) as a quaternion qw,qx,qy,qz.")] = False,
     noise_rot: Annotated[float | None, typer.Option("--noise-rot", help="Orientation noise of --poses (1 sigma per component of a rotation vector), in --angle units (default 0.005 deg whatever the unit).")] = None,
-    coupling: Annotated[str | None, typer.Option("--coupling", help="The readings written are a controller's whose joint values are, e.g., \"q3=r3+r2\" (a Fanuc's J3; docs/robot-files.md); default: the robot file's [couplings].")] = None,
+    coupling: Annotated[str | None, typer.Option("--coupling", help="The readings written are a controller's whose joint values are, e.g., \"q3=r3+r2\" (a Fanuc's J3; docs/robot-files.md); default: the robot file's \\[couplings].")] = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
 ) -> None:
