@@ -257,3 +257,14 @@ def test_help_keeps_the_robot_files_table_names():
     for cmd, name in (("calibrate", "[covariance]"), ("calibrate", "[couplings]"), ("identify", "[couplings]"), ("simulate", "[couplings]")):
         out = " ".join(run(cmd, "--help").stdout.split())
         assert name in out, (cmd, name)
+
+
+def test_convert_writes_the_json_beside_the_robot_file(tmp_path):
+    """`convert -o FILE --json J` writes both (the JSON had been skipped when -o was given); the JSON's rows are the
+    written table's, in SI."""
+    out, js = tmp_path / "k.toml", tmp_path / "k.json"
+    run("convert", "kr5", "--to", "mdh", "-o", out, "--json", js)
+    doc = json.loads(js.read_text())
+    back = dv.load_robot(out)
+    assert doc["convention"] == "mdh" and len(doc["rows"]) == 6
+    np.testing.assert_allclose([r["a"] for r in doc["rows"]], np.asarray(back.table.params)[:, 1], atol=1e-9)

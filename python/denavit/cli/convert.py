@@ -22,6 +22,7 @@ from .common import (
     commands,
     console,
     emit_json,
+    fail,
     json_target,
     load_robot,
     num,
@@ -65,6 +66,9 @@ def convert(
     if to == "urdf":
         from ..io.urdf import dumps_urdf, save_urdf  # noqa: PLC0415
 
+        if json_out:  # it had been ignored without a word
+            fail("--json: --to urdf writes URDF (XML), which has no JSON form; the JSON table is of a convention (--to dh | mdh | edh | poe)")
+
         if output is None:
             print(dumps_urdf(m, robot))
         else:
@@ -88,20 +92,20 @@ def convert(
             new = dataclasses.replace(new, inertials=inertials_for_table(m, ex.table, robot.names, robot.lower, robot.upper))
         except DenavitError as e:
             say("bold yellow", "warning:", f" link inertias not carried over (the {to} table does not reproduce the joint axes exactly): {e}", err=True)
+    if json_out:  # (also beside -o: the table as written, in SI)
+        emit_json({"model": robot.name, "convention": to, "units": SI_UNITS,
+                   "rows": [{"joint": n, **r} for n, r in zip(robot.names, table_rows(ex.table, "m", "rad"))],
+                   "pairs": [{"joint": p.joint, "relation": p.relation, "angle_rad": p.angle, "distance_m": p.distance, "hayati_beta_rad": p.hayati_beta} for p in ex.pairs],
+                   "max_tool_position_error_m": ex.max_position_error, "max_tool_rotation_error_rad": ex.max_rotation_error}, json_out)
     if output is not None:
         from ..io.robotfile import save  # noqa: PLC0415
 
         save(new, output, length, angle)
         wrote(output)
         return
+    if json_out == "-":
+        return
     ls, as_ = length_scale(length), angle_scale(angle)
-    if json_out:
-        emit_json({"model": robot.name, "convention": to, "units": SI_UNITS,
-                   "rows": [{"joint": n, **r} for n, r in zip(robot.names, table_rows(ex.table, "m", "rad"))],
-                   "pairs": [{"joint": p.joint, "relation": p.relation, "angle_rad": p.angle, "distance_m": p.distance, "hayati_beta_rad": p.hayati_beta} for p in ex.pairs],
-                   "max_tool_position_error_m": ex.max_position_error, "max_tool_rotation_error_rad": ex.max_rotation_error}, json_out)
-        if json_out == "-":
-            return
     print_table(ex.table, robot.names, length, angle, f"{robot.name} in {to}")
     print_rows("Consecutive axes", ["pair", "relation", f"angle [{angle}]", f"distance [{length}]", f"Hayati beta [{angle}]"],
                [[f"{p.joint}-{p.joint + 1}", p.relation, num(p.angle / as_, angle), num(p.distance / ls, length), num(p.hayati_beta / as_, angle)] for p in ex.pairs], labels=2)
