@@ -93,6 +93,10 @@ def files(tmp_path_factory):
     swapped.mkdir()
     for x in rec.sweeps:
         (swapped / f"j{ {2: 3, 3: 2}.get(x.joint, x.joint)}.csv").write_text("x,y,z\n" + "".join(f"{p[0]},{p[1]},{p[2]}\n" for p in x.points * 1e3))
+    unit = d / "joints_j4_in_m"  # joint 4's file written in m among files in mm
+    unit.mkdir()
+    for x in rec.sweeps:
+        (unit / f"j{x.joint}.csv").write_text("x,y,z\n" + "".join(f"{p[0]},{p[1]},{p[2]}\n" for p in x.points * (1.0 if x.joint == 4 else 1e3)))
     folder = d / "joints"
     folder.mkdir()
     for x in s.sweeps:
@@ -181,6 +185,8 @@ def cases(d: Path, readonly: Path | None):
         ("identify: j2/j3 exchanged (readings)", ["identify", d / "p_j2j3.csv", "--nominal", "kr5"], "the readings move joint 3"),
         ("identify: j2/j3 files exchanged", ["identify", d / "joints_j2j3", "--home", "90,-90,90,0,90,0", "--length", "mm", "--nominal", "kr5"],
          "joints A2 and A3 exchanged"),
+        ("identify: joint 4's file in m among files in mm (it had been a note and a4 = 1119 mm)",
+         ["identify", d / "joints_j4_in_m", "--home", "90,-90,90,0,90,0", "--length", "mm", "--nominal", "kr5"], "the axis of joint A4 is "),
         ("identify: sweep 3 a copy of sweep 2", ["identify", d / "p_copy.csv", "--nominal", "kr5"], "the sweep repeats the 20 points of"),
         ("identify: KR5 data, Puma nominal", ["identify", d / "p_good.csv", "--nominal", "puma560"], "differ from the nominal puma560's"),
         ("models: --json in a missing directory", ["models", "--json", miss / "m.json"], "m.json: cannot write"),

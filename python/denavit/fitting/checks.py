@@ -276,6 +276,13 @@ def nominal_plausibility(ex, fits: list, nominal, home, names: list[str], source
             refuse(f"the identified axes are the mirror image of the nominal {nominal.name}'s (after the best rigid fit {lines[0]} of {len(fits)} "
                    f"axes are far from their nominal, up to {lines[1] * 1e3:.4g} mm and {math.degrees(lines[2]):.3g} deg; after the best "
                    "reflection none): expected a right-handed measurement frame (x and y swapped? a left-handed tracker export?)")
+    lost = _lost_axes(fits, npts, ndirs, kinds, size, sig_a, sig_d)
+    if lost:
+        k, dev, others = lost
+        refuse(f"the axis of joint {names[k]} is {dev[1] * 1e3:.5g} mm and {math.degrees(dev[0]):.3g} deg from its nominal after the best rigid fit of "
+               f"all axes onto the nominal {nominal.name}'s, the others within {others[1] * 1e3:.3g} mm and {math.degrees(others[0]):.3g} deg: expected the "
+               f"same robot within {IMPLAUSIBLE[1]:g} robot sizes ({IMPLAUSIBLE[1] * size * 1e3:.4g} mm) and {math.degrees(IMPLAUSIBLE[0]):g} deg (that joint's "
+               "points in another unit? the points of another joint or target?)")
     far_next = 0  # consecutive pairs (the table's links) beyond IMPLAUSIBLE
     for pi, pn in zip(ex.pairs, nom, strict=True):
         k = pi.joint - 1
@@ -351,6 +358,23 @@ def _signed_distance(p0, z0, p1, z1) -> float:
     the points, e.g. x and y swapped) flips it, a rigid motion does not."""
     c = np.cross(z0, z1)
     return float((np.asarray(p1) - np.asarray(p0)) @ c / np.linalg.norm(c))
+
+
+def _lost_axes(fits: list, pts, dirs, kinds, size: float, sig_a, sig_d):
+    """(joint, its (angle, distance) from its nominal, the largest of the others') when, after the best rigid fit of
+    the axes onto the nominal's, one axis alone is beyond ``IMPLAUSIBLE`` (30 deg or a quarter of the robot's size;
+    a prismatic axis by its angle only) and every other within it: one joint's file in another unit, or the points of
+    another joint (issue 16's pair checks had only noted it: a wrist file in m among files in mm gave a4 = 1119 mm).
+    More axes far are the pairs' refusal (a unit slip of the whole file, the wrong robot); None otherwise."""
+    P = np.array([f.point for f in fits])
+    D = np.array([f.direction for f in fits])
+    _, _, dev = register_axes_globally(P, D, pts, dirs, kinds, size, sig_a, sig_d)
+    beyond = [dev[k, 0] > IMPLAUSIBLE[0] or (kinds[k] != "prismatic" and dev[k, 1] > IMPLAUSIBLE[1] * size) for k in range(len(fits))]
+    if sum(beyond) != 1 or len(fits) < 3:
+        return None
+    k = beyond.index(True)
+    rest = np.delete(dev, k, axis=0)
+    return k, dev[k], (float(rest[:, 0].max()), float(rest[:, 1].max()))
 
 
 def _swapped(fits: list, pts, dirs, kinds, size: float, sig_a, sig_d):
