@@ -193,3 +193,17 @@ def test_infinite_limits_are_the_one_place_a_robot_file_takes_infinity(tmp_path)
     f.write_text(KR5.replace(LIMITS, "limits = [-inf, inf]", 1))
     r = dv.load_robot(f)
     assert r.lower[0] == -np.inf and r.upper[0] == np.inf
+
+
+@pytest.mark.parametrize("name", ["kr5", "ur5", "puma560", "tiansui_edh"])
+def test_a_written_file_holds_the_shortest_numbers_that_read_back_exactly(name, tmp_path):
+    """Each value is written in the file's units as the shortest decimal the reader turns back into the same SI
+    double (a KR5 limit of -15 deg had been written -14.999999999999998): the files of the built-ins in mm / deg
+    read back bit for bit, and their limits are the data sheet's whole degrees."""
+    r = dv.load_robot(name)
+    doc = robotfile.to_dict(r, "mm", "deg")
+    robotfile.save(r, tmp_path / "r.toml", "mm", "deg")
+    back = robotfile.read(tmp_path / "r.toml")
+    assert np.array_equal(back.table.params, r.table.params) and np.array_equal(back.lower, r.lower) and np.array_equal(back.upper, r.upper)
+    if name == "kr5":
+        assert [j["limits"] for j in doc["joints"]][2] == [-15.0, 158.0]

@@ -894,8 +894,13 @@ def test_calibrate_writes_urdf_with_the_nominals_meshes(tmp_path):
     assert text.count("<mesh") == UR.read_text().count("<mesh") > 0
     m = dv.load_model(out)
     cal_toml = dv.load_model(tmp_path / "cal.toml")
+    # the URDF is the calibrated model; the ED-H file drops the tilt of the UR's parallel axes where it is within
+    # 3 sigma of zero (as identify's ED-H) and says how far that moves the tool, which bounds the difference
+    header = (tmp_path / "cal.toml").read_text().splitlines()[0]
+    carried = float(header.split("tool-position error up to ")[1].split(" mm")[0]) * 1e-3 if "tool-position error up to" in header else 1e-9
+    assert carried < 2e-5  # within the points' noise
     for qq in q[:10]:
-        np.testing.assert_allclose(dv.fk(m, qq)[:3, 3], dv.fk(cal_toml, qq)[:3, 3], atol=1e-9)
+        np.testing.assert_allclose(dv.fk(m, qq)[:3, 3], dv.fk(cal_toml, qq)[:3, 3], atol=carried * 1.001 + 1e-9)
 
 
 PARALLEL = """<robot name="planar">

@@ -365,8 +365,20 @@ def _show(value) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
+def _unit_value(si: float, scale: float) -> float:
+    """``si`` in a unit of ``scale`` SI, as the shortest decimal that the reader (value x ``scale``) turns back into
+    ``si`` exactly: a limit of -15 deg is written -15, not -14.999999999999998 (the division's rounding); else the
+    quotient itself."""
+    x = float(si) / scale
+    for digits in (15, 16):
+        d = float(f"{x:.{digits}g}")
+        if d * scale == si:
+            return d
+    return x
+
+
 def _pose_spec(T: np.ndarray, ls: float, as_: float) -> dict:
-    return {"xyz": [float(v) for v in T[:3, 3] / ls], "rpy": [float(v) / as_ for v in matrix_rpy(T[:3, :3])]}
+    return {"xyz": [_unit_value(v, ls) for v in T[:3, 3]], "rpy": [_unit_value(v, as_) for v in matrix_rpy(T[:3, :3])]}
 
 
 def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
@@ -381,7 +393,7 @@ def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
         doc["source"] = robot.source
     doc["convention"] = t.convention
     if robot.home is not None:
-        doc["home"] = [float(v) for v in robot.home / js]
+        doc["home"] = [_unit_value(v, s) for v, s in zip(robot.home, js)]
     doc["units"] = {"length": length, "angle": angle}
     if robot.inertials is not None:
         doc["units"].update({"mass": "kg", "inertia": "kg m^2"})
@@ -392,16 +404,16 @@ def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
             j["type"] = kind
         if t.convention == "poe":
             j["w"] = [float(v) for v in row[:3]]
-            j["v"] = [float(v / cell_scale(t, i, 3 + k, length, angle)[0]) for k, v in enumerate(row[3:])]
+            j["v"] = [_unit_value(v, cell_scale(t, i, 3 + k, length, angle)[0]) for k, v in enumerate(row[3:])]
         else:
             for k, (c, v) in enumerate(zip(t.columns, row)):
-                j[c] = float(v / cell_scale(t, i, k, length, angle)[0])
-        j["limits"] = [float(robot.lower[i] / js[i]), float(robot.upper[i] / js[i])]
+                j[c] = _unit_value(v, cell_scale(t, i, k, length, angle)[0])
+        j["limits"] = [_unit_value(robot.lower[i], js[i]), _unit_value(robot.upper[i], js[i])]
         if robot.inertials is not None and robot.inertials["masses"][i] > 0:
             I = robot.inertials["inertias"][i]
             j["inertia"] = {
                 "mass": float(robot.inertials["masses"][i]),
-                "com": [float(c / ls) for c in robot.inertials["coms"][i]],
+                "com": [_unit_value(c, ls) for c in robot.inertials["coms"][i]],
                 **{k: float(I[a, b]) for k, (a, b) in zip(("ixx", "iyy", "izz", "ixy", "ixz", "iyz"), ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)))},
             }
         joints.append(j)
@@ -413,7 +425,7 @@ def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
     if robot.reading_scale is not None:
         doc["readings"] = {"scale": [float(v) for v in robot.reading_scale]}
         if robot.reading_reference is not None:
-            doc["readings"]["reference"] = [float(v) for v in robot.reading_reference / js]
+            doc["readings"]["reference"] = [_unit_value(v, s) for v, s in zip(robot.reading_reference, js)]
     if robot.covariance is not None:
         s = _covariance_scales(t, length, angle, robot.reading_scale is not None)
         if np.shape(robot.covariance) != (len(s), len(s)):
