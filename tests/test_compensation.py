@@ -562,3 +562,29 @@ def test_calibrate_save_of_a_robot_with_parallel_axes_keeps_a_bounded_covariance
     Q = np.random.default_rng(5).uniform(kr5.lower, kr5.upper, (40, 6)) * 0.9
     ratio = cp.table_sigma(back, Q) / cp.predicted_sigma(c, Q)
     assert np.all((ratio > 0.8) & (ratio < 1.25)), ratio
+
+
+def test_cli_a_poe_save_compensates_like_the_edh_save(tmp_path):
+    """`identify --convention poe --save` then `compensate --nominal kr5`: POE has no flange of its own (its home
+    pose M is the measured point, its tool the identity), so the rule 'the nominal has no tool, the identified robot
+    has one: compensate the flange' never fired and the measured point was solved onto the flange targets: every
+    row flagged 'branch changed', commands off by up to 9 deg. Now the POE file's commands put the ED-H file's
+    flange on its targets to within how far the two files' tool points differ."""
+    from cli import run
+
+    kr5 = dv.load_robot("kr5")
+    poe, edh = tmp_path / "id_poe.toml", tmp_path / "id_edh.toml"
+    run("identify", "--example", "kr5", "--convention", "poe", "--save", poe)
+    run("identify", "--example", "kr5", "--convention", "edh", "--save", edh)
+    Q = program(kr5, 10)
+    write_program(tmp_path / "q.csv", np.degrees(Q), "q1,q2,q3,q4,q5,q6")
+    out = tmp_path / "out.csv"
+    p = run("compensate", tmp_path / "q.csv", "--nominal", "kr5", "--identified", poe, "-o", out)
+    assert "note: the nominal kr5 has no tool and the identified robot has one" in p.stdout and "0 flagged" in p.stdout, p.stdout
+    rows = np.array([[float(v) for v in line.split(",")] for line in out.read_text().splitlines()[4:]])
+    assert (rows[:, 12] == 1).all()
+    m_poe, m_edh = dv.load_model(poe), dv.load_model(edh)
+    spread = np.random.default_rng(1).uniform(kr5.lower, kr5.upper, (256, 6))
+    apart = np.linalg.norm(dv.fk_batch(m_poe, spread)[:, :3, 3] - dv.fk_batch(m_edh, spread)[:, :3, 3], axis=1).max()
+    reached = dv.fk_batch(m_edh.with_tool(np.eye(4)), np.radians(rows[:, 6:12]))
+    assert np.linalg.norm(reached[:, :3, 3] - dv.fk_batch(kr5.model(), Q)[:, :3, 3], axis=1).max() <= apart + 1e-9
