@@ -448,8 +448,8 @@ def accuracy_map(nominal, identified, result, q=None, *, count: int = 1000) -> A
 def identification_accuracy(result, *, count: int = 1000) -> AccuracyMap | None:
     """The :class:`AccuracyMap` of an identification against its nominal (None without one): the nominal
     model placed as the identification placed it (its base) with the measured tool point attached so that both
-    agree at the home configuration, the identified model's exact ED-H geometry, the prediction from the axes'
-    covariance."""
+    agree at the home configuration, the identified model's ED-H geometry (exact except a near-parallel pair's
+    tilt within its noise, as identify's ED-H table), the prediction from the axes' covariance."""
     if result.nominal is None:
         return None
     ident = result.model(convention="edh")
