@@ -282,3 +282,26 @@ def test_simulate_refuses_a_sigma_that_is_not_one(kw):
     name = next(iter(kw))
     with pytest.raises(dv.DenavitError, match=rf"^simulate: {name} must be a finite sigma >= 0 in .*, got {kw[name]!r}$"):
         dv.simulate("kr5", **kw)
+
+
+def test_an_edh_save_that_drops_a_tilt_does_not_claim_exactness(tmp_path):
+    """The audit's KR5 with 0.02 mm point noise: the ED-H save's header said 'The identified geometry, exactly' while
+    its own carried-error line said 0.0156 mm (the A2-A3 tilt within 3 sigma dropped against the nominal), and a DH
+    run's note said '(ED-H is exact)'. Now the ED-H header and the notes name the dropped tilt; the POE save, which
+    carries round-off, is the one that says 'exactly'."""
+    s = dv.simulate("kr5", noise=2e-5, seed=0)
+    res = dv.identify(s, nominal="kr5", convention="edh")
+    err = res.carried_error()[0]
+    assert err > 1e-6  # a tilt within the noise, dropped: micrometres, not round-off
+    res.save(tmp_path / "edh.toml", length="mm")
+    head = (tmp_path / "edh.toml").read_text().splitlines()[:2]
+    assert head[0].startswith("# The identified geometry, exactly except the tilt of a pair of axes the nominal has parallel"), head[0]
+    assert f"max tool-position deviation {err * 1e3:.3g} mm" in head[1]
+    assert any("edh table carries a tool-position error" in n and "exact except the tilt" in n for n in res.notes), res.notes
+    res.save(tmp_path / "poe.toml", convention="poe", length="mm")
+    assert dv.load_robot(tmp_path / "poe.toml").convention == "poe"
+    assert res.carried_error("poe")[0] < 1e-9
+    assert (tmp_path / "poe.toml").read_text().startswith("# The identified geometry, exactly (its poe table")
+    dh = dv.identify(s, nominal="kr5", convention="dh")
+    assert not any("ED-H is exact" in n for n in dh.notes), dh.notes
+    assert any("POE is exact; ED-H carries" in n for n in dh.notes), dh.notes

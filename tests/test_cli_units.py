@@ -241,6 +241,8 @@ def test_compensate_reads_rows_and_writes_in_the_units_asked(tmp_path):
     oa, ob = tmp_path / "oa.csv", tmp_path / "ob.csv"
     ja = doc("compensate", a, "--nominal", "kr5", "--identified", "kr5", "-o", oa)
     jb = doc("compensate", b, "--nominal", "kr5", "--identified", "kr5", "-o", ob, *SI)
+    assert [r.pop("where") for r in ja["rows"]] == [f"{a}:{k}" for k in range(2, 8)]  # (the rows name their file)
+    assert [r.pop("where") for r in jb["rows"]] == [f"{b}:{k}" for k in range(2, 8)]
     close(ja, jb, atol=1e-12)
     assert ja["flagged"] == 0  # the default --branch-tol is 5 deg in both (it had been 5 rad with --angle rad)
     from denavit.io.units import declared_units

@@ -562,3 +562,60 @@ def test_calibrate_save_of_a_robot_with_parallel_axes_keeps_a_bounded_covariance
     Q = np.random.default_rng(5).uniform(kr5.lower, kr5.upper, (40, 6)) * 0.9
     ratio = cp.table_sigma(back, Q) / cp.predicted_sigma(c, Q)
     assert np.all((ratio > 0.8) & (ratio < 1.25)), ratio
+
+
+def test_cli_a_poe_save_compensates_like_the_edh_save(tmp_path):
+    """`identify --convention poe --save` then `compensate --nominal kr5`: POE has no flange of its own (its home
+    pose M is the measured point, its tool the identity), so the rule 'the nominal has no tool, the identified robot
+    has one: compensate the flange' never fired and the measured point was solved onto the flange targets: every
+    row flagged 'branch changed', commands off by up to 9 deg. Now the POE file's commands put the ED-H file's
+    flange on its targets to within how far the two files' tool points differ."""
+    from cli import run
+
+    kr5 = dv.load_robot("kr5")
+    poe, edh = tmp_path / "id_poe.toml", tmp_path / "id_edh.toml"
+    run("identify", "--example", "kr5", "--convention", "poe", "--save", poe)
+    run("identify", "--example", "kr5", "--convention", "edh", "--save", edh)
+    Q = program(kr5, 10)
+    write_program(tmp_path / "q.csv", np.degrees(Q), "q1,q2,q3,q4,q5,q6")
+    out = tmp_path / "out.csv"
+    p = run("compensate", tmp_path / "q.csv", "--nominal", "kr5", "--identified", poe, "-o", out)
+    assert "note: the nominal kr5 has no tool and the identified robot has one" in p.stdout and "0 flagged" in p.stdout, p.stdout
+    rows = np.array([[float(v) for v in line.split(",")] for line in out.read_text().splitlines()[4:]])
+    assert (rows[:, 12] == 1).all()
+    m_poe, m_edh = dv.load_model(poe), dv.load_model(edh)
+    spread = np.random.default_rng(1).uniform(kr5.lower, kr5.upper, (256, 6))
+    apart = np.linalg.norm(dv.fk_batch(m_poe, spread)[:, :3, 3] - dv.fk_batch(m_edh, spread)[:, :3, 3], axis=1).max()
+    reached = dv.fk_batch(m_edh.with_tool(np.eye(4)), np.radians(rows[:, 6:12]))
+    assert np.linalg.norm(reached[:, :3, 3] - dv.fk_batch(kr5.model(), Q)[:, :3, 3], axis=1).max() <= apart + 1e-9
+
+
+def test_cli_json_holds_the_compensated_program_and_the_summary_says_what_it_leaves_out(tmp_path):
+    """`compensate --json` had the summary only (targets, flagged, before_rms_m, ...): not the commands. Now `rows`
+    holds each target's joint row and pose to send, flags and errors in SI. And the printed 'error without
+    compensation ... max' is over the rows that can be sent: with a row flagged it now says the flagged are left out."""
+    import json
+
+    from cli import run
+
+    kr5 = dv.load_robot("kr5")
+    saved = tmp_path / "id.toml"
+    run("identify", "--example", "kr5", "--save", saved)
+    Q = np.radians([[90, -90, 90, 0, 90, 0], [80, -80, 100, 10, 70, 5], [10, -60, 80, 0, 0, 0]])  # the last at the wrist singularity
+    write_program(tmp_path / "q.csv", np.degrees(Q), "q1,q2,q3,q4,q5,q6")
+    p = run("compensate", tmp_path / "q.csv", "--nominal", "kr5", "--identified", saved, "--json", ok=False)
+    assert p.returncode == 1, p.stderr
+    doc = json.loads(p.stdout)
+    rows = doc["rows"]
+    assert [r["where"] for r in rows] == [f"{tmp_path / 'q.csv'}:{k}" for k in (3, 4, 5)]
+    assert [r["ok"] for r in rows] == [True, True, False] and rows[2]["branch_changed"] and doc["joint_units"] == ["rad"] * 6
+    q = np.array([r["q"] for r in rows])
+    T = np.array([r["T_command"] for r in rows])
+    np.testing.assert_allclose(T, dv.fk_batch(kr5.model(), q), atol=1e-12)  # the pose to send is the nominal's at the joint row
+    flange = dv.load_model(saved).with_tool(np.eye(4))  # the identified flange at the commands reaches the program's targets
+    np.testing.assert_allclose(dv.fk_batch(flange, q[:2])[:, :3, 3], dv.fk_batch(kr5.model(), Q[:2])[:, :3, 3], atol=1e-9)
+    assert np.abs(q[:2] - Q[:2]).max() < np.radians(0.1)  # compensation moves joints by hundredths of a degree, radians in the document
+    assert doc["before_max_m"] == max(r["before_m"] for r in rows[:2]) < 1e-3
+    assert all(r["predicted_after_m"] > 0 for r in rows)
+    printed = run("compensate", tmp_path / "q.csv", "--nominal", "kr5", "--identified", saved, ok=False).stdout
+    assert "(over the 2 rows that can be sent: the 1 flagged left out)" in printed, printed

@@ -146,14 +146,20 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
     nominal, identified = _loaded(nominal), _loaded(identified)
     nom, ide = _model(nominal, "nominal"), _model(identified, "identified")
     notes = []
-    off = np.asarray(ide.T_flange_tool)[:3, 3]
+    tool = np.asarray(ide.T_flange_tool)
+    poe = getattr(identified, "convention", None) == "poe"
+    if poe and _is_identity(nom.T_flange_tool):
+        tool = _poe_tool(nom, ide, identified)
+    off = tool[:3, 3]
     if _is_identity(nom.T_flange_tool) and np.linalg.norm(off) > TOOL_FRACTION * robot_size(nom, np.zeros(nom.nq)):
         # identify's tool is the point it measured (a reflector on the flange), not the controller's tool: with a
         # nominal that has none, the targets and the commands are the flange's, and so is the identified robot
-        ide = ide.with_tool(np.eye(4))
+        ide = ide.with_tool(np.linalg.inv(tool) if poe else np.eye(4))
         at = "the flange"
         if isinstance(identified, Robot):
-            identified = _without_tool(identified)
+            identified = _without_tool(identified, np.linalg.inv(tool) if poe else None)
+            if poe:
+                at = "the flange (the POE table's covariance is of its home pose M, the measured point, carried rigidly to the flange)"
         else:
             at = "the identified tool point (its covariance is of that point)"
         notes.append(f"the nominal {getattr(nominal, 'name', 'model')} has no tool and the identified robot has one ({np.linalg.norm(off) * 1e3:.4g} mm from the "
@@ -207,12 +213,30 @@ def _is_identity(T) -> bool:
     return bool(np.allclose(np.asarray(T, dtype=float), np.eye(4), rtol=0.0, atol=1e-12))
 
 
-def _without_tool(robot: Robot) -> Robot:
+def _poe_tool(nom: _core.Model, ide: _core.Model, identified) -> np.ndarray:
+    """The tool of a POE model ``ide``: POE has no flange of its own (its home pose ``M``, identify's measured point,
+    is its flange, its tool the identity), so the tool in the flange of its exact ED-H table extracted as identify
+    extracts one (frames on the nominal's bodies: the nominal's ED-H frame origins at home, projected on the axes)."""
+    home = getattr(identified, "home", None)
+    if home is None and hasattr(identified, "sweeps"):
+        home = identified.sweeps.home
+    home = np.zeros(nom.nq) if home is None else np.asarray(home, dtype=float)
+    nt = _core.extract(_core.axes(nom, np.zeros(nom.nq)), "edh").table
+    origins = np.array(nt.frames(home))[1:, :3, 3]
+    ex = _core.extract(_core.axes(ide, home), "edh", nominal=nt, origins=origins, parallel_tol=1e-9, fidelity=False)
+    return np.asarray(ex.table.to_model().T_flange_tool)
+
+
+def _without_tool(robot: Robot, tool_flange=None) -> Robot:
     """``robot`` with its tool taken off (the flange its tool frame); its covariance (if any) without the tool's
-    translation (its rows and columns zero: the flange's position does not depend on it)."""
+    translation (its rows and columns zero: the flange's position does not depend on it). A POE robot (its tool
+    the home pose ``M``, the flange's) gets ``M @ tool_flange`` instead (the flange in its tool frame) and keeps
+    its covariance (``M``'s translation moves the flange as much)."""
     from dataclasses import replace  # noqa: PLC0415
 
     t = robot.table
+    if tool_flange is not None:
+        return replace(robot, table=_core.Table(t.convention, t.params, t.kinds, t.T_world_base, np.asarray(t.T_last_tool) @ tool_flange))
     C = robot.covariance
     if C is not None:
         C = np.array(C, dtype=float)
@@ -424,8 +448,8 @@ def accuracy_map(nominal, identified, result, q=None, *, count: int = 1000) -> A
 def identification_accuracy(result, *, count: int = 1000) -> AccuracyMap | None:
     """The :class:`AccuracyMap` of an identification against its nominal (None without one): the nominal
     model placed as the identification placed it (its base) with the measured tool point attached so that both
-    agree at the home configuration, the identified model's exact ED-H geometry, the prediction from the axes'
-    covariance."""
+    agree at the home configuration, the identified model's ED-H geometry (exact except a near-parallel pair's
+    tilt within its noise, as identify's ED-H table), the prediction from the axes' covariance."""
     if result.nominal is None:
         return None
     ident = result.model(convention="edh")

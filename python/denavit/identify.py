@@ -36,7 +36,11 @@ from .sweeps import SweepSet
 
 METHODS = ("auto", "kasa", "hyper", "geometric", "readings", "global")
 #: The conventions whose tables hold any pair of joint axes exactly (docs/conventions.md): what :meth:`Identification.save` writes by default.
+#: Against a nominal, ED-H drops the tilt of a pair the nominal has parallel when it is within ``EDH_PARALLEL_SIGMAS``
+#: of zero (its carried error says how much); POE is exact always.
 EXACT = ("edh", "poe")
+#: A carried tool-position error (m) at most this is round-off: the table is the identified geometry.
+ROUND_OFF = 1e-9
 
 
 @dataclass(frozen=True)
@@ -124,9 +128,9 @@ class Identification:
         """The identified robot as a :class:`Robot` (for :meth:`save` and :func:`denavit.io.urdf.save_urdf`): the
         nominal's names, limits and extras (a URDF nominal's meshes and limits ride along), the sweeps' home.
 
-        convention : the table's convention; default the exact geometry (:data:`EXACT`: the result's own table
-            when it is ED-H or POE, else ED-H). A DH or MDH table cannot hold a near-parallel pair's tilt (Hayati
-            beta): ask for one by name.
+        convention : the table's convention; default :data:`EXACT` (the result's own table when it is ED-H or POE,
+            else ED-H: against a nominal exact except a near-parallel pair's tilt within its noise, POE exact always).
+            A DH or MDH table cannot hold a near-parallel pair's tilt (Hayati beta): ask for one by name.
         """
         conv = _core.convention_info(convention)["name"] if convention is not None else (self.convention if self.convention in EXACT else "edh")
         n = self.axes.nq
@@ -148,18 +152,20 @@ class Identification:
         configurations spread over the joint limits (:func:`denavit.calibration.configurations`)."""
         from .calibration.parametrization import configurations  # noqa: PLC0415 (scipy's Halton sequence)
 
-        robot = self.robot(convention=convention)
+        conv = _core.convention_info(convention)["name"] if convention is not None else (self.convention if self.convention in EXACT else "edh")
+        model = self.model(convention=conv)  # the table :meth:`robot` writes (without its covariance, which costs)
         exact = _core.extract(self.axes, "edh", fidelity=False).table.to_model()
-        q = np.vstack([self.sweeps.home, configurations(robot, count)])
-        d = _core.fk_batch(robot.model(), q)[:, :3, 3] - _core.fk_batch(exact, q)[:, :3, 3]
+        q = np.vstack([self.sweeps.home, configurations(model, count)])
+        d = _core.fk_batch(model, q)[:, :3, 3] - _core.fk_batch(exact, q)[:, :3, 3]
         return float(np.linalg.norm(d, axis=1).max()), len(q)
 
     def save(self, path, convention: str | None = None, length: str = "m", angle: str = "deg", name: str | None = None) -> None:
-        """Write the identified robot as a robot file (.toml; :mod:`denavit.io.robotfile`), by default the exact
-        geometry (:meth:`robot`), a lossy DH / MDH table only when ``convention`` asks for one. The file states in
-        a comment the tool-position error its table carries against the identified geometry (:meth:`carried_error`).
+        """Write the identified robot as a robot file (.toml; :mod:`denavit.io.robotfile`), by default the ED-H or POE
+        geometry (:meth:`robot`: POE exact, ED-H exact except a near-parallel pair's tilt within its noise, which it drops
+        against the nominal), a lossy DH / MDH table only when ``convention`` asks for one. The file states in a comment
+        whether it is exact and the tool-position error its table carries against the identified geometry (:meth:`carried_error`).
 
-        A path ending in ``.urdf`` gets the URDF of the exact geometry instead (ED-H frames on the body; a URDF
+        A path ending in ``.urdf`` gets the URDF of the ED-H geometry instead (frames on the body; a URDF
         nominal's meshes and limits ride along; :func:`denavit.io.urdf.save_urdf`), in SI as URDF requires.
         """
         from .io.robotfile import dumps  # noqa: PLC0415
@@ -173,8 +179,12 @@ class Identification:
             return
         robot = self.robot(name, convention)
         err, count = self.carried_error(convention)
-        how = (f"exactly (its {robot.convention} table holds any pair of joint axes)" if robot.convention in EXACT else
-               f"in a {robot.convention} table, which cannot hold a near-parallel pair's tilt (save without a convention for the exact ED-H geometry)")
+        if robot.convention in EXACT and err <= ROUND_OFF:
+            how = f"exactly (its {robot.convention} table holds any pair of joint axes)"
+        elif robot.convention in EXACT:
+            how = f"exactly except {_DROPPED_TILT}; save as poe for the exact geometry"
+        else:
+            how = f"in a {robot.convention} table, which cannot hold a near-parallel pair's tilt (save as poe for the exact geometry)"
         note = (f"# The identified geometry, {how}.\n# Carried error: max tool-position deviation {err * 1e3:.3g} mm from the identified geometry "
                 f"over {count} configurations (the home and {count - 1} spread over the joint limits).\n")
         write_text(path, note + dumps(robot, length, angle))
@@ -939,13 +949,24 @@ def identify(
     for pd in ex.pairs:
         if pd.relation == "parallel" and abs(pd.hayati_beta) > 0 and convention in ("dh", "mdh"):
             notes.append(f"axes {pd.joint}-{pd.joint + 1} treated as parallel: misalignment {math.degrees(pd.hayati_beta):.2e} deg (Hayati beta) is not representable in {convention}")
-    if convention in ("dh", "mdh", "edh") and ex.max_position_error > 1e-6:
-        exact = "ED-H is exact" if convention != "edh" else f"the tilt of pairs parallel within {EDH_PARALLEL_SIGMAS:g} sigma is dropped; without a nominal ED-H is exact"
-        notes.append(f"the {convention} table carries a tool-position error up to {ex.max_position_error * 1e3:.4f} mm ({exact})")
-    return Identification(method, convention, ax, fits, ex, sigma, cov, p_home, sweeps, nominal, nominal_table, rms, notes, param_cov,
-                          reading_scale=None if scales is None else scales[0], axis_scale_cov=full_cov, coupling=coupling,
-                          tool_orientation=orientation, tool_rotation_cov=rot_cov, target_points=target_points,
-                          tracker_noise=tracker if joint is not None or method == "geometric" else None)
+    result = Identification(method, convention, ax, fits, ex, sigma, cov, p_home, sweeps, nominal, nominal_table, rms, notes, param_cov,
+                            reading_scale=None if scales is None else scales[0], axis_scale_cov=full_cov, coupling=coupling,
+                            tool_orientation=orientation, tool_rotation_cov=rot_cov, target_points=target_points,
+                            tracker_noise=tracker if joint is not None or method == "geometric" else None)
+    if convention in ("dh", "mdh", "edh"):  # what the table carries, measured as --save states it (Identification.carried_error)
+        carried = result.carried_error()[0] if convention == "edh" else result.carried_error(convention)[0]
+        if carried > 1e-6:
+            edh = carried if convention == "edh" else result.carried_error("edh")[0]
+            if convention != "edh":
+                exact = "POE is exact; " + (f"ED-H carries {edh * 1e3:.4f} mm: it is exact except {_DROPPED_TILT}" if edh > ROUND_OFF else "ED-H is exact")
+            else:
+                exact = f"it is exact except {_DROPPED_TILT}; POE is exact"
+            notes.append(f"the {convention} table carries a tool-position error up to {carried * 1e3:.4f} mm ({exact})")
+    return result
+
+
+#: What an ED-H table against the nominal leaves out (docs/conventions.md, "ED-H").
+_DROPPED_TILT = f"the tilt of a pair of axes the nominal has parallel, dropped when within {EDH_PARALLEL_SIGMAS:g} sigma of zero, its noise"
 
 
 def _finite(v: float) -> float | None:

@@ -78,9 +78,17 @@ def compensate(
     if predicted is not None:
         summary["predicted_after_rms_m"] = float(np.sqrt(np.mean(predicted[c.ok] ** 2))) if c.ok.any() else None
         summary["predicted_after"] = [{"where": w, "sigma_m": float(p)} for w, p in zip(prog.where, predicted, strict=True)]
+    # the compensated program, row by row (as -o writes it, in SI): the joint row and the pose to send, flags, errors
+    summary["joint_units"] = ["rad" if k == "revolute" else "m" for k in kinds]
+    summary["rows"] = [{"where": prog.where[k], "q": [float(v) for v in c.q_command[k]], "T_command": c.commands[k].tolist(),
+                        "ok": bool(c.ok[k]), "reached": bool(c.reached[k]), "branch_changed": bool(c.branch_changed[k]), "path_jump": bool(c.path_jump[k]),
+                        "before_m": float(c.before[k]), "before_rotation_rad": float(c.before_rotation[k]), "residual_m": float(c.residual[k]),
+                        "residual_rotation_rad": float(c.residual_rotation[k]), "predicted_after_m": None if predicted is None else float(predicted[k])}
+                       for k in range(len(c))]
     emit_json(summary, json_out)
     if json_out != "-" and output != "-":
-        gain = (f"; error without compensation {spread(before_rms / ls)} {length} RMS, max {spread(summary['before_max_m'] / ls)} {length}"
+        left_out = f" (over the {int(c.ok.sum())} rows that can be sent: the {len(flagged)} flagged left out)" if flagged else ""
+        gain = (f"; error without compensation {spread(before_rms / ls)} {length} RMS, max {spread(summary['before_max_m'] / ls)} {length}{left_out}"
                 if c.ok.any() else "; no target can be sent (is the identified robot a calibration of the nominal?)")
         say("bold", f"{nom_robot.name} -> {id_robot.name}:", f" {len(c)} targets, {len(flagged)} flagged{gain}")
         if predicted is not None and c.ok.any():

@@ -61,10 +61,10 @@ def identify(
     max_sigma: Annotated[float | None, typer.Option("--max-sigma", help="Required axis-position accuracy (1 sigma) in --length units: sweeps predicted worse are an error.")] = None,
     report: Annotated[Path | None, typer.Option("--report", help="Write a self-contained HTML report.")] = None,
     plot: Annotated[Path | None, typer.Option("--plot", help="Write the static figures (PNG) into this folder.")] = None,
-    save_model: Annotated[Path | None, typer.Option("--save", help="Write the identified robot as a robot file (.toml, in the output units): the exact geometry (ED-H, or POE with --convention poe), its carried error stated in the file.")] = None,
+    save_model: Annotated[Path | None, typer.Option("--save", help="Write the identified robot as a robot file (.toml, in the output units): the identified geometry (ED-H: exact except the tilt of a pair the nominal has parallel when within 3 sigma of zero, its noise; POE with --convention poe: exact), its carried error stated in the file.")] = None,
     save_convention: Annotated[str | None, typer.Option("--save-convention", help="--save a table of this convention instead (dh | mdh: lossy where axes are near-parallel; the file states the error it carries).")] = None,
     base: Annotated[str | None, typer.Option("--base", help="The robot's base frame in the measurement frame, x, y, z, roll, pitch, yaw (six numbers separated by commas) (R = Rz(yaw) Ry(pitch) Rx(roll); --length and --angle units) or the 16 numbers of the 4x4 matrix (default: the measurement frame).")] = None,
-    urdf: Annotated[Path | None, typer.Option("--urdf", help="Write the identified robot as URDF: the exact geometry (ED-H frames on the body, whatever --convention), with a URDF nominal's meshes, inertials and limits.")] = None,
+    urdf: Annotated[Path | None, typer.Option("--urdf", help="Write the identified robot as URDF: the ED-H geometry (frames on the body, whatever --convention; exact except a near-parallel pair's tilt within 3 sigma, as --save's ED-H), with a URDF nominal's meshes, inertials and limits.")] = None,
     data_format: Annotated[str, typer.Option("--format", help="sweeps (long CSV, JSON, jN.csv folder) | tracker | rtde | rsi | bag | columns | auto (from the content).")] = "auto",
     columns: Annotated[str | None, typer.Option("--columns", help="Column map of a delimited recording, e.g. \"t,q1..q6,x,y,z\" (--format columns).")] = None,
     sweep: Annotated[str | None, typer.Option("--sweep", help="Tracker export: where each point's sweep comes from: 'group' or a point-name pattern such as 'J{joint}_{index}'.")] = None,
@@ -141,13 +141,13 @@ def identify(
             say("bold", "Accuracy", f" over {s['configurations']} configurations within the limits: nominal model error rms {spread(s['nominal']['rms'] / ls_out)} {out_len} "
                 f"(max {spread(s['nominal']['max'] / ls_out)}); identified model, predicted 1 sigma: rms {spread(s['identified']['rms'] / ls_out)} {out_len} "
                 f"(max {spread(s['identified']['max'] / ls_out)})")
-    if save_model:  # the exact geometry unless a lossy table is asked for, its carried error written in the file
+    if save_model:  # the ED-H / POE geometry unless a lossy table is asked for, its carried error written in the file
         result.save(save_model, None if save_convention is None else convention_name(save_convention), out_len, out_ang)
         wrote(save_model)
     if urdf:
         from ..io.urdf import save_urdf  # noqa: PLC0415
 
-        save_urdf(result.model(convention="edh"), urdf, result.robot())  # the exact geometry, frames on the body; a URDF nominal's meshes and limits ride along
+        save_urdf(result.model(convention="edh"), urdf, result.robot())  # the ED-H geometry, frames on the body; a URDF nominal's meshes and limits ride along
         wrote(urdf)
     if report or plot:
         from .. import report as rep  # noqa: PLC0415
