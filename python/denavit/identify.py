@@ -931,7 +931,8 @@ def identify(
     short = _short_arc_notes(sweeps, fits, notes)
     misfit_notes(sweeps, fits, [sweep_where(x, sweeps.source) for x in sweeps.sweeps], notes)
     if nominal is not None:
-        nominal_plausibility(ex, fits, nominal, sweeps.home, nominal.names, sweeps.source, notes, short, SHORT_ARC_SIGMA, allow_implausible)
+        nominal_plausibility(ex, fits, nominal, sweeps.home, nominal.names, sweeps.source, notes, short, SHORT_ARC_SIGMA, allow_implausible,
+                             lone_axis=not sweeps.has_readings)
     p_ref = ex.table.params
     full_cov = None
     if scales is not None:  # [axes, tool point, reading scales]: the scales' covariance with the axes kept

@@ -233,7 +233,7 @@ def register_axes(points, dirs, nom_points, nom_dirs, kinds, size: float, R_star
 
 
 def nominal_plausibility(ex, fits: list, nominal, home, names: list[str], source: str, notes: list[str], short: list[str] = (),
-                         short_sigma: float = math.inf, allow: bool = False) -> None:
+                         short_sigma: float = math.inf, allow: bool = False, lone_axis: bool = False) -> None:
     """The identified axes against the nominal's (issue 16), in units of their uncertainty and of the robot's size:
 
     - a note naming the joints of each consecutive pair whose angle or distance is far from the nominal pair's;
@@ -241,7 +241,10 @@ def nominal_plausibility(ex, fits: list, nominal, home, names: list[str], source
       better with two joints exchanged (files of two joints exchanged), or when most pairs of axes are far (a unit
       slip, the wrong robot). ``allow``: these become notes (the fit is returned as it is).
 
-    ``short``: the notes of arcs too short for their axis (``short_sigma``, m), which the error cites as the cause."""
+    ``short``: the notes of arcs too short for their axis (``short_sigma``, m), which the error cites as the cause.
+    ``lone_axis``: also refuse one axis alone far from its nominal (:func:`_lost_axes`): for sweeps without readings,
+    as per-joint files are (one file can be in another unit); with readings, a far axis has other causes the
+    readings' checks name (a coupling not declared moves the fits of several joints)."""
     model = nominal.model()
     ax = _core.axes(model, home)
     kinds = list(model.kinds)
@@ -276,7 +279,7 @@ def nominal_plausibility(ex, fits: list, nominal, home, names: list[str], source
             refuse(f"the identified axes are the mirror image of the nominal {nominal.name}'s (after the best rigid fit {lines[0]} of {len(fits)} "
                    f"axes are far from their nominal, up to {lines[1] * 1e3:.4g} mm and {math.degrees(lines[2]):.3g} deg; after the best "
                    "reflection none): expected a right-handed measurement frame (x and y swapped? a left-handed tracker export?)")
-    lost = _lost_axes(fits, npts, ndirs, kinds, size, sig_a, sig_d)
+    lost = _lost_axes(fits, npts, ndirs, kinds, size, sig_a, sig_d) if lone_axis else None
     if lost:
         k, dev, others = lost
         refuse(f"the axis of joint {names[k]} is {dev[1] * 1e3:.5g} mm and {math.degrees(dev[0]):.3g} deg from its nominal after the best rigid fit of "
