@@ -195,6 +195,7 @@ def cases(d: Path, readonly: Path | None):
         ("fk: a full-width digit on the command line", ["fk", "kr5", "--q", "\uff11,0,0,0,0,0"], "--q: expected numbers (ASCII decimal"),
         ("simulate: nan in --tool", ["simulate", "kr5", "-o", d / "never.csv", "--tool", "nan,0,0"], "--tool: expected numbers (ASCII decimal"),
         ("convert: --to urdf --json (it had been ignored)", ["convert", "kr5", "--to", "urdf", "--json", d / "never.json"], "--json: --to urdf writes URDF (XML), which has no JSON form"),
+        ("fk: --angle grad without --q (it had printed its tables, exit 0)", ["fk", "kr5", "--angle", "grad"], "unknown angle unit 'grad': expected one of rad, deg"),
         ("identify: --loss foo (it had run as another loss)", ["identify", d / "s.csv", "--loss", "foo"], "identify: loss must be one of linear, soft_l1, huber, got 'foo'"),
         ("identify: --max-sigma -1", ["identify", d / "s.csv", "--max-sigma", "-1"], "--max-sigma: expected the required axis-position sigma, a finite value > 0 in mm, got -1.0"),
     ]

@@ -83,6 +83,7 @@ class Command(TyperCommand):
         return super().parse_args(ctx, json_argv(args))
 
     def invoke(self, ctx):  # noqa: ANN001, ANN201 (click's signature)
+        _check_units(ctx)
         _check_outputs(ctx)
         try:
             return super().invoke(ctx)
@@ -92,6 +93,15 @@ class Command(TyperCommand):
 
 #: the options that name a file the command writes (``--plot`` names a folder, made when it is written)
 OUTPUT_OPTIONS = frozenset({"-o", "--output", "--json", "--save", "--urdf", "--report", "--ur-kinematics"})
+
+
+def _check_units(ctx) -> None:  # noqa: ANN001 (click's context)
+    """``--length`` and ``--angle`` are checked before the work starts, whether or not the command reads a value in
+    them (``fk --angle grad`` without ``--q`` had printed its tables, exit 0)."""
+    for name, check in (("length", length_scale), ("angle", angle_scale)):
+        value = ctx.params.get(name)
+        if isinstance(value, str):
+            check(value)
 
 
 def _check_outputs(ctx) -> None:  # noqa: ANN001 (click's context)
