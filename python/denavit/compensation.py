@@ -221,9 +221,10 @@ def _poe_tool(nom: _core.Model, ide: _core.Model, identified) -> np.ndarray:
     if home is None and hasattr(identified, "sweeps"):
         home = identified.sweeps.home
     home = np.zeros(nom.nq) if home is None else np.asarray(home, dtype=float)
+    from .identify import _origins  # noqa: PLC0415 (identify and its fits load only when a POE robot is compensated)
+
     nt = _core.extract(_core.axes(nom, np.zeros(nom.nq)), "edh").table
-    origins = np.array(nt.frames(home))[1:, :3, 3]
-    ex = _core.extract(_core.axes(ide, home), "edh", nominal=nt, origins=origins, parallel_tol=1e-9, fidelity=False)
+    ex = _core.extract(_core.axes(ide, home), "edh", nominal=nt, origins=_origins(nt, "edh", home), parallel_tol=1e-9, fidelity=False)
     return np.asarray(ex.table.to_model().T_flange_tool)
 
 
