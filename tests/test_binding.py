@@ -5,6 +5,7 @@ import ast
 import copy
 import inspect
 import pickle
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -412,3 +413,25 @@ def test_model_repr_is_short_with_key_numbers():
     assert repr(m) == "Model('kr5', 6 joints RRRRRR, tool at [1400.0, 0.0, 520.0] mm at q = 0)"
     heavy = m.with_inertias(np.full(6, 2.0), np.zeros((6, 3)), np.tile(np.eye(3) * 0.01, (6, 1, 1)))
     assert repr(heavy).endswith(", 12.0000 kg)")
+
+
+def test_calibration_chain_evaluate_refuses_a_bad_selection_in_one_line():
+    """rows, columns and weights of CalibrationChain.evaluate: each bad value is a DenavitError that names it."""
+    from denavit.calibration import parametrize
+
+    chain = parametrize(dv.load_model("kr5"), "edh").chain
+    x, qs = parametrize(dv.load_model("kr5"), "edh").x0, np.zeros((3, 6))
+    for kw, what in (
+        ({"rows": 0}, "rows"),
+        ({"rows": 7}, "rows"),
+        ({"columns": [-1]}, "columns[0]"),
+        ({"columns": [2, 2]}, "each parameter at most once"),
+        ({"columns": [chain.n_params]}, f"parameter indices below {chain.n_params}"),
+        ({"rows": 3, "weights": [1.0, 2.0]}, "weights"),
+        ({"rows": 3, "weights": [1.0, np.nan, 2.0]}, "weights"),
+    ):
+        with pytest.raises(dv.DenavitError, match=re.escape(what)) as e:
+            chain.evaluate(x, qs, True, **kw)
+        assert "\n" not in str(e.value)
+    poses, J = chain.evaluate(x, qs, True, rows=3, columns=[5, 0], weights=[2.0, 2.0, 2.0])
+    assert J.shape == (3, 3, 2) and poses.shape == (3, 4, 4)

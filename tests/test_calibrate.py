@@ -633,24 +633,25 @@ def test_tool_is_given_in_the_flange(convention, rng):
 def test_the_solver_builds_jacobians_only_where_it_asks_for_them(kr5, monkeypatch):
     """Trial points get residuals only: the poses evaluated with a Jacobian are the solver's Jacobian
     evaluations (njev) times the poses, fewer than its residual evaluations (every one of which built a Jacobian),
-    and the Jacobian rows come a chunk at a time, equal to one call's."""
+    and the weighted rows of the free columns, which the core writes alone, equal the full Jacobian's entries
+    times the weights, bit for bit."""
     from denavit.calibration import least_squares as ls
     from denavit.calibration.parametrization import Parametrization
 
     pz = cal.parametrize(kr5, "edh", tool=TOOL)
     meas = cal.simulate(kr5, cal.configurations(kr5, 250, skip=3), tool=TOOL, noise=NOISE, seed=2)
     free = [c for c in range(pz.n_params) if pz.names[c] not in pz.rules][:20]
-    monkeypatch.setattr(ls, "CHUNK", 64)
+    free = free[::-1]  # in any order
     _, jac = pz.evaluate(pz.x0, meas.q, True)
     w = weights("point", NOISE, 1.0)
     assert np.array_equal(ls.jacobian_rows(pz, pz.x0, meas.q, w, free)[1], (jac[:, :3][:, :, free] * w[:3, None]).reshape(-1, len(free)))
     jac_poses = []
     evaluate = Parametrization.evaluate
 
-    def counted(self, x, q, jacobian=True):
+    def counted(self, x, q, jacobian=True, **kw):
         if jacobian:
             jac_poses.append(len(q))
-        return evaluate(self, x, q, jacobian)
+        return evaluate(self, x, q, jacobian, **kw)
 
     monkeypatch.setattr(Parametrization, "evaluate", counted)
     x0 = pz.x0.copy()
@@ -658,6 +659,42 @@ def test_the_solver_builds_jacobians_only_where_it_asks_for_them(kr5, monkeypatc
     _, sol = ls.fit_parameters(pz, x0, free, meas, w, "linear", None)
     # (scipy evaluates the Jacobian once more at the solution, for its result's ``jac``)
     assert sum(jac_poses) <= (sol.njev + 1) * meas.n < sol.nfev * meas.n
+
+
+def test_a_calibration_remembers_what_it_has_evaluated_and_gets_the_same_result(kr5, monkeypatch):
+    """calibrate asks again for evaluations it has made (the analysis' Jacobian at the start of a fit, the last
+    residuals and Jacobian at the solution): within ``remembered`` they come from memory, a Jacobian's columns
+    from one with more. The core builds fewer Jacobians and the result is the same to the last bit; a memory
+    hit gives the caller its own Jacobian array."""
+    from denavit.calibration import parametrization as P
+    from denavit.calibration import solve
+
+    meas = cal.simulate(kr5, cal.configurations(kr5, 300, skip=5), tool=TOOL, noise=NOISE, seed=4)
+    with P.remembered() as memo:
+        a = cal.calibrate(meas, kr5, tool=TOOL)
+    built_with = memo.built
+    built_without = []
+    evaluate = P.Parametrization.evaluate
+
+    def counted(self, x, q, jacobian=True, **kw):
+        built_without.append(jacobian)
+        return evaluate(self, x, q, jacobian, **kw)
+
+    monkeypatch.setattr(P.Parametrization, "evaluate", counted)
+    b = solve.calibrate.__wrapped__(meas, kr5, tool=TOOL)  # without the memory
+    monkeypatch.undo()
+    assert np.array_equal(a.values, b.values) and np.array_equal(a.covariance, b.covariance) and a.evaluations == b.evaluations
+    assert 0 < built_with < sum(built_without), (built_with, sum(built_without))
+
+    pz = cal.parametrize(kr5, "edh", tool=TOOL)
+    x, q = pz.x0, meas.q
+    with P.remembered() as memo:
+        _, J1 = pz.evaluate(x, q, True, rows=3, columns=[4, 1, 7])
+        J1[:] = 0.0  # the caller's own array: the memory is not touched
+        _, J2 = pz.evaluate(x, q, True, rows=3, columns=[7, 4])
+        assert memo.built == 1
+    _, J0 = pz.evaluate(x, q, True, rows=3, columns=[7, 4])
+    assert np.array_equal(J2, J0) and J2.flags.writeable
 
 
 def test_a_measurement_csv_reads_the_same_on_the_c_reader_and_row_by_row(kr5, tmp_path):

@@ -241,8 +241,11 @@ class CalibrationChain:
     def n_params(self) -> int: ...
     @property
     def nq(self) -> int: ...
-    def evaluate(self, x: ArrayLike, qs: ArrayLike, jacobian: bool = True) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
-        """Tool poses (N, 4, 4) and, if `jacobian`, identification Jacobians (N, 6, n_params), rows [v; w] in world."""
+    def evaluate(
+        self, x: ArrayLike, qs: ArrayLike, jacobian: bool = True, *, rows: int = 6, columns: Sequence[int] | None = None, weights: ArrayLike | None = None
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+        """Tool poses (N, 4, 4) and, if `jacobian`, identification Jacobians (N, rows, len(columns)), rows [v; w] in
+        world, of the parameters `columns` (default all), each row times its `weights` entry."""
 
 def convention_info(name: str) -> dict: ...
 def conventions() -> list[str]: ...

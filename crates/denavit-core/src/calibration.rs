@@ -306,54 +306,77 @@ impl Chain {
         }
     }
 
-    /// One configuration: the pose row-major into `pose` (16) and the Jacobian row-major into `jac` (6 x n_params).
+    /// One configuration: the pose row-major into `pose` (16) and the Jacobian entries `sel` picks row-major
+    /// into `jac` (rows x columns).
     #[inline]
-    fn pose_jacobian_into(&self, x: &[f64], q: &[f64], frames: &mut Vec<Recorded>, pose: &mut [f64], jac: &mut [f64]) {
-        let np = self.n_params;
+    fn pose_jacobian_into(&self, x: &[f64], q: &[f64], frames: &mut Vec<Recorded>, sel: &Selection, pose: &mut [f64], jac: &mut [f64]) {
+        let (rows, nc) = (sel.rows, sel.slot_count);
         let t = self.forward(x, q, frames);
         crate::kinematics::write_pose(&t, pose);
         jac.fill(0.0);
         self.columns(frames, &t.translation.vector, |col, v, w| {
-            for r in 0..3 {
-                jac[r * np + col] += v[r];
-                jac[(r + 3) * np + col] += w[r];
+            let c = sel.slot[col];
+            if c == usize::MAX {
+                return;
+            }
+            for r in 0..rows.min(3) {
+                jac[r * nc + c] += v[r];
+            }
+            for r in 3..rows {
+                jac[r * nc + c] += w[r - 3];
             }
         });
+        // the weights after the sums: each entry is the full Jacobian's times its row's weight
+        for (r, row) in jac.chunks_exact_mut(nc.max(1)).take(rows).enumerate() {
+            if sel.weights[r] != 1.0 {
+                row.iter_mut().for_each(|v| *v *= sel.weights[r]);
+            }
+        }
     }
 
     /// Batch: `qs` holds N configurations row-major (N x nq); `poses` receives N row-major 4x4 matrices
-    /// (N x 16); `jac`, if given, N row-major 6 x n_params matrices (N x 6 n_params). Runs on all cores from
-    /// [`PARALLEL_MIN`] configurations on.
+    /// (N x 16); `jac`, if given, the part of the N identification Jacobians it asks for (see
+    /// [`JacobianOut`]). Runs on all cores from [`PARALLEL_MIN`] configurations on.
     ///
     /// ```
-    /// use denavit_core::calibration::{Axis, Chain, Factor};
+    /// use denavit_core::calibration::{Axis, Chain, Factor, JacobianOut};
     /// let c = Chain::new(vec![Factor::param(Axis::Rz, 0, Some(0)), Factor::param(Axis::Tx, 1, None)], 2, 1, vec![None]).unwrap();
     /// let (mut poses, mut jac) = (vec![0.0; 32], vec![0.0; 24]);
-    /// c.evaluate_batch(&[0.0, 2.0], &[0.0, 1.0], &mut poses, Some(&mut jac)).unwrap();
+    /// c.evaluate_batch(&[0.0, 2.0], &[0.0, 1.0], &mut poses, Some(JacobianOut::full(&mut jac))).unwrap();
     /// assert!((poses[16 + 3] - 2.0 * 1f64.cos()).abs() < 1e-15);
+    /// // the tool origin's rows of the link length's column, weighted by 1 / sigma
+    /// let mut part = vec![0.0; 6];
+    /// let sel = JacobianOut { out: &mut part, rows: 3, columns: Some(&[1]), weights: [1e4; 6] };
+    /// c.evaluate_batch(&[0.0, 2.0], &[0.0, 1.0], &mut poses, Some(sel)).unwrap();
+    /// assert_eq!(part[3..], [1e4 * 1f64.cos(), 1e4 * 1f64.sin(), 0.0]);
     /// ```
-    pub fn evaluate_batch(&self, x: &[f64], qs: &[f64], poses: &mut [f64], mut jac: Option<&mut [f64]>) -> Result<()> {
+    pub fn evaluate_batch(&self, x: &[f64], qs: &[f64], poses: &mut [f64], jac: Option<JacobianOut<'_>>) -> Result<()> {
         check_len("calibration parameters x", self.n_params, x.len())?;
         check_finite("calibration parameters x", x)?;
         let count = qs.len().checked_div(self.nq).unwrap_or(poses.len() / 16);
         check_len("q batch (N*n values)", count * self.nq, qs.len())?;
         check_finite("q batch", qs)?;
         check_len("poses output (N*16 values)", count * 16, poses.len())?;
-        let np = self.n_params;
-        if let Some(j) = jac.as_deref() {
-            check_len("Jacobian output (N*6*n_params values)", count * 6 * np, j.len())?;
-        }
-        if np == 0 {
-            jac = None;
-        }
+        let mut jac = match jac {
+            Some(j) => {
+                let sel = Selection::of(&j, self.n_params)?;
+                check_len("Jacobian output (N*rows*columns values)", count * sel.rows * sel.slot_count, j.out.len())?;
+                // nothing to write: the poses alone
+                (sel.rows * sel.slot_count > 0).then_some((j.out, sel))
+            }
+            None => None,
+        };
         if count < PARALLEL_MIN {
             // small batches: one thread (waking a pool costs more than the work, and far more on a busy machine)
             let mut frames = Vec::with_capacity(self.factors.len());
             for (i, pk) in poses.chunks_exact_mut(16).enumerate() {
                 let q = &qs[i * self.nq..(i + 1) * self.nq];
-                match jac.as_deref_mut() {
+                match &mut jac {
                     None => crate::kinematics::write_pose(&self.pose_unchecked(x, q), pk),
-                    Some(jac) => self.pose_jacobian_into(x, q, &mut frames, pk, &mut jac[6 * np * i..6 * np * (i + 1)]),
+                    Some((out, sel)) => {
+                        let per = sel.rows * sel.slot_count;
+                        self.pose_jacobian_into(x, q, &mut frames, sel, pk, &mut out[per * i..per * (i + 1)]);
+                    }
                 }
             }
             return Ok(());
@@ -366,17 +389,76 @@ impl Chain {
                     crate::kinematics::write_pose(&self.pose_unchecked(x, &qs[i * self.nq..(i + 1) * self.nq]), ok);
                 }
             }),
-            Some(jac) => poses.par_chunks_mut(16 * CHUNK).zip(jac.par_chunks_mut(6 * np * CHUNK)).enumerate().for_each_init(
-                || Vec::with_capacity(self.factors.len()),
-                |frames, (c, (po, jo))| {
-                    for (k, (pk, jk)) in po.chunks_exact_mut(16).zip(jo.chunks_exact_mut(6 * np)).enumerate() {
-                        let i = c * CHUNK + k;
-                        self.pose_jacobian_into(x, &qs[i * self.nq..(i + 1) * self.nq], frames, pk, jk);
-                    }
-                },
-            ),
+            Some((out, sel)) => {
+                let per = sel.rows * sel.slot_count;
+                poses.par_chunks_mut(16 * CHUNK).zip(out.par_chunks_mut(per * CHUNK)).enumerate().for_each_init(
+                    || Vec::with_capacity(self.factors.len()),
+                    |frames, (c, (po, jo))| {
+                        for (k, (pk, jk)) in po.chunks_exact_mut(16).zip(jo.chunks_exact_mut(per)).enumerate() {
+                            let i = c * CHUNK + k;
+                            self.pose_jacobian_into(x, &qs[i * self.nq..(i + 1) * self.nq], frames, &sel, pk, jk);
+                        }
+                    },
+                )
+            }
         }
         Ok(())
+    }
+}
+
+/// The part of the identification Jacobians a batch writes ([`Chain::evaluate_batch`]): for each
+/// configuration a row-major `rows x columns` block of `out`, rows `0..rows` of `[v; w]` (3: the tool
+/// origin's; 6: with the small rotation), the columns of the parameters `columns` in this order (`None`:
+/// all, in order), row `r` times `weights[r]`. The weights multiply the summed entries, so each value is the
+/// full Jacobian's entry times its row's weight, bit for bit; only what is asked for is written (a
+/// calibration's weighted rows straight into its least-squares matrix, without a full Jacobian in between).
+pub struct JacobianOut<'a> {
+    /// N blocks of `rows x columns` values.
+    pub out: &'a mut [f64],
+    /// 1..=6.
+    pub rows: usize,
+    /// Parameter indices, each at most once; `None`: all.
+    pub columns: Option<&'a [usize]>,
+    /// Finite weights of the rows (those beyond `rows` unused).
+    pub weights: [f64; 6],
+}
+
+impl<'a> JacobianOut<'a> {
+    /// The whole Jacobians, unweighted: N row-major `6 x n_params` matrices.
+    pub fn full(out: &'a mut [f64]) -> Self {
+        Self { out, rows: 6, columns: None, weights: [1.0; 6] }
+    }
+}
+
+/// A [`JacobianOut`] checked against the chain: the output column of each parameter (`usize::MAX`: not
+/// written).
+struct Selection {
+    rows: usize,
+    slot: Vec<usize>,
+    slot_count: usize,
+    weights: [f64; 6],
+}
+
+impl Selection {
+    fn of(j: &JacobianOut<'_>, n_params: usize) -> Result<Self> {
+        let bad = |what: &str, expected: &str, got: String| Err(Error::InvalidArgument { what: what.into(), expected: expected.into(), got });
+        if !(1..=6).contains(&j.rows) {
+            return bad("Jacobian rows", "1 to 6", j.rows.to_string());
+        }
+        check_finite("Jacobian row weights", &j.weights[..j.rows])?;
+        let mut slot = vec![usize::MAX; n_params];
+        let Some(columns) = j.columns else {
+            slot.iter_mut().enumerate().for_each(|(k, s)| *s = k);
+            return Ok(Self { rows: j.rows, slot, slot_count: n_params, weights: j.weights });
+        };
+        for (k, &c) in columns.iter().enumerate() {
+            match slot.get_mut(c) {
+                None => return bad("Jacobian columns", &format!("parameter indices below {n_params}"), c.to_string()),
+                Some(s) if *s != usize::MAX => return bad("Jacobian columns", "each parameter at most once", format!("{c} twice")),
+                Some(s) => *s = k,
+            }
+        }
+        Ok(Self { rows: j.rows, slot, slot_count: columns.len(), weights: j.weights })
     }
 }
 

@@ -4,7 +4,7 @@
 
 mod common;
 
-use denavit_core::calibration::{Axis, Chain, Factor};
+use denavit_core::calibration::{Axis, Chain, Factor, JacobianOut};
 use denavit_core::kinematics::tool_pose;
 use denavit_core::spatial::{Pose, rx, rz, trans};
 use denavit_core::{Error, JointKind};
@@ -120,13 +120,13 @@ fn batch_matches_single_evaluations() {
     let n = 1100; // both the one-thread path (first batch below) and the parallel one
     let qs: Vec<f64> = (0..n * 6).map(|i| (i as f64 * 0.731).sin() * 2.5).collect();
     let (mut poses, mut jac) = (vec![0.0; 16 * n], vec![0.0; 6 * np * n]);
-    chain.evaluate_batch(&x, &qs, &mut poses, Some(&mut jac)).unwrap();
+    chain.evaluate_batch(&x, &qs, &mut poses, Some(JacobianOut::full(&mut jac))).unwrap();
     let mut only = vec![0.0; 16 * n];
     chain.evaluate_batch(&x, &qs, &mut only, None).unwrap();
     assert_eq!(poses, only);
     let mut j1 = Matrix6xX::zeros(np);
     let (mut small, mut small_jac) = (vec![0.0; 16 * 100], vec![0.0; 6 * np * 100]);
-    chain.evaluate_batch(&x, &qs[..600], &mut small, Some(&mut small_jac)).unwrap();
+    chain.evaluate_batch(&x, &qs[..600], &mut small, Some(JacobianOut::full(&mut small_jac))).unwrap();
     assert_eq!(small[..], poses[..1600]);
     assert_eq!(small_jac[..], jac[..6 * np * 100]);
     for i in [0, 31, 32, 99, 600, 1099] {
@@ -143,6 +143,45 @@ fn batch_matches_single_evaluations() {
             }
         }
     }
+}
+
+#[test]
+fn selected_rows_and_columns_are_the_full_jacobians_weighted_bit_for_bit() {
+    let t = denavit_core::extract::convert(&common::tiansui_mdh(), denavit_core::Convention::Edh, &Default::default()).unwrap().table;
+    let (chain, x) = edh_chain(&t, true);
+    let np = chain.n_params();
+    let cols = [np - 1, 3, 0, 17, 9];
+    let weights = [1.0 / 2e-5, 1.0 / 3e-5, 1.0 / 7e-6, 1.0 / 1e-5, 0.5, 3.0];
+    for n in [100, 1100] {
+        // one thread and the parallel path
+        let qs: Vec<f64> = (0..n * 6).map(|i| (i as f64 * 0.377).cos() * 2.7).collect();
+        let (mut poses, mut full) = (vec![0.0; 16 * n], vec![0.0; 6 * np * n]);
+        chain.evaluate_batch(&x, &qs, &mut poses, Some(JacobianOut::full(&mut full))).unwrap();
+        for rows in [3, 6] {
+            let (mut p2, mut part) = (vec![0.0; 16 * n], vec![0.0; rows * cols.len() * n]);
+            let sel = JacobianOut { out: &mut part, rows, columns: Some(&cols), weights };
+            chain.evaluate_batch(&x, &qs, &mut p2, Some(sel)).unwrap();
+            assert_eq!(p2, poses);
+            for i in 0..n {
+                for r in 0..rows {
+                    for (k, &c) in cols.iter().enumerate() {
+                        let want = full[i * 6 * np + r * np + c] * weights[r];
+                        assert_eq!(part[i * rows * cols.len() + r * cols.len() + k].to_bits(), want.to_bits(), "pose {i}, row {r}, parameter {c}");
+                    }
+                }
+            }
+        }
+    }
+    let mut poses = vec![0.0; 16];
+    let mut out = vec![0.0; 6];
+    let q = [0.0; 6];
+    let err = |columns: &[usize], rows: usize, out: &mut [f64], poses: &mut [f64]| {
+        chain.evaluate_batch(&x, &q, poses, Some(JacobianOut { out, rows, columns: Some(columns), weights: [1.0; 6] })).unwrap_err().to_string()
+    };
+    assert!(err(&[1, 1], 3, &mut out, &mut poses).contains("each parameter at most once"), "{}", err(&[1, 1], 3, &mut out, &mut poses));
+    assert!(err(&[1, np], 3, &mut out, &mut poses).contains(&format!("parameter indices below {np}")));
+    assert!(err(&[1, 2], 7, &mut out, &mut poses).contains("1 to 6"));
+    assert!(err(&[1, 2, 3], 3, &mut out, &mut poses).contains("Jacobian output"));
 }
 
 #[test]

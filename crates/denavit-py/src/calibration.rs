@@ -1,15 +1,15 @@
 //! Calibration chains (`denavit_core::calibration`): tool poses and identification Jacobians in batch.
 
-use crate::convert::{out, poses, poses_out, rows, vector};
+use crate::convert::{poses, poses_out, vector};
 use crate::error::{invalid, IntoPy};
-use denavit_core::calibration::{Axis, Chain, Factor};
+use denavit_core::calibration::{Axis, Chain, Factor, JacobianOut};
 use denavit_core::spatial::Pose;
-use numpy::PyArray3;
+use numpy::{PyArray3, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use std::sync::Arc;
 
-/// Tool poses (N, 4, 4) and optional Jacobians (N, 6, n_params).
+/// Tool poses (N, 4, 4) and optional Jacobians (N, rows, columns).
 type Evaluated<'py> = (Bound<'py, PyArray3<f64>>, Option<Bound<'py, PyArray3<f64>>>);
 
 /// A chain of elementary factors with named parameters (`denavit_core::calibration`; built by `denavit.calibrate`).
@@ -88,25 +88,56 @@ impl PyChain {
     fn nq(&self) -> usize {
         self.inner.nq()
     }
-    /// Tool poses (N, 4, 4) and, if `jacobian`, identification Jacobians (N, 6, n_params), rows [v; w] in
-    /// world (derivative of the tool origin, small rotation of the tool), for parameters x (n_params,) and
-    /// configurations qs (N, nq). Runs without the GIL on every core.
-    #[pyo3(signature = (x, qs, jacobian=true))]
-    fn evaluate<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>, qs: &Bound<'py, PyAny>, jacobian: bool) -> PyResult<Evaluated<'py>> {
+    /// Tool poses (N, 4, 4) and, if `jacobian`, identification Jacobians (N, rows, len(columns)), rows [v; w]
+    /// in world (derivative of the tool origin, small rotation of the tool) for parameters x (n_params,) and
+    /// configurations qs (N, nq). `rows`: the first 3 (tool origin) or all 6; `columns`: the parameters
+    /// (indices, each once; default all, in order); `weights` (rows,): each row times its weight (after the
+    /// sums: the full Jacobian's entries times the weights, bit for bit). Only what is asked for is written,
+    /// without the GIL, on every core.
+    #[pyo3(signature = (x, qs, jacobian=true, *, rows=6, columns=None, weights=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn evaluate<'py>(
+        &self,
+        py: Python<'py>,
+        x: &Bound<'py, PyAny>,
+        qs: &Bound<'py, PyAny>,
+        jacobian: bool,
+        rows: i64,
+        columns: Option<Vec<i64>>,
+        weights: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Evaluated<'py>> {
         let x = vector("x", x)?;
-        let (q, count) = rows("qs", qs, self.inner.nq())?;
+        let (q, count) = crate::convert::rows("qs", qs, self.inner.nq())?;
         let q = q.slice();
         let chain: &Chain = &self.inner;
-        let np = chain.n_params();
-        let (poses, jac) = py
-            .allow_threads(|| {
-                let mut poses = vec![0.0; 16 * count];
-                let mut jac = if jacobian { vec![0.0; 6 * np * count] } else { Vec::new() };
-                chain.evaluate_batch(&x, q, &mut poses, jacobian.then_some(jac.as_mut_slice())).map(|_| (poses, jac))
-            })
-            .py()?;
-        let jac = if jacobian { Some(out(py, &jac, [count, 6, np])?) } else { None };
-        Ok((out(py, &poses, [count, 4, 4])?, jac))
+        let rows = usize::try_from(rows)
+            .ok()
+            .filter(|r| (1..=6).contains(r))
+            .ok_or_else(|| invalid("rows", "1 to 6 (3: the tool origin's; 6: with the rotation)", rows.to_string()))?;
+        let columns = match columns {
+            None => None,
+            Some(c) => Some(c.iter().enumerate().map(|(k, &v)| size(&format!("columns[{k}]"), v)).collect::<PyResult<Vec<_>>>()?),
+        };
+        let mut w = [1.0; 6];
+        if let Some(v) = weights {
+            let v = vector("weights", v)?;
+            crate::convert::check_len("weights", rows, v.len())?;
+            w[..rows].copy_from_slice(&v);
+        }
+        let poses = PyArray3::<f64>::zeros(py, [count, 4, 4], false);
+        let nc = columns.as_ref().map_or(chain.n_params(), Vec::len);
+        let jac = jacobian.then(|| PyArray3::<f64>::zeros(py, [count, rows, nc], false));
+        {
+            // fresh arrays: never borrowed elsewhere
+            let busy = |_| invalid("result arrays", "arrays of this call alone", "an array borrowed elsewhere");
+            let mut pw = poses.try_readwrite().map_err(busy)?;
+            let po = pw.as_slice_mut()?;
+            let mut jw = jac.as_ref().map(|j| j.try_readwrite()).transpose().map_err(busy)?;
+            let jo = jw.as_mut().map(|j| j.as_slice_mut()).transpose()?;
+            let sel = jo.map(|out| JacobianOut { out, rows, columns: columns.as_deref(), weights: w });
+            py.allow_threads(|| chain.evaluate_batch(&x, q, po, sel)).py()?;
+        }
+        Ok((poses, jac))
     }
     /// Pickle / copy: `CalibrationChain(axes, params, joints, fixed, n_params, nq, scales)`.
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {

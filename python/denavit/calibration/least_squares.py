@@ -45,25 +45,17 @@ def gram(A: np.ndarray) -> np.ndarray:
     return G
 
 
-#: Poses per call of the evaluator when Jacobians are asked for: its (poses, 6, P) output stays a few MB (memory
-#: the allocator reuses, instead of fresh pages at every evaluation) and only the columns asked for are kept.
-CHUNK = 4096
-
-
 def jacobian_rows(pz: Parametrization, x, q, w: np.ndarray, columns=None, whitening=None) -> tuple[np.ndarray, np.ndarray]:
     """(predicted poses (N, 4, 4), weighted Jacobian rows (3N or 6N, len(columns))) at x for the readings q (N, n):
     the identification Jacobian's position (and for poses rotation) rows times the weights ``w`` (and each point's
     position rows by its ``whitening`` (N, 3, 3) matrix, :attr:`Measurements.whitening`), of the parameters
-    ``columns`` (indices; default all), evaluated :data:`CHUNK` poses at a time."""
+    ``columns`` (indices; default all). The core writes these weighted rows and columns alone, straight into the
+    result."""
     k = 6 if pz.measure == "pose" else 3
-    q = np.atleast_2d(np.asarray(q, dtype=float))
     cols = np.arange(pz.n_params) if columns is None else np.asarray(columns, dtype=int)
-    poses, J = np.empty((len(q), 4, 4)), np.empty((len(q), k, len(cols)))
-    for a in range(0, len(q), CHUNK):
-        poses[a : a + CHUNK], jac = pz.evaluate(x, q[a : a + CHUNK], True)
-        np.multiply(jac[:, :k][:, :, cols], w[:k, None], out=J[a : a + CHUNK])
-        if whitening is not None:
-            J[a : a + CHUNK, :3] = np.einsum("nij,njp->nip", whitening[a : a + CHUNK], J[a : a + CHUNK, :3])
+    poses, J = pz.evaluate(x, q, True, rows=k, columns=cols, weights=w[:k])
+    if whitening is not None:
+        J[:, :3] = np.einsum("nij,njp->nip", whitening, J[:, :3])
     return poses, J.reshape(-1, len(cols))
 
 

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import fnmatch
 import math
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,7 +31,60 @@ from .identifiability import analyze
 from .least_squares import fit_parameters
 from .measurements import Measurements
 
-#: The conventions a calibration chain is built in (the core's conventions but POE).
+
+class _Memo:
+    """The last evaluations of calibration chains (see :func:`remembered`): the poses of the last
+    :attr:`POSES` and the Jacobians of the last :attr:`JACOBIANS`, each keyed by its chain, x and the readings'
+    values. A Jacobian whose rows and weights match and whose columns include those asked for serves them."""
+
+    POSES, JACOBIANS = 4, 2
+
+    def __init__(self):
+        self.poses: list = []  # (chain, key, poses), newest first
+        self.jacobians: list = []  # (chain, key, rows, weights, columns, J)
+        self.built = 0  # Jacobian evaluations made by the core
+
+    def evaluate(self, chain, x, q, jacobian, rows, cols, w):
+        # the chain itself is kept in the entries, so no other chain can take its id while they live
+        key = (x.tobytes(), q.shape, hash(q.tobytes()))
+        wkey = None if w is None else w.tobytes()
+        poses = next((p for c, k, p in self.poses if c is chain and k == key), None)
+        J = None
+        if jacobian:
+            for c, k, jrows, jw, jcols, Jc in self.jacobians:
+                if c is chain and k == key and jrows == rows and jw == wkey and set(cols) <= set(jcols):
+                    at = {v: i for i, v in enumerate(jcols)}
+                    J = np.take(Jc, [at[v] for v in cols], axis=2)  # a copy
+                    break
+        if poses is None or (jacobian and J is None):
+            poses, J = chain.evaluate(x, q, jacobian, rows=rows, columns=cols, weights=w)
+            poses.flags.writeable = False
+            if J is not None:
+                self.built += 1
+                self.jacobians = [(chain, key, rows, wkey, cols, J.copy())] + self.jacobians[: self.JACOBIANS - 1]
+        self.poses = [(chain, key, poses)] + [e for e in self.poses if not (e[0] is chain and e[1] == key)][: self.POSES - 1]
+        return poses, J
+
+
+_MEMO: ContextVar[_Memo | None] = ContextVar("denavit_calibration_memo", default=None)
+
+
+@contextmanager
+def remembered():
+    """Within this context, :meth:`Parametrization.evaluate` serves an evaluation it has just made from memory
+    (a calibration asks again for what it has seen: the analysis' Jacobian at the start of the fit, the solver's
+    last residuals and Jacobian at the solution). The values are the same; the memory is freed on exit. Within
+    another such context, the outer memory serves."""
+    outer = _MEMO.get()
+    if outer is not None:
+        yield outer
+        return
+    memo = _Memo()
+    token = _MEMO.set(memo)
+    try:
+        yield memo
+    finally:
+        _MEMO.reset(token)
 
 
 def as_robot(nominal) -> Robot:
@@ -80,9 +135,20 @@ class Parametrization:
         except ValueError:
             raise DenavitError(f"unknown parameter {name!r}: expected one of {', '.join(self.names)}") from None
 
-    def evaluate(self, x, q, jacobian: bool = True):
-        """Tool poses (N, 4, 4) and identification Jacobians (N, 6, P) (rows [v; w], world) at x for q (N, n)."""
-        return self.chain.evaluate(np.asarray(x, dtype=float), np.atleast_2d(np.asarray(q, dtype=float)), jacobian)
+    def evaluate(self, x, q, jacobian: bool = True, *, rows: int = 6, columns=None, weights=None):
+        """Tool poses (N, 4, 4) and identification Jacobians (N, rows, P) (rows [v; w], world) at x for q (N, n);
+        of the parameters ``columns`` (indices; default all) only, each row times its ``weights`` entry if given
+        (``CalibrationChain.evaluate``: only that part is computed and written). Within :func:`remembered`, an
+        evaluation seen before is served from memory. The poses may be read-only; the Jacobian is the caller's
+        own array (a solver may write into it)."""
+        x = np.asarray(x, dtype=float)
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        cols = list(range(self.n_params)) if columns is None else [int(c) for c in columns]
+        w = None if weights is None else np.asarray(weights, dtype=float)
+        memo = _MEMO.get()
+        if memo is None:
+            return self.chain.evaluate(x, q, jacobian, rows=rows, columns=cols, weights=w)
+        return memo.evaluate(self.chain, x, q, jacobian, rows, cols, w)
 
     def _product(self, x, lo: int, hi: int) -> np.ndarray:
         T = np.eye(4)

@@ -24,6 +24,7 @@ from .parametrization import (
     as_robot,
     configurations,
     parametrize,
+    remembered,
     resolve_fix,
 )
 
@@ -226,6 +227,7 @@ def _table_residuals(res: np.ndarray, measure: str) -> np.ndarray:
     return res.reshape(-1, 6 if measure == "pose" else 3)
 
 
+@remembered()
 def calibrate(
     meas: Measurements | SweepSet,
     nominal,
