@@ -76,7 +76,7 @@ def table_time(kr5, repeats):
 
 def table_scale(kr5, repeats):
     print("\n1b. Scale of calibrate and of plan --select (KR5, ED-H, points; median over repeats; run with OPENBLAS_NUM_THREADS=1 on a loaded machine)")
-    print(f"{'case':<34} {'wall [s]':>9} {'cpu [s]':>9} {'growth (cpu)':>13}")
+    print(f"{'case':<34} {'wall [s]':>9} {'cpu [s]':>9} {'growth (cpu)':>13} {'over a decade':>14}")
 
     def cpu_time(f):
         w, c = [], []
@@ -87,15 +87,17 @@ def table_scale(kr5, repeats):
             c.append(time.process_time() - c0)
         return float(np.median(w)), float(np.median(c))
 
-    prev = None
+    prev, seen = None, {}
     for n in (1_000, 5_000, 10_000, 50_000):
         q = cal.configurations(kr5, n, skip=17)
         meas = cal.simulate(kr5, q, tool=TOOL, noise=NOISE)
         cal.calibrate(meas, kr5, tool=TOOL)
         w, c = cpu_time(lambda meas=meas: cal.calibrate(meas, kr5, tool=TOOL))
         growth = f"{np.log(c / prev[1]) / np.log(n / prev[0]):13.2f}" if prev else f"{'':>13}"
-        print(f"{f'calibrate, {n} poses':<34} {w:9.3f} {c:9.3f} {growth}", flush=True)
-        prev = (n, c)
+        # the exponent from the size ten times smaller (the issue's "growth per decade")
+        decade = f"{np.log10(c / seen[n // 10]):14.2f}" if n // 10 in seen else f"{'':>14}"
+        print(f"{f'calibrate, {n} poses':<34} {w:9.3f} {c:9.3f} {growth} {decade}", flush=True)
+        prev, seen[n] = (n, c), c
     for n in (10_000, 100_000):
         q = cal.configurations(kr5, n)
         w, c = cpu_time(lambda q=q: cal.plan(kr5, q=q, select=50, noise=NOISE, tool=TOOL))

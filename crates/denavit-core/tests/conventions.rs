@@ -300,3 +300,25 @@ fn edh_x_of_a_near_parallel_pair_follows_the_nominal() {
     let diff = (&ex.table.params - &nominal.params).amax();
     assert!(diff < 1e-9, "{}\nvs\n{}", ex.table.params, nominal.params);
 }
+
+#[test]
+fn edh_against_a_nominal_reports_the_tool_error_of_the_dropped_tilt() {
+    // KR5 with joint 3 tilted by 2e-4 rad (below the 1e-3 parallel tolerance): identify's ED-H (the nominal's
+    // frames and on-body origins) drops the tilt; the reported tool error is the one measured against the
+    // tilted robot itself over the report's configurations (it had been the error at q_ref alone, 20x less)
+    let t = kr5_dh();
+    let m = t.to_model("kr5").unwrap();
+    let nominal = extract(&axes(&m, &[0.0; 6]).unwrap(), Convention::Edh, &ExtractOptions::default()).unwrap().table;
+    let mut joints = m.joints().to_vec();
+    joints[2].placement *= ry(2e-4);
+    let tilted = Model::new("kr5-tilted", *m.t_world_base(), joints, *m.t_last_flange(), *m.t_flange_tool()).unwrap();
+    let ax = axes(&tilted, &[0.0; 6]).unwrap();
+    let origins = (0..6).map(|k| nominal.frames(&[0.0; 6]).unwrap()[k + 1].translation.vector).collect();
+    let ex = extract(&ax, Convention::Edh, &ExtractOptions { nominal: Some(nominal), origins: Some(origins), ..Default::default() }).unwrap();
+    let back = ex.table.to_model("back").unwrap();
+    let mut samples = sample_configurations(&ax.lower, &ax.upper, FIDELITY_SAMPLES);
+    samples.push(ax.q_ref.clone());
+    let measured = samples.iter().map(|q| pose_error(&tool_pose(&tilted, q).unwrap(), &tool_pose(&back, q).unwrap()).0).fold(0.0, f64::max);
+    assert!(measured > 1e-5, "the dropped tilt moves the tool by {measured:e} m");
+    assert!((measured - ex.max_position_error).abs() < 1e-12, "measured {measured:e}, reported {:e}", ex.max_position_error);
+}
