@@ -198,6 +198,13 @@ def cases(d: Path, readonly: Path | None):
         ("fk: --angle grad without --q (it had printed its tables, exit 0)", ["fk", "kr5", "--angle", "grad"], "unknown angle unit 'grad': expected one of rad, deg"),
         ("identify: --loss foo (it had run as another loss)", ["identify", d / "s.csv", "--loss", "foo"], "identify: loss must be one of linear, soft_l1, huber, got 'foo'"),
         ("identify: --max-sigma -1", ["identify", d / "s.csv", "--max-sigma", "-1"], "--max-sigma: expected the required axis-position sigma, a finite value > 0 in mm, got -1.0"),
+        # options that had been ignored without a word
+        ("identify: --save-convention without --save", ["identify", d / "s.csv", "--save-convention", "dh"], "--save-convention dh: it sets the table --save writes; give --save FILE too"),
+        ("identify: --save-convention foo", ["identify", d / "s.csv", "--save", d / "never.toml", "--save-convention", "foo"], "foo"),
+        ("identify: --home with a sweep CSV", ["identify", d / "s.csv", "--home", "0,0,0,0,0,0"], "--home 0,0,0,0,0,0: "),
+        ("identify: --direction with a sweep CSV", ["identify", d / "s.csv", "--direction", "-1"], "--direction -1: "),
+        ("show: --compare without --report or --plot", ["show", "kr5", "--compare", "mdh"], "--compare mdh: it sets what --report or --plot draws"),
+        ("convert: --parallel-tol 2 (a sine above 1: every pair parallel)", ["convert", "kr5", "--to", "dh", "--parallel-tol", "2"], "--parallel-tol 2.0: expected the sine of an angle"),
     ]
     if readonly is not None:
         out += [("convert: output in a read-only directory", ["convert", "kr5", "--to", "mdh", "-o", readonly / "x.toml"], "x.toml: cannot write"),

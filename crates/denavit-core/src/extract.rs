@@ -182,6 +182,10 @@ pub fn extract(ax: &JointAxes, convention: Convention, opt: &ExtractOptions) -> 
             return Err(Error::InvalidArgument { what: what.into(), expected: "a value >= 0".into(), got: v.to_string() });
         }
     }
+    if opt.parallel_tol >= 1.0 {
+        // |z_i x z_i+1| is at most 1: every pair would be "parallel"
+        return Err(Error::InvalidArgument { what: "parallel_tol".into(), expected: "the sine of an angle, below 1".into(), got: opt.parallel_tol.to_string() });
+    }
     if let Some(nom) = &opt.nominal {
         check_len("joints of the nominal table", n, nom.nq())?;
         if nom.convention != convention {

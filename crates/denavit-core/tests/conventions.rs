@@ -322,3 +322,14 @@ fn edh_against_a_nominal_reports_the_tool_error_of_the_dropped_tilt() {
     assert!(measured > 1e-5, "the dropped tilt moves the tool by {measured:e} m");
     assert!((measured - ex.max_position_error).abs() < 1e-12, "measured {measured:e}, reported {:e}", ex.max_position_error);
 }
+
+#[test]
+fn a_parallel_tolerance_of_one_or_more_is_refused() {
+    // |z_i x z_i+1| <= 1: a tolerance of 1 or more would call every pair parallel
+    let ax = axes(&kr5_dh().to_model("kr5").unwrap(), &[0.0; 6]).unwrap();
+    for tol in [1.0, 2.0, f64::INFINITY] {
+        let e = extract(&ax, Convention::Dh, &ExtractOptions { parallel_tol: tol, ..Default::default() }).unwrap_err();
+        assert!(e.to_string().contains("the sine of an angle, below 1"), "{e}");
+    }
+    assert!(extract(&ax, Convention::Dh, &ExtractOptions { parallel_tol: 0.999, ..Default::default() }).is_ok());
+}

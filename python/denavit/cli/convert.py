@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 from pathlib import Path
 from typing import Annotated
 
@@ -61,6 +62,8 @@ def convert(
 
     json_out = json_target(json_out)
     to = to.lower()
+    if not (math.isfinite(parallel_tol) and 0.0 <= parallel_tol < 1.0):
+        fail(f"--parallel-tol {parallel_tol}: expected the sine of an angle, 0 <= value < 1 (default 1e-3, about 0.057 deg)")
     robot = load_robot(model, base_link, tip_link, chain_only=chain_only)
     m = robot.model()
     if to == "urdf":

@@ -93,6 +93,10 @@ def identify(
     if data is None:
         fail("give the sweep data (a file or folder) or --example kr5")
     convention = convention_name(convention)
+    if save_convention is not None:
+        if not save_model:
+            fail(f"--save-convention {save_convention}: it sets the table --save writes; give --save FILE too")
+        convention_name(save_convention)
     nom = load_robot(nominal, base_link, tip_link, "--nominal") if nominal else None
     kinds = list(nom.table.kinds) if nom else None
     with status("reading sweeps..."):
@@ -107,10 +111,14 @@ def identify(
                                            direction=dirs if len(dirs) > 1 else dirs[0], kinds=kinds)
             if nom is not None and len(sweeps.home) == len(nom.names):
                 warn_limits(sweeps.home, nom, "--home", out_len, out_ang)
-        elif data.suffix.lower() == ".json":
-            sweeps = swio.read_json(data, length=length, angle=angle)
-        else:  # units the file declares win; --length/--angle fill in what it does not declare (and are the output's)
-            sweeps = swio.read_long_csv(data, length=length, angle=angle, kinds=kinds)
+        else:
+            for given, flag in ((home, "--home"), (direction, "--direction")):
+                if given is not None:
+                    fail(f"{flag} {given}: {data} is a sweep file with its joint readings (and its home); {flag} applies to a folder of per-joint files or a recording")
+            if data.suffix.lower() == ".json":
+                sweeps = swio.read_json(data, length=length, angle=angle)
+            else:  # units the file declares win; --length/--angle fill in what it does not declare (and are the output's)
+                sweeps = swio.read_long_csv(data, length=length, angle=angle, kinds=kinds)
         if target is not None and not (data_format not in ("auto", "sweeps") or readings is not None or (data_format == "auto" and not is_sweep_file(input_path(data)))):
             if not 1 <= target <= sweeps.n_targets:
                 fail(f"--target {target}: {data} has {sweeps.n_targets} target(s) per pose: expected 1..{sweeps.n_targets}")

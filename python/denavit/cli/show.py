@@ -19,6 +19,7 @@ from .common import (
     commands,
     console,
     emit_json,
+    fail,
     json_target,
     load_robot,
     parse_joint_values,
@@ -76,6 +77,9 @@ def show(
 ) -> None:
     """Print a robot file's table as read (with units); optionally draw its frames beside another convention's."""
     json_out = json_target(json_out)
+    for given, flag in ((compare, "--compare"), (q, "--q")):
+        if given is not None and not (report or plot):
+            fail(f"{flag} {given}: it sets what --report or --plot draws; give one of them too")
     robot = load_robot(model, base_link, tip_link)
     qv = parse_joint_values(q, "--q", robot, length, angle) if q else None
     if json_out:
