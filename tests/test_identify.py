@@ -58,6 +58,19 @@ def test_every_convention_from_sweeps_matches_the_truth(kr5, rng):
             np.testing.assert_allclose(dv.fk(m, q)[:3, 3], p_true, atol=1e-9, err_msg=conv)
 
 
+def test_a_result_without_a_nominal_gives_every_convention(kr5, rng):
+    """A DH result asked for its ED-H, MDH and POE tables without a nominal (identify --save and --urdf ask for ED-H):
+    each exact where its convention can be, and within the DH table's reported error otherwise (a refusal of the
+    tolerance it passed had broken `denavit identify DATA`)."""
+    s = simulate(kr5, 30, points_per_sweep=20, tool_point=(0.04, -0.02, 0.12))
+    r = dv.identify(s, convention="dh")
+    truth = dv.identify(s, convention="poe").model()
+    for conv in ("edh", "mdh", "poe"):
+        m = r.model(convention=conv)
+        err = max(np.linalg.norm(dv.fk(m, q)[:3, 3] - dv.fk(truth, q)[:3, 3]) for q in rng.uniform(-2, 2, (20, 6)))
+        assert err < (1e-9 if conv != "mdh" else 1e-9 + r.extraction.max_position_error * 2), (conv, err)
+
+
 @pytest.mark.parametrize(("name", "canonical"), [("craig", "mdh"), ("MDH", "mdh"), ("DH", "dh"), ("modified-dh", "mdh"), ("ED-H", "edh"), ("POE", "poe")])
 def test_convention_aliases_are_the_cores(kr5, name, canonical):
     """Regression: identify(..., convention="craig") and "MDH" failed ("unknown convention") although

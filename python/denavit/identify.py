@@ -110,7 +110,7 @@ class Identification:
     def _extract_options(self, convention: str) -> dict:
         """The extraction options of a table in another convention than the result's (:meth:`_extraction`)."""
         nominal = _nominal_table(self.nominal, convention, self.sweeps.home)
-        tol = _edh_parallel_tol(self.fits, self.nominal, self.sweeps.home, math.inf) if convention == "edh" else 1e-3
+        tol = _edh_parallel_tol(self.fits, self.nominal, self.sweeps.home, PARALLEL_TOL) if convention == "edh" else PARALLEL_TOL
         return {"nominal": nominal, "origins": _origins(nominal, convention, self.sweeps.home), "parallel_tol": tol}
 
     def parameter_covariance(self, convention: str | None = None) -> np.ndarray:
@@ -694,6 +694,10 @@ def _origins(nominal_table: _core.Table | None, convention: str, home: np.ndarra
     return np.array(nominal_table.frames(home))[1:, :3, 3]
 
 
+#: Axes with sin(angle) below this are parallel (identify's default ``parallel_tol``; also the bound of the ED-H
+#: tolerance below when a table in another convention is asked of a result).
+PARALLEL_TOL = 1e-3
+
 #: ED-H with a nominal: a pair of axes the nominal has parallel takes the nominal's x when its tilt is within this
 #: many of its combined direction sigmas (the common normal of a pair parallel within its noise follows the noise).
 EDH_PARALLEL_SIGMAS = 3.0
@@ -766,7 +770,7 @@ def identify(
     nominal: Robot | None = None,
     T_world_base=None,
     loss: str = "soft_l1",
-    parallel_tol: float = 1e-3,
+    parallel_tol: float = PARALLEL_TOL,
     intersect_tol: float | None = None,
     max_sigma: float | None = None,
     keep_dwell: bool = False,

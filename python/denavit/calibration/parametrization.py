@@ -37,7 +37,7 @@ class _Memo:
     :attr:`POSES` and the Jacobians of the last :attr:`JACOBIANS`, each keyed by its chain, x and the readings'
     values. A Jacobian whose rows and weights match and whose columns include those asked for serves them."""
 
-    POSES, JACOBIANS = 4, 2
+    POSES, JACOBIANS = 4, 1
 
     def __init__(self):
         self.poses: list = []  # (chain, key, poses), newest first
@@ -73,7 +73,7 @@ _MEMO: ContextVar[_Memo | None] = ContextVar("denavit_calibration_memo", default
 def remembered():
     """Within this context, :meth:`Parametrization.evaluate` serves an evaluation it has just made from memory
     (a calibration asks again for what it has seen: the analysis' Jacobian at the start of the fit, the solver's
-    last residuals and Jacobian at the solution). The values are the same; the memory is freed on exit. Within
+    last residuals and Jacobian at the solution: the last Jacobian is all it keeps). The values are the same; the memory is freed on exit. Within
     another such context, the outer memory serves."""
     outer = _MEMO.get()
     if outer is not None:
