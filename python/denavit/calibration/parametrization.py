@@ -35,7 +35,7 @@ from .measurements import Measurements
 class _Memo:
     """The last evaluations of calibration chains (see :func:`remembered`): the poses of the last
     :attr:`POSES` and the Jacobians of the last :attr:`JACOBIANS`, each keyed by its chain, x and the readings'
-    values. A Jacobian whose rows and weights match and whose columns include those asked for serves them."""
+    values (compared whole). A Jacobian whose rows and weights match and whose columns include those asked for serves them."""
 
     POSES, JACOBIANS = 4, 1
 
@@ -43,10 +43,19 @@ class _Memo:
         self.poses: list = []  # (chain, key, poses), newest first
         self.jacobians: list = []  # (chain, key, rows, weights, columns, J)
         self.built = 0  # Jacobian evaluations made by the core
+        self.readings: list = []  # ((shape, hash), a copy) of each set of readings seen: keys compare them whole
+
+    def _readings(self, q) -> int:
+        h = (q.shape, hash(q.tobytes()))
+        for i, (hq, kept) in enumerate(self.readings):
+            if hq == h and np.array_equal(kept, q):
+                return i
+        self.readings.append((h, q.copy()))
+        return len(self.readings) - 1
 
     def evaluate(self, chain, x, q, jacobian, rows, cols, w):
         # the chain itself is kept in the entries, so no other chain can take its id while they live
-        key = (x.tobytes(), q.shape, hash(q.tobytes()))
+        key = (x.tobytes(), self._readings(q))
         wkey = None if w is None else w.tobytes()
         poses = next((p for c, k, p in self.poses if c is chain and k == key), None)
         J = None
@@ -73,8 +82,8 @@ _MEMO: ContextVar[_Memo | None] = ContextVar("denavit_calibration_memo", default
 def remembered():
     """Within this context, :meth:`Parametrization.evaluate` serves an evaluation it has just made from memory
     (a calibration asks again for what it has seen: the analysis' Jacobian at the start of the fit, the solver's
-    last residuals and Jacobian at the solution: the last Jacobian is all it keeps). The values are the same; the memory is freed on exit. Within
-    another such context, the outer memory serves."""
+    last residuals and Jacobian at the solution; it keeps the last Jacobian only). The values are the same; the
+    memory is freed on exit. Within another such context, the outer memory serves."""
     outer = _MEMO.get()
     if outer is not None:
         yield outer
