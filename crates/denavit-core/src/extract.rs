@@ -184,7 +184,11 @@ pub fn extract(ax: &JointAxes, convention: Convention, opt: &ExtractOptions) -> 
     }
     if opt.parallel_tol >= 1.0 {
         // |z_i x z_i+1| is at most 1: every pair would be "parallel"
-        return Err(Error::InvalidArgument { what: "parallel_tol".into(), expected: "the sine of an angle, below 1".into(), got: opt.parallel_tol.to_string() });
+        return Err(Error::InvalidArgument {
+            what: "parallel_tol".into(),
+            expected: "the sine of an angle, below 1".into(),
+            got: opt.parallel_tol.to_string(),
+        });
     }
     if let Some(nom) = &opt.nominal {
         check_len("joints of the nominal table", n, nom.nq())?;
