@@ -277,25 +277,36 @@ fn link_frames_place_the_convention_frames_in_the_joint_frames() {
     }
 }
 
+/// The KR5's ED-H table (the nominal), the KR5 with joint 3's placement turned by `ry(tilt)`, and that robot's
+/// axes at q = 0.
+fn kr5_joint_3_tilted(tilt: f64) -> (denavit_core::Table, Model, denavit_core::JointAxes) {
+    let m = kr5_dh().to_model("kr5").unwrap();
+    let nominal = extract(&axes(&m, &[0.0; 6]).unwrap(), Convention::Edh, &ExtractOptions::default()).unwrap().table;
+    let mut joints = m.joints().to_vec();
+    joints[2].placement *= ry(tilt);
+    let tilted = Model::new("kr5-tilted", *m.t_world_base(), joints, *m.t_last_flange(), *m.t_flange_tool()).unwrap();
+    let ax = axes(&tilted, &[0.0; 6]).unwrap();
+    (nominal, tilted, ax)
+}
+
+/// The ED-H frame origins of a table at q = 0 (identify's on-body origins).
+fn on_body_origins(t: &denavit_core::Table) -> Vec<Vector3<f64>> {
+    (0..t.nq()).map(|k| t.frames(&vec![0.0; t.nq()]).unwrap()[k + 1].translation.vector).collect()
+}
+
 #[test]
 fn edh_x_of_a_near_parallel_pair_follows_the_nominal() {
     // KR5 axes 2-3 parallel; joint 3 tilted by 1e-10 rad (the round-off of measured data written to 10 digits):
     // the common normal of the pair points anywhere (theta_2 = 45.6 deg was seen); against the nominal with its
     // on-body origins (identify's ED-H) the pair's x is the nominal's, and every parameter is the nominal's to the
     // size of the tilt.
-    let t = kr5_dh();
-    let m = t.to_model("kr5").unwrap();
-    let nominal = extract(&axes(&m, &[0.0; 6]).unwrap(), Convention::Edh, &ExtractOptions::default()).unwrap().table;
-    let mut joints = m.joints().to_vec();
-    joints[2].placement *= ry(1e-10);
-    let tilted = Model::new("kr5-tilted", *m.t_world_base(), joints, *m.t_last_flange(), *m.t_flange_tool()).unwrap();
-    let ax = axes(&tilted, &[0.0; 6]).unwrap();
+    let (nominal, _, ax) = kr5_joint_3_tilted(1e-10);
     let plain = extract(&ax, Convention::Edh, &ExtractOptions::default()).unwrap();
     assert!((&plain.table.params - &nominal.params).amax() > 0.1, "{}", plain.table.params);
     // without origins (a conversion, a calibrated table) ED-H stays exact: the common normal
     let exact = extract(&ax, Convention::Edh, &ExtractOptions { nominal: Some(nominal.clone()), ..Default::default() }).unwrap();
     assert!((&exact.table.params - &nominal.params).amax() > 0.1, "{}", exact.table.params);
-    let origins = (0..6).map(|k| nominal.frames(&[0.0; 6]).unwrap()[k + 1].translation.vector).collect();
+    let origins = on_body_origins(&nominal);
     let ex = extract(&ax, Convention::Edh, &ExtractOptions { nominal: Some(nominal.clone()), origins: Some(origins), ..Default::default() }).unwrap();
     let diff = (&ex.table.params - &nominal.params).amax();
     assert!(diff < 1e-9, "{}\nvs\n{}", ex.table.params, nominal.params);
@@ -306,14 +317,8 @@ fn edh_against_a_nominal_reports_the_tool_error_of_the_dropped_tilt() {
     // KR5 with joint 3 tilted by 2e-4 rad (below the 1e-3 parallel tolerance): identify's ED-H (the nominal's
     // frames and on-body origins) drops the tilt; the reported tool error is the one measured against the
     // tilted robot itself over the report's configurations (it had been the error at q_ref alone, 20x less)
-    let t = kr5_dh();
-    let m = t.to_model("kr5").unwrap();
-    let nominal = extract(&axes(&m, &[0.0; 6]).unwrap(), Convention::Edh, &ExtractOptions::default()).unwrap().table;
-    let mut joints = m.joints().to_vec();
-    joints[2].placement *= ry(2e-4);
-    let tilted = Model::new("kr5-tilted", *m.t_world_base(), joints, *m.t_last_flange(), *m.t_flange_tool()).unwrap();
-    let ax = axes(&tilted, &[0.0; 6]).unwrap();
-    let origins = (0..6).map(|k| nominal.frames(&[0.0; 6]).unwrap()[k + 1].translation.vector).collect();
+    let (nominal, tilted, ax) = kr5_joint_3_tilted(2e-4);
+    let origins = on_body_origins(&nominal);
     let ex = extract(&ax, Convention::Edh, &ExtractOptions { nominal: Some(nominal), origins: Some(origins), ..Default::default() }).unwrap();
     let back = ex.table.to_model("back").unwrap();
     let mut samples = sample_configurations(&ax.lower, &ax.upper, FIDELITY_SAMPLES);
