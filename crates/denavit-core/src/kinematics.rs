@@ -574,6 +574,37 @@ fn write_jacobians<const N: usize>(jac: &[V], out: &mut [f64]) {
     }
 }
 
+/// [`write_jacobians`] with streaming stores ([`crate::stream`]): two configurations at a time, each
+/// configuration's 6n values (an even count) stored in order as pairs, from 2x2 transposes in 128-bit
+/// registers.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn write_jacobians_streamed<const N: usize>(jac: &[V], out: &mut [f64]) {
+    use safe_arch::{load_unaligned_m128d as load, unpack_high_m128d as hi, unpack_low_m128d as lo};
+    let (per, jac) = (6 * N, &jac[..6 * N]);
+    let done = 2 * (out.len() / (2 * per));
+    let mut pairs = out.chunks_exact_mut(2 * per);
+    for (g, o) in (&mut pairs).enumerate() {
+        let l0 = 2 * g;
+        let load2 = |i: usize| jac[i][l0..].first_chunk::<2>().map_or(safe_arch::zeroed_m128d(), load);
+        let (first, second) = o.split_at_mut(per);
+        for (i, (d0, d1)) in first.chunks_exact_mut(2).zip(second.chunks_exact_mut(2)).enumerate() {
+            let (a, b) = (load2(2 * i), load2(2 * i + 1));
+            if let Some(d) = d0.first_chunk_mut::<2>() {
+                crate::stream::pair(d, lo(a, b));
+            }
+            if let Some(d) = d1.first_chunk_mut::<2>() {
+                crate::stream::pair(d, hi(a, b));
+            }
+        }
+    }
+    for (l, o) in pairs.into_remainder().chunks_exact_mut(per).enumerate() {
+        for (i, v) in o.iter_mut().enumerate() {
+            *v = jac[i][done + l];
+        }
+    }
+}
+
 /// The groups of four configurations of [`write_jacobians`]; returns the number of configurations written.
 #[cfg(all(any(target_arch = "x86", target_arch = "x86_64"), target_feature = "avx"))]
 #[inline(always)]
@@ -711,12 +742,14 @@ struct Block {
     sn: Vec<V>,
     cs: Vec<V>,
     stage: Vec<f64>,
+    /// Whether the block's results go out with streaming stores ([`crate::stream::wanted`] of the batch's output).
+    stream: bool,
 }
 
 impl Block {
-    fn new(n: usize, per_row: usize) -> Box<Self> {
+    fn new(n: usize, per_row: usize, stream: bool) -> Box<Self> {
         let v = || vec![[0.0; BLOCK]; n.max(1)];
-        Box::new(Self { c: [[[0.0; BLOCK]; 3]; 4], s: v(), sn: v(), cs: v(), stage: vec![0.0; per_row * BLOCK] })
+        Box::new(Self { c: [[[0.0; BLOCK]; 3]; 4], s: v(), sn: v(), cs: v(), stage: vec![0.0; per_row * BLOCK], stream })
     }
 }
 
@@ -831,6 +864,49 @@ fn write_block(c: &Frames, out: &mut [f64]) {
     }
 }
 
+/// [`write_block`] with streaming stores ([`crate::stream`]), two configurations at a time by 2x2
+/// transposes in 128-bit registers (no lane-crossing shuffles), each configuration's 16 values stored in
+/// order so that its cache lines fill whole in the write-combining buffers.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn write_block_streamed(c: &Frames, out: &mut [f64]) {
+    use safe_arch::{load_unaligned_m128d as load, m128d, set_m128d as set, unpack_high_m128d as hi, unpack_low_m128d as lo};
+    let base = 2 * (out.len() / 32);
+    let mut pairs = out.chunks_exact_mut(32);
+    for (g, o) in (&mut pairs).enumerate() {
+        let l0 = 2 * g;
+        let load2 = |j: usize, r: usize| c[j][r][l0..].first_chunk::<2>().map_or(safe_arch::zeroed_m128d(), load);
+        // rows[i][r]: row r of configuration l0 + i as two halves, then the bottom row
+        let mut rows = [[(safe_arch::zeroed_m128d(), safe_arch::zeroed_m128d()); 4]; 2];
+        for r in 0..3 {
+            let (x, y, z, p) = (load2(0, r), load2(1, r), load2(2, r), load2(3, r));
+            rows[0][r] = (lo(x, y), lo(z, p));
+            rows[1][r] = (hi(x, y), hi(z, p));
+        }
+        let bottom: (m128d, m128d) = (safe_arch::zeroed_m128d(), set(1.0, 0.0));
+        for (i, rows) in rows.iter_mut().enumerate() {
+            rows[3] = bottom;
+            for (r, (a, b)) in rows.iter().enumerate() {
+                let at = 16 * i + 4 * r;
+                if let Some(d) = o[at..].first_chunk_mut::<2>() {
+                    crate::stream::pair(d, *a);
+                }
+                if let Some(d) = o[at + 2..].first_chunk_mut::<2>() {
+                    crate::stream::pair(d, *b);
+                }
+            }
+        }
+    }
+    for (i, o) in pairs.into_remainder().chunks_exact_mut(16).enumerate() {
+        for r in 0..3 {
+            for j in 0..4 {
+                o[4 * r + j] = c[j][r][base + i];
+            }
+        }
+        o[12..].copy_from_slice(&[0.0, 0.0, 0.0, 1.0]);
+    }
+}
+
 /// Tool poses of the rows of one chunk (`q`: rows x n, `out`: rows x 16), a block at a time, the last
 /// block padded.
 #[inline(never)]
@@ -871,8 +947,13 @@ fn tool_pose_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], w: &
         if tool.rot != ROT_IDENTITY || tool.origin != 0 {
             step_factor(&mut w.c, tool, MOTION_NONE, &w.sn[0], &w.sn[0], &w.cs[0]);
         }
-        // straight into the caller's array: whole 4-value rows, in order (a copy through an L1 stage
-        // cost a fifth of the time)
+        // straight into the caller's array: whole rows, in order (a copy through an L1 stage cost a fifth
+        // of the time)
+        #[cfg(target_arch = "x86_64")]
+        if w.stream {
+            write_block_streamed(&w.c, ob);
+            continue;
+        }
         write_block(&w.c, ob);
     }
     true
@@ -911,10 +992,11 @@ pub fn tool_pose_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<()>
         return Ok(());
     }
     let chain = Chain::of(model);
+    let stream = crate::stream::wanted(out);
     crate::parallel::try_for_each_chunk_init(
         out,
         16 * CHUNK,
-        || Block::new(n, 0),
+        || Block::new(n, 0, stream),
         |w, k, o| {
             let q = &qs[k * CHUNK * n..(k * CHUNK + o.len() / 16) * n];
             let finite = match n {
@@ -922,6 +1004,9 @@ pub fn tool_pose_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<()>
                 7 => tool_pose_chunk::<7>(model, &chain, q, w, o),
                 _ => tool_pose_chunk::<0>(model, &chain, q, w, o),
             };
+            if stream {
+                crate::stream::fence();
+            }
             if finite { Ok(()) } else { Err(non_finite(qs)) }
         },
     )
@@ -984,6 +1069,11 @@ fn jacobian_chunk<const N: usize>(
                 by_frame!(0b101)
             } else {
                 by_frame!(0b111)
+            }
+            #[cfg(target_arch = "x86_64")]
+            if b.stream {
+                write_jacobians_streamed::<N>(jac, ob);
+                continue;
             }
             write_jacobians::<N>(jac, ob);
             continue;
@@ -1057,10 +1147,11 @@ pub fn jacobian_batch(model: &Model, qs: &[f64], frame: JacobianFrame, joint: Op
     check_len("q batch (N*n values)", count * n, qs.len())?;
     check_len("output (N*6n values)", count * 6 * n, out.len())?;
     let chain = Chain::of(model);
+    let stream = crate::stream::wanted(out);
     crate::parallel::try_for_each_chunk_init(
         out,
         6 * n * CHUNK,
-        || JacobianWork { block: Block::new(n, 6 * n), oz: vec![[[0.0; BLOCK]; 6]; n], jac: vec![[0.0; BLOCK]; 6 * n] },
+        || JacobianWork { block: Block::new(n, 6 * n, stream), oz: vec![[[0.0; BLOCK]; 6]; n], jac: vec![[0.0; BLOCK]; 6 * n] },
         |w, k, o| {
             let q = &qs[k * CHUNK * n..(k * CHUNK + o.len() / (6 * n)) * n];
             let finite = match n {
@@ -1068,6 +1159,9 @@ pub fn jacobian_batch(model: &Model, qs: &[f64], frame: JacobianFrame, joint: Op
                 7 => jacobian_chunk::<7>(model, &chain, q, frame, joint, w, o),
                 _ => jacobian_chunk::<0>(model, &chain, q, frame, joint, w, o),
             };
+            if stream {
+                crate::stream::fence();
+            }
             if finite { Ok(()) } else { Err(non_finite(qs)) }
         },
     )
@@ -1080,6 +1174,44 @@ mod tests {
     /// components), the identity tool skipped, and the joint-by-joint kernel of a chain with a prismatic
     /// joint: every row of a batch (three blocks and a padded one) equal to the single-configuration path
     /// (`==`: up to the sign of zeros), including a row beyond the fast sine's range.
+    /// Outputs from the streaming threshold on are written with streaming stores (an aligned output) and
+    /// equal, bit for bit, the plain stores' values (the same output one value off the alignment).
+    #[test]
+    fn streamed_outputs_equal_plain_ones() {
+        use crate::spatial::Pose;
+        use crate::{Convention, JointKind, Table};
+        const H: f64 = std::f64::consts::FRAC_PI_2;
+        // the KR5 of Hayat et al. (d, theta, a, alpha), and a 7th joint repeating the last row
+        let kr5 = [0.4, 0.0, 0.18, -H, 0.0, 0.0, 0.6, 0.0, 0.0, 0.0, 0.12, -H, 0.62, 0.0, 0.0, H, 0.0, 0.0, 0.0, -H, 0.115, 0.0, 0.0, 0.0];
+        for n in [6, 7] {
+            let p: Vec<f64> = (0..4 * n).map(|k| kr5[k.min(4 * 6 - 1 - (3 - k % 4))]).collect();
+            let table = nalgebra::DMatrix::from_row_slice(n, 4, &p);
+            let m = Table::new(Convention::Dh, table, vec![JointKind::Revolute; n], Pose::identity(), Pose::identity()).unwrap().to_model("m").unwrap();
+            // an odd count past the threshold: the last block partial, an unpaired last configuration
+            let count = crate::stream::threshold() / (16 * 8) + 2 * super::BLOCK + 7;
+            let qs: Vec<f64> = (0..count * n).map(|k| ((k as f64) * 0.618).sin() * 3.0).collect();
+            for per in [16, 6 * n] {
+                let buf = vec![0.0; per * count + 2];
+                let start = buf.as_ptr().align_offset(16);
+                let (mut streamed, mut plain) = (buf.clone(), buf);
+                let (streamed, plain) = (&mut streamed[start..start + per * count], &mut plain[start + 1..start + 1 + per * count]);
+                assert_eq!(crate::stream::wanted(streamed), cfg!(target_arch = "x86_64"));
+                assert!(!crate::stream::wanted(plain));
+                let run = |out: &mut [f64]| {
+                    if per == 16 {
+                        super::tool_pose_batch(&m, &qs, out)
+                    } else {
+                        super::jacobian_batch(&m, &qs, super::JacobianFrame::LocalWorldAligned, None, out)
+                    }
+                };
+                crate::parallel::with_threads(Some(2), || run(streamed)).unwrap().unwrap();
+                crate::parallel::with_threads(Some(1), || run(plain)).unwrap().unwrap();
+                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert!(bits(streamed) == bits(plain), "n = {n}, {per} values per configuration");
+            }
+        }
+    }
+
     #[test]
     fn batch_kernels_equal_the_single_path() {
         use crate::spatial::{Pose, rx, trans};
