@@ -189,6 +189,20 @@ def test_pinocchio_reads_the_same_frames(path, tmp_path):
 # round trips
 
 
+@pytest.mark.parametrize("name", ["kr5", "puma560"])
+def test_dh_table_to_urdf_and_back_keeps_its_signs(name, tmp_path):
+    """A published DH table (Hayat et al.'s KR5, Corke's Puma 560) written as URDF and read again, with no
+    nominal to break the ties, is the published table: where consecutive axes intersect, the common normal's
+    sign keeps the joint offset within +-90 degrees (before: the KR5 came back with alpha5 = +90, theta5 =
+    theta6 = 180, a valid but different table). The KR5 in its industrial URDF layout too."""
+    robot = dv.load_robot(name)
+    out = tmp_path / f"{name}.urdf"
+    U.save_urdf(robot.model(), out)
+    for path in [out] + ([KR5] if name == "kr5" else []):
+        ex = U.urdf_table(path, "dh")
+        np.testing.assert_allclose(ex.table.params, robot.table.params, atol=1e-12)
+
+
 @pytest.mark.parametrize("path", GOOD, ids=lambda p: p.stem)
 def test_urdf_model_urdf_round_trip(path, tmp_path):
     """URDF -> Robot (ED-H) -> URDF -> model: every joint frame is the original URDF's (the names are kept,

@@ -148,6 +148,16 @@ fn orient(x: Vector3<f64>, nominal: Option<&Vector3<f64>>, toward: &Vector3<f64>
     if flip { -x } else { x }
 }
 
+/// For axes that meet, `x` or `-x` (both are common normals): the one that keeps the joint's table angle
+/// within +-90 degrees, i.e. closer to `prev`, the previous frame's x turned about `z` by the joint's reference
+/// value (a revolute joint's; zero for a prismatic one), so that a table read back from its own axes (a DH
+/// table written as URDF and read again) keeps its signs.
+fn smaller_angle(x: Vector3<f64>, prev: &Vector3<f64>, z: &Vector3<f64>, kind: JointKind, q_ref: f64) -> Vector3<f64> {
+    let turn = if kind == JointKind::Revolute { q_ref } else { 0.0 };
+    let r = Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(*z), turn);
+    if x.dot(&(r * prev)) < -1e-9 { -x } else { x }
+}
+
 /// An orthonormal frame with the given origin and x axis, and z as close as possible to `z` (the part of
 /// `z` along x, the Hayati tilt, is dropped and returned as the angle beta).
 fn frame(origin: &Vector3<f64>, x: &Vector3<f64>, z: &Vector3<f64>) -> (Pose, f64) {
@@ -246,6 +256,10 @@ pub fn extract(ax: &JointAxes, convention: Convention, opt: &ExtractOptions) -> 
                 let (o, x) = if k + 1 < n {
                     let g = &geoms[k];
                     match g.relation {
+                        Relation::Intersecting if opt.nominal.is_none() => {
+                            let x = normal_direction(&z[k], &z[k + 1]).normalize();
+                            (g.foot0, smaller_angle(x, &col(&prev, 0), &z[k], ax.kinds[k], ax.q_ref[k]))
+                        }
                         Relation::Skew | Relation::Intersecting => {
                             let x = normal_direction(&z[k], &z[k + 1]).normalize();
                             (g.foot0, orient(x, nom_x(k + 1).as_ref(), &(g.foot1 - g.foot0), tol))
@@ -297,6 +311,10 @@ pub fn extract(ax: &JointAxes, convention: Convention, opt: &ExtractOptions) -> 
                 let (o, x, zt) = if k < n {
                     let g = &geoms[k - 1];
                     match g.relation {
+                        Relation::Intersecting if opt.nominal.is_none() => {
+                            let x = normal_direction(&z[k - 1], &z[k]).normalize();
+                            (g.foot1, smaller_angle(x, &xp, &zp, ax.kinds[k - 1], ax.q_ref[k - 1]), z[k])
+                        }
                         Relation::Skew | Relation::Intersecting => {
                             let x = normal_direction(&z[k - 1], &z[k]).normalize();
                             (g.foot1, orient(x, nom_x(k).as_ref(), &(g.foot1 - g.foot0), tol), z[k])

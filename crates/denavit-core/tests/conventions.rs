@@ -193,6 +193,33 @@ fn nominal_reproduces_published_tables() {
     }
 }
 
+/// Without a nominal, a pair of intersecting axes has two common normals; the extraction takes the one that
+/// keeps the joint's table angle within +-90 degrees at the reference configuration. So the published tables
+/// whose other choices are the extraction's own (a >= 0 along common normals) come back as published from
+/// their axes alone: the KR5 (Hayat et al.) and the Puma 560 (Corke 1996), as a DH table written to URDF and
+/// read again must. (Before, the KR5's joint 5 came back as alpha +90, theta 180.)
+#[test]
+fn intersecting_axes_without_a_nominal_keep_the_published_signs() {
+    for (name, t) in [("kr5", kr5_dh()), ("puma560", puma560_dh())] {
+        let m = t.to_model(name).unwrap();
+        for q in [[0.0; 6], [0.3, -0.2, 0.5, 0.1, -0.7, 0.9], [2.0, -2.5, 3.0, -3.0, 2.2, -1.9]] {
+            for conv in [Convention::Dh, Convention::Mdh] {
+                let ex = extract(&axes(&m, &q).unwrap(), conv, &ExtractOptions::default()).unwrap();
+                if conv == Convention::Dh {
+                    let diff = (&ex.table.params - &t.params).amax();
+                    assert!(diff < 1e-12, "{name} at q = {q:?}: {}\nvs\n{}", ex.table.params, t.params);
+                }
+                for (k, row) in ex.table.params.row_iter().enumerate().take(5) {
+                    if ex.pairs[k].relation == Relation::Intersecting {
+                        let theta = row[if conv == Convention::Dh { 1 } else { 2 }];
+                        assert!(theta.abs() <= std::f64::consts::FRAC_PI_2 + 1e-12, "{name} {} joint {}: theta {theta}", conv.name(), k + 1);
+                    }
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn zero_axis_is_an_error() {
     let e = denavit_core::JointAxes::new(
