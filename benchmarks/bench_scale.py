@@ -174,6 +174,11 @@ def main():
         p_one = fmt(per_call(lambda: pin.forwardKinematics(pm, pd, q), number, rep)) + " (forwardKinematics, no array returned)"
     rows.append(("single FK from Python (returns the 4x4 array), wall (thread CPU); the binding's floor (an empty call, Model.nq)",
                  f"{fmt(t_fk)} ({fmt(c_fk)}); floor {fmt(t_empty)}", p_one, "-", "<= 0.25 us"))
+    q1, o1 = q[None], np.empty((1, 4, 4))
+    t_b1 = per_call(lambda: dv.fk_batch(m, q1, out=o1, threads=1), number // 4, rep)
+    t_bd = per_call(lambda: dv.fk_batch(m, q1, out=o1), number // 4, rep)
+    rows.append(("batch FK of one configuration (a batch call's own cost: one 64-lane block), threads=1 / default",
+                 f"{fmt(t_b1)} / {fmt(t_bd)}", "-", "-", "-"))
     one = ik_one_attempt([(name, dv.load_model(name)) for name in ("kr5", "ur5", "puma560")], 100 if args.quick else 300, rtb is not None, pin is not None)
     for r in one:  # (robot, newton, lm, [rtb ik_NR, rtb ik_LM,] pinocchio): rtb's cells only when it is installed
         rtb_cell = f"{r[3]} / {r[4]}" if rtb is not None else "-"

@@ -28,9 +28,11 @@ impl Drop for SerialScope {
 }
 
 /// The most threads a call may ask for: 4 per core of this machine (more only adds threads waiting for a core;
-/// every count asked for keeps its pool for the life of the process).
+/// every count asked for keeps its pool for the life of the process). The core count is read once: on Linux
+/// `available_parallelism` reads the cgroup files, about 25 us a call.
 pub fn max_threads() -> usize {
-    4 * std::thread::available_parallelism().map_or(1, |n| n.get())
+    static MAX: OnceLock<usize> = OnceLock::new();
+    *MAX.get_or_init(|| 4 * std::thread::available_parallelism().map_or(1, |n| n.get()))
 }
 
 /// Run `f` with the crate's batch kernels on `threads` threads: `None` rayon's global pool

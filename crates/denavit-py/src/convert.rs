@@ -248,12 +248,14 @@ pub fn batch_out<'py, D: numpy::ndarray::Dimension>(
     let a = match out {
         None => PyArray::<f64, D>::zeros(py, shape.clone(), false),
         Some(o) => {
-            let Ok(arr) = o.downcast::<numpy::PyUntypedArray>() else {
-                return Err(invalid("out", want(), describe(o)));
-            };
-            let dtype = arr.dtype().str().map(|d| d.to_string()).unwrap_or_default();
             let Ok(a) = o.downcast::<PyArray<f64, D>>() else {
-                return Err(invalid("out", want(), format!("dtype {dtype}, shape {}", shape_text(arr.shape()))));
+                return Err(match o.downcast::<numpy::PyUntypedArray>() {
+                    Ok(arr) => {
+                        let dtype = arr.dtype().str().map(|d| d.to_string()).unwrap_or_default();
+                        invalid("out", want(), format!("dtype {dtype}, shape {}", shape_text(arr.shape())))
+                    }
+                    Err(_) => invalid("out", want(), describe(o)),
+                });
             };
             if a.shape() != shape.slice() {
                 return Err(invalid("out", want(), format!("shape {}", shape_text(a.shape()))));
@@ -261,14 +263,14 @@ pub fn batch_out<'py, D: numpy::ndarray::Dimension>(
             if !a.is_c_contiguous() {
                 return Err(invalid("out", want(), "an array that is not C-contiguous"));
             }
-            if !o.getattr("flags")?.getattr("writeable")?.extract::<bool>()? {
-                return Err(invalid("out", want(), "a read-only array"));
-            }
             a.clone()
         }
     };
     {
-        let mut rw = a.try_readwrite().map_err(|_| invalid("out", "an array not shared with an input of the call", "an input array (or a view of one)"))?;
+        let mut rw = a.try_readwrite().map_err(|e| match e {
+            numpy::BorrowError::NotWriteable => invalid("out", want(), "a read-only array"),
+            _ => invalid("out", "an array not shared with an input of the call", "an input array (or a view of one)"),
+        })?;
         let o = rw.as_slice_mut()?;
         py.allow_threads(|| denavit_core::parallel::with_threads(threads, || kernel(o)).and_then(|r| r)).py()?;
     }
