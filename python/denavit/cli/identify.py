@@ -48,7 +48,7 @@ def example_path(name: str) -> Path:
 @commands.command()
 def identify(
     data: Annotated[Path | None, typer.Argument(help="Sweeps: long-form CSV, JSON, or a folder of j1.csv..jN.csv.")] = None,
-    example: Annotated[str | None, typer.Option("--example", help="Run on data shipped with the package: kr5 (90 deg protocol), kr5-30.")] = None,
+    example: Annotated[str | None, typer.Option("--example", help="Run on data shipped with the package: kr5 (90 deg protocol), kr5-30; the nominal is then the built-in kr5 unless --nominal says otherwise.")] = None,
     nominal: Annotated[str | None, typer.Option("--nominal", help="Nominal model (built-in name or file): signs, free origins, names, limits, joint kinds.")] = None,
     method: Annotated[str, typer.Option("--method", help="auto | kasa | hyper | geometric | readings | global")] = "auto",
     convention: Annotated[str, typer.Option("--convention", help="dh | mdh | edh | poe (or an alias: sdh, craig, ...)")] = "dh",
