@@ -378,6 +378,43 @@ const CHUNK: usize = 1024;
 /// One quantity of a block's configurations.
 type V = [f64; BLOCK];
 
+/// The last rows of a batch up to this many go through the single-configuration path one by one (the same
+/// values bit for bit) instead of a block padded to [`BLOCK`] rows: a one-row batch had cost a whole block.
+const TAIL_ROWS: usize = 16;
+
+/// What [`block_of`] made of a block's joint values.
+enum Rows<'a> {
+    /// The block to compute (`BLOCK` rows of joint values).
+    Block(&'a [f64]),
+    /// Each row written by the single-configuration path.
+    Written,
+    /// A joint value is not finite.
+    NotFinite,
+}
+
+/// The block of joint values `qb` (`BLOCK` rows of `n`, or the batch's last rows): `qb` itself when whole;
+/// the last rows padded with zeros into `padded`; or, up to [`TAIL_ROWS`] rows, each row of `out` written
+/// by `one(q_row, out_row)`.
+#[inline(always)]
+fn block_of<'a>(qb: &'a [f64], n: usize, padded: &'a mut Vec<f64>, out: &mut [f64], one: impl Fn(&[f64], &mut [f64])) -> Rows<'a> {
+    let rows = qb.len() / n;
+    if rows == BLOCK {
+        return Rows::Block(qb);
+    }
+    if rows > TAIL_ROWS {
+        padded.resize(BLOCK * n, 0.0);
+        padded[..qb.len()].copy_from_slice(qb);
+        return Rows::Block(padded);
+    }
+    if !qb.iter().all(|v| v.is_finite()) {
+        return Rows::NotFinite;
+    }
+    for (q, o) in qb.chunks_exact(n).zip(out.chunks_exact_mut(out.len() / rows)) {
+        one(q, o);
+    }
+    Rows::Written
+}
+
 /// A block's frames: `c[column][row][configuration]`, the columns the x, y, z axes and the origin.
 type Frames = [[V; 3]; 4];
 
@@ -915,12 +952,10 @@ fn tool_pose_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], w: &
     let tool = &chain.factors[n - 1];
     let mut padded = Vec::new();
     for (qb, ob) in q.chunks(BLOCK * n).zip(out.chunks_mut(16 * BLOCK)) {
-        let qb = if qb.len() == BLOCK * n {
-            qb
-        } else {
-            padded.resize(BLOCK * n, 0.0);
-            padded[..qb.len()].copy_from_slice(qb);
-            &padded
+        let qb = match block_of(qb, n, &mut padded, ob, |qr, o| write_pose(&tool_pose_unchecked(model, qr), o)) {
+            Rows::Block(qb) => qb,
+            Rows::Written => continue,
+            Rows::NotFinite => return false,
         };
         match chain.about_x {
             Some(origin) if N > 0 => {
@@ -1038,12 +1073,10 @@ fn jacobian_chunk<const N: usize>(
     let base = [b.col(0), b.col(1), b.col(2)];
     let mut padded = Vec::new();
     for (qb, ob) in q.chunks(BLOCK * n).zip(out.chunks_mut(6 * n * BLOCK)) {
-        let qb = if qb.len() == BLOCK * n {
-            qb
-        } else {
-            padded.resize(BLOCK * n, 0.0);
-            padded[..qb.len()].copy_from_slice(qb);
-            &padded
+        let qb = match block_of(qb, n, &mut padded, ob, |qr, o| jacobian_row_major_unchecked(model, qr, frame, joint, o)) {
+            Rows::Block(qb) => qb,
+            Rows::Written => continue,
+            Rows::NotFinite => return false,
         };
         if let (Some(origin), true, None) = (chain.about_x, N > 0, joint) {
             let b = &mut *w.block;
@@ -1170,10 +1203,6 @@ pub fn jacobian_batch(model: &Model, qs: &[f64], frame: JacobianFrame, joint: Op
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {
-    /// The one-pass kernel of DH-like chains (6 and 7 joints, offsets in x and z only or in all three
-    /// components), the identity tool skipped, and the joint-by-joint kernel of a chain with a prismatic
-    /// joint: every row of a batch (three blocks and a padded one) equal to the single-configuration path
-    /// (`==`: up to the sign of zeros), including a row beyond the fast sine's range.
     /// Outputs from the streaming threshold on are written with streaming stores (an aligned output) and
     /// equal, bit for bit, the plain stores' values (the same output one value off the alignment).
     #[test]
@@ -1187,8 +1216,9 @@ mod tests {
             let p: Vec<f64> = (0..4 * n).map(|k| kr5[k.min(4 * 6 - 1 - (3 - k % 4))]).collect();
             let table = nalgebra::DMatrix::from_row_slice(n, 4, &p);
             let m = Table::new(Convention::Dh, table, vec![JointKind::Revolute; n], Pose::identity(), Pose::identity()).unwrap().to_model("m").unwrap();
-            // an odd count past the threshold: the last block partial, an unpaired last configuration
-            let count = crate::stream::threshold() / (16 * 8) + 2 * super::BLOCK + 7;
+            // an odd count past the threshold: the last block partial (more rows than the single path takes),
+            // an unpaired last configuration
+            let count = crate::stream::threshold() / (16 * 8) + 2 * super::BLOCK + super::TAIL_ROWS + 17;
             let qs: Vec<f64> = (0..count * n).map(|k| ((k as f64) * 0.618).sin() * 3.0).collect();
             for per in [16, 6 * n] {
                 let buf = vec![0.0; per * count + 2];
@@ -1212,6 +1242,11 @@ mod tests {
         }
     }
 
+    /// The one-pass kernel of DH-like chains (6 and 7 joints, offsets in x and z only or in all three
+    /// components), the identity tool skipped, and the joint-by-joint kernel of a chain with a prismatic
+    /// joint: every row of a batch (whole blocks, then a padded block or last rows through the single path)
+    /// equal to the single-configuration path (`==`: up to the sign of zeros), including a row beyond the
+    /// fast sine's range.
     #[test]
     fn batch_kernels_equal_the_single_path() {
         use crate::spatial::{Pose, rx, trans};
@@ -1242,28 +1277,33 @@ mod tests {
                         kinds[2] = JointKind::Prismatic;
                     }
                     let m = Table::new(convention, table.clone(), kinds.clone(), base, tool).unwrap().to_model("m").unwrap();
-                    let count = 3 * super::BLOCK + 5;
-                    let mut qs: Vec<f64> = (0..count * n).map(|_| rand()).collect();
-                    qs[n * 70 + 1] = 3.0e5;
-                    let mut out = vec![0.0; 16 * count];
-                    crate::parallel::with_threads(Some(1), || super::tool_pose_batch(&m, &qs, &mut out)).unwrap().unwrap();
-                    for (q, o) in qs.chunks(n).zip(out.chunks(16)) {
-                        let mut one = [0.0; 16];
-                        super::write_pose(&super::tool_pose(&m, q).unwrap(), &mut one);
-                        assert_eq!(o, &one, "{convention:?} n = {n} prismatic {prismatic} q = {q:?}");
-                    }
-                    // the Jacobians (the one-pass kernel for the tool of a revolute chain, the joint-by-joint
-                    // one for a joint frame), in every frame
-                    for frame in [super::JacobianFrame::LocalWorldAligned, super::JacobianFrame::World, super::JacobianFrame::Base, super::JacobianFrame::Local]
-                    {
-                        for joint in [None, Some(n - 3)] {
-                            let mut jac = vec![0.0; 6 * n * count];
-                            let run = || super::jacobian_batch(&m, &qs, frame, joint, &mut jac);
-                            crate::parallel::with_threads(Some(1), run).unwrap().unwrap();
-                            for (q, o) in qs.chunks(n).zip(jac.chunks(6 * n)) {
-                                let mut one = vec![0.0; 6 * n];
-                                super::jacobian_row_major_unchecked(&m, q, frame, joint, &mut one);
-                                assert_eq!(o, &one, "{convention:?} n = {n} prismatic {prismatic} {frame:?} {joint:?} q = {q:?}");
+                    // the last rows: a padded block, or few enough for the single path (a one-row batch too)
+                    for count in [2 * super::BLOCK + super::TAIL_ROWS + 9, 3 * super::BLOCK + 5, 1] {
+                        let mut qs: Vec<f64> = (0..count * n).map(|_| rand()).collect();
+                        if count > 70 {
+                            qs[n * 70 + 1] = 3.0e5;
+                        }
+                        let mut out = vec![0.0; 16 * count];
+                        crate::parallel::with_threads(Some(1), || super::tool_pose_batch(&m, &qs, &mut out)).unwrap().unwrap();
+                        for (q, o) in qs.chunks(n).zip(out.chunks(16)) {
+                            let mut one = [0.0; 16];
+                            super::write_pose(&super::tool_pose(&m, q).unwrap(), &mut one);
+                            assert_eq!(o, &one, "{convention:?} n = {n} prismatic {prismatic} q = {q:?}");
+                        }
+                        // the Jacobians (the one-pass kernel for the tool of a revolute chain, the joint-by-joint
+                        // one for a joint frame), in every frame
+                        for frame in
+                            [super::JacobianFrame::LocalWorldAligned, super::JacobianFrame::World, super::JacobianFrame::Base, super::JacobianFrame::Local]
+                        {
+                            for joint in [None, Some(n - 3)] {
+                                let mut jac = vec![0.0; 6 * n * count];
+                                let run = || super::jacobian_batch(&m, &qs, frame, joint, &mut jac);
+                                crate::parallel::with_threads(Some(1), run).unwrap().unwrap();
+                                for (q, o) in qs.chunks(n).zip(jac.chunks(6 * n)) {
+                                    let mut one = vec![0.0; 6 * n];
+                                    super::jacobian_row_major_unchecked(&m, q, frame, joint, &mut one);
+                                    assert_eq!(o, &one, "{convention:?} n = {n} prismatic {prismatic} {frame:?} {joint:?} q = {q:?}");
+                                }
                             }
                         }
                     }
