@@ -177,7 +177,7 @@ def main():
     q1, o1 = q[None], np.empty((1, 4, 4))
     t_b1 = per_call(lambda: dv.fk_batch(m, q1, out=o1, threads=1), number // 4, rep)
     t_bd = per_call(lambda: dv.fk_batch(m, q1, out=o1), number // 4, rep)
-    rows.append(("batch FK of one configuration (a batch call's own cost: one 64-lane block), threads=1 / default",
+    rows.append(("batch FK of one configuration (a batch call's own cost), threads=1 / default",
                  f"{fmt(t_b1)} / {fmt(t_bd)}", "-", "-", "-"))
     one = ik_one_attempt([(name, dv.load_model(name)) for name in ("kr5", "ur5", "puma560")], 100 if args.quick else 300, rtb is not None, pin is not None)
     for r in one:  # (robot, newton, lm, [rtb ik_NR, rtb ik_LM,] pinocchio): rtb's cells only when it is installed
