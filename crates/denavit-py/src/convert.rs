@@ -220,17 +220,26 @@ pub fn poses_out<'py, 'a>(py: Python<'py>, ts: impl ExactSizeIterator<Item = &'a
     out(py, &v, [n, 4, 4])
 }
 
-/// `threads=` of a batch call: None (rayon's pool: RAYON_NUM_THREADS, else every core) or a count 1..=4 per core.
-pub fn threads_of(threads: Option<i64>) -> PyResult<Option<usize>> {
-    match threads {
-        None => Ok(None),
-        Some(k) if k >= 1 && k as u64 <= denavit_core::parallel::max_threads() as u64 => Ok(Some(k as usize)),
-        Some(k) => Err(invalid(
-            "threads",
-            format!("None (RAYON_NUM_THREADS, else every core) or a count 1..={} (4 per core)", denavit_core::parallel::max_threads()),
-            k.to_string(),
-        )),
+/// `threads=` of a batch call: a count 1..=4 per core (None, rayon's pool: RAYON_NUM_THREADS, else every
+/// core, is the absent argument). Out of range, or too large for 64 bits, is a one-line error naming it.
+pub struct Threads(usize);
+
+impl<'py> FromPyObject<'py> for Threads {
+    fn extract_bound(obj: &Bound<'py, PyAny>) -> PyResult<Self> {
+        let max = denavit_core::parallel::max_threads();
+        let wrong = |got: String| invalid("threads", format!("None (RAYON_NUM_THREADS, else every core) or a count 1..={max} (4 per core)"), got);
+        match obj.extract::<i64>() {
+            Ok(k) if k >= 1 && k as u64 <= max as u64 => Ok(Threads(k as usize)),
+            Ok(k) => Err(wrong(k.to_string())),
+            Err(e) if e.is_instance_of::<pyo3::exceptions::PyOverflowError>(obj.py()) => Err(wrong(obj.str().map(|s| s.to_string()).unwrap_or_default())),
+            Err(e) => Err(e),
+        }
     }
+}
+
+/// The thread count of a `threads=` argument (None: rayon's pool).
+pub fn threads_of(threads: Option<Threads>) -> Option<usize> {
+    threads.map(|t| t.0)
 }
 
 /// The result array of a batch: `out` when given (checked: a numpy float64 array of exactly `shape`,
@@ -240,10 +249,10 @@ pub fn batch_out<'py, D: numpy::ndarray::Dimension>(
     py: Python<'py>,
     shape: D,
     out: Option<&Bound<'py, PyAny>>,
-    threads: Option<i64>,
+    threads: Option<Threads>,
     kernel: impl FnOnce(&mut [f64]) -> denavit_core::Result<()> + Send,
 ) -> PyResult<Bound<'py, PyArray<f64, D>>> {
-    let threads = threads_of(threads)?;
+    let threads = threads_of(threads);
     let want = || format!("a C-contiguous, writeable float64 numpy array of shape {}", shape_text(shape.slice()));
     let a = match out {
         None => PyArray::<f64, D>::zeros(py, shape.clone(), false),
@@ -269,7 +278,11 @@ pub fn batch_out<'py, D: numpy::ndarray::Dimension>(
     {
         let mut rw = a.try_readwrite().map_err(|e| match e {
             numpy::BorrowError::NotWriteable => invalid("out", want(), "a read-only array"),
-            _ => invalid("out", "an array not shared with an input of the call", "an input array (or a view of one)"),
+            _ => invalid(
+                "out",
+                "an array not in use elsewhere during the call (not an input of it, nor the out= of a call running in another thread)",
+                "an array in use",
+            ),
         })?;
         let o = rw.as_slice_mut()?;
         py.allow_threads(|| denavit_core::parallel::with_threads(threads, || kernel(o)).and_then(|r| r)).py()?;

@@ -2,7 +2,7 @@
 //! inertias. Single calls read contiguous float64 arrays without copying and reuse a per-thread workspace;
 //! batches release the GIL and use every core.
 
-use crate::convert::{batch_out, check_len, check_shape, opt_vector, out, read, rows, vector, Rows};
+use crate::convert::{batch_out, check_len, check_shape, opt_vector, out, read, rows, vector, Rows, Threads};
 use crate::error::{invalid, IntoPy};
 use crate::model::PyModel;
 use denavit_core::dynamics::{self, DynamicsData, DEFAULT_GRAVITY};
@@ -237,7 +237,7 @@ impl<'py> Batch<'py> {
         &self,
         py: Python<'py>,
         out: Option<&Bound<'py, PyAny>>,
-        threads: Option<i64>,
+        threads: Option<Threads>,
         kernel: impl FnOnce(&mut [f64]) -> denavit_core::Result<()> + Send,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         batch_out(py, Dim([self.count, self.n]), out, threads, kernel)
@@ -247,7 +247,7 @@ impl<'py> Batch<'py> {
         &self,
         py: Python<'py>,
         out: Option<&Bound<'py, PyAny>>,
-        threads: Option<i64>,
+        threads: Option<Threads>,
         kernel: impl FnOnce(&mut [f64]) -> denavit_core::Result<()> + Send,
     ) -> PyResult<Bound<'py, PyArray3<f64>>> {
         batch_out(py, Dim([self.count, self.n, self.n]), out, threads, kernel)
@@ -267,7 +267,7 @@ pub fn rnea_batch<'py>(
     gravity: Option<&Bound<'py, PyAny>>,
     f_ext: Option<&Bound<'py, PyAny>>,
     out: Option<&Bound<'py, PyAny>>,
-    threads: Option<i64>,
+    threads: Option<Threads>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let m: &Model = &model.inner;
     let b = Batch::read(m, qs, &[("qds", qds), ("qdds", qdds)])?;
@@ -286,7 +286,7 @@ pub fn bias_forces_batch<'py>(
     qds: &Bound<'py, PyAny>,
     gravity: Option<&Bound<'py, PyAny>>,
     out: Option<&Bound<'py, PyAny>>,
-    threads: Option<i64>,
+    threads: Option<Threads>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let m: &Model = &model.inner;
     let b = Batch::read(m, qs, &[("qds", qds)])?;
@@ -304,7 +304,7 @@ pub fn gravity_torques_batch<'py>(
     qs: &Bound<'py, PyAny>,
     gravity: Option<&Bound<'py, PyAny>>,
     out: Option<&Bound<'py, PyAny>>,
-    threads: Option<i64>,
+    threads: Option<Threads>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let m: &Model = &model.inner;
     let b = Batch::read(m, qs, &[])?;
@@ -321,7 +321,7 @@ pub fn mass_matrix_batch<'py>(
     model: &PyModel,
     qs: &Bound<'py, PyAny>,
     out: Option<&Bound<'py, PyAny>>,
-    threads: Option<i64>,
+    threads: Option<Threads>,
 ) -> PyResult<Bound<'py, PyArray3<f64>>> {
     let m: &Model = &model.inner;
     let b = Batch::read(m, qs, &[])?;
@@ -338,7 +338,7 @@ pub fn coriolis_matrix_batch<'py>(
     qs: &Bound<'py, PyAny>,
     qds: &Bound<'py, PyAny>,
     out: Option<&Bound<'py, PyAny>>,
-    threads: Option<i64>,
+    threads: Option<Threads>,
 ) -> PyResult<Bound<'py, PyArray3<f64>>> {
     let m: &Model = &model.inner;
     let b = Batch::read(m, qs, &[("qds", qds)])?;
@@ -359,7 +359,7 @@ pub fn forward_dynamics_batch<'py>(
     gravity: Option<&Bound<'py, PyAny>>,
     f_ext: Option<&Bound<'py, PyAny>>,
     out: Option<&Bound<'py, PyAny>>,
-    threads: Option<i64>,
+    threads: Option<Threads>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let m: &Model = &model.inner;
     let b = Batch::read(m, qs, &[("qds", qds), ("taus", taus)])?;

@@ -1,7 +1,7 @@
 //! Inverse kinematics (denavit_core::ik): single solves, warm-started paths and batches (paths and
 //! batches release the GIL; batches use every core).
 
-use crate::convert::{check_len, check_shape, opt_vector, out, pose, poses, read, threads_of, vector};
+use crate::convert::{check_len, check_shape, opt_vector, out, pose, poses, read, threads_of, vector, Threads};
 use crate::error::{invalid, IntoPy};
 use crate::model::PyModel;
 use denavit_core::ik::{self as core_ik, IkMethod, IkOptions, IkResult};
@@ -260,9 +260,9 @@ pub fn ik_batch(
     seed: i64,
     respect_limits: bool,
     damping: f64,
-    threads: Option<i64>,
+    threads: Option<Threads>,
 ) -> PyResult<PyIkBatchResult> {
-    let threads = threads_of(threads)?;
+    let threads = threads_of(threads);
     let opts = options(method, tol_position, tol_rotation, max_iterations, restarts, seed, respect_limits, damping)?;
     let targets = poses("targets", targets)?;
     let n = model.inner.nq();

@@ -1,6 +1,6 @@
 //! Forward kinematics and Jacobians (single and batch; batches release the GIL, take `out=` and `threads=`).
 
-use crate::convert::{batch_out, pose_out, poses_out, rows, vector};
+use crate::convert::{batch_out, pose_out, poses_out, rows, vector, Threads};
 use crate::error::{invalid, IntoPy};
 use crate::model::PyModel;
 use denavit_core::kinematics::{self, JacobianFrame};
@@ -74,7 +74,7 @@ pub fn fk_batch<'py>(
     model: &PyModel,
     qs: &Bound<'py, PyAny>,
     out: Option<&Bound<'py, PyAny>>,
-    threads: Option<i64>,
+    threads: Option<Threads>,
 ) -> PyResult<Bound<'py, PyArray3<f64>>> {
     let m: &denavit_core::Model = &model.inner;
     let (q, count) = rows("qs", qs, m.nq())?;
@@ -93,7 +93,7 @@ pub fn jacobian_batch<'py>(
     frame: &str,
     joint: Option<&Bound<'py, PyAny>>,
     out: Option<&Bound<'py, PyAny>>,
-    threads: Option<i64>,
+    threads: Option<Threads>,
 ) -> PyResult<Bound<'py, PyArray3<f64>>> {
     let f = JacobianFrame::parse(frame).py()?;
     let m: &denavit_core::Model = &model.inner;
