@@ -205,6 +205,8 @@ def test_out_is_filled_and_returned(rng):
 
 @pytest.mark.parametrize("bad, got", [
     (np.zeros((300, 4, 3)), "shape (300, 4, 3)"),
+    (np.zeros((300, 16)), "shape (300, 16)"),
+    (np.zeros((300, 4, 4), dtype=">f8"), "dtype >f8, shape (300, 4, 4)"),
     (np.zeros((300, 4, 4), dtype=np.float32), "dtype float32, shape (300, 4, 4)"),
     (np.zeros((300, 4, 4), dtype=complex), "dtype complex128, shape (300, 4, 4)"),
     (np.zeros((4, 4, 300)).T, "an array that is not C-contiguous"),

@@ -261,7 +261,9 @@ pub fn batch_out<'py, D: numpy::ndarray::Dimension>(
                 return Err(match o.downcast::<numpy::PyUntypedArray>() {
                     Ok(arr) => {
                         let dtype = arr.dtype().str().map(|d| d.to_string()).unwrap_or_default();
-                        invalid("out", want(), format!("dtype {dtype}, shape {}", shape_text(arr.shape())))
+                        let shape = shape_text(arr.shape());
+                        // a float64 array refused by its number of dimensions: its shape is what is wrong
+                        invalid("out", want(), if dtype == "float64" { format!("shape {shape}") } else { format!("dtype {dtype}, shape {shape}") })
                     }
                     Err(_) => invalid("out", want(), describe(o)),
                 });
