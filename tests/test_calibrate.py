@@ -748,3 +748,11 @@ def test_cli_calibrate_writes_a_report(tmp_path):
     run_cli("calibrate", f, "--nominal", "kr5", "--tool", "50,30,100", "--report", page)
     html = page.read_text()
     assert html.startswith("<!DOCTYPE html>") and "kr5" in html and len(html) < 2e6
+
+
+def test_a_non_finite_joint_value_is_named_by_row_and_index():
+    pz = cal.parametrize(dv.load_robot("kr5"), "edh")
+    q = np.zeros((5, 6))
+    q[3, 4] = np.nan
+    with pytest.raises(dv.DenavitError, match=r"^q \(row 3\) must be finite, got NaN at index 4$"):
+        pz.evaluate(pz.x0, q, False)

@@ -37,7 +37,7 @@
 //! assert!((jac[(0, 3)]).abs() < 1e-15 && (jac[(1, 3)] - 1.0).abs() < 1e-15); // second link points along y
 //! ```
 
-use crate::error::{Error, Result, check_finite, check_len};
+use crate::error::{Error, Result, check_finite, check_finite_rows, check_len};
 use crate::spatial::Pose;
 use nalgebra::{Matrix6xX, Vector3};
 use rayon::prelude::*;
@@ -355,7 +355,7 @@ impl Chain {
         check_finite("calibration parameters x", x)?;
         let count = qs.len().checked_div(self.nq).unwrap_or(poses.len() / 16);
         check_len("q batch (N*n values)", count * self.nq, qs.len())?;
-        check_finite("q batch", qs)?;
+        check_finite_rows("q", qs, self.nq)?;
         check_len("poses output (N*16 values)", count * 16, poses.len())?;
         let mut jac = match jac {
             Some(j) => {

@@ -51,6 +51,18 @@ pub(crate) fn check_finite(what: &str, values: &[f64]) -> Result<()> {
     }
 }
 
+/// [`check_finite`] of a batch of rows of `n` values: the first non-finite value named by its row and its
+/// index in the row (`"q (row 63) must be finite, got NaN at index 2"`).
+pub(crate) fn check_finite_rows(what: &str, values: &[f64], n: usize) -> Result<()> {
+    if all_finite(values) {
+        return Ok(());
+    }
+    match values.iter().position(|v| !v.is_finite()) {
+        Some(k) => Err(Error::NonFinite { what: format!("{what} (row {})", k / n.max(1)), index: k % n.max(1), value: values[k] }),
+        None => Ok(()),
+    }
+}
+
 /// Whether every value is finite, in one branch-free pass that vectorises (`x * 0` is NaN exactly for an
 /// infinite or NaN `x`): the batch kernels check their inputs with it at memory speed.
 #[inline]

@@ -994,9 +994,10 @@ fn tool_pose_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], w: &
     true
 }
 
-/// The first non-finite value of a batch (after a chunk found one: the error names the first of all).
-fn non_finite(qs: &[f64]) -> Error {
-    match crate::error::check_finite("q batch", qs) {
+/// The first non-finite value of a batch of rows of `n` (after a chunk found one: the error names the first
+/// of all, by its row and its index in the row).
+fn non_finite(qs: &[f64], n: usize) -> Error {
+    match crate::error::check_finite_rows("q", qs, n) {
         Err(e) => e,
         Ok(()) => Error::InvalidArgument { what: "q batch".into(), expected: "finite values".into(), got: "a non-finite value".into() },
     }
@@ -1042,7 +1043,7 @@ pub fn tool_pose_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<()>
             if stream {
                 crate::stream::fence();
             }
-            if finite { Ok(()) } else { Err(non_finite(qs)) }
+            if finite { Ok(()) } else { Err(non_finite(qs, n)) }
         },
     )
 }
@@ -1195,7 +1196,7 @@ pub fn jacobian_batch(model: &Model, qs: &[f64], frame: JacobianFrame, joint: Op
             if stream {
                 crate::stream::fence();
             }
-            if finite { Ok(()) } else { Err(non_finite(qs)) }
+            if finite { Ok(()) } else { Err(non_finite(qs, n)) }
         },
     )
 }
