@@ -161,6 +161,10 @@ def test_bad_input_raises_denavit_error_with_expected_and_got():
         dv.ik_batch(m, np.stack([T, T]), np.zeros((3, 6)))
     with pytest.raises(dv.DenavitError, match=r"wrong size of q0s \(n values, or N\*n for N targets\): expected 12, got 7"):
         dv.ik_batch(m, np.stack([T, T]), np.zeros(7))
+    q0s = np.zeros((2, 6))
+    q0s[1, 4] = np.inf
+    with pytest.raises(dv.DenavitError, match=r"^q0s \(row 1\) must be finite, got inf at index 4$"):
+        dv.ik_batch(m, np.stack([T, T]), q0s)
 
 
 @pytest.mark.parametrize("method", ["newton", "lm"])

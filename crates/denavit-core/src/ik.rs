@@ -76,7 +76,7 @@
 //! result.
 #![allow(clippy::needless_range_loop)] // index loops mirror the formulas (and unroll)
 
-use crate::error::{Error, Result, check_finite, check_len};
+use crate::error::{Error, Result, check_finite, check_finite_rows, check_len};
 use crate::kinematics::{tool_pose_and_jacobian, tool_pose_unchecked};
 use crate::model::{JointKind, Model};
 use crate::spatial::{Pose, check_pose, pose_error, rotation_angle};
@@ -1161,7 +1161,11 @@ pub fn ik_batch(model: &Model, targets: &[Pose], q0s: &[f64], opts: &IkOptions) 
     if !shared {
         check_len("q0s (n values, or N*n for N targets)", targets.len() * n, q0s.len())?;
     }
-    check_finite("q0s", q0s)?;
+    if shared {
+        check_finite("q0s", q0s)?;
+    } else {
+        check_finite_rows("q0s", q0s, n)?;
+    }
     let solve = |s: &mut IkSolver, (i, t): (usize, &Pose)| {
         let q0 = if shared { q0s } else { &q0s[i * n..(i + 1) * n] };
         s.solve_unchecked(t, q0, mix_seed(opts.seed, i as u64))
