@@ -625,15 +625,8 @@ fn write_jacobians_streamed<const N: usize>(jac: &[V], out: &mut [f64]) {
         let l0 = 2 * g;
         let load2 = |i: usize| jac[i][l0..].first_chunk::<2>().map_or(safe_arch::zeroed_m128d(), load);
         let (first, second) = o.split_at_mut(per);
-        for (i, (d0, d1)) in first.chunks_exact_mut(2).zip(second.chunks_exact_mut(2)).enumerate() {
-            let (a, b) = (load2(2 * i), load2(2 * i + 1));
-            if let Some(d) = d0.first_chunk_mut::<2>() {
-                crate::stream::pair(d, lo(a, b));
-            }
-            if let Some(d) = d1.first_chunk_mut::<2>() {
-                crate::stream::pair(d, hi(a, b));
-            }
-        }
+        crate::stream::pairs(first, per / 2, |i| lo(load2(2 * i), load2(2 * i + 1)));
+        crate::stream::pairs(second, per / 2, |i| hi(load2(2 * i), load2(2 * i + 1)));
     }
     for (l, o) in pairs.into_remainder().chunks_exact_mut(per).enumerate() {
         for (i, v) in o.iter_mut().enumerate() {
@@ -921,18 +914,13 @@ fn write_block_streamed(c: &Frames, out: &mut [f64]) {
             rows[1][r] = (hi(x, y), hi(z, p));
         }
         let bottom: (m128d, m128d) = (safe_arch::zeroed_m128d(), set(1.0, 0.0));
-        for (i, rows) in rows.iter_mut().enumerate() {
-            rows[3] = bottom;
-            for (r, (a, b)) in rows.iter().enumerate() {
-                let at = 16 * i + 4 * r;
-                if let Some(d) = o[at..].first_chunk_mut::<2>() {
-                    crate::stream::pair(d, *a);
-                }
-                if let Some(d) = o[at + 2..].first_chunk_mut::<2>() {
-                    crate::stream::pair(d, *b);
-                }
-            }
-        }
+        rows[0][3] = bottom;
+        rows[1][3] = bottom;
+        // configuration k / 8, row (k % 8) / 2, its first or second half
+        crate::stream::pairs(o, 16, |k| {
+            let (a, b) = rows[k / 8][(k % 8) / 2];
+            if k % 2 == 0 { a } else { b }
+        });
     }
     for (i, o) in pairs.into_remainder().chunks_exact_mut(16).enumerate() {
         for r in 0..3 {

@@ -43,17 +43,28 @@ pub(crate) fn wanted(out: &[f64]) -> bool {
     cfg!(target_arch = "x86_64") && std::mem::size_of_val(out) >= threshold() && (out.as_ptr() as usize) % 16 == 0
 }
 
-/// Store `v` into `d` with a streaming store (`movntpd`), or a plain one if `d` is not 16-byte aligned.
+/// Store `count` pairs into `d[..2 * count]`, pair `k` (`v(k)`) at `d[2k..2k + 2]`, with streaming stores
+/// (`movntpd`), or plain ones if `d` is not 16-byte aligned: one alignment and one length check for all
+/// (per store, they had cost as much as the kinematics' arithmetic).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 #[allow(unsafe_code)]
-pub(crate) fn pair(d: &mut [f64; 2], v: safe_arch::m128d) {
+pub(crate) fn pairs(d: &mut [f64], count: usize, mut v: impl FnMut(usize) -> safe_arch::m128d) {
+    let d = &mut d[..2 * count];
     if (d.as_ptr() as usize) % 16 == 0 {
-        // SAFETY: `d` is two writable, initialised f64 (a unique borrow), 16-byte aligned as `movntpd`
-        // requires (checked above); the store writes exactly those 16 bytes.
-        unsafe { core::arch::x86_64::_mm_stream_pd(d.as_mut_ptr(), v.0) }
+        let p = d.as_mut_ptr();
+        for k in 0..count {
+            // SAFETY: `d` is `2 * count` writable, initialised f64 (a unique borrow of that length, checked
+            // by the slicing above), so `p + 2k .. p + 2k + 2` is inside it; 16-byte aligned as `movntpd`
+            // requires (`d` is, checked above, and 2k f64 are 16k bytes).
+            unsafe { core::arch::x86_64::_mm_stream_pd(p.add(2 * k), v(k).0) }
+        }
     } else {
-        safe_arch::store_unaligned_m128d(d, v);
+        for (k, d) in d.chunks_exact_mut(2).enumerate() {
+            if let Some(d) = d.first_chunk_mut::<2>() {
+                safe_arch::store_unaligned_m128d(d, v(k));
+            }
+        }
     }
 }
 
