@@ -51,16 +51,22 @@ pub(crate) fn check_finite(what: &str, values: &[f64]) -> Result<()> {
     }
 }
 
-/// [`check_finite`] of a batch of rows of `n` values: the first non-finite value named by its row and its
-/// index in the row (`"q (row 63) must be finite, got NaN at index 2"`).
+/// [`check_finite`] of row `row` of a batch: the first non-finite value named by its row and its index in
+/// the row (`"q (row 63) must be finite, got NaN at index 2"`); formats the message only on failure.
+#[inline]
+pub(crate) fn check_row(what: &str, row: usize, values: &[f64]) -> Result<()> {
+    match values.iter().position(|v| !v.is_finite()) {
+        Some(index) => Err(Error::NonFinite { what: format!("{what} (row {row})"), index, value: values[index] }),
+        None => Ok(()),
+    }
+}
+
+/// [`check_row`] of every row of `n` values of a batch (one vectorised pass when all are finite).
 pub(crate) fn check_finite_rows(what: &str, values: &[f64], n: usize) -> Result<()> {
     if all_finite(values) {
         return Ok(());
     }
-    match values.iter().position(|v| !v.is_finite()) {
-        Some(k) => Err(Error::NonFinite { what: format!("{what} (row {})", k / n.max(1)), index: k % n.max(1), value: values[k] }),
-        None => Ok(()),
-    }
+    values.chunks(n.max(1)).enumerate().try_for_each(|(row, v)| check_row(what, row, v))
 }
 
 /// Whether every value is finite, in one branch-free pass that vectorises (`x * 0` is NaN exactly for an

@@ -2,6 +2,7 @@
 //! structure-of-arrays lanes.
 
 use super::*;
+use crate::error::check_row;
 
 pub(super) const CHUNK: usize = 256;
 
@@ -19,15 +20,6 @@ pub(super) fn batch_rows(model: &Model, inputs: &[(&str, &[f64])], out_what: &st
     }
     check_len(&format!("{out_what} (N*{out_per_row} values, N = {count})"), count * out_per_row, out_len)?;
     Ok(count)
-}
-
-/// Finite check of one batch row; formats the message only on failure.
-#[inline]
-pub(super) fn check_row(what: &str, row: usize, v: &[f64]) -> Result<()> {
-    match v.iter().position(|x| !x.is_finite()) {
-        Some(i) => Err(Error::NonFinite { what: format!("{what} (row {row})"), index: i, value: v[i] }),
-        None => Ok(()),
-    }
 }
 
 /// External wrenches of a batch: none, one `[f; n]` for every row (6 values), or one per row (N*6).
