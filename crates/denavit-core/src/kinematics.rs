@@ -415,6 +415,17 @@ fn block_of<'a>(qb: &'a [f64], n: usize, padded: &'a mut Vec<f64>, out: &mut [f6
     Rows::Written
 }
 
+/// A whole batch of up to [`TAIL_ROWS`] rows (`qs`: rows of `n`; `out`: rows of `per_row`), each row of
+/// `out` written by `one(q_row, out_row)` as [`block_of`] writes the last rows of a batch, without a block's
+/// workspace or the chain's factors (a one-row batch had spent half its time allocating them).
+fn small_batch(qs: &[f64], n: usize, out: &mut [f64], per_row: usize, one: impl Fn(&[f64], &mut [f64])) -> Result<()> {
+    crate::error::check_finite_rows("q", qs, n)?;
+    for (q, o) in qs.chunks_exact(n).zip(out.chunks_exact_mut(per_row)) {
+        one(q, o);
+    }
+    Ok(())
+}
+
 /// A block's frames: `c[column][row][configuration]`, the columns the x, y, z axes and the origin.
 type Frames = [[V; 3]; 4];
 
@@ -1015,6 +1026,9 @@ pub fn tool_pose_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<()>
         out.chunks_exact_mut(16).for_each(|o| write_pose(&t, o));
         return Ok(());
     }
+    if count <= TAIL_ROWS {
+        return small_batch(qs, n, out, 16, |q, o| write_pose(&tool_pose_unchecked(model, q), o));
+    }
     let chain = Chain::of(model);
     let stream = crate::stream::wanted(out);
     crate::parallel::try_for_each_chunk_init(
@@ -1168,6 +1182,9 @@ pub fn jacobian_batch(model: &Model, qs: &[f64], frame: JacobianFrame, joint: Op
     let count = qs.len() / n;
     check_len("q batch (N*n values)", count * n, qs.len())?;
     check_len("output (N*6n values)", count * 6 * n, out.len())?;
+    if count <= TAIL_ROWS {
+        return small_batch(qs, n, out, 6 * n, |q, o| jacobian_row_major_unchecked(model, q, frame, joint, o));
+    }
     let chain = Chain::of(model);
     let stream = crate::stream::wanted(out);
     crate::parallel::try_for_each_chunk_init(
