@@ -142,7 +142,7 @@ pub(super) fn check_fd_args(
     ws.check(model)?;
     model.check_q(q)?;
     check_vec("qd", model.nq(), qd)?;
-    check_rates("qd", qd)?;
+    check_rates(qd, None)?;
     check_vec("tau", model.nq(), tau)?;
     check_gravity(g)?;
     check_wrench(f_ext)

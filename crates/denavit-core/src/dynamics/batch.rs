@@ -358,7 +358,7 @@ pub(super) fn rnea_batch_lanes(
                 check_row("q", r, &qs[r * n..(r + 1) * n])?;
                 if let Some(v) = qds {
                     check_row("qd", r, &v[r * n..(r + 1) * n])?;
-                    check_rates(&format!("qd (row {r})"), &v[r * n..(r + 1) * n])?;
+                    check_rates(&v[r * n..(r + 1) * n], Some(r))?;
                 }
                 if let Some(v) = qdds {
                     check_row("qdd", r, &v[r * n..(r + 1) * n])?;
@@ -477,7 +477,7 @@ pub fn mass_matrix_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<(
         check_row("q", r, q)?;
         crba_unchecked(model, ws, q);
         copy_matrix_row_major(&ws.mass_matrix, o);
-        check_result(&format!("the mass matrix (row {r})"), o, entry_label(n, true), &[("q", q)])
+        check_result(format_args!("the mass matrix (row {r})"), o, entry_label(n, true), &[("q", q)])
     })
 }
 
@@ -497,10 +497,10 @@ pub fn coriolis_matrix_batch(model: &Model, qs: &[f64], qds: &[f64], out: &mut [
         let (q, qd) = (&qs[r * n..(r + 1) * n], &qds[r * n..(r + 1) * n]);
         check_row("q", r, q)?;
         check_row("qd", r, qd)?;
-        check_rates(&format!("qd (row {r})"), qd)?;
+        check_rates(qd, Some(r))?;
         coriolis_unchecked(model, ws, q, qd);
         copy_matrix_row_major(&ws.coriolis, o);
-        check_result(&format!("the Coriolis matrix (row {r})"), o, entry_label(n, true), &[("q", q), ("qd", qd)])
+        check_result(format_args!("the Coriolis matrix (row {r})"), o, entry_label(n, true), &[("q", q), ("qd", qd)])
     })
 }
 
@@ -531,12 +531,12 @@ pub fn forward_dynamics_batch(
         let (q, qd, tau) = (&qs[r * n..(r + 1) * n], &qds[r * n..(r + 1) * n], &taus[r * n..(r + 1) * n]);
         check_row("q", r, q)?;
         check_row("qd", r, qd)?;
-        check_rates(&format!("qd (row {r})"), qd)?;
+        check_rates(qd, Some(r))?;
         check_row("tau", r, tau)?;
         let we = wrench_row(w, r);
         aba_unchecked(model, ws, q, qd, tau, gravity, we.as_ref())?;
         o.copy_from_slice(&ws.qdd);
         let w = we.as_ref().map_or(&[][..], |w| w.as_slice());
-        check_result(&format!("qdd (row {r})"), o, joint_label, &[("q", q), ("qd", qd), ("tau", tau), ("gravity", gravity.as_slice()), ("f_ext", w)])
+        check_result(format_args!("qdd (row {r})"), o, joint_label, &[("q", q), ("qd", qd), ("tau", tau), ("gravity", gravity.as_slice()), ("f_ext", w)])
     })
 }

@@ -128,7 +128,7 @@ pub fn coriolis_matrix<'a>(model: &Model, ws: &'a mut DynamicsData, q: &[f64], q
     ws.check(model)?;
     model.check_q(q)?;
     check_vec("qd", model.nq(), qd)?;
-    check_rates("qd", qd)?;
+    check_rates(qd, None)?;
     coriolis_unchecked(model, ws, q, qd);
     check_result("the Coriolis matrix", ws.coriolis.as_slice(), entry_label(model.nq(), false), &[("q", q), ("qd", qd)])?;
     Ok(&ws.coriolis)

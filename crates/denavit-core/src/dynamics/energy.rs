@@ -14,7 +14,7 @@ use super::*;
 pub fn kinetic_energy(model: &Model, q: &[f64], qd: &[f64]) -> Result<f64> {
     model.check_q(q)?;
     check_vec("qd", model.nq(), qd)?;
-    check_rates("qd", qd)?;
+    check_rates(qd, None)?;
     let (mut w, mut v) = (Vector3::zeros(), Vector3::zeros());
     let mut e = 0.0;
     for (i, (j, inertia)) in model.joints().iter().zip(model.inertias()).enumerate() {

@@ -342,25 +342,30 @@ fn check_vec(what: &str, n: usize, v: &[f64]) -> Result<()> {
 /// velocity-product (centrifugal, Coriolis) terms, overflow double precision.
 pub const MAX_RATE: f64 = 1.340_780_792_994_259_6e154;
 
-/// Joint rates within [`MAX_RATE`], or [`Error::InvalidArgument`] naming the argument (`what`, e.g. "qd" or
-/// "qd (row 6)") and the joint: with qd = 1e160 the torques had come out NaN (or, in the batch kernel's other
-/// order of operations, finite round-off garbage).
-pub(super) fn check_rates(what: &str, v: &[f64]) -> Result<()> {
-    match v.iter().position(|x| x.abs() > MAX_RATE) {
+/// Joint rates `qd` within [`MAX_RATE`], or [`Error::InvalidArgument`] naming the argument ("qd", or
+/// "qd (row 6)" for `row` 6 of a batch: the name is built only for the error) and the joint: with qd = 1e160
+/// the torques had come out NaN (or, in the batch kernel's other order of operations, finite round-off
+/// garbage).
+pub(super) fn check_rates(qd: &[f64], row: Option<usize>) -> Result<()> {
+    match qd.iter().position(|x| x.abs() > MAX_RATE) {
         Some(i) => Err(Error::InvalidArgument {
-            what: format!("{what} at joint {}", i + 1),
-            expected: format!("joint rates whose squares are finite (|{}| <= {MAX_RATE:.4e} rad/s or m/s)", what.split(' ').next().unwrap_or(what)),
-            got: format!("{:e}", v[i]),
+            what: match row {
+                Some(r) => format!("qd (row {r}) at joint {}", i + 1),
+                None => format!("qd at joint {}", i + 1),
+            },
+            expected: format!("joint rates whose squares are finite (|qd| <= {MAX_RATE:.4e} rad/s or m/s)"),
+            got: format!("{:e}", qd[i]),
         }),
         None => Ok(()),
     }
 }
 
 /// A result of the dynamics must be finite: with finite inputs (and rates within [`MAX_RATE`]) a NaN or infinity can
-/// only come from an overflow of double precision (accelerations of 1e300, masses of 1e300), and it becomes [`Error::Overflow`] naming the result, where the
+/// only come from an overflow of double precision (accelerations of 1e300, masses of 1e300), and it becomes [`Error::Overflow`] naming the result
+/// (`what`, formatted only for the error: a batch passes `format_args!` with its row), where the
 /// first non-finite value is (`label(k)` for flat index `k`: "joint 2", "entry (1, 3)", ...) and the largest
 /// of the `inputs` (the argument and joint to blame), instead of a NaN handed to the caller.
-pub(super) fn check_result(what: &str, out: &[f64], label: impl Fn(usize) -> String, inputs: &[(&str, &[f64])]) -> Result<()> {
+pub(super) fn check_result(what: impl std::fmt::Display, out: &[f64], label: impl Fn(usize) -> String, inputs: &[(&str, &[f64])]) -> Result<()> {
     let Some(k) = out.iter().position(|v| !v.is_finite()) else {
         return Ok(());
     };

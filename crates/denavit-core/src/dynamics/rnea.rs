@@ -103,7 +103,7 @@ pub fn rnea<'a>(
     ws.check(model)?;
     model.check_q(q)?;
     check_vec("qd", model.nq(), qd)?;
-    check_rates("qd", qd)?;
+    check_rates(qd, None)?;
     check_vec("qdd", model.nq(), qdd)?;
     check_gravity(gravity)?;
     check_wrench(f_ext)?;
@@ -129,7 +129,7 @@ pub fn bias_forces<'a>(model: &Model, ws: &'a mut DynamicsData, q: &[f64], qd: &
     ws.check(model)?;
     model.check_q(q)?;
     check_vec("qd", model.nq(), qd)?;
-    check_rates("qd", qd)?;
+    check_rates(qd, None)?;
     check_gravity(gravity)?;
     rnea_unchecked(model, ws, q, Some(qd), None, gravity, None);
     check_result("bias forces", &ws.tau, joint_label, &[("q", q), ("qd", qd), ("gravity", gravity.as_slice())])?;
