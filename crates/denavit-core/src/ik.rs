@@ -1110,7 +1110,10 @@ pub fn closed_form_branches(model: &Model, target: &Pose) -> Result<Option<Vec<V
 
 fn check_targets(targets: &[Pose]) -> Result<()> {
     for (i, t) in targets.iter().enumerate() {
-        check_pose(&format!("IK target {i}"), t)?;
+        // the target's name is formatted only for the error (a String per target is a few % of a solve)
+        if check_pose("IK target", t).is_err() {
+            check_pose(&format!("IK target {i}"), t)?;
+        }
     }
     Ok(())
 }
