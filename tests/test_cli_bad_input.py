@@ -205,6 +205,9 @@ def cases(d: Path, readonly: Path | None):
         ("identify: --direction with a sweep CSV", ["identify", d / "s.csv", "--direction", "-1"], "--direction -1: "),
         ("show: --compare without --report or --plot", ["show", "kr5", "--compare", "mdh"], "--compare mdh: it sets what --report or --plot draws"),
         ("convert: --parallel-tol 2 (a sine above 1: every pair parallel)", ["convert", "kr5", "--to", "dh", "--parallel-tol", "2"], "--parallel-tol 2.0: expected the sine of an angle"),
+        # a negative seed had reached numpy (an internal error, exit 3)
+        ("simulate: --seed -1", ["simulate", "kr5", "-o", d / "never.csv", "--seed", "-1"], "invalid seed: expected an integer >= 0, got -1"),
+        ("calibrate: --seed -1", ["calibrate", d / "m.csv", "--nominal", "kr5", "--seed", "-1"], "invalid seed: expected an integer >= 0, got -1"),
     ]
     if readonly is not None:
         out += [("convert: output in a read-only directory", ["convert", "kr5", "--to", "mdh", "-o", readonly / "x.toml"], "x.toml: cannot write"),

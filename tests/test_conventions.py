@@ -156,6 +156,16 @@ def test_poe_screw_must_be_a_pure_rotation():
         dv.Table("poe", [[0, 0, 2, 0, 0, 0]]).to_model()
 
 
+def test_poe_prismatic_direction_must_be_a_unit_vector():
+    """As |w| = 1 for a revolute joint: a prismatic v of another length (it had been normalised without a word,
+    so v = [0, 0, 500] moved 1 m per metre where Lynch & Park's screw moves 500) is refused."""
+    for v in ([0, 0, 500], [0, 0, 0.5], [0, 0, 0]):
+        with pytest.raises(dv.DenavitError, match=r"poe screw of prismatic joint 1: expected w = 0 and \|v\| = 1"):
+            dv.Table("poe", [[0, 0, 0, *v]], kinds=["prismatic"]).to_model()
+    m = dv.Table("poe", [[0, 0, 0, 0, 0.6, 0.8]], kinds=["prismatic"]).to_model()
+    np.testing.assert_allclose(dv.fk(m, [0.5])[:3, 3], [0, 0.3, 0.4], atol=1e-15)
+
+
 def test_jacobian_matches_finite_differences(rng):
     """Geometric Jacobian (world frame) against central differences of FK (tolerance ~ sqrt of the step)."""
     from scipy.spatial.transform import Rotation

@@ -9,6 +9,7 @@ import pytest
 import denavit as dv
 from denavit import robot
 from denavit.io import output, robotfile
+from denavit.io.urdf import save_urdf
 
 
 @pytest.mark.parametrize("name", ["kr5", "puma560", "ur5", "tiansui_mdh", "tiansui_edh"])
@@ -38,6 +39,22 @@ def test_save_load_round_trip(tmp_path, name, units):
     np.testing.assert_allclose(back.table.params, r.table.params, atol=1e-15)
     np.testing.assert_allclose(back.lower, r.lower, atol=1e-15)
     assert back.names == r.names
+
+
+def test_an_inertia_without_mass_survives_export_and_urdf(tmp_path):
+    """The Puma 560's link 1 has no mass but the inertia of its rotor (Corke's table, Izz = 0.35 kg m^2): the
+    robot file keeps it, so the dynamics come back unchanged; the URDF writes it too (URDF allows it), and
+    denavit's URDF reader, which leaves a massless link's inertia out, says so."""
+    r = dv.load_robot("puma560")
+    q = np.array([0.1, -0.4, 0.3, 0.2, -0.5, 0.6])
+    M = dv.mass_matrix(r.model(), q)
+    f = tmp_path / "p.toml"
+    robotfile.save(r, f, "mm", "deg")
+    np.testing.assert_allclose(dv.mass_matrix(dv.load_model(f), q), M, rtol=1e-12, atol=1e-12)
+    u = tmp_path / "p.urdf"
+    save_urdf(r.model(), u, r)
+    with pytest.warns(dv.DenavitWarning, match=r"link 'link_1' gives an <inertia> but <mass value=\"0\"/>"):
+        dv.load_robot(u)
 
 
 def test_base_and_tool_poses(tmp_path):

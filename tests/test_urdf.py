@@ -766,6 +766,11 @@ ARM = """<robot name="arm">
     ({"type": "revolute", "extra": '<limit lower="1" upper="-1" effort="0" velocity="0"/>'}, r"joint 'j2' \(line 4\): limit lower=1.0 is above upper=-1.0"),
     ({"type": "continuous", "more": '<joint name="back" type="fixed"><parent link="link_2"/><child link="link_1"/></joint>'}, r"link 'link_1' \(line 2\) is the child of joint 'j1' and of joint 'back': kinematic loops"),
     ({"type": "continuous", "more": '<joint name="j3" type="fixed"><parent link="link_2"/><child link="base_link"/></joint>'}, r"no root link .* loop"),
+    # a joint whose parent is its child, and a loop away from the root: both had been dropped without a word
+    ({"type": "continuous", "more": '<link name="x"/><joint name="self" type="fixed"><parent link="x"/><child link="x"/></joint>'},
+     r"joint 'self' \(line 5\): its child link 'x' \(parent 'x'\) is on a loop of joints: kinematic loops are not supported"),
+    ({"type": "continuous", "more": '<link name="x"/><link name="y"/><joint name="xy" type="fixed"><parent link="x"/><child link="y"/></joint>'
+      '<joint name="yx" type="fixed"><parent link="y"/><child link="x"/></joint>'}, r"joint 'xy' \(line 5\): its child link 'y' \(parent 'x'\) is on a loop"),
     ({"type": "continuous", "axis": '<axis xyz="0 1 zero"/>'}, r"joint 'j2' \(line 4\): axis xyz='0 1 zero': expected 3 numbers"),
     ({"type": "continuous", "more": '<link name="link_2"/>'}, r"link 'link_2' is defined twice \(lines 2 and 5\)"),
 ])

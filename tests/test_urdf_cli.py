@@ -92,3 +92,13 @@ def test_every_command_runs_on_the_urdf(name, tip, default, tmp_path):
                        + "\n".join(numbers(row * np.where(prismatic, 1000.0, np.degrees(1.0))) for row in qs[:3]) + "\n")
     # the calibrated URDF's own default tip is its `tcp` where the file has no tool0: name the nominal's tip for both
     run("compensate", targets, "--nominal", f, "--identified", calibrated, "--tip-link", tip or default)
+
+
+def test_a_library_warning_is_one_warning_line(tmp_path):
+    """A warning raised while a command loads a URDF (here the Puma 560's massless link 1 with its rotor's
+    inertia) reads like the commands' own: one ``warning:`` line, without Python's file, line and source."""
+    u = tmp_path / "p560.urdf"
+    run("convert", "puma560", "--to", "urdf", "-o", u)
+    p = run("dynamics", u)
+    lines = [ln for ln in p.stderr.splitlines() if ln.strip()]
+    assert lines == ["warning: " + f"{u}: link 'link_1' gives an <inertia> but <mass value=\"0\"/>: the inertia of a massless link is left out"], p.stderr

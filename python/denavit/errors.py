@@ -25,6 +25,7 @@ message (one that echoes a 250 kB header, say) keeps its head (where, what was e
 hint) around an elision mark, so a user reads it whole on any terminal or log.
 """
 
+import operator
 import re
 
 #: The longest message, in characters: room for a long path and a long explanation; an echo of a 250 kB
@@ -79,3 +80,15 @@ class DegenerateError(DenavitError):
 
 class DenavitWarning(UserWarning):
     """Input that denavit can use only in part (e.g. a URDF whose inertials are not physical)."""
+
+
+def check_seed(seed) -> int:
+    """``seed`` as the seed of a random generator: an integer >= 0 (as the core's IK takes), else the one-line
+    :class:`DenavitError` (numpy's own error for a negative seed had reached users as an internal error)."""
+    try:
+        value = None if isinstance(seed, bool) else operator.index(seed)
+    except TypeError:
+        value = None
+    if value is None or value < 0:
+        raise DenavitError(f"invalid seed: expected an integer >= 0, got {seed!r}")
+    return value

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from . import _core
-from .errors import DenavitError
+from .errors import DenavitError, check_seed
 from .geometry import rotvec_matrix
 
 # Hayat et al. Table II: range of motion given to each joint (deg), the paper's two protocols.
@@ -192,7 +192,7 @@ def simulate(
     for name, value, unit in (("noise", noise, "m"), ("noise_q", noise_q, "rad or m"), ("noise_rot", noise_rot, "rad")):
         if not (np.isfinite(value) and value >= 0):  # NaN or a negative sigma had given exact data without a word
             raise DenavitError(f"simulate: {name} must be a finite sigma >= 0 in {unit}, got {value!r}")
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(check_seed(seed))
     tools = np.atleast_2d(np.asarray(tool_point if targets is None else targets, dtype=float))
     if tools.ndim != 2 or tools.shape[1] != 3 or not 1 <= len(tools) <= 16:
         raise DenavitError(f"simulate: targets: expected (k, 3) points in the flange frame (m), got shape {tools.shape}")

@@ -3,7 +3,7 @@
 
 use crate::error::{Error, Result, check_finite, check_len};
 use crate::model::{Joint, JointKind, Model};
-use crate::spatial::{Pose, frame_from_zx, rx, rz, trans, unit};
+use crate::spatial::{Pose, frame_from_zx, rx, rz, trans};
 use nalgebra::{DMatrix, Vector3};
 
 /// A kinematic convention.
@@ -263,14 +263,17 @@ impl Table {
                     frame_from_zx(&origin, &z, &Vector3::x(), &Vector3::y())
                 }
                 JointKind::Prismatic => {
-                    if w.norm() > 1e-12 {
+                    // as |w| = 1 for a revolute joint: a v of another length would scale the joint value
+                    // (Lynch & Park's screw (0, v), |v| = 1), so it is refused rather than normalised
+                    let vn = v.norm();
+                    if w.norm() > 1e-12 || (vn - 1.0).abs() > 1e-9 {
                         return Err(Error::InvalidArgument {
                             what: format!("poe screw of prismatic joint {}", i + 1),
-                            expected: "w = 0".into(),
-                            got: format!("|w| = {}", w.norm()),
+                            expected: "w = 0 and |v| = 1 (a pure translation, v a unit direction)".into(),
+                            got: format!("|w| = {}, |v| = {vn}", w.norm()),
                         });
                     }
-                    let z = unit(&v, &format!("poe direction v of prismatic joint {}", i + 1))?.into_inner();
+                    let z = v / vn;
                     frame_from_zx(&prev_origin, &z, &Vector3::x(), &Vector3::y())
                 }
             };

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import _core
+from ..errors import check_seed
 from ..geometry import rotvec_matrix
 from .measurements import Measurements
 from .parametrization import as_robot
@@ -19,7 +20,7 @@ def simulate(model, q, *, tool=(0.05, 0.03, 0.10), noise: float = 0.0, noise_rot
     if T_world_base is not None:
         m = m.with_base(np.asarray(T_world_base, dtype=float))
     Q = np.atleast_2d(np.asarray(q, dtype=float))
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(check_seed(seed))
     if measure == "pose":
         T = _core.fk_batch(m.with_tool(np.asarray(tool, dtype=float)), Q)
         if noise > 0:

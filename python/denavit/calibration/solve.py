@@ -10,7 +10,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .. import _core
-from ..errors import DenavitError
+from ..errors import DenavitError, check_seed
 from ..fitting.joint import as_tracker_noise
 from ..fitting.robust import loss_weight
 from ..io.output import json_text, write_text
@@ -333,7 +333,7 @@ def calibrate(
     train = meas
     if holdout > 0:
         n_test = int(round(holdout * meas.n))
-        perm = np.random.default_rng(seed).permutation(meas.n)
+        perm = np.random.default_rng(check_seed(seed)).permutation(meas.n)
         if n_test >= 1 and 3 * (meas.n - n_test) > len(candidates) + 1:
             test_idx = np.sort(perm[:n_test])
             train = meas.subset(np.sort(perm[n_test:]))

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import sys
+import warnings
 
 from ..errors import DenavitError
 from .common import app, say
@@ -18,10 +19,17 @@ from .common import app, say
 __all__ = ["app", "main"]
 
 
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:  # noqa: ARG001 (warnings.showwarning's signature)
+    say("bold yellow", "warning:", f" {message}", err=True)
+
+
 def main() -> None:
     """Entry point: every DenavitError, and any error of the operating system (a file, a folder, the disk), becomes
     a one-line message and exit code 2; anything else, a defect of denavit, a one-line message and exit code 3
-    (``DENAVIT_TRACEBACK=1`` shows its traceback, for a report)."""
+    (``DENAVIT_TRACEBACK=1`` shows its traceback, for a report). A warning raised by the library (e.g. a URDF's
+    massless link with an inertia) is printed as one ``warning:`` line like the commands' own, without Python's
+    file, line and source."""
+    warnings.showwarning = _one_line_warning
     try:
         app(prog_name="denavit")
     except DenavitError as e:

@@ -409,7 +409,8 @@ def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
             for k, (c, v) in enumerate(zip(t.columns, row)):
                 j[c] = _unit_value(v, cell_scale(t, i, k, length, angle)[0])
         j["limits"] = [_unit_value(robot.lower[i], js[i]), _unit_value(robot.upper[i], js[i])]
-        if robot.inertials is not None and robot.inertials["masses"][i] > 0:
+        # a link with inertia but no mass (the Puma 560's link 1: its motor's rotor) keeps its inertia
+        if robot.inertials is not None and (robot.inertials["masses"][i] > 0 or np.any(robot.inertials["inertias"][i] != 0)):
             I = robot.inertials["inertias"][i]
             j["inertia"] = {
                 "mass": float(robot.inertials["masses"][i]),

@@ -312,6 +312,16 @@ def _select_chain(urdf: yourdfpy.URDF, where: _Where, base_link: str | None, tip
     roots = [n for n in links if n not in parent_of]
     if not roots:
         raise DenavitError(f"{path}: no root link (every link is some joint's child): the joints form a loop, which is not supported")
+    # a link no root reaches lies on a loop (following its parents never ends), e.g. a joint whose parent is its child
+    reached, stack = set(), list(roots)
+    while stack:
+        ln = stack.pop()
+        reached.add(ln)
+        stack.extend(j.child for j in children[ln] if j.child not in reached)
+    looped = [j for j in robot.joints if j.child not in reached]
+    if looped:
+        j = looped[0]
+        raise DenavitError(f"{where('joint', j.name)}: its child link {j.child!r} (parent {j.parent!r}) is on a loop of joints: kinematic loops are not supported")
 
     def names(ls):
         return ", ".join(repr(x) for x in ls)
@@ -930,7 +940,7 @@ def _dumps_model(model: _core.Model, name: str) -> str:
     link_el = {el.get("name"): el for el in root}
     ins = model.inertias
     for i in range(n):  # the model's own link inertias (link i = joint frame i, about the centre of mass)
-        if ins["masses"][i] > 0.0:
+        if ins["masses"][i] > 0.0 or np.any(ins["inertias"][i] != 0):  # an inertia without mass too (the Puma 560's link 1)
             _inertial(link_el[body[i + 1]], pose(None, ins["coms"][i]), float(ins["masses"][i]), ins["inertias"][i])
     if world:
         _add_fixed(root, _unique(f"{world}-{body[0]}", joint_names), world, body[0], B)
