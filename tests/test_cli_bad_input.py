@@ -56,6 +56,9 @@ def files(tmp_path_factory):
         out[first] = out[first].rsplit(",", 1)[0] + "," + cell
         (d / name).write_text("\n".join(out) + "\n")
 
+    (d / "poe_w2.toml").write_text('name = "p"\nconvention = "poe"\n[units]\nlength = "mm"\nangle = "deg"\n'
+                                   '[[joints]]\nname = "j1"\nw = [0, 0, 2]\nv = [0, 0, 0]\nlimits = [-90, 90]\n')
+    (d / "twins.toml").write_text(KR5.replace('name = "A2"', 'name = "A1"', 1))
     sweep_cell("s_1e308.csv", "1e308")
     sweep_cell("s_underscore.csv", "1_000")
     sweep_cell("s_fullwidth.csv", "\uff11\uff12")
@@ -205,6 +208,18 @@ def cases(d: Path, readonly: Path | None):
         ("identify: --direction with a sweep CSV", ["identify", d / "s.csv", "--direction", "-1"], "--direction -1: "),
         ("show: --compare without --report or --plot", ["show", "kr5", "--compare", "mdh"], "--compare mdh: it sets what --report or --plot draws"),
         ("convert: --parallel-tol 2 (a sine above 1: every pair parallel)", ["convert", "kr5", "--to", "dh", "--parallel-tol", "2"], "--parallel-tol 2.0: expected the sine of an angle"),
+        # two outputs on standard output had been written one after the other; one file named twice, the second
+        # write had replaced the first
+        ("identify: --save - --json -", ["identify", d / "s.csv", "--save", "-", "--json", "-"], "--save and --json: both write to standard output ('-')"),
+        ("identify: --save and --urdf one file", ["identify", d / "s.csv", "--save", d / "same.toml", "--urdf", d / "same.toml"], "--save and --urdf both write"),
+        ("compensate: -o - --json -", ["compensate", d / "m.csv", "--nominal", "kr5", "--identified", "kr5", "-o", "-", "--json", "-"], "-o and --json: both write to standard output"),
+        # an empty list of joint values had been taken as zeros
+        ("fk: --q ''", ["fk", "kr5", "--q", ""], "--q: expected 6 joint values for kr5, got none"),
+        ("fk: --q ',,,'", ["fk", "kr5", "--q", ",,,,,"], "--q: expected 6 joint values for kr5, got none"),
+        # core errors about a robot file's table, said at their place; a non-rigid target said to be --pose
+        ("fk: a POE screw with |w| = 2", ["fk", d / "poe_w2.toml"], "poe_w2.toml, joint 1 (line"),
+        ("fk: two joints named alike", ["fk", d / "twins.toml"], "name 'A1' is joint 1's already: expected names unique within the robot"),
+        ("ik: a scaled --pose", ["ik", "kr5", "--pose", "2,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1"], "--pose: T_target is not a rigid transform"),
         # a negative seed had reached numpy (an internal error, exit 3)
         ("simulate: --seed -1", ["simulate", "kr5", "-o", d / "never.csv", "--seed", "-1"], "invalid seed: expected an integer >= 0, got -1"),
         ("calibrate: --seed -1", ["calibrate", d / "m.csv", "--nominal", "kr5", "--seed", "-1"], "invalid seed: expected an integer >= 0, got -1"),

@@ -102,3 +102,16 @@ def test_identify_json_is_si_whatever_the_units_printed(documents):
         assert 0 < j["arc_rad"] < np.pi and j["residuals"]["rms_m"] < 1e-4 and j["axis"]["sigma_point_perp_m"] < 1e-3
         assert j["circle"]["radius_m"] is None or j["circle"]["radius_m"] < 2.0
     assert d["rms_m"] < 1e-4 and d["bounding_box"]["volume_m3"] < 2.0
+
+
+def test_a_document_on_standard_output_is_alone_there(tmp_path):
+    """``--save -`` (a robot file) and ``-o -`` (a compensated program) leave standard output to that document:
+    the tables, notes and ``wrote`` lines go to stderr (they had come first, so the TOML did not parse)."""
+    import tomllib
+
+    s = tmp_path / "s.csv"
+    run("simulate", "kr5", "-o", s, "--points", "8", "--seed", "2")
+    p = run("identify", s, "--nominal", "kr5", "--save", "-")
+    doc = tomllib.loads(p.stdout)
+    assert doc["name"] and len(doc["joints"]) == 6
+    assert "wrote -" in p.stderr

@@ -224,8 +224,14 @@ def test_bad_inertias_are_rejected_with_clear_messages():
     assert e.value.joint == 6
     with pytest.raises(dv.DenavitError, match=r"coms \(centres of mass, m\): expected an array of shape \(N, 3\), got shape \(6,\)"):
         m.with_inertias(ok_m, np.zeros(6), ok_i)
-    with pytest.raises(dv.DenavitError, match=r"wrong size of inertia tensors \(n x 3 x 3 values\): expected 54, got 45"):
+    # each argument's count against the model's joints: the short one is named (five masses had been
+    # reported as a wrong size of the centres of mass)
+    with pytest.raises(dv.DenavitError, match=r"^wrong size of inertias \(one per joint\): expected 6, got 5$"):
         m.with_inertias(ok_m, ok_c, ok_i[:5])
+    with pytest.raises(dv.DenavitError, match=r"^wrong size of masses \(kg, one per joint\): expected 6, got 5$"):
+        m.with_inertias(ok_m[:5], ok_c, ok_i)
+    with pytest.raises(dv.DenavitError, match=r"^wrong size of coms \(centres of mass, one per joint\): expected 6, got 7$"):
+        m.with_inertias(ok_m, np.vstack([ok_c, ok_c[:1]]), ok_i)
     with pytest.raises(dv.DenavitError, match=r"frame: expected 'link', 'dh' or 'world', got 'tool'"):
         m.with_inertias(ok_m, ok_c, ok_i, frame="tool")
     with pytest.raises(dv.DenavitError, match=r"^invalid frame: expected 'dh' only for a model built from a DH table .*, got 'dh' for model 'tiansui_edh', which has no DH link frames$"):
@@ -255,6 +261,10 @@ def test_bad_arguments_are_rejected_with_clear_messages():
         _core.mass_matrix_batch(m, np.zeros(10))
     with pytest.raises(dv.DenavitError, match=r"wrong size of external tool wrenches \(6 or N\*6 values, N = 4\): expected 24, got 18"):
         _core.rnea_batch(m, np.zeros((4, 6)), np.zeros((4, 6)), np.zeros((4, 6)), f_ext=np.zeros((3, 6)))
+    w = np.zeros((4, 6))
+    w[3, 5] = np.nan  # one wrench per row: named by its row, as the joint values are (it had been "index 23")
+    with pytest.raises(dv.DenavitError, match=r"^external tool wrenches \[f; n\] \(row 3\) must be finite, got NaN at index 5$"):
+        _core.rnea_batch(m, np.zeros((4, 6)), np.zeros((4, 6)), np.zeros((4, 6)), f_ext=w)
     qs = np.zeros((4, 6))
     qs[2, 3] = np.inf
     with pytest.raises(dv.DenavitError, match=r"q \(row 2\) must be finite, got inf at index 3"):

@@ -239,6 +239,10 @@ impl PyModel {
         let mv = vector("masses (kg)", masses)?;
         let (cv, _) = shaped("coms (centres of mass, m)", coms, &[None, Some(3)])?;
         let (iv, _) = shaped("inertias (kg m^2)", inertias, &[None, Some(3), Some(3)])?;
+        // each argument against the model (one per joint), so that the one of the wrong length is named
+        check_len("masses (kg, one per joint)", m.nq(), mv.len())?;
+        check_len("coms (centres of mass, one per joint)", m.nq(), cv.len() / 3)?;
+        check_len("inertias (one per joint)", m.nq(), iv.len() / 9)?;
         let link = |i: usize| -> Option<(Vector3<f64>, Matrix3<f64>)> {
             Some((Vector3::from_row_slice(cv.get(3 * i..3 * i + 3)?), Matrix3::from_row_slice(iv.get(9 * i..9 * i + 9)?)))
         };

@@ -16,6 +16,7 @@ from .common import (
     JsonOpt,
     TipLinkOpt,
     calib_unit,
+    check_outputs,
     commands,
     console,
     convention_name,
@@ -69,6 +70,7 @@ def calibrate(
     from ..api import input_path, is_measurement_file  # noqa: PLC0415
     from ..io.measurements import read_measurements  # noqa: PLC0415
 
+    check_outputs(**{"--save": save, "--json": json_path})
     json_path = json_target(json_path)
     robot = load_robot(nominal, base_link, tip_link, "--nominal")
     convention = convention_name(convention)

@@ -301,6 +301,26 @@ def json_argv(argv: Sequence[str]) -> list[str]:
     return out
 
 
+def check_outputs(**paths) -> None:
+    """The files a command writes, by option name (``check_outputs(**{"--save": save, "--json": json})``): at most
+    one on standard output ('-'), which then holds that document only (tables, notes and ``wrote`` lines go to
+    stderr; two had been written one after the other into one stream), and no file named twice (the second
+    write had replaced the first without a word)."""
+    given = {opt: str(p) for opt, p in paths.items() if p is not None}
+    std = [opt for opt, p in given.items() if p == STDOUT]
+    if len(std) > 1:
+        fail(f"{' and '.join(std)}: both write to standard output ('-'): give a file to all but one")
+    if std:
+        console.file = sys.stderr
+    seen: dict[str, str] = {}
+    for opt, p in given.items():
+        key = os.path.realpath(p) if p != STDOUT else None
+        if key is not None and key in seen:
+            fail(f"{seen[key]} and {opt} both write {p}: give each its own file")
+        if key is not None:
+            seen[key] = opt
+
+
 def json_target(path) -> str | None:
     """Where ``--json`` goes (None: nowhere). To standard output, it replaces the tables and everything else
     printed (notes, warnings, ``wrote``) goes to stderr, so standard output holds the JSON document only."""
@@ -412,15 +432,16 @@ def parse_numbers(text: str | None, what: str) -> list[float]:
 def parse_joint_values(text: str | None, what: str, robot: Robot, length: str, angle: str, default=None, limits: bool = True) -> np.ndarray:
     """One value per joint from the command line (``--q``, ``--qd``, ``--home``, ...), SI out: revolute values
     in ``angle``, prismatic ones in ``length`` (rates per s, per s^2). Without ``text``: ``default`` (SI),
-    else zeros. With ``limits``, values beyond the robot's joint limits are warned about (:func:`warn_limits`)."""
+    else zeros; an empty ``text`` (``--q ""``) is an error, not zeros. With ``limits``, values beyond the robot's
+    joint limits are warned about (:func:`warn_limits`)."""
     import numpy as np  # noqa: PLC0415
 
     n = len(robot.names)
-    values = parse_numbers(text, what)
-    if not values:
+    if text is None:
         return np.zeros(n) if default is None else np.asarray(default, dtype=float)
+    values = parse_numbers(text, what)
     if len(values) != n:
-        fail(f"{what}: expected {n} joint values for {robot.name}, got {len(values)}")
+        fail(f"{what}: expected {n} joint values for {robot.name}, got {len(values) or 'none'}")
     q = np.array(values) * joint_scale(robot.table.kinds, length, angle, what)
     if limits:
         warn_limits(q, robot, what, length, angle)

@@ -9,7 +9,7 @@ import typer
 
 from ..errors import DenavitError
 from ..io.units import length_scale
-from .common import SI_UNITS, AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, TipLinkOpt, commands, console, emit_json, json_target, load_robot, positive, say, spread, status, wrote
+from .common import SI_UNITS, AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, TipLinkOpt, check_outputs, commands, console, emit_json, json_target, load_robot, positive, say, spread, status, wrote
 
 
 @commands.command()
@@ -38,6 +38,7 @@ def compensate(
     from ..io.targets import read_targets, write_compensated  # noqa: PLC0415
     from ..io.units import angle_scale  # noqa: PLC0415
 
+    check_outputs(**{"-o": output, "--json": json_out})
     json_out = json_target(json_out)
     nom_robot = load_robot(nominal, base_link, tip_link, "--nominal")
     id_robot = load_robot(identified, base_link if str(identified).lower().endswith(".urdf") else None,

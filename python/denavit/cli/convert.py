@@ -20,6 +20,7 @@ from .common import (
     LengthOpt,
     ModelArg,
     TipLinkOpt,
+    check_outputs,
     commands,
     console,
     emit_json,
@@ -60,6 +61,7 @@ def convert(
     from .. import _core  # noqa: PLC0415
     from ..robot import Robot, inertials_for_table  # noqa: PLC0415
 
+    check_outputs(**{"-o": output, "--json": json_out})
     json_out = json_target(json_out)
     to = to.lower()
     if not (math.isfinite(parallel_tol) and 0.0 <= parallel_tol < 1.0):

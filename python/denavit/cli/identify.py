@@ -13,6 +13,7 @@ from .common import (
     BaseLinkOpt,
     JsonOpt,
     TipLinkOpt,
+    check_outputs,
     commands,
     console,
     convention_name,
@@ -85,6 +86,7 @@ def identify(
     from ..identify import to_json  # noqa: PLC0415
     from ..io import sweeps as swio  # noqa: PLC0415
 
+    check_outputs(**{"--save": save_model, "--urdf": urdf, "--json": json_path})
     json_path = json_target(json_path)
     out_len, out_ang = length or "mm", angle or "deg"
     if example:

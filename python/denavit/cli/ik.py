@@ -7,6 +7,7 @@ from typing import Annotated
 import typer
 from rich.text import Text
 
+from ..errors import DenavitError
 from ..io.units import angle_scale, joint_unit, length_scale
 from .common import (
     SI_UNITS,
@@ -19,6 +20,7 @@ from .common import (
     commands,
     console,
     emit_json,
+    fail,
     joint_values_out,
     json_target,
     load_robot,
@@ -63,7 +65,12 @@ def ik(
     start = parse_joint_values(q0, "--q0", robot, length, angle)
     tp = positive(tol_position, "--tol-position", ls, 1e-10, length)
     tr = positive(tol_rotation, "--tol-rotation", as_, 1e-10, angle)
-    r = _core.ik(m, T, start, method=method, tol_position=tp, tol_rotation=tr, restarts=restarts, seed=seed, respect_limits=not no_limits)
+    try:
+        r = _core.ik(m, T, start, method=method, tol_position=tp, tol_rotation=tr, restarts=restarts, seed=seed, respect_limits=not no_limits)
+    except DenavitError as e:  # the core names the target T_target: say which option gave it
+        if str(e).startswith("T_target"):
+            fail(f"--pose: {e}")
+        raise
     if json_out:
         emit_json({"model": robot.name, "units": SI_UNITS, "success": r.success, "q": list(map(float, r.q)),
                    "joint_units": ["rad" if k == "revolute" else "m" for k in robot.table.kinds], "iterations": r.iterations, "restarts": r.restarts,

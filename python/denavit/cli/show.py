@@ -81,7 +81,7 @@ def show(
         if given is not None and not (report or plot):
             fail(f"{flag} {given}: it sets what --report or --plot draws; give one of them too")
     robot = load_robot(model, base_link, tip_link)
-    qv = parse_joint_values(q, "--q", robot, length, angle) if q else None
+    qv = parse_joint_values(q, "--q", robot, length, angle) if q is not None else None
     if json_out:
         emit_json(robot_json(robot), json_out)
     if json_out != "-":

@@ -115,6 +115,19 @@ def _inertia(spec, jw: str, units: dict | None, where: str, ls: float) -> tuple[
     return vals["mass"] * ms, [c * ls for c in com], I * iscale
 
 
+def _core_error_place(message: str, where: str, joint_where: list[str]) -> str:
+    """Where in the file a core error about the whole table is: the joint its message names ("... of revolute
+    joint 2 ..."), the [tool] or [base] pose, else the file."""
+    m = re.search(r"\bjoint (\d+)\b", message)
+    if m and 1 <= int(m.group(1)) <= len(joint_where):
+        return joint_where[int(m.group(1)) - 1]
+    if message.startswith("T_last_tool"):
+        return f"{where}, [tool]"
+    if message.startswith("T_world_base"):
+        return f"{where}, [base]"
+    return where
+
+
 def read(path: str | os.PathLike) -> Robot:
     """Read a TOML robot file into a :class:`~denavit.robot.Robot` (SI inside); built-in names and URDFs go
     through :func:`denavit.robot.load`."""
@@ -184,12 +197,21 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
                 raise DenavitError(f"{jw}: limits must be [lower, upper] with lower <= upper, got {lim!r}")
         lower.append(lo)
         upper.append(hi)
+    first = {}
+    for i, nm in enumerate(names):  # (the core refuses it too, but without the file's place)
+        if nm in first:
+            raise DenavitError(f"{joint_where[i]}: name {nm!r} is joint {first[nm] + 1}'s already: expected names unique within the robot")
+        first[nm] = i
     base = _pose(doc["base"], ls, as_, f"{where}, [base]") if "base" in doc else np.eye(4)
     tool = _pose(doc["tool"], ls, as_, f"{where}, [tool]") if "tool" in doc else np.eye(4)
     # the rows in the file's units -> SI, cell by cell (io.units.cell_scale: angles, lengths, unitless POE directions)
     raw = _core.Table(conv, np.asarray(rows, dtype=float).reshape(len(rows), len(cols)), kinds)
     si = [[cell_scale(raw, i, k, units["length"], units["angle"])[0] for k in range(len(cols))] for i in range(len(rows))]
-    table = _core.Table(conv, raw.params * np.asarray(si).reshape(raw.params.shape), kinds, base, tool)
+    try:  # the core's checks of the table and of its model (a POE screw, a non-rigid tool), said at their place
+        table = _core.Table(conv, raw.params * np.asarray(si).reshape(raw.params.shape), kinds, base, tool)
+        table.to_model("check")
+    except DenavitError as e:
+        raise DenavitError(f"{_core_error_place(str(e), where, joint_where)}: {e}") from None
     home = doc.get("home")
     if home is not None:
         home = np.asarray(_numbers(home, len(joints), f"{where}: home")) * joint_scale(kinds, units["length"], units["angle"], where)

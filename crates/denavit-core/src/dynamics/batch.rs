@@ -26,8 +26,13 @@ pub(super) fn batch_rows(model: &Model, inputs: &[(&str, &[f64])], out_what: &st
 pub(super) fn wrench_of(f_ext: Option<&[f64]>, count: usize) -> Result<Option<&[f64]>> {
     match f_ext {
         None => Ok(None),
-        Some(w) if w.len() == 6 || w.len() == 6 * count => {
-            check_finite("external tool wrenches [f; n]", w)?;
+        Some(w) if w.len() == 6 => {
+            check_finite("external tool wrench [f; n]", w)?;
+            Ok(Some(w))
+        }
+        // one per row: a non-finite value named by its row, as the joint values are
+        Some(w) if w.len() == 6 * count => {
+            crate::error::check_finite_rows("external tool wrenches [f; n]", w, 6)?;
             Ok(Some(w))
         }
         Some(w) => Err(Error::SizeMismatch { what: format!("external tool wrenches (6 or N*6 values, N = {count})"), expected: 6 * count, got: w.len() }),
