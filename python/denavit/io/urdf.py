@@ -635,10 +635,11 @@ def _body_inertials_in_world(ch: UrdfChain, model: _core.Model, chain_only: bool
     for i, body in enumerate(ch.extra["bodies"][1:]):
         lds = body["links"] + ([] if chain_only else body["attached"])
         links = [ld["name"] for ld in lds if "inertial" in ld]
-        for ld in lds:
-            mass = ld.get("inertial", {}).get("mass", 0.0)
-            if not (math.isfinite(mass) and mass >= 0.0):
-                raise DenavitError(f"link {ld['name']!r}: <mass value=\"{mass}\"/>: expected a finite mass >= 0 kg")
+        bad = [(ld["name"], m) for ld in lds if not (math.isfinite(m := ld.get("inertial", {}).get("mass", 0.0)) and m >= 0.0)]
+        if bad:  # as any unphysical inertial: that body alone is left massless (a negative mass had dropped them all)
+            warnings.warn(f"{ch.path}: link {bad[0][0]!r}: <mass value=\"{bad[0][1]}\"/>: expected a finite mass >= 0 kg (the body moved by joint "
+                          f"{ch.names[i]!r}); that body is loaded without mass, the others keep theirs", DenavitWarning, stacklevel=3)
+            continue
         parts = [
             (np.asarray(ld["T_world_link"], dtype=float) @ np.asarray(ld["inertial"]["origin"], dtype=float),
              float(ld["inertial"]["mass"]), np.asarray(ld["inertial"]["inertia"], dtype=float))
