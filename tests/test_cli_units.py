@@ -189,6 +189,21 @@ def test_identify_prints_and_saves_in_the_units_asked(sweeps_mm, tmp_path):
         assert p.returncode == 2 and "exceeds the requested 1e-06 mm" in p.stderr
 
 
+def test_identify_fills_in_an_undeclared_angle_unit_but_not_a_length(sweeps_mm, tmp_path):
+    """docs/cli.md: --angle (default deg) fills in what a sweep file does not declare; an undeclared length is
+    refused unless --length is given (it had refused the undeclared angle too)."""
+    text = sweeps_mm.read_text()
+    assert "# units: length=mm angle=deg\n" in text
+    f, g = tmp_path / "len_only.csv", tmp_path / "angle_only.csv"
+    f.write_text(text.replace("# units: length=mm angle=deg\n", "# units: length=mm\n"))
+    g.write_text(text.replace("# units: length=mm angle=deg\n", "# units: angle=deg\n"))
+    full, filled = (json.loads(run("identify", x, "--nominal", "kr5", "--json", "-").stdout) for x in (sweeps_mm, f))
+    assert full.pop("source") != filled.pop("source")
+    close(filled, full, rtol=1e-12, atol=1e-15)
+    p = run("identify", g, "--nominal", "kr5", ok=False)
+    assert p.returncode == 2 and "units not declared (length)" in p.stderr
+
+
 def test_identify_per_joint_home_in_the_angle_unit(sweeps_mm, tmp_path):
     """A folder of per-joint files: --home in --angle (degrees by default); the same geometry from radians
     with --angle rad, and a warning when the values cannot be the unit asked (beyond the nominal's limits)."""

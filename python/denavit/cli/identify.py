@@ -117,10 +117,13 @@ def identify(
             for given, flag in ((home, "--home"), (direction, "--direction")):
                 if given is not None:
                     fail(f"{flag} {given}: {data} is a sweep file with its joint readings (and its home); {flag} applies to a folder of per-joint files or a recording")
+            # units the file declares win; --length/--angle fill in what it does not declare (and are the output's):
+            # an undeclared length is refused unless --length is given (no guess), an undeclared angle is --angle's
+            # (default deg), as docs/cli.md says
             if data.suffix.lower() == ".json":
-                sweeps = swio.read_json(data, length=length, angle=angle)
-            else:  # units the file declares win; --length/--angle fill in what it does not declare (and are the output's)
-                sweeps = swio.read_long_csv(data, length=length, angle=angle, kinds=kinds)
+                sweeps = swio.read_json(data, length=length, angle=out_ang)
+            else:
+                sweeps = swio.read_long_csv(data, length=length, angle=out_ang, kinds=kinds)
         if target is not None and not (data_format not in ("auto", "sweeps") or readings is not None or (data_format == "auto" and not is_sweep_file(input_path(data)))):
             if not 1 <= target <= sweeps.n_targets:
                 fail(f"--target {target}: {data} has {sweeps.n_targets} target(s) per pose: expected 1..{sweeps.n_targets}")
