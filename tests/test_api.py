@@ -205,6 +205,10 @@ def test_save_keeps_the_identified_geometry_and_a_dh_save_states_its_error(tmp_p
     d = np.linalg.norm(dv.fk_batch(saved.model(), q)[:, :3, 3] - dv.fk_batch(exact, q)[:, :3, 3], axis=1)
     assert d.max() < 1e-9
     res.save(tmp_path / "dh.toml", convention="dh", length="mm")
+    # a robot file is TOML: another extension is refused (a .json name had received TOML without a word)
+    with pytest.raises(dv.DenavitError, match=r"r.json: expected a robot file name ending in .toml \(or .urdf for a URDF\), got a .json name"):
+        res.save(tmp_path / "r.json")
+    assert not (tmp_path / "r.json").exists()
     text = (tmp_path / "dh.toml").read_text()
     lossy = dv.load_robot(tmp_path / "dh.toml")
     assert lossy.convention == "dh"

@@ -16,6 +16,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from functools import cached_property
+from pathlib import Path
 
 import numpy as np
 
@@ -170,7 +171,10 @@ class Identification:
         """
         from .io.robotfile import dumps  # noqa: PLC0415
 
-        if str(path).lower().endswith(".urdf"):
+        suffix = Path(str(path)).suffix.lower()
+        if str(path) != "-" and suffix not in ("", ".toml", ".urdf"):  # a .json name had received TOML without a word
+            raise DenavitError(f"{path}: expected a robot file name ending in .toml (or .urdf for a URDF), got a {suffix} name")
+        if suffix == ".urdf":
             from .io.urdf import save_urdf  # noqa: PLC0415 (lxml loads for a URDF only)
 
             if convention is not None and _core.convention_info(convention)["name"] != "edh":
