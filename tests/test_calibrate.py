@@ -391,7 +391,7 @@ def test_a_joint_that_never_moves_is_named(kr5):
     q = cal.configurations(kr5, 60)
     q[:, 3] = 0.25
     meas = cal.simulate(kr5, q, tool=TOOL)
-    with pytest.raises(dv.DenavitError, match=r"joint\(s\) 4 \(A4\) never move in the data \(q4 = 0.25 in all 60 poses\): the data cannot identify (\w+, )*\w+ .*hold these fixed: fix=\[") as e:
+    with pytest.raises(dv.DenavitError, match=r"joint\(s\) 4 \(A4\) never move in the data \(q4 = 0.25 rad in all 60 poses\): the data cannot identify (\w+, )*\w+ .*hold these fixed: fix=\[") as e:
         cal.calibrate(meas, kr5, tool=TOOL)
     names = ast.literal_eval(str(e.value).split("fix=")[1])
     res = cal.calibrate(meas, kr5, tool=TOOL, fix=names)

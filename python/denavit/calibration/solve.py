@@ -369,7 +369,7 @@ def calibrate(
                            f"this model can identify ({', '.join(struct.base_parameters)}); need at least {struct.rank // per + 1} "
                            f"{'poses' if per == 6 else 'points'} (many more to average the noise), or fix parameters")
     if still and data_only:
-        vals = ", ".join(f"q{j + 1} = {train.q[0, j]:.6g}" for j in still)
+        vals = ", ".join(f"q{j + 1} = {train.q[0, j]:.6g} {'m' if robot.table.kinds[j] == 'prismatic' else 'rad'}" for j in still)  # SI, labelled
         raise DenavitError(f"{meas.source}: joint(s) {', '.join(f'{j + 1} ({robot.names[j]})' for j in still)} never move in the data ({vals} in all {train.n} poses): "
                            f"the data cannot identify {', '.join(data_only)} (beyond the parameters redundant in any case); move the joint(s), "
                            f"or hold these fixed: fix={[u.name for u in ana.unidentifiable]}")
