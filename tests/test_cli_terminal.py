@@ -165,3 +165,18 @@ def test_metre_tables_show_significant_figures_not_zeros():
     d = [ln.split("│")[4].strip() for ln in out.splitlines() if ln.startswith("│") and ln.count("│") == 8 and "│ m " in ln]
     assert all(len(v.split(".")[1]) == 6 for v in d), d  # micrometres in metres
     np.testing.assert_allclose(float(d[0]), 0.4, atol=1e-6)
+
+
+def test_a_closed_pipe_ends_the_command_by_sigpipe_not_exit_1():
+    """`denavit fk kr5 | head -1`: the reader stops, the command ends as cat does (killed by SIGPIPE, shell status
+    141) rather than with click's exit 1, which reads as "goal not met" (docs/cli.md, Exit codes)."""
+    import signal
+    import subprocess
+    import sys
+
+    from cli import env
+
+    with subprocess.Popen([sys.executable, "-m", "denavit.cli", "fk", "kr5"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env()) as p:
+        p.stdout.close()  # the reader is gone before the first line is written
+        err = p.stderr.read().decode()
+        assert p.wait() == -signal.SIGPIPE and err == ""

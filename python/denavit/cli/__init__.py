@@ -10,6 +10,7 @@ rich only: numpy's heavy friends (scipy, matplotlib, yourdfpy) load inside the c
 from __future__ import annotations
 
 import os
+import signal
 import sys
 import warnings
 
@@ -30,6 +31,8 @@ def main() -> None:
     massless link with an inertia) is printed as one ``warning:`` line like the commands' own, without Python's
     file, line and source."""
     warnings.showwarning = _one_line_warning
+    if hasattr(signal, "SIGPIPE"):  # a reader that stops (`denavit fk kr5 | head -1`) ends the command as it ends cat,
+        signal.signal(signal.SIGPIPE, signal.SIG_DFL)  # by the signal (shell status 141), not click's exit 1, which says "not met"
     try:
         app(prog_name="denavit")
     except DenavitError as e:
