@@ -49,6 +49,15 @@ def test_points_x1000_are_refused(kr5, readings):
         dv.identify(s, nominal=kr5)
 
 
+def test_a_target_on_the_wrist_axes_is_named_as_the_cause(kr5):
+    """The target at the flange origin lies on (next to) the axes of joints 4-6 at home: their circles are specks
+    and their axes garbage; the error names those joints and the target, not "another unit? the wrong robot?"."""
+    s = sw.simulate(kr5.model(), home=HOME, ranges=RANGES, points_per_sweep=12, noise=2e-5, tool_point=(0.0, 0.0, 0.0))
+    with pytest.raises(dv.DenavitError, match=r"joint A6's points lie on a circle of radius 0\.0\d+ mm: the target is on or next to th(at axis|ose axes); "
+                                              r"put it off every joint's axis\)"):
+        dv.identify(s, nominal=kr5)
+
+
 @pytest.mark.parametrize("readings", [True, False], ids=["readings", "no readings"])
 def test_x_and_y_swapped_is_refused_as_a_mirror_image(kr5, readings):
     """Without readings the paper's home cannot show it (tests/test_identify.py: the axes are their own mirror image

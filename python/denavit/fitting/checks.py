@@ -124,6 +124,10 @@ def check_sweep_labels(sweeps, wheres: list[str]) -> None:
 PLAUSIBLE = (math.radians(2.0), 0.02)
 IMPLAUSIBLE = (math.radians(30.0), 0.25)
 PLAUSIBLE_SIGMAS = 5.0
+#: A revolute joint's circle smaller than this fraction of the robot's size (1 mm on a 1 m robot) is named as the
+#: likely cause when the axes are implausible: the target on or next to that joint's axis (a 0.006 mm circle of
+#: joint 6 had been reported as "points in another unit? the wrong robot?").
+SPECK = 1e-3
 
 
 def _line_pair(p0, z0, p1, z1, parallel: bool) -> tuple[float, float]:
@@ -313,11 +317,18 @@ def nominal_plausibility(ex, fits: list, nominal, home, names: list[str], source
             # no sigmas here: a fit this far off is of no use however uncertain (arcs too short say so)
             far += abs(ai - an) > IMPLAUSIBLE[0] or abs(di - dn) > IMPLAUSIBLE[1] * size
     if pairs and (far > pairs / 2 or far_next > (n - 1) / 2):
+        # a revolute joint whose circle is a speck (the target on or next to its axis) gives an axis of no use
+        specks = [k for k, f in enumerate(fits) if kinds[k] == "revolute" and np.isfinite(f.radius) and f.radius < SPECK * size]
+        if short:
+            cause = (f"(the arcs are too short: {len(short)} axes known no better than {short_sigma * 1e3:g} mm, up to "
+                     f"{max(f.sigma_point_perp for f in fits) * 1e3:.3g} mm; sweep longer arcs)")
+        elif specks:
+            cause = ("(" + ", ".join(f"joint {names[k]}'s points lie on a circle of radius {fits[k].radius * 1e3:.3g} mm" for k in specks)
+                     + f": the target is on or next to {'that axis' if len(specks) == 1 else 'those axes'}; put it off every joint's axis)")
+        else:
+            cause = "(points in another unit? joints swapped or misnumbered? the wrong robot?)"
         refuse(f"{far} of {pairs} pairs of axes ({far_next} of {n - 1} consecutive) differ from the nominal {nominal.name}'s by more than {math.degrees(IMPLAUSIBLE[0]):g} deg or "
-               f"{IMPLAUSIBLE[1]:g} robot sizes ({IMPLAUSIBLE[1] * size * 1e3:.4g} mm): expected the same robot "
-               + (f"(the arcs are too short: {len(short)} axes known no better than {short_sigma * 1e3:g} mm, up to "
-                  f"{max(f.sigma_point_perp for f in fits) * 1e3:.3g} mm; sweep longer arcs)" if short else
-                  "(points in another unit? joints swapped or misnumbered? the wrong robot?)"))
+               f"{IMPLAUSIBLE[1]:g} robot sizes ({IMPLAUSIBLE[1] * size * 1e3:.4g} mm): expected the same robot " + cause)
 
 
 def _mirrored(fits: list, pts, dirs, kinds, size: float) -> tuple[int, int] | None:
