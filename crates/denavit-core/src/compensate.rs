@@ -128,9 +128,7 @@ pub fn compensate(
         }
     };
     for (i, t) in targets.iter().enumerate() {
-        if crate::spatial::check_pose("target", t).is_err() {
-            crate::spatial::check_pose(&format!("target {i}"), t)?;
-        }
+        crate::spatial::check_pose(format_args!("target {i}"), t)?;
     }
     // the identified solve from the nominal solution: no restarts first (stay on its branch), then the
     // options' restarts if that fails

@@ -1110,10 +1110,7 @@ pub fn closed_form_branches(model: &Model, target: &Pose) -> Result<Option<Vec<V
 
 fn check_targets(targets: &[Pose]) -> Result<()> {
     for (i, t) in targets.iter().enumerate() {
-        // the target's name is formatted only for the error (a String per target is a few % of a solve)
-        if check_pose("IK target", t).is_err() {
-            check_pose(&format!("IK target {i}"), t)?;
-        }
+        check_pose(format_args!("IK target {i}"), t)?;
     }
     Ok(())
 }

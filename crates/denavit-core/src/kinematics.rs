@@ -406,18 +406,17 @@ fn block_of<'a>(qb: &'a [f64], n: usize, padded: &'a mut Vec<f64>, out: &mut [f6
         padded[..qb.len()].copy_from_slice(qb);
         return Rows::Block(padded);
     }
-    if !qb.iter().all(|v| v.is_finite()) {
-        return Rows::NotFinite;
+    // (the batch's error names the first non-finite value of all rows: this block's own is dropped)
+    match small_batch(qb, n, out, out.len() / rows, one) {
+        Ok(()) => Rows::Written,
+        Err(_) => Rows::NotFinite,
     }
-    for (q, o) in qb.chunks_exact(n).zip(out.chunks_exact_mut(out.len() / rows)) {
-        one(q, o);
-    }
-    Rows::Written
 }
 
-/// A whole batch of up to [`TAIL_ROWS`] rows (`qs`: rows of `n`; `out`: rows of `per_row`), each row of
-/// `out` written by `one(q_row, out_row)` as [`block_of`] writes the last rows of a batch, without a block's
-/// workspace or the chain's factors (a one-row batch had spent half its time allocating them).
+/// Rows through the single-configuration path (`qs`: rows of `n`; `out`: rows of `per_row`), each row of
+/// `out` written by `one(q_row, out_row)` once all are known finite: a whole batch of up to [`TAIL_ROWS`]
+/// rows, without a block's workspace or the chain's factors (a one-row batch had spent half its time
+/// allocating them), and the last rows of a bigger one ([`block_of`]).
 fn small_batch(qs: &[f64], n: usize, out: &mut [f64], per_row: usize, one: impl Fn(&[f64], &mut [f64])) -> Result<()> {
     crate::error::check_finite_rows("q", qs, n)?;
     for (q, o) in qs.chunks_exact(n).zip(out.chunks_exact_mut(per_row)) {

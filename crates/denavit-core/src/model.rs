@@ -143,7 +143,7 @@ impl Model {
         check_pose("T_last_flange", &t_last_flange)?;
         check_pose("T_flange_tool", &t_flange_tool)?;
         for (i, j) in joints.iter().enumerate() {
-            check_pose(&format!("placement of joint {} ('{}')", i + 1, j.name), &j.placement)?;
+            check_pose(format_args!("placement of joint {} ('{}')", i + 1, j.name), &j.placement)?;
             check_finite(&format!("offset of joint {} ('{}')", i + 1, j.name), &[j.offset])?;
             if j.lower.is_nan() || j.upper.is_nan() || j.lower > j.upper {
                 return Err(Error::InvalidArgument {
@@ -261,7 +261,7 @@ impl Model {
     pub fn with_dh_link_frames(&self, frames: Vec<Pose>) -> Result<Self> {
         check_len("DH link frames (one per joint)", self.nq(), frames.len())?;
         for (i, f) in frames.iter().enumerate() {
-            check_pose(&format!("DH link frame {}", i + 1), f)?;
+            check_pose(format_args!("DH link frame {}", i + 1), f)?;
         }
         Ok(Self { dh_link_frames: Some(frames), ..self.clone() })
     }
