@@ -434,6 +434,9 @@ const ROT_IDENTITY: u8 = 0;
 const ROT_ABOUT_X: u8 = 1;
 /// Any other rotation.
 const ROT_GENERAL: u8 = 2;
+/// A quarter turn about x, its entries exactly 0 and ±1 (a DH table's alpha = ±90 deg, spatial::rx): in the
+/// one-pass chains a renaming of the axes; the joint-by-joint [`step`]s treat it as `ROT_ABOUT_X`.
+const ROT_QUARTER_X: u8 = 3;
 
 /// The joint motion that follows a factor: `Rz(s)`, `Tz(s)`, or none (the tool).
 const MOTION_RZ: u8 = 0;
@@ -461,6 +464,8 @@ impl Factor {
         let about_x = b[0] == [1.0, 0.0, 0.0] && b[1][0] == 0.0 && b[2][0] == 0.0;
         let rot = if about_x && b[1] == [0.0, 1.0, 0.0] && b[2] == [0.0, 0.0, 1.0] {
             ROT_IDENTITY
+        } else if about_x && b[1][1] == 0.0 && b[2][2] == 0.0 && b[1][2].abs() == 1.0 && b[2][1] == -b[1][2] {
+            ROT_QUARTER_X
         } else if about_x {
             ROT_ABOUT_X
         } else {
@@ -477,9 +482,9 @@ impl Factor {
 struct Chain {
     first: Frame,
     factors: Vec<Factor>,
-    /// For [`revolute_about_x`]: `Some(origin bits of all placements 2..n)` when every joint is revolute
-    /// and every placement rotates about x only (DH, modified DH, ED-H tables).
-    about_x: Option<u8>,
+    /// For [`revolute_about_x`]: every joint is revolute and every placement rotates about x only (DH,
+    /// modified DH, ED-H tables).
+    about_x: bool,
 }
 
 impl Chain {
@@ -489,64 +494,104 @@ impl Chain {
         let first = joints.first().map_or(base, |j| base.mul(&j.placement));
         let factors: Vec<Factor> = joints.iter().skip(1).map(|j| Factor::of(&j.placement)).chain([Factor::of(model.t_last_tool())]).collect();
         let placements = &factors[..factors.len() - 1];
-        let about_x = (joints.iter().all(|j| j.kind == JointKind::Revolute) && placements.iter().all(|f| f.rot != ROT_GENERAL))
-            .then(|| placements.iter().fold(0, |bits, f| bits | f.origin));
+        let about_x = joints.iter().all(|j| j.kind == JointKind::Revolute) && placements.iter().all(|f| f.rot != ROT_GENERAL);
         Self { first, factors, about_x }
     }
 }
 
+/// Configurations per group of the one-pass chains: the lanes of one vector register.
+#[cfg(target_feature = "avx512f")]
+const LANES: usize = 8;
+#[cfg(not(target_feature = "avx512f"))]
+const LANES: usize = 4;
+
+/// One quantity of a group of configurations (a vector register).
+type G = [f64; LANES];
+
+/// The lanes of group `g` of a block's quantity.
+#[inline(always)]
+fn lanes(v: &V, g: usize) -> G {
+    std::array::from_fn(|i| v[g * LANES + i])
+}
+
+/// `a * b + c` lane by lane, fused.
+#[inline(always)]
+fn fma(a: &G, b: &G, c: &G) -> G {
+    std::array::from_fn(|i| a[i].mul_add(b[i], c[i]))
+}
+
+/// `a * b + c` lane by lane with a constant `b`, fused.
+#[inline(always)]
+fn fma_by(a: &G, b: f64, c: &G) -> G {
+    std::array::from_fn(|i| a[i].mul_add(b, c[i]))
+}
+
+/// A vector of groups negated.
+#[inline(always)]
+fn negated(a: &[G; 3]) -> [G; 3] {
+    a.map(|v| v.map(|x| -x))
+}
+
 /// The frames of joint `N` of a block (into `c`) for a chain of `N` revolute joints whose placements
 /// 2..N rotate about x only (`factors`: those placements; `sn`, `cs`: the sines and cosines of the joint
-/// angles, per joint), the whole chain in one pass over the configurations, the frame in registers (the
-/// joint-by-joint [`step`]s store and reload it at every joint). The arithmetic of [`step`] with
-/// `ROT_ABOUT_X` and `ORIGIN` for every placement (an identity's or a zero origin component's terms then
-/// add exact zeros: the same values up to the sign of zeros).
+/// angles, per joint), the whole chain in one pass over the configurations, a group of [`LANES`] at a
+/// time, the frame in registers (the joint-by-joint [`step`]s store and reload it at every joint).
 #[inline(never)]
-fn revolute_about_x<const N: usize, const ORIGIN: u8>(first: &Frame, factors: &[Factor], sn: &[V], cs: &[V], c: &mut Frames) {
+fn revolute_about_x<const N: usize>(first: &Frame, factors: &[Factor], sn: &[V], cs: &[V], c: &mut Frames) {
     let (factors, sn, cs) = (&factors[..N - 1], &sn[..N], &cs[..N]);
-    for l in 0..BLOCK {
-        let [x, y, z, p] = chain_about_x::<ORIGIN>(first, factors, sn, cs, l, |_, _, _| {});
-        for r in 0..3 {
-            c[0][r][l] = x[r];
-            c[1][r][l] = y[r];
-            c[2][r][l] = z[r];
-            c[3][r][l] = p[r];
+    for g in 0..BLOCK / LANES {
+        let frame = chain_about_x(first, factors, sn, cs, g, |_, _, _| {});
+        for (cj, fj) in c.iter_mut().zip(&frame) {
+            for (cr, fr) in cj.iter_mut().zip(fj) {
+                cr[g * LANES..(g + 1) * LANES].copy_from_slice(fr);
+            }
         }
     }
 }
 
-/// The body of [`revolute_about_x`] for configuration `l` of a block: the frame of the last joint (x, y,
-/// z axes and origin), each joint's z axis and origin handed to `each(joint, z, p)` on the way.
+/// The body of [`revolute_about_x`] for group `g` of a block: the frame of the last joint (x, y, z axes
+/// and origin, rows of groups), each joint's z axis and origin handed to `each(joint, z, p)` on the way.
+/// The arithmetic of [`step`] with `ROT_ABOUT_X` without the terms a placement's exact zeros and ones
+/// make vanish, chosen joint by joint (its rotation class and origin components): the same values up to
+/// the sign of zeros. The choices are the same for every group, so their branches are predicted.
 #[inline(always)]
-fn chain_about_x<const ORIGIN: u8>(
-    first: &Frame,
-    factors: &[Factor],
-    sn: &[V],
-    cs: &[V],
-    l: usize,
-    mut each: impl FnMut(usize, &[f64; 3], &[f64; 3]),
-) -> [[f64; 3]; 4] {
+fn chain_about_x(first: &Frame, factors: &[Factor], sn: &[V], cs: &[V], g: usize, mut each: impl FnMut(usize, &[G; 3], &[G; 3])) -> [[G; 3]; 4] {
     let f = &first.c;
     // joint 1: the first frame, the same for every configuration, turned
-    let (s, k) = (sn[0][l], cs[0][l]);
-    let mut x: [f64; 3] = std::array::from_fn(|r| k.mul_add(f[0][r], s * f[1][r]));
-    let mut y: [f64; 3] = std::array::from_fn(|r| k.mul_add(f[1][r], -(s * f[0][r])));
-    let mut z: [f64; 3] = std::array::from_fn(|r| f[2][r]);
-    let mut p: [f64; 3] = std::array::from_fn(|r| f[3][r]);
+    let (s, k) = (lanes(&sn[0], g), lanes(&cs[0], g));
+    let mut x: [G; 3] = std::array::from_fn(|r| fma_by(&k, f[0][r], &s.map(|v| v * f[1][r])));
+    let mut y: [G; 3] = std::array::from_fn(|r| fma_by(&k, f[1][r], &s.map(|v| -(v * f[0][r]))));
+    let mut z: [G; 3] = std::array::from_fn(|r| [f[2][r]; LANES]);
+    let mut p: [G; 3] = std::array::from_fn(|r| [f[3][r]; LANES]);
     each(0, &z, &p);
-    for (i, b) in factors.iter().enumerate() {
-        let b = &b.b;
+    for (i, fi) in factors.iter().enumerate() {
+        let b = &fi.b;
         let a = [x, y, z];
         for k in 0..3 {
-            if ORIGIN & (1 << k) != 0 {
-                p = std::array::from_fn(|r| a[k][r].mul_add(b[3][k], p[r]));
+            if fi.origin & (1 << k) != 0 {
+                p = std::array::from_fn(|r| fma_by(&a[k][r], b[3][k], &p[r]));
             }
         }
-        let y1: [f64; 3] = std::array::from_fn(|r| z[r].mul_add(b[1][2], y[r] * b[1][1]));
-        z = std::array::from_fn(|r| z[r].mul_add(b[2][2], y[r] * b[2][1]));
-        let (s, k) = (sn[i + 1][l], cs[i + 1][l]);
-        y = std::array::from_fn(|r| k.mul_add(y1[r], -(s * x[r])));
-        x = std::array::from_fn(|r| k.mul_add(x[r], s * y1[r]));
+        // the y axis turned about x; z in place
+        let y1 = match fi.rot {
+            ROT_IDENTITY => y,
+            // (y, z) -> (z, -y) for +90 deg, (-z, y) for -90 deg
+            ROT_QUARTER_X if b[1][2] > 0.0 => {
+                z = negated(&a[1]);
+                a[2]
+            }
+            ROT_QUARTER_X => {
+                z = a[1];
+                negated(&a[2])
+            }
+            _ => {
+                z = std::array::from_fn(|r| fma_by(&a[2][r], b[2][2], &a[1][r].map(|v| v * b[2][1])));
+                std::array::from_fn(|r| fma_by(&a[2][r], b[1][2], &a[1][r].map(|v| v * b[1][1])))
+            }
+        };
+        let (s, k) = (lanes(&sn[i + 1], g), lanes(&cs[i + 1], g));
+        y = std::array::from_fn(|r| fma(&k, &y1[r], &std::array::from_fn(|l| -(s[l] * x[r][l]))));
+        x = std::array::from_fn(|r| fma(&k, &x[r], &std::array::from_fn(|l| s[l] * y1[r][l])));
         each(i + 1, &z, &p);
     }
     [x, y, z, p]
@@ -568,13 +613,13 @@ const fn frame_of(f: u8) -> JacobianFrame {
 }
 
 /// The tool Jacobians of a block (into `jac[r * N + k]`: row r, column k; the frame `FRAME`) for the chains
-/// of [`revolute_about_x`], in one pass over the configurations: the chain's frames in registers, each
-/// joint's origin and z axis kept as the chain passes it, then the tool (`tool`, as [`Frame::mul`]) and the
-/// columns (as [`column`]: the values of [`jacobian_row_major_unchecked`] up to the sign of zeros), stored
-/// lane by lane. `base`: the base frame's axes (for `FRAME_BASE`).
+/// of [`revolute_about_x`], in one pass over the configurations: the chain of a group in registers, each
+/// joint's origin and z axis kept as the chain passes it, then per configuration of the group the tool
+/// (`tool`, as [`Frame::mul`]) and the columns (as [`column`]: the values of
+/// [`jacobian_row_major_unchecked`] up to the sign of zeros), stored lane by lane. `base`: the base frame's axes (for `FRAME_BASE`).
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
-fn jacobian_about_x<const N: usize, const ORIGIN: u8, const FRAME: u8>(
+fn jacobian_about_x<const N: usize, const FRAME: u8>(
     first: &Frame,
     factors: &[Factor],
     tool: &Factor,
@@ -585,23 +630,29 @@ fn jacobian_about_x<const N: usize, const ORIGIN: u8, const FRAME: u8>(
 ) {
     let (factors, sn, cs, jac, b) = (&factors[..N - 1], &sn[..N], &cs[..N], &mut jac[..6 * N], &tool.b);
     let frame = frame_of(FRAME);
-    for l in 0..BLOCK {
-        let (mut o, mut zs) = ([[0.0; 3]; N], [[0.0; 3]; N]);
-        let [x, y, z, p] = chain_about_x::<ORIGIN>(first, factors, sn, cs, l, |i, zi, pi| {
-            zs[i] = *zi;
-            o[i] = *pi;
+    for g in 0..BLOCK / LANES {
+        let (mut og, mut zg) = ([[[0.0; LANES]; 3]; N], [[[0.0; LANES]; 3]; N]);
+        let frame_g = chain_about_x(first, factors, sn, cs, g, |i, zi, pi| {
+            zg[i] = *zi;
+            og[i] = *pi;
         });
-        let a = [x, y, z];
-        let tp: [f64; 3] = std::array::from_fn(|r| a[2][r].mul_add(b[3][2], a[1][r].mul_add(b[3][1], a[0][r].mul_add(b[3][0], p[r]))));
-        let axes: Option<[[f64; 3]; 3]> = match FRAME {
-            FRAME_LOCAL => Some(std::array::from_fn(|j| std::array::from_fn(|r| a[2][r].mul_add(b[j][2], a[1][r].mul_add(b[j][1], a[0][r] * b[j][0]))))),
-            FRAME_BASE => Some(*base),
-            _ => None,
-        };
-        for k in 0..N {
-            let col = column(JointKind::Revolute, o[k], zs[k], tp, frame, axes.as_ref());
-            for r in 0..6 {
-                jac[r * N + k][l] = col[r];
+        for m in 0..LANES {
+            let l = g * LANES + m;
+            let lane = |v: &[G; 3]| -> [f64; 3] { std::array::from_fn(|r| v[r][m]) };
+            let (o, zs): ([[f64; 3]; N], [[f64; 3]; N]) = (std::array::from_fn(|i| lane(&og[i])), std::array::from_fn(|i| lane(&zg[i])));
+            let [x, y, z, p] = frame_g.each_ref().map(lane);
+            let a = [x, y, z];
+            let tp: [f64; 3] = std::array::from_fn(|r| a[2][r].mul_add(b[3][2], a[1][r].mul_add(b[3][1], a[0][r].mul_add(b[3][0], p[r]))));
+            let axes: Option<[[f64; 3]; 3]> = match FRAME {
+                FRAME_LOCAL => Some(std::array::from_fn(|j| std::array::from_fn(|r| a[2][r].mul_add(b[j][2], a[1][r].mul_add(b[j][1], a[0][r] * b[j][0]))))),
+                FRAME_BASE => Some(*base),
+                _ => None,
+            };
+            for k in 0..N {
+                let col = column(JointKind::Revolute, o[k], zs[k], tp, frame, axes.as_ref());
+                for r in 0..6 {
+                    jac[r * N + k][l] = col[r];
+                }
             }
         }
     }
@@ -759,7 +810,7 @@ fn step_factor(c: &mut Frames, f: &Factor, motion: u8, s: &V, sn: &V, cs: &V) {
         ($motion:expr) => {
             match f.rot {
                 ROT_IDENTITY => by_origin!(ROT_IDENTITY, $motion),
-                ROT_ABOUT_X => by_origin!(ROT_ABOUT_X, $motion),
+                ROT_ABOUT_X | ROT_QUARTER_X => by_origin!(ROT_ABOUT_X, $motion),
                 _ => by_origin!(ROT_GENERAL, $motion),
             }
         };
@@ -956,7 +1007,7 @@ fn tool_pose_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], w: &
             Rows::NotFinite => return false,
         };
         match chain.about_x {
-            Some(origin) if N > 0 => {
+            true if N > 0 => {
                 if !load_block::<N>(model, qb, &mut w.s) {
                     return false;
                 }
@@ -964,12 +1015,7 @@ fn tool_pose_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], w: &
                     sin_cos_slices(s, sn, cs);
                 }
                 let (first, f, sn, cs, c) = (&chain.first, &chain.factors, &w.sn, &w.cs, &mut w.c);
-                // x and z offsets (DH tables) or any
-                if origin & !0b101 == 0 {
-                    revolute_about_x::<N, 0b101>(first, f, sn, cs, c);
-                } else {
-                    revolute_about_x::<N, 0b111>(first, f, sn, cs, c);
-                }
+                revolute_about_x::<N>(first, f, sn, cs, c);
             }
             _ => {
                 if !walk_block::<N>(model, chain, qb, n, w, |_, _| {}) {
@@ -1080,7 +1126,7 @@ fn jacobian_chunk<const N: usize>(
             Rows::Written => continue,
             Rows::NotFinite => return false,
         };
-        if let (Some(origin), true, None) = (chain.about_x, N > 0, joint) {
+        if let (true, true, None) = (chain.about_x, N > 0, joint) {
             let b = &mut *w.block;
             if !load_block::<N>(model, qb, &mut b.s) {
                 return false;
@@ -1089,21 +1135,11 @@ fn jacobian_chunk<const N: usize>(
                 sin_cos_slices(s, sn, cs);
             }
             let (first, f, tool, sn, cs, jac) = (&chain.first, &chain.factors, &chain.factors[n - 1], &b.sn, &b.cs, &mut w.jac);
-            macro_rules! by_frame {
-                ($origin:expr) => {
-                    match frame {
-                        JacobianFrame::LocalWorldAligned => jacobian_about_x::<N, $origin, FRAME_LWA>(first, f, tool, &base, sn, cs, jac),
-                        JacobianFrame::World => jacobian_about_x::<N, $origin, FRAME_WORLD>(first, f, tool, &base, sn, cs, jac),
-                        JacobianFrame::Base => jacobian_about_x::<N, $origin, FRAME_BASE>(first, f, tool, &base, sn, cs, jac),
-                        JacobianFrame::Local => jacobian_about_x::<N, $origin, FRAME_LOCAL>(first, f, tool, &base, sn, cs, jac),
-                    }
-                };
-            }
-            // x and z offsets (DH tables) or any
-            if origin & !0b101 == 0 {
-                by_frame!(0b101)
-            } else {
-                by_frame!(0b111)
+            match frame {
+                JacobianFrame::LocalWorldAligned => jacobian_about_x::<N, FRAME_LWA>(first, f, tool, &base, sn, cs, jac),
+                JacobianFrame::World => jacobian_about_x::<N, FRAME_WORLD>(first, f, tool, &base, sn, cs, jac),
+                JacobianFrame::Base => jacobian_about_x::<N, FRAME_BASE>(first, f, tool, &base, sn, cs, jac),
+                JacobianFrame::Local => jacobian_about_x::<N, FRAME_LOCAL>(first, f, tool, &base, sn, cs, jac),
             }
             #[cfg(target_arch = "x86_64")]
             if b.stream {
@@ -1312,7 +1348,7 @@ mod tests {
                             }
                         }
                     }
-                    assert_eq!(super::Chain::of(&m).about_x.is_some(), !prismatic);
+                    assert_eq!(super::Chain::of(&m).about_x, !prismatic);
                 }
             }
         }

@@ -8,15 +8,50 @@ pub type Pose = nalgebra::IsometryMatrix3<f64>;
 
 /// `Rx(t)`: rotation about the local x axis.
 pub fn rx(t: f64) -> Pose {
-    Pose::from_parts(Translation3::identity(), Rotation3::from_axis_angle(&Vector3::x_axis(), t))
+    let (s, c) = sin_cos_turns(t);
+    rotation(Matrix3::new(1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c))
 }
 /// `Ry(t)`: rotation about the local y axis.
 pub fn ry(t: f64) -> Pose {
-    Pose::from_parts(Translation3::identity(), Rotation3::from_axis_angle(&Vector3::y_axis(), t))
+    let (s, c) = sin_cos_turns(t);
+    rotation(Matrix3::new(c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c))
 }
 /// `Rz(t)`: rotation about the local z axis.
 pub fn rz(t: f64) -> Pose {
-    Pose::from_parts(Translation3::identity(), Rotation3::from_axis_angle(&Vector3::z_axis(), t))
+    let (s, c) = sin_cos_turns(t);
+    rotation(Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0))
+}
+
+fn rotation(r: Matrix3<f64>) -> Pose {
+    Pose::from_parts(Translation3::identity(), Rotation3::from_matrix_unchecked(r))
+}
+
+/// `(sin t, cos t)` of a constant angle of a model (a table's alpha, theta offset, a base or tool
+/// rotation), exact at the quarter turns: an angle within 4 ulp of a nonzero multiple of 90 deg up to 720
+/// deg (`-90 deg` read from a table and converted to radians) is that multiple, its sine and cosine exactly
+/// 0 and ±1, as the table means (`f64::sin_cos` gives 6.1e-17 for the cosine of the double nearest pi/2).
+/// docs/conventions.md, "Quarter turns". Elsewhere `f64::sin_cos`.
+///
+/// ```
+/// use denavit_core::spatial::sin_cos_turns;
+/// assert_eq!(sin_cos_turns(-90f64.to_radians()), (-1.0, 0.0));
+/// assert_eq!(sin_cos_turns(std::f64::consts::PI), (0.0, -1.0));
+/// assert_eq!(sin_cos_turns(270f64.to_radians()), (-1.0, 0.0));
+/// assert_eq!(sin_cos_turns(0.3), 0.3f64.sin_cos());
+/// assert_eq!(sin_cos_turns(1.5708), 1.5708f64.sin_cos()); // not a quarter turn: 3.7e-6 rad off
+/// ```
+pub fn sin_cos_turns(t: f64) -> (f64, f64) {
+    let k = (t / std::f64::consts::FRAC_PI_2).round();
+    if k != 0.0 && k.abs() <= 8.0 && (t - k * std::f64::consts::FRAC_PI_2).abs() <= 4.0 * f64::EPSILON * t.abs() {
+        // k mod 4 (k is an integer of at most 8 in magnitude)
+        return match (k as i64).rem_euclid(4) {
+            0 => (0.0, 1.0),
+            1 => (1.0, 0.0),
+            2 => (0.0, -1.0),
+            _ => (-1.0, 0.0),
+        };
+    }
+    t.sin_cos()
 }
 /// `Trans(a, b, c)`: translation along the local axes.
 pub fn trans(a: f64, b: f64, c: f64) -> Pose {
