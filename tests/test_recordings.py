@@ -450,6 +450,28 @@ def test_segmentation_without_readings_leaves_out_only_what_the_noise_hides():
     assert worst < LEFT_OUT, worst
 
 
+@pytest.mark.parametrize("dwell", [0.16, 0.0])
+def test_segmentation_with_readings_splits_motions_of_two_joints_however_short_the_pause(dwell):
+    """Pauses shorter than min_dwell (0.25 s) between the motions of two joints, or none at all (the derivative filter
+    then leaves no still row between them), had joined the whole protocol into one bogus sweep of joint 1. With
+    readings a motion ends where the moving joint changes, or turns back: every sweep holds its own joint's true
+    sweep and no other joint's motion (without a pause: none beyond 1e-4 rad, 21 arcsec, below real joint-reading
+    errors), and the identified axes match the truth. (A joint that goes on the same way
+    after a short pause, e.g. from its transit into its sweep, is one motion: one circle, a longer arc.)"""
+    moves, dur, truth = plan(sweep_speed=10.0, transit_speed=30.0, dwell=dwell)
+    t = np.arange(0, dur, 0.01)
+    q = q_at(t, moves)
+    rec = rc.Recording(t, noisy(q, 1e-5, 22), noisy(targets(q), 2e-5, 21), [f"row {i + 1}" for i in range(len(t))], "continuous", "sim", {})
+    seg = rc.segment(rec)
+    assert [s.joint for s in seg.sweeps] == [1, 2, 3, 4, 5, 6], seg.table()
+    for s, (j, t0, t1) in zip(seg.sweeps, truth):
+        assert s.t_start < t0 + 0.15 and t1 - 0.15 < s.t_stop, (j, s, t0, t1)
+        others = np.delete(q[s.start:s.stop], j - 1, axis=1)
+        # no pause: the cut falls where both joints are slowest, within the last 0.0033 deg of the motion before
+        assert np.ptp(others, axis=0).max() < (1e-9 if dwell else 1e-4), (j, s)
+    assert_axes_match_truth(identify(rc.to_sweepset(rec, seg, max_points=300), nominal=dv.load_robot("kr5")))
+
+
 @pytest.mark.parametrize("with_readings", [True, False])
 def test_segmentation_finds_the_paper_sweeps_with_and_without_readings(with_readings):
     """Six sweeps with 2 s pauses and a return to home between them: right joints, boundaries within the true

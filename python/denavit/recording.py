@@ -15,7 +15,9 @@ e.g. 2-4 SMRs on one nest) or a 6-DoF pose. SI inside; each reader converts the 
 - :func:`segment`: which joint moves when. A row moves when a speed exceeds the noise (estimated from the
   data: robust scatter of the residuals of a local polynomial fit, propagated through the derivative filter),
   so dwell -- standing still within the noise -- is excluded from every motion. With readings the moving
-  joint is the one whose reading changes; without, consecutive motions about one circle (same plane normal
+  joint is the one whose reading changes, and a motion is one joint turning one way: a still span shorter than
+  ``min_dwell`` is bridged only inside such a motion, and a motion ends where the moving joint changes or turns
+  back, however short the pause (none at all: the cut falls where both are slowest); without, consecutive motions about one circle (same plane normal
   and centre) belong to one joint and a change of circle starts the next joint. Among a joint's motions the
   sweep is the one matching the given range, else the slowest (transits to and from home run at travel
   speed, a sweep at measuring speed).
@@ -512,14 +514,56 @@ def _ends(x: np.ndarray, runs: list[tuple[int, int]], sigma: np.ndarray, k: floa
     return out
 
 
+def _closed(moving: np.ndarray, min_gap: int) -> np.ndarray:
+    """``moving`` (N,) with its gaps shorter than ``min_gap`` rows closed."""
+    from scipy.ndimage import binary_closing  # noqa: PLC0415
+
+    if min_gap <= 1:
+        return moving.copy()
+    return binary_closing(np.r_[False, moving, False], structure=np.ones(min_gap, bool))[1:-1] | moving
+
+
+def _by_joint(runs: list[tuple[int, int]], ratio: np.ndarray, min_points: int) -> list[tuple[int, int]]:
+    """``runs`` split where the moving joint changes (readings; ``ratio`` (N, n) each joint's speed over its
+    threshold): a pause shorter than the derivative filter's span leaves no still row between the motions of two
+    joints. A row's joint is the one of the largest ratio among the rows that move; blocks of one joint shorter
+    than ``min_points`` rows join the block before them (noise where two joints are both slow), and a run is cut
+    between two blocks of different joints at the row of the smallest largest ratio (the pause)."""
+    out = []
+    for a, b in runs:
+        r = ratio[a:b]
+        top = r.max(axis=1)
+        rows = np.flatnonzero(top > 1.0)
+        raw: list[list[int]] = []  # [joint, first row, last row, rows] (rows of the run)
+        for i, j in zip(rows.tolist(), np.argmax(r[rows], axis=1).tolist()):
+            if raw and raw[-1][0] == j:
+                raw[-1][2:] = [i, raw[-1][3] + 1]
+            else:
+                raw.append([j, i, i, 1])
+        blocks: list[list[int]] = []
+        for blk in raw:
+            if blocks and (blk[3] < min_points or blocks[-1][0] == blk[0]):
+                blocks[-1][2:] = [blk[2], blocks[-1][3] + blk[3]]
+            else:
+                blocks.append(blk)
+        if len(blocks) > 1 and blocks[0][3] < min_points:
+            first = blocks.pop(0)
+            blocks[0][1] = first[1]
+        start = a
+        for prev, nxt in zip(blocks, blocks[1:]):
+            if prev[0] != nxt[0]:
+                cut = a + prev[2] + 1 + int(np.argmin(top[prev[2] + 1:nxt[1] + 1]))
+                out.append((start, cut))
+                start = cut
+        out.append((start, b))
+    return out
+
+
 def _runs(moving: np.ndarray, min_gap: int, min_len: int) -> list[tuple[int, int]]:
     """[start, stop) of the runs of True, gaps shorter than ``min_gap`` closed, runs shorter than ``min_len`` dropped."""
-    from scipy.ndimage import binary_closing, label  # noqa: PLC0415
+    from scipy.ndimage import label  # noqa: PLC0415
 
-    m = moving.copy()
-    if min_gap > 1:
-        m = binary_closing(np.r_[False, m, False], structure=np.ones(min_gap, bool))[1:-1] | m
-    lab, k = label(m)
+    lab, k = label(_closed(moving, min_gap))
     out = []
     for i in range(1, k + 1):
         idx = np.flatnonzero(lab == i)
@@ -627,10 +671,11 @@ def segment(rec: Recording, *, ranges=None, n_joints: int | None = None, joints:
 
 
 
-def _motions(rec: Recording, *, threshold: float, min_dwell: float, smoothing: float, min_points: int, use_readings: bool):
+def _motions(rec: Recording, *, threshold: float, min_dwell: float, smoothing: float, min_points: int, use_readings: bool, sweeps: bool = True):
     """(time, signal, with readings, motion runs [(start, stop)], speed threshold, speed): the rows where the robot
     moves beyond the noise (estimated from the data), joined across still spans shorter than ``min_dwell``, their
-    ends where the rows leave the dwell's noise (:func:`_ends`); the rest is dwell."""
+    ends where the rows leave the dwell's noise (:func:`_ends`); the rest is dwell. ``sweeps`` (with readings): a
+    motion is one joint turning one way (:func:`segment`); else any motion of the robot (:func:`static_poses`)."""
     N = len(rec)
     t = rec.time if rec.time is not None else np.arange(N, dtype=float)
     dt = float(np.median(np.diff(t)))
@@ -641,16 +686,26 @@ def _motions(rec: Recording, *, threshold: float, min_dwell: float, smoothing: f
     x = rec.q if with_q else _motion_signal(rec)[0]
     v = savgol_filter(x, w, 2, deriv=1, delta=dt, axis=0)
     sigma_x, noise = _noise(x, w, dt)
+    gap = max(1, int(round(min_dwell / dt)))
     if with_q:
         speed = np.abs(v)  # (N, n) per joint
         floor = 1e-3 * speed.max(axis=0)
         lim = np.maximum(threshold * noise, np.maximum(floor, 1e-12))
-        moving = (speed > lim).any(axis=1)
+    if with_q and sweeps:
+        # a still span shorter than min_dwell joins the motions on its sides only when they are one joint turning
+        # one way (a stutter of one motion): between two joints, or where a joint turns back (a transit, then
+        # the sweep), it ends a motion however short it is
+        moving = np.zeros(N, bool)
+        for j in range(x.shape[1]):
+            for sign in (1.0, -1.0):
+                moving |= _closed(sign * v[:, j] > lim[j], gap)
+        runs = _by_joint(_runs(moving, 1, 1), speed / lim, min_points)
+    elif with_q:
+        runs = _runs((speed > lim).any(axis=1), gap, 1)
     else:
         speed = np.linalg.norm(v, axis=1)[:, None]
         lim = np.maximum(threshold * np.linalg.norm(noise), max(1e-3 * speed.max(), 1e-12))
-        moving = speed[:, 0] > lim
-    runs = _runs(moving, max(1, int(round(min_dwell / dt))), 1)
+        runs = _runs(speed[:, 0] > lim, gap, 1)
     runs = [(a, b) for a, b in _ends(x, runs, sigma_x, threshold, with_q) if b - a >= min_points]
     return t, x, with_q, runs, lim, speed
 
@@ -667,7 +722,7 @@ def static_poses(rec: Recording, *, target: int = 0, min_rows: int = 3, threshol
     if rec.time is None or N < 3 * min_rows:
         rows = [(k, k + 1) for k in range(N)]  # a list of static measurements: every row a pose
     else:
-        _, _, _, runs, _, _ = _motions(rec, threshold=threshold, min_dwell=min_dwell, smoothing=smoothing, min_points=3, use_readings=True)
+        _, _, _, runs, _, _ = _motions(rec, threshold=threshold, min_dwell=min_dwell, smoothing=smoothing, min_points=3, use_readings=True, sweeps=False)
         edges = [0, *[x for r in runs for x in r], N]
         rows = [(a, b) for a, b in zip(edges[::2], edges[1::2]) if b - a >= min_rows]
     if not rows:
