@@ -1011,9 +1011,8 @@ fn tool_pose_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], w: &
                 if !load_block::<N>(model, qb, &mut w.s) {
                     return false;
                 }
-                for ((s, sn), cs) in w.s.iter().zip(&mut w.sn).zip(&mut w.cs) {
-                    sin_cos_slices(s, sn, cs);
-                }
+                // every joint's angles in one pass (no short remainder per joint)
+                sin_cos_slices(w.s.as_flattened(), w.sn.as_flattened_mut(), w.cs.as_flattened_mut());
                 let (first, f, sn, cs, c) = (&chain.first, &chain.factors, &w.sn, &w.cs, &mut w.c);
                 revolute_about_x::<N>(first, f, sn, cs, c);
             }
@@ -1131,9 +1130,7 @@ fn jacobian_chunk<const N: usize>(
             if !load_block::<N>(model, qb, &mut b.s) {
                 return false;
             }
-            for ((s, sn), cs) in b.s.iter().zip(&mut b.sn).zip(&mut b.cs) {
-                sin_cos_slices(s, sn, cs);
-            }
+            sin_cos_slices(b.s.as_flattened(), b.sn.as_flattened_mut(), b.cs.as_flattened_mut());
             let (first, f, tool, sn, cs, jac) = (&chain.first, &chain.factors, &chain.factors[n - 1], &b.sn, &b.cs, &mut w.jac);
             match frame {
                 JacobianFrame::LocalWorldAligned => jacobian_about_x::<N, FRAME_LWA>(first, f, tool, &base, sn, cs, jac),
