@@ -237,6 +237,23 @@ fn walk(model: &Model, q: &[f64], count: usize, mut each: impl FnMut(usize, &Fra
 /// Tool pose `T_world_tool(q)` without filling a [`Data`]; `q` must have `model.nq()` entries (unchecked here).
 #[inline]
 pub fn tool_pose_unchecked(model: &Model, q: &[f64]) -> Pose {
+    let (chain, n) = (model.chain(), model.nq());
+    if chain.about_x && (1..=8).contains(&n) {
+        // the batch kernels' one-pass chain on one configuration: only the products the placements need
+        let mut s = [0.0; 8];
+        for ((si, j), &qi) in s.iter_mut().zip(model.joints()).zip(q) {
+            *si = qi + j.offset;
+        }
+        let (sn, cs) = sin_cos_lanes(&s);
+        let frame = chain_about_x::<1>(&chain.first, &chain.factors[..n - 1], |i| ([sn[i]], [cs[i]]), |_, _, _| {});
+        let c = frame.map(|v| [v[0][0], v[1][0], v[2][0], 0.0]);
+        return Frame { c }.mul(model.t_last_tool()).pose();
+    }
+    tool_pose_walk(model, q)
+}
+
+/// [`tool_pose_unchecked`] joint by joint ([`walk`]): any chain, every product of every placement.
+fn tool_pose_walk(model: &Model, q: &[f64]) -> Pose {
     walk(model, q, model.nq(), |_, _| {}).mul(model.t_last_tool()).pose()
 }
 
@@ -478,8 +495,9 @@ impl Factor {
 
 /// A model's chain prepared for the batch kernels: the frame of the first joint before its motion
 /// (`T_world_base · placement_1`, the same for every configuration, so computed once), then the placements
-/// of joints 2..n and the tool as [`Factor`]s.
-struct Chain {
+/// of joints 2..n and the tool as [`Factor`]s. Each model keeps its own ([`Model::chain`]).
+#[derive(Clone)]
+pub(crate) struct Chain {
     first: Frame,
     factors: Vec<Factor>,
     /// For [`revolute_about_x`]: every joint is revolute and every placement rotates about x only (DH,
@@ -488,7 +506,7 @@ struct Chain {
 }
 
 impl Chain {
-    fn of(model: &Model) -> Self {
+    pub(crate) fn of(model: &Model) -> Self {
         let base = Frame::of(model.t_world_base());
         let joints = model.joints();
         let first = joints.first().map_or(base, |j| base.mul(&j.placement));
@@ -516,19 +534,19 @@ fn lanes(v: &V, g: usize) -> G {
 
 /// `a * b + c` lane by lane, fused.
 #[inline(always)]
-fn fma(a: &G, b: &G, c: &G) -> G {
+fn fma<const L: usize>(a: &[f64; L], b: &[f64; L], c: &[f64; L]) -> [f64; L] {
     std::array::from_fn(|i| a[i].mul_add(b[i], c[i]))
 }
 
 /// `a * b + c` lane by lane with a constant `b`, fused.
 #[inline(always)]
-fn fma_by(a: &G, b: f64, c: &G) -> G {
+fn fma_by<const L: usize>(a: &[f64; L], b: f64, c: &[f64; L]) -> [f64; L] {
     std::array::from_fn(|i| a[i].mul_add(b, c[i]))
 }
 
 /// A vector of groups negated.
 #[inline(always)]
-fn negated(a: &[G; 3]) -> [G; 3] {
+fn negated<const L: usize>(a: &[[f64; L]; 3]) -> [[f64; L]; 3] {
     a.map(|v| v.map(|x| -x))
 }
 
@@ -540,7 +558,7 @@ fn negated(a: &[G; 3]) -> [G; 3] {
 fn revolute_about_x<const N: usize>(first: &Frame, factors: &[Factor], sn: &[V], cs: &[V], c: &mut Frames) {
     let (factors, sn, cs) = (&factors[..N - 1], &sn[..N], &cs[..N]);
     for g in 0..BLOCK / LANES {
-        let frame = chain_about_x(first, factors, sn, cs, g, |_, _, _| {});
+        let frame = chain_about_x(first, factors, |i| (lanes(&sn[i], g), lanes(&cs[i], g)), |_, _, _| {});
         for (cj, fj) in c.iter_mut().zip(&frame) {
             for (cr, fr) in cj.iter_mut().zip(fj) {
                 cr[g * LANES..(g + 1) * LANES].copy_from_slice(fr);
@@ -555,14 +573,19 @@ fn revolute_about_x<const N: usize>(first: &Frame, factors: &[Factor], sn: &[V],
 /// make vanish, chosen joint by joint (its rotation class and origin components): the same values up to
 /// the sign of zeros. The choices are the same for every group, so their branches are predicted.
 #[inline(always)]
-fn chain_about_x(first: &Frame, factors: &[Factor], sn: &[V], cs: &[V], g: usize, mut each: impl FnMut(usize, &[G; 3], &[G; 3])) -> [[G; 3]; 4] {
+fn chain_about_x<const L: usize>(
+    first: &Frame,
+    factors: &[Factor],
+    sin_cos: impl Fn(usize) -> ([f64; L], [f64; L]),
+    mut each: impl FnMut(usize, &[[f64; L]; 3], &[[f64; L]; 3]),
+) -> [[[f64; L]; 3]; 4] {
     let f = &first.c;
     // joint 1: the first frame, the same for every configuration, turned
-    let (s, k) = (lanes(&sn[0], g), lanes(&cs[0], g));
-    let mut x: [G; 3] = std::array::from_fn(|r| fma_by(&k, f[0][r], &s.map(|v| v * f[1][r])));
-    let mut y: [G; 3] = std::array::from_fn(|r| fma_by(&k, f[1][r], &s.map(|v| -(v * f[0][r]))));
-    let mut z: [G; 3] = std::array::from_fn(|r| [f[2][r]; LANES]);
-    let mut p: [G; 3] = std::array::from_fn(|r| [f[3][r]; LANES]);
+    let (s, k) = sin_cos(0);
+    let mut x: [[f64; L]; 3] = std::array::from_fn(|r| fma_by(&k, f[0][r], &s.map(|v| v * f[1][r])));
+    let mut y: [[f64; L]; 3] = std::array::from_fn(|r| fma_by(&k, f[1][r], &s.map(|v| -(v * f[0][r]))));
+    let mut z: [[f64; L]; 3] = std::array::from_fn(|r| [f[2][r]; L]);
+    let mut p: [[f64; L]; 3] = std::array::from_fn(|r| [f[3][r]; L]);
     each(0, &z, &p);
     for (i, fi) in factors.iter().enumerate() {
         let b = &fi.b;
@@ -589,7 +612,7 @@ fn chain_about_x(first: &Frame, factors: &[Factor], sn: &[V], cs: &[V], g: usize
                 std::array::from_fn(|r| fma_by(&a[2][r], b[1][2], &a[1][r].map(|v| v * b[1][1])))
             }
         };
-        let (s, k) = (lanes(&sn[i + 1], g), lanes(&cs[i + 1], g));
+        let (s, k) = sin_cos(i + 1);
         y = std::array::from_fn(|r| fma(&k, &y1[r], &std::array::from_fn(|l| -(s[l] * x[r][l]))));
         x = std::array::from_fn(|r| fma(&k, &x[r], &std::array::from_fn(|l| s[l] * y1[r][l])));
         each(i + 1, &z, &p);
@@ -632,10 +655,15 @@ fn jacobian_about_x<const N: usize, const FRAME: u8>(
     let frame = frame_of(FRAME);
     for g in 0..BLOCK / LANES {
         let (mut og, mut zg) = ([[[0.0; LANES]; 3]; N], [[[0.0; LANES]; 3]; N]);
-        let frame_g = chain_about_x(first, factors, sn, cs, g, |i, zi, pi| {
-            zg[i] = *zi;
-            og[i] = *pi;
-        });
+        let frame_g = chain_about_x(
+            first,
+            factors,
+            |i| (lanes(&sn[i], g), lanes(&cs[i], g)),
+            |i, zi, pi| {
+                zg[i] = *zi;
+                og[i] = *pi;
+            },
+        );
         for m in 0..LANES {
             let l = g * LANES + m;
             let lane = |v: &[G; 3]| -> [f64; 3] { std::array::from_fn(|r| v[r][m]) };
@@ -1073,7 +1101,7 @@ pub fn tool_pose_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<()>
     if count <= TAIL_ROWS {
         return small_batch(qs, n, out, 16, |q, o| write_pose(&tool_pose_unchecked(model, q), o));
     }
-    let chain = Chain::of(model);
+    let chain = model.chain();
     let stream = crate::stream::wanted(out);
     crate::parallel::try_for_each_chunk_init(
         out,
@@ -1082,9 +1110,9 @@ pub fn tool_pose_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<()>
         |w, k, o| {
             let q = &qs[k * CHUNK * n..(k * CHUNK + o.len() / 16) * n];
             let finite = match n {
-                6 => tool_pose_chunk::<6>(model, &chain, q, w, o),
-                7 => tool_pose_chunk::<7>(model, &chain, q, w, o),
-                _ => tool_pose_chunk::<0>(model, &chain, q, w, o),
+                6 => tool_pose_chunk::<6>(model, chain, q, w, o),
+                7 => tool_pose_chunk::<7>(model, chain, q, w, o),
+                _ => tool_pose_chunk::<0>(model, chain, q, w, o),
             };
             if stream {
                 crate::stream::fence();
@@ -1217,7 +1245,7 @@ pub fn jacobian_batch(model: &Model, qs: &[f64], frame: JacobianFrame, joint: Op
     if count <= TAIL_ROWS {
         return small_batch(qs, n, out, 6 * n, |q, o| jacobian_row_major_unchecked(model, q, frame, joint, o));
     }
-    let chain = Chain::of(model);
+    let chain = model.chain();
     let stream = crate::stream::wanted(out);
     crate::parallel::try_for_each_chunk_init(
         out,
@@ -1226,9 +1254,9 @@ pub fn jacobian_batch(model: &Model, qs: &[f64], frame: JacobianFrame, joint: Op
         |w, k, o| {
             let q = &qs[k * CHUNK * n..(k * CHUNK + o.len() / (6 * n)) * n];
             let finite = match n {
-                6 => jacobian_chunk::<6>(model, &chain, q, frame, joint, w, o),
-                7 => jacobian_chunk::<7>(model, &chain, q, frame, joint, w, o),
-                _ => jacobian_chunk::<0>(model, &chain, q, frame, joint, w, o),
+                6 => jacobian_chunk::<6>(model, chain, q, frame, joint, w, o),
+                7 => jacobian_chunk::<7>(model, chain, q, frame, joint, w, o),
+                _ => jacobian_chunk::<0>(model, chain, q, frame, joint, w, o),
             };
             if stream {
                 crate::stream::fence();
@@ -1325,8 +1353,12 @@ mod tests {
                         crate::parallel::with_threads(Some(1), || super::tool_pose_batch(&m, &qs, &mut out)).unwrap().unwrap();
                         for (q, o) in qs.chunks(n).zip(out.chunks(16)) {
                             let mut one = [0.0; 16];
-                            super::write_pose(&super::tool_pose(&m, q).unwrap(), &mut one);
+                            // the joint-by-joint path (every product of every placement), and the single call
+                            super::write_pose(&super::tool_pose_walk(&m, q), &mut one);
                             assert_eq!(o, &one, "{convention:?} n = {n} prismatic {prismatic} q = {q:?}");
+                            let mut single = [0.0; 16];
+                            super::write_pose(&super::tool_pose(&m, q).unwrap(), &mut single);
+                            assert_eq!(single, one, "{convention:?} n = {n} prismatic {prismatic} q = {q:?}");
                         }
                         // the Jacobians (the one-pass kernel for the tool of a revolute chain, the joint-by-joint
                         // one for a joint frame), in every frame

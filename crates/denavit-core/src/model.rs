@@ -111,6 +111,9 @@ pub struct Model {
     /// IK's per-joint bounds and wrist flips, derived from the joints on the first IK solve and kept: one
     /// solve of a spherical-wrist arm had spent 1.3 us of its ~10 us finding the flips anew (16 FK).
     ik_bounds: Derived<crate::ik::Bounds>,
+    /// The chain as the kinematic kernels take it (its placements' exact zeros and ones; single calls
+    /// could not afford to find them at every call).
+    chain: Derived<crate::kinematics::Chain>,
 }
 
 /// A value derived from a [`Model`]'s joints, computed on first use and kept. Not part of the model's value:
@@ -171,11 +174,16 @@ impl Model {
             inertias,
             dh_link_frames: None,
             ik_bounds: Derived::default(),
+            chain: Derived::default(),
         })
     }
     /// IK's bounds of the joints (computed on first use).
     pub(crate) fn ik_bounds(&self) -> &crate::ik::Bounds {
         self.ik_bounds.0.get_or_init(|| crate::ik::Bounds::new(self))
+    }
+    /// The chain prepared for the kinematic kernels (computed on first use).
+    pub(crate) fn chain(&self) -> &crate::kinematics::Chain {
+        self.chain.0.get_or_init(|| crate::kinematics::Chain::of(self))
     }
     /// A copy whose link *i* carries `inertias[i]`, expressed in joint frame *i* (the frame moving with
     /// link *i*, docs/conventions.md); one inertia per joint. The tool is part of the last link.
