@@ -91,7 +91,7 @@ pub fn shaped(what: &str, obj: &Bound<'_, PyAny>, dims: &[Option<usize>]) -> PyR
 
 /// A 1-D array (its length is checked by the core).
 pub fn vector(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
-    // the per-call hot path (fk, jacobian, rnea of one configuration): a float64 vector copied at once
+    // a float64 array copied at once
     if let Ok(a) = obj.downcast::<numpy::PyArray1<f64>>() {
         if let Ok(v) = a.to_vec() {
             return Ok(v);
@@ -100,6 +100,21 @@ pub fn vector(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
     let (v, shape) = converted(what, obj)?;
     check_shape(what, &shape, &[None])?;
     Ok(v)
+}
+
+/// [`vector`] of up to 16 values (one configuration of one robot) copied into `buf`, not allocated (the
+/// per-call hot path: fk, jacobian, rnea); a longer or other input goes through [`vector`].
+pub fn configuration<'b>(what: &str, obj: &Bound<'_, PyAny>, buf: &'b mut [f64; 16]) -> PyResult<std::borrow::Cow<'b, [f64]>> {
+    if let Ok(a) = obj.downcast::<numpy::PyArray1<f64>>() {
+        let n = a.len();
+        if n <= buf.len() {
+            for (i, b) in buf[..n].iter_mut().enumerate() {
+                *b = a.get_owned([i]).unwrap_or(f64::NAN);
+            }
+            return Ok(std::borrow::Cow::Borrowed(&buf[..n]));
+        }
+    }
+    vector(what, obj).map(std::borrow::Cow::Owned)
 }
 
 /// [`vector`] of an optional argument, `None` when absent.

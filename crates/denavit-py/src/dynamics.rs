@@ -1,8 +1,8 @@
 //! Dynamics (denavit_core::dynamics): inverse and forward dynamics, mass and Coriolis matrices, link
-//! inertias. Single calls read contiguous float64 arrays without copying and reuse a per-thread workspace;
+//! inertias. Single calls reuse a per-thread workspace (`rnea` copies its vectors to the stack, not the heap);
 //! batches release the GIL and use every core.
 
-use crate::convert::{batch_out, check_len, check_shape, opt_vector, out, read, rows, vector, Rows, Threads};
+use crate::convert::{batch_out, check_len, check_shape, configuration, opt_vector, out, read, rows, vector, Rows, Threads};
 use crate::error::{invalid, IntoPy};
 use crate::model::PyModel;
 use denavit_core::dynamics::{self, DynamicsData, DEFAULT_GRAVITY};
@@ -79,7 +79,9 @@ pub fn rnea<'py>(
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let m = &model.inner;
     let n = m.nq();
-    let (q, qd, qdd) = (vector("q", q)?, vector("qd", qd)?, vector("qdd", qdd)?);
+    let mut bufs = [[0.0; 16]; 3];
+    let [bq, bqd, bqdd] = &mut bufs;
+    let (q, qd, qdd) = (configuration("q", q, bq)?, configuration("qd", qd, bqd)?, configuration("qdd", qdd, bqdd)?);
     let g = gravity_of(gravity)?;
     let w = wrench_of(f_ext)?;
     with_ws(n, |ws| Ok(out1(py, dynamics::rnea(m, ws, &q, &qd, &qdd, &g, w.as_ref()).py()?)))

@@ -1,6 +1,6 @@
 //! Forward kinematics and Jacobians (single and batch; batches release the GIL, take `out=` and `threads=`).
 
-use crate::convert::{batch_out, pose_out, poses_out, rows, vector, Threads};
+use crate::convert::{batch_out, configuration, pose_out, poses_out, rows, vector, Threads};
 use crate::error::{invalid, IntoPy};
 use crate::model::PyModel;
 use denavit_core::kinematics::{self, JacobianFrame};
@@ -32,7 +32,8 @@ fn joint_of(model: &denavit_core::Model, joint: Option<&Bound<'_, PyAny>>) -> Py
 /// Tool pose T_world_tool (4, 4) at q (n,) in rad / m.
 #[pyfunction]
 pub fn fk<'py>(py: Python<'py>, model: &PyModel, q: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    pose_out(py, &kinematics::tool_pose(&model.inner, &vector("q", q)?).py()?)
+    let mut buf = [0.0; 16];
+    pose_out(py, &kinematics::tool_pose(&model.inner, &configuration("q", q, &mut buf)?).py()?)
 }
 
 /// Joint frames T_world_joint (n, 4, 4) at q.
@@ -56,7 +57,8 @@ pub fn jacobian<'py>(
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let f = JacobianFrame::parse(frame).py()?;
     let j = joint_of(&model.inner, joint)?;
-    let q = vector("q", q)?;
+    let mut buf = [0.0; 16];
+    let q = configuration("q", q, &mut buf)?;
     model.inner.check_q(&q).py()?;
     let out = PyArray2::<f64>::zeros(py, [6, model.inner.nq()], false);
     {
