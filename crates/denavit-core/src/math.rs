@@ -50,8 +50,10 @@ pub(crate) fn sin_cos_lanes<const N: usize>(x: &[f64; N]) -> ([f64; N], [f64; N]
 #[inline(always)]
 pub(crate) fn sin_cos_slices(x: &[f64], sn: &mut [f64], cs: &mut [f64]) {
     let (sn, cs) = (&mut sn[..x.len()], &mut cs[..x.len()]);
-    // counted, not folded into a bool: a compare and a subtraction per four angles
-    if x.iter().filter(|v| !(v.abs() < REDUCED_MAX)).count() == 0 {
+    // counted, not folded into a bool (a compare and a subtraction per four angles); NaN is out of range
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    let out_of_range = x.iter().filter(|v| !(v.abs() < REDUCED_MAX)).count();
+    if out_of_range == 0 {
         let done = avx::sin_cos_reduced_slices(x, sn, cs);
         for i in done..x.len() {
             (sn[i], cs[i]) = sin_cos_reduced(x[i]);
@@ -63,27 +65,37 @@ pub(crate) fn sin_cos_slices(x: &[f64], sn: &mut [f64], cs: &mut [f64]) {
     }
 }
 
+// The kernels' constants exactly as published: fdlibm's two-part pi/2 and the FreeBSD/musl minimax
+// coefficients of `__sin` (S1..S6) and `__cos` (C1..C6).
+const INV_PIO2: f64 = std::f64::consts::FRAC_2_PI;
+#[allow(clippy::excessive_precision)]
+const PIO2_1: f64 = 1.57079632673412561417e+00; // first 33 bits of pi/2
+#[allow(clippy::excessive_precision)]
+const PIO2_1T: f64 = 6.07710050650619224932e-11; // pi/2 - PIO2_1
+#[allow(clippy::excessive_precision)]
+const S: [f64; 6] = [
+    -1.66666666666666324348e-01,
+    8.33333333332248946124e-03,
+    -1.98412698298579493134e-04,
+    2.75573137070700676789e-06,
+    -2.50507602534068634195e-08,
+    1.58969099521155010221e-10,
+];
+#[allow(clippy::excessive_precision)]
+const C: [f64; 6] = [
+    4.16666666666666019037e-02,
+    -1.38888888888741095749e-03,
+    2.48015872894767294178e-05,
+    -2.75573143513906633035e-07,
+    2.08757232129817482790e-09,
+    -1.13596475577881948265e-11,
+];
+/// Round to nearest by adding and subtracting 1.5 * 2^52 (no libm call without SSE4.1; exact for |x| < 2^51).
+const SHIFT: f64 = 6755399441055744.0;
+
 /// [`sin_cos`] without the range check (|x| < 1e5, not NaN): branch-free, so a loop over lanes vectorises.
 #[inline(always)]
-#[allow(clippy::excessive_precision)] // the kernels' constants exactly as published
 fn sin_cos_reduced(x: f64) -> (f64, f64) {
-    const INV_PIO2: f64 = std::f64::consts::FRAC_2_PI;
-    const PIO2_1: f64 = 1.57079632673412561417e+00; // first 33 bits of pi/2
-    const PIO2_1T: f64 = 6.07710050650619224932e-11; // pi/2 - PIO2_1
-    const S1: f64 = -1.66666666666666324348e-01;
-    const S2: f64 = 8.33333333332248946124e-03;
-    const S3: f64 = -1.98412698298579493134e-04;
-    const S4: f64 = 2.75573137070700676789e-06;
-    const S5: f64 = -2.50507602534068634195e-08;
-    const S6: f64 = 1.58969099521155010221e-10;
-    const C1: f64 = 4.16666666666666019037e-02;
-    const C2: f64 = -1.38888888888741095749e-03;
-    const C3: f64 = 2.48015872894767294178e-05;
-    const C4: f64 = -2.75573143513906633035e-07;
-    const C5: f64 = 2.08757232129817482790e-09;
-    const C6: f64 = -1.13596475577881948265e-11;
-    // round to nearest by the 1.5 * 2^52 shift (no libm call without SSE4.1; exact for |x| < 2^51)
-    const SHIFT: f64 = 6755399441055744.0;
     let shifted = x.mul_add(INV_PIO2, SHIFT);
     let k = shifted - SHIFT;
     // the quadrant k mod 4 sits in the low mantissa bits of `shifted` (two's complement)
@@ -95,10 +107,10 @@ fn sin_cos_reduced(x: f64) -> (f64, f64) {
     let y1 = (-k).mul_add(PIO2_1T, r - y0);
     let z = y0 * y0;
     // __sin(y0, y1, 1) and __cos(y0, y1), the polynomials by Horner's rule in fused multiply-adds
-    let rs = z.mul_add(z.mul_add(z.mul_add(z.mul_add(S6, S5), S4), S3), S2);
+    let rs = z.mul_add(z.mul_add(z.mul_add(z.mul_add(S[5], S[4]), S[3]), S[2]), S[1]);
     let v = z * y0;
-    let sn = y0 - (-v).mul_add(S1, z.mul_add((-v).mul_add(rs, 0.5 * y1), -y1));
-    let rc = z * z.mul_add(z.mul_add(z.mul_add(z.mul_add(z.mul_add(C6, C5), C4), C3), C2), C1);
+    let sn = y0 - (-v).mul_add(S[0], z.mul_add((-v).mul_add(rs, 0.5 * y1), -y1));
+    let rc = z * z.mul_add(z.mul_add(z.mul_add(z.mul_add(z.mul_add(C[5], C[4]), C[3]), C[2]), C[1]), C[0]);
     let hz = 0.5 * z;
     let wc = 1.0 - hz;
     let cs = wc + (((1.0 - wc) - hz) + z.mul_add(rc, -(y0 * y1)));
@@ -118,63 +130,63 @@ fn sin_cos_reduced(x: f64) -> (f64, f64) {
 mod avx {
     use safe_arch::*;
 
-    /// The kernel's constants, each in the four lanes: read through an opaque reference, so that the
-    /// compiler folds them into the operations as memory operands instead of keeping (and spilling) them in
-    /// registers or broadcasting them anew.
-    #[allow(clippy::excessive_precision)]
-    static CONSTANTS: [[f64; 4]; 18] = {
-        let v = [
-            std::f64::consts::FRAC_2_PI,
-            6755399441055744.0,
-            1.57079632673412561417e+00,
-            6.07710050650619224932e-11,
-            1.58969099521155010221e-10,
-            -2.50507602534068634195e-08,
-            2.75573137070700676789e-06,
-            -1.98412698298579493134e-04,
-            8.33333333332248946124e-03,
-            -1.66666666666666324348e-01,
-            -1.13596475577881948265e-11,
-            2.08757232129817482790e-09,
-            -2.75573143513906633035e-07,
-            2.48015872894767294178e-05,
-            -1.38888888888741095749e-03,
-            4.16666666666666019037e-02,
-            0.5,
-            1.0,
-        ];
-        let mut out = [[0.0; 4]; 18];
-        let mut i = 0;
-        while i < 18 {
-            out[i] = [v[i]; 4];
-            i += 1;
-        }
-        out
+    /// The kernel's constants ([`super::S`], [`super::C`], ...), each in four lanes: read through an opaque
+    /// reference, so that the compiler folds them into the operations as memory operands instead of keeping
+    /// (and spilling) them in registers or broadcasting them anew at every use.
+    struct Constants {
+        inv_pio2: [f64; 4],
+        shift: [f64; 4],
+        pio2_1: [f64; 4],
+        pio2_1t: [f64; 4],
+        s: [[f64; 4]; 6],
+        c: [[f64; 4]; 6],
+        half: [f64; 4],
+        one: [f64; 4],
+    }
+
+    const fn four(v: f64) -> [f64; 4] {
+        [v; 4]
+    }
+
+    const fn six(v: [f64; 6]) -> [[f64; 4]; 6] {
+        [four(v[0]), four(v[1]), four(v[2]), four(v[3]), four(v[4]), four(v[5])]
+    }
+
+    static CONSTANTS: Constants = Constants {
+        inv_pio2: four(super::INV_PIO2),
+        shift: four(super::SHIFT),
+        pio2_1: four(super::PIO2_1),
+        pio2_1t: four(super::PIO2_1T),
+        s: six(super::S),
+        c: six(super::C),
+        half: four(0.5),
+        one: four(1.0),
     };
 
     #[inline(always)]
-    fn kernel<const K: usize>(x: [m256d; K], constants: &[[f64; 4]; 18]) -> [[m256d; 2]; K] {
-        let c = |i: usize| load_unaligned_m256d(&constants[i]);
-        let shifted = x.map(|x| fused_mul_add_m256d(x, c(0), c(1)));
-        let k = shifted.map(|s| sub_m256d(s, c(1)));
-        let r: [m256d; K] = std::array::from_fn(|i| fused_mul_neg_add_m256d(k[i], c(2), x[i]));
-        let y0: [m256d; K] = std::array::from_fn(|i| fused_mul_neg_add_m256d(k[i], c(3), r[i]));
-        let y1: [m256d; K] = std::array::from_fn(|i| fused_mul_neg_add_m256d(k[i], c(3), sub_m256d(r[i], y0[i])));
+    fn kernel<const K: usize>(x: [m256d; K], k: &Constants) -> [[m256d; 2]; K] {
+        let c = load_unaligned_m256d;
+        let shifted = x.map(|x| fused_mul_add_m256d(x, c(&k.inv_pio2), c(&k.shift)));
+        let n = shifted.map(|s| sub_m256d(s, c(&k.shift)));
+        let r: [m256d; K] = std::array::from_fn(|i| fused_mul_neg_add_m256d(n[i], c(&k.pio2_1), x[i]));
+        let y0: [m256d; K] = std::array::from_fn(|i| fused_mul_neg_add_m256d(n[i], c(&k.pio2_1t), r[i]));
+        let y1: [m256d; K] = std::array::from_fn(|i| fused_mul_neg_add_m256d(n[i], c(&k.pio2_1t), sub_m256d(r[i], y0[i])));
         let z = y0.map(|y| mul_m256d(y, y));
-        let horner = |z: m256d, from: usize, to: usize| (from + 1..to).fold(c(from), |acc, i| fused_mul_add_m256d(z, acc, c(i)));
-        let rs = z.map(|z| horner(z, 4, 9));
+        // Horner's rule from the highest coefficient down to `p[low]`
+        let horner = |z: m256d, p: &[[f64; 4]; 6], low: usize| p[low..5].iter().rev().fold(c(&p[5]), |acc, pi| fused_mul_add_m256d(z, acc, c(pi)));
+        let rs = z.map(|z| horner(z, &k.s, 1));
         let v: [m256d; K] = std::array::from_fn(|i| mul_m256d(z[i], y0[i]));
         let sn: [m256d; K] = std::array::from_fn(|i| {
-            let inner = fused_mul_neg_add_m256d(v[i], rs[i], mul_m256d(c(16), y1[i]));
+            let inner = fused_mul_neg_add_m256d(v[i], rs[i], mul_m256d(c(&k.half), y1[i]));
             let inner = fused_mul_sub_m256d(z[i], inner, y1[i]);
-            sub_m256d(y0[i], fused_mul_neg_add_m256d(v[i], c(9), inner))
+            sub_m256d(y0[i], fused_mul_neg_add_m256d(v[i], c(&k.s[0]), inner))
         });
-        let rc = z.map(|z| mul_m256d(z, horner(z, 10, 16)));
+        let rc = z.map(|z| mul_m256d(z, horner(z, &k.c, 0)));
         let cs: [m256d; K] = std::array::from_fn(|i| {
-            let hz = mul_m256d(c(16), z[i]);
-            let wc = sub_m256d(c(17), hz);
+            let hz = mul_m256d(c(&k.half), z[i]);
+            let wc = sub_m256d(c(&k.one), hz);
             let tail = fused_mul_sub_m256d(z[i], rc[i], mul_m256d(y0[i], y1[i]));
-            add_m256d(wc, add_m256d(sub_m256d(sub_m256d(c(17), wc), hz), tail))
+            add_m256d(wc, add_m256d(sub_m256d(sub_m256d(c(&k.one), wc), hz), tail))
         });
         std::array::from_fn(|i| {
             let q = cast_to_m256i_from_m256d(shifted[i]);
@@ -189,7 +201,7 @@ mod avx {
 
     /// The angles of `x` in groups of `4 K` (the first multiple of `4 K`); returns how many it did.
     #[inline(always)]
-    fn groups<const K: usize>(x: &[f64], sn: &mut [f64], cs: &mut [f64], constants: &[[f64; 4]; 18]) -> usize {
+    fn groups<const K: usize>(x: &[f64], sn: &mut [f64], cs: &mut [f64], constants: &Constants) -> usize {
         let whole = x.len() / (4 * K) * (4 * K);
         for ((xc, sc), cc) in x[..whole].chunks_exact(4 * K).zip(sn[..whole].chunks_exact_mut(4 * K)).zip(cs[..whole].chunks_exact_mut(4 * K)) {
             let four = |v: &[f64], i: usize| *v[4 * i..].first_chunk::<4>().expect("4 K values");
