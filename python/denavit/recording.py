@@ -559,6 +559,26 @@ def _by_joint(runs: list[tuple[int, int]], ratio: np.ndarray, min_points: int) -
     return out
 
 
+def _dips(runs: list[tuple[int, int]], speed: np.ndarray, lim: float, depth: float = 0.25) -> list[tuple[int, int]]:
+    """``runs`` cut at the rows where the speed dips deep: below ``depth`` times the lower of the two speed maxima
+    that bound the dip (its prominence, as ``scipy.signal.find_peaks`` measures it: noise ripples on a slow start
+    or stop are bounded by ripples, not by the motion's peak). A motion's speed rises and falls once; where one
+    motion ends and the next begins after a short pause, or none, it falls to or nearly to zero between them.
+    Each piece is trimmed to its rows that move (speed above ``lim``: a pause bridged in the run is no motion)."""
+    from scipy.signal import find_peaks  # noqa: PLC0415
+
+    out = []
+    for a, b in runs:
+        s = speed[a:b]
+        minima, props = find_peaks(-s, prominence=0.0)
+        cuts = [0] + [int(m) for m, p in zip(minima, props["prominences"]) if s[m] < depth * (s[m] + p)] + [b - a]
+        for c0, c1 in zip(cuts, cuts[1:]):
+            moving = np.flatnonzero(s[c0:c1] > lim)
+            if len(moving):
+                out.append((a + c0 + int(moving[0]), a + c0 + int(moving[-1]) + 1))
+    return out
+
+
 def _runs(moving: np.ndarray, min_gap: int, min_len: int) -> list[tuple[int, int]]:
     """[start, stop) of the runs of True, gaps shorter than ``min_gap`` closed, runs shorter than ``min_len`` dropped."""
     from scipy.ndimage import label  # noqa: PLC0415
@@ -582,7 +602,9 @@ def segment(rec: Recording, *, ranges=None, n_joints: int | None = None, joints:
     n_joints : number of joints (default: from the readings, else the number of distinct circles).
     joints : without readings, the joint of each circle in recorded order (default 1, 2, ...).
     threshold : a row moves when a speed exceeds ``threshold`` times its noise (estimated from the data).
-    min_dwell : s, shorter still spans inside a motion do not split it. smoothing : s, the derivative filter's span.
+    min_dwell : s, shorter still spans inside one motion do not split it (a motion is one joint turning one way: with
+        readings, of one joint; without, on one circle); between two joints' motions, or where a joint turns back,
+        a motion ends however short the pause, or with none. smoothing : s, the derivative filter's span.
     min_points : shorter motions are ignored. use_readings : False segments from the geometry even when readings exist.
     spans : [(joint, t_start, t_stop), ...] (s) the user's sweeps, overriding all of the above (method "given").
     Rows labelled by the file (``rec.joint``) are used as they are (method "labels").
@@ -636,21 +658,44 @@ def segment(rec: Recording, *, ranges=None, n_joints: int | None = None, joints:
     else:
         from .fitting import fit_axis  # noqa: PLC0415
 
-        fits = []
-        for a, b in runs:
+        def circle(a, b):
             try:
-                fits.append(fit_axis(x[a:b], None, "kasa", where=f"{rec.where[a]} .. {rec.where[b - 1]}"))
+                return fit_axis(x[a:b], None, "kasa", where=f"{rec.where[a]} .. {rec.where[b - 1]}")
             except DenavitError:
-                fits.append(None)  # a straight or too short move: no circle
-        group, axis = 0, None
-        for (a, b), f in zip(runs, fits):
+                return None  # a straight, too short or out-and-back move: no circle
+
+        def same_circle(f, g):
+            return abs(float(f.direction @ g.direction)) > math.cos(math.radians(3.0)) and \
+                np.linalg.norm(np.cross(f.point - g.point, g.direction)) < 0.05 * max(f.radius, g.radius) + 1e-3
+
+        # _motions did not join motions across short still spans: pieces of one circle turning one way with a
+        # still span shorter than min_dwell between them are one motion (a stutter); the motions of two joints,
+        # or a joint turning back, stay apart however short the pause between them
+        still = np.ones(N, bool)
+        for a, b in runs:
+            still[a:b] = False
+        gap = max(1, int(round(min_dwell / float(np.median(np.diff(t))))))
+        merged: list[tuple[int, int, object]] = []
+        for a, b in runs:
+            f = circle(a, b)
             if f is None:
                 continue
-            same = axis is not None and abs(float(f.direction @ axis.direction)) > math.cos(math.radians(3.0)) and \
-                np.linalg.norm(np.cross(f.point - axis.point, axis.direction)) < 0.05 * max(f.radius, axis.radius) + 1e-3
-            if not same:
+            if merged:
+                a0, b0, g = merged[-1]
+                if still[b0:a].sum() < gap and same_circle(f, g) and float(f.direction @ g.direction) > 0:
+                    whole = circle(a0, b)
+                    if whole is not None:
+                        merged[-1] = (a0, b, whole)
+                        continue
+            merged.append((a, b, f))
+        dwell = N - sum(b - a for a, b, _ in merged)
+        group, axis = 0, None
+        for a, b, f in merged:
+            if axis is None or not same_circle(f, axis):
                 group, axis = group + 1, f
             segs.append(Segment(group, a, b, float(t[a]), float(t[b - 1]), "transit", peak_speed=float(speed[a:b, 0].max()), arc=float(f.arc)))
+        if not segs:
+            raise DenavitError(f"{rec.source}: no motion of the points follows a circle ({len(runs)} motions): expected sweeps of one joint at a time")
         n = n_joints or group
         if joints is not None:
             if len(joints) != group:
@@ -664,7 +709,9 @@ def segment(rec: Recording, *, ranges=None, n_joints: int | None = None, joints:
             r = ranges[j - 1]
             pick = min(mine, key=lambda k: abs(segs[k].q_from - r[0]) + abs(segs[k].q_to - r[1]))
         else:
-            pick = min(mine, key=lambda k: segs[k].peak_speed)
+            # the slowest motion: by its median speed, so that a sweep joined to the faster transit that goes on
+            # the same way after it (no pause) still counts as slow
+            pick = min(mine, key=lambda k: float(np.median(speed[segs[k].start:segs[k].stop, segs[k].joint - 1 if with_q else 0])))
         out.append(pick)
     segs = [replace(s, role="sweep" if k in out else "transit") for k, s in enumerate(segs)]
     return Segmentation(segs, "readings" if with_q else "geometry", int(n), int(dwell), rec.source, rec.kinds)
@@ -706,6 +753,10 @@ def _motions(rec: Recording, *, threshold: float, min_dwell: float, smoothing: f
         speed = np.linalg.norm(v, axis=1)[:, None]
         lim = np.maximum(threshold * np.linalg.norm(noise), max(1e-3 * speed.max(), 1e-12))
         runs = _runs(speed[:, 0] > lim, gap, 1)
+        if sweeps:
+            # a short pause between two joints' motions, or none, is bridged above: cut where the speed dips deep
+            # (segment() joins the pieces again where they are one circle turning one way)
+            runs = _dips(runs, speed[:, 0], lim)
     runs = [(a, b) for a, b in _ends(x, runs, sigma_x, threshold, with_q) if b - a >= min_points]
     return t, x, with_q, runs, lim, speed
 
@@ -765,7 +816,10 @@ def to_sweepset(rec: Recording, seg: Segmentation, *, target: int | None = None,
     if rot is not None and np.max(np.ptp(rot, axis=0)) < 1e-9:  # a constant orientation while the joints turn: a point stream (a tf of an SMR)
         rot = None
     kinds = list(kinds or rec.kinds or ["revolute"] * n)
-    dirs = np.broadcast_to(np.atleast_1d(np.asarray(direction, dtype=float)), (n,))
+    dirs = np.atleast_1d(np.asarray(direction, dtype=float))
+    if dirs.ndim != 1 or dirs.size not in (1, n):
+        raise DenavitError(f"{rec.source}: direction: expected 1 or {n} values (one per joint of the segmentation, {seg.method}), got {dirs.size}")
+    dirs = np.broadcast_to(dirs, (n,))
     sweeps = []
     for j in range(1, n + 1):
         s = picked[j]
