@@ -893,6 +893,23 @@ fn load_block<const N: usize>(model: &Model, qb: &[f64], s: &mut [V]) -> bool {
     bad.iter().all(|b| *b == 0.0)
 }
 
+/// The joint angles of a block (as [`load_block`]) and their sines and cosines, every joint's in one pass (no
+/// short remainder per joint), for the one-pass chains of revolute joints. False if a value of `qb` is not
+/// finite: looked for only when an angle falls out of the sine kernel's reduced range, as a non-finite one does
+/// (no check in the transposition: `fk_batch` 1e5 one core 5.56 -> 5.48 ms).
+#[inline(always)]
+#[must_use]
+fn load_angles<const N: usize>(model: &Model, qb: &[f64], w: &mut Block) -> bool {
+    let n = if N > 0 { N } else { model.nq() };
+    let (qb, joints, s) = (&qb[..BLOCK * n], &model.joints()[..n], &mut w.s[..n]);
+    for l in 0..BLOCK {
+        for i in 0..n {
+            s[i][l] = qb[l * n + i] + joints[i].offset;
+        }
+    }
+    sin_cos_slices(s.as_flattened(), w.sn[..n].as_flattened_mut(), w.cs[..n].as_flattened_mut()) || qb.iter().all(|v| v.is_finite())
+}
+
 /// The joint frames of a block of configurations (`qb`: BLOCK x n row-major; `N` > 0 promises n == N, so
 /// that the transposition of `qb` has a constant stride), joints 1..=`cols`, each handed to
 /// `each(i, frames)`; `w.c` ends as the frame of joint `cols`. False (and nothing computed) if a value of
@@ -1036,11 +1053,9 @@ fn tool_pose_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], w: &
         };
         match chain.about_x {
             true if N > 0 => {
-                if !load_block::<N>(model, qb, &mut w.s) {
+                if !load_angles::<N>(model, qb, w) {
                     return false;
                 }
-                // every joint's angles in one pass (no short remainder per joint)
-                sin_cos_slices(w.s.as_flattened(), w.sn.as_flattened_mut(), w.cs.as_flattened_mut());
                 let (first, f, sn, cs, c) = (&chain.first, &chain.factors, &w.sn, &w.cs, &mut w.c);
                 revolute_about_x::<N>(first, f, sn, cs, c);
             }
@@ -1155,10 +1170,9 @@ fn jacobian_chunk<const N: usize>(
         };
         if let (true, true, None) = (chain.about_x, N > 0, joint) {
             let b = &mut *w.block;
-            if !load_block::<N>(model, qb, &mut b.s) {
+            if !load_angles::<N>(model, qb, b) {
                 return false;
             }
-            sin_cos_slices(b.s.as_flattened(), b.sn.as_flattened_mut(), b.cs.as_flattened_mut());
             let (first, f, tool, sn, cs, jac) = (&chain.first, &chain.factors, &chain.factors[n - 1], &b.sn, &b.cs, &mut w.jac);
             match frame {
                 JacobianFrame::LocalWorldAligned => jacobian_about_x::<N, FRAME_LWA>(first, f, tool, &base, sn, cs, jac),

@@ -46,9 +46,10 @@ pub(crate) fn sin_cos_lanes<const N: usize>(x: &[f64; N]) -> ([f64; N], [f64; N]
 
 /// [`sin_cos`] of every `x[i]` into `sn[i]`, `cs[i]` (slices of one length, e.g. a block of a batch): the
 /// arguments are checked once, then the branch-free kernel runs as one loop, which the compiler vectorises.
-/// Bit for bit the values of [`sin_cos`].
+/// Bit for bit the values of [`sin_cos`]. Returns whether every `|x|` was below 1e5 (false for a NaN or an
+/// infinity).
 #[inline(always)]
-pub(crate) fn sin_cos_slices(x: &[f64], sn: &mut [f64], cs: &mut [f64]) {
+pub(crate) fn sin_cos_slices(x: &[f64], sn: &mut [f64], cs: &mut [f64]) -> bool {
     let (sn, cs) = (&mut sn[..x.len()], &mut cs[..x.len()]);
     // counted, not folded into a bool (a compare and a subtraction per four angles); NaN is out of range
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -63,6 +64,7 @@ pub(crate) fn sin_cos_slices(x: &[f64], sn: &mut [f64], cs: &mut [f64]) {
             (sn[i], cs[i]) = sin_cos(x[i]);
         }
     }
+    out_of_range == 0
 }
 
 // The kernels' constants exactly as published: fdlibm's two-part pi/2 and the FreeBSD/musl minimax
