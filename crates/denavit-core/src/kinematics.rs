@@ -3,7 +3,7 @@
 
 use crate::error::{Error, Result, check_len};
 use crate::math::{sin_cos, sin_cos_lanes, sin_cos_slices};
-use crate::model::{Data, JointKind, Model};
+use crate::model::{Data, Joint, JointKind, Model};
 use crate::spatial::Pose;
 use nalgebra::{Matrix3, Rotation3, Translation3};
 
@@ -212,11 +212,7 @@ fn walk(model: &Model, q: &[f64], count: usize, mut each: impl FnMut(usize, &Fra
     let joints = &model.joints()[..count];
     let mut t = Frame::of(model.t_world_base());
     if joints.len() <= 8 {
-        let mut s = [0.0; 8];
-        for ((si, j), &qi) in s.iter_mut().zip(joints).zip(q) {
-            *si = qi + j.offset;
-        }
-        let (sn, cs) = sin_cos_lanes(&s);
+        let (s, sn, cs) = joint_angles(joints, q);
         for (i, j) in joints.iter().enumerate() {
             t = t.mul(&j.placement);
             t.motion(j.kind, s[i], sn[i], cs[i]);
@@ -234,17 +230,25 @@ fn walk(model: &Model, q: &[f64], count: usize, mut each: impl FnMut(usize, &Fra
     t
 }
 
+/// The angles `q + offset` of up to 8 joints (the rest 0) and their sines and cosines, from one call of the
+/// lane kernel.
+#[inline(always)]
+fn joint_angles(joints: &[Joint], q: &[f64]) -> ([f64; 8], [f64; 8], [f64; 8]) {
+    let mut s = [0.0; 8];
+    for ((si, j), &qi) in s.iter_mut().zip(joints).zip(q) {
+        *si = qi + j.offset;
+    }
+    let (sn, cs) = sin_cos_lanes(&s);
+    (s, sn, cs)
+}
+
 /// Tool pose `T_world_tool(q)` without filling a [`Data`]; `q` must have `model.nq()` entries (unchecked here).
 #[inline]
 pub fn tool_pose_unchecked(model: &Model, q: &[f64]) -> Pose {
     let (chain, n) = (model.chain(), model.nq());
     if chain.about_x && (1..=8).contains(&n) {
         // the batch kernels' one-pass chain on one configuration: only the products the placements need
-        let mut s = [0.0; 8];
-        for ((si, j), &qi) in s.iter_mut().zip(model.joints()).zip(q) {
-            *si = qi + j.offset;
-        }
-        let (sn, cs) = sin_cos_lanes(&s);
+        let (_, sn, cs) = joint_angles(model.joints(), q);
         let frame = chain_about_x::<1>(&chain.first, &chain.factors[..n - 1], |i| ([sn[i]], [cs[i]]), |_, _, _| {});
         let c = frame.map(|v| [v[0][0], v[1][0], v[2][0], 0.0]);
         return Frame { c }.mul(model.t_last_tool()).pose();
