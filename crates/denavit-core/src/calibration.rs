@@ -183,23 +183,23 @@ impl Chain {
                             got: param.to_string(),
                         });
                     }
-                    if let Some(j) = joint {
-                        if *j >= nq {
-                            return Err(Error::InvalidArgument { what: format!("joint of factor {}", k + 1), expected: format!("< {nq}"), got: j.to_string() });
-                        }
+                    if let Some(j) = joint
+                        && *j >= nq
+                    {
+                        return Err(Error::InvalidArgument { what: format!("joint of factor {}", k + 1), expected: format!("< {nq}"), got: j.to_string() });
                     }
                 }
             }
         }
         for (j, s) in scales.iter().enumerate() {
-            if let Some(s) = s {
-                if *s >= n_params {
-                    return Err(Error::InvalidArgument {
-                        what: format!("scale parameter of joint {}", j + 1),
-                        expected: format!("< {n_params}"),
-                        got: s.to_string(),
-                    });
-                }
+            if let Some(s) = s
+                && *s >= n_params
+            {
+                return Err(Error::InvalidArgument {
+                    what: format!("scale parameter of joint {}", j + 1),
+                    expected: format!("< {n_params}"),
+                    got: s.to_string(),
+                });
             }
         }
         Ok(Self { factors, n_params, nq, scales })

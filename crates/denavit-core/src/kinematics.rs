@@ -1,6 +1,9 @@
 //! Forward kinematics and the geometric Jacobian (docs/conventions.md, "The model").
 #![allow(clippy::needless_range_loop)] // index loops mirror the formulas (and unroll)
 
+#[cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
+mod avx512;
+
 use crate::error::{Error, Result, check_len};
 use crate::math::{sin_cos, sin_cos_lanes, sin_cos_slices};
 use crate::model::{Data, Joint, JointKind, Model};
@@ -554,21 +557,40 @@ fn negated<const L: usize>(a: &[[f64; L]; 3]) -> [[f64; L]; 3] {
     a.map(|v| v.map(|x| -x))
 }
 
-/// The frames of joint `N` of a block (into `c`) for a chain of `N` revolute joints whose placements
-/// 2..N rotate about x only (`factors`: those placements; `sn`, `cs`: the sines and cosines of the joint
-/// angles, per joint), the whole chain in one pass over the configurations, a group of [`LANES`] at a
-/// time, the frame in registers (the joint-by-joint [`step`]s store and reload it at every joint).
-#[inline(never)]
-fn revolute_about_x<const N: usize>(first: &Frame, factors: &[Factor], sn: &[V], cs: &[V], c: &mut Frames) {
+/// The tool frames of a block for a chain of `N` revolute joints whose placements 2..N rotate about x only
+/// (`factors`: those placements; `tool`: the tool's factor; `sn`, `cs`: the sines and cosines of the joint
+/// angles, per joint), the whole chain in one pass over the configurations, a group of [`LANES`] at a time,
+/// the frame in registers (the joint-by-joint [`step`]s store and reload it at every joint), each group's
+/// frames handed to `put(group, frames)`.
+#[inline(always)]
+fn revolute_about_x<const N: usize>(first: &Frame, factors: &[Factor], tool: &Factor, sn: &[V], cs: &[V], mut put: impl FnMut(usize, &[[G; 3]; 4])) {
     let (factors, sn, cs) = (&factors[..N - 1], &sn[..N], &cs[..N]);
     for g in 0..BLOCK / LANES {
         let frame = chain_about_x(first, factors, |i| (lanes(&sn[i], g), lanes(&cs[i], g)), |_, _, _| {});
-        for (cj, fj) in c.iter_mut().zip(&frame) {
-            for (cr, fr) in cj.iter_mut().zip(fj) {
-                cr[g * LANES..(g + 1) * LANES].copy_from_slice(fr);
-            }
+        put(g, &times_factor(frame, tool));
+    }
+}
+
+/// `frame · f` for a constant factor (the tool) in registers: the arithmetic of [`step`] with
+/// `MOTION_NONE`, the terms the factor's exact zeros and ones make vanish left out.
+#[inline(always)]
+fn times_factor<const L: usize>(frame: [[[f64; L]; 3]; 4], f: &Factor) -> [[[f64; L]; 3]; 4] {
+    let [x, y, z, mut p] = frame;
+    let (a, b) = ([x, y, z], &f.b);
+    let scaled = |v: &[f64; L], k: f64| v.map(|x| x * k);
+    let dense = |j: usize| -> [[f64; L]; 3] { std::array::from_fn(|r| fma_by(&a[2][r], b[j][2], &fma_by(&a[1][r], b[j][1], &scaled(&a[0][r], b[j][0])))) };
+    let yz = |j: usize| -> [[f64; L]; 3] { std::array::from_fn(|r| fma_by(&a[2][r], b[j][2], &scaled(&a[1][r], b[j][1]))) };
+    let [x, y, z] = match f.rot {
+        ROT_IDENTITY => a,
+        ROT_ABOUT_X | ROT_QUARTER_X => [a[0], yz(1), yz(2)],
+        _ => [dense(0), dense(1), dense(2)],
+    };
+    for k in 0..3 {
+        if f.origin & (1 << k) != 0 {
+            p = std::array::from_fn(|r| fma_by(&a[k][r], b[3][k], &p[r]));
         }
     }
+    [x, y, z, p]
 }
 
 /// The body of [`revolute_about_x`] for group `g` of a block: the frame of the last joint (x, y, z axes
@@ -953,6 +975,7 @@ const IDENTITY: Factor = Factor { b: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.
 
 /// Write a block's frames as row-major 4x4 matrices (`out`: up to BLOCK x 16), four configurations at a
 /// time by 4x4 transposes.
+#[cfg(not(all(target_arch = "x86_64", target_feature = "avx512f")))]
 #[inline(always)]
 fn write_block(c: &Frames, out: &mut [f64]) {
     let base = 4 * (out.len() / 64);
@@ -1007,7 +1030,7 @@ fn write_block(c: &Frames, out: &mut [f64]) {
 /// [`write_block`] with streaming stores ([`crate::stream`]), two configurations at a time by 2x2
 /// transposes in 128-bit registers (no lane-crossing shuffles), each configuration's 16 values stored in
 /// order so that its cache lines fill whole in the write-combining buffers.
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", not(target_feature = "avx512f")))]
 #[inline(always)]
 fn write_block_streamed(c: &Frames, out: &mut [f64]) {
     use safe_arch::{load_unaligned_m128d as load, m128d, set_m128d as set, unpack_high_m128d as hi, unpack_low_m128d as lo};
@@ -1049,8 +1072,10 @@ fn tool_pose_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], w: &
     let n = model.nq();
     let tool = &chain.factors[n - 1];
     let mut padded = Vec::new();
-    for (qb, ob) in q.chunks(BLOCK * n).zip(out.chunks_mut(16 * BLOCK)) {
-        let qb = match block_of(qb, n, &mut padded, ob, |qr, o| write_pose(&tool_pose_unchecked(model, qr), o)) {
+    let mut writer = Writer::new(out, w.stream);
+    for (k, qb) in q.chunks(BLOCK * n).enumerate() {
+        let (row, rows) = (k * BLOCK, qb.len() / n);
+        let qb = match block_of(qb, n, &mut padded, &mut out[16 * row..16 * (row + rows)], |qr, o| write_pose(&tool_pose_unchecked(model, qr), o)) {
             Rows::Block(qb) => qb,
             Rows::Written => continue,
             Rows::NotFinite => return false,
@@ -1060,28 +1085,90 @@ fn tool_pose_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], w: &
                 if !load_angles::<N>(model, qb, w) {
                     return false;
                 }
-                let (first, f, sn, cs, c) = (&chain.first, &chain.factors, &w.sn, &w.cs, &mut w.c);
-                revolute_about_x::<N>(first, f, sn, cs, c);
+                let (first, f, sn, cs) = (&chain.first, &chain.factors, &w.sn, &w.cs);
+                revolute_about_x::<N>(first, f, tool, sn, cs, |g, frame| writer.put(&mut w.c, out, row, rows, g, frame));
+                writer.block_done(&w.c, out, row, rows);
             }
             _ => {
                 if !walk_block::<N>(model, chain, qb, n, w, |_, _| {}) {
                     return false;
                 }
+                if tool.rot != ROT_IDENTITY || tool.origin != 0 {
+                    step_factor(&mut w.c, tool, MOTION_NONE, &w.sn[0], &w.sn[0], &w.cs[0]);
+                }
+                for g in 0..BLOCK / LANES {
+                    let frame: [[G; 3]; 4] = std::array::from_fn(|j| std::array::from_fn(|r| lanes(&w.c[j][r], g)));
+                    writer.put(&mut w.c, out, row, rows, g, &frame);
+                }
+                writer.block_done(&w.c, out, row, rows);
             }
         }
-        if tool.rot != ROT_IDENTITY || tool.origin != 0 {
-            step_factor(&mut w.c, tool, MOTION_NONE, &w.sn[0], &w.sn[0], &w.cs[0]);
-        }
-        // straight into the caller's array: whole rows, in order (a copy through an L1 stage cost a fifth
-        // of the time)
-        #[cfg(target_arch = "x86_64")]
-        if w.stream {
-            write_block_streamed(&w.c, ob);
-            continue;
-        }
-        write_block(&w.c, ob);
     }
+    writer.finish(out);
     true
+}
+
+/// Where a chunk's tool poses go, straight into the caller's array as whole rows in order (a copy through
+/// an L1 stage cost a fifth of the time): with AVX-512, eight at a time in whole cache lines
+/// ([`avx512::Lines`]); else a block's frames are gathered in the block's workspace and written four at a
+/// time ([`write_block`], or [`write_block_streamed`] for an output bigger than the cache).
+struct Writer {
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
+    lines: avx512::Lines,
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "avx512f")))]
+    stream: bool,
+}
+
+impl Writer {
+    fn new(out: &[f64], stream: bool) -> Self {
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
+        return Self { lines: avx512::Lines::new(out, stream) };
+        #[cfg(not(all(target_arch = "x86_64", target_feature = "avx512f")))]
+        {
+            let _ = out;
+            Self { stream }
+        }
+    }
+
+    /// The frames of group `g` of the block of rows `row..row + rows` (the group's lanes past the block's
+    /// rows are padding); `c`: the block's frames.
+    #[inline(always)]
+    #[allow(unused_variables)]
+    fn put(&mut self, c: &mut Frames, out: &mut [f64], row: usize, rows: usize, g: usize, frame: &[[G; 3]; 4]) {
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
+        if LANES * g < rows {
+            self.lines.put(out, row + LANES * g, frame, (rows - LANES * g).min(LANES));
+        }
+        #[cfg(not(all(target_arch = "x86_64", target_feature = "avx512f")))]
+        for (cj, fj) in c.iter_mut().zip(frame) {
+            for (cr, fr) in cj.iter_mut().zip(fj) {
+                cr[g * LANES..(g + 1) * LANES].copy_from_slice(fr);
+            }
+        }
+    }
+
+    /// The block of rows `row..row + rows` is computed (its frames in `c` where [`Writer::put`] keeps them).
+    #[inline(always)]
+    #[allow(unused_variables)]
+    fn block_done(&mut self, c: &Frames, out: &mut [f64], row: usize, rows: usize) {
+        #[cfg(not(all(target_arch = "x86_64", target_feature = "avx512f")))]
+        {
+            let ob = &mut out[16 * row..16 * (row + rows)];
+            #[cfg(target_arch = "x86_64")]
+            if self.stream {
+                write_block_streamed(c, ob);
+                return;
+            }
+            write_block(c, ob);
+        }
+    }
+
+    #[inline(always)]
+    #[allow(unused_variables)]
+    fn finish(self, out: &mut [f64]) {
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
+        self.lines.finish(out);
+    }
 }
 
 /// The first non-finite value of a batch of rows of `n` (after a chunk found one: the error names the first
@@ -1333,13 +1420,14 @@ mod tests {
     /// fast sine's range.
     #[test]
     fn batch_kernels_equal_the_single_path() {
-        use crate::spatial::{Pose, rx, trans};
+        use crate::spatial::{Pose, rx, ry, trans};
         use crate::{Convention, JointKind, Table};
         const H: f64 = std::f64::consts::FRAC_PI_2;
         let r = JointKind::Revolute;
         let base = trans(0.1, -0.2, 0.3) * rx(0.2);
         let cases = [
-            // d, theta, a, alpha: offsets in x and z
+            // d, theta, a, alpha: offsets in x and z; a tool turned about a general axis
+            (Convention::Dh, vec![0.4, 0.0, 0.18, -H, 0.0, 0.0, 0.6, 0.0, 0.0, -H, 0.12, -H], trans(0.01, 0.02, 0.1) * rx(0.3) * ry(-0.4)),
             (Convention::Dh, vec![0.4, 0.0, 0.18, -H, 0.0, 0.0, 0.6, 0.0, 0.0, -H, 0.12, -H], Pose::identity()),
             // alpha, a, theta, d: Rx(alpha) Tx(a) Tz(d) has an offset in y as well
             (Convention::Mdh, vec![0.0, 0.0, 0.0, 0.3, H, 0.1, -H, 0.15, 0.0, -0.4, 0.0, 0.0, 0.3, -0.39, 0.5, 0.1], trans(0.0, 0.0, 0.1)),
@@ -1369,6 +1457,13 @@ mod tests {
                         }
                         let mut out = vec![0.0; 16 * count];
                         crate::parallel::with_threads(Some(1), || super::tool_pose_batch(&m, &qs, &mut out)).unwrap().unwrap();
+                        // the same values at every offset from a cache line (whole lines cut from two matrices' values)
+                        let mut shifted = vec![f64::NAN; 16 * count + 8];
+                        for offset in 0..8 {
+                            let o = &mut shifted[offset..offset + 16 * count];
+                            crate::parallel::with_threads(Some(1), || super::tool_pose_batch(&m, &qs, o)).unwrap().unwrap();
+                            assert_eq!(o, &out, "{convention:?} n = {n} prismatic {prismatic}: the output {offset} values into the buffer");
+                        }
                         for (q, o) in qs.chunks(n).zip(out.chunks(16)) {
                             let mut one = [0.0; 16];
                             // the joint-by-joint path (every product of every placement), and the single call

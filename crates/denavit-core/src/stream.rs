@@ -40,7 +40,7 @@ fn last_level_cache() -> Option<usize> {
 /// Whether a batch writes `out` with streaming stores: it is at least [`threshold`] bytes and 16-byte
 /// aligned (a numpy array's data is; a view at an odd offset is not and gets plain stores).
 pub(crate) fn wanted(out: &[f64]) -> bool {
-    cfg!(target_arch = "x86_64") && std::mem::size_of_val(out) >= threshold() && (out.as_ptr() as usize) % 16 == 0
+    cfg!(target_arch = "x86_64") && std::mem::size_of_val(out) >= threshold() && (out.as_ptr() as usize).is_multiple_of(16)
 }
 
 /// Store `count` pairs into `d[..2 * count]`, pair `k` (`v(k)`) at `d[2k..2k + 2]`, with streaming stores
@@ -51,7 +51,7 @@ pub(crate) fn wanted(out: &[f64]) -> bool {
 #[allow(unsafe_code)]
 pub(crate) fn pairs(d: &mut [f64], count: usize, mut v: impl FnMut(usize) -> safe_arch::m128d) {
     let d = &mut d[..2 * count];
-    if (d.as_ptr() as usize) % 16 == 0 {
+    if (d.as_ptr() as usize).is_multiple_of(16) {
         let p = d.as_mut_ptr();
         for k in 0..count {
             // SAFETY: `d` is `2 * count` writable, initialised f64 (a unique borrow of that length, checked

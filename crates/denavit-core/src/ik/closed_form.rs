@@ -318,17 +318,15 @@ impl ClosedForm {
             Self { structure, p: ideal_p, h: ideal_h, hp, sense, c, x6, xp: any_perpendicular(&hp), t0_inv: t0.inverse() }
         };
         // spherical wrist, parallel shoulder
-        if let Some((hp, sense)) = parallel(&[1, 2]) {
-            if let Some((w, worst)) = meeting_point(&[(p[3], h[3]), (p[4], h[4]), (p[5], h[5])]) {
-                if worst <= dist_tol
-                    && sin(&h[0], &hp) >= NOT_PARALLEL
-                    && sin(&h[3], &h[4]) >= NOT_PARALLEL
-                    && sin(&h[4], &h[5]) >= NOT_PARALLEL
-                    && apart(1, 2, &hp) > dist_tol
-                {
-                    return Some(make(Structure::SphericalWrist, &[1, 2], hp, sense, &[3, 4, 5], w));
-                }
-            }
+        if let Some((hp, sense)) = parallel(&[1, 2])
+            && let Some((w, worst)) = meeting_point(&[(p[3], h[3]), (p[4], h[4]), (p[5], h[5])])
+            && worst <= dist_tol
+            && sin(&h[0], &hp) >= NOT_PARALLEL
+            && sin(&h[3], &h[4]) >= NOT_PARALLEL
+            && sin(&h[4], &h[5]) >= NOT_PARALLEL
+            && apart(1, 2, &hp) > dist_tol
+        {
+            return Some(make(Structure::SphericalWrist, &[1, 2], hp, sense, &[3, 4, 5], w));
         }
         // three parallel axes, axes 5 and 6 meeting
         let (hp, sense) = parallel(&[1, 2, 3])?;
