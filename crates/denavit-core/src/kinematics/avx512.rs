@@ -61,14 +61,28 @@ impl Lines {
     #[target_feature(enable = "avx512f")]
     fn put_avx512(&mut self, out: &mut [f64], frame: &[[[f64; 8]; 3]; 4], m: usize) {
         let v = matrices(frame);
-        for vk in v.into_iter().take(2 * m) {
-            let (e, s) = (self.fed, self.s);
+        let (e0, s, stream) = (self.fed, self.s, self.stream);
+        if m == 8 && (s == 0 || e0 > 0) {
+            // eight whole matrices after the first line: 16 lines from value e0 - s on, one bounds check
+            let d = out[e0 - s..e0 - s + 128].chunks_exact_mut(8);
             if s == 0 {
-                line(&mut out[e..e + 8], vk, self.stream);
+                d.zip(v).for_each(|(d, vk)| line(d, vk, stream));
+            } else {
+                let previous = std::iter::once(self.previous).chain(v.into_iter().take(15));
+                d.zip(previous.zip(v)).for_each(|(d, (p, vk))| line(d, _mm512_permutex2var_pd(p, self.shift, vk), stream));
+            }
+            self.previous = v[15];
+            self.fed += 128;
+            return;
+        }
+        for vk in v.into_iter().take(2 * m) {
+            let e = self.fed;
+            if s == 0 {
+                line(&mut out[e..e + 8], vk, stream);
             } else if e == 0 {
                 store(&mut out[..8], vk);
             } else {
-                line(&mut out[e - s..e - s + 8], _mm512_permutex2var_pd(self.previous, self.shift, vk), self.stream);
+                line(&mut out[e - s..e - s + 8], _mm512_permutex2var_pd(self.previous, self.shift, vk), stream);
             }
             self.previous = vk;
             self.fed += 8;
