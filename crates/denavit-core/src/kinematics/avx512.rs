@@ -3,10 +3,13 @@
 //! as the caller's row-major 4x4 matrices in whole 64-byte cache lines, each line one aligned store (a
 //! streaming one for an output bigger than the cache, [`crate::stream`]).
 //!
-//! A numpy array's data is 16-byte aligned, so a matrix (128 bytes) starts 16 bytes into a cache line: the
-//! 256-bit stores of the AVX path split every other line in two, and the values of a line come from two
-//! matrices. Here the matrices' values are built in order, eight at a time (sixteen registers of eight
-//! values), and each aligned line is cut from two consecutive registers (one two-source permute).
+//! A numpy array's data is 16-byte aligned, so a matrix (128 bytes) starts 16 bytes into a cache line (a
+//! large array's, 16 bytes after the page its allocation starts on) or 32 or 48 or none: the 256-bit stores
+//! of the AVX path split every other line in two. Where a matrix starts 0, 2 or 4 values into a line, each
+//! of its two lines holds its own values and constants of the bottom row (of the matrix before: 0, 1 or
+//! 0, 0, 0, 1), so the lines of eight matrices are two 8x8 transposes of their values, the transposes of
+//! constants folded ([`own_lines`]). At other offsets (a view into an array) the matrices' values are built
+//! in order and each line is cut from two consecutive registers by one two-source permute.
 //!
 //! `safe_arch` has no AVX-512; `core::arch`'s intrinsics are safe to call only inside a function compiled
 //! for the feature, which [`Lines`] enters once per eight matrices (the crate's other `unsafe` is in
@@ -19,11 +22,10 @@ use core::arch::x86_64::*;
 /// The writer of a chunk's matrices (`out`: rows x 16, row-major 4x4) in whole cache lines, fed eight
 /// configurations at a time in order ([`Lines::put`]), then [`Lines::finish`]ed.
 pub(super) struct Lines {
-    /// `out` starts `s` values into a cache line (an f64 slice is 8-byte aligned): each aligned line is the
-    /// last `s` values of one register and the first `8 - s` of the next; the first and last partial lines
-    /// are plain unaligned stores.
+    /// `out` starts `s` values into a cache line (an f64 slice is 8-byte aligned).
     s: usize,
-    /// Lane i of a line: value i + 8 - s of the pair (previous register, this register).
+    /// For `s` other than 0, 2, 4, lane i of a line: value i + 8 - s of the pair (previous register, this
+    /// register).
     shift: __m512i,
     previous: __m512d,
     /// Values fed so far.
@@ -36,7 +38,7 @@ impl Lines {
         let s = (out.as_ptr() as usize / 8) % 8;
         // SAFETY: the module is compiled only when the build enables avx512f (the CPU that runs the extension
         // is the one it was built for, or one named by RUSTFLAGS with the feature), so the CPU has the
-        // instructions of the functions it enters (here and in `put`, `finish`).
+        // instructions of the functions it enters (here and in `put`).
         let (shift, previous) = unsafe { (shift(s), _mm512_setzero_pd()) };
         Self { s, shift, previous, fed: 0, stream }
     }
@@ -47,39 +49,60 @@ impl Lines {
     pub(super) fn put(&mut self, out: &mut [f64], row: usize, frame: &[[[f64; 8]; 3]; 4], m: usize) {
         debug_assert_eq!(16 * row, self.fed);
         // SAFETY: as in `new`
-        unsafe { self.put_avx512(out, frame, m) }
+        unsafe {
+            match self.s {
+                0 => self.put_own::<0>(out, frame, m),
+                2 => self.put_own::<2>(out, frame, m),
+                4 => self.put_own::<4>(out, frame, m),
+                _ => self.put_cut(out, frame, m),
+            }
+        }
     }
 
-    /// Store the last values fed (the part of a line after the last whole one).
+    /// Store the values fed after the last whole line: the bottom row's constants (`s` = 2, 4), or the end
+    /// of the last register.
     #[inline(always)]
     pub(super) fn finish(self, out: &mut [f64]) {
-        if self.s != 0 && self.fed >= 8 {
-            store(&mut out[self.fed - 8..self.fed], self.previous);
+        let (s, e) = (self.s, self.fed);
+        match s {
+            _ if e == 0 => {}
+            0 => {}
+            2 | 4 => out[e - s..e].copy_from_slice(&BOTTOM[4 - s..]),
+            _ => store(&mut out[e - 8..e], self.previous),
         }
     }
 
+    /// [`Lines::put`] where `out` starts `S` = 0, 2 or 4 values into a line ([`own_lines`]).
+    #[inline]
     #[target_feature(enable = "avx512f")]
-    fn put_avx512(&mut self, out: &mut [f64], frame: &[[[f64; 8]; 3]; 4], m: usize) {
-        let v = matrices(frame);
-        let (e0, s, stream) = (self.fed, self.s, self.stream);
-        if m == 8 && (s == 0 || e0 > 0) {
-            // eight whole matrices after the first line: 16 lines from value e0 - s on, one bounds check
-            let d = out[e0 - s..e0 - s + 128].chunks_exact_mut(8);
-            if s == 0 {
-                d.zip(v).for_each(|(d, vk)| line(d, vk, stream));
-            } else {
-                let previous = std::iter::once(self.previous).chain(v.into_iter().take(15));
-                d.zip(previous.zip(v)).for_each(|(d, (p, vk))| line(d, _mm512_permutex2var_pd(p, self.shift, vk), stream));
-            }
-            self.previous = v[15];
-            self.fed += 128;
+    fn put_own<const S: usize>(&mut self, out: &mut [f64], frame: &[[[f64; 8]; 3]; 4], m: usize) {
+        let (v, e0, stream) = (own_lines::<S>(frame), self.fed, self.stream);
+        self.fed += 16 * m;
+        if m == 8 && e0 > 0 {
+            // eight whole matrices: 16 lines from value e0 - S on, one bounds check
+            out[e0 - S..e0 - S + 128].chunks_exact_mut(8).zip(v).for_each(|(d, vk)| line(d, vk, stream));
             return;
         }
+        // the chunk's first line begins before `out`: the first matrix's values up to its second line
+        let first = usize::from(e0 == 0 && S > 0);
+        if first == 1 {
+            for (t, o) in out[..8 - S].iter_mut().enumerate() {
+                *o = frame[t % 4][t / 4][0];
+            }
+        }
+        for (k, vk) in v.into_iter().enumerate().take(2 * m).skip(first) {
+            let e = e0 + 8 * k - S;
+            line(&mut out[e..e + 8], vk, stream);
+        }
+    }
+
+    /// [`Lines::put`] at other offsets: each line cut from two consecutive registers of the matrices' values.
+    #[target_feature(enable = "avx512f")]
+    fn put_cut(&mut self, out: &mut [f64], frame: &[[[f64; 8]; 3]; 4], m: usize) {
+        let (v, s, stream) = (own_lines::<0>(frame), self.s, self.stream);
         for vk in v.into_iter().take(2 * m) {
             let e = self.fed;
-            if s == 0 {
-                line(&mut out[e..e + 8], vk, stream);
-            } else if e == 0 {
+            if e == 0 {
                 store(&mut out[..8], vk);
             } else {
                 line(&mut out[e - s..e - s + 8], _mm512_permutex2var_pd(self.previous, self.shift, vk), stream);
@@ -89,6 +112,9 @@ impl Lines {
         }
     }
 }
+
+/// The bottom row of a matrix.
+const BOTTOM: [f64; 4] = [0.0, 0.0, 0.0, 1.0];
 
 /// The permute index of [`Lines::shift`].
 #[target_feature(enable = "avx512f")]
@@ -103,17 +129,20 @@ fn load(a: &[f64; 8]) -> __m512d {
     unsafe { _mm512_loadu_pd(a.as_ptr()) }
 }
 
-/// The 16 values of each of eight matrices (the lanes of `frame`), in the order they are
-/// stored: rows 0-1 of the first matrix, rows 2-3 of it, rows 0-1 of the second, ...: two 8x8 transposes
-/// (the second's last four inputs are the bottom row's constants 0, 0, 0, 1).
+/// The cache lines of eight matrices (the lanes of `frame`; columns x, y, z, origin) that start `S` (0, 2 or
+/// 4) values before each matrix and before its 9th value, in the order they are stored (the first matrix's
+/// two lines, the second's, ...): line j of a matrix holds its values 8j - S .. 8j + 8 - S, those before its
+/// first being the bottom row's constants of the matrix before. Two 8x8 transposes (40 shuffles for `S` = 0,
+/// 44 for 2 and 4, those of constants folded at compile time).
 #[target_feature(enable = "avx512f")]
-fn matrices(frame: &[[[f64; 8]; 3]; 4]) -> [__m512d; 16] {
-    // top[k]: entry k of the first two rows (x, y, z, p of row 0, then of row 1) of the 8 configurations
-    let top: [__m512d; 8] = std::array::from_fn(|k| load(&frame[k % 4][k / 4]));
-    let bottom: [__m512d; 4] = std::array::from_fn(|j| load(&frame[j][2]));
-    let (zero, one) = (_mm512_setzero_pd(), _mm512_set1_pd(1.0));
-    let a = transpose(top);
-    let b = transpose([bottom[0], bottom[1], bottom[2], bottom[3], zero, zero, zero, one]);
+fn own_lines<const S: usize>(frame: &[[[f64; 8]; 3]; 4]) -> [__m512d; 16] {
+    // value t (0..16) of the row-major matrices, t < 0 the matrix before's 16 + t
+    let value = |t: usize| -> __m512d {
+        let t = (t + 16 - S) % 16;
+        if t < 12 { load(&frame[t % 4][t / 4]) } else { _mm512_set1_pd(BOTTOM[t - 12]) }
+    };
+    let a = transpose(std::array::from_fn(value));
+    let b = transpose(std::array::from_fn(|e| value(8 + e)));
     std::array::from_fn(|k| if k % 2 == 0 { a[k / 2] } else { b[k / 2] })
 }
 
