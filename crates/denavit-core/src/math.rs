@@ -45,23 +45,45 @@ pub(crate) fn sin_cos_lanes<const N: usize>(x: &[f64; N]) -> ([f64; N], [f64; N]
 }
 
 /// [`sin_cos`] of every `x[i]` into `sn[i]`, `cs[i]` (slices of one length, e.g. a block of a batch): the
-/// arguments are checked once, then the branch-free kernel runs as one loop, which the compiler vectorises.
-/// Bit for bit the values of [`sin_cos`]. Returns whether every `|x|` was below 1e5 (false for a NaN or an
-/// infinity).
+/// branch-free kernel over all, then `f64::sin_cos` over all if an argument was out of its range. Bit for bit
+/// the values of [`sin_cos`]. Returns whether every `|x|` was below 1e5 (false for a NaN or an infinity).
 #[inline(always)]
 pub(crate) fn sin_cos_slices(x: &[f64], sn: &mut [f64], cs: &mut [f64]) -> bool {
     let (sn, cs) = (&mut sn[..x.len()], &mut cs[..x.len()]);
-    // counted, not folded into a bool (a compare and a subtraction per four angles); NaN is out of range
+    let in_range = sin_cos_reduced_checked(x, sn, cs);
+    if !in_range {
+        for i in 0..x.len() {
+            (sn[i], cs[i]) = sin_cos(x[i]);
+        }
+    }
+    in_range
+}
+
+/// [`sin_cos_reduced`] of the slices if every argument is in its range (returns whether they are). With
+/// AVX-512, the compiler's loop on eight lanes with the range check folded in (a compare and a mask `and` per
+/// eight angles: `fk_batch` 12.1 -> 11.6 ns per configuration in cache, against a pass of its own).
+#[cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
+#[inline(always)]
+fn sin_cos_reduced_checked(x: &[f64], sn: &mut [f64], cs: &mut [f64]) -> bool {
+    let mut in_range = true;
+    for ((xi, si), ci) in x.iter().zip(sn).zip(cs) {
+        (*si, *ci) = sin_cos_reduced(*xi);
+        in_range &= xi.abs() < REDUCED_MAX;
+    }
+    in_range
+}
+
+/// Without AVX-512: the arguments counted first (a compare and a subtraction per four angles; NaN is out of
+/// range), then the interleaved AVX2 kernel ([`avx`]) or the compiler's loop.
+#[cfg(not(all(target_arch = "x86_64", target_feature = "avx512f")))]
+#[inline(always)]
+fn sin_cos_reduced_checked(x: &[f64], sn: &mut [f64], cs: &mut [f64]) -> bool {
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     let out_of_range = x.iter().filter(|v| !(v.abs() < REDUCED_MAX)).count();
     if out_of_range == 0 {
         let done = avx::sin_cos_reduced_slices(x, sn, cs);
         for i in done..x.len() {
             (sn[i], cs[i]) = sin_cos_reduced(x[i]);
-        }
-    } else {
-        for i in 0..x.len() {
-            (sn[i], cs[i]) = sin_cos(x[i]);
         }
     }
     out_of_range == 0
