@@ -20,9 +20,11 @@ pub(crate) fn threshold() -> usize {
 }
 
 /// The most [`threshold`] may be: a virtual machine reports its host's whole last-level cache, of which it
-/// gets far less (a 2-core guest here reports 480 MiB; batch FK one core, plain against streaming stores,
-/// ns per configuration: 19 MB output 14.1 / 15.8, 32 MB 15.2 / 15.8, 51 MB 26.8 / 17.0, 128 MB 26.7 / 17.3).
-const THRESHOLD_MAX: usize = 32 << 20;
+/// gets far less (a 2-core guest here reports 480 MiB; batch FK one core with AVX-512's whole-line stores,
+/// plain against streaming, ns per configuration: 1.3 MB of output 11.5 / 12.3, 8 MB 13.0 / 13.3, 13 MB
+/// 12.9 / 12.6, 26 MB 13.5 / 12.7, 51 MB 26.8 / 17.0, 128 MB 26.7 / 17.3). 8 MiB is also where the 2-core
+/// EPYC of the first measurements streamed (3/4 of its 8 MiB).
+const THRESHOLD_MAX: usize = 8 << 20;
 
 /// The size of cpu0's highest-level cache in bytes, from Linux's `/sys/devices/system/cpu/cpu0/cache`.
 fn last_level_cache() -> Option<usize> {
