@@ -1398,6 +1398,7 @@ mod tests {
                 let (streamed, plain) = (&mut streamed[start..start + per * count], &mut plain[start + 1..start + 1 + per * count]);
                 assert_eq!(crate::stream::wanted(streamed), cfg!(target_arch = "x86_64"));
                 assert!(!crate::stream::wanted(plain));
+                assert!(!crate::stream::with_plain_stores(|| crate::stream::wanted(streamed)));
                 let run = |out: &mut [f64]| {
                     if per == 16 {
                         super::tool_pose_batch(&m, &qs, out)

@@ -22,7 +22,7 @@ pub mod math;
 pub mod model;
 pub mod parallel;
 pub mod spatial;
-mod stream;
+pub mod stream;
 
 pub use axes::JointAxes;
 pub use convention::{Convention, Table};

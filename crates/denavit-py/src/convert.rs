@@ -302,7 +302,10 @@ pub fn batch_out<'py, D: numpy::ndarray::Dimension>(
             ),
         })?;
         let o = rw.as_slice_mut()?;
-        py.allow_threads(|| denavit_core::parallel::with_threads(threads, || kernel(o)).and_then(|r| r)).py()?;
+        // a new array's pages are zeroed at their first touch, which leaves them in the cache: plain stores
+        let fresh = out.is_none();
+        let run = || if fresh { denavit_core::stream::with_plain_stores(|| kernel(o)) } else { kernel(o) };
+        py.allow_threads(|| denavit_core::parallel::with_threads(threads, run).and_then(|r| r)).py()?;
     }
     Ok(a)
 }
