@@ -18,13 +18,17 @@ thread_local! {
     static SERIAL: Cell<bool> = const { Cell::new(false) };
 }
 
-/// Restores the calling thread's serial flag when a [`with_threads`] scope ends (also on unwinding).
-struct SerialScope(bool);
-
-impl Drop for SerialScope {
-    fn drop(&mut self) {
-        SERIAL.with(|s| s.set(self.0));
+/// Run `f` with a thread-local flag of the crate set on this thread (restored when `f` ends, also on
+/// unwinding): [`with_threads`]`(Some(1), ..)`'s serial flag, `stream::with_plain_stores`'.
+pub(crate) fn with_flag<R>(flag: &'static std::thread::LocalKey<Cell<bool>>, f: impl FnOnce() -> R) -> R {
+    struct Restore(&'static std::thread::LocalKey<Cell<bool>>, bool);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            self.0.with(|s| s.set(self.1));
+        }
     }
+    let _restore = Restore(flag, flag.with(|s| s.replace(true)));
+    f()
 }
 
 /// The most threads a call may ask for: 4 per core of this machine (more only adds threads waiting for a core;
@@ -59,10 +63,7 @@ pub fn with_threads<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Sen
             expected: format!("None (RAYON_NUM_THREADS, else every core) or a count 1..={} (4 per core)", max_threads()),
             got: k.to_string(),
         }),
-        Some(1) => {
-            let _restore = SerialScope(SERIAL.with(|s| s.replace(true)));
-            Ok(f())
-        }
+        Some(1) => Ok(with_flag(&SERIAL, f)),
         Some(k) => Ok(pool(k)?.install(f)),
     }
 }

@@ -18,15 +18,6 @@ thread_local! {
     static PLAIN: Cell<bool> = const { Cell::new(false) };
 }
 
-/// Restores the calling thread's flag when a [`with_plain_stores`] scope ends (also on unwinding).
-struct PlainScope(bool);
-
-impl Drop for PlainScope {
-    fn drop(&mut self) {
-        PLAIN.with(|p| p.set(self.0));
-    }
-}
-
 /// Run `f` with the batch kernels it calls on this thread writing their outputs with plain stores whatever
 /// their size: for an output just allocated (Python's `fk_batch(model, qs)` without `out=`), whose pages
 /// the operating system zeroes at their first touch, leaving their lines in the cache, where a streaming
@@ -41,8 +32,7 @@ impl Drop for PlainScope {
 /// with_plain_stores(|| tool_pose_batch(&m, &qs, &mut out)).unwrap();
 /// ```
 pub fn with_plain_stores<R>(f: impl FnOnce() -> R) -> R {
-    let _restore = PlainScope(PLAIN.with(|p| p.replace(true)));
-    f()
+    crate::parallel::with_flag(&PLAIN, f)
 }
 
 /// A batch output of this many bytes or more is streamed: 3/4 of the last-level cache (`/sys` on Linux,
