@@ -571,8 +571,8 @@ fn revolute_about_x<const N: usize>(first: &Frame, factors: &[Factor], tool: &Fa
     }
 }
 
-/// `frame · f` for a constant factor (the tool) in registers: the arithmetic of [`step`] with
-/// `MOTION_NONE`, the terms the factor's exact zeros and ones make vanish left out.
+/// `frame · f` for a constant factor (the tool) in registers, for both batch chains: the arithmetic of
+/// [`step`] with `MOTION_NONE`, the terms the factor's exact zeros and ones make vanish left out.
 #[inline(always)]
 fn times_factor<const L: usize>(frame: [[[f64; L]; 3]; 4], f: &Factor) -> [[[f64; L]; 3]; 4] {
     let [x, y, z, mut p] = frame;
@@ -1093,12 +1093,10 @@ fn tool_pose_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], w: &
                 if !walk_block::<N>(model, chain, qb, n, w, |_, _| {}) {
                     return false;
                 }
-                if tool.rot != ROT_IDENTITY || tool.origin != 0 {
-                    step_factor(&mut w.c, tool, MOTION_NONE, &w.sn[0], &w.sn[0], &w.cs[0]);
-                }
+                // the tool group by group, as in the one-pass chain
                 for g in 0..BLOCK / LANES {
                     let frame: [[G; 3]; 4] = std::array::from_fn(|j| std::array::from_fn(|r| lanes(&w.c[j][r], g)));
-                    writer.put(&mut w.c, out, row, rows, g, &frame);
+                    writer.put(&mut w.c, out, row, rows, g, &times_factor(frame, tool));
                 }
                 writer.block_done(&w.c, out, row, rows);
             }
