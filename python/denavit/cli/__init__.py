@@ -15,6 +15,7 @@ import sys
 import warnings
 
 from ..errors import DenavitError
+from ..io.output import guard_stdout
 from .common import app, say
 
 __all__ = ["app", "main"]
@@ -22,6 +23,15 @@ __all__ = ["app", "main"]
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:  # noqa: ARG001 (warnings.showwarning's signature)
     say("bold yellow", "warning:", f" {message}", err=True)
+
+
+def _flush_stdout() -> None:
+    if sys.stdout is not None:
+        try:
+            sys.stdout.flush()
+        except OSError as e:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), 1)  # what is left in the buffer goes nowhere: Python's own flush at exit would fail again
+            raise OSError(e.errno, e.strerror, "standard output") from None
 
 
 def main() -> None:
@@ -33,8 +43,13 @@ def main() -> None:
     warnings.showwarning = _one_line_warning
     if hasattr(signal, "SIGPIPE"):  # a reader that stops (`denavit fk kr5 | head -1`) ends the command as it ends cat,
         signal.signal(signal.SIGPIPE, signal.SIG_DFL)  # by the signal (shell status 141), not click's exit 1, which says "not met"
+    guard_stdout()  # a closed standard output (`denavit show kr5 >&-`) is an error when written to, not exit 0
     try:
-        app(prog_name="denavit")
+        try:
+            app(prog_name="denavit")
+        except SystemExit:
+            _flush_stdout()  # what is still buffered: an error writing it (a full disk) is exit 2, not Python's 120
+            raise
     except DenavitError as e:
         say("bold red", "error:", f" {e}", err=True)
         sys.exit(2)

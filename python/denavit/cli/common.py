@@ -71,6 +71,8 @@ class Command(TyperCommand):
     def __init__(self, *args, **kwargs) -> None:
         super().__init__(*args, **kwargs)
         self.help = _reflow(self.help)
+        if any(OUTPUT_OPTIONS.intersection(p.opts) or "--plot" in p.opts for p in self.params):
+            self.params.append(force_option())
 
     def get_params(self, ctx):  # noqa: ANN001, ANN201 (click's signature)
         return _flags(super().get_params(ctx))
@@ -83,12 +85,38 @@ class Command(TyperCommand):
         return super().parse_args(ctx, json_argv(args))
 
     def invoke(self, ctx):  # noqa: ANN001, ANN201 (click's signature)
-        _check_units(ctx)
-        _check_outputs(ctx)
-        try:
-            return super().invoke(ctx)
-        finally:
-            console.file = None  # back to standard output after a --json - run (json_target), for the next in-process call
+        from ..io.output import forcing  # noqa: PLC0415
+
+        with forcing(bool(ctx.params.pop("force", False))):  # --force reaches every write of the command
+            _check_units(ctx)
+            _check_outputs(ctx)
+            try:
+                return super().invoke(ctx)
+            finally:
+                console.file = None  # back to standard output after a --json - run (json_target), for the next in-process call
+
+
+ForceOpt = Annotated[bool, typer.Option("--force", help="Replace an output file that is read-only, and write through one with several hard links (in place: every name "
+                                                          "gets the new content); without it both are refused. A replaced file keeps its owner and mode.")]
+
+
+def force_option():  # noqa: ANN201 (typer's click option)
+    """``--force``, added to every command that writes a file (docs/cli.md, "How outputs are written"); the
+    command's function does not take it: :meth:`Command.invoke` applies it to every write of the command
+    (:func:`denavit.io.output.forcing`). Built by typer from :data:`ForceOpt`, once."""
+    global _force_param  # noqa: PLW0603 (built on first use)
+    if _force_param is None:
+        one = typer.Typer()
+
+        @one.command()
+        def _force(force: ForceOpt = False) -> None:
+            """The --force option."""
+
+        _force_param = next(p for p in typer.main.get_command(one).params if p.name == "force")
+    return _force_param
+
+
+_force_param = None
 
 
 #: the options that name a file the command writes (``--plot`` names a folder, made when it is written)
