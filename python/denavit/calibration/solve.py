@@ -17,7 +17,7 @@ from ..io.output import json_text, write_text
 from ..robot import Robot
 from ..sweeps import SweepSet
 from .identifiability import Identifiability, analyze
-from .least_squares import covariance, fit_parameters, register, residuals, weights
+from .least_squares import covariance, fit_parameters, residuals, weights
 from .measurements import Measurements
 from .parametrization import (
     Parametrization,
@@ -27,6 +27,7 @@ from .parametrization import (
     remembered,
     resolve_fix,
 )
+from .registration import register
 
 #: scipy.optimize.least_squares' robust losses (per residual coordinate).
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
@@ -347,7 +348,9 @@ def calibrate(
 
     # 1) register the measurement frame, then fit base and tool only: the nominal geometry at its best
     base_idx = [c for c in candidates if pz.names[c].startswith("base_")]
-    pz, x = register(pz, x, train, base_free=len(base_idx) == 6)
+    tool_idx = [c for c in candidates if pz.names[c].startswith("tool_")]
+    pz, x, reg_notes = register(pz, x, train, base_free=len(base_idx) == 6, tool_free=tool_idx)  # closed form (registration.py)
+    notes += reg_notes
     reg_free = [c for c in candidates if pz.names[c].startswith(("base_", "tool_"))]
     reg = analyze(pz, x, train, reg_free, w, explain=False)
     x_reg, _ = fit_parameters(pz, x, reg.kept_idx, train, w, "linear", None)

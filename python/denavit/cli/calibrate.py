@@ -134,19 +134,24 @@ FLAG_SIZE = 0.1
 
 
 def _refuse_jumps(res, robot, length: str, angle: str) -> None:
-    """A calibration whose length parameters move from the nominal's by more than the robot's size is not a
+    """A calibration whose kinematic length parameters move from the nominal's by more than the robot's size is not a
     calibration of this robot (readings coupled but not declared, the wrong unit, another robot): refused; by more
-    than ``FLAG_SIZE`` of it, a note."""
+    than ``FLAG_SIZE`` of it, a note. The registration (``base_*``, ``tool_*``: where the tracker and the target
+    stand) is not judged: a tracker 10 m away is normal."""
     import numpy as np  # noqa: PLC0415
 
     from .. import _core  # noqa: PLC0415
+    from ..calibration.registration import is_registration  # noqa: PLC0415
 
     m = robot.model()
     q0 = np.zeros(m.nq) if robot.home is None else robot.home
     base = np.asarray(m.T_world_base)[:3, 3]
     size = max([float(np.linalg.norm(np.asarray(p) - base)) for p in _core.axes(m, q0).points] + [float(np.linalg.norm(_core.fk(m, q0)[:3, 3] - base)), 1e-3])
     pz = res.parametrization
-    moves = [(name, abs(v - n)) for name, v, n, u in zip(res.names, res.values, res.nominal, pz.units, strict=True) if u == "length" and abs(v - n) > FLAG_SIZE * size]
+    # the kinematic parameters only: base and tool are where the tracker and the target stand (registered in closed
+    # form, denavit.calibration.registration), which may be anywhere
+    moves = [(name, abs(v - n)) for name, v, n, u in zip(res.names, res.values, res.nominal, pz.units, strict=True)
+             if u == "length" and not is_registration(name) and abs(v - n) > FLAG_SIZE * size]
     jumps = [(name, d) for name, d in moves if d > size]
     ls = length_scale(length)
     if moves and not jumps:
