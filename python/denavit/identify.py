@@ -160,7 +160,7 @@ class Identification:
         d = _core.fk_batch(model, q)[:, :3, 3] - _core.fk_batch(exact, q)[:, :3, 3]
         return float(np.linalg.norm(d, axis=1).max()), len(q)
 
-    def save(self, path, convention: str | None = None, length: str = "m", angle: str = "deg", name: str | None = None) -> None:
+    def save(self, path, convention: str | None = None, length: str = "m", angle: str = "deg", name: str | None = None, *, force: bool = False) -> None:
         """Write the identified robot as a robot file (.toml; :mod:`denavit.io.robotfile`), by default the ED-H or POE
         geometry (:meth:`robot`: POE exact, ED-H exact except a near-parallel pair's tilt within its noise, which it drops
         against the nominal), a lossy DH / MDH table only when ``convention`` asks for one. The file states in a comment
@@ -168,6 +168,9 @@ class Identification:
 
         A path ending in ``.urdf`` gets the URDF of the ED-H geometry instead (frames on the body; a URDF
         nominal's meshes and limits ride along; :func:`denavit.io.urdf.save_urdf`), in SI as URDF requires.
+
+        The file is written whole or not at all, keeping the owner and mode of a file it replaces; ``force``:
+        replace a read-only file, write through one with several hard links (:mod:`denavit.io.output`).
         """
         from .io.robotfile import dumps  # noqa: PLC0415
 
@@ -179,7 +182,7 @@ class Identification:
 
             if convention is not None and _core.convention_info(convention)["name"] != "edh":
                 raise DenavitError(f"{path}: a URDF holds the exact geometry (ED-H frames on the body), got convention {convention!r}: save a robot file (.toml) for a {convention} table")
-            save_urdf(self.model(convention="edh"), path, self.robot(name))
+            save_urdf(self.model(convention="edh"), path, self.robot(name), force=force)
             return
         robot = self.robot(name, convention)
         err, count = self.carried_error(convention)
@@ -191,7 +194,7 @@ class Identification:
             how = f"in a {robot.convention} table, which cannot hold a near-parallel pair's tilt (save as poe for the exact geometry)"
         note = (f"# The identified geometry, {how}.\n# Carried error: max tool-position deviation {err * 1e3:.3g} mm from the identified geometry "
                 f"over {count} configurations (the home and {count - 1} spread over the joint limits).\n")
-        write_text(path, note + dumps(robot, length, angle))
+        write_text(path, note + dumps(robot, length, angle), force=force)
 
 
 #: A locked joint whose reading leaves home by more than this during another joint's sweep gets a note
@@ -1060,9 +1063,10 @@ def _box_json(b: BoundingBox) -> dict:
     return {"lengths_m": b.lengths.tolist(), "volume_m3": b.volume, "centre_m": b.center.tolist(), "orientation": b.axes.tolist()}
 
 
-def write_json(result: Identification, path, *, box: bool = True) -> None:
-    """Write the result as JSON in SI (whole or not at all); ``box`` as in :func:`to_json`."""
-    write_text(path, json_text(to_json(result, box=box)))
+def write_json(result: Identification, path, *, box: bool = True, force: bool = False) -> None:
+    """Write the result as JSON in SI (whole or not at all); ``box`` as in :func:`to_json`, ``force`` as in
+    :func:`denavit.io.output.write_text`."""
+    write_text(path, json_text(to_json(result, box=box)), force=force)
 
 
 __all__ = ["Identification", "METHODS", "identify", "to_json", "write_json", "DegenerateError"]

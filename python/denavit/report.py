@@ -88,14 +88,14 @@ VIEW_ID = "view3d"
 # ------------------------------------------------------------------------------------------------ figures
 
 
-def _save_figure(fig, path: Path, dpi: int) -> Path:
-    """Save a matplotlib figure whole or not at all."""
-    with atomic_path(path) as tmp:
+def _save_figure(fig, path: Path, dpi: int, force: bool = False) -> Path:
+    """Save a matplotlib figure whole or not at all (``force``: :func:`denavit.io.output.atomic_path`)."""
+    with atomic_path(path, force=force) as tmp:
         fig.savefig(tmp, dpi=dpi, format=path.suffix[1:])
     return path
 
 
-def _write_all(figs: dict, folder, formats: Sequence[str], dpi: int) -> list[Path]:
+def _write_all(figs: dict, folder, formats: Sequence[str], dpi: int, force: bool = False) -> list[Path]:
     folder = Path(folder)
     bad = [f for f in formats if f not in ("png", "svg", "pdf")]
     if bad:
@@ -104,20 +104,21 @@ def _write_all(figs: dict, folder, formats: Sequence[str], dpi: int) -> list[Pat
     out = []
     for stem, fig in figs.items():
         for fmt in formats:
-            out.append(_save_figure(fig, folder / f"{stem}.{fmt}", dpi))
+            out.append(_save_figure(fig, folder / f"{stem}.{fmt}", dpi, force))
     return out
 
 
-def write_figures(result: Identification, folder, *, formats: Sequence[str] = FIGURE_FORMATS, length: str = "mm", dpi: int = 110) -> list[Path]:
+def write_figures(result: Identification, folder, *, formats: Sequence[str] = FIGURE_FORMATS, length: str = "mm", dpi: int = 110, force: bool = False) -> list[Path]:
     """Write the static figures of an identification into ``folder`` (created if needed).
 
     Files ``circles``, ``residuals``, ``bounding_box``, ``parameters``, ``frames`` (identified convention beside
     ED-H, or modified DH for an ED-H result) and ``origin_paths`` (joint 2 over its swept range), each in every
-    one of ``formats`` ("png", "svg", "pdf"). Returns the paths written.
+    one of ``formats`` ("png", "svg", "pdf"). Returns the paths written. ``force``: replace read-only files,
+    write through ones with several hard links (:mod:`denavit.io.output`).
     """
     from .plotting import figures_for  # noqa: PLC0415
 
-    return _write_all(figures_for(result, length=length), folder, formats, dpi)
+    return _write_all(figures_for(result, length=length), folder, formats, dpi, force)
 
 
 def _convention(name: str) -> str | None:
@@ -147,7 +148,8 @@ def _compare_tables(robot: Robot, compare) -> tuple[list[tuple[str, _core.Table]
     return [first, (label, other.table)], None
 
 
-def write_model_figures(robot: Robot, folder, *, compare=None, q=None, joint: int = 2, formats: Sequence[str] = FIGURE_FORMATS, length: str = "mm", dpi: int = 110) -> list[Path]:
+def write_model_figures(robot: Robot, folder, *, compare=None, q=None, joint: int = 2, formats: Sequence[str] = FIGURE_FORMATS, length: str = "mm", dpi: int = 110,
+                        force: bool = False) -> list[Path]:
     """Write ``frames`` (the robot beside ``compare``, see :func:`write_model_report`) and ``origin_paths``
     (joint ``joint`` over its limits) into ``folder``. ``q`` : (n,) rad / m, default the robot's home or zeros."""
     from .plotting import plot_frames, plot_origin_paths  # noqa: PLC0415
@@ -159,7 +161,7 @@ def write_model_figures(robot: Robot, folder, *, compare=None, q=None, joint: in
     lim = motion_range(robot.lower, robot.upper, qv, joint, robot.table.kinds[joint - 1])
     figs = {"frames": plot_frames(tables, qv, length=length, title=f"{robot.name}: frames of each convention (x red, y green, z blue)"),
             "origin_paths": plot_origin_paths(tables, joint, qv, limits=lim, length=length)}
-    return _write_all(figs, folder, formats, dpi)
+    return _write_all(figs, folder, formats, dpi, force)
 
 
 # ------------------------------------------------------------------------------------------------ HTML helpers
@@ -617,9 +619,9 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
     return _page(title, meta, summary, body)
 
 
-def write_report(result: Identification, path, *, length: str = "mm", angle: str = "deg", title: str | None = None) -> None:
+def write_report(result: Identification, path, *, length: str = "mm", angle: str = "deg", title: str | None = None, force: bool = False) -> None:
     """Write the self-contained HTML report of an identification (see the module docs) to ``path``."""
-    write_text(path, report_html(result, length=length, angle=angle, title=title))
+    write_text(path, report_html(result, length=length, angle=angle, title=title), force=force)
 
 
 # ------------------------------------------------------------------------------------------------ model
@@ -701,7 +703,7 @@ def model_report_html(robot: Robot, *, compare=None, q=None, length: str = "mm",
     return _page(title, meta, summary, body)
 
 
-def write_model_report(robot: Robot, path, *, compare=None, q=None, length: str = "mm", angle: str = "deg", title: str | None = None) -> None:
+def write_model_report(robot: Robot, path, *, compare=None, q=None, length: str = "mm", angle: str = "deg", title: str | None = None, force: bool = False) -> None:
     """Write the self-contained HTML report of a robot model to ``path``.
 
     Parameters
@@ -714,8 +716,10 @@ def write_model_report(robot: Robot, path, *, compare=None, q=None, length: str 
         DH for an ED-H robot).
     q : array-like, shape (n,), optional
         Configuration drawn (rad / m), default the robot's home, else zeros.
+    force : bool
+        Replace a read-only file, write through one with several hard links (:mod:`denavit.io.output`).
     """
-    write_text(path, model_report_html(robot, compare=compare, q=q, length=length, angle=angle, title=title))
+    write_text(path, model_report_html(robot, compare=compare, q=q, length=length, angle=angle, title=title), force=force)
 
 
 # ------------------------------------------------------------------------------------------------ calibration
@@ -813,12 +817,12 @@ def calibration_report_html(res, *, length: str = "mm", angle: str = "deg", titl
     return _page(title, meta, summary, body)
 
 
-def write_calibration_report(res, path, *, length: str = "mm", angle: str = "deg", title: str | None = None) -> Path:
+def write_calibration_report(res, path, *, length: str = "mm", angle: str = "deg", title: str | None = None, force: bool = False) -> Path:
     """Write the self-contained HTML report of a :class:`denavit.calibration.Calibration` to ``path``: a summary
     (what was measured, the model, the misfit, the held-out accuracy before and after), the measured points with
     the calibrated robot in 3-D, the parameter table with units and sigmas, the misfit of every pose. Returns
     the path."""
-    write_text(path, calibration_report_html(res, length=length, angle=angle, title=title))
+    write_text(path, calibration_report_html(res, length=length, angle=angle, title=title), force=force)
     return Path(path)
 
 
@@ -899,12 +903,12 @@ def compensation_report_html(comp, nominal: Robot, identified: Robot, *, source:
 
 
 def write_compensation_report(comp, nominal: Robot, identified: Robot, path, *, source: str = "", where=None, length: str = "mm", angle: str = "deg",
-                              title: str | None = None) -> Path:
+                              title: str | None = None, force: bool = False) -> Path:
     """Write the self-contained HTML report of a :class:`denavit.compensation.Compensation` (of ``nominal`` ->
     ``identified`` robots) to ``path``: a summary (targets, flagged ones, the error without compensation and
     after it), the targets and the commands in 3-D with the robot, the error of every target, the table of
     targets (``where``: a label per target, e.g. "file:line"). Returns the path."""
-    write_text(path, compensation_report_html(comp, nominal, identified, source=source, where=where, length=length, angle=angle, title=title))
+    write_text(path, compensation_report_html(comp, nominal, identified, source=source, where=where, length=length, angle=angle, title=title), force=force)
     return Path(path)
 
 

@@ -543,6 +543,6 @@ def _finite_or_none(a: np.ndarray) -> list:
     return [[float(v) if math.isfinite(v) else None for v in row] for row in np.asarray(a, dtype=float)]
 
 
-def write_json(cal: Calibration, path) -> None:
-    """Write the calibration as JSON in SI (whole or not at all)."""
-    write_text(path, json_text(to_json(cal)))
+def write_json(cal: Calibration, path, *, force: bool = False) -> None:
+    """Write the calibration as JSON in SI (whole or not at all; ``force``: replace a read-only file, write through one with several hard links (:func:`denavit.io.output.write_text`))."""
+    write_text(path, json_text(to_json(cal)), force=force)

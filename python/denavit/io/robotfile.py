@@ -469,6 +469,6 @@ def dumps(robot: Robot, length: str = "m", angle: str = "rad") -> str:
     return header + tomli_w.dumps(to_dict(robot, length, angle))
 
 
-def save(robot: Robot, path: str | os.PathLike, length: str = "m", angle: str = "rad") -> None:
-    """Write a robot file (whole or not at all)."""
-    write_text(path, dumps(robot, length, angle))
+def save(robot: Robot, path: str | os.PathLike, length: str = "m", angle: str = "rad", *, force: bool = False) -> None:
+    """Write a robot file (whole or not at all; ``force``: replace a read-only file, write through one with several hard links (:func:`denavit.io.output.write_text`))."""
+    write_text(path, dumps(robot, length, angle), force=force)

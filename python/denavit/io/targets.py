@@ -81,14 +81,15 @@ def read_targets(path: str | os.PathLike, kinds, *, length: str | None = None, a
     return Targets(poses, q, places, units)
 
 
-def write_compensated(path, comp, kinds, *, length: str = "mm", angle: str = "deg", comment: str = "", predicted_after=None) -> None:
+def write_compensated(path, comp, kinds, *, length: str = "mm", angle: str = "deg", comment: str = "", predicted_after=None, force: bool = False) -> None:
     """Write a :class:`denavit.compensation.Compensation` as a program: the commands ``T'`` (x, y, z, rx, ry,
     rz), the joint values ``q1..qn`` of the commands on the nominal model (``T' = FK_nominal(q)``: the joint rows
     to send; the identified model's own unless its readings differ), and per row ``ok`` (1: send it), ``reached``,
     ``branch_changed``, ``path_jump`` (0/1), ``before`` (the position error the robot makes without compensation,
     by the identified model), ``residual`` (of the identified solve) and, when ``predicted_after`` (N,) is given
     (or the compensation has it), ``predicted_after`` (the predicted position error after compensation, 1 sigma,
-    from the identified parameters' covariance), in the length unit (a ``# columns:`` line says so)."""
+    from the identified parameters' covariance), in the length unit (a ``# columns:`` line says so). Whole or not at all;
+    ``force``: replace a read-only file, write through one with several hard links (:func:`denavit.io.output.write_text`)."""
     ls, as_ = length_scale(length), angle_scale(angle)
     js = joint_scale(kinds, length, angle)
     n = len(kinds)
@@ -105,4 +106,4 @@ def write_compensated(path, comp, kinds, *, length: str = "mm", angle: str = "de
         flags = [int(comp.ok[k]), int(comp.reached[k]), int(comp.branch_changed[k]), int(comp.path_jump[k])]
         errs = [comp.before[k], comp.residual[k], *([pred[k]] if pred is not None else [])]
         out.append(",".join([*(repr(float(v)) for v in cells), *map(str, flags), *(repr(float(e / ls)) for e in errs)]))
-    write_text(path, "\n".join(out) + "\n")
+    write_text(path, "\n".join(out) + "\n", force=force)

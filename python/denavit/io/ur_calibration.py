@@ -183,6 +183,6 @@ def read(path: str | os.PathLike) -> np.ndarray:
     return loads(read_text(path, "kinematics file"), str(path))
 
 
-def save(path: str | os.PathLike, model: _core.Model, nominal: _core.Table) -> None:
-    """Write the kinematics-parameters file of ``model`` (whole or not at all)."""
-    write_text(path, dumps(model, nominal))
+def save(path: str | os.PathLike, model: _core.Model, nominal: _core.Table, *, force: bool = False) -> None:
+    """Write the kinematics-parameters file of ``model`` (whole or not at all; ``force``: replace a read-only file, write through one with several hard links (:func:`denavit.io.output.write_text`))."""
+    write_text(path, dumps(model, nominal), force=force)

@@ -993,9 +993,9 @@ def dumps_urdf(model: _core.Model, robot: Robot | None = None) -> str:
     return _dumps_model(model, robot.name if robot is not None else model.name)
 
 
-def save_urdf(model: _core.Model, path: str | os.PathLike, robot: Robot | None = None) -> None:
-    """Write :func:`dumps_urdf` to ``path`` (whole or not at all)."""
-    write_text(path, dumps_urdf(model, robot))
+def save_urdf(model: _core.Model, path: str | os.PathLike, robot: Robot | None = None, *, force: bool = False) -> None:
+    """Write :func:`dumps_urdf` to ``path`` (whole or not at all; ``force``: replace a read-only file, write through one with several hard links (:func:`denavit.io.output.write_text`))."""
+    write_text(path, dumps_urdf(model, robot), force=force)
 
 
 __all__ = ["SAME", "UrdfChain", "combine_inertials", "dumps_urdf", "load_urdf", "read_chain", "save_urdf", "urdf_model", "urdf_table", "z_to"]
