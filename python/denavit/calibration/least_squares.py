@@ -80,11 +80,16 @@ def residuals(pz: Parametrization, x, meas: Measurements, w: np.ndarray, jacobia
     return r.ravel(), J, poses
 
 
-def fit_parameters(pz: Parametrization, x_start, free: list, meas: Measurements, w: np.ndarray, loss: str, f_scale: float | None, max_nfev: int | None = None):
+def fit_parameters(pz: Parametrization, x_start, free: list, meas: Measurements, w: np.ndarray, loss: str, f_scale: float | None, max_nfev: int | None = None,
+                   prior: tuple | None = None):
     """Least squares over the parameters ``free`` (indices) from ``x_start``; returns (x, scipy result).
 
     The solver's trial points get residuals only; the Jacobian (of the free columns alone) is evaluated where
     the solver asks for it, at the points it accepts. Each call returns fresh arrays (MINPACK may write into them).
+
+    ``prior``: (centre (P,), weight (P,)) of every parameter, the rows ``weight_c (x_c - centre_c)`` appended to
+    the whitened residuals for the free parameters of nonzero weight (:mod:`denavit.calibration.priors`: the fit
+    is then maximum a posteriori; the robust loss, if any, applies to them too, where they are small).
     """
     from scipy.optimize import least_squares  # noqa: PLC0415 (scipy is loaded when a fit first needs it)
 
@@ -101,18 +106,51 @@ def fit_parameters(pz: Parametrization, x_start, free: list, meas: Measurements,
         x[free] = x0 + z
         return x
 
+    pc, pw = prior_rows(prior, free)
+
     def fun(z):
-        return residuals(pz, full(z), meas, w, jacobian=False)[0]
+        r = residuals(pz, full(z), meas, w, jacobian=False)[0]
+        return r if pc is None else np.concatenate([r, pw * (x0[pc] + z[pc] - centre_of(prior, free, pc))])
 
     def jac(z):
-        return residuals(pz, full(z), meas, w, columns=free)[1]
+        J = residuals(pz, full(z), meas, w, columns=free)[1]
+        if pc is None:
+            return J
+        P = np.zeros((len(pc), len(free)))
+        P[np.arange(len(pc)), pc] = pw
+        return np.vstack([J, P])
 
     z0 = np.zeros(len(free))
-    method = "lm" if loss == "linear" and meas.n * (6 if pz.measure == "pose" else 3) >= len(free) else "trf"
+    n_rows = meas.n * (6 if pz.measure == "pose" else 3) + (0 if pc is None else len(pc))
+    method = "lm" if loss == "linear" and n_rows >= len(free) else "trf"
     kw = {} if loss == "linear" else {"loss": loss, "f_scale": f_scale or 1.0}
     sol = least_squares(fun, z0, jac=jac, method=method, x_scale="jac",
                         xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=max_nfev or 100 * (len(free) + 1), **kw)
     return full(sol.x), sol
+
+
+def prior_rows(prior: tuple | None, free: list):
+    """(positions within ``free`` of the parameters with a prior, their weights), or (None, None) without any."""
+    if prior is None:
+        return None, None
+    weight = np.asarray(prior[1], dtype=float)[list(free)]
+    pc = np.flatnonzero(weight > 0)
+    return (pc, weight[pc]) if pc.size else (None, None)
+
+
+def centre_of(prior: tuple, free: list, pc: np.ndarray) -> np.ndarray:
+    """The prior centres of the free parameters at positions ``pc`` of ``free``."""
+    return np.asarray(prior[0], dtype=float)[np.asarray(free, dtype=int)[pc]]
+
+
+def prior_block(prior: tuple | None, free: list) -> np.ndarray:
+    """The prior rows' matrix (rows of the free parameters with a prior, columns ``free``), to stack under the
+    Jacobian of the free columns (the posterior covariance: :func:`covariance` of both)."""
+    pc, pw = prior_rows(prior, free)
+    P = np.zeros((0 if pc is None else len(pc), len(free)))
+    if pc is not None:
+        P[np.arange(len(pc)), pc] = pw
+    return P
 
 
 def covariance(J: np.ndarray, s2: float) -> np.ndarray:

@@ -17,7 +17,7 @@ from ..io.output import json_text, write_text
 from ..robot import Robot
 from ..sweeps import SweepSet
 from .identifiability import Identifiability, analyze
-from .least_squares import covariance, fit_parameters, residuals, weights
+from .least_squares import covariance, fit_parameters, prior_block, residuals, weights
 from .measurements import Measurements
 from .parametrization import (
     Parametrization,
@@ -27,7 +27,9 @@ from .parametrization import (
     remembered,
     resolve_fix,
 )
+from .priors import PRIOR_DOMINATED, as_prior
 from .registration import register
+from .selection import MODELS, ModelChoice, select_model
 
 #: scipy.optimize.least_squares' robust losses (per residual coordinate).
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
@@ -87,6 +89,10 @@ class Calibration:
     elapsed: float
     noise: float
     notes: list = field(default_factory=list)
+    #: the candidate models scored by leave-one-pose-out prediction error and the one chosen (:mod:`~denavit.calibration.selection`)
+    model_choice: ModelChoice | None = None
+    #: the prior width of every parameter (SI; inf: no prior) when the chosen model is maximum a posteriori, else None
+    prior_sigma: np.ndarray | None = None
 
     @property
     def convention(self) -> str:
@@ -98,7 +104,8 @@ class Calibration:
         held = "" if v is None else f"; held-out error rms {v.before_rms * 1e3:.4g} -> {v.after_rms * 1e3:.4g} mm"
         return (f"Calibration({self.parametrization.robot.name}, {self.convention}, {self.measurements.n} {self.measurements.kind}s of {self.measurements.source}, "
                 f"{est} of {len(self.names)} parameters estimated, {'converged' if self.converged else 'NOT converged'})\n"
-                f"  rms {self.rms * 1e3:.4g} mm{held}; {len(self.notes)} notes")
+                f"  rms {self.rms * 1e3:.4g} mm{held}; {len(self.notes)} notes"
+                + ("" if self.model_choice is None else f"\n  {self.model_choice.short()}"))
 
     def value(self, name: str) -> tuple[float, float]:
         """(value, sigma) of one parameter (SI)."""
@@ -245,6 +252,8 @@ def calibrate(
     tracker_noise=None,
     holdout: float = 0.0,
     seed: int = 0,
+    model: str = "auto",
+    prior=None,
 ) -> Calibration:
     """Fit the whole kinematic model to measured tool points or poses (one least-squares problem).
 
@@ -280,6 +289,18 @@ def calibrate(
         Fraction of the poses held out of the fit to validate it (position error before / after).
     seed : int
         Seed of the held-out split.
+    model : {"auto", "base-tool", "offsets", "full", "full-prior", "full-prior-no-beta", "full-prior-no-last"}
+        Which parameters are free (:mod:`denavit.calibration.selection`): ``auto`` fits the nested candidates and
+        keeps the simplest whose leave-one-pose-out tool-position error (from the hat matrix, about one fit each)
+        is within one standard error of the best; a name fits that candidate alone. ``full`` is the least-squares
+        fit of every identifiable parameter, the default before issue 36. The candidates' errors are in
+        :attr:`Calibration.model_choice`.
+    prior : None, False, dict, str or :class:`~denavit.calibration.priors.Prior`
+        The plausible-size priors of the ``full-prior*`` models (:mod:`denavit.calibration.priors`): None the
+        defaults (1 mm, 0.1 deg, joint offsets 0.1 deg, scales 100 ppm; base and tool none), False none (those
+        models are then not candidates), a dict of kind or parameter name / pattern -> width (SI). The fit is then
+        maximum a posteriori, its sigmas include the prior, and parameters the data do not determine beyond their
+        prior are held at their nominal values (status ``"fixed (prior)"``, listed in the notes).
 
     Returns
     -------
@@ -303,6 +324,9 @@ def calibrate(
         raise DenavitError(f"unknown loss {loss!r}: expected one of {', '.join(LOSSES)}")
     if not 0.0 <= holdout < 0.9:
         raise DenavitError(f"holdout: expected a fraction in [0, 0.9), got {holdout}")
+    if model not in MODELS:
+        raise DenavitError(f"model: expected one of {', '.join(MODELS)}, got {model!r}")
+    prior_spec = as_prior(prior)
     if start not in ("nominal", "circles"):
         raise DenavitError(f"start: expected 'nominal' or 'circles', got {start!r}")
     for what, v, unit in (("noise", noise, "m"), ("noise_rot", noise_rot, "rad")):
@@ -394,6 +418,14 @@ def calibrate(
         w = weights(pz.measure, sig_p, sig_r)
         x_hat, sol = fit_parameters(pz, x_hat, free, train, w, "linear", None)
         r = residuals(pz, x_hat, train, w, jacobian=False)[0]
+    known = noise is not None and (pz.measure == "point" or noise_rot is not None)
+    # 5) what is free: the candidate models scored by leave-one-pose-out prediction (selection.py)
+    s2_full = 1.0 if known else float(np.sum(r**2)) / max(len(r) - len(free), 1)  # weighs the priors against the data
+    choice = select_model(model, pz, train, w, prior=prior_spec, s2=s2_full, candidates=candidates, kept=ana.kept_idx, reg_kept=reg.kept_idx,
+                          x_reg=x_reg, x_full=x_hat, sol_full=sol)
+    won = choice.winner
+    x_hat, free, sol, prior_rows = won.x, won.free, won.sol, won.prior
+    r = residuals(pz, x_hat, train, w, jacobian=False)[0]
     wt = np.ones_like(r)
     robust_s2 = None
     if loss != "linear":
@@ -403,7 +435,7 @@ def calibrate(
             mis = np.linalg.norm(_table_residuals(r, pz.measure)[:, :3], axis=1)
             robust = float(np.median(mis)) / math.sqrt(2.366) if mis.size else 1.0  # weighted units; median of chi_3 = sqrt(2.366)
             fs = f_scale * w[0] if f_scale is not None else 3 * robust
-            x_hat, sol = fit_parameters(pz, x_hat, free, train, w, loss, fs)
+            x_hat, sol = fit_parameters(pz, x_hat, free, train, w, loss, fs, prior=prior_rows)
             r = residuals(pz, x_hat, train, w, jacobian=False)[0]
         mis = np.linalg.norm(_table_residuals(r, pz.measure)[:, :3], axis=1)
         robust_s2 = (float(np.median(mis)) / math.sqrt(2.366)) ** 2
@@ -413,8 +445,10 @@ def calibrate(
     Jf = residuals(pz, x_hat, train, w, columns=free)[1]
     Jf *= np.sqrt(wt)[:, None]
     m_eq, p = Jf.shape
-    known = noise is not None and (pz.measure == "point" or noise_rot is not None)
     s2 = 1.0 if known else robust_s2 if robust_s2 is not None else float(np.sum(r**2)) / max(m_eq - p, 1)
+    if prior_rows is not None:  # the posterior covariance: the prior rows weigh in at the noise they were fitted with
+        s2 = 1.0 if known else s2_full
+        Jf = np.vstack([Jf, prior_block(prior_rows, free)])
     cov = covariance(Jf, s2)
     sd = np.sqrt(np.clip(np.diag(cov), 0, None))
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -423,9 +457,11 @@ def calibrate(
     sigma[free] = sd
     status = []
     dropped = {u.name for u in ana.unidentifiable}
+    held = set(won.prior_fixed)
     for c, nm in enumerate(pz.names):
         status.append("free" if c in free else "fixed" if c in user_fixed else "fixed (parametrisation)" if nm in pz.rules
-                      else ("redundant" if nm in structural else "unidentifiable") if nm in dropped else "fixed")
+                      else ("redundant" if nm in structural else "unidentifiable") if nm in dropped
+                      else "fixed (prior)" if nm in held else "fixed (model)" if c in candidates else "fixed")
     res_si = _table_residuals(r, pz.measure) / w[: (6 if pz.measure == "pose" else 3)]
     full_r, _, _ = residuals(pz, x_hat, replace(meas, whitening=None), np.ones(6), jacobian=False)
     full_r = _table_residuals(full_r, pz.measure)
@@ -450,6 +486,9 @@ def calibrate(
     elif noise is not None and rms > 10 * noise * math.sqrt(3):
         notes.insert(0, f"the residual (rms {rms * 1e3:.4g} mm) is {rms / (noise * math.sqrt(3)):.3g} x what the declared noise ({noise * 1e3:.3g} mm per "
                         "coordinate) explains: the model or the data has errors the noise does not cover")
+    if won.prior_fixed:
+        notes.append(f"not determined by the data beyond their prior (posterior sigma above {PRIOR_DOMINATED:g} of the prior width), held at their nominal values: "
+                     + ", ".join(won.prior_fixed))
     if not converged:
         notes.append(f"the least-squares solver stopped without meeting its tolerances ({sol.message})")
     lengths = [c for c in free if pz.units[c] == "length" and not pz.names[c].startswith("base_")]
@@ -464,7 +503,8 @@ def calibrate(
         notes.append(f"{outliers.size} pose(s) with a tool-position misfit above {OUTLIER_SIGMAS} robust sigmas: {', '.join(meas.where[i] for i in outliers[:5])}{' ...' if outliers.size > 5 else ''}")
     noise_est = math.sqrt(s2) * sig_p if not known else sig_p
     return Calibration(pz, list(pz.names), x_hat, sigma, status, pz.x0, x_start, [pz.names[c] for c in free], cov, corr, ana, res_si, rms, rms_rot, outliers,
-                       validation, meas, loss, converged, nfev, time.perf_counter() - t0, float(noise_est), notes)
+                       validation, meas, loss, converged, nfev, time.perf_counter() - t0, float(noise_est), notes, choice,
+                       None if prior_rows is None else prior_spec.sigma(pz))
 
 
 def _strong_correlations(corr: np.ndarray, names: list, limit: float = 0.999) -> list:
@@ -502,7 +542,8 @@ def to_json(cal: Calibration) -> dict:
     rows = []
     for c, nm in enumerate(cal.names):
         rows.append({"name": nm, "unit": {"length": "m", "angle": "rad", "ratio": "1"}[pz.units[c]], "nominal": float(cal.nominal[c]), "value": float(cal.values[c]),
-                     "sigma": None if not np.isfinite(cal.sigma[c]) else float(cal.sigma[c]), "status": cal.status[c]})
+                     "sigma": None if not np.isfinite(cal.sigma[c]) else float(cal.sigma[c]), "status": cal.status[c],
+                     "prior_sigma": None if cal.prior_sigma is None or not np.isfinite(cal.prior_sigma[c]) else float(cal.prior_sigma[c])})
     ana = cal.identifiability
     m = cal.model()
     v = cal.validation
@@ -526,6 +567,7 @@ def to_json(cal: Calibration) -> dict:
         "residuals": {"rms_m": cal.rms, "max_m": float(np.max(np.linalg.norm(cal.residuals[:, :3], axis=1))) if cal.residuals.size else 0.0,
                       "rms_rotation_rad": None if math.isnan(cal.rms_rotation) else cal.rms_rotation, "noise_estimate_m": cal.noise,
                       "outliers": [cal.measurements.where[i] for i in cal.outliers]},
+        "model_choice": None if cal.model_choice is None else cal.model_choice.to_json(),
         "validation": None if v is None else {"n_train": v.n_train, "n_test": v.n_test, "before_rms_m": v.before_rms, "before_max_m": v.before_max,
                                              "after_rms_m": v.after_rms, "after_max_m": v.after_max},
         "model": {"T_world_base": np.asarray(m.T_world_base).tolist(), "T_last_flange": np.asarray(m.T_last_flange).tolist(),

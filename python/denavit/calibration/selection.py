@@ -1,0 +1,292 @@
+"""Which parameters a calibration frees, chosen by cross-validated prediction error (issue 36, "prediction
+decides").
+
+The job of a calibration is to predict where the robot goes at poses that were not measured; on a small data set
+the largest model overfits. :func:`select_model` fits nested candidates (:data:`CANDIDATES`) to the same data and
+scores each by its **leave-one-pose-out** tool-position error:
+
+* ``base-tool``: the base and tool registration only (the nominal geometry at its best);
+* ``offsets``: + the joint zero offsets;
+* ``full``: every parameter of the convention the data identify, least squares (the default before issue 36);
+* ``full-prior``: the same, maximum a posteriori with the plausible-size priors (:mod:`~denavit.calibration.priors`);
+  parameters the data do not determine beyond their prior are then held at their nominal values;
+* ``full-prior-no-beta``: that without the Hayati tilts (``beta``) of the near-parallel pairs;
+* ``full-prior-no-last``: that with the last link's geometry (the placement of the last joint) held nominal, the
+  tool absorbing what it can.
+
+**Leave-one-out from the hat matrix.** For the whitened least squares linearised at the fit, residuals ``r`` and
+Jacobian ``J`` of the free parameters, with the prior rows' information ``Λ`` (zero without priors),
+``G = JᵀJ + Λ`` and the hat matrix ``H = J G⁻¹ Jᵀ``, the residual of pose ``i`` (its ``k`` rows, ``k`` = 3 for
+points, 6 for poses) predicted by the fit made **without** it is::
+
+    e_(i) = (I_k - H_ii)⁻¹ r_i
+
+``H_ii`` the ``k x k`` diagonal block of pose ``i``. It is the deletion formula for a group of observations
+(Cook & Weisberg 1982, *Residuals and Influence in Regression*, sec. 3.6, eq. 3.6.7; Belsley, Kuh & Welsch 1980,
+sec. 2.1), for ``k = 1`` Allen's PRESS residual (Allen 1974, *Technometrics* 16, 125-127), from the
+Sherman-Morrison-Woodbury identity. The prior rows are not deleted, so it holds for the ridge (MAP) fit as well.
+It is exact for a linear model and first order for the kinematic one, and costs one ``k x k`` solve per pose
+after the fit: a candidate costs one fit, not N. The score is the RMS over the poses of the position part of
+``e_(i)``, unwhitened (m); the effective number of parameters of a candidate is ``trace(H)``.
+
+**The rule** (:data:`RULE`, the one-standard-error rule of Breiman et al. 1984, *Classification and Regression
+Trees*, sec. 3.4.3, on paired errors): the candidate with the smallest mean squared leave-one-out error is the
+best; the simplest candidate (fewest effective parameters) whose mean squared error exceeds the best's by at most
+one standard error of their paired difference (the same poses left out: ``std(e_c^2 - e_best^2) / sqrt(N)``)
+wins. So the choice never predicts worse than a simpler candidate beyond the noise of the comparison, and takes
+the simpler one where the data cannot tell them apart.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..errors import DenavitError
+from .identifiability import analyze
+from .least_squares import covariance, fit_parameters, gram, prior_block, residuals
+from .priors import PRIOR_DOMINATED, prior_weights
+
+if TYPE_CHECKING:
+    from .measurements import Measurements
+    from .parametrization import Parametrization
+    from .priors import Prior
+
+#: The candidate models, simplest first (see the module docstring).
+CANDIDATES = ("base-tool", "offsets", "full", "full-prior", "full-prior-no-beta", "full-prior-no-last")
+#: What ``model=`` takes: one candidate, or ``auto`` (chosen by prediction).
+MODELS = ("auto", *CANDIDATES)
+DESCRIPTIONS = {
+    "base-tool": "base and tool registration only",
+    "offsets": "registration and joint offsets",
+    "full": "every identifiable parameter, least squares",
+    "full-prior": "every identifiable parameter, with plausible-size priors (maximum a posteriori)",
+    "full-prior-no-beta": "full-prior without the Hayati tilts of near-parallel pairs",
+    "full-prior-no-last": "full-prior with the last link's geometry nominal (the tool absorbs it)",
+}
+#: The selection rule, in words (the module docstring).
+RULE = "the simplest within one standard error of the best"
+
+
+@dataclass(frozen=True, eq=False)
+class Candidate:
+    """One candidate model fitted to the training poses, with its leave-one-pose-out errors.
+
+    ``free``: the indices of its free parameters; ``prior``: (centre, weight) of its prior rows or None;
+    ``prior_fixed``: the names held at their nominal values because the data do not determine them beyond their
+    prior; ``loo``: (N,) leave-one-pose-out tool-position errors (m); ``cv_rms`` their RMS (m) and ``cv_se`` its
+    standard error (m, from that of the mean square); ``dof``: the effective number of parameters ``trace(H)``.
+    """
+
+    name: str
+    free: list
+    x: np.ndarray
+    prior: tuple | None
+    prior_fixed: list
+    loo: np.ndarray
+    dof: float
+    sol: object = field(default=None, repr=False)
+
+    @property
+    def mse(self) -> float:
+        return float(np.mean(self.loo**2)) if self.loo.size else math.nan
+
+    @property
+    def cv_rms(self) -> float:
+        return math.sqrt(self.mse)
+
+    @property
+    def cv_se(self) -> float:
+        n = self.loo.size
+        if n < 2 or self.mse <= 0:
+            return math.nan
+        return float(np.std(self.loo**2, ddof=1) / math.sqrt(n)) / (2 * self.cv_rms)
+
+
+@dataclass(frozen=True, eq=False)
+class ModelChoice:
+    """The candidates scored and the one chosen (``how``: ``"auto"``, chosen by :data:`RULE`, or ``"given"``)."""
+
+    chosen: str
+    how: str
+    candidates: list
+
+    @property
+    def winner(self) -> Candidate:
+        return next(c for c in self.candidates if c.name == self.chosen)
+
+    def line(self, scale: float = 1e-3, unit: str = "mm") -> str:
+        """The one line that says which model won and each candidate's leave-one-pose-out RMS (``unit``, ``scale``
+        m per unit)."""
+        cands = ", ".join(f"{c.name} {c.cv_rms / scale:.4g}{'*' if c.name == self.chosen else ''}" for c in self.candidates)
+        why = f"chosen by leave-one-pose-out prediction error ({RULE})" if self.how == "auto" else "as asked (--model / model=)"
+        return f"model {self.chosen} {why}; leave-one-pose-out tool-position rms [{unit}]: {cands}"
+
+    def short(self) -> str:
+        """:meth:`line` in brief (mm), for a result's repr."""
+        cands = ", ".join(f"{c.name} {c.cv_rms * 1e3:.3g}{'*' if c.name == self.chosen else ''}" for c in self.candidates)
+        return f"model {self.chosen} ({'auto' if self.how == 'auto' else 'given'}); leave-one-out rms [mm]: {cands}"
+
+    def __repr__(self) -> str:
+        return f"ModelChoice({self.line()})"
+
+    def to_json(self) -> dict:
+        return {"chosen": self.chosen, "how": self.how, "rule": RULE if self.how == "auto" else None, "criterion": "leave-one-pose-out tool-position rms (hat matrix)",
+                "candidates": [{"name": c.name, "description": DESCRIPTIONS[c.name], "cv_rms_m": c.cv_rms, "cv_se_m": None if math.isnan(c.cv_se) else c.cv_se,
+                                "effective_parameters": c.dof, "n_free": len(c.free), "prior": c.prior is not None, "held_by_prior": list(c.prior_fixed)}
+                               for c in self.candidates]}
+
+
+def loo_residuals(J: np.ndarray, r: np.ndarray, k: int, P: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+    """(the leave-one-pose-out residuals (N, k), ``trace(H)``) of the whitened linear least squares with Jacobian
+    ``J`` (kN, p), residuals ``r`` (kN,) at the fit and prior rows ``P`` (rows, p) (module docstring:
+    ``e_(i) = (I - H_ii)^-1 r_i``, ``H = J (JᵀJ + PᵀP)^-1 Jᵀ``)."""
+    from scipy.linalg import cho_factor, solve_triangular  # noqa: PLC0415 (scipy is loaded when first needed)
+
+    n = len(r) // k
+    p = J.shape[1]
+    R = r.reshape(n, k)
+    if p == 0:
+        return R.copy(), 0.0
+    G = gram(J) + (P.T @ P if P is not None and P.size else 0.0)
+    d = np.sqrt(np.clip(np.diag(G), 0, None))
+    d = np.where(d > 0, d, 1.0)
+    Gs = G / np.outer(d, d)
+    try:
+        L = cho_factor(Gs, lower=True, check_finite=False)[0]
+        Z = solve_triangular(np.tril(L), (J / d).T, lower=True, check_finite=False)  # (p, kN): H = Zᵀ Z
+    except np.linalg.LinAlgError:  # singular: the pseudo-inverse's square root (callers pass identifiable columns)
+        ev, V = np.linalg.eigh(Gs)
+        Z = (V / np.sqrt(np.maximum(ev, ev.max() * 1e-15))).T @ (J / d).T
+    Zb = Z.T.reshape(n, k, p)
+    Hii = np.einsum("nkp,nlp->nkl", Zb, Zb)
+    A = np.eye(k) - Hii
+    try:
+        E = np.linalg.solve(A, R[:, :, None])[:, :, 0]
+    except np.linalg.LinAlgError:  # a pose that alone determines a parameter: it cannot be predicted without it
+        E = np.einsum("nkl,nl->nk", np.linalg.pinv(A, rcond=1e-12), R)
+    return E, float(np.trace(Hii, axis1=1, axis2=2).sum())
+
+
+def position_errors(E: np.ndarray, meas: Measurements, w: np.ndarray) -> np.ndarray:
+    """The tool-position errors (N,) (m) of whitened residual blocks ``E`` (N, k): the position rows unweighted
+    (``w``) and un-whitened (``meas.whitening``)."""
+    e = E[:, :3] / w[0]
+    if meas.whitening is not None:
+        e = np.linalg.solve(meas.whitening, e[:, :, None])[:, :, 0]
+    return np.linalg.norm(e, axis=1)
+
+
+def last_link(pz: Parametrization) -> set:
+    """The indices of the last link's geometric parameters: the factors placing the last joint in the one before
+    (and, in ``dh``, the link after it, before the flange), the joint offset excluded."""
+    if pz.nq < 2:
+        return set()
+    lo, hi = pz.joint_factor[-2] + 1, pz.tool_start
+    return {p for k, (axis, p, _, _) in enumerate(pz.factors[lo:hi], lo) if axis != "fixed" and k != pz.joint_factor[-1] and not pz.names[p].startswith("tool_")}
+
+
+def _fit(name: str, pz: Parametrization, train: Measurements, w: np.ndarray, free: list, x_start, prior_sigma, s2: float) -> Candidate:
+    """One candidate: the fit (MAP with ``prior_sigma`` (P,) widths, SI, if given; prior-dominated parameters then
+    held nominal and the fit repeated) and its leave-one-pose-out errors."""
+    prior = None if prior_sigma is None else (pz.x0, prior_weights(prior_sigma, s2))
+    free = list(free)
+    x, sol = fit_parameters(pz, x_start, free, train, w, "linear", None, prior=prior)
+    held = []
+    if prior is not None and free:
+        J = residuals(pz, x, train, w, columns=free)[1]
+        sd = np.sqrt(np.clip(np.diag(covariance(np.vstack([J, prior_block(prior, free)]), s2)), 0, None))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = sd / prior_sigma[free]
+        dom = [c for c, q in zip(free, ratio, strict=True) if np.isfinite(prior_sigma[c]) and q > PRIOR_DOMINATED]
+        if dom:
+            held = [pz.names[c] for c in dom]
+            free = [c for c in free if c not in dom]
+            xs = x.copy()
+            xs[dom] = pz.x0[dom]
+            x, sol = fit_parameters(pz, xs, free, train, w, "linear", None, prior=prior)
+    r, J, _ = residuals(pz, x, train, w, columns=free)
+    k = 6 if pz.measure == "pose" else 3
+    E, dof = loo_residuals(J, r, k, prior_block(prior, free) if prior is not None else None)
+    return Candidate(name, free, x, prior, held, position_errors(E, train, w), dof, sol)
+
+
+def candidate_sets(pz: Parametrization, kept: list, reg_kept: list, offsets_kept: list, with_prior: bool) -> dict:
+    """The free parameters of each candidate (module docstring), by name; variants that would equal another are
+    left out."""
+    out = {"base-tool": list(reg_kept), "offsets": list(offsets_kept), "full": list(kept)}
+    if with_prior:
+        out["full-prior"] = list(kept)
+        betas = [c for c in kept if pz.names[c].startswith("beta_")]
+        if betas:
+            out["full-prior-no-beta"] = [c for c in kept if c not in betas]
+        last = last_link(pz) & set(kept)
+        if last:
+            out["full-prior-no-last"] = [c for c in kept if c not in last]
+    return out
+
+
+def choose(cands: list) -> Candidate:
+    """:data:`RULE` over fitted candidates (module docstring)."""
+    best = min(cands, key=lambda c: c.mse)
+    n = best.loo.size
+    for c in sorted(cands, key=lambda c: (c.dof, CANDIDATES.index(c.name))):
+        diff = c.loo**2 - best.loo**2
+        se = float(np.std(diff, ddof=1) / math.sqrt(n)) if n > 1 else 0.0
+        if c.mse - best.mse <= se:
+            return c
+    return best
+
+
+def select_model(model: str, pz: Parametrization, train: Measurements, w: np.ndarray, *, prior: Prior | None, s2: float, candidates: list, kept: list,
+                 reg_kept: list, x_reg, x_full, sol_full) -> ModelChoice:
+    """Fit the candidate models (``model="auto"``) or the one asked for, score each by its leave-one-pose-out
+    tool-position error, and choose (module docstring).
+
+    ``candidates``: the parameters not fixed by the user or the parametrisation; ``kept``: those the data identify
+    (the full model); ``reg_kept``: the identifiable base and tool parameters, fitted at ``x_reg``; ``x_full``,
+    ``sol_full``: the least-squares fit of ``kept``; ``s2``: the noise variance in the whitened units (1 when
+    known), which weighs the priors against the data.
+    """
+    if model not in MODELS:
+        raise DenavitError(f"model: expected one of {', '.join(MODELS)}, got {model!r}")
+    if prior is None and model.startswith("full-prior"):
+        raise DenavitError(f"model {model!r} needs priors: got prior=False / --prior none")
+    want = CANDIDATES if model == "auto" else (model,)
+    offsets_kept = []
+    if "offsets" in want:
+        offs = [c for c in candidates if pz.names[c].startswith("offset_")]
+        offsets_kept = analyze(pz, x_reg, train, list(reg_kept) + offs, w, explain=False).kept_idx if offs else list(reg_kept)
+    sets = candidate_sets(pz, kept, reg_kept, offsets_kept, prior is not None)
+    if model == "auto" and set(sets["offsets"]) == set(sets["base-tool"]):
+        del sets["offsets"]  # no offset the data identify: the same model as base-tool
+    sigma = None if prior is None else prior.sigma(pz)
+    out = []
+    x_map = None
+    for name in want:
+        if name not in sets:
+            if model != "auto":
+                raise DenavitError(f"model {name!r}: {'no Hayati tilt is free in this model' if 'beta' in name else 'no last-link parameter is free'}: expected one of "
+                                   f"{', '.join(k for k in sets)}")
+            continue
+        free = sets[name]
+        if name == "full":
+            r, J, _ = residuals(pz, x_full, train, w, columns=free)
+            E, dof = loo_residuals(J, r, 6 if pz.measure == "pose" else 3)
+            out.append(Candidate(name, list(free), np.array(x_full), None, [], position_errors(E, train, w), dof, sol_full))
+            continue
+        if name in ("base-tool", "offsets"):
+            out.append(_fit(name, pz, train, w, free, x_reg, None, s2))
+            continue
+        start = np.array(x_full if x_map is None else x_map)
+        drop = [c for c in kept if c not in free]
+        start[drop] = pz.x0[drop]
+        c = _fit(name, pz, train, w, free, start, sigma, s2)
+        if name == "full-prior":
+            x_map = c.x
+        out.append(c)
+    chosen = choose(out) if model == "auto" else out[0]
+    return ModelChoice(chosen.name, "auto" if model == "auto" else "given", out)
