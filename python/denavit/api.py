@@ -24,6 +24,7 @@ from . import _core
 from .errors import DenavitError
 from .identify import Identification
 from .identify import identify as _identify
+from .limits import floats
 from .robot import Robot
 from .sweeps import PAPER_RANGES_DEG, SweepSet
 
@@ -42,10 +43,13 @@ def _header(path: Path) -> list[str] | None:
     from .io.text import decode, read_bytes  # noqa: PLC0415
 
     try:
-        lines = decode(read_bytes(path, "data file")[:65536], str(path)).splitlines()
+        lines = decode(read_bytes(path, "data file", head=65536), str(path)).splitlines()
     except DenavitError:  # a binary bag, or UTF-8 cut mid-character by the 64 kB window: not a delimited file of ours
         return None
-    found, _ = rows(lines[:50])
+    first = next((k for k, ln in enumerate(lines[:50]) if ln.strip() and not ln.lstrip().startswith("#")), None)
+    if first is None:
+        return None
+    found, _ = rows(lines[: first + 1], str(path))  # the header alone: the 64 kB window may cut the next line
     return [c.lower() for c in found[0][1]] if found else None
 
 
@@ -153,8 +157,8 @@ def _measurements(data, robot: Robot, *, points, poses, format: str, length, ang
         return Measurements(q, pts, None, str(p), where, {"length": "m", "angle": "rad"}, kinds=tuple(kinds))
     if points is None and poses is None:
         raise DenavitError(f"measurements: expected Measurements, a SweepSet, a path, or joint readings q with points= or poses=, got {type(data).__name__}")
-    return Measurements(np.asarray(data, dtype=float), None if points is None else np.asarray(points, dtype=float),
-                        None if poses is None else np.asarray(poses, dtype=float), "arrays", kinds=tuple(kinds))
+    return Measurements(floats(data, "measurements: q"), None if points is None else floats(points, "measurements: points"),
+                        None if poses is None else floats(poses, "measurements: poses"), "arrays", kinds=tuple(kinds))
 
 
 def calibrate(data, nominal, *, points=None, poses=None, format: str = "auto", length: str | None = None, angle: str | None = None,
@@ -184,14 +188,14 @@ def _protocol_ranges(robot: Robot, ranges) -> np.ndarray:
         if n != 6 or "prismatic" in robot.table.kinds:
             raise DenavitError(f"ranges {ranges!r} are Hayat Table II for a 6-joint revolute robot; {robot.name} needs ({n}, 2) start, end values (rad / m)")
         return np.radians(np.array(PAPER_RANGES_DEG[int(key[-2:])]))
-    r = np.asarray(ranges, dtype=float)
+    r = floats(ranges, "ranges")
     if r.shape != (n, 2):
         raise DenavitError(f"ranges: expected shape ({n}, 2) (start, end per joint, rad / m), got {r.shape}")
     return r
 
 
 def _home(robot: Robot, home) -> np.ndarray:
-    return np.asarray(home if home is not None else (robot.home if robot.home is not None else np.zeros(len(robot.names))), dtype=float)
+    return floats(home if home is not None else (robot.home if robot.home is not None else np.zeros(len(robot.names))), "home")
 
 
 def plan(nominal, protocol=None, *, ranges="paper30", home=None, points_per_sweep: int = 30, tool_point=(0.05, 0.03, 0.10), q=None, **options):
@@ -205,6 +209,8 @@ def plan(nominal, protocol=None, *, ranges="paper30", home=None, points_per_swee
     from .calibration import plan as _plan  # noqa: PLC0415
 
     robot = _robot(nominal)
+    if q is not None:
+        q = floats(q, "plan: q")
     if protocol is None and q is None:
         protocol = Protocol(_home(robot, home), _protocol_ranges(robot, ranges), points_per_sweep, np.asarray(tool_point, dtype=float))
     return _plan(robot, protocol, q=q, **options)
@@ -226,7 +232,7 @@ def simulate(model, q=None, *, home=None, ranges="paper90", points_per_sweep: in
     if q is not None:
         from .calibration import simulate as _simulate  # noqa: PLC0415
 
-        return _simulate(m, q, tool=tool_point, noise=noise, seed=seed, **options)
+        return _simulate(m, floats(q, "simulate: q"), tool=tool_point, noise=noise, seed=seed, **options)
     wrong = sorted(set(options) - {"targets", "poses", "noise_rot"})
     if wrong:
         raise DenavitError(f"simulate: {', '.join(wrong)} apply to measurements at configurations q, not to sweeps")

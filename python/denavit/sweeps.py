@@ -12,7 +12,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from . import _core
+from . import _core, limits
 from .errors import DenavitError, check_seed
 from .geometry import rotvec_matrix
 
@@ -183,19 +183,29 @@ def simulate(
         with noise ``noise_rot`` (rad, a random rotation vector of that sigma per component).
     """
     n = model.nq
-    home = np.asarray(home, dtype=float)
-    ranges = np.asarray(ranges, dtype=float)
+    home = limits.floats(home, "simulate: home")
+    ranges = limits.floats(ranges, "simulate: ranges")
     if home.shape != (n,) or ranges.shape != (n, 2):
         raise DenavitError(f"simulate: expected home ({n},) and ranges ({n}, 2), got {home.shape} and {ranges.shape}")
-    if points_per_sweep < 3:
+    if isinstance(points_per_sweep, (int, np.integer)) and not isinstance(points_per_sweep, bool) and points_per_sweep < 3:
         raise DenavitError(f"simulate: points_per_sweep must be >= 3, got {points_per_sweep}")
+    points_per_sweep = limits.check_count(points_per_sweep, "simulate: points_per_sweep", "points", least=3)
     for name, value, unit in (("noise", noise, "m"), ("noise_q", noise_q, "rad or m"), ("noise_rot", noise_rot, "rad")):
         if not (np.isfinite(value) and value >= 0):  # NaN or a negative sigma had given exact data without a word
             raise DenavitError(f"simulate: {name} must be a finite sigma >= 0 in {unit}, got {value!r}")
+    limits.check_joint_values(home, model.kinds, "simulate: home")
+    limits.check_joint_values(ranges.T, model.kinds, "simulate: ranges")
     rng = np.random.default_rng(check_seed(seed))
     tools = np.atleast_2d(np.asarray(tool_point if targets is None else targets, dtype=float))
     if tools.ndim != 2 or tools.shape[1] != 3 or not 1 <= len(tools) <= 16:
         raise DenavitError(f"simulate: targets: expected (k, 3) points in the flange frame (m), got shape {tools.shape}")
+    limits.check_lengths(tools, "simulate: tool_point" if targets is None else "simulate: targets")
+    limits.check_noise(noise, "simulate: noise", model, tools)
+    if "revolute" in model.kinds:
+        limits.check_angle_noise(noise_q, "simulate: noise_q (revolute joints)")
+    if "prismatic" in model.kinds:
+        limits.check_noise(noise_q, "simulate: noise_q (prismatic joints)", model, tools)
+    limits.check_angle_noise(noise_rot, "simulate: noise_rot")
     flange = model.with_tool(np.eye(4))
     sweeps = []
     for j in range(n):

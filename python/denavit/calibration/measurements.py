@@ -125,9 +125,13 @@ class Measurements:
 
 def as_array(a, what: str, source: str) -> np.ndarray:
     """``a`` as a float array, or a one-line error naming ``what`` and ``source``."""
+    from ..limits import floats  # noqa: PLC0415
+
     try:
-        return np.array(a, dtype=float)
+        return floats(a, f"{source}: {what}")
     except (TypeError, ValueError) as exc:
+        if isinstance(exc, DenavitError):
+            raise
         raise DenavitError(f"{source}: {what} must be an array of numbers ({exc})") from None
 
 

@@ -297,6 +297,9 @@ def configurations(nominal, count: int, *, skip: int = 1) -> np.ndarray:
     clipped to +-pi."""
     from scipy.stats import qmc  # noqa: PLC0415 (scipy is loaded when first needed)
 
+    from .. import limits  # noqa: PLC0415
+
+    count = limits.check_count(count, "configurations: count", "poses", what="configurations")
     robot = as_robot(nominal)
     lo = np.array(robot.lower, dtype=float)
     hi = np.array(robot.upper, dtype=float)

@@ -8,7 +8,7 @@ from functools import cached_property
 
 import numpy as np
 
-from .. import _core
+from .. import _core, limits
 from ..errors import DenavitError
 from ..fitting import (
     BoundingBox,
@@ -54,13 +54,15 @@ class Protocol:
 
     def configurations(self) -> np.ndarray:
         """(n * points_per_sweep, n) configurations, sweep by sweep (as :func:`denavit.sweeps.simulate`)."""
-        home = np.asarray(self.home, dtype=float)
-        ranges = np.asarray(self.ranges, dtype=float)
+        home = limits.floats(self.home, "protocol: home")
+        ranges = limits.floats(self.ranges, "protocol: ranges")
         n = len(home)
         if ranges.shape != (n, 2):
             raise DenavitError(f"protocol: expected ranges of shape ({n}, 2), got {ranges.shape}")
         if self.points_per_sweep < 3:
             raise DenavitError(f"protocol: points_per_sweep must be >= 3, got {self.points_per_sweep}")
+        limits.check_count(self.points_per_sweep, "protocol: points_per_sweep", "points", least=3, what="points per sweep")
+        limits.check_size(n * self.points_per_sweep, "poses", "protocol", f"poses ({n} sweeps x {self.points_per_sweep:,} points)")
         out = []
         for j in range(n):
             qs = np.tile(home, (self.points_per_sweep, 1))
@@ -162,6 +164,9 @@ def plan(
         raise DenavitError("plan: give a protocol (sweep ranges) or candidate configurations q")
     if not noise > 0:
         raise DenavitError(f"plan: noise must be > 0 (m), got {noise}")
+    limits.check_noise(noise, "plan: noise", robot.model(), protocol.tool_point if tool is None and protocol is not None else tool)
+    if noise_rot is not None:
+        limits.check_angle_noise(noise_rot, "plan: noise_rot")
     n = len(robot.names)
     if protocol is not None:
         Q = protocol.configurations()
@@ -174,6 +179,7 @@ def plan(
         if Q.ndim != 2 or Q.shape[1] != n:
             raise DenavitError(f"plan: q must have shape (N, {n}), got {Q.shape}")
         check_finite(Q, "q", "plan", [], cols="joint")
+        limits.check_size(len(Q), "poses", "plan: q", "configurations")
         q_ref = np.zeros(n)
     pz = parametrize(robot, convention, measure=measure, tool=tool, scale=scale)
     x = pz.x0

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import _core
+from .. import _core, limits
 from ..errors import check_seed
 from ..geometry import rotvec_matrix
 from .measurements import Measurements
@@ -19,7 +19,11 @@ def simulate(model, q, *, tool=(0.05, 0.03, 0.10), noise: float = 0.0, noise_rot
     m = model if isinstance(model, _core.Model) else as_robot(model).model()
     if T_world_base is not None:
         m = m.with_base(np.asarray(T_world_base, dtype=float))
-    Q = np.atleast_2d(np.asarray(q, dtype=float))
+    Q = np.atleast_2d(limits.floats(q, "simulate: q"))
+    tool_point = np.asarray(tool, dtype=float)
+    limits.check_lengths(tool_point[:3, 3] if tool_point.shape == (4, 4) else tool_point, "simulate: tool")
+    limits.check_noise(noise, "simulate: noise", m, tool_point[:3, 3] if tool_point.shape == (4, 4) else tool_point)
+    limits.check_angle_noise(noise_rot, "simulate: noise_rot")
     rng = np.random.default_rng(check_seed(seed))
     if measure == "pose":
         T = _core.fk_batch(m.with_tool(np.asarray(tool, dtype=float)), Q)

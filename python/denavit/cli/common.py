@@ -187,6 +187,9 @@ COMMANDS = {
     "export": ("show", "Print a robot file (TOML) in --length / --angle units (or, with --json, the robot as JSON in SI), or write a UR "
                "kinematics-parameters file."),
     "simulate": ("simulate", "Simulate joint sweeps of a model (for planning a measurement and for tests); writes the long-form CSV."),
+    "validate": ("validate", "Score a saved model on another measurement session: per-pose tool-position errors, RMS, max and percentiles, "
+                 "extrapolation flags (outside the training joint ranges, large predicted sigma), ISO 9283 pose accuracy and repeatability "
+                 "of repeated poses."),
 }
 
 
@@ -472,8 +475,24 @@ def parse_joint_values(text: str | None, what: str, robot: Robot, length: str, a
         fail(f"{what}: expected {n} joint values for {robot.name}, got {len(values) or 'none'}")
     q = np.array(values) * joint_scale(robot.table.kinds, length, angle, what)
     if limits:
+        check_joint_values(q, robot.table.kinds, what, length, angle)
         warn_limits(q, robot, what, length, angle)
     return q
+
+
+def check_joint_values(q, kinds, what: str, length: str, angle: str) -> None:
+    """Joint values (SI, (..., n)) within the plausible (:mod:`denavit.limits`: revolute within the turns allowed,
+    prismatic within 1 km), else the one-line error in the units typed."""
+    import numpy as np  # noqa: PLC0415
+
+    from .. import limits  # noqa: PLC0415
+
+    q2 = np.asarray(q, dtype=float).reshape(-1, len(kinds))
+    for j, kind in enumerate(kinds):
+        if kind == "revolute":
+            limits.check_angles(q2[:, j], f"{what}: joint {j + 1}", angle, angle_scale(angle))
+        else:
+            limits.check_lengths(q2[:, j], f"{what}: joint {j + 1}", length, length_scale(length))
 
 
 def warn_limits(q, robot: Robot, what: str, length: str, angle: str) -> None:
@@ -512,7 +531,9 @@ def parse_ranges(text: str | None, robot: Robot, length: str, angle: str, defaul
     vals = parse_numbers(text, "--ranges")
     if len(vals) != 2 * n:
         fail(f"--ranges: expected {2 * n} values (start,end per joint), got {len(vals)}")
-    return np.array(vals).reshape(n, 2) * joint_scale(robot.table.kinds, length, angle, "--ranges")[:, None]
+    r = np.array(vals).reshape(n, 2) * joint_scale(robot.table.kinds, length, angle, "--ranges")[:, None]
+    check_joint_values(r.T, robot.table.kinds, "--ranges", length, angle)
+    return r
 
 
 def parse_pose(text: str, angle: str, ls: float, what: str = "--pose") -> np.ndarray:
@@ -521,16 +542,21 @@ def parse_pose(text: str, angle: str, ls: float, what: str = "--pose") -> np.nda
     (metres per unit), angles in ``angle``."""
     import numpy as np  # noqa: PLC0415
 
+    from .. import limits  # noqa: PLC0415
     from ..geometry import xyz_rpy_pose  # noqa: PLC0415
     from ..io.units import angle_scale  # noqa: PLC0415
 
     v = parse_numbers(text, what)
+    unit = _length_unit(ls)
     if len(v) in (12, 16):
         T = np.eye(4)
         T[: len(v) // 4] = np.reshape(v, (len(v) // 4, 4))
         T[:3, 3] *= ls
+        limits.check_lengths(T[:3, 3], f"{what}: position", unit, ls)
         return T
     if len(v) == 6:
+        limits.check_lengths(np.array(v[:3]) * ls, f"{what}: position", unit, ls)
+        limits.check_angles(np.array(v[3:]) * angle_scale(angle), f"{what}: roll, pitch, yaw", angle, angle_scale(angle))
         return xyz_rpy_pose(np.array(v[:3]) * ls, np.array(v[3:]) * angle_scale(angle))
     fail(f"{what}: expected 16 or 12 numbers (rows of the 4x4 pose) or 6 (x,y,z,roll,pitch,yaw), got {len(v)}")
     raise AssertionError
@@ -541,12 +567,28 @@ def parse_point(text: str | None, what: str, ls: float, default_si: Sequence[flo
     physical default that keeps its size whatever the unit) without ``text``."""
     import numpy as np  # noqa: PLC0415
 
+    from .. import limits  # noqa: PLC0415
+
     if text is None:
         return np.asarray(default_si, dtype=float)
     p = np.array(parse_numbers(text, what)) * ls
     if p.shape != (3,):
         fail(f"{what}: expected 3 values (x, y, z), got {p.size}")
+    limits.check_lengths(p, what, _length_unit(ls), ls)
     return p
+
+
+def _length_unit(ls: float) -> str:
+    """The name of the length unit of ``ls`` metres (for a message)."""
+    return next((u for u in ("mm", "m", "cm", "um", "in") if u in LENGTH and LENGTH[u] == ls), f"x {ls:g} m")
+
+
+def count(value: int, what: str, limit: str, least: int = 1, counted: str | None = None) -> int:
+    """A count typed (``--points``, ``--random``): an integer >= ``least`` within the size limit ``limit``
+    (:mod:`denavit.limits`), checked before anything is allocated."""
+    from .. import limits  # noqa: PLC0415
+
+    return limits.check_count(value, what, limit, least, counted)
 
 
 def positive(value: float | None, what: str, scale: float, default_si: float | None, unit: str) -> float | None:
@@ -556,6 +598,22 @@ def positive(value: float | None, what: str, scale: float, default_si: float | N
     if not (math.isfinite(value) and value >= 0):
         fail(f"{what}: expected a finite value >= 0 in {unit}, got {value}")
     return value * scale
+
+
+def check_noises(model: _core.Model, tool, length: str, angle: str, *noises: tuple[str, float | None, str]) -> None:
+    """Noises (SI, one sigma) as physically plausible (:mod:`denavit.limits`): ``(option, value, kind)`` with kind
+    "length" (below the robot's size, with the tool point ``tool``), "angle" (below half a turn) or "joint" (a
+    joint reading: by the joints' kinds); errors in the units typed."""
+    from .. import limits  # noqa: PLC0415
+
+    ls, as_ = length_scale(length), angle_scale(angle)
+    for what, value, kind in noises:
+        if value is None:
+            continue
+        if kind == "angle" or (kind == "joint" and "revolute" in model.kinds):
+            limits.check_angle_noise(value, what + (" (revolute joints)" if kind == "joint" else ""), angle, as_)
+        if kind == "length" or (kind == "joint" and "prismatic" in model.kinds):
+            limits.check_noise(value, what + (" (prismatic joints)" if kind == "joint" else ""), model, tool, length, ls)
 
 
 def pose_rows(T: np.ndarray, ls: float) -> list[list[float]]:

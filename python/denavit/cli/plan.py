@@ -17,9 +17,11 @@ from .common import (
     ModelArg,
     TipLinkOpt,
     calib_unit,
+    check_noises,
     commands,
     console,
     convention_name,
+    count,
     emit_json,
     fail,
     json_target,
@@ -66,12 +68,17 @@ def plan(
     from ..io.configurations import read_configurations  # noqa: PLC0415
 
     json_out = json_target(json_out)
+    if random is not None and random >= 1:
+        count(random, "--random", "poses", counted="configurations")
+    if candidates is None and random is None:
+        count(points, "--points", "points", least=3, counted="points per sweep")
     robot = load_robot(model, base_link, tip_link)
     n = len(robot.names)
     ls, as_ = length_scale(length), angle_scale(angle)
     convention = convention_name(convention)
     tp = parse_point(tool, "--tool", ls, TOOL_M)
     sigma = positive(noise, "--noise", ls, NOISE_M, length)
+    check_noises(robot.model(), tp, length, angle, ("--noise", sigma, "length"))
     protocol, q = None, None
     if candidates is not None or random is not None:
         if candidates is not None:
@@ -83,6 +90,7 @@ def plan(
     else:
         h = parse_joint_values(home, "--home", robot, length, angle, default=robot.home)
         r = parse_ranges(ranges, robot, length, angle, "paper30")
+        count(n * points, "--points", "poses", counted=f"poses ({n} sweeps x {points:,} points)")
         protocol = cal.Protocol(h, r, points, tp)
     fixes = [f.strip() for f in (fix or "").split(",") if f.strip()]
     with status("planning..."):

@@ -9,7 +9,24 @@ from typing import Annotated
 import typer
 
 from ..io.units import angle_scale, length_scale
-from .common import AngleOpt, BaseLinkOpt, LengthOpt, ModelArg, TipLinkOpt, commands, fail, load_robot, parse_joint_values, parse_point, parse_ranges, positive, spread, wrote
+from .common import (
+    AngleOpt,
+    BaseLinkOpt,
+    LengthOpt,
+    ModelArg,
+    TipLinkOpt,
+    check_noises,
+    commands,
+    count,
+    fail,
+    load_robot,
+    parse_joint_values,
+    parse_point,
+    parse_ranges,
+    positive,
+    spread,
+    wrote,
+)
 from .plan import NOISE_M, TOOL_M
 
 #: The default orientation noise of simulated 6-DoF poses (rad): 0.005 deg, a 6-DoF probe's (T-Mac class) order.
@@ -44,6 +61,7 @@ def simulate(
     from ..io.robotfile import parse_coupling  # noqa: PLC0415
     from ..io.sweeps import to_long_csv  # noqa: PLC0415
 
+    count(points, "--points", "points", least=3, counted="points per sweep")
     robot = load_robot(model, base_link, tip_link)
     m = robot.model()
     ls, as_ = length_scale(length), angle_scale(angle)
@@ -59,6 +77,8 @@ def simulate(
     sigma_rot = positive(noise_rot, "--noise-rot", as_, NOISE_ROT_RAD, angle)
     sigma = positive(noise, "--noise", ls, NOISE_M, length)
     sigma_q = positive(noise_q, "--noise-q", as_, 0.0, angle)
+    check_noises(m, nest if nest is not None else tp, length, angle, ("--noise", sigma, "length"), ("--noise-rot", sigma_rot, "angle"),
+                 ("--noise-q", sigma_q, "joint"))
     s = sw.simulate(m, home=h, ranges=r, points_per_sweep=points, tool_point=tp, noise=sigma, noise_q=sigma_q, seed=seed, targets=nest, poses=poses, noise_rot=sigma_rot)
     C = parse_coupling(coupling, list(m.kinds), "--coupling") if coupling else robot.coupling
     if C is not None:  # the controller reports readings r = C^-1 q

@@ -22,7 +22,7 @@ from .units import input_units, joint_scale, parse_declaration
 def read_configurations(path: str | os.PathLike, kinds: Sequence[str], *, length: str | None = None, angle: str | None = None) -> np.ndarray:
     """(m, n) configurations (SI) of a CSV whose header names ``q1..qn`` (``n = len(kinds)``)."""
     where = str(path)
-    lines = read_text(path, "configurations file").splitlines()
+    lines = read_text(path, "configurations file", lines=True).splitlines()
     need_units = [u for u, k in (("angle", "revolute"), ("length", "prismatic")) if k in kinds]
     units = input_units(parse_declaration(lines, where), length, angle, where, need=need_units)
     data, _ = dl.rows(lines, where)

@@ -189,10 +189,15 @@ def rows(lines: list[str], where: str = "") -> tuple[list[tuple[int, list[str]]]
 
 def split(line: str, delim: str, where: str) -> list[str]:
     """The cells of one line (stripped), on the csv module; what it cannot split is a one-line error at ``where``."""
+    from ..limits import check_size  # noqa: PLC0415
+
     try:
-        return [c.strip() for c in next(csv.reader([line], delimiter=delim))]
+        cells = [c.strip() for c in next(csv.reader([line], delimiter=delim))]
     except csv.Error as e:
         raise DenavitError(f"{where}: cannot split the line into cells ({e}; the line has {len(line)} characters)") from None
+    if len(cells) > 64:
+        check_size(len(cells) - (cells[-1] == ""), "columns", where, "columns")
+    return cells
 
 
 def header(cells: list[str], where: str) -> list[str]:

@@ -47,7 +47,7 @@ def read_measurements(path: str | os.PathLike, *, length: str | None = None, ang
     p = Path(path)
     if p.suffix.lower() == ".json":
         return _read_json(p, read_text(p, "measurement file"), length, angle, kinds)
-    raw = read_bytes(p, "measurement file")
+    raw = read_bytes(p, "measurement file", lines=True)
     fast = dl.fast_table(raw, str(p))  # plain numbers at C speed, the rows never split in Python (else row by row)
     lines = fast[0] if fast else decode(raw, str(p)).splitlines()
     del raw

@@ -52,7 +52,7 @@ from pathlib import Path
 import numpy as np
 import tomllib
 
-from .. import _core
+from .. import _core, limits
 from ..errors import DenavitError
 from ..geometry import matrix_rpy, rpy_matrix
 from ..robot import Robot, attach_inertials
@@ -73,12 +73,49 @@ def _pose(spec: dict, ls: float, as_: float, where: str) -> np.ndarray:
             raise DenavitError(f"{where}: matrix must be 4x4 (4 rows of 4 numbers), got {_show(rows)}")
         T = np.array([_numbers(r, 4, f"{where}: matrix row {i + 1}") for i, r in enumerate(rows)])
         T[:3, 3] *= ls
+        limits.check_lengths(T[:3, 3], f"{where}: matrix, translation", _unit(ls), ls)
         return T
     xyz = np.array(_numbers(spec.get("xyz", [0, 0, 0]), 3, f"{where}: xyz"))
     rpy = np.array(_numbers(spec.get("rpy", [0, 0, 0]), 3, f"{where}: rpy"))
+    _plausible_angles(rpy, as_, f"{where}: rpy")
     T[:3, :3] = rpy_matrix(rpy * as_)
     T[:3, 3] = xyz * ls
+    limits.check_lengths(T[:3, 3], f"{where}: xyz", _unit(ls), ls)
     return T
+
+
+def _plausible_angles(values, as_: float, where: str) -> None:
+    """Angles written in a robot file (its angle unit: ``as_`` rad each), finite ones within the turns allowed
+    (:func:`denavit.limits.check_angles`); in a file that declares radians, a value beyond 2 pi is degrees written
+    under ``angle = "rad"``: an error that says so."""
+    v = np.asarray(values, dtype=float).ravel()
+    v = v[np.isfinite(v)]
+    if not v.size:
+        return
+    worst = float(v[np.argmax(np.abs(v))])
+    if as_ == 1.0 and abs(worst) > 2 * np.pi + 1e-9:
+        raise DenavitError(f"{where}: {worst:.6g} is beyond 2 pi, yet [units] angle = \"rad\": degrees written? (declare angle = \"deg\", or give radians)")
+    limits.check_angles(v * as_, where, "rad" if as_ == 1.0 else "deg", as_)
+
+
+def _plausible_table(raw: _core.Table, si: list, as_: float, joint_where: list[str]) -> None:
+    """Every parameter of the table (file units; ``si`` SI per file unit, cell by cell) physically plausible: a
+    length within 1 km, an angle as :func:`_plausible_angles` (degrees under ``angle = "rad"`` named as such)."""
+    angles = raw.angle_columns
+    for i, row in enumerate(raw.params):
+        for k, value in enumerate(row):
+            what = f"{joint_where[i]}: parameter {raw.columns[k]}"
+            if angles[k]:
+                _plausible_angles([value], as_, what)
+            elif not (raw.convention == "poe" and (k < 3 or raw.kinds[i] == "prismatic")):
+                limits.check_lengths([value * si[i][k]], what, _unit(si[i][k]), si[i][k])
+
+
+def _unit(ls: float) -> str:
+    """The name of the length unit of ``ls`` metres (for a message)."""
+    from .units import LENGTH  # noqa: PLC0415
+
+    return next((u for u, v in LENGTH.items() if v == ls), "m")
 
 
 def _joint_lines(text: str) -> list[int]:
@@ -112,6 +149,7 @@ def _inertia(spec, jw: str, units: dict | None, where: str, ls: float) -> tuple[
     vals = {k: _number(spec.get(k, 0.0), f"{jw}: inertia: {k}") for k in INERTIA_KEYS if k != "com"}
     com = _numbers(spec["com"], 3, f"{jw}: inertia: com")
     I = np.array([[vals["ixx"], vals["ixy"], vals["ixz"]], [vals["ixy"], vals["iyy"], vals["iyz"]], [vals["ixz"], vals["iyz"], vals["izz"]]])
+    limits.check_lengths([c * ls for c in com], f"{jw}: inertia: com", _unit(ls), ls)
     return vals["mass"] * ms, [c * ls for c in com], I * iscale
 
 
@@ -132,6 +170,8 @@ def read(path: str | os.PathLike) -> Robot:
     """Read a TOML robot file into a :class:`~denavit.robot.Robot` (SI inside); built-in names and URDFs go
     through :func:`denavit.robot.load`."""
     text = read_text(path, "robot file")
+    # the joints counted before the TOML parser reads them all (10^6 joints had taken it minutes)
+    limits.check_size(len(re.findall(r"(?m)^[ \t]*\[\[[ \t]*joints[ \t]*\]\]", text)), "joints", str(path), "joints")
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
@@ -161,6 +201,7 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
     joints = doc.get("joints")
     if not isinstance(joints, list) or not joints:
         raise DenavitError(f"{where}: expected one or more [[joints]] tables, got none")
+    limits.check_size(len(joints), "joints", where, "joints")
     cols = list(info["columns"])
     rows, kinds, names, lower, upper = [], [], [], [], []
     inert: list[tuple[float, list[float], np.ndarray] | None] = []
@@ -192,7 +233,12 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         if lim is None:
             lo, hi = _core.default_limits(kind)
         else:
-            lo, hi = (v * scale for v in _numbers(lim, 2, f"{jw}: limits", finite=False))
+            raw_lim = _numbers(lim, 2, f"{jw}: limits", finite=False)
+            if kind == "revolute":
+                _plausible_angles(raw_lim, scale, f"{jw}: limits")
+            else:
+                limits.check_lengths([v * scale for v in raw_lim if np.isfinite(v)], f"{jw}: limits", _unit(scale), scale)
+            lo, hi = (v * scale for v in raw_lim)
             if lo > hi:
                 raise DenavitError(f"{jw}: limits must be [lower, upper] with lower <= upper, got {lim!r}")
         lower.append(lo)
@@ -207,6 +253,7 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
     # the rows in the file's units -> SI, cell by cell (io.units.cell_scale: angles, lengths, unitless POE directions)
     raw = _core.Table(conv, np.asarray(rows, dtype=float).reshape(len(rows), len(cols)), kinds)
     si = [[cell_scale(raw, i, k, units["length"], units["angle"])[0] for k in range(len(cols))] for i in range(len(rows))]
+    _plausible_table(raw, si, as_, joint_where)
     try:  # the core's checks of the table and of its model (a POE screw, a non-rigid tool), said at their place
         table = _core.Table(conv, raw.params * np.asarray(si).reshape(raw.params.shape), kinds, base, tool)
         table.to_model("check")
@@ -214,7 +261,11 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         raise DenavitError(f"{_core_error_place(str(e), where, joint_where)}: {e}") from None
     home = doc.get("home")
     if home is not None:
-        home = np.asarray(_numbers(home, len(joints), f"{where}: home")) * joint_scale(kinds, units["length"], units["angle"], where)
+        home = np.asarray(_numbers(home, len(joints), f"{where}: home"))
+        rev = np.array([k == "revolute" for k in kinds])
+        _plausible_angles(home[rev], as_, f"{where}: home")
+        home = home * joint_scale(kinds, units["length"], units["angle"], where)
+        limits.check_lengths(home[~rev], f"{where}: home", _unit(ls), ls)
     coupling = parse_coupling(doc["couplings"], kinds, f"{where}, [couplings]") if "couplings" in doc else None
     scale, reference = _readings(doc["readings"], kinds, units, f"{where}, [readings]") if "readings" in doc else (None, None)
     covariance = _covariance(doc["covariance"], table, units, f"{where}, [covariance]", scale is not None) if "covariance" in doc else None

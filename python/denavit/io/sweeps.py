@@ -119,7 +119,7 @@ def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: 
     :func:`~denavit.io.delimited.number`, the error naming the line and the column.
     """
     where = str(path)
-    data = read_bytes(path, "sweep file")
+    data = read_bytes(path, "sweep file", lines=True)
     fast = dl.fast_table(data, where)
     lines = fast[0] if fast else decode(data, where).splitlines()
     units = input_units(parse_declaration(lines, where), length, angle, where)
@@ -220,7 +220,7 @@ def _joint_file(f: Path, length: str | None) -> tuple[np.ndarray, list[str]]:
     """The points (m) of one ``jN.csv``: columns x, y, z (and an optional time), by header names if the file
     has a header (a first line of names), else by position (x,y,z or time,x,y,z)."""
     where = str(f)
-    lines = read_text(f, "sweep file").splitlines()
+    lines = read_text(f, "sweep file", lines=True).splitlines()
     ls = length_scale(input_units(parse_declaration(lines, where), length, None, where, need=("length",))["length"], where)
     rows, delim = dl.rows(lines, where)
     cols = None

@@ -46,7 +46,7 @@ class Targets:
 def read_targets(path: str | os.PathLike, kinds, *, length: str | None = None, angle: str | None = None) -> Targets:
     """Read a program of targets (module docstring) for a robot with joint ``kinds``."""
     where = str(path)
-    lines = read_text(path, "targets file").splitlines()
+    lines = read_text(path, "targets file", lines=True).splitlines()
     units = input_units(parse_declaration(lines, where), length, angle, where)
     data, _ = dl.rows(lines, where)
     if not data:

@@ -10,11 +10,45 @@ from ..errors import DenavitError
 BOM = b"\xef\xbb\xbf"
 
 
-def read_bytes(path: str | os.PathLike, what: str = "file") -> bytes:
-    """The bytes of ``path``; a missing, unreadable or non-regular file is a one-line :class:`DenavitError`."""
+#: The bytes read at a time while a file's lines are checked against their limit.
+CHUNK = 1 << 20
+
+
+def read_bytes(path: str | os.PathLike, what: str = "file", *, lines: bool = False, head: int | None = None) -> bytes:
+    """The bytes of ``path`` (at most ``head`` of them, if given); a missing, unreadable or non-regular file is a
+    one-line :class:`DenavitError`, and so is a file beyond the size limit (:mod:`denavit.limits`,
+    ``file_bytes``). With ``lines`` (a delimited file: CSV, a recording), a line beyond the line limit
+    (``line_bytes``) is an error as soon as it is read: a 2 GB file of one line fails in the first megabytes."""
+    from .. import limits  # noqa: PLC0415
+
     p = Path(path)
     try:
-        return p.read_bytes()
+        with p.open("rb") as f:
+            if head is not None:
+                return f.read(head)
+            size = os.fstat(f.fileno()).st_size
+            limits.check_size(size, "file_bytes", str(p), f"bytes in the {what}")
+            if not lines:
+                return f.read()
+            longest = limits.size("line_bytes")
+            step = min(CHUNK, longest)  # a chunk no longer than the limit: only a line across chunks can exceed it
+            chunks, run, line = [], 0, 1  # run: the bytes of line `line` read so far
+            while chunk := f.read(step):
+                chunks.append(chunk)
+                first = chunk.find(b"\n")
+                if first < 0:
+                    run += len(chunk)
+                else:
+                    if run + first > longest:
+                        break
+                    line += chunk.count(b"\n")
+                    run = len(chunk) - chunk.rfind(b"\n") - 1
+                if run > longest:
+                    break
+            else:
+                return b"".join(chunks)
+            raise DenavitError(f"{p}: line {line} of the {what} is longer than the limit of {longest:,} bytes: not a delimited file of "
+                               f"rows? ({limits.raise_hint('line_bytes')}; docs/cli.md, \"Limits\")")
     except FileNotFoundError:
         raise DenavitError(f"{p}: no such {what}") from None
     except IsADirectoryError:
@@ -36,6 +70,7 @@ def decode(data: bytes, where: str) -> str:
         raise DenavitError(f"{where}:{line}: not UTF-8 text: byte 0x{bad} at offset {e.start}{hint}") from None
 
 
-def read_text(path: str | os.PathLike, what: str = "file") -> str:
-    """The text of ``path``, decoded by :func:`decode`."""
-    return decode(read_bytes(path, what), str(path))
+def read_text(path: str | os.PathLike, what: str = "file", *, lines: bool = False) -> str:
+    """The text of ``path``, decoded by :func:`decode`; ``lines``: as :func:`read_bytes` (a delimited file: each
+    line within the line limit)."""
+    return decode(read_bytes(path, what, lines=lines), str(path))

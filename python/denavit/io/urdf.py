@@ -202,6 +202,24 @@ _NUMBERS = (
 )
 
 
+def _lengths(values, where: str) -> None:
+    from ..limits import check_lengths  # noqa: PLC0415
+
+    check_lengths(values, where, "m")
+
+
+def _angles(values, where: str) -> None:
+    from ..limits import check_angles  # noqa: PLC0415
+
+    check_angles(values, where, "rad")
+
+
+#: The URDF attributes held to physical plausibility (:mod:`denavit.limits`): lengths within 1 km, angles within
+#: the turns allowed (a 1e308 m origin had been shown as inf mm).
+_PLAUSIBLE = {("origin", "xyz"): _lengths, ("origin", "rpy"): _angles, ("box", "size"): _lengths,
+              ("cylinder", "radius"): _lengths, ("cylinder", "length"): _lengths, ("sphere", "radius"): _lengths}
+
+
 def _precheck(path: Path, root) -> _Where:
     """Checks yourdfpy leaves to chance (it raises bare KeyError/AttributeError or ignores them), each
     naming the element and its line; the XML itself is already parsed by lxml."""
@@ -209,6 +227,10 @@ def _precheck(path: Path, root) -> _Where:
         raise DenavitError(f"{path}: expected a <robot> root element, got <{root.tag}> (line {root.sourceline})")
     if not root.get("name"):
         raise DenavitError(f"{path}: <robot> (line {root.sourceline}) has no name attribute")
+    from .. import limits  # noqa: PLC0415
+
+    for tag in ("link", "joint"):  # counted before yourdfpy builds its objects (2 x 10^4 links had taken 12 s)
+        limits.check_size(sum(1 for _ in root.iterchildren(tag)), "urdf_links", str(path), f"<{tag}> elements")
     where = _Where(path, root)
     seen: dict[tuple[str, str], int] = {}
     for el in root:
@@ -226,6 +248,8 @@ def _precheck(path: Path, root) -> _Where:
             for sub in el.iter(tag):
                 for attr in attrs:
                     _check_numbers(sub, attr, n, w, finite)
+                    if (tag, attr) in _PLAUSIBLE and sub.get(attr) is not None:
+                        _PLAUSIBLE[tag, attr](np.array(sub.get(attr).replace(",", " ").split(), dtype=float), f"{w}: <{tag}> {attr}")
         if el.tag == "joint":
             for tag in ("parent", "child"):
                 sub = el.find(tag)
@@ -459,6 +483,9 @@ def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: 
     T_path = {base_link: T_world_link}
     body_of = {base_link: 0}
     bodies[0].append(_link_dict(links[base_link], T_world_link, where))
+    from .. import limits  # noqa: PLC0415
+
+    limits.check_size(sum((j.type or "").strip() != "fixed" for j in chain), "joints", f"{path}: the chain {base_link} -> {tip_link}", "moving joints")
     for j in chain:
         w = where("joint", j.name)
         jtype = (j.type or "").strip()
@@ -803,7 +830,7 @@ def _register_lines(Fn: np.ndarray, Fi: np.ndarray, kinds, tool_n: np.ndarray, t
         if np.linalg.norm(step) < 1e-15:
             break
     J, _ = lines(R, t)
-    _, sv, V = np.linalg.svd(J)
+    _, sv, V = np.linalg.svd(J, full_matrices=False)  # (the thin SVD: the full one's U is 6n x 6n, 29 GB at 10^4 joints)
     N = V[np.concatenate([sv, np.zeros(6 - len(sv))]) <= 1e-9 * sv[0]].T  # (6, k): the motions the lines leave free
     if N.size:
         for _ in range(30):

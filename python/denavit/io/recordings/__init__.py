@@ -29,10 +29,11 @@ def detect(path: str | os.PathLike, *, columns: str | None = None) -> tuple[str,
         if (p / "metadata.yaml").exists():
             return "bag", "a ROS 2 bag folder (metadata.yaml)"
         raise DenavitError(f"{p}: a folder without metadata.yaml: expected a recording file or a ROS 2 bag folder")
-    data = read_bytes(p, "recording")
+    head = read_bytes(p, "recording", head=64)
     for magic, what in BAG_MAGIC.items():
-        if data.startswith(magic):
+        if head.startswith(magic):
             return "bag", what
+    data = read_bytes(p, "recording", lines=True)
     text = decode(data, str(p))
     lines = data_lines(text)
     header = lines[0][1] if lines else ""

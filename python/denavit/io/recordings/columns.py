@@ -50,6 +50,10 @@ def split(line: str, delim: str | None) -> list[str]:
     cells = [c.strip() for c in (line.split(delim) if delim else line.split())]
     if delim and cells and cells[-1] == "":
         cells.pop()  # a trailing separator
+    if len(cells) > 64:
+        from ...limits import check_size  # noqa: PLC0415
+
+        check_size(len(cells), "columns", f"recording line {line[:40]!r}...", "columns")
     return cells
 
 
@@ -127,7 +131,7 @@ def read(path: str | os.PathLike, *, columns: str, length: str | None = None, an
     from ...recording import Recording, check_time  # noqa: PLC0415
 
     path = Path(path)
-    text = read_text(path) if text is None else text
+    text = read_text(path, "recording", lines=True) if text is None else text
     names = expand(columns)
     declared = parse_declaration(text.splitlines(), str(path))
     qcols = sorted((c for c in names if re.fullmatch(r"q\d+", c)), key=lambda c: int(c[1:]))

@@ -67,7 +67,7 @@ def read(path: str | os.PathLike, *, text: str | None = None, axes: str = "AIPos
     from ...recording import Recording, check_time  # noqa: PLC0415
 
     path = Path(path)
-    text = read_text(path) if text is None else text
+    text = read_text(path, "recording", lines=True) if text is None else text
     t, q, T, where = [], [], [], []
     names = None
     for start, stop, ln in _records(text, path):

@@ -34,7 +34,7 @@ def read(path: str | os.PathLike, *, text: str | None = None, joints: str = "act
     from ...recording import Recording, check_time  # noqa: PLC0415
 
     path = Path(path)
-    text = read_text(path) if text is None else text
+    text = read_text(path, "recording", lines=True) if text is None else text
     lines = data_lines(text)
     if not lines:
         raise DenavitError(f"{path}: empty: expected an RTDE header 'timestamp actual_q_0 ... actual_TCP_pose_5'")

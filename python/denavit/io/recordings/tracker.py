@@ -65,7 +65,7 @@ def read(path: str | os.PathLike, *, sweep: str | None = None, length: str | Non
     from ...recording import Recording, check_time  # noqa: PLC0415
 
     path = Path(path)
-    text = read_text(path) if text is None else text
+    text = read_text(path, "recording", lines=True) if text is None else text
     lines = data_lines(text)
     if not lines:
         raise DenavitError(f"{path}: empty: expected a header such as 'Collection,Group,Point,X,Y,Z'")
