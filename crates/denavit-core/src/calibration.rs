@@ -382,8 +382,11 @@ impl Chain {
             return Ok(());
         }
         const CHUNK: usize = 32;
-        match jac {
+        crate::parallel::in_pool(|| match jac {
             None => poses.par_chunks_mut(16 * CHUNK).enumerate().for_each(|(c, o)| {
+                if crate::parallel::interrupted() {
+                    return;
+                }
                 for (k, ok) in o.chunks_exact_mut(16).enumerate() {
                     let i = c * CHUNK + k;
                     crate::kinematics::write_pose(&self.pose_unchecked(x, &qs[i * self.nq..(i + 1) * self.nq]), ok);
@@ -394,6 +397,9 @@ impl Chain {
                 poses.par_chunks_mut(16 * CHUNK).zip(out.par_chunks_mut(per * CHUNK)).enumerate().for_each_init(
                     || Vec::with_capacity(self.factors.len()),
                     |frames, (c, (po, jo))| {
+                        if crate::parallel::interrupted() {
+                            return;
+                        }
                         for (k, (pk, jk)) in po.chunks_exact_mut(16).zip(jo.chunks_exact_mut(per)).enumerate() {
                             let i = c * CHUNK + k;
                             self.pose_jacobian_into(x, &qs[i * self.nq..(i + 1) * self.nq], frames, &sel, pk, jk);
@@ -401,8 +407,8 @@ impl Chain {
                     },
                 )
             }
-        }
-        Ok(())
+        })?;
+        crate::parallel::check_interrupt()
     }
 }
 

@@ -133,40 +133,45 @@ pub fn compensate(
     // the identified solve from the nominal solution: no restarts first (stay on its branch), then the
     // options' restarts if that fails
     let first = IkOptions { restarts: 0, ..opts.ik.clone() };
-    let out: Vec<Compensation> = targets
-        .par_iter()
-        .enumerate()
-        .map_init(
-            || {
-                (
-                    IkSolver::new(identified, first.clone()).expect("options checked above"),
-                    IkSolver::new(identified, opts.ik.clone()).expect("options checked above"),
-                )
-            },
-            |(quick, full), (i, t)| {
-                let qn_i = &qn[i * n..(i + 1) * n];
-                let mut r = quick.solve(t, qn_i).expect("target and q checked above");
-                if !r.success && opts.ik.restarts > 0 {
-                    r = full.solve(t, qn_i).expect("target and q checked above");
-                }
-                let branch_changed = r.q.iter().zip(qn_i).any(|(a, b)| (a - b).abs() > opts.branch_tol);
-                let path_jump = opts.path && i > 0 && qn_i.iter().zip(&qn[(i - 1) * n..i * n]).any(|(a, b)| (a - b).abs() > opts.path_jump);
-                let (bp, br) = pose_error(&tool_pose_unchecked(identified, qn_i), t);
-                Compensation {
-                    command: tool_pose_unchecked(nominal, &r.q),
-                    q_nominal: qn_i.to_vec(),
-                    reached: r.success,
-                    nominal_reached: nominal_ok[i],
-                    branch_changed,
-                    path_jump,
-                    position_error: r.position_error,
-                    rotation_error: r.rotation_error,
-                    before_position: bp,
-                    before_rotation: br,
-                    q: r.q,
-                }
-            },
-        )
-        .collect();
+    let out: Vec<Compensation> = crate::parallel::in_pool(|| {
+        targets
+            .par_iter()
+            .enumerate()
+            .map_init(
+                || {
+                    (
+                        IkSolver::new(identified, first.clone()).expect("options checked above"),
+                        IkSolver::new(identified, opts.ik.clone()).expect("options checked above"),
+                    )
+                },
+                |(quick, full), (i, t)| {
+                    let qn_i = &qn[i * n..(i + 1) * n];
+                    // (targets and q checked above; as IkSolver::solve)
+                    let seed = crate::ik::mix_seed(opts.ik.seed, 0);
+                    let mut r = quick.solve_unchecked(t, qn_i, seed);
+                    if !r.success && opts.ik.restarts > 0 {
+                        r = full.solve_unchecked(t, qn_i, seed);
+                    }
+                    let branch_changed = r.q.iter().zip(qn_i).any(|(a, b)| (a - b).abs() > opts.branch_tol);
+                    let path_jump = opts.path && i > 0 && qn_i.iter().zip(&qn[(i - 1) * n..i * n]).any(|(a, b)| (a - b).abs() > opts.path_jump);
+                    let (bp, br) = pose_error(&tool_pose_unchecked(identified, qn_i), t);
+                    Compensation {
+                        command: tool_pose_unchecked(nominal, &r.q),
+                        q_nominal: qn_i.to_vec(),
+                        reached: r.success,
+                        nominal_reached: nominal_ok[i],
+                        branch_changed,
+                        path_jump,
+                        position_error: r.position_error,
+                        rotation_error: r.rotation_error,
+                        before_position: bp,
+                        before_rotation: br,
+                        q: r.q,
+                    }
+                },
+            )
+            .collect()
+    })?;
+    crate::parallel::check_interrupt()?;
     Ok(out)
 }

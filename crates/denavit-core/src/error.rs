@@ -35,6 +35,9 @@ pub enum Error {
     /// An iterative solver stopped before meeting its tolerance.
     #[error("not converged after {iterations} iterations: position error {position_error:.3e} m, rotation error {rotation_error:.3e} rad")]
     NotConverged { iterations: usize, position_error: f64, rotation_error: f64 },
+    /// The computation was stopped by [`crate::parallel::interrupt`] (Ctrl-C in the binding).
+    #[error("interrupted")]
+    Interrupted,
 }
 
 /// Result alias of the core.

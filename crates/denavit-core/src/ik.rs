@@ -121,6 +121,12 @@ impl IkMethod {
     }
 }
 
+/// The most iterations one IK attempt may take (docs/cli.md, Limits): far beyond convergence (LM and Newton
+/// converge in tens), and a budget that still ends (an unreachable target of a 6R arm, 1 us an iteration).
+pub const MAX_ITERATIONS: usize = 1_000_000;
+/// The most restarts one IK solve may take (docs/cli.md, Limits).
+pub const MAX_RESTARTS: usize = 1_000_000;
+
 /// Options of the IK solvers. `Default`: LM, tolerances 1e-10 m and 1e-10 rad, 100 iterations per
 /// attempt, 50 restarts, seed 0, limits respected, initial damping μ = 0.1.
 ///
@@ -164,8 +170,15 @@ impl IkOptions {
                 return Err(Error::InvalidArgument { what: what.into(), expected: "a finite value >= 0".into(), got: v.to_string() });
             }
         }
-        if self.max_iterations == 0 {
-            return Err(Error::InvalidArgument { what: "max_iterations".into(), expected: ">= 1".into(), got: "0".into() });
+        if !(1..=MAX_ITERATIONS).contains(&self.max_iterations) {
+            return Err(Error::InvalidArgument {
+                what: "max_iterations".into(),
+                expected: format!("1..={MAX_ITERATIONS} (per attempt)"),
+                got: self.max_iterations.to_string(),
+            });
+        }
+        if self.restarts > MAX_RESTARTS {
+            return Err(Error::InvalidArgument { what: "restarts".into(), expected: format!("0..={MAX_RESTARTS}"), got: self.restarts.to_string() });
         }
         if !(self.damping.is_finite() && self.damping > 0.0) {
             return Err(Error::InvalidArgument { what: "damping".into(), expected: "a finite value > 0".into(), got: self.damping.to_string() });
@@ -263,7 +276,7 @@ impl SplitMix64 {
 }
 
 /// Seed of target `index` of a batch or path.
-fn mix_seed(seed: u64, index: u64) -> u64 {
+pub(crate) fn mix_seed(seed: u64, index: u64) -> u64 {
     SplitMix64(seed ^ index.wrapping_mul(0xD1B5_4A32_D192_ED03)).next_u64()
 }
 
@@ -644,7 +657,9 @@ impl<'m> IkSolver<'m> {
     pub fn solve(&mut self, target: &Pose, q0: &[f64]) -> Result<IkResult> {
         check_pose("IK target", target)?;
         self.model.check_q(q0).map_err(|e| rename(e, "q0"))?;
-        Ok(self.solve_unchecked(target, q0, mix_seed(self.opts.seed, 0)))
+        let r = self.solve_unchecked(target, q0, mix_seed(self.opts.seed, 0));
+        crate::parallel::check_interrupt()?;
+        Ok(r)
     }
 
     /// Jacobian and error at `q`.
@@ -684,7 +699,8 @@ impl<'m> IkSolver<'m> {
         let mut nu = 2.0;
         let mut checkpoint = cost;
         let mut jte = vec![0.0; n]; // J^T e (n <= 6 stays on the stack in practice: a small allocation per attempt)
-        while it < budget {
+        // (an interrupt ends the attempt: the caller reports Error::Interrupted)
+        while it < budget && !crate::parallel::interrupted() {
             if !last && it % STALL_EVERY == 0 {
                 // a local minimum or a crawl: leave it to the next restart
                 if cost > 0.5 * checkpoint {
@@ -838,7 +854,7 @@ impl<'m> IkSolver<'m> {
         self.q_cur.copy_from_slice(&self.q);
         let mut cost: f64 = e.iter().map(|v| v * v).sum();
         let mut stalled = 0;
-        'attempt: while it < budget {
+        'attempt: while it < budget && !crate::parallel::interrupted() {
             self.newton_step(&e);
             // backtracking on |e|^2 (Nocedal & Wright 2006, Algorithm 3.1, halving): steps 1, 1/2, 1/4; when
             // none lowers the error the full step is taken anyway (Newton's jump out of a basin)
@@ -1023,7 +1039,7 @@ impl<'m> IkSolver<'m> {
         }
         self.workspace();
         for attempt in 0..=self.opts.restarts {
-            if best_score <= 1.0 {
+            if best_score <= 1.0 || crate::parallel::interrupted() {
                 break;
             }
             if attempt == 0 {
@@ -1133,6 +1149,7 @@ pub fn ik_path(model: &Model, targets: &[Pose], q0: &[f64], opts: &IkOptions) ->
     let mut start = q0.to_vec();
     let mut out = Vec::with_capacity(targets.len());
     for (i, t) in targets.iter().enumerate() {
+        crate::parallel::check_interrupt()?;
         let r = s.solve_unchecked(t, &start, mix_seed(opts.seed, i as u64));
         if r.success {
             start.copy_from_slice(&r.q);
@@ -1170,11 +1187,15 @@ pub fn ik_batch(model: &Model, targets: &[Pose], q0s: &[f64], opts: &IkOptions) 
         let q0 = if shared { q0s } else { &q0s[i * n..(i + 1) * n] };
         s.solve_unchecked(t, q0, mix_seed(opts.seed, i as u64))
     };
-    if crate::parallel::serial() {
+    let results = if crate::parallel::serial() {
         let mut s = IkSolver::new(model, opts.clone())?;
-        return Ok(targets.iter().enumerate().map(|x| solve(&mut s, x)).collect());
-    }
-    let results = targets.par_iter().enumerate().map_init(|| IkSolver::new(model, opts.clone()).expect("options checked above"), solve).collect();
+        targets.iter().enumerate().map(|x| solve(&mut s, x)).collect()
+    } else {
+        crate::parallel::in_pool(|| {
+            targets.par_iter().enumerate().map_init(|| IkSolver::new(model, opts.clone()).expect("options checked above"), solve).collect()
+        })?
+    };
+    crate::parallel::check_interrupt()?;
     Ok(results)
 }
 

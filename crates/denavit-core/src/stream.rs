@@ -7,8 +7,12 @@
 //! stores are better (the caller reads the values back from the cache), so a batch streams only from
 //! [`threshold`] bytes on, as glibc's `memcpy` decides.
 //!
-//! The instruction takes a raw pointer and needs 16-byte alignment, which [`pair`] checks before every store
-//! (the AVX-512 writer of whole cache lines, `kinematics/avx512.rs`, has its own).
+//! The instruction takes a raw pointer and needs 16-byte alignment, which [`pairs`] checks before its stores
+//! (the AVX-512 writer of whole cache lines, `kinematics/avx512.rs`, has its own). The checks test the low
+//! bits of an address the compiler knows to be 8-byte aligned, because it comes from a `&mut [f64]`: safe
+//! Rust cannot make one that is not, and the binding never makes one over numpy data that is not
+//! (`denavit-py/src/convert.rs`: an unaligned `out=` is refused, an unaligned input copied). A slice made
+//! unsafely over unaligned memory would already be undefined behaviour before any store here.
 
 use std::cell::Cell;
 use std::sync::OnceLock;

@@ -135,7 +135,8 @@ impl PyChain {
             let mut jw = jac.as_ref().map(|j| j.try_readwrite()).transpose().map_err(busy)?;
             let jo = jw.as_mut().map(|j| j.as_slice_mut()).transpose()?;
             let sel = jo.map(|out| JacobianOut { out, rows, columns: columns.as_deref(), weights: w });
-            py.allow_threads(|| chain.evaluate_batch(&x, q, po, sel)).py()?;
+            let long = crate::signals::long(20.0 * (po.len() + sel.as_ref().map_or(0, |j| j.out.len())) as f64);
+            crate::signals::without_gil(py, long, || chain.evaluate_batch(&x, q, po, sel))?.py()?;
         }
         Ok((poses, jac))
     }

@@ -1,6 +1,6 @@
 //! Compensation of targets (denavit_core::compensate): batch, without the GIL, on every core.
 
-use crate::convert::{check_len, out, poses, poses_out, shaped};
+use crate::convert::{check_len, out, poses, poses_out, shaped, Int};
 use crate::error::IntoPy;
 use crate::ik::{options, start};
 use crate::model::PyModel;
@@ -173,7 +173,7 @@ impl PyCompensation {
 /// and flag jumps larger than `path_jump`; `branch_tol` (rad / m): largest joint change that keeps the branch.
 /// IK options as in `ik_batch`. Releases the GIL; every core.
 #[pyfunction]
-#[pyo3(signature = (nominal, identified, targets, q_nominal=None, q0=None, *, path=false, branch_tol=0.1, path_jump=std::f64::consts::FRAC_PI_4, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=100, restarts=50, seed=0, respect_limits=true, damping=0.1))]
+#[pyo3(signature = (nominal, identified, targets, q_nominal=None, q0=None, *, path=false, branch_tol=0.1, path_jump=std::f64::consts::FRAC_PI_4, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=Int(Ok(100)), restarts=Int(Ok(50)), seed=Int(Ok(0)), respect_limits=true, damping=0.1))]
 #[allow(clippy::too_many_arguments)]
 pub fn compensate(
     py: Python<'_>,
@@ -188,9 +188,9 @@ pub fn compensate(
     method: &str,
     tol_position: f64,
     tol_rotation: f64,
-    max_iterations: i64,
-    restarts: i64,
-    seed: i64,
+    max_iterations: Int,
+    restarts: Int,
+    seed: Int,
     respect_limits: bool,
     damping: f64,
 ) -> PyResult<PyCompensation> {
@@ -201,7 +201,8 @@ pub fn compensate(
     let q0 = start(nominal, q0, "q0")?;
     let (a, b) = (nominal.inner.clone(), identified.inner.clone());
     let opts = CompensateOptions { ik, path, branch_tol, path_jump };
-    let rows = py.allow_threads(move || core_comp::compensate(&a, &b, &targets, qn.as_deref(), &q0, &opts)).py()?;
+    let long = crate::ik::long_solve(&b, &opts.ik, 2 * targets.len());
+    let rows = crate::signals::without_gil(py, long, move || core_comp::compensate(&a, &b, &targets, qn.as_deref(), &q0, &opts))?.py()?;
     Ok(PyCompensation { rows, n })
 }
 

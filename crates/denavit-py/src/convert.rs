@@ -2,8 +2,16 @@
 //!
 //! It reads values in C (row-major) order and checks the shape it needs to interpret them (a pose is 4 x 4,
 //! a batch has n columns); every check of the values themselves (finiteness, lengths against the model,
-//! limits, SE(3)) is the core's. A C-contiguous float64 numpy array is read without a conversion object;
-//! anything else (lists, other dtypes, Fortran-ordered or strided arrays) goes through `numpy.asarray`.
+//! limits, SE(3)) is the core's. A C-contiguous, aligned float64 numpy array is read without a conversion
+//! object; anything else (lists, other dtypes, Fortran-ordered or strided arrays) goes through `numpy.asarray`.
+//!
+//! **What Python may hand us.** numpy allows data at any address (`np.frombuffer(buf, offset=3)`), any
+//! strides, and several arrays over one buffer that numpy's borrow tracking cannot tell apart (two
+//! `frombuffer` views). A Rust slice or reference must be aligned and must not alias a `&mut`, so: an array
+//! whose data is not 8-byte aligned is copied before it is read (inputs) or refused (`out=`); an input
+//! borrowed in place is checked against `out=` by address range (numpy's `may_share_memory` bounds, exact for
+//! the contiguous arrays borrowed here) and an overlap is refused. Datetime and complex arrays are refused
+//! (numpy would convert them to numbers without a word).
 
 use crate::error::{invalid, to_py, IntoPy};
 use denavit_core::spatial::{pose_from_row_major, Pose};
@@ -29,10 +37,25 @@ fn describe(obj: &Bound<'_, PyAny>) -> String {
     obj.get_type().name().map(|n| n.to_string()).unwrap_or_else(|_| "an object".into())
 }
 
+/// Whether a float64 array's data starts at an address a Rust `&f64` may have (8-byte aligned). For a
+/// C-contiguous array every element then is (its strides are multiples of 8).
+fn aligned<D: numpy::ndarray::Dimension>(a: &Bound<'_, PyArray<f64, D>>) -> bool {
+    (a.data() as usize).is_multiple_of(std::mem::align_of::<f64>())
+}
+
+/// Whether `obj` is a numpy array whose elements are not all aligned for their type (numpy's ALIGNED flag:
+/// the data address and every stride).
+fn unaligned_array(obj: &Bound<'_, PyAny>) -> PyResult<bool> {
+    if obj.downcast::<numpy::PyUntypedArray>().is_err() {
+        return Ok(false);
+    }
+    Ok(!obj.getattr("flags")?.getattr("aligned")?.extract::<bool>()?)
+}
+
 /// Values (C order) and shape of any array-like.
 pub fn read(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<(Vec<f64>, Vec<usize>)> {
     if let Ok(a) = obj.downcast::<PyArrayDyn<f64>>() {
-        if a.is_c_contiguous() {
+        if a.is_c_contiguous() && aligned(a) {
             if let Ok(v) = a.to_vec() {
                 return Ok((v, a.shape().to_vec()));
             }
@@ -41,18 +64,33 @@ pub fn read(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<(Vec<f64>, Vec<usize
     converted(what, obj)
 }
 
-/// [`read`] through `numpy.asarray(obj, dtype=float64)`, whatever the layout.
+/// [`read`] through `numpy.asarray(obj, dtype=float64)`, whatever the layout (an unaligned array copied
+/// first: `asarray` would hand back the same memory).
 fn converted(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<(Vec<f64>, Vec<usize>)> {
-    // numpy would cast complex to float and drop the imaginary part (a ComplexWarning): refuse it
+    // numpy would cast complex to float and drop the imaginary part (a ComplexWarning), and datetimes and
+    // durations to their counts of ticks: refuse them
     if let Ok(a) = obj.downcast::<numpy::PyUntypedArray>() {
-        if a.dtype().kind() == b'c' {
+        let kind = match a.dtype().kind() {
+            b'c' => Some("a complex array"),
+            b'M' => Some("a datetime array"),
+            b'm' => Some("a timedelta array"),
+            _ => None,
+        };
+        if let Some(kind) = kind {
             return Err(invalid(
                 what,
                 "an array-like of real floats",
-                format!("a complex array (dtype {})", a.dtype().str().map(|d| d.to_string()).unwrap_or_default()),
+                format!("{kind} (dtype {})", a.dtype().str().map(|d| d.to_string()).unwrap_or_default()),
             ));
         }
     }
+    let copied;
+    let obj = if unaligned_array(obj)? {
+        copied = obj.call_method0("copy")?;
+        &copied
+    } else {
+        obj
+    };
     let a: ArrayLike<'_> = obj.extract().map_err(|e| invalid(what, "an array-like of floats", format!("{} ({})", describe(obj), e.value(obj.py()))))?;
     // as_slice() also succeeds for Fortran-ordered arrays (memory order): only C order is the logical order
     let v = match a.as_slice() {
@@ -93,8 +131,10 @@ pub fn shaped(what: &str, obj: &Bound<'_, PyAny>, dims: &[Option<usize>]) -> PyR
 pub fn vector(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
     // a float64 array copied at once
     if let Ok(a) = obj.downcast::<numpy::PyArray1<f64>>() {
-        if let Ok(v) = a.to_vec() {
-            return Ok(v);
+        if aligned(a) {
+            if let Ok(v) = a.to_vec() {
+                return Ok(v);
+            }
         }
     }
     let (v, shape) = converted(what, obj)?;
@@ -107,7 +147,7 @@ pub fn vector(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
 pub fn configuration<'b>(what: &str, obj: &Bound<'_, PyAny>, buf: &'b mut [f64; 16]) -> PyResult<std::borrow::Cow<'b, [f64]>> {
     if let Ok(a) = obj.downcast::<numpy::PyArray1<f64>>() {
         let n = a.len();
-        if n <= buf.len() {
+        if n <= buf.len() && aligned(a) && (n < 2 || a.strides()[0] % 8 == 0) {
             for (i, b) in buf[..n].iter_mut().enumerate() {
                 *b = a.get_owned([i]).unwrap_or(f64::NAN);
             }
@@ -142,7 +182,7 @@ pub fn pose(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Pose> {
     // the per-call hot path (ik of one target): a C-contiguous float64 (4, 4) copied at once (to_vec takes no
     // borrow: numpy's borrow tracking would cost more than the copy)
     if let Ok(a) = obj.downcast::<PyArray2<f64>>() {
-        if a.shape() == [4, 4] {
+        if a.shape() == [4, 4] && aligned(a) {
             if let Ok(v) = a.to_vec() {
                 return pose_from_values(what, &v);
             }
@@ -169,7 +209,7 @@ pub fn vectors3(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec<Vector3<f64>
     Ok(v.chunks_exact(3).map(Vector3::from_row_slice).collect())
 }
 
-/// A batch (N, k): borrowed in place when a C-contiguous float64 numpy array, else converted.
+/// A batch (N, k): borrowed in place when a C-contiguous, aligned float64 numpy array, else converted.
 pub enum Rows<'py> {
     Borrowed(PyReadonlyArray2<'py, f64>),
     Owned(Vec<f64>),
@@ -188,7 +228,7 @@ impl Rows<'_> {
 /// A batch (N, k) and its number of rows N (that several batches agree is the core's check).
 pub fn rows<'py>(what: &str, obj: &Bound<'py, PyAny>, k: usize) -> PyResult<(Rows<'py>, usize)> {
     if let Ok(a) = obj.downcast::<PyArray2<f64>>() {
-        if a.is_c_contiguous() {
+        if a.is_c_contiguous() && aligned(a) {
             check_shape(what, a.shape(), &[None, Some(k)])?;
             if let Ok(r) = a.try_readonly() {
                 if r.as_slice().is_ok() {
@@ -252,23 +292,43 @@ impl<'py> FromPyObject<'py> for Threads {
     }
 }
 
+/// A Python int argument of any size: `Ok` within 64 bits, else `Err` with its decimal text, so that the
+/// function refuses it with a one-line error naming the argument and its range (pyo3 alone would raise a
+/// bare OverflowError). Other types are refused as usual (TypeError).
+#[derive(Clone)]
+pub struct Int(pub Result<i64, String>);
+
+impl<'py> FromPyObject<'py> for Int {
+    fn extract_bound(obj: &Bound<'py, PyAny>) -> PyResult<Self> {
+        match obj.extract::<i64>() {
+            Ok(v) => Ok(Int(Ok(v))),
+            Err(e) if e.is_instance_of::<pyo3::exceptions::PyOverflowError>(obj.py()) => Ok(Int(Err(obj.str()?.to_string()))),
+            Err(e) => Err(e),
+        }
+    }
+}
+
 /// The thread count of a `threads=` argument (None: rayon's pool).
 pub fn threads_of(threads: Option<Threads>) -> Option<usize> {
     threads.map(|t| t.0)
 }
 
 /// The result array of a batch: `out` when given (checked: a numpy float64 array of exactly `shape`,
-/// C-contiguous, writeable, not one of the inputs), else a new one. `kernel` fills it without the GIL on
-/// `threads` threads (`denavit_core::parallel::with_threads`) and the array is returned.
+/// C-contiguous, 8-byte aligned, writeable, sharing no memory with the `inputs` (name, values) and not
+/// borrowed elsewhere), else a new one. `kernel` fills it without the GIL on `threads` threads
+/// (`denavit_core::parallel::with_threads`; interruptible by Ctrl-C when long, [`crate::signals`]: the kernel
+/// costs about `ns_per_value` ns per output value on one core) and the array is returned.
 pub fn batch_out<'py, D: numpy::ndarray::Dimension>(
     py: Python<'py>,
     shape: D,
     out: Option<&Bound<'py, PyAny>>,
     threads: Option<Threads>,
+    inputs: &[(&str, &[f64])],
+    ns_per_value: f64,
     kernel: impl FnOnce(&mut [f64]) -> denavit_core::Result<()> + Send,
 ) -> PyResult<Bound<'py, PyArray<f64, D>>> {
     let threads = threads_of(threads);
-    let want = || format!("a C-contiguous, writeable float64 numpy array of shape {}", shape_text(shape.slice()));
+    let want = || format!("a C-contiguous, aligned, writeable float64 numpy array of shape {}", shape_text(shape.slice()));
     let a = match out {
         None => PyArray::<f64, D>::zeros(py, shape.clone(), false),
         Some(o) => {
@@ -289,6 +349,25 @@ pub fn batch_out<'py, D: numpy::ndarray::Dimension>(
             if !a.is_c_contiguous() {
                 return Err(invalid("out", want(), "an array that is not C-contiguous"));
             }
+            if !aligned(a) {
+                return Err(invalid(
+                    "out",
+                    want(),
+                    format!("an array whose data starts at an address not a multiple of 8 (0x{:x}; e.g. np.frombuffer at an offset)", a.data() as usize),
+                ));
+            }
+            let bytes = |p: *const f64, len: usize| (p as usize, p as usize + len * std::mem::size_of::<f64>());
+            let (o0, o1) = bytes(a.data(), a.len());
+            for (name, v) in inputs {
+                let (i0, i1) = bytes(v.as_ptr(), v.len());
+                if o0 < o1 && i0 < i1 && o0 < i1 && i0 < o1 {
+                    return Err(invalid(
+                        "out",
+                        format!("{} sharing no memory with {name}", want()),
+                        format!("an array that overlaps {name}'s memory (e.g. two np.frombuffer views of one buffer)"),
+                    ));
+                }
+            }
             a.clone()
         }
     };
@@ -304,8 +383,9 @@ pub fn batch_out<'py, D: numpy::ndarray::Dimension>(
         let o = rw.as_slice_mut()?;
         // a new array's pages are zeroed at their first touch, which leaves them in the cache: plain stores
         let fresh = out.is_none();
+        let long = crate::signals::long(o.len() as f64 * ns_per_value);
         let run = || if fresh { denavit_core::stream::with_plain_stores(|| kernel(o)) } else { kernel(o) };
-        py.allow_threads(|| denavit_core::parallel::with_threads(threads, run).and_then(|r| r)).py()?;
+        crate::signals::without_gil(py, long, || denavit_core::parallel::with_threads(threads, run).and_then(|r| r))?.py()?;
     }
     Ok(a)
 }

@@ -217,6 +217,8 @@ fn batch_wrench(f: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Vec<f64>>> {
 struct Batch<'py> {
     count: usize,
     n: usize,
+    /// The inputs' names (qs first) and values.
+    names: Vec<String>,
     rows: Vec<Rows<'py>>,
 }
 
@@ -225,24 +227,32 @@ impl<'py> Batch<'py> {
         let n = model.nq();
         let (q, count) = rows("qs", qs, n)?;
         let mut all = vec![q];
+        let mut names = vec!["qs".to_string()];
         for (what, b) in more {
             all.push(rows(what, b, n)?.0);
+            names.push(what.to_string());
         }
-        Ok(Self { count, n, rows: all })
+        Ok(Self { count, n, names, rows: all })
     }
     /// The k-th input (0: qs).
     fn get(&self, k: usize) -> &[f64] {
         self.rows[k].slice()
     }
-    /// (N, n) output (`out` when given) filled by `kernel` without the GIL on `threads`.
+    /// Every input, named (for the overlap check of `out=`).
+    fn inputs(&self) -> Vec<(&str, &[f64])> {
+        self.names.iter().map(String::as_str).zip(self.rows.iter().map(Rows::slice)).collect()
+    }
+    /// (N, n) output (`out` when given) filled by `kernel` without the GIL on `threads` (`ns_per_value`: its
+    /// cost on one core, roughly, for [`batch_out`]).
     fn run(
         &self,
         py: Python<'py>,
         out: Option<&Bound<'py, PyAny>>,
         threads: Option<Threads>,
+        ns_per_value: f64,
         kernel: impl FnOnce(&mut [f64]) -> denavit_core::Result<()> + Send,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        batch_out(py, Dim([self.count, self.n]), out, threads, kernel)
+        batch_out(py, Dim([self.count, self.n]), out, threads, &self.inputs(), ns_per_value, kernel)
     }
     /// (N, n, n) output (`out` when given) filled by `kernel` without the GIL on `threads`.
     fn run_matrices(
@@ -250,9 +260,10 @@ impl<'py> Batch<'py> {
         py: Python<'py>,
         out: Option<&Bound<'py, PyAny>>,
         threads: Option<Threads>,
+        ns_per_value: f64,
         kernel: impl FnOnce(&mut [f64]) -> denavit_core::Result<()> + Send,
     ) -> PyResult<Bound<'py, PyArray3<f64>>> {
-        batch_out(py, Dim([self.count, self.n, self.n]), out, threads, kernel)
+        batch_out(py, Dim([self.count, self.n, self.n]), out, threads, &self.inputs(), ns_per_value, kernel)
     }
 }
 
@@ -275,7 +286,7 @@ pub fn rnea_batch<'py>(
     let b = Batch::read(m, qs, &[("qds", qds), ("qdds", qdds)])?;
     let (g, w) = (gravity_of(gravity)?, batch_wrench(f_ext)?);
     let (q, qd, qdd) = (b.get(0), b.get(1), b.get(2));
-    b.run(py, out, threads, |o| dynamics::rnea_batch(m, q, qd, qdd, &g, w.as_deref(), o))
+    b.run(py, out, threads, 80.0, |o| dynamics::rnea_batch(m, q, qd, qdd, &g, w.as_deref(), o))
 }
 
 /// Batch bias forces: qs, qds (N, n) -> (N, n).
@@ -294,7 +305,7 @@ pub fn bias_forces_batch<'py>(
     let b = Batch::read(m, qs, &[("qds", qds)])?;
     let g = gravity_of(gravity)?;
     let (q, qd) = (b.get(0), b.get(1));
-    b.run(py, out, threads, |o| dynamics::bias_forces_batch(m, q, qd, &g, o))
+    b.run(py, out, threads, 80.0, |o| dynamics::bias_forces_batch(m, q, qd, &g, o))
 }
 
 /// Batch gravity torques: qs (N, n) -> (N, n).
@@ -312,7 +323,7 @@ pub fn gravity_torques_batch<'py>(
     let b = Batch::read(m, qs, &[])?;
     let g = gravity_of(gravity)?;
     let q = b.get(0);
-    b.run(py, out, threads, |o| dynamics::gravity_torques_batch(m, q, &g, o))
+    b.run(py, out, threads, 80.0, |o| dynamics::gravity_torques_batch(m, q, &g, o))
 }
 
 /// Batch mass matrices: qs (N, n) -> (N, n, n).
@@ -328,7 +339,7 @@ pub fn mass_matrix_batch<'py>(
     let m: &Model = &model.inner;
     let b = Batch::read(m, qs, &[])?;
     let q = b.get(0);
-    b.run_matrices(py, out, threads, |o| dynamics::mass_matrix_batch(m, q, o))
+    b.run_matrices(py, out, threads, 30.0, |o| dynamics::mass_matrix_batch(m, q, o))
 }
 
 /// Batch Coriolis matrices: qs, qds (N, n) -> (N, n, n).
@@ -345,7 +356,7 @@ pub fn coriolis_matrix_batch<'py>(
     let m: &Model = &model.inner;
     let b = Batch::read(m, qs, &[("qds", qds)])?;
     let (q, qd) = (b.get(0), b.get(1));
-    b.run_matrices(py, out, threads, |o| dynamics::coriolis_matrix_batch(m, q, qd, o))
+    b.run_matrices(py, out, threads, 60.0, |o| dynamics::coriolis_matrix_batch(m, q, qd, o))
 }
 
 /// Batch forward dynamics (ABA): qs, qds, taus (N, n) -> (N, n); f_ext None, (6,) or (N, 6).
@@ -367,7 +378,7 @@ pub fn forward_dynamics_batch<'py>(
     let b = Batch::read(m, qs, &[("qds", qds), ("taus", taus)])?;
     let (g, w) = (gravity_of(gravity)?, batch_wrench(f_ext)?);
     let (q, qd, tau) = (b.get(0), b.get(1), b.get(2));
-    b.run(py, out, threads, |o| dynamics::forward_dynamics_batch(m, q, qd, tau, &g, w.as_deref(), o))
+    b.run(py, out, threads, 300.0, |o| dynamics::forward_dynamics_batch(m, q, qd, tau, &g, w.as_deref(), o))
 }
 
 // ------------------------------------------------------------------------------------------------

@@ -74,8 +74,11 @@ fn exception(e: &Error, context: Option<&str>, joint: Option<usize>) -> PyErr {
     })
 }
 
-/// Convert a core error to the matching Python exception.
+/// Convert a core error to the matching Python exception (an interrupted computation: KeyboardInterrupt).
 pub fn to_py(e: Error) -> PyErr {
+    if e == Error::Interrupted {
+        return pyo3::exceptions::PyKeyboardInterrupt::new_err("interrupted");
+    }
     exception(&e, None, None)
 }
 

@@ -1,7 +1,7 @@
 //! Inverse kinematics (denavit_core::ik): single solves, warm-started paths and batches (paths and
 //! batches release the GIL; batches use every core).
 
-use crate::convert::{check_len, check_shape, opt_vector, out, pose, poses, read, threads_of, vector, Threads};
+use crate::convert::{check_len, check_shape, opt_vector, out, pose, poses, read, threads_of, vector, Int, Threads};
 use crate::error::{invalid, IntoPy};
 use crate::model::PyModel;
 use denavit_core::ik::{self as core_ik, IkMethod, IkOptions, IkResult};
@@ -159,27 +159,41 @@ pub(crate) fn options(
     method: &str,
     tol_position: f64,
     tol_rotation: f64,
-    max_iterations: i64,
-    restarts: i64,
-    seed: i64,
+    max_iterations: Int,
+    restarts: Int,
+    seed: Int,
     respect_limits: bool,
     damping: f64,
 ) -> PyResult<IkOptions> {
     let method = IkMethod::parse(method).py()?;
-    // Python ints to the core's unsigned counts; the core checks the ranges it needs (max_iterations >= 1)
-    let count = |what: &str, v: i64| usize::try_from(v).map_err(|_| invalid(what, "an integer >= 0", v.to_string()));
+    // Python ints to the core's unsigned counts; the core checks the ranges it needs (max_iterations
+    // 1..=MAX_ITERATIONS, restarts <= MAX_RESTARTS)
+    let count = |what: &str, v: Int, expected: &str| match v.0 {
+        Ok(v) => usize::try_from(v).map_err(|_| invalid(what, expected, v.to_string())),
+        Err(text) => Err(invalid(what, expected, text)),
+    };
+    let (mi, mr) = (core_ik::MAX_ITERATIONS, core_ik::MAX_RESTARTS);
     let opts = IkOptions {
         method,
         tol_position,
         tol_rotation,
-        max_iterations: count("max_iterations", max_iterations)?,
-        restarts: count("restarts", restarts)?,
-        seed: count("seed", seed)? as u64,
+        max_iterations: count("max_iterations", max_iterations, &format!("1..={mi} (per attempt)"))?,
+        restarts: count("restarts", restarts, &format!("0..={mr}"))?,
+        seed: count("seed", seed, "an integer 0..=2**63-1")? as u64,
         respect_limits,
         damping,
     };
     opts.check().py()?;
     Ok(opts)
+}
+
+/// Whether solving `targets` targets with `opts` runs interruptibly ([`crate::signals`]): when the budget
+/// may take about a second (at about 0.2 us per joint and iteration: an unreachable target runs all of it),
+/// or the targets are many enough that a thread start costs little beside even quick solves (about 1.5 us
+/// each). The default budget of one target (5,100 iterations) is not long.
+pub(crate) fn long_solve(model: &denavit_core::Model, opts: &IkOptions, targets: usize) -> bool {
+    let worst_ns = 0.2e3 * (opts.max_iterations as f64) * (opts.restarts as f64 + 1.0) * (targets as f64) * (model.nq().max(1) as f64);
+    targets >= 1000 || crate::signals::long(worst_ns / 500.0)
 }
 
 pub(crate) fn start(model: &PyModel, q0: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Vec<f64>> {
@@ -191,7 +205,7 @@ pub(crate) fn start(model: &PyModel, q0: Option<&Bound<'_, PyAny>>, what: &str) 
 /// Success is decided from the measured final position and rotation errors against tol_position (m) and
 /// tol_rotation (rad). method: "lm" (Levenberg-Marquardt) or "newton" (Newton-Raphson).
 #[pyfunction]
-#[pyo3(signature = (model, T_target, q0=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=100, restarts=50, seed=0, respect_limits=true, damping=0.1))]
+#[pyo3(signature = (model, T_target, q0=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=Int(Ok(100)), restarts=Int(Ok(50)), seed=Int(Ok(0)), respect_limits=true, damping=0.1))]
 #[allow(non_snake_case, clippy::too_many_arguments)]
 pub fn ik(
     model: &PyModel,
@@ -200,9 +214,9 @@ pub fn ik(
     method: &str,
     tol_position: f64,
     tol_rotation: f64,
-    max_iterations: i64,
-    restarts: i64,
-    seed: i64,
+    max_iterations: Int,
+    restarts: Int,
+    seed: Int,
     respect_limits: bool,
     damping: f64,
 ) -> PyResult<PyIkResult> {
@@ -210,15 +224,17 @@ pub fn ik(
     let target = pose("T_target", T_target)?;
     let q0 = start(model, q0, "q0")?;
     let m: &denavit_core::Model = &model.inner;
-    // an unreachable target runs every restart (up to a millisecond): let other threads run meanwhile
-    let r = T_target.py().allow_threads(|| core_ik::ik(m, &target, &q0, &opts));
+    // an unreachable target runs every restart (up to a millisecond by default): let other threads run
+    // meanwhile, and let Ctrl-C stop a long budget
+    let long = long_solve(m, &opts, 1);
+    let r = crate::signals::without_gil(T_target.py(), long, || core_ik::ik(m, &target, &q0, &opts))?;
     Ok(PyIkResult { inner: r.py()? })
 }
 
 /// Solve targets (N, 4, 4) in order, each warm-started from the previous solution (the first from q0).
 /// Releases the GIL.
 #[pyfunction]
-#[pyo3(signature = (model, targets, q0=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=100, restarts=50, seed=0, respect_limits=true, damping=0.1))]
+#[pyo3(signature = (model, targets, q0=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=Int(Ok(100)), restarts=Int(Ok(50)), seed=Int(Ok(0)), respect_limits=true, damping=0.1))]
 #[allow(clippy::too_many_arguments)]
 pub fn ik_path(
     py: Python<'_>,
@@ -228,9 +244,9 @@ pub fn ik_path(
     method: &str,
     tol_position: f64,
     tol_rotation: f64,
-    max_iterations: i64,
-    restarts: i64,
-    seed: i64,
+    max_iterations: Int,
+    restarts: Int,
+    seed: Int,
     respect_limits: bool,
     damping: f64,
 ) -> PyResult<PyIkBatchResult> {
@@ -238,14 +254,15 @@ pub fn ik_path(
     let targets = poses("targets", targets)?;
     let q0 = start(model, q0, "q0")?;
     let m = model.inner.clone();
-    let results = py.allow_threads(move || core_ik::ik_path(&m, &targets, &q0, &opts)).py()?;
+    let long = long_solve(&m, &opts, targets.len());
+    let results = crate::signals::without_gil(py, long, move || core_ik::ik_path(&m, &targets, &q0, &opts))?.py()?;
     Ok(PyIkBatchResult { results, n: model.inner.nq() })
 }
 
 /// Solve independent targets (N, 4, 4) from q0s ((N, n), or (n,) for all; default zeros) on every core,
 /// without the GIL. Target i's restarts are seeded from (seed, i): the results do not depend on threads.
 #[pyfunction]
-#[pyo3(signature = (model, targets, q0s=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=100, restarts=50, seed=0, respect_limits=true, damping=0.1, threads=None))]
+#[pyo3(signature = (model, targets, q0s=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=Int(Ok(100)), restarts=Int(Ok(50)), seed=Int(Ok(0)), respect_limits=true, damping=0.1, threads=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn ik_batch(
     py: Python<'_>,
@@ -255,9 +272,9 @@ pub fn ik_batch(
     method: &str,
     tol_position: f64,
     tol_rotation: f64,
-    max_iterations: i64,
-    restarts: i64,
-    seed: i64,
+    max_iterations: Int,
+    restarts: Int,
+    seed: Int,
     respect_limits: bool,
     damping: f64,
     threads: Option<Threads>,
@@ -278,8 +295,11 @@ pub fn ik_batch(
         None => vec![0.0; n],
     };
     let m = model.inner.clone();
-    let results =
-        py.allow_threads(move || denavit_core::parallel::with_threads(threads, || core_ik::ik_batch(&m, &targets, &q0s, &opts)).and_then(|r| r)).py()?;
+    let long = long_solve(&m, &opts, targets.len());
+    let results = crate::signals::without_gil(py, long, move || {
+        denavit_core::parallel::with_threads(threads, || core_ik::ik_batch(&m, &targets, &q0s, &opts)).and_then(|r| r)
+    })?
+    .py()?;
     Ok(PyIkBatchResult { results, n })
 }
 

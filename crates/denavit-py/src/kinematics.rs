@@ -81,7 +81,7 @@ pub fn fk_batch<'py>(
     let m: &denavit_core::Model = &model.inner;
     let (q, count) = rows("qs", qs, m.nq())?;
     let q = q.slice();
-    batch_out(py, Dim([count, 4, 4]), out, threads, |o| kinematics::tool_pose_batch(m, q, o))
+    batch_out(py, Dim([count, 4, 4]), out, threads, &[("qs", q)], 1.0, |o| kinematics::tool_pose_batch(m, q, o))
 }
 
 /// Jacobians (N, 6, n) for configurations qs (N, n) (frame, joint as in `jacobian`), into `out` when given.
@@ -102,7 +102,7 @@ pub fn jacobian_batch<'py>(
     let j = joint_of(m, joint)?;
     let (q, count) = rows("qs", qs, m.nq())?;
     let q = q.slice();
-    batch_out(py, Dim([count, 6, m.nq()]), out, threads, |o| kinematics::jacobian_batch(m, q, f, j, o))
+    batch_out(py, Dim([count, 6, m.nq()]), out, threads, &[("qs", q)], 1.0, |o| kinematics::jacobian_batch(m, q, f, j, o))
 }
 
 /// Register the functions of this file.

@@ -11,6 +11,7 @@ mod error;
 mod ik;
 mod kinematics;
 mod model;
+mod signals;
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
