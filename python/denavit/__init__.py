@@ -6,7 +6,7 @@ API by example: docs/python.md.
 
 The workflows are functions of the package, taking paths, built-in names or objects (:mod:`denavit.api`):
 :func:`identify` (circle-point identification), :func:`calibrate`, :func:`plan`, :func:`simulate`,
-:func:`compensate`. ``denavit.identify`` is the function; its module (results, JSON) is imported as
+:func:`compensate`, :func:`validate` (:mod:`denavit.calibration.validate`). ``denavit.identify`` is the function; its module (results, JSON) is imported as
 ``from denavit.identify import Identification, to_json`` (loading that module never rebinds the package
 attribute). The workflows and :class:`Robot` load on first use, so ``import denavit`` loads the Rust core only.
 """
@@ -60,6 +60,7 @@ __version__ = _core.__version__
 # denavit` do not pay for numpy and the Python layers behind them: name -> (module, attribute).
 _LAZY = {
     **{f: (".api", f) for f in ("calibrate", "compensate", "identify", "plan", "read_sweeps", "simulate")},
+    "validate": (".calibration.validate", "validate"),
     "Robot": (".robot", "Robot"),
     "builtin_names": (".robot", "builtin_names"),
     "load_robot": (".robot", "load"),
