@@ -254,3 +254,21 @@ def test_after_an_interrupt_calls_run_again():
             "print(dv.ik(m, dv.fk(m, q), q + 0.01).success, np.array_equal(dv.fk_batch(m, np.tile(q, (300000, 1)))[-1], dv.fk(m, q)))\n")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert r.stdout.split() == ["interrupted", "True", "True"], r.stderr
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+def test_ctrl_c_ends_a_long_cli_command_with_exit_130():
+    cmd = [sys.executable, "-m", "denavit.cli", "ik", "kr5", "--pose", "5000,0,0,0,0,0", "--restarts", "1000000"]
+    with subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as proc:
+        try:
+            time.sleep(2.0)  # imports, then the solve (about 100 s of restarts)
+            assert proc.poll() is None, proc.communicate()
+            t0 = time.monotonic()
+            proc.send_signal(signal.SIGINT)
+            _, err = proc.communicate(timeout=10)
+            took = time.monotonic() - t0
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+    assert proc.returncode == 130 and err.strip() == "interrupted", (proc.returncode, err)
+    assert took < 1.0

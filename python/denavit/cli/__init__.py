@@ -21,8 +21,25 @@ from .common import app, say
 __all__ = ["app", "main"]
 
 
+def threading_main() -> bool:
+    """Whether this is the main thread (the only one that may install a signal handler)."""
+    import threading  # noqa: PLC0415
+
+    return threading.current_thread() is threading.main_thread()
+
+
 def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:  # noqa: ARG001 (warnings.showwarning's signature)
     say("bold yellow", "warning:", f" {message}", err=True)
+
+
+class Interrupted(BaseException):
+    """Ctrl-C (SIGINT) during a command: raised by the handler :func:`main` installs, so that click's own
+    handling of KeyboardInterrupt ("Aborted!", exit 1, which means "goal not met") does not apply. The Rust
+    core runs Python's handlers during long calls (``crates/denavit-py/src/signals.rs``)."""
+
+
+def _interrupt(signum, frame) -> None:  # noqa: ARG001 (signal handler signature)
+    raise Interrupted
 
 
 def _flush_stdout() -> None:
@@ -43,6 +60,8 @@ def main() -> None:
     warnings.showwarning = _one_line_warning
     if hasattr(signal, "SIGPIPE"):  # a reader that stops (`denavit fk kr5 | head -1`) ends the command as it ends cat,
         signal.signal(signal.SIGPIPE, signal.SIG_DFL)  # by the signal (shell status 141), not click's exit 1, which says "not met"
+    if threading_main():
+        signal.signal(signal.SIGINT, _interrupt)  # Ctrl-C: exit 130 as a shell reports a command ended by SIGINT
     guard_stdout()  # a closed standard output (`denavit show kr5 >&-`) is an error when written to, not exit 0
     try:
         try:
@@ -50,6 +69,9 @@ def main() -> None:
         except SystemExit:
             _flush_stdout()  # what is still buffered: an error writing it (a full disk) is exit 2, not Python's 120
             raise
+    except Interrupted:
+        say("bold red", "interrupted", "", err=True)
+        sys.exit(130)
     except DenavitError as e:
         say("bold red", "error:", f" {e}", err=True)
         sys.exit(2)
