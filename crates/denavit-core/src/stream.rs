@@ -114,3 +114,28 @@ pub(crate) fn fence() {
         core::arch::x86_64::_mm_sfence()
     };
 }
+
+#[cfg(test)]
+mod tests {
+    /// [`pairs`] at every 8-byte offset from a 16-byte boundary (streamed when aligned to 16, plain stores
+    /// otherwise): every pair where it belongs, nothing written outside `d[..2 * count]`. Also run under
+    /// Miri (`.ci/run`), which checks each store's alignment and bounds.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn pairs_at_every_offset_write_their_values_and_nothing_else() {
+        for offset in 0..4 {
+            for count in [0, 1, 2, 5] {
+                let mut buf = vec![-1.0; 2 * count + 8];
+                let start = buf.as_ptr().align_offset(16) + offset;
+                let d = &mut buf[start..start + 2 * count + 1];
+                super::pairs(d, count, |k| safe_arch::m128d::from_array([k as f64, 0.5 + k as f64]));
+                super::fence();
+                for k in 0..count {
+                    assert_eq!((d[2 * k], d[2 * k + 1]), (k as f64, 0.5 + k as f64));
+                }
+                assert_eq!(d[2 * count], -1.0);
+                assert!(buf[..start].iter().all(|&v| v == -1.0));
+            }
+        }
+    }
+}
