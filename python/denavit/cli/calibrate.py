@@ -56,6 +56,8 @@ def calibrate(
     angle: Annotated[str, typer.Option("--angle", help="Angle unit of what is typed and printed, and of the data where they declare none: deg | rad. JSON stays SI.")] = "deg",
     verbose: Annotated[bool, typer.Option("--verbose", help="Every parameter the data cannot identify, with the reason (default: their names in a few lines).")] = False,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the held-out split.")] = 0,
+    model: Annotated[str, typer.Option("--model", help="What is free: auto (chosen by leave-one-pose-out prediction error) | base-tool | offsets | full (every identifiable parameter, least squares) | full-prior | full-prior-no-beta | full-prior-no-last.")] = "auto",
+    prior: Annotated[str | None, typer.Option("--prior", help="Prior widths (1 sigma) about the nominal, by kind or parameter name: e.g. \"length=1mm, angle=0.1deg, offset=0.1deg, scale=100ppm, a_5=2mm\" (these are the defaults; bare numbers in --length / --angle), or none.")] = None,
     coupling: Annotated[str | None, typer.Option("--coupling", help="Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; robot-files.md in docs); default: the robot file's \\[couplings].")] = None,
     data_format: Annotated[str, typer.Option("--format", help="measurements (q1..qn,x,y,z CSV, sweep CSV, JSON) | tracker | rtde | rsi | bag | columns | auto (from the content).")] = "auto",
     columns: Annotated[str | None, typer.Option("--columns", help="Column map of a delimited recording, e.g. \"t,q1..q6,x,y,z\".")] = None,
@@ -103,8 +105,15 @@ def calibrate(
     if tn is not None and sigma is not None:
         fail("--noise and --tracker-noise: give one (the tracker's model declares each point's noise shape; its scale is estimated from the residuals)")
     fixes = [f.strip() for f in (fix or "").split(",") if f.strip()]
+    from ..calibration.priors import parse_prior  # noqa: PLC0415
+    from ..calibration.selection import MODELS  # noqa: PLC0415
+
+    if model not in MODELS:
+        fail(f"--model: expected one of {', '.join(MODELS)}, got {model!r}")
+    prior_spec = None if prior is None else parse_prior(prior, length, angle) or False
     with status(f"calibrating {robot.name} ({convention}) from {meas.n} {'poses' if meas.kind == 'pose' else 'points'}..."):
-        res = cal.calibrate(meas, robot, convention=convention, fix=fixes, loss=loss, start=start, holdout=holdout, scale=scale, tool=tp, noise=sigma, tracker_noise=tn, seed=seed)
+        res = cal.calibrate(meas, robot, convention=convention, fix=fixes, loss=loss, start=start, holdout=holdout, scale=scale, tool=tp, noise=sigma, tracker_noise=tn, seed=seed,
+                            model=model, prior=prior_spec)
     if json_path:
         emit_json(cal.to_json(res), json_path)
     if json_path != "-":
@@ -176,7 +185,7 @@ def print_calibration(res, length: str, angle: str, verbose: bool = False) -> No
         nom, val, sig = res.nominal[k] / s, res.values[k] / s, res.sigma[k] / s
         rows.append([name, u, num(nom, u), num(val, u), spread(sig), num(val - nom, u), res.status[k]])
     print_rows(None, ["parameter", "unit", "nominal", "calibrated", "sigma", "change", "status"], rows, left=(1, 6),
-               caption="sigma: one standard deviation (covariance of the fit); change: calibrated - nominal")
+               caption="sigma: one standard deviation (covariance of the fit; with priors the posterior's, prior included); change: calibrated - nominal")
     ana = res.identifiability
     console.print(f"Identifiability: {ana.summary()}")
     structural = [u for u in ana.unidentifiable if u.structural]
@@ -188,6 +197,8 @@ def print_calibration(res, length: str, angle: str, verbose: bool = False) -> No
     ls = length_scale(length)
     console.print(f"Residuals: rms {spread(res.rms / ls)} {length} (noise estimate {spread(res.noise / ls)} {length} per coordinate)"
                   + (f", rotation rms {spread(res.rms_rotation / angle_scale(angle))} {angle}" if meas.kind == "pose" else ""))
+    if getattr(res, "model_choice", None) is not None:
+        console.print(f"Model: {res.model_choice.line(ls, length)}", soft_wrap=True)
     v = res.validation
     if v is not None:
         console.print(f"Held-out validation ({v.n_test} of {v.n_train + v.n_test} poses): tool-position error rms {spread(v.before_rms / ls)} -> {spread(v.after_rms / ls)} {length}, "
