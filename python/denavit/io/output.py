@@ -113,6 +113,12 @@ def _admit(path, st: os.stat_result, force: bool) -> str:
     """How an existing regular file is written: "replace" or, a forced write of a multiply-linked file, "through";
     a read-only file or hard links without ``force`` are refused with one line saying what to do."""
     mode = stat.S_IMODE(st.st_mode)
+    try:
+        read_only_fs = bool(os.statvfs(path).f_flag & os.ST_RDONLY)
+    except OSError:
+        read_only_fs = False
+    if read_only_fs:
+        raise DenavitError(f"{path}: cannot write: it is on a read-only filesystem; write another file")
     if not force and (not mode & 0o222 or not os.access(path, os.W_OK)):
         why = f"is read-only (mode {mode:04o})" if not mode & 0o222 else f"is not writable by this user (mode {mode:04o}, owner uid {st.st_uid})"
         raise DenavitError(f"{path}: {why}: not replaced; {FORCE_HINT} replace it, or write another file")
@@ -285,12 +291,11 @@ def check_writable(path: str | os.PathLike, *, force: bool = False) -> None:
     target, how, st = _target(path)
     if how != "replace":
         return
-    if st is not None and _admit(path, st, force) == "through":
-        return
+    through = st is not None and _admit(path, st, force) == "through"
     # a probe, as atomic_path will write (permission bits alone do not tell: root, sysfs, read-only mounts)
     fd, tmp = _temporary(path, target.parent, target.name, ".probe")
     try:
-        _keep(fd, path, st)
+        _keep(fd, path, None if through else st)
     finally:
         os.close(fd)
         os.unlink(tmp)
@@ -317,6 +322,7 @@ def atomic_path(path: str | os.PathLike, *, force: bool = False) -> Iterator[Pat
         parent = target.parent
     else:
         parent = Path(tempfile.gettempdir())
+        _clean_stale(parent / target.name)
     fd, tmp = _temporary(path, parent, target.name, _suffix(target))
     try:
         with _registered(tmp):
