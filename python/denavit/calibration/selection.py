@@ -79,8 +79,8 @@ class Candidate:
     """One candidate model fitted to the training poses, with its leave-one-pose-out errors.
 
     ``free``: the indices of its free parameters; ``prior``: (centre, weight) of its prior rows or None;
-    ``prior_fixed``: the names held at their nominal values because the data do not determine them beyond their
-    prior; ``loo``: (N,) leave-one-pose-out tool-position errors (m); ``cv_rms`` their RMS (m) and ``cv_se`` its
+    ``prior_fixed``: the parameters held at their nominal values because the data do not determine them beyond
+    their prior, name -> posterior sigma / prior width when they were free; ``loo``: (N,) leave-one-pose-out tool-position errors (m); ``cv_rms`` their RMS (m) and ``cv_se`` its
     standard error (m, from that of the mean square); ``dof``: the effective number of parameters ``trace(H)``.
     """
 
@@ -88,7 +88,7 @@ class Candidate:
     free: list
     x: np.ndarray
     prior: tuple | None
-    prior_fixed: list
+    prior_fixed: dict
     loo: np.ndarray
     dof: float
     sol: object = field(default=None, repr=False)
@@ -198,7 +198,7 @@ def _fit(name: str, pz: Parametrization, train: Measurements, w: np.ndarray, fre
     prior = None if prior_sigma is None else (pz.x0, prior_weights(prior_sigma, s2))
     free = list(free)
     x, sol = fit_parameters(pz, x_start, free, train, w, "linear", None, prior=prior)
-    held = []
+    held = {}
     if prior is not None and free:
         J = residuals(pz, x, train, w, columns=free)[1]
         sd = np.sqrt(np.clip(np.diag(covariance(np.vstack([J, prior_block(prior, free)]), s2)), 0, None))
@@ -206,7 +206,7 @@ def _fit(name: str, pz: Parametrization, train: Measurements, w: np.ndarray, fre
             ratio = sd / prior_sigma[free]
         dom = [c for c, q in zip(free, ratio, strict=True) if np.isfinite(prior_sigma[c]) and q > PRIOR_DOMINATED]
         if dom:
-            held = [pz.names[c] for c in dom]
+            held = {pz.names[c]: float(q) for c, q in zip(free, ratio, strict=True) if c in dom}
             free = [c for c in free if c not in dom]
             xs = x.copy()
             xs[dom] = pz.x0[dom]
@@ -297,7 +297,7 @@ def select_model(model: str, pz: Parametrization, train: Measurements, w: np.nda
         if name == "full":
             r, J, _ = residuals(pz, x_full, train, w, columns=free)
             E, dof = loo_residuals(J, r, 6 if pz.measure == "pose" else 3)
-            out.append(Candidate(name, list(free), np.array(x_full), None, [], position_errors(E, train, w), dof, sol_full))
+            out.append(Candidate(name, list(free), np.array(x_full), None, {}, position_errors(E, train, w), dof, sol_full))
             continue
         if name in ("base-tool", "offsets"):
             out.append(_fit(name, pz, train, w, free, x_reg, None, s2))

@@ -487,8 +487,8 @@ def calibrate(
         notes.insert(0, f"the residual (rms {rms * 1e3:.4g} mm) is {rms / (noise * math.sqrt(3)):.3g} x what the declared noise ({noise * 1e3:.3g} mm per "
                         "coordinate) explains: the model or the data has errors the noise does not cover")
     if won.prior_fixed:
-        notes.append(f"not determined by the data beyond their prior (posterior sigma above {PRIOR_DOMINATED:g} of the prior width), held at their nominal values: "
-                     + ", ".join(won.prior_fixed))
+        notes.append(f"not determined by the data beyond their prior (posterior sigma above {PRIOR_DOMINATED:g} of the prior width: the data alone would give "
+                     "more than 2 prior widths), held at their nominal values: " + ", ".join(f"{k} ({v:.3g} of its prior width)" for k, v in won.prior_fixed.items()))
     if not converged:
         notes.append(f"the least-squares solver stopped without meeting its tolerances ({sol.message})")
     lengths = [c for c in free if pz.units[c] == "length" and not pz.names[c].startswith("base_")]
