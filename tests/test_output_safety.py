@@ -119,12 +119,15 @@ def test_a_read_only_file_through_the_command_line(tmp_path):
 
 
 def test_every_command_that_writes_takes_force_and_only_those():
-    from denavit.cli.common import COMMANDS, build_command
+    from denavit.cli.common import COMMANDS, OUTPUT_OPTIONS, build_command
 
-    writes = {"calibrate", "compensate", "convert", "dynamics", "fk", "identify", "ik", "plan", "models", "show", "export", "simulate"}
+    forced = set()
     for name in COMMANDS:
         opts = {o for p in build_command(name).params for o in p.opts}
-        assert ("--force" in opts) == (name in writes), name
+        writes = bool(opts & (OUTPUT_OPTIONS | {"--plot"}))
+        assert ("--force" in opts) == writes, name
+        forced |= {name} if writes else set()
+    assert {"convert", "simulate", "identify", "calibrate", "compensate", "show", "export", "fk"} <= forced and "inspect" not in forced
 
 
 # -- hard links ----------------------------------------------------------------------------------------------
