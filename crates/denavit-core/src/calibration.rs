@@ -18,7 +18,7 @@
 //! geometric Jacobian: with `F` the frame *before* factor `k` (origin `o`, local axis `u` expressed in world
 //! `u_w = R_F u`), a rotation gives `[u_w × (p − o); u_w]` and a translation `[u_w; 0]` (Hollerbach & Wampler
 //! 1996, "The calibration index and taxonomy for robot kinematic calibration methods", sec. 3; the same
-//! column as the joint Jacobian of kinematics.rs). A scale parameter's column is `q_j` times its joint
+//! column as the joint Jacobian of kinematics/mod.rs). A scale parameter's column is `q_j` times its joint
 //! factor's column. One forward pass gives every column.
 //!
 //! ```
