@@ -803,6 +803,7 @@ def calibration_report_html(res, *, length: str = "mm", angle: str = "deg", titl
         ("fit", f"misfit rms {res.rms / ls:.4g} {length} (noise estimate {res.noise / ls:.3g} {length} per coordinate)"),
         *([("accuracy", f"held-out tool position error rms {v.before_rms / ls:.4g} -> {v.after_rms / ls:.4g} {length}, max {v.before_max / ls:.4g} -> "
             f"{v.after_max / ls:.4g} {length}")] if v is not None else []),
+        *([("model chosen", res.model_choice.line(ls, length))] if getattr(res, "model_choice", None) is not None else []),
         ("identifiability", res.identifiability.summary()),
     ])
     title = title or f"denavit calibration: {meas.source}"
