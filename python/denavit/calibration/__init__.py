@@ -16,9 +16,14 @@ noise), i.e. the Cramér-Rao bound of Gaussian noise evaluated at the solution; 
 bound at the nominal model before anything is measured.
 
 
+What is free is chosen by leave-one-pose-out prediction error among nested models
+(:mod:`~denavit.calibration.selection`), with plausible-size priors about the nominal
+(:mod:`~denavit.calibration.priors`): the fit is then maximum a posteriori and ``cov`` the posterior's.
+
 Modules: :mod:`~denavit.calibration.parametrization` (the chain), :mod:`~denavit.calibration.identifiability`
 (rank, base parameters, observability), :mod:`~denavit.calibration.least_squares` (residuals, solver,
-covariance), :mod:`~denavit.calibration.solve` (:func:`calibrate`), :mod:`~denavit.calibration.plan`,
+covariance), :mod:`~denavit.calibration.selection` (the candidate models, the hat-matrix leave-one-out, the
+rule), :mod:`~denavit.calibration.priors`, :mod:`~denavit.calibration.solve` (:func:`calibrate`), :mod:`~denavit.calibration.plan`,
 :mod:`~denavit.calibration.simulate`, :mod:`~denavit.calibration.measurements` (the data; files:
 :mod:`denavit.io.measurements`).
 """

@@ -294,7 +294,8 @@ def calibrate(
         keeps the simplest whose leave-one-pose-out tool-position error (from the hat matrix, about one fit each)
         is within one standard error of the best; a name fits that candidate alone. ``full`` is the least-squares
         fit of every identifiable parameter, the default before issue 36. The candidates' errors are in
-        :attr:`Calibration.model_choice`.
+        :attr:`Calibration.model_choice`. With a robust ``loss`` the candidates are scored on their linear fits and
+        the one chosen is then fitted with the loss.
     prior : None, False, dict, str or :class:`~denavit.calibration.priors.Prior`
         The plausible-size priors of the ``full-prior*`` models (:mod:`denavit.calibration.priors`): None the
         defaults (1 mm, 0.1 deg, joint offsets 0.1 deg, scales 100 ppm; base and tool none), False none (those
