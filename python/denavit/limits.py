@@ -4,9 +4,9 @@ quantity, each with a one-line :class:`~denavit.errors.DenavitError` that names 
 makes sense, how (an environment variable ``DENAVIT_MAX_...``).
 
 Sizes (raisable): :data:`SIZES`, read through :func:`size`. Values (fixed): :data:`MAX_LENGTH_M` for a length of
-a robot (a link, a tool, a joint's travel, a pose's position), :data:`MAX_TURNS` turns for an angle (a geometric
-parameter, a joint value or limit, a pose's roll, pitch and yaw; raisable for multi-turn joints), a noise below
-the robot's size (:func:`robot_size`) and, for an angle, below half a turn.
+a robot (a link, a tool, a joint's travel, a pose's position), :data:`MAX_TURNS` turns for a geometric angle (a
+parameter, a pose's roll, pitch and yaw), :data:`MAX_JOINT_TURNS` for a joint value or limit, a noise below the
+robot's size (:func:`robot_size`) and, for an angle, below half a turn.
 """
 
 from __future__ import annotations
@@ -47,10 +47,15 @@ SIZES = {
 #: tracker's or a survey's frame: :data:`denavit.io.delimited.MAX_LENGTH`.)
 MAX_LENGTH_M = 1000.0
 
-#: The largest angle, in turns (``DENAVIT_MAX_TURNS`` raises it): a geometric parameter (alpha, theta, roll...) is
-#: within one turn when written plainly, and a multi-turn joint's travel within a few (±720 degrees is common); 4
-#: turns leaves room for both while refusing 1e300 (whose sine is noise) and degrees read as radians beyond it.
+#: The largest geometric angle, in turns: a parameter of a table (alpha, theta, beta), a frame's roll, pitch and yaw,
+#: a pose's; written plainly it is within one turn, 4 leave room for any unwrapped writing while refusing 1e300
+#: (whose sine is noise).
 MAX_TURNS = 4.0
+
+#: The largest joint value, in turns: a revolute joint's value, range, limit or home. Multi-turn joints exist (a
+#: wrist's ±720 degrees, an ABB axis in independent mode ±96 revolutions); at 100 turns a double still resolves
+#: 1e-13 rad, while 1e300 rad means nothing.
+MAX_JOINT_TURNS = 100.0
 
 #: The largest angular noise (one sigma, rad): half a turn; beyond it a rotation noise wraps around and means nothing.
 MAX_ANGLE_NOISE = math.pi
@@ -86,20 +91,6 @@ def check_size(count, name: str, where: str, what: str | None = None) -> int:
     return count
 
 
-def max_angle() -> float:
-    """The largest angle (rad): :data:`MAX_TURNS` turns, or ``DENAVIT_MAX_TURNS``."""
-    text = os.environ.get("DENAVIT_MAX_TURNS")
-    if text is None or not text.strip():
-        return MAX_TURNS * 2 * math.pi
-    try:
-        turns = float(text)
-    except ValueError:
-        turns = float("nan")
-    if not (math.isfinite(turns) and turns > 0):
-        raise DenavitError(f"DENAVIT_MAX_TURNS={text[:40]!r}: expected a positive number of turns")
-    return turns * 2 * math.pi
-
-
 def _worst(values) -> tuple[int, float]:
     v = np.abs(np.asarray(values, dtype=float).ravel())
     v = np.where(np.isnan(v), np.inf, v)
@@ -116,25 +107,27 @@ def check_lengths(values, where: str, unit: str = "m", scale: float = 1.0) -> No
         raise DenavitError(f"{where}: expected a finite length within {MAX_LENGTH_M / scale:.6g} {unit} (1 km: no robot is larger), got {shown:.6g} {unit}")
 
 
-def check_angles(values, where: str, unit: str = "rad", scale: float = 1.0) -> None:
-    """Every value (rad) finite and within :func:`max_angle`, else a one-line error showing the worst in ``unit``."""
-    limit = max_angle()
+def check_angles(values, where: str, unit: str = "rad", scale: float = 1.0, joint: bool = False) -> None:
+    """Every value (rad) finite and within :data:`MAX_TURNS` turns (``joint``: a joint value, :data:`MAX_JOINT_TURNS`),
+    else a one-line error showing the worst in ``unit`` (``scale`` rad per unit)."""
+    turns = MAX_JOINT_TURNS if joint else MAX_TURNS
+    limit = turns * 2 * math.pi
     k, worst = _worst(values)
     if not worst <= limit + 1e-9:
         shown = np.asarray(values, dtype=float).ravel()[k] / scale
-        raise DenavitError(f"{where}: expected a finite angle within ±{limit / scale:.6g} {unit} ({limit / (2 * math.pi):.6g} turns; "
-                           f"set DENAVIT_MAX_TURNS for a joint of more turns), got {shown:.6g} {unit}")
+        what = "joint value" if joint else "angle"
+        raise DenavitError(f"{where}: expected a finite {what} within ±{limit / scale:.6g} {unit} ({turns:g} turns), got {shown:.6g} {unit}")
 
 
 def check_joint_values(values, kinds, where: str) -> None:
-    """Joint values (SI, (..., n)): revolute within :func:`max_angle`, prismatic within :data:`MAX_LENGTH_M`."""
+    """Joint values (SI, (..., n)): revolute within :data:`MAX_JOINT_TURNS` turns, prismatic within :data:`MAX_LENGTH_M`."""
     v = np.asarray(values, dtype=float)
     if v.size == 0:
         return
     rev = np.array([k == "revolute" for k in kinds])
     v2 = v.reshape(-1, len(rev))
     if rev.any():
-        check_angles(v2[:, rev], where)
+        check_angles(v2[:, rev], where, joint=True)
     if (~rev).any():
         check_lengths(v2[:, ~rev], where)
 

@@ -490,7 +490,7 @@ def check_joint_values(q, kinds, what: str, length: str, angle: str) -> None:
     q2 = np.asarray(q, dtype=float).reshape(-1, len(kinds))
     for j, kind in enumerate(kinds):
         if kind == "revolute":
-            limits.check_angles(q2[:, j], f"{what}: joint {j + 1}", angle, angle_scale(angle))
+            limits.check_angles(q2[:, j], f"{what}: joint {j + 1}", angle, angle_scale(angle), joint=True)
         else:
             limits.check_lengths(q2[:, j], f"{what}: joint {j + 1}", length, length_scale(length))
 

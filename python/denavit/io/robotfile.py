@@ -84,9 +84,9 @@ def _pose(spec: dict, ls: float, as_: float, where: str) -> np.ndarray:
     return T
 
 
-def _plausible_angles(values, as_: float, where: str) -> None:
+def _plausible_angles(values, as_: float, where: str, joint: bool = False) -> None:
     """Angles written in a robot file (its angle unit: ``as_`` rad each), finite ones within the turns allowed
-    (:func:`denavit.limits.check_angles`); in a file that declares radians, a value beyond 2 pi is degrees written
+    (:func:`denavit.limits.check_angles`; ``joint``: joint values, limits or home); in a file that declares radians, a value beyond 2 pi is degrees written
     under ``angle = "rad"``: an error that says so."""
     v = np.asarray(values, dtype=float).ravel()
     v = v[np.isfinite(v)]
@@ -95,7 +95,7 @@ def _plausible_angles(values, as_: float, where: str) -> None:
     worst = float(v[np.argmax(np.abs(v))])
     if as_ == 1.0 and abs(worst) > 2 * np.pi + 1e-9:
         raise DenavitError(f"{where}: {worst:.6g} is beyond 2 pi, yet [units] angle = \"rad\": degrees written? (declare angle = \"deg\", or give radians)")
-    limits.check_angles(v * as_, where, "rad" if as_ == 1.0 else "deg", as_)
+    limits.check_angles(v * as_, where, "rad" if as_ == 1.0 else "deg", as_, joint)
 
 
 def _plausible_table(raw: _core.Table, si: list, as_: float, joint_where: list[str]) -> None:
@@ -235,7 +235,7 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         else:
             raw_lim = _numbers(lim, 2, f"{jw}: limits", finite=False)
             if kind == "revolute":
-                _plausible_angles(raw_lim, scale, f"{jw}: limits")
+                _plausible_angles(raw_lim, scale, f"{jw}: limits", joint=True)
             else:
                 limits.check_lengths([v * scale for v in raw_lim if np.isfinite(v)], f"{jw}: limits", _unit(scale), scale)
             lo, hi = (v * scale for v in raw_lim)
@@ -263,7 +263,7 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
     if home is not None:
         home = np.asarray(_numbers(home, len(joints), f"{where}: home"))
         rev = np.array([k == "revolute" for k in kinds])
-        _plausible_angles(home[rev], as_, f"{where}: home")
+        _plausible_angles(home[rev], as_, f"{where}: home", joint=True)
         home = home * joint_scale(kinds, units["length"], units["angle"], where)
         limits.check_lengths(home[~rev], f"{where}: home", _unit(ls), ls)
     coupling = parse_coupling(doc["couplings"], kinds, f"{where}, [couplings]") if "couplings" in doc else None
