@@ -15,9 +15,10 @@ SUFFIXES = ("_m", "_rad", "_m3", "_s", "_m_s2", "_si")
 JOINT_VECTORS = {"q", "qd", "qdd", "home", "offsets", "lower", "upper", "tau", "tau_gravity", "f_ext"}
 POSES = {"placements"}
 TABLE_COLUMNS = {"d", "theta", "a", "alpha", "b", "c", "wx", "wy", "wz", "vx", "vy", "vz"}
-UNIT_ROW = {"nominal", "value", "sigma"}
+UNIT_ROW = {"nominal", "value", "sigma", "prior_sigma"}
 UNITLESS = {"n_poses", "n_points", "n_train", "n_test", "targets", "flagged", "iterations", "restarts", "evaluations", "rank", "joints", "joint",
-            "outliers", "selected", "direction", "normal", "orientation", "condition_number", "observability", "correlation", "combination", "reading_scale"}
+            "outliers", "selected", "direction", "normal", "orientation", "condition_number", "observability", "correlation", "combination", "reading_scale",
+            "n_free", "effective_parameters"}
 
 
 def numeric(x) -> bool:
