@@ -148,8 +148,15 @@ def test_extrapolation_is_flagged_outside_the_training_ranges_and_where_sigma_is
     np.testing.assert_array_equal(np.isin(np.arange(80), v.flagged("outside_training_range")), outside)
     assert v.sigma is not None and np.median(v.sigma[outside]) > 1.5 * np.median(v.sigma[~outside])
     assert np.sqrt(np.mean(v.errors[outside] ** 2)) > np.sqrt(np.mean(v.errors[~outside] ** 2))
-    big = v.flagged("large_predicted_sigma")
-    assert len(big) and np.all(v.sigma[big] > v.sigma_limit) and outside[big].all()
+    # large predicted sigma: above 3 x the training poses' median (computed here), or above max_sigma when given
+    from denavit.compensation import predicted_sigma
+
+    limit = 3 * np.median(predicted_sigma(c, qtr))
+    assert v.sigma_limit == pytest.approx(limit, rel=1e-9)
+    np.testing.assert_array_equal(v.flagged("large_predicted_sigma"), np.flatnonzero(v.sigma > limit))
+    v2 = dv.validate(c, cal.simulate(_with_tool(truth.model()), q, tool=TOOL, noise=NOISE, seed=5), max_sigma=limit / 2)
+    big = v2.flagged("large_predicted_sigma")
+    assert len(big) >= 3 and np.array_equal(big, np.flatnonzero(v2.sigma > limit / 2)) and outside[big].all()
     np.testing.assert_allclose(v.training_lower, qtr.min(axis=0))
 
 

@@ -64,7 +64,8 @@ def register(pz: Parametrization, x, meas: Measurements, base_free: bool, tool_f
     if meas.n < 3:
         return pz, x, notes
     names = pz.names
-    trans = [c for c in tool_free if names[c] in ("tool_x", "tool_y", "tool_z")]
+    # the tool point's translations, or several targets' points (calibration.targets): linear in the predicted points
+    trans = [c for c in tool_free if names[c] in ("tool_x", "tool_y", "tool_z") or names[c].startswith("target")]
     rots = [c for c in tool_free if names[c] in ("tool_rx", "tool_ry", "tool_rz")]
     pred, _ = pz.evaluate(x, meas.q, False)
     before = _rms(pred[:, :3, 3], meas.points)

@@ -30,6 +30,7 @@ from .parametrization import (
 from .priors import PRIOR_DOMINATED, as_prior
 from .registration import register
 from .selection import MODELS, ModelChoice, select_model
+from .targets import calibrate_targets, several_targets
 
 #: scipy.optimize.least_squares' robust losses (per residual coordinate).
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
@@ -259,8 +260,11 @@ def calibrate(
 
     Parameters
     ----------
-    meas : Measurements or SweepSet
-        Joint readings and measured points / poses in the measurement frame.
+    meas : Measurements, SweepSet or TargetMeasurements
+        Joint readings and measured points / poses in the measurement frame. Several targets per pose (a sweep set
+        with ``targets``, :class:`~denavit.calibration.targets.TargetMeasurements`) are one fit with every target's
+        point in the flange frame (:func:`~denavit.calibration.targets.calibrate_targets`; ``model`` and ``prior``
+        do not apply there).
     nominal : Robot, Model, built-in name or robot file
         The nominal robot: the parametrisation, the start, names and limits.
     convention : {"edh", "mdh", "dh"}
@@ -308,6 +312,9 @@ def calibrate(
     Calibration
     """
     t0 = time.perf_counter()
+    if several_targets(meas):  # marker clusters, SMR nests: one fit with every target's point in the flange (targets.py)
+        return calibrate_targets(meas, nominal, convention=convention, fix=fix, loss=loss, start=start, scale=scale, tool=tool, noise=noise,
+                                 tracker_noise=tracker_noise, holdout=holdout, seed=seed)
     if isinstance(meas, SweepSet):
         meas = Measurements.from_sweeps(meas)
     if not isinstance(meas, Measurements):
