@@ -106,3 +106,38 @@ def test_cli_calibrate_a_sweep_file_with_three_targets_and_a_nest(kr5, tmp_path)
     T = np.array(doc["model"]["T_flange_tool"])
     np.testing.assert_allclose(T, np.eye(4), atol=2e-4)  # the nest is the targets in the flange frame: the tool frame is the flange
     assert doc["residuals"]["rms_m"] < 3 * NOISE * np.sqrt(3)
+
+
+def _targets_csv(q, targets, nest=None) -> str:
+    """A measurement CSV with several targets per pose (mm, deg), and its nest line."""
+    K = targets.shape[1]
+    head = ["q1", "q2", "q3", "q4", "q5", "q6", "x", "y", "z"] + [f"{a}{k}" for k in range(2, K + 1) for a in "xyz"]
+    lines = ["# units: length=mm angle=deg"] + (["# nest: " + "; ".join(",".join(f"{v * 1e3:.9g}" for v in p) for p in nest)] if nest is not None else [])
+    lines.append(",".join(head))
+    lines += [",".join([*(f"{v:.12g}" for v in np.degrees(a)), *(f"{v * 1e3:.12g}" for v in t.ravel())]) for a, t in zip(q, targets, strict=True)]
+    return "\n".join(lines) + "\n"
+
+
+def test_cli_calibrate_and_validate_a_measurement_csv_with_four_markers(kr5, tmp_path):
+    """`q1..q6,x,y,z,x2,y2,z2,...` with a `# nest:` line: calibrate fits every marker (exit 0, the tracker 7 m
+    away), saves the robot, and validate scores every marker of a new session at its nest point (the tool frame is
+    the nest's): the noise, sqrt(3) x 0.02 mm within 15 %."""
+    from denavit.io.measurements import read_measurements
+
+    _, _, truth = _truth(kr5)
+    q = cal.configurations(kr5, 40)
+    train = tmp_path / "train.csv"
+    train.write_text(_targets_csv(q, _targets(truth, q, 1), NEST))
+    m = read_measurements(train, kinds=list(kr5.table.kinds))
+    assert isinstance(m, TargetMeasurements) and m.n_targets == 4 and np.allclose(m.nest, NEST)
+    r = CliRunner().invoke(app, ["calibrate", str(train), "--nominal", "kr5", "--save", str(tmp_path / "cal.toml"), "--holdout", "0"], env={"COLUMNS": "200"})
+    assert r.exit_code == 0, r.output
+    assert "40 poses x 4 targets" in r.output and "robot's size" not in r.output
+    qt = cal.configurations(kr5, 60, skip=2000)
+    test = tmp_path / "test.csv"
+    test.write_text(_targets_csv(qt, _targets(truth, qt, 9), NEST))
+    out = CliRunner().invoke(app, ["validate", str(tmp_path / "cal.toml"), str(test), "--json", "-"])
+    assert out.exit_code == 0, out.output
+    doc = json.loads(out.stdout)
+    assert doc["n_poses"] == 240 and any("every target scored" in n for n in doc["notes"])
+    assert abs(doc["rms_m"] / (np.sqrt(3) * NOISE) - 1) < 0.15, doc["rms_m"]

@@ -139,8 +139,9 @@ def identify(data, nominal=None, *, format: str = "auto", length: str | None = N
 
 def _measurements(data, robot: Robot, *, points, poses, format: str, length, angle, columns, target: int):
     from .calibration import Measurements  # noqa: PLC0415
+    from .calibration.targets import TargetMeasurements  # noqa: PLC0415
 
-    if isinstance(data, (Measurements, SweepSet)):
+    if isinstance(data, (Measurements, SweepSet, TargetMeasurements)):
         return data
     kinds = list(robot.table.kinds)
     if isinstance(data, (str, os.PathLike)):
@@ -165,7 +166,8 @@ def calibrate(data, nominal, *, points=None, poses=None, format: str = "auto", l
               columns: str | None = None, target: int = 0, **options):
     """One least-squares fit of the whole kinematic model (:func:`denavit.calibration.calibrate`).
 
-    data : Measurements, SweepSet, a path (measurement CSV ``q1..qn,x,y,z[,rx,ry,rz]``, sweep CSV, JSON, or a
+    data : Measurements, SweepSet, TargetMeasurements, a path (measurement CSV ``q1..qn,x,y,z[,rx,ry,rz]`` or with several
+        targets ``q1..qn,x,y,z,x2,y2,z2,...``, sweep CSV, JSON, or a
         recording: one pose per pause of the robot), or joint readings ``q`` (N, n) rad / m with ``points``
         (N, 3) m or ``poses`` (N, 4, 4).
     nominal : built-in name, robot file, URDF, Robot or Model.

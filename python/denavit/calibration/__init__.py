@@ -34,6 +34,7 @@ from .parametrization import Parametrization, configurations, parametrize
 from .plan import Plan, Protocol, axis_lines, plan, select_poses
 from .simulate import simulate
 from .solve import Calibration, Validation, calibrate, to_json, write_json
+from .targets import TargetMeasurements
 
 __all__ = [
     "Calibration",
@@ -42,6 +43,7 @@ __all__ = [
     "Parametrization",
     "Plan",
     "Protocol",
+    "TargetMeasurements",
     "Unidentifiable",
     "Validation",
     "axis_lines",

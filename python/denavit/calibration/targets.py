@@ -84,6 +84,16 @@ class TargetMeasurements:
     def n_targets(self) -> int:
         return self.targets.shape[1]
 
+    @property
+    def kind(self) -> str:
+        """``"point"``: the targets are points (as :attr:`Measurements.kind`)."""
+        return "point"
+
+    @property
+    def points(self) -> np.ndarray:
+        """(N, 3) target 1's points."""
+        return self.targets[:, 0]
+
     def subset(self, idx) -> TargetMeasurements:
         idx = np.asarray(idx, dtype=int)
         return TargetMeasurements(self.q[idx], self.targets[idx], self.nest, self.source, [self.where[i] for i in idx], self.units, self.kinds)

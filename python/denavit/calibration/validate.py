@@ -54,6 +54,7 @@ from ..errors import DenavitError
 from ..geometry import kabsch, matrix_rotvec, pose, rotvec_matrix
 from ..io.output import json_text, write_text
 from .measurements import Measurements
+from .targets import TargetMeasurements, as_target_measurements, several_targets
 
 #: ``registration`` values: keep the model's base and tool, or re-fit them with the kinematics frozen.
 REGISTRATIONS = ("frozen", "refit")
@@ -292,8 +293,9 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
     ----------
     model : Calibration, Identification, Robot, Model, built-in name, robot file or URDF
         The model to score (its base and tool included: the frame it was calibrated in).
-    data : Measurements, SweepSet, a path (any format ``calibrate`` reads), or joint readings ``q`` (N, n) rad / m
-        with ``points`` (N, 3) m or ``poses`` (N, 4, 4).
+    data : Measurements, SweepSet, TargetMeasurements, a path (any format ``calibrate`` reads), or joint readings ``q``
+        (N, n) rad / m with ``points`` (N, 3) m or ``poses`` (N, 4, 4). Several targets per pose with their nest: every
+        target is scored at its nest point in the model's tool frame (one row per target); without a nest, target 1.
     registration : {"frozen", "refit"}
         Keep the model's base and tool, or re-fit them with the kinematics frozen.
     tool : array_like, optional
@@ -320,15 +322,25 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
             raise DenavitError(f"{what}: expected a finite value > 0, got {v!r}")
     km, name, cov_source, training, joints = _model_of(model)
     n = km.nq
-    if not isinstance(data, (Measurements, SweepSet)):
+    if not isinstance(data, (Measurements, SweepSet, TargetMeasurements)):
         robot = model.parametrization.robot if hasattr(model, "parametrization") else as_robot(km)
         data = _measurements(data, robot, points=points, poses=poses, format=format, length=length, angle=angle, columns=columns, target=target)
-    meas = Measurements.from_sweeps(data) if isinstance(data, SweepSet) else data
+    notes: list[str] = []
+    nest_rows = None  # per row, its target's point in the tool frame (several targets with their nest)
+    if several_targets(data):
+        tm = as_target_measurements(data)
+        if tm.nest is not None:
+            meas, nest_rows = tm.expanded(with_index=False), np.tile(tm.nest, (tm.n, 1))
+            notes.append(f"{tm.n} poses x {tm.n_targets} targets: every target scored, predicted at its nest point in the model's tool frame")
+        else:
+            meas = Measurements(tm.q, tm.targets[:, 0], None, tm.source, tm.where, tm.units, kinds=tm.kinds)
+            notes.append(f"{tm.n_targets} targets per pose and no nest declared: target 1 scored (the tool frame's origin of a calibration of several targets)")
+    else:
+        meas = Measurements.from_sweeps(data) if isinstance(data, SweepSet) else data
     if meas.nq != n:
         raise DenavitError(f"{meas.source}: the data has {meas.nq} joint readings per pose but the model {name} has {n} joints ({', '.join(km.names)})")
     if meas.kinds is not None and tuple(meas.kinds) != tuple(km.kinds):
         raise DenavitError(f"{meas.source}: joint kinds {list(meas.kinds)} differ from the model {name}'s {list(km.kinds)}")
-    notes: list[str] = []
     readings = np.asarray(meas.q, dtype=float)
     q = joints(readings)
     T_tool = _tool_transform(km, tool)
@@ -337,6 +349,8 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
         if meas.n < 4:
             raise DenavitError(f"{meas.source}: re-fitting the registration (base 6 + tool 3 parameters) needs at least 4 poses, got {meas.n}")
         F = _core.fk_batch(km.with_base(np.eye(4)).with_tool(np.eye(4)), q)
+        if nest_rows is not None:  # each row's target, fixed in the tool frame: the tool's origin is what is re-fitted
+            F[:, :3, 3] += np.einsum("nij,nj->ni", F[:, :3, :3], nest_rows @ T_tool[:3, :3].T)
         W, T_tool = refit_registration(F, meas, T_tool)
         moved = np.linalg.norm(W[:3, 3] - T_base[:3, 3])
         turn = np.linalg.norm(matrix_rotvec((W[:3, :3].T @ T_base[:3, :3])[None])[0])
@@ -345,6 +359,8 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
         T_base = W
     pm = km.with_base(T_base).with_tool(T_tool)
     P = _core.fk_batch(pm, q)
+    if nest_rows is not None:
+        P[:, :3, 3] += np.einsum("nij,nj->ni", P[:, :3, :3], nest_rows)
     measured = np.asarray(meas.points, dtype=float)
     vec = measured - P[:, :3, 3]
     errors = np.linalg.norm(vec, axis=1)

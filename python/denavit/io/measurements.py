@@ -40,7 +40,10 @@ def read_measurements(path: str | os.PathLike, *, length: str | None = None, ang
     * CSV with a ``joint`` column: the long-form sweep file of :func:`denavit.io.sweeps.read_long_csv`.
     * CSV with header ``q1,...,qn,x,y,z`` (points) or ``q1,...,qn,x,y,z,rx,ry,rz`` (poses; ``rx, ry, rz`` the
       rotation vector of ``R_world_tool`` in angle units): one row per pose. Units from a
-      ``# units: length=mm angle=deg`` line, else ``length`` / ``angle``.
+      ``# units: length=mm angle=deg`` line, else ``length`` / ``angle``. Several targets per pose (a marker
+      cluster, SMRs on a nest): ``q1,...,qn,x,y,z,x2,y2,z2[,x3,y3,z3,...]``, optionally their positions in the tool
+      frame on a ``# nest: x1,y1,z1; x2,y2,z2; ...`` line (length unit), read as a
+      :class:`~denavit.calibration.targets.TargetMeasurements` (calibrate fits them in one, validate scores them).
     * JSON: ``{"units": {...}, "q": [[...]], "points": [[x, y, z]...]}`` (or ``"poses"``: 4x4 matrices with
       translations in length units), or a sweep JSON (``"sweeps"``).
     """
@@ -62,12 +65,17 @@ def read_measurements(path: str | os.PathLike, *, length: str | None = None, ang
     cols = dl.header(names, f"{p}:{hline}")
     qcols = sorted((c for c in cols if c[:1] == "q" and c[1:].isdigit()), key=lambda c: int(c[1:]))
     rot = [c for c in ("rx", "ry", "rz") if c in cols]
-    need = [f"q{i}" for i in range(1, len(qcols) + 1)] + ["x", "y", "z"] + (["rx", "ry", "rz"] if rot else [])
+    k_t = 1 + len([c for c in cols if c[:1] == "x" and c[1:].isdigit() and int(c[1:]) >= 2])  # targets per pose
+    extra = [f"{a}{t}" for t in range(2, k_t + 1) for a in "xyz"]
+    need = [f"q{i}" for i in range(1, len(qcols) + 1)] + ["x", "y", "z"] + (["rx", "ry", "rz"] if rot else []) + extra
     missing = [c for c in need if c not in cols]
     unknown = [c for c in cols if c not in need]
     if missing or unknown or not qcols:
         what = f"missing {', '.join(missing) or 'q columns'}" if missing or not qcols else f"unknown column(s) {', '.join(unknown)}"
-        raise DenavitError(f"{p}:{hline}: header must be 'q1,...,qn,x,y,z' (optionally ',rx,ry,rz'), or a sweep file with a 'joint' column; {what}, got {delim.join(names)!r}")
+        raise DenavitError(f"{p}:{hline}: header must be 'q1,...,qn,x,y,z' (optionally ',rx,ry,rz', or further targets ',x2,y2,z2,...'), or a sweep file with a "
+                           f"'joint' column; {what}, got {delim.join(names)!r}")
+    if rot and extra:
+        raise DenavitError(f"{p}:{hline}: a pose's rotation (rx,ry,rz) and further targets (x2,y2,z2,...) in one file: give one or the other, got {delim.join(names)!r}")
     kinds = joint_kinds(kinds, len(qcols), f"{p}: kinds given") or ("revolute",) * len(qcols)
     idx = {c: cols.index(c) for c in need}
     if fast:
@@ -80,8 +88,12 @@ def read_measurements(path: str | os.PathLike, *, length: str | None = None, ang
             r, c = np.argwhere(far)[0]
             dl.far(pts[r, c], f"{where[r]}: column {'xyz'[c]!r}")
         rv = table[:, [idx[c] for c in ("rx", "ry", "rz")]] * as_ if rot else []
+        more = table[:, [idx[c] for c in extra]] * ls if extra else None
+        if extra and (np.abs(more) > dl.MAX_LENGTH).any():
+            r, c = np.argwhere(np.abs(more) > dl.MAX_LENGTH)[0]
+            dl.far(more[r, c], f"{where[r]}: column {extra[c]!r}")
     else:  # row by row: errors name the line and the column
-        q, pts, rv, where = [], [], [], []
+        q, pts, rv, where, more = [], [], [], [], []
         for ln, cells in data[1:]:
             w = f"{p}:{ln}"
             if len(cells) != len(cols):
@@ -91,11 +103,18 @@ def read_measurements(path: str | os.PathLike, *, length: str | None = None, ang
             pts.append([dl.length(cells[idx[c]], w, c, ls) for c in "xyz"])
             if rot:
                 rv.append([vals[c] * as_ for c in ("rx", "ry", "rz")])
+            if extra:
+                more.append([dl.length(cells[idx[c]], w, c, ls) for c in extra])
             where.append(w)
     if not len(q):
         raise DenavitError(f"{p}: no data rows after the header")
     q = np.asarray(q, dtype=float) * joint_scale(kinds, units["length"], units["angle"], str(p))
     pts = np.asarray(pts, dtype=float)
+    if extra:
+        from ..calibration.targets import TargetMeasurements  # noqa: PLC0415
+
+        targets = np.concatenate([pts[:, None], np.asarray(more, dtype=float).reshape(len(q), k_t - 1, 3)], axis=1)
+        return TargetMeasurements(q, targets, sw.parse_nest(lines, k_t, ls, str(p)), str(p), where, units, kinds=kinds)
     if rot:
         T = np.tile(np.eye(4), (len(q), 1, 1))
         T[:, :3, :3] = rotvec_matrix(np.asarray(rv, dtype=float))
