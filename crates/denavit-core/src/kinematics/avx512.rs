@@ -181,7 +181,16 @@ fn line(d: &mut [f64], v: __m512d, stream: bool) {
     debug_assert_eq!(d.as_ptr() as usize % 64, 0);
     if stream && (d.as_ptr() as usize).is_multiple_of(64) {
         // SAFETY: `d` is 8 writable f64 (64 bytes), 64-byte aligned as the streaming store requires (checked).
-        unsafe { _mm512_stream_pd(d.as_mut_ptr(), v) }
+        #[cfg(not(miri))]
+        unsafe {
+            _mm512_stream_pd(d.as_mut_ptr(), v)
+        }
+        // Miri cannot run the streaming store (inline assembly); the aligned store it runs and checks needs the
+        // same 64-byte alignment and writes the same bytes. SAFETY: as above.
+        #[cfg(miri)]
+        unsafe {
+            _mm512_store_pd(d.as_mut_ptr(), v)
+        }
     } else {
         store(d, v);
     }
@@ -197,7 +206,10 @@ mod tests {
     #[test]
     fn lines_at_every_offset_write_the_matrices_and_nothing_else() {
         for stream in [false, true] {
-            for offset in 0..8 {
+            // (Miri has no two-source permute: the offsets whose lines are cut (1, 3, 5, 6, 7) run natively only;
+            // their stores are the same `line` and `store` as those of 0, 2 and 4)
+            let offsets: &[usize] = if cfg!(miri) { &[0, 2, 4] } else { &[0, 1, 2, 3, 4, 5, 6, 7] };
+            for &offset in offsets {
                 for rows in [1, 7, 8, 9, 17] {
                     let mut buf = vec![-1.0; 16 * rows + 24];
                     let start = buf.as_ptr().align_offset(64) + offset;
