@@ -56,7 +56,7 @@ def calibrate(
     angle: Annotated[str, typer.Option("--angle", help="Angle unit of what is typed and printed, and of the data where they declare none: deg | rad. JSON stays SI.")] = "deg",
     verbose: Annotated[bool, typer.Option("--verbose", help="Every parameter the data cannot identify, with the reason (default: their names in a few lines).")] = False,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the held-out split.")] = 0,
-    model: Annotated[str, typer.Option("--model", help="What is free: auto (chosen by leave-one-pose-out prediction error) | base-tool | offsets | full (every identifiable parameter, least squares) | full-prior | full-prior-no-beta | full-prior-no-last.")] = "auto",
+    model: Annotated[str, typer.Option("--model", help="What is free: auto (chosen by leave-one-pose-out prediction error), base-tool, offsets, full (every identifiable parameter, least squares), full-prior (with the priors), full-prior-no-beta or full-prior-no-last (docs/cli.md)")] = "auto",
     prior: Annotated[str | None, typer.Option("--prior", help="Prior widths (1 sigma) about the nominal, by kind or parameter name: e.g. \"length=1mm, angle=0.1deg, offset=0.1deg, scale=100ppm, a_5=2mm\" (these are the defaults; bare numbers in --length / --angle), or none.")] = None,
     coupling: Annotated[str | None, typer.Option("--coupling", help="Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; robot-files.md in docs); default: the robot file's \\[couplings].")] = None,
     data_format: Annotated[str, typer.Option("--format", help="measurements (q1..qn,x,y,z CSV, sweep CSV, JSON) | tracker | rtde | rsi | bag | columns | auto (from the content).")] = "auto",
