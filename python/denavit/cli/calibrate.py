@@ -16,6 +16,7 @@ from .common import (
     JsonOpt,
     TipLinkOpt,
     calib_unit,
+    check_noises,
     check_outputs,
     commands,
     console,
@@ -99,6 +100,7 @@ def calibrate(
     if noise is not None and not (math.isfinite(noise) and noise > 0):
         fail(f"--noise: expected the known one-sigma point noise, a finite value > 0 in {length}, got {noise}")
     sigma = None if noise is None else noise * ls
+    check_noises(robot.model(), tp, length, angle, ("--noise", sigma, "length"))
     from .identify import parse_tracker_noise  # noqa: PLC0415 (one parser of the option for both commands)
 
     tn = parse_tracker_noise(tracker_noise, tracker_position, length, angle)

@@ -137,6 +137,10 @@ def identify(
         ms = None if max_sigma is None else max_sigma * length_scale(out_len)
         T_world_base = None if base is None else parse_pose(base, out_ang, length_scale(out_len), "--base")
         rn = None if rotation_noise is None else positive(rotation_noise, "--rotation-noise", angle_scale(out_ang), None, out_ang)
+        if rn is not None:
+            from ..limits import check_angle_noise  # noqa: PLC0415
+
+            check_angle_noise(rn, "--rotation-noise", out_ang, angle_scale(out_ang))
         tn = parse_tracker_noise(tracker_noise, tracker_position, out_len, out_ang)
         result = identify_sweeps(sweeps, method=method, convention=convention, nominal=nom, loss=loss, max_sigma=ms, T_world_base=T_world_base,
                                  keep_dwell=keep_dwell, coupling=C, rotation_noise=rn, tracker_noise=tn, allow_implausible=allow_implausible,
@@ -211,6 +215,10 @@ def parse_tracker_noise(text: str | None, position: str | None, length: str, ang
         if not (math.isfinite(v) and v > 0):
             fail(f"--tracker-noise: expected a finite {what} noise > 0, got {item.strip()[:40]!r}")
         values.append(v * units[unit])
+    from ..limits import check_angle_noise, check_lengths  # noqa: PLC0415
+
+    check_lengths(values[0], "--tracker-noise: the range noise", length, length_scale(length))
+    check_angle_noise(values[1], "--tracker-noise: the angle noise", angle, ANGLE.get(angle, 1.0))
     return TrackerNoise(values[0], values[1], tuple(parse_point(position, "--tracker-position", length_scale(length), (0.0, 0.0, 0.0))))
 
 
