@@ -24,6 +24,8 @@ from denavit import calibration
 from denavit.cli import app
 from denavit.errors import DenavitError
 from denavit.io import robotfile
+from denavit.io.measurements import to_csv
+from denavit.io.sweeps import to_long_csv
 
 KR5 = (Path(dv.__file__).parent / "models" / "kr5.toml").read_text()
 SECONDS = 5.0  # each refusal comes at once: before the fix, these ran for minutes or failed after 30-40 s
@@ -87,6 +89,9 @@ def files(tmp_path_factory):
         f.write(header + b"1,0")
         f.truncate(2_000_000_000)
     (d / "columns.csv").write_text("joint," + ",".join(f"c{i}" for i in range(2000)) + "\n")
+    kr5 = dv.load_robot("kr5")
+    (d / "poses.csv").write_text(to_long_csv(dv.simulate(kr5, points_per_sweep=8, noise=2e-5, poses=True, noise_rot=1e-4), "mm", "deg"))
+    (d / "m.csv").write_text(to_csv(dv.simulate(kr5, calibration.configurations(kr5, 30), noise=2e-5), "mm", "deg"))
     return d
 
 
@@ -128,6 +133,10 @@ CLI_CASES = [
     (["show", "{d}/links_1e4.urdf"], r"links_1e4\.urdf: 10,001 <link> elements is beyond the limit of 4,096 \(set DENAVIT_MAX_URDF_LINKS"),
     (["convert", "{d}/links_1e4.urdf", "--to", "urdf", "-o", "{d}/o.urdf"], r"10,001 <link> elements is beyond the limit of 4,096"),
     (["show", "{d}/chain_100.urdf"], r"the chain l0 -> l100: 100 moving joints is beyond the limit of 64 \(set DENAVIT_MAX_JOINTS"),
+    (["calibrate", "{d}/m.csv", "--nominal", "kr5", "--noise", "1e300"], r"--noise: a noise of 1e\+300 mm \(one sigma\) is not below the robot's size"),
+    (["identify", "{d}/poses.csv", "--rotation-noise", "1e300"], r"--rotation-noise: expected a finite angular noise >= 0 and below half a turn"),
+    (["identify", "{d}/poses.csv", "--tracker-noise", "1e300 mm, 1 arcsec"], r"--tracker-noise: the range noise: expected a finite length within 1e\+06 mm"),
+    (["identify", "{d}/poses.csv", "--tracker-noise", "5 um, 1e300 arcsec"], r"--tracker-noise: the angle noise: expected a finite angular noise"),
     # delimited files
     (["identify", "{d}/line.csv"], r"line\.csv: line 2 of the sweep file is longer than the limit of 4,194,304 bytes.*DENAVIT_MAX_LINE_BYTES"),
     (["inspect", "{d}/line.csv"], r"line\.csv: line 2 of the recording is longer than the limit of 4,194,304 bytes"),
