@@ -141,3 +141,28 @@ def test_cli_calibrate_and_validate_a_measurement_csv_with_four_markers(kr5, tmp
     doc = json.loads(out.stdout)
     assert doc["n_poses"] == 240 and any("every target scored" in n for n in doc["notes"])
     assert abs(doc["rms_m"] / (np.sqrt(3) * NOISE) - 1) < 0.15, doc["rms_m"]
+
+
+def test_cli_calibrate_a_recording_with_three_targets_per_row(kr5, tmp_path):
+    """A delimited recording (column map `q1..q6,x1,y1,z1,x2,...`, every row a static pose): every target in one fit
+    by default, `--target 2` that target alone (its tool point then found as the single target's)."""
+    _, _, truth = _truth(kr5)
+    q = cal.configurations(kr5, 30)
+    t = _targets(truth, q, 4)[:, :3]
+    text = "# units: length=mm angle=deg\n" + "".join(",".join([*(f"{v:.12g}" for v in np.degrees(a)), *(f"{v * 1e3:.12g}" for v in p.ravel())]) + "\n"
+                                                    for a, p in zip(q, t, strict=True))
+    f = tmp_path / "log.txt"
+    f.write_text(text)
+    cols = "q1..q6,x1,y1,z1,x2,y2,z2,x3,y3,z3"
+    out = tmp_path / "all.json"
+    r = CliRunner().invoke(app, ["calibrate", str(f), "--nominal", "kr5", "--format", "columns", "--columns", cols, "--holdout", "0", "--json", str(out)])
+    assert r.exit_code == 0, r.output
+    names = [p["name"] for p in json.loads(out.read_text())["parameters"]]
+    assert "target3_z" in names
+    one = tmp_path / "one.json"
+    r = CliRunner().invoke(app, ["calibrate", str(f), "--nominal", "kr5", "--format", "columns", "--columns", cols, "--target", "2", "--holdout", "0",
+                                 "--json", str(one)])
+    assert r.exit_code == 0, r.output
+    doc = json.loads(one.read_text())
+    p = {row["name"]: row["value"] for row in doc["parameters"]}
+    assert "target1_x" not in p and np.allclose([p["tool_x"], p["tool_y"], p["tool_z"]], NEST[1], atol=2e-4)

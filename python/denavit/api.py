@@ -137,25 +137,25 @@ def identify(data, nominal=None, *, format: str = "auto", length: str | None = N
     return _identify(sweeps, nominal=robot, **options)
 
 
-def _measurements(data, robot: Robot, *, points, poses, format: str, length, angle, columns, target: int):
+def _measurements(data, robot: Robot, *, points, poses, format: str, length, angle, columns, target: int | None):
+    """The measurements of ``data``; several targets per pose: every one (``target`` None, a TargetMeasurements) or
+    the one asked (0-based)."""
     from .calibration import Measurements  # noqa: PLC0415
-    from .calibration.targets import TargetMeasurements  # noqa: PLC0415
+    from .calibration.targets import TargetMeasurements, pick_target, recording_poses  # noqa: PLC0415
 
     if isinstance(data, (Measurements, SweepSet, TargetMeasurements)):
-        return data
+        return pick_target(data, target) if target is not None else data
     kinds = list(robot.table.kinds)
     if isinstance(data, (str, os.PathLike)):
         p = input_path(data)
         if format == "measurements" or (format == "auto" and is_measurement_file(p)):
             from .io.measurements import read_measurements  # noqa: PLC0415
 
-            return read_measurements(p, kinds=kinds, length=length, angle=angle)
+            return pick_target(read_measurements(p, kinds=kinds, length=length, angle=angle), target)
         from .io.recordings import read_recording  # noqa: PLC0415
-        from .recording import static_poses  # noqa: PLC0415
 
         rec = read_recording(p, format, columns=columns, length=length, angle=angle, kinds=kinds)
-        q, pts, where = static_poses(rec, target=target)
-        return Measurements(q, pts, None, str(p), where, {"length": "m", "angle": "rad"}, kinds=tuple(kinds))
+        return recording_poses(rec, target, kinds)
     if points is None and poses is None:
         raise DenavitError(f"measurements: expected Measurements, a SweepSet, a path, or joint readings q with points= or poses=, got {type(data).__name__}")
     return Measurements(floats(data, "measurements: q"), None if points is None else floats(points, "measurements: points"),
@@ -163,7 +163,7 @@ def _measurements(data, robot: Robot, *, points, poses, format: str, length, ang
 
 
 def calibrate(data, nominal, *, points=None, poses=None, format: str = "auto", length: str | None = None, angle: str | None = None,
-              columns: str | None = None, target: int = 0, **options):
+              columns: str | None = None, target: int | None = None, **options):
     """One least-squares fit of the whole kinematic model (:func:`denavit.calibration.calibrate`).
 
     data : Measurements, SweepSet, TargetMeasurements, a path (measurement CSV ``q1..qn,x,y,z[,rx,ry,rz]`` or with several
@@ -171,6 +171,7 @@ def calibrate(data, nominal, *, points=None, poses=None, format: str = "auto", l
         recording: one pose per pause of the robot), or joint readings ``q`` (N, n) rad / m with ``points``
         (N, 3) m or ``poses`` (N, 4, 4).
     nominal : built-in name, robot file, URDF, Robot or Model.
+    target : several targets per pose: fit this one alone (0-based); default every target in one fit.
     options : those of :func:`denavit.calibration.calibrate` (``convention``, ``fix``, ``loss``, ``holdout``...).
     """
     from .calibration import calibrate as _calibrate  # noqa: PLC0415

@@ -134,6 +134,38 @@ def as_target_measurements(meas) -> TargetMeasurements:
     return TargetMeasurements.from_sweeps(sweeps)
 
 
+def pick_target(meas, target: int | None):
+    """``meas`` with the target asked: ``target`` None keeps every target (a :class:`TargetMeasurements` when there are
+    several), a 0-based index keeps that one alone (Measurements of its points)."""
+    if target is None:
+        return as_target_measurements(meas) if several_targets(meas) else meas
+    if several_targets(meas):
+        tm = as_target_measurements(meas)
+        if not 0 <= target < tm.n_targets:
+            raise DenavitError(f"{tm.source}: target {target + 1} out of range: expected 1..{tm.n_targets} (1-based)")
+        return Measurements(tm.q, tm.targets[:, target], None, f"{tm.source}, target {target + 1}", tm.where, tm.units, kinds=tm.kinds)
+    if target != 0:
+        raise DenavitError(f"{getattr(meas, 'source', 'data')}: target {target + 1} out of range: the data hold one target per pose")
+    return meas
+
+
+def recording_poses(rec, target: int | None = None, kinds=None):
+    """The poses where the robot of a recording stood still (:func:`denavit.recording.static_poses`): every target
+    (a :class:`TargetMeasurements`) when ``target`` is None and the recording has several, else the target asked
+    (0-based; default the first) as :class:`Measurements`."""
+    from ..recording import static_poses  # noqa: PLC0415
+
+    K = getattr(rec, "n_targets", 1)
+    kinds = None if kinds is None else tuple(kinds)
+    units = {"length": "m", "angle": "rad"}
+    if target is not None or K == 1:
+        q, pts, where = static_poses(rec, target=0 if target is None else target)
+        return Measurements(q, pts, None, str(rec.source), where, units, kinds=kinds)
+    per = [static_poses(rec, target=k) for k in range(K)]
+    q, where = per[0][0], per[0][2]
+    return TargetMeasurements(q, np.stack([p[1] for p in per], axis=1), None, str(rec.source), where, units, kinds)
+
+
 def _tool_frame(points: np.ndarray, nest: np.ndarray | None) -> tuple[np.ndarray, str]:
     """``T_flange_tool`` from the targets' points in the flange (K, 3) (module docstring) and where its orientation
     came from."""
@@ -400,4 +432,4 @@ def calibrate_targets(meas, nominal, *, convention: str = "edh", fix=(), loss: s
                        validation, shown, loss, sol is None or sol.status > 0, 0 if sol is None else int(sol.nfev), time.perf_counter() - t0, float(noise_est), notes)
 
 
-__all__ = ["TargetMeasurements", "TargetParametrization", "as_target_measurements", "calibrate_targets", "several_targets"]
+__all__ = ["TargetMeasurements", "TargetParametrization", "as_target_measurements", "calibrate_targets", "pick_target", "recording_poses", "several_targets"]

@@ -54,7 +54,7 @@ from ..errors import DenavitError
 from ..geometry import kabsch, matrix_rotvec, pose, rotvec_matrix
 from ..io.output import json_text, write_text
 from .measurements import Measurements
-from .targets import TargetMeasurements, as_target_measurements, several_targets
+from .targets import as_target_measurements, several_targets
 
 #: ``registration`` values: keep the model's base and tool, or re-fit them with the kinematics frozen.
 REGISTRATIONS = ("frozen", "refit")
@@ -286,7 +286,7 @@ def iso9283(measured: np.ndarray, commanded: np.ndarray) -> tuple[float, float, 
 
 def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma: float | None = None, sigma_factor: float = SIGMA_FACTOR,
              repeat_tol: float = REPEAT_TOL, points=None, poses=None, format: str = "auto", length: str | None = None, angle: str | None = None,
-             columns: str | None = None, target: int = 0) -> ModelValidation:
+             columns: str | None = None, target: int | None = None) -> ModelValidation:
     """Score ``model`` on the measurement session ``data`` (module docstring).
 
     Parameters
@@ -305,7 +305,8 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
     repeat_tol : float
         Readings within this on every joint (rad / m) are one commanded pose (ISO 9283 groups).
     format, length, angle, columns, target
-        How a path is read (as :func:`denavit.calibrate`).
+        How a path is read (as :func:`denavit.calibrate`; ``target``: several targets per pose, score this one alone,
+        0-based, against the model's tool point).
 
     Returns
     -------
@@ -322,9 +323,8 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
             raise DenavitError(f"{what}: expected a finite value > 0, got {v!r}")
     km, name, cov_source, training, joints = _model_of(model)
     n = km.nq
-    if not isinstance(data, (Measurements, SweepSet, TargetMeasurements)):
-        robot = model.parametrization.robot if hasattr(model, "parametrization") else as_robot(km)
-        data = _measurements(data, robot, points=points, poses=poses, format=format, length=length, angle=angle, columns=columns, target=target)
+    robot = model.parametrization.robot if hasattr(model, "parametrization") else as_robot(km)
+    data = _measurements(data, robot, points=points, poses=poses, format=format, length=length, angle=angle, columns=columns, target=target)
     notes: list[str] = []
     nest_rows = None  # per row, its target's point in the tool frame (several targets with their nest)
     if several_targets(data):

@@ -62,7 +62,7 @@ def calibrate(
     coupling: Annotated[str | None, typer.Option("--coupling", help="Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; robot-files.md in docs); default: the robot file's \\[couplings].")] = None,
     data_format: Annotated[str, typer.Option("--format", help="measurements (q1..qn,x,y,z CSV, sweep CSV, JSON) | tracker | rtde | rsi | bag | columns | auto (from the content).")] = "auto",
     columns: Annotated[str | None, typer.Option("--columns", help="Column map of a delimited recording, e.g. \"t,q1..q6,x,y,z\".")] = None,
-    target: Annotated[int, typer.Option("--target", help="Recordings with several targets per pose: which one, 1-based.")] = 1,
+    target: Annotated[int | None, typer.Option("--target", help="Data with several targets per pose (markers, SMRs on a nest): fit this one alone, 1-based (default: every target, one fit with each target's point in the flange frame).")] = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
 ) -> None:
@@ -71,6 +71,7 @@ def calibrate(
 
     from .. import calibration as cal  # noqa: PLC0415
     from ..api import input_path, is_measurement_file  # noqa: PLC0415
+    from ..calibration.targets import pick_target, recording_poses  # noqa: PLC0415
     from ..io.measurements import read_measurements  # noqa: PLC0415
 
     check_outputs(**{"--save": save, "--json": json_path})
@@ -79,17 +80,16 @@ def calibrate(
     convention = convention_name(convention)
     # the reader applies the one units rule (denavit.io.units.input_units): what the file declares wins
     if data_format == "measurements" or (data_format == "auto" and is_measurement_file(input_path(data))):
-        meas = read_measurements(data, kinds=list(robot.table.kinds), length=length, angle=angle)
+        # several targets per pose: every one (a TargetMeasurements), or the one asked
+        meas = pick_target(read_measurements(data, kinds=list(robot.table.kinds), length=length, angle=angle), None if target is None else target - 1)
     else:  # a recording (tracker export, controller log, bag...): one pose per pause of the robot
         from ..io.recordings import read_recording  # noqa: PLC0415
-        from ..recording import static_poses  # noqa: PLC0415
 
         rec = read_recording(data, "auto" if data_format == "auto" else data_format, columns=columns, length=length, angle=angle, kinds=list(robot.table.kinds))
         for note in rec.notes:
             say("dim", "note:", f" {note}")
-        q, pts, where = static_poses(rec, target=target - 1)
-        say("dim", "note:", f" {len(q)} poses where the robot stood still (the median of each pause)")
-        meas = cal.Measurements(q, pts, None, str(data), where, {"length": "m", "angle": "rad"}, kinds=tuple(robot.table.kinds))
+        meas = recording_poses(rec, None if target is None else target - 1, robot.table.kinds)
+        say("dim", "note:", f" {meas.n} poses where the robot stood still (the median of each pause)")
     from ..io.robotfile import parse_coupling  # noqa: PLC0415
 
     C = parse_coupling(coupling, list(robot.table.kinds), "--coupling") if coupling else robot.coupling

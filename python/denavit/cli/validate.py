@@ -47,7 +47,7 @@ def validate(
     angle: AngleOpt = "deg",
     data_format: Annotated[str, typer.Option("--format", help="measurements (q1..qn,x,y,z CSV, sweep CSV, JSON) | tracker | rtde | rsi | bag | columns | auto (from the content).")] = "auto",
     columns: Annotated[str | None, typer.Option("--columns", help="Column map of a delimited recording, e.g. \"t,q1..q6,x,y,z\".")] = None,
-    target: Annotated[int, typer.Option("--target", help="Recordings with several targets per pose: which one, 1-based.")] = 1,
+    target: Annotated[int | None, typer.Option("--target", help="Data with several targets per pose: score this one alone, 1-based, against the model's tool point (default: every target at its nest point, or target 1 without a nest).")] = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
 ) -> None:
@@ -66,7 +66,7 @@ def validate(
     tp = None if tool is None else parse_point(tool, "--tool", ls, ())
     ms = positive(max_sigma, "--max-sigma", ls, None, length)
     fmt = "auto" if data_format == "auto" else data_format
-    meas = _measurements(str(data), robot, points=None, poses=None, format=fmt, length=length, angle=angle, columns=columns, target=target - 1)
+    meas = _measurements(str(data), robot, points=None, poses=None, format=fmt, length=length, angle=angle, columns=columns, target=None if target is None else target - 1)
     if robot.coupling is not None:  # the readings -> the joint values the model turns by (the robot file's [couplings]), as calibrate
         from dataclasses import replace  # noqa: PLC0415
 
