@@ -6,6 +6,14 @@ use crate::model::{Data, JointKind, Model};
 use crate::spatial::{Pose, unit};
 use nalgebra::Vector3;
 
+/// ED-H takes the common normal of two axes whenever `|z_i x z_{i+1}|` exceeds this (about 45 ulps): below it
+/// the angle between unit vectors is round-off and the pair is exactly parallel for every purpose.
+pub const EXACT_PARALLEL_SIN: f64 = 1e-14;
+
+/// Above this `|z_i x z_{i+1}|` (about 2.9 degrees) axes are never treated as parallel, however far their
+/// common normal lies (docs/conventions.md).
+pub const NEAR_PARALLEL_SIN: f64 = 0.05;
+
 /// Joint axis lines in `world` observed at configuration `q_ref`, with the base frame and the tool pose.
 #[derive(Debug, Clone, PartialEq)]
 pub struct JointAxes {

@@ -2,7 +2,7 @@
 //! analytic identification Jacobian. The parameter names and factor orders of each convention are
 //! documented in `python/denavit/calibrate.py`, which builds the chains.
 //!
-//! A [`Chain`] is `T_world_tool(q; x) = F_1 · F_2 · ... · F_K`, each factor either a fixed pose or an
+//! A [`CalibrationChain`] is `T_world_tool(q; x) = F_1 · F_2 · ... · F_K`, each factor either a fixed pose or an
 //! elementary motion `Rx, Ry, Rz` (rad) or `Tx, Ty, Tz` (m) about / along a local axis by
 //!
 //! ```text
@@ -22,13 +22,13 @@
 //! factor's column. One forward pass gives every column.
 //!
 //! ```
-//! use denavit_core::calibration::{Axis, Chain, Factor};
+//! use denavit_core::calibration::{Motion, CalibrationChain, CalibrationFactor};
 //! // planar 2R: Rz(x0 + q0) Tx(x1) Rz(x2 + q1) Tx(x3)
 //! let f = vec![
-//!     Factor::param(Axis::Rz, 0, Some(0)), Factor::param(Axis::Tx, 1, None),
-//!     Factor::param(Axis::Rz, 2, Some(1)), Factor::param(Axis::Tx, 3, None),
+//!     CalibrationFactor::param(Motion::Rz, 0, Some(0)), CalibrationFactor::param(Motion::Tx, 1, None),
+//!     CalibrationFactor::param(Motion::Rz, 2, Some(1)), CalibrationFactor::param(Motion::Tx, 3, None),
 //! ];
-//! let chain = Chain::new(f, 4, 2, vec![None, None]).unwrap();
+//! let chain = CalibrationChain::new(f, 4, 2, vec![None, None]).unwrap();
 //! let x = [0.0, 1.0, 0.0, 1.0];
 //! let mut jac = nalgebra::Matrix6xX::zeros(4);
 //! let t = chain.pose_jacobian(&x, &[0.0, std::f64::consts::FRAC_PI_2], &mut jac).unwrap();
@@ -42,9 +42,10 @@ use crate::spatial::Pose;
 use nalgebra::{Matrix6xX, Vector3};
 use rayon::prelude::*;
 
-/// The local axis of an elementary factor and whether it rotates or translates.
+/// An elementary motion of a calibration factor: a rotation or translation along one local axis (Rx ... Tz).
+/// Not a joint axis (`axes::JointAxes`): the name of what moves, as docs/conventions.md's glossary says.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Axis {
+pub enum Motion {
     /// Rotation about local x (rad).
     Rx,
     /// Rotation about local y (rad).
@@ -59,13 +60,13 @@ pub enum Axis {
     Tz,
 }
 
-impl Axis {
+impl Motion {
     /// Parse `"rx" | "ry" | "rz" | "tx" | "ty" | "tz"` (case-insensitive).
     ///
     /// ```
-    /// use denavit_core::calibration::Axis;
-    /// assert_eq!(Axis::parse("Ry").unwrap(), Axis::Ry);
-    /// assert!(Axis::parse("rw").unwrap_err().to_string().contains("expected one of rx, ry, rz, tx, ty, tz"));
+    /// use denavit_core::calibration::Motion;
+    /// assert_eq!(Motion::parse("Ry").unwrap(), Motion::Ry);
+    /// assert!(Motion::parse("rw").unwrap_err().to_string().contains("expected one of rx, ry, rz, tx, ty, tz"));
     /// ```
     pub fn parse(s: &str) -> Result<Self> {
         match s.to_ascii_lowercase().as_str() {
@@ -105,13 +106,13 @@ impl Axis {
 
 /// One factor of a chain.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Factor {
+pub enum CalibrationFactor {
     /// A constant pose (e.g. a nominal rotation around which small angles are identified).
     Fixed(Pose),
     /// `Rx/Ry/Rz/Tx/Ty/Tz(x[param] + q[joint] · (1 + x[scale]))`.
     Elementary {
         /// Local axis and kind.
-        axis: Axis,
+        axis: Motion,
         /// Index of the parameter in `x`.
         param: usize,
         /// The joint (0-based) whose reading adds to the value, if any.
@@ -119,9 +120,9 @@ pub enum Factor {
     },
 }
 
-impl Factor {
+impl CalibrationFactor {
     /// An elementary factor.
-    pub fn param(axis: Axis, param: usize, joint: Option<usize>) -> Self {
+    pub fn param(axis: Motion, param: usize, joint: Option<usize>) -> Self {
         Self::Elementary { axis, param, joint }
     }
 }
@@ -129,8 +130,8 @@ impl Factor {
 /// A calibration chain: factors, the number of parameters, the number of joints and the optional scale
 /// parameter of each joint.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Chain {
-    factors: Vec<Factor>,
+pub struct CalibrationChain {
+    factors: Vec<CalibrationFactor>,
     n_params: usize,
     nq: usize,
     scales: Vec<Option<usize>>,
@@ -138,13 +139,13 @@ pub struct Chain {
 
 /// `t · Rx/Ry/Rz/Tx/Ty/Tz(s)` in place.
 #[inline(always)]
-fn apply(t: &mut Pose, axis: Axis, s: f64) {
+fn apply(t: &mut Pose, axis: Motion, s: f64) {
     if axis.is_rotation() {
         let (sn, cs) = crate::math::sin_cos(s);
         // columns (a, b) of R rotate: R · Rot(s) about the third axis c of (a, b, c) right-handed
         let (a, b) = match axis {
-            Axis::Rx => (1, 2),
-            Axis::Ry => (2, 0),
+            Motion::Rx => (1, 2),
+            Motion::Ry => (2, 0),
             _ => (0, 1),
         };
         let m = t.rotation.matrix_mut_unchecked();
@@ -159,23 +160,23 @@ fn apply(t: &mut Pose, axis: Axis, s: f64) {
     }
 }
 
-impl Chain {
+impl CalibrationChain {
     /// A checked chain: every parameter index `< n_params`, every joint `< nq`, one scale entry per joint.
     ///
     /// ```
-    /// use denavit_core::calibration::{Axis, Chain, Factor};
-    /// let e = Chain::new(vec![Factor::param(Axis::Rz, 3, Some(0))], 2, 1, vec![None]).unwrap_err();
+    /// use denavit_core::calibration::{Motion, CalibrationChain, CalibrationFactor};
+    /// let e = CalibrationChain::new(vec![CalibrationFactor::param(Motion::Rz, 3, Some(0))], 2, 1, vec![None]).unwrap_err();
     /// assert!(e.to_string().contains("parameter index of factor 1"));
     /// ```
-    pub fn new(factors: Vec<Factor>, n_params: usize, nq: usize, scales: Vec<Option<usize>>) -> Result<Self> {
+    pub fn new(factors: Vec<CalibrationFactor>, n_params: usize, nq: usize, scales: Vec<Option<usize>>) -> Result<Self> {
         check_len("joint scale entries (one per joint)", nq, scales.len())?;
         for (k, f) in factors.iter().enumerate() {
             match f {
-                Factor::Fixed(p) => {
+                CalibrationFactor::Fixed(p) => {
                     check_finite(&format!("fixed pose of factor {}", k + 1), p.translation.vector.as_slice())?;
                     check_finite(&format!("fixed pose of factor {}", k + 1), p.rotation.matrix().as_slice())?;
                 }
-                Factor::Elementary { param, joint, .. } => {
+                CalibrationFactor::Elementary { param, joint, .. } => {
                     if *param >= n_params {
                         return Err(Error::InvalidArgument {
                             what: format!("parameter index of factor {}", k + 1),
@@ -213,7 +214,7 @@ impl Chain {
         self.nq
     }
     /// The factors.
-    pub fn factors(&self) -> &[Factor] {
+    pub fn factors(&self) -> &[CalibrationFactor] {
         &self.factors
     }
 
@@ -246,8 +247,8 @@ impl Chain {
         let mut t = Pose::identity();
         for f in &self.factors {
             match f {
-                Factor::Fixed(p) => t *= p,
-                Factor::Elementary { axis, param, joint } => apply(&mut t, *axis, self.value(x, q, *param, *joint).0),
+                CalibrationFactor::Fixed(p) => t *= p,
+                CalibrationFactor::Elementary { axis, param, joint } => apply(&mut t, *axis, self.value(x, q, *param, *joint).0),
             }
         }
         t
@@ -281,8 +282,8 @@ impl Chain {
         let mut t = Pose::identity();
         for f in &self.factors {
             match f {
-                Factor::Fixed(p) => t *= p,
-                Factor::Elementary { axis, param, joint } => {
+                CalibrationFactor::Fixed(p) => t *= p,
+                CalibrationFactor::Elementary { axis, param, joint } => {
                     let (s, ds) = self.value(x, q, *param, *joint);
                     let u = t.rotation.matrix().column(axis.index()).into_owned();
                     let scale = joint.and_then(|j| self.scales[j]);
@@ -339,8 +340,8 @@ impl Chain {
     /// [`JacobianOut`]). Runs on all cores from [`PARALLEL_MIN`] configurations on.
     ///
     /// ```
-    /// use denavit_core::calibration::{Axis, Chain, Factor, JacobianOut};
-    /// let c = Chain::new(vec![Factor::param(Axis::Rz, 0, Some(0)), Factor::param(Axis::Tx, 1, None)], 2, 1, vec![None]).unwrap();
+    /// use denavit_core::calibration::{Motion, CalibrationChain, CalibrationFactor, JacobianOut};
+    /// let c = CalibrationChain::new(vec![CalibrationFactor::param(Motion::Rz, 0, Some(0)), CalibrationFactor::param(Motion::Tx, 1, None)], 2, 1, vec![None]).unwrap();
     /// let (mut poses, mut jac) = (vec![0.0; 32], vec![0.0; 24]);
     /// c.evaluate_batch(&[0.0, 2.0], &[0.0, 1.0], &mut poses, Some(JacobianOut::full(&mut jac))).unwrap();
     /// assert!((poses[16 + 3] - 2.0 * 1f64.cos()).abs() < 1e-15);
@@ -412,7 +413,7 @@ impl Chain {
     }
 }
 
-/// The part of the identification Jacobians a batch writes ([`Chain::evaluate_batch`]): for each
+/// The part of the identification Jacobians a batch writes ([`CalibrationChain::evaluate_batch`]): for each
 /// configuration a row-major `rows x columns` block of `out`, rows `0..rows` of `[v; w]` (3: the tool
 /// origin's; 6: with the small rotation), the columns of the parameters `columns` in this order (`None`:
 /// all, in order), row `r` times `weights[r]`. The weights multiply the summed entries, so each value is the

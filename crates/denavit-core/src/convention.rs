@@ -353,7 +353,7 @@ pub struct Parameter {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Parametrization {
     /// `T_world_tool = F_1 · ... · F_K`.
-    pub factors: Vec<crate::calibration::Factor>,
+    pub factors: Vec<crate::calibration::CalibrationFactor>,
     /// The parameters, in the order of their indices.
     pub params: Vec<Parameter>,
     /// Index into `factors` of each joint's factor (the one its reading moves).
@@ -369,14 +369,14 @@ pub struct Parametrization {
 
 impl Table {
     /// Consecutive axes `(i, i+1)` (1-based `i`) of this table's model at q = 0 that are within
-    /// [`crate::extract::NEAR_PARALLEL_SIN`] of parallel or anti-parallel, with their angle (rad).
+    /// [`crate::axes::NEAR_PARALLEL_SIN`] of parallel or anti-parallel, with their angle (rad).
     pub fn near_parallel_pairs(&self) -> Result<Vec<(usize, f64)>> {
         let model = self.to_model("pairs")?;
         let ax = crate::axes::axes(&model, &vec![0.0; self.nq()])?;
         Ok((1..self.nq())
             .filter_map(|i| {
                 let s = ax.directions[i - 1].cross(&ax.directions[i]).norm();
-                (s < crate::extract::NEAR_PARALLEL_SIN).then(|| (i, s.min(1.0).asin()))
+                (s < crate::axes::NEAR_PARALLEL_SIN).then(|| (i, s.min(1.0).asin()))
             })
             .collect())
     }
@@ -398,7 +398,7 @@ impl Table {
     /// assert!(t.parametrize("planar", &Pose::identity(), &Pose::identity(), Measure::Point, false).is_err());
     /// ```
     pub fn parametrize(&self, robot: &str, t_last_flange: &Pose, t_flange_tool: &Pose, measure: Measure, scale: bool) -> Result<Parametrization> {
-        use crate::calibration::{Axis, Factor};
+        use crate::calibration::{CalibrationFactor, Motion};
         let n = self.nq();
         let near = self.near_parallel_pairs()?;
         let is_near = |i: usize| near.iter().any(|&(k, _)| k == i);
@@ -410,7 +410,7 @@ impl Table {
                      (alpha); a tilt about the other perpendicular direction (Hayati's beta) sends the common normal, hence d, to infinity, so the fit cannot \
                      represent the robot or diverges (Hayati & Mirmirani 1985): use convention 'mdh' (Hayati angle beta) or 'edh'",
                     list.join(", "),
-                    significant(crate::extract::NEAR_PARALLEL_SIN.asin().to_degrees(), 2)
+                    significant(crate::axes::NEAR_PARALLEL_SIN.asin().to_degrees(), 2)
                 ),
             });
         }
@@ -421,20 +421,21 @@ impl Table {
                 got: "poe".into(),
             });
         }
-        let mut factors: Vec<Factor> = Vec::new();
+        let mut factors: Vec<CalibrationFactor> = Vec::new();
         let mut params: Vec<Parameter> = Vec::new();
         let mut joint_factors = Vec::with_capacity(n);
-        let mut add = |factors: &mut Vec<Factor>, axis: Axis, name: String, value: f64, group: &'static str, joint: Option<usize>, along_axis: bool| {
-            factors.push(Factor::param(axis, params.len(), joint));
-            let unit = if axis.is_rotation() { "angle" } else { "length" };
-            params.push(Parameter { name, value, unit, group, along_axis, fixed: None });
-        };
+        let mut add =
+            |factors: &mut Vec<CalibrationFactor>, axis: Motion, name: String, value: f64, group: &'static str, joint: Option<usize>, along_axis: bool| {
+                factors.push(CalibrationFactor::param(axis, params.len(), joint));
+                let unit = if axis.is_rotation() { "angle" } else { "length" };
+                params.push(Parameter { name, value, unit, group, along_axis, fixed: None });
+            };
         let b = &self.t_world_base;
-        for (k, a) in [Axis::Tx, Axis::Ty, Axis::Tz].into_iter().enumerate() {
+        for (k, a) in [Motion::Tx, Motion::Ty, Motion::Tz].into_iter().enumerate() {
             add(&mut factors, a, format!("base_t{}", ["x", "y", "z"][k]), b.translation.vector[k], "base", None, false);
         }
-        factors.push(Factor::Fixed(Pose::from_parts(nalgebra::Translation3::identity(), b.rotation)));
-        for (k, a) in [Axis::Rx, Axis::Ry, Axis::Rz].into_iter().enumerate() {
+        factors.push(CalibrationFactor::Fixed(Pose::from_parts(nalgebra::Translation3::identity(), b.rotation)));
+        for (k, a) in [Motion::Rx, Motion::Ry, Motion::Rz].into_iter().enumerate() {
             add(&mut factors, a, format!("base_r{}", ["x", "y", "z"][k]), 0.0, "base", None, false);
         }
         let base_end = factors.len();
@@ -446,34 +447,34 @@ impl Table {
             match self.convention {
                 Convention::Edh => {
                     // Rx(alpha) Tx(a) Ty(b) Tz(c) [Ry(beta)] Rz(theta + q)  |  prismatic: ... [Ry(beta)] Rz(theta) Tz(c + q)
-                    add(&mut factors, Axis::Rx, format!("alpha_{k}"), r[0], "link", None, false);
-                    add(&mut factors, Axis::Tx, format!("a_{k}"), r[1], "link", None, false);
-                    add(&mut factors, Axis::Ty, format!("b_{k}"), r[2], "link", None, false);
+                    add(&mut factors, Motion::Rx, format!("alpha_{k}"), r[0], "link", None, false);
+                    add(&mut factors, Motion::Tx, format!("a_{k}"), r[1], "link", None, false);
+                    add(&mut factors, Motion::Ty, format!("b_{k}"), r[2], "link", None, false);
                     if rev {
-                        add(&mut factors, Axis::Tz, format!("c_{k}"), r[3], "link", None, true);
+                        add(&mut factors, Motion::Tz, format!("c_{k}"), r[3], "link", None, true);
                         if is_near(k) {
-                            add(&mut factors, Axis::Ry, format!("beta_{k}"), 0.0, "link", None, false);
+                            add(&mut factors, Motion::Ry, format!("beta_{k}"), 0.0, "link", None, false);
                         }
                         joint_factors.push(factors.len());
-                        add(&mut factors, Axis::Rz, format!("offset_{i}"), r[4], "offset", Some(k), false);
+                        add(&mut factors, Motion::Rz, format!("offset_{i}"), r[4], "offset", Some(k), false);
                     } else {
                         if is_near(k) {
-                            add(&mut factors, Axis::Ry, format!("beta_{k}"), 0.0, "link", None, false);
+                            add(&mut factors, Motion::Ry, format!("beta_{k}"), 0.0, "link", None, false);
                         }
-                        add(&mut factors, Axis::Rz, format!("theta_{i}"), r[4], "link", None, false);
+                        add(&mut factors, Motion::Rz, format!("theta_{i}"), r[4], "link", None, false);
                         joint_factors.push(factors.len());
-                        add(&mut factors, Axis::Tz, format!("offset_{i}"), r[3], "offset", Some(k), false);
+                        add(&mut factors, Motion::Tz, format!("offset_{i}"), r[3], "offset", Some(k), false);
                     }
                 }
                 Convention::Mdh => {
                     // Rx(alpha) Tx(a) [Ry(beta)] Tz(d) Rz(theta + q)  |  prismatic: ... Rz(theta) Tz(d + q)
-                    add(&mut factors, Axis::Rx, format!("alpha_{k}"), r[0], "link", None, false);
-                    add(&mut factors, Axis::Tx, format!("a_{k}"), r[1], "link", None, false);
+                    add(&mut factors, Motion::Rx, format!("alpha_{k}"), r[0], "link", None, false);
+                    add(&mut factors, Motion::Tx, format!("a_{k}"), r[1], "link", None, false);
                     if is_near(k) {
-                        add(&mut factors, Axis::Ry, format!("beta_{k}"), 0.0, "link", None, false);
+                        add(&mut factors, Motion::Ry, format!("beta_{k}"), 0.0, "link", None, false);
                     }
                     if rev {
-                        add(&mut factors, Axis::Tz, format!("d_{i}"), r[3], "link", None, true);
+                        add(&mut factors, Motion::Tz, format!("d_{i}"), r[3], "link", None, true);
                         if is_near(i) {
                             fixed_rules.push((
                                 format!("d_{i}"),
@@ -485,38 +486,38 @@ impl Table {
                             ));
                         }
                         joint_factors.push(factors.len());
-                        add(&mut factors, Axis::Rz, format!("offset_{i}"), r[2], "offset", Some(k), false);
+                        add(&mut factors, Motion::Rz, format!("offset_{i}"), r[2], "offset", Some(k), false);
                     } else {
-                        add(&mut factors, Axis::Rz, format!("theta_{i}"), r[2], "link", None, false);
+                        add(&mut factors, Motion::Rz, format!("theta_{i}"), r[2], "link", None, false);
                         joint_factors.push(factors.len());
-                        add(&mut factors, Axis::Tz, format!("offset_{i}"), r[3], "offset", Some(k), false);
+                        add(&mut factors, Motion::Tz, format!("offset_{i}"), r[3], "offset", Some(k), false);
                     }
                 }
                 _ => {
                     // Rz(theta + q) Tz(d) Tx(a) Rx(alpha)  |  prismatic: Rz(theta) Tz(d + q) Tx(a) Rx(alpha)
                     if rev {
                         joint_factors.push(factors.len());
-                        add(&mut factors, Axis::Rz, format!("offset_{i}"), r[1], "offset", Some(k), false);
-                        add(&mut factors, Axis::Tz, format!("d_{i}"), r[0], "link", None, true);
+                        add(&mut factors, Motion::Rz, format!("offset_{i}"), r[1], "offset", Some(k), false);
+                        add(&mut factors, Motion::Tz, format!("d_{i}"), r[0], "link", None, true);
                     } else {
-                        add(&mut factors, Axis::Rz, format!("theta_{i}"), r[1], "link", None, false);
+                        add(&mut factors, Motion::Rz, format!("theta_{i}"), r[1], "link", None, false);
                         joint_factors.push(factors.len());
-                        add(&mut factors, Axis::Tz, format!("offset_{i}"), r[0], "offset", Some(k), false);
+                        add(&mut factors, Motion::Tz, format!("offset_{i}"), r[0], "offset", Some(k), false);
                     }
-                    add(&mut factors, Axis::Tx, format!("a_{i}"), r[2], "link", None, false);
-                    add(&mut factors, Axis::Rx, format!("alpha_{i}"), r[3], "link", None, false);
+                    add(&mut factors, Motion::Tx, format!("a_{i}"), r[2], "link", None, false);
+                    add(&mut factors, Motion::Rx, format!("alpha_{i}"), r[3], "link", None, false);
                 }
             }
         }
         // the nominal flange, fixed in the convention's last frame: the tool parameters are the tool in the flange
-        factors.push(Factor::Fixed(*t_last_flange));
+        factors.push(CalibrationFactor::Fixed(*t_last_flange));
         let tool_start = factors.len();
-        for (k, a) in [Axis::Tx, Axis::Ty, Axis::Tz].into_iter().enumerate() {
+        for (k, a) in [Motion::Tx, Motion::Ty, Motion::Tz].into_iter().enumerate() {
             add(&mut factors, a, format!("tool_{}", ["x", "y", "z"][k]), t_flange_tool.translation.vector[k], "tool", None, false);
         }
-        factors.push(Factor::Fixed(Pose::from_parts(nalgebra::Translation3::identity(), t_flange_tool.rotation)));
+        factors.push(CalibrationFactor::Fixed(Pose::from_parts(nalgebra::Translation3::identity(), t_flange_tool.rotation)));
         if measure == Measure::Pose {
-            for (k, a) in [Axis::Rx, Axis::Ry, Axis::Rz].into_iter().enumerate() {
+            for (k, a) in [Motion::Rx, Motion::Ry, Motion::Rz].into_iter().enumerate() {
                 add(&mut factors, a, format!("tool_r{}", ["x", "y", "z"][k]), 0.0, "tool", None, false);
             }
         }

@@ -9,13 +9,9 @@ use crate::model::JointKind;
 use crate::spatial::{Pose, any_perpendicular, perpendicular, pose_error, rx, signed_angle, wrap_angle};
 use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
 
-/// ED-H takes the common normal of two axes whenever `|z_i x z_{i+1}|` exceeds this (about 45 ulps): below it
-/// the angle between unit vectors is round-off and the pair is exactly parallel for every purpose.
-pub const EXACT_PARALLEL_SIN: f64 = 1e-14;
-
-/// Above this `|z_i x z_{i+1}|` (about 2.9 degrees) axes are never treated as parallel, however far their
-/// common normal lies (docs/conventions.md).
-pub const NEAR_PARALLEL_SIN: f64 = 0.05;
+/// The parallel-axis thresholds are properties of the joint axes, defined with them (re-exported here, where
+/// the extractions use them).
+pub use crate::axes::{EXACT_PARALLEL_SIN, NEAR_PARALLEL_SIN};
 
 /// How two consecutive joint axes relate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

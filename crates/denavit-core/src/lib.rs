@@ -17,6 +17,7 @@ pub mod dynamics;
 pub mod error;
 pub mod extract;
 pub mod ik;
+pub mod inertia;
 pub mod kinematics;
 pub mod math;
 pub mod model;

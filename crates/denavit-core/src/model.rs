@@ -1,7 +1,7 @@
 //! The immutable serial-chain [`Model`] and its [`Data`] workspace (docs/conventions.md, "The model").
 
-use crate::dynamics::Inertia;
 use crate::error::{Error, Result, check_finite, check_len};
+use crate::inertia::Inertia;
 use crate::spatial::{Pose, check_pose};
 use nalgebra::Matrix6xX;
 use std::sync::OnceLock;
@@ -108,32 +108,37 @@ pub struct Model {
     /// `T_joint_dh[i]`: standard-DH frame i in joint frame i, for a model built from a DH table
     /// ([`crate::Table::to_model`]; DH frame i = joint frame i · Tz(d_i) Tx(a_i) Rx(alpha_i)).
     dh_link_frames: Option<Vec<Pose>>,
-    /// IK's per-joint bounds and wrist flips, derived from the joints on the first IK solve and kept: one
-    /// solve of a spherical-wrist arm had spent 1.3 us of its ~10 us finding the flips anew (16 FK).
-    ik_bounds: Derived<crate::ik::Bounds>,
-    /// The chain as the kinematic kernels take it (its placements' exact zeros and ones; single calls
-    /// could not afford to find them at every call).
-    chain: Derived<crate::kinematics::Chain>,
+    /// Values the algorithms derive from the joints on first use and keep ([`Derive`]).
+    derived: Derived,
 }
 
-/// A value derived from a [`Model`]'s joints, computed on first use and kept. Not part of the model's value:
-/// models compare equal whatever has been computed; copies that keep the joints keep it.
-#[derive(Clone)]
-struct Derived<T>(OnceLock<T>);
-
-impl<T> Default for Derived<T> {
-    fn default() -> Self {
-        Self(OnceLock::new())
-    }
+/// A value an algorithm derives from a [`Model`] (its joints, base and tool), computed on first use and kept
+/// with the model: IK's per-joint bounds and wrist flips (`ik::Bounds`; finding the flips anew had cost a
+/// spherical-wrist arm's solve 16 FK), the chain as the kinematic kernels take it (`kinematics::Chain`, its
+/// placements' exact zeros and ones). The model knows none of these types: each algorithm implements `Derive`
+/// for its own, with a slot of its own ([`DERIVED_SLOTS`]), so the model depends on no algorithm.
+pub(crate) trait Derive: std::any::Any + Send + Sync + Sized {
+    /// This type's slot, `< DERIVED_SLOTS`, one per type.
+    const SLOT: usize;
+    /// The value for `model`.
+    fn derive(model: &Model) -> Self;
 }
 
-impl<T> PartialEq for Derived<T> {
+/// How many [`Derive`] types there are (`kinematics::Chain` 0, `ik::Bounds` 1).
+pub(crate) const DERIVED_SLOTS: usize = 2;
+
+/// The kept [`Derive`] values. Not part of the model's value: models compare equal whatever has been
+/// computed; copies share what was computed (a copy changes no joint, base or tool without [`Model::new`]).
+#[derive(Clone, Default)]
+struct Derived([OnceLock<std::sync::Arc<dyn std::any::Any + Send + Sync>>; DERIVED_SLOTS]);
+
+impl PartialEq for Derived {
     fn eq(&self, _: &Self) -> bool {
         true
     }
 }
 
-impl<T> std::fmt::Debug for Derived<T> {
+impl std::fmt::Debug for Derived {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str("(derived)")
     }
@@ -173,17 +178,17 @@ impl Model {
             t_last_tool: t_last_flange * t_flange_tool,
             inertias,
             dh_link_frames: None,
-            ik_bounds: Derived::default(),
-            chain: Derived::default(),
+            derived: Derived::default(),
         })
     }
-    /// IK's bounds of the joints (computed on first use).
-    pub(crate) fn ik_bounds(&self) -> &crate::ik::Bounds {
-        self.ik_bounds.0.get_or_init(|| crate::ik::Bounds::new(self))
-    }
-    /// The chain prepared for the kinematic kernels (computed on first use).
-    pub(crate) fn chain(&self) -> &crate::kinematics::Chain {
-        self.chain.0.get_or_init(|| crate::kinematics::Chain::of(self))
+    /// The value of type `T` derived from this model ([`Derive`]), computed on its first use.
+    #[inline]
+    pub(crate) fn derived<T: Derive>(&self) -> &T {
+        let slot = self.derived.0[T::SLOT].get_or_init(|| std::sync::Arc::new(T::derive(self)));
+        match slot.downcast_ref::<T>() {
+            Some(v) => v,
+            None => unreachable!("one Derive type per slot"),
+        }
     }
     /// A copy whose link *i* carries `inertias[i]`, expressed in joint frame *i* (the frame moving with
     /// link *i*, docs/conventions.md); one inertia per joint. The tool is part of the last link.

@@ -4,7 +4,7 @@
 
 mod common;
 
-use denavit_core::calibration::{Axis, Chain, Factor, JacobianOut};
+use denavit_core::calibration::{CalibrationChain, CalibrationFactor, JacobianOut, Motion};
 use denavit_core::kinematics::tool_pose;
 use denavit_core::spatial::{Pose, rx, rz, trans};
 use denavit_core::{Error, JointKind};
@@ -13,31 +13,31 @@ use proptest::prelude::*;
 
 /// The ED-H chain of a table, built here independently of the core, factor by factor as docs/conventions.md writes it per row
 /// (prismatic: Rx Tx Ty Rz(theta) Tz(c + q)), tool; joint j optionally scaled by parameter `scale[j]`.
-fn edh_chain(t: &denavit_core::Table, with_scales: bool) -> (Chain, Vec<f64>) {
+fn edh_chain(t: &denavit_core::Table, with_scales: bool) -> (CalibrationChain, Vec<f64>) {
     let n = t.nq();
-    let mut f = vec![Factor::Fixed(t.t_world_base)];
+    let mut f = vec![CalibrationFactor::Fixed(t.t_world_base)];
     let mut x = Vec::new();
-    let mut push = |f: &mut Vec<Factor>, axis, value: f64, joint| {
-        f.push(Factor::param(axis, x.len(), joint));
+    let mut push = |f: &mut Vec<CalibrationFactor>, axis, value: f64, joint| {
+        f.push(CalibrationFactor::param(axis, x.len(), joint));
         x.push(value);
     };
     for i in 0..n {
         let r: Vec<f64> = t.params.row(i).iter().copied().collect();
-        push(&mut f, Axis::Rx, r[0], None);
-        push(&mut f, Axis::Tx, r[1], None);
-        push(&mut f, Axis::Ty, r[2], None);
+        push(&mut f, Motion::Rx, r[0], None);
+        push(&mut f, Motion::Tx, r[1], None);
+        push(&mut f, Motion::Ty, r[2], None);
         match t.kinds[i] {
             JointKind::Revolute => {
-                push(&mut f, Axis::Tz, r[3], None);
-                push(&mut f, Axis::Rz, r[4], Some(i));
+                push(&mut f, Motion::Tz, r[3], None);
+                push(&mut f, Motion::Rz, r[4], Some(i));
             }
             JointKind::Prismatic => {
-                push(&mut f, Axis::Rz, r[4], None);
-                push(&mut f, Axis::Tz, r[3], Some(i));
+                push(&mut f, Motion::Rz, r[4], None);
+                push(&mut f, Motion::Tz, r[3], Some(i));
             }
         }
     }
-    f.push(Factor::Fixed(t.t_last_tool));
+    f.push(CalibrationFactor::Fixed(t.t_last_tool));
     let scales = if with_scales {
         (0..n)
             .map(|_| {
@@ -48,7 +48,7 @@ fn edh_chain(t: &denavit_core::Table, with_scales: bool) -> (Chain, Vec<f64>) {
     } else {
         vec![None; n]
     };
-    (Chain::new(f, x.len(), n, scales).unwrap(), x)
+    (CalibrationChain::new(f, x.len(), n, scales).unwrap(), x)
 }
 
 /// Rotation vector of a small rotation: `vee((R - R^T) / 2)` = sin(angle) axis (error O(angle^3); nalgebra's
@@ -58,7 +58,7 @@ fn log_so3(r: &Matrix3<f64>) -> Vector3<f64> {
 }
 
 /// Central differences of [p; phi] w.r.t. every parameter (phi: world-frame rotation vector).
-fn numeric_jacobian(chain: &Chain, x: &[f64], q: &[f64], h: f64) -> Matrix6xX<f64> {
+fn numeric_jacobian(chain: &CalibrationChain, x: &[f64], q: &[f64], h: f64) -> Matrix6xX<f64> {
     let mut j = Matrix6xX::zeros(x.len());
     for k in 0..x.len() {
         let (mut xp, mut xm) = (x.to_vec(), x.to_vec());
@@ -186,19 +186,22 @@ fn selected_rows_and_columns_are_the_full_jacobians_weighted_bit_for_bit() {
 
 #[test]
 fn bad_input_names_what_is_wrong() {
-    let c = Chain::new(vec![Factor::param(Axis::Rz, 0, Some(0)), Factor::param(Axis::Tx, 1, None)], 2, 1, vec![None]).unwrap();
+    let c =
+        CalibrationChain::new(vec![CalibrationFactor::param(Motion::Rz, 0, Some(0)), CalibrationFactor::param(Motion::Tx, 1, None)], 2, 1, vec![None]).unwrap();
     assert_eq!(c.pose(&[0.0], &[0.0]).unwrap_err(), Error::SizeMismatch { what: "calibration parameters x".into(), expected: 2, got: 1 });
     assert!(c.pose(&[0.0, f64::NAN], &[0.0]).unwrap_err().to_string().contains("calibration parameters x must be finite"));
     assert!(c.pose(&[0.0, 1.0], &[0.0, 1.0]).unwrap_err().to_string().contains("wrong size of q: expected 1, got 2"));
     let mut out = vec![0.0; 16];
     assert!(c.evaluate_batch(&[0.0, 1.0], &[0.0, 1.0], &mut out, None).unwrap_err().to_string().contains("poses output"));
-    assert!(Chain::new(vec![Factor::param(Axis::Rz, 0, Some(2))], 1, 1, vec![None]).unwrap_err().to_string().contains("joint of factor 1"));
-    assert!(Chain::new(vec![], 1, 2, vec![None]).unwrap_err().to_string().contains("joint scale entries"));
-    assert!(Chain::new(vec![], 1, 1, vec![Some(4)]).unwrap_err().to_string().contains("scale parameter of joint 1"));
+    assert!(
+        CalibrationChain::new(vec![CalibrationFactor::param(Motion::Rz, 0, Some(2))], 1, 1, vec![None]).unwrap_err().to_string().contains("joint of factor 1")
+    );
+    assert!(CalibrationChain::new(vec![], 1, 2, vec![None]).unwrap_err().to_string().contains("joint scale entries"));
+    assert!(CalibrationChain::new(vec![], 1, 1, vec![Some(4)]).unwrap_err().to_string().contains("scale parameter of joint 1"));
 }
 
-fn axis_strategy() -> impl Strategy<Value = Axis> {
-    prop_oneof![Just(Axis::Rx), Just(Axis::Ry), Just(Axis::Rz), Just(Axis::Tx), Just(Axis::Ty), Just(Axis::Tz)]
+fn axis_strategy() -> impl Strategy<Value = Motion> {
+    prop_oneof![Just(Motion::Rx), Just(Motion::Ry), Just(Motion::Rz), Just(Motion::Tx), Just(Motion::Ty), Just(Motion::Tz)]
 }
 
 proptest! {
@@ -212,10 +215,10 @@ proptest! {
         q in proptest::collection::vec(-3.0f64..3.0, 3),
         fixed in proptest::collection::vec(-1.0f64..1.0, 6),
     ) {
-        let mut f: Vec<Factor> = spec.iter().map(|&(a, p, j, _)| Factor::param(a, p, j)).collect();
+        let mut f: Vec<CalibrationFactor> = spec.iter().map(|&(a, p, j, _)| CalibrationFactor::param(a, p, j)).collect();
         let pose: Pose = trans(fixed[0], fixed[1], fixed[2]) * rx(fixed[3]) * rz(fixed[4]);
-        f.insert(spec.len() / 2, Factor::Fixed(pose));
-        let chain = Chain::new(f, 11, 3, vec![Some(8), None, Some(10)]).unwrap();
+        f.insert(spec.len() / 2, CalibrationFactor::Fixed(pose));
+        let chain = CalibrationChain::new(f, 11, 3, vec![Some(8), None, Some(10)]).unwrap();
         let mut jac = Matrix6xX::zeros(11);
         chain.pose_jacobian(&xs, &q, &mut jac).unwrap();
         let num = numeric_jacobian(&chain, &xs, &q, 1e-6);
@@ -250,7 +253,7 @@ fn parametrize_reproduces_the_table_model() {
                 let x: Vec<f64> = p.params.iter().map(|q| q.value).collect();
                 let betas = p.params.iter().filter(|q| q.name.starts_with("beta_")).count();
                 assert_eq!(betas, if conv == Convention::Dh { 0 } else { t.near_parallel_pairs().unwrap().len() });
-                let chain = Chain::new(p.factors.clone(), x.len(), t.nq(), p.scales.clone()).unwrap();
+                let chain = CalibrationChain::new(p.factors.clone(), x.len(), t.nq(), p.scales.clone()).unwrap();
                 let model = denavit_core::Table { t_last_tool: tool, ..t.clone() }.to_model("m").unwrap();
                 for k in 0..20 {
                     let q: Vec<f64> = (0..t.nq()).map(|j| ((k * 7 + j * 3) as f64 * 0.37).sin() * 2.0).collect();

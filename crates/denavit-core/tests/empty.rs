@@ -3,7 +3,7 @@
 use denavit_core::{
     Convention, Data, JointAxes, JointKind, Model, Table,
     axes::axes,
-    calibration::{Axis, Chain, Factor},
+    calibration::{CalibrationChain, CalibrationFactor, Motion},
     dynamics::{self, DynamicsData},
     extract::{ExtractOptions, convert, extract},
     ik::{IkMethod, IkOptions, IkSolver, ik, ik_batch, ik_path},
@@ -111,13 +111,13 @@ fn ik_of_a_model_without_joints() {
 
 #[test]
 fn calibration_chain_without_joints() {
-    let c = Chain::new(vec![Factor::Fixed(trans(0.0, 0.0, 0.5)), Factor::param(Axis::Tx, 0, None)], 1, 0, vec![]).unwrap();
+    let c = CalibrationChain::new(vec![CalibrationFactor::Fixed(trans(0.0, 0.0, 0.5)), CalibrationFactor::param(Motion::Tx, 0, None)], 1, 0, vec![]).unwrap();
     assert_eq!(c.pose(&[0.25], &[]).unwrap(), trans(0.25, 0.0, 0.5));
     let mut jac = nalgebra::Matrix6xX::zeros(1);
     c.pose_jacobian(&[0.25], &[], &mut jac).unwrap();
     let mut poses = vec![];
     c.evaluate_batch(&[0.25], &[], &mut poses, None).unwrap();
-    assert!(Chain::new(vec![], 0, 0, vec![]).is_ok());
+    assert!(CalibrationChain::new(vec![], 0, 0, vec![]).is_ok());
 }
 
 #[test]

@@ -2,7 +2,7 @@
 
 use crate::convert::{poses, poses_out, vector};
 use crate::error::{invalid, IntoPy};
-use denavit_core::calibration::{Axis, Chain, Factor, JacobianOut};
+use denavit_core::calibration::{CalibrationChain, CalibrationFactor, JacobianOut, Motion};
 use denavit_core::spatial::Pose;
 use numpy::{PyArray3, PyArrayMethods};
 use pyo3::prelude::*;
@@ -21,7 +21,7 @@ type Evaluated<'py> = (Bound<'py, PyArray3<f64>>, Option<Bound<'py, PyArray3<f64
 #[pyclass(module = "denavit._core", name = "CalibrationChain", frozen)]
 #[derive(Clone)]
 pub struct PyChain {
-    pub inner: Arc<Chain>,
+    pub inner: Arc<CalibrationChain>,
     /// The constructor's arguments, for pickling.
     args: Arc<ChainArgs>,
 }
@@ -63,11 +63,11 @@ impl PyChain {
             if axes[i].eq_ignore_ascii_case("fixed") {
                 let count = fixed.len();
                 let t = next.next().ok_or_else(|| invalid("fixed", format!("a pose for factor {i} ('fixed')"), format!("{count} fixed poses")))?;
-                factors.push(Factor::Fixed(*t));
+                factors.push(CalibrationFactor::Fixed(*t));
             } else {
-                let axis = Axis::parse(&axes[i]).py()?;
+                let axis = Motion::parse(&axes[i]).py()?;
                 let p = index("params", i, params[i])?.ok_or_else(|| invalid(format!("params[{i}]"), "a parameter index for an elementary factor", "-1"))?;
-                factors.push(Factor::param(axis, p, index("joints", i, joints[i])?));
+                factors.push(CalibrationFactor::param(axis, p, index("joints", i, joints[i])?));
             }
         }
         let used = fixed.len() - next.len();
@@ -75,7 +75,7 @@ impl PyChain {
             return Err(invalid("fixed", format!("{used} poses (one per 'fixed' factor)"), format!("{} poses", fixed.len())));
         }
         let sc = scales.iter().enumerate().map(|(j, &s)| index("scales", j, s)).collect::<PyResult<Vec<_>>>()?;
-        let inner = Arc::new(Chain::new(factors, size("n_params", n_params)?, size("nq", nq)?, sc).py()?);
+        let inner = Arc::new(CalibrationChain::new(factors, size("n_params", n_params)?, size("nq", nq)?, sc).py()?);
         Ok(Self { inner, args: Arc::new(ChainArgs { axes, params, joints, fixed, scales }) })
     }
     /// Number of parameters.
@@ -109,7 +109,7 @@ impl PyChain {
         let x = vector("x", x)?;
         let (q, count) = crate::convert::rows("qs", qs, self.inner.nq())?;
         let q = q.slice();
-        let chain: &Chain = &self.inner;
+        let chain: &CalibrationChain = &self.inner;
         let rows = usize::try_from(rows)
             .ok()
             .filter(|r| (1..=6).contains(r))
@@ -184,13 +184,13 @@ pub fn parametrize(
     let (mut axes, mut params, mut joints, mut fixed) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for f in &p.factors {
         match f {
-            Factor::Fixed(t) => {
+            CalibrationFactor::Fixed(t) => {
                 axes.push("fixed".to_string());
                 params.push(-1i64);
                 joints.push(-1i64);
                 fixed.push(*t);
             }
-            Factor::Elementary { axis, param, joint } => {
+            CalibrationFactor::Elementary { axis, param, joint } => {
                 axes.push(axis.name().to_string());
                 params.push(*param as i64);
                 joints.push(joint.map_or(-1, |j| j as i64));
@@ -198,7 +198,7 @@ pub fn parametrize(
         }
     }
     let scales: Vec<i64> = p.scales.iter().map(|s| s.map_or(-1, |v| v as i64)).collect();
-    let chain = Chain::new(p.factors.clone(), p.params.len(), table.inner.nq(), p.scales.clone()).py()?;
+    let chain = CalibrationChain::new(p.factors.clone(), p.params.len(), table.inner.nq(), p.scales.clone()).py()?;
     let args = ChainArgs { axes: axes.clone(), params: params.clone(), joints: joints.clone(), fixed: fixed.clone(), scales: scales.clone() };
     let d = pyo3::types::PyDict::new(py);
     d.set_item("chain", PyChain { inner: Arc::new(chain), args: Arc::new(args) })?;

@@ -52,6 +52,7 @@ mod energy;
 mod inertia;
 mod rnea;
 
+pub use crate::inertia::*;
 pub use aba::*;
 pub use batch::*;
 pub use crba::*;
@@ -62,17 +63,10 @@ pub use rnea::*;
 use crate::error::{Error, Result, check_finite, check_len};
 use crate::math::{sin_cos, sin_cos_lanes};
 use crate::model::{Joint, JointKind, Model};
-use crate::spatial::Pose;
 use nalgebra::{DMatrix, Matrix3, Matrix6, Vector3, Vector6};
 
 /// Default gravity in `world`: `[0, 0, -9.81]` m/s^2 (world z up).
 pub const DEFAULT_GRAVITY: [f64; 3] = [0.0, 0.0, -9.81];
-
-/// Relative tolerance on the symmetry of a user-given inertia tensor.
-pub const SYMMETRY_TOL: f64 = 1e-12;
-
-/// Relative tolerance (to the trace) on positive semi-definiteness and the triangle inequality.
-pub const INERTIA_TOL: f64 = 1e-12;
 
 // ---------------------------------------------------------------------------------------------------
 // Spatial algebra (Featherstone ch. 2), on pairs of 3-vectors

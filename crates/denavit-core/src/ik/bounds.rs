@@ -26,7 +26,7 @@ pub(crate) fn mix_seed(seed: u64, index: u64) -> u64 {
 }
 
 /// Per-joint data used by the projection and the restarts, and the model's wrist flips; derived from the
-/// joints once per model ([`Model::ik_bounds`]).
+/// joints once per model (`Model::derived`).
 #[derive(Debug, Clone)]
 pub(crate) struct Bounds {
     pub(super) lower: Vec<f64>,
@@ -39,6 +39,13 @@ pub(crate) struct Bounds {
     pub(super) flips: Vec<usize>,
     /// The closed form of a recognised 6R structure (the seeds of the first attempt).
     pub(super) closed_form: Option<ClosedForm>,
+}
+
+impl crate::model::Derive for Bounds {
+    const SLOT: usize = 1;
+    fn derive(model: &Model) -> Self {
+        Self::new(model)
+    }
 }
 
 impl Bounds {

@@ -131,7 +131,7 @@ pub fn ik(model: &Model, target: &Pose, q0: &[f64], opts: &IkOptions) -> Result<
 /// assert_eq!(closed_form_structure(&builtin_planar2(1.0, 1.0)), None);
 /// ```
 pub fn closed_form_structure(model: &Model) -> Option<Structure> {
-    model.ik_bounds().closed_form.as_ref().map(|c| c.structure)
+    model.derived::<Bounds>().closed_form.as_ref().map(|c| c.structure)
 }
 
 /// Every closed-form branch of `target` (`T_world_tool`) on the ideal structure nearest to `model`'s axes
@@ -140,7 +140,7 @@ pub fn closed_form_structure(model: &Model) -> Option<Structure> {
 /// reproduces the target (a reachable one); on an identified model they are the seeds that IK polishes.
 pub fn closed_form_branches(model: &Model, target: &Pose) -> Result<Option<Vec<Vec<f64>>>> {
     check_pose("IK target", target)?;
-    let Some(cf) = model.ik_bounds().closed_form.as_ref() else { return Ok(None) };
+    let Some(cf) = model.derived::<Bounds>().closed_form.as_ref() else { return Ok(None) };
     let mut b = [[Cs::ZERO; 6]; MAX_BRANCHES];
     let count = cf.branches(target, &[0.0; 6], &mut b);
     Ok(Some(b[..count].iter().map(|q| q.iter().map(|a| a.angle()).collect()).collect()))

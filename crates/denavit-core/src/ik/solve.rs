@@ -65,7 +65,7 @@ impl<'m> IkSolver<'m> {
         Ok(Self {
             model,
             opts,
-            bounds: model.ik_bounds(),
+            bounds: model.derived::<Bounds>(),
             ready: false,
             jac_eval: Vec::new(),
             q: Vec::new(),

@@ -391,7 +391,7 @@ pub fn tool_pose_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<()>
     if count <= TAIL_ROWS {
         return small_batch(qs, n, out, 16, |q, o| write_pose(&tool_pose_unchecked(model, q), o));
     }
-    let chain = model.chain();
+    let chain = model.derived::<Chain>();
     let stream = crate::stream::wanted(out);
     crate::parallel::try_for_each_chunk_init(
         out,
@@ -534,7 +534,7 @@ pub fn jacobian_batch(model: &Model, qs: &[f64], frame: JacobianFrame, joint: Op
     if count <= TAIL_ROWS {
         return small_batch(qs, n, out, 6 * n, |q, o| jacobian_row_major_unchecked(model, q, frame, joint, o));
     }
-    let chain = model.chain();
+    let chain = model.derived::<Chain>();
     let stream = crate::stream::wanted(out);
     crate::parallel::try_for_each_chunk_init(
         out,

@@ -1,5 +1,5 @@
 //! A model's chain prepared for the batch kernels: its constant factors classified by their exact zeros and
-//! ones ([`Factor`], [`Chain`]), kept by the model ([`Model::chain`]).
+//! ones ([`Factor`], [`Chain`]), kept with the model (`Model::derived`).
 
 use super::*;
 
@@ -56,7 +56,7 @@ impl Factor {
 
 /// A model's chain prepared for the batch kernels: the frame of the first joint before its motion
 /// (`T_world_base · placement_1`, the same for every configuration, so computed once), then the placements
-/// of joints 2..n and the tool as [`Factor`]s. Each model keeps its own ([`Model::chain`]).
+/// of joints 2..n and the tool as [`Factor`]s. Each model keeps its own (`Model::derived`).
 #[derive(Clone)]
 pub(crate) struct Chain {
     pub(super) first: Frame,
@@ -64,6 +64,13 @@ pub(crate) struct Chain {
     /// For [`revolute_about_x`]: every joint is revolute and every placement rotates about x only (DH,
     /// modified DH, ED-H tables).
     pub(super) about_x: bool,
+}
+
+impl crate::model::Derive for Chain {
+    const SLOT: usize = 0;
+    fn derive(model: &Model) -> Self {
+        Self::of(model)
+    }
 }
 
 impl Chain {

@@ -257,7 +257,7 @@ fn joint_angles(joints: &[Joint], q: &[f64]) -> ([f64; 8], [f64; 8], [f64; 8]) {
 /// Tool pose `T_world_tool(q)` without filling a [`Data`]; `q` must have `model.nq()` entries (unchecked here).
 #[inline]
 pub fn tool_pose_unchecked(model: &Model, q: &[f64]) -> Pose {
-    let (chain, n) = (model.chain(), model.nq());
+    let (chain, n) = (model.derived::<Chain>(), model.nq());
     if chain.about_x && (1..=8).contains(&n) {
         // the batch kernels' one-pass chain on one configuration: only the products the placements need
         let (_, sn, cs) = joint_angles(model.joints(), q);
