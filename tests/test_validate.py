@@ -219,3 +219,26 @@ def test_cli_validate_refits_the_registration_when_asked(session):
     assert b["registration"] == "refit" and b["rms_m"] < 1e-4
     text = CliRunner().invoke(app, ["validate", str(session / "cal.toml"), str(session / "moved.csv"), "--refit-registration"])
     assert "(registration refit)" in text.output and "registration re-fitted with the kinematics frozen" in text.output
+
+
+def test_a_robot_file_from_calibrate_save_carries_its_training_ranges(kr5, tmp_path):
+    """`calibrate --save` writes the training poses' joint ranges ([training], the file's units); `validate` on that
+    file flags exactly the poses with a joint outside them (computed here) and names the joints."""
+    truth = _shifted(kr5, 3, "a", 4e-4)
+    lo, hi = np.radians([-30, -90, 40, -30, 40, -45]), np.radians([30, -60, 90, 30, 90, 45])
+    qtr = lo + (hi - lo) * np.random.default_rng(1).random((50, 6))
+    (tmp_path / "train.csv").write_text(to_csv(cal.simulate(_with_tool(truth.model()), qtr, tool=TOOL, noise=NOISE, seed=1)))
+    r = CliRunner().invoke(app, ["calibrate", str(tmp_path / "train.csv"), "--nominal", "kr5", "--tool", "50,30,100", "--save", str(tmp_path / "cal.toml")])
+    assert r.exit_code == 0, r.output
+    saved = dv.load_robot(tmp_path / "cal.toml")
+    np.testing.assert_allclose(np.radians(saved.extra["training"]["lower"]), qtr.min(axis=0), atol=1e-9)  # degrees in a mm/deg file
+    q = np.vstack([qtr.min(axis=0) + (qtr.max(axis=0) - qtr.min(axis=0)) * np.random.default_rng(2).random((20, 6)), cal.configurations(kr5, 20, skip=900)])
+    (tmp_path / "test.csv").write_text(to_csv(cal.simulate(_with_tool(truth.model()), q, tool=TOOL, noise=NOISE, seed=5)))
+    out = CliRunner().invoke(app, ["validate", str(tmp_path / "cal.toml"), str(tmp_path / "test.csv"), "--json", "-"])
+    assert out.exit_code == 0, out.output
+    doc = json.loads(out.stdout)
+    flagged = np.array(["outside_training_range" in p["flags"] for p in doc["per_pose"]])
+    outside = np.any((q < qtr.min(axis=0) - 1e-9) | (q > qtr.max(axis=0) + 1e-9), axis=1)
+    np.testing.assert_array_equal(flagged, outside)
+    assert outside[20:].sum() >= 15 and all(p["outside_joints"] for p, o in zip(doc["per_pose"], outside, strict=True) if o)
+    np.testing.assert_allclose(doc["training_range"]["upper"], qtr.max(axis=0), atol=1e-9)

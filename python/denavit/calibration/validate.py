@@ -17,7 +17,8 @@ sigma^2 instead of ``3`` sigma^2 (the noise per coordinate).
 Extrapolation flags (per pose, ``flags``):
 
 * ``"outside_training_range"``: a joint value outside the range of the training poses, when the model carries them
-  (a :class:`~denavit.calibration.Calibration`: its measurements; an identification: its sweeps); the joints are in
+  (a :class:`~denavit.calibration.Calibration`: its measurements; an identification: its sweeps; a robot file
+  written by ``calibrate --save``: its ``[training]`` table, :func:`training_table`); the joints are in
   ``outside_joints``.
 * ``"large_predicted_sigma"``: the predicted tool-position error (1 sigma, 3-D, from the model's covariance:
   :func:`denavit.compensation.predicted_sigma` for a calibration or an identification,
@@ -154,6 +155,44 @@ class ModelValidation:
                 f"{self.rms * 1e3:.4g} mm, max {self.max * 1e3:.4g} mm, {self.n_flagged} flagged{iso})")
 
 
+#: The robot-file table ``calibrate --save`` writes the training poses' joint ranges to (the file's joint units).
+TRAINING_TABLE = "training"
+
+
+def training_table(q, kinds, length: str, angle: str) -> dict:
+    """The ``[training]`` table of a robot file: the joint ranges of the poses a calibration was fitted on (``lower``,
+    ``upper`` in the file's joint units: ``angle`` for a revolute joint, ``length`` for a prismatic one) and their
+    count, so that :func:`validate` flags poses outside them."""
+    from ..io.units import joint_scale  # noqa: PLC0415
+
+    q = np.asarray(q, dtype=float)
+    s = joint_scale(list(kinds), length, angle)
+    return {"poses": len(q), "lower": [float(v) for v in q.min(axis=0) / s], "upper": [float(v) for v in q.max(axis=0) / s]}
+
+
+def _training_of(robot) -> np.ndarray | None:
+    """(2, n) the lower and upper training joint values (SI) of a robot file's ``[training]`` table (its units from
+    the file's ``[units]``), or None."""
+    spec = robot.extra.get(TRAINING_TABLE) if isinstance(robot.extra, dict) else None
+    if not isinstance(spec, dict) or not robot.path or not str(robot.path).lower().endswith(".toml"):
+        return None
+    import tomllib  # noqa: PLC0415
+
+    from ..io.units import joint_scale  # noqa: PLC0415
+
+    where = f"{robot.path}, [{TRAINING_TABLE}]"
+    try:
+        with open(robot.path, "rb") as f:
+            units = tomllib.load(f).get("units") or {}
+        s = joint_scale(list(robot.table.kinds), units.get("length", "m"), units.get("angle", "rad"), where)
+        lo, hi = (np.asarray(spec[k], dtype=float) for k in ("lower", "upper"))
+    except (OSError, ValueError, TypeError, KeyError, tomllib.TOMLDecodeError) as e:
+        raise DenavitError(f"{where}: expected lower = [...] and upper = [...], one joint value each in the file's units ({e})") from None
+    if lo.shape != (len(s),) or hi.shape != (len(s),) or not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+        raise DenavitError(f"{where}: expected lower and upper of {len(s)} finite joint values each, got {lo.tolist()} and {hi.tolist()}")
+    return np.vstack([lo * s, hi * s])
+
+
 def _model_of(model):
     """(kinematic Model, name, covariance source or None, training readings or None, readings -> joint values) of
     whatever ``model`` is: a Calibration, an Identification, a Robot, a Model, a built-in name, a robot file or URDF."""
@@ -182,7 +221,8 @@ def _model_of(model):
 
         model = as_robot(os.fspath(model) if isinstance(model, os.PathLike) else model)
     robot = model
-    return robot.model(), robot.name, robot if robot.covariance is not None else None, None, (robot.joint_values if robot.has_reading_model else (lambda q: q))
+    return (robot.model(), robot.name, robot if robot.covariance is not None else None, _training_of(robot),
+            robot.joint_values if robot.has_reading_model else (lambda q: q))
 
 
 def _predicted_sigma(source, readings: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -405,7 +445,8 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
             f.append("large_predicted_sigma")
         flags.append(tuple(f))
     if training is None:
-        notes.append(f"no training joint ranges: the model {name} does not carry its training poses (a calibration or an identification does)")
+        notes.append(f"no training joint ranges: the model {name} does not carry its training poses (a calibration, an identification, or a robot file "
+                     "from calibrate --save with its [training] table does)")
     # ISO 9283
     groups = []
     for idx in repeat_groups(readings, repeat_tol):

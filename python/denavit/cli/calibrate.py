@@ -122,9 +122,12 @@ def calibrate(
         print_calibration(res, length, angle, verbose)
     _refuse_jumps(res, robot, length, angle)
     if save:
+        from ..calibration.validate import TRAINING_TABLE, training_table  # noqa: PLC0415
         from ..io.robotfile import save as save_file  # noqa: PLC0415
 
-        save_file(res.robot(), save, length, angle)
+        saved = res.robot()  # with the training poses' joint ranges: validate flags poses outside them
+        saved = replace(saved, extra={**saved.extra, TRAINING_TABLE: training_table(res.measurements.q, robot.table.kinds, length, angle)})
+        save_file(saved, save, length, angle)
         wrote(save)
     if urdf:
         from ..io.urdf import save_urdf  # noqa: PLC0415
