@@ -37,7 +37,7 @@ from .common import (
 
 @commands.command()
 def calibrate(
-    data: Annotated[Path, typer.Argument(help="Measurements: CSV 'q1..qn,x,y,z[,rx,ry,rz]', a long-form sweep CSV (with 'joint'), or JSON.")],
+    data: Annotated[Path, typer.Argument(help="Measurements: CSV 'q1..qn,x,y,z[,rx,ry,rz]' (several targets per pose: 'q1..qn,x,y,z,x2,y2,z2,...'), a long-form sweep CSV (with 'joint'), JSON, or a recording.")],
     nominal: Annotated[str, typer.Option("--nominal", help="Nominal model (built-in name, robot file or URDF).")],
     convention: Annotated[str, typer.Option("--convention", help="edh | mdh (Hayati angle where axes are near-parallel) | dh")] = "edh",
     fix: Annotated[str | None, typer.Option("--fix", help="Parameters to hold at their nominal values: names or patterns, comma-separated (e.g. 'base_*,tool_z').")] = None,

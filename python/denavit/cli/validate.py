@@ -35,8 +35,8 @@ ROWS = 30
 
 @commands.command()
 def validate(
-    model: Annotated[str, typer.Argument(help="The model to score: a robot file (e.g. from calibrate --save, with its [covariance]), a URDF or a built-in name.")],
-    data: Annotated[Path, typer.Argument(help="Another measurement session, in any format calibrate reads (CSV 'q1..qn,x,y,z[,rx,ry,rz]', sweep CSV, JSON, a recording).")],
+    model: Annotated[str, typer.Argument(help="The model to score: a robot file (e.g. from calibrate --save, with its \\[covariance] and \\[training]), a URDF or a built-in name.")],
+    data: Annotated[Path, typer.Argument(help="Another measurement session, in any format calibrate reads (CSV 'q1..qn,x,y,z[,rx,ry,rz]' or with further targets 'x2,y2,z2,...', sweep CSV, JSON, a recording).")],
     refit_registration: Annotated[bool, typer.Option("--refit-registration", help="Re-fit base and tool (the kinematics frozen): data from another placement of the tracker. Default: the model's registration is kept (the data are in the frame it was calibrated in).")] = False,
     tool: Annotated[str | None, typer.Option("--tool", help="Tool point in the flange frame, --length units (default: the model's tool).")] = None,
     max_sigma: Annotated[float | None, typer.Option("--max-sigma", help="Flag poses whose predicted error (1 sigma, from the model's covariance) exceeds this, --length units (default: 3 x the median).")] = None,
