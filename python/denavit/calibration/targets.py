@@ -319,6 +319,9 @@ def calibrate_targets(meas, nominal, *, convention: str = "edh", fix=(), loss: s
     if noise is not None and not (isinstance(noise, (int, float)) and math.isfinite(noise) and noise > 0):
         raise DenavitError(f"noise: expected the known one-sigma noise, a finite value > 0 (m), got {noise!r}")
     notes = [f"{tm.n} poses x {K} targets: one fit with every target's point in the flange frame (target{{k}}_x, _y, _z)"]
+    sweeps = meas if hasattr(meas, "has_rotations") else getattr(meas, "sweeps", None)
+    if sweeps is not None and getattr(sweeps, "has_rotations", False):
+        notes.append("the poses' orientations (qw, qx, qy, qz) are not used: the targets' points determine the flange's orientation at every pose")
     m_nom = robot.model()
     T_tool_nom = np.asarray(m_nom.T_flange_tool, dtype=float)
     if tool is not None:
