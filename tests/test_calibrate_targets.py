@@ -166,3 +166,15 @@ def test_cli_calibrate_a_recording_with_three_targets_per_row(kr5, tmp_path):
     doc = json.loads(one.read_text())
     p = {row["name"]: row["value"] for row in doc["parameters"]}
     assert "target1_x" not in p and np.allclose([p["tool_x"], p["tool_y"], p["tool_z"]], NEST[1], atol=2e-4)
+
+
+def test_validate_groups_repeated_poses_not_the_targets_of_one_pose(kr5):
+    """Several targets scored at their nest points: a pose's targets share its readings but are no repeated visits
+    (ISO 9283 groups only poses visited again: here 3 poses visited 10 times each)."""
+    _, _, truth = _truth(kr5)
+    q = np.vstack([np.repeat(cal.configurations(kr5, 3, skip=50), 10, axis=0), cal.configurations(kr5, 10, skip=80)])
+    tm = TargetMeasurements(q, _targets(truth, q, 6), NEST)
+    model = truth.with_tool(np.eye(4))
+    v = dv.validate(model, tm)
+    assert v.n == 40 * 4 and len(v.groups) == 3 and sorted(g.n for g in v.groups) == [10, 10, 10]
+    assert abs(v.rms / (np.sqrt(3) * NOISE) - 1) < 0.25

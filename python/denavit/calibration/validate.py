@@ -47,6 +47,7 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -354,7 +355,6 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
     """
     from ..api import _measurements  # noqa: PLC0415
     from ..sweeps import SweepSet  # noqa: PLC0415
-    from .parametrization import as_robot  # noqa: PLC0415
 
     if registration not in REGISTRATIONS:
         raise DenavitError(f"registration: expected 'frozen' or 'refit', got {registration!r}")
@@ -363,14 +363,15 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
             raise DenavitError(f"{what}: expected a finite value > 0, got {v!r}")
     km, name, cov_source, training, joints = _model_of(model)
     n = km.nq
-    robot = model.parametrization.robot if hasattr(model, "parametrization") else as_robot(km)
+    robot = model.parametrization.robot if hasattr(model, "parametrization") else SimpleNamespace(table=SimpleNamespace(kinds=list(km.kinds)))  # (the reader needs the kinds)
     data = _measurements(data, robot, points=points, poses=poses, format=format, length=length, angle=angle, columns=columns, target=target)
     notes: list[str] = []
     nest_rows = None  # per row, its target's point in the tool frame (several targets with their nest)
+    per_pose = 1  # rows per pose (several targets scored: one row each)
     if several_targets(data):
         tm = as_target_measurements(data)
         if tm.nest is not None:
-            meas, nest_rows = tm.expanded(with_index=False), np.tile(tm.nest, (tm.n, 1))
+            meas, nest_rows, per_pose = tm.expanded(with_index=False), np.tile(tm.nest, (tm.n, 1)), tm.n_targets
             notes.append(f"{tm.n} poses x {tm.n_targets} targets: every target scored, predicted at its nest point in the model's tool frame")
         else:
             meas = Measurements(tm.q, tm.targets[:, 0], None, tm.source, tm.where, tm.units, kinds=tm.kinds)
@@ -449,7 +450,8 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
                      "from calibrate --save with its [training] table does)")
     # ISO 9283
     groups = []
-    for idx in repeat_groups(readings, repeat_tol):
+    for first in repeat_groups(readings[::per_pose], repeat_tol):  # visits of one pose (with several targets: target 1's rows)
+        idx = first * per_pose
         ap, rp, bary = iso9283(measured[idx], P[idx, :3, 3].mean(axis=0))
         groups.append(PoseGroup(idx, bary, P[idx, :3, 3].mean(axis=0), ap, rp))
     if groups and min(g.n for g in groups) < ISO_CYCLES:
