@@ -56,10 +56,15 @@ class Compensation:
     predicted_after: np.ndarray | None = None
     q_command: np.ndarray | None = None
     notes: tuple[str, ...] = ()
+    assumed: np.ndarray | None = None
+    """(N,) the rows that came without a configuration: ``q_nominal`` is the one assumed for them (the nominal's
+    solution nearest ``q0``), and ``branch_changed`` compares with it; the others' ``q_nominal`` is the program's."""
 
     def __post_init__(self):
         if self.q_command is None:
             object.__setattr__(self, "q_command", self.q)
+        if self.assumed is None:
+            object.__setattr__(self, "assumed", np.zeros(len(self.targets), dtype=bool))
 
     @property
     def ok(self) -> np.ndarray:
@@ -129,10 +134,14 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
     targets : array-like, shape (N, 4, 4)
         Target tool poses ``T_world_tool`` (m).
     q_nominal : array-like, shape (N, n), optional
-        The program's nominal joint values (rad / m), when it was written as joint rows; else the targets are
-        solved on the nominal model from ``q0`` (shape (n,), default zeros).
+        The program's configuration: its nominal joint values (rad / m), when it was written as joint rows or
+        its configuration is known (e.g. a controller's configuration bits); a row of NaN: none. Rows without one
+        are compensated on the nominal's solution nearest ``q0`` (:func:`nearest_solutions`; ``assumed`` says which).
+    q0 : array-like, shape (n,), optional
+        The configuration the rows without one are nearest to; default the nominal's home (a Robot's ``home``),
+        else zeros.
     path : bool
-        The targets form a path: nominal solutions are warm-started along it and jumps are flagged.
+        The targets form a path: nominal solutions are warm-started along it (from ``q0``) and jumps are flagged.
     result : Identification or Calibration, optional
         Gives ``predicted_after`` (:func:`predicted_sigma` at the compensated joint values); default ``identified``
         itself when it is one, or its ``covariance`` when it is a Robot that has one (:func:`table_sigma`).
@@ -168,6 +177,29 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
     T = np.asarray(targets, dtype=float)
     if T.ndim == 2:
         T = T[None]
+    if q0 is None:
+        home = getattr(nominal, "home", None)
+        q0 = np.zeros(nom.nq) if home is None else np.asarray(home, dtype=float)
+    q0 = np.asarray(q0, dtype=float)
+    qarr = None if q_nominal is None else np.asarray(q_nominal, dtype=float)
+    if qarr is not None and qarr.shape != (len(T), nom.nq):  # (the core says what is wrong)
+        assumed = np.zeros(len(T), dtype=bool)
+    else:
+        assumed = np.ones(len(T), dtype=bool) if qarr is None else ~np.all(np.isfinite(qarr), axis=1)
+    unreachable = np.zeros(len(T), dtype=bool)
+    if assumed.any() and not path and _valid_poses(T):
+        # the rows without a configuration: the nominal's solution nearest q0 (the core's solve from q0 is local:
+        # it gives whatever branch its descent falls into, 36 % of a program's rows off the program's)
+        qn = np.full((len(T), nom.nq), np.nan) if q_nominal is None else np.array(q_nominal, dtype=float)
+        ik_solve = {k: v for k, v in ik_options.items() if k in ("method", "tol_position", "tol_rotation", "max_iterations", "damping")}
+        qa, found = nearest_solutions(nom, T[assumed], q0, **ik_solve)
+        qn[assumed] = qa
+        unreachable[np.flatnonzero(assumed)[~found]] = True
+        q_nominal = qn
+    elif assumed.any():
+        q_nominal = None if assumed.all() else q_nominal
+        if q_nominal is not None:
+            raise DenavitError("q_nominal: path mode takes a configuration for every row or for none (rows of NaN among given ones)")
     r = _core.compensate(nom, ide, T, q_nominal, q0, path=path, branch_tol=branch_tol, **ik_options)
     q = r.q
     predicted = None
@@ -199,8 +231,53 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
         exe = _core.fk_batch(ide, to_identified(r.q_nominal))  # the program run as written
         before = np.linalg.norm(exe[:, :3, 3] - T[:, :3, 3], axis=1)
         before_rot = _angle(np.swapaxes(T[:, :3, :3], 1, 2) @ exe[:, :3, :3])
-    return Compensation(T, commands, q, r.q_nominal, r.reached, r.branch_changed, r.path_jump, r.position_error, r.rotation_error,
-                        before, before_rot, predicted, q_cmd, tuple(notes))
+    if assumed.any():
+        notes.append(f"{int(assumed.sum())} of {len(T)} rows without a configuration: compensated on the nominal's solution nearest q0 "
+                     f"({', '.join(f'{v:.4g}' for v in q0)} rad / m){' warm-started along the path' if path else ''}"
+                     + (f"; {int(unreachable.sum())} of them unreachable on the nominal" if unreachable.any() else ""))
+    return Compensation(T, commands, q, r.q_nominal, r.reached & ~unreachable, r.branch_changed, r.path_jump, r.position_error, r.rotation_error,
+                        before, before_rot, predicted, q_cmd, tuple(notes), assumed)
+
+
+def _valid_poses(T: np.ndarray) -> bool:
+    """Every target a finite rigid pose (else the core's check says which is not)."""
+    R = T[:, :3, :3]
+    return bool(np.all(np.isfinite(T)) and np.allclose(R @ np.swapaxes(R, 1, 2), np.eye(3), atol=1e-6) and np.allclose(T[:, 3], [0, 0, 0, 1]))
+
+
+def nearest_solutions(model, targets, q_ref, *, seeds: int = 24, **ik_options) -> tuple[np.ndarray, np.ndarray]:
+    """The inverse kinematics of ``targets`` (N, 4, 4) on ``model`` nearest ``q_ref`` ((n,) or (N, n)): among the
+    solutions found from ``q_ref`` and from ``seeds`` fixed configurations spread over the joint limits (local
+    solves, no restarts: one per branch they fall into), each revolute joint moved by whole turns to the value within
+    its limits nearest ``q_ref``'s, the one nearest ``q_ref`` (Euclidean, rad / m). Returns ``q`` (N, n) and
+    ``found`` (N,); a row not found keeps ``q_ref``."""
+    m = _model(model, "model")
+    T = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
+    N, n = len(T), m.nq
+    ref = np.broadcast_to(np.asarray(q_ref, dtype=float), (N, n))
+    if N == 0:
+        return np.zeros((0, n)), np.zeros(0, dtype=bool)
+    lo, hi = np.asarray(m.lower, dtype=float), np.asarray(m.upper, dtype=float)
+    rev = np.array([k == "revolute" for k in m.kinds])
+    lo2, hi2 = np.where(rev, np.maximum(lo, -np.pi), lo), np.where(rev, np.minimum(hi, np.pi), hi)
+    S = lo2 + (hi2 - lo2) * np.random.default_rng(20260538).random((seeds, n))
+    K = seeds + 1
+    starts = np.concatenate([ref[:, None, :], np.broadcast_to(S, (N, seeds, n))], axis=1).reshape(-1, n)
+    res = _core.ik_batch(m, np.repeat(T, K, axis=0), starts, restarts=0, **ik_options)
+    q = res.q.reshape(N, K, n)
+    ok = res.success.reshape(N, K)
+    R = np.repeat(ref[:, None, :], K, axis=1)
+    inside = (q >= lo - 1e-12) & (q <= hi + 1e-12)
+    best, dist = q.copy(), np.where(inside, np.abs(q - R), np.inf)
+    for turns in (-1, 1, -2, 2):  # the same joint angle whole turns away (a wrist within +-350 deg), within the limits
+        c = q + turns * 2 * np.pi
+        d = np.where(rev & (c >= lo - 1e-12) & (c <= hi + 1e-12), np.abs(c - R), np.inf)
+        closer = d < dist
+        best, dist = np.where(closer, c, best), np.where(closer, d, dist)
+    total = np.where(ok & np.all(np.isfinite(dist), axis=2), np.sqrt(np.sum(np.where(np.isfinite(dist), dist, 0.0) ** 2, axis=2)), np.inf)
+    k = np.argmin(total, axis=1)
+    found = np.isfinite(total[np.arange(N), k])
+    return np.where(found[:, None], best[np.arange(N), k], ref), found
 
 
 #: An identified tool farther than this fraction of the robot's size from the flange is a tool (identify's measured

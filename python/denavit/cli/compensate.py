@@ -9,7 +9,26 @@ import typer
 
 from ..errors import DenavitError
 from ..io.units import length_scale
-from .common import SI_UNITS, AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, TipLinkOpt, check_outputs, commands, console, emit_json, json_target, load_robot, positive, say, spread, status, wrote
+from .common import (
+    SI_UNITS,
+    AngleOpt,
+    BaseLinkOpt,
+    JsonOpt,
+    LengthOpt,
+    TipLinkOpt,
+    check_outputs,
+    commands,
+    console,
+    emit_json,
+    json_target,
+    load_robot,
+    parse_joint_values,
+    positive,
+    say,
+    spread,
+    status,
+    wrote,
+)
 
 
 @commands.command()
@@ -26,6 +45,7 @@ def compensate(
     report: Annotated[Path | None, typer.Option("--report", help="Write a self-contained HTML report (summary, 3-D view, per-target errors).")] = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
+    q0: Annotated[str | None, typer.Option("--q0", help="Rows without a configuration (poses without joint columns) are compensated on the nominal's solution nearest this, one value per joint in --angle units (prismatic: --length); default the nominal's home, else zeros.")] = None,
 ) -> None:
     """Compensate a program (RoboDK's "filtering"): for each target, the joint values that reach it on the
     identified robot (on the program's branch) and the pose T' = FK_nominal(q) to send to a controller that keeps
@@ -47,6 +67,7 @@ def compensate(
     if nom.nq != ide.nq:
         raise DenavitError(f"--identified {identified}: {ide.nq} joints, but the nominal {nom_robot.name} has {nom.nq}")
     kinds = list(nom.kinds)
+    q0v = parse_joint_values(q0, "--q0", nom_robot, length, angle, default=nom_robot.home)
     prog = read_targets(targets, kinds, length=length, angle=angle)
     poses = prog.poses if prog.poses is not None else _core.fk_batch(nom, prog.q)
     # a target beyond any reach is a unit slip, not a target to flag: say so at its row
@@ -59,7 +80,8 @@ def compensate(
                            f"reaches about {reach / length_scale(prog.units['length']):.4g} {prog.units['length']} ({len(far)} such rows): is the file's length unit right?")
     with status(f"compensating {len(poses)} targets ..."):
         # (the robots, not their models: the identified robot's reading model, [couplings] and [readings], applies)
-        c = cp.compensate(nom_robot, id_robot, poses, q_nominal=prog.q, path=path, branch_tol=positive(branch_tol, "--branch-tol", angle_scale(angle), np.radians(5.0), angle))
+        c = cp.compensate(nom_robot, id_robot, poses, q_nominal=prog.q, q0=q0v, path=path,
+                          branch_tol=positive(branch_tol, "--branch-tol", angle_scale(angle), np.radians(5.0), angle))
     for n in c.notes:
         say("yellow", "note:", f" {n}")
     ls = length_scale(length)
@@ -70,12 +92,13 @@ def compensate(
     predicted = c.predicted_after  # (compensate's table_sigma of the robot file's [covariance], when it has one)
     if output:
         write_compensated(output, c, kinds, length=length, angle=angle, comment=f"compensated for {nom_robot.name} -> {id_robot.name} from {targets}",
-                          predicted_after=predicted)
+                          predicted_after=predicted, q0=q0v)
         wrote(output, f" ({len(c)} rows, {len(flagged)} flagged)")
     summary = {"targets": len(c), "flagged": len(flagged), "units": SI_UNITS,
                "before_rms_m": before_rms, "before_max_m": float(c.before[c.ok].max()) if c.ok.any() else None,
                "residual_max_m": float(c.residual[c.ok].max()) if c.ok.any() else None,
-               "flagged_rows": [{"where": w, "why": why} for w, why in flagged], "notes": list(c.notes)}
+               "flagged_rows": [{"where": w, "why": why} for w, why in flagged], "notes": list(c.notes),
+               "without_configuration": int(c.assumed.sum()), "q0": [float(v) for v in q0v]}
     if predicted is not None:
         summary["predicted_after_rms_m"] = float(np.sqrt(np.mean(predicted[c.ok] ** 2))) if c.ok.any() else None
         summary["predicted_after"] = [{"where": w, "sigma_m": float(p)} for w, p in zip(prog.where, predicted, strict=True)]
@@ -84,7 +107,8 @@ def compensate(
     summary["rows"] = [{"where": prog.where[k], "q": [float(v) for v in c.q_command[k]], "T_command": c.commands[k].tolist(),
                         "ok": bool(c.ok[k]), "reached": bool(c.reached[k]), "branch_changed": bool(c.branch_changed[k]), "path_jump": bool(c.path_jump[k]),
                         "before_m": float(c.before[k]), "before_rotation_rad": float(c.before_rotation[k]), "residual_m": float(c.residual[k]),
-                        "residual_rotation_rad": float(c.residual_rotation[k]), "predicted_after_m": None if predicted is None else float(predicted[k])}
+                        "residual_rotation_rad": float(c.residual_rotation[k]), "predicted_after_m": None if predicted is None else float(predicted[k]),
+                        "configuration": "assumed" if c.assumed[k] else "program", "q_nominal": [float(v) for v in c.q_nominal[k]]}
                        for k in range(len(c))]
     emit_json(summary, json_out)
     if json_out != "-" and output != "-":
@@ -92,6 +116,13 @@ def compensate(
         gain = (f"; error without compensation {spread(before_rms / ls)} {length} RMS, max {spread(summary['before_max_m'] / ls)} {length}{left_out}"
                 if c.ok.any() else "; no target can be sent (is the identified robot a calibration of the nominal?)")
         say("bold", f"{nom_robot.name} -> {id_robot.name}:", f" {len(c)} targets, {len(flagged)} flagged{gain}")
+        if c.assumed.any():
+            from ..io.units import joint_scale  # noqa: PLC0415
+
+            js = joint_scale(kinds, length, angle)
+            say("yellow", "configuration:", f" {int(c.assumed.sum())} of {len(c)} rows had none (no joint columns): each compensated on the nominal's solution "
+                f"nearest --q0 ({', '.join(f'{v:.6g}' for v in q0v / js)} {angle}); that configuration is each row's q1..q{len(kinds)} ('configuration': "
+                "'assumed' and q_nominal in --json). Give the program's joint values as q columns to keep its own")
         if predicted is not None and c.ok.any():
             say("bold", "Predicted error after compensation", f" (1 sigma, from {id_robot.name}'s covariance): rms {summary['predicted_after_rms_m'] / ls:.4g} {length}, "
                 f"max {float(predicted[c.ok].max()) / ls:.4g} {length}" + (" (per row in --json)" if len(c) > 20 else ""))

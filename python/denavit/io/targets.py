@@ -81,7 +81,8 @@ def read_targets(path: str | os.PathLike, kinds, *, length: str | None = None, a
     return Targets(poses, q, places, units)
 
 
-def write_compensated(path, comp, kinds, *, length: str = "mm", angle: str = "deg", comment: str = "", predicted_after=None, force: bool = False) -> None:
+def write_compensated(path, comp, kinds, *, length: str = "mm", angle: str = "deg", comment: str = "", predicted_after=None, force: bool = False,
+                      q0=None) -> None:
     """Write a :class:`denavit.compensation.Compensation` as a program: the commands ``T'`` (x, y, z, rx, ry,
     rz), the joint values ``q1..qn`` of the commands on the nominal model (``T' = FK_nominal(q)``: the joint rows
     to send; the identified model's own unless its readings differ), and per row ``ok`` (1: send it), ``reached``,
@@ -89,17 +90,25 @@ def write_compensated(path, comp, kinds, *, length: str = "mm", angle: str = "de
     by the identified model), ``residual`` (of the identified solve) and, when ``predicted_after`` (N,) is given
     (or the compensation has it), ``predicted_after`` (the predicted position error after compensation, 1 sigma,
     from the identified parameters' covariance), in the length unit (a ``# columns:`` line says so). Whole or not at all;
-    ``force``: replace a read-only file, write through one with several hard links (:func:`denavit.io.output.write_text`)."""
+    ``force``: replace a read-only file, write through one with several hard links (:func:`denavit.io.output.write_text`).
+    Rows that came without a configuration (``comp.assumed``) are said on the first comment line: their q1..qn are
+    on the nominal's solution nearest ``q0`` (SI, for the line)."""
     ls, as_ = length_scale(length), angle_scale(angle)
     js = joint_scale(kinds, length, angle)
     n = len(kinds)
     pred = predicted_after if predicted_after is not None else comp.predicted_after
     head = [*POSE, *(f"q{i}" for i in range(1, n + 1)), "ok", "reached", "branch_changed", "path_jump", "before", "residual", *(["predicted_after"] if pred is not None else [])]
+    assumed = getattr(comp, "assumed", None)
+    if assumed is not None and assumed.any():  # (on the comment line: the file keeps its lines)
+        at = "" if q0 is None else f" ({', '.join(f'{v:.6g}' for v in np.asarray(q0) / js)})"
+        which = "every row" if assumed.all() else f"{int(assumed.sum())} rows ({', '.join(str(k + 1) for k in np.flatnonzero(assumed)[:20])}{' ...' if assumed.sum() > 20 else ''})"
+        comment = (f"{comment}; " if comment else "") + (f"configuration: {which} without one in the program: assumed the nominal's solution nearest q0{at}, "
+                                                         f"the branch of the row's q1..q{n}")
     out = [f"# {comment}"] if comment else []
     out += [f"# units: length={length} angle={angle}",
             f"# columns: x,y,z {length}, rx,ry,rz (rotation vector) {angle}, q1..q{n} in {angle} (revolute) / {length} (prismatic); "
-            f"before, residual{', predicted_after (1 sigma)' if pred is not None else ''}: tool-position errors in {length}",
-            ",".join(head)]
+            f"before, residual{', predicted_after (1 sigma)' if pred is not None else ''}: tool-position errors in {length}"]
+    out.append(",".join(head))
     rv = matrix_rotvec(comp.commands[:, :3, :3]) / as_
     for k in range(len(comp)):
         cells = [*(comp.commands[k, :3, 3] / ls), *rv[k], *(comp.q_command[k] / js)]
