@@ -178,3 +178,15 @@ def test_validate_groups_repeated_poses_not_the_targets_of_one_pose(kr5):
     v = dv.validate(model, tm)
     assert v.n == 40 * 4 and len(v.groups) == 3 and sorted(g.n for g in v.groups) == [10, 10, 10]
     assert abs(v.rms / (np.sqrt(3) * NOISE) - 1) < 0.25
+
+
+def test_six_dof_sweeps_are_calibrated_as_poses(kr5):
+    """Sweeps of a 6-DoF probe (orientations recorded, one target): calibrate uses the orientations (pose
+    measurements) and finds the probe's frame, (50, 30, 100) mm from the flange, not turned."""
+    s = sw.simulate(kr5.model(), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=8, poses=True,
+                    noise=NOISE, noise_rot=2e-5, seed=2)
+    c = cal.calibrate(s, kr5)
+    assert c.measurements.kind == "pose" and c.rms_rotation < 1e-4 and c.rms < 3 * NOISE * np.sqrt(3)
+    T = np.asarray(c.model().T_flange_tool)
+    np.testing.assert_allclose(T[:3, 3], (0.05, 0.03, 0.10), atol=1e-4)
+    assert np.linalg.norm(Rotation.from_matrix(T[:3, :3]).as_rotvec()) < 1e-3

@@ -87,7 +87,8 @@ def register(pz: Parametrization, x, meas: Measurements, base_free: bool, tool_f
             if after < 0.5 * before:
                 pz, x = cand_pz, cand_x
                 dist = float(np.linalg.norm(pz.base_pose(x)[:3, 3]))
-                notes.append(f"base registered in closed form (Kabsch): the robot's base stands {dist:.4g} m from the measurement frame's origin; "
+                notes.append(f"base registered in closed form (Kabsch{', alternated with the tool point' if trans else ''}): the robot's base stands {dist:.4g} m from "
+                             "the measurement frame's origin; "
                              f"the nominal model's tool points miss the data by {before * 1e3:.4g} mm rms before, {after * 1e3:.4g} mm after")
     if pz.measure == "pose" and len(rots) == 3 and meas.poses is not None:
         pz, x, angle = _register_tool_rotation(pz, x, meas, rots)

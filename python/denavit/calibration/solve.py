@@ -30,7 +30,7 @@ from .parametrization import (
 from .priors import PRIOR_DOMINATED, as_prior
 from .registration import register
 from .selection import MODELS, ModelChoice, select_model
-from .targets import calibrate_targets, several_targets
+from .targets import calibrate_targets, several_targets, sweep_poses
 
 #: scipy.optimize.least_squares' robust losses (per residual coordinate).
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
@@ -315,6 +315,7 @@ def calibrate(
     if several_targets(meas):  # marker clusters, SMR nests: one fit with every target's point in the flange (targets.py)
         return calibrate_targets(meas, nominal, convention=convention, fix=fix, loss=loss, start=start, scale=scale, tool=tool, noise=noise,
                                  tracker_noise=tracker_noise, holdout=holdout, seed=seed)
+    meas = sweep_poses(meas)  # 6-DoF sweeps (a probe's, the controller's poses): their orientations used (targets.py)
     if isinstance(meas, SweepSet):
         meas = Measurements.from_sweeps(meas)
     if not isinstance(meas, Measurements):

@@ -134,6 +134,20 @@ def as_target_measurements(meas) -> TargetMeasurements:
     return TargetMeasurements.from_sweeps(sweeps)
 
 
+def sweep_poses(meas):
+    """6-DoF sweeps of one target (a probe's or the controller's poses: :attr:`denavit.sweeps.Sweep.rotations`), a
+    SweepSet or Measurements read from one, as pose Measurements (their orientations used, as identify uses them);
+    anything else as it is."""
+    sweeps = meas if hasattr(meas, "has_rotations") else getattr(meas, "sweeps", None)
+    if sweeps is None or not getattr(sweeps, "has_rotations", False) or sweeps.n_targets != 1 or getattr(meas, "poses", None) is not None:
+        return meas
+    pts = Measurements.from_sweeps(sweeps)
+    T = np.tile(np.eye(4), (pts.n, 1, 1))
+    T[:, :3, :3] = np.concatenate([s.rotations for s in sweeps.sweeps])
+    T[:, :3, 3] = pts.points
+    return Measurements(pts.q, None, T, pts.source, pts.where, pts.units, sweeps, pts.kinds)
+
+
 def pick_target(meas, target: int | None):
     """``meas`` with the target asked: ``target`` None keeps every target (a :class:`TargetMeasurements` when there are
     several), a 0-based index keeps that one alone (Measurements of its points)."""
@@ -435,4 +449,4 @@ def calibrate_targets(meas, nominal, *, convention: str = "edh", fix=(), loss: s
                        validation, shown, loss, sol is None or sol.status > 0, 0 if sol is None else int(sol.nfev), time.perf_counter() - t0, float(noise_est), notes)
 
 
-__all__ = ["TargetMeasurements", "TargetParametrization", "as_target_measurements", "calibrate_targets", "pick_target", "recording_poses", "several_targets"]
+__all__ = ["TargetMeasurements", "TargetParametrization", "as_target_measurements", "calibrate_targets", "pick_target", "recording_poses", "several_targets", "sweep_poses"]
