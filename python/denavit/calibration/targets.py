@@ -130,8 +130,10 @@ def several_targets(meas) -> bool:
 def as_target_measurements(meas) -> TargetMeasurements:
     if isinstance(meas, TargetMeasurements):
         return meas
-    sweeps = meas.sweeps if isinstance(meas, Measurements) else meas
-    return TargetMeasurements.from_sweeps(sweeps)
+    if isinstance(meas, Measurements):  # read from sweeps: their targets, at the Measurements' readings (a coupling applied to them kept)
+        tm = TargetMeasurements.from_sweeps(meas.sweeps)
+        return TargetMeasurements(meas.q, tm.targets, tm.nest, tm.source, tm.where, tm.units, tm.kinds)
+    return TargetMeasurements.from_sweeps(meas)
 
 
 def sweep_poses(meas):
@@ -145,7 +147,8 @@ def sweep_poses(meas):
     T = np.tile(np.eye(4), (pts.n, 1, 1))
     T[:, :3, :3] = np.concatenate([s.rotations for s in sweeps.sweeps])
     T[:, :3, 3] = pts.points
-    return Measurements(pts.q, None, T, pts.source, pts.where, pts.units, sweeps, pts.kinds)
+    q = meas.q if isinstance(meas, Measurements) else pts.q  # (the rows of from_sweeps: a caller's coupled readings kept)
+    return Measurements(q, None, T, pts.source, pts.where, pts.units, sweeps, pts.kinds)
 
 
 def pick_target(meas, target: int | None):

@@ -56,7 +56,7 @@ from ..errors import DenavitError
 from ..geometry import kabsch, matrix_rotvec, pose, rotvec_matrix
 from ..io.output import json_text, write_text
 from .measurements import Measurements
-from .targets import as_target_measurements, several_targets
+from .targets import as_target_measurements, several_targets, sweep_poses
 
 #: ``registration`` values: keep the model's base and tool, or re-fit them with the kinematics frozen.
 REGISTRATIONS = ("frozen", "refit")
@@ -377,6 +377,7 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
             meas = Measurements(tm.q, tm.targets[:, 0], None, tm.source, tm.where, tm.units, kinds=tm.kinds)
             notes.append(f"{tm.n_targets} targets per pose and no nest declared: target 1 scored (the tool frame's origin of a calibration of several targets)")
     else:
+        data = sweep_poses(data)  # 6-DoF sweeps: poses (the orientations scored too)
         meas = Measurements.from_sweeps(data) if isinstance(data, SweepSet) else data
     if meas.nq != n:
         raise DenavitError(f"{meas.source}: the data has {meas.nq} joint readings per pose but the model {name} has {n} joints ({', '.join(km.names)})")
