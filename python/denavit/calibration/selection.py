@@ -217,6 +217,13 @@ def _fit(name: str, pz: Parametrization, train: Measurements, w: np.ndarray, fre
     return Candidate(name, free, x, prior, held, position_errors(E, train, w), dof, sol)
 
 
+def _map_cost(pz: Parametrization, x, train: Measurements, w: np.ndarray, free: list, weight: np.ndarray) -> float:
+    """The objective of the MAP fit at x: the whitened residuals' and the prior rows' squares."""
+    r = residuals(pz, x, train, w, jacobian=False)[0]
+    f = np.asarray(free, dtype=int)
+    return float(np.sum(r**2) + np.sum((weight[f] * (x[f] - pz.x0[f])) ** 2))
+
+
 def candidate_sets(pz: Parametrization, kept: list, reg_kept: list, offsets_kept: list, with_prior: bool) -> dict:
     """The free parameters of each candidate (module docstring), by name; variants that would equal another are
     left out."""
@@ -302,9 +309,12 @@ def select_model(model: str, pz: Parametrization, train: Measurements, w: np.nda
         if name in ("base-tool", "offsets"):
             out.append(_fit(name, pz, train, w, free, x_reg, None, s2))
             continue
-        start = np.array(x_full if x_map is None else x_map)
         drop = [c for c in kept if c not in free]
-        start[drop] = pz.x0[drop]
+        starts = [np.array(x_full if x_map is None else x_map), np.array(x_reg)]  # the least-squares (or MAP) fit, or the nominal geometry registered
+        for x in starts:
+            x[drop] = pz.x0[drop]
+        weight = prior_weights(sigma, s2)
+        start = min(starts, key=lambda x: _map_cost(pz, x, train, w, free, weight))  # where the data barely fix a parameter the fit may have swung it far
         c = _fit(name, pz, train, w, free, start, sigma, s2)
         if name == "full-prior":
             x_map = c.x
