@@ -179,7 +179,7 @@ def test_prior_grammar_and_python_forms(kr5):
     assert pr.widths == pytest.approx({"length": 2e-3, "angle": math.radians(0.05), "offset": math.radians(30 / 3600), "scale": 5e-5})
     pz = cal.parametrize(kr5, "edh", tool=TOOL)
     s = pr.sigma(pz)
-    assert s[pz.index("a_5")] == 3.0 and s[pz.index("a_4")] == 2e-3 and np.isinf(s[pz.index("base_tx")]) and np.isinf(s[pz.index("tool_z")])
+    assert s[pz.index("a_5")] == pytest.approx(3e-3) and s[pz.index("a_4")] == 2e-3  # a bare number in --length (mm) and np.isinf(s[pz.index("base_tx")]) and np.isinf(s[pz.index("tool_z")])
     assert parse_prior("none") is None and as_prior(False) is None
     assert as_prior({"length": 5e-4}).widths["angle"] == DEFAULT_WIDTHS["angle"]
     with pytest.raises(dv.DenavitError, match="matches no parameter"):

@@ -59,13 +59,8 @@ class Prior:
 
     widths: dict = field(default_factory=lambda: dict(DEFAULT_WIDTHS))
     overrides: tuple = ()
-
-    def describe(self) -> str:
-        """One line, in mm / deg / ppm."""
-        parts = [f"length {self.widths['length'] * 1e3:.3g} mm", f"angle {math.degrees(self.widths['angle']):.3g} deg",
-                 f"offset {math.degrees(self.widths['offset']):.3g} deg", f"scale {self.widths['scale'] * 1e6:.3g} ppm"]
-        parts += [f"{p} {v:.3g} (SI)" for p, (v, _) in self.overrides]
-        return ", ".join(parts)
+    #: SI per unit of an override given as a bare number, (length, angle) (the CLI's --length / --angle; SI in Python)
+    bare: tuple = (1.0, 1.0)
 
     def sigma(self, pz: Parametrization) -> np.ndarray:
         """The prior width of every parameter of ``pz`` (SI; ``inf``: no prior, the base and tool registration)."""
@@ -79,7 +74,7 @@ class Prior:
                 want = _UNIT_DIMENSION[pz.units[c]]
                 if dim is not None and dim != want:
                     raise DenavitError(f"prior: {pz.names[c]} is a{'n' if want == 'angle' else ''} {want}, got a width in {dim} units for {pat!r}")
-                out[c] = v
+                out[c] = v if dim is not None else v * (self.bare[0] if want == "length" else self.bare[1] if want == "angle" else 1.0)
         return out
 
     def to_json(self) -> dict:
@@ -141,7 +136,7 @@ def parse_prior(text: str, length: str = "mm", angle: str = "deg", where: str = 
     """``"length=1mm, angle=0.1deg, offset=0.05deg, scale=100ppm, a_5=2mm"`` as a :class:`Prior` (kinds not given
     keep their defaults), ``"none"`` as None (no prior: least squares). A value's unit is one of
     :data:`WIDTH_UNITS`; a bare number is in ``length`` / ``angle`` for a length / angle kind and a ratio for
-    ``scale`` (for a parameter name, SI unless it has a unit)."""
+    ``scale``, and so for a parameter name by the parameter's unit."""
     from ..io.units import angle_scale, length_scale  # noqa: PLC0415
 
     s = text.strip()
@@ -179,7 +174,7 @@ def parse_prior(text: str, length: str = "mm", angle: str = "deg", where: str = 
             widths[key] = v
         else:
             over.append((key, (v, dim)))
-    return Prior(widths, tuple(over))
+    return Prior(widths, tuple(over), (length_scale(length), angle_scale(angle)))
 
 
 def prior_weights(sigma: np.ndarray, s2: float) -> np.ndarray:
