@@ -77,9 +77,6 @@ class Prior:
                 out[c] = v if dim is not None else v * (self.bare[0] if want == "length" else self.bare[1] if want == "angle" else 1.0)
         return out
 
-    def to_json(self) -> dict:
-        return {"widths_si": dict(self.widths), "overrides_si": {p: v for p, (v, _) in self.overrides}}
-
 
 def kind_of(pz: Parametrization, c: int) -> str | None:
     """The prior kind of parameter ``c`` of ``pz`` (None: the registration, no prior)."""
