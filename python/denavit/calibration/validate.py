@@ -24,7 +24,7 @@ Extrapolation flags (per pose, ``flags``):
   :func:`denavit.compensation.predicted_sigma` for a calibration or an identification,
   :func:`denavit.compensation.table_sigma` for a robot file's ``[covariance]``) above ``max_sigma`` (m) when given,
   else above :data:`SIGMA_FACTOR` times the median predicted sigma over the training poses (over this session's
-  poses when the model carries none).
+  poses when the model carries none, or only their ranges: a robot file).
 
 ISO 9283 (Manipulating industrial robots: performance criteria and related test methods, 1998), clause 7.2. Poses
 whose joint readings agree within ``repeat_tol`` (rad / m, every joint) are visits of one commanded pose
@@ -361,6 +361,8 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
     for what, v in (("max_sigma", max_sigma), ("sigma_factor", sigma_factor), ("repeat_tol", repeat_tol)):
         if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
             raise DenavitError(f"{what}: expected a finite value > 0, got {v!r}")
+    from ..robot import Robot  # noqa: PLC0415
+
     km, name, cov_source, training, joints = _model_of(model)
     n = km.nq
     robot = model.parametrization.robot if hasattr(model, "parametrization") else SimpleNamespace(table=SimpleNamespace(kinds=list(km.kinds)))  # (the reader needs the kinds)
@@ -429,7 +431,7 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
             if max_sigma is not None:
                 limit = float(max_sigma)
             else:
-                if training is not None and len(training):
+                if training is not None and len(training) and not isinstance(cov_source, Robot):  # (a robot file holds the ranges, not the poses)
                     ref = _predicted_sigma(cov_source, np.asarray(training, dtype=float), joints(np.asarray(training, dtype=float)))
                     what = "the training poses'"
                 else:
