@@ -157,23 +157,25 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
     notes = []
     tool = np.asarray(ide.T_flange_tool)
     poe = getattr(identified, "convention", None) == "poe"
-    if poe and _is_identity(nom.T_flange_tool):
-        tool = _poe_tool(nom, ide, identified)
+    if _is_identity(nom.T_flange_tool):
+        # the identified tool in its flange as the nominal's table places the flange: where a table puts its last
+        # frame along the last axis (the split of d6 and the tool's z, which no measurement of one point tells apart)
+        # is each convention's own, and a file saved in another convention would compensate another flange
+        try:
+            tool = canonical_tool(nom, ide, getattr(nominal, "home", None))
+        except DenavitError:
+            if poe:
+                raise
     off = tool[:3, 3]
     if _is_identity(nom.T_flange_tool) and np.linalg.norm(off) > TOOL_FRACTION * robot_size(nom, np.zeros(nom.nq)):
         # identify's tool is the point it measured (a reflector on the flange), not the controller's tool: with a
-        # nominal that has none, the targets and the commands are the flange's, and so is the identified robot
-        ide = ide.with_tool(np.linalg.inv(tool) if poe else np.eye(4))
-        at = "the flange"
-        if isinstance(identified, Robot):
-            identified = _without_tool(identified, np.linalg.inv(tool) if poe else None)
-            if poe:
-                at = "the flange (the POE table's covariance is of its home pose M, the measured point, carried rigidly to the flange)"
-        else:
-            at = "the identified tool point (its covariance is of that point)"
+        # nominal that has none, the targets and the commands are the flange's, and so is the identified robot (its
+        # flange: its tool frame less the tool in the canonical flange; the same from every file of one result)
+        ide = ide.with_tool(np.asarray(ide.T_flange_tool) @ np.linalg.inv(tool))
+        at = "the identified tool point (its covariance is of that point, as the result's own)"
         notes.append(f"the nominal {getattr(nominal, 'name', 'model')} has no tool and the identified robot has one ({np.linalg.norm(off) * 1e3:.4g} mm from the "
-                     f"flange: the point it was measured at): the flange compensated, the prediction after it at {at}; give the nominal a tool to compensate "
-                     "tool poses")
+                     f"flange: the point it was measured at): the flange compensated (the identified flange placed as the nominal's table places its own), "
+                     f"the prediction after it at {at}; give the nominal a tool to compensate tool poses")
     T = np.asarray(targets, dtype=float)
     if T.ndim == 2:
         T = T[None]
@@ -290,15 +292,16 @@ def _is_identity(T) -> bool:
     return bool(np.allclose(np.asarray(T, dtype=float), np.eye(4), rtol=0.0, atol=1e-12))
 
 
-def _poe_tool(nom: _core.Model, ide: _core.Model, identified) -> np.ndarray:
-    """The tool of a POE model ``ide``: POE has no flange of its own (its home pose ``M``, identify's measured point,
-    is its flange, its tool the identity), so the tool in the flange of its exact ED-H table extracted as identify
-    extracts one (frames on the nominal's bodies: the nominal's ED-H frame origins at home, projected on the axes)."""
-    home = getattr(identified, "home", None)
-    if home is None and hasattr(identified, "sweeps"):
-        home = identified.sweeps.home
+def canonical_tool(nom: _core.Model, ide: _core.Model, home=None) -> np.ndarray:
+    """The tool of the identified model ``ide`` in its canonical flange: the flange of its exact ED-H table extracted
+    as identify extracts one (frames on the nominal's bodies: the nominal's ED-H frame origins at ``home``, the
+    nominal's home, else zeros, projected on the axes: identify's sweeps start at the nominal's home). Where a table puts its last frame along the last axis (the
+    split of d6 and the tool's z, which no measurement of one point tells apart) is each convention's own: a DH
+    file, a URDF or a UR kinematics file of one result would each compensate another flange; this one is the same
+    for all of them, for the ED-H file identify and calibrate save, and for the in-memory result. A POE model has no
+    flange of its own (its home pose ``M``, identify's measured point, is its flange, its tool the identity)."""
     home = np.zeros(nom.nq) if home is None else np.asarray(home, dtype=float)
-    from .identify import _origins  # noqa: PLC0415 (identify and its fits load only when a POE robot is compensated)
+    from .identify import _origins  # noqa: PLC0415 (identify and its fits load only when an identified tool is compensated)
 
     nt = _core.extract(_core.axes(nom, np.zeros(nom.nq)), "edh").table
     ex = _core.extract(_core.axes(ide, home), "edh", nominal=nt, origins=_origins(nt, "edh", home), parallel_tol=1e-9, fidelity=False)
