@@ -1,0 +1,571 @@
+"""Robot programs in controller languages: read, compensate, write back the same program with only its positions changed.
+
+One module per vendor: :mod:`.kuka` (KRL ``.src`` / ``.dat`` pairs), :mod:`.abb` (RAPID ``.mod``), :mod:`.fanuc`
+(TP ``.ls``), :mod:`.urscript` (URScript ``.script``). Each reads a program into a :class:`Program`: its texts, as
+bytes decoded once (the encoding, a byte-order mark and the line endings kept), and its :class:`Point` s, each a
+position in the program with the spans of its numbers in the text, its values in the program's units, its
+configuration (the controller's own convention, defined in the vendor's module with the documentation it follows)
+and the frames it is taught in (base and tool, honoured or refused with a one-line error, never ignored).
+
+:func:`compensate_program` compensates every point on its own configuration (:func:`denavit.compensation.compensate`
+with the configuration's nominal solution as ``q_nominal``) and :func:`render` writes the program back: every byte
+but the compensated position fields as it was, each rewritten number in its original form (sign, leading zero,
+exponent) with its original decimals or, when fewer, enough to carry the compensation (``MIN_DECIMALS``: 1 um,
+1e-3 deg). A point that cannot be compensated (unreachable, a branch change near a singularity, a configuration
+the compensated command would leave) is left as it was and listed with its line. Reading with the nominal model as
+the identified one writes the program byte-identical: a number is rewritten only when the compensation moves it
+by more than its resolution.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ... import _core
+from ...errors import DenavitError
+from ..output import atomic_path
+from ..text import read_bytes
+
+#: The fewest decimals a rewritten number gets, by unit (its original decimals when more).
+MIN_DECIMALS = {"mm": 3, "m": 6, "deg": 3, "rad": 6, "quaternion": 6, "": 6}
+
+FORMATS = ("kuka", "abb", "fanuc", "urscript")
+
+
+@dataclass
+class Source:
+    """One file of a program: ``path``, its ``text`` (decoded), ``encoding``, ``bom`` (bytes before the text)."""
+
+    path: str
+    text: str
+    encoding: str = "utf-8"
+    bom: bytes = b""
+
+    def line_of(self, pos: int) -> int:
+        return self.text.count("\n", 0, pos) + 1
+
+    def where(self, pos: int) -> str:
+        return f"{self.path}:{self.line_of(pos)}"
+
+
+@dataclass
+class Number:
+    """A number in a source: ``source`` index, ``start``/``end`` of its token, ``token`` as written, ``unit``."""
+
+    source: int
+    start: int
+    end: int
+    token: str
+    unit: str
+
+    @property
+    def value(self) -> float:
+        return float(self.token)
+
+
+@dataclass
+class Point:
+    """A position of the program.
+
+    ``name`` (its declaration's, or the instruction's for an inline one), ``where`` (file:line), ``kind`` "pose"
+    (a Cartesian target in the program's base frame at its tool) or "joints" (the controller's axis values),
+    ``numbers`` its position fields (pose: position then orientation, the vendor's order; joints: one per axis),
+    ``config`` the configuration it states (the vendor's, or None: nearest the previous point, URScript), ``base``
+    and ``tool`` (4x4, m) the frames it is taught in, ``problem`` why it is not compensated (kept, listed)."""
+
+    name: str
+    where: str
+    kind: str
+    numbers: list
+    config: object = None
+    base: np.ndarray = field(default_factory=lambda: np.eye(4))
+    tool: np.ndarray = field(default_factory=lambda: np.eye(4))
+    problem: str | None = None
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def values(self) -> np.ndarray:
+        return np.array([n.value for n in self.numbers])
+
+
+@dataclass
+class Program:
+    """A program: ``format`` (a :data:`FORMATS` name), ``sources`` (its files), ``points`` (in the order they
+    are declared or appear), ``notes`` (what the reader left alone and why, one line each)."""
+
+    format: str
+    sources: list
+    points: list
+    notes: list = field(default_factory=list)
+
+    @property
+    def vendor(self):
+        return vendor(self.format)
+
+    def __repr__(self) -> str:
+        kinds = {k: sum(p.kind == k for p in self.points) for k in ("pose", "joints")}
+        return f"Program({self.format}, {', '.join(s.path for s in self.sources)}: {kinds['pose']} poses, {kinds['joints']} joint positions)"
+
+
+def vendor(fmt: str):
+    """The module of format ``fmt``."""
+    import importlib  # noqa: PLC0415
+
+    return importlib.import_module(f"{__name__}.{fmt}")
+
+
+EXTENSIONS = {".src": "kuka", ".dat": "kuka", ".mod": "abb", ".modx": "abb", ".prg": "abb", ".ls": "fanuc", ".script": "urscript", ".urscript": "urscript"}
+
+
+def detect(path: str | os.PathLike) -> str | None:
+    """The program format of ``path`` by its extension, else by its first bytes; None: not a program (a CSV)."""
+    ext = Path(path).suffix.lower()
+    if ext in EXTENSIONS:
+        return EXTENSIONS[ext]
+    if ext in (".csv", ".txt", ".tsv"):
+        return None
+    try:
+        head = read_bytes(path, "program", head=4096).decode("latin-1")
+    except DenavitError:
+        return None
+    h = re.sub(r"(?m)^\s*[;!#&].*$", "", head)
+    if re.search(r"(?im)^\s*(GLOBAL\s+)?DEF(DAT)?\s+\w+", h):
+        return "kuka"
+    if re.search(r"(?im)^\s*MODULE\s+\w+", h):
+        return "abb"
+    if re.search(r"(?m)^/PROG\s+\w+", head):
+        return "fanuc"
+    if re.search(r"(?m)^\s*def\s+\w+\s*\(\s*\)\s*:", head) or re.search(r"\bmove[jlp]\s*\(", head):
+        return "urscript"
+    return None
+
+
+def read_source(path: str | os.PathLike, what: str = "program") -> Source:
+    """A file's text decoded once (UTF-8, else Latin-1 as KRL and RAPID files often are), its BOM kept aside."""
+    data = read_bytes(path, what)
+    bom = b""
+    if data.startswith(b"\xef\xbb\xbf"):
+        bom, data = data[:3], data[3:]
+    try:
+        return Source(str(path), data.decode("utf-8"), "utf-8", bom)
+    except UnicodeDecodeError:
+        return Source(str(path), data.decode("latin-1"), "latin-1", bom)
+
+
+def read_program(path: str | os.PathLike, robot, *, fmt: str | None = None, frames: dict | None = None) -> Program:
+    """Read the program at ``path`` (format by extension or content, or ``fmt``) for ``robot`` (a Robot: the
+    vendor's axis senses may depend on it). ``frames``: {("tool" | "base", number): 4x4 (m)} for the numbered
+    frames a program refers to that live in the controller (KUKA TOOL_DATA/BASE_DATA, FANUC UT/UF)."""
+    fmt = fmt or detect(path)
+    if fmt is None:
+        raise DenavitError(f"{path}: not a robot program: expected a KUKA .src/.dat, an ABB .mod, a FANUC .ls or a URScript .script")
+    return vendor(fmt).read(path, robot, frames=frames or {})
+
+
+# -- numbers ------------------------------------------------------------------------------------------------
+
+_NUM = re.compile(r"^([+-]?)(\d*)(?:\.(\d*))?(?:([eE])([+-]?\d+))?$")
+
+
+def format_like(value: float, token: str, unit: str) -> str:
+    """``value`` written as ``token`` was: its sign style, leading zero, exponent form; its decimals or, when fewer,
+    :data:`MIN_DECIMALS` of ``unit``."""
+    m = _NUM.match(token.strip())
+    if m is None:
+        return repr(float(value))
+    plus, whole, frac, e, _ = m.groups()
+    dec = max(len(frac or ""), MIN_DECIMALS.get(unit, 6))
+    if e:
+        s = f"{value:.{dec}{e}}"
+    else:
+        s = f"{value:.{dec}f}"
+        if whole == "" and frac is not None:  # ".5", "-.5": no leading zero
+            s = re.sub(r"^(-?)0\.", r"\1.", s)
+    if re.fullmatch(r"-0?\.?0*(e[+-]?0+)?", s, re.IGNORECASE):
+        s = s[1:]
+    if plus == "+" and not s.startswith("-"):
+        s = "+" + s
+    return s
+
+
+def resolution(token: str, unit: str) -> float:
+    """Half the last digit a rewrite of ``token`` would carry: a change below it leaves the token as it was."""
+    m = _NUM.match(token.strip())
+    dec = max(len((m.group(3) if m else "") or ""), MIN_DECIMALS.get(unit, 6))
+    scale = 10.0 ** int(m.group(5)) if m and m.group(4) else 1.0
+    return 0.5 * 10.0 ** (-dec) * scale
+
+
+def render(program: Program, new_values: dict) -> list[bytes]:
+    """The program's files as bytes with the points in ``new_values`` ({point index: values in the program's
+    units}) rewritten; every other byte as read."""
+    edits: dict[int, list] = {}
+    for k, vals in new_values.items():
+        for num, v in zip(program.points[k].numbers, vals, strict=True):
+            if abs(v - num.value) > resolution(num.token, num.unit):
+                edits.setdefault(num.source, []).append((num.start, num.end, format_like(v, num.token, num.unit)))
+    out = []
+    for i, src in enumerate(program.sources):
+        text = src.text
+        for start, end, s in sorted(edits.get(i, []), reverse=True):
+            text = text[:start] + s + text[end:]
+        out.append(src.bom + text.encode(src.encoding))
+    return out
+
+
+def output_paths(program: Program, output: str | os.PathLike) -> list[str]:
+    """Where each of the program's files goes for ``output``: a single-file program there; a KUKA pair at
+    ``output`` (its .src) and beside it with the .dat's suffix."""
+    out = Path(output)
+    if len(program.sources) == 1:
+        return [str(out)]
+    paths = []
+    for src in program.sources:
+        ext = Path(src.path).suffix
+        paths.append(str(out.with_suffix(ext)) if out.suffix.lower() in (".src", ".dat") else str(out) + ext)
+    return paths
+
+
+def write_program(program: Program, output: str | os.PathLike, new_values: dict, *, force: bool = False) -> list[str]:
+    """Write the program with ``new_values`` to ``output`` (:func:`output_paths`): every file made whole in memory
+    first, each written whole or not at all. Returns the paths written."""
+    data = render(program, new_values)
+    paths = output_paths(program, output)
+    for p, src in zip(paths, program.sources, strict=True):
+        if Path(p).resolve() == Path(src.path).resolve():
+            raise DenavitError(f"{p}: is the program read; write the compensated program to another path (input files are never modified)")
+    for p, b in zip(paths, data, strict=True):
+        with atomic_path(p, force=force) as tmp:
+            tmp.write_bytes(b)
+    return paths
+
+
+# -- rotations ----------------------------------------------------------------------------------------------
+
+
+def rot(axis: str, a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    if axis == "x":
+        return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+    if axis == "y":
+        return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+def zyx_matrix(a: float, b: float, c: float) -> np.ndarray:
+    """``Rz(a) Ry(b) Rx(c)`` (rad): KUKA's A, B, C; FANUC's R, P, W."""
+    return rot("z", a) @ rot("y", b) @ rot("x", c)
+
+
+def matrix_zyx(R: np.ndarray, near=None) -> np.ndarray:
+    """(a, b, c) with ``R = Rz(a) Ry(b) Rx(c)``, of the two solutions (b within +-90 deg, or beyond) the one nearest
+    ``near`` (each angle wrapped to within half a turn of ``near``'s), rad."""
+    b = np.arctan2(-R[2, 0], np.hypot(R[0, 0], R[1, 0]))
+    if abs(np.cos(b)) < 1e-12:  # gimbal lock: c kept (the nearest's, else 0), the rest in a
+        c = 0.0 if near is None else float(near[2])
+        sols = [np.array([_gimbal(R, b, c), b, c])]
+    else:
+        a = np.arctan2(R[1, 0], R[0, 0])
+        c = np.arctan2(R[2, 1], R[2, 2])
+        sols = [np.array([a, b, c]), np.array([a + np.pi, np.pi - b, c + np.pi])]
+    if near is None:
+        return _wrap(sols[0], np.zeros(3))
+    near = np.asarray(near, dtype=float)
+    sols = [_wrap(s, near) for s in sols]
+    return min(sols, key=lambda s: float(np.abs(s - near).sum()))
+
+
+def _gimbal(R, b, c):
+    # R = Rz(a) Ry(+-90) Rx(c): find a by removing Rx(c)
+    M = R @ rot("x", c).T @ rot("y", b).T
+    return float(np.arctan2(M[1, 0], M[0, 0]))
+
+
+def _wrap(v, near):
+    return near + (np.asarray(v) - near + np.pi) % (2 * np.pi) - np.pi
+
+
+def quaternion_matrix(q) -> np.ndarray:
+    """Rotation of a unit quaternion ``(w, x, y, z)`` (ABB's q1..q4), normalised."""
+    w, x, y, z = np.asarray(q, dtype=float) / np.linalg.norm(q)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def matrix_quaternion(R: np.ndarray, near=None) -> np.ndarray:
+    """``(w, x, y, z)`` of ``R``, the sign nearest ``near``'s."""
+    from ...geometry import matrix_rotvec  # noqa: PLC0415
+
+    v = matrix_rotvec(np.asarray(R)[None])[0]
+    a = np.linalg.norm(v)
+    q = np.array([1.0, 0, 0, 0]) if a < 1e-300 else np.concatenate([[np.cos(a / 2)], np.sin(a / 2) * v / a])
+    if near is not None and float(np.dot(q, near)) < 0:
+        q = -q
+    return q
+
+
+def pose_matrix(p, R) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, p
+    return T
+
+
+# -- configurations -----------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Arm:
+    """What a vendor's configuration needs of a model's geometry at ``q`` (world frame, m): ``wrist`` the wrist
+    centre (the point of axis 5 nearest axis 4), ``front`` its x in the axis-1 frame (the world frame turned with
+    joint 1: > 0 in front of axis 1), ``lower_arm`` the wrist's side of the line through axes 2 and 3 (> 0 in front
+    of it: the side the axis-1 frame's x faces when that line points up), ``elbow_up`` the elbow's side of the line
+    from axis 2 to the wrist centre (> 0 above it: the line's normal in the arm plane with a positive world z)."""
+
+    front: float
+    lower_arm: float
+    elbow_up: float
+
+
+def _closest(p1, d1, p2, d2):
+    """The point of line 1 nearest line 2 (parallel lines: p1)."""
+    n = np.cross(d1, d2)
+    nn = n @ n
+    if nn < 1e-18:
+        return p1
+    t = np.cross(p2 - p1, d2) @ n / nn
+    return p1 + t * d1
+
+
+def arm(model, q) -> Arm:
+    ax = _core.axes(model, np.asarray(q, dtype=float))
+    P, D = np.asarray(ax.points), np.asarray(ax.directions)
+    w = _closest(P[4], D[4], P[3], D[3])
+    w = 0.5 * (w + _closest(P[3], D[3], P[4], D[4]))
+    x1 = _turn(D[0], q[0]) @ np.array([1.0, 0.0, 0.0])  # the axis-1 frame: the world's at joint 1 = 0, turned with it
+    front = float((w - P[0]) @ x1)
+    # the line through axes 2 and 3 (parallel): p2 the foot of axis 2 nearest axis 3's point, u along it
+    d2 = D[1] / np.linalg.norm(D[1])
+    p2 = P[1]
+    u = (P[2] - p2) - ((P[2] - p2) @ d2) * d2
+    u /= np.linalg.norm(u)
+    nf = np.cross(d2, u)
+    ref = np.cross(d2, np.array([0, 0, 1.0]))
+    if ref @ x1 < 0:
+        nf = -nf
+    wp = (w - p2) - ((w - p2) @ d2) * d2
+    lower = float(wp @ nf)
+    v = wp / np.linalg.norm(wp)
+    up = np.cross(d2, v)
+    if up[2] < 0:
+        up = -up
+    e = (P[2] - p2) - ((P[2] - p2) @ d2) * d2
+    return Arm(front, lower, float(e @ up))
+
+
+def _turn(axis, angle) -> np.ndarray:
+    from ...geometry import rotvec_matrix  # noqa: PLC0415
+
+    a = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    return rotvec_matrix((a * angle)[None])[0]
+
+
+def candidates(model, T: np.ndarray, seeds: int = 32) -> list[np.ndarray]:
+    """Every distinct inverse kinematics solution of ``T`` on ``model`` found from the home, zeros and ``seeds``
+    fixed configurations (local solves, one per branch they fall into), within the joint limits, each revolute
+    joint also at the values whole turns away within its limits."""
+    n = model.nq
+    lo, hi = np.asarray(model.lower, dtype=float), np.asarray(model.upper, dtype=float)
+    rev = np.array([k == "revolute" for k in model.kinds])
+    lo2, hi2 = np.where(rev, np.maximum(lo, -np.pi), lo), np.where(rev, np.minimum(hi, np.pi), hi)
+    S = np.vstack([np.zeros(n), lo2 + (hi2 - lo2) * np.random.default_rng(20260538).random((seeds, n))])
+    r = _core.ik_batch(model, np.repeat(np.asarray(T, dtype=float)[None], len(S), axis=0), S, restarts=0)
+    sols: list[np.ndarray] = []
+    for q, ok in zip(r.q, r.success, strict=True):
+        if not ok:
+            continue
+        base = (q + np.pi) % (2 * np.pi) - np.pi
+        base = np.where(rev, base, q)
+        if any(np.abs((base - s + np.pi) % (2 * np.pi) - np.pi).max() < 1e-6 for s in sols):
+            continue
+        sols.append(base)
+    out = []
+    for s in sols:
+        choices = []
+        for j in range(n):
+            if rev[j]:
+                vals = [s[j] + 2 * np.pi * k for k in range(-3, 4) if lo[j] - 1e-9 <= s[j] + 2 * np.pi * k <= hi[j] + 1e-9]
+            else:
+                vals = [s[j]] if lo[j] - 1e-9 <= s[j] <= hi[j] + 1e-9 else []
+            choices.append(vals)
+        if any(not c for c in choices):
+            continue
+        grids = np.meshgrid(*choices, indexing="ij")
+        out.extend(np.stack([g.ravel() for g in grids], axis=1))
+    return out
+
+
+def flange_pose(point: Point, T_program: np.ndarray, flange_rot: np.ndarray) -> np.ndarray:
+    """The model's flange pose (world = the program's robot base frame, m) of a program pose ``T_program``
+    (``T_base_tool``): ``BASE @ T @ inv(TOOL) @ inv(R)`` with ``R`` the vendor flange's rotation from the model's."""
+    F = np.eye(4)
+    F[:3, :3] = flange_rot
+    return point.base @ T_program @ np.linalg.inv(point.tool) @ np.linalg.inv(F)
+
+
+def program_pose(point: Point, T_flange: np.ndarray, flange_rot: np.ndarray) -> np.ndarray:
+    """The inverse of :func:`flange_pose`."""
+    F = np.eye(4)
+    F[:3, :3] = flange_rot
+    return np.linalg.inv(point.base) @ T_flange @ F @ point.tool
+
+
+# -- compensation -------------------------------------------------------------------------------------------
+
+
+@dataclass
+class ProgramCompensation:
+    """The compensation of a program: ``program``, ``new_values`` ({point index: values}, the points rewritten),
+    ``compensation`` (:class:`denavit.compensation.Compensation` of the points compensated, in ``rows``'s order),
+    ``rows`` (point indices), ``q_program`` (N, n) each row's configuration on the nominal, ``left`` [(where, why)]
+    the points left as they were."""
+
+    program: Program
+    new_values: dict
+    compensation: object
+    rows: list
+    q_program: np.ndarray
+    left: list
+    targets: np.ndarray
+
+
+def configuration_solution(v, model, point: Point, T_flange: np.ndarray, q_near: np.ndarray, arm_cache: dict) -> np.ndarray | None:
+    """The nominal solution of a pose on the configuration ``point`` states (the vendor's ``matches``), nearest
+    ``q_near``; None when no solution has it."""
+    best, dist = None, np.inf
+    for q in candidates(model, T_flange):
+        if v.matches(point.config, v.configuration(model, q, arm_cache)):
+            d = float(np.linalg.norm(q - q_near))
+            if d < dist:
+                best, dist = q, d
+    return best
+
+
+def compensate_program(program: Program, nominal, identified, *, q0=None, branch_tol: float = np.radians(5.0), result=None,
+                       predict: bool = True) -> ProgramCompensation:
+    """Compensate every position of ``program`` for a controller that keeps ``nominal`` (a Robot) while the robot is
+    ``identified``: each on its own configuration (the one it states; URScript poses: the solution nearest the
+    previous position, the first nearest ``q0``, default the nominal's home), flange poses compensated (the
+    program's tool and base frames exact, as the controller applies them)."""
+    from dataclasses import replace  # noqa: PLC0415
+
+    from ... import compensation as cp  # noqa: PLC0415
+    from ...robot import Robot  # noqa: PLC0415
+
+    v = program.vendor
+    t = nominal.table
+    flange_robot = replace(nominal, table=_core.Table(t.convention, t.params, t.kinds, t.T_world_base, np.eye(4))) if isinstance(nominal, Robot) else nominal
+    model = flange_robot.model() if isinstance(flange_robot, Robot) else flange_robot.with_tool(np.eye(4))
+    home = getattr(nominal, "home", None)
+    q_prev = np.asarray(q0 if q0 is not None else (home if home is not None else np.zeros(model.nq)), dtype=float)
+    F = v.flange_rotation(nominal)
+    rows, targets, qs, left = [], [], [], []
+    cache: dict = {"signs": v.signs(nominal)}
+    for k, p in enumerate(program.points):
+        if p.problem:
+            left.append((p.where, p.problem))
+            continue
+        if p.kind == "joints":
+            q = v.joint_values(nominal, p.values)
+            T = _core.fk(model, q) @ _tool_in_flange(F, p.tool)
+            Tf = T @ np.linalg.inv(_tool_in_flange(F, p.tool))
+        else:
+            Tf = flange_pose(p, v.to_pose(p.values), F)
+            if p.config is None:
+                q, found = cp.nearest_solutions(model, Tf[None], q_prev)
+                q = q[0] if found[0] else None
+            else:
+                q = configuration_solution(v, model, p, Tf, q_prev, cache)
+            if q is None:
+                raise DenavitError(f"{p.where}: {p.name}: {v.describe(p.config) if p.config is not None else 'the pose'} is not reachable on the nominal "
+                                   f"{getattr(nominal, 'name', 'model')} (expected a pose its configuration reaches within the joint limits)")
+        rows.append(k)
+        targets.append(Tf)
+        qs.append(q)
+        q_prev = q
+    T = np.array(targets).reshape(-1, 4, 4)
+    Q = np.array(qs).reshape(-1, model.nq)
+    if not rows:
+        return ProgramCompensation(program, {}, None, [], Q, left, T)
+    c = cp.compensate(flange_robot, identified, T, q_nominal=Q, branch_tol=branch_tol, result=result, predict=predict)
+    new = {}
+    for i, k in enumerate(rows):
+        p = program.points[k]
+        if not c.ok[i]:
+            why = ", ".join(x for x, f in (("unreachable", not c.reached[i]), ("branch changed", c.branch_changed[i]), ("path jump", c.path_jump[i])) if f)
+            left.append((p.where, why))
+            continue
+        qc = c.q_command[i]
+        if p.kind == "joints":
+            new[k] = v.joint_readings(nominal, qc, p)
+            continue
+        if p.config is not None and not v.matches(p.config, v.configuration(model, qc, cache)):
+            left.append((p.where, f"the compensated command leaves {v.describe(p.config)} (near a configuration boundary)"))
+            continue
+        new[k] = v.pose_values(program_pose(p, c.commands[i], F), p)
+    return ProgramCompensation(program, new, c, rows, Q, left, T)
+
+
+def _tool_in_flange(F_rot: np.ndarray, tool: np.ndarray) -> np.ndarray:
+    F = np.eye(4)
+    F[:3, :3] = F_rot
+    return F @ tool
+
+
+def controller_joints(program: Program, robot, values: dict | None = None, *, q0=None) -> np.ndarray:
+    """The joint values (N, n) a nominal controller of ``robot`` runs each position of ``program`` at (its
+    configuration honoured: the vendor's bits; URScript poses the solution nearest the previous position), with
+    ``values`` ({point index: values}) in place of the program's: what a simulated controller does (tests)."""
+    from dataclasses import replace  # noqa: PLC0415
+
+    from ... import compensation as cp  # noqa: PLC0415
+
+    v = program.vendor
+    t = robot.table
+    model = replace(robot, table=_core.Table(t.convention, t.params, t.kinds, t.T_world_base, np.eye(4))).model()
+    F = v.flange_rotation(robot)
+    home = getattr(robot, "home", None)
+    q_prev = np.asarray(q0 if q0 is not None else (home if home is not None else np.zeros(model.nq)), dtype=float)
+    out, cache = [], {"signs": v.signs(robot)}
+    for k, p in enumerate(program.points):
+        vals = p.values if values is None or k not in values else np.asarray(values[k])
+        if p.problem:
+            out.append(np.full(model.nq, np.nan))
+            continue
+        if p.kind == "joints":
+            q = v.joint_values(robot, vals)
+        else:
+            Tf = flange_pose(p, v.to_pose(vals), F)
+            if p.config is None:
+                qq, found = cp.nearest_solutions(model, Tf[None], q_prev)
+                q = qq[0] if found[0] else np.full(model.nq, np.nan)
+            else:
+                q = configuration_solution(v, model, p, Tf, q_prev, cache)
+                q = np.full(model.nq, np.nan) if q is None else q
+        out.append(q)
+        if np.all(np.isfinite(q)):
+            q_prev = q
+    return np.array(out)
+
+
+def tool_poses(program: Program, robot_model, Q: np.ndarray, flange_rot: np.ndarray) -> np.ndarray:
+    """(N, 4, 4) the program's tool poses in its robot base frame reached at ``Q`` by ``robot_model`` (its flange)."""
+    out = []
+    for p, q in zip(program.points, Q, strict=True):
+        out.append(_core.fk(robot_model, q) @ _tool_in_flange(flange_rot, p.tool) if np.all(np.isfinite(q)) else np.full((4, 4), np.nan))
+    return np.array(out)
