@@ -328,7 +328,7 @@ pub fn batch_out<'py, D: numpy::ndarray::Dimension>(
     kernel: impl FnOnce(&mut [f64]) -> denavit_core::Result<()> + Send,
 ) -> PyResult<Bound<'py, PyArray<f64, D>>> {
     let threads = threads_of(threads);
-    let want = || format!("a C-contiguous, aligned, writeable float64 numpy array of shape {}", shape_text(shape.slice()));
+    let want = || format!("a C-contiguous, writeable float64 numpy array of shape {}", shape_text(shape.slice()));
     let a = match out {
         None => PyArray::<f64, D>::zeros(py, shape.clone(), false),
         Some(o) => {
@@ -352,21 +352,9 @@ pub fn batch_out<'py, D: numpy::ndarray::Dimension>(
             if !aligned(a) {
                 return Err(invalid(
                     "out",
-                    want(),
+                    format!("{} whose data is 8-byte aligned", want()),
                     format!("an array whose data starts at an address not a multiple of 8 (0x{:x}; e.g. np.frombuffer at an offset)", a.data() as usize),
                 ));
-            }
-            let bytes = |p: *const f64, len: usize| (p as usize, p as usize + len * std::mem::size_of::<f64>());
-            let (o0, o1) = bytes(a.data(), a.len());
-            for (name, v) in inputs {
-                let (i0, i1) = bytes(v.as_ptr(), v.len());
-                if o0 < o1 && i0 < i1 && o0 < i1 && i0 < o1 {
-                    return Err(invalid(
-                        "out",
-                        format!("{} sharing no memory with {name}", want()),
-                        format!("an array that overlaps {name}'s memory (e.g. two np.frombuffer views of one buffer)"),
-                    ));
-                }
             }
             a.clone()
         }
@@ -380,6 +368,21 @@ pub fn batch_out<'py, D: numpy::ndarray::Dimension>(
                 "an array in use",
             ),
         })?;
+        // memory shared with an input that numpy's borrow tracking cannot see (two np.frombuffer arrays of one
+        // buffer; an input that is `out` itself, or a view of it, was refused by the borrow above), checked by
+        // address before any `&mut` to the output exists
+        let bytes = |p: *const f64, len: usize| (p as usize, p as usize + len * std::mem::size_of::<f64>());
+        let (o0, o1) = bytes(a.data(), a.len());
+        for (name, v) in inputs {
+            let (i0, i1) = bytes(v.as_ptr(), v.len());
+            if o0 < o1 && i0 < i1 && o0 < i1 && i0 < o1 {
+                return Err(invalid(
+                    "out",
+                    format!("{} sharing no memory with {name}", want()),
+                    format!("an array that overlaps {name}'s memory (e.g. two np.frombuffer views of one buffer)"),
+                ));
+            }
+        }
         let o = rw.as_slice_mut()?;
         // a new array's pages are zeroed at their first touch, which leaves them in the cache: plain stores
         let fresh = out.is_none();

@@ -168,18 +168,19 @@ pub(crate) fn options(
     let method = IkMethod::parse(method).py()?;
     // Python ints to the core's unsigned counts; the core checks the ranges it needs (max_iterations
     // 1..=MAX_ITERATIONS, restarts <= MAX_RESTARTS)
-    let count = |what: &str, v: Int, expected: &str| match v.0 {
-        Ok(v) => usize::try_from(v).map_err(|_| invalid(what, expected, v.to_string())),
-        Err(text) => Err(invalid(what, expected, text)),
+    let count = |what: &str, v: Int, max: u64| match v.0 {
+        Ok(v) => usize::try_from(v).map_err(|_| invalid(what, "an integer >= 0", v.to_string())),
+        Err(text) if text.starts_with('-') => Err(invalid(what, "an integer >= 0", text)),
+        Err(text) => Err(invalid(what, format!("at most {max}"), text)),
     };
-    let (mi, mr) = (core_ik::MAX_ITERATIONS, core_ik::MAX_RESTARTS);
+    let (mi, mr) = (core_ik::MAX_ITERATIONS as u64, core_ik::MAX_RESTARTS as u64);
     let opts = IkOptions {
         method,
         tol_position,
         tol_rotation,
-        max_iterations: count("max_iterations", max_iterations, &format!("1..={mi} (per attempt)"))?,
-        restarts: count("restarts", restarts, &format!("0..={mr}"))?,
-        seed: count("seed", seed, "an integer 0..=2**63-1")? as u64,
+        max_iterations: count("max_iterations", max_iterations, mi)?,
+        restarts: count("restarts", restarts, mr)?,
+        seed: count("seed", seed, i64::MAX as u64)? as u64,
         respect_limits,
         damping,
     };

@@ -67,8 +67,8 @@ def ik(
     tr = positive(tol_rotation, "--tol-rotation", as_, 1e-10, angle)
     try:
         r = _core.ik(m, T, start, method=method, tol_position=tp, tol_rotation=tr, restarts=restarts, seed=seed, respect_limits=not no_limits)
-    except DenavitError as e:  # the core names the target T_target: say which option gave it
-        if str(e).startswith("T_target"):
+    except DenavitError as e:  # the core names the target T_target (the error's `what`): say which option gave it
+        if str(getattr(e, "what", "") or "").startswith("T_target"):
             fail(f"--pose: {e}")
         raise
     if json_out:

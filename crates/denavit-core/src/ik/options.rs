@@ -84,15 +84,18 @@ impl IkOptions {
                 return Err(Error::InvalidArgument { what: what.into(), expected: "a finite value >= 0".into(), got: v.to_string() });
             }
         }
-        if !(1..=MAX_ITERATIONS).contains(&self.max_iterations) {
+        if self.max_iterations == 0 {
+            return Err(Error::InvalidArgument { what: "max_iterations".into(), expected: ">= 1".into(), got: "0".into() });
+        }
+        if self.max_iterations > MAX_ITERATIONS {
             return Err(Error::InvalidArgument {
                 what: "max_iterations".into(),
-                expected: format!("1..={MAX_ITERATIONS} (per attempt)"),
+                expected: format!("at most {MAX_ITERATIONS} (per attempt)"),
                 got: self.max_iterations.to_string(),
             });
         }
         if self.restarts > MAX_RESTARTS {
-            return Err(Error::InvalidArgument { what: "restarts".into(), expected: format!("0..={MAX_RESTARTS}"), got: self.restarts.to_string() });
+            return Err(Error::InvalidArgument { what: "restarts".into(), expected: format!("at most {MAX_RESTARTS}"), got: self.restarts.to_string() });
         }
         if !(self.damping.is_finite() && self.damping > 0.0) {
             return Err(Error::InvalidArgument { what: "damping".into(), expected: "a finite value > 0".into(), got: self.damping.to_string() });
