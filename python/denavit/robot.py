@@ -51,6 +51,12 @@ class Robot:
     reading_reference: np.ndarray | None = None
     """(n,) the readings (after the coupling; rad / m) at which each joint value equals its reading, the centre of the
     scale errors (identify: the sweeps' home; calibrate: zero; a robot file's ``[readings] reference``); None: zero."""
+    compliance: np.ndarray | None = None
+    """(n,) the joints' compliances (rad/(N m) for a revolute joint, m/N for a prismatic one; >= 0): joint i sits at
+    ``q_i - compliance_i tau_i`` under the gravity torque ``tau_i`` it holds (:mod:`denavit.calibration.compliance`; a
+    robot file's ``[compliance]``); None: rigid joints."""
+    compliance_covariance: np.ndarray | None = None
+    """(n, n) SI covariance of :attr:`compliance` (a robot file's ``[compliance] covariance``); None: not carried."""
     notes: list = field(default_factory=list)
     """What the reader chose on the user's behalf (e.g. a URDF's tip link), one line each, for the user to see."""
 

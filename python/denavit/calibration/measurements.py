@@ -54,6 +54,9 @@ class Measurements:
     sweeps: SweepSet | None = None
     kinds: tuple | None = None
     whitening: np.ndarray | None = None
+    #: (N, 4) per pose the payload on the flange, ``[mass kg, x, y, z m]`` (its centre of mass in the flange frame;
+    #: :mod:`denavit.calibration.compliance`), or None: no payload declared
+    payload: np.ndarray | None = None
 
     def __repr__(self) -> str:
         what = "poses" if self.poses is not None else "points"
@@ -89,6 +92,11 @@ class Measurements:
         object.__setattr__(self, "points", points)
         object.__setattr__(self, "poses", poses)
         object.__setattr__(self, "where", list(self.where) or [f"pose {k + 1}" for k in range(n)])
+        if self.payload is not None:
+            pl = as_array(self.payload, "payload", self.source)
+            if pl.shape != (n, 4) or not np.all(np.isfinite(pl)) or np.any(pl[:, 0] < 0):
+                raise DenavitError(f"{self.source}: payload must have shape ({n}, 4), [mass kg >= 0, x, y, z m] per pose, finite; got shape {pl.shape}")
+            object.__setattr__(self, "payload", pl)
 
     @property
     def n(self) -> int:
@@ -110,7 +118,7 @@ class Measurements:
         idx = np.asarray(idx, dtype=int)
         return Measurements(self.q[idx], None if self.poses is not None else self.points[idx], None if self.poses is None else self.poses[idx],
                             self.source, [self.where[i] for i in idx], self.units, None, self.kinds,
-                            None if self.whitening is None else self.whitening[idx])
+                            None if self.whitening is None else self.whitening[idx], None if self.payload is None else self.payload[idx])
 
     @classmethod
     def from_sweeps(cls, sweeps: SweepSet) -> Measurements:

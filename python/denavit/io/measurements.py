@@ -19,6 +19,7 @@ from ..errors import DenavitError
 from ..geometry import matrix_rotvec, rotvec_matrix
 from . import delimited as dl
 from . import sweeps as sw
+from .payload import PAYLOAD_COLUMNS, payload_from_columns
 from .text import decode, read_bytes, read_text
 from .units import (
     angle_scale,
@@ -67,7 +68,10 @@ def read_measurements(path: str | os.PathLike, *, length: str | None = None, ang
     rot = [c for c in ("rx", "ry", "rz") if c in cols]
     k_t = 1 + len([c for c in cols if c[:1] == "x" and c[1:].isdigit() and int(c[1:]) >= 2])  # targets per pose
     extra = [f"{a}{t}" for t in range(2, k_t + 1) for a in "xyz"]
-    need = [f"q{i}" for i in range(1, len(qcols) + 1)] + ["x", "y", "z"] + (["rx", "ry", "rz"] if rot else []) + extra
+    pay = [c for c in PAYLOAD_COLUMNS if c in cols]  # a payload per row (issue 37): mass in kg, its centre of mass in the length unit
+    if pay and "payload_mass" not in pay:
+        raise DenavitError(f"{p}:{hline}: {', '.join(pay)} without payload_mass: give the payload's mass (kg) with its centre of mass")
+    need = [f"q{i}" for i in range(1, len(qcols) + 1)] + ["x", "y", "z"] + (["rx", "ry", "rz"] if rot else []) + extra + pay
     missing = [c for c in need if c not in cols]
     unknown = [c for c in cols if c not in need]
     if missing or unknown or not qcols:
@@ -89,11 +93,12 @@ def read_measurements(path: str | os.PathLike, *, length: str | None = None, ang
             dl.far(pts[r, c], f"{where[r]}: column {'xyz'[c]!r}")
         rv = table[:, [idx[c] for c in ("rx", "ry", "rz")]] * as_ if rot else []
         more = table[:, [idx[c] for c in extra]] * ls if extra else None
+        payload = payload_from_columns(table, {c: idx[c] for c in pay}, ls, where) if pay else None
         if extra and (np.abs(more) > dl.MAX_LENGTH).any():
             r, c = np.argwhere(np.abs(more) > dl.MAX_LENGTH)[0]
             dl.far(more[r, c], f"{where[r]}: column {extra[c]!r}")
     else:  # row by row: errors name the line and the column
-        q, pts, rv, where, more = [], [], [], [], []
+        q, pts, rv, where, more, pays = [], [], [], [], [], []
         for ln, cells in data[1:]:
             w = f"{p}:{ln}"
             if len(cells) != len(cols):
@@ -105,7 +110,10 @@ def read_measurements(path: str | os.PathLike, *, length: str | None = None, ang
                 rv.append([vals[c] * as_ for c in ("rx", "ry", "rz")])
             if extra:
                 more.append([dl.length(cells[idx[c]], w, c, ls) for c in extra])
+            if pay:
+                pays.append([vals[c] for c in pay])
             where.append(w)
+        payload = payload_from_columns(np.asarray(pays, dtype=float).reshape(len(pays), len(pay)), {c: k for k, c in enumerate(pay)}, ls, where) if pay and pays else None
     if not len(q):
         raise DenavitError(f"{p}: no data rows after the header")
     q = np.asarray(q, dtype=float) * joint_scale(kinds, units["length"], units["angle"], str(p))
@@ -114,13 +122,15 @@ def read_measurements(path: str | os.PathLike, *, length: str | None = None, ang
         from ..calibration.targets import TargetMeasurements  # noqa: PLC0415
 
         targets = np.concatenate([pts[:, None], np.asarray(more, dtype=float).reshape(len(q), k_t - 1, 3)], axis=1)
+        if pay:
+            raise DenavitError(f"{p}:{hline}: payload columns with several targets per pose are not supported: give one target (x,y,z) per pose")
         return TargetMeasurements(q, targets, sw.parse_nest(lines, k_t, ls, str(p)), str(p), where, units, kinds=kinds)
     if rot:
         T = np.tile(np.eye(4), (len(q), 1, 1))
         T[:, :3, :3] = rotvec_matrix(np.asarray(rv, dtype=float))
         T[:, :3, 3] = pts
-        return Measurements(q, None, T, str(p), where, units, kinds=kinds)
-    return Measurements(q, pts, None, str(p), where, units, kinds=kinds)
+        return Measurements(q, None, T, str(p), where, units, kinds=kinds, payload=payload)
+    return Measurements(q, pts, None, str(p), where, units, kinds=kinds, payload=payload)
 
 
 def _read_json(p: Path, text: str, length: str | None, angle: str | None, kinds) -> Measurements:
@@ -161,11 +171,12 @@ def to_csv(meas: Measurements, length: str = "mm", angle: str = "deg", comment: 
     ls, as_ = length_scale(length), angle_scale(angle)
     qs = joint_scale(meas.kinds or ("revolute",) * meas.nq, length, angle)
     out = [f"# {c}" for c in comment.splitlines()] + [f"# units: length={length} angle={angle}"]
-    cols = [f"q{i + 1}" for i in range(meas.nq)] + ["x", "y", "z"] + (["rx", "ry", "rz"] if meas.kind == "pose" else [])
+    pl = getattr(meas, "payload", None)
+    cols = [f"q{i + 1}" for i in range(meas.nq)] + ["x", "y", "z"] + (["rx", "ry", "rz"] if meas.kind == "pose" else []) + (list(PAYLOAD_COLUMNS) if pl is not None else [])
     out.append(",".join(cols))
     rv = matrix_rotvec(meas.poses[:, :3, :3]) / as_ if meas.kind == "pose" else None
     for k in range(meas.n):
-        row = [*(meas.q[k] / qs), *(meas.points[k] / ls)] + ([*rv[k]] if rv is not None else [])
+        row = [*(meas.q[k] / qs), *(meas.points[k] / ls)] + ([*rv[k]] if rv is not None else []) + ([pl[k, 0], *(pl[k, 1:] / ls)] if pl is not None else [])
         out.append(",".join(f"{v:.12g}" for v in row))
     return "\n".join(out) + "\n"
 

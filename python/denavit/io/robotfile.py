@@ -30,6 +30,9 @@ Format (see docs/robot-files.md and the built-in files in ``denavit/models``)::
     [readings]                   # optional (written by identify/calibrate --save): the readings' scale errors
     scale = [0, 2.1e-4, ...]     # joint i turns 1 + scale[i] times its reading's motion from reference[i]
     reference = [90, -90, ...]   # where joint value = reading (angle / length units; default 0)
+    [compliance]                 # optional (issue 37; needs [joints.inertia]): joint i sits at q_i - k_i tau_i under
+    unit = "urad/(N m)"          # its gravity torque tau_i; revolute joints' unit (prismatic_unit = "um/N" if any)
+    values = [0, 1.5, ...]       # k_i >= 0 (denavit.io.payload); optional covariance = [[...]] in the units' products
     [covariance]                 # optional (written by identify, calibrate --save): of the joints' parameters, row by
     matrix = [[...], ...]        # row in column order, then the tool's x, y, z, then [readings] scale (if
                                  # given); in [units] (products per cell; scales unitless)
@@ -58,6 +61,7 @@ from ..geometry import matrix_rpy, rpy_matrix
 from ..robot import Robot, attach_inertials
 from .delimited import as_number
 from .output import write_text
+from .payload import compliance_spec, read_compliance
 from .text import read_text
 from .units import angle_scale, cell_scale, inertia_scale, joint_scale, length_scale, mass_scale
 
@@ -269,7 +273,7 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
     coupling = parse_coupling(doc["couplings"], kinds, f"{where}, [couplings]") if "couplings" in doc else None
     scale, reference = _readings(doc["readings"], kinds, units, f"{where}, [readings]") if "readings" in doc else (None, None)
     covariance = _covariance(doc["covariance"], table, units, f"{where}, [covariance]", scale is not None) if "covariance" in doc else None
-    known = {"name", "description", "source", "convention", "units", "joints", "base", "tool", "home", "couplings", "readings", "covariance"}
+    known = {"name", "description", "source", "convention", "units", "joints", "base", "tool", "home", "couplings", "readings", "covariance", "compliance"}
     # other tables (e.g. [urdf], written by `convert` from a URDF) are carried as extra; a stray plain key is
     # most likely a typo ("hom" for "home")
     _check_keys({k: v for k, v in doc.items() if not isinstance(v, dict)}, sorted(known), f"{where} (top level)")
@@ -288,6 +292,8 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
             joint = getattr(e, "joint", None)  # the core error names the link it is about
             at = joint_where[joint - 1] if joint else where
             raise DenavitError(f"{at}: inertia: {e}") from None
+    compliance, compliance_cov = (read_compliance(doc["compliance"], kinds, names, inertials is not None, f"{where}, [compliance]")
+                                  if "compliance" in doc else (None, None))
     return Robot(
         name=_text(doc.get("name", Path(where).stem), f"{where}: name"),
         table=table,
@@ -304,6 +310,8 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         covariance=covariance,
         reading_scale=scale,
         reading_reference=reference,
+        compliance=compliance,
+        compliance_covariance=compliance_cov,
     )
 
 
@@ -506,6 +514,8 @@ def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
             raise DenavitError(f"{robot.name}: covariance of shape {np.shape(robot.covariance)}, expected ({len(s)}, {len(s)}) for its table"
                                + (" and reading scales" if robot.reading_scale is not None else ""))
         doc["covariance"] = {"matrix": [[float(v) for v in row] for row in np.asarray(robot.covariance) / np.outer(s, s)]}
+    if robot.compliance is not None:
+        doc["compliance"] = compliance_spec(robot.compliance, robot.compliance_covariance, list(t.kinds))
     if robot.coupling is not None and coupling_text(robot.coupling):
         doc["couplings"] = coupling_text(robot.coupling)
     doc.update(robot.extra)

@@ -1,0 +1,167 @@
+"""Payloads and joint compliances at the edge (issue 37): their units, a robot file's ``[compliance]`` section, the
+CLI's ``--payload "5 kg @ 0,0,80 mm"`` and the ``payload_mass, payload_x, payload_y, payload_z`` columns of pose files.
+
+Inside everything is SI: a payload is ``(mass kg, x, y, z m)``, its centre of mass in the flange frame; a compliance
+is rad/(N m) for a revolute joint and m/N for a prismatic one (:mod:`denavit.calibration.compliance`).
+
+A robot file's section (values in the units it declares; ``prismatic_unit`` only where a joint is prismatic)::
+
+    [compliance]
+    unit = "urad/(N m)"          # revolute joints: rad/(N m), mrad/(N m), urad/(N m), deg/(N m)
+    prismatic_unit = "um/N"      # prismatic joints: m/N, mm/N, um/N
+    values = [0, 1.5, 2.2, 4, 5, 5]
+    covariance = [[...], ...]    # optional: n x n, in the units' products (written by calibrate --save)
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+
+from ..errors import DenavitError
+from .units import length_scale
+
+#: rad/(N m) per revolute compliance unit (the angle part's name).
+REVOLUTE_UNITS = {"rad": 1.0, "mrad": 1e-3, "urad": 1e-6, "deg": math.pi / 180}
+#: m/N per prismatic compliance unit (the length part's name).
+PRISMATIC_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6}
+#: kg per payload mass unit.
+MASS_UNITS = {"kg": 1.0, "g": 1e-3, "lb": 0.45359237}
+#: The payload columns of a pose file: mass in kg, the centre of mass in the flange frame in the file's length unit.
+PAYLOAD_COLUMNS = ("payload_mass", "payload_x", "payload_y", "payload_z")
+
+
+def compliance_unit(text, kind: str, where: str) -> float:
+    """SI per unit of a compliance unit: ``"rad/(N m)"`` (also ``rad/Nm``, ``rad/(N*m)``, ``rad/N/m``; ``mrad``,
+    ``urad``, ``deg``) for a revolute joint, ``"m/N"`` (``mm/N``, ``um/N``) for a prismatic one."""
+    if not isinstance(text, str):
+        raise DenavitError(f"{where}: expected a compliance unit such as \"rad/(N m)\" (revolute) or \"m/N\" (prismatic), got {text!r}")
+    s = re.sub(r"[\s*·.()]", "", text).lower()
+    if kind == "revolute":
+        m = re.fullmatch(r"([a-z]+)/(?:nm|n/m)", s)
+        if m and m.group(1) in REVOLUTE_UNITS:
+            return REVOLUTE_UNITS[m.group(1)]
+        raise DenavitError(f"{where}: unknown compliance unit {text!r} for revolute joints: expected an angle per torque, one of "
+                           f"{', '.join(f'{u}/(N m)' for u in REVOLUTE_UNITS)}")
+    m = re.fullmatch(r"([a-z]+)/n", s)
+    if m and m.group(1) in PRISMATIC_UNITS:
+        return PRISMATIC_UNITS[m.group(1)]
+    raise DenavitError(f"{where}: unknown compliance unit {text!r} for prismatic joints: expected a length per force, one of "
+                       f"{', '.join(f'{u}/N' for u in PRISMATIC_UNITS)}")
+
+
+def _numbers(value, n: int, where: str) -> list[float]:
+    from .delimited import as_number  # noqa: PLC0415
+
+    if not isinstance(value, list) or len(value) != n:
+        raise DenavitError(f"{where}: expected a list of {n} numbers (one per joint), got {value!r}"[:200])
+    return [as_number(v, f"{where}[{i}]") for i, v in enumerate(value)]
+
+
+def read_compliance(spec, kinds: list, names: list, has_inertials: bool, where: str) -> tuple[np.ndarray, np.ndarray | None]:
+    """(compliances (n,) SI, covariance (n, n) SI or None) of a robot file's ``[compliance]`` table (module docstring)."""
+    if not isinstance(spec, dict):
+        raise DenavitError(f"{where}: expected a table with 'unit' and 'values', got {spec!r}"[:200])
+    unknown = [k for k in spec if k not in ("unit", "prismatic_unit", "values", "covariance")]
+    if unknown:
+        raise DenavitError(f"{where}: unknown key(s) {', '.join(map(repr, unknown))}: expected unit, prismatic_unit, values, covariance")
+    if not has_inertials:
+        raise DenavitError(f"{where}: joint compliances need the links' inertial parameters ([joints.inertia]) to give the gravity torques the joints twist under; "
+                           "the file gives none")
+    n = len(kinds)
+    scale = np.ones(n)
+    for kind, key in (("revolute", "unit"), ("prismatic", "prismatic_unit")):
+        if kind not in kinds:
+            continue
+        if key not in spec:
+            example = "unit = \"rad/(N m)\"" if kind == "revolute" else "prismatic_unit = \"m/N\""
+            raise DenavitError(f"{where}: missing '{key}' (the unit of the {kind} joints' compliances, e.g. {example})")
+        scale[[k == kind for k in kinds]] = compliance_unit(spec[key], kind, f"{where}: {key}")
+    if "values" not in spec:
+        raise DenavitError(f"{where}: missing 'values' (one compliance per joint, in 'unit')")
+    raw = np.array(_numbers(spec["values"], n, f"{where}: values"))
+    bad = np.flatnonzero(raw < 0)
+    if bad.size:
+        j = bad[0]
+        raise DenavitError(f"{where}: values: joint {j + 1} ({names[j]}): expected a compliance >= 0 (a joint gives way under its torque), got {raw[j]:g} "
+                           f"{spec.get('unit' if kinds[j] == 'revolute' else 'prismatic_unit')}")
+    cov = None
+    if "covariance" in spec:
+        rows = spec["covariance"]
+        if not isinstance(rows, list) or len(rows) != n:
+            raise DenavitError(f"{where}: covariance: expected {n} rows of {n} numbers (in the units' products), got {len(rows) if isinstance(rows, list) else rows!r}")
+        cov = np.array([_numbers(r, n, f"{where}: covariance row {i + 1}") for i, r in enumerate(rows)]) * np.outer(scale, scale)
+        if not np.allclose(cov, cov.T, rtol=1e-9, atol=0) or np.linalg.eigvalsh((cov + cov.T) / 2).min() < -1e-9 * max(np.abs(np.diag(cov)).max(), 1e-300):
+            raise DenavitError(f"{where}: covariance: expected a symmetric positive semi-definite matrix")
+    return raw * scale, cov
+
+
+def compliance_spec(values: np.ndarray, covariance: np.ndarray | None, kinds: list, unit: str = "urad/(N m)", prismatic_unit: str = "um/N") -> dict:
+    """The ``[compliance]`` table of compliances (SI) in ``unit`` / ``prismatic_unit``."""
+    scale = np.array([compliance_unit(unit if k == "revolute" else prismatic_unit, k, "compliance") for k in kinds])
+    out: dict = {"unit": unit}
+    if "prismatic" in kinds:
+        out["prismatic_unit"] = prismatic_unit
+    out["values"] = [float(f"{v:.15g}") for v in np.asarray(values, dtype=float) / scale]
+    if covariance is not None:
+        out["covariance"] = [[float(v) for v in row] for row in np.asarray(covariance, dtype=float) / np.outer(scale, scale)]
+    return out
+
+
+_PAYLOAD = re.compile(r"\s*([-+0-9.eE]+)\s*([A-Za-z]*)\s*(?:@\s*(.+))?")
+
+
+def parse_payload(text: str, length: str = "mm", where: str = "--payload") -> tuple[float, np.ndarray]:
+    """``"5 kg @ 0,0,80 mm"`` as (mass kg, centre of mass (3,) m in the flange frame). The mass needs its unit (kg, g,
+    lb); the centre of mass defaults to the flange origin, its numbers in their own unit or ``length``."""
+    m = _PAYLOAD.fullmatch(str(text))
+    expected = f"{where}: expected a mass with its unit and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\""
+    if m is None:
+        raise DenavitError(f"{expected}; got {text!r}")
+    num, unit, com = m.groups()
+    if not unit:
+        raise DenavitError(f"{where}: the payload's mass {num} has no unit: expected one of {', '.join(MASS_UNITS)}, e.g. \"5 kg @ 0,0,80 mm\"")
+    if unit.lower() not in MASS_UNITS:
+        raise DenavitError(f"{where}: unknown mass unit {unit!r}: expected one of {', '.join(MASS_UNITS)}")
+    try:
+        mass = float(num) * MASS_UNITS[unit.lower()]
+    except ValueError:
+        raise DenavitError(f"{expected}; got {text!r}") from None
+    if not (math.isfinite(mass) and 0 <= mass <= 1e5):
+        raise DenavitError(f"{where}: expected a payload mass >= 0 kg (and at most 100 t), got {text.split('@')[0].strip()!r}")
+    c = np.zeros(3)
+    if com is not None:
+        cm = re.fullmatch(r"\s*([-+0-9.eE]+)\s*,\s*([-+0-9.eE]+)\s*,\s*([-+0-9.eE]+)\s*([A-Za-z]*)\s*", com)
+        if cm is None:
+            raise DenavitError(f"{where}: expected the centre of mass as x,y,z with an optional length unit after '@', got {com.strip()!r}")
+        ls = length_scale(cm.group(4) or length, where)
+        try:
+            c = np.array([float(cm.group(k)) for k in (1, 2, 3)]) * ls
+        except ValueError:
+            raise DenavitError(f"{where}: expected the centre of mass as three numbers x,y,z, got {com.strip()!r}") from None
+        if not np.all(np.isfinite(c)) or np.any(np.abs(c) > 1e3):
+            raise DenavitError(f"{where}: the centre of mass must be finite and within 1 km of the flange, got {com.strip()!r}")
+    return mass, c
+
+
+def payload_rows(mass: float, com, n: int) -> np.ndarray:
+    """(n, 4) rows ``[mass kg, x, y, z m]`` of one payload for every pose."""
+    return np.tile(np.r_[float(mass), np.asarray(com, dtype=float).reshape(3)], (n, 1))
+
+
+def payload_from_columns(table: np.ndarray, cols: dict, ls: float, where) -> np.ndarray:
+    """(N, 4) SI payload rows from a numeric table and ``cols`` (a payload column name -> its index): mass in kg,
+    the centre of mass in the file's length unit (``ls`` m per unit; missing coordinates 0). A negative mass is an
+    error naming its line (``where[i]``)."""
+    out = np.zeros((len(table), 4))
+    out[:, 0] = table[:, cols["payload_mass"]]
+    for k, c in enumerate(PAYLOAD_COLUMNS[1:], 1):
+        if c in cols:
+            out[:, k] = table[:, cols[c]] * ls
+    bad = np.flatnonzero(~(out[:, 0] >= 0) | ~np.all(np.isfinite(out), axis=1))
+    if bad.size:
+        i = bad[0]
+        raise DenavitError(f"{where[i]}: payload_mass: expected a mass >= 0 kg and a finite centre of mass, got {out[i, 0]:g} kg at {(out[i, 1:] / ls).tolist()}")
+    return out
