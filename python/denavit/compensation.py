@@ -157,24 +157,21 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
     notes = []
     tool = np.asarray(ide.T_flange_tool)
     poe = getattr(identified, "convention", None) == "poe"
-    if _is_identity(nom.T_flange_tool):
-        # the identified tool in its flange as the nominal's table places the flange: where a table puts its last
-        # frame along the last axis (the split of d6 and the tool's z, which no measurement of one point tells apart)
-        # is each convention's own, and a file saved in another convention would compensate another flange
-        try:
-            tool = canonical_tool(nom, ide, getattr(nominal, "home", None))
-        except DenavitError:
-            if poe:
-                raise
+    home = getattr(nominal, "home", None)
+    if poe and _is_identity(nom.T_flange_tool):
+        tool = canonical_tool(nom, ide, home)
     off = tool[:3, 3]
     if _is_identity(nom.T_flange_tool) and np.linalg.norm(off) > TOOL_FRACTION * robot_size(nom, np.zeros(nom.nq)):
         # identify's tool is the point it measured (a reflector on the flange), not the controller's tool: with a
-        # nominal that has none, the targets and the commands are the flange's, and so is the identified robot (its
-        # flange: its tool frame less the tool in the canonical flange; the same from every file of one result)
-        ide = ide.with_tool(np.asarray(ide.T_flange_tool) @ np.linalg.inv(tool))
+        # nominal that has none, the targets and the commands are the flange's, and so is the identified robot. Its
+        # flange is placed on its last body as the nominal's is on the nominal's (canonical_tool): where a table puts
+        # its last frame along the last axis (the split of d6 and the tool's z, which no measurement of one point
+        # tells apart) is each convention's own, and a file saved in another convention would compensate another flange
+        canon = canonical_tool(nom, ide, home) @ np.linalg.inv(canonical_tool(nom, nom, home))
+        ide = ide.with_tool(np.asarray(ide.T_flange_tool) @ np.linalg.inv(canon))
         at = "the identified tool point (its covariance is of that point, as the result's own)"
         notes.append(f"the nominal {getattr(nominal, 'name', 'model')} has no tool and the identified robot has one ({np.linalg.norm(off) * 1e3:.4g} mm from the "
-                     f"flange: the point it was measured at): the flange compensated (the identified flange placed as the nominal's table places its own), "
+                     f"flange: the point it was measured at): the flange compensated (the identified flange placed on its last body as the nominal's is), "
                      f"the prediction after it at {at}; give the nominal a tool to compensate tool poses")
     T = np.asarray(targets, dtype=float)
     if T.ndim == 2:

@@ -1,0 +1,308 @@
+"""ABB RAPID program modules (``.mod``), read and written back.
+
+Positions (ABB, "Technical reference manual - RAPID Instructions, Functions and Data types", data types
+robtarget, jointtarget, confdata, tooldata, wobjdata):
+
+- ``robtarget`` ``[[x, y, z], [q1, q2, q3, q4], [cf1, cf4, cf6, cfx], [eax_a, ..., eax_f]]``: the TCP of the
+  instruction's tool in its work object, mm; the orientation a unit quaternion ``q1 + q2 i + q3 j + q4 k``; the
+  external axes kept as they are.
+- ``jointtarget`` ``[[rax_1, ..., rax_6], [eax_a, ..., eax_f]]``: axis values, degrees.
+
+The configuration (confdata, "Robot configuration"): ``cf1``, ``cf4``, ``cf6`` the quadrants of axes 1, 4 and 6,
+``floor(angle / 90 deg)`` (0: 0 to 90 deg, -1: -90 to 0, 4: 360 to 450: a turn beyond +-180 deg is its own
+quadrant); ``cfx`` for a serial six-axis robot, 0-7: ``4 * behind + 2 * below + negative`` with ``behind`` the
+wrist centre behind axis 1 (its x in the axis-1 frame, the base frame turned with axis 1, < 0), ``below`` the
+wrist centre behind the lower arm (on the other side of the line through axes 2 and 3 from the side the axis-1
+frame's x faces when that line points up) and ``negative`` axis 5 < 0 (the manual's table: 0 in front of axis 1,
+in front of the lower arm, axis 5 positive; 1 the same with axis 5 negative; ...; 7 behind, behind, negative).
+The axes' senses are the model's (ABB's tool0: z out of the flange, the model's flange).
+
+Frames: a named target's tool and work object are those of the move instructions that use it (MoveJ, MoveL,
+MoveC, MoveAbsJ and their DO/AO/GO/Sync forms; ``tool0`` / ``wobj0`` the flange and the base frame); a
+``tooldata`` (``robhold`` TRUE) or ``wobjdata`` (``robhold`` FALSE, ``ufprog`` TRUE, no ``ufmec``: user frame then
+object frame) declared in the module is honoured; one declared elsewhere, a stationary tool, a moving work
+object, or a target used with two different frames is a one-line error. A named target no move uses is left as
+it is (its frames unknown) and listed.
+
+Supported subset: CONST, PERS, VAR, LOCAL and TASK declarations of robtarget and jointtarget (one value each;
+arrays are listed, not compensated); targets named or written inline in the move instructions above; functions of
+targets (``Offs(p10, ...)``) are not rewritten, the targets they name are.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from ...errors import DenavitError
+from . import Number, Point, Program, arm, matrix_quaternion, pose_matrix, quaternion_matrix, read_source
+
+_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+MOVES = re.compile(r"\b(Move(?:J|L|C|AbsJ)(?:DO|AO|GO|Sync)?)\b", re.IGNORECASE)
+
+
+def signs(robot) -> np.ndarray:
+    return np.ones(len(robot.names))
+
+
+def flange_rotation(robot) -> np.ndarray:
+    return np.eye(3)
+
+
+def _blank_comments(text: str) -> str:
+    """``text`` with comments (``!`` to the end of the line, outside strings) and strings blanked, positions kept."""
+    out = list(text)
+    i, n = 0, len(text)
+    while i < n:
+        c = text[i]
+        if c == '"':
+            j = text.find('"', i + 1)
+            j = n - 1 if j < 0 else j
+            for k in range(i + 1, j):
+                if out[k] != "\n":
+                    out[k] = " "
+            i = j + 1
+        elif c == "!":
+            j = text.find("\n", i)
+            j = n if j < 0 else j
+            for k in range(i, j):
+                out[k] = " "
+            i = j
+        else:
+            i += 1
+    return "".join(out)
+
+
+def _literal(text: str, start: int, where: str):
+    """The bracketed value starting at ``start``: a nested list of (token, start, end) leaves, and its end."""
+    if text[start] != "[":
+        raise DenavitError(f"{where}: expected '[', got {text[start:start + 20]!r}")
+    stack, cur, i = [], [], start + 1
+    root = cur
+    while i < len(text):
+        c = text[i]
+        if c == "[":
+            stack.append(cur)
+            new: list = []
+            cur.append(new)
+            cur = new
+            i += 1
+        elif c == "]":
+            if not stack:
+                return root, i + 1
+            cur = stack.pop()
+            i += 1
+        elif c in ", \t\r\n":
+            i += 1
+        else:
+            m = re.compile(r'[^,\[\]\s]+').match(text, i)
+            cur.append((m.group(0), m.start(), m.end()))
+            i = m.end()
+    raise DenavitError(f"{where}: unclosed '[' (expected ']' before the end of the file)")
+
+
+def _num(leaf, where: str, what: str) -> float:
+    if not isinstance(leaf, tuple) or not _NUMBER.fullmatch(leaf[0]):
+        raise DenavitError(f"{where}: {what}: expected a number, got {leaf[0] if isinstance(leaf, tuple) else '[...]'!r}")
+    return float(leaf[0])
+
+
+def _shape(v, shape, where: str, what: str) -> None:
+    ok = isinstance(v, list) and len(v) == len(shape) and all(
+        (isinstance(x, list) and len(x) == s) if s else isinstance(x, tuple) for x, s in zip(v, shape, strict=False))
+    if not ok:
+        raise DenavitError(f"{where}: {what}: expected {_expected(shape)}")
+
+
+def _expected(shape) -> str:
+    return "[" + ",".join("[" + ",".join(["n"] * s) + "]" if s else "x" for s in shape) + "]"
+
+
+ROBTARGET = (3, 4, 4, 6)
+JOINTTARGET = (6, 6)
+
+
+def _pose_point(name, where, lit, src_index) -> Point:
+    _shape(lit, ROBTARGET, where, f"robtarget {name}")
+    nums = [Number(src_index, s, e, t, "mm") for t, s, e in lit[0]] + [Number(src_index, s, e, t, "quaternion") for t, s, e in lit[1]]
+    for n in nums:
+        _num((n.token, 0, 0), where, f"robtarget {name}")
+    cf = tuple(int(_num(x, where, f"robtarget {name} confdata")) for x in lit[2])
+    return Point(name, where, "pose", nums, cf)
+
+
+def _joint_point(name, where, lit, src_index) -> Point:
+    _shape(lit, JOINTTARGET, where, f"jointtarget {name}")
+    nums = [Number(src_index, s, e, t, "deg") for t, s, e in lit[0]]
+    for n in nums:
+        _num((n.token, 0, 0), where, f"jointtarget {name}")
+    return Point(name, where, "joints", nums)
+
+
+def _frame(lit, where, what) -> np.ndarray:
+    p = np.array([_num(x, where, what) for x in lit[0]]) * 1e-3
+    q = np.array([_num(x, where, what) for x in lit[1]])
+    return pose_matrix(p, quaternion_matrix(q))
+
+
+def read(path, robot, *, frames: dict) -> Program:
+    src = read_source(path)
+    text = src.text
+    if not re.search(r"(?im)^\s*MODULE\s+\w+", _blank_comments(text)):
+        raise DenavitError(f"{path}:1: expected 'MODULE name' (a RAPID program module)")
+    clean = _blank_comments(text)
+    points: list[Point] = []
+    named: dict = {}
+    tools = {"TOOL0": np.eye(4)}
+    wobjs = {"WOBJ0": np.eye(4)}
+    notes: list[str] = []
+    decl = re.compile(r"(?im)^[ \t]*(?:(?:LOCAL|TASK)[ \t]+)?(CONST|PERS|VAR)[ \t]+(\w+)[ \t]+(\w+)[ \t]*(\{[^}]*\})?[ \t]*(:=)?")
+    for m in decl.finditer(clean):
+        typ, name = m.group(2).lower(), m.group(3)
+        where = src.where(m.start())
+        if typ not in ("robtarget", "jointtarget", "tooldata", "wobjdata"):
+            continue
+        if m.group(4):
+            notes.append(f"{where}: {typ} {name}{m.group(4)}: an array: not compensated")
+            continue
+        if not m.group(5):
+            if typ in ("robtarget", "jointtarget"):
+                notes.append(f"{where}: {typ} {name}: declared without a value: nothing to compensate")
+            continue
+        i = m.end()
+        while i < len(clean) and clean[i] in " \t\r\n":
+            i += 1
+        if i >= len(clean) or clean[i] != "[":
+            notes.append(f"{where}: {typ} {name}: its value is not a literal: not compensated")
+            continue
+        lit, _ = _literal(clean, i, where)
+        if typ == "robtarget":
+            pt = _pose_point(name, where, lit, 0)
+        elif typ == "jointtarget":
+            pt = _joint_point(name, where, lit, 0)
+        elif typ == "tooldata":
+            if not (isinstance(lit, list) and len(lit) == 3 and isinstance(lit[0], tuple) and isinstance(lit[1], list) and len(lit[1]) == 2):
+                raise DenavitError(f"{where}: tooldata {name}: expected [robhold,[[x,y,z],[q1,q2,q3,q4]],[load]]")
+            if lit[0][0].upper() != "TRUE":
+                tools[name.upper()] = ("stationary", where)
+            else:
+                tools[name.upper()] = _frame(lit[1], where, f"tooldata {name}")
+            continue
+        else:
+            if not (isinstance(lit, list) and len(lit) == 5):
+                raise DenavitError(f"{where}: wobjdata {name}: expected [robhold,ufprog,ufmec,[uframe],[oframe]]")
+            robhold, ufprog, ufmec = (x[0].upper() if isinstance(x, tuple) else "" for x in lit[:3])
+            if robhold != "FALSE" or ufprog != "TRUE" or ufmec not in ('""', ""):
+                wobjs[name.upper()] = ("moving", where)
+            else:
+                wobjs[name.upper()] = _frame(lit[3], where, f"wobjdata {name}") @ _frame(lit[4], where, f"wobjdata {name}")
+            continue
+        named[name.upper()] = pt
+        points.append(pt)
+    used: dict = {}
+    for m in MOVES.finditer(clean):
+        instr = m.group(1)
+        end = clean.find(";", m.end())
+        if end < 0:
+            raise DenavitError(f"{src.where(m.start())}: {instr}: expected ';' at the end of the instruction")
+        where = src.where(m.start())
+        args = _split(clean, m.end(), end)
+        args = [a for a in args if not clean[a[0]:a[1]].strip().startswith("\\")] or args  # (\Conc and other switches first)
+        n_targets = 2 if instr.upper().startswith("MOVEC") else 1
+        if len(args) < n_targets + 3:
+            raise DenavitError(f"{where}: {instr}: expected {'CirPoint, ToPoint' if n_targets == 2 else 'ToPoint'}, Speed, Zone, Tool; got {len(args)} arguments")
+        tool_arg = clean[args[n_targets + 2][0]:args[n_targets + 2][1]]
+        tool_name = re.match(r"\s*(\w+)", tool_arg)
+        rest = clean[args[n_targets + 2][0]:end]
+        wobj = re.search(r"\\WObj\s*:=\s*(\w+)", rest, re.IGNORECASE)
+        frames_of = (_lookup(tools, tool_name.group(1) if tool_name else "", "tooldata", where),
+                     _lookup(wobjs, wobj.group(1) if wobj else "wobj0", "wobjdata", where),
+                     (tool_name.group(1) if tool_name else "?", wobj.group(1) if wobj else "wobj0"))
+        for a in args[:n_targets]:
+            s, e = a
+            while s < e and clean[s] in " \t\r\n":
+                s += 1
+            if s < e and clean[s] == "[":
+                lit, _ = _literal(clean, s, where)
+                pt = _joint_point(f"{instr} (inline)", where, lit, 0) if instr.upper().startswith("MOVEABSJ") else _pose_point(f"{instr} (inline)", where, lit, 0)
+                pt.tool, pt.base = frames_of[0], frames_of[1]
+                points.append(pt)
+                continue
+            for ident in re.findall(r"[A-Za-z_]\w*", clean[s:e]):
+                if ident.upper() in named:
+                    used.setdefault(ident.upper(), []).append((where, frames_of))
+    for key, pt in named.items():
+        uses = used.get(key)
+        if not uses:
+            pt.problem = "no move instruction of the module uses it: its tool and work object are unknown (left as it is)"
+            continue
+        names = {u[1][2] for u in uses}
+        if len(names) > 1:
+            raise DenavitError(f"{uses[0][0]}: {pt.name} is used with {' and '.join('/'.join(n) for n in sorted(names))}: a target taught in several frames "
+                               "is unsupported (expected one tool and work object per target)")
+        pt.tool, pt.base = uses[0][1][0], uses[0][1][1]
+    points.sort(key=lambda p: (int(p.where.rsplit(":", 1)[1]), p.numbers[0].start))
+    return Program("abb", [src], points, notes)
+
+
+def _lookup(table: dict, name: str, what: str, where: str) -> np.ndarray:
+    v = table.get(name.upper())
+    if v is None:
+        raise DenavitError(f"{where}: {what} {name} is not declared in the module: unsupported (expected it declared in the program module, or "
+                           f"{'tool0' if what == 'tooldata' else 'wobj0'})")
+    if isinstance(v, tuple):
+        kind, at = v
+        why = "a stationary tool (robhold FALSE)" if kind == "stationary" else "a work object moved by the robot or a mechanical unit"
+        raise DenavitError(f"{where}: {what} {name} (declared at {at}) is {why}: unsupported")
+    return v
+
+
+def _split(text: str, start: int, end: int) -> list[tuple[int, int]]:
+    """Spans of the top-level comma-separated arguments of ``text[start:end]``."""
+    out, depth, s = [], 0, start
+    for i in range(start, end):
+        c = text[i]
+        if c in "[(":
+            depth += 1
+        elif c in "])":
+            depth -= 1
+        elif c == "," and depth == 0:
+            out.append((s, i))
+            s = i + 1
+    out.append((s, end))
+    return [(a, b) for a, b in out if text[a:b].strip()]
+
+
+def to_pose(values) -> np.ndarray:
+    v = np.asarray(values, dtype=float)
+    return pose_matrix(v[:3] * 1e-3, quaternion_matrix(v[3:7]))
+
+
+def pose_values(T: np.ndarray, point: Point) -> np.ndarray:
+    old = point.values
+    return np.concatenate([T[:3, 3] * 1e3, matrix_quaternion(T[:3, :3], old[3:7])])
+
+
+def joint_values(robot, values) -> np.ndarray:
+    return np.radians(np.asarray(values, dtype=float)) * signs(robot)
+
+
+def joint_readings(robot, q, point: Point) -> np.ndarray:
+    return np.degrees(np.asarray(q, dtype=float) * signs(robot))
+
+
+def configuration(model, q, cache: dict) -> tuple[int, int, int, int]:
+    """(cf1, cf4, cf6, cfx) of the model's joint values ``q`` (module docstring)."""
+    a = np.degrees(np.asarray(q, dtype=float) * cache.get("signs", np.ones(model.nq)))
+    g = arm(model, q)
+    cfx = 4 * (g.front < 0) + 2 * (g.lower_arm < 0) + (a[4] < 0)
+    return int(np.floor(a[0] / 90)), int(np.floor(a[3] / 90)), int(np.floor(a[5] / 90)), int(cfx)
+
+
+def matches(stated, computed) -> bool:
+    return tuple(stated) == tuple(computed)
+
+
+def describe(config) -> str:
+    return f"the configuration [{','.join(str(c) for c in config)}] (cf1, cf4, cf6, cfx)"

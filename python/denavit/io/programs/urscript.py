@@ -1,0 +1,194 @@
+"""URScript programs (``.script``), read and written back.
+
+Positions (Universal Robots, "The URScript Programming Language", ``movej``, ``movel``, ``movep``, ``movec``,
+``set_tcp``; poses ``p[x, y, z, rx, ry, rz]``): a pose is the TCP in the robot's base frame, m, its orientation a
+rotation vector (rad); a joint position ``[q1, ..., q6]`` rad. The base frame is the frame of UR's published DH
+table (the built-in ``ur5``'s world); the TCP is the tool flange (tool0, the DH table's frame 6) unless ``set_tcp``
+set one (each move at the TCP set last before it in the text).
+
+The configuration: a pose has none; the controller moves to the inverse kinematics solution nearest the joint
+position it starts from (``movel``, ``movep``, and ``movej`` of a pose alike), here the previous position of the
+script (in the text's order), the first nearest ``q0``. Joint positions are the configuration.
+
+Supported subset: moves whose target is a literal (``movel(p[...], a=1.2, v=0.25)``, ``movej([...])``) or a
+variable assigned a literal (``p1 = p[...]``, ``global p1 = p[...]``), compensated where the literal is written;
+``set_tcp(p[...])`` or of such a variable. A target computed by a function (``pose_trans``, ``pose_add``,
+``get_inverse_kin``, ...) or a ``set_tcp`` of one is listed, not compensated (one-line error for ``set_tcp``: the
+frame of every move after it would be unknown); a feature frame is not supported (poses are in the base frame).
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from ...errors import DenavitError
+from ...geometry import matrix_rotvec, rotvec_matrix
+from . import Number, Point, Program, pose_matrix, read_source
+
+_NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
+_NUM = re.compile(_NUMBER)
+_LIST = re.compile(r"(p?)\[\s*(" + _NUMBER + r"(?:\s*,\s*" + _NUMBER + r")*)\s*\]")
+_MOVE = re.compile(r"\b(movej|movel|movep|movec|servoj|speedj)\s*\(")
+_ASSIGN = re.compile(r"(?m)^[ \t]*(?:global[ \t]+|local[ \t]+)?([A-Za-z_]\w*)[ \t]*=[ \t]*(?!=)")
+
+
+def signs(robot) -> np.ndarray:
+    return np.ones(len(robot.names))
+
+
+def flange_rotation(robot) -> np.ndarray:
+    return np.eye(3)
+
+
+def _blank(text: str) -> str:
+    """Comments (``#`` to the end of the line) and strings blanked, positions kept."""
+    out = list(text)
+    i, n = 0, len(text)
+    while i < n:
+        c = text[i]
+        if c in "\"'":
+            j = text.find(c, i + 1)
+            j = n - 1 if j < 0 else j
+            for k in range(i + 1, j):
+                if out[k] != "\n":
+                    out[k] = " "
+            i = j + 1
+        elif c == "#":
+            j = text.find("\n", i)
+            j = n if j < 0 else j
+            for k in range(i, j):
+                out[k] = " "
+            i = j
+        else:
+            i += 1
+    return "".join(out)
+
+
+def _literal_point(src, clean: str, m: re.Match, name: str, where: str, n: int) -> Point:
+    pose = m.group(1) == "p"
+    nums = [Number(0, mm.start(), mm.end(), mm.group(0), ("m" if (pose and k < 3) else "rad")) for k, mm in enumerate(_NUM.finditer(clean, m.start(2), m.end(2)))]
+    if len(nums) != (6 if pose else n):
+        raise DenavitError(f"{where}: {name}: expected {'p[x, y, z, rx, ry, rz]' if pose else f'{n} joint values'}, got {len(nums)} values")
+    return Point(name, where, "pose" if pose else "joints", nums)
+
+
+def _first_arg(clean: str, start: int) -> tuple[int, int]:
+    depth, i = 0, start
+    while i < len(clean):
+        c = clean[i]
+        if c in "([":
+            depth += 1
+        elif c in ")]":
+            if depth == 0:
+                return start, i
+            depth -= 1
+        elif c == "," and depth == 0:
+            return start, i
+        i += 1
+    return start, i
+
+
+def read(path, robot, *, frames: dict) -> Program:
+    src = read_source(path)
+    clean = _blank(src.text)
+    n = len(robot.names)
+    variables: dict = {}
+    for m in _ASSIGN.finditer(clean):
+        lit = _LIST.match(clean, m.end())
+        if lit:
+            variables.setdefault(m.group(1), []).append((lit, src.where(m.start())))
+    events = []  # (position, kind, data) in the text's order
+    for m in re.finditer(r"\bset_tcp\s*\(", clean):
+        s, e = _first_arg(clean, m.end())
+        events.append((m.start(), "tcp", (s, e)))
+    for m in _MOVE.finditer(clean):
+        events.append((m.start(), m.group(1), m.end()))
+    events.sort()
+    tcp = np.eye(4)
+    points: list[Point] = []
+    notes: list[str] = []
+    seen: dict = {}
+    for pos, kind, data in events:
+        where = src.where(pos)
+        if kind == "tcp":
+            s, e = data
+            arg = clean[s:e].strip()
+            lit = _LIST.fullmatch(arg)
+            if lit is None and arg in variables and len(variables[arg]) == 1:
+                lit = variables[arg][0][0]
+            if lit is None or lit.group(1) != "p":
+                raise DenavitError(f"{where}: set_tcp({arg[:40]}): unsupported (expected a literal pose p[...] or a variable assigned one once)")
+            v = [float(x) for x in re.findall(_NUMBER, lit.group(2))]
+            tcp = pose_matrix(np.array(v[:3]), rotvec_matrix(np.array(v[3:])[None])[0])
+            continue
+        if kind in ("servoj", "speedj"):
+            notes.append(f"{where}: {kind}: a servo or speed command: not compensated")
+            continue
+        start = data
+        args = [_first_arg(clean, start)]
+        if kind == "movec":
+            args.append(_first_arg(clean, args[0][1] + 1))
+        for s, e in args:
+            arg = clean[s:e].strip()
+            off = s + (len(clean[s:e]) - len(clean[s:e].lstrip()))
+            lit = _LIST.match(clean, off)
+            if lit and lit.end() - off == len(arg):
+                pt = _literal_point(src, clean, lit, f"{kind} (inline)", where, n)
+            elif arg in variables:
+                if len(variables[arg]) > 1:
+                    notes.append(f"{where}: {kind}({arg}): {arg} is assigned several times: not compensated")
+                    continue
+                key = arg
+                if key in seen:
+                    if not np.allclose(seen[key].tool, tcp):
+                        raise DenavitError(f"{where}: {arg} is moved to at two different TCPs: unsupported (expected one TCP per pose)")
+                    continue
+                lit, at = variables[arg][0]
+                pt = _literal_point(src, clean, lit, arg, at, n)
+                seen[key] = pt
+            else:
+                notes.append(f"{where}: {kind}({arg[:40]}): a computed target: not compensated")
+                continue
+            pt.tool = tcp.copy()
+            if kind in ("movej",) and pt.kind == "pose":
+                pt.extra["movej"] = True
+            points.append(pt)
+    return Program("urscript", [src], points, notes)
+
+
+def to_pose(values) -> np.ndarray:
+    v = np.asarray(values, dtype=float)
+    return pose_matrix(v[:3], rotvec_matrix(v[3:6][None])[0])
+
+
+def pose_values(T: np.ndarray, point: Point) -> np.ndarray:
+    old = point.values[3:6]
+    r = matrix_rotvec(T[:3, :3][None])[0]
+    a = np.linalg.norm(r)
+    if a > 1e-9:  # the equivalent rotation vector nearest the original (they differ near half a turn)
+        alt = r * (1 - 2 * np.pi / a)
+        if np.linalg.norm(alt - old) < np.linalg.norm(r - old):
+            r = alt
+    return np.concatenate([T[:3, 3], r])
+
+
+def joint_values(robot, values) -> np.ndarray:
+    return np.asarray(values, dtype=float) * signs(robot)
+
+
+def joint_readings(robot, q, point: Point) -> np.ndarray:
+    return np.asarray(q, dtype=float) * signs(robot)
+
+
+def configuration(model, q, cache: dict):
+    return None
+
+
+def matches(stated, computed) -> bool:
+    return True
+
+
+def describe(config) -> str:
+    return "the pose (nearest the previous position)"
