@@ -33,7 +33,7 @@ from .common import (
 
 @commands.command()
 def compensate(
-    targets: Annotated[str, typer.Argument(help="The program: a CSV of tool poses 'x,y,z,rx,ry,rz' (rotation vector) and/or joint rows 'q1..qn', with a '# units:' line.")],
+    targets: Annotated[str, typer.Argument(help="The program: a CSV of tool poses 'x,y,z,rx,ry,rz' (rotation vector) and/or joint rows 'q1..qn', with a '# units:' line; or a robot program (KUKA .src with its .dat, ABB .mod, FANUC .ls, URScript .script), written back with only its positions changed.")],
     nominal: Annotated[str, typer.Option("--nominal", help="The controller's model: a built-in name, a robot file or a URDF.")],
     identified: Annotated[str, typer.Option("--identified", help="The identified robot (e.g. from identify/calibrate --save), in the same robot base frame.")],
     output: Annotated[str | None, typer.Option("-o", "--output", help="Write the compensated program (CSV: commands, their joint values, flags, errors before and predicted after per row); '-' for stdout.")] = None,
@@ -68,6 +68,13 @@ def compensate(
         raise DenavitError(f"--identified {identified}: {ide.nq} joints, but the nominal {nom_robot.name} has {nom.nq}")
     kinds = list(nom.kinds)
     q0v = parse_joint_values(q0, "--q0", nom_robot, length, angle, default=nom_robot.home)
+    from ..io.programs import detect  # noqa: PLC0415
+
+    fmt = detect(targets)
+    if fmt is not None:
+        _compensate_program(targets, fmt, nom_robot, id_robot, output, q0v, positive(branch_tol, "--branch-tol", angle_scale(angle), np.radians(5.0), angle),
+                            json_out, length)
+        return
     prog = read_targets(targets, kinds, length=length, angle=angle)
     poses = prog.poses if prog.poses is not None else _core.fk_batch(nom, prog.q)
     # a target beyond any reach is a unit slip, not a target to flag: say so at its row
@@ -140,6 +147,52 @@ def compensate(
             write_compensation_report(c, nom_robot, id_robot, report, source=str(targets), where=prog.where, length=length, angle=angle)
         wrote(report)
     if flagged:
+        raise typer.Exit(1)
+
+
+def _compensate_program(path, fmt, nom_robot, id_robot, output, q0v, branch_tol, json_out, length) -> None:
+    """A robot program (KUKA .src/.dat, ABB .mod, FANUC .ls, URScript .script): read, every position compensated on
+    its own configuration, written back with only the positions changed (docs/compensation.md)."""
+    import numpy as np  # noqa: PLC0415
+
+    from ..io import programs as pg  # noqa: PLC0415
+
+    prog = pg.read_program(path, nom_robot, fmt=fmt)
+    with status(f"compensating {len(prog.points)} positions of {path} ..."):
+        pc = pg.compensate_program(prog, nom_robot, id_robot, q0=q0v, branch_tol=branch_tol)
+    c = pc.compensation
+    if c is not None:
+        for n in c.notes:
+            if "rows without a configuration" not in n:
+                say("yellow", "note:", f" {n}")
+    for n in prog.notes:
+        say("yellow", "note:", f" {n}")
+    written = []
+    if output:
+        if output == "-" and len(prog.sources) > 1:
+            raise DenavitError(f"-o -: {path} is a program of {len(prog.sources)} files ({', '.join(Path(s.path).name for s in prog.sources)}): expected a path")
+        written = pg.write_program(prog, output, pc.new_values)
+        for w in written:
+            wrote(w, f" ({len(pc.new_values)} of {len(prog.points)} positions compensated, {len(pc.left)} left as they were)" if w == written[0] else "")
+    ok = c.ok if c is not None else np.zeros(0, dtype=bool)
+    ls = length_scale(length)
+    before = c.before[ok] if c is not None else np.zeros(0)
+    summary = {"program": str(path), "format": fmt, "units": SI_UNITS, "positions": len(prog.points), "compensated": len(pc.new_values),
+               "left": [{"where": w, "why": why} for w, why in pc.left], "notes": list(prog.notes) + (list(c.notes) if c is not None else []),
+               "before_rms_m": float(np.sqrt(np.mean(before**2))) if len(before) else None, "outputs": written,
+               "rows": [{"where": prog.points[k].where, "name": prog.points[k].name, "kind": prog.points[k].kind,
+                         "configuration": None if prog.points[k].config is None else list(prog.points[k].config),
+                         "q_nominal": [float(v) for v in pc.q_program[i]], "compensated": k in pc.new_values,
+                         "before_m": float(c.before[i]), "residual_m": float(c.residual[i])} for i, k in enumerate(pc.rows)]}
+    emit_json(summary, json_out)
+    if json_out != "-" and output != "-":
+        gain = f"; error without compensation {spread(summary['before_rms_m'] / ls)} {length} RMS" if summary["before_rms_m"] is not None else ""
+        say("bold", f"{nom_robot.name} -> {id_robot.name}:", f" {len(prog.points)} positions ({fmt}), {len(pc.new_values)} compensated, {len(pc.left)} left as they were{gain}")
+        for w, why in pc.left[:20]:
+            console.print(f"  {w}: {why}")
+        if len(pc.left) > 20:
+            console.print(f"  ... and {len(pc.left) - 20} more (all in --json's 'left')")
+    if pc.left:
         raise typer.Exit(1)
 
 
