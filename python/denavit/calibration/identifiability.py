@@ -146,7 +146,7 @@ def analyze(pz: Parametrization, x, meas: Measurements, candidates: list, w: np.
     the parameters it keeps come first: a structural dependency holds for any data, so what these data drop
     beyond it are parameters the structural analysis kept, and holding exactly those fixed restores full rank.
     """
-    J = jacobian_rows(pz, x, meas.q, w, whitening=meas.whitening)[1]
+    J = jacobian_rows(pz, x, pz.inputs(meas), w, whitening=meas.whitening)[1]
     cand = set(candidates)
     order = [c for c in pz.order if c in cand]
     if structural is not None:

@@ -65,10 +65,11 @@ def residuals(pz: Parametrization, x, meas: Measurements, w: np.ndarray, jacobia
     Position residuals are whitened by ``meas.whitening`` where it is given (the tracker's noise model). Rotation residuals are the rotation vectors of ``R_pred R_meas^T`` (rad). ``columns``: the parameters
     (indices) whose Jacobian columns are returned (default all; :func:`jacobian_rows`).
     """
+    q = pz.inputs(meas)  # the readings (with the gravity torques for a compliant chain)
     if jacobian:
-        poses, J = jacobian_rows(pz, x, meas.q, w, columns, meas.whitening)
+        poses, J = jacobian_rows(pz, x, q, w, columns, meas.whitening)
     else:
-        (poses, _), J = pz.evaluate(x, meas.q, False), None
+        (poses, _), J = pz.evaluate(x, q, False), None
     rp = poses[:, :3, 3] - meas.points
     if meas.whitening is not None:
         rp = np.einsum("nij,nj->ni", meas.whitening, rp)

@@ -14,6 +14,7 @@ parameter vector back into a :class:`denavit.Model`.
 
 from __future__ import annotations
 
+import dataclasses
 import fnmatch
 import math
 from contextlib import contextmanager
@@ -159,6 +160,11 @@ class Parametrization:
             return self.chain.evaluate(x, q, jacobian, rows=rows, columns=cols, weights=w)
         return memo.evaluate(self.chain, x, q, jacobian, rows, cols, w)
 
+    def inputs(self, meas: Measurements) -> np.ndarray:
+        """What :meth:`evaluate` takes as the readings of ``meas``: its ``q`` (a compliant chain appends each pose's
+        gravity torques: :mod:`denavit.calibration.compliance`)."""
+        return meas.q
+
     def _product(self, x, lo: int, hi: int) -> np.ndarray:
         T = np.eye(4)
         for axis, p, _, F in self.factors[lo:hi]:
@@ -221,7 +227,7 @@ def make_chain(factors, n_params, nq, scales) -> _core.CalibrationChain:
 def _replace_factors(pz: Parametrization, factors) -> Parametrization:
     scales = [pz.names.index(f"scale_{j + 1}") if f"scale_{j + 1}" in pz.names else -1 for j in range(pz.nq)]
     chain = make_chain(factors, pz.n_params, pz.nq, scales)
-    return Parametrization(pz.convention, pz.measure, pz.names, pz.x0, pz.units, pz.order, pz.rules, factors, chain, pz.robot, pz.joint_factor, pz.tool_start, pz.base_end)
+    return dataclasses.replace(pz, factors=factors, chain=chain)  # (a subclass, compliance.py's, stays one)
 
 
 def parametrize(nominal, convention: str = "edh", *, measure: str = "point", tool=None, scale: bool = False) -> Parametrization:

@@ -12,6 +12,11 @@ Kinds (defaults in :data:`DEFAULT_WIDTHS`, SI):
 * ``offset``: a revolute joint's zero offset: 0.1 deg, the size of a mastering error (the makers' reference
   marks and dial gauges repeat to about 0.01 deg; a careless mastering is off by tenths);
 * ``scale``: joint-reading scales (``scale_i``): 100 ppm (a gear ratio's tolerance);
+* ``compliance``: a joint's compliance ``k_i`` (:mod:`~denavit.calibration.compliance`), about the nominal's (0 without
+  one): the deflection it allows under the largest gravity torque the joint holds in the data, 1 mrad (1 mm for a
+  prismatic joint; a width typed for ``compliance`` is that deflection, in ``--angle``), so ``k_i``'s width is
+  ``1 mrad / max |tau_i|``: the size of the published joint deflections of industrial arms and cobots at full load
+  (0.1-2 mrad); a width typed for a parameter ``k_i`` by name is the compliance itself, SI;
 * the base and tool registration (``base_*``, ``tool_*``) are uninformative (no prior): where the tracker stands
   and what is mounted on the flange are not the robot's geometry.
 
@@ -35,7 +40,7 @@ if TYPE_CHECKING:
     from .parametrization import Parametrization
 
 #: The kinds of parameter that take a prior, and their default one-sigma widths (SI: m, rad, rad, ratio).
-DEFAULT_WIDTHS = {"length": 1e-3, "angle": math.radians(0.1), "offset": math.radians(0.1), "scale": 1e-4}
+DEFAULT_WIDTHS = {"length": 1e-3, "angle": math.radians(0.1), "offset": math.radians(0.1), "scale": 1e-4, "compliance": 1e-3}
 #: A parameter whose posterior sigma is above this fraction of its prior width is "not determined beyond its
 #: prior": the data alone would give it a sigma above 2.1 prior widths (``1 / sqrt(1 / 0.9^2 - 1)``). It is fixed at
 #: its nominal value and listed.
@@ -47,8 +52,8 @@ WIDTH_UNITS = {
     "arcmin": (math.pi / 180 / 60, "angle"), "arcsec": (math.pi / 180 / 3600, "angle"),
     "ppm": (1e-6, "ratio"), "%": (1e-2, "ratio"),
 }
-_KIND_DIMENSION = {"length": "length", "angle": "angle", "offset": "angle", "scale": "ratio"}
-_UNIT_DIMENSION = {"length": "length", "angle": "angle", "ratio": "ratio"}
+_KIND_DIMENSION = {"length": "length", "angle": "angle", "offset": "angle", "scale": "ratio", "compliance": "angle"}
+_UNIT_DIMENSION = {"length": "length", "angle": "angle", "ratio": "ratio", "rad/(N m)": "compliance", "m/N": "compliance"}
 
 
 @dataclass(frozen=True)
@@ -65,6 +70,8 @@ class Prior:
     def sigma(self, pz: Parametrization) -> np.ndarray:
         """The prior width of every parameter of ``pz`` (SI; ``inf``: no prior, the base and tool registration)."""
         out = np.array([self.widths[k] if k is not None else math.inf for k in (kind_of(pz, c) for c in range(pz.n_params))], dtype=float)
+        for c, f in getattr(pz, "prior_factors", {}).items():  # a compliance: the deflection's width per unit of the largest torque
+            out[c] *= f
         for pat, (v, dim) in self.overrides:
             hits = [c for c, nm in enumerate(pz.names) if fnmatch.fnmatchcase(nm, pat)]
             if not hits:
@@ -85,6 +92,8 @@ def kind_of(pz: Parametrization, c: int) -> str | None:
         return None
     if name.startswith("scale_"):
         return "scale"
+    if name.startswith("k_"):
+        return "compliance"
     if name.startswith("offset_"):
         return "offset" if pz.units[c] == "angle" else "length"
     return "length" if pz.units[c] == "length" else "angle" if pz.units[c] == "angle" else "scale"

@@ -60,8 +60,12 @@ if TYPE_CHECKING:
 
 #: The candidate models, simplest first (see the module docstring).
 CANDIDATES = ("base-tool", "offsets", "full", "full-prior", "full-prior-no-beta", "full-prior-no-last")
+#: The suffix of a candidate with the joint compliances free (:mod:`~denavit.calibration.compliance`).
+COMPLIANCE = "+compliance"
+#: The compliance family: the geometric candidates of the nested chain (and ``full``) with the compliances free too.
+COMPLIANCE_CANDIDATES = tuple(f"{c}{COMPLIANCE}" for c in ("base-tool", "offsets", "full", "full-prior"))
 #: What ``model=`` takes: one candidate, or ``auto`` (chosen by prediction).
-MODELS = ("auto", *CANDIDATES)
+MODELS = ("auto", *CANDIDATES, *COMPLIANCE_CANDIDATES)
 DESCRIPTIONS = {
     "base-tool": "base and tool registration only",
     "offsets": "registration and joint offsets",
@@ -69,6 +73,7 @@ DESCRIPTIONS = {
     "full-prior": "every identifiable parameter, with plausible-size priors (maximum a posteriori)",
     "full-prior-no-beta": "full-prior without the Hayati tilts of near-parallel pairs",
     "full-prior-no-last": "full-prior with the last link's geometry nominal (the tool absorbs it)",
+    **{f"{c}{COMPLIANCE}": f"{c} with the joint compliances free (gravity and payload torques)" for c in ("base-tool", "offsets", "full", "full-prior")},
 }
 #: The selection rule, in words (the module docstring).
 RULE = "the simplest within one standard error of the best"
@@ -211,6 +216,15 @@ def _fit(name: str, pz: Parametrization, train: Measurements, w: np.ndarray, fre
             xs = x.copy()
             xs[dom] = pz.x0[dom]
             x, sol = fit_parameters(pz, xs, free, train, w, "linear", None, prior=prior)
+    nonneg = set(getattr(pz, "nonnegative", ()))  # compliances: k >= 0, one fitted negative held at zero and the fit repeated
+    for _ in range(len(nonneg)):
+        neg = [c for c in free if c in nonneg and x[c] < 0]
+        if not neg:
+            break
+        free = [c for c in free if c not in neg]
+        x = x.copy()
+        x[neg] = 0.0
+        x, sol = fit_parameters(pz, x, free, train, w, "linear", None, prior=prior)
     r, J, _ = residuals(pz, x, train, w, columns=free)
     k = 6 if pz.measure == "pose" else 3
     E, dof = loo_residuals(J, r, k, prior_block(prior, free) if prior is not None else None)
@@ -251,7 +265,19 @@ def _paired_se(a: Candidate, b: Candidate) -> float:
     return float(np.std(a.loo**2 - b.loo**2, ddof=1) / math.sqrt(n)) if n > 1 else 0.0
 
 
-def choose(cands: list) -> Candidate:
+def choose_families(cands: list) -> Candidate:
+    """:func:`choose` within each family (the geometric candidates; the same with the compliances free, names ending
+    in :data:`COMPLIANCE`), then the compliance family's choice replaces the geometric one only when it predicts better
+    by more than one paired standard error: a compliance must be earned as every alternative is."""
+    geo = [c for c in cands if not c.name.endswith(COMPLIANCE)]
+    comp = [c for c in cands if c.name.endswith(COMPLIANCE)]
+    if not comp:
+        return choose(geo)
+    g, k = choose(geo), choose(comp, COMPLIANCE)
+    return k if k.mse < g.mse - _paired_se(k, g) else g
+
+
+def choose(cands: list, suffix: str = "") -> Candidate:
     """:data:`RULE` over fitted candidates (module docstring): along the nested :data:`CHAIN`, the simplest whose
     mean squared leave-one-out error exceeds the best candidate's by at most one paired standard error; an
     alternative (``full`` without priors, ``full-prior-no-beta``, ``full-prior-no-last``) replaces it only when it
@@ -261,8 +287,8 @@ def choose(cands: list) -> Candidate:
     benchmarks/bench_generalization.py they predicted poses outside the training ranges 10-70 % worse than
     full-prior while their leave-one-out errors were within a standard error of it)."""
     best = min(cands, key=lambda c: c.mse)
-    has_prior = any(c.name == "full-prior" for c in cands)
-    names = CHAIN if has_prior else ("base-tool", "offsets", "full")
+    has_prior = any(c.name == f"full-prior{suffix}" for c in cands)
+    names = tuple(f"{c}{suffix}" for c in (CHAIN if has_prior else ("base-tool", "offsets", "full")))
     chain = sorted((c for c in cands if c.name in names), key=lambda c: (c.dof, names.index(c.name)))
     pick = next((c for c in chain if c.mse - best.mse <= _paired_se(c, best)), chain[-1] if chain else best)
     better = [v for v in cands if v.name not in names and v.mse < pick.mse - _paired_se(v, pick)]
@@ -270,22 +296,26 @@ def choose(cands: list) -> Candidate:
 
 
 def select_model(model: str, pz: Parametrization, train: Measurements, w: np.ndarray, *, prior: Prior | None, s2: float, candidates: list, kept: list,
-                 reg_kept: list, x_reg, x_full, sol_full) -> ModelChoice:
+                 reg_kept: list, x_reg, x_full, sol_full, compliance: list = ()) -> ModelChoice:
     """Fit the candidate models (``model="auto"``) or the one asked for, score each by its leave-one-pose-out
     tool-position error, and choose (module docstring).
 
     ``candidates``: the parameters not fixed by the user or the parametrisation; ``kept``: those the data identify
     (the full model); ``reg_kept``: the identifiable base and tool parameters, fitted at ``x_reg``; ``x_full``,
     ``sol_full``: the least-squares fit of ``kept``; ``s2``: the noise variance in the whitened units (1 when
-    known), which weighs the priors against the data.
+    known), which weighs the priors against the data; ``compliance``: the joint compliances the data may show
+    (indices; :mod:`~denavit.calibration.compliance`): with them ``auto`` fits the ``+compliance`` family too
+    (:func:`choose_families`).
     """
     if model not in MODELS:
         raise DenavitError(f"model: expected one of {', '.join(MODELS)}, got {model!r}")
     if prior is None and model.startswith("full-prior"):
         raise DenavitError(f"model {model!r} needs priors: got prior=False / --prior none")
-    want = CANDIDATES if model == "auto" else (model,)
+    if model.endswith(COMPLIANCE) and not compliance:
+        raise DenavitError(f"model {model!r}: the joint compliances are not modelled here (they need a payload declared with the data and the nominal's link inertials)")
+    want = (CANDIDATES + (COMPLIANCE_CANDIDATES if compliance else ())) if model == "auto" else (model,)
     offsets_kept = []
-    if "offsets" in want:
+    if "offsets" in want or f"offsets{COMPLIANCE}" in want:
         offs = [c for c in candidates if pz.names[c].startswith("offset_")]
         offsets_kept = analyze(pz, x_reg, train, list(reg_kept) + offs, w, explain=False).kept_idx if offs else list(reg_kept)
     sets = candidate_sets(pz, kept, reg_kept, offsets_kept, prior is not None)
@@ -294,7 +324,15 @@ def select_model(model: str, pz: Parametrization, train: Measurements, w: np.nda
     sigma = None if prior is None else prior.sigma(pz)
     out = []
     x_map = None
+    fitted = {}
     for name in want:
+        if name.endswith(COMPLIANCE):
+            c = _fit_compliant(name, pz, train, w, sets, fitted, compliance, x_reg, x_full, sigma, s2)
+            if c is not None:
+                out.append(c)
+            elif model != "auto":
+                raise DenavitError(f"model {name!r}: its geometric part is not a model of these data: expected one of {', '.join(k + COMPLIANCE for k in sets)}")
+            continue
         if name not in sets:
             if model != "auto":
                 raise DenavitError(f"model {name!r}: {'no Hayati tilt is free in this model' if 'beta' in name else 'no last-link parameter is free'}: expected one of "
@@ -305,9 +343,11 @@ def select_model(model: str, pz: Parametrization, train: Measurements, w: np.nda
             r, J, _ = residuals(pz, x_full, train, w, columns=free)
             E, dof = loo_residuals(J, r, 6 if pz.measure == "pose" else 3)
             out.append(Candidate(name, list(free), np.array(x_full), None, {}, position_errors(E, train, w), dof, sol_full))
+            fitted[name] = out[-1]
             continue
         if name in ("base-tool", "offsets"):
             out.append(_fit(name, pz, train, w, free, x_reg, None, s2))
+            fitted[name] = out[-1]
             continue
         drop = [c for c in kept if c not in free]
         starts = [np.array(x_full if x_map is None else x_map), np.array(x_reg)]  # the least-squares (or MAP) fit, or the nominal geometry registered
@@ -318,6 +358,24 @@ def select_model(model: str, pz: Parametrization, train: Measurements, w: np.nda
         c = _fit(name, pz, train, w, free, start, sigma, s2)
         if name == "full-prior":
             x_map = c.x
+        fitted[name] = c
         out.append(c)
-    chosen = choose(out) if model == "auto" else out[0]
+    chosen = choose_families(out) if model == "auto" else out[0]
     return ModelChoice(chosen.name, "auto" if model == "auto" else "given", out)
+
+
+def _fit_compliant(name: str, pz: Parametrization, train: Measurements, w: np.ndarray, sets: dict, fitted: dict, compliance: list, x_reg, x_full,
+                   sigma, s2: float) -> Candidate | None:
+    """A ``+compliance`` candidate: its geometric part's free parameters (as fitted, without the ones its prior held)
+    with the compliances the data identify beside them, from its geometric fit (compliances at their nominal), with the
+    geometric part's priors (and the compliances' own) or none; None when the geometric part is not a candidate here."""
+    base = name[: -len(COMPLIANCE)]
+    if base not in sets:
+        return None
+    geo = fitted.get(base)
+    free = list(geo.free) if geo is not None else list(sets[base])
+    x0 = np.array(geo.x if geo is not None else (x_full if base.startswith("full") else x_reg))
+    x0[list(compliance)] = pz.x0[list(compliance)]
+    kept = analyze(pz, x0, train, free + list(compliance), w, explain=False).kept_idx
+    comp = [c for c in kept if c in set(compliance)]
+    return _fit(name, pz, train, w, free + comp, x0, sigma if base == "full-prior" else None, s2)

@@ -16,6 +16,7 @@ from ..fitting.robust import loss_weight
 from ..io.output import json_text, write_text
 from ..robot import Robot
 from ..sweeps import SweepSet
+from .compliance import robot_compliance, with_compliance, with_payload
 from .identifiability import Identifiability, analyze
 from .least_squares import covariance, fit_parameters, prior_block, residuals, weights
 from .measurements import Measurements
@@ -186,7 +187,7 @@ class Calibration:
                      description=f"{r.name} calibrated from {self.measurements.source} ({self.convention}, {self.measurements.n} poses{lossy})", source=self.measurements.source, home=r.home,
                      extra=dict(r.extra), inertials=r.inertials if r.convention == convention else None,
                      reading_scale=np.array([self.scales.get(f"scale_{j + 1}", 0.0) for j in range(len(r.names))]) if self.scales else None,
-                     covariance=self.table_covariance(table))
+                     covariance=self.table_covariance(table), **dict(zip(("compliance", "compliance_covariance"), robot_compliance(self), strict=True)))
 
     def carried_error(self, table: _core.Table) -> float:
         """The largest tool-position difference (m) between ``table`` and the calibrated model over 256 configurations
@@ -255,6 +256,8 @@ def calibrate(
     seed: int = 0,
     model: str = "auto",
     prior=None,
+    payload=None,
+    compliance=None,
 ) -> Calibration:
     """Fit the whole kinematic model to measured tool points or poses (one least-squares problem).
 
@@ -306,6 +309,14 @@ def calibrate(
         models are then not candidates), a dict of kind or parameter name / pattern -> width (SI). The fit is then
         maximum a posteriori, its sigmas include the prior, and parameters the data do not determine beyond their
         prior are held at their nominal values (status ``"fixed (prior)"``, listed in the notes).
+    payload : float, (mass, (x, y, z)) or (N, 4), optional
+        The payload on the flange (kg; its centre of mass in the flange frame, m) for every pose, where ``meas`` carries
+        none (:attr:`Measurements.payload`: a pose file's ``payload_mass`` columns).
+    compliance : None, True or False
+        The joints' compliance under gravity and payload (:mod:`denavit.calibration.compliance`): None considers it
+        when the data declare a payload, True always (both need the nominal's link inertials: without them a note
+        says why), False never. Considered, ``auto`` also fits the ``+compliance`` candidates, which must predict
+        better by more than a paired standard error to be chosen.
 
     Returns
     -------
@@ -354,6 +365,10 @@ def calibrate(
                      f"{math.degrees(tracker.sigma_angle) * 3600:.3g} arcsec, tracker at {', '.join(f'{v:.4g}' for v in tracker.position)} m; "
                      f"{ref * 1e3:.3g} mm per coordinate on average), the scale estimated from the residuals")
     pz = parametrize(robot, convention, measure=meas.kind, tool=tool, scale=scale)
+    if payload is not None and getattr(meas, "payload", None) is None:
+        meas = with_payload(meas, payload)
+    pz, comp_notes = with_compliance(pz, meas, robot, compliance)  # the joints' compliances k_i (compliance.py), free in the +compliance candidates only
+    notes += comp_notes
     x = pz.x0.copy()
     user_fixed = resolve_fix(pz, fix)
     for k, v in user_fixed.items():
@@ -361,6 +376,8 @@ def calibrate(
             x[k] = v
     rule_fixed = {pz.index(nm) for nm in pz.rules}
     candidates = [c for c in range(pz.n_params) if c not in user_fixed and c not in rule_fixed]
+    comp = [c for c in candidates if c in set(getattr(pz, "compliance_idx", ()))]
+    candidates = [c for c in candidates if c not in comp]
 
     # held-out split
     test_idx = np.zeros(0, dtype=int)
@@ -431,7 +448,7 @@ def calibrate(
     # 5) what is free: the candidate models scored by leave-one-pose-out prediction (selection.py)
     s2_full = 1.0 if known else float(np.sum(r**2)) / max(len(r) - len(free), 1)  # weighs the priors against the data
     choice = select_model(model, pz, train, w, prior=prior_spec, s2=s2_full, candidates=candidates, kept=ana.kept_idx, reg_kept=reg.kept_idx,
-                          x_reg=x_reg, x_full=x_hat, sol_full=sol)
+                          x_reg=x_reg, x_full=x_hat, sol_full=sol, compliance=comp)
     won = choice.winner
     x_hat, free, sol, prior_rows = won.x, won.free, won.sol, won.prior
     r = residuals(pz, x_hat, train, w, jacobian=False)[0]
@@ -470,7 +487,7 @@ def calibrate(
     for c, nm in enumerate(pz.names):
         status.append("free" if c in free else "fixed" if c in user_fixed else "fixed (parametrisation)" if nm in pz.rules
                       else ("redundant" if nm in structural else "unidentifiable") if nm in dropped
-                      else "fixed (prior)" if nm in held else "fixed (model)" if c in candidates else "fixed")
+                      else "fixed (prior)" if nm in held else "fixed (model)" if c in candidates or c in comp else "fixed")
     res_si = _table_residuals(r, pz.measure) / w[: (6 if pz.measure == "pose" else 3)]
     full_r, _, _ = residuals(pz, x_hat, replace(meas, whitening=None), np.ones(6), jacobian=False)
     full_r = _table_residuals(full_r, pz.measure)
@@ -550,7 +567,7 @@ def to_json(cal: Calibration) -> dict:
     pz = cal.parametrization
     rows = []
     for c, nm in enumerate(cal.names):
-        rows.append({"name": nm, "unit": {"length": "m", "angle": "rad", "ratio": "1"}[pz.units[c]], "nominal": float(cal.nominal[c]), "value": float(cal.values[c]),
+        rows.append({"name": nm, "unit": {"length": "m", "angle": "rad", "ratio": "1"}.get(pz.units[c], pz.units[c]), "nominal": float(cal.nominal[c]), "value": float(cal.values[c]),
                      "sigma": None if not np.isfinite(cal.sigma[c]) else float(cal.sigma[c]), "status": cal.status[c],
                      "prior_sigma": None if cal.prior_sigma is None or not np.isfinite(cal.prior_sigma[c]) else float(cal.prior_sigma[c])})
     ana = cal.identifiability

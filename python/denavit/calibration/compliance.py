@@ -1,0 +1,280 @@
+"""Joint compliance under gravity and payload: the elastostatic forward model of a calibration (issue 37).
+
+Each joint gives way under the torque it holds: the link sits at ``q_i - k_i tau_i``, ``q_i`` the reading, ``tau_i``
+the torque the joint applies to hold the arm still against gravity (recursive Newton-Euler at zero velocity and
+acceleration with the nominal robot's link inertials, plus the payload's weight at its centre of mass in the flange
+frame: :func:`gravity_torques`) and ``k_i >= 0`` its compliance (rad/(N m) for a revolute joint, m/N for a prismatic
+one). A measured pose is the calibrated chain's forward kinematics at ``q - k * tau(q, payload)``.
+
+In a calibration the compliances are parameters ``k_1 .. k_n`` after the geometric ones
+(:class:`CompliantParametrization`): the chain is evaluated at the deflected readings and the Jacobian column of
+``k_i`` is ``-tau_i dFK/dq_i`` (the joint offset's column times ``-tau_i (1 + scale_i)``). The torques come from the
+nominal model (the geometric corrections change them by parts per thousand). A joint whose torque is zero in every
+pose (a vertical first axis) has no compliance parameter: nothing in the data can show it.
+
+Their prior (:mod:`~denavit.calibration.priors`, kind ``compliance``): Gaussian about the nominal's compliance (0
+without a ``[compliance]`` section), one sigma wide such that the joint twists by 1 mrad (1 mm for a prismatic
+joint) under the largest torque it holds in the data (``width / max |tau_i|``), and ``k_i >= 0``: a compliance fitted
+negative is held at zero and the fit repeated. Whether they are free at all is chosen by leave-one-pose-out prediction
+(:mod:`~denavit.calibration.selection`, the ``+compliance`` candidates).
+
+They are considered when the data declare a payload (a ``payload_mass`` column, ``--payload``, or
+:attr:`Measurements.payload`), or with ``compliance=True``, and need the nominal's link inertials; without them
+one note says why.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .. import _core
+from ..errors import DenavitError
+from .parametrization import Parametrization, make_chain
+
+#: Standard gravity (m/s^2), down along the base frame's -z.
+GRAVITY = np.array([0.0, 0.0, -9.80665])
+#: A joint whose largest gravity torque in the data is below this fraction of the largest joint's has no compliance
+#: parameter (a vertical axis holds no gravity torque).
+TORQUE_FLOOR = 1e-6
+
+
+def gravity_torques(model: _core.Model, q, payload=None, gravity=GRAVITY) -> np.ndarray:
+    """(N, n) the torques (N m; N for a prismatic joint) the joints hold at rest at readings ``q`` (N, n) against the
+    links' weight (``model``'s inertials) and the payload's: ``payload`` (N, 4) ``[mass kg, x, y, z m]`` per pose, its
+    centre of mass in the flange frame (None: no payload)."""
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    g = np.asarray(gravity, dtype=float)
+    m0 = model.with_tool(np.eye(4))
+    tau = np.asarray(_core.gravity_torques_batch(m0, q)) if _has_masses(model) else np.zeros(q.shape)
+    if payload is None:
+        return tau
+    pl = np.asarray(payload, dtype=float)
+    loaded = np.flatnonzero(pl[:, 0] > 0)
+    if loaded.size == 0:
+        return tau
+    coms, inv = np.unique(pl[loaded, 1:], axis=0, return_inverse=True)
+    zero = np.zeros((q.shape[1],))
+    for u, c in enumerate(coms):
+        rows = loaded[inv.ravel() == u]
+        T = np.eye(4)
+        T[:3, 3] = c
+        mc = m0.with_tool(T)
+        R = _core.fk_batch(mc, q[rows])[:, :3, :3]
+        f = np.zeros((len(rows), 6))
+        f[:, :3] = np.einsum("nji,j->ni", R, g) * pl[rows, :1]  # the weight, in the tool frame's axes, at its origin
+        qz = np.tile(zero, (len(rows), 1))
+        # rnea with the weight as the environment's wrench, minus the links' share: what the payload adds (-J^T f)
+        tau[rows] += np.asarray(_core.rnea_batch(mc, q[rows], qz, qz, f_ext=f)) - (np.asarray(_core.rnea_batch(mc, q[rows], qz, qz)) if _has_masses(model) else 0.0)
+    return tau
+
+
+def _has_masses(model: _core.Model) -> bool:
+    return bool(np.any(np.asarray(model.inertias["masses"]) > 0))
+
+
+@dataclass(frozen=True, eq=False)
+class CompliantParametrization(Parametrization):
+    """A calibration chain with joint compliances ``k_1 .. k_n`` after its geometric parameters (module docstring).
+
+    :meth:`inputs` gives the evaluation's readings with each pose's gravity torques appended ((N, 2n)); :meth:`evaluate`
+    deflects the readings by them. Readings without torques (N, n) are evaluated rigid."""
+
+    torque_model: _core.Model | None = None
+    n_geometric: int = 0
+    #: the compliance parameters (indices) the data can show (a joint holding torque in some pose)
+    compliance_idx: tuple = ()
+    #: per compliance parameter index, the prior width's factor 1 / max |tau_i| over the data (priors.Prior.sigma)
+    prior_factors: dict = field(default_factory=dict)
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def nonnegative(self) -> tuple:
+        return self.compliance_idx
+
+    def torques(self, q, payload) -> np.ndarray:
+        """(N, n) gravity torques of readings ``q`` with ``payload`` (:func:`gravity_torques`), remembered per data set."""
+        q = np.asarray(q, dtype=float)
+        key = (q.shape, hash(q.tobytes()), None if payload is None else hash(np.asarray(payload, dtype=float).tobytes()))
+        hit = self._cache.get(key)
+        if hit is None:
+            hit = gravity_torques(self.torque_model, q, payload)
+            hit.flags.writeable = False
+            if len(self._cache) > 16:
+                self._cache.clear()
+            self._cache[key] = hit
+        return hit
+
+    def inputs(self, meas) -> np.ndarray:
+        return np.hstack([meas.q, self.torques(meas.q, getattr(meas, "payload", None))])
+
+    def compliance_of(self, x) -> np.ndarray:
+        """(n,) the compliances (SI) in parameter vector ``x``."""
+        return np.asarray(x, dtype=float)[self.n_geometric : self.n_geometric + self.nq]
+
+    def deflected(self, x, q, tau) -> np.ndarray:
+        """The readings the joints sit at: ``q - k tau``."""
+        return np.asarray(q, dtype=float) - self.compliance_of(x) * np.asarray(tau, dtype=float)
+
+    def evaluate(self, x, q, jacobian: bool = True, *, rows: int = 6, columns=None, weights=None):
+        x = np.asarray(x, dtype=float)
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        n = self.nq
+        if q.shape[1] == 2 * n:
+            q, tau = q[:, :n], q[:, n:]
+        else:
+            tau = np.zeros_like(q)
+        qe = self.deflected(x, q, tau)
+        cols = list(range(self.n_params)) if columns is None else [int(c) for c in columns]
+        if not jacobian:
+            return Parametrization.evaluate(self, x, qe, False, rows=rows, weights=weights)
+        kcols = [c for c in cols if c >= self.n_geometric]
+        offs = [self.factors[self.joint_factor[c - self.n_geometric]][1] for c in kcols]
+        geo = sorted(set(c for c in cols if c < self.n_geometric) | set(offs))
+        poses, Jg = Parametrization.evaluate(self, x, qe, True, rows=rows, columns=geo, weights=weights)
+        at = {c: i for i, c in enumerate(geo)}
+        J = np.empty((len(q), rows, len(cols)))
+        for i, c in enumerate(cols):
+            if c < self.n_geometric:
+                J[:, :, i] = Jg[:, :, at[c]]
+            else:
+                j = c - self.n_geometric
+                s = 1.0
+                name = f"scale_{j + 1}"
+                if name in self.names:
+                    s = 1.0 + x[self.names.index(name)]
+                J[:, :, i] = -(tau[:, j] * s)[:, None] * Jg[:, :, at[self.factors[self.joint_factor[j]][1]]]
+        return poses, J
+
+
+def compliance_units(kinds) -> list:
+    return ["rad/(N m)" if k == "revolute" else "m/N" for k in kinds]
+
+
+def considered(meas, robot, compliance) -> tuple[bool, str | None]:
+    """(whether the calibration models joint compliance, the one-line note why not where it was asked or implied)."""
+    if compliance is False:
+        return False, None
+    asked = compliance is True or getattr(meas, "payload", None) is not None
+    if not asked:
+        return False, None
+    if robot.inertials is None or not np.any(np.asarray(robot.inertials["masses"]) > 0):
+        return False, (f"joint compliance not modelled: {robot.name} carries no link masses ([joints.inertia] in a robot file, <inertial> in a URDF) "
+                       "to give the gravity torques the joints twist under")
+    return True, None
+
+
+def with_compliance(pz: Parametrization, meas, robot, compliance) -> tuple[Parametrization, list]:
+    """``pz`` with the compliance parameters appended when the calibration models compliance (:func:`considered`),
+    else ``pz`` itself; and the notes."""
+    if compliance not in (None, True, False, "auto"):
+        raise DenavitError(f"compliance: expected None / 'auto' (when the data declare a payload), True or False, got {compliance!r}")
+    use, why = considered(meas, robot, None if compliance == "auto" else compliance)
+    if not use:
+        return pz, [why] if why else []
+    n = pz.nq
+    kinds = list(robot.table.kinds)
+    torque_model = robot.model()
+    tau = gravity_torques(torque_model, meas.q, getattr(meas, "payload", None))
+    tmax = np.max(np.abs(tau), axis=0)
+    P = pz.n_params
+    show = [j for j in range(n) if tmax[j] > TORQUE_FLOOR * max(tmax.max(), 1e-300)]
+    k0 = np.zeros(n) if robot.compliance is None else np.asarray(robot.compliance, dtype=float)
+    names = list(pz.names) + [f"k_{j + 1}" for j in range(n)]
+    units = list(pz.units) + compliance_units(kinds)
+    scales = [pz.names.index(f"scale_{j + 1}") if f"scale_{j + 1}" in pz.names else -1 for j in range(n)]
+    chain = make_chain(pz.factors, P + n, n, scales)
+    out = CompliantParametrization(pz.convention, pz.measure, names, np.r_[pz.x0, k0], units, list(pz.order) + [P + j for j in range(n)], dict(pz.rules),
+                                   pz.factors, chain, pz.robot, pz.joint_factor, pz.tool_start, pz.base_end,
+                                   torque_model, P, tuple(P + j for j in show), {P + j: 1.0 / tmax[j] for j in show})
+    notes = []
+    still = [j for j in range(n) if j not in show]
+    if still:
+        notes.append(f"no compliance for joint(s) {', '.join(f'{j + 1} ({robot.names[j]})' for j in still)}: they hold no gravity torque in these poses")
+    return out, notes
+
+
+def robot_compliance(cal) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """(compliances (n,) SI, their covariance (n, n) SI or None) of a calibration whose model freed them; (None, None)
+    otherwise. Compliances not free are their nominal values (0 without a ``[compliance]``), with zero variance."""
+    pz = cal.parametrization
+    if not isinstance(pz, CompliantParametrization) or not any(nm.startswith("k_") for nm in cal.free_names):
+        return None, None
+    k = pz.compliance_of(cal.values).copy()
+    n = pz.nq
+    C = np.zeros((n, n))
+    pos = {nm: i for i, nm in enumerate(cal.free_names)}
+    idx = [(j, pos.get(f"k_{j + 1}")) for j in range(n)]
+    have = [(j, i) for j, i in idx if i is not None]
+    cov = np.asarray(cal.covariance)
+    for a, ia in have:
+        for b, ib in have:
+            C[a, b] = cov[ia, ib]
+    return k, C if np.all(np.isfinite(C)) else None
+
+
+def deflection(robot, q, payload=None) -> np.ndarray:
+    """(N, n) the joints' deflections ``k tau`` (rad / m) of ``robot`` (its :attr:`~denavit.robot.Robot.compliance`;
+    zeros without) at readings ``q`` with ``payload`` (N, 4) or None."""
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    if robot.compliance is None:
+        return np.zeros_like(q)
+    return np.asarray(robot.compliance) * gravity_torques(robot.model(), q, payload)
+
+
+def command_for(robot, q_link, payload=None, iterations: int = 20, tol: float = 1e-12) -> np.ndarray:
+    """(N, n) the readings to command so that the joints, deflected under gravity and ``payload``, sit at ``q_link``
+    (N, n): the fixed point of ``q = q_link + k tau(q)`` (a contraction: ``k dtau/dq`` is far below 1)."""
+    q_link = np.atleast_2d(np.asarray(q_link, dtype=float))
+    if robot.compliance is None:
+        return q_link.copy()
+    q = q_link.copy()
+    for _ in range(iterations):
+        new = q_link + deflection(robot, q, payload)
+        done = np.max(np.abs(new - q)) < tol
+        q = new
+        if done:
+            break
+    return q
+
+
+def predicted_sigma(robot, q, payload=None) -> np.ndarray:
+    """(N,) the tool-position sigma (m, 3-D) the compliances' covariance adds at readings ``q`` with ``payload``:
+    ``sqrt(trace(A C A^T))`` with ``A = -J_q diag(tau)`` (the correlations with the geometry are not carried)."""
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    if robot.compliance is None or robot.compliance_covariance is None:
+        return np.zeros(len(q))
+    m = robot.model()
+    tau = gravity_torques(m, q, payload)
+    C = np.asarray(robot.compliance_covariance)
+    out = np.empty(len(q))
+    for i in range(len(q)):
+        Jp = np.asarray(_core.jacobian(m, q[i]))[:3]
+        A = -Jp * tau[i]
+        out[i] = math.sqrt(max(float(np.trace(A @ C @ A.T)), 0.0))
+    return out
+
+
+def as_payload(payload, n: int) -> np.ndarray | None:
+    """``payload`` as (n, 4) SI rows: None; a mass (kg) at the flange; ``(mass, (x, y, z))``; or (n, 4) / (4,) rows."""
+    if payload is None:
+        return None
+    if isinstance(payload, (int, float)):
+        return np.tile([float(payload), 0.0, 0.0, 0.0], (n, 1))
+    if isinstance(payload, tuple) and len(payload) == 2 and np.ndim(payload[1]) == 1:
+        return np.tile(np.r_[float(payload[0]), np.asarray(payload[1], dtype=float)], (n, 1))
+    a = np.asarray(payload, dtype=float)
+    if a.shape == (4,):
+        return np.tile(a, (n, 1))
+    if a.shape != (n, 4):
+        raise DenavitError(f"payload: expected a mass (kg), (mass, (x, y, z)) or (N, 4) rows [kg, m, m, m], got shape {a.shape}")
+    return a
+
+
+def with_payload(meas, payload):
+    """``meas`` with ``payload`` (:func:`as_payload`) on every pose (rows of its own kept where given None)."""
+    if payload is None:
+        return meas
+    return replace(meas, payload=as_payload(payload, meas.n))
