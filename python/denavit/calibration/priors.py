@@ -40,7 +40,9 @@ if TYPE_CHECKING:
     from .parametrization import Parametrization
 
 #: The kinds of parameter that take a prior, and their default one-sigma widths (SI: m, rad, rad, ratio).
-DEFAULT_WIDTHS = {"length": 1e-3, "angle": math.radians(0.1), "offset": math.radians(0.1), "scale": 1e-4, "compliance": 1e-3}
+DEFAULT_WIDTHS = {"length": 1e-3, "angle": math.radians(0.1), "offset": math.radians(0.1), "scale": 1e-4}
+#: The compliances' default width: the deflection (rad; m for a prismatic joint) under the largest torque in the data.
+COMPLIANCE_WIDTH = 1e-3
 #: A parameter whose posterior sigma is above this fraction of its prior width is "not determined beyond its
 #: prior": the data alone would give it a sigma above 2.1 prior widths (``1 / sqrt(1 / 0.9^2 - 1)``). It is fixed at
 #: its nominal value and listed.
@@ -66,10 +68,12 @@ class Prior:
     overrides: tuple = ()
     #: SI per unit of an override given as a bare number, (length, angle) (the CLI's --length / --angle; SI in Python)
     bare: tuple = (1.0, 1.0)
+    #: the compliances' width: the joint's deflection (rad, or m) under the largest gravity torque it holds in the data
+    compliance: float = COMPLIANCE_WIDTH
 
     def sigma(self, pz: Parametrization) -> np.ndarray:
         """The prior width of every parameter of ``pz`` (SI; ``inf``: no prior, the base and tool registration)."""
-        out = np.array([self.widths[k] if k is not None else math.inf for k in (kind_of(pz, c) for c in range(pz.n_params))], dtype=float)
+        out = np.array([self.compliance if k == "compliance" else self.widths[k] if k is not None else math.inf for k in (kind_of(pz, c) for c in range(pz.n_params))], dtype=float)
         for c, f in getattr(pz, "prior_factors", {}).items():  # a compliance: the deflection's width per unit of the largest torque
             out[c] *= f
         for pat, (v, dim) in self.overrides:
@@ -124,13 +128,16 @@ def as_prior(prior) -> Prior | None:
     if isinstance(prior, dict):
         widths = dict(DEFAULT_WIDTHS)
         over = []
+        comp = COMPLIANCE_WIDTH
         for k, v in prior.items():
             key = str(k).strip()
-            if key in widths:
+            if key == "compliance":
+                comp = _width(v, key)
+            elif key in widths:
                 widths[key] = _width(v, key)
             else:
                 over.append((key, (_width(v, key), None)))
-        return Prior(widths, tuple(over))
+        return Prior(widths, tuple(over), compliance=comp)
     raise DenavitError(f"prior: expected None, True, False, a dict of kind or parameter -> width (SI) or a string such as "
                        f"\"length=1mm, angle=0.1deg\", got {type(prior).__name__}")
 
@@ -150,6 +157,7 @@ def parse_prior(text: str, length: str = "mm", angle: str = "deg", where: str = 
         return None
     widths = dict(DEFAULT_WIDTHS)
     over = []
+    comp = COMPLIANCE_WIDTH
     expected = (f"{where}: expected KIND=WIDTH pairs separated by commas, KIND one of {', '.join(DEFAULT_WIDTHS)} or a parameter name "
                 f"or pattern, WIDTH a number > 0 with a unit ({', '.join(WIDTH_UNITS)}), e.g. \"length=1mm, angle=0.1deg, scale=100ppm\", or \"none\"")
     for item in s.split(","):
@@ -171,7 +179,11 @@ def parse_prior(text: str, length: str = "mm", angle: str = "deg", where: str = 
                 raise DenavitError(f"{where}: unknown unit {unit!r} for {key}: expected one of {', '.join(WIDTH_UNITS)}")
             f, dim = WIDTH_UNITS.get(unit, WIDTH_UNITS.get(unit.lower()))
             v *= f
-        if key in widths:
+        if key == "compliance":  # the deflection under the largest torque: an angle (bare in --angle)
+            if dim not in (None, "angle"):
+                raise DenavitError(f"{where}: compliance is the joints' deflection under their largest torque, an angle, got a width in {unit}")
+            comp = v * (angle_scale(angle) if dim is None else 1.0)
+        elif key in widths:
             want = _KIND_DIMENSION[key]
             if dim is None:
                 v *= length_scale(length) if want == "length" else angle_scale(angle) if want == "angle" else 1.0
@@ -180,7 +192,7 @@ def parse_prior(text: str, length: str = "mm", angle: str = "deg", where: str = 
             widths[key] = v
         else:
             over.append((key, (v, dim)))
-    return Prior(widths, tuple(over), (length_scale(length), angle_scale(angle)))
+    return Prior(widths, tuple(over), (length_scale(length), angle_scale(angle)), comp)
 
 
 def prior_weights(sigma: np.ndarray, s2: float) -> np.ndarray:
