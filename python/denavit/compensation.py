@@ -155,24 +155,9 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
     nominal, identified = _loaded(nominal), _loaded(identified)
     nom, ide = _model(nominal, "nominal"), _model(identified, "identified")
     notes = []
-    tool = np.asarray(ide.T_flange_tool)
-    poe = getattr(identified, "convention", None) == "poe"
-    home = getattr(nominal, "home", None)
-    if poe and _is_identity(nom.T_flange_tool):
-        tool = canonical_tool(nom, ide, home)
-    off = tool[:3, 3]
-    if _is_identity(nom.T_flange_tool) and np.linalg.norm(off) > TOOL_FRACTION * robot_size(nom, np.zeros(nom.nq)):
-        # identify's tool is the point it measured (a reflector on the flange), not the controller's tool: with a
-        # nominal that has none, the targets and the commands are the flange's, and so is the identified robot. Its
-        # flange is placed on its last body as the nominal's is on the nominal's (canonical_tool): where a table puts
-        # its last frame along the last axis (the split of d6 and the tool's z, which no measurement of one point
-        # tells apart) is each convention's own, and a file saved in another convention would compensate another flange
-        canon = canonical_tool(nom, ide, home) @ np.linalg.inv(canonical_tool(nom, nom, home))
-        ide = ide.with_tool(np.asarray(ide.T_flange_tool) @ np.linalg.inv(canon))
-        at = "the identified tool point (its covariance is of that point, as the result's own)"
-        notes.append(f"the nominal {getattr(nominal, 'name', 'model')} has no tool and the identified robot has one ({np.linalg.norm(off) * 1e3:.4g} mm from the "
-                     f"flange: the point it was measured at): the flange compensated (the identified flange placed on its last body as the nominal's is), "
-                     f"the prediction after it at {at}; give the nominal a tool to compensate tool poses")
+    ide, note = _flange(nominal, nom, identified, ide)
+    if note:
+        notes.append(note)
     T = np.asarray(targets, dtype=float)
     if T.ndim == 2:
         T = T[None]
@@ -287,6 +272,50 @@ TOOL_FRACTION = 0.02
 
 def _is_identity(T) -> bool:
     return bool(np.allclose(np.asarray(T, dtype=float), np.eye(4), rtol=0.0, atol=1e-12))
+
+
+def _flange(nominal, nom: _core.Model, identified, ide: _core.Model) -> tuple[_core.Model, str | None]:
+    """The identified model compensate uses (:func:`flange_model`) and the note that says so (None: as it is)."""
+    if not _is_identity(nom.T_flange_tool):
+        return ide, None
+    home = getattr(nominal, "home", None)
+    # its tool as the nominal's flange sees it (a POE table has no flange of its own: its home pose M is its tool)
+    try:
+        canon = canonical_tool(nom, ide, home) @ np.linalg.inv(canonical_tool(nom, nom, home))
+    except DenavitError:
+        if getattr(identified, "convention", None) == "poe":
+            raise
+        return ide, None
+    off = canon[:3, 3]
+    if np.linalg.norm(off) <= TOOL_FRACTION * robot_size(nom, np.zeros(nom.nq)):
+        return ide, None
+    # identify's tool is the point it measured (a reflector on the flange), not the controller's tool: with a nominal
+    # that has none, the targets and the commands are the flange's, and so is the identified robot. Its flange is
+    # placed on its last body as the nominal's is on the nominal's (canonical_tool): where a table puts its last frame
+    # along the last axis (the split of d6 and the tool's z, which no measurement of one point tells apart) is each
+    # convention's own, and a file saved in another convention would compensate another flange
+    canon = canonical_tool(nom, ide, home) @ np.linalg.inv(canonical_tool(nom, nom, home))
+    at = "the identified tool point (its covariance is of that point, as the result's own)"
+    return ide.with_tool(np.asarray(ide.T_flange_tool) @ np.linalg.inv(canon)), (
+        f"the nominal {getattr(nominal, 'name', 'model')} has no tool and the identified robot has one ({np.linalg.norm(off) * 1e3:.4g} mm from the "
+        f"flange: the point it was measured at): the flange compensated (the identified flange placed on its last body as the nominal's is), "
+        f"the prediction after it at {at}; give the nominal a tool to compensate tool poses")
+
+
+def flange_model(nominal, identified) -> _core.Model:
+    """The identified model as :func:`compensate` uses it against ``nominal``: as it is, unless the nominal has no tool
+    and the identified robot has one farther than :data:`TOOL_FRACTION` of the robot's size (the point identify or
+    calibrate measured): then its flange is its canonical flange (:func:`canonical_tool`) and it has no tool, the same from the
+    in-memory result and from every file saved of it. What to export for a controller that takes a corrected model
+    (``io.ur_calibration.save``) so that it and a compensation agree."""
+    nominal, identified = _loaded(nominal), _loaded(identified)
+    ide = _flange(nominal, _model(nominal, "nominal"), identified, _model(identified, "identified"))[0]
+    if _is_identity(ide.T_flange_tool):
+        return ide
+    # the flange itself there (a kinematics file writes the flange, not a tool)
+    return _core.Model.from_placements(ide.placements, list(ide.kinds), offsets=ide.offsets, lower=ide.lower, upper=ide.upper, names=list(ide.names),
+                                       T_world_base=ide.T_world_base, T_last_flange=np.asarray(ide.T_last_flange) @ np.asarray(ide.T_flange_tool),
+                                       name=ide.name)
 
 
 def canonical_tool(nom: _core.Model, ide: _core.Model, home=None) -> np.ndarray:

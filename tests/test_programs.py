@@ -1,0 +1,359 @@
+"""Robot programs in controller languages (denavit.io.programs): read, compensate on their own configurations, write
+back with only the positions changed; the configuration conventions against the arm's geometry; saved-file parity."""
+
+import re
+import shutil
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import denavit as dv
+from denavit import calibration as cal
+from denavit import compensation as cp
+from denavit.io import programs as pg
+from denavit.io.programs import abb, fanuc, kuka
+from denavit.robot import load
+
+DATA = Path(__file__).parent / "data" / "programs"
+PROGRAMS = [("kuka/kr5_demo.src", "kr5"), ("kuka/kr5_tool.src", "kr5"), ("abb/DemoKR5.mod", "kr5"), ("fanuc/demo_kr5.ls", "kr5"), ("ur/demo_ur5.script", "ur5")]
+
+
+def perturbed(robot, seed=3):
+    """``robot`` with 0.5 mm / 0.05 deg errors on every parameter of its table (uniform): the "true" robot."""
+    t = robot.table
+    E = np.random.default_rng(seed).uniform(-1, 1, t.params.shape) * np.where(np.array(t.angle_columns), np.radians(0.05), 0.5e-3)
+    return replace(robot, table=dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool), name=f"{robot.name}_true")
+
+
+def copy_program(path: Path, to: Path) -> Path:
+    """The program (and a KUKA pair's .dat, and its $config.dat) copied into ``to``."""
+    for f in path.parent.glob(path.stem + ".*"):
+        shutil.copy(f, to)
+    if (path.parent / "$config.dat").exists():
+        shutil.copy(path.parent / "$config.dat", to)
+    return to / path.name
+
+
+@pytest.mark.parametrize(("name", "model"), PROGRAMS)
+def test_round_trip_is_byte_identical(name, model, tmp_path):
+    """With the nominal model as the identified one, the written program is the program, byte for byte (the CRLF
+    line endings of the KRL and RAPID files included)."""
+    r = load(model)
+    prog = pg.read_program(DATA / name, r)
+    assert len(prog.points) >= 12
+    pc = pg.compensate_program(prog, r, r)
+    assert not pc.left
+    paths = pg.write_program(prog, tmp_path / Path(name).name, pc.new_values)
+    for p, src in zip(paths, prog.sources, strict=True):
+        assert Path(p).read_bytes() == Path(src.path).read_bytes()
+
+
+def _without_positions(prog) -> list[str]:
+    """Each file's text with its position fields cut out."""
+    out = []
+    for i, src in enumerate(prog.sources):
+        spans = sorted((n.start, n.end) for p in prog.points for n in p.numbers if n.source == i)
+        text, last, parts = src.text, 0, []
+        for s, e in spans:
+            parts.append(text[last:s])
+            last = e
+        parts.append(text[last:])
+        out.append("\x00".join(parts))
+    return out
+
+
+@pytest.mark.parametrize(("name", "model"), PROGRAMS)
+def test_compensation_changes_only_the_positions_and_the_true_robot_reaches_the_targets(name, model, tmp_path):
+    """A "true" robot (the model's table with 0.5 mm / 0.05 deg errors) runs the compensated program on a nominal
+    controller that honours each position's configuration (its bits; URScript: the solution nearest the previous
+    position): its tool reaches the program's targets within 0.1 mm RMS, >= 10x better than the program as written.
+    Only the position fields differ, each number in its original form with at least its decimals."""
+    r = load(model)
+    true = perturbed(r)
+    path = copy_program(DATA / name, tmp_path)
+    prog = pg.read_program(path, r)
+    pc = pg.compensate_program(prog, r, true)
+    assert not pc.left and len(pc.new_values) == len(prog.points)
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    if (path.parent / "$config.dat").exists():
+        shutil.copy(path.parent / "$config.dat", out_dir)
+    paths = pg.write_program(prog, out_dir / path.name, pc.new_values)
+    back = pg.read_program(paths[0], r)
+    assert _without_positions(back) == _without_positions(prog)
+    for p, b in zip(prog.points, back.points, strict=True):
+        assert p.config == b.config and p.name == b.name
+        for n, m in zip(p.numbers, b.numbers, strict=True):
+            dec = lambda t: len(t.split(".")[1].split("e")[0].split("E")[0]) if "." in t else 0  # noqa: E731
+            assert dec(m.token) >= dec(n.token)
+            assert m.token.lstrip("-+").startswith(".") == n.token.lstrip("-+").startswith(".") or abs(float(m.token)) >= 1
+    Q_program = pg.controller_joints(prog, r)
+    Q_comp = pg.controller_joints(back, r)
+    F = prog.vendor.flange_rotation(r)
+    target = pg.tool_poses(prog, r.model().with_tool(np.eye(4)), Q_program, F)
+    tm = true.model().with_tool(np.eye(4))
+    before = np.linalg.norm(pg.tool_poses(prog, tm, Q_program, F)[:, :3, 3] - target[:, :3, 3], axis=1)
+    after = np.linalg.norm(pg.tool_poses(back, tm, Q_comp, F)[:, :3, 3] - target[:, :3, 3], axis=1)
+    rms_before, rms_after = np.sqrt(np.mean(before**2)), np.sqrt(np.mean(after**2))
+    assert rms_after < 1e-4 and rms_before > 10 * rms_after, (rms_before, rms_after)
+    assert np.abs(Q_comp - Q_program).max() < np.radians(5)  # the same branches
+
+
+def test_the_points_cover_the_workspace():
+    """Each example program's positions spread over its arm's workspace: both sides of the base, heights from near
+    the floor to overhead, wrists flipped and not, turns beyond +-180 deg."""
+    for name, model in PROGRAMS:
+        r = load(model)
+        prog = pg.read_program(DATA / name, r)
+        Q = pg.controller_joints(prog, r)
+        P = dv.fk_batch(r.model(), Q)[:, :3, 3]
+        assert np.ptp(P[:, 0]) > 0.6 and np.ptp(P[:, 1]) > 0.6 and np.ptp(P[:, 2]) > 0.4, name
+        assert (Q[:, 4] > 0).any() and (Q[:, 4] < 0).any(), name
+        assert (np.abs(Q[:, [3, 5]]) > np.pi).any(), name
+
+
+def test_kuka_status_and_turn_follow_the_kr5_geometry():
+    """KUKA's S and T on the KR5 (its A1, A4, A6 turned the other way from the model's): the home is the basic area,
+    A3 above phi, A5 positive: S 'B010', T 'B000010' (A2 < 0); phi is atan(a3 / d4) = 10.95 deg; the arm over its
+    shoulder sets bit 0 (the wrist centre, here the flange, behind A1 in the A1 frame); a negative A5 bit 2; the
+    same pose with A6 a turn away changes T bit 5 only; every solution of a pose has its own (S, T)."""
+    r = load("kr5")
+    m = r.model()
+    cache = {"signs": kuka.signs(r)}
+    home = np.radians([0, -90, 90, 0, 90, 0])
+    assert kuka.configuration(m, home, cache) == (0b010, 0b000010)
+    assert np.degrees(kuka._phi(m, cache)) == pytest.approx(np.degrees(np.arctan2(0.12, 0.62)), abs=1e-6)
+    below_phi = home.copy()
+    below_phi[2] = np.radians(5)
+    assert kuka.configuration(m, below_phi, cache)[0] == 0b000
+    over = np.radians([0, -150, 20, 0, 60, 0])  # the upper arm tilted back, the wrist behind A1
+    p = dv.fk(m, over)[:3, 3]
+    assert p[0] < 0 and kuka.configuration(m, over, cache)[0] & 1 == 1
+    flipped = home.copy()
+    flipped[4] = np.radians(-60)
+    assert kuka.configuration(m, flipped, cache)[0] & 4 == 4
+    a = np.radians([30, -80, 100, 40, 50, 170])
+    b = a.copy()
+    b[5] -= 2 * np.pi  # the same pose
+    np.testing.assert_allclose(dv.fk(m, a), dv.fk(m, b), atol=1e-12)
+    sa, sb = kuka.configuration(m, a, cache), kuka.configuration(m, b, cache)
+    assert sa[0] == sb[0] and sa[1] ^ sb[1] == 1 << 5  # model q6 = -A6: A6 -170 vs 190
+    sols = pg.candidates(m, dv.fk(m, a))
+    configs = [kuka.configuration(m, q, cache) for q in sols]
+    assert len(sols) >= 8 and len(set(configs)) == len(configs)
+
+
+def test_abb_and_fanuc_configurations_follow_the_geometry():
+    """ABB's confdata: quadrants floor(angle / 90) (axis 4 at -230 deg: -3), cfx from the wrist's side of axis 1 and of
+    the lower arm and axis 5's sign; FANUC's 'N U T' at the KR5's home (J5 positive in the model's sense: F), turn
+    numbers beyond +-180 deg; over the shoulder B and, for ABB, cfx 4 and up. Each solution of a pose has its own."""
+    r = load("kr5")
+    m = r.model()
+    cache = {"signs": abb.signs(r)}
+    home = np.radians([0, -90, 90, 0, 90, 0])
+    assert abb.configuration(m, home, cache) == (0, 0, 0, 0)
+    q = np.radians([-100, -90, 90, -230, -40, 200])
+    assert abb.configuration(m, q, cache)[:3] == (-2, -3, 2) and abb.configuration(m, q, cache)[3] & 1 == 1
+    over = np.radians([0, -150, 20, 0, 60, 0])
+    assert abb.configuration(m, over, cache)[3] >= 4
+    folded = np.radians([0, -90, -10, 0, 60, 0])  # A3 below phi: the wrist behind the lower arm's line
+    assert abb.configuration(m, folded, cache)[3] & 2 == 2
+    assert fanuc.configuration(m, home, cache) == ("F", "U", "T", 0, 0, 0)
+    assert fanuc.configuration(m, q, cache)[3:] == (0, -1, 1)
+    assert fanuc.configuration(m, over, cache)[2] == "B"
+    a = np.radians([30, -80, 100, 40, 50, 170])
+    for v in (abb, fanuc):
+        configs = [v.configuration(m, s, cache) for s in pg.candidates(m, dv.fk(m, a))]
+        assert len(set(configs)) == len(configs)
+
+
+def test_a_pose_only_program_states_the_configuration_it_assumed_and_configurations_keep_the_gain():
+    """The issue's case: tool poses the robot reached at configurations spread over its limits. Without their
+    configuration each row is compensated on the nominal's solution nearest q0 (the home) and says so (`assumed`,
+    a note); a controller that keeps the program's configuration then misses. With the configuration (the joint
+    values, or the KRL bits of the same poses) the gain is kept: within 0.1 mm RMS, >= 10x better."""
+    r = load("kr5")
+    true = perturbed(r)
+    m, tm = r.model(), true.model()
+    rng = np.random.default_rng(11)
+    Q = []
+    while len(Q) < 60:
+        q = rng.uniform(m.lower, m.upper) * 0.85
+        if abs(np.sin(q[4])) > 0.26 and abs(np.sin(q[2] - np.arctan2(0.12, 0.62))) > 0.26:
+            Q.append(q)
+    Q = np.array(Q)
+    T = dv.fk_batch(m, Q)
+    blind = cp.compensate(r, true, T)
+    assert blind.assumed.all() and any("without a configuration" in n and "nearest q0" in n for n in blind.notes)
+    near = cp.nearest_solutions(m, T, np.asarray(r.home))[0]
+    np.testing.assert_allclose(blind.q_nominal, near, atol=1e-6)
+    off_branch = np.abs(blind.q_nominal - Q).max(axis=1) > 0.5
+    assert off_branch.mean() > 0.2
+    # the controller keeps the program's configuration: the rows compensated on another branch miss
+    def run(c, keep):
+        sent = np.where(c.ok[:, None], c.commands.reshape(len(c), 16), T.reshape(len(c), 16)).reshape(-1, 4, 4)
+        q = np.array([pg.candidates(m, s) and min(pg.candidates(m, s), key=lambda x: np.linalg.norm(x - k)) for s, k in zip(sent, keep, strict=True)])
+        return np.linalg.norm(dv.fk_batch(tm, q)[:, :3, 3] - T[:, :3, 3], axis=1)
+
+    before = np.linalg.norm(dv.fk_batch(tm, Q)[:, :3, 3] - T[:, :3, 3], axis=1)
+    kept = cp.compensate(r, true, T, q_nominal=Q)
+    assert not kept.assumed.any() and kept.ok.all()
+    after = run(kept, Q)
+    assert np.sqrt(np.mean(after**2)) < 1e-4 and np.sqrt(np.mean(before**2)) > 10 * np.sqrt(np.mean(after**2))
+    after_blind = run(blind, Q)
+    assert np.sqrt(np.mean(after_blind**2)) > 10 * np.sqrt(np.mean(after**2))
+    # the same poses as KRL E6POS with their S and T: the bits give the program's configuration back
+    cache = {"signs": kuka.signs(r)}
+    F = np.eye(4)
+    F[:3, :3] = kuka.flange_rotation(r)
+    for q, t in zip(Q[:12], T[:12], strict=True):
+        pt = pg.Point("XP", "x:1", "pose", [], kuka.configuration(m, q, cache))
+        np.testing.assert_allclose(pg.configuration_solution(kuka, m, pt, t, np.asarray(r.home), cache), q, atol=1e-6)
+
+
+def test_cli_compensates_a_krl_pair_and_writes_both_files(tmp_path):
+    """`denavit compensate prog.src --nominal kr5 --identified true.toml -o out.src` writes out.src and out.dat; the
+    summary counts the positions; an output over the input is refused."""
+    from cli import run
+    from denavit.io import robotfile
+
+    r = load("kr5")
+    robotfile.save(perturbed(r), tmp_path / "true.toml", "mm", "deg")
+    src = copy_program(DATA / "kuka" / "kr5_demo.src", tmp_path)
+    p = run("compensate", src, "--nominal", "kr5", "--identified", tmp_path / "true.toml", "-o", tmp_path / "out.src")
+    assert "16 positions (kuka), 16 compensated, 0 left as they were" in p.stdout, p.stdout
+    assert (tmp_path / "out.dat").read_bytes() != src.with_suffix(".dat").read_bytes()
+    assert (tmp_path / "out.src").read_bytes() == src.read_bytes()  # the .src holds no position
+    p = run("compensate", src, "--nominal", "kr5", "--identified", tmp_path / "true.toml", "-o", src, ok=False)
+    assert p.returncode == 2 and "an output never replaces an input" in p.stderr
+
+
+def _bad(tmp_path, name, edit):
+    path = copy_program(DATA / name, tmp_path)
+    target = path.with_suffix(".dat") if name.endswith(".src") else path
+    text = target.read_bytes().decode()
+    target.write_bytes(edit(text).encode())
+    return path
+
+
+@pytest.mark.parametrize(("name", "edit", "message"), [
+    ("kuka/kr5_demo.src", lambda t: t.replace("DECL INT SUCCESS", "DECL WIDGET W1={A 1}"), r"kr5_demo\.dat:9: unknown declaration type 'WIDGET'"),
+    ("kuka/kr5_demo.src", lambda t: re.sub(r"X [-\d.]+,Y", "X 5000.0,Y", t, count=1), r"kr5_demo\.dat:13: XP1: the configuration S \d+ .* is not reachable on the nominal kr5"),
+    ("kuka/kr5_demo.src", lambda t: t.replace("TOOL_NO 0", "TOOL_NO 3", 1), r"kr5_demo\.dat:14: TOOL 3 is the controller's TOOL_DATA\[3\].*unsupported"),
+    ("abb/DemoKR5.mod", lambda t: t.replace("tGripper\\WObj", "tOther\\WObj", 1), r"DemoKR5\.mod:\d+: tooldata tOther is not declared in the module: unsupported"),
+    ("abb/DemoKR5.mod", lambda t: t.replace("[-1,-3,1,0]", "[-1,-3,1]", 1), r"DemoKR5\.mod:10: robtarget p10: expected"),
+    ("fanuc/demo_kr5.ls", lambda t: t.replace("UT : 0", "UT : 2", 1), r"demo_kr5\.ls:\d+: P\[1\]: UT : 2 is the controller's tool frame 2"),
+    ("fanuc/demo_kr5.ls", lambda t: t.replace("/POS", "/WHAT\n/POS"), r"demo_kr5\.ls:\d+: unknown section /WHAT"),
+    ("ur/demo_ur5.script", lambda t: t.replace("set_tcp(p[0.0, 0.0, 0.12, 0.0, 0.0, 0.0])", "set_tcp(pose_trans(a, b))"), r"demo_ur5\.script:3: set_tcp\(pose_trans"),
+])
+def test_bad_programs_give_one_line_errors_and_write_nothing(tmp_path, name, edit, message):
+    from cli import run
+
+    path = _bad(tmp_path, name, edit)
+    out = tmp_path / "out" / path.name
+    out.parent.mkdir()
+    p = run("compensate", path, "--nominal", "kr5" if "ur5" not in name else "ur5", "--identified", "kr5" if "ur5" not in name else "ur5", "-o", out, ok=False)
+    assert p.returncode == 2 and re.search(message, p.stderr), p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1
+    assert not any(out.parent.iterdir())
+
+
+def test_a_missing_dat_is_one_line(tmp_path):
+    from cli import run
+
+    shutil.copy(DATA / "kuka" / "kr5_demo.src", tmp_path)
+    p = run("compensate", tmp_path / "kr5_demo.src", "--nominal", "kr5", "--identified", "kr5", "-o", tmp_path / "o.src", ok=False)
+    assert p.returncode == 2 and "kr5_demo.src:1: its data list kr5_demo.dat is missing" in p.stderr and not (tmp_path / "o.src").exists()
+
+
+def test_a_point_the_compensation_cannot_send_is_left_and_listed(tmp_path):
+    """A KRL position at the wrist singularity (A5 = 0.01 deg): the identified robot reaches it only by swinging A4 and
+    A6, the row is left as it was and listed with its line; the others are compensated."""
+    r = load("kr5")
+    path = copy_program(DATA / "kuka" / "kr5_demo.src", tmp_path)
+    dat = path.with_suffix(".dat")
+    text = dat.read_bytes().decode()
+    text = re.sub(r"(DECL E6AXIS XP4=\{A1 [-\d.]+,A2 [-\d.]+,A3 [-\d.]+,A4 [-\d.]+,A5 )[-\d.]+", r"\g<1>0.01000", text)
+    dat.write_bytes(text.encode())
+    prog = pg.read_program(path, r)
+    pc = pg.compensate_program(prog, r, perturbed(r))
+    k = next(i for i, p in enumerate(prog.points) if p.name == "XP4")
+    assert k not in pc.new_values and [w for w, _ in pc.left] == [prog.points[k].where]
+    assert len(pc.new_values) == len(prog.points) - 1
+
+
+SAVES = ["edh", "dh", "mdh", "poe", "urdf"]
+
+
+@pytest.fixture(scope="module")
+def calibration():
+    kr5 = load("kr5")
+    rng = np.random.default_rng(3)
+    t = kr5.table
+    E = rng.uniform(-1, 1, t.params.shape) * np.where(np.array(t.angle_columns), np.radians(0.05), 5e-4)
+    true = dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool).to_model("true", kr5.names, kr5.lower, kr5.upper)
+    meas = cal.simulate(true, cal.configurations(kr5, 40), tool=np.array([0.0, 0.0, 0.107]), noise=2e-5, seed=2)
+    return kr5, cal.calibrate(meas, kr5, tool=np.array([0.0, 0.0, 0.107]))
+
+
+@pytest.mark.parametrize("save", SAVES)
+def test_a_saved_calibration_compensates_as_the_in_memory_result(calibration, save, tmp_path):
+    """The issue's route: calibrate with a 107 mm reflector, save, compensate against the tool-less nominal. The
+    saved file (robot file in each convention, URDF) compensates as the result in memory does: commands within 1 um
+    (the ED-H file had put 0.107 mm of the last link into [tool] z: 0.1 mm off), the same prediction within 1 %."""
+    from denavit.io import robotfile, urdf
+
+    kr5, c = calibration
+    rng = np.random.default_rng(5)
+    Q = rng.uniform(kr5.lower, kr5.upper, (40, 6)) * 0.8
+    T = dv.fk_batch(kr5.model(), Q)
+    mem = cp.compensate(kr5, c, T, q_nominal=Q)
+    if save == "urdf":
+        f = tmp_path / "cal.urdf"
+        urdf.save_urdf(c.robot().model(), f, c.robot())
+    else:
+        f = tmp_path / f"cal_{save}.toml"
+        robotfile.save(c.robot(convention=save), f, "mm", "deg")
+    saved = cp.compensate(kr5, str(f), T, q_nominal=Q)
+    ok = mem.ok & saved.ok
+    assert ok.sum() >= 36
+    assert np.abs(saved.commands[ok, :3, 3] - mem.commands[ok, :3, 3]).max() < 1e-6
+    assert np.abs(saved.commands[ok, :3, :3] - mem.commands[ok, :3, :3]).max() < 1e-6
+    if saved.predicted_after is not None:
+        np.testing.assert_allclose(saved.predicted_after[ok], mem.predicted_after[ok], rtol=0.01)
+
+
+def test_a_saved_ur_kinematics_file_compensates_as_the_in_memory_result(tmp_path):
+    """A UR5 calibrated with a 100 mm reflector, exported as ur_description's kinematics file (its flange the
+    compensation's: compensation.flange_model) and read back as a chain on the result's base (the file holds the arm
+    from its base): the same commands within 1 um."""
+    from denavit.io import ur_calibration as urc
+
+    ur5 = load("ur5")
+    rng = np.random.default_rng(4)
+    t = ur5.table
+    E = rng.uniform(-1, 1, t.params.shape) * np.where(np.array(t.angle_columns), np.radians(0.05), 5e-4)
+    E[5, 2:] = 0
+    true = dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool).to_model("true", ur5.names, ur5.lower, ur5.upper)
+    c = cal.calibrate(cal.simulate(true, cal.configurations(ur5, 40), tool=np.array([0.0, 0.0, 0.1]), noise=2e-5, seed=2), ur5, tool=np.array([0.0, 0.0, 0.1]))
+    f = tmp_path / "cal.yaml"
+    fm = cp.flange_model(ur5, c)
+    urc.save(f, fm, t)
+    origins = urc.read(f)
+    pts, dirs, T = [], [], np.asarray(fm.T_world_base)
+    for o in origins:
+        T = T @ o
+        pts.append(T[:3, 3].copy())
+        dirs.append(T[:3, 2].copy())
+    screws = np.array([[*d, *np.cross(p, d)] for p, d in zip(pts, dirs, strict=True)])
+    yaml_model = dv.Table("poe", screws, ["revolute"] * 6, np.eye(4), T).to_model("from yaml", ur5.names, ur5.lower, ur5.upper)
+    np.testing.assert_allclose(dv.fk_batch(yaml_model, np.zeros((1, 6))), dv.fk_batch(fm, np.zeros((1, 6))), atol=1e-12)
+    Q = np.random.default_rng(6).uniform(-2.5, 2.5, (30, 6))
+    Tg = dv.fk_batch(ur5.model(), Q)
+    mem = cp.compensate(ur5, c, Tg, q_nominal=Q)
+    back = cp.compensate(ur5, yaml_model, Tg, q_nominal=Q)
+    ok = mem.ok & back.ok
+    assert ok.sum() >= 25
+    assert np.abs(back.commands[ok, :3, 3] - mem.commands[ok, :3, 3]).max() < 1e-6
