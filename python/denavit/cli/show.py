@@ -119,9 +119,12 @@ def export_cmd(
     json_out = json_target(json_out)
     robot = load_robot(model, base_link, tip_link, chain_only=chain_only)
     if ur_kinematics is not None:
+        from ..compensation import flange_model  # noqa: PLC0415
         from ..io.ur_calibration import save  # noqa: PLC0415
 
-        save(ur_kinematics, robot.model(), load_robot(ur_nominal, what="--ur-nominal").table)
+        nominal = load_robot(ur_nominal, what="--ur-nominal")
+        # the flange compensate uses (a calibration's measured point as its tool: its canonical flange, whichever file)
+        save(ur_kinematics, flange_model(nominal, robot), nominal.table)
         wrote(ur_kinematics)
         return
     if json_out:
