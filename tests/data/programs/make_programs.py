@@ -37,8 +37,11 @@ def workspace(robot, count, seed, lower_z=0.15):
     return np.array(out)
 
 
-def frame(T):
-    return T
+def tp(v: float) -> str:
+    """A number as FANUC's controller writes it in an .ls: 3 decimals, no leading zero ('.002', '-.000'), width 9."""
+    s = f"{v:.3f}"
+    s = s[:-5] + s[-4:] if s.lstrip("-").startswith("0.") else s
+    return s.rjust(9)
 
 
 def kuka_programs():
@@ -149,7 +152,7 @@ def fanuc_program():
         mn.append(f"{i:4d}:{'J' if i % 2 else 'L'} P[{i}] {'100%' if i % 2 else '500mm/sec'} {'FINE' if i % 3 == 0 else 'CNT100'}    ;")
         if i % 4 == 0:
             a = np.degrees(q)
-            rows = [f"\tJ1= {a[0]:9.3f} deg,\tJ2= {a[1]:9.3f} deg,\tJ3= {a[2]:9.3f} deg,", f"\tJ4= {a[3]:9.3f} deg,\tJ5= {a[4]:9.3f} deg,\tJ6= {a[5]:9.3f} deg"]
+            rows = [f"\tJ1= {tp(a[0])} deg,\tJ2= {tp(a[1])} deg,\tJ3= {tp(a[2])} deg,", f"\tJ4= {tp(a[3])} deg,\tJ5= {tp(a[4])} deg,\tJ6= {tp(a[5])} deg"]
             pos += [f"P[{i}]{{", "   GP1:", "\tUF : 0, UT : 0,\t", *rows, "};"]
         else:
             T = dv.fk(m, q)
@@ -157,7 +160,7 @@ def fanuc_program():
             rr, pp, ww = np.degrees(matrix_zyx(T[:3, :3]))
             c = fanuc.configuration(m, q, cache)
             pos += [f"P[{i}]{{", "   GP1:", f"\tUF : 0, UT : 0,\t\tCONFIG : '{c[0]} {c[1]} {c[2]}, {c[3]}, {c[4]}, {c[5]}',",
-                    f"\tX = {p[0]:9.3f}  mm,\tY = {p[1]:9.3f}  mm,\tZ = {p[2]:9.3f}  mm,", f"\tW = {ww:9.3f} deg,\tP = {pp:9.3f} deg,\tR = {rr:9.3f} deg", "};"]
+                    f"\tX = {tp(p[0])}  mm,\tY = {tp(p[1])}  mm,\tZ = {tp(p[2])}  mm,", f"\tW = {tp(ww)} deg,\tP = {tp(pp)} deg,\tR = {tp(rr)} deg", "};"]
     head = ["/PROG  DEMO_KR5", "/ATTR", "OWNER\t\t= MNEDITOR;", 'COMMENT\t\t= "workspace";', "PROG_SIZE\t= 0;", "CREATE\t\t= DATE 26-01-05  TIME 10:00:00;",
             "MODIFIED\t= DATE 26-01-05  TIME 10:00:00;", "FILE_NAME\t= ;", "VERSION\t\t= 0;", f"LINE_COUNT\t= {len(mn) + 2};", "MEMORY_SIZE\t= 0;",
             "PROTECT\t\t= READ_WRITE;", "TCD:  STACK_SIZE\t= 0,", "      TASK_PRIORITY\t= 50,", "      TIME_SLICE\t= 0,", "      BUSY_LAMP_OFF\t= 0,",
