@@ -67,14 +67,14 @@ def register(pz: Parametrization, x, meas: Measurements, base_free: bool, tool_f
     # the tool point's translations, or several targets' points (calibration.targets): linear in the predicted points
     trans = [c for c in tool_free if names[c] in ("tool_x", "tool_y", "tool_z") or names[c].startswith("target")]
     rots = [c for c in tool_free if names[c] in ("tool_rx", "tool_ry", "tool_rz")]
-    pred, _ = pz.evaluate(x, meas.q, False)
+    pred, _ = pz.evaluate(x, pz.inputs(meas), False)
     before = _rms(pred[:, :3, 3], meas.points)
     if base_free and before > REGISTER_RMS:
         P = pred[:, :3, 3]
         if np.linalg.matrix_rank(P - P.mean(axis=0), tol=1e-9) >= 2:
             cand_pz, cand_x = pz, x
             for _ in range(ALTERNATIONS if trans else 1):
-                p_now, _ = cand_pz.evaluate(cand_x, meas.q, False)
+                p_now, _ = cand_pz.evaluate(cand_x, cand_pz.inputs(meas), False)
                 W = kabsch(p_now[:, :3, 3], meas.points)
                 cand_pz, cand_x = cand_pz.rebased(cand_x, W)
                 if not trans:
@@ -83,7 +83,7 @@ def register(pz: Parametrization, x, meas: Measurements, base_free: bool, tool_f
                 cand_x[trans] += step
                 if np.linalg.norm(step) < SETTLED:
                     break
-            after = _rms(cand_pz.evaluate(cand_x, meas.q, False)[0][:, :3, 3], meas.points)
+            after = _rms(cand_pz.evaluate(cand_x, cand_pz.inputs(meas), False)[0][:, :3, 3], meas.points)
             if after < 0.5 * before:
                 pz, x = cand_pz, cand_x
                 dist = float(np.linalg.norm(pz.base_pose(x)[:3, 3]))
@@ -101,7 +101,7 @@ def register(pz: Parametrization, x, meas: Measurements, base_free: bool, tool_f
 def _tool_step(pz: Parametrization, x, meas: Measurements, trans: list) -> np.ndarray:
     """The least-squares change of the tool translation parameters ``trans`` (exact: the tool point is linear in
     them) that best matches the measured points at the current base."""
-    pred, J = jacobian_rows(pz, x, meas.q, np.ones(6), trans)
+    pred, J = jacobian_rows(pz, x, pz.inputs(meas), np.ones(6), trans)
     J = J.reshape(meas.n, -1, len(trans))[:, :3].reshape(-1, len(trans))  # the position rows
     r = (pred[:, :3, 3] - meas.points).ravel()
     step, *_ = np.linalg.lstsq(J, -r, rcond=None)
@@ -111,7 +111,7 @@ def _tool_step(pz: Parametrization, x, meas: Measurements, trans: list) -> np.nd
 def _register_tool_rotation(pz: Parametrization, x, meas: Measurements, rots: list) -> tuple[Parametrization, np.ndarray, float]:
     """The tool's fixed rotation factor moved to the chordal mean of ``R_pred^T R_meas`` (the correction in the
     tool frame) and its angle parameters reset to zero; returns (parametrisation, x, angle of the move in rad)."""
-    pred, _ = pz.evaluate(x, meas.q, False)
+    pred, _ = pz.evaluate(x, pz.inputs(meas), False)
     M = np.einsum("nji,njk->ik", pred[:, :3, :3], meas.poses[:, :3, :3]) / meas.n
     U, _, Vt = np.linalg.svd(M)
     D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])

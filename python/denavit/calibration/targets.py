@@ -255,6 +255,11 @@ class TargetParametrization:
         except ValueError:
             raise DenavitError(f"unknown parameter {name!r}: expected one of {', '.join(self.names)}") from None
 
+    def inputs(self, meas: Measurements) -> np.ndarray:
+        """What :meth:`evaluate` takes as the readings of ``meas`` (:meth:`Parametrization.inputs`): its ``q``, with
+        each row's target as a last column (:meth:`TargetMeasurements.expanded`)."""
+        return meas.q
+
     def target_points(self, x) -> np.ndarray:
         """(K, 3) the targets' points in the flange frame (m)."""
         return np.asarray(x, dtype=float)[self.chain_pz.n_params :].reshape(self.n_targets, 3)
