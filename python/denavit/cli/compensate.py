@@ -72,8 +72,20 @@ def compensate(
 
     fmt = detect(targets)
     if fmt is not None:
-        _compensate_program(targets, fmt, nom_robot, id_robot, output, q0v, positive(branch_tol, "--branch-tol", angle_scale(angle), np.radians(5.0), angle),
-                            json_out, length)
+        if path:
+            raise DenavitError(f"--path: {targets} is a robot program, whose positions each state their configuration (URScript poses: nearest the "
+                               "previous one): expected no --path")
+        pc = _compensate_program(targets, fmt, nom_robot, id_robot, output, q0v, positive(branch_tol, "--branch-tol", angle_scale(angle), np.radians(5.0), angle),
+                                 json_out, length)
+        if report and pc.compensation is not None:
+            from ..report import write_compensation_report  # noqa: PLC0415
+
+            with status("writing the report ..."):
+                write_compensation_report(pc.compensation, nom_robot, id_robot, report, source=str(targets),
+                                          where=[pc.program.points[k].where for k in pc.rows], length=length, angle=angle)
+            wrote(report)
+        if pc.left:
+            raise typer.Exit(1)
         return
     prog = read_targets(targets, kinds, length=length, angle=angle)
     poses = prog.poses if prog.poses is not None else _core.fk_batch(nom, prog.q)
@@ -150,7 +162,7 @@ def compensate(
         raise typer.Exit(1)
 
 
-def _compensate_program(path, fmt, nom_robot, id_robot, output, q0v, branch_tol, json_out, length) -> None:
+def _compensate_program(path, fmt, nom_robot, id_robot, output, q0v, branch_tol, json_out, length):
     """A robot program (KUKA .src/.dat, ABB .mod, FANUC .ls, URScript .script): read, every position compensated on
     its own configuration, written back with only the positions changed (docs/compensation.md)."""
     import numpy as np  # noqa: PLC0415
@@ -192,8 +204,7 @@ def _compensate_program(path, fmt, nom_robot, id_robot, output, q0v, branch_tol,
             console.print(f"  {w}: {why}")
         if len(pc.left) > 20:
             console.print(f"  ... and {len(pc.left) - 20} more (all in --json's 'left')")
-    if pc.left:
-        raise typer.Exit(1)
+    return pc
 
 
 def _sample(model):
