@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _core
+from .calibration.compliance import as_payload, elastic
 from .errors import DenavitError
 from .fitting.checks import robot_size
 from .robot import Robot, joint_values, readings
@@ -124,7 +125,7 @@ def _angle(R: np.ndarray) -> np.ndarray:
 
 
 def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: bool = False, result=None, predict: bool = True, branch_tol: float = 0.1,
-               **ik_options) -> Compensation:
+               payload=None, **ik_options) -> Compensation:
     """Compensate ``targets`` for a controller that keeps ``nominal`` while the robot is ``identified``.
 
     Parameters
@@ -149,6 +150,11 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
         False: no ``predicted_after`` (its central differences cost more than the solves).
     branch_tol : float
         Largest joint change (rad / m) from the nominal solution that keeps its branch.
+    payload : float, (mass, (x, y, z)) or (N, 4), optional
+        The payload of each row (kg; its centre of mass in the flange frame, m) when ``identified`` has compliant
+        joints (a robot file's ``[compliance]``, a calibration that freed them: :mod:`denavit.calibration.compliance`):
+        the commands are the readings that the joints, deflected under gravity and this payload, turn into ``q``;
+        ``predicted_after`` includes the compliances' covariance. None: no payload (the links' own weight only).
     ik_options
         Options of the IK solves (``method``, ``tol_position``, ``tol_rotation``, ``restarts``, ...).
     """
@@ -186,6 +192,9 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
             raise DenavitError("q_nominal: path mode takes a configuration for every row or for none (rows of NaN among given ones)")
     r = _core.compensate(nom, ide, T, q_nominal, q0, path=path, branch_tol=branch_tol, **ik_options)
     q = r.q
+    el = elastic(identified)  # compliant joints (calibration/compliance.py): the commanded readings deflect to q under gravity and the payload
+    pl = None if el is None else as_payload(payload, len(T))
+    qc = q if el is None else el.command(q, pl)
     predicted = None
     if predict and result is not None:
         predicted = predicted_sigma(result, q)
@@ -193,7 +202,14 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
         predicted = predicted_sigma(identified, q)  # an identification or a calibration: its own covariance
     elif predict and isinstance(identified, Robot) and identified.covariance is not None:
         predicted = table_sigma(identified, q)  # e.g. a robot file's [covariance]
+    if predict and el is not None:
+        predicted = el.predicted(predicted, qc, pl)
     commands, q_cmd, before, before_rot = r.commands, q, r.before_position, r.before_rotation
+    if el is not None:
+        q_cmd, commands = qc, _core.fk_batch(nom, qc)
+        exe = _core.fk_batch(ide, el.deflected(r.q_nominal, pl))  # the program run as written, the joints deflected
+        before = np.linalg.norm(exe[:, :3, 3] - T[:, :3, 3], axis=1)
+        before_rot = _angle(np.swapaxes(T[:, :3, :3], 1, 2) @ exe[:, :3, :3])
     # the readings: the controller turns the nominal's joint values into readings (its coupling), the identified
     # robot turns readings into its joint values (its coupling, else the nominal's; its reading scales)
     rm_nom = reading_model(nominal)
@@ -210,9 +226,9 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
             rd = readings(qn, *rm_nom) if rm_nom is not None else qn
             return joint_values(rd, *rm_id) if rm_id is not None else rd
 
-        q_cmd = to_nominal(q)
+        q_cmd = to_nominal(qc)
         commands = _core.fk_batch(nom, q_cmd)
-        exe = _core.fk_batch(ide, to_identified(r.q_nominal))  # the program run as written
+        exe = _core.fk_batch(ide, to_identified(r.q_nominal) if el is None else el.deflected(to_identified(r.q_nominal), pl))  # the program run as written
         before = np.linalg.norm(exe[:, :3, 3] - T[:, :3, 3], axis=1)
         before_rot = _angle(np.swapaxes(T[:, :3, :3], 1, 2) @ exe[:, :3, :3])
     if assumed.any():

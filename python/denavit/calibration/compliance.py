@@ -34,19 +34,19 @@ from .. import _core
 from ..errors import DenavitError
 from .parametrization import Parametrization, make_chain
 
-#: Standard gravity (m/s^2), down along the base frame's -z.
-GRAVITY = np.array([0.0, 0.0, -9.80665])
+#: Gravity (m/s^2), down along the base frame's -z: the core's default (``_core.gravity_torques``), for the links and the payload alike.
+GRAVITY = np.array([0.0, 0.0, -9.81])
 #: A joint whose largest gravity torque in the data is below this fraction of the largest joint's has no compliance
 #: parameter (a vertical axis holds no gravity torque).
 TORQUE_FLOOR = 1e-6
 
 
-def gravity_torques(model: _core.Model, q, payload=None, gravity=GRAVITY) -> np.ndarray:
+def gravity_torques(model: _core.Model, q, payload=None) -> np.ndarray:
     """(N, n) the torques (N m; N for a prismatic joint) the joints hold at rest at readings ``q`` (N, n) against the
     links' weight (``model``'s inertials) and the payload's: ``payload`` (N, 4) ``[mass kg, x, y, z m]`` per pose, its
-    centre of mass in the flange frame (None: no payload)."""
+    centre of mass in the flange frame (None: no payload); gravity :data:`GRAVITY` in the model's world frame."""
     q = np.atleast_2d(np.asarray(q, dtype=float))
-    g = np.asarray(gravity, dtype=float)
+    g = GRAVITY
     m0 = model.with_tool(np.eye(4))
     tau = np.asarray(_core.gravity_torques_batch(m0, q)) if _has_masses(model) else np.zeros(q.shape)
     if payload is None:
@@ -215,48 +215,6 @@ def robot_compliance(cal) -> tuple[np.ndarray | None, np.ndarray | None]:
     return k, C if np.all(np.isfinite(C)) else None
 
 
-def deflection(robot, q, payload=None) -> np.ndarray:
-    """(N, n) the joints' deflections ``k tau`` (rad / m) of ``robot`` (its :attr:`~denavit.robot.Robot.compliance`;
-    zeros without) at readings ``q`` with ``payload`` (N, 4) or None."""
-    q = np.atleast_2d(np.asarray(q, dtype=float))
-    if robot.compliance is None:
-        return np.zeros_like(q)
-    return np.asarray(robot.compliance) * gravity_torques(robot.model(), q, payload)
-
-
-def command_for(robot, q_link, payload=None, iterations: int = 20, tol: float = 1e-12) -> np.ndarray:
-    """(N, n) the readings to command so that the joints, deflected under gravity and ``payload``, sit at ``q_link``
-    (N, n): the fixed point of ``q = q_link + k tau(q)`` (a contraction: ``k dtau/dq`` is far below 1)."""
-    q_link = np.atleast_2d(np.asarray(q_link, dtype=float))
-    if robot.compliance is None:
-        return q_link.copy()
-    q = q_link.copy()
-    for _ in range(iterations):
-        new = q_link + deflection(robot, q, payload)
-        done = np.max(np.abs(new - q)) < tol
-        q = new
-        if done:
-            break
-    return q
-
-
-def predicted_sigma(robot, q, payload=None) -> np.ndarray:
-    """(N,) the tool-position sigma (m, 3-D) the compliances' covariance adds at readings ``q`` with ``payload``:
-    ``sqrt(trace(A C A^T))`` with ``A = -J_q diag(tau)`` (the correlations with the geometry are not carried)."""
-    q = np.atleast_2d(np.asarray(q, dtype=float))
-    if robot.compliance is None or robot.compliance_covariance is None:
-        return np.zeros(len(q))
-    m = robot.model()
-    tau = gravity_torques(m, q, payload)
-    C = np.asarray(robot.compliance_covariance)
-    out = np.empty(len(q))
-    for i in range(len(q)):
-        Jp = np.asarray(_core.jacobian(m, q[i]))[:3]
-        A = -Jp * tau[i]
-        out[i] = math.sqrt(max(float(np.trace(A @ C @ A.T)), 0.0))
-    return out
-
-
 def as_payload(payload, n: int) -> np.ndarray | None:
     """``payload`` as (n, 4) SI rows: None; a mass (kg) at the flange; ``(mass, (x, y, z))``; or (n, 4) / (4,) rows."""
     if payload is None:
@@ -278,3 +236,80 @@ def with_payload(meas, payload):
     if payload is None:
         return meas
     return replace(meas, payload=as_payload(payload, meas.n))
+
+
+@dataclass(frozen=True, eq=False)
+class Elastic:
+    """The compliance of an identified robot, for compensation and validation: its compliances ``k`` (n,) SI, the model
+    that gives its gravity torques (with its inertials), the compliances' covariance (n, n) or None, and the calibration
+    it came from (its full covariance predicts the error exactly) or None."""
+
+    k: np.ndarray
+    torque_model: _core.Model
+    covariance: np.ndarray | None = None
+    calibration: object = None
+
+    def torques(self, q, payload=None) -> np.ndarray:
+        return gravity_torques(self.torque_model, q, payload)
+
+    def deflected(self, q, payload=None) -> np.ndarray:
+        """The joint values the links sit at for readings ``q`` (N, n): ``q - k tau(q)``."""
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        return q - self.k * self.torques(q, payload)
+
+    def command(self, q_link, payload=None, iterations: int = 30, tol: float = 1e-13) -> np.ndarray:
+        """The readings that put the links at ``q_link`` (N, n) under gravity and ``payload``: the fixed point of
+        ``q = q_link + k tau(q)`` (a contraction: ``k dtau/dq`` is far below 1)."""
+        q_link = np.atleast_2d(np.asarray(q_link, dtype=float))
+        q = q_link.copy()
+        for _ in range(iterations):
+            new = q_link + self.k * self.torques(q, payload)
+            done = float(np.max(np.abs(new - q))) < tol if q.size else True
+            q = new
+            if done:
+                break
+        return q
+
+    def sigma(self, q, payload=None) -> np.ndarray:
+        """(N,) the tool-position sigma (m, 3-D) the compliances' own covariance adds at readings ``q``:
+        ``sqrt(trace(A C A^T))``, ``A = -J_q diag(tau)`` (zeros without a covariance)."""
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        if self.covariance is None:
+            return np.zeros(len(q))
+        tau = self.torques(q, payload)
+        out = np.empty(len(q))
+        for i in range(len(q)):
+            A = -np.asarray(_core.jacobian(self.torque_model, self.deflected(q[i : i + 1], None if payload is None else np.asarray(payload)[i : i + 1])[0]))[:3] * tau[i]
+            out[i] = math.sqrt(max(float(np.trace(A @ self.covariance @ A.T)), 0.0))
+        return out
+
+    def predicted(self, geometric, q, payload=None) -> np.ndarray | None:
+        """The predicted tool-position error (1 sigma, m) at the commanded readings ``q`` with the compliances: from
+        the calibration's full covariance when it came from one (geometry and compliances with their correlations),
+        else ``geometric`` (N,) (the geometry's prediction, or None) and the compliances' own part in quadrature."""
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        if self.calibration is not None:
+            from ..compensation import predicted_sigma  # noqa: PLC0415 (compensation imports this module)
+
+            return predicted_sigma(self.calibration, np.hstack([q, self.torques(q, payload)]))
+        if geometric is None and self.covariance is None:
+            return None
+        g = np.zeros(len(q)) if geometric is None else np.asarray(geometric, dtype=float)
+        return np.sqrt(g**2 + self.sigma(q, payload) ** 2)
+
+
+def elastic(identified) -> Elastic | None:
+    """The :class:`Elastic` of an identified robot whose joints are compliant (a Robot with a ``[compliance]``, a
+    calibration that freed its compliances), else None."""
+    from ..robot import Robot  # noqa: PLC0415
+
+    if isinstance(identified, Robot):
+        if identified.compliance is None or not np.any(np.asarray(identified.compliance) > 0):
+            return None
+        if identified.inertials is None:
+            raise DenavitError(f"{identified.name}: joint compliances without the links' inertial parameters: no gravity torques to deflect under")
+        return Elastic(np.asarray(identified.compliance, dtype=float), identified.model(), identified.compliance_covariance)
+    pz = getattr(identified, "parametrization", None)
+    if isinstance(pz, CompliantParametrization) and any(n.startswith("k_") for n in getattr(identified, "free_names", ())):
+        return Elastic(pz.compliance_of(identified.values).copy(), pz.torque_model, None, identified)
+    return None

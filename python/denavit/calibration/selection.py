@@ -366,14 +366,13 @@ def select_model(model: str, pz: Parametrization, train: Measurements, w: np.nda
 
 def _fit_compliant(name: str, pz: Parametrization, train: Measurements, w: np.ndarray, sets: dict, fitted: dict, compliance: list, x_reg, x_full,
                    sigma, s2: float) -> Candidate | None:
-    """A ``+compliance`` candidate: its geometric part's free parameters (as fitted, without the ones its prior held)
-    with the compliances the data identify beside them, from its geometric fit (compliances at their nominal), with the
+    """A ``+compliance`` candidate: its geometric part's free parameters with the compliances the data identify beside them, from its geometric fit (compliances at their nominal), with the
     geometric part's priors (and the compliances' own) or none; None when the geometric part is not a candidate here."""
     base = name[: -len(COMPLIANCE)]
     if base not in sets:
         return None
     geo = fitted.get(base)
-    free = list(geo.free) if geo is not None else list(sets[base])
+    free = list(sets[base])  # (what the geometric fit's prior held is judged again: with the compliances the data may determine it)
     x0 = np.array(geo.x if geo is not None else (x_full if base.startswith("full") else x_reg))
     x0[list(compliance)] = pz.x0[list(compliance)]
     kept = analyze(pz, x0, train, free + list(compliance), w, explain=False).kept_idx
