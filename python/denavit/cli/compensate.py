@@ -117,7 +117,7 @@ def compensate(
                "before_rms_m": before_rms, "before_max_m": float(c.before[c.ok].max()) if c.ok.any() else None,
                "residual_max_m": float(c.residual[c.ok].max()) if c.ok.any() else None,
                "flagged_rows": [{"where": w, "why": why} for w, why in flagged], "notes": list(c.notes),
-               "without_configuration": int(c.assumed.sum()), "q0": [float(v) for v in q0v]}
+               "without_configuration": [w for w, a in zip(prog.where, c.assumed, strict=True) if a], "assumed_near": {"q": [float(v) for v in q0v]}}
     if predicted is not None:
         summary["predicted_after_rms_m"] = float(np.sqrt(np.mean(predicted[c.ok] ** 2))) if c.ok.any() else None
         summary["predicted_after"] = [{"where": w, "sigma_m": float(p)} for w, p in zip(prog.where, predicted, strict=True)]
@@ -127,7 +127,7 @@ def compensate(
                         "ok": bool(c.ok[k]), "reached": bool(c.reached[k]), "branch_changed": bool(c.branch_changed[k]), "path_jump": bool(c.path_jump[k]),
                         "before_m": float(c.before[k]), "before_rotation_rad": float(c.before_rotation[k]), "residual_m": float(c.residual[k]),
                         "residual_rotation_rad": float(c.residual_rotation[k]), "predicted_after_m": None if predicted is None else float(predicted[k]),
-                        "configuration": "assumed" if c.assumed[k] else "program", "q_nominal": [float(v) for v in c.q_nominal[k]]}
+                        "configuration": {"source": "assumed" if c.assumed[k] else "program", "q": [float(v) for v in c.q_nominal[k]]}}
                        for k in range(len(c))]
     emit_json(summary, json_out)
     if json_out != "-" and output != "-":
@@ -141,7 +141,7 @@ def compensate(
             js = joint_scale(kinds, length, angle)
             say("yellow", "configuration:", f" {int(c.assumed.sum())} of {len(c)} rows had none (no joint columns): each compensated on the nominal's solution "
                 f"nearest --q0 ({', '.join(f'{v:.6g}' for v in q0v / js)} {angle}); that configuration is each row's q1..q{len(kinds)} ('configuration': "
-                "'assumed' and q_nominal in --json). Give the program's joint values as q columns to keep its own")
+                "'configuration' per row in --json). Give the program's joint values as q columns to keep its own")
         if predicted is not None and c.ok.any():
             say("bold", "Predicted error after compensation", f" (1 sigma, from {id_robot.name}'s covariance): rms {summary['predicted_after_rms_m'] / ls:.4g} {length}, "
                 f"max {float(predicted[c.ok].max()) / ls:.4g} {length}" + (" (per row in --json)" if len(c) > 20 else ""))
@@ -189,12 +189,14 @@ def _compensate_program(path, fmt, nom_robot, id_robot, output, q0v, branch_tol,
     ok = c.ok if c is not None else np.zeros(0, dtype=bool)
     ls = length_scale(length)
     before = c.before[ok] if c is not None else np.zeros(0)
-    summary = {"program": str(path), "format": fmt, "units": SI_UNITS, "positions": len(prog.points), "compensated": len(pc.new_values),
+    summary = {"program": str(path), "format": fmt, "units": SI_UNITS, "targets": len(prog.points), "flagged": len(pc.left),
                "left": [{"where": w, "why": why} for w, why in pc.left], "notes": list(prog.notes) + (list(c.notes) if c is not None else []),
                "before_rms_m": float(np.sqrt(np.mean(before**2))) if len(before) else None, "outputs": written,
                "rows": [{"where": prog.points[k].where, "name": prog.points[k].name, "kind": prog.points[k].kind,
-                         "configuration": None if prog.points[k].config is None else list(prog.points[k].config),
-                         "q_nominal": [float(v) for v in pc.q_program[i]], "compensated": k in pc.new_values,
+                         "configuration": {"source": "program" if prog.points[k].config is not None or prog.points[k].kind == "joints" else "assumed",
+                                           "stated": None if prog.points[k].config is None else prog.vendor.describe(prog.points[k].config),
+                                           "q": [float(v) for v in pc.q_program[i]]},
+                         "compensated": k in pc.new_values,
                          "before_m": float(c.before[i]), "residual_m": float(c.residual[i])} for i, k in enumerate(pc.rows)]}
     emit_json(summary, json_out)
     if json_out != "-" and output != "-":
