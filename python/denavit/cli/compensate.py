@@ -140,8 +140,8 @@ def compensate(
 
             js = joint_scale(kinds, length, angle)
             say("yellow", "configuration:", f" {int(c.assumed.sum())} of {len(c)} rows had none (no joint columns): each compensated on the nominal's solution "
-                f"nearest --q0 ({', '.join(f'{v:.6g}' for v in q0v / js)} {angle}); that configuration is each row's q1..q{len(kinds)} ('configuration': "
-                "'configuration' per row in --json). Give the program's joint values as q columns to keep its own")
+                f"nearest --q0 ({', '.join(f'{v:.6g}' for v in q0v / js)} {angle}); that configuration is each row's q1..q{len(kinds)} "
+                "('configuration' per row in --json). Give the program's joint values as q columns to keep its own")
         if predicted is not None and c.ok.any():
             say("bold", "Predicted error after compensation", f" (1 sigma, from {id_robot.name}'s covariance): rms {summary['predicted_after_rms_m'] / ls:.4g} {length}, "
                 f"max {float(predicted[c.ok].max()) / ls:.4g} {length}" + (" (per row in --json)" if len(c) > 20 else ""))
