@@ -218,3 +218,22 @@ def test_compensation_at_a_payload_the_calibration_never_saw():
     g = compensate(nominal, geo, targets, q_nominal=q)
     reached = _core.fk_batch(m_true, g.q_command - K_TRUE * gravity_torques(robot.model(), g.q_command, half))
     assert rms < 0.5 * math.sqrt(np.mean(np.linalg.norm(reached[:, :3, 3] - targets[:, :3, 3], axis=1)[ok] ** 2))
+
+
+def test_a_saved_calibration_carries_its_compliances_and_validate_uses_them(tmp_path):
+    """calibrate -> robot file ([compliance] with its covariance) -> validate at another payload: the joints deflected
+    by the saved compliances (errors at the noise), the rigid reading of the same file far worse."""
+    robot, m_true, train, rng = two_payloads(5, K_TRUE)
+    res = calibrate(train, robot, tool=TOOL)
+    saved = res.robot()
+    assert saved.compliance is not None and saved.compliance_covariance is not None
+    p = tmp_path / "cal.toml"
+    rf.save(saved, p, "mm", "deg")
+    back = rf.read(p)
+    assert np.allclose(back.compliance, saved.compliance, rtol=1e-12, atol=0)
+    q = draw(robot, 40, rng)
+    session = measure(m_true, robot, K_TRUE, q, RATED / 2, rng)
+    v = dv.validate(res, session)
+    assert v.rms < 2 * math.sqrt(3) * NOISE and any("deflected" in n for n in v.notes)
+    rigid = dv.validate(res, replace(session, payload=None), payload=0.0)  # the links' weight only: the payload's deflection unexplained
+    assert rigid.rms > 3 * v.rms

@@ -313,3 +313,21 @@ def elastic(identified) -> Elastic | None:
     if isinstance(pz, CompliantParametrization) and any(n.startswith("k_") for n in getattr(identified, "free_names", ())):
         return Elastic(pz.compliance_of(identified.values).copy(), pz.torque_model, None, identified)
     return None
+
+
+def elastic_of(model) -> Elastic | None:
+    """:func:`elastic` of whatever a command scores or compensates with: a calibration, a Robot, a built-in name or a
+    robot file (read again; a URDF has no compliances); None for anything else (a Model, an identification)."""
+    import os  # noqa: PLC0415
+
+    from ..robot import Robot  # noqa: PLC0415
+
+    if isinstance(model, (str, os.PathLike)):
+        if str(model).lower().endswith(".urdf"):
+            return None
+        from ..robot import load  # noqa: PLC0415
+
+        model = load(model)
+    if isinstance(model, Robot) or hasattr(model, "parametrization"):
+        return elastic(model)
+    return None

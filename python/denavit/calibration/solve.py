@@ -182,12 +182,13 @@ class Calibration:
         r = self.parametrization.robot
         table = self.table(convention)
         carried = self.carried_error(table)
+        comp = _compliance_fields(self, r, table)
         lossy = f"; the {table.convention} table carries a tool-position error up to {carried * 1e3:.3g} mm (a tilt of axes the nominal has parallel, within 3 sigma of zero, dropped)" if carried > 1e-9 else ""
         return Robot(name or f"{r.name}_calibrated", table, list(r.names), r.lower, r.upper,
                      description=f"{r.name} calibrated from {self.measurements.source} ({self.convention}, {self.measurements.n} poses{lossy})", source=self.measurements.source, home=r.home,
-                     extra=dict(r.extra), inertials=r.inertials if r.convention == convention else None,
+                     extra=dict(r.extra), inertials=comp.pop("inertials", r.inertials if r.convention == convention else None),
                      reading_scale=np.array([self.scales.get(f"scale_{j + 1}", 0.0) for j in range(len(r.names))]) if self.scales else None,
-                     covariance=self.table_covariance(table), **dict(zip(("compliance", "compliance_covariance"), robot_compliance(self), strict=True)))
+                     covariance=self.table_covariance(table), **comp)
 
     def carried_error(self, table: _core.Table) -> float:
         """The largest tool-position difference (m) between ``table`` and the calibrated model over 256 configurations
@@ -231,6 +232,22 @@ class Calibration:
         C = np.asarray(self.covariance)[np.ix_(keep, keep)]
         out = J @ C @ J.T
         return (out + out.T) / 2 if np.all(np.isfinite(out)) else None  # (None: no [covariance], a fit without one)
+
+
+def _compliance_fields(cal: Calibration, r: Robot, table) -> dict:
+    """The saved robot's compliances and their covariance (compliance.py), with the nominal's inertials re-expressed in
+    ``table``'s frames when the conventions differ (the compliances need them)."""
+    k, cov = robot_compliance(cal)
+    if k is None:
+        return {}
+    out = {"compliance": k, "compliance_covariance": cov}
+    if r.inertials is not None and r.convention != table.convention:
+        from ..robot import inertials_for_table  # noqa: PLC0415
+
+        ins = r.model().inertias  # in the nominal's joint frames, carried onto the calibrated model's (the same bodies, millimetres apart)
+        m = cal.model().with_inertias(np.asarray(ins["masses"]), np.asarray(ins["coms"]), np.asarray(ins["inertias"]))
+        out["inertials"] = inertials_for_table(m, table, list(r.names), r.lower, r.upper)
+    return out
 
 
 def _table_residuals(res: np.ndarray, measure: str) -> np.ndarray:

@@ -55,6 +55,7 @@ from .. import _core
 from ..errors import DenavitError
 from ..geometry import kabsch, matrix_rotvec, pose, rotvec_matrix
 from ..io.output import json_text, write_text
+from .compliance import elastic_of, with_payload
 from .measurements import Measurements
 from .targets import as_target_measurements, several_targets, sweep_poses
 
@@ -327,7 +328,7 @@ def iso9283(measured: np.ndarray, commanded: np.ndarray) -> tuple[float, float, 
 
 def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma: float | None = None, sigma_factor: float = SIGMA_FACTOR,
              repeat_tol: float = REPEAT_TOL, points=None, poses=None, format: str = "auto", length: str | None = None, angle: str | None = None,
-             columns: str | None = None, target: int | None = None) -> ModelValidation:
+             columns: str | None = None, target: int | None = None, payload=None) -> ModelValidation:
     """Score ``model`` on the measurement session ``data`` (module docstring).
 
     Parameters
@@ -348,6 +349,10 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
     format, length, angle, columns, target
         How a path is read (as :func:`denavit.calibrate`; ``target``: several targets per pose, score this one alone,
         0-based, against the model's tool point).
+    payload : float, (mass, (x, y, z)) or (N, 4), optional
+        The payload (kg; its centre of mass in the flange frame, m) of every pose where the data carry none (a pose
+        file's ``payload_mass`` columns): a model with compliant joints (:mod:`denavit.calibration.compliance`) is
+        predicted with its joints deflected under gravity and the payload, its sigma with the compliances' covariance.
 
     Returns
     -------
@@ -385,8 +390,14 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
         raise DenavitError(f"{meas.source}: the data has {meas.nq} joint readings per pose but the model {name} has {n} joints ({', '.join(km.names)})")
     if meas.kinds is not None and tuple(meas.kinds) != tuple(km.kinds):
         raise DenavitError(f"{meas.source}: joint kinds {list(meas.kinds)} differ from the model {name}'s {list(km.kinds)}")
+    el = elastic_of(model)  # compliant joints (compliance.py): the links sit at q - k tau(q, payload)
+    if el is not None and payload is not None and meas.payload is None:
+        meas = with_payload(meas, payload)
     readings = np.asarray(meas.q, dtype=float)
     q = joints(readings)
+    if el is not None:
+        q = el.deflected(q, meas.payload)
+        notes.append(f"joints deflected under gravity{' and the payload' if meas.payload is not None else ' (no payload declared)'} by the model's compliances")
     T_tool = _tool_transform(km, tool)
     T_base = np.array(km.T_world_base, dtype=float)
     if registration == "refit":
@@ -425,6 +436,8 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
     if cov_source is not None:
         try:
             sigma = _predicted_sigma(cov_source, readings, q)
+            if el is not None:
+                sigma = el.predicted(sigma, readings, meas.payload)
         except DenavitError as e:
             notes.append(f"no predicted sigma: {e}")
         if sigma is not None:
