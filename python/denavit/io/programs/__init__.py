@@ -468,6 +468,7 @@ def compensate_program(program: Program, nominal, identified, *, q0=None, branch
     from ...robot import Robot  # noqa: PLC0415
 
     v = program.vendor
+    nominal = _robot(nominal)
     t = nominal.table
     flange_robot = replace(nominal, table=_core.Table(t.convention, t.params, t.kinds, t.T_world_base, np.eye(4))) if isinstance(nominal, Robot) else nominal
     model = flange_robot.model() if isinstance(flange_robot, Robot) else flange_robot.with_tool(np.eye(4))
@@ -521,6 +522,17 @@ def compensate_program(program: Program, nominal, identified, *, q0=None, branch
     return ProgramCompensation(program, new, c, rows, Q, left, T)
 
 
+def _robot(r):
+    """A built-in name or a robot file as its Robot (a Robot as given)."""
+    if isinstance(r, (str, os.PathLike)):
+        from ...robot import load  # noqa: PLC0415
+
+        return load(r)
+    if not hasattr(r, "table"):
+        raise DenavitError(f"nominal: expected a Robot, a built-in name or a robot file (the program's axis senses and frames need its table), got {type(r).__name__}")
+    return r
+
+
 def _tool_in_flange(F_rot: np.ndarray, tool: np.ndarray) -> np.ndarray:
     F = np.eye(4)
     F[:3, :3] = F_rot
@@ -536,6 +548,7 @@ def controller_joints(program: Program, robot, values: dict | None = None, *, q0
     from ... import compensation as cp  # noqa: PLC0415
 
     v = program.vendor
+    robot = _robot(robot)
     t = robot.table
     model = replace(robot, table=_core.Table(t.convention, t.params, t.kinds, t.T_world_base, np.eye(4))).model()
     F = v.flange_rotation(robot)

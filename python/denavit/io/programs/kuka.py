@@ -195,7 +195,8 @@ def read(path, robot, *, frames: dict) -> Program:
         fd = fdat.get("F" + key[1:]) if key.startswith("X") else None
         uses = used.get(key)
         if uses is None and not fd:
-            notes.append(f"{pt.where}: {pt.name}: no motion of {src.path} uses it: compensated in the frames of its FDAT, else the flange in $ROBROOT")
+            pt.problem = f"no motion of {src.path} uses it and it has no FDAT: its tool and base are unknown (left as it is)"
+            continue
         _frames_of(pt, uses[0][1] if uses else {"tool": None, "base": None}, fd, numbered)
     for name, uses in used.items():
         if not any(p.name.upper() == name for p in points):
@@ -215,7 +216,6 @@ def _frames_of(pt: Point, cur: dict, fd, numbered: dict) -> None:
     if fd:
         agg, where = fd
         if "IPO_FRAME" in agg and agg["IPO_FRAME"][0].upper() == "#TCP":
-            pt.problem = None
             raise DenavitError(f"{where}: IPO_FRAME #TCP (an external, fixed TCP): unsupported (expected #BASE)")
         for kind, key in (("tool", "TOOL_NO"), ("base", "BASE_NO")):
             if key in agg:
