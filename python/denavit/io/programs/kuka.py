@@ -32,8 +32,8 @@ beside the program, else of ``frames``; else a one-line error (unsupported, neve
 (an external TCP) is refused.
 
 Supported subset: DEFDAT data lists of the standard types (INT, REAL, BOOL, CHAR, FRAME, POS, E6POS, AXIS, E6AXIS,
-FDAT, PDAT, LDAT, SIGNAL, STRUC, ENUM and the types they declare); positions declared in the ``.dat`` (every one
-compensated) and inline aggregates of motion instructions in the ``.src`` (``PTP {A1 ...}``, ``LIN {X ...}``).
+FDAT, PDAT, LDAT, SIGNAL, STRUC, ENUM and the types they declare); positions declared in the ``.dat`` (in the frames
+of the motion or FDAT that uses them; one neither uses is left as it is and listed) and inline aggregates of motion instructions in the ``.src`` (``PTP {A1 ...}``, ``LIN {X ...}``).
 Relative motions (``PTP_REL``, ``LIN_REL``) are listed, not compensated. Positions declared elsewhere (``XHOME``
 in ``$config.dat``) are not part of the program: noted.
 """
