@@ -472,8 +472,10 @@ def _scale_evidence(s: np.ndarray, C: np.ndarray) -> tuple[float, float]:
     their covariance ``C`` (k, k) (marginal over every other parameter of that fit), are under the population model
     N(0, C + tau^2 I) (the scales drawn from N(0, tau^2), integrated out: the marginal, or restricted, likelihood of
     the linearised fit, in which every parameter shared with the exact-scale fit cancels), and N(0, C) under exact
-    scales (tau = 0, the nested simpler model). Returns (2 ln of the likelihood ratio at the maximum over tau^2,
-    that tau^2): one hyperparameter against the simpler model, for :func:`_scale_bic`.
+    scales (tau = 0, the nested simpler model): the form of Wakefield's approximate Bayes factor (Genet. Epidemiol.
+    33, 2009, 79-86) for a vector of estimates. Returns (2 ln of the likelihood ratio at the maximum over tau^2, that
+    tau^2; both 0 where the maximum is at tau = 0): one hyperparameter against the simpler model, for
+    :func:`_scale_penalty`.
 
     In C's eigenbasis (eigenvalues l_i, u = V^T s) the log likelihood is -1/2 sum(u_i^2 / (l_i + t) + ln(l_i + t)):
     its maximum over t = tau^2 >= 0 from a log-spaced grid, refined by golden-section steps between the grid
@@ -525,10 +527,10 @@ def _scale_penalty(k: int, n_res: int) -> tuple[float, str]:
 
 def _reading_scales(richer: Callable, refit: Callable, base: dict, drift: bool, n_res: int) -> tuple[dict | None, dict | None, float, str]:
     """The readings' scale errors as a population (empirical Bayes): every swept joint's scale fitted once freely
-    (``full``); whether they err at all by the evidence (:func:`_scale_evidence`, :func:`_scale_bic`: the marginal
-    likelihood of the scales as a population N(0, tau^2) against exact scales, one hyperparameter, by Schwarz's
-    criterion, :func:`_scale_penalty`); when they do, the joints' spread tau from those estimates (:func:`_scale_spread`), then every scale
-    refitted with the prior N(0, tau^2) (:func:`~denavit.fitting.joint.fit_sweeps`' ``scale_prior``): a scale the
+    (``full``); whether they err at all by the evidence (:func:`_scale_evidence`: the marginal likelihood of the
+    scales as a population N(0, tau^2) against exact scales, one hyperparameter, by Schwarz's criterion,
+    :func:`_scale_penalty`); when they do, the joints' spread tau from those estimates (:func:`_scale_spread`), then
+    every scale refitted with the prior N(0, tau^2) (:func:`~denavit.fitting.joint.fit_sweeps`' ``scale_prior``): a scale the
     data show (sigma << tau) keeps its value, one they cannot show (sigma >> tau) stays near zero with about tau of
     uncertainty in its axis, continuously (no joint-by-joint choice: a chance 2.9-sigma scale on exact readings no
     longer moves its axis by 2.9 of its full sigmas).
@@ -547,6 +549,8 @@ def _reading_scales(richer: Callable, refit: Callable, base: dict, drift: bool, 
     pen, name = _scale_penalty(int(np.sum(on)), n_res)
     evidence = f"2 ln(marginal likelihood ratio) {lr:.3g} {'>' if lr > pen else '<='} {name} = {pen:.3g}"
     tau = math.sqrt(_scale_spread(full["scales"][on], full["scale_sigma"][on]))
+    if lr > pen and not tau > 0:  # (the diagonal Q-profile against the full covariance's likelihood: rare)
+        evidence += ", but the joints' scales scatter within their sigmas (tau = 0)"
     if not (tau > 0 and lr > pen):
         return None, full, 0.0, evidence
     # (with its own weights: the variance components estimated with the scales, as a refit would)
