@@ -357,3 +357,48 @@ def test_a_saved_ur_kinematics_file_compensates_as_the_in_memory_result(tmp_path
     ok = mem.ok & back.ok
     assert ok.sum() >= 25
     assert np.abs(back.commands[ok, :3, 3] - mem.commands[ok, :3, 3]).max() < 1e-6
+
+
+def test_krl_inline_positions_and_a_tool_assigned_in_the_src(tmp_path):
+    """A .src that sets $TOOL and $BASE literally and moves to inline aggregates (an E6POS with S and T, an E6AXIS, a
+    POS without S and T: nearest the previous position): read with those frames, compensated in place, the rest of
+    the line kept; a true robot reaches the targets."""
+    r = load("kr5")
+    m = r.model().with_tool(np.eye(4))
+    cache = {"signs": kuka.signs(r)}
+    tool = kuka.pose_matrix(np.array([0.0, 0.0, 0.12]), kuka.zyx_matrix(0.0, np.radians(-90), 0.0))
+    base = kuka.pose_matrix(np.array([0.5, 0.1, 0.0]), kuka.zyx_matrix(np.radians(30), 0.0, 0.0))
+    F = np.eye(4)
+    F[:3, :3] = kuka.flange_rotation(r)
+    qs = np.radians([[20, -80, 100, 30, 60, -40], [-30, -100, 110, -200, -50, 100], [-20, -95, 105, -190, -45, 110]])
+    lines = ["DEF INLINE( )", "$TOOL = {X 0.0,Y 0.0,Z 120.0,A 0.0,B -90.0,C 0.0}", "$BASE = {X 500.0,Y 100.0,Z 0.0,A 30.0,B 0.0,C 0.0}"]
+    for k, q in enumerate(qs):
+        T = np.linalg.inv(base) @ dv.fk(m, q) @ F @ tool
+        x = np.concatenate([T[:3, 3] * 1e3, np.degrees(pg.matrix_zyx(T[:3, :3]))])
+        if k == 1:
+            a = np.degrees(q * kuka.signs(r))
+            lines.append("PTP {" + ",".join(f"A{i + 1} {v:.4f}" for i, v in enumerate(a)) + "} C_PTP ; a joint position")
+        elif k == 0:
+            s, t = kuka.configuration(m, q, cache)
+            lines.append("PTP {" + ",".join(f"{n} {v:.4f}" for n, v in zip("XYZABC", x, strict=True)) + f",S {s},T {t}}}")
+        else:
+            lines.append("LIN {" + ",".join(f"{n} {v:.4f}" for n, v in zip("XYZABC", x, strict=True)) + "} C_DIS")
+    lines += ["END", ""]
+    (tmp_path / "inline.src").write_text("\n".join(lines))
+    (tmp_path / "inline.dat").write_text("DEFDAT INLINE\nENDDAT\n")
+    prog = pg.read_program(tmp_path / "inline.src", r)
+    assert [p.kind for p in prog.points] == ["pose", "joints", "pose"] and prog.points[2].config is None
+    np.testing.assert_allclose(prog.points[0].tool, tool, atol=1e-12)
+    np.testing.assert_allclose(prog.points[0].base, base, atol=1e-12)
+    true = perturbed(r)
+    pc = pg.compensate_program(prog, r, true)
+    assert not pc.left
+    (tmp_path / "out").mkdir()
+    out = pg.write_program(prog, tmp_path / "out" / "inline.src", pc.new_values)
+    back = pg.read_program(out[0], r)
+    assert Path(out[0]).read_text().splitlines()[4].endswith("C_PTP ; a joint position")
+    Q0, Qc = pg.controller_joints(prog, r), pg.controller_joints(back, r)
+    np.testing.assert_allclose(Q0, qs, atol=1e-6)
+    target = pg.tool_poses(prog, m, Q0, F[:3, :3])
+    after = pg.tool_poses(back, true.model().with_tool(np.eye(4)), Qc, F[:3, :3])
+    assert np.linalg.norm(after[:, :3, 3] - target[:, :3, 3], axis=1).max() < 1e-5
