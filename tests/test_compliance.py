@@ -235,5 +235,8 @@ def test_a_saved_calibration_carries_its_compliances_and_validate_uses_them(tmp_
     session = measure(m_true, robot, K_TRUE, q, RATED / 2, rng)
     v = dv.validate(res, session)
     assert v.rms < 2 * math.sqrt(3) * NOISE and any("deflected" in n for n in v.notes)
+    assert back.compliance_flange is not None and abs(back.compliance_flange[2, 3] - 0.0823) < 5e-3  # the UR5's flange, 82.3 mm past the last frame
+    saved_v = dv.validate(back, session)  # the robot file alone: its [compliance], inertials and flange
+    assert saved_v.rms < 2 * math.sqrt(3) * NOISE and abs(saved_v.rms - v.rms) < 0.2 * v.rms
     rigid = dv.validate(res, replace(session, payload=None), payload=0.0)  # the links' weight only: the payload's deflection unexplained
     assert rigid.rms > 3 * v.rms

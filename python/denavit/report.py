@@ -735,6 +735,8 @@ def _robot_traces(go, label: str, table: _core.Table, q, ls: float, size: float,
 
 def _param_scale(unit: str, length: str, angle: str) -> tuple[float, str]:
     """SI per display unit and the unit's name of a calibration parameter ("length" | "angle" | "ratio")."""
+    if unit in ("rad/(N m)", "m/N"):  # a joint compliance (calibration/compliance.py)
+        return 1e-6, "urad/(N m)" if unit == "rad/(N m)" else "um/N"
     return (length_scale(length), length) if unit == "length" else (angle_scale(angle), angle) if unit == "angle" else (1.0, "1")
 
 

@@ -57,6 +57,10 @@ class Robot:
     robot file's ``[compliance]``); None: rigid joints."""
     compliance_covariance: np.ndarray | None = None
     """(n, n) SI covariance of :attr:`compliance` (a robot file's ``[compliance] covariance``); None: not carried."""
+    compliance_flange: np.ndarray | None = None
+    """(4, 4) the frame a payload's centre of mass is given in (the robot's mechanical flange), in the model's flange
+    frame (a robot file's ``[compliance] flange``, written by calibrate --save where its table's last frame is not the
+    flange); None: the model's flange."""
     notes: list = field(default_factory=list)
     """What the reader chose on the user's behalf (e.g. a URDF's tip link), one line each, for the user to see."""
 

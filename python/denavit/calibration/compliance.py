@@ -41,10 +41,11 @@ GRAVITY = np.array([0.0, 0.0, -9.81])
 TORQUE_FLOOR = 1e-6
 
 
-def gravity_torques(model: _core.Model, q, payload=None) -> np.ndarray:
+def gravity_torques(model: _core.Model, q, payload=None, flange=None) -> np.ndarray:
     """(N, n) the torques (N m; N for a prismatic joint) the joints hold at rest at readings ``q`` (N, n) against the
     links' weight (``model``'s inertials) and the payload's: ``payload`` (N, 4) ``[mass kg, x, y, z m]`` per pose, its
-    centre of mass in the flange frame (None: no payload); gravity :data:`GRAVITY` in the model's world frame."""
+    centre of mass in the flange frame (None: no payload; ``flange`` (4, 4): that frame in the model's flange frame, default
+    the same); gravity :data:`GRAVITY` in the model's world frame."""
     q = np.atleast_2d(np.asarray(q, dtype=float))
     g = GRAVITY
     m0 = model.with_tool(np.eye(4))
@@ -61,7 +62,7 @@ def gravity_torques(model: _core.Model, q, payload=None) -> np.ndarray:
         rows = loaded[inv.ravel() == u]
         T = np.eye(4)
         T[:3, 3] = c
-        mc = m0.with_tool(T)
+        mc = m0.with_tool(T if flange is None else np.asarray(flange, dtype=float) @ T)
         R = _core.fk_batch(mc, q[rows])[:, :3, :3]
         f = np.zeros((len(rows), 6))
         f[:, :3] = np.einsum("nji,j->ni", R, g) * pl[rows, :1]  # the weight, in the tool frame's axes, at its origin
@@ -248,9 +249,11 @@ class Elastic:
     torque_model: _core.Model
     covariance: np.ndarray | None = None
     calibration: object = None
+    #: (4, 4) the flange (where a payload's centre of mass is given) in the model's flange frame, or None: the same
+    flange: np.ndarray | None = None
 
     def torques(self, q, payload=None) -> np.ndarray:
-        return gravity_torques(self.torque_model, q, payload)
+        return gravity_torques(self.torque_model, q, payload, self.flange)
 
     def deflected(self, q, payload=None) -> np.ndarray:
         """The joint values the links sit at for readings ``q`` (N, n): ``q - k tau(q)``."""
@@ -308,7 +311,7 @@ def elastic(identified) -> Elastic | None:
             return None
         if identified.inertials is None:
             raise DenavitError(f"{identified.name}: joint compliances without the links' inertial parameters: no gravity torques to deflect under")
-        return Elastic(np.asarray(identified.compliance, dtype=float), identified.model(), identified.compliance_covariance)
+        return Elastic(np.asarray(identified.compliance, dtype=float), identified.model(), identified.compliance_covariance, None, identified.compliance_flange)
     pz = getattr(identified, "parametrization", None)
     if isinstance(pz, CompliantParametrization) and any(n.startswith("k_") for n in getattr(identified, "free_names", ())):
         return Elastic(pz.compliance_of(identified.values).copy(), pz.torque_model, None, identified)

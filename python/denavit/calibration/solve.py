@@ -241,12 +241,24 @@ def _compliance_fields(cal: Calibration, r: Robot, table) -> dict:
     if k is None:
         return {}
     out = {"compliance": k, "compliance_covariance": cov}
-    if r.inertials is not None and r.convention != table.convention:
-        from ..robot import inertials_for_table  # noqa: PLC0415
-
-        ins = r.model().inertias  # in the nominal's joint frames, carried onto the calibrated model's (the same bodies, millimetres apart)
-        m = cal.model().with_inertias(np.asarray(ins["masses"]), np.asarray(ins["coms"]), np.asarray(ins["inertias"]))
-        out["inertials"] = inertials_for_table(m, table, list(r.names), r.lower, r.upper)
+    if r.inertials is not None:
+        # each link's centre of mass and inertia carried from the nominal table's frame i to the saved table's, body by
+        # body at q = 0 in the base frame (the bodies coincide within millimetres; their frames may not: a calibrated
+        # table of near-parallel axes places them otherwise)
+        z = np.zeros(len(r.names))
+        Fn = np.linalg.inv(np.asarray(r.table.T_world_base)) @ np.asarray(r.table.frames(z))[1:]  # (frames 0..n: frame i is link i's)
+        Ft = np.linalg.inv(np.asarray(table.T_world_base)) @ np.asarray(table.frames(z))[1:]
+        M = np.linalg.inv(Ft) @ Fn  # nominal frame i in saved frame i
+        R, p = M[:, :3, :3], M[:, :3, 3]
+        ins = r.inertials
+        out["inertials"] = {"masses": np.array(ins["masses"], dtype=float), "coms": np.einsum("nij,nj->ni", R, np.asarray(ins["coms"], dtype=float)) + p,
+                            "inertias": R @ np.asarray(ins["inertias"], dtype=float) @ R.transpose(0, 2, 1)}
+    # the mechanical flange (where a payload's centre of mass is given) in the saved table's last frame
+    m = cal.model()
+    z = np.zeros(m.nq)
+    F = np.linalg.inv(np.asarray(table.frames(z))[-1]) @ np.asarray(_core.joint_frames(m, z))[-1] @ np.asarray(m.T_last_flange)
+    if not np.allclose(F, np.eye(4), rtol=0, atol=1e-12):
+        out["compliance_flange"] = F
     return out
 
 

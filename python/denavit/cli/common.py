@@ -734,6 +734,8 @@ def calib_unit(unit: str, length: str, angle: str) -> tuple[str, float]:
         return length, length_scale(length)
     if unit == "angle":
         return angle, angle_scale(angle)
+    if unit in ("rad/(N m)", "m/N"):  # a joint compliance (calibration/compliance.py)
+        return ("urad/(N m)" if unit == "rad/(N m)" else "um/N"), 1e-6
     return "1", 1.0
 
 

@@ -46,6 +46,7 @@ def compensate(
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
     q0: Annotated[str | None, typer.Option("--q0", help="Rows without a configuration (poses without joint columns) are compensated on the nominal's solution nearest this, one value per joint in --angle units (prismatic: --length); default the nominal's home, else zeros.")] = None,
+    payload: Annotated[str | None, typer.Option("--payload", help="The payload on the flange for every row: its mass with a unit (kg, g, lb) and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\" (--length units without one). With an identified robot of compliant joints (a robot file's [compliance]) the commands are those that deflect onto the targets under it.")] = None,
 ) -> None:
     """Compensate a program (RoboDK's "filtering"): for each target, the joint values that reach it on the
     identified robot (on the program's branch) and the pose T' = FK_nominal(q) to send to a controller that keeps
@@ -71,6 +72,11 @@ def compensate(
     from ..io.programs import detect  # noqa: PLC0415
 
     fmt = detect(targets)
+    from ..io.payload import parse_payload  # noqa: PLC0415
+
+    pl = None if payload is None else parse_payload(payload, length)
+    if fmt is not None and pl is not None:
+        raise DenavitError(f"--payload: {targets} is a robot program; the payload applies to a CSV of targets (give the program's positions as a CSV)")
     if fmt is not None:
         if path:
             raise DenavitError(f"--path: {targets} is a robot program, whose positions each state their configuration (URScript poses: nearest the "
@@ -100,7 +106,7 @@ def compensate(
     with status(f"compensating {len(poses)} targets ..."):
         # (the robots, not their models: the identified robot's reading model, [couplings] and [readings], applies)
         c = cp.compensate(nom_robot, id_robot, poses, q_nominal=prog.q, q0=q0v, path=path,
-                          branch_tol=positive(branch_tol, "--branch-tol", angle_scale(angle), np.radians(5.0), angle))
+                          branch_tol=positive(branch_tol, "--branch-tol", angle_scale(angle), np.radians(5.0), angle), payload=pl)
     for n in c.notes:
         say("yellow", "note:", f" {n}")
     ls = length_scale(length)

@@ -50,6 +50,7 @@ def validate(
     target: Annotated[int | None, typer.Option("--target", help="Data with several targets per pose: score this one alone, 1-based, against the model's tool point (default: every target at its nest point, or target 1 without a nest).")] = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
+    payload: Annotated[str | None, typer.Option("--payload", help="The payload on the flange for every pose where the data give none (a pose file's payload_mass, payload_x,payload_y,payload_z columns): its mass with a unit (kg, g, lb) and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\" (--length units without one). A model with compliant joints (a robot file's [compliance]) is predicted with its joints deflected under it.")] = None,
 ) -> None:
     """Score a saved model on another measurement session: per-pose tool-position errors, RMS, max and percentiles,
     extrapolation flags (outside the training joint ranges, large predicted sigma), ISO 9283 pose accuracy and
@@ -73,7 +74,7 @@ def validate(
         meas = replace(meas, q=np.asarray(meas.q) @ np.asarray(robot.coupling).T)
         robot = replace(robot, coupling=None)
     with status(f"validating {robot.name} on {meas.n} poses ..."):
-        res = va.validate(robot, meas, registration="refit" if refit_registration else "frozen", tool=tp, max_sigma=ms)
+        res = va.validate(robot, meas, registration="refit" if refit_registration else "frozen", tool=tp, max_sigma=ms, payload=_payload(payload, length))
     if json_path:
         emit_json(va.to_json(res), json_path)
     if json_path != "-":
@@ -124,3 +125,10 @@ def print_validation(res, length: str, angle: str, ls: float, as_: float) -> Non
                    caption="AP: distance from the barycentre of the attained positions to the commanded (the model's); RP = l_bar + 3 S_l (clause 7.2)")
     for note in res.notes:
         say("yellow", "note:", f" {note}")
+
+
+def _payload(text, length: str):
+    """``--payload`` as (mass kg, centre of mass m), or None (denavit.io.payload)."""
+    from ..io.payload import parse_payload  # noqa: PLC0415
+
+    return None if text is None else parse_payload(text, length)

@@ -11,6 +11,8 @@ A robot file's section (values in the units it declares; ``prismatic_unit`` only
     prismatic_unit = "um/N"      # prismatic joints: m/N, mm/N, um/N
     values = [0, 1.5, 2.2, 4, 5, 5]
     covariance = [[...], ...]    # optional: n x n, in the units' products (written by calibrate --save)
+    flange = {xyz = [0, 0, 82.3], rpy = [0, 0, 0]}   # optional: where a payload's centre of mass is given, in the
+                                 # table's last frame (length / angle units; default that frame)
 """
 
 from __future__ import annotations

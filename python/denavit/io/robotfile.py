@@ -292,8 +292,13 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
             joint = getattr(e, "joint", None)  # the core error names the link it is about
             at = joint_where[joint - 1] if joint else where
             raise DenavitError(f"{at}: inertia: {e}") from None
-    compliance, compliance_cov = (read_compliance(doc["compliance"], kinds, names, inertials is not None, f"{where}, [compliance]")
-                                  if "compliance" in doc else (None, None))
+    compliance, compliance_cov, compliance_flange = None, None, None
+    if "compliance" in doc:
+        spec = doc["compliance"]
+        if isinstance(spec, dict) and "flange" in spec:
+            compliance_flange = _pose(spec["flange"], ls, as_, f"{where}, [compliance] flange")
+            spec = {k: v for k, v in spec.items() if k != "flange"}
+        compliance, compliance_cov = read_compliance(spec, kinds, names, inertials is not None, f"{where}, [compliance]")
     return Robot(
         name=_text(doc.get("name", Path(where).stem), f"{where}: name"),
         table=table,
@@ -312,6 +317,7 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         reading_reference=reference,
         compliance=compliance,
         compliance_covariance=compliance_cov,
+        compliance_flange=compliance_flange,
     )
 
 
@@ -516,6 +522,8 @@ def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
         doc["covariance"] = {"matrix": [[float(v) for v in row] for row in np.asarray(robot.covariance) / np.outer(s, s)]}
     if robot.compliance is not None:
         doc["compliance"] = compliance_spec(robot.compliance, robot.compliance_covariance, list(t.kinds))
+        if robot.compliance_flange is not None:
+            doc["compliance"]["flange"] = _pose_spec(np.asarray(robot.compliance_flange), ls, as_)
     if robot.coupling is not None and coupling_text(robot.coupling):
         doc["couplings"] = coupling_text(robot.coupling)
     doc.update(robot.extra)
