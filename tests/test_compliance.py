@@ -184,6 +184,13 @@ def test_compliances_recovered_within_their_sigmas():
         assert np.isfinite(s) and abs(v - K_TRUE[j]) < 3 * s, (j, v, s, K_TRUE[j])
     assert res.status[res.names.index("k_1")] != "free"  # a vertical axis holds no gravity torque
     assert np.isclose(res.rms, math.sqrt(3) * NOISE, rtol=0.25)
+    # plan predicted these sigmas before measuring (the Cramer-Rao bound at the nominal, the same poses and payloads)
+    from denavit.calibration.compliance import plan_compliance
+
+    p = plan_compliance(robot, train.q[:30], (0.0, RATED), com=COM, noise=NOISE, tool=TOOL)
+    for j in (1, 2, 3, 4):
+        assert 0.7 < res.value(f"k_{j + 1}")[1] / p.sigma[j] < 1.4
+    assert np.isnan(p.sigma[0])
 
 
 @pytest.mark.parametrize("seed", [2, 3])

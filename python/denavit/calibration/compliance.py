@@ -334,3 +334,57 @@ def elastic_of(model) -> Elastic | None:
     if isinstance(model, Robot) or hasattr(model, "parametrization"):
         return elastic(model)
     return None
+
+
+@dataclass(frozen=True)
+class CompliancePlan:
+    """The predicted sigmas (Cramér-Rao bound, SI: rad/(N m), m/N) of the joints' compliances for poses ``q`` (N, n)
+    each measured at every payload of ``payloads`` (kg, at ``com`` in the flange frame), with the geometry
+    (every parameter the data identify) fitted with them: ``sigma`` (n,) (NaN: no parameter, a joint holding no
+    torque), ``torque_max`` (n,) the largest torque each joint holds, ``notes``."""
+
+    names: list
+    sigma: np.ndarray
+    torque_max: np.ndarray
+    payloads: tuple
+    n_poses: int
+    notes: list
+
+
+def plan_compliance(nominal, q, payloads, *, com=(0.0, 0.0, 0.0), noise: float = 2e-5, tool=(0.05, 0.03, 0.10), convention: str = "edh") -> CompliancePlan:
+    """Predict the compliances' sigmas of a planned calibration (:class:`CompliancePlan`): the whitened Jacobian of the
+    geometry and the compliances at the nominal (zero compliances), its covariance ``noise^2 (J^T J)^-1`` over the
+    identifiable parameters (no priors: what the data alone determine). The two-payload protocol is
+    ``payloads=(0, rated)``."""
+    from .identifiability import analyze  # noqa: PLC0415
+    from .least_squares import covariance, jacobian_rows, weights  # noqa: PLC0415
+    from .measurements import Measurements  # noqa: PLC0415
+    from .parametrization import as_robot, parametrize  # noqa: PLC0415
+
+    robot = as_robot(nominal)
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    loads = [float(m) for m in np.atleast_1d(payloads)]
+    if not loads or any(not (math.isfinite(m) and m >= 0) for m in loads):
+        raise DenavitError(f"payloads: expected one or more masses >= 0 kg, got {payloads!r}")
+    c = np.asarray(com, dtype=float).reshape(3)
+    Q = np.vstack([q] * len(loads))
+    pl = np.vstack([np.tile(np.r_[m, c], (len(q), 1)) for m in loads])
+    meas = Measurements(Q, np.zeros((len(Q), 3)), None, "planned poses", payload=pl)
+    pz, notes = with_compliance(parametrize(robot, convention, tool=np.asarray(tool, dtype=float)), meas, robot, True)
+    n = len(robot.names)
+    if not isinstance(pz, CompliantParametrization):
+        return CompliancePlan([f"k_{j + 1}" for j in range(n)], np.full(n, np.nan), np.zeros(n), tuple(loads), len(Q), notes)
+    w = weights("point", noise, noise)
+    cand = [i for i in range(pz.n_geometric) if pz.names[i] not in pz.rules] + list(pz.compliance_idx)
+    kept = analyze(pz, pz.x0, meas, cand, w, explain=False).kept_idx
+    J = jacobian_rows(pz, pz.x0, pz.inputs(meas), w, kept)[1]
+    cov = covariance(J, 1.0)
+    sigma = np.full(n, np.nan)
+    for i, c_ in enumerate(kept):
+        if c_ >= pz.n_geometric:
+            sigma[c_ - pz.n_geometric] = math.sqrt(max(cov[i, i], 0.0))
+    dropped = [pz.names[c_] for c_ in pz.compliance_idx if c_ not in kept]
+    if dropped:
+        notes.append(f"not identifiable from these poses and payloads: {', '.join(dropped)}")
+    tmax = np.abs(pz.torques(Q, pl)).max(axis=0)
+    return CompliancePlan([f"k_{j + 1}" for j in range(n)], sigma, tmax, tuple(loads), len(Q), notes)

@@ -60,6 +60,7 @@ def plan(
     json_out: JsonOpt = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
+    payload: Annotated[str | None, typer.Option("--payload", help="Also predict the joints' compliances' sigmas for the planned poses measured twice, without payload and with this one: its mass with a unit and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\" (needs the model's link masses).")] = None,
 ) -> None:
     """Predict every parameter's sigma (Cramer-Rao bound) and the measuring volume of a protocol, before measuring."""
     import numpy as np  # noqa: PLC0415
@@ -96,6 +97,13 @@ def plan(
     with status("planning..."):
         p = cal.plan(robot, protocol, q=q, noise=sigma, convention=convention, fix=fixes, tool=tp, select=select)
     pz = p.parametrization
+    cp = None
+    if payload is not None:  # the two-payload protocol's compliances (calibration/compliance.py)
+        from ..calibration.compliance import plan_compliance  # noqa: PLC0415
+        from ..io.payload import parse_payload  # noqa: PLC0415
+
+        mass, com = parse_payload(payload, length)
+        cp = plan_compliance(robot, p.q, (0.0, mass), com=com, noise=sigma, tool=tp, convention=convention)
     if json_out:
         emit_json({"model": robot.name, "convention": pz.convention, "units": SI_UNITS, "noise_m": sigma, "n_poses": len(p.q),
                    "parameters": [{"name": nm, "unit": calib_unit(pz.units[k], "m", "rad")[0], "sigma": None if not np.isfinite(p.sigma[k]) else float(p.sigma[k])}
@@ -105,7 +113,9 @@ def plan(
                    "bounding_box": {"lengths_m": p.box.lengths.tolist(), "volume_m3": p.box.volume},
                    "identifiability": {"rank": p.identifiability.rank, "condition_number": p.identifiability.condition_number, "observability": p.identifiability.observability,
                                        "unidentifiable": [{"name": u.name, "structural": u.structural, "reason": u.reason} for u in p.identifiability.unidentifiable]},
-                   "selected": None if p.selected is None else p.selected.tolist()}, json_out)
+                   "selected": None if p.selected is None else p.selected.tolist(),
+                   "compliance": None if cp is None else [{"name": nm, "unit": "rad/(N m)" if k == "revolute" else "m/N", "sigma": None if not np.isfinite(s_) else float(s_)}
+                                                          for nm, k, s_ in zip(cp.names, robot.table.kinds, cp.sigma, strict=True)]}, json_out)
         if json_out == "-":
             return
     what = f"{len(p.q)} poses" + (f" ({select} selected of the candidates)" if select else "") if protocol is None else f"sweeps of {points} points"
@@ -136,3 +146,9 @@ def plan(
         console.print(f"Selected candidates (0-based, in the order chosen): {', '.join(map(str, p.selected.tolist()))}")
     for note in p.notes:
         say("yellow", "note:", f" {note}")
+    if cp is not None:
+        crow = [[nm, "urad/(N m)" if k == "revolute" else "um/N", spread(s_ / 1e-6), f"{t:.4g}"] for nm, k, s_, t in zip(cp.names, robot.table.kinds, cp.sigma, cp.torque_max, strict=True)]
+        print_rows(f"Joint compliances, the poses measured at 0 and {cp.payloads[-1]:g} kg ({cp.n_poses} measurements)", ["compliance", "unit", "sigma", "largest torque [N m / N]"], crow,
+                   left=(1,), caption="Cramer-Rao bound (one sigma) with the geometry fitted alongside; '-': no parameter (the joint holds no gravity torque)")
+        for note in cp.notes:
+            say("yellow", "note:", f" {note}")
