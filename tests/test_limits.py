@@ -217,7 +217,7 @@ def test_registering_a_long_chain_is_linear_in_memory():
     """`convert` of a 10^4-joint URDF had allocated 60,000 x 60,000 (the full SVD of the 6n x 6 line Jacobian,
     io.urdf._register_lines): a 1,000-joint chain now takes a few MB, not the 288 MB of that U."""
     from denavit.geometry import rotvec_matrix
-    from denavit.io.urdf import _register_lines
+    from denavit.io.urdf.write import _register_lines
 
     n = 1000
     rng = np.random.default_rng(3)
