@@ -402,3 +402,24 @@ def test_krl_inline_positions_and_a_tool_assigned_in_the_src(tmp_path):
     target = pg.tool_poses(prog, m, Q0, F[:3, :3])
     after = pg.tool_poses(back, true.model().with_tool(np.eye(4)), Qc, F[:3, :3])
     assert np.linalg.norm(after[:, :3, 3] - target[:, :3, 3], axis=1).max() < 1e-5
+
+
+def test_cli_frame_gives_a_numbered_frame_of_the_controller(tmp_path):
+    """A TP program taught with UT : 2 (a tool frame of the controller) is refused without it and compensated with
+    --frame 'tool 2=...': with the identity, as the same program taught with UT : 0; --frame on a CSV is refused."""
+    from cli import run
+    from denavit.io import robotfile
+
+    r = load("kr5")
+    robotfile.save(perturbed(r), tmp_path / "true.toml", "mm", "deg")
+    text = (DATA / "fanuc" / "demo_kr5.ls").read_text()
+    (tmp_path / "ut0.ls").write_text(text)
+    (tmp_path / "ut2.ls").write_text(text.replace("UT : 0", "UT : 2"))
+    p = run("compensate", tmp_path / "ut2.ls", "--nominal", "kr5", "--identified", tmp_path / "true.toml", "-o", tmp_path / "o2.ls", ok=False)
+    assert p.returncode == 2 and "--frame 'tool 2=X,Y,Z,W,P,R'" in p.stderr
+    run("compensate", tmp_path / "ut2.ls", "--nominal", "kr5", "--identified", tmp_path / "true.toml", "-o", tmp_path / "o2.ls", "--frame", "tool 2=0,0,0,0,0,0")
+    run("compensate", tmp_path / "ut0.ls", "--nominal", "kr5", "--identified", tmp_path / "true.toml", "-o", tmp_path / "o0.ls")
+    assert (tmp_path / "o2.ls").read_text() == (tmp_path / "o0.ls").read_text().replace("UT : 0", "UT : 2")
+    assert (tmp_path / "o0.ls").read_text() != text
+    p = run("compensate", tmp_path / "ut0.ls", "--nominal", "kr5", "--identified", "kr5", "--frame", "tool 2=0,0", ok=False)
+    assert p.returncode == 2 and "--frame 'tool 2=0,0': expected" in p.stderr

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated
 
@@ -45,6 +46,7 @@ def compensate(
     report: Annotated[Path | None, typer.Option("--report", help="Write a self-contained HTML report (summary, 3-D view, per-target errors).")] = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
+    frame: Annotated[list[str] | None, typer.Option("--frame", help="A numbered frame a robot program uses that lives in the controller: 'tool N=X,Y,Z,R1,R2,R3' or 'base N=...' (FANUC UT / UF, KUKA TOOL_DATA / BASE_DATA), mm and degrees in the program's own convention (KUKA A,B,C; FANUC W,P,R); repeatable.")] = None,
     q0: Annotated[str | None, typer.Option("--q0", help="Rows without a configuration (poses without joint columns) are compensated on the nominal's solution nearest this, one value per joint in --angle units (prismatic: --length); default the nominal's home, else zeros.")] = None,
     payload: Annotated[str | None, typer.Option("--payload", help="The payload on the flange for every row: its mass with a unit (kg, g, lb) and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\" (--length units without one). With an identified robot of compliant joints (a robot file's [compliance]) the commands are those that deflect onto the targets under it.")] = None,
 ) -> None:
@@ -75,6 +77,8 @@ def compensate(
     from ..io.payload import parse_payload  # noqa: PLC0415
 
     pl = None if payload is None else parse_payload(payload, length)
+    if fmt is None and frame:
+        raise DenavitError(f"--frame: {targets} is a CSV of targets in the robot base frame: expected no --frame (it names a robot program's numbered frames)")
     if fmt is not None and pl is not None:
         raise DenavitError(f"--payload: {targets} is a robot program; the payload applies to a CSV of targets (give the program's positions as a CSV)")
     if fmt is not None:
@@ -82,7 +86,7 @@ def compensate(
             raise DenavitError(f"--path: {targets} is a robot program, whose positions each state their configuration (URScript poses: nearest the "
                                "previous one): expected no --path")
         pc = _compensate_program(targets, fmt, nom_robot, id_robot, output, q0v, positive(branch_tol, "--branch-tol", angle_scale(angle), np.radians(5.0), angle),
-                                 json_out, length)
+                                 json_out, length, _frames(frame or [], fmt))
         if report and pc.compensation is not None:
             from ..report import write_compensation_report  # noqa: PLC0415
 
@@ -168,14 +172,38 @@ def compensate(
         raise typer.Exit(1)
 
 
-def _compensate_program(path, fmt, nom_robot, id_robot, output, q0v, branch_tol, json_out, length):
+def _frames(texts: list[str], fmt: str) -> dict:
+    """{("tool" | "base", N): 4x4 (m)} of --frame 'tool N=X,Y,Z,R1,R2,R3' (mm, deg, the program's convention)."""
+    import re  # noqa: PLC0415
+
+    from ..io import programs as pg  # noqa: PLC0415
+
+    if texts and fmt not in ("kuka", "fanuc"):
+        raise DenavitError(f"--frame: a {fmt} program declares its frames itself (expected --frame only for KUKA or FANUC programs)")
+    out = {}
+    for t in texts:
+        m = re.fullmatch(r"\s*(tool|base|ut|uf)\s*(\d+)\s*=\s*(.*)", t, re.IGNORECASE)
+        vals = None
+        if m:
+            try:
+                vals = [float(v) for v in m.group(3).split(",")]
+            except ValueError:
+                vals = None
+        if not m or vals is None or len(vals) != 6 or int(m.group(2)) < 1 or not all(map(math.isfinite, vals)):
+            raise DenavitError(f"--frame {t!r}: expected 'tool N=X,Y,Z,R1,R2,R3' or 'base N=...' (N >= 1; mm and degrees)")
+        kind = {"ut": "tool", "uf": "base"}.get(m.group(1).lower(), m.group(1).lower())
+        out[(kind, int(m.group(2)))] = pg.vendor(fmt).to_pose(vals)
+    return out
+
+
+def _compensate_program(path, fmt, nom_robot, id_robot, output, q0v, branch_tol, json_out, length, frames=None):
     """A robot program (KUKA .src/.dat, ABB .mod, FANUC .ls, URScript .script): read, every position compensated on
     its own configuration, written back with only the positions changed (docs/compensation.md)."""
     import numpy as np  # noqa: PLC0415
 
     from ..io import programs as pg  # noqa: PLC0415
 
-    prog = pg.read_program(path, nom_robot, fmt=fmt)
+    prog = pg.read_program(path, nom_robot, fmt=fmt, frames=frames)
     with status(f"compensating {len(prog.points)} positions of {path} ..."):
         pc = pg.compensate_program(prog, nom_robot, id_robot, q0=q0v, branch_tol=branch_tol)
     c = pc.compensation

@@ -105,7 +105,7 @@ def read(path, robot, *, frames: dict) -> Program:
             if k:
                 if (kind, k) not in frames:
                     raise DenavitError(f"{where}: {name}: {'UF' if kind == 'base' else 'UT'} : {k} is the controller's {'user' if kind == 'base' else 'tool'} frame {k} "
-                                       f"(not in the program, not given): unsupported (expected frame {k} given, or {'UF' if kind == 'base' else 'UT'} : 0)")
+                                       f"(not in the program, not given): unsupported (expected --frame '{kind} {k}=X,Y,Z,W,P,R', or {'UF' if kind == 'base' else 'UT'} : 0)")
                 setattr(pt, kind, frames[(kind, k)])
         points.append(pt)
     return Program("fanuc", [src], points, notes)

@@ -209,7 +209,7 @@ def _numbered(numbered: dict, kind: str, num: int, where: str) -> np.ndarray:
         return numbered[(kind, num)]
     data = "TOOL_DATA" if kind == "tool" else "BASE_DATA"
     raise DenavitError(f"{where}: {kind.upper()} {num} is the controller's {data}[{num}] (in its $config.dat, not beside the program, nor given): unsupported "
-                       f"(expected a $config.dat beside the program declaring {data}[{num}], or {kind} 0)")
+                       f"(expected a $config.dat beside the program declaring {data}[{num}], --frame '{kind} {num}=X,Y,Z,A,B,C', or {kind} 0)")
 
 
 def _frames_of(pt: Point, cur: dict, fd, numbered: dict) -> None:
