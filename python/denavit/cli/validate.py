@@ -80,7 +80,7 @@ def validate(
     if json_path != "-":
         print_validation(res, length, angle, ls, as_)
     if report or plot:
-        from ..report_validation import write_validation_figures, write_validation_report  # noqa: PLC0415
+        from ..report import write_validation_figures, write_validation_report  # noqa: PLC0415
 
         if report:
             with status("writing the report ..."):

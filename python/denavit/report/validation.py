@@ -1,5 +1,5 @@
 """The report and figure of ``denavit validate`` (:class:`denavit.calibration.validate.ModelValidation`), built
-with the HTML helpers of :mod:`denavit.report` and matplotlib as :mod:`denavit.plotting` draws.
+with the HTML helpers of :mod:`denavit.report.html` and matplotlib as :mod:`denavit.plotting` draws.
 
 The HTML report: a summary (model, session, registration, RMS / max / percentiles, flagged poses, ISO 9283), the
 error of every pose beside its predicted sigma (flagged poses marked), the distribution of the errors, the ISO
@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .io.output import write_text
-from .io.units import length_scale
-from .report import FIGURE_FORMATS, _figure_html, _page, _plotly, _summary, _table, _td, _write_all
+from ..io.output import write_text
+from ..io.units import length_scale
+from .html import FIGURE_FORMATS, _figure_html, _page, _plotly, _summary, _table, _td, _write_all
 
 #: Rows of the report's per-pose table (every pose is in the JSON document).
 POSE_ROWS = 500
@@ -95,7 +95,7 @@ def write_validation_report(v, path, *, length: str = "mm", title: str | None = 
 
 def plot_validation(v, *, length: str = "mm"):
     """The per-pose errors (flagged poses coloured, the predicted sigma where known) and their histogram."""
-    from .plotting import _figure  # noqa: PLC0415
+    from ..plotting import _figure  # noqa: PLC0415
 
     ls = length_scale(length)
     fig = _figure(figsize=(10.0, 4.2), layout="constrained")
