@@ -9,23 +9,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import DenavitError
-from .data import Recording
-from .segment import _noise, segment
-
-
-def _motion_signal(rec: Recording) -> tuple[np.ndarray, str]:
-    """(N, d) coordinates whose speed shows the motion: the readings, else the mean of the targets."""
-    if rec.points is not None:
-        return rec.points.mean(axis=1), "points"
-    if rec.q is not None:
-        return rec.q, "readings"
-    raise DenavitError(f"{rec.source}: neither points nor joint readings: nothing moves")
-
-
-def _window(n_samples: int, dt: float, span: float) -> int:
-    """Odd Savitzky-Golay window of about ``span`` seconds (at least 5 samples, at most the data)."""
-    w = max(5, int(round(span / dt)) | 1)
-    return min(w, n_samples - 1 if n_samples % 2 == 0 else n_samples)
+from .data import Recording, _motion_signal, _noise, _window
+from .segment import segment
 
 
 def _speed_on_grid(t: np.ndarray, x: np.ndarray, dt: float, span: float) -> tuple[np.ndarray, np.ndarray]:

@@ -81,3 +81,34 @@ def check_time(t: np.ndarray, where: Sequence[str], what: str = "time") -> None:
     if bad.size:
         i = int(bad[0]) + 1
         raise DenavitError(f"{where[i]}: {what} goes backwards or repeats: {t[i]:.9g} s after {t[i - 1]:.9g} s at {where[i - 1]}: expected strictly increasing times")
+
+
+def _motion_signal(rec: Recording) -> tuple[np.ndarray, str]:
+    """(N, d) coordinates whose speed shows the motion: the readings, else the mean of the targets."""
+    if rec.points is not None:
+        return rec.points.mean(axis=1), "points"
+    if rec.q is not None:
+        return rec.q, "readings"
+    raise DenavitError(f"{rec.source}: neither points nor joint readings: nothing moves")
+
+
+def _window(n_samples: int, dt: float, span: float) -> int:
+    """Odd Savitzky-Golay window of about ``span`` seconds (at least 5 samples, at most the data)."""
+    w = max(5, int(round(span / dt)) | 1)
+    return min(w, n_samples - 1 if n_samples % 2 == 0 else n_samples)
+
+
+def _noise(x: np.ndarray, w: int, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per-column 1-sigma noise of ``x`` and of its Savitzky-Golay speed: robust scatter (MAD) of the residuals
+    of the smoothing, propagated through the derivative filter's coefficients."""
+    from scipy.signal import savgol_coeffs, savgol_filter  # noqa: PLC0415
+
+    r = x - savgol_filter(x, w, 2, axis=0)
+    mad = np.median(np.abs(r - np.median(r, axis=0)), axis=0) * 1.4826
+    # the residual of a degree-2 fit has variance (1 - h) sigma^2 with h the central hat value
+    h = savgol_coeffs(w, 2)[w // 2]
+    sigma = mad / math.sqrt(max(1.0 - h, 1e-6))
+    return sigma, sigma * float(np.linalg.norm(savgol_coeffs(w, 2, deriv=1, delta=dt)))
+
+
+#: Rows of a dwell next to a motion whose median is the dwell's level (:func:`_ends`).

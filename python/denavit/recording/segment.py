@@ -11,8 +11,7 @@ import numpy as np
 
 from ..errors import DenavitError
 from ..sweeps import Sweep, SweepSet
-from .align import _motion_signal, _window
-from .data import Recording
+from .data import Recording, _motion_signal, _noise, _window
 
 # --- segmentation ---------------------------------------------------------------------------------------
 
@@ -79,20 +78,7 @@ class Segmentation:
         return "\n".join(lines)
 
 
-def _noise(x: np.ndarray, w: int, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per-column 1-sigma noise of ``x`` and of its Savitzky-Golay speed: robust scatter (MAD) of the residuals
-    of the smoothing, propagated through the derivative filter's coefficients."""
-    from scipy.signal import savgol_coeffs, savgol_filter  # noqa: PLC0415
 
-    r = x - savgol_filter(x, w, 2, axis=0)
-    mad = np.median(np.abs(r - np.median(r, axis=0)), axis=0) * 1.4826
-    # the residual of a degree-2 fit has variance (1 - h) sigma^2 with h the central hat value
-    h = savgol_coeffs(w, 2)[w // 2]
-    sigma = mad / math.sqrt(max(1.0 - h, 1e-6))
-    return sigma, sigma * float(np.linalg.norm(savgol_coeffs(w, 2, deriv=1, delta=dt)))
-
-
-#: Rows of a dwell next to a motion whose median is the dwell's level (:func:`_ends`).
 DWELL_ROWS = 50
 
 
