@@ -16,7 +16,7 @@ compliances are ``k_i = c / max |tau_i|`` (every joint twisting alike under its 
 that the tool (the payload's centre of mass) deflects by 1 mm RMS over the joint ranges at the rated payload (printed:
 5-95 % 0.26-1.8 mm on the KR 210, 0.26-1.95 mm on the UR5, medians 0.8 and 0.7 mm). Tracker noise 0.02 mm per coordinate. Training: 50 poses (uniform in the joint limits, revolute joints
 within +-180 deg), each measured at no payload and at the rated payload (100 measurements: the two-payload protocol of
-docs/compensation.md). Test: 300 other poses at half the rated payload.
+docs/cli.md, "Joint compliance, payload and gravity"). Test: 300 other poses at half the rated payload.
 
 Rows (held-out tool-position error over the 300 test poses, mean over the seeds of each seed's RMS and max, mm):
 ``nominal`` (the nominal geometry, the tracker's frame and the tool registered: the ``base-tool`` candidate),

@@ -134,6 +134,17 @@ def test_one_line_errors(tmp_path):
     assert f"{f}:4" in _one_line(e) and "payload_mass" in str(e.value)
     f.write_text("# units: length=mm angle=deg\nq1,q2,q3,q4,q5,q6,x,y,z,payload_mass,payload_z\n0,-90,90,0,90,0,100,200,300,5,80\n")
     assert np.allclose(read_measurements(f).payload, [[5, 0, 0, 0.08]])
+    # a sweep file's too: per point, carried into the measurements calibrate reads
+    from denavit.io.sweeps import read_long_csv, to_long_csv
+    from denavit.sweeps import simulate
+
+    lines = to_long_csv(simulate(ur5().model(), home=np.zeros(6), ranges=np.tile([-0.5, 0.5], (6, 1)), points_per_sweep=4)).splitlines()
+    rows = [ln if ln.startswith("#") else ln + (",payload_mass,payload_x" if ln.startswith("joint") else f",{2.5 * (i % 2)},{10 * (i % 2)}") for i, ln in enumerate(lines)]
+    s = tmp_path / "s.csv"
+    s.write_text("\n".join(rows) + "\n")
+    sw = read_long_csv(s)
+    assert sw.sweeps[0].payload.shape == (4, 4) and set(sw.sweeps[0].payload[:, 0]) == {0.0, 2.5}
+    assert np.allclose(read_measurements(s).payload[:, 1], read_measurements(s).payload[:, 0] * 0.004)  # 10 mm per 2.5 kg here
     # calibrate without inertials: no compliance, one note says why
     robot, _, train, _ = two_payloads(0, K_TRUE, 12)
     res = calibrate(replace(train, kinds=None), dv.load_robot("kr5"), tool=TOOL, model="base-tool")

@@ -37,6 +37,8 @@ class Sweep:
         ``targets[:, 0]`` being ``points``; None: one target (``points``).
     rotations : (m, 3, 3) the measured orientation ``R_world_probe`` of a 6-DoF pose whose origin is ``points``
         (a 6-DoF probe, the controller's TCP), or None.
+    payload : (m, 4) the payload on the flange at each point, ``[mass kg, x, y, z m]`` (its centre of mass in the flange
+        frame; a sweep file's ``payload_mass`` columns, :mod:`denavit.calibration.compliance`), or None.
     """
 
     joint: int
@@ -45,6 +47,7 @@ class Sweep:
     where: list[str] = field(default_factory=list)
     targets: np.ndarray | None = None
     rotations: np.ndarray | None = None
+    payload: np.ndarray | None = None
 
     @property
     def n_targets(self) -> int:
@@ -56,7 +59,8 @@ class Sweep:
         w = self.where
         where = w[rows] if hasattr(w, "lines") else (list(np.asarray(w, dtype=object)[rows]) if len(w) else [])
         return replace(self, points=self.points[rows], q=None if self.q is None else self.q[rows], where=where,
-                       targets=None if self.targets is None else self.targets[rows], rotations=None if self.rotations is None else self.rotations[rows])
+                       targets=None if self.targets is None else self.targets[rows], rotations=None if self.rotations is None else self.rotations[rows],
+                       payload=None if self.payload is None else self.payload[rows])
 
     @property
     def moving(self) -> np.ndarray | None:

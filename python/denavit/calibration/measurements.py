@@ -128,7 +128,9 @@ class Measurements:
         q = np.vstack([s.q for s in sweeps.sweeps])
         p = np.vstack([s.points for s in sweeps.sweeps])
         where = [w for s in sweeps.sweeps for w in (s.where or [f"sweep {s.joint}, point {k + 1}" for k in range(len(s.points))])]
-        return cls(q, p, None, sweeps.source or "sweeps", where, dict(sweeps.units), sweeps, sweeps.kinds)
+        pays = [getattr(s, "payload", None) for s in sweeps.sweeps]
+        payload = np.vstack(pays) if pays and all(v is not None for v in pays) else None  # (a sweep file's payload columns)
+        return cls(q, p, None, sweeps.source or "sweeps", where, dict(sweeps.units), sweeps, sweeps.kinds, payload=payload)
 
 
 def as_array(a, what: str, source: str) -> np.ndarray:

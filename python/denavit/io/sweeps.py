@@ -26,6 +26,7 @@ import numpy as np
 from ..errors import DenavitError
 from ..sweeps import Sweep, SweepSet
 from . import delimited as dl
+from .payload import PAYLOAD_COLUMNS, payload_from_columns
 from .text import decode, read_bytes, read_text
 from .units import input_units, joint_scale, length_scale, parse_declaration
 
@@ -74,13 +75,16 @@ def _long_header(rows: list, where: str) -> tuple[list[str], int, list[str], int
     n = len([c for c in cols if re.fullmatch(r"q\d+", c)])
     k = 1 + len([c for c in cols if re.fullmatch(r"x\d+", c)])
     quat = any(c in cols for c in QUATERNION)
-    need = ["joint", *[f"q{i}" for i in range(1, n + 1)], "x", "y", "z", *[f"{a}{t}" for t in range(2, k + 1) for a in "xyz"], *(QUATERNION if quat else ())]
+    pay = [c for c in PAYLOAD_COLUMNS if c in cols]  # a payload per point (issue 37), after everything else
+    if pay and "payload_mass" not in pay:
+        raise DenavitError(f"{where}:{hline}: {', '.join(pay)} without payload_mass: give the payload's mass (kg) with its centre of mass")
+    need = ["joint", *[f"q{i}" for i in range(1, n + 1)], "x", "y", "z", *[f"{a}{t}" for t in range(2, k + 1) for a in "xyz"], *(QUATERNION if quat else ()), *pay]
     missing = [c for c in need if c not in cols]
     unknown = [c for c in cols if c not in need and c != "time"]
     if missing or unknown or n == 0:
         what = f"missing {', '.join(missing) or 'q columns'}" if missing or n == 0 else f"unknown column(s) {', '.join(unknown)}"
         raise DenavitError(f"{where}:{hline}: header must be 'joint,q1,...,qn,x,y,z' (optional 'time'; further targets x2,y2,z2,...; a pose's "
-                           f"orientation qw,qx,qy,qz); {what}, got {','.join(header)!r}")
+                           f"orientation qw,qx,qy,qz; a payload payload_mass[,payload_x,payload_y,payload_z]); {what}, got {','.join(header)!r}")
     return cols, n, need, k, quat
 
 
@@ -159,18 +163,20 @@ def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: 
     if quat:
         from .recordings.columns import poses_of  # noqa: PLC0415 (scipy's rotations)
 
-        qc = take[n + 1 + 3 * k_t :]
+        qc = take[n + 1 + 3 * k_t : n + 5 + 3 * k_t]
         bad = np.flatnonzero(np.abs(np.linalg.norm(table[:, qc], axis=1) - 1) > 1e-6)
         if bad.size:
             raise DenavitError(f"{where}:{line[bad[0]]}: quaternion norm {np.linalg.norm(table[bad[0], qc]):.6g}: expected a unit quaternion (qw, qx, qy, qz)")
         rot = poses_of(np.zeros((len(table), 3)), table[:, qc], "quaternion", where)[:, :3, :3]
 
+    npay = len([c for c in need if c in PAYLOAD_COLUMNS])
+    payload = payload_from_columns(table, {c: take[len(need) - npay + i] for i, c in enumerate(need[len(need) - npay :])}, ls, FileLines(where, line)) if npay else None
     sweeps = {}
     for j, k in picks.items():
         pts = table[k][:, pcols] * ls
         tg = pts.reshape(len(pts), k_t, 3) if k_t > 1 else None
         sweeps[j] = Sweep(j, pts if k_t == 1 else np.ascontiguousarray(pts[:, :3]), table[k][:, qcols] * qscale, FileLines(where, line[k]), tg,
-                          None if rot is None else rot[k])
+                          None if rot is None else rot[k], None if payload is None else payload[k])
     del table
     out = [sweeps[j] for j in sorted(sweeps)]
     nest = parse_nest(lines, k_t, ls, where) if k_t > 1 else None
