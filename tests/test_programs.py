@@ -423,3 +423,10 @@ def test_cli_frame_gives_a_numbered_frame_of_the_controller(tmp_path):
     assert (tmp_path / "o0.ls").read_text() != text
     p = run("compensate", tmp_path / "ut0.ls", "--nominal", "kr5", "--identified", "kr5", "--frame", "tool 2=0,0", ok=False)
     assert p.returncode == 2 and "--frame 'tool 2=0,0': expected" in p.stderr
+
+
+def test_the_python_api_takes_a_program():
+    """dv.compensate(nominal, identified, PROGRAM) reads, compensates and returns what write_program writes."""
+    r = load("kr5")
+    pc = dv.compensate(r, perturbed(r), str(DATA / "abb" / "DemoKR5.mod"))
+    assert isinstance(pc, pg.ProgramCompensation) and len(pc.new_values) == 16 and not pc.left

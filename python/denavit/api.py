@@ -251,11 +251,18 @@ def compensate(nominal, identified, targets, **options):
 
     nominal, identified : built-in name, robot file, URDF, Robot, Model, or a result with ``.model()``
         (Identification, Calibration). targets : (N, 4, 4) tool poses (m), or a targets file (poses and/or joint
-        rows, units declared), read by :func:`denavit.io.targets.read_targets`.
+        rows, units declared), read by :func:`denavit.io.targets.read_targets`, or a robot program (KUKA .src with
+        its .dat, ABB .mod, FANUC .ls, URScript .script): then a :class:`denavit.io.programs.ProgramCompensation`
+        (write it with :func:`denavit.io.programs.write_program`; ``frames=`` its numbered controller frames).
     """
     from .compensation import compensate as _compensate  # noqa: PLC0415
 
     if isinstance(targets, (str, os.PathLike)):
+        from .io.programs import compensate_program, detect, read_program  # noqa: PLC0415
+
+        if detect(input_path(targets)) is not None:  # a robot program: each position on its own configuration
+            robot = nominal if hasattr(nominal, "table") else _robot(nominal)
+            return compensate_program(read_program(input_path(targets), robot, frames=options.pop("frames", None)), robot, identified, **options)
         from .io.targets import read_targets  # noqa: PLC0415
 
         nominal = nominal if isinstance(nominal, _core.Model) or callable(getattr(nominal, "model", None)) else _robot(nominal)  # (a Robot keeps its coupling)
