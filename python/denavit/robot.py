@@ -61,6 +61,10 @@ class Robot:
     """(4, 4) the frame a payload's centre of mass is given in (the robot's mechanical flange), in the model's flange
     frame (a robot file's ``[compliance] flange``, written by calibrate --save where its table's last frame is not the
     flange); None: the model's flange."""
+    prior: str | None = None
+    """The calibration priors' widths this robot's maker or user states (a robot file's ``[prior]`` table), in the
+    grammar of ``calibrate --prior`` with explicit units (``"length=0.5mm, a_5=2mm"``); None: the defaults
+    (:mod:`denavit.calibration.priors`). An explicit ``prior=`` / ``--prior`` wins."""
     notes: list = field(default_factory=list)
     """What the reader chose on the user's behalf (e.g. a URDF's tip link), one line each, for the user to see."""
 

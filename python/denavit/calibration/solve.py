@@ -375,7 +375,7 @@ def calibrate(
         raise DenavitError(f"holdout: expected a fraction in [0, 0.9), got {holdout}")
     if model not in MODELS:
         raise DenavitError(f"model: expected one of {', '.join(MODELS)}, got {model!r}")
-    prior_spec = as_prior(prior)
+    prior_spec = as_prior(robot.prior if prior is None and robot.prior else prior)  # an explicit prior wins over the robot file's
     if start not in ("nominal", "circles"):
         raise DenavitError(f"start: expected 'nominal' or 'circles', got {start!r}")
     for what, v, unit in (("noise", noise, "m"), ("noise_rot", noise_rot, "rad")):

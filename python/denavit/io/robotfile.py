@@ -33,6 +33,9 @@ Format (see docs/robot-files.md and the built-in files in ``denavit/models``)::
     [compliance]                 # optional (issue 37; needs [joints.inertia]): joint i sits at q_i - k_i tau_i under
     unit = "urad/(N m)"          # its gravity torque tau_i; revolute joints' unit (prismatic_unit = "um/N" if any)
     values = [0, 1.5, ...]       # k_i >= 0 (denavit.io.payload); optional covariance = [[...]] in the units' products
+    [prior]                      # optional: calibrate's prior widths (--prior's grammar; --prior wins): a kind
+    length = "0.5 mm"            # (length, angle, offset, scale, compliance) or a parameter name or pattern =
+    a_5 = "2 mm"                 # a width with its unit, or a number in [units] (kinds only; scale a ratio)
     [covariance]                 # optional (written by identify, calibrate --save): of the joints' parameters, row by
     matrix = [[...], ...]        # row in column order, then the tool's x, y, z, then [readings] scale (if
                                  # given); in [units] (products per cell; scales unitless)
@@ -273,7 +276,7 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
     coupling = parse_coupling(doc["couplings"], kinds, f"{where}, [couplings]") if "couplings" in doc else None
     scale, reference = _readings(doc["readings"], kinds, units, f"{where}, [readings]") if "readings" in doc else (None, None)
     covariance = _covariance(doc["covariance"], table, units, f"{where}, [covariance]", scale is not None) if "covariance" in doc else None
-    known = {"name", "description", "source", "convention", "units", "joints", "base", "tool", "home", "couplings", "readings", "covariance", "compliance"}
+    known = {"name", "description", "source", "convention", "units", "joints", "base", "tool", "home", "couplings", "readings", "covariance", "compliance", "prior"}
     # other tables (e.g. [urdf], written by `convert` from a URDF) are carried as extra; a stray plain key is
     # most likely a typo ("hom" for "home")
     _check_keys({k: v for k, v in doc.items() if not isinstance(v, dict)}, sorted(known), f"{where} (top level)")
@@ -299,6 +302,7 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
             compliance_flange = _pose(spec["flange"], ls, as_, f"{where}, [compliance] flange")
             spec = {k: v for k, v in spec.items() if k != "flange"}
         compliance, compliance_cov = read_compliance(spec, kinds, names, inertials is not None, f"{where}, [compliance]")
+    prior = _prior(doc["prior"], units, f"{where}, [prior]") if "prior" in doc else None
     return Robot(
         name=_text(doc.get("name", Path(where).stem), f"{where}: name"),
         table=table,
@@ -318,7 +322,31 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         compliance=compliance,
         compliance_covariance=compliance_cov,
         compliance_flange=compliance_flange,
+        prior=prior,
     )
+
+
+def _prior(spec, units: dict, where: str) -> str:
+    """A ``[prior]`` table as ``calibrate --prior``'s grammar with explicit units: each key a kind (length, angle,
+    offset, scale, compliance) or a parameter name or pattern, each value a width with its unit ("1 mm", "0.1 deg",
+    "100 ppm") or, for a kind, a number in the file's [units] (a scale's: a ratio)."""
+    from ..calibration.priors import parse_prior  # noqa: PLC0415 (the grammar's one parser)
+
+    if not isinstance(spec, dict) or not spec:
+        raise DenavitError(f"{where}: expected a table of KIND or parameter = WIDTH (e.g. length = \"0.5 mm\"), got {spec!r:.60}")
+    bare = {"length": units["length"], "angle": units["angle"], "offset": units["angle"], "scale": ""}
+    items = []
+    for key, v in spec.items():
+        if isinstance(v, str):
+            items.append(f"{key}={v.replace(' ', '')}")
+        elif isinstance(v, (int, float)) and not isinstance(v, bool) and key in bare:
+            items.append(f"{key}={v!r}{bare[key]}")
+        else:
+            raise DenavitError(f"{where}: {key} = {v!r}: expected a width with its unit, e.g. \"2 mm\" or \"0.05 deg\" (a bare number "
+                               f"only for a kind: {', '.join(bare)}, in the file's [units])")
+    text = ", ".join(items)
+    parse_prior(text, "m", "rad", where)  # its one-line errors, at this table
+    return text
 
 
 def _readings(spec, kinds: list[str], units: dict, where: str) -> tuple[np.ndarray, np.ndarray | None]:
@@ -524,6 +552,8 @@ def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
         doc["compliance"] = compliance_spec(robot.compliance, robot.compliance_covariance, list(t.kinds))
         if robot.compliance_flange is not None:
             doc["compliance"]["flange"] = _pose_spec(np.asarray(robot.compliance_flange), ls, as_)
+    if robot.prior:
+        doc["prior"] = {k.strip(): v.strip() for k, v in (item.split("=", 1) for item in robot.prior.split(","))}
     if robot.coupling is not None and coupling_text(robot.coupling):
         doc["couplings"] = coupling_text(robot.coupling)
     doc.update(robot.extra)
