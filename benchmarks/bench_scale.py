@@ -101,7 +101,7 @@ def main():
         return f"<= {fmt(seconds)} (here: {fmt(seconds * scale)})"
 
     for label, threads, clock in (("wall time, threads = default (RAYON_NUM_THREADS or every core)", None, time.perf_counter),
-                                  ("CPU time of the calling thread, threads=1 (leaves out waiting for a core on a loaded machine)", 1, time.thread_time)):
+                                  ("CPU time of the process, threads=1 (leaves out waiting for a core on a loaded machine; a long call runs on a helper thread that Ctrl-C can stop, so the calling thread alone would miss it)", 1, time.process_time)):
         print()
         print(label)
         print("| kernel | " + " | ".join(f"N = 10^{len(str(N)) - 1}" for N in sizes) + " | growth exponent (N >= 10^4) |")
@@ -126,10 +126,10 @@ def main():
     qs = rng.uniform(-np.pi, np.pi, (N, n))
     out = np.empty((N, 4, 4))
     t1 = once(lambda: dv.fk_batch(m, qs, out=out, threads=1), rep * 3)
-    c1 = once(lambda: dv.fk_batch(m, qs, out=out, threads=1), rep * 3, time.thread_time)
+    c1 = once(lambda: dv.fk_batch(m, qs, out=out, threads=1), rep * 3, time.process_time)
     t2 = once(lambda: dv.fk_batch(m, qs, out=out, threads=2), rep * 3)
     tf = once(lambda: dv.fk_batch(m, qs, threads=1), rep * 3)
-    cf = once(lambda: dv.fk_batch(m, qs, threads=1), rep * 3, time.thread_time)
+    cf = once(lambda: dv.fk_batch(m, qs, threads=1), rep * 3, time.process_time)
     p_fk = p_j = p_r = r_fk = "-"
     if pin is not None:
         pm, pd, _ = pin_model_with_tool(m)
@@ -140,18 +140,18 @@ def main():
     if rtb is not None:
         ets = rtb_robot_with_limits(m).ets()
         r_fk = fmt(once(lambda: ets.fkine(qs), max(3, rep // 2)))
-    rows.append((f"batch FK {N:,} (KR5 -> (N, 4, 4), out=), one core: wall (thread CPU)", f"{fmt(t1)} ({fmt(c1)})", p_fk, r_fk, target(1.8e-3)))
+    rows.append((f"batch FK {N:,} (KR5 -> (N, 4, 4), out=), one core: wall (process CPU)", f"{fmt(t1)} ({fmt(c1)})", p_fk, r_fk, target(1.8e-3)))
     rows.append((f"batch FK {N:,}, out=, two cores (threads=2)", fmt(t2), "-", "-", target(1.0e-3)))
-    rows.append((f"batch FK {N:,}, one core, a fresh result array: wall (thread CPU)", f"{fmt(tf)} ({fmt(cf)})", "-", "-", "-"))
+    rows.append((f"batch FK {N:,}, one core, a fresh result array: wall (process CPU)", f"{fmt(tf)} ({fmt(cf)})", "-", "-", "-"))
     # out= one value off numpy's 16-byte alignment: the kernel's plain stores instead of streaming ones (docs/speed.md)
     plain = np.empty(N * 16 + 1)[1:].reshape(N, 4, 4)
-    cp = once(lambda: dv.fk_batch(m, qs, out=plain, threads=1), rep * 3, time.thread_time)
-    rows.append((f"batch FK {N:,}, one core (thread CPU), plain stores (out= a view one value off the alignment)", fmt(cp), "-", "-", "-"))
+    cp = once(lambda: dv.fk_batch(m, qs, out=plain, threads=1), rep * 3, time.process_time)
+    rows.append((f"batch FK {N:,}, one core (process CPU), plain stores (out= a view one value off the alignment)", fmt(cp), "-", "-", "-"))
     oj = np.empty((N, 6, n))
     tj = once(lambda: dv.jacobian_batch(m, qs, out=oj), rep * 3)
     tj1 = once(lambda: dv.jacobian_batch(m, qs, out=oj, threads=1), rep * 3)
-    cj1 = once(lambda: dv.jacobian_batch(m, qs, out=oj, threads=1), rep * 3, time.thread_time)
-    rows.append((f"batch Jacobian {N:,} (local_world_aligned, out=), default threads / one core (thread CPU)",
+    cj1 = once(lambda: dv.jacobian_batch(m, qs, out=oj, threads=1), rep * 3, time.process_time)
+    rows.append((f"batch Jacobian {N:,} (local_world_aligned, out=), default threads / one core (process CPU)",
                  f"{fmt(tj)} / {fmt(tj1)} ({fmt(cj1)})", p_j, "-", target(5e-3)))
     orn = np.empty((N, n))
     tr = once(lambda: dv.rnea_batch(mi, qs, qs, qs, out=orn), rep * 3)
@@ -161,8 +161,8 @@ def main():
         qb = rng.uniform(-np.pi, np.pi, (big, n))
         ob = np.empty((big, 4, 4))
         tb = once(lambda: dv.fk_batch(m, qb, out=ob), 3)
-        cb = once(lambda: dv.fk_batch(m, qb, out=ob, threads=1), 3, time.thread_time)
-        rows.append(("batch FK 10^7 with out= (default threads); one core's thread CPU", f"{fmt(tb)}; {fmt(cb)}", "-", "-", target(0.25)))
+        cb = once(lambda: dv.fk_batch(m, qb, out=ob, threads=1), 3, time.process_time)
+        rows.append(("batch FK 10^7 with out= (default threads); one core's process CPU", f"{fmt(tb)}; {fmt(cb)}", "-", "-", target(0.25)))
         del qb, ob
     q = np.array([0.3, -0.2, 0.5, 0.1, 0.4, -0.3])
     number = 2000 if args.quick else 20000
