@@ -5,10 +5,10 @@
 
 Scale table: batch FK (into a reused `out=`), batch Jacobian (local_world_aligned, `out=`) and batch RNE (`out=`)
 of the KR5 for N = 10^3 .. 10^7 (each size only while its arrays fit in --max-bytes), median wall time over
-repeats on the default threads, then the median CPU time of the calling thread with threads=1 (on a shared,
+repeats on the default threads, then the median CPU time of the process with threads=1 (on a shared,
 loaded machine the wall time also counts the waits for a core), and the growth exponent: the slope of log t
 against log N fitted over N >= 10^4 (1.0 = linear).
-Kernel rows: batch FK 100,000 on one core (threads=1; wall and thread CPU time) and on two (threads=2), batch
+Kernel rows: batch FK 100,000 on one core (threads=1; wall and process CPU time) and on two (threads=2), batch
 Jacobian 100,000, FK 10^7 with out=, a single FK call from Python next to the binding's floor (an empty call: the `Model.nq` getter), and
 IK with one attempt (success rate and median, from benchmarks/bench_kinematics.py). pinocchio has no batch API:
 its column is a Python loop over its C++ calls (pin.forwardKinematics / computeJointJacobians / rnea) on the
