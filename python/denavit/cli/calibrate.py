@@ -65,7 +65,7 @@ def calibrate(
     target: Annotated[int | None, typer.Option("--target", help="Data with several targets per pose (markers, SMRs on a nest): fit this one alone, 1-based (default: every target, one fit with each target's point in the flange frame).")] = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
-    payload: Annotated[str | None, typer.Option("--payload", help="The payload on the flange for every pose where the data give none (a pose file's payload_mass, payload_x,payload_y,payload_z columns): its mass with a unit (kg, g, lb) and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\" (--length units without one). With a payload the joints' compliance under gravity is a candidate of --model auto (it needs the nominal's link masses).")] = None,
+    payload: Annotated[str | None, typer.Option("--payload", help="The payload on the flange for every pose where the data give none (a pose file's payload_mass, payload_x, payload_y, payload_z columns): its mass with a unit (kg, g) and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\" (--length units without one). With a payload the joints' compliance under gravity is a candidate of --model auto (it needs the nominal's link masses).")] = None,
 ) -> None:
     """Calibrate the whole model from measured points or poses at known joint readings (one least-squares fit)."""
     import numpy as np  # noqa: PLC0415

@@ -48,7 +48,7 @@ def compensate(
     tip_link: TipLinkOpt = None,
     frame: Annotated[list[str] | None, typer.Option("--frame", metavar="FRAME", help="A numbered frame a robot program uses that lives in the controller: 'tool N=X,Y,Z,R1,R2,R3' or 'base N=...' (FANUC UT / UF, KUKA TOOL_DATA / BASE_DATA), mm and degrees in the program's own convention (KUKA A,B,C; FANUC W,P,R); repeatable.")] = None,
     q0: Annotated[str | None, typer.Option("--q0", help="Rows without a configuration (poses without joint columns) are compensated on the nominal's solution nearest this, one value per joint in --angle units (prismatic: --length); default the nominal's home, else zeros.")] = None,
-    payload: Annotated[str | None, typer.Option("--payload", help="The payload on the flange for every row: its mass with a unit (kg, g, lb) and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\" (--length units without one). With an identified robot of compliant joints (a robot file's [compliance]) the commands are those that deflect onto the targets under it.")] = None,
+    payload: Annotated[str | None, typer.Option("--payload", help="The payload on the flange for every row: its mass with a unit (kg, g) and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\" (--length units without one). With an identified robot of compliant joints (a robot file's [compliance]) the commands are those that deflect onto the targets under it.")] = None,
 ) -> None:
     """Compensate a program (RoboDK's "filtering"): for each target, the joint values that reach it on the
     identified robot (on the program's branch) and the pose T' = FK_nominal(q) to send to a controller that keeps

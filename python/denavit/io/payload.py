@@ -23,14 +23,14 @@ import re
 import numpy as np
 
 from ..errors import DenavitError
-from .units import length_scale
+from .units import angle_scale, length_scale, mass_scale
 
-#: rad/(N m) per revolute compliance unit (the angle part's name).
-REVOLUTE_UNITS = {"rad": 1.0, "mrad": 1e-3, "urad": 1e-6, "deg": math.pi / 180}
-#: m/N per prismatic compliance unit (the length part's name).
-PRISMATIC_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6}
-#: kg per payload mass unit.
-MASS_UNITS = {"kg": 1.0, "g": 1e-3, "lb": 0.45359237}
+#: The angle parts of a revolute compliance unit (per N m): :data:`denavit.io.units.ANGLE` and milli- / microradians.
+REVOLUTE_UNITS = ("rad", "mrad", "urad", "deg")
+#: The length parts of a prismatic compliance unit (per N): :data:`denavit.io.units.LENGTH`'s.
+PRISMATIC_UNITS = ("m", "mm", "um")
+#: The mass units of a payload (:data:`denavit.io.units.MASS`).
+MASS_UNITS = ("kg", "g")
 #: The payload columns of a pose file: mass in kg, the centre of mass in the flange frame in the file's length unit.
 PAYLOAD_COLUMNS = ("payload_mass", "payload_x", "payload_y", "payload_z")
 
@@ -44,12 +44,13 @@ def compliance_unit(text, kind: str, where: str) -> float:
     if kind == "revolute":
         m = re.fullmatch(r"([a-z]+)/(?:nm|n/m)", s)
         if m and m.group(1) in REVOLUTE_UNITS:
-            return REVOLUTE_UNITS[m.group(1)]
+            a = m.group(1)
+            return {"m": 1e-3, "u": 1e-6}[a[0]] * angle_scale("rad") if a in ("mrad", "urad") else angle_scale(a)
         raise DenavitError(f"{where}: unknown compliance unit {text!r} for revolute joints: expected an angle per torque, one of "
                            f"{', '.join(f'{u}/(N m)' for u in REVOLUTE_UNITS)}")
     m = re.fullmatch(r"([a-z]+)/n", s)
     if m and m.group(1) in PRISMATIC_UNITS:
-        return PRISMATIC_UNITS[m.group(1)]
+        return length_scale(m.group(1))
     raise DenavitError(f"{where}: unknown compliance unit {text!r} for prismatic joints: expected a length per force, one of "
                        f"{', '.join(f'{u}/N' for u in PRISMATIC_UNITS)}")
 
@@ -116,8 +117,8 @@ _PAYLOAD = re.compile(r"\s*([-+0-9.eE]+)\s*([A-Za-z]*)\s*(?:@\s*(.+))?")
 
 
 def parse_payload(text: str, length: str = "mm", where: str = "--payload") -> tuple[float, np.ndarray]:
-    """``"5 kg @ 0,0,80 mm"`` as (mass kg, centre of mass (3,) m in the flange frame). The mass needs its unit (kg, g,
-    lb); the centre of mass defaults to the flange origin, its numbers in their own unit or ``length``."""
+    """``"5 kg @ 0,0,80 mm"`` as (mass kg, centre of mass (3,) m in the flange frame). The mass needs its unit (kg,
+    g); the centre of mass defaults to the flange origin, its numbers in their own unit or ``length``."""
     m = _PAYLOAD.fullmatch(str(text))
     expected = f"{where}: expected a mass with its unit and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\""
     if m is None:
@@ -125,10 +126,10 @@ def parse_payload(text: str, length: str = "mm", where: str = "--payload") -> tu
     num, unit, com = m.groups()
     if not unit:
         raise DenavitError(f"{where}: the payload's mass {num} has no unit: expected one of {', '.join(MASS_UNITS)}, e.g. \"5 kg @ 0,0,80 mm\"")
-    if unit.lower() not in MASS_UNITS:
+    if unit not in MASS_UNITS:
         raise DenavitError(f"{where}: unknown mass unit {unit!r}: expected one of {', '.join(MASS_UNITS)}")
     try:
-        mass = float(num) * MASS_UNITS[unit.lower()]
+        mass = float(num) * mass_scale(unit, where)
     except ValueError:
         raise DenavitError(f"{expected}; got {text!r}") from None
     if not (math.isfinite(mass) and 0 <= mass <= 1e5):
