@@ -59,7 +59,18 @@ def robot_json(robot: Robot) -> dict:
     return {"model": robot.name, "convention": robot.convention, "description": robot.description, "source": robot.source, "units": SI_UNITS,
             "joints": [{"joint": n, "kind": k, **row, "lower": float(lo), "upper": float(hi)}
                        for n, k, row, lo, hi in zip(robot.names, robot.table.kinds, table_rows(robot.table, "m", "rad"), robot.lower, robot.upper)],
-            "joint_units": si, "home": None if robot.home is None else [float(v) for v in robot.home]}
+            "joint_units": si, "home": None if robot.home is None else [float(v) for v in robot.home],
+            "compliance": _compliance_rows(robot)}
+
+
+def _compliance_rows(robot: Robot) -> list | None:
+    """The joints' compliances (a robot file's [compliance], issue 37) as rows naming their unit (SI), or None."""
+    if robot.compliance is None:
+        return None
+    cov = robot.compliance_covariance
+    return [{"joint": n, "unit": "rad/(N m)" if k == "revolute" else "m/N", "value": float(v),
+             "sigma": None if cov is None else float(max(cov[i, i], 0.0) ** 0.5)}
+            for i, (n, k, v) in enumerate(zip(robot.names, robot.table.kinds, robot.compliance, strict=True))]
 
 
 @commands.command()
@@ -89,6 +100,9 @@ def show(
         if robot.source:
             console.print(f"  source: {robot.source}", soft_wrap=True)
         print_table(robot.table, robot.names, length, angle, f"{robot.name} in {robot.convention}")
+        if robot.compliance is not None:
+            console.print("Joint compliances (urad/(N m), um/N for a prismatic joint): "
+                          + ", ".join(f"{n} {v * 1e6:.4g}" for n, v in zip(robot.names, robot.compliance, strict=True)))
     if report or plot:
         from .. import report as rep  # noqa: PLC0415
 
