@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..geometry import kabsch, matrix_rotvec
+from ..geometry import matrix_rotvec
 
 if TYPE_CHECKING:
     from .measurements import Measurements
@@ -170,20 +170,3 @@ def covariance(J: np.ndarray, s2: float) -> np.ndarray:
         ev, V = np.linalg.eigh(A)
         inv = (V / np.maximum(ev, ev.max() * 1e-15)) @ V.T
     return s2 * inv / np.outer(d, d)
-
-
-def register(pz: Parametrization, x, meas: Measurements, base_free: bool):
-    """Move the base so the nominal model's tool points best match the measured ones (a change of the
-    measurement frame), when that improves the fit; returns the new parametrisation and x."""
-    if not base_free or meas.n < 3:
-        return pz, x
-    pred, _ = pz.evaluate(x, meas.q, False)
-    P = pred[:, :3, 3]
-    if np.linalg.matrix_rank(P - P.mean(axis=0), tol=1e-9) < 2:
-        return pz, x
-    W = kabsch(P, meas.points)  # Kabsch / Umeyama without scale
-    before = np.sqrt(np.mean(np.sum((P - meas.points) ** 2, axis=1)))
-    after = np.sqrt(np.mean(np.sum((P @ W[:3, :3].T + W[:3, 3] - meas.points) ** 2, axis=1)))
-    if before > REGISTER_RMS and after < 0.5 * before:
-        return pz.rebased(x, W)
-    return pz, x

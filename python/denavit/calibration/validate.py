@@ -178,8 +178,7 @@ def _training_of(robot) -> np.ndarray | None:
     spec = robot.extra.get(TRAINING_TABLE) if isinstance(robot.extra, dict) else None
     if not isinstance(spec, dict) or not robot.path or not str(robot.path).lower().endswith(".toml"):
         return None
-    import tomllib  # noqa: PLC0415
-
+    from ..io.robotfile import tomllib  # noqa: PLC0415 (Python 3.10's tomli where 3.11's tomllib is absent)
     from ..io.units import joint_scale  # noqa: PLC0415
 
     where = f"{robot.path}, [{TRAINING_TABLE}]"

@@ -53,10 +53,15 @@ from __future__ import annotations
 
 import os
 import re
+import sys
 from pathlib import Path
 
 import numpy as np
-import tomllib
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # Python 3.10: the same parser, from PyPI (pyproject's tomli marker)
+    import tomli as tomllib
 
 from .. import _core, limits
 from ..errors import DenavitError
