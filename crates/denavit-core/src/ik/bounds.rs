@@ -39,6 +39,8 @@ pub(crate) struct Bounds {
     pub(super) flips: Vec<usize>,
     /// The closed form of a recognised 6R structure (the seeds of the first attempt).
     pub(super) closed_form: Option<ClosedForm>,
+    /// The semi-analytic form of a recognised 7R structure (the seeds of the first attempt).
+    pub(super) redundant: Option<Redundant>,
 }
 
 impl crate::model::Derive for Bounds {
@@ -60,6 +62,7 @@ impl Bounds {
             sample_hi: Vec::with_capacity(n),
             flips: wrist_flips(model),
             closed_form: ClosedForm::new(model),
+            redundant: Redundant::new(model),
         };
         for j in model.joints() {
             let (lo, hi, rev) = (j.lower, j.upper, j.kind == JointKind::Revolute);

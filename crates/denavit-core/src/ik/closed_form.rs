@@ -51,7 +51,7 @@ pub(crate) const ANGLE_TOL: f64 = 5e-3;
 /// and the tool), between axis lines taken as meeting in one point.
 pub(crate) const DISTANCE_TOL: f64 = 5e-3;
 /// Smallest sine of the angle between axes that the subproblems need not parallel.
-const NOT_PARALLEL: f64 = 0.1;
+pub(super) const NOT_PARALLEL: f64 = 0.1;
 
 /// How far `|C| / sqrt(A² + B²)` of [`sp4`] may exceed 1 for the nearest angle to stand in for a solution
 /// (rounding, or an identified robot a little off its ideal structure, at the edge of its reach); beyond it,
@@ -87,7 +87,7 @@ pub(crate) struct Cs {
 impl Cs {
     pub(crate) const ZERO: Self = Self { c: 1.0, s: 0.0 };
     #[inline(always)]
-    fn of(t: f64) -> Self {
+    pub(super) fn of(t: f64) -> Self {
         let (s, c) = crate::math::sin_cos(t);
         Self { c, s }
     }
@@ -102,7 +102,7 @@ impl Cs {
         atan2_approx(self.s, self.c)
     }
     #[inline(always)]
-    fn neg(self) -> Self {
+    pub(super) fn neg(self) -> Self {
         Self { c: self.c, s: -self.s }
     }
     /// The sum of the angles.
@@ -197,14 +197,14 @@ impl Partial {
 
 /// `R(k, θ) v` (Rodrigues).
 #[inline(always)]
-fn rot(k: &V3, a: Cs, v: &V3) -> V3 {
+pub(super) fn rot(k: &V3, a: Cs, v: &V3) -> V3 {
     v * a.c + k.cross(v) * a.s + k * (k.dot(v) * (1.0 - a.c))
 }
 
 /// SP1: `θ` with `R(k, θ) a = b` in the least-squares sense (the angle between the components of `a` and `b`
 /// perpendicular to `k`); `None` when one of them is (nearly) along `k` (every `θ` does as well).
 #[inline(always)]
-fn sp1(k: &V3, a: &V3, b: &V3) -> Option<Cs> {
+pub(super) fn sp1(k: &V3, a: &V3, b: &V3) -> Option<Cs> {
     let (ka, kb) = (k.dot(a), k.dot(b));
     let y = k.dot(&a.cross(b));
     let x = a.dot(b) - ka * kb;
@@ -214,7 +214,7 @@ fn sp1(k: &V3, a: &V3, b: &V3) -> Option<Cs> {
 
 /// The solutions of SP4.
 #[derive(Debug, Clone, Copy)]
-enum Sp4 {
+pub(super) enum Sp4 {
     /// The first 0, 1 or 2 angles (one when the equation has no exact solution: the nearest).
     Angles([Cs; 2], usize),
     /// Every angle solves it (`h^T R(k, θ) p` does not depend on `θ`).
@@ -225,7 +225,7 @@ enum Sp4 {
 /// with `(cos φ, sin φ) = (A, B) / r`, `r = sqrt(A² + B²)`; without an exact solution but within [`SP4_SLACK`],
 /// the `θ` nearest to one (`θ = φ` or `φ + π`); else none.
 #[inline(always)]
-fn sp4(h: &V3, k: &V3, p: &V3, d: f64) -> Sp4 {
+pub(super) fn sp4(h: &V3, k: &V3, p: &V3, d: f64) -> Sp4 {
     let kp = k.dot(p);
     let a = h.dot(p) - h.dot(k) * kp; // h · (p - k (k · p))
     let b = h.dot(&k.cross(p));
@@ -250,7 +250,7 @@ fn sp4(h: &V3, k: &V3, p: &V3, d: f64) -> Sp4 {
 
 /// The angles of an SP4 result, `free` standing in for an unconstrained angle.
 #[inline(always)]
-fn angles(s: Sp4, free: f64) -> ([Cs; 2], usize) {
+pub(super) fn angles(s: Sp4, free: f64) -> ([Cs; 2], usize) {
     match s {
         Sp4::Angles(a, n) => (a, n),
         Sp4::Any => ([Cs::of(free); 2], 1),
@@ -259,7 +259,7 @@ fn angles(s: Sp4, free: f64) -> ([Cs; 2], usize) {
 
 /// The least-squares point nearest to lines `(p_i, h_i)` (unit `h_i`) and its largest distance from them;
 /// `None` when the lines are (nearly) parallel.
-fn meeting_point(lines: &[(V3, V3)]) -> Option<(V3, f64)> {
+pub(super) fn meeting_point(lines: &[(V3, V3)]) -> Option<(V3, f64)> {
     let mut a = Matrix3::zeros();
     let mut b = V3::zeros();
     for (p, h) in lines {

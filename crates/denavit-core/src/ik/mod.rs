@@ -88,6 +88,7 @@ mod bounds;
 mod closed_form;
 mod linalg;
 mod options;
+mod redundant;
 mod solve;
 
 pub(crate) use bounds::*;
@@ -96,6 +97,7 @@ use closed_form::{ClosedForm, Cs, MAX_BRANCHES, MAX_PARTIALS, Partial};
 pub use linalg::log_rotation;
 use linalg::*;
 pub use options::*;
+use redundant::{MAX_BRANCHES7, Redundant};
 pub use solve::IkSolver;
 
 /// Name an argument in a size / finiteness error of `q`.

@@ -10,9 +10,15 @@ pub(super) const STALL_EVERY: usize = 10;
 /// last attempt).
 pub(super) const STALL_NEWTON: usize = 8;
 
-/// A closed-form seed that meets the tolerance as it is: the configuration and its measured position and
-/// rotation errors.
-pub(super) type MetSeed = ([f64; 6], f64, f64);
+/// A closed-form seed that meets the tolerance as it is: the configuration (its first `n` values) and its
+/// measured position and rotation errors.
+pub(super) type MetSeed = ([f64; 7], f64, f64);
+
+/// Step between the samples of q7 of a 7R arm's semi-analytic seeds (rad; [`IkSolver::attempt_seeds7`]).
+pub(super) const STEP7: f64 = 0.1;
+
+/// Most branches of a 7R arm's samples held at once, ranked by their distance from `q0`.
+const KEEP7: usize = 48;
 
 /// Jacobian evaluations of the Newton polish of one closed-form seed (within attempt 0's `max_iterations`): an
 /// exact seed needs none (it is met as it is, checked by forward kinematics), a seed of an identified robot (axes
@@ -455,6 +461,117 @@ impl<'m> IkSolver<'m> {
             // evaluation), which then stands as the verdict
             let (pos, rot) = pose_error(&tool_pose_unchecked(self.model, &q), target);
             if score(pos, rot, &self.opts) <= 1.0 {
+                let mut met = [0.0; 7];
+                met[..6].copy_from_slice(&q);
+                return Some((total + 1, 1.0, Some((met, pos, rot))));
+            }
+            self.workspace();
+            self.q.copy_from_slice(&q);
+            let (it, pos, rot) = self.attempt_newton(target, false, budget);
+            total += it;
+            let s = score(pos, rot, &self.opts);
+            if s < best {
+                best = s;
+                self.q_best.copy_from_slice(&self.q);
+                if s <= 1.0 {
+                    break;
+                }
+            }
+        }
+        Some((total, best, None))
+    }
+
+    /// The semi-analytic seeds of a recognised 7R arm ([`Redundant`]): q7 sampled every [`STEP7`] rad from
+    /// `q0_7` outwards (within its limits when `respect_limits`, else within ±π of `q0_7`), each sample's 6R
+    /// branches in closed form, placed near `q0` (those outside the limits dropped when `respect_limits`) and tried
+    /// nearest to `q0` first, as [`Self::attempt_seeds`] tries a 6R arm's: checked by FK, polished by Newton if not
+    /// within the tolerance as they are, each try counted in attempt 0's `max_iterations`. Best-first: a sample
+    /// is solved only while its distance from `q0_7` is below that of every untried branch found so far.
+    pub(super) fn attempt_seeds7(&mut self, target: &Pose, q0: &[f64]) -> Option<(usize, f64, Option<MetSeed>)> {
+        let bounds: &'m Bounds = self.bounds;
+        let rf = bounds.redundant.as_ref()?;
+        let respect = self.opts.respect_limits;
+        let g = rf.target(target);
+        let (mut lo, mut hi) = (q0[6] - PI, q0[6] + PI);
+        let mut centre = q0[6];
+        if respect {
+            centre = centre.clamp(bounds.lower[6], bounds.upper[6]);
+            (lo, hi) = ((centre - PI).max(bounds.lower[6]), (centre + PI).min(bounds.upper[6]));
+        }
+        // the next sample: centre + k STEP7, k = 0, 1, -1, 2, -2, ... within [lo, hi]
+        let mut k: i64 = 0;
+        let mut next_sample = || -> Option<f64> {
+            loop {
+                let v = centre + k as f64 * STEP7;
+                let far = (k.unsigned_abs() as f64 - 1.0) * STEP7 > PI.max(hi - lo);
+                k = if k > 0 { -k } else { 1 - k };
+                if far {
+                    return None;
+                }
+                if v >= lo && v <= hi {
+                    return Some(v);
+                }
+            }
+        };
+        let mut sample = next_sample();
+        let mut found = [(0.0f64, [Cs::ZERO; 7], false, 0.0f64); KEEP7]; // (distance, branch, tried, q7)
+        let mut nf = 0;
+        let mut total = 0;
+        let mut best = f64::INFINITY;
+        loop {
+            let nearest = (0..nf).filter(|&c| !found[c].2).min_by(|&a, &b| found[a].0.total_cmp(&found[b].0));
+            if let Some(q7) = sample
+                && nearest.is_none_or(|c| (q7 - centre) * (q7 - centre) < found[c].0)
+            {
+                sample = next_sample();
+                let mut leaves = [[Cs::ZERO; 7]; MAX_BRANCHES7];
+                let nl = rf.branches(&g, q7, q0, &mut leaves);
+                'leaves: for leaf in &leaves[..nl] {
+                    let mut d = (q7 - q0[6]) * (q7 - q0[6]);
+                    for i in 0..6 {
+                        let Some(v) = bounds.place_joint(i, leaf[i].angle_approx(), q0[i], respect) else { continue 'leaves };
+                        d += (v - q0[i]) * (v - q0[i]);
+                    }
+                    if !d.is_finite() {
+                        continue;
+                    }
+                    // keep it: in a free slot, a tried one's, or the farthest one's if it is nearer
+                    let slot = if nf < KEEP7 {
+                        nf += 1;
+                        nf - 1
+                    } else if let Some(t) = (0..KEEP7).find(|&c| found[c].2) {
+                        t
+                    } else {
+                        let far = (0..KEEP7).max_by(|&a, &b| found[a].0.total_cmp(&found[b].0)).unwrap_or(0);
+                        if found[far].0 <= d {
+                            continue;
+                        }
+                        far
+                    };
+                    found[slot] = (d, *leaf, false, q7);
+                }
+                continue;
+            }
+            let Some(c) = nearest else { break };
+            found[c].2 = true;
+            let budget = POLISH.min(self.opts.max_iterations - total);
+            if budget == 0 {
+                break;
+            }
+            let mut q = [0.0; 7];
+            let mut placed = true;
+            for i in 0..6 {
+                match bounds.place_joint(i, found[c].1[i].angle(), q0[i], respect) {
+                    Some(v) => q[i] = v,
+                    None => placed = false,
+                }
+            }
+            q[6] = found[c].3; // the sample itself, exact
+            if !placed {
+                continue;
+            }
+            let (pos, rot) = pose_error(&tool_pose_unchecked(self.model, &q), target);
+            if score(pos, rot, &self.opts) <= 1.0 {
                 return Some((total + 1, 1.0, Some((q, pos, rot))));
             }
             self.workspace();
@@ -480,10 +597,15 @@ impl<'m> IkSolver<'m> {
         let mut best_score = f64::INFINITY;
         let mut restarts = 0;
         let mut seeded = false;
-        if let Some((it, s, exact)) = self.attempt_seeds(target, q0) {
+        let seeds = match self.attempt_seeds(target, q0) {
+            None => self.attempt_seeds7(target, q0),
+            some => some,
+        };
+        if let Some((it, s, exact)) = seeds {
             if let Some((q, position_error, rotation_error)) = exact {
                 // met by a seed as it is (within the limits by construction): its measurement is the verdict
-                let within = !self.opts.respect_limits || self.bounds.within(&q);
+                let q = &q[..n];
+                let within = !self.opts.respect_limits || self.bounds.within(q);
                 let success = position_error <= self.opts.tol_position && rotation_error <= self.opts.tol_rotation && within;
                 return IkResult { q: q.to_vec(), success, iterations: it, restarts: 0, position_error, rotation_error };
             }
