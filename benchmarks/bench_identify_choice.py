@@ -38,7 +38,7 @@ import numpy as np
 import denavit as dv
 from denavit import sweeps as sw
 
-ident = importlib.import_module("denavit.identify")
+ident = importlib.import_module("denavit.identification.choice")
 
 HOME = np.radians([10.79, 44.5, 36.14, -1.70, 3.45, 42.87])
 RANGES30 = np.radians(np.array([-4.2, 25.8, 29.5, 59.5, 21.1, 51.1, -16.7, 13.3, -11.5, 18.5, 27.9, 57.9]).reshape(6, 2))

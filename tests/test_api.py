@@ -18,13 +18,14 @@ HOME = np.radians(sw.PAPER_HOME_DEG)
 
 def test_workflows_are_functions_of_the_package():
     """dv.identify & co. are functions in the namespace (dv.identify was a module: `dv.identify(...)` raised
-    "'module' object is not callable"), and importing the identify module afterwards does not rebind them."""
-    code = ("import denavit as dv, denavit.identify, denavit.calibration, denavit.compensation, denavit.sweeps\n"
-            "from denavit.identify import Identification\n"
+    "'module' object is not callable"), and importing the identification package afterwards does not rebind them
+    (issue 35: the package is named apart from the function, no import hook holds them apart)."""
+    code = ("import denavit as dv, denavit.identification, denavit.calibration, denavit.compensation, denavit.sweeps\n"
+            "from denavit.identification import Identification\n"
             "import types\n"
-            "for f in (dv.identify, dv.calibrate, dv.plan, dv.simulate, dv.compensate, denavit.identify):\n"
+            "for f in (dv.identify, dv.calibrate, dv.plan, dv.simulate, dv.compensate, denavit.identification.identify):\n"
             "    assert isinstance(f, types.FunctionType), f\n"
-            "import sys; assert isinstance(sys.modules['denavit.identify'], types.ModuleType)\n"
+            "import sys; assert isinstance(sys.modules['denavit.identification'], types.ModuleType)\n"
             "heavy = [m for m in ('scipy', 'matplotlib', 'plotly', 'yourdfpy', 'lxml', 'typer') if m in sys.modules]\n"
             "assert not heavy, heavy\n")
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
@@ -143,7 +144,7 @@ def test_reprs_of_recordings_segmentations_and_targets():
 def test_the_identify_module_function_takes_names_and_says_what_it_reads():
     """The module's identify (the one dv.identify calls) takes a nominal by name as calibrate does, and a path
     gets a one-line error naming the function that reads files (it had failed on 'str' has no attribute 'n_joints')."""
-    from denavit.identify import identify
+    from denavit.identification import identify
 
     s = dv.simulate("kr5", points_per_sweep=8)
     assert identify(s, nominal="kr5").nominal.name == "kr5"

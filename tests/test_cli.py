@@ -149,7 +149,7 @@ def test_help_imports_neither_scipy_nor_numpy(args):
     assert p.returncode == 0, p.stderr
     mods = [ln.split("|")[-1].strip() for ln in p.stderr.splitlines() if ln.startswith("import time:")]
     heavy = [m for m in mods if m.split(".")[0] in ("scipy", "numpy", "matplotlib", "plotly", "yourdfpy", "pydantic", "markdown_it", "pygments")
-             or m in ("denavit.api", "denavit.robot", "denavit.identify", "denavit.calibration", "denavit.sweeps")]
+             or m in ("denavit.api", "denavit.robot", "denavit.identification", "denavit.calibration", "denavit.sweeps")]
     assert "denavit.cli" in mods and heavy == []
     own = [f"denavit.cli.{COMMANDS[args[0]][0]}"] if args[0] in COMMANDS else []
     assert [m for m in mods if m.startswith("denavit.cli.") and m != "denavit.cli.common"] == own

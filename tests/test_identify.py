@@ -3,7 +3,6 @@
 import json
 import math
 import re
-import sys
 from dataclasses import replace
 
 import numpy as np
@@ -13,7 +12,7 @@ from real_effects import CHI2_99, NEST, axis_chi2, recording, recordings
 import denavit as dv
 from cli import run
 from denavit import sweeps as sw
-from denavit.identify import to_json, write_json
+from denavit.identification import to_json, write_json
 from denavit.io import sweeps as swio
 
 HOME = np.radians(sw.PAPER_HOME_DEG)
@@ -628,10 +627,8 @@ def test_the_joint_fit_is_the_same_a_chunk_at_a_time_in_memory_linear_in_the_poi
     (it held ~800 bytes per point: every sweep's Jacobian blocks, twice over at each trial step)."""
     import tracemalloc
 
-    import denavit.identify  # noqa: F401  (the module; dv.identify is the function)
     from denavit.fitting import joint
-
-    ident = sys.modules["denavit.identify"]
+    from denavit.identification import prepare as ident
     s = sw.simulate(kr5.model(), home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=4000, noise=2e-5, noise_q=2e-5, seed=4)
     notes = []
     dqs = ident._motions(s, notes)
@@ -686,7 +683,7 @@ def test_scale_spread_is_the_q_profile_root():
     the tabulated medians are scipy's, and Newton's steps (no scipy import in identify) give scipy's brentq root."""
     stats = pytest.importorskip("scipy.stats")
     optimize = pytest.importorskip("scipy.optimize")
-    ident = sys.modules["denavit.identify"]
+    from denavit.identification import choice as ident
     for k in range(1, 16):
         assert ident.CHI2_MEDIAN[k] == pytest.approx(stats.chi2.ppf(0.5, k), rel=1e-14)
     rng = np.random.default_rng(5)
@@ -873,7 +870,7 @@ def test_cli_coupling_in_simulate_and_identify(tmp_path):
 def test_short_arcs_get_a_note_with_their_predicted_sigma(kr5):
     """Arcs too short for a useful axis get a note with the predicted sigma without --max-sigma (issue 16: a 1-degree
     arc had given FK 438 mm off with no note); when they make the axes implausible, the error says the arcs are why."""
-    from denavit.identify import SHORT_ARC, SHORT_ARC_SIGMA
+    from denavit.identification.frames import SHORT_ARC, SHORT_ARC_SIGMA
 
     def arcs(deg, readings):
         s = sw.simulate(kr5.model(), home=HOME, ranges=np.stack([HOME - np.radians(deg / 2), HOME + np.radians(deg / 2)], 1), points_per_sweep=20, noise=2e-5, seed=3)

@@ -121,7 +121,7 @@ def test_the_orientation_noise_is_estimated_or_declared(kr5):
     20 %); a value the data contradicts (30x too small) buys no precision, the misfit inflates the sigmas."""
     import importlib
 
-    ident = importlib.import_module("denavit.identify")
+    ident = importlib.import_module("denavit.identification.prepare")
     from denavit.fitting import joint
 
     s = sw.simulate(kr5.model(), home=HOME, ranges=RANGES, points_per_sweep=25, noise=2e-5, poses=True, noise_rot=3e-4, seed=5)
@@ -144,7 +144,7 @@ def test_the_joint_fit_of_several_targets_is_the_same_a_chunk_at_a_time(kr5, mon
     import importlib
     import tracemalloc
 
-    ident = importlib.import_module("denavit.identify")
+    ident = importlib.import_module("denavit.identification.prepare")
     from denavit.fitting import joint
 
     s = sw.simulate(kr5.model(), home=HOME, ranges=RANGES, points_per_sweep=1500, noise=2e-5, noise_q=2e-5, targets=NEST[:3], poses=True, noise_rot=1e-4, seed=4)

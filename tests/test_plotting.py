@@ -180,7 +180,7 @@ def test_missing_matplotlib_names_the_install_command(result, monkeypatch):
 
 
 def test_core_does_not_import_the_plotting_libraries():
-    code = ("import sys, denavit, denavit.cli, denavit.plotting, denavit.report, denavit.identify; "
+    code = ("import sys, denavit, denavit.cli, denavit.plotting, denavit.report, denavit.identification; "
             "bad = [m for m in ('matplotlib', 'plotly') if m in sys.modules]; assert not bad, bad")
     subprocess.run([sys.executable, "-c", code], check=True)
 

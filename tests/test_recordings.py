@@ -21,7 +21,7 @@ import denavit as dv
 from denavit import geometry
 from denavit import recording as rc
 from denavit import sweeps as sw
-from denavit.identify import identify
+from denavit.identification import identify
 from denavit.io.recordings import read_recording
 
 DATA = Path(__file__).parent / "data" / "recordings"

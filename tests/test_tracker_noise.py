@@ -4,7 +4,6 @@ across it; the joint fit whitens every point by that covariance's shape (its sca
 
 import json
 import math
-import sys
 
 import numpy as np
 import pytest
@@ -66,9 +65,8 @@ def test_whitening_of_a_point_and_its_reading_error_is_exact():
 def test_an_isotropic_shape_through_the_whitening_is_the_isotropic_fit(kr5, monkeypatch):
     """The model's whitening with every point's covariance the same sphere (and the reading errors' whitening held at
     gamma 1) gives the isotropic joint fit to 1e-12: the rows, Jacobian, misfits and cost round-off pass through it."""
-    import denavit.identify  # noqa: F401  (the module; dv.identify is the function)
 
-    ident = sys.modules["denavit.identify"]
+    from denavit.identification import prepare as ident
     s = recording(kr5.model(), HOME, np.radians(sw.PAPER_RANGES_DEG[30]), points=15, seed=3)
     dqs = ident._motions(s, [])
     fits = ident._per_sweep(s, "global", "linear", None, lambda _m: None)
@@ -95,7 +93,7 @@ def test_default_is_isotropic(kr5):
     np.testing.assert_array_equal(a.table.params, b.table.params)
     np.testing.assert_array_equal(a.sigma, b.sigma)
     assert not [n for n in a.notes if "tracker" in n]
-    from denavit.identify import to_json
+    from denavit.identification import to_json
 
     assert to_json(a, box=False)["tracker_noise"] is None
 

@@ -6,15 +6,14 @@ API by example: docs/python.md.
 
 The workflows are functions of the package, taking paths, built-in names or objects (:mod:`denavit.api`):
 :func:`identify` (circle-point identification), :func:`calibrate`, :func:`plan`, :func:`simulate`,
-:func:`compensate`, :func:`validate` (:mod:`denavit.calibration.validate`). ``denavit.identify`` is the function; its module (results, JSON) is imported as
-``from denavit.identify import Identification, to_json`` (loading that module never rebinds the package
-attribute). The workflows and :class:`Robot` load on first use, so ``import denavit`` loads the Rust core only.
+:func:`compensate`, :func:`validate` (:mod:`denavit.calibration.validate`). ``denavit.identify`` is the function; the
+identification's package (its steps, results, JSON) is :mod:`denavit.identification`
+(``from denavit.identification import Identification, to_json``). The workflows and :class:`Robot` load on first use,
+so ``import denavit`` loads the Rust core only.
 """
 
 from __future__ import annotations
 
-import sys
-import types
 from importlib import import_module
 
 from . import _core
@@ -78,20 +77,6 @@ def __getattr__(name: str):
 
 def __dir__() -> list[str]:
     return sorted({*globals(), *_LAZY})
-
-
-class _Package(types.ModuleType):
-    """The package module: a submodule named like a workflow (``denavit.identify``, the results module) is
-    bound as the package attribute by the import system when it loads; here that binding is refused, so
-    ``denavit.identify`` stays the function whichever loads first."""
-
-    def __setattr__(self, name: str, value) -> None:
-        if name in _LAZY and isinstance(value, types.ModuleType):
-            return
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Package
 
 
 def load_model(name_or_path, *, base_link: str | None = None, tip_link: str | None = None) -> Model:

@@ -8,9 +8,9 @@ delimited recordings with a column map) or the object itself (:class:`~denavit.s
 :class:`~denavit.Robot` or a :class:`~denavit.Model`. Everything is SI (m, rad): the units of a file are its own
 declaration, or ``length`` / ``angle`` where it declares none.
 
-The algorithms and their results live in :mod:`denavit.identify` (the module, reached as
-``importlib.import_module("denavit.identify")`` or ``from denavit.identify import Identification``: the package attribute
-``denavit.identify`` is the function), :mod:`denavit.calibration` and :mod:`denavit.compensation`.
+The algorithms and their results live in :mod:`denavit.identification` (``from denavit.identification import
+Identification``; ``denavit.identify`` is this module's function), :mod:`denavit.calibration` and
+:mod:`denavit.compensation`.
 """
 
 from __future__ import annotations
@@ -22,8 +22,8 @@ import numpy as np
 
 from . import _core
 from .errors import DenavitError
-from .identify import Identification
-from .identify import identify as _identify
+from .identification import Identification
+from .identification import identify as _identify
 from .limits import floats
 from .robot import Robot
 from .sweeps import PAPER_RANGES_DEG, SweepSet
@@ -124,7 +124,7 @@ def identify(data, nominal=None, *, format: str = "auto", length: str | None = N
     data : SweepSet or path — read by :func:`read_sweeps` (``format``, ``length``, ``angle``, ``home``,
         ``direction``, ``columns``, ``sweep``, ``target``, ``readings`` as there).
     nominal : built-in name, robot file, URDF, Robot or Model, optional — signs, free origins, names, limits.
-    options : those of :func:`denavit.identify.identify` (``method``, ``convention``, ``T_world_base``,
+    options : those of :func:`denavit.identification.identify` (``method``, ``convention``, ``T_world_base``,
         ``loss``, ``max_sigma``, ``keep_dwell``, ``tracker_noise``, ``progress``...).
 
     >>> import denavit as dv

@@ -343,10 +343,10 @@ def canonical_tool(nom: _core.Model, ide: _core.Model, home=None) -> np.ndarray:
     for all of them, for the ED-H file identify and calibrate save, and for the in-memory result. A POE model has no
     flange of its own (its home pose ``M``, identify's measured point, is its flange, its tool the identity)."""
     home = np.zeros(nom.nq) if home is None else np.asarray(home, dtype=float)
-    from .identify import _origins  # noqa: PLC0415 (identify and its fits load only when an identified tool is compensated)
+    from .identification.frames import origins  # noqa: PLC0415 (identify and its fits load only when an identified tool is compensated)
 
     nt = _core.extract(_core.axes(nom, np.zeros(nom.nq)), "edh").table
-    ex = _core.extract(_core.axes(ide, home), "edh", nominal=nt, origins=_origins(nt, "edh", home), parallel_tol=1e-9, fidelity=False)
+    ex = _core.extract(_core.axes(ide, home), "edh", nominal=nt, origins=origins(nt, "edh", home), parallel_tol=1e-9, fidelity=False)
     return np.asarray(ex.table.to_model().T_flange_tool)
 
 
@@ -396,7 +396,7 @@ def predicted_sigma(result, q) -> np.ndarray:
 
     result : a calibration (:class:`denavit.calibration.Calibration`: the analytic identification Jacobian of
         its chain over the estimated parameters, base registration excluded since targets live in the robot
-        base frame) or an identification (:class:`denavit.identify.Identification`: the covariance of the
+        base frame) or an identification (:class:`denavit.identification.Identification`: the covariance of the
         axis lines and the tool point, propagated to the tool by central differences through the exact ED-H
         model of the axes).
     """

@@ -38,7 +38,7 @@ from .io.units import cell_scale, column_scale, joint_scale, joint_unit, length_
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
-    from .identify import Identification
+    from .identification import Identification
 
 INSTALL_HINT = "install the plotting extra: pip install 'denavit[plot]'"
 
@@ -261,7 +261,7 @@ def plot_circles(result: Identification, *, length: str = "mm") -> Figure:
     Parameters
     ----------
     result : Identification
-        From :func:`denavit.identify.identify` (points and fits in ``world``, metres).
+        From :func:`denavit.identification.identify` (points and fits in ``world``, metres).
     length : str
         Display unit of lengths.
 

@@ -135,12 +135,12 @@ class Calibration:
         ED-H, the nominal's frame origins on the body): without that reference a pair of axes that is parallel on
         the nominal takes the common normal of its small tilt, which slides along the axes with the noise (a KR5's
         b_2, b_3 and theta_2 had sigmas of 2.5 m and 1.5 rad in the saved covariance)."""
-        from ..identify import _nominal_table, _origins  # noqa: PLC0415 (identify imports this package)
+        from ..identification.frames import nominal_convention_table, origins  # noqa: PLC0415 (identify imports this package)
 
         robot = self.parametrization.robot
         home = np.zeros(len(robot.names))
-        ref = _nominal_table(robot, convention, home)
-        opts = {"nominal": ref, "origins": _origins(ref, convention, home)}
+        ref = nominal_convention_table(robot, convention, home)
+        opts = {"nominal": ref, "origins": origins(ref, convention, home)}
         if convention == "edh":
             opts["parallel_tol"] = self._edh_parallel_tol()
         return opts
@@ -149,7 +149,7 @@ class Calibration:
         """ED-H's ``parallel_tol`` against the nominal, as identify's (``identify.EDH_PARALLEL_SIGMAS`` sigmas of the
         tilt of the pairs of axes the nominal has parallel, at least 1e-9): only a tilt the data cannot tell from zero
         is dropped. The tilt ``z_i x z_(i+1)`` and its covariance from this calibration's, by central differences."""
-        from ..identify import EDH_PARALLEL_SIGMAS  # noqa: PLC0415
+        from ..identification.frames import EDH_PARALLEL_SIGMAS  # noqa: PLC0415
 
         pz = self.parametrization
         nom = pz.robot.model()
@@ -309,7 +309,7 @@ def calibrate(
         first linear fit.
     start : {"nominal", "circles"}
         Start from the nominal model (base registered to the data), or from the circle-point identification
-        (:func:`denavit.identify.identify`, global fit; sweep data only).
+        (:func:`denavit.identification.identify`, global fit; sweep data only).
     scale : bool
         Also estimate a scale per joint.
     tool : array_like, optional
@@ -317,7 +317,7 @@ def calibrate(
     noise, noise_rot : float, optional
         Known one-sigma noise per coordinate (m) and of the rotation (rad); default: estimated from the residuals.
     tracker_noise : :class:`~denavit.fitting.joint.TrackerNoise` or (sigma_range m, sigma_angle rad[, position (3,) m]), optional
-        The tracker's range/angle noise model (as :func:`denavit.identify.identify`'s): each point's position
+        The tracker's range/angle noise model (as :func:`denavit.identification.identify`'s): each point's position
         residual is whitened by its covariance's shape (noise ``sigma_range`` along the line of sight from the
         tracker, ``sigma_angle`` times the range across it), the scale estimated from the residuals (so not with
         ``noise``). Default: isotropic.
@@ -574,7 +574,7 @@ def _strong_correlations(corr: np.ndarray, names: list, limit: float = 0.999) ->
 def _circle_start(pz: Parametrization, x, meas: Measurements, robot: Robot, convention: str, free: list, notes: list) -> np.ndarray:
     """Start values from the circle-point identification (global fit of the sweeps): the chain is fitted to
     the identified model's predictions at the measured configurations."""
-    from ..identify import identify  # noqa: PLC0415 (identify imports the fitting package: loaded for start="circles" only)
+    from ..identification import identify  # noqa: PLC0415 (identify imports the fitting package: loaded for start="circles" only)
 
     if meas.sweeps is None:
         raise DenavitError(f"{meas.source}: start='circles' needs sweep data (Measurements.from_sweeps); these are arbitrary poses: use start='nominal'")

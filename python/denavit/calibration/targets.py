@@ -1,5 +1,5 @@
 """Several targets per pose in one calibration: marker clusters, SMR nests (2-4 targets on the last body, each
-measured at every pose), as :func:`denavit.identify.identify` reads them (a sweep file's ``x2, y2, z2, ...``
+measured at every pose), as :func:`denavit.identification.identify` reads them (a sweep file's ``x2, y2, z2, ...``
 columns and ``# nest:`` line, a sweep JSON's ``"targets"`` and ``"nest"``, :func:`denavit.sweeps.simulate`'s
 ``targets``), or :class:`TargetMeasurements` at arbitrary poses.
 

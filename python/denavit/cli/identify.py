@@ -82,8 +82,8 @@ def identify(
 ) -> None:
     """Identify the joint axes and parameters from joint sweeps (Hayat et al.), beside the nominal values."""
     from ..api import input_path, is_sweep_file  # noqa: PLC0415
-    from ..identify import identify as identify_sweeps  # noqa: PLC0415
-    from ..identify import to_json  # noqa: PLC0415
+    from ..identification import identify as identify_sweeps  # noqa: PLC0415
+    from ..identification import to_json  # noqa: PLC0415
     from ..io import sweeps as swio  # noqa: PLC0415
 
     check_outputs(**{"--save": save_model, "--urdf": urdf, "--json": json_path})
@@ -252,7 +252,7 @@ def read_recording_sweeps(data: Path, data_format: str, *, columns, sweep, targe
 
 def print_identification(doc: dict, result, length: str, angle: str) -> None:
     """The identified table beside the nominal, the joint axes and the measuring volume, in ``length`` / ``angle``
-    (``doc``: the result's SI document, :func:`denavit.identify.to_json`)."""
+    (``doc``: the result's SI document, :func:`denavit.identification.to_json`)."""
     import numpy as np  # noqa: PLC0415
 
     nt = result.nominal_table

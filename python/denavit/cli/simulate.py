@@ -82,7 +82,7 @@ def simulate(
     s = sw.simulate(m, home=h, ranges=r, points_per_sweep=points, tool_point=tp, noise=sigma, noise_q=sigma_q, seed=seed, targets=nest, poses=poses, noise_rot=sigma_rot)
     C = parse_coupling(coupling, list(m.kinds), "--coupling") if coupling else robot.coupling
     if C is not None:  # the controller reports readings r = C^-1 q
-        from ..identify import decoupled  # noqa: PLC0415
+        from ..identification import decoupled  # noqa: PLC0415
 
         s = decoupled(s, np.linalg.inv(C))
     write_text(output, to_long_csv(s, length, angle, f"simulated sweeps of {robot.name}: seed {seed}, noise {spread(sigma / ls)} {length}, readings noise {spread(sigma_q / as_)} {angle}"))

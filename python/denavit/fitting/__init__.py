@@ -25,7 +25,7 @@ Methods
 :func:`~denavit.fitting.joint.fit_sweeps`
     All sweeps in one fit (one line per joint, one home point, or one per sweep; several targets per pose, each
     with its own home point, and 6-DoF poses, the orientation at home fitted too), the global fit of
-    :func:`denavit.identify.identify`.
+    :func:`denavit.identification.identify`.
 ``fit_line``
     Total-least-squares line for prismatic joints.
 ``fit_axis``

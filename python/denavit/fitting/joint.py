@@ -1,4 +1,4 @@
-"""One fit of all sweeps with their joint readings (the ``global`` fit of :func:`denavit.identify.identify`).
+"""One fit of all sweeps with their joint readings (the ``global`` fit of :func:`denavit.identification.identify`).
 
 Every axis at the home configuration is a line ``(c_i, n_i)``; the tool point at home is ``p`` (one for all
 sweeps, or one per sweep: a home that drifts between sweeps). A point of a sweep is the home point carried by
@@ -442,7 +442,7 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     (0-based) whose scale is one. ``scale_prior``: None, or ``(tau, sigma)``: every fitted scale is drawn from a
     zero-mean normal population of standard deviation ``tau`` (a pseudo-observation ``s_j / tau`` weighted against the
     points as ``(sigma / tau)^2``, ``sigma`` the point noise of the caller's simpler fit), so the fit is the posterior
-    mode and its covariance the posterior's (:func:`denavit.identify._reading_scales`). ``tracker`` a
+    mode and its covariance the posterior's (:func:`denavit.identification.choice._reading_scales`). ``tracker`` a
     :class:`TrackerNoise` (or (sigma_range m, sigma_angle rad[, position m])): the points' covariances take its
     range/angle shape (module docstring); None: isotropic.
 

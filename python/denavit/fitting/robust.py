@@ -1,6 +1,6 @@
 """Robust statistics of the fits: robust sigma, outlier flags, IRLS for per-point losses, weighted covariance.
 
-Every fit of :mod:`denavit.fitting` (and the global fit of :mod:`denavit.identify`) flags outliers and weights
+Every fit of :mod:`denavit.fitting` (and the global fit of :mod:`denavit.identification`) flags outliers and weights
 points with these, so one rule holds everywhere: the robust sigma of misfits of ``k`` Gaussian components is
 ``median(|misfit|) / sqrt(chi2_k median)`` (``1.4826 * MAD`` for k = 1), and a point is an outlier beyond the
 level with the tail probability of a 1-D 4-sigma deviation.

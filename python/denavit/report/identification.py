@@ -31,7 +31,7 @@ from ..plotting import (
 )
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..identify import Identification
+    from ..identification import Identification
 from .html import (
     FIGURE_FORMATS,
     VIEW_ID,
@@ -224,7 +224,7 @@ def _accuracy_section(go, result: Identification, length: str) -> tuple[str, dic
 
 def report_html(result: Identification, *, length: str = "mm", angle: str = "deg", title: str | None = None) -> str:
     """The HTML text of :func:`write_report`."""
-    from ..identify import to_json  # noqa: PLC0415
+    from ..identification import to_json  # noqa: PLC0415
 
     go, make_subplots = _plotly()
     ls = length_scale(length)

@@ -1,0 +1,311 @@
+"""The measurement model ``auto`` chooses: the global joint fit with or without a home drift and reading scales, by
+the evidence (Schwarz's criterion; the scales' marginal likelihood, Wakefield's approximate Bayes factor)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import replace
+
+import numpy as np
+
+from ..errors import NotConvergedError
+from ..fitting.joint import TrackerNoise, fit_sweeps
+from ..fitting.readings import READINGS_WORTHLESS
+from ..fitting.result import axis_sigmas
+from ..fitting.robust import _Levels, flag_outliers
+from ..sweeps import SweepSet
+from .frames import SHORT_ARC
+from .prepare import _motions
+
+
+def _joint_fits(sweeps: SweepSet, fits: list, res: dict, cov: np.ndarray, loss: str, label: str) -> list:
+    """The per-joint view (AxisFit) of a joint fit's result ``res`` (:func:`~denavit.fitting.joint.fit_sweeps`),
+    ``cov`` the covariance of [c_1, n_1, ..., p]."""
+    out = []
+    ph = res["home"].mean(axis=0)
+    for k, (s, f) in enumerate(zip(sweeps.sweeps, fits, strict=True)):
+        j = s.joint - 1
+        c, nv = res["points"][j], res["directions"][j]
+        cov6 = cov[6 * j : 6 * j + 6, 6 * j : 6 * j + 6]
+        sp, sd = axis_sigmas(cov6, nv)
+        mis = res["misfit"][k]
+        radius = float(np.linalg.norm(ph - c)) if sweeps.kinds[j] == "revolute" else math.nan
+        out.append(replace(f, point=c, direction=nv, radius=radius, residuals=mis, rms=float(math.sqrt(np.mean(mis**2))), cov=cov6,
+                           sigma_point_perp=sp, sigma_direction=sd, outliers=flag_outliers(res["whitened"][k], res["components"], 1.0),
+                           method=label if loss == "linear" else f"{label}+{loss}", reading_sigma=res["reading_sigma"][k], noise=res["sigma"],
+                           scale=1 + res["scales"][j] if np.isfinite(res["scale_sigma"][j]) else f.scale, scale_sigma=res["scale_sigma"][j]))
+    return out
+
+
+def _with_drift(sweeps: SweepSet, res: dict) -> tuple[np.ndarray, float]:
+    """The covariance of [c_j, n_j, ..., p] of a per-sweep-home fit: the home points averaged, and the drift
+    between sweeps (the spread of the per-sweep home points, sigma_d per coordinate) added to every axis point and
+    to the home point, since a drifting robot moves its axes with it (the scatter beyond the home points' own
+    estimation error). Returns (cov, sigma_d)."""
+    homes = res["home"]
+    S = len(homes)
+    n6 = res["cov"].shape[0] - 3 * S
+    T = np.zeros((n6 + 3, n6 + 3 * S))
+    T[:n6, :n6] = np.eye(n6)
+    for k in range(S):
+        T[n6:, n6 + 3 * k : n6 + 3 * k + 3] = np.eye(3) / S
+    cov = T @ res["cov"] @ T.T
+    # the scatter of the home points beyond their own estimation error, across each sweep's motion only (along
+    # it a home point rests on the readings, whose scale errors are not white: geometry alone is trusted)
+    dev = homes - homes.mean(axis=0)
+    ss, est = 0.0, 0.0
+    for k, sweep in enumerate(sweeps.sweeps):
+        j = sweep.joint - 1
+        t = np.cross(res["directions"][j], homes[k] - res["points"][j])
+        t = t / max(np.linalg.norm(t), 1e-300) if sweeps.kinds[j] == "revolute" else res["directions"][j]
+        P = np.eye(3) - np.outer(t, t)
+        ss += float(dev[k] @ P @ dev[k])
+        est += float(np.trace(P @ res["cov"][n6 + 3 * k : n6 + 3 * k + 3, n6 + 3 * k : n6 + 3 * k + 3] @ P)) * (S - 1) / S
+    sd2 = max(ss - est, 0.0) / (2 * max(S - 1, 1))
+    for j in range(n6 // 6):
+        cov[6 * j : 6 * j + 3, 6 * j : 6 * j + 3] += sd2 * np.eye(3)
+    cov[n6:, n6:] += sd2 * np.eye(3)
+    return cov, math.sqrt(sd2)
+
+
+def _bic(simple: dict, rich: dict, k: int, n_res: int) -> float:
+    """Schwarz's criterion of the richer of two nested joint fits on the same weights: the chi-square it gains,
+    less its ``k`` extra parameters times ln(residuals) (positive: the richer model wins). The AIC's 2 per
+    parameter picked a drift on exact 30 degree data in 3 % of runs (a home per sweep trades with the tilt of an
+    axis about its arc's tangent)."""
+    return (simple["ss_m"] - rich["ss_m"]) / rich["sigma"] ** 2 - k * math.log(n_res)
+
+
+def _scale_cross(g: dict, n: int) -> np.ndarray:
+    """The joint fit's scales' covariance with [c_1, n_1, ..., p] (6n+3, n): its home points averaged, as in the
+    axes' covariance."""
+    n6, cross = 6 * n, g["scale_cross"]
+    return np.vstack([cross[:n6], cross[n6:].reshape(-1, 3, n).mean(axis=0)])
+
+
+#: The joints' scale spread tau^2 is the Q-profile's tau^2 at this level of its chi-square (:func:`_scale_spread`): at
+#: 0.5, the median-unbiased estimate. Its 90 % lower bound (used before) took real scale errors as smaller than they
+#: are whenever few joints showed them (one 1.2 m joint-2 axis 60 um off at 3 of its sigmas), and fitting scales
+#: joint by joint by the BIC put a chance 2.9-sigma joint-2 scale on exact 30 degree readings at full weight (d1, a1,
+#: theta2 and a2 off by 2.7-2.9 of their sigmas): 0.6x the Monte Carlo spread in sigma on that protocol.
+SCALE_SPREAD_LEVEL = 0.5
+
+
+def _scale_spread(s: np.ndarray, sigma: np.ndarray) -> float:
+    """The spread tau^2 of the joints' true reading scale errors, taken as a zero-mean normal population, from their
+    estimates ``s`` with one-sigma ``sigma``: the tau^2 at which the Q statistic sum s^2 / (sigma^2 + tau^2) equals
+    its chi-square quantile at ``SCALE_SPREAD_LEVEL`` with one degree per joint (the Q-profile, Viechtbauer 2007, with
+    the mean known to be zero); zero when the estimates scatter less. Continuous in the estimates.
+
+    Q is convex and falling in tau^2, so Newton's steps from zero rise to the root without passing it (no bracket;
+    no scipy: importing scipy.stats and scipy.optimize for this had cost identify 2-3 s)."""
+    if len(s) == 0:
+        return 0.0
+    bound = CHI2_MEDIAN[len(s)] if SCALE_SPREAD_LEVEL == 0.5 else _chi2_quantile(SCALE_SPREAD_LEVEL, len(s))
+    s2, v = np.asarray(s, dtype=float) ** 2, np.asarray(sigma, dtype=float) ** 2
+    t = 0.0
+    if float(np.sum(s2 / v)) <= bound:
+        return 0.0
+    for _ in range(500):
+        w = s2 / (v + t)
+        step = (float(np.sum(w)) - bound) / float(np.sum(w / (v + t)))
+        t += step
+        if abs(step) <= 1e-15 * t:
+            break
+    return float(max(t, 0.0))
+
+
+def _chi2_quantile(level: float, k: int) -> float:
+    from scipy.stats import chi2  # noqa: PLC0415 (scipy is loaded when first needed)
+
+    return float(chi2.ppf(level, k))
+
+
+#: The chi-square's median (scipy.stats chi2.ppf(0.5, k)) for k degrees of freedom: the Q-profile's level
+#: (:func:`_scale_spread`), k one per swept joint; more joints from scipy.
+CHI2_MEDIAN = _Levels({1: 0.454936423119572, 2: 1.386294361119891, 3: 2.3659738843753377, 4: 3.3566939800333224, 5: 4.351460191095526,
+                       6: 5.348120627447118, 7: 6.345811195521515, 8: 7.344121497701794, 9: 8.342832692252955, 10: 9.34181776559197,
+                       11: 10.340998074391827, 12: 11.34032237742414}, lambda k: _chi2_quantile(0.5, k))
+
+
+def _scale_evidence(s: np.ndarray, C: np.ndarray) -> tuple[float, float]:
+    """The evidence that the joints' reading scales err at all: the freely fitted scale estimates ``s`` (k,), with
+    their covariance ``C`` (k, k) (marginal over every other parameter of that fit), are under the population model
+    N(0, C + tau^2 I) (the scales drawn from N(0, tau^2), integrated out: the marginal, or restricted, likelihood of
+    the linearised fit, in which every parameter shared with the exact-scale fit cancels), and N(0, C) under exact
+    scales (tau = 0, the nested simpler model): the form of Wakefield's approximate Bayes factor (Genet. Epidemiol.
+    33, 2009, 79-86) for a vector of estimates. Returns (2 ln of the likelihood ratio at the maximum over tau^2, that
+    tau^2; both 0 where the maximum is at tau = 0): one hyperparameter against the simpler model, for
+    :func:`_scale_penalty`.
+
+    In C's eigenbasis (eigenvalues l_i, u = V^T s) the log likelihood is -1/2 sum(u_i^2 / (l_i + t) + ln(l_i + t)):
+    its maximum over t = tau^2 >= 0 from a log-spaced grid, refined by golden-section steps between the grid
+    points about the best (the likelihood of heteroscedastic estimates can have more than one local maximum)."""
+    s = np.asarray(s, dtype=float)
+    if len(s) == 0:
+        return 0.0, 0.0
+    lam, V = np.linalg.eigh((np.asarray(C, dtype=float) + np.asarray(C, dtype=float).T) / 2)
+    lam = np.maximum(lam, 1e-300)
+    u2 = (V.T @ s) ** 2
+
+    def ll(t):
+        t = np.atleast_1d(np.asarray(t, dtype=float))[:, None]
+        return -0.5 * np.sum(u2 / (lam + t) + np.log(lam + t), axis=1)
+
+    grid = np.concatenate([[0.0], np.geomspace(1e-6 * lam.min(), 1e3 * max(lam.max(), float(np.sum(u2))), 400)])
+    v = ll(grid)
+    i = int(np.argmax(v))
+    a, b = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
+    g = (math.sqrt(5) - 1) / 2
+    for _ in range(60):  # golden section on [a, b] (the grid's neighbours of its best)
+        x1, x2 = b - g * (b - a), a + g * (b - a)
+        if ll(x1)[0] >= ll(x2)[0]:
+            b = x2
+        else:
+            a = x1
+    t = (a + b) / 2
+    best = max((float(ll(t)[0]), t), (float(v[i]), float(grid[i])))
+    lr = 2 * (best[0] - float(v[0]))
+    return (lr, best[1]) if lr > 0 else (0.0, 0.0)
+
+
+def _scale_penalty(k: int, n_res: int) -> tuple[float, str]:
+    """Schwarz's penalty for the reading scales as a population, and its name for the notes: ln(n) for the one
+    hyperparameter tau (:func:`_scale_evidence`), n the fit's residual count ``n_res``: the rule of the drift's choice
+    (:func:`_bic`), the scales integrated out (Schwarz 1978; Kass & Raftery 1995, sec. 4.1.3). ``k`` the count of
+    scale estimates.
+
+    Shown against the out-of-sample error it stands for, the axes' true error (benchmarks/bench_identify_choice.py,
+    the UR5 of issue 36, 100 seeds per case): on exact readings it fitted scales in 1 % of runs on 30 and on 90 degree
+    arcs (the old rule, any positive spread: 49 and 51 %; n = k, the scale estimates the hyperparameter rests on as a
+    variance component's groups, Pauler 1998: 5 and 2 %), and among the runs where the scale fit and the exact-scale
+    fit differ it chose the one nearer the truth on the axes in 48/49 and 42/51 (n = k: 44/49, 41/51). 200 ppm scale
+    errors on two joints, whose free sigmas are 20-60 ppm on 90 degree arcs, it fitted in every run (axes 0.26x the
+    exact-scale fit's error, median); on 30 degree arcs (sigmas 240-470 ppm) in 1 %, where the scale fit was nearer
+    the truth in 32 of 62 runs and farther in RMS (98 against 75 um): there no rule beat chance (29/62, n = k 26/62)."""
+    return math.log(max(n_res, 1)), f"ln {n_res}"
+
+
+def _reading_scales(richer: Callable, refit: Callable, base: dict, drift: bool, n_res: int) -> tuple[dict | None, dict | None, float, str]:
+    """The readings' scale errors as a population (empirical Bayes): every swept joint's scale fitted once freely
+    (``full``); whether they err at all by the evidence (:func:`_scale_evidence`: the marginal likelihood of the
+    scales as a population N(0, tau^2) against exact scales, one hyperparameter, by Schwarz's criterion,
+    :func:`_scale_penalty`); when they do, the joints' spread tau from those estimates (:func:`_scale_spread`), then
+    every scale refitted with the prior N(0, tau^2) (:func:`~denavit.fitting.joint.fit_sweeps`' ``scale_prior``): a scale the
+    data show (sigma << tau) keeps its value, one they cannot show (sigma >> tau) stays near zero with about tau of
+    uncertainty in its axis, continuously (no joint-by-joint choice: a chance 2.9-sigma scale on exact readings no
+    longer moves its axis by 2.9 of its full sigmas).
+
+    (Before, any tau > 0 fitted the scales: the median-unbiased tau is positive in about half of all runs with exact
+    readings, and on 30 degree arcs, where a scale trades with its axis's radial position (the arc's curvature alone
+    tells them apart), the fitted scales then moved the axes by up to 10x their error with exact scales: issue 36.)
+    Readings whose scales the evidence does not show are taken as exact in scale. Returns (the fit with the prior or
+    None when the scales are not shown or a fit does not converge, the free fit or None, tau (nan without the free
+    fit; 0 when not shown), the evidence in words for the notes)."""
+    full, _ = richer(base, per_sweep_home=drift, scales=True)
+    if full is None:
+        return None, None, math.nan, ""
+    on = np.isfinite(full["scale_sigma"])
+    lr, _ = _scale_evidence(full["scales"][on], full["scale_cov"][np.ix_(on, on)])
+    pen, name = _scale_penalty(int(np.sum(on)), n_res)
+    evidence = f"2 ln(marginal likelihood ratio) {lr:.3g} {'>' if lr > pen else '<='} {name} = {pen:.3g}"
+    tau = math.sqrt(_scale_spread(full["scales"][on], full["scale_sigma"][on]))
+    if lr > pen and not tau > 0:  # (the diagonal Q-profile against the full covariance's likelihood: rare)
+        evidence += ", but the joints' scales scatter within their sigmas (tau = 0)"
+    if not (tau > 0 and lr > pen):
+        return None, full, 0.0, evidence
+    # (with its own weights: the variance components estimated with the scales, as a refit would)
+    post = refit(full, per_sweep_home=drift, scales=True, scale_prior=(tau, base["sigma"]), strict=True)
+    return post, full, tau, evidence
+
+
+def _scale_list(g: dict, n: int) -> str:
+    return ", ".join(f"joint {j + 1} {g['scales'][j] * 1e6:+.4g} +/- {g['scale_sigma'][j] * 1e6:.2g} ppm" for j in range(n) if np.isfinite(g["scale_sigma"][j]))
+
+
+def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, notes: list[str], chosen: str, rotation_noise=None,
+            tracker: TrackerNoise | None = None):
+    """The joint fit(s) with readings: ``chosen`` "global", or "auto" (evidence: the per-sweep fits when the
+    readings are worth nothing, else one home point or one per sweep by the BIC, and the readings' scale errors as a
+    population when the evidence shows them (:func:`_reading_scales`); with scales fitted, a home point per sweep must
+    win again). ``homes0`` (k, 3) the start home points of the targets, ``R0`` the start orientation at home
+    (6-DoF poses) or None. Returns (method, fits, cov, tool point, rms, the joint fit's result or None, scales): ``scales`` None, or
+    when fitted (values (n,), their covariance with [c_1, n_1, ..., p] (6n+3, n), their covariance (n, n)); zeros
+    where a joint's scale was not fitted. ``tracker`` the tracker's range/angle noise model, or None (isotropic)."""
+    dqs = _motions(sweeps, notes)
+    starts = [(f.point, f.direction) for f in fits]
+    try:
+        start = {"offsets0": homes0[1:] - homes0[0], "rotation0": R0, "rotation_sigma": rotation_noise, "tracker": tracker}
+        g = fit_sweeps(sweeps, dqs, starts, homes0[0], loss=loss, where=sweeps.source, **start)
+    except NotConvergedError as e:  # say why when the arcs are short (a 1 degree protocol had ended on "no convergence")
+        short = [(s.joint, f.arc) for s, f in zip(sweeps.sweeps, fits, strict=True) if sweeps.kinds[s.joint - 1] == "revolute" and f.arc < SHORT_ARC]
+        if not short:
+            raise
+        raise NotConvergedError(f"{e} (the arcs are too short: {len(short)} sweeps under {math.degrees(SHORT_ARC):g} deg, down to "
+                                f"{math.degrees(min(a for _, a in short)):.3g} deg on joint {min(short, key=lambda x: x[1])[0]}: sweep longer arcs)") from None
+    method, cov, drift, scales = "global", g["cov"], None, None
+    if chosen == "auto":
+        sq = [f"{math.degrees(v) * 3600:.3g}" for v in g["reading_sigma"]]
+        if np.all(g["gamma"] < READINGS_WORTHLESS):
+            notes.append(f"auto: geometric (per-sweep circles): the readings are worth nothing against the points (estimated reading error {', '.join(sq)} arcsec per sweep)")
+            return "geometric", None, None, None, math.nan, None, None
+        n_res = g["components"] * sum(len(s.points) for s in sweeps.sweeps)
+
+        def richer(base, **kw):
+            """(fit on base's weights, its BIC against base), or (None, -inf) when it does not converge."""
+            try:
+                r = fit_sweeps(sweeps, dqs, list(zip(base["points"], base["directions"], strict=True)), base["home"].mean(axis=0), loss=loss,
+                               gamma=base["gamma"], where=sweeps.source, offsets0=base["offsets"], rotation0=base["rotation"], rotation_sigma=rotation_noise,
+                               tracker=tracker, **kw)
+            except NotConvergedError:  # (e.g. a home per sweep on arcs too short to hold one)
+                return None, -math.inf
+            return r, _bic(base, r, r["n_params"] - base["n_params"], n_res)
+
+        def refit(r, strict=False, **kw):
+            """r refitted with its own weights (the simpler model's tangential misfit held the effect too); r itself, or
+            with ``strict`` None, when that does not converge."""
+            try:
+                return fit_sweeps(sweeps, dqs, list(zip(r["points"], r["directions"], strict=True)), r["home"].mean(axis=0), loss=loss,
+                                  where=sweeps.source, offsets0=r["offsets"], rotation0=r["rotation"], rotation_sigma=rotation_noise,
+                                  tracker=tracker, **kw)
+            except NotConvergedError:
+                return None if strict else r
+
+        g_global = g
+        d, bic = richer(g, per_sweep_home=True)
+        if bic > 0:
+            g, method = refit(d, per_sweep_home=True), "readings"
+            cov, sd = _with_drift(sweeps, g)
+            notes.append(f"auto: readings (a home point per sweep) over global (one home point): BIC lower by {bic:.3g}; the home tool point "
+                         f"moves {sd * 1e3:.3g} mm (1 sigma per coordinate) between sweeps, added to every axis's uncertainty")
+        else:
+            why = f"BIC lower by {-bic:.3g}" if d is not None else "a home point per sweep does not converge on these arcs"
+            notes.append(f"auto: global (one home point) over readings (a home point per sweep): {why}; estimated reading error "
+                         f"{', '.join(sq)} arcsec per sweep, point noise {g['sigma'] * 1e3:.3g} mm")
+        drift = method == "readings"
+        post, full, tau, evidence = _reading_scales(richer, refit, g, drift, n_res)
+        if drift and post is not None:
+            # the drift was chosen before the scales: unmodelled scale errors look like a drift; with the scales
+            # fitted, a home point per sweep must pay for itself again (the BIC, on the same weights)
+            gs = refit(g_global, scales=True, scale_prior=(tau, g_global["sigma"]), strict=True)
+            dd, bic_d = richer(gs, per_sweep_home=True, scales=True, scale_prior=(tau, g_global["sigma"])) if gs is not None else (None, math.inf)
+            if bic_d <= 0:
+                why = f"BIC higher by {-bic_d:.3g}" if dd is not None else "a home point per sweep does not converge with the scales"
+                notes.append(f"auto: with the reading scales fitted, one home point again ({why}): the drift was the scale errors")
+                method, drift, cov, g = "global", False, g_global["cov"], g_global
+                post, full, tau, evidence = _reading_scales(richer, refit, g, drift, n_res)
+        if post is not None:
+            g = post
+            cov = _with_drift(sweeps, g)[0] if drift else g["cov"]
+            scales = (g["scales"].copy(), _scale_cross(g, sweeps.n_joints), g["scale_cov"])
+            notes.append(f"auto: the readings' scale errors fitted (the evidence shows them as a population: {evidence}; the joints' scales scatter "
+                         f"by tau = {tau * 1e6:.3g} ppm beyond their sigmas, each fitted with that spread as its prior: one the data cannot show stays "
+                         f"near zero): {_scale_list(g, sweeps.n_joints)}")
+        else:
+            why = ("n/a: no convergence" if full is None or tau > 0 else  # (tau > 0 without a fit: the one with the prior did not converge)
+                   f"the evidence does not show them: {evidence}; the joints' scale estimates: {_scale_list(full, sweeps.n_joints)}; taken as exact in scale")
+            notes.append(f"auto: no reading scale errors fitted ({why}); a scale error the data cannot show moves each axis radially by about the "
+                         "scale times the arc's radius")
+    mis = np.concatenate(g["misfit"])
+    return method, _joint_fits(sweeps, fits, g, cov, loss, method), cov, g["home"].mean(axis=0), float(math.sqrt(np.mean(mis**2))), g, scales

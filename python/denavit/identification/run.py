@@ -1,0 +1,229 @@
+"""The identification itself (:func:`identify`): the steps of the other modules in order."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import replace
+
+import numpy as np
+
+from .. import _core
+from ..errors import DegenerateError, DenavitError
+from ..fitting.checks import check_loss, check_positive, check_sweep_labels, misfit_notes, nominal_plausibility
+from ..fitting.joint import TrackerNoise, as_tracker_noise, start_homes
+from ..robot import Robot
+from ..sweeps import SweepSet
+from .choice import _choose
+from .frames import PARALLEL_TOL, SHORT_ARC_SIGMA, _axes_from, _edh_parallel_tol, _oriented_by_nominal, _parameter_cov, _short_arc_notes, _tool_frame, nominal_convention_table, origins
+from .prepare import _drop_dwell, _locked_notes, _per_sweep, _tool_point_geometric, decoupled, sweep_where
+from .result import _DROPPED_TILT, METHODS, ROUND_OFF, Identification
+
+
+def identify(
+    sweeps: SweepSet,
+    *,
+    method: str = "auto",
+    convention: str = "dh",
+    nominal: Robot | None = None,
+    T_world_base=None,
+    loss: str = "soft_l1",
+    parallel_tol: float = PARALLEL_TOL,
+    intersect_tol: float | None = None,
+    max_sigma: float | None = None,
+    keep_dwell: bool = False,
+    coupling=None,
+    rotation_noise: float | None = None,
+    tracker_noise: TrackerNoise | tuple | None = None,
+    allow_implausible: bool = False,
+    progress: Callable[[str], None] | None = None,
+) -> Identification:
+    """Identify the joint axes and the parameter table of ``convention`` from ``sweeps``.
+
+    method : "auto" (chosen by the evidence, with a note saying which and why: without readings "geometric";
+        with readings the joint fit with one home point ("global") or one per sweep ("readings": the home
+        drifted, and the drift is added to the sigmas) by the BIC of the two on the same weights, or the
+        "geometric" circles when the readings are worth nothing against the points; then the readings' scale
+        errors, fitted as one population only when the evidence shows them: :func:`_reading_scales`), "kasa" (the
+        paper's eq. 1-9), "hyper" (Al-Sharadqah & Chernov 2009), "geometric" (orthogonal distance),
+        "readings" (per sweep, points as rotations of one rigid point by the recorded angles), "global".
+    nominal : a robot of any convention; breaks sign ties, fixes free origins and the last frame
+        (docs/conventions.md), gives names and limits.
+    T_world_base : (4, 4) base frame in the measurement frame (default: the measurement frame itself). When
+        given, the nominal stands on it (its base frame is the robot base); otherwise the nominal's world is
+        taken as the measurement frame.
+    loss : "soft_l1" (default), "huber" or "linear": per-point robust loss of the geometric, readings and global
+        fits (its scale 3 robust sigmas of the misfits); outlying points are flagged in each fit's ``outliers``, never
+        dropped. The robust default is free on clean data (the axes and sigmas of 0.02 mm Gaussian noise are those of
+        "linear" within a few percent) and keeps one blunder from moving an axis (a 5 mm blunder moved one by 0.74
+        mm with "linear"; issue 16).
+    max_sigma : float, metres, optional
+        The accuracy asked for: a sweep whose predicted axis-position uncertainty (1 sigma, across the axis)
+        exceeds it is an error that names the sweep and the predicted value (e.g. an arc too short).
+    keep_dwell : keep the dwell rows in the fits. By default the rows where the motion stands still (within the
+        point noise) at the ends of a sweep are left out of the fits (they would weigh one end of the arc many
+        times over), with a note naming them; the result's ``sweeps`` are the rows fitted.
+    coupling : (n, n), optional
+        Joint values from the controller's readings, ``q = coupling @ reading`` (default: the nominal's
+        ``coupling``, from its robot file's ``[couplings]``; else the readings are the joint values).
+    rotation_noise : float, rad, optional
+        6-DoF poses: the orientation noise (1 sigma per component of the rotation vector) that weights the
+        orientation residuals against the points; default estimated from the data (a variance component).
+    tracker_noise : :class:`~denavit.fitting.joint.TrackerNoise` or (sigma_range m, sigma_angle rad[, position (3,)
+        m]), optional
+        The tracker's range/angle noise model: each point's noise is sigma_range along the line of sight from the
+        tracker (at ``position`` in the data's frame, default the origin: a tracker's own frame) and sigma_angle
+        times the range across it; the joint fit weights every point by the inverse of that covariance, whose
+        overall scale stays estimated from the data (its shape only is declared). Default: isotropic point noise.
+        The geometric circles weight their points by it too; the other per-sweep methods (kasa, hyper: algebraic;
+        readings) take the points as isotropic (with a note).
+
+    Several targets per pose (:attr:`~denavit.sweeps.Sweep.targets`, 2-4 SMRs on a nest) and 6-DoF poses
+    (:attr:`~denavit.sweeps.Sweep.rotations`) are one joint fit with shared axes (methods "global", "readings",
+    and "auto" with readings; :func:`~denavit.fitting.joint.fit_sweeps`), and the tool frame's orientation is then
+    identified with its covariance (:attr:`Identification.tool_orientation`, :data:`TOOL_ORIENTATION`). The
+    per-sweep methods fit the first target alone.
+    allow_implausible : keep a fit that is implausible against the nominal (the axes its mirror image, matching it
+        with two joints exchanged, or most pairs of axes far from its: a unit slip, the wrong robot), with a note;
+        by default it is an error (issue 16: such fits had come back with small sigmas and no word).
+    progress : called with a short message as each stage starts (the CLI shows it).
+    """
+    progress = progress or (lambda _msg: None)
+    if not isinstance(sweeps, SweepSet):
+        raise DenavitError(f"identify: expected a SweepSet, got {type(sweeps).__name__}: denavit.identify(path, nominal=...) reads files and names")
+    if nominal is not None and not isinstance(nominal, Robot):
+        from ..calibration.parametrization import as_robot  # noqa: PLC0415
+
+        nominal = as_robot(nominal)  # a built-in name, a robot file or a Model, as calibrate takes
+    if method not in METHODS:
+        raise DenavitError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
+    check_loss(loss, None, "identify")
+    check_positive("max_sigma", max_sigma, "identify")
+    convention = _core.convention_info(convention)["name"]
+    tracker = as_tracker_noise(tracker_noise)
+    n = sweeps.n_joints
+    if nominal is not None and len(nominal.names) != n:
+        raise DenavitError(f"nominal model {nominal.name} has {len(nominal.names)} joints, the data has {n}")
+    coupling = coupling if coupling is not None else (nominal.coupling if nominal is not None else None)
+    if coupling is not None:
+        sweeps = decoupled(sweeps, coupling)
+    check_sweep_labels(sweeps, [sweep_where(x, sweeps.source) for x in sweeps.sweeps])
+    notes = _locked_notes(sweeps)
+    if not keep_dwell:
+        sweeps = _drop_dwell(sweeps, notes)
+    chosen = method
+    if method == "auto":
+        method = "global" if sweeps.has_readings else "geometric"
+        if method == "geometric":
+            notes.append("auto: geometric (per-sweep circles): the data has no joint readings")
+    fits = _per_sweep(sweeps, method, loss, max_sigma if method != "global" else None, progress, tracker)
+    homes0, R0 = start_homes(sweeps, [(f.point, f.direction) for f in fits]) if sweeps.has_readings else (None, None)
+    p_home = homes0[0] if sweeps.has_readings else _tool_point_geometric(sweeps, fits)
+    cov, joint, scales = None, None, None
+    if method == "global":
+        what = f"{sweeps.n_targets} targets per pose" if sweeps.n_targets > 1 else "shared tool point"
+        progress(f"one fit of all {len(sweeps.sweeps)} sweeps ({what}{', 6-DoF poses' if sweeps.has_rotations else ''})")
+        method, gfits, gcov, gp, grms, joint, scales = _choose(sweeps, fits, homes0, R0, loss, notes, chosen, rotation_noise, tracker)
+        if gfits is None:  # the readings are worthless: the per-sweep geometric circles
+            fits = _per_sweep(sweeps, method, loss, max_sigma, progress, tracker)
+            p_home = _tool_point_geometric(sweeps, fits)
+        else:
+            fits, cov, p_home, rms = gfits, gcov, gp, grms
+            for s, f in zip(sweeps.sweeps, fits, strict=True):
+                if max_sigma is not None and f.sigma_point_perp > max_sigma:
+                    raise DegenerateError(f"{sweep_where(s, sweeps.source)}: predicted axis-position uncertainty {f.sigma_point_perp * 1e3:.3g} mm (1 sigma) "
+                                          f"exceeds the requested {max_sigma * 1e3:.3g} mm; the sweep covers {np.degrees(f.arc):.1f} deg: sweep a longer arc or measure more points")
+    if cov is None:
+        cov = np.zeros((6 * n + 3, 6 * n + 3))
+        for j, f in enumerate(fits):
+            cov[6 * j : 6 * j + 6, 6 * j : 6 * j + 6] = f.cov
+        # the tool point: the spread of its per-point estimates
+        cov[6 * n :, 6 * n :] = np.eye(3) * float(np.mean([f.rms for f in fits])) ** 2 / max(sum(f.n_points for f in fits), 1)
+        rms = float(math.sqrt(np.mean([f.rms**2 for f in fits])))
+    if tracker is not None:
+        model = (f"the tracker's noise model (range {tracker.sigma_range * 1e6:.3g} um, angles {math.degrees(tracker.sigma_angle) * 3600:.3g} arcsec, "
+                 f"tracker at {', '.join(f'{v:.4g}' for v in tracker.position)} m)")
+        if joint is not None:
+            notes.append(f"{model} weights the points (its shape; the scale from the data): point noise {joint['sigma'] * 1e3:.3g} mm RMS per "
+                         f"coordinate, {joint['sigma'] / math.sqrt(joint['tracker_ref2']):.3g} times the declared")
+        elif method == "geometric":
+            notes.append(f"{model} weights each circle's points (its shape; the scale from the data)")
+        else:
+            notes.append(f"{model} is used by the joint fit (method global or auto, with readings) and the geometric circles; the {method} fit takes the "
+                         "points as isotropic")
+    if joint is None and (sweeps.n_targets > 1 or sweeps.has_rotations):
+        notes.append(f"the {method} fit uses the first target's points alone: {sweeps.n_targets} targets per pose"
+                     f"{' and 6-DoF poses' if sweeps.has_rotations else ''} are one fit with shared axes in the joint fit (method global or auto, with readings)")
+    base = np.eye(4) if T_world_base is None else np.asarray(T_world_base, dtype=float)
+    if T_world_base is not None and nominal is not None:  # the nominal's base frame is the robot base given
+        t = nominal.table
+        nominal = replace(nominal, table=_core.Table(t.convention, t.params, t.kinds, base, t.T_last_tool))
+    nominal_table = nominal_convention_table(nominal, convention, sweeps.home)
+    if nominal is not None:  # the nominal flange orientation at home
+        tool_R = _core.fk(nominal.model().with_tool(np.eye(4)), sweeps.home)[:3, :3]
+    else:
+        tool_R = np.eye(3)
+    tool_R, orientation, G_rot = _tool_frame(sweeps, joint, tool_R, notes)
+    rot_cov, target_points = None, None
+    if joint is not None and sweeps.n_targets > 1:
+        ph = joint["home"].mean(axis=0)
+        target_points = np.vstack([ph, ph + joint["offsets"]])
+    if G_rot is not None:  # the covariance of [axes, tool point, tool rotation]: the chosen cov, and the rotation's from the joint fit
+        ca = joint["cov_all"]
+        n6, H = 6 * n, joint["n_homes"]
+        Gf = np.zeros((n6 + 6, ca.shape[0]))
+        Gf[:n6, :n6] = np.eye(n6)
+        for k in range(H):
+            Gf[n6 : n6 + 3, n6 + 3 * k : n6 + 3 * k + 3] = np.eye(3) / H
+        Gf[n6 + 3 :] = G_rot
+        full = Gf @ ca @ Gf.T
+        full[: n6 + 3, : n6 + 3] = cov
+        rot_cov = full[n6 + 3 :, n6 + 3 :]
+    lower = nominal.lower if nominal is not None else None
+    upper = nominal.upper if nominal is not None else None
+    if nominal is not None and not sweeps.has_readings:
+        fits = _oriented_by_nominal(sweeps, fits, nominal, notes)
+    x = np.concatenate([np.concatenate([f.point, f.direction]) for f in fits] + [p_home])
+    cov_full = cov if rot_cov is None else full
+    tol = _edh_parallel_tol(fits, nominal, sweeps.home, parallel_tol) if convention == "edh" else parallel_tol
+    opts = {"parallel_tol": tol, "nominal": nominal_table, "origins": origins(nominal_table, convention, sweeps.home)}
+    if intersect_tol is not None:
+        opts["intersect_tol"] = intersect_tol
+    ax = _axes_from(x, sweeps, tool_R, base, lower, upper)
+    ex = _core.extract(ax, convention, **opts)
+    short = _short_arc_notes(sweeps, fits, notes)
+    misfit_notes(sweeps, fits, [sweep_where(x, sweeps.source) for x in sweeps.sweeps], notes)
+    if nominal is not None:
+        nominal_plausibility(ex, fits, nominal, sweeps.home, nominal.names, sweeps.source, notes, short, SHORT_ARC_SIGMA, allow_implausible,
+                             lone_axis=not sweeps.has_readings)
+    p_ref = ex.table.params
+    full_cov = None
+    if scales is not None:  # [axes, tool point, reading scales]: the scales' covariance with the axes kept
+        full_cov = np.block([[cov, scales[1]], [scales[1].T, scales[2]]])
+    # [axes, tool point (, tool rotation) (, reading scales)]: the tool rotation's covariance with the scales is not
+    # carried (the scales come from the same fit; their cross terms with the rotation are dropped)
+    cov_all = cov_full
+    if scales is not None:
+        n_r = len(cov_full) - len(cov)
+        cross = np.vstack([scales[1], np.zeros((n_r, scales[1].shape[1]))])
+        cov_all = np.block([[cov_full, cross], [cross.T, scales[2]]])
+    progress(f"{convention} parameters and their sigmas")
+    param_cov = _parameter_cov(x, cov_all, ax, sweeps, convention, opts, p_ref, n_rot=len(cov_full) - len(cov))
+    sigma = np.sqrt(np.clip(np.diag(param_cov), 0, None))[: p_ref.size].reshape(p_ref.shape)
+    for pd in ex.pairs:
+        if pd.relation == "parallel" and abs(pd.hayati_beta) > 0 and convention in ("dh", "mdh"):
+            notes.append(f"axes {pd.joint}-{pd.joint + 1} treated as parallel: misalignment {math.degrees(pd.hayati_beta):.2e} deg (Hayati beta) is not representable in {convention}")
+    result = Identification(method, convention, ax, fits, ex, sigma, cov, p_home, sweeps, nominal, nominal_table, rms, notes, param_cov,
+                            reading_scale=None if scales is None else scales[0], axis_scale_cov=full_cov, coupling=coupling,
+                            tool_orientation=orientation, tool_rotation_cov=rot_cov, target_points=target_points,
+                            tracker_noise=tracker if joint is not None or method == "geometric" else None)
+    if convention in ("dh", "mdh", "edh"):  # what the table carries, measured as --save states it (Identification.carried_error)
+        carried = result.carried_error()[0] if convention == "edh" else result.carried_error(convention)[0]
+        if carried > 1e-6:
+            edh = carried if convention == "edh" else result.carried_error("edh")[0]
+            if convention != "edh":
+                exact = "POE is exact; " + (f"ED-H carries {edh * 1e3:.4f} mm: it is exact except {_DROPPED_TILT}" if edh > ROUND_OFF else "ED-H is exact")
+            else:
+                exact = f"it is exact except {_DROPPED_TILT}; POE is exact"
+            notes.append(f"the {convention} table carries a tool-position error up to {carried * 1e3:.4f} mm ({exact})")
+    return result
