@@ -169,16 +169,36 @@ def pin_ik_frame(pm, pd, fid, T, q0, tol=1e-9, it_max=100, damp=1e-12):
     return q
 
 
-def ik_one_attempt(models, n, have_rtb, have_pin, tol=1e-9):
+def iiwa14():
+    """The KUKA LBR iiwa 14 R820, a second 7R arm (standard DH: d = 0.36, 0, 0.42, 0, 0.4, 0, 0.126 m, a = 0,
+    alpha = -90, 90, 90, -90, -90, 90, 0 deg; limits +-170, 120, 170, 120, 170, 120, 175 deg): joint i's placement
+    is link i-1's DH transform Tz(d) Rx(alpha), the last one's the flange."""
+    def dh(d, alpha):
+        c, s = np.cos(alpha), np.sin(alpha)
+        T = np.eye(4)
+        T[1:3, 1:3] = [[c, -s], [s, c]]
+        T[2, 3] = d
+        return T
+    d = (0.36, 0.0, 0.42, 0.0, 0.4, 0.0, 0.126)
+    alpha = np.radians([-90, 90, 90, -90, -90, 90, 0])
+    placements = np.array([np.eye(4)] + [dh(d[i], alpha[i]) for i in range(6)])
+    lim = np.radians([170, 120, 170, 120, 170, 120, 175])
+    return dv.Model.from_placements(placements, ["revolute"] * 7, lower=-lim, upper=lim, T_last_flange=dh(d[6], alpha[6]),
+                                    name="iiwa14")
+
+
+def ik_one_attempt(models, n, have_rtb, have_pin, tol=1e-9, respect_limits=True):
     """One attempt (no restarts, 100 iterations) from q0 = 0.3 rad on random reachable targets (q uniform within
     the limits, clipped to +-pi; generator seed 7 per robot): the success rate judged here from the measured pose
     error (and the limits) and the median time per solve, for denavit's Newton and LM, rtb's ik_NR / ik_LM
     (slimit=1: one search from the same q0, ilimit=100, joint_limits=True) and pinocchio's CLIK (a Python loop
-    over its C++ calls). rtb gets the same targets and start on the same chain, built from denavit's table (its
-    own models.DH.Puma560 / UR5 / KR5 are other robots: a 0.672 m base height, d1 = 89.459 mm and +-180 deg
+    over its C++ calls). With `respect_limits=False` no solver is held to the limits nor judged on them, and q0 is
+    0.3 rad at every joint (with the limits, q0 is clipped into them: the Panda's q4 <= -0.07 rad). rtb gets the
+    same targets and start on the same chain, built from denavit's table (its own models.DH.Puma560 / UR5 / KR5 are other robots: a 0.672 m base height, d1 = 89.459 mm and +-180 deg
     limits, other axis senses; checked here by FK at 5 configurations). denavit's first attempt starts from the
     closed-form branches of the 6R built-ins (within the limits, nearest q0 first, polished by Newton) whatever
-    the method; the 7-joint arm has no closed form. Every solver's solves are timed back to back and judged
+    the method; the 7-joint arms (Panda, iiwa) start from the semi-analytic seeds (q7 sampled from q0's outwards,
+    each sample's 6R in closed form, nearest q0 first). Every solver's solves are timed back to back and judged
     afterwards (:func:`timed`); denavit's are timed a second time with each judged before the next, whose numpy
     work between the calls leaves the solver's code and data out of the caches (about 2-3 us more per solve on
     a 2 GHz server core)."""
@@ -188,10 +208,11 @@ def ik_one_attempt(models, n, have_rtb, have_pin, tol=1e-9):
         lo, hi = np.maximum(m.lower, -np.pi), np.minimum(m.upper, np.pi)
         qs = rng.uniform(lo, hi, (n, m.nq))
         Ts = dv.fk_batch(m, qs)
-        q0 = np.clip(np.full(m.nq, 0.3), m.lower, m.upper)
+        q0 = np.clip(np.full(m.nq, 0.3), m.lower, m.upper) if respect_limits else np.full(m.nq, 0.3)
 
         def judge(q, T, m=m):
-            return max(pose_error(dv.fk(m, q), T)) <= tol + 1e-15 and bool(np.all((q >= m.lower) & (q <= m.upper)))
+            within = not respect_limits or bool(np.all((q >= m.lower) & (q <= m.upper)))
+            return max(pose_error(dv.fk(m, q), T)) <= tol + 1e-15 and within
 
         cells = []
         for method in ("newton", "lm"):
@@ -199,7 +220,7 @@ def ik_one_attempt(models, n, have_rtb, have_pin, tol=1e-9):
             times, results = [], []
             for T in Ts:
                 t = time.perf_counter()
-                r = dv.ik(m, T, q0, method=method, restarts=0, tol_position=tol, tol_rotation=tol)
+                r = dv.ik(m, T, q0, method=method, restarts=0, tol_position=tol, tol_rotation=tol, respect_limits=respect_limits)
                 times.append(time.perf_counter() - t)
                 results.append(r)
             ok = sum(judge(r.q, T) and r.success for r, T in zip(results, Ts))
@@ -207,14 +228,14 @@ def ik_one_attempt(models, n, have_rtb, have_pin, tol=1e-9):
             between = []
             for T in Ts:
                 t = time.perf_counter()
-                r = dv.ik(m, T, q0, method=method, restarts=0, tol_position=tol, tol_rotation=tol)
+                r = dv.ik(m, T, q0, method=method, restarts=0, tol_position=tol, tol_rotation=tol, respect_limits=respect_limits)
                 between.append(time.perf_counter() - t)
                 judge(r.q, T)
             cells.append(f"{100 * ok / n:.1f} %, {np.median(times) * 1e6:.2f} us ({np.median(between) * 1e6:.2f} us between other work)")
         for solver in ("ik_NR", "ik_LM") if have_rtb else ():
             robot = rtb_robot_with_limits(m)
             assert all(np.allclose(robot.fkine(q).A, dv.fk(m, q), atol=1e-12) for q in qs[:5]), f"rtb's {name} is not ours"
-            times, results = timed(Ts, lambda T, robot=robot, solver=solver, q0=q0: getattr(robot, solver)(T, q0=q0, ilimit=100, slimit=1, tol=1e-20, joint_limits=True))
+            times, results = timed(Ts, lambda T, robot=robot, solver=solver, q0=q0: getattr(robot, solver)(T, q0=q0, ilimit=100, slimit=1, tol=1e-20, joint_limits=respect_limits))
             ok = sum(judge(np.asarray(s[0] if isinstance(s, tuple) else s.q), T) for s, T in zip(results, Ts))
             cells.append(f"{100 * ok / n:.1f} %, {np.median(times) * 1e6:.2f} us")
         if have_pin:
@@ -225,7 +246,7 @@ def ik_one_attempt(models, n, have_rtb, have_pin, tol=1e-9):
             cells.append(f"{100 * ok / k:.1f} %, {np.median(times) * 1e6:.2f} us ({k} targets, limits not enforced nor judged)")
         else:
             cells.append("-")
-        rows.append((name, *cells))
+        rows.append((name + ("" if respect_limits else ", no limits"), *cells))
     return rows
 
 
@@ -243,9 +264,11 @@ def timed(targets, solve):
 
 def print_one_attempt(rows, have_rtb):
     print("IK, one attempt (restarts=0, 100 iterations) from q0 = 0.3 rad, random reachable targets, pose error <= 1e-9 "
-          "and within limits: success rate, median time per solve, solves back to back, judged afterwards (denavit's: in brackets, "
+          "and within limits (rows 'no limits': limits neither enforced nor judged): success rate, median time per solve, solves back to back, judged afterwards (denavit's: in brackets, "
           "each solve judged before the next) (target: >= 97 %, <= 5 us, never below rtb)")
     head = ("robot", "denavit newton", "denavit lm", *(("rtb ik_NR", "rtb ik_LM") if have_rtb else ()), "pinocchio CLIK (Python loop)")
+    if not have_rtb:
+        print("(roboticstoolbox not installed or --no-compare: no rtb columns)")
     print("| " + " | ".join(head) + " |")
     print("|" + "---|" * len(head))
     for r in rows:
@@ -260,6 +283,7 @@ def main():
     ap.add_argument("--json", help="also write the figures to this JSON file")
     ap.add_argument("--no-compare", action="store_true", help="denavit only")
     ap.add_argument("--ik-one-attempt", action="store_true", help="only the table of IK with one attempt")
+    ap.add_argument("--ik-targets", type=int, help="targets per robot of the IK one-attempt table (default 500, 100 with --quick)")
     args = ap.parse_args()
     rep = 5 if args.quick else 21
     have_rtb = rtb is not None and not args.no_compare
@@ -267,11 +291,13 @@ def main():
     versions = (f"denavit {dv.__version__}" + (f", roboticstoolbox {rtb.__version__}" if have_rtb else "")
                 + (f", pinocchio {pin.__version__}" if have_pin else "") + f"; {os.cpu_count()} cores; medians")
     urdf = os.path.join(os.path.dirname(__file__), "..", "tests", "data", "urdf", "panda_style.urdf")
-    chains = [(n, dv.load_model(n)) for n in ("kr5", "ur5", "puma560", "tiansui_mdh")] + [("panda_style.urdf (7 joints)", dv.load_model(urdf))]
-    n_one = 100 if args.quick else 500
+    arms7 = [("panda_style.urdf (7 joints)", dv.load_model(urdf)), ("iiwa14 (7 joints)", iiwa14())]
+    chains = [(n, dv.load_model(n)) for n in ("kr5", "ur5", "puma560", "tiansui_mdh")] + arms7
+    n_one = args.ik_targets or (100 if args.quick else 500)
     if args.ik_one_attempt:
         print(versions)
-        print_one_attempt(ik_one_attempt(chains, n_one, have_rtb, have_pin), have_rtb)
+        one = ik_one_attempt(chains, n_one, have_rtb, have_pin) + ik_one_attempt(arms7, n_one, have_rtb, have_pin, respect_limits=False)
+        print_one_attempt(one, have_rtb)
         return
 
     mdh, edh = dv.load_model("tiansui_mdh"), dv.load_model("tiansui_edh")
@@ -411,7 +437,7 @@ def main():
                  "<= 10 us median, >= 99.9 %"))
 
     # 6. IK, one attempt
-    one = ik_one_attempt(chains, n_one, have_rtb, have_pin)
+    one = ik_one_attempt(chains, n_one, have_rtb, have_pin) + ik_one_attempt(arms7, n_one, have_rtb, have_pin, respect_limits=False)
 
     # the tables
     head = ("case", "denavit", "roboticstoolbox" + ("" if have_rtb else " (not installed)"),

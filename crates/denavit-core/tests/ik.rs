@@ -633,3 +633,40 @@ fn one_attempt_success_on_7r_arms() {
         }
     }
 }
+
+/// An identified Panda or iiwa (each joint placement moved by 0.5 mm and turned by 0.5 mrad) keeps its
+/// semi-analytic seeds (on the nearest ideal structure, no longer exact) and one attempt still solves them by seed
+/// and polish.
+#[test]
+fn identified_7r_arms_solve_from_seeds_and_polish() {
+    for m in [panda(), iiwa14()] {
+        let d = lcg_qs(6, 7, 23, 1.0);
+        let joints: Vec<Joint> = m
+            .joints()
+            .iter()
+            .zip(&d)
+            .map(|(j, v)| {
+                let dp = Vector3::new(v[0], v[1], v[2]).normalize() * 0.5e-3;
+                let dr = Vector3::new(v[3], v[4], v[5]).normalize() * 0.5e-3;
+                Joint { placement: j.placement * Pose::from_parts(Translation3::from(dp), Rotation3::new(dr)), ..j.clone() }
+            })
+            .collect();
+        let id = Model::new("identified", Pose::identity(), joints, *m.t_last_flange(), Pose::identity()).unwrap();
+        let q0: Vec<f64> = id.joints().iter().map(|j| 0.3f64.clamp(j.lower, j.upper)).collect();
+        let qs = qs_within7(&id, 200, 5);
+        let opts = IkOptions { method: IkMethod::Newton, restarts: 0, tol_position: 1e-10, tol_rotation: 1e-10, ..Default::default() };
+        let mut s = IkSolver::new(&id, opts).unwrap();
+        let (mut ok, mut quick) = (0, 0);
+        for q in &qs {
+            let t = tool_pose(&id, q).unwrap();
+            let r = s.solve(&t, &q0).unwrap();
+            let (p, a) = pose_error(&tool_pose(&id, &r.q).unwrap(), &t);
+            assert_eq!(r.success, p <= 1e-10 && a <= 1e-10 && within_limits(&id, &r.q));
+            ok += r.success as usize;
+            quick += (r.success && r.iterations <= 10) as usize;
+        }
+        println!("identified {}: {ok}/200 solved, {quick} within 10 evaluations", m.name());
+        assert!(ok >= 194, "identified {}: {ok}/200 solved in one attempt", m.name());
+        assert!(quick >= 180, "identified {}: {quick}/200 solved within 10 evaluations", m.name());
+    }
+}
