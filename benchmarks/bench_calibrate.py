@@ -61,7 +61,9 @@ def median_time(f, repeats):
 
 def table_time(kr5, repeats):
     print("\n1. Time of calibrate (KR5, ED-H, points, 0.02 mm noise; median / min over repeats)")
-    print(f"{'poses':>6} {'calibrate [ms]':>15} {'min [ms]':>9} {'+ holdout 0.2 [ms]':>19} {'Jacobian [us]':>14} {'evaluations':>12} {'rank':>5}")
+    print(
+        f"{'poses':>6} {'calibrate [ms]':>15} {'min [ms]':>9} {'+ holdout 0.2 [ms]':>19} {'Jacobian [us]':>14} {'evaluations':>12} {'rank':>5}"
+    )
     pz = cal.parametrize(kr5, "edh", tool=TOOL)
     for n in (50, 100, 200, 500):
         q = cal.configurations(kr5, n, skip=17)
@@ -71,11 +73,15 @@ def table_time(kr5, repeats):
         jac, _ = median_time(lambda q=q: pz.evaluate(pz.x0, q), repeats * 5)
         res = cal.calibrate(meas, kr5, tool=TOOL)
         flag = "  <- 6R from 100 poses" if n == 100 else ""
-        print(f"{n:>6} {med * 1e3:>15.1f} {mn * 1e3:>9.1f} {medh * 1e3:>19.1f} {jac * 1e6:>14.0f} {res.evaluations:>12} {res.identifiability.rank:>5}{flag}")
+        print(
+            f"{n:>6} {med * 1e3:>15.1f} {mn * 1e3:>9.1f} {medh * 1e3:>19.1f} {jac * 1e6:>14.0f} {res.evaluations:>12} {res.identifiability.rank:>5}{flag}"
+        )
 
 
 def table_scale(kr5, repeats):
-    print("\n1b. Scale of calibrate and of plan --select (KR5, ED-H, points; median over repeats; run with OPENBLAS_NUM_THREADS=1 on a loaded machine)")
+    print(
+        "\n1b. Scale of calibrate and of plan --select (KR5, ED-H, points; median over repeats; run with OPENBLAS_NUM_THREADS=1 on a loaded machine)"
+    )
     print(f"{'case':<34} {'wall [s]':>9} {'cpu [s]':>9} {'growth (cpu)':>13} {'over a decade':>14}")
 
     def cpu_time(f):
@@ -106,7 +112,9 @@ def table_scale(kr5, repeats):
 
 def table_statistics(kr5, runs):
     print(f"\n2. Monte Carlo against the Cramér-Rao bound ({runs} runs, 0.02 mm noise)")
-    print(f"{'data':<22} {'free':>5} {'RMSE/CRB med':>13} {'max':>6} {'pooled':>7} {'sigma/spread med':>17} {'min':>6} {'max':>6} {'plan/spread med':>16} {'min':>6} {'max':>6} {'ms/run':>7}")
+    print(
+        f"{'data':<22} {'free':>5} {'RMSE/CRB med':>13} {'max':>6} {'pooled':>7} {'sigma/spread med':>17} {'min':>6} {'max':>6} {'plan/spread med':>16} {'min':>6} {'max':>6} {'ms/run':>7}"
+    )
     for data in ("100 random poses", "30 deg sweeps"):
         if data.startswith("100"):
             q = cal.configurations(kr5, 100, skip=50)
@@ -126,7 +134,15 @@ def table_statistics(kr5, runs):
             if data.startswith("100"):
                 meas = cal.simulate(truth, q, tool=tool, noise=NOISE, seed=run)
             else:
-                meas = sw.simulate(truth, home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=30, tool_point=tool, noise=NOISE, seed=run)
+                meas = sw.simulate(
+                    truth,
+                    home=HOME,
+                    ranges=np.radians(sw.PAPER_RANGES_DEG[30]),
+                    points_per_sweep=30,
+                    tool_point=tool,
+                    noise=NOISE,
+                    seed=run,
+                )
             res = cal.calibrate(meas, kr5, tool=TOOL)
             est.append(res.values[idx])
             sig.append(res.sigma[idx])
@@ -138,8 +154,10 @@ def table_statistics(kr5, runs):
         spread = est.std(axis=0, ddof=1)
         r2 = sig.mean(axis=0) / spread
         r3 = pl.sigma[idx] / spread
-        print(f"{data:<22} {len(idx):>5} {np.median(r1):>13.3f} {r1.max():>6.3f} {pooled:>7.3f} {np.median(r2):>17.3f} {r2.min():>6.3f} {r2.max():>6.3f} "
-              f"{np.median(r3):>16.3f} {r3.min():>6.3f} {r3.max():>6.3f} {dt * 1e3:>7.1f}")
+        print(
+            f"{data:<22} {len(idx):>5} {np.median(r1):>13.3f} {r1.max():>6.3f} {pooled:>7.3f} {np.median(r2):>17.3f} {r2.min():>6.3f} {r2.max():>6.3f} "
+            f"{np.median(r3):>16.3f} {r3.min():>6.3f} {r3.max():>6.3f} {dt * 1e3:>7.1f}"
+        )
 
 
 def line_errors(c_true, points, directions):
@@ -159,17 +177,31 @@ def table_accuracy(kr5, runs, protocols):
     for protocol in protocols:
         prot = cal.Protocol.paper(protocol, points_per_sweep=30, tool_point=TOOL)
         pl = cal.plan(kr5, prot, noise=NOISE)
-        print(f"\n3. Paper protocol {protocol} deg (Hayat Table II), 30 points per sweep, {runs} runs: RMS axis-position error per joint [um], "
-              f"tool-position RMS over 1,000 configurations [um], time per call [ms]")
+        print(
+            f"\n3. Paper protocol {protocol} deg (Hayat Table II), 30 points per sweep, {runs} runs: RMS axis-position error per joint [um], "
+            f"tool-position RMS over 1,000 configurations [um], time per call [ms]"
+        )
         print(f"{'method':<24}" + "".join(f"{'A' + str(j + 1):>8}" for j in range(6)) + f"{'tool':>9}{'ms':>8}")
         rows = {m: ([], [], 0.0) for m in [*METHODS, "calibrate (edh)", "calibrate, 100 poses"]}
         q_random = cal.configurations(kr5, 100, skip=50)
         for run in range(runs):
-            s = sw.simulate(truth, home=HOME, ranges=prot.ranges, points_per_sweep=30, tool_point=tool, noise=NOISE, seed=1000 * protocol + run)
+            s = sw.simulate(
+                truth,
+                home=HOME,
+                ranges=prot.ranges,
+                points_per_sweep=30,
+                tool_point=tool,
+                noise=NOISE,
+                seed=1000 * protocol + run,
+            )
             for m in rows:
                 t0 = time.perf_counter()
                 if m.startswith("calibrate"):
-                    data = s if m == "calibrate (edh)" else cal.simulate(truth, q_random, tool=tool, noise=NOISE, seed=1000 * protocol + run)
+                    data = (
+                        s
+                        if m == "calibrate (edh)"
+                        else cal.simulate(truth, q_random, tool=tool, noise=NOISE, seed=1000 * protocol + run)
+                    )
                     res = cal.calibrate(data, kr5, tool=TOOL)
                     model = res.model()
                     dt = time.perf_counter() - t0
@@ -186,18 +218,26 @@ def table_accuracy(kr5, runs, protocols):
                 rows[m] = (e, tl, tt + dt)
         for m, (e, tl, tt) in rows.items():
             rms = np.sqrt(np.mean(np.square(e), axis=0)) * 1e6
-            print(f"{m:<24}" + "".join(f"{v:>8.2f}" for v in rms) + f"{np.sqrt(np.mean(np.square(tl))) * 1e6:>9.2f}{tt / runs * 1e3:>8.1f}")
+            print(
+                f"{m:<24}"
+                + "".join(f"{v:>8.2f}" for v in rms)
+                + f"{np.sqrt(np.mean(np.square(tl))) * 1e6:>9.2f}{tt / runs * 1e3:>8.1f}"
+            )
         print(f"{'bound (plan, joint fit)':<24}" + "".join(f"{v * 1e6:>8.2f}" for v in pl.axis_sigma[:, 0]))
         print(f"{'bound (plan, per circle)':<24}" + "".join(f"{v * 1e6:>8.2f}" for v in pl.per_circle_sigma[:, 0]))
         print(f"{'bound ratio':<24}" + "".join(f"{v:>8.2f}" for v in pl.per_circle_sigma[:, 0] / pl.axis_sigma[:, 0]))
         b = pl.box
-        print(f"measuring volume (plan): {b.lengths[0] * 1e3:.0f} x {b.lengths[1] * 1e3:.0f} x {b.lengths[2] * 1e3:.0f} mm, {b.volume:.4f} m^3")
+        print(
+            f"measuring volume (plan): {b.lengths[0] * 1e3:.0f} x {b.lengths[1] * 1e3:.0f} x {b.lengths[2] * 1e3:.0f} mm, {b.volume:.4f} m^3"
+        )
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--runs", type=int, default=100, help="Monte Carlo runs of table 2")
-    ap.add_argument("--accuracy-runs", type=int, default=10, help="runs per protocol of table 3 (identify takes ~0.5 s a call)")
+    ap.add_argument(
+        "--accuracy-runs", type=int, default=10, help="runs per protocol of table 3 (identify takes ~0.5 s a call)"
+    )
     ap.add_argument("--repeats", type=int, default=30, help="timing repeats of table 1")
     ap.add_argument("--protocols", default="30,90")
     ap.add_argument("--quick", action="store_true", help="runs 20, accuracy runs 3, repeats 10")
@@ -206,7 +246,9 @@ def main() -> None:
     if args.quick:
         args.runs, args.accuracy_runs, args.repeats = 20, 3, 10
     kr5 = dv.load_robot("kr5")
-    print(f"denavit {dv.__version__}: whole-model calibration benchmark (KR5, Hayat et al. Table III; noise {NOISE * 1e3} mm per coordinate)")
+    print(
+        f"denavit {dv.__version__}: whole-model calibration benchmark (KR5, Hayat et al. Table III; noise {NOISE * 1e3} mm per coordinate)"
+    )
     if args.scale_only:
         table_scale(kr5, 3)
         return

@@ -51,7 +51,9 @@ ARC_005 = np.radians(0.05)  # 0.05 deg
 def perturbed(robot, rng, length=0.5e-3, angle=ARC_005):
     t = robot.table
     E = rng.uniform(-1, 1, t.params.shape) * np.where(np.array(t.angle_columns), angle, length)
-    return dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool).to_model("true", robot.names, robot.lower, robot.upper)
+    return dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool).to_model(
+        "true", robot.names, robot.lower, robot.upper
+    )
 
 
 def median_time(f, repeats=5):
@@ -77,7 +79,14 @@ def recorded(true, scale, ranges, home, rate, speed, noise, qnoise, rng) -> sw.S
         T = dv.fk_batch(flange, r * (1 + scale))
         p = T[:, :3, :3] @ tool + T[:, :3, 3] + rng.normal(0, noise, (m, 3))
         out.append(sw.Sweep(j + 1, p, r + rng.normal(0, qnoise, r.shape), []))
-    return sw.SweepSet(out, 6, np.asarray(home, dtype=float), ["revolute"] * 6, "simulated tracker stream", {"length": "m", "angle": "rad"})
+    return sw.SweepSet(
+        out,
+        6,
+        np.asarray(home, dtype=float),
+        ["revolute"] * 6,
+        "simulated tracker stream",
+        {"length": "m", "angle": "rad"},
+    )
 
 
 TOOL = np.array([0.05, 0.03, 0.10])
@@ -89,9 +98,15 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--noise-mm", type=float, default=0.02)
     ap.add_argument("--reading-arcsec", type=float, default=10.0)
-    ap.add_argument("--rate-hz", type=float, default=1000.0, help="tracker rate (points per second; trackers stream at up to 1 kHz)")
-    ap.add_argument("--also-rate-hz", type=float, default=100.0, help="a second tracker rate for the 30 degree protocol (0: none)")
-    ap.add_argument("--protocols", default="30", help="the paper's protocols identified (degrees, comma-separated: 30,90)")
+    ap.add_argument(
+        "--rate-hz", type=float, default=1000.0, help="tracker rate (points per second; trackers stream at up to 1 kHz)"
+    )
+    ap.add_argument(
+        "--also-rate-hz", type=float, default=100.0, help="a second tracker rate for the 30 degree protocol (0: none)"
+    )
+    ap.add_argument(
+        "--protocols", default="30", help="the paper's protocols identified (degrees, comma-separated: 30,90)"
+    )
     ap.add_argument("--speed-deg-s", type=float, default=1.0, help="joint speed during a sweep")
     args = ap.parse_args()
     rng = np.random.default_rng(args.seed)
@@ -111,13 +126,17 @@ def main() -> None:
     speed = np.radians(args.speed_deg_s)
     runs = []
     protocols = [int(p) for p in args.protocols.split(",")]
-    for prot, rate in [(p, args.rate_hz) for p in protocols] + ([(30, args.also_rate_hz)] if args.also_rate_hz > 0 and 30 in protocols else []):
+    for prot, rate in [(p, args.rate_hz) for p in protocols] + (
+        [(30, args.also_rate_hz)] if args.also_rate_hz > 0 and 30 in protocols else []
+    ):
         sweeps = recorded(true, scale, np.radians(sw.PAPER_RANGES_DEG[prot]), home, rate, speed, noise, qnoise, rng)
         pts = sum(len(s.points) for s in sweeps.sweeps)
         t0 = time.perf_counter()
         runs.append((prot, rate, pts, dv.identify(sweeps, convention="edh", nominal=kr5), time.perf_counter() - t0))
         if prot == 30 and rate == args.rate_hz:
-            runs.append((prot, rate, pts, dv.identify(sweeps, method="geometric", convention="edh", nominal=kr5), math.nan))
+            runs.append(
+                (prot, rate, pts, dv.identify(sweeps, method="geometric", convention="edh", nominal=kr5), math.nan)
+            )
     # route 2: calibration from 100 poses with noisy readings
     q = cal.configurations(kr5, 100)
     meas = cal.simulate(true, q, tool=TOOL, noise=noise, seed=args.seed)
@@ -127,18 +146,27 @@ def main() -> None:
     # the job: random reachable targets with their nominal joint values
     Q = rng.uniform(kr5.lower, kr5.upper, (args.targets, 6)) * 0.9
     T = dv.fk_batch(nominal, Q)
-    print(f"KR5 with 0.5 mm / 0.05 deg errors per DH parameter, reading scale errors 2e-4 (J2, J3) and {args.reading_arcsec:g} arcsec noise, {args.noise_mm} mm tracker noise; "
-          f"sweeps at {args.speed_deg_s:g} deg/s; {args.targets} targets")
+    print(
+        f"KR5 with 0.5 mm / 0.05 deg errors per DH parameter, reading scale errors 2e-4 (J2, J3) and {args.reading_arcsec:g} arcsec noise, {args.noise_mm} mm tracker noise; "
+        f"sweeps at {args.speed_deg_s:g} deg/s; {args.targets} targets"
+    )
     for prot, rate, pts, r, dt in runs:
         if r.method != "geometric":
             if r.reading_scale is None:
                 scales = "none fitted"
             else:  # the left-out scales (*): zero, their root-mean-square error from the covariance
                 rms = np.sqrt(np.diag(r.axis_scale_cov)[-6:])
-                scales = ", ".join(f"J{j + 1} {v * 1e6:+.0f} +/- {e * 1e6:.0f}{'' if np.isfinite(f.scale_sigma) else '*'}" for j, (v, e, f) in enumerate(zip(r.reading_scale, rms, r.fits)))
-            print(f"  identify {prot} deg at {rate:g} Hz: {pts} points, {dt:.1f} s; {r.method}; reading scales (ppm; * left out): {scales}")
+                scales = ", ".join(
+                    f"J{j + 1} {v * 1e6:+.0f} +/- {e * 1e6:.0f}{'' if np.isfinite(f.scale_sigma) else '*'}"
+                    for j, (v, e, f) in enumerate(zip(r.reading_scale, rms, r.fits))
+                )
+            print(
+                f"  identify {prot} deg at {rate:g} Hz: {pts} points, {dt:.1f} s; {r.method}; reading scales (ppm; * left out): {scales}"
+            )
     print(f"  calibrate: scales (ppm) {', '.join(f'{k} {v * 1e6:+.0f}' for k, v in car.scales.items())}")
-    print(f"{'route':<40} {'flagged':>7} {'before RMS':>11} {'before max':>11} {'after RMS':>10} {'after max':>10} {'predicted':>10} {'ratio':>6} {'us/target':>10}")
+    print(
+        f"{'route':<40} {'flagged':>7} {'before RMS':>11} {'before max':>11} {'after RMS':>10} {'after max':>10} {'predicted':>10} {'ratio':>6} {'us/target':>10}"
+    )
     routes = [(f"identify ({p} deg, {rate:g} Hz, {r.method})", r) for p, rate, _, r, _ in runs]
     routes.append(("calibrate (100 poses, ED-H)", car))
 
@@ -159,11 +187,15 @@ def main() -> None:
         before = np.linalg.norm(p_before - T[:, :3, 3], axis=1)[ok]
         pred = float(np.sqrt(np.mean(res.predicted_after[ok] ** 2)))
         rms = float(np.sqrt(np.mean(after**2)))
-        print(f"{label:<40} {int((~ok).sum()):>7d} {np.sqrt(np.mean(before ** 2)) * 1e3:>8.4f} mm {before.max() * 1e3:>8.4f} mm "
-              f"{rms * 1e3:>7.4f} mm {after.max() * 1e3:>7.4f} mm {pred * 1e3:>7.4f} mm {rms / pred:>6.2f} {t_comp / args.targets * 1e6:>10.2f}")
+        print(
+            f"{label:<40} {int((~ok).sum()):>7d} {np.sqrt(np.mean(before**2)) * 1e3:>8.4f} mm {before.max() * 1e3:>8.4f} mm "
+            f"{rms * 1e3:>7.4f} mm {after.max() * 1e3:>7.4f} mm {pred * 1e3:>7.4f} mm {rms / pred:>6.2f} {t_comp / args.targets * 1e6:>10.2f}"
+        )
     identified_2 = car.model()
     t_ik = median_time(lambda: dv.ik_batch(identified_2, T, Q))
-    print(f"{'ik_batch (identified, from the program)':<40} {'':>7} {'':>11} {'':>11} {'':>10} {'':>10} {'':>10} {'':>6} {t_ik / args.targets * 1e6:>10.2f}")
+    print(
+        f"{'ik_batch (identified, from the program)':<40} {'':>7} {'':>11} {'':>11} {'':>10} {'':>10} {'':>10} {'':>6} {t_ik / args.targets * 1e6:>10.2f}"
+    )
     print("targets: after <= 0.05 mm RMS; after / predicted <= 1.5")
 
 

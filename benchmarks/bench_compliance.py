@@ -119,14 +119,20 @@ def run(name: str, seed: int, compliant: bool):
     q = draw(robot, 50, rng)
     pl0, pl1 = np.tile(np.r_[0.0, com], (50, 1)), np.tile(np.r_[rated, com], (50, 1))
     a, b = measure(m_true, robot, k, q, pl0, rng), measure(m_true, robot, k, q, pl1, rng)
-    train = Measurements(np.vstack([a.q, b.q]), np.vstack([a.points, b.points]), None, "training", payload=np.vstack([pl0, pl1]))
+    train = Measurements(
+        np.vstack([a.q, b.q]), np.vstack([a.points, b.points]), None, "training", payload=np.vstack([pl0, pl1])
+    )
     qt = draw(robot, 300, rng)
     test = measure(m_true, robot, k, qt, np.tile(np.r_[rated / 2, com], (300, 1)), rng)
     res = calibrate(train, robot, tool=tool)  # auto, the payloads declared: the +compliance family is a candidate
     cands = res.model_choice.candidates
     nominal = next(c for c in cands if c.name == "base-tool")
     geo = choose([c for c in cands if not c.name.endswith(COMPLIANCE)])
-    e = {"nominal": held_out(res, nominal.x, test), "geometry only": held_out(res, geo.x, test), "geometry + compliance": held_out(res, res.values, test)}
+    e = {
+        "nominal": held_out(res, nominal.x, test),
+        "geometry only": held_out(res, geo.x, test),
+        "geometry + compliance": held_out(res, res.values, test),
+    }
     kk = []
     for j in range(len(k)):
         v, s = res.value(f"k_{j + 1}")
@@ -148,8 +154,10 @@ def main() -> None:
     for name, (rated, com, _) in ROBOTS.items():
         PATTERN[name] = stiffness_pattern(dv.load_robot(name), rated, com)
         k, d = PATTERN[name]
-        print(f"\n== {name}: rated payload {rated:g} kg at {np.round(com * 1e3, 1).tolist()} mm; tool deflection at the rated payload: "
-              f"p5 {d[0] * 1e3:.2f}, median {d[1] * 1e3:.2f}, p95 {d[2] * 1e3:.2f}, max {d[3] * 1e3:.2f} mm")
+        print(
+            f"\n== {name}: rated payload {rated:g} kg at {np.round(com * 1e3, 1).tolist()} mm; tool deflection at the rated payload: "
+            f"p5 {d[0] * 1e3:.2f}, median {d[1] * 1e3:.2f}, p95 {d[2] * 1e3:.2f}, max {d[3] * 1e3:.2f} mm"
+        )
         rows = {"nominal": [], "geometry only": [], "geometry + compliance": []}
         z = []
         chosen = []
@@ -161,31 +169,47 @@ def main() -> None:
                 rows[key].append((math.sqrt(np.mean(v**2)), v.max()))
             z.append([(v - t) / sd if np.isfinite(sd) and sd > 0 else np.nan for v, sd, t in kk])
             first = first or kk
-        print(f"held-out tool-position error, 300 poses at {rated / 2:g} kg (training at 0 and {rated:g} kg), mean over {seeds} seeds [mm]; noise floor {floor * 1e3:.4f} mm")
+        print(
+            f"held-out tool-position error, 300 poses at {rated / 2:g} kg (training at 0 and {rated:g} kg), mean over {seeds} seeds [mm]; noise floor {floor * 1e3:.4f} mm"
+        )
         print(f"  {'model':24s} {'rms':>8s} {'max':>8s}")
         for key, v in rows.items():
             a = np.array(v)
             print(f"  {key:24s} {a[:, 0].mean() * 1e3:8.4f} {a[:, 1].mean() * 1e3:8.4f}")
         gc, go = np.array(rows["geometry + compliance"])[:, 0], np.array(rows["geometry only"])[:, 0]
-        print(f"  geometry + compliance / noise floor: {gc.mean() / floor:.3f} (target <= 1.5; worst seed {gc.max() / floor:.3f}); "
-              f"/ geometry only: {gc.mean() / go.mean():.3f} (target <= 0.5)")
-        print(f"  auto chose a +compliance model in {sum(c.endswith(COMPLIANCE) for c in chosen)} of {seeds} seeds ({', '.join(sorted(set(chosen)))})")
+        print(
+            f"  geometry + compliance / noise floor: {gc.mean() / floor:.3f} (target <= 1.5; worst seed {gc.max() / floor:.3f}); "
+            f"/ geometry only: {gc.mean() / go.mean():.3f} (target <= 0.5)"
+        )
+        print(
+            f"  auto chose a +compliance model in {sum(c.endswith(COMPLIANCE) for c in chosen)} of {seeds} seeds ({', '.join(sorted(set(chosen)))})"
+        )
         unit = "urad/(N m)"
-        print(f"compliances, seed 0 [{unit}]   and over {seeds} seeds: std and mean of (estimate - truth) / sigma (target std 0.8-1.25)")
+        print(
+            f"compliances, seed 0 [{unit}]   and over {seeds} seeds: std and mean of (estimate - truth) / sigma (target std 0.8-1.25)"
+        )
         Z = np.array(z)
         for j, (v, sd, t) in enumerate(first):
             col = Z[:, j]
             ok = col[np.isfinite(col)]
-            spread = f"std {np.std(ok, ddof=1):.3f}, mean {np.mean(ok):+.3f} ({ok.size} seeds free)" if ok.size > 2 else f"free in {ok.size} seeds"
+            spread = (
+                f"std {np.std(ok, ddof=1):.3f}, mean {np.mean(ok):+.3f} ({ok.size} seeds free)"
+                if ok.size > 2
+                else f"free in {ok.size} seeds"
+            )
             print(f"  k_{j + 1}: estimate {v * 1e6:9.4f}  sigma {sd * 1e6:8.4f}  truth {t * 1e6:9.4f}   {spread}")
         rigid = []
         for s in range(seeds):
             e, ch, _ = run(name, s, False)
-            rigid.append((ch, math.sqrt(np.mean(e["geometry + compliance"] ** 2)), math.sqrt(np.mean(e["geometry only"] ** 2))))
+            rigid.append(
+                (ch, math.sqrt(np.mean(e["geometry + compliance"] ** 2)), math.sqrt(np.mean(e["geometry only"] ** 2)))
+            )
         n_c = sum(c.endswith(COMPLIANCE) for c, _, _ in rigid)
         diff = np.array([a / b for _, a, b in rigid])
-        print(f"rigid joints (no compliance in the data): auto freed the compliances in {n_c} of {seeds} runs ({100 * n_c / seeds:.0f} %, target <= 5 %); "
-              f"held-out rms chosen / geometric choice: mean {diff.mean():.4f}, max {diff.max():.4f}")
+        print(
+            f"rigid joints (no compliance in the data): auto freed the compliances in {n_c} of {seeds} runs ({100 * n_c / seeds:.0f} %, target <= 5 %); "
+            f"held-out rms chosen / geometric choice: mean {diff.mean():.4f}, max {diff.max():.4f}"
+        )
     print(f"\n({time.perf_counter() - t0:.0f} s)")
 
 

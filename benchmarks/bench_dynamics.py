@@ -70,7 +70,9 @@ def pinocchio_model(model):
         M = model.T_world_base @ model.placements[0] if i == 0 else model.placements[i]
         joint = pin.JointModelRZ() if kind == "revolute" else pin.JointModelPZ()
         parent = pm.addJoint(parent, joint, pin.SE3(M[:3, :3], M[:3, 3]), model.names[i])
-        pm.appendBodyToJoint(parent, pin.Inertia(ins["masses"][i], ins["coms"][i], ins["inertias"][i]), pin.SE3.Identity())
+        pm.appendBodyToJoint(
+            parent, pin.Inertia(ins["masses"][i], ins["coms"][i], ins["inertias"][i]), pin.SE3.Identity()
+        )
     pm.gravity = pin.Motion(G, np.zeros(3))
     return pin, pm
 
@@ -82,7 +84,19 @@ def rtb_model(model):
     table = dv.load_robot("tiansui_mdh").table.params  # alpha, a, theta, d
     ins = model.inertias
     links = [
-        rtb.RevoluteMDH(alpha=al, a=a, offset=th, d=d, m=ins["masses"][i], r=ins["coms"][i], I=ins["inertias"][i], G=1, Jm=0, B=0, Tc=[0, 0])
+        rtb.RevoluteMDH(
+            alpha=al,
+            a=a,
+            offset=th,
+            d=d,
+            m=ins["masses"][i],
+            r=ins["coms"][i],
+            I=ins["inertias"][i],
+            G=1,
+            Jm=0,
+            B=0,
+            Tc=[0, 0],
+        )
         for i, (al, a, th, d) in enumerate(table)
     ]
     robot = rtb.DHRobot(links, name="tiansui_mdh", gravity=G)
@@ -99,7 +113,11 @@ def main() -> None:
     n = model.nq
     rng = np.random.default_rng(0)
     q, qd, qdd = rng.uniform(-2, 2, n), rng.uniform(-1, 1, n), rng.uniform(-1, 1, n)
-    qs, qds, qdds = rng.uniform(-2, 2, (args.states, n)), rng.uniform(-1, 1, (args.states, n)), rng.uniform(-1, 1, (args.states, n))
+    qs, qds, qdds = (
+        rng.uniform(-2, 2, (args.states, n)),
+        rng.uniform(-1, 1, (args.states, n)),
+        rng.uniform(-1, 1, (args.states, n)),
+    )
     tau = _core.rnea(model, q, qd, qdd)
     rows: dict[str, dict[str, float]] = {}
     R, C = args.repeats, args.calls
@@ -148,8 +166,10 @@ def main() -> None:
 
     cols = ["rnea", "mass matrix", "aba", "batch rnea"]
     units = {"rnea": 1e3, "mass matrix": 1e3, "aba": 1e3, "batch rnea": 1e6}
-    print(f"TianSui-One (6 revolute joints), median of {R} repeats; single calls in us, batch of {args.states:,} states in ms; "
-          f"{os.cpu_count()} cores")
+    print(
+        f"TianSui-One (6 revolute joints), median of {R} repeats; single calls in us, batch of {args.states:,} states in ms; "
+        f"{os.cpu_count()} cores"
+    )
     print(f"{'library':<18}" + "".join(f"{c + (' (ms)' if c == 'batch rnea' else ' (us)'):>18}" for c in cols))
     for lib, r in rows.items():
         print(f"{lib:<18}" + "".join(f"{r[c] / units[c]:>18.3f}" for c in cols))

@@ -53,14 +53,27 @@ K_DEFLECT = 2e-4
 #: Hysteresis of the joint readings: half the difference between the two approach directions (rad).
 HYSTERESIS = math.radians(0.5 / 60)
 TOOL = np.array([0.04, 0.03, 0.12])  # the target in the flange, m (the nominal; the truth is 1 mm off)
-MODELS = [("base-tool", "base-tool"), ("+offsets", "offsets"), ("full", "full"), ("full+prior", "full-prior"), ("auto", "auto")]
+MODELS = [
+    ("base-tool", "base-tool"),
+    ("+offsets", "offsets"),
+    ("full", "full"),
+    ("full+prior", "full-prior"),
+    ("auto", "auto"),
+]
 
 
 def cobot7() -> dv.Robot:
     """A Panda-like 7R cobot (Franka's modified-DH table: alpha, a, theta, d; the flange 0.107 m along z7)."""
     d = math.radians
-    rows = [[0, 0, 0, 0.333], [d(-90), 0, 0, 0], [d(90), 0, 0, 0.316], [d(90), 0.0825, 0, 0],
-            [d(-90), -0.0825, 0, 0.384], [d(90), 0, 0, 0], [d(90), 0.088, 0, 0]]
+    rows = [
+        [0, 0, 0, 0.333],
+        [d(-90), 0, 0, 0],
+        [d(90), 0, 0, 0.316],
+        [d(90), 0.0825, 0, 0],
+        [d(-90), -0.0825, 0, 0.384],
+        [d(90), 0, 0, 0],
+        [d(90), 0.088, 0, 0],
+    ]
     flange = np.eye(4)
     flange[2, 3] = 0.107
     table = dv.Table("mdh", np.array(rows), ["revolute"] * 7, np.eye(4), flange)
@@ -73,7 +86,14 @@ def lift6() -> dv.Robot:
     """An arm on a torso lift: joint 1 turns about the vertical, joint 2 lifts along it (0-0.6 m), then a
     shoulder, an elbow (parallel to the shoulder) and a 2-axis wrist (standard DH: d, theta, a, alpha)."""
     d = math.radians
-    rows = [[0.35, 0, 0.0, 0], [0.25, 0, 0.12, d(-90)], [0.08, 0, 0.42, 0], [0.0, 0, 0.04, d(-90)], [0.38, 0, 0, d(90)], [0, 0, 0, d(-90)]]
+    rows = [
+        [0.35, 0, 0.0, 0],
+        [0.25, 0, 0.12, d(-90)],
+        [0.08, 0, 0.42, 0],
+        [0.0, 0, 0.04, d(-90)],
+        [0.38, 0, 0, d(90)],
+        [0, 0, 0, d(-90)],
+    ]
     kinds = ["revolute", "prismatic", "revolute", "revolute", "revolute", "revolute"]
     flange = np.eye(4)
     flange[2, 3] = 0.09
@@ -191,10 +211,12 @@ def main() -> None:
     ap.add_argument("--robots", default=",".join(ROBOTS))
     args = ap.parse_args()
     seeds = 3 if args.quick else args.seeds
-    print(f"Held-out tool-position error (mm) of small-data calibrations: {args.train} training poses in +-30 deg, 100 test poses in that range "
-          f"and 100 outside it (+-90 deg), {args.noise} mm tracker noise, tracker 5-20 m away, true link errors 0.5 mm / 0.05 deg, gravity "
-          f"deflection {K_DEFLECT:g} rad/m and +-{math.degrees(HYSTERESIS) * 60:.2g} arcmin reading hysteresis the model does not hold; "
-          f"means over {seeds} seeds")
+    print(
+        f"Held-out tool-position error (mm) of small-data calibrations: {args.train} training poses in +-30 deg, 100 test poses in that range "
+        f"and 100 outside it (+-90 deg), {args.noise} mm tracker noise, tracker 5-20 m away, true link errors 0.5 mm / 0.05 deg, gravity "
+        f"deflection {K_DEFLECT:g} rad/m and +-{math.degrees(HYSTERESIS) * 60:.2g} arcmin reading hysteresis the model does not hold; "
+        f"means over {seeds} seeds"
+    )
     verdicts = []
     t0 = time.perf_counter()
     for name in args.robots.split(","):
@@ -207,8 +229,19 @@ def main() -> None:
             picks[chosen] += 1
             for label, (e_in, e_out) in row.items():
                 e = np.concatenate([e_in, e_out])
-                acc[label].append([np.sqrt(np.mean(e_in**2)), e_in.max(), np.sqrt(np.mean(e_out**2)), e_out.max(), np.sqrt(np.mean(e**2)), e.max()])
-        print(f"\n{name}{'' if links else ' (only the joint offsets are off: a recently mastered robot of accurate geometry)'} ({len(robot.names)} joints: {', '.join(robot.table.kinds)}); auto chose: {', '.join(f'{k} {v}x' for k, v in picks.most_common())}")
+                acc[label].append(
+                    [
+                        np.sqrt(np.mean(e_in**2)),
+                        e_in.max(),
+                        np.sqrt(np.mean(e_out**2)),
+                        e_out.max(),
+                        np.sqrt(np.mean(e**2)),
+                        e.max(),
+                    ]
+                )
+        print(
+            f"\n{name}{'' if links else ' (only the joint offsets are off: a recently mastered robot of accurate geometry)'} ({len(robot.names)} joints: {', '.join(robot.table.kinds)}); auto chose: {', '.join(f'{k} {v}x' for k, v in picks.most_common())}"
+        )
         print(f"{'model':<12} {'in rms':>8} {'in max':>8} {'out rms':>8} {'out max':>8} {'all rms':>8} {'all max':>8}")
         mean = {label: np.mean(v, axis=0) * 1e3 for label, v in acc.items()}
         for label, v in mean.items():
@@ -217,7 +250,9 @@ def main() -> None:
         ratio_best, ratio_full = mean["auto"][4] / best, mean["auto"][4] / mean["full"][4]
         ok = ratio_best <= 1.05 and ratio_full <= 1.0
         verdicts.append(ok)
-        print(f"auto / best {ratio_best:.3f} (target <= 1.05), auto / full {ratio_full:.3f} (target <= 1): {'met' if ok else 'NOT met'}")
+        print(
+            f"auto / best {ratio_best:.3f} (target <= 1.05), auto / full {ratio_full:.3f} (target <= 1): {'met' if ok else 'NOT met'}"
+        )
     print(f"\n{sum(verdicts)} of {len(verdicts)} robots meet the targets; {time.perf_counter() - t0:.1f} s")
 
 

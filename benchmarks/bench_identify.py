@@ -75,21 +75,31 @@ def tracker_mc(runs: int, points: int, tracker: TrackerNoise, reading_arcsec, pr
         err, sig, err_iso, sig_iso = [], [], [], []
         t0 = time.perf_counter()
         for run in range(runs):
-            s = recordings(truth, home, ranges, points=points, tracker_noise=tracker, reading_arcsec=reading_arcsec, seed=run)[0]
+            s = recordings(
+                truth, home, ranges, points=points, tracker_noise=tracker, reading_arcsec=reading_arcsec, seed=run
+            )[0]
             for e, sg, kw in ((err, sig, {"tracker_noise": tracker}), (err_iso, sig_iso, {})):
                 res = dv.identify(s, method="global", **kw)
                 e.append(line_errors(res, ax, ph)[1])
                 sg.append([f.sigma_point_perp for f in res.fits])
         err, sig, err_iso, sig_iso = map(np.array, (err, sig, err_iso, sig_iso))
         rms, rms_iso = np.sqrt(np.mean(err**2, axis=0)), np.sqrt(np.mean(err_iso**2, axis=0))
-        print(f"\n=== tracker noise {tracker.sigma_range * 1e6:g} um, {tracker.sigma_angle / ARCSEC:g} arcsec at {tracker.position} m, {protocol} degree "
-              f"protocol, {points} points per sweep, readings {str(reading_arcsec) + ' arcsec' if reading_arcsec else 'exact'}, {runs} runs ({time.perf_counter() - t0:.1f} s)")
-        print("joint   rms err model [um]   err / sigma model   rms err isotropic [um]   err / sigma isotropic   gain (isotropic / model)")
+        print(
+            f"\n=== tracker noise {tracker.sigma_range * 1e6:g} um, {tracker.sigma_angle / ARCSEC:g} arcsec at {tracker.position} m, {protocol} degree "
+            f"protocol, {points} points per sweep, readings {str(reading_arcsec) + ' arcsec' if reading_arcsec else 'exact'}, {runs} runs ({time.perf_counter() - t0:.1f} s)"
+        )
+        print(
+            "joint   rms err model [um]   err / sigma model   rms err isotropic [um]   err / sigma isotropic   gain (isotropic / model)"
+        )
         for j in range(6):
-            print(f"{j + 1:5d}   {rms[j] * 1e6:20.3g}   {rms[j] / sig[:, j].mean():17.3f}   {rms_iso[j] * 1e6:22.3g}   {rms_iso[j] / sig_iso[:, j].mean():21.3f}   "
-                  f"{rms_iso[j] / rms[j]:24.3f}")
-        print(f"pooled err / sigma: model {np.sqrt(np.mean((err / sig) ** 2)):.3f}, isotropic {np.sqrt(np.mean((err_iso / sig_iso) ** 2)):.3f}; "
-              f"gain geometric mean {math.exp(np.mean(np.log(rms_iso / rms))):.3f}")
+            print(
+                f"{j + 1:5d}   {rms[j] * 1e6:20.3g}   {rms[j] / sig[:, j].mean():17.3f}   {rms_iso[j] * 1e6:22.3g}   {rms_iso[j] / sig_iso[:, j].mean():21.3f}   "
+                f"{rms_iso[j] / rms[j]:24.3f}"
+            )
+        print(
+            f"pooled err / sigma: model {np.sqrt(np.mean((err / sig) ** 2)):.3f}, isotropic {np.sqrt(np.mean((err_iso / sig_iso) ** 2)):.3f}; "
+            f"gain geometric mean {math.exp(np.mean(np.log(rms_iso / rms))):.3f}"
+        )
 
 
 def main() -> None:
@@ -99,22 +109,46 @@ def main() -> None:
     ap.add_argument("--noise-mm", type=float, default=0.02)
     ap.add_argument("--methods", default=",".join(METHODS), help="comma-separated subset of " + ",".join(METHODS))
     ap.add_argument("--protocols", default="90,30")
-    ap.add_argument("--realistic", type=int, default=0, metavar="RUNS", help="Monte Carlo runs of the realistic cases (0: skip)")
-    ap.add_argument("--targets", type=int, default=3, help="targets on one body for the multi-target check (1-4; 1: skip)")
+    ap.add_argument(
+        "--realistic", type=int, default=0, metavar="RUNS", help="Monte Carlo runs of the realistic cases (0: skip)"
+    )
+    ap.add_argument(
+        "--targets", type=int, default=3, help="targets on one body for the multi-target check (1-4; 1: skip)"
+    )
     ap.add_argument("--skip-paper", action="store_true", help="skip the paper protocol tables")
-    ap.add_argument("--no-shared", action="store_true", help="skip the shared fits (several targets at once, 6-DoF poses) of --realistic")
-    ap.add_argument("--tracker", type=int, default=0, metavar="RUNS", help="Monte Carlo runs of the tracker noise model (0: skip)")
-    ap.add_argument("--tracker-noise", default="5,5,3,0,1", help="sigma_range um, sigma_angle arcsec, tracker x, y, z m")
+    ap.add_argument(
+        "--no-shared",
+        action="store_true",
+        help="skip the shared fits (several targets at once, 6-DoF poses) of --realistic",
+    )
+    ap.add_argument(
+        "--tracker", type=int, default=0, metavar="RUNS", help="Monte Carlo runs of the tracker noise model (0: skip)"
+    )
+    ap.add_argument(
+        "--tracker-noise", default="5,5,3,0,1", help="sigma_range um, sigma_angle arcsec, tracker x, y, z m"
+    )
     ap.add_argument("--tracker-readings", default=None, help="lo,hi arcsec: the readings' white error (default exact)")
     args = ap.parse_args()
     methods = args.methods.split(",")
     if args.tracker:
         v = [float(x) for x in args.tracker_noise.split(",")]
         rd = None if args.tracker_readings is None else tuple(float(x) for x in args.tracker_readings.split(","))
-        tracker_mc(args.tracker, args.points, TrackerNoise(v[0] * 1e-6, v[1] * ARCSEC, tuple(v[2:5])), rd, [int(p) for p in args.protocols.split(",")])
+        tracker_mc(
+            args.tracker,
+            args.points,
+            TrackerNoise(v[0] * 1e-6, v[1] * ARCSEC, tuple(v[2:5])),
+            rd,
+            [int(p) for p in args.protocols.split(",")],
+        )
     if args.realistic:
-        realistic(args.realistic, args.points, methods if "auto" in methods else [m for m in methods if m != "hyper"] + ["auto"], args.targets,
-                  [int(p) for p in args.protocols.split(",")], shared=not args.no_shared)
+        realistic(
+            args.realistic,
+            args.points,
+            methods if "auto" in methods else [m for m in methods if m != "hyper"] + ["auto"],
+            args.targets,
+            [int(p) for p in args.protocols.split(",")],
+            shared=not args.no_shared,
+        )
     if args.skip_paper:
         return
     kr5 = dv.load_robot("kr5")
@@ -129,7 +163,9 @@ def main() -> None:
     qs = np.random.default_rng(99).uniform(truth.lower, truth.upper, (1000, 6))
     p_true = dv.fk_batch(truth_tool, qs)[:, :3, 3]
     names = ["d", "theta", "a", "alpha"]
-    print(f"KR5 (Hayat Table III), {args.points} points per sweep, {args.noise_mm} mm noise, {args.runs} Monte Carlo runs per cell")
+    print(
+        f"KR5 (Hayat Table III), {args.points} points per sweep, {args.noise_mm} mm noise, {args.runs} Monte Carlo runs per cell"
+    )
     for protocol in [int(p) for p in args.protocols.split(",")]:
         ranges = np.radians(sw.PAPER_RANGES_DEG[protocol])
         rows = {}
@@ -137,7 +173,15 @@ def main() -> None:
         for m in methods:
             de, pe, perr, sig, tool_dh, tool_edh = [], [], [], [], [], []
             for run in range(args.runs):
-                s = sw.simulate(truth, home=home, ranges=ranges, points_per_sweep=args.points, tool_point=tool, noise=args.noise_mm * 1e-3, seed=1000 * protocol + run)
+                s = sw.simulate(
+                    truth,
+                    home=home,
+                    ranges=ranges,
+                    points_per_sweep=args.points,
+                    tool_point=tool,
+                    noise=args.noise_mm * 1e-3,
+                    seed=1000 * protocol + run,
+                )
                 res = dv.identify(s, method=m, nominal=kr5)
                 d, p = line_errors(res, truth_axes, p_home)
                 de.append(d)
@@ -150,7 +194,9 @@ def main() -> None:
                 tool_dh.append(np.sqrt(np.mean(np.sum((dv.fk_batch(model_dh, qs)[:, :3, 3] - p_true) ** 2, axis=1))))
                 edh = dv.identify(s, method=m, nominal=kr5, convention="edh") if m in ("kasa", "global") else None
                 if edh is not None:
-                    tool_edh.append(np.sqrt(np.mean(np.sum((dv.fk_batch(edh.model(), qs)[:, :3, 3] - p_true) ** 2, axis=1))))
+                    tool_edh.append(
+                        np.sqrt(np.mean(np.sum((dv.fk_batch(edh.model(), qs)[:, :3, 3] - p_true) ** 2, axis=1)))
+                    )
             perr, sig = np.array(perr), np.array(sig)
             spread = perr.std(axis=0)
             mask = spread > 1e-12
@@ -171,7 +217,11 @@ def main() -> None:
         ref = rows.get("kasa", next(iter(rows.values())))["pos_mm"]
         for m in methods:
             r = rows[m]["pos_mm"]
-            print(f"{m:<10}" + "".join(f"{v:9.4f}" for v in r) + f"{np.sqrt(np.mean(ref ** 2)) / np.sqrt(np.mean(r ** 2)):9.1f}x")
+            print(
+                f"{m:<10}"
+                + "".join(f"{v:9.4f}" for v in r)
+                + f"{np.sqrt(np.mean(ref**2)) / np.sqrt(np.mean(r**2)):9.1f}x"
+            )
         print("RMS axis-direction error per joint (urad):")
         for m in methods:
             print(f"{m:<10}" + "".join(f"{v:9.1f}" for v in rows[m]["dir_urad"]))
@@ -179,8 +229,13 @@ def main() -> None:
         for k, name in enumerate(names):
             scale, unit = (1e3, "mm") if name in ("d", "a") else (np.degrees(1) * 1e3, "mdeg")
             for m in methods:
-                print(f"  {name:>5} [{unit:>4}] {m:<10}" + "".join(f"{v:9.3f}" for v in rows[m]["param_rms"][:, k] * scale))
-        print("Tool-position RMS error over 1,000 random configurations (mm), and reported sigma / Monte Carlo spread (median over parameters; 1 = honest):")
+                print(
+                    f"  {name:>5} [{unit:>4}] {m:<10}"
+                    + "".join(f"{v:9.3f}" for v in rows[m]["param_rms"][:, k] * scale)
+                )
+        print(
+            "Tool-position RMS error over 1,000 random configurations (mm), and reported sigma / Monte Carlo spread (median over parameters; 1 = honest):"
+        )
         print(f"{'method':<10}{'DH model':>10}{'ED-H model':>12}{'sigma/spread':>14}{'within 20%':>12}")
         for m in methods:
             r = rows[m]
@@ -191,7 +246,12 @@ def main() -> None:
 CASES = {
     "exact readings": {},
     "readings 30-200 arcsec": {"reading_arcsec": (30, 200), "offset_deg": 0.05, "scale": 3e-4},
-    "readings 30-200 arcsec + drift 0.2 mm": {"reading_arcsec": (30, 200), "offset_deg": 0.05, "scale": 3e-4, "drift": 2e-4},
+    "readings 30-200 arcsec + drift 0.2 mm": {
+        "reading_arcsec": (30, 200),
+        "offset_deg": 0.05,
+        "scale": 3e-4,
+        "drift": 2e-4,
+    },
 }
 
 
@@ -213,20 +273,43 @@ def realistic(runs: int, points: int, methods: list, targets: int = 3, protocols
     R_true = dv.fk(truth.with_tool(np.eye(4)), home)[:3, :3]
     for protocol in protocols:
         ranges = np.radians(sw.PAPER_RANGES_DEG[protocol])
-        print(f"\n=== realistic recordings, {protocol} degree protocol, {points} points per sweep, 0.02 mm tracker noise, {runs} runs, "
-              f"{targets} targets ===")
-        print(f"{'case':<40}{'method':<11}{'axis err mm':>12}{'vs kasa':>8}{'sigma/spread':>14}{'in 0.8-1.25':>13}{'targets agree':>15}   auto chose; out of the band")
+        print(
+            f"\n=== realistic recordings, {protocol} degree protocol, {points} points per sweep, 0.02 mm tracker noise, {runs} runs, "
+            f"{targets} targets ==="
+        )
+        print(
+            f"{'case':<40}{'method':<11}{'axis err mm':>12}{'vs kasa':>8}{'sigma/spread':>14}{'in 0.8-1.25':>13}{'targets agree':>15}   auto chose; out of the band"
+        )
         shared_rows = []
         for case, kw in CASES.items():
             kasa = None
-            for label, how in (([(f"auto x{targets} targets", "targets")] if targets > 1 else []) + [("auto 6-DoF", "poses")]) * shared:
+            for label, how in (
+                ([(f"auto x{targets} targets", "targets")] if targets > 1 else []) + [("auto 6-DoF", "poses")]
+            ) * shared:
                 est, sig, pe, chose, within, rot_c2, rot_e, rot_s = [], [], [], collections.Counter(), [], [], [], []
                 for run in range(runs):
                     if how == "targets":
-                        recs = recordings(truth, home, ranges, points=points, seed=10_000 * protocol + run, targets=NEST[:targets], **kw)
+                        recs = recordings(
+                            truth,
+                            home,
+                            ranges,
+                            points=points,
+                            seed=10_000 * protocol + run,
+                            targets=NEST[:targets],
+                            **kw,
+                        )
                         data = sw.merge_targets(recs, NEST[:targets])
                     else:
-                        data = recordings(truth, home, ranges, points=points, seed=10_000 * protocol + run, poses=True, noise_rot=1e-4, **kw)[0]
+                        data = recordings(
+                            truth,
+                            home,
+                            ranges,
+                            points=points,
+                            seed=10_000 * protocol + run,
+                            poses=True,
+                            noise_rot=1e-4,
+                            **kw,
+                        )[0]
                     res = dv.identify(data, nominal=kr5)
                     d = res.table.params - kr5.table.params
                     d[:, 1] += data.home - home
@@ -235,7 +318,10 @@ def realistic(runs: int, points: int, methods: list, targets: int = 3, protocols
                     sig.append(res.sigma)
                     pe.append(line_errors(res, truth_axes, p_home)[1])
                     chose[res.method] += 1
-                    within += [axis_chi2(f, _Truth(truth_axes, j, f), kind)[0] <= CHI2_99[4] for j, (f, kind) in enumerate(zip(res.fits, data.kinds, strict=True))]
+                    within += [
+                        axis_chi2(f, _Truth(truth_axes, j, f), kind)[0] <= CHI2_99[4]
+                        for j, (f, kind) in enumerate(zip(res.fits, data.kinds, strict=True))
+                    ]
                     e = matrix_rotvec(np.asarray(res.axes.T_world_tool)[:3, :3] @ R_true.T)
                     rot_c2.append(float(e @ np.linalg.solve(res.tool_rotation_cov, e)) <= CHI2_99[3])
                     rot_e.append(float(e @ e))
@@ -245,13 +331,23 @@ def realistic(runs: int, points: int, methods: list, targets: int = 3, protocols
                 free = spread > 1e-9  # (theta_6 included: the tool frame is identified here)
                 ratio = np.sqrt(np.mean(sig**2, axis=0))[free] / spread[free]
                 pos = 1e3 * math.sqrt(np.mean(np.array(pe) ** 2))
-                shared_rows.append(f"{case:<40}{label:<18}{pos:12.4f}{np.median(ratio):14.2f}{100 * np.mean((ratio >= 0.8) & (ratio <= 1.25)):12.0f}%"
-                                   f"{100 * np.mean(within):13.0f}%{100 * np.mean(rot_c2):12.0f}%{math.degrees(math.sqrt(np.mean(rot_e))) * 3600:10.3g}"
-                                   f"{math.degrees(np.mean(rot_s)) * 3600:10.3g}   " + ", ".join(f"{k} {v}" for k, v in chose.items()))
+                shared_rows.append(
+                    f"{case:<40}{label:<18}{pos:12.4f}{np.median(ratio):14.2f}{100 * np.mean((ratio >= 0.8) & (ratio <= 1.25)):12.0f}%"
+                    f"{100 * np.mean(within):13.0f}%{100 * np.mean(rot_c2):12.0f}%{math.degrees(math.sqrt(np.mean(rot_e))) * 3600:10.3g}"
+                    f"{math.degrees(np.mean(rot_s)) * 3600:10.3g}   " + ", ".join(f"{k} {v}" for k, v in chose.items())
+                )
             for method in methods:
                 est, sig, pe, chose, agree = [], [], [], collections.Counter(), []
                 for run in range(runs):
-                    recs = recordings(truth, home, ranges, points=points, seed=10_000 * protocol + run, targets=NEST[:max(targets, 1)], **kw)
+                    recs = recordings(
+                        truth,
+                        home,
+                        ranges,
+                        points=points,
+                        seed=10_000 * protocol + run,
+                        targets=NEST[: max(targets, 1)],
+                        **kw,
+                    )
                     res = dv.identify(recs[0], method=method, nominal=kr5)
                     d = res.table.params - kr5.table.params
                     d[:, 1] += recs[0].home - home  # a reading offset / scale error at home is a true theta offset
@@ -274,18 +370,27 @@ def realistic(runs: int, points: int, methods: list, targets: int = 3, protocols
                 ratio = np.sqrt(np.mean(sig**2, axis=0))[free] / spread[free]
                 inband = np.mean((ratio >= 0.8) & (ratio <= 1.25))
                 cols = list(kr5.table.columns)
-                names = [f"{cols[c]}{j + 1} {r:.2f}" for (j, c), r in zip(np.argwhere(free), ratio, strict=True) if not 0.8 <= r <= 1.25]
+                names = [
+                    f"{cols[c]}{j + 1} {r:.2f}"
+                    for (j, c), r in zip(np.argwhere(free), ratio, strict=True)
+                    if not 0.8 <= r <= 1.25
+                ]
                 pos = 1e3 * math.sqrt(np.mean(np.array(pe) ** 2))
                 kasa = pos if method == "kasa" else kasa
                 gain = f"{kasa / pos:7.1f}x" if kasa else f"{'-':>8}"
                 ag = f"{100 * np.mean(agree):14.0f}%" if agree else f"{'-':>15}"
-                print(f"{case:<40}{method:<11}{pos:12.4f}{gain}{np.median(ratio):14.2f}{100 * inband:12.0f}%{ag}   "
-                      + (", ".join(f"{k} {v}" for k, v in chose.items()) if chose else "") + ("; " + ", ".join(names) if names else ""))
+                print(
+                    f"{case:<40}{method:<11}{pos:12.4f}{gain}{np.median(ratio):14.2f}{100 * inband:12.0f}%{ag}   "
+                    + (", ".join(f"{k} {v}" for k, v in chose.items()) if chose else "")
+                    + ("; " + ", ".join(names) if names else "")
+                )
         if not shared:
             continue
         print(f"shared fits (one fit with shared axes; tool orientation identified), {protocol} degree protocol:")
-        print(f"{'case':<40}{'data':<18}{'axis err mm':>12}{'sigma/spread':>14}{'in 0.8-1.25':>13}{'axes in 99%':>14}{'tool in 99%':>13}"
-              f"{'tool err':>10}{'sigma':>10}   auto chose   (tool orientation error and mean sigma in arcsec)")
+        print(
+            f"{'case':<40}{'data':<18}{'axis err mm':>12}{'sigma/spread':>14}{'in 0.8-1.25':>13}{'axes in 99%':>14}{'tool in 99%':>13}"
+            f"{'tool err':>10}{'sigma':>10}   auto chose   (tool orientation error and mean sigma in arcsec)"
+        )
         for row in shared_rows:
             print(row)
 

@@ -41,7 +41,9 @@ from denavit import sweeps as sw
 ident = importlib.import_module("denavit.identification.choice")
 
 HOME = np.radians([10.79, 44.5, 36.14, -1.70, 3.45, 42.87])
-RANGES30 = np.radians(np.array([-4.2, 25.8, 29.5, 59.5, 21.1, 51.1, -16.7, 13.3, -11.5, 18.5, 27.9, 57.9]).reshape(6, 2))
+RANGES30 = np.radians(
+    np.array([-4.2, 25.8, 29.5, 59.5, 21.1, 51.1, -16.7, 13.3, -11.5, 18.5, 27.9, 57.9]).reshape(6, 2)
+)
 RANGES90 = np.stack([HOME - np.radians(45), HOME + np.radians(45)], axis=1)
 TOOL = (0.03, 0.02, 0.10)
 SCALED = (1, 2)  # joints 2 and 3 (0-based)
@@ -54,8 +56,14 @@ def data(ranges, seed: int, points: int, scale: np.ndarray | None = None) -> sw.
     s = dv.simulate("ur5", home=HOME, ranges=ranges, points_per_sweep=points, noise=2e-5, tool_point=TOOL, seed=seed)
     if scale is None:
         return s
-    return sw.SweepSet([sw.Sweep(x.joint, x.points, HOME + (x.q - HOME) / (1 + scale), x.where) for x in s.sweeps], s.n_joints, s.home, s.kinds,
-                       s.source, s.units)
+    return sw.SweepSet(
+        [sw.Sweep(x.joint, x.points, HOME + (x.q - HOME) / (1 + scale), x.where) for x in s.sweeps],
+        s.n_joints,
+        s.home,
+        s.kinds,
+        s.source,
+        s.units,
+    )
 
 
 class Truth:
@@ -90,7 +98,25 @@ def old_rule(*_args):
 def run_case(truth: Truth, ranges, runs: int, points: int, scale, seed0: int) -> dict:
     """auto, auto by the old rule and the global fit on ``runs`` seeds; per run: scales fitted (new, old), found, the
     axis errors (auto, old, global), the table errors and sigmas of auto."""
-    out = {k: [] for k in ("fit", "fit_old", "found", "e_auto", "e_old", "e_glob", "perr", "sig", "t_auto", "t_glob", "lr", "k", "perr_g", "sig_g")}
+    out = {
+        k: []
+        for k in (
+            "fit",
+            "fit_old",
+            "found",
+            "e_auto",
+            "e_old",
+            "e_glob",
+            "perr",
+            "sig",
+            "t_auto",
+            "t_glob",
+            "lr",
+            "k",
+            "perr_g",
+            "sig_g",
+        )
+    }
     new_rule, evidence = ident._scale_penalty, ident._scale_evidence
     seen = {}
 
@@ -161,8 +187,13 @@ def honesty(res: dict, fit: str = "") -> tuple[float, float, float, float, str]:
     ratio = sig.mean(axis=0)[mask] / rms[mask]
     names = np.array([[f"{p}{j + 1}" for p in ("d", "theta", "a", "alpha")] for j in range(perr.shape[1])])[mask]
     out = (ratio < 0.8) | (ratio > 1.25)
-    return (float(np.median(ratio)), float(ratio.min()), float(ratio.max()), float(np.mean(~out)),
-            ", ".join(f"{n} {r:.2f}" for n, r in zip(names[out], ratio[out], strict=True)))
+    return (
+        float(np.median(ratio)),
+        float(ratio.min()),
+        float(ratio.max()),
+        float(np.mean(~out)),
+        ", ".join(f"{n} {r:.2f}" for n, r in zip(names[out], ratio[out], strict=True)),
+    )
 
 
 def main() -> None:
@@ -174,14 +205,26 @@ def main() -> None:
     truth = Truth()
     sc = np.zeros(6)
     sc[list(SCALED)] = PPM
-    cases = [("exact readings, 30 deg arcs", RANGES30, None, 0), ("200 ppm on J2, J3, 30 deg arcs", RANGES30, sc, 0),
-             ("exact readings, 90 deg arcs", RANGES90, None, 0), ("200 ppm on J2, J3, 90 deg arcs", RANGES90, sc, 0)]
-    print(f"UR5, home {np.round(np.degrees(HOME), 2).tolist()} deg, {args.points} points per sweep, 0.02 mm noise, tool {TOOL} m, {args.runs} seeds per case")
-    print("Scales fitted: by auto (ln n, n the residual count), by the old rule, and by the same evidence with the BIC's n the count of scales (ln k)."
-          " Found: fitted, both scales nearer 200 ppm than 0.")
-    print("Agrees: among the runs where the old rule fitted the scales, how often the choice is the model nearer the truth on the axes.")
-    print(f"{'case':<32}{'fitted':>7}{'old':>6}{'ln k':>6}{'found':>7} | auto/global axis error: p50   p90   p95   max <=1.5x | "
-          f"{'RMS um: auto':>12}{'global':>7}{'old':>6} | scales nearer  agrees: auto  ln k")
+    cases = [
+        ("exact readings, 30 deg arcs", RANGES30, None, 0),
+        ("200 ppm on J2, J3, 30 deg arcs", RANGES30, sc, 0),
+        ("exact readings, 90 deg arcs", RANGES90, None, 0),
+        ("200 ppm on J2, J3, 90 deg arcs", RANGES90, sc, 0),
+    ]
+    print(
+        f"UR5, home {np.round(np.degrees(HOME), 2).tolist()} deg, {args.points} points per sweep, 0.02 mm noise, tool {TOOL} m, {args.runs} seeds per case"
+    )
+    print(
+        "Scales fitted: by auto (ln n, n the residual count), by the old rule, and by the same evidence with the BIC's n the count of scales (ln k)."
+        " Found: fitted, both scales nearer 200 ppm than 0."
+    )
+    print(
+        "Agrees: among the runs where the old rule fitted the scales, how often the choice is the model nearer the truth on the axes."
+    )
+    print(
+        f"{'case':<32}{'fitted':>7}{'old':>6}{'ln k':>6}{'found':>7} | auto/global axis error: p50   p90   p95   max <=1.5x | "
+        f"{'RMS um: auto':>12}{'global':>7}{'old':>6} | scales nearer  agrees: auto  ln k"
+    )
     results = {}
     for name, ranges, scale, seed0 in cases:
         t0 = time.perf_counter()
@@ -192,18 +235,26 @@ def main() -> None:
         alt = res["fit_old"] & (res["lr"] > np.log(res["k"]))
         found = f"{100 * np.mean(res['found']):6.0f}%" if scale is not None else f"{'-':>7}"
         differ = res["fit_old"]
-        nearer = f"{np.sum(res['e_old'][differ] < res['e_glob'][differ]):3d}/{np.sum(differ):<3d}" if np.any(differ) else "   -   "
-        print(f"{name:<32}{100 * np.mean(res['fit']):6.0f}%{100 * np.mean(res['fit_old']):5.0f}%{100 * np.mean(alt):5.0f}%{found} | "
-              f"{'':>22}{p[0]:5.2f} {p[1]:5.2f} {p[2]:5.2f} {p[3]:5.2f} {100 * np.mean(ratio <= 1.5):4.0f}% | "
-              f"{1e6 * np.sqrt(np.mean(res['e_auto'] ** 2)):12.1f}{1e6 * np.sqrt(np.mean(res['e_glob'] ** 2)):7.1f}{1e6 * np.sqrt(np.mean(res['e_old'] ** 2)):6.1f} | "
-              f"{nearer:>13}  {agreement(res, res['fit']):>12}  {agreement(res, alt)}   ({time.perf_counter() - t0:.0f} s)")
+        nearer = (
+            f"{np.sum(res['e_old'][differ] < res['e_glob'][differ]):3d}/{np.sum(differ):<3d}"
+            if np.any(differ)
+            else "   -   "
+        )
+        print(
+            f"{name:<32}{100 * np.mean(res['fit']):6.0f}%{100 * np.mean(res['fit_old']):5.0f}%{100 * np.mean(alt):5.0f}%{found} | "
+            f"{'':>22}{p[0]:5.2f} {p[1]:5.2f} {p[2]:5.2f} {p[3]:5.2f} {100 * np.mean(ratio <= 1.5):4.0f}% | "
+            f"{1e6 * np.sqrt(np.mean(res['e_auto'] ** 2)):12.1f}{1e6 * np.sqrt(np.mean(res['e_glob'] ** 2)):7.1f}{1e6 * np.sqrt(np.mean(res['e_old'] ** 2)):6.1f} | "
+            f"{nearer:>13}  {agreement(res, res['fit']):>12}  {agreement(res, alt)}   ({time.perf_counter() - t0:.0f} s)"
+        )
     print("\nSigma honesty (mean reported sigma / RMS error about the truth, per DH parameter that varies):")
     for name in results:
         if "exact" in name:
             for label, fit in (("auto", ""), ("global", "_g")):
                 med, lo, hi, share, off = honesty(results[name], fit)
-                print(f"  {name:<30} {label:<7} median {med:.2f}, range {lo:.2f}-{hi:.2f}, {100 * share:.0f}% within 0.8-1.25"
-                      + (f"; outside: {off}" if off else ""))
+                print(
+                    f"  {name:<30} {label:<7} median {med:.2f}, range {lo:.2f}-{hi:.2f}, {100 * share:.0f}% within 0.8-1.25"
+                    + (f"; outside: {off}" if off else "")
+                )
     if args.save:
         np.savez(args.save, **{f"{i}_{k}": v for i, res in enumerate(results.values()) for k, v in res.items()})
     t_a = np.concatenate([r["t_auto"] for r in results.values()])

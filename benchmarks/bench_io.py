@@ -45,7 +45,11 @@ def simulate(n: int, path: Path) -> tuple[float, float]:
     """Wall and CPU (children) seconds of ``denavit simulate kr5 -o path --points n``."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     w = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "denavit.cli", "simulate", "kr5", "-o", str(path), "--points", str(n), "--seed", "1"], check=True, capture_output=True)
+    subprocess.run(
+        [sys.executable, "-m", "denavit.cli", "simulate", "kr5", "-o", str(path), "--points", str(n), "--seed", "1"],
+        check=True,
+        capture_output=True,
+    )
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return time.perf_counter() - w, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
@@ -66,21 +70,31 @@ def main() -> None:
             return
         runs = [simulate(args.points, tmp / "sim.csv") for _ in range(args.repeats)]
         w, c = sorted(r[0] for r in runs)[len(runs) // 2], sorted(r[1] for r in runs)[len(runs) // 2]
-        print(f"{f'simulate kr5 --points {args.points} (process, imports included)':<58} {(tmp / 'sim.csv').stat().st_size / 1e6:>7.1f} {w:>8.2f} {c:>8.2f}", flush=True)
+        print(
+            f"{f'simulate kr5 --points {args.points} (process, imports included)':<58} {(tmp / 'sim.csv').stat().st_size / 1e6:>7.1f} {w:>8.2f} {c:>8.2f}",
+            flush=True,
+        )
         (tmp / "sim.csv").unlink()
         big = tmp / "big.csv"
         simulate(args.read_points, big)
         w, c = timed(lambda: swio.read_long_csv(big), args.repeats)
-        print(f"{f'read_long_csv, 6 x {args.read_points} points (C reader)':<58} {big.stat().st_size / 1e6:>7.1f} {w:>8.2f} {c:>8.2f}", flush=True)
+        print(
+            f"{f'read_long_csv, 6 x {args.read_points} points (C reader)':<58} {big.stat().st_size / 1e6:>7.1f} {w:>8.2f} {c:>8.2f}",
+            flush=True,
+        )
         big.unlink()
         small, slow = tmp / "small.csv", tmp / "slow.csv"
         simulate(50_000, small)
         slow.write_text(small.read_text() + "# a comment line at the end: read row by row\n")
         fast_t = timed(lambda: swio.read_long_csv(small), args.repeats)
         slow_t = timed(lambda: swio.read_long_csv(slow), args.repeats)
-        print(f"{'read_long_csv, 6 x 50000 points (C reader)':<58} {small.stat().st_size / 1e6:>7.1f} {fast_t[0]:>8.2f} {fast_t[1]:>8.2f}")
-        print(f"{'read_long_csv, 6 x 50000 points (row by row, a comment at the end)':<58} {slow.stat().st_size / 1e6:>7.1f} {slow_t[0]:>8.2f} {slow_t[1]:>8.2f}"
-              f"   ({slow_t[1] / fast_t[1]:.0f}x the C reader's CPU)")
+        print(
+            f"{'read_long_csv, 6 x 50000 points (C reader)':<58} {small.stat().st_size / 1e6:>7.1f} {fast_t[0]:>8.2f} {fast_t[1]:>8.2f}"
+        )
+        print(
+            f"{'read_long_csv, 6 x 50000 points (row by row, a comment at the end)':<58} {slow.stat().st_size / 1e6:>7.1f} {slow_t[0]:>8.2f} {slow_t[1]:>8.2f}"
+            f"   ({slow_t[1] / fast_t[1]:.0f}x the C reader's CPU)"
+        )
         measurements(tmp, args.measurement_rows, args.repeats)
     print(f"peak resident memory of this process: {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB")
 
@@ -97,9 +111,14 @@ def measurements(tmp: Path, rows: int, repeats: int) -> None:
             np.savetxt(fh, table, fmt="%.10g", delimiter=",")
         w, c = timed(lambda f=f: read_measurements(f), repeats)
         cpu.append(c)
-        print(f"{f'read_measurements, {n} rows q1..q6,x,y,z (C reader)':<58} {f.stat().st_size / 1e6:>7.1f} {w:>8.2f} {c:>8.2f}", flush=True)
+        print(
+            f"{f'read_measurements, {n} rows q1..q6,x,y,z (C reader)':<58} {f.stat().st_size / 1e6:>7.1f} {w:>8.2f} {c:>8.2f}",
+            flush=True,
+        )
         f.unlink()
-    print(f"read_measurements growth, {rows // 10} -> {rows} rows: CPU x {cpu[1] / cpu[0]:.1f}, exponent {np.log10(cpu[1] / cpu[0]):.2f}")
+    print(
+        f"read_measurements growth, {rows // 10} -> {rows} rows: CPU x {cpu[1] / cpu[0]:.1f}, exponent {np.log10(cpu[1] / cpu[0]):.2f}"
+    )
 
 
 if __name__ == "__main__":

@@ -86,25 +86,49 @@ def main():
     sizes = [int(10**k) for k in range(3, 8) if 10**k <= max_n]
     mi = m.with_inertias(np.linspace(4, 1, n), rng.uniform(-0.1, 0.1, (n, 3)), np.tile(np.eye(3) * 0.05, (n, 1, 1)))
     kernels = {
-        "fk_batch (out=)": (16, lambda qs, out, th: dv.fk_batch(m, qs, out=out, threads=th), lambda N: np.empty((N, 4, 4))),
-        "jacobian_batch (out=)": (6 * n, lambda qs, out, th: dv.jacobian_batch(m, qs, out=out, threads=th), lambda N: np.empty((N, 6, n))),
-        "rnea_batch (out=)": (n, lambda qs, out, th: dv.rnea_batch(mi, qs, qs, qs, out=out, threads=th), lambda N: np.empty((N, n))),
+        "fk_batch (out=)": (
+            16,
+            lambda qs, out, th: dv.fk_batch(m, qs, out=out, threads=th),
+            lambda N: np.empty((N, 4, 4)),
+        ),
+        "jacobian_batch (out=)": (
+            6 * n,
+            lambda qs, out, th: dv.jacobian_batch(m, qs, out=out, threads=th),
+            lambda N: np.empty((N, 6, n)),
+        ),
+        "rnea_batch (out=)": (
+            n,
+            lambda qs, out, th: dv.rnea_batch(mi, qs, qs, qs, out=out, threads=th),
+            lambda N: np.empty((N, n)),
+        ),
     }
     gflops, gbs = machine_floor(rep)
     scale = ISSUE_GFLOPS / gflops
-    print(f"denavit {dv.__version__}; {os.cpu_count()} cores; KR5; medians of {rep} runs; load average {os.getloadavg()[0]:.1f}")
-    print(f"this machine, one core: {gflops:.1f} GFLOP/s (DGEMM), {gbs:.1f} GB/s (copy); the issue's: {ISSUE_GFLOPS:.0f} GFLOP/s, "
-          f"23-35 GB/s; compute-bound targets scaled by {scale:.2f}")
+    print(
+        f"denavit {dv.__version__}; {os.cpu_count()} cores; KR5; medians of {rep} runs; load average {os.getloadavg()[0]:.1f}"
+    )
+    print(
+        f"this machine, one core: {gflops:.1f} GFLOP/s (DGEMM), {gbs:.1f} GB/s (copy); the issue's: {ISSUE_GFLOPS:.0f} GFLOP/s, "
+        f"23-35 GB/s; compute-bound targets scaled by {scale:.2f}"
+    )
     fig["machine"] = {"gflops": gflops, "copy_gbs": gbs, "target_scale": scale}
 
     def target(seconds):
         return f"<= {fmt(seconds)} (here: {fmt(seconds * scale)})"
 
-    for label, threads, clock in (("wall time, threads = default (RAYON_NUM_THREADS or every core)", None, time.perf_counter),
-                                  ("CPU time of the process, threads=1 (leaves out waiting for a core on a loaded machine; a long call runs on a helper thread that Ctrl-C can stop, so the calling thread alone would miss it)", 1, time.process_time)):
+    for label, threads, clock in (
+        ("wall time, threads = default (RAYON_NUM_THREADS or every core)", None, time.perf_counter),
+        (
+            "CPU time of the process, threads=1 (leaves out waiting for a core on a loaded machine; a long call runs on a helper thread that Ctrl-C can stop, so the calling thread alone would miss it)",
+            1,
+            time.process_time,
+        ),
+    ):
         print()
         print(label)
-        print("| kernel | " + " | ".join(f"N = 10^{len(str(N)) - 1}" for N in sizes) + " | growth exponent (N >= 10^4) |")
+        print(
+            "| kernel | " + " | ".join(f"N = 10^{len(str(N)) - 1}" for N in sizes) + " | growth exponent (N >= 10^4) |"
+        )
         print("|---|" + "---|" * len(sizes) + "---|")
         for name, (per_row, run, alloc) in kernels.items():
             ns, ts = [], []
@@ -113,7 +137,13 @@ def main():
                     break
                 qs = rng.uniform(-np.pi, np.pi, (N, n))
                 out = alloc(N)
-                ts.append(once(lambda qs=qs, out=out, run=run, th=threads: run(qs, out, th), rep if N < 10**7 else max(3, rep // 2), clock))
+                ts.append(
+                    once(
+                        lambda qs=qs, out=out, run=run, th=threads: run(qs, out, th),
+                        rep if N < 10**7 else max(3, rep // 2),
+                        clock,
+                    )
+                )
                 ns.append(N)
                 del qs, out
             cells = [fmt(t) for t in ts] + ["(memory)"] * (len(sizes) - len(ts))
@@ -134,25 +164,56 @@ def main():
     if pin is not None:
         pm, pd, _ = pin_model_with_tool(m)
         k = 5000
-        p_fk = fmt(once(lambda: [pin.forwardKinematics(pm, pd, q) for q in qs[:k] + m.offsets], rep) * N / k) + " (Python loop, scaled)"
-        p_j = fmt(once(lambda: [pin.computeJointJacobians(pm, pd, q) for q in qs[:k] + m.offsets], rep) * N / k) + " (Python loop, scaled)"
+        p_fk = (
+            fmt(once(lambda: [pin.forwardKinematics(pm, pd, q) for q in qs[:k] + m.offsets], rep) * N / k)
+            + " (Python loop, scaled)"
+        )
+        p_j = (
+            fmt(once(lambda: [pin.computeJointJacobians(pm, pd, q) for q in qs[:k] + m.offsets], rep) * N / k)
+            + " (Python loop, scaled)"
+        )
         p_r = fmt(once(lambda: [pin.rnea(pm, pd, q, q, q) for q in qs[:k]], rep) * N / k) + " (Python loop, scaled)"
     if rtb is not None:
         ets = rtb_robot_with_limits(m).ets()
         r_fk = fmt(once(lambda: ets.fkine(qs), max(3, rep // 2)))
-    rows.append((f"batch FK {N:,} (KR5 -> (N, 4, 4), out=), one core: wall (process CPU)", f"{fmt(t1)} ({fmt(c1)})", p_fk, r_fk, target(1.8e-3)))
+    rows.append(
+        (
+            f"batch FK {N:,} (KR5 -> (N, 4, 4), out=), one core: wall (process CPU)",
+            f"{fmt(t1)} ({fmt(c1)})",
+            p_fk,
+            r_fk,
+            target(1.8e-3),
+        )
+    )
     rows.append((f"batch FK {N:,}, out=, two cores (threads=2)", fmt(t2), "-", "-", target(1.0e-3)))
-    rows.append((f"batch FK {N:,}, one core, a fresh result array: wall (process CPU)", f"{fmt(tf)} ({fmt(cf)})", "-", "-", "-"))
+    rows.append(
+        (f"batch FK {N:,}, one core, a fresh result array: wall (process CPU)", f"{fmt(tf)} ({fmt(cf)})", "-", "-", "-")
+    )
     # out= one value off numpy's 16-byte alignment: the kernel's plain stores instead of streaming ones (docs/speed.md)
     plain = np.empty(N * 16 + 1)[1:].reshape(N, 4, 4)
     cp = once(lambda: dv.fk_batch(m, qs, out=plain, threads=1), rep * 3, time.process_time)
-    rows.append((f"batch FK {N:,}, one core (process CPU), plain stores (out= a view one value off the alignment)", fmt(cp), "-", "-", "-"))
+    rows.append(
+        (
+            f"batch FK {N:,}, one core (process CPU), plain stores (out= a view one value off the alignment)",
+            fmt(cp),
+            "-",
+            "-",
+            "-",
+        )
+    )
     oj = np.empty((N, 6, n))
     tj = once(lambda: dv.jacobian_batch(m, qs, out=oj), rep * 3)
     tj1 = once(lambda: dv.jacobian_batch(m, qs, out=oj, threads=1), rep * 3)
     cj1 = once(lambda: dv.jacobian_batch(m, qs, out=oj, threads=1), rep * 3, time.process_time)
-    rows.append((f"batch Jacobian {N:,} (local_world_aligned, out=), default threads / one core (process CPU)",
-                 f"{fmt(tj)} / {fmt(tj1)} ({fmt(cj1)})", p_j, "-", target(5e-3)))
+    rows.append(
+        (
+            f"batch Jacobian {N:,} (local_world_aligned, out=), default threads / one core (process CPU)",
+            f"{fmt(tj)} / {fmt(tj1)} ({fmt(cj1)})",
+            p_j,
+            "-",
+            target(5e-3),
+        )
+    )
     orn = np.empty((N, n))
     tr = once(lambda: dv.rnea_batch(mi, qs, qs, qs, out=orn), rep * 3)
     rows.append((f"batch RNE {N:,} (out=)", fmt(tr), p_r, "-", "-"))
@@ -162,7 +223,15 @@ def main():
         ob = np.empty((big, 4, 4))
         tb = once(lambda: dv.fk_batch(m, qb, out=ob), 3)
         cb = once(lambda: dv.fk_batch(m, qb, out=ob, threads=1), 3, time.process_time)
-        rows.append(("batch FK 10^7 with out= (default threads); one core's process CPU", f"{fmt(tb)}; {fmt(cb)}", "-", "-", target(0.25)))
+        rows.append(
+            (
+                "batch FK 10^7 with out= (default threads); one core's process CPU",
+                f"{fmt(tb)}; {fmt(cb)}",
+                "-",
+                "-",
+                target(0.25),
+            )
+        )
         del qb, ob
     q = np.array([0.3, -0.2, 0.5, 0.1, 0.4, -0.3])
     number = 2000 if args.quick else 20000
@@ -171,22 +240,57 @@ def main():
     c_fk = per_call(lambda: dv.fk(m, q), number, rep, time.thread_time)
     p_one = "-"
     if pin is not None:
-        p_one = fmt(per_call(lambda: pin.forwardKinematics(pm, pd, q), number, rep)) + " (forwardKinematics, no array returned)"
-    rows.append(("single FK from Python (returns the 4x4 array), wall (thread CPU); the binding's floor (an empty call, Model.nq)",
-                 f"{fmt(t_fk)} ({fmt(c_fk)}); floor {fmt(t_empty)}", p_one, "-", "<= 0.25 us"))
+        p_one = (
+            fmt(per_call(lambda: pin.forwardKinematics(pm, pd, q), number, rep))
+            + " (forwardKinematics, no array returned)"
+        )
+    rows.append(
+        (
+            "single FK from Python (returns the 4x4 array), wall (thread CPU); the binding's floor (an empty call, Model.nq)",
+            f"{fmt(t_fk)} ({fmt(c_fk)}); floor {fmt(t_empty)}",
+            p_one,
+            "-",
+            "<= 0.25 us",
+        )
+    )
     q1, o1 = q[None], np.empty((1, 4, 4))
     t_b1 = per_call(lambda: dv.fk_batch(m, q1, out=o1, threads=1), number // 4, rep)
     t_bd = per_call(lambda: dv.fk_batch(m, q1, out=o1), number // 4, rep)
-    rows.append(("batch FK of one configuration (a batch call's own cost), threads=1 / default",
-                 f"{fmt(t_b1)} / {fmt(t_bd)}", "-", "-", "-"))
-    one = ik_one_attempt([(name, dv.load_model(name)) for name in ("kr5", "ur5", "puma560")], 100 if args.quick else 300, rtb is not None, pin is not None)
+    rows.append(
+        (
+            "batch FK of one configuration (a batch call's own cost), threads=1 / default",
+            f"{fmt(t_b1)} / {fmt(t_bd)}",
+            "-",
+            "-",
+            "-",
+        )
+    )
+    one = ik_one_attempt(
+        [(name, dv.load_model(name)) for name in ("kr5", "ur5", "puma560")],
+        100 if args.quick else 300,
+        rtb is not None,
+        pin is not None,
+    )
     for r in one:  # (robot, newton, lm, [rtb ik_NR, rtb ik_LM,] pinocchio): rtb's cells only when it is installed
         rtb_cell = f"{r[3]} / {r[4]}" if rtb is not None else "-"
-        rows.append((f"IK one attempt, {r[0]}: newton / lm (success, median)", f"{r[1]} / {r[2]}", r[-1], rtb_cell, ">= 97 %, <= 5 us"))
+        rows.append(
+            (
+                f"IK one attempt, {r[0]}: newton / lm (success, median)",
+                f"{r[1]} / {r[2]}",
+                r[-1],
+                rtb_cell,
+                ">= 97 %, <= 5 us",
+            )
+        )
 
     print()
-    print("| case | denavit | pinocchio" + ("" if pin is not None else " (not installed)") + " | roboticstoolbox"
-          + ("" if rtb is not None else " (not installed)") + " | target |")
+    print(
+        "| case | denavit | pinocchio"
+        + ("" if pin is not None else " (not installed)")
+        + " | roboticstoolbox"
+        + ("" if rtb is not None else " (not installed)")
+        + " | target |"
+    )
     print("|---|---|---|---|---|")
     for r in rows:
         print("| " + " | ".join(r) + " |")

@@ -54,7 +54,11 @@ def child(path: str, box: bool) -> None:
 
 def simulate(n: int, folder: Path) -> Path:
     f = folder / f"sweeps_{n}.csv"
-    subprocess.run([sys.executable, "-m", "denavit.cli", "simulate", "kr5", "-o", str(f), "--points", str(n), "--seed", "1"], check=True, capture_output=True)
+    subprocess.run(
+        [sys.executable, "-m", "denavit.cli", "simulate", "kr5", "-o", str(f), "--points", str(n), "--seed", "1"],
+        check=True,
+        capture_output=True,
+    )
     return f
 
 
@@ -76,23 +80,41 @@ def main() -> None:
     sizes = [int(s) for s in args.sizes.split(",")]
     env = {**os.environ, "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS", "1")}
     rows = []
-    print(f"identify (auto, nominal kr5) from the long-form CSV, 6 sweeps x N points; median of {args.repeats} runs, one process each")
-    print(f"{'N':>9} {'file MB':>8} " + " ".join(f"{s + ' s':>9} {s + ' cpu':>9}" for s in STAGES) + f" {'total s':>8} {'peak MB':>8}  method")
+    print(
+        f"identify (auto, nominal kr5) from the long-form CSV, 6 sweeps x N points; median of {args.repeats} runs, one process each"
+    )
+    print(
+        f"{'N':>9} {'file MB':>8} "
+        + " ".join(f"{s + ' s':>9} {s + ' cpu':>9}" for s in STAGES)
+        + f" {'total s':>8} {'peak MB':>8}  method"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         for n in sizes:
             f = simulate(n, Path(tmp))
             runs = []
             for _ in range(args.repeats):
-                p = subprocess.run([sys.executable, __file__, "--child", str(f)] + (["--no-box"] if args.no_box else []), check=True, capture_output=True, text=True, env=env)
+                p = subprocess.run(
+                    [sys.executable, __file__, "--child", str(f)] + (["--no-box"] if args.no_box else []),
+                    check=True,
+                    capture_output=True,
+                    text=True,
+                    env=env,
+                )
                 runs.append(json.loads(p.stdout.strip().splitlines()[-1]))
             st = {s: (median([r[s][0] for r in runs]), median([r[s][1] for r in runs])) for s in STAGES if s in runs[0]}
             total = median([sum(r[s][0] for s in STAGES if s in r) for r in runs])
             peak = median([r["maxrss_mb"] for r in runs])
             rows.append((n, st, total, peak))
-            print(f"{n:>9} {f.stat().st_size / 1e6:>8.1f} " + " ".join(f"{st[s][0]:>9.2f} {st[s][1]:>9.2f}" if s in st else f"{'-':>9} {'-':>9}" for s in STAGES)
-                  + f" {total:>8.2f} {peak:>8.0f}  {runs[0]['method']}", flush=True)
+            print(
+                f"{n:>9} {f.stat().st_size / 1e6:>8.1f} "
+                + " ".join(f"{st[s][0]:>9.2f} {st[s][1]:>9.2f}" if s in st else f"{'-':>9} {'-':>9}" for s in STAGES)
+                + f" {total:>8.2f} {peak:>8.0f}  {runs[0]['method']}",
+                flush=True,
+            )
             f.unlink()
-    print("\ngrowth exponent between consecutive sizes (1 = linear; CPU time, and peak memory above the 1e3-point run's)")
+    print(
+        "\ngrowth exponent between consecutive sizes (1 = linear; CPU time, and peak memory above the 1e3-point run's)"
+    )
     base = rows[0][3]
     for (n0, s0, _, p0), (n1, s1, _, p1) in zip(rows, rows[1:]):
         k = math.log(n1 / n0)

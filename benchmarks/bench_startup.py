@@ -43,7 +43,13 @@ def cpu(args: list[str], repeats: int) -> float:
 
 def imported(args: list[str]) -> list[str]:
     """The heavy top-level packages ``args`` imports (of numpy, scipy, matplotlib)."""
-    p = subprocess.run([args[0], "-X", "importtime", *args[1:]], capture_output=True, text=True, env={**os.environ, "COLUMNS": "80"}, check=True)
+    p = subprocess.run(
+        [args[0], "-X", "importtime", *args[1:]],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "COLUMNS": "80"},
+        check=True,
+    )
     mods = {ln.split("|")[-1].strip() for ln in p.stderr.splitlines() if ln.startswith("import time:")}
     return [m for m in ("numpy", "scipy", "matplotlib") if m in mods]
 
@@ -67,13 +73,19 @@ def main() -> None:
     ]
     common = importlib.util.find_spec("denavit.cli.common").origin
     cached = os.path.exists(importlib.util.cache_from_source(common))
-    print(f"denavit from {os.path.dirname(os.path.dirname(common))}, bytecode {'cached' if cached else 'NOT cached (compiled at every run)'}\n")
+    print(
+        f"denavit from {os.path.dirname(os.path.dirname(common))}, bytecode {'cached' if cached else 'NOT cached (compiled at every run)'}\n"
+    )
     print(f"| case | CPU median [s] ({a.repeats} runs) | imports | target |")
     print("|---|---|---|---|")
     for name, args, target in cases:
         t = cpu(args, a.repeats)
         heavy = ", ".join(imported(args)) or "no numpy/scipy"
-        print(f"| {name} | {t:.3f} | {heavy} | " + ("" if target is None else f"<= {target} s: {'met' if t <= target else 'NOT met'}") + " |")
+        print(
+            f"| {name} | {t:.3f} | {heavy} | "
+            + ("" if target is None else f"<= {target} s: {'met' if t <= target else 'NOT met'}")
+            + " |"
+        )
 
 
 if __name__ == "__main__":

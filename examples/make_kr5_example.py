@@ -19,10 +19,22 @@ from denavit.io.sweeps import to_long_csv
 out = Path(__file__).resolve().parents[1] / "python" / "denavit" / "data"
 model = dv.load_model("kr5")
 for protocol, seed in ((90, 90), (30, 30)):
-    s = sw.simulate(model, home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[protocol]), points_per_sweep=40,
-                    tool_point=(0.05, 0.03, 0.10), noise=2e-5, seed=seed)
-    text = to_long_csv(s, "mm", "deg", f"KUKA KR5 joint sweeps, SIMULATED (not measured): Hayat et al. protocol, {protocol} deg ranges (Table II),\n"
-                          f"home 90,-90,90,0,90,0 deg, tool point 50,30,100 mm in the flange frame, 0.02 mm point noise, seed {seed}.\n"
-                          "Regenerate with examples/make_kr5_example.py.")
+    s = sw.simulate(
+        model,
+        home=np.radians(sw.PAPER_HOME_DEG),
+        ranges=np.radians(sw.PAPER_RANGES_DEG[protocol]),
+        points_per_sweep=40,
+        tool_point=(0.05, 0.03, 0.10),
+        noise=2e-5,
+        seed=seed,
+    )
+    text = to_long_csv(
+        s,
+        "mm",
+        "deg",
+        f"KUKA KR5 joint sweeps, SIMULATED (not measured): Hayat et al. protocol, {protocol} deg ranges (Table II),\n"
+        f"home 90,-90,90,0,90,0 deg, tool point 50,30,100 mm in the flange frame, 0.02 mm point noise, seed {seed}.\n"
+        "Regenerate with examples/make_kr5_example.py.",
+    )
     write_text(out / f"kr5_{protocol}deg.csv", text)
     print("wrote", out / f"kr5_{protocol}deg.csv")

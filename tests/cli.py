@@ -16,7 +16,9 @@ def env(columns: int = 120) -> dict:
 
 def run(*args, ok: bool = True, columns: int = 120, **kw) -> subprocess.CompletedProcess:
     """``denavit ARGS...``; with ``ok`` the exit code must be 0 (stderr shown otherwise)."""
-    p = subprocess.run([sys.executable, "-m", "denavit.cli", *map(str, args)], capture_output=True, text=True, env=env(columns), **kw)
+    p = subprocess.run(
+        [sys.executable, "-m", "denavit.cli", *map(str, args)], capture_output=True, text=True, env=env(columns), **kw
+    )
     if ok:
         assert p.returncode == 0, p.stderr
     return p

@@ -29,7 +29,14 @@ def _kr5_sweeps_csv() -> str:
     from denavit import sweeps as sw
     from denavit.io import sweeps as swio
 
-    s = sw.simulate(dv.load_model("kr5"), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=6, noise=2e-5, seed=1)
+    s = sw.simulate(
+        dv.load_model("kr5"),
+        home=np.radians(sw.PAPER_HOME_DEG),
+        ranges=np.radians(sw.PAPER_RANGES_DEG[30]),
+        points_per_sweep=6,
+        noise=2e-5,
+        seed=1,
+    )
     return swio.to_long_csv(s, "mm", "deg")
 
 
@@ -44,9 +51,19 @@ def _measurements_csv() -> str:
 def _sweeps_json() -> str:
     from denavit import sweeps as sw
 
-    s = sw.simulate(dv.load_model("kr5"), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=5)
-    return json.dumps({"units": {"length": "m", "angle": "rad"}, "home": s.home.tolist(),
-                       "sweeps": [{"joint": x.joint, "points": x.points.tolist(), "q": x.q.tolist()} for x in s.sweeps]})
+    s = sw.simulate(
+        dv.load_model("kr5"),
+        home=np.radians(sw.PAPER_HOME_DEG),
+        ranges=np.radians(sw.PAPER_RANGES_DEG[30]),
+        points_per_sweep=5,
+    )
+    return json.dumps(
+        {
+            "units": {"length": "m", "angle": "rad"},
+            "home": s.home.tolist(),
+            "sweeps": [{"joint": x.joint, "points": x.points.tolist(), "q": x.q.tolist()} for x in s.sweeps],
+        }
+    )
 
 
 def _sweeps_json_targets_poses() -> str:
@@ -54,14 +71,22 @@ def _sweeps_json_targets_poses() -> str:
     from denavit import sweeps as sw
     from denavit.io import sweeps as swio
 
-    s = sw.simulate(dv.load_model("kr5"), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=5,
-                    targets=[(0.05, 0.03, 0.1), (-0.04, 0.06, 0.08), (0.03, -0.07, 0.13)], poses=True)
+    s = sw.simulate(
+        dv.load_model("kr5"),
+        home=np.radians(sw.PAPER_HOME_DEG),
+        ranges=np.radians(sw.PAPER_RANGES_DEG[30]),
+        points_per_sweep=5,
+        targets=[(0.05, 0.03, 0.1), (-0.04, 0.06, 0.08), (0.03, -0.07, 0.13)],
+        poses=True,
+    )
     return json.dumps(swio.to_json(s, "mm", "deg"))
 
 
 def _targets_csv() -> str:
     Q = np.radians(np.array([[10, -80, 90, 0, 45, 0], [20, -70, 80, 10, 40, 5], [30, -60, 70, 20, 35, 10]]))
-    return "# units: length=mm angle=deg\nq1,q2,q3,q4,q5,q6\n" + "".join(",".join(f"{v:.6f}" for v in np.degrees(q)) + "\n" for q in Q)
+    return "# units: length=mm angle=deg\nq1,q2,q3,q4,q5,q6\n" + "".join(
+        ",".join(f"{v:.6f}" for v in np.degrees(q)) + "\n" for q in Q
+    )
 
 
 def _measurements_json() -> str:
@@ -112,23 +137,77 @@ def seeds() -> dict[str, tuple[str, str, Callable[[Path], object]]]:
         "urdf": (".urdf", (DATA / "urdf" / "ur_style.urdf").read_text(), lambda p: nums(load_urdf(p).table.params)),
         "sweep csv": (".csv", _kr5_sweeps_csv(), lambda p: nums(*[s.points for s in swio.read_long_csv(p).sweeps])),
         "sweep json": (".json", _sweeps_json(), lambda p: nums(*[s.points for s in swio.read_json(p).sweeps])),
-        "sweep json, targets and poses": (".json", _sweeps_json_targets_poses(),
-                                          lambda p: nums(*[x for s in swio.read_json(p).sweeps for x in (s.targets, s.rotations)], swio.read_json(p).nest)),
+        "sweep json, targets and poses": (
+            ".json",
+            _sweeps_json_targets_poses(),
+            lambda p: nums(
+                *[x for s in swio.read_json(p).sweeps for x in (s.targets, s.rotations)], swio.read_json(p).nest
+            ),
+        ),
         "measurements": (".csv", _measurements_csv(), lambda p: nums(read_measurements(p).points)),
         "measurements json": (".json", _measurements_json(), lambda p: nums(read_measurements(p).points)),
-        "joint file": (".csv", "# units: length=mm\ntime;x;y;z\n" + "".join(f"{k * 0.1:.1f};{100 * np.cos(t):.6f};{100 * np.sin(t):.6f};5\n" for k, t in enumerate(np.linspace(0, 1, 8))),
-                       lambda p: nums(_joint_file(p))),
+        "joint file": (
+            ".csv",
+            "# units: length=mm\ntime;x;y;z\n"
+            + "".join(
+                f"{k * 0.1:.1f};{100 * np.cos(t):.6f};{100 * np.sin(t):.6f};5\n"
+                for k, t in enumerate(np.linspace(0, 1, 8))
+            ),
+            lambda p: nums(_joint_file(p)),
+        ),
         "candidates": (".csv", _targets_csv(), lambda p: nums(read_configurations(p, six))),
         "targets": (".csv", _targets_csv(), lambda p: nums(read_targets(p, six).q)),
         "ur kinematics": (".yaml", _ur_yaml(), lambda p: nums(ur_calibration.read(p))),
         "rtde": (".csv", (DATA / "recordings" / "rtde.csv").read_text(), lambda p: nums(read_recording(p, "rtde").q)),
         "rsi": (".xml", (DATA / "recordings" / "rsi.xml").read_text(), lambda p: nums(read_recording(p, "rsi").q)),
-        "tracker": (".csv", (DATA / "recordings" / "tracker.csv").read_text(), lambda p: nums(read_recording(p, "tracker").points)),
+        "tracker": (
+            ".csv",
+            (DATA / "recordings" / "tracker.csv").read_text(),
+            lambda p: nums(read_recording(p, "tracker").points),
+        ),
     }
 
 
-WEIRD = ["nan", "inf", "-inf", "1e309", "-1e309", "", " ", "１２", "١٢", "1_000", "true", "0x10", "--1", "1e", ".", "+", "1,5", "NaN", "9" * 400,
-         "\x00", "\ufeff", "é", "°", "\\", "\"", "'", "[", "]", "{", "}", "<", ">", "=", ";", ",", "#", "# units: length=m", "# units: length=furlong"]
+WEIRD = [
+    "nan",
+    "inf",
+    "-inf",
+    "1e309",
+    "-1e309",
+    "",
+    " ",
+    "１２",
+    "١٢",
+    "1_000",
+    "true",
+    "0x10",
+    "--1",
+    "1e",
+    ".",
+    "+",
+    "1,5",
+    "NaN",
+    "9" * 400,
+    "\x00",
+    "\ufeff",
+    "é",
+    "°",
+    "\\",
+    '"',
+    "'",
+    "[",
+    "]",
+    "{",
+    "}",
+    "<",
+    ">",
+    "=",
+    ";",
+    ",",
+    "#",
+    "# units: length=m",
+    "# units: length=furlong",
+]
 
 
 def mutate(text: str, rng: random.Random) -> tuple[bytes, bool]:
@@ -154,7 +233,7 @@ def mutate(text: str, rng: random.Random) -> tuple[bytes, bool]:
         if not toks:
             return data, True
         m = rng.choice(toks)
-        return (text[:m.start()] + rng.choice(WEIRD) + text[m.end():]).encode(), False
+        return (text[: m.start()] + rng.choice(WEIRD) + text[m.end() :]).encode(), False
     lines = text.splitlines(keepends=True)
     if kind == 2 and lines:  # structure: drop, duplicate or swap lines
         i, j = rng.randrange(len(lines)), rng.randrange(len(lines))
@@ -174,9 +253,11 @@ def mutate(text: str, rng: random.Random) -> tuple[bytes, bool]:
         if r < 0.5:
             return data[: rng.randrange(len(data) + 1)], False
         if r < 0.9 or not lines:
-            return data + data[data.find(b"\n") + 1:] * rng.randint(2, 50), False
+            return data + data[data.find(b"\n") + 1 :] * rng.randint(2, 50), False
         last = next((ln for ln in reversed(lines) if ln.strip()), "\n")
-        return data + (last if last.endswith("\n") else last + "\n").encode() * rng.choice([1_000, 10_000, 100_000]), False
+        return data + (last if last.endswith("\n") else last + "\n").encode() * rng.choice(
+            [1_000, 10_000, 100_000]
+        ), False
     if kind == 5:  # meaning kept: a byte-order mark
         return b"\xef\xbb\xbf" + data, True
     if kind == 6:  # meaning kept: CRLF line ends
@@ -213,7 +294,11 @@ def run_case(name: str, suffix: str, reader, data: bytes, reference, keeps_meani
             msg = str(e)
             if keeps_meaning:  # a meaning-keeping mutation must still read
                 return f"other: meaning-keeping mutation refused: {msg[:200]}"
-            return "error" if "\n" not in msg and len(msg) <= MAX_MESSAGE else f"other: message of {len(msg)} chars / {msg.count(chr(10)) + 1} lines"
+            return (
+                "error"
+                if "\n" not in msg and len(msg) <= MAX_MESSAGE
+                else f"other: message of {len(msg)} chars / {msg.count(chr(10)) + 1} lines"
+            )
         except Hang:
             return "hang"
         except BaseException as e:  # noqa: BLE001 - the contract is what is being checked

@@ -92,9 +92,18 @@ def recordings(
         T = _core.fk_batch(flange, q)
         ps = [T[:, :3, :3] @ tool + T[:, :3, 3] for tool in tools]
         if tracker is None:
-            ps = [p + (rng if k == 0 else np.random.default_rng([seed, j, k])).normal(0.0, noise, p.shape) for k, p in enumerate(ps)]
+            ps = [
+                p + (rng if k == 0 else np.random.default_rng([seed, j, k])).normal(0.0, noise, p.shape)
+                for k, p in enumerate(ps)
+            ]
         else:
-            ps = [p + _tracker_draw(tracker, p, (rng if k == 0 else np.random.default_rng([seed, j, k])).normal(0.0, 1.0, p.shape)) for k, p in enumerate(ps)]
+            ps = [
+                p
+                + _tracker_draw(
+                    tracker, p, (rng if k == 0 else np.random.default_rng([seed, j, k])).normal(0.0, 1.0, p.shape)
+                )
+                for k, p in enumerate(ps)
+            ]
         if drift:
             d = rng.normal(0.0, drift / math.sqrt(3), 3)
             ps = [p + d for p in ps]
@@ -106,9 +115,27 @@ def recordings(
         if poses:
             rot = rotvec_matrix(np.random.default_rng([seed, j, 99]).normal(0.0, noise_rot, (m, 3))) @ T[:, :3, :3]
         for k, p in enumerate(ps):
-            out[k].append(sw.Sweep(j + 1, p, read, [f"recording sweep {j + 1}, row {r + 1}" for r in range(m)], None, rot if k == 0 else None))
-    return [sw.SweepSet(o, n, home * (1 + sc) + offset, list(model.kinds), f"recording of {model.name}" + (f", target {k + 1}" if len(tools) > 1 else ""),
-                        {"length": "m", "angle": "rad"}) for k, o in enumerate(out)]
+            out[k].append(
+                sw.Sweep(
+                    j + 1,
+                    p,
+                    read,
+                    [f"recording sweep {j + 1}, row {r + 1}" for r in range(m)],
+                    None,
+                    rot if k == 0 else None,
+                )
+            )
+    return [
+        sw.SweepSet(
+            o,
+            n,
+            home * (1 + sc) + offset,
+            list(model.kinds),
+            f"recording of {model.name}" + (f", target {k + 1}" if len(tools) > 1 else ""),
+            {"length": "m", "angle": "rad"},
+        )
+        for k, o in enumerate(out)
+    ]
 
 
 def _tracker_draw(tracker, p: np.ndarray, z: np.ndarray) -> np.ndarray:

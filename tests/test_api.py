@@ -20,14 +20,16 @@ def test_workflows_are_functions_of_the_package():
     """dv.identify & co. are functions in the namespace (dv.identify was a module: `dv.identify(...)` raised
     "'module' object is not callable"), and importing the identification package afterwards does not rebind them
     (issue 35: the package is named apart from the function, no import hook holds them apart)."""
-    code = ("import denavit as dv, denavit.identification, denavit.calibration, denavit.compensation, denavit.sweeps\n"
-            "from denavit.identification import Identification\n"
-            "import types\n"
-            "for f in (dv.identify, dv.calibrate, dv.plan, dv.simulate, dv.compensate, denavit.identification.identify):\n"
-            "    assert isinstance(f, types.FunctionType), f\n"
-            "import sys; assert isinstance(sys.modules['denavit.identification'], types.ModuleType)\n"
-            "heavy = [m for m in ('scipy', 'matplotlib', 'plotly', 'yourdfpy', 'lxml', 'typer') if m in sys.modules]\n"
-            "assert not heavy, heavy\n")
+    code = (
+        "import denavit as dv, denavit.identification, denavit.calibration, denavit.compensation, denavit.sweeps\n"
+        "from denavit.identification import Identification\n"
+        "import types\n"
+        "for f in (dv.identify, dv.calibrate, dv.plan, dv.simulate, dv.compensate, denavit.identification.identify):\n"
+        "    assert isinstance(f, types.FunctionType), f\n"
+        "import sys; assert isinstance(sys.modules['denavit.identification'], types.ModuleType)\n"
+        "heavy = [m for m in ('scipy', 'matplotlib', 'plotly', 'yourdfpy', 'lxml', 'typer') if m in sys.modules]\n"
+        "assert not heavy, heavy\n"
+    )
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert p.returncode == 0, p.stderr
     for name in ("identify", "calibrate", "plan", "simulate", "compensate", "read_sweeps"):
@@ -54,7 +56,9 @@ def test_identify_takes_ur5_as_calibrate_does():
         m = res.model(convention="edh")
         for q in np.random.default_rng(1).uniform(-2, 2, (5, 6)):
             T = dv.fk(ur5.model().with_tool(np.eye(4)), q)
-            np.testing.assert_allclose(dv.fk(m, q)[:3, 3], T[:3, :3] @ np.array([0.05, 0.03, 0.10]) + T[:3, 3], atol=1e-9)
+            np.testing.assert_allclose(
+                dv.fk(m, q)[:3, 3], T[:3, :3] @ np.array([0.05, 0.03, 0.10]) + T[:3, 3], atol=1e-9
+            )
     cal = dv.calibrate(s, "ur5")
     assert cal.rms < 1e-9
 
@@ -62,7 +66,10 @@ def test_identify_takes_ur5_as_calibrate_does():
 def test_identify_reads_per_joint_files_with_a_home(tmp_path):
     s = dv.simulate("kr5", home=HOME, points_per_sweep=10)
     for sweep in s.sweeps:
-        (tmp_path / f"j{sweep.joint}.csv").write_text("# units: length=mm\nx,y,z\n" + "".join(f"{x * 1e3:.17g},{y * 1e3:.17g},{z * 1e3:.17g}\n" for x, y, z in sweep.points))
+        (tmp_path / f"j{sweep.joint}.csv").write_text(
+            "# units: length=mm\nx,y,z\n"
+            + "".join(f"{x * 1e3:.17g},{y * 1e3:.17g},{z * 1e3:.17g}\n" for x, y, z in sweep.points)
+        )
     res = dv.identify(tmp_path, nominal="kr5", home=HOME, length="mm")
     np.testing.assert_allclose(res.table.params, dv.identify(s, nominal="kr5").table.params, atol=1e-9)
     with pytest.raises(dv.DenavitError, match="needs home"):
@@ -82,10 +89,15 @@ def test_calibrate_plan_simulate_compensate_take_names_paths_and_arrays(tmp_path
     c = dv.compensate("kr5", kr5, dv.fk_batch(kr5.model(), q[:3]))
     assert c.ok.all() and np.abs(c.before).max() < 1e-9
     targets = tmp_path / "targets.csv"
-    targets.write_text("# units: length=mm angle=deg\nq1,q2,q3,q4,q5,q6\n" + "".join(",".join(f"{v:.17g}" for v in np.degrees(row)) + "\n" for row in q[:3]))
+    targets.write_text(
+        "# units: length=mm angle=deg\nq1,q2,q3,q4,q5,q6\n"
+        + "".join(",".join(f"{v:.17g}" for v in np.degrees(row)) + "\n" for row in q[:3])
+    )
     c2 = dv.compensate("kr5", kr5, targets)
     np.testing.assert_allclose(c2.q, q[:3], atol=1e-7)
-    with pytest.raises(dv.DenavitError, match="nominal: expected a Robot, a Model, a built-in name or a robot file, got int"):
+    with pytest.raises(
+        dv.DenavitError, match="nominal: expected a Robot, a Model, a built-in name or a robot file, got int"
+    ):
         dv.calibrate(meas, 42)
     with pytest.raises(dv.DenavitError, match="no such file"):
         dv.identify(tmp_path / "missing.csv")
@@ -131,10 +143,28 @@ def test_reprs_of_recordings_segmentations_and_targets():
     from denavit.recording import Recording, Segment, Segmentation
 
     n = 1000
-    rec = Recording(np.arange(n) * 0.004, np.zeros((n, 6)), np.zeros((n, 1, 3)), [f"log.csv:{k + 2}" for k in range(n)], "log.csv", "rtde", {"length": "m"})
-    seg = Segmentation([Segment(1, 0, 500, 0.0, 2.0, "sweep"), Segment(1, 500, 1000, 2.0, 4.0, "transit")], "readings", 6, 12, "log.csv")
+    rec = Recording(
+        np.arange(n) * 0.004,
+        np.zeros((n, 6)),
+        np.zeros((n, 1, 3)),
+        [f"log.csv:{k + 2}" for k in range(n)],
+        "log.csv",
+        "rtde",
+        {"length": "m"},
+    )
+    seg = Segmentation(
+        [Segment(1, 0, 500, 0.0, 2.0, "sweep"), Segment(1, 500, 1000, 2.0, 4.0, "transit")],
+        "readings",
+        6,
+        12,
+        "log.csv",
+    )
     tg = Targets(None, np.zeros((3, 6)), ["t.csv:2", "t.csv:3", "t.csv:4"], {"length": "mm", "angle": "deg"})
-    for obj, parts in ((rec, ["1000 rows", "250 Hz", "rtde"]), (seg, ["1 sweeps, 2 motions", "12 dwell rows"]), (tg, ["3 rows of joint rows", "length=mm"])):
+    for obj, parts in (
+        (rec, ["1000 rows", "250 Hz", "rtde"]),
+        (seg, ["1 sweeps, 2 motions", "12 dwell rows"]),
+        (tg, ["3 rows of joint rows", "length=mm"]),
+    ):
         text = repr(obj)
         assert len(text) <= REPR_LIMIT and "\n" not in text, text
         for part in parts:
@@ -148,7 +178,9 @@ def test_the_identify_module_function_takes_names_and_says_what_it_reads():
 
     s = dv.simulate("kr5", points_per_sweep=8)
     assert identify(s, nominal="kr5").nominal.name == "kr5"
-    with pytest.raises(dv.DenavitError, match=r"expected a SweepSet, got str: denavit.identify\(path, nominal=...\) reads files"):
+    with pytest.raises(
+        dv.DenavitError, match=r"expected a SweepSet, got str: denavit.identify\(path, nominal=...\) reads files"
+    ):
         identify(str(EXAMPLE))
 
 
@@ -162,7 +194,9 @@ def test_kr5_stands_on_its_base_at_the_papers_home():
     o = F[:, :3, 3]
     assert o[:, 2].min() >= 0
     np.testing.assert_allclose(o[[1, 2, 4], 2], [0.4, 1.0, 1.12], atol=1e-12)  # shoulder, elbow, wrist centre heights
-    np.testing.assert_allclose(np.hypot(*o[[1, 2, 4], :2].T), [0.18, 0.18, 0.8], atol=1e-12)  # their distances from the A1 axis
+    np.testing.assert_allclose(
+        np.hypot(*o[[1, 2, 4], :2].T), [0.18, 0.18, 0.8], atol=1e-12
+    )  # their distances from the A1 axis
     T = dv.fk(kr5.model(), kr5.home)
     np.testing.assert_allclose(T[:3, 2], [0, 0, -1], atol=1e-12)  # A5 90: the flange faces down
     forward = o[4, :2] / np.linalg.norm(o[4, :2])
@@ -187,7 +221,16 @@ def _tilted_kr5(deg: float = 0.05):
         u /= np.linalg.norm(u)
         d = dirs[i] * np.cos(np.radians(deg)) + u * np.sin(np.radians(deg))
         dirs[i] = d / np.linalg.norm(d)
-    tilted = dv.JointAxes(pts, dirs, kinds=list(ax.kinds), q_ref=HOME, T_world_base=ax.T_world_base, T_world_tool=ax.T_world_tool, lower=ax.lower, upper=ax.upper)
+    tilted = dv.JointAxes(
+        pts,
+        dirs,
+        kinds=list(ax.kinds),
+        q_ref=HOME,
+        T_world_base=ax.T_world_base,
+        T_world_tool=ax.T_world_tool,
+        lower=ax.lower,
+        upper=ax.upper,
+    )
     return dv.extract(tilted, "edh").table.to_model("kr5 tilted", kr5.names, kr5.lower, kr5.upper)
 
 
@@ -207,7 +250,10 @@ def test_save_keeps_the_identified_geometry_and_a_dh_save_states_its_error(tmp_p
     assert d.max() < 1e-9
     res.save(tmp_path / "dh.toml", convention="dh", length="mm")
     # a robot file is TOML: another extension is refused (a .json name had received TOML without a word)
-    with pytest.raises(dv.DenavitError, match=r"r.json: expected a robot file name ending in .toml \(or .urdf for a URDF\), got a .json name"):
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"r.json: expected a robot file name ending in .toml \(or .urdf for a URDF\), got a .json name",
+    ):
         res.save(tmp_path / "r.json")
     assert not (tmp_path / "r.json").exists()
     text = (tmp_path / "dh.toml").read_text()
@@ -226,7 +272,11 @@ def test_identify_cli_save_is_exact_unless_asked(tmp_path):
 
     csv = tmp_path / "s.csv"
     truth = _tilted_kr5()
-    csv.write_text(swio.to_long_csv(sw.simulate(truth, home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=25), "mm", "deg"))
+    csv.write_text(
+        swio.to_long_csv(
+            sw.simulate(truth, home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=25), "mm", "deg"
+        )
+    )
     run("identify", csv, "--nominal", "kr5", "--save", tmp_path / "a.toml")
     run("identify", csv, "--nominal", "kr5", "--save", tmp_path / "b.toml", "--save-convention", "dh")
     assert dv.load_robot(tmp_path / "a.toml").convention == "edh"
@@ -246,7 +296,9 @@ PUMA_GRAVLOAD = {
 def test_puma560_gravity_torques_are_the_published_ones(pose):
     """Regression (issue 17): the built-in Puma 560 had no inertial parameters (dynamics printed zeros)."""
     q, tau = PUMA_GRAVLOAD[pose]
-    np.testing.assert_allclose(dv.gravity_torques(dv.load_model("puma560"), np.array(q, dtype=float)), tau, rtol=0, atol=6e-5)  # 4 decimals
+    np.testing.assert_allclose(
+        dv.gravity_torques(dv.load_model("puma560"), np.array(q, dtype=float)), tau, rtol=0, atol=6e-5
+    )  # 4 decimals
 
 
 def _pinocchio_dh(robot):
@@ -258,10 +310,18 @@ def _pinocchio_dh(robot):
     t = robot.table
     ins = robot.inertials
     for i, (d, theta, a, alpha) in enumerate(np.asarray(t.params)):
-        jid = model.addJoint(parent, pin.JointModelRZ(), placement * pin.SE3(pin.utils.rotate("z", theta), np.zeros(3)), f"j{i + 1}")
-        link = pin.SE3(np.eye(3), np.array([0, 0, d])) * pin.SE3(pin.utils.rotate("x", alpha), np.array([a, 0, 0]))  # Tz(d), then Tx(a) Rx(alpha)
+        jid = model.addJoint(
+            parent, pin.JointModelRZ(), placement * pin.SE3(pin.utils.rotate("z", theta), np.zeros(3)), f"j{i + 1}"
+        )
+        link = pin.SE3(np.eye(3), np.array([0, 0, d])) * pin.SE3(
+            pin.utils.rotate("x", alpha), np.array([a, 0, 0])
+        )  # Tz(d), then Tx(a) Rx(alpha)
         R = link.rotation
-        model.appendBodyToJoint(jid, pin.Inertia(float(ins["masses"][i]), link.act(np.asarray(ins["coms"][i])), R @ ins["inertias"][i] @ R.T), pin.SE3.Identity())
+        model.appendBodyToJoint(
+            jid,
+            pin.Inertia(float(ins["masses"][i]), link.act(np.asarray(ins["coms"][i])), R @ ins["inertias"][i] @ R.T),
+            pin.SE3.Identity(),
+        )
         parent, placement = jid, link
     return pin, model
 
@@ -278,14 +338,20 @@ def test_builtin_dynamics_match_pinocchio_on_the_same_parameters(name):
         q, qd, qdd = rng.uniform(-2, 2, (3, 6))
         np.testing.assert_allclose(dv.rnea(m, q, qd, qdd), pin.rnea(model, data, q, qd, qdd), rtol=1e-9, atol=1e-9)
         M = pin.crba(model, data, q)
-        np.testing.assert_allclose(dv.mass_matrix(m, q), np.triu(M) + np.triu(M, 1).T, rtol=1e-9, atol=1e-9)  # pinocchio fills the upper triangle
+        np.testing.assert_allclose(
+            dv.mass_matrix(m, q), np.triu(M) + np.triu(M, 1).T, rtol=1e-9, atol=1e-9
+        )  # pinocchio fills the upper triangle
 
 
-@pytest.mark.parametrize("kw", [{"noise": float("nan")}, {"noise": -1e-5}, {"noise_q": float("inf")}, {"noise_rot": -0.1}])
+@pytest.mark.parametrize(
+    "kw", [{"noise": float("nan")}, {"noise": -1e-5}, {"noise_q": float("inf")}, {"noise_rot": -0.1}]
+)
 def test_simulate_refuses_a_sigma_that_is_not_one(kw):
     """A NaN or negative sigma is an error (it had given noise-free data without a word; the CLI refused it)."""
     name = next(iter(kw))
-    with pytest.raises(dv.DenavitError, match=rf"^simulate: {name} must be a finite sigma >= 0 in .*, got {kw[name]!r}$"):
+    with pytest.raises(
+        dv.DenavitError, match=rf"^simulate: {name} must be a finite sigma >= 0 in .*, got {kw[name]!r}$"
+    ):
         dv.simulate("kr5", **kw)
 
 
@@ -300,9 +366,13 @@ def test_an_edh_save_that_drops_a_tilt_does_not_claim_exactness(tmp_path):
     assert err > 1e-6  # a tilt within the noise, dropped: micrometres, not round-off
     res.save(tmp_path / "edh.toml", length="mm")
     head = (tmp_path / "edh.toml").read_text().splitlines()[:2]
-    assert head[0].startswith("# The identified geometry, exactly except the tilt of a pair of axes the nominal has parallel"), head[0]
+    assert head[0].startswith(
+        "# The identified geometry, exactly except the tilt of a pair of axes the nominal has parallel"
+    ), head[0]
     assert f"max tool-position deviation {err * 1e3:.3g} mm" in head[1]
-    assert any("edh table carries a tool-position error" in n and "exact except the tilt" in n for n in res.notes), res.notes
+    assert any("edh table carries a tool-position error" in n and "exact except the tilt" in n for n in res.notes), (
+        res.notes
+    )
     res.save(tmp_path / "poe.toml", convention="poe", length="mm")
     assert dv.load_robot(tmp_path / "poe.toml").convention == "poe"
     assert res.carried_error("poe")[0] < 1e-9

@@ -104,22 +104,50 @@ def test_zero_joints_and_empty_batches_never_panic():
             assert isinstance(e, dv.DenavitError), f"to_table of a 0-joint model, {conv}: {type(e).__name__}: {e}"
 
 
-BAD = [None, 1.0, np.nan, "x", [[1, 2], [3]], np.zeros(0), np.zeros((0, 0)), np.zeros((2, 0)), np.full(2, np.nan), np.zeros((4, 4)),
-       np.full((4, 4), np.inf), np.zeros((2, 3)), np.zeros((2, 3, 3)), np.zeros((2, 2, 2, 2)), np.zeros(6), []]
+BAD = [
+    None,
+    1.0,
+    np.nan,
+    "x",
+    [[1, 2], [3]],
+    np.zeros(0),
+    np.zeros((0, 0)),
+    np.zeros((2, 0)),
+    np.full(2, np.nan),
+    np.zeros((4, 4)),
+    np.full((4, 4), np.inf),
+    np.zeros((2, 3)),
+    np.zeros((2, 3, 3)),
+    np.zeros((2, 2, 2, 2)),
+    np.zeros(6),
+    [],
+]
 
 
 def bad_input_calls():
     m = planar().with_inertias(np.ones(2), np.zeros((2, 3)), np.tile(np.eye(3) * 0.01, (2, 1, 1)))
     q, qs, P = np.zeros(2), np.zeros((3, 2)), np.stack([I4, I4])
     return [
-        (_core.fk, (m, q)), (_core.joint_frames, (m, q)), (_core.jacobian, (m, q)), (_core.fk_batch, (m, qs)),
-        (_core.jacobian_batch, (m, qs)), (_core.axes, (m, q)), (_core.rnea, (m, q, q, q, np.zeros(3), np.zeros(6))),
-        (_core.forward_dynamics, (m, q, q, q, np.zeros(3), np.zeros(6))), (_core.mass_matrix, (m, q)),
-        (_core.rnea_batch, (m, qs, qs, qs, np.zeros(3), np.zeros((3, 6)))), (_core.coriolis_matrix_batch, (m, qs, qs)),
-        (_core.transfer_inertias, (m, m, q)), (_core.ik, (m, I4, q)), (_core.ik_path, (m, P, q)), (_core.ik_batch, (m, P, qs[:2])),
-        (_core.Model.from_placements, (P, ["revolute", "revolute"])), (dv.Table, ("dh", np.zeros((2, 4)), ["revolute"] * 2, I4, I4)),
+        (_core.fk, (m, q)),
+        (_core.joint_frames, (m, q)),
+        (_core.jacobian, (m, q)),
+        (_core.fk_batch, (m, qs)),
+        (_core.jacobian_batch, (m, qs)),
+        (_core.axes, (m, q)),
+        (_core.rnea, (m, q, q, q, np.zeros(3), np.zeros(6))),
+        (_core.forward_dynamics, (m, q, q, q, np.zeros(3), np.zeros(6))),
+        (_core.mass_matrix, (m, q)),
+        (_core.rnea_batch, (m, qs, qs, qs, np.zeros(3), np.zeros((3, 6)))),
+        (_core.coriolis_matrix_batch, (m, qs, qs)),
+        (_core.transfer_inertias, (m, m, q)),
+        (_core.ik, (m, I4, q)),
+        (_core.ik_path, (m, P, q)),
+        (_core.ik_batch, (m, P, qs[:2])),
+        (_core.Model.from_placements, (P, ["revolute", "revolute"])),
+        (dv.Table, ("dh", np.zeros((2, 4)), ["revolute"] * 2, I4, I4)),
         (m.with_inertias, (np.ones(2), np.zeros((2, 3)), np.tile(np.eye(3), (2, 1, 1)), "world", "origin", q)),
-        (dv.JointAxes, (np.zeros((2, 3)), [[0, 0, 1.0], [0, 1, 0]])), (m.with_base, (I4,)),
+        (dv.JointAxes, (np.zeros((2, 3)), [[0, 0, 1.0], [0, 1, 0]])),
+        (m.with_base, (I4,)),
         (_core.CalibrationChain, (["rz", "fixed"], [0, -1], [0, -1], I4[None], 1, 1, [-1])),
     ]
 
@@ -136,7 +164,9 @@ def test_bad_arguments_never_panic():
                 try:
                     f(*a)
                 except BaseException as e:  # noqa: BLE001 - PanicException derives from BaseException
-                    assert isinstance(e, (dv.DenavitError, TypeError)), f"{f.__name__} argument {k} = {bad!r}: {type(e).__name__}: {e}"
+                    assert isinstance(e, (dv.DenavitError, TypeError)), (
+                        f"{f.__name__} argument {k} = {bad!r}: {type(e).__name__}: {e}"
+                    )
     with pytest.raises(dv.DenavitError, match=r"fixed: expected an array of shape \(N, 4, 4\), got shape \(2, 0\)"):
         _core.CalibrationChain(["fixed"], [0], [-1], np.zeros((2, 0)), 0, 0, [])
     with pytest.raises(dv.DenavitError, match="invalid n_params: expected an integer >= 0, got -1"):
@@ -153,7 +183,10 @@ def test_complex_arrays_are_refused_in_every_array_argument():
                 continue
             a = list(args)
             a[k] = args[k] + 1j
-            with pytest.raises(dv.DenavitError, match=r"^invalid .*: expected an array-like of real floats, got a complex array \(dtype complex128\)$"):
+            with pytest.raises(
+                dv.DenavitError,
+                match=r"^invalid .*: expected an array-like of real floats, got a complex array \(dtype complex128\)$",
+            ):
                 f(*a)
             checked += 1
     assert checked >= 30
@@ -163,24 +196,73 @@ def test_complex_arrays_are_refused_in_every_array_argument():
 # Structured errors
 # ------------------------------------------------------------------------------------------------
 
-FIELDS = ("what", "expected", "got", "index", "value", "reason", "iterations", "position_error", "rotation_error", "joint")
+FIELDS = (
+    "what",
+    "expected",
+    "got",
+    "index",
+    "value",
+    "reason",
+    "iterations",
+    "position_error",
+    "rotation_error",
+    "joint",
+)
 
 
-@pytest.mark.parametrize("call, cls, kind, fields", [
-    (lambda m: dv.fk(m, np.zeros(3)), dv.DenavitError, "SizeMismatch", {"what": "q", "expected": 2, "got": 3}),
-    (lambda m: dv.fk(m, [0.0, np.inf]), dv.DenavitError, "NonFinite", {"what": "q", "index": 1, "value": np.inf}),
-    (lambda m: m.with_tool(np.diag([1.0, 1, 1, 2])), dv.DenavitError, "NotSe3", {"what": "T_flange_tool", "reason": "last row must be [0, 0, 0, 1], got [0.0, 0.0, 0.0, 2.0]"}),
-    (lambda m: dv.jacobian(m, np.zeros(2), frame="flange"), dv.DenavitError, "InvalidArgument", {"what": "frame", "expected": "'local', 'local_world_aligned', 'world' or 'base'", "got": "'flange'"}),
-    (lambda m: dv.Table("hayati", np.zeros((1, 4))), dv.DenavitError, "UnknownName", {"what": "convention", "got": "hayati", "expected": "dh, mdh, edh, poe"}),
-    (lambda m: dv.JointAxes(np.zeros((1, 3)), [[0, 0, 0]]), dv.DegenerateError, "Degenerate", {"reason": "direction of axis 1 must be a non-zero direction, got length 0.000e0"}),
-    (lambda m: m.with_inertias([1.0, -1.0], np.zeros((2, 3)), np.zeros((2, 3, 3))), dv.DenavitError, "InvalidArgument",
-     {"what": "mass of link 2", "expected": "a mass >= 0 kg", "got": "-1 kg", "joint": 2}),
-
-    (lambda m: m.with_inertias(np.ones(2), np.zeros((2, 3)), np.zeros((2, 3, 3)), q_ref=np.zeros(2)), dv.DenavitError, "InvalidArgument",
-     {"what": "q_ref", "expected": "None with frame='link' (q_ref is the configuration of frame='world' inertias)", "got": "an array"}),
-    (lambda m: dv.extract(dv.axes(m, np.zeros(2)), "edh", origins=[[0, 0, 0], [0, np.nan, 0]]), dv.DenavitError, "NonFinite",
-     {"what": "ED-H origin 2", "index": 1, "value": pytest.approx(np.nan, nan_ok=True)}),
-])
+@pytest.mark.parametrize(
+    "call, cls, kind, fields",
+    [
+        (lambda m: dv.fk(m, np.zeros(3)), dv.DenavitError, "SizeMismatch", {"what": "q", "expected": 2, "got": 3}),
+        (lambda m: dv.fk(m, [0.0, np.inf]), dv.DenavitError, "NonFinite", {"what": "q", "index": 1, "value": np.inf}),
+        (
+            lambda m: m.with_tool(np.diag([1.0, 1, 1, 2])),
+            dv.DenavitError,
+            "NotSe3",
+            {"what": "T_flange_tool", "reason": "last row must be [0, 0, 0, 1], got [0.0, 0.0, 0.0, 2.0]"},
+        ),
+        (
+            lambda m: dv.jacobian(m, np.zeros(2), frame="flange"),
+            dv.DenavitError,
+            "InvalidArgument",
+            {"what": "frame", "expected": "'local', 'local_world_aligned', 'world' or 'base'", "got": "'flange'"},
+        ),
+        (
+            lambda m: dv.Table("hayati", np.zeros((1, 4))),
+            dv.DenavitError,
+            "UnknownName",
+            {"what": "convention", "got": "hayati", "expected": "dh, mdh, edh, poe"},
+        ),
+        (
+            lambda m: dv.JointAxes(np.zeros((1, 3)), [[0, 0, 0]]),
+            dv.DegenerateError,
+            "Degenerate",
+            {"reason": "direction of axis 1 must be a non-zero direction, got length 0.000e0"},
+        ),
+        (
+            lambda m: m.with_inertias([1.0, -1.0], np.zeros((2, 3)), np.zeros((2, 3, 3))),
+            dv.DenavitError,
+            "InvalidArgument",
+            {"what": "mass of link 2", "expected": "a mass >= 0 kg", "got": "-1 kg", "joint": 2},
+        ),
+        (
+            lambda m: m.with_inertias(np.ones(2), np.zeros((2, 3)), np.zeros((2, 3, 3)), q_ref=np.zeros(2)),
+            dv.DenavitError,
+            "InvalidArgument",
+            {
+                "what": "q_ref",
+                "expected": "None with frame='link' (q_ref is the configuration of frame='world' inertias)",
+                "got": "an array",
+            },
+        ),
+        (
+            lambda m: dv.extract(dv.axes(m, np.zeros(2)), "edh", origins=[[0, 0, 0], [0, np.nan, 0]]),
+            dv.DenavitError,
+            "NonFinite",
+            {"what": "ED-H origin 2", "index": 1, "value": pytest.approx(np.nan, nan_ok=True)},
+        ),
+    ],
+)
 def test_core_errors_carry_their_fields(call, cls, kind, fields):
     with pytest.raises(cls) as e:
         call(planar())
@@ -191,7 +273,9 @@ def test_core_errors_carry_their_fields(call, cls, kind, fields):
 
 
 def test_not_converged_error_carries_iterations_and_errors():
-    e = dv.NotConvergedError("not converged", kind="NotConverged", iterations=7, position_error=1e-3, rotation_error=2e-3)
+    e = dv.NotConvergedError(
+        "not converged", kind="NotConverged", iterations=7, position_error=1e-3, rotation_error=2e-3
+    )
     assert (e.iterations, e.position_error, e.rotation_error, e.what) == (7, 1e-3, 2e-3, None)
     with pytest.raises(TypeError, match="unknown fields"):
         dv.DenavitError("x", colour="red")
@@ -208,13 +292,19 @@ def test_errors_pickle_with_their_fields():
 def test_with_inertias_is_a_method_of_the_binding():
     """Model.with_inertias / Model.inertias are #[pymethods] (not Python source run at import)."""
     assert inspect.ismethoddescriptor(vars(_core.Model)["with_inertias"])
-    assert inspect.isdatadescriptor(vars(_core.Model)["inertias"]) and not isinstance(vars(_core.Model)["inertias"], property)
-    assert _core.Model.with_inertias.__text_signature__ == '($self, masses, coms, inertias, frame="link", about="com", q_ref=None)'
+    assert inspect.isdatadescriptor(vars(_core.Model)["inertias"]) and not isinstance(
+        vars(_core.Model)["inertias"], property
+    )
+    assert (
+        _core.Model.with_inertias.__text_signature__
+        == '($self, masses, coms, inertias, frame="link", about="com", q_ref=None)'
+    )
 
 
 # ------------------------------------------------------------------------------------------------
 # Objects that travel: pickle, deepcopy, other processes
 # ------------------------------------------------------------------------------------------------
+
 
 def state(x):
     """Every public property of a binding object, arrays as bytes (bit-for-bit comparison)."""
@@ -238,18 +328,32 @@ def state(x):
 def travelling_objects():
     """One object of every class of the binding, built as users build them."""
     kr5 = dv.load_model("kr5")
-    heavy = kr5.with_inertias(np.linspace(1, 6, 6), np.full((6, 3), 0.01), np.tile(np.diag([0.02, 0.03, 0.04]), (6, 1, 1)))
+    heavy = kr5.with_inertias(
+        np.linspace(1, 6, 6), np.full((6, 3), 0.01), np.tile(np.diag([0.02, 0.03, 0.04]), (6, 1, 1))
+    )
     moved = heavy.with_base(dv.fk(kr5, np.full(6, 0.3))).with_tool(dv.fk(kr5, np.full(6, -0.2)))
     q = np.linspace(-0.5, 0.5, 6)
     ax = dv.axes(moved, q)
     targets = dv.fk_batch(kr5, np.random.default_rng(0).uniform(-1, 1, (3, 6)))
-    chain = _core.CalibrationChain(["rz", "tx", "fixed", "ry"], [0, 1, -1, 2], [0, -1, -1, 1], dv.fk(kr5, q)[None], 4, 2, [-1, 3])
+    chain = _core.CalibrationChain(
+        ["rz", "tx", "fixed", "ry"], [0, 1, -1, 2], [0, -1, -1, 1], dv.fk(kr5, q)[None], 4, 2, [-1, 3]
+    )
     ex = dv.extract(ax, "edh")
     return {
-        "Model": heavy, "Model moved": moved, "Model bare": kr5, "Model 0 joints": dv.Table("dh", np.zeros((0, 4))).to_model(),
-        "Table": ex.table, "Table poe": dv.extract(ax, "poe").table, "JointAxes": ax, "Extraction": ex, "PairDiagnostic": ex.pairs[1],
-        "IkResult": dv.ik(kr5, targets[0]), "IkBatchResult": dv.ik_batch(kr5, targets), "IkBatchResult empty": dv.ik_batch(kr5, np.zeros((0, 4, 4))),
-        "CalibrationChain": chain, "CalibrationChain parametrized": _core.parametrize(ex.table, I4, I4, "pose", True)["chain"],
+        "Model": heavy,
+        "Model moved": moved,
+        "Model bare": kr5,
+        "Model 0 joints": dv.Table("dh", np.zeros((0, 4))).to_model(),
+        "Table": ex.table,
+        "Table poe": dv.extract(ax, "poe").table,
+        "JointAxes": ax,
+        "Extraction": ex,
+        "PairDiagnostic": ex.pairs[1],
+        "IkResult": dv.ik(kr5, targets[0]),
+        "IkBatchResult": dv.ik_batch(kr5, targets),
+        "IkBatchResult empty": dv.ik_batch(kr5, np.zeros((0, 4, 4))),
+        "CalibrationChain": chain,
+        "CalibrationChain parametrized": _core.parametrize(ex.table, I4, I4, "pose", True)["chain"],
         "Compensation": _core.compensate(kr5, kr5.with_base(dv.fk(kr5, np.full(6, 0.01))), targets, restarts=2),
     }
 
@@ -295,7 +399,9 @@ def test_objects_travel_to_another_process():
         "bad = [k for k, (x, s, b) in d.items() if t.state(x) != s or t.state(t.behaviour(x)) != b]\n"
         "print('bad:', bad)\n"
     )
-    r = subprocess.run([sys.executable, "-c", code, str(Path(__file__).parent)], input=blob, capture_output=True, check=False)
+    r = subprocess.run(
+        [sys.executable, "-c", code, str(Path(__file__).parent)], input=blob, capture_output=True, check=False
+    )
     assert r.returncode == 0, r.stderr.decode()
     assert r.stdout.decode().strip() == "bad: []"
 
@@ -303,6 +409,7 @@ def test_objects_travel_to_another_process():
 # ------------------------------------------------------------------------------------------------
 # The stub
 # ------------------------------------------------------------------------------------------------
+
 
 def stub_tree():
     """{name: (kind, params or None)} for the stub's module-level functions, classes and their members."""
@@ -385,6 +492,7 @@ def test_stub_matches_the_module():
 # ------------------------------------------------------------------------------------------------
 # Arrays for arrays, short reprs with the key numbers
 # ------------------------------------------------------------------------------------------------
+
 
 def test_numeric_list_properties_are_arrays():
     """Regression (issue 17): Model.lower / upper / offsets and JointAxes.q_ref / lower / upper were lists."""

@@ -50,12 +50,21 @@ BATCHES = {
     "gravity_torques_batch": (PUMA, 1, lambda m, q: np.array([dv.gravity_torques(m, a) for a in q])),
     "mass_matrix_batch": (PUMA, 1, lambda m, q: np.array([dv.mass_matrix(m, a) for a in q])),
     "coriolis_matrix_batch": (PUMA, 2, lambda m, q, qd: np.array([dv.coriolis_matrix(m, a, b) for a, b in zip(q, qd)])),
-    "forward_dynamics_batch": (PUMA, 3, lambda m, q, qd, tau: np.array([dv.forward_dynamics(m, a, b, c) for a, b, c in zip(q, qd, tau)])),
+    "forward_dynamics_batch": (
+        PUMA,
+        3,
+        lambda m, q, qd, tau: np.array([dv.forward_dynamics(m, a, b, c) for a, b, c in zip(q, qd, tau)]),
+    ),
 }
 
 
 def out_shape(name, m, n):
-    return {"fk_batch": (n, 4, 4), "jacobian_batch": (n, 6, m.nq), "mass_matrix_batch": (n, m.nq, m.nq), "coriolis_matrix_batch": (n, m.nq, m.nq)}.get(name, (n, m.nq))
+    return {
+        "fk_batch": (n, 4, 4),
+        "jacobian_batch": (n, 6, m.nq),
+        "mass_matrix_batch": (n, m.nq, m.nq),
+        "coriolis_matrix_batch": (n, m.nq, m.nq),
+    }.get(name, (n, m.nq))
 
 
 #: batches whose kernels are the single calls' arithmetic (bit for bit); the dynamics batches reorder sums
@@ -106,7 +115,10 @@ def test_out_at_every_offset_is_filled_exactly_or_refused(name):
             assert fn(m, *inputs, out=out) is out
             np.testing.assert_array_equal(out, want)
         else:
-            with pytest.raises(dv.DenavitError, match=r"^invalid out: expected a C-contiguous, writeable float64 numpy array of shape .* whose data is 8-byte aligned, got an array whose data starts at an address not a multiple of 8"):
+            with pytest.raises(
+                dv.DenavitError,
+                match=r"^invalid out: expected a C-contiguous, writeable float64 numpy array of shape .* whose data is 8-byte aligned, got an array whose data starts at an address not a multiple of 8",
+            ):
                 fn(m, *inputs, out=out)
 
 
@@ -168,22 +180,37 @@ def test_out_sharing_memory_with_an_input_through_frombuffer_is_refused():
     # the dynamics batches check each input
     qd = np.frombuffer(buf, dtype=np.float64, count=n * 6).reshape(n, 6)
     with pytest.raises(dv.DenavitError, match="overlaps qds"):
-        dv.rnea_batch(PUMA, configurations(n), qd, configurations(n), out=np.frombuffer(buf, dtype=np.float64, count=n * 6).reshape(n, 6))
+        dv.rnea_batch(
+            PUMA,
+            configurations(n),
+            qd,
+            configurations(n),
+            out=np.frombuffer(buf, dtype=np.float64, count=n * 6).reshape(n, 6),
+        )
 
 
 def test_datetime_and_timedelta_arrays_are_not_joint_values():
     for a in (np.array(["2026-01-01"] * 6, dtype="datetime64[D]"), np.arange(6).astype("timedelta64[s]")):
-        with pytest.raises(dv.DenavitError, match="^invalid q: expected an array-like of real floats, got a (datetime|timedelta) array"):
+        with pytest.raises(
+            dv.DenavitError, match="^invalid q: expected an array-like of real floats, got a (datetime|timedelta) array"
+        ):
             dv.fk(KR5, a)
 
 
 def test_ik_budgets_beyond_their_limits_are_one_line_errors():
     T = dv.fk(KR5, np.full(6, 0.3))
-    for kw, match in [({"restarts": 10**18}, r"^invalid restarts: expected at most 1000000, got 1000000000000000000$"),
-                      ({"max_iterations": 2**63}, r"^invalid max_iterations: expected at most 1000000, got 9223372036854775808$"),
-                      ({"max_iterations": 10**6 + 1}, r"^invalid max_iterations: expected at most 1000000 \(per attempt\), got 1000001$"),
-                      ({"max_iterations": 0}, "max_iterations"), ({"restarts": -1}, "restarts: expected an integer >= 0"),
-                      ({"restarts": -(2**70)}, "restarts: expected an integer >= 0"), ({"seed": 2**70}, "seed: expected at most 9223372036854775807")]:
+    for kw, match in [
+        ({"restarts": 10**18}, r"^invalid restarts: expected at most 1000000, got 1000000000000000000$"),
+        ({"max_iterations": 2**63}, r"^invalid max_iterations: expected at most 1000000, got 9223372036854775808$"),
+        (
+            {"max_iterations": 10**6 + 1},
+            r"^invalid max_iterations: expected at most 1000000 \(per attempt\), got 1000001$",
+        ),
+        ({"max_iterations": 0}, "max_iterations"),
+        ({"restarts": -1}, "restarts: expected an integer >= 0"),
+        ({"restarts": -(2**70)}, "restarts: expected an integer >= 0"),
+        ({"seed": 2**70}, "seed: expected at most 9223372036854775807"),
+    ]:
         with pytest.raises(dv.DenavitError, match=match):
             dv.ik(KR5, T, **kw)
         with pytest.raises(dv.DenavitError, match=match):
@@ -192,6 +219,7 @@ def test_ik_budgets_beyond_their_limits_are_one_line_errors():
 
 
 # --- fork -------------------------------------------------------------------------------------------------
+
 
 def _child_fk(q):
     # the default threads: the pool of this process
@@ -224,12 +252,16 @@ LONG_CALLS = {
 @pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
 @pytest.mark.parametrize("call", sorted(LONG_CALLS))
 def test_ctrl_c_stops_a_long_call_within_a_second(call):
-    code = ("import numpy as np, sys, denavit as dv\n"
-            "m = dv.load_model('kr5'); p = dv.load_model('puma560')\n"
-            "print('ready', flush=True)\n"
-            f"{LONG_CALLS[call]}\n"
-            "print('finished', flush=True)\n")
-    with subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as proc:
+    code = (
+        "import numpy as np, sys, denavit as dv\n"
+        "m = dv.load_model('kr5'); p = dv.load_model('puma560')\n"
+        "print('ready', flush=True)\n"
+        f"{LONG_CALLS[call]}\n"
+        "print('finished', flush=True)\n"
+    )
+    with subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    ) as proc:
         try:
             assert proc.stdout.readline().strip() == "ready"
             time.sleep(0.5)  # inside the call (each runs for tens of seconds or more)
@@ -247,13 +279,15 @@ def test_ctrl_c_stops_a_long_call_within_a_second(call):
 
 
 def test_after_an_interrupt_calls_run_again():
-    code = ("import numpy as np, signal, threading, os, denavit as dv\n"
-            "m = dv.load_model('kr5')\n"
-            "T = np.array([[1, 0, 0, 5.0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])\n"
-            "threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT)).start()\n"
-            "try:\n    dv.ik(m, T, restarts=10**6)\nexcept KeyboardInterrupt:\n    print('interrupted')\n"
-            "q = np.full(6, 0.3)\n"
-            "print(dv.ik(m, dv.fk(m, q), q + 0.01).success, np.array_equal(dv.fk_batch(m, np.tile(q, (300000, 1)))[-1], dv.fk(m, q)))\n")
+    code = (
+        "import numpy as np, signal, threading, os, denavit as dv\n"
+        "m = dv.load_model('kr5')\n"
+        "T = np.array([[1, 0, 0, 5.0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])\n"
+        "threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT)).start()\n"
+        "try:\n    dv.ik(m, T, restarts=10**6)\nexcept KeyboardInterrupt:\n    print('interrupted')\n"
+        "q = np.full(6, 0.3)\n"
+        "print(dv.ik(m, dv.fk(m, q), q + 0.01).success, np.array_equal(dv.fk_batch(m, np.tile(q, (300000, 1)))[-1], dv.fk(m, q)))\n"
+    )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert r.stdout.split() == ["interrupted", "True", "True"], r.stderr
 

@@ -50,7 +50,10 @@ def crb(pz, x, q, free_names):
 # ------------------------------------------------------------------------------------------ the chain
 
 
-@pytest.mark.parametrize("name, convention", [("kr5", "edh"), ("kr5", "mdh"), ("ur5", "edh"), ("ur5", "mdh"), ("tiansui_mdh", "edh"), ("puma560", "mdh")])
+@pytest.mark.parametrize(
+    "name, convention",
+    [("kr5", "edh"), ("kr5", "mdh"), ("ur5", "edh"), ("ur5", "mdh"), ("tiansui_mdh", "edh"), ("puma560", "mdh")],
+)
 def test_chain_reproduces_the_nominal_model(name, convention, rng):
     robot = dv.load_robot(name)
     pz = cal.parametrize(robot, convention, tool=TOOL)
@@ -77,7 +80,11 @@ def test_identification_jacobian_matches_finite_differences(kr5, rng):
         Tp, Tm = pz.evaluate(xp, q, False)[0], pz.evaluate(xm, q, False)[0]
         dp = (Tp[:, :3, 3] - Tm[:, :3, 3]) / (2 * h)
         Rd = np.einsum("nij,nkj->nik", Tp[:, :3, :3], Tm[:, :3, :3])
-        dw = np.stack([Rd[:, 2, 1] - Rd[:, 1, 2], Rd[:, 0, 2] - Rd[:, 2, 0], Rd[:, 1, 0] - Rd[:, 0, 1]], axis=1) / 2 / (2 * h)
+        dw = (
+            np.stack([Rd[:, 2, 1] - Rd[:, 1, 2], Rd[:, 0, 2] - Rd[:, 2, 0], Rd[:, 1, 0] - Rd[:, 0, 1]], axis=1)
+            / 2
+            / (2 * h)
+        )
         np.testing.assert_allclose(J[:, :3, c], dp, atol=1e-8, err_msg=pz.names[c])
         np.testing.assert_allclose(J[:, 3:, c], dw, atol=1e-8, err_msg=pz.names[c])
 
@@ -102,8 +109,18 @@ def monte_carlo(kr5, data, runs, seed=11):
         if data == "random":
             meas = cal.simulate(truth, q, tool=tool, noise=NOISE, seed=run)
         else:
-            meas = sw.simulate(truth, home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[protocol]), points_per_sweep=30, tool_point=tool, noise=NOISE, seed=run)
-        res = cal.calibrate(meas, kr5, tool=TOOL, model="full")  # the least-squares estimator the bound is of (the default's priors beat it)
+            meas = sw.simulate(
+                truth,
+                home=HOME,
+                ranges=np.radians(sw.PAPER_RANGES_DEG[protocol]),
+                points_per_sweep=30,
+                tool_point=tool,
+                noise=NOISE,
+                seed=run,
+            )
+        res = cal.calibrate(
+            meas, kr5, tool=TOOL, model="full"
+        )  # the least-squares estimator the bound is of (the default's priors beat it)
         assert res.free_names == pl.free_names and res.converged
         est.append(res.values[[pz.index(n) for n in pl.free_names]])
         sig.append(res.sigma[[pz.index(n) for n in pl.free_names]])
@@ -164,15 +181,25 @@ def test_joint_fit_beats_every_per_circle_fit_on_the_30_degree_protocol(kr5):
     truth = kr5.model()
     p_home = pl.parametrization.evaluate(pl.parametrization.x0, HOME[None], False)[0][0, :3, 3]
     c_true, _ = cal.axis_lines(truth, HOME, p_home)
-    methods = {"kasa": fitting.fit_circle_kasa, "hyper": fitting.fit_circle_hyper, "geometric": fitting.fit_circle_geometric}
+    methods = {
+        "kasa": fitting.fit_circle_kasa,
+        "hyper": fitting.fit_circle_hyper,
+        "geometric": fitting.fit_circle_geometric,
+    }
     err = {m: [] for m in [*methods, "readings", "joint fit"]}
     for run in range(40):
-        s = sw.simulate(truth, home=HOME, ranges=prot.ranges, points_per_sweep=30, tool_point=TOOL, noise=NOISE, seed=100 + run)
+        s = sw.simulate(
+            truth, home=HOME, ranges=prot.ranges, points_per_sweep=30, tool_point=TOOL, noise=NOISE, seed=100 + run
+        )
         for m, f in methods.items():
-            err[m].append([line_error(c_true[j], f(s.sweeps[j].points).direction, f(s.sweeps[j].points).point) for j in range(6)])
+            err[m].append(
+                [line_error(c_true[j], f(s.sweeps[j].points).direction, f(s.sweeps[j].points).point) for j in range(6)]
+            )
         fits = [fitting.fit_axis_with_readings(x.points, x.moving) for x in s.sweeps]
         err["readings"].append([line_error(c_true[j], fits[j].direction, fits[j].point) for j in range(6)])
-        res = cal.calibrate(s, kr5, tool=TOOL, model="full")  # the least-squares fit the plan's bound is of (the default's priors beat it)
+        res = cal.calibrate(
+            s, kr5, tool=TOOL, model="full"
+        )  # the least-squares fit the plan's bound is of (the default's priors beat it)
         c, z = cal.axis_lines(res.model(), HOME, p_home)
         err["joint fit"].append([line_error(c_true[j], z[j], c[j]) for j in range(6)])
     rms = {m: np.sqrt(np.mean(np.square(v), axis=0)) for m, v in err.items()}
@@ -261,13 +288,18 @@ def test_near_parallel_axes_calibrate_in_edh_and_mdh_and_dh_says_it_cannot():
         assert np.max(np.abs(lengths)) < 1.0
     mdh = cal.parametrize(ur5, "mdh")
     assert {"beta_2", "beta_3"} <= set(mdh.names) and set(mdh.rules) == {"d_2", "d_3"}
-    with pytest.raises(dv.DegenerateError, match=r"standard DH cannot calibrate ur5: axes 2-3 \(0 deg\), 3-4 \(0 deg\) are parallel.*use convention 'mdh'"):
+    with pytest.raises(
+        dv.DegenerateError,
+        match=r"standard DH cannot calibrate ur5: axes 2-3 \(0 deg\), 3-4 \(0 deg\) are parallel.*use convention 'mdh'",
+    ):
         cal.calibrate(meas, ur5, convention="dh")
 
 
 def skew_arm():
     """A 4R arm in standard DH with no two consecutive axes parallel (DH is fine there)."""
-    p = np.array([[0.3, 0.0, 0.1, np.pi / 2], [0.05, 0.2, 0.4, -np.pi / 3], [0.1, -0.3, 0.3, np.pi / 2], [0.08, 0.0, 0.0, 0.0]])
+    p = np.array(
+        [[0.3, 0.0, 0.1, np.pi / 2], [0.05, 0.2, 0.4, -np.pi / 3], [0.1, -0.3, 0.3, np.pi / 2], [0.08, 0.0, 0.0, 0.0]]
+    )
     return dv.Robot("skew4", dv.Table("dh", p), ["j1", "j2", "j3", "j4"], np.full(4, -2.8), np.full(4, 2.8))
 
 
@@ -327,7 +359,15 @@ def test_robust_loss_flags_outliers_and_keeps_the_fit(kr5):
 
 
 def test_start_from_the_circle_point_identification(kr5):
-    s = sw.simulate(kr5.model(), home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=20, tool_point=TOOL, noise=NOISE, seed=8)
+    s = sw.simulate(
+        kr5.model(),
+        home=HOME,
+        ranges=np.radians(sw.PAPER_RANGES_DEG[90]),
+        points_per_sweep=20,
+        tool_point=TOOL,
+        noise=NOISE,
+        seed=8,
+    )
     a = cal.calibrate(s, kr5, tool=TOOL)
     b = cal.calibrate(s, kr5, tool=TOOL, start="circles")
     assert any("circle-point identification" in n for n in b.notes)
@@ -372,7 +412,10 @@ def test_fix_by_name_pattern_and_value(kr5):
         assert res.status[k] == "fixed" and np.isnan(res.sigma[k]) and res.values[k] == res.nominal[k]
     res = cal.calibrate(meas, kr5, tool=TOOL, fix={"tool_x": 0.051})
     assert res.value("tool_x")[0] == 0.051
-    with pytest.raises(dv.DenavitError, match=r"fix: 'tool_w' matches no parameter of the edh model of kr5: expected names or patterns of base_tx"):
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"fix: 'tool_w' matches no parameter of the edh model of kr5: expected names or patterns of base_tx",
+    ):
         cal.calibrate(meas, kr5, fix=["tool_w"])
 
 
@@ -381,7 +424,10 @@ def test_fix_by_name_pattern_and_value(kr5):
 
 def test_too_few_poses_for_the_free_parameters(kr5):
     meas = cal.simulate(kr5, cal.configurations(kr5, 8), tool=TOOL)
-    with pytest.raises(dv.DenavitError, match=r"too few measurements: 8 points give 24 equations for the 27 parameters this model can identify \(base_tx.*need at least 10 points"):
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"too few measurements: 8 points give 24 equations for the 27 parameters this model can identify \(base_tx.*need at least 10 points",
+    ):
         cal.calibrate(meas, kr5, tool=TOOL)
 
 
@@ -391,7 +437,10 @@ def test_a_joint_that_never_moves_is_named(kr5):
     q = cal.configurations(kr5, 60)
     q[:, 3] = 0.25
     meas = cal.simulate(kr5, q, tool=TOOL)
-    with pytest.raises(dv.DenavitError, match=r"joint\(s\) 4 \(A4\) never move in the data \(q4 = 0.25 rad in all 60 poses\): the data cannot identify (\w+, )*\w+ .*hold these fixed: fix=\[") as e:
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"joint\(s\) 4 \(A4\) never move in the data \(q4 = 0.25 rad in all 60 poses\): the data cannot identify (\w+, )*\w+ .*hold these fixed: fix=\[",
+    ) as e:
         cal.calibrate(meas, kr5, tool=TOOL)
     names = ast.literal_eval(str(e.value).split("fix=")[1])
     res = cal.calibrate(meas, kr5, tool=TOOL, fix=names)
@@ -403,7 +452,9 @@ def test_nan_and_mismatched_joint_counts(kr5, tmp_path):
     p = cal.simulate(kr5, q).points
     q_bad = q.copy()
     q_bad[7, 2] = np.nan
-    with pytest.raises(dv.DenavitError, match=r"measurements, row 8: q \(joint readings\) must be finite, got nan \(joint 3\)"):
+    with pytest.raises(
+        dv.DenavitError, match=r"measurements, row 8: q \(joint readings\) must be finite, got nan \(joint 3\)"
+    ):
         cal.Measurements(q_bad, p)
     p_bad = p.copy()
     p_bad[2, 1] = np.inf
@@ -411,7 +462,9 @@ def test_nan_and_mismatched_joint_counts(kr5, tmp_path):
         cal.Measurements(q, p_bad)
     with pytest.raises(dv.DenavitError, match=r"points must have shape \(20, 3\)"):
         cal.Measurements(q, p[:19])
-    with pytest.raises(dv.DenavitError, match=r"the data has 5 joint readings per pose but the nominal model kr5 has 6 joints \(A1, A2"):
+    with pytest.raises(
+        dv.DenavitError, match=r"the data has 5 joint readings per pose but the nominal model kr5 has 6 joints \(A1, A2"
+    ):
         cal.calibrate(cal.Measurements(q[:, :5], p), kr5)
     f = tmp_path / "m.csv"
     text = to_csv(cal.Measurements(q, p), "mm", "deg").splitlines()
@@ -444,7 +497,9 @@ def test_declared_units_win_over_the_callers(kr5, tmp_path):
     with pytest.raises(dv.DenavitError, match=r"m.csv:2: length=m contradicts length=mm declared at line 1"):
         read_measurements(f)
     j = tmp_path / "m.json"
-    j.write_text(json.dumps({"units": {"length": "m", "angle": "rad"}, "q": meas.q.tolist(), "points": meas.points.tolist()}))
+    j.write_text(
+        json.dumps({"units": {"length": "m", "angle": "rad"}, "q": meas.q.tolist(), "points": meas.points.tolist()})
+    )
     np.testing.assert_allclose(read_measurements(j, length="mm", angle="deg").points, meas.points, atol=1e-12)
 
 
@@ -476,7 +531,10 @@ def test_configurations_are_the_unscrambled_halton_sequence(kr5):
     lo = np.maximum(robot.lower, -np.pi)
     hi = np.minimum(robot.upper, np.pi)
     Q = cal.configurations(kr5, 50, skip=3)
-    expected = [[lo[j] + (hi[j] - lo[j]) * radical_inverse(k, b) for j, b in enumerate((2, 3, 5, 7, 11, 13))] for k in range(3, 53)]
+    expected = [
+        [lo[j] + (hi[j] - lo[j]) * radical_inverse(k, b) for j, b in enumerate((2, 3, 5, 7, 11, 13))]
+        for k in range(3, 53)
+    ]
     np.testing.assert_array_equal(Q, np.array(expected))
 
 
@@ -491,7 +549,9 @@ def test_files_round_trip_and_json(kr5, tmp_path):
     poses = cal.simulate(kr5, q, tool=np.eye(4), measure="pose")
     f.write_text(to_csv(poses, "mm", "deg"))
     np.testing.assert_allclose(read_measurements(f).poses, poses.poses, atol=1e-10)
-    s = sw.simulate(kr5.model(), home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=8, tool_point=TOOL)
+    s = sw.simulate(
+        kr5.model(), home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=8, tool_point=TOOL
+    )
     f.write_text(swio.to_long_csv(s))
     assert read_measurements(f).sweeps is not None
     res = cal.calibrate(meas, kr5, tool=TOOL, holdout=0.25)
@@ -500,7 +560,12 @@ def test_files_round_trip_and_json(kr5, tmp_path):
     doc = json.loads(out.read_text())  # strict JSON: no NaN
     assert doc["units"] == {"length": "m", "angle": "rad"}  # SI, as every JSON (docs/cli.md)
     rows = {r["name"]: r for r in doc["parameters"]}
-    assert rows["a_1"]["unit"] == "m" and rows["a_1"]["value"] == pytest.approx(0.180, abs=1e-4) and rows["c_5"]["sigma"] is None and rows["c_5"]["status"] == "redundant"
+    assert (
+        rows["a_1"]["unit"] == "m"
+        and rows["a_1"]["value"] == pytest.approx(0.180, abs=1e-4)
+        and rows["c_5"]["sigma"] is None
+        and rows["c_5"]["status"] == "redundant"
+    )
     assert doc["identifiability"]["rank"] == 27 and doc["validation"]["n_test"] == 10
     assert {u["name"] for u in doc["identifiability"]["unidentifiable"]} >= {"c_5", "offset_6"}
 
@@ -511,17 +576,45 @@ def test_cli_calibrate_and_plan(kr5, tmp_path):
     f.write_text(to_csv(cal.simulate(kr5, q, tool=TOOL, noise=NOISE), "mm", "deg"))
     env = cli_env(160)
     out = tmp_path / "r.json"
-    p = subprocess.run([sys.executable, "-m", "denavit.cli", "calibrate", str(f), "--nominal", "kr5", "--tool", "50,30,100", "--json", str(out),
-                        "--save", str(tmp_path / "cal.toml")], capture_output=True, text=True, env=env)
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "denavit.cli",
+            "calibrate",
+            str(f),
+            "--nominal",
+            "kr5",
+            "--tool",
+            "50,30,100",
+            "--json",
+            str(out),
+            "--save",
+            str(tmp_path / "cal.toml"),
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+    )
     assert p.returncode == 0, p.stderr
     assert "Held-out validation" in p.stdout and "c_5" in p.stdout
     assert json.loads(out.read_text())["convention"] == "edh"
     assert dv.load_robot(tmp_path / "cal.toml").convention == "edh"
-    p = subprocess.run([sys.executable, "-m", "denavit.cli", "plan", "kr5", "--ranges", "paper30", "--json"], capture_output=True, text=True, env=env)
+    p = subprocess.run(
+        [sys.executable, "-m", "denavit.cli", "plan", "kr5", "--ranges", "paper30", "--json"],
+        capture_output=True,
+        text=True,
+        env=env,
+    )
     assert p.returncode == 0, p.stderr
     doc = json.loads(p.stdout)
     assert doc["axis_sigma"][0]["per_circle_position_m"] / doc["axis_sigma"][0]["position_m"] > 5
-    p = subprocess.run([sys.executable, "-m", "denavit.cli", "calibrate", str(f), "--nominal", "kr5", "--convention", "dh"], capture_output=True, text=True, env=env)
+    p = subprocess.run(
+        [sys.executable, "-m", "denavit.cli", "calibrate", str(f), "--nominal", "kr5", "--convention", "dh"],
+        capture_output=True,
+        text=True,
+        env=env,
+    )
     assert p.returncode == 2 and "standard DH cannot calibrate kr5" in p.stderr
 
 
@@ -538,20 +631,53 @@ def test_json_kinds_of_another_length_than_q_is_an_error(kr5, tmp_path):
     q = np.degrees(cal.configurations(kr5, 12))
     p = cal.simulate(kr5, np.radians(q)).points * 1e3
     f = tmp_path / "m.json"
-    f.write_text(json.dumps({"units": {"length": "mm", "angle": "deg"}, "kinds": ["revolute"] * 5, "q": q.tolist(), "points": p.tolist()}))
-    with pytest.raises(dv.DenavitError, match=r"m.json: 'kinds': expected 6 joint kinds \(one per joint reading\), got 5"):
+    f.write_text(
+        json.dumps(
+            {
+                "units": {"length": "mm", "angle": "deg"},
+                "kinds": ["revolute"] * 5,
+                "q": q.tolist(),
+                "points": p.tolist(),
+            }
+        )
+    )
+    with pytest.raises(
+        dv.DenavitError, match=r"m.json: 'kinds': expected 6 joint kinds \(one per joint reading\), got 5"
+    ):
         read_measurements(f)
-    f.write_text(json.dumps({"units": {"length": "mm", "angle": "deg"}, "kinds": ["revolute"] * 5 + ["rotary"], "q": q.tolist(), "points": p.tolist()}))
-    with pytest.raises(dv.DenavitError, match=r"m.json: 'kinds': joint 6: expected 'revolute' or 'prismatic', got 'rotary'"):
+    f.write_text(
+        json.dumps(
+            {
+                "units": {"length": "mm", "angle": "deg"},
+                "kinds": ["revolute"] * 5 + ["rotary"],
+                "q": q.tolist(),
+                "points": p.tolist(),
+            }
+        )
+    )
+    with pytest.raises(
+        dv.DenavitError, match=r"m.json: 'kinds': joint 6: expected 'revolute' or 'prismatic', got 'rotary'"
+    ):
         read_measurements(f)
-    f.write_text(json.dumps({"units": {"length": "mm", "angle": "deg"}, "kinds": ["revolute"] * 6, "q": q.tolist(), "points": p.tolist()}))
+    f.write_text(
+        json.dumps(
+            {
+                "units": {"length": "mm", "angle": "deg"},
+                "kinds": ["revolute"] * 6,
+                "q": q.tolist(),
+                "points": p.tolist(),
+            }
+        )
+    )
     np.testing.assert_allclose(read_measurements(f).q, np.radians(q), atol=1e-12)
 
 
 def test_prismatic_readings_take_the_length_unit(tmp_path):
     """Readings of a prismatic joint are in the file's length unit (they had been scaled by the angle unit:
     100 mm became 1.745 m); without the joint kinds, calibrate refuses a robot with a prismatic joint."""
-    params = np.array([[0.3, 0.0, 0.1, np.pi / 2], [0.2, 0.3, 0.0, -np.pi / 2], [0.0, 0.2, 0.25, np.pi / 3], [0.1, 0.0, 0.0, 0.0]])
+    params = np.array(
+        [[0.3, 0.0, 0.1, np.pi / 2], [0.2, 0.3, 0.0, -np.pi / 2], [0.0, 0.2, 0.25, np.pi / 3], [0.1, 0.0, 0.0, 0.0]]
+    )
     kinds = ["revolute", "prismatic", "revolute", "revolute"]
     model = dv.Table("dh", params, kinds=kinds).to_model("rprr", lower=[-3, -0.1, -3, -3], upper=[3, 0.4, 3, 3])
     robot = as_robot(model)
@@ -563,14 +689,26 @@ def test_prismatic_readings_take_the_length_unit(tmp_path):
     assert back.kinds == tuple(kinds)
     res = cal.calibrate(back, robot, tool=TOOL)
     assert res.rms < 2 * NOISE
-    with pytest.raises(dv.DenavitError, match=r"m.csv: joint 2 \(j2\) of rprr is prismatic, but its readings were read as revolute \(in deg\): pass kinds="):
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"m.csv: joint 2 \(j2\) of rprr is prismatic, but its readings were read as revolute \(in deg\): pass kinds=",
+    ):
         cal.calibrate(read_measurements(f), robot, tool=TOOL)
-    with pytest.raises(dv.DenavitError, match=r"m.csv: kinds given: expected 4 joint kinds \(one per joint reading\), got 3"):
+    with pytest.raises(
+        dv.DenavitError, match=r"m.csv: kinds given: expected 4 joint kinds \(one per joint reading\), got 3"
+    ):
         read_measurements(f, kinds=kinds[:3])
     j = tmp_path / "m.json"
-    j.write_text(json.dumps({"units": {"length": "mm", "angle": "deg"}, "kinds": kinds, "q": [[0, 100, 0, 0]], "points": [[1, 2, 3]]}))
+    j.write_text(
+        json.dumps(
+            {"units": {"length": "mm", "angle": "deg"}, "kinds": kinds, "q": [[0, 100, 0, 0]], "points": [[1, 2, 3]]}
+        )
+    )
     np.testing.assert_allclose(read_measurements(j).q, [[0, 0.1, 0, 0]])
-    with pytest.raises(dv.DenavitError, match=r"m.json: 'kinds' \['revolute', 'prismatic', 'revolute', 'revolute'\] differ from the kinds given"):
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"m.json: 'kinds' \['revolute', 'prismatic', 'revolute', 'revolute'\] differ from the kinds given",
+    ):
         read_measurements(j, kinds=["revolute"] * 4)
 
 
@@ -578,21 +716,43 @@ def test_cli_calibrate_reads_prismatic_readings_in_the_length_unit(tmp_path):
     """A robot file with a prismatic joint: the CLI reads that joint's readings in mm (not deg) and the fit
     finds the simulated truth."""
     f = tmp_path / "rprr.toml"
-    f.write_text('name = "rprr"\nconvention = "dh"\n[units]\nlength = "mm"\nangle = "deg"\n'
-                 '[[joints]]\nname = "j1"\nd = 300\ntheta = 0\na = 100\nalpha = 90\nlimits = [-170, 170]\n'
-                 '[[joints]]\nname = "j2"\ntype = "prismatic"\nd = 200\ntheta = 90\na = 0\nalpha = -90\nlimits = [0, 300]\n'
-                 '[[joints]]\nname = "j3"\nd = 0\ntheta = 0\na = 250\nalpha = 60\nlimits = [-170, 170]\n'
-                 '[[joints]]\nname = "j4"\nd = 100\ntheta = 0\na = 0\nalpha = 0\nlimits = [-170, 170]\n')
+    f.write_text(
+        'name = "rprr"\nconvention = "dh"\n[units]\nlength = "mm"\nangle = "deg"\n'
+        '[[joints]]\nname = "j1"\nd = 300\ntheta = 0\na = 100\nalpha = 90\nlimits = [-170, 170]\n'
+        '[[joints]]\nname = "j2"\ntype = "prismatic"\nd = 200\ntheta = 90\na = 0\nalpha = -90\nlimits = [0, 300]\n'
+        '[[joints]]\nname = "j3"\nd = 0\ntheta = 0\na = 250\nalpha = 60\nlimits = [-170, 170]\n'
+        '[[joints]]\nname = "j4"\nd = 100\ntheta = 0\na = 0\nalpha = 0\nlimits = [-170, 170]\n'
+    )
     robot = dv.load_robot(f)
     m = tmp_path / "m.csv"
-    m.write_text(to_csv(cal.simulate(robot, cal.configurations(robot, 60), tool=(0.03, 0.02, 0.05), noise=NOISE), "mm", "deg"))
+    m.write_text(
+        to_csv(cal.simulate(robot, cal.configurations(robot, 60), tool=(0.03, 0.02, 0.05), noise=NOISE), "mm", "deg")
+    )
     assert float(m.read_text().splitlines()[-1].split(",")[1]) > 5  # the prismatic reading is in mm, not metres
     out = tmp_path / "r.json"
-    p = subprocess.run([sys.executable, "-m", "denavit.cli", "calibrate", str(m), "--nominal", str(f), "--tool", "30,20,50", "--json", str(out)],
-                       capture_output=True, text=True, env=cli_env(160))
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "denavit.cli",
+            "calibrate",
+            str(m),
+            "--nominal",
+            str(f),
+            "--tool",
+            "30,20,50",
+            "--json",
+            str(out),
+        ],
+        capture_output=True,
+        text=True,
+        env=cli_env(160),
+    )
     assert p.returncode == 0, p.stderr
     doc = json.loads(out.read_text())
-    assert doc["validation"]["after_rms_m"] < 3 * NOISE * np.sqrt(3), doc["validation"]  # m: the noise, not a unit error (it had compared m with mm)
+    assert doc["validation"]["after_rms_m"] < 3 * NOISE * np.sqrt(3), doc[
+        "validation"
+    ]  # m: the noise, not a unit error (it had compared m with mm)
 
 
 def test_bad_noise_and_a_fit_that_explains_nothing(kr5, tmp_path):
@@ -603,9 +763,28 @@ def test_bad_noise_and_a_fit_that_explains_nothing(kr5, tmp_path):
     f = tmp_path / "m.csv"
     f.write_text(to_csv(meas, "mm", "deg"))
     for bad in ("0", "nan", "-1", "inf"):
-        p = subprocess.run([sys.executable, "-m", "denavit.cli", "calibrate", str(f), "--nominal", "kr5", "--tool", "50,30,100", "--noise", bad],
-                           capture_output=True, text=True, env=cli_env(160))
-        assert p.returncode == 2 and "--noise: expected the known one-sigma point noise, a finite value > 0 in mm" in p.stderr, p.stderr
+        p = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "denavit.cli",
+                "calibrate",
+                str(f),
+                "--nominal",
+                "kr5",
+                "--tool",
+                "50,30,100",
+                "--noise",
+                bad,
+            ],
+            capture_output=True,
+            text=True,
+            env=cli_env(160),
+        )
+        assert (
+            p.returncode == 2
+            and "--noise: expected the known one-sigma point noise, a finite value > 0 in mm" in p.stderr
+        ), p.stderr
     with pytest.raises(dv.DenavitError, match="noise: expected the known one-sigma noise"):
         cal.calibrate(meas, kr5, tool=TOOL, noise=float("nan"))
     wrong = cal.Measurements(np.degrees(meas.q), meas.points, None, "degrees read as radians")
@@ -644,7 +823,9 @@ def test_the_solver_builds_jacobians_only_where_it_asks_for_them(kr5, monkeypatc
     free = free[::-1]  # in any order
     _, jac = pz.evaluate(pz.x0, meas.q, True)
     w = weights("point", NOISE, 1.0)
-    assert np.array_equal(ls.jacobian_rows(pz, pz.x0, meas.q, w, free)[1], (jac[:, :3][:, :, free] * w[:3, None]).reshape(-1, len(free)))
+    assert np.array_equal(
+        ls.jacobian_rows(pz, pz.x0, meas.q, w, free)[1], (jac[:, :3][:, :, free] * w[:3, None]).reshape(-1, len(free))
+    )
     jac_poses = []
     evaluate = Parametrization.evaluate
 
@@ -683,7 +864,11 @@ def test_a_calibration_remembers_what_it_has_evaluated_and_gets_the_same_result(
     monkeypatch.setattr(P.Parametrization, "evaluate", counted)
     b = solve.calibrate.__wrapped__(meas, kr5, tool=TOOL)  # without the memory
     monkeypatch.undo()
-    assert np.array_equal(a.values, b.values) and np.array_equal(a.covariance, b.covariance) and a.evaluations == b.evaluations
+    assert (
+        np.array_equal(a.values, b.values)
+        and np.array_equal(a.covariance, b.covariance)
+        and a.evaluations == b.evaluations
+    )
     assert 0 < built_with < sum(built_without), (built_with, sum(built_without))
 
     pz = cal.parametrize(kr5, "edh", tool=TOOL)
@@ -703,18 +888,32 @@ def test_a_measurement_csv_reads_the_same_on_the_c_reader_and_row_by_row(kr5, tm
     T_ft = np.eye(4)
     T_ft[:3, 3] = TOOL
     for measure, tool in (("point", TOOL), ("pose", T_ft)):
-        meas = cal.simulate(kr5, cal.configurations(kr5, 300, skip=9), tool=tool, noise=NOISE, noise_rot=1e-5 if measure == "pose" else 0.0, measure=measure, seed=1)
+        meas = cal.simulate(
+            kr5,
+            cal.configurations(kr5, 300, skip=9),
+            tool=tool,
+            noise=NOISE,
+            noise_rot=1e-5 if measure == "pose" else 0.0,
+            measure=measure,
+            seed=1,
+        )
         fast, slow = tmp_path / f"{measure}.csv", tmp_path / f"{measure}_slow.csv"
         fast.write_text(to_csv(meas))
         slow.write_text(to_csv(meas) + "# end\n")
         a, b = read_measurements(fast), read_measurements(slow)
-        assert np.array_equal(a.q, b.q) and [w.replace("_slow", "") for w in b.where] == list(a.where) and a.where[0].endswith(":3")
+        assert (
+            np.array_equal(a.q, b.q)
+            and [w.replace("_slow", "") for w in b.where] == list(a.where)
+            and a.where[0].endswith(":3")
+        )
         assert np.array_equal(a.points, b.points) if measure == "point" else np.array_equal(a.poses, b.poses)
     lines = fast.read_text().splitlines()
     lines[200] = lines[200].rsplit(",", 1)[0] + ",abc"
     fast.write_text("\n".join(lines) + "\n")
     with pytest.raises(dv.DenavitError, match=r"pose.csv:201: column 'rz' must be a number, got 'abc'"):
         read_measurements(fast)
+
+
 def test_cli_calibrate_refuses_a_jump_and_honours_a_coupling(tmp_path):
     """Readings of a Fanuc (J3 read relative to the horizontal) calibrated against the plain nominal: the fit moved
     b_2 by 1.1 m and exited 0 with no note; now it is refused (exit 2) naming the parameter and the coupling to
@@ -725,14 +924,34 @@ def test_cli_calibrate_refuses_a_jump_and_honours_a_coupling(tmp_path):
     r = q.copy()
     r[:, 2] -= q[:, 1]
     lines = ["# units: length=mm angle=deg", "q1,q2,q3,q4,q5,q6,x,y,z"]
-    lines += [",".join([*(f"{v:.8f}" for v in np.degrees(a)), *(f"{v:.6f}" for v in p * 1e3)]) for a, p in zip(r, meas.points, strict=True)]
+    lines += [
+        ",".join([*(f"{v:.8f}" for v in np.degrees(a)), *(f"{v:.6f}" for v in p * 1e3)])
+        for a, p in zip(r, meas.points, strict=True)
+    ]
     f = tmp_path / "fanuc.csv"
     f.write_text("\n".join(lines) + "\n")
     bad = run_cli("calibrate", f, "--nominal", "kr5", "--tool", "50,30,100", ok=False)
-    assert bad.returncode == 2 and "by more than the robot's size" in bad.stderr + bad.stdout and "--coupling" in bad.stderr + bad.stdout
-    good = run_cli("calibrate", f, "--nominal", "kr5", "--tool", "50,30,100", "--coupling", "q3=r3+r2", "--json", tmp_path / "c.json")
+    assert (
+        bad.returncode == 2
+        and "by more than the robot's size" in bad.stderr + bad.stdout
+        and "--coupling" in bad.stderr + bad.stdout
+    )
+    good = run_cli(
+        "calibrate",
+        f,
+        "--nominal",
+        "kr5",
+        "--tool",
+        "50,30,100",
+        "--coupling",
+        "q3=r3+r2",
+        "--json",
+        tmp_path / "c.json",
+    )
     assert good.returncode == 0
-    assert json.loads((tmp_path / "c.json").read_text())["residuals"]["rms_m"] < 5e-5  # m (0.02 mm noise; it had compared m with 0.05 "mm")
+    assert (
+        json.loads((tmp_path / "c.json").read_text())["residuals"]["rms_m"] < 5e-5
+    )  # m (0.02 mm noise; it had compared m with 0.05 "mm")
 
 
 def test_cli_calibrate_writes_a_report(tmp_path):
@@ -741,7 +960,10 @@ def test_cli_calibrate_writes_a_report(tmp_path):
     q = cal.configurations(kr5, 30)
     meas = cal.simulate(kr5.model(), q, tool=np.array([0.05, 0.03, 0.1]), noise=2e-5, seed=2)
     lines = ["# units: length=mm angle=deg", "q1,q2,q3,q4,q5,q6,x,y,z"]
-    lines += [",".join([*(f"{v:.8f}" for v in np.degrees(a)), *(f"{v:.6f}" for v in p * 1e3)]) for a, p in zip(q, meas.points, strict=True)]
+    lines += [
+        ",".join([*(f"{v:.8f}" for v in np.degrees(a)), *(f"{v:.6f}" for v in p * 1e3)])
+        for a, p in zip(q, meas.points, strict=True)
+    ]
     f = tmp_path / "m.csv"
     f.write_text("\n".join(lines) + "\n")
     page = tmp_path / "cal.html"

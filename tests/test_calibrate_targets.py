@@ -25,8 +25,26 @@ from denavit.io import sweeps as swio
 NOISE = 2e-5
 NEST = np.array([[0.05, 0.03, 0.10], [-0.04, 0.06, 0.08], [0.03, -0.07, 0.13], [0.0, 0.0, 0.16]])  # m, flange frame
 BASE = pose(Rotation.from_euler("xyz", [5, 10, 100], degrees=True).as_matrix(), [4.0, -6.0, 1.0])
-MOVED = ["a_1", "alpha_1", "offset_2", "a_2", "alpha_2", "b_2", "beta_2", "a_3", "alpha_3", "b_3", "offset_4", "alpha_4", "a_4", "b_4",
-         "offset_5", "alpha_5", "a_5", "b_5"]
+MOVED = [
+    "a_1",
+    "alpha_1",
+    "offset_2",
+    "a_2",
+    "alpha_2",
+    "b_2",
+    "beta_2",
+    "a_3",
+    "alpha_3",
+    "b_3",
+    "offset_4",
+    "alpha_4",
+    "a_4",
+    "b_4",
+    "offset_5",
+    "alpha_5",
+    "a_5",
+    "b_5",
+]
 
 
 def _truth(kr5, seed=7):
@@ -63,20 +81,31 @@ def test_four_markers_per_pose_recover_the_model_and_predict_better_than_one(kr5
     e = c.values[idx] - truth_x
     maha = e @ np.linalg.solve(c.covariance[np.ix_(sel, sel)], e) / len(idx)
     assert maha < 2.0, maha
-    assert np.all(np.abs(e) < 4 * c.sigma[idx]), dict(zip([c.names[i] for i in idx], (e / c.sigma[idx]).round(2), strict=True))
+    assert np.all(np.abs(e) < 4 * c.sigma[idx]), dict(
+        zip([c.names[i] for i in idx], (e / c.sigma[idx]).round(2), strict=True)
+    )
     # one target alone: larger sigmas, a worse prediction of that target's point at 200 new poses
-    one = cal.calibrate(cal.Measurements(q, tm.targets[:, 0], None, "target 1", kinds=tuple(kr5.table.kinds)), kr5, tool=NEST[0])
+    one = cal.calibrate(
+        cal.Measurements(q, tm.targets[:, 0], None, "target 1", kinds=tuple(kr5.table.kinds)), kr5, tool=NEST[0]
+    )
     s_one = np.array([one.sigma[one.names.index(n)] for n in MOVED if one.status[one.names.index(n)] == "free"])
     s_all = np.array([c.sigma[c.names.index(n)] for n in MOVED if one.status[one.names.index(n)] == "free"])
     assert len(s_one) >= 12 and np.all(s_all < s_one)
     qt = cal.configurations(kr5, 200, skip=1000)
     exact = dv.fk_batch(truth, qt)
     true_p = exact[:, :3, :3] @ NEST[0] + exact[:, :3, 3]
-    err_all = np.linalg.norm(dv.fk_batch(c.model(), qt)[:, :3, 3] - true_p, axis=1)  # the tool frame's origin is target 1
+    err_all = np.linalg.norm(
+        dv.fk_batch(c.model(), qt)[:, :3, 3] - true_p, axis=1
+    )  # the tool frame's origin is target 1
     err_one = np.linalg.norm(dv.fk_batch(one.model(), qt)[:, :3, 3] - true_p, axis=1)
-    assert np.sqrt(np.mean(err_all**2)) < 0.8 * np.sqrt(np.mean(err_one**2)), (np.sqrt(np.mean(err_all**2)), np.sqrt(np.mean(err_one**2)))
+    assert np.sqrt(np.mean(err_all**2)) < 0.8 * np.sqrt(np.mean(err_one**2)), (
+        np.sqrt(np.mean(err_all**2)),
+        np.sqrt(np.mean(err_one**2)),
+    )
     # the result saves and predicts as a single-target calibration does
-    assert c.robot().covariance is not None and np.all(np.isfinite(dv.validate(c, cal.Measurements(qt[:5], true_p[:5])).sigma))
+    assert c.robot().covariance is not None and np.all(
+        np.isfinite(dv.validate(c, cal.Measurements(qt[:5], true_p[:5])).sigma)
+    )
 
 
 def test_held_out_poses_leave_all_their_targets_out(kr5):
@@ -90,12 +119,21 @@ def test_held_out_poses_leave_all_their_targets_out(kr5):
 
 
 def test_cli_calibrate_a_sweep_file_with_three_targets_and_a_nest(kr5, tmp_path):
-    s = sw.simulate(kr5.model(), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=8, noise=NOISE,
-                    targets=NEST[:3], seed=5)
+    s = sw.simulate(
+        kr5.model(),
+        home=np.radians(sw.PAPER_HOME_DEG),
+        ranges=np.radians(sw.PAPER_RANGES_DEG[90]),
+        points_per_sweep=8,
+        noise=NOISE,
+        targets=NEST[:3],
+        seed=5,
+    )
     f = tmp_path / "nest.csv"
     f.write_text(swio.to_long_csv(s, "mm", "deg"))
     out = tmp_path / "c.json"
-    r = CliRunner().invoke(app, ["calibrate", str(f), "--nominal", "kr5", "--holdout", "0", "--json", str(out)], env={"COLUMNS": "200"})
+    r = CliRunner().invoke(
+        app, ["calibrate", str(f), "--nominal", "kr5", "--holdout", "0", "--json", str(out)], env={"COLUMNS": "200"}
+    )
     assert r.exit_code == 0, r.output
     assert "target1_x" in r.output and "tool frame: the nest's" in r.output
     doc = json.loads(out.read_text())
@@ -104,7 +142,9 @@ def test_cli_calibrate_a_sweep_file_with_three_targets_and_a_nest(kr5, tmp_path)
         for a, v in zip("xyz", NEST[k], strict=True):
             assert abs(p[f"target{k + 1}_{a}"]["value"] - v) < 5 * p[f"target{k + 1}_{a}"]["sigma"] + 1e-9
     T = np.array(doc["model"]["T_flange_tool"])
-    np.testing.assert_allclose(T, np.eye(4), atol=2e-4)  # the nest is the targets in the flange frame: the tool frame is the flange
+    np.testing.assert_allclose(
+        T, np.eye(4), atol=2e-4
+    )  # the nest is the targets in the flange frame: the tool frame is the flange
     assert doc["residuals"]["rms_m"] < 3 * NOISE * np.sqrt(3)
 
 
@@ -112,9 +152,14 @@ def _targets_csv(q, targets, nest=None) -> str:
     """A measurement CSV with several targets per pose (mm, deg), and its nest line."""
     K = targets.shape[1]
     head = ["q1", "q2", "q3", "q4", "q5", "q6", "x", "y", "z"] + [f"{a}{k}" for k in range(2, K + 1) for a in "xyz"]
-    lines = ["# units: length=mm angle=deg"] + (["# nest: " + "; ".join(",".join(f"{v * 1e3:.9g}" for v in p) for p in nest)] if nest is not None else [])
+    lines = ["# units: length=mm angle=deg"] + (
+        ["# nest: " + "; ".join(",".join(f"{v * 1e3:.9g}" for v in p) for p in nest)] if nest is not None else []
+    )
     lines.append(",".join(head))
-    lines += [",".join([*(f"{v:.12g}" for v in np.degrees(a)), *(f"{v * 1e3:.12g}" for v in t.ravel())]) for a, t in zip(q, targets, strict=True)]
+    lines += [
+        ",".join([*(f"{v:.12g}" for v in np.degrees(a)), *(f"{v * 1e3:.12g}" for v in t.ravel())])
+        for a, t in zip(q, targets, strict=True)
+    ]
     return "\n".join(lines) + "\n"
 
 
@@ -130,7 +175,11 @@ def test_cli_calibrate_and_validate_a_measurement_csv_with_four_markers(kr5, tmp
     train.write_text(_targets_csv(q, _targets(truth, q, 1), NEST))
     m = read_measurements(train, kinds=list(kr5.table.kinds))
     assert isinstance(m, TargetMeasurements) and m.n_targets == 4 and np.allclose(m.nest, NEST)
-    r = CliRunner().invoke(app, ["calibrate", str(train), "--nominal", "kr5", "--save", str(tmp_path / "cal.toml"), "--holdout", "0"], env={"COLUMNS": "200"})
+    r = CliRunner().invoke(
+        app,
+        ["calibrate", str(train), "--nominal", "kr5", "--save", str(tmp_path / "cal.toml"), "--holdout", "0"],
+        env={"COLUMNS": "200"},
+    )
     assert r.exit_code == 0, r.output
     assert "40 poses x 4 targets" in r.output and "robot's size" not in r.output
     qt = cal.configurations(kr5, 60, skip=2000)
@@ -149,19 +198,54 @@ def test_cli_calibrate_a_recording_with_three_targets_per_row(kr5, tmp_path):
     _, _, truth = _truth(kr5)
     q = cal.configurations(kr5, 30)
     t = _targets(truth, q, 4)[:, :3]
-    text = "# units: length=mm angle=deg\n" + "".join(",".join([*(f"{v:.12g}" for v in np.degrees(a)), *(f"{v * 1e3:.12g}" for v in p.ravel())]) + "\n"
-                                                    for a, p in zip(q, t, strict=True))
+    text = "# units: length=mm angle=deg\n" + "".join(
+        ",".join([*(f"{v:.12g}" for v in np.degrees(a)), *(f"{v * 1e3:.12g}" for v in p.ravel())]) + "\n"
+        for a, p in zip(q, t, strict=True)
+    )
     f = tmp_path / "log.txt"
     f.write_text(text)
     cols = "q1..q6,x1,y1,z1,x2,y2,z2,x3,y3,z3"
     out = tmp_path / "all.json"
-    r = CliRunner().invoke(app, ["calibrate", str(f), "--nominal", "kr5", "--format", "columns", "--columns", cols, "--holdout", "0", "--json", str(out)])
+    r = CliRunner().invoke(
+        app,
+        [
+            "calibrate",
+            str(f),
+            "--nominal",
+            "kr5",
+            "--format",
+            "columns",
+            "--columns",
+            cols,
+            "--holdout",
+            "0",
+            "--json",
+            str(out),
+        ],
+    )
     assert r.exit_code == 0, r.output
     names = [p["name"] for p in json.loads(out.read_text())["parameters"]]
     assert "target3_z" in names
     one = tmp_path / "one.json"
-    r = CliRunner().invoke(app, ["calibrate", str(f), "--nominal", "kr5", "--format", "columns", "--columns", cols, "--target", "2", "--holdout", "0",
-                                 "--json", str(one)])
+    r = CliRunner().invoke(
+        app,
+        [
+            "calibrate",
+            str(f),
+            "--nominal",
+            "kr5",
+            "--format",
+            "columns",
+            "--columns",
+            cols,
+            "--target",
+            "2",
+            "--holdout",
+            "0",
+            "--json",
+            str(one),
+        ],
+    )
     assert r.exit_code == 0, r.output
     doc = json.loads(one.read_text())
     p = {row["name"]: row["value"] for row in doc["parameters"]}
@@ -183,8 +267,16 @@ def test_validate_groups_repeated_poses_not_the_targets_of_one_pose(kr5):
 def test_six_dof_sweeps_are_calibrated_as_poses(kr5):
     """Sweeps of a 6-DoF probe (orientations recorded, one target): calibrate uses the orientations (pose
     measurements) and finds the probe's frame, (50, 30, 100) mm from the flange, not turned."""
-    s = sw.simulate(kr5.model(), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=8, poses=True,
-                    noise=NOISE, noise_rot=2e-5, seed=2)
+    s = sw.simulate(
+        kr5.model(),
+        home=np.radians(sw.PAPER_HOME_DEG),
+        ranges=np.radians(sw.PAPER_RANGES_DEG[90]),
+        points_per_sweep=8,
+        poses=True,
+        noise=NOISE,
+        noise_rot=2e-5,
+        seed=2,
+    )
     c = cal.calibrate(s, kr5)
     assert c.measurements.kind == "pose" and c.rms_rotation < 1e-4 and c.rms < 3 * NOISE * np.sqrt(3)
     T = np.asarray(c.model().T_flange_tool)

@@ -34,7 +34,7 @@ def test_convert_json_and_file(tmp_path):
     assert doc["max_tool_position_error_m"] < 1e-12 and len(doc["rows"]) == 6
     out = tmp_path / "t.toml"
     run("convert", "kr5", "--to", "edh", "-o", str(out))
-    assert "convention = \"edh\"" in out.read_text()
+    assert 'convention = "edh"' in out.read_text()
 
 
 def test_tables_and_messages_print_their_units_and_brackets_as_written(tmp_path):
@@ -80,19 +80,43 @@ def test_identify_in_a_tracker_frame_with_the_base_given(tmp_path):
     B[:3, 3] = [1.2, -0.4, 0.3]
     truth = dv.load_model("kr5").with_base(B)
     csv = tmp_path / "s.csv"
-    csv.write_text(swio.to_long_csv(sw.simulate(truth, home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=12), "mm", "deg"))
+    csv.write_text(
+        swio.to_long_csv(
+            sw.simulate(
+                truth,
+                home=np.radians(sw.PAPER_HOME_DEG),
+                ranges=np.radians(sw.PAPER_RANGES_DEG[30]),
+                points_per_sweep=12,
+            ),
+            "mm",
+            "deg",
+        )
+    )
     out = tmp_path / "r.json"
     run("identify", str(csv), "--nominal", "kr5", "--base", "1200,-400,300,2,-3,35", "--json", str(out))
     doc = json.loads(out.read_text())
-    table_iii = {"d": [400, 0, 0, 620, 0, 0], "a": [180, 600, 120, 0, 0, 0], "alpha": [90, 0, 90, 90, 90, 0], "theta": [0] * 6}
+    table_iii = {
+        "d": [400, 0, 0, 620, 0, 0],
+        "a": [180, 600, 120, 0, 0, 0],
+        "alpha": [90, 0, 90, 90, 90, 0],
+        "theta": [0] * 6,
+    }
     # the twists in magnitude (Table III prints no sign) and with kr5.toml's signs and A3 offset (KUKA's convention)
-    signed = {"alpha": np.multiply([-1, 1, -1, 1, -1, 1], table_iii["alpha"]), "theta": np.add(table_iii["theta"], [0, 0, -90, 0, 0, 0])}
+    signed = {
+        "alpha": np.multiply([-1, 1, -1, 1, -1, 1], table_iii["alpha"]),
+        "theta": np.add(table_iii["theta"], [0, 0, -90, 0, 0, 0]),
+    }
     for k, v in table_iii.items():  # the JSON is SI: m, rad
         # the CSV holds 10 significant digits (1e-6 mm at 1.2 m from the tracker): 1e-4 (mm, deg) is that rounding, amplified
         si = np.radians(v) if k in ("alpha", "theta") else np.array(v) * 1e-3
         got = np.array([r[k] for r in doc["parameters"]])
         tol = np.radians(1e-4) if k in ("alpha", "theta") else 1e-7
-        np.testing.assert_allclose(np.abs(got) if k == "alpha" else got, si if k != "theta" else np.radians(signed["theta"]), atol=tol, err_msg=k)
+        np.testing.assert_allclose(
+            np.abs(got) if k == "alpha" else got,
+            si if k != "theta" else np.radians(signed["theta"]),
+            atol=tol,
+            err_msg=k,
+        )
         if k in signed:
             np.testing.assert_allclose(got, np.radians(signed[k]), atol=tol, err_msg=k)
     T = np.array(doc["T_world_base"])
@@ -116,7 +140,10 @@ def test_identify_example_and_json(tmp_path):
 def test_simulate_then_identify(tmp_path):
     f = tmp_path / "s.csv"
     run("simulate", "kr5", "-o", str(f), "--ranges", "paper30", "--points", "12", "--noise", "0.0")
-    doc = json.loads(run("identify", str(f), "--nominal", "kr5", "--convention", "mdh", "--json", str(tmp_path / "o.json")).stdout and (tmp_path / "o.json").read_text())
+    doc = json.loads(
+        run("identify", str(f), "--nominal", "kr5", "--convention", "mdh", "--json", str(tmp_path / "o.json")).stdout
+        and (tmp_path / "o.json").read_text()
+    )
     assert doc["convention"] == "mdh"
 
 
@@ -145,16 +172,27 @@ def test_help_imports_neither_scipy_nor_numpy(args):
     pygments) of typer's help formatter."""
     from denavit.cli.common import COMMANDS
 
-    p = subprocess.run([sys.executable, "-X", "importtime", "-m", "denavit.cli", *args], capture_output=True, text=True, env=cli_env())
+    p = subprocess.run(
+        [sys.executable, "-X", "importtime", "-m", "denavit.cli", *args], capture_output=True, text=True, env=cli_env()
+    )
     assert p.returncode == 0, p.stderr
     mods = [ln.split("|")[-1].strip() for ln in p.stderr.splitlines() if ln.startswith("import time:")]
-    heavy = [m for m in mods if m.split(".")[0] in ("scipy", "numpy", "matplotlib", "plotly", "yourdfpy", "pydantic", "markdown_it", "pygments")
-             or m in ("denavit.api", "denavit.robot", "denavit.identification", "denavit.calibration", "denavit.sweeps")]
+    heavy = [
+        m
+        for m in mods
+        if m.split(".")[0]
+        in ("scipy", "numpy", "matplotlib", "plotly", "yourdfpy", "pydantic", "markdown_it", "pygments")
+        or m in ("denavit.api", "denavit.robot", "denavit.identification", "denavit.calibration", "denavit.sweeps")
+    ]
     assert "denavit.cli" in mods and heavy == []
     own = [f"denavit.cli.{COMMANDS[args[0]][0]}"] if args[0] in COMMANDS else []
     assert [m for m in mods if m.startswith("denavit.cli.") and m != "denavit.cli.common"] == own
-    p = subprocess.run([sys.executable, "-X", "importtime", "-c", "import denavit"], capture_output=True, text=True, env=cli_env())
-    assert "numpy" not in [ln.split("|")[-1].strip() for ln in p.stderr.splitlines() if ln.startswith("import time:")]  # `import denavit`: the core only
+    p = subprocess.run(
+        [sys.executable, "-X", "importtime", "-c", "import denavit"], capture_output=True, text=True, env=cli_env()
+    )
+    assert "numpy" not in [
+        ln.split("|")[-1].strip() for ln in p.stderr.splitlines() if ln.startswith("import time:")
+    ]  # `import denavit`: the core only
 
 
 def test_the_command_list_is_each_commands_own_summary():
@@ -173,7 +211,12 @@ def test_the_command_list_is_each_commands_own_summary():
     for name, (module, summary) in COMMANDS.items():
         assert built[name].callback.__module__ == f"denavit.cli.{module}", name
         assert built[name].help.split("\n\n")[0] == summary, name
-    p = subprocess.run([sys.executable, "-m", "denavit.cli", "--help"], capture_output=True, text=True, env={**cli_env(), "COLUMNS": "1000"})
+    p = subprocess.run(
+        [sys.executable, "-m", "denavit.cli", "--help"],
+        capture_output=True,
+        text=True,
+        env={**cli_env(), "COLUMNS": "1000"},
+    )
     listed = " ".join(p.stdout.split())
     assert all(f"{name} {summary}" in listed for name, (_, summary) in COMMANDS.items())
     p = run("fik", ok=False)
@@ -183,10 +226,12 @@ def test_the_command_list_is_each_commands_own_summary():
 def test_the_help_formatter_loads_markdown_and_tracebacks_on_first_use():
     """typer's help formatter is imported without rich.markdown and rich.traceback (which help in rich markup
     never uses); its Markdown and Traceback still make the real ones, imported then."""
-    code = ("import sys; from denavit.cli.common import import_rich_utils; import_rich_utils(); import typer.rich_utils as ru; "
-            "before = [m for m in ('rich.markdown', 'rich.traceback', 'pygments') if m in sys.modules]; "
-            "import rich.markdown, rich.traceback; md = ru.Markdown('**x**'); "
-            "print(before, type(md) is rich.markdown.Markdown, ru.Traceback.from_exception == rich.traceback.Traceback.from_exception)")
+    code = (
+        "import sys; from denavit.cli.common import import_rich_utils; import_rich_utils(); import typer.rich_utils as ru; "
+        "before = [m for m in ('rich.markdown', 'rich.traceback', 'pygments') if m in sys.modules]; "
+        "import rich.markdown, rich.traceback; md = ru.Markdown('**x**'); "
+        "print(before, type(md) is rich.markdown.Markdown, ru.Traceback.from_exception == rich.traceback.Traceback.from_exception)"
+    )
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=cli_env())
     assert p.stdout.split() == ["[]", "True", "True"], p.stdout + p.stderr
 
@@ -204,14 +249,20 @@ def test_recordings_through_the_cli(tmp_path):
         doc = json.loads(out.read_text())
         assert len(doc["joints"]) == 6
     p = run("identify", rec / "columns.txt", "--nominal", "kr5", "--columns", "t,q1..q6,x,y,z", ok=False)
-    assert p.returncode == 2 and "columns.txt:2: expected 10 values" in p.stderr and len(p.stderr.strip().splitlines()) == 1
+    assert (
+        p.returncode == 2
+        and "columns.txt:2: expected 10 values" in p.stderr
+        and len(p.stderr.strip().splitlines()) == 1
+    )
 
 
 def test_import_denavit_loads_no_scipy():
     """`import denavit` stays light (scipy had been 88 % of it): scipy, matplotlib, plotly, yourdfpy, lxml and
     trimesh load only in the functions that need them."""
-    code = ("import sys, denavit; heavy = [m for m in ('scipy', 'matplotlib', 'plotly', 'yourdfpy', 'lxml', 'trimesh', 'typer', 'rich') "
-            "if m in sys.modules]; print(','.join(heavy))")
+    code = (
+        "import sys, denavit; heavy = [m for m in ('scipy', 'matplotlib', 'plotly', 'yourdfpy', 'lxml', 'trimesh', 'typer', 'rich') "
+        "if m in sys.modules]; print(','.join(heavy))"
+    )
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=cli_env())
     assert p.returncode == 0 and p.stdout.strip() == "", p.stdout + p.stderr
 
@@ -236,9 +287,27 @@ def test_calibrate_from_a_log_of_poses_with_pauses(tmp_path):
     Q = np.array([q for _, q in rows])
     P = dv.fk_batch(m, Q)[:, :3, 3] + rng.normal(0, 2e-5, (len(Q), 3))
     f = tmp_path / "log.txt"
-    f.write_text("# units: length=m angle=rad time=s\n" + "".join(f"{ti!r} " + " ".join(repr(float(v)) for v in (*q, *p)) + "\n" for (ti, q), p in zip(rows, P, strict=True)))
+    f.write_text(
+        "# units: length=m angle=rad time=s\n"
+        + "".join(
+            f"{ti!r} " + " ".join(repr(float(v)) for v in (*q, *p)) + "\n" for (ti, q), p in zip(rows, P, strict=True)
+        )
+    )
     out = tmp_path / "c.json"
-    p = run("calibrate", f, "--nominal", "kr5", "--columns", "t,q1..q6,x,y,z", "--tool", "50,30,100", "--json", out, "--holdout", "0")
+    p = run(
+        "calibrate",
+        f,
+        "--nominal",
+        "kr5",
+        "--columns",
+        "t,q1..q6,x,y,z",
+        "--tool",
+        "50,30,100",
+        "--json",
+        out,
+        "--holdout",
+        "0",
+    )
     assert "poses where the robot stood still" in p.stdout
     doc = json.loads(out.read_text())
     assert doc["n_poses"] == 39  # the last pose has no pause after it: 39 pauses of 25 rows
@@ -254,7 +323,12 @@ def test_version():
 def test_help_keeps_the_robot_files_table_names():
     """A robot file's table named in a help text ([covariance], [couplings]) is printed, not taken for rich markup
     (the help had read "with its : compensate predicts" and "default: the robot file's .")."""
-    for cmd, name in (("calibrate", "[covariance]"), ("calibrate", "[couplings]"), ("identify", "[couplings]"), ("simulate", "[couplings]")):
+    for cmd, name in (
+        ("calibrate", "[covariance]"),
+        ("calibrate", "[couplings]"),
+        ("identify", "[couplings]"),
+        ("simulate", "[couplings]"),
+    ):
         out = " ".join(run(cmd, "--help").stdout.split())
         assert name in out, (cmd, name)
 

@@ -51,7 +51,10 @@ def commands(files) -> dict:
 def check_lines(text: str, width: int, what: str) -> None:
     """No ellipsis in or after a word or number; every box line complete and within the width."""
     assert "…" not in text, what
-    assert not re.search(r"\w\.\.\.|\.\.\.\w", text), (what, re.search(r".{0,20}(\w\.\.\.|\.\.\.\w).{0,20}", text).group(0))
+    assert not re.search(r"\w\.\.\.|\.\.\.\w", text), (
+        what,
+        re.search(r".{0,20}(\w\.\.\.|\.\.\.\w).{0,20}", text).group(0),
+    )
     for ln in text.splitlines():
         if ln[:1] in LEFT_RIGHT:
             assert len(ln) <= width, (what, ln)
@@ -66,7 +69,10 @@ def numbers(text: str) -> list[str]:
     return sorted(NUMBER.findall(text))
 
 
-@pytest.mark.parametrize("name", ["models", "show", "convert", "fk", "ik", "dynamics", "plan", "identify", "calibrate", "compensate", "inspect"])
+@pytest.mark.parametrize(
+    "name",
+    ["models", "show", "convert", "fk", "ik", "dynamics", "plan", "identify", "calibrate", "compensate", "inspect"],
+)
 def test_tables_never_cut_a_number_or_a_name(files, name):
     args = commands(files)[name]
     outs = {}
@@ -90,7 +96,22 @@ def test_narrow_tables_switch_to_the_long_layout_with_whole_names():
 
 @pytest.mark.parametrize("width", WIDTHS)
 def test_help_has_no_bool_placeholder_and_whole_boxes(width):
-    names = ["", "models", "show", "export", "convert", "fk", "ik", "dynamics", "simulate", "plan", "identify", "calibrate", "compensate", "inspect"]
+    names = [
+        "",
+        "models",
+        "show",
+        "export",
+        "convert",
+        "fk",
+        "ik",
+        "dynamics",
+        "simulate",
+        "plan",
+        "identify",
+        "calibrate",
+        "compensate",
+        "inspect",
+    ]
     for name in names:
         p = run(*([name] if name else []), "--help", columns=width)
         assert "<bool>" not in p.stdout, name
@@ -101,7 +122,10 @@ def test_help_sentences_are_not_broken_mid_way():
     """The command list kept the docstring's line breaks ("... judged from the measured final" / "error
     against ..."): each paragraph is one line, wrapped by the terminal's width only."""
     p = run("--help", columns=250)
-    assert "Inverse kinematics: joint values that put the tool at --pose, judged from the measured final error against the tolerances." in p.stdout
+    assert (
+        "Inverse kinematics: joint values that put the tool at --pose, judged from the measured final error against the tolerances."
+        in p.stdout
+    )
     lines = [ln.strip("│ ") for ln in p.stdout.splitlines()]
     compensate = next(ln for ln in lines if ln.startswith("compensate"))
     assert compensate.endswith("keeps its nominal model."), compensate  # a whole sentence
@@ -127,9 +151,22 @@ def test_long_paths_stand_on_their_own_line(tmp_path, files):
 
 
 def test_calibrate_says_its_redundant_parameters_in_a_few_lines_and_all_reasons_with_verbose(files):
-    short = run("calibrate", files["sweeps"], "--nominal", "kr5", "--tool", "50,30,100", "--holdout", "0", columns=200).stdout
-    full = run("calibrate", files["sweeps"], "--nominal", "kr5", "--tool", "50,30,100", "--holdout", "0", "--verbose", columns=200).stdout
-    after = short[short.index("Identifiability:"):]
+    short = run(
+        "calibrate", files["sweeps"], "--nominal", "kr5", "--tool", "50,30,100", "--holdout", "0", columns=200
+    ).stdout
+    full = run(
+        "calibrate",
+        files["sweeps"],
+        "--nominal",
+        "kr5",
+        "--tool",
+        "50,30,100",
+        "--holdout",
+        "0",
+        "--verbose",
+        columns=200,
+    ).stdout
+    after = short[short.index("Identifiability:") :]
     assert len(after.splitlines()) <= 6, after  # it had been about 60 lines of reasons
     assert "Redundant in the edh parametrisation" in after and "c_5" in after
     assert len(full.splitlines()) - len(short.splitlines()) >= 10 and "redundant: c_5:" in full
@@ -160,9 +197,15 @@ def test_metre_tables_show_significant_figures_not_zeros():
     significant figures, a tiny negative is 0."""
     out = run("identify", "--example", "kr5", "--length", "m", "--angle", "rad", columns=200).stdout
     sig = [ln.split("│")[6].strip() for ln in out.splitlines() if ln.startswith("│") and ln.count("│") == 8]
-    assert sig and all(s in ("-", "0") or (float(s) > 0 and not re.fullmatch(r"0\.0+", s)) for s in sig), sig  # 3 significant figures
+    assert sig and all(s in ("-", "0") or (float(s) > 0 and not re.fullmatch(r"0\.0+", s)) for s in sig), (
+        sig
+    )  # 3 significant figures
     assert "-0.000000 " not in out and "-0.00000 " not in out
-    d = [ln.split("│")[4].strip() for ln in out.splitlines() if ln.startswith("│") and ln.count("│") == 8 and "│ m " in ln]
+    d = [
+        ln.split("│")[4].strip()
+        for ln in out.splitlines()
+        if ln.startswith("│") and ln.count("│") == 8 and "│ m " in ln
+    ]
     assert all(len(v.split(".")[1]) == 6 for v in d), d  # micrometres in metres
     np.testing.assert_allclose(float(d[0]), 0.4, atol=1e-6)
 
@@ -176,7 +219,9 @@ def test_a_closed_pipe_ends_the_command_by_sigpipe_not_exit_1():
 
     from cli import env
 
-    with subprocess.Popen([sys.executable, "-m", "denavit.cli", "fk", "kr5"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env()) as p:
+    with subprocess.Popen(
+        [sys.executable, "-m", "denavit.cli", "fk", "kr5"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env()
+    ) as p:
         p.stdout.close()  # the reader is gone before the first line is written
         err = p.stderr.read().decode()
         assert p.wait() == -signal.SIGPIPE and err == ""

@@ -46,10 +46,14 @@ def close(a, b, rtol=1e-9, atol=1e-12, path="") -> None:
 def column(out: str, header: str) -> list[float]:
     """The numbers of a rich table's column (by its header cell) in printed order."""
     lines = out.splitlines()
-    head = next(i for i, ln in enumerate(lines) if "┃" in ln and header in ln.split("┃")[1:] or f" {header} " in ln and "┃" in ln)
+    head = next(
+        i
+        for i, ln in enumerate(lines)
+        if "┃" in ln and header in ln.split("┃")[1:] or f" {header} " in ln and "┃" in ln
+    )
     k = [c.strip() for c in lines[head].split("┃")].index(header)
     vals = []
-    for ln in lines[head + 1:]:
+    for ln in lines[head + 1 :]:
         if ln.startswith("└"):
             break
         if ln.startswith("│"):
@@ -95,7 +99,9 @@ def test_ik_pose_and_q0_in_the_units_asked_and_default_tolerances_keep_their_siz
 def test_dynamics_reads_q_and_rates_in_the_units_asked():
     qd, qdd = [20.0, -10.0, 5.0, 0.0, 30.0, 0.0], [0.0, 30.0, 0.0, 10.0, 0.0, 5.0]
     a = doc("dynamics", "tiansui_edh", "--q", csv(Q_DEG), "--qd", csv(qd), "--qdd", csv(qdd))
-    b = doc("dynamics", "tiansui_edh", "--q", csv(Q_RAD), "--qd", csv(np.radians(qd)), "--qdd", csv(np.radians(qdd)), *SI)
+    b = doc(
+        "dynamics", "tiansui_edh", "--q", csv(Q_RAD), "--qd", csv(np.radians(qd)), "--qdd", csv(np.radians(qdd)), *SI
+    )
     close(a, b)
     tau = dv.rnea(dv.load_model("tiansui_edh"), Q_RAD, np.radians(qd), np.radians(qdd), gravity=[0, 0, -9.81])
     np.testing.assert_allclose(a["tau"], tau, rtol=1e-12, atol=1e-12)
@@ -117,7 +123,7 @@ def test_convert_show_and_export_scale_tables_and_files_and_keep_json_si(tmp_pat
             else:
                 run(*cmd, f, *units)
             files.append(dv.load_robot(f))
-        assert "length = \"m\"" in (tmp_path / f"{cmd[0]}4.toml").read_text()
+        assert 'length = "m"' in (tmp_path / f"{cmd[0]}4.toml").read_text()
         np.testing.assert_allclose(files[0].table.params, files[1].table.params, atol=1e-12)
 
 
@@ -137,9 +143,36 @@ def test_simulate_defaults_keep_their_physical_size(tmp_path):
     assert np.linalg.norm(sb.sweeps[0].points[0] - tool[:3]) < 2e-4  # the default tool, within the default noise
     # typed values in the unit asked
     c = tmp_path / "c.csv"
-    run("simulate", "kr5", "-o", c, "--points", "6", "--noise", "2e-5", "--tool", "0.05,0.03,0.1", "--home", csv(np.radians([0, -90, 90, 0, 90, 0])), *SI)
+    run(
+        "simulate",
+        "kr5",
+        "-o",
+        c,
+        "--points",
+        "6",
+        "--noise",
+        "2e-5",
+        "--tool",
+        "0.05,0.03,0.1",
+        "--home",
+        csv(np.radians([0, -90, 90, 0, 90, 0])),
+        *SI,
+    )
     d = tmp_path / "d.csv"
-    run("simulate", "kr5", "-o", d, "--points", "6", "--noise", "0.02", "--tool", "50,30,100", "--home", "0,-90,90,0,90,0")
+    run(
+        "simulate",
+        "kr5",
+        "-o",
+        d,
+        "--points",
+        "6",
+        "--noise",
+        "0.02",
+        "--tool",
+        "50,30,100",
+        "--home",
+        "0,-90,90,0,90,0",
+    )
     np.testing.assert_allclose(swio.read_long_csv(c).all_points, swio.read_long_csv(d).all_points, atol=1e-9)
 
 
@@ -173,12 +206,42 @@ def sweeps_mm(tmp_path_factory):
 
 def test_identify_prints_and_saves_in_the_units_asked(sweeps_mm, tmp_path):
     a_toml, b_toml = tmp_path / "a.toml", tmp_path / "b.toml"
-    pa = run("identify", sweeps_mm, "--nominal", "kr5", "--json", "-", "--save", a_toml, "--max-sigma", "1", "--base", "0,0,0,0,0,0")
-    pb = run("identify", sweeps_mm, "--nominal", "kr5", "--json", "-", "--save", b_toml, "--max-sigma", "0.001", "--base", "0,0,0,0,0,0", *SI)
+    pa = run(
+        "identify",
+        sweeps_mm,
+        "--nominal",
+        "kr5",
+        "--json",
+        "-",
+        "--save",
+        a_toml,
+        "--max-sigma",
+        "1",
+        "--base",
+        "0,0,0,0,0,0",
+    )
+    pb = run(
+        "identify",
+        sweeps_mm,
+        "--nominal",
+        "kr5",
+        "--json",
+        "-",
+        "--save",
+        b_toml,
+        "--max-sigma",
+        "0.001",
+        "--base",
+        "0,0,0,0,0,0",
+        *SI,
+    )
     close(json.loads(pa.stdout), json.loads(pb.stdout), rtol=1e-7, atol=1e-12)
     np.testing.assert_allclose(dv.load_robot(a_toml).table.params, dv.load_robot(b_toml).table.params, atol=1e-9)
-    assert "length = \"m\"" in b_toml.read_text()
-    mm, m = run("identify", sweeps_mm, "--nominal", "kr5").stdout, run("identify", sweeps_mm, "--nominal", "kr5", *SI).stdout
+    assert 'length = "m"' in b_toml.read_text()
+    mm, m = (
+        run("identify", sweeps_mm, "--nominal", "kr5").stdout,
+        run("identify", sweeps_mm, "--nominal", "kr5", *SI).stdout,
+    )
     np.testing.assert_allclose(np.array(column(mm, "radius [mm]")) * 1e-3, column(m, "radius [m]"), atol=1e-6)
     np.testing.assert_allclose(np.radians(column(mm, "arc [deg]")), column(m, "arc [rad]"), rtol=1e-3)
     # a 0.000 sigma never stands for metre data: spreads are shown with significant figures
@@ -228,7 +291,10 @@ def test_calibrate_reads_data_and_tool_in_the_units_asked(tmp_path):
     kr5 = dv.load_robot("kr5")
     meas = cal.simulate(kr5, cal.configurations(kr5, 40), tool=(0.05, 0.03, 0.1), noise=2e-5, seed=3)
     a, b = tmp_path / "mm.csv", tmp_path / "m.csv"  # no units line: read in --length / --angle
-    a.write_text("q1,q2,q3,q4,q5,q6,x,y,z\n" + "".join(csv([*np.degrees(q), *(p * 1e3)]) + "\n" for q, p in zip(meas.q, meas.points)))
+    a.write_text(
+        "q1,q2,q3,q4,q5,q6,x,y,z\n"
+        + "".join(csv([*np.degrees(q), *(p * 1e3)]) + "\n" for q, p in zip(meas.q, meas.points))
+    )
     b.write_text("q1,q2,q3,q4,q5,q6,x,y,z\n" + "".join(csv([*q, *p]) + "\n" for q, p in zip(meas.q, meas.points)))
     da = doc("calibrate", a, "--nominal", "kr5", "--tool", "50,30,100", "--noise", "0.02", "--holdout", "0")
     db = doc("calibrate", b, "--nominal", "kr5", "--tool", "0.05,0.03,0.1", "--noise", "2e-5", "--holdout", "0", *SI)
@@ -240,10 +306,17 @@ def test_calibrate_reads_data_and_tool_in_the_units_asked(tmp_path):
     assert va.keys() == vb.keys()
     for k in va:
         assert va[k] == pytest.approx(vb[k], abs=1e-9), k
-    assert da["residuals"]["rms_m"] == pytest.approx(db["residuals"]["rms_m"], rel=1e-6) and da["residuals"]["rms_m"] < 5e-5
-    mm, m = (run("calibrate", f, "--nominal", "kr5", "--tool", t, "--holdout", "0", *u).stdout
-             for f, t, u in ((a, "50,30,100", ()), (b, "0.05,0.03,0.1", SI)))
-    np.testing.assert_allclose(column(mm, "calibrated")[-3:], [v * 1e3 for v in column(m, "calibrated")[-3:]], atol=2e-3)  # tool_x..z
+    assert (
+        da["residuals"]["rms_m"] == pytest.approx(db["residuals"]["rms_m"], rel=1e-6)
+        and da["residuals"]["rms_m"] < 5e-5
+    )
+    mm, m = (
+        run("calibrate", f, "--nominal", "kr5", "--tool", t, "--holdout", "0", *u).stdout
+        for f, t, u in ((a, "50,30,100", ()), (b, "0.05,0.03,0.1", SI))
+    )
+    np.testing.assert_allclose(
+        column(mm, "calibrated")[-3:], [v * 1e3 for v in column(m, "calibrated")[-3:]], atol=2e-3
+    )  # tool_x..z
 
 
 def test_compensate_reads_rows_and_writes_in_the_units_asked(tmp_path):
@@ -272,7 +345,13 @@ def test_inspect_prints_joint_values_in_the_angle_unit():
     rows = []
     for units in ((), ("--angle", "rad")):
         out = run("inspect", rec, *units).stdout
-        rows.append([[float(c) for c in ln.split()[5:7]] for ln in out.splitlines() if re.match(r"\s+\d+\s+\d+\s+\w+\s+\d+-\d+", ln)])
+        rows.append(
+            [
+                [float(c) for c in ln.split()[5:7]]
+                for ln in out.splitlines()
+                if re.match(r"\s+\d+\s+\d+\s+\w+\s+\d+-\d+", ln)
+            ]
+        )
     np.testing.assert_allclose(np.radians(rows[0]), rows[1], atol=2e-3)
 
 

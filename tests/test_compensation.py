@@ -19,7 +19,9 @@ def kr5_pair(seed=3, length=0.5e-3, angle=DEG_005):
     E = np.random.default_rng(seed).uniform(-1, 1, t.params.shape) * np.where(np.array(t.angle_columns), angle, length)
     tool = np.eye(4)
     tool[:3, 3] = TOOL
-    true = dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool).to_model("true", kr5.names, kr5.lower, kr5.upper)
+    true = dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool).to_model(
+        "true", kr5.names, kr5.lower, kr5.upper
+    )
     return kr5, kr5.model().with_tool(tool), true.with_tool(tool)
 
 
@@ -138,7 +140,12 @@ def test_cli_compensates_joint_rows_and_poses(tmp_path):
     Q = program(kr5, 25)
     write_program(tmp_path / "q.csv", np.degrees(Q), "q1,q2,q3,q4,q5,q6")
     T = dv.fk_batch(kr5.model(), Q)
-    write_program(tmp_path / "p.csv", [[*Ti[:3, 3], *matrix_rotvec(Ti[:3, :3])] for Ti in T], "x,y,z,rx,ry,rz", "length=m angle=rad")
+    write_program(
+        tmp_path / "p.csv",
+        [[*Ti[:3, 3], *matrix_rotvec(Ti[:3, :3])] for Ti in T],
+        "x,y,z,rx,ry,rz",
+        "length=m angle=rad",
+    )
     for f in ("q.csv", "p.csv"):
         out = tmp_path / f"out_{f}"
         run("compensate", tmp_path / f, "--nominal", "kr5", "--identified", ident, "-o", out)
@@ -171,7 +178,9 @@ def test_cli_identify_save_then_compensate_against_the_builtin_nominal(tmp_path)
     write_program(tmp_path / "q.csv", np.degrees(Q), "q1,q2,q3,q4,q5,q6")
     out = tmp_path / "out.csv"
     p = run("compensate", tmp_path / "q.csv", "--nominal", "kr5", "--identified", saved, "-o", out)
-    assert "note: the nominal kr5 has no tool and the identified robot has one" in p.stdout and "0 flagged" in p.stdout, p.stdout
+    assert (
+        "note: the nominal kr5 has no tool and the identified robot has one" in p.stdout and "0 flagged" in p.stdout
+    ), p.stdout
     rows = np.array([[float(v) for v in line.split(",")] for line in out.read_text().splitlines()[4:]])
     assert (rows[:, 12] == 1).all()
     flange = dv.load_model(saved).with_tool(np.eye(4))
@@ -190,7 +199,9 @@ def test_cli_compensate_bad_input(tmp_path):
     assert p.returncode == 1 and "no target can be sent" in p.stdout
     T = dv.fk_batch(dv.load_model("kr5"), Q)
     # positions in mm under a file that says metres
-    write_program(tmp_path / "p.csv", [[*(Ti[:3, 3] * 1e3), 0, 0, 0] for Ti in T], "x,y,z,rx,ry,rz", "length=m angle=rad")
+    write_program(
+        tmp_path / "p.csv", [[*(Ti[:3, 3] * 1e3), 0, 0, 0] for Ti in T], "x,y,z,rx,ry,rz", "length=m angle=rad"
+    )
     p = run("compensate", tmp_path / "p.csv", "--nominal", "kr5", "--identified", "kr5", ok=False)
     assert p.returncode == 2 and "p.csv:3: the target is" in p.stderr and "is the file's length unit right?" in p.stderr
     write_program(tmp_path / "bad.csv", [[1, 2, 3]], "q1,q2,q3")
@@ -222,10 +233,19 @@ def test_cli_exports_the_ur_kinematics_file(tmp_path):
 
     r = dv.load_robot("ur5")
     t = r.table
-    E = np.random.default_rng(2).normal(0, 1, t.params.shape) * np.where(np.array(t.angle_columns), np.radians(0.05), 0.5e-3)
+    E = np.random.default_rng(2).normal(0, 1, t.params.shape) * np.where(
+        np.array(t.angle_columns), np.radians(0.05), 0.5e-3
+    )
     E[5, 2:] = 0
     ident = tmp_path / "ur5_id.toml"
-    robotfile.save(Robot("ur5_id", dv.Table("dh", t.params + E, t.kinds, t.T_world_base, t.T_last_tool), r.names, r.lower, r.upper), ident, "mm", "deg")
+    robotfile.save(
+        Robot(
+            "ur5_id", dv.Table("dh", t.params + E, t.kinds, t.T_world_base, t.T_last_tool), r.names, r.lower, r.upper
+        ),
+        ident,
+        "mm",
+        "deg",
+    )
     out = tmp_path / "cal.yaml"
     run("export", ident, "--ur-kinematics", out)
     origins = ur_calibration.loads(out.read_text())
@@ -262,7 +282,17 @@ def test_identify_save_persists_the_covariance_and_compensate_predicts_per_row(t
     np.testing.assert_allclose(robotfile.read(again).covariance, robot.covariance, rtol=1e-9, atol=1e-24)
     Q = program(dv.load_robot("kr5"), 5)
     write_program(tmp_path / "q.csv", np.degrees(Q), "q1,q2,q3,q4,q5,q6")
-    out = run("compensate", tmp_path / "q.csv", "--nominal", saved, "--identified", saved, "--json", tmp_path / "c.json", columns=200).stdout
+    out = run(
+        "compensate",
+        tmp_path / "q.csv",
+        "--nominal",
+        saved,
+        "--identified",
+        saved,
+        "--json",
+        tmp_path / "c.json",
+        columns=200,
+    ).stdout
     assert "Predicted error after compensation" in out
     rows = json.loads((tmp_path / "c.json").read_text())["predicted_after"]
     sig = cp.table_sigma(robot, Q) * 1e3
@@ -277,11 +307,16 @@ def test_bad_covariance_in_a_robot_file(tmp_path):
     text = robotfile.dumps(kr5, "mm", "deg")
     f = tmp_path / "r.toml"
     f.write_text(text + "\n[covariance]\nmatrix = [[1.0, 0.0], [0.0, 1.0]]\n")
-    with pytest.raises(dv.DenavitError, match=r"\[covariance\]: matrix: expected 27 rows \(the joints' parameters, then the tool's x, y, z\), got 2"):
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"\[covariance\]: matrix: expected 27 rows \(the joints' parameters, then the tool's x, y, z\), got 2",
+    ):
         robotfile.read(f)
     bad = np.eye(27)
     bad[0, 1] = 1.0
-    f.write_text(text + "\n[covariance]\nmatrix = [" + ", ".join("[" + ", ".join(str(v) for v in r) + "]" for r in bad) + "]\n")
+    f.write_text(
+        text + "\n[covariance]\nmatrix = [" + ", ".join("[" + ", ".join(str(v) for v in r) + "]" for r in bad) + "]\n"
+    )
     with pytest.raises(dv.DenavitError, match="symmetric positive semi-definite"):
         robotfile.read(f)
 
@@ -301,10 +336,17 @@ def test_the_reading_model_is_undone_through_a_nominal_controller():
     tool[:3, 3] = TOOL
     t = kr5.table
     E = np.random.default_rng(3).uniform(-1, 1, t.params.shape) * np.where(np.array(t.angle_columns), DEG_005, 0.5e-3)
-    nom_r = replace(kr5, table=dv.Table(t.convention, t.params, t.kinds, t.T_world_base, np.asarray(t.T_last_tool) @ tool))
+    nom_r = replace(
+        kr5, table=dv.Table(t.convention, t.params, t.kinds, t.T_world_base, np.asarray(t.T_last_tool) @ tool)
+    )
     s = np.array([0.0, 2e-4, -3e-4, 1e-4, 0.0, -2e-4])
-    id_r = replace(nom_r, name="true", table=dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, np.asarray(t.T_last_tool) @ tool),
-                   reading_scale=s, reading_reference=np.radians(PAPER_HOME_DEG))
+    id_r = replace(
+        nom_r,
+        name="true",
+        table=dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, np.asarray(t.T_last_tool) @ tool),
+        reading_scale=s,
+        reading_reference=np.radians(PAPER_HOME_DEG),
+    )
     nominal, true = nom_r.model(), id_r.model()
     Q = program(kr5, 200)
     np.testing.assert_allclose(dv.fk_batch(nominal, Q), dv.fk_batch(kr5.model().with_tool(tool), Q), atol=1e-12)
@@ -364,17 +406,30 @@ def test_robot_files_carry_the_reading_model(tmp_path):
     np.testing.assert_allclose(back.readings(back.joint_values(q)), q, atol=1e-15)
     np.testing.assert_allclose(back.joint_values(q), h + (1 + s) * (q - h), atol=1e-15)
     base = robotfile.dumps(kr5, "mm", "deg")
-    for table, msg in (("[readings]\nscale = [0, 0, 0]\n", r"\[readings\]: scale: expected a list of 6 numbers"),
-                       ("[readings]\nscale = [0, 0.2, 0, 0, 0, 0]\n", r"\[readings\]: scale: joint 2's scale error 0.2 is not a small correction"),
-                       ("[readings]\nscales = [0, 0, 0, 0, 0, 0]\n", r"\[readings\]: unknown keys \['scales'\]"),
-                       ("[readings]\nreference = [0, 0, 0, 0, 0, 0]\n", r"\[readings\]: missing 'scale'")):
+    for table, msg in (
+        ("[readings]\nscale = [0, 0, 0]\n", r"\[readings\]: scale: expected a list of 6 numbers"),
+        (
+            "[readings]\nscale = [0, 0.2, 0, 0, 0, 0]\n",
+            r"\[readings\]: scale: joint 2's scale error 0.2 is not a small correction",
+        ),
+        ("[readings]\nscales = [0, 0, 0, 0, 0, 0]\n", r"\[readings\]: unknown keys \['scales'\]"),
+        ("[readings]\nreference = [0, 0, 0, 0, 0, 0]\n", r"\[readings\]: missing 'scale'"),
+    ):
         f.write_text(base + "\n" + table)
         with pytest.raises(dv.DenavitError, match=msg) as e:
             robotfile.read(f)
         assert "\n" not in str(e.value)
     # a covariance without the scales' rows, under a [readings] table
-    f.write_text(base + "\n[readings]\nscale = [0, 0, 0, 0, 0, 0]\n[covariance]\nmatrix = [" + ", ".join("[" + ", ".join("0.0" for _ in range(27)) + "]" for _ in range(27)) + "]\n")
-    with pytest.raises(dv.DenavitError, match=r"expected 33 rows \(the joints' parameters, the tool's x, y, z, then the \[readings\] scales\), got 27"):
+    f.write_text(
+        base
+        + "\n[readings]\nscale = [0, 0, 0, 0, 0, 0]\n[covariance]\nmatrix = ["
+        + ", ".join("[" + ", ".join("0.0" for _ in range(27)) + "]" for _ in range(27))
+        + "]\n"
+    )
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"expected 33 rows \(the joints' parameters, the tool's x, y, z, then the \[readings\] scales\), got 27",
+    ):
         robotfile.read(f)
 
 
@@ -386,8 +441,15 @@ def _scaled_recording(points=200, seed=4):
     from denavit import sweeps as sw
 
     kr5 = dv.load_robot("kr5")
-    return recordings(kr5.model(), np.radians(sw.PAPER_HOME_DEG), np.radians(sw.PAPER_RANGES_DEG[90]), points=points, reading_arcsec=(10, 10),
-                      scale=3e-4, seed=seed)[0]
+    return recordings(
+        kr5.model(),
+        np.radians(sw.PAPER_HOME_DEG),
+        np.radians(sw.PAPER_RANGES_DEG[90]),
+        points=points,
+        reading_arcsec=(10, 10),
+        scale=3e-4,
+        seed=seed,
+    )[0]
 
 
 def test_identify_save_carries_the_reading_scales_and_the_cli_applies_them(tmp_path):
@@ -413,7 +475,11 @@ def test_identify_save_carries_the_reading_scales_and_the_cli_applies_them(tmp_p
     np.testing.assert_allclose(robot.reading_reference, rec.home, atol=1e-12)
     k = robot.table.params.size + 3
     assert robot.covariance.shape == (k + 6, k + 6)
-    np.testing.assert_allclose(np.sqrt(np.diag(robot.covariance)[k:]), [f.scale_sigma if np.isfinite(f.scale_sigma) else 0 for f in res.fits], rtol=1e-3)
+    np.testing.assert_allclose(
+        np.sqrt(np.diag(robot.covariance)[k:]),
+        [f.scale_sigma if np.isfinite(f.scale_sigma) else 0 for f in res.fits],
+        rtol=1e-3,
+    )
     # the nominal controller's model carries the tool the tracker measured (the identified model's tool point)
     from dataclasses import replace
 
@@ -422,14 +488,33 @@ def test_identify_save_carries_the_reading_scales_and_the_cli_applies_them(tmp_p
     tool[:3, 3] = TOOL
     t = kr5.table
     nominal_file = tmp_path / "kr5_tool.toml"
-    robotfile.save(replace(kr5, table=dv.Table(t.convention, t.params, t.kinds, t.T_world_base, np.asarray(t.T_last_tool) @ tool)), nominal_file, "mm", "deg")
+    robotfile.save(
+        replace(kr5, table=dv.Table(t.convention, t.params, t.kinds, t.T_world_base, np.asarray(t.T_last_tool) @ tool)),
+        nominal_file,
+        "mm",
+        "deg",
+    )
     nominal = dv.load_model(nominal_file)
     Q = program(kr5, 12)
     write_program(tmp_path / "q.csv", np.degrees(Q), "q1,q2,q3,q4,q5,q6")
     out = tmp_path / "out.csv"
-    run("compensate", tmp_path / "q.csv", "--nominal", nominal_file, "--identified", saved, "-o", out, "--json", tmp_path / "c.json")
+    run(
+        "compensate",
+        tmp_path / "q.csv",
+        "--nominal",
+        nominal_file,
+        "--identified",
+        saved,
+        "-o",
+        out,
+        "--json",
+        tmp_path / "c.json",
+    )
     lines = out.read_text().splitlines()
-    assert lines[1] == "# units: length=mm angle=deg" and "predicted_after (1 sigma): tool-position errors in mm" in lines[2]
+    assert (
+        lines[1] == "# units: length=mm angle=deg"
+        and "predicted_after (1 sigma): tool-position errors in mm" in lines[2]
+    )
     head = lines[3].split(",")
     assert head[-3:] == ["before", "residual", "predicted_after"]
     rows = np.array([[float(v) for v in line.split(",")] for line in lines[4:]])
@@ -479,8 +564,15 @@ def test_identification_accuracy_is_calibrated_by_monte_carlo():
     kr5 = dv.load_robot("kr5")
     actual, predicted = [], []
     for seed in range(10):
-        s = sw.simulate(kr5.model(), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=40,
-                        tool_point=TOOL, noise=2e-5, seed=1000 + seed)
+        s = sw.simulate(
+            kr5.model(),
+            home=np.radians(sw.PAPER_HOME_DEG),
+            ranges=np.radians(sw.PAPER_RANGES_DEG[90]),
+            points_per_sweep=40,
+            tool_point=TOOL,
+            noise=2e-5,
+            seed=1000 + seed,
+        )
         su = cp.identification_accuracy(dv.identify(s, nominal=kr5), count=200).summary()
         actual.append(su["nominal"]["rms"] ** 2)
         predicted.append(su["identified"]["rms"] ** 2)
@@ -524,7 +616,9 @@ def test_calibrate_save_writes_the_covariance_and_compensate_predicts_the_same_s
     rng = np.random.default_rng(3)
     t = kr5.table
     E = rng.uniform(-1, 1, t.params.shape) * np.where(np.array(t.angle_columns), np.radians(0.05), 5e-4)
-    true = dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool).to_model("true", kr5.names, kr5.lower, kr5.upper)
+    true = dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool).to_model(
+        "true", kr5.names, kr5.lower, kr5.upper
+    )
     q = cal.configurations(kr5, 60)
     meas = cal.simulate(true, q, tool=TOOL, noise=2e-5, seed=2)
     c = cal.calibrate(meas, kr5, tool=TOOL, scale=True)
@@ -580,7 +674,9 @@ def test_cli_a_poe_save_compensates_like_the_edh_save(tmp_path):
     write_program(tmp_path / "q.csv", np.degrees(Q), "q1,q2,q3,q4,q5,q6")
     out = tmp_path / "out.csv"
     p = run("compensate", tmp_path / "q.csv", "--nominal", "kr5", "--identified", poe, "-o", out)
-    assert "note: the nominal kr5 has no tool and the identified robot has one" in p.stdout and "0 flagged" in p.stdout, p.stdout
+    assert (
+        "note: the nominal kr5 has no tool and the identified robot has one" in p.stdout and "0 flagged" in p.stdout
+    ), p.stdout
     rows = np.array([[float(v) for v in line.split(",")] for line in out.read_text().splitlines()[4:]])
     assert (rows[:, 12] == 1).all()
     m_poe, m_edh = dv.load_model(poe), dv.load_model(edh)
@@ -601,20 +697,34 @@ def test_cli_json_holds_the_compensated_program_and_the_summary_says_what_it_lea
     kr5 = dv.load_robot("kr5")
     saved = tmp_path / "id.toml"
     run("identify", "--example", "kr5", "--save", saved)
-    Q = np.radians([[90, -90, 90, 0, 90, 0], [80, -80, 100, 10, 70, 5], [10, -60, 80, 0, 0, 0]])  # the last at the wrist singularity
+    Q = np.radians(
+        [[90, -90, 90, 0, 90, 0], [80, -80, 100, 10, 70, 5], [10, -60, 80, 0, 0, 0]]
+    )  # the last at the wrist singularity
     write_program(tmp_path / "q.csv", np.degrees(Q), "q1,q2,q3,q4,q5,q6")
     p = run("compensate", tmp_path / "q.csv", "--nominal", "kr5", "--identified", saved, "--json", ok=False)
     assert p.returncode == 1, p.stderr
     doc = json.loads(p.stdout)
     rows = doc["rows"]
     assert [r["where"] for r in rows] == [f"{tmp_path / 'q.csv'}:{k}" for k in (3, 4, 5)]
-    assert [r["ok"] for r in rows] == [True, True, False] and rows[2]["branch_changed"] and doc["joint_units"] == ["rad"] * 6
+    assert (
+        [r["ok"] for r in rows] == [True, True, False]
+        and rows[2]["branch_changed"]
+        and doc["joint_units"] == ["rad"] * 6
+    )
     q = np.array([r["q"] for r in rows])
     T = np.array([r["T_command"] for r in rows])
-    np.testing.assert_allclose(T, dv.fk_batch(kr5.model(), q), atol=1e-12)  # the pose to send is the nominal's at the joint row
-    flange = dv.load_model(saved).with_tool(np.eye(4))  # the identified flange at the commands reaches the program's targets
-    np.testing.assert_allclose(dv.fk_batch(flange, q[:2])[:, :3, 3], dv.fk_batch(kr5.model(), Q[:2])[:, :3, 3], atol=1e-9)
-    assert np.abs(q[:2] - Q[:2]).max() < np.radians(0.1)  # compensation moves joints by hundredths of a degree, radians in the document
+    np.testing.assert_allclose(
+        T, dv.fk_batch(kr5.model(), q), atol=1e-12
+    )  # the pose to send is the nominal's at the joint row
+    flange = dv.load_model(saved).with_tool(
+        np.eye(4)
+    )  # the identified flange at the commands reaches the program's targets
+    np.testing.assert_allclose(
+        dv.fk_batch(flange, q[:2])[:, :3, 3], dv.fk_batch(kr5.model(), Q[:2])[:, :3, 3], atol=1e-9
+    )
+    assert np.abs(q[:2] - Q[:2]).max() < np.radians(
+        0.1
+    )  # compensation moves joints by hundredths of a degree, radians in the document
     assert doc["before_max_m"] == max(r["before_m"] for r in rows[:2]) < 1e-3
     assert all(r["predicted_after_m"] > 0 for r in rows)
     printed = run("compensate", tmp_path / "q.csv", "--nominal", "kr5", "--identified", saved, ok=False).stdout

@@ -61,7 +61,13 @@ def two_payloads(seed: int, k, n: int = 30):
     m_true = true_model(robot, rng)
     q = draw(robot, n, rng)
     a, b = measure(m_true, robot, k, q, 0.0, rng), measure(m_true, robot, k, q, RATED, rng)
-    train = Measurements(np.vstack([a.q, b.q]), np.vstack([a.points, b.points]), None, "training", payload=np.vstack([a.payload, b.payload]))
+    train = Measurements(
+        np.vstack([a.q, b.q]),
+        np.vstack([a.points, b.points]),
+        None,
+        "training",
+        payload=np.vstack([a.payload, b.payload]),
+    )
     return robot, m_true, train, rng
 
 
@@ -77,7 +83,9 @@ def test_the_robot_file_round_trips_compliance_with_its_units(tmp_path):
     p = tmp_path / "ur5c.toml"
     p.write_text(text)
     back = rf.read(p)
-    assert np.allclose(back.compliance, k, rtol=1e-14, atol=0) and np.allclose(back.compliance_covariance, cov, rtol=1e-12, atol=0)
+    assert np.allclose(back.compliance, k, rtol=1e-14, atol=0) and np.allclose(
+        back.compliance_covariance, cov, rtol=1e-12, atol=0
+    )
     # any unit of the grammar, SI inside
     for unit, scale in (("rad/(N m)", 1.0), ("mrad/Nm", 1e-3), ("urad/(N*m)", 1e-6), ("deg/N/m", math.pi / 180)):
         q = tmp_path / "u.toml"
@@ -103,8 +111,12 @@ def test_one_line_errors(tmp_path):
     p.write_text(text + '\n[compliance]\nunit = "urad/(N m)"\nvalues = [0, 1, -2, 3, 4, 5]\n')
     with pytest.raises(dv.DenavitError) as e:
         rf.read(p)
-    assert "joint 3 (elbow)" in _one_line(e) and "expected a compliance >= 0" in str(e.value) and "-2 urad/(N m)" in str(e.value)
-    p.write_text(text + '\n[compliance]\nvalues = [0, 1, 2, 3, 4, 5]\n')
+    assert (
+        "joint 3 (elbow)" in _one_line(e)
+        and "expected a compliance >= 0" in str(e.value)
+        and "-2 urad/(N m)" in str(e.value)
+    )
+    p.write_text(text + "\n[compliance]\nvalues = [0, 1, 2, 3, 4, 5]\n")
     with pytest.raises(dv.DenavitError) as e:
         rf.read(p)
     assert "missing 'unit'" in _one_line(e)
@@ -123,28 +135,43 @@ def test_one_line_errors(tmp_path):
     with pytest.raises(dv.DenavitError) as e:
         parse_payload("5 kgf")
     assert "unknown mass unit" in _one_line(e)
-    assert parse_payload("5 kg @ 0,0,80 mm")[0] == 5.0 and np.allclose(parse_payload("500 g @ 0,0,8 cm")[1], [0, 0, 0.08])
+    assert parse_payload("5 kg @ 0,0,80 mm")[0] == 5.0 and np.allclose(
+        parse_payload("500 g @ 0,0,8 cm")[1], [0, 0, 0.08]
+    )
     # a pose file's payload columns: kg and the file's length unit; a negative mass names its line
     f = tmp_path / "m.csv"
-    f.write_text("# units: length=mm angle=deg\nq1,q2,q3,q4,q5,q6,x,y,z,payload_mass,payload_z\n0,-90,90,0,90,0,100,200,300,5,80\n0,-80,90,0,90,0,1,2,3,-1,0\n")
+    f.write_text(
+        "# units: length=mm angle=deg\nq1,q2,q3,q4,q5,q6,x,y,z,payload_mass,payload_z\n0,-90,90,0,90,0,100,200,300,5,80\n0,-80,90,0,90,0,1,2,3,-1,0\n"
+    )
     from denavit.io.measurements import read_measurements
 
     with pytest.raises(dv.DenavitError) as e:
         read_measurements(f)
     assert f"{f}:4" in _one_line(e) and "payload_mass" in str(e.value)
-    f.write_text("# units: length=mm angle=deg\nq1,q2,q3,q4,q5,q6,x,y,z,payload_mass,payload_z\n0,-90,90,0,90,0,100,200,300,5,80\n")
+    f.write_text(
+        "# units: length=mm angle=deg\nq1,q2,q3,q4,q5,q6,x,y,z,payload_mass,payload_z\n0,-90,90,0,90,0,100,200,300,5,80\n"
+    )
     assert np.allclose(read_measurements(f).payload, [[5, 0, 0, 0.08]])
     # a sweep file's too: per point, carried into the measurements calibrate reads
     from denavit.io.sweeps import read_long_csv, to_long_csv
     from denavit.sweeps import simulate
 
-    lines = to_long_csv(simulate(ur5().model(), home=np.zeros(6), ranges=np.tile([-0.5, 0.5], (6, 1)), points_per_sweep=4)).splitlines()
-    rows = [ln if ln.startswith("#") else ln + (",payload_mass,payload_x" if ln.startswith("joint") else f",{2.5 * (i % 2)},{10 * (i % 2)}") for i, ln in enumerate(lines)]
+    lines = to_long_csv(
+        simulate(ur5().model(), home=np.zeros(6), ranges=np.tile([-0.5, 0.5], (6, 1)), points_per_sweep=4)
+    ).splitlines()
+    rows = [
+        ln
+        if ln.startswith("#")
+        else ln + (",payload_mass,payload_x" if ln.startswith("joint") else f",{2.5 * (i % 2)},{10 * (i % 2)}")
+        for i, ln in enumerate(lines)
+    ]
     s = tmp_path / "s.csv"
     s.write_text("\n".join(rows) + "\n")
     sw = read_long_csv(s)
     assert sw.sweeps[0].payload.shape == (4, 4) and set(sw.sweeps[0].payload[:, 0]) == {0.0, 2.5}
-    assert np.allclose(read_measurements(s).payload[:, 1], read_measurements(s).payload[:, 0] * 0.004)  # 10 mm per 2.5 kg here
+    assert np.allclose(
+        read_measurements(s).payload[:, 1], read_measurements(s).payload[:, 0] * 0.004
+    )  # 10 mm per 2.5 kg here
     # calibrate without inertials: no compliance, one note says why
     robot, _, train, _ = two_payloads(0, K_TRUE, 12)
     res = calibrate(replace(train, kinds=None), dv.load_robot("kr5"), tool=TOOL, model="base-tool")
@@ -182,7 +209,10 @@ def test_payload_torque_and_compliance_jacobian():
     for i, c in enumerate(cols):
         e = np.zeros_like(x)
         e[c] = 1e-7
-        d = (residuals(pz, x + e, meas, np.ones(6), jacobian=False)[0] - residuals(pz, x - e, meas, np.ones(6), jacobian=False)[0]) / 2e-7
+        d = (
+            residuals(pz, x + e, meas, np.ones(6), jacobian=False)[0]
+            - residuals(pz, x - e, meas, np.ones(6), jacobian=False)[0]
+        ) / 2e-7
         assert np.allclose(J[:, i], d, rtol=1e-5, atol=1e-6 * np.abs(d).max())
 
 
@@ -211,7 +241,9 @@ def test_auto_leaves_compliance_out_of_rigid_data(seed):
     assert not res.model_choice.chosen.endswith(COMPLIANCE)
     assert all(s != "free" for n, s in zip(res.names, res.status, strict=True) if n.startswith("k_"))
     rigid = calibrate(train, robot, tool=TOOL, compliance=False)  # the geometric result is the one without compliance
-    assert res.model_choice.chosen == rigid.model_choice.chosen and np.allclose(res.values[: len(rigid.values)], rigid.values, rtol=0, atol=1e-12)
+    assert res.model_choice.chosen == rigid.model_choice.chosen and np.allclose(
+        res.values[: len(rigid.values)], rigid.values, rtol=0, atol=1e-12
+    )
 
 
 def test_compensation_at_a_payload_the_calibration_never_saw():
@@ -253,8 +285,12 @@ def test_a_saved_calibration_carries_its_compliances_and_validate_uses_them(tmp_
     session = measure(m_true, robot, K_TRUE, q, RATED / 2, rng)
     v = dv.validate(res, session)
     assert v.rms < 2 * math.sqrt(3) * NOISE and any("deflected" in n for n in v.notes)
-    assert back.compliance_flange is not None and abs(back.compliance_flange[2, 3] - 0.0823) < 5e-3  # the UR5's flange, 82.3 mm past the last frame
+    assert (
+        back.compliance_flange is not None and abs(back.compliance_flange[2, 3] - 0.0823) < 5e-3
+    )  # the UR5's flange, 82.3 mm past the last frame
     saved_v = dv.validate(back, session)  # the robot file alone: its [compliance], inertials and flange
     assert saved_v.rms < 2 * math.sqrt(3) * NOISE and abs(saved_v.rms - v.rms) < 0.2 * v.rms
-    rigid = dv.validate(res, replace(session, payload=None), payload=0.0)  # the links' weight only: the payload's deflection unexplained
+    rigid = dv.validate(
+        res, replace(session, payload=None), payload=0.0
+    )  # the links' weight only: the payload's deflection unexplained
     assert rigid.rms > 3 * v.rms

@@ -45,9 +45,16 @@ def test_mdh_to_edh_and_back_reproduces_guo_tables():
     mdh = dv.load_robot("tiansui_mdh")
     edh = dv.load_robot("tiansui_edh")
     h = np.pi / 2
-    table_ii = np.array([  # Guo et al. Table II: alpha_{i-1}, a_{i-1}, b_{i-1}, c_{i-1}, theta_i (m, rad)
-        [0, 0, 0, 0, 0], [h, 0, 0, 0.1485, -h], [0, -0.406, 0, 0, 0],
-        [0, -0.386, 0, -0.126, h], [-h, 0, -0.128, 0, 0], [h, 0, 0.128, 0, 0]])
+    table_ii = np.array(
+        [  # Guo et al. Table II: alpha_{i-1}, a_{i-1}, b_{i-1}, c_{i-1}, theta_i (m, rad)
+            [0, 0, 0, 0, 0],
+            [h, 0, 0, 0.1485, -h],
+            [0, -0.406, 0, 0, 0],
+            [0, -0.386, 0, -0.126, h],
+            [-h, 0, -0.128, 0, 0],
+            [h, 0, 0.128, 0, 0],
+        ]
+    )
     on_body = dv.joint_frames(edh.model(), np.zeros(6))[:, :3, 3]
     ex = dv.to_table(mdh.model(), "edh", nominal=edh.table, origins=on_body)
     np.testing.assert_allclose(ex.table.params, table_ii, atol=1e-12)
@@ -98,8 +105,10 @@ def test_random_chain_round_trip(vals, conv):
     else:  # dh / mdh approximated a pair within the tolerances (near-parallel treated as parallel, axes less than
         # intersect_tol apart as meeting): the table says how far off it is (over its own sample of configurations)
         approximated = [
-            p for p in ex.pairs
-            if (p.relation in ("parallel", "coincident") and p.angle > 0) or (p.relation in ("coincident", "intersecting") and p.distance > 0)
+            p
+            for p in ex.pairs
+            if (p.relation in ("parallel", "coincident") and p.angle > 0)
+            or (p.relation in ("coincident", "intersecting") and p.distance > 0)
         ]
         assert conv in ("dh", "mdh") and approximated
         assert ep <= 2 * ex.max_position_error + 1e-12
@@ -113,7 +122,15 @@ def test_near_parallel_never_absurd(kr5):
     u = np.cross(d[2], [0.3, 0.5, 0.8])
     u /= np.linalg.norm(u)
     d[2] = d[2] + 2e-5 * u + 1e-5 * np.cross(d[2], u)
-    tilted = dv.JointAxes(ax.points, d, q_ref=ax.q_ref, T_world_base=ax.T_world_base, T_world_tool=ax.T_world_tool, lower=ax.lower, upper=ax.upper)
+    tilted = dv.JointAxes(
+        ax.points,
+        d,
+        q_ref=ax.q_ref,
+        T_world_base=ax.T_world_base,
+        T_world_tool=ax.T_world_tool,
+        lower=ax.lower,
+        upper=ax.upper,
+    )
     dh = dv.extract(tilted, "dh", nominal=kr5.table)
     assert np.abs(dh.table.params[:, [0, 2]]).max() < 1.0
     assert dh.pairs[1].relation == "parallel" and abs(dh.pairs[1].hayati_beta) > 1e-6
@@ -130,17 +147,41 @@ def test_near_parallel_never_absurd(kr5):
         (lambda m: dv.fk(m, np.zeros(5)), r"wrong size of q: expected 6, got 5"),
         (lambda m: dv.fk(m, [0, 0, np.nan, 0, 0, 0]), "q must be finite, got NaN at index 2"),
         (lambda m: dv.fk(m, [0, 0, np.inf, 0, 0, 0]), "must be finite"),
-        (lambda m: dv.jacobian(m, np.zeros(6), frame="flange"), "frame: expected 'local', 'local_world_aligned', 'world' or 'base', got 'flange'"),
+        (
+            lambda m: dv.jacobian(m, np.zeros(6), frame="flange"),
+            "frame: expected 'local', 'local_world_aligned', 'world' or 'base', got 'flange'",
+        ),
         (lambda m: dv.fk_batch(m, np.zeros((4, 5))), r"qs: expected an array of shape \(N, 6\)"),
         (lambda m: m.with_tool(np.diag([2.0, 1, 1, 1])), "T_flange_tool is not a rigid transform"),
         (lambda m: m.with_base(np.ones((3, 3))), r"T_world_base: expected an array of shape \(4, 4\)"),
-        (lambda m: dv.Table("hayati", np.zeros((1, 4))), "unknown convention 'hayati': expected one of dh, mdh, edh, poe"),
-        (lambda m: dv.Table("dh", np.zeros((2, 5))), r"params of a dh table \(columns d, theta, a, alpha\): expected an array of shape \(N, 4\), got shape \(2, 5\)"),
-        (lambda m: dv.JointAxes(np.zeros((2, 3)), [[0, 0, 1], [0, 0, 0]]), "direction of axis 2 must be a non-zero direction"),
-        (lambda m: dv.JointAxes(np.zeros((0, 3)), np.zeros((0, 3))), "invalid joint axes: expected at least one axis, got none"),
-        (lambda m: dv.JointAxes(np.zeros((1, 3)), [[0, 0, 1]], lower=[1.0], upper=[0.0]), r"invalid limits of axis 1: expected lower <= upper, got \[1, 0\]"),
-        (lambda m: dv.extract(dv.axes(m, np.zeros(6)), "dh", max_offset=-1.0), "invalid max_offset: expected a value >= 0, got -1"),
-        (lambda m: dv.extract(dv.axes(m, np.zeros(6)), "edh", parallel_tol=float("nan")), "invalid parallel_tol: expected a value >= 0, got NaN"),
+        (
+            lambda m: dv.Table("hayati", np.zeros((1, 4))),
+            "unknown convention 'hayati': expected one of dh, mdh, edh, poe",
+        ),
+        (
+            lambda m: dv.Table("dh", np.zeros((2, 5))),
+            r"params of a dh table \(columns d, theta, a, alpha\): expected an array of shape \(N, 4\), got shape \(2, 5\)",
+        ),
+        (
+            lambda m: dv.JointAxes(np.zeros((2, 3)), [[0, 0, 1], [0, 0, 0]]),
+            "direction of axis 2 must be a non-zero direction",
+        ),
+        (
+            lambda m: dv.JointAxes(np.zeros((0, 3)), np.zeros((0, 3))),
+            "invalid joint axes: expected at least one axis, got none",
+        ),
+        (
+            lambda m: dv.JointAxes(np.zeros((1, 3)), [[0, 0, 1]], lower=[1.0], upper=[0.0]),
+            r"invalid limits of axis 1: expected lower <= upper, got \[1, 0\]",
+        ),
+        (
+            lambda m: dv.extract(dv.axes(m, np.zeros(6)), "dh", max_offset=-1.0),
+            "invalid max_offset: expected a value >= 0, got -1",
+        ),
+        (
+            lambda m: dv.extract(dv.axes(m, np.zeros(6)), "edh", parallel_tol=float("nan")),
+            "invalid parallel_tol: expected a value >= 0, got NaN",
+        ),
         (lambda m: dv.load_model("no_such_robot"), "unknown model 'no_such_robot': expected a built-in name"),
         (lambda m: dv.extract(dv.axes(m, np.zeros(6)), "sdh2"), "unknown convention"),
         (lambda m: dv.Table("dh", np.zeros((1, 4)), kinds=["ball"]), "unknown joint kind 'ball'"),

@@ -18,7 +18,14 @@ G = np.array([0.0, 0.0, -9.81])
 # its ED-H joint frame; the same set as crates/denavit-core/tests/dynamics.rs and the tiansui_edh robot file.
 TIANSUI_EDH_MASSES = np.array([3.70, 8.39, 2.28, 1.22, 1.22, 0.19])
 TIANSUI_EDH_COMS = np.array(
-    [[0.0, -0.010, -0.020], [-0.203, 0.0, 0.120], [-0.193, 0.0, 0.012], [0.0, 0.010, 0.003], [0.0, -0.010, 0.003], [0.0, 0.0, -0.020]]
+    [
+        [0.0, -0.010, -0.020],
+        [-0.203, 0.0, 0.120],
+        [-0.193, 0.0, 0.012],
+        [0.0, 0.010, 0.003],
+        [0.0, -0.010, 0.003],
+        [0.0, 0.0, -0.020],
+    ]
 )
 TIANSUI_EDH_INERTIAS = np.array(
     [
@@ -87,12 +94,15 @@ def test_forward_dynamics_inverts_inverse_dynamics(robot, rng):
     for q, qd, qdd in zip(*states(robot.nq, 10, rng)):
         tau = _core.rnea(robot, q, qd, qdd, f_ext=f)
         for method in ("aba", "crba"):
-            np.testing.assert_allclose(_core.forward_dynamics(robot, q, qd, tau, f_ext=f, method=method), qdd, rtol=0, atol=1e-10)
+            np.testing.assert_allclose(
+                _core.forward_dynamics(robot, q, qd, tau, f_ext=f, method=method), qdd, rtol=0, atol=1e-10
+            )
 
 
 def test_energy_rate_is_joint_power_and_mdot_minus_2c_is_skew(robot, rng):
     n, h = robot.nq, 1e-5
     for q, qd, qdd in zip(*states(n, 5, rng)):
+
         def energy(t, q=q, qd=qd, qdd=qdd):
             qt, qdt = q + qd * t + 0.5 * qdd * t * t, qd + qdd * t
             return _core.kinetic_energy(robot, qt, qdt) + _core.potential_energy(robot, qt)
@@ -155,7 +165,9 @@ def test_gravity_is_given_in_world(rng):
     c, s = np.cos(0.7), np.sin(0.7)
     T = np.array([[1, 0, 0, 0.3], [0, c, -s, -1.0], [0, s, c, 2.0], [0, 0, 0, 1.0]])
     moved = m.with_base(T @ m.T_world_base)
-    np.testing.assert_allclose(_core.rnea(moved, q, qd, qdd, gravity=T[:3, :3] @ G), _core.rnea(m, q, qd, qdd), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(
+        _core.rnea(moved, q, qd, qdd, gravity=T[:3, :3] @ G), _core.rnea(m, q, qd, qdd), rtol=0, atol=1e-12
+    )
 
 
 def test_tiansui_mdh_and_edh_frames_give_the_same_torques(rng):
@@ -184,16 +196,27 @@ def test_with_inertias_round_trip_and_about_origin(rng):
     masses, coms, I = random_inertias(6, rng)
     a = m.with_inertias(masses, coms, I)
     b = m.with_inertias(**a.inertias)
-    f = m.with_inertias(masses, np.asfortranarray(coms), np.asfortranarray(I.transpose(0, 2, 1)).transpose(0, 2, 1).copy(order="F"))
+    f = m.with_inertias(
+        masses, np.asfortranarray(coms), np.asfortranarray(I.transpose(0, 2, 1)).transpose(0, 2, 1).copy(order="F")
+    )
     for k in ("masses", "coms", "inertias"):  # any memory layout is read in its logical order
         np.testing.assert_array_equal(f.inertias[k], a.inertias[k])
     for k in ("masses", "coms", "inertias"):
         np.testing.assert_allclose(a.inertias[k], b.inertias[k], rtol=0, atol=1e-15)
     # about the frame origin: add the parallel-axis term m (|c|^2 1 - c c^T)
-    I_o = I + masses[:, None, None] * (np.einsum("ni,ni->n", coms, coms)[:, None, None] * np.eye(3) - np.einsum("ni,nj->nij", coms, coms))
+    I_o = I + masses[:, None, None] * (
+        np.einsum("ni,ni->n", coms, coms)[:, None, None] * np.eye(3) - np.einsum("ni,nj->nij", coms, coms)
+    )
     c = m.with_inertias(masses, coms, I_o, about="origin")
     np.testing.assert_allclose(c.inertias["inertias"], I, rtol=0, atol=1e-14)
-    assert m.inertias["masses"].tolist() == [3.7, 8.393, 2.33, 1.219, 1.219, 0.1879]  # the original is unchanged: UR's published link masses
+    assert m.inertias["masses"].tolist() == [
+        3.7,
+        8.393,
+        2.33,
+        1.219,
+        1.219,
+        0.1879,
+    ]  # the original is unchanged: UR's published link masses
     assert a.with_tool(np.eye(4)).inertias["masses"].tolist() == masses.tolist()  # copies keep the inertias
 
 
@@ -216,13 +239,21 @@ def test_bad_inertias_are_rejected_with_clear_messages():
         m.with_inertias(ok_m, ok_c, bad)
     bad = ok_i.copy()
     bad[5] = np.diag([0.1, 0.1, 0.3])
-    with pytest.raises(dv.DenavitError, match=r"inertia tensor of link 6: expected principal moments satisfying the triangle inequality") as e:
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"inertia tensor of link 6: expected principal moments satisfying the triangle inequality",
+    ) as e:
         m.with_inertias(ok_m, ok_c, bad)
     assert e.value.joint == 6
-    with pytest.raises(dv.DenavitError, match=r"^link 6: invalid inertia tensor: expected principal moments satisfying the triangle inequality") as e:
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"^link 6: invalid inertia tensor: expected principal moments satisfying the triangle inequality",
+    ) as e:
         m.with_inertias(ok_m, ok_c, bad, about="origin")
     assert e.value.joint == 6
-    with pytest.raises(dv.DenavitError, match=r"coms \(centres of mass, m\): expected an array of shape \(N, 3\), got shape \(6,\)"):
+    with pytest.raises(
+        dv.DenavitError, match=r"coms \(centres of mass, m\): expected an array of shape \(N, 3\), got shape \(6,\)"
+    ):
         m.with_inertias(ok_m, np.zeros(6), ok_i)
     # each argument's count against the model's joints: the short one is named (five masses had been
     # reported as a wrong size of the centres of mass)
@@ -230,11 +261,16 @@ def test_bad_inertias_are_rejected_with_clear_messages():
         m.with_inertias(ok_m, ok_c, ok_i[:5])
     with pytest.raises(dv.DenavitError, match=r"^wrong size of masses \(kg, one per joint\): expected 6, got 5$"):
         m.with_inertias(ok_m[:5], ok_c, ok_i)
-    with pytest.raises(dv.DenavitError, match=r"^wrong size of coms \(centres of mass, one per joint\): expected 6, got 7$"):
+    with pytest.raises(
+        dv.DenavitError, match=r"^wrong size of coms \(centres of mass, one per joint\): expected 6, got 7$"
+    ):
         m.with_inertias(ok_m, np.vstack([ok_c, ok_c[:1]]), ok_i)
     with pytest.raises(dv.DenavitError, match=r"frame: expected 'link', 'dh' or 'world', got 'tool'"):
         m.with_inertias(ok_m, ok_c, ok_i, frame="tool")
-    with pytest.raises(dv.DenavitError, match=r"^invalid frame: expected 'dh' only for a model built from a DH table .*, got 'dh' for model 'tiansui_edh', which has no DH link frames$"):
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"^invalid frame: expected 'dh' only for a model built from a DH table .*, got 'dh' for model 'tiansui_edh', which has no DH link frames$",
+    ):
         tiansui_edh().with_inertias(ok_m, ok_c, ok_i, frame="dh")
     with pytest.raises(dv.DenavitError, match=r"mass \(kg\) of link 1 must be finite, got NaN"):
         m.with_inertias(np.full(n, np.nan), ok_c, ok_i)
@@ -255,21 +291,29 @@ def test_bad_arguments_are_rejected_with_clear_messages():
         _core.rnea(m, z, z, z, f_ext=np.zeros(3))
     with pytest.raises(dv.DenavitError, match=r"method: expected 'aba' or 'crba', got 'euler'"):
         _core.forward_dynamics(m, z, z, z, method="euler")
-    with pytest.raises(dv.DenavitError, match=r"wrong size of qd batch \(N\*n values, N = 10, n = 6\): expected 60, got 54"):
+    with pytest.raises(
+        dv.DenavitError, match=r"wrong size of qd batch \(N\*n values, N = 10, n = 6\): expected 60, got 54"
+    ):
         _core.rnea_batch(m, np.zeros((10, 6)), np.zeros((9, 6)), np.zeros((10, 6)))
     with pytest.raises(dv.DenavitError, match=r"qs: expected an array of shape \(N, 6\), got shape \(10,\)"):
         _core.mass_matrix_batch(m, np.zeros(10))
-    with pytest.raises(dv.DenavitError, match=r"wrong size of external tool wrenches \(6 or N\*6 values, N = 4\): expected 24, got 18"):
+    with pytest.raises(
+        dv.DenavitError, match=r"wrong size of external tool wrenches \(6 or N\*6 values, N = 4\): expected 24, got 18"
+    ):
         _core.rnea_batch(m, np.zeros((4, 6)), np.zeros((4, 6)), np.zeros((4, 6)), f_ext=np.zeros((3, 6)))
     w = np.zeros((4, 6))
     w[3, 5] = np.nan  # one wrench per row: named by its row, as the joint values are (it had been "index 23")
-    with pytest.raises(dv.DenavitError, match=r"^external tool wrenches \[f; n\] \(row 3\) must be finite, got NaN at index 5$"):
+    with pytest.raises(
+        dv.DenavitError, match=r"^external tool wrenches \[f; n\] \(row 3\) must be finite, got NaN at index 5$"
+    ):
         _core.rnea_batch(m, np.zeros((4, 6)), np.zeros((4, 6)), np.zeros((4, 6)), f_ext=w)
     qs = np.zeros((4, 6))
     qs[2, 3] = np.inf
     with pytest.raises(dv.DenavitError, match=r"q \(row 2\) must be finite, got inf at index 3"):
         _core.gravity_torques_batch(m, qs)
-    with pytest.raises(dv.DenavitError, match=r"joint axis 2 of the target model: expected the same joint kind and axis"):
+    with pytest.raises(
+        dv.DenavitError, match=r"joint axis 2 of the target model: expected the same joint kind and axis"
+    ):
         _core.transfer_inertias(m, dv.load_model("ur5"))
     # a robot without inertias has a singular mass matrix: forward dynamics says so
     with pytest.raises(dv.DegenerateError, match=r"joint 6 \('j6'\) moves no inertia"):
@@ -292,7 +336,9 @@ def to_pinocchio(model):
         M = model.T_world_base @ P[0] if i == 0 else P[i]
         joint = pin.JointModelRZ() if kind == "revolute" else pin.JointModelPZ()
         parent = pm.addJoint(parent, joint, pin.SE3(M[:3, :3], M[:3, 3]), model.names[i])
-        pm.appendBodyToJoint(parent, pin.Inertia(ins["masses"][i], ins["coms"][i], ins["inertias"][i]), pin.SE3.Identity())
+        pm.appendBodyToJoint(
+            parent, pin.Inertia(ins["masses"][i], ins["coms"][i], ins["inertias"][i]), pin.SE3.Identity()
+        )
     pm.gravity = pin.Motion(G, np.zeros(3))
     return pin, pm
 
@@ -320,8 +366,12 @@ def test_matches_pinocchio_on_builtin_robots(name, rng):
         M = pin.crba(pm, pd, qp)
         M = np.triu(M) + np.triu(M, 1).T
         np.testing.assert_allclose(_core.mass_matrix(model, q), M, rtol=0, atol=1e-10)
-        np.testing.assert_allclose(_core.forward_dynamics(model, q, qd, tau, f_ext=f), pin.aba(pm, pd, qp, qd, tau, fext), rtol=0, atol=1e-9)
-        np.testing.assert_allclose(_core.gravity_torques(model, q), pin.computeGeneralizedGravity(pm, pd, qp), rtol=0, atol=1e-10)
+        np.testing.assert_allclose(
+            _core.forward_dynamics(model, q, qd, tau, f_ext=f), pin.aba(pm, pd, qp, qd, tau, fext), rtol=0, atol=1e-9
+        )
+        np.testing.assert_allclose(
+            _core.gravity_torques(model, q), pin.computeGeneralizedGravity(pm, pd, qp), rtol=0, atol=1e-10
+        )
         C = pin.computeCoriolisMatrix(pm, pd, qp, qd)
         np.testing.assert_allclose(_core.coriolis_matrix(model, q, qd) @ qd, C @ qd, rtol=0, atol=1e-10)
 
@@ -408,7 +458,11 @@ izz = 2000
 def test_robot_file_inertia_units_frames_and_round_trip(tmp_path):
     # standard DH: the inertia is given in DH frame 1, at the end of the 500 mm link: a 2 kg point-like mass
     p = tmp_path / "one.toml"
-    p.write_text(FILE.format(conv="dh", params="d = 0\ntheta = 0\na = 500\nalpha = 0", mass=2000, ixx=2000, iyy=2000, iunit="g mm^2"))
+    p.write_text(
+        FILE.format(
+            conv="dh", params="d = 0\ntheta = 0\na = 500\nalpha = 0", mass=2000, ixx=2000, iyy=2000, iunit="g mm^2"
+        )
+    )
     robot = dv.load_robot(p)
     assert robot.inertials["masses"][0] == pytest.approx(2.0)
     np.testing.assert_allclose(robot.inertials["inertias"][0], np.eye(3) * 2e-6, rtol=1e-12)
@@ -428,7 +482,13 @@ def test_robot_file_inertia_units_frames_and_round_trip(tmp_path):
     ("mass", "ixx", "iunit", "drop_units", "match"),
     [
         (-5, 2000, "g mm^2", False, r"joint 1 \(line 9\): inertia: invalid mass of link 1: expected a mass >= 0 kg"),
-        (5, 9000, "g mm^2", False, r"joint 1 \(line 9\): inertia: invalid inertia tensor of link 1: expected principal moments satisfying the triangle inequality"),
+        (
+            5,
+            9000,
+            "g mm^2",
+            False,
+            r"joint 1 \(line 9\): inertia: invalid inertia tensor of link 1: expected principal moments satisfying the triangle inequality",
+        ),
         (5, 2000, "kg furlong^2", False, r"unknown length unit 'furlong'"),
         (5, 2000, "stone", False, r"unknown inertia unit 'stone'"),
         (5, 2000, "g mm^2", True, r"\[units\] must declare 'mass' and 'inertia'"),
@@ -446,7 +506,10 @@ def test_robot_file_inertia_errors(tmp_path, mass, ixx, iunit, drop_units, match
 
 def test_robot_file_unknown_inertia_key(tmp_path):
     p = tmp_path / "bad.toml"
-    p.write_text(FILE.format(conv="mdh", params="alpha = 0\na = 0\ntheta = 0\nd = 0", mass=1, ixx=2000, iunit="g mm^2") + "izy = 3\n")
+    p.write_text(
+        FILE.format(conv="mdh", params="alpha = 0\na = 0\ntheta = 0\nd = 0", mass=1, ixx=2000, iunit="g mm^2")
+        + "izy = 3\n"
+    )
     with pytest.raises(dv.DenavitError, match=r"joint 1 \(line 9\): inertia: unknown keys \['izy'\]"):
         dv.load_robot(p)
 
@@ -464,10 +527,29 @@ def cli(*args, ok=True):
 def test_cli_dynamics_json_matches_the_library():
     import json  # noqa: PLC0415
 
-    doc = json.loads(cli("dynamics", "tiansui_edh", "--q", "10,-80,70,5,60,0", "--qd", "20,0,-10,0,5,0", "--qdd", "0,30,0,0,0,10",
-                         "--f-ext", "0,0,-20,0,0,0", "--json").stdout)
+    doc = json.loads(
+        cli(
+            "dynamics",
+            "tiansui_edh",
+            "--q",
+            "10,-80,70,5,60,0",
+            "--qd",
+            "20,0,-10,0,5,0",
+            "--qdd",
+            "0,30,0,0,0,10",
+            "--f-ext",
+            "0,0,-20,0,0,0",
+            "--json",
+        ).stdout
+    )
     r = np.radians
-    tau = _core.rnea(dv.load_model("tiansui_edh"), r([10, -80, 70, 5, 60, 0]), r([20, 0, -10, 0, 5, 0]), r([0, 30, 0, 0, 0, 10]), f_ext=[0, 0, -20, 0, 0, 0])
+    tau = _core.rnea(
+        dv.load_model("tiansui_edh"),
+        r([10, -80, 70, 5, 60, 0]),
+        r([20, 0, -10, 0, 5, 0]),
+        r([0, 30, 0, 0, 0, 10]),
+        f_ext=[0, 0, -20, 0, 0, 0],
+    )
     np.testing.assert_allclose(doc["tau"], tau, rtol=0, atol=1e-12)
     assert doc["tau_units"] == ["N m"] * 6 and "warning" not in doc
     assert doc["q"] == pytest.approx(np.radians([10, -80, 70, 5, 60, 0]))  # typed in deg (the default), JSON in SI
@@ -517,7 +599,10 @@ def test_dynamics_batches_fill_out_and_follow_threads(rng):
         assert call(out=out, threads=1) is out, name
         np.testing.assert_array_equal(out, ref, err_msg=name)
         np.testing.assert_array_equal(call(threads=2), ref, err_msg=name)
-        with pytest.raises(dv.DenavitError, match=r"^invalid out: expected a C-contiguous, writeable float64 numpy array of shape \(300, "):
+        with pytest.raises(
+            dv.DenavitError,
+            match=r"^invalid out: expected a C-contiguous, writeable float64 numpy array of shape \(300, ",
+        ):
             call(out=np.zeros(shape[:-1] + (shape[-1] + 1,)))
 
 
@@ -531,28 +616,44 @@ def test_rates_and_results_beyond_double_precision_are_refused_not_nan():
     m = dv.load_model("puma560")
     q, qd, z = np.zeros(6), np.array([0.0, 1e160, 0, 0, 0, 0]), np.zeros(6)
     single = {
-        "rnea": lambda: _core.rnea(m, q, qd, z), "bias_forces": lambda: _core.bias_forces(m, q, qd),
-        "forward_dynamics": lambda: _core.forward_dynamics(m, q, qd, z), "coriolis_matrix": lambda: _core.coriolis_matrix(m, q, qd),
+        "rnea": lambda: _core.rnea(m, q, qd, z),
+        "bias_forces": lambda: _core.bias_forces(m, q, qd),
+        "forward_dynamics": lambda: _core.forward_dynamics(m, q, qd, z),
+        "coriolis_matrix": lambda: _core.coriolis_matrix(m, q, qd),
         "kinetic_energy": lambda: _core.kinetic_energy(m, q, qd),
     }
     for name, f in single.items():
-        with pytest.raises(dv.DenavitError, match=r"^invalid qd at joint 2: expected joint rates whose squares are finite \(\|qd\| <= 1.3408e154 rad/s or m/s\), got 1e160$") as e:
+        with pytest.raises(
+            dv.DenavitError,
+            match=r"^invalid qd at joint 2: expected joint rates whose squares are finite \(\|qd\| <= 1.3408e154 rad/s or m/s\), got 1e160$",
+        ) as e:
             f()
         assert e.value.kind == "InvalidArgument" and e.value.what == "qd at joint 2", name
     qs, qds = np.zeros((5, 6)), np.zeros((5, 6))
     qds[3] = qd
     batch = {
-        "rnea_batch": lambda: _core.rnea_batch(m, qs, qds, qs), "bias_forces_batch": lambda: _core.bias_forces_batch(m, qs, qds),
-        "forward_dynamics_batch": lambda: _core.forward_dynamics_batch(m, qs, qds, qs), "coriolis_matrix_batch": lambda: _core.coriolis_matrix_batch(m, qs, qds),
+        "rnea_batch": lambda: _core.rnea_batch(m, qs, qds, qs),
+        "bias_forces_batch": lambda: _core.bias_forces_batch(m, qs, qds),
+        "forward_dynamics_batch": lambda: _core.forward_dynamics_batch(m, qs, qds, qs),
+        "coriolis_matrix_batch": lambda: _core.coriolis_matrix_batch(m, qs, qds),
     }
     for f in batch.values():
-        with pytest.raises(dv.DenavitError, match=r"^invalid qd \(row 3\) at joint 2: expected joint rates whose squares are finite"):
+        with pytest.raises(
+            dv.DenavitError, match=r"^invalid qd \(row 3\) at joint 2: expected joint rates whose squares are finite"
+        ):
             f()
     assert np.isfinite(_core.rnea(m, q, np.array([0.0, 1e100, 0, 0, 0, 0]), z)).all()  # large but representable
     huge = m.with_inertias(np.full(6, 1e300), np.tile([1e10, 0.0, 0.0], (6, 1)), np.zeros((6, 3, 3)))
-    for name, f in {"gravity_torques": lambda: _core.gravity_torques(huge, q), "mass_matrix": lambda: _core.mass_matrix(huge, q),
-                    "rnea": lambda: _core.rnea(huge, q, z, z), "gravity_torques_batch": lambda: _core.gravity_torques_batch(huge, qs),
-                    "mass_matrix_batch": lambda: _core.mass_matrix_batch(huge, qs)}.items():
-        with pytest.raises(dv.DenavitError, match=r"is not finite \(.* at (joint \d|entry \(\d, \d\)|the chain)\): the inputs are moderate: the model's parameters") as e:
+    for name, f in {
+        "gravity_torques": lambda: _core.gravity_torques(huge, q),
+        "mass_matrix": lambda: _core.mass_matrix(huge, q),
+        "rnea": lambda: _core.rnea(huge, q, z, z),
+        "gravity_torques_batch": lambda: _core.gravity_torques_batch(huge, qs),
+        "mass_matrix_batch": lambda: _core.mass_matrix_batch(huge, qs),
+    }.items():
+        with pytest.raises(
+            dv.DenavitError,
+            match=r"is not finite \(.* at (joint \d|entry \(\d, \d\)|the chain)\): the inputs are moderate: the model's parameters",
+        ) as e:
             f()
         assert e.value.kind == "Overflow" and e.value.cause.startswith("the inputs are moderate"), name

@@ -36,8 +36,9 @@ except ImportError:  # the compiled extension (denavit._core) is not built: load
 DenavitError = fitting.DenavitError
 DegenerateError = fitting.DegenerateError
 
-HYP = settings(max_examples=40, deadline=None, database=None, derandomize=True,
-               suppress_health_check=[HealthCheck.too_slow])
+HYP = settings(
+    max_examples=40, deadline=None, database=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow]
+)
 
 
 # ----------------------------------------------------------------------------------------------- helpers
@@ -364,8 +365,15 @@ def _arc20():
 
 P20, Q20 = _arc20()
 SHUFFLED_Q20 = np.random.default_rng(0).permutation(Q20)
-P180, Q180 = arc(np.random.default_rng(81), centre=np.zeros(3), normal=np.array([0, 0, 1.0]), radius=0.5,
-                 span=math.pi, m=30, noise=2e-5)
+P180, Q180 = arc(
+    np.random.default_rng(81),
+    centre=np.zeros(3),
+    normal=np.array([0, 0, 1.0]),
+    radius=0.5,
+    span=math.pi,
+    m=30,
+    noise=2e-5,
+)
 NAN_POINTS = P20.copy()
 NAN_POINTS[3, 1] = np.nan
 INF_POINTS = P20.copy()
@@ -380,36 +388,91 @@ COINCIDENT = np.tile([0.1, 0.2, 0.3], (5, 1))
         (lambda: fitting.fit_circle_kasa(P20[:2]), DegenerateError, r"circle fit needs at least 3 points, got 2"),
         (lambda: fitting.fit_circle_hyper(P20[:2]), DegenerateError, r"at least 3 points, got 2"),
         (lambda: fitting.fit_circle_geometric(P20[:2]), DegenerateError, r"at least 3 points, got 2"),
-        (lambda: fitting.fit_axis_with_readings(P20[:2], Q20[:2]), DegenerateError, r"readings fit needs at least 3 points, got 2"),
+        (
+            lambda: fitting.fit_axis_with_readings(P20[:2], Q20[:2]),
+            DegenerateError,
+            r"readings fit needs at least 3 points, got 2",
+        ),
         (lambda: fitting.fit_line(P20[:1]), DegenerateError, r"line fit needs at least 2 points, got 1"),
-        (lambda: fitting.fit_circle_geometric(NAN_POINTS), DenavitError, r"finite coordinates, got NaN/inf in 1 row\(s\), first at index \[3\]"),
+        (
+            lambda: fitting.fit_circle_geometric(NAN_POINTS),
+            DenavitError,
+            r"finite coordinates, got NaN/inf in 1 row\(s\), first at index \[3\]",
+        ),
         (lambda: fitting.fit_axis_with_readings(INF_POINTS, Q20), DenavitError, r"finite coordinates.*index \[5\]"),
         (lambda: fitting.fit_line(NAN_POINTS), DenavitError, r"finite"),
         (lambda: fitting.fit_circle_kasa(P20[:, :2]), DenavitError, r"shape \(m, 3\), got shape \(20, 2\)"),
         (lambda: fitting.fit_line(P20.ravel()), DenavitError, r"shape \(m, 3\), got shape \(60,\)"),
         (lambda: fitting.fit_circle_geometric([[0, 0, 0], [1, 2]]), DenavitError, r"array of numbers"),
-        (lambda: fitting.fit_circle_geometric(COINCIDENT), DegenerateError, r"distinct points, got all 5 points within"),
+        (
+            lambda: fitting.fit_circle_geometric(COINCIDENT),
+            DegenerateError,
+            r"distinct points, got all 5 points within",
+        ),
         (lambda: fitting.fit_line(COINCIDENT), DegenerateError, r"distinct points"),
         (lambda: fitting.fit_circle_kasa(COLLINEAR), DegenerateError, r"collinear points .*sigma2/sigma1"),
         (lambda: fitting.fit_circle_geometric(COLLINEAR), DegenerateError, r"collinear"),
         (lambda: fitting.fit_axis_with_readings(COLLINEAR, np.arange(10.0)), DegenerateError, r"collinear"),
-        (lambda: fitting.fit_axis_with_readings(P20, Q20[:-1]), DenavitError, r"one value per point: expected shape \(20,\), got \(19,\)"),
+        (
+            lambda: fitting.fit_axis_with_readings(P20, Q20[:-1]),
+            DenavitError,
+            r"one value per point: expected shape \(20,\), got \(19,\)",
+        ),
         (lambda: fitting.fit_line(P20, q=Q20[:5]), DenavitError, r"expected shape \(20,\), got \(5,\)"),
         (lambda: fitting.fit_axis(P20, Q20[:-1], method="geometric"), DenavitError, r"expected shape \(20,\)"),
-        (lambda: fitting.fit_axis_with_readings(P20, np.where(np.arange(20) == 4, np.nan, Q20)), DenavitError, r"q must be finite.*\[4\]"),
-        (lambda: fitting.fit_axis_with_readings(P20, np.ones(20)), DegenerateError, r"q must vary, got all 20 readings equal"),
-        (lambda: fitting.fit_axis_with_readings(P20, np.degrees(Q20)), DenavitError, r"do not move as rotations by the readings q.*radians"),
-        (lambda: fitting.fit_circle_geometric(P20, max_sigma_point=1e-6), DegenerateError,
-         r"predicted axis position uncertainty .* mm, expected at most 0.001 mm.* arc of 28.\d deg with 20 points"),
-        (lambda: fitting.fit_axis(P20, Q20, max_sigma_point=1e-7), DegenerateError, r"predicted axis position uncertainty"),
+        (
+            lambda: fitting.fit_axis_with_readings(P20, np.where(np.arange(20) == 4, np.nan, Q20)),
+            DenavitError,
+            r"q must be finite.*\[4\]",
+        ),
+        (
+            lambda: fitting.fit_axis_with_readings(P20, np.ones(20)),
+            DegenerateError,
+            r"q must vary, got all 20 readings equal",
+        ),
+        (
+            lambda: fitting.fit_axis_with_readings(P20, np.degrees(Q20)),
+            DenavitError,
+            r"do not move as rotations by the readings q.*radians",
+        ),
+        (
+            lambda: fitting.fit_circle_geometric(P20, max_sigma_point=1e-6),
+            DegenerateError,
+            r"predicted axis position uncertainty .* mm, expected at most 0.001 mm.* arc of 28.\d deg with 20 points",
+        ),
+        (
+            lambda: fitting.fit_axis(P20, Q20, max_sigma_point=1e-7),
+            DegenerateError,
+            r"predicted axis position uncertainty",
+        ),
         (lambda: fitting.fit_line(P20[:2], max_sigma_point=1.0), DegenerateError, r"uncertainty .* is unknown"),
-        (lambda: fitting.fit_circle_geometric(P20, loss="cauchy"), DenavitError, r"loss must be one of linear, soft_l1, huber, got 'cauchy'"),
-        (lambda: fitting.fit_circle_geometric(P20, loss="huber", f_scale=-1.0), DenavitError, r"f_scale must be a positive"),
-        (lambda: fitting.fit_circle_kasa(P20, max_sigma_point=0.0), DenavitError, r"max_sigma_point must be a positive"),
+        (
+            lambda: fitting.fit_circle_geometric(P20, loss="cauchy"),
+            DenavitError,
+            r"loss must be one of linear, soft_l1, huber, got 'cauchy'",
+        ),
+        (
+            lambda: fitting.fit_circle_geometric(P20, loss="huber", f_scale=-1.0),
+            DenavitError,
+            r"f_scale must be a positive",
+        ),
+        (
+            lambda: fitting.fit_circle_kasa(P20, max_sigma_point=0.0),
+            DenavitError,
+            r"max_sigma_point must be a positive",
+        ),
         (lambda: fitting.fit_axis(P20, method="circle"), DenavitError, r"method must be one of .*, got 'circle'"),
-        (lambda: fitting.fit_axis(P20, method="kasa", loss="huber"), DenavitError, r"robust loss applies to the geometric and readings fits only"),
+        (
+            lambda: fitting.fit_axis(P20, method="kasa", loss="huber"),
+            DenavitError,
+            r"robust loss applies to the geometric and readings fits only",
+        ),
         (lambda: fitting.fit_axis(P20, method="readings"), DenavitError, r"needs the joint readings q, got q=None"),
-        (lambda: fitting.oriented_bounding_box(np.zeros((0, 3))), DenavitError, r"shape \(m, 3\) with m >= 1, got shape \(0, 3\)"),
+        (
+            lambda: fitting.oriented_bounding_box(np.zeros((0, 3))),
+            DenavitError,
+            r"shape \(m, 3\) with m >= 1, got shape \(0, 3\)",
+        ),
         (lambda: fitting.oriented_bounding_box(NAN_POINTS), DenavitError, r"finite"),
     ],
 )
@@ -539,7 +602,12 @@ def test_face_boxes_are_the_calipers_rectangles_of_each_face_direction(seed, sha
         p = np.array([[x, y, z] for x in (0, 1) for y in (0, 2) for z in (0, 3)], float) @ random_rotation(rng).T
     elif shape == "arcs":  # points on circle arcs with noise, as sweeps
         t = rng.uniform(0, 1.5, (3, 400))
-        p = np.vstack([np.column_stack([r * np.cos(tt), r * np.sin(tt), np.full_like(tt, z)]) for r, z, tt in zip((1.0, 0.6, 0.3), (0.0, 0.4, 0.9), t)])
+        p = np.vstack(
+            [
+                np.column_stack([r * np.cos(tt), r * np.sin(tt), np.full_like(tt, z)])
+                for r, z, tt in zip((1.0, 0.6, 0.3), (0.0, 0.4, 0.9), t)
+            ]
+        )
         p = p @ random_rotation(rng).T + rng.normal(0, 1e-3, p.shape)
     else:
         p = rng.normal(size=(300, 3)) * [3, 2, 1]
@@ -594,10 +662,17 @@ def test_sweep_going_back_without_readings_is_an_error():
 def test_collinear_message_gives_the_spread_in_mm():
     """COLLINEAR spreads t (1, 2, 3) m, t evenly over [0, 1]: sqrt(14) * std(t) = 1194 mm RMS along the line, for every
     fit (the iterative ones work in normalised coordinates; the message must not print those as metres)."""
-    calls = [fitting.fit_circle_kasa, fitting.fit_circle_hyper, fitting.fit_circle_geometric,
-             lambda p: fitting.fit_axis_with_readings(p, np.arange(10.0) * 0.01)]
+    calls = [
+        fitting.fit_circle_kasa,
+        fitting.fit_circle_hyper,
+        fitting.fit_circle_geometric,
+        lambda p: fitting.fit_axis_with_readings(p, np.arange(10.0) * 0.01),
+    ]
     for call in calls:
-        with pytest.raises(DegenerateError, match=r"RMS spread about their centroid 1.19e\+03 mm along the line, \S+ and \S+ mm across it"):
+        with pytest.raises(
+            DegenerateError,
+            match=r"RMS spread about their centroid 1.19e\+03 mm along the line, \S+ and \S+ mm across it",
+        ):
             call(COLLINEAR)
 
 

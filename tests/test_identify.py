@@ -19,11 +19,17 @@ HOME = np.radians(sw.PAPER_HOME_DEG)
 
 
 # Hayat et al. Table III, "Specified" (b = d in mm, a in mm, alpha in deg; the twists as printed, theta offsets 0)
-TABLE_III = {"d": [400, 0, 0, 620, 0, 0], "theta": [0] * 6, "a": [180, 600, 120, 0, 0, 0], "alpha": [90, 0, 90, 90, 90, 0]}
+TABLE_III = {
+    "d": [400, 0, 0, 620, 0, 0],
+    "theta": [0] * 6,
+    "a": [180, 600, 120, 0, 0, 0],
+    "alpha": [90, 0, 90, 90, 90, 0],
+}
 # The convention kr5.toml takes where Table III gives no sign (models/kr5.toml): KUKA's axis senses for A2, A3,
 # A5 and A3's zero with the forearm in line with the upper arm, which stand the arm on its base at the home
 KUKA_TWIST_SIGNS = [-1, 1, -1, 1, -1, 1]
 KUKA_THETA_OFFSETS = [0, 0, -90, 0, 0, 0]
+
 
 def simulate(kr5, protocol, **kw):
     return sw.simulate(kr5.model(), home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[protocol]), **kw)
@@ -70,7 +76,10 @@ def test_a_result_without_a_nominal_gives_every_convention(kr5, rng):
         assert err < (1e-9 if conv != "mdh" else 1e-9 + r.extraction.max_position_error * 2), (conv, err)
 
 
-@pytest.mark.parametrize(("name", "canonical"), [("craig", "mdh"), ("MDH", "mdh"), ("DH", "dh"), ("modified-dh", "mdh"), ("ED-H", "edh"), ("POE", "poe")])
+@pytest.mark.parametrize(
+    ("name", "canonical"),
+    [("craig", "mdh"), ("MDH", "mdh"), ("DH", "dh"), ("modified-dh", "mdh"), ("ED-H", "edh"), ("POE", "poe")],
+)
 def test_convention_aliases_are_the_cores(kr5, name, canonical):
     """Regression: identify(..., convention="craig") and "MDH" failed ("unknown convention") although
     to_table accepts them; every convention name is now parsed by the core (_core.convention_info)."""
@@ -137,8 +146,11 @@ def test_joint_files_and_json_readers(kr5, tmp_path):
     res = dv.identify(fs, nominal=kr5)
     assert res.method == "geometric"
     np.testing.assert_allclose(res.table.params, kr5.table.params, atol=1e-7)
-    doc = {"units": {"length": "m", "angle": "rad"}, "home": HOME.tolist(),
-           "sweeps": [{"joint": x.joint, "points": x.points.tolist(), "q": x.q.tolist()} for x in s.sweeps]}
+    doc = {
+        "units": {"length": "m", "angle": "rad"},
+        "home": HOME.tolist(),
+        "sweeps": [{"joint": x.joint, "points": x.points.tolist(), "q": x.q.tolist()} for x in s.sweeps],
+    }
     (tmp_path / "s.json").write_text(json.dumps(doc))
     js = swio.read_json(tmp_path / "s.json")
     np.testing.assert_allclose(dv.identify(js, nominal=kr5).table.params, kr5.table.params, atol=1e-9)
@@ -153,10 +165,21 @@ def write_csv(tmp_path, body, units="# units: length=mm angle=deg\n"):
 @pytest.mark.parametrize(
     "body, units, match",
     [
-        ("1,0,0,1,0,0\n1,10,0,0.9,0.1,0\n2,0,0,1,0,0\n2,0,5,1,0.1,0\n2,0,10,1,0.2,0\n", None, r"bad.csv lines 3-4, joint 1: .*at least 3 points, got 2"),
-        ("1,0,0,1,0,0\n1,5,0,1,0,0\n1,10,0,1,0,0\n2,0,0,1,0,0\n2,0,5,1,0.1,0\n2,0,10,1,0.2,0.1\n", None, r"joint 1: circle fit needs distinct points, got all 3 points within"),
-        ("1,0,0,0,0,0\n1,5,0,1,0,0\n1,10,0,2,0,0\n2,0,0,1,0,0\n2,0,5,1,0.1,0\n2,0,10,1,0.2,0.1\n", None,
-         r"joint 1: .*collinear points \(RMS spread about their centroid 0.816 mm along the line, 0 and 0 mm across it"),
+        (
+            "1,0,0,1,0,0\n1,10,0,0.9,0.1,0\n2,0,0,1,0,0\n2,0,5,1,0.1,0\n2,0,10,1,0.2,0\n",
+            None,
+            r"bad.csv lines 3-4, joint 1: .*at least 3 points, got 2",
+        ),
+        (
+            "1,0,0,1,0,0\n1,5,0,1,0,0\n1,10,0,1,0,0\n2,0,0,1,0,0\n2,0,5,1,0.1,0\n2,0,10,1,0.2,0.1\n",
+            None,
+            r"joint 1: circle fit needs distinct points, got all 3 points within",
+        ),
+        (
+            "1,0,0,0,0,0\n1,5,0,1,0,0\n1,10,0,2,0,0\n2,0,0,1,0,0\n2,0,5,1,0.1,0\n2,0,10,1,0.2,0.1\n",
+            None,
+            r"joint 1: .*collinear points \(RMS spread about their centroid 0.816 mm along the line, 0 and 0 mm across it",
+        ),
         ("1,0,0,1,0,nan\n", None, r"bad.csv:3: column 'z' must be finite"),
         ("3,0,0,1,0,0\n", None, r"bad.csv:3: joint index out of range: expected 1..2, got 3"),
         ("1,0,0,1,0,0\n1,5,0,1,0,0\n1,10,0,1,0,0\n", None, r"missing sweeps of joint\(s\) 2"),
@@ -174,8 +197,16 @@ def test_bad_sweep_files(tmp_path, body, units, match):
 
 
 def test_short_arc_for_requested_accuracy(kr5):
-    s = sw.simulate(kr5.model(), home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[30]) * 0.1 + HOME[:, None] * 0.9, points_per_sweep=10, noise=2e-5)
-    with pytest.raises(dv.DegenerateError, match=r"predicted axis-position uncertainty .* mm \(1 sigma\) exceeds the requested 0.01 mm"):
+    s = sw.simulate(
+        kr5.model(),
+        home=HOME,
+        ranges=np.radians(sw.PAPER_RANGES_DEG[30]) * 0.1 + HOME[:, None] * 0.9,
+        points_per_sweep=10,
+        noise=2e-5,
+    )
+    with pytest.raises(
+        dv.DegenerateError, match=r"predicted axis-position uncertainty .* mm \(1 sigma\) exceeds the requested 0.01 mm"
+    ):
         dv.identify(s, nominal=kr5, max_sigma=1e-5)
 
 
@@ -193,28 +224,46 @@ def test_bounding_box_contains_all_points_and_beats_aligned_box(kr5):
 def test_json_of_a_prismatic_poe_row_keeps_its_direction_unitless():
     """Regression: to_json scaled a prismatic POE row's v (a unit direction) as a length (1000x in mm); home
     values follow the per-joint-kind rule (revolute: rad, prismatic: m), as does a joint's reading sigma key."""
-    params = np.array([[0.3, 0.0, 0.1, np.pi / 2], [0.2, 0.3, 0.0, -np.pi / 2], [0.0, 0.2, 0.25, np.pi / 3], [0.1, 0.0, 0.0, 0.0]])
-    truth = dv.Table("dh", params, kinds=["revolute", "prismatic", "revolute", "revolute"]).to_model("rprr", lower=[-3, -0.1, -3, -3], upper=[3, 0.4, 3, 3])
+    params = np.array(
+        [[0.3, 0.0, 0.1, np.pi / 2], [0.2, 0.3, 0.0, -np.pi / 2], [0.0, 0.2, 0.25, np.pi / 3], [0.1, 0.0, 0.0, 0.0]]
+    )
+    truth = dv.Table("dh", params, kinds=["revolute", "prismatic", "revolute", "revolute"]).to_model(
+        "rprr", lower=[-3, -0.1, -3, -3], upper=[3, 0.4, 3, 3]
+    )
     home = np.array([0.2, 0.1, -0.3, 0.5])
     ranges = np.array([[-0.3, 0.6], [0.0, 0.3], [-0.8, 0.2], [0.0, 1.2]])
-    res = dv.identify(sw.simulate(truth, home=home, ranges=ranges, points_per_sweep=12, tool_point=(0.03, 0.02, 0.05)), convention="poe")
+    res = dv.identify(
+        sw.simulate(truth, home=home, ranges=ranges, points_per_sweep=12, tool_point=(0.03, 0.02, 0.05)),
+        convention="poe",
+    )
     doc = to_json(res, box=False)
     v = [doc["parameters"][1][c] for c in ("vx", "vy", "vz")]
     assert np.linalg.norm(v) == pytest.approx(1.0, abs=1e-9)
     np.testing.assert_allclose(v, res.table.params[1, 3:6], atol=1e-12)
     w = [doc["parameters"][0][c] for c in ("wx", "wy", "wz")]
     np.testing.assert_allclose(w, res.table.params[0, :3], atol=1e-12)  # w is unitless in every row
-    np.testing.assert_allclose([doc["parameters"][0][c] for c in ("vx", "vy", "vz")], res.table.params[0, 3:6], atol=1e-12)  # a revolute v is a length (m)
+    np.testing.assert_allclose(
+        [doc["parameters"][0][c] for c in ("vx", "vy", "vz")], res.table.params[0, 3:6], atol=1e-12
+    )  # a revolute v is a length (m)
     np.testing.assert_allclose(doc["home"], home, atol=1e-15)
-    assert [("reading_sigma_rad" in j, "reading_sigma_m" in j) for j in doc["joints"]] == [(True, False), (False, True), (True, False), (True, False)]
+    assert [("reading_sigma_rad" in j, "reading_sigma_m" in j) for j in doc["joints"]] == [
+        (True, False),
+        (False, True),
+        (True, False),
+        (True, False),
+    ]
 
 
 @pytest.mark.parametrize("method", ["geometric", "readings", "global"])
 def test_prismatic_joint_identified_with_a_line_fit(method, rng):
     """A 4-joint arm with a prismatic second joint (DH): its sweep is a line; every configuration's tool
     position is reproduced by the identified model."""
-    params = np.array([[0.3, 0.0, 0.1, np.pi / 2], [0.2, 0.3, 0.0, -np.pi / 2], [0.0, 0.2, 0.25, np.pi / 3], [0.1, 0.0, 0.0, 0.0]])
-    truth = dv.Table("dh", params, kinds=["revolute", "prismatic", "revolute", "revolute"]).to_model("rprr", lower=[-3, -0.1, -3, -3], upper=[3, 0.4, 3, 3])
+    params = np.array(
+        [[0.3, 0.0, 0.1, np.pi / 2], [0.2, 0.3, 0.0, -np.pi / 2], [0.0, 0.2, 0.25, np.pi / 3], [0.1, 0.0, 0.0, 0.0]]
+    )
+    truth = dv.Table("dh", params, kinds=["revolute", "prismatic", "revolute", "revolute"]).to_model(
+        "rprr", lower=[-3, -0.1, -3, -3], upper=[3, 0.4, 3, 3]
+    )
     home = np.array([0.2, 0.1, -0.3, 0.5])
     ranges = np.array([[-0.3, 0.6], [0.0, 0.3], [-0.8, 0.2], [0.0, 1.2]])
     s = sw.simulate(truth, home=home, ranges=ranges, points_per_sweep=15, tool_point=(0.03, 0.02, 0.05))
@@ -269,13 +318,22 @@ def test_bounding_box_is_computed_when_asked_for(kr5):
 def truth_dh(kr5):
     """Hayat et al. Table III, "Specified": the KR5's DH table (d, theta, a, alpha; m, rad), with KUKA's twist
     signs and A3 offset (the convention kr5.toml takes)."""
-    return np.column_stack([np.array(TABLE_III["d"]) * 1e-3, np.radians(np.add(TABLE_III["theta"], KUKA_THETA_OFFSETS)), np.array(TABLE_III["a"]) * 1e-3,
-                            np.radians(np.multiply(KUKA_TWIST_SIGNS, TABLE_III["alpha"]))])
+    return np.column_stack(
+        [
+            np.array(TABLE_III["d"]) * 1e-3,
+            np.radians(np.add(TABLE_III["theta"], KUKA_THETA_OFFSETS)),
+            np.array(TABLE_III["a"]) * 1e-3,
+            np.radians(np.multiply(KUKA_TWIST_SIGNS, TABLE_III["alpha"])),
+        ]
+    )
 
 
 def reorder(s, joint, order):
     """The sweep set with the rows of joint `joint`'s sweep taken in `order` (index array, repeats allowed)."""
-    sweeps = [sw.Sweep(x.joint, x.points[order], x.q[order], [x.where[k] for k in order]) if x.joint == joint else x for x in s.sweeps]
+    sweeps = [
+        sw.Sweep(x.joint, x.points[order], x.q[order], [x.where[k] for k in order]) if x.joint == joint else x
+        for x in s.sweeps
+    ]
     return sw.SweepSet(sweeps, s.n_joints, s.home, s.kinds, s.source, s.units)
 
 
@@ -320,7 +378,14 @@ def test_global_robust_loss_resists_an_outlier_and_flags_it(kr5, loss):
     clean = simulate(kr5, 90, points_per_sweep=15, noise=2e-5, seed=11)
     pts = clean.sweeps[2].points.copy()
     pts[6] += np.array([3e-3, -4e-3, 0.0])
-    bad = sw.SweepSet([sw.Sweep(3, pts, x.q, x.where) if x.joint == 3 else x for x in clean.sweeps], 6, clean.home, clean.kinds, clean.source, clean.units)
+    bad = sw.SweepSet(
+        [sw.Sweep(3, pts, x.q, x.where) if x.joint == 3 else x for x in clean.sweeps],
+        6,
+        clean.home,
+        clean.kinds,
+        clean.source,
+        clean.units,
+    )
     ref = dv.identify(clean, method="global", nominal=kr5)
     res = dv.identify(bad, method="global", nominal=kr5, loss=loss)
     d = res.table.params - truth_dh(kr5)
@@ -336,8 +401,11 @@ def test_global_robust_loss_resists_an_outlier_and_flags_it(kr5, loss):
 
 def json_doc(s, **change):
     """The JSON sweep document of a simulated sweep set (m, rad), with top-level entries changed."""
-    doc = {"units": {"length": "m", "angle": "rad"}, "home": s.home.tolist(),
-           "sweeps": [{"joint": x.joint, "points": x.points.tolist(), "q": x.q.tolist()} for x in s.sweeps]}
+    doc = {
+        "units": {"length": "m", "angle": "rad"},
+        "home": s.home.tolist(),
+        "sweeps": [{"joint": x.joint, "points": x.points.tolist(), "q": x.q.tolist()} for x in s.sweeps],
+    }
     doc.update(change)
     return doc
 
@@ -346,18 +414,46 @@ def json_doc(s, **change):
     "edit, match",
     [
         (lambda d: [1, 2], r"s.json: expected a JSON object"),
-        (lambda d: {**d, "home": d["home"][:2] + [float("nan")] + d["home"][3:]}, r"s.json: home\[2\]: expected a finite number, got NaN"),
+        (
+            lambda d: {**d, "home": d["home"][:2] + [float("nan")] + d["home"][3:]},
+            r"s.json: home\[2\]: expected a finite number, got NaN",
+        ),
         (lambda d: {**d, "home": "90,-90"}, r"s.json: home: expected a list of one or more numbers"),
         (lambda d: {**d, "kinds": ["revolute"] * 5}, r"s.json: kinds: expected 6 of 'revolute' / 'prismatic'"),
         (lambda d: {**d, "units": "mm"}, r"s.json: units: expected an object"),
         (lambda d: {**d, "sweeps": None}, r"s.json: sweeps: expected a list of sweeps"),
         (lambda d: {**d, "sweeps": [d["sweeps"][0], 7]}, r"s.json: sweeps\[1\]: expected an object"),
-        (lambda d: {**d, "sweeps": [{**d["sweeps"][0], "points": d["sweeps"][0]["points"][:2] + [[1, 2]] + d["sweeps"][0]["points"][3:]}] + d["sweeps"][1:]},
-         r"s.json: sweeps\[0\].points\[2\]: expected a list of 3 numbers, got \[1, 2\]"),
-        (lambda d: {**d, "sweeps": [{**d["sweeps"][0], "joint": True}] + d["sweeps"][1:]}, r"s.json: sweeps\[0\]: joint index out of range: expected an integer 1..6, got true"),
-        (lambda d: {**d, "sweeps": d["sweeps"] + [d["sweeps"][2]]}, r"s.json: sweeps\[6\]: a second sweep of joint 3 \(the first is sweeps\[2\]\)"),
-        (lambda d: {**d, "sweeps": d["sweeps"][:1] + [{**d["sweeps"][1], "q": [r[:] for r in d["sweeps"][1]["q"]]}] + d["sweeps"][2:]}, None),
-        (lambda d: {**d, "sweeps": [{**d["sweeps"][0], "q": d["sweeps"][0]["q"][:4]}] + d["sweeps"][1:]}, r"s.json: sweeps\[0\]: q must have one row per point: expected 8 rows, got 4"),
+        (
+            lambda d: {
+                **d,
+                "sweeps": [
+                    {**d["sweeps"][0], "points": d["sweeps"][0]["points"][:2] + [[1, 2]] + d["sweeps"][0]["points"][3:]}
+                ]
+                + d["sweeps"][1:],
+            },
+            r"s.json: sweeps\[0\].points\[2\]: expected a list of 3 numbers, got \[1, 2\]",
+        ),
+        (
+            lambda d: {**d, "sweeps": [{**d["sweeps"][0], "joint": True}] + d["sweeps"][1:]},
+            r"s.json: sweeps\[0\]: joint index out of range: expected an integer 1..6, got true",
+        ),
+        (
+            lambda d: {**d, "sweeps": d["sweeps"] + [d["sweeps"][2]]},
+            r"s.json: sweeps\[6\]: a second sweep of joint 3 \(the first is sweeps\[2\]\)",
+        ),
+        (
+            lambda d: {
+                **d,
+                "sweeps": d["sweeps"][:1]
+                + [{**d["sweeps"][1], "q": [r[:] for r in d["sweeps"][1]["q"]]}]
+                + d["sweeps"][2:],
+            },
+            None,
+        ),
+        (
+            lambda d: {**d, "sweeps": [{**d["sweeps"][0], "q": d["sweeps"][0]["q"][:4]}] + d["sweeps"][1:]},
+            r"s.json: sweeps\[0\]: q must have one row per point: expected 8 rows, got 4",
+        ),
     ],
 )
 def test_bad_json_sweeps_name_file_and_place(kr5, tmp_path, edit, match):
@@ -400,7 +496,11 @@ def test_joint_files_comments_headers_and_names(kr5, tmp_path):
         ("0.0;nan;1;2\n", {}, r"j2.csv:1: column 'x' must be finite, got 'nan'"),
         ("0.0;1;inf;2\n", {}, r"j2.csv:1: column 'y' must be finite, got 'inf'"),
         ("0.0;1,5;1;2\n", {}, r"j2.csv:1: column 'x' must be a number, got '1,5' \(a decimal comma"),
-        ("", {"direction": [1, -1]}, r"--direction: expected \+1 or -1, one for all joints or 6 \(one per joint, from --home\), got \[1.0, -1.0\]"),
+        (
+            "",
+            {"direction": [1, -1]},
+            r"--direction: expected \+1 or -1, one for all joints or 6 \(one per joint, from --home\), got \[1.0, -1.0\]",
+        ),
         ("", {"direction": "up"}, r"--direction: expected \+1 or -1"),
         ("", {"home": [90, -90, float("nan"), 0, 90, 0]}, r"--home: expected one finite number per joint"),
         ("", {"kinds": ["revolute"] * 5}, r"6 joints in --home but 5 joint kinds"),
@@ -428,10 +528,15 @@ def test_locked_joint_drift_is_noted(kr5):
     assert not [n for n in dv.identify(s, nominal=kr5).notes if "locked" in n]
     q = s.sweeps[0].q.copy()
     q[:, 1] += np.radians(np.linspace(0, 55, 12))
-    drift = sw.SweepSet([sw.Sweep(1, s.sweeps[0].points, q, s.sweeps[0].where)] + s.sweeps[1:], 6, s.home, s.kinds, s.source, s.units)
+    drift = sw.SweepSet(
+        [sw.Sweep(1, s.sweeps[0].points, q, s.sweeps[0].where)] + s.sweeps[1:], 6, s.home, s.kinds, s.source, s.units
+    )
     notes = [n for n in dv.identify(drift, nominal=kr5).notes if "locked" in n]
     assert len(notes) == 1
-    assert re.search(r"joint 1: locked joint 2 reads -90 .. -35 deg, up to 55 deg from its home -90 deg at simulated sweep 1, point 11 \(tolerance 0.1 deg\)", notes[0]), notes
+    assert re.search(
+        r"joint 1: locked joint 2 reads -90 .. -35 deg, up to 55 deg from its home -90 deg at simulated sweep 1, point 11 \(tolerance 0.1 deg\)",
+        notes[0],
+    ), notes
 
 
 # ------------------------------------------------------------------ real recordings (issue 12)
@@ -478,13 +583,17 @@ def test_auto_chooses_by_evidence(kr5):
     ok = dv.identify(recording(m, home, ranges, seed=2), nominal=kr5)
     assert ok.method == "global" and any(n.startswith("auto: global") for n in ok.notes), ok.notes
     drift = dv.identify(recording(m, home, ranges, drift=2e-4, seed=2), nominal=kr5)
-    assert drift.method == "readings" and any(n.startswith("auto: readings") and "moves" in n for n in drift.notes), drift.notes
+    assert drift.method == "readings" and any(n.startswith("auto: readings") and "moves" in n for n in drift.notes), (
+        drift.notes
+    )
     T = np.eye(4)
     T[:3, 3] = (0.05, 0.03, 0.10)
     err = axis_errors(drift, dv.axes(m, home), dv.fk(m.with_tool(T), home)[:3, 3])
     assert np.all(err < 4 * np.array([f.sigma_point_perp for f in drift.fits])), err
     s = recording(m, home, ranges, seed=2)
-    bare = sw.SweepSet([sw.Sweep(x.joint, x.points, None, x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units)
+    bare = sw.SweepSet(
+        [sw.Sweep(x.joint, x.points, None, x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units
+    )
     geo = dv.identify(bare, nominal=kr5)
     assert geo.method == "geometric" and any(n.startswith("auto: geometric") for n in geo.notes)
 
@@ -530,7 +639,9 @@ def test_coupled_locked_reading_is_noted(kr5):
     m = kr5.model()
     res = dv.identify(recording(m, HOME, np.radians(sw.PAPER_RANGES_DEG[90]), coupled=(3, 2), seed=5), nominal=kr5)
     notes = [n for n in res.notes if "lock-step" in n]
-    assert len(notes) == 1 and "joint 3 moves in lock-step with joint 2" in notes[0] and "coupling" in notes[0], res.notes
+    assert len(notes) == 1 and "joint 3 moves in lock-step with joint 2" in notes[0] and "coupling" in notes[0], (
+        res.notes
+    )
     d = res.table.params - truth_dh(kr5)
     d[:, [1, 3]] = (d[:, [1, 3]] + np.pi) % (2 * np.pi) - np.pi
     free = res.sigma > 1e-12
@@ -575,8 +686,11 @@ def test_dwell_rows_are_found_noted_and_left_out(kr5):
     res = dv.identify(s, nominal=kr5)
     notes = [n for n in res.notes if "dwell rows" in n]
     assert len(notes) == 6, res.notes
-    assert re.search(r"joint 1: 16 dwell rows .*: 8 at the start \(recording sweep 1, row 2 \.\. recording sweep 1, row 9\) and 8 at the end "
-                     r"\(recording sweep 1, row 48 \.\. recording sweep 1, row 55\)", notes[0]), notes[0]
+    assert re.search(
+        r"joint 1: 16 dwell rows .*: 8 at the start \(recording sweep 1, row 2 \.\. recording sweep 1, row 9\) and 8 at the end "
+        r"\(recording sweep 1, row 48 \.\. recording sweep 1, row 55\)",
+        notes[0],
+    ), notes[0]
     assert [f.n_points for f in res.fits] == [40] * 6
     kept = dv.identify(s, nominal=kr5, keep_dwell=True)
     assert [f.n_points for f in kept.fits] == [56] * 6 and not [n for n in kept.notes if "dwell" in n]
@@ -587,7 +701,12 @@ def test_sweep_without_readings_against_the_nominal_is_oriented_by_it(kr5):
     """A sweep without readings listed in reverse (decreasing joint values) flipped its axis silently (alpha -90
     against the nominal's 90, d4 = -620 mm); with a nominal it is oriented by the nominal, with a note."""
     s = simulate(kr5, 90, points_per_sweep=20, noise=2e-5, seed=12)
-    bare = [sw.Sweep(x.joint, x.points[::-1] if x.joint == 4 else x.points, None, x.where[::-1] if x.joint == 4 else x.where) for x in s.sweeps]
+    bare = [
+        sw.Sweep(
+            x.joint, x.points[::-1] if x.joint == 4 else x.points, None, x.where[::-1] if x.joint == 4 else x.where
+        )
+        for x in s.sweeps
+    ]
     res = dv.identify(sw.SweepSet(bare, 6, s.home, s.kinds, s.source, s.units), nominal=kr5)
     notes = [n for n in res.notes if "against the nominal" in n]
     r = np.array(sw.PAPER_RANGES_DEG[90])
@@ -605,7 +724,9 @@ def test_implausible_axes_against_the_nominal(kr5):
     m = kr5.model()
     ranges = np.radians(sw.PAPER_RANGES_DEG[90])
     s = recording(m, HOME, ranges, seed=9)
-    x1000 = sw.SweepSet([sw.Sweep(x.joint, x.points * 1000, x.q, x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units)
+    x1000 = sw.SweepSet(
+        [sw.Sweep(x.joint, x.points * 1000, x.q, x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units
+    )
     with pytest.raises(dv.DenavitError, match=r"consecutive\) differ from the nominal kr5's .*another unit"):
         dv.identify(x1000, nominal=kr5)
     ur5 = dv.load_robot("ur5")
@@ -629,7 +750,16 @@ def test_the_joint_fit_is_the_same_a_chunk_at_a_time_in_memory_linear_in_the_poi
 
     from denavit.fitting import joint
     from denavit.identification import prepare as ident
-    s = sw.simulate(kr5.model(), home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=4000, noise=2e-5, noise_q=2e-5, seed=4)
+
+    s = sw.simulate(
+        kr5.model(),
+        home=HOME,
+        ranges=np.radians(sw.PAPER_RANGES_DEG[90]),
+        points_per_sweep=4000,
+        noise=2e-5,
+        noise_q=2e-5,
+        seed=4,
+    )
     notes = []
     dqs = ident._motions(s, notes)
     fits = ident._per_sweep(s, "global", "linear", None, lambda _m: None)
@@ -641,9 +771,15 @@ def test_the_joint_fit_is_the_same_a_chunk_at_a_time_in_memory_linear_in_the_poi
     tracemalloc.stop()
     monkeypatch.setattr(joint, "CHUNK", 333)
     parts = joint.fit_sweeps(s, dqs, starts, p0)
-    assert np.allclose(parts["points"], whole["points"], rtol=0, atol=1e-13) and np.allclose(parts["directions"], whole["directions"], rtol=0, atol=1e-13)
-    assert np.allclose(parts["cov"], whole["cov"], rtol=1e-9, atol=0) and parts["sigma"] == pytest.approx(whole["sigma"], rel=1e-12)
+    assert np.allclose(parts["points"], whole["points"], rtol=0, atol=1e-13) and np.allclose(
+        parts["directions"], whole["directions"], rtol=0, atol=1e-13
+    )
+    assert np.allclose(parts["cov"], whole["cov"], rtol=1e-9, atol=0) and parts["sigma"] == pytest.approx(
+        whole["sigma"], rel=1e-12
+    )
     assert peak / (6 * 4000) < 400
+
+
 def test_reading_scale_errors_are_fitted_where_the_data_shows_them(kr5):
     """Readings 0.1 % off in scale (the joint turns 1.001 times what it reads) on the 90 degree protocol: the joint
     fit with exact scales puts the axes 0.1-0.5 mm off (about the scale times the radius) with sigmas of 0.02 mm;
@@ -675,7 +811,9 @@ def test_reading_scale_errors_are_fitted_where_the_data_shows_them(kr5):
     if any(n.startswith("auto: no reading scale errors fitted") for n in exact.notes):
         assert all(np.isnan(f.scale) for f in exact.fits)
     else:  # the exact scales scatter beyond their sigmas by chance (about every other recording): fitted near zero
-        assert all(abs(f.scale - 1) < 4 * f.scale_sigma for f in exact.fits), [(f.scale - 1, f.scale_sigma) for f in exact.fits]
+        assert all(abs(f.scale - 1) < 4 * f.scale_sigma for f in exact.fits), [
+            (f.scale - 1, f.scale_sigma) for f in exact.fits
+        ]
 
 
 def test_scale_spread_is_the_q_profile_root():
@@ -684,6 +822,7 @@ def test_scale_spread_is_the_q_profile_root():
     stats = pytest.importorskip("scipy.stats")
     optimize = pytest.importorskip("scipy.optimize")
     from denavit.identification import choice as ident
+
     for k in range(1, 16):
         assert ident.CHI2_MEDIAN[k] == pytest.approx(stats.chi2.ppf(0.5, k), rel=1e-14)
     rng = np.random.default_rng(5)
@@ -696,7 +835,13 @@ def test_scale_spread_is_the_q_profile_root():
         if np.sum(s**2 / sig**2) <= bound:
             assert ident._scale_spread(s, sig) == 0.0
             continue
-        ref = optimize.brentq(lambda t, s=s, sig=sig, bound=bound: np.sum(s**2 / (sig**2 + t)) - bound, 0.0, np.sum(s**2), xtol=1e-300, rtol=1e-13)
+        ref = optimize.brentq(
+            lambda t, s=s, sig=sig, bound=bound: np.sum(s**2 / (sig**2 + t)) - bound,
+            0.0,
+            np.sum(s**2),
+            xtol=1e-300,
+            rtol=1e-13,
+        )
         assert ident._scale_spread(s, sig) == pytest.approx(ref, rel=1e-11)
         fitted += 1
     assert fitted > 100
@@ -708,7 +853,9 @@ def _write_long_csv(s: sw.SweepSet, path) -> None:
     lines = ["# units: length=mm angle=deg", "joint," + ",".join(f"q{i + 1}" for i in range(s.n_joints)) + ",x,y,z"]
     for x in s.sweeps:
         for q, p in zip(x.q, x.points, strict=True):
-            lines.append(",".join([str(x.joint), *(f"{v:.10f}" for v in np.degrees(q)), *(f"{v:.8f}" for v in p * 1e3)]))
+            lines.append(
+                ",".join([str(x.joint), *(f"{v:.10f}" for v in np.degrees(q)), *(f"{v:.8f}" for v in p * 1e3)])
+            )
     path.write_text("\n".join(lines) + "\n")
 
 
@@ -716,7 +863,9 @@ def test_cli_keep_dwell_and_reading_sigmas(kr5, tmp_path):
     """`identify --keep-dwell` keeps the dwell rows (default: left out, with a note); the joint-axes table shows
     each joint's estimated reading error (arcsec): 30-200 arcsec simulated."""
     f = tmp_path / "d.csv"
-    _write_long_csv(recording(kr5.model(), HOME, np.radians(sw.PAPER_RANGES_DEG[90]), dwell=8, reading_arcsec=(30, 200), seed=6), f)
+    _write_long_csv(
+        recording(kr5.model(), HOME, np.radians(sw.PAPER_RANGES_DEG[90]), dwell=8, reading_arcsec=(30, 200), seed=6), f
+    )
     out = run("identify", f, "--nominal", "kr5", "--json", tmp_path / "a.json", columns=250).stdout
     assert "reading sigma [arcsec]" in out and "dwell rows" in out
     doc = json.loads((tmp_path / "a.json").read_text())
@@ -724,10 +873,14 @@ def test_cli_keep_dwell_and_reading_sigmas(kr5, tmp_path):
     assert all(30 * 0.5 < s < 200 * 1.5 for s in arcsec), arcsec
     run("identify", f, "--nominal", "kr5", "--keep-dwell", "--json", tmp_path / "k.json")
     kept = json.loads((tmp_path / "k.json").read_text())
-    assert [j["residuals"]["n_points"] for j in kept["joints"]] == [56] * 6 and [j["residuals"]["n_points"] for j in doc["joints"]] == [40] * 6
+    assert [j["residuals"]["n_points"] for j in kept["joints"]] == [56] * 6 and [
+        j["residuals"]["n_points"] for j in doc["joints"]
+    ] == [40] * 6
 
 
-@pytest.mark.parametrize("kw", [{}, {"reading_arcsec": (30, 200), "drift": 2e-4}], ids=["exact readings", "readings and drift"])
+@pytest.mark.parametrize(
+    "kw", [{}, {"reading_arcsec": (30, 200), "drift": 2e-4}], ids=["exact readings", "readings and drift"]
+)
 def test_axes_from_each_target_agree_within_their_sigmas(kr5, kw):
     """Three targets on one body under the same motion and readings, each identified alone (auto): every joint's
     axes agree pairwise within their combined sigmas (chi-square of position and direction across the axis, 99 %).
@@ -748,7 +901,9 @@ def test_one_blunder_does_not_move_an_axis_by_default(kr5):
     s = recording(kr5.model(), HOME, np.radians(sw.PAPER_RANGES_DEG[90]), points=20, seed=1)
     p = s.sweeps[2].points.copy()
     p[7] += (0.005, 0.0, 0.0)
-    bad = sw.SweepSet([x if x.joint != 3 else sw.Sweep(3, p, x.q, x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units)
+    bad = sw.SweepSet(
+        [x if x.joint != 3 else sw.Sweep(3, p, x.q, x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units
+    )
     clean, res = dv.identify(s, nominal=kr5), dv.identify(bad, nominal=kr5)
     shift = np.asarray(res.axes.points[2]) - np.asarray(clean.axes.points[2])
     n = res.fits[2].direction
@@ -766,7 +921,10 @@ def test_robust_global_fit_sigmas_are_those_of_least_squares_on_clean_data(kr5):
     s = recording(kr5.model(), HOME, np.radians(sw.PAPER_RANGES_DEG[30]), seed=1)
     # (method "global": the same model for both; auto's joint-by-joint scale choice can differ between the losses on
     # a marginal scale, and then the sigmas of that joint differ by the scale's, not by the loss)
-    lin, rob = dv.identify(s, nominal=kr5, loss="linear", method="global"), dv.identify(s, nominal=kr5, loss="soft_l1", method="global")
+    lin, rob = (
+        dv.identify(s, nominal=kr5, loss="linear", method="global"),
+        dv.identify(s, nominal=kr5, loss="soft_l1", method="global"),
+    )
     ratio = np.array([b.sigma_point_perp / a.sigma_point_perp for a, b in zip(lin.fits, rob.fits, strict=True)])
     assert np.all(np.abs(ratio - 1) < 0.03), ratio
 
@@ -784,7 +942,14 @@ def test_sigmas_do_not_jump_with_a_marginal_reading_scale(kr5):
 
 def mirrored(s: sw.SweepSet, readings: bool) -> sw.SweepSet:
     """``s`` with x and y swapped (a left-handed export), with or without its readings."""
-    return sw.SweepSet([sw.Sweep(x.joint, x.points[:, [1, 0, 2]], x.q if readings else None, x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units)
+    return sw.SweepSet(
+        [sw.Sweep(x.joint, x.points[:, [1, 0, 2]], x.q if readings else None, x.where) for x in s.sweeps],
+        6,
+        s.home,
+        s.kinds,
+        s.source,
+        s.units,
+    )
 
 
 @pytest.mark.parametrize(("a4", "readings"), [(0, True), (30, True), (30, False), (60, False)])
@@ -798,7 +963,13 @@ def test_mirrored_points_are_refused_against_the_nominal(kr5, a4, readings):
     s = recording(kr5.model(), home, np.radians(sw.PAPER_RANGES_DEG[90]), reading_arcsec=(30, 200), seed=1)
     with pytest.raises(dv.DenavitError, match="mirror image of the nominal kr5's .*x and y swapped"):
         dv.identify(mirrored(s, readings), nominal=kr5)
-    plain = s if readings else sw.SweepSet([sw.Sweep(x.joint, x.points, None, x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units)
+    plain = (
+        s
+        if readings
+        else sw.SweepSet(
+            [sw.Sweep(x.joint, x.points, None, x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units
+        )
+    )
     assert not [n for n in dv.identify(plain, nominal=kr5).notes if "mirror" in n]
 
 
@@ -820,13 +991,20 @@ def test_a_mirror_without_readings_at_a_symmetric_home_is_a_rigid_motion(kr5):
         R, _, dev = register_axes_globally(P, D, P, D, kinds, robot_size(kr5.model(), home), zero, zero, mirrored=True)
         assert (dev.max() < 1e-7) == symmetric, (a4, dev)  # (angles from an arccos: resolved to ~3e-8 rad)
     s = recording(kr5.model(), HOME, np.radians(sw.PAPER_RANGES_DEG[90]), reading_arcsec=(30, 200), seed=1)
-    plain = dv.identify(sw.SweepSet([sw.Sweep(x.joint, x.points, None, x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units), nominal=kr5)
+    plain = dv.identify(
+        sw.SweepSet(
+            [sw.Sweep(x.joint, x.points, None, x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units
+        ),
+        nominal=kr5,
+    )
     swapped = dv.identify(mirrored(s, False), nominal=kr5)
     F = np.array([[0.0, 1, 0], [1, 0, 0], [0, 0, 1]])  # x and y swapped
     for a, b in zip(plain.fits, swapped.fits, strict=True):
         assert np.linalg.norm(np.cross(F @ a.direction, b.direction)) < 1e-9
         assert np.linalg.norm(np.cross(F @ a.point - b.point, b.direction)) < 1e-9
-        assert abs(a.sigma_point_perp - b.sigma_point_perp) < 1e-6 * a.sigma_point_perp  # (the iterative fit converges to ~1e-8)
+        assert (
+            abs(a.sigma_point_perp - b.sigma_point_perp) < 1e-6 * a.sigma_point_perp
+        )  # (the iterative fit converges to ~1e-8)
 
 
 def test_declared_coupling_is_honoured(kr5, tmp_path):
@@ -861,7 +1039,9 @@ def test_cli_coupling_in_simulate_and_identify(tmp_path):
     run("simulate", "kr5", "-o", f, "--coupling", "q3=r3+r2", "--seed", "3")
     plain = run("identify", f, "--nominal", "kr5", "--json", tmp_path / "a.json", columns=250).stdout
     assert "lock-step" in plain and '--coupling "q3=r3+r2"' in " ".join(plain.split()), plain
-    declared = run("identify", f, "--nominal", "kr5", "--coupling", "q3 = r3 + r2", "--json", tmp_path / "b.json", columns=250).stdout
+    declared = run(
+        "identify", f, "--nominal", "kr5", "--coupling", "q3 = r3 + r2", "--json", tmp_path / "b.json", columns=250
+    ).stdout
     assert "lock-step" not in declared
     bad = run("identify", f, "--nominal", "kr5", "--coupling", "q3 = r3 + r9", ok=False)
     assert bad.returncode == 2 and "--coupling: q3: reading r9 of a robot with 6 joints" in bad.stderr + bad.stdout
@@ -873,12 +1053,27 @@ def test_short_arcs_get_a_note_with_their_predicted_sigma(kr5):
     from denavit.identification.frames import SHORT_ARC, SHORT_ARC_SIGMA
 
     def arcs(deg, readings):
-        s = sw.simulate(kr5.model(), home=HOME, ranges=np.stack([HOME - np.radians(deg / 2), HOME + np.radians(deg / 2)], 1), points_per_sweep=20, noise=2e-5, seed=3)
-        return s if readings else sw.SweepSet([sw.Sweep(x.joint, x.points, None, x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units)
+        s = sw.simulate(
+            kr5.model(),
+            home=HOME,
+            ranges=np.stack([HOME - np.radians(deg / 2), HOME + np.radians(deg / 2)], 1),
+            points_per_sweep=20,
+            noise=2e-5,
+            seed=3,
+        )
+        return (
+            s
+            if readings
+            else sw.SweepSet(
+                [sw.Sweep(x.joint, x.points, None, x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units
+            )
+        )
 
     res = dv.identify(arcs(5.0, readings=False), nominal=kr5)
     short = [n for n in res.notes if "arc gives a predicted axis-position sigma" in n]
-    assert len(short) == sum(f.sigma_point_perp > SHORT_ARC_SIGMA and f.arc < SHORT_ARC for f in res.fits) > 0, res.notes
+    assert len(short) == sum(f.sigma_point_perp > SHORT_ARC_SIGMA and f.arc < SHORT_ARC for f in res.fits) > 0, (
+        res.notes
+    )
     assert not [n for n in dv.identify(arcs(90.0, readings=False), nominal=kr5).notes if "arc gives" in n]
     with pytest.raises(dv.DenavitError, match="the arcs are too short"):
         dv.identify(arcs(1.0, readings=True), nominal=kr5)
@@ -906,7 +1101,9 @@ def test_a_reading_scale_the_data_show_is_fitted_and_the_others_are_within_their
             T = dv.fk_batch(m, r * (1 + scale))
             p = T[:, :3, :3] @ tool[:3, 3] + T[:, :3, 3] + rng.normal(0, 2e-5, (300, 3))
             out.append(sw.Sweep(j + 1, p, r + rng.normal(0, np.radians(10 / 3600), r.shape), []))
-        s = sw.SweepSet(out, 6, np.asarray(HOME, dtype=float), ["revolute"] * 6, "simulated", {"length": "m", "angle": "rad"})
+        s = sw.SweepSet(
+            out, 6, np.asarray(HOME, dtype=float), ["revolute"] * 6, "simulated", {"length": "m", "angle": "rad"}
+        )
         res = dv.identify(s, nominal=kr5)
         value = np.array([f.scale - 1 for f in res.fits])
         sig = np.array([f.scale_sigma for f in res.fits])

@@ -22,7 +22,9 @@ from denavit import sweeps as sw
 ident = importlib.import_module("denavit.identification.choice")
 
 HOME = np.radians([10.79, 44.5, 36.14, -1.70, 3.45, 42.87])
-RANGES30 = np.radians(np.array([-4.2, 25.8, 29.5, 59.5, 21.1, 51.1, -16.7, 13.3, -11.5, 18.5, 27.9, 57.9]).reshape(6, 2))
+RANGES30 = np.radians(
+    np.array([-4.2, 25.8, 29.5, 59.5, 21.1, 51.1, -16.7, 13.3, -11.5, 18.5, 27.9, 57.9]).reshape(6, 2)
+)
 TOOL = (0.03, 0.02, 0.10)
 
 
@@ -50,7 +52,14 @@ def sweeps(ranges, seed, scale=None):
     s = dv.simulate("ur5", home=HOME, ranges=ranges, points_per_sweep=50, noise=2e-5, tool_point=TOOL, seed=seed)
     if scale is None:
         return s
-    return sw.SweepSet([sw.Sweep(x.joint, x.points, HOME + (x.q - HOME) / (1 + scale), x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units)
+    return sw.SweepSet(
+        [sw.Sweep(x.joint, x.points, HOME + (x.q - HOME) / (1 + scale), x.where) for x in s.sweeps],
+        6,
+        s.home,
+        s.kinds,
+        s.source,
+        s.units,
+    )
 
 
 def test_exact_readings_on_short_arcs_get_no_reading_scales(truth):
@@ -64,7 +73,12 @@ def test_exact_readings_on_short_arcs_get_no_reading_scales(truth):
         assert res.method == "global", (seed, res.notes)
         fitted.append(res.reading_scale is not None)
         if not fitted[-1]:  # the exact-scale global fit itself (its axes compared once)
-            assert any(n.startswith("auto: no reading scale errors fitted (the evidence does not show them: 2 ln(marginal likelihood ratio)") for n in res.notes), res.notes
+            assert any(
+                n.startswith(
+                    "auto: no reading scale errors fitted (the evidence does not show them: 2 ln(marginal likelihood ratio)"
+                )
+                for n in res.notes
+            ), res.notes
             if seed:
                 ratios.append(1.0)
                 continue
@@ -89,7 +103,9 @@ def test_real_scale_errors_are_still_found_where_the_arcs_show_them(truth):
         res = dv.identify(s, nominal="ur5")
         ref = dv.identify(s, nominal="ur5", method="global")
         assert res.reading_scale is not None, res.notes
-        assert any(n.startswith("auto: the readings' scale errors fitted (the evidence shows them") for n in res.notes), res.notes
+        assert any(
+            n.startswith("auto: the readings' scale errors fitted (the evidence shows them") for n in res.notes
+        ), res.notes
         sig = np.array([f.scale_sigma for f in res.fits])
         assert np.all(np.abs(res.reading_scale[[1, 2]] - 2e-4) < 4 * sig[[1, 2]]), (res.reading_scale, sig)
         assert axis_error(res, truth) < 0.75 * axis_error(ref, truth)
@@ -122,7 +138,9 @@ def test_scale_evidence_is_the_marginal_likelihood_ratio_at_its_maximum():
         ev = np.linalg.eigvalsh(C)
         grid = np.linspace(np.log(1e-8 * ev.min()), np.log(1e3 * (ev.max() + s @ s)), 1000)
         best = grid[np.argmin([nll(x) for x in grid])]
-        ref = optimize.minimize_scalar(nll, bounds=(best - 0.05, best + 0.05), method="bounded", options={"xatol": 1e-10})
+        ref = optimize.minimize_scalar(
+            nll, bounds=(best - 0.05, best + 0.05), method="bounded", options={"xatol": 1e-10}
+        )
         ref_lr = max(2 * (-ref.fun - base), 0.0)
         assert lr == pytest.approx(ref_lr, abs=1e-6), (k, lr, ref_lr)
         if ref_lr > 1e-3:

@@ -15,7 +15,16 @@ def test_joint_fit_stops_at_its_fixed_point(kr5, monkeypatch):
     """A slowly converging fit (home drift of 0.2 mm fitted with one home point, reading errors of 30-200 arcsec,
     90 degree protocol) stops within 1/100 of every parameter's sigma of the answer the same fit gives with every
     tolerance at 1e-9. The stop on a relative cost decrease of 1e-14 ended this fit 0.069 sigma away."""
-    s = recording(kr5.model(), HOME, np.radians(sw.PAPER_RANGES_DEG[90]), seed=8, reading_arcsec=(30, 200), offset_deg=0.05, scale=3e-4, drift=2e-4)
+    s = recording(
+        kr5.model(),
+        HOME,
+        np.radians(sw.PAPER_RANGES_DEG[90]),
+        seed=8,
+        reading_arcsec=(30, 200),
+        offset_deg=0.05,
+        scale=3e-4,
+        drift=2e-4,
+    )
     res = dv.identify(s, method="global", nominal=kr5)
     monkeypatch.setattr(joint, "STEP_TOL", 1e-9)
     monkeypatch.setattr(joint, "GAMMA_TOL", 1e-9)
@@ -45,7 +54,9 @@ def test_joint_fit_passes_do_not_grow_with_the_points(kr5, monkeypatch, loss):
     monkeypatch.setattr(joint, "_chain", counted)
     for n in (300, 20_000):
         passes[n] = 0
-        s = sw.simulate(kr5.model(), home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=n, noise=2e-5, seed=1)
+        s = sw.simulate(
+            kr5.model(), home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=n, noise=2e-5, seed=1
+        )
         dv.identify(s, nominal=kr5, loss=loss)
         passes[n] /= 6 * n
     assert passes[20_000] <= passes[300] + 1, passes

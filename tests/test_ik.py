@@ -28,9 +28,17 @@ def rot(axis, angle):
 
 
 def limited(model, lower, upper):
-    return dv.Model.from_placements(model.placements, model.kinds, offsets=model.offsets, lower=lower, upper=upper,
-                                    names=model.names, T_world_base=model.T_world_base, T_last_flange=model.T_last_flange,
-                                    T_flange_tool=model.T_flange_tool)
+    return dv.Model.from_placements(
+        model.placements,
+        model.kinds,
+        offsets=model.offsets,
+        lower=lower,
+        upper=upper,
+        names=model.names,
+        T_world_base=model.T_world_base,
+        T_last_flange=model.T_last_flange,
+        T_flange_tool=model.T_flange_tool,
+    )
 
 
 def without_closed_form(model):
@@ -39,17 +47,29 @@ def without_closed_form(model):
     P = np.array(model.placements)
     d = np.cross([0.0, 0.0, 1.0], P[5][:3, 2])
     P[5][:3, 3] += 0.03 * d / np.linalg.norm(d)
-    return dv.Model.from_placements(P, model.kinds, offsets=model.offsets, lower=model.lower, upper=model.upper,
-                                    names=model.names, T_world_base=model.T_world_base, T_last_flange=model.T_last_flange,
-                                    T_flange_tool=model.T_flange_tool)
+    return dv.Model.from_placements(
+        P,
+        model.kinds,
+        offsets=model.offsets,
+        lower=model.lower,
+        upper=model.upper,
+        names=model.names,
+        T_world_base=model.T_world_base,
+        T_last_flange=model.T_last_flange,
+        T_flange_tool=model.T_flange_tool,
+    )
 
 
 def guo_T0():
     """Guo et al. sec. V, initial tool pose 0T (4 decimals), re-orthonormalised by SVD."""
-    T = np.array([[-0.7598, 0.4151, 0.5004, -0.3655],
-                  [-0.4391, 0.2399, -0.8658, -0.3712],
-                  [-0.4794, -0.8776, 0.0000, -0.0245],
-                  [0, 0, 0, 1.0]])
+    T = np.array(
+        [
+            [-0.7598, 0.4151, 0.5004, -0.3655],
+            [-0.4391, 0.2399, -0.8658, -0.3712],
+            [-0.4794, -0.8776, 0.0000, -0.0245],
+            [0, 0, 0, 1.0],
+        ]
+    )
     U, _, Vt = np.linalg.svd(T[:3, :3])
     T[:3, :3] = U @ Vt
     return T
@@ -69,16 +89,26 @@ def guo_T0():
     restarts=st.integers(0, 3),
     respect_limits=st.booleans(),
 )
-def test_reported_success_implies_measured_error_within_tolerance(name, q_target, q0, shift, far, method, tol_p, tol_r,
-                                                                  max_iterations, restarts, respect_limits):
+def test_reported_success_implies_measured_error_within_tolerance(
+    name, q_target, q0, shift, far, method, tol_p, tol_r, max_iterations, restarts, respect_limits
+):
     m = dv.load_model(name)
     if name == "kr5":  # narrower limits than the file's, so that they bind
         m = limited(m, [-2.9, -1.5, -1.0, -3.0, -2.0, -3.0], [2.9, 0.5, 2.5, 3.0, 2.0, 3.0])
     T = dv.fk(m, q_target)
     if far:
         T[:3, 3] += shift
-    r = dv.ik(m, T, q0, method=method, tol_position=tol_p, tol_rotation=tol_r, max_iterations=max_iterations,
-              restarts=restarts, respect_limits=respect_limits)
+    r = dv.ik(
+        m,
+        T,
+        q0,
+        method=method,
+        tol_position=tol_p,
+        tol_rotation=tol_r,
+        max_iterations=max_iterations,
+        restarts=restarts,
+        respect_limits=respect_limits,
+    )
     dp, da = measured(m, r.q, T)
     assert r.position_error == pytest.approx(dp, abs=1e-15)
     assert r.rotation_error == pytest.approx(da, abs=1e-15)
@@ -157,9 +187,13 @@ def test_bad_input_raises_denavit_error_with_expected_and_got():
         dv.ik_batch(m, T)
     with pytest.raises(dv.DenavitError, match=r"targets\[1\]\[0, 3\] must be finite"):
         dv.ik_path(m, np.stack([T, bad]))
-    with pytest.raises(dv.DenavitError, match=r"wrong size of q0s \(n values, or N\*n for N targets\): expected 12, got 18"):
+    with pytest.raises(
+        dv.DenavitError, match=r"wrong size of q0s \(n values, or N\*n for N targets\): expected 12, got 18"
+    ):
         dv.ik_batch(m, np.stack([T, T]), np.zeros((3, 6)))
-    with pytest.raises(dv.DenavitError, match=r"wrong size of q0s \(n values, or N\*n for N targets\): expected 12, got 7"):
+    with pytest.raises(
+        dv.DenavitError, match=r"wrong size of q0s \(n values, or N\*n for N targets\): expected 12, got 7"
+    ):
         dv.ik_batch(m, np.stack([T, T]), np.zeros(7))
     q0s = np.zeros((2, 6))
     q0s[1, 4] = np.inf
@@ -241,8 +275,7 @@ def run_cli(*args):
     import subprocess  # noqa: PLC0415
     import sys  # noqa: PLC0415
 
-    return subprocess.run([sys.executable, "-m", "denavit.cli", *args], capture_output=True, text=True,
-                          env=cli_env())
+    return subprocess.run([sys.executable, "-m", "denavit.cli", *args], capture_output=True, text=True, env=cli_env())
 
 
 def test_cli_ik_solves_a_pose_in_mm_and_degrees():
@@ -253,8 +286,15 @@ def test_cli_ik_solves_a_pose_in_mm_and_degrees():
     T = dv.fk(m, q)
     rows = T.copy()
     rows[:3, 3] *= 1000  # mm
-    p = run_cli("ik", "kr5", "--pose", ",".join(repr(float(v)) for v in rows.ravel()),  # mm and deg: the defaults
-                "--q0", "5,-25,35,15,30,-10", "--json")
+    p = run_cli(
+        "ik",
+        "kr5",
+        "--pose",
+        ",".join(repr(float(v)) for v in rows.ravel()),  # mm and deg: the defaults
+        "--q0",
+        "5,-25,35,15,30,-10",
+        "--json",
+    )
     assert p.returncode == 0, p.stderr
     doc = json.loads(p.stdout)
     assert doc["success"] and doc["units"] == {"length": "m", "angle": "rad"}  # JSON: SI
@@ -333,7 +373,8 @@ def test_one_attempt_from_closed_form_seeds(name):
     q0 = np.clip(np.full(6, 0.3), m.lower, m.upper)
     for method in ("newton", "lm"):
         r = dv.ik_batch(m, Ts, q0, method=method, restarts=0, tol_position=1e-9, tol_rotation=1e-9)
-        ok = np.array([max(measured(m, q, T)) <= 1e-9 and bool(np.all((q >= m.lower) & (q <= m.upper)))
-                       for q, T in zip(r.q, Ts)])
+        ok = np.array(
+            [max(measured(m, q, T)) <= 1e-9 and bool(np.all((q >= m.lower) & (q <= m.upper))) for q, T in zip(r.q, Ts)]
+        )
         assert ok.mean() >= 0.97, (name, method, ok.mean())
         assert not (r.success & ~ok).any()

@@ -87,11 +87,15 @@ def _sweeps_csv() -> str:
     from denavit import sweeps as sw
 
     m = dv.load_model("kr5")
-    s = sw.simulate(m, home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=8)
+    s = sw.simulate(
+        m, home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=8
+    )
     rows = []
     for sw_ in s.sweeps:
         for q, p in zip(sw_.q, sw_.points):
-            rows.append(",".join([str(sw_.joint), *(repr(float(v)) for v in np.degrees(q)), *(repr(float(v)) for v in p * 1e3)]))
+            rows.append(
+                ",".join([str(sw_.joint), *(repr(float(v)) for v in np.degrees(q)), *(repr(float(v)) for v in p * 1e3)])
+            )
     return "joint,q1,q2,q3,q4,q5,q6,x,y,z\n" + "\n".join(rows) + "\n"
 
 
@@ -172,8 +176,10 @@ def test_a_units_line_without_a_space_is_honoured_by_calibrate(tmp_path):
     kr5 = dv.load_robot("kr5")
     meas = cal.simulate(kr5, cal.configurations(kr5, 40), tool=(0.05, 0.03, 0.1))
     f = tmp_path / "m.csv"
-    f.write_text("#units:length=m,angle=rad\nq1,q2,q3,q4,q5,q6,x,y,z\n"
-                 + "".join(",".join(repr(float(v)) for v in (*q, *p)) + "\n" for q, p in zip(meas.q, meas.points)))
+    f.write_text(
+        "#units:length=m,angle=rad\nq1,q2,q3,q4,q5,q6,x,y,z\n"
+        + "".join(",".join(repr(float(v)) for v in (*q, *p)) + "\n" for q, p in zip(meas.q, meas.points))
+    )
     out = tmp_path / "r.json"
     run("calibrate", f, "--nominal", "kr5", "--convention", "mdh", "--tool", "50,30,100", "--json", out)
     doc = json.loads(out.read_text())
@@ -186,7 +192,9 @@ def test_a_second_conflicting_units_line_is_an_error_naming_both_lines(tmp_path)
     f.write_text("# units: length=mm angle=deg\n" + _sweeps_csv() + "#units: length=m\n")
     p = run("identify", f, ok=False)
     n = len(f.read_text().splitlines())
-    assert p.returncode == 2 and f"s.csv:{n}: length=m contradicts length=mm declared at line 1" in " ".join(p.stderr.split())
+    assert p.returncode == 2 and f"s.csv:{n}: length=m contradicts length=mm declared at line 1" in " ".join(
+        p.stderr.split()
+    )
 
 
 def test_candidates_units_line_is_the_one_parser(tmp_path):
@@ -194,10 +202,15 @@ def test_candidates_units_line_is_the_one_parser(tmp_path):
     f = tmp_path / "c.csv"
     q = np.radians([[10, -80, 90, 5, 60, 0], [40, -60, 70, -20, 30, 50], [-30, -100, 110, 40, 80, -40]] * 6)
     q = q + np.random.default_rng(0).normal(0, 0.2, q.shape)
-    f.write_text("#units:angle=rad\nq1,q2,q3,q4,q5,q6\n" + "".join(",".join(map(repr, map(float, r))) + "\n" for r in q))
+    f.write_text(
+        "#units:angle=rad\nq1,q2,q3,q4,q5,q6\n" + "".join(",".join(map(repr, map(float, r))) + "\n" for r in q)
+    )
     a = json.loads(run("plan", "kr5", "--candidates", f, "--json").stdout)
     g = tmp_path / "d.csv"
-    g.write_text("# units: angle=deg\nq1,q2,q3,q4,q5,q6\n" + "".join(",".join(map(repr, map(float, r))) + "\n" for r in np.degrees(q)))
+    g.write_text(
+        "# units: angle=deg\nq1,q2,q3,q4,q5,q6\n"
+        + "".join(",".join(map(repr, map(float, r))) + "\n" for r in np.degrees(q))
+    )
     b = json.loads(run("plan", "kr5", "--candidates", g, "--json").stdout)
     np.testing.assert_allclose(a["bounding_box"]["lengths_m"], b["bounding_box"]["lengths_m"], rtol=1e-9)
     g.write_text(g.read_text() + "# units: angle=rad\n")
@@ -208,11 +221,20 @@ def test_candidates_units_line_is_the_one_parser(tmp_path):
 # -- convention names: the core's one parser ---------------------------------------------------------------
 
 
-@pytest.mark.parametrize("name, expected", [("craig", "mdh"), ("MDH", "mdh"), ("Modified-DH", "mdh"), ("SDH", "dh"), ("ED-H".replace("-", ""), "edh")])
+@pytest.mark.parametrize(
+    "name, expected",
+    [("craig", "mdh"), ("MDH", "mdh"), ("Modified-DH", "mdh"), ("SDH", "dh"), ("ED-H".replace("-", ""), "edh")],
+)
 def test_robot_files_accept_every_convention_name_of_the_core(tmp_path, name, expected):
     f = tmp_path / "r.toml"
-    cols = {"dh": "d = 100\ntheta = 0\na = 0\nalpha = 0\n", "mdh": "alpha = 0\na = 0\ntheta = 0\nd = 100\n", "edh": "alpha = 0\na = 0\nb = 0\nc = 100\ntheta = 0\n"}
-    f.write_text(f'name = "one"\nconvention = "{name}"\n[units]\nlength = "mm"\nangle = "deg"\n[[joints]]\n{cols[expected]}')
+    cols = {
+        "dh": "d = 100\ntheta = 0\na = 0\nalpha = 0\n",
+        "mdh": "alpha = 0\na = 0\ntheta = 0\nd = 100\n",
+        "edh": "alpha = 0\na = 0\nb = 0\nc = 100\ntheta = 0\n",
+    }
+    f.write_text(
+        f'name = "one"\nconvention = "{name}"\n[units]\nlength = "mm"\nangle = "deg"\n[[joints]]\n{cols[expected]}'
+    )
     r = dv.load_robot(f)
     assert r.convention == expected
 
@@ -220,7 +242,10 @@ def test_robot_files_accept_every_convention_name_of_the_core(tmp_path, name, ex
 def test_a_robot_file_with_an_unknown_convention_names_the_core_list(tmp_path):
     f = tmp_path / "r.toml"
     f.write_text(ROBOT.replace('"dh"', '"hayati"'))
-    with pytest.raises(dv.DenavitError, match=r"r.toml: 'convention' must be one of dh, mdh, edh, poe, got 'hayati' \(aliases: sdh, craig, modified-dh, in any case\)"):
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"r.toml: 'convention' must be one of dh, mdh, edh, poe, got 'hayati' \(aliases: sdh, craig, modified-dh, in any case\)",
+    ):
         dv.load_robot(f)
 
 
@@ -249,7 +274,9 @@ def test_a_joint_file_header_says_which_column_is_which(tmp_path):
     np.testing.assert_allclose(rb.sweeps[0].points, ra.sweeps[0].points)
     np.testing.assert_allclose(ra.sweeps[0].points, pts * 1e-3)
     (b / "j1.csv").write_text("X,Y,Z,RMS\n1,2,3,0.1\n")
-    with pytest.raises(dv.DenavitError, match=r"j1.csv:1: header must name x, y, z \(and optionally time\), got 'X,Y,Z,RMS'"):
+    with pytest.raises(
+        dv.DenavitError, match=r"j1.csv:1: header must name x, y, z \(and optionally time\), got 'X,Y,Z,RMS'"
+    ):
         swio.read_joint_files(b, home=[0], length="mm")
 
 
@@ -295,7 +322,11 @@ def test_json_outputs_are_strict_and_tables_show_nan():
     from denavit.cli.common import fmt
     from denavit.io.output import json_text
 
-    doc = json.loads(json_text({"a": float("nan"), "b": [1.0, float("inf"), np.float64(2.5)], "c": np.array([[np.nan, 1.0]]), "d": "x"}))
+    doc = json.loads(
+        json_text(
+            {"a": float("nan"), "b": [1.0, float("inf"), np.float64(2.5)], "c": np.array([[np.nan, 1.0]]), "d": "x"}
+        )
+    )
     assert doc == {"a": None, "b": [1.0, None, 2.5], "c": [[None, 1.0]], "d": "x"}
     assert fmt(float("nan")) == "nan" and fmt(-1e-15) == "0.000000" and fmt(1.5, 2) == "1.50"
 
@@ -309,7 +340,11 @@ def test_messages_are_one_line_and_capped_keeping_head_and_tail():
 
     e = dv.DenavitError("f.csv:2: header must be 'x,y,z', got '" + "z" * 250_000 + "' (a hint)")
     msg = str(e)
-    assert len(msg) <= MAX_MESSAGE == 500 and msg.startswith("f.csv:2: header must be 'x,y,z', got 'zzz") and msg.endswith("zzz' (a hint)")
+    assert (
+        len(msg) <= MAX_MESSAGE == 500
+        and msg.startswith("f.csv:2: header must be 'x,y,z', got 'zzz")
+        and msg.endswith("zzz' (a hint)")
+    )
     assert " [...] " in msg
     assert str(dv.DegenerateError("line 1\n  line 2\r\nline 3")) == "line 1 line 2 line 3"
     assert str(dv.DenavitError("short")) == "short"
@@ -318,15 +353,18 @@ def test_messages_are_one_line_and_capped_keeping_head_and_tail():
 # -- numbers: ASCII decimal or scientific, finite (denavit.io.delimited) -----------------------------------
 
 
-@pytest.mark.parametrize("cell, match", [
-    ("1_000", r"column 'z' must be a number, got '1_000' \(no digit separators"),
-    ("\uff11\uff12", r"column 'z' must be a number, got '１２' \(ASCII digits 0-9 only\)"),  # full-width 12
-    ("\u0661\u0662", r"column 'z' must be a number, got '١٢' \(ASCII digits 0-9 only\)"),  # Arabic-Indic 12
-    (" nan ", r"column 'z' must be finite, got 'nan'"),
-    ("infinity", r"column 'z' must be finite, got 'infinity'"),
-    ("1e309", r"column 'z' must be finite, got '1e309' \(beyond the float range\)"),
-    ("0x10", r"column 'z' must be a number, got '0x10'"),
-])
+@pytest.mark.parametrize(
+    "cell, match",
+    [
+        ("1_000", r"column 'z' must be a number, got '1_000' \(no digit separators"),
+        ("\uff11\uff12", r"column 'z' must be a number, got '１２' \(ASCII digits 0-9 only\)"),  # full-width 12
+        ("\u0661\u0662", r"column 'z' must be a number, got '١٢' \(ASCII digits 0-9 only\)"),  # Arabic-Indic 12
+        (" nan ", r"column 'z' must be finite, got 'nan'"),
+        ("infinity", r"column 'z' must be finite, got 'infinity'"),
+        ("1e309", r"column 'z' must be finite, got '1e309' \(beyond the float range\)"),
+        ("0x10", r"column 'z' must be a number, got '0x10'"),
+    ],
+)
 def test_text_cells_are_ascii_decimal_numbers(tmp_path, cell, match):
     """float() reads all of these; a measurement file means none of them (they had been read as numbers)."""
     from denavit.io import sweeps as swio
@@ -346,9 +384,15 @@ def test_parsed_values_are_numbers_not_booleans_or_strings():
     from denavit.io.delimited import as_number
 
     assert as_number(3, "w") == 3.0 and as_number(float("-inf"), "w", finite=False) == float("-inf")
-    for bad, match in [(True, "w: expected a number, got true"), ("1", r"w: expected a number, got '1' \(a string\)"), (None, "got nothing"),
-                       ([1], "got a list"), (10**400, "w: expected a number in the float range, got an integer of about 401 digits"),
-                       (float("nan"), "w: expected a finite number, got NaN"), (float("inf"), "w: expected a finite number, got inf")]:
+    for bad, match in [
+        (True, "w: expected a number, got true"),
+        ("1", r"w: expected a number, got '1' \(a string\)"),
+        (None, "got nothing"),
+        ([1], "got a list"),
+        (10**400, "w: expected a number in the float range, got an integer of about 401 digits"),
+        (float("nan"), "w: expected a finite number, got NaN"),
+        (float("inf"), "w: expected a finite number, got inf"),
+    ]:
         with pytest.raises(dv.DenavitError, match=match):
             as_number(bad, "w")
     with pytest.raises(dv.DenavitError, match="got NaN"):
@@ -361,22 +405,54 @@ def test_parsed_values_are_numbers_not_booleans_or_strings():
 def _sweeps_json_doc() -> dict:
     from denavit import sweeps as sw
 
-    s = sw.simulate(dv.load_model("kr5"), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=5)
-    return {"units": {"length": "m", "angle": "rad"}, "home": s.home.tolist(),
-            "sweeps": [{"joint": x.joint, "points": x.points.tolist(), "q": x.q.tolist()} for x in s.sweeps]}
+    s = sw.simulate(
+        dv.load_model("kr5"),
+        home=np.radians(sw.PAPER_HOME_DEG),
+        ranges=np.radians(sw.PAPER_RANGES_DEG[30]),
+        points_per_sweep=5,
+    )
+    return {
+        "units": {"length": "m", "angle": "rad"},
+        "home": s.home.tolist(),
+        "sweeps": [{"joint": x.joint, "points": x.points.tolist(), "q": x.q.tolist()} for x in s.sweeps],
+    }
 
 
-@pytest.mark.parametrize("text, match", [
-    # issue 16: a RecursionError and a ValueError (Python's 4300-digit limit) had reached the user
-    ('{"home": ' + "[" * 100_000 + "]" * 100_000 + "}", r"s.json: not readable JSON: lists or objects nested too deeply$"),
-    ('{"units": {"length": "m", "angle": "rad"}, "home": [' + "9" * 5000 + "]}", r"s.json: home\[0\]: expected a finite number, got inf$"),
-    ('{"units": {"length": "m", "angle": "rad"}, "home": [Infinity]}', r"s.json: home\[0\]: expected a finite number, got inf$"),
-    ('{"units": {"length": "m", "angle": "rad"}, "home": ["1"]}', r"s.json: home\[0\]: expected a number, got '1' \(a string\)$"),
-    ('{"units": {"length": "m", "angle": "rad"}, "home": [true]}', r"s.json: home\[0\]: expected a number, got true$"),
-    ('{"units": {"length": "m", "angle": "rad"}, "home": [0], "home": [1]}', r"s.json: key\(s\) 'home' given twice in one object"),
-    ('{"units": {"length": "m", "angle": "rad"}, "hom": [0]}', r"s.json: unknown key\(s\) 'hom': expected units, home, kinds, nest, sweeps$"),
-    ('{"home": [0,', r"s.json:1: not valid JSON: Expecting value \(column 13\)$"),
-])
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        # issue 16: a RecursionError and a ValueError (Python's 4300-digit limit) had reached the user
+        (
+            '{"home": ' + "[" * 100_000 + "]" * 100_000 + "}",
+            r"s.json: not readable JSON: lists or objects nested too deeply$",
+        ),
+        (
+            '{"units": {"length": "m", "angle": "rad"}, "home": [' + "9" * 5000 + "]}",
+            r"s.json: home\[0\]: expected a finite number, got inf$",
+        ),
+        (
+            '{"units": {"length": "m", "angle": "rad"}, "home": [Infinity]}',
+            r"s.json: home\[0\]: expected a finite number, got inf$",
+        ),
+        (
+            '{"units": {"length": "m", "angle": "rad"}, "home": ["1"]}',
+            r"s.json: home\[0\]: expected a number, got '1' \(a string\)$",
+        ),
+        (
+            '{"units": {"length": "m", "angle": "rad"}, "home": [true]}',
+            r"s.json: home\[0\]: expected a number, got true$",
+        ),
+        (
+            '{"units": {"length": "m", "angle": "rad"}, "home": [0], "home": [1]}',
+            r"s.json: key\(s\) 'home' given twice in one object",
+        ),
+        (
+            '{"units": {"length": "m", "angle": "rad"}, "hom": [0]}',
+            r"s.json: unknown key\(s\) 'hom': expected units, home, kinds, nest, sweeps$",
+        ),
+        ('{"home": [0,', r"s.json:1: not valid JSON: Expecting value \(column 13\)$"),
+    ],
+)
 def test_bad_json_sweeps_are_one_line(tmp_path, text, match):
     from denavit.io import sweeps as swio
 
@@ -396,7 +472,10 @@ def test_a_misspelt_q_in_one_sweep_is_an_error_not_a_set_without_readings(tmp_pa
     assert swio.read_json(f).has_readings
     doc["sweeps"][2]["Q"] = doc["sweeps"][2].pop("q")
     f.write_text(json.dumps(doc))
-    with pytest.raises(dv.DenavitError, match=r"s.json: sweeps\[2\]: unknown key\(s\) 'Q': expected joint, points, targets, q, quaternions$"):
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"s.json: sweeps\[2\]: unknown key\(s\) 'Q': expected joint, points, targets, q, quaternions$",
+    ):
         swio.read_json(f)
 
 
@@ -404,7 +483,12 @@ def test_hand_built_sweep_sets_need_one_sweep_per_joint():
     """A missing sweep had raised IndexError in identify, a duplicated one had been identified silently."""
     from denavit import sweeps as sw
 
-    s = sw.simulate(dv.load_model("kr5"), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=5)
+    s = sw.simulate(
+        dv.load_model("kr5"),
+        home=np.radians(sw.PAPER_HOME_DEG),
+        ranges=np.radians(sw.PAPER_RANGES_DEG[30]),
+        points_per_sweep=5,
+    )
     with pytest.raises(dv.DenavitError, match=r"missing sweeps of joint\(s\) 6: every joint 1..6 needs one sweep"):
         sw.SweepSet(s.sweeps[:5], 6, s.home, s.kinds, "mine")
     with pytest.raises(dv.DenavitError, match=r"mine: missing sweeps of joint\(s\) 2; a second sweep of joint\(s\) 1"):
@@ -413,13 +497,31 @@ def test_hand_built_sweep_sets_need_one_sweep_per_joint():
     assert [x.joint for x in sw.SweepSet(s.sweeps[::-1], 6, s.home, s.kinds).sweeps] == [1, 2, 3, 4, 5, 6]
 
 
-@pytest.mark.parametrize("doc, match", [
-    ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, "1"]], "points": [[0, 0, 0]]}, r"m.json: q\[0\]\[1\]: expected a number, got '1' \(a string\)$"),
-    ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, True]], "points": [[0, 0, 0]]}, r"m.json: q\[0\]\[1\]: expected a number, got true$"),
-    ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, 1], [0]], "points": [[0, 0, 0]]}, r"m.json: q\[1\]: rows of different lengths \(1 here, 2 in the first row\): expected a rectangular array$"),
-    ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, 1]], "point": [[0, 0, 0]]}, r"m.json: unknown key\(s\) 'point'"),
-    ({"units": {"length": "mm", "angle": "deg"}, "q": [[0, 1]], "poses": [[[1, 0, 0, 0]] * 3]}, r"m.json: poses must have shape \(1, 4, 4\) \(one per row of q\), got shape \(1, 3, 4\)"),
-])
+@pytest.mark.parametrize(
+    "doc, match",
+    [
+        (
+            {"units": {"length": "mm", "angle": "deg"}, "q": [[0, "1"]], "points": [[0, 0, 0]]},
+            r"m.json: q\[0\]\[1\]: expected a number, got '1' \(a string\)$",
+        ),
+        (
+            {"units": {"length": "mm", "angle": "deg"}, "q": [[0, True]], "points": [[0, 0, 0]]},
+            r"m.json: q\[0\]\[1\]: expected a number, got true$",
+        ),
+        (
+            {"units": {"length": "mm", "angle": "deg"}, "q": [[0, 1], [0]], "points": [[0, 0, 0]]},
+            r"m.json: q\[1\]: rows of different lengths \(1 here, 2 in the first row\): expected a rectangular array$",
+        ),
+        (
+            {"units": {"length": "mm", "angle": "deg"}, "q": [[0, 1]], "point": [[0, 0, 0]]},
+            r"m.json: unknown key\(s\) 'point'",
+        ),
+        (
+            {"units": {"length": "mm", "angle": "deg"}, "q": [[0, 1]], "poses": [[[1, 0, 0, 0]] * 3]},
+            r"m.json: poses must have shape \(1, 4, 4\) \(one per row of q\), got shape \(1, 3, 4\)",
+        ),
+    ],
+)
 def test_bad_json_measurements_are_one_line(tmp_path, doc, match):
     from denavit.io.measurements import read_measurements
 
@@ -429,12 +531,18 @@ def test_bad_json_measurements_are_one_line(tmp_path, doc, match):
         read_measurements(f)
 
 
-@pytest.mark.parametrize("head, match", [
-    # issue 16: 'rx,y,rz' had silently dropped the rotation; unknown columns had been ignored
-    ("q1,q2,q3,q4,q5,q6,x,y,z,rx,rz", r"m.csv:2: header must be .*; missing ry, got 'q1,q2,q3,q4,q5,q6,x,y,z,rx,rz'$"),
-    ("q1,q2,q3,q4,q5,q6,x,y,z,rms", r"m.csv:2: header must be .*; unknown column\(s\) rms, got"),
-    ("q1,q2,q3,q4,q5,q6,x,y,x", r"m.csv:2: column\(s\) x named twice in the header"),
-])
+@pytest.mark.parametrize(
+    "head, match",
+    [
+        # issue 16: 'rx,y,rz' had silently dropped the rotation; unknown columns had been ignored
+        (
+            "q1,q2,q3,q4,q5,q6,x,y,z,rx,rz",
+            r"m.csv:2: header must be .*; missing ry, got 'q1,q2,q3,q4,q5,q6,x,y,z,rx,rz'$",
+        ),
+        ("q1,q2,q3,q4,q5,q6,x,y,z,rms", r"m.csv:2: header must be .*; unknown column\(s\) rms, got"),
+        ("q1,q2,q3,q4,q5,q6,x,y,x", r"m.csv:2: column\(s\) x named twice in the header"),
+    ],
+)
 def test_measurement_headers_are_honoured(tmp_path, head, match):
     from denavit.io.measurements import read_measurements
 
@@ -449,9 +557,11 @@ def test_candidates_headers_are_honoured(tmp_path):
 
     f = tmp_path / "c.csv"
     f.write_text("# units: angle=deg\nq1,q2,q3,q4,q5,q6,note\n0,0,0,0,0,0,1\n")
-    with pytest.raises(dv.DenavitError, match=r"c.csv:2: header must name q1..q6 \(6 joints\); unknown column\(s\) note"):
+    with pytest.raises(
+        dv.DenavitError, match=r"c.csv:2: header must name q1..q6 \(6 joints\); unknown column\(s\) note"
+    ):
         read_configurations(f, ["revolute"] * 6)
-    f.write_text("# units: angle=deg\nq1,q2,q3,q4,q5,q6\n0,0,0,0,0,0\n0,0,\"1\n")
+    f.write_text('# units: angle=deg\nq1,q2,q3,q4,q5,q6\n0,0,0,0,0,0\n0,0,"1\n')
     with pytest.raises(dv.DenavitError, match=r"c.csv:4: "):
         read_configurations(f, ["revolute"] * 6)
 
@@ -461,16 +571,35 @@ def test_candidates_headers_are_honoured(tmp_path):
 UR_URDF = __import__("pathlib").Path(__file__).parent / "data" / "urdf" / "ur_style.urdf"
 
 
-@pytest.mark.parametrize("old, new, match", [
-    ('damping="0"', 'damping="abc"', r"joint 'shoulder_pan_joint' \(line \d+\): dynamics damping='abc': expected 1 number"),  # had been a ValueError traceback
-    ('damping="0"', 'damping="nan"', r"dynamics damping='nan': expected 1 finite number"),
-    ('effort="150"', 'effort="1e999"', r"limit effort='1e999': expected 1 finite number"),
-    ('xyz="0 0 0.089159"', 'xyz="0 0 \uff11"', r"origin xyz='0 0 １': expected 3 numbers \(ASCII decimal\)"),  # full-width 1 had been read
-    ('xyz="0 0 0.089159"', 'xyz="0 0 1_0"', r"origin xyz='0 0 1_0': expected 3 numbers"),
-    ('<mass value="4.0"/>', '<mass value="4_0"/>', r"link 'base_link' \(line \d+\): mass value='4_0': expected 1 number"),
-    ('ixx="0.00443333156"', 'ixx="abc"', r"link 'base_link' \(line \d+\): inertia ixx='abc': expected 1 number"),
-    ('<axis xyz="0 0 1"/>', '<axis xzy="0 0 1"/>', r"joint 'shoulder_pan_joint' \(line \d+\): <axis> \(line \d+\) without xyz"),  # had been the default x axis
-])
+@pytest.mark.parametrize(
+    "old, new, match",
+    [
+        (
+            'damping="0"',
+            'damping="abc"',
+            r"joint 'shoulder_pan_joint' \(line \d+\): dynamics damping='abc': expected 1 number",
+        ),  # had been a ValueError traceback
+        ('damping="0"', 'damping="nan"', r"dynamics damping='nan': expected 1 finite number"),
+        ('effort="150"', 'effort="1e999"', r"limit effort='1e999': expected 1 finite number"),
+        (
+            'xyz="0 0 0.089159"',
+            'xyz="0 0 \uff11"',
+            r"origin xyz='0 0 １': expected 3 numbers \(ASCII decimal\)",
+        ),  # full-width 1 had been read
+        ('xyz="0 0 0.089159"', 'xyz="0 0 1_0"', r"origin xyz='0 0 1_0': expected 3 numbers"),
+        (
+            '<mass value="4.0"/>',
+            '<mass value="4_0"/>',
+            r"link 'base_link' \(line \d+\): mass value='4_0': expected 1 number",
+        ),
+        ('ixx="0.00443333156"', 'ixx="abc"', r"link 'base_link' \(line \d+\): inertia ixx='abc': expected 1 number"),
+        (
+            '<axis xyz="0 0 1"/>',
+            '<axis xzy="0 0 1"/>',
+            r"joint 'shoulder_pan_joint' \(line \d+\): <axis> \(line \d+\) without xyz",
+        ),  # had been the default x axis
+    ],
+)
 def test_urdf_numbers_follow_the_one_rule(tmp_path, old, new, match):
     text = UR_URDF.read_text()
     assert old in text
@@ -480,17 +609,20 @@ def test_urdf_numbers_follow_the_one_rule(tmp_path, old, new, match):
         dv.load_robot(f)
 
 
-@pytest.mark.parametrize("new, match", [
-    ("x: 1_000", r"kinematics.shoulder.x: expected a number, got '1_000' \(a string\)"),
-    ("x: 1:30", r"kinematics.shoulder.x: expected a number, got '1:30' \(a string\)"),  # YAML 1.1 sexagesimal: 90
-    ("x: .inf", r"kinematics.shoulder.x: expected a number, got '.inf' \(a string\)"),
-    ("x: '0.0'", r"kinematics.shoulder.x: expected a number, got '0.0' \(a string\)"),
-    ("x: true", r"kinematics.shoulder.x: expected a number, got true"),
-    ("x: 1e999", r"kinematics.shoulder.x: expected a finite number, got inf"),
-    ("x: 0.0\n    x: 1.0", r"k.yaml:3: key\(s\) x given twice in one mapping"),  # PyYAML keeps the last
-    ("x: " + "[" * 5000, r"k.yaml: not readable YAML: mappings or lists nested too deeply"),
-    ("x: " + "[" * 100_000 + "]" * 100_000, r"k.yaml: not readable YAML: mappings or lists nested too deeply"),
-])
+@pytest.mark.parametrize(
+    "new, match",
+    [
+        ("x: 1_000", r"kinematics.shoulder.x: expected a number, got '1_000' \(a string\)"),
+        ("x: 1:30", r"kinematics.shoulder.x: expected a number, got '1:30' \(a string\)"),  # YAML 1.1 sexagesimal: 90
+        ("x: .inf", r"kinematics.shoulder.x: expected a number, got '.inf' \(a string\)"),
+        ("x: '0.0'", r"kinematics.shoulder.x: expected a number, got '0.0' \(a string\)"),
+        ("x: true", r"kinematics.shoulder.x: expected a number, got true"),
+        ("x: 1e999", r"kinematics.shoulder.x: expected a finite number, got inf"),
+        ("x: 0.0\n    x: 1.0", r"k.yaml:3: key\(s\) x given twice in one mapping"),  # PyYAML keeps the last
+        ("x: " + "[" * 5000, r"k.yaml: not readable YAML: mappings or lists nested too deeply"),
+        ("x: " + "[" * 100_000 + "]" * 100_000, r"k.yaml: not readable YAML: mappings or lists nested too deeply"),
+    ],
+)
 def test_ur_kinematics_numbers_follow_the_one_rule(new, match):
     from denavit.io import ur_calibration as urc
 
@@ -512,7 +644,9 @@ def test_coordinates_beyond_a_billion_metres_are_not_measurements(tmp_path):
     doc["sweeps"][1]["points"][4][2] = 1e300
     f = tmp_path / "s.json"
     f.write_text(json.dumps(doc))
-    with pytest.raises(dv.DenavitError, match=r"s.json: sweeps\[1\].points\[4\]\[2\]: a coordinate of 1e\+300 m is beyond 1e\+09 m"):
+    with pytest.raises(
+        dv.DenavitError, match=r"s.json: sweeps\[1\].points\[4\]\[2\]: a coordinate of 1e\+300 m is beyond 1e\+09 m"
+    ):
         swio.read_json(f)
     t = tmp_path / "t.csv"
     t.write_text("# units: length=mm angle=deg\nx,y,z,rx,ry,rz\n100,0,2e12,0,0,0\n")
@@ -522,15 +656,20 @@ def test_coordinates_beyond_a_billion_metres_are_not_measurements(tmp_path):
     assert read_targets(t, ["revolute"] * 6).poses[0, 2, 3] == pytest.approx(1e4) and MAX_LENGTH == 1e9
 
 
-@pytest.mark.parametrize("ipoc, match", [("--1", r"<IPOC> \(time stamp, ms\)' must be a number, got '--1'"),  # a ValueError, found by the fuzz run
-                                         ("\u0661\u0662", r"<IPOC> \(time stamp, ms\)' must be a number, got '١٢' \(ASCII digits 0-9 only\)")])
+@pytest.mark.parametrize(
+    "ipoc, match",
+    [
+        ("--1", r"<IPOC> \(time stamp, ms\)' must be a number, got '--1'"),  # a ValueError, found by the fuzz run
+        ("\u0661\u0662", r"<IPOC> \(time stamp, ms\)' must be a number, got '١٢' \(ASCII digits 0-9 only\)"),
+    ],
+)
 def test_rsi_numbers_follow_the_one_rule(tmp_path, ipoc, match):
     from denavit.io.recordings import read_recording
 
     text = (__import__("pathlib").Path(__file__).parent / "data" / "recordings" / "rsi.xml").read_text()
     first = text.index("<IPOC>") + len("<IPOC>")
     f = tmp_path / "r.xml"
-    f.write_text(text[:first] + ipoc + text[text.index("</IPOC>", first):])
+    f.write_text(text[:first] + ipoc + text[text.index("</IPOC>", first) :])
     with pytest.raises(dv.DenavitError, match=r"r.xml:\d+: column '" + match):
         read_recording(f, "rsi")
 
@@ -560,9 +699,29 @@ def test_numeric_table_takes_what_number_takes_with_the_same_values(cells):
     assert table is not None and table.tolist() == [[dl.number(c, "here", "x") for c in r] for r in cells]
 
 
-@pytest.mark.parametrize("body", ["1,2,3\nnan,2,3\n", "1,2,3\n1_0,2,3\n", "1,2,3\ninf,2,3\n", "1,2,3\n1e400,2,3\n", "1,2,3\n\n1,2,3\n", "1,2,3\n  \n1,2,3\n",
-                                  "1,2,3\n1,2\n", "1,2,3,\n", '1,"2",3\n', "1,2,3 # note\n", "1,2,3\r4,5,6\n", "1,2,3\n\x0c4,5,6\n", "1,2,3\n\u00a04,5,6\n",
-                                  "0x1p3,2,3\n", "1,,3\n", "1;2;3\n", "", "\n\n"])
+@pytest.mark.parametrize(
+    "body",
+    [
+        "1,2,3\nnan,2,3\n",
+        "1,2,3\n1_0,2,3\n",
+        "1,2,3\ninf,2,3\n",
+        "1,2,3\n1e400,2,3\n",
+        "1,2,3\n\n1,2,3\n",
+        "1,2,3\n  \n1,2,3\n",
+        "1,2,3\n1,2\n",
+        "1,2,3,\n",
+        '1,"2",3\n',
+        "1,2,3 # note\n",
+        "1,2,3\r4,5,6\n",
+        "1,2,3\n\x0c4,5,6\n",
+        "1,2,3\n\u00a04,5,6\n",
+        "0x1p3,2,3\n",
+        "1,,3\n",
+        "1;2;3\n",
+        "",
+        "\n\n",
+    ],
+)
 def test_numeric_table_leaves_anything_but_plain_rows_to_the_row_reader(body):
     assert dl.numeric_table(body.encode(), ",", 3) is None
 
@@ -573,7 +732,15 @@ def test_numeric_table_takes_crlf_blanks_around_cells_and_trailing_blank_lines()
 
 def _long_file(tmp_path, name, points=50, seed=3):
     kr5 = dv.load_robot("kr5")
-    s = sw.simulate(kr5.model(), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=points, noise=2e-5, noise_q=1e-5, seed=seed)
+    s = sw.simulate(
+        kr5.model(),
+        home=np.radians(sw.PAPER_HOME_DEG),
+        ranges=np.radians(sw.PAPER_RANGES_DEG[30]),
+        points_per_sweep=points,
+        noise=2e-5,
+        noise_q=1e-5,
+        seed=seed,
+    )
     f = tmp_path / name
     f.write_text(swio.to_long_csv(s, "mm", "deg", "a comment\nof two lines"))
     return s, f
@@ -607,11 +774,21 @@ def test_the_fast_and_the_row_by_row_reader_read_the_same(tmp_path):
         assert x.joint == y.joint and np.array_equal(x.points, y.points) and np.array_equal(x.q, y.q)
         assert list(x.where) == [w.replace("slow.csv", "fast.csv") for w in y.where]
     # (rows 0, 2, 4, ... of every sweep, then rows 1, 3, ...: sweep 1 at lines 5, 6, ... and 155, ...; sweep 2 from line 30)
-    assert list(a.sweeps[0].where[:2]) == [f"{fast}:5", f"{fast}:6"] and a.sweeps[0].where[25] == f"{fast}:155" and a.sweeps[1].where[0] == f"{fast}:30"
+    assert (
+        list(a.sweeps[0].where[:2]) == [f"{fast}:5", f"{fast}:6"]
+        and a.sweeps[0].where[25] == f"{fast}:155"
+        and a.sweeps[1].where[0] == f"{fast}:30"
+    )
 
 
-@pytest.mark.parametrize("cell, match", [("abc", r"column 'y' must be a number, got 'abc'"), ("nan", r"column 'y' must be finite, got 'nan'"),
-                                          ("1,5", r"expected 10 values, got 11")])
+@pytest.mark.parametrize(
+    "cell, match",
+    [
+        ("abc", r"column 'y' must be a number, got 'abc'"),
+        ("nan", r"column 'y' must be finite, got 'nan'"),
+        ("1,5", r"expected 10 values, got 11"),
+    ],
+)
 def test_a_bad_cell_deep_in_a_long_file_names_its_line_and_column(tmp_path, cell, match):
     _, f = _long_file(tmp_path, "s.csv", points=2000)
     lines = f.read_text().splitlines()
@@ -625,5 +802,7 @@ def test_a_bad_cell_deep_in_a_long_file_names_its_line_and_column(tmp_path, cell
 
 def test_file_lines_are_a_sequence_of_places():
     w = swio.FileLines("f.csv", [3, 4, 7])
-    assert len(w) == 3 and w[0] == "f.csv:3" and w[-1] == "f.csv:7" and list(w[::-1]) == ["f.csv:7", "f.csv:4", "f.csv:3"]
+    assert (
+        len(w) == 3 and w[0] == "f.csv:3" and w[-1] == "f.csv:7" and list(w[::-1]) == ["f.csv:7", "f.csv:4", "f.csv:3"]
+    )
     assert list(w[np.array([2, 0])]) == ["f.csv:7", "f.csv:3"] and bool(w) and not swio.FileLines("f.csv", [])

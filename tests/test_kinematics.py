@@ -34,16 +34,23 @@ def pose(R, p):
 @pytest.fixture(scope="module")
 def mixed():
     """A skew 5-joint chain with two prismatic joints, a base and a tool."""
-    placements = np.stack([
-        pose(rot([1, 0, 0], 0.3), [0.0, 0.0, 0.2]),
-        pose(rot([0, 1, 0.2], 1.1), [0.3, 0.05, 0.0]),
-        pose(rot([1, 1, 0], -0.7), [0.0, 0.4, 0.1]),
-        pose(rot([0, 0, 1], 0.4), [0.1, 0.0, 0.3]),
-        pose(rot([1, -1, 1], 0.9), [0.0, 0.2, 0.05]),
-    ])
-    return dv.Model.from_placements(placements, ["revolute", "prismatic", "revolute", "prismatic", "revolute"],
-                                    offsets=[0.1, 0.05, -0.2, 0.0, 0.3], T_world_base=pose(rot([0, 0, 1], 0.5), [0.1, 0.2, -0.3]),
-                                    T_flange_tool=pose(rot([1, 0, 0], 0.4), [0.05, -0.02, 0.1]), name="mixed")
+    placements = np.stack(
+        [
+            pose(rot([1, 0, 0], 0.3), [0.0, 0.0, 0.2]),
+            pose(rot([0, 1, 0.2], 1.1), [0.3, 0.05, 0.0]),
+            pose(rot([1, 1, 0], -0.7), [0.0, 0.4, 0.1]),
+            pose(rot([0, 0, 1], 0.4), [0.1, 0.0, 0.3]),
+            pose(rot([1, -1, 1], 0.9), [0.0, 0.2, 0.05]),
+        ]
+    )
+    return dv.Model.from_placements(
+        placements,
+        ["revolute", "prismatic", "revolute", "prismatic", "revolute"],
+        offsets=[0.1, 0.05, -0.2, 0.0, 0.3],
+        T_world_base=pose(rot([0, 0, 1], 0.5), [0.1, 0.2, -0.3]),
+        T_flange_tool=pose(rot([1, 0, 0], 0.4), [0.05, -0.02, 0.1]),
+        name="mixed",
+    )
 
 
 def models(mixed):
@@ -54,8 +61,10 @@ def fd_jacobian(model, q, frame, joint=None, h=1e-6):
     """Central differences of the tool pose (or of joint frame `joint`, 1-based): v = dp/dq and w = vee(dR/dq R^T)
     in world axes ("local_world_aligned"), both rotated into the frame's axes ("local"), or the spatial velocity
     at the world origin v - w x p ("world"; pinocchio's meanings)."""
+
     def pose(x):
         return dv.fk(model, x) if joint is None else dv.joint_frames(model, x)[joint - 1]
+
     T = pose(q)
     R, p = T[:3, :3], T[:3, 3]
     J = np.zeros((6, len(q)))
@@ -65,7 +74,11 @@ def fd_jacobian(model, q, frame, joint=None, h=1e-6):
         Tp, Tm = pose(q + dq), pose(q - dq)
         dp = (Tp[:3, 3] - Tm[:3, 3]) / (2 * h)
         w = vee((Tp[:3, :3] - Tm[:3, :3]) / (2 * h) @ R.T)
-        J[:, i] = {"local_world_aligned": np.r_[dp, w], "local": np.r_[R.T @ dp, R.T @ w], "world": np.r_[dp - np.cross(w, p), w]}[frame]
+        J[:, i] = {
+            "local_world_aligned": np.r_[dp, w],
+            "local": np.r_[R.T @ dp, R.T @ w],
+            "world": np.r_[dp - np.cross(w, p), w],
+        }[frame]
     return J
 
 
@@ -88,7 +101,9 @@ def test_joint_frame_jacobians_match_finite_differences(mixed, frame, rng):
         q = rng.uniform(-np.pi, np.pi, m.nq)
         for i in range(1, m.nq + 1):
             J = dv.jacobian(m, q, frame=frame, joint=i)
-            np.testing.assert_allclose(J, fd_jacobian(m, q, frame, joint=i), atol=1e-8, err_msg=f"{m.name} {frame} joint {i}")
+            np.testing.assert_allclose(
+                J, fd_jacobian(m, q, frame, joint=i), atol=1e-8, err_msg=f"{m.name} {frame} joint {i}"
+            )
             assert not J[:, i:].any()
             np.testing.assert_array_equal(dv.jacobian(m, q, frame=frame, joint=m.names[i - 1]), J)
             np.testing.assert_array_equal(dv.jacobian_batch(m, q[None], frame, i)[0], J)
@@ -108,15 +123,26 @@ def test_jacobians_match_pinocchio(urdf, rng):
         pin.framesForwardKinematics(pm, pd, qp)
         pin.computeJointJacobians(pm, pd, qp)
         np.testing.assert_allclose(dv.fk(m, q), pd.oMf[tip].homogeneous, rtol=0, atol=1e-14)
-        for frame, ref in [("local", pin.LOCAL), ("local_world_aligned", pin.LOCAL_WORLD_ALIGNED), ("world", pin.WORLD)]:
-            np.testing.assert_allclose(dv.jacobian(m, q, frame), pin.getFrameJacobian(pm, pd, tip, ref), rtol=0, atol=1e-14)
+        for frame, ref in [
+            ("local", pin.LOCAL),
+            ("local_world_aligned", pin.LOCAL_WORLD_ALIGNED),
+            ("world", pin.WORLD),
+        ]:
+            np.testing.assert_allclose(
+                dv.jacobian(m, q, frame), pin.getFrameJacobian(pm, pd, tip, ref), rtol=0, atol=1e-14
+            )
         for i in range(1, m.nq + 1):
-            np.testing.assert_allclose(dv.jacobian(m, q, "world", i), pin.getJointJacobian(pm, pd, i, pin.WORLD), rtol=0, atol=1e-14)
+            np.testing.assert_allclose(
+                dv.jacobian(m, q, "world", i), pin.getJointJacobian(pm, pd, i, pin.WORLD), rtol=0, atol=1e-14
+            )
 
 
 def test_jacobian_frame_and_joint_errors():
     m = dv.load_model("kr5")
-    with pytest.raises(dv.DenavitError, match=r"invalid joint: expected None \(the tool\), a joint number 1..6 or a joint name \(.*\), got 7$"):
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"invalid joint: expected None \(the tool\), a joint number 1..6 or a joint name \(.*\), got 7$",
+    ):
         dv.jacobian(m, np.zeros(6), joint=7)
     with pytest.raises(dv.DenavitError, match="got 0$"):
         dv.jacobian_batch(m, np.zeros((2, 6)), joint=0)
@@ -137,7 +163,9 @@ def test_local_and_base_jacobians_are_the_world_aligned_one_rotated(mixed, rng):
         np.testing.assert_allclose(Jb[:3], Rb.T @ Jw[:3], atol=1e-14)
         np.testing.assert_allclose(Jb[3:], Rb.T @ Jw[3:], atol=1e-14)
         np.testing.assert_allclose(dv.jacobian_batch(m, q[None], frame="base")[0], Jb, atol=1e-15)
-    assert any(not np.allclose(m.T_world_base[:3, :3], np.eye(3)) for m in models(mixed))  # the base rotation is exercised
+    assert any(
+        not np.allclose(m.T_world_base[:3, :3], np.eye(3)) for m in models(mixed)
+    )  # the base rotation is exercised
 
 
 def test_batch_equals_single(mixed, rng):
@@ -204,19 +232,26 @@ def test_out_is_filled_and_returned(rng):
     np.testing.assert_array_equal(J, dv.jacobian_batch(m, qs, "local", 3))
 
 
-@pytest.mark.parametrize("bad, got", [
-    (np.zeros((300, 4, 3)), "shape (300, 4, 3)"),
-    (np.zeros((300, 16)), "shape (300, 16)"),
-    (np.zeros((300, 4, 4), dtype=">f8"), "dtype >f8, shape (300, 4, 4)"),
-    (np.zeros((300, 4, 4), dtype=np.float32), "dtype float32, shape (300, 4, 4)"),
-    (np.zeros((300, 4, 4), dtype=complex), "dtype complex128, shape (300, 4, 4)"),
-    (np.zeros((4, 4, 300)).T, "an array that is not C-contiguous"),
-    ([[0.0]], "list"),
-])
+@pytest.mark.parametrize(
+    "bad, got",
+    [
+        (np.zeros((300, 4, 3)), "shape (300, 4, 3)"),
+        (np.zeros((300, 16)), "shape (300, 16)"),
+        (np.zeros((300, 4, 4), dtype=">f8"), "dtype >f8, shape (300, 4, 4)"),
+        (np.zeros((300, 4, 4), dtype=np.float32), "dtype float32, shape (300, 4, 4)"),
+        (np.zeros((300, 4, 4), dtype=complex), "dtype complex128, shape (300, 4, 4)"),
+        (np.zeros((4, 4, 300)).T, "an array that is not C-contiguous"),
+        ([[0.0]], "list"),
+    ],
+)
 def test_out_is_checked(bad, got, rng):
     m = dv.load_model("kr5")
-    with pytest.raises(dv.DenavitError, match=r"^invalid out: expected a C-contiguous, writeable float64 numpy array of shape \(300, 4, 4\), got "
-                       + re.escape(got) + "$"):
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"^invalid out: expected a C-contiguous, writeable float64 numpy array of shape \(300, 4, 4\), got "
+        + re.escape(got)
+        + "$",
+    ):
         dv.fk_batch(m, np.zeros((300, 6)), out=bad)
 
 
@@ -237,7 +272,10 @@ def test_threads_argument():
     m = dv.load_model("kr5")
     most = 4 * os.cpu_count()
     for bad in (0, -1, most + 1, 10**12, 2**64, -(2**63) - 1):  # the last two beyond 64 bits
-        with pytest.raises(dv.DenavitError, match=rf"^invalid threads: expected None \(RAYON_NUM_THREADS, else every core\) or a count 1\.\.={most} \(4 per core\), got {bad}$"):
+        with pytest.raises(
+            dv.DenavitError,
+            match=rf"^invalid threads: expected None \(RAYON_NUM_THREADS, else every core\) or a count 1\.\.={most} \(4 per core\), got {bad}$",
+        ):
             dv.fk_batch(m, np.zeros((2, 6)), threads=bad)
     assert dv.fk_batch(m, np.zeros((2, 6)), threads=most).shape == (2, 4, 4)
     with pytest.raises(TypeError):
@@ -265,7 +303,9 @@ def test_any_array_layout_and_lists(rng):
     wide[:, ::2] = qs
     np.testing.assert_array_equal(dv.fk_batch(m, wide[:, ::2]), ref)  # strided view
     np.testing.assert_array_equal(dv.fk_batch(m, qs.tolist()), ref)
-    np.testing.assert_array_equal(dv.fk_batch(m, qs.astype(np.float32).astype(np.float64)), dv.fk_batch(m, qs.astype(np.float32)))
+    np.testing.assert_array_equal(
+        dv.fk_batch(m, qs.astype(np.float32).astype(np.float64)), dv.fk_batch(m, qs.astype(np.float32))
+    )
     np.testing.assert_array_equal(dv.fk(m, list(qs[3])), ref[3])
     np.testing.assert_array_equal(dv.fk(m, np.asfortranarray(qs)[3]), ref[3])
     np.testing.assert_array_equal(dv.jacobian(m, np.zeros(6, dtype=int)), dv.jacobian(m, np.zeros(6)))
@@ -304,7 +344,11 @@ def test_bad_input_raises_denavit_error_with_expected_and_got():
         dv.jacobian(m, [0, 0, 0, np.inf, 0, 0])
     with pytest.raises(dv.DenavitError, match=r"qs: expected an array of shape \(N, 6\), got shape \(10, 5\)") as e:
         dv.fk_batch(m, np.zeros((10, 5)))
-    assert (e.value.kind, e.value.expected, e.value.got) == ("InvalidArgument", "an array of shape (N, 6)", "shape (10, 5)")
+    assert (e.value.kind, e.value.expected, e.value.got) == (
+        "InvalidArgument",
+        "an array of shape (N, 6)",
+        "shape (10, 5)",
+    )
     with pytest.raises(dv.DenavitError, match=r"qs: expected an array of shape \(N, 6\), got shape \(6,\)"):
         dv.jacobian_batch(m, np.zeros(6))
     bad = np.zeros((4, 6))
@@ -314,22 +358,34 @@ def test_bad_input_raises_denavit_error_with_expected_and_got():
         dv.fk_batch(m, bad)
     with pytest.raises(dv.DenavitError, match=r"^q \(row 2\) must be finite, got NaN at index 1$"):
         dv.jacobian_batch(m, bad)
-    with pytest.raises(dv.DenavitError, match="frame: expected 'local', 'local_world_aligned', 'world' or 'base', got 'flange'"):
+    with pytest.raises(
+        dv.DenavitError, match="frame: expected 'local', 'local_world_aligned', 'world' or 'base', got 'flange'"
+    ):
         dv.jacobian(m, np.zeros(6), frame="flange")
-    with pytest.raises(dv.DenavitError, match="frame: expected 'local', 'local_world_aligned', 'world' or 'base', got 'x'"):
+    with pytest.raises(
+        dv.DenavitError, match="frame: expected 'local', 'local_world_aligned', 'world' or 'base', got 'x'"
+    ):
         dv.jacobian_batch(m, np.zeros((2, 6)), frame="x")
-    with pytest.raises(dv.DenavitError, match="invalid q: expected an array-like of floats, got list .*could not convert string to float"):
+    with pytest.raises(
+        dv.DenavitError,
+        match="invalid q: expected an array-like of floats, got list .*could not convert string to float",
+    ):
         dv.fk(m, ["a"] * 6)
 
 
-@pytest.mark.parametrize("q, published", [
-    # Corke, Robotics, Vision and Control (2nd ed. 2017) sec. 7.1.1, p560.fkine(qz) and p560.fkine(qn), printed to 4 decimals
-    ([0, 0, 0, 0, 0, 0], [[1, 0, 0, 0.4521], [0, 1, 0, -0.1500], [0, 0, 1, 0.4318]]),
-    ([0, np.pi / 4, np.pi, 0, np.pi / 4, 0], [[0, 0, 1, 0.5963], [0, 1, 0, -0.1501], [-1, 0, 0, -0.0144]]),
-])
+@pytest.mark.parametrize(
+    "q, published",
+    [
+        # Corke, Robotics, Vision and Control (2nd ed. 2017) sec. 7.1.1, p560.fkine(qz) and p560.fkine(qn), printed to 4 decimals
+        ([0, 0, 0, 0, 0, 0], [[1, 0, 0, 0.4521], [0, 1, 0, -0.1500], [0, 0, 1, 0.4318]]),
+        ([0, np.pi / 4, np.pi, 0, np.pi / 4, 0], [[0, 0, 1, 0.5963], [0, 1, 0, -0.1501], [-1, 0, 0, -0.0144]]),
+    ],
+)
 def test_puma560_tool_pose_matches_corkes_published_values(q, published):
     """The Puma 560 of Corke's toolbox (our built-in's source) at its named poses, against the printed values."""
-    np.testing.assert_allclose(dv.fk(dv.load_model("puma560"), q)[:3], published, atol=0.5e-4 + 1e-12)  # half the last printed digit
+    np.testing.assert_allclose(
+        dv.fk(dv.load_model("puma560"), q)[:3], published, atol=0.5e-4 + 1e-12
+    )  # half the last printed digit
 
 
 def test_flange_is_dh_frame_n_and_tools_are_given_in_it(rng):

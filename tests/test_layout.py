@@ -4,15 +4,30 @@ import re
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-SOURCES = [p for p in ROOT.rglob("*") if p.suffix in (".py", ".rs", ".md") and "target" not in p.parts and ".git" not in p.parts]
+SOURCES = [
+    p
+    for p in ROOT.rglob("*")
+    if p.suffix in (".py", ".rs", ".md") and "target" not in p.parts and ".git" not in p.parts
+]
 
 # the factor orders of DH, MDH and ED-H links as docs/conventions.md writes them
-FACTOR_ORDERS = [r"Rz\(theta ?\+ ?q\) Tz\(d\)", r"Tz\(d\) Tx\(a\) Rx\(alpha\)", r"Rx\(alpha\) Tx\(a\) Rz\(theta", r"Rx\(alpha\) Trans\(a, b, c\)",
-                 r"Rx\(alpha\) Tx\(a\) Ty\(b\) Tz\(c\)", r"Rx\(alpha_\{i-1\}\) Tx\(a_\{i-1\}\)"]
+FACTOR_ORDERS = [
+    r"Rz\(theta ?\+ ?q\) Tz\(d\)",
+    r"Tz\(d\) Tx\(a\) Rx\(alpha\)",
+    r"Rx\(alpha\) Tx\(a\) Rz\(theta",
+    r"Rx\(alpha\) Trans\(a, b, c\)",
+    r"Rx\(alpha\) Tx\(a\) Ty\(b\) Tz\(c\)",
+    r"Rx\(alpha_\{i-1\}\) Tx\(a_\{i-1\}\)",
+]
 
 
 def test_factor_orders_are_written_in_the_core_and_the_docs_only():
-    found = {str(p.relative_to(ROOT)) for p in SOURCES for pat in FACTOR_ORDERS if re.search(pat, p.read_text(errors="ignore"))}
+    found = {
+        str(p.relative_to(ROOT))
+        for p in SOURCES
+        for pat in FACTOR_ORDERS
+        if re.search(pat, p.read_text(errors="ignore"))
+    }
     assert found == {"crates/denavit-core/src/convention.rs", "docs/conventions.md"}, found
 
 
@@ -71,6 +86,9 @@ def test_the_cores_modules_are_layered_without_cycles():
 
 def test_no_rust_source_file_is_over_800_lines():
     """Files split by concern (issue 35): none longer than 800 lines."""
-    long = {str(p.relative_to(ROOT)): n for p in (ROOT / "crates").rglob("*.rs") if "target" not in p.parts
-            and (n := len(p.read_text().splitlines())) > 800}
+    long = {
+        str(p.relative_to(ROOT)): n
+        for p in (ROOT / "crates").rglob("*.rs")
+        if "target" not in p.parts and (n := len(p.read_text().splitlines())) > 800
+    }
     assert not long, long

@@ -58,7 +58,10 @@ def test_auto_picks_offsets_when_the_links_are_nominal_and_predicts_as_well_as_t
     res = cal.calibrate(meas, kr5, tool=TOOL)
     assert res.model_choice.chosen == "offsets", res.model_choice.line()
     assert {c.name for c in res.model_choice.candidates} >= {"base-tool", "offsets", "full", "full-prior"}
-    err = {m: held_out(cal.calibrate(meas, kr5, tool=TOOL, model=m), truth, test) for m in ("base-tool", "offsets", "full", "full-prior")}
+    err = {
+        m: held_out(cal.calibrate(meas, kr5, tool=TOOL, model=m), truth, test)
+        for m in ("base-tool", "offsets", "full", "full-prior")
+    }
     assert held_out(res, truth, test) <= 1.05 * min(err.values()), (held_out(res, truth, test), err)
     assert err["full"] > err["offsets"], err  # the choice matters: the full fit predicts worse
 
@@ -71,7 +74,10 @@ def test_auto_frees_the_links_when_they_are_off(kr5):
     test = poses(kr5, 150, 8, half_deg=60)
     res = cal.calibrate(meas, kr5, tool=TOOL)
     assert res.model_choice.chosen in FULL_FAMILY, res.model_choice.line()
-    err = {m: held_out(cal.calibrate(meas, kr5, tool=TOOL, model=m), truth, test) for m in ("base-tool", "offsets", "full", "full-prior")}
+    err = {
+        m: held_out(cal.calibrate(meas, kr5, tool=TOOL, model=m), truth, test)
+        for m in ("base-tool", "offsets", "full", "full-prior")
+    }
     mine = held_out(res, truth, test)
     assert mine <= 1.05 * min(err.values()), (mine, err)
     assert mine < 0.3 * err["offsets"], (mine, err)
@@ -98,7 +104,9 @@ def test_priors_keep_a_barely_determined_last_link_near_nominal(kr5):
     assert held and any(n in held for n in ("alpha_5", "a_5", "b_5", "offset_5"))
     assert any("beyond their prior" in n and held[0] in n for n in res.notes), res.notes
     est = np.isfinite(res.sigma) & np.isfinite(width)
-    assert np.all(res.sigma[est] <= width[est] * (1 + 1e-9)), [(pz.names[k], res.sigma[k], width[k]) for k in np.flatnonzero(est)]
+    assert np.all(res.sigma[est] <= width[est] * (1 + 1e-9)), [
+        (pz.names[k], res.sigma[k], width[k]) for k in np.flatnonzero(est)
+    ]
     doc = cal.to_json(res)
     row = next(r for r in doc["parameters"] if r["name"] == "a_5")
     assert row["prior_sigma"] == pytest.approx(1e-3)
@@ -114,6 +122,7 @@ def test_hat_matrix_leave_one_out_equals_explicit_refits():
     J = rng.normal(size=(n * k, p))
     y = J @ rng.normal(size=p) + 0.1 * rng.normal(size=n * k)
     for P in (None, np.diag(rng.uniform(0.5, 2.0, p))):
+
         def fit(rows, P=P):
             A = J[rows] if P is None else np.vstack([J[rows], P])
             b = np.concatenate([y[rows], np.zeros(0 if P is None else p)])
@@ -165,7 +174,20 @@ def test_the_model_chosen_line_in_the_cli_json_and_repr(kr5, tmp_path):
         assert c["name"] in lines[0] and c["cv_rms_m"] > 0
     res = cal.calibrate(read_measurements(f), kr5, tool=TOOL)
     assert "leave-one-out rms" in repr(res) and res.model_choice.chosen in repr(res)
-    p = run_cli("calibrate", f, "--nominal", "kr5", "--tool", "50,30,100", "--holdout", "0", "--model", "full", "--prior", "length=2mm, angle=0.05deg")
+    p = run_cli(
+        "calibrate",
+        f,
+        "--nominal",
+        "kr5",
+        "--tool",
+        "50,30,100",
+        "--holdout",
+        "0",
+        "--model",
+        "full",
+        "--prior",
+        "length=2mm, angle=0.05deg",
+    )
     assert "model full as asked" in p.stdout
     p = run_cli("calibrate", f, "--nominal", "kr5", "--prior", "length=2deg", ok=False)
     assert p.returncode == 2 and "length is a length" in p.stderr.strip().splitlines()[-1]
@@ -176,10 +198,14 @@ def test_prior_grammar_and_python_forms(kr5):
     from denavit.calibration.priors import DEFAULT_WIDTHS, as_prior, parse_prior
 
     pr = parse_prior("length=2mm, angle=0.05deg, offset=30arcsec, scale=50ppm, a_5=3")
-    assert pr.widths == pytest.approx({"length": 2e-3, "angle": math.radians(0.05), "offset": math.radians(30 / 3600), "scale": 5e-5})
+    assert pr.widths == pytest.approx(
+        {"length": 2e-3, "angle": math.radians(0.05), "offset": math.radians(30 / 3600), "scale": 5e-5}
+    )
     pz = cal.parametrize(kr5, "edh", tool=TOOL)
     s = pr.sigma(pz)
-    assert s[pz.index("a_5")] == pytest.approx(3e-3) and s[pz.index("a_4")] == 2e-3  # a bare number in --length (mm) and np.isinf(s[pz.index("base_tx")]) and np.isinf(s[pz.index("tool_z")])
+    assert (
+        s[pz.index("a_5")] == pytest.approx(3e-3) and s[pz.index("a_4")] == 2e-3
+    )  # a bare number in --length (mm) and np.isinf(s[pz.index("base_tx")]) and np.isinf(s[pz.index("tool_z")])
     assert parse_prior("none") is None and as_prior(False) is None
     assert as_prior({"length": 5e-4}).widths["angle"] == DEFAULT_WIDTHS["angle"]
     with pytest.raises(dv.DenavitError, match="matches no parameter"):

@@ -91,10 +91,16 @@ def test_without_a_nest_the_tool_frame_is_the_targets_frame(kr5):
     x = (P[1] - P[0]) / np.linalg.norm(P[1] - P[0])
     z = np.cross(x, P[2] - P[0])
     z /= np.linalg.norm(z)
-    assert res.tool_orientation == "targets" and rotation_chi2(res, np.column_stack([x, np.cross(z, x), z])) < CHI2_99[3]
+    assert (
+        res.tool_orientation == "targets" and rotation_chi2(res, np.column_stack([x, np.cross(z, x), z])) < CHI2_99[3]
+    )
     assert any("no nest declared" in n for n in res.notes)
     two = dv.identify(sw.merge_targets(recs[:2]), nominal=kr5)
-    assert two.tool_orientation == "nominal" and two.tool_rotation_cov is None and any("two targets" in n for n in two.notes)
+    assert (
+        two.tool_orientation == "nominal"
+        and two.tool_rotation_cov is None
+        and any("two targets" in n for n in two.notes)
+    )
 
 
 def test_6dof_poses_identify_the_axes_and_the_tool_orientation(kr5):
@@ -124,7 +130,9 @@ def test_the_orientation_noise_is_estimated_or_declared(kr5):
     ident = importlib.import_module("denavit.identification.prepare")
     from denavit.fitting import joint
 
-    s = sw.simulate(kr5.model(), home=HOME, ranges=RANGES, points_per_sweep=25, noise=2e-5, poses=True, noise_rot=3e-4, seed=5)
+    s = sw.simulate(
+        kr5.model(), home=HOME, ranges=RANGES, points_per_sweep=25, noise=2e-5, poses=True, noise_rot=3e-4, seed=5
+    )
     fits = ident._per_sweep(s, "global", "linear", None, lambda _m: None)
     starts = [(f.point, f.direction) for f in fits]
     homes, R0 = joint.start_homes(s, starts)
@@ -134,7 +142,11 @@ def test_the_orientation_noise_is_estimated_or_declared(kr5):
         return r, math.sqrt(np.trace(r["cov_all"][-3:, -3:]))
 
     (est, s_est), (true, s_true), (small, s_small) = fit(), fit(rotation_sigma=3e-4), fit(rotation_sigma=1e-5)
-    assert est["rotation_sigma"] == pytest.approx(3e-4, rel=0.1) and true["rotation_sigma"] == 3e-4 and small["rotation_sigma"] == 1e-5
+    assert (
+        est["rotation_sigma"] == pytest.approx(3e-4, rel=0.1)
+        and true["rotation_sigma"] == 3e-4
+        and small["rotation_sigma"] == 1e-5
+    )
     assert s_true == pytest.approx(s_est, rel=0.2) and s_small > 0.5 * s_est
 
 
@@ -147,7 +159,18 @@ def test_the_joint_fit_of_several_targets_is_the_same_a_chunk_at_a_time(kr5, mon
     ident = importlib.import_module("denavit.identification.prepare")
     from denavit.fitting import joint
 
-    s = sw.simulate(kr5.model(), home=HOME, ranges=RANGES, points_per_sweep=1500, noise=2e-5, noise_q=2e-5, targets=NEST[:3], poses=True, noise_rot=1e-4, seed=4)
+    s = sw.simulate(
+        kr5.model(),
+        home=HOME,
+        ranges=RANGES,
+        points_per_sweep=1500,
+        noise=2e-5,
+        noise_q=2e-5,
+        targets=NEST[:3],
+        poses=True,
+        noise_rot=1e-4,
+        seed=4,
+    )
     dqs = ident._motions(s, [])
     starts = [(f.point, f.direction) for f in ident._per_sweep(s, "global", "linear", None, lambda _m: None)]
     homes, R0 = joint.start_homes(s, starts)
@@ -161,7 +184,10 @@ def test_the_joint_fit_of_several_targets_is_the_same_a_chunk_at_a_time(kr5, mon
     # (the covariance entry by entry in units of its row's and column's sigmas: a cross term of round-off size, 1e-7 of
     # the sigmas' product, has no relative precision of its own)
     a, c = whole["cov_all"], parts["cov_all"]
-    assert np.allclose(parts["points"], whole["points"], rtol=0, atol=1e-12) and np.max(np.abs(c - a) / np.sqrt(np.outer(np.diag(a), np.diag(a)))) < 1e-8
+    assert (
+        np.allclose(parts["points"], whole["points"], rtol=0, atol=1e-12)
+        and np.max(np.abs(c - a) / np.sqrt(np.outer(np.diag(a), np.diag(a)))) < 1e-8
+    )
     assert whole["components"] == 12 and peak / (6 * 1500 * 12) < 400
 
 
@@ -169,7 +195,17 @@ def test_sweep_files_carry_targets_nest_and_orientations(tmp_path):
     """The long-form CSV writes further targets as x2, y2, z2, ..., the nest as a '# nest:' line and orientations as
     a unit quaternion per row; reading it back gives the same targets, nest and rotations."""
     m = dv.load_model("kr5")
-    s = sw.simulate(m, home=HOME, ranges=RANGES, points_per_sweep=6, noise=2e-5, targets=NEST[:3], poses=True, noise_rot=1e-4, seed=1)
+    s = sw.simulate(
+        m,
+        home=HOME,
+        ranges=RANGES,
+        points_per_sweep=6,
+        noise=2e-5,
+        targets=NEST[:3],
+        poses=True,
+        noise_rot=1e-4,
+        seed=1,
+    )
     f = tmp_path / "s.csv"
     f.write_text(swio.to_long_csv(s, "mm", "deg"))
     text = f.read_text()
@@ -181,29 +217,57 @@ def test_sweep_files_carry_targets_nest_and_orientations(tmp_path):
         np.testing.assert_allclose(b.targets, a.targets, rtol=0, atol=1e-15)
         np.testing.assert_allclose(b.rotations, a.rotations, rtol=0, atol=1e-14)
     one = back.target(1)
-    assert one.n_targets == 1 and not one.has_rotations and np.array_equal(one.sweeps[0].points, back.sweeps[0].targets[:, 1])
+    assert (
+        one.n_targets == 1
+        and not one.has_rotations
+        and np.array_equal(one.sweeps[0].points, back.sweeps[0].targets[:, 1])
+    )
 
 
-@pytest.mark.parametrize(("text", "match"), [
-    ("# nest: 50,30,100; -40,60,80\njoint,q1,x,y,z,x2,y2,z2,x3,y3,z3\n", r"b\.csv:1: nest: expected 3 points"),
-    ("joint,q1,x,y,z,qw,qx,qy,qz\n1,0,1,2,3,1,0,0,0\n1,1,1,2,3,0.9,0,0,0\n", r"b\.csv:4: quaternion norm 0\.9: expected a unit quaternion"),
-    ("joint,q1,x,y,z,x2,y2\n", r"missing z2"),
-])
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("# nest: 50,30,100; -40,60,80\njoint,q1,x,y,z,x2,y2,z2,x3,y3,z3\n", r"b\.csv:1: nest: expected 3 points"),
+        (
+            "joint,q1,x,y,z,qw,qx,qy,qz\n1,0,1,2,3,1,0,0,0\n1,1,1,2,3,0.9,0,0,0\n",
+            r"b\.csv:4: quaternion norm 0\.9: expected a unit quaternion",
+        ),
+        ("joint,q1,x,y,z,x2,y2\n", r"missing z2"),
+    ],
+)
 def test_bad_target_and_orientation_columns_are_one_line_errors(tmp_path, text, match):
     f = tmp_path / "b.csv"
-    f.write_text("# units: length=mm angle=deg\n" + text if not text.startswith("#") else text.replace("\n", "\n# units: length=mm angle=deg\n", 1))
+    f.write_text(
+        "# units: length=mm angle=deg\n" + text
+        if not text.startswith("#")
+        else text.replace("\n", "\n# units: length=mm angle=deg\n", 1)
+    )
     with pytest.raises(dv.DenavitError, match=match):
         swio.read_long_csv(f)
 
 
 def _same_sweeps(a, b):
     """Two sweep sets hold the same doubles (orientations: the rotations of the same quaternions)."""
-    assert (a.n_joints, list(a.kinds), a.units, a.n_targets, a.has_rotations) == (b.n_joints, list(b.kinds), b.units, b.n_targets, b.has_rotations)
-    assert np.array_equal(a.home, b.home) and (a.nest is None) == (b.nest is None) and (a.nest is None or np.array_equal(a.nest, b.nest))
+    assert (a.n_joints, list(a.kinds), a.units, a.n_targets, a.has_rotations) == (
+        b.n_joints,
+        list(b.kinds),
+        b.units,
+        b.n_targets,
+        b.has_rotations,
+    )
+    assert (
+        np.array_equal(a.home, b.home)
+        and (a.nest is None) == (b.nest is None)
+        and (a.nest is None or np.array_equal(a.nest, b.nest))
+    )
     for x, y in zip(a.sweeps, b.sweeps, strict=True):
         assert x.joint == y.joint and np.array_equal(x.points, y.points) and np.array_equal(x.q, y.q)
-        assert (x.targets is None) == (y.targets is None) and (x.targets is None or np.array_equal(x.targets, y.targets))
-        assert (x.rotations is None) == (y.rotations is None) and (x.rotations is None or np.allclose(x.rotations, y.rotations, rtol=0, atol=1e-15))
+        assert (x.targets is None) == (y.targets is None) and (
+            x.targets is None or np.array_equal(x.targets, y.targets)
+        )
+        assert (x.rotations is None) == (y.rotations is None) and (
+            x.rotations is None or np.allclose(x.rotations, y.rotations, rtol=0, atol=1e-15)
+        )
 
 
 @pytest.mark.parametrize(("targets", "poses"), [(3, True), (2, False), (1, True)])
@@ -213,13 +277,25 @@ def test_sweep_json_carries_what_the_csv_carries(tmp_path, targets, poses):
     set (the same doubles; the rotations to 1e-15, a quaternion computed again from its matrix), and one target of
     either file is the same set."""
     m = dv.load_model("kr5")
-    s = sw.simulate(m, home=HOME, ranges=RANGES, points_per_sweep=6, noise=2e-5, targets=NEST[:targets] if targets > 1 else None, poses=poses, noise_rot=1e-4, seed=1)
+    s = sw.simulate(
+        m,
+        home=HOME,
+        ranges=RANGES,
+        points_per_sweep=6,
+        noise=2e-5,
+        targets=NEST[:targets] if targets > 1 else None,
+        poses=poses,
+        noise_rot=1e-4,
+        seed=1,
+    )
     c, j = tmp_path / "s.csv", tmp_path / "s.json"
     c.write_text(swio.to_long_csv(s, "mm", "deg"))
     from_csv = swio.read_long_csv(c)
     doc = swio.to_json(from_csv, "mm", "deg")
     j.write_text(json.dumps(doc))
-    assert ("nest" in doc) == (targets > 1) and all(("targets" in d) == (targets > 1) and ("quaternions" in d) == poses for d in doc["sweeps"])
+    assert ("nest" in doc) == (targets > 1) and all(
+        ("targets" in d) == (targets > 1) and ("quaternions" in d) == poses for d in doc["sweeps"]
+    )
     from_json = swio.read_json(j)
     _same_sweeps(from_json, from_csv)
     c2 = tmp_path / "s2.csv"
@@ -230,7 +306,9 @@ def test_sweep_json_carries_what_the_csv_carries(tmp_path, targets, poses):
 
 
 def _bad_sweeps_doc() -> dict:
-    s = sw.simulate(dv.load_model("kr5"), home=HOME, ranges=RANGES, points_per_sweep=6, targets=NEST[:3], poses=True, seed=1)
+    s = sw.simulate(
+        dv.load_model("kr5"), home=HOME, ranges=RANGES, points_per_sweep=6, targets=NEST[:3], poses=True, seed=1
+    )
     return swio.to_json(s, "mm", "deg")
 
 
@@ -243,22 +321,58 @@ def _edit(doc, k, key, value):
     return out
 
 
-@pytest.mark.parametrize(("change", "match"), [
-    (lambda d: _edit(d, 0, "points", [[1, 2, 3]] * 6), r"s\.json: sweeps\[0\]: expected 'points' \(one target per pose\) or 'targets' .*got both$"),
-    (lambda d: _edit(d, 0, "targets", None), r"s\.json: sweeps\[0\]: expected 'points' .*got neither$"),
-    (lambda d: _edit(d, 2, "targets", [t[:2] for t in d["sweeps"][2]["targets"]]), r"s\.json: sweeps\[2\]\.targets: 2 target\(s\) per pose, but sweeps\[0\] has 3: expected the same targets"),
-    (lambda d: _edit(d, 1, "targets", [t[:2] if i == 3 else t for i, t in enumerate(d["sweeps"][1]["targets"])]),
-     r"s\.json: sweeps\[1\]\.targets\[3\]: rows of different lengths \(2 here, 3 in the first row\): expected a rectangular array$"),
-    (lambda d: _edit(d, 1, "targets", [[[1e300, 0, 0]] * 3 if i == 4 else t for i, t in enumerate(d["sweeps"][1]["targets"])]),
-     r"s\.json: sweeps\[1\]\.targets\[4\]\[0\]\[0\]: a coordinate of 1e\+297 m is beyond"),
-    (lambda d: _edit(d, 3, "quaternions", None), r"s\.json: sweeps\[3\]: sweeps\[0\] has 'quaternions', sweeps\[3\] has none: expected 6-DoF poses in every sweep or in none$"),
-    (lambda d: _edit(d, 1, "quaternions", [[0.9, 0, 0, 0]] * 6), r"s\.json: sweeps\[1\]\.quaternions\[0\]: quaternion norm 0\.9: expected a unit quaternion \(qw, qx, qy, qz\)$"),
-    (lambda d: _edit(d, 1, "quaternions", [[1, 0, 0]] * 6), r"s\.json: sweeps\[1\]\.quaternions\[0\]: expected a list of 4 numbers, got \[1, 0, 0\]$"),
-    (lambda d: _edit(d, 1, "quaternions", [[1, 0, 0, 0]] * 5), r"s\.json: sweeps\[1\]: quaternions must have one row per point: expected 6 rows, got 5$"),
-    (lambda d: _edit(d, 1, "quaternion", [[1, 0, 0, 0]] * 6), r"s\.json: sweeps\[1\]: unknown key\(s\) 'quaternion': expected joint, points, targets, q, quaternions$"),
-    (lambda d: {**d, "nest": d["nest"][:2]}, r"s\.json: nest: expected 3 points \[x, y, z\] \(one per target of the sweeps\), got 2$"),
-    (lambda d: {**d, "nest": [[1, 2, "a"]] * 3}, r"s\.json: nest\[0\]\[2\]: expected a number, got 'a' \(a string\)$"),
-])
+@pytest.mark.parametrize(
+    ("change", "match"),
+    [
+        (
+            lambda d: _edit(d, 0, "points", [[1, 2, 3]] * 6),
+            r"s\.json: sweeps\[0\]: expected 'points' \(one target per pose\) or 'targets' .*got both$",
+        ),
+        (lambda d: _edit(d, 0, "targets", None), r"s\.json: sweeps\[0\]: expected 'points' .*got neither$"),
+        (
+            lambda d: _edit(d, 2, "targets", [t[:2] for t in d["sweeps"][2]["targets"]]),
+            r"s\.json: sweeps\[2\]\.targets: 2 target\(s\) per pose, but sweeps\[0\] has 3: expected the same targets",
+        ),
+        (
+            lambda d: _edit(d, 1, "targets", [t[:2] if i == 3 else t for i, t in enumerate(d["sweeps"][1]["targets"])]),
+            r"s\.json: sweeps\[1\]\.targets\[3\]: rows of different lengths \(2 here, 3 in the first row\): expected a rectangular array$",
+        ),
+        (
+            lambda d: _edit(
+                d, 1, "targets", [[[1e300, 0, 0]] * 3 if i == 4 else t for i, t in enumerate(d["sweeps"][1]["targets"])]
+            ),
+            r"s\.json: sweeps\[1\]\.targets\[4\]\[0\]\[0\]: a coordinate of 1e\+297 m is beyond",
+        ),
+        (
+            lambda d: _edit(d, 3, "quaternions", None),
+            r"s\.json: sweeps\[3\]: sweeps\[0\] has 'quaternions', sweeps\[3\] has none: expected 6-DoF poses in every sweep or in none$",
+        ),
+        (
+            lambda d: _edit(d, 1, "quaternions", [[0.9, 0, 0, 0]] * 6),
+            r"s\.json: sweeps\[1\]\.quaternions\[0\]: quaternion norm 0\.9: expected a unit quaternion \(qw, qx, qy, qz\)$",
+        ),
+        (
+            lambda d: _edit(d, 1, "quaternions", [[1, 0, 0]] * 6),
+            r"s\.json: sweeps\[1\]\.quaternions\[0\]: expected a list of 4 numbers, got \[1, 0, 0\]$",
+        ),
+        (
+            lambda d: _edit(d, 1, "quaternions", [[1, 0, 0, 0]] * 5),
+            r"s\.json: sweeps\[1\]: quaternions must have one row per point: expected 6 rows, got 5$",
+        ),
+        (
+            lambda d: _edit(d, 1, "quaternion", [[1, 0, 0, 0]] * 6),
+            r"s\.json: sweeps\[1\]: unknown key\(s\) 'quaternion': expected joint, points, targets, q, quaternions$",
+        ),
+        (
+            lambda d: {**d, "nest": d["nest"][:2]},
+            r"s\.json: nest: expected 3 points \[x, y, z\] \(one per target of the sweeps\), got 2$",
+        ),
+        (
+            lambda d: {**d, "nest": [[1, 2, "a"]] * 3},
+            r"s\.json: nest\[0\]\[2\]: expected a number, got 'a' \(a string\)$",
+        ),
+    ],
+)
 def test_bad_targets_nest_and_quaternions_in_sweep_json_are_one_line_errors(tmp_path, change, match):
     f = tmp_path / "s.json"
     doc = _bad_sweeps_doc()
@@ -273,20 +387,41 @@ def test_cli_simulates_and_identifies_several_targets_and_poses(tmp_path):
     """`denavit simulate --targets ... / --poses` writes such files; `denavit identify` fits every target at once and
     prints and writes the tool frame's orientation with its sigma; `--target 2` fits that target alone."""
     f, p = tmp_path / "t.csv", tmp_path / "p.csv"
-    run("simulate", "kr5", "-o", f, "--targets", "50,30,100; -40,60,80; 30,-70,130", "--noise-q", "0.01", "--points", "20")
+    run(
+        "simulate",
+        "kr5",
+        "-o",
+        f,
+        "--targets",
+        "50,30,100; -40,60,80; 30,-70,130",
+        "--noise-q",
+        "0.01",
+        "--points",
+        "20",
+    )
     out = run("identify", f, "--nominal", "kr5", "--json", tmp_path / "t.json", columns=250).stdout
     doc = json.loads((tmp_path / "t.json").read_text())
-    assert "Tool frame at home" in out and doc["tool_frame"]["orientation_from"] == "nest" and len(doc["targets_home_m"]) == 3
+    assert (
+        "Tool frame at home" in out
+        and doc["tool_frame"]["orientation_from"] == "nest"
+        and len(doc["targets_home_m"]) == 3
+    )
     assert 0 < np.degrees(doc["tool_frame"]["sigma_rad"]) < 0.01
     R = np.array(doc["tool_frame"]["R_world_tool"])
-    assert np.degrees(np.linalg.norm(matrix_rotvec(R @ flange_at_home(dv.load_model("kr5")).T))) < 5 * np.degrees(doc["tool_frame"]["sigma_rad"])
+    assert np.degrees(np.linalg.norm(matrix_rotvec(R @ flange_at_home(dv.load_model("kr5")).T))) < 5 * np.degrees(
+        doc["tool_frame"]["sigma_rad"]
+    )
     run("identify", f, "--nominal", "kr5", "--target", "2", "--json", tmp_path / "t2.json")
     assert json.loads((tmp_path / "t2.json").read_text())["tool_frame"]["orientation_from"] == "nominal"
     run("simulate", "kr5", "-o", p, "--poses", "--points", "20")
     run("identify", p, "--nominal", "kr5", "--json", tmp_path / "p.json")
     assert json.loads((tmp_path / "p.json").read_text())["tool_frame"]["orientation_from"] == "poses"
     bad = run("identify", f, "--nominal", "kr5", "--target", "4", ok=False)
-    assert bad.returncode == 2 and "--target 4" in bad.stderr + bad.stdout and "3 target(s) per pose" in bad.stderr + bad.stdout
+    assert (
+        bad.returncode == 2
+        and "--target 4" in bad.stderr + bad.stdout
+        and "3 target(s) per pose" in bad.stderr + bad.stdout
+    )
 
 
 def test_recordings_with_several_targets_or_poses_reach_the_shared_fit(kr5):
@@ -300,7 +435,10 @@ def test_recordings_with_several_targets_or_poses_reach_the_shared_fit(kr5):
 
     cols = "t,q1..q6,x1,y1,z1,x2,y2,z2,x3,y3,z3"
     s = dv.read_sweeps(DATA / "columns.txt", nominal=kr5, format="columns", columns=cols)
-    assert s.n_targets == 3 and dv.read_sweeps(DATA / "columns.txt", nominal=kr5, format="columns", columns=cols, target=1).n_targets == 1
+    assert (
+        s.n_targets == 3
+        and dv.read_sweeps(DATA / "columns.txt", nominal=kr5, format="columns", columns=cols, target=1).n_targets == 1
+    )
     res = dv.identify(s, nominal=kr5)
     T = dv.fk(kr5.model().with_tool(np.eye(4)), REC_HOME)
     np.testing.assert_allclose(res.target_points, REC_NEST @ T[:3, :3].T + T[:3, 3], atol=1e-4)

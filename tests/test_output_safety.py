@@ -51,7 +51,11 @@ def test_another_users_file_keeps_its_owner_and_mode(tmp_path):
     # through the command line as well
     assert cli("convert", "kr5", "--to", "mdh", "-o", f) == (0, None)
     st = f.stat()
-    assert (st.st_uid, st.st_gid, stat.S_IMODE(st.st_mode)) == (65534, 65534, 0o640) and 'convention = "mdh"' in f.read_text()
+    assert (st.st_uid, st.st_gid, stat.S_IMODE(st.st_mode)) == (
+        65534,
+        65534,
+        0o640,
+    ) and 'convention = "mdh"' in f.read_text()
     assert debris(tmp_path) == []
 
 
@@ -68,7 +72,9 @@ def test_an_owner_that_cannot_be_kept_is_refused_not_taken_over(tmp_path, monkey
 
     monkeypatch.setattr(output.os, "fchown", refuse)
     real_target = output._target
-    monkeypatch.setattr(output, "_target", lambda p: (lambda t: (t[0], t[1], fake if t[2] is not None else None))(real_target(p)))
+    monkeypatch.setattr(
+        output, "_target", lambda p: (lambda t: (t[0], t[1], fake if t[2] is not None else None))(real_target(p))
+    )
     with pytest.raises(dv.DenavitError, match=r"theirs.toml: cannot keep its owner \(uid 4242, gid 4242\)") as e:
         output.write_text(f, "new")
     assert "\n" not in str(e.value) and f.read_text() == "old" and debris(tmp_path) == []
@@ -127,7 +133,16 @@ def test_every_command_that_writes_takes_force_and_only_those():
         writes = bool(opts & (OUTPUT_OPTIONS | {"--plot"}))
         assert ("--force" in opts) == writes, name
         forced |= {name} if writes else set()
-    assert {"convert", "simulate", "identify", "calibrate", "compensate", "show", "export", "fk"} <= forced and "inspect" not in forced
+    assert {
+        "convert",
+        "simulate",
+        "identify",
+        "calibrate",
+        "compensate",
+        "show",
+        "export",
+        "fk",
+    } <= forced and "inspect" not in forced
 
 
 # -- hard links ----------------------------------------------------------------------------------------------
@@ -209,7 +224,11 @@ def test_a_temporary_file_left_by_sigkill_is_cleaned_by_the_next_write(tmp_path)
     # not removed: a live writer's (this process), a fresh one of a dead writer, other names, another output's
     live = tmp_path / f".big.csv.dv{os.getpid()}.abcdefgh.csv"
     fresh = tmp_path / f".big.csv.dv{p.pid}.freshone.csv"
-    others = [tmp_path / ".big.csv.backup", tmp_path / f".big.csv.dv{p.pid}.short.csv", tmp_path / f".other.csv.dv{p.pid}.abcdefgh.csv"]
+    others = [
+        tmp_path / ".big.csv.backup",
+        tmp_path / f".big.csv.dv{p.pid}.short.csv",
+        tmp_path / f".other.csv.dv{p.pid}.abcdefgh.csv",
+    ]
     for f in (live, fresh, *others):
         f.write_text("keep")
         if f is not fresh:
@@ -233,6 +252,7 @@ def test_the_signal_handlers_are_installed_during_a_write_only():
 def test_a_programs_own_sigterm_handler_is_called_and_the_write_left_clean(tmp_path):
     """A program that handles SIGTERM itself keeps its handler: called during a write, its exception ends the
     write (old file kept, no debris), and it is in place again after."""
+
     class Stop(Exception):
         pass
 
@@ -255,10 +275,18 @@ def test_a_programs_own_sigterm_handler_is_called_and_the_write_left_clean(tmp_p
 # -- standard output -----------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("args", [("show", "kr5"), ("fk", "kr5", "--json", "-"), ("convert", "kr5", "--to", "mdh", "-o", "-")])
+@pytest.mark.parametrize(
+    "args", [("show", "kr5"), ("fk", "kr5", "--json", "-"), ("convert", "kr5", "--to", "mdh", "-o", "-")]
+)
 def test_a_closed_standard_output_is_exit_2(args):
-    p = subprocess.run([sys.executable, "-m", "denavit.cli", *args], stdout=None, stderr=subprocess.PIPE, text=True, env=env(),
-                       preexec_fn=lambda: os.close(1))  # noqa: PLW1509 (the child's fd 1 closed: `>&-`)
+    p = subprocess.run(
+        [sys.executable, "-m", "denavit.cli", *args],
+        stdout=None,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env(),
+        preexec_fn=lambda: os.close(1),
+    )  # noqa: PLW1509 (the child's fd 1 closed: `>&-`)
     line = error_line(p.stderr)
     assert p.returncode == 2 and line is not None and "standard output" in line and "closed" in line, p.stderr
 
@@ -275,11 +303,16 @@ def test_writing_to_a_closed_standard_output_in_python_is_an_error(monkeypatch):
 def test_a_symlink_into_proc_is_named_as_such(tmp_path):
     link = tmp_path / "status"
     link.symlink_to("/proc/self/status")
-    with pytest.raises(dv.DenavitError, match=r"status: cannot write the output: /proc/\d+/status is a file of the kernel's proc filesystem, not a regular file"):
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"status: cannot write the output: /proc/\d+/status is a file of the kernel's proc filesystem, not a regular file",
+    ):
         output.write_text(link, "x")
     link2 = tmp_path / "new"
     link2.symlink_to("/proc/self/no_such_file")
-    with pytest.raises(dv.DenavitError, match=r"new: cannot write: its directory /proc/\d+ is on the kernel's proc filesystem") as e:
+    with pytest.raises(
+        dv.DenavitError, match=r"new: cannot write: its directory /proc/\d+ is on the kernel's proc filesystem"
+    ) as e:
         output.write_text(link2, "x")
     assert "does not exist" not in str(e.value)
     code, err = cli("convert", "kr5", "--to", "mdh", "-o", link)

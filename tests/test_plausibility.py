@@ -33,7 +33,12 @@ def rebuilt(s: sw.SweepSet, f) -> sw.SweepSet:
 def exchanged(s: sw.SweepSet, a: int, b: int) -> sw.SweepSet:
     """The sweeps of joints a and b exchanged (their files swapped): each keeps its label, the data is the other's."""
     other = {a: s.sweep(b), b: s.sweep(a)}
-    return rebuilt(s, lambda x: sw.Sweep(x.joint, other[x.joint].points, other[x.joint].q, other[x.joint].where) if x.joint in other else x)
+    return rebuilt(
+        s,
+        lambda x: (
+            sw.Sweep(x.joint, other[x.joint].points, other[x.joint].q, other[x.joint].where) if x.joint in other else x
+        ),
+    )
 
 
 @pytest.mark.parametrize("readings", [True, False], ids=["readings", "no readings"])
@@ -45,7 +50,10 @@ def test_unaltered_recordings_pass_without_a_note(kr5, readings):
 @pytest.mark.parametrize("readings", [True, False], ids=["readings", "no readings"])
 def test_points_x1000_are_refused(kr5, readings):
     s = rebuilt(realistic(kr5, readings), lambda x: sw.Sweep(x.joint, x.points * 1000, x.q, x.where))
-    with pytest.raises(dv.DenavitError, match=r"1[0-5] of 15 pairs of axes \(\d of 5 consecutive\) differ from the nominal kr5's .*points in another unit\?.*--allow-implausible"):
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"1[0-5] of 15 pairs of axes \(\d of 5 consecutive\) differ from the nominal kr5's .*points in another unit\?.*--allow-implausible",
+    ):
         dv.identify(s, nominal=kr5)
 
 
@@ -53,8 +61,11 @@ def test_a_target_on_the_wrist_axes_is_named_as_the_cause(kr5):
     """The target at the flange origin lies on (next to) the axes of joints 4-6 at home: their circles are specks
     and their axes garbage; the error names those joints and the target, not "another unit? the wrong robot?"."""
     s = sw.simulate(kr5.model(), home=HOME, ranges=RANGES, points_per_sweep=12, noise=2e-5, tool_point=(0.0, 0.0, 0.0))
-    with pytest.raises(dv.DenavitError, match=r"joint A6's points lie on a circle of radius 0\.0\d+ mm: the target is on or next to th(at axis|ose axes); "
-                                              r"put it off every joint's axis\)"):
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"joint A6's points lie on a circle of radius 0\.0\d+ mm: the target is on or next to th(at axis|ose axes); "
+        r"put it off every joint's axis\)",
+    ):
         dv.identify(s, nominal=kr5)
 
 
@@ -75,8 +86,11 @@ def test_j2_and_j3_exchanged_without_readings_are_named(kr5):
     pairwise check had passed them. After the best rigid fit of the axes onto the nominal's, A2 and A3 are each
     600 mm (a2) off their nominal, and within tolerance exchanged: the error names the two joints."""
     s = exchanged(realistic(kr5, False), 2, 3)
-    with pytest.raises(dv.DenavitError, match=r"match the nominal kr5's with joints A2 and A3 exchanged: in the order given A2 is 6\d\d(\.\d+)? mm .*"
-                                              r"the files of joints 2 and 3 exchanged"):
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"match the nominal kr5's with joints A2 and A3 exchanged: in the order given A2 is 6\d\d(\.\d+)? mm .*"
+        r"the files of joints 2 and 3 exchanged",
+    ):
         dv.identify(s, nominal=kr5)
     # other pairs, where a sign flip or a mirror had hidden the exchange (the wrist axes, mutually perpendicular at
     # home, keep their pairwise angles and distances exchanged too): every one of the 15 is named (checked by hand)
@@ -88,7 +102,10 @@ def test_j2_and_j3_exchanged_without_readings_are_named(kr5):
 def test_j2_and_j3_exchanged_with_readings_are_named_by_the_readings(kr5):
     """With readings the sweep labelled 2 moves joint 3's reading: that is the error (it had been 'joint readings q
     must vary', which did not say why)."""
-    with pytest.raises(dv.DenavitError, match=r"joint 2: the readings move joint 3 \(over 90.* deg\) while joint 2 moves 0: .*joints 2 and 3 exchanged"):
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"joint 2: the readings move joint 3 \(over 90.* deg\) while joint 2 moves 0: .*joints 2 and 3 exchanged",
+    ):
         dv.identify(exchanged(realistic(kr5), 2, 3), nominal=kr5)
 
 
@@ -96,8 +113,15 @@ def test_j2_and_j3_exchanged_with_readings_are_named_by_the_readings(kr5):
 def test_sweep_3_a_copy_of_sweep_2_is_refused(kr5, readings):
     s = realistic(kr5, readings)
     two = s.sweep(2)
-    copy = rebuilt(s, lambda x: sw.Sweep(3, two.points.copy(), None if two.q is None else two.q.copy(), x.where) if x.joint == 3 else x)
-    with pytest.raises(dv.DenavitError, match=r"joint 3: the sweep repeats the 40 points of .*joint 2 .*a file copied over another"):
+    copy = rebuilt(
+        s,
+        lambda x: (
+            sw.Sweep(3, two.points.copy(), None if two.q is None else two.q.copy(), x.where) if x.joint == 3 else x
+        ),
+    )
+    with pytest.raises(
+        dv.DenavitError, match=r"joint 3: the sweep repeats the 40 points of .*joint 2 .*a file copied over another"
+    ):
         dv.identify(copy, nominal=kr5)
 
 
@@ -105,14 +129,19 @@ def test_sweep_3_a_copy_of_sweep_2_is_refused(kr5, readings):
 def test_kr5_data_with_a_puma_nominal_is_refused(kr5, readings):
     """Three consecutive pairs had been noted but the fit returned (2 of 5 consecutive pairs beyond 30 deg / 0.25
     robot sizes): all 15 pairs are compared now."""
-    with pytest.raises(dv.DenavitError, match=r"of 15 pairs of axes \(\d of 5 consecutive\) differ from the nominal puma560's .*the wrong robot\?"):
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"of 15 pairs of axes \(\d of 5 consecutive\) differ from the nominal puma560's .*the wrong robot\?",
+    ):
         dv.identify(realistic(kr5, readings), nominal="puma560")
 
 
 def test_allow_implausible_keeps_the_fit_with_a_note(kr5, tmp_path):
     s = exchanged(realistic(kr5, False), 2, 3)
     res = dv.identify(s, nominal=kr5, allow_implausible=True)
-    assert [n for n in res.notes if n.startswith("implausible against the nominal kr5 (kept as asked): the axes match")], res.notes
+    assert [
+        n for n in res.notes if n.startswith("implausible against the nominal kr5 (kept as asked): the axes match")
+    ], res.notes
     res = dv.identify(realistic(kr5), nominal="puma560", allow_implausible=True)
     assert [n for n in res.notes if "kept as asked" in n and "consecutive) differ" in n], res.notes
 
@@ -120,7 +149,9 @@ def test_allow_implausible_keeps_the_fit_with_a_note(kr5, tmp_path):
 def test_a_link_30_mm_longer_is_a_note_not_an_error(kr5):
     t = kr5.table.params.copy()
     t[1, 2] += 0.03  # a2 = 630 mm
-    longer = _core.Table("dh", t, list(kr5.table.kinds), kr5.table.T_world_base, kr5.table.T_last_tool).to_model("longer")
+    longer = _core.Table("dh", t, list(kr5.table.kinds), kr5.table.T_world_base, kr5.table.T_last_tool).to_model(
+        "longer"
+    )
     res = dv.identify(recording(longer, HOME, RANGES, reading_arcsec=(30, 200), drift=2e-4, seed=9), nominal=kr5)
     notes = [n for n in res.notes if "check the joint order" in n]
     assert len(notes) == 1 and notes[0].startswith("axes A2-A3:"), res.notes
@@ -150,7 +181,10 @@ def test_an_ellipse_instead_of_a_circle_gets_a_note(kr5, readings, joint):
     names the sweep. The other sweeps, and the unaltered recording, get none."""
     res = dv.identify(ellipse(realistic(kr5, readings), joint, kr5), nominal=kr5)
     notes = [n for n in res.notes if "systematically" in n]
-    assert len(notes) == 1 and re.search(rf"row 40, joint {joint}: the points leave the fitted circle systematically, rms [0-9.]+ mm against a point-to-point noise of [0-9.]+ mm \(([0-9.]+) x\)", notes[0]), res.notes
+    assert len(notes) == 1 and re.search(
+        rf"row 40, joint {joint}: the points leave the fitted circle systematically, rms [0-9.]+ mm against a point-to-point noise of [0-9.]+ mm \(([0-9.]+) x\)",
+        notes[0],
+    ), res.notes
     assert float(re.search(r"\(([0-9.]+) x\)", notes[0]).group(1)) > 2
 
 
@@ -188,7 +222,9 @@ def test_cli_j2_and_j3_files_exchanged(kr5, tmp_path):
     d.mkdir()
     for x in s.sweeps:
         j = {2: 3, 3: 2}.get(x.joint, x.joint)
-        (d / f"j{j}.csv").write_text("# units: length=mm\nx,y,z\n" + "".join(f"{p[0]:.6f},{p[1]:.6f},{p[2]:.6f}\n" for p in x.points * 1e3))
+        (d / f"j{j}.csv").write_text(
+            "# units: length=mm\nx,y,z\n" + "".join(f"{p[0]:.6f},{p[1]:.6f},{p[2]:.6f}\n" for p in x.points * 1e3)
+        )
     home = ",".join(str(v) for v in sw.PAPER_HOME_DEG)
     p = run("identify", d, "--home", home, "--length", "mm", "--nominal", "kr5", ok=False)
     line = error_line(p.stderr)

@@ -25,7 +25,14 @@ MM = 1e-3
 @pytest.fixture(scope="module")
 def result():
     """A small simulated identification: KR5, Hayat's home and 90 degree ranges, 12 points per sweep, 20 um noise."""
-    s = sw.simulate(dv.load_model("kr5"), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=12, noise=2e-5, seed=7)
+    s = sw.simulate(
+        dv.load_model("kr5"),
+        home=np.radians(sw.PAPER_HOME_DEG),
+        ranges=np.radians(sw.PAPER_RANGES_DEG[90]),
+        points_per_sweep=12,
+        noise=2e-5,
+        seed=7,
+    )
     return dv.identify(s, nominal=dv.load_robot("kr5"))
 
 
@@ -136,7 +143,9 @@ def test_origin_paths_are_circles_about_the_moving_axis():
             r = np.linalg.norm(rel - np.outer(rel @ z, z), axis=1)
             np.testing.assert_allclose(r, r[0], atol=1e-9)
             np.testing.assert_allclose(rel @ z, (rel @ z)[0], atol=1e-9)
-            turned = np.arccos(np.clip(np.dot(rel[0] - (rel[0] @ z) * z, rel[-1] - (rel[-1] @ z) * z) / r[0] ** 2, -1, 1))
+            turned = np.arccos(
+                np.clip(np.dot(rel[0] - (rel[0] @ z) * z, rel[-1] - (rel[-1] @ z) * z) / r[0] ** 2, -1, 1)
+            )
             np.testing.assert_allclose(turned, 1.5, atol=1e-6)
 
 
@@ -151,19 +160,25 @@ def test_parameters_errorbars_are_identified_minus_nominal(result):
         scale = np.radians(1) if result.table.angle_columns[k] else MM
         drawn = np.flatnonzero(result.sigma[:, k] > 0)
         np.testing.assert_array_equal(eb.lines[0].get_xdata(), drawn + 1)
-        np.testing.assert_allclose(eb.lines[0].get_ydata() * scale, result.table.params[drawn, k] - truth[drawn, k], atol=1e-12)
+        np.testing.assert_allclose(
+            eb.lines[0].get_ydata() * scale, result.table.params[drawn, k] - truth[drawn, k], atol=1e-12
+        )
         segs = eb.lines[2][0].get_segments()  # vertical bars: +-sigma
         np.testing.assert_allclose([(s[1, 1] - s[0, 1]) / 2 * scale for s in segs], result.sigma[drawn, k], atol=1e-12)
 
 
 def test_write_figures_writes_every_figure(result, tmp_path):
     paths = rep.write_figures(result, tmp_path / "figs", dpi=60)
-    figures = ("circles", "residuals", "bounding_box", "parameters", "frames", "origin_paths") + (("accuracy",) if result.nominal is not None else ())
+    figures = ("circles", "residuals", "bounding_box", "parameters", "frames", "origin_paths") + (
+        ("accuracy",) if result.nominal is not None else ()
+    )
     assert sorted(p.name for p in paths) == sorted(f"{n}.png" for n in figures)
     for p in paths:
         with Image.open(p) as im:
             rgb = np.asarray(im.convert("RGB")).reshape(-1, 3).astype(np.int64)
-            assert im.size[0] > 300 and len(np.unique(rgb[:, 0] << 16 | rgb[:, 1] << 8 | rgb[:, 2])) > 50  # drawn, not blank
+            assert (
+                im.size[0] > 300 and len(np.unique(rgb[:, 0] << 16 | rgb[:, 1] << 8 | rgb[:, 2])) > 50
+            )  # drawn, not blank
     assert not list((tmp_path / "figs").glob(".*.tmp*"))  # no temporary file left behind
 
 
@@ -180,8 +195,10 @@ def test_missing_matplotlib_names_the_install_command(result, monkeypatch):
 
 
 def test_core_does_not_import_the_plotting_libraries():
-    code = ("import sys, denavit, denavit.cli, denavit.plotting, denavit.report, denavit.identification; "
-            "bad = [m for m in ('matplotlib', 'plotly') if m in sys.modules]; assert not bad, bad")
+    code = (
+        "import sys, denavit, denavit.cli, denavit.plotting, denavit.report, denavit.identification; "
+        "bad = [m for m in ('matplotlib', 'plotly') if m in sys.modules]; assert not bad, bad"
+    )
     subprocess.run([sys.executable, "-c", code], check=True)
 
 
@@ -193,9 +210,9 @@ def test_accuracy_figure_shows_the_nominal_error_and_the_prediction(result):
     acc = identification_accuracy(result, count=200)
     assert acc is not None and acc.nominal.shape == acc.identified.shape == (200,)
     fig = plotting.plot_accuracy(acc)
-    hist, = by_gid(fig.axes, "accuracy-histogram")
+    (hist,) = by_gid(fig.axes, "accuracy-histogram")
     assert len(hist.patches) == 2 * 39 and "nominal model: rms" in hist.get_legend().get_texts()[0].get_text()
-    amap, = by_gid(fig.axes, "accuracy-map")
+    (amap,) = by_gid(fig.axes, "accuracy-map")
     np.testing.assert_allclose(amap.collections[0].get_offsets(), acc.points[:, :2] / MM)
 
 
@@ -248,7 +265,10 @@ def test_chain_path_follows_the_link_transforms(convention):
     at = [int(np.argmin(np.linalg.norm(path - o, axis=1))) for o in F[:, :3, 3]]
     assert at == sorted(at) and all(np.linalg.norm(path[i] - o) < 1e-12 for i, o in zip(at, F[:, :3, 3], strict=True))
     cols = list(t.columns)
-    lengths = [sum(abs(t.params[i, cols.index(c)]) for c in {"dh": "da", "mdh": "ad", "edh": "abc"}[convention]) for i in range(6)]
+    lengths = [
+        sum(abs(t.params[i, cols.index(c)]) for c in {"dh": "da", "mdh": "ad", "edh": "abc"}[convention])
+        for i in range(6)
+    ]
     np.testing.assert_allclose([seg[a:b].sum() for a, b in zip(at[:-1], at[1:], strict=True)], lengths, atol=1e-12)
     straight = np.linalg.norm(np.diff(F[:, :3, 3], axis=0), axis=1)
     assert seg.sum() > straight.sum() + 1e-3  # not the straight skeleton
@@ -292,10 +312,19 @@ def near_parallel_edh():
     17's +-870 mm error bars; with the nominal they are bounded, issue 12)."""
     from dataclasses import replace
 
-    s = sw.simulate(dv.load_model("kr5"), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=12, noise=2e-5, seed=7)
+    s = sw.simulate(
+        dv.load_model("kr5"),
+        home=np.radians(sw.PAPER_HOME_DEG),
+        ranges=np.radians(sw.PAPER_RANGES_DEG[90]),
+        points_per_sweep=12,
+        noise=2e-5,
+        seed=7,
+    )
     res = dv.identify(s, nominal=dv.load_robot("kr5"), convention="edh")
     free = dv.identify(s, convention="edh")  # no nominal: the pair's x along its ill-defined common normal
-    assert free.sigma[2, 1] > 0.5 and free.sigma[1, 4] > 0.5 and free.sigma[2, 4] > 0.5 and res.sigma[2, 1] < 1e-3  # m, rad: the premise
+    assert (
+        free.sigma[2, 1] > 0.5 and free.sigma[1, 4] > 0.5 and free.sigma[2, 4] > 0.5 and res.sigma[2, 1] < 1e-3
+    )  # m, rad: the premise
     return replace(res, sigma=free.sigma)
 
 
@@ -307,11 +336,14 @@ def test_undetermined_parameters_are_not_charted(near_parallel_edh):
         limit = plotting.UNDETERMINED_ANGLE if res.table.angle_columns[k] else plotting.UNDETERMINED_LENGTH * extent
         expected = ["held" if s == 0 else "undetermined" if s > limit else "" for s in res.sigma[:, k]]
         assert rows[c].why == expected
-    assert rows["a"].why[2] == rows["theta"].why[1] == rows["theta"].why[2] == "undetermined" and rows["alpha"].why[0] == "held"
+    assert (
+        rows["a"].why[2] == rows["theta"].why[1] == rows["theta"].why[2] == "undetermined"
+        and rows["alpha"].why[0] == "held"
+    )
     fig = plotting.plot_parameters(res)
     for ax in by_gid(fig.axes, "param-.*"):
         (eb,) = ax.containers
-        r = rows[ax.get_gid()[len("param-"):]]
+        r = rows[ax.get_gid()[len("param-") :]]
         np.testing.assert_array_equal(eb.lines[0].get_xdata(), np.flatnonzero(r.shown) + 1)
         assert max(abs(np.asarray(eb.lines[0].get_ydata()))) < 1.0  # no error of hundreds of mm or deg drawn
     go = pytest.importorskip("plotly.graph_objects")
@@ -319,10 +351,17 @@ def test_undetermined_parameters_are_not_charted(near_parallel_edh):
 
     chart, caption = rep._parameter_chart(go, make_subplots, res, "mm", "deg")
     # every bar drawn is of a determined parameter (below the chart's limit, in mm / deg): none of a metre or 100 deg
-    lim = [np.degrees(plotting.UNDETERMINED_ANGLE) if res.table.angle_columns[k] else plotting.UNDETERMINED_LENGTH * extent * 1e3 for k in range(len(res.table.columns))]
+    lim = [
+        np.degrees(plotting.UNDETERMINED_ANGLE)
+        if res.table.angle_columns[k]
+        else plotting.UNDETERMINED_LENGTH * extent * 1e3
+        for k in range(len(res.table.columns))
+    ]
     assert all(max(np.abs(tr.error_y.array)) < lim[int(tr.xaxis[1:] or 1) - 1] for tr in chart.data)
     assert "A3 a (undetermined)" in caption and "A3 theta (undetermined)" in caption
-    assert all(ax.exponentformat == "power" for ax in (chart.layout[k] for k in chart.layout if k.startswith("yaxis")))  # 2×10⁻⁴, never 200µ
+    assert all(
+        ax.exponentformat == "power" for ax in (chart.layout[k] for k in chart.layout if k.startswith("yaxis"))
+    )  # 2×10⁻⁴, never 200µ
 
 
 def test_residuals_are_points_not_lines(result):
@@ -338,10 +377,16 @@ def test_frame_panels_keep_their_axis_labels_inside_the_figure():
     """Regression: the right-hand panel's "z [mm]" was cut off at the figure's edge."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-    fig = plotting.plot_frames([("MD-H", dv.load_robot("tiansui_mdh").table), ("ED-H", dv.load_robot("tiansui_edh").table)])
+    fig = plotting.plot_frames(
+        [("MD-H", dv.load_robot("tiansui_mdh").table), ("ED-H", dv.load_robot("tiansui_edh").table)]
+    )
     FigureCanvasAgg(fig).draw()
     r = fig.canvas.get_renderer()
     for ax in fig.axes:
         for label in (ax.xaxis.label, ax.yaxis.label, ax.zaxis.label):
             b = label.get_window_extent(r)
-            assert label.get_text() and b.x0 >= 0 and b.x1 <= fig.bbox.x1 and b.y0 >= 0 and b.y1 <= fig.bbox.y1, (label.get_text(), b, fig.bbox)
+            assert label.get_text() and b.x0 >= 0 and b.x1 <= fig.bbox.x1 and b.y0 >= 0 and b.y1 <= fig.bbox.y1, (
+                label.get_text(),
+                b,
+                fig.bbox,
+            )

@@ -17,14 +17,26 @@ from denavit.io.programs import abb, fanuc, kuka
 from denavit.robot import load
 
 DATA = Path(__file__).parent / "data" / "programs"
-PROGRAMS = [("kuka/kr5_demo.src", "kr5"), ("kuka/kr5_tool.src", "kr5"), ("abb/DemoKR5.mod", "kr5"), ("fanuc/demo_kr5.ls", "kr5"), ("ur/demo_ur5.script", "ur5")]
+PROGRAMS = [
+    ("kuka/kr5_demo.src", "kr5"),
+    ("kuka/kr5_tool.src", "kr5"),
+    ("abb/DemoKR5.mod", "kr5"),
+    ("fanuc/demo_kr5.ls", "kr5"),
+    ("ur/demo_ur5.script", "ur5"),
+]
 
 
 def perturbed(robot, seed=3):
     """``robot`` with 0.5 mm / 0.05 deg errors on every parameter of its table (uniform): the "true" robot."""
     t = robot.table
-    E = np.random.default_rng(seed).uniform(-1, 1, t.params.shape) * np.where(np.array(t.angle_columns), np.radians(0.05), 0.5e-3)
-    return replace(robot, table=dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool), name=f"{robot.name}_true")
+    E = np.random.default_rng(seed).uniform(-1, 1, t.params.shape) * np.where(
+        np.array(t.angle_columns), np.radians(0.05), 0.5e-3
+    )
+    return replace(
+        robot,
+        table=dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool),
+        name=f"{robot.name}_true",
+    )
 
 
 def copy_program(path: Path, to: Path) -> Path:
@@ -88,7 +100,9 @@ def test_compensation_changes_only_the_positions_and_the_true_robot_reaches_the_
         for n, m in zip(p.numbers, b.numbers, strict=True):
             dec = lambda t: len(t.split(".")[1].split("e")[0].split("E")[0]) if "." in t else 0  # noqa: E731
             assert dec(m.token) >= dec(n.token)
-            assert m.token.lstrip("-+").startswith(".") == n.token.lstrip("-+").startswith(".") or abs(float(m.token)) >= 1
+            assert (
+                m.token.lstrip("-+").startswith(".") == n.token.lstrip("-+").startswith(".") or abs(float(m.token)) >= 1
+            )
     Q_program = pg.controller_joints(prog, r)
     Q_comp = pg.controller_joints(back, r)
     F = prog.vendor.flange_rotation(r)
@@ -191,10 +205,16 @@ def test_a_pose_only_program_states_the_configuration_it_assumed_and_configurati
     np.testing.assert_allclose(blind.q_nominal, near, atol=1e-6)
     off_branch = np.abs(blind.q_nominal - Q).max(axis=1) > 0.5
     assert off_branch.mean() > 0.2
+
     # the controller keeps the program's configuration: the rows compensated on another branch miss
     def run(c, keep):
         sent = np.where(c.ok[:, None], c.commands.reshape(len(c), 16), T.reshape(len(c), 16)).reshape(-1, 4, 4)
-        q = np.array([pg.candidates(m, s) and min(pg.candidates(m, s), key=lambda x: np.linalg.norm(x - k)) for s, k in zip(sent, keep, strict=True)])
+        q = np.array(
+            [
+                pg.candidates(m, s) and min(pg.candidates(m, s), key=lambda x: np.linalg.norm(x - k))
+                for s, k in zip(sent, keep, strict=True)
+            ]
+        )
         return np.linalg.norm(dv.fk_batch(tm, q)[:, :3, 3] - T[:, :3, 3], axis=1)
 
     before = np.linalg.norm(dv.fk_batch(tm, Q)[:, :3, 3] - T[:, :3, 3], axis=1)
@@ -238,23 +258,64 @@ def _bad(tmp_path, name, edit):
     return path
 
 
-@pytest.mark.parametrize(("name", "edit", "message"), [
-    ("kuka/kr5_demo.src", lambda t: t.replace("DECL INT SUCCESS", "DECL WIDGET W1={A 1}"), r"kr5_demo\.dat:9: unknown declaration type 'WIDGET'"),
-    ("kuka/kr5_demo.src", lambda t: re.sub(r"X [-\d.]+,Y", "X 5000.0,Y", t, count=1), r"kr5_demo\.dat:13: XP1: the configuration S \d+ .* is not reachable on the nominal kr5"),
-    ("kuka/kr5_demo.src", lambda t: t.replace("TOOL_NO 0", "TOOL_NO 3", 1), r"kr5_demo\.dat:14: TOOL 3 is the controller's TOOL_DATA\[3\].*unsupported"),
-    ("abb/DemoKR5.mod", lambda t: t.replace("tGripper\\WObj", "tOther\\WObj", 1), r"DemoKR5\.mod:\d+: tooldata tOther is not declared in the module: unsupported"),
-    ("abb/DemoKR5.mod", lambda t: t.replace("[-1,-3,1,0]", "[-1,-3,1]", 1), r"DemoKR5\.mod:10: robtarget p10: expected"),
-    ("fanuc/demo_kr5.ls", lambda t: t.replace("UT : 0", "UT : 2", 1), r"demo_kr5\.ls:\d+: P\[1\]: UT : 2 is the controller's tool frame 2"),
-    ("fanuc/demo_kr5.ls", lambda t: t.replace("/POS", "/WHAT\n/POS"), r"demo_kr5\.ls:\d+: unknown section /WHAT"),
-    ("ur/demo_ur5.script", lambda t: t.replace("set_tcp(p[0.0, 0.0, 0.12, 0.0, 0.0, 0.0])", "set_tcp(pose_trans(a, b))"), r"demo_ur5\.script:3: set_tcp\(pose_trans"),
-])
+@pytest.mark.parametrize(
+    ("name", "edit", "message"),
+    [
+        (
+            "kuka/kr5_demo.src",
+            lambda t: t.replace("DECL INT SUCCESS", "DECL WIDGET W1={A 1}"),
+            r"kr5_demo\.dat:9: unknown declaration type 'WIDGET'",
+        ),
+        (
+            "kuka/kr5_demo.src",
+            lambda t: re.sub(r"X [-\d.]+,Y", "X 5000.0,Y", t, count=1),
+            r"kr5_demo\.dat:13: XP1: the configuration S \d+ .* is not reachable on the nominal kr5",
+        ),
+        (
+            "kuka/kr5_demo.src",
+            lambda t: t.replace("TOOL_NO 0", "TOOL_NO 3", 1),
+            r"kr5_demo\.dat:14: TOOL 3 is the controller's TOOL_DATA\[3\].*unsupported",
+        ),
+        (
+            "abb/DemoKR5.mod",
+            lambda t: t.replace("tGripper\\WObj", "tOther\\WObj", 1),
+            r"DemoKR5\.mod:\d+: tooldata tOther is not declared in the module: unsupported",
+        ),
+        (
+            "abb/DemoKR5.mod",
+            lambda t: t.replace("[-1,-3,1,0]", "[-1,-3,1]", 1),
+            r"DemoKR5\.mod:10: robtarget p10: expected",
+        ),
+        (
+            "fanuc/demo_kr5.ls",
+            lambda t: t.replace("UT : 0", "UT : 2", 1),
+            r"demo_kr5\.ls:\d+: P\[1\]: UT : 2 is the controller's tool frame 2",
+        ),
+        ("fanuc/demo_kr5.ls", lambda t: t.replace("/POS", "/WHAT\n/POS"), r"demo_kr5\.ls:\d+: unknown section /WHAT"),
+        (
+            "ur/demo_ur5.script",
+            lambda t: t.replace("set_tcp(p[0.0, 0.0, 0.12, 0.0, 0.0, 0.0])", "set_tcp(pose_trans(a, b))"),
+            r"demo_ur5\.script:3: set_tcp\(pose_trans",
+        ),
+    ],
+)
 def test_bad_programs_give_one_line_errors_and_write_nothing(tmp_path, name, edit, message):
     from cli import run
 
     path = _bad(tmp_path, name, edit)
     out = tmp_path / "out" / path.name
     out.parent.mkdir()
-    p = run("compensate", path, "--nominal", "kr5" if "ur5" not in name else "ur5", "--identified", "kr5" if "ur5" not in name else "ur5", "-o", out, ok=False)
+    p = run(
+        "compensate",
+        path,
+        "--nominal",
+        "kr5" if "ur5" not in name else "ur5",
+        "--identified",
+        "kr5" if "ur5" not in name else "ur5",
+        "-o",
+        out,
+        ok=False,
+    )
     assert p.returncode == 2 and re.search(message, p.stderr), p.stderr
     assert len(p.stderr.strip().splitlines()) == 1
     assert not any(out.parent.iterdir())
@@ -264,8 +325,22 @@ def test_a_missing_dat_is_one_line(tmp_path):
     from cli import run
 
     shutil.copy(DATA / "kuka" / "kr5_demo.src", tmp_path)
-    p = run("compensate", tmp_path / "kr5_demo.src", "--nominal", "kr5", "--identified", "kr5", "-o", tmp_path / "o.src", ok=False)
-    assert p.returncode == 2 and "kr5_demo.src:1: its data list kr5_demo.dat is missing" in p.stderr and not (tmp_path / "o.src").exists()
+    p = run(
+        "compensate",
+        tmp_path / "kr5_demo.src",
+        "--nominal",
+        "kr5",
+        "--identified",
+        "kr5",
+        "-o",
+        tmp_path / "o.src",
+        ok=False,
+    )
+    assert (
+        p.returncode == 2
+        and "kr5_demo.src:1: its data list kr5_demo.dat is missing" in p.stderr
+        and not (tmp_path / "o.src").exists()
+    )
 
 
 def test_a_point_the_compensation_cannot_send_is_left_and_listed(tmp_path):
@@ -293,7 +368,9 @@ def calibration():
     rng = np.random.default_rng(3)
     t = kr5.table
     E = rng.uniform(-1, 1, t.params.shape) * np.where(np.array(t.angle_columns), np.radians(0.05), 5e-4)
-    true = dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool).to_model("true", kr5.names, kr5.lower, kr5.upper)
+    true = dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool).to_model(
+        "true", kr5.names, kr5.lower, kr5.upper
+    )
     meas = cal.simulate(true, cal.configurations(kr5, 40), tool=np.array([0.0, 0.0, 0.107]), noise=2e-5, seed=2)
     return kr5, cal.calibrate(meas, kr5, tool=np.array([0.0, 0.0, 0.107]))
 
@@ -336,8 +413,14 @@ def test_a_saved_ur_kinematics_file_compensates_as_the_in_memory_result(tmp_path
     t = ur5.table
     E = rng.uniform(-1, 1, t.params.shape) * np.where(np.array(t.angle_columns), np.radians(0.05), 5e-4)
     E[5, 2:] = 0
-    true = dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool).to_model("true", ur5.names, ur5.lower, ur5.upper)
-    c = cal.calibrate(cal.simulate(true, cal.configurations(ur5, 40), tool=np.array([0.0, 0.0, 0.1]), noise=2e-5, seed=2), ur5, tool=np.array([0.0, 0.0, 0.1]))
+    true = dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool).to_model(
+        "true", ur5.names, ur5.lower, ur5.upper
+    )
+    c = cal.calibrate(
+        cal.simulate(true, cal.configurations(ur5, 40), tool=np.array([0.0, 0.0, 0.1]), noise=2e-5, seed=2),
+        ur5,
+        tool=np.array([0.0, 0.0, 0.1]),
+    )
     f = tmp_path / "cal.yaml"
     fm = cp.flange_model(ur5, c)
     urc.save(f, fm, t)
@@ -348,7 +431,9 @@ def test_a_saved_ur_kinematics_file_compensates_as_the_in_memory_result(tmp_path
         pts.append(T[:3, 3].copy())
         dirs.append(T[:3, 2].copy())
     screws = np.array([[*d, *np.cross(p, d)] for p, d in zip(pts, dirs, strict=True)])
-    yaml_model = dv.Table("poe", screws, ["revolute"] * 6, np.eye(4), T).to_model("from yaml", ur5.names, ur5.lower, ur5.upper)
+    yaml_model = dv.Table("poe", screws, ["revolute"] * 6, np.eye(4), T).to_model(
+        "from yaml", ur5.names, ur5.lower, ur5.upper
+    )
     np.testing.assert_allclose(dv.fk_batch(yaml_model, np.zeros((1, 6))), dv.fk_batch(fm, np.zeros((1, 6))), atol=1e-12)
     Q = np.random.default_rng(6).uniform(-2.5, 2.5, (30, 6))
     Tg = dv.fk_batch(ur5.model(), Q)
@@ -371,16 +456,24 @@ def test_krl_inline_positions_and_a_tool_assigned_in_the_src(tmp_path):
     F = np.eye(4)
     F[:3, :3] = kuka.flange_rotation(r)
     qs = np.radians([[20, -80, 100, 30, 60, -40], [-30, -100, 110, -200, -50, 100], [-20, -95, 105, -190, -45, 110]])
-    lines = ["DEF INLINE( )", "$TOOL = {X 0.0,Y 0.0,Z 120.0,A 0.0,B -90.0,C 0.0}", "$BASE = {X 500.0,Y 100.0,Z 0.0,A 30.0,B 0.0,C 0.0}"]
+    lines = [
+        "DEF INLINE( )",
+        "$TOOL = {X 0.0,Y 0.0,Z 120.0,A 0.0,B -90.0,C 0.0}",
+        "$BASE = {X 500.0,Y 100.0,Z 0.0,A 30.0,B 0.0,C 0.0}",
+    ]
     for k, q in enumerate(qs):
         T = np.linalg.inv(base) @ dv.fk(m, q) @ F @ tool
         x = np.concatenate([T[:3, 3] * 1e3, np.degrees(pg.matrix_zyx(T[:3, :3]))])
         if k == 1:
             a = np.degrees(q * kuka.signs(r))
-            lines.append("PTP {" + ",".join(f"A{i + 1} {v:.4f}" for i, v in enumerate(a)) + "} C_PTP ; a joint position")
+            lines.append(
+                "PTP {" + ",".join(f"A{i + 1} {v:.4f}" for i, v in enumerate(a)) + "} C_PTP ; a joint position"
+            )
         elif k == 0:
             s, t = kuka.configuration(m, q, cache)
-            lines.append("PTP {" + ",".join(f"{n} {v:.4f}" for n, v in zip("XYZABC", x, strict=True)) + f",S {s},T {t}}}")
+            lines.append(
+                "PTP {" + ",".join(f"{n} {v:.4f}" for n, v in zip("XYZABC", x, strict=True)) + f",S {s},T {t}}}"
+            )
         else:
             lines.append("LIN {" + ",".join(f"{n} {v:.4f}" for n, v in zip("XYZABC", x, strict=True)) + "} C_DIS")
     lines += ["END", ""]
@@ -415,13 +508,45 @@ def test_cli_frame_gives_a_numbered_frame_of_the_controller(tmp_path):
     text = (DATA / "fanuc" / "demo_kr5.ls").read_text()
     (tmp_path / "ut0.ls").write_text(text)
     (tmp_path / "ut2.ls").write_text(text.replace("UT : 0", "UT : 2"))
-    p = run("compensate", tmp_path / "ut2.ls", "--nominal", "kr5", "--identified", tmp_path / "true.toml", "-o", tmp_path / "o2.ls", ok=False)
+    p = run(
+        "compensate",
+        tmp_path / "ut2.ls",
+        "--nominal",
+        "kr5",
+        "--identified",
+        tmp_path / "true.toml",
+        "-o",
+        tmp_path / "o2.ls",
+        ok=False,
+    )
     assert p.returncode == 2 and "--frame 'tool 2=X,Y,Z,W,P,R'" in p.stderr
-    run("compensate", tmp_path / "ut2.ls", "--nominal", "kr5", "--identified", tmp_path / "true.toml", "-o", tmp_path / "o2.ls", "--frame", "tool 2=0,0,0,0,0,0")
-    run("compensate", tmp_path / "ut0.ls", "--nominal", "kr5", "--identified", tmp_path / "true.toml", "-o", tmp_path / "o0.ls")
+    run(
+        "compensate",
+        tmp_path / "ut2.ls",
+        "--nominal",
+        "kr5",
+        "--identified",
+        tmp_path / "true.toml",
+        "-o",
+        tmp_path / "o2.ls",
+        "--frame",
+        "tool 2=0,0,0,0,0,0",
+    )
+    run(
+        "compensate",
+        tmp_path / "ut0.ls",
+        "--nominal",
+        "kr5",
+        "--identified",
+        tmp_path / "true.toml",
+        "-o",
+        tmp_path / "o0.ls",
+    )
     assert (tmp_path / "o2.ls").read_text() == (tmp_path / "o0.ls").read_text().replace("UT : 0", "UT : 2")
     assert (tmp_path / "o0.ls").read_text() != text
-    p = run("compensate", tmp_path / "ut0.ls", "--nominal", "kr5", "--identified", "kr5", "--frame", "tool 2=0,0", ok=False)
+    p = run(
+        "compensate", tmp_path / "ut0.ls", "--nominal", "kr5", "--identified", "kr5", "--frame", "tool 2=0,0", ok=False
+    )
     assert p.returncode == 2 and "--frame 'tool 2=0,0': expected" in p.stderr
 
 

@@ -42,7 +42,11 @@ def plan(*, sweep_speed=30.0, transit_speed=90.0, dwell=0.5, home=HOME, ranges=R
     moves, t, truth = [], dwell, []
     for j in range(len(home)):
         a, b = ranges[j]
-        for x0, x1, v, is_sweep in ((home[j], a, transit_speed, False), (a, b, sweep_speed, True), (b, home[j], transit_speed, False)):
+        for x0, x1, v, is_sweep in (
+            (home[j], a, transit_speed, False),
+            (a, b, sweep_speed, True),
+            (b, home[j], transit_speed, False),
+        ):
             if abs(x1 - x0) < 1e-12:
                 continue
             T = abs(x1 - x0) / math.radians(v)
@@ -99,7 +103,14 @@ def write_rtde(path, rate=20.0):
     rv = np.array([geometry.matrix_rotvec(R) for R in T[:, :3, :3]])
     out = io.StringIO()
     w = csv.writer(out, delimiter=" ")
-    w.writerow(["timestamp", *[f"actual_q_{i}" for i in range(6)], *[f"actual_TCP_pose_{i}" for i in range(6)], "speed_scaling"])
+    w.writerow(
+        [
+            "timestamp",
+            *[f"actual_q_{i}" for i in range(6)],
+            *[f"actual_TCP_pose_{i}" for i in range(6)],
+            "speed_scaling",
+        ]
+    )
     for k in range(len(t)):
         w.writerow([g(1832.016 + t[k], 12), *map(g, q[k]), *map(g, p[k]), *map(g, rv[k]), "1"])
     Path(path).write_bytes(out.getvalue().encode())
@@ -118,8 +129,10 @@ def write_rsi(path, step_ms=48):
         roll, pitch, yaw = geometry.matrix_rpy(T[k, :3, :3])
         A, B, C = np.degrees([yaw, pitch, roll])
         ax = " ".join(f'A{i + 1}="{math.degrees(v):.4f}"' for i, v in enumerate(q[k]))
-        lines.append(f'<Rob Type="KUKA">\n  <RIst X="{p[k, 0]:.4f}" Y="{p[k, 1]:.4f}" Z="{p[k, 2]:.4f}" A="{A:.4f}" B="{B:.4f}" C="{C:.4f}"/>\n'
-                     f'  <AIPos {ax}/>\n  <Delay D="0"/>\n  <IPOC>{ipoc[k]}</IPOC>\n</Rob>')
+        lines.append(
+            f'<Rob Type="KUKA">\n  <RIst X="{p[k, 0]:.4f}" Y="{p[k, 1]:.4f}" Z="{p[k, 2]:.4f}" A="{A:.4f}" B="{B:.4f}" C="{C:.4f}"/>\n'
+            f'  <AIPos {ax}/>\n  <Delay D="0"/>\n  <IPOC>{ipoc[k]}</IPOC>\n</Rob>'
+        )
     Path(path).write_text("\n".join(lines) + "\n")
 
 
@@ -154,7 +167,9 @@ def write_tracker_6dof(path, per_sweep=9):
             x, y, z = (T[k, :3, 3] + rng.normal(0, 1e-5, 3)) * 1e3
             qx, qy, qz, qw = Rotation.from_matrix(T[k, :3, :3]).as_quat()
             t += 1.5
-            rows.append(f"Joint {j + 1}\tP{k + 1}\t{t:.3f}\t{x:.4f}\t{y:.4f}\t{z:.4f}\t{qw:.9f}\t{qx:.9f}\t{qy:.9f}\t{qz:.9f}")
+            rows.append(
+                f"Joint {j + 1}\tP{k + 1}\t{t:.3f}\t{x:.4f}\t{y:.4f}\t{z:.4f}\t{qw:.9f}\t{qx:.9f}\t{qy:.9f}\t{qz:.9f}"
+            )
     Path(path).write_text("\n".join(rows) + "\n")
 
 
@@ -166,7 +181,9 @@ def write_columns(path, rate=20.0):
     P = noisy(targets(q, NEST), 1e-5, 5) * 1e3
     rows = ["# units: length=mm angle=deg"]
     for k in range(len(t)):
-        rows.append(" ".join([f"{t[k]:.3f}", *(f"{v:.6f}" for v in np.degrees(q[k])), *(f"{v:.4f}" for v in P[k].ravel())]))
+        rows.append(
+            " ".join([f"{t[k]:.3f}", *(f"{v:.6f}" for v in np.degrees(q[k])), *(f"{v:.4f}" for v in P[k].ravel())])
+        )
     Path(path).write_text("\n".join(rows) + "\n")
 
 
@@ -190,17 +207,23 @@ def write_bag(path, kind, joints_rate=25.0, points_rate=20.0, with_joints=True, 
     if with_joints:
         tj = np.arange(0, dur, 1 / joints_rate)
         for t, q in zip(tj, q_at(tj, moves)):
-            m = T_["sensor_msgs/msg/JointState"](header=header(t), name=names, position=q, velocity=np.zeros(0), effort=np.zeros(0))
+            m = T_["sensor_msgs/msg/JointState"](
+                header=header(t), name=names, position=q, velocity=np.zeros(0), effort=np.zeros(0)
+            )
             msgs.append((t, "/joint_states", "sensor_msgs/msg/JointState", m))
     tp = np.arange(0.013, dur, 1 / points_rate)
     P = noisy(tool_poses(q_at(tp, moves))[:, :3, 3], 1e-5, 6)
     for t, p in zip(tp, P):
         if point_type == "PointStamped":
-            m = T_["geometry_msgs/msg/PointStamped"](header=header(t), point=T_["geometry_msgs/msg/Point"](x=p[0], y=p[1], z=p[2]))
+            m = T_["geometry_msgs/msg/PointStamped"](
+                header=header(t), point=T_["geometry_msgs/msg/Point"](x=p[0], y=p[1], z=p[2])
+            )
             msgs.append((t, "/tracker/point", "geometry_msgs/msg/PointStamped", m))
         else:
-            tr = T_["geometry_msgs/msg/Transform"](translation=T_["geometry_msgs/msg/Vector3"](x=p[0], y=p[1], z=p[2]),
-                                                    rotation=T_["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0))
+            tr = T_["geometry_msgs/msg/Transform"](
+                translation=T_["geometry_msgs/msg/Vector3"](x=p[0], y=p[1], z=p[2]),
+                rotation=T_["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+            )
             ts = T_["geometry_msgs/msg/TransformStamped"](header=header(t), child_frame_id="smr", transform=tr)
             msgs.append((t, "/tf", "tf2_msgs/msg/TFMessage", T_["tf2_msgs/msg/TFMessage"](transforms=[ts])))
     msgs.sort(key=lambda m: m[0])
@@ -211,7 +234,9 @@ def write_bag(path, kind, joints_rate=25.0, points_rate=20.0, with_joints=True, 
     else:
         from rosbags.rosbag2 import StoragePlugin, Writer
 
-        writer = Writer(Path(path), version=9, storage_plugin=StoragePlugin.MCAP if kind == "mcap" else StoragePlugin.SQLITE3)
+        writer = Writer(
+            Path(path), version=9, storage_plugin=StoragePlugin.MCAP if kind == "mcap" else StoragePlugin.SQLITE3
+        )
     with writer as w:
         cons = {}
         for t, topic, mtype, m in msgs:
@@ -220,7 +245,13 @@ def write_bag(path, kind, joints_rate=25.0, points_rate=20.0, with_joints=True, 
             w.write(cons[topic], int(round((1_700_000_000 + t) * 1e9)) + 2_000_000, ser(m, mtype))
 
 
-TEXT_FILES = {"rtde.csv": write_rtde, "rsi.xml": write_rsi, "tracker.csv": write_tracker, "tracker_6dof.txt": write_tracker_6dof, "columns.txt": write_columns}
+TEXT_FILES = {
+    "rtde.csv": write_rtde,
+    "rsi.xml": write_rsi,
+    "tracker.csv": write_tracker,
+    "tracker_6dof.txt": write_tracker_6dof,
+    "columns.txt": write_columns,
+}
 BAGS = {"ros1.bag": "ros1", "ros2_sqlite3": "sqlite3", "ros2_mcap": "mcap"}
 
 
@@ -332,7 +363,9 @@ def test_controller_log_with_a_pose_per_row(tmp_path):
     quat = Rotation.from_matrix(rt.poses[:, :3, :3]).as_quat()[:, [3, 0, 1, 2]]
     f = tmp_path / "log.csv"
     rows = ["time;j1;j2;j3;j4;j5;j6;px;py;pz;w;x;y;z"]
-    rows += [";".join(f"{v:.10g}" for v in (t, *q, *p, *o)) for t, q, p, o in zip(rt.time, rt.q, rt.poses[:, :3, 3], quat)]
+    rows += [
+        ";".join(f"{v:.10g}" for v in (t, *q, *p, *o)) for t, q, p, o in zip(rt.time, rt.q, rt.poses[:, :3, 3], quat)
+    ]
     f.write_text("\n".join(rows) + "\n")
     rec = read_recording(f, columns="t,q1..q6,x,y,z,qw,qx,qy,qz", length="m", angle="rad")
     np.testing.assert_allclose(rec.poses, rt.poses, atol=1e-9)
@@ -416,7 +449,15 @@ def continuous(with_readings, rate=100.0, seed=21):
     t = np.arange(0, dur, 1 / rate)
     q = q_at(t, moves)
     P = noisy(targets(q), 2e-5, seed)
-    rec = rc.Recording(t, noisy(q, 1e-5, seed + 1) if with_readings else None, P, [f"row {i + 1}" for i in range(len(t))], "continuous", "sim", {})
+    rec = rc.Recording(
+        t,
+        noisy(q, 1e-5, seed + 1) if with_readings else None,
+        P,
+        [f"row {i + 1}" for i in range(len(t))],
+        "continuous",
+        "sim",
+        {},
+    )
     return rec, truth, targets(q)[:, 0]
 
 
@@ -469,7 +510,9 @@ def test_segmentation_splits_motions_of_two_joints_however_short_the_pause(dwell
     t = np.arange(0, dur, 0.01)
     q = q_at(t, moves)
     readings = None if reading_noise is None else noisy(q, math.radians(reading_noise / 3600.0), 22)
-    rec = rc.Recording(t, readings, noisy(targets(q), 2e-5, 21), [f"row {i + 1}" for i in range(len(t))], "continuous", "sim", {})
+    rec = rc.Recording(
+        t, readings, noisy(targets(q), 2e-5, 21), [f"row {i + 1}" for i in range(len(t))], "continuous", "sim", {}
+    )
     seg = rc.segment(rec)
     assert seg.method == ("geometry" if readings is None else "readings")
     assert [s.joint for s in seg.sweeps] == [1, 2, 3, 4, 5, 6], seg.table()
@@ -477,14 +520,22 @@ def test_segmentation_splits_motions_of_two_joints_however_short_the_pause(dwell
         # it holds at least 97 % of its joint's true sweep (the ends of a slow start and stop are within the noise)
         held = (t >= max(t0, s.t_start)) & (t <= min(t1, s.t_stop))
         assert np.ptp(q[held, j - 1]) > 0.97 * np.ptp(q[(t >= t0) & (t <= t1), j - 1]), (j, s, t0, t1)
-        others = np.delete(q[s.start:s.stop], j - 1, axis=1)
+        others = np.delete(q[s.start : s.stop], j - 1, axis=1)
         assert np.ptp(others, axis=0).max() < (1e-9 if dwell else 1e-4), (j, s)
     options = {} if readings is not None else {"home": HOME, "direction": DIRECTION}
     assert_axes_match_truth(identify(rc.to_sweepset(rec, seg, max_points=300, **options), nominal=dv.load_robot("kr5")))
     if readings is None:
         # a segmentation of fewer joints than the options give is a one-line error, not numpy's broadcast error
-        with pytest.raises(dv.DenavitError, match=r"direction: expected 1 or 2 values \(one per joint of the segmentation, geometry\), got 6"):
-            rc.to_sweepset(rec, replace(seg, segments=[s for s in seg.segments if s.joint <= 2], n_joints=2), home=HOME[:2], direction=DIRECTION)
+        with pytest.raises(
+            dv.DenavitError,
+            match=r"direction: expected 1 or 2 values \(one per joint of the segmentation, geometry\), got 6",
+        ):
+            rc.to_sweepset(
+                rec,
+                replace(seg, segments=[s for s in seg.segments if s.joint <= 2], n_joints=2),
+                home=HOME[:2],
+                direction=DIRECTION,
+            )
 
 
 @pytest.mark.parametrize("with_readings", [True, False])
@@ -508,11 +559,15 @@ def test_segmentation_finds_the_paper_sweeps_with_and_without_readings(with_read
     assert_axes_match_truth(identify(s, nominal=dv.load_robot("kr5")))
     if with_readings:
         # the given ranges choose the same motions
-        assert [(s.start, s.stop) for s in rc.segment(rec, ranges=RANGES).sweeps] == [(s.start, s.stop) for s in seg.sweeps]
+        assert [(s.start, s.stop) for s in rc.segment(rec, ranges=RANGES).sweeps] == [
+            (s.start, s.stop) for s in seg.sweeps
+        ]
         np.testing.assert_allclose([(s.q_from, s.q_to) for s in seg.sweeps], RANGES, atol=math.radians(0.05))
     # the user's spans override the segmentation
     given = rc.segment(rec, spans=[(j, t0 + 0.2, t1 - 0.2) for j, t0, t1 in truth])
-    assert given.method == "given" and [(s.joint, round(s.t_start, 2)) for s in given.sweeps] == [(j, round(t0 + 0.2, 2)) for j, t0, _ in truth]
+    assert given.method == "given" and [(s.joint, round(s.t_start, 2)) for s in given.sweeps] == [
+        (j, round(t0 + 0.2, 2)) for j, t0, _ in truth
+    ]
 
 
 # --- bad input -------------------------------------------------------------------------------------------
@@ -526,17 +581,25 @@ def one_line(excinfo):
 def test_unknown_format(tmp_path):
     f = tmp_path / "notes.txt"
     f.write_text("hello world\n1 2 3\n")
-    with pytest.raises(dv.DenavitError, match=r"notes.txt: unknown recording format: expected a tracker export .* or a delimited file with --columns") as e:
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"notes.txt: unknown recording format: expected a tracker export .* or a delimited file with --columns",
+    ) as e:
         read_recording(f)
     one_line(e)
-    with pytest.raises(dv.DenavitError, match="unknown format 'csv': expected one of auto, tracker, rtde, rsi, bag, columns"):
+    with pytest.raises(
+        dv.DenavitError, match="unknown format 'csv': expected one of auto, tracker, rtde, rsi, bag, columns"
+    ):
         read_recording(f, format="csv")
 
 
 def test_missing_columns(tmp_path):
     f = tmp_path / "rtde.csv"
     f.write_text("timestamp actual_TCP_pose_0 actual_TCP_pose_1\n0 1 2\n")
-    with pytest.raises(dv.DenavitError, match=r"rtde.csv:1: RTDE header lacks actual_q_0: expected 'timestamp actual_q_0 .. actual_q_5'") as e:
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"rtde.csv:1: RTDE header lacks actual_q_0: expected 'timestamp actual_q_0 .. actual_q_5'",
+    ) as e:
         read_recording(f)
     one_line(e)
     t = tmp_path / "points.csv"
@@ -545,7 +608,9 @@ def test_missing_columns(tmp_path):
         read_recording(t, format="tracker")
     c = tmp_path / "wide.txt"
     c.write_text(" ".join(["1.0"] * 435) + "\n")
-    with pytest.raises(dv.DenavitError, match=r"wide.txt:1: expected 10 values \(t,q1..q6,x,y,z\) separated by 'whitespace', got 435") as e:
+    with pytest.raises(
+        dv.DenavitError, match=r"wide.txt:1: expected 10 values \(t,q1..q6,x,y,z\) separated by 'whitespace', got 435"
+    ) as e:
         read_recording(c, columns="t,q1..q6,x,y,z", length="mm", angle="deg")
     assert len(one_line(e)) < 200
 
@@ -553,7 +618,10 @@ def test_missing_columns(tmp_path):
 def test_bag_without_a_joint_state_topic(tmp_path):
     pytest.importorskip("rosbags")
     write_bag(tmp_path / "nojs", "mcap", with_joints=False)
-    with pytest.raises(dv.DenavitError, match=r"nojs: no sensor_msgs/JointState topic: expected one of type sensor_msgs/msg/JointState \(topics: /tracker/point \(geometry_msgs/msg/PointStamped\)\)") as e:
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"nojs: no sensor_msgs/JointState topic: expected one of type sensor_msgs/msg/JointState \(topics: /tracker/point \(geometry_msgs/msg/PointStamped\)\)",
+    ) as e:
         read_recording(tmp_path / "nojs")
     one_line(e)
 
@@ -562,7 +630,9 @@ def test_missing_rosbags_names_the_install_command(tmp_path, monkeypatch):
     write_bag(tmp_path / "b", "mcap") if "rosbags" in sys.modules or _has_rosbags() else (tmp_path / "b").mkdir()
     (tmp_path / "b" / "metadata.yaml").touch()
     monkeypatch.setitem(sys.modules, "rosbags.highlevel", None)
-    with pytest.raises(dv.DenavitError, match=r'reading ROS bags needs the optional package rosbags: pip install "denavit\[ros\]"') as e:
+    with pytest.raises(
+        dv.DenavitError, match=r'reading ROS bags needs the optional package rosbags: pip install "denavit\[ros\]"'
+    ) as e:
         read_recording(tmp_path / "b")
     one_line(e)
 
@@ -579,12 +649,18 @@ def test_tracker_sweep_rows_not_in_one_block(tmp_path):
     lines = (DATA / "tracker.csv").read_text().splitlines()
     f = tmp_path / "tracker.csv"
     f.write_text("\n".join([*lines[:5], *lines[-3:], *lines[5:-3]]) + "\n")
-    with pytest.raises(dv.DenavitError, match=r"tracker.csv:9: a second block of joint 1's rows: expected each joint's sweep in one block") as e:
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"tracker.csv:9: a second block of joint 1's rows: expected each joint's sweep in one block",
+    ) as e:
         rc.segment(read_recording(f))
     one_line(e)
     g = tmp_path / "names.csv"
     g.write_text("Point,X,Y,Z\nJ1_001,1,2,3\nbase_01,1,2,3\n")
-    with pytest.raises(dv.DenavitError, match=r"names.csv:3: point name 'base_01' does not match the sweep pattern .*: expected e.g. J1_001 or A2-17"):
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"names.csv:3: point name 'base_01' does not match the sweep pattern .*: expected e.g. J1_001 or A2-17",
+    ):
         read_recording(g, length="mm")
 
 
@@ -593,7 +669,10 @@ def test_time_that_goes_backwards(tmp_path):
     lines[5], lines[6] = lines[6], lines[5]
     f = tmp_path / "rtde.csv"
     f.write_text("\n".join(lines) + "\n")
-    with pytest.raises(dv.DenavitError, match=r"rtde.csv:7: timestamp goes backwards or repeats: .* s at .*rtde.csv:6: expected strictly increasing times") as e:
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"rtde.csv:7: timestamp goes backwards or repeats: .* s at .*rtde.csv:6: expected strictly increasing times",
+    ) as e:
         read_recording(f)
     one_line(e)
 
@@ -603,7 +682,10 @@ def test_clocks_that_cannot_be_aligned():
     pts, rd, _, _ = streams(points_hz=200.0)
     moves, _, _ = plan(sweep_speed=40.0, transit_speed=20.0, dwell=1.5, ranges=RANGES[::-1])
     other = rc.Recording(rd.time, q_at(rd.time - 5.0, moves), None, rd.where, "controller", "sim", {})
-    with pytest.raises(dv.DenavitError, match=r"tracker and controller: cannot align clocks: the speed profiles correlate at .* expected at least 0.5: are both recordings of the same motion\?") as e:
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"tracker and controller: cannot align clocks: the speed profiles correlate at .* expected at least 0.5: are both recordings of the same motion\?",
+    ) as e:
         rc.align(pts, other)
     one_line(e)
 

@@ -17,8 +17,12 @@ from denavit.geometry import pose
 from denavit.io.measurements import to_csv
 
 TOOL = np.array([0.05, 0.03, 0.10])
-NEAR = pose(Rotation.from_euler("z", 30, degrees=True).as_matrix(), [2.0, 0.3, -0.5])  # the robot in the tracker's frame, 2 m away
-MOVE = pose(Rotation.from_euler("xyz", [70, -50, 160], degrees=True).as_matrix(), [-6.0, 7.5, 3.0])  # the tracker moved: 10 m, turned
+NEAR = pose(
+    Rotation.from_euler("z", 30, degrees=True).as_matrix(), [2.0, 0.3, -0.5]
+)  # the robot in the tracker's frame, 2 m away
+MOVE = pose(
+    Rotation.from_euler("xyz", [70, -50, 160], degrees=True).as_matrix(), [-6.0, 7.5, 3.0]
+)  # the tracker moved: 10 m, turned
 
 
 def _truth(robot, seed=3):
@@ -60,7 +64,9 @@ def test_cli_calibrate_takes_a_tracker_10_m_away(kr5, tmp_path):
         f = tmp_path / f"{label}.csv"
         f.write_text(to_csv(meas))
         out = tmp_path / f"{label}.json"
-        r = CliRunner().invoke(app, ["calibrate", str(f), "--nominal", "kr5", "--tool", "50,30,100", "--json", str(out)])
+        r = CliRunner().invoke(
+            app, ["calibrate", str(f), "--nominal", "kr5", "--tool", "50,30,100", "--json", str(out)]
+        )
         assert r.exit_code == 0, r.output
         assert "robot's size" not in r.output, r.output
         docs[label] = {p["name"]: p for p in json.loads(out.read_text())["parameters"]}
@@ -75,7 +81,16 @@ def test_a_tool_turned_90_degrees_is_no_gimbal_lock(kr5):
     nominal's Euler angles about -88 deg pitch are nearly one parameter), and the tool is recovered."""
     T_tool = pose(Rotation.from_euler("xyz", [20, -88, 40], degrees=True).as_matrix(), TOOL)
     base = pose(Rotation.from_euler("xyz", [10, 20, 130], degrees=True).as_matrix(), [5.0, -7.0, 1.0])
-    meas = cal.simulate(kr5, cal.configurations(kr5, 40), tool=T_tool, noise=2e-5, noise_rot=2e-5, measure="pose", seed=2, T_world_base=base)
+    meas = cal.simulate(
+        kr5,
+        cal.configurations(kr5, 40),
+        tool=T_tool,
+        noise=2e-5,
+        noise_rot=2e-5,
+        measure="pose",
+        seed=2,
+        T_world_base=base,
+    )
     res = cal.calibrate(meas, kr5)
     assert res.converged and any("tool orientation registered in closed form" in n for n in res.notes)
     i = [res.free_names.index(n) for n in ("tool_rx", "tool_ry", "tool_rz")]

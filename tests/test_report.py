@@ -47,16 +47,39 @@ from denavit.errors import DenavitError
 
 # Hayat et al. Table III, "Specified" KR5 DH parameters (d = b and a in mm, theta and alpha in deg), with the twist
 # signs and A3 offset Table III does not state taken as kr5.toml takes them (KUKA's axis senses, A3 0 = arm in line)
-SPECIFIED = {"d": [400, 0, 0, 620, 0, 0], "theta": [0, 0, -90, 0, 0, 0], "a": [180, 600, 120, 0, 0, 0], "alpha": [-90, 0, -90, 90, -90, 0]}
+SPECIFIED = {
+    "d": [400, 0, 0, 620, 0, 0],
+    "theta": [0, 0, -90, 0, 0, 0],
+    "a": [180, 600, 120, 0, 0, 0],
+    "alpha": [-90, 0, -90, 90, -90, 0],
+}
 # Guo et al. Table I (MD-H) and Table II (ED-H), TianSui-One, lengths in mm, angles in deg
-GUO_MDH = {"alpha": [0, 90, 0, 0, -90, 90], "a": [0, 0, -406, -386, 0, 0], "theta": [0, -90, 0, 90, 0, 0], "d": [0, 148.5, 0, 2, 128, 0]}
-GUO_EDH = {"alpha": [0, 90, 0, 0, -90, 90], "a": [0, 0, -406, -386, 0, 0], "b": [0, 0, 0, 0, -128, 128], "c": [0, 148.5, 0, -126, 0, 0], "theta": [0, -90, 0, 90, 0, 0]}
+GUO_MDH = {
+    "alpha": [0, 90, 0, 0, -90, 90],
+    "a": [0, 0, -406, -386, 0, 0],
+    "theta": [0, -90, 0, 90, 0, 0],
+    "d": [0, 148.5, 0, 2, 128, 0],
+}
+GUO_EDH = {
+    "alpha": [0, 90, 0, 0, -90, 90],
+    "a": [0, 0, -406, -386, 0, 0],
+    "b": [0, 0, 0, 0, -128, 128],
+    "c": [0, 148.5, 0, -126, 0, 0],
+    "theta": [0, -90, 0, 90, 0, 0],
+}
 
 
 @pytest.fixture(scope="module")
 def result():
     """A small simulated identification: KR5, Hayat's home and 90 degree ranges, 12 points per sweep, 20 um noise."""
-    s = sw.simulate(dv.load_model("kr5"), home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=12, noise=2e-5, seed=7)
+    s = sw.simulate(
+        dv.load_model("kr5"),
+        home=np.radians(sw.PAPER_HOME_DEG),
+        ranges=np.radians(sw.PAPER_RANGES_DEG[90]),
+        points_per_sweep=12,
+        noise=2e-5,
+        seed=7,
+    )
     return dv.identify(s, nominal=dv.load_robot("kr5"))
 
 
@@ -137,11 +160,19 @@ def check_parameter_table(page: Page, result) -> None:
         k = t.columns.index(row["attrs"]["data-param"])
         scale = math.radians(1) if t.angle_columns[k] else 1e-3
         cell = row["cell"]
-        for cls, value in (("identified", t.params[i, k] / scale), ("sigma", result.sigma[i, k] / scale), ("nominal", SPECIFIED[t.columns[k]][i])):
+        for cls, value in (
+            ("identified", t.params[i, k] / scale),
+            ("sigma", result.sigma[i, k] / scale),
+            ("nominal", SPECIFIED[t.columns[k]][i]),
+        ):
             assert cell[cls]["text"] == rep.fmt_value(value), (cls, row["attrs"])
             assert float(cell[cls]["value"]) == pytest.approx(value, abs=1e-9), (cls, row["attrs"])
-        assert float(cell["difference"]["value"]) == pytest.approx(t.params[i, k] / scale - SPECIFIED[t.columns[k]][i], abs=1e-9)
-        assert float(cell["difference"]["value"]) == pytest.approx(0, abs=6 * result.sigma[i, k] / scale + 1e-9)  # within noise of Table III
+        assert float(cell["difference"]["value"]) == pytest.approx(
+            t.params[i, k] / scale - SPECIFIED[t.columns[k]][i], abs=1e-9
+        )
+        assert float(cell["difference"]["value"]) == pytest.approx(
+            0, abs=6 * result.sigma[i, k] / scale + 1e-9
+        )  # within noise of Table III
 
 
 def check_guo_tables(page: Page) -> None:
@@ -193,14 +224,21 @@ def test_axes_table_headers_and_the_model_configuration_have_units(report_path, 
     assert head[1:7] == ["point x [mm]", "point y [mm]", "point z [mm]", "dir x [1]", "dir y [1]", "dir z [1]"]
     text = rep.model_report_html(dv.load_robot("kr5"), q=np.radians([10, 20, 30, 40, 50, 60]))
     assert "<dt>configuration drawn</dt><dd>10, 20, 30, 40, 50, 60 (deg)</dd>" in text
-    assert "<dt>configuration drawn</dt><dd>10, 20, 30, 40, 50, 60 (deg)</dd>" in rep.model_report_html(dv.load_robot("kr5"), q=np.radians([10, 20, 30, 40, 50, 60]), length="m")
+    assert "<dt>configuration drawn</dt><dd>10, 20, 30, 40, 50, 60 (deg)</dd>" in rep.model_report_html(
+        dv.load_robot("kr5"), q=np.radians([10, 20, 30, 40, 50, 60]), length="m"
+    )
 
 
 def test_summary_comes_first_and_says_what_was_measured_and_how_accurate(report_path):
     text = report_path.read_text(encoding="utf-8")
     assert text.index('id="summary"') < text.index('id="view"')
-    summary = text[text.index('id="summary"'):text.index("</dl>")]
-    assert "72 points in 6 single-joint sweeps" in summary and "DH table of 6 joints" in summary and "accuracy" in summary and "with the nominal model" in summary
+    summary = text[text.index('id="summary"') : text.index("</dl>")]
+    assert (
+        "72 points in 6 single-joint sweeps" in summary
+        and "DH table of 6 joints" in summary
+        and "accuracy" in summary
+        and "with the nominal model" in summary
+    )
     assert "<dt>fit chosen</dt><dd>global (one home point) over readings" in summary  # which model won, and why
 
 
@@ -213,7 +251,9 @@ def test_report_tables_hold_the_identification(report_path, result):
         assert float(row["cell"]["radius"]["value"]) == pytest.approx(f.radius * 1e3, rel=1e-12)
         assert float(row["cell"]["rms"]["value"]) == pytest.approx(f.rms * 1e3, rel=1e-12)
     (box,) = page.rows("bounding-box")
-    assert [float(box["cell"][k]["value"]) for k in ("l1", "l2", "l3")] == pytest.approx(result.box.lengths * 1e3, rel=1e-12)
+    assert [float(box["cell"][k]["value"]) for k in ("l1", "l2", "l3")] == pytest.approx(
+        result.box.lengths * 1e3, rel=1e-12
+    )
     assert len(page.rows("pairs")) == 5
 
 
@@ -240,13 +280,27 @@ def test_missing_plotly_names_the_install_command(result, tmp_path, monkeypatch)
 
 
 def cli(*args):
-    p = subprocess.run([sys.executable, "-m", "denavit.cli", *args], capture_output=True, text=True, env={**os.environ, "COLUMNS": "120"})
+    p = subprocess.run(
+        [sys.executable, "-m", "denavit.cli", *args],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "COLUMNS": "120"},
+    )
     assert p.returncode == 0, p.stderr
     return p
 
 
 def test_cli_show_report_and_plot(tmp_path):
-    cli("show", "tiansui_mdh", "--compare", "tiansui_edh", "--report", str(tmp_path / "m.html"), "--plot", str(tmp_path / "figs"))
+    cli(
+        "show",
+        "tiansui_mdh",
+        "--compare",
+        "tiansui_edh",
+        "--report",
+        str(tmp_path / "m.html"),
+        "--plot",
+        str(tmp_path / "figs"),
+    )
     check_guo_tables(Page((tmp_path / "m.html").read_text(encoding="utf-8")))
     assert sorted(p.name for p in (tmp_path / "figs").iterdir()) == ["frames.png", "origin_paths.png"]
 
@@ -262,8 +316,16 @@ def test_cli_identify_report(tmp_path):
 # ------------------------------------------------------------------------------------------------ the browser
 
 FLAGS = [
-    "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
-    "--disable-component-update", "--disable-sync", "--hide-scrollbars", "--mute-audio",
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--hide-scrollbars",
+    "--mute-audio",
     "--enable-unsafe-swiftshader",  # WebGL on the software rasteriser (no GPU here), without the deprecation error
     "--host-resolver-rules=MAP * ~NOTFOUND",  # offline: no host name resolves
 ]
@@ -273,7 +335,9 @@ TIMEOUT = 90.0
 def find_chromium() -> str:
     exe = shutil.which("chromium") or shutil.which("chromium-browser")
     if exe is None:
-        pytest.skip("no chromium (or chromium-browser) on PATH: install Debian's chromium (apt-get install chromium; .ci/run does) to run the browser tests")
+        pytest.skip(
+            "no chromium (or chromium-browser) on PATH: install Debian's chromium (apt-get install chromium; .ci/run does) to run the browser tests"
+        )
     return exe
 
 
@@ -289,8 +353,24 @@ class Browser:
         r_in, w_in = (high(fd) for fd in os.pipe())
         r_out, w_out = (high(fd) for fd in os.pipe())
         self.log = open(user_dir / "chromium.log", "wb")  # noqa: SIM115
-        cmd = ["bash", "-c", f'exec "$0" "$@" 3<&{r_in} 4>&{w_out} {r_in}<&- {w_out}>&-', exe, *FLAGS, "--remote-debugging-pipe", f"--user-data-dir={user_dir}", "about:blank"]
-        self.proc = subprocess.Popen(cmd, pass_fds=(r_in, w_out), stdin=subprocess.DEVNULL, stdout=self.log, stderr=self.log, start_new_session=True)
+        cmd = [
+            "bash",
+            "-c",
+            f'exec "$0" "$@" 3<&{r_in} 4>&{w_out} {r_in}<&- {w_out}>&-',
+            exe,
+            *FLAGS,
+            "--remote-debugging-pipe",
+            f"--user-data-dir={user_dir}",
+            "about:blank",
+        ]
+        self.proc = subprocess.Popen(
+            cmd,
+            pass_fds=(r_in, w_out),
+            stdin=subprocess.DEVNULL,
+            stdout=self.log,
+            stderr=self.log,
+            start_new_session=True,
+        )
         os.close(r_in)
         os.close(w_out)
         self.w, self.r = w_in, r_out
@@ -313,7 +393,12 @@ class Browser:
 
     def call(self, method: str, params: dict | None = None, session: str | None = None) -> dict:
         self.last_id += 1
-        msg = {"id": self.last_id, "method": method, "params": params or {}, **({"sessionId": session} if session else {})}
+        msg = {
+            "id": self.last_id,
+            "method": method,
+            "params": params or {},
+            **({"sessionId": session} if session else {}),
+        }
         os.write(self.w, json.dumps(msg).encode() + b"\0")
         deadline = time.monotonic() + TIMEOUT
         while True:
@@ -350,7 +435,11 @@ class Tab:
         self.s = browser.call("Target.attachToTarget", {"targetId": self.target, "flatten": True})["sessionId"]
         for domain in ("Page", "Runtime", "Log", "Network"):
             browser.call(f"{domain}.enable", session=self.s)
-        browser.call("Emulation.setDeviceMetricsOverride", {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": False}, session=self.s)
+        browser.call(
+            "Emulation.setDeviceMetricsOverride",
+            {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": False},
+            session=self.s,
+        )
 
     def goto(self, url: str) -> None:
         """Open ``url`` and wait until it has loaded (events of earlier pages are forgotten)."""
@@ -361,7 +450,9 @@ class Tab:
             time.sleep(0.05)
 
     def eval(self, expression: str):
-        r = self.b.call("Runtime.evaluate", {"expression": expression, "returnByValue": True, "awaitPromise": True}, session=self.s)
+        r = self.b.call(
+            "Runtime.evaluate", {"expression": expression, "returnByValue": True, "awaitPromise": True}, session=self.s
+        )
         if "exceptionDetails" in r:
             raise RuntimeError(f"{expression}: {r['exceptionDetails']}")
         return r["result"].get("value")
@@ -389,7 +480,11 @@ class Tab:
 
     def click(self, x: float, y: float) -> None:
         for kind in ("mouseMoved", "mousePressed", "mouseReleased"):
-            self.b.call("Input.dispatchMouseEvent", {"type": kind, "x": x, "y": y, "button": "left", "clickCount": 1}, session=self.s)
+            self.b.call(
+                "Input.dispatchMouseEvent",
+                {"type": kind, "x": x, "y": y, "button": "left", "clickCount": 1},
+                session=self.s,
+            )
 
     def screenshot(self, rect: dict) -> Image.Image:
         """The pixels of ``rect`` (a :meth:`rect`, in viewport coordinates); the clip of Page.captureScreenshot is in
@@ -411,7 +506,10 @@ class Tab:
         for e in self.events():
             m, p = e["method"], e.get("params", {})
             if m == "Runtime.consoleAPICalled" and p["type"] in ("error", "assert"):
-                out.append(f"console.{p['type']}: " + " ".join(str(a.get("value", a.get("description", ""))) for a in p["args"]))
+                out.append(
+                    f"console.{p['type']}: "
+                    + " ".join(str(a.get("value", a.get("description", ""))) for a in p["args"])
+                )
             elif m == "Runtime.exceptionThrown":
                 d = p["exceptionDetails"]
                 out.append("uncaught: " + d.get("exception", {}).get("description", d.get("text", "")))
@@ -485,11 +583,18 @@ def test_identification_report_in_browser(tab, report_path, result):
     # the tables as rendered (the DOM, as --dump-dom prints it)
     check_parameter_table(Page(tab.eval("document.documentElement.outerHTML")), result)
     # a real click on joint 2's legend entry hides joint 2 (its orange leaves the picture), not joint 5
-    entries = tab.eval(f"Array.from(document.querySelectorAll('#{rep.VIEW_ID} .legend .traces')).map(e => {{const r = e.getBoundingClientRect(); return [e.textContent, r.x, r.y, r.height];}})")
+    entries = tab.eval(
+        f"Array.from(document.querySelectorAll('#{rep.VIEW_ID} .legend .traces')).map(e => {{const r = e.getBoundingClientRect(); return [e.textContent, r.x, r.y, r.height];}})"
+    )
     name, x, y, h = next(e for e in entries if e[0].startswith("A2"))
     tab.click(x + 40, y + h / 2)
     deadline = time.monotonic() + 10
-    while tab.eval(f"document.getElementById('{rep.VIEW_ID}').data.filter(t => t.legendgroup === 'joint-2').every(t => t.visible === 'legendonly')") is not True:
+    while (
+        tab.eval(
+            f"document.getElementById('{rep.VIEW_ID}').data.filter(t => t.legendgroup === 'joint-2').every(t => t.visible === 'legendonly')"
+        )
+        is not True
+    ):
         assert time.monotonic() < deadline, "the legend click did not hide joint 2"
         time.sleep(0.1)
     tab.eval("new Promise(r => setTimeout(() => requestAnimationFrame(() => requestAnimationFrame(r)), 200))")
@@ -506,7 +611,9 @@ def test_model_report_in_browser(tab, model_report_path):
     shot = tab.screenshot(tab.rect(f"#{rep.VIEW_ID} canvas"))
     assert distinct_colours(shot) > 200 and colour_pixels(shot, ORANGE) > 30  # axis of joint 2 drawn
     groups = set(tab.eval(f"document.getElementById('{rep.VIEW_ID}').data.map(t => t.legendgroup)"))
-    assert {"frames-tiansui_mdh (mdh)", "frames-tiansui_edh (edh)"} <= groups and {f"joint-{j}" for j in range(1, 7)} <= groups
+    assert {"frames-tiansui_mdh (mdh)", "frames-tiansui_edh (edh)"} <= groups and {
+        f"joint-{j}" for j in range(1, 7)
+    } <= groups
     check_guo_tables(Page(tab.eval("document.documentElement.outerHTML")))
 
 
@@ -560,13 +667,19 @@ def every_report(result, tmp_path_factory):
     out["show"] = folder / "show.html"
     rep.write_model_report(kr5, out["show"], q=np.radians(sw.PAPER_HOME_DEG))
     t = kr5.table
-    E = np.random.default_rng(3).uniform(-1, 1, t.params.shape) * np.where(np.array(t.angle_columns), np.radians(0.05), 0.5e-3)
-    true = dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool).to_model("true", kr5.names, kr5.lower, kr5.upper)
+    E = np.random.default_rng(3).uniform(-1, 1, t.params.shape) * np.where(
+        np.array(t.angle_columns), np.radians(0.05), 0.5e-3
+    )
+    true = dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool).to_model(
+        "true", kr5.names, kr5.lower, kr5.upper
+    )
     q = np.random.default_rng(5).uniform(kr5.lower, kr5.upper, (60, 6)) * 0.8
     res = cal.calibrate(cal.simulate(true, q, noise=2e-5), kr5, holdout=0.2)
     out["calibrate"] = rep.write_calibration_report(res, folder / "calibrate.html")
     c = cp.compensate(kr5.model(), true, dv.fk_batch(kr5.model(), q[:30]), q_nominal=q[:30])
-    out["compensate"] = rep.write_compensation_report(c, kr5, res.robot(), folder / "compensate.html", source="program.csv")
+    out["compensate"] = rep.write_compensation_report(
+        c, kr5, res.robot(), folder / "compensate.html", source="program.csv"
+    )
     return out
 
 
@@ -592,14 +705,20 @@ def test_every_report_type_in_browser(tab, every_report, kind):
     tab.wait_all_rendered()
     assert tab.problems() == []
     assert [u for u in tab.requests() if not u.startswith(("file:", "data:", "blob:"))] == []
-    figures = tab.eval("Array.from(document.querySelectorAll('script.figure')).map(s => document.getElementById(s.dataset.for).dataset.rendered)")
+    figures = tab.eval(
+        "Array.from(document.querySelectorAll('script.figure')).map(s => document.getElementById(s.dataset.for).dataset.rendered)"
+    )
     assert figures and all(f == "true" for f in figures), figures
     shot = tab.screenshot(tab.rect(f"#{rep.VIEW_ID} canvas"))
     assert shot.size[0] > 400 and distinct_colours(shot) > 200, "the 3-D view looks blank"
     p = projected(tab)
     assert p["traces"]["n"] > 20
-    assert inside(p["traces"], 0.9) and inside(p["corners"], 0.98), p  # the robot and the whole axis box within the canvas
-    assert max(h - lo for lo, h in zip(p["traces"]["lo"], p["traces"]["hi"], strict=True)) > 0.5, p  # and not a speck in its middle
+    assert inside(p["traces"], 0.9) and inside(p["corners"], 0.98), (
+        p
+    )  # the robot and the whole axis box within the canvas
+    assert max(h - lo for lo, h in zip(p["traces"]["lo"], p["traces"]["hi"], strict=True)) > 0.5, (
+        p
+    )  # and not a speck in its middle
 
 
 def test_viewport_check_catches_a_camera_too_close(tab, every_report):

@@ -41,12 +41,15 @@ def test_the_prior_table_is_read_with_units_and_written_back(tmp_path, kr5_text)
     assert robotfile.read(out).prior == robot.prior
 
 
-@pytest.mark.parametrize("table, match", [
-    ("a_5 = 2", r"\[prior\]: a_5 = 2: expected a width with its unit"),
-    ('length = "-1 mm"', r"\[prior\]: expected a finite width > 0 for length, got -1"),
-    ('length = "1 parsec"', r"\[prior\]"),
-    ("length = true", r"\[prior\]: length = True: expected a width with its unit"),
-])
+@pytest.mark.parametrize(
+    "table, match",
+    [
+        ("a_5 = 2", r"\[prior\]: a_5 = 2: expected a width with its unit"),
+        ('length = "-1 mm"', r"\[prior\]: expected a finite width > 0 for length, got -1"),
+        ('length = "1 parsec"', r"\[prior\]"),
+        ("length = true", r"\[prior\]: length = True: expected a width with its unit"),
+    ],
+)
 def test_a_bad_prior_table_is_one_line_at_its_table(tmp_path, kr5_text, table, match):
     with pytest.raises(DenavitError, match=match) as e:
         robotfile.read(with_prior(tmp_path, kr5_text, table))
@@ -60,7 +63,11 @@ def test_calibrate_uses_the_files_prior_and_an_explicit_one_wins(tmp_path, kr5_t
     pz = cal.parametrize(kr5, "edh", tool=TOOL)
     rng = np.random.default_rng(5)
     x = pz.x0.copy()
-    links = [c for c, nm in enumerate(pz.names) if not nm.startswith(("base_", "tool_", "offset_")) and pz.units[c] == "length"]
+    links = [
+        c
+        for c, nm in enumerate(pz.names)
+        if not nm.startswith(("base_", "tool_", "offset_")) and pz.units[c] == "length"
+    ]
     x[links] += rng.normal(0, 5e-4, len(links))
     truth = pz.model(x, "truth")
     q = np.clip(HOME + rng.uniform(-1, 1, (40, 6)) * math.radians(40), kr5.lower, kr5.upper)
@@ -78,6 +85,8 @@ def test_calibrate_uses_the_files_prior_and_an_explicit_one_wins(tmp_path, kr5_t
     # redundant ones are not estimated under either prior)
     held = [c for c in links if from_file.status[c] == "fixed (prior)"]
     held_default = [c for c in links if default.status[c] == "fixed (prior)"]
-    assert len(held) > len(held_default) and all(from_file.status[c] in ("fixed (prior)", "redundant") for c in links), (held, held_default)
+    assert len(held) > len(held_default) and all(
+        from_file.status[c] in ("fixed (prior)", "redundant") for c in links
+    ), (held, held_default)
     assert all(abs(from_file.value(pz.names[c])[0] - pz.x0[c]) < 5e-6 for c in links)
     assert moved(explicit) == pytest.approx(moved(default), rel=1e-6)

@@ -24,8 +24,12 @@ def test_builtins_cite_source_and_units(name):
 def test_kr5_values_in_si():
     r = dv.load_robot("kr5")
     assert r.table.params[0, 0] == pytest.approx(0.400)  # d1 = 400 mm (Hayat Table III)
-    assert abs(r.table.params[0, 3]) == pytest.approx(np.pi / 2)  # |alpha1| = 90 deg (Table III; the sign, -90, is KUKA's axis sense)
-    assert r.table.params[0, 3] == pytest.approx(-np.pi / 2) and r.table.params[2, 1] == pytest.approx(-np.pi / 2)  # kr5.toml's convention (theta3 too)
+    assert abs(r.table.params[0, 3]) == pytest.approx(
+        np.pi / 2
+    )  # |alpha1| = 90 deg (Table III; the sign, -90, is KUKA's axis sense)
+    assert r.table.params[0, 3] == pytest.approx(-np.pi / 2) and r.table.params[2, 1] == pytest.approx(
+        -np.pi / 2
+    )  # kr5.toml's convention (theta3 too)
     np.testing.assert_allclose(np.degrees(r.home), [90, -90, 90, 0, 90, 0])
 
 
@@ -59,8 +63,10 @@ def test_an_inertia_without_mass_survives_export_and_urdf(tmp_path):
 
 def test_base_and_tool_poses(tmp_path):
     f = tmp_path / "r.toml"
-    f.write_text('convention = "dh"\n[units]\nlength = "mm"\nangle = "deg"\n[[joints]]\nd = 0\ntheta = 0\na = 100\nalpha = 0\n'
-                 "[base]\nxyz = [10, 0, 0]\nrpy = [0, 0, 90]\n[tool]\nxyz = [0, 0, 50]\n")
+    f.write_text(
+        'convention = "dh"\n[units]\nlength = "mm"\nangle = "deg"\n[[joints]]\nd = 0\ntheta = 0\na = 100\nalpha = 0\n'
+        "[base]\nxyz = [10, 0, 0]\nrpy = [0, 0, 90]\n[tool]\nxyz = [0, 0, 50]\n"
+    )
     m = dv.load_model(f)
     T = dv.fk(m, [0.0])
     np.testing.assert_allclose(T[:3, 3], [0.010, 0.100, 0.050], atol=1e-15)
@@ -69,14 +75,31 @@ def test_base_and_tool_poses(tmp_path):
 @pytest.mark.parametrize(
     "text, match",
     [
-        ('convention = "dh"\n[[joints]]\nd=0\ntheta=0\na=0\nalpha=0\n', r"a \[units\] table with 'length' and 'angle' is required"),
-        ('convention = "xx"\n[units]\nlength="m"\nangle="rad"\n', r"'convention' must be one of dh, mdh, edh, poe, got 'xx'"),
-        ('convention = "dh"\n[units]\nlength="m"\nangle="rad"\n[[joints]]\nd=0\ntheta=0\na=0\n', r"joint 1 \(line 5\): missing parameter\(s\) alpha of a dh table"),
-        ('convention = "dh"\n[units]\nlength="m"\nangle="rad"\n[[joints]]\nd=0\ntheta=0\na=0\nalpha=0\n\n[[joints]]\nd="x"\ntheta=0\na=0\nalpha=0\n',
-         r"joint 2 \(line 11\): parameter d: expected a number, got 'x'"),
+        (
+            'convention = "dh"\n[[joints]]\nd=0\ntheta=0\na=0\nalpha=0\n',
+            r"a \[units\] table with 'length' and 'angle' is required",
+        ),
+        (
+            'convention = "xx"\n[units]\nlength="m"\nangle="rad"\n',
+            r"'convention' must be one of dh, mdh, edh, poe, got 'xx'",
+        ),
+        (
+            'convention = "dh"\n[units]\nlength="m"\nangle="rad"\n[[joints]]\nd=0\ntheta=0\na=0\n',
+            r"joint 1 \(line 5\): missing parameter\(s\) alpha of a dh table",
+        ),
+        (
+            'convention = "dh"\n[units]\nlength="m"\nangle="rad"\n[[joints]]\nd=0\ntheta=0\na=0\nalpha=0\n\n[[joints]]\nd="x"\ntheta=0\na=0\nalpha=0\n',
+            r"joint 2 \(line 11\): parameter d: expected a number, got 'x'",
+        ),
         ('convention = "dh"\n[units]\nlength="parsec"\nangle="rad"\n', r"unknown length unit 'parsec'"),
-        ('convention = "dh"\n[units]\nlength="m"\nangle="rad"\n[[joints]]\ntype="ball"\n', r"type must be 'revolute' or 'prismatic', got 'ball'"),
-        ('convention = "dh"\n[units]\nlength="m"\nangle="rad"\n[[joints]]\nd=0\ntheta=0\na=0\nalpha=0\nlimits=[1, -1]\n', r"limits must be \[lower, upper\] with lower <= upper"),
+        (
+            'convention = "dh"\n[units]\nlength="m"\nangle="rad"\n[[joints]]\ntype="ball"\n',
+            r"type must be 'revolute' or 'prismatic', got 'ball'",
+        ),
+        (
+            'convention = "dh"\n[units]\nlength="m"\nangle="rad"\n[[joints]]\nd=0\ntheta=0\na=0\nalpha=0\nlimits=[1, -1]\n',
+            r"limits must be \[lower, upper\] with lower <= upper",
+        ),
         ('convention = "dh"\n[units\n', r"not a valid TOML robot file"),
     ],
 )
@@ -96,12 +119,26 @@ JOINT = "[[joints]]\nd = 0\ntheta = 0\na = 100\nalpha = 0\n"
     "text, match",
     [
         # 'kind' is not the reader's 'type': it had loaded as revolute, its limits [-100, 100] as +-1.745 rad
-        (f'convention = "dh"\n{UNITS}\n{JOINT}\n{JOINT}kind = "prismatic"\nlimits = [-100, 100]\n',
-         r"bad.toml, joint 2 \(line 12\): unknown keys \['kind'\]: expected name, type, d, theta, a, alpha, limits, inertia$"),
-        (f'convention = "dh"\n{UNITS}\n{JOINT}limit = [-10, 10]\n', r"bad.toml, joint 1 \(line 6\): unknown keys \['limit'\]: expected .*, limits, inertia$"),
-        (f'convention = "poe"\n{UNITS}\n[[joints]]\nw = [0, 0, 1]\nv = [0, 0, 0]\nd = 5\n', r"joint 1 \(line 6\): unknown keys \['d'\]: expected name, type, w, v, limits, inertia$"),
-        (f'convention = "dh"\n{UNITS}time = "s"\n\n{JOINT}', r"bad.toml, \[units\]: unknown keys \['time'\]: expected length, angle, mass, inertia$"),
-        (f'convention = "dh"\n{UNITS}\n{JOINT}\n[tool]\nxyz = [0, 0, 1]\nrpz = [0, 0, 0]\n', r"bad.toml, \[tool\]: unknown keys \['rpz'\]: expected xyz, rpy, matrix$"),
+        (
+            f'convention = "dh"\n{UNITS}\n{JOINT}\n{JOINT}kind = "prismatic"\nlimits = [-100, 100]\n',
+            r"bad.toml, joint 2 \(line 12\): unknown keys \['kind'\]: expected name, type, d, theta, a, alpha, limits, inertia$",
+        ),
+        (
+            f'convention = "dh"\n{UNITS}\n{JOINT}limit = [-10, 10]\n',
+            r"bad.toml, joint 1 \(line 6\): unknown keys \['limit'\]: expected .*, limits, inertia$",
+        ),
+        (
+            f'convention = "poe"\n{UNITS}\n[[joints]]\nw = [0, 0, 1]\nv = [0, 0, 0]\nd = 5\n',
+            r"joint 1 \(line 6\): unknown keys \['d'\]: expected name, type, w, v, limits, inertia$",
+        ),
+        (
+            f'convention = "dh"\n{UNITS}time = "s"\n\n{JOINT}',
+            r"bad.toml, \[units\]: unknown keys \['time'\]: expected length, angle, mass, inertia$",
+        ),
+        (
+            f'convention = "dh"\n{UNITS}\n{JOINT}\n[tool]\nxyz = [0, 0, 1]\nrpz = [0, 0, 0]\n',
+            r"bad.toml, \[tool\]: unknown keys \['rpz'\]: expected xyz, rpy, matrix$",
+        ),
         (f'convention = "dh"\njoints = [1]\n{UNITS}', r"bad.toml, joint 1: expected a \[\[joints\]\] table, got 1"),
     ],
 )
@@ -187,10 +224,18 @@ LIMITS = "limits = [-155, 155]"
         # issue 16: each had been a traceback (a ValueError from numpy, an OverflowError, a RecursionError)
         (LIMITS, 'limits = "ab"', r"joint 1 \(line \d+\): limits: expected a list of 2 numbers, got 'ab'$"),
         ("home = [90,", 'home = ["a",', r"kr5.toml: home\[0\]: expected a number, got 'a' \(a string\)$"),
-        ("[units]", "[base]\nmatrix = [[1, 0, 0, 0], [0, 1, 0], [0, 0, 1, 0], [0, 0, 0, 1]]\n[units]", r"\[base\]: matrix row 2: expected a list of 4 numbers, got \[0, 1, 0\]$"),
+        (
+            "[units]",
+            "[base]\nmatrix = [[1, 0, 0, 0], [0, 1, 0], [0, 0, 1, 0], [0, 0, 0, 1]]\n[units]",
+            r"\[base\]: matrix row 2: expected a list of 4 numbers, got \[0, 1, 0\]$",
+        ),
         ("[units]", "[tool]\nxyz = [0, 0, true]\n[units]", r"\[tool\]: xyz\[2\]: expected a number, got true$"),
         ("d = 400", "d = " + "9" * 5000, r"kr5.toml: not a readable TOML robot file: an integer of over 4300 digits$"),
-        ("d = 400", "d = " + "[" * 100_000 + "]" * 100_000, r"kr5.toml: not a readable TOML robot file: arrays or tables nested too deeply$"),
+        (
+            "d = 400",
+            "d = " + "[" * 100_000 + "]" * 100_000,
+            r"kr5.toml: not a readable TOML robot file: arrays or tables nested too deeply$",
+        ),
         ("d = 400", "d = nan", r"joint 1 \(line \d+\): parameter d: expected a finite number, got NaN$"),
         (LIMITS, "limits = [nan, 1]", r"joint 1 \(line \d+\): limits\[0\]: expected a finite number, got NaN$"),
         ('name = "A1"', "name = 5", r"joint 1 \(line \d+\): name: expected a string, got 5$"),
@@ -221,6 +266,10 @@ def test_a_written_file_holds_the_shortest_numbers_that_read_back_exactly(name, 
     doc = robotfile.to_dict(r, "mm", "deg")
     robotfile.save(r, tmp_path / "r.toml", "mm", "deg")
     back = robotfile.read(tmp_path / "r.toml")
-    assert np.array_equal(back.table.params, r.table.params) and np.array_equal(back.lower, r.lower) and np.array_equal(back.upper, r.upper)
+    assert (
+        np.array_equal(back.table.params, r.table.params)
+        and np.array_equal(back.lower, r.lower)
+        and np.array_equal(back.upper, r.upper)
+    )
     if name == "kr5":
         assert [j["limits"] for j in doc["joints"]][2] == [-15.0, 158.0]

@@ -50,7 +50,9 @@ def test_whitening_of_a_point_and_its_reading_error_is_exact():
         A = (va[k] * np.outer(uk, uk) + vb[k] * (np.eye(3) - np.outer(uk, uk))) / ref2
         assert np.isclose(uk @ (x[:, k] - TRACKER.position), np.linalg.norm(x[:, k] - TRACKER.position))
         assert vb[k] == pytest.approx((5 * ARCSEC * np.linalg.norm(x[:, k] - TRACKER.position)) ** 2, rel=1e-12)
-        W = joint._whiten(tuple(a[..., k : k + 1] for a in w), np.eye(3)[:, :, None])[..., 0].T  # W applied to the unit vectors
+        W = joint._whiten(tuple(a[..., k : k + 1] for a in w), np.eye(3)[:, :, None])[
+            ..., 0
+        ].T  # W applied to the unit vectors
         np.testing.assert_allclose(W @ A @ W.T, np.eye(3), atol=1e-12)
         t = rng.normal(size=3)
         t /= np.linalg.norm(t)
@@ -67,6 +69,7 @@ def test_an_isotropic_shape_through_the_whitening_is_the_isotropic_fit(kr5, monk
     gamma 1) gives the isotropic joint fit to 1e-12: the rows, Jacobian, misfits and cost round-off pass through it."""
 
     from denavit.identification import prepare as ident
+
     s = recording(kr5.model(), HOME, np.radians(sw.PAPER_RANGES_DEG[30]), points=15, seed=3)
     dqs = ident._motions(s, [])
     fits = ident._per_sweep(s, "global", "linear", None, lambda _m: None)
@@ -76,7 +79,11 @@ def test_an_isotropic_shape_through_the_whitening_is_the_isotropic_fit(kr5, monk
     # terms in another order; test_identify_convergence compares the two)
     monkeypatch.setattr(joint, "_one_turn", lambda kinds, active: False)
     iso = joint.fit_sweeps(s, dqs, starts, p0, gamma=np.ones(6))
-    monkeypatch.setattr(TrackerNoise, "shape", lambda self, x: (x / np.linalg.norm(x, axis=0), np.full(x.shape[1], 3e-10), np.full(x.shape[1], 3e-10)))
+    monkeypatch.setattr(
+        TrackerNoise,
+        "shape",
+        lambda self, x: (x / np.linalg.norm(x, axis=0), np.full(x.shape[1], 3e-10), np.full(x.shape[1], 3e-10)),
+    )
     sph = joint.fit_sweeps(s, dqs, starts, p0, gamma=np.ones(6), tracker=TRACKER)
     assert sph["tracker_ref2"] == pytest.approx(3e-10, rel=1e-15)
     for key in ("points", "directions", "home"):
@@ -130,7 +137,11 @@ def test_identify_takes_the_model_as_a_tuple_and_says_so(kr5):
     a = dv.identify(s, method="global", tracker_noise=TRACKER)
     b = dv.identify(s, method="global", tracker_noise=(5e-6, 5 * ARCSEC, (3.0, 0.0, 1.0)))
     np.testing.assert_array_equal(a.table.params, b.table.params)
-    assert [n for n in a.notes if n.startswith("the tracker's noise model (range 5 um, angles 5 arcsec, tracker at 3, 0, 1 m) weights")], a.notes
+    assert [
+        n
+        for n in a.notes
+        if n.startswith("the tracker's noise model (range 5 um, angles 5 arcsec, tracker at 3, 0, 1 m) weights")
+    ], a.notes
     geo = dv.identify(s, method="geometric", tracker_noise=TRACKER)
     assert [n for n in geo.notes if "weights each circle's points" in n], geo.notes
     assert geo.tracker_noise == TRACKER
@@ -139,14 +150,20 @@ def test_identify_takes_the_model_as_a_tuple_and_says_so(kr5):
     assert kasa.tracker_noise is None
 
 
-@pytest.mark.parametrize(("value", "match"), [
-    ((-5e-6, 1e-5), "sigma_range must be a finite value > 0 in m, got -5e-06"),
-    ((5e-6, math.nan), "sigma_angle must be a finite value > 0 in rad, got nan"),
-    ((5e-6, 0.0), "sigma_angle must be a finite value > 0 in rad, got 0.0"),
-    ((5e-6, 1e-5, (1.0, 2.0)), r"position must be 3 finite values \(x, y, z in m\), got \(1.0, 2.0\)"),
-    ((5e-6,), r"expected a TrackerNoise or \(sigma_range m, sigma_angle rad\[, position \(x, y, z\) m\]\), got \(5e-06,\)"),
-    ("abc", "expected a TrackerNoise or"),
-])
+@pytest.mark.parametrize(
+    ("value", "match"),
+    [
+        ((-5e-6, 1e-5), "sigma_range must be a finite value > 0 in m, got -5e-06"),
+        ((5e-6, math.nan), "sigma_angle must be a finite value > 0 in rad, got nan"),
+        ((5e-6, 0.0), "sigma_angle must be a finite value > 0 in rad, got 0.0"),
+        ((5e-6, 1e-5, (1.0, 2.0)), r"position must be 3 finite values \(x, y, z in m\), got \(1.0, 2.0\)"),
+        (
+            (5e-6,),
+            r"expected a TrackerNoise or \(sigma_range m, sigma_angle rad\[, position \(x, y, z\) m\]\), got \(5e-06,\)",
+        ),
+        ("abc", "expected a TrackerNoise or"),
+    ],
+)
 def test_bad_tracker_model_is_a_clear_error(kr5, value, match):
     s = recording(kr5.model(), HOME, np.radians(sw.PAPER_RANGES_DEG[90]), points=8, seed=2)
     with pytest.raises(dv.DenavitError, match=f"tracker noise: {match}"):
@@ -164,9 +181,18 @@ def test_cli_tracker_noise_units_and_json(sweep_file, tmp_path):
     """`--tracker-noise "5 um, 1 arcsec"` equals the same values in the --length / --angle units (and in metres and
     radians); the JSON records the model in SI."""
     docs = []
-    for args in (["--tracker-noise", "5 um, 1 arcsec", "--tracker-position", "2500,0,500"],
-                 ["--tracker-noise", f"0.005, {1 / 3600!r}", "--tracker-position", "2500,0,500"],
-                 ["--tracker-noise", f"5e-6 m, {math.radians(1 / 3600)!r} rad", "--tracker-position", "2.5,0,0.5", "--length", "m"]):
+    for args in (
+        ["--tracker-noise", "5 um, 1 arcsec", "--tracker-position", "2500,0,500"],
+        ["--tracker-noise", f"0.005, {1 / 3600!r}", "--tracker-position", "2500,0,500"],
+        [
+            "--tracker-noise",
+            f"5e-6 m, {math.radians(1 / 3600)!r} rad",
+            "--tracker-position",
+            "2.5,0,0.5",
+            "--length",
+            "m",
+        ],
+    ):
         out = tmp_path / "r.json"
         run("identify", sweep_file, "--method", "global", "--json", out, *args)
         docs.append(json.loads(out.read_text()))
@@ -179,16 +205,31 @@ def test_cli_tracker_noise_units_and_json(sweep_file, tmp_path):
         assert [r["a"] for r in d["parameters"]] == pytest.approx(p0, rel=1e-9, abs=1e-12)
 
 
-@pytest.mark.parametrize(("args", "message"), [
-    (["--tracker-noise", "5 um"], "--tracker-noise: expected the range and the angle noise (1 sigma), two values separated by a comma"),
-    (["--tracker-noise", "5 um, -1 arcsec"], "--tracker-noise: expected a finite angle noise > 0, got '-1 arcsec'"),
-    (["--tracker-noise", "0, 1 arcsec"], "--tracker-noise: expected a finite range noise > 0, got '0'"),
-    (["--tracker-noise", "nan, 1"], "got 'nan' for the range noise"),
-    (["--tracker-noise", "5 furlong, 1 arcsec"], "--tracker-noise: the range noise's unit must be one of m, mm, cm, um, in, got 'furlong'"),
-    (["--tracker-noise", "5 um, 1 um"], "--tracker-noise: the angle noise's unit must be one of rad, deg, arcsec, got 'um'"),
-    (["--tracker-position", "1,2,3"], "--tracker-position: needs --tracker-noise"),
-    (["--tracker-noise", "5 um, 1 arcsec", "--tracker-position", "1,2"], "--tracker-position: expected 3 values (x, y, z), got 2"),
-])
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (
+            ["--tracker-noise", "5 um"],
+            "--tracker-noise: expected the range and the angle noise (1 sigma), two values separated by a comma",
+        ),
+        (["--tracker-noise", "5 um, -1 arcsec"], "--tracker-noise: expected a finite angle noise > 0, got '-1 arcsec'"),
+        (["--tracker-noise", "0, 1 arcsec"], "--tracker-noise: expected a finite range noise > 0, got '0'"),
+        (["--tracker-noise", "nan, 1"], "got 'nan' for the range noise"),
+        (
+            ["--tracker-noise", "5 furlong, 1 arcsec"],
+            "--tracker-noise: the range noise's unit must be one of m, mm, cm, um, in, got 'furlong'",
+        ),
+        (
+            ["--tracker-noise", "5 um, 1 um"],
+            "--tracker-noise: the angle noise's unit must be one of rad, deg, arcsec, got 'um'",
+        ),
+        (["--tracker-position", "1,2,3"], "--tracker-position: needs --tracker-noise"),
+        (
+            ["--tracker-noise", "5 um, 1 arcsec", "--tracker-position", "1,2"],
+            "--tracker-position: expected 3 values (x, y, z), got 2",
+        ),
+    ],
+)
 def test_cli_bad_tracker_noise_is_one_line(sweep_file, args, message):
     p = run("identify", sweep_file, *args, ok=False)
     assert p.returncode == 2
@@ -233,10 +274,14 @@ def test_calibrate_with_the_tracker_model_is_honest_and_more_accurate(kr5):
             sig[k].append(r.sigma[idx])
     rms = {k: np.sqrt(np.mean(np.array(v) ** 2, axis=0)) for k, v in err.items()}
     ratio = rms["model"] / np.sqrt(np.mean(np.array(sig["model"]) ** 2, axis=0))
-    assert np.all((ratio > 0.65) & (ratio < 1.4)) and 0.85 < np.median(ratio) < 1.15, dict(zip(free, ratio.round(2), strict=True))
+    assert np.all((ratio > 0.65) & (ratio < 1.4)) and 0.85 < np.median(ratio) < 1.15, dict(
+        zip(free, ratio.round(2), strict=True)
+    )
     assert np.exp(np.mean(np.log(rms["iso"] / rms["model"]))) > 2, rms["iso"] / rms["model"]
     assert not any("tracker's noise model" in n for n in r.notes)  # (r: the isotropic fit, the loop's last)
-    assert any("tracker's noise model" in n for n in cal.calibrate(meas, kr5, tool=CAL_TOOL, tracker_noise=TRACKER).notes)
+    assert any(
+        "tracker's noise model" in n for n in cal.calibrate(meas, kr5, tool=CAL_TOOL, tracker_noise=TRACKER).notes
+    )
 
 
 def test_calibrate_refuses_the_tracker_model_with_a_declared_noise(kr5):
@@ -257,7 +302,18 @@ def test_cli_calibrate_takes_the_tracker_model(kr5, tmp_path):
     meas = cal.simulate(kr5.model(), cal.configurations(kr5, 80, skip=50), noise=2e-5, seed=0)
     f = tmp_path / "poses.csv"
     f.write_text(to_csv(meas, "mm", "deg"))
-    p = run("calibrate", str(f), "--nominal", "kr5", "--tracker-noise", "5 um, 5 arcsec", "--tracker-position", "3000,0,1000", "--json", "-")
+    p = run(
+        "calibrate",
+        str(f),
+        "--nominal",
+        "kr5",
+        "--tracker-noise",
+        "5 um, 5 arcsec",
+        "--tracker-position",
+        "3000,0,1000",
+        "--json",
+        "-",
+    )
     doc = json.loads(p.stdout)
     assert any("tracker's noise model" in n and "tracker at 3, 0, 1 m" in n for n in doc["notes"]), doc["notes"]
     bad = run("calibrate", str(f), "--nominal", "kr5", "--tracker-noise", "5 um, 5 arcsec", "--noise", "0.02", ok=False)
@@ -276,7 +332,9 @@ def test_geometric_circles_with_the_tracker_model_are_honest(kr5):
     err, sig, err_iso = [], [], []
     for seed in range(40):
         s = recording(m, HOME, ranges, points=40, tracker_noise=TRACKER, seed=seed)
-        s = sw.SweepSet([sw.Sweep(x.joint, x.points, None, x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units)
+        s = sw.SweepSet(
+            [sw.Sweep(x.joint, x.points, None, x.where) for x in s.sweeps], 6, s.home, s.kinds, s.source, s.units
+        )
         res = dv.identify(s, method="geometric", tracker_noise=TRACKER)
         err.append(axis_errors(res, m))
         sig.append([f.sigma_point_perp for f in res.fits])

@@ -62,7 +62,9 @@ izz = 0.01
 HOME = [10.0, 100.0, 20.0]  # deg, mm, deg
 HOME_SI = [math.radians(10), 0.1, math.radians(20)]
 RANGES_MM_DEG = "-40,40,50,250,-60,60"
-RANGES_M_RAD = ",".join(f"{v!r}" for v in (math.radians(-40), math.radians(40), 0.05, 0.25, math.radians(-60), math.radians(60)))
+RANGES_M_RAD = ",".join(
+    f"{v!r}" for v in (math.radians(-40), math.radians(40), 0.05, 0.25, math.radians(-60), math.radians(60))
+)
 
 
 def _display(values_si, length):
@@ -130,7 +132,9 @@ def test_poe_prismatic_direction_is_unitless_in_files_tables_and_json(rpr, rpr_p
         np.testing.assert_allclose(j[0]["v"], v1 * k, atol=1e-9)
         np.testing.assert_allclose(j[0]["w"], w1, atol=1e-12)
         assert np.allclose(dv.load_robot(mm).table.params, poe.table.params, atol=1e-12)
-        rows = json.loads(run("convert", rpr, "--to", "poe", "--json", "--length", length).stdout)["rows"]  # JSON: SI whatever --length
+        rows = json.loads(run("convert", rpr, "--to", "poe", "--json", "--length", length).stdout)[
+            "rows"
+        ]  # JSON: SI whatever --length
         np.testing.assert_allclose([rows[1][c] for c in ("vx", "vy", "vz")], v_si, atol=1e-12)
         np.testing.assert_allclose([rows[0][c] for c in ("vx", "vy", "vz")], v1, atol=1e-12)
         np.testing.assert_allclose([rows[0][c] for c in ("wx", "wy", "wz")], w1, atol=1e-12)
@@ -147,7 +151,7 @@ def test_poe_prismatic_direction_is_unitless_in_files_tables_and_json(rpr, rpr_p
 def test_show_and_export_tables_give_the_prismatic_offset_as_a_length(rpr):
     for length, k in (("mm", 1.0), ("m", 1e-3)):
         shown = run("show", rpr, "--length", length, "--angle", "deg").stdout
-        shown = shown[shown.index("┏"):]  # the table (the model's title and source come first)
+        shown = shown[shown.index("┏") :]  # the table (the model's title and source come first)
         assert f"d [{length}]" in shown
         line = next(ln for ln in shown.splitlines() if ln.strip("│ ").startswith("j2"))
         cells = [float(c) for c in line.replace("│", " ").split()[1:]]
@@ -171,10 +175,46 @@ def test_ik_answers_prismatic_values_in_the_length_unit(rpr):
     pose_mm = ",".join(repr(float(v)) for v in T_mm.ravel())
     pose_m = ",".join(repr(float(v)) for v in T.ravel())
     # an RPR arm reaches a 3-D point, not a 6-D pose: start next to the answer, judge the position alone
-    a = json.loads(run("ik", rpr, "--pose", pose_mm, "--q0", "12,90,25", "--json", "--restarts", "0",
-                       "--tol-rotation", str(math.degrees(10)), "--tol-position", "1e-6", ok=False).stdout)
-    b = json.loads(run("ik", rpr, "--pose", pose_m, "--q0", _si((12, 90, 25)), "--length", "m", "--angle", "rad", "--json", "--restarts", "0",
-                       "--tol-rotation", "10", "--tol-position", "1e-9", ok=False).stdout)
+    a = json.loads(
+        run(
+            "ik",
+            rpr,
+            "--pose",
+            pose_mm,
+            "--q0",
+            "12,90,25",
+            "--json",
+            "--restarts",
+            "0",
+            "--tol-rotation",
+            str(math.degrees(10)),
+            "--tol-position",
+            "1e-6",
+            ok=False,
+        ).stdout
+    )
+    b = json.loads(
+        run(
+            "ik",
+            rpr,
+            "--pose",
+            pose_m,
+            "--q0",
+            _si((12, 90, 25)),
+            "--length",
+            "m",
+            "--angle",
+            "rad",
+            "--json",
+            "--restarts",
+            "0",
+            "--tol-rotation",
+            "10",
+            "--tol-position",
+            "1e-9",
+            ok=False,
+        ).stdout
+    )
     np.testing.assert_allclose(_display(a["q"], "mm"), HOME, atol=1e-5)
     np.testing.assert_allclose(b["q"], HOME_SI, atol=1e-7)
 
@@ -183,10 +223,36 @@ def test_dynamics_reads_and_echoes_prismatic_values_and_rates_in_the_length_unit
     m = dv.load_model(rpr)
     qd_si, qdd_si = [0.2, 0.05, -0.1], [0.1, 0.3, 0.2]
     tau = dv.rnea(m, HOME_SI, qd_si, qdd_si, gravity=[0, 0, -9.81])
-    a = json.loads(run("dynamics", rpr, "--q", "10,100,20", "--qd", ",".join(repr(v) for v in (math.degrees(0.2), 50.0, math.degrees(-0.1))),
-                       "--qdd", ",".join(repr(v) for v in (math.degrees(0.1), 300.0, math.degrees(0.2))), "--json").stdout)
-    b = json.loads(run("dynamics", rpr, "--q", _si(HOME), "--qd", ",".join(map(repr, qd_si)), "--qdd", ",".join(map(repr, qdd_si)), "--length", "m", "--angle", "rad",
-                       "--json").stdout)
+    a = json.loads(
+        run(
+            "dynamics",
+            rpr,
+            "--q",
+            "10,100,20",
+            "--qd",
+            ",".join(repr(v) for v in (math.degrees(0.2), 50.0, math.degrees(-0.1))),
+            "--qdd",
+            ",".join(repr(v) for v in (math.degrees(0.1), 300.0, math.degrees(0.2))),
+            "--json",
+        ).stdout
+    )
+    b = json.loads(
+        run(
+            "dynamics",
+            rpr,
+            "--q",
+            _si(HOME),
+            "--qd",
+            ",".join(map(repr, qd_si)),
+            "--qdd",
+            ",".join(map(repr, qdd_si)),
+            "--length",
+            "m",
+            "--angle",
+            "rad",
+            "--json",
+        ).stdout
+    )
     np.testing.assert_allclose(a["tau"], tau, rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(b["tau"], tau, rtol=1e-10, atol=1e-12)
     assert a["tau_units"] == ["N m", "N", "N m"]
@@ -204,8 +270,26 @@ def _long_csv_rows(path):
 def test_simulate_then_identify_with_a_prismatic_joint(rpr, tmp_path):
     mm, m = tmp_path / "mm.csv", tmp_path / "m.csv"
     run("simulate", rpr, "-o", mm, "--home", "10,100,20", "--ranges", RANGES_MM_DEG, "--points", "12", "--noise", "0")
-    run("simulate", rpr, "-o", m, "--home", _si(HOME), "--ranges", RANGES_M_RAD, "--points", "12", "--noise", "0", "--tool", "0.05,0.03,0.1",
-        "--length", "m", "--angle", "rad")
+    run(
+        "simulate",
+        rpr,
+        "-o",
+        m,
+        "--home",
+        _si(HOME),
+        "--ranges",
+        RANGES_M_RAD,
+        "--points",
+        "12",
+        "--noise",
+        "0",
+        "--tool",
+        "0.05,0.03,0.1",
+        "--length",
+        "m",
+        "--angle",
+        "rad",
+    )
     cols, a = _long_csv_rows(mm)
     _, b = _long_csv_rows(m)
     assert cols == ["joint", "q1", "q2", "q3", "x", "y", "z"]
@@ -226,7 +310,12 @@ def test_simulate_then_identify_with_a_prismatic_joint(rpr, tmp_path):
         np.testing.assert_allclose(_display(doc["home"], length), [10, 100 * k / 1e3, 20], atol=1e-6)
         assert doc["units"] == {"length": "m", "angle": "rad"}  # JSON: SI whatever --length
         np.testing.assert_allclose(doc["tool_point_home_m"], point, atol=1e-6)
-        params = np.array([[r[c] for c in ("d", "theta", "a", "alpha")] for r in doc["parameters"]]) * [1, 180 / math.pi, 1, 180 / math.pi]  # m, deg
+        params = np.array([[r[c] for c in ("d", "theta", "a", "alpha")] for r in doc["parameters"]]) * [
+            1,
+            180 / math.pi,
+            1,
+            180 / math.pi,
+        ]  # m, deg
         first = params if first is None else first
         np.testing.assert_allclose(params, first, atol=1e-8)  # the same geometry whatever the units in and out
         np.testing.assert_allclose(params[2, [0, 2]], [0.08, 0.12], atol=1e-8)  # joint 3: d 80 mm, a 120 mm
@@ -236,13 +325,20 @@ def test_simulate_then_identify_with_a_prismatic_joint(rpr, tmp_path):
         folder.mkdir()
         for j in (1, 2, 3):
             rows = (a if length == "mm" else b)[a[:, 0] == j]
-            (folder / f"j{j}.csv").write_text("x,y,z\n" + "".join(",".join(repr(float(v)) for v in p) + "\n" for p in rows[:, 4:]))
+            (folder / f"j{j}.csv").write_text(
+                "x,y,z\n" + "".join(",".join(repr(float(v)) for v in p) + "\n" for p in rows[:, 4:])
+            )
         out = tmp_path / f"folder_{length}.json"
         run("identify", folder, "--nominal", rpr, "--home", home, "--length", length, "--angle", angle, "--json", out)
         doc = json.loads(out.read_text())
         k = 1e3 if length == "mm" else 1.0
         np.testing.assert_allclose(_display(doc["home"], length), [10, 100 * k / 1e3, 20], atol=1e-6)
-        params = np.array([[r[c] for c in ("d", "theta", "a", "alpha")] for r in doc["parameters"]]) * [1, 180 / math.pi, 1, 180 / math.pi]  # m, deg
+        params = np.array([[r[c] for c in ("d", "theta", "a", "alpha")] for r in doc["parameters"]]) * [
+            1,
+            180 / math.pi,
+            1,
+            180 / math.pi,
+        ]  # m, deg
         np.testing.assert_allclose(params, first, atol=1e-6)  # (the home point is a measured one: no readings)
 
 
@@ -268,15 +364,53 @@ def test_calibrate_reads_prismatic_readings_in_the_length_unit_in_mm_and_m(rpr, 
 
 
 def test_plan_reads_home_and_ranges_of_a_prismatic_joint_in_the_length_unit(rpr):
-    a = json.loads(run("plan", rpr, "--home", "10,100,20", "--ranges", RANGES_MM_DEG, "--points", "10", "--tool", "30,20,50", "--json").stdout)
-    b = json.loads(run("plan", rpr, "--home", _si(HOME), "--ranges", RANGES_M_RAD, "--points", "10", "--tool", "0.03,0.02,0.05",
-                       "--noise", "2e-5", "--length", "m", "--angle", "rad", "--json").stdout)
+    a = json.loads(
+        run(
+            "plan",
+            rpr,
+            "--home",
+            "10,100,20",
+            "--ranges",
+            RANGES_MM_DEG,
+            "--points",
+            "10",
+            "--tool",
+            "30,20,50",
+            "--json",
+        ).stdout
+    )
+    b = json.loads(
+        run(
+            "plan",
+            rpr,
+            "--home",
+            _si(HOME),
+            "--ranges",
+            RANGES_M_RAD,
+            "--points",
+            "10",
+            "--tool",
+            "0.03,0.02,0.05",
+            "--noise",
+            "2e-5",
+            "--length",
+            "m",
+            "--angle",
+            "rad",
+            "--json",
+        ).stdout
+    )
     np.testing.assert_allclose(b["bounding_box"]["lengths_m"], a["bounding_box"]["lengths_m"], rtol=1e-9)  # JSON: SI
     m = dv.load_model(rpr)
     from denavit import sweeps as sw
 
-    s = sw.simulate(m, home=HOME_SI, ranges=[[math.radians(-40), math.radians(40)], [0.05, 0.25], [math.radians(-60), math.radians(60)]],
-                    points_per_sweep=10, tool_point=(0.03, 0.02, 0.05))
+    s = sw.simulate(
+        m,
+        home=HOME_SI,
+        ranges=[[math.radians(-40), math.radians(40)], [0.05, 0.25], [math.radians(-60), math.radians(60)]],
+        points_per_sweep=10,
+        tool_point=(0.03, 0.02, 0.05),
+    )
     P = s.all_points
     diameter = max(np.linalg.norm(P - p, axis=1).max() for p in P)
     diagonal = np.linalg.norm(a["bounding_box"]["lengths_m"])  # the box holds every point: its diagonal spans them

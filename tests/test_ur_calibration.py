@@ -64,7 +64,9 @@ def test_bad_input():
         urc.kinematics(r.model(), dv.load_robot("tiansui_mdh").table)
     tcp = np.eye(4)
     tcp[:3, 3] = [0.05, 0, 0.1]
-    assert urc.kinematics(r.model().with_tool(tcp), r.table) == urc.kinematics(r.model(), r.table)  # the flange, not the TCP
+    assert urc.kinematics(r.model().with_tool(tcp), r.table) == urc.kinematics(
+        r.model(), r.table
+    )  # the flange, not the TCP
     t = r.table
     P = t.params.copy()
     P[5, 2] = 0.01  # a6 = 10 mm: the flange leaves axis 6
@@ -73,7 +75,9 @@ def test_bad_input():
     with pytest.raises(dv.DenavitError, match="expected a calibration of the nominal UR arm"):
         urc.kinematics(dv.load_model("kr5"), r.table)
     with pytest.raises(dv.DenavitError, match="kinematics.forearm: expected x, y, z, roll, pitch, yaw"):
-        urc.loads("kinematics:\n  shoulder: {x: 0, y: 0, z: 0, roll: 0, pitch: 0, yaw: 0}\n  upper_arm: {x: 0, y: 0, z: 0, roll: 0, pitch: 0, yaw: 0}\n")
+        urc.loads(
+            "kinematics:\n  shoulder: {x: 0, y: 0, z: 0, roll: 0, pitch: 0, yaw: 0}\n  upper_arm: {x: 0, y: 0, z: 0, roll: 0, pitch: 0, yaw: 0}\n"
+        )
     with pytest.raises(dv.DenavitError, match="top-level 'kinematics'"):
         urc.loads("- 1\n- 2\n")
     # a file of megabytes is not a kinematics file (PyYAML's pure-Python loader had spent over 10 s on a fuzzed 3.4 MB one)

@@ -27,15 +27,17 @@ UR, PANDA, KR5 = DATA / "ur_style.urdf", DATA / "panda_style.urdf", DATA / "kr5.
 GOOD = [UR, PANDA, KR5]
 
 # Franka Emika, "Robot and interface specifications": Panda modified DH (Craig), columns alpha, a, theta, d
-PANDA_MDH = np.array([
-    [0.0, 0.0, 0.0, 0.333],
-    [-np.pi / 2, 0.0, 0.0, 0.0],
-    [np.pi / 2, 0.0, 0.0, 0.316],
-    [np.pi / 2, 0.0825, 0.0, 0.0],
-    [-np.pi / 2, -0.0825, 0.0, 0.384],
-    [np.pi / 2, 0.0, 0.0, 0.0],
-    [np.pi / 2, 0.088, 0.0, 0.0],
-])
+PANDA_MDH = np.array(
+    [
+        [0.0, 0.0, 0.0, 0.333],
+        [-np.pi / 2, 0.0, 0.0, 0.0],
+        [np.pi / 2, 0.0, 0.0, 0.316],
+        [np.pi / 2, 0.0825, 0.0, 0.0],
+        [-np.pi / 2, -0.0825, 0.0, 0.384],
+        [np.pi / 2, 0.0, 0.0, 0.0],
+        [np.pi / 2, 0.088, 0.0, 0.0],
+    ]
+)
 PANDA_FLANGE = np.diag([1.0, 1.0, 1.0, 1.0])
 PANDA_FLANGE[2, 3] = 0.107  # "flange: d = 0.107"
 
@@ -256,8 +258,10 @@ def test_dh_error_reported_where_dh_cannot_represent_the_geometry(tmp_path):
     """The UR elbow axis tilted by 3e-4 rad towards the upper arm: axes 2-3 are near-parallel, DH keeps
     them parallel (no far-away common normal) and loses the tilt. The reported Hayati beta is the tilt and
     the reported tool error is the one measured here (4000 random configurations); ED-H stays exact."""
-    text = UR.read_text().replace('<origin xyz="0 -0.1197 0.425" rpy="0 0 0"/>\n    <axis xyz="0 1 0"/>',
-                                  '<origin xyz="0 -0.1197 0.425" rpy="0 0 0"/>\n    <axis xyz="0 1 0.0003"/>')
+    text = UR.read_text().replace(
+        '<origin xyz="0 -0.1197 0.425" rpy="0 0 0"/>\n    <axis xyz="0 1 0"/>',
+        '<origin xyz="0 -0.1197 0.425" rpy="0 0 0"/>\n    <axis xyz="0 1 0.0003"/>',
+    )
     p = write(tmp_path, text)
     exact = U.urdf_model(p)
     qs = qs_within(exact, 4000, seed=5)
@@ -298,21 +302,33 @@ def random_urdf(seed: int) -> str:
     and prismatic joints about random axes (some exactly +-z, +-x), random origins and rpy."""
     rng = np.random.default_rng(seed)
     r = lambda v: " ".join(repr(float(x)) for x in v)  # noqa: E731
-    lines = ['<robot name="random">', '<link name="l0"/>', '<link name="l1"/>',
-             f'<joint name="mount" type="fixed"><parent link="l0"/><child link="l1"/><origin xyz="{r(rng.uniform(-1, 1, 3))}" rpy="{r(rng.uniform(-3, 3, 3))}"/></joint>']
+    lines = [
+        '<robot name="random">',
+        '<link name="l0"/>',
+        '<link name="l1"/>',
+        f'<joint name="mount" type="fixed"><parent link="l0"/><child link="l1"/><origin xyz="{r(rng.uniform(-1, 1, 3))}" rpy="{r(rng.uniform(-3, 3, 3))}"/></joint>',
+    ]
     link = 1
     special = [[0, 0, 1], [0, 0, -1], [1, 0, 0], [0, -1, 0]]
     for k in range(6):
         kind = ["revolute", "continuous", "prismatic"][k % 3]
         a = special[k % 4] if rng.random() < 0.5 else rng.normal(size=3)
         a = np.asarray(a, dtype=float) / np.linalg.norm(a)
-        lim = '<limit lower="-0.3" upper="0.4" effort="1" velocity="1"/>' if kind == "prismatic" else ('<limit lower="-2.5" upper="2" effort="1" velocity="1"/>' if kind == "revolute" else "")
-        lines += [f'<link name="l{link + 1}"/>',
-                  f'<joint name="j{k + 1}" type="{kind}"><parent link="l{link}"/><child link="l{link + 1}"/><origin xyz="{r(rng.uniform(-0.4, 0.4, 3))}" rpy="{r(rng.uniform(-3, 3, 3))}"/><axis xyz="{r(a)}"/>{lim}</joint>']
+        lim = (
+            '<limit lower="-0.3" upper="0.4" effort="1" velocity="1"/>'
+            if kind == "prismatic"
+            else ('<limit lower="-2.5" upper="2" effort="1" velocity="1"/>' if kind == "revolute" else "")
+        )
+        lines += [
+            f'<link name="l{link + 1}"/>',
+            f'<joint name="j{k + 1}" type="{kind}"><parent link="l{link}"/><child link="l{link + 1}"/><origin xyz="{r(rng.uniform(-0.4, 0.4, 3))}" rpy="{r(rng.uniform(-3, 3, 3))}"/><axis xyz="{r(a)}"/>{lim}</joint>',
+        ]
         link += 1
         if rng.random() < 0.5:
-            lines += [f'<link name="l{link + 1}"/>',
-                      f'<joint name="f{k + 1}" type="fixed"><parent link="l{link}"/><child link="l{link + 1}"/><origin xyz="{r(rng.uniform(-0.2, 0.2, 3))}" rpy="{r(rng.uniform(-3, 3, 3))}"/></joint>']
+            lines += [
+                f'<link name="l{link + 1}"/>',
+                f'<joint name="f{k + 1}" type="fixed"><parent link="l{link}"/><child link="l{link + 1}"/><origin xyz="{r(rng.uniform(-0.2, 0.2, 3))}" rpy="{r(rng.uniform(-3, 3, 3))}"/></joint>',
+            ]
             link += 1
     lines.append("</robot>")
     return "\n".join(lines)
@@ -367,7 +383,14 @@ def test_identified_model_exports_with_frames_within_the_robot(kr5, tmp_path):
 
     nominal = U.load_urdf(KR5)
     truth = nominal.model()
-    s = sw.simulate(truth, home=np.radians(sw.PAPER_HOME_DEG), ranges=np.radians(sw.PAPER_RANGES_DEG[30]), points_per_sweep=20, noise=2e-5, seed=11)
+    s = sw.simulate(
+        truth,
+        home=np.radians(sw.PAPER_HOME_DEG),
+        ranges=np.radians(sw.PAPER_RANGES_DEG[30]),
+        points_per_sweep=20,
+        noise=2e-5,
+        seed=11,
+    )
     tool_point = np.eye(4)
     tool_point[:3, 3] = (0.05, 0.03, 0.10)  # sw.simulate's default tool point in the flange frame
     truth_point = truth.with_tool(tool_point)
@@ -391,11 +414,21 @@ def test_identified_model_exports_with_frames_within_the_robot(kr5, tmp_path):
             assert np.linalg.norm(F[:, :3, 3] - back.T_world_base[:3, 3], axis=1).max() < 2 * reach, conv
         ch = U.read_chain(out, tip_link="tcp")
         assert np.linalg.norm(ch.placements[:, :3, 3], axis=1).max() < 2 * reach
-        assert ch.names == nominal.names and ch.extra["body_links"][1:] == ["link_1", "link_2", "link_3", "link_4", "link_5", "link_6"]
+        assert ch.names == nominal.names and ch.extra["body_links"][1:] == [
+            "link_1",
+            "link_2",
+            "link_3",
+            "link_4",
+            "link_5",
+            "link_6",
+        ]
         np.testing.assert_allclose(back.lower, nominal.lower)
         # sanity only (identification accuracy is test_identify's subject): the measured tool point within a
         # few millimetres over the whole joint range, 30 degree arcs with 0.02 mm noise
-        assert np.linalg.norm(dv.fk_batch(back, qs)[:, :3, 3] - dv.fk_batch(truth_point, qs)[:, :3, 3], axis=1).max() < 5e-3
+        assert (
+            np.linalg.norm(dv.fk_batch(back, qs)[:, :3, 3] - dv.fk_batch(truth_point, qs)[:, :3, 3], axis=1).max()
+            < 5e-3
+        )
     # what a plain common-normal extraction would have written for the same measured axes
     plain = dv.extract(res.axes, "dh", parallel_tol=0.0, max_offset=1e9)
     assert np.abs(plain.table.params[:, 0]).max() > 10 * reach
@@ -416,7 +449,10 @@ def world_items(u: yourdfpy.URDF, q):
         for kind, group in (("visual", link.visuals), ("collision", link.collisions)):
             for v in group:
                 g = v.geometry
-                key = (kind, g.mesh.filename if g.mesh is not None else ("cylinder" if g.cylinder is not None else "other"))
+                key = (
+                    kind,
+                    g.mesh.filename if g.mesh is not None else ("cylinder" if g.cylinder is not None else "other"),
+                )
                 items.append((key, T @ (np.eye(4) if v.origin is None else v.origin)))
         if link.inertial is not None and link.inertial.mass:
             P = T @ link.inertial.origin
@@ -424,7 +460,14 @@ def world_items(u: yourdfpy.URDF, q):
             M += link.inertial.mass
             mc += link.inertial.mass * P[:3, 3]
     c = mc / M if M else np.zeros(3)
-    I = sum((P[:3, :3] @ Ic @ P[:3, :3].T + m * ((P[:3, 3] - c) @ (P[:3, 3] - c) * np.eye(3) - np.outer(P[:3, 3] - c, P[:3, 3] - c)) for P, m, Ic in parts), np.zeros((3, 3)))
+    I = sum(
+        (
+            P[:3, :3] @ Ic @ P[:3, :3].T
+            + m * ((P[:3, 3] - c) @ (P[:3, 3] - c) * np.eye(3) - np.outer(P[:3, 3] - c, P[:3, 3] - c))
+            for P, m, Ic in parts
+        ),
+        np.zeros((3, 3)),
+    )
     return sorted(items, key=lambda kv: kv[0]), M, c, I
 
 
@@ -501,7 +544,9 @@ def test_identified_in_a_measurement_frame_carries_meshes_onto_the_robot(path, c
     U.save_urdf(m, out, nominal)
     a = yourdfpy.URDF.load(str(path), build_scene_graph=True, load_meshes=False)
     b = yourdfpy.URDF.load(str(out), build_scene_graph=True, load_meshes=False)
-    assert b.base_link == "world" and pose_err(b.get_transform(a.base_link, "world"), TRACKER) < 1e-9  # the root is the tracker frame
+    assert (
+        b.base_link == "world" and pose_err(b.get_transform(a.base_link, "world"), TRACKER) < 1e-9
+    )  # the root is the tracker frame
     back = U.urdf_model(out, tip_link="tcp")
     assert tool_err(back, m, qs_within(m, 20)) < 1e-12
     R, p = TRACKER[:3, :3], TRACKER[:3, 3]
@@ -522,8 +567,14 @@ def test_meshes_follow_any_convention_in_another_frame(seed, tmp_path):
     """Random chains (any axis, prismatic and fixed joints, a mesh on every link) re-expressed in a tracker
     frame in each convention (frames at other origins along the axes and turned about them): every mesh
     read back by yourdfpy sits where yourdfpy puts the nominal URDF's, moved by TRACKER, to 1e-12."""
-    text = re.sub(r'<link name="(l\d+)"/>', lambda mt: f'<link name="{mt.group(1)}"><visual><origin xyz="0.1 0.2 0.05" rpy="0.3 0.2 0.1"/>'
-                  f'<geometry><mesh filename="{mt.group(1)}.stl"/></geometry></visual></link>', random_urdf(seed))
+    text = re.sub(
+        r'<link name="(l\d+)"/>',
+        lambda mt: (
+            f'<link name="{mt.group(1)}"><visual><origin xyz="0.1 0.2 0.05" rpy="0.3 0.2 0.1"/>'
+            f'<geometry><mesh filename="{mt.group(1)}.stl"/></geometry></visual></link>'
+        ),
+        random_urdf(seed),
+    )
     p = write(tmp_path, text)
     nominal = U.load_urdf(p)
     moved = nominal.model().with_base(TRACKER @ nominal.model().T_world_base)
@@ -572,7 +623,9 @@ def test_urdf_inertials_give_the_urdfs_gravity_torques(path):
     `denavit dynamics x.urdf` is the URDF's dynamics: gravity torques against a sum over yourdfpy's link
     poses; full inverse dynamics against pinocchio's URDF importer when it is installed."""
     robot = U.load_urdf(path)
-    has_mass = any(l.inertial is not None and l.inertial.mass for l in yourdfpy.URDF.load(str(path), load_meshes=False).robot.links)
+    has_mass = any(
+        l.inertial is not None and l.inertial.mass for l in yourdfpy.URDF.load(str(path), load_meshes=False).robot.links
+    )
     if not has_mass:
         assert robot.inertials is None
         return
@@ -621,23 +674,35 @@ def test_robot_file_inertials_survive_urdf_export(tmp_path, name):
         return
     pm = pin.buildModelFromUrdf(str(out))
     q, qd, qdd = rng.uniform(-2, 2, 6), rng.normal(size=6), rng.normal(size=6)
-    np.testing.assert_allclose(pin.rnea(pm, pm.createData(), pin_q(pm, q), qd, qdd), dv.rnea(m, q, qd, qdd), rtol=0, atol=1e-10)
+    np.testing.assert_allclose(
+        pin.rnea(pm, pm.createData(), pin_q(pm, q), qd, qdd), dv.rnea(m, q, qd, qdd), rtol=0, atol=1e-10
+    )
 
 
-@pytest.mark.parametrize("bad, why", [
-    ('<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="3"/>', "triangle"),
-    ('<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="-1"/>', "definite"),
-])
+@pytest.mark.parametrize(
+    "bad, why",
+    [
+        ('<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="3"/>', "triangle"),
+        ('<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="-1"/>', "definite"),
+    ],
+)
 def test_unphysical_urdf_inertia_warns_and_loads_kinematics(tmp_path, bad, why):
     """One unphysical inertial leaves that body alone massless, with a URDF-worded warning (it had made the
     whole robot massless: xArm6 printed all-zero torques)."""
-    text = UR.read_text().replace('<inertia ixx="0.010267495893" ixy="0" ixz="0" iyy="0.010267495893" iyz="0" izz="0.00666"/>', bad)
+    text = UR.read_text().replace(
+        '<inertia ixx="0.010267495893" ixy="0" ixz="0" iyy="0.010267495893" iyz="0" izz="0.00666"/>', bad
+    )
     assert bad in text
     p = tmp_path / "bad.urdf"
     p.write_text(text)
-    with pytest.warns(dv.DenavitWarning, match="bad.urdf: the <inertial> of link 'shoulder_link' .*'shoulder_pan_joint'.* not physical") as rec:
+    with pytest.warns(
+        dv.DenavitWarning,
+        match="bad.urdf: the <inertial> of link 'shoulder_link' .*'shoulder_pan_joint'.* not physical",
+    ) as rec:
         robot = U.load_urdf(p)
-    assert why in str(rec[0].message) and "that body is loaded without mass, the others keep theirs" in str(rec[0].message)
+    assert why in str(rec[0].message) and "that body is loaded without mass, the others keep theirs" in str(
+        rec[0].message
+    )
     good = U.load_urdf(UR).inertials["masses"]
     assert robot.inertials["masses"][0] == 0 and np.array_equal(robot.inertials["masses"][1:], good[1:])
     assert pose_err(dv.fk(robot.model(), np.full(6, 0.3)), dv.fk(U.load_urdf(UR).model(), np.full(6, 0.3))) < 1e-12
@@ -646,7 +711,10 @@ def test_unphysical_urdf_inertia_warns_and_loads_kinematics(tmp_path, bad, why):
 def test_negative_urdf_mass_names_the_link(tmp_path):
     p = tmp_path / "neg.urdf"
     p.write_text(UR.read_text().replace('<mass value="2.275"/>', '<mass value="-2.275"/>'))
-    with pytest.warns(dv.DenavitWarning, match="forearm_link.*-2.275.*expected a finite mass >= 0 kg .*that body is loaded without mass, the others keep theirs"):
+    with pytest.warns(
+        dv.DenavitWarning,
+        match="forearm_link.*-2.275.*expected a finite mass >= 0 kg .*that body is loaded without mass, the others keep theirs",
+    ):
         masses = U.load_urdf(p).inertials["masses"]
     # as any unphysical inertial (docs/urdf.md): that body alone is massless (it had dropped every body's mass)
     good = U.load_urdf(UR).inertials["masses"]
@@ -691,7 +759,12 @@ def test_z_to_special_axes():
 
 
 @settings(max_examples=200, deadline=None)
-@given(st.floats(-np.pi, np.pi), st.sampled_from([None, np.pi / 2, -np.pi / 2, np.pi / 2 - 1e-9, -np.pi / 2 + 1e-7]), st.floats(-np.pi, np.pi), st.floats(-1.5, 1.5))
+@given(
+    st.floats(-np.pi, np.pi),
+    st.sampled_from([None, np.pi / 2, -np.pi / 2, np.pi / 2 - 1e-9, -np.pi / 2 + 1e-7]),
+    st.floats(-np.pi, np.pi),
+    st.floats(-1.5, 1.5),
+)
 def test_rpy_round_trip_including_gimbal_lock(roll, pitch_special, yaw, pitch):
     p = pitch if pitch_special is None else pitch_special
     c, s = math.cos, math.sin
@@ -718,7 +791,14 @@ def test_convert_cli_prints_tables_and_writes_urdf(tmp_path):
     assert r.exit_code == 0, r.output
     doc = json.loads(r.output)
     assert doc["units"] == {"length": "m", "angle": "rad"} and len(doc["rows"]) == 7  # JSON: SI (docs/cli.md)
-    assert [p["relation"] for p in doc["pairs"]] == ["intersecting", "intersecting", "skew", "skew", "intersecting", "skew"]
+    assert [p["relation"] for p in doc["pairs"]] == [
+        "intersecting",
+        "intersecting",
+        "skew",
+        "skew",
+        "intersecting",
+        "skew",
+    ]
     assert doc["max_tool_position_error_m"] < 1e-12
     r = runner.invoke(app, ["convert", str(UR), "--to", "dh"])
     assert r.exit_code == 0 and "Consecutive axes" in r.output and "parallel" in r.output and "FK parity" in r.output
@@ -728,27 +808,56 @@ def test_convert_cli_prints_tables_and_writes_urdf(tmp_path):
     assert tool_err(U.urdf_model(out), dv.load_model("kr5"), qs_within(dv.load_model("kr5"), 20)) < 1e-12
     r = runner.invoke(app, ["convert", str(DATA / "two_tips.urdf"), "--to", "urdf", "--tip-link", "tool0"])
     assert r.exit_code == 0 and "<robot" in r.output and '<link name="camera"/>' in r.output  # off-chain links kept
-    r = runner.invoke(app, ["convert", str(DATA / "two_tips.urdf"), "--to", "urdf", "--tip-link", "tool0", "--chain-only"])
+    r = runner.invoke(
+        app, ["convert", str(DATA / "two_tips.urdf"), "--to", "urdf", "--tip-link", "tool0", "--chain-only"]
+    )
     assert r.exit_code == 0 and "<robot" in r.output and "camera" not in r.output
-    r = runner.invoke(app, ["convert", str(DATA / "two_tips.urdf"), "--to", "dh", "--base-link", "link_1", "--tip-link", "tool0", "--json"])
+    r = runner.invoke(
+        app,
+        [
+            "convert",
+            str(DATA / "two_tips.urdf"),
+            "--to",
+            "dh",
+            "--base-link",
+            "link_1",
+            "--tip-link",
+            "tool0",
+            "--json",
+        ],
+    )
     assert r.exit_code == 0 and len(json.loads(r.output)["rows"]) == 1
     # without --tip-link, REP-199's tool0 is the tip (the camera hangs off the arm), and the choice is said
     r = runner.invoke(app, ["convert", str(DATA / "two_tips.urdf"), "--to", "dh", "--json"])
-    assert r.exit_code == 0 and len(json.loads(r.output[r.output.index("{"):])["rows"]) == 2
-    assert dv.load_robot(DATA / "two_tips.urdf").notes == ["two_tips.urdf: tip link 'tool0' (REP-199) of 2 leaves; choose another with tip_link (CLI: --tip-link)"]
+    assert r.exit_code == 0 and len(json.loads(r.output[r.output.index("{") :])["rows"]) == 2
+    assert dv.load_robot(DATA / "two_tips.urdf").notes == [
+        "two_tips.urdf: tip link 'tool0' (REP-199) of 2 leaves; choose another with tip_link (CLI: --tip-link)"
+    ]
 
 
 # --------------------------------------------------------------------------------------------------
 # bad input: clear errors that name the file and the element
 
 
-@pytest.mark.parametrize("name, match", [
-    ("malformed_xml.urdf", r"malformed_xml.urdf: malformed XML at line 10.*child line 7 and joint"),
-    ("missing_link.urdf", r"missing_link.urdf: joint 'j2' \(line 12\): child link 'link_2' is not defined \(links: base_link, link_1\)"),
-    ("two_arms.urdf", r"two_arms.urdf: the tree below 'base_link' has 2 tip links \('left' \(1 moving joints\), 'right' \(1 moving joints\)\).*tip_link"),
-    ("floating_joint.urdf", r"floating_joint.urdf: joint 'free_base' \(line 7\) is a floating joint, which is not supported"),
-    ("zero_axis.urdf", r"zero_axis.urdf: joint 'j2' \(line 13\): axis xyz=\"0 0 0\" has zero length"),
-])
+@pytest.mark.parametrize(
+    "name, match",
+    [
+        ("malformed_xml.urdf", r"malformed_xml.urdf: malformed XML at line 10.*child line 7 and joint"),
+        (
+            "missing_link.urdf",
+            r"missing_link.urdf: joint 'j2' \(line 12\): child link 'link_2' is not defined \(links: base_link, link_1\)",
+        ),
+        (
+            "two_arms.urdf",
+            r"two_arms.urdf: the tree below 'base_link' has 2 tip links \('left' \(1 moving joints\), 'right' \(1 moving joints\)\).*tip_link",
+        ),
+        (
+            "floating_joint.urdf",
+            r"floating_joint.urdf: joint 'free_base' \(line 7\) is a floating joint, which is not supported",
+        ),
+        ("zero_axis.urdf", r"zero_axis.urdf: joint 'j2' \(line 13\): axis xyz=\"0 0 0\" has zero length"),
+    ],
+)
 def test_bad_files(name, match):
     with pytest.raises(dv.DenavitError, match=match):
         dv.load_robot(DATA / name)
@@ -762,22 +871,60 @@ ARM = """<robot name="arm">
 </robot>"""
 
 
-@pytest.mark.parametrize("kw, match", [
-    ({"type": "planar"}, r"joint 'j2' \(line 4\) is a planar joint, which is not supported"),
-    ({"type": "revolute", "extra": '<limit lower="-1" upper="1" effort="0" velocity="0"/><mimic joint="j1" multiplier="2"/>'}, r"joint 'j2' \(line 4\) mimics joint 'j1': mimic joints .* not supported"),
-    ({"type": "ball"}, r"joint 'j2' \(line 4\): unknown joint type 'ball'"),
-    ({"type": "revolute"}, r"joint 'j2' \(line 4\): a revolute joint needs a <limit"),
-    ({"type": "revolute", "extra": '<limit lower="1" upper="-1" effort="0" velocity="0"/>'}, r"joint 'j2' \(line 4\): limit lower=1.0 is above upper=-1.0"),
-    ({"type": "continuous", "more": '<joint name="back" type="fixed"><parent link="link_2"/><child link="link_1"/></joint>'}, r"link 'link_1' \(line 2\) is the child of joint 'j1' and of joint 'back': kinematic loops"),
-    ({"type": "continuous", "more": '<joint name="j3" type="fixed"><parent link="link_2"/><child link="base_link"/></joint>'}, r"no root link .* loop"),
-    # a joint whose parent is its child, and a loop away from the root: both had been dropped without a word
-    ({"type": "continuous", "more": '<link name="x"/><joint name="self" type="fixed"><parent link="x"/><child link="x"/></joint>'},
-     r"joint 'self' \(line 5\): its child link 'x' \(parent 'x'\) is on a loop of joints: kinematic loops are not supported"),
-    ({"type": "continuous", "more": '<link name="x"/><link name="y"/><joint name="xy" type="fixed"><parent link="x"/><child link="y"/></joint>'
-      '<joint name="yx" type="fixed"><parent link="y"/><child link="x"/></joint>'}, r"joint 'xy' \(line 5\): its child link 'y' \(parent 'x'\) is on a loop"),
-    ({"type": "continuous", "axis": '<axis xyz="0 1 zero"/>'}, r"joint 'j2' \(line 4\): axis xyz='0 1 zero': expected 3 numbers"),
-    ({"type": "continuous", "more": '<link name="link_2"/>'}, r"link 'link_2' is defined twice \(lines 2 and 5\)"),
-])
+@pytest.mark.parametrize(
+    "kw, match",
+    [
+        ({"type": "planar"}, r"joint 'j2' \(line 4\) is a planar joint, which is not supported"),
+        (
+            {
+                "type": "revolute",
+                "extra": '<limit lower="-1" upper="1" effort="0" velocity="0"/><mimic joint="j1" multiplier="2"/>',
+            },
+            r"joint 'j2' \(line 4\) mimics joint 'j1': mimic joints .* not supported",
+        ),
+        ({"type": "ball"}, r"joint 'j2' \(line 4\): unknown joint type 'ball'"),
+        ({"type": "revolute"}, r"joint 'j2' \(line 4\): a revolute joint needs a <limit"),
+        (
+            {"type": "revolute", "extra": '<limit lower="1" upper="-1" effort="0" velocity="0"/>'},
+            r"joint 'j2' \(line 4\): limit lower=1.0 is above upper=-1.0",
+        ),
+        (
+            {
+                "type": "continuous",
+                "more": '<joint name="back" type="fixed"><parent link="link_2"/><child link="link_1"/></joint>',
+            },
+            r"link 'link_1' \(line 2\) is the child of joint 'j1' and of joint 'back': kinematic loops",
+        ),
+        (
+            {
+                "type": "continuous",
+                "more": '<joint name="j3" type="fixed"><parent link="link_2"/><child link="base_link"/></joint>',
+            },
+            r"no root link .* loop",
+        ),
+        # a joint whose parent is its child, and a loop away from the root: both had been dropped without a word
+        (
+            {
+                "type": "continuous",
+                "more": '<link name="x"/><joint name="self" type="fixed"><parent link="x"/><child link="x"/></joint>',
+            },
+            r"joint 'self' \(line 5\): its child link 'x' \(parent 'x'\) is on a loop of joints: kinematic loops are not supported",
+        ),
+        (
+            {
+                "type": "continuous",
+                "more": '<link name="x"/><link name="y"/><joint name="xy" type="fixed"><parent link="x"/><child link="y"/></joint>'
+                '<joint name="yx" type="fixed"><parent link="y"/><child link="x"/></joint>',
+            },
+            r"joint 'xy' \(line 5\): its child link 'y' \(parent 'x'\) is on a loop",
+        ),
+        (
+            {"type": "continuous", "axis": '<axis xyz="0 1 zero"/>'},
+            r"joint 'j2' \(line 4\): axis xyz='0 1 zero': expected 3 numbers",
+        ),
+        ({"type": "continuous", "more": '<link name="link_2"/>'}, r"link 'link_2' is defined twice \(lines 2 and 5\)"),
+    ],
+)
 def test_bad_chains(tmp_path, kw, match):
     text = ARM.format(**{"type": "revolute", "axis": '<axis xyz="0 1 0"/>', "extra": "", "more": "", **kw})
     with pytest.raises(dv.DenavitError, match=match):
@@ -786,11 +933,16 @@ def test_bad_chains(tmp_path, kw, match):
 
 def test_bad_base_and_tip(tmp_path):
     p = DATA / "two_tips.urdf"
-    with pytest.raises(dv.DenavitError, match=r"tip link 'hand' is not defined \(links: base_link, camera, link_1, link_2, tool0\)"):
+    with pytest.raises(
+        dv.DenavitError, match=r"tip link 'hand' is not defined \(links: base_link, camera, link_1, link_2, tool0\)"
+    ):
         U.load_urdf(p, tip_link="hand")
     with pytest.raises(dv.DenavitError, match=r"tip link 'link_1' is not below base link 'link_2'"):
         U.load_urdf(p, base_link="link_2", tip_link="link_1")
-    with pytest.raises(dv.DenavitError, match=r"no revolute, continuous or prismatic joint between base link 'link_2' and tip link 'tool0'"):
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"no revolute, continuous or prismatic joint between base link 'link_2' and tip link 'tool0'",
+    ):
         U.load_urdf(p, base_link="link_2", tip_link="tool0")
     with pytest.raises(dv.DenavitError, match=r"expected a <robot> root element, got <model>"):
         U.load_urdf(write(tmp_path, "<model/>"))
@@ -817,7 +969,11 @@ def test_cli_identify_urdf_writes_the_exact_geometry_with_the_nominals_meshes(tm
         return sorted(float(v) for v in re.findall(attr + r'="([^"]+)"', t))
 
     assert sum(total("<mass value", txt)) == pytest.approx(sum(total("<mass value", src)), rel=1e-12)
-    assert total("effort", txt) == total("effort", src) and total("velocity", txt) == total("velocity", src) and max(total("effort", src)) > 0
+    assert (
+        total("effort", txt) == total("effort", src)
+        and total("velocity", txt) == total("velocity", src)
+        and max(total("effort", src)) > 0
+    )
     T_ft = np.eye(4)
     T_ft[:3, 3] = (0.05, 0.03, 0.10)  # sw.simulate's default tool point in the flange frame
     truth = U.load_urdf(UR).model().with_tool(T_ft)
@@ -833,7 +989,9 @@ def test_cli_identify_urdf_writes_the_exact_geometry_with_the_nominals_meshes(tm
     res = dv.identify(swio.read_long_csv(csv), nominal=U.load_urdf(UR))
     exported = dv.fk_batch(U.urdf_model(out), qs)
     assert np.abs(exported - dv.fk_batch(res.model(convention="edh"), qs)).max() < 1e-12
-    assert np.abs(exported[:, :3, 3] - dv.fk_batch(res.model(), qs)[:, :3, 3]).max() > 1e-7  # what the DH table would have written
+    assert (
+        np.abs(exported[:, :3, 3] - dv.fk_batch(res.model(), qs)[:, :3, 3]).max() > 1e-7
+    )  # what the DH table would have written
 
 
 def test_every_command_picks_the_chain():
@@ -844,8 +1002,13 @@ def test_every_command_picks_the_chain():
     f = DATA / "two_tips.urdf"
     m = dv.load_model(f, tip_link="camera")
     assert m.nq == 1 and dv.load_model(f).nq == 2
-    for args in (["fk", f, "--q", "0.1,0.2"], ["show", f], ["export", f], ["dynamics", f, "--q", "0,0", "--qd", "0,0", "--qdd", "0,0"],
-                 ["ik", f, "--pose", ",".join(map(str, dv.fk(dv.load_model(f), [0.1, 0.2]).ravel())), "--length", "m"]):
+    for args in (
+        ["fk", f, "--q", "0.1,0.2"],
+        ["show", f],
+        ["export", f],
+        ["dynamics", f, "--q", "0,0", "--qd", "0,0", "--qdd", "0,0"],
+        ["ik", f, "--pose", ",".join(map(str, dv.fk(dv.load_model(f), [0.1, 0.2]).ravel())), "--length", "m"],
+    ):
         p = run(*args)
         assert "note: two_tips.urdf: tip link 'tool0' (REP-199)" in p.stderr, args
         p = run(*args[:2], "--tip-link", "tool0", *args[2:])
@@ -858,12 +1021,24 @@ def test_every_command_picks_the_chain():
     assert p.returncode == 2 and "choose one with tip_link (CLI: --tip-link)" in p.stderr
 
 
-@pytest.mark.parametrize("edit, match", [
-    (('iyz="0"', 'iyz="-1e309"', 1), r"link 'base_link' \(line \d+\): <inertial> must hold finite numbers"),
-    (('upper="6.283185307179586"', 'upper="1e309"', 1), r"joint 'shoulder_pan_joint' \(line \d+\): limit lower=-6.28\S* upper=inf must be finite"),
-    (('lower="-6.283185307179586" ', '', 1), r"joint 'shoulder_pan_joint' \(line \d+\): <limit> lacks lower: a revolute joint needs both bounds"),
-    (('xyz="0 0 0.089159"', 'xyz="0 0 1e309"', 1), r"joint 'shoulder_pan_joint' \(line \d+\): origin xyz='0 0 1e309': expected 3 finite numbers"),
-])
+@pytest.mark.parametrize(
+    "edit, match",
+    [
+        (('iyz="0"', 'iyz="-1e309"', 1), r"link 'base_link' \(line \d+\): <inertial> must hold finite numbers"),
+        (
+            ('upper="6.283185307179586"', 'upper="1e309"', 1),
+            r"joint 'shoulder_pan_joint' \(line \d+\): limit lower=-6.28\S* upper=inf must be finite",
+        ),
+        (
+            ('lower="-6.283185307179586" ', "", 1),
+            r"joint 'shoulder_pan_joint' \(line \d+\): <limit> lacks lower: a revolute joint needs both bounds",
+        ),
+        (
+            ('xyz="0 0 0.089159"', 'xyz="0 0 1e309"', 1),
+            r"joint 'shoulder_pan_joint' \(line \d+\): origin xyz='0 0 1e309': expected 3 finite numbers",
+        ),
+    ],
+)
 def test_non_finite_and_missing_numbers_are_errors(tmp_path, edit, match):
     """1e309 had become an infinite limit or a NaN inertia (a RuntimeWarning deep in numpy), a limit without
     lower/upper a silent [0, 0] (found by tests/test_fuzz.py): one-line errors naming the element."""
@@ -894,7 +1069,11 @@ def test_an_undeclared_namespace_prefix_loads_as_urdfdom_loads_it(tmp_path, capf
     text = UR.read_text()
     i = text.index('<link name="base_link">')
     f = tmp_path / "ns.urdf"
-    f.write_text(text[:i] + '<drake:collision_filter_group name="g"><drake:member link="base_link"/></drake:collision_filter_group>\n  ' + text[i:])
+    f.write_text(
+        text[:i]
+        + '<drake:collision_filter_group name="g"><drake:member link="base_link"/></drake:collision_filter_group>\n  '
+        + text[i:]
+    )
     q = np.full(6, 0.3)
     np.testing.assert_allclose(dv.fk(dv.load_model(f), q), dv.fk(dv.load_model(UR), q), atol=1e-15)
     assert "parsing approach" not in capfd.readouterr().err
@@ -920,7 +1099,11 @@ def test_calibrate_writes_urdf_with_the_nominals_meshes(tmp_path):
     # the URDF is the calibrated model; the ED-H file drops the tilt of the UR's parallel axes where it is within
     # 3 sigma of zero (as identify's ED-H) and says how far that moves the tool, which bounds the difference
     header = (tmp_path / "cal.toml").read_text().splitlines()[0]
-    carried = float(header.split("tool-position error up to ")[1].split(" mm")[0]) * 1e-3 if "tool-position error up to" in header else 1e-9
+    carried = (
+        float(header.split("tool-position error up to ")[1].split(" mm")[0]) * 1e-3
+        if "tool-position error up to" in header
+        else 1e-9
+    )
     assert carried < 2e-5  # within the points' noise
     for qq in q[:10]:
         np.testing.assert_allclose(dv.fk(m, qq)[:3, 3], dv.fk(cal_toml, qq)[:3, 3], atol=carried * 1.001 + 1e-9)
@@ -974,17 +1157,35 @@ def test_no_limit_is_invented(tmp_path):
 # URDFs in the shape of real ones (issue #15): names, frames and the whole body's dynamics
 
 
-UR_ROS, IRB, HUMANOID, GRIPPER = DATA / "ur5_ros.urdf", DATA / "irb_rosi.urdf", DATA / "humanoid.urdf", DATA / "gripper.urdf"
+UR_ROS, IRB, HUMANOID, GRIPPER = (
+    DATA / "ur5_ros.urdf",
+    DATA / "irb_rosi.urdf",
+    DATA / "humanoid.urdf",
+    DATA / "gripper.urdf",
+)
 # (file, tip link or None for the default); the default tips: tool0, tool0, arm_right_tool_link, leftfinger
-TREES = [(UR_ROS, None), (UR_ROS, "wrist_3_link"), (IRB, None), (IRB, "link_6"), (HUMANOID, None), (HUMANOID, "xtion_rgb_optical_frame"),
-         (HUMANOID, "arm_left_hand"), (GRIPPER, None), (GRIPPER, "hand_tcp")]
+TREES = [
+    (UR_ROS, None),
+    (UR_ROS, "wrist_3_link"),
+    (IRB, None),
+    (IRB, "link_6"),
+    (HUMANOID, None),
+    (HUMANOID, "xtion_rgb_optical_frame"),
+    (HUMANOID, "arm_left_hand"),
+    (GRIPPER, None),
+    (GRIPPER, "hand_tcp"),
+]
 TREE_IDS = [f"{p.stem}-{t or 'default'}" for p, t in TREES]
 
 
 def all_joint_values(u: yourdfpy.URDF, robot, q, rng):
     """A configuration of every actuated joint of the tree: the chain's at ``q``, the others random."""
-    cfg = {j.name: rng.uniform(max(j.limit.lower, -1.0), min(j.limit.upper, 1.0)) if j.limit is not None and j.limit.lower is not None and j.type != "continuous" else rng.uniform(-1, 1)
-           for j in u.actuated_joints}
+    cfg = {
+        j.name: rng.uniform(max(j.limit.lower, -1.0), min(j.limit.upper, 1.0))
+        if j.limit is not None and j.limit.lower is not None and j.type != "continuous"
+        else rng.uniform(-1, 1)
+        for j in u.actuated_joints
+    }
     cfg.update(zip(robot.names, q))
     return cfg
 
@@ -1014,21 +1215,32 @@ def test_export_is_the_original_tree(path, tip, tmp_path):
         for pm, x in ((pa, xa), (pb, xb)):
             for k in range(1, pm.njoints):
                 uj = a.joint_map[pm.names[k]]  # a mimic joint (not actuated in yourdfpy) follows its joint
-                v = cfg[uj.name] if uj.mimic is None else (uj.mimic.multiplier or 1.0) * cfg[uj.mimic.joint] + (uj.mimic.offset or 0.0)
+                v = (
+                    cfg[uj.name]
+                    if uj.mimic is None
+                    else (uj.mimic.multiplier or 1.0) * cfg[uj.mimic.joint] + (uj.mimic.offset or 0.0)
+                )
                 j = pm.joints[k]
                 x[j.idx_q : j.idx_q + j.nq] = [math.cos(v), math.sin(v)] if j.nq == 2 else [v]
         pin.framesForwardKinematics(pa, da, xa)
         pin.framesForwardKinematics(pb, db, xb)
         for link in a.link_map:
             assert pose_err(a.get_transform(link), b.get_transform(link)) < 1e-12, link
-            Ta, Tb = da.oMf[pa.getFrameId(link, pin.BODY)].homogeneous, db.oMf[pb.getFrameId(link, pin.BODY)].homogeneous
+            Ta, Tb = (
+                da.oMf[pa.getFrameId(link, pin.BODY)].homogeneous,
+                db.oMf[pb.getFrameId(link, pin.BODY)].homogeneous,
+            )
             assert pose_err(Ta, Tb) < 1e-12 and pose_err(Ta, a.get_transform(link)) < 1e-12, link
         # the tool and the axes as the model has them
         assert pose_err(b.get_transform(robot.extra["urdf"]["tip_link"]), dv.fk(robot.model(), q)) < 1e-12
     again = U.load_urdf(out, tip_link=tip)
     assert U.dumps_urdf(again.model(), again) == out.read_text()
     chain = U.load_urdf(path, tip_link=tip, chain_only=True)
-    c = yourdfpy.URDF.load(str(write(tmp_path, U.dumps_urdf(chain.model(), chain), "chain.urdf")), build_scene_graph=True, load_meshes=False)
+    c = yourdfpy.URDF.load(
+        str(write(tmp_path, U.dumps_urdf(chain.model(), chain), "chain.urdf")),
+        build_scene_graph=True,
+        load_meshes=False,
+    )
     assert list(c.link_map) == robot.extra["urdf"]["path_links"]
     q = qs_within(robot.model(), 1, seed=8)[0]
     c.update_cfg(dict(zip(robot.names, q)))
@@ -1068,8 +1280,15 @@ def test_dynamics_of_the_whole_body_match_pinocchio(path, tip):
     rng = np.random.default_rng(11)
     for q in qs_within(m, 5, seed=12):
         qd, qdd = rng.normal(size=m.nq), rng.normal(size=m.nq)
-        np.testing.assert_allclose(dv.rnea(m, q, qd, qdd), pin.rnea(red, data, pin_q(red, q), qd, qdd), rtol=0, atol=1e-9)
-    merged = [ld for b in robot.extra["urdf"]["bodies"][1:] for ld in b["attached"] if ld.get("inertial", {}).get("mass", 0) > 0]
+        np.testing.assert_allclose(
+            dv.rnea(m, q, qd, qdd), pin.rnea(red, data, pin_q(red, q), qd, qdd), rtol=0, atol=1e-9
+        )
+    merged = [
+        ld
+        for b in robot.extra["urdf"]["bodies"][1:]
+        for ld in b["attached"]
+        if ld.get("inertial", {}).get("mass", 0) > 0
+    ]
     if merged:
         assert any("merged" in n and f"{len(merged)} off-chain link" in n for n in robot.notes)
         alone = U.load_urdf(path, tip_link=tip, chain_only=True)
@@ -1091,9 +1310,19 @@ def test_locked_off_chain_joints_at_given_values():
     rng = np.random.default_rng(2)
     for q in qs_within(m, 3, seed=3):
         qd, qdd = rng.normal(size=m.nq), rng.normal(size=m.nq)
-        np.testing.assert_allclose(dv.rnea(m, q, qd, qdd), pin.rnea(red, data, pin_q(red, q), qd, qdd), rtol=0, atol=1e-9)
-    assert np.abs(dv.gravity_torques(m, np.zeros(m.nq)) - dv.gravity_torques(U.load_urdf(HUMANOID).model(), np.zeros(m.nq)))[1] > 1e-2  # torso_2
-    with pytest.raises(dv.DenavitError, match=r"locked joint 'arm_right_1_joint': expected off-chain movable joints \('arm_left_1_joint'"):
+        np.testing.assert_allclose(
+            dv.rnea(m, q, qd, qdd), pin.rnea(red, data, pin_q(red, q), qd, qdd), rtol=0, atol=1e-9
+        )
+    assert (
+        np.abs(
+            dv.gravity_torques(m, np.zeros(m.nq)) - dv.gravity_torques(U.load_urdf(HUMANOID).model(), np.zeros(m.nq))
+        )[1]
+        > 1e-2
+    )  # torso_2
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"locked joint 'arm_right_1_joint': expected off-chain movable joints \('arm_left_1_joint'",
+    ):
         U.load_urdf(HUMANOID, locked={"arm_right_1_joint": 0.1})
 
 
@@ -1109,16 +1338,34 @@ def test_identified_export_keeps_every_link_on_its_body(tmp_path):
     nominal = U.load_urdf(UR_ROS)
     truth = nominal.model().with_base(TRACKER)
     home = (np.maximum(nominal.lower, -np.pi) + np.minimum(nominal.upper, np.pi)) / 2
-    s = sw.simulate(truth, home=home, ranges=np.stack([home - 0.6, home + 0.6], axis=1), points_per_sweep=12, noise=2e-5, seed=4)
+    s = sw.simulate(
+        truth, home=home, ranges=np.stack([home - 0.6, home + 0.6], axis=1), points_per_sweep=12, noise=2e-5, seed=4
+    )
     m = dv.identify(s, convention="edh", nominal=nominal).model()
     out = tmp_path / "identified.urdf"
     U.save_urdf(m, out, nominal)
-    src = {el.get("name"): etree.tostring(el) for el in etree.parse(str(UR_ROS), etree.XMLParser(remove_blank_text=True)).getroot() if el.tag == "link"}
-    new = {el.get("name"): etree.tostring(el) for el in etree.parse(str(out), etree.XMLParser(remove_blank_text=True)).getroot() if el.tag == "link"}
+    src = {
+        el.get("name"): etree.tostring(el)
+        for el in etree.parse(str(UR_ROS), etree.XMLParser(remove_blank_text=True)).getroot()
+        if el.tag == "link"
+    }
+    new = {
+        el.get("name"): etree.tostring(el)
+        for el in etree.parse(str(out), etree.XMLParser(remove_blank_text=True)).getroot()
+        if el.tag == "link"
+    }
     assert all(new[name] == text for name, text in src.items()) and set(new) - set(src) == {"world_2", "tcp"}
     b = yourdfpy.URDF.load(str(out), build_scene_graph=True, load_meshes=False)
     assert b.base_link == "world_2"  # the tracker frame above the file's own `world` root
     back = U.urdf_model(out, tip_link="tcp")
     qs = qs_within(m, 20)
     assert tool_err(back, m, qs) < 1e-12
-    assert pose_err(b.get_transform("wrist_camera_optical_frame", "wrist_3_link"), yourdfpy.URDF.load(str(UR_ROS), build_scene_graph=True, load_meshes=False).get_transform("wrist_camera_optical_frame", "wrist_3_link")) < 1e-12
+    assert (
+        pose_err(
+            b.get_transform("wrist_camera_optical_frame", "wrist_3_link"),
+            yourdfpy.URDF.load(str(UR_ROS), build_scene_graph=True, load_meshes=False).get_transform(
+                "wrist_camera_optical_frame", "wrist_3_link"
+            ),
+        )
+        < 1e-12
+    )

@@ -68,7 +68,9 @@ def test_a_link_1_mm_off_gives_1_mm_everywhere(kr5):
     q = cal.configurations(kr5, 50, skip=7)
     meas = cal.simulate(_with_tool(truth.model()), q, tool=TOOL)
     v = dv.validate(_with_tool(kr5.model()), meas)
-    independent = np.linalg.norm(dv.fk_batch(_with_tool(truth.model()), q)[:, :3, 3] - dv.fk_batch(_with_tool(kr5.model()), q)[:, :3, 3], axis=1)
+    independent = np.linalg.norm(
+        dv.fk_batch(_with_tool(truth.model()), q)[:, :3, 3] - dv.fk_batch(_with_tool(kr5.model()), q)[:, :3, 3], axis=1
+    )
     np.testing.assert_allclose(v.errors, independent, rtol=0, atol=1e-12)
     np.testing.assert_allclose(v.errors, 1e-3, rtol=0, atol=1e-12)
     assert v.rms == pytest.approx(1e-3, abs=1e-12) and v.max == pytest.approx(1e-3, abs=1e-12)
@@ -84,7 +86,9 @@ def test_frozen_and_refitted_registration_on_data_from_a_moved_tracker(kr5):
     exact = cal.simulate(m, q, tool=TOOL)
     moved = replace(exact, points=exact.points @ MOVE[:3, :3].T + MOVE[:3, 3])
     frozen = dv.validate(m, moved)
-    np.testing.assert_allclose(frozen.errors, np.linalg.norm(moved.points - exact.points, axis=1), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(
+        frozen.errors, np.linalg.norm(moved.points - exact.points, axis=1), rtol=1e-12, atol=1e-12
+    )
     refit = dv.validate(m, moved, registration="refit")
     assert refit.registration == "refit" and refit.max < 1e-9
     np.testing.assert_allclose(refit.T_world_base, MOVE, atol=1e-9)
@@ -103,7 +107,15 @@ def test_refit_recovers_a_tools_orientation_from_poses(kr5):
     """6-DoF poses of a tool turned 88 deg about y, from a moved tracker: the re-fitted registration finds the
     tool's orientation (rotation errors at the noise, 2e-5 rad)."""
     T_tool = pose(Rotation.from_euler("xyz", [20, -88, 40], degrees=True).as_matrix(), TOOL)
-    meas = cal.simulate(kr5.model().with_base(MOVE), cal.configurations(kr5, 60), tool=T_tool, noise=NOISE, noise_rot=2e-5, measure="pose", seed=4)
+    meas = cal.simulate(
+        kr5.model().with_base(MOVE),
+        cal.configurations(kr5, 60),
+        tool=T_tool,
+        noise=NOISE,
+        noise_rot=2e-5,
+        measure="pose",
+        seed=4,
+    )
     v = dv.validate(kr5.model(), meas, registration="refit")
     assert v.measure == "pose" and v.rms_rotation < 1e-4 and v.rms < 3 * NOISE * np.sqrt(3)
     assert np.linalg.norm(Rotation.from_matrix(v.T_flange_tool[:3, :3].T @ T_tool[:3, :3]).as_rotvec()) < 2e-5
@@ -114,7 +126,12 @@ def test_iso_9283_accuracy_and_repeatability_of_repeated_poses(kr5):
     1 mm off: 5 groups; AP and RP are the clause's formulas computed here, AP about 1 mm, RP about the noise."""
     truth = _shifted(kr5, 2, "a", 1e-3)
     base_q = cal.configurations(kr5, 5, skip=40)
-    q = np.vstack([np.repeat(base_q, 30, axis=0) + np.random.default_rng(0).uniform(-1e-5, 1e-5, (150, 6)), cal.configurations(kr5, 20, skip=400)])
+    q = np.vstack(
+        [
+            np.repeat(base_q, 30, axis=0) + np.random.default_rng(0).uniform(-1e-5, 1e-5, (150, 6)),
+            cal.configurations(kr5, 20, skip=400),
+        ]
+    )
     meas = cal.simulate(_with_tool(truth.model()), q, tool=TOOL, noise=NOISE, seed=8)
     v = dv.validate(_with_tool(kr5.model()), meas)
     assert len(v.groups) == 5 and sorted(g.n for g in v.groups) == [30] * 5
@@ -178,7 +195,9 @@ def session(tmp_path_factory):
     truth = _shifted(kr5, 3, "a", 4e-4)
     far = pose(None, [1.0, 0.2, 0.0])
     qtr = LO + (HI - LO) * np.random.default_rng(1).random((50, 6))
-    c = cal.calibrate(cal.simulate(_with_tool(truth.model()).with_base(far), qtr, tool=TOOL, noise=NOISE, seed=1), kr5, tool=TOOL)
+    c = cal.calibrate(
+        cal.simulate(_with_tool(truth.model()).with_base(far), qtr, tool=TOOL, noise=NOISE, seed=1), kr5, tool=TOOL
+    )
     save(c.robot(), tmp / "cal.toml", "mm", "deg")
     q = np.vstack([LO + (HI - LO) * np.random.default_rng(2).random((20, 6)), cal.configurations(kr5, 20, skip=900)])
     test = cal.simulate(_with_tool(truth.model()).with_base(far), q, tool=TOOL, noise=NOISE, seed=5)
@@ -193,10 +212,27 @@ def test_cli_validate_prints_a_table_and_writes_json_and_a_report(session):
     (every number's unit known from its key, as test_cli_json requires); `--report` and `--plot` write their files."""
     from test_cli_json import offenders
 
-    r = CliRunner().invoke(app, ["validate", str(session / "cal.toml"), str(session / "test.csv"), "--json", str(session / "v.json"),
-                                 "--report", str(session / "v.html"), "--plot", str(session / "figs")], env={"COLUMNS": "200"})
+    r = CliRunner().invoke(
+        app,
+        [
+            "validate",
+            str(session / "cal.toml"),
+            str(session / "test.csv"),
+            "--json",
+            str(session / "v.json"),
+            "--report",
+            str(session / "v.html"),
+            "--plot",
+            str(session / "figs"),
+        ],
+        env={"COLUMNS": "200"},
+    )
     assert r.exit_code == 0, r.output
-    assert "Validation of kr5_calibrated on 40 points (registration frozen)" in r.output and "error [mm]" in r.output and "predicted sigma [mm]" in r.output
+    assert (
+        "Validation of kr5_calibrated on 40 points (registration frozen)" in r.output
+        and "error [mm]" in r.output
+        and "predicted sigma [mm]" in r.output
+    )
     doc = json.loads((session / "v.json").read_text())
     assert {"n_poses", "rms_m", "max_m", "percentiles_m", "registration", "per_pose", "iso9283", "units"} <= set(doc)
     assert doc["n_poses"] == 40 and doc["registration"] == "frozen" and len(doc["per_pose"]) == 40
@@ -212,12 +248,16 @@ def test_cli_validate_refits_the_registration_when_asked(session):
     """The session seen from a moved tracker: frozen, metres of error; --refit-registration, the noise again, and
     the output says which."""
     frozen = CliRunner().invoke(app, ["validate", str(session / "cal.toml"), str(session / "moved.csv"), "--json", "-"])
-    refit = CliRunner().invoke(app, ["validate", str(session / "cal.toml"), str(session / "moved.csv"), "--refit-registration", "--json", "-"])
+    refit = CliRunner().invoke(
+        app, ["validate", str(session / "cal.toml"), str(session / "moved.csv"), "--refit-registration", "--json", "-"]
+    )
     assert frozen.exit_code == 0 and refit.exit_code == 0, frozen.output + refit.output
     a, b = json.loads(frozen.stdout), json.loads(refit.stdout)
     assert a["registration"] == "frozen" and a["rms_m"] > 1.0
     assert b["registration"] == "refit" and b["rms_m"] < 1e-4
-    text = CliRunner().invoke(app, ["validate", str(session / "cal.toml"), str(session / "moved.csv"), "--refit-registration"])
+    text = CliRunner().invoke(
+        app, ["validate", str(session / "cal.toml"), str(session / "moved.csv"), "--refit-registration"]
+    )
     assert "(registration refit)" in text.output and "registration re-fitted with the kinematics frozen" in text.output
 
 
@@ -227,18 +267,43 @@ def test_a_robot_file_from_calibrate_save_carries_its_training_ranges(kr5, tmp_p
     truth = _shifted(kr5, 3, "a", 4e-4)
     lo, hi = np.radians([-30, -90, 40, -30, 40, -45]), np.radians([30, -60, 90, 30, 90, 45])
     qtr = lo + (hi - lo) * np.random.default_rng(1).random((50, 6))
-    (tmp_path / "train.csv").write_text(to_csv(cal.simulate(_with_tool(truth.model()), qtr, tool=TOOL, noise=NOISE, seed=1)))
-    r = CliRunner().invoke(app, ["calibrate", str(tmp_path / "train.csv"), "--nominal", "kr5", "--tool", "50,30,100", "--save", str(tmp_path / "cal.toml")])
+    (tmp_path / "train.csv").write_text(
+        to_csv(cal.simulate(_with_tool(truth.model()), qtr, tool=TOOL, noise=NOISE, seed=1))
+    )
+    r = CliRunner().invoke(
+        app,
+        [
+            "calibrate",
+            str(tmp_path / "train.csv"),
+            "--nominal",
+            "kr5",
+            "--tool",
+            "50,30,100",
+            "--save",
+            str(tmp_path / "cal.toml"),
+        ],
+    )
     assert r.exit_code == 0, r.output
     saved = dv.load_robot(tmp_path / "cal.toml")
-    np.testing.assert_allclose(np.radians(saved.extra["training"]["lower"]), qtr.min(axis=0), atol=1e-9)  # degrees in a mm/deg file
-    q = np.vstack([qtr.min(axis=0) + (qtr.max(axis=0) - qtr.min(axis=0)) * np.random.default_rng(2).random((20, 6)), cal.configurations(kr5, 20, skip=900)])
-    (tmp_path / "test.csv").write_text(to_csv(cal.simulate(_with_tool(truth.model()), q, tool=TOOL, noise=NOISE, seed=5)))
+    np.testing.assert_allclose(
+        np.radians(saved.extra["training"]["lower"]), qtr.min(axis=0), atol=1e-9
+    )  # degrees in a mm/deg file
+    q = np.vstack(
+        [
+            qtr.min(axis=0) + (qtr.max(axis=0) - qtr.min(axis=0)) * np.random.default_rng(2).random((20, 6)),
+            cal.configurations(kr5, 20, skip=900),
+        ]
+    )
+    (tmp_path / "test.csv").write_text(
+        to_csv(cal.simulate(_with_tool(truth.model()), q, tool=TOOL, noise=NOISE, seed=5))
+    )
     out = CliRunner().invoke(app, ["validate", str(tmp_path / "cal.toml"), str(tmp_path / "test.csv"), "--json", "-"])
     assert out.exit_code == 0, out.output
     doc = json.loads(out.stdout)
     flagged = np.array(["outside_training_range" in p["flags"] for p in doc["per_pose"]])
     outside = np.any((q < qtr.min(axis=0) - 1e-9) | (q > qtr.max(axis=0) + 1e-9), axis=1)
     np.testing.assert_array_equal(flagged, outside)
-    assert outside[20:].sum() >= 15 and all(p["outside_joints"] for p, o in zip(doc["per_pose"], outside, strict=True) if o)
+    assert outside[20:].sum() >= 15 and all(
+        p["outside_joints"] for p, o in zip(doc["per_pose"], outside, strict=True) if o
+    )
     np.testing.assert_allclose(doc["training_range"]["upper"], qtr.max(axis=0), atol=1e-9)

@@ -62,8 +62,15 @@ class Model:
         """The tool in the last joint frame: T_last_flange @ T_flange_tool."""
     def with_base(self, T_world_base: ArrayLike) -> Model: ...
     def with_tool(self, T_flange_tool: ArrayLike) -> Model: ...
-    def with_inertias(self, masses: ArrayLike, coms: ArrayLike, inertias: ArrayLike, frame: str = "link", about: str = "com",
-                      q_ref: ArrayLike | None = None) -> Model:
+    def with_inertias(
+        self,
+        masses: ArrayLike,
+        coms: ArrayLike,
+        inertias: ArrayLike,
+        frame: str = "link",
+        about: str = "com",
+        q_ref: ArrayLike | None = None,
+    ) -> Model:
         """A copy with link inertial parameters: masses (n,) kg, coms (n, 3) m, inertias (n, 3, 3) kg m^2 about each
         centre of mass (about="com") or the frame origin (about="origin"); frame="link": link i in joint frame i
         (dv.joint_frames), frame="dh": link i in standard-DH frame i (joint frame i @ Tz(d) Tx(a) Rx(alpha), the frame of
@@ -76,7 +83,14 @@ class Model:
 class Table:
     """A parameter table of one convention: dh (d, theta, a, alpha), mdh (alpha, a, theta, d),
     edh (alpha, a, b, c, theta), poe (wx, wy, wz, vx, vy, vz)."""
-    def __init__(self, convention: str, params: ArrayLike, kinds: Sequence[str] | None = None, T_world_base: ArrayLike | None = None, T_last_tool: ArrayLike | None = None) -> None: ...
+    def __init__(
+        self,
+        convention: str,
+        params: ArrayLike,
+        kinds: Sequence[str] | None = None,
+        T_world_base: ArrayLike | None = None,
+        T_last_tool: ArrayLike | None = None,
+    ) -> None: ...
     @property
     def convention(self) -> str: ...
     @property
@@ -91,15 +105,31 @@ class Table:
     def T_world_base(self) -> NDArray[np.float64]: ...
     @property
     def T_last_tool(self) -> NDArray[np.float64]: ...
-    def to_model(self, name: str = "robot", names: Sequence[str] | None = None, lower: ArrayLike | None = None, upper: ArrayLike | None = None) -> Model: ...
+    def to_model(
+        self,
+        name: str = "robot",
+        names: Sequence[str] | None = None,
+        lower: ArrayLike | None = None,
+        upper: ArrayLike | None = None,
+    ) -> Model: ...
     def link_frames(self) -> NDArray[np.float64]:
         """(n, 4, 4): the convention's frame i in the model's joint frame i."""
     def frames(self, q: ArrayLike) -> NDArray[np.float64]: ...
 
 class JointAxes:
     """Joint axis lines in world at a reference configuration."""
-    def __init__(self, points: ArrayLike, directions: ArrayLike, *, kinds: Sequence[str] | None = None, q_ref: ArrayLike | None = None,
-                 T_world_base: ArrayLike | None = None, T_world_tool: ArrayLike | None = None, lower: ArrayLike | None = None, upper: ArrayLike | None = None) -> None: ...
+    def __init__(
+        self,
+        points: ArrayLike,
+        directions: ArrayLike,
+        *,
+        kinds: Sequence[str] | None = None,
+        q_ref: ArrayLike | None = None,
+        T_world_base: ArrayLike | None = None,
+        T_world_tool: ArrayLike | None = None,
+        lower: ArrayLike | None = None,
+        upper: ArrayLike | None = None,
+    ) -> None: ...
     @property
     def nq(self) -> int: ...
     @property
@@ -130,18 +160,31 @@ class PairDiagnostic:
 
 class Extraction:
     """The result of an extraction: the table and what it cannot represent."""
-    def __init__(self, table: Table, pairs: Sequence[PairDiagnostic], max_position_error: float, max_rotation_error: float) -> None: ...
+    def __init__(
+        self, table: Table, pairs: Sequence[PairDiagnostic], max_position_error: float, max_rotation_error: float
+    ) -> None: ...
     table: Table
     pairs: list[PairDiagnostic]
     max_position_error: float
     max_rotation_error: float
 
 def axes(model: Model, q: ArrayLike) -> JointAxes: ...
-def extract(axes: JointAxes, convention: str, *, parallel_tol: float = 1e-3, intersect_tol: float = 1e-9, max_offset: float | None = None,
-            nominal: Table | None = None, origins: ArrayLike | None = None, fidelity: bool = True) -> Extraction: ...
+def extract(
+    axes: JointAxes,
+    convention: str,
+    *,
+    parallel_tol: float = 1e-3,
+    intersect_tol: float = 1e-9,
+    max_offset: float | None = None,
+    nominal: Table | None = None,
+    origins: ArrayLike | None = None,
+    fidelity: bool = True,
+) -> Extraction: ...
 def fk(model: Model, q: ArrayLike) -> NDArray[np.float64]: ...
 def joint_frames(model: Model, q: ArrayLike) -> NDArray[np.float64]: ...
-def jacobian(model: Model, q: ArrayLike, frame: str = "local_world_aligned", joint: int | str | None = None) -> NDArray[np.float64]:
+def jacobian(
+    model: Model, q: ArrayLike, frame: str = "local_world_aligned", joint: int | str | None = None
+) -> NDArray[np.float64]:
     """(6, n), rows [v; w], of the tool (joint=None) or of joint frame `joint` (1-based number or name; later columns
     zero). frame: "local" (the frame's origin and axes, pinocchio LOCAL), "local_world_aligned" (its origin, world
     axes), "world" (spatial velocity at the world origin, pinocchio WORLD), "base" (its origin, base axes)."""
@@ -149,34 +192,89 @@ def jacobian(model: Model, q: ArrayLike, frame: str = "local_world_aligned", joi
 # Batches: qs (N, n) row-major. out=: a C-contiguous, writeable float64 array of the result's shape, filled and
 # returned (no allocation). threads=: None = RAYON_NUM_THREADS, else every core; 1 = serially on the calling
 # thread; k = a pool of k threads built once and cached. The GIL is released while the kernel runs (docs/speed.md).
-def fk_batch(model: Model, qs: ArrayLike, *, out: NDArray[np.float64] | None = None, threads: int | None = None) -> NDArray[np.float64]: ...
-def jacobian_batch(model: Model, qs: ArrayLike, frame: str = "local_world_aligned", joint: int | str | None = None, *,
-                   out: NDArray[np.float64] | None = None, threads: int | None = None) -> NDArray[np.float64]: ...
+def fk_batch(
+    model: Model, qs: ArrayLike, *, out: NDArray[np.float64] | None = None, threads: int | None = None
+) -> NDArray[np.float64]: ...
+def jacobian_batch(
+    model: Model,
+    qs: ArrayLike,
+    frame: str = "local_world_aligned",
+    joint: int | str | None = None,
+    *,
+    out: NDArray[np.float64] | None = None,
+    threads: int | None = None,
+) -> NDArray[np.float64]: ...
 
 # Dynamics (Featherstone 2008). Gravity in world, m/s^2 (default [0, 0, -9.81]); f_ext = wrench [fx, fy, fz, nx, ny, nz]
 # (N, N m) applied to the tool by the environment, tool-frame axes, moment about the tool origin; efforts in N m / N.
-def rnea(model: Model, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike, gravity: ArrayLike | None = None,
-         f_ext: ArrayLike | None = None) -> NDArray[np.float64]: ...
+def rnea(
+    model: Model,
+    q: ArrayLike,
+    qd: ArrayLike,
+    qdd: ArrayLike,
+    gravity: ArrayLike | None = None,
+    f_ext: ArrayLike | None = None,
+) -> NDArray[np.float64]: ...
 def bias_forces(model: Model, q: ArrayLike, qd: ArrayLike, gravity: ArrayLike | None = None) -> NDArray[np.float64]: ...
 def gravity_torques(model: Model, q: ArrayLike, gravity: ArrayLike | None = None) -> NDArray[np.float64]: ...
 def mass_matrix(model: Model, q: ArrayLike) -> NDArray[np.float64]: ...
 def coriolis_matrix(model: Model, q: ArrayLike, qd: ArrayLike) -> NDArray[np.float64]: ...
-def forward_dynamics(model: Model, q: ArrayLike, qd: ArrayLike, tau: ArrayLike, gravity: ArrayLike | None = None,
-                     f_ext: ArrayLike | None = None, method: str = "aba") -> NDArray[np.float64]: ...
+def forward_dynamics(
+    model: Model,
+    q: ArrayLike,
+    qd: ArrayLike,
+    tau: ArrayLike,
+    gravity: ArrayLike | None = None,
+    f_ext: ArrayLike | None = None,
+    method: str = "aba",
+) -> NDArray[np.float64]: ...
 def kinetic_energy(model: Model, q: ArrayLike, qd: ArrayLike) -> float: ...
 def potential_energy(model: Model, q: ArrayLike, gravity: ArrayLike | None = None) -> float: ...
-def rnea_batch(model: Model, qs: ArrayLike, qds: ArrayLike, qdds: ArrayLike, gravity: ArrayLike | None = None,
-               f_ext: ArrayLike | None = None, *, out: NDArray[np.float64] | None = None, threads: int | None = None) -> NDArray[np.float64]: ...
-def bias_forces_batch(model: Model, qs: ArrayLike, qds: ArrayLike, gravity: ArrayLike | None = None, *,
-                      out: NDArray[np.float64] | None = None, threads: int | None = None) -> NDArray[np.float64]: ...
-def gravity_torques_batch(model: Model, qs: ArrayLike, gravity: ArrayLike | None = None, *,
-                          out: NDArray[np.float64] | None = None, threads: int | None = None) -> NDArray[np.float64]: ...
-def mass_matrix_batch(model: Model, qs: ArrayLike, *, out: NDArray[np.float64] | None = None, threads: int | None = None) -> NDArray[np.float64]: ...
-def coriolis_matrix_batch(model: Model, qs: ArrayLike, qds: ArrayLike, *, out: NDArray[np.float64] | None = None,
-                          threads: int | None = None) -> NDArray[np.float64]: ...
-def forward_dynamics_batch(model: Model, qs: ArrayLike, qds: ArrayLike, taus: ArrayLike, gravity: ArrayLike | None = None,
-                           f_ext: ArrayLike | None = None, *, out: NDArray[np.float64] | None = None,
-                           threads: int | None = None) -> NDArray[np.float64]: ...
+def rnea_batch(
+    model: Model,
+    qs: ArrayLike,
+    qds: ArrayLike,
+    qdds: ArrayLike,
+    gravity: ArrayLike | None = None,
+    f_ext: ArrayLike | None = None,
+    *,
+    out: NDArray[np.float64] | None = None,
+    threads: int | None = None,
+) -> NDArray[np.float64]: ...
+def bias_forces_batch(
+    model: Model,
+    qs: ArrayLike,
+    qds: ArrayLike,
+    gravity: ArrayLike | None = None,
+    *,
+    out: NDArray[np.float64] | None = None,
+    threads: int | None = None,
+) -> NDArray[np.float64]: ...
+def gravity_torques_batch(
+    model: Model,
+    qs: ArrayLike,
+    gravity: ArrayLike | None = None,
+    *,
+    out: NDArray[np.float64] | None = None,
+    threads: int | None = None,
+) -> NDArray[np.float64]: ...
+def mass_matrix_batch(
+    model: Model, qs: ArrayLike, *, out: NDArray[np.float64] | None = None, threads: int | None = None
+) -> NDArray[np.float64]: ...
+def coriolis_matrix_batch(
+    model: Model, qs: ArrayLike, qds: ArrayLike, *, out: NDArray[np.float64] | None = None, threads: int | None = None
+) -> NDArray[np.float64]: ...
+def forward_dynamics_batch(
+    model: Model,
+    qs: ArrayLike,
+    qds: ArrayLike,
+    taus: ArrayLike,
+    gravity: ArrayLike | None = None,
+    f_ext: ArrayLike | None = None,
+    *,
+    out: NDArray[np.float64] | None = None,
+    threads: int | None = None,
+) -> NDArray[np.float64]: ...
 def transfer_inertias(source: Model, target: Model, q_ref: ArrayLike | None = None) -> Model: ...
 
 # Inverse kinematics (Newton-Raphson as in Guo et al. sec. V; Levenberg-Marquardt / damped least squares).
@@ -184,7 +282,9 @@ def transfer_inertias(source: Model, target: Model, q_ref: ArrayLike | None = No
 # <= tol_rotation (and q within the limits when respect_limits). Restarts are seeded (deterministic).
 class IkResult:
     """One IK solve; the errors are measured at the returned q."""
-    def __init__(self, q: ArrayLike, success: bool, iterations: int, restarts: int, position_error: float, rotation_error: float) -> None: ...
+    def __init__(
+        self, q: ArrayLike, success: bool, iterations: int, restarts: int, position_error: float, rotation_error: float
+    ) -> None: ...
     @property
     def q(self) -> NDArray[np.float64]: ...
     @property
@@ -218,15 +318,49 @@ class IkBatchResult:
     def __getitem__(self, key: int, /) -> IkResult: ...
     def __iter__(self) -> Iterator[IkResult]: ...
 
-def ik(model: Model, T_target: ArrayLike, q0: ArrayLike | None = None, *, method: str = "lm", tol_position: float = 1e-10,
-       tol_rotation: float = 1e-10, max_iterations: int = 100, restarts: int = 50, seed: int = 0, respect_limits: bool = True,
-       damping: float = 0.1) -> IkResult: ...
-def ik_path(model: Model, targets: ArrayLike, q0: ArrayLike | None = None, *, method: str = "lm", tol_position: float = 1e-10,
-            tol_rotation: float = 1e-10, max_iterations: int = 100, restarts: int = 50, seed: int = 0,
-            respect_limits: bool = True, damping: float = 0.1) -> IkBatchResult: ...
-def ik_batch(model: Model, targets: ArrayLike, q0s: ArrayLike | None = None, *, method: str = "lm", tol_position: float = 1e-10,
-             tol_rotation: float = 1e-10, max_iterations: int = 100, restarts: int = 50, seed: int = 0,
-             respect_limits: bool = True, damping: float = 0.1, threads: int | None = None) -> IkBatchResult: ...
+def ik(
+    model: Model,
+    T_target: ArrayLike,
+    q0: ArrayLike | None = None,
+    *,
+    method: str = "lm",
+    tol_position: float = 1e-10,
+    tol_rotation: float = 1e-10,
+    max_iterations: int = 100,
+    restarts: int = 50,
+    seed: int = 0,
+    respect_limits: bool = True,
+    damping: float = 0.1,
+) -> IkResult: ...
+def ik_path(
+    model: Model,
+    targets: ArrayLike,
+    q0: ArrayLike | None = None,
+    *,
+    method: str = "lm",
+    tol_position: float = 1e-10,
+    tol_rotation: float = 1e-10,
+    max_iterations: int = 100,
+    restarts: int = 50,
+    seed: int = 0,
+    respect_limits: bool = True,
+    damping: float = 0.1,
+) -> IkBatchResult: ...
+def ik_batch(
+    model: Model,
+    targets: ArrayLike,
+    q0s: ArrayLike | None = None,
+    *,
+    method: str = "lm",
+    tol_position: float = 1e-10,
+    tol_rotation: float = 1e-10,
+    max_iterations: int = 100,
+    restarts: int = 50,
+    seed: int = 0,
+    respect_limits: bool = True,
+    damping: float = 0.1,
+    threads: int | None = None,
+) -> IkBatchResult: ...
 
 class CalibrationChain:
     """A chain of elementary factors with named parameters (built by `denavit.calibration`).
@@ -235,14 +369,29 @@ class CalibrationChain:
     "fixed"); joints: K 0-based joints whose reading adds to the value (-1: none); fixed: (F, 4, 4) the fixed
     poses in the order of the "fixed" entries; scales: nq indices of each joint's scale parameter (-1: none).
     """
-    def __init__(self, axes: Sequence[str], params: Sequence[int], joints: Sequence[int], fixed: ArrayLike, n_params: int, nq: int,
-                 scales: Sequence[int]) -> None: ...
+    def __init__(
+        self,
+        axes: Sequence[str],
+        params: Sequence[int],
+        joints: Sequence[int],
+        fixed: ArrayLike,
+        n_params: int,
+        nq: int,
+        scales: Sequence[int],
+    ) -> None: ...
     @property
     def n_params(self) -> int: ...
     @property
     def nq(self) -> int: ...
     def evaluate(
-        self, x: ArrayLike, qs: ArrayLike, jacobian: bool = True, *, rows: int = 6, columns: Sequence[int] | None = None, weights: ArrayLike | None = None
+        self,
+        x: ArrayLike,
+        qs: ArrayLike,
+        jacobian: bool = True,
+        *,
+        rows: int = 6,
+        columns: Sequence[int] | None = None,
+        weights: ArrayLike | None = None,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
         """Tool poses (N, 4, 4) and, if `jacobian`, identification Jacobians (N, rows, len(columns)), rows [v; w] in
         world, of the parameters `columns` (default all), each row times its `weights` entry."""
@@ -253,13 +402,32 @@ def default_limits(kind: str) -> tuple[float, float]: ...
 
 NEAR_PARALLEL_SIN: float
 EXACT_PARALLEL_SIN: float
-def parametrize(table: Table, T_last_flange: ArrayLike, T_flange_tool: ArrayLike, measure: str = "point", scale: bool = False, robot: str = "robot") -> dict: ...
+
+def parametrize(
+    table: Table,
+    T_last_flange: ArrayLike,
+    T_flange_tool: ArrayLike,
+    measure: str = "point",
+    scale: bool = False,
+    robot: str = "robot",
+) -> dict: ...
 
 class Compensation:
     """The compensation of N targets: per target the identified and nominal joint values, the command, the flags."""
-    def __init__(self, q: ArrayLike, q_nominal: ArrayLike, commands: ArrayLike, reached: Sequence[bool], nominal_reached: Sequence[bool],
-                 branch_changed: Sequence[bool], path_jump: Sequence[bool], position_error: Sequence[float], rotation_error: Sequence[float],
-                 before_position: Sequence[float], before_rotation: Sequence[float]) -> None: ...
+    def __init__(
+        self,
+        q: ArrayLike,
+        q_nominal: ArrayLike,
+        commands: ArrayLike,
+        reached: Sequence[bool],
+        nominal_reached: Sequence[bool],
+        branch_changed: Sequence[bool],
+        path_jump: Sequence[bool],
+        position_error: Sequence[float],
+        rotation_error: Sequence[float],
+        before_position: Sequence[float],
+        before_rotation: Sequence[float],
+    ) -> None: ...
     def __len__(self) -> int: ...
     @property
     def q(self) -> NDArray[np.float64]: ...
@@ -284,4 +452,22 @@ class Compensation:
     @property
     def before_rotation(self) -> NDArray[np.float64]: ...
 
-def compensate(nominal: Model, identified: Model, targets: ArrayLike, q_nominal: ArrayLike | None = None, q0: ArrayLike | None = None, *, path: bool = False, branch_tol: float = 0.1, path_jump: float = ..., method: str = "lm", tol_position: float = 1e-10, tol_rotation: float = 1e-10, max_iterations: int = 100, restarts: int = 50, seed: int = 0, respect_limits: bool = True, damping: float = 0.1) -> Compensation: ...
+def compensate(
+    nominal: Model,
+    identified: Model,
+    targets: ArrayLike,
+    q_nominal: ArrayLike | None = None,
+    q0: ArrayLike | None = None,
+    *,
+    path: bool = False,
+    branch_tol: float = 0.1,
+    path_jump: float = ...,
+    method: str = "lm",
+    tol_position: float = 1e-10,
+    tol_rotation: float = 1e-10,
+    max_iterations: int = 100,
+    restarts: int = 50,
+    seed: int = 0,
+    respect_limits: bool = True,
+    damping: float = 0.1,
+) -> Compensation: ...

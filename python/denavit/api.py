@@ -56,7 +56,11 @@ def _header(path: Path) -> list[str] | None:
 def is_sweep_file(p: Path) -> bool:
     """Our own sweep formats (read by :mod:`denavit.io.sweeps`): a folder of ``jN.csv`` (no ROS 2 bag's
     ``metadata.yaml``), JSON, or a delimited file whose header has a ``joint`` column; anything else is a recording."""
-    return p.suffix.lower() == ".json" or (p.is_dir() and not (p / "metadata.yaml").exists()) or (p.is_file() and "joint" in (_header(p) or []))
+    return (
+        p.suffix.lower() == ".json"
+        or (p.is_dir() and not (p / "metadata.yaml").exists())
+        or (p.is_file() and "joint" in (_header(p) or []))
+    )
 
 
 def is_measurement_file(p: Path) -> bool:
@@ -76,8 +80,20 @@ def input_path(data) -> Path:
     return p
 
 
-def read_sweeps(data, *, nominal=None, format: str = "auto", length: str | None = None, angle: str | None = None, home=None, direction=1,
-                columns: str | None = None, sweep: str | None = None, target: int | None = None, readings=None) -> SweepSet:
+def read_sweeps(
+    data,
+    *,
+    nominal=None,
+    format: str = "auto",
+    length: str | None = None,
+    angle: str | None = None,
+    home=None,
+    direction=1,
+    columns: str | None = None,
+    sweep: str | None = None,
+    target: int | None = None,
+    readings=None,
+) -> SweepSet:
     """The sweeps of ``data``: a :class:`SweepSet` as it is, or a path read as the ``identify`` command reads it.
 
     Our sweep files (long-form CSV with a ``joint`` column, sweep JSON, a folder of ``j1.csv`` ... ``jN.csv``) by
@@ -104,21 +120,42 @@ def read_sweeps(data, *, nominal=None, format: str = "auto", length: str | None 
     if ours:
         if p.is_dir():
             if home is None or length is None:
-                raise DenavitError(f"{p}: a folder of per-joint files needs home (rad / m, one value per joint) and length (the files' unit if they declare none)")
+                raise DenavitError(
+                    f"{p}: a folder of per-joint files needs home (rad / m, one value per joint) and length (the files' unit if they declare none)"
+                )
             return swio.read_joint_files(p, home=home, length=length, angle="rad", direction=direction, kinds=kinds)
-        s = swio.read_json(p, length=length, angle=angle) if p.suffix.lower() == ".json" else swio.read_long_csv(p, length=length, angle=angle, kinds=kinds)
+        s = (
+            swio.read_json(p, length=length, angle=angle)
+            if p.suffix.lower() == ".json"
+            else swio.read_long_csv(p, length=length, angle=angle, kinds=kinds)
+        )
         return s if target is None else s.target(target)
     from .io.recordings import read_recording  # noqa: PLC0415
     from .recording import align, segment, to_sweepset  # noqa: PLC0415
 
     rec = read_recording(p, format, columns=columns, length=length, angle=angle, sweep=sweep, kinds=kinds)
     if readings is not None:
-        rec, _ = align(rec, read_recording(input_path(readings), "auto", columns=columns, length=length, angle=angle, kinds=kinds))
+        rec, _ = align(
+            rec, read_recording(input_path(readings), "auto", columns=columns, length=length, angle=angle, kinds=kinds)
+        )
     return to_sweepset(rec, segment(rec), target=target, home=home, kinds=kinds, direction=direction)
 
 
-def identify(data, nominal=None, *, format: str = "auto", length: str | None = None, angle: str | None = None, home=None, direction=1,
-             columns: str | None = None, sweep: str | None = None, target: int | None = None, readings=None, **options) -> Identification:
+def identify(
+    data,
+    nominal=None,
+    *,
+    format: str = "auto",
+    length: str | None = None,
+    angle: str | None = None,
+    home=None,
+    direction=1,
+    columns: str | None = None,
+    sweep: str | None = None,
+    target: int | None = None,
+    readings=None,
+    **options,
+) -> Identification:
     """Circle-point identification (Hayat et al.) of the joint axes and parameters from joint sweeps.
 
     data : SweepSet or path — read by :func:`read_sweeps` (``format``, ``length``, ``angle``, ``home``,
@@ -132,8 +169,19 @@ def identify(data, nominal=None, *, format: str = "auto", length: str | None = N
     'global'
     """
     robot = None if nominal is None else _robot(nominal)
-    sweeps = read_sweeps(data, nominal=robot, format=format, length=length, angle=angle, home=home, direction=direction, columns=columns,
-                         sweep=sweep, target=target, readings=readings)
+    sweeps = read_sweeps(
+        data,
+        nominal=robot,
+        format=format,
+        length=length,
+        angle=angle,
+        home=home,
+        direction=direction,
+        columns=columns,
+        sweep=sweep,
+        target=target,
+        readings=readings,
+    )
     return _identify(sweeps, nominal=robot, **options)
 
 
@@ -157,13 +205,31 @@ def _measurements(data, robot: Robot, *, points, poses, format: str, length, ang
         rec = read_recording(p, format, columns=columns, length=length, angle=angle, kinds=kinds)
         return recording_poses(rec, target, kinds)
     if points is None and poses is None:
-        raise DenavitError(f"measurements: expected Measurements, a SweepSet, a path, or joint readings q with points= or poses=, got {type(data).__name__}")
-    return Measurements(floats(data, "measurements: q"), None if points is None else floats(points, "measurements: points"),
-                        None if poses is None else floats(poses, "measurements: poses"), "arrays", kinds=tuple(kinds))
+        raise DenavitError(
+            f"measurements: expected Measurements, a SweepSet, a path, or joint readings q with points= or poses=, got {type(data).__name__}"
+        )
+    return Measurements(
+        floats(data, "measurements: q"),
+        None if points is None else floats(points, "measurements: points"),
+        None if poses is None else floats(poses, "measurements: poses"),
+        "arrays",
+        kinds=tuple(kinds),
+    )
 
 
-def calibrate(data, nominal, *, points=None, poses=None, format: str = "auto", length: str | None = None, angle: str | None = None,
-              columns: str | None = None, target: int | None = None, **options):
+def calibrate(
+    data,
+    nominal,
+    *,
+    points=None,
+    poses=None,
+    format: str = "auto",
+    length: str | None = None,
+    angle: str | None = None,
+    columns: str | None = None,
+    target: int | None = None,
+    **options,
+):
     """One least-squares fit of the whole kinematic model (:func:`denavit.calibration.calibrate`).
 
     data : Measurements, SweepSet, TargetMeasurements, a path (measurement CSV ``q1..qn,x,y,z[,rx,ry,rz]`` or with several
@@ -177,7 +243,17 @@ def calibrate(data, nominal, *, points=None, poses=None, format: str = "auto", l
     from .calibration import calibrate as _calibrate  # noqa: PLC0415
 
     robot = _robot(nominal)
-    meas = _measurements(data, robot, points=points, poses=poses, format=format, length=length, angle=angle, columns=columns, target=target)
+    meas = _measurements(
+        data,
+        robot,
+        points=points,
+        poses=poses,
+        format=format,
+        length=length,
+        angle=angle,
+        columns=columns,
+        target=target,
+    )
     return _calibrate(meas, robot, **options)
 
 
@@ -187,9 +263,13 @@ def _protocol_ranges(robot: Robot, ranges) -> np.ndarray:
     if isinstance(ranges, str):
         key = ranges.lower()
         if key not in ("paper90", "paper30"):
-            raise DenavitError(f"ranges: expected 'paper90', 'paper30' or ({n}, 2) start, end values (rad / m), got {ranges!r}")
+            raise DenavitError(
+                f"ranges: expected 'paper90', 'paper30' or ({n}, 2) start, end values (rad / m), got {ranges!r}"
+            )
         if n != 6 or "prismatic" in robot.table.kinds:
-            raise DenavitError(f"ranges {ranges!r} are Hayat Table II for a 6-joint revolute robot; {robot.name} needs ({n}, 2) start, end values (rad / m)")
+            raise DenavitError(
+                f"ranges {ranges!r} are Hayat Table II for a 6-joint revolute robot; {robot.name} needs ({n}, 2) start, end values (rad / m)"
+            )
         return np.radians(np.array(PAPER_RANGES_DEG[int(key[-2:])]))
     r = floats(ranges, "ranges")
     if r.shape != (n, 2):
@@ -198,10 +278,22 @@ def _protocol_ranges(robot: Robot, ranges) -> np.ndarray:
 
 
 def _home(robot: Robot, home) -> np.ndarray:
-    return floats(home if home is not None else (robot.home if robot.home is not None else np.zeros(len(robot.names))), "home")
+    return floats(
+        home if home is not None else (robot.home if robot.home is not None else np.zeros(len(robot.names))), "home"
+    )
 
 
-def plan(nominal, protocol=None, *, ranges="paper30", home=None, points_per_sweep: int = 30, tool_point=(0.05, 0.03, 0.10), q=None, **options):
+def plan(
+    nominal,
+    protocol=None,
+    *,
+    ranges="paper30",
+    home=None,
+    points_per_sweep: int = 30,
+    tool_point=(0.05, 0.03, 0.10),
+    q=None,
+    **options,
+):
     """Predicted sigmas (Cramér-Rao bound) and measuring volume before measuring (:func:`denavit.calibration.plan`).
 
     Without ``protocol`` or ``q``: sweeps over ``ranges`` ("paper30", "paper90" or (n, 2) rad / m) about ``home``
@@ -215,12 +307,25 @@ def plan(nominal, protocol=None, *, ranges="paper30", home=None, points_per_swee
     if q is not None:
         q = floats(q, "plan: q")
     if protocol is None and q is None:
-        protocol = Protocol(_home(robot, home), _protocol_ranges(robot, ranges), points_per_sweep, np.asarray(tool_point, dtype=float))
+        protocol = Protocol(
+            _home(robot, home), _protocol_ranges(robot, ranges), points_per_sweep, np.asarray(tool_point, dtype=float)
+        )
     return _plan(robot, protocol, q=q, **options)
 
 
-def simulate(model, q=None, *, home=None, ranges="paper90", points_per_sweep: int = 30, tool_point=(0.05, 0.03, 0.10), noise: float = 0.0,
-             noise_q: float = 0.0, seed: int = 0, **options):
+def simulate(
+    model,
+    q=None,
+    *,
+    home=None,
+    ranges="paper90",
+    points_per_sweep: int = 30,
+    tool_point=(0.05, 0.03, 0.10),
+    noise: float = 0.0,
+    noise_q: float = 0.0,
+    seed: int = 0,
+    **options,
+):
     """Simulated data of ``model`` (built-in name, robot file, URDF, Robot or Model).
 
     Without ``q``: joint sweeps, a :class:`SweepSet` (:func:`denavit.sweeps.simulate`) over ``ranges``
@@ -241,8 +346,17 @@ def simulate(model, q=None, *, home=None, ranges="paper90", points_per_sweep: in
         raise DenavitError(f"simulate: {', '.join(wrong)} apply to measurements at configurations q, not to sweeps")
     from .sweeps import simulate as _sweeps  # noqa: PLC0415
 
-    return _sweeps(m, home=_home(robot, home), ranges=_protocol_ranges(robot, ranges), points_per_sweep=points_per_sweep, tool_point=tool_point,
-                   noise=noise, noise_q=noise_q, seed=seed, **options)
+    return _sweeps(
+        m,
+        home=_home(robot, home),
+        ranges=_protocol_ranges(robot, ranges),
+        points_per_sweep=points_per_sweep,
+        tool_point=tool_point,
+        noise=noise,
+        noise_q=noise_q,
+        seed=seed,
+        **options,
+    )
 
 
 def compensate(nominal, identified, targets, **options):
@@ -262,10 +376,19 @@ def compensate(nominal, identified, targets, **options):
 
         if detect(input_path(targets)) is not None:  # a robot program: each position on its own configuration
             robot = nominal if hasattr(nominal, "table") else _robot(nominal)
-            return compensate_program(read_program(input_path(targets), robot, frames=options.pop("frames", None)), robot, identified, **options)
+            return compensate_program(
+                read_program(input_path(targets), robot, frames=options.pop("frames", None)),
+                robot,
+                identified,
+                **options,
+            )
         from .io.targets import read_targets  # noqa: PLC0415
 
-        nominal = nominal if isinstance(nominal, _core.Model) or callable(getattr(nominal, "model", None)) else _robot(nominal)  # (a Robot keeps its coupling)
+        nominal = (
+            nominal
+            if isinstance(nominal, _core.Model) or callable(getattr(nominal, "model", None))
+            else _robot(nominal)
+        )  # (a Robot keeps its coupling)
         nom = nominal if isinstance(nominal, _core.Model) else nominal.model()
         prog = read_targets(input_path(targets), list(nom.kinds))
         poses = prog.poses if prog.poses is not None else _core.fk_batch(nom, prog.q)

@@ -86,7 +86,9 @@ def _model(m, what: str) -> _core.Model:
         return m
     if hasattr(m, "model") and callable(m.model):
         return m.model()
-    raise DenavitError(f"{what}: expected a Model, a Robot, a result with .model(), a built-in name or a robot file, got {type(m).__name__}")
+    raise DenavitError(
+        f"{what}: expected a Model, a Robot, a result with .model(), a built-in name or a robot file, got {type(m).__name__}"
+    )
 
 
 def _loaded(m):
@@ -124,8 +126,20 @@ def _angle(R: np.ndarray) -> np.ndarray:
     return np.arccos(np.clip((np.einsum("nii->n", R) - 1) / 2, -1.0, 1.0))
 
 
-def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: bool = False, result=None, predict: bool = True, branch_tol: float = 0.1,
-               payload=None, **ik_options) -> Compensation:
+def compensate(
+    nominal,
+    identified,
+    targets,
+    *,
+    q_nominal=None,
+    q0=None,
+    path: bool = False,
+    result=None,
+    predict: bool = True,
+    branch_tol: float = 0.1,
+    payload=None,
+    **ik_options,
+) -> Compensation:
     """Compensate ``targets`` for a controller that keeps ``nominal`` while the robot is ``identified``.
 
     Parameters
@@ -181,7 +195,11 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
         # the rows without a configuration: the nominal's solution nearest q0 (the core's solve from q0 is local:
         # it gives whatever branch its descent falls into, 36 % of a program's rows off the program's)
         qn = np.full((len(T), nom.nq), np.nan) if q_nominal is None else np.array(q_nominal, dtype=float)
-        ik_solve = {k: v for k, v in ik_options.items() if k in ("method", "tol_position", "tol_rotation", "max_iterations", "damping")}
+        ik_solve = {
+            k: v
+            for k, v in ik_options.items()
+            if k in ("method", "tol_position", "tol_rotation", "max_iterations", "damping")
+        }
         qa, found = nearest_solutions(nom, T[assumed], q0, **ik_solve)
         qn[assumed] = qa
         unreachable[np.flatnonzero(assumed)[~found]] = True
@@ -189,10 +207,14 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
     elif assumed.any():
         q_nominal = None if assumed.all() else q_nominal
         if q_nominal is not None:
-            raise DenavitError("q_nominal: path mode takes a configuration for every row or for none (rows of NaN among given ones)")
+            raise DenavitError(
+                "q_nominal: path mode takes a configuration for every row or for none (rows of NaN among given ones)"
+            )
     r = _core.compensate(nom, ide, T, q_nominal, q0, path=path, branch_tol=branch_tol, **ik_options)
     q = r.q
-    el = elastic(identified)  # compliant joints (calibration/compliance.py): the commanded readings deflect to q under gravity and the payload
+    el = elastic(
+        identified
+    )  # compliant joints (calibration/compliance.py): the commanded readings deflect to q under gravity and the payload
     pl = None if el is None else as_payload(payload, len(T))
     qc = q if el is None else el.command(q, pl)
     predicted = None
@@ -218,6 +240,7 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
         rm_id = (rm_nom[0], *rm_id[1:])
     rm_id = rm_nom if rm_id is None else rm_id
     if not _same_readings(rm_nom, rm_id):
+
         def to_nominal(qi):
             rd = readings(qi, *rm_id) if rm_id is not None else qi
             return joint_values(rd, *rm_nom) if rm_nom is not None else rd
@@ -228,21 +251,44 @@ def compensate(nominal, identified, targets, *, q_nominal=None, q0=None, path: b
 
         q_cmd = to_nominal(qc)
         commands = _core.fk_batch(nom, q_cmd)
-        exe = _core.fk_batch(ide, to_identified(r.q_nominal) if el is None else el.deflected(to_identified(r.q_nominal), pl))  # the program run as written
+        exe = _core.fk_batch(
+            ide, to_identified(r.q_nominal) if el is None else el.deflected(to_identified(r.q_nominal), pl)
+        )  # the program run as written
         before = np.linalg.norm(exe[:, :3, 3] - T[:, :3, 3], axis=1)
         before_rot = _angle(np.swapaxes(T[:, :3, :3], 1, 2) @ exe[:, :3, :3])
     if assumed.any():
-        notes.append(f"{int(assumed.sum())} of {len(T)} rows without a configuration: compensated on the nominal's solution nearest q0 "
-                     f"({', '.join(f'{v:.4g}' for v in q0)} rad / m){' warm-started along the path' if path else ''}"
-                     + (f"; {int(unreachable.sum())} of them unreachable on the nominal" if unreachable.any() else ""))
-    return Compensation(T, commands, q, r.q_nominal, r.reached & ~unreachable, r.branch_changed, r.path_jump, r.position_error, r.rotation_error,
-                        before, before_rot, predicted, q_cmd, tuple(notes), assumed)
+        notes.append(
+            f"{int(assumed.sum())} of {len(T)} rows without a configuration: compensated on the nominal's solution nearest q0 "
+            f"({', '.join(f'{v:.4g}' for v in q0)} rad / m){' warm-started along the path' if path else ''}"
+            + (f"; {int(unreachable.sum())} of them unreachable on the nominal" if unreachable.any() else "")
+        )
+    return Compensation(
+        T,
+        commands,
+        q,
+        r.q_nominal,
+        r.reached & ~unreachable,
+        r.branch_changed,
+        r.path_jump,
+        r.position_error,
+        r.rotation_error,
+        before,
+        before_rot,
+        predicted,
+        q_cmd,
+        tuple(notes),
+        assumed,
+    )
 
 
 def _valid_poses(T: np.ndarray) -> bool:
     """Every target a finite rigid pose (else the core's check says which is not)."""
     R = T[:, :3, :3]
-    return bool(np.all(np.isfinite(T)) and np.allclose(R @ np.swapaxes(R, 1, 2), np.eye(3), atol=1e-6) and np.allclose(T[:, 3], [0, 0, 0, 1]))
+    return bool(
+        np.all(np.isfinite(T))
+        and np.allclose(R @ np.swapaxes(R, 1, 2), np.eye(3), atol=1e-6)
+        and np.allclose(T[:, 3], [0, 0, 0, 1])
+    )
 
 
 def nearest_solutions(model, targets, q_ref, *, seeds: int = 24, **ik_options) -> tuple[np.ndarray, np.ndarray]:
@@ -274,7 +320,11 @@ def nearest_solutions(model, targets, q_ref, *, seeds: int = 24, **ik_options) -
         d = np.where(rev & (c >= lo - 1e-12) & (c <= hi + 1e-12), np.abs(c - R), np.inf)
         closer = d < dist
         best, dist = np.where(closer, c, best), np.where(closer, d, dist)
-    total = np.where(ok & np.all(np.isfinite(dist), axis=2), np.sqrt(np.sum(np.where(np.isfinite(dist), dist, 0.0) ** 2, axis=2)), np.inf)
+    total = np.where(
+        ok & np.all(np.isfinite(dist), axis=2),
+        np.sqrt(np.sum(np.where(np.isfinite(dist), dist, 0.0) ** 2, axis=2)),
+        np.inf,
+    )
     k = np.argmin(total, axis=1)
     found = np.isfinite(total[np.arange(N), k])
     return np.where(found[:, None], best[np.arange(N), k], ref), found
@@ -315,7 +365,8 @@ def _flange(nominal, nom: _core.Model, identified, ide: _core.Model) -> tuple[_c
     return ide.with_tool(np.asarray(ide.T_flange_tool) @ np.linalg.inv(canon)), (
         f"the nominal {getattr(nominal, 'name', 'model')} has no tool and the identified robot has one ({np.linalg.norm(off) * 1e3:.4g} mm from the "
         f"flange: the point it was measured at): the flange compensated (the identified flange placed on its last body as the nominal's is), "
-        f"the prediction after it at {at}; give the nominal a tool to compensate tool poses")
+        f"the prediction after it at {at}; give the nominal a tool to compensate tool poses"
+    )
 
 
 def flange_model(nominal, identified) -> _core.Model:
@@ -329,9 +380,17 @@ def flange_model(nominal, identified) -> _core.Model:
     if _is_identity(ide.T_flange_tool):
         return ide
     # the flange itself there (a kinematics file writes the flange, not a tool)
-    return _core.Model.from_placements(ide.placements, list(ide.kinds), offsets=ide.offsets, lower=ide.lower, upper=ide.upper, names=list(ide.names),
-                                       T_world_base=ide.T_world_base, T_last_flange=np.asarray(ide.T_last_flange) @ np.asarray(ide.T_flange_tool),
-                                       name=ide.name)
+    return _core.Model.from_placements(
+        ide.placements,
+        list(ide.kinds),
+        offsets=ide.offsets,
+        lower=ide.lower,
+        upper=ide.upper,
+        names=list(ide.names),
+        T_world_base=ide.T_world_base,
+        T_last_flange=np.asarray(ide.T_last_flange) @ np.asarray(ide.T_flange_tool),
+        name=ide.name,
+    )
 
 
 def canonical_tool(nom: _core.Model, ide: _core.Model, home=None) -> np.ndarray:
@@ -346,7 +405,9 @@ def canonical_tool(nom: _core.Model, ide: _core.Model, home=None) -> np.ndarray:
     from .identification.frames import origins  # noqa: PLC0415 (identify and its fits load only when an identified tool is compensated)
 
     nt = _core.extract(_core.axes(nom, np.zeros(nom.nq)), "edh").table
-    ex = _core.extract(_core.axes(ide, home), "edh", nominal=nt, origins=origins(nt, "edh", home), parallel_tol=1e-9, fidelity=False)
+    ex = _core.extract(
+        _core.axes(ide, home), "edh", nominal=nt, origins=origins(nt, "edh", home), parallel_tol=1e-9, fidelity=False
+    )
     return np.asarray(ex.table.to_model().T_flange_tool)
 
 
@@ -359,7 +420,10 @@ def _without_tool(robot: Robot, tool_flange=None) -> Robot:
 
     t = robot.table
     if tool_flange is not None:
-        return replace(robot, table=_core.Table(t.convention, t.params, t.kinds, t.T_world_base, np.asarray(t.T_last_tool) @ tool_flange))
+        return replace(
+            robot,
+            table=_core.Table(t.convention, t.params, t.kinds, t.T_world_base, np.asarray(t.T_last_tool) @ tool_flange),
+        )
     C = robot.covariance
     if C is not None:
         C = np.array(C, dtype=float)
@@ -371,6 +435,7 @@ def _without_tool(robot: Robot, tool_flange=None) -> Robot:
 
 def _same_readings(a, b) -> bool:
     """Two reading models map readings to joint values alike."""
+
     def parts(m):
         c, s, ref = (None, None, None) if m is None else m
         s = None if s is None or not np.any(np.asarray(s)) else np.asarray(s, dtype=float)
@@ -411,7 +476,9 @@ def predicted_sigma(result, q) -> np.ndarray:
         return np.sqrt(np.maximum(np.einsum("nij,jk,nik->n", Jp, C, Jp), 0.0))
     if hasattr(result, "axis_cov") and hasattr(result, "axes"):
         return _axes_sigma(result, q)
-    raise DenavitError(f"result: expected an identification or a calibration result with a covariance, got {type(result).__name__}")
+    raise DenavitError(
+        f"result: expected an identification or a calibration result with a covariance, got {type(result).__name__}"
+    )
 
 
 def _scaled(q: np.ndarray, scale, reference, theta_scale: np.ndarray) -> np.ndarray:
@@ -475,10 +542,15 @@ def table_sigma(robot, q) -> np.ndarray:
     C = np.asarray(robot.covariance, dtype=float)
     t = robot.table
     rscale = getattr(robot, "reading_scale", None)
-    theta0 = np.concatenate([np.asarray(t.params).ravel(), np.asarray(t.T_last_tool)[:3, 3]] + ([np.asarray(rscale, dtype=float)] if rscale is not None else []))
+    theta0 = np.concatenate(
+        [np.asarray(t.params).ravel(), np.asarray(t.T_last_tool)[:3, 3]]
+        + ([np.asarray(rscale, dtype=float)] if rscale is not None else [])
+    )
     if C.shape != (len(theta0), len(theta0)):
-        raise DenavitError(f"{robot.name}: covariance of shape {C.shape}, expected ({len(theta0)}, {len(theta0)}) (the table's parameters and the tool's x, y, z"
-                           + (", then the reading scales)" if rscale is not None else ")"))
+        raise DenavitError(
+            f"{robot.name}: covariance of shape {C.shape}, expected ({len(theta0)}, {len(theta0)}) (the table's parameters and the tool's x, y, z"
+            + (", then the reading scales)" if rscale is not None else ")")
+        )
     q = np.atleast_2d(np.asarray(q, dtype=float))
     n = t.params.size
 
@@ -506,13 +578,26 @@ def _axes_sigma(ident, q: np.ndarray) -> np.ndarray:
     rscale = getattr(ident, "reading_scale", None)
     full = getattr(ident, "axis_scale_cov", None)
     C = np.asarray(ident.axis_cov if full is None or rscale is None else full)
-    theta0 = np.concatenate([np.concatenate([ax.points[i], ax.directions[i]]) for i in range(n)] + [ident.tool_point] + ([rscale] if len(C) > 6 * n + 3 else []))
+    theta0 = np.concatenate(
+        [np.concatenate([ax.points[i], ax.directions[i]]) for i in range(n)]
+        + [ident.tool_point]
+        + ([rscale] if len(C) > 6 * n + 3 else [])
+    )
 
     def tool_points(theta):
         P = theta[: 6 * n].reshape(n, 6)
         T_tool = np.array(ax.T_world_tool)
         T_tool[:3, 3] = theta[6 * n : 6 * n + 3]
-        a = _core.JointAxes(P[:, :3], P[:, 3:], kinds=list(ax.kinds), q_ref=ax.q_ref, T_world_base=ax.T_world_base, T_world_tool=T_tool, lower=ax.lower, upper=ax.upper)
+        a = _core.JointAxes(
+            P[:, :3],
+            P[:, 3:],
+            kinds=list(ax.kinds),
+            q_ref=ax.q_ref,
+            T_world_base=ax.T_world_base,
+            T_world_tool=T_tool,
+            lower=ax.lower,
+            upper=ax.upper,
+        )
         qs = q if len(theta) == 6 * n + 3 else _scaled(q, rscale, ident.sweeps.home, theta[6 * n + 3 :])
         return _core.fk_batch(_core.extract(a, "edh", fidelity=False).table.to_model(), qs)[:, :3, 3]
 
@@ -540,13 +625,21 @@ class AccuracyMap:
 
     def __repr__(self) -> str:
         s = self.summary()
-        return (f"AccuracyMap({s['configurations']} configurations: nominal model error rms {s['nominal']['rms'] * 1e3:.4g} mm (max {s['nominal']['max'] * 1e3:.4g}), "
-                f"identified 1 sigma rms {s['identified']['rms'] * 1e3:.4g} mm (max {s['identified']['max'] * 1e3:.4g}))")
+        return (
+            f"AccuracyMap({s['configurations']} configurations: nominal model error rms {s['nominal']['rms'] * 1e3:.4g} mm (max {s['nominal']['max'] * 1e3:.4g}), "
+            f"identified 1 sigma rms {s['identified']['rms'] * 1e3:.4g} mm (max {s['identified']['max'] * 1e3:.4g}))"
+        )
 
     def summary(self) -> dict:
         """RMS, median, 95th percentile and maximum of both, in metres."""
+
         def stats(v):
-            return {"rms": float(np.sqrt(np.mean(v**2))), "median": float(np.median(v)), "p95": float(np.percentile(v, 95)), "max": float(v.max())}
+            return {
+                "rms": float(np.sqrt(np.mean(v**2))),
+                "median": float(np.median(v)),
+                "p95": float(np.percentile(v, 95)),
+                "max": float(v.max()),
+            }
 
         return {"nominal": stats(self.nominal), "identified": stats(self.identified), "configurations": len(self.q)}
 

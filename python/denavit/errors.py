@@ -33,7 +33,20 @@ import re
 MAX_MESSAGE = 500
 _ELIDED = " [...] "
 
-_FIELDS = ("what", "expected", "got", "index", "value", "reason", "iterations", "position_error", "rotation_error", "at", "cause", "joint")
+_FIELDS = (
+    "what",
+    "expected",
+    "got",
+    "index",
+    "value",
+    "reason",
+    "iterations",
+    "position_error",
+    "rotation_error",
+    "at",
+    "cause",
+    "joint",
+)
 
 
 def readable(message: str) -> str:
@@ -45,7 +58,7 @@ def readable(message: str) -> str:
         return text
     room = MAX_MESSAGE - len(_ELIDED)
     head = 2 * room // 3
-    return text[:head] + _ELIDED + text[len(text) - (room - head):]
+    return text[:head] + _ELIDED + text[len(text) - (room - head) :]
 
 
 def _rebuild(cls, message, kind, fields):

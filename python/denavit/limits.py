@@ -72,7 +72,9 @@ def size(name: str) -> int:
     except ValueError:
         value = 0
     if value < 1:
-        raise DenavitError(f"{s.env}={text[:40]!r}: expected a positive integer (the limit of {s.what}), got {text[:40]!r}")
+        raise DenavitError(
+            f"{s.env}={text[:40]!r}: expected a positive integer (the limit of {s.what}), got {text[:40]!r}"
+        )
     return value
 
 
@@ -87,7 +89,9 @@ def check_size(count, name: str, where: str, what: str | None = None) -> int:
     limit = size(name)
     if count > limit:
         shown = f"{count:,}" if isinstance(count, int) else str(count)
-        raise DenavitError(f"{where}: {shown} {what or SIZES[name].what} is beyond the limit of {limit:,} ({raise_hint(name)}; docs/cli.md, \"Limits\")")
+        raise DenavitError(
+            f'{where}: {shown} {what or SIZES[name].what} is beyond the limit of {limit:,} ({raise_hint(name)}; docs/cli.md, "Limits")'
+        )
     return count
 
 
@@ -104,7 +108,9 @@ def check_lengths(values, where: str, unit: str = "m", scale: float = 1.0) -> No
     k, worst = _worst(values)
     if not worst <= MAX_LENGTH_M:
         shown = np.asarray(values, dtype=float).ravel()[k] / scale
-        raise DenavitError(f"{where}: expected a finite length within {MAX_LENGTH_M / scale:.6g} {unit} (1 km: no robot is larger), got {shown:.6g} {unit}")
+        raise DenavitError(
+            f"{where}: expected a finite length within {MAX_LENGTH_M / scale:.6g} {unit} (1 km: no robot is larger), got {shown:.6g} {unit}"
+        )
 
 
 def check_angles(values, where: str, unit: str = "rad", scale: float = 1.0, joint: bool = False) -> None:
@@ -116,7 +122,9 @@ def check_angles(values, where: str, unit: str = "rad", scale: float = 1.0, join
     if not worst <= limit + 1e-9:
         shown = np.asarray(values, dtype=float).ravel()[k] / scale
         what = "joint value" if joint else "angle"
-        raise DenavitError(f"{where}: expected a finite {what} within ±{limit / scale:.6g} {unit} ({turns:g} turns), got {shown:.6g} {unit}")
+        raise DenavitError(
+            f"{where}: expected a finite {what} within ±{limit / scale:.6g} {unit} ({turns:g} turns), got {shown:.6g} {unit}"
+        )
 
 
 def check_joint_values(values, kinds, where: str) -> None:
@@ -140,7 +148,13 @@ def robot_size(model, tool=None) -> float:
 
     n = model.nq
     F = np.asarray(_core.joint_frames(model, np.zeros(n)))
-    ends = np.vstack([np.asarray(model.T_world_base)[None, :3, 3], F[:, :3, 3], np.asarray(_core.fk(model, np.zeros(n)))[None, :3, 3]])
+    ends = np.vstack(
+        [
+            np.asarray(model.T_world_base)[None, :3, 3],
+            F[:, :3, 3],
+            np.asarray(_core.fk(model, np.zeros(n)))[None, :3, 3],
+        ]
+    )
     total = float(np.linalg.norm(np.diff(ends, axis=0), axis=1).sum())
     for k, lo, hi in zip(model.kinds, model.lower, model.upper):
         if k == "prismatic":
@@ -148,7 +162,11 @@ def robot_size(model, tool=None) -> float:
     if tool is not None:
         t = np.asarray(tool, dtype=float)
         t = t[:3, 3] if t.shape == (4, 4) else t  # a tool frame T_flange_tool
-        total += float(np.linalg.norm(np.atleast_2d(t).reshape(-1, t.shape[-1] if t.ndim else 1), axis=1).max()) if t.size else 0.0
+        total += (
+            float(np.linalg.norm(np.atleast_2d(t).reshape(-1, t.shape[-1] if t.ndim else 1), axis=1).max())
+            if t.size
+            else 0.0
+        )
     return max(total, 1e-3) if math.isfinite(total) else MAX_LENGTH_M
 
 
@@ -159,16 +177,20 @@ def check_noise(value, where: str, model, tool=None, unit: str = "m", scale: flo
         raise DenavitError(f"{where}: expected a finite noise >= 0 {unit}, got {v / scale:.6g} {unit}")
     s = robot_size(model, tool)
     if v >= s:
-        raise DenavitError(f"{where}: a noise of {v / scale:.6g} {unit} (one sigma) is not below the robot's size, {s / scale:.6g} {unit} "
-                           "(its chain's length, travel and tool point): expected a measuring noise, a small fraction of it (a wrong unit?)")
+        raise DenavitError(
+            f"{where}: a noise of {v / scale:.6g} {unit} (one sigma) is not below the robot's size, {s / scale:.6g} {unit} "
+            "(its chain's length, travel and tool point): expected a measuring noise, a small fraction of it (a wrong unit?)"
+        )
 
 
 def check_angle_noise(value, where: str, unit: str = "rad", scale: float = 1.0) -> None:
     """An angular noise (one sigma, rad): finite, >= 0, below :data:`MAX_ANGLE_NOISE`."""
     v = float(value)
     if not (math.isfinite(v) and 0 <= v < MAX_ANGLE_NOISE):
-        raise DenavitError(f"{where}: expected a finite angular noise >= 0 and below half a turn ({MAX_ANGLE_NOISE / scale:.6g} {unit}; "
-                           f"beyond it a rotation wraps around), got {v / scale:.6g} {unit}")
+        raise DenavitError(
+            f"{where}: expected a finite angular noise >= 0 and below half a turn ({MAX_ANGLE_NOISE / scale:.6g} {unit}; "
+            f"beyond it a rotation wraps around), got {v / scale:.6g} {unit}"
+        )
 
 
 def check_count(value, where: str, name: str, least: int = 1, what: str | None = None) -> int:
@@ -191,7 +213,11 @@ def floats(value, where: str) -> np.ndarray:
     a = value if isinstance(value, np.ndarray) else np.asarray(value)
     kind = a.dtype.kind
     if kind == "O" and a.size:
-        kind = next((np.asarray(v).dtype.kind for v in a.ravel() if isinstance(v, (np.datetime64, np.timedelta64))), kind)
+        kind = next(
+            (np.asarray(v).dtype.kind for v in a.ravel() if isinstance(v, (np.datetime64, np.timedelta64))), kind
+        )
     if kind in "mM":
-        raise DenavitError(f"{where}: expected numbers (rad / m), got numpy {'dates (datetime64)' if kind == 'M' else 'durations (timedelta64)'}")
+        raise DenavitError(
+            f"{where}: expected numbers (rad / m), got numpy {'dates (datetime64)' if kind == 'M' else 'durations (timedelta64)'}"
+        )
     return np.array(a, dtype=float)

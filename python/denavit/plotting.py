@@ -45,7 +45,18 @@ INSTALL_HINT = "install the plotting extra: pip install 'denavit[plot]'"
 #: Colours of the frame axes x, y, z (the usual red, green, blue).
 AXIS_COLOURS = ("#d62728", "#2ca02c", "#1f77b4")
 #: Per-joint colours (matplotlib's tab10, repeated).
-JOINT_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")
+JOINT_COLOURS = (
+    "#1f77b4",
+    "#ff7f0e",
+    "#2ca02c",
+    "#d62728",
+    "#9467bd",
+    "#8c564b",
+    "#e377c2",
+    "#7f7f7f",
+    "#bcbd22",
+    "#17becf",
+)
 
 
 def joint_colour(j: int) -> str:
@@ -121,7 +132,12 @@ def scene_view(points, *, min_ratio: float = 0.5, pad: float = 0.06, direction=(
     radius = float(np.linalg.norm(aspect)) / 2  # plotly draws the scene box aspectratio units wide, centred on 0
     d = np.asarray(direction, dtype=float)
     eye = d / np.linalg.norm(d) * 1.15 * radius / math.sin(math.radians(22.5))
-    return {"ranges": np.stack([centre - half, centre + half], axis=1), "aspectratio": aspect, "eye": eye, "center": np.zeros(3)}
+    return {
+        "ranges": np.stack([centre - half, centre + half], axis=1),
+        "aspectratio": aspect,
+        "eye": eye,
+        "center": np.zeros(3),
+    }
 
 
 def clusters(points, tol: float) -> list[list[int]]:
@@ -292,7 +308,9 @@ def plot_circles(result: Identification, *, length: str = "mm") -> Figure:
             c = circle_points(f.point, f.direction, f.radius)
             (line,) = ax.plot(*(c / ls).T, color=col, lw=1.3, label=f"{name}: r = {f.radius / ls:.4g} {length}")
             line.set_gid(f"circle-{j}")
-            ax.scatter(*(f.point / ls), color=col, marker="o", s=28, edgecolor="black", depthshade=False).set_gid(f"centre-{j}")
+            ax.scatter(*(f.point / ls), color=col, marker="o", s=28, edgecolor="black", depthshade=False).set_gid(
+                f"centre-{j}"
+            )
             drawn.append(c)
         else:
             e = line_span(f.point, f.direction, s.points)
@@ -303,7 +321,9 @@ def plot_circles(result: Identification, *, length: str = "mm") -> Figure:
         q.set_gid(f"axis-{j}")
         ax.text(*(tip / ls), f" {name}", color=col, fontsize=8)
         drawn.append(tip[None])
-    ax.scatter(*(result.tool_point / ls), color="black", marker="*", s=60, depthshade=False, label="tool point at home").set_gid("tool-point")
+    ax.scatter(
+        *(result.tool_point / ls), color="black", marker="*", s=60, depthshade=False, label="tool point at home"
+    ).set_gid("tool-point")
     _equal_3d(ax, np.vstack(drawn) / ls)
     _labels_3d(ax, length)
     ax.set_title(f"Fitted circles and joint axes (method {result.method}; Hayat et al. Fig. 7)", fontsize=10)
@@ -332,7 +352,9 @@ def plot_residuals(result: Identification, *, length: str = "mm") -> Figure:
         ax.plot(idx, r, "o", color=joint_colour(s.joint - 1), ms=3, ls="none")  # one distance per point: not a curve
         if np.any(f.outliers):
             ax.plot(idx[f.outliers], r[f.outliers], "x", color="red", ms=8, mew=2)
-        ax.set_title(f"{names[s.joint - 1]}: rms {f.rms / ls:.3g} {length}, arc {math.degrees(f.arc):.0f} deg", fontsize=9)
+        ax.set_title(
+            f"{names[s.joint - 1]}: rms {f.rms / ls:.3g} {length}, arc {math.degrees(f.arc):.0f} deg", fontsize=9
+        )
         ax.set_xlabel("point", fontsize=8)
         ax.set_ylabel(f"residual [{length}]", fontsize=8)
         ax.tick_params(labelsize=7)
@@ -351,7 +373,9 @@ def plot_bounding_box(result: Identification, *, length: str = "mm") -> Figure:
     ls = length_scale(length)
     b = result.box
     for s in result.sweeps.sweeps:
-        ax.scatter(*(s.points / ls).T, color=joint_colour(s.joint - 1), s=7, depthshade=False).set_gid(f"points-{s.joint}")
+        ax.scatter(*(s.points / ls).T, color=joint_colour(s.joint - 1), s=7, depthshade=False).set_gid(
+            f"points-{s.joint}"
+        )
     edges = box_edges(b.center, b.axes, b.lengths)
     for e in edges:
         (line,) = ax.plot(*(e / ls).T, color="0.25", lw=1.0)
@@ -364,12 +388,19 @@ def plot_bounding_box(result: Identification, *, length: str = "mm") -> Figure:
     _equal_3d(ax, np.vstack([np.vstack(edges), result.sweeps.all_points]) / ls)
     _labels_3d(ax, length)
     l1, l2, l3 = b.lengths / ls
-    ax.set_title(f"Oriented bounding box {l1:.1f} x {l2:.1f} x {l3:.1f} {length}, {b.volume:.4f} m$^3$ (Hayat et al. Table IV)", fontsize=10)
+    ax.set_title(
+        f"Oriented bounding box {l1:.1f} x {l2:.1f} x {l3:.1f} {length}, {b.volume:.4f} m$^3$ (Hayat et al. Table IV)",
+        fontsize=10,
+    )
     return fig
 
 
 def _named_tables(tables) -> list[tuple[str, _core.Table]]:
-    items = list(tables.items()) if isinstance(tables, dict) else [(t.convention, t) if isinstance(t, _core.Table) else tuple(t) for t in tables]
+    items = (
+        list(tables.items())
+        if isinstance(tables, dict)
+        else [(t.convention, t) if isinstance(t, _core.Table) else tuple(t) for t in tables]
+    )
     if not items:
         raise DenavitError("expected at least one table to draw, got none")
     n = {t.params.shape[0] for _, t in items}
@@ -382,7 +413,17 @@ def _label(label: str, table: _core.Table) -> str:
     return label if table.convention in label.lower() else f"{label} ({table.convention})"
 
 
-def _draw_frames(ax, F: np.ndarray, ls: float, size: float, *, alpha: float = 1.0, labels: bool = True, table: _core.Table | None = None, q=None) -> None:
+def _draw_frames(
+    ax,
+    F: np.ndarray,
+    ls: float,
+    size: float,
+    *,
+    alpha: float = 1.0,
+    labels: bool = True,
+    table: _core.Table | None = None,
+    q=None,
+) -> None:
     """The skeleton (Line3D ``skeleton``: :func:`chain_path` when ``table`` and ``q`` are given, else straight
     between the origins) and a triad per frame (coincident frames shorter, :func:`triad_lengths`), one label
     per group of coincident origins (:func:`frame_labels`)."""
@@ -451,7 +492,9 @@ def plot_frames(tables, q=None, *, length: str = "mm", triad: float | None = Non
     return fig
 
 
-def plot_origin_paths(tables, joint: int, q0=None, *, limits=None, steps: int = 73, length: str = "mm", title: str | None = None) -> Figure:
+def plot_origin_paths(
+    tables, joint: int, q0=None, *, limits=None, steps: int = 73, length: str = "mm", title: str | None = None
+) -> Figure:
     """The path of every frame origin while joint ``joint`` moves, one 3-D axes per convention (Guo et al. Fig. 3).
 
     The joint's own frame in modified DH and ED-H turns about its z axis and stays put; a standard-DH frame
@@ -506,7 +549,11 @@ def plot_origin_paths(tables, joint: int, q0=None, *, limits=None, steps: int = 
         _labels_3d(ax, length)
         ax.set_title(_label(label, t), fontsize=10)
         ax.legend(loc="upper left", fontsize=7)
-    fig.suptitle(title or f"Frame origins while joint {joint} moves from {limits[0] / sc:.4g} to {limits[1] / sc:.4g} {unit} (Guo et al. Fig. 3)", fontsize=11)
+    fig.suptitle(
+        title
+        or f"Frame origins while joint {joint} moves from {limits[0] / sc:.4g} to {limits[1] / sc:.4g} {unit} (Guo et al. Fig. 3)",
+        fontsize=11,
+    )
     return fig
 
 
@@ -543,14 +590,26 @@ def parameter_errors(result: Identification, length: str = "mm", angle: str = "d
         unit = column_scale(t, k, length, angle)[1]
         cells = [cell_scale(t, i, k, length, angle) for i in range(len(t.kinds))]  # a prismatic POE v is unitless
         sc = np.array([s for s, _ in cells])
-        limit = np.array([UNDETERMINED_ANGLE if t.angle_columns[k] else UNDETERMINED_LENGTH * extent if u == length else UNDETERMINED_RATIO for _, u in cells])
+        limit = np.array(
+            [
+                UNDETERMINED_ANGLE
+                if t.angle_columns[k]
+                else UNDETERMINED_LENGTH * extent
+                if u == length
+                else UNDETERMINED_RATIO
+                for _, u in cells
+            ]
+        )
         ident = t.params[:, k] / sc
         nom = None if nt is None or nt.convention != t.convention else nt.params[:, k] / sc
         if nom is not None and t.angle_columns[k]:
             half = math.pi / sc
             nom = ident - ((ident - nom + half) % (2 * half) - half)
         sig = np.asarray(result.sigma[:, k], dtype=float)
-        why = ["held" if s == 0 else "undetermined" if not (np.isfinite(s) and s <= lim) else "" for s, lim in zip(sig, limit, strict=True)]
+        why = [
+            "held" if s == 0 else "undetermined" if not (np.isfinite(s) and s <= lim) else ""
+            for s, lim in zip(sig, limit, strict=True)
+        ]
         out.append(ParameterErrors(c, unit, ident, sig / sc, nom, np.array([w == "" for w in why]), why))
     return out
 
@@ -597,8 +656,17 @@ def plot_parameters(result: Identification, *, length: str = "mm", angle: str = 
             ax.axhline(0.0, color="0.6", lw=0.8)
             lim = symmetric_limit(y[m], r.sigma[m], 1e-6 if not m.any() else 1e-9)
             ax.set_ylim(-lim, lim)
-        ax.set_title(f"{r.column} [{r.unit}]" + (": identified - nominal" if r.nominal is not None else ": identified"), fontsize=9)
-        ax.set_xticks(x, names, fontsize=7, rotation=30 if max(len(nm) for nm in names) > 3 else 0, ha="right" if max(len(nm) for nm in names) > 3 else "center")
+        ax.set_title(
+            f"{r.column} [{r.unit}]" + (": identified - nominal" if r.nominal is not None else ": identified"),
+            fontsize=9,
+        )
+        ax.set_xticks(
+            x,
+            names,
+            fontsize=7,
+            rotation=30 if max(len(nm) for nm in names) > 3 else 0,
+            ha="right" if max(len(nm) for nm in names) > 3 else "center",
+        )
         ax.set_xlim(0.4, len(names) + 0.6)
         ax.yaxis.set_major_locator(MaxNLocator(6, symmetric=r.nominal is not None))
         fmt = ScalarFormatter(useOffset=False, useMathText=True)
@@ -608,18 +676,25 @@ def plot_parameters(result: Identification, *, length: str = "mm", angle: str = 
         left = [f"{names[i]} ({w})" for i, w in enumerate(r.why) if w]
         if left:
             ax.set_xlabel("not drawn: " + ", ".join(left), fontsize=6.5, color="0.35", wrap=True)
-    fig.suptitle(f"{result.table.convention.upper()} parameters, error bars one sigma propagated from the fits", fontsize=10)
+    fig.suptitle(
+        f"{result.table.convention.upper()} parameters, error bars one sigma propagated from the fits", fontsize=10
+    )
     return fig
 
 
-def figures_for(result: Identification, *, length: str = "mm", other: str | None = None, joint: int | None = None) -> dict[str, Figure]:
+def figures_for(
+    result: Identification, *, length: str = "mm", other: str | None = None, joint: int | None = None
+) -> dict[str, Figure]:
     """Every figure of an identification, by file stem: circles, residuals, bounding_box, parameters, frames,
     origin_paths (frames of the identified convention and ``other`` at the home configuration; origin paths
     over joint ``joint``'s swept range, default joint 2 as in Guo et al. Fig. 3)."""
     conv = result.table.convention
     other = other_convention(conv) if other is None else _core.convention_info(other)["name"]
     model = result.model()
-    tables = [(f"identified {conv}", result.table), (f"identified {other}", _core.extract(_core.axes(model, np.zeros(model.nq)), other).table)]
+    tables = [
+        (f"identified {conv}", result.table),
+        (f"identified {other}", _core.extract(_core.axes(model, np.zeros(model.nq)), other).table),
+    ]
     n = result.axes.nq
     joint = joint or (2 if n >= 2 else 1)
     return {
@@ -628,7 +703,9 @@ def figures_for(result: Identification, *, length: str = "mm", other: str | None
         "bounding_box": plot_bounding_box(result, length=length),
         "parameters": plot_parameters(result, length=length),
         "frames": plot_frames(tables, result.sweeps.home, length=length),
-        "origin_paths": plot_origin_paths(tables, joint, result.sweeps.home, limits=sweep_range(result, joint), length=length),
+        "origin_paths": plot_origin_paths(
+            tables, joint, result.sweeps.home, limits=sweep_range(result, joint), length=length
+        ),
         **({"accuracy": plot_accuracy(acc, length=length)} if (acc := _accuracy(result)) is not None else {}),
     }
 
@@ -679,8 +756,20 @@ def plot_accuracy(acc, *, length: str = "mm") -> Figure:
     positive = both[both > 0]
     lo, hi = (positive.min(), positive.max()) if positive.size else (1e-6, 1.0)
     bins = np.geomspace(lo * 0.9, hi * 1.1, 40)
-    ax.hist(np.maximum(nom, lo), bins=bins, color="#c0392b", alpha=0.7, label=f"nominal model: rms {np.sqrt(np.mean(nom ** 2)):.3g} {length}")
-    ax.hist(np.maximum(ide, lo), bins=bins, color="#2471a3", alpha=0.7, label=f"identified, predicted 1σ: rms {np.sqrt(np.mean(ide ** 2)):.3g} {length}")
+    ax.hist(
+        np.maximum(nom, lo),
+        bins=bins,
+        color="#c0392b",
+        alpha=0.7,
+        label=f"nominal model: rms {np.sqrt(np.mean(nom**2)):.3g} {length}",
+    )
+    ax.hist(
+        np.maximum(ide, lo),
+        bins=bins,
+        color="#2471a3",
+        alpha=0.7,
+        label=f"identified, predicted 1σ: rms {np.sqrt(np.mean(ide**2)):.3g} {length}",
+    )
     ax.set_xscale("log")
     ax.set_xlabel(f"tool position error [{length}]", fontsize=9)
     ax.set_ylabel("configurations", fontsize=9)

@@ -152,11 +152,19 @@ def resolve(name_or_path: str | os.PathLike) -> Path:
     key = str(name_or_path).lower().replace("-", "_")
     if key in builtin_names():
         return Path(str(resources.files("denavit.models").joinpath(key + ".toml")))
-    raise DenavitError(f"unknown model {str(name_or_path)!r}: expected a built-in name ({', '.join(builtin_names())}) or an existing robot file (.toml) or URDF (.urdf)")
+    raise DenavitError(
+        f"unknown model {str(name_or_path)!r}: expected a built-in name ({', '.join(builtin_names())}) or an existing robot file (.toml) or URDF (.urdf)"
+    )
 
 
-def load(name_or_path: str | os.PathLike, *, base_link: str | None = None, tip_link: str | None = None, chain_only: bool = False,
-         locked: dict | None = None) -> Robot:
+def load(
+    name_or_path: str | os.PathLike,
+    *,
+    base_link: str | None = None,
+    tip_link: str | None = None,
+    chain_only: bool = False,
+    locked: dict | None = None,
+) -> Robot:
     """The :class:`Robot` of a built-in name, a robot file (.toml, :mod:`denavit.io.robotfile`) or a URDF
     (.urdf, :mod:`denavit.io.urdf`; ``base_link`` / ``tip_link`` pick its chain; the links off it are merged
     into the chain's dynamics, their movable joints at ``locked`` ({joint: value}, default 0), unless

@@ -58,9 +58,15 @@ class Sweep:
         """The sweep at ``rows`` only (an index array or slice): points, readings, targets, rotations and ``where``."""
         w = self.where
         where = w[rows] if hasattr(w, "lines") else (list(np.asarray(w, dtype=object)[rows]) if len(w) else [])
-        return replace(self, points=self.points[rows], q=None if self.q is None else self.q[rows], where=where,
-                       targets=None if self.targets is None else self.targets[rows], rotations=None if self.rotations is None else self.rotations[rows],
-                       payload=None if self.payload is None else self.payload[rows])
+        return replace(
+            self,
+            points=self.points[rows],
+            q=None if self.q is None else self.q[rows],
+            where=where,
+            targets=None if self.targets is None else self.targets[rows],
+            rotations=None if self.rotations is None else self.rotations[rows],
+            payload=None if self.payload is None else self.payload[rows],
+        )
 
     @property
     def moving(self) -> np.ndarray | None:
@@ -81,39 +87,65 @@ class SweepSet:
     kinds: list[str]
     source: str = ""
     units: dict = field(default_factory=lambda: {"length": "m", "angle": "rad"})
-    nest: np.ndarray | None = None  # (k, 3) m: the targets' positions in the tool frame, when declared (several targets per pose)
+    nest: np.ndarray | None = (
+        None  # (k, 3) m: the targets' positions in the tool frame, when declared (several targets per pose)
+    )
 
     def __post_init__(self):
         # one sweep per joint 1..n: a hand-built set missing one had raised IndexError, one with a sweep twice
         # had been identified with the other joint's axis silently missing
         joints = [s.joint for s in self.sweeps]
-        wrong = {"missing sweeps of joint(s)": [j for j in range(1, self.n_joints + 1) if j not in joints],
-                 "a second sweep of joint(s)": sorted({j for j in joints if joints.count(j) > 1}),
-                 "sweeps of joint(s) out of range": [j for j in joints if not 1 <= j <= self.n_joints]}
+        wrong = {
+            "missing sweeps of joint(s)": [j for j in range(1, self.n_joints + 1) if j not in joints],
+            "a second sweep of joint(s)": sorted({j for j in joints if joints.count(j) > 1}),
+            "sweeps of joint(s) out of range": [j for j in joints if not 1 <= j <= self.n_joints],
+        }
         what = "; ".join(f"{k} {', '.join(map(str, v))}" for k, v in wrong.items() if v)
         if what:
-            raise DenavitError(f"{self.source or 'sweeps'}: {what}: every joint 1..{self.n_joints} needs one sweep (got joints {joints})")
-        if joints != sorted(joints):  # in joint order: the fits are by position (a set built 1, 3, 2 had fitted joint 2 with joint 3's sweep)
+            raise DenavitError(
+                f"{self.source or 'sweeps'}: {what}: every joint 1..{self.n_joints} needs one sweep (got joints {joints})"
+            )
+        if joints != sorted(
+            joints
+        ):  # in joint order: the fits are by position (a set built 1, 3, 2 had fitted joint 2 with joint 3's sweep)
             object.__setattr__(self, "sweeps", sorted(self.sweeps, key=lambda s: s.joint))
         k = {s.n_targets for s in self.sweeps}
         if len(k) > 1:
-            raise DenavitError(f"{self.source or 'sweeps'}: sweeps with different numbers of targets per pose ({sorted(k)}): expected the same targets at every pose")
+            raise DenavitError(
+                f"{self.source or 'sweeps'}: sweeps with different numbers of targets per pose ({sorted(k)}): expected the same targets at every pose"
+            )
         for s in self.sweeps:
-            if s.targets is not None and (s.targets.ndim != 3 or s.targets.shape[0] != len(s.points) or s.targets.shape[2] != 3
-                                          or not np.array_equal(s.targets[:, 0], s.points)):
-                raise DenavitError(f"{self.source or 'sweeps'}, joint {s.joint}: targets of shape {s.targets.shape}: expected ({len(s.points)}, k, 3) with the first target the points")
+            if s.targets is not None and (
+                s.targets.ndim != 3
+                or s.targets.shape[0] != len(s.points)
+                or s.targets.shape[2] != 3
+                or not np.array_equal(s.targets[:, 0], s.points)
+            ):
+                raise DenavitError(
+                    f"{self.source or 'sweeps'}, joint {s.joint}: targets of shape {s.targets.shape}: expected ({len(s.points)}, k, 3) with the first target the points"
+                )
             if s.rotations is not None and s.rotations.shape != (len(s.points), 3, 3):
-                raise DenavitError(f"{self.source or 'sweeps'}, joint {s.joint}: rotations of shape {s.rotations.shape}: expected ({len(s.points)}, 3, 3)")
+                raise DenavitError(
+                    f"{self.source or 'sweeps'}, joint {s.joint}: rotations of shape {s.rotations.shape}: expected ({len(s.points)}, 3, 3)"
+                )
         if len({s.rotations is None for s in self.sweeps}) > 1:
-            raise DenavitError(f"{self.source or 'sweeps'}: only some sweeps carry orientations: expected 6-DoF poses in every sweep or in none")
+            raise DenavitError(
+                f"{self.source or 'sweeps'}: only some sweeps carry orientations: expected 6-DoF poses in every sweep or in none"
+            )
         if self.nest is not None and np.shape(self.nest) != (self.n_targets, 3):
-            raise DenavitError(f"{self.source or 'sweeps'}: nest of shape {np.shape(self.nest)}: expected ({self.n_targets}, 3), one point per target")
+            raise DenavitError(
+                f"{self.source or 'sweeps'}: nest of shape {np.shape(self.nest)}: expected ({self.n_targets}, 3), one point per target"
+            )
 
     def __repr__(self) -> str:
-        home = ", ".join(f"{v * 1e3:.4g} mm" if k == "prismatic" else f"{np.degrees(v):.4g}" for v, k in zip(self.home, self.kinds))
+        home = ", ".join(
+            f"{v * 1e3:.4g} mm" if k == "prismatic" else f"{np.degrees(v):.4g}" for v, k in zip(self.home, self.kinds)
+        )
         n_pts = sum(len(s.points) for s in self.sweeps)
-        return (f"SweepSet({self.n_joints} joints, {len(self.sweeps)} sweeps, {n_pts} points, {'with' if self.has_readings else 'no'} joint readings, "
-                f"home [{home}] deg, source {self.source or '-'})")
+        return (
+            f"SweepSet({self.n_joints} joints, {len(self.sweeps)} sweeps, {n_pts} points, {'with' if self.has_readings else 'no'} joint readings, "
+            f"home [{home}] deg, source {self.source or '-'})"
+        )
 
     def sweep(self, joint: int) -> Sweep:
         for s in self.sweeps:
@@ -145,7 +177,9 @@ class SweepSet:
             raise DenavitError(f"{self.source or 'sweeps'}: target {k + 1} out of range: expected 1..{self.n_targets}")
         if self.n_targets == 1:
             return replace(self, sweeps=[replace(s, rotations=None) for s in self.sweeps], nest=None)
-        out = [replace(s, points=np.ascontiguousarray(s.targets[:, k]), targets=None, rotations=None) for s in self.sweeps]
+        out = [
+            replace(s, points=np.ascontiguousarray(s.targets[:, k]), targets=None, rotations=None) for s in self.sweeps
+        ]
         return replace(self, sweeps=out, source=f"{self.source}, target {k + 1}", nest=None)
 
 
@@ -155,9 +189,16 @@ def merge_targets(sets: list[SweepSet], nest=None) -> SweepSet:
     in the tool frame."""
     first = sets[0]
     for o in sets[1:]:
-        if [len(s.points) for s in o.sweeps] != [len(s.points) for s in first.sweeps] or [s.joint for s in o.sweeps] != [s.joint for s in first.sweeps]:
-            raise DenavitError(f"{o.source}: not the poses of {first.source}: expected the same sweeps and rows for every target")
-    out = [replace(s, targets=np.stack([o.sweeps[i].points for o in sets], axis=1), rotations=None) for i, s in enumerate(first.sweeps)]
+        if [len(s.points) for s in o.sweeps] != [len(s.points) for s in first.sweeps] or [
+            s.joint for s in o.sweeps
+        ] != [s.joint for s in first.sweeps]:
+            raise DenavitError(
+                f"{o.source}: not the poses of {first.source}: expected the same sweeps and rows for every target"
+            )
+    out = [
+        replace(s, targets=np.stack([o.sweeps[i].points for o in sets], axis=1), rotations=None)
+        for i, s in enumerate(first.sweeps)
+    ]
     return replace(first, sweeps=out, nest=None if nest is None else np.asarray(nest, dtype=float))
 
 
@@ -191,7 +232,11 @@ def simulate(
     ranges = limits.floats(ranges, "simulate: ranges")
     if home.shape != (n,) or ranges.shape != (n, 2):
         raise DenavitError(f"simulate: expected home ({n},) and ranges ({n}, 2), got {home.shape} and {ranges.shape}")
-    if isinstance(points_per_sweep, (int, np.integer)) and not isinstance(points_per_sweep, bool) and points_per_sweep < 3:
+    if (
+        isinstance(points_per_sweep, (int, np.integer))
+        and not isinstance(points_per_sweep, bool)
+        and points_per_sweep < 3
+    ):
         raise DenavitError(f"simulate: points_per_sweep must be >= 3, got {points_per_sweep}")
     points_per_sweep = limits.check_count(points_per_sweep, "simulate: points_per_sweep", "points", least=3)
     for name, value, unit in (("noise", noise, "m"), ("noise_q", noise_q, "rad or m"), ("noise_rot", noise_rot, "rad")):
@@ -202,7 +247,9 @@ def simulate(
     rng = np.random.default_rng(check_seed(seed))
     tools = np.atleast_2d(np.asarray(tool_point if targets is None else targets, dtype=float))
     if tools.ndim != 2 or tools.shape[1] != 3 or not 1 <= len(tools) <= 16:
-        raise DenavitError(f"simulate: targets: expected (k, 3) points in the flange frame (m), got shape {tools.shape}")
+        raise DenavitError(
+            f"simulate: targets: expected (k, 3) points in the flange frame (m), got shape {tools.shape}"
+        )
     limits.check_lengths(tools, "simulate: tool_point" if targets is None else "simulate: targets")
     limits.check_noise(noise, "simulate: noise", model, tools)
     if "revolute" in model.kinds:
@@ -221,7 +268,27 @@ def simulate(
         readings = qs + rng.normal(0.0, noise_q, qs.shape) if noise_q > 0 else qs
         rot = None
         if poses:
-            rot = T[:, :3, :3] if noise_rot <= 0 else rotvec_matrix(rng.normal(0.0, noise_rot, (len(qs), 3))) @ T[:, :3, :3]
-        sweeps.append(Sweep(j + 1, np.ascontiguousarray(pts[:, 0]), readings, [f"simulated sweep {j + 1}, point {k}" for k in range(points_per_sweep)],
-                            pts if len(tools) > 1 else None, rot))
-    return SweepSet(sweeps, n, home, list(model.kinds), f"simulated {model.name}", {"length": "m", "angle": "rad"}, tools if len(tools) > 1 else None)
+            rot = (
+                T[:, :3, :3]
+                if noise_rot <= 0
+                else rotvec_matrix(rng.normal(0.0, noise_rot, (len(qs), 3))) @ T[:, :3, :3]
+            )
+        sweeps.append(
+            Sweep(
+                j + 1,
+                np.ascontiguousarray(pts[:, 0]),
+                readings,
+                [f"simulated sweep {j + 1}, point {k}" for k in range(points_per_sweep)],
+                pts if len(tools) > 1 else None,
+                rot,
+            )
+        )
+    return SweepSet(
+        sweeps,
+        n,
+        home,
+        list(model.kinds),
+        f"simulated {model.name}",
+        {"length": "m", "angle": "rad"},
+        tools if len(tools) > 1 else None,
+    )

@@ -68,7 +68,9 @@ def gravity_torques(model: _core.Model, q, payload=None, flange=None) -> np.ndar
         f[:, :3] = np.einsum("nji,j->ni", R, g) * pl[rows, :1]  # the weight, in the tool frame's axes, at its origin
         qz = np.tile(zero, (len(rows), 1))
         # rnea with the weight as the environment's wrench, minus the links' share: what the payload adds (-J^T f)
-        tau[rows] += np.asarray(_core.rnea_batch(mc, q[rows], qz, qz, f_ext=f)) - (np.asarray(_core.rnea_batch(mc, q[rows], qz, qz)) if _has_masses(model) else 0.0)
+        tau[rows] += np.asarray(_core.rnea_batch(mc, q[rows], qz, qz, f_ext=f)) - (
+            np.asarray(_core.rnea_batch(mc, q[rows], qz, qz)) if _has_masses(model) else 0.0
+        )
     return tau
 
 
@@ -98,7 +100,11 @@ class CompliantParametrization(Parametrization):
     def torques(self, q, payload) -> np.ndarray:
         """(N, n) gravity torques of readings ``q`` with ``payload`` (:func:`gravity_torques`), remembered per data set."""
         q = np.asarray(q, dtype=float)
-        key = (q.shape, hash(q.tobytes()), None if payload is None else hash(np.asarray(payload, dtype=float).tobytes()))
+        key = (
+            q.shape,
+            hash(q.tobytes()),
+            None if payload is None else hash(np.asarray(payload, dtype=float).tobytes()),
+        )
         hit = self._cache.get(key)
         if hit is None:
             hit = gravity_torques(self.torque_model, q, payload)
@@ -162,8 +168,10 @@ def considered(meas, robot, compliance) -> tuple[bool, str | None]:
     if not asked:
         return False, None
     if robot.inertials is None or not np.any(np.asarray(robot.inertials["masses"]) > 0):
-        return False, (f"joint compliance not modelled: {robot.name} carries no link masses ([joints.inertia] in a robot file, <inertial> in a URDF) "
-                       "to give the gravity torques the joints twist under")
+        return False, (
+            f"joint compliance not modelled: {robot.name} carries no link masses ([joints.inertia] in a robot file, <inertial> in a URDF) "
+            "to give the gravity torques the joints twist under"
+        )
     return True, None
 
 
@@ -171,7 +179,9 @@ def with_compliance(pz: Parametrization, meas, robot, compliance) -> tuple[Param
     """``pz`` with the compliance parameters appended when the calibration models compliance (:func:`considered`),
     else ``pz`` itself; and the notes."""
     if compliance not in (None, True, False, "auto"):
-        raise DenavitError(f"compliance: expected None / 'auto' (when the data declare a payload), True or False, got {compliance!r}")
+        raise DenavitError(
+            f"compliance: expected None / 'auto' (when the data declare a payload), True or False, got {compliance!r}"
+        )
     use, why = considered(meas, robot, None if compliance == "auto" else compliance)
     if not use:
         return pz, [why] if why else []
@@ -187,13 +197,31 @@ def with_compliance(pz: Parametrization, meas, robot, compliance) -> tuple[Param
     units = list(pz.units) + compliance_units(kinds)
     scales = [pz.names.index(f"scale_{j + 1}") if f"scale_{j + 1}" in pz.names else -1 for j in range(n)]
     chain = make_chain(pz.factors, P + n, n, scales)
-    out = CompliantParametrization(pz.convention, pz.measure, names, np.r_[pz.x0, k0], units, list(pz.order) + [P + j for j in range(n)], dict(pz.rules),
-                                   pz.factors, chain, pz.robot, pz.joint_factor, pz.tool_start, pz.base_end,
-                                   torque_model, P, tuple(P + j for j in show), {P + j: 1.0 / tmax[j] for j in show})
+    out = CompliantParametrization(
+        pz.convention,
+        pz.measure,
+        names,
+        np.r_[pz.x0, k0],
+        units,
+        list(pz.order) + [P + j for j in range(n)],
+        dict(pz.rules),
+        pz.factors,
+        chain,
+        pz.robot,
+        pz.joint_factor,
+        pz.tool_start,
+        pz.base_end,
+        torque_model,
+        P,
+        tuple(P + j for j in show),
+        {P + j: 1.0 / tmax[j] for j in show},
+    )
     notes = []
     still = [j for j in range(n) if j not in show]
     if still:
-        notes.append(f"no compliance for joint(s) {', '.join(f'{j + 1} ({robot.names[j]})' for j in still)}: they hold no gravity torque in these poses")
+        notes.append(
+            f"no compliance for joint(s) {', '.join(f'{j + 1} ({robot.names[j]})' for j in still)}: they hold no gravity torque in these poses"
+        )
     return out, notes
 
 
@@ -228,7 +256,9 @@ def as_payload(payload, n: int) -> np.ndarray | None:
     if a.shape == (4,):
         return np.tile(a, (n, 1))
     if a.shape != (n, 4):
-        raise DenavitError(f"payload: expected a mass (kg), (mass, (x, y, z)) or (N, 4) rows [kg, m, m, m], got shape {a.shape}")
+        raise DenavitError(
+            f"payload: expected a mass (kg), (mass, (x, y, z)) or (N, 4) rows [kg, m, m, m], got shape {a.shape}"
+        )
     return a
 
 
@@ -282,7 +312,15 @@ class Elastic:
         tau = self.torques(q, payload)
         out = np.empty(len(q))
         for i in range(len(q)):
-            A = -np.asarray(_core.jacobian(self.torque_model, self.deflected(q[i : i + 1], None if payload is None else np.asarray(payload)[i : i + 1])[0]))[:3] * tau[i]
+            A = (
+                -np.asarray(
+                    _core.jacobian(
+                        self.torque_model,
+                        self.deflected(q[i : i + 1], None if payload is None else np.asarray(payload)[i : i + 1])[0],
+                    )
+                )[:3]
+                * tau[i]
+            )
             out[i] = math.sqrt(max(float(np.trace(A @ self.covariance @ A.T)), 0.0))
         return out
 
@@ -310,10 +348,20 @@ def elastic(identified) -> Elastic | None:
         if identified.compliance is None or not np.any(np.asarray(identified.compliance) > 0):
             return None
         if identified.inertials is None:
-            raise DenavitError(f"{identified.name}: joint compliances without the links' inertial parameters: no gravity torques to deflect under")
-        return Elastic(np.asarray(identified.compliance, dtype=float), identified.model(), identified.compliance_covariance, None, identified.compliance_flange)
+            raise DenavitError(
+                f"{identified.name}: joint compliances without the links' inertial parameters: no gravity torques to deflect under"
+            )
+        return Elastic(
+            np.asarray(identified.compliance, dtype=float),
+            identified.model(),
+            identified.compliance_covariance,
+            None,
+            identified.compliance_flange,
+        )
     pz = getattr(identified, "parametrization", None)
-    if isinstance(pz, CompliantParametrization) and any(n.startswith("k_") for n in getattr(identified, "free_names", ())):
+    if isinstance(pz, CompliantParametrization) and any(
+        n.startswith("k_") for n in getattr(identified, "free_names", ())
+    ):
         return Elastic(pz.compliance_of(identified.values).copy(), pz.torque_model, None, identified)
     return None
 
@@ -351,7 +399,9 @@ class CompliancePlan:
     notes: list
 
 
-def plan_compliance(nominal, q, payloads, *, com=(0.0, 0.0, 0.0), noise: float = 2e-5, tool=(0.05, 0.03, 0.10), convention: str = "edh") -> CompliancePlan:
+def plan_compliance(
+    nominal, q, payloads, *, com=(0.0, 0.0, 0.0), noise: float = 2e-5, tool=(0.05, 0.03, 0.10), convention: str = "edh"
+) -> CompliancePlan:
     """Predict the compliances' sigmas of a planned calibration (:class:`CompliancePlan`): the whitened Jacobian of the
     geometry and the compliances at the nominal (zero compliances), its covariance ``noise^2 (J^T J)^-1`` over the
     identifiable parameters (no priors: what the data alone determine). The two-payload protocol is
@@ -373,7 +423,9 @@ def plan_compliance(nominal, q, payloads, *, com=(0.0, 0.0, 0.0), noise: float =
     pz, notes = with_compliance(parametrize(robot, convention, tool=np.asarray(tool, dtype=float)), meas, robot, True)
     n = len(robot.names)
     if not isinstance(pz, CompliantParametrization):
-        return CompliancePlan([f"k_{j + 1}" for j in range(n)], np.full(n, np.nan), np.zeros(n), tuple(loads), len(Q), notes)
+        return CompliancePlan(
+            [f"k_{j + 1}" for j in range(n)], np.full(n, np.nan), np.zeros(n), tuple(loads), len(Q), notes
+        )
     w = weights("point", noise, noise)
     cand = [i for i in range(pz.n_geometric) if pz.names[i] not in pz.rules] + list(pz.compliance_idx)
     kept = analyze(pz, pz.x0, meas, cand, w, explain=False).kept_idx

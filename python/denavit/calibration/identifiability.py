@@ -82,8 +82,10 @@ class Identifiability:
 
     def summary(self) -> str:
         o = self.observability
-        return (f"rank {self.rank} of {len(self.candidates)} candidate parameters over {self.n_poses} poses; condition number {self.condition_number:.3g}; "
-                + ", ".join(f"{k} {v:.3g}" for k, v in o.items()))
+        return (
+            f"rank {self.rank} of {len(self.candidates)} candidate parameters over {self.n_poses} poses; condition number {self.condition_number:.3g}; "
+            + ", ".join(f"{k} {v:.3g}" for k, v in o.items())
+        )
 
 
 def rank_reveal(J: np.ndarray, order: list, tol: float = RANK_TOL):
@@ -137,8 +139,16 @@ def _combinations(G: np.ndarray, L: np.ndarray, kept: list, dropped: list, norms
     return out
 
 
-def analyze(pz: Parametrization, x, meas: Measurements, candidates: list, w: np.ndarray, structural: Identifiability | None = None, joint_hint: str = "",
-             explain: bool = True) -> Identifiability:
+def analyze(
+    pz: Parametrization,
+    x,
+    meas: Measurements,
+    candidates: list,
+    w: np.ndarray,
+    structural: Identifiability | None = None,
+    joint_hint: str = "",
+    explain: bool = True,
+) -> Identifiability:
     """Rank-revealing analysis of the weighted identification Jacobian at x (module docstring); with
     ``explain=False`` only the kept / dropped sets (no reasons, no singular values).
 
@@ -163,13 +173,20 @@ def analyze(pz: Parametrization, x, meas: Measurements, candidates: list, w: np.
         un.append(Unidentifiable(name, reason, struct, {pz.names[k]: v for k, v in comb.items()}))
     names_order = [pz.names[c] for c in order]
     if not explain:
-        return Identifiability(names_order, len(kept), [pz.names[c] for c in kept], un, np.zeros(0), math.nan, {}, meas.n, kept)
+        return Identifiability(
+            names_order, len(kept), [pz.names[c] for c in kept], un, np.zeros(0), math.nan, {}, meas.n, kept
+        )
     # the unit-norm kept columns are Q L^T (Q orthonormal): their singular values are those of L
     sv = np.linalg.svd(L, compute_uv=False) if kept else np.zeros(0)
     m = meas.n
     if sv.size and sv[-1] > 0:
-        obs = {"O1": float(np.exp(np.mean(np.log(sv))) / math.sqrt(m)), "O2": float(sv[-1] / sv[0]), "O3": float(sv[-1]),
-               "O4": float(sv[-1] ** 2 / sv[0]), "O5": float(1.0 / np.sum(1.0 / sv))}
+        obs = {
+            "O1": float(np.exp(np.mean(np.log(sv))) / math.sqrt(m)),
+            "O2": float(sv[-1] / sv[0]),
+            "O3": float(sv[-1]),
+            "O4": float(sv[-1] ** 2 / sv[0]),
+            "O5": float(1.0 / np.sum(1.0 / sv)),
+        }
         cond = float(sv[0] / sv[-1])
     else:
         obs = {k: 0.0 for k in ("O1", "O2", "O3", "O4", "O5")}
@@ -191,21 +208,33 @@ def _reason(pz: Parametrization, name: str, zero: bool, comb: dict, structural: 
             why += " (a rotation of the tool about its own measured point)"
     else:
         terms = ", ".join(_fmt_coef(pz.names[k], v, pz, name) for k, v in comb.items())
-        why = f"its effect on every measurement equals that of {terms}" if terms else "its effect is a combination of many parameters"
+        why = (
+            f"its effect on every measurement equals that of {terms}"
+            if terms
+            else "its effect is a combination of many parameters"
+        )
     kept = [pz.names[k] for k in comb]
     hints = []
     if name.startswith(("c_", "d_")) and (pz.convention == "edh" and name.startswith("c_") or pz.convention != "edh"):
         j = int(name.split("_")[1]) + (1 if pz.convention == "edh" else 0)
-        hints.append(f"it slides joint frame {j}'s origin along axis {j}, which "
-                     + ("the tool absorbs" if any(k.startswith("tool_") for k in kept) else "the following links absorb"))
+        hints.append(
+            f"it slides joint frame {j}'s origin along axis {j}, which "
+            + ("the tool absorbs" if any(k.startswith("tool_") for k in kept) else "the following links absorb")
+        )
     if any(k.startswith("base_") for k in kept) and not name.startswith("base_"):
         hints.append("the base frame, which is identified, already places joint frame 1")
     if name == f"offset_{pz.nq}" and any(k.startswith("tool_") for k in kept):
         hints.append("the tool's position about the last axis sets the same angle")
     if name.startswith("offset_") and pz.convention == "edh" and f"beta_{int(name.split('_')[1]) - 1}" in pz.names:
         i = int(name.split("_")[1])
-        hints.append(f"axes {i - 1} and {i} are near-parallel, so the direction of x_{i - 1} (their common normal) is a free choice, "
-                     f"which offset_{i - 1} and the translations of link {i} absorb")
-    lead = "redundant in the " + pz.convention + " parametrisation (no data can identify it)" if structural else "not determined by these measurements"
+        hints.append(
+            f"axes {i - 1} and {i} are near-parallel, so the direction of x_{i - 1} (their common normal) is a free choice, "
+            f"which offset_{i - 1} and the translations of link {i} absorb"
+        )
+    lead = (
+        "redundant in the " + pz.convention + " parametrisation (no data can identify it)"
+        if structural
+        else "not determined by these measurements"
+    )
     tail = f"; {'; '.join(hints)}" if hints else ""
     return f"{lead}: {why}{tail}{joint_hint}; fixed at its start value"

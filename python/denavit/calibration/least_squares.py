@@ -45,7 +45,9 @@ def gram(A: np.ndarray) -> np.ndarray:
     return G
 
 
-def jacobian_rows(pz: Parametrization, x, q, w: np.ndarray, columns=None, whitening=None) -> tuple[np.ndarray, np.ndarray]:
+def jacobian_rows(
+    pz: Parametrization, x, q, w: np.ndarray, columns=None, whitening=None
+) -> tuple[np.ndarray, np.ndarray]:
     """(predicted poses (N, 4, 4), weighted Jacobian rows (3N or 6N, len(columns))) at x for the readings q (N, n):
     the identification Jacobian's position (and for poses rotation) rows times the weights ``w`` (and each point's
     position rows by its ``whitening`` (N, 3, 3) matrix, :attr:`Measurements.whitening`), of the parameters
@@ -81,8 +83,17 @@ def residuals(pz: Parametrization, x, meas: Measurements, w: np.ndarray, jacobia
     return r.ravel(), J, poses
 
 
-def fit_parameters(pz: Parametrization, x_start, free: list, meas: Measurements, w: np.ndarray, loss: str, f_scale: float | None, max_nfev: int | None = None,
-                   prior: tuple | None = None):
+def fit_parameters(
+    pz: Parametrization,
+    x_start,
+    free: list,
+    meas: Measurements,
+    w: np.ndarray,
+    loss: str,
+    f_scale: float | None,
+    max_nfev: int | None = None,
+    prior: tuple | None = None,
+):
     """Least squares over the parameters ``free`` (indices) from ``x_start``; returns (x, scipy result).
 
     The solver's trial points get residuals only; the Jacobian (of the free columns alone) is evaluated where
@@ -125,8 +136,18 @@ def fit_parameters(pz: Parametrization, x_start, free: list, meas: Measurements,
     n_rows = meas.n * (6 if pz.measure == "pose" else 3) + (0 if pc is None else len(pc))
     method = "lm" if loss == "linear" and n_rows >= len(free) else "trf"
     kw = {} if loss == "linear" else {"loss": loss, "f_scale": f_scale or 1.0}
-    sol = least_squares(fun, z0, jac=jac, method=method, x_scale="jac",
-                        xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=max_nfev or 100 * (len(free) + 1), **kw)
+    sol = least_squares(
+        fun,
+        z0,
+        jac=jac,
+        method=method,
+        x_scale="jac",
+        xtol=1e-12,
+        ftol=1e-12,
+        gtol=1e-12,
+        max_nfev=max_nfev or 100 * (len(free) + 1),
+        **kw,
+    )
     return full(sol.x), sol
 
 

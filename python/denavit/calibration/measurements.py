@@ -74,20 +74,28 @@ class Measurements:
         if poses is not None:
             poses = as_array(poses, "poses", self.source)
             if poses.shape != (n, 4, 4):
-                raise DenavitError(f"{self.source}: poses must have shape ({n}, 4, 4) (one per row of q), got shape {poses.shape}")
+                raise DenavitError(
+                    f"{self.source}: poses must have shape ({n}, 4, 4) (one per row of q), got shape {poses.shape}"
+                )
             check_finite(poses.reshape(n, 16), "poses", self.source, self.where)
             err = np.abs(np.einsum("nji,njk->nik", poses[:, :3, :3], poses[:, :3, :3]) - np.eye(3)).max(axis=(1, 2))
             bad = np.flatnonzero((err > 1e-6) | (np.abs(poses[:, 3] - [0, 0, 0, 1]).max(axis=1) > 0))
             if bad.size:
-                raise DenavitError(f"{row_where(self.source, self.where, bad[0])}: pose is not a rigid transform (|R^T R - I| = {err[bad[0]]:.2e}, last row {poses[bad[0], 3].tolist()})")
+                raise DenavitError(
+                    f"{row_where(self.source, self.where, bad[0])}: pose is not a rigid transform (|R^T R - I| = {err[bad[0]]:.2e}, last row {poses[bad[0], 3].tolist()})"
+                )
             points = poses[:, :3, 3].copy()
         elif points is not None:
             points = as_array(points, "points", self.source)
             if points.shape != (n, 3):
-                raise DenavitError(f"{self.source}: points must have shape ({n}, 3) (one per row of q), got shape {points.shape}")
+                raise DenavitError(
+                    f"{self.source}: points must have shape ({n}, 3) (one per row of q), got shape {points.shape}"
+                )
             check_finite(points, "points", self.source, self.where, cols="xyz")
         else:
-            raise DenavitError(f"{self.source}: give measured points (N, 3) or poses (N, 4, 4) with the joint readings q")
+            raise DenavitError(
+                f"{self.source}: give measured points (N, 3) or poses (N, 4, 4) with the joint readings q"
+            )
         object.__setattr__(self, "q", q)
         object.__setattr__(self, "points", points)
         object.__setattr__(self, "poses", poses)
@@ -95,7 +103,9 @@ class Measurements:
         if self.payload is not None:
             pl = as_array(self.payload, "payload", self.source)
             if pl.shape != (n, 4) or not np.all(np.isfinite(pl)) or np.any(pl[:, 0] < 0):
-                raise DenavitError(f"{self.source}: payload must have shape ({n}, 4), [mass kg >= 0, x, y, z m] per pose, finite; got shape {pl.shape}")
+                raise DenavitError(
+                    f"{self.source}: payload must have shape ({n}, 4), [mass kg >= 0, x, y, z m] per pose, finite; got shape {pl.shape}"
+                )
             object.__setattr__(self, "payload", pl)
 
     @property
@@ -116,21 +126,40 @@ class Measurements:
     def subset(self, idx) -> Measurements:
         """The measurements of the rows ``idx``."""
         idx = np.asarray(idx, dtype=int)
-        return Measurements(self.q[idx], None if self.poses is not None else self.points[idx], None if self.poses is None else self.poses[idx],
-                            self.source, [self.where[i] for i in idx], self.units, None, self.kinds,
-                            None if self.whitening is None else self.whitening[idx], None if self.payload is None else self.payload[idx])
+        return Measurements(
+            self.q[idx],
+            None if self.poses is not None else self.points[idx],
+            None if self.poses is None else self.poses[idx],
+            self.source,
+            [self.where[i] for i in idx],
+            self.units,
+            None,
+            self.kinds,
+            None if self.whitening is None else self.whitening[idx],
+            None if self.payload is None else self.payload[idx],
+        )
 
     @classmethod
     def from_sweeps(cls, sweeps: SweepSet) -> Measurements:
         """The points of every sweep with their joint readings (all joints recorded at every point)."""
         if not sweeps.has_readings:
-            raise DenavitError(f"{sweeps.source}: calibration needs the joint readings of every point; these sweeps have none (per-joint files): use denavit.identify")
+            raise DenavitError(
+                f"{sweeps.source}: calibration needs the joint readings of every point; these sweeps have none (per-joint files): use denavit.identify"
+            )
         q = np.vstack([s.q for s in sweeps.sweeps])
         p = np.vstack([s.points for s in sweeps.sweeps])
-        where = [w for s in sweeps.sweeps for w in (s.where or [f"sweep {s.joint}, point {k + 1}" for k in range(len(s.points))])]
+        where = [
+            w
+            for s in sweeps.sweeps
+            for w in (s.where or [f"sweep {s.joint}, point {k + 1}" for k in range(len(s.points))])
+        ]
         pays = [getattr(s, "payload", None) for s in sweeps.sweeps]
-        payload = np.vstack(pays) if pays and all(v is not None for v in pays) else None  # (a sweep file's payload columns)
-        return cls(q, p, None, sweeps.source or "sweeps", where, dict(sweeps.units), sweeps, sweeps.kinds, payload=payload)
+        payload = (
+            np.vstack(pays) if pays and all(v is not None for v in pays) else None
+        )  # (a sweep file's payload columns)
+        return cls(
+            q, p, None, sweeps.source or "sweeps", where, dict(sweeps.units), sweeps, sweeps.kinds, payload=payload
+        )
 
 
 def as_array(a, what: str, source: str) -> np.ndarray:
@@ -152,7 +181,9 @@ def joint_kinds(kinds, n: int, where: str) -> tuple | None:
     if isinstance(kinds, str) or not hasattr(kinds, "__len__"):
         raise DenavitError(f"{where}: expected a list of {n} joint kinds ('revolute' or 'prismatic'), got {kinds!r}")
     if len(kinds) != n:
-        raise DenavitError(f"{where}: expected {n} joint kinds (one per joint reading), got {len(kinds)}: {list(kinds)}")
+        raise DenavitError(
+            f"{where}: expected {n} joint kinds (one per joint reading), got {len(kinds)}: {list(kinds)}"
+        )
     for j, k in enumerate(kinds):
         if k not in ("revolute", "prismatic"):
             raise DenavitError(f"{where}: joint {j + 1}: expected 'revolute' or 'prismatic', got {k!r}")
@@ -169,5 +200,11 @@ def check_finite(a: np.ndarray, what: str, source: str, where: list, cols: str |
     bad = np.argwhere(~np.isfinite(a))
     if bad.size:
         i, j = bad[0]
-        col = f"{cols} {j + 1}" if cols == "joint" else (f"column {'xyz'[j]}" if cols == "xyz" and j < 3 else f"entry {j}")
-        raise DenavitError(f"{row_where(source, where, i)}: {what} must be finite, got {a[i, j]} ({col}); {len(bad)} non-finite value(s) in all")
+        col = (
+            f"{cols} {j + 1}"
+            if cols == "joint"
+            else (f"column {'xyz'[j]}" if cols == "xyz" and j < 3 else f"entry {j}")
+        )
+        raise DenavitError(
+            f"{row_where(source, where, i)}: {what} must be finite, got {a[i, j]} ({col}); {len(bad)} non-finite value(s) in all"
+        )

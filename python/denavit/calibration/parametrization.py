@@ -72,7 +72,9 @@ class _Memo:
             if J is not None:
                 self.built += 1
                 self.jacobians = [(chain, key, rows, wkey, cols, J.copy())] + self.jacobians[: self.JACOBIANS - 1]
-        self.poses = [(chain, key, poses)] + [e for e in self.poses if not (e[0] is chain and e[1] == key)][: self.POSES - 1]
+        self.poses = [(chain, key, poses)] + [e for e in self.poses if not (e[0] is chain and e[1] == key)][
+            : self.POSES - 1
+        ]
         return poses, J
 
 
@@ -106,7 +108,9 @@ def as_robot(nominal) -> Robot:
     if isinstance(nominal, _core.Model):
         ex = _core.extract(_core.axes(nominal, np.zeros(nominal.nq)), "edh")
         return Robot(nominal.name, ex.table, list(nominal.names), np.array(nominal.lower), np.array(nominal.upper))
-    raise DenavitError(f"nominal: expected a Robot, a Model, a built-in name or a robot file, got {type(nominal).__name__}")
+    raise DenavitError(
+        f"nominal: expected a Robot, a Model, a built-in name or a robot file, got {type(nominal).__name__}"
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,7 +132,9 @@ class Parametrization:
     chain: _core.CalibrationChain
     robot: Robot
     joint_factor: list  # factor index of each joint
-    tool_start: int  # factors[tool_start:] form T_flange_tool (before it, after the last joint: dh's link n and the flange)
+    tool_start: (
+        int  # factors[tool_start:] form T_flange_tool (before it, after the last joint: dh's link n and the flange)
+    )
     base_end: int  # factors[:base_end] form the base
 
     @property
@@ -188,9 +194,18 @@ class Parametrization:
         # the flange (docs/conventions.md "Frames"): dh's link n after the last joint and the fixed nominal flange
         flange = self._product(x, prev, self.tool_start)
         tool = self._product(x, self.tool_start, len(self.factors))
-        return _core.Model.from_placements(np.array(placements), self.robot.table.kinds, offsets=offsets, lower=self.robot.lower, upper=self.robot.upper,
-                                           names=self.robot.names, T_world_base=orthonormalize(self.base_pose(x)), T_last_flange=orthonormalize(flange),
-                                           T_flange_tool=orthonormalize(tool), name=name)
+        return _core.Model.from_placements(
+            np.array(placements),
+            self.robot.table.kinds,
+            offsets=offsets,
+            lower=self.robot.lower,
+            upper=self.robot.upper,
+            names=self.robot.names,
+            T_world_base=orthonormalize(self.base_pose(x)),
+            T_last_flange=orthonormalize(flange),
+            T_flange_tool=orthonormalize(tool),
+            name=name,
+        )
 
     def rebased(self, x, T_world_new_old) -> tuple[Parametrization, np.ndarray]:
         """The same parametrisation with the base moved by ``T_world_new_old`` (a change of measurement frame),
@@ -220,8 +235,15 @@ def _elementary(axis: str, s: float) -> np.ndarray:
 def make_chain(factors, n_params, nq, scales) -> _core.CalibrationChain:
     """The core's calibration chain of ``factors`` ((axis, param, joint, T or None) each; Rust evaluates it)."""
     fixed = [F for a, _, _, F in factors if a == "fixed"]
-    return _core.CalibrationChain([a for a, _, _, _ in factors], [max(p, 0) for _, p, _, _ in factors], [j for _, _, j, _ in factors],
-                                  np.array(fixed).reshape(-1, 4, 4), n_params, nq, scales)
+    return _core.CalibrationChain(
+        [a for a, _, _, _ in factors],
+        [max(p, 0) for _, p, _, _ in factors],
+        [j for _, _, j, _ in factors],
+        np.array(fixed).reshape(-1, 4, 4),
+        n_params,
+        nq,
+        scales,
+    )
 
 
 def _replace_factors(pz: Parametrization, factors) -> Parametrization:
@@ -230,7 +252,9 @@ def _replace_factors(pz: Parametrization, factors) -> Parametrization:
     return dataclasses.replace(pz, factors=factors, chain=chain)  # (a subclass, compliance.py's, stays one)
 
 
-def parametrize(nominal, convention: str = "edh", *, measure: str = "point", tool=None, scale: bool = False) -> Parametrization:
+def parametrize(
+    nominal, convention: str = "edh", *, measure: str = "point", tool=None, scale: bool = False
+) -> Parametrization:
     """The calibration model of ``nominal`` in ``convention`` (see the module docstring for the factors).
 
     Parameters
@@ -255,45 +279,85 @@ def parametrize(nominal, convention: str = "edh", *, measure: str = "point", too
     ref = robot.table if robot.table.convention == conv else None
     table = _core.extract(_core.axes(m, np.zeros(n)), conv, nominal=ref).table
     # the nominal flange in world and in the convention's last frame; the tool is in the flange
-    F_flange = (_core.joint_frames(m, np.zeros(n))[-1] if n else np.asarray(m.T_world_base)) @ np.asarray(m.T_last_flange)
+    F_flange = (_core.joint_frames(m, np.zeros(n))[-1] if n else np.asarray(m.T_world_base)) @ np.asarray(
+        m.T_last_flange
+    )
     C_last = table.frames(np.zeros(n))[-1]
     T_tool_flange = np.asarray(m.T_flange_tool) if tool is None or measure == "point" else np.asarray(tool, dtype=float)
     if measure == "point" and tool is not None:
         tp = np.asarray(tool, dtype=float)
         if tp.shape != (3,) or not np.all(np.isfinite(tp)):
-            raise DenavitError(f"tool: expected the tool point (3,) in the flange frame (m), got {np.asarray(tool).tolist()}")
+            raise DenavitError(
+                f"tool: expected the tool point (3,) in the flange frame (m), got {np.asarray(tool).tolist()}"
+            )
         T_tool_flange = np.array(m.T_flange_tool)
         T_tool_flange[:3, 3] = tp
     if measure == "pose" and tool is not None and T_tool_flange.shape != (4, 4):
-        raise DenavitError(f"tool: expected T_flange_tool (4, 4) for pose measurements, got shape {T_tool_flange.shape}")
+        raise DenavitError(
+            f"tool: expected T_flange_tool (4, 4) for pose measurements, got shape {T_tool_flange.shape}"
+        )
     T_last_flange = orthonormalize(np.linalg.inv(C_last) @ F_flange)
     # the factors and parameters of the convention (the core: Table::parametrize, docs/conventions.md)
     core = _core.parametrize(table, T_last_flange, orthonormalize(T_tool_flange), measure, scale, robot.name)
     fixed = iter(core["fixed"])
-    factors = [(a, p, j, next(fixed) if a == "fixed" else None) for a, p, j in zip(core["axes"], core["params"], core["joints"])]
-    names, x0, units, groups, along, rules = core["names"], core["x0"], core["units"], core["groups"], core["along"], dict(core["rules"])
+    factors = [
+        (a, p, j, next(fixed) if a == "fixed" else None)
+        for a, p, j in zip(core["axes"], core["params"], core["joints"])
+    ]
+    names, x0, units, groups, along, rules = (
+        core["names"],
+        core["x0"],
+        core["units"],
+        core["groups"],
+        core["along"],
+        dict(core["rules"]),
+    )
     joint_factor, tool_start, base_end = list(core["joint_factors"]), core["tool_start"], core["base_end"]
     P_ = len(names)
     rank_of = {"base": 0, "tool": 1, "link": 2, "offset": 3, "scale": 4}
     order = sorted(range(P_), key=lambda c: (5, -c) if along[c] else (rank_of[groups[c]], c))
     chain = core["chain"]
-    pz = Parametrization(conv, measure, names, np.array(x0), units, order, rules, factors, chain, robot, joint_factor, tool_start, base_end)
+    pz = Parametrization(
+        conv,
+        measure,
+        names,
+        np.array(x0),
+        units,
+        order,
+        rules,
+        factors,
+        chain,
+        robot,
+        joint_factor,
+        tool_start,
+        base_end,
+    )
     # the chain must reproduce the nominal model (with the tool); where the convention's table lost something
     # (an MDH table has no tilt about y), the parameters are fitted to the nominal model's kinematics.
     Q = configurations(robot, max(3 * P_, 60))
     truth = _core.fk_batch(m.with_tool(T_tool_flange), Q)
     pred, _ = pz.evaluate(pz.x0, Q, False)
-    err = np.abs(pred[:, :3, 3] - truth[:, :3, 3]).max() + (np.abs(pred[:, :3, :3] - truth[:, :3, :3]).max() if measure == "pose" else 0.0)
+    err = np.abs(pred[:, :3, 3] - truth[:, :3, 3]).max() + (
+        np.abs(pred[:, :3, :3] - truth[:, :3, :3]).max() if measure == "pose" else 0.0
+    )
     if err > 1e-10:
-        target = Measurements(Q, None, truth, "nominal model") if measure == "pose" else Measurements(Q, truth[:, :3, 3], None, "nominal model")
+        target = (
+            Measurements(Q, None, truth, "nominal model")
+            if measure == "pose"
+            else Measurements(Q, truth[:, :3, 3], None, "nominal model")
+        )
         free = [c for c in range(P_) if names[c] not in rules and not names[c].startswith("scale_")]
         ana = analyze(pz, pz.x0, target, free, np.ones(6), explain=False)
         x, _ = fit_parameters(pz, pz.x0, ana.kept_idx, target, np.ones(6), "linear", None)
-        pz = Parametrization(conv, measure, names, x, units, order, rules, factors, chain, robot, joint_factor, tool_start, base_end)
+        pz = Parametrization(
+            conv, measure, names, x, units, order, rules, factors, chain, robot, joint_factor, tool_start, base_end
+        )
         pred, _ = pz.evaluate(pz.x0, Q, False)
         err = np.abs(pred[:, :3, 3] - truth[:, :3, 3]).max()
         if err > 1e-8:
-            raise DegenerateError(f"the {conv} calibration chain cannot reproduce the nominal model {robot.name}: tool error {err * 1e3:.3g} mm after fitting it; use convention 'edh'")
+            raise DegenerateError(
+                f"the {conv} calibration chain cannot reproduce the nominal model {robot.name}: tool error {err * 1e3:.3g} mm after fitting it; use convention 'edh'"
+            )
     return pz
 
 
@@ -327,7 +391,9 @@ def resolve_fix(pz: Parametrization, fix) -> dict:
             continue
         hits = [c for c, nm in enumerate(pz.names) if fnmatch.fnmatchcase(nm, pat)]
         if not hits:
-            raise DenavitError(f"fix: {pat!r} matches no parameter of the {pz.convention} model of {pz.robot.name}: expected names or patterns of {', '.join(pz.names)}")
+            raise DenavitError(
+                f"fix: {pat!r} matches no parameter of the {pz.convention} model of {pz.robot.name}: expected names or patterns of {', '.join(pz.names)}"
+            )
         for c in hits:
             out[c] = None if value is None else float(value)
     return out

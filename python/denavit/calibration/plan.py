@@ -43,14 +43,19 @@ class Protocol:
 
     def __repr__(self) -> str:
         r = np.asarray(self.ranges, dtype=float)
-        return (f"Protocol({len(r)} sweeps of {self.points_per_sweep} points, ranges {', '.join(f'{a:.4g}..{b:.4g}' for a, b in r)} (rad / m), tool point [{', '.join(f'{v * 1e3:.4g}' for v in self.tool_point)}] mm)")
+        return f"Protocol({len(r)} sweeps of {self.points_per_sweep} points, ranges {', '.join(f'{a:.4g}..{b:.4g}' for a, b in r)} (rad / m), tool point [{', '.join(f'{v * 1e3:.4g}' for v in self.tool_point)}] mm)"
 
     @classmethod
     def paper(cls, degrees: int = 30, points_per_sweep: int = 30, tool_point=(0.05, 0.03, 0.10)) -> Protocol:
         """Hayat et al.'s protocol (Table II, 90 or 30 degree ranges, home A1 90, A2 -90, A3 90, A4 0, A5 90, A6 0)."""
         if degrees not in PAPER_RANGES_DEG:
             raise DenavitError(f"paper protocol: expected 90 or 30 degrees, got {degrees}")
-        return cls(np.radians(PAPER_HOME_DEG), np.radians(PAPER_RANGES_DEG[degrees]), points_per_sweep, np.asarray(tool_point, dtype=float))
+        return cls(
+            np.radians(PAPER_HOME_DEG),
+            np.radians(PAPER_RANGES_DEG[degrees]),
+            points_per_sweep,
+            np.asarray(tool_point, dtype=float),
+        )
 
     def configurations(self) -> np.ndarray:
         """(n * points_per_sweep, n) configurations, sweep by sweep (as :func:`denavit.sweeps.simulate`)."""
@@ -61,8 +66,12 @@ class Protocol:
             raise DenavitError(f"protocol: expected ranges of shape ({n}, 2), got {ranges.shape}")
         if self.points_per_sweep < 3:
             raise DenavitError(f"protocol: points_per_sweep must be >= 3, got {self.points_per_sweep}")
-        limits.check_count(self.points_per_sweep, "protocol: points_per_sweep", "points", least=3, what="points per sweep")
-        limits.check_size(n * self.points_per_sweep, "poses", "protocol", f"poses ({n} sweeps x {self.points_per_sweep:,} points)")
+        limits.check_count(
+            self.points_per_sweep, "protocol: points_per_sweep", "points", least=3, what="points per sweep"
+        )
+        limits.check_size(
+            n * self.points_per_sweep, "poses", "protocol", f"poses ({n} sweeps x {self.points_per_sweep:,} points)"
+        )
         out = []
         for j in range(n):
             qs = np.tile(home, (self.points_per_sweep, 1))
@@ -115,9 +124,11 @@ class Plan:
 
     def __repr__(self) -> str:
         est = int(np.count_nonzero(np.isfinite(self.sigma)))
-        return (f"Plan({self.parametrization.robot.name}, {self.parametrization.convention}, {len(self.q)} poses, noise {self.noise * 1e3:.3g} mm, "
-                f"{est} of {len(self.names)} parameters identifiable)\n"
-                f"  worst axis sigma {np.nanmax(self.axis_sigma[:, 0]) * 1e3:.3g} mm across, {np.degrees(np.nanmax(self.axis_sigma[:, 1])):.3g} deg; {len(self.notes)} notes")
+        return (
+            f"Plan({self.parametrization.robot.name}, {self.parametrization.convention}, {len(self.q)} poses, noise {self.noise * 1e3:.3g} mm, "
+            f"{est} of {len(self.names)} parameters identifiable)\n"
+            f"  worst axis sigma {np.nanmax(self.axis_sigma[:, 0]) * 1e3:.3g} mm across, {np.degrees(np.nanmax(self.axis_sigma[:, 1])):.3g} deg; {len(self.notes)} notes"
+        )
 
     @cached_property
     def box(self) -> BoundingBox:
@@ -164,7 +175,9 @@ def plan(
         raise DenavitError("plan: give a protocol (sweep ranges) or candidate configurations q")
     if not noise > 0:
         raise DenavitError(f"plan: noise must be > 0 (m), got {noise}")
-    limits.check_noise(noise, "plan: noise", robot.model(), protocol.tool_point if tool is None and protocol is not None else tool)
+    limits.check_noise(
+        noise, "plan: noise", robot.model(), protocol.tool_point if tool is None and protocol is not None else tool
+    )
     if noise_rot is not None:
         limits.check_angle_noise(noise_rot, "plan: noise_rot")
     n = len(robot.names)
@@ -196,7 +209,11 @@ def plan(
     meas = Measurements(Q, None, poses, "plan") if measure == "pose" else Measurements(Q, poses[:, :3, 3], None, "plan")
     rich_q = configurations(robot, max(2 * pz.n_params, 60))
     rich_p, _ = pz.evaluate(x, rich_q, False)
-    rich = Measurements(rich_q, None, rich_p, "spread") if measure == "pose" else Measurements(rich_q, rich_p[:, :3, 3], None, "spread")
+    rich = (
+        Measurements(rich_q, None, rich_p, "spread")
+        if measure == "pose"
+        else Measurements(rich_q, rich_p[:, :3, 3], None, "spread")
+    )
     ana = analyze(pz, x, meas, candidates, w, analyze(pz, x, rich, candidates, w, explain=False))
     _, J, _ = residuals(pz, x, meas, w)
     free = ana.kept_idx
@@ -208,7 +225,22 @@ def plan(
     notes = []
     if meas.n * (6 if measure == "pose" else 3) <= len(free):
         notes.append(f"{meas.n} poses give fewer equations than the {len(free)} identifiable parameters")
-    return Plan(pz, list(pz.names), sigma, [pz.names[c] for c in free], cov, ana, Q, meas.points, noise, selected, q_ref, axis_sigma, per_circle, notes)
+    return Plan(
+        pz,
+        list(pz.names),
+        sigma,
+        [pz.names[c] for c in free],
+        cov,
+        ana,
+        Q,
+        meas.points,
+        noise,
+        selected,
+        q_ref,
+        axis_sigma,
+        per_circle,
+        notes,
+    )
 
 
 def axis_lines(model: _core.Model, q_ref, p_ref) -> tuple[np.ndarray, np.ndarray]:

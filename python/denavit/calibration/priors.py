@@ -49,13 +49,28 @@ COMPLIANCE_WIDTH = 1e-3
 PRIOR_DOMINATED = 0.9
 #: The units a width may be typed in: SI per unit, and the dimension it belongs to.
 WIDTH_UNITS = {
-    "m": (1.0, "length"), "cm": (1e-2, "length"), "mm": (1e-3, "length"), "um": (1e-6, "length"), "in": (0.0254, "length"),
-    "rad": (1.0, "angle"), "mrad": (1e-3, "angle"), "urad": (1e-6, "angle"), "deg": (math.pi / 180, "angle"),
-    "arcmin": (math.pi / 180 / 60, "angle"), "arcsec": (math.pi / 180 / 3600, "angle"),
-    "ppm": (1e-6, "ratio"), "%": (1e-2, "ratio"),
+    "m": (1.0, "length"),
+    "cm": (1e-2, "length"),
+    "mm": (1e-3, "length"),
+    "um": (1e-6, "length"),
+    "in": (0.0254, "length"),
+    "rad": (1.0, "angle"),
+    "mrad": (1e-3, "angle"),
+    "urad": (1e-6, "angle"),
+    "deg": (math.pi / 180, "angle"),
+    "arcmin": (math.pi / 180 / 60, "angle"),
+    "arcsec": (math.pi / 180 / 3600, "angle"),
+    "ppm": (1e-6, "ratio"),
+    "%": (1e-2, "ratio"),
 }
 _KIND_DIMENSION = {"length": "length", "angle": "angle", "offset": "angle", "scale": "ratio", "compliance": "angle"}
-_UNIT_DIMENSION = {"length": "length", "angle": "angle", "ratio": "ratio", "rad/(N m)": "compliance", "m/N": "compliance"}
+_UNIT_DIMENSION = {
+    "length": "length",
+    "angle": "angle",
+    "ratio": "ratio",
+    "rad/(N m)": "compliance",
+    "m/N": "compliance",
+}
 
 
 @dataclass(frozen=True)
@@ -73,19 +88,35 @@ class Prior:
 
     def sigma(self, pz: Parametrization) -> np.ndarray:
         """The prior width of every parameter of ``pz`` (SI; ``inf``: no prior, the base and tool registration)."""
-        out = np.array([self.compliance if k == "compliance" else self.widths[k] if k is not None else math.inf for k in (kind_of(pz, c) for c in range(pz.n_params))], dtype=float)
-        for c, f in getattr(pz, "prior_factors", {}).items():  # a compliance: the deflection's width per unit of the largest torque
+        out = np.array(
+            [
+                self.compliance if k == "compliance" else self.widths[k] if k is not None else math.inf
+                for k in (kind_of(pz, c) for c in range(pz.n_params))
+            ],
+            dtype=float,
+        )
+        for c, f in getattr(
+            pz, "prior_factors", {}
+        ).items():  # a compliance: the deflection's width per unit of the largest torque
             out[c] *= f
         for pat, (v, dim) in self.overrides:
             hits = [c for c, nm in enumerate(pz.names) if fnmatch.fnmatchcase(nm, pat)]
             if not hits:
-                raise DenavitError(f"prior: {pat!r} matches no parameter of the {pz.convention} model of {pz.robot.name}: expected a kind "
-                                   f"({', '.join(DEFAULT_WIDTHS)}) or names or patterns of {', '.join(pz.names)}")
+                raise DenavitError(
+                    f"prior: {pat!r} matches no parameter of the {pz.convention} model of {pz.robot.name}: expected a kind "
+                    f"({', '.join(DEFAULT_WIDTHS)}) or names or patterns of {', '.join(pz.names)}"
+                )
             for c in hits:
                 want = _UNIT_DIMENSION[pz.units[c]]
                 if dim is not None and dim != want:
-                    raise DenavitError(f"prior: {pz.names[c]} is a{'n' if want == 'angle' else ''} {want}, got a width in {dim} units for {pat!r}")
-                out[c] = v if dim is not None else v * (self.bare[0] if want == "length" else self.bare[1] if want == "angle" else 1.0)
+                    raise DenavitError(
+                        f"prior: {pz.names[c]} is a{'n' if want == 'angle' else ''} {want}, got a width in {dim} units for {pat!r}"
+                    )
+                out[c] = (
+                    v
+                    if dim is not None
+                    else v * (self.bare[0] if want == "length" else self.bare[1] if want == "angle" else 1.0)
+                )
         return out
 
 
@@ -138,8 +169,10 @@ def as_prior(prior) -> Prior | None:
             else:
                 over.append((key, (_width(v, key), None)))
         return Prior(widths, tuple(over), compliance=comp)
-    raise DenavitError(f"prior: expected None, True, False, a dict of kind or parameter -> width (SI) or a string such as "
-                       f"\"length=1mm, angle=0.1deg\", got {type(prior).__name__}")
+    raise DenavitError(
+        f"prior: expected None, True, False, a dict of kind or parameter -> width (SI) or a string such as "
+        f'"length=1mm, angle=0.1deg", got {type(prior).__name__}'
+    )
 
 
 _ITEM = re.compile(r"\s*([A-Za-z_*?\[\]0-9]+)\s*=\s*([-+0-9.eE]+)\s*([A-Za-z%]*)\s*")
@@ -158,8 +191,10 @@ def parse_prior(text: str, length: str = "mm", angle: str = "deg", where: str = 
     widths = dict(DEFAULT_WIDTHS)
     over = []
     comp = COMPLIANCE_WIDTH
-    expected = (f"{where}: expected KIND=WIDTH pairs separated by commas, KIND one of {', '.join(DEFAULT_WIDTHS)} or a parameter name "
-                f"or pattern, WIDTH a number > 0 with a unit ({', '.join(WIDTH_UNITS)}), e.g. \"length=1mm, angle=0.1deg, scale=100ppm\", or \"none\"")
+    expected = (
+        f"{where}: expected KIND=WIDTH pairs separated by commas, KIND one of {', '.join(DEFAULT_WIDTHS)} or a parameter name "
+        f'or pattern, WIDTH a number > 0 with a unit ({", ".join(WIDTH_UNITS)}), e.g. "length=1mm, angle=0.1deg, scale=100ppm", or "none"'
+    )
     for item in s.split(","):
         if not item.strip():
             continue
@@ -176,12 +211,16 @@ def parse_prior(text: str, length: str = "mm", angle: str = "deg", where: str = 
         dim = None
         if unit:
             if unit.lower() not in WIDTH_UNITS and unit not in WIDTH_UNITS:
-                raise DenavitError(f"{where}: unknown unit {unit!r} for {key}: expected one of {', '.join(WIDTH_UNITS)}")
+                raise DenavitError(
+                    f"{where}: unknown unit {unit!r} for {key}: expected one of {', '.join(WIDTH_UNITS)}"
+                )
             f, dim = WIDTH_UNITS.get(unit, WIDTH_UNITS.get(unit.lower()))
             v *= f
         if key == "compliance":  # the deflection under the largest torque: an angle (bare in --angle)
             if dim not in (None, "angle"):
-                raise DenavitError(f"{where}: compliance is the joints' deflection under their largest torque, an angle, got a width in {unit}")
+                raise DenavitError(
+                    f"{where}: compliance is the joints' deflection under their largest torque, an angle, got a width in {unit}"
+                )
             comp = v * (angle_scale(angle) if dim is None else 1.0)
         elif key in widths:
             want = _KIND_DIMENSION[key]

@@ -51,7 +51,9 @@ def _rms(P, M) -> float:
     return float(np.sqrt(np.mean(np.sum((P - M) ** 2, axis=1))))
 
 
-def register(pz: Parametrization, x, meas: Measurements, base_free: bool, tool_free=()) -> tuple[Parametrization, np.ndarray, list]:
+def register(
+    pz: Parametrization, x, meas: Measurements, base_free: bool, tool_free=()
+) -> tuple[Parametrization, np.ndarray, list]:
     """The base (and tool) registration in closed form; returns (parametrisation, x, notes).
 
     ``base_free``: all six base parameters may move (else the base stays). ``tool_free``: indices of the tool's
@@ -87,14 +89,18 @@ def register(pz: Parametrization, x, meas: Measurements, base_free: bool, tool_f
             if after < 0.5 * before:
                 pz, x = cand_pz, cand_x
                 dist = float(np.linalg.norm(pz.base_pose(x)[:3, 3]))
-                notes.append(f"base registered in closed form (Kabsch{', alternated with the tool point' if trans else ''}): the robot's base stands {dist:.4g} m from "
-                             "the measurement frame's origin; "
-                             f"the nominal model's tool points miss the data by {before * 1e3:.4g} mm rms before, {after * 1e3:.4g} mm after")
+                notes.append(
+                    f"base registered in closed form (Kabsch{', alternated with the tool point' if trans else ''}): the robot's base stands {dist:.4g} m from "
+                    "the measurement frame's origin; "
+                    f"the nominal model's tool points miss the data by {before * 1e3:.4g} mm rms before, {after * 1e3:.4g} mm after"
+                )
     if pz.measure == "pose" and len(rots) == 3 and meas.poses is not None:
         pz, x, angle = _register_tool_rotation(pz, x, meas, rots)
         if angle > 0:
-            notes.append(f"tool orientation registered in closed form: {np.degrees(angle):.4g} deg from the nominal's (chordal mean over the poses); "
-                         "tool_rx, tool_ry, tool_rz are small rotations about it")
+            notes.append(
+                f"tool orientation registered in closed form: {np.degrees(angle):.4g} deg from the nominal's (chordal mean over the poses); "
+                "tool_rx, tool_ry, tool_rz are small rotations about it"
+            )
     return pz, x, notes
 
 
@@ -108,7 +114,9 @@ def _tool_step(pz: Parametrization, x, meas: Measurements, trans: list) -> np.nd
     return step
 
 
-def _register_tool_rotation(pz: Parametrization, x, meas: Measurements, rots: list) -> tuple[Parametrization, np.ndarray, float]:
+def _register_tool_rotation(
+    pz: Parametrization, x, meas: Measurements, rots: list
+) -> tuple[Parametrization, np.ndarray, float]:
     """The tool's fixed rotation factor moved to the chordal mean of ``R_pred^T R_meas`` (the correction in the
     tool frame) and its angle parameters reset to zero; returns (parametrisation, x, angle of the move in rad)."""
     pred, _ = pz.evaluate(x, pz.inputs(meas), False)
@@ -122,7 +130,12 @@ def _register_tool_rotation(pz: Parametrization, x, meas: Measurements, rots: li
     factors = list(pz.factors)
     pos = {p: k for k, (axis, p, _, _) in enumerate(factors) if axis in ("rx", "ry", "rz")}
     ks = sorted(pos[c] for c in rots if c in pos)
-    if len(ks) != 3 or ks != list(range(ks[0], ks[0] + 3)) or ks[-1] != len(factors) - 1 or factors[ks[0] - 1][0] != "fixed":
+    if (
+        len(ks) != 3
+        or ks != list(range(ks[0], ks[0] + 3))
+        or ks[-1] != len(factors) - 1
+        or factors[ks[0] - 1][0] != "fixed"
+    ):
         return pz, x, 0.0  # not the expected tail [fixed, rx, ry, rz]: leave it
     F = np.array(factors[ks[0] - 1][3], dtype=float)
     for k in ks:

@@ -73,7 +73,10 @@ DESCRIPTIONS = {
     "full-prior": "every identifiable parameter, with plausible-size priors (maximum a posteriori)",
     "full-prior-no-beta": "full-prior without the Hayati tilts of near-parallel pairs",
     "full-prior-no-last": "full-prior with the last link's geometry nominal (the tool absorbs it)",
-    **{f"{c}{COMPLIANCE}": f"{c} with the joint compliances free (gravity and payload torques)" for c in ("base-tool", "offsets", "full", "full-prior")},
+    **{
+        f"{c}{COMPLIANCE}": f"{c} with the joint compliances free (gravity and payload torques)"
+        for c in ("base-tool", "offsets", "full", "full-prior")
+    },
 }
 #: The selection rule, in words (the module docstring).
 RULE = "the simplest within one standard error of the best"
@@ -129,23 +132,46 @@ class ModelChoice:
     def line(self, scale: float = 1e-3, unit: str = "mm") -> str:
         """The one line that says which model won and each candidate's leave-one-pose-out RMS (``unit``, ``scale``
         m per unit)."""
-        cands = ", ".join(f"{c.name} {c.cv_rms / scale:.4g}{'*' if c.name == self.chosen else ''}" for c in self.candidates)
-        why = f"chosen by leave-one-pose-out prediction error ({RULE})" if self.how == "auto" else "as asked (--model / model=)"
+        cands = ", ".join(
+            f"{c.name} {c.cv_rms / scale:.4g}{'*' if c.name == self.chosen else ''}" for c in self.candidates
+        )
+        why = (
+            f"chosen by leave-one-pose-out prediction error ({RULE})"
+            if self.how == "auto"
+            else "as asked (--model / model=)"
+        )
         return f"model {self.chosen} {why}; leave-one-pose-out tool-position rms [{unit}]: {cands}"
 
     def short(self) -> str:
         """:meth:`line` in brief (mm), for a result's repr."""
-        cands = ", ".join(f"{c.name} {c.cv_rms * 1e3:.3g}{'*' if c.name == self.chosen else ''}" for c in self.candidates)
+        cands = ", ".join(
+            f"{c.name} {c.cv_rms * 1e3:.3g}{'*' if c.name == self.chosen else ''}" for c in self.candidates
+        )
         return f"model {self.chosen} ({'auto' if self.how == 'auto' else 'given'}); leave-one-out rms [mm]: {cands}"
 
     def __repr__(self) -> str:
         return f"ModelChoice({self.line()})"
 
     def to_json(self) -> dict:
-        return {"chosen": self.chosen, "how": self.how, "rule": RULE if self.how == "auto" else None, "criterion": "leave-one-pose-out tool-position rms (hat matrix)",
-                "candidates": [{"name": c.name, "description": DESCRIPTIONS[c.name], "cv_rms_m": c.cv_rms, "cv_se_m": None if math.isnan(c.cv_se) else c.cv_se,
-                                "effective_parameters": c.dof, "n_free": len(c.free), "prior": c.prior is not None, "held_by_prior": list(c.prior_fixed)}
-                               for c in self.candidates]}
+        return {
+            "chosen": self.chosen,
+            "how": self.how,
+            "rule": RULE if self.how == "auto" else None,
+            "criterion": "leave-one-pose-out tool-position rms (hat matrix)",
+            "candidates": [
+                {
+                    "name": c.name,
+                    "description": DESCRIPTIONS[c.name],
+                    "cv_rms_m": c.cv_rms,
+                    "cv_se_m": None if math.isnan(c.cv_se) else c.cv_se,
+                    "effective_parameters": c.dof,
+                    "n_free": len(c.free),
+                    "prior": c.prior is not None,
+                    "held_by_prior": list(c.prior_fixed),
+                }
+                for c in self.candidates
+            ],
+        }
 
 
 def loo_residuals(J: np.ndarray, r: np.ndarray, k: int, P: np.ndarray | None = None) -> tuple[np.ndarray, float]:
@@ -194,10 +220,16 @@ def last_link(pz: Parametrization) -> set:
     if pz.nq < 2:
         return set()
     lo, hi = pz.joint_factor[-2] + 1, pz.tool_start
-    return {p for k, (axis, p, _, _) in enumerate(pz.factors[lo:hi], lo) if axis != "fixed" and k != pz.joint_factor[-1] and not pz.names[p].startswith("tool_")}
+    return {
+        p
+        for k, (axis, p, _, _) in enumerate(pz.factors[lo:hi], lo)
+        if axis != "fixed" and k != pz.joint_factor[-1] and not pz.names[p].startswith("tool_")
+    }
 
 
-def _fit(name: str, pz: Parametrization, train: Measurements, w: np.ndarray, free: list, x_start, prior_sigma, s2: float) -> Candidate:
+def _fit(
+    name: str, pz: Parametrization, train: Measurements, w: np.ndarray, free: list, x_start, prior_sigma, s2: float
+) -> Candidate:
     """One candidate: the fit (MAP with ``prior_sigma`` (P,) widths, SI, if given; prior-dominated parameters then
     held nominal and the fit repeated) and its leave-one-pose-out errors."""
     prior = None if prior_sigma is None else (pz.x0, prior_weights(prior_sigma, s2))
@@ -216,7 +248,9 @@ def _fit(name: str, pz: Parametrization, train: Measurements, w: np.ndarray, fre
             xs = x.copy()
             xs[dom] = pz.x0[dom]
             x, sol = fit_parameters(pz, xs, free, train, w, "linear", None, prior=prior)
-    nonneg = set(getattr(pz, "nonnegative", ()))  # compliances: k >= 0, one fitted negative held at zero and the fit repeated
+    nonneg = set(
+        getattr(pz, "nonnegative", ())
+    )  # compliances: k >= 0, one fitted negative held at zero and the fit repeated
     for _ in range(len(nonneg)):
         neg = [c for c in free if c in nonneg and x[c] < 0]
         if not neg:
@@ -295,8 +329,22 @@ def choose(cands: list, suffix: str = "") -> Candidate:
     return min(better, key=lambda c: c.mse) if better else pick
 
 
-def select_model(model: str, pz: Parametrization, train: Measurements, w: np.ndarray, *, prior: Prior | None, s2: float, candidates: list, kept: list,
-                 reg_kept: list, x_reg, x_full, sol_full, compliance: list = ()) -> ModelChoice:
+def select_model(
+    model: str,
+    pz: Parametrization,
+    train: Measurements,
+    w: np.ndarray,
+    *,
+    prior: Prior | None,
+    s2: float,
+    candidates: list,
+    kept: list,
+    reg_kept: list,
+    x_reg,
+    x_full,
+    sol_full,
+    compliance: list = (),
+) -> ModelChoice:
     """Fit the candidate models (``model="auto"``) or the one asked for, score each by its leave-one-pose-out
     tool-position error, and choose (module docstring).
 
@@ -312,12 +360,16 @@ def select_model(model: str, pz: Parametrization, train: Measurements, w: np.nda
     if prior is None and model.startswith("full-prior"):
         raise DenavitError(f"model {model!r} needs priors: got prior=False / --prior none")
     if model.endswith(COMPLIANCE) and not compliance:
-        raise DenavitError(f"model {model!r}: the joint compliances are not modelled here (they need a payload declared with the data and the nominal's link inertials)")
+        raise DenavitError(
+            f"model {model!r}: the joint compliances are not modelled here (they need a payload declared with the data and the nominal's link inertials)"
+        )
     want = (CANDIDATES + (COMPLIANCE_CANDIDATES if compliance else ())) if model == "auto" else (model,)
     offsets_kept = []
     if "offsets" in want or f"offsets{COMPLIANCE}" in want:
         offs = [c for c in candidates if pz.names[c].startswith("offset_")]
-        offsets_kept = analyze(pz, x_reg, train, list(reg_kept) + offs, w, explain=False).kept_idx if offs else list(reg_kept)
+        offsets_kept = (
+            analyze(pz, x_reg, train, list(reg_kept) + offs, w, explain=False).kept_idx if offs else list(reg_kept)
+        )
     sets = candidate_sets(pz, kept, reg_kept, offsets_kept, prior is not None)
     if model == "auto" and set(sets["offsets"]) == set(sets["base-tool"]):
         del sets["offsets"]  # no offset the data identify: the same model as base-tool
@@ -331,18 +383,24 @@ def select_model(model: str, pz: Parametrization, train: Measurements, w: np.nda
             if c is not None:
                 out.append(c)
             elif model != "auto":
-                raise DenavitError(f"model {name!r}: its geometric part is not a model of these data: expected one of {', '.join(k + COMPLIANCE for k in sets)}")
+                raise DenavitError(
+                    f"model {name!r}: its geometric part is not a model of these data: expected one of {', '.join(k + COMPLIANCE for k in sets)}"
+                )
             continue
         if name not in sets:
             if model != "auto":
-                raise DenavitError(f"model {name!r}: {'no Hayati tilt is free in this model' if 'beta' in name else 'no last-link parameter is free'}: expected one of "
-                                   f"{', '.join(k for k in sets)}")
+                raise DenavitError(
+                    f"model {name!r}: {'no Hayati tilt is free in this model' if 'beta' in name else 'no last-link parameter is free'}: expected one of "
+                    f"{', '.join(k for k in sets)}"
+                )
             continue
         free = sets[name]
         if name == "full":
             r, J, _ = residuals(pz, x_full, train, w, columns=free)
             E, dof = loo_residuals(J, r, 6 if pz.measure == "pose" else 3)
-            out.append(Candidate(name, list(free), np.array(x_full), None, {}, position_errors(E, train, w), dof, sol_full))
+            out.append(
+                Candidate(name, list(free), np.array(x_full), None, {}, position_errors(E, train, w), dof, sol_full)
+            )
             fitted[name] = out[-1]
             continue
         if name in ("base-tool", "offsets"):
@@ -350,11 +408,16 @@ def select_model(model: str, pz: Parametrization, train: Measurements, w: np.nda
             fitted[name] = out[-1]
             continue
         drop = [c for c in kept if c not in free]
-        starts = [np.array(x_full if x_map is None else x_map), np.array(x_reg)]  # the least-squares (or MAP) fit, or the nominal geometry registered
+        starts = [
+            np.array(x_full if x_map is None else x_map),
+            np.array(x_reg),
+        ]  # the least-squares (or MAP) fit, or the nominal geometry registered
         for x in starts:
             x[drop] = pz.x0[drop]
         weight = prior_weights(sigma, s2)
-        start = min(starts, key=lambda x: _map_cost(pz, x, train, w, free, weight))  # where the data barely fix a parameter the fit may have swung it far
+        start = min(
+            starts, key=lambda x: _map_cost(pz, x, train, w, free, weight)
+        )  # where the data barely fix a parameter the fit may have swung it far
         c = _fit(name, pz, train, w, free, start, sigma, s2)
         if name == "full-prior":
             x_map = c.x
@@ -364,15 +427,28 @@ def select_model(model: str, pz: Parametrization, train: Measurements, w: np.nda
     return ModelChoice(chosen.name, "auto" if model == "auto" else "given", out)
 
 
-def _fit_compliant(name: str, pz: Parametrization, train: Measurements, w: np.ndarray, sets: dict, fitted: dict, compliance: list, x_reg, x_full,
-                   sigma, s2: float) -> Candidate | None:
+def _fit_compliant(
+    name: str,
+    pz: Parametrization,
+    train: Measurements,
+    w: np.ndarray,
+    sets: dict,
+    fitted: dict,
+    compliance: list,
+    x_reg,
+    x_full,
+    sigma,
+    s2: float,
+) -> Candidate | None:
     """A ``+compliance`` candidate: its geometric part's free parameters with the compliances the data identify beside them, from its geometric fit (compliances at their nominal), with the
     geometric part's priors (and the compliances' own) or none; None when the geometric part is not a candidate here."""
     base = name[: -len(COMPLIANCE)]
     if base not in sets:
         return None
     geo = fitted.get(base)
-    free = list(sets[base])  # (what the geometric fit's prior held is judged again: with the compliances the data may determine it)
+    free = list(
+        sets[base]
+    )  # (what the geometric fit's prior held is judged again: with the compliances the data may determine it)
     x0 = np.array(geo.x if geo is not None else (x_full if base.startswith("full") else x_reg))
     x0[list(compliance)] = pz.x0[list(compliance)]
     kept = analyze(pz, x0, train, free + list(compliance), w, explain=False).kept_idx

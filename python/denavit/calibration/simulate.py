@@ -11,7 +11,17 @@ from .measurements import Measurements
 from .parametrization import as_robot
 
 
-def simulate(model, q, *, tool=(0.05, 0.03, 0.10), noise: float = 0.0, noise_rot: float = 0.0, measure: str = "point", seed: int = 0, T_world_base=None) -> Measurements:
+def simulate(
+    model,
+    q,
+    *,
+    tool=(0.05, 0.03, 0.10),
+    noise: float = 0.0,
+    noise_rot: float = 0.0,
+    measure: str = "point",
+    seed: int = 0,
+    T_world_base=None,
+) -> Measurements:
     """Measurements of ``model`` (a Model / Robot / name) at configurations ``q`` (N, n): the tool point (3,)
     in the flange frame (or, for ``measure="pose"``, ``T_flange_tool`` (4, 4)) with Gaussian noise ``noise``
     (m, per coordinate) and ``noise_rot`` (rad, a rotation vector per pose); ``T_world_base`` moves the robot

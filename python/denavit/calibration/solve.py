@@ -54,8 +54,10 @@ class Validation:
     test_indices: np.ndarray
 
     def __repr__(self) -> str:
-        return (f"Validation({self.n_test} held-out of {self.n_train + self.n_test} poses: tool-position error rms {self.before_rms * 1e3:.4g} -> "
-                f"{self.after_rms * 1e3:.4g} mm, max {self.before_max * 1e3:.4g} -> {self.after_max * 1e3:.4g} mm)")
+        return (
+            f"Validation({self.n_test} held-out of {self.n_train + self.n_test} poses: tool-position error rms {self.before_rms * 1e3:.4g} -> "
+            f"{self.after_rms * 1e3:.4g} mm, max {self.before_max * 1e3:.4g} -> {self.after_max * 1e3:.4g} mm)"
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -104,10 +106,12 @@ class Calibration:
         est = int(np.count_nonzero(np.isfinite(self.sigma)))
         v = self.validation
         held = "" if v is None else f"; held-out error rms {v.before_rms * 1e3:.4g} -> {v.after_rms * 1e3:.4g} mm"
-        return (f"Calibration({self.parametrization.robot.name}, {self.convention}, {self.measurements.n} {self.measurements.kind}s of {self.measurements.source}, "
-                f"{est} of {len(self.names)} parameters estimated, {'converged' if self.converged else 'NOT converged'})\n"
-                f"  rms {self.rms * 1e3:.4g} mm{held}; {len(self.notes)} notes"
-                + ("" if self.model_choice is None else f"\n  {self.model_choice.short()}"))
+        return (
+            f"Calibration({self.parametrization.robot.name}, {self.convention}, {self.measurements.n} {self.measurements.kind}s of {self.measurements.source}, "
+            f"{est} of {len(self.names)} parameters estimated, {'converged' if self.converged else 'NOT converged'})\n"
+            f"  rms {self.rms * 1e3:.4g} mm{held}; {len(self.notes)} notes"
+            + ("" if self.model_choice is None else f"\n  {self.model_choice.short()}")
+        )
 
     def value(self, name: str) -> tuple[float, float]:
         """(value, sigma) of one parameter (SI)."""
@@ -183,12 +187,28 @@ class Calibration:
         table = self.table(convention)
         carried = self.carried_error(table)
         comp = _compliance_fields(self, r, table)
-        lossy = f"; the {table.convention} table carries a tool-position error up to {carried * 1e3:.3g} mm (a tilt of axes the nominal has parallel, within 3 sigma of zero, dropped)" if carried > 1e-9 else ""
-        return Robot(name or f"{r.name}_calibrated", table, list(r.names), r.lower, r.upper,
-                     description=f"{r.name} calibrated from {self.measurements.source} ({self.convention}, {self.measurements.n} poses{lossy})", source=self.measurements.source, home=r.home,
-                     extra=dict(r.extra), inertials=comp.pop("inertials", r.inertials if r.convention == convention else None),
-                     reading_scale=np.array([self.scales.get(f"scale_{j + 1}", 0.0) for j in range(len(r.names))]) if self.scales else None,
-                     covariance=self.table_covariance(table), **comp)
+        lossy = (
+            f"; the {table.convention} table carries a tool-position error up to {carried * 1e3:.3g} mm (a tilt of axes the nominal has parallel, within 3 sigma of zero, dropped)"
+            if carried > 1e-9
+            else ""
+        )
+        return Robot(
+            name or f"{r.name}_calibrated",
+            table,
+            list(r.names),
+            r.lower,
+            r.upper,
+            description=f"{r.name} calibrated from {self.measurements.source} ({self.convention}, {self.measurements.n} poses{lossy})",
+            source=self.measurements.source,
+            home=r.home,
+            extra=dict(r.extra),
+            inertials=comp.pop("inertials", r.inertials if r.convention == convention else None),
+            reading_scale=np.array([self.scales.get(f"scale_{j + 1}", 0.0) for j in range(len(r.names))])
+            if self.scales
+            else None,
+            covariance=self.table_covariance(table),
+            **comp,
+        )
 
     def carried_error(self, table: _core.Table) -> float:
         """The largest tool-position difference (m) between ``table`` and the calibrated model over 256 configurations
@@ -246,17 +266,26 @@ def _compliance_fields(cal: Calibration, r: Robot, table) -> dict:
         # body at q = 0 in the base frame (the bodies coincide within millimetres; their frames may not: a calibrated
         # table of near-parallel axes places them otherwise)
         z = np.zeros(len(r.names))
-        Fn = np.linalg.inv(np.asarray(r.table.T_world_base)) @ np.asarray(r.table.frames(z))[1:]  # (frames 0..n: frame i is link i's)
+        Fn = (
+            np.linalg.inv(np.asarray(r.table.T_world_base)) @ np.asarray(r.table.frames(z))[1:]
+        )  # (frames 0..n: frame i is link i's)
         Ft = np.linalg.inv(np.asarray(table.T_world_base)) @ np.asarray(table.frames(z))[1:]
         M = np.linalg.inv(Ft) @ Fn  # nominal frame i in saved frame i
         R, p = M[:, :3, :3], M[:, :3, 3]
         ins = r.inertials
-        out["inertials"] = {"masses": np.array(ins["masses"], dtype=float), "coms": np.einsum("nij,nj->ni", R, np.asarray(ins["coms"], dtype=float)) + p,
-                            "inertias": R @ np.asarray(ins["inertias"], dtype=float) @ R.transpose(0, 2, 1)}
+        out["inertials"] = {
+            "masses": np.array(ins["masses"], dtype=float),
+            "coms": np.einsum("nij,nj->ni", R, np.asarray(ins["coms"], dtype=float)) + p,
+            "inertias": R @ np.asarray(ins["inertias"], dtype=float) @ R.transpose(0, 2, 1),
+        }
     # the mechanical flange (where a payload's centre of mass is given) in the saved table's last frame
     m = cal.model()
     z = np.zeros(m.nq)
-    F = np.linalg.inv(np.asarray(table.frames(z))[-1]) @ np.asarray(_core.joint_frames(m, z))[-1] @ np.asarray(m.T_last_flange)
+    F = (
+        np.linalg.inv(np.asarray(table.frames(z))[-1])
+        @ np.asarray(_core.joint_frames(m, z))[-1]
+        @ np.asarray(m.T_last_flange)
+    )
     if not np.allclose(F, np.eye(4), rtol=0, atol=1e-12):
         out["compliance_flange"] = F
     return out
@@ -352,9 +381,23 @@ def calibrate(
     Calibration
     """
     t0 = time.perf_counter()
-    if several_targets(meas):  # marker clusters, SMR nests: one fit with every target's point in the flange (targets.py)
-        return calibrate_targets(meas, nominal, convention=convention, fix=fix, loss=loss, start=start, scale=scale, tool=tool, noise=noise,
-                                 tracker_noise=tracker_noise, holdout=holdout, seed=seed)
+    if several_targets(
+        meas
+    ):  # marker clusters, SMR nests: one fit with every target's point in the flange (targets.py)
+        return calibrate_targets(
+            meas,
+            nominal,
+            convention=convention,
+            fix=fix,
+            loss=loss,
+            start=start,
+            scale=scale,
+            tool=tool,
+            noise=noise,
+            tracker_noise=tracker_noise,
+            holdout=holdout,
+            seed=seed,
+        )
     meas = sweep_poses(meas)  # 6-DoF sweeps (a probe's, the controller's poses): their orientations used (targets.py)
     if isinstance(meas, SweepSet):
         meas = Measurements.from_sweeps(meas)
@@ -363,19 +406,25 @@ def calibrate(
     robot = as_robot(nominal)
     n = len(robot.names)
     if meas.nq != n:
-        raise DenavitError(f"{meas.source}: the data has {meas.nq} joint readings per pose but the nominal model {robot.name} has {n} joints ({', '.join(robot.names)})")
+        raise DenavitError(
+            f"{meas.source}: the data has {meas.nq} joint readings per pose but the nominal model {robot.name} has {n} joints ({', '.join(robot.names)})"
+        )
     for j, (got, want) in enumerate(zip(meas.kinds or robot.table.kinds, robot.table.kinds, strict=True)):
         if got != want:
             unit = meas.units.get("angle" if got == "revolute" else "length", "?")
-            raise DenavitError(f"{meas.source}: joint {j + 1} ({robot.names[j]}) of {robot.name} is {want}, but its readings were read as {got} (in {unit}): "
-                               f"pass kinds={list(robot.table.kinds)} to read_measurements (or state \"kinds\" in a JSON file)")
+            raise DenavitError(
+                f"{meas.source}: joint {j + 1} ({robot.names[j]}) of {robot.name} is {want}, but its readings were read as {got} (in {unit}): "
+                f'pass kinds={list(robot.table.kinds)} to read_measurements (or state "kinds" in a JSON file)'
+            )
     if loss not in LOSSES:
         raise DenavitError(f"unknown loss {loss!r}: expected one of {', '.join(LOSSES)}")
     if not 0.0 <= holdout < 0.9:
         raise DenavitError(f"holdout: expected a fraction in [0, 0.9), got {holdout}")
     if model not in MODELS:
         raise DenavitError(f"model: expected one of {', '.join(MODELS)}, got {model!r}")
-    prior_spec = as_prior(robot.prior if prior is None and robot.prior else prior)  # an explicit prior wins over the robot file's
+    prior_spec = as_prior(
+        robot.prior if prior is None and robot.prior else prior
+    )  # an explicit prior wins over the robot file's
     if start not in ("nominal", "circles"):
         raise DenavitError(f"start: expected 'nominal' or 'circles', got {start!r}")
     for what, v, unit in (("noise", noise, "m"), ("noise_rot", noise_rot, "rad")):
@@ -386,17 +435,23 @@ def calibrate(
     ref = None
     if tracker is not None:
         if noise is not None:
-            raise DenavitError(f"noise = {noise!r} and tracker_noise: give one (the tracker's model declares the shape of each point's noise, "
-                               "its scale is estimated from the residuals)")
+            raise DenavitError(
+                f"noise = {noise!r} and tracker_noise: give one (the tracker's model declares the shape of each point's noise, "
+                "its scale is estimated from the residuals)"
+            )
         W, ref = tracker.whitening(meas.points)
         meas = replace(meas, whitening=W)
-        notes.append(f"points weighted by the tracker's noise model (range {tracker.sigma_range * 1e6:.3g} um, angles "
-                     f"{math.degrees(tracker.sigma_angle) * 3600:.3g} arcsec, tracker at {', '.join(f'{v:.4g}' for v in tracker.position)} m; "
-                     f"{ref * 1e3:.3g} mm per coordinate on average), the scale estimated from the residuals")
+        notes.append(
+            f"points weighted by the tracker's noise model (range {tracker.sigma_range * 1e6:.3g} um, angles "
+            f"{math.degrees(tracker.sigma_angle) * 3600:.3g} arcsec, tracker at {', '.join(f'{v:.4g}' for v in tracker.position)} m; "
+            f"{ref * 1e3:.3g} mm per coordinate on average), the scale estimated from the residuals"
+        )
     pz = parametrize(robot, convention, measure=meas.kind, tool=tool, scale=scale)
     if payload is not None and getattr(meas, "payload", None) is None:
         meas = with_payload(meas, payload)
-    pz, comp_notes = with_compliance(pz, meas, robot, compliance)  # the joints' compliances k_i (compliance.py), free in the +compliance candidates only
+    pz, comp_notes = with_compliance(
+        pz, meas, robot, compliance
+    )  # the joints' compliances k_i (compliance.py), free in the +compliance candidates only
     notes += comp_notes
     x = pz.x0.copy()
     user_fixed = resolve_fix(pz, fix)
@@ -428,14 +483,21 @@ def calibrate(
     # 1) register the measurement frame, then fit base and tool only: the nominal geometry at its best
     base_idx = [c for c in candidates if pz.names[c].startswith("base_")]
     tool_idx = [c for c in candidates if pz.names[c].startswith("tool_")]
-    pz, x, reg_notes = register(pz, x, train, base_free=len(base_idx) == 6, tool_free=tool_idx)  # closed form (registration.py)
+    pz, x, reg_notes = register(
+        pz, x, train, base_free=len(base_idx) == 6, tool_free=tool_idx
+    )  # closed form (registration.py)
     notes += reg_notes
     reg_free = [c for c in candidates if pz.names[c].startswith(("base_", "tool_"))]
     reg = analyze(pz, x, train, reg_free, w, explain=False)
     x_reg, _ = fit_parameters(pz, x, reg.kept_idx, train, w, "linear", None)
 
     # 2) identifiability: structural (configurations over the joint limits) and of these data
-    rich = Measurements(configurations(robot, max(2 * pz.n_params, 60)), np.zeros((max(2 * pz.n_params, 60), 3)), None, "spread configurations")
+    rich = Measurements(
+        configurations(robot, max(2 * pz.n_params, 60)),
+        np.zeros((max(2 * pz.n_params, 60), 3)),
+        None,
+        "spread configurations",
+    )
     if pz.measure == "pose":
         rich = Measurements(rich.q, None, np.tile(np.eye(4), (rich.n, 1, 1)), rich.source)
     struct = analyze(pz, x_reg, rich, candidates, w, explain=False)
@@ -447,14 +509,20 @@ def calibrate(
     n_eq = train.n * (6 if pz.measure == "pose" else 3)
     if n_eq <= struct.rank:
         per = 6 if pz.measure == "pose" else 3
-        raise DenavitError(f"{meas.source}: too few measurements: {train.n} {'poses' if per == 6 else 'points'} give {n_eq} equations for the {struct.rank} parameters "
-                           f"this model can identify ({', '.join(struct.base_parameters)}); need at least {struct.rank // per + 1} "
-                           f"{'poses' if per == 6 else 'points'} (many more to average the noise), or fix parameters")
+        raise DenavitError(
+            f"{meas.source}: too few measurements: {train.n} {'poses' if per == 6 else 'points'} give {n_eq} equations for the {struct.rank} parameters "
+            f"this model can identify ({', '.join(struct.base_parameters)}); need at least {struct.rank // per + 1} "
+            f"{'poses' if per == 6 else 'points'} (many more to average the noise), or fix parameters"
+        )
     if still and data_only:
-        vals = ", ".join(f"q{j + 1} = {train.q[0, j]:.6g} {'m' if robot.table.kinds[j] == 'prismatic' else 'rad'}" for j in still)  # SI, labelled
-        raise DenavitError(f"{meas.source}: joint(s) {', '.join(f'{j + 1} ({robot.names[j]})' for j in still)} never move in the data ({vals} in all {train.n} poses): "
-                           f"the data cannot identify {', '.join(data_only)} (beyond the parameters redundant in any case); move the joint(s), "
-                           f"or hold these fixed: fix={[u.name for u in ana.unidentifiable]}")
+        vals = ", ".join(
+            f"q{j + 1} = {train.q[0, j]:.6g} {'m' if robot.table.kinds[j] == 'prismatic' else 'rad'}" for j in still
+        )  # SI, labelled
+        raise DenavitError(
+            f"{meas.source}: joint(s) {', '.join(f'{j + 1} ({robot.names[j]})' for j in still)} never move in the data ({vals} in all {train.n} poses): "
+            f"the data cannot identify {', '.join(data_only)} (beyond the parameters redundant in any case); move the joint(s), "
+            f"or hold these fixed: fix={[u.name for u in ana.unidentifiable]}"
+        )
 
     # 3) start
     x_start = x_reg.copy()
@@ -468,7 +536,11 @@ def calibrate(
         rr = _table_residuals(r, "pose")
         dof = max(len(r) - len(free), 1) / len(r)
         sig_p = noise if noise is not None else float(np.sqrt(np.sum((rr[:, :3] / w[0]) ** 2) / (rr[:, :3].size * dof)))
-        sig_r = noise_rot if noise_rot is not None else float(np.sqrt(np.sum((rr[:, 3:] / w[3]) ** 2) / (rr[:, 3:].size * dof)))
+        sig_r = (
+            noise_rot
+            if noise_rot is not None
+            else float(np.sqrt(np.sum((rr[:, 3:] / w[3]) ** 2) / (rr[:, 3:].size * dof)))
+        )
         sig_p, sig_r = max(sig_p, 1e-12), max(sig_r, 1e-12)
         w = weights(pz.measure, sig_p, sig_r)
         x_hat, sol = fit_parameters(pz, x_hat, free, train, w, "linear", None)
@@ -476,8 +548,21 @@ def calibrate(
     known = noise is not None and (pz.measure == "point" or noise_rot is not None)
     # 5) what is free: the candidate models scored by leave-one-pose-out prediction (selection.py)
     s2_full = 1.0 if known else float(np.sum(r**2)) / max(len(r) - len(free), 1)  # weighs the priors against the data
-    choice = select_model(model, pz, train, w, prior=prior_spec, s2=s2_full, candidates=candidates, kept=ana.kept_idx, reg_kept=reg.kept_idx,
-                          x_reg=x_reg, x_full=x_hat, sol_full=sol, compliance=comp)
+    choice = select_model(
+        model,
+        pz,
+        train,
+        w,
+        prior=prior_spec,
+        s2=s2_full,
+        candidates=candidates,
+        kept=ana.kept_idx,
+        reg_kept=reg.kept_idx,
+        x_reg=x_reg,
+        x_full=x_hat,
+        sol_full=sol,
+        compliance=comp,
+    )
     won = choice.winner
     x_hat, free, sol, prior_rows = won.x, won.free, won.sol, won.prior
     r = residuals(pz, x_hat, train, w, jacobian=False)[0]
@@ -488,7 +573,9 @@ def calibrate(
         # from the linear fit, is inflated by the outliers' pull)
         for _ in range(2 if f_scale is None else 1):
             mis = np.linalg.norm(_table_residuals(r, pz.measure)[:, :3], axis=1)
-            robust = float(np.median(mis)) / math.sqrt(2.366) if mis.size else 1.0  # weighted units; median of chi_3 = sqrt(2.366)
+            robust = (
+                float(np.median(mis)) / math.sqrt(2.366) if mis.size else 1.0
+            )  # weighted units; median of chi_3 = sqrt(2.366)
             fs = f_scale * w[0] if f_scale is not None else 3 * robust
             x_hat, sol = fit_parameters(pz, x_hat, free, train, w, loss, fs, prior=prior_rows)
             r = residuals(pz, x_hat, train, w, jacobian=False)[0]
@@ -514,9 +601,21 @@ def calibrate(
     dropped = {u.name for u in ana.unidentifiable}
     held = set(won.prior_fixed)
     for c, nm in enumerate(pz.names):
-        status.append("free" if c in free else "fixed" if c in user_fixed else "fixed (parametrisation)" if nm in pz.rules
-                      else ("redundant" if nm in structural else "unidentifiable") if nm in dropped
-                      else "fixed (prior)" if nm in held else "fixed (model)" if c in candidates or c in comp else "fixed")
+        status.append(
+            "free"
+            if c in free
+            else "fixed"
+            if c in user_fixed
+            else "fixed (parametrisation)"
+            if nm in pz.rules
+            else ("redundant" if nm in structural else "unidentifiable")
+            if nm in dropped
+            else "fixed (prior)"
+            if nm in held
+            else "fixed (model)"
+            if c in candidates or c in comp
+            else "fixed"
+        )
     res_si = _table_residuals(r, pz.measure) / w[: (6 if pz.measure == "pose" else 3)]
     full_r, _, _ = residuals(pz, x_hat, replace(meas, whitening=None), np.ones(6), jacobian=False)
     full_r = _table_residuals(full_r, pz.measure)
@@ -530,36 +629,87 @@ def calibrate(
     validation = None
     if test_idx.size:
         test = meas.subset(test_idx)
-        before = np.linalg.norm(residuals(pz, x_reg, test, np.ones(6), jacobian=False)[2][:, :3, 3] - test.points, axis=1)
-        after = np.linalg.norm(residuals(pz, x_hat, test, np.ones(6), jacobian=False)[2][:, :3, 3] - test.points, axis=1)
-        validation = Validation(train.n, test.n, float(np.sqrt(np.mean(before**2))), float(before.max()), float(np.sqrt(np.mean(after**2))), float(after.max()), test_idx)
+        before = np.linalg.norm(
+            residuals(pz, x_reg, test, np.ones(6), jacobian=False)[2][:, :3, 3] - test.points, axis=1
+        )
+        after = np.linalg.norm(
+            residuals(pz, x_hat, test, np.ones(6), jacobian=False)[2][:, :3, 3] - test.points, axis=1
+        )
+        validation = Validation(
+            train.n,
+            test.n,
+            float(np.sqrt(np.mean(before**2))),
+            float(before.max()),
+            float(np.sqrt(np.mean(after**2))),
+            float(after.max()),
+            test_idx,
+        )
     # notes
     size = max(float(np.max(np.linalg.norm(meas.points - meas.points.mean(axis=0), axis=1))), 1e-3)
     if rms > 0.01 * size:
-        notes.insert(0, f"the fit explains little of the data: rms {rms * 1e3:.4g} mm against a measured volume of {size * 1e3:.4g} mm radius "
-                        "(are the joint readings in the units declared, the joints in the nominal's order, the nominal the right robot?)")
+        notes.insert(
+            0,
+            f"the fit explains little of the data: rms {rms * 1e3:.4g} mm against a measured volume of {size * 1e3:.4g} mm radius "
+            "(are the joint readings in the units declared, the joints in the nominal's order, the nominal the right robot?)",
+        )
     elif noise is not None and rms > 10 * noise * math.sqrt(3):
-        notes.insert(0, f"the residual (rms {rms * 1e3:.4g} mm) is {rms / (noise * math.sqrt(3)):.3g} x what the declared noise ({noise * 1e3:.3g} mm per "
-                        "coordinate) explains: the model or the data has errors the noise does not cover")
+        notes.insert(
+            0,
+            f"the residual (rms {rms * 1e3:.4g} mm) is {rms / (noise * math.sqrt(3)):.3g} x what the declared noise ({noise * 1e3:.3g} mm per "
+            "coordinate) explains: the model or the data has errors the noise does not cover",
+        )
     if won.prior_fixed:
-        notes.append(f"not determined by the data beyond their prior (posterior sigma above {PRIOR_DOMINATED:g} of the prior width: the data alone would give "
-                     "more than 2 prior widths), held at their nominal values: " + ", ".join(f"{k} ({v:.3g} of its prior width)" for k, v in won.prior_fixed.items()))
+        notes.append(
+            f"not determined by the data beyond their prior (posterior sigma above {PRIOR_DOMINATED:g} of the prior width: the data alone would give "
+            "more than 2 prior widths), held at their nominal values: "
+            + ", ".join(f"{k} ({v:.3g} of its prior width)" for k, v in won.prior_fixed.items())
+        )
     if not converged:
         notes.append(f"the least-squares solver stopped without meeting its tolerances ({sol.message})")
     lengths = [c for c in free if pz.units[c] == "length" and not pz.names[c].startswith("base_")]
     far = [pz.names[c] for c in lengths if abs(x_hat[c] - pz.x0[c]) > 10 * size]
     if far:
-        notes.append(f"parameters moved by more than 10 x the measured volume ({', '.join(far)}): the fit may have diverged; check the nominal model and the units")
+        notes.append(
+            f"parameters moved by more than 10 x the measured volume ({', '.join(far)}): the fit may have diverged; check the nominal model and the units"
+        )
     strong = _strong_correlations(corr, [pz.names[c] for c in free])
     if strong:
-        notes.append("strongly correlated (their combination is far better determined than either): "
-                     + ", ".join(f"{a} / {b} (rho {rho:+.5f})" for a, b, rho in strong))
+        notes.append(
+            "strongly correlated (their combination is far better determined than either): "
+            + ", ".join(f"{a} / {b} (rho {rho:+.5f})" for a, b, rho in strong)
+        )
     if outliers.size:
-        notes.append(f"{outliers.size} pose(s) with a tool-position misfit above {OUTLIER_SIGMAS} robust sigmas: {', '.join(meas.where[i] for i in outliers[:5])}{' ...' if outliers.size > 5 else ''}")
+        notes.append(
+            f"{outliers.size} pose(s) with a tool-position misfit above {OUTLIER_SIGMAS} robust sigmas: {', '.join(meas.where[i] for i in outliers[:5])}{' ...' if outliers.size > 5 else ''}"
+        )
     noise_est = math.sqrt(s2) * sig_p if not known else sig_p
-    return Calibration(pz, list(pz.names), x_hat, sigma, status, pz.x0, x_start, [pz.names[c] for c in free], cov, corr, ana, res_si, rms, rms_rot, outliers,
-                       validation, meas, loss, converged, nfev, time.perf_counter() - t0, float(noise_est), notes, choice,
-                       None if prior_rows is None else prior_spec.sigma(pz))
+    return Calibration(
+        pz,
+        list(pz.names),
+        x_hat,
+        sigma,
+        status,
+        pz.x0,
+        x_start,
+        [pz.names[c] for c in free],
+        cov,
+        corr,
+        ana,
+        res_si,
+        rms,
+        rms_rot,
+        outliers,
+        validation,
+        meas,
+        loss,
+        converged,
+        nfev,
+        time.perf_counter() - t0,
+        float(noise_est),
+        notes,
+        choice,
+        None if prior_rows is None else prior_spec.sigma(pz),
+    )
 
 
 def _strong_correlations(corr: np.ndarray, names: list, limit: float = 0.999) -> list:
@@ -571,13 +721,17 @@ def _strong_correlations(corr: np.ndarray, names: list, limit: float = 0.999) ->
     return sorted(out, key=lambda t: -abs(t[2]))[:5]
 
 
-def _circle_start(pz: Parametrization, x, meas: Measurements, robot: Robot, convention: str, free: list, notes: list) -> np.ndarray:
+def _circle_start(
+    pz: Parametrization, x, meas: Measurements, robot: Robot, convention: str, free: list, notes: list
+) -> np.ndarray:
     """Start values from the circle-point identification (global fit of the sweeps): the chain is fitted to
     the identified model's predictions at the measured configurations."""
     from ..identification import identify  # noqa: PLC0415 (identify imports the fitting package: loaded for start="circles" only)
 
     if meas.sweeps is None:
-        raise DenavitError(f"{meas.source}: start='circles' needs sweep data (Measurements.from_sweeps); these are arbitrary poses: use start='nominal'")
+        raise DenavitError(
+            f"{meas.source}: start='circles' needs sweep data (Measurements.from_sweeps); these are arbitrary poses: use start='nominal'"
+        )
     if pz.measure != "point":
         raise DenavitError("start='circles' works with measured points (sweeps), not poses")
     res = identify(meas.sweeps, method="global", convention="edh", nominal=robot)
@@ -596,9 +750,19 @@ def to_json(cal: Calibration) -> dict:
     pz = cal.parametrization
     rows = []
     for c, nm in enumerate(cal.names):
-        rows.append({"name": nm, "unit": {"length": "m", "angle": "rad", "ratio": "1"}.get(pz.units[c], pz.units[c]), "nominal": float(cal.nominal[c]), "value": float(cal.values[c]),
-                     "sigma": None if not np.isfinite(cal.sigma[c]) else float(cal.sigma[c]), "status": cal.status[c],
-                     "prior_sigma": None if cal.prior_sigma is None or not np.isfinite(cal.prior_sigma[c]) else float(cal.prior_sigma[c])})
+        rows.append(
+            {
+                "name": nm,
+                "unit": {"length": "m", "angle": "rad", "ratio": "1"}.get(pz.units[c], pz.units[c]),
+                "nominal": float(cal.nominal[c]),
+                "value": float(cal.values[c]),
+                "sigma": None if not np.isfinite(cal.sigma[c]) else float(cal.sigma[c]),
+                "status": cal.status[c],
+                "prior_sigma": None
+                if cal.prior_sigma is None or not np.isfinite(cal.prior_sigma[c])
+                else float(cal.prior_sigma[c]),
+            }
+        )
     ana = cal.identifiability
     m = cal.model()
     v = cal.validation
@@ -613,21 +777,43 @@ def to_json(cal: Calibration) -> dict:
         "loss": cal.loss,
         "parameters": rows,
         "identifiability": {
-            "rank": ana.rank, "candidates": ana.candidates, "base_parameters": ana.base_parameters, "condition_number": ana.condition_number,
+            "rank": ana.rank,
+            "candidates": ana.candidates,
+            "base_parameters": ana.base_parameters,
+            "condition_number": ana.condition_number,
             "observability": ana.observability,
-            "unidentifiable": [{"name": u.name, "structural": u.structural, "reason": u.reason, "combination": u.combination} for u in ana.unidentifiable],
+            "unidentifiable": [
+                {"name": u.name, "structural": u.structural, "reason": u.reason, "combination": u.combination}
+                for u in ana.unidentifiable
+            ],
         },
         "covariance": {"names": cal.free_names, "matrix_si": _finite_or_none(cal.covariance)},
         "correlation": _finite_or_none(cal.correlation),
-        "residuals": {"rms_m": cal.rms, "max_m": float(np.max(np.linalg.norm(cal.residuals[:, :3], axis=1))) if cal.residuals.size else 0.0,
-                      "rms_rotation_rad": None if math.isnan(cal.rms_rotation) else cal.rms_rotation, "noise_estimate_m": cal.noise,
-                      "outliers": [cal.measurements.where[i] for i in cal.outliers]},
+        "residuals": {
+            "rms_m": cal.rms,
+            "max_m": float(np.max(np.linalg.norm(cal.residuals[:, :3], axis=1))) if cal.residuals.size else 0.0,
+            "rms_rotation_rad": None if math.isnan(cal.rms_rotation) else cal.rms_rotation,
+            "noise_estimate_m": cal.noise,
+            "outliers": [cal.measurements.where[i] for i in cal.outliers],
+        },
         "model_choice": None if cal.model_choice is None else cal.model_choice.to_json(),
-        "validation": None if v is None else {"n_train": v.n_train, "n_test": v.n_test, "before_rms_m": v.before_rms, "before_max_m": v.before_max,
-                                             "after_rms_m": v.after_rms, "after_max_m": v.after_max},
-        "model": {"T_world_base": np.asarray(m.T_world_base).tolist(), "T_last_flange": np.asarray(m.T_last_flange).tolist(),
-                  "T_flange_tool": np.asarray(m.T_flange_tool).tolist(),
-                  "placements": np.asarray(m.placements).tolist(), "offsets": np.asarray(m.offsets, dtype=float).tolist()},
+        "validation": None
+        if v is None
+        else {
+            "n_train": v.n_train,
+            "n_test": v.n_test,
+            "before_rms_m": v.before_rms,
+            "before_max_m": v.before_max,
+            "after_rms_m": v.after_rms,
+            "after_max_m": v.after_max,
+        },
+        "model": {
+            "T_world_base": np.asarray(m.T_world_base).tolist(),
+            "T_last_flange": np.asarray(m.T_last_flange).tolist(),
+            "T_flange_tool": np.asarray(m.T_flange_tool).tolist(),
+            "placements": np.asarray(m.placements).tolist(),
+            "offsets": np.asarray(m.offsets, dtype=float).tolist(),
+        },
         "converged": cal.converged,
         "evaluations": cal.evaluations,
         "elapsed_s": cal.elapsed,

@@ -62,11 +62,15 @@ class TargetMeasurements:
         q = np.asarray(self.q, dtype=float)
         t = np.asarray(self.targets, dtype=float)
         if q.ndim != 2 or t.ndim != 3 or t.shape[0] != q.shape[0] or t.shape[2] != 3 or t.shape[1] < 2:
-            raise DenavitError(f"{self.source}: expected q (N, n) and targets (N, K, 3) with K >= 2 targets per pose, got shapes {q.shape} and {t.shape}")
+            raise DenavitError(
+                f"{self.source}: expected q (N, n) and targets (N, K, 3) with K >= 2 targets per pose, got shapes {q.shape} and {t.shape}"
+            )
         check_finite(q, "q (joint readings)", self.source, self.where, cols="joint")
         check_finite(t.reshape(len(t), -1), "targets", self.source, self.where)
         if self.nest is not None and np.shape(self.nest) != (t.shape[1], 3):
-            raise DenavitError(f"{self.source}: nest of shape {np.shape(self.nest)}: expected ({t.shape[1]}, 3), one point per target")
+            raise DenavitError(
+                f"{self.source}: nest of shape {np.shape(self.nest)}: expected ({t.shape[1]}, 3), one point per target"
+            )
         object.__setattr__(self, "q", q)
         object.__setattr__(self, "targets", t)
         object.__setattr__(self, "kinds", joint_kinds(self.kinds, q.shape[1], f"{self.source}: kinds"))
@@ -96,7 +100,9 @@ class TargetMeasurements:
 
     def subset(self, idx) -> TargetMeasurements:
         idx = np.asarray(idx, dtype=int)
-        return TargetMeasurements(self.q[idx], self.targets[idx], self.nest, self.source, [self.where[i] for i in idx], self.units, self.kinds)
+        return TargetMeasurements(
+            self.q[idx], self.targets[idx], self.nest, self.source, [self.where[i] for i in idx], self.units, self.kinds
+        )
 
     def expanded(self, whitening=None, with_index: bool = True) -> Measurements:
         """One row per measured point (pose-major: pose i, target k at row ``i K + k``); ``with_index``: the readings
@@ -106,31 +112,61 @@ class TargetMeasurements:
         if with_index:
             q = np.hstack([q, np.tile(np.arange(K, dtype=float), self.n)[:, None]])
         where = [f"{w}, target {k + 1}" for w in self.where for k in range(K)]
-        return Measurements(q, self.targets.reshape(-1, 3), None, self.source, where, self.units, None, None if with_index else self.kinds, whitening)
+        return Measurements(
+            q,
+            self.targets.reshape(-1, 3),
+            None,
+            self.source,
+            where,
+            self.units,
+            None,
+            None if with_index else self.kinds,
+            whitening,
+        )
 
     @classmethod
     def from_sweeps(cls, sweeps) -> TargetMeasurements:
         """The targets of every sweep point with their joint readings."""
         if not sweeps.has_readings:
-            raise DenavitError(f"{sweeps.source}: calibration needs the joint readings of every point; these sweeps have none (per-joint files): use denavit.identify")
+            raise DenavitError(
+                f"{sweeps.source}: calibration needs the joint readings of every point; these sweeps have none (per-joint files): use denavit.identify"
+            )
         q = np.vstack([s.q for s in sweeps.sweeps])
         t = np.concatenate([s.targets for s in sweeps.sweeps])
-        where = [w for s in sweeps.sweeps for w in (s.where or [f"sweep {s.joint}, point {k + 1}" for k in range(len(s.points))])]
-        return cls(q, t, None if sweeps.nest is None else np.asarray(sweeps.nest, dtype=float), sweeps.source or "sweeps", where, dict(sweeps.units), sweeps.kinds)
+        where = [
+            w
+            for s in sweeps.sweeps
+            for w in (s.where or [f"sweep {s.joint}, point {k + 1}" for k in range(len(s.points))])
+        ]
+        return cls(
+            q,
+            t,
+            None if sweeps.nest is None else np.asarray(sweeps.nest, dtype=float),
+            sweeps.source or "sweeps",
+            where,
+            dict(sweeps.units),
+            sweeps.kinds,
+        )
 
 
 def several_targets(meas) -> bool:
     """Whether ``meas`` (Measurements, SweepSet or TargetMeasurements) holds several targets per pose."""
     if isinstance(meas, TargetMeasurements):
         return True
-    sweeps = meas if hasattr(meas, "n_targets") and hasattr(meas, "sweeps") and not isinstance(meas, Measurements) else getattr(meas, "sweeps", None)
+    sweeps = (
+        meas
+        if hasattr(meas, "n_targets") and hasattr(meas, "sweeps") and not isinstance(meas, Measurements)
+        else getattr(meas, "sweeps", None)
+    )
     return sweeps is not None and getattr(sweeps, "n_targets", 1) > 1
 
 
 def as_target_measurements(meas) -> TargetMeasurements:
     if isinstance(meas, TargetMeasurements):
         return meas
-    if isinstance(meas, Measurements):  # read from sweeps: their targets, at the Measurements' readings (a coupling applied to them kept)
+    if isinstance(
+        meas, Measurements
+    ):  # read from sweeps: their targets, at the Measurements' readings (a coupling applied to them kept)
         tm = TargetMeasurements.from_sweeps(meas.sweeps)
         return TargetMeasurements(meas.q, tm.targets, tm.nest, tm.source, tm.where, tm.units, tm.kinds)
     return TargetMeasurements.from_sweeps(meas)
@@ -141,13 +177,20 @@ def sweep_poses(meas):
     SweepSet or Measurements read from one, as pose Measurements (their orientations used, as identify uses them);
     anything else as it is."""
     sweeps = meas if hasattr(meas, "has_rotations") else getattr(meas, "sweeps", None)
-    if sweeps is None or not getattr(sweeps, "has_rotations", False) or sweeps.n_targets != 1 or getattr(meas, "poses", None) is not None:
+    if (
+        sweeps is None
+        or not getattr(sweeps, "has_rotations", False)
+        or sweeps.n_targets != 1
+        or getattr(meas, "poses", None) is not None
+    ):
         return meas
     pts = Measurements.from_sweeps(sweeps)
     T = np.tile(np.eye(4), (pts.n, 1, 1))
     T[:, :3, :3] = np.concatenate([s.rotations for s in sweeps.sweeps])
     T[:, :3, 3] = pts.points
-    q = meas.q if isinstance(meas, Measurements) else pts.q  # (the rows of from_sweeps: a caller's coupled readings kept)
+    q = (
+        meas.q if isinstance(meas, Measurements) else pts.q
+    )  # (the rows of from_sweeps: a caller's coupled readings kept)
     return Measurements(q, None, T, pts.source, pts.where, pts.units, sweeps, pts.kinds)
 
 
@@ -160,9 +203,13 @@ def pick_target(meas, target: int | None):
         tm = as_target_measurements(meas)
         if not 0 <= target < tm.n_targets:
             raise DenavitError(f"{tm.source}: target {target + 1} out of range: expected 1..{tm.n_targets} (1-based)")
-        return Measurements(tm.q, tm.targets[:, target], None, f"{tm.source}, target {target + 1}", tm.where, tm.units, kinds=tm.kinds)
+        return Measurements(
+            tm.q, tm.targets[:, target], None, f"{tm.source}, target {target + 1}", tm.where, tm.units, kinds=tm.kinds
+        )
     if target != 0:
-        raise DenavitError(f"{getattr(meas, 'source', 'data')}: target {target + 1} out of range: the data hold one target per pose")
+        raise DenavitError(
+            f"{getattr(meas, 'source', 'data')}: target {target + 1} out of range: the data hold one target per pose"
+        )
     return meas
 
 
@@ -219,7 +266,9 @@ class TargetParametrization:
     measure = "point"
 
     @classmethod
-    def build(cls, robot, convention: str, n_targets: int, start: np.ndarray, scale: bool = False, nest=None) -> TargetParametrization:
+    def build(
+        cls, robot, convention: str, n_targets: int, start: np.ndarray, scale: bool = False, nest=None
+    ) -> TargetParametrization:
         pz = parametrize(robot, convention, measure="pose", tool=np.eye(4), scale=scale)
         P0 = pz.n_params
         tnames = [f"{TARGET_PREFIX}{k + 1}_{a}" for k in range(n_targets) for a in "xyz"]
@@ -231,7 +280,9 @@ class TargetParametrization:
         why = "the targets' points in the flange frame carry the tool (several targets per pose)"
         rules = dict(pz.rules) | {nm: why for nm in pz.names if nm.startswith("tool_")}
         x0 = np.concatenate([pz.x0, np.asarray(start, dtype=float).ravel()])
-        return cls(pz, n_targets, x0, names, units, order, rules, None if nest is None else np.asarray(nest, dtype=float))
+        return cls(
+            pz, n_targets, x0, names, units, order, rules, None if nest is None else np.asarray(nest, dtype=float)
+        )
 
     @property
     def convention(self) -> str:
@@ -273,7 +324,9 @@ class TargetParametrization:
         k = q[:, n].astype(int) if q.shape[1] == n + 1 else np.zeros(len(q), dtype=int)
         cols = list(range(self.n_params)) if columns is None else [int(c) for c in columns]
         chain_cols = [c for c in cols if c < P0]
-        F, J0 = self.chain_pz.evaluate(x[:P0], q[:, :n], jacobian and bool(chain_cols), rows=6, columns=chain_cols or None)
+        F, J0 = self.chain_pz.evaluate(
+            x[:P0], q[:, :n], jacobian and bool(chain_cols), rows=6, columns=chain_cols or None
+        )
         arm = np.einsum("nij,nj->ni", F[:, :3, :3], self.target_points(x)[k])
         poses = np.array(F)
         poses[:, :3, 3] += arm
@@ -301,8 +354,12 @@ class TargetParametrization:
     def rebased(self, x, T_world_new_old) -> tuple[TargetParametrization, np.ndarray]:
         P0 = self.chain_pz.n_params
         pz, xc = self.chain_pz.rebased(np.asarray(x, dtype=float)[:P0], T_world_new_old)
-        return (TargetParametrization(pz, self.n_targets, self.x0, self.names, self.units, self.order, self.rules, self.nest),
-                np.concatenate([xc, np.asarray(x, dtype=float)[P0:]]))
+        return (
+            TargetParametrization(
+                pz, self.n_targets, self.x0, self.names, self.units, self.order, self.rules, self.nest
+            ),
+            np.concatenate([xc, np.asarray(x, dtype=float)[P0:]]),
+        )
 
     def tool(self, x) -> tuple[np.ndarray, str]:
         """``T_flange_tool`` of the result and where its orientation came from (module docstring)."""
@@ -313,8 +370,21 @@ class TargetParametrization:
         return m.with_tool(self.tool(x)[0])
 
 
-def calibrate_targets(meas, nominal, *, convention: str = "edh", fix=(), loss: str = "linear", start: str = "nominal", scale: bool = False, tool=None,
-                      noise: float | None = None, tracker_noise=None, holdout: float = 0.0, seed: int = 0):
+def calibrate_targets(
+    meas,
+    nominal,
+    *,
+    convention: str = "edh",
+    fix=(),
+    loss: str = "linear",
+    start: str = "nominal",
+    scale: bool = False,
+    tool=None,
+    noise: float | None = None,
+    tracker_noise=None,
+    holdout: float = 0.0,
+    seed: int = 0,
+):
     """One least-squares fit of base, kinematics and every target's point in the flange frame (module docstring).
 
     ``meas``: :class:`TargetMeasurements`, a SweepSet with several targets, or Measurements read from one. The
@@ -331,25 +401,37 @@ def calibrate_targets(meas, nominal, *, convention: str = "edh", fix=(), loss: s
     robot = as_robot(nominal)
     n, K = len(robot.names), tm.n_targets
     if tm.nq != n:
-        raise DenavitError(f"{tm.source}: the data has {tm.nq} joint readings per pose but the nominal model {robot.name} has {n} joints ({', '.join(robot.names)})")
+        raise DenavitError(
+            f"{tm.source}: the data has {tm.nq} joint readings per pose but the nominal model {robot.name} has {n} joints ({', '.join(robot.names)})"
+        )
     if tm.kinds is not None and tuple(tm.kinds) != tuple(robot.table.kinds):
-        raise DenavitError(f"{tm.source}: joint kinds {list(tm.kinds)} differ from the nominal {robot.name}'s {list(robot.table.kinds)}")
+        raise DenavitError(
+            f"{tm.source}: joint kinds {list(tm.kinds)} differ from the nominal {robot.name}'s {list(robot.table.kinds)}"
+        )
     if loss != "linear" or start != "nominal":
-        raise DenavitError(f"{tm.source}: several targets per pose are fitted with loss 'linear' from start 'nominal', got loss {loss!r}, start {start!r}")
+        raise DenavitError(
+            f"{tm.source}: several targets per pose are fitted with loss 'linear' from start 'nominal', got loss {loss!r}, start {start!r}"
+        )
     if not 0.0 <= holdout < 0.9:
         raise DenavitError(f"holdout: expected a fraction in [0, 0.9), got {holdout}")
     if noise is not None and not (isinstance(noise, (int, float)) and math.isfinite(noise) and noise > 0):
         raise DenavitError(f"noise: expected the known one-sigma noise, a finite value > 0 (m), got {noise!r}")
-    notes = [f"{tm.n} poses x {K} targets: one fit with every target's point in the flange frame (target{{k}}_x, _y, _z)"]
+    notes = [
+        f"{tm.n} poses x {K} targets: one fit with every target's point in the flange frame (target{{k}}_x, _y, _z)"
+    ]
     sweeps = meas if hasattr(meas, "has_rotations") else getattr(meas, "sweeps", None)
     if sweeps is not None and getattr(sweeps, "has_rotations", False):
-        notes.append("the poses' orientations (qw, qx, qy, qz) are not used: the targets' points determine the flange's orientation at every pose")
+        notes.append(
+            "the poses' orientations (qw, qx, qy, qz) are not used: the targets' points determine the flange's orientation at every pose"
+        )
     m_nom = robot.model()
     T_tool_nom = np.asarray(m_nom.T_flange_tool, dtype=float)
     if tool is not None:
         t = np.asarray(tool, dtype=float)
         if t.shape not in ((3,), (K, 3)) or not np.all(np.isfinite(t)):
-            raise DenavitError(f"tool: expected the targets' start in the flange frame, a point (3,) or ({K}, 3) (m), got shape {t.shape}")
+            raise DenavitError(
+                f"tool: expected the targets' start in the flange frame, a point (3,) or ({K}, 3) (m), got shape {t.shape}"
+            )
         start_pts = np.broadcast_to(t, (K, 3)).copy()
     elif tm.nest is not None:
         start_pts = tm.nest @ T_tool_nom[:3, :3].T + T_tool_nom[:3, 3]
@@ -367,7 +449,9 @@ def calibrate_targets(meas, nominal, *, convention: str = "edh", fix=(), loss: s
     Wh, ref = (None, None)
     if tracker is not None:
         if noise is not None:
-            raise DenavitError(f"noise = {noise!r} and tracker_noise: give one (the tracker's model declares the shape of each point's noise, its scale is estimated from the residuals)")
+            raise DenavitError(
+                f"noise = {noise!r} and tracker_noise: give one (the tracker's model declares the shape of each point's noise, its scale is estimated from the residuals)"
+            )
         Wh, ref = tracker.whitening(tm.targets.reshape(-1, 3))
         Wh = Wh.reshape(tm.n, K, 3, 3)
     # held-out split: whole poses
@@ -399,13 +483,17 @@ def calibrate_targets(meas, nominal, *, convention: str = "edh", fix=(), loss: s
     # 2) identifiability: structural (spread configurations, the targets in turn) and of these data
     count = max(2 * pz.n_params, 60)
     qr = np.hstack([configurations(robot, count), (np.arange(count) % K)[:, None].astype(float)])
-    struct = analyze(pz, x_reg, Measurements(qr, np.zeros((count, 3)), None, "spread configurations"), candidates, w, explain=False)
+    struct = analyze(
+        pz, x_reg, Measurements(qr, np.zeros((count, 3)), None, "spread configurations"), candidates, w, explain=False
+    )
     still = [j for j in range(n) if np.ptp(train.q[:, j]) < 1e-9]
     hint = "".join(f"; joint {j + 1} ({robot.names[j]}) never moves in the data" for j in still)
     ana = analyze(pz, x_reg, train, candidates, w, struct, hint)
     if 3 * train.n <= struct.rank:
-        raise DenavitError(f"{tm.source}: too few measurements: {train.n} points give {3 * train.n} equations for the {struct.rank} parameters this model can identify; "
-                           f"need at least {struct.rank // 3 + 1} points, or fix parameters")
+        raise DenavitError(
+            f"{tm.source}: too few measurements: {train.n} points give {3 * train.n} equations for the {struct.rank} parameters this model can identify; "
+            f"need at least {struct.rank // 3 + 1} points, or fix parameters"
+        )
     # 3) the fit
     free = ana.kept_idx
     x_hat, sol = fit_parameters(pz, x_reg, free, train, w, "linear", None)
@@ -420,8 +508,18 @@ def calibrate_targets(meas, nominal, *, convention: str = "edh", fix=(), loss: s
     sigma[free] = sd
     structural = {u.name for u in struct.unidentifiable}
     dropped = {u.name for u in ana.unidentifiable}
-    status = ["free" if c in free else "fixed" if c in user_fixed else "fixed (parametrisation)" if nm in pz.rules
-              else ("redundant" if nm in structural else "unidentifiable") if nm in dropped else "fixed" for c, nm in enumerate(pz.names)]
+    status = [
+        "free"
+        if c in free
+        else "fixed"
+        if c in user_fixed
+        else "fixed (parametrisation)"
+        if nm in pz.rules
+        else ("redundant" if nm in structural else "unidentifiable")
+        if nm in dropped
+        else "fixed"
+        for c, nm in enumerate(pz.names)
+    ]
     res_si = r.reshape(-1, 3) / w[0]
     everything = tm.expanded()
     pos_all = np.linalg.norm(pz.evaluate(x_hat, everything.q, False)[0][:, :3, 3] - everything.points, axis=1)
@@ -436,25 +534,86 @@ def calibrate_targets(meas, nominal, *, convention: str = "edh", fix=(), loss: s
         before = np.linalg.norm(pz.evaluate(x_reg, test.q, False)[0][:, :3, 3] - test.points, axis=1)
         after = np.linalg.norm(pz.evaluate(x_hat, test.q, False)[0][:, :3, 3] - test.points, axis=1)
         test_rows = (test_idx[:, None] * K + np.arange(K)).ravel()
-        validation = Validation(train.n, test.n, float(np.sqrt(np.mean(before**2))), float(before.max()), float(np.sqrt(np.mean(after**2))), float(after.max()), test_rows)
+        validation = Validation(
+            train.n,
+            test.n,
+            float(np.sqrt(np.mean(before**2))),
+            float(before.max()),
+            float(np.sqrt(np.mean(after**2))),
+            float(after.max()),
+            test_rows,
+        )
     T_tool, frm = pz.tool(x_hat)
-    notes.append("tool frame: " + ("the nest's (fitted onto the targets' points)" if frm == "nest" else "origin at target 1, orientation "
-                 + ("from the targets (x from target 1 to 2, z across targets 1-3)" if frm == "targets" else "the flange's (two targets)")))
+    notes.append(
+        "tool frame: "
+        + (
+            "the nest's (fitted onto the targets' points)"
+            if frm == "nest"
+            else "origin at target 1, orientation "
+            + (
+                "from the targets (x from target 1 to 2, z across targets 1-3)"
+                if frm == "targets"
+                else "the flange's (two targets)"
+            )
+        )
+    )
     size = max(float(np.max(np.linalg.norm(everything.points - everything.points.mean(axis=0), axis=1))), 1e-3)
     if rms > 0.01 * size:
-        notes.insert(0, f"the fit explains little of the data: rms {rms * 1e3:.4g} mm against a measured volume of {size * 1e3:.4g} mm radius "
-                        "(are the joint readings in the units declared, the joints in the nominal's order, the targets in the same order at every pose?)")
+        notes.insert(
+            0,
+            f"the fit explains little of the data: rms {rms * 1e3:.4g} mm against a measured volume of {size * 1e3:.4g} mm radius "
+            "(are the joint readings in the units declared, the joints in the nominal's order, the targets in the same order at every pose?)",
+        )
     if sol is not None and sol.status <= 0:
         notes.append(f"the least-squares solver stopped without meeting its tolerances ({sol.message})")
     strong = _strong_correlations(corr, [pz.names[c] for c in free])
     if strong:
-        notes.append("strongly correlated (their combination is far better determined than either): " + ", ".join(f"{a} / {b} (rho {rho:+.5f})" for a, b, rho in strong))
+        notes.append(
+            "strongly correlated (their combination is far better determined than either): "
+            + ", ".join(f"{a} / {b} (rho {rho:+.5f})" for a, b, rho in strong)
+        )
     if outliers.size:
-        notes.append(f"{outliers.size} point(s) with a misfit above {OUTLIER_SIGMAS} robust sigmas: {', '.join(everything.where[i] for i in outliers[:5])}{' ...' if outliers.size > 5 else ''}")
-    shown = Measurements(np.repeat(tm.q, K, axis=0), everything.points, None, tm.source, everything.where, tm.units, None, tm.kinds)
+        notes.append(
+            f"{outliers.size} point(s) with a misfit above {OUTLIER_SIGMAS} robust sigmas: {', '.join(everything.where[i] for i in outliers[:5])}{' ...' if outliers.size > 5 else ''}"
+        )
+    shown = Measurements(
+        np.repeat(tm.q, K, axis=0), everything.points, None, tm.source, everything.where, tm.units, None, tm.kinds
+    )
     noise_est = math.sqrt(s2) * sig_p if not known else sig_p
-    return Calibration(pz, list(pz.names), x_hat, sigma, status, pz.x0, x_reg, [pz.names[c] for c in free], cov, corr, ana, res_si, rms, math.nan, outliers,
-                       validation, shown, loss, sol is None or sol.status > 0, 0 if sol is None else int(sol.nfev), time.perf_counter() - t0, float(noise_est), notes)
+    return Calibration(
+        pz,
+        list(pz.names),
+        x_hat,
+        sigma,
+        status,
+        pz.x0,
+        x_reg,
+        [pz.names[c] for c in free],
+        cov,
+        corr,
+        ana,
+        res_si,
+        rms,
+        math.nan,
+        outliers,
+        validation,
+        shown,
+        loss,
+        sol is None or sol.status > 0,
+        0 if sol is None else int(sol.nfev),
+        time.perf_counter() - t0,
+        float(noise_est),
+        notes,
+    )
 
 
-__all__ = ["TargetMeasurements", "TargetParametrization", "as_target_measurements", "calibrate_targets", "pick_target", "recording_poses", "several_targets", "sweep_poses"]
+__all__ = [
+    "TargetMeasurements",
+    "TargetParametrization",
+    "as_target_measurements",
+    "calibrate_targets",
+    "pick_target",
+    "recording_poses",
+    "several_targets",
+    "sweep_poses",
+]

@@ -152,9 +152,15 @@ class ModelValidation:
         return np.array([i for i, f in enumerate(self.flags) if name in f], dtype=int)
 
     def __repr__(self) -> str:
-        iso = f"; ISO 9283 over {len(self.groups)} repeated poses: AP max {max(g.ap for g in self.groups) * 1e3:.4g} mm, RP max {max(g.rp for g in self.groups) * 1e3:.4g} mm" if self.groups else ""
-        return (f"ModelValidation({self.model_name} on {self.n} {self.measure}s of {self.source}, registration {self.registration}: tool-position error rms "
-                f"{self.rms * 1e3:.4g} mm, max {self.max * 1e3:.4g} mm, {self.n_flagged} flagged{iso})")
+        iso = (
+            f"; ISO 9283 over {len(self.groups)} repeated poses: AP max {max(g.ap for g in self.groups) * 1e3:.4g} mm, RP max {max(g.rp for g in self.groups) * 1e3:.4g} mm"
+            if self.groups
+            else ""
+        )
+        return (
+            f"ModelValidation({self.model_name} on {self.n} {self.measure}s of {self.source}, registration {self.registration}: tool-position error rms "
+            f"{self.rms * 1e3:.4g} mm, max {self.max * 1e3:.4g} mm, {self.n_flagged} flagged{iso})"
+        )
 
 
 #: The robot-file table ``calibrate --save`` writes the training poses' joint ranges to (the file's joint units).
@@ -169,7 +175,11 @@ def training_table(q, kinds, length: str, angle: str) -> dict:
 
     q = np.asarray(q, dtype=float)
     s = joint_scale(list(kinds), length, angle)
-    return {"poses": len(q), "lower": [float(v) for v in q.min(axis=0) / s], "upper": [float(v) for v in q.max(axis=0) / s]}
+    return {
+        "poses": len(q),
+        "lower": [float(v) for v in q.min(axis=0) / s],
+        "upper": [float(v) for v in q.max(axis=0) / s],
+    }
 
 
 def _training_of(robot) -> np.ndarray | None:
@@ -188,9 +198,13 @@ def _training_of(robot) -> np.ndarray | None:
         s = joint_scale(list(robot.table.kinds), units.get("length", "m"), units.get("angle", "rad"), where)
         lo, hi = (np.asarray(spec[k], dtype=float) for k in ("lower", "upper"))
     except (OSError, ValueError, TypeError, KeyError, tomllib.TOMLDecodeError) as e:
-        raise DenavitError(f"{where}: expected lower = [...] and upper = [...], one joint value each in the file's units ({e})") from None
+        raise DenavitError(
+            f"{where}: expected lower = [...] and upper = [...], one joint value each in the file's units ({e})"
+        ) from None
     if lo.shape != (len(s),) or hi.shape != (len(s),) or not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
-        raise DenavitError(f"{where}: expected lower and upper of {len(s)} finite joint values each, got {lo.tolist()} and {hi.tolist()}")
+        raise DenavitError(
+            f"{where}: expected lower and upper of {len(s)} finite joint values each, got {lo.tolist()} and {hi.tolist()}"
+        )
     return np.vstack([lo * s, hi * s])
 
 
@@ -206,7 +220,13 @@ def _model_of(model):
         def joints(q):
             return q * (1 + scale)
 
-        return model.model(), f"{model.parametrization.robot.name} calibrated", model, np.asarray(model.measurements.q), joints
+        return (
+            model.model(),
+            f"{model.parametrization.robot.name} calibrated",
+            model,
+            np.asarray(model.measurements.q),
+            joints,
+        )
     if hasattr(model, "axis_cov") and hasattr(model, "sweeps"):  # an Identification
         from ..compensation import reading_model  # noqa: PLC0415
         from ..robot import joint_values  # noqa: PLC0415
@@ -214,7 +234,13 @@ def _model_of(model):
         rm = reading_model(model)
         qs = [s.q for s in model.sweeps.sweeps if getattr(s, "q", None) is not None]
         training = np.vstack(qs) if qs else None
-        return model.model(), getattr(model, "name", None) or "identified", model, training, (lambda q: q) if rm is None else (lambda q: joint_values(q, *rm))
+        return (
+            model.model(),
+            getattr(model, "name", None) or "identified",
+            model,
+            training,
+            (lambda q: q) if rm is None else (lambda q: joint_values(q, *rm)),
+        )
     if isinstance(model, _core.Model):
         return model, model.name, None, None, lambda q: q
     if not isinstance(model, Robot):
@@ -222,8 +248,13 @@ def _model_of(model):
 
         model = as_robot(os.fspath(model) if isinstance(model, os.PathLike) else model)
     robot = model
-    return (robot.model(), robot.name, robot if robot.covariance is not None else None, _training_of(robot),
-            robot.joint_values if robot.has_reading_model else (lambda q: q))
+    return (
+        robot.model(),
+        robot.name,
+        robot if robot.covariance is not None else None,
+        _training_of(robot),
+        robot.joint_values if robot.has_reading_model else (lambda q: q),
+    )
 
 
 def _predicted_sigma(source, readings: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -247,7 +278,9 @@ def _tool_transform(model: _core.Model, tool) -> np.ndarray:
         return T
     if t.shape == (4, 4) and np.all(np.isfinite(t)):
         return t
-    raise DenavitError(f"tool: expected the tool point (3,) in the flange frame (m) or T_flange_tool (4, 4), got shape {t.shape}")
+    raise DenavitError(
+        f"tool: expected the tool point (3,) in the flange frame (m) or T_flange_tool (4, 4), got shape {t.shape}"
+    )
 
 
 def refit_registration(F: np.ndarray, meas: Measurements, T_tool: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -268,7 +301,9 @@ def refit_registration(F: np.ndarray, meas: Measurements, T_tool: np.ndarray) ->
         t = t_new
         if done:
             break
-    for _ in range(POLISH):  # Gauss-Newton on [dphi_W, dt_W, dt_tool]: p = exp(dphi) R_W (R_i (t + dt_tool) + o_i) + t_W + dt_W
+    for _ in range(
+        POLISH
+    ):  # Gauss-Newton on [dphi_W, dt_W, dt_tool]: p = exp(dphi) R_W (R_i (t + dt_tool) + o_i) + t_W + dt_W
         p_local = R @ t + o
         p = p_local @ W[:3, :3].T + W[:3, 3]
         r = (p - m).ravel()
@@ -325,9 +360,24 @@ def iso9283(measured: np.ndarray, commanded: np.ndarray) -> tuple[float, float, 
     return ap, float(lj.mean() + 3 * s), bary
 
 
-def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma: float | None = None, sigma_factor: float = SIGMA_FACTOR,
-             repeat_tol: float = REPEAT_TOL, points=None, poses=None, format: str = "auto", length: str | None = None, angle: str | None = None,
-             columns: str | None = None, target: int | None = None, payload=None) -> ModelValidation:
+def validate(
+    model,
+    data,
+    *,
+    registration: str = "frozen",
+    tool=None,
+    max_sigma: float | None = None,
+    sigma_factor: float = SIGMA_FACTOR,
+    repeat_tol: float = REPEAT_TOL,
+    points=None,
+    poses=None,
+    format: str = "auto",
+    length: str | None = None,
+    angle: str | None = None,
+    columns: str | None = None,
+    target: int | None = None,
+    payload=None,
+) -> ModelValidation:
     """Score ``model`` on the measurement session ``data`` (module docstring).
 
     Parameters
@@ -369,8 +419,22 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
 
     km, name, cov_source, training, joints = _model_of(model)
     n = km.nq
-    robot = model.parametrization.robot if hasattr(model, "parametrization") else SimpleNamespace(table=SimpleNamespace(kinds=list(km.kinds)))  # (the reader needs the kinds)
-    data = _measurements(data, robot, points=points, poses=poses, format=format, length=length, angle=angle, columns=columns, target=target)
+    robot = (
+        model.parametrization.robot
+        if hasattr(model, "parametrization")
+        else SimpleNamespace(table=SimpleNamespace(kinds=list(km.kinds)))
+    )  # (the reader needs the kinds)
+    data = _measurements(
+        data,
+        robot,
+        points=points,
+        poses=poses,
+        format=format,
+        length=length,
+        angle=angle,
+        columns=columns,
+        target=target,
+    )
     notes: list[str] = []
     nest_rows = None  # per row, its target's point in the tool frame (several targets with their nest)
     per_pose = 1  # rows per pose (several targets scored: one row each)
@@ -378,17 +442,25 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
         tm = as_target_measurements(data)
         if tm.nest is not None:
             meas, nest_rows, per_pose = tm.expanded(with_index=False), np.tile(tm.nest, (tm.n, 1)), tm.n_targets
-            notes.append(f"{tm.n} poses x {tm.n_targets} targets: every target scored, predicted at its nest point in the model's tool frame")
+            notes.append(
+                f"{tm.n} poses x {tm.n_targets} targets: every target scored, predicted at its nest point in the model's tool frame"
+            )
         else:
             meas = Measurements(tm.q, tm.targets[:, 0], None, tm.source, tm.where, tm.units, kinds=tm.kinds)
-            notes.append(f"{tm.n_targets} targets per pose and no nest declared: target 1 scored (the tool frame's origin of a calibration of several targets)")
+            notes.append(
+                f"{tm.n_targets} targets per pose and no nest declared: target 1 scored (the tool frame's origin of a calibration of several targets)"
+            )
     else:
         data = sweep_poses(data)  # 6-DoF sweeps: poses (the orientations scored too)
         meas = Measurements.from_sweeps(data) if isinstance(data, SweepSet) else data
     if meas.nq != n:
-        raise DenavitError(f"{meas.source}: the data has {meas.nq} joint readings per pose but the model {name} has {n} joints ({', '.join(km.names)})")
+        raise DenavitError(
+            f"{meas.source}: the data has {meas.nq} joint readings per pose but the model {name} has {n} joints ({', '.join(km.names)})"
+        )
     if meas.kinds is not None and tuple(meas.kinds) != tuple(km.kinds):
-        raise DenavitError(f"{meas.source}: joint kinds {list(meas.kinds)} differ from the model {name}'s {list(km.kinds)}")
+        raise DenavitError(
+            f"{meas.source}: joint kinds {list(meas.kinds)} differ from the model {name}'s {list(km.kinds)}"
+        )
     el = elastic_of(model)  # compliant joints (compliance.py): the links sit at q - k tau(q, payload)
     if el is not None and payload is not None and meas.payload is None:
         meas = with_payload(meas, payload)
@@ -396,20 +468,26 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
     q = joints(readings)
     if el is not None:
         q = el.deflected(q, meas.payload)
-        notes.append(f"joints deflected under gravity{' and the payload' if meas.payload is not None else ' (no payload declared)'} by the model's compliances")
+        notes.append(
+            f"joints deflected under gravity{' and the payload' if meas.payload is not None else ' (no payload declared)'} by the model's compliances"
+        )
     T_tool = _tool_transform(km, tool)
     T_base = np.array(km.T_world_base, dtype=float)
     if registration == "refit":
         if meas.n < 4:
-            raise DenavitError(f"{meas.source}: re-fitting the registration (base 6 + tool 3 parameters) needs at least 4 poses, got {meas.n}")
+            raise DenavitError(
+                f"{meas.source}: re-fitting the registration (base 6 + tool 3 parameters) needs at least 4 poses, got {meas.n}"
+            )
         F = _core.fk_batch(km.with_base(np.eye(4)).with_tool(np.eye(4)), q)
         if nest_rows is not None:  # each row's target, fixed in the tool frame: the tool's origin is what is re-fitted
             F[:, :3, 3] += np.einsum("nij,nj->ni", F[:, :3, :3], nest_rows @ T_tool[:3, :3].T)
         W, T_tool = refit_registration(F, meas, T_tool)
         moved = np.linalg.norm(W[:3, 3] - T_base[:3, 3])
         turn = np.linalg.norm(matrix_rotvec((W[:3, :3].T @ T_base[:3, :3])[None])[0])
-        notes.append(f"registration re-fitted with the kinematics frozen: the base moved {moved * 1e3:.4g} mm and turned {math.degrees(turn):.4g} deg from the model's; "
-                     f"9 of the {3 * meas.n} position residuals absorbed (expected rms {math.sqrt(max(3 * meas.n - 9, 0) / meas.n):.3g} sigma, not {math.sqrt(3):.3g})")
+        notes.append(
+            f"registration re-fitted with the kinematics frozen: the base moved {moved * 1e3:.4g} mm and turned {math.degrees(turn):.4g} deg from the model's; "
+            f"9 of the {3 * meas.n} position residuals absorbed (expected rms {math.sqrt(max(3 * meas.n - 9, 0) / meas.n):.3g} sigma, not {math.sqrt(3):.3g})"
+        )
         T_base = W
     pm = km.with_base(T_base).with_tool(T_tool)
     P = _core.fk_batch(pm, q)
@@ -443,15 +521,21 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
             if max_sigma is not None:
                 limit = float(max_sigma)
             else:
-                if training is not None and len(training) and not isinstance(cov_source, Robot):  # (a robot file holds the ranges, not the poses)
-                    ref = _predicted_sigma(cov_source, np.asarray(training, dtype=float), joints(np.asarray(training, dtype=float)))
+                if (
+                    training is not None and len(training) and not isinstance(cov_source, Robot)
+                ):  # (a robot file holds the ranges, not the poses)
+                    ref = _predicted_sigma(
+                        cov_source, np.asarray(training, dtype=float), joints(np.asarray(training, dtype=float))
+                    )
                     what = "the training poses'"
                 else:
                     ref, what = sigma, "this session's"
                 limit = float(sigma_factor * np.median(ref))
                 notes.append(f"large predicted sigma: above {sigma_factor:g} x {what} median ({limit * 1e3:.3g} mm)")
     elif max_sigma is not None:
-        notes.append(f"max_sigma ignored: the model {name} carries no covariance (a calibration, an identification, or a robot file with [covariance])")
+        notes.append(
+            f"max_sigma ignored: the model {name} carries no covariance (a calibration, an identification, or a robot file with [covariance])"
+        )
     flags = []
     for i in range(meas.n):
         f = []
@@ -461,34 +545,83 @@ def validate(model, data, *, registration: str = "frozen", tool=None, max_sigma:
             f.append("large_predicted_sigma")
         flags.append(tuple(f))
     if training is None:
-        notes.append(f"no training joint ranges: the model {name} does not carry its training poses (a calibration, an identification, or a robot file "
-                     "from calibrate --save with its [training] table does)")
+        notes.append(
+            f"no training joint ranges: the model {name} does not carry its training poses (a calibration, an identification, or a robot file "
+            "from calibrate --save with its [training] table does)"
+        )
     # ISO 9283
     groups = []
-    for first in repeat_groups(readings[::per_pose], repeat_tol):  # visits of one pose (with several targets: target 1's rows)
+    for first in repeat_groups(
+        readings[::per_pose], repeat_tol
+    ):  # visits of one pose (with several targets: target 1's rows)
         idx = first * per_pose
         ap, rp, bary = iso9283(measured[idx], P[idx, :3, 3].mean(axis=0))
         groups.append(PoseGroup(idx, bary, P[idx, :3, 3].mean(axis=0), ap, rp))
     if groups and min(g.n for g in groups) < ISO_CYCLES:
-        notes.append(f"ISO 9283 over {len(groups)} repeated poses of {min(g.n for g in groups)}-{max(g.n for g in groups)} visits (the standard cycles each pose {ISO_CYCLES} times: "
-                     "fewer give the same statistics with more scatter)")
-    return ModelValidation(name, meas.source, meas.kind, registration, q, list(meas.where), measured, P[:, :3, 3].copy(), errors, vec, rot, sigma, limit, flags,
-                           outside, lo, hi, groups, T_base, T_tool, list(km.names), notes)
+        notes.append(
+            f"ISO 9283 over {len(groups)} repeated poses of {min(g.n for g in groups)}-{max(g.n for g in groups)} visits (the standard cycles each pose {ISO_CYCLES} times: "
+            "fewer give the same statistics with more scatter)"
+        )
+    return ModelValidation(
+        name,
+        meas.source,
+        meas.kind,
+        registration,
+        q,
+        list(meas.where),
+        measured,
+        P[:, :3, 3].copy(),
+        errors,
+        vec,
+        rot,
+        sigma,
+        limit,
+        flags,
+        outside,
+        lo,
+        hi,
+        groups,
+        T_base,
+        T_tool,
+        list(km.names),
+        notes,
+    )
 
 
 def to_json(v: ModelValidation) -> dict:
     """The JSON document of a validation (SI, docs/cli.md "validate")."""
     per = []
     for i in range(v.n):
-        per.append({"where": v.where[i], "q": v.q[i].tolist(), "error_m": float(v.errors[i]), "error_xyz_m": v.error_vectors[i].tolist(),
-                    **({"rotation_error_rad": float(v.rotation_errors[i])} if v.rotation_errors is not None else {}),
-                    "sigma_predicted_m": None if v.sigma is None else float(v.sigma[i]),
-                    "flags": list(v.flags[i]), "outside_joints": [v.joint_names[j] for j in v.outside[i]]})
+        per.append(
+            {
+                "where": v.where[i],
+                "q": v.q[i].tolist(),
+                "error_m": float(v.errors[i]),
+                "error_xyz_m": v.error_vectors[i].tolist(),
+                **({"rotation_error_rad": float(v.rotation_errors[i])} if v.rotation_errors is not None else {}),
+                "sigma_predicted_m": None if v.sigma is None else float(v.sigma[i]),
+                "flags": list(v.flags[i]),
+                "outside_joints": [v.joint_names[j] for j in v.outside[i]],
+            }
+        )
     iso = None
     if v.groups:
-        iso = {"n_poses": len(v.groups), "ap_max_m": max(g.ap for g in v.groups), "rp_max_m": max(g.rp for g in v.groups),
-               "poses": [{"n_poses": g.n, "where": [v.where[i] for i in g.indices], "ap_m": g.ap, "rp_m": g.rp,
-                          "barycentre_m": g.barycentre.tolist(), "commanded_m": g.commanded.tolist()} for g in v.groups]}
+        iso = {
+            "n_poses": len(v.groups),
+            "ap_max_m": max(g.ap for g in v.groups),
+            "rp_max_m": max(g.rp for g in v.groups),
+            "poses": [
+                {
+                    "n_poses": g.n,
+                    "where": [v.where[i] for i in g.indices],
+                    "ap_m": g.ap,
+                    "rp_m": g.rp,
+                    "barycentre_m": g.barycentre.tolist(),
+                    "commanded_m": g.commanded.tolist(),
+                }
+                for g in v.groups
+            ],
+        }
     return {
         "units": {"length": "m", "angle": "rad"},
         "model": v.model_name,
@@ -502,7 +635,9 @@ def to_json(v: ModelValidation) -> dict:
         "rms_rotation_rad": v.rms_rotation,
         "flagged": v.n_flagged,
         "sigma_limit_m": v.sigma_limit,
-        "training_range": None if v.training_lower is None else {"lower": v.training_lower.tolist(), "upper": v.training_upper.tolist()},
+        "training_range": None
+        if v.training_lower is None
+        else {"lower": v.training_lower.tolist(), "upper": v.training_upper.tolist()},
         "T_world_base": v.T_world_base.tolist(),
         "T_flange_tool": v.T_flange_tool.tolist(),
         "iso9283": iso,
@@ -516,4 +651,13 @@ def write_json(v: ModelValidation, path) -> None:
     write_text(path, json_text(to_json(v)))
 
 
-__all__ = ["ModelValidation", "PoseGroup", "iso9283", "refit_registration", "repeat_groups", "to_json", "validate", "write_json"]
+__all__ = [
+    "ModelValidation",
+    "PoseGroup",
+    "iso9283",
+    "refit_registration",
+    "repeat_groups",
+    "to_json",
+    "validate",
+    "write_json",
+]

@@ -47,7 +47,9 @@ def _flush_stdout() -> None:
         try:
             sys.stdout.flush()
         except OSError as e:
-            os.dup2(os.open(os.devnull, os.O_WRONLY), 1)  # what is left in the buffer goes nowhere: Python's own flush at exit would fail again
+            os.dup2(
+                os.open(os.devnull, os.O_WRONLY), 1
+            )  # what is left in the buffer goes nowhere: Python's own flush at exit would fail again
             raise OSError(e.errno, e.strerror, "standard output") from None
 
 
@@ -59,7 +61,9 @@ def main() -> None:
     file, line and source."""
     warnings.showwarning = _one_line_warning
     if hasattr(signal, "SIGPIPE"):  # a reader that stops (`denavit fk kr5 | head -1`) ends the command as it ends cat,
-        signal.signal(signal.SIGPIPE, signal.SIG_DFL)  # by the signal (shell status 141), not click's exit 1, which says "not met"
+        signal.signal(
+            signal.SIGPIPE, signal.SIG_DFL
+        )  # by the signal (shell status 141), not click's exit 1, which says "not met"
     if threading_main():
         signal.signal(signal.SIGINT, _interrupt)  # Ctrl-C: exit 130 as a shell reports a command ended by SIGINT
     guard_stdout()  # a closed standard output (`denavit show kr5 >&-`) is an error when written to, not exit 0
@@ -82,6 +86,11 @@ def main() -> None:
     except Exception as e:  # noqa: BLE001 (the last resort: no traceback reaches a user)
         if os.environ.get("DENAVIT_TRACEBACK"):
             raise
-        say("bold red", "error:", f" internal error, please report it with the command line: {type(e).__name__}: {e} "
-            "(DENAVIT_TRACEBACK=1 shows where)", err=True)
+        say(
+            "bold red",
+            "error:",
+            f" internal error, please report it with the command line: {type(e).__name__}: {e} "
+            "(DENAVIT_TRACEBACK=1 shows where)",
+            err=True,
+        )
         sys.exit(3)

@@ -37,35 +37,145 @@ from .common import (
 
 @commands.command()
 def calibrate(
-    data: Annotated[Path, typer.Argument(help="Measurements: CSV 'q1..qn,x,y,z[,rx,ry,rz]' (several targets per pose: 'q1..qn,x,y,z,x2,y2,z2,...'), a long-form sweep CSV (with 'joint'), JSON, or a recording.")],
+    data: Annotated[
+        Path,
+        typer.Argument(
+            help="Measurements: CSV 'q1..qn,x,y,z[,rx,ry,rz]' (several targets per pose: 'q1..qn,x,y,z,x2,y2,z2,...'), a long-form sweep CSV (with 'joint'), JSON, or a recording."
+        ),
+    ],
     nominal: Annotated[str, typer.Option("--nominal", help="Nominal model (built-in name, robot file or URDF).")],
-    convention: Annotated[str, typer.Option("--convention", help="edh | mdh (Hayati angle where axes are near-parallel) | dh")] = "edh",
-    fix: Annotated[str | None, typer.Option("--fix", help="Parameters to hold at their nominal values: names or patterns, comma-separated (e.g. 'base_*,tool_z').")] = None,
+    convention: Annotated[
+        str, typer.Option("--convention", help="edh | mdh (Hayati angle where axes are near-parallel) | dh")
+    ] = "edh",
+    fix: Annotated[
+        str | None,
+        typer.Option(
+            "--fix",
+            help="Parameters to hold at their nominal values: names or patterns, comma-separated (e.g. 'base_*,tool_z').",
+        ),
+    ] = None,
     json_path: JsonOpt = None,
-    save: Annotated[Path | None, typer.Option("--save", help="Write the calibrated robot file (.toml, ED-H, with its \\[covariance]: compensate predicts the error after) to this path.")] = None,
-    urdf: Annotated[Path | None, typer.Option("--urdf", help="Write the calibrated robot as URDF, with a URDF nominal's meshes, inertials and limits.")] = None,
-    report: Annotated[Path | None, typer.Option("--report", help="Write a self-contained HTML report (summary, 3-D view, tables).")] = None,
-    loss: Annotated[str, typer.Option("--loss", help="linear | soft_l1 | huber | cauchy | arctan (robust loss)")] = "linear",
-    start: Annotated[str, typer.Option("--start", help="nominal | circles (circle-point identification of sweep data)")] = "nominal",
-    holdout: Annotated[float, typer.Option("--holdout", help="Fraction of the poses held out to validate the fit.")] = 0.2,
+    save: Annotated[
+        Path | None,
+        typer.Option(
+            "--save",
+            help="Write the calibrated robot file (.toml, ED-H, with its \\[covariance]: compensate predicts the error after) to this path.",
+        ),
+    ] = None,
+    urdf: Annotated[
+        Path | None,
+        typer.Option(
+            "--urdf", help="Write the calibrated robot as URDF, with a URDF nominal's meshes, inertials and limits."
+        ),
+    ] = None,
+    report: Annotated[
+        Path | None, typer.Option("--report", help="Write a self-contained HTML report (summary, 3-D view, tables).")
+    ] = None,
+    loss: Annotated[
+        str, typer.Option("--loss", help="linear | soft_l1 | huber | cauchy | arctan (robust loss)")
+    ] = "linear",
+    start: Annotated[
+        str, typer.Option("--start", help="nominal | circles (circle-point identification of sweep data)")
+    ] = "nominal",
+    holdout: Annotated[
+        float, typer.Option("--holdout", help="Fraction of the poses held out to validate the fit.")
+    ] = 0.2,
     scale: Annotated[bool, typer.Option("--scale", help="Also estimate a scale per joint.")] = False,
-    tool: Annotated[str | None, typer.Option("--tool", help="Tool point in the flange frame, --length units (default: the nominal model's tool).")] = None,
-    noise: Annotated[float | None, typer.Option("--noise", help="Known point noise (1 sigma per coordinate), --length units (default: from the residuals).")] = None,
-    tracker_noise: Annotated[str | None, typer.Option("--tracker-noise", help="The tracker's range/angle noise (1 sigma), as identify's: e.g. \"5 um, 1 arcsec\"; each point's residual is weighted by its covariance (the scale from the residuals; not with --noise).")] = None,
-    tracker_position: Annotated[str | None, typer.Option("--tracker-position", help="With --tracker-noise: the tracker's position in the data's frame, x,y,z in --length units (default 0,0,0).")] = None,
-    length: Annotated[str, typer.Option("--length", help="Length unit of what is typed and printed, and of the data where they declare none: mm | m | cm | um | in. JSON stays SI.")] = "mm",
-    angle: Annotated[str, typer.Option("--angle", help="Angle unit of what is typed and printed, and of the data where they declare none: deg | rad. JSON stays SI.")] = "deg",
-    verbose: Annotated[bool, typer.Option("--verbose", help="Every parameter the data cannot identify, with the reason (default: their names in a few lines).")] = False,
+    tool: Annotated[
+        str | None,
+        typer.Option(
+            "--tool", help="Tool point in the flange frame, --length units (default: the nominal model's tool)."
+        ),
+    ] = None,
+    noise: Annotated[
+        float | None,
+        typer.Option(
+            "--noise", help="Known point noise (1 sigma per coordinate), --length units (default: from the residuals)."
+        ),
+    ] = None,
+    tracker_noise: Annotated[
+        str | None,
+        typer.Option(
+            "--tracker-noise",
+            help="The tracker's range/angle noise (1 sigma), as identify's: e.g. \"5 um, 1 arcsec\"; each point's residual is weighted by its covariance (the scale from the residuals; not with --noise).",
+        ),
+    ] = None,
+    tracker_position: Annotated[
+        str | None,
+        typer.Option(
+            "--tracker-position",
+            help="With --tracker-noise: the tracker's position in the data's frame, x,y,z in --length units (default 0,0,0).",
+        ),
+    ] = None,
+    length: Annotated[
+        str,
+        typer.Option(
+            "--length",
+            help="Length unit of what is typed and printed, and of the data where they declare none: mm | m | cm | um | in. JSON stays SI.",
+        ),
+    ] = "mm",
+    angle: Annotated[
+        str,
+        typer.Option(
+            "--angle",
+            help="Angle unit of what is typed and printed, and of the data where they declare none: deg | rad. JSON stays SI.",
+        ),
+    ] = "deg",
+    verbose: Annotated[
+        bool,
+        typer.Option(
+            "--verbose",
+            help="Every parameter the data cannot identify, with the reason (default: their names in a few lines).",
+        ),
+    ] = False,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the held-out split.")] = 0,
-    model: Annotated[str, typer.Option("--model", help="What is free: auto (chosen by leave-one-pose-out prediction error), base-tool, offsets, full (every identifiable parameter, least squares), full-prior (with the priors), full-prior-no-beta or full-prior-no-last (docs/cli.md)")] = "auto",
-    prior: Annotated[str | None, typer.Option("--prior", help="Prior widths (1 sigma) about the nominal, by kind or parameter name: e.g. \"length=1mm, angle=0.1deg, offset=0.1deg, scale=100ppm, a_5=2mm\" (these are the defaults; bare numbers in --length / --angle), or none.")] = None,
-    coupling: Annotated[str | None, typer.Option("--coupling", help="Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; robot-files.md in docs); default: the robot file's \\[couplings].")] = None,
-    data_format: Annotated[str, typer.Option("--format", help="measurements (q1..qn,x,y,z CSV, sweep CSV, JSON) | tracker | rtde | rsi | bag | columns | auto (from the content).")] = "auto",
-    columns: Annotated[str | None, typer.Option("--columns", help="Column map of a delimited recording, e.g. \"t,q1..q6,x,y,z\".")] = None,
-    target: Annotated[int | None, typer.Option("--target", help="Data with several targets per pose (markers, SMRs on a nest): fit this one alone, 1-based (default: every target, one fit with each target's point in the flange frame).")] = None,
+    model: Annotated[
+        str,
+        typer.Option(
+            "--model",
+            help="What is free: auto (chosen by leave-one-pose-out prediction error), base-tool, offsets, full (every identifiable parameter, least squares), full-prior (with the priors), full-prior-no-beta or full-prior-no-last (docs/cli.md)",
+        ),
+    ] = "auto",
+    prior: Annotated[
+        str | None,
+        typer.Option(
+            "--prior",
+            help='Prior widths (1 sigma) about the nominal, by kind or parameter name: e.g. "length=1mm, angle=0.1deg, offset=0.1deg, scale=100ppm, a_5=2mm" (these are the defaults; bare numbers in --length / --angle), or none.',
+        ),
+    ] = None,
+    coupling: Annotated[
+        str | None,
+        typer.Option(
+            "--coupling",
+            help="Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; robot-files.md in docs); default: the robot file's \\[couplings].",
+        ),
+    ] = None,
+    data_format: Annotated[
+        str,
+        typer.Option(
+            "--format",
+            help="measurements (q1..qn,x,y,z CSV, sweep CSV, JSON) | tracker | rtde | rsi | bag | columns | auto (from the content).",
+        ),
+    ] = "auto",
+    columns: Annotated[
+        str | None, typer.Option("--columns", help='Column map of a delimited recording, e.g. "t,q1..q6,x,y,z".')
+    ] = None,
+    target: Annotated[
+        int | None,
+        typer.Option(
+            "--target",
+            help="Data with several targets per pose (markers, SMRs on a nest): fit this one alone, 1-based (default: every target, one fit with each target's point in the flange frame).",
+        ),
+    ] = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
-    payload: Annotated[str | None, typer.Option("--payload", help="The payload on the flange for every pose where the data give none (a pose file's payload_mass, payload_x, payload_y, payload_z columns): its mass with a unit (kg, g) and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\" (--length units without one). With a payload the joints' compliance under gravity is a candidate of --model auto (it needs the nominal's link masses).")] = None,
+    payload: Annotated[
+        str | None,
+        typer.Option(
+            "--payload",
+            help="The payload on the flange for every pose where the data give none (a pose file's payload_mass, payload_x, payload_y, payload_z columns): its mass with a unit (kg, g) and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\" (--length units without one). With a payload the joints' compliance under gravity is a candidate of --model auto (it needs the nominal's link masses).",
+        ),
+    ] = None,
 ) -> None:
     """Calibrate the whole model from measured points or poses at known joint readings (one least-squares fit)."""
     import numpy as np  # noqa: PLC0415
@@ -82,11 +192,21 @@ def calibrate(
     # the reader applies the one units rule (denavit.io.units.input_units): what the file declares wins
     if data_format == "measurements" or (data_format == "auto" and is_measurement_file(input_path(data))):
         # several targets per pose: every one (a TargetMeasurements), or the one asked
-        meas = pick_target(read_measurements(data, kinds=list(robot.table.kinds), length=length, angle=angle), None if target is None else target - 1)
+        meas = pick_target(
+            read_measurements(data, kinds=list(robot.table.kinds), length=length, angle=angle),
+            None if target is None else target - 1,
+        )
     else:  # a recording (tracker export, controller log, bag...): one pose per pause of the robot
         from ..io.recordings import read_recording  # noqa: PLC0415
 
-        rec = read_recording(data, "auto" if data_format == "auto" else data_format, columns=columns, length=length, angle=angle, kinds=list(robot.table.kinds))
+        rec = read_recording(
+            data,
+            "auto" if data_format == "auto" else data_format,
+            columns=columns,
+            length=length,
+            angle=angle,
+            kinds=list(robot.table.kinds),
+        )
         for note in rec.notes:
             say("dim", "note:", f" {note}")
         meas = recording_poses(rec, None if target is None else target - 1, robot.table.kinds)
@@ -106,7 +226,9 @@ def calibrate(
 
     tn = parse_tracker_noise(tracker_noise, tracker_position, length, angle)
     if tn is not None and sigma is not None:
-        fail("--noise and --tracker-noise: give one (the tracker's model declares each point's noise shape; its scale is estimated from the residuals)")
+        fail(
+            "--noise and --tracker-noise: give one (the tracker's model declares each point's noise shape; its scale is estimated from the residuals)"
+        )
     fixes = [f.strip() for f in (fix or "").split(",") if f.strip()]
     from ..calibration.priors import parse_prior  # noqa: PLC0415
     from ..calibration.selection import MODELS  # noqa: PLC0415
@@ -117,9 +239,26 @@ def calibrate(
     from ..io.payload import parse_payload  # noqa: PLC0415
 
     pl = None if payload is None else parse_payload(payload, length)
-    with status(f"calibrating {robot.name} ({convention}) from {meas.n} {'poses' if meas.kind == 'pose' else 'points'}..."):
-        res = cal.calibrate(meas, robot, convention=convention, fix=fixes, loss=loss, start=start, holdout=holdout, scale=scale, tool=tp, noise=sigma, tracker_noise=tn, seed=seed,
-                            model=model, prior=prior_spec, payload=pl)
+    with status(
+        f"calibrating {robot.name} ({convention}) from {meas.n} {'poses' if meas.kind == 'pose' else 'points'}..."
+    ):
+        res = cal.calibrate(
+            meas,
+            robot,
+            convention=convention,
+            fix=fixes,
+            loss=loss,
+            start=start,
+            holdout=holdout,
+            scale=scale,
+            tool=tp,
+            noise=sigma,
+            tracker_noise=tn,
+            seed=seed,
+            model=model,
+            prior=prior_spec,
+            payload=pl,
+        )
     if json_path:
         emit_json(cal.to_json(res), json_path)
     if json_path != "-":
@@ -130,13 +269,18 @@ def calibrate(
         from ..io.robotfile import save as save_file  # noqa: PLC0415
 
         saved = res.robot()  # with the training poses' joint ranges: validate flags poses outside them
-        saved = replace(saved, extra={**saved.extra, TRAINING_TABLE: training_table(res.measurements.q, robot.table.kinds, length, angle)})
+        saved = replace(
+            saved,
+            extra={**saved.extra, TRAINING_TABLE: training_table(res.measurements.q, robot.table.kinds, length, angle)},
+        )
         save_file(saved, save, length, angle)
         wrote(save)
     if urdf:
         from ..io.urdf import save_urdf  # noqa: PLC0415
 
-        save_urdf(res.model(), urdf, res.robot())  # the calibrated geometry, with a URDF nominal's meshes, inertials and limits
+        save_urdf(
+            res.model(), urdf, res.robot()
+        )  # the calibrated geometry, with a URDF nominal's meshes, inertials and limits
         wrote(urdf)
     if report:
         from ..report import write_calibration_report  # noqa: PLC0415
@@ -164,55 +308,80 @@ def _refuse_jumps(res, robot, length: str, angle: str) -> None:
     m = robot.model()
     q0 = np.zeros(m.nq) if robot.home is None else robot.home
     base = np.asarray(m.T_world_base)[:3, 3]
-    size = max([float(np.linalg.norm(np.asarray(p) - base)) for p in _core.axes(m, q0).points] + [float(np.linalg.norm(_core.fk(m, q0)[:3, 3] - base)), 1e-3])
+    size = max(
+        [float(np.linalg.norm(np.asarray(p) - base)) for p in _core.axes(m, q0).points]
+        + [float(np.linalg.norm(_core.fk(m, q0)[:3, 3] - base)), 1e-3]
+    )
     pz = res.parametrization
     # the kinematic parameters only: base and tool are where the tracker and the target stand (registered in closed
     # form, denavit.calibration.registration), which may be anywhere
-    moves = [(name, abs(v - n)) for name, v, n, u in zip(res.names, res.values, res.nominal, pz.units, strict=True)
-             if u == "length" and not is_registration(name) and abs(v - n) > FLAG_SIZE * size]
+    moves = [
+        (name, abs(v - n))
+        for name, v, n, u in zip(res.names, res.values, res.nominal, pz.units, strict=True)
+        if u == "length" and not is_registration(name) and abs(v - n) > FLAG_SIZE * size
+    ]
     jumps = [(name, d) for name, d in moves if d > size]
     ls = length_scale(length)
     if moves and not jumps:
-        say("yellow", "note:", f" {', '.join(f'{name} moves {d / ls:.4g} {length}' for name, d in moves[:4])} from the nominal, more than {FLAG_SIZE:g} of the robot's size "
-            f"({size / ls:.4g} {length}): a calibration moves parameters by millimetres; check for coupled readings (--coupling), the units and the nominal")
+        say(
+            "yellow",
+            "note:",
+            f" {', '.join(f'{name} moves {d / ls:.4g} {length}' for name, d in moves[:4])} from the nominal, more than {FLAG_SIZE:g} of the robot's size "
+            f"({size / ls:.4g} {length}): a calibration moves parameters by millimetres; check for coupled readings (--coupling), the units and the nominal",
+        )
     if jumps:
         worst = ", ".join(f"{name} by {d / ls:.4g} {length}" for name, d in sorted(jumps, key=lambda x: -x[1])[:4])
-        raise DenavitError(f"{res.measurements.source}: the calibration moves {len(jumps)} parameter(s) from the nominal {robot.name}'s by more than the robot's size "
-                           f"({size / ls:.4g} {length}): {worst}; expected a calibration of this robot (readings coupled, as a Fanuc's J3? declare --coupling "
-                           "\"q3=r3+r2\" or [couplings]; points in another unit? the wrong nominal?)")
+        raise DenavitError(
+            f"{res.measurements.source}: the calibration moves {len(jumps)} parameter(s) from the nominal {robot.name}'s by more than the robot's size "
+            f"({size / ls:.4g} {length}): {worst}; expected a calibration of this robot (readings coupled, as a Fanuc's J3? declare --coupling "
+            '"q3=r3+r2" or [couplings]; points in another unit? the wrong nominal?)'
+        )
 
 
 def print_calibration(res, length: str, angle: str, verbose: bool = False) -> None:
     pz = res.parametrization
     meas = res.measurements
-    say("bold", f"Calibration of {pz.robot.name}", f" ({res.convention}, {meas.n} {'poses' if meas.kind == 'pose' else 'points'}; "
-        f"{res.elapsed * 1e3:.1f} ms, {res.evaluations} evaluations{'' if res.converged else ', NOT converged'})")
+    say(
+        "bold",
+        f"Calibration of {pz.robot.name}",
+        f" ({res.convention}, {meas.n} {'poses' if meas.kind == 'pose' else 'points'}; "
+        f"{res.elapsed * 1e3:.1f} ms, {res.evaluations} evaluations{'' if res.converged else ', NOT converged'})",
+    )
     console.print(f"  data: {meas.source}", soft_wrap=True)
     rows = []
     for k, name in enumerate(res.names):
         u, s = calib_unit(pz.units[k], length, angle)
         nom, val, sig = res.nominal[k] / s, res.values[k] / s, res.sigma[k] / s
         rows.append([name, u, num(nom, u), num(val, u), spread(sig), num(val - nom, u), res.status[k]])
-    print_rows(None, ["parameter", "unit", "nominal", "calibrated", "sigma", "change", "status"], rows, left=(1, 6),
-               caption="sigma: one standard deviation (covariance of the fit; with priors the posterior's, prior included); change: calibrated - nominal")
+    print_rows(
+        None,
+        ["parameter", "unit", "nominal", "calibrated", "sigma", "change", "status"],
+        rows,
+        left=(1, 6),
+        caption="sigma: one standard deviation (covariance of the fit; with priors the posterior's, prior included); change: calibrated - nominal",
+    )
     ana = res.identifiability
     console.print(f"Identifiability: {ana.summary()}")
     structural = [u for u in ana.unidentifiable if u.structural]
     if structural and not verbose:
-        console.print(f"Redundant in the {res.convention} parametrisation (held at their start values; reasons with --verbose): {', '.join(u.name for u in structural)}")
+        console.print(
+            f"Redundant in the {res.convention} parametrisation (held at their start values; reasons with --verbose): {', '.join(u.name for u in structural)}"
+        )
     for u in ana.unidentifiable:
         if verbose or not u.structural:
             say("yellow", "not identifiable:" if not u.structural else "redundant:", f" {u.name}: {u.reason}")
     ls = length_scale(length)
-    console.print(f"Residuals: rms {spread(res.rms / ls)} {length} (noise estimate {spread(res.noise / ls)} {length} per coordinate)"
-                  + (f", rotation rms {spread(res.rms_rotation / angle_scale(angle))} {angle}" if meas.kind == "pose" else ""))
+    console.print(
+        f"Residuals: rms {spread(res.rms / ls)} {length} (noise estimate {spread(res.noise / ls)} {length} per coordinate)"
+        + (f", rotation rms {spread(res.rms_rotation / angle_scale(angle))} {angle}" if meas.kind == "pose" else "")
+    )
     if getattr(res, "model_choice", None) is not None:
         console.print(f"Model: {res.model_choice.line(ls, length)}", soft_wrap=True)
     v = res.validation
     if v is not None:
-        console.print(f"Held-out validation ({v.n_test} of {v.n_train + v.n_test} poses): tool-position error rms {spread(v.before_rms / ls)} -> {spread(v.after_rms / ls)} {length}, "
-                      f"max {spread(v.before_max / ls)} -> {spread(v.after_max / ls)} {length} (before: nominal geometry with base and tool fitted)")
+        console.print(
+            f"Held-out validation ({v.n_test} of {v.n_train + v.n_test} poses): tool-position error rms {spread(v.before_rms / ls)} -> {spread(v.after_rms / ls)} {length}, "
+            f"max {spread(v.before_max / ls)} -> {spread(v.after_max / ls)} {length} (before: nominal geometry with base and tool fitted)"
+        )
     for note in res.notes:
         say("yellow", "note:", f" {note}")
-
-

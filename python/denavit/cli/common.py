@@ -59,8 +59,14 @@ def _flags(params: list) -> list:
         if getattr(p, "is_flag", False):
             if p.metavar is None:
                 p.metavar = ""
-            if PassThroughRuntimeParam is not None and getattr(p, "_runtime_param", False) is None and p.type_descriptor.annotation is bool:
-                p._runtime_param = PassThroughRuntimeParam(annotation=bool, parameter_info=p.type_descriptor.parameter_info)
+            if (
+                PassThroughRuntimeParam is not None
+                and getattr(p, "_runtime_param", False) is None
+                and p.type_descriptor.annotation is bool
+            ):
+                p._runtime_param = PassThroughRuntimeParam(
+                    annotation=bool, parameter_info=p.type_descriptor.parameter_info
+                )
     return params
 
 
@@ -93,11 +99,19 @@ class Command(TyperCommand):
             try:
                 return super().invoke(ctx)
             finally:
-                console.file = None  # back to standard output after a --json - run (json_target), for the next in-process call
+                console.file = (
+                    None  # back to standard output after a --json - run (json_target), for the next in-process call
+                )
 
 
-ForceOpt = Annotated[bool, typer.Option("--force", help="Replace an output file that is read-only, and write through one with several hard links (in place: every name "
-                                                          "gets the new content); without it both are refused. A replaced file keeps its owner and mode.")]
+ForceOpt = Annotated[
+    bool,
+    typer.Option(
+        "--force",
+        help="Replace an output file that is read-only, and write through one with several hard links (in place: every name "
+        "gets the new content); without it both are refused. A replaced file keeps its owner and mode.",
+    ),
+]
 
 
 def force_option():  # noqa: ANN201 (typer's click option)
@@ -150,12 +164,18 @@ def _check_outputs(ctx) -> None:  # noqa: ANN001 (click's context)
                 raise DenavitError(f"--plot {value}: expected a folder (made when missing), got an existing file")
             outputs.append(("--plot", value))
         else:
-            inputs += [(param, v) for v in (value if isinstance(value, list | tuple) else [value]) if isinstance(v, str | os.PathLike) and _is_file(v)]
+            inputs += [
+                (param, v)
+                for v in (value if isinstance(value, list | tuple) else [value])
+                if isinstance(v, str | os.PathLike) and _is_file(v)
+            ]
     for opt, out in outputs:
         for param, inp in inputs:
             if _is_file(out) and os.path.samefile(out, inp):
                 name = param.opts[-1] if param.opts[-1].startswith("-") else param.name.upper()
-                raise DenavitError(f"{opt} {out}: is the input file {inp} ({name}): an output never replaces an input; name another file")
+                raise DenavitError(
+                    f"{opt} {out}: is the input file {inp} ({name}): an output never replaces an input; name another file"
+                )
 
 
 def _is_file(path) -> bool:  # noqa: ANN001 (any path-like)
@@ -169,27 +189,60 @@ def _is_file(path) -> bool:  # noqa: ANN001 (any path-like)
 #: help) and its summary, the first paragraph of its docstring, listed by ``denavit --help`` without importing
 #: the module (tests/test_cli.py checks the two agree).
 COMMANDS = {
-    "calibrate": ("calibrate", "Calibrate the whole model from measured points or poses at known joint readings (one least-squares fit)."),
-    "compensate": ("compensate", "Compensate a program (RoboDK's \"filtering\"): for each target, the joint values that reach it on the "
-                   "identified robot (on the program's branch) and the pose T' = FK_nominal(q) to send to a controller that keeps "
-                   "its nominal model. Flagged rows (unreachable, branch changed, path jump) are marked, never silently kept; exit "
-                   "code 1 when any row is flagged."),
+    "calibrate": (
+        "calibrate",
+        "Calibrate the whole model from measured points or poses at known joint readings (one least-squares fit).",
+    ),
+    "compensate": (
+        "compensate",
+        'Compensate a program (RoboDK\'s "filtering"): for each target, the joint values that reach it on the '
+        "identified robot (on the program's branch) and the pose T' = FK_nominal(q) to send to a controller that keeps "
+        "its nominal model. Flagged rows (unreachable, branch changed, path jump) are marked, never silently kept; exit "
+        "code 1 when any row is flagged.",
+    ),
     "convert": ("convert", "Express a robot in another convention through its joint axes, with the FK-parity check."),
-    "dynamics": ("dynamics", "Inverse dynamics (recursive Newton-Euler): the joint torques (N m) / forces (N) for q, qd, qdd."),
+    "dynamics": (
+        "dynamics",
+        "Inverse dynamics (recursive Newton-Euler): the joint torques (N m) / forces (N) for q, qd, qdd.",
+    ),
     "fk": ("fk", "Forward kinematics: the tool pose and every joint frame (T_world_joint)."),
-    "identify": ("identify", "Identify the joint axes and parameters from joint sweeps (Hayat et al.), beside the nominal values."),
-    "ik": ("ik", "Inverse kinematics: joint values that put the tool at --pose, judged from the measured final error against the tolerances."),
-    "inspect": ("inspect", "Print what a recording holds: the reader used, joints, targets, rates and units, and the sweeps the segmentation "
-                "finds (joint, rows, start and end, dwell left out), for checking before `identify`."),
-    "plan": ("plan", "Predict every parameter's sigma (Cramer-Rao bound) and the measuring volume of a protocol, before measuring."),
+    "identify": (
+        "identify",
+        "Identify the joint axes and parameters from joint sweeps (Hayat et al.), beside the nominal values.",
+    ),
+    "ik": (
+        "ik",
+        "Inverse kinematics: joint values that put the tool at --pose, judged from the measured final error against the tolerances.",
+    ),
+    "inspect": (
+        "inspect",
+        "Print what a recording holds: the reader used, joints, targets, rates and units, and the sweeps the segmentation "
+        "finds (joint, rows, start and end, dwell left out), for checking before `identify`.",
+    ),
+    "plan": (
+        "plan",
+        "Predict every parameter's sigma (Cramer-Rao bound) and the measuring volume of a protocol, before measuring.",
+    ),
     "models": ("show", "List the built-in robots (names and descriptions: no units)."),
-    "show": ("show", "Print a robot file's table as read (with units); optionally draw its frames beside another convention's."),
-    "export": ("show", "Print a robot file (TOML) in --length / --angle units (or, with --json, the robot as JSON in SI), or write a UR "
-               "kinematics-parameters file."),
-    "simulate": ("simulate", "Simulate joint sweeps of a model (for planning a measurement and for tests); writes the long-form CSV."),
-    "validate": ("validate", "Score a saved model on another measurement session: per-pose tool-position errors, RMS, max and percentiles, "
-                 "extrapolation flags (outside the training joint ranges, large predicted sigma), ISO 9283 pose accuracy and repeatability "
-                 "of repeated poses."),
+    "show": (
+        "show",
+        "Print a robot file's table as read (with units); optionally draw its frames beside another convention's.",
+    ),
+    "export": (
+        "show",
+        "Print a robot file (TOML) in --length / --angle units (or, with --json, the robot as JSON in SI), or write a UR "
+        "kinematics-parameters file.",
+    ),
+    "simulate": (
+        "simulate",
+        "Simulate joint sweeps of a model (for planning a measurement and for tests); writes the long-form CSV.",
+    ),
+    "validate": (
+        "validate",
+        "Score a saved model on another measurement session: per-pose tool-position errors, RMS, max and percentiles, "
+        "extrapolation flags (outside the training joint ranges, large predicted sigma), ISO 9283 pose accuracy and repeatability "
+        "of repeated poses.",
+    ),
 }
 
 
@@ -215,7 +268,9 @@ class Group(TyperGroup):
         return self.commands[cmd_name]
 
     def resolve_command(self, ctx, args):  # noqa: ANN001, ANN201 (click's signature)
-        if args and args[0] not in COMMANDS and not args[0].startswith("-"):  # a typo: typer's "Did you mean" picks from the commands built
+        if (
+            args and args[0] not in COMMANDS and not args[0].startswith("-")
+        ):  # a typo: typer's "Did you mean" picks from the commands built
             for name in COMMANDS:
                 self.get_command(ctx, name)
         return super().resolve_command(ctx, args)
@@ -232,8 +287,12 @@ class Group(TyperGroup):
 def build_command(name: str) -> TyperCommand:
     """The click command ``name``: its module imported (which registers it on :data:`commands`), then built by typer."""
     __import__(f"{__package__}.{COMMANDS[name][0]}")  # not importlib.import_module, which -X importtime does not see
-    info = next(i for i in commands.registered_commands if (i.name or typer.main.get_command_name(i.callback.__name__)) == name)
-    return typer.main.get_command_from_info(info, pretty_exceptions_short=app.pretty_exceptions_short, rich_markup_mode=app.rich_markup_mode)
+    info = next(
+        i for i in commands.registered_commands if (i.name or typer.main.get_command_name(i.callback.__name__)) == name
+    )
+    return typer.main.get_command_from_info(
+        info, pretty_exceptions_short=app.pretty_exceptions_short, rich_markup_mode=app.rich_markup_mode
+    )
 
 
 def import_rich_utils() -> None:
@@ -283,7 +342,7 @@ app = App(
     add_completion=False,
     no_args_is_help=True,
     help="Find the true kinematic geometry of serial robots and compute with it. Lengths in mm and angles in degrees "
-         "unless --length/--angle say otherwise; JSON always in SI (docs/cli.md).",
+    "unless --length/--angle say otherwise; JSON always in SI (docs/cli.md).",
     pretty_exceptions_enable=False,
 )
 
@@ -297,7 +356,11 @@ def _version(value: bool) -> None:
 
 
 @app.callback()
-def _root(version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version and exit.")] = False) -> None:
+def _root(
+    version: Annotated[
+        bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version and exit.")
+    ] = False,
+) -> None:
     """Find the true kinematic geometry of serial robots and compute with it."""
 
 
@@ -305,13 +368,43 @@ def _root(version: Annotated[bool, typer.Option("--version", callback=_version, 
 console = Console(markup=False)
 err_console = Console(stderr=True, markup=False)
 
-ModelArg = Annotated[str, typer.Argument(help="A built-in name (see `denavit models`), a robot file (.toml) or a URDF.")]
-LengthOpt = Annotated[str, typer.Option("--length", help="Length unit of what is typed and printed: mm (default) | m | cm | um | in. JSON stays SI.")]
-AngleOpt = Annotated[str, typer.Option("--angle", help="Angle unit of what is typed and printed: deg (default) | rad. JSON stays SI.")]
-JsonOpt = Annotated[str | None, typer.Option("--json", metavar="[PATH]", help="Write the result as JSON (SI: m, rad) to PATH; '-' or no PATH: standard output, instead of the tables.")]
-BaseLinkOpt = Annotated[str | None, typer.Option("--base-link", help="URDF model: the chain's base link (default: the root link).")]
-TipLinkOpt = Annotated[str | None, typer.Option("--tip-link", help="URDF model: the chain's tip link (default: the single leaf, REP-199's tool0, or the leaf through the most moving joints; echoed).")]
-ChainOnlyOpt = Annotated[bool, typer.Option("--chain-only", help="URDF model: the chain alone, without the links off it (in the dynamics and in a URDF written).")]
+ModelArg = Annotated[
+    str, typer.Argument(help="A built-in name (see `denavit models`), a robot file (.toml) or a URDF.")
+]
+LengthOpt = Annotated[
+    str,
+    typer.Option(
+        "--length", help="Length unit of what is typed and printed: mm (default) | m | cm | um | in. JSON stays SI."
+    ),
+]
+AngleOpt = Annotated[
+    str, typer.Option("--angle", help="Angle unit of what is typed and printed: deg (default) | rad. JSON stays SI.")
+]
+JsonOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--json",
+        metavar="[PATH]",
+        help="Write the result as JSON (SI: m, rad) to PATH; '-' or no PATH: standard output, instead of the tables.",
+    ),
+]
+BaseLinkOpt = Annotated[
+    str | None, typer.Option("--base-link", help="URDF model: the chain's base link (default: the root link).")
+]
+TipLinkOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--tip-link",
+        help="URDF model: the chain's tip link (default: the single leaf, REP-199's tool0, or the leaf through the most moving joints; echoed).",
+    ),
+]
+ChainOnlyOpt = Annotated[
+    bool,
+    typer.Option(
+        "--chain-only",
+        help="URDF model: the chain alone, without the links off it (in the dynamics and in a URDF written).",
+    ),
+]
 
 #: What a bare ``--json`` (no PATH after it) means: standard output.
 STDOUT = "-"
@@ -324,7 +417,7 @@ def json_argv(argv: Sequence[str]) -> list[str]:
     for k, a in enumerate(argv):
         out.append(a)
         if a == "--":
-            return out + list(argv[k + 1:])
+            return out + list(argv[k + 1 :])
         if a == "--json":
             nxt = argv[k + 1] if k + 1 < len(argv) else None
             if nxt is None or (nxt.startswith("-") and nxt != STDOUT):
@@ -413,7 +506,9 @@ def status(message: str) -> Iterator:
         line.timer.cancel()
 
 
-def load_robot(model: str, base_link: str | None = None, tip_link: str | None = None, what: str = "MODEL", chain_only: bool = False) -> Robot:
+def load_robot(
+    model: str, base_link: str | None = None, tip_link: str | None = None, what: str = "MODEL", chain_only: bool = False
+) -> Robot:
     """The robot of a MODEL argument (built-in name, robot file or URDF; ``base_link``/``tip_link`` pick a URDF's
     chain), with what the reader chose on the user's behalf said in one line each."""
     from ..robot import load  # noqa: PLC0415
@@ -430,7 +525,9 @@ def load_robot(model: str, base_link: str | None = None, tip_link: str | None = 
 
 def say(style: str, head: str, rest: str = "", err: bool = False) -> None:
     """Print `head` in a rich `style` followed by plain `rest`."""
-    (err_console if err else console).print(Text.assemble((head, style), rest), soft_wrap=True)  # one line, whatever the width
+    (err_console if err else console).print(
+        Text.assemble((head, style), rest), soft_wrap=True
+    )  # one line, whatever the width
 
 
 def fail(msg: str) -> None:
@@ -453,14 +550,18 @@ def parse_numbers(text: str | None, what: str) -> list[float]:
     tokens = text.replace(",", " ").split()
     bad = next((t for t in tokens if not NUMBER.fullmatch(t)), None)
     if bad is not None:
-        fail(f"{what}: expected numbers (ASCII decimal, e.g. -90 or 1.5e-3) separated by commas or spaces, got {bad[:40]!r}")
+        fail(
+            f"{what}: expected numbers (ASCII decimal, e.g. -90 or 1.5e-3) separated by commas or spaces, got {bad[:40]!r}"
+        )
     values = [float(t) for t in tokens]
     if not all(math.isfinite(v) for v in values):
         fail(f"{what}: expected finite numbers, got {text[:80]!r}")
     return values
 
 
-def parse_joint_values(text: str | None, what: str, robot: Robot, length: str, angle: str, default=None, limits: bool = True) -> np.ndarray:
+def parse_joint_values(
+    text: str | None, what: str, robot: Robot, length: str, angle: str, default=None, limits: bool = True
+) -> np.ndarray:
     """One value per joint from the command line (``--q``, ``--qd``, ``--home``, ...), SI out: revolute values
     in ``angle``, prismatic ones in ``length`` (rates per s, per s^2). Without ``text``: ``default`` (SI),
     else zeros; an empty ``text`` (``--q ""``) is an error, not zeros. With ``limits``, values beyond the robot's
@@ -505,7 +606,12 @@ def warn_limits(q, robot: Robot, what: str, length: str, angle: str) -> None:
     bad = [j for j in range(len(q)) if not lo[j] - 1e-12 <= q[j] <= hi[j] + 1e-12]
     for j in bad:
         u = joint_unit(robot.table.kinds[j], length, angle)
-        say("bold yellow", "warning:", f" {what}: joint {robot.names[j]} = {q[j] / sc[j]:.6g} {u} is beyond its limits [{lo[j] / sc[j]:.6g}, {hi[j] / sc[j]:.6g}] {u}", err=True)
+        say(
+            "bold yellow",
+            "warning:",
+            f" {what}: joint {robot.names[j]} = {q[j] / sc[j]:.6g} {u} is beyond its limits [{lo[j] / sc[j]:.6g}, {hi[j] / sc[j]:.6g}] {u}",
+            err=True,
+        )
     if bad and angle == "rad" and all(k == "revolute" for k in robot.table.kinds):
         say("bold yellow", "warning:", f" {what} is read in rad (--angle rad): were degrees meant?", err=True)
 
@@ -526,7 +632,9 @@ def parse_ranges(text: str | None, robot: Robot, length: str, angle: str, defaul
     key = (text or default).lower()
     if key in ("paper90", "paper30"):
         if n != 6 or "prismatic" in robot.table.kinds:
-            fail("--ranges paper90/paper30 are Hayat Table II for a 6-joint revolute robot; give start,end pairs for this one")
+            fail(
+                "--ranges paper90/paper30 are Hayat Table II for a 6-joint revolute robot; give start,end pairs for this one"
+            )
         return np.radians(np.array(PAPER_RANGES_DEG[int(key[-2:])]))
     vals = parse_numbers(text, "--ranges")
     if len(vals) != 2 * n:
@@ -556,7 +664,9 @@ def parse_pose(text: str, angle: str, ls: float, what: str = "--pose") -> np.nda
         return T
     if len(v) == 6:
         limits.check_lengths(np.array(v[:3]) * ls, f"{what}: position", unit, ls)
-        limits.check_angles(np.array(v[3:]) * angle_scale(angle), f"{what}: roll, pitch, yaw", angle, angle_scale(angle))
+        limits.check_angles(
+            np.array(v[3:]) * angle_scale(angle), f"{what}: roll, pitch, yaw", angle, angle_scale(angle)
+        )
         return xyz_rpy_pose(np.array(v[:3]) * ls, np.array(v[3:]) * angle_scale(angle))
     fail(f"{what}: expected 16 or 12 numbers (rows of the 4x4 pose) or 6 (x,y,z,roll,pitch,yaw), got {len(v)}")
     raise AssertionError
@@ -613,7 +723,9 @@ def check_noises(model: _core.Model, tool, length: str, angle: str, *noises: tup
         if kind == "angle" or (kind == "joint" and "revolute" in model.kinds):
             limits.check_angle_noise(value, what + (" (revolute joints)" if kind == "joint" else ""), angle, as_)
         if kind == "length" or (kind == "joint" and "prismatic" in model.kinds):
-            limits.check_noise(value, what + (" (prismatic joints)" if kind == "joint" else ""), model, tool, length, ls)
+            limits.check_noise(
+                value, what + (" (prismatic joints)" if kind == "joint" else ""), model, tool, length, ls
+            )
 
 
 def pose_rows(T: np.ndarray, ls: float) -> list[list[float]]:
@@ -631,7 +743,7 @@ def fmt(v: float, nd: int = 6) -> str:
         return "nan"
     if abs(v) >= 1e15:
         return f"{v:.{max(nd, 6)}e}"
-    return f"{v:.{nd}f}" if abs(v) >= 0.5 * 10.0 ** -nd else f"{0.0:.{nd}f}"
+    return f"{v:.{nd}f}" if abs(v) >= 0.5 * 10.0**-nd else f"{0.0:.{nd}f}"
 
 
 #: The resolution printed: 1 um for lengths, 0.001 deg for angles, 1e-6 for unitless numbers.
@@ -663,8 +775,17 @@ def spread(v: float) -> str:
     return f"{v:.3g}"
 
 
-def print_rows(title: str | None, headers: Sequence[str], rows: Sequence[Sequence[str]], *, caption: str | None = None,
-               labels: int = 1, left: Sequence[int] = (), group: bool = False, prose: Sequence[int] = ()) -> None:
+def print_rows(
+    title: str | None,
+    headers: Sequence[str],
+    rows: Sequence[Sequence[str]],
+    *,
+    caption: str | None = None,
+    labels: int = 1,
+    left: Sequence[int] = (),
+    group: bool = False,
+    prose: Sequence[int] = (),
+) -> None:
     """A table that never cuts a number or a name: a rich table when every column fits the console at its
     widest cell (headers may wrap between words), else a long layout, each row's ``labels`` first cells as a
     heading and one ``header  value`` line per other cell. ``left``: columns justified left (labels are);
@@ -677,8 +798,12 @@ def print_rows(title: str | None, headers: Sequence[str], rows: Sequence[Sequenc
         return max((len(w) for w in text.split()), default=0)
 
     ks = range(len(headers))
-    least = [max([longest_word(r[k]) if k in prose else len(r[k]) for r in rows] + [longest_word(headers[k]), 1]) for k in ks]
-    width = [max([len(r[k]) for r in rows] + [len(headers[k]), 1]) for k in ks]  # headers (and prose) on one line if the console allows
+    least = [
+        max([longest_word(r[k]) if k in prose else len(r[k]) for r in rows] + [longest_word(headers[k]), 1]) for k in ks
+    ]
+    width = [
+        max([len(r[k]) for r in rows] + [len(headers[k]), 1]) for k in ks
+    ]  # headers (and prose) on one line if the console allows
     for k in sorted(ks, key=lambda k: least[k] - width[k]):  # else wrap the widest-for-its-content first
         excess = sum(width) + 3 * len(headers) + 1 - console.width
         if excess <= 0:
@@ -691,12 +816,19 @@ def print_rows(title: str | None, headers: Sequence[str], rows: Sequence[Sequenc
         # words to their column's width, cells never wrapped but prose
         t = RichTable(title=title, caption=caption)
         for k, h in enumerate(headers):
-            t.add_column(textwrap.fill(h, width[k], break_long_words=False), justify="left" if k < labels or k in left else "right",
-                         width=width[k] if k in prose else None, no_wrap=k not in prose, overflow="fold")
+            t.add_column(
+                textwrap.fill(h, width[k], break_long_words=False),
+                justify="left" if k < labels or k in left else "right",
+                width=width[k] if k in prose else None,
+                no_wrap=k not in prose,
+                overflow="fold",
+            )
         for i, r in enumerate(rows):
             last = i + 1 == len(rows) or rows[i + 1][0] != r[0]
             first = i == 0 or rows[i - 1][0] != r[0]
-            t.add_row(*([r[0] if first else "", *r[1:]] if group else r), end_section=group and last and i + 1 < len(rows))
+            t.add_row(
+                *([r[0] if first else "", *r[1:]] if group else r), end_section=group and last and i + 1 < len(rows)
+            )
         console.print(t)
         return
     if title:
@@ -712,18 +844,26 @@ def print_rows(title: str | None, headers: Sequence[str], rows: Sequence[Sequenc
 
 def table_rows(table: _core.Table, length: str, angle: str) -> list[dict]:
     """The table's rows in display units (:func:`denavit.io.units.cell_scale`), keyed by column name."""
-    return [{c: float(v / cell_scale(table, i, k, length, angle)[0]) for k, (c, v) in enumerate(zip(table.columns, row))}
-            for i, row in enumerate(table.params)]
+    return [
+        {c: float(v / cell_scale(table, i, k, length, angle)[0]) for k, (c, v) in enumerate(zip(table.columns, row))}
+        for i, row in enumerate(table.params)
+    ]
 
 
 def print_table(table: _core.Table, names: list[str], length: str, angle: str, title: str) -> None:
     """A parameter table with each column's unit in its header and the digits of that unit."""
     prismatic_poe = table.convention == "poe" and "prismatic" in table.kinds
     units = [column_scale(table, k, length, angle)[1] for k in range(len(table.columns))]
-    rows = [[n, *(num(v, cell_scale(table, i, k, length, angle)[1]) for k, v in enumerate(row.values()))]
-            for i, (n, row) in enumerate(zip(names, table_rows(table, length, angle)))]
-    print_rows(title, ["joint", *(f"{c} [{u}]" for c, u in zip(table.columns, units))], rows,
-               caption="v of a prismatic joint: its unit direction [1]" if prismatic_poe else None)
+    rows = [
+        [n, *(num(v, cell_scale(table, i, k, length, angle)[1]) for k, v in enumerate(row.values()))]
+        for i, (n, row) in enumerate(zip(names, table_rows(table, length, angle)))
+    ]
+    print_rows(
+        title,
+        ["joint", *(f"{c} [{u}]" for c, u in zip(table.columns, units))],
+        rows,
+        caption="v of a prismatic joint: its unit direction [1]" if prismatic_poe else None,
+    )
 
 
 def calib_unit(unit: str, length: str, angle: str) -> tuple[str, float]:

@@ -34,21 +34,71 @@ from .common import (
 
 @commands.command()
 def compensate(
-    targets: Annotated[str, typer.Argument(help="The program: a CSV of tool poses 'x,y,z,rx,ry,rz' (rotation vector) and/or joint rows 'q1..qn', with a '# units:' line; or a robot program (KUKA .src with its .dat, ABB .mod, FANUC .ls, URScript .script), written back with only its positions changed.")],
-    nominal: Annotated[str, typer.Option("--nominal", help="The controller's model: a built-in name, a robot file or a URDF.")],
-    identified: Annotated[str, typer.Option("--identified", help="The identified robot (e.g. from identify/calibrate --save), in the same robot base frame.")],
-    output: Annotated[str | None, typer.Option("-o", "--output", help="Write the compensated program (CSV: commands, their joint values, flags, errors before and predicted after per row); '-' for stdout.")] = None,
-    path: Annotated[bool, typer.Option("--path", help="The targets form a path: warm-start along it and flag branch jumps.")] = False,
-    branch_tol: Annotated[float | None, typer.Option("--branch-tol", help="Largest joint change from the program's solution that keeps its branch, in --angle (revolute) units (default 5 deg whatever the unit).")] = None,
+    targets: Annotated[
+        str,
+        typer.Argument(
+            help="The program: a CSV of tool poses 'x,y,z,rx,ry,rz' (rotation vector) and/or joint rows 'q1..qn', with a '# units:' line; or a robot program (KUKA .src with its .dat, ABB .mod, FANUC .ls, URScript .script), written back with only its positions changed."
+        ),
+    ],
+    nominal: Annotated[
+        str, typer.Option("--nominal", help="The controller's model: a built-in name, a robot file or a URDF.")
+    ],
+    identified: Annotated[
+        str,
+        typer.Option(
+            "--identified",
+            help="The identified robot (e.g. from identify/calibrate --save), in the same robot base frame.",
+        ),
+    ],
+    output: Annotated[
+        str | None,
+        typer.Option(
+            "-o",
+            "--output",
+            help="Write the compensated program (CSV: commands, their joint values, flags, errors before and predicted after per row); '-' for stdout.",
+        ),
+    ] = None,
+    path: Annotated[
+        bool, typer.Option("--path", help="The targets form a path: warm-start along it and flag branch jumps.")
+    ] = False,
+    branch_tol: Annotated[
+        float | None,
+        typer.Option(
+            "--branch-tol",
+            help="Largest joint change from the program's solution that keeps its branch, in --angle (revolute) units (default 5 deg whatever the unit).",
+        ),
+    ] = None,
     length: LengthOpt = "mm",
     angle: AngleOpt = "deg",
     json_out: JsonOpt = None,
-    report: Annotated[Path | None, typer.Option("--report", help="Write a self-contained HTML report (summary, 3-D view, per-target errors).")] = None,
+    report: Annotated[
+        Path | None,
+        typer.Option("--report", help="Write a self-contained HTML report (summary, 3-D view, per-target errors)."),
+    ] = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
-    frame: Annotated[list[str] | None, typer.Option("--frame", metavar="FRAME", help="A numbered frame a robot program uses that lives in the controller: 'tool N=X,Y,Z,R1,R2,R3' or 'base N=...' (FANUC UT / UF, KUKA TOOL_DATA / BASE_DATA), mm and degrees in the program's own convention (KUKA A,B,C; FANUC W,P,R); repeatable.")] = None,
-    q0: Annotated[str | None, typer.Option("--q0", help="Rows without a configuration (poses without joint columns) are compensated on the nominal's solution nearest this, one value per joint in --angle units (prismatic: --length); default the nominal's home, else zeros.")] = None,
-    payload: Annotated[str | None, typer.Option("--payload", help="The payload on the flange for every row: its mass with a unit (kg, g) and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\" (--length units without one). With an identified robot of compliant joints (a robot file's [compliance]) the commands are those that deflect onto the targets under it.")] = None,
+    frame: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--frame",
+            metavar="FRAME",
+            help="A numbered frame a robot program uses that lives in the controller: 'tool N=X,Y,Z,R1,R2,R3' or 'base N=...' (FANUC UT / UF, KUKA TOOL_DATA / BASE_DATA), mm and degrees in the program's own convention (KUKA A,B,C; FANUC W,P,R); repeatable.",
+        ),
+    ] = None,
+    q0: Annotated[
+        str | None,
+        typer.Option(
+            "--q0",
+            help="Rows without a configuration (poses without joint columns) are compensated on the nominal's solution nearest this, one value per joint in --angle units (prismatic: --length); default the nominal's home, else zeros.",
+        ),
+    ] = None,
+    payload: Annotated[
+        str | None,
+        typer.Option(
+            "--payload",
+            help='The payload on the flange for every row: its mass with a unit (kg, g) and optionally its centre of mass in the flange frame, e.g. "5 kg @ 0,0,80 mm" (--length units without one). With an identified robot of compliant joints (a robot file\'s [compliance]) the commands are those that deflect onto the targets under it.',
+        ),
+    ] = None,
 ) -> None:
     """Compensate a program (RoboDK's "filtering"): for each target, the joint values that reach it on the
     identified robot (on the program's branch) and the pose T' = FK_nominal(q) to send to a controller that keeps
@@ -64,8 +114,12 @@ def compensate(
     check_outputs(**{"-o": output, "--json": json_out})
     json_out = json_target(json_out)
     nom_robot = load_robot(nominal, base_link, tip_link, "--nominal")
-    id_robot = load_robot(identified, base_link if str(identified).lower().endswith(".urdf") else None,
-                          tip_link if str(identified).lower().endswith(".urdf") else None, "--identified")
+    id_robot = load_robot(
+        identified,
+        base_link if str(identified).lower().endswith(".urdf") else None,
+        tip_link if str(identified).lower().endswith(".urdf") else None,
+        "--identified",
+    )
     nom, ide = nom_robot.model(), id_robot.model()
     if nom.nq != ide.nq:
         raise DenavitError(f"--identified {identified}: {ide.nq} joints, but the nominal {nom_robot.name} has {nom.nq}")
@@ -78,21 +132,45 @@ def compensate(
 
     pl = None if payload is None else parse_payload(payload, length)
     if fmt is None and frame:
-        raise DenavitError(f"--frame: {targets} is a CSV of targets in the robot base frame: expected no --frame (it names a robot program's numbered frames)")
+        raise DenavitError(
+            f"--frame: {targets} is a CSV of targets in the robot base frame: expected no --frame (it names a robot program's numbered frames)"
+        )
     if fmt is not None and pl is not None:
-        raise DenavitError(f"--payload: {targets} is a robot program; the payload applies to a CSV of targets (give the program's positions as a CSV)")
+        raise DenavitError(
+            f"--payload: {targets} is a robot program; the payload applies to a CSV of targets (give the program's positions as a CSV)"
+        )
     if fmt is not None:
         if path:
-            raise DenavitError(f"--path: {targets} is a robot program, whose positions each state their configuration (URScript poses: nearest the "
-                               "previous one): expected no --path")
-        pc = _compensate_program(targets, fmt, nom_robot, id_robot, output, q0v, positive(branch_tol, "--branch-tol", angle_scale(angle), np.radians(5.0), angle),
-                                 json_out, length, _frames(frame or [], fmt))
+            raise DenavitError(
+                f"--path: {targets} is a robot program, whose positions each state their configuration (URScript poses: nearest the "
+                "previous one): expected no --path"
+            )
+        pc = _compensate_program(
+            targets,
+            fmt,
+            nom_robot,
+            id_robot,
+            output,
+            q0v,
+            positive(branch_tol, "--branch-tol", angle_scale(angle), np.radians(5.0), angle),
+            json_out,
+            length,
+            _frames(frame or [], fmt),
+        )
         if report and pc.compensation is not None:
             from ..report import write_compensation_report  # noqa: PLC0415
 
             with status("writing the report ..."):
-                write_compensation_report(pc.compensation, nom_robot, id_robot, report, source=str(targets),
-                                          where=[pc.program.points[k].where for k in pc.rows], length=length, angle=angle)
+                write_compensation_report(
+                    pc.compensation,
+                    nom_robot,
+                    id_robot,
+                    report,
+                    source=str(targets),
+                    where=[pc.program.points[k].where for k in pc.rows],
+                    length=length,
+                    angle=angle,
+                )
             wrote(report)
         if pc.left:
             raise typer.Exit(1)
@@ -105,56 +183,118 @@ def compensate(
     far = np.flatnonzero(dist > 1.5 * reach)
     if len(far):
         k = int(far[0])
-        raise DenavitError(f"{prog.where[k]}: the target is {dist[k] / length_scale(prog.units['length']):.6g} {prog.units['length']} from the base but {nom_robot.name} "
-                           f"reaches about {reach / length_scale(prog.units['length']):.4g} {prog.units['length']} ({len(far)} such rows): is the file's length unit right?")
+        raise DenavitError(
+            f"{prog.where[k]}: the target is {dist[k] / length_scale(prog.units['length']):.6g} {prog.units['length']} from the base but {nom_robot.name} "
+            f"reaches about {reach / length_scale(prog.units['length']):.4g} {prog.units['length']} ({len(far)} such rows): is the file's length unit right?"
+        )
     with status(f"compensating {len(poses)} targets ..."):
         # (the robots, not their models: the identified robot's reading model, [couplings] and [readings], applies)
-        c = cp.compensate(nom_robot, id_robot, poses, q_nominal=prog.q, q0=q0v, path=path,
-                          branch_tol=positive(branch_tol, "--branch-tol", angle_scale(angle), np.radians(5.0), angle), payload=pl)
+        c = cp.compensate(
+            nom_robot,
+            id_robot,
+            poses,
+            q_nominal=prog.q,
+            q0=q0v,
+            path=path,
+            branch_tol=positive(branch_tol, "--branch-tol", angle_scale(angle), np.radians(5.0), angle),
+            payload=pl,
+        )
     for n in c.notes:
         say("yellow", "note:", f" {n}")
     ls = length_scale(length)
-    flagged = [(w, why) for w, ok, r, b, j in zip(prog.where, c.ok, c.reached, c.branch_changed, c.path_jump, strict=True) if not ok
-               for why in [", ".join(x for x, f in (("unreachable", not r), ("branch changed", b), ("path jump", j)) if f)]]
+    flagged = [
+        (w, why)
+        for w, ok, r, b, j in zip(prog.where, c.ok, c.reached, c.branch_changed, c.path_jump, strict=True)
+        if not ok
+        for why in [", ".join(x for x, f in (("unreachable", not r), ("branch changed", b), ("path jump", j)) if f)]
+    ]
     before_rms = float(np.sqrt(np.mean(c.before[c.ok] ** 2))) if c.ok.any() else float("nan")
     # the predicted error after compensation (1 sigma), from the identified robot's covariance (identify --save)
     predicted = c.predicted_after  # (compensate's table_sigma of the robot file's [covariance], when it has one)
     if output:
-        write_compensated(output, c, kinds, length=length, angle=angle, comment=f"compensated for {nom_robot.name} -> {id_robot.name} from {targets}",
-                          predicted_after=predicted, q0=q0v)
+        write_compensated(
+            output,
+            c,
+            kinds,
+            length=length,
+            angle=angle,
+            comment=f"compensated for {nom_robot.name} -> {id_robot.name} from {targets}",
+            predicted_after=predicted,
+            q0=q0v,
+        )
         wrote(output, f" ({len(c)} rows, {len(flagged)} flagged)")
-    summary = {"targets": len(c), "flagged": len(flagged), "units": SI_UNITS,
-               "before_rms_m": before_rms, "before_max_m": float(c.before[c.ok].max()) if c.ok.any() else None,
-               "residual_max_m": float(c.residual[c.ok].max()) if c.ok.any() else None,
-               "flagged_rows": [{"where": w, "why": why} for w, why in flagged], "notes": list(c.notes),
-               "without_configuration": [w for w, a in zip(prog.where, c.assumed, strict=True) if a], "assumed_near": {"q": [float(v) for v in q0v]}}
+    summary = {
+        "targets": len(c),
+        "flagged": len(flagged),
+        "units": SI_UNITS,
+        "before_rms_m": before_rms,
+        "before_max_m": float(c.before[c.ok].max()) if c.ok.any() else None,
+        "residual_max_m": float(c.residual[c.ok].max()) if c.ok.any() else None,
+        "flagged_rows": [{"where": w, "why": why} for w, why in flagged],
+        "notes": list(c.notes),
+        "without_configuration": [w for w, a in zip(prog.where, c.assumed, strict=True) if a],
+        "assumed_near": {"q": [float(v) for v in q0v]},
+    }
     if predicted is not None:
         summary["predicted_after_rms_m"] = float(np.sqrt(np.mean(predicted[c.ok] ** 2))) if c.ok.any() else None
-        summary["predicted_after"] = [{"where": w, "sigma_m": float(p)} for w, p in zip(prog.where, predicted, strict=True)]
+        summary["predicted_after"] = [
+            {"where": w, "sigma_m": float(p)} for w, p in zip(prog.where, predicted, strict=True)
+        ]
     # the compensated program, row by row (as -o writes it, in SI): the joint row and the pose to send, flags, errors
     summary["joint_units"] = ["rad" if k == "revolute" else "m" for k in kinds]
-    summary["rows"] = [{"where": prog.where[k], "q": [float(v) for v in c.q_command[k]], "T_command": c.commands[k].tolist(),
-                        "ok": bool(c.ok[k]), "reached": bool(c.reached[k]), "branch_changed": bool(c.branch_changed[k]), "path_jump": bool(c.path_jump[k]),
-                        "before_m": float(c.before[k]), "before_rotation_rad": float(c.before_rotation[k]), "residual_m": float(c.residual[k]),
-                        "residual_rotation_rad": float(c.residual_rotation[k]), "predicted_after_m": None if predicted is None else float(predicted[k]),
-                        "configuration": {"source": "assumed" if c.assumed[k] else "program", "q": [float(v) for v in c.q_nominal[k]]}}
-                       for k in range(len(c))]
+    summary["rows"] = [
+        {
+            "where": prog.where[k],
+            "q": [float(v) for v in c.q_command[k]],
+            "T_command": c.commands[k].tolist(),
+            "ok": bool(c.ok[k]),
+            "reached": bool(c.reached[k]),
+            "branch_changed": bool(c.branch_changed[k]),
+            "path_jump": bool(c.path_jump[k]),
+            "before_m": float(c.before[k]),
+            "before_rotation_rad": float(c.before_rotation[k]),
+            "residual_m": float(c.residual[k]),
+            "residual_rotation_rad": float(c.residual_rotation[k]),
+            "predicted_after_m": None if predicted is None else float(predicted[k]),
+            "configuration": {
+                "source": "assumed" if c.assumed[k] else "program",
+                "q": [float(v) for v in c.q_nominal[k]],
+            },
+        }
+        for k in range(len(c))
+    ]
     emit_json(summary, json_out)
     if json_out != "-" and output != "-":
-        left_out = f" (over the {int(c.ok.sum())} rows that can be sent: the {len(flagged)} flagged left out)" if flagged else ""
-        gain = (f"; error without compensation {spread(before_rms / ls)} {length} RMS, max {spread(summary['before_max_m'] / ls)} {length}{left_out}"
-                if c.ok.any() else "; no target can be sent (is the identified robot a calibration of the nominal?)")
+        left_out = (
+            f" (over the {int(c.ok.sum())} rows that can be sent: the {len(flagged)} flagged left out)"
+            if flagged
+            else ""
+        )
+        gain = (
+            f"; error without compensation {spread(before_rms / ls)} {length} RMS, max {spread(summary['before_max_m'] / ls)} {length}{left_out}"
+            if c.ok.any()
+            else "; no target can be sent (is the identified robot a calibration of the nominal?)"
+        )
         say("bold", f"{nom_robot.name} -> {id_robot.name}:", f" {len(c)} targets, {len(flagged)} flagged{gain}")
         if c.assumed.any():
             from ..io.units import joint_scale  # noqa: PLC0415
 
             js = joint_scale(kinds, length, angle)
-            say("yellow", "configuration:", f" {int(c.assumed.sum())} of {len(c)} rows had none (no joint columns): each compensated on the nominal's solution "
+            say(
+                "yellow",
+                "configuration:",
+                f" {int(c.assumed.sum())} of {len(c)} rows had none (no joint columns): each compensated on the nominal's solution "
                 f"nearest --q0 ({', '.join(f'{v:.6g}' for v in q0v / js)} {angle}); that configuration is each row's q1..q{len(kinds)} "
-                "('configuration' per row in --json). Give the program's joint values as q columns to keep its own")
+                "('configuration' per row in --json). Give the program's joint values as q columns to keep its own",
+            )
         if predicted is not None and c.ok.any():
-            say("bold", "Predicted error after compensation", f" (1 sigma, from {id_robot.name}'s covariance): rms {summary['predicted_after_rms_m'] / ls:.4g} {length}, "
-                f"max {float(predicted[c.ok].max()) / ls:.4g} {length}" + (" (per row in --json)" if len(c) > 20 else ""))
+            say(
+                "bold",
+                "Predicted error after compensation",
+                f" (1 sigma, from {id_robot.name}'s covariance): rms {summary['predicted_after_rms_m'] / ls:.4g} {length}, "
+                f"max {float(predicted[c.ok].max()) / ls:.4g} {length}"
+                + (" (per row in --json)" if len(c) > 20 else ""),
+            )
             if len(c) <= 20:
                 for w, p in zip(prog.where, predicted, strict=True):
                     console.print(f"  {w}: {p / ls:.4g} {length}")
@@ -166,7 +306,9 @@ def compensate(
         from ..report import write_compensation_report  # noqa: PLC0415
 
         with status("writing the report ..."):
-            write_compensation_report(c, nom_robot, id_robot, report, source=str(targets), where=prog.where, length=length, angle=angle)
+            write_compensation_report(
+                c, nom_robot, id_robot, report, source=str(targets), where=prog.where, length=length, angle=angle
+            )
         wrote(report)
     if flagged:
         raise typer.Exit(1)
@@ -179,7 +321,9 @@ def _frames(texts: list[str], fmt: str) -> dict:
     from ..io import programs as pg  # noqa: PLC0415
 
     if texts and fmt not in ("kuka", "fanuc"):
-        raise DenavitError(f"--frame: a {fmt} program declares its frames itself (expected --frame only for KUKA or FANUC programs)")
+        raise DenavitError(
+            f"--frame: a {fmt} program declares its frames itself (expected --frame only for KUKA or FANUC programs)"
+        )
     out = {}
     for t in texts:
         m = re.fullmatch(r"\s*(tool|base|ut|uf)\s*(\d+)\s*=\s*(.*)", t, re.IGNORECASE)
@@ -190,7 +334,9 @@ def _frames(texts: list[str], fmt: str) -> dict:
             except ValueError:
                 vals = None
         if not m or vals is None or len(vals) != 6 or int(m.group(2)) < 1 or not all(map(math.isfinite, vals)):
-            raise DenavitError(f"--frame {t!r}: expected 'tool N=X,Y,Z,R1,R2,R3' or 'base N=...' (N >= 1; mm and degrees)")
+            raise DenavitError(
+                f"--frame {t!r}: expected 'tool N=X,Y,Z,R1,R2,R3' or 'base N=...' (N >= 1; mm and degrees)"
+            )
         kind = {"ut": "tool", "uf": "base"}.get(m.group(1).lower(), m.group(1).lower())
         out[(kind, int(m.group(2)))] = pg.vendor(fmt).to_pose(vals)
     return out
@@ -216,26 +362,61 @@ def _compensate_program(path, fmt, nom_robot, id_robot, output, q0v, branch_tol,
     written = []
     if output:
         if output == "-" and len(prog.sources) > 1:
-            raise DenavitError(f"-o -: {path} is a program of {len(prog.sources)} files ({', '.join(Path(s.path).name for s in prog.sources)}): expected a path")
+            raise DenavitError(
+                f"-o -: {path} is a program of {len(prog.sources)} files ({', '.join(Path(s.path).name for s in prog.sources)}): expected a path"
+            )
         written = pg.write_program(prog, output, pc.new_values)
         for w in written:
-            wrote(w, f" ({len(pc.new_values)} of {len(prog.points)} positions compensated, {len(pc.left)} left as they were)" if w == written[0] else "")
+            wrote(
+                w,
+                f" ({len(pc.new_values)} of {len(prog.points)} positions compensated, {len(pc.left)} left as they were)"
+                if w == written[0]
+                else "",
+            )
     ok = c.ok if c is not None else np.zeros(0, dtype=bool)
     ls = length_scale(length)
     before = c.before[ok] if c is not None else np.zeros(0)
-    summary = {"program": str(path), "format": fmt, "units": SI_UNITS, "targets": len(prog.points), "flagged": len(pc.left),
-               "left": [{"where": w, "why": why} for w, why in pc.left], "notes": list(prog.notes) + (list(c.notes) if c is not None else []),
-               "before_rms_m": float(np.sqrt(np.mean(before**2))) if len(before) else None, "outputs": written,
-               "rows": [{"where": prog.points[k].where, "name": prog.points[k].name, "kind": prog.points[k].kind,
-                         "configuration": {"source": "program" if prog.points[k].config is not None or prog.points[k].kind == "joints" else "assumed",
-                                           "stated": None if prog.points[k].config is None else prog.vendor.describe(prog.points[k].config),
-                                           "q": [float(v) for v in pc.q_program[i]]},
-                         "compensated": k in pc.new_values,
-                         "before_m": float(c.before[i]), "residual_m": float(c.residual[i])} for i, k in enumerate(pc.rows)]}
+    summary = {
+        "program": str(path),
+        "format": fmt,
+        "units": SI_UNITS,
+        "targets": len(prog.points),
+        "flagged": len(pc.left),
+        "left": [{"where": w, "why": why} for w, why in pc.left],
+        "notes": list(prog.notes) + (list(c.notes) if c is not None else []),
+        "before_rms_m": float(np.sqrt(np.mean(before**2))) if len(before) else None,
+        "outputs": written,
+        "rows": [
+            {
+                "where": prog.points[k].where,
+                "name": prog.points[k].name,
+                "kind": prog.points[k].kind,
+                "configuration": {
+                    "source": "program"
+                    if prog.points[k].config is not None or prog.points[k].kind == "joints"
+                    else "assumed",
+                    "stated": None if prog.points[k].config is None else prog.vendor.describe(prog.points[k].config),
+                    "q": [float(v) for v in pc.q_program[i]],
+                },
+                "compensated": k in pc.new_values,
+                "before_m": float(c.before[i]),
+                "residual_m": float(c.residual[i]),
+            }
+            for i, k in enumerate(pc.rows)
+        ],
+    }
     emit_json(summary, json_out)
     if json_out != "-" and output != "-":
-        gain = f"; error without compensation {spread(summary['before_rms_m'] / ls)} {length} RMS" if summary["before_rms_m"] is not None else ""
-        say("bold", f"{nom_robot.name} -> {id_robot.name}:", f" {len(prog.points)} positions ({fmt}), {len(pc.new_values)} compensated, {len(pc.left)} left as they were{gain}")
+        gain = (
+            f"; error without compensation {spread(summary['before_rms_m'] / ls)} {length} RMS"
+            if summary["before_rms_m"] is not None
+            else ""
+        )
+        say(
+            "bold",
+            f"{nom_robot.name} -> {id_robot.name}:",
+            f" {len(prog.points)} positions ({fmt}), {len(pc.new_values)} compensated, {len(pc.left)} left as they were{gain}",
+        )
         for w, why in pc.left[:20]:
             console.print(f"  {w}: {why}")
         if len(pc.left) > 20:

@@ -41,10 +41,17 @@ from .common import (
 def convert(
     model: ModelArg,
     to: Annotated[str, typer.Option("--to", help="dh | mdh | edh | poe | urdf (or an alias: sdh, craig, ...)")],
-    output: Annotated[Path | None, typer.Option("-o", "--output", help="Write a robot file (.toml) or URDF instead of printing ('-': standard output).")] = None,
+    output: Annotated[
+        Path | None,
+        typer.Option(
+            "-o", "--output", help="Write a robot file (.toml) or URDF instead of printing ('-': standard output)."
+        ),
+    ] = None,
     length: LengthOpt = "mm",
     angle: AngleOpt = "deg",
-    parallel_tol: Annotated[float, typer.Option(help="Axes with sin(angle) below this (unitless) are parallel.")] = 1e-3,
+    parallel_tol: Annotated[
+        float, typer.Option(help="Axes with sin(angle) below this (unitless) are parallel.")
+    ] = 1e-3,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
     chain_only: ChainOnlyOpt = False,
@@ -65,14 +72,18 @@ def convert(
     json_out = json_target(json_out)
     to = to.lower()
     if not (math.isfinite(parallel_tol) and 0.0 <= parallel_tol < 1.0):
-        fail(f"--parallel-tol {parallel_tol}: expected the sine of an angle, 0 <= value < 1 (default 1e-3, about 0.057 deg)")
+        fail(
+            f"--parallel-tol {parallel_tol}: expected the sine of an angle, 0 <= value < 1 (default 1e-3, about 0.057 deg)"
+        )
     robot = load_robot(model, base_link, tip_link, chain_only=chain_only)
     m = robot.model()
     if to == "urdf":
         from ..io.urdf import dumps_urdf, save_urdf  # noqa: PLC0415
 
         if json_out:  # it had been ignored without a word
-            fail("--json: --to urdf writes URDF (XML), which has no JSON form; the JSON table is of a convention (--to dh | mdh | edh | poe)")
+            fail(
+                "--json: --to urdf writes URDF (XML), which has no JSON form; the JSON table is of a convention (--to dh | mdh | edh | poe)"
+            )
 
         if output is None:
             print(dumps_urdf(m, robot))
@@ -89,19 +100,55 @@ def convert(
         from ..compensation import converted_covariance  # noqa: PLC0415
 
         cov = converted_covariance(robot, ex.table, parallel_tol=parallel_tol, nominal=nominal)
-    new = Robot(name=robot.name, table=ex.table, names=robot.names, lower=robot.lower, upper=robot.upper,
-                description=f"{robot.description} -> {to}", source=robot.source, home=robot.home, extra=robot.extra,
-                coupling=robot.coupling, reading_scale=robot.reading_scale, reading_reference=robot.reading_reference, covariance=cov)
+    new = Robot(
+        name=robot.name,
+        table=ex.table,
+        names=robot.names,
+        lower=robot.lower,
+        upper=robot.upper,
+        description=f"{robot.description} -> {to}",
+        source=robot.source,
+        home=robot.home,
+        extra=robot.extra,
+        coupling=robot.coupling,
+        reading_scale=robot.reading_scale,
+        reading_reference=robot.reading_reference,
+        covariance=cov,
+    )
     if robot.inertials is not None:
         try:  # the same physical links, re-expressed in the new convention's frames
-            new = dataclasses.replace(new, inertials=inertials_for_table(m, ex.table, robot.names, robot.lower, robot.upper))
+            new = dataclasses.replace(
+                new, inertials=inertials_for_table(m, ex.table, robot.names, robot.lower, robot.upper)
+            )
         except DenavitError as e:
-            say("bold yellow", "warning:", f" link inertias not carried over (the {to} table does not reproduce the joint axes exactly): {e}", err=True)
+            say(
+                "bold yellow",
+                "warning:",
+                f" link inertias not carried over (the {to} table does not reproduce the joint axes exactly): {e}",
+                err=True,
+            )
     if json_out:  # (also beside -o: the table as written, in SI)
-        emit_json({"model": robot.name, "convention": to, "units": SI_UNITS,
-                   "rows": [{"joint": n, **r} for n, r in zip(robot.names, table_rows(ex.table, "m", "rad"))],
-                   "pairs": [{"joint": p.joint, "relation": p.relation, "angle_rad": p.angle, "distance_m": p.distance, "hayati_beta_rad": p.hayati_beta} for p in ex.pairs],
-                   "max_tool_position_error_m": ex.max_position_error, "max_tool_rotation_error_rad": ex.max_rotation_error}, json_out)
+        emit_json(
+            {
+                "model": robot.name,
+                "convention": to,
+                "units": SI_UNITS,
+                "rows": [{"joint": n, **r} for n, r in zip(robot.names, table_rows(ex.table, "m", "rad"))],
+                "pairs": [
+                    {
+                        "joint": p.joint,
+                        "relation": p.relation,
+                        "angle_rad": p.angle,
+                        "distance_m": p.distance,
+                        "hayati_beta_rad": p.hayati_beta,
+                    }
+                    for p in ex.pairs
+                ],
+                "max_tool_position_error_m": ex.max_position_error,
+                "max_tool_rotation_error_rad": ex.max_rotation_error,
+            },
+            json_out,
+        )
     if output is not None:
         from ..io.robotfile import save  # noqa: PLC0415
 
@@ -112,6 +159,21 @@ def convert(
         return
     ls, as_ = length_scale(length), angle_scale(angle)
     print_table(ex.table, robot.names, length, angle, f"{robot.name} in {to}")
-    print_rows("Consecutive axes", ["pair", "relation", f"angle [{angle}]", f"distance [{length}]", f"Hayati beta [{angle}]"],
-               [[f"{p.joint}-{p.joint + 1}", p.relation, num(p.angle / as_, angle), num(p.distance / ls, length), num(p.hayati_beta / as_, angle)] for p in ex.pairs], labels=2)
-    console.print(f"FK parity: max tool error {spread(ex.max_position_error / ls)} {length}, {spread(ex.max_rotation_error / as_)} {angle}")
+    print_rows(
+        "Consecutive axes",
+        ["pair", "relation", f"angle [{angle}]", f"distance [{length}]", f"Hayati beta [{angle}]"],
+        [
+            [
+                f"{p.joint}-{p.joint + 1}",
+                p.relation,
+                num(p.angle / as_, angle),
+                num(p.distance / ls, length),
+                num(p.hayati_beta / as_, angle),
+            ]
+            for p in ex.pairs
+        ],
+        labels=2,
+    )
+    console.print(
+        f"FK parity: max tool error {spread(ex.max_position_error / ls)} {length}, {spread(ex.max_rotation_error / as_)} {angle}"
+    )

@@ -31,13 +31,33 @@ from .common import (
 @commands.command()
 def dynamics(
     model: ModelArg,
-    q: Annotated[str | None, typer.Option("--q", help="Joint values, one per joint, in --angle units (prismatic: --length); default zeros.")] = None,
-    qd: Annotated[str | None, typer.Option("--qd", help="Joint velocities in --angle (prismatic: --length) units per second; default zeros.")] = None,
-    qdd: Annotated[str | None, typer.Option("--qdd", help="Joint accelerations in --angle (prismatic: --length) units per second squared; default zeros.")] = None,
+    q: Annotated[
+        str | None,
+        typer.Option("--q", help="Joint values, one per joint, in --angle units (prismatic: --length); default zeros."),
+    ] = None,
+    qd: Annotated[
+        str | None,
+        typer.Option("--qd", help="Joint velocities in --angle (prismatic: --length) units per second; default zeros."),
+    ] = None,
+    qdd: Annotated[
+        str | None,
+        typer.Option(
+            "--qdd",
+            help="Joint accelerations in --angle (prismatic: --length) units per second squared; default zeros.",
+        ),
+    ] = None,
     length: LengthOpt = "mm",
     angle: AngleOpt = "deg",
-    gravity: Annotated[str, typer.Option("--gravity", help="Gravity in world, m/s^2 (SI whatever --length).")] = "0,0,-9.81",
-    f_ext: Annotated[str | None, typer.Option("--f-ext", help="Wrench on the tool by the environment, \"fx,fy,fz,nx,ny,nz\" in N and N m (SI), tool-frame axes, moment about the tool origin.")] = None,
+    gravity: Annotated[
+        str, typer.Option("--gravity", help="Gravity in world, m/s^2 (SI whatever --length).")
+    ] = "0,0,-9.81",
+    f_ext: Annotated[
+        str | None,
+        typer.Option(
+            "--f-ext",
+            help='Wrench on the tool by the environment, "fx,fy,fz,nx,ny,nz" in N and N m (SI), tool-frame axes, moment about the tool origin.',
+        ),
+    ] = None,
     json_out: JsonOpt = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
@@ -54,7 +74,9 @@ def dynamics(
     robot = load_robot(model, base_link, tip_link, chain_only=chain_only)
     m = robot.model()
     qv = parse_joint_values(q, "--q", robot, length, angle)
-    qdv, qddv = (parse_joint_values(t, what, robot, length, angle, limits=False) for t, what in ((qd, "--qd"), (qdd, "--qdd")))
+    qdv, qddv = (
+        parse_joint_values(t, what, robot, length, angle, limits=False) for t, what in ((qd, "--qd"), (qdd, "--qdd"))
+    )
     _check_rates(qdv, robot, length, angle)
     g = parse_numbers(gravity, "--gravity")
     if len(g) != 3:
@@ -65,15 +87,26 @@ def dynamics(
     tau = _core.rnea(m, qv, qdv, qddv, gravity=g, f_ext=f)
     tau_g = _core.gravity_torques(m, qv, gravity=g)
     units = ["N m" if k == "revolute" else "N" for k in robot.table.kinds]
-    warning = None if robot.inertials is not None else f"{robot.name} carries no inertial parameters ([joints.inertia]): every link is massless"
+    warning = (
+        None
+        if robot.inertials is not None
+        else f"{robot.name} carries no inertial parameters ([joints.inertia]): every link is massless"
+    )
     if warning:
         say("bold yellow", "warning:", f" {warning}", err=True)
     if json_out:
         doc = {
             "model": robot.name,
             "units": {**SI_UNITS, "time": "s", "torque": "N m", "force": "N"},
-            "q": qv.tolist(), "qd": qdv.tolist(), "qdd": qddv.tolist(), "joint_units": ["rad" if k == "revolute" else "m" for k in robot.table.kinds],
-            "gravity_m_s2": g, "f_ext": f, "tau": tau.tolist(), "tau_gravity": tau_g.tolist(), "tau_units": units,
+            "q": qv.tolist(),
+            "qd": qdv.tolist(),
+            "qdd": qddv.tolist(),
+            "joint_units": ["rad" if k == "revolute" else "m" for k in robot.table.kinds],
+            "gravity_m_s2": g,
+            "f_ext": f,
+            "tau": tau.tolist(),
+            "tau_gravity": tau_g.tolist(),
+            "tau_units": units,
         }
         if warning:
             doc["warning"] = warning
@@ -81,7 +114,12 @@ def dynamics(
         if json_out == "-":
             return
     say("bold", robot.name, f" ({robot.description}) — inverse dynamics, gravity {g} m/s^2 in world")
-    print_rows("Joint efforts", ["joint", "tau", "of which gravity", "unit"], [[n, fmt(v), fmt(vg), u] for n, v, vg, u in zip(robot.names, tau, tau_g, units)], left=(3,))
+    print_rows(
+        "Joint efforts",
+        ["joint", "tau", "of which gravity", "unit"],
+        [[n, fmt(v), fmt(vg), u] for n, v, vg, u in zip(robot.names, tau, tau_g, units)],
+        left=(3,),
+    )
 
 
 def _check_rates(qd, robot, length: str, angle: str) -> None:
@@ -98,4 +136,6 @@ def _check_rates(qd, robot, length: str, angle: str) -> None:
     for j, v in enumerate(qd):
         if abs(v) > bound:
             u = joint_unit(robot.table.kinds[j], length, angle)
-            fail(f"--qd: joint {robot.names[j]} = {v / sc[j]:.6g} {u}/s: expected |qd| <= {bound / sc[j]:.5g} {u}/s (rates whose squares are finite)")
+            fail(
+                f"--qd: joint {robot.names[j]} = {v / sc[j]:.6g} {u}/s: expected |qd| <= {bound / sc[j]:.5g} {u}/s (rates whose squares are finite)"
+            )

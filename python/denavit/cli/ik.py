@@ -37,14 +37,40 @@ from .common import (
 @commands.command()
 def ik(
     model: ModelArg,
-    pose: Annotated[str, typer.Option("--pose", help="Target T_world_tool: x, y, z, roll, pitch, yaw (six numbers separated by commas) (--length and --angle units; R = Rz(yaw) Ry(pitch) Rx(roll)) or the rows of the 4x4 pose, 16 (or 12) numbers, the translation in --length units.")],
-    q0: Annotated[str | None, typer.Option("--q0", help="Start configuration, one value per joint, in --angle units (prismatic: --length); default zeros.")] = None,
+    pose: Annotated[
+        str,
+        typer.Option(
+            "--pose",
+            help="Target T_world_tool: x, y, z, roll, pitch, yaw (six numbers separated by commas) (--length and --angle units; R = Rz(yaw) Ry(pitch) Rx(roll)) or the rows of the 4x4 pose, 16 (or 12) numbers, the translation in --length units.",
+        ),
+    ],
+    q0: Annotated[
+        str | None,
+        typer.Option(
+            "--q0",
+            help="Start configuration, one value per joint, in --angle units (prismatic: --length); default zeros.",
+        ),
+    ] = None,
     length: LengthOpt = "mm",
     angle: AngleOpt = "deg",
     method: Annotated[str, typer.Option("--method", help="lm (Levenberg-Marquardt) | newton (Newton-Raphson)")] = "lm",
-    tol_position: Annotated[float | None, typer.Option("--tol-position", help="Largest accepted position error, in --length units (default 1e-10 m, whatever the unit).")] = None,
-    tol_rotation: Annotated[float | None, typer.Option("--tol-rotation", help="Largest accepted rotation error, in --angle units (default 1e-10 rad, whatever the unit).")] = None,
-    restarts: Annotated[int, typer.Option("--restarts", help="Further attempts from seeded random configurations.")] = 50,
+    tol_position: Annotated[
+        float | None,
+        typer.Option(
+            "--tol-position",
+            help="Largest accepted position error, in --length units (default 1e-10 m, whatever the unit).",
+        ),
+    ] = None,
+    tol_rotation: Annotated[
+        float | None,
+        typer.Option(
+            "--tol-rotation",
+            help="Largest accepted rotation error, in --angle units (default 1e-10 rad, whatever the unit).",
+        ),
+    ] = None,
+    restarts: Annotated[
+        int, typer.Option("--restarts", help="Further attempts from seeded random configurations.")
+    ] = 50,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the random restarts.")] = 0,
     no_limits: Annotated[bool, typer.Option("--no-limits", help="Ignore the joint limits.")] = False,
     json_out: JsonOpt = None,
@@ -66,23 +92,57 @@ def ik(
     tp = positive(tol_position, "--tol-position", ls, 1e-10, length)
     tr = positive(tol_rotation, "--tol-rotation", as_, 1e-10, angle)
     try:
-        r = _core.ik(m, T, start, method=method, tol_position=tp, tol_rotation=tr, restarts=restarts, seed=seed, respect_limits=not no_limits)
+        r = _core.ik(
+            m,
+            T,
+            start,
+            method=method,
+            tol_position=tp,
+            tol_rotation=tr,
+            restarts=restarts,
+            seed=seed,
+            respect_limits=not no_limits,
+        )
     except DenavitError as e:  # the core names the target T_target (the error's `what`): say which option gave it
         if str(getattr(e, "what", "") or "").startswith("T_target"):
             fail(f"--pose: {e}")
         raise
     if json_out:
-        emit_json({"model": robot.name, "units": SI_UNITS, "success": r.success, "q": list(map(float, r.q)),
-                   "joint_units": ["rad" if k == "revolute" else "m" for k in robot.table.kinds], "iterations": r.iterations, "restarts": r.restarts,
-                   "position_error_m": r.position_error, "rotation_error_rad": r.rotation_error, "T_world_tool": pose_rows(_core.fk(m, r.q), 1.0)}, json_out)
+        emit_json(
+            {
+                "model": robot.name,
+                "units": SI_UNITS,
+                "success": r.success,
+                "q": list(map(float, r.q)),
+                "joint_units": ["rad" if k == "revolute" else "m" for k in robot.table.kinds],
+                "iterations": r.iterations,
+                "restarts": r.restarts,
+                "position_error_m": r.position_error,
+                "rotation_error_rad": r.rotation_error,
+                "T_world_tool": pose_rows(_core.fk(m, r.q), 1.0),
+            },
+            json_out,
+        )
     if json_out != "-":
         verdict = ("solved", "bold green") if r.success else ("not solved", "bold red")
-        console.print(Text.assemble((robot.name, "bold"), " — ", verdict, f": position error {spread(r.position_error / ls)} {length}, "
-                                    f"rotation error {spread(r.rotation_error / as_)} {angle} ({r.iterations} iterations, {r.restarts} restarts)"))
+        console.print(
+            Text.assemble(
+                (robot.name, "bold"),
+                " — ",
+                verdict,
+                f": position error {spread(r.position_error / ls)} {length}, "
+                f"rotation error {spread(r.rotation_error / as_)} {angle} ({r.iterations} iterations, {r.restarts} restarts)",
+            )
+        )
         q_out = joint_values_out(r.q, robot, length, angle)
-        print_rows("q", ["joint", "q", "unit"], [[n, num(v, joint_unit(k, length, angle)), joint_unit(k, length, angle)]
-                                                for n, v, k in zip(robot.names, q_out, robot.table.kinds)], left=(2,))
+        print_rows(
+            "q",
+            ["joint", "q", "unit"],
+            [
+                [n, num(v, joint_unit(k, length, angle)), joint_unit(k, length, angle)]
+                for n, v, k in zip(robot.names, q_out, robot.table.kinds)
+            ],
+            left=(2,),
+        )
     if not r.success:
         raise typer.Exit(1)
-
-

@@ -12,12 +12,35 @@ from .common import commands, console
 
 @commands.command()
 def inspect(
-    recording: Annotated[Path, typer.Argument(help="A tracker export, a UR RTDE log, a KUKA RSI log, a ROS bag, or a delimited file (with --columns).")],
-    data_format: Annotated[str, typer.Option("--format", help="auto (from the content) | tracker | rtde | rsi | bag | columns")] = "auto",
-    columns: Annotated[str | None, typer.Option("--columns", help="Column map of a delimited file, e.g. \"t,q1..q6,x,y,z\".")] = None,
-    sweep: Annotated[str | None, typer.Option("--sweep", help="Tracker export: 'group' or a point-name pattern such as 'J{joint}_{index}'.")] = None,
-    length: Annotated[str | None, typer.Option("--length", help="Length unit of the file where it declares none (then required): mm | m | cm | um | in.")] = None,
-    angle: Annotated[str | None, typer.Option("--angle", help="Angle unit of the file where it declares none, and of the joint values printed (default deg): deg | rad.")] = None,
+    recording: Annotated[
+        Path,
+        typer.Argument(
+            help="A tracker export, a UR RTDE log, a KUKA RSI log, a ROS bag, or a delimited file (with --columns)."
+        ),
+    ],
+    data_format: Annotated[
+        str, typer.Option("--format", help="auto (from the content) | tracker | rtde | rsi | bag | columns")
+    ] = "auto",
+    columns: Annotated[
+        str | None, typer.Option("--columns", help='Column map of a delimited file, e.g. "t,q1..q6,x,y,z".')
+    ] = None,
+    sweep: Annotated[
+        str | None,
+        typer.Option("--sweep", help="Tracker export: 'group' or a point-name pattern such as 'J{joint}_{index}'."),
+    ] = None,
+    length: Annotated[
+        str | None,
+        typer.Option(
+            "--length", help="Length unit of the file where it declares none (then required): mm | m | cm | um | in."
+        ),
+    ] = None,
+    angle: Annotated[
+        str | None,
+        typer.Option(
+            "--angle",
+            help="Angle unit of the file where it declares none, and of the joint values printed (default deg): deg | rad.",
+        ),
+    ] = None,
 ) -> None:
     """Print what a recording holds: the reader used, joints, targets, rates and units, and the sweeps the
     segmentation finds (joint, rows, start and end, dwell left out), for checking before `identify`."""

@@ -45,22 +45,65 @@ NOISE_M = 2e-5
 @commands.command()
 def plan(
     model: ModelArg,
-    ranges: Annotated[str | None, typer.Option("--ranges", help="Sweeps: per-joint start,end pairs in --angle units (prismatic: --length), or 'paper30' / 'paper90' (Hayat Table II).")] = None,
-    home: Annotated[str | None, typer.Option("--home", help="Home configuration of the sweeps in --angle units, prismatic joints in --length (default: the model file's home, else zeros).")] = None,
+    ranges: Annotated[
+        str | None,
+        typer.Option(
+            "--ranges",
+            help="Sweeps: per-joint start,end pairs in --angle units (prismatic: --length), or 'paper30' / 'paper90' (Hayat Table II).",
+        ),
+    ] = None,
+    home: Annotated[
+        str | None,
+        typer.Option(
+            "--home",
+            help="Home configuration of the sweeps in --angle units, prismatic joints in --length (default: the model file's home, else zeros).",
+        ),
+    ] = None,
     points: Annotated[int, typer.Option("--points", help="Points per sweep.")] = 30,
-    tool: Annotated[str | None, typer.Option("--tool", help="Tool point in the flange frame, in --length units (default 50,30,100 mm whatever the unit).")] = None,
-    noise: Annotated[float | None, typer.Option("--noise", help="Point noise (1 sigma per coordinate), in --length units (default 0.02 mm whatever the unit).")] = None,
+    tool: Annotated[
+        str | None,
+        typer.Option(
+            "--tool", help="Tool point in the flange frame, in --length units (default 50,30,100 mm whatever the unit)."
+        ),
+    ] = None,
+    noise: Annotated[
+        float | None,
+        typer.Option(
+            "--noise",
+            help="Point noise (1 sigma per coordinate), in --length units (default 0.02 mm whatever the unit).",
+        ),
+    ] = None,
     convention: Annotated[str, typer.Option("--convention", help="edh | mdh | dh")] = "edh",
-    fix: Annotated[str | None, typer.Option("--fix", help="Parameters held fixed (names or patterns, comma-separated).")] = None,
-    random: Annotated[int | None, typer.Option("--random", help="Plan N configurations spread over the joint limits instead of sweeps.")] = None,
-    candidates: Annotated[Path | None, typer.Option("--candidates", help="CSV of candidate configurations (header q1..qn, --angle / --length units unless a '# units:' line declares them).")] = None,
-    select: Annotated[int | None, typer.Option("--select", help="Pick this many most informative poses from the candidates (D-optimal).")] = None,
+    fix: Annotated[
+        str | None, typer.Option("--fix", help="Parameters held fixed (names or patterns, comma-separated).")
+    ] = None,
+    random: Annotated[
+        int | None,
+        typer.Option("--random", help="Plan N configurations spread over the joint limits instead of sweeps."),
+    ] = None,
+    candidates: Annotated[
+        Path | None,
+        typer.Option(
+            "--candidates",
+            help="CSV of candidate configurations (header q1..qn, --angle / --length units unless a '# units:' line declares them).",
+        ),
+    ] = None,
+    select: Annotated[
+        int | None,
+        typer.Option("--select", help="Pick this many most informative poses from the candidates (D-optimal)."),
+    ] = None,
     length: LengthOpt = "mm",
     angle: AngleOpt = "deg",
     json_out: JsonOpt = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
-    payload: Annotated[str | None, typer.Option("--payload", help="Also predict the joints' compliances' sigmas for the planned poses measured twice, without payload and with this one: its mass with a unit and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\" (needs the model's link masses).")] = None,
+    payload: Annotated[
+        str | None,
+        typer.Option(
+            "--payload",
+            help="Also predict the joints' compliances' sigmas for the planned poses measured twice, without payload and with this one: its mass with a unit and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\" (needs the model's link masses).",
+        ),
+    ] = None,
 ) -> None:
     """Predict every parameter's sigma (Cramer-Rao bound) and the measuring volume of a protocol, before measuring."""
     import numpy as np  # noqa: PLC0415
@@ -105,27 +148,84 @@ def plan(
         mass, com = parse_payload(payload, length)
         cp = plan_compliance(robot, p.q, (0.0, mass), com=com, noise=sigma, tool=tp, convention=convention)
     if json_out:
-        emit_json({"model": robot.name, "convention": pz.convention, "units": SI_UNITS, "noise_m": sigma, "n_poses": len(p.q),
-                   "parameters": [{"name": nm, "unit": calib_unit(pz.units[k], "m", "rad")[0], "sigma": None if not np.isfinite(p.sigma[k]) else float(p.sigma[k])}
-                                  for k, nm in enumerate(p.names)],
-                   "axis_sigma": [{"joint": nm, "position_m": a[0], "direction_rad": a[1], **({"per_circle_position_m": c[0], "per_circle_direction_rad": c[1]} if c is not None else {})}
-                                  for nm, a, c in zip(robot.names, p.axis_sigma.tolist(), p.per_circle_sigma.tolist() if p.per_circle_sigma is not None else [None] * n)],
-                   "bounding_box": {"lengths_m": p.box.lengths.tolist(), "volume_m3": p.box.volume},
-                   "identifiability": {"rank": p.identifiability.rank, "condition_number": p.identifiability.condition_number, "observability": p.identifiability.observability,
-                                       "unidentifiable": [{"name": u.name, "structural": u.structural, "reason": u.reason} for u in p.identifiability.unidentifiable]},
-                   "selected": None if p.selected is None else p.selected.tolist(),
-                   "compliance": None if cp is None else [{"name": nm, "unit": "rad/(N m)" if k == "revolute" else "m/N", "sigma": None if not np.isfinite(s_) else float(s_)}
-                                                          for nm, k, s_ in zip(cp.names, robot.table.kinds, cp.sigma, strict=True)]}, json_out)
+        emit_json(
+            {
+                "model": robot.name,
+                "convention": pz.convention,
+                "units": SI_UNITS,
+                "noise_m": sigma,
+                "n_poses": len(p.q),
+                "parameters": [
+                    {
+                        "name": nm,
+                        "unit": calib_unit(pz.units[k], "m", "rad")[0],
+                        "sigma": None if not np.isfinite(p.sigma[k]) else float(p.sigma[k]),
+                    }
+                    for k, nm in enumerate(p.names)
+                ],
+                "axis_sigma": [
+                    {
+                        "joint": nm,
+                        "position_m": a[0],
+                        "direction_rad": a[1],
+                        **({"per_circle_position_m": c[0], "per_circle_direction_rad": c[1]} if c is not None else {}),
+                    }
+                    for nm, a, c in zip(
+                        robot.names,
+                        p.axis_sigma.tolist(),
+                        p.per_circle_sigma.tolist() if p.per_circle_sigma is not None else [None] * n,
+                    )
+                ],
+                "bounding_box": {"lengths_m": p.box.lengths.tolist(), "volume_m3": p.box.volume},
+                "identifiability": {
+                    "rank": p.identifiability.rank,
+                    "condition_number": p.identifiability.condition_number,
+                    "observability": p.identifiability.observability,
+                    "unidentifiable": [
+                        {"name": u.name, "structural": u.structural, "reason": u.reason}
+                        for u in p.identifiability.unidentifiable
+                    ],
+                },
+                "selected": None if p.selected is None else p.selected.tolist(),
+                "compliance": None
+                if cp is None
+                else [
+                    {
+                        "name": nm,
+                        "unit": "rad/(N m)" if k == "revolute" else "m/N",
+                        "sigma": None if not np.isfinite(s_) else float(s_),
+                    }
+                    for nm, k, s_ in zip(cp.names, robot.table.kinds, cp.sigma, strict=True)
+                ],
+            },
+            json_out,
+        )
         if json_out == "-":
             return
-    what = f"{len(p.q)} poses" + (f" ({select} selected of the candidates)" if select else "") if protocol is None else f"sweeps of {points} points"
-    say("bold", f"Plan for {robot.name}", f" ({pz.convention}): {what}, noise {spread(sigma / ls)} {length} per coordinate")
+    what = (
+        f"{len(p.q)} poses" + (f" ({select} selected of the candidates)" if select else "")
+        if protocol is None
+        else f"sweeps of {points} points"
+    )
+    say(
+        "bold",
+        f"Plan for {robot.name}",
+        f" ({pz.convention}): {what}, noise {spread(sigma / ls)} {length} per coordinate",
+    )
     rows = []
     for k, nm in enumerate(p.names):
         u, s = calib_unit(pz.units[k], length, angle)
         rows.append([nm, u, spread(p.sigma[k] / s)])
-    print_rows(None, ["parameter", "unit", "sigma"], rows, left=(1,), caption="Cramer-Rao bound (one sigma) of every parameter; '-': not identifiable (see below)")
-    heads = ["joint", f"position [{length}]", f"direction [{angle}]"] + ([f"per-circle position [{length}]", "ratio"] if p.per_circle_sigma is not None else [])
+    print_rows(
+        None,
+        ["parameter", "unit", "sigma"],
+        rows,
+        left=(1,),
+        caption="Cramer-Rao bound (one sigma) of every parameter; '-': not identifiable (see below)",
+    )
+    heads = ["joint", f"position [{length}]", f"direction [{angle}]"] + (
+        [f"per-circle position [{length}]", "ratio"] if p.per_circle_sigma is not None else []
+    )
     arows = []
     for j, nm in enumerate(robot.names):
         row = [nm, spread(p.axis_sigma[j, 0] / ls), spread(p.axis_sigma[j, 1] / as_)]
@@ -134,11 +234,15 @@ def plan(
         arows.append(row)
     print_rows("Joint axes at home: predicted sigma across the axis and of its direction", heads, arows)
     b = p.box
-    console.print(f"Measuring volume (minimum oriented bounding box): {' x '.join(num(v / ls, length) for v in b.lengths)} {length}, {b.volume:.4g} m^3")
+    console.print(
+        f"Measuring volume (minimum oriented bounding box): {' x '.join(num(v / ls, length) for v in b.lengths)} {length}, {b.volume:.4g} m^3"
+    )
     console.print(f"Identifiability: {p.identifiability.summary()}")
     red = [u.name for u in p.identifiability.unidentifiable if u.structural]
     if red:
-        console.print(f"Redundant in the {pz.convention} parametrisation (held at nominal; reasons with --json): {', '.join(red)}")
+        console.print(
+            f"Redundant in the {pz.convention} parametrisation (held at nominal; reasons with --json): {', '.join(red)}"
+        )
     for u in p.identifiability.unidentifiable:
         if not u.structural:
             say("yellow", "not identifiable from this protocol:", f" {u.name}: {u.reason}")
@@ -147,8 +251,16 @@ def plan(
     for note in p.notes:
         say("yellow", "note:", f" {note}")
     if cp is not None:
-        crow = [[nm, "urad/(N m)" if k == "revolute" else "um/N", spread(s_ / 1e-6), f"{t:.4g}"] for nm, k, s_, t in zip(cp.names, robot.table.kinds, cp.sigma, cp.torque_max, strict=True)]
-        print_rows(f"Joint compliances, the poses measured at 0 and {cp.payloads[-1]:g} kg ({cp.n_poses} measurements)", ["compliance", "unit", "sigma", "largest torque [N m / N]"], crow,
-                   left=(1,), caption="Cramer-Rao bound (one sigma) with the geometry fitted alongside; '-': no parameter (the joint holds no gravity torque)")
+        crow = [
+            [nm, "urad/(N m)" if k == "revolute" else "um/N", spread(s_ / 1e-6), f"{t:.4g}"]
+            for nm, k, s_, t in zip(cp.names, robot.table.kinds, cp.sigma, cp.torque_max, strict=True)
+        ]
+        print_rows(
+            f"Joint compliances, the poses measured at 0 and {cp.payloads[-1]:g} kg ({cp.n_poses} measurements)",
+            ["compliance", "unit", "sigma", "largest torque [N m / N]"],
+            crow,
+            left=(1,),
+            caption="Cramer-Rao bound (one sigma) with the geometry fitted alongside; '-': no parameter (the joint holds no gravity torque)",
+        )
         for note in cp.notes:
             say("yellow", "note:", f" {note}")

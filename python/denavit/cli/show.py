@@ -44,23 +44,47 @@ def models(json_out: JsonOpt = None) -> None:
     rows = []
     for name in builtin_names():
         r = load(name)
-        rows.append({"name": name, "convention": r.convention, "joints": len(r.names), "description": r.description, "source": r.source})
+        rows.append(
+            {
+                "name": name,
+                "convention": r.convention,
+                "joints": len(r.names),
+                "description": r.description,
+                "source": r.source,
+            }
+        )
     if json_out:
         emit_json(rows, json_out)
         if json_out == "-":
             return
-    print_rows("Built-in robots", ["name", "convention", "joints", "description"], [[r["name"], r["convention"], str(r["joints"]), r["description"]] for r in rows],
-               left=(1, 3), prose=(3,))
+    print_rows(
+        "Built-in robots",
+        ["name", "convention", "joints", "description"],
+        [[r["name"], r["convention"], str(r["joints"]), r["description"]] for r in rows],
+        left=(1, 3),
+        prose=(3,),
+    )
 
 
 def robot_json(robot: Robot) -> dict:
     """A robot as JSON, SI: its table's rows keyed by column (m, rad; POE w and a prismatic v unitless), kinds, limits, home."""
     si = ["rad" if k == "revolute" else "m" for k in robot.table.kinds]
-    return {"model": robot.name, "convention": robot.convention, "description": robot.description, "source": robot.source, "units": SI_UNITS,
-            "joints": [{"joint": n, "kind": k, **row, "lower": float(lo), "upper": float(hi)}
-                       for n, k, row, lo, hi in zip(robot.names, robot.table.kinds, table_rows(robot.table, "m", "rad"), robot.lower, robot.upper)],
-            "joint_units": si, "home": None if robot.home is None else [float(v) for v in robot.home],
-            "compliance": _compliance_rows(robot)}
+    return {
+        "model": robot.name,
+        "convention": robot.convention,
+        "description": robot.description,
+        "source": robot.source,
+        "units": SI_UNITS,
+        "joints": [
+            {"joint": n, "kind": k, **row, "lower": float(lo), "upper": float(hi)}
+            for n, k, row, lo, hi in zip(
+                robot.names, robot.table.kinds, table_rows(robot.table, "m", "rad"), robot.lower, robot.upper
+            )
+        ],
+        "joint_units": si,
+        "home": None if robot.home is None else [float(v) for v in robot.home],
+        "compliance": _compliance_rows(robot),
+    }
 
 
 def _compliance_rows(robot: Robot) -> list | None:
@@ -68,9 +92,15 @@ def _compliance_rows(robot: Robot) -> list | None:
     if robot.compliance is None:
         return None
     cov = robot.compliance_covariance
-    return [{"joint": n, "unit": "rad/(N m)" if k == "revolute" else "m/N", "value": float(v),
-             "sigma": None if cov is None else float(max(cov[i, i], 0.0) ** 0.5)}
-            for i, (n, k, v) in enumerate(zip(robot.names, robot.table.kinds, robot.compliance, strict=True))]
+    return [
+        {
+            "joint": n,
+            "unit": "rad/(N m)" if k == "revolute" else "m/N",
+            "value": float(v),
+            "sigma": None if cov is None else float(max(cov[i, i], 0.0) ** 0.5),
+        }
+        for i, (n, k, v) in enumerate(zip(robot.names, robot.table.kinds, robot.compliance, strict=True))
+    ]
 
 
 @commands.command()
@@ -78,10 +108,29 @@ def show(
     model: ModelArg,
     length: LengthOpt = "mm",
     angle: AngleOpt = "deg",
-    report: Annotated[Path | None, typer.Option("--report", help="Write a self-contained HTML report: 3-D frames of two conventions, origin paths, tables.")] = None,
-    plot: Annotated[Path | None, typer.Option("--plot", help="Write the static figures (PNG) into this folder.")] = None,
-    compare: Annotated[str | None, typer.Option("--compare", help="Drawn beside the robot in --report/--plot: a convention (dh|mdh|edh|poe) or another robot (built-in name or file). Default edh (mdh for an ED-H robot).")] = None,
-    q: Annotated[str | None, typer.Option("--q", help="Configuration drawn in --report/--plot, one value per joint in --angle units (prismatic: --length); default the file's home, else zeros.")] = None,
+    report: Annotated[
+        Path | None,
+        typer.Option(
+            "--report", help="Write a self-contained HTML report: 3-D frames of two conventions, origin paths, tables."
+        ),
+    ] = None,
+    plot: Annotated[
+        Path | None, typer.Option("--plot", help="Write the static figures (PNG) into this folder.")
+    ] = None,
+    compare: Annotated[
+        str | None,
+        typer.Option(
+            "--compare",
+            help="Drawn beside the robot in --report/--plot: a convention (dh|mdh|edh|poe) or another robot (built-in name or file). Default edh (mdh for an ED-H robot).",
+        ),
+    ] = None,
+    q: Annotated[
+        str | None,
+        typer.Option(
+            "--q",
+            help="Configuration drawn in --report/--plot, one value per joint in --angle units (prismatic: --length); default the file's home, else zeros.",
+        ),
+    ] = None,
     json_out: JsonOpt = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
@@ -101,8 +150,10 @@ def show(
             console.print(f"  source: {robot.source}", soft_wrap=True)
         print_table(robot.table, robot.names, length, angle, f"{robot.name} in {robot.convention}")
         if robot.compliance is not None:
-            console.print("Joint compliances (urad/(N m), um/N for a prismatic joint): "
-                          + ", ".join(f"{n} {v * 1e6:.4g}" for n, v in zip(robot.names, robot.compliance, strict=True)))
+            console.print(
+                "Joint compliances (urad/(N m), um/N for a prismatic joint): "
+                + ", ".join(f"{n} {v * 1e6:.4g}" for n, v in zip(robot.names, robot.compliance, strict=True))
+            )
     if report or plot:
         from .. import report as rep  # noqa: PLC0415
 
@@ -126,8 +177,20 @@ def export_cmd(
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
     chain_only: ChainOnlyOpt = False,
-    ur_kinematics: Annotated[Path | None, typer.Option("--ur-kinematics", help="Write Universal Robots' kinematics-parameters YAML (what ur_description's kinematics_params_file reads) instead of a robot file ('-': standard output).")] = None,
-    ur_nominal: Annotated[str, typer.Option("--ur-nominal", help="With --ur-kinematics: the nominal UR arm (a standard DH robot file or built-in) whose link frames the file follows.")] = "ur5",
+    ur_kinematics: Annotated[
+        Path | None,
+        typer.Option(
+            "--ur-kinematics",
+            help="Write Universal Robots' kinematics-parameters YAML (what ur_description's kinematics_params_file reads) instead of a robot file ('-': standard output).",
+        ),
+    ] = None,
+    ur_nominal: Annotated[
+        str,
+        typer.Option(
+            "--ur-nominal",
+            help="With --ur-kinematics: the nominal UR arm (a standard DH robot file or built-in) whose link frames the file follows.",
+        ),
+    ] = "ur5",
 ) -> None:
     """Print a robot file (TOML) in --length / --angle units (or, with --json, the robot as JSON in SI), or write a UR kinematics-parameters file."""
     json_out = json_target(json_out)

@@ -37,19 +37,66 @@ NOISE_ROT_RAD = math.radians(0.005)
 def simulate(
     model: ModelArg,
     output: Annotated[Path, typer.Option("-o", "--output", help="Long-form CSV to write ('-': standard output).")],
-    home: Annotated[str | None, typer.Option("--home", help="Home configuration in --angle units, prismatic joints in --length (default: the model file's home, else zeros).")] = None,
-    ranges: Annotated[str | None, typer.Option("--ranges", help="Per-joint start,end pairs in --angle units (prismatic: --length), or 'paper90' (the default) / 'paper30' (Hayat Table II).")] = None,
+    home: Annotated[
+        str | None,
+        typer.Option(
+            "--home",
+            help="Home configuration in --angle units, prismatic joints in --length (default: the model file's home, else zeros).",
+        ),
+    ] = None,
+    ranges: Annotated[
+        str | None,
+        typer.Option(
+            "--ranges",
+            help="Per-joint start,end pairs in --angle units (prismatic: --length), or 'paper90' (the default) / 'paper30' (Hayat Table II).",
+        ),
+    ] = None,
     points: Annotated[int, typer.Option("--points", help="Points per sweep.")] = 30,
-    tool: Annotated[str | None, typer.Option("--tool", help="Tool point in the flange frame, in --length units (default 50,30,100 mm whatever the unit).")] = None,
-    noise: Annotated[float | None, typer.Option("--noise", help="Point noise (1 sigma per coordinate), in --length units (default 0.02 mm whatever the unit).")] = None,
+    tool: Annotated[
+        str | None,
+        typer.Option(
+            "--tool", help="Tool point in the flange frame, in --length units (default 50,30,100 mm whatever the unit)."
+        ),
+    ] = None,
+    noise: Annotated[
+        float | None,
+        typer.Option(
+            "--noise",
+            help="Point noise (1 sigma per coordinate), in --length units (default 0.02 mm whatever the unit).",
+        ),
+    ] = None,
     noise_q: Annotated[float, typer.Option("--noise-q", help="Joint-reading noise (1 sigma), in --angle units.")] = 0.0,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the noise.")] = 0,
     length: LengthOpt = "mm",
     angle: AngleOpt = "deg",
-    targets: Annotated[str | None, typer.Option("--targets", help="Several targets per pose (2-4 SMRs on a nest): their points in the flange frame, \"x,y,z; x,y,z; ...\" in --length units (replaces --tool; written as columns x2,y2,z2,... and a '# nest:' line).")] = None,
-    poses: Annotated[bool, typer.Option("--poses", help="6-DoF poses: also write each pose's orientation (the flange's, at the tool point) as a quaternion qw,qx,qy,qz.")] = False,
-    noise_rot: Annotated[float | None, typer.Option("--noise-rot", help="Orientation noise of --poses (1 sigma per component of a rotation vector), in --angle units (default 0.005 deg whatever the unit).")] = None,
-    coupling: Annotated[str | None, typer.Option("--coupling", help="The readings written are a controller's whose joint values are, e.g., \"q3=r3+r2\" (a Fanuc's J3; docs/robot-files.md); default: the robot file's \\[couplings].")] = None,
+    targets: Annotated[
+        str | None,
+        typer.Option(
+            "--targets",
+            help="Several targets per pose (2-4 SMRs on a nest): their points in the flange frame, \"x,y,z; x,y,z; ...\" in --length units (replaces --tool; written as columns x2,y2,z2,... and a '# nest:' line).",
+        ),
+    ] = None,
+    poses: Annotated[
+        bool,
+        typer.Option(
+            "--poses",
+            help="6-DoF poses: also write each pose's orientation (the flange's, at the tool point) as a quaternion qw,qx,qy,qz.",
+        ),
+    ] = False,
+    noise_rot: Annotated[
+        float | None,
+        typer.Option(
+            "--noise-rot",
+            help="Orientation noise of --poses (1 sigma per component of a rotation vector), in --angle units (default 0.005 deg whatever the unit).",
+        ),
+    ] = None,
+    coupling: Annotated[
+        str | None,
+        typer.Option(
+            "--coupling",
+            help="The readings written are a controller's whose joint values are, e.g., \"q3=r3+r2\" (a Fanuc's J3; docs/robot-files.md); default: the robot file's \\[couplings].",
+        ),
+    ] = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
 ) -> None:
@@ -77,14 +124,43 @@ def simulate(
     sigma_rot = positive(noise_rot, "--noise-rot", as_, NOISE_ROT_RAD, angle)
     sigma = positive(noise, "--noise", ls, NOISE_M, length)
     sigma_q = positive(noise_q, "--noise-q", as_, 0.0, angle)
-    check_noises(m, nest if nest is not None else tp, length, angle, ("--noise", sigma, "length"), ("--noise-rot", sigma_rot, "angle"),
-                 ("--noise-q", sigma_q, "joint"))
-    s = sw.simulate(m, home=h, ranges=r, points_per_sweep=points, tool_point=tp, noise=sigma, noise_q=sigma_q, seed=seed, targets=nest, poses=poses, noise_rot=sigma_rot)
+    check_noises(
+        m,
+        nest if nest is not None else tp,
+        length,
+        angle,
+        ("--noise", sigma, "length"),
+        ("--noise-rot", sigma_rot, "angle"),
+        ("--noise-q", sigma_q, "joint"),
+    )
+    s = sw.simulate(
+        m,
+        home=h,
+        ranges=r,
+        points_per_sweep=points,
+        tool_point=tp,
+        noise=sigma,
+        noise_q=sigma_q,
+        seed=seed,
+        targets=nest,
+        poses=poses,
+        noise_rot=sigma_rot,
+    )
     C = parse_coupling(coupling, list(m.kinds), "--coupling") if coupling else robot.coupling
     if C is not None:  # the controller reports readings r = C^-1 q
         from ..identification import decoupled  # noqa: PLC0415
 
         s = decoupled(s, np.linalg.inv(C))
-    write_text(output, to_long_csv(s, length, angle, f"simulated sweeps of {robot.name}: seed {seed}, noise {spread(sigma / ls)} {length}, readings noise {spread(sigma_q / as_)} {angle}"))
-    what = (f", {len(nest)} targets per pose" if nest is not None and len(nest) > 1 else "") + (", 6-DoF poses" if poses else "")
+    write_text(
+        output,
+        to_long_csv(
+            s,
+            length,
+            angle,
+            f"simulated sweeps of {robot.name}: seed {seed}, noise {spread(sigma / ls)} {length}, readings noise {spread(sigma_q / as_)} {angle}",
+        ),
+    )
+    what = (f", {len(nest)} targets per pose" if nest is not None and len(nest) > 1 else "") + (
+        ", 6-DoF poses" if poses else ""
+    )
     wrote(output, f": {m.nq} sweeps x {points} points{what}")

@@ -27,8 +27,16 @@ METHODS = ("auto", "kasa", "hyper", "geometric", "readings", "line")
 
 
 def fit_axis(
-    points, q=None, method: str = "auto", *, loss: str = "linear", f_scale=None, max_sigma_point=None,
-    noise_sigma=None, tracker=None, where: str = "",
+    points,
+    q=None,
+    method: str = "auto",
+    *,
+    loss: str = "linear",
+    f_scale=None,
+    max_sigma_point=None,
+    noise_sigma=None,
+    tracker=None,
+    where: str = "",
 ) -> AxisFit:
     """Fit a joint axis from a sweep of one joint (dispatch to the fits of this module).
 
@@ -98,7 +106,9 @@ def fit_axis(
     phi = in_plane_angles(p, fit.point, fit.direction)
     if qa is None:
         _check_one_way(net_turn(phi), fit.arc, "turn", "an arc", math.degrees(1), "deg", where)
-    elif net_turn(phi[np.argsort(qa, kind="stable")]) < 0:  # orient by the readings (sorted by q), not by the point order
+    elif (
+        net_turn(phi[np.argsort(qa, kind="stable")]) < 0
+    ):  # orient by the readings (sorted by q), not by the point order
         fit = flipped(fit)
     return fit
 

@@ -133,7 +133,10 @@ def _face_candidates(hull, pc: np.ndarray, hv: np.ndarray) -> list:
         i, xa, xb, d = i[keep], xa[keep], xb[keep], d[keep] / lens[keep, None]
         count = np.bincount(i, minlength=len(n))
         start = np.cumsum(count) - count
-        mid = np.column_stack([np.bincount(i, xa[:, k] + xb[:, k], len(n)) for k in range(2)]) / np.maximum(2 * count, 1)[:, None]
+        mid = (
+            np.column_stack([np.bincount(i, xa[:, k] + xb[:, k], len(n)) for k in range(2)])
+            / np.maximum(2 * count, 1)[:, None]
+        )
         nu = np.column_stack([-d[:, 1], d[:, 0]])
         nu *= np.where(np.einsum("pk,pk->p", nu, xa - mid[i]) < 0, -1.0, 1.0)[:, None]  # outward
         key = np.arctan2(nu[:, 1], nu[:, 0]) + 8.0 * i
@@ -143,7 +146,11 @@ def _face_candidates(hull, pc: np.ndarray, hv: np.ndarray) -> list:
         gi = np.tile(i, 4)
         k = np.searchsorted(key, np.arctan2(psi[:, 1], psi[:, 0]) + 8.0 * gi) - 1 - start[gi]
         near = start[gi][:, None] + (k[:, None] + np.arange(2)) % count[gi][:, None]  # the two edges of the bracket
-        h = np.maximum(np.einsum("qjk,qk->qj", xa[near], psi), np.einsum("qjk,qk->qj", xb[near], psi)).max(axis=1).reshape(4, -1)
+        h = (
+            np.maximum(np.einsum("qjk,qk->qj", xa[near], psi), np.einsum("qjk,qk->qj", xb[near], psi))
+            .max(axis=1)
+            .reshape(4, -1)
+        )
         area = (h[0] + h[1]) * (h[2] + h[3])
         best = np.lexsort((area, i))[start[count > 0]]  # each direction's smallest rectangle
         j = i[best]
@@ -182,7 +189,9 @@ def oriented_bounding_box(points, *, where: str = "") -> BoundingBox:
     try:
         p = np.array(points, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise DenavitError(f"{pre}bounding box expects points as an (m, 3) array of numbers, got {type(points).__name__} ({exc})") from None
+        raise DenavitError(
+            f"{pre}bounding box expects points as an (m, 3) array of numbers, got {type(points).__name__} ({exc})"
+        ) from None
     if p.ndim != 2 or p.shape[1] != 3 or p.shape[0] < 1:
         raise DenavitError(f"{pre}bounding box expects points of shape (m, 3) with m >= 1, got shape {p.shape}")
     if not np.isfinite(p).all():
@@ -191,7 +200,9 @@ def oriented_bounding_box(points, *, where: str = "") -> BoundingBox:
         return BoundingBox(center=p.mean(axis=0), axes=np.eye(3), lengths=np.zeros(3), volume=0.0)
     centroid = p.mean(axis=0)
     pc = p - centroid
-    _, s, vt = np.linalg.svd(pc, full_matrices=len(pc) < 3)  # full (three axes) only for two points: an (m, m) U for m = 6e5 is 2.6 TiB
+    _, s, vt = np.linalg.svd(
+        pc, full_matrices=len(pc) < 3
+    )  # full (three axes) only for two points: an (m, m) U for m = 6e5 is 2.6 TiB
     s = np.pad(s, (0, 3 - len(s)))
     pca = vt.T.copy()
     if np.linalg.det(pca) < 0:
@@ -213,7 +224,9 @@ def oriented_bounding_box(points, *, where: str = "") -> BoundingBox:
     faces = sorted(_face_candidates(hull, pc, hv), key=lambda c: c[0])
     # the best few measured again on all hull vertices (the calipers' volumes agree with it to round-off: the
     # ranking of the refinement's starts is that of measuring every candidate, at a fraction of the cost)
-    cands = [(_box_from_rotation(hv, pca)[0], pca)] + [(_box_from_rotation(hv, r)[0], r) for _, r in faces[: 4 * REFINE_STARTS]]
+    cands = [(_box_from_rotation(hv, pca)[0], pca)] + [
+        (_box_from_rotation(hv, r)[0], r) for _, r in faces[: 4 * REFINE_STARTS]
+    ]
     cands.sort(key=lambda c: c[0])
     best_v, best_r = cands[0]
 
@@ -224,9 +237,16 @@ def oriented_bounding_box(points, *, where: str = "") -> BoundingBox:
         x, fx = np.zeros(3), v0
         for _ in range(4):  # restart Nelder-Mead from its own end point: the volume is only piecewise smooth
             res = optimize.minimize(
-                vol, x, args=(r0,), method="Nelder-Mead",
-                options={"initial_simplex": x + np.vstack([np.zeros(3), 0.02 * np.eye(3)]), "xatol": 1e-10,
-                         "fatol": 1e-15 * max(v0, 1e-300), "maxiter": 2000},
+                vol,
+                x,
+                args=(r0,),
+                method="Nelder-Mead",
+                options={
+                    "initial_simplex": x + np.vstack([np.zeros(3), 0.02 * np.eye(3)]),
+                    "xatol": 1e-10,
+                    "fatol": 1e-15 * max(v0, 1e-300),
+                    "maxiter": 2000,
+                },
             )
             if not res.fun < fx * (1 - 1e-12):
                 break

@@ -29,7 +29,9 @@ def check_points(points, min_points: int, what: str, where: str) -> np.ndarray:
     try:
         p = np.array(points, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise DenavitError(f"{pre}{what} expects points as an (m, 3) array of numbers, got {type(points).__name__} ({exc})") from None
+        raise DenavitError(
+            f"{pre}{what} expects points as an (m, 3) array of numbers, got {type(points).__name__} ({exc})"
+        ) from None
     if p.ndim != 2 or p.shape[1] != 3:
         raise DenavitError(f"{pre}{what} expects points of shape (m, 3), got shape {p.shape}")
     m = p.shape[0]
@@ -37,7 +39,9 @@ def check_points(points, min_points: int, what: str, where: str) -> np.ndarray:
         raise DegenerateError(f"{pre}{what} needs at least {min_points} points, got {m}")
     bad = np.flatnonzero(~np.isfinite(p).all(axis=1))
     if bad.size:
-        raise DenavitError(f"{pre}{what} expects finite coordinates, got NaN/inf in {bad.size} row(s), first at index {bad[:5].tolist()}")
+        raise DenavitError(
+            f"{pre}{what} expects finite coordinates, got NaN/inf in {bad.size} row(s), first at index {bad[:5].tolist()}"
+        )
     spread = np.max(np.linalg.norm(p - p.mean(axis=0), axis=1))
     if spread <= COINCIDENT_TOL:
         raise DegenerateError(
@@ -55,7 +59,9 @@ def check_q(q, m: int, where: str) -> np.ndarray:
     except (TypeError, ValueError) as exc:
         raise DenavitError(f"{pre}joint readings q must be numbers, got {type(q).__name__} ({exc})") from None
     if qa.shape != (m,):
-        raise DenavitError(f"{pre}joint readings q must have one value per point: expected shape ({m},), got {qa.shape}")
+        raise DenavitError(
+            f"{pre}joint readings q must have one value per point: expected shape ({m},), got {qa.shape}"
+        )
     if not np.isfinite(qa).all():
         bad = np.flatnonzero(~np.isfinite(qa))
         raise DenavitError(f"{pre}joint readings q must be finite, got NaN/inf at index {bad[:5].tolist()}")
@@ -98,8 +104,10 @@ def check_sweep_labels(sweeps, wheres: list[str]) -> None:
             if qa is not None and qb is not None and qa.shape == qb.shape and not np.array_equal(qa, qb):
                 continue  # each its own readings: two coaxial joints at home (a wrist's 4 and 6, a Panda's 1 and 3) trace one circle
             if pa.shape == pb.shape and np.all(np.abs(pa - pb) <= DUPLICATE_TOL):
-                raise DenavitError(f"{wheres[b]}: the sweep repeats the {len(pa)} points of {wheres[a]} (within {DUPLICATE_TOL * 1e3:g} mm): "
-                                   f"expected a recording of joint {ss[b].joint} moving (a file copied over another?)")
+                raise DenavitError(
+                    f"{wheres[b]}: the sweep repeats the {len(pa)} points of {wheres[a]} (within {DUPLICATE_TOL * 1e3:g} mm): "
+                    f"expected a recording of joint {ss[b].joint} moving (a file copied over another?)"
+                )
     for s, w in zip(ss, wheres, strict=True):
         if s.q is None or not np.isfinite(s.q).all():
             continue  # the readings' own checks name the bad values
@@ -109,9 +117,11 @@ def check_sweep_labels(sweeps, wheres: list[str]) -> None:
         if others.size and others.max() > 0 and span[j] < MOVING_FRACTION * others.max():
             k = int(np.argmax(np.where(np.arange(len(span)) == j, -1.0, span)))
             unit = (1.0, "m") if sweeps.kinds[k] == "prismatic" else (math.degrees(1.0), "deg")
-            raise DenavitError(f"{w}: the readings move joint {k + 1} (over {span[k] * unit[0]:.4g} {unit[1]}) while joint {s.joint} "
-                               f"moves {span[j] * (1.0 if sweeps.kinds[j] == 'prismatic' else math.degrees(1.0)):.3g}: expected joint "
-                               f"{s.joint} moving (the sweeps of joints {s.joint} and {k + 1} exchanged, or misnumbered?)")
+            raise DenavitError(
+                f"{w}: the readings move joint {k + 1} (over {span[k] * unit[0]:.4g} {unit[1]}) while joint {s.joint} "
+                f"moves {span[j] * (1.0 if sweeps.kinds[j] == 'prismatic' else math.degrees(1.0)):.3g}: expected joint "
+                f"{s.joint} moving (the sweeps of joints {s.joint} and {k + 1} exchanged, or misnumbered?)"
+            )
 
 
 #: A pair of consecutive identified axes whose angle or distance differs from the nominal pair's by more than this
@@ -152,7 +162,9 @@ def robot_size(model: _core.Model, q) -> float:
 
 
 def _far(da: float, dd: float, sig_a: float, sig_d: float, size: float) -> bool:
-    return (da > PLAUSIBLE[0] and da > PLAUSIBLE_SIGMAS * sig_a) or (dd > PLAUSIBLE[1] * size and dd > PLAUSIBLE_SIGMAS * sig_d)
+    return (da > PLAUSIBLE[0] and da > PLAUSIBLE_SIGMAS * sig_a) or (
+        dd > PLAUSIBLE[1] * size and dd > PLAUSIBLE_SIGMAS * sig_d
+    )
 
 
 def _far_axes(dev, sig_a, sig_d, size: float) -> list[int]:
@@ -174,7 +186,9 @@ def _kabsch(D, N) -> np.ndarray:
 REFLECTION = np.diag([1.0, 1.0, -1.0])
 
 
-def register_axes_globally(points, dirs, nom_points, nom_dirs, kinds, size: float, sig_a, sig_d, mirrored: bool = False):
+def register_axes_globally(
+    points, dirs, nom_points, nom_dirs, kinds, size: float, sig_a, sig_d, mirrored: bool = False
+):
     """:func:`register_axes` from every start the directions allow, the best kept: (R, t, dev). The directions'
     signs are free (lines), so a rotation from the directions alone is ambiguous (at the KR5's home its axes run
     along three lines only, and four rotations carry them onto the nominal's); each sign pattern's Kabsch
@@ -196,13 +210,18 @@ def register_axes_globally(points, dirs, nom_points, nom_dirs, kinds, size: floa
     best = None
     for R in starts:
         reg = register_axes(P, D, nom_points, N, kinds, size, R)
-        cost = (len(_far_axes(reg[2], sig_a, sig_d, size)), float(np.sum((reg[2][:, 0] * size) ** 2 + reg[2][:, 1] ** 2)))
+        cost = (
+            len(_far_axes(reg[2], sig_a, sig_d, size)),
+            float(np.sum((reg[2][:, 0] * size) ** 2 + reg[2][:, 1] ** 2)),
+        )
         if best is None or cost < best[0]:
             best = (cost, reg)
     return best[1]
 
 
-def register_axes(points, dirs, nom_points, nom_dirs, kinds, size: float, R_start=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def register_axes(
+    points, dirs, nom_points, nom_dirs, kinds, size: float, R_start=None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The rigid motion (R, t) that best carries the identified axes (``points``, ``dirs``: (n, 3)) onto the
     nominal's, as lines (a direction's sign, which without readings comes from the point order, does not count;
     directions weighted by the robot's ``size``, positions across each nominal axis; a prismatic axis by its
@@ -219,7 +238,11 @@ def register_axes(points, dirs, nom_points, nom_dirs, kinds, size: float, R_star
         D = D * np.where(np.einsum("ki,ki->k", D @ R0.T, N) < 0, -1.0, 1.0)[:, None]
         R0 = _kabsch(D, N)
     D = D * np.where(np.einsum("ki,ki->k", D @ R0.T, N) < 0, -1.0, 1.0)[:, None]
-    t0 = np.linalg.lstsq(A[rev].sum(axis=0), np.einsum("kij,kj->i", A[rev], C[rev] - P[rev] @ R0.T), rcond=None)[0] if rev.any() else np.zeros(3)
+    t0 = (
+        np.linalg.lstsq(A[rev].sum(axis=0), np.einsum("kij,kj->i", A[rev], C[rev] - P[rev] @ R0.T), rcond=None)[0]
+        if rev.any()
+        else np.zeros(3)
+    )
 
     def across(R, t):
         e = np.einsum("kij,kj->ki", A, P @ R.T + t - C)
@@ -236,8 +259,19 @@ def register_axes(points, dirs, nom_points, nom_dirs, kinds, size: float, R_star
     return R, x[3:], np.column_stack([ang, np.linalg.norm(across(R, x[3:]), axis=1)])
 
 
-def nominal_plausibility(ex, fits: list, nominal, home, names: list[str], source: str, notes: list[str], short: list[str] = (),
-                         short_sigma: float = math.inf, allow: bool = False, lone_axis: bool = False) -> None:
+def nominal_plausibility(
+    ex,
+    fits: list,
+    nominal,
+    home,
+    names: list[str],
+    source: str,
+    notes: list[str],
+    short: list[str] = (),
+    short_sigma: float = math.inf,
+    allow: bool = False,
+    lone_axis: bool = False,
+) -> None:
     """The identified axes against the nominal's (issue 16), in units of their uncertainty and of the robot's size:
 
     - a note naming the joints of each consecutive pair whose angle or distance is far from the nominal pair's;
@@ -266,30 +300,38 @@ def nominal_plausibility(ex, fits: list, nominal, home, names: list[str], source
     swap = _swapped(fits, npts, ndirs, kinds, size, sig_a, sig_d)
     if swap:
         (a, b), dev = swap
-        refuse(f"the axes match the nominal {nominal.name}'s with joints {names[a]} and {names[b]} exchanged: in the order given {names[a]} is "
-               f"{dev[a, 1] * 1e3:.4g} mm and {math.degrees(dev[a, 0]):.3g} deg off its nominal, {names[b]} {dev[b, 1] * 1e3:.4g} mm and "
-               f"{math.degrees(dev[b, 0]):.3g} deg (after the best rigid fit of all axes); exchanged, every axis is within "
-               f"{PLAUSIBLE[1] * size * 1e3:.3g} mm and {math.degrees(PLAUSIBLE[0]):g} deg (the files of joints {a + 1} and {b + 1} exchanged, "
-               "or the joints misnumbered?)")
+        refuse(
+            f"the axes match the nominal {nominal.name}'s with joints {names[a]} and {names[b]} exchanged: in the order given {names[a]} is "
+            f"{dev[a, 1] * 1e3:.4g} mm and {math.degrees(dev[a, 0]):.3g} deg off its nominal, {names[b]} {dev[b, 1] * 1e3:.4g} mm and "
+            f"{math.degrees(dev[b, 0]):.3g} deg (after the best rigid fit of all axes); exchanged, every axis is within "
+            f"{PLAUSIBLE[1] * size * 1e3:.3g} mm and {math.degrees(PLAUSIBLE[0]):g} deg (the files of joints {a + 1} and {b + 1} exchanged, "
+            "or the joints misnumbered?)"
+        )
         return
     mirror = _mirrored(fits, npts, ndirs, kinds, size)
     if mirror:
-        refuse(f"the identified axes are the mirror image of the nominal {nominal.name}'s ({mirror[0]} of {mirror[1]} skew pairs have their common "
-               "normal's distance flipped): expected a right-handed measurement frame (x and y swapped? a left-handed tracker export? a "
-               "joint's readings reversed?)")
+        refuse(
+            f"the identified axes are the mirror image of the nominal {nominal.name}'s ({mirror[0]} of {mirror[1]} skew pairs have their common "
+            "normal's distance flipped): expected a right-handed measurement frame (x and y swapped? a left-handed tracker export? a "
+            "joint's readings reversed?)"
+        )
     else:
         lines = _mirrored_lines(fits, npts, ndirs, kinds, size, sig_a, sig_d)
         if lines:
-            refuse(f"the identified axes are the mirror image of the nominal {nominal.name}'s (after the best rigid fit {lines[0]} of {len(fits)} "
-                   f"axes are far from their nominal, up to {lines[1] * 1e3:.4g} mm and {math.degrees(lines[2]):.3g} deg; after the best "
-                   "reflection none): expected a right-handed measurement frame (x and y swapped? a left-handed tracker export?)")
+            refuse(
+                f"the identified axes are the mirror image of the nominal {nominal.name}'s (after the best rigid fit {lines[0]} of {len(fits)} "
+                f"axes are far from their nominal, up to {lines[1] * 1e3:.4g} mm and {math.degrees(lines[2]):.3g} deg; after the best "
+                "reflection none): expected a right-handed measurement frame (x and y swapped? a left-handed tracker export?)"
+            )
     lost = _lost_axes(fits, npts, ndirs, kinds, size, sig_a, sig_d) if lone_axis else None
     if lost:
         k, dev, others = lost
-        refuse(f"the axis of joint {names[k]} is {dev[1] * 1e3:.5g} mm and {math.degrees(dev[0]):.3g} deg from its nominal after the best rigid fit of "
-               f"all axes onto the nominal {nominal.name}'s, the others within {others[1] * 1e3:.3g} mm and {math.degrees(others[0]):.3g} deg: expected the "
-               f"same robot within {IMPLAUSIBLE[1]:g} robot sizes ({IMPLAUSIBLE[1] * size * 1e3:.4g} mm) and {math.degrees(IMPLAUSIBLE[0]):g} deg (that joint's "
-               "points in another unit? the points of another joint or target?)")
+        refuse(
+            f"the axis of joint {names[k]} is {dev[1] * 1e3:.5g} mm and {math.degrees(dev[0]):.3g} deg from its nominal after the best rigid fit of "
+            f"all axes onto the nominal {nominal.name}'s, the others within {others[1] * 1e3:.3g} mm and {math.degrees(others[0]):.3g} deg: expected the "
+            f"same robot within {IMPLAUSIBLE[1]:g} robot sizes ({IMPLAUSIBLE[1] * size * 1e3:.4g} mm) and {math.degrees(IMPLAUSIBLE[0]):g} deg (that joint's "
+            "points in another unit? the points of another joint or target?)"
+        )
     far_next = 0  # consecutive pairs (the table's links) beyond IMPLAUSIBLE
     for pi, pn in zip(ex.pairs, nom, strict=True):
         k = pi.joint - 1
@@ -299,16 +341,20 @@ def nominal_plausibility(ex, fits: list, nominal, home, names: list[str], source
             dd = 0.0  # a prismatic axis is a direction: where its line lies is a convention, not a measurement
         far_next += da > IMPLAUSIBLE[0] or dd > IMPLAUSIBLE[1] * size
         if _far(da, dd, sa, sd, size):
-            notes.append(f"axes {names[k]}-{names[k + 1]}: {math.degrees(pi.angle):.4g} deg apart and {pi.distance * 1e3:.5g} mm apart, the nominal's "
-                         f"{math.degrees(pn.angle):.4g} deg and {pn.distance * 1e3:.5g} mm (off by {da / max(sa, 1e-300):.3g} and "
-                         f"{dd / max(sd, 1e-300):.3g} sigma, {dd / size:.2g} robot sizes): check the joint order, the units and the nominal")
+            notes.append(
+                f"axes {names[k]}-{names[k + 1]}: {math.degrees(pi.angle):.4g} deg apart and {pi.distance * 1e3:.5g} mm apart, the nominal's "
+                f"{math.degrees(pn.angle):.4g} deg and {pn.distance * 1e3:.5g} mm (off by {da / max(sa, 1e-300):.3g} and "
+                f"{dd / max(sd, 1e-300):.3g} sigma, {dd / size:.2g} robot sizes): check the joint order, the units and the nominal"
+            )
     # every pair of axes, not only consecutive ones: a wrong robot can match some links by chance
     n = len(fits)
     far, pairs = 0, 0
     for i in range(n):
         for j in range(i + 1, n):
             pairs += 1
-            par = abs(float(np.dot(ndirs[i], ndirs[j]))) > math.cos(math.radians(10.0))  # nominally near-parallel: distance across
+            par = abs(float(np.dot(ndirs[i], ndirs[j]))) > math.cos(
+                math.radians(10.0)
+            )  # nominally near-parallel: distance across
             an, dn = _line_pair(npts[i], ndirs[i], npts[j], ndirs[j], par)
             ai, di = _line_pair(fits[i].point, fits[i].direction, fits[j].point, fits[j].direction, par)
             an, ai = min(an, math.pi - an), min(ai, math.pi - ai)  # lines, not directions: signs are checked elsewhere
@@ -318,17 +364,30 @@ def nominal_plausibility(ex, fits: list, nominal, home, names: list[str], source
             far += abs(ai - an) > IMPLAUSIBLE[0] or abs(di - dn) > IMPLAUSIBLE[1] * size
     if pairs and (far > pairs / 2 or far_next > (n - 1) / 2):
         # a revolute joint whose circle is a speck (the target on or next to its axis) gives an axis of no use
-        specks = [k for k, f in enumerate(fits) if kinds[k] == "revolute" and np.isfinite(f.radius) and f.radius < SPECK * size]
+        specks = [
+            k
+            for k, f in enumerate(fits)
+            if kinds[k] == "revolute" and np.isfinite(f.radius) and f.radius < SPECK * size
+        ]
         if short:
-            cause = (f"(the arcs are too short: {len(short)} axes known no better than {short_sigma * 1e3:g} mm, up to "
-                     f"{max(f.sigma_point_perp for f in fits) * 1e3:.3g} mm; sweep longer arcs)")
+            cause = (
+                f"(the arcs are too short: {len(short)} axes known no better than {short_sigma * 1e3:g} mm, up to "
+                f"{max(f.sigma_point_perp for f in fits) * 1e3:.3g} mm; sweep longer arcs)"
+            )
         elif specks:
-            cause = ("(" + ", ".join(f"joint {names[k]}'s points lie on a circle of radius {fits[k].radius * 1e3:.3g} mm" for k in specks)
-                     + f": the target is on or next to {'that axis' if len(specks) == 1 else 'those axes'}; put it off every joint's axis)")
+            cause = (
+                "("
+                + ", ".join(
+                    f"joint {names[k]}'s points lie on a circle of radius {fits[k].radius * 1e3:.3g} mm" for k in specks
+                )
+                + f": the target is on or next to {'that axis' if len(specks) == 1 else 'those axes'}; put it off every joint's axis)"
+            )
         else:
             cause = "(points in another unit? joints swapped or misnumbered? the wrong robot?)"
-        refuse(f"{far} of {pairs} pairs of axes ({far_next} of {n - 1} consecutive) differ from the nominal {nominal.name}'s by more than {math.degrees(IMPLAUSIBLE[0]):g} deg or "
-               f"{IMPLAUSIBLE[1]:g} robot sizes ({IMPLAUSIBLE[1] * size * 1e3:.4g} mm): expected the same robot " + cause)
+        refuse(
+            f"{far} of {pairs} pairs of axes ({far_next} of {n - 1} consecutive) differ from the nominal {nominal.name}'s by more than {math.degrees(IMPLAUSIBLE[0]):g} deg or "
+            f"{IMPLAUSIBLE[1]:g} robot sizes ({IMPLAUSIBLE[1] * size * 1e3:.4g} mm): expected the same robot " + cause
+        )
 
 
 def _mirrored(fits: list, pts, dirs, kinds, size: float) -> tuple[int, int] | None:
@@ -338,7 +397,10 @@ def _mirrored(fits: list, pts, dirs, kinds, size: float) -> tuple[int, int] | No
     flips = []
     for k in range(len(fits) - 1):
         zi0, zi1 = fits[k].direction, fits[k + 1].direction
-        if "prismatic" in (kinds[k], kinds[k + 1]) or min(np.linalg.norm(np.cross(zi0, zi1)), np.linalg.norm(np.cross(dirs[k], dirs[k + 1]))) < 0.05:
+        if (
+            "prismatic" in (kinds[k], kinds[k + 1])
+            or min(np.linalg.norm(np.cross(zi0, zi1)), np.linalg.norm(np.cross(dirs[k], dirs[k + 1]))) < 0.05
+        ):
             continue
         dn = _signed_distance(pts[k], dirs[k], pts[k + 1], dirs[k + 1])
         di = _signed_distance(fits[k].point, zi0, fits[k + 1].point, zi1)
@@ -383,7 +445,10 @@ def _lost_axes(fits: list, pts, dirs, kinds, size: float, sig_a, sig_d):
     P = np.array([f.point for f in fits])
     D = np.array([f.direction for f in fits])
     _, _, dev = register_axes_globally(P, D, pts, dirs, kinds, size, sig_a, sig_d)
-    beyond = [dev[k, 0] > IMPLAUSIBLE[0] or (kinds[k] != "prismatic" and dev[k, 1] > IMPLAUSIBLE[1] * size) for k in range(len(fits))]
+    beyond = [
+        dev[k, 0] > IMPLAUSIBLE[0] or (kinds[k] != "prismatic" and dev[k, 1] > IMPLAUSIBLE[1] * size)
+        for k in range(len(fits))
+    ]
     if sum(beyond) != 1 or len(fits) < 3:
         return None
     k = beyond.index(True)
@@ -454,12 +519,18 @@ def misfit_notes(sweeps, fits: list, wheres: list[str], notes: list[str]) -> Non
     """A note (one line) per circle fit whose misfit is systematic and far above the noise the points show: the
     data is not a circle about the fitted axis, and the axis and its sigmas (which assume one) are not to be trusted."""
     for s, f, w in zip(sweeps.sweeps, fits, wheres, strict=True):
-        if sweeps.kinds[s.joint - 1] == "prismatic" or not np.isfinite(f.radius) or len(s.points) < SYSTEMATIC_MIN_POINTS:
+        if (
+            sweeps.kinds[s.joint - 1] == "prismatic"
+            or not np.isfinite(f.radius)
+            or len(s.points) < SYSTEMATIC_MIN_POINTS
+        ):
             continue
         rms, noise = systematic_misfit(s.points, f.point, f.direction)
         # white noise: (noise / rms)^2, half the von Neumann ratio, is 1 with a standard deviation of about 1 / sqrt(m)
         z = (1.0 - (noise / rms) ** 2) * math.sqrt(len(s.points)) if rms > 0 else 0.0
         if rms > SYSTEMATIC_FLOOR and rms > SYSTEMATIC_RATIO * noise and z > SYSTEMATIC_Z:
-            notes.append(f"{w}: the points leave the fitted circle systematically, rms {rms * 1e3:.3g} mm against a point-to-point noise of "
-                         f"{noise * 1e3:.2g} mm ({rms / max(noise, 1e-300):.3g} x), varying smoothly along the arc: not a circle (an ellipse? "
-                         f"the arm deflecting under load? a loose joint?; {z:.3g} sigma from white noise): the axis and its sigmas assume a circle")
+            notes.append(
+                f"{w}: the points leave the fitted circle systematically, rms {rms * 1e3:.3g} mm against a point-to-point noise of "
+                f"{noise * 1e3:.2g} mm ({rms / max(noise, 1e-300):.3g} x), varying smoothly along the arc: not a circle (an ellipse? "
+                f"the arm deflecting under load? a loose joint?; {z:.3g} sigma from white noise): the axis and its sigmas assume a circle"
+            )

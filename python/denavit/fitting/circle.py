@@ -126,7 +126,9 @@ def _whiten(wt, h, g):
     return np.concatenate([i11 * h, i21 * h + i22 * g])
 
 
-def _circle_result(p, centre, n, r, method, weights, noise_sigma, where, outliers, shape=None, covariance: bool = True) -> AxisFit:
+def _circle_result(
+    p, centre, n, r, method, weights, noise_sigma, where, outliers, shape=None, covariance: bool = True
+) -> AxisFit:
     """Assemble an AxisFit for a circle (centre, unit normal n, radius r), with orientation and covariance.
 
     The normal is oriented so that the points, in their given order, turn counter-clockwise about it (net signed
@@ -139,9 +141,20 @@ def _circle_result(p, centre, n, r, method, weights, noise_sigma, where, outlier
         phi = -phi
     e, h, g = circle_misfit(p, centre, n, r)
     if not covariance:
-        return AxisFit(point=centre, direction=n, radius=float(r), residuals=e, rms=float(np.sqrt(np.mean(e**2))), cov=np.full((6, 6), math.nan),
-                       sigma_point_perp=math.nan, sigma_direction=math.nan, method=method, outliers=np.zeros(len(p), dtype=bool),
-                       n_points=p.shape[0], arc=arc_span(phi))
+        return AxisFit(
+            point=centre,
+            direction=n,
+            radius=float(r),
+            residuals=e,
+            rms=float(np.sqrt(np.mean(e**2))),
+            cov=np.full((6, 6), math.nan),
+            sigma_point_perp=math.nan,
+            sigma_direction=math.nan,
+            method=method,
+            outliers=np.zeros(len(p), dtype=bool),
+            n_points=p.shape[0],
+            arc=arc_span(phi),
+        )
     t1, t2 = perpendicular_basis(n)
     jac = _circle_jacobian(p, centre, n, r, np.column_stack([t1, t2]))
     res = np.concatenate([h, g])
@@ -149,16 +162,27 @@ def _circle_result(p, centre, n, r, method, weights, noise_sigma, where, outlier
         wt = _tracker_whitening(shape, p, centre, n, r)
         m = len(h)
         jac, res = _whiten(wt, jac[:m], jac[m:]), _whiten(wt, h, g)
-    cov_t = cov_from_jacobian(jac, res, np.concatenate([weights, weights]), 6, noise_sigma, f"{method} circle fit", where)
+    cov_t = cov_from_jacobian(
+        jac, res, np.concatenate([weights, weights]), 6, noise_sigma, f"{method} circle fit", where
+    )
     tmat = np.zeros((6, 6))
     tmat[:3, :3] = np.eye(3)
     tmat[3:, 3:5] = np.column_stack([t1, t2])
     cov6 = tmat @ cov_t @ tmat.T
     sp, sd = axis_sigmas(cov6, n)
     return AxisFit(
-        point=centre, direction=n, radius=float(r), residuals=e, rms=float(np.sqrt(np.mean(e**2))), cov=cov6,
-        sigma_point_perp=sp, sigma_direction=sd, method=method, outliers=outliers,
-        n_points=p.shape[0], arc=arc_span(phi),
+        point=centre,
+        direction=n,
+        radius=float(r),
+        residuals=e,
+        rms=float(np.sqrt(np.mean(e**2))),
+        cov=cov6,
+        sigma_point_perp=sp,
+        sigma_direction=sd,
+        method=method,
+        outliers=outliers,
+        n_points=p.shape[0],
+        arc=arc_span(phi),
     )
 
 
@@ -181,24 +205,30 @@ def _hyper_2d(xy, what, where):
     x, y = x / scale, y / scale
     z = x**2 + y**2
     zxy1 = np.column_stack([z, x, y, np.ones_like(x)])
-    s, vt = tall_svd(zxy1) if len(zxy1) >= 4 else np.linalg.svd(zxy1)[1:]  # (m, 4): never the (m, m) factor (but 4 rows of vt)
+    s, vt = (
+        tall_svd(zxy1) if len(zxy1) >= 4 else np.linalg.svd(zxy1)[1:]
+    )  # (m, 4): never the (m, m) factor (but 4 rows of vt)
     if len(s) < 4 or s[3] < 1e-12 * s[0]:  # singular case: the points lie exactly on a circle (always for m = 3)
         coef = vt[3]
     else:
         rbar = zxy1.mean(axis=0)
-        nmat = np.array([
-            [8 * rbar[0], 4 * rbar[1], 4 * rbar[2], 2.0],
-            [4 * rbar[1], 1.0, 0.0, 0.0],
-            [4 * rbar[2], 0.0, 1.0, 0.0],
-            [2.0, 0.0, 0.0, 0.0],
-        ])
+        nmat = np.array(
+            [
+                [8 * rbar[0], 4 * rbar[1], 4 * rbar[2], 2.0],
+                [4 * rbar[1], 1.0, 0.0, 0.0],
+                [4 * rbar[2], 0.0, 1.0, 0.0],
+                [2.0, 0.0, 0.0, 0.0],
+            ]
+        )
         w = vt.T @ np.diag(s) @ vt
         ymat = w @ np.linalg.solve(nmat, w)
         _, evecs = np.linalg.eigh((ymat + ymat.T) / 2)  # ascending eigenvalues
         coef = np.linalg.solve(w, evecs[:, 1])  # smallest positive eigenvalue (N has one negative eigenvalue)
     a0, a1, a2, a3 = coef
     if abs(a0) <= 1e-12 * np.max(np.abs(coef)):
-        raise DegenerateError(f"{prefix(where)}{what}: the points lie on a straight line (infinite radius); expected an arc")
+        raise DegenerateError(
+            f"{prefix(where)}{what}: the points lie on a straight line (infinite radius); expected an arc"
+        )
     c1, c2 = -a1 / (2 * a0), -a2 / (2 * a0)
     r = math.sqrt(max(a1 * a1 + a2 * a2 - 4 * a0 * a3, 0.0)) / (2 * abs(a0))
     return c1 * scale + mean[0], c2 * scale + mean[1], r * scale
@@ -280,7 +310,9 @@ def fit_circle_kasa(points, *, max_sigma_point=None, noise_sigma=None, where: st
     check_positive("noise_sigma", noise_sigma, where)
     p = check_points(points, 3, "circle fit", where)
     centre, n, r = plane_circle(p, "kasa", "circle fit", where)
-    fit = _circle_result(p, centre, n, r, "kasa", np.ones(len(p)), noise_sigma, where, ~robust_circle(p, "circle fit", where)[3])
+    fit = _circle_result(
+        p, centre, n, r, "kasa", np.ones(len(p)), noise_sigma, where, ~robust_circle(p, "circle fit", where)[3]
+    )
     return check_sigma(fit, max_sigma_point, where)
 
 
@@ -312,7 +344,9 @@ def fit_circle_hyper(points, *, max_sigma_point=None, noise_sigma=None, where: s
     check_positive("noise_sigma", noise_sigma, where)
     p = check_points(points, 3, "circle fit", where)
     centre, n, r = plane_circle(p, "hyper", "circle fit", where)
-    fit = _circle_result(p, centre, n, r, "hyper", np.ones(len(p)), noise_sigma, where, ~robust_circle(p, "circle fit", where)[3])
+    fit = _circle_result(
+        p, centre, n, r, "hyper", np.ones(len(p)), noise_sigma, where, ~robust_circle(p, "circle fit", where)[3]
+    )
     return check_sigma(fit, max_sigma_point, where)
 
 
@@ -330,7 +364,9 @@ def least_squares_lm(fun, jac, x0, what, where):
 
     res = optimize.least_squares(fun, x0, jac=jac, method="lm", xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=400)
     if res.status <= 0:
-        raise NotConvergedError(f"{prefix(where)}{what}: least squares stopped without converging ({res.message}; {res.nfev} evaluations)")
+        raise NotConvergedError(
+            f"{prefix(where)}{what}: least squares stopped without converging ({res.message}; {res.nfev} evaluations)"
+        )
     return res.x
 
 
@@ -431,9 +467,13 @@ def _geometric(p, loss, f_scale, noise_sigma, what, where, tracker=None) -> Axis
     def misfit(st):
         return circle_misfit(pn, *st)[0]
 
-    w0 = np.ones(len(pn)) if loss == "linear" else inliers.astype(float) + 1e-6 * ~inliers  # robust: start from the inliers
+    w0 = (
+        np.ones(len(pn)) if loss == "linear" else inliers.astype(float) + 1e-6 * ~inliers
+    )  # robust: start from the inliers
     state = solve(tuple(state), w0)
-    state, w = irls(solve, misfit, state, loss, f_scale if f_scale is None else f_scale / length, 2, f"geometric {what}", where)
+    state, w = irls(
+        solve, misfit, state, loss, f_scale if f_scale is None else f_scale / length, 2, f"geometric {what}", where
+    )
     c, n, r = state
     method = "geometric" if loss == "linear" else f"geometric+{loss}"
     flags = ~inliers if loss == "linear" else flag_outliers(misfit(state), 2, 1.0)

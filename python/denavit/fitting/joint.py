@@ -123,7 +123,9 @@ class TrackerNoise:
         x = np.asarray(points, dtype=float).T
         ref2 = self.reference_variance(x)
         u, ia, ib = _whitener(self, ref2, x)
-        return ib[:, None, None] * np.eye(3) + ((ia - ib)[:, None, None] * np.einsum("in,jn->nij", u, u)), math.sqrt(ref2)
+        return ib[:, None, None] * np.eye(3) + ((ia - ib)[:, None, None] * np.einsum("in,jn->nij", u, u)), math.sqrt(
+            ref2
+        )
 
 
 def as_tracker_noise(value) -> TrackerNoise | None:
@@ -135,7 +137,9 @@ def as_tracker_noise(value) -> TrackerNoise | None:
     except TypeError:
         items = None
     if items is None or len(items) not in (2, 3):
-        raise DenavitError(f"tracker noise: expected a TrackerNoise or (sigma_range m, sigma_angle rad[, position (x, y, z) m]), got {value!r}")
+        raise DenavitError(
+            f"tracker noise: expected a TrackerNoise or (sigma_range m, sigma_angle rad[, position (x, y, z) m]), got {value!r}"
+        )
     return TrackerNoise(*items)
 
 
@@ -225,7 +229,9 @@ def _carried(turns: dict, active: list, i: int, x: np.ndarray) -> np.ndarray:
     return x
 
 
-def _chain(cs, ns, kinds, p, dq, active, jac: bool, moving: int | None = None, trig: dict | None = None, basis: bool = False):
+def _chain(
+    cs, ns, kinds, p, dq, active, jac: bool, moving: int | None = None, trig: dict | None = None, basis: bool = False
+):
     """Predicted points (3, m), and with ``jac`` the Jacobian blocks and the motion of the swept joint.
 
     Returns ``pred``, ``blocks`` {joint: (4, 3, m) d pred / d [a, b, s, t]} (direction in its tangent basis,
@@ -375,12 +381,19 @@ def _chain_rotation(ns, kinds, R0, dq, active, jac: bool, moving: int | None = N
     m = dq.shape[0]
     turns = {i: _turn(ns[i], dq[:, i], trig.get(i) if trig else None) for i in active if kinds[i] == "revolute"}
     # the columns of R0 (column, component, 1), turned by every joint; then (m, row, column)
-    Y = np.transpose(np.broadcast_to(_carried(turns, active, len(kinds), np.asarray(R0, dtype=float).T[:, :, None]), (3, 3, m)), (2, 1, 0))
+    Y = np.transpose(
+        np.broadcast_to(_carried(turns, active, len(kinds), np.asarray(R0, dtype=float).T[:, :, None]), (3, 3, m)),
+        (2, 1, 0),
+    )
     if not jac and moving is None:
         return Y, None, None, None
 
     def turn(i):
-        return np.zeros((3, m)) if kinds[i] == "prismatic" else np.broadcast_to(_carried(turns, active, i, ns[i][None, :, None])[0], (3, m))
+        return (
+            np.zeros((3, m))
+            if kinds[i] == "prismatic"
+            else np.broadcast_to(_carried(turns, active, i, ns[i][None, :, None])[0], (3, m))
+        )
 
     if not jac:
         return Y, None, None, {moving: turn(moving)}
@@ -390,7 +403,12 @@ def _chain_rotation(ns, kinds, R0, dq, active, jac: bool, moving: int | None = N
             blocks[i] = np.zeros((4, 3, m))
         else:
             _, K, co, sn, omc = turns[i]
-            cols = _carried(turns, active, i, np.stack([b[:, None] * sn + (K @ b)[:, None] * omc for b in perpendicular_basis(ns[i])]))
+            cols = _carried(
+                turns,
+                active,
+                i,
+                np.stack([b[:, None] * sn + (K @ b)[:, None] * omc for b in perpendicular_basis(ns[i])]),
+            )
             blocks[i] = np.concatenate([cols, np.zeros((2, 3, m))])
         dpdq[i] = turn(i)
     jr = np.broadcast_to(_carried(turns, active, len(kinds), np.eye(3)[:, :, None]), (3, 3, m))
@@ -429,9 +447,24 @@ def start_homes(sweeps, starts) -> tuple[np.ndarray, np.ndarray | None]:
     return homes, (_chordal_mean(np.vstack(rots)) if rots else None)
 
 
-def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "linear", per_sweep_home: bool = False,
-               scales=False, scale_prior=None, noise_sigma=None, gamma=None, offsets0=None, rotation0=None, rotation_sigma=None,
-               tracker=None, where: str = ""):
+def fit_sweeps(
+    sweeps,
+    dqs: list,
+    starts: list,
+    p0: np.ndarray,
+    *,
+    loss: str = "linear",
+    per_sweep_home: bool = False,
+    scales=False,
+    scale_prior=None,
+    noise_sigma=None,
+    gamma=None,
+    offsets0=None,
+    rotation0=None,
+    rotation_sigma=None,
+    tracker=None,
+    where: str = "",
+):
     """The joint fit of all sweeps (module docstring). ``dqs`` per sweep (m, n) joint motions from home
     (:func:`locked_motion`), ``starts`` per joint (point, direction) start lines, ``p0`` the start home point (of
     the first target); with several targets ``offsets0`` (k - 1, 3) the start offsets of the other targets' home
@@ -477,7 +510,11 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     R0 = np.array(rotation0, dtype=float) if rot else None
     # the joints whose reading scale is fitted: every swept joint (scales True), or those given (0-based)
     all_swept = sorted({s.joint - 1 for s in sweeps.sweeps})
-    swept = (all_swept if scales is True else sorted({int(j) for j in scales} & set(all_swept))) if scales is not False and scales is not None else []
+    swept = (
+        (all_swept if scales is True else sorted({int(j) for j in scales} & set(all_swept)))
+        if scales is not False and scales is not None
+        else []
+    )
     sc = np.zeros(n)
     H = len(homes)
     i_off = 4 * n + 3 * H  # the first offset's index, then the home rotation's, then the scales'
@@ -510,7 +547,9 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         wmax = math.sqrt(ref2 / min(float(np.min(np.minimum(va, vb))) for _, va, vb in shapes))
 
     trig = {}  # (sweep, first row of a chunk): (the scales of its active joints, {joint: _trig of its motion}, the motion)
-    simple = tracker is None and not rot and K == 1  # a pose one point, isotropic: the Jacobian of one turning joint by moments
+    simple = (
+        tracker is None and not rot and K == 1
+    )  # a pose one point, isotropic: the Jacobian of one turning joint by moments
 
     def chunks(k, cs, ns, homes_, offs_, R_, sc_, wr, jac):
         """(rows, misfits r (D, m), d r / d q of the swept joint (D, m), Jacobian (local parameters, D, m) or None,
@@ -534,9 +573,13 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             rs, mvs, Js = [], [], []
             dist = None if tracker is None else np.zeros(mc)
             for t in range(K):
-                pred, blocks, jp, dpdq = _chain(cs, ns, kinds, h + (offs_[t - 1] if t else 0.0), dqc, active[k], jac, j, trig=tc, basis=simple)
+                pred, blocks, jp, dpdq = _chain(
+                    cs, ns, kinds, h + (offs_[t - 1] if t else 0.0), dqc, active[k], jac, j, trig=tc, basis=simple
+                )
                 r_t, mv_t = pred - measured(s, rows, t), dpdq[j]
-                if jac and simple and _one_turn(kinds, active[k]):  # the Jacobian on the points' (1, cos, sin) (:class:`_Basis`)
+                if (
+                    jac and simple and _one_turn(kinds, active[k])
+                ):  # the Jacobian on the points' (1, cos, sin) (:class:`_Basis`)
                     co, sn = tc[j][0], tc[j][1]
                     C = np.zeros((6 if j in swept else 3, npl, 3))
                     C[:3, :7] = np.concatenate([blocks[j][:4], jp]).transpose(2, 0, 1)
@@ -558,19 +601,34 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
                     jo = np.zeros((3 * (K - 1), 3, mc))
                     if t:
                         jo[3 * (t - 1) : 3 * t] = jp
-                    J_t = np.concatenate([blocks[i] for i in active[k]] + [jp, jo] + ([np.zeros((3, 3, mc))] if rot else [])
-                                         + ([(dpdq[j] * dq[rows, j])[None]] if j in swept else []))
+                    J_t = np.concatenate(
+                        [blocks[i] for i in active[k]]
+                        + [jp, jo]
+                        + ([np.zeros((3, 3, mc))] if rot else [])
+                        + ([(dpdq[j] * dq[rows, j])[None]] if j in swept else [])
+                    )
                     Js.append(J_t if tracker is None else _whiten(w_t, J_t))
             if rot:
                 Rp, blocks, jr, dpdq = _chain_rotation(ns, kinds, R_, dqc, active[k], jac, j, trig=tc)
                 rs.append(wr * matrix_rotvec(Rp @ np.swapaxes(s.rotations[rows], 1, 2)).T)
                 mvs.append(wr * dpdq[j])
                 if jac:
-                    Js.append(wr * np.concatenate([blocks[i] for i in active[k]] + [np.zeros((3 + 3 * (K - 1), 3, mc)), jr]
-                                                  + ([(dpdq[j] * dq[rows, j])[None]] if j in swept else [])))
+                    Js.append(
+                        wr
+                        * np.concatenate(
+                            [blocks[i] for i in active[k]]
+                            + [np.zeros((3 + 3 * (K - 1), 3, mc)), jr]
+                            + ([(dpdq[j] * dq[rows, j])[None]] if j in swept else [])
+                        )
+                    )
             one = len(rs) == 1
-            yield (rows, rs[0] if one else np.concatenate(rs), mvs[0] if one else np.concatenate(mvs),
-                   (Js[0] if one else np.concatenate(Js, axis=1)) if jac else None, None if dist is None else np.sqrt(dist))
+            yield (
+                rows,
+                rs[0] if one else np.concatenate(rs),
+                mvs[0] if one else np.concatenate(mvs),
+                (Js[0] if one else np.concatenate(Js, axis=1)) if jac else None,
+                None if dist is None else np.sqrt(dist),
+            )
 
     def tangent(mv):
         lever = np.linalg.norm(mv, axis=0)
@@ -591,8 +649,11 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     def local(k):
         j = sweeps.sweeps[k].joint - 1
         h0 = 4 * n + 3 * (k if per_sweep_home else 0)
-        return np.concatenate([np.arange(4 * i, 4 * i + 4) for i in active[k]] + [np.arange(h0, h0 + 3), np.arange(i_off, i_sc)]
-                              + ([[i_sc + swept.index(j)]] if j in swept else [])).astype(int)
+        return np.concatenate(
+            [np.arange(4 * i, 4 * i + 4) for i in active[k]]
+            + [np.arange(h0, h0 + 3), np.arange(i_off, i_sc)]
+            + ([[i_sc + swept.index(j)]] if j in swept else [])
+        ).astype(int)
 
     def normal_eq(cs, ns, homes_, offs_, R_, sc_, wr, f=None, bread=False):
         """Normal matrix, its robust sandwich part (with ``bread``, the final pass; else the normal matrix again),
@@ -636,7 +697,9 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
                     A_t, G_t = g2 * tt, g**2 * tt
                 A[np.ix_(idx, idx)] += (J.gram(w) if moments else (J * w).reshape(len(idx), -1) @ Jf.T) - A_t
                 if A2 is not None:
-                    A2[np.ix_(idx, idx)] += (J.gram(w**2) if moments else (J * w**2).reshape(len(idx), -1) @ Jf.T) - g2 * (jt * w**2) @ jt.T
+                    A2[np.ix_(idx, idx)] += (
+                        J.gram(w**2) if moments else (J * w**2).reshape(len(idx), -1) @ Jf.T
+                    ) - g2 * (jt * w**2) @ jt.T
                 e = w * (r - g2 * rt * t)
                 b[idx] += J.rdot(e) if moments else Jf @ e.reshape(-1)
                 ss += float(np.sum(w * np.sum(rw**2, axis=0)))
@@ -649,7 +712,9 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
                     Gr += np.einsum("pim,qim->pq", Jo * w, Jo)
                     rr_k[rows] = np.sum(ro**2, axis=0)
                 if bread:
-                    gw = (J.dot(rw) if moments else np.einsum("im,pim->pm", rw, J)) - (1 - g) * g * rt * jt  # J_w^T r_w per point
+                    gw = (J.dot(rw) if moments else np.einsum("im,pim->pm", rw, J)) - (
+                        1 - g
+                    ) * g * rt * jt  # J_w^T r_w per point
                     c = 2 * loss_dweight(loss, np.sum(rw**2, axis=0) / f**2) / f**2
                     Bd[np.ix_(idx, idx)] += (gw * c) @ gw.T
                 rt_k[rows], lever_k[rows], rw_k[:, rows], r_k[:, rows] = rt, lever, rw, r
@@ -674,8 +739,22 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             new_cs.append(x_cs[i] + (B @ delta[4 * i + 2 : 4 * i + 4] if kinds[i] == "revolute" else 0.0))
         new_sc = x_sc.copy()
         new_sc[swept] += delta[i_sc:]
-        new_R = axis_angle_matrices(delta[i_rot:i_sc] / max(np.linalg.norm(delta[i_rot:i_sc]), 1e-300), [np.linalg.norm(delta[i_rot:i_sc])])[0] @ x_R if rot else None
-        return new_cs, new_ns, x_h + delta[4 * n : i_off].reshape(-1, 3), x_o + delta[i_off:i_rot].reshape(-1, 3), new_R, new_sc
+        new_R = (
+            axis_angle_matrices(
+                delta[i_rot:i_sc] / max(np.linalg.norm(delta[i_rot:i_sc]), 1e-300), [np.linalg.norm(delta[i_rot:i_sc])]
+            )[0]
+            @ x_R
+            if rot
+            else None
+        )
+        return (
+            new_cs,
+            new_ns,
+            x_h + delta[4 * n : i_off].reshape(-1, 3),
+            x_o + delta[i_off:i_rot].reshape(-1, 3),
+            new_R,
+            new_sc,
+        )
 
     def cost(cs, ns, homes_, offs_, R_, sc_, wr):
         """The whitened cost at a trial point: misfits and tangents only, no Jacobian blocks."""
@@ -699,21 +778,41 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             for _, r, _, _, _ in chunks(k, cs, ns, homes, offs, R0, sc, 1.0, False):
                 pr.append(np.sum(r[:-3] ** 2, axis=0) / (3 * K))
                 rr.append(np.sum(r[-3:] ** 2, axis=0) / 3)
-        srot = float(rotation_sigma) if rotation_sigma is not None else max(math.sqrt(np.median(np.concatenate(rr))), 1e-12)
+        srot = (
+            float(rotation_sigma)
+            if rotation_sigma is not None
+            else max(math.sqrt(np.median(np.concatenate(rr))), 1e-12)
+        )
         wr = max(math.sqrt(np.median(np.concatenate(pr))), noise_sigma or 0.0, floor) / srot
     lam = 1e-6
     sigma2 = f = f_next = None
     eps_cost = COST_ROUNDOFF * np.finfo(float).eps * max(float(np.max(np.abs(s.points))) for s in sweeps.sweeps) * wmax
     if tracker is not None:  # each sweep's reference lever: the RMS of its poses' whitened levers at the start
-        lref = np.array([math.sqrt(np.mean(np.concatenate([tangent(mv)[1] ** 2 for _, _, mv, _, _ in chunks(k, cs, ns, homes, offs, R0, sc, wr, False)])))
-                         for k in range(S)])
+        lref = np.array(
+            [
+                math.sqrt(
+                    np.mean(
+                        np.concatenate(
+                            [
+                                tangent(mv)[1] ** 2
+                                for _, _, mv, _, _ in chunks(k, cs, ns, homes, offs, R0, sc, wr, False)
+                            ]
+                        )
+                    )
+                )
+                for k in range(S)
+            ]
+        )
     fresh = True
     first = 0
     if gamma is not None and not rot and loss != "linear":
         # the variance components are given: the first pass would only give the first robust scale (its normal
         # equations, on weights of one, make way for those of that scale), from the start's whitened misfits alone
-        norms = [np.linalg.norm(whitened(r, tangent(mv)[0], g_of(k, tangent(mv)[1]))[0], axis=0)
-                 for k in range(S) for _, r, mv, _, _ in chunks(k, cs, ns, homes, offs, R0, sc, wr, False)]
+        norms = [
+            np.linalg.norm(whitened(r, tangent(mv)[0], g_of(k, tangent(mv)[1]))[0], axis=0)
+            for k in range(S)
+            for _, r, mv, _, _ in chunks(k, cs, ns, homes, offs, R0, sc, wr, False)
+        ]
         f, first = 3.0 * math.sqrt(D / 3) * max(robust_sigma(np.concatenate(norms), D), floor), 1
     for it in range(first, 300):
         if fresh:
@@ -725,14 +824,26 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             lev_t = [float(np.sum(A_inv[np.ix_(p[0], p[0])] * p[1])) for p in parts]
             # (robust losses: the weighted residuals w r, bounded for outliers, over the weighted counts sum(w^2))
             ss_t = [float(np.sum(ws[k] ** 2 * p[2] ** 2)) for k, p in enumerate(parts)]
-            ss_o = sum(float(np.sum(ws[k] ** 2 * (np.sum(parts[k][5] ** 2, axis=0) - parts[k][2] ** 2))) for k in range(S))
+            ss_o = sum(
+                float(np.sum(ws[k] ** 2 * (np.sum(parts[k][5] ** 2, axis=0) - parts[k][2] ** 2))) for k in range(S)
+            )
             m_w = [float(np.sum(w**2)) for w in ws]
             red_o = (D - 1) * sum(m_w) - (float(np.trace(A_inv @ A)) - sum(lev_t))
             sigma2 = max(ss_o / red_o if red_o > 0 else 0.0, (noise_sigma or 0.0) ** 2, floor**2)
             tau2 = [st / max(mw - lt, 1.0) for st, lt, mw in zip(ss_t, lev_t, m_w, strict=True)]
-            if lref is not None:  # per pose sigma^2 + (lever sigma_q)^2: the reading variance over the mean lever^2, at lref
-                tau2 = [sigma2 + lref[k] ** 2 * (t2 - sigma2) / max(float(np.sum(ws[k] ** 2 * parts[k][3] ** 2)) / m_w[k], 1e-300) for k, t2 in enumerate(tau2)]
-            new_gam = gam if gamma is not None else np.array([1.0 if not t2 > sigma2 else max(math.sqrt(sigma2 / t2), 1e-9) for t2 in tau2])
+            if (
+                lref is not None
+            ):  # per pose sigma^2 + (lever sigma_q)^2: the reading variance over the mean lever^2, at lref
+                tau2 = [
+                    sigma2
+                    + lref[k] ** 2 * (t2 - sigma2) / max(float(np.sum(ws[k] ** 2 * parts[k][3] ** 2)) / m_w[k], 1e-300)
+                    for k, t2 in enumerate(tau2)
+                ]
+            new_gam = (
+                gam
+                if gamma is not None
+                else np.array([1.0 if not t2 > sigma2 else max(math.sqrt(sigma2 / t2), 1e-9) for t2 in tau2])
+            )
             new_wr = wr
             if rot:  # the orientation noise across the swept axis, over its redundancy (2 per pose less its leverage)
                 ss_r = sum(float(np.sum(ws[k] ** 2 * p[7])) for k, p in enumerate(parts)) / wr**2
@@ -743,7 +854,11 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
             # the robust scale of the next pass's weights: 3 robust sigmas of the whitened misfits (point-noise units;
             # times sqrt(D / 3): a pose of D components has the norm of one point's 3 at the same per-component noise)
             if loss != "linear":
-                f_next = 3.0 * math.sqrt(D / 3) * max(robust_sigma(np.concatenate([np.linalg.norm(p[4], axis=0) for p in parts]), D), floor)
+                f_next = (
+                    3.0
+                    * math.sqrt(D / 3)
+                    * max(robust_sigma(np.concatenate([np.linalg.norm(p[4], axis=0) for p in parts]), D), floor)
+                )
             # how far the variance components and f moved at this pass, in units of their tolerances (after 100
             # passes they are frozen)
             dg = float(np.max(np.abs(new_gam - gam) / gam))
@@ -775,7 +890,9 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
         if accepted or settled:
             gam, f, fresh = new_gam, f_next, True
     else:
-        raise NotConvergedError(f"{where}: global fit: no convergence in 300 steps (expected a step below {STEP_TOL:g} of its sigmas)")
+        raise NotConvergedError(
+            f"{where}: global fit: no convergence in 300 steps (expected a step below {STEP_TOL:g} of its sigmas)"
+        )
     f_final = f
     A, A2, b, ss, parts = normal_eq(cs, ns, homes, offs, R0, sc, wr, f_final, bread=loss != "linear")
     psi2 = sum(float(np.sum(w**2 * np.sum(p[4] ** 2, axis=0))) for w, p in zip(ws, parts, strict=True))
@@ -807,13 +924,33 @@ def fit_sweeps(sweeps, dqs: list, starts: list, p0: np.ndarray, *, loss: str = "
     scale_cross, scale_cov = (M @ cov_x @ Ms.T)[:n_out], Ms @ cov_x @ Ms.T
     sigma = math.sqrt(sigma2)
     levers = [float(np.mean(p[3])) for p in parts] if lref is None else lref
-    reading_sigma = [math.sqrt(max(sigma2 / g**2 - sigma2, 0.0)) / max(lv, 1e-300) for g, lv in zip(gam, levers, strict=True)]
+    reading_sigma = [
+        math.sqrt(max(sigma2 / g**2 - sigma2, 0.0)) / max(lv, 1e-300) for g, lv in zip(gam, levers, strict=True)
+    ]
     misfit = [np.sqrt(np.sum(p[5][: 3 * K] ** 2, axis=0) / K) if p[8] is None else p[8] for p in parts]
     return {
-        "points": np.array(feet), "directions": np.array(ns), "home": np.array([home_of(k) for k in range(S)]), "cov": cov_all[:n_out, :n_out],
-        "cov_all": cov_all, "offsets": offs, "rotation": R0, "rotation_sigma": srot if rot else math.nan, "components": D, "n_homes": H,
-        "misfit": misfit, "weights": ws, "whitened": [np.linalg.norm(p[4], axis=0) / sigma for p in parts],
-        "sigma": sigma, "reading_sigma": reading_sigma, "ss": ss / sigma2, "ss_m": ss, "n_params": npar, "gamma": gam,
-        "scales": sc, "scale_sigma": scale_sigma, "scale_cross": scale_cross, "scale_cov": scale_cov,
+        "points": np.array(feet),
+        "directions": np.array(ns),
+        "home": np.array([home_of(k) for k in range(S)]),
+        "cov": cov_all[:n_out, :n_out],
+        "cov_all": cov_all,
+        "offsets": offs,
+        "rotation": R0,
+        "rotation_sigma": srot if rot else math.nan,
+        "components": D,
+        "n_homes": H,
+        "misfit": misfit,
+        "weights": ws,
+        "whitened": [np.linalg.norm(p[4], axis=0) / sigma for p in parts],
+        "sigma": sigma,
+        "reading_sigma": reading_sigma,
+        "ss": ss / sigma2,
+        "ss_m": ss,
+        "n_params": npar,
+        "gamma": gam,
+        "scales": sc,
+        "scale_sigma": scale_sigma,
+        "scale_cross": scale_cross,
+        "scale_cov": scale_cov,
         "tracker_ref2": math.nan if ref2 is None else ref2,
     }

@@ -70,8 +70,18 @@ def fit_line(points, *, q=None, max_sigma_point=None, noise_sigma=None, where: s
     cov6[3:, 3:] = s2 / float(t @ t) * (np.eye(3) - np.outer(d, d))
     sp, sd = axis_sigmas(cov6, d)
     fit = AxisFit(
-        point=centroid, direction=d, radius=math.nan, residuals=dist, rms=float(np.sqrt(np.mean(dist**2))),
-        cov=cov6, sigma_point_perp=sp, sigma_direction=sd, method="line",
-        outliers=flag_outliers(dist, 2, rms_spread(p)), n_points=m, arc=math.nan, scale=scale,
+        point=centroid,
+        direction=d,
+        radius=math.nan,
+        residuals=dist,
+        rms=float(np.sqrt(np.mean(dist**2))),
+        cov=cov6,
+        sigma_point_perp=sp,
+        sigma_direction=sd,
+        method="line",
+        outliers=flag_outliers(dist, 2, rms_spread(p)),
+        n_points=m,
+        arc=math.nan,
+        scale=scale,
     )
     return check_sigma(fit, max_sigma_point, where)

@@ -245,10 +245,20 @@ def _readings(p, q, loss, f_scale, noise_sigma, where) -> AxisFit:
     e, _, _ = circle_misfit(p, centre, n, radius)
     mis = np.linalg.norm(rw, axis=1)
     return AxisFit(
-        point=centre, direction=n, radius=radius, residuals=e, rms=float(np.sqrt(np.mean(e**2))), cov=cov6,
-        sigma_point_perp=sp, sigma_direction=sd, method=method,
-        outliers=~inliers if loss == "linear" else flag_outliers(mis, 3, length), n_points=m, arc=arc_span(in_plane_angles(p, centre, n)),
-        reading_sigma=sigma_q, noise=math.sqrt(s2) * length,
+        point=centre,
+        direction=n,
+        radius=radius,
+        residuals=e,
+        rms=float(np.sqrt(np.mean(e**2))),
+        cov=cov6,
+        sigma_point_perp=sp,
+        sigma_direction=sd,
+        method=method,
+        outliers=~inliers if loss == "linear" else flag_outliers(mis, 3, length),
+        n_points=m,
+        arc=arc_span(in_plane_angles(p, centre, n)),
+        reading_sigma=sigma_q,
+        noise=math.sqrt(s2) * length,
     )
 
 

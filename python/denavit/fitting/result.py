@@ -91,9 +91,15 @@ class AxisFit:
             object.__setattr__(self, name, a)
 
     def __repr__(self) -> str:
-        shape = f"radius {self.radius * 1e3:.5g} mm, arc {math.degrees(self.arc):.4g} deg" if math.isfinite(self.radius) else "line"
-        return (f"AxisFit({self.method}, {self.n_points} points, {shape}, rms {self.rms * 1e3:.3g} mm, sigma {self.sigma_point_perp * 1e3:.3g} mm across / "
-                f"{math.degrees(self.sigma_direction):.3g} deg, {int(np.count_nonzero(self.outliers))} outliers)")
+        shape = (
+            f"radius {self.radius * 1e3:.5g} mm, arc {math.degrees(self.arc):.4g} deg"
+            if math.isfinite(self.radius)
+            else "line"
+        )
+        return (
+            f"AxisFit({self.method}, {self.n_points} points, {shape}, rms {self.rms * 1e3:.3g} mm, sigma {self.sigma_point_perp * 1e3:.3g} mm across / "
+            f"{math.degrees(self.sigma_direction):.3g} deg, {int(np.count_nonzero(self.outliers))} outliers)"
+        )
 
 
 def axis_sigmas(cov6: np.ndarray, n: np.ndarray) -> tuple[float, float]:

@@ -127,7 +127,11 @@ def weighted_cov(j: np.ndarray, r: np.ndarray, w: np.ndarray, n_params: int, noi
     inflates the sigmas instead of being hidden.
     """
     s2 = misfit_variance(w * r, float(np.sum(w**2)) - n_params, noise_sigma)
-    sv, vt = tall_svd(j * np.sqrt(w)[:, None]) if len(j) >= j.shape[1] else np.linalg.svd(j * np.sqrt(w)[:, None], full_matrices=False)[1:]
+    sv, vt = (
+        tall_svd(j * np.sqrt(w)[:, None])
+        if len(j) >= j.shape[1]
+        else np.linalg.svd(j * np.sqrt(w)[:, None], full_matrices=False)[1:]
+    )
     inv = np.where(sv > 1e-13 * sv[0], 1.0 / np.maximum(sv, 1e-300) ** 2, 0.0)
     a_inv = (vt.T * inv) @ vt
     jw = j * w[:, None]

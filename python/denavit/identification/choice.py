@@ -31,10 +31,25 @@ def _joint_fits(sweeps: SweepSet, fits: list, res: dict, cov: np.ndarray, loss: 
         sp, sd = axis_sigmas(cov6, nv)
         mis = res["misfit"][k]
         radius = float(np.linalg.norm(ph - c)) if sweeps.kinds[j] == "revolute" else math.nan
-        out.append(replace(f, point=c, direction=nv, radius=radius, residuals=mis, rms=float(math.sqrt(np.mean(mis**2))), cov=cov6,
-                           sigma_point_perp=sp, sigma_direction=sd, outliers=flag_outliers(res["whitened"][k], res["components"], 1.0),
-                           method=label if loss == "linear" else f"{label}+{loss}", reading_sigma=res["reading_sigma"][k], noise=res["sigma"],
-                           scale=1 + res["scales"][j] if np.isfinite(res["scale_sigma"][j]) else f.scale, scale_sigma=res["scale_sigma"][j]))
+        out.append(
+            replace(
+                f,
+                point=c,
+                direction=nv,
+                radius=radius,
+                residuals=mis,
+                rms=float(math.sqrt(np.mean(mis**2))),
+                cov=cov6,
+                sigma_point_perp=sp,
+                sigma_direction=sd,
+                outliers=flag_outliers(res["whitened"][k], res["components"], 1.0),
+                method=label if loss == "linear" else f"{label}+{loss}",
+                reading_sigma=res["reading_sigma"][k],
+                noise=res["sigma"],
+                scale=1 + res["scales"][j] if np.isfinite(res["scale_sigma"][j]) else f.scale,
+                scale_sigma=res["scale_sigma"][j],
+            )
+        )
     return out
 
 
@@ -61,7 +76,9 @@ def _with_drift(sweeps: SweepSet, res: dict) -> tuple[np.ndarray, float]:
         t = t / max(np.linalg.norm(t), 1e-300) if sweeps.kinds[j] == "revolute" else res["directions"][j]
         P = np.eye(3) - np.outer(t, t)
         ss += float(dev[k] @ P @ dev[k])
-        est += float(np.trace(P @ res["cov"][n6 + 3 * k : n6 + 3 * k + 3, n6 + 3 * k : n6 + 3 * k + 3] @ P)) * (S - 1) / S
+        est += (
+            float(np.trace(P @ res["cov"][n6 + 3 * k : n6 + 3 * k + 3, n6 + 3 * k : n6 + 3 * k + 3] @ P)) * (S - 1) / S
+        )
     sd2 = max(ss - est, 0.0) / (2 * max(S - 1, 1))
     for j in range(n6 // 6):
         cov[6 * j : 6 * j + 3, 6 * j : 6 * j + 3] += sd2 * np.eye(3)
@@ -124,9 +141,23 @@ def _chi2_quantile(level: float, k: int) -> float:
 
 #: The chi-square's median (scipy.stats chi2.ppf(0.5, k)) for k degrees of freedom: the Q-profile's level
 #: (:func:`_scale_spread`), k one per swept joint; more joints from scipy.
-CHI2_MEDIAN = _Levels({1: 0.454936423119572, 2: 1.386294361119891, 3: 2.3659738843753377, 4: 3.3566939800333224, 5: 4.351460191095526,
-                       6: 5.348120627447118, 7: 6.345811195521515, 8: 7.344121497701794, 9: 8.342832692252955, 10: 9.34181776559197,
-                       11: 10.340998074391827, 12: 11.34032237742414}, lambda k: _chi2_quantile(0.5, k))
+CHI2_MEDIAN = _Levels(
+    {
+        1: 0.454936423119572,
+        2: 1.386294361119891,
+        3: 2.3659738843753377,
+        4: 3.3566939800333224,
+        5: 4.351460191095526,
+        6: 5.348120627447118,
+        7: 6.345811195521515,
+        8: 7.344121497701794,
+        9: 8.342832692252955,
+        10: 9.34181776559197,
+        11: 10.340998074391827,
+        12: 11.34032237742414,
+    },
+    lambda k: _chi2_quantile(0.5, k),
+)
 
 
 def _scale_evidence(s: np.ndarray, C: np.ndarray) -> tuple[float, float]:
@@ -187,7 +218,9 @@ def _scale_penalty(k: int, n_res: int) -> tuple[float, str]:
     return math.log(max(n_res, 1)), f"ln {n_res}"
 
 
-def _reading_scales(richer: Callable, refit: Callable, base: dict, drift: bool, n_res: int) -> tuple[dict | None, dict | None, float, str]:
+def _reading_scales(
+    richer: Callable, refit: Callable, base: dict, drift: bool, n_res: int
+) -> tuple[dict | None, dict | None, float, str]:
     """The readings' scale errors as a population (empirical Bayes): every swept joint's scale fitted once freely
     (``full``); whether they err at all by the evidence (:func:`_scale_evidence`: the marginal likelihood of the
     scales as a population N(0, tau^2) against exact scales, one hyperparameter, by Schwarz's criterion,
@@ -221,11 +254,24 @@ def _reading_scales(richer: Callable, refit: Callable, base: dict, drift: bool, 
 
 
 def _scale_list(g: dict, n: int) -> str:
-    return ", ".join(f"joint {j + 1} {g['scales'][j] * 1e6:+.4g} +/- {g['scale_sigma'][j] * 1e6:.2g} ppm" for j in range(n) if np.isfinite(g["scale_sigma"][j]))
+    return ", ".join(
+        f"joint {j + 1} {g['scales'][j] * 1e6:+.4g} +/- {g['scale_sigma'][j] * 1e6:.2g} ppm"
+        for j in range(n)
+        if np.isfinite(g["scale_sigma"][j])
+    )
 
 
-def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, notes: list[str], chosen: str, rotation_noise=None,
-            tracker: TrackerNoise | None = None):
+def _choose(
+    sweeps: SweepSet,
+    fits: list,
+    homes0: np.ndarray,
+    R0,
+    loss: str,
+    notes: list[str],
+    chosen: str,
+    rotation_noise=None,
+    tracker: TrackerNoise | None = None,
+):
     """The joint fit(s) with readings: ``chosen`` "global", or "auto" (evidence: the per-sweep fits when the
     readings are worth nothing, else one home point or one per sweep by the BIC, and the readings' scale errors as a
     population when the evidence shows them (:func:`_reading_scales`); with scales fitted, a home point per sweep must
@@ -236,28 +282,54 @@ def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, not
     dqs = _motions(sweeps, notes)
     starts = [(f.point, f.direction) for f in fits]
     try:
-        start = {"offsets0": homes0[1:] - homes0[0], "rotation0": R0, "rotation_sigma": rotation_noise, "tracker": tracker}
+        start = {
+            "offsets0": homes0[1:] - homes0[0],
+            "rotation0": R0,
+            "rotation_sigma": rotation_noise,
+            "tracker": tracker,
+        }
         g = fit_sweeps(sweeps, dqs, starts, homes0[0], loss=loss, where=sweeps.source, **start)
-    except NotConvergedError as e:  # say why when the arcs are short (a 1 degree protocol had ended on "no convergence")
-        short = [(s.joint, f.arc) for s, f in zip(sweeps.sweeps, fits, strict=True) if sweeps.kinds[s.joint - 1] == "revolute" and f.arc < SHORT_ARC]
+    except (
+        NotConvergedError
+    ) as e:  # say why when the arcs are short (a 1 degree protocol had ended on "no convergence")
+        short = [
+            (s.joint, f.arc)
+            for s, f in zip(sweeps.sweeps, fits, strict=True)
+            if sweeps.kinds[s.joint - 1] == "revolute" and f.arc < SHORT_ARC
+        ]
         if not short:
             raise
-        raise NotConvergedError(f"{e} (the arcs are too short: {len(short)} sweeps under {math.degrees(SHORT_ARC):g} deg, down to "
-                                f"{math.degrees(min(a for _, a in short)):.3g} deg on joint {min(short, key=lambda x: x[1])[0]}: sweep longer arcs)") from None
+        raise NotConvergedError(
+            f"{e} (the arcs are too short: {len(short)} sweeps under {math.degrees(SHORT_ARC):g} deg, down to "
+            f"{math.degrees(min(a for _, a in short)):.3g} deg on joint {min(short, key=lambda x: x[1])[0]}: sweep longer arcs)"
+        ) from None
     method, cov, drift, scales = "global", g["cov"], None, None
     if chosen == "auto":
         sq = [f"{math.degrees(v) * 3600:.3g}" for v in g["reading_sigma"]]
         if np.all(g["gamma"] < READINGS_WORTHLESS):
-            notes.append(f"auto: geometric (per-sweep circles): the readings are worth nothing against the points (estimated reading error {', '.join(sq)} arcsec per sweep)")
+            notes.append(
+                f"auto: geometric (per-sweep circles): the readings are worth nothing against the points (estimated reading error {', '.join(sq)} arcsec per sweep)"
+            )
             return "geometric", None, None, None, math.nan, None, None
         n_res = g["components"] * sum(len(s.points) for s in sweeps.sweeps)
 
         def richer(base, **kw):
             """(fit on base's weights, its BIC against base), or (None, -inf) when it does not converge."""
             try:
-                r = fit_sweeps(sweeps, dqs, list(zip(base["points"], base["directions"], strict=True)), base["home"].mean(axis=0), loss=loss,
-                               gamma=base["gamma"], where=sweeps.source, offsets0=base["offsets"], rotation0=base["rotation"], rotation_sigma=rotation_noise,
-                               tracker=tracker, **kw)
+                r = fit_sweeps(
+                    sweeps,
+                    dqs,
+                    list(zip(base["points"], base["directions"], strict=True)),
+                    base["home"].mean(axis=0),
+                    loss=loss,
+                    gamma=base["gamma"],
+                    where=sweeps.source,
+                    offsets0=base["offsets"],
+                    rotation0=base["rotation"],
+                    rotation_sigma=rotation_noise,
+                    tracker=tracker,
+                    **kw,
+                )
             except NotConvergedError:  # (e.g. a home per sweep on arcs too short to hold one)
                 return None, -math.inf
             return r, _bic(base, r, r["n_params"] - base["n_params"], n_res)
@@ -266,9 +338,19 @@ def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, not
             """r refitted with its own weights (the simpler model's tangential misfit held the effect too); r itself, or
             with ``strict`` None, when that does not converge."""
             try:
-                return fit_sweeps(sweeps, dqs, list(zip(r["points"], r["directions"], strict=True)), r["home"].mean(axis=0), loss=loss,
-                                  where=sweeps.source, offsets0=r["offsets"], rotation0=r["rotation"], rotation_sigma=rotation_noise,
-                                  tracker=tracker, **kw)
+                return fit_sweeps(
+                    sweeps,
+                    dqs,
+                    list(zip(r["points"], r["directions"], strict=True)),
+                    r["home"].mean(axis=0),
+                    loss=loss,
+                    where=sweeps.source,
+                    offsets0=r["offsets"],
+                    rotation0=r["rotation"],
+                    rotation_sigma=rotation_noise,
+                    tracker=tracker,
+                    **kw,
+                )
             except NotConvergedError:
                 return None if strict else r
 
@@ -277,35 +359,69 @@ def _choose(sweeps: SweepSet, fits: list, homes0: np.ndarray, R0, loss: str, not
         if bic > 0:
             g, method = refit(d, per_sweep_home=True), "readings"
             cov, sd = _with_drift(sweeps, g)
-            notes.append(f"auto: readings (a home point per sweep) over global (one home point): BIC lower by {bic:.3g}; the home tool point "
-                         f"moves {sd * 1e3:.3g} mm (1 sigma per coordinate) between sweeps, added to every axis's uncertainty")
+            notes.append(
+                f"auto: readings (a home point per sweep) over global (one home point): BIC lower by {bic:.3g}; the home tool point "
+                f"moves {sd * 1e3:.3g} mm (1 sigma per coordinate) between sweeps, added to every axis's uncertainty"
+            )
         else:
-            why = f"BIC lower by {-bic:.3g}" if d is not None else "a home point per sweep does not converge on these arcs"
-            notes.append(f"auto: global (one home point) over readings (a home point per sweep): {why}; estimated reading error "
-                         f"{', '.join(sq)} arcsec per sweep, point noise {g['sigma'] * 1e3:.3g} mm")
+            why = (
+                f"BIC lower by {-bic:.3g}"
+                if d is not None
+                else "a home point per sweep does not converge on these arcs"
+            )
+            notes.append(
+                f"auto: global (one home point) over readings (a home point per sweep): {why}; estimated reading error "
+                f"{', '.join(sq)} arcsec per sweep, point noise {g['sigma'] * 1e3:.3g} mm"
+            )
         drift = method == "readings"
         post, full, tau, evidence = _reading_scales(richer, refit, g, drift, n_res)
         if drift and post is not None:
             # the drift was chosen before the scales: unmodelled scale errors look like a drift; with the scales
             # fitted, a home point per sweep must pay for itself again (the BIC, on the same weights)
             gs = refit(g_global, scales=True, scale_prior=(tau, g_global["sigma"]), strict=True)
-            dd, bic_d = richer(gs, per_sweep_home=True, scales=True, scale_prior=(tau, g_global["sigma"])) if gs is not None else (None, math.inf)
+            dd, bic_d = (
+                richer(gs, per_sweep_home=True, scales=True, scale_prior=(tau, g_global["sigma"]))
+                if gs is not None
+                else (None, math.inf)
+            )
             if bic_d <= 0:
-                why = f"BIC higher by {-bic_d:.3g}" if dd is not None else "a home point per sweep does not converge with the scales"
-                notes.append(f"auto: with the reading scales fitted, one home point again ({why}): the drift was the scale errors")
+                why = (
+                    f"BIC higher by {-bic_d:.3g}"
+                    if dd is not None
+                    else "a home point per sweep does not converge with the scales"
+                )
+                notes.append(
+                    f"auto: with the reading scales fitted, one home point again ({why}): the drift was the scale errors"
+                )
                 method, drift, cov, g = "global", False, g_global["cov"], g_global
                 post, full, tau, evidence = _reading_scales(richer, refit, g, drift, n_res)
         if post is not None:
             g = post
             cov = _with_drift(sweeps, g)[0] if drift else g["cov"]
             scales = (g["scales"].copy(), _scale_cross(g, sweeps.n_joints), g["scale_cov"])
-            notes.append(f"auto: the readings' scale errors fitted (the evidence shows them as a population: {evidence}; the joints' scales scatter "
-                         f"by tau = {tau * 1e6:.3g} ppm beyond their sigmas, each fitted with that spread as its prior: one the data cannot show stays "
-                         f"near zero): {_scale_list(g, sweeps.n_joints)}")
+            notes.append(
+                f"auto: the readings' scale errors fitted (the evidence shows them as a population: {evidence}; the joints' scales scatter "
+                f"by tau = {tau * 1e6:.3g} ppm beyond their sigmas, each fitted with that spread as its prior: one the data cannot show stays "
+                f"near zero): {_scale_list(g, sweeps.n_joints)}"
+            )
         else:
-            why = ("n/a: no convergence" if full is None or tau > 0 else  # (tau > 0 without a fit: the one with the prior did not converge)
-                   f"the evidence does not show them: {evidence}; the joints' scale estimates: {_scale_list(full, sweeps.n_joints)}; taken as exact in scale")
-            notes.append(f"auto: no reading scale errors fitted ({why}); a scale error the data cannot show moves each axis radially by about the "
-                         "scale times the arc's radius")
+            why = (
+                "n/a: no convergence"
+                if full is None or tau > 0
+                # (tau > 0 without a fit: the one with the prior did not converge)
+                else f"the evidence does not show them: {evidence}; the joints' scale estimates: {_scale_list(full, sweeps.n_joints)}; taken as exact in scale"
+            )
+            notes.append(
+                f"auto: no reading scale errors fitted ({why}); a scale error the data cannot show moves each axis radially by about the "
+                "scale times the arc's radius"
+            )
     mis = np.concatenate(g["misfit"])
-    return method, _joint_fits(sweeps, fits, g, cov, loss, method), cov, g["home"].mean(axis=0), float(math.sqrt(np.mean(mis**2))), g, scales
+    return (
+        method,
+        _joint_fits(sweeps, fits, g, cov, loss, method),
+        cov,
+        g["home"].mean(axis=0),
+        float(math.sqrt(np.mean(mis**2))),
+        g,
+        scales,
+    )

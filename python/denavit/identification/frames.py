@@ -30,7 +30,9 @@ def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return rotvec_matrix(v / max(np.linalg.norm(v), 1e-300) * math.atan2(np.linalg.norm(v), float(a @ b)))
 
 
-def _tool_frame(sweeps: SweepSet, res: dict | None, R_nominal: np.ndarray, notes: list[str]) -> tuple[np.ndarray, str, np.ndarray | None]:
+def _tool_frame(
+    sweeps: SweepSet, res: dict | None, R_nominal: np.ndarray, notes: list[str]
+) -> tuple[np.ndarray, str, np.ndarray | None]:
     """The tool frame's orientation at home in world, where it came from (:data:`TOOL_ORIENTATION`), and the
     (3, p) Jacobian of its small rotation (world) with respect to the joint fit's parameters (``res["cov_all"]``),
     None when it is the nominal's. Several targets: the frame of their home points (against the declared nest,
@@ -47,8 +49,10 @@ def _tool_frame(sweeps: SweepSet, res: dict | None, R_nominal: np.ndarray, notes
     H = res["n_homes"]
     nest = sweeps.nest
     if nest is None and K < 3:
-        notes.append("tool frame: two targets per pose fix its orientation only up to a turn about the line through them; the nominal's is kept "
-                     "(declare the nest, the targets' positions in the tool frame, for the rest)")
+        notes.append(
+            "tool frame: two targets per pose fix its orientation only up to a turn about the line through them; the nominal's is kept "
+            "(declare the nest, the targets' positions in the tool frame, for the rest)"
+        )
         return R_nominal, "nominal", None
 
     def frame(theta):
@@ -76,10 +80,14 @@ def _tool_frame(sweeps: SweepSet, res: dict | None, R_nominal: np.ndarray, notes
     G[:, n6 : n6 + len(theta0)] = J
     how = "nest" if nest is not None else "targets"
     if how == "nest" and K == 2:
-        notes.append("tool frame: two targets fix its orientation up to a turn about the line through them: that turn is the nominal's")
+        notes.append(
+            "tool frame: two targets fix its orientation up to a turn about the line through them: that turn is the nominal's"
+        )
     if how == "targets":
-        notes.append("tool frame: no nest declared (the targets' positions in the tool frame): its orientation is the frame of the targets' "
-                     "points (x from target 1 to 2, z across the plane of targets 1-3)")
+        notes.append(
+            "tool frame: no nest declared (the targets' positions in the tool frame): its orientation is the frame of the targets' "
+            "points (x from target 1 to 2, z across the plane of targets 1-3)"
+        )
     return R, how, G
 
 
@@ -97,9 +105,11 @@ def _short_arc_notes(sweeps: SweepSet, fits: list, notes: list[str]) -> list[str
     short = []
     for s, f in zip(sweeps.sweeps, fits, strict=True):
         if sweeps.kinds[s.joint - 1] == "revolute" and not f.sigma_point_perp <= SHORT_ARC_SIGMA and f.arc < SHORT_ARC:
-            short.append(f"{sweep_where(s, sweeps.source)}: the {np.degrees(f.arc):.3g} deg arc gives a predicted axis-position sigma of "
-                         f"{f.sigma_point_perp * 1e3:.3g} mm (above {SHORT_ARC_SIGMA * 1e3:g} mm): sweep a longer arc or measure more points "
-                         "(--max-sigma makes this an error)")
+            short.append(
+                f"{sweep_where(s, sweeps.source)}: the {np.degrees(f.arc):.3g} deg arc gives a predicted axis-position sigma of "
+                f"{f.sigma_point_perp * 1e3:.3g} mm (above {SHORT_ARC_SIGMA * 1e3:g} mm): sweep a longer arc or measure more points "
+                "(--max-sigma makes this an error)"
+            )
     notes.extend(short)
     return short
 
@@ -113,8 +123,10 @@ def _oriented_by_nominal(sweeps: SweepSet, fits: list, nominal: Robot, notes: li
     for s, f in zip(sweeps.sweeps, fits, strict=True):
         j = s.joint - 1
         if f.direction @ np.asarray(nom[j]) < 0:
-            notes.append(f"{sweep_where(s, sweeps.source)}: without readings the sweep runs against the nominal's axis {j + 1} "
-                         "(decreasing joint values, or rows newest-first?): oriented by the nominal")
+            notes.append(
+                f"{sweep_where(s, sweeps.source)}: without readings the sweep runs against the nominal's axis {j + 1} "
+                "(decreasing joint values, or rows newest-first?): oriented by the nominal"
+            )
             f = flipped(f)
         out.append(f)
     return out
@@ -155,23 +167,47 @@ def _edh_parallel_tol(fits: list, nominal: Robot | None, home: np.ndarray, paral
     if nominal is None:
         return parallel_tol
     z = np.asarray(_core.axes(nominal.model(), home).directions)
-    sig = [math.hypot(fits[k].sigma_direction, fits[k + 1].sigma_direction) for k in range(len(z) - 1)
-           if np.linalg.norm(np.cross(z[k], z[k + 1])) < 1e-9 and np.isfinite(fits[k].sigma_direction) and np.isfinite(fits[k + 1].sigma_direction)]
+    sig = [
+        math.hypot(fits[k].sigma_direction, fits[k + 1].sigma_direction)
+        for k in range(len(z) - 1)
+        if np.linalg.norm(np.cross(z[k], z[k + 1])) < 1e-9
+        and np.isfinite(fits[k].sigma_direction)
+        and np.isfinite(fits[k + 1].sigma_direction)
+    ]
     return min(parallel_tol, max(EDH_PARALLEL_SIGMAS * max(sig, default=0.0), 1e-9))
 
 
-def _axes_from(x: np.ndarray, sweeps: SweepSet, tool_R: np.ndarray, T_world_base: np.ndarray, lower, upper) -> _core.JointAxes:
+def _axes_from(
+    x: np.ndarray, sweeps: SweepSet, tool_R: np.ndarray, T_world_base: np.ndarray, lower, upper
+) -> _core.JointAxes:
     n = sweeps.n_joints
     pts = np.array([x[6 * j : 6 * j + 3] for j in range(n)])
     dirs = np.array([x[6 * j + 3 : 6 * j + 6] for j in range(n)])
     T = np.eye(4)
     T[:3, :3] = tool_R
     T[:3, 3] = x[6 * n : 6 * n + 3]
-    return _core.JointAxes(pts, dirs, kinds=sweeps.kinds, q_ref=sweeps.home, T_world_base=T_world_base, T_world_tool=T, lower=lower, upper=upper)
+    return _core.JointAxes(
+        pts,
+        dirs,
+        kinds=sweeps.kinds,
+        q_ref=sweeps.home,
+        T_world_base=T_world_base,
+        T_world_tool=T,
+        lower=lower,
+        upper=upper,
+    )
 
 
-def _parameter_cov(x: np.ndarray, cov: np.ndarray, ax: _core.JointAxes, sweeps: SweepSet, convention: str, opts: dict, p_ref: np.ndarray,
-                   n_rot: int = 0) -> np.ndarray:
+def _parameter_cov(
+    x: np.ndarray,
+    cov: np.ndarray,
+    ax: _core.JointAxes,
+    sweeps: SweepSet,
+    convention: str,
+    opts: dict,
+    p_ref: np.ndarray,
+    n_rot: int = 0,
+) -> np.ndarray:
     """The covariance of [the ``convention`` table's parameters (row-major, angles wrapped about ``p_ref``), the tool's
     translation (, the reading scales)] from the covariance ``cov`` of [c_1, n_1, ..., tool point (, the tool's small
     rotation in world: ``n_rot`` = 3) (, scales)] at ``x`` (the scales pass through), by central differences through

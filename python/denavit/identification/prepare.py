@@ -35,9 +35,11 @@ def _locked_notes(sweeps: SweepSet) -> list[str]:
                 continue
             scale, unit = (math.degrees(1), "deg") if kind == "revolute" else (1e3, "mm")
             at = f" at {s.where[k]}" if s.where else ""
-            notes.append(f"{sweep_where(s, sweeps.source)}: locked joint {i + 1} reads {s.q[:, i].min() * scale:.4g} .. {s.q[:, i].max() * scale:.4g} {unit}, "
-                         f"up to {abs(dev[k]) * scale:.3g} {unit} from its home {sweeps.home[i] * scale:.4g} {unit}{at} (tolerance {LOCKED_TOL[kind] * scale:g} {unit}); "
-                         "the global fit follows the recorded readings (per-sweep fits use only the moving joint's): check the recording")
+            notes.append(
+                f"{sweep_where(s, sweeps.source)}: locked joint {i + 1} reads {s.q[:, i].min() * scale:.4g} .. {s.q[:, i].max() * scale:.4g} {unit}, "
+                f"up to {abs(dev[k]) * scale:.3g} {unit} from its home {sweeps.home[i] * scale:.4g} {unit}{at} (tolerance {LOCKED_TOL[kind] * scale:g} {unit}); "
+                "the global fit follows the recorded readings (per-sweep fits use only the moving joint's): check the recording"
+            )
     return notes
 
 
@@ -90,9 +92,13 @@ def _drop_dwell(sweeps: SweepSet, notes: list[str]) -> SweepSet:
             continue
         keep = np.r_[0, a + 1 : len(p) - b - 1, len(p) - 1]
         name = s.where if s.where else [f"point {k}" for k in range(len(p))]
-        parts = ([f"{a} at the start ({name[1]} .. {name[a]})"] if a else []) + ([f"{b} at the end ({name[len(p) - 1 - b]} .. {name[len(p) - 2]})"] if b else [])
-        notes.append(f"{sweep_where(s, sweeps.source)}: {a + b} dwell rows (the motion stopped within {DWELL_SIGMAS:g} sigma of the "
-                     f"point noise, {noise * 1e3:.2g} mm): {' and '.join(parts)}; left out of the fit (keep_dwell keeps them)")
+        parts = ([f"{a} at the start ({name[1]} .. {name[a]})"] if a else []) + (
+            [f"{b} at the end ({name[len(p) - 1 - b]} .. {name[len(p) - 2]})"] if b else []
+        )
+        notes.append(
+            f"{sweep_where(s, sweeps.source)}: {a + b} dwell rows (the motion stopped within {DWELL_SIGMAS:g} sigma of the "
+            f"point noise, {noise * 1e3:.2g} mm): {' and '.join(parts)}; left out of the fit (keep_dwell keeps them)"
+        )
         out.append(s.take(keep))
     return replace(sweeps, sweeps=out)
 
@@ -117,7 +123,14 @@ def sweep_where(s, source: str) -> str:
     return f"{first} .. {last}, joint {s.joint}"
 
 
-def _per_sweep(sweeps: SweepSet, method: str, loss: str, max_sigma: float | None, progress: Callable[[str], None], tracker: TrackerNoise | None = None) -> list:
+def _per_sweep(
+    sweeps: SweepSet,
+    method: str,
+    loss: str,
+    max_sigma: float | None,
+    progress: Callable[[str], None],
+    tracker: TrackerNoise | None = None,
+) -> list:
     fits = []
     for k, s in enumerate(sweeps.sweeps):
         where = sweep_where(s, sweeps.source)
@@ -128,14 +141,18 @@ def _per_sweep(sweeps: SweepSet, method: str, loss: str, max_sigma: float | None
         elif method in ("readings", "global"):
             fm = "readings" if method == "readings" else "hyper"  # the global fit starts from the hyper circles
             if q is None:
-                raise DenavitError(f"{where}: method '{method}' needs joint readings; this data has none (use geometric)")
+                raise DenavitError(
+                    f"{where}: method '{method}' needs joint readings; this data has none (use geometric)"
+                )
         else:
             fm = method
         robust = {"loss": loss} if fm in ("geometric", "readings") else {}
         if fm == "geometric" and tracker is not None:  # the tracker's noise model (the other per-sweep fits: isotropic)
             robust["tracker"] = tracker
         # oriented by the readings when there are some (increasing joint value, right-hand rule), else by the point order
-        if method == "global" and fm == "hyper":  # the joint fit's start: its own covariance and outlier flags replace the circle's
+        if (
+            method == "global" and fm == "hyper"
+        ):  # the joint fit's start: its own covariance and outlier flags replace the circle's
             fits.append(axis_start(s.points, q, where=where))
             continue
         fits.append(fit_axis(s.points, q, fm, max_sigma_point=max_sigma, where=where, **robust))
@@ -168,9 +185,11 @@ def _motions(sweeps: SweepSet, notes: list[str]) -> list[np.ndarray]:
     for s in sweeps.sweeps:
         dq, coupled = locked_motion(s.q, s.joint - 1, sweeps.home, tol)
         for i, slope in coupled:
-            notes.append(f"{sweep_where(s, sweeps.source)}: the reading of joint {i + 1} moves in lock-step with joint {s.joint}'s "
-                         f"({slope:+.3f} per unit): a coupling of the controller's readings to declare (as Fanuc controllers report J3: "
-                         f"--coupling \"q{i + 1}=r{i + 1}{'+' if slope < 0 else '-'}{format(abs(slope), '.4g') + '*' if abs(abs(slope) - 1) > 0.01 else ''}r{s.joint}\", or the robot file's "
-                         f"[couplings] q{i + 1} = \"r{i + 1} {'+' if slope < 0 else '-'} r{s.joint}\"); the fit takes joint {i + 1} as held at home")
+            notes.append(
+                f"{sweep_where(s, sweeps.source)}: the reading of joint {i + 1} moves in lock-step with joint {s.joint}'s "
+                f"({slope:+.3f} per unit): a coupling of the controller's readings to declare (as Fanuc controllers report J3: "
+                f'--coupling "q{i + 1}=r{i + 1}{"+" if slope < 0 else "-"}{format(abs(slope), ".4g") + "*" if abs(abs(slope) - 1) > 0.01 else ""}r{s.joint}", or the robot file\'s '
+                f'[couplings] q{i + 1} = "r{i + 1} {"+" if slope < 0 else "-"} r{s.joint}"); the fit takes joint {i + 1} as held at home'
+            )
         out.append(dq)
     return out

@@ -15,7 +15,18 @@ from ..fitting.joint import TrackerNoise, as_tracker_noise, start_homes
 from ..robot import Robot
 from ..sweeps import SweepSet
 from .choice import _choose
-from .frames import PARALLEL_TOL, SHORT_ARC_SIGMA, _axes_from, _edh_parallel_tol, _oriented_by_nominal, _parameter_cov, _short_arc_notes, _tool_frame, nominal_convention_table, origins
+from .frames import (
+    PARALLEL_TOL,
+    SHORT_ARC_SIGMA,
+    _axes_from,
+    _edh_parallel_tol,
+    _oriented_by_nominal,
+    _parameter_cov,
+    _short_arc_notes,
+    _tool_frame,
+    nominal_convention_table,
+    origins,
+)
 from .prepare import _drop_dwell, _locked_notes, _per_sweep, _tool_point_geometric, decoupled, sweep_where
 from .result import _DROPPED_TILT, METHODS, ROUND_OFF, Identification
 
@@ -90,7 +101,9 @@ def identify(
     """
     progress = progress or (lambda _msg: None)
     if not isinstance(sweeps, SweepSet):
-        raise DenavitError(f"identify: expected a SweepSet, got {type(sweeps).__name__}: denavit.identify(path, nominal=...) reads files and names")
+        raise DenavitError(
+            f"identify: expected a SweepSet, got {type(sweeps).__name__}: denavit.identify(path, nominal=...) reads files and names"
+        )
     if nominal is not None and not isinstance(nominal, Robot):
         from ..calibration.parametrization import as_robot  # noqa: PLC0415
 
@@ -122,8 +135,12 @@ def identify(
     cov, joint, scales = None, None, None
     if method == "global":
         what = f"{sweeps.n_targets} targets per pose" if sweeps.n_targets > 1 else "shared tool point"
-        progress(f"one fit of all {len(sweeps.sweeps)} sweeps ({what}{', 6-DoF poses' if sweeps.has_rotations else ''})")
-        method, gfits, gcov, gp, grms, joint, scales = _choose(sweeps, fits, homes0, R0, loss, notes, chosen, rotation_noise, tracker)
+        progress(
+            f"one fit of all {len(sweeps.sweeps)} sweeps ({what}{', 6-DoF poses' if sweeps.has_rotations else ''})"
+        )
+        method, gfits, gcov, gp, grms, joint, scales = _choose(
+            sweeps, fits, homes0, R0, loss, notes, chosen, rotation_noise, tracker
+        )
         if gfits is None:  # the readings are worthless: the per-sweep geometric circles
             fits = _per_sweep(sweeps, method, loss, max_sigma, progress, tracker)
             p_home = _tool_point_geometric(sweeps, fits)
@@ -131,29 +148,41 @@ def identify(
             fits, cov, p_home, rms = gfits, gcov, gp, grms
             for s, f in zip(sweeps.sweeps, fits, strict=True):
                 if max_sigma is not None and f.sigma_point_perp > max_sigma:
-                    raise DegenerateError(f"{sweep_where(s, sweeps.source)}: predicted axis-position uncertainty {f.sigma_point_perp * 1e3:.3g} mm (1 sigma) "
-                                          f"exceeds the requested {max_sigma * 1e3:.3g} mm; the sweep covers {np.degrees(f.arc):.1f} deg: sweep a longer arc or measure more points")
+                    raise DegenerateError(
+                        f"{sweep_where(s, sweeps.source)}: predicted axis-position uncertainty {f.sigma_point_perp * 1e3:.3g} mm (1 sigma) "
+                        f"exceeds the requested {max_sigma * 1e3:.3g} mm; the sweep covers {np.degrees(f.arc):.1f} deg: sweep a longer arc or measure more points"
+                    )
     if cov is None:
         cov = np.zeros((6 * n + 3, 6 * n + 3))
         for j, f in enumerate(fits):
             cov[6 * j : 6 * j + 6, 6 * j : 6 * j + 6] = f.cov
         # the tool point: the spread of its per-point estimates
-        cov[6 * n :, 6 * n :] = np.eye(3) * float(np.mean([f.rms for f in fits])) ** 2 / max(sum(f.n_points for f in fits), 1)
+        cov[6 * n :, 6 * n :] = (
+            np.eye(3) * float(np.mean([f.rms for f in fits])) ** 2 / max(sum(f.n_points for f in fits), 1)
+        )
         rms = float(math.sqrt(np.mean([f.rms**2 for f in fits])))
     if tracker is not None:
-        model = (f"the tracker's noise model (range {tracker.sigma_range * 1e6:.3g} um, angles {math.degrees(tracker.sigma_angle) * 3600:.3g} arcsec, "
-                 f"tracker at {', '.join(f'{v:.4g}' for v in tracker.position)} m)")
+        model = (
+            f"the tracker's noise model (range {tracker.sigma_range * 1e6:.3g} um, angles {math.degrees(tracker.sigma_angle) * 3600:.3g} arcsec, "
+            f"tracker at {', '.join(f'{v:.4g}' for v in tracker.position)} m)"
+        )
         if joint is not None:
-            notes.append(f"{model} weights the points (its shape; the scale from the data): point noise {joint['sigma'] * 1e3:.3g} mm RMS per "
-                         f"coordinate, {joint['sigma'] / math.sqrt(joint['tracker_ref2']):.3g} times the declared")
+            notes.append(
+                f"{model} weights the points (its shape; the scale from the data): point noise {joint['sigma'] * 1e3:.3g} mm RMS per "
+                f"coordinate, {joint['sigma'] / math.sqrt(joint['tracker_ref2']):.3g} times the declared"
+            )
         elif method == "geometric":
             notes.append(f"{model} weights each circle's points (its shape; the scale from the data)")
         else:
-            notes.append(f"{model} is used by the joint fit (method global or auto, with readings) and the geometric circles; the {method} fit takes the "
-                         "points as isotropic")
+            notes.append(
+                f"{model} is used by the joint fit (method global or auto, with readings) and the geometric circles; the {method} fit takes the "
+                "points as isotropic"
+            )
     if joint is None and (sweeps.n_targets > 1 or sweeps.has_rotations):
-        notes.append(f"the {method} fit uses the first target's points alone: {sweeps.n_targets} targets per pose"
-                     f"{' and 6-DoF poses' if sweeps.has_rotations else ''} are one fit with shared axes in the joint fit (method global or auto, with readings)")
+        notes.append(
+            f"the {method} fit uses the first target's points alone: {sweeps.n_targets} targets per pose"
+            f"{' and 6-DoF poses' if sweeps.has_rotations else ''} are one fit with shared axes in the joint fit (method global or auto, with readings)"
+        )
     base = np.eye(4) if T_world_base is None else np.asarray(T_world_base, dtype=float)
     if T_world_base is not None and nominal is not None:  # the nominal's base frame is the robot base given
         t = nominal.table
@@ -168,7 +197,9 @@ def identify(
     if joint is not None and sweeps.n_targets > 1:
         ph = joint["home"].mean(axis=0)
         target_points = np.vstack([ph, ph + joint["offsets"]])
-    if G_rot is not None:  # the covariance of [axes, tool point, tool rotation]: the chosen cov, and the rotation's from the joint fit
+    if (
+        G_rot is not None
+    ):  # the covariance of [axes, tool point, tool rotation]: the chosen cov, and the rotation's from the joint fit
         ca = joint["cov_all"]
         n6, H = 6 * n, joint["n_homes"]
         Gf = np.zeros((n6 + 6, ca.shape[0]))
@@ -194,8 +225,19 @@ def identify(
     short = _short_arc_notes(sweeps, fits, notes)
     misfit_notes(sweeps, fits, [sweep_where(x, sweeps.source) for x in sweeps.sweeps], notes)
     if nominal is not None:
-        nominal_plausibility(ex, fits, nominal, sweeps.home, nominal.names, sweeps.source, notes, short, SHORT_ARC_SIGMA, allow_implausible,
-                             lone_axis=not sweeps.has_readings)
+        nominal_plausibility(
+            ex,
+            fits,
+            nominal,
+            sweeps.home,
+            nominal.names,
+            sweeps.source,
+            notes,
+            short,
+            SHORT_ARC_SIGMA,
+            allow_implausible,
+            lone_axis=not sweeps.has_readings,
+        )
     p_ref = ex.table.params
     full_cov = None
     if scales is not None:  # [axes, tool point, reading scales]: the scales' covariance with the axes kept
@@ -212,17 +254,46 @@ def identify(
     sigma = np.sqrt(np.clip(np.diag(param_cov), 0, None))[: p_ref.size].reshape(p_ref.shape)
     for pd in ex.pairs:
         if pd.relation == "parallel" and abs(pd.hayati_beta) > 0 and convention in ("dh", "mdh"):
-            notes.append(f"axes {pd.joint}-{pd.joint + 1} treated as parallel: misalignment {math.degrees(pd.hayati_beta):.2e} deg (Hayati beta) is not representable in {convention}")
-    result = Identification(method, convention, ax, fits, ex, sigma, cov, p_home, sweeps, nominal, nominal_table, rms, notes, param_cov,
-                            reading_scale=None if scales is None else scales[0], axis_scale_cov=full_cov, coupling=coupling,
-                            tool_orientation=orientation, tool_rotation_cov=rot_cov, target_points=target_points,
-                            tracker_noise=tracker if joint is not None or method == "geometric" else None)
-    if convention in ("dh", "mdh", "edh"):  # what the table carries, measured as --save states it (Identification.carried_error)
+            notes.append(
+                f"axes {pd.joint}-{pd.joint + 1} treated as parallel: misalignment {math.degrees(pd.hayati_beta):.2e} deg (Hayati beta) is not representable in {convention}"
+            )
+    result = Identification(
+        method,
+        convention,
+        ax,
+        fits,
+        ex,
+        sigma,
+        cov,
+        p_home,
+        sweeps,
+        nominal,
+        nominal_table,
+        rms,
+        notes,
+        param_cov,
+        reading_scale=None if scales is None else scales[0],
+        axis_scale_cov=full_cov,
+        coupling=coupling,
+        tool_orientation=orientation,
+        tool_rotation_cov=rot_cov,
+        target_points=target_points,
+        tracker_noise=tracker if joint is not None or method == "geometric" else None,
+    )
+    if convention in (
+        "dh",
+        "mdh",
+        "edh",
+    ):  # what the table carries, measured as --save states it (Identification.carried_error)
         carried = result.carried_error()[0] if convention == "edh" else result.carried_error(convention)[0]
         if carried > 1e-6:
             edh = carried if convention == "edh" else result.carried_error("edh")[0]
             if convention != "edh":
-                exact = "POE is exact; " + (f"ED-H carries {edh * 1e3:.4f} mm: it is exact except {_DROPPED_TILT}" if edh > ROUND_OFF else "ED-H is exact")
+                exact = "POE is exact; " + (
+                    f"ED-H carries {edh * 1e3:.4f} mm: it is exact except {_DROPPED_TILT}"
+                    if edh > ROUND_OFF
+                    else "ED-H is exact"
+                )
             else:
                 exact = f"it is exact except {_DROPPED_TILT}; POE is exact"
             notes.append(f"the {convention} table carries a tool-position error up to {carried * 1e3:.4f} mm ({exact})")

@@ -19,7 +19,9 @@ from .text import read_text
 from .units import input_units, joint_scale, parse_declaration
 
 
-def read_configurations(path: str | os.PathLike, kinds: Sequence[str], *, length: str | None = None, angle: str | None = None) -> np.ndarray:
+def read_configurations(
+    path: str | os.PathLike, kinds: Sequence[str], *, length: str | None = None, angle: str | None = None
+) -> np.ndarray:
     """(m, n) configurations (SI) of a CSV whose header names ``q1..qn`` (``n = len(kinds)``)."""
     where = str(path)
     lines = read_text(path, "configurations file", lines=True).splitlines()

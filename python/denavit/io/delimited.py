@@ -58,7 +58,9 @@ def length(text: str, where: str, column: str, scale: float) -> float:
 def far(value_m: float, where: str) -> float:
     """``value_m`` (metres) if within :data:`MAX_LENGTH`, else a one-line error naming ``where``."""
     if abs(value_m) > MAX_LENGTH:
-        raise DenavitError(f"{where}: a coordinate of {value_m:.3g} m is beyond {MAX_LENGTH:.0e} m: not a measured point (a wrong unit?)")
+        raise DenavitError(
+            f"{where}: a coordinate of {value_m:.3g} m is beyond {MAX_LENGTH:.0e} m: not a measured point (a wrong unit?)"
+        )
     return value_m
 
 
@@ -87,12 +89,20 @@ def as_number(value, where: str, *, finite: bool = True) -> float:
         if isinstance(value, str):
             shown = f"{value[:40]!r}{'...' if len(value) > 40 else ''} (a string)"
         else:
-            shown = str(value).lower() if isinstance(value, bool) else {type(None): "nothing (null)", list: "a list", dict: "a table"}.get(type(value), type(value).__name__)
+            shown = (
+                str(value).lower()
+                if isinstance(value, bool)
+                else {type(None): "nothing (null)", list: "a list", dict: "a table"}.get(
+                    type(value), type(value).__name__
+                )
+            )
         raise DenavitError(f"{where}: expected a number, got {shown}")
     try:
         v = float(value)
     except OverflowError:
-        raise DenavitError(f"{where}: expected a number in the float range, got an integer of about {int(value.bit_length() * math.log10(2)) + 1} digits") from None
+        raise DenavitError(
+            f"{where}: expected a number in the float range, got an integer of about {int(value.bit_length() * math.log10(2)) + 1} digits"
+        ) from None
     if math.isnan(v) or (finite and math.isinf(v)):
         raise DenavitError(f"{where}: expected a finite number, got {'NaN' if math.isnan(v) else v}")
     return v
@@ -124,14 +134,20 @@ def numeric_table(data: bytes, delim: str, ncols: int) -> np.ndarray | None:
     end = len(data)
     while end and data[end - 1] in b" \t\r\n":  # trailing blank lines end the file; they are not rows
         end -= 1
-    if not end or data.find(b"\n\n", 0, end) >= 0 or (b"\r" in data and (data.count(b"\r") != data.count(b"\r\n") or data.find(b"\n\r\n", 0, end) >= 0)):
+    if (
+        not end
+        or data.find(b"\n\n", 0, end) >= 0
+        or (b"\r" in data and (data.count(b"\r") != data.count(b"\r\n") or data.find(b"\n\r\n", 0, end) >= 0))
+    ):
         return None  # a blank line (not a row: the line numbers would slip) or a lone carriage return
     table = _arrow_table(data[:end], delim, ncols) if end > ARROW_BYTES else None
     if table is None:
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("error")
-                table = np.loadtxt(io.BytesIO(data), delimiter=delim, dtype=float, comments=None, ndmin=2, encoding="latin1")
+                table = np.loadtxt(
+                    io.BytesIO(data), delimiter=delim, dtype=float, comments=None, ndmin=2, encoding="latin1"
+                )
         except (ValueError, UserWarning):
             return None
     if table.shape[1] != ncols or not np.isfinite(table).all():
@@ -157,9 +173,17 @@ def _arrow_table(data: bytes, delim: str, ncols: int) -> np.ndarray | None:
         t = pacsv.read_csv(
             io.BytesIO(data),
             read_options=pacsv.ReadOptions(column_names=names, use_threads=False),
-            parse_options=pacsv.ParseOptions(delimiter=delim, quote_char=False, double_quote=False, escape_char=False, ignore_empty_lines=False),
-            convert_options=pacsv.ConvertOptions(column_types=dict.fromkeys(names, pa.float64()), null_values=[], true_values=[], false_values=[],
-                                                 strings_can_be_null=False, quoted_strings_can_be_null=False),
+            parse_options=pacsv.ParseOptions(
+                delimiter=delim, quote_char=False, double_quote=False, escape_char=False, ignore_empty_lines=False
+            ),
+            convert_options=pacsv.ConvertOptions(
+                column_types=dict.fromkeys(names, pa.float64()),
+                null_values=[],
+                true_values=[],
+                false_values=[],
+                strings_can_be_null=False,
+                quoted_strings_can_be_null=False,
+            ),
         )
     except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
         return None
@@ -194,7 +218,9 @@ def split(line: str, delim: str, where: str) -> list[str]:
     try:
         cells = [c.strip() for c in next(csv.reader([line], delimiter=delim))]
     except csv.Error as e:
-        raise DenavitError(f"{where}: cannot split the line into cells ({e}; the line has {len(line)} characters)") from None
+        raise DenavitError(
+            f"{where}: cannot split the line into cells ({e}; the line has {len(line)} characters)"
+        ) from None
     if len(cells) > 64:
         check_size(len(cells) - (cells[-1] == ""), "columns", where, "columns")
     return cells

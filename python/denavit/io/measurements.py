@@ -30,7 +30,9 @@ from .units import (
 )
 
 
-def read_measurements(path: str | os.PathLike, *, length: str | None = None, angle: str | None = None, kinds=None) -> Measurements:
+def read_measurements(
+    path: str | os.PathLike, *, length: str | None = None, angle: str | None = None, kinds=None
+) -> Measurements:
     """Read measurements from a file.
 
     Joint readings are in the angle unit for revolute joints and in the length unit for prismatic ones:
@@ -57,29 +59,51 @@ def read_measurements(path: str | os.PathLike, *, length: str | None = None, ang
     del raw
     data, delim = dl.rows(lines, str(p))
     if data and "joint" in [c.lower() for c in data[0][1]]:
-        return Measurements.from_sweeps(sw.read_long_csv(p, length=length, angle=angle, kinds=None if kinds is None else list(kinds)))
+        return Measurements.from_sweeps(
+            sw.read_long_csv(p, length=length, angle=angle, kinds=None if kinds is None else list(kinds))
+        )
     units = input_units(parse_declaration(lines, str(p)), length, angle, str(p))
     ls, as_ = length_scale(units["length"], str(p)), angle_scale(units["angle"], str(p))
     if not data:
-        raise DenavitError(f"{p}: no header and no data: expected a header 'q1,...,qn,x,y,z' (optionally ',rx,ry,rz'), or a sweep file with a 'joint' column")
+        raise DenavitError(
+            f"{p}: no header and no data: expected a header 'q1,...,qn,x,y,z' (optionally ',rx,ry,rz'), or a sweep file with a 'joint' column"
+        )
     hline, names = data[0]
     cols = dl.header(names, f"{p}:{hline}")
     qcols = sorted((c for c in cols if c[:1] == "q" and c[1:].isdigit()), key=lambda c: int(c[1:]))
     rot = [c for c in ("rx", "ry", "rz") if c in cols]
     k_t = 1 + len([c for c in cols if c[:1] == "x" and c[1:].isdigit() and int(c[1:]) >= 2])  # targets per pose
     extra = [f"{a}{t}" for t in range(2, k_t + 1) for a in "xyz"]
-    pay = [c for c in PAYLOAD_COLUMNS if c in cols]  # a payload per row (issue 37): mass in kg, its centre of mass in the length unit
+    pay = [
+        c for c in PAYLOAD_COLUMNS if c in cols
+    ]  # a payload per row (issue 37): mass in kg, its centre of mass in the length unit
     if pay and "payload_mass" not in pay:
-        raise DenavitError(f"{p}:{hline}: {', '.join(pay)} without payload_mass: give the payload's mass (kg) with its centre of mass")
-    need = [f"q{i}" for i in range(1, len(qcols) + 1)] + ["x", "y", "z"] + (["rx", "ry", "rz"] if rot else []) + extra + pay
+        raise DenavitError(
+            f"{p}:{hline}: {', '.join(pay)} without payload_mass: give the payload's mass (kg) with its centre of mass"
+        )
+    need = (
+        [f"q{i}" for i in range(1, len(qcols) + 1)]
+        + ["x", "y", "z"]
+        + (["rx", "ry", "rz"] if rot else [])
+        + extra
+        + pay
+    )
     missing = [c for c in need if c not in cols]
     unknown = [c for c in cols if c not in need]
     if missing or unknown or not qcols:
-        what = f"missing {', '.join(missing) or 'q columns'}" if missing or not qcols else f"unknown column(s) {', '.join(unknown)}"
-        raise DenavitError(f"{p}:{hline}: header must be 'q1,...,qn,x,y,z' (optionally ',rx,ry,rz', or further targets ',x2,y2,z2,...'), or a sweep file with a "
-                           f"'joint' column; {what}, got {delim.join(names)!r}")
+        what = (
+            f"missing {', '.join(missing) or 'q columns'}"
+            if missing or not qcols
+            else f"unknown column(s) {', '.join(unknown)}"
+        )
+        raise DenavitError(
+            f"{p}:{hline}: header must be 'q1,...,qn,x,y,z' (optionally ',rx,ry,rz', or further targets ',x2,y2,z2,...'), or a sweep file with a "
+            f"'joint' column; {what}, got {delim.join(names)!r}"
+        )
     if rot and extra:
-        raise DenavitError(f"{p}:{hline}: a pose's rotation (rx,ry,rz) and further targets (x2,y2,z2,...) in one file: give one or the other, got {delim.join(names)!r}")
+        raise DenavitError(
+            f"{p}:{hline}: a pose's rotation (rx,ry,rz) and further targets (x2,y2,z2,...) in one file: give one or the other, got {delim.join(names)!r}"
+        )
     kinds = joint_kinds(kinds, len(qcols), f"{p}: kinds given") or ("revolute",) * len(qcols)
     idx = {c: cols.index(c) for c in need}
     if fast:
@@ -113,7 +137,13 @@ def read_measurements(path: str | os.PathLike, *, length: str | None = None, ang
             if pay:
                 pays.append([vals[c] for c in pay])
             where.append(w)
-        payload = payload_from_columns(np.asarray(pays, dtype=float).reshape(len(pays), len(pay)), {c: k for k, c in enumerate(pay)}, ls, where) if pay and pays else None
+        payload = (
+            payload_from_columns(
+                np.asarray(pays, dtype=float).reshape(len(pays), len(pay)), {c: k for k, c in enumerate(pay)}, ls, where
+            )
+            if pay and pays
+            else None
+        )
     if not len(q):
         raise DenavitError(f"{p}: no data rows after the header")
     q = np.asarray(q, dtype=float) * joint_scale(kinds, units["length"], units["angle"], str(p))
@@ -123,7 +153,9 @@ def read_measurements(path: str | os.PathLike, *, length: str | None = None, ang
 
         targets = np.concatenate([pts[:, None], np.asarray(more, dtype=float).reshape(len(q), k_t - 1, 3)], axis=1)
         if pay:
-            raise DenavitError(f"{p}:{hline}: payload columns with several targets per pose are not supported: give one target (x,y,z) per pose")
+            raise DenavitError(
+                f"{p}:{hline}: payload columns with several targets per pose are not supported: give one target (x,y,z) per pose"
+            )
         return TargetMeasurements(q, targets, sw.parse_nest(lines, k_t, ls, str(p)), str(p), where, units, kinds=kinds)
     if rot:
         T = np.tile(np.eye(4), (len(q), 1, 1))
@@ -141,10 +173,14 @@ def _read_json(p: Path, text: str, length: str | None, angle: str | None, kinds)
         return Measurements.from_sweeps(sw.read_json(p, length=length, angle=angle))  # its own "kinds"
     unknown = [k for k in doc if k not in ("units", "kinds", "q", "points", "poses")]
     if unknown:
-        raise DenavitError(f"{p}: unknown key(s) {', '.join(map(repr, unknown))[:80]}: expected units, kinds, q, and points or poses")
+        raise DenavitError(
+            f"{p}: unknown key(s) {', '.join(map(repr, unknown))[:80]}: expected units, kinds, q, and points or poses"
+        )
     declared = doc.get("units") or {}
     if not isinstance(declared, dict):
-        raise DenavitError(f"{p}: 'units' must be an object like {{\"length\": \"mm\", \"angle\": \"deg\"}}, got {declared!r}")
+        raise DenavitError(
+            f'{p}: \'units\' must be an object like {{"length": "mm", "angle": "deg"}}, got {declared!r}'
+        )
     if not all(isinstance(v, str) for v in declared.values()):
         raise DenavitError(f"{p}: 'units' values must be unit names such as \"mm\", got {sw._show(declared)}")
     units = input_units(declared, length, angle, str(p))
@@ -162,7 +198,15 @@ def _read_json(p: Path, text: str, length: str | None, angle: str | None, kinds)
         T = sw.json_array(doc["poses"], 4, 3, f"{p}: poses")
         T[:, :3, 3] = sw.json_lengths(T[:, :3, 3], ls, f"{p}: poses' translations")
         return Measurements(q, None, T, str(p), [], units, kinds=kinds)
-    return Measurements(q, sw.json_lengths(sw.json_array(doc.get("points"), 3, 2, f"{p}: points"), ls, f"{p}: points"), None, str(p), [], units, kinds=kinds)
+    return Measurements(
+        q,
+        sw.json_lengths(sw.json_array(doc.get("points"), 3, 2, f"{p}: points"), ls, f"{p}: points"),
+        None,
+        str(p),
+        [],
+        units,
+        kinds=kinds,
+    )
 
 
 def to_csv(meas: Measurements, length: str = "mm", angle: str = "deg", comment: str = "") -> str:
@@ -172,11 +216,20 @@ def to_csv(meas: Measurements, length: str = "mm", angle: str = "deg", comment: 
     qs = joint_scale(meas.kinds or ("revolute",) * meas.nq, length, angle)
     out = [f"# {c}" for c in comment.splitlines()] + [f"# units: length={length} angle={angle}"]
     pl = getattr(meas, "payload", None)
-    cols = [f"q{i + 1}" for i in range(meas.nq)] + ["x", "y", "z"] + (["rx", "ry", "rz"] if meas.kind == "pose" else []) + (list(PAYLOAD_COLUMNS) if pl is not None else [])
+    cols = (
+        [f"q{i + 1}" for i in range(meas.nq)]
+        + ["x", "y", "z"]
+        + (["rx", "ry", "rz"] if meas.kind == "pose" else [])
+        + (list(PAYLOAD_COLUMNS) if pl is not None else [])
+    )
     out.append(",".join(cols))
     rv = matrix_rotvec(meas.poses[:, :3, :3]) / as_ if meas.kind == "pose" else None
     for k in range(meas.n):
-        row = [*(meas.q[k] / qs), *(meas.points[k] / ls)] + ([*rv[k]] if rv is not None else []) + ([pl[k, 0], *(pl[k, 1:] / ls)] if pl is not None else [])
+        row = (
+            [*(meas.q[k] / qs), *(meas.points[k] / ls)]
+            + ([*rv[k]] if rv is not None else [])
+            + ([pl[k, 0], *(pl[k, 1:] / ls)] if pl is not None else [])
+        )
         out.append(",".join(f"{v:.12g}" for v in row))
     return "\n".join(out) + "\n"
 

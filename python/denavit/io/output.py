@@ -46,8 +46,26 @@ STALE_SECONDS = 5.0
 #: A temporary file that has not changed for this long (s) is removed whatever its process id (reused since).
 ABANDONED_SECONDS = 3600.0
 #: Filesystems of the kernel's interfaces: their files are not outputs, their directories take no new files.
-KERNEL_FILESYSTEMS = frozenset({"proc", "sysfs", "cgroup", "cgroup2", "debugfs", "tracefs", "securityfs", "configfs",
-                                "pstore", "efivarfs", "bpf", "devpts", "binfmt_misc", "fusectl", "selinuxfs", "mqueue"})
+KERNEL_FILESYSTEMS = frozenset(
+    {
+        "proc",
+        "sysfs",
+        "cgroup",
+        "cgroup2",
+        "debugfs",
+        "tracefs",
+        "securityfs",
+        "configfs",
+        "pstore",
+        "efivarfs",
+        "bpf",
+        "devpts",
+        "binfmt_misc",
+        "fusectl",
+        "selinuxfs",
+        "mqueue",
+    }
+)
 FORCE_HINT = "give --force (force=True in Python) to"
 
 _forced = False  # set by forcing(): the command line's --force, for every write of the command
@@ -101,12 +119,24 @@ def _target(path: str | os.PathLike) -> tuple[Path, str, os.stat_result | None]:
     if stat.S_ISREG(st.st_mode):
         fs = _filesystem(st.st_dev)
         if fs in KERNEL_FILESYSTEMS:
-            raise DenavitError(f"{path}: cannot write the output: {real} is a file of the kernel's {fs} filesystem, not a regular file; name a file on an ordinary filesystem")
+            raise DenavitError(
+                f"{path}: cannot write the output: {real} is a file of the kernel's {fs} filesystem, not a regular file; name a file on an ordinary filesystem"
+            )
         return real, "replace", st
     if stat.S_ISFIFO(st.st_mode) or stat.S_ISCHR(st.st_mode):
         return real, "stream", st
-    kind = "a directory" if stat.S_ISDIR(st.st_mode) else "a block device" if stat.S_ISBLK(st.st_mode) else "a socket" if stat.S_ISSOCK(st.st_mode) else "a special file"
-    raise DenavitError(f"{path}: cannot write the output: it is {kind}, expected a regular file, a FIFO, a character device or '-'")
+    kind = (
+        "a directory"
+        if stat.S_ISDIR(st.st_mode)
+        else "a block device"
+        if stat.S_ISBLK(st.st_mode)
+        else "a socket"
+        if stat.S_ISSOCK(st.st_mode)
+        else "a special file"
+    )
+    raise DenavitError(
+        f"{path}: cannot write the output: it is {kind}, expected a regular file, a FIFO, a character device or '-'"
+    )
 
 
 def _admit(path, st: os.stat_result, force: bool) -> str:
@@ -120,12 +150,18 @@ def _admit(path, st: os.stat_result, force: bool) -> str:
     if read_only_fs:
         raise DenavitError(f"{path}: cannot write: it is on a read-only filesystem; write another file")
     if not force and (not mode & 0o222 or not os.access(path, os.W_OK)):
-        why = f"is read-only (mode {mode:04o})" if not mode & 0o222 else f"is not writable by this user (mode {mode:04o}, owner uid {st.st_uid})"
+        why = (
+            f"is read-only (mode {mode:04o})"
+            if not mode & 0o222
+            else f"is not writable by this user (mode {mode:04o}, owner uid {st.st_uid})"
+        )
         raise DenavitError(f"{path}: {why}: not replaced; {FORCE_HINT} replace it, or write another file")
     if st.st_nlink > 1:
         if not force:
-            raise DenavitError(f"{path}: has {st.st_nlink} hard links: replacing it would split them (the other names would keep the old content); "
-                               f"{FORCE_HINT} write through it in place (every name gets the new content), or write another file")
+            raise DenavitError(
+                f"{path}: has {st.st_nlink} hard links: replacing it would split them (the other names would keep the old content); "
+                f"{FORCE_HINT} write through it in place (every name gets the new content), or write another file"
+            )
         return "through"
     return "replace"
 
@@ -139,8 +175,10 @@ def _keep(fd: int, path, st: os.stat_result | None, mode: int | None = None) -> 
             try:
                 os.fchown(fd, st.st_uid, st.st_gid)
             except PermissionError:
-                raise DenavitError(f"{path}: cannot keep its owner (uid {st.st_uid}, gid {st.st_gid}): this user (uid {os.geteuid()}) may not give "
-                                   "a file away, and replacing it would make it this user's; write it as its owner, or write another file") from None
+                raise DenavitError(
+                    f"{path}: cannot keep its owner (uid {st.st_uid}, gid {st.st_gid}): this user (uid {os.geteuid()}) may not give "
+                    "a file away, and replacing it would make it this user's; write it as its owner, or write another file"
+                ) from None
     if mode is not None:
         os.fchmod(fd, mode)
 
@@ -187,7 +225,9 @@ def _clean_stale(target: Path) -> list[str]:
         try:
             st = e.stat(follow_symlinks=False)
             age = now - st.st_mtime
-            if stat.S_ISREG(st.st_mode) and ((age > STALE_SECONDS and not _alive(int(m[1]))) or age > ABANDONED_SECONDS):
+            if stat.S_ISREG(st.st_mode) and (
+                (age > STALE_SECONDS and not _alive(int(m[1]))) or age > ABANDONED_SECONDS
+            ):
                 os.unlink(e.path)
                 removed.append(e.name)
         except OSError:
@@ -302,7 +342,9 @@ def check_writable(path: str | os.PathLike, *, force: bool = False) -> None:
 
 
 def _closed_stdout() -> DenavitError:
-    return DenavitError("standard output: cannot write: it is closed; expected an open standard output (redirect it to a file, or to /dev/null to discard it)")
+    return DenavitError(
+        "standard output: cannot write: it is closed; expected an open standard output (redirect it to a file, or to /dev/null to discard it)"
+    )
 
 
 @contextmanager

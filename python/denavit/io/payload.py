@@ -39,20 +39,26 @@ def compliance_unit(text, kind: str, where: str) -> float:
     """SI per unit of a compliance unit: ``"rad/(N m)"`` (also ``rad/Nm``, ``rad/(N*m)``, ``rad/N/m``; ``mrad``,
     ``urad``, ``deg``) for a revolute joint, ``"m/N"`` (``mm/N``, ``um/N``) for a prismatic one."""
     if not isinstance(text, str):
-        raise DenavitError(f"{where}: expected a compliance unit such as \"rad/(N m)\" (revolute) or \"m/N\" (prismatic), got {text!r}")
+        raise DenavitError(
+            f'{where}: expected a compliance unit such as "rad/(N m)" (revolute) or "m/N" (prismatic), got {text!r}'
+        )
     s = re.sub(r"[\s*·.()]", "", text).lower()
     if kind == "revolute":
         m = re.fullmatch(r"([a-z]+)/(?:nm|n/m)", s)
         if m and m.group(1) in REVOLUTE_UNITS:
             a = m.group(1)
             return {"m": 1e-3, "u": 1e-6}[a[0]] * angle_scale("rad") if a in ("mrad", "urad") else angle_scale(a)
-        raise DenavitError(f"{where}: unknown compliance unit {text!r} for revolute joints: expected an angle per torque, one of "
-                           f"{', '.join(f'{u}/(N m)' for u in REVOLUTE_UNITS)}")
+        raise DenavitError(
+            f"{where}: unknown compliance unit {text!r} for revolute joints: expected an angle per torque, one of "
+            f"{', '.join(f'{u}/(N m)' for u in REVOLUTE_UNITS)}"
+        )
     m = re.fullmatch(r"([a-z]+)/n", s)
     if m and m.group(1) in PRISMATIC_UNITS:
         return length_scale(m.group(1))
-    raise DenavitError(f"{where}: unknown compliance unit {text!r} for prismatic joints: expected a length per force, one of "
-                       f"{', '.join(f'{u}/N' for u in PRISMATIC_UNITS)}")
+    raise DenavitError(
+        f"{where}: unknown compliance unit {text!r} for prismatic joints: expected a length per force, one of "
+        f"{', '.join(f'{u}/N' for u in PRISMATIC_UNITS)}"
+    )
 
 
 def _numbers(value, n: int, where: str) -> list[float]:
@@ -63,23 +69,29 @@ def _numbers(value, n: int, where: str) -> list[float]:
     return [as_number(v, f"{where}[{i}]") for i, v in enumerate(value)]
 
 
-def read_compliance(spec, kinds: list, names: list, has_inertials: bool, where: str) -> tuple[np.ndarray, np.ndarray | None]:
+def read_compliance(
+    spec, kinds: list, names: list, has_inertials: bool, where: str
+) -> tuple[np.ndarray, np.ndarray | None]:
     """(compliances (n,) SI, covariance (n, n) SI or None) of a robot file's ``[compliance]`` table (module docstring)."""
     if not isinstance(spec, dict):
         raise DenavitError(f"{where}: expected a table with 'unit' and 'values', got {spec!r}"[:200])
     unknown = [k for k in spec if k not in ("unit", "prismatic_unit", "values", "covariance")]
     if unknown:
-        raise DenavitError(f"{where}: unknown key(s) {', '.join(map(repr, unknown))}: expected unit, prismatic_unit, values, covariance")
+        raise DenavitError(
+            f"{where}: unknown key(s) {', '.join(map(repr, unknown))}: expected unit, prismatic_unit, values, covariance"
+        )
     if not has_inertials:
-        raise DenavitError(f"{where}: joint compliances need the links' inertial parameters ([joints.inertia]) to give the gravity torques the joints twist under; "
-                           "the file gives none")
+        raise DenavitError(
+            f"{where}: joint compliances need the links' inertial parameters ([joints.inertia]) to give the gravity torques the joints twist under; "
+            "the file gives none"
+        )
     n = len(kinds)
     scale = np.ones(n)
     for kind, key in (("revolute", "unit"), ("prismatic", "prismatic_unit")):
         if kind not in kinds:
             continue
         if key not in spec:
-            example = "unit = \"rad/(N m)\"" if kind == "revolute" else "prismatic_unit = \"m/N\""
+            example = 'unit = "rad/(N m)"' if kind == "revolute" else 'prismatic_unit = "m/N"'
             raise DenavitError(f"{where}: missing '{key}' (the unit of the {kind} joints' compliances, e.g. {example})")
         scale[[k == kind for k in kinds]] = compliance_unit(spec[key], kind, f"{where}: {key}")
     if "values" not in spec:
@@ -88,20 +100,34 @@ def read_compliance(spec, kinds: list, names: list, has_inertials: bool, where: 
     bad = np.flatnonzero(raw < 0)
     if bad.size:
         j = bad[0]
-        raise DenavitError(f"{where}: values: joint {j + 1} ({names[j]}): expected a compliance >= 0 (a joint gives way under its torque), got {raw[j]:g} "
-                           f"{spec.get('unit' if kinds[j] == 'revolute' else 'prismatic_unit')}")
+        raise DenavitError(
+            f"{where}: values: joint {j + 1} ({names[j]}): expected a compliance >= 0 (a joint gives way under its torque), got {raw[j]:g} "
+            f"{spec.get('unit' if kinds[j] == 'revolute' else 'prismatic_unit')}"
+        )
     cov = None
     if "covariance" in spec:
         rows = spec["covariance"]
         if not isinstance(rows, list) or len(rows) != n:
-            raise DenavitError(f"{where}: covariance: expected {n} rows of {n} numbers (in the units' products), got {len(rows) if isinstance(rows, list) else rows!r}")
-        cov = np.array([_numbers(r, n, f"{where}: covariance row {i + 1}") for i, r in enumerate(rows)]) * np.outer(scale, scale)
-        if not np.allclose(cov, cov.T, rtol=1e-9, atol=0) or np.linalg.eigvalsh((cov + cov.T) / 2).min() < -1e-9 * max(np.abs(np.diag(cov)).max(), 1e-300):
+            raise DenavitError(
+                f"{where}: covariance: expected {n} rows of {n} numbers (in the units' products), got {len(rows) if isinstance(rows, list) else rows!r}"
+            )
+        cov = np.array([_numbers(r, n, f"{where}: covariance row {i + 1}") for i, r in enumerate(rows)]) * np.outer(
+            scale, scale
+        )
+        if not np.allclose(cov, cov.T, rtol=1e-9, atol=0) or np.linalg.eigvalsh((cov + cov.T) / 2).min() < -1e-9 * max(
+            np.abs(np.diag(cov)).max(), 1e-300
+        ):
             raise DenavitError(f"{where}: covariance: expected a symmetric positive semi-definite matrix")
     return raw * scale, cov
 
 
-def compliance_spec(values: np.ndarray, covariance: np.ndarray | None, kinds: list, unit: str = "urad/(N m)", prismatic_unit: str = "um/N") -> dict:
+def compliance_spec(
+    values: np.ndarray,
+    covariance: np.ndarray | None,
+    kinds: list,
+    unit: str = "urad/(N m)",
+    prismatic_unit: str = "um/N",
+) -> dict:
     """The ``[compliance]`` table of compliances (SI) in ``unit`` / ``prismatic_unit``."""
     scale = np.array([compliance_unit(unit if k == "revolute" else prismatic_unit, k, "compliance") for k in kinds])
     out: dict = {"unit": unit}
@@ -109,7 +135,9 @@ def compliance_spec(values: np.ndarray, covariance: np.ndarray | None, kinds: li
         out["prismatic_unit"] = prismatic_unit
     out["values"] = [float(f"{v:.15g}") for v in np.asarray(values, dtype=float) / scale]
     if covariance is not None:
-        out["covariance"] = [[float(v) for v in row] for row in np.asarray(covariance, dtype=float) / np.outer(scale, scale)]
+        out["covariance"] = [
+            [float(v) for v in row] for row in np.asarray(covariance, dtype=float) / np.outer(scale, scale)
+        ]
     return out
 
 
@@ -120,12 +148,14 @@ def parse_payload(text: str, length: str = "mm", where: str = "--payload") -> tu
     """``"5 kg @ 0,0,80 mm"`` as (mass kg, centre of mass (3,) m in the flange frame). The mass needs its unit (kg,
     g); the centre of mass defaults to the flange origin, its numbers in their own unit or ``length``."""
     m = _PAYLOAD.fullmatch(str(text))
-    expected = f"{where}: expected a mass with its unit and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\""
+    expected = f'{where}: expected a mass with its unit and optionally its centre of mass in the flange frame, e.g. "5 kg @ 0,0,80 mm"'
     if m is None:
         raise DenavitError(f"{expected}; got {text!r}")
     num, unit, com = m.groups()
     if not unit:
-        raise DenavitError(f"{where}: the payload's mass {num} has no unit: expected one of {', '.join(MASS_UNITS)}, e.g. \"5 kg @ 0,0,80 mm\"")
+        raise DenavitError(
+            f'{where}: the payload\'s mass {num} has no unit: expected one of {", ".join(MASS_UNITS)}, e.g. "5 kg @ 0,0,80 mm"'
+        )
     if unit not in MASS_UNITS:
         raise DenavitError(f"{where}: unknown mass unit {unit!r}: expected one of {', '.join(MASS_UNITS)}")
     try:
@@ -133,19 +163,27 @@ def parse_payload(text: str, length: str = "mm", where: str = "--payload") -> tu
     except ValueError:
         raise DenavitError(f"{expected}; got {text!r}") from None
     if not (math.isfinite(mass) and 0 <= mass <= 1e5):
-        raise DenavitError(f"{where}: expected a payload mass >= 0 kg (and at most 100 t), got {text.split('@')[0].strip()!r}")
+        raise DenavitError(
+            f"{where}: expected a payload mass >= 0 kg (and at most 100 t), got {text.split('@')[0].strip()!r}"
+        )
     c = np.zeros(3)
     if com is not None:
         cm = re.fullmatch(r"\s*([-+0-9.eE]+)\s*,\s*([-+0-9.eE]+)\s*,\s*([-+0-9.eE]+)\s*([A-Za-z]*)\s*", com)
         if cm is None:
-            raise DenavitError(f"{where}: expected the centre of mass as x,y,z with an optional length unit after '@', got {com.strip()!r}")
+            raise DenavitError(
+                f"{where}: expected the centre of mass as x,y,z with an optional length unit after '@', got {com.strip()!r}"
+            )
         ls = length_scale(cm.group(4) or length, where)
         try:
             c = np.array([float(cm.group(k)) for k in (1, 2, 3)]) * ls
         except ValueError:
-            raise DenavitError(f"{where}: expected the centre of mass as three numbers x,y,z, got {com.strip()!r}") from None
+            raise DenavitError(
+                f"{where}: expected the centre of mass as three numbers x,y,z, got {com.strip()!r}"
+            ) from None
         if not np.all(np.isfinite(c)) or np.any(np.abs(c) > 1e3):
-            raise DenavitError(f"{where}: the centre of mass must be finite and within 1 km of the flange, got {com.strip()!r}")
+            raise DenavitError(
+                f"{where}: the centre of mass must be finite and within 1 km of the flange, got {com.strip()!r}"
+            )
     return mass, c
 
 
@@ -166,5 +204,7 @@ def payload_from_columns(table: np.ndarray, cols: dict, ls: float, where) -> np.
     bad = np.flatnonzero(~(out[:, 0] >= 0) | ~np.all(np.isfinite(out), axis=1))
     if bad.size:
         i = bad[0]
-        raise DenavitError(f"{where[i]}: payload_mass: expected a mass >= 0 kg and a finite centre of mass, got {out[i, 0]:g} kg at {(out[i, 1:] / ls).tolist()}")
+        raise DenavitError(
+            f"{where[i]}: payload_mass: expected a mass >= 0 kg and a finite centre of mass, got {out[i, 0]:g} kg at {(out[i, 1:] / ls).tolist()}"
+        )
     return out

@@ -106,7 +106,9 @@ def _plausible_angles(values, as_: float, where: str, joint: bool = False) -> No
         return
     worst = float(v[np.argmax(np.abs(v))])
     if as_ == 1.0 and abs(worst) > 2 * np.pi + 1e-9:
-        raise DenavitError(f"{where}: {worst:.6g} is beyond 2 pi, yet [units] angle = \"rad\": degrees written? (declare angle = \"deg\", or give radians)")
+        raise DenavitError(
+            f'{where}: {worst:.6g} is beyond 2 pi, yet [units] angle = "rad": degrees written? (declare angle = "deg", or give radians)'
+        )
     limits.check_angles(v * as_, where, "rad" if as_ == 1.0 else "deg", as_, joint)
 
 
@@ -155,12 +157,20 @@ def _inertia(spec, jw: str, units: dict | None, where: str, ls: float) -> tuple[
     if missing:
         raise DenavitError(f"{jw}: inertia: missing {', '.join(missing)}")
     if not isinstance(units, dict) or "mass" not in units or "inertia" not in units:
-        raise DenavitError(f"{where}: [units] must declare 'mass' and 'inertia' (e.g. mass = \"kg\", inertia = \"kg m^2\") when a joint gives an inertia")
+        raise DenavitError(
+            f"{where}: [units] must declare 'mass' and 'inertia' (e.g. mass = \"kg\", inertia = \"kg m^2\") when a joint gives an inertia"
+        )
     ms = mass_scale(units["mass"], f"{where}, [units] mass")
     iscale = inertia_scale(units["inertia"], f"{where}, [units] inertia")
     vals = {k: _number(spec.get(k, 0.0), f"{jw}: inertia: {k}") for k in INERTIA_KEYS if k != "com"}
     com = _numbers(spec["com"], 3, f"{jw}: inertia: com")
-    I = np.array([[vals["ixx"], vals["ixy"], vals["ixz"]], [vals["ixy"], vals["iyy"], vals["iyz"]], [vals["ixz"], vals["iyz"], vals["izz"]]])
+    I = np.array(
+        [
+            [vals["ixx"], vals["ixy"], vals["ixz"]],
+            [vals["ixy"], vals["iyy"], vals["iyz"]],
+            [vals["ixz"], vals["iyz"], vals["izz"]],
+        ]
+    )
     limits.check_lengths([c * ls for c in com], f"{jw}: inertia: com", _unit(ls), ls)
     return vals["mass"] * ms, [c * ls for c in com], I * iscale
 
@@ -202,11 +212,15 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
     except DenavitError:
         info = None
     if info is None:
-        raise DenavitError(f"{where}: 'convention' must be one of {', '.join(_core.conventions())}, got {doc.get('convention')!r} (aliases: sdh, craig, modified-dh, in any case)")
+        raise DenavitError(
+            f"{where}: 'convention' must be one of {', '.join(_core.conventions())}, got {doc.get('convention')!r} (aliases: sdh, craig, modified-dh, in any case)"
+        )
     conv = info["name"]
     units = doc.get("units")
     if not isinstance(units, dict) or "length" not in units or "angle" not in units:
-        raise DenavitError(f"{where}: a [units] table with 'length' and 'angle' is required (e.g. length = \"mm\", angle = \"deg\"), got {units!r}")
+        raise DenavitError(
+            f"{where}: a [units] table with 'length' and 'angle' is required (e.g. length = \"mm\", angle = \"deg\"), got {units!r}"
+        )
     _check_keys(units, UNIT_KEYS, f"{where}, [units]")
     ls = length_scale(units["length"], f"{where}, [units] length")
     as_ = angle_scale(units["angle"], f"{where}, [units] angle")
@@ -238,7 +252,9 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         else:
             missing = [c for c in cols if c not in j]
             if missing:
-                raise DenavitError(f"{jw}: missing parameter(s) {', '.join(missing)} of a {conv} table (columns {', '.join(cols)})")
+                raise DenavitError(
+                    f"{jw}: missing parameter(s) {', '.join(missing)} of a {conv} table (columns {', '.join(cols)})"
+                )
             rows.append([_number(j[c], f"{jw}: parameter {c}") for c in cols])
         lim = j.get("limits")
         scale = joint_scale([kind], units["length"], units["angle"], jw)[0]
@@ -249,7 +265,9 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
             if kind == "revolute":
                 _plausible_angles(raw_lim, scale, f"{jw}: limits", joint=True)
             else:
-                limits.check_lengths([v * scale for v in raw_lim if np.isfinite(v)], f"{jw}: limits", _unit(scale), scale)
+                limits.check_lengths(
+                    [v * scale for v in raw_lim if np.isfinite(v)], f"{jw}: limits", _unit(scale), scale
+                )
             lo, hi = (v * scale for v in raw_lim)
             if lo > hi:
                 raise DenavitError(f"{jw}: limits must be [lower, upper] with lower <= upper, got {lim!r}")
@@ -258,13 +276,17 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
     first = {}
     for i, nm in enumerate(names):  # (the core refuses it too, but without the file's place)
         if nm in first:
-            raise DenavitError(f"{joint_where[i]}: name {nm!r} is joint {first[nm] + 1}'s already: expected names unique within the robot")
+            raise DenavitError(
+                f"{joint_where[i]}: name {nm!r} is joint {first[nm] + 1}'s already: expected names unique within the robot"
+            )
         first[nm] = i
     base = _pose(doc["base"], ls, as_, f"{where}, [base]") if "base" in doc else np.eye(4)
     tool = _pose(doc["tool"], ls, as_, f"{where}, [tool]") if "tool" in doc else np.eye(4)
     # the rows in the file's units -> SI, cell by cell (io.units.cell_scale: angles, lengths, unitless POE directions)
     raw = _core.Table(conv, np.asarray(rows, dtype=float).reshape(len(rows), len(cols)), kinds)
-    si = [[cell_scale(raw, i, k, units["length"], units["angle"])[0] for k in range(len(cols))] for i in range(len(rows))]
+    si = [
+        [cell_scale(raw, i, k, units["length"], units["angle"])[0] for k in range(len(cols))] for i in range(len(rows))
+    ]
     _plausible_table(raw, si, as_, joint_where)
     try:  # the core's checks of the table and of its model (a POE screw, a non-rigid tool), said at their place
         table = _core.Table(conv, raw.params * np.asarray(si).reshape(raw.params.shape), kinds, base, tool)
@@ -279,9 +301,30 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         home = home * joint_scale(kinds, units["length"], units["angle"], where)
         limits.check_lengths(home[~rev], f"{where}: home", _unit(ls), ls)
     coupling = parse_coupling(doc["couplings"], kinds, f"{where}, [couplings]") if "couplings" in doc else None
-    scale, reference = _readings(doc["readings"], kinds, units, f"{where}, [readings]") if "readings" in doc else (None, None)
-    covariance = _covariance(doc["covariance"], table, units, f"{where}, [covariance]", scale is not None) if "covariance" in doc else None
-    known = {"name", "description", "source", "convention", "units", "joints", "base", "tool", "home", "couplings", "readings", "covariance", "compliance", "prior"}
+    scale, reference = (
+        _readings(doc["readings"], kinds, units, f"{where}, [readings]") if "readings" in doc else (None, None)
+    )
+    covariance = (
+        _covariance(doc["covariance"], table, units, f"{where}, [covariance]", scale is not None)
+        if "covariance" in doc
+        else None
+    )
+    known = {
+        "name",
+        "description",
+        "source",
+        "convention",
+        "units",
+        "joints",
+        "base",
+        "tool",
+        "home",
+        "couplings",
+        "readings",
+        "covariance",
+        "compliance",
+        "prior",
+    }
     # other tables (e.g. [urdf], written by `convert` from a URDF) are carried as extra; a stray plain key is
     # most likely a typo ("hom" for "home")
     _check_keys({k: v for k, v in doc.items() if not isinstance(v, dict)}, sorted(known), f"{where} (top level)")
@@ -306,7 +349,9 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         if isinstance(spec, dict) and "flange" in spec:
             compliance_flange = _pose(spec["flange"], ls, as_, f"{where}, [compliance] flange")
             spec = {k: v for k, v in spec.items() if k != "flange"}
-        compliance, compliance_cov = read_compliance(spec, kinds, names, inertials is not None, f"{where}, [compliance]")
+        compliance, compliance_cov = read_compliance(
+            spec, kinds, names, inertials is not None, f"{where}, [compliance]"
+        )
     prior = _prior(doc["prior"], units, f"{where}, [prior]") if "prior" in doc else None
     return Robot(
         name=_text(doc.get("name", Path(where).stem), f"{where}: name"),
@@ -338,7 +383,9 @@ def _prior(spec, units: dict, where: str) -> str:
     from ..calibration.priors import parse_prior  # noqa: PLC0415 (the grammar's one parser)
 
     if not isinstance(spec, dict) or not spec:
-        raise DenavitError(f"{where}: expected a table of KIND or parameter = WIDTH (e.g. length = \"0.5 mm\"), got {spec!r:.60}")
+        raise DenavitError(
+            f'{where}: expected a table of KIND or parameter = WIDTH (e.g. length = "0.5 mm"), got {spec!r:.60}'
+        )
     bare = {"length": units["length"], "angle": units["angle"], "offset": units["angle"], "scale": ""}
     items = []
     for key, v in spec.items():
@@ -347,8 +394,10 @@ def _prior(spec, units: dict, where: str) -> str:
         elif isinstance(v, (int, float)) and not isinstance(v, bool) and key in bare:
             items.append(f"{key}={v!r}{bare[key]}")
         else:
-            raise DenavitError(f"{where}: {key} = {v!r}: expected a width with its unit, e.g. \"2 mm\" or \"0.05 deg\" (a bare number "
-                               f"only for a kind: {', '.join(bare)}, in the file's [units])")
+            raise DenavitError(
+                f'{where}: {key} = {v!r}: expected a width with its unit, e.g. "2 mm" or "0.05 deg" (a bare number '
+                f"only for a kind: {', '.join(bare)}, in the file's [units])"
+            )
     text = ", ".join(items)
     parse_prior(text, "m", "rad", where)  # its one-line errors, at this table
     return text
@@ -365,10 +414,14 @@ def _readings(spec, kinds: list[str], units: dict, where: str) -> tuple[np.ndarr
     scale = np.array(_numbers(spec["scale"], n, f"{where}: scale"))
     bad = np.flatnonzero(np.abs(scale) >= 0.1)
     if len(bad):
-        raise DenavitError(f"{where}: scale: joint {bad[0] + 1}'s scale error {scale[bad[0]]:.6g} is not a small correction (expected |scale| < 0.1: the joint turns 1 + scale times its reading)")
+        raise DenavitError(
+            f"{where}: scale: joint {bad[0] + 1}'s scale error {scale[bad[0]]:.6g} is not a small correction (expected |scale| < 0.1: the joint turns 1 + scale times its reading)"
+        )
     ref = None
     if "reference" in spec:
-        ref = np.array(_numbers(spec["reference"], n, f"{where}: reference")) * joint_scale(kinds, units["length"], units["angle"], where)
+        ref = np.array(_numbers(spec["reference"], n, f"{where}: reference")) * joint_scale(
+            kinds, units["length"], units["angle"], where
+        )
     return scale, ref
 
 
@@ -387,10 +440,18 @@ def _covariance(spec, table: _core.Table, units: dict, where: str, scales: bool 
     s = _covariance_scales(table, units["length"], units["angle"], scales)
     rows = spec.get("matrix")
     if not isinstance(rows, list) or len(rows) != len(s):
-        what = "the joints' parameters, the tool's x, y, z, then the [readings] scales" if scales else "the joints' parameters, then the tool's x, y, z"
-        raise DenavitError(f"{where}: matrix: expected {len(s)} rows ({what}), got {len(rows) if isinstance(rows, list) else rows!r}")
+        what = (
+            "the joints' parameters, the tool's x, y, z, then the [readings] scales"
+            if scales
+            else "the joints' parameters, then the tool's x, y, z"
+        )
+        raise DenavitError(
+            f"{where}: matrix: expected {len(s)} rows ({what}), got {len(rows) if isinstance(rows, list) else rows!r}"
+        )
     C = np.array([_numbers(r, len(s), f"{where}: matrix row {i + 1}") for i, r in enumerate(rows)]) * np.outer(s, s)
-    if not np.allclose(C, C.T, rtol=1e-9, atol=0) or np.linalg.eigvalsh((C + C.T) / 2).min() < -1e-9 * max(np.abs(np.diag(C)).max(), 1e-300):
+    if not np.allclose(C, C.T, rtol=1e-9, atol=0) or np.linalg.eigvalsh((C + C.T) / 2).min() < -1e-9 * max(
+        np.abs(np.diag(C)).max(), 1e-300
+    ):
         raise DenavitError(f"{where}: matrix: expected a symmetric positive semi-definite covariance")
     return C
 
@@ -418,7 +479,7 @@ def parse_coupling(spec, kinds: list[str], where: str) -> np.ndarray:
     elif isinstance(spec, dict):
         eqs = spec
     else:
-        raise DenavitError(f"{where}: expected equations such as q3 = \"r3 + r2\", got {spec!r}")
+        raise DenavitError(f'{where}: expected equations such as q3 = "r3 + r2", got {spec!r}')
     C = np.eye(n)
     for lhs, rhs in eqs.items():
         m = re.fullmatch(r"q(\d+)", str(lhs).strip())
@@ -426,7 +487,7 @@ def parse_coupling(spec, kinds: list[str], where: str) -> np.ndarray:
         if not 0 <= i < n:
             raise DenavitError(f"{where}: expected a joint q1..q{n} on the left, got {lhs!r}")
         if not isinstance(rhs, str) or not rhs.strip():
-            raise DenavitError(f"{where}: {lhs}: expected readings such as \"r3 + r2\", got {rhs!r}")
+            raise DenavitError(f'{where}: {lhs}: expected readings such as "r3 + r2", got {rhs!r}')
         row, pos, text = np.zeros(n), 0, rhs.strip()
         while pos < len(text):
             t = _TERM.match(text, pos)
@@ -436,7 +497,9 @@ def parse_coupling(spec, kinds: list[str], where: str) -> np.ndarray:
             if not 0 <= k < n:
                 raise DenavitError(f"{where}: {lhs}: reading r{k + 1} of a robot with {n} joints")
             if kinds[k] != kinds[i]:
-                raise DenavitError(f"{where}: {lhs}: reading r{k + 1} is of a {kinds[k]} joint, q{i + 1} of a {kinds[i]} one (coefficients are unitless)")
+                raise DenavitError(
+                    f"{where}: {lhs}: reading r{k + 1} is of a {kinds[k]} joint, q{i + 1} of a {kinds[i]} one (coefficients are unitless)"
+                )
             row[k] += (-1.0 if t.group(1) == "-" else 1.0) * (float(t.group(2)) if t.group(2) else 1.0)
             pos = t.end()
         C[i] = row
@@ -451,7 +514,11 @@ def coupling_text(C: np.ndarray) -> dict:
     for i, row in enumerate(np.asarray(C)):
         if np.array_equal(row, np.eye(len(row))[i]):
             continue
-        terms = [("-" if v < 0 else "+") + ("" if abs(v) == 1 else f" {abs(v):.12g}") + f" r{k + 1}" for k, v in enumerate(row) if v != 0]
+        terms = [
+            ("-" if v < 0 else "+") + ("" if abs(v) == 1 else f" {abs(v):.12g}") + f" r{k + 1}"
+            for k, v in enumerate(row)
+            if v != 0
+        ]
         out[f"q{i + 1}"] = " ".join(terms).lstrip("+ ")
     return out
 
@@ -530,12 +597,19 @@ def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
                 j[c] = _unit_value(v, cell_scale(t, i, k, length, angle)[0])
         j["limits"] = [_unit_value(robot.lower[i], js[i]), _unit_value(robot.upper[i], js[i])]
         # a link with inertia but no mass (the Puma 560's link 1: its motor's rotor) keeps its inertia
-        if robot.inertials is not None and (robot.inertials["masses"][i] > 0 or np.any(robot.inertials["inertias"][i] != 0)):
+        if robot.inertials is not None and (
+            robot.inertials["masses"][i] > 0 or np.any(robot.inertials["inertias"][i] != 0)
+        ):
             I = robot.inertials["inertias"][i]
             j["inertia"] = {
                 "mass": float(robot.inertials["masses"][i]),
                 "com": [_unit_value(c, ls) for c in robot.inertials["coms"][i]],
-                **{k: float(I[a, b]) for k, (a, b) in zip(("ixx", "iyy", "izz", "ixy", "ixz", "iyz"), ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)))},
+                **{
+                    k: float(I[a, b])
+                    for k, (a, b) in zip(
+                        ("ixx", "iyy", "izz", "ixy", "ixz", "iyz"), ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+                    )
+                },
             }
         joints.append(j)
     doc["joints"] = joints
@@ -550,9 +624,13 @@ def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
     if robot.covariance is not None:
         s = _covariance_scales(t, length, angle, robot.reading_scale is not None)
         if np.shape(robot.covariance) != (len(s), len(s)):
-            raise DenavitError(f"{robot.name}: covariance of shape {np.shape(robot.covariance)}, expected ({len(s)}, {len(s)}) for its table"
-                               + (" and reading scales" if robot.reading_scale is not None else ""))
-        doc["covariance"] = {"matrix": [[float(v) for v in row] for row in np.asarray(robot.covariance) / np.outer(s, s)]}
+            raise DenavitError(
+                f"{robot.name}: covariance of shape {np.shape(robot.covariance)}, expected ({len(s)}, {len(s)}) for its table"
+                + (" and reading scales" if robot.reading_scale is not None else "")
+            )
+        doc["covariance"] = {
+            "matrix": [[float(v) for v in row] for row in np.asarray(robot.covariance) / np.outer(s, s)]
+        }
     if robot.compliance is not None:
         doc["compliance"] = compliance_spec(robot.compliance, robot.compliance_covariance, list(t.kinds))
         if robot.compliance_flange is not None:

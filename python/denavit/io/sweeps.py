@@ -77,14 +77,31 @@ def _long_header(rows: list, where: str) -> tuple[list[str], int, list[str], int
     quat = any(c in cols for c in QUATERNION)
     pay = [c for c in PAYLOAD_COLUMNS if c in cols]  # a payload per point (issue 37), after everything else
     if pay and "payload_mass" not in pay:
-        raise DenavitError(f"{where}:{hline}: {', '.join(pay)} without payload_mass: give the payload's mass (kg) with its centre of mass")
-    need = ["joint", *[f"q{i}" for i in range(1, n + 1)], "x", "y", "z", *[f"{a}{t}" for t in range(2, k + 1) for a in "xyz"], *(QUATERNION if quat else ()), *pay]
+        raise DenavitError(
+            f"{where}:{hline}: {', '.join(pay)} without payload_mass: give the payload's mass (kg) with its centre of mass"
+        )
+    need = [
+        "joint",
+        *[f"q{i}" for i in range(1, n + 1)],
+        "x",
+        "y",
+        "z",
+        *[f"{a}{t}" for t in range(2, k + 1) for a in "xyz"],
+        *(QUATERNION if quat else ()),
+        *pay,
+    ]
     missing = [c for c in need if c not in cols]
     unknown = [c for c in cols if c not in need and c != "time"]
     if missing or unknown or n == 0:
-        what = f"missing {', '.join(missing) or 'q columns'}" if missing or n == 0 else f"unknown column(s) {', '.join(unknown)}"
-        raise DenavitError(f"{where}:{hline}: header must be 'joint,q1,...,qn,x,y,z' (optional 'time'; further targets x2,y2,z2,...; a pose's "
-                           f"orientation qw,qx,qy,qz; a payload payload_mass[,payload_x,payload_y,payload_z]); {what}, got {','.join(header)!r}")
+        what = (
+            f"missing {', '.join(missing) or 'q columns'}"
+            if missing or n == 0
+            else f"unknown column(s) {', '.join(unknown)}"
+        )
+        raise DenavitError(
+            f"{where}:{hline}: header must be 'joint,q1,...,qn,x,y,z' (optional 'time'; further targets x2,y2,z2,...; a pose's "
+            f"orientation qw,qx,qy,qz; a payload payload_mass[,payload_x,payload_y,payload_z]); {what}, got {','.join(header)!r}"
+        )
     return cols, n, need, k, quat
 
 
@@ -103,14 +120,25 @@ def parse_nest(lines, k: int, ls: float, where: str):
         try:
             pts = np.array([[float(v) for v in p.replace(",", " ").split()] for p in parts], dtype=float)
         except ValueError:
-            raise DenavitError(f"{here}: nest: expected 'x1,y1,z1; x2,y2,z2; ...' (numbers, the file's length unit), got {m.group(1).strip()[:60]!r}") from None
+            raise DenavitError(
+                f"{here}: nest: expected 'x1,y1,z1; x2,y2,z2; ...' (numbers, the file's length unit), got {m.group(1).strip()[:60]!r}"
+            ) from None
         if pts.shape != (k, 3) or not np.isfinite(pts).all():
-            raise DenavitError(f"{here}: nest: expected {k} points of 3 coordinates (one per target of the header), got {m.group(1).strip()[:60]!r}")
+            raise DenavitError(
+                f"{here}: nest: expected {k} points of 3 coordinates (one per target of the header), got {m.group(1).strip()[:60]!r}"
+            )
         return pts * ls
     return None
 
 
-def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: str | None = None, kinds: list[str] | None = None, home=None) -> SweepSet:
+def read_long_csv(
+    path: str | os.PathLike,
+    *,
+    length: str | None = None,
+    angle: str | None = None,
+    kinds: list[str] | None = None,
+    home=None,
+) -> SweepSet:
     """Read the long-form CSV: header ``joint,q1,...,qn,x,y,z`` (optional ``time``), one row per point.
 
     ``joint`` is the moving joint's 1-based index; q1..qn every joint reading at that instant; x, y, z the
@@ -166,24 +194,47 @@ def read_long_csv(path: str | os.PathLike, *, length: str | None = None, angle: 
         qc = take[n + 1 + 3 * k_t : n + 5 + 3 * k_t]
         bad = np.flatnonzero(np.abs(np.linalg.norm(table[:, qc], axis=1) - 1) > 1e-6)
         if bad.size:
-            raise DenavitError(f"{where}:{line[bad[0]]}: quaternion norm {np.linalg.norm(table[bad[0], qc]):.6g}: expected a unit quaternion (qw, qx, qy, qz)")
+            raise DenavitError(
+                f"{where}:{line[bad[0]]}: quaternion norm {np.linalg.norm(table[bad[0], qc]):.6g}: expected a unit quaternion (qw, qx, qy, qz)"
+            )
         rot = poses_of(np.zeros((len(table), 3)), table[:, qc], "quaternion", where)[:, :3, :3]
 
     npay = len([c for c in need if c in PAYLOAD_COLUMNS])
-    payload = payload_from_columns(table, {c: take[len(need) - npay + i] for i, c in enumerate(need[len(need) - npay :])}, ls, FileLines(where, line)) if npay else None
+    payload = (
+        payload_from_columns(
+            table,
+            {c: take[len(need) - npay + i] for i, c in enumerate(need[len(need) - npay :])},
+            ls,
+            FileLines(where, line),
+        )
+        if npay
+        else None
+    )
     sweeps = {}
     for j, k in picks.items():
         pts = table[k][:, pcols] * ls
         tg = pts.reshape(len(pts), k_t, 3) if k_t > 1 else None
-        sweeps[j] = Sweep(j, pts if k_t == 1 else np.ascontiguousarray(pts[:, :3]), table[k][:, qcols] * qscale, FileLines(where, line[k]), tg,
-                          None if rot is None else rot[k], None if payload is None else payload[k])
+        sweeps[j] = Sweep(
+            j,
+            pts if k_t == 1 else np.ascontiguousarray(pts[:, :3]),
+            table[k][:, qcols] * qscale,
+            FileLines(where, line[k]),
+            tg,
+            None if rot is None else rot[k],
+            None if payload is None else payload[k],
+        )
     del table
     out = [sweeps[j] for j in sorted(sweeps)]
     nest = parse_nest(lines, k_t, ls, where) if k_t > 1 else None
     every = SweepSet(out, n, np.zeros(n), kinds, where, units, nest)  # one sweep of each joint (or a one-line error)
     if home is None:
         # the locked joints' readings: the median over the sweeps in which each joint does not move
-        home = np.array([np.median(np.concatenate([s.q[:, i] for s in out if s.joint != i + 1])) if n > 1 else 0.0 for i in range(n)])
+        home = np.array(
+            [
+                np.median(np.concatenate([s.q[:, i] for s in out if s.joint != i + 1])) if n > 1 else 0.0
+                for i in range(n)
+            ]
+        )
     return replace(every, home=np.asarray(home, dtype=float))
 
 
@@ -197,7 +248,9 @@ def _columns(idx: list[int]):
     return slice(idx[0], idx[-1] + 1) if idx == list(range(idx[0], idx[-1] + 1)) else idx
 
 
-def _slow_long(rows: list, cols: list[str], names: list[str], take: list[int], where: str) -> tuple[np.ndarray, np.ndarray]:
+def _slow_long(
+    rows: list, cols: list[str], names: list[str], take: list[int], where: str
+) -> tuple[np.ndarray, np.ndarray]:
     """The data rows cell by cell: (m, len(names)) [joint, q, xyz, ...] in file units and the line numbers; the first
     wrong cell is an error naming its line and column."""
     table = np.empty((len(rows), len(take)))
@@ -227,7 +280,9 @@ def _joint_file(f: Path, length: str | None) -> tuple[np.ndarray, list[str]]:
     has a header (a first line of names), else by position (x,y,z or time,x,y,z)."""
     where = str(f)
     lines = read_text(f, "sweep file", lines=True).splitlines()
-    ls = length_scale(input_units(parse_declaration(lines, where), length, None, where, need=("length",))["length"], where)
+    ls = length_scale(
+        input_units(parse_declaration(lines, where), length, None, where, need=("length",))["length"], where
+    )
     rows, delim = dl.rows(lines, where)
     cols = None
     if rows and not any(dl.is_number(c) for c in rows[0][1]):
@@ -235,20 +290,34 @@ def _joint_file(f: Path, length: str | None) -> tuple[np.ndarray, list[str]]:
         cols = dl.header(header, f"{where}:{ln}")
         unknown = [c for c in cols if c not in ("time", "x", "y", "z")]
         if unknown or not all(c in cols for c in "xyz"):
-            raise DenavitError(f"{where}:{ln}: header must name x, y, z (and optionally time), got {','.join(header)!r}")
+            raise DenavitError(
+                f"{where}:{ln}: header must name x, y, z (and optionally time), got {','.join(header)!r}"
+            )
     pts, at = [], []
     for ln, cells in rows:
         names = cols or (["x", "y", "z"] if len(cells) == 3 else ["time", "x", "y", "z"])
         if len(cells) != len(names) or len(cells) not in (3, 4):
             expected = f"{len(names)} values ({','.join(names)})" if cols else "3 values (x,y,z) or 4 (time,x,y,z)"
-            raise DenavitError(f"{where}:{ln}: expected {expected} separated by {delim!r}, got {len(cells)}: {delim.join(cells)!r}")
-        vals = {name: dl.length(c, f"{where}:{ln}", name, ls if name in "xyz" else 1.0) for c, name in zip(cells, names)}
+            raise DenavitError(
+                f"{where}:{ln}: expected {expected} separated by {delim!r}, got {len(cells)}: {delim.join(cells)!r}"
+            )
+        vals = {
+            name: dl.length(c, f"{where}:{ln}", name, ls if name in "xyz" else 1.0) for c, name in zip(cells, names)
+        }
         pts.append([vals[c] for c in "xyz"])
         at.append(f"{where}:{ln}")
     return np.array(pts, dtype=float).reshape(-1, 3), at
 
 
-def read_joint_files(folder: str | os.PathLike, *, home, length: str | None, angle: str | None = "deg", direction=1, kinds: list[str] | None = None) -> SweepSet:
+def read_joint_files(
+    folder: str | os.PathLike,
+    *,
+    home,
+    length: str | None,
+    angle: str | None = "deg",
+    direction=1,
+    kinds: list[str] | None = None,
+) -> SweepSet:
     """Read one file per joint (``j1.csv`` ... ``jN.csv``): x,y,z per row, optionally a time column.
 
     Only files named exactly ``j<N>.csv`` count (``j1_old.csv`` is not a sweep). Comma or semicolon separated
@@ -265,7 +334,9 @@ def read_joint_files(folder: str | os.PathLike, *, home, length: str | None, ang
         if m and f.is_file():
             j = int(m.group(1))
             if j in files:
-                raise DenavitError(f"{folder}: two files for joint {j}: {files[j].name} and {f.name}: expected one j{j}.csv")
+                raise DenavitError(
+                    f"{folder}: two files for joint {j}: {files[j].name} and {f.name}: expected one j{j}.csv"
+                )
             files[j] = f
     if not files:
         raise DenavitError(f"{folder}: no per-joint files j1.csv ... jN.csv found")
@@ -277,14 +348,20 @@ def read_joint_files(folder: str | os.PathLike, *, home, length: str | None, ang
         raise DenavitError(f"--home: expected one finite number per joint, got {home.tolist()}")
     n = len(home)
     kinds = _kinds(kinds, n, str(folder), "--home")
-    units = input_units({}, length, angle, str(folder), need=("length", "angle") if "revolute" in kinds else ("length",))
+    units = input_units(
+        {}, length, angle, str(folder), need=("length", "angle") if "revolute" in kinds else ("length",)
+    )
     homes = home * joint_scale(kinds, units["length"], units.get("angle", "rad"), "--home")
     try:
         dirs = np.atleast_1d(np.asarray(direction, dtype=float))
     except (TypeError, ValueError):
-        raise DenavitError(f"--direction: expected +1 or -1, one for all joints or one per joint, got {direction!r}") from None
+        raise DenavitError(
+            f"--direction: expected +1 or -1, one for all joints or one per joint, got {direction!r}"
+        ) from None
     if dirs.ndim != 1 or dirs.size not in (1, n) or not np.all(np.abs(dirs) == 1):
-        raise DenavitError(f"--direction: expected +1 or -1, one for all joints or {n} (one per joint, from --home), got {dirs.tolist()}")
+        raise DenavitError(
+            f"--direction: expected +1 or -1, one for all joints or {n} (one per joint, from --home), got {dirs.tolist()}"
+        )
     dirs = np.broadcast_to(dirs, (n,))
     sweeps = {}
     for j, f in sorted(files.items()):
@@ -317,11 +394,18 @@ def load_json(text: str, where: str):
         keys = [k for k, _ in pairs]
         dup = sorted({k for k in keys if keys.count(k) > 1})
         if dup:
-            raise DenavitError(f"{where}: key(s) {', '.join(map(repr, dup))[:80]} given twice in one object: expected each once")
+            raise DenavitError(
+                f"{where}: key(s) {', '.join(map(repr, dup))[:80]} given twice in one object: expected each once"
+            )
         return dict(pairs)
 
     try:
-        return json.loads(text, parse_constant=float, parse_int=lambda t: int(t) if len(t) < 19 else float(t), object_pairs_hook=unique)
+        return json.loads(
+            text,
+            parse_constant=float,
+            parse_int=lambda t: int(t) if len(t) < 19 else float(t),
+            object_pairs_hook=unique,
+        )
     except json.JSONDecodeError as e:
         raise DenavitError(f"{where}:{e.lineno}: not valid JSON: {e.msg} (column {e.colno})") from None
     except RecursionError:
@@ -334,16 +418,22 @@ def json_array(value, n: int | None, depth: int, where: str) -> np.ndarray:
     errors name the place (``points[3][1]``)."""
     if depth == 1:
         if not isinstance(value, list) or not value or (n is not None and len(value) != n):
-            raise DenavitError(f"{where}: expected a list of {n if n is not None else 'one or more'} numbers, got {_show(value)}")
+            raise DenavitError(
+                f"{where}: expected a list of {n if n is not None else 'one or more'} numbers, got {_show(value)}"
+            )
         return np.array([dl.as_number(v, f"{where}[{i}]") for i, v in enumerate(value)])
     if not isinstance(value, list) or not value:
-        raise DenavitError(f"{where}: expected a list of rows{f' of {n} numbers' if n is not None and depth == 2 else ''}, got {_show(value)}")
+        raise DenavitError(
+            f"{where}: expected a list of rows{f' of {n} numbers' if n is not None and depth == 2 else ''}, got {_show(value)}"
+        )
     rows = [json_array(v, n, depth - 1, f"{where}[{i}]") for i, v in enumerate(value)]
     bad = next((i for i, r in enumerate(rows) if r.shape != rows[0].shape), None)
     if bad is not None:
         a, b = rows[bad].shape, rows[0].shape
         a, b = (a[0], b[0]) if a[0] != b[0] else (a, b)
-        raise DenavitError(f"{where}[{bad}]: rows of different lengths ({a} here, {b} in the first row): expected a rectangular array")
+        raise DenavitError(
+            f"{where}[{bad}]: rows of different lengths ({a} here, {b} in the first row): expected a rectangular array"
+        )
     return np.array(rows)
 
 
@@ -362,7 +452,9 @@ def _check_keys(obj: dict, expected: tuple, where: str) -> None:
     """An object's keys must be expected ones: a misspelt key ("Q" for "q") must not be skipped."""
     unknown = [k for k in obj if k not in expected]
     if unknown:
-        raise DenavitError(f"{where}: unknown key(s) {', '.join(map(repr, unknown))[:80]}: expected {', '.join(expected)}")
+        raise DenavitError(
+            f"{where}: unknown key(s) {', '.join(map(repr, unknown))[:80]}: expected {', '.join(expected)}"
+        )
 
 
 def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str | None = None) -> SweepSet:
@@ -379,11 +471,15 @@ def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str 
     where = str(path)
     doc = load_json(read_text(path, "sweep file"), where)
     if not isinstance(doc, dict):
-        raise DenavitError(f'{where}: expected a JSON object {{"units": ..., "home": [...], "sweeps": [...]}}, got {_show(doc)}')
+        raise DenavitError(
+            f'{where}: expected a JSON object {{"units": ..., "home": [...], "sweeps": [...]}}, got {_show(doc)}'
+        )
     _check_keys(doc, ("units", "home", "kinds", "nest", "sweeps"), where)
     declared = doc.get("units") or {}
     if not isinstance(declared, dict) or not all(isinstance(v, str) for v in declared.values()):
-        raise DenavitError(f'{where}: units: expected an object such as {{"length": "mm", "angle": "deg"}}, got {_show(declared)}')
+        raise DenavitError(
+            f'{where}: units: expected an object such as {{"length": "mm", "angle": "deg"}}, got {_show(declared)}'
+        )
     units = input_units(declared, length, angle, where)
     ls = length_scale(units["length"], where)
     if doc.get("home") is None:
@@ -392,37 +488,50 @@ def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str 
     n = len(home)
     kinds = doc.get("kinds") or ["revolute"] * n
     if not isinstance(kinds, list) or len(kinds) != n or any(k not in KINDS for k in kinds):
-        raise DenavitError(f"{where}: kinds: expected {n} of 'revolute' / 'prismatic' (one per joint of home), got {_show(kinds)}")
+        raise DenavitError(
+            f"{where}: kinds: expected {n} of 'revolute' / 'prismatic' (one per joint of home), got {_show(kinds)}"
+        )
     qscale = joint_scale(kinds, units["length"], units["angle"], where)
     sweeps = doc.get("sweeps")
     if not isinstance(sweeps, list) or not sweeps:
-        raise DenavitError(f"{where}: sweeps: expected a list of sweeps {{\"joint\": 1, \"points\": [[x, y, z], ...]}}, got {_show(sweeps)}")
+        raise DenavitError(
+            f'{where}: sweeps: expected a list of sweeps {{"joint": 1, "points": [[x, y, z], ...]}}, got {_show(sweeps)}'
+        )
     rows: dict[int, Sweep] = {}
     first: dict[int, int] = {}
     k_first = poses_first = None  # (targets per pose, sweep index), (has quaternions, sweep index) of sweeps[0]
     for k, s in enumerate(sweeps):
         at = f"{where}: sweeps[{k}]"
         if not isinstance(s, dict):
-            raise DenavitError(f"{at}: expected an object {{\"joint\": ..., \"points\": ...}}, got {_show(s)}")
+            raise DenavitError(f'{at}: expected an object {{"joint": ..., "points": ...}}, got {_show(s)}')
         _check_keys(s, ("joint", "points", "targets", "q", "quaternions"), at)
         j = s.get("joint")
         if isinstance(j, bool) or not isinstance(j, int) or not 1 <= j <= n:
             raise DenavitError(f"{at}: joint index out of range: expected an integer 1..{n}, got {_show(j)}")
         if j in rows:
-            raise DenavitError(f"{at}: a second sweep of joint {j} (the first is sweeps[{first[j]}]): expected one sweep per joint")
+            raise DenavitError(
+                f"{at}: a second sweep of joint {j} (the first is sweeps[{first[j]}]): expected one sweep per joint"
+            )
         if ("points" in s) == ("targets" in s):
-            raise DenavitError(f"{at}: expected 'points' (one target per pose) or 'targets' (several: per pose a list of [x, y, z]), "
-                               f"got {'both' if 'points' in s else 'neither'}")
+            raise DenavitError(
+                f"{at}: expected 'points' (one target per pose) or 'targets' (several: per pose a list of [x, y, z]), "
+                f"got {'both' if 'points' in s else 'neither'}"
+            )
         key = "points" if "points" in s else "targets"
         tg = json_array(s[key], 3, 2 if key == "points" else 3, f"{at}.{key}")
         tg = tg[:, None, :] if key == "points" else tg
         k_first = (tg.shape[1], k) if k_first is None else k_first
         if tg.shape[1] != k_first[0]:
-            raise DenavitError(f"{at}.{key}: {tg.shape[1]} target(s) per pose, but sweeps[{k_first[1]}] has {k_first[0]}: expected the same targets at every pose")
+            raise DenavitError(
+                f"{at}.{key}: {tg.shape[1]} target(s) per pose, but sweeps[{k_first[1]}] has {k_first[0]}: expected the same targets at every pose"
+            )
         tg = tg * ls
         far = np.argwhere(np.abs(tg[:, 0] if key == "points" else tg) > dl.MAX_LENGTH)
         if far.size:
-            dl.far(tg[:, 0][tuple(far[0])] if key == "points" else tg[tuple(far[0])], f"{at}.{key}" + "".join(f"[{i}]" for i in far[0]))
+            dl.far(
+                tg[:, 0][tuple(far[0])] if key == "points" else tg[tuple(far[0])],
+                f"{at}.{key}" + "".join(f"[{i}]" for i in far[0]),
+            )
         m = len(tg)
         q = s.get("q")
         if q is not None:
@@ -433,7 +542,9 @@ def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str 
         poses_first = ("quaternions" in s, k) if poses_first is None else poses_first
         if ("quaternions" in s) != poses_first[0]:
             has, hasnt = (k, poses_first[1]) if "quaternions" in s else (poses_first[1], k)
-            raise DenavitError(f"{at}: sweeps[{has}] has 'quaternions', sweeps[{hasnt}] has none: expected 6-DoF poses in every sweep or in none")
+            raise DenavitError(
+                f"{at}: sweeps[{has}] has 'quaternions', sweeps[{hasnt}] has none: expected 6-DoF poses in every sweep or in none"
+            )
         rot = None
         if "quaternions" in s:
             quat = json_array(s["quaternions"], 4, 2, f"{at}.quaternions")
@@ -441,7 +552,9 @@ def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str 
                 raise DenavitError(f"{at}: quaternions must have one row per point: expected {m} rows, got {len(quat)}")
             bad = np.flatnonzero(np.abs(np.linalg.norm(quat, axis=1) - 1) > 1e-6)
             if bad.size:
-                raise DenavitError(f"{at}.quaternions[{bad[0]}]: quaternion norm {np.linalg.norm(quat[bad[0]]):.6g}: expected a unit quaternion (qw, qx, qy, qz)")
+                raise DenavitError(
+                    f"{at}.quaternions[{bad[0]}]: quaternion norm {np.linalg.norm(quat[bad[0]]):.6g}: expected a unit quaternion (qw, qx, qy, qz)"
+                )
             from .recordings.columns import poses_of  # noqa: PLC0415 (scipy's rotations)
 
             rot = poses_of(np.zeros((m, 3)), quat, "quaternion", at)[:, :3, :3]
@@ -452,7 +565,9 @@ def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str 
     if doc.get("nest") is not None:
         nest = json_lengths(json_array(doc["nest"], 3, 2, f"{where}: nest"), ls, f"{where}: nest")
         if len(nest) != k_first[0]:
-            raise DenavitError(f"{where}: nest: expected {k_first[0]} points [x, y, z] (one per target of the sweeps), got {len(nest)}")
+            raise DenavitError(
+                f"{where}: nest: expected {k_first[0]} points [x, y, z] (one per target of the sweeps), got {len(nest)}"
+            )
     return SweepSet([rows[j] for j in sorted(rows)], n, home * qscale, kinds, where, units, nest)
 
 
@@ -489,7 +604,9 @@ def to_long_csv(sweeps: SweepSet, length: str = "mm", angle: str = "deg", header
     if sweeps.nest is not None:
         out.write("# nest: " + "; ".join(",".join(f"{v:.17g}" for v in p / ls) for p in sweeps.nest) + "\n")
     extra = [f"{a}{t}" for t in range(2, k + 1) for a in "xyz"] + list(QUATERNION if rot else ())
-    csv.writer(out, lineterminator="\n").writerow(["joint", *[f"q{i}" for i in range(1, sweeps.n_joints + 1)], "x", "y", "z", *extra])
+    csv.writer(out, lineterminator="\n").writerow(
+        ["joint", *[f"q{i}" for i in range(1, sweeps.n_joints + 1)], "x", "y", "z", *extra]
+    )
     row = ",".join(["%d"] + ["%.17g"] * (sweeps.n_joints + 3 + len(extra))) + "\n"
     for s in sweeps.sweeps:
         if s.q is None:
@@ -517,7 +634,11 @@ def to_json(sweeps: SweepSet, length: str = "mm", angle: str = "deg") -> dict:
     pose: ``"targets"``), the joint readings when recorded, a 6-DoF pose's orientation as ``"quaternions"``."""
     ls = length_scale(length)
     qscale = joint_scale(sweeps.kinds, length, angle)
-    doc = {"units": {"length": length, "angle": angle}, "home": (np.asarray(sweeps.home, dtype=float) / qscale).tolist(), "kinds": list(sweeps.kinds)}
+    doc = {
+        "units": {"length": length, "angle": angle},
+        "home": (np.asarray(sweeps.home, dtype=float) / qscale).tolist(),
+        "kinds": list(sweeps.kinds),
+    }
     if sweeps.nest is not None:
         doc["nest"] = (np.asarray(sweeps.nest, dtype=float) / ls).tolist()
     out = []

@@ -50,7 +50,9 @@ def read_targets(path: str | os.PathLike, kinds, *, length: str | None = None, a
     units = input_units(parse_declaration(lines, where), length, angle, where)
     data, _ = dl.rows(lines, where)
     if not data:
-        raise DenavitError(f"{where}: no header and no rows: expected a header 'x,y,z,rx,ry,rz' and/or 'q1,...,q{len(kinds)}'")
+        raise DenavitError(
+            f"{where}: no header and no rows: expected a header 'x,y,z,rx,ry,rz' and/or 'q1,...,q{len(kinds)}'"
+        )
     hline, hcells = data[0]
     cols = dl.header(hcells, f"{where}:{hline}")
     n = len(kinds)
@@ -58,8 +60,15 @@ def read_targets(path: str | os.PathLike, kinds, *, length: str | None = None, a
     has_pose = all(c in cols for c in POSE)
     has_q = all(c in cols for c in qcols)
     extra = [c for c in cols if c not in POSE and c not in qcols]
-    if not (has_pose or has_q) or extra or (any(c in cols for c in POSE) and not has_pose) or (any(c in cols for c in qcols) and not has_q):
-        raise DenavitError(f"{where}:{hline}: header must be 'x,y,z,rx,ry,rz' and/or 'q1,...,q{n}' ({n} joints), got {','.join(hcells)[:200]!r}")
+    if (
+        not (has_pose or has_q)
+        or extra
+        or (any(c in cols for c in POSE) and not has_pose)
+        or (any(c in cols for c in qcols) and not has_q)
+    ):
+        raise DenavitError(
+            f"{where}:{hline}: header must be 'x,y,z,rx,ry,rz' and/or 'q1,...,q{n}' ({n} joints), got {','.join(hcells)[:200]!r}"
+        )
     if len(data) < 2:
         raise DenavitError(f"{where}: no rows after the header")
     ls, as_ = length_scale(units["length"], where), angle_scale(units["angle"], where)
@@ -69,7 +78,10 @@ def read_targets(path: str | os.PathLike, kinds, *, length: str | None = None, a
         w = f"{where}:{ln}"
         if len(cells) != len(cols):
             raise DenavitError(f"{w}: expected {len(cols)} values ({','.join(cols)}), got {len(cells)}")
-        vals[r] = [dl.length(c, w, name, ls) if name in "xyz" else dl.number(c, w, name) for c, name in zip(cells, cols, strict=True)]  # x, y, z in m
+        vals[r] = [
+            dl.length(c, w, name, ls) if name in "xyz" else dl.number(c, w, name)
+            for c, name in zip(cells, cols, strict=True)
+        ]  # x, y, z in m
         places.append(w)
     col = {c: k for k, c in enumerate(cols)}
     poses = None
@@ -81,8 +93,18 @@ def read_targets(path: str | os.PathLike, kinds, *, length: str | None = None, a
     return Targets(poses, q, places, units)
 
 
-def write_compensated(path, comp, kinds, *, length: str = "mm", angle: str = "deg", comment: str = "", predicted_after=None, force: bool = False,
-                      q0=None) -> None:
+def write_compensated(
+    path,
+    comp,
+    kinds,
+    *,
+    length: str = "mm",
+    angle: str = "deg",
+    comment: str = "",
+    predicted_after=None,
+    force: bool = False,
+    q0=None,
+) -> None:
     """Write a :class:`denavit.compensation.Compensation` as a program: the commands ``T'`` (x, y, z, rx, ry,
     rz), the joint values ``q1..qn`` of the commands on the nominal model (``T' = FK_nominal(q)``: the joint rows
     to send; the identified model's own unless its readings differ), and per row ``ok`` (1: send it), ``reached``,
@@ -97,17 +119,35 @@ def write_compensated(path, comp, kinds, *, length: str = "mm", angle: str = "de
     js = joint_scale(kinds, length, angle)
     n = len(kinds)
     pred = predicted_after if predicted_after is not None else comp.predicted_after
-    head = [*POSE, *(f"q{i}" for i in range(1, n + 1)), "ok", "reached", "branch_changed", "path_jump", "before", "residual", *(["predicted_after"] if pred is not None else [])]
+    head = [
+        *POSE,
+        *(f"q{i}" for i in range(1, n + 1)),
+        "ok",
+        "reached",
+        "branch_changed",
+        "path_jump",
+        "before",
+        "residual",
+        *(["predicted_after"] if pred is not None else []),
+    ]
     assumed = getattr(comp, "assumed", None)
     if assumed is not None and assumed.any():  # (on the comment line: the file keeps its lines)
         at = "" if q0 is None else f" ({', '.join(f'{v:.6g}' for v in np.asarray(q0) / js)})"
-        which = "every row" if assumed.all() else f"{int(assumed.sum())} rows ({', '.join(str(k + 1) for k in np.flatnonzero(assumed)[:20])}{' ...' if assumed.sum() > 20 else ''})"
-        comment = (f"{comment}; " if comment else "") + (f"configuration: {which} without one in the program: assumed the nominal's solution nearest q0{at}, "
-                                                         f"the branch of the row's q1..q{n}")
+        which = (
+            "every row"
+            if assumed.all()
+            else f"{int(assumed.sum())} rows ({', '.join(str(k + 1) for k in np.flatnonzero(assumed)[:20])}{' ...' if assumed.sum() > 20 else ''})"
+        )
+        comment = (f"{comment}; " if comment else "") + (
+            f"configuration: {which} without one in the program: assumed the nominal's solution nearest q0{at}, "
+            f"the branch of the row's q1..q{n}"
+        )
     out = [f"# {comment}"] if comment else []
-    out += [f"# units: length={length} angle={angle}",
-            f"# columns: x,y,z {length}, rx,ry,rz (rotation vector) {angle}, q1..q{n} in {angle} (revolute) / {length} (prismatic); "
-            f"before, residual{', predicted_after (1 sigma)' if pred is not None else ''}: tool-position errors in {length}"]
+    out += [
+        f"# units: length={length} angle={angle}",
+        f"# columns: x,y,z {length}, rx,ry,rz (rotation vector) {angle}, q1..q{n} in {angle} (revolute) / {length} (prismatic); "
+        f"before, residual{', predicted_after (1 sigma)' if pred is not None else ''}: tool-position errors in {length}",
+    ]
     out.append(",".join(head))
     rv = matrix_rotvec(comp.commands[:, :3, :3]) / as_
     for k in range(len(comp)):

@@ -47,8 +47,10 @@ def read_bytes(path: str | os.PathLike, what: str = "file", *, lines: bool = Fal
                     break
             else:
                 return b"".join(chunks)
-            raise DenavitError(f"{p}: line {line} of the {what} is longer than the limit of {longest:,} bytes: not a delimited file of "
-                               f"rows? ({limits.raise_hint('line_bytes')}; docs/cli.md, \"Limits\")")
+            raise DenavitError(
+                f"{p}: line {line} of the {what} is longer than the limit of {longest:,} bytes: not a delimited file of "
+                f'rows? ({limits.raise_hint("line_bytes")}; docs/cli.md, "Limits")'
+            )
     except FileNotFoundError:
         raise DenavitError(f"{p}: no such {what}") from None
     except IsADirectoryError:
@@ -60,12 +62,12 @@ def read_bytes(path: str | os.PathLike, what: str = "file", *, lines: bool = Fal
 def decode(data: bytes, where: str) -> str:
     """UTF-8 text of ``data`` (a leading byte-order mark is dropped); anything else names the byte offset."""
     if data.startswith(BOM):
-        data = data[len(BOM):]
+        data = data[len(BOM) :]
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as e:
         line = data.count(b"\n", 0, e.start) + 1
-        bad = data[e.start:e.start + 1].hex()
+        bad = data[e.start : e.start + 1].hex()
         hint = " (UTF-16: save it as UTF-8)" if data[:2] in (b"\xff\xfe", b"\xfe\xff") else " (save it as UTF-8)"
         raise DenavitError(f"{where}:{line}: not UTF-8 text: byte 0x{bad} at offset {e.start}{hint}") from None
 

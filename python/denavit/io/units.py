@@ -68,7 +68,9 @@ def inertia_scale(unit: str, where: str = "") -> float:
     """kg m^2 per `unit`, a mass unit times a squared length unit: "kg m^2", "g mm^2", "kg*cm^2", ..."""
     m = re.fullmatch(r"\s*([a-zA-Z]+)\s*[* ]\s*([a-zA-Z]+)\s*(\^2|\*\*2|2)\s*", str(unit))
     if not m:
-        raise DenavitError(f"{_pre(where)}unknown inertia unit {unit!r}: expected a mass unit times a squared length unit, e.g. \"kg m^2\" or \"g mm^2\"")
+        raise DenavitError(
+            f'{_pre(where)}unknown inertia unit {unit!r}: expected a mass unit times a squared length unit, e.g. "kg m^2" or "g mm^2"'
+        )
     return mass_scale(m.group(1), where) * length_scale(m.group(2), where) ** 2
 
 
@@ -88,7 +90,9 @@ def joint_scale(kinds: Sequence[str], length: str, angle: str, where: str = "") 
         elif k == "prismatic":
             out.append(ls)
         else:
-            raise DenavitError(f"{_pre(where)}joint {i + 1}: unknown joint kind {k!r}: expected 'revolute' or 'prismatic'")
+            raise DenavitError(
+                f"{_pre(where)}joint {i + 1}: unknown joint kind {k!r}: expected 'revolute' or 'prismatic'"
+            )
     return np.asarray(out, dtype=float)
 
 
@@ -112,7 +116,13 @@ def parse_declaration(lines: Iterable[str], where: str = "") -> dict[str, str]:
     """
     out: dict[str, str] = {}
     at: dict[str, int] = {}
-    checks = {"length": length_scale, "angle": angle_scale, "mass": mass_scale, "inertia": inertia_scale, "time": time_scale}
+    checks = {
+        "length": length_scale,
+        "angle": angle_scale,
+        "mass": mass_scale,
+        "inertia": inertia_scale,
+        "time": time_scale,
+    }
     for ln, line in enumerate(lines, 1):
         m = DECLARATION_RE.match(line)
         if not m:
@@ -126,15 +136,21 @@ def parse_declaration(lines: Iterable[str], where: str = "") -> dict[str, str]:
         for part in parts:
             part = part.strip().strip(",;").strip()
             if "=" not in part:
-                raise DenavitError(f"{here}: units declaration part {part[:40]!r} is not key=value: expected e.g. '# units: length=mm angle=deg'")
+                raise DenavitError(
+                    f"{here}: units declaration part {part[:40]!r} is not key=value: expected e.g. '# units: length=mm angle=deg'"
+                )
             key, value = (s.strip() for s in part.split("=", 1))
             key = key.lower()
             if key not in checks:
-                raise DenavitError(f"{here}: unknown key {key[:40]!r} in the units declaration: expected {', '.join(DECLARATION_KEYS)}")
+                raise DenavitError(
+                    f"{here}: unknown key {key[:40]!r} in the units declaration: expected {', '.join(DECLARATION_KEYS)}"
+                )
             checks[key](value, here)
             value = value.lower() if key != "inertia" else value
             if key in out and out[key] != value:
-                raise DenavitError(f"{here}: {key}={value} contradicts {key}={out[key]} declared at line {at[key]}: a file has one set of units")
+                raise DenavitError(
+                    f"{here}: {key}={value} contradicts {key}={out[key]} declared at line {at[key]}: a file has one set of units"
+                )
             out[key], at[key] = value, ln
     return out
 
@@ -146,7 +162,13 @@ def declared_units(path: str | Path, text: str | None = None) -> dict[str, str]:
     return parse_declaration((read_text(path) if text is None else text).splitlines(), str(path))
 
 
-def input_units(declared: dict[str, str], length: str | None, angle: str | None, where: str, need: Sequence[str] = ("length", "angle")) -> dict[str, str]:
+def input_units(
+    declared: dict[str, str],
+    length: str | None,
+    angle: str | None,
+    where: str,
+    need: Sequence[str] = ("length", "angle"),
+) -> dict[str, str]:
     """The units to read a file with: what it declares wins; ``length`` / ``angle`` (the command line's) fill in
     what it does not declare; anything in ``need`` still missing is an error naming the file."""
     units = dict(declared)
@@ -156,7 +178,9 @@ def input_units(declared: dict[str, str], length: str | None, angle: str | None,
             units[k] = v
     missing = [k for k in need if k not in units]
     if missing:
-        raise DenavitError(f"{where}: units not declared ({', '.join(missing)}): add a line '# units: length=mm angle=deg' or pass --length/--angle")
+        raise DenavitError(
+            f"{where}: units not declared ({', '.join(missing)}): add a line '# units: length=mm angle=deg' or pass --length/--angle"
+        )
     return units
 
 

@@ -46,7 +46,9 @@ UR_JOINTS = ("shoulder", "upper_arm", "forearm", "wrist_1", "wrist_2", "wrist_3"
 def _nominal_link_frames(nominal: _core.Table) -> np.ndarray:
     """(6, 4, 4) the nominal UR link frames at q = 0 in the base frame: DH frame i-1 · Rz(theta_i) Tz(d_i)."""
     if nominal.convention != "dh" or nominal.params.shape[0] != 6 or any(k != "revolute" for k in nominal.kinds):
-        raise DenavitError(f"nominal: expected the standard DH table of a six-revolute UR arm, got a {nominal.params.shape[0]}-joint {nominal.convention} table")
+        raise DenavitError(
+            f"nominal: expected the standard DH table of a six-revolute UR arm, got a {nominal.params.shape[0]}-joint {nominal.convention} table"
+        )
     F = inverse(nominal.T_world_base) @ nominal.frames(np.zeros(6))
     out = np.empty((6, 4, 4))
     for i in range(6):
@@ -73,8 +75,10 @@ def link_frames(model: _core.Model, nominal: _core.Table, tol: float = 1e-9) -> 
         tilt = np.degrees(np.arccos(min(1.0, abs(float(dirs[i] @ Fn[:3, 2])))))
         off = float(np.linalg.norm(np.cross(Fn[:3, 3] - points[i], dirs[i])))
         if tilt > 5.0 or off > 0.05:
-            raise DenavitError(f"model: axis {i + 1} is {tilt:.3g} deg and {off * 1e3:.4g} mm from the nominal's: expected a calibration of the nominal UR arm "
-                               "(within 5 deg and 50 mm per axis)")
+            raise DenavitError(
+                f"model: axis {i + 1} is {tilt:.3g} deg and {off * 1e3:.4g} mm from the nominal's: expected a calibration of the nominal UR arm "
+                "(within 5 deg and 50 mm per axis)"
+            )
         z = dirs[i] if dirs[i] @ Fn[:3, 2] >= 0 else -dirs[i]
         x = Fn[:3, 0] - (Fn[:3, 0] @ z) * z
         x /= np.linalg.norm(x)
@@ -85,8 +89,10 @@ def link_frames(model: _core.Model, nominal: _core.Table, tol: float = 1e-9) -> 
     tool0 = B_inv @ _core.fk(model.with_tool(np.eye(4)), np.zeros(6))  # the flange
     off = np.linalg.norm(np.cross(tool0[:3, 3] - points[5], dirs[5]))
     if off > tol or abs(abs(tool0[:3, 2] @ dirs[5]) - 1.0) > tol:
-        raise DenavitError(f"model: its flange (tool0) must sit on axis 6 with z along it: it is {off * 1e3:.3g} mm off the axis "
-                           f"and {np.degrees(np.arccos(min(1.0, abs(tool0[:3, 2] @ dirs[5])))):.3g} deg off its direction: not a UR arm's flange")
+        raise DenavitError(
+            f"model: its flange (tool0) must sit on axis 6 with z along it: it is {off * 1e3:.3g} mm off the axis "
+            f"and {np.degrees(np.arccos(min(1.0, abs(tool0[:3, 2] @ dirs[5])))):.3g} deg off its direction: not a UR arm's flange"
+        )
     out[5] = tool0
     return out
 
@@ -99,7 +105,14 @@ def kinematics(model: _core.Model, nominal: _core.Table) -> dict:
     for name, Fi in zip(UR_JOINTS, F):
         T = inverse(prev) @ Fi
         roll, pitch, yaw = matrix_rpy(T[:3, :3])
-        out[name] = {"x": float(T[0, 3]), "y": float(T[1, 3]), "z": float(T[2, 3]), "roll": roll, "pitch": pitch, "yaw": yaw}
+        out[name] = {
+            "x": float(T[0, 3]),
+            "y": float(T[1, 3]),
+            "z": float(T[2, 3]),
+            "roll": roll,
+            "pitch": pitch,
+            "yaw": yaw,
+        }
         prev = Fi
     return out
 
@@ -129,7 +142,9 @@ def loads(text: str, where: str = "kinematics file") -> np.ndarray:
         raise DenavitError(f"{where}: reading UR kinematics files needs PyYAML: pip install pyyaml") from None
 
     if len(text) > MAX_CHARS:  # PyYAML's pure-Python loader reads about 0.3 MB a second
-        raise DenavitError(f"{where}: {len(text) / 1e6:.3g} MB: expected a UR kinematics-parameters file of a few kB (6 joints, 6 numbers each)")
+        raise DenavitError(
+            f"{where}: {len(text) / 1e6:.3g} MB: expected a UR kinematics-parameters file of a few kB (6 joints, 6 numbers each)"
+        )
     try:
         doc = yaml.load(text, Loader=_strict_loader(yaml, where))  # noqa: S506 (a SafeLoader, numbers narrowed)
     except yaml.YAMLError as e:
@@ -161,14 +176,20 @@ def _strict_loader(yaml, where: str):
 
     from collections import Counter  # noqa: PLC0415
 
-    class Loader(yaml.SafeLoader):  # not libyaml's CSafeLoader: its composer overflows the C stack (a segfault) on deep nesting
-        yaml_implicit_resolvers = {c: [(t, r) for t, r in rs if t not in tags] for c, rs in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+    class Loader(
+        yaml.SafeLoader
+    ):  # not libyaml's CSafeLoader: its composer overflows the C stack (a segfault) on deep nesting
+        yaml_implicit_resolvers = {
+            c: [(t, r) for t, r in rs if t not in tags] for c, rs in yaml.SafeLoader.yaml_implicit_resolvers.items()
+        }
 
         def construct_mapping(self, node, deep=False):
             counts = Counter(str(self.construct_object(k, deep=deep)) for k, _ in node.value)
             twice = sorted(k for k, c in counts.items() if c > 1)
             if twice:
-                raise DenavitError(f"{where}:{node.start_mark.line + 1}: key(s) {', '.join(twice)[:80]} given twice in one mapping: expected each once")
+                raise DenavitError(
+                    f"{where}:{node.start_mark.line + 1}: key(s) {', '.join(twice)[:80]} given twice in one mapping: expected each once"
+                )
             return super().construct_mapping(node, deep=deep)
 
     Loader.add_implicit_resolver(tags[1], re.compile(f"^{NUMBER.pattern}$"), list("-+0123456789."))

@@ -27,4 +27,17 @@ from .align import MIN_CORRELATION, Alignment, align, estimate_offset
 from .data import Recording, check_time
 from .segment import DWELL_ROWS, Segment, Segmentation, segment, static_poses, to_sweepset
 
-__all__ = ["Alignment", "DWELL_ROWS", "MIN_CORRELATION", "Recording", "Segment", "Segmentation", "align", "check_time", "estimate_offset", "segment", "static_poses", "to_sweepset"]
+__all__ = [
+    "Alignment",
+    "DWELL_ROWS",
+    "MIN_CORRELATION",
+    "Recording",
+    "Segment",
+    "Segmentation",
+    "align",
+    "check_time",
+    "estimate_offset",
+    "segment",
+    "static_poses",
+    "to_sweepset",
+]

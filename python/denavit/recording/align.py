@@ -61,7 +61,11 @@ class Alignment:
     dropped: int = 0
 
     def readings_time(self, t_points) -> np.ndarray:
-        return np.asarray(t_points, dtype=float) + self.offset + self.drift * (np.asarray(t_points, dtype=float) - self.t_ref)
+        return (
+            np.asarray(t_points, dtype=float)
+            + self.offset
+            + self.drift * (np.asarray(t_points, dtype=float) - self.t_ref)
+        )
 
     def __str__(self) -> str:
         s = f"clock offset {self.offset * 1e3:.3f} ms +- {self.sigma * 1e3:.3f} ms (readings minus points, {self.windows} windows, correlation {self.peak:.3f})"
@@ -74,7 +78,14 @@ class Alignment:
 MIN_CORRELATION = 0.5
 
 
-def estimate_offset(points: Recording, readings: Recording, *, max_offset: float | None = None, window: float | None = 10.0, drift: bool | None = None) -> Alignment:
+def estimate_offset(
+    points: Recording,
+    readings: Recording,
+    *,
+    max_offset: float | None = None,
+    window: float | None = 10.0,
+    drift: bool | None = None,
+) -> Alignment:
     """Estimate the clock offset (and drift) of ``readings`` relative to ``points`` from their motion.
 
     points : a Recording with points (or poses) and time; readings : a Recording with joint readings and time.
@@ -88,7 +99,9 @@ def estimate_offset(points: Recording, readings: Recording, *, max_offset: float
 
     for rec, what in ((points, "points"), (readings, "joint readings")):
         if rec.time is None or len(rec) < 10:
-            raise DenavitError(f"{rec.source}: cannot align clocks: the {what} need a time column and at least 10 rows, got {len(rec)} rows{' without time' if rec.time is None else ''}")
+            raise DenavitError(
+                f"{rec.source}: cannot align clocks: the {what} need a time column and at least 10 rows, got {len(rec)} rows{' without time' if rec.time is None else ''}"
+            )
     if readings.q is None:
         raise DenavitError(f"{readings.source}: cannot align clocks: expected joint readings, the recording has none")
     tp, xp = points.time, _motion_signal(points)[0]
@@ -108,7 +121,9 @@ def estimate_offset(points: Recording, readings: Recording, *, max_offset: float
     if max_offset is not None:
         ok &= np.abs(shifts) <= max_offset
     if not ok.any():
-        raise DenavitError(f"{points.source} and {readings.source}: cannot align clocks: the recordings do not overlap by half of the shorter one within the allowed offset")
+        raise DenavitError(
+            f"{points.source} and {readings.source}: cannot align clocks: the recordings do not overlap by half of the shorter one within the allowed offset"
+        )
     score = np.where(ok, c / np.maximum(overlap, 1.0), -np.inf)
     coarse = float(shifts[int(np.argmax(score))])
     spline = make_interp_spline(gr, sr, k=3)
@@ -122,13 +137,20 @@ def estimate_offset(points: Recording, readings: Recording, *, max_offset: float
         return _corr(sp[sel][inside], spline(t[inside]))
 
     def refine(tau0: float, sel=slice(None)) -> tuple[float, float]:
-        res = minimize_scalar(lambda tau: -coefficient(tau, sel), bounds=(tau0 - 3 * dt, tau0 + 3 * dt), method="bounded", options={"xatol": dt * 1e-3})
+        res = minimize_scalar(
+            lambda tau: -coefficient(tau, sel),
+            bounds=(tau0 - 3 * dt, tau0 + 3 * dt),
+            method="bounded",
+            options={"xatol": dt * 1e-3},
+        )
         return float(res.x), -float(res.fun)
 
     tau, peak = refine(coarse)
     if peak < MIN_CORRELATION:
-        raise DenavitError(f"{points.source} and {readings.source}: cannot align clocks: the speed profiles correlate at {peak:.2f} at best (offset {coarse * 1e3:.1f} ms), "
-                           f"expected at least {MIN_CORRELATION}: are both recordings of the same motion?")
+        raise DenavitError(
+            f"{points.source} and {readings.source}: cannot align clocks: the speed profiles correlate at {peak:.2f} at best (offset {coarse * 1e3:.1f} ms), "
+            f"expected at least {MIN_CORRELATION}: are both recordings of the same motion?"
+        )
     # windows: the scatter of local lags gives the uncertainty, their trend the drift
     edges = np.arange(gp[0], gp[-1] + 1e-12, window) if window else []
     centres, taus = [], []
@@ -172,18 +194,31 @@ def _merge(points: Recording, readings: Recording, al: Alignment) -> Recording:
     t_r = al.readings_time(points.time)
     keep = (t_r >= readings.time[0]) & (t_r <= readings.time[-1])
     if keep.sum() < 3:
-        raise DenavitError(f"{points.source} and {readings.source}: cannot align clocks: at offset {al.offset * 1e3:.1f} ms only {int(keep.sum())} point rows fall within the readings' time span "
-                           f"({readings.time[0]:.3f}-{readings.time[-1]:.3f} s)")
+        raise DenavitError(
+            f"{points.source} and {readings.source}: cannot align clocks: at offset {al.offset * 1e3:.1f} ms only {int(keep.sum())} point rows fall within the readings' time span "
+            f"({readings.time[0]:.3f}-{readings.time[-1]:.3f} s)"
+        )
     q = CubicSpline(readings.time, readings.q, axis=0)(t_r[keep])
     idx = np.flatnonzero(keep)
     return Recording(
-        points.time[keep], q, points.points[keep], [points.where[i] for i in idx], f"{points.source} + {readings.source}", f"{points.format}+{readings.format}",
-        {**readings.units, **points.units}, None if points.poses is None else points.poses[keep], readings.kinds, None if points.joint is None else points.joint[keep],
-        readings.names, [*points.notes, *readings.notes],
+        points.time[keep],
+        q,
+        points.points[keep],
+        [points.where[i] for i in idx],
+        f"{points.source} + {readings.source}",
+        f"{points.format}+{readings.format}",
+        {**readings.units, **points.units},
+        None if points.poses is None else points.poses[keep],
+        readings.kinds,
+        None if points.joint is None else points.joint[keep],
+        readings.names,
+        [*points.notes, *readings.notes],
     )
 
 
-def _refine(points: Recording, readings: Recording, al: Alignment, drift: bool | None, max_rows: int = 600) -> Alignment:
+def _refine(
+    points: Recording, readings: Recording, al: Alignment, drift: bool | None, max_rows: int = 600
+) -> Alignment:
     """Refine the offset in the fit: per revolute sweep, the lag that minimises the misfit of the points as
     rotations of one rigid point by the interpolated readings (:func:`denavit.fitting.fit_axis_with_readings`);
     the sweeps' scatter gives the uncertainty, their trend the drift."""
@@ -222,7 +257,9 @@ def _refine(points: Recording, readings: Recording, al: Alignment, drift: bool |
             f = fit(tau)
             return 1.0 if f is None or not np.isfinite(f.reading_sigma) else float(f.reading_sigma * f.radius)
 
-        res = minimize_scalar(misfit, bounds=(al.offset - 2 * dt, al.offset + 2 * dt), method="bounded", options={"xatol": 1e-6})
+        res = minimize_scalar(
+            misfit, bounds=(al.offset - 2 * dt, al.offset + 2 * dt), method="bounded", options={"xatol": 1e-6}
+        )
         if res.fun < 1.0:
             # precision of this lag: the tangential misfit per point over the point's speed, sqrt(m) points
             v = np.linalg.norm(np.gradient(p, t, axis=0), axis=1)
@@ -247,11 +284,21 @@ def _refine(points: Recording, readings: Recording, al: Alignment, drift: bool |
         cov = max(float(np.sum(w * r**2)) / (len(taus) - 2), 1.0) * np.linalg.inv((A * w[:, None]).T @ A)
         use = drift if drift is not None else abs(sol[1]) > 3 * math.sqrt(cov[1, 1])
         if use:
-            return Alignment(float(sol[0]), math.sqrt(cov[0, 0]), float(sol[1]), math.sqrt(cov[1, 1]), t_ref, al.peak, len(taus))
+            return Alignment(
+                float(sol[0]), math.sqrt(cov[0, 0]), float(sol[1]), math.sqrt(cov[1, 1]), t_ref, al.peak, len(taus)
+            )
     return Alignment(mean, max(sigma, 1e-9), 0.0, 0.0, t_ref, al.peak, len(taus))
 
 
-def align(points: Recording, readings: Recording, *, offset: float | None = None, drift: float | bool | None = None, refine: bool = True, **options) -> tuple[Recording, Alignment]:
+def align(
+    points: Recording,
+    readings: Recording,
+    *,
+    offset: float | None = None,
+    drift: float | bool | None = None,
+    refine: bool = True,
+    **options,
+) -> tuple[Recording, Alignment]:
     """The points with the joint readings interpolated (cubic spline) at the point times.
 
     offset : s, the readings clock minus the points clock, when known (e.g. 0.0 for one clock); None
@@ -263,9 +310,13 @@ def align(points: Recording, readings: Recording, *, offset: float | None = None
     Returns the merged Recording and the Alignment.
     """
     if points.points is None:
-        raise DenavitError(f"{points.source}: expected measured points or poses to align readings with, the recording has none")
+        raise DenavitError(
+            f"{points.source}: expected measured points or poses to align readings with, the recording has none"
+        )
     if readings.q is None or readings.time is None:
-        raise DenavitError(f"{readings.source}: expected timed joint readings, the recording has {'no readings' if readings.q is None else 'no time'}")
+        raise DenavitError(
+            f"{readings.source}: expected timed joint readings, the recording has {'no readings' if readings.q is None else 'no time'}"
+        )
     if points.time is None:
         raise DenavitError(f"{points.source}: cannot align: the points have no time column")
     if offset is None:
@@ -278,5 +329,17 @@ def align(points: Recording, readings: Recording, *, offset: float | None = None
     merged = _merge(points, readings, al)
     dropped = len(points) - len(merged)
     al = Alignment(al.offset, al.sigma, al.drift, al.drift_sigma, al.t_ref, al.peak, al.windows, dropped)
-    return Recording(merged.time, merged.q, merged.points, merged.where, merged.source, merged.format, merged.units, merged.poses, merged.kinds,
-                     merged.joint, merged.names, [*merged.notes, str(al)]), al
+    return Recording(
+        merged.time,
+        merged.q,
+        merged.points,
+        merged.where,
+        merged.source,
+        merged.format,
+        merged.units,
+        merged.poses,
+        merged.kinds,
+        merged.joint,
+        merged.names,
+        [*merged.notes, str(al)],
+    ), al

@@ -65,24 +65,31 @@ class Segmentation:
         from ..io.units import angle_scale  # noqa: PLC0415
 
         a = angle_scale(angle)
-        lines = [f"segmentation of {self.source} ({self.method}): {len(self.sweeps)} sweeps, {len(self.segments)} motions, {self.dwell_rows} dwell rows excluded",
-                 f"{'#':>3} {'joint':>5} {'role':<8} {'rows':>13} {'time (s)':>19} {'from':>10} {'to':>10} {'arc':>9} {'points':>7}"]
+        lines = [
+            f"segmentation of {self.source} ({self.method}): {len(self.sweeps)} sweeps, {len(self.segments)} motions, {self.dwell_rows} dwell rows excluded",
+            f"{'#':>3} {'joint':>5} {'role':<8} {'rows':>13} {'time (s)':>19} {'from':>10} {'to':>10} {'arc':>9} {'points':>7}",
+        ]
         for k, s in enumerate(self.segments, 1):
             prism = self.kinds is not None and self.kinds[s.joint - 1] == "prismatic"
             sc = 1e3 if prism else 1.0 / a
             fr = f"{s.q_from * sc:.3f}" if math.isfinite(s.q_from) else "-"
             to = f"{s.q_to * sc:.3f}" if math.isfinite(s.q_to) else "-"
             arc = f"{math.degrees(s.arc):.2f}" if math.isfinite(s.arc) else "-"
-            lines.append(f"{k:>3} {s.joint:>5} {s.role:<8} {f'{s.start + 1}-{s.stop}':>13} {f'{s.t_start:.3f}-{s.t_stop:.3f}':>19} {fr:>10} {to:>10} {arc:>9} {s.stop - s.start:>7}")
-        lines.append(f"(joint values in {angle}, mm for prismatic joints; arc in deg; rows 1-based; dwell excluded from every motion)")
+            lines.append(
+                f"{k:>3} {s.joint:>5} {s.role:<8} {f'{s.start + 1}-{s.stop}':>13} {f'{s.t_start:.3f}-{s.t_stop:.3f}':>19} {fr:>10} {to:>10} {arc:>9} {s.stop - s.start:>7}"
+            )
+        lines.append(
+            f"(joint values in {angle}, mm for prismatic joints; arc in deg; rows 1-based; dwell excluded from every motion)"
+        )
         return "\n".join(lines)
-
 
 
 DWELL_ROWS = 50
 
 
-def _ends(x: np.ndarray, runs: list[tuple[int, int]], sigma: np.ndarray, k: float, joint_wise: bool) -> list[tuple[int, int]]:
+def _ends(
+    x: np.ndarray, runs: list[tuple[int, int]], sigma: np.ndarray, k: float, joint_wise: bool
+) -> list[tuple[int, int]]:
     """Each run's ends moved to where the rows leave the dwell before / after it by more than ``k`` sigma: rows
     still within the dwell's noise taken off (the derivative filter spreads a motion's start over half its window),
     rows beyond it added (the speed test misses the slow start and stop of a motion, where a point near its axis
@@ -94,6 +101,7 @@ def _ends(x: np.ndarray, runs: list[tuple[int, int]], sigma: np.ndarray, k: floa
 
     s = np.maximum(sigma, 1e-15)
     if joint_wise:
+
         def off(row, level):
             return bool(np.max(np.abs(row - level) / s) > k)
     else:
@@ -101,17 +109,18 @@ def _ends(x: np.ndarray, runs: list[tuple[int, int]], sigma: np.ndarray, k: floa
 
         def off(row, level):
             return bool(np.linalg.norm((row - level) / s) > kd)
+
     out, prev = [], 0
     bounds = [*runs, (len(x), len(x))]
     for (a, b), (na, _) in zip(runs, bounds[1:]):
         if a > prev:
-            level = np.median(x[max(prev, a - DWELL_ROWS):a], axis=0)
+            level = np.median(x[max(prev, a - DWELL_ROWS) : a], axis=0)
             while a > prev and off(x[a - 1], level):
                 a -= 1
             while a < b and not off(x[a], level):
                 a += 1
         if na > b:
-            level = np.median(x[b:min(na, b + DWELL_ROWS)], axis=0)
+            level = np.median(x[b : min(na, b + DWELL_ROWS)], axis=0)
             while b < na and off(x[b], level):
                 b += 1
             while b > a and not off(x[b - 1], level):
@@ -160,7 +169,7 @@ def _by_joint(runs: list[tuple[int, int]], ratio: np.ndarray, min_points: int) -
         start = a
         for prev, nxt in zip(blocks, blocks[1:]):
             if prev[0] != nxt[0]:
-                cut = a + prev[2] + 1 + int(np.argmin(top[prev[2] + 1:nxt[1] + 1]))
+                cut = a + prev[2] + 1 + int(np.argmin(top[prev[2] + 1 : nxt[1] + 1]))
                 out.append((start, cut))
                 start = cut
         out.append((start, b))
@@ -200,8 +209,19 @@ def _runs(moving: np.ndarray, min_gap: int, min_len: int) -> list[tuple[int, int
     return out
 
 
-def segment(rec: Recording, *, ranges=None, n_joints: int | None = None, joints: Sequence[int] | None = None, threshold: float = 6.0,
-            min_dwell: float = 0.25, smoothing: float = 0.1, min_points: int = 5, use_readings: bool = True, spans=None) -> Segmentation:
+def segment(
+    rec: Recording,
+    *,
+    ranges=None,
+    n_joints: int | None = None,
+    joints: Sequence[int] | None = None,
+    threshold: float = 6.0,
+    min_dwell: float = 0.25,
+    smoothing: float = 0.1,
+    min_points: int = 5,
+    use_readings: bool = True,
+    spans=None,
+) -> Segmentation:
     """Split a continuous recording into motions and pick one sweep per joint.
 
     ranges : (n, 2) optional, the sweep of each joint from ``ranges[j][0]`` to ``ranges[j][1]`` (rad / m, as in
@@ -224,11 +244,15 @@ def segment(rec: Recording, *, ranges=None, n_joints: int | None = None, joints:
         for j, t0, t1 in spans:
             rows = np.flatnonzero((t >= t0) & (t <= t1))
             if len(rows) < 3:
-                raise DenavitError(f"{rec.source}: the sweep of joint {j} at {t0:g}-{t1:g} s holds {len(rows)} rows: expected at least 3 (the recording spans {t[0]:g}-{t[-1]:g} s)")
+                raise DenavitError(
+                    f"{rec.source}: the sweep of joint {j} at {t0:g}-{t1:g} s holds {len(rows)} rows: expected at least 3 (the recording spans {t[0]:g}-{t[-1]:g} s)"
+                )
             a, b = int(rows[0]), int(rows[-1]) + 1
             qf, qt = (float(rec.q[a, j - 1]), float(rec.q[b - 1, j - 1])) if rec.q is not None else (math.nan, math.nan)
             segs.append(Segment(int(j), a, b, float(t[a]), float(t[b - 1]), "sweep", qf, qt))
-        return Segmentation(segs, "given", n_joints or rec.n_joints or max(s.joint for s in segs), 0, rec.source, rec.kinds)
+        return Segmentation(
+            segs, "given", n_joints or rec.n_joints or max(s.joint for s in segs), 0, rec.source, rec.kinds
+        )
     if rec.joint is not None:
         segs = []
         cuts = np.flatnonzero(np.diff(rec.joint) != 0) + 1
@@ -244,13 +268,24 @@ def segment(rec: Recording, *, ranges=None, n_joints: int | None = None, joints:
         dup = sorted({j for j in seen if seen.count(j) > 1})
         if dup:
             second = [s for s in segs if s.joint == dup[0]][1]
-            raise DenavitError(f"{rec.where[second.start]}: a second block of joint {dup[0]}'s rows: expected each joint's sweep in one block")
+            raise DenavitError(
+                f"{rec.where[second.start]}: a second block of joint {dup[0]}'s rows: expected each joint's sweep in one block"
+            )
         return Segmentation(segs, "labels", n, 0, rec.source, rec.kinds)
     if N < 3 * min_points:
         raise DenavitError(f"{rec.source}: {N} rows: too few to segment (expected at least {3 * min_points})")
-    t, x, with_q, runs, lim, speed = _motions(rec, threshold=threshold, min_dwell=min_dwell, smoothing=smoothing, min_points=min_points, use_readings=use_readings)
+    t, x, with_q, runs, lim, speed = _motions(
+        rec,
+        threshold=threshold,
+        min_dwell=min_dwell,
+        smoothing=smoothing,
+        min_points=min_points,
+        use_readings=use_readings,
+    )
     if not runs:
-        raise DenavitError(f"{rec.source}: nothing moves beyond the noise (speed threshold {float(np.max(lim)):.3g}): expected sweeps")
+        raise DenavitError(
+            f"{rec.source}: nothing moves beyond the noise (speed threshold {float(np.max(lim)):.3g}): expected sweeps"
+        )
     dwell = N - sum(b - a for a, b in runs)
     segs = []
     if with_q:
@@ -261,8 +296,23 @@ def segment(rec: Recording, *, ranges=None, n_joints: int | None = None, joints:
             j = int(np.argmax(score))
             others = [i for i in range(rec.n_joints) if i != j and score[i] > 0.5 * (b - a)]
             if others:
-                raise DenavitError(f"{rec.where[a]} .. {rec.where[b - 1]}: joints {j + 1} and {', '.join(str(i + 1) for i in others)} move together: expected one joint at a time")
-            segs.append(Segment(j + 1, a, b, float(t[a]), float(t[b - 1]), "transit", float(rec.q[a, j]), float(rec.q[b - 1, j]), float(speed[a:b, j].max()), float(d[j])))
+                raise DenavitError(
+                    f"{rec.where[a]} .. {rec.where[b - 1]}: joints {j + 1} and {', '.join(str(i + 1) for i in others)} move together: expected one joint at a time"
+                )
+            segs.append(
+                Segment(
+                    j + 1,
+                    a,
+                    b,
+                    float(t[a]),
+                    float(t[b - 1]),
+                    "transit",
+                    float(rec.q[a, j]),
+                    float(rec.q[b - 1, j]),
+                    float(speed[a:b, j].max()),
+                    float(d[j]),
+                )
+            )
     else:
         from ..fitting import fit_axis  # noqa: PLC0415
 
@@ -273,8 +323,10 @@ def segment(rec: Recording, *, ranges=None, n_joints: int | None = None, joints:
                 return None  # a straight, too short or out-and-back move: no circle
 
         def same_circle(f, g):
-            return abs(float(f.direction @ g.direction)) > math.cos(math.radians(3.0)) and \
-                np.linalg.norm(np.cross(f.point - g.point, g.direction)) < 0.05 * max(f.radius, g.radius) + 1e-3
+            return (
+                abs(float(f.direction @ g.direction)) > math.cos(math.radians(3.0))
+                and np.linalg.norm(np.cross(f.point - g.point, g.direction)) < 0.05 * max(f.radius, g.radius) + 1e-3
+            )
 
         # _motions did not join motions across short still spans: pieces of one circle turning one way with a
         # still span shorter than min_dwell between them are one motion (a stutter); the motions of two joints,
@@ -301,13 +353,28 @@ def segment(rec: Recording, *, ranges=None, n_joints: int | None = None, joints:
         for a, b, f in merged:
             if axis is None or not same_circle(f, axis):
                 group, axis = group + 1, f
-            segs.append(Segment(group, a, b, float(t[a]), float(t[b - 1]), "transit", peak_speed=float(speed[a:b, 0].max()), arc=float(f.arc)))
+            segs.append(
+                Segment(
+                    group,
+                    a,
+                    b,
+                    float(t[a]),
+                    float(t[b - 1]),
+                    "transit",
+                    peak_speed=float(speed[a:b, 0].max()),
+                    arc=float(f.arc),
+                )
+            )
         if not segs:
-            raise DenavitError(f"{rec.source}: no motion of the points follows a circle ({len(runs)} motions): expected sweeps of one joint at a time")
+            raise DenavitError(
+                f"{rec.source}: no motion of the points follows a circle ({len(runs)} motions): expected sweeps of one joint at a time"
+            )
         n = n_joints or group
         if joints is not None:
             if len(joints) != group:
-                raise DenavitError(f"{rec.source}: {group} distinct circles found but {len(joints)} joints given: expected one joint per circle in recorded order")
+                raise DenavitError(
+                    f"{rec.source}: {group} distinct circles found but {len(joints)} joints given: expected one joint per circle in recorded order"
+                )
             segs = [replace(s, joint=int(joints[s.joint - 1])) for s in segs]
     out = []
     ranges = None if ranges is None or not with_q else np.asarray(ranges, dtype=float)
@@ -319,14 +386,25 @@ def segment(rec: Recording, *, ranges=None, n_joints: int | None = None, joints:
         else:
             # the slowest motion: by its median speed, so that a sweep joined to the faster transit that goes on
             # the same way after it (no pause) still counts as slow
-            pick = min(mine, key=lambda k: float(np.median(speed[segs[k].start:segs[k].stop, segs[k].joint - 1 if with_q else 0])))
+            pick = min(
+                mine,
+                key=lambda k: float(np.median(speed[segs[k].start : segs[k].stop, segs[k].joint - 1 if with_q else 0])),
+            )
         out.append(pick)
     segs = [replace(s, role="sweep" if k in out else "transit") for k, s in enumerate(segs)]
     return Segmentation(segs, "readings" if with_q else "geometry", int(n), int(dwell), rec.source, rec.kinds)
 
 
-
-def _motions(rec: Recording, *, threshold: float, min_dwell: float, smoothing: float, min_points: int, use_readings: bool, sweeps: bool = True):
+def _motions(
+    rec: Recording,
+    *,
+    threshold: float,
+    min_dwell: float,
+    smoothing: float,
+    min_points: int,
+    use_readings: bool,
+    sweeps: bool = True,
+):
     """(time, signal, with readings, motion runs [(start, stop)], speed threshold, speed): the rows where the robot
     moves beyond the noise (estimated from the data), joined across still spans shorter than ``min_dwell``, their
     ends where the rows leave the dwell's noise (:func:`_ends`); the rest is dwell. ``sweeps`` (with readings): a
@@ -369,7 +447,15 @@ def _motions(rec: Recording, *, threshold: float, min_dwell: float, smoothing: f
     return t, x, with_q, runs, lim, speed
 
 
-def static_poses(rec: Recording, *, target: int = 0, min_rows: int = 3, threshold: float = 6.0, min_dwell: float = 0.25, smoothing: float = 0.1):
+def static_poses(
+    rec: Recording,
+    *,
+    target: int = 0,
+    min_rows: int = 3,
+    threshold: float = 6.0,
+    min_dwell: float = 0.25,
+    smoothing: float = 0.1,
+):
     """The poses where the robot stood still: per dwell between motions of ``min_rows`` rows or more, the median
     joint readings and the median point of ``target`` (for calibration from a log of random poses).
     Returns (q (P, n), points (P, 3), where (P,) "file:line" of each dwell's middle row)."""
@@ -381,18 +467,37 @@ def static_poses(rec: Recording, *, target: int = 0, min_rows: int = 3, threshol
     if rec.time is None or N < 3 * min_rows:
         rows = [(k, k + 1) for k in range(N)]  # a list of static measurements: every row a pose
     else:
-        _, _, _, runs, _, _ = _motions(rec, threshold=threshold, min_dwell=min_dwell, smoothing=smoothing, min_points=3, use_readings=True, sweeps=False)
+        _, _, _, runs, _, _ = _motions(
+            rec,
+            threshold=threshold,
+            min_dwell=min_dwell,
+            smoothing=smoothing,
+            min_points=3,
+            use_readings=True,
+            sweeps=False,
+        )
         edges = [0, *[x for r in runs for x in r], N]
         rows = [(a, b) for a, b in zip(edges[::2], edges[1::2]) if b - a >= min_rows]
     if not rows:
-        raise DenavitError(f"{rec.source}: the robot never stands still for {min_rows} rows: expected a log of poses with pauses")
+        raise DenavitError(
+            f"{rec.source}: the robot never stands still for {min_rows} rows: expected a log of poses with pauses"
+        )
     q = np.array([np.median(rec.q[a:b], axis=0) for a, b in rows])
     pts = np.array([np.median(rec.points[a:b, target], axis=0) for a, b in rows])
     return q, pts, [rec.where[(a + b - 1) // 2] for a, b in rows]
 
 
-def to_sweepset(rec: Recording, seg: Segmentation, *, target: int | None = None, tool_point=None, home=None, kinds: Sequence[str] | None = None, direction=1,
-                max_points: int | None = None) -> SweepSet:
+def to_sweepset(
+    rec: Recording,
+    seg: Segmentation,
+    *,
+    target: int | None = None,
+    tool_point=None,
+    home=None,
+    kinds: Sequence[str] | None = None,
+    direction=1,
+    max_points: int | None = None,
+) -> SweepSet:
     """The sweeps of ``seg`` as a :class:`~denavit.sweeps.SweepSet`.
 
     target : which target (0-based) of ``rec.points`` is the swept point; None (default): every target (several per
@@ -413,7 +518,9 @@ def to_sweepset(rec: Recording, seg: Segmentation, *, target: int | None = None,
     picked = {s.joint: s for s in seg.sweeps}
     missing = [j for j in range(1, n + 1) if j not in picked]
     if missing:
-        raise DenavitError(f"{rec.source}: no sweep of joint(s) {', '.join(map(str, missing))} found: expected one sweep of each joint 1..{n} (found joints {sorted(picked)})")
+        raise DenavitError(
+            f"{rec.source}: no sweep of joint(s) {', '.join(map(str, missing))} found: expected one sweep of each joint 1..{n} (found joints {sorted(picked)})"
+        )
     if rec.poses is not None and tool_point is not None:
         tp = np.asarray(tool_point, dtype=float)
         pts = rec.poses[:, :3, :3] @ tp + rec.poses[:, :3, 3]
@@ -421,12 +528,16 @@ def to_sweepset(rec: Recording, seg: Segmentation, *, target: int | None = None,
         pts = rec.points[:, target or 0]
     every = target is None and rec.n_targets > 1 and rec.poses is None
     rot = rec.poses[:, :3, :3] if target is None and rec.poses is not None else None
-    if rot is not None and np.max(np.ptp(rot, axis=0)) < 1e-9:  # a constant orientation while the joints turn: a point stream (a tf of an SMR)
+    if (
+        rot is not None and np.max(np.ptp(rot, axis=0)) < 1e-9
+    ):  # a constant orientation while the joints turn: a point stream (a tf of an SMR)
         rot = None
     kinds = list(kinds or rec.kinds or ["revolute"] * n)
     dirs = np.atleast_1d(np.asarray(direction, dtype=float))
     if dirs.ndim != 1 or dirs.size not in (1, n):
-        raise DenavitError(f"{rec.source}: direction: expected 1 or {n} values (one per joint of the segmentation, {seg.method}), got {dirs.size}")
+        raise DenavitError(
+            f"{rec.source}: direction: expected 1 or {n} values (one per joint of the segmentation, {seg.method}), got {dirs.size}"
+        )
     dirs = np.broadcast_to(dirs, (n,))
     sweeps = []
     for j in range(1, n + 1):
@@ -436,12 +547,27 @@ def to_sweepset(rec: Recording, seg: Segmentation, *, target: int | None = None,
             rows = rows[np.linspace(0, len(rows) - 1, max_points).round().astype(int)]
         if rec.q is None and dirs[j - 1] < 0:
             rows = rows[::-1]
-        sweeps.append(Sweep(j, np.ascontiguousarray(pts[rows]), None if rec.q is None else rec.q[rows], [rec.where[i] for i in rows],
-                            rec.points[rows] if every else None, None if rot is None else rot[rows]))
+        sweeps.append(
+            Sweep(
+                j,
+                np.ascontiguousarray(pts[rows]),
+                None if rec.q is None else rec.q[rows],
+                [rec.where[i] for i in rows],
+                rec.points[rows] if every else None,
+                None if rot is None else rot[rows],
+            )
+        )
     if home is None:
         if rec.q is None:
-            raise DenavitError(f"{rec.source}: no joint readings: the home configuration must be given (one value per joint)")
-        home = np.array([np.median(np.concatenate([sw.q[:, i] for sw in sweeps if sw.joint != i + 1])) if n > 1 else 0.0 for i in range(n)])
+            raise DenavitError(
+                f"{rec.source}: no joint readings: the home configuration must be given (one value per joint)"
+            )
+        home = np.array(
+            [
+                np.median(np.concatenate([sw.q[:, i] for sw in sweeps if sw.joint != i + 1])) if n > 1 else 0.0
+                for i in range(n)
+            ]
+        )
     home = np.asarray(home, dtype=float)
     if home.shape != (n,):
         raise DenavitError(f"{rec.source}: home: expected {n} values (one per joint), got {home.size}")

@@ -36,6 +36,25 @@ from .identification import _parameter_chart, _residual_chart, report_html, writ
 from .model import model_report_html, write_model_figures, write_model_report
 from .validation import validation_report_html, write_validation_figures, write_validation_report
 
-__all__ = ["DECIMALS", "FIGURE_FORMATS", "PLOTLY_BUNDLE", "PLOTLY_JS_VERSION", "TARGET_ROWS", "VIEW_ID", "calibration_report_html", "compensation_report_html",
-           "fmt_value", "model_report_html", "report_html", "validation_report_html", "write_calibration_report", "write_compensation_report",
-           "write_figures", "write_model_figures", "write_model_report", "write_report", "write_validation_figures", "write_validation_report"]
+__all__ = [
+    "DECIMALS",
+    "FIGURE_FORMATS",
+    "PLOTLY_BUNDLE",
+    "PLOTLY_JS_VERSION",
+    "TARGET_ROWS",
+    "VIEW_ID",
+    "calibration_report_html",
+    "compensation_report_html",
+    "fmt_value",
+    "model_report_html",
+    "report_html",
+    "validation_report_html",
+    "write_calibration_report",
+    "write_compensation_report",
+    "write_figures",
+    "write_model_figures",
+    "write_model_report",
+    "write_report",
+    "write_validation_figures",
+    "write_validation_report",
+]

@@ -89,7 +89,11 @@ def _td(cls: str, v, decimals: int = DECIMALS) -> str:
 def _table(tid: str, header: Sequence[str], rows: Sequence[str], caption: str = "", cls: str = "") -> str:
     cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
     head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
-    return f'<table id="{tid}" class="{cls}">{cap}<thead><tr>{head}</tr></thead><tbody>\n' + "\n".join(rows) + "\n</tbody></table>"
+    return (
+        f'<table id="{tid}" class="{cls}">{cap}<thead><tr>{head}</tr></thead><tbody>\n'
+        + "\n".join(rows)
+        + "\n</tbody></table>"
+    )
 
 
 def _segments(segs) -> tuple[list, list, list]:
@@ -108,16 +112,41 @@ def _line3d(go, segs, ls: float, **kw):
     return go.Scatter3d(x=x, y=y, z=z, mode="lines", **kw)
 
 
-def _frame_traces(go, label: str, F: np.ndarray, ls: float, size: float, *, group: str, visible=True, dash: str = "solid", names=None, table=None, q=None,
-                  textposition: str = "top right") -> list:
+def _frame_traces(
+    go,
+    label: str,
+    F: np.ndarray,
+    ls: float,
+    size: float,
+    *,
+    group: str,
+    visible=True,
+    dash: str = "solid",
+    names=None,
+    table=None,
+    q=None,
+    textposition: str = "top right",
+) -> list:
     """One legend group: the robot along its chain (:func:`denavit.plotting.chain_path` when ``table`` and
     ``q`` are given), the frame origins labelled once per group of coincident frames ("4,5,6",
     :func:`~denavit.plotting.frame_labels`), and the x, y, z axes of every frame (coincident frames shorter,
     :func:`~denavit.plotting.triad_lengths`, so that frame 6 does not hide frames 4 and 5)."""
     o = F[:, :3, 3]
     path = chain_path(table, q) / ls if table is not None else o / ls
-    tr = [go.Scatter3d(x=path[:, 0], y=path[:, 1], z=path[:, 2], mode="lines", line={"color": "#555555", "width": 5, "dash": dash}, name=label, legendgroup=group,
-                       showlegend=True, visible=visible, hoverinfo="skip")]
+    tr = [
+        go.Scatter3d(
+            x=path[:, 0],
+            y=path[:, 1],
+            z=path[:, 2],
+            mode="lines",
+            line={"color": "#555555", "width": 5, "dash": dash},
+            name=label,
+            legendgroup=group,
+            showlegend=True,
+            visible=visible,
+            hoverinfo="skip",
+        )
+    ]
     labels = frame_labels(o, 0.4 * size)
     at = np.array([o[i] for i, _ in labels]) / ls
     hover = []
@@ -126,14 +155,40 @@ def _frame_traces(go, label: str, F: np.ndarray, ls: float, size: float, *, grou
         who = ", ".join(f"frame {k}" + (f" ({names[k - 1]})" if names and k > 0 else "") for k in frames)
         p = o[i] / ls
         hover.append(f"{label}<br>{who}<br>origin {p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}")
-    tr.append(go.Scatter3d(x=at[:, 0], y=at[:, 1], z=at[:, 2], mode="markers+text", text=[t for _, t in labels], textposition=textposition, textfont={"size": 11},
-                           hovertext=hover, hoverinfo="text", marker={"size": 3, "color": "#555555"}, name=f"{label} origins", legendgroup=group, showlegend=False,
-                           visible=visible))
+    tr.append(
+        go.Scatter3d(
+            x=at[:, 0],
+            y=at[:, 1],
+            z=at[:, 2],
+            mode="markers+text",
+            text=[t for _, t in labels],
+            textposition=textposition,
+            textfont={"size": 11},
+            hovertext=hover,
+            hoverinfo="text",
+            marker={"size": 3, "color": "#555555"},
+            name=f"{label} origins",
+            legendgroup=group,
+            showlegend=False,
+            visible=visible,
+        )
+    )
     sizes = triad_lengths(o, size)
     for k in range(3):
         segs = [np.array([T[:3, 3], T[:3, 3] + sz * T[:3, k]]) for T, sz in zip(F, sizes, strict=True)]
-        tr.append(_line3d(go, segs, ls, line={"color": AXIS_COLOURS[k], "width": 4, "dash": dash}, name=f"{label} {'xyz'[k]}", legendgroup=group, showlegend=False,
-                          hoverinfo="skip", visible=visible))
+        tr.append(
+            _line3d(
+                go,
+                segs,
+                ls,
+                line={"color": AXIS_COLOURS[k], "width": 4, "dash": dash},
+                name=f"{label} {'xyz'[k]}",
+                legendgroup=group,
+                showlegend=False,
+                hoverinfo="skip",
+                visible=visible,
+            )
+        )
     return tr
 
 
@@ -142,7 +197,21 @@ def _frame_points(F: np.ndarray, size: float) -> np.ndarray:
     return np.vstack([F[:, :3, 3]] + [F[:, :3, 3] + size * F[:, :3, k] for k in range(3)])
 
 
-def _path_traces(go, label: str, table: _core.Table, q0, joint: int, limits, ls: float, *, group: str, visible, colour: str, name: str, dash: str = "solid") -> list:
+def _path_traces(
+    go,
+    label: str,
+    table: _core.Table,
+    q0,
+    joint: int,
+    limits,
+    ls: float,
+    *,
+    group: str,
+    visible,
+    colour: str,
+    name: str,
+    dash: str = "solid",
+) -> list:
     """The path of every frame origin while ``joint`` moves (Guo et al. Fig. 3): thin, half transparent, so
     that the paths do not hide the robot they belong to."""
     values = np.linspace(limits[0], limits[1], 61)
@@ -150,8 +219,21 @@ def _path_traces(go, label: str, table: _core.Table, q0, joint: int, limits, ls:
     segs = [P[:, i] for i in range(P.shape[1]) if np.max(np.linalg.norm(P[:, i] - P[0, i], axis=1)) > 1e-9]
     if not segs:
         return []
-    return [_line3d(go, segs, ls, line={"color": colour, "width": 2, "dash": dash}, opacity=0.55, name=name, legendgroup=group, showlegend=True, visible=visible,
-                    hovertext=f"{label}: {name}", hoverinfo="text")]
+    return [
+        _line3d(
+            go,
+            segs,
+            ls,
+            line={"color": colour, "width": 2, "dash": dash},
+            opacity=0.55,
+            name=name,
+            legendgroup=group,
+            showlegend=True,
+            visible=visible,
+            hovertext=f"{label}: {name}",
+            hoverinfo="text",
+        )
+    ]
 
 
 def _scene_layout(length: str, points) -> dict:
@@ -161,12 +243,29 @@ def _scene_layout(length: str, points) -> dict:
     # no filled walls: plotly's gl3d draws a wall over the part of a text label that its glyphs' depth puts behind
     # it (a wrist frame's "4,5,6" near the back wall showed as "4,5,"); the grid alone keeps the box readable
     ax = {"showbackground": False, "gridcolor": "#c8ccd0", "exponentformat": "none", "nticks": 6}
-    axes = {f"{c}axis": {"title": {"text": f"{c} [{length}]"}, "range": v["ranges"][k].tolist(), **ax} for k, c in enumerate("xyz")}
+    axes = {
+        f"{c}axis": {"title": {"text": f"{c} [{length}]"}, "range": v["ranges"][k].tolist(), **ax}
+        for k, c in enumerate("xyz")
+    }
     return {
-        "scene": {"aspectmode": "manual", "aspectratio": dict(zip("xyz", v["aspectratio"].tolist(), strict=True)), **axes,
-                  "camera": {"eye": dict(zip("xyz", v["eye"].tolist(), strict=True)), "center": {"x": 0, "y": 0, "z": 0}, "up": {"x": 0, "y": 0, "z": 1}}},
+        "scene": {
+            "aspectmode": "manual",
+            "aspectratio": dict(zip("xyz", v["aspectratio"].tolist(), strict=True)),
+            **axes,
+            "camera": {
+                "eye": dict(zip("xyz", v["eye"].tolist(), strict=True)),
+                "center": {"x": 0, "y": 0, "z": 0},
+                "up": {"x": 0, "y": 0, "z": 1},
+            },
+        },
         "margin": {"l": 0, "r": 0, "t": 10, "b": 0},
-        "legend": {"groupclick": "togglegroup", "itemsizing": "constant", "font": {"size": 11}, "y": 0.94, "yanchor": "top"},
+        "legend": {
+            "groupclick": "togglegroup",
+            "itemsizing": "constant",
+            "font": {"size": 11},
+            "y": 0.94,
+            "yanchor": "top",
+        },
         "paper_bgcolor": "white",
         "uirevision": "view",
     }
@@ -242,35 +341,54 @@ def _page(title: str, meta: str, summary: str, body: str) -> str:
     """The whole page: the title, the summary (what an engineer reads first), the body, and once at the end
     the compressed plotly.js bundle with its loader (:data:`_LOADER`)."""
     loader = _LOADER % json.dumps(_CONFIG)
-    return (f'<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n<meta name="viewport" content="width=device-width, initial-scale=1">\n'
-            f"<title>{html.escape(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n<header><h1>{html.escape(title)}</h1><p class=\"meta\">{meta}</p>"
-            f"{summary}</header>\n{body}\n<footer>Written by denavit {html.escape(__version__)}. Self-contained: the page fetches nothing (plotly.js {PLOTLY_BUNDLE} "
-            "is inlined, compressed).</footer>\n"
-            f'<script type="application/octet-stream" id="plotly-bundle">{_bundle_base64()}</script>\n<script>{loader}</script>\n</body>\n</html>\n')
+    return (
+        f'<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n<meta name="viewport" content="width=device-width, initial-scale=1">\n'
+        f'<title>{html.escape(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n<header><h1>{html.escape(title)}</h1><p class="meta">{meta}</p>'
+        f"{summary}</header>\n{body}\n<footer>Written by denavit {html.escape(__version__)}. Self-contained: the page fetches nothing (plotly.js {PLOTLY_BUNDLE} "
+        "is inlined, compressed).</footer>\n"
+        f'<script type="application/octet-stream" id="plotly-bundle">{_bundle_base64()}</script>\n<script>{loader}</script>\n</body>\n</html>\n'
+    )
 
 
 def _summary(items: Sequence[tuple[str, str]]) -> str:
-    return '<dl class="summary" id="summary">' + "".join(f"<dt>{html.escape(k)}</dt><dd>{html.escape(v)}</dd>" for k, v in items) + "</dl>"
+    return (
+        '<dl class="summary" id="summary">'
+        + "".join(f"<dt>{html.escape(k)}</dt><dd>{html.escape(v)}</dd>" for k, v in items)
+        + "</dl>"
+    )
 
 
 def _view_section(view_html: str, what: str) -> str:
-    return (f'<section id="view"><h2>3-D view</h2><p class="hint">{html.escape(what)} Drag to rotate, scroll to zoom, right-drag to pan; '
-            f"click a legend entry to show or hide that joint or convention, double-click to show it alone.</p>\n{view_html}\n</section>")
+    return (
+        f'<section id="view"><h2>3-D view</h2><p class="hint">{html.escape(what)} Drag to rotate, scroll to zoom, right-drag to pan; '
+        f"click a legend entry to show or hide that joint or convention, double-click to show it alone.</p>\n{view_html}\n</section>"
+    )
 
 
 def _pairs_table(pairs, ls: float, length: str, angle: str) -> str:
     a = angle_scale(angle)
-    rows = [f'<tr data-pair="{p.joint}">{_td("pair", f"{p.joint}-{p.joint + 1}")}{_td("relation", p.relation)}{_td("angle", p.angle / a)}{_td("distance", p.distance / ls)}'
-            f'{_td("hayati-beta", p.hayati_beta / a)}</tr>' for p in pairs]
-    return _table("pairs", ["axes", "relation", f"angle [{angle}]", f"distance [{length}]", f"Hayati beta [{angle}]"], rows,
-                  "Consecutive joint axes (docs/conventions.md: parallel / intersecting / skew, the common normal's length).", "pairs")
+    rows = [
+        f'<tr data-pair="{p.joint}">{_td("pair", f"{p.joint}-{p.joint + 1}")}{_td("relation", p.relation)}{_td("angle", p.angle / a)}{_td("distance", p.distance / ls)}'
+        f"{_td('hayati-beta', p.hayati_beta / a)}</tr>"
+        for p in pairs
+    ]
+    return _table(
+        "pairs",
+        ["axes", "relation", f"angle [{angle}]", f"distance [{length}]", f"Hayati beta [{angle}]"],
+        rows,
+        "Consecutive joint axes (docs/conventions.md: parallel / intersecting / skew, the common normal's length).",
+        "pairs",
+    )
 
 
 def _param_table(tid: str, table: _core.Table, names: Sequence[str], length: str, angle: str, caption: str) -> str:
     sc = [column_scale(table, k, length, angle) for k in range(len(table.columns))]
     rows = []
     for i, (nm, kind, row) in enumerate(zip(names, table.kinds, table.params, strict=True)):
-        cells = "".join(_td(c, v / cell_scale(table, i, k, length, angle)[0]) for k, (c, v) in enumerate(zip(table.columns, row, strict=True)))
+        cells = "".join(
+            _td(c, v / cell_scale(table, i, k, length, angle)[0])
+            for k, (c, v) in enumerate(zip(table.columns, row, strict=True))
+        )
         rows.append(f'<tr data-joint="{html.escape(nm)}">{_td("joint", nm)}{_td("kind", kind)}{cells}</tr>')
     header = ["joint", "kind"] + [f"{c} [{u}]" for c, (_, u) in zip(table.columns, sc, strict=True)]
     return _table(tid, header, rows, caption, f"parameters {table.convention}")
@@ -279,11 +397,36 @@ def _param_table(tid: str, table: _core.Table, names: Sequence[str], length: str
 # ------------------------------------------------------------------------------------------------ calibration
 
 
-def _robot_traces(go, label: str, table: _core.Table, q, ls: float, size: float, *, group: str, visible=True, dash: str = "solid", names=None,
-                  textposition: str = "top right") -> tuple[list, np.ndarray]:
+def _robot_traces(
+    go,
+    label: str,
+    table: _core.Table,
+    q,
+    ls: float,
+    size: float,
+    *,
+    group: str,
+    visible=True,
+    dash: str = "solid",
+    names=None,
+    textposition: str = "top right",
+) -> tuple[list, np.ndarray]:
     """A robot's frames along its chain at ``q`` (:func:`_frame_traces`) and the points drawn (metres)."""
     F = table.frames(q)
-    tr = _frame_traces(go, label, F, ls, size, group=group, visible=visible, dash=dash, names=names, table=table, q=q, textposition=textposition)
+    tr = _frame_traces(
+        go,
+        label,
+        F,
+        ls,
+        size,
+        group=group,
+        visible=visible,
+        dash=dash,
+        names=names,
+        table=table,
+        q=q,
+        textposition=textposition,
+    )
     return tr, np.vstack([_frame_points(F, size), chain_path(table, q)])
 
 
@@ -291,9 +434,13 @@ def _param_scale(unit: str, length: str, angle: str) -> tuple[float, str]:
     """SI per display unit and the unit's name of a calibration parameter ("length" | "angle" | "ratio")."""
     if unit in ("rad/(N m)", "m/N"):  # a joint compliance (calibration/compliance.py)
         return 1e-6, "urad/(N m)" if unit == "rad/(N m)" else "um/N"
-    return (length_scale(length), length) if unit == "length" else (angle_scale(angle), angle) if unit == "angle" else (1.0, "1")
+    return (
+        (length_scale(length), length)
+        if unit == "length"
+        else (angle_scale(angle), angle)
+        if unit == "angle"
+        else (1.0, "1")
+    )
 
 
 # ------------------------------------------------------------------------------------------------ compensation
-
-

@@ -52,7 +52,15 @@ from .html import (
 )
 
 
-def write_figures(result: Identification, folder, *, formats: Sequence[str] = FIGURE_FORMATS, length: str = "mm", dpi: int = 110, force: bool = False) -> list[Path]:
+def write_figures(
+    result: Identification,
+    folder,
+    *,
+    formats: Sequence[str] = FIGURE_FORMATS,
+    length: str = "mm",
+    dpi: int = 110,
+    force: bool = False,
+) -> list[Path]:
     """Write the static figures of an identification into ``folder`` (created if needed).
 
     Files ``circles``, ``residuals``, ``bounding_box``, ``parameters``, ``frames`` (identified convention beside
@@ -79,56 +87,194 @@ def _identification_view(go, result: Identification, ls: float, length: str):
         col, nm, grp = joint_colour(j - 1), names[j - 1], f"joint-{j}"
         p = s.points / ls
         hover = [f"{nm} point {k}<br>residual {r / ls:.4f} {length}" for k, r in enumerate(f.residuals)]
-        traces.append(go.Scatter3d(x=p[:, 0], y=p[:, 1], z=p[:, 2], mode="markers", marker={"size": 3.5, "color": col}, name=f"{nm} (points, circle, axis)",
-                                   legendgroup=grp, showlegend=True, hovertext=hover, hoverinfo="text"))
+        traces.append(
+            go.Scatter3d(
+                x=p[:, 0],
+                y=p[:, 1],
+                z=p[:, 2],
+                mode="markers",
+                marker={"size": 3.5, "color": col},
+                name=f"{nm} (points, circle, axis)",
+                legendgroup=grp,
+                showlegend=True,
+                hovertext=hover,
+                hoverinfo="text",
+            )
+        )
         if np.any(f.outliers):
             o = p[f.outliers]
-            traces.append(go.Scatter3d(x=o[:, 0], y=o[:, 1], z=o[:, 2], mode="markers", marker={"size": 6, "color": "black", "symbol": "x"},
-                                       name=f"{nm} outliers", legendgroup=grp, showlegend=False))
+            traces.append(
+                go.Scatter3d(
+                    x=o[:, 0],
+                    y=o[:, 1],
+                    z=o[:, 2],
+                    mode="markers",
+                    marker={"size": 6, "color": "black", "symbol": "x"},
+                    name=f"{nm} outliers",
+                    legendgroup=grp,
+                    showlegend=False,
+                )
+            )
         if result.sweeps.kinds[j - 1] == "revolute" and np.isfinite(f.radius):
             circle = circle_points(f.point, f.direction, f.radius)
             drawn.append(circle)
-            traces.append(_line3d(go, [circle], ls, line={"color": col, "width": 3}, name=f"{nm} circle", legendgroup=grp, showlegend=False, hoverinfo="name"))
+            traces.append(
+                _line3d(
+                    go,
+                    [circle],
+                    ls,
+                    line={"color": col, "width": 3},
+                    name=f"{nm} circle",
+                    legendgroup=grp,
+                    showlegend=False,
+                    hoverinfo="name",
+                )
+            )
             c = f.point / ls
-            traces.append(go.Scatter3d(x=[c[0]], y=[c[1]], z=[c[2]], mode="markers", marker={"size": 5, "color": col, "symbol": "circle-open", "line": {"width": 2}},
-                                       name=f"{nm} centre", legendgroup=grp, showlegend=False,
-                                       hovertext=f"{nm} centre {c[0]:.3f}, {c[1]:.3f}, {c[2]:.3f}<br>r = {f.radius / ls:.3f} {length}", hoverinfo="text"))
+            traces.append(
+                go.Scatter3d(
+                    x=[c[0]],
+                    y=[c[1]],
+                    z=[c[2]],
+                    mode="markers",
+                    marker={"size": 5, "color": col, "symbol": "circle-open", "line": {"width": 2}},
+                    name=f"{nm} centre",
+                    legendgroup=grp,
+                    showlegend=False,
+                    hovertext=f"{nm} centre {c[0]:.3f}, {c[1]:.3f}, {c[2]:.3f}<br>r = {f.radius / ls:.3f} {length}",
+                    hoverinfo="text",
+                )
+            )
         else:
-            traces.append(_line3d(go, [line_span(f.point, f.direction, s.points)], ls, line={"color": col, "width": 3}, name=f"{nm} line", legendgroup=grp, showlegend=False))
+            traces.append(
+                _line3d(
+                    go,
+                    [line_span(f.point, f.direction, s.points)],
+                    ls,
+                    line={"color": col, "width": 3},
+                    name=f"{nm} line",
+                    legendgroup=grp,
+                    showlegend=False,
+                )
+            )
         tip = f.point + arrow * f.direction
         drawn.append(np.array([f.point - 0.3 * arrow * f.direction, tip]))
-        traces.append(_line3d(go, [np.array([f.point - 0.3 * arrow * f.direction, tip])], ls, line={"color": col, "width": 6}, name=f"{nm} axis", legendgroup=grp,
-                              showlegend=False, hoverinfo="name"))
+        traces.append(
+            _line3d(
+                go,
+                [np.array([f.point - 0.3 * arrow * f.direction, tip])],
+                ls,
+                line={"color": col, "width": 6},
+                name=f"{nm} axis",
+                legendgroup=grp,
+                showlegend=False,
+                hoverinfo="name",
+            )
+        )
         t, d = tip / ls, f.direction
-        traces.append(go.Cone(x=[t[0]], y=[t[1]], z=[t[2]], u=[d[0]], v=[d[1]], w=[d[2]], anchor="tip", sizemode="absolute", sizeref=0.12 * arrow / ls,
-                              colorscale=[[0, col], [1, col]], showscale=False, name=f"{nm} axis", legendgroup=grp, showlegend=False, hoverinfo="name"))
+        traces.append(
+            go.Cone(
+                x=[t[0]],
+                y=[t[1]],
+                z=[t[2]],
+                u=[d[0]],
+                v=[d[1]],
+                w=[d[2]],
+                anchor="tip",
+                sizemode="absolute",
+                sizeref=0.12 * arrow / ls,
+                colorscale=[[0, col], [1, col]],
+                showscale=False,
+                name=f"{nm} axis",
+                legendgroup=grp,
+                showlegend=False,
+                hoverinfo="name",
+            )
+        )
     tp = result.tool_point / ls
-    traces.append(go.Scatter3d(x=[tp[0]], y=[tp[1]], z=[tp[2]], mode="markers", marker={"size": 6, "color": "black", "symbol": "diamond"}, name="tool point at home",
-                               legendgroup="tool", showlegend=True))
+    traces.append(
+        go.Scatter3d(
+            x=[tp[0]],
+            y=[tp[1]],
+            z=[tp[2]],
+            mode="markers",
+            marker={"size": 6, "color": "black", "symbol": "diamond"},
+            name="tool point at home",
+            legendgroup="tool",
+            showlegend=True,
+        )
+    )
     b = result.box
     edges = box_edges(b.center, b.axes, b.lengths)
     drawn += edges
-    traces.append(_line3d(go, edges, ls, line={"color": "#444444", "width": 2}, name="bounding box (Hayat Table IV)", legendgroup="box", showlegend=True, visible="legendonly"))
+    traces.append(
+        _line3d(
+            go,
+            edges,
+            ls,
+            line={"color": "#444444", "width": 2},
+            name="bounding box (Hayat Table IV)",
+            legendgroup="box",
+            showlegend=True,
+            visible="legendonly",
+        )
+    )
     # frames of the identified convention, of the other one, and of the nominal model, at home
     conv = result.table.convention
     other = other_convention(conv)
     model = result.model()
     other_table = _core.extract(_core.axes(model, np.zeros(model.nq)), other).table
     home = result.sweeps.home
-    tables = [("identified " + conv, result.table, True, "solid"), ("identified " + other, other_table, "legendonly", "dash")]
+    tables = [
+        ("identified " + conv, result.table, True, "solid"),
+        ("identified " + other, other_table, "legendonly", "dash"),
+    ]
     if result.nominal is not None:
-        tables.append((f"nominal {result.nominal.name} ({result.nominal.convention})", result.nominal.table, "legendonly", "dot"))
-    Fs = [(label, t, t.frames(home), vis, dash, where) for (label, t, vis, dash), where in zip(tables, ("top right", "bottom left", "top left"), strict=False)]
+        tables.append(
+            (f"nominal {result.nominal.name} ({result.nominal.convention})", result.nominal.table, "legendonly", "dot")
+        )
+    Fs = [
+        (label, t, t.frames(home), vis, dash, where)
+        for (label, t, vis, dash), where in zip(tables, ("top right", "bottom left", "top left"), strict=False)
+    ]
     tri = 0.06 * scene_size(np.vstack([F[:, :3, 3] for _, _, F, _, _, _ in Fs] + [pts]))
     for label, t, F, vis, dash, where in Fs:
-        traces += _frame_traces(go, label, F, ls, tri, group=f"frames-{label}", visible=vis, dash=dash, names=names, table=t, q=home, textposition=where)
+        traces += _frame_traces(
+            go,
+            label,
+            F,
+            ls,
+            tri,
+            group=f"frames-{label}",
+            visible=vis,
+            dash=dash,
+            names=names,
+            table=t,
+            q=home,
+            textposition=where,
+        )
         drawn.append(_frame_points(F, tri))
     n = result.axes.nq
     jp = 2 if n >= 2 else 1
     lim = sweep_range(result, jp)
-    for (label, table), colour, dash in (((f"identified {conv}", result.table), "#6a3d9a", "solid"), ((f"identified {other}", other_table), "#b15928", "dash")):
-        traces += _path_traces(go, label, table, home, jp, lim, ls, group=f"paths-{label}", visible="legendonly", colour=colour, dash=dash,
-                               name=f"{label}: frame-origin paths, {names[jp - 1]} swept")
+    for (label, table), colour, dash in (
+        ((f"identified {conv}", result.table), "#6a3d9a", "solid"),
+        ((f"identified {other}", other_table), "#b15928", "dash"),
+    ):
+        traces += _path_traces(
+            go,
+            label,
+            table,
+            home,
+            jp,
+            lim,
+            ls,
+            group=f"paths-{label}",
+            visible="legendonly",
+            colour=colour,
+            dash=dash,
+            name=f"{label}: frame-origin paths, {names[jp - 1]} swept",
+        )
     fig = go.Figure(traces)
     fig.update_layout(**_scene_layout(length, np.vstack(drawn) / ls))
     return fig
@@ -143,15 +289,36 @@ def _residual_chart(go, result: Identification, ls: float, length: str):
     for s, f in zip(result.sweeps.sweeps, result.fits, strict=True):
         r = np.asarray(f.residuals) / ls
         x = start + np.arange(len(r))
-        fig.add_trace(go.Scatter(x=x, y=r, mode="markers", name=f"{names[s.joint - 1]} (rms {f.rms / ls:.3g} {length})", marker={"color": joint_colour(s.joint - 1), "size": 6},
-                                 hovertemplate=f"{names[s.joint - 1]} point %{{customdata}}: %{{y:.4f}} {length}<extra></extra>", customdata=np.arange(len(r))))
+        fig.add_trace(
+            go.Scatter(
+                x=x,
+                y=r,
+                mode="markers",
+                name=f"{names[s.joint - 1]} (rms {f.rms / ls:.3g} {length})",
+                marker={"color": joint_colour(s.joint - 1), "size": 6},
+                hovertemplate=f"{names[s.joint - 1]} point %{{customdata}}: %{{y:.4f}} {length}<extra></extra>",
+                customdata=np.arange(len(r)),
+            )
+        )
         if np.any(f.outliers):
-            fig.add_trace(go.Scatter(x=x[f.outliers], y=r[f.outliers], mode="markers", marker={"color": "black", "symbol": "x", "size": 9}, showlegend=False,
-                                     name=f"{names[s.joint - 1]} outliers"))
+            fig.add_trace(
+                go.Scatter(
+                    x=x[f.outliers],
+                    y=r[f.outliers],
+                    mode="markers",
+                    marker={"color": "black", "symbol": "x", "size": 9},
+                    showlegend=False,
+                    name=f"{names[s.joint - 1]} outliers",
+                )
+            )
         start += len(r) + 3
-    fig.update_layout(height=340, margin={"l": 70, "r": 10, "t": 40, "b": 40}, xaxis={"title": {"text": "measured point (joint by joint)"}, "showticklabels": False},
-                      yaxis={"title": {"text": f"residual [{length}]"}, "exponentformat": "power", "zeroline": True},
-                      title={"text": "Residual of every measured point", "font": {"size": 14}})
+    fig.update_layout(
+        height=340,
+        margin={"l": 70, "r": 10, "t": 40, "b": 40},
+        xaxis={"title": {"text": "measured point (joint by joint)"}, "showticklabels": False},
+        yaxis={"title": {"text": f"residual [{length}]"}, "exponentformat": "power", "zeroline": True},
+        title={"text": "Residual of every measured point", "font": {"size": 14}},
+    )
     return fig
 
 
@@ -161,26 +328,60 @@ def _parameter_chart(go, make_subplots, result: Identification, length: str, ang
     rows = parameter_errors(result, length, angle)
     names = joint_names(result)
     nominal = any(r.nominal is not None for r in rows)
-    fig = make_subplots(rows=1, cols=len(rows), subplot_titles=[f"{r.column} [{r.unit}]" for r in rows], horizontal_spacing=0.06)
+    fig = make_subplots(
+        rows=1, cols=len(rows), subplot_titles=[f"{r.column} [{r.unit}]" for r in rows], horizontal_spacing=0.06
+    )
     left = []
     for k, r in enumerate(rows):
         y = clean_ticks(r.identified - r.nominal if r.nominal is not None else r.identified)
         m = r.shown
-        fig.add_trace(go.Scatter(x=[names[i] for i in np.flatnonzero(m)], y=y[m], error_y={"type": "data", "array": r.sigma[m], "visible": True}, mode="markers",
-                                 marker={"color": "#1f77b4", "size": 7}, name=r.column, showlegend=False,
-                                 hovertemplate="%{x}: %{y:.4g} ± %{error_y.array:.2g} " + r.unit + "<extra></extra>"), row=1, col=k + 1)
+        fig.add_trace(
+            go.Scatter(
+                x=[names[i] for i in np.flatnonzero(m)],
+                y=y[m],
+                error_y={"type": "data", "array": r.sigma[m], "visible": True},
+                mode="markers",
+                marker={"color": "#1f77b4", "size": 7},
+                name=r.column,
+                showlegend=False,
+                hovertemplate="%{x}: %{y:.4g} ± %{error_y.array:.2g} " + r.unit + "<extra></extra>",
+            ),
+            row=1,
+            col=k + 1,
+        )
         yax = {"exponentformat": "power", "zeroline": True, "zerolinecolor": "#999"}
         if r.nominal is not None:
             lim = symmetric_limit(y[m], r.sigma[m], 1e-6)
             yax["range"] = [-lim, lim]
         fig.update_yaxes(**yax, row=1, col=k + 1)
-        fig.update_xaxes(categoryorder="array", categoryarray=names, range=[-0.5, len(names) - 0.5], tickangle=-30 if max(map(len, names)) > 3 else 0, row=1, col=k + 1)
+        fig.update_xaxes(
+            categoryorder="array",
+            categoryarray=names,
+            range=[-0.5, len(names) - 0.5],
+            tickangle=-30 if max(map(len, names)) > 3 else 0,
+            row=1,
+            col=k + 1,
+        )
         left += [f"{names[i]} {r.column} ({w})" for i, w in enumerate(r.why) if w]
-    fig.update_layout(height=360, margin={"l": 50, "r": 10, "t": 70, "b": 60},
-                      title={"text": ("Identified − nominal" if nominal else "Identified values") + ", error bars one sigma", "font": {"size": 14}})
-    caption = ("Not drawn (in the table above): " + ", ".join(left) + ". Held: fixed by the convention or the fit (sigma 0); undetermined: one sigma beyond "
-               f"{UNDETERMINED_LENGTH:.0%} of the measured extent for lengths, {UNDETERMINED_ANGLE} rad for angles, {UNDETERMINED_RATIO} for unitless screw components "
-               "(the data fix a combination of such parameters, not each).") if left else ""
+    fig.update_layout(
+        height=360,
+        margin={"l": 50, "r": 10, "t": 70, "b": 60},
+        title={
+            "text": ("Identified − nominal" if nominal else "Identified values") + ", error bars one sigma",
+            "font": {"size": 14},
+        },
+    )
+    caption = (
+        (
+            "Not drawn (in the table above): "
+            + ", ".join(left)
+            + ". Held: fixed by the convention or the fit (sigma 0); undetermined: one sigma beyond "
+            f"{UNDETERMINED_LENGTH:.0%} of the measured extent for lengths, {UNDETERMINED_ANGLE} rad for angles, {UNDETERMINED_RATIO} for unitless screw components "
+            "(the data fix a combination of such parameters, not each)."
+        )
+        if left
+        else ""
+    )
     return fig, caption
 
 
@@ -189,7 +390,15 @@ def _step_histogram(go, values, bins, name: str, colour: str):
     h, e = np.histogram(values, bins=bins)
     x = np.repeat(e, 2)[1:-1]
     y = np.repeat(h, 2)
-    return go.Scatter(x=np.r_[e[0], x, e[-1]], y=np.r_[0, y, 0], mode="lines", line={"color": colour, "width": 1.5}, fill="tozeroy", opacity=0.6, name=name)
+    return go.Scatter(
+        x=np.r_[e[0], x, e[-1]],
+        y=np.r_[0, y, 0],
+        mode="lines",
+        line={"color": colour, "width": 1.5},
+        fill="tozeroy",
+        opacity=0.6,
+        name=name,
+    )
 
 
 def _accuracy_section(go, result: Identification, length: str) -> tuple[str, dict | None]:
@@ -203,23 +412,42 @@ def _accuracy_section(go, result: Identification, length: str) -> tuple[str, dic
         return "", None
     ls = length_scale(length)
     s = acc.summary()
-    rows = [f'<tr>{_td("model", label)}' + "".join(_td(k, s[key][k] / ls) for k in ("rms", "median", "p95", "max")) + "</tr>"
-            for label, key in (("nominal (what the robot misses)", "nominal"), ("identified (predicted 1σ)", "identified"))]
-    table = _table("accuracy", ["model", f"rms [{length}]", f"median [{length}]", f"95 % [{length}]", f"max [{length}]"], rows,
-                   f"Tool position error over {s['configurations']} quasi-random configurations within the joint limits: the nominal model against the "
-                   "identified one, and the identified model's error predicted from the axes' covariance (denavit.compensation).", "accuracy")
+    rows = [
+        f"<tr>{_td('model', label)}"
+        + "".join(_td(k, s[key][k] / ls) for k in ("rms", "median", "p95", "max"))
+        + "</tr>"
+        for label, key in (("nominal (what the robot misses)", "nominal"), ("identified (predicted 1σ)", "identified"))
+    ]
+    table = _table(
+        "accuracy",
+        ["model", f"rms [{length}]", f"median [{length}]", f"95 % [{length}]", f"max [{length}]"],
+        rows,
+        f"Tool position error over {s['configurations']} quasi-random configurations within the joint limits: the nominal model against the "
+        "identified one, and the identified model's error predicted from the axes' covariance (denavit.compensation).",
+        "accuracy",
+    )
     nom, ide = np.asarray(acc.nominal) / ls, np.asarray(acc.identified) / ls
     both = np.concatenate([nom, ide])
     pos = both[both > 0]
     lo, hi = (float(pos.min()), float(pos.max())) if pos.size else (1e-6, 1.0)
     bins = np.geomspace(lo * 0.9, hi * 1.1, 41)
-    fig = go.Figure([_step_histogram(go, np.maximum(v, lo), bins, name, colour)
-                     for v, name, colour in ((nom, "nominal", "#c0392b"), (ide, "identified (predicted 1σ)", "#2471a3"))])
-    fig.update_layout(height=320, margin={"l": 60, "r": 10, "t": 40, "b": 50},
-                      xaxis={"type": "log", "title": {"text": f"tool position error [{length}]"}, "exponentformat": "power"}, yaxis={"title": {"text": "configurations"}},
-                      title={"text": "Accuracy before and after identification", "font": {"size": 14}})
-    return (f'<section id="accuracy-section"><h2>Accuracy</h2>{table}{_figure_html(fig, "accuracy-chart")}</section>',
-            {"nominal": s["nominal"]["rms"] / ls, "identified": s["identified"]["rms"] / ls})
+    fig = go.Figure(
+        [
+            _step_histogram(go, np.maximum(v, lo), bins, name, colour)
+            for v, name, colour in ((nom, "nominal", "#c0392b"), (ide, "identified (predicted 1σ)", "#2471a3"))
+        ]
+    )
+    fig.update_layout(
+        height=320,
+        margin={"l": 60, "r": 10, "t": 40, "b": 50},
+        xaxis={"type": "log", "title": {"text": f"tool position error [{length}]"}, "exponentformat": "power"},
+        yaxis={"title": {"text": "configurations"}},
+        title={"text": "Accuracy before and after identification", "font": {"size": 14}},
+    )
+    return (
+        f'<section id="accuracy-section"><h2>Accuracy</h2>{table}{_figure_html(fig, "accuracy-chart")}</section>',
+        {"nominal": s["nominal"]["rms"] / ls, "identified": s["identified"]["rms"] / ls},
+    )
 
 
 def report_html(result: Identification, *, length: str = "mm", angle: str = "deg", title: str | None = None) -> str:
@@ -235,7 +463,9 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
     view = _figure_html(_identification_view(go, result, ls, length), VIEW_ID, "plot3d")
     resid = _figure_html(_residual_chart(go, result, ls, length), "residuals-chart")
     pfig, pcaption = _parameter_chart(go, make_subplots, result, length, angle)
-    pchart = _figure_html(pfig, "parameters-chart") + (f'<p class="hint" id="parameters-not-drawn">{html.escape(pcaption)}</p>' if pcaption else "")
+    pchart = _figure_html(pfig, "parameters-chart") + (
+        f'<p class="hint" id="parameters-not-drawn">{html.escape(pcaption)}</p>' if pcaption else ""
+    )
 
     # parameters: one row per joint and parameter, as printed by `denavit identify`
     rows = []
@@ -248,60 +478,140 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
             if diff is not None and t.angle_columns[k]:
                 half = math.pi / sc
                 diff = (diff + half) % (2 * half) - half
-            rows.append(f'<tr data-joint="{html.escape(names[i])}" data-param="{c}">{_td("joint", names[i])}{_td("param", c)}{_td("unit", unit)}'
-                        f'{_td("nominal", nom)}{_td("identified", value)}{_td("sigma", prow[c + "_sigma"] / sc)}{_td("difference", diff)}</tr>')
-    params = _table("parameters", ["joint", "parameter", "unit", "nominal", "identified", "sigma (1σ)", "identified − nominal"], rows,
-                    f"Identified {t.convention.upper()} parameters (docs/conventions.md); sigma propagated from the fits' covariance; nominal: "
-                    + (f"{result.nominal.name}" if result.nominal else "none given") + ".", "parameters")
+            rows.append(
+                f'<tr data-joint="{html.escape(names[i])}" data-param="{c}">{_td("joint", names[i])}{_td("param", c)}{_td("unit", unit)}'
+                f"{_td('nominal', nom)}{_td('identified', value)}{_td('sigma', prow[c + '_sigma'] / sc)}{_td('difference', diff)}</tr>"
+            )
+    params = _table(
+        "parameters",
+        ["joint", "parameter", "unit", "nominal", "identified", "sigma (1σ)", "identified − nominal"],
+        rows,
+        f"Identified {t.convention.upper()} parameters (docs/conventions.md); sigma propagated from the fits' covariance; nominal: "
+        + (f"{result.nominal.name}" if result.nominal else "none given")
+        + ".",
+        "parameters",
+    )
     arows = []
     for j in doc["joints"]:
         c, a = j["circle"], j["axis"]
-        arows.append(f'<tr data-joint="{html.escape(j["joint"])}">{_td("joint", j["joint"])}'
-                     + "".join(_td(f"point-{x}", v / ls) for x, v in zip("xyz", a["point_m"], strict=True)) + "".join(_td(f"direction-{x}", v, 6) for x, v in zip("xyz", a["direction"], strict=True))
-                     + f'{_td("radius", None if c["radius_m"] is None else c["radius_m"] / ls)}{_td("arc", None if j["arc_rad"] is None else j["arc_rad"] / as_, 1)}'
-                     f'{_td("rms", j["residuals"]["rms_m"] / ls)}{_td("max-residual", j["residuals"]["max_m"] / ls)}'
-                     f'{_td("sigma-across", a["sigma_point_perp_m"] / ls)}{_td("sigma-direction", a["sigma_direction_rad"] / as_, 5)}{_td("n-points", j["residuals"]["n_points"], 0)}'
-                     f'{_td("outliers", len(j["residuals"]["outliers"]), 0)}</tr>')
-    axes_t = _table("axes", ["joint", f"point x [{length}]", f"point y [{length}]", f"point z [{length}]", "dir x [1]", "dir y [1]", "dir z [1]", f"radius [{length}]",
-                             f"arc [{angle}]", f"rms [{length}]", f"max |residual| [{length}]", f"sigma across [{length}]", f"sigma direction [{angle}]", "points", "outliers"], arows,
-                    f"Joint axes in the measurement frame: circle centre ({length}) and unit normal (Hayat et al. eq. 1-9), fit quality, one-sigma uncertainty.", "axes")
+        arows.append(
+            f'<tr data-joint="{html.escape(j["joint"])}">{_td("joint", j["joint"])}'
+            + "".join(_td(f"point-{x}", v / ls) for x, v in zip("xyz", a["point_m"], strict=True))
+            + "".join(_td(f"direction-{x}", v, 6) for x, v in zip("xyz", a["direction"], strict=True))
+            + f"{_td('radius', None if c['radius_m'] is None else c['radius_m'] / ls)}{_td('arc', None if j['arc_rad'] is None else j['arc_rad'] / as_, 1)}"
+            f"{_td('rms', j['residuals']['rms_m'] / ls)}{_td('max-residual', j['residuals']['max_m'] / ls)}"
+            f"{_td('sigma-across', a['sigma_point_perp_m'] / ls)}{_td('sigma-direction', a['sigma_direction_rad'] / as_, 5)}{_td('n-points', j['residuals']['n_points'], 0)}"
+            f"{_td('outliers', len(j['residuals']['outliers']), 0)}</tr>"
+        )
+    axes_t = _table(
+        "axes",
+        [
+            "joint",
+            f"point x [{length}]",
+            f"point y [{length}]",
+            f"point z [{length}]",
+            "dir x [1]",
+            "dir y [1]",
+            "dir z [1]",
+            f"radius [{length}]",
+            f"arc [{angle}]",
+            f"rms [{length}]",
+            f"max |residual| [{length}]",
+            f"sigma across [{length}]",
+            f"sigma direction [{angle}]",
+            "points",
+            "outliers",
+        ],
+        arows,
+        f"Joint axes in the measurement frame: circle centre ({length}) and unit normal (Hayat et al. eq. 1-9), fit quality, one-sigma uncertainty.",
+        "axes",
+    )
     b = doc["bounding_box"]
-    brows = [f'<tr>{_td("l1", b["lengths_m"][0] / ls)}{_td("l2", b["lengths_m"][1] / ls)}{_td("l3", b["lengths_m"][2] / ls)}{_td("volume", b["volume_m3"])}'
-             f'{_td("center", ", ".join(f"{v / ls:.3f}" for v in b["centre_m"]))}</tr>']
-    box_t = _table("bounding-box", [f"l1 [{length}]", f"l2 [{length}]", f"l3 [{length}]", "volume [m³]", f"centre [{length}]"], brows,
-                   "Minimum-volume oriented bounding box of all measured points (Hayat et al. Table IV).", "bounding-box")
+    brows = [
+        f"<tr>{_td('l1', b['lengths_m'][0] / ls)}{_td('l2', b['lengths_m'][1] / ls)}{_td('l3', b['lengths_m'][2] / ls)}{_td('volume', b['volume_m3'])}"
+        f"{_td('center', ', '.join(f'{v / ls:.3f}' for v in b['centre_m']))}</tr>"
+    ]
+    box_t = _table(
+        "bounding-box",
+        [f"l1 [{length}]", f"l2 [{length}]", f"l3 [{length}]", "volume [m³]", f"centre [{length}]"],
+        brows,
+        "Minimum-volume oriented bounding box of all measured points (Hayat et al. Table IV).",
+        "bounding-box",
+    )
     orows = [f"<tr>{''.join(_td(f'col-{k + 1}', v) for k, v in enumerate(row))}</tr>" for row in b["orientation"]]
-    orient_t = _table("bounding-box-orientation", ["l1 axis [1]", "l2 axis [1]", "l3 axis [1]"], orows, "Orientation of the box: its axes as columns, in the measurement frame.",
-                      "bounding-box")
+    orient_t = _table(
+        "bounding-box-orientation",
+        ["l1 axis [1]", "l2 axis [1]", "l3 axis [1]"],
+        orows,
+        "Orientation of the box: its axes as columns, in the measurement frame.",
+        "bounding-box",
+    )
     notes = "".join(f"<li>{html.escape(n)}</li>" for n in doc["notes"]) or "<li>none</li>"
     acc_html, acc = _accuracy_section(go, result, length)
     npts = sum(len(s.points) for s in result.sweeps.sweeps)
-    summary = _summary([
-        ("measured", f"{npts} points in {len(result.sweeps.sweeps)} single-joint sweeps from {doc['source']}"),
-        ("model", f"{t.convention.upper()} table of {len(names)} joints, {result.method} fit; nominal: " + (result.nominal.name if result.nominal else "none")),
-        *[("fit chosen", n[len("auto: "):]) for n in doc["notes"] if n.startswith("auto: ")],
-        ("fit", f"residual rms {doc['rms_m'] / ls:.4g} {length}; worst axis sigma across {max(j['axis']['sigma_point_perp_m'] for j in doc['joints']) / ls:.3g} {length}"),
-        *([("accuracy", f"tool position error rms {acc['nominal']:.3g} {length} with the nominal model -> {acc['identified']:.3g} {length} predicted with the "
-            "identified one (1σ)")] if acc else []),
-        ("tool error the table carries", f"{doc['max_tool_position_error_m'] / ls:.3g} {length}"),
-        ("home", ", ".join(f"{v:.4g}" for v in np.asarray(doc["home"]) / joint_scale(result.sweeps.kinds, length, angle)) + f" ({angle} / {length}); tool point at home "
-         + ", ".join(f"{v / ls:.3f}" for v in doc["tool_point_home_m"])
-         + f" {length}"),
-    ])
+    summary = _summary(
+        [
+            ("measured", f"{npts} points in {len(result.sweeps.sweeps)} single-joint sweeps from {doc['source']}"),
+            (
+                "model",
+                f"{t.convention.upper()} table of {len(names)} joints, {result.method} fit; nominal: "
+                + (result.nominal.name if result.nominal else "none"),
+            ),
+            *[("fit chosen", n[len("auto: ") :]) for n in doc["notes"] if n.startswith("auto: ")],
+            (
+                "fit",
+                f"residual rms {doc['rms_m'] / ls:.4g} {length}; worst axis sigma across {max(j['axis']['sigma_point_perp_m'] for j in doc['joints']) / ls:.3g} {length}",
+            ),
+            *(
+                [
+                    (
+                        "accuracy",
+                        f"tool position error rms {acc['nominal']:.3g} {length} with the nominal model -> {acc['identified']:.3g} {length} predicted with the "
+                        "identified one (1σ)",
+                    )
+                ]
+                if acc
+                else []
+            ),
+            ("tool error the table carries", f"{doc['max_tool_position_error_m'] / ls:.3g} {length}"),
+            (
+                "home",
+                ", ".join(f"{v:.4g}" for v in np.asarray(doc["home"]) / joint_scale(result.sweeps.kinds, length, angle))
+                + f" ({angle} / {length}); tool point at home "
+                + ", ".join(f"{v / ls:.3f}" for v in doc["tool_point_home_m"])
+                + f" {length}",
+            ),
+        ]
+    )
     title = title or f"denavit identification: {result.sweeps.source or 'sweeps'}"
-    meta = html.escape(f"{len(names)} joints, method {result.method}, {t.convention.upper()} parameters; lengths in {length}, angles in {angle}, measurement frame.")
-    body = "\n".join([
-        _view_section(view, "Measured points, fitted full circles, centres and axis arrows per joint (Hayat et al. Fig. 7); frames of the identified convention "
-                      "along the chain (others, the bounding box and origin paths: switch them on in the legend)."),
-        f'<section id="results"><h2>Identified parameters</h2><div class="scroll">{params}</div>{pchart}</section>',
-        f'<section id="fits"><h2>Joint axes and fits</h2><div class="scroll">{axes_t}</div>{resid}{_pairs_table(result.extraction.pairs, ls, length, angle)}</section>',
-        f'<section id="box"><h2>Measuring volume</h2>{box_t}{orient_t}</section>',
-        acc_html,
-        f'<section id="notes-section"><h2>Notes</h2><ul class="notes" id="notes">{notes}</ul></section>',
-    ])
+    meta = html.escape(
+        f"{len(names)} joints, method {result.method}, {t.convention.upper()} parameters; lengths in {length}, angles in {angle}, measurement frame."
+    )
+    body = "\n".join(
+        [
+            _view_section(
+                view,
+                "Measured points, fitted full circles, centres and axis arrows per joint (Hayat et al. Fig. 7); frames of the identified convention "
+                "along the chain (others, the bounding box and origin paths: switch them on in the legend).",
+            ),
+            f'<section id="results"><h2>Identified parameters</h2><div class="scroll">{params}</div>{pchart}</section>',
+            f'<section id="fits"><h2>Joint axes and fits</h2><div class="scroll">{axes_t}</div>{resid}{_pairs_table(result.extraction.pairs, ls, length, angle)}</section>',
+            f'<section id="box"><h2>Measuring volume</h2>{box_t}{orient_t}</section>',
+            acc_html,
+            f'<section id="notes-section"><h2>Notes</h2><ul class="notes" id="notes">{notes}</ul></section>',
+        ]
+    )
     return _page(title, meta, summary, body)
 
 
-def write_report(result: Identification, path, *, length: str = "mm", angle: str = "deg", title: str | None = None, force: bool = False) -> None:
+def write_report(
+    result: Identification,
+    path,
+    *,
+    length: str = "mm",
+    angle: str = "deg",
+    title: str | None = None,
+    force: bool = False,
+) -> None:
     """Write the self-contained HTML report of an identification (see the module docs) to ``path``."""
     write_text(path, report_html(result, length=length, angle=angle, title=title), force=force)

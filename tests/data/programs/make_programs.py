@@ -59,45 +59,112 @@ def kuka_programs():
             tool[:3, :3] = kuka.rot("y", np.radians(-30))
             base[:3, 3] = [0.6, -0.2, 0.1]
             base[:3, :3] = kuka.rot("z", np.radians(15))
-        dat = ["&ACCESS RVP", "&REL 4", "&PARAM TEMPLATE = C:\\KRC\\Roboter\\Template\\vorgabe", "&PARAM EDITMASK = *", f"DEFDAT  {stem.upper()}",
-               ";FOLD EXTERNAL DECLARATIONS;%{PE}%V3.2.0,%MKUKATPBASIS,%CEXT,%VCOMMON,%P", ";FOLD BASISTECH EXT;%{PE}%V3.2.0,%MKUKATPBASIS,%CEXT,%VEXT,%P",
-               "EXT  BAS (BAS_COMMAND  :IN,REAL  :IN )", "DECL INT SUCCESS", ";ENDFOLD (BASISTECH EXT)", ";ENDFOLD (EXTERNAL DECLARATIONS)", ""]
-        src = ["&ACCESS RVP", "&REL 4", "&PARAM TEMPLATE = C:\\KRC\\Roboter\\Template\\vorgabe", "&PARAM EDITMASK = *", f"DEF {stem.upper()}( )",
-               ";FOLD INI;%{PE}", "  ;FOLD BASISTECH INI", "    GLOBAL INTERRUPT DECL 3 WHEN $STOPMESS==TRUE DO IR_STOPM ( )", "    INTERRUPT ON 3",
-               "    BAS (#INITMOV,0 )", "  ;ENDFOLD (BASISTECH INI)", ";ENDFOLD (INI)", "",
-               ";FOLD PTP HOME  Vel= 100 % DEFAULT;%{PE}%MKUKATPBASIS,%CMOVE,%VPTP,%P 1:PTP, 2:HOME, 3:, 5:100, 7:DEFAULT",
-               "$BWDSTART = FALSE", "PDAT_ACT=PDEFAULT", "FDAT_ACT=FHOME", "BAS (#PTP_PARAMS,100 )", "$H_POS=XHOME", "PTP  XHOME", ";ENDFOLD", ""]
+        dat = [
+            "&ACCESS RVP",
+            "&REL 4",
+            "&PARAM TEMPLATE = C:\\KRC\\Roboter\\Template\\vorgabe",
+            "&PARAM EDITMASK = *",
+            f"DEFDAT  {stem.upper()}",
+            ";FOLD EXTERNAL DECLARATIONS;%{PE}%V3.2.0,%MKUKATPBASIS,%CEXT,%VCOMMON,%P",
+            ";FOLD BASISTECH EXT;%{PE}%V3.2.0,%MKUKATPBASIS,%CEXT,%VEXT,%P",
+            "EXT  BAS (BAS_COMMAND  :IN,REAL  :IN )",
+            "DECL INT SUCCESS",
+            ";ENDFOLD (BASISTECH EXT)",
+            ";ENDFOLD (EXTERNAL DECLARATIONS)",
+            "",
+        ]
+        src = [
+            "&ACCESS RVP",
+            "&REL 4",
+            "&PARAM TEMPLATE = C:\\KRC\\Roboter\\Template\\vorgabe",
+            "&PARAM EDITMASK = *",
+            f"DEF {stem.upper()}( )",
+            ";FOLD INI;%{PE}",
+            "  ;FOLD BASISTECH INI",
+            "    GLOBAL INTERRUPT DECL 3 WHEN $STOPMESS==TRUE DO IR_STOPM ( )",
+            "    INTERRUPT ON 3",
+            "    BAS (#INITMOV,0 )",
+            "  ;ENDFOLD (BASISTECH INI)",
+            ";ENDFOLD (INI)",
+            "",
+            ";FOLD PTP HOME  Vel= 100 % DEFAULT;%{PE}%MKUKATPBASIS,%CMOVE,%VPTP,%P 1:PTP, 2:HOME, 3:, 5:100, 7:DEFAULT",
+            "$BWDSTART = FALSE",
+            "PDAT_ACT=PDEFAULT",
+            "FDAT_ACT=FHOME",
+            "BAS (#PTP_PARAMS,100 )",
+            "$H_POS=XHOME",
+            "PTP  XHOME",
+            ";ENDFOLD",
+            "",
+        ]
         for i, q in enumerate(Q, 1):
             T = np.linalg.inv(base) @ dv.fk(m, q) @ F @ tool
             S, Tt = kuka.configuration(m, q, cache)
             if i % 4 == 0:
                 a = np.degrees(q * kuka.signs(r))
-                dat.append(f"DECL E6AXIS XP{i}={{A1 {a[0]:.5f},A2 {a[1]:.5f},A3 {a[2]:.5f},A4 {a[3]:.5f},A5 {a[4]:.5f},A6 {a[5]:.5f},E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0}}")
+                dat.append(
+                    f"DECL E6AXIS XP{i}={{A1 {a[0]:.5f},A2 {a[1]:.5f},A3 {a[2]:.5f},A4 {a[3]:.5f},A5 {a[4]:.5f},A6 {a[5]:.5f},E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0}}"
+                )
             else:
                 p, abc = T[:3, 3] * 1e3, np.degrees(matrix_zyx(T[:3, :3]))
-                dat.append(f"DECL E6POS XP{i}={{X {p[0]:.4f},Y {p[1]:.4f},Z {p[2]:.4f},A {abc[0]:.4f},B {abc[1]:.4f},C {abc[2]:.4f},S {S},T {Tt},"
-                           "E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0}")
-            dat.append(f"DECL FDAT FP{i}={{TOOL_NO {tool_no},BASE_NO {tool_no},IPO_FRAME #BASE,POINT2[] \" \",TQ_STATE FALSE}}")
-            dat.append(f"DECL {'P' if i % 2 else 'L'}DAT {'P' if i % 2 else 'L'}PDAT{i}={{VEL {'100.0' if i % 2 else '2.0'},ACC 100.0,APO_DIST 100.0,APO_MODE #CDIS}}")
+                dat.append(
+                    f"DECL E6POS XP{i}={{X {p[0]:.4f},Y {p[1]:.4f},Z {p[2]:.4f},A {abc[0]:.4f},B {abc[1]:.4f},C {abc[2]:.4f},S {S},T {Tt},"
+                    "E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0}"
+                )
+            dat.append(
+                f'DECL FDAT FP{i}={{TOOL_NO {tool_no},BASE_NO {tool_no},IPO_FRAME #BASE,POINT2[] " ",TQ_STATE FALSE}}'
+            )
+            dat.append(
+                f"DECL {'P' if i % 2 else 'L'}DAT {'P' if i % 2 else 'L'}PDAT{i}={{VEL {'100.0' if i % 2 else '2.0'},ACC 100.0,APO_DIST 100.0,APO_MODE #CDIS}}"
+            )
             motion = "PTP" if i % 2 or i % 4 == 0 else "LIN"
-            src += [f";FOLD {motion} P{i} CONT Vel={'100 %' if motion == 'PTP' else '2 m/s'} {'P' if i % 2 else 'L'}PDAT{i} Tool[{tool_no}] Base[{tool_no}];%{{PE}}"
-                    f"%R 8.3.44,%MKUKATPBASIS,%CMOVE,%V{motion},%P 1:{motion}, 2:P{i}, 3:C_DIS, 5:100, 7:{'P' if i % 2 else 'L'}PDAT{i}",
-                    "$BWDSTART=FALSE", f"{'P' if i % 2 else 'L'}DAT_ACT={'P' if i % 2 else 'L'}PDAT{i}", f"FDAT_ACT=FP{i}",
-                    f"BAS(#{'PTP' if motion == 'PTP' else 'CP'}_PARAMS,{'100' if motion == 'PTP' else '2'})", f"{motion} XP{i} C_DIS", ";ENDFOLD"]
+            src += [
+                f";FOLD {motion} P{i} CONT Vel={'100 %' if motion == 'PTP' else '2 m/s'} {'P' if i % 2 else 'L'}PDAT{i} Tool[{tool_no}] Base[{tool_no}];%{{PE}}"
+                f"%R 8.3.44,%MKUKATPBASIS,%CMOVE,%V{motion},%P 1:{motion}, 2:P{i}, 3:C_DIS, 5:100, 7:{'P' if i % 2 else 'L'}PDAT{i}",
+                "$BWDSTART=FALSE",
+                f"{'P' if i % 2 else 'L'}DAT_ACT={'P' if i % 2 else 'L'}PDAT{i}",
+                f"FDAT_ACT=FP{i}",
+                f"BAS(#{'PTP' if motion == 'PTP' else 'CP'}_PARAMS,{'100' if motion == 'PTP' else '2'})",
+                f"{motion} XP{i} C_DIS",
+                ";ENDFOLD",
+            ]
         dat += ["ENDDAT", ""]
-        src += ["", ";FOLD PTP HOME  Vel= 100 % DEFAULT;%{PE}%MKUKATPBASIS,%CMOVE,%VPTP,%P 1:PTP, 2:HOME, 3:, 5:100, 7:DEFAULT", "$BWDSTART = FALSE",
-                "PDAT_ACT=PDEFAULT", "FDAT_ACT=FHOME", "BAS (#PTP_PARAMS,100 )", "$H_POS=XHOME", "PTP  XHOME", ";ENDFOLD", "", "END", ""]
+        src += [
+            "",
+            ";FOLD PTP HOME  Vel= 100 % DEFAULT;%{PE}%MKUKATPBASIS,%CMOVE,%VPTP,%P 1:PTP, 2:HOME, 3:, 5:100, 7:DEFAULT",
+            "$BWDSTART = FALSE",
+            "PDAT_ACT=PDEFAULT",
+            "FDAT_ACT=FHOME",
+            "BAS (#PTP_PARAMS,100 )",
+            "$H_POS=XHOME",
+            "PTP  XHOME",
+            ";ENDFOLD",
+            "",
+            "END",
+            "",
+        ]
         d = HERE / "kuka"
         d.mkdir(exist_ok=True)
         (d / f"{stem}.dat").write_bytes("\r\n".join(dat).encode())
         (d / f"{stem}.src").write_bytes("\r\n".join(src).encode())
         if tool_no:
             t_abc, b_abc = np.degrees(matrix_zyx(tool[:3, :3])), np.degrees(matrix_zyx(base[:3, :3]))
-            (d / "$config.dat").write_bytes("\r\n".join([
-                "&ACCESS RVO", "DEFDAT  $CONFIG", "", ";FOLD TOOL/BASE DATA (an excerpt: the frames kr5_tool uses)",
-                f"TOOL_DATA[1]={{X {tool[0, 3] * 1e3:.3f},Y {tool[1, 3] * 1e3:.3f},Z {tool[2, 3] * 1e3:.3f},A {t_abc[0]:.4f},B {t_abc[1]:.4f},C {t_abc[2]:.4f}}}",
-                f"BASE_DATA[1]={{X {base[0, 3] * 1e3:.3f},Y {base[1, 3] * 1e3:.3f},Z {base[2, 3] * 1e3:.3f},A {b_abc[0]:.4f},B {b_abc[1]:.4f},C {b_abc[2]:.4f}}}",
-                ";ENDFOLD", "", "ENDDAT", ""]).encode())
+            (d / "$config.dat").write_bytes(
+                "\r\n".join(
+                    [
+                        "&ACCESS RVO",
+                        "DEFDAT  $CONFIG",
+                        "",
+                        ";FOLD TOOL/BASE DATA (an excerpt: the frames kr5_tool uses)",
+                        f"TOOL_DATA[1]={{X {tool[0, 3] * 1e3:.3f},Y {tool[1, 3] * 1e3:.3f},Z {tool[2, 3] * 1e3:.3f},A {t_abc[0]:.4f},B {t_abc[1]:.4f},C {t_abc[2]:.4f}}}",
+                        f"BASE_DATA[1]={{X {base[0, 3] * 1e3:.3f},Y {base[1, 3] * 1e3:.3f},Z {base[2, 3] * 1e3:.3f},A {b_abc[0]:.4f},B {b_abc[1]:.4f},C {b_abc[2]:.4f}}}",
+                        ";ENDFOLD",
+                        "",
+                        "ENDDAT",
+                        "",
+                    ]
+                ).encode()
+            )
 
 
 def abb_program():
@@ -112,11 +179,19 @@ def abb_program():
     wobj[:3, :3] = kuka.rot("z", np.radians(-20))
     cache = {"signs": abb.signs(r)}
     tq, wq = matrix_quaternion(tool[:3, :3]), matrix_quaternion(wobj[:3, :3])
-    lines = ["%%%", "  VERSION:1", "  LANGUAGE:ENGLISH", "%%%", "", "MODULE DemoKR5", "  ! positions over the KR5's workspace, see README.md",
-             f"  PERS tooldata tGripper:=[TRUE,[[{tool[0, 3] * 1e3:.1f},{tool[1, 3] * 1e3:.1f},{tool[2, 3] * 1e3:.1f}],[{tq[0]:.7f},{tq[1]:.7f},{tq[2]:.7f},{tq[3]:.7f}]],"
-             "[1.5,[0,0,80],[1,0,0,0],0,0,0]];",
-             f"  TASK PERS wobjdata wTable:=[FALSE,TRUE,\"\",[[{wobj[0, 3] * 1e3:.1f},{wobj[1, 3] * 1e3:.1f},{wobj[2, 3] * 1e3:.1f}],[{wq[0]:.7f},{wq[1]:.7f},{wq[2]:.7f},{wq[3]:.7f}]],"
-             "[[0,0,0],[1,0,0,0]]];"]
+    lines = [
+        "%%%",
+        "  VERSION:1",
+        "  LANGUAGE:ENGLISH",
+        "%%%",
+        "",
+        "MODULE DemoKR5",
+        "  ! positions over the KR5's workspace, see README.md",
+        f"  PERS tooldata tGripper:=[TRUE,[[{tool[0, 3] * 1e3:.1f},{tool[1, 3] * 1e3:.1f},{tool[2, 3] * 1e3:.1f}],[{tq[0]:.7f},{tq[1]:.7f},{tq[2]:.7f},{tq[3]:.7f}]],"
+        "[1.5,[0,0,80],[1,0,0,0],0,0,0]];",
+        f'  TASK PERS wobjdata wTable:=[FALSE,TRUE,"",[[{wobj[0, 3] * 1e3:.1f},{wobj[1, 3] * 1e3:.1f},{wobj[2, 3] * 1e3:.1f}],[{wq[0]:.7f},{wq[1]:.7f},{wq[2]:.7f},{wq[3]:.7f}]],'
+        "[[0,0,0],[1,0,0,0]]];",
+    ]
     body = ["", "  PROC main()", "    ConfJ \\On;", "    ConfL \\On;"]
     for i, q in enumerate(Q, 1):
         cf = abb.configuration(m, q, cache)
@@ -129,13 +204,17 @@ def abb_program():
         frames = "tGripper\\WObj:=wTable" if use_tool else "tool0"
         if i % 5 == 0:
             a = np.degrees(q)
-            lines.append(f"  CONST jointtarget jpos{i}:=[[{a[0]:.4f},{a[1]:.4f},{a[2]:.4f},{a[3]:.4f},{a[4]:.4f},{a[5]:.4f}],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]];")
+            lines.append(
+                f"  CONST jointtarget jpos{i}:=[[{a[0]:.4f},{a[1]:.4f},{a[2]:.4f},{a[3]:.4f},{a[4]:.4f},{a[5]:.4f}],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]];"
+            )
             body.append(f"    MoveAbsJ jpos{i}\\NoEOffs, v1000, z50, {frames};")
         elif i % 4 == 0:
             body.append(f"    MoveL {lit}, v500, z10, {frames};")
         else:
             lines.append(f"  CONST robtarget p{i * 10}:={lit};")
-            body.append(f"    Move{'J' if i % 2 else 'L'} p{i * 10}, v{'1000' if i % 2 else '500'}, {'z50' if i % 2 else 'fine'}, {frames};")
+            body.append(
+                f"    Move{'J' if i % 2 else 'L'} p{i * 10}, v{'1000' if i % 2 else '500'}, {'z50' if i % 2 else 'fine'}, {frames};"
+            )
     body += ["  ENDPROC", "ENDMODULE", ""]
     d = HERE / "abb"
     d.mkdir(exist_ok=True)
@@ -149,23 +228,54 @@ def fanuc_program():
     cache = {"signs": fanuc.signs(r)}
     mn, pos = [], []
     for i, q in enumerate(Q, 1):
-        mn.append(f"{i:4d}:{'J' if i % 2 else 'L'} P[{i}] {'100%' if i % 2 else '500mm/sec'} {'FINE' if i % 3 == 0 else 'CNT100'}    ;")
+        mn.append(
+            f"{i:4d}:{'J' if i % 2 else 'L'} P[{i}] {'100%' if i % 2 else '500mm/sec'} {'FINE' if i % 3 == 0 else 'CNT100'}    ;"
+        )
         if i % 4 == 0:
             a = np.degrees(q)
-            rows = [f"\tJ1= {tp(a[0])} deg,\tJ2= {tp(a[1])} deg,\tJ3= {tp(a[2])} deg,", f"\tJ4= {tp(a[3])} deg,\tJ5= {tp(a[4])} deg,\tJ6= {tp(a[5])} deg"]
+            rows = [
+                f"\tJ1= {tp(a[0])} deg,\tJ2= {tp(a[1])} deg,\tJ3= {tp(a[2])} deg,",
+                f"\tJ4= {tp(a[3])} deg,\tJ5= {tp(a[4])} deg,\tJ6= {tp(a[5])} deg",
+            ]
             pos += [f"P[{i}]{{", "   GP1:", "\tUF : 0, UT : 0,\t", *rows, "};"]
         else:
             T = dv.fk(m, q)
             p = T[:3, 3] * 1e3
             rr, pp, ww = np.degrees(matrix_zyx(T[:3, :3]))
             c = fanuc.configuration(m, q, cache)
-            pos += [f"P[{i}]{{", "   GP1:", f"\tUF : 0, UT : 0,\t\tCONFIG : '{c[0]} {c[1]} {c[2]}, {c[3]}, {c[4]}, {c[5]}',",
-                    f"\tX = {tp(p[0])}  mm,\tY = {tp(p[1])}  mm,\tZ = {tp(p[2])}  mm,", f"\tW = {tp(ww)} deg,\tP = {tp(pp)} deg,\tR = {tp(rr)} deg", "};"]
-    head = ["/PROG  DEMO_KR5", "/ATTR", "OWNER\t\t= MNEDITOR;", 'COMMENT\t\t= "workspace";', "PROG_SIZE\t= 0;", "CREATE\t\t= DATE 26-01-05  TIME 10:00:00;",
-            "MODIFIED\t= DATE 26-01-05  TIME 10:00:00;", "FILE_NAME\t= ;", "VERSION\t\t= 0;", f"LINE_COUNT\t= {len(mn) + 2};", "MEMORY_SIZE\t= 0;",
-            "PROTECT\t\t= READ_WRITE;", "TCD:  STACK_SIZE\t= 0,", "      TASK_PRIORITY\t= 50,", "      TIME_SLICE\t= 0,", "      BUSY_LAMP_OFF\t= 0,",
-            "      ABORT_REQUEST\t= 0,", "      PAUSE_REQUEST\t= 0;", "DEFAULT_GROUP\t= 1,*,*,*,*;", "CONTROL_CODE\t= 00000000 00000000;", "/MN",
-            "   1:  UFRAME_NUM=0 ;", "   2:  UTOOL_NUM=0 ;"]
+            pos += [
+                f"P[{i}]{{",
+                "   GP1:",
+                f"\tUF : 0, UT : 0,\t\tCONFIG : '{c[0]} {c[1]} {c[2]}, {c[3]}, {c[4]}, {c[5]}',",
+                f"\tX = {tp(p[0])}  mm,\tY = {tp(p[1])}  mm,\tZ = {tp(p[2])}  mm,",
+                f"\tW = {tp(ww)} deg,\tP = {tp(pp)} deg,\tR = {tp(rr)} deg",
+                "};",
+            ]
+    head = [
+        "/PROG  DEMO_KR5",
+        "/ATTR",
+        "OWNER\t\t= MNEDITOR;",
+        'COMMENT\t\t= "workspace";',
+        "PROG_SIZE\t= 0;",
+        "CREATE\t\t= DATE 26-01-05  TIME 10:00:00;",
+        "MODIFIED\t= DATE 26-01-05  TIME 10:00:00;",
+        "FILE_NAME\t= ;",
+        "VERSION\t\t= 0;",
+        f"LINE_COUNT\t= {len(mn) + 2};",
+        "MEMORY_SIZE\t= 0;",
+        "PROTECT\t\t= READ_WRITE;",
+        "TCD:  STACK_SIZE\t= 0,",
+        "      TASK_PRIORITY\t= 50,",
+        "      TIME_SLICE\t= 0,",
+        "      BUSY_LAMP_OFF\t= 0,",
+        "      ABORT_REQUEST\t= 0,",
+        "      PAUSE_REQUEST\t= 0;",
+        "DEFAULT_GROUP\t= 1,*,*,*,*;",
+        "CONTROL_CODE\t= 00000000 00000000;",
+        "/MN",
+        "   1:  UFRAME_NUM=0 ;",
+        "   2:  UTOOL_NUM=0 ;",
+    ]
     mn = [f"{i + 2:4d}:{line[5:]}" for i, line in enumerate(mn, 1)]
     d = HERE / "fanuc"
     d.mkdir(exist_ok=True)
@@ -180,8 +290,14 @@ def ur_program():
     Q = workspace(r, 6, 4)
     tcp = np.eye(4)
     tcp[:3, 3] = [0.0, 0.0, 0.12]
-    lines = ["def demo_ur5():", "  # positions over the UR5's workspace, see README.md", "  set_tcp(p[0.0, 0.0, 0.12, 0.0, 0.0, 0.0])",
-             "  set_payload(1.0)", "  home = [0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0]", "  movej(home, a=1.4, v=1.05)"]
+    lines = [
+        "def demo_ur5():",
+        "  # positions over the UR5's workspace, see README.md",
+        "  set_tcp(p[0.0, 0.0, 0.12, 0.0, 0.0, 0.0])",
+        "  set_payload(1.0)",
+        "  home = [0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0]",
+        "  movej(home, a=1.4, v=1.05)",
+    ]
     from denavit.geometry import matrix_rotvec  # noqa: PLC0415
 
     k = 0
@@ -195,7 +311,11 @@ def ur_program():
             T = dv.fk(m, q + dq) @ tcp
             rv = matrix_rotvec(T[:3, :3][None])[0]
             vals = [*T[:3, 3], *rv]
-            lit = "p[" + ", ".join(f"{v:.6f}".replace("0.", ".", 1) if abs(v) < 1 and k % 2 else f"{v:.6f}" for v in vals) + "]"
+            lit = (
+                "p["
+                + ", ".join(f"{v:.6f}".replace("0.", ".", 1) if abs(v) < 1 and k % 2 else f"{v:.6f}" for v in vals)
+                + "]"
+            )
             if k % 3 == 0:
                 lines.append(f"  global wp{k} = {lit}")
                 lines.append(f"  movel(wp{k}, a=1.2, v=0.25)")

@@ -119,7 +119,16 @@ def vendor(fmt: str):
     return importlib.import_module(f"{__name__}.{fmt}")
 
 
-EXTENSIONS = {".src": "kuka", ".dat": "kuka", ".mod": "abb", ".modx": "abb", ".prg": "abb", ".ls": "fanuc", ".script": "urscript", ".urscript": "urscript"}
+EXTENSIONS = {
+    ".src": "kuka",
+    ".dat": "kuka",
+    ".mod": "abb",
+    ".modx": "abb",
+    ".prg": "abb",
+    ".ls": "fanuc",
+    ".script": "urscript",
+    ".urscript": "urscript",
+}
 
 
 def detect(path: str | os.PathLike) -> str | None:
@@ -163,7 +172,9 @@ def read_program(path: str | os.PathLike, robot, *, fmt: str | None = None, fram
     frames a program refers to that live in the controller (KUKA TOOL_DATA/BASE_DATA, FANUC UT/UF)."""
     fmt = fmt or detect(path)
     if fmt is None:
-        raise DenavitError(f"{path}: not a robot program: expected a KUKA .src/.dat, an ABB .mod, a FANUC .ls or a URScript .script")
+        raise DenavitError(
+            f"{path}: not a robot program: expected a KUKA .src/.dat, an ABB .mod, a FANUC .ls or a URScript .script"
+        )
     return vendor(fmt).read(path, robot, frames=frames or {})
 
 
@@ -238,7 +249,9 @@ def write_program(program: Program, output: str | os.PathLike, new_values: dict,
     paths = output_paths(program, output)
     for p, src in zip(paths, program.sources, strict=True):
         if Path(p).resolve() == Path(src.path).resolve():
-            raise DenavitError(f"{p}: is the program read; write the compensated program to another path (input files are never modified)")
+            raise DenavitError(
+                f"{p}: is the program read; write the compensated program to another path (input files are never modified)"
+            )
     for p, b in zip(paths, data, strict=True):
         with atomic_path(p, force=force) as tmp:
             tmp.write_bytes(b)
@@ -293,9 +306,13 @@ def _wrap(v, near):
 def quaternion_matrix(q) -> np.ndarray:
     """Rotation of a unit quaternion ``(w, x, y, z)`` (ABB's q1..q4), normalised."""
     w, x, y, z = np.asarray(q, dtype=float) / np.linalg.norm(q)
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 def matrix_quaternion(R: np.ndarray, near=None) -> np.ndarray:
@@ -399,7 +416,9 @@ def candidates(model, T: np.ndarray, seeds: int = 32) -> list[np.ndarray]:
         choices = []
         for j in range(n):
             if rev[j]:
-                vals = [s[j] + 2 * np.pi * k for k in range(-3, 4) if lo[j] - 1e-9 <= s[j] + 2 * np.pi * k <= hi[j] + 1e-9]
+                vals = [
+                    s[j] + 2 * np.pi * k for k in range(-3, 4) if lo[j] - 1e-9 <= s[j] + 2 * np.pi * k <= hi[j] + 1e-9
+                ]
             else:
                 vals = [s[j]] if lo[j] - 1e-9 <= s[j] <= hi[j] + 1e-9 else []
             choices.append(vals)
@@ -444,7 +463,9 @@ class ProgramCompensation:
     targets: np.ndarray
 
 
-def configuration_solution(v, model, point: Point, T_flange: np.ndarray, q_near: np.ndarray, arm_cache: dict) -> np.ndarray | None:
+def configuration_solution(
+    v, model, point: Point, T_flange: np.ndarray, q_near: np.ndarray, arm_cache: dict
+) -> np.ndarray | None:
     """The nominal solution of a pose on the configuration ``point`` states (the vendor's ``matches``), nearest
     ``q_near``; None when no solution has it."""
     best, dist = None, np.inf
@@ -456,8 +477,16 @@ def configuration_solution(v, model, point: Point, T_flange: np.ndarray, q_near:
     return best
 
 
-def compensate_program(program: Program, nominal, identified, *, q0=None, branch_tol: float = np.radians(5.0), result=None,
-                       predict: bool = True) -> ProgramCompensation:
+def compensate_program(
+    program: Program,
+    nominal,
+    identified,
+    *,
+    q0=None,
+    branch_tol: float = np.radians(5.0),
+    result=None,
+    predict: bool = True,
+) -> ProgramCompensation:
     """Compensate every position of ``program`` for a controller that keeps ``nominal`` (a Robot) while the robot is
     ``identified``: each on its own configuration (the one it states; URScript poses: the solution nearest the
     previous position, the first nearest ``q0``, default the nominal's home), flange poses compensated (the
@@ -470,7 +499,11 @@ def compensate_program(program: Program, nominal, identified, *, q0=None, branch
     v = program.vendor
     nominal = _robot(nominal)
     t = nominal.table
-    flange_robot = replace(nominal, table=_core.Table(t.convention, t.params, t.kinds, t.T_world_base, np.eye(4))) if isinstance(nominal, Robot) else nominal
+    flange_robot = (
+        replace(nominal, table=_core.Table(t.convention, t.params, t.kinds, t.T_world_base, np.eye(4)))
+        if isinstance(nominal, Robot)
+        else nominal
+    )
     model = flange_robot.model() if isinstance(flange_robot, Robot) else flange_robot.with_tool(np.eye(4))
     home = getattr(nominal, "home", None)
     q_prev = np.asarray(q0 if q0 is not None else (home if home is not None else np.zeros(model.nq)), dtype=float)
@@ -493,8 +526,10 @@ def compensate_program(program: Program, nominal, identified, *, q0=None, branch
             else:
                 q = configuration_solution(v, model, p, Tf, q_prev, cache)
             if q is None:
-                raise DenavitError(f"{p.where}: {p.name}: {v.describe(p.config) if p.config is not None else 'the pose'} is not reachable on the nominal "
-                                   f"{getattr(nominal, 'name', 'model')} (expected a pose its configuration reaches within the joint limits)")
+                raise DenavitError(
+                    f"{p.where}: {p.name}: {v.describe(p.config) if p.config is not None else 'the pose'} is not reachable on the nominal "
+                    f"{getattr(nominal, 'name', 'model')} (expected a pose its configuration reaches within the joint limits)"
+                )
         rows.append(k)
         targets.append(Tf)
         qs.append(q)
@@ -508,7 +543,15 @@ def compensate_program(program: Program, nominal, identified, *, q0=None, branch
     for i, k in enumerate(rows):
         p = program.points[k]
         if not c.ok[i]:
-            why = ", ".join(x for x, f in (("unreachable", not c.reached[i]), ("branch changed", c.branch_changed[i]), ("path jump", c.path_jump[i])) if f)
+            why = ", ".join(
+                x
+                for x, f in (
+                    ("unreachable", not c.reached[i]),
+                    ("branch changed", c.branch_changed[i]),
+                    ("path jump", c.path_jump[i]),
+                )
+                if f
+            )
             left.append((p.where, why))
             continue
         qc = c.q_command[i]
@@ -516,7 +559,9 @@ def compensate_program(program: Program, nominal, identified, *, q0=None, branch
             new[k] = v.joint_readings(nominal, qc, p)
             continue
         if p.config is not None and not v.matches(p.config, v.configuration(model, qc, cache)):
-            left.append((p.where, f"the compensated command leaves {v.describe(p.config)} (near a configuration boundary)"))
+            left.append(
+                (p.where, f"the compensated command leaves {v.describe(p.config)} (near a configuration boundary)")
+            )
             continue
         new[k] = v.pose_values(program_pose(p, c.commands[i], F), p)
     return ProgramCompensation(program, new, c, rows, Q, left, T)
@@ -529,7 +574,9 @@ def _robot(r):
 
         return load(r)
     if not hasattr(r, "table"):
-        raise DenavitError(f"nominal: expected a Robot, a built-in name or a robot file (the program's axis senses and frames need its table), got {type(r).__name__}")
+        raise DenavitError(
+            f"nominal: expected a Robot, a built-in name or a robot file (the program's axis senses and frames need its table), got {type(r).__name__}"
+        )
     return r
 
 
@@ -580,5 +627,9 @@ def tool_poses(program: Program, robot_model, Q: np.ndarray, flange_rot: np.ndar
     """(N, 4, 4) the program's tool poses in its robot base frame reached at ``Q`` by ``robot_model`` (its flange)."""
     out = []
     for p, q in zip(program.points, Q, strict=True):
-        out.append(_core.fk(robot_model, q) @ _tool_in_flange(flange_rot, p.tool) if np.all(np.isfinite(q)) else np.full((4, 4), np.nan))
+        out.append(
+            _core.fk(robot_model, q) @ _tool_in_flange(flange_rot, p.tool)
+            if np.all(np.isfinite(q))
+            else np.full((4, 4), np.nan)
+        )
     return np.array(out)

@@ -77,7 +77,7 @@ def _blank_comments(text: str) -> str:
 def _literal(text: str, start: int, where: str):
     """The bracketed value starting at ``start``: a nested list of (token, start, end) leaves, and its end."""
     if text[start] != "[":
-        raise DenavitError(f"{where}: expected '[', got {text[start:start + 20]!r}")
+        raise DenavitError(f"{where}: expected '[', got {text[start : start + 20]!r}")
     stack, cur, i = [], [], start + 1
     root = cur
     while i < len(text):
@@ -96,7 +96,7 @@ def _literal(text: str, start: int, where: str):
         elif c in ", \t\r\n":
             i += 1
         else:
-            m = re.compile(r'[^,\[\]\s]+').match(text, i)
+            m = re.compile(r"[^,\[\]\s]+").match(text, i)
             cur.append((m.group(0), m.start(), m.end()))
             i = m.end()
     raise DenavitError(f"{where}: unclosed '[' (expected ']' before the end of the file)")
@@ -104,13 +104,20 @@ def _literal(text: str, start: int, where: str):
 
 def _num(leaf, where: str, what: str) -> float:
     if not isinstance(leaf, tuple) or not _NUMBER.fullmatch(leaf[0]):
-        raise DenavitError(f"{where}: {what}: expected a number, got {leaf[0] if isinstance(leaf, tuple) else '[...]'!r}")
+        raise DenavitError(
+            f"{where}: {what}: expected a number, got {leaf[0] if isinstance(leaf, tuple) else '[...]'!r}"
+        )
     return float(leaf[0])
 
 
 def _shape(v, shape, where: str, what: str) -> None:
-    ok = isinstance(v, list) and len(v) == len(shape) and all(
-        (isinstance(x, list) and len(x) == s) if s else isinstance(x, tuple) for x, s in zip(v, shape, strict=False))
+    ok = (
+        isinstance(v, list)
+        and len(v) == len(shape)
+        and all(
+            (isinstance(x, list) and len(x) == s) if s else isinstance(x, tuple) for x, s in zip(v, shape, strict=False)
+        )
+    )
     if not ok:
         raise DenavitError(f"{where}: {what}: expected {_expected(shape)}")
 
@@ -125,7 +132,9 @@ JOINTTARGET = (6, 6)
 
 def _pose_point(name, where, lit, src_index) -> Point:
     _shape(lit, ROBTARGET, where, f"robtarget {name}")
-    nums = [Number(src_index, s, e, t, "mm") for t, s, e in lit[0]] + [Number(src_index, s, e, t, "quaternion") for t, s, e in lit[1]]
+    nums = [Number(src_index, s, e, t, "mm") for t, s, e in lit[0]] + [
+        Number(src_index, s, e, t, "quaternion") for t, s, e in lit[1]
+    ]
     for n in nums:
         _num((n.token, 0, 0), where, f"robtarget {name}")
     cf = tuple(int(_num(x, where, f"robtarget {name} confdata")) for x in lit[2])
@@ -157,7 +166,9 @@ def read(path, robot, *, frames: dict) -> Program:
     tools = {"TOOL0": np.eye(4)}
     wobjs = {"WOBJ0": np.eye(4)}
     notes: list[str] = []
-    decl = re.compile(r"(?im)^[ \t]*(?:(?:LOCAL|TASK)[ \t]+)?(CONST|PERS|VAR)[ \t]+(\w+)[ \t]+(\w+)[ \t]*(\{[^}]*\})?[ \t]*(:=)?")
+    decl = re.compile(
+        r"(?im)^[ \t]*(?:(?:LOCAL|TASK)[ \t]+)?(CONST|PERS|VAR)[ \t]+(\w+)[ \t]+(\w+)[ \t]*(\{[^}]*\})?[ \t]*(:=)?"
+    )
     for m in decl.finditer(clean):
         typ, name = m.group(2).lower(), m.group(3)
         where = src.where(m.start())
@@ -182,7 +193,13 @@ def read(path, robot, *, frames: dict) -> Program:
         elif typ == "jointtarget":
             pt = _joint_point(name, where, lit, 0)
         elif typ == "tooldata":
-            if not (isinstance(lit, list) and len(lit) == 3 and isinstance(lit[0], tuple) and isinstance(lit[1], list) and len(lit[1]) == 2):
+            if not (
+                isinstance(lit, list)
+                and len(lit) == 3
+                and isinstance(lit[0], tuple)
+                and isinstance(lit[1], list)
+                and len(lit[1]) == 2
+            ):
                 raise DenavitError(f"{where}: tooldata {name}: expected [robhold,[[x,y,z],[q1,q2,q3,q4]],[load]]")
             if lit[0][0].upper() != "TRUE":
                 tools[name.upper()] = ("stationary", where)
@@ -196,7 +213,9 @@ def read(path, robot, *, frames: dict) -> Program:
             if robhold != "FALSE" or ufprog != "TRUE" or ufmec not in ('""', ""):
                 wobjs[name.upper()] = ("moving", where)
             else:
-                wobjs[name.upper()] = _frame(lit[3], where, f"wobjdata {name}") @ _frame(lit[4], where, f"wobjdata {name}")
+                wobjs[name.upper()] = _frame(lit[3], where, f"wobjdata {name}") @ _frame(
+                    lit[4], where, f"wobjdata {name}"
+                )
             continue
         named[name.upper()] = pt
         points.append(pt)
@@ -208,24 +227,34 @@ def read(path, robot, *, frames: dict) -> Program:
             raise DenavitError(f"{src.where(m.start())}: {instr}: expected ';' at the end of the instruction")
         where = src.where(m.start())
         args = _split(clean, m.end(), end)
-        args = [a for a in args if not clean[a[0]:a[1]].strip().startswith("\\")] or args  # (\Conc and other switches first)
+        args = [
+            a for a in args if not clean[a[0] : a[1]].strip().startswith("\\")
+        ] or args  # (\Conc and other switches first)
         n_targets = 2 if instr.upper().startswith("MOVEC") else 1
         if len(args) < n_targets + 3:
-            raise DenavitError(f"{where}: {instr}: expected {'CirPoint, ToPoint' if n_targets == 2 else 'ToPoint'}, Speed, Zone, Tool; got {len(args)} arguments")
-        tool_arg = clean[args[n_targets + 2][0]:args[n_targets + 2][1]]
+            raise DenavitError(
+                f"{where}: {instr}: expected {'CirPoint, ToPoint' if n_targets == 2 else 'ToPoint'}, Speed, Zone, Tool; got {len(args)} arguments"
+            )
+        tool_arg = clean[args[n_targets + 2][0] : args[n_targets + 2][1]]
         tool_name = re.match(r"\s*(\w+)", tool_arg)
-        rest = clean[args[n_targets + 2][0]:end]
+        rest = clean[args[n_targets + 2][0] : end]
         wobj = re.search(r"\\WObj\s*:=\s*(\w+)", rest, re.IGNORECASE)
-        frames_of = (_lookup(tools, tool_name.group(1) if tool_name else "", "tooldata", where),
-                     _lookup(wobjs, wobj.group(1) if wobj else "wobj0", "wobjdata", where),
-                     (tool_name.group(1) if tool_name else "?", wobj.group(1) if wobj else "wobj0"))
+        frames_of = (
+            _lookup(tools, tool_name.group(1) if tool_name else "", "tooldata", where),
+            _lookup(wobjs, wobj.group(1) if wobj else "wobj0", "wobjdata", where),
+            (tool_name.group(1) if tool_name else "?", wobj.group(1) if wobj else "wobj0"),
+        )
         for a in args[:n_targets]:
             s, e = a
             while s < e and clean[s] in " \t\r\n":
                 s += 1
             if s < e and clean[s] == "[":
                 lit, _ = _literal(clean, s, where)
-                pt = _joint_point(f"{instr} (inline)", where, lit, 0) if instr.upper().startswith("MOVEABSJ") else _pose_point(f"{instr} (inline)", where, lit, 0)
+                pt = (
+                    _joint_point(f"{instr} (inline)", where, lit, 0)
+                    if instr.upper().startswith("MOVEABSJ")
+                    else _pose_point(f"{instr} (inline)", where, lit, 0)
+                )
                 pt.tool, pt.base = frames_of[0], frames_of[1]
                 points.append(pt)
                 continue
@@ -235,12 +264,16 @@ def read(path, robot, *, frames: dict) -> Program:
     for key, pt in named.items():
         uses = used.get(key)
         if not uses:
-            pt.problem = "no move instruction of the module uses it: its tool and work object are unknown (left as it is)"
+            pt.problem = (
+                "no move instruction of the module uses it: its tool and work object are unknown (left as it is)"
+            )
             continue
         names = {u[1][2] for u in uses}
         if len(names) > 1:
-            raise DenavitError(f"{uses[0][0]}: {pt.name} is used with {' and '.join('/'.join(n) for n in sorted(names))}: a target taught in several frames "
-                               "is unsupported (expected one tool and work object per target)")
+            raise DenavitError(
+                f"{uses[0][0]}: {pt.name} is used with {' and '.join('/'.join(n) for n in sorted(names))}: a target taught in several frames "
+                "is unsupported (expected one tool and work object per target)"
+            )
         pt.tool, pt.base = uses[0][1][0], uses[0][1][1]
     points.sort(key=lambda p: (int(p.where.rsplit(":", 1)[1]), p.numbers[0].start))
     return Program("abb", [src], points, notes)
@@ -249,11 +282,17 @@ def read(path, robot, *, frames: dict) -> Program:
 def _lookup(table: dict, name: str, what: str, where: str) -> np.ndarray:
     v = table.get(name.upper())
     if v is None:
-        raise DenavitError(f"{where}: {what} {name} is not declared in the module: unsupported (expected it declared in the program module, or "
-                           f"{'tool0' if what == 'tooldata' else 'wobj0'})")
+        raise DenavitError(
+            f"{where}: {what} {name} is not declared in the module: unsupported (expected it declared in the program module, or "
+            f"{'tool0' if what == 'tooldata' else 'wobj0'})"
+        )
     if isinstance(v, tuple):
         kind, at = v
-        why = "a stationary tool (robhold FALSE)" if kind == "stationary" else "a work object moved by the robot or a mechanical unit"
+        why = (
+            "a stationary tool (robhold FALSE)"
+            if kind == "stationary"
+            else "a work object moved by the robot or a mechanical unit"
+        )
         raise DenavitError(f"{where}: {what} {name} (declared at {at}) is {why}: unsupported")
     return v
 

@@ -56,19 +56,23 @@ def read(path, robot, *, frames: dict) -> Program:
         raise DenavitError(f"{path}:1: expected '/PROG name' (a FANUC TP program in ASCII)")
     for m in re.finditer(r"(?m)^/(\w+)", text):
         if m.group(1).upper() not in ("PROG", "ATTR", "APPL", "MN", "POS", "END", "APPL_DATA"):
-            raise DenavitError(f"{src.where(m.start())}: unknown section /{m.group(1)} (expected /PROG, /ATTR, /APPL, /MN, /POS or /END)")
+            raise DenavitError(
+                f"{src.where(m.start())}: unknown section /{m.group(1)} (expected /PROG, /ATTR, /APPL, /MN, /POS or /END)"
+            )
     pos = re.search(r"(?m)^/POS\s*$", text)
     points: list[Point] = []
     notes: list[str] = []
     mn = re.search(r"(?ms)^/MN\s*$(.*?)^/(POS|END)", text)
     if mn:
         for m in re.finditer(r"\bPR\[(\d+)", mn.group(1)):
-            notes.append(f"{src.where(mn.start(1) + m.start())}: PR[{m.group(1)}]: a position register (in the controller, not the program): not compensated")
+            notes.append(
+                f"{src.where(mn.start(1) + m.start())}: PR[{m.group(1)}]: a position register (in the controller, not the program): not compensated"
+            )
     if not pos:
         return Program("fanuc", [src], points, notes)
-    end = re.search(r"(?m)^/END", text[pos.end():])
+    end = re.search(r"(?m)^/END", text[pos.end() :])
     body_end = pos.end() + (end.start() if end else len(text) - pos.end())
-    for m in re.finditer(r"P\[(\d+)(?::\s*\"[^\"]*\")?\]\s*\{(.*?)\};", text[pos.end():body_end], re.DOTALL):
+    for m in re.finditer(r"P\[(\d+)(?::\s*\"[^\"]*\")?\]\s*\{(.*?)\};", text[pos.end() : body_end], re.DOTALL):
         s0 = pos.end() + m.start(2)
         block = m.group(2)
         where = src.where(pos.end() + m.start())
@@ -82,17 +86,25 @@ def read(path, robot, *, frames: dict) -> Program:
         uf = re.search(r"UF\s*:\s*(\w+)", g)
         ut = re.search(r"UT\s*:\s*(\w+)", g)
         cfg = re.search(r"CONFIG\s*:\s*'([^']*)'", g)
-        fields = {k.upper(): (v, gs + mm.start(2), gs + mm.end(2)) for mm in re.finditer(r"\b(X|Y|Z|W|P|R|J\d)\s*=\s*(" + _NUMBER + r")", g) for k, v in [(mm.group(1), mm.group(2))]}
+        fields = {
+            k.upper(): (v, gs + mm.start(2), gs + mm.end(2))
+            for mm in re.finditer(r"\b(X|Y|Z|W|P|R|J\d)\s*=\s*(" + _NUMBER + r")", g)
+            for k, v in [(mm.group(1), mm.group(2))]
+        }
         cart = all(k in fields for k in CART)
         joint = all(k in fields for k in JOINTS)
         if not (cart or joint):
-            raise DenavitError(f"{where}: {name}: expected X, Y, Z, W, P, R or J1..J6, got {', '.join(fields) or 'none'}")
+            raise DenavitError(
+                f"{where}: {name}: expected X, Y, Z, W, P, R or J1..J6, got {', '.join(fields) or 'none'}"
+            )
         keys = CART if cart else JOINTS
         nums = [Number(0, fields[k][1], fields[k][2], fields[k][0], ("mm" if k in "XYZ" else "deg")) for k in keys]
         config = None
         if cart:
             if not cfg:
-                raise DenavitError(f"{where}: {name}: a Cartesian position without CONFIG (expected CONFIG : 'N U T, 0, 0, 0')")
+                raise DenavitError(
+                    f"{where}: {name}: a Cartesian position without CONFIG (expected CONFIG : 'N U T, 0, 0, 0')"
+                )
             config = _parse_config(cfg.group(1), where, name)
         pt = Point(name, where, "pose" if cart else "joints", nums, config)
         for kind, mt in (("base", uf), ("tool", ut)):
@@ -100,12 +112,16 @@ def read(path, robot, *, frames: dict) -> Program:
                 continue
             v = mt.group(1)
             if not v.isdigit():
-                raise DenavitError(f"{where}: {name}: {'UF' if kind == 'base' else 'UT'} : {v}: unsupported (expected a frame number)")
+                raise DenavitError(
+                    f"{where}: {name}: {'UF' if kind == 'base' else 'UT'} : {v}: unsupported (expected a frame number)"
+                )
             k = int(v)
             if k:
                 if (kind, k) not in frames:
-                    raise DenavitError(f"{where}: {name}: {'UF' if kind == 'base' else 'UT'} : {k} is the controller's {'user' if kind == 'base' else 'tool'} frame {k} "
-                                       f"(not in the program, not given): unsupported (expected --frame '{kind} {k}=X,Y,Z,W,P,R', or {'UF' if kind == 'base' else 'UT'} : 0)")
+                    raise DenavitError(
+                        f"{where}: {name}: {'UF' if kind == 'base' else 'UT'} : {k} is the controller's {'user' if kind == 'base' else 'tool'} frame {k} "
+                        f"(not in the program, not given): unsupported (expected --frame '{kind} {k}=X,Y,Z,W,P,R', or {'UF' if kind == 'base' else 'UT'} : 0)"
+                    )
                 setattr(pt, kind, frames[(kind, k)])
         points.append(pt)
     return Program("fanuc", [src], points, notes)
@@ -115,7 +131,14 @@ def _parse_config(s: str, where: str, name: str) -> tuple:
     m = re.fullmatch(r"\s*([NF])\s*([UD])\s*([TB])\s*,\s*(-?\d+)\s*,\s*(-?\d+)\s*,\s*(-?\d+)\s*", s, re.IGNORECASE)
     if not m:
         raise DenavitError(f"{where}: {name}: CONFIG '{s}': expected 'N|F U|D T|B, t1, t4, t6'")
-    return (m.group(1).upper(), m.group(2).upper(), m.group(3).upper(), int(m.group(4)), int(m.group(5)), int(m.group(6)))
+    return (
+        m.group(1).upper(),
+        m.group(2).upper(),
+        m.group(3).upper(),
+        int(m.group(4)),
+        int(m.group(5)),
+        int(m.group(6)),
+    )
 
 
 def to_pose(values) -> np.ndarray:
@@ -135,7 +158,11 @@ def joint_values(robot, values) -> np.ndarray:
 
 
 def joint_readings(robot, q, point: Point) -> np.ndarray:
-    r = robot.readings(np.asarray(q, dtype=float)[None])[0] if getattr(robot, "has_reading_model", False) else np.asarray(q, dtype=float)
+    r = (
+        robot.readings(np.asarray(q, dtype=float)[None])[0]
+        if getattr(robot, "has_reading_model", False)
+        else np.asarray(q, dtype=float)
+    )
     return np.degrees(r * signs(robot))
 
 
@@ -146,7 +173,14 @@ def configuration(model, q, cache: dict) -> tuple:
     def turn(v):
         return int(np.floor((v + 180.0) / 360.0))
 
-    return ("F" if a[4] > 0 else "N", "U" if g.elbow_up > 0 else "D", "T" if g.front >= 0 else "B", turn(a[0]), turn(a[3]), turn(a[5]))
+    return (
+        "F" if a[4] > 0 else "N",
+        "U" if g.elbow_up > 0 else "D",
+        "T" if g.front >= 0 else "B",
+        turn(a[0]),
+        turn(a[3]),
+        turn(a[5]),
+    )
 
 
 def matches(stated, computed) -> bool:

@@ -48,12 +48,32 @@ import numpy as np
 from ...errors import DenavitError
 from . import Number, Point, Program, arm, matrix_zyx, pose_matrix, read_source, rot, zyx_matrix
 
-KNOWN = {"INT", "REAL", "BOOL", "CHAR", "FRAME", "POS", "E6POS", "AXIS", "E6AXIS", "FDAT", "PDAT", "LDAT", "SIGNAL", "STRUC", "ENUM", "LOAD", "STRING"}
+KNOWN = {
+    "INT",
+    "REAL",
+    "BOOL",
+    "CHAR",
+    "FRAME",
+    "POS",
+    "E6POS",
+    "AXIS",
+    "E6AXIS",
+    "FDAT",
+    "PDAT",
+    "LDAT",
+    "SIGNAL",
+    "STRUC",
+    "ENUM",
+    "LOAD",
+    "STRING",
+}
 POSE_KEYS = ("X", "Y", "Z", "A", "B", "C")
 AXIS_KEYS = ("A1", "A2", "A3", "A4", "A5", "A6")
 SIGNS = {"kr5": (-1, 1, 1, -1, 1, -1)}
 _NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
-_ITEM = re.compile(r"([A-Za-z_]\w*(?:\[\])?)\s+('[^']*'|\"[^\"]*\"|#\w+|" + _NUMBER + r"|TRUE|FALSE|\w+)", re.IGNORECASE)
+_ITEM = re.compile(
+    r"([A-Za-z_]\w*(?:\[\])?)\s+('[^']*'|\"[^\"]*\"|#\w+|" + _NUMBER + r"|TRUE|FALSE|\w+)", re.IGNORECASE
+)
 
 
 def signs(robot) -> np.ndarray:
@@ -91,8 +111,12 @@ def _frames_file(src_path: str) -> dict:
         p = Path(src_path).parent / name
         if p.is_file():
             text = read_source(p, "KUKA $config.dat").text
-            for m in re.finditer(r"(?im)^\s*(?:DECL\s+)?(?:FRAME\s+)?(TOOL_DATA|BASE_DATA)\[(\d+)\]\s*=\s*\{([^}]*)\}", text):
-                out[("tool" if m.group(1).upper() == "TOOL_DATA" else "base", int(m.group(2)))] = _frame(_aggregate(m.group(3), 0, len(m.group(3))))
+            for m in re.finditer(
+                r"(?im)^\s*(?:DECL\s+)?(?:FRAME\s+)?(TOOL_DATA|BASE_DATA)\[(\d+)\]\s*=\s*\{([^}]*)\}", text
+            ):
+                out[("tool" if m.group(1).upper() == "TOOL_DATA" else "base", int(m.group(2)))] = _frame(
+                    _aggregate(m.group(3), 0, len(m.group(3)))
+                )
             break
     return out
 
@@ -104,8 +128,12 @@ def _pair(path) -> tuple[Path, Path]:
         if cand.suffix.lower() == want and cand.stem == p.stem:
             return (p, cand) if want == ".dat" else (cand, p)
     if want == ".dat":
-        raise DenavitError(f"{p}:1: its data list {p.stem}.dat is missing (expected beside it: a KRL program is a .src and its .dat)")
-    raise DenavitError(f"{p}:1: its program {p.stem}.src is missing (expected beside it: a KRL program is a .src and its .dat)")
+        raise DenavitError(
+            f"{p}:1: its data list {p.stem}.dat is missing (expected beside it: a KRL program is a .src and its .dat)"
+        )
+    raise DenavitError(
+        f"{p}:1: its program {p.stem}.src is missing (expected beside it: a KRL program is a .src and its .dat)"
+    )
 
 
 def read(path, robot, *, frames: dict) -> Program:
@@ -120,16 +148,35 @@ def read(path, robot, *, frames: dict) -> Program:
     notes: list[str] = []
     text = dat.text
     if not re.search(r"(?im)^\s*DEFDAT\s+\w+", text):
-        raise DenavitError(f"{dat.path}:1: expected 'DEFDAT name' (a KRL data list), got {text.strip().splitlines()[0][:60] if text.strip() else 'an empty file'!r}")
-    for m in re.finditer(r"(?im)^[ \t]*(DECL[ \t]+)?(GLOBAL[ \t]+)?(CONST[ \t]+)?([A-Za-z_$]\w*)[ \t]+([A-Za-z_$]\w*(?:\[[^\]]*\])?)[ \t]*(=[ \t]*(\{[^}\n]*\}|[^;\n]*))?", text):
+        raise DenavitError(
+            f"{dat.path}:1: expected 'DEFDAT name' (a KRL data list), got {text.strip().splitlines()[0][:60] if text.strip() else 'an empty file'!r}"
+        )
+    for m in re.finditer(
+        r"(?im)^[ \t]*(DECL[ \t]+)?(GLOBAL[ \t]+)?(CONST[ \t]+)?([A-Za-z_$]\w*)[ \t]+([A-Za-z_$]\w*(?:\[[^\]]*\])?)[ \t]*(=[ \t]*(\{[^}\n]*\}|[^;\n]*))?",
+        text,
+    ):
         decl, typ, name = m.group(1), m.group(4).upper(), m.group(5)
-        if typ in ("DEFDAT", "ENDDAT", "EXT", "EXTFCT", "DEF", "END", "IF", "ENDIF", "STRUC", "ENUM", "GLOBAL") or typ.startswith("&"):
+        if typ in (
+            "DEFDAT",
+            "ENDDAT",
+            "EXT",
+            "EXTFCT",
+            "DEF",
+            "END",
+            "IF",
+            "ENDIF",
+            "STRUC",
+            "ENUM",
+            "GLOBAL",
+        ) or typ.startswith("&"):
             continue
         if not decl and typ not in known:
             continue  # (a statement of the data list's initialisation part)
         where = dat.where(m.start())
         if typ not in known:
-            raise DenavitError(f"{where}: unknown declaration type {m.group(4)!r} (expected one of {', '.join(sorted(KNOWN))} or a STRUC/ENUM declared in the program)")
+            raise DenavitError(
+                f"{where}: unknown declaration type {m.group(4)!r} (expected one of {', '.join(sorted(KNOWN))} or a STRUC/ENUM declared in the program)"
+            )
         if typ in ("POS", "E6POS", "AXIS", "E6AXIS", "FDAT"):
             if not m.group(7) or not m.group(7).startswith("{"):
                 if typ != "FDAT":
@@ -156,7 +203,9 @@ def read(path, robot, *, frames: dict) -> Program:
                 k = re.match(r"(TOOL_DATA|BASE_DATA)\[(\d+)\]", value, re.IGNORECASE)
                 num = int(k.group(2)) if k else None
                 if num is None and value.upper() not in ("$NULLFRAME", "NULLFRAME"):
-                    raise DenavitError(f"{where}: ${kind.upper()} = {value[:40]}: unsupported (expected a literal frame, TOOL_DATA[k] / BASE_DATA[k] or $NULLFRAME)")
+                    raise DenavitError(
+                        f"{where}: ${kind.upper()} = {value[:40]}: unsupported (expected a literal frame, TOOL_DATA[k] / BASE_DATA[k] or $NULLFRAME)"
+                    )
                 cur[kind] = np.eye(4) if not num else _numbered(numbered, kind, num, where)
             continue
         b = re.match(r"\s*BAS\s*\(\s*#(TOOL|BASE)\s*,\s*(\d+)\s*\)", line, re.IGNORECASE)
@@ -178,7 +227,9 @@ def read(path, robot, *, frames: dict) -> Program:
                 agg = _aggregate(src.text, base + a.start(), base + a.end())
                 typ = "E6POS" if "X" in agg else "E6AXIS"
                 if not all(k in agg for k in (POSE_KEYS if typ == "E6POS" else AXIS_KEYS)):
-                    notes.append(f"{where}: {instr} {tok[:40]}: a partial aggregate (some coordinates taken from the previous position): not compensated")
+                    notes.append(
+                        f"{where}: {instr} {tok[:40]}: a partial aggregate (some coordinates taken from the previous position): not compensated"
+                    )
                     continue
                 pt = _point(src, 0, f"{instr} (inline)", typ, agg, where)
                 _frames_of(pt, cur, None, numbered)
@@ -195,12 +246,16 @@ def read(path, robot, *, frames: dict) -> Program:
         fd = fdat.get("F" + key[1:]) if key.startswith("X") else None
         uses = used.get(key)
         if uses is None and not fd:
-            pt.problem = f"no motion of {src.path} uses it and it has no FDAT: its tool and base are unknown (left as it is)"
+            pt.problem = (
+                f"no motion of {src.path} uses it and it has no FDAT: its tool and base are unknown (left as it is)"
+            )
             continue
         _frames_of(pt, uses[0][1] if uses else {"tool": None, "base": None}, fd, numbered)
     for name, uses in used.items():
         if not any(p.name.upper() == name for p in points):
-            notes.append(f"{uses[0][0]}: {name}: not declared in {dat.path} (e.g. $config.dat's XHOME): not part of the program, not compensated")
+            notes.append(
+                f"{uses[0][0]}: {name}: not declared in {dat.path} (e.g. $config.dat's XHOME): not part of the program, not compensated"
+            )
     return Program("kuka", [src, dat], points, notes)
 
 
@@ -208,8 +263,10 @@ def _numbered(numbered: dict, kind: str, num: int, where: str) -> np.ndarray:
     if (kind, num) in numbered:
         return numbered[(kind, num)]
     data = "TOOL_DATA" if kind == "tool" else "BASE_DATA"
-    raise DenavitError(f"{where}: {kind.upper()} {num} is the controller's {data}[{num}] (in its $config.dat, not beside the program, nor given): unsupported "
-                       f"(expected a $config.dat beside the program declaring {data}[{num}], --frame '{kind} {num}=X,Y,Z,A,B,C', or {kind} 0)")
+    raise DenavitError(
+        f"{where}: {kind.upper()} {num} is the controller's {data}[{num}] (in its $config.dat, not beside the program, nor given): unsupported "
+        f"(expected a $config.dat beside the program declaring {data}[{num}], --frame '{kind} {num}=X,Y,Z,A,B,C', or {kind} 0)"
+    )
 
 
 def _frames_of(pt: Point, cur: dict, fd, numbered: dict) -> None:

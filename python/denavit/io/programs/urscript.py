@@ -68,9 +68,14 @@ def _blank(text: str) -> str:
 
 def _literal_point(src, clean: str, m: re.Match, name: str, where: str, n: int) -> Point:
     pose = m.group(1) == "p"
-    nums = [Number(0, mm.start(), mm.end(), mm.group(0), ("m" if (pose and k < 3) else "rad")) for k, mm in enumerate(_NUM.finditer(clean, m.start(2), m.end(2)))]
+    nums = [
+        Number(0, mm.start(), mm.end(), mm.group(0), ("m" if (pose and k < 3) else "rad"))
+        for k, mm in enumerate(_NUM.finditer(clean, m.start(2), m.end(2)))
+    ]
     if len(nums) != (6 if pose else n):
-        raise DenavitError(f"{where}: {name}: expected {'p[x, y, z, rx, ry, rz]' if pose else f'{n} joint values'}, got {len(nums)} values")
+        raise DenavitError(
+            f"{where}: {name}: expected {'p[x, y, z, rx, ry, rz]' if pose else f'{n} joint values'}, got {len(nums)} values"
+        )
     return Point(name, where, "pose" if pose else "joints", nums)
 
 
@@ -119,7 +124,9 @@ def read(path, robot, *, frames: dict) -> Program:
             if lit is None and arg in variables and len(variables[arg]) == 1:
                 lit = variables[arg][0][0]
             if lit is None or lit.group(1) != "p":
-                raise DenavitError(f"{where}: set_tcp({arg[:40]}): unsupported (expected a literal pose p[...] or a variable assigned one once)")
+                raise DenavitError(
+                    f"{where}: set_tcp({arg[:40]}): unsupported (expected a literal pose p[...] or a variable assigned one once)"
+                )
             v = [float(x) for x in re.findall(_NUMBER, lit.group(2))]
             tcp = pose_matrix(np.array(v[:3]), rotvec_matrix(np.array(v[3:])[None])[0])
             continue
@@ -143,7 +150,9 @@ def read(path, robot, *, frames: dict) -> Program:
                 key = arg
                 if key in seen:
                     if not np.allclose(seen[key].tool, tcp):
-                        raise DenavitError(f"{where}: {arg} is moved to at two different TCPs: unsupported (expected one TCP per pose)")
+                        raise DenavitError(
+                            f"{where}: {arg} is moved to at two different TCPs: unsupported (expected one TCP per pose)"
+                        )
                     continue
                 lit, at = variables[arg][0]
                 pt = _literal_point(src, clean, lit, arg, at, n)

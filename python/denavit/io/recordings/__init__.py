@@ -13,7 +13,11 @@ from pathlib import Path
 from ...errors import DenavitError
 
 FORMATS = ("auto", "tracker", "rtde", "rsi", "bag", "columns")
-BAG_MAGIC = {b"#ROSBAG V2.0": "a ROS 1 bag", b"\x89MCAP0\r\n": "an MCAP file", b"SQLite format 3\x00": "a ROS 2 sqlite3 bag"}
+BAG_MAGIC = {
+    b"#ROSBAG V2.0": "a ROS 1 bag",
+    b"\x89MCAP0\r\n": "an MCAP file",
+    b"SQLite format 3\x00": "a ROS 2 sqlite3 bag",
+}
 
 
 def detect(path: str | os.PathLike, *, columns: str | None = None) -> tuple[str, str]:
@@ -45,13 +49,25 @@ def detect(path: str | os.PathLike, *, columns: str | None = None) -> tuple[str,
         return "tracker", "a header with point names or groups and X, Y, Z (tracker export)"
     if columns:
         return "columns", f"the column map {columns!r}"
-    raise DenavitError(f"{p}: unknown recording format: expected a tracker export (header with Point/Group and X, Y, Z), a UR RTDE log "
-                       f"(header 'timestamp actual_q_0 ...'), a KUKA RSI log (<Rob> records), a ROS bag, or a delimited file with --columns "
-                       f"(first line {header.strip()[:60]!r})")
+    raise DenavitError(
+        f"{p}: unknown recording format: expected a tracker export (header with Point/Group and X, Y, Z), a UR RTDE log "
+        f"(header 'timestamp actual_q_0 ...'), a KUKA RSI log (<Rob> records), a ROS bag, or a delimited file with --columns "
+        f"(first line {header.strip()[:60]!r})"
+    )
 
 
-def read_recording(path: str | os.PathLike, format: str = "auto", *, columns: str | None = None, length: str | None = None, angle: str | None = None,
-                   time: str | None = None, sweep: str | None = None, kinds: list[str] | None = None, **bag_options):
+def read_recording(
+    path: str | os.PathLike,
+    format: str = "auto",
+    *,
+    columns: str | None = None,
+    length: str | None = None,
+    angle: str | None = None,
+    time: str | None = None,
+    sweep: str | None = None,
+    kinds: list[str] | None = None,
+    **bag_options,
+):
     """Read a recording with the reader of ``format`` ("auto": detected from the content, see :func:`detect`).
 
     columns : the column map of a delimited file (:mod:`.columns`). length / angle / time : units for what
@@ -92,4 +108,17 @@ def read_recording(path: str | os.PathLike, format: str = "auto", *, columns: st
         from .rsi import read  # noqa: PLC0415
 
         rec = read(p)
-    return Recording(rec.time, rec.q, rec.points, rec.where, rec.source, rec.format, rec.units, rec.poses, rec.kinds, rec.joint, rec.names, [said, *rec.notes])
+    return Recording(
+        rec.time,
+        rec.q,
+        rec.points,
+        rec.where,
+        rec.source,
+        rec.format,
+        rec.units,
+        rec.poses,
+        rec.kinds,
+        rec.joint,
+        rec.names,
+        [said, *rec.notes],
+    )

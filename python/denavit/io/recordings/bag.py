@@ -23,7 +23,12 @@ import numpy as np
 from ...errors import DenavitError
 
 INSTALL = 'pip install "denavit[ros]"'
-POINT_TYPES = ("geometry_msgs/msg/PointStamped", "geometry_msgs/msg/PoseStamped", "geometry_msgs/msg/TransformStamped", "tf2_msgs/msg/TFMessage")
+POINT_TYPES = (
+    "geometry_msgs/msg/PointStamped",
+    "geometry_msgs/msg/PoseStamped",
+    "geometry_msgs/msg/TransformStamped",
+    "tf2_msgs/msg/TFMessage",
+)
 
 
 def _rosbags():
@@ -57,7 +62,14 @@ def _pose(translation, rotation) -> np.ndarray:
     return T
 
 
-def read(path: str | os.PathLike, *, joint_topic: str | None = None, point_topic: str | None = None, child_frame: str | None = None, joint_names=None):
+def read(
+    path: str | os.PathLike,
+    *,
+    joint_topic: str | None = None,
+    point_topic: str | None = None,
+    child_frame: str | None = None,
+    joint_names=None,
+):
     """Read a bag: a Recording of the points (or poses) with the joint readings interpolated at their times."""
     from ...recording import Recording, align, check_time  # noqa: PLC0415
 
@@ -67,7 +79,9 @@ def read(path: str | os.PathLike, *, joint_topic: str | None = None, point_topic
         reader = AnyReader([bag_path(path)], default_typestore=store)
         reader.open()
     except Exception as e:  # noqa: BLE001 (rosbags raises several unrelated types for unreadable bags)
-        raise DenavitError(f"{path}: not a readable ROS bag: {str(e).splitlines()[0][:120] if str(e) else type(e).__name__}") from None
+        raise DenavitError(
+            f"{path}: not a readable ROS bag: {str(e).splitlines()[0][:120] if str(e) else type(e).__name__}"
+        ) from None
     try:
         topics = {c.topic: c.msgtype for c in reader.connections}
         listing = ", ".join(f"{t} ({m})" for t, m in sorted(topics.items())) or "none"
@@ -81,7 +95,9 @@ def read(path: str | os.PathLike, *, joint_topic: str | None = None, point_topic
                 return given
             found = [t for t, m in topics.items() if m in types]
             if not found:
-                raise DenavitError(f"{path}: no {what} topic: expected one of type {' or '.join(types)} (topics: {listing})")
+                raise DenavitError(
+                    f"{path}: no {what} topic: expected one of type {' or '.join(types)} (topics: {listing})"
+                )
             if len(found) > 1:
                 raise DenavitError(f"{path}: several {what} topics ({', '.join(sorted(found))}): expected one; name it")
             return found[0]
@@ -99,7 +115,9 @@ def read(path: str | os.PathLike, *, joint_topic: str | None = None, point_topic
                 pos = dict(zip(msg.name, msg.position))
                 miss = [n for n in names if n not in pos]
                 if miss:
-                    raise DenavitError(f"{path}: {jt} message {len(tq) + 1}: no position of joint(s) {', '.join(miss)}: expected {', '.join(names)}")
+                    raise DenavitError(
+                        f"{path}: {jt} message {len(tq) + 1}: no position of joint(s) {', '.join(miss)}: expected {', '.join(names)}"
+                    )
                 tq.append(_stamp(msg.header, t_bag))
                 q.append([pos[n] for n in names])
                 wq.append(f"{path} {jt} #{len(tq)}")
@@ -120,23 +138,52 @@ def read(path: str | os.PathLike, *, joint_topic: str | None = None, point_topic
                     T.append(_pose(tf.transform.translation, tf.transform.rotation))
             wp.append(f"{path} {pt} #{len(tp)}")
         if mtype_is_tf(topics[pt]) and child_frame is None and len(frames) > 1:
-            raise DenavitError(f"{path}: {pt} carries several frames ({', '.join(sorted(frames))}): expected one; name it (child_frame)")
+            raise DenavitError(
+                f"{path}: {pt} carries several frames ({', '.join(sorted(frames))}): expected one; name it (child_frame)"
+            )
     finally:
         reader.close()
     if not tq:
         raise DenavitError(f"{path}: topic {jt} has no messages: expected joint readings")
     if not tp:
-        raise DenavitError(f"{path}: topic {pt} has no {'messages' if child_frame is None else f'transforms of frame {child_frame}'}: expected measured points")
+        raise DenavitError(
+            f"{path}: topic {pt} has no {'messages' if child_frame is None else f'transforms of frame {child_frame}'}: expected measured points"
+        )
     tq, tp = np.array(tq), np.array(tp)
     check_time(tq, wq, "header.stamp")
     check_time(tp, wp, "header.stamp")
     poses = np.array(T) if T else None
     pts = poses[:, None, :3, 3] if poses is not None else np.array(P)[:, None, :]
     units = {"length": "m", "angle": "rad", "time": "s"}
-    points = Recording(tp, None, pts, wp, str(path), "bag", units, poses, notes=[f"{path}: joint readings from {jt} ({', '.join(names)}), points from {pt}"])
-    readings = Recording(tq, np.array(q), None, wq, str(path), "bag", units, kinds=["revolute"] * len(names), names=names)
+    points = Recording(
+        tp,
+        None,
+        pts,
+        wp,
+        str(path),
+        "bag",
+        units,
+        poses,
+        notes=[f"{path}: joint readings from {jt} ({', '.join(names)}), points from {pt}"],
+    )
+    readings = Recording(
+        tq, np.array(q), None, wq, str(path), "bag", units, kinds=["revolute"] * len(names), names=names
+    )
     merged, _ = align(points, readings, offset=0.0)
-    return Recording(merged.time, merged.q, merged.points, merged.where, str(path), "bag", units, merged.poses, merged.kinds, None, names, points.notes)
+    return Recording(
+        merged.time,
+        merged.q,
+        merged.points,
+        merged.where,
+        str(path),
+        "bag",
+        units,
+        merged.poses,
+        merged.kinds,
+        None,
+        names,
+        points.notes,
+    )
 
 
 def mtype_is_tf(mtype: str) -> bool:

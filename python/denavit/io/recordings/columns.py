@@ -59,7 +59,9 @@ def split(line: str, delim: str | None) -> list[str]:
 
 def data_lines(text: str) -> list[tuple[int, str]]:
     """(1-based line number, line) of the lines that are neither blank nor ``#`` comments."""
-    return [(i, line) for i, line in enumerate(text.splitlines(), 1) if line.strip() and not line.lstrip().startswith("#")]
+    return [
+        (i, line) for i, line in enumerate(text.splitlines(), 1) if line.strip() and not line.lstrip().startswith("#")
+    ]
 
 
 def numbers(rows: list[tuple[int, list[str]]], cols: list[int], names: list[str], path: str) -> np.ndarray:
@@ -88,7 +90,9 @@ def expand(spec: str, where: str = "--columns") -> list[str]:
     known = re.compile(r"t|time|q\d+|[xyz]\d*|qw|qx|qy|qz|rx|ry|rz|-|_")
     bad = [c for c in out if not known.fullmatch(c)]
     if bad:
-        raise DenavitError(f"{where}: unknown column name {bad[0]!r}: expected t, q1..qn, x,y,z (or x1,y1,z1,...), qw,qx,qy,qz or rx,ry,rz, or - to skip")
+        raise DenavitError(
+            f"{where}: unknown column name {bad[0]!r}: expected t, q1..qn, x,y,z (or x1,y1,z1,...), qw,qx,qy,qz or rx,ry,rz, or - to skip"
+        )
     dup = sorted({c for c in out if out.count(c) > 1 and c not in "-_"})
     if dup:
         raise DenavitError(f"{where}: column {dup[0]!r} given twice in {spec[:80]!r}")
@@ -96,15 +100,19 @@ def expand(spec: str, where: str = "--columns") -> list[str]:
 
 
 def pose_columns(names: list[str], where: str) -> str | None:
-    """"quaternion", "rotvec" or None from the orientation columns present (all of one kind or none)."""
+    """ "quaternion", "rotvec" or None from the orientation columns present (all of one kind or none)."""
     quat = [c for c in ("qw", "qx", "qy", "qz") if c in names]
     rv = [c for c in ("rx", "ry", "rz") if c in names]
     if quat and rv:
         raise DenavitError(f"{where}: both a quaternion and a rotation vector: expected one orientation")
     if quat and len(quat) != 4:
-        raise DenavitError(f"{where}: a quaternion needs qw, qx, qy, qz: missing {', '.join(c for c in ('qw', 'qx', 'qy', 'qz') if c not in quat)}")
+        raise DenavitError(
+            f"{where}: a quaternion needs qw, qx, qy, qz: missing {', '.join(c for c in ('qw', 'qx', 'qy', 'qz') if c not in quat)}"
+        )
     if rv and len(rv) != 3:
-        raise DenavitError(f"{where}: a rotation vector needs rx, ry, rz: missing {', '.join(c for c in ('rx', 'ry', 'rz') if c not in rv)}")
+        raise DenavitError(
+            f"{where}: a rotation vector needs rx, ry, rz: missing {', '.join(c for c in ('rx', 'ry', 'rz') if c not in rv)}"
+        )
     return "quaternion" if quat else "rotvec" if rv else None
 
 
@@ -116,7 +124,9 @@ def poses_of(p: np.ndarray, orientation: np.ndarray, kind: str, where: str) -> n
         norm = np.linalg.norm(orientation, axis=1)
         if np.any(np.abs(norm - 1.0) > 1e-3):
             k = int(np.argmax(np.abs(norm - 1.0)))
-            raise DenavitError(f"{where}: row {k + 1}: quaternion norm {norm[k]:.6g}: expected a unit quaternion (qw, qx, qy, qz)")
+            raise DenavitError(
+                f"{where}: row {k + 1}: quaternion norm {norm[k]:.6g}: expected a unit quaternion (qw, qx, qy, qz)"
+            )
         R = Rotation.from_quat(orientation[:, [1, 2, 3, 0]]).as_matrix()
     else:
         R = Rotation.from_rotvec(orientation).as_matrix()
@@ -125,8 +135,16 @@ def poses_of(p: np.ndarray, orientation: np.ndarray, kind: str, where: str) -> n
     return T
 
 
-def read(path: str | os.PathLike, *, columns: str, length: str | None = None, angle: str | None = None, time: str | None = None,
-         kinds: list[str] | None = None, text: str | None = None):
+def read(
+    path: str | os.PathLike,
+    *,
+    columns: str,
+    length: str | None = None,
+    angle: str | None = None,
+    time: str | None = None,
+    kinds: list[str] | None = None,
+    text: str | None = None,
+):
     """Read a delimited file whose columns ``columns`` names (see the module docstring): a Recording."""
     from ...recording import Recording, check_time  # noqa: PLC0415
 
@@ -153,7 +171,9 @@ def read(path: str | os.PathLike, *, columns: str, length: str | None = None, an
         rows = rows[1:]  # a header
     for ln, cells in rows:
         if len(cells) != len(names):
-            raise DenavitError(f"{path}:{ln}: expected {len(names)} values ({columns[:60]}) separated by {delim or 'whitespace'!r}, got {len(cells)}")
+            raise DenavitError(
+                f"{path}:{ln}: expected {len(names)} values ({columns[:60]}) separated by {delim or 'whitespace'!r}, got {len(cells)}"
+            )
     if not rows:
         raise DenavitError(f"{path}: a header but no data rows")
     where = [f"{path}:{ln}" for ln, _ in rows]
@@ -176,13 +196,17 @@ def read(path: str | os.PathLike, *, columns: str, length: str | None = None, an
         for k in targets:
             miss = [f"{a}{k}" for a in "xyz" if f"{a}{k}" not in col]
             if miss:
-                raise DenavitError(f"{path}: --columns: target {k or 1} lacks {', '.join(miss)}: expected x{k}, y{k}, z{k}")
+                raise DenavitError(
+                    f"{path}: --columns: target {k or 1} lacks {', '.join(miss)}: expected x{k}, y{k}, z{k}"
+                )
         ls = length_scale(units["length"], str(path))
         points = np.stack([get([f"x{k}", f"y{k}", f"z{k}"]) * ls for k in targets], axis=1)
         kind = pose_columns(names, f"{path}: --columns")
         if kind:
             if len(targets) != 1:
-                raise DenavitError(f"{path}: --columns: an orientation needs exactly one position x, y, z, got {len(targets)} targets")
+                raise DenavitError(
+                    f"{path}: --columns: an orientation needs exactly one position x, y, z, got {len(targets)} targets"
+                )
             o = get(["qw", "qx", "qy", "qz"] if kind == "quaternion" else ["rx", "ry", "rz"])
             if kind == "rotvec":
                 o = o * joint_scale(["revolute"], "m", units.get("angle", "rad"))[0]

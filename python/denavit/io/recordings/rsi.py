@@ -100,12 +100,26 @@ def read(path: str | os.PathLike, *, text: str | None = None, axes: str = "AIPos
         t.append(ms * 1e-3)
         where.append(w)
     if not where:
-        raise DenavitError(f"{path}: no <Rob> records: expected KUKA RSI telegrams <Rob Type=\"KUKA\">...<IPOC>...</IPOC></Rob>")
+        raise DenavitError(
+            f'{path}: no <Rob> records: expected KUKA RSI telegrams <Rob Type="KUKA">...<IPOC>...</IPOC></Rob>'
+        )
     if T and len(T) != len(where):
         raise DenavitError(f"{where[0]}: <Rob> lacks <{cartesian}> which later records have")
     t = np.array(t)
     check_time(t, where, "IPOC")
     poses = np.array(T) if T else None
-    return Recording(t, np.radians(np.array(q)), None if poses is None else poses[:, None, :3, 3], where, str(path), "rsi",
-                     {"length": "mm", "angle": "deg", "time": "ms"}, poses, ["revolute"] * len(names),
-                     notes=[f"{path}: RSI {axes} {names[0]}..{names[-1]}" + (f" and {cartesian}" if poses is not None else f" (no {cartesian})")])
+    return Recording(
+        t,
+        np.radians(np.array(q)),
+        None if poses is None else poses[:, None, :3, 3],
+        where,
+        str(path),
+        "rsi",
+        {"length": "mm", "angle": "deg", "time": "ms"},
+        poses,
+        ["revolute"] * len(names),
+        notes=[
+            f"{path}: RSI {axes} {names[0]}..{names[-1]}"
+            + (f" and {cartesian}" if poses is not None else f" (no {cartesian})")
+        ],
+    )

@@ -47,7 +47,9 @@ def read(path: str | os.PathLike, *, text: str | None = None, joints: str = "act
     missing = [c for c in need if c not in col]
     if missing:
         shown = " ".join(names)[:80]
-        raise DenavitError(f"{path}:{hln}: RTDE header lacks {', '.join(missing)}: expected 'timestamp {joints}_0 .. {joints}_5' (got {shown!r})")
+        raise DenavitError(
+            f"{path}:{hln}: RTDE header lacks {', '.join(missing)}: expected 'timestamp {joints}_0 .. {joints}_5' (got {shown!r})"
+        )
     pn = [f"{pose}_{i}" for i in range(6)]
     has_pose = all(c in col for c in pn)
     rows = [(ln, split(line, delim)) for ln, line in lines[1:]]
@@ -66,4 +68,15 @@ def read(path: str | os.PathLike, *, text: str | None = None, joints: str = "act
         poses = poses_of(p[:, :3], p[:, 3:], "rotvec", str(path))
         points = p[:, None, :3]
     notes = [f"{path}: RTDE fields {joints}_0..{len(qn) - 1}" + (f" and {pose}_0..5" if has_pose else " (no TCP pose)")]
-    return Recording(t, q, points, where, str(path), "rtde", {"length": "m", "angle": "rad", "time": "s"}, poses, ["revolute"] * len(qn), notes=notes)
+    return Recording(
+        t,
+        q,
+        points,
+        where,
+        str(path),
+        "rtde",
+        {"length": "m", "angle": "rad", "time": "s"},
+        poses,
+        ["revolute"] * len(qn),
+        notes=notes,
+    )

@@ -30,12 +30,37 @@ from ..units import input_units, length_scale, parse_declaration, time_scale
 from .columns import data_lines, numbers, poses_of, split
 
 #: Point names such as ``J1_001``, ``A2-17``, ``Joint3.5``, ``J1_001_B`` (joint, pose index, target).
-NAME_PATTERN = r"(?i)^(?:j|a|joint|axis)\s*[_-]?(?P<joint>\d+)[\s_.:-]+(?P<index>\d+)(?:[\s_.:-]+(?P<target>[A-Za-z0-9]+))?$"
+NAME_PATTERN = (
+    r"(?i)^(?:j|a|joint|axis)\s*[_-]?(?P<joint>\d+)[\s_.:-]+(?P<index>\d+)(?:[\s_.:-]+(?P<target>[A-Za-z0-9]+))?$"
+)
 GROUP_PATTERN = re.compile(r"(?i)^(?:j|a|joint|axis)?\s*[_-]?(\d+)$")
-NAMES = {"point": "name", "name": "name", "point name": "name", "pointname": "name", "target": "name", "label": "name",
-         "group": "group", "collection": "collection", "time": "time", "timestamp": "time", "t": "time",
-         "x": "x", "y": "y", "z": "z", "qw": "qw", "qx": "qx", "qy": "qy", "qz": "qz", "q0": "qw", "q1": "qx", "q2": "qy", "q3": "qz",
-         "rx": "rx", "ry": "ry", "rz": "rz"}
+NAMES = {
+    "point": "name",
+    "name": "name",
+    "point name": "name",
+    "pointname": "name",
+    "target": "name",
+    "label": "name",
+    "group": "group",
+    "collection": "collection",
+    "time": "time",
+    "timestamp": "time",
+    "t": "time",
+    "x": "x",
+    "y": "y",
+    "z": "z",
+    "qw": "qw",
+    "qx": "qx",
+    "qy": "qy",
+    "qz": "qz",
+    "q0": "qw",
+    "q1": "qx",
+    "q2": "qy",
+    "q3": "qz",
+    "rx": "rx",
+    "ry": "ry",
+    "rz": "rz",
+}
 UNIT_IN_NAME = re.compile(r"^(.*?)\s*[\[(]\s*([A-Za-z]+)\s*[\])]\s*$")
 
 
@@ -59,8 +84,15 @@ def is_tracker(header: str) -> bool:
     return all(r in roles for r in "xyz") and any(r in roles for r in ("name", "group", "collection"))
 
 
-def read(path: str | os.PathLike, *, sweep: str | None = None, length: str | None = None, angle: str | None = None, time: str | None = None,
-         text: str | None = None):
+def read(
+    path: str | os.PathLike,
+    *,
+    sweep: str | None = None,
+    length: str | None = None,
+    angle: str | None = None,
+    time: str | None = None,
+    text: str | None = None,
+):
     """Read a tracker point list: a Recording with points (N, k, 3) m, the joint of each row, time when given."""
     from ...recording import Recording, check_time  # noqa: PLC0415
 
@@ -74,7 +106,9 @@ def read(path: str | os.PathLike, *, sweep: str | None = None, length: str | Non
     roles, named = _header(split(header, delim))
     missing = [c.upper() for c in "xyz" if c not in roles]
     if missing or not any(r in roles for r in ("name", "group")):
-        raise DenavitError(f"{path}:{hln}: tracker header lacks {', '.join(missing) or 'a Point/Name or Group column'}: expected e.g. 'Collection,Group,Point,X,Y,Z' (got {header.strip()[:80]!r})")
+        raise DenavitError(
+            f"{path}:{hln}: tracker header lacks {', '.join(missing) or 'a Point/Name or Group column'}: expected e.g. 'Collection,Group,Point,X,Y,Z' (got {header.strip()[:80]!r})"
+        )
     lunits = {named[r] for r in "xyz" if r in named}
     if len(lunits) > 1:
         raise DenavitError(f"{path}:{hln}: X, Y, Z carry different units {sorted(lunits)}: expected one length unit")
@@ -91,7 +125,9 @@ def read(path: str | os.PathLike, *, sweep: str | None = None, length: str | Non
             raise DenavitError(f"{path}:{ln}: expected {width} values (as the header), got {len(cells)}")
     if not rows:
         raise DenavitError(f"{path}: a header but no points")
-    xyz = numbers(rows, [roles[c] for c in "xyz"], ["X", "Y", "Z"], str(path)) * length_scale(units["length"], str(path))
+    xyz = numbers(rows, [roles[c] for c in "xyz"], ["X", "Y", "Z"], str(path)) * length_scale(
+        units["length"], str(path)
+    )
     names = [cells[roles["name"]] for _, cells in rows] if "name" in roles else None
     groups = [cells[roles["group"]] for _, cells in rows] if "group" in roles else None
     notes = []
@@ -108,7 +144,9 @@ def read(path: str | os.PathLike, *, sweep: str | None = None, length: str | Non
     for r, (key, tg) in enumerate(zip(zip(joint, index), target)):
         i, c = pos[key], targets.index(tg)
         if not np.isnan(P[i, c, 0]):
-            raise DenavitError(f"{path}:{rows[r][0]}: a second point for joint {key[0]} pose {key[1]} target {tg or '-'}: expected one")
+            raise DenavitError(
+                f"{path}:{rows[r][0]}: a second point for joint {key[0]} pose {key[1]} target {tg or '-'}: expected one"
+            )
         P[i, c] = xyz[r]
         if first[i] is None:
             first[i] = r
@@ -117,7 +155,9 @@ def read(path: str | os.PathLike, *, sweep: str | None = None, length: str | Non
     incomplete = [i for i in range(len(keys)) if np.isnan(P[i]).any()]
     if incomplete:
         i = incomplete[0]
-        raise DenavitError(f"{path}:{rows[first[i]][0]}: joint {keys[i][0]} pose {keys[i][1]} lacks target(s) {', '.join(t for c, t in enumerate(targets) if np.isnan(P[i, c, 0]))}: expected all of {', '.join(targets)}")
+        raise DenavitError(
+            f"{path}:{rows[first[i]][0]}: joint {keys[i][0]} pose {keys[i][1]} lacks target(s) {', '.join(t for c, t in enumerate(targets) if np.isnan(P[i, c, 0]))}: expected all of {', '.join(targets)}"
+        )
     where = [f"{path}:{rows[r][0]}" for r in first]
     if k > 1:
         notes.append(f"{path}: {k} targets per pose ({', '.join(targets)})")
@@ -137,7 +177,9 @@ def read(path: str | os.PathLike, *, sweep: str | None = None, length: str | Non
     if tcol is not None:
         t = tt
         check_time(t, where)
-    return Recording(t, None, P, where, str(path), "tracker", units, poses, joint=np.array([key[0] for key in keys]), notes=notes)
+    return Recording(
+        t, None, P, where, str(path), "tracker", units, poses, joint=np.array([key[0] for key in keys]), notes=notes
+    )
 
 
 def _labels(path, rows, names, groups, sweep, notes):
@@ -161,21 +203,29 @@ def _labels(path, rows, names, groups, sweep, notes):
         notes.append(f"{path}: sweeps from the Group column{' (guessed)' if sweep is None else ''}")
         return joint, index, target
     if names is None:
-        raise DenavitError(f"{path}: no point names to take the sweeps from and the groups name no joint: expected a Point column such as J1_001 or groups J1, J2, ...")
+        raise DenavitError(
+            f"{path}: no point names to take the sweeps from and the groups name no joint: expected a Point column such as J1_001 or groups J1, J2, ..."
+        )
     pattern = sweep or NAME_PATTERN
     try:
         rx = re.compile(pattern)
     except re.error as e:
         raise DenavitError(f"--sweep: not a regular expression: {pattern[:60]!r}: {e}") from None
     if "joint" not in rx.groupindex:
-        raise DenavitError(f"--sweep: the pattern {pattern[:60]!r} has no group (?P<joint>...): expected e.g. 'J(?P<joint>\\d+)_(?P<index>\\d+)'")
+        raise DenavitError(
+            f"--sweep: the pattern {pattern[:60]!r} has no group (?P<joint>...): expected e.g. 'J(?P<joint>\\d+)_(?P<index>\\d+)'"
+        )
     joint, index, target = [], [], []
     for r, ((ln, _), name) in enumerate(zip(rows, names)):
         m = rx.match(name)
         if not m:
-            raise DenavitError(f"{path}:{ln}: point name {name[:40]!r} does not match the sweep pattern {pattern[:60]!r}: expected e.g. J1_001 or A2-17")
+            raise DenavitError(
+                f"{path}:{ln}: point name {name[:40]!r} does not match the sweep pattern {pattern[:60]!r}: expected e.g. J1_001 or A2-17"
+            )
         joint.append(int(m.group("joint")))
         index.append(int(m.group("index")) if "index" in rx.groupindex and m.group("index") else r)
         target.append((m.group("target") or "") if "target" in rx.groupindex else "")
-    notes.append(f"{path}: sweeps from the point names by the pattern {pattern!r}{' (guessed)' if sweep is None else ''}")
+    notes.append(
+        f"{path}: sweeps from the point names by the pattern {pattern!r}{' (guessed)' if sweep is None else ''}"
+    )
     return joint, index, target

@@ -67,5 +67,16 @@ from .common import SUPPORTED_JOINTS, UNSUPPORTED_JOINTS, combine_inertials, z_t
 from .read import UrdfChain, load_urdf, read_chain, urdf_model, urdf_table
 from .write import dumps_urdf, save_urdf
 
-__all__ = ["SUPPORTED_JOINTS", "UNSUPPORTED_JOINTS", "UrdfChain", "combine_inertials", "dumps_urdf", "load_urdf", "read_chain", "save_urdf", "urdf_model",
-           "urdf_table", "z_to"]
+__all__ = [
+    "SUPPORTED_JOINTS",
+    "UNSUPPORTED_JOINTS",
+    "UrdfChain",
+    "combine_inertials",
+    "dumps_urdf",
+    "load_urdf",
+    "read_chain",
+    "save_urdf",
+    "urdf_model",
+    "urdf_table",
+    "z_to",
+]

@@ -10,7 +10,6 @@ SUPPORTED_JOINTS = ("revolute", "continuous", "prismatic", "fixed")
 UNSUPPORTED_JOINTS = ("floating", "planar")
 
 
-
 def z_to(a) -> np.ndarray:
     """The rotation ``R_a`` (3, 3) that takes the z axis to the unit vector ``a``, deterministically.
 

@@ -24,9 +24,6 @@ if TYPE_CHECKING:
     import yourdfpy
 
 
-
-
-
 # --------------------------------------------------------------------------------------------------
 # reading
 
@@ -59,8 +56,14 @@ class UrdfChain:
     def model(self) -> _core.Model:
         """The exact model: ``T_world_joint[i] = L_i · R_a_i`` for every moving joint."""
         return _core.Model.from_placements(
-            self.placements, self.kinds, lower=self.lower, upper=self.upper, names=self.names,
-            T_world_base=self.T_world_base, T_last_flange=self.T_last_flange, name=self.name,
+            self.placements,
+            self.kinds,
+            lower=self.lower,
+            upper=self.upper,
+            names=self.names,
+            T_world_base=self.T_world_base,
+            T_last_flange=self.T_last_flange,
+            name=self.name,
         )
 
 
@@ -88,20 +91,32 @@ def _check_numbers(el, attr: str, n: int, what: str, finite: bool = True) -> Non
         return
     parts = text.replace(",", " ").split()
     if not all(NUMBER.fullmatch(t) or NON_FINITE.fullmatch(t) for t in parts):
-        raise DenavitError(f"{what}: {el.tag} {attr}={text[:60]!r}: expected {n} number{'s' if n > 1 else ''} (ASCII decimal)")
+        raise DenavitError(
+            f"{what}: {el.tag} {attr}={text[:60]!r}: expected {n} number{'s' if n > 1 else ''} (ASCII decimal)"
+        )
     if len(parts) != n or (finite and not all(math.isfinite(float(t)) for t in parts)):
-        raise DenavitError(f"{what}: {el.tag} {attr}={text[:60]!r}: expected {n} finite number{'s' if n > 1 else ''}, got {len(parts)} value(s)")
+        raise DenavitError(
+            f"{what}: {el.tag} {attr}={text[:60]!r}: expected {n} finite number{'s' if n > 1 else ''}, got {len(parts)} value(s)"
+        )
 
 
 #: The numeric attributes of URDF elements (element, attributes, numbers each, finite), checked wherever they appear.
 _NUMBERS = (
-    ("origin", ("xyz", "rpy"), 3, True), ("axis", ("xyz",), 3, True), ("mass", ("value",), 1, True),
-    ("inertia", ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"), 1, False), ("limit", ("lower", "upper"), 1, False),
-    ("limit", ("effort", "velocity"), 1, True), ("dynamics", ("damping", "friction"), 1, True),
+    ("origin", ("xyz", "rpy"), 3, True),
+    ("axis", ("xyz",), 3, True),
+    ("mass", ("value",), 1, True),
+    ("inertia", ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"), 1, False),
+    ("limit", ("lower", "upper"), 1, False),
+    ("limit", ("effort", "velocity"), 1, True),
+    ("dynamics", ("damping", "friction"), 1, True),
     ("safety_controller", ("soft_lower_limit", "soft_upper_limit", "k_position", "k_velocity"), 1, True),
-    ("mimic", ("multiplier", "offset"), 1, True), ("calibration", ("rising", "falling"), 1, True),
-    ("box", ("size",), 3, True), ("cylinder", ("radius", "length"), 1, True), ("sphere", ("radius",), 1, True),
-    ("mesh", ("scale",), 3, True), ("color", ("rgba",), 4, True),
+    ("mimic", ("multiplier", "offset"), 1, True),
+    ("calibration", ("rising", "falling"), 1, True),
+    ("box", ("size",), 3, True),
+    ("cylinder", ("radius", "length"), 1, True),
+    ("sphere", ("radius",), 1, True),
+    ("mesh", ("scale",), 3, True),
+    ("color", ("rgba",), 4, True),
 )
 
 
@@ -119,8 +134,14 @@ def _angles(values, where: str) -> None:
 
 #: The URDF attributes held to physical plausibility (:mod:`denavit.limits`): lengths within 1 km, angles within
 #: the turns allowed (a 1e308 m origin had been shown as inf mm).
-_PLAUSIBLE = {("origin", "xyz"): _lengths, ("origin", "rpy"): _angles, ("box", "size"): _lengths,
-              ("cylinder", "radius"): _lengths, ("cylinder", "length"): _lengths, ("sphere", "radius"): _lengths}
+_PLAUSIBLE = {
+    ("origin", "xyz"): _lengths,
+    ("origin", "rpy"): _angles,
+    ("box", "size"): _lengths,
+    ("cylinder", "radius"): _lengths,
+    ("cylinder", "length"): _lengths,
+    ("sphere", "radius"): _lengths,
+}
 
 
 def _precheck(path: Path, root) -> _Where:
@@ -152,15 +173,17 @@ def _precheck(path: Path, root) -> _Where:
                 for attr in attrs:
                     _check_numbers(sub, attr, n, w, finite)
                     if (tag, attr) in _PLAUSIBLE and sub.get(attr) is not None:
-                        _PLAUSIBLE[tag, attr](np.array(sub.get(attr).replace(",", " ").split(), dtype=float), f"{w}: <{tag}> {attr}")
+                        _PLAUSIBLE[tag, attr](
+                            np.array(sub.get(attr).replace(",", " ").split(), dtype=float), f"{w}: <{tag}> {attr}"
+                        )
         if el.tag == "joint":
             for tag in ("parent", "child"):
                 sub = el.find(tag)
                 if sub is None or not sub.get("link"):
-                    raise DenavitError(f"{w}: expected a <{tag} link=\"...\"/> element, got none")
+                    raise DenavitError(f'{w}: expected a <{tag} link="..."/> element, got none')
             ax = el.find("axis")
             if ax is not None and ax.get("xyz") is None:  # urdfdom would take the default 1 0 0 for a mangled <axis>
-                raise DenavitError(f"{w}: <axis> (line {ax.sourceline}) without xyz: expected e.g. <axis xyz=\"0 0 1\"/>")
+                raise DenavitError(f'{w}: <axis> (line {ax.sourceline}) without xyz: expected e.g. <axis xyz="0 0 1"/>')
     return where
 
 
@@ -180,12 +203,16 @@ def _read(path: str | os.PathLike) -> tuple[yourdfpy.URDF, _Where, object]:
     try:
         tree = etree.parse(str(path), parser)
     except etree.XMLSyntaxError as e:
-        line, col = (e.position if e.position else (e.lineno, 0))
+        line, col = e.position if e.position else (e.lineno, 0)
         raise DenavitError(f"{path}: malformed XML at line {line}, column {col}: {' '.join(e.msg.split())}") from None
-    fatal = [e for e in parser.error_log if e.level >= etree.ErrorLevels.ERROR and e.domain != etree.ErrorDomains.NAMESPACE]
+    fatal = [
+        e for e in parser.error_log if e.level >= etree.ErrorLevels.ERROR and e.domain != etree.ErrorDomains.NAMESPACE
+    ]
     if fatal or tree.getroot() is None:
         e = fatal[0] if fatal else None
-        raise DenavitError(f"{path}: malformed XML at line {e.line if e else 1}, column {e.column if e else 0}: {' '.join(e.message.split()) if e else 'no root element'}")
+        raise DenavitError(
+            f"{path}: malformed XML at line {e.line if e else 1}, column {e.column if e else 0}: {' '.join(e.message.split()) if e else 'no root element'}"
+        )
     where = _precheck(path, tree.getroot())
     import logging  # noqa: PLC0415
 
@@ -193,7 +220,13 @@ def _read(path: str | os.PathLike) -> tuple[yourdfpy.URDF, _Where, object]:
     level = log.level
     log.setLevel(logging.CRITICAL)  # its "Using different parsing approach" error log, for XML we have already checked
     try:
-        urdf = yourdfpy.URDF.load(str(path), build_scene_graph=False, build_collision_scene_graph=False, load_meshes=False, load_collision_meshes=False)
+        urdf = yourdfpy.URDF.load(
+            str(path),
+            build_scene_graph=False,
+            build_collision_scene_graph=False,
+            load_meshes=False,
+            load_collision_meshes=False,
+        )
     except Exception as e:  # noqa: BLE001 (yourdfpy raises bare KeyError/ValueError/IndexError)
         raise DenavitError(f"{path}: not a readable URDF ({type(e).__name__}: {e})") from None
     finally:
@@ -205,10 +238,16 @@ def _link_dict(link, T_world_link: np.ndarray, where=None) -> dict:
     d: dict = {"name": link.name, "T_world_link": _mat(T_world_link)}
     if link.inertial is not None and link.inertial.mass is not None:
         ine = link.inertial
-        values = [float(ine.mass), *np.ravel(np.zeros(3) if ine.inertia is None else ine.inertia), *np.ravel(np.eye(4) if ine.origin is None else ine.origin)]
+        values = [
+            float(ine.mass),
+            *np.ravel(np.zeros(3) if ine.inertia is None else ine.inertia),
+            *np.ravel(np.eye(4) if ine.origin is None else ine.origin),
+        ]
         if not all(math.isfinite(v) for v in values):
             at = where("link", link.name) if where is not None else f"link {link.name!r}"
-            raise DenavitError(f"{at}: <inertial> must hold finite numbers (mass, origin, inertia), got a non-finite one")
+            raise DenavitError(
+                f"{at}: <inertial> must hold finite numbers (mass, origin, inertia), got a non-finite one"
+            )
         d["inertial"] = {
             "mass": float(ine.mass),
             "origin": _mat(np.eye(4) if ine.origin is None else ine.origin),
@@ -217,7 +256,9 @@ def _link_dict(link, T_world_link: np.ndarray, where=None) -> dict:
     return d
 
 
-def _select_chain(urdf: yourdfpy.URDF, where: _Where, base_link: str | None, tip_link: str | None) -> tuple[list, str, str, str, dict, dict]:
+def _select_chain(
+    urdf: yourdfpy.URDF, where: _Where, base_link: str | None, tip_link: str | None
+) -> tuple[list, str, str, str, dict, dict]:
     """The joints from ``base_link`` to ``tip_link`` (in order), with the tree checks; also how the tip was
     chosen, and the tree's joints by parent link (``children``) and by child link (``parent_of``)."""
     path = where.path
@@ -230,15 +271,21 @@ def _select_chain(urdf: yourdfpy.URDF, where: _Where, base_link: str | None, tip
     for j in robot.joints:
         for role, ln in (("parent", j.parent), ("child", j.child)):
             if ln not in links:
-                raise DenavitError(f"{where('joint', j.name)}: {role} link {ln!r} is not defined (links: {', '.join(sorted(links))})")
+                raise DenavitError(
+                    f"{where('joint', j.name)}: {role} link {ln!r} is not defined (links: {', '.join(sorted(links))})"
+                )
         if j.child in parent_of:
             other = parent_of[j.child].name
-            raise DenavitError(f"{where('link', j.child)} is the child of joint {other!r} and of joint {j.name!r}: kinematic loops are not supported")
+            raise DenavitError(
+                f"{where('link', j.child)} is the child of joint {other!r} and of joint {j.name!r}: kinematic loops are not supported"
+            )
         parent_of[j.child] = j
         children[j.parent].append(j)
     roots = [n for n in links if n not in parent_of]
     if not roots:
-        raise DenavitError(f"{path}: no root link (every link is some joint's child): the joints form a loop, which is not supported")
+        raise DenavitError(
+            f"{path}: no root link (every link is some joint's child): the joints form a loop, which is not supported"
+        )
     # a link no root reaches lies on a loop (following its parents never ends), e.g. a joint whose parent is its child
     reached, stack = set(), list(roots)
     while stack:
@@ -248,7 +295,9 @@ def _select_chain(urdf: yourdfpy.URDF, where: _Where, base_link: str | None, tip
     looped = [j for j in robot.joints if j.child not in reached]
     if looped:
         j = looped[0]
-        raise DenavitError(f"{where('joint', j.name)}: its child link {j.child!r} (parent {j.parent!r}) is on a loop of joints: kinematic loops are not supported")
+        raise DenavitError(
+            f"{where('joint', j.name)}: its child link {j.child!r} (parent {j.parent!r}) is on a loop of joints: kinematic loops are not supported"
+        )
 
     def names(ls):
         return ", ".join(repr(x) for x in ls)
@@ -265,7 +314,9 @@ def _select_chain(urdf: yourdfpy.URDF, where: _Where, base_link: str | None, tip
     while stack:
         ln = stack.pop()
         if ln in seen:
-            raise DenavitError(f"{where('link', ln)} is reached twice from {base_link!r}: kinematic loops are not supported")
+            raise DenavitError(
+                f"{where('link', ln)} is reached twice from {base_link!r}: kinematic loops are not supported"
+            )
         seen.add(ln)
         below.append(ln)
         stack.extend(j.child for j in children[ln])
@@ -275,7 +326,9 @@ def _select_chain(urdf: yourdfpy.URDF, where: _Where, base_link: str | None, tip
     elif tip_link not in links:
         raise DenavitError(f"{path}: tip link {tip_link!r} is not defined (links: {', '.join(sorted(links))})")
     elif tip_link not in seen:
-        raise DenavitError(f"{path}: tip link {tip_link!r} is not below base link {base_link!r} (links below it: {names(sorted(below))})")
+        raise DenavitError(
+            f"{path}: tip link {tip_link!r} is not below base link {base_link!r} (links below it: {names(sorted(below))})"
+        )
     chain = []
     ln = tip_link
     while ln != base_link:
@@ -300,7 +353,10 @@ def _default_tip(path, base_link: str, below: list, children: dict, parent_of: d
     if len(leaves) == 1:
         return leaves[0], ""
     if "tool0" in below:
-        return "tool0", f"tip link 'tool0' (REP-199) of {len(leaves)} leaves; choose another with tip_link (CLI: --tip-link)"
+        return (
+            "tool0",
+            f"tip link 'tool0' (REP-199) of {len(leaves)} leaves; choose another with tip_link (CLI: --tip-link)",
+        )
 
     def moving(ln):
         count = 0
@@ -314,10 +370,15 @@ def _default_tip(path, base_link: str, below: list, children: dict, parent_of: d
     best = max(counts.values())
     top = [ln for ln in leaves if counts[ln] == best]
     if len(top) == 1:
-        return top[0], f"tip link {top[0]!r}, the leaf reached through the most moving joints ({best}) of {len(leaves)} leaves; choose another with tip_link (CLI: --tip-link)"
+        return (
+            top[0],
+            f"tip link {top[0]!r}, the leaf reached through the most moving joints ({best}) of {len(leaves)} leaves; choose another with tip_link (CLI: --tip-link)",
+        )
     listing = ", ".join(f"{ln!r} ({counts[ln]} moving joints)" for ln in sorted(leaves, key=lambda x: (-counts[x], x)))
-    raise DenavitError(f"{path}: the tree below {base_link!r} has {len(leaves)} tip links ({listing}): "
-                       "a serial chain needs one; choose one with tip_link (CLI: --tip-link)")
+    raise DenavitError(
+        f"{path}: the tree below {base_link!r} has {len(leaves)} tip links ({listing}): "
+        "a serial chain needs one; choose one with tip_link (CLI: --tip-link)"
+    )
 
 
 def _motion(j, value: float) -> np.ndarray:
@@ -331,7 +392,9 @@ def _motion(j, value: float) -> np.ndarray:
     return pose(None, a * value) if jtype == "prismatic" else pose(rotvec_matrix(a * value))
 
 
-def _attached(urdf, where: _Where, path_links: list, body_of: dict, T_path: dict, children: dict, locked: dict) -> tuple[list, dict]:
+def _attached(
+    urdf, where: _Where, path_links: list, body_of: dict, T_path: dict, children: dict, locked: dict
+) -> tuple[list, dict]:
     """The links off the chain, each with its pose at q = 0 (off-chain movable joints at their ``locked``
     value, 0 by default; a mimic joint at ``multiplier * value + offset`` of the joint it mimics), grouped by
     the chain body that carries them; and the value each off-chain movable joint was locked at."""
@@ -341,8 +404,10 @@ def _attached(urdf, where: _Where, path_links: list, body_of: dict, T_path: dict
     off = {name: j for name, j in movable.items() if j.child not in on_path}
     unknown = sorted(set(locked) - set(off))
     if unknown:
-        raise DenavitError(f"{where.path}: locked joint{'s' if len(unknown) > 1 else ''} {', '.join(map(repr, unknown))}: expected off-chain movable joints "
-                           f"({', '.join(map(repr, sorted(off))) or 'none'})")
+        raise DenavitError(
+            f"{where.path}: locked joint{'s' if len(unknown) > 1 else ''} {', '.join(map(repr, unknown))}: expected off-chain movable joints "
+            f"({', '.join(map(repr, sorted(off))) or 'none'})"
+        )
 
     def value(j) -> float:
         if j.name in locked:
@@ -350,7 +415,9 @@ def _attached(urdf, where: _Where, path_links: list, body_of: dict, T_path: dict
         if j.mimic is not None:
             master = off.get(j.mimic.joint)
             v = value(master) if master is not None and master.mimic is None else float(locked.get(j.mimic.joint, 0.0))
-            return (1.0 if j.mimic.multiplier is None else float(j.mimic.multiplier)) * v + (0.0 if j.mimic.offset is None else float(j.mimic.offset))
+            return (1.0 if j.mimic.multiplier is None else float(j.mimic.multiplier)) * v + (
+                0.0 if j.mimic.offset is None else float(j.mimic.offset)
+            )
         return 0.0
 
     out: list = [[] for _ in range(max(body_of.values()) + 1)]
@@ -367,7 +434,9 @@ def _attached(urdf, where: _Where, path_links: list, body_of: dict, T_path: dict
     return out, used
 
 
-def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: str | None = None, *, locked: dict | None = None) -> UrdfChain:
+def read_chain(
+    path: str | os.PathLike, base_link: str | None = None, tip_link: str | None = None, *, locked: dict | None = None
+) -> UrdfChain:
     """Read the serial chain ``base_link`` -> ``tip_link`` of a URDF (defaults: the root link and the single
     leaf below it). Every error names the file and the element (joint or link, with its line). ``locked``
     ({joint: value}, rad or m) sets off-chain movable joints (fingers, a head, another arm) for the bodies
@@ -388,17 +457,26 @@ def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: 
     bodies[0].append(_link_dict(links[base_link], T_world_link, where))
     from ... import limits  # noqa: PLC0415
 
-    limits.check_size(sum((j.type or "").strip() != "fixed" for j in chain), "joints", f"{path}: the chain {base_link} -> {tip_link}", "moving joints")
+    limits.check_size(
+        sum((j.type or "").strip() != "fixed" for j in chain),
+        "joints",
+        f"{path}: the chain {base_link} -> {tip_link}",
+        "moving joints",
+    )
     for j in chain:
         w = where("joint", j.name)
         jtype = (j.type or "").strip()
         if jtype in UNSUPPORTED_JOINTS:
-            raise DenavitError(f"{w} is a {jtype} joint, which is not supported: expected revolute, continuous, prismatic or fixed "
-                               "(to import the arm alone, choose a base_link below it)")
+            raise DenavitError(
+                f"{w} is a {jtype} joint, which is not supported: expected revolute, continuous, prismatic or fixed "
+                "(to import the arm alone, choose a base_link below it)"
+            )
         if jtype not in SUPPORTED_JOINTS:
             raise DenavitError(f"{w}: unknown joint type {j.type!r}: expected one of {', '.join(SUPPORTED_JOINTS)}")
         if j.mimic is not None and jtype != "fixed":  # urdfdom ignores a fixed joint's <mimic>, and so do we
-            raise DenavitError(f"{w} mimics joint {j.mimic.joint!r}: mimic joints (coupled joint values) are not supported")
+            raise DenavitError(
+                f"{w} mimics joint {j.mimic.joint!r}: mimic joints (coupled joint values) are not supported"
+            )
         O = np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)
         T_world_link = T_world_link @ O
         T_path[j.child] = T_world_link
@@ -410,7 +488,9 @@ def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: 
         a = np.asarray(j.axis, dtype=float)
         na = float(np.linalg.norm(a))
         if not (na > 1e-12 and np.all(np.isfinite(a))):
-            raise DenavitError(f"{w}: axis xyz=\"{_nums(a)}\" has zero length: expected a nonzero direction (e.g. \"0 0 1\")")
+            raise DenavitError(
+                f'{w}: axis xyz="{_nums(a)}" has zero length: expected a nonzero direction (e.g. "0 0 1")'
+            )
         a = a / na
         Ra = pose(z_to(a))
         if T_world_base is None:
@@ -424,13 +504,19 @@ def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: 
             lo, hi = -math.inf, math.inf
         else:
             if j.limit is None:
-                raise DenavitError(f"{w}: a {jtype} joint needs a <limit lower=... upper=... effort=... velocity=.../> (use type=\"continuous\" for an unlimited revolute joint)")
+                raise DenavitError(
+                    f'{w}: a {jtype} joint needs a <limit lower=... upper=... effort=... velocity=.../> (use type="continuous" for an unlimited revolute joint)'
+                )
             if j.limit.lower is None or j.limit.upper is None:
                 # urdfdom would default a missing bound to 0, a joint that cannot move: say so instead
-                raise DenavitError(f"{w}: <limit> lacks {'lower' if j.limit.lower is None else 'upper'}: a {jtype} joint needs both bounds (urdfdom reads a missing one as 0)")
+                raise DenavitError(
+                    f"{w}: <limit> lacks {'lower' if j.limit.lower is None else 'upper'}: a {jtype} joint needs both bounds (urdfdom reads a missing one as 0)"
+                )
             lo, hi = float(j.limit.lower), float(j.limit.upper)
             if not (math.isfinite(lo) and math.isfinite(hi)):
-                raise DenavitError(f"{w}: limit lower={lo} upper={hi} must be finite (use type=\"continuous\" for an unlimited revolute joint)")
+                raise DenavitError(
+                    f'{w}: limit lower={lo} upper={hi} must be finite (use type="continuous" for an unlimited revolute joint)'
+                )
             if lo > hi:
                 raise DenavitError(f"{w}: limit lower={lo} is above upper={hi}")
         info: dict = {"name": j.name, "type": jtype, "axis": [float(v) for v in a]}
@@ -455,7 +541,9 @@ def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: 
         bodies.append([_link_dict(links[j.child], T_world_link, where)])
         body_links.append(j.child)
     if not names:
-        raise DenavitError(f"{path}: no revolute, continuous or prismatic joint between base link {base_link!r} and tip link {tip_link!r}")
+        raise DenavitError(
+            f"{path}: no revolute, continuous or prismatic joint between base link {base_link!r} and tip link {tip_link!r}"
+        )
     path_links = [base_link] + [j.child for j in chain]
     attached, used = _attached(urdf, where, path_links, body_of, T_path, children, dict(locked or {}))
     T_root_base, ln = np.eye(4), base_link  # the links above the base (a `world` root): fixed to the base body
@@ -480,9 +568,21 @@ def read_chain(path: str | os.PathLike, base_link: str | None = None, tip_link: 
         "xml": xml,
     }
     return UrdfChain(
-        name=urdf.robot.name, path=str(path), base_link=base_link, tip_link=tip_link, names=names, kinds=kinds, urdf_types=types,
-        placements=np.array(placements), lower=np.array(lower), upper=np.array(upper), T_world_base=T_world_base, T_last_flange=acc,
-        axes_local=np.array(axes_local), extra=extra, chosen=chosen,
+        name=urdf.robot.name,
+        path=str(path),
+        base_link=base_link,
+        tip_link=tip_link,
+        names=names,
+        kinds=kinds,
+        urdf_types=types,
+        placements=np.array(placements),
+        lower=np.array(lower),
+        upper=np.array(upper),
+        T_world_base=T_world_base,
+        T_last_flange=acc,
+        axes_local=np.array(axes_local),
+        extra=extra,
+        chosen=chosen,
     )
 
 
@@ -496,7 +596,14 @@ def urdf_model(path: str | os.PathLike, base_link: str | None = None, tip_link: 
     return read_chain(path, base_link, tip_link).model()
 
 
-def load_urdf(path: str | os.PathLike, base_link: str | None = None, tip_link: str | None = None, *, chain_only: bool = False, locked: dict | None = None) -> Robot:
+def load_urdf(
+    path: str | os.PathLike,
+    base_link: str | None = None,
+    tip_link: str | None = None,
+    *,
+    chain_only: bool = False,
+    locked: dict | None = None,
+) -> Robot:
     """Read a URDF's serial chain into a :class:`~denavit.Robot` (what ``denavit.load_robot("x.urdf")`` returns).
 
     The table is ED-H (Guo et al. eq. 1-2), extracted through the core's line geometry from the exact
@@ -532,14 +639,20 @@ def load_urdf(path: str | os.PathLike, base_link: str | None = None, tip_link: s
         if bodies is not None:
             inertials = inertials_for_table(m.with_inertias(*bodies, frame="world"), ex.table, names, lower, upper)
     except DenavitError as e:
-        warnings.warn(f"{ch.path}: {e}; the robot is loaded without inertials (massless links)", DenavitWarning, stacklevel=2)
+        warnings.warn(
+            f"{ch.path}: {e}; the robot is loaded without inertials (massless links)", DenavitWarning, stacklevel=2
+        )
     notes = [f"{Path(ch.path).name}: {ch.chosen}"] if ch.chosen else []
-    merged = [ld for b in ch.extra["bodies"][1:] for ld in b["attached"] if ld.get("inertial", {}).get("mass", 0.0) > 0.0]
+    merged = [
+        ld for b in ch.extra["bodies"][1:] for ld in b["attached"] if ld.get("inertial", {}).get("mass", 0.0) > 0.0
+    ]
     if merged and not chain_only:
         kg = sum(ld["inertial"]["mass"] for ld in merged)
         shown = ", ".join(ld["name"] for ld in merged[:4]) + (", ..." if len(merged) > 4 else "")
-        notes.append(f"{Path(ch.path).name}: merged {kg:.4g} kg of {len(merged)} off-chain link{'s' if len(merged) > 1 else ''} ({shown}) into the chain's bodies, "
-                     "off-chain joints locked; chain_only (CLI: --chain-only) leaves them out")
+        notes.append(
+            f"{Path(ch.path).name}: merged {kg:.4g} kg of {len(merged)} off-chain link{'s' if len(merged) > 1 else ''} ({shown}) into the chain's bodies, "
+            "off-chain joints locked; chain_only (CLI: --chain-only) leaves them out"
+        )
     return Robot(
         name=ch.name,
         table=ex.table,
@@ -555,7 +668,9 @@ def load_urdf(path: str | os.PathLike, base_link: str | None = None, tip_link: s
     )
 
 
-def _body_inertials_in_world(ch: UrdfChain, model: _core.Model, chain_only: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+def _body_inertials_in_world(
+    ch: UrdfChain, model: _core.Model, chain_only: bool = False
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """Per moving body (each joint's child with the links fixed to it and, unless ``chain_only``, the
     off-chain links it carries) its mass (kg), centre of mass and inertia about it (kg m^2), both in world at
     q = 0; None when no body of the chain has a mass. An unphysical inertial leaves its body massless with a
@@ -565,15 +680,27 @@ def _body_inertials_in_world(ch: UrdfChain, model: _core.Model, chain_only: bool
     for i, body in enumerate(ch.extra["bodies"][1:]):
         lds = body["links"] + ([] if chain_only else body["attached"])
         links = [ld["name"] for ld in lds if "inertial" in ld]
-        bad = [(ld["name"], m) for ld in lds if not (math.isfinite(m := ld.get("inertial", {}).get("mass", 0.0)) and m >= 0.0)]
+        bad = [
+            (ld["name"], m)
+            for ld in lds
+            if not (math.isfinite(m := ld.get("inertial", {}).get("mass", 0.0)) and m >= 0.0)
+        ]
         if bad:  # as any unphysical inertial: that body alone is left massless (a negative mass had dropped them all)
-            warnings.warn(f"{ch.path}: link {bad[0][0]!r}: <mass value=\"{bad[0][1]}\"/>: expected a finite mass >= 0 kg (the body moved by joint "
-                          f"{ch.names[i]!r}); that body is loaded without mass, the others keep theirs", DenavitWarning, stacklevel=3)
+            warnings.warn(
+                f'{ch.path}: link {bad[0][0]!r}: <mass value="{bad[0][1]}"/>: expected a finite mass >= 0 kg (the body moved by joint '
+                f"{ch.names[i]!r}); that body is loaded without mass, the others keep theirs",
+                DenavitWarning,
+                stacklevel=3,
+            )
             continue
         parts = [
-            (np.asarray(ld["T_world_link"], dtype=float) @ np.asarray(ld["inertial"]["origin"], dtype=float),
-             float(ld["inertial"]["mass"]), np.asarray(ld["inertial"]["inertia"], dtype=float))
-            for ld in lds if "inertial" in ld
+            (
+                np.asarray(ld["T_world_link"], dtype=float) @ np.asarray(ld["inertial"]["origin"], dtype=float),
+                float(ld["inertial"]["mass"]),
+                np.asarray(ld["inertial"]["inertia"], dtype=float),
+            )
+            for ld in lds
+            if "inertial" in ld
         ]
         comb = combine_inertials(parts)
         if comb is not None:
@@ -586,17 +713,31 @@ def _body_inertials_in_world(ch: UrdfChain, model: _core.Model, chain_only: bool
                 model.with_inertias(one, coms, inertias, frame="world")
             except DenavitError as e:
                 # that body alone is left massless (pinocchio would keep it); the rest of the robot keeps its dynamics
-                warnings.warn(f"{ch.path}: the <inertial> of link{'s' if len(links) > 1 else ''} {', '.join(map(repr, links))} (the body moved by joint "
-                              f"{ch.names[i]!r}) is not physical ({e}); that body is loaded without mass, the others keep theirs", DenavitWarning, stacklevel=3)
+                warnings.warn(
+                    f"{ch.path}: the <inertial> of link{'s' if len(links) > 1 else ''} {', '.join(map(repr, links))} (the body moved by joint "
+                    f"{ch.names[i]!r}) is not physical ({e}); that body is loaded without mass, the others keep theirs",
+                    DenavitWarning,
+                    stacklevel=3,
+                )
                 masses[i], coms[i], inertias[i] = 0.0, 0.0, 0.0
-        massless = [ld["name"] for ld in lds if "inertial" in ld and ld["inertial"]["mass"] == 0.0 and np.any(np.asarray(ld["inertial"]["inertia"]) != 0)]
+        massless = [
+            ld["name"]
+            for ld in lds
+            if "inertial" in ld and ld["inertial"]["mass"] == 0.0 and np.any(np.asarray(ld["inertial"]["inertia"]) != 0)
+        ]
         if massless:
-            warnings.warn(f"{ch.path}: link{'s' if len(massless) > 1 else ''} {', '.join(map(repr, massless))} give{'' if len(massless) > 1 else 's'} an <inertia> "
-                          "but <mass value=\"0\"/>: the inertia of a massless link is left out", DenavitWarning, stacklevel=3)
+            warnings.warn(
+                f"{ch.path}: link{'s' if len(massless) > 1 else ''} {', '.join(map(repr, massless))} give{'' if len(massless) > 1 else 's'} an <inertia> "
+                'but <mass value="0"/>: the inertia of a massless link is left out',
+                DenavitWarning,
+                stacklevel=3,
+            )
     return (masses, coms, inertias) if masses.any() else None
 
 
-def urdf_table(path: str | os.PathLike, convention: str, *, base_link: str | None = None, tip_link: str | None = None, **options) -> _core.Extraction:
+def urdf_table(
+    path: str | os.PathLike, convention: str, *, base_link: str | None = None, tip_link: str | None = None, **options
+) -> _core.Extraction:
     """A URDF chain's parameters in ``convention`` (dh, mdh, edh, poe) through the core's line geometry.
 
     The :class:`~denavit.Extraction` carries the per-pair diagnostics (``relation``: parallel,

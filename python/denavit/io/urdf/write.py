@@ -18,9 +18,6 @@ if TYPE_CHECKING:
     pass
 
 
-
-
-
 # --------------------------------------------------------------------------------------------------
 # writing
 
@@ -65,7 +62,11 @@ def _origin_of(el) -> np.ndarray:
 
 def _axis_of(el) -> np.ndarray:
     ax = el.find("axis")
-    a = np.array([float(v) for v in ax.get("xyz").replace(",", " ").split()]) if ax is not None and ax.get("xyz") else np.array([1.0, 0.0, 0.0])
+    a = (
+        np.array([float(v) for v in ax.get("xyz").replace(",", " ").split()])
+        if ax is not None and ax.get("xyz")
+        else np.array([1.0, 0.0, 0.0])
+    )
     return a / np.linalg.norm(a)
 
 
@@ -75,12 +76,26 @@ def _inertial(parent, T, mass: float, I) -> None:
     ie = etree.SubElement(parent, "inertial")
     _set_origin(ie, T)
     etree.SubElement(ie, "mass", value=_num(mass))
-    etree.SubElement(ie, "inertia", ixx=_num(I[0, 0]), ixy=_num(I[0, 1]), ixz=_num(I[0, 2]), iyy=_num(I[1, 1]), iyz=_num(I[1, 2]), izz=_num(I[2, 2]))
+    etree.SubElement(
+        ie,
+        "inertia",
+        ixx=_num(I[0, 0]),
+        ixy=_num(I[0, 1]),
+        ixz=_num(I[0, 2]),
+        iyy=_num(I[1, 1]),
+        iyz=_num(I[1, 2]),
+        izz=_num(I[2, 2]),
+    )
 
 
 def _matches(info: dict | None, model: _core.Model) -> bool:
     try:
-        return info is not None and "xml" in info and len(info["joints"]) == model.nq and len(info["bodies"]) == model.nq + 1
+        return (
+            info is not None
+            and "xml" in info
+            and len(info["joints"]) == model.nq
+            and len(info["bodies"]) == model.nq + 1
+        )
     except (KeyError, TypeError):
         return False
 
@@ -127,7 +142,9 @@ def _register_lines(Fn: np.ndarray, Fi: np.ndarray, kinds, tool_n: np.ndarray, t
         if np.linalg.norm(step) < 1e-15:
             break
     J, _ = lines(R, t)
-    _, sv, V = np.linalg.svd(J, full_matrices=False)  # (the thin SVD: the full one's U is 6n x 6n, 29 GB at 10^4 joints)
+    _, sv, V = np.linalg.svd(
+        J, full_matrices=False
+    )  # (the thin SVD: the full one's U is 6n x 6n, 29 GB at 10^4 joints)
     N = V[np.concatenate([sv, np.zeros(6 - len(sv))]) <= 1e-9 * sv[0]].T  # (6, k): the motions the lines leave free
     if N.size:
         for _ in range(30):
@@ -147,8 +164,12 @@ def _body_maps(info: dict, model: _core.Model, frames: np.ndarray) -> list[np.nd
     docstring, "Identified robots": the nominal axis lines are registered onto the model's
     (:func:`_register_lines`), and each body is anchored on the axis it turns about (the base on the first)."""
     n = model.nq
-    Fn = np.array([np.asarray(info["bodies"][i + 1]["links"][0]["T_world_link"], dtype=float) @ pose(z_to(j["axis"]))
-                   for i, j in enumerate(info["joints"])])
+    Fn = np.array(
+        [
+            np.asarray(info["bodies"][i + 1]["links"][0]["T_world_link"], dtype=float) @ pose(z_to(j["axis"]))
+            for i, j in enumerate(info["joints"])
+        ]
+    )
     tool_n = np.asarray(info["bodies"][n]["links"][-1]["T_world_link"], dtype=float)  # the tip link
     X = _register_lines(Fn, frames, list(model.kinds), tool_n, frames[n - 1] @ np.asarray(model.T_last_tool))
     out = []
@@ -189,7 +210,9 @@ def _dumps_tree(model: _core.Model, info: dict) -> str:
     from lxml import etree  # noqa: PLC0415
 
     n = model.nq
-    root = etree.fromstring(info["xml"].encode("utf-8"), etree.XMLParser(remove_blank_text=True, resolve_entities=False, recover=True))
+    root = etree.fromstring(
+        info["xml"].encode("utf-8"), etree.XMLParser(remove_blank_text=True, resolve_entities=False, recover=True)
+    )
     joints = {el.get("name"): el for el in root if el.tag == "joint"}
     by_child = {el.find("child").get("link"): el for el in joints.values()}
     path = list(info["path_links"])
@@ -215,12 +238,19 @@ def _dumps_tree(model: _core.Model, info: dict) -> str:
             ax.set("xyz", _nums(a))
         lim = el.find("limit")
         for attr, v in (("lower", model.lower[i]), ("upper", model.upper[i])):
-            if lim is not None and math.isfinite(v) and lim.get(attr) is not None and abs(float(lim.get(attr)) - v) > SAME:
+            if (
+                lim is not None
+                and math.isfinite(v)
+                and lim.get(attr) is not None
+                and abs(float(lim.get(attr)) - v) > SAME
+            ):
                 lim.set(attr, _num(v))
     if info.get("chain_only"):
         keep = set(path)
         for el in list(root):
-            if (el.tag == "link" and el.get("name") not in keep) or (el.tag == "joint" and el.find("child").get("link") not in keep):
+            if (el.tag == "link" and el.get("name") not in keep) or (
+                el.tag == "joint" and el.find("child").get("link") not in keep
+            ):
                 root.remove(el)
             elif el.tag == "joint" and el.find("child").get("link") == path[0]:
                 root.remove(el)  # the joint above the base link
@@ -240,7 +270,10 @@ def _dumps_tree(model: _core.Model, info: dict) -> str:
         tool = _unique("tcp", links)
         root.append(etree.Element("link", name=tool))
         _add_fixed(root, _unique(f"{tip}-{tool}", names), tip, tool, inverse(L[tip]) @ T_tool)
-    _comment(root, "the links and joints of the URDF read (docs/urdf.md); only the chain's joint origins, axes and limits follow the model")
+    _comment(
+        root,
+        "the links and joints of the URDF read (docs/urdf.md); only the chain's joint origins, axes and limits follow the model",
+    )
     return etree.tostring(root, pretty_print=True, xml_declaration=True, encoding="UTF-8").decode("utf-8")
 
 
@@ -265,7 +298,9 @@ def _dumps_model(model: _core.Model, name: str) -> str:
     link_el = {el.get("name"): el for el in root}
     ins = model.inertias
     for i in range(n):  # the model's own link inertias (link i = joint frame i, about the centre of mass)
-        if ins["masses"][i] > 0.0 or np.any(ins["inertias"][i] != 0):  # an inertia without mass too (the Puma 560's link 1)
+        if ins["masses"][i] > 0.0 or np.any(
+            ins["inertias"][i] != 0
+        ):  # an inertia without mass too (the Puma 560's link 1)
             _inertial(link_el[body[i + 1]], pose(None, ins["coms"][i]), float(ins["masses"][i]), ins["inertias"][i])
     if world:
         _add_fixed(root, _unique(f"{world}-{body[0]}", joint_names), world, body[0], B)
@@ -288,8 +323,11 @@ def _dumps_model(model: _core.Model, name: str) -> str:
             etree.SubElement(je, "limit", lower=_num(lo), upper=_num(hi), effort="0", velocity="0")
     _add_fixed(root, _unique(f"{body[n]}-{flange}", joint_names), body[n], flange, model.T_last_flange)
     _add_fixed(root, _unique(f"{flange}-{tool}", joint_names), flange, tool, model.T_flange_tool)
-    _comment(root, "link i is the model's joint frame i (docs/urdf.md): every joint moves about the z axis of its link, joint values equal "
-                   "the model's q; effort and velocity limits unknown (0, urdfdom's unset value)")
+    _comment(
+        root,
+        "link i is the model's joint frame i (docs/urdf.md): every joint moves about the z axis of its link, joint values equal "
+        "the model's q; effort and velocity limits unknown (0, urdfdom's unset value)",
+    )
     return etree.tostring(root, pretty_print=True, xml_declaration=True, encoding="UTF-8").decode("utf-8")
 
 
