@@ -61,7 +61,21 @@
 //! converging to a branch outside the limits) or stalled at the stretched elbow (UR5, TianSui); one attempt on
 //! random reachable targets (benchmarks/bench_kinematics.py --ik-one-attempt), Newton / LM: KR5 92.2 / 65.8 ->
 //! 100 / 100 %, UR5 91.6 / 91.4 -> 100 / 100 %, Puma 560 81.8 / 82.4 -> 100 / 100 %, TianSui 87.0 / 90.2 ->
-//! 100 / 100 %. Other chains (7 joints, prismatic joints, other geometries) are solved as before.
+//! 100 / 100 %.
+//!
+//! **Semi-analytic seeds of 7R arms.** A 7R chain whose axes 1, 2, 3 meet in one point and axes 5, 6 in another
+//! (the Franka Emika Panda, the UFactory xArm7, the KUKA LBR iiwa; `redundant` module) is parametrised by q7, as
+//! analytic Panda solvers do: q7 is sampled from `q0_7` outwards (1.6 rad apart, within its limits with
+//! `respect_limits`, else within ±π of `q0_7`), the 6R left by each sample is solved in closed form (up to 8
+//! branches by subproblems SP3, SP4, SP1) and the branches are tried nearest to `q0` first, best-first over the
+//! samples, checked by FK and polished by Newton as the 6R seeds are, within attempt 0's `max_iterations`; when
+//! every branch of the samples fails (none within the limits, or a target whose q7 must lie in a narrow
+//! interval), the samples halfway between them are solved, down to 0.1 rad apart. One attempt from q0 = 0.3 rad
+//! (clipped into the limits) on 1,000 random reachable targets, Newton / LM, before -> after (a core here, mean
+//! per solve): Panda within its limits 87.2 / 60.2 % (10 / 24 us) -> 99.8 / 100 % (2.2 us), without limits 97.6 /
+//! 85.1 % -> 100 / 100 % (2 us); iiwa 14 within its limits 93.7 / 99.1 % -> 100 / 100 % (2.7 us), without limits
+//! 100 / 100 % (5 us) -> 100 / 100 % (2.5 us). Other chains (prismatic joints, other geometries) are solved as
+//! before.
 //!
 //! **Restarts** are deterministic: attempt 0 starts from `q0`, attempt k >= 1 from a configuration drawn
 //! uniformly within the limits (intersected with [-π, π] for revolute and [-1, 1] m for prismatic joints)
