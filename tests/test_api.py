@@ -380,3 +380,24 @@ def test_an_edh_save_that_drops_a_tilt_does_not_claim_exactness(tmp_path):
     dh = dv.identify(s, nominal="kr5", convention="dh")
     assert not any("ED-H is exact" in n for n in dh.notes), dh.notes
     assert any("POE is exact; ED-H carries" in n for n in dh.notes), dh.notes
+
+
+def test_simulate_poses_with_the_default_tool_point_and_none():
+    """dv.simulate(measure="pose") with its default tool point had failed ("invalid T_flange_tool: expected (4, 4),
+    got (3,)") and tool_point=None had let a numpy error escape (issue 40): a point is a frame there with the
+    flange's axes, None is the flange; the positions equal FK's."""
+    m = dv.load_model("kr5")
+    q = np.random.default_rng(1).uniform(-1, 1, (4, 6))
+    p = dv.simulate("kr5", q=q, measure="pose").poses
+    T = dv.fk_batch(m, q)
+    np.testing.assert_allclose(p[:, :3, 3], T[:, :3, :3] @ np.array([0.05, 0.03, 0.10]) + T[:, :3, 3], atol=1e-15)
+    np.testing.assert_allclose(p[:, :3, :3], T[:, :3, :3], atol=1e-15)
+    np.testing.assert_allclose(dv.simulate("kr5", q=q, measure="pose", tool_point=None).poses, T, atol=1e-15)
+    np.testing.assert_allclose(dv.simulate("kr5", q=q, tool_point=None).points, T[:, :3, 3], atol=1e-15)
+    with pytest.raises(
+        dv.DenavitError,
+        match=r"^simulate: tool: expected a point \(3,\) in the flange frame, a pose \(4, 4\) or None, got shape \(2,\)$",
+    ):
+        dv.simulate("kr5", q=q, tool_point=[1, 2])
+    with pytest.raises(dv.DenavitError, match=r"^simulate: measure: expected 'point' or 'pose', got 'xyz'$"):
+        dv.simulate("kr5", q=q, measure="xyz")
