@@ -670,3 +670,19 @@ fn identified_7r_arms_solve_from_seeds_and_polish() {
         assert!(quick >= 180, "identified {}: {quick}/200 solved within 10 evaluations", m.name());
     }
 }
+
+/// A target out of the 7R arms' reach: no seed, and one attempt reports failure with the measured residual
+/// within its budget.
+#[test]
+fn unreachable_targets_fail_honestly_on_7r_arms() {
+    for m in [panda(), iiwa14()] {
+        for respect_limits in [false, true] {
+            let opts = IkOptions { method: IkMethod::Newton, restarts: 0, respect_limits, ..Default::default() };
+            let t = trans(2.0, 0.5, 0.4);
+            let r = ik(&m, &t, &[0.3, 0.3, 0.3, -0.3, 0.3, 0.3, 0.3], &opts).unwrap();
+            let (p, a) = pose_error(&tool_pose(&m, &r.q).unwrap(), &t);
+            assert!(!r.success && r.position_error == p && r.rotation_error == a && p > 0.5, "{} {r:?}", m.name());
+            assert!(r.iterations <= 100);
+        }
+    }
+}
