@@ -27,6 +27,9 @@ from .errors import DenavitError
 from .fitting.checks import robot_size
 from .robot import Robot, joint_values, readings
 
+#: The largest joint change (rad; m for a prismatic joint) that keeps a row's branch (5.7 deg), the CLI's default too.
+BRANCH_TOL = 0.1
+
 
 @dataclass(frozen=True)
 class Compensation:
@@ -136,7 +139,7 @@ def compensate(
     path: bool = False,
     result=None,
     predict: bool = True,
-    branch_tol: float = 0.1,
+    branch_tol: float = BRANCH_TOL,
     payload=None,
     **ik_options,
 ) -> Compensation:
@@ -163,7 +166,7 @@ def compensate(
     predict : bool
         False: no ``predicted_after`` (its central differences cost more than the solves).
     branch_tol : float
-        Largest joint change (rad / m) from the nominal solution that keeps its branch.
+        Largest joint change (rad / m) from the nominal solution that keeps its branch (default 0.1 rad, as the CLI's).
     payload : float, (mass, (x, y, z)) or (N, 4), optional
         The payload of each row (kg; its centre of mass in the flange frame, m) when ``identified`` has compliant
         joints (a robot file's ``[compliance]``, a calibration that freed them: :mod:`denavit.calibration.compliance`):

@@ -65,7 +65,7 @@ def compensate(
         float | None,
         typer.Option(
             "--branch-tol",
-            help="Largest joint change from the program's solution that keeps its branch, in --angle (revolute) units (default 5 deg whatever the unit).",
+            help="Largest joint change from the program's solution that keeps its branch, in --angle (revolute) units (default 0.1 rad = 5.7 deg whatever the unit, as in Python).",
         ),
     ] = None,
     length: LengthOpt = "mm",
@@ -152,7 +152,7 @@ def compensate(
             id_robot,
             output,
             q0v,
-            positive(branch_tol, "--branch-tol", angle_scale(angle), np.radians(5.0), angle),
+            positive(branch_tol, "--branch-tol", angle_scale(angle), cp.BRANCH_TOL, angle),
             json_out,
             length,
             _frames(frame or [], fmt),
@@ -196,7 +196,7 @@ def compensate(
             q_nominal=prog.q,
             q0=q0v,
             path=path,
-            branch_tol=positive(branch_tol, "--branch-tol", angle_scale(angle), np.radians(5.0), angle),
+            branch_tol=positive(branch_tol, "--branch-tol", angle_scale(angle), cp.BRANCH_TOL, angle),
             payload=pl,
         )
     for n in c.notes:
