@@ -3,6 +3,7 @@
 import json
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -342,3 +343,31 @@ def test_convert_writes_the_json_beside_the_robot_file(tmp_path):
     back = dv.load_robot(out)
     assert doc["convention"] == "mdh" and len(doc["rows"]) == 6
     np.testing.assert_allclose([r["a"] for r in doc["rows"]], np.asarray(back.table.params)[:, 1], atol=1e-9)
+
+
+def test_a_missing_plot_extra_is_refused_before_any_work_with_a_command_that_works(tmp_path):
+    """`identify --example kr5 --report x.html` without plotly had run the whole fit, then exited 2 advising
+    `pip install 'denavit[plot]'`, which fails for a source install (issue 40): now it stops before reading anything,
+    naming the option, the module and the pip command for this installation (a local folder: that folder)."""
+    from denavit.plotting import install_hint
+
+    code = (
+        "import sys, importlib.abc\n"
+        "class Hide(importlib.abc.MetaPathFinder):\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name.split('.')[0] in ('plotly', 'matplotlib'):\n"
+        "            raise ModuleNotFoundError(name)\n"
+        "sys.meta_path.insert(0, Hide())\n"
+        "from denavit.cli import main\n"
+        f"sys.argv = ['denavit', 'identify', '--example', 'kr5', '--report', {str(tmp_path / 'x.html')!r}, '--plot', {str(tmp_path)!r}]\n"
+        "main()\n"
+    )
+    t0 = time.monotonic()
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=cli_env())
+    assert p.returncode == 2, p.stderr
+    assert time.monotonic() - t0 < 10 and "fitting" not in p.stderr and not (tmp_path / "x.html").exists()
+    line = p.stderr.strip().splitlines()[-1]
+    assert line == f"error: --report needs plotly, --plot needs matplotlib, which is not installed: {install_hint()}", (
+        line
+    )
+    assert "pip install" in line and "[plot]" in line

@@ -190,7 +190,8 @@ def test_model_figures(tmp_path):
 
 def test_missing_matplotlib_names_the_install_command(result, monkeypatch):
     monkeypatch.setitem(sys.modules, "matplotlib.figure", None)
-    with pytest.raises(DenavitError, match=r"matplotlib.*pip install 'denavit\[plot\]'"):
+    # (the command for this installation: a checkout's folder, or 'denavit[plot]' from the package index; issue 40)
+    with pytest.raises(DenavitError, match=r"matplotlib.*" + re.escape(plotting.install_hint())):
         plotting.plot_circles(result)
 
 
@@ -390,3 +391,29 @@ def test_frame_panels_keep_their_axis_labels_inside_the_figure():
                 b,
                 fig.bbox,
             )
+
+
+def test_the_install_hint_is_the_command_for_the_installation_at_hand(monkeypatch):
+    """PEP 610: a checkout installed with pip (editable or not) records its folder in direct_url.json; the advice
+    installs the extra from that folder. From the package index there is no folder: 'denavit[plot]' (issue 40)."""
+    from importlib import metadata
+
+    class Dist:
+        def __init__(self, text):
+            self.text = text
+
+        def read_text(self, name):
+            assert name == "direct_url.json"
+            return self.text
+
+    for text, want in [
+        (
+            '{"url": "file:///home/me/denavit", "dir_info": {"editable": true}}',
+            'pip install -e "/home/me/denavit[plot]"',
+        ),
+        ('{"url": "file:///srv/a%20b", "dir_info": {}}', 'pip install "/srv/a b[plot]"'),
+        (None, "pip install 'denavit[plot]'"),
+        ('{"url": "https://files.example/denavit-0.1.0.tar.gz", "archive_info": {}}', "pip install 'denavit[plot]'"),
+    ]:
+        monkeypatch.setattr(metadata, "distribution", lambda _name, t=text: Dist(t))
+        assert plotting.install_hint() == f"install the plot extra: {want}"

@@ -40,7 +40,26 @@ if TYPE_CHECKING:  # pragma: no cover
 
     from .identification import Identification
 
-INSTALL_HINT = "install the plotting extra: pip install 'denavit[plot]'"
+
+def install_hint(extra: str = "plot") -> str:
+    """The command that installs an optional extra for the installation at hand (issue 40): from a checkout (the
+    package's PEP 610 ``direct_url.json`` names a local folder), ``pip install "FOLDER[plot]"`` (``-e`` when it is an
+    editable install); from the package index, ``pip install 'denavit[plot]'``."""
+    import json  # noqa: PLC0415
+    from importlib import metadata  # noqa: PLC0415
+    from urllib.parse import unquote, urlparse  # noqa: PLC0415
+
+    try:
+        text = metadata.distribution("denavit").read_text("direct_url.json")
+        info = json.loads(text) if text else {}
+    except (metadata.PackageNotFoundError, ValueError, OSError):
+        info = {}
+    url = urlparse(str(info.get("url", "")))
+    if url.scheme == "file":
+        editable = bool(info.get("dir_info", {}).get("editable", False))
+        return f'install the {extra} extra: pip install {"-e " if editable else ""}"{unquote(url.path)}[{extra}]"'
+    return f"install the {extra} extra: pip install 'denavit[{extra}]'"
+
 
 #: Colours of the frame axes x, y, z (the usual red, green, blue).
 AXIS_COLOURS = ("#d62728", "#2ca02c", "#1f77b4")
@@ -250,7 +269,7 @@ def _figure(**kw) -> Figure:
         from matplotlib.figure import Figure  # noqa: PLC0415
         from mpl_toolkits.mplot3d import Axes3D  # noqa: F401, PLC0415  (registers projection="3d")
     except ImportError as e:
-        raise DenavitError(f"the figures need matplotlib, which is not installed ({e}): {INSTALL_HINT}") from None
+        raise DenavitError(f"the figures need matplotlib, which is not installed ({e}): {install_hint()}") from None
     return Figure(**kw)
 
 
@@ -717,7 +736,7 @@ def _accuracy(result: Identification):
 
 
 __all__ = [
-    "INSTALL_HINT",
+    "install_hint",
     "box_edges",
     "circle_points",
     "figures_for",

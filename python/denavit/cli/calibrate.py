@@ -28,6 +28,7 @@ from .common import (
     num,
     parse_point,
     print_rows,
+    require_plot_extra,
     say,
     spread,
     status,
@@ -178,6 +179,7 @@ def calibrate(
     ] = None,
 ) -> None:
     """Calibrate the whole model from measured points or poses at known joint readings (one least-squares fit)."""
+    require_plot_extra(report=report)  # before any work: the plot extra's modules
     import numpy as np  # noqa: PLC0415
 
     from .. import calibration as cal  # noqa: PLC0415

@@ -884,3 +884,25 @@ def convention_name(name: str) -> str:
     from .. import _core  # noqa: PLC0415
 
     return _core.convention_info(name)["name"]
+
+
+def require_plot_extra(report=None, plot=None) -> None:
+    """Before any work: ``--report`` needs plotly and ``--plot`` matplotlib (the ``plot`` extra); a missing one is a
+    one-line error with the command that installs it for this installation (:func:`denavit.plotting.install_hint`),
+    not a failure after the fit (issue 40)."""
+    import importlib.util  # noqa: PLC0415
+
+    need = [(opt, mod) for opt, given, mod in (("--report", report, "plotly"), ("--plot", plot, "matplotlib")) if given]
+
+    def absent(mod: str) -> bool:
+        try:
+            return importlib.util.find_spec(mod) is None
+        except (ImportError, ValueError):  # a broken or blocked installation is no installation
+            return True
+
+    missing = [(opt, mod) for opt, mod in need if absent(mod)]
+    if missing:
+        from ..plotting import install_hint  # noqa: PLC0415
+
+        what = ", ".join(f"{opt} needs {mod}" for opt, mod in missing)
+        raise DenavitError(f"{what}, which is not installed: {install_hint()}")

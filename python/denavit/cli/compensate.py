@@ -25,6 +25,7 @@ from .common import (
     load_robot,
     parse_joint_values,
     positive,
+    require_plot_extra,
     say,
     spread,
     status,
@@ -104,6 +105,7 @@ def compensate(
     identified robot (on the program's branch) and the pose T' = FK_nominal(q) to send to a controller that keeps
     its nominal model. Flagged rows (unreachable, branch changed, path jump) are marked, never silently kept;
     exit code 1 when any row is flagged."""
+    require_plot_extra(report=report)  # before any work: the plot extra's modules
     import numpy as np  # noqa: PLC0415
 
     from .. import _core  # noqa: PLC0415

@@ -27,6 +27,7 @@ from .common import (
     parse_pose,
     positive,
     print_rows,
+    require_plot_extra,
     say,
     spread,
     status,
@@ -225,6 +226,7 @@ def identify(
     tip_link: TipLinkOpt = None,
 ) -> None:
     """Identify the joint axes and parameters from joint sweeps (Hayat et al.), beside the nominal values."""
+    require_plot_extra(report=report, plot=plot)  # before any work: the plot extra's modules
     from ..api import input_path, is_sweep_file  # noqa: PLC0415
     from ..identification import identify as identify_sweeps  # noqa: PLC0415
     from ..identification import to_json  # noqa: PLC0415

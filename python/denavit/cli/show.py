@@ -25,6 +25,7 @@ from .common import (
     parse_joint_values,
     print_rows,
     print_table,
+    require_plot_extra,
     say,
     status,
     table_rows,
@@ -136,6 +137,7 @@ def show(
     tip_link: TipLinkOpt = None,
 ) -> None:
     """Print a robot file's table as read (with units); optionally draw its frames beside another convention's."""
+    require_plot_extra(report=report, plot=plot)  # before any work: the plot extra's modules
     json_out = json_target(json_out)
     for given, flag in ((compare, "--compare"), (q, "--q")):
         if given is not None and not (report or plot):

@@ -23,6 +23,7 @@ from .common import (
     parse_point,
     positive,
     print_rows,
+    require_plot_extra,
     say,
     spread,
     status,
@@ -106,6 +107,7 @@ def validate(
     """Score a saved model on another measurement session: per-pose tool-position errors, RMS, max and percentiles,
     extrapolation flags (outside the training joint ranges, large predicted sigma), ISO 9283 pose accuracy and
     repeatability of repeated poses."""
+    require_plot_extra(report=report, plot=plot)  # before any work: the plot extra's modules
     import numpy as np  # noqa: PLC0415
 
     from ..api import _measurements  # noqa: PLC0415

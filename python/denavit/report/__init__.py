@@ -25,7 +25,8 @@ table's display unit, so that the report can be read by programs as well as peop
 
 Files are written whole or not at all (:func:`denavit.io.output.write_text`). plotly and matplotlib are the
 optional ``plot`` extra; a missing one raises :class:`~denavit.errors.DenavitError` naming
-``pip install 'denavit[plot]'``.
+the command for the installation at hand
+(:func:`denavit.plotting.install_hint`).
 
 Units: lengths in ``length`` (default mm, as in Hayat et al.), angles in ``angle`` (default deg), SI inside."""
 

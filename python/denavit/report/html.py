@@ -19,10 +19,10 @@ from ..io.output import atomic_path
 from ..io.units import angle_scale, cell_scale, column_scale, length_scale
 from ..plotting import (
     AXIS_COLOURS,
-    INSTALL_HINT,
     chain_path,
     frame_labels,
     frames_along,
+    install_hint,
     scene_view,
     triad_lengths,
 )
@@ -66,7 +66,7 @@ def _plotly():
         import plotly.graph_objects as go  # noqa: PLC0415
         from plotly.subplots import make_subplots  # noqa: PLC0415
     except ImportError as e:
-        raise DenavitError(f"the HTML report needs plotly, which is not installed ({e}): {INSTALL_HINT}") from None
+        raise DenavitError(f"the HTML report needs plotly, which is not installed ({e}): {install_hint()}") from None
     return go, make_subplots
 
 
