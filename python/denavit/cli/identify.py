@@ -441,11 +441,12 @@ def read_recording_sweeps(
 
     fmt_ = "auto" if data_format in ("auto", "sweeps") else data_format
     kinds = list(nominal.table.kinds) if nominal else None
-    rec = read_recording(data, fmt_, columns=columns, length=length, angle=angle, sweep=sweep, kinds=kinds)
+    # an angle the file does not declare is --angle's, deg by default (as for sweep files); a length must be given
+    rec = read_recording(data, fmt_, columns=columns, length=length, angle=angle or "deg", sweep=sweep, kinds=kinds)
     for note in rec.notes:
         say("dim", "note:", f" {note}")
     if readings is not None:
-        other = read_recording(readings, "auto", columns=columns, length=length, angle=angle, kinds=kinds)
+        other = read_recording(readings, "auto", columns=columns, length=length, angle=angle or "deg", kinds=kinds)
         rec, al = align(rec, other)
         say("dim", "clocks:", f" {al}")
     seg = segment(rec)

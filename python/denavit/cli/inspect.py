@@ -47,6 +47,7 @@ def inspect(
     from ..io.recordings import read_recording  # noqa: PLC0415
     from ..recording import segment  # noqa: PLC0415
 
-    rec = read_recording(recording, data_format, columns=columns, length=length, angle=angle, sweep=sweep)
+    # as identify reads it: an angle the file does not declare is --angle's, deg by default (docs/cli.md)
+    rec = read_recording(recording, data_format, columns=columns, length=length, angle=angle or "deg", sweep=sweep)
     console.print(rec.describe(), soft_wrap=True)
     console.print(segment(rec).table(angle or "deg"), soft_wrap=True)

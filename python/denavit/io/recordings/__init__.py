@@ -8,6 +8,7 @@ One module per format: :mod:`.tracker`, :mod:`.rtde`, :mod:`.rsi`, :mod:`.bag`, 
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 
 from ...errors import DenavitError
@@ -40,7 +41,17 @@ def detect(path: str | os.PathLike, *, columns: str | None = None) -> tuple[str,
     data = read_bytes(p, "recording", lines=True)
     text = decode(data, str(p))
     lines = data_lines(text)
-    header = lines[0][1] if lines else ""
+    if not lines:
+        raise DenavitError(
+            f"{p}: an empty file (no data lines): expected a recording (a tracker export, a UR RTDE log, a KUKA RSI log, "
+            "a ROS bag, or a delimited file with --columns)"
+        )
+    header = lines[0][1]
+    if re.search(r"(^|[\s,;])joint([\s,;]|$)", header.strip().lower()) and not columns:
+        raise DenavitError(
+            f"{p}: a sweep file (denavit's long-form CSV with a 'joint' column, as `denavit simulate` writes), not a "
+            f"recording: `denavit identify {p} --nominal MODEL` reads it as it is"
+        )
     if is_rtde(header):
         return "rtde", "header 'timestamp actual_q_0 ...' (UR RTDE)"
     if is_rsi(text):
