@@ -38,6 +38,7 @@ except ImportError:  # optional
 
 # --- helpers ----------------------------------------------------------------------------------------------
 
+
 def pose_error(A, B):
     """Position (m) and rotation angle (rad) between two poses."""
     dp = np.linalg.norm(A[:3, 3] - B[:3, 3])
@@ -79,10 +80,14 @@ def rz(t):
 
 def guo_targets():
     """Guo et al. sec. V: 0T (4 decimals, re-orthonormalised), then 100 targets along base +Z in 1 mm steps."""
-    T0 = np.array([[-0.7598, 0.4151, 0.5004, -0.3655],
-                   [-0.4391, 0.2399, -0.8658, -0.3712],
-                   [-0.4794, -0.8776, 0.0000, -0.0245],
-                   [0, 0, 0, 1.0]])
+    T0 = np.array(
+        [
+            [-0.7598, 0.4151, 0.5004, -0.3655],
+            [-0.4391, 0.2399, -0.8658, -0.3712],
+            [-0.4794, -0.8776, 0.0000, -0.0245],
+            [0, 0, 0, 1.0],
+        ]
+    )
     U, _, Vt = np.linalg.svd(T0[:3, :3])
     T0[:3, :3] = U @ Vt
     targets = np.repeat(T0[None], 100, axis=0)
@@ -91,6 +96,7 @@ def guo_targets():
 
 
 # --- the same chain in the other libraries ------------------------------------------------------------------
+
 
 def rtb_robot(model):
     assert np.allclose(model.T_world_base, np.eye(4)) and np.allclose(model.T_flange_tool, np.eye(4))
@@ -173,18 +179,21 @@ def iiwa14():
     """The KUKA LBR iiwa 14 R820, a second 7R arm (standard DH: d = 0.36, 0, 0.42, 0, 0.4, 0, 0.126 m, a = 0,
     alpha = -90, 90, 90, -90, -90, 90, 0 deg; limits +-170, 120, 170, 120, 170, 120, 175 deg): joint i's placement
     is link i-1's DH transform Tz(d) Rx(alpha), the last one's the flange."""
+
     def dh(d, alpha):
         c, s = np.cos(alpha), np.sin(alpha)
         T = np.eye(4)
         T[1:3, 1:3] = [[c, -s], [s, c]]
         T[2, 3] = d
         return T
+
     d = (0.36, 0.0, 0.42, 0.0, 0.4, 0.0, 0.126)
     alpha = np.radians([-90, 90, 90, -90, -90, 90, 0])
     placements = np.array([np.eye(4)] + [dh(d[i], alpha[i]) for i in range(6)])
     lim = np.radians([170, 120, 170, 120, 170, 120, 175])
-    return dv.Model.from_placements(placements, ["revolute"] * 7, lower=-lim, upper=lim, T_last_flange=dh(d[6], alpha[6]),
-                                    name="iiwa14")
+    return dv.Model.from_placements(
+        placements, ["revolute"] * 7, lower=-lim, upper=lim, T_last_flange=dh(d[6], alpha[6]), name="iiwa14"
+    )
 
 
 def ik_one_attempt(models, n, have_rtb, have_pin, tol=1e-9, respect_limits=True):
@@ -220,7 +229,16 @@ def ik_one_attempt(models, n, have_rtb, have_pin, tol=1e-9, respect_limits=True)
             times, results = [], []
             for T in Ts:
                 t = time.perf_counter()
-                r = dv.ik(m, T, q0, method=method, restarts=0, tol_position=tol, tol_rotation=tol, respect_limits=respect_limits)
+                r = dv.ik(
+                    m,
+                    T,
+                    q0,
+                    method=method,
+                    restarts=0,
+                    tol_position=tol,
+                    tol_rotation=tol,
+                    respect_limits=respect_limits,
+                )
                 times.append(time.perf_counter() - t)
                 results.append(r)
             ok = sum(judge(r.q, T) and r.success for r, T in zip(results, Ts))
@@ -228,22 +246,44 @@ def ik_one_attempt(models, n, have_rtb, have_pin, tol=1e-9, respect_limits=True)
             between = []
             for T in Ts:
                 t = time.perf_counter()
-                r = dv.ik(m, T, q0, method=method, restarts=0, tol_position=tol, tol_rotation=tol, respect_limits=respect_limits)
+                r = dv.ik(
+                    m,
+                    T,
+                    q0,
+                    method=method,
+                    restarts=0,
+                    tol_position=tol,
+                    tol_rotation=tol,
+                    respect_limits=respect_limits,
+                )
                 between.append(time.perf_counter() - t)
                 judge(r.q, T)
-            cells.append(f"{100 * ok / n:.1f} %, {np.median(times) * 1e6:.2f} us ({np.median(between) * 1e6:.2f} us between other work)")
+            cells.append(
+                f"{100 * ok / n:.1f} %, {np.median(times) * 1e6:.2f} us ({np.median(between) * 1e6:.2f} us between other work)"
+            )
         for solver in ("ik_NR", "ik_LM") if have_rtb else ():
             robot = rtb_robot_with_limits(m)
-            assert all(np.allclose(robot.fkine(q).A, dv.fk(m, q), atol=1e-12) for q in qs[:5]), f"rtb's {name} is not ours"
-            times, results = timed(Ts, lambda T, robot=robot, solver=solver, q0=q0: getattr(robot, solver)(T, q0=q0, ilimit=100, slimit=1, tol=1e-20, joint_limits=respect_limits))
+            assert all(np.allclose(robot.fkine(q).A, dv.fk(m, q), atol=1e-12) for q in qs[:5]), (
+                f"rtb's {name} is not ours"
+            )
+            times, results = timed(
+                Ts,
+                lambda T, robot=robot, solver=solver, q0=q0: getattr(robot, solver)(
+                    T, q0=q0, ilimit=100, slimit=1, tol=1e-20, joint_limits=respect_limits
+                ),
+            )
             ok = sum(judge(np.asarray(s[0] if isinstance(s, tuple) else s.q), T) for s, T in zip(results, Ts))
             cells.append(f"{100 * ok / n:.1f} %, {np.median(times) * 1e6:.2f} us")
         if have_pin:
             pm, pd, fid = pin_model_with_tool(m)
             k = max(20, n // 5)
-            times, results = timed(Ts[:k], lambda T, pm=pm, pd=pd, fid=fid, q0=q0: pin_ik_frame(pm, pd, fid, T, q0, tol=tol))
+            times, results = timed(
+                Ts[:k], lambda T, pm=pm, pd=pd, fid=fid, q0=q0: pin_ik_frame(pm, pd, fid, T, q0, tol=tol)
+            )
             ok = sum(max(pose_error(dv.fk(m, q), T)) <= tol + 1e-15 for q, T in zip(results, Ts[:k]))
-            cells.append(f"{100 * ok / k:.1f} %, {np.median(times) * 1e6:.2f} us ({k} targets, limits not enforced nor judged)")
+            cells.append(
+                f"{100 * ok / k:.1f} %, {np.median(times) * 1e6:.2f} us ({k} targets, limits not enforced nor judged)"
+            )
         else:
             cells.append("-")
         rows.append((name + ("" if respect_limits else ", no limits"), *cells))
@@ -263,10 +303,18 @@ def timed(targets, solve):
 
 
 def print_one_attempt(rows, have_rtb):
-    print("IK, one attempt (restarts=0, 100 iterations) from q0 = 0.3 rad, random reachable targets, pose error <= 1e-9 "
-          "and within limits (rows 'no limits': limits neither enforced nor judged): success rate, median time per solve, solves back to back, judged afterwards (denavit's: in brackets, "
-          "each solve judged before the next) (target: >= 97 %, <= 5 us, never below rtb)")
-    head = ("robot", "denavit newton", "denavit lm", *(("rtb ik_NR", "rtb ik_LM") if have_rtb else ()), "pinocchio CLIK (Python loop)")
+    print(
+        "IK, one attempt (restarts=0, 100 iterations) from q0 = 0.3 rad, random reachable targets, pose error <= 1e-9 "
+        "and within limits (rows 'no limits': limits neither enforced nor judged): success rate, median time per solve, solves back to back, judged afterwards (denavit's: in brackets, "
+        "each solve judged before the next) (target: >= 97 %, <= 5 us, never below rtb)"
+    )
+    head = (
+        "robot",
+        "denavit newton",
+        "denavit lm",
+        *(("rtb ik_NR", "rtb ik_LM") if have_rtb else ()),
+        "pinocchio CLIK (Python loop)",
+    )
     if not have_rtb:
         print("(roboticstoolbox not installed or --no-compare: no rtb columns)")
     print("| " + " | ".join(head) + " |")
@@ -277,26 +325,35 @@ def print_one_attempt(rows, have_rtb):
 
 # --- the cases ----------------------------------------------------------------------------------------------
 
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer repeats (a smoke run)")
     ap.add_argument("--json", help="also write the figures to this JSON file")
     ap.add_argument("--no-compare", action="store_true", help="denavit only")
     ap.add_argument("--ik-one-attempt", action="store_true", help="only the table of IK with one attempt")
-    ap.add_argument("--ik-targets", type=int, help="targets per robot of the IK one-attempt table (default 500, 100 with --quick)")
+    ap.add_argument(
+        "--ik-targets", type=int, help="targets per robot of the IK one-attempt table (default 500, 100 with --quick)"
+    )
     args = ap.parse_args()
     rep = 5 if args.quick else 21
     have_rtb = rtb is not None and not args.no_compare
     have_pin = pin is not None and not args.no_compare
-    versions = (f"denavit {dv.__version__}" + (f", roboticstoolbox {rtb.__version__}" if have_rtb else "")
-                + (f", pinocchio {pin.__version__}" if have_pin else "") + f"; {os.cpu_count()} cores; medians")
+    versions = (
+        f"denavit {dv.__version__}"
+        + (f", roboticstoolbox {rtb.__version__}" if have_rtb else "")
+        + (f", pinocchio {pin.__version__}" if have_pin else "")
+        + f"; {os.cpu_count()} cores; medians"
+    )
     urdf = os.path.join(os.path.dirname(__file__), "..", "tests", "data", "urdf", "panda_style.urdf")
     arms7 = [("panda_style.urdf (7 joints)", dv.load_model(urdf)), ("iiwa14 (7 joints)", iiwa14())]
     chains = [(n, dv.load_model(n)) for n in ("kr5", "ur5", "puma560", "tiansui_mdh")] + arms7
     n_one = args.ik_targets or (100 if args.quick else 500)
     if args.ik_one_attempt:
         print(versions)
-        one = ik_one_attempt(chains, n_one, have_rtb, have_pin) + ik_one_attempt(arms7, n_one, have_rtb, have_pin, respect_limits=False)
+        one = ik_one_attempt(chains, n_one, have_rtb, have_pin) + ik_one_attempt(
+            arms7, n_one, have_rtb, have_pin, respect_limits=False
+        )
         print_one_attempt(one, have_rtb)
         return
 
@@ -331,6 +388,7 @@ def main():
                         q = s.q
                         sols.append(q)
                     return sols
+
                 sols = rtb_path()
                 worst = max(max(pose_error(dv.fk(m, q), T)) for q, T in zip(sols, targets))
                 t_r = once(rtb_path, max(3, rep // 2))
@@ -345,15 +403,23 @@ def main():
                         q = pin_ik(pm, pd, jid, T, q, tol=1e-10)
                         sols.append(q)
                     return sols
+
                 sols = pin_path()
                 worst = max(max(pose_error(dv.fk(m, q), T)) for q, T in zip(sols, targets))
                 t_p = once(pin_path, max(3, rep // 2))
                 fig["guo_pin"] = t_p
                 p_txt = f"{ms(t_p)} (CLIK loop, worst error {worst:.1e})"
             worst = max(res.position_error.max(), res.rotation_error.max())
-            rows.append((f"Guo trajectory {name}, {method}: 100 warm-started solves, tol 1e-10 "
-                         f"({'all solved' if ok else 'FAILURES'}, worst error {worst:.1e})", ms(t), r_txt, p_txt,
-                         "<= 0.3 ms total (paper 0.456 s MDH / 0.504 s ED-H)"))
+            rows.append(
+                (
+                    f"Guo trajectory {name}, {method}: 100 warm-started solves, tol 1e-10 "
+                    f"({'all solved' if ok else 'FAILURES'}, worst error {worst:.1e})",
+                    ms(t),
+                    r_txt,
+                    p_txt,
+                    "<= 0.3 ms total (paper 0.456 s MDH / 0.504 s ED-H)",
+                )
+            )
 
     # 2. single FK, 3. single Jacobian
     q = np.array([0.3, -0.2, 0.5, 0.1, 0.4, -0.3])
@@ -390,6 +456,7 @@ def main():
             R[:, 2, 2] = R[:, 3, 3] = 1
             T = T @ P[i] @ R
         return T
+
     assert np.allclose(numpy_fk(qs[:10]), dv.fk_batch(mdh, qs[:10]), atol=1e-12)
     t_np = once(lambda: numpy_fk(qs), max(3, rep // 3))
     r_b = "-"
@@ -433,15 +500,29 @@ def main():
             pt.append(time.perf_counter() - t)
             pok += max(pose_error(dv.fk(mdh, qp), T)) <= 1e-9
         p_txt = f"{us(np.median(pt))} median, {100 * pok / len(pt):.1f} % (CLIK, no restarts, {len(pt)} targets)"
-    rows.append((f"IK, {n_ik} random reachable targets from q0 = 0.3 rad, pose error <= 1e-9", d_txt, r_txt, p_txt,
-                 "<= 10 us median, >= 99.9 %"))
+    rows.append(
+        (
+            f"IK, {n_ik} random reachable targets from q0 = 0.3 rad, pose error <= 1e-9",
+            d_txt,
+            r_txt,
+            p_txt,
+            "<= 10 us median, >= 99.9 %",
+        )
+    )
 
     # 6. IK, one attempt
-    one = ik_one_attempt(chains, n_one, have_rtb, have_pin) + ik_one_attempt(arms7, n_one, have_rtb, have_pin, respect_limits=False)
+    one = ik_one_attempt(chains, n_one, have_rtb, have_pin) + ik_one_attempt(
+        arms7, n_one, have_rtb, have_pin, respect_limits=False
+    )
 
     # the tables
-    head = ("case", "denavit", "roboticstoolbox" + ("" if have_rtb else " (not installed)"),
-            "pinocchio" + ("" if have_pin else " (not installed)"), "target")
+    head = (
+        "case",
+        "denavit",
+        "roboticstoolbox" + ("" if have_rtb else " (not installed)"),
+        "pinocchio" + ("" if have_pin else " (not installed)"),
+        "target",
+    )
     print(versions)
     print("| " + " | ".join(head) + " |")
     print("|" + "---|" * len(head))
