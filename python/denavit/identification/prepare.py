@@ -52,7 +52,8 @@ DWELL_SIGMAS = 5.0
 def _dwell_rows(p: np.ndarray, noise: float) -> tuple[int, int]:
     """(rows standing still after the first, rows standing still before the last) of a sweep in time order:
     the run of points within ``DWELL_SIGMAS * noise`` of the running mean of the run (the first and last point
-    of each run are the sweep's real ends and stay)."""
+    of each run are the sweep's real ends and stay), when the sweep's pace would have carried that many rows beyond
+    the tolerance (else the run is motion sampled finer than the noise)."""
     tol = DWELL_SIGMAS * noise
 
     def lead(x):
@@ -67,6 +68,14 @@ def _dwell_rows(p: np.ndarray, noise: float) -> tuple[int, int]:
     a, b = max(a, 0), max(b, 0)
     if a + b >= len(p) - 3:  # nothing moved: not a dwell to trim
         return 0, 0
+    # a run is a stop only if motion at the sweep's pace could not have stayed within the tolerance that long:
+    # densely sampled motion (a controller's 100 Hz-1 kHz) moves less than the noise from one row to the next, and
+    # at constant pace v a run's newest point leads the run's mean by about half the run, k v / 2, so runs of up to
+    # 2 tol / v rows stand "within the tolerance" while the robot moves (issue 40). The pace: the chord per row,
+    # which never exceeds the arc's, so no motion is taken for a stop.
+    pace = float(np.linalg.norm(p[-1] - p[0])) / max(len(p) - 1, 1)
+    a = a if a * pace > 2 * tol else 0
+    b = b if b * pace > 2 * tol else 0
     return a, b
 
 
