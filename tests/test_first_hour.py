@@ -85,3 +85,28 @@ def test_dwell_detection_does_not_fire_on_constant_speed_at_controller_rates():
     # the pace needs to leave the tolerance (5 sigma of the 0.02 mm noise): up to 2 tol / pace
     pace = np.linalg.norm(last.points[-1] - last.points[0]) / (len(last.points) - 1)
     assert 61 - 5 <= found <= 61 + int(np.ceil(2 * 5 * 2e-5 / pace)), (found, notes)
+
+
+def test_robot_files_write_arrays_inline_and_read_back_the_same():
+    """Exported TOML had put each number of `limits` and `home` on its own line (issue 40): arrays of values are one
+    line, a matrix one row a line, and the file reads back to the same robot."""
+    import tomllib
+
+    from denavit.calibration.parametrization import as_robot
+    from denavit.io import robotfile
+
+    r = as_robot("kr5")
+    text = robotfile.dumps(r, "mm", "deg")
+    assert "home = [90.0, -90.0, 90.0, 0.0, 90.0, 0.0]\n" in text and "limits = [-155.0, 155.0]\n" in text
+    doc = tomllib.loads(text)
+    assert doc["home"] == [90.0, -90.0, 90.0, 0.0, 90.0, 0.0] and doc["joints"][0]["limits"] == [-155.0, 155.0]
+    cov = np.diag(np.arange(1.0, 1.0 + 4 * 6 + 3)) * 1e-8  # a table's parameters, then the tool's x, y, z
+    with_cov = type(r)(**{**r.__dict__, "covariance": cov})
+    text = robotfile.dumps(with_cov, "mm", "deg")
+    rows = [ln for ln in text.splitlines() if ln.startswith("    [") and ln.endswith("],")]
+    assert len(rows) == 27 and all(ln.count(",") == 27 for ln in rows)
+    np.testing.assert_allclose(
+        tomllib.loads(text)["covariance"]["matrix"],
+        cov / np.outer(*[robotfile._covariance_scales(r.table, "mm", "deg", False)] * 2),
+        rtol=1e-15,
+    )

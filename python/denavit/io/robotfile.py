@@ -648,7 +648,19 @@ def dumps(robot: Robot, length: str = "m", angle: str = "rad") -> str:
     import tomli_w  # noqa: PLC0415
 
     header = f"# {robot.description or robot.name}\n" + (f"# Source: {robot.source}\n" if robot.source else "")
-    return header + tomli_w.dumps(to_dict(robot, length, angle))
+    return header + _inline_arrays(tomli_w.dumps(to_dict(robot, length, angle)))
+
+
+#: An array tomli_w wrote one item a line, whose items are plain values (no nested array or table).
+_ARRAY_BLOCK = re.compile(r"\[\n((?:[ \t]+[^\[\]{}\n]+,\n)+)[ \t]*\]")
+
+
+def _inline_arrays(text: str) -> str:
+    """tomli_w's arrays, one item a line, written inline (``limits = [-155.0, 155.0]``; issue 40); a matrix keeps a
+    row a line. The same TOML values: only whitespace between the items changes (strings hold no newline here)."""
+    return _ARRAY_BLOCK.sub(
+        lambda m: "[" + ", ".join(x.strip().rstrip(",") for x in m.group(1).splitlines()) + "]", text
+    )
 
 
 def save(robot: Robot, path: str | os.PathLike, length: str = "m", angle: str = "rad", *, force: bool = False) -> None:
