@@ -733,3 +733,20 @@ def test_viewport_check_catches_a_camera_too_close(tab, every_report):
     tab.eval(f"Plotly.relayout('{rep.VIEW_ID}', {{'scene.camera.eye': {{x: 0.5, y: -0.4, z: 0.3}}}}).then(() => true)")
     tab.eval("new Promise(r => setTimeout(() => requestAnimationFrame(() => requestAnimationFrame(r)), 300))")
     assert not inside(projected(tab)["traces"], 0.9)
+
+
+def test_each_choice_of_auto_is_named_once_and_no_notes_is_not_a_warning(report_path, result):
+    """The summary had shown "fit chosen" twice (the fit, then the reading scales) and "Notes: none" as an orange
+    warning bullet (issue 40, item 11)."""
+    text = report_path.read_text(encoding="utf-8")
+    summary = text[text.index('id="summary"') : text.index("</dl>")]
+    assert summary.count("<dt>fit chosen</dt>") == 1
+    assert summary.count("<dt>reading scales</dt>") == sum(
+        "scale error" in n for n in result.notes if n.startswith("auto: ")
+    )
+    import dataclasses
+
+    quiet = dataclasses.replace(result, notes=[])
+    html_text = rep.report_html(quiet)
+    notes = html_text[html_text.index('id="notes-section"') :]
+    assert '<p class="none" id="notes">none</p>' in notes and "<li>" not in notes[: notes.index("</section>")]

@@ -546,7 +546,10 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
         "Orientation of the box: its axes as columns, in the measurement frame.",
         "bounding-box",
     )
-    notes = "".join(f"<li>{html.escape(n)}</li>" for n in doc["notes"]) or "<li>none</li>"
+    items = "".join(f"<li>{html.escape(n)}</li>" for n in doc["notes"])
+    # no notes: a plain "none", not a warning-coloured bullet
+    notes = f'<ul class="notes" id="notes">{items}</ul>' if items else '<p class="none" id="notes">none</p>'
+
     acc_html, acc = _accuracy_section(go, result, length)
     npts = sum(len(s.points) for s in result.sweeps.sweeps)
     summary = _summary(
@@ -557,7 +560,14 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
                 f"{t.convention.upper()} table of {len(names)} joints, {result.method} fit; nominal: "
                 + (result.nominal.name if result.nominal else "none"),
             ),
-            *[("fit chosen", n[len("auto: ") :]) for n in doc["notes"] if n.startswith("auto: ")],
+            # auto's choices, each under its own name (the fit, then the reading scales: "fit chosen" had shown twice)
+            *[
+                (
+                    "reading scales" if "scale error" in n and k else "fit chosen" if not k else "also chosen",
+                    n[len("auto: ") :],
+                )
+                for k, n in enumerate(n for n in doc["notes"] if n.startswith("auto: "))
+            ],
             (
                 "fit",
                 f"residual rms {doc['rms_m'] / ls:.4g} {length}; worst axis sigma across {max(j['axis']['sigma_point_perp_m'] for j in doc['joints']) / ls:.3g} {length}",
@@ -598,7 +608,7 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
             f'<section id="fits"><h2>Joint axes and fits</h2><div class="scroll">{axes_t}</div>{resid}{_pairs_table(result.extraction.pairs, ls, length, angle)}</section>',
             f'<section id="box"><h2>Measuring volume</h2>{box_t}{orient_t}</section>',
             acc_html,
-            f'<section id="notes-section"><h2>Notes</h2><ul class="notes" id="notes">{notes}</ul></section>',
+            f'<section id="notes-section"><h2>Notes</h2>{notes}</section>',
         ]
     )
     return _page(title, meta, summary, body)
