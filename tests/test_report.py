@@ -750,3 +750,16 @@ def test_each_choice_of_auto_is_named_once_and_no_notes_is_not_a_warning(report_
     html_text = rep.report_html(quiet)
     notes = html_text[html_text.index('id="notes-section"') :]
     assert '<p class="none" id="notes">none</p>' in notes and "<li>" not in notes[: notes.index("</section>")]
+
+
+def test_the_compensation_error_figure_has_whole_target_numbers():
+    """A program of a few targets had got x ticks at 1, 1.5, 2 (issue 40, item 11): ticks are whole numbers, one per
+    target up to 20 targets."""
+    from denavit import compensation as cp
+
+    kr5 = dv.load_robot("kr5")
+    q = np.random.default_rng(5).uniform(kr5.lower, kr5.upper, (3, 6)) * 0.5
+    c = cp.compensate(kr5.model(), kr5.model(), dv.fk_batch(kr5.model(), q), q_nominal=q)
+    flat = re.sub(r"\s", "", rep.compensation_report_html(c, kr5, kr5))
+    axis = flat[flat.index('"xaxis":{"title":{"text":"target"}') :][:120]
+    assert '"tickformat":"d"' in axis and '"dtick":1' in axis, axis

@@ -141,7 +141,8 @@ def compensation_report_html(
     efig.update_layout(
         height=320,
         margin={"l": 70, "r": 10, "t": 40, "b": 40},
-        xaxis={"title": {"text": "target"}},
+        # targets are numbered 1, 2, ...: whole-number ticks (a few targets had got ticks at 1, 1.5, 2; issue 40)
+        xaxis={"title": {"text": "target"}, "tickformat": "d", **({"dtick": 1} if n <= 20 else {})},
         yaxis={"title": {"text": f"tool position error [{length}]"}, "exponentformat": "power", "rangemode": "tozero"},
         title={"text": "Position error of every target the robot can be sent", "font": {"size": 14}},
     )
