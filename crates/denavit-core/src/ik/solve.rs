@@ -3,6 +3,13 @@
 use super::*;
 
 /// Iterations after which an LM attempt must have halved its squared error, else it gives way to the next
+/// What trying one seed of attempt 0 gave ([`IkSolver::try_seed`]): met as it is (the measured position and
+/// rotation errors), or polished (whether the polish met the tolerance).
+pub(super) enum Seeded {
+    Met(f64, f64),
+    Polished(bool),
+}
+
 /// restart (never in the last attempt, which uses its whole budget).
 pub(super) const STALL_EVERY: usize = 10;
 
@@ -516,23 +523,14 @@ impl<'m> IkSolver<'m> {
             }
             // an exact seed is checked by the verdict's own measurement (forward kinematics alone, counted as one
             // evaluation), which then stands as the verdict
-            let (pos, rot) = pose_error(&tool_pose_unchecked(self.model, &q), target);
-            if score(pos, rot, &self.opts) <= 1.0 {
-                let mut met = [0.0; 7];
-                met[..6].copy_from_slice(&q);
-                return Some((total + 1, 1.0, Some((met, pos, rot))));
-            }
-            self.workspace();
-            self.q.copy_from_slice(&q);
-            let (it, pos, rot) = self.attempt_newton(target, false, budget);
-            total += it;
-            let s = score(pos, rot, &self.opts);
-            if s < best {
-                best = s;
-                self.q_best.copy_from_slice(&self.q);
-                if s <= 1.0 {
-                    break;
+            match self.try_seed(target, &q, budget, &mut total, &mut best) {
+                Seeded::Met(pos, rot) => {
+                    let mut met = [0.0; 7];
+                    met[..6].copy_from_slice(&q);
+                    return Some((total + 1, 1.0, Some((met, pos, rot))));
                 }
+                Seeded::Polished(true) => break,
+                Seeded::Polished(false) => {}
             }
         }
         Some((total, best, None))
@@ -622,24 +620,36 @@ impl<'m> IkSolver<'m> {
             if !placed {
                 continue;
             }
-            let (pos, rot) = pose_error(&tool_pose_unchecked(self.model, &q), target);
-            if score(pos, rot, &self.opts) <= 1.0 {
-                return Some((total + 1, 1.0, Some((q, pos, rot))));
-            }
-            self.workspace();
-            self.q.copy_from_slice(&q);
-            let (it, pos, rot) = self.attempt_newton(target, false, budget);
-            total += it;
-            let s = score(pos, rot, &self.opts);
-            if s < best {
-                best = s;
-                self.q_best.copy_from_slice(&self.q);
-                if s <= 1.0 {
-                    break;
-                }
+            match self.try_seed(target, &q, budget, &mut total, &mut best) {
+                Seeded::Met(pos, rot) => return Some((total + 1, 1.0, Some((q, pos, rot)))),
+                Seeded::Polished(true) => break,
+                Seeded::Polished(false) => {}
             }
         }
         Some((total, best, None))
+    }
+
+    /// One seed of attempt 0 (a 6R arm's closed-form branch, a 7R arm's semi-analytic one; `q`: all n joints)
+    /// tried: checked by forward kinematics (one evaluation, which stands as the verdict when it meets the
+    /// tolerance: `Met`), else polished by Newton within `budget`, its evaluations added to `total` and a better
+    /// score kept in `best` and `q_best` (`Polished(true)`: the polish met the tolerance, the search stops).
+    #[inline]
+    fn try_seed(&mut self, target: &Pose, q: &[f64], budget: usize, total: &mut usize, best: &mut f64) -> Seeded {
+        let (pos, rot) = pose_error(&tool_pose_unchecked(self.model, q), target);
+        if score(pos, rot, &self.opts) <= 1.0 {
+            return Seeded::Met(pos, rot);
+        }
+        self.workspace();
+        self.q.copy_from_slice(q);
+        let (it, pos, rot) = self.attempt_newton(target, false, budget);
+        *total += it;
+        let s = score(pos, rot, &self.opts);
+        if s < *best {
+            *best = s;
+            self.q_best.copy_from_slice(&self.q);
+            return Seeded::Polished(s <= 1.0);
+        }
+        Seeded::Polished(false)
     }
 
     /// Solve without checking the input; `seed` drives the restarts.
