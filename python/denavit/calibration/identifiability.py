@@ -238,3 +238,28 @@ def _reason(pz: Parametrization, name: str, zero: bool, comb: dict, structural: 
     )
     tail = f"; {'; '.join(hints)}" if hints else ""
     return f"{lead}: {why}{tail}{joint_hint}; fixed at its start value"
+
+
+def parameter_status(pz: Parametrization, free, user_fixed, structural, dropped, held=(), model_fixed=()) -> list[str]:
+    """Each parameter's status in a calibration's result, by precedence: ``"free"`` (estimated), ``"fixed"`` (by the
+    user), ``"fixed (parametrisation)"`` (a rule of the convention), ``"redundant"`` / ``"unidentifiable"`` (dropped
+    by the identifiability analysis: structurally, or by these data), ``"fixed (prior)"`` (``held``: names the data do
+    not determine beyond their prior), ``"fixed (model)"`` (``model_fixed``: indices the chosen model leaves out),
+    else ``"fixed"``."""
+    free, user_fixed, model_fixed = set(free), set(user_fixed), set(model_fixed)
+    return [
+        "free"
+        if c in free
+        else "fixed"
+        if c in user_fixed
+        else "fixed (parametrisation)"
+        if nm in pz.rules
+        else ("redundant" if nm in structural else "unidentifiable")
+        if nm in dropped
+        else "fixed (prior)"
+        if nm in held
+        else "fixed (model)"
+        if c in model_fixed
+        else "fixed"
+        for c, nm in enumerate(pz.names)
+    ]

@@ -17,7 +17,7 @@ from ..io.output import json_text, write_text
 from ..robot import Robot
 from ..sweeps import SweepSet
 from .compliance import robot_compliance, with_compliance, with_payload
-from .identifiability import Identifiability, analyze
+from .identifiability import Identifiability, analyze, parameter_status
 from .least_squares import covariance, fit_parameters, prior_block, residuals, weights
 from .measurements import Measurements
 from .parametrization import (
@@ -597,25 +597,15 @@ def calibrate(
         corr = cov / np.outer(sd, sd)
     sigma = np.full(pz.n_params, np.nan)
     sigma[free] = sd
-    status = []
-    dropped = {u.name for u in ana.unidentifiable}
-    held = set(won.prior_fixed)
-    for c, nm in enumerate(pz.names):
-        status.append(
-            "free"
-            if c in free
-            else "fixed"
-            if c in user_fixed
-            else "fixed (parametrisation)"
-            if nm in pz.rules
-            else ("redundant" if nm in structural else "unidentifiable")
-            if nm in dropped
-            else "fixed (prior)"
-            if nm in held
-            else "fixed (model)"
-            if c in candidates or c in comp
-            else "fixed"
-        )
+    status = parameter_status(
+        pz,
+        free,
+        user_fixed,
+        structural,
+        {u.name for u in ana.unidentifiable},
+        held=set(won.prior_fixed),
+        model_fixed=[*candidates, *comp],
+    )
     res_si = _table_residuals(r, pz.measure) / w[: (6 if pz.measure == "pose" else 3)]
     full_r, _, _ = residuals(pz, x_hat, replace(meas, whitening=None), np.ones(6), jacobian=False)
     full_r = _table_residuals(full_r, pz.measure)

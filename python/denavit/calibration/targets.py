@@ -34,7 +34,7 @@ import numpy as np
 from .. import _core
 from ..errors import DenavitError, check_seed
 from ..geometry import kabsch
-from .identifiability import analyze
+from .identifiability import analyze, parameter_status
 from .least_squares import covariance, fit_parameters, residuals, weights
 from .measurements import Measurements, check_finite, joint_kinds
 from .parametrization import Parametrization, as_robot, configurations, parametrize, resolve_fix
@@ -508,18 +508,7 @@ def calibrate_targets(
     sigma[free] = sd
     structural = {u.name for u in struct.unidentifiable}
     dropped = {u.name for u in ana.unidentifiable}
-    status = [
-        "free"
-        if c in free
-        else "fixed"
-        if c in user_fixed
-        else "fixed (parametrisation)"
-        if nm in pz.rules
-        else ("redundant" if nm in structural else "unidentifiable")
-        if nm in dropped
-        else "fixed"
-        for c, nm in enumerate(pz.names)
-    ]
+    status = parameter_status(pz, free, user_fixed, structural, dropped)
     res_si = r.reshape(-1, 3) / w[0]
     everything = tm.expanded()
     pos_all = np.linalg.norm(pz.evaluate(x_hat, everything.q, False)[0][:, :3, 3] - everything.points, axis=1)
