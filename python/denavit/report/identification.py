@@ -76,121 +76,175 @@ def write_figures(
 # ------------------------------------------------------------------------------------------------ identification
 
 
-def _identification_view(go, result: Identification, ls: float, length: str):
-    names = joint_names(result)
-    pts = result.sweeps.all_points
-    size = scene_size(pts)
-    arrow = 0.25 * size
-    traces, drawn = [], [pts, result.tool_point[None]]
-    for s, f in zip(result.sweeps.sweeps, result.fits, strict=True):
-        j = s.joint
-        col, nm, grp = joint_colour(j - 1), names[j - 1], f"joint-{j}"
-        p = s.points / ls
-        hover = [f"{nm} point {k}<br>residual {r / ls:.4f} {length}" for k, r in enumerate(f.residuals)]
+def _sweep_traces(go, s, f, name: str, colour: str, ls: float, length: str, arrow: float, kind: str):
+    """One joint's sweep in the 3-D view (one legend group): its measured points and outliers, the fitted full
+    circle and its centre (a revolute joint) or line (a prismatic one), and the axis arrow. Returns the traces
+    and the points drawn (metres) beyond the measured ones."""
+    grp = f"joint-{s.joint}"
+    p = s.points / ls
+    hover = [f"{name} point {k}<br>residual {r / ls:.4f} {length}" for k, r in enumerate(f.residuals)]
+    traces = [
+        go.Scatter3d(
+            x=p[:, 0],
+            y=p[:, 1],
+            z=p[:, 2],
+            mode="markers",
+            marker={"size": 3.5, "color": colour},
+            name=f"{name} (points, circle, axis)",
+            legendgroup=grp,
+            showlegend=True,
+            hovertext=hover,
+            hoverinfo="text",
+        )
+    ]
+    drawn = []
+    if np.any(f.outliers):
+        o = p[f.outliers]
         traces.append(
             go.Scatter3d(
-                x=p[:, 0],
-                y=p[:, 1],
-                z=p[:, 2],
+                x=o[:, 0],
+                y=o[:, 1],
+                z=o[:, 2],
                 mode="markers",
-                marker={"size": 3.5, "color": col},
-                name=f"{nm} (points, circle, axis)",
+                marker={"size": 6, "color": "black", "symbol": "x"},
+                name=f"{name} outliers",
                 legendgroup=grp,
-                showlegend=True,
-                hovertext=hover,
+                showlegend=False,
+            )
+        )
+    if kind == "revolute" and np.isfinite(f.radius):
+        circle = circle_points(f.point, f.direction, f.radius)
+        drawn.append(circle)
+        line = {"color": colour, "width": 3}
+        traces.append(
+            _line3d(
+                go, [circle], ls, line=line, name=f"{name} circle", legendgroup=grp, showlegend=False, hoverinfo="name"
+            )
+        )
+        c = f.point / ls
+        traces.append(
+            go.Scatter3d(
+                x=[c[0]],
+                y=[c[1]],
+                z=[c[2]],
+                mode="markers",
+                marker={"size": 5, "color": colour, "symbol": "circle-open", "line": {"width": 2}},
+                name=f"{name} centre",
+                legendgroup=grp,
+                showlegend=False,
+                hovertext=f"{name} centre {c[0]:.3f}, {c[1]:.3f}, {c[2]:.3f}<br>r = {f.radius / ls:.3f} {length}",
                 hoverinfo="text",
             )
         )
-        if np.any(f.outliers):
-            o = p[f.outliers]
-            traces.append(
-                go.Scatter3d(
-                    x=o[:, 0],
-                    y=o[:, 1],
-                    z=o[:, 2],
-                    mode="markers",
-                    marker={"size": 6, "color": "black", "symbol": "x"},
-                    name=f"{nm} outliers",
-                    legendgroup=grp,
-                    showlegend=False,
-                )
-            )
-        if result.sweeps.kinds[j - 1] == "revolute" and np.isfinite(f.radius):
-            circle = circle_points(f.point, f.direction, f.radius)
-            drawn.append(circle)
-            traces.append(
-                _line3d(
-                    go,
-                    [circle],
-                    ls,
-                    line={"color": col, "width": 3},
-                    name=f"{nm} circle",
-                    legendgroup=grp,
-                    showlegend=False,
-                    hoverinfo="name",
-                )
-            )
-            c = f.point / ls
-            traces.append(
-                go.Scatter3d(
-                    x=[c[0]],
-                    y=[c[1]],
-                    z=[c[2]],
-                    mode="markers",
-                    marker={"size": 5, "color": col, "symbol": "circle-open", "line": {"width": 2}},
-                    name=f"{nm} centre",
-                    legendgroup=grp,
-                    showlegend=False,
-                    hovertext=f"{nm} centre {c[0]:.3f}, {c[1]:.3f}, {c[2]:.3f}<br>r = {f.radius / ls:.3f} {length}",
-                    hoverinfo="text",
-                )
-            )
-        else:
-            traces.append(
-                _line3d(
-                    go,
-                    [line_span(f.point, f.direction, s.points)],
-                    ls,
-                    line={"color": col, "width": 3},
-                    name=f"{nm} line",
-                    legendgroup=grp,
-                    showlegend=False,
-                )
-            )
-        tip = f.point + arrow * f.direction
-        drawn.append(np.array([f.point - 0.3 * arrow * f.direction, tip]))
-        traces.append(
-            _line3d(
-                go,
-                [np.array([f.point - 0.3 * arrow * f.direction, tip])],
-                ls,
-                line={"color": col, "width": 6},
-                name=f"{nm} axis",
-                legendgroup=grp,
-                showlegend=False,
-                hoverinfo="name",
-            )
+    else:
+        span = line_span(f.point, f.direction, s.points)
+        line = {"color": colour, "width": 3}
+        traces.append(_line3d(go, [span], ls, line=line, name=f"{name} line", legendgroup=grp, showlegend=False))
+    tip = f.point + arrow * f.direction
+    shaft = np.array([f.point - 0.3 * arrow * f.direction, tip])
+    drawn.append(shaft)
+    line = {"color": colour, "width": 6}
+    traces.append(
+        _line3d(go, [shaft], ls, line=line, name=f"{name} axis", legendgroup=grp, showlegend=False, hoverinfo="name")
+    )
+    t, d = tip / ls, f.direction
+    traces.append(
+        go.Cone(
+            x=[t[0]],
+            y=[t[1]],
+            z=[t[2]],
+            u=[d[0]],
+            v=[d[1]],
+            w=[d[2]],
+            anchor="tip",
+            sizemode="absolute",
+            sizeref=0.12 * arrow / ls,
+            colorscale=[[0, colour], [1, colour]],
+            showscale=False,
+            name=f"{name} axis",
+            legendgroup=grp,
+            showlegend=False,
+            hoverinfo="name",
         )
-        t, d = tip / ls, f.direction
-        traces.append(
-            go.Cone(
-                x=[t[0]],
-                y=[t[1]],
-                z=[t[2]],
-                u=[d[0]],
-                v=[d[1]],
-                w=[d[2]],
-                anchor="tip",
-                sizemode="absolute",
-                sizeref=0.12 * arrow / ls,
-                colorscale=[[0, col], [1, col]],
-                showscale=False,
-                name=f"{nm} axis",
-                legendgroup=grp,
-                showlegend=False,
-                hoverinfo="name",
-            )
+    )
+    return traces, drawn
+
+
+def _convention_traces(go, result: Identification, names: list[str], ls: float):
+    """The frames at home of the identified convention (shown), of the other one and of the nominal model (in the
+    legend), and the frame-origin paths while joint 2 (1 of a one-joint arm) moves over its swept range (in the
+    legend). Returns the traces and the points drawn (metres)."""
+    conv = result.table.convention
+    other = other_convention(conv)
+    model = result.model()
+    other_table = _core.extract(_core.axes(model, np.zeros(model.nq)), other).table
+    home = result.sweeps.home
+    tables = [
+        ("identified " + conv, result.table, True, "solid"),
+        ("identified " + other, other_table, "legendonly", "dash"),
+    ]
+    if result.nominal is not None:
+        nominal = result.nominal
+        tables.append((f"nominal {nominal.name} ({nominal.convention})", nominal.table, "legendonly", "dot"))
+    Fs = [
+        (label, t, t.frames(home), vis, dash, where)
+        for (label, t, vis, dash), where in zip(tables, ("top right", "bottom left", "top left"), strict=False)
+    ]
+    pts = result.sweeps.all_points
+    tri = 0.06 * scene_size(np.vstack([F[:, :3, 3] for _, _, F, _, _, _ in Fs] + [pts]))
+    traces, drawn = [], []
+    for label, t, F, vis, dash, where in Fs:
+        traces += _frame_traces(
+            go,
+            label,
+            F,
+            ls,
+            tri,
+            group=f"frames-{label}",
+            visible=vis,
+            dash=dash,
+            names=names,
+            table=t,
+            q=home,
+            textposition=where,
         )
+        drawn.append(_frame_points(F, tri))
+    jp = 2 if result.axes.nq >= 2 else 1
+    lim = sweep_range(result, jp)
+    for (label, table), colour, dash in (
+        ((f"identified {conv}", result.table), "#6a3d9a", "solid"),
+        ((f"identified {other}", other_table), "#b15928", "dash"),
+    ):
+        traces += _path_traces(
+            go,
+            label,
+            table,
+            home,
+            jp,
+            lim,
+            ls,
+            group=f"paths-{label}",
+            visible="legendonly",
+            colour=colour,
+            dash=dash,
+            name=f"{label}: frame-origin paths, {names[jp - 1]} swept",
+        )
+    return traces, drawn
+
+
+def _identification_view(go, result: Identification, ls: float, length: str):
+    """The 3-D view: every joint's sweep (:func:`_sweep_traces`), the tool point at home, the bounding box (in the
+    legend) and the frames of the conventions (:func:`_convention_traces`); camera and ranges from what is drawn."""
+    names = joint_names(result)
+    pts = result.sweeps.all_points
+    arrow = 0.25 * scene_size(pts)
+    traces, drawn = [], [pts, result.tool_point[None]]
+    for s, f in zip(result.sweeps.sweeps, result.fits, strict=True):
+        j = s.joint
+        kind = result.sweeps.kinds[j - 1]
+        tr, d = _sweep_traces(go, s, f, names[j - 1], joint_colour(j - 1), ls, length, arrow, kind)
+        traces += tr
+        drawn += d
     tp = result.tool_point / ls
     traces.append(
         go.Scatter3d(
@@ -219,62 +273,9 @@ def _identification_view(go, result: Identification, ls: float, length: str):
             visible="legendonly",
         )
     )
-    # frames of the identified convention, of the other one, and of the nominal model, at home
-    conv = result.table.convention
-    other = other_convention(conv)
-    model = result.model()
-    other_table = _core.extract(_core.axes(model, np.zeros(model.nq)), other).table
-    home = result.sweeps.home
-    tables = [
-        ("identified " + conv, result.table, True, "solid"),
-        ("identified " + other, other_table, "legendonly", "dash"),
-    ]
-    if result.nominal is not None:
-        tables.append(
-            (f"nominal {result.nominal.name} ({result.nominal.convention})", result.nominal.table, "legendonly", "dot")
-        )
-    Fs = [
-        (label, t, t.frames(home), vis, dash, where)
-        for (label, t, vis, dash), where in zip(tables, ("top right", "bottom left", "top left"), strict=False)
-    ]
-    tri = 0.06 * scene_size(np.vstack([F[:, :3, 3] for _, _, F, _, _, _ in Fs] + [pts]))
-    for label, t, F, vis, dash, where in Fs:
-        traces += _frame_traces(
-            go,
-            label,
-            F,
-            ls,
-            tri,
-            group=f"frames-{label}",
-            visible=vis,
-            dash=dash,
-            names=names,
-            table=t,
-            q=home,
-            textposition=where,
-        )
-        drawn.append(_frame_points(F, tri))
-    n = result.axes.nq
-    jp = 2 if n >= 2 else 1
-    lim = sweep_range(result, jp)
-    for (label, table), colour, dash in (
-        ((f"identified {conv}", result.table), "#6a3d9a", "solid"),
-        ((f"identified {other}", other_table), "#b15928", "dash"),
-    ):
-        traces += _path_traces(
-            go,
-            label,
-            table,
-            home,
-            jp,
-            lim,
-            ls,
-            group=f"paths-{label}",
-            visible="legendonly",
-            colour=colour,
-            dash=dash,
-            name=f"{label}: frame-origin paths, {names[jp - 1]} swept",
-        )
+    tr, d = _convention_traces(go, result, names, ls)
+    traces += tr
+    drawn += d
     fig = go.Figure(traces)
     fig.update_layout(**_scene_layout(length, np.vstack(drawn) / ls))
     return fig
@@ -376,7 +377,8 @@ def _parameter_chart(go, make_subplots, result: Identification, length: str, ang
             "Not drawn (in the table above): "
             + ", ".join(left)
             + ". Held: fixed by the convention or the fit (sigma 0); undetermined: one sigma beyond "
-            f"{UNDETERMINED_LENGTH:.0%} of the measured extent for lengths, {UNDETERMINED_ANGLE} rad for angles, {UNDETERMINED_RATIO} for unitless screw components "
+            f"{UNDETERMINED_LENGTH:.0%} of the measured extent for lengths, {UNDETERMINED_ANGLE} rad for angles, "
+            f"{UNDETERMINED_RATIO} for unitless screw components "
             "(the data fix a combination of such parameters, not each)."
         )
         if left
@@ -422,7 +424,8 @@ def _accuracy_section(go, result: Identification, length: str) -> tuple[str, dic
         "accuracy",
         ["model", f"rms [{length}]", f"median [{length}]", f"95 % [{length}]", f"max [{length}]"],
         rows,
-        f"Tool position error over {s['configurations']} quasi-random configurations within the joint limits: the nominal model against the "
+        f"Tool position error over {s['configurations']} quasi-random configurations within the joint limits: "
+        "the nominal model against the "
         "identified one, and the identified model's error predicted from the axes' covariance (denavit.compensation).",
         "accuracy",
     )
@@ -450,24 +453,10 @@ def _accuracy_section(go, result: Identification, length: str) -> tuple[str, dic
     )
 
 
-def report_html(result: Identification, *, length: str = "mm", angle: str = "deg", title: str | None = None) -> str:
-    """The HTML text of :func:`write_report`."""
-    from ..identification import to_json  # noqa: PLC0415
-
-    go, make_subplots = _plotly()
-    ls = length_scale(length)
-    doc = to_json(result)  # SI: scaled to length / angle below
-    as_ = angle_scale(angle)
-    names = joint_names(result)
+def _parameters_table(result: Identification, doc: dict, names: list[str], length: str, angle: str) -> str:
+    """One row per joint and parameter, as printed by `denavit identify`: nominal, identified, sigma, difference
+    (angles wrapped to half a turn), each in its cell's unit."""
     t, nt = result.table, result.nominal_table
-    view = _figure_html(_identification_view(go, result, ls, length), VIEW_ID, "plot3d")
-    resid = _figure_html(_residual_chart(go, result, ls, length), "residuals-chart")
-    pfig, pcaption = _parameter_chart(go, make_subplots, result, length, angle)
-    pchart = _figure_html(pfig, "parameters-chart") + (
-        f'<p class="hint" id="parameters-not-drawn">{html.escape(pcaption)}</p>' if pcaption else ""
-    )
-
-    # parameters: one row per joint and parameter, as printed by `denavit identify`
     rows = []
     for i, prow in enumerate(doc["parameters"]):
         for k, c in enumerate(t.columns):
@@ -479,31 +468,38 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
                 half = math.pi / sc
                 diff = (diff + half) % (2 * half) - half
             rows.append(
-                f'<tr data-joint="{html.escape(names[i])}" data-param="{c}">{_td("joint", names[i])}{_td("param", c)}{_td("unit", unit)}'
-                f"{_td('nominal', nom)}{_td('identified', value)}{_td('sigma', prow[c + '_sigma'] / sc)}{_td('difference', diff)}</tr>"
+                f'<tr data-joint="{html.escape(names[i])}" data-param="{c}">{_td("joint", names[i])}{_td("param", c)}'
+                f"{_td('unit', unit)}{_td('nominal', nom)}{_td('identified', value)}"
+                f"{_td('sigma', prow[c + '_sigma'] / sc)}{_td('difference', diff)}</tr>"
             )
-    params = _table(
+    return _table(
         "parameters",
         ["joint", "parameter", "unit", "nominal", "identified", "sigma (1σ)", "identified − nominal"],
         rows,
-        f"Identified {t.convention.upper()} parameters (docs/conventions.md); sigma propagated from the fits' covariance; nominal: "
-        + (f"{result.nominal.name}" if result.nominal else "none given")
-        + ".",
+        f"Identified {t.convention.upper()} parameters (docs/conventions.md); sigma propagated from the fits' "
+        "covariance; nominal: " + (f"{result.nominal.name}" if result.nominal else "none given") + ".",
         "parameters",
     )
-    arows = []
+
+
+def _axes_table(doc: dict, ls: float, length: str, angle: str) -> str:
+    """The joint axes in the measurement frame: circle centre and unit normal, fit quality, one-sigma uncertainty."""
+    as_ = angle_scale(angle)
+    rows = []
     for j in doc["joints"]:
-        c, a = j["circle"], j["axis"]
-        arows.append(
+        c, a, r = j["circle"], j["axis"], j["residuals"]
+        rows.append(
             f'<tr data-joint="{html.escape(j["joint"])}">{_td("joint", j["joint"])}'
             + "".join(_td(f"point-{x}", v / ls) for x, v in zip("xyz", a["point_m"], strict=True))
             + "".join(_td(f"direction-{x}", v, 6) for x, v in zip("xyz", a["direction"], strict=True))
-            + f"{_td('radius', None if c['radius_m'] is None else c['radius_m'] / ls)}{_td('arc', None if j['arc_rad'] is None else j['arc_rad'] / as_, 1)}"
-            f"{_td('rms', j['residuals']['rms_m'] / ls)}{_td('max-residual', j['residuals']['max_m'] / ls)}"
-            f"{_td('sigma-across', a['sigma_point_perp_m'] / ls)}{_td('sigma-direction', a['sigma_direction_rad'] / as_, 5)}{_td('n-points', j['residuals']['n_points'], 0)}"
-            f"{_td('outliers', len(j['residuals']['outliers']), 0)}</tr>"
+            + _td("radius", None if c["radius_m"] is None else c["radius_m"] / ls)
+            + _td("arc", None if j["arc_rad"] is None else j["arc_rad"] / as_, 1)
+            + f"{_td('rms', r['rms_m'] / ls)}{_td('max-residual', r['max_m'] / ls)}"
+            + _td("sigma-across", a["sigma_point_perp_m"] / ls)
+            + f"{_td('sigma-direction', a['sigma_direction_rad'] / as_, 5)}{_td('n-points', r['n_points'], 0)}"
+            f"{_td('outliers', len(r['outliers']), 0)}</tr>"
         )
-    axes_t = _table(
+    return _table(
         "axes",
         [
             "joint",
@@ -522,37 +518,59 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
             "points",
             "outliers",
         ],
-        arows,
-        f"Joint axes in the measurement frame: circle centre ({length}) and unit normal (Hayat et al. eq. 1-9), fit quality, one-sigma uncertainty.",
+        rows,
+        f"Joint axes in the measurement frame: circle centre ({length}) and unit normal (Hayat et al. eq. 1-9), "
+        "fit quality, one-sigma uncertainty.",
         "axes",
     )
+
+
+def _box_tables(doc: dict, ls: float, length: str) -> str:
+    """The measuring volume: the bounding box's sides, volume and centre, then its orientation."""
     b = doc["bounding_box"]
-    brows = [
-        f"<tr>{_td('l1', b['lengths_m'][0] / ls)}{_td('l2', b['lengths_m'][1] / ls)}{_td('l3', b['lengths_m'][2] / ls)}{_td('volume', b['volume_m3'])}"
-        f"{_td('center', ', '.join(f'{v / ls:.3f}' for v in b['centre_m']))}</tr>"
-    ]
-    box_t = _table(
+    side = "".join(_td(f"l{k + 1}", v / ls) for k, v in enumerate(b["lengths_m"]))
+    centre = ", ".join(f"{v / ls:.3f}" for v in b["centre_m"])
+    box = _table(
         "bounding-box",
         [f"l1 [{length}]", f"l2 [{length}]", f"l3 [{length}]", "volume [m³]", f"centre [{length}]"],
-        brows,
+        [f"<tr>{side}{_td('volume', b['volume_m3'])}{_td('center', centre)}</tr>"],
         "Minimum-volume oriented bounding box of all measured points (Hayat et al. Table IV).",
         "bounding-box",
     )
     orows = [f"<tr>{''.join(_td(f'col-{k + 1}', v) for k, v in enumerate(row))}</tr>" for row in b["orientation"]]
-    orient_t = _table(
+    orient = _table(
         "bounding-box-orientation",
         ["l1 axis [1]", "l2 axis [1]", "l3 axis [1]"],
         orows,
         "Orientation of the box: its axes as columns, in the measurement frame.",
         "bounding-box",
     )
-    items = "".join(f"<li>{html.escape(n)}</li>" for n in doc["notes"])
-    # no notes: a plain "none", not a warning-coloured bullet
-    notes = f'<ul class="notes" id="notes">{items}</ul>' if items else '<p class="none" id="notes">none</p>'
+    return box + orient
 
-    acc_html, acc = _accuracy_section(go, result, length)
+
+def _identification_summary(
+    result: Identification, doc: dict, acc: dict | None, names: list[str], length: str, angle: str
+) -> str:
+    """What an engineer reads first: what was measured, the model, auto's choices, the fit, the accuracy before
+    and after (when a nominal is known), the tool error the table carries, the home configuration."""
+    ls = length_scale(length)
+    t = result.table
     npts = sum(len(s.points) for s in result.sweeps.sweeps)
-    summary = _summary(
+    worst = max(j["axis"]["sigma_point_perp_m"] for j in doc["joints"]) / ls
+    home = np.asarray(doc["home"]) / joint_scale(result.sweeps.kinds, length, angle)
+    # auto's choices, each under its own name (the fit, then the reading scales: "fit chosen" had shown twice)
+    auto = [n[len("auto: ") :] for n in doc["notes"] if n.startswith("auto: ")]
+    chosen = [
+        ("reading scales" if "scale error" in n and k else "fit chosen" if not k else "also chosen", n)
+        for k, n in enumerate(auto)
+    ]
+    accuracy = (
+        f"tool position error rms {acc['nominal']:.3g} {length} with the nominal model -> {acc['identified']:.3g} "
+        f"{length} predicted with the identified one (1σ)"
+        if acc
+        else None
+    )
+    return _summary(
         [
             ("measured", f"{npts} points in {len(result.sweeps.sweeps)} single-joint sweeps from {doc['source']}"),
             (
@@ -560,55 +578,68 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
                 f"{t.convention.upper()} table of {len(names)} joints, {result.method} fit; nominal: "
                 + (result.nominal.name if result.nominal else "none"),
             ),
-            # auto's choices, each under its own name (the fit, then the reading scales: "fit chosen" had shown twice)
-            *[
-                (
-                    "reading scales" if "scale error" in n and k else "fit chosen" if not k else "also chosen",
-                    n[len("auto: ") :],
-                )
-                for k, n in enumerate(n for n in doc["notes"] if n.startswith("auto: "))
-            ],
-            (
-                "fit",
-                f"residual rms {doc['rms_m'] / ls:.4g} {length}; worst axis sigma across {max(j['axis']['sigma_point_perp_m'] for j in doc['joints']) / ls:.3g} {length}",
-            ),
-            *(
-                [
-                    (
-                        "accuracy",
-                        f"tool position error rms {acc['nominal']:.3g} {length} with the nominal model -> {acc['identified']:.3g} {length} predicted with the "
-                        "identified one (1σ)",
-                    )
-                ]
-                if acc
-                else []
-            ),
+            *chosen,
+            ("fit", f"residual rms {doc['rms_m'] / ls:.4g} {length}; worst axis sigma across {worst:.3g} {length}"),
+            *([("accuracy", accuracy)] if accuracy else []),
             ("tool error the table carries", f"{doc['max_tool_position_error_m'] / ls:.3g} {length}"),
             (
                 "home",
-                ", ".join(f"{v:.4g}" for v in np.asarray(doc["home"]) / joint_scale(result.sweeps.kinds, length, angle))
+                ", ".join(f"{v:.4g}" for v in home)
                 + f" ({angle} / {length}); tool point at home "
                 + ", ".join(f"{v / ls:.3f}" for v in doc["tool_point_home_m"])
                 + f" {length}",
             ),
         ]
     )
+
+
+def _notes_html(notes: Sequence[str]) -> str:
+    """The notes as warning-coloured bullets; no notes: a plain "none", not a warning-coloured bullet."""
+    items = "".join(f"<li>{html.escape(n)}</li>" for n in notes)
+    return f'<ul class="notes" id="notes">{items}</ul>' if items else '<p class="none" id="notes">none</p>'
+
+
+def report_html(result: Identification, *, length: str = "mm", angle: str = "deg", title: str | None = None) -> str:
+    """The HTML text of :func:`write_report`: the summary, the 3-D view, the identified parameters and their chart,
+    the joint axes with the residuals and the consecutive-axis relations, the measuring volume, the accuracy
+    (with a nominal model) and the notes."""
+    from ..identification import to_json  # noqa: PLC0415
+
+    go, make_subplots = _plotly()
+    ls = length_scale(length)
+    doc = to_json(result)  # SI: scaled to length / angle below
+    names = joint_names(result)
+    t = result.table
+    view = _figure_html(_identification_view(go, result, ls, length), VIEW_ID, "plot3d")
+    resid = _figure_html(_residual_chart(go, result, ls, length), "residuals-chart")
+    pfig, pcaption = _parameter_chart(go, make_subplots, result, length, angle)
+    pchart = _figure_html(pfig, "parameters-chart") + (
+        f'<p class="hint" id="parameters-not-drawn">{html.escape(pcaption)}</p>' if pcaption else ""
+    )
+    params = _parameters_table(result, doc, names, length, angle)
+    axes_t = _axes_table(doc, ls, length, angle)
+    pairs = _pairs_table(result.extraction.pairs, ls, length, angle)
+    acc_html, acc = _accuracy_section(go, result, length)
+    summary = _identification_summary(result, doc, acc, names, length, angle)
     title = title or f"denavit identification: {result.sweeps.source or 'sweeps'}"
     meta = html.escape(
-        f"{len(names)} joints, method {result.method}, {t.convention.upper()} parameters; lengths in {length}, angles in {angle}, measurement frame."
+        f"{len(names)} joints, method {result.method}, {t.convention.upper()} parameters; lengths in {length}, "
+        f"angles in {angle}, measurement frame."
     )
     body = "\n".join(
         [
             _view_section(
                 view,
-                "Measured points, fitted full circles, centres and axis arrows per joint (Hayat et al. Fig. 7); frames of the identified convention "
-                "along the chain (others, the bounding box and origin paths: switch them on in the legend).",
+                "Measured points, fitted full circles, centres and axis arrows per joint (Hayat et al. Fig. 7); frames "
+                "of the identified convention along the chain (others, the bounding box and origin paths: switch "
+                "them on in the legend).",
             ),
             f'<section id="results"><h2>Identified parameters</h2><div class="scroll">{params}</div>{pchart}</section>',
-            f'<section id="fits"><h2>Joint axes and fits</h2><div class="scroll">{axes_t}</div>{resid}{_pairs_table(result.extraction.pairs, ls, length, angle)}</section>',
-            f'<section id="box"><h2>Measuring volume</h2>{box_t}{orient_t}</section>',
+            f'<section id="fits"><h2>Joint axes and fits</h2><div class="scroll">{axes_t}</div>{resid}{pairs}'
+            "</section>",
+            f'<section id="box"><h2>Measuring volume</h2>{_box_tables(doc, ls, length)}</section>',
             acc_html,
-            f'<section id="notes-section"><h2>Notes</h2>{notes}</section>',
+            f'<section id="notes-section"><h2>Notes</h2>{_notes_html(doc["notes"])}</section>',
         ]
     )
     return _page(title, meta, summary, body)
