@@ -9,6 +9,7 @@ import html
 import json
 from collections.abc import Sequence
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -23,6 +24,7 @@ from ..plotting import (
     frame_labels,
     frames_along,
     install_hint,
+    scene_size,
     scene_view,
     triad_lengths,
 )
@@ -358,6 +360,12 @@ def _summary(items: Sequence[tuple[str, str]]) -> str:
     )
 
 
+def _notes_html(notes: Sequence[str]) -> str:
+    """The notes as warning-coloured bullets; no notes: a plain "none", not a warning-coloured bullet."""
+    items = "".join(f"<li>{html.escape(n)}</li>" for n in notes)
+    return f'<ul class="notes" id="notes">{items}</ul>' if items else '<p class="none" id="notes">none</p>'
+
+
 def _view_section(view_html: str, what: str) -> str:
     return (
         f'<section id="view"><h2>3-D view</h2><p class="hint">{html.escape(what)} Drag to rotate, scroll to zoom, right-drag to pan; '
@@ -428,6 +436,71 @@ def _robot_traces(
         textposition=textposition,
     )
     return tr, np.vstack([_frame_points(F, size), chain_path(table, q)])
+
+
+class SceneRobot(NamedTuple):
+    """A robot drawn in a 3-D view by :func:`_robot_scene`: its legend ``label`` and ``group``, the ``table`` drawn
+    at joint values ``q`` (SI), and the joint ``names`` of its hover texts."""
+
+    label: str
+    group: str
+    table: _core.Table
+    q: np.ndarray
+    names: Sequence[str]
+
+
+def _marker_groups(go, points, groups, ls: float, *, size: float, hover) -> list:
+    """Markers of ``points`` ((m, 3), metres), one trace and legend group per ``(mask, name, colour)`` of
+    ``groups`` that selects any point; ``hover(i)`` is the hover text of point ``i``."""
+    traces = []
+    for mask, name, colour in groups:
+        if mask.any():
+            p = points[mask] / ls
+            traces.append(
+                go.Scatter3d(
+                    x=p[:, 0],
+                    y=p[:, 1],
+                    z=p[:, 2],
+                    mode="markers",
+                    marker={"size": size, "color": colour},
+                    name=name,
+                    legendgroup=name,
+                    hovertext=[hover(i) for i in np.flatnonzero(mask)],
+                    hoverinfo="text",
+                )
+            )
+    return traces
+
+
+def _robot_scene(
+    go, traces: list, points, ls: float, length: str, shown: SceneRobot, other: SceneRobot | None, *, also=()
+) -> str:
+    """The 3-D view of the calibration and compensation reports, as HTML: ``traces`` (the points measured or
+    aimed at), then the ``shown`` robot's frames along its chain and the ``other`` robot's in the legend (dashed,
+    labels below left). Triads are 7 % of the extent of ``points`` and the shown robot (metres); the camera
+    frames ``points``, the arrays of ``also`` (metres) and the shown robot (:func:`_scene_layout`)."""
+    size = scene_size(np.vstack([points, shown.table.frames(shown.q)[:, :3, 3]]))
+    tri = 0.07 * size
+    tr, d = _robot_traces(go, shown.label, shown.table, shown.q, ls, tri, group=shown.group, names=shown.names)
+    traces = [*traces, *tr]
+    if other is not None:
+        tr, _ = _robot_traces(
+            go,
+            other.label,
+            other.table,
+            other.q,
+            ls,
+            tri,
+            group=other.group,
+            visible="legendonly",
+            dash="dash",
+            names=other.names,
+            textposition="bottom left",
+        )
+        traces += tr
+    fig = go.Figure(traces)
+    fig.update_layout(**_scene_layout(length, np.vstack([points, *also, d]) / ls))
+    return _figure_html(fig, VIEW_ID, "plot3d")
 
 
 def _param_scale(unit: str, length: str, angle: str) -> tuple[float, str]:

@@ -39,6 +39,7 @@ from .html import (
     _frame_points,
     _frame_traces,
     _line3d,
+    _notes_html,
     _page,
     _pairs_table,
     _path_traces,
@@ -591,12 +592,6 @@ def _identification_summary(
             ),
         ]
     )
-
-
-def _notes_html(notes: Sequence[str]) -> str:
-    """The notes as warning-coloured bullets; no notes: a plain "none", not a warning-coloured bullet."""
-    items = "".join(f"<li>{html.escape(n)}</li>" for n in notes)
-    return f'<ul class="notes" id="notes">{items}</ul>' if items else '<p class="none" id="notes">none</p>'
 
 
 def report_html(result: Identification, *, length: str = "mm", angle: str = "deg", title: str | None = None) -> str:
