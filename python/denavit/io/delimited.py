@@ -6,9 +6,10 @@ This module also holds the one number rule of every reader: :func:`number` for a
 attributes), :func:`as_number` for a value a TOML, JSON or YAML parser has already typed (no booleans, no
 strings that look like numbers).
 
-Whole tables of plain numbers (a sweep file's millions of rows) take :func:`numeric_table`, Apache Arrow's CSV
-reader for big ones and numpy's C reader for the rest, first; whatever they do not take is read row by
-row with :func:`number`, whose errors name the line and column.
+Whole tables of plain numbers (a sweep file's millions of rows) are read at C speed first, column-wise
+(:func:`plain_head` and :func:`plain_columns`: Apache Arrow's CSV reader on every core for big ones, numpy's C reader
+for the rest); whatever they do not take is read row by row with :func:`number`, whose errors name the line and
+column.
 """
 
 from __future__ import annotations
@@ -16,8 +17,11 @@ from __future__ import annotations
 import csv
 import io
 import math
+import os
 import re
+import stat
 import warnings
+from typing import NamedTuple
 
 import numpy as np
 
@@ -115,10 +119,9 @@ PLAIN = b"0123456789+-.eE \t\r\n"
 
 def numeric_table(data: bytes, delim: str, ncols: int) -> np.ndarray | None:
     """The (m, ``ncols``) numbers of ``data`` (lines of ``ncols`` cells separated by ``delim``, ``\\n`` or
-    ``\\r\\n`` line ends), parsed at C speed: beyond :data:`ARROW_BYTES` by :func:`pyarrow.csv.read_csv` (a
-    quarter of numpy's reader's CPU on a 184 MB sweep file, benchmarks/bench_io.py), else or where Arrow declines
-    (blanks around a cell) by :func:`numpy.loadtxt`; None when it is not such a table of finite plain decimals, for the caller to
-    read row by row with :func:`number` (whose errors name the line and the column).
+    ``\\r\\n`` line ends), parsed at C speed by :func:`numpy.loadtxt` (:func:`plain_columns` reads more than
+    :data:`ARROW_BYTES` with Arrow's reader by the same rule); None when it is not such a table of finite plain
+    decimals, for the caller to read row by row with :func:`number` (whose errors name the line and the column).
 
     It takes only cells ``[+-]digits[.digits][e[+-]digits]`` with blanks around them (:data:`PLAIN`: the
     grammar left to the parsers once letters are excluded), every one of which :func:`number` takes with the
@@ -140,57 +143,24 @@ def numeric_table(data: bytes, delim: str, ncols: int) -> np.ndarray | None:
         or (b"\r" in data and (data.count(b"\r") != data.count(b"\r\n") or data.find(b"\n\r\n", 0, end) >= 0))
     ):
         return None  # a blank line (not a row: the line numbers would slip) or a lone carriage return
-    table = _arrow_table(data[:end], delim, ncols) if end > ARROW_BYTES else None
-    if table is None:
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("error")
-                table = np.loadtxt(
-                    io.BytesIO(data), delimiter=delim, dtype=float, comments=None, ndmin=2, encoding="latin1"
-                )
-        except (ValueError, UserWarning):
-            return None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            table = np.loadtxt(
+                io.BytesIO(data), delimiter=delim, dtype=float, comments=None, ndmin=2, encoding="latin1"
+            )
+    except (ValueError, UserWarning):
+        return None
     if table.shape[1] != ncols or not np.isfinite(table).all():
         return None
     return table
 
 
-#: Tables of more bytes than this go to Arrow's reader, smaller ones to numpy's. Arrow reads serially
-#: (``use_threads=False``): a command that exited right after reading with Arrow's thread pool running had once
-#: been aborted at exit ("terminate called without an active exception"); serially it costs the same CPU.
+#: Data rows of more bytes than this are read by :func:`plain_columns` from a memory map, in pieces, by Arrow's CSV
+#: reader on threads of the call; fewer by numpy's reader whole. Arrow reads each piece serially
+#: (``use_threads=False``), never on its own thread pool: a command that exited right after reading with Arrow's
+#: thread pool running had once been aborted at exit ("terminate called without an active exception").
 ARROW_BYTES = 8_000_000
-
-
-def _arrow_table(data: bytes, delim: str, ncols: int) -> np.ndarray | None:
-    """``data`` (no blank lines, no comments, cells of :data:`PLAIN`) as an (m, ``ncols``) float table by Arrow's
-    CSV reader, every column typed float64 (no inference: ``-0`` stays -0.0), no quoting, no null or boolean
-    spellings; None when Arrow declines (a row of another length, a cell with blanks around it)."""
-    import pyarrow as pa  # noqa: PLC0415 (loaded with the first big table)
-    from pyarrow import csv as pacsv  # noqa: PLC0415
-
-    names = [f"c{i}" for i in range(ncols)]
-    try:
-        t = pacsv.read_csv(
-            io.BytesIO(data),
-            read_options=pacsv.ReadOptions(column_names=names, use_threads=False),
-            parse_options=pacsv.ParseOptions(
-                delimiter=delim, quote_char=False, double_quote=False, escape_char=False, ignore_empty_lines=False
-            ),
-            convert_options=pacsv.ConvertOptions(
-                column_types=dict.fromkeys(names, pa.float64()),
-                null_values=[],
-                true_values=[],
-                false_values=[],
-                strings_can_be_null=False,
-                quoted_strings_can_be_null=False,
-            ),
-        )
-    except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
-        return None
-    out = np.empty((t.num_rows, ncols))
-    for i in range(ncols):
-        out[:, i] = t.column(i).to_numpy()
-    return out
 
 
 def rows(lines: list[str], where: str = "") -> tuple[list[tuple[int, list[str]]], str]:
@@ -235,18 +205,41 @@ def header(cells: list[str], where: str) -> list[str]:
     return cols
 
 
-def fast_table(data: bytes, where: str):
-    """A delimited file's bytes read by :func:`numeric_table`, without splitting its rows in Python: (the
-    lines up to the header, decoded, the table (m, columns of the header), the line number of its first row), or
-    None when the data rows are not a plain numeric table (then the caller's row-by-row reader reads it, and
-    names the line and column of what is wrong). The sweep and measurement CSV readers' fast path."""
+class Head(NamedTuple):
+    """The lines of a delimited file up to its header (``#`` comments, blank lines, the header), decoded, and where
+    its data rows start: ``offset`` (bytes) and ``line`` (the line number of the first)."""
+
+    lines: list[str]
+    offset: int
+    line: int
+
+
+#: The most bytes :func:`plain_head` reads before the header (comment lines); beyond, the whole-file reader reads.
+HEAD_BYTES = 1 << 20
+
+
+def plain_head(path: str | os.PathLike, what: str) -> Head | None:
+    """The :class:`Head` of the delimited file ``path``, read without reading the rest: the C-speed readers' first
+    step (:func:`plain_columns`). None when the file is not plainly readable so (missing, not a regular file, beyond
+    the size limit, a head longer than :data:`HEAD_BYTES`, not UTF-8, no header line): then the caller reads the
+    whole file, as text, and says what is wrong."""
+    from .. import limits  # noqa: PLC0415
+
+    try:
+        with open(path, "rb") as f:
+            st = os.fstat(f.fileno())
+            if not stat.S_ISREG(st.st_mode) or st.st_size > limits.size("file_bytes"):
+                return None
+            data = f.read(min(HEAD_BYTES, limits.size("line_bytes")))
+    except OSError:
+        return None
     pos = 0
     while True:  # the comment lines and the header: up to the first line that is neither blank nor a comment
         nl = data.find(b"\n", pos)
         if nl < 0:
             return None
         try:
-            line = decode(data[pos : nl + 1], where) if pos else decode(data[: nl + 1], where)
+            line = decode(data[pos : nl + 1] if pos else data[: nl + 1], str(path))
         except DenavitError:
             return None
         pos = nl + 1
@@ -255,7 +248,156 @@ def fast_table(data: bytes, where: str):
             if len(parts) != 1:
                 return None
             break
-    head = decode(data[:pos], where).splitlines()
-    found, delim = rows(head, where)
-    table = numeric_table(data[pos:], delim, len(found[0][1]))
-    return None if table is None else (head, table, len(head) + 1)
+    head = decode(data[:pos], str(path)).splitlines()
+    return Head(head, pos, len(head) + 1)
+
+
+def plain_columns(
+    path: str | os.PathLike, head: Head, delim: str, ncols: int, groups: list[list[int]]
+) -> list[np.ndarray] | None:
+    """The data rows of ``path`` after its ``head`` (:func:`plain_head`) when they form a table of ``ncols`` finite
+    plain numbers (:func:`numeric_table`'s rule): for each group of column indices of ``groups``, an (m, len(group))
+    C-contiguous array of its columns (the other columns are split, not converted), row ``k`` being line
+    ``head.line + k``. None when they do not: then the caller reads the file row by row, naming the line and column
+    of what is wrong.
+
+    Up to :data:`ARROW_BYTES` of rows are read whole by :func:`numeric_table`; more are read from a memory map in
+    pieces, each parsed by Arrow's CSV reader on a thread of this call (one per core) straight into the arrays,
+    without holding the file's text (its pages are given back as the pieces are read)."""
+    try:
+        size = os.stat(path).st_size - head.offset
+        if size <= ARROW_BYTES:
+            with open(path, "rb") as f:
+                f.seek(head.offset)
+                table = numeric_table(f.read(), delim, ncols)
+            return None if table is None else [np.ascontiguousarray(table[:, g]) for g in groups]
+        return _mapped_columns(path, head.offset, delim, ncols, groups)
+    except OSError:
+        return None
+
+
+#: The bytes of a piece of :func:`plain_columns`' memory-mapped reading (cut at a line end).
+PIECE_BYTES = 16 << 20
+
+
+def _mapped_columns(path, offset: int, delim: str, ncols: int, groups: list[list[int]]) -> list[np.ndarray] | None:
+    """:func:`plain_columns` of more than :data:`ARROW_BYTES`: the data cut into pieces at line ends; per piece, on
+    a thread pool of this call, its line ends counted (each row's place), then its rows parsed by Arrow into the
+    arrays. None at the first piece Arrow declines, a piece of rows other than its lines (a lone ``\\r``) or a
+    value that is not finite."""
+    import mmap  # noqa: PLC0415
+    from concurrent.futures import ThreadPoolExecutor  # noqa: PLC0415
+
+    from .. import limits  # noqa: PLC0415
+
+    longest = limits.size("line_bytes")
+    with open(path, "rb") as f:
+        mm = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
+    try:
+        end = len(mm)
+        while end > offset and mm[end - 1] in b" \t\r\n":  # trailing blank lines end the file; they are not rows
+            end -= 1
+        cuts = [offset]
+        while cuts[-1] < end:
+            nl = mm.find(b"\n", min(cuts[-1] + PIECE_BYTES, end), end)
+            if nl - cuts[-1] > PIECE_BYTES + longest:
+                return None  # a line beyond the line limit: the whole-file reader says so
+            cuts.append(end if nl < 0 else nl + 1)
+        pieces = list(zip(cuts[:-1], cuts[1:]))
+        if not pieces:
+            return None
+        threads = max(1, min(8, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()))
+        with ThreadPoolExecutor(threads) as pool:
+            rows = list(pool.map(lambda ab: _line_ends(mm, *ab), pieces))
+            rows[-1] += 1  # the last row has no line end (trailing blanks stripped)
+            starts = np.r_[0, np.cumsum(rows)]
+            out = [np.empty((int(starts[-1]), len(g))) for g in groups]
+            names = [f"c{i}" for i in range(ncols)]
+            block = max(4096, min(1 << 20, longest + 2))
+            done = pool.map(
+                lambda k: _parse_piece(mm, pieces[k], int(starts[k]), rows[k], delim, names, groups, out, block),
+                range(len(pieces)),
+            )
+            if not all(list(done)):
+                return None
+        return out
+    finally:
+        try:
+            mm.close()
+        except BufferError:  # a view still held by Arrow: unmapped when it goes
+            pass
+
+
+def _line_ends(mm, a: int, b: int) -> int:
+    """The line ends (``\\n``) in bytes ``a:b`` of the map (numpy: without the GIL); its pages given back after."""
+    n = int(np.count_nonzero(np.frombuffer(mm, np.uint8, b - a, a) == 10))
+    _give_back(mm, a, b)
+    return n
+
+
+def _give_back(mm, a: int, b: int) -> None:
+    """Drop the pages wholly inside bytes ``a:b`` of the map from this process's memory (they stay in the page
+    cache): a mapped file read once would otherwise count in full in the process's resident memory."""
+    import mmap  # noqa: PLC0415
+
+    page = mmap.PAGESIZE
+    lo, hi = -(-a // page) * page, b // page * page
+    if hi > lo and hasattr(mm, "madvise"):
+        mm.madvise(mmap.MADV_DONTNEED, lo, hi - lo)
+
+
+def _parse_piece(mm, piece, row: int, rows: int, delim, names, groups, out, block: int) -> bool:
+    """Rows ``row:row + rows`` of ``out`` (one array per group of columns) from bytes ``piece`` of the map, by
+    Arrow's CSV reader on this thread; False when Arrow declines, the rows are not the piece's lines or a value is
+    not finite."""
+    import pyarrow as pa  # noqa: PLC0415 (loaded with the first big table)
+
+    a, b = piece
+    view = memoryview(mm)[a:b]
+    buf = pa.py_buffer(view)
+    t = _arrow_read(buf, delim, names, sorted({i for g in groups for i in g}), block)
+    del buf
+    view.release()
+    if t is None or t.num_rows != rows:
+        return False
+    ok = True
+    for arr, g in zip(out, groups):
+        for j, i in enumerate(g):
+            at = row
+            for chunk in t.column(names[i]).chunks:
+                v = chunk.to_numpy(zero_copy_only=False)
+                arr[at : at + len(v), j] = v
+                at += len(v)
+        ok = ok and bool(np.isfinite(arr[row : row + rows]).all())
+    del t
+    _give_back(mm, a, b)
+    return ok
+
+
+def _arrow_read(source, delim: str, names: list[str], include: list[int], block: int):
+    """The Arrow table of CSV ``source`` (no header, columns ``names``), the columns ``include`` typed float64 (no
+    inference: ``-0`` stays -0.0), no quoting, no null or boolean spellings, serially on the calling thread; None
+    when Arrow declines (a row of another length, a cell that is not a number)."""
+    import pyarrow as pa  # noqa: PLC0415 (loaded with the first big table)
+    from pyarrow import csv as pacsv  # noqa: PLC0415
+
+    keep = [names[i] for i in include]
+    try:
+        return pacsv.read_csv(
+            source,
+            read_options=pacsv.ReadOptions(column_names=names, use_threads=False, block_size=block),
+            parse_options=pacsv.ParseOptions(
+                delimiter=delim, quote_char=False, double_quote=False, escape_char=False, ignore_empty_lines=False
+            ),
+            convert_options=pacsv.ConvertOptions(
+                column_types=dict.fromkeys(keep, pa.float64()),
+                include_columns=keep,
+                null_values=[],
+                true_values=[],
+                false_values=[],
+                strings_can_be_null=False,
+                quoted_strings_can_be_null=False,
+            ),
+        )
+    except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
+        return None

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -53,15 +54,104 @@ def read_measurements(
     p = Path(path)
     if p.suffix.lower() == ".json":
         return _read_json(p, read_text(p, "measurement file"), length, angle, kinds)
-    raw = read_bytes(p, "measurement file", lines=True)
-    fast = dl.fast_table(raw, str(p))  # plain numbers at C speed, the rows never split in Python (else row by row)
-    lines = fast[0] if fast else decode(raw, str(p)).splitlines()
-    del raw
+    head, got = dl.plain_head(p, "measurement file"), None
+    if head is not None:  # plain numbers at C speed, column-wise, the rows never split in Python (else row by row)
+        try:
+            lay = _layout(p, head.lines, length, angle, kinds)
+        except DenavitError:  # said by the whole-file reader, in its order
+            lay = None
+        if lay is not None and lay.joint_file:
+            return _from_sweep_file(p, length, angle, kinds)
+        got = lay and dl.plain_columns(p, head, lay.delim, len(lay.cols), [[lay.idx[c] for c in lay.need]])
+    if got is None:
+        lay = _layout(
+            p, decode(read_bytes(p, "measurement file", lines=True), str(p)).splitlines(), length, angle, kinds
+        )
+        if lay.joint_file:
+            return _from_sweep_file(p, length, angle, kinds)
+    ls, as_, need, idx, hline = lay.ls, lay.as_, lay.need, lay.idx, lay.hline
+    qn, rot, extra, pay = lay.qn, lay.rot, lay.extra, lay.pay
+    if got is not None:
+        table = got[0]  # the columns of `need`, in its order
+        where = sw.FileLines(str(p), head.line + np.arange(len(table)))
+        at = {c: k for k, c in enumerate(need)}
+        q = table[:, :qn]
+        pts = table[:, qn : qn + 3] * ls
+        far = np.abs(pts) > dl.MAX_LENGTH
+        if far.any():
+            r, c = np.argwhere(far)[0]
+            dl.far(pts[r, c], f"{where[r]}: column {'xyz'[c]!r}")
+        rv = table[:, [at[c] for c in ("rx", "ry", "rz")]] * as_ if rot else []
+        more = table[:, [at[c] for c in extra]] * ls if extra else None
+        payload = payload_from_columns(table, {c: at[c] for c in pay}, ls, where) if pay else None
+        if extra and (np.abs(more) > dl.MAX_LENGTH).any():
+            r, c = np.argwhere(np.abs(more) > dl.MAX_LENGTH)[0]
+            dl.far(more[r, c], f"{where[r]}: column {extra[c]!r}")
+    else:  # row by row: errors name the line and the column
+        q, pts, rv, where, more, pays = [], [], [], [], [], []
+        cols, delim = lay.cols, lay.delim
+        for ln, cells in lay.data[1:]:
+            w = f"{p}:{ln}"
+            if len(cells) != len(cols):
+                raise DenavitError(f"{w}: expected {len(cols)} values ({delim.join(cols)}), got {len(cells)}")
+            vals = {c: dl.number(cells[k], w, c) for c, k in idx.items() if c not in "xyz"}
+            q.append([vals[f"q{i}"] for i in range(1, qn + 1)])
+            pts.append([dl.length(cells[idx[c]], w, c, ls) for c in "xyz"])
+            if rot:
+                rv.append([vals[c] * as_ for c in ("rx", "ry", "rz")])
+            if extra:
+                more.append([dl.length(cells[idx[c]], w, c, ls) for c in extra])
+            if pay:
+                pays.append([vals[c] for c in pay])
+            where.append(w)
+        payload = (
+            payload_from_columns(
+                np.asarray(pays, dtype=float).reshape(len(pays), len(pay)), {c: k for k, c in enumerate(pay)}, ls, where
+            )
+            if pay and pays
+            else None
+        )
+    units, kinds, k_t, lines = lay.units, lay.kinds, lay.k_t, lay.lines
+    if not len(q):
+        raise DenavitError(f"{p}: no data rows after the header")
+    q = np.asarray(q, dtype=float) * joint_scale(kinds, units["length"], units["angle"], str(p))
+    pts = np.asarray(pts, dtype=float)
+    if extra:
+        from ..calibration.targets import TargetMeasurements  # noqa: PLC0415
+
+        targets = np.concatenate([pts[:, None], np.asarray(more, dtype=float).reshape(len(q), k_t - 1, 3)], axis=1)
+        if pay:
+            raise DenavitError(
+                f"{p}:{hline}: payload columns with several targets per pose are not supported: give one target (x,y,z) per pose"
+            )
+        return TargetMeasurements(q, targets, sw.parse_nest(lines, k_t, ls, str(p)), str(p), where, units, kinds=kinds)
+    if rot:
+        T = np.tile(np.eye(4), (len(q), 1, 1))
+        T[:, :3, :3] = rotvec_matrix(np.asarray(rv, dtype=float))
+        T[:, :3, 3] = pts
+        return Measurements(q, None, T, str(p), where, units, kinds=kinds, payload=payload)
+    return Measurements(q, pts, None, str(p), where, units, kinds=kinds, payload=payload)
+
+
+def _from_sweep_file(p: Path, length, angle, kinds) -> Measurements:
+    """The measurements of a long-form sweep file (a ``joint`` column)."""
+    return Measurements.from_sweeps(
+        sw.read_long_csv(p, length=length, angle=angle, kinds=None if kinds is None else list(kinds))
+    )
+
+
+class _Layout(SimpleNamespace):
+    """What a measurement CSV's lines up to its header say (:func:`_layout`)."""
+
+
+def _layout(p: Path, lines: list[str], length, angle, kinds) -> _Layout:
+    """A measurement CSV's units, columns and kinds from its ``lines`` (the whole file's, or those up to the header):
+    the columns needed in order (``need``: q1..qn, x, y, z, then rx, ry, rz, further targets or the payload) and
+    their indices in the file (``idx``); ``joint_file`` when it is a long-form sweep file. Header errors are one line
+    naming it."""
     data, delim = dl.rows(lines, str(p))
     if data and "joint" in [c.lower() for c in data[0][1]]:
-        return Measurements.from_sweeps(
-            sw.read_long_csv(p, length=length, angle=angle, kinds=None if kinds is None else list(kinds))
-        )
+        return _Layout(joint_file=True)
     units = input_units(parse_declaration(lines, str(p)), length, angle, str(p))
     ls, as_ = length_scale(units["length"], str(p)), angle_scale(units["angle"], str(p))
     if not data:
@@ -105,64 +195,25 @@ def read_measurements(
             f"{p}:{hline}: a pose's rotation (rx,ry,rz) and further targets (x2,y2,z2,...) in one file: give one or the other, got {delim.join(names)!r}"
         )
     kinds = joint_kinds(kinds, len(qcols), f"{p}: kinds given") or ("revolute",) * len(qcols)
-    idx = {c: cols.index(c) for c in need}
-    if fast:
-        table = fast[1]
-        where = sw.FileLines(str(p), fast[2] + np.arange(len(table)))
-        q = table[:, [idx[f"q{i}"] for i in range(1, len(qcols) + 1)]]
-        pts = table[:, [idx[c] for c in "xyz"]] * ls
-        far = np.abs(pts) > dl.MAX_LENGTH
-        if far.any():
-            r, c = np.argwhere(far)[0]
-            dl.far(pts[r, c], f"{where[r]}: column {'xyz'[c]!r}")
-        rv = table[:, [idx[c] for c in ("rx", "ry", "rz")]] * as_ if rot else []
-        more = table[:, [idx[c] for c in extra]] * ls if extra else None
-        payload = payload_from_columns(table, {c: idx[c] for c in pay}, ls, where) if pay else None
-        if extra and (np.abs(more) > dl.MAX_LENGTH).any():
-            r, c = np.argwhere(np.abs(more) > dl.MAX_LENGTH)[0]
-            dl.far(more[r, c], f"{where[r]}: column {extra[c]!r}")
-    else:  # row by row: errors name the line and the column
-        q, pts, rv, where, more, pays = [], [], [], [], [], []
-        for ln, cells in data[1:]:
-            w = f"{p}:{ln}"
-            if len(cells) != len(cols):
-                raise DenavitError(f"{w}: expected {len(cols)} values ({delim.join(cols)}), got {len(cells)}")
-            vals = {c: dl.number(cells[k], w, c) for c, k in idx.items() if c not in "xyz"}
-            q.append([vals[f"q{i}"] for i in range(1, len(qcols) + 1)])
-            pts.append([dl.length(cells[idx[c]], w, c, ls) for c in "xyz"])
-            if rot:
-                rv.append([vals[c] * as_ for c in ("rx", "ry", "rz")])
-            if extra:
-                more.append([dl.length(cells[idx[c]], w, c, ls) for c in extra])
-            if pay:
-                pays.append([vals[c] for c in pay])
-            where.append(w)
-        payload = (
-            payload_from_columns(
-                np.asarray(pays, dtype=float).reshape(len(pays), len(pay)), {c: k for k, c in enumerate(pay)}, ls, where
-            )
-            if pay and pays
-            else None
-        )
-    if not len(q):
-        raise DenavitError(f"{p}: no data rows after the header")
-    q = np.asarray(q, dtype=float) * joint_scale(kinds, units["length"], units["angle"], str(p))
-    pts = np.asarray(pts, dtype=float)
-    if extra:
-        from ..calibration.targets import TargetMeasurements  # noqa: PLC0415
-
-        targets = np.concatenate([pts[:, None], np.asarray(more, dtype=float).reshape(len(q), k_t - 1, 3)], axis=1)
-        if pay:
-            raise DenavitError(
-                f"{p}:{hline}: payload columns with several targets per pose are not supported: give one target (x,y,z) per pose"
-            )
-        return TargetMeasurements(q, targets, sw.parse_nest(lines, k_t, ls, str(p)), str(p), where, units, kinds=kinds)
-    if rot:
-        T = np.tile(np.eye(4), (len(q), 1, 1))
-        T[:, :3, :3] = rotvec_matrix(np.asarray(rv, dtype=float))
-        T[:, :3, 3] = pts
-        return Measurements(q, None, T, str(p), where, units, kinds=kinds, payload=payload)
-    return Measurements(q, pts, None, str(p), where, units, kinds=kinds, payload=payload)
+    return _Layout(
+        joint_file=False,
+        data=data,
+        delim=delim,
+        lines=lines,
+        units=units,
+        ls=ls,
+        as_=as_,
+        hline=hline,
+        cols=cols,
+        qn=len(qcols),
+        rot=rot,
+        k_t=k_t,
+        extra=extra,
+        pay=pay,
+        need=need,
+        idx={c: cols.index(c) for c in need},
+        kinds=kinds,
+    )
 
 
 def _read_json(p: Path, text: str, length: str | None, angle: str | None, kinds) -> Measurements:

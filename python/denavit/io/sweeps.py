@@ -146,14 +146,14 @@ def read_long_csv(
     (default all revolute) say which readings are lengths. ``home`` (SI) defaults to the readings of the
     locked joints.
 
-    The data rows are parsed at C speed when they are plain numbers (:func:`~denavit.io.delimited.numeric_table`:
-    60-150 MB of text a second, benchmarks/bench_io.py); otherwise, and whenever a value is wrong, row by row, each cell by
-    :func:`~denavit.io.delimited.number`, the error naming the line and the column.
+    The data rows are parsed at C speed, column-wise, when they are plain numbers
+    (:func:`~denavit.io.delimited.plain_columns`: Arrow's CSV reader on every core, without holding the file's text;
+    docs/speed.md, "Reading and writing sweep files"); otherwise, and whenever a value is wrong, row by row, each cell
+    by :func:`~denavit.io.delimited.number`, the error naming the line and the column.
     """
     where = str(path)
-    data = read_bytes(path, "sweep file", lines=True)
-    fast = dl.fast_table(data, where)
-    lines = fast[0] if fast else decode(data, where).splitlines()
+    fast = _fast_long(path, where)
+    lines = fast[0].lines if fast else _whole(path, where)
     units = input_units(parse_declaration(lines, where), length, angle, where)
     rows, _ = dl.rows(lines, where)
     if not rows:
@@ -162,68 +162,55 @@ def read_long_csv(
     kinds = _kinds(kinds, n, where, "the header")
     qscale = joint_scale(kinds, units["length"], units["angle"], where)
     ls = length_scale(units["length"], where)
-    take = [cols.index(c) for c in need]
+    npay = len([c for c in need if c in PAYLOAD_COLUMNS])
     if fast:
-        table, line = fast[1], fast[2] + np.arange(len(fast[1]))
-        starts = _blocks(table[:, take[0]])
-        jv = table[starts, take[0]]  # every row's joint value is one of its block's
-        if not np.all((jv == np.round(jv)) & (jv >= 1) & (jv <= n)):  # the row-by-row reader names the row
-            fast = None
-            rows, _ = dl.rows(decode(data, where).splitlines(), where)
-    del data
-    if not fast:
-        table, line = _slow_long(rows[1:], cols, need, take, where)
-        take = list(range(len(take)))
-        starts = _blocks(table[:, 0])
+        got, line = fast[1], fast[0].line + np.arange(len(fast[1][0]))
+    else:
+        table, line = _slow_long(rows[1:], cols, need, [cols.index(c) for c in need], where)
+        got = [np.ascontiguousarray(table[:, a:b]) for a, b in _groups(n, k_t, quat, len(need))]
+        del table
     del fast
-    joint = table[:, take[0]]
-    ends = np.r_[starts[1:], len(table)]
+    joint, q, pts, quats, pays = got
+    joint = joint[:, 0]
+    q *= qscale  # in place: the sweeps are views of these arrays (a sweep's rows are one block in the usual layout)
+    pts *= ls
+    starts = _blocks(joint)
+    ends = np.r_[starts[1:], len(joint)]
     if len(np.unique(joint[starts])) == len(starts):  # each joint's rows one block (the usual layout): slices
         picks = {int(joint[a]): slice(a, b) for a, b in zip(starts, ends)}
     else:
         picks = {int(j): np.flatnonzero(joint == j) for j in np.unique(joint[starts])}
-    qcols, pcols = _columns(take[1 : n + 1]), _columns(take[n + 1 : n + 1 + 3 * k_t])
-    far = np.abs(table[:, pcols]) * ls > dl.MAX_LENGTH  # a 1e308 mm point had overflowed the fits
+    far = np.abs(pts) > dl.MAX_LENGTH  # a 1e308 mm point had overflowed the fits
     if far.any():
         r, c = np.argwhere(far)[0]
-        dl.far(table[r, pcols][c] * ls, f"{where}:{line[r]}: column {need[n + 1 + c]!r}")
+        dl.far(pts[r, c], f"{where}:{line[r]}: column {need[n + 1 + c]!r}")
     rot = None
     if quat:
         from .recordings.columns import poses_of  # noqa: PLC0415 (scipy's rotations)
 
-        qc = take[n + 1 + 3 * k_t : n + 5 + 3 * k_t]
-        bad = np.flatnonzero(np.abs(np.linalg.norm(table[:, qc], axis=1) - 1) > 1e-6)
+        bad = np.flatnonzero(np.abs(np.linalg.norm(quats, axis=1) - 1) > 1e-6)
         if bad.size:
             raise DenavitError(
-                f"{where}:{line[bad[0]]}: quaternion norm {np.linalg.norm(table[bad[0], qc]):.6g}: expected a unit quaternion (qw, qx, qy, qz)"
+                f"{where}:{line[bad[0]]}: quaternion norm {np.linalg.norm(quats[bad[0]]):.6g}: expected a unit quaternion (qw, qx, qy, qz)"
             )
-        rot = poses_of(np.zeros((len(table), 3)), table[:, qc], "quaternion", where)[:, :3, :3]
-
-    npay = len([c for c in need if c in PAYLOAD_COLUMNS])
+        rot = poses_of(np.zeros((len(quats), 3)), quats, "quaternion", where)[:, :3, :3]
     payload = (
-        payload_from_columns(
-            table,
-            {c: take[len(need) - npay + i] for i, c in enumerate(need[len(need) - npay :])},
-            ls,
-            FileLines(where, line),
-        )
+        payload_from_columns(pays, {c: i for i, c in enumerate(need[len(need) - npay :])}, ls, FileLines(where, line))
         if npay
         else None
     )
     sweeps = {}
     for j, k in picks.items():
-        pts = table[k][:, pcols] * ls
-        tg = pts.reshape(len(pts), k_t, 3) if k_t > 1 else None
+        p = pts[k]
         sweeps[j] = Sweep(
             j,
-            pts if k_t == 1 else np.ascontiguousarray(pts[:, :3]),
-            table[k][:, qcols] * qscale,
+            p if k_t == 1 else np.ascontiguousarray(p[:, :3]),
+            q[k],
             FileLines(where, line[k]),
-            tg,
+            p.reshape(len(p), k_t, 3) if k_t > 1 else None,
             None if rot is None else rot[k],
             None if payload is None else payload[k],
         )
-    del table
     out = [sweeps[j] for j in sorted(sweeps)]
     nest = parse_nest(lines, k_t, ls, where) if k_t > 1 else None
     every = SweepSet(out, n, np.zeros(n), kinds, where, units, nest)  # one sweep of each joint (or a one-line error)
@@ -236,6 +223,40 @@ def read_long_csv(
             ]
         )
     return replace(every, home=np.asarray(home, dtype=float))
+
+
+def _groups(n: int, k_t: int, quat: bool, width: int) -> list[tuple[int, int]]:
+    """The column ranges of the long form's needed columns (:func:`_long_header`): joint, q1..qn, the targets'
+    x, y, z, the quaternion, the payload."""
+    cut = [0, 1, n + 1, n + 1 + 3 * k_t, n + 1 + 3 * k_t + 4 * quat, width]
+    return list(zip(cut[:-1], cut[1:]))
+
+
+def _fast_long(path, where: str):
+    """(the file's :class:`~denavit.io.delimited.Head`, its needed columns by :func:`_groups`, in file units) of a
+    long-form sweep file whose header is right and whose rows are plain numbers with valid joint indices, read at C
+    speed (:func:`~denavit.io.delimited.plain_columns`); None for anything else (the whole-file reader's errors)."""
+    head = dl.plain_head(path, "sweep file")
+    if head is None:
+        return None
+    try:
+        rows, delim = dl.rows(head.lines, where)
+        cols, n, need, k_t, quat = _long_header(rows, where)
+    except (DenavitError, IndexError):
+        return None
+    take = [cols.index(c) for c in need]
+    got = dl.plain_columns(path, head, delim, len(cols), [take[a:b] for a, b in _groups(n, k_t, quat, len(need))])
+    if got is None:
+        return None
+    jv = got[0][_blocks(got[0][:, 0]), 0]  # every row's joint value is one of its block's
+    if not np.all((jv == np.round(jv)) & (jv >= 1) & (jv <= n)):  # the row-by-row reader names the row
+        return None
+    return head, got
+
+
+def _whole(path, where: str) -> list[str]:
+    """The lines of a sweep file read whole (its size and line lengths checked, decoded: one-line errors)."""
+    return decode(read_bytes(path, "sweep file", lines=True), where).splitlines()
 
 
 def _blocks(joint: np.ndarray) -> np.ndarray:
