@@ -657,9 +657,26 @@ def inside(box: dict, limit: float) -> bool:
 
 
 @pytest.fixture(scope="module")
-def every_report(result, tmp_path_factory):
-    """One report of each type: identify in each convention, show, calibrate, compensate (KR5, 6 joints)."""
+def calibrated():
+    """A KR5 calibration from 60 simulated poses of a robot off its nominal (0.5 mm, 0.05 deg), 20 % held out:
+    (the calibration, the true model, the poses' joint values)."""
     from denavit import calibration as cal
+
+    kr5 = dv.load_robot("kr5")
+    t = kr5.table
+    E = np.random.default_rng(3).uniform(-1, 1, t.params.shape) * np.where(
+        np.array(t.angle_columns), np.radians(0.05), 0.5e-3
+    )
+    true = dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool).to_model(
+        "true", kr5.names, kr5.lower, kr5.upper
+    )
+    q = np.random.default_rng(5).uniform(kr5.lower, kr5.upper, (60, 6)) * 0.8
+    return cal.calibrate(cal.simulate(true, q, noise=2e-5), kr5, holdout=0.2), true, q
+
+
+@pytest.fixture(scope="module")
+def every_report(result, calibrated, tmp_path_factory):
+    """One report of each type: identify in each convention, show, calibrate, compensate (KR5, 6 joints)."""
     from denavit import compensation as cp
 
     folder = tmp_path_factory.mktemp("every")
@@ -670,15 +687,7 @@ def every_report(result, tmp_path_factory):
         rep.write_report(dv.identify(result.sweeps, nominal=kr5, convention=conv), out[f"identify-{conv}"])
     out["show"] = folder / "show.html"
     rep.write_model_report(kr5, out["show"], q=np.radians(sw.PAPER_HOME_DEG))
-    t = kr5.table
-    E = np.random.default_rng(3).uniform(-1, 1, t.params.shape) * np.where(
-        np.array(t.angle_columns), np.radians(0.05), 0.5e-3
-    )
-    true = dv.Table(t.convention, t.params + E, t.kinds, t.T_world_base, t.T_last_tool).to_model(
-        "true", kr5.names, kr5.lower, kr5.upper
-    )
-    q = np.random.default_rng(5).uniform(kr5.lower, kr5.upper, (60, 6)) * 0.8
-    res = cal.calibrate(cal.simulate(true, q, noise=2e-5), kr5, holdout=0.2)
+    res, true, q = calibrated
     out["calibrate"] = rep.write_calibration_report(res, folder / "calibrate.html")
     c = cp.compensate(kr5.model(), true, dv.fk_batch(kr5.model(), q[:30]), q_nominal=q[:30])
     out["compensate"] = rep.write_compensation_report(
@@ -763,3 +772,63 @@ def test_the_compensation_error_figure_has_whole_target_numbers():
     flat = re.sub(r"\s", "", rep.compensation_report_html(c, kr5, kr5))
     axis = flat[flat.index('"xaxis":{"title":{"text":"target"}') :][:120]
     assert '"tickformat":"d"' in axis and '"dtick":1' in axis, axis
+
+
+def test_the_residual_scatter_says_what_its_x_axis_is(result):
+    """The identification report's residual scatter had no x tick labels (issue 40, item 11): one labelled tick per
+    joint, under the middle of its points, naming the joint and its number of points; no zero line over point 0."""
+    go, _ = rep.html._plotly()
+    fig = rep._residual_chart(go, result, 1e-3, "mm")
+    ax = fig.layout.xaxis
+    assert ax.showticklabels is not False and ax.tickmode == "array" and ax.zeroline is False
+    names = [result.nominal.names[s.joint - 1] for s in result.sweeps.sweeps]
+    assert list(ax.ticktext) == [f"{n}: {len(f.residuals)} points" for n, f in zip(names, result.fits, strict=True)]
+    joints = [t for t in fig.data if t.showlegend is not False]  # one trace of points per joint (outliers apart)
+    for tick, t in zip(ax.tickvals, joints, strict=True):
+        assert min(t.x) <= tick <= max(t.x)
+
+
+def test_the_residual_scatter_draws_its_tick_labels_in_the_browser(tab, report_path, result):
+    """The same, as drawn: the SVG of the chart holds one x tick label per joint, in sweep order."""
+    tab.goto(report_path.as_uri())
+    tab.wait_all_rendered()
+    labels = tab.eval("Array.from(document.querySelectorAll('#residuals-chart .xtick text')).map(t => t.textContent)")
+    assert labels == [f"{result.nominal.names[s.joint - 1]}: {len(s.points)} points" for s in result.sweeps.sweeps]
+    assert tab.problems() == []
+
+
+def test_the_calibration_report_shows_no_notes_as_a_plain_none(calibrated):
+    """'Notes: none' was an orange warning bullet in the calibration report too (issue 40, item 11); the misfit
+    chart's zero line no longer hides pose 0."""
+    import dataclasses
+
+    res = calibrated[0]
+    text = rep.calibration_report_html(dataclasses.replace(res, notes=[]))
+    notes = text[text.index('id="notes-section"') :]
+    notes = notes[: notes.index("</section>")]
+    assert '<p class="none" id="notes">none</p>' in notes and "<li>" not in notes
+    flat = re.sub(r"\s", "", text)
+    axis = flat[flat.index('"xaxis":{"title":{"text":"fittedpose"}') :][:80]
+    assert '"zeroline":false' in axis, axis
+    if res.notes:  # notes are still listed as such
+        text = rep.calibration_report_html(res)
+        assert text.count("<li>", text.index('id="notes-section"')) == len(res.notes)
+
+
+def test_the_compensation_targets_table_names_their_folder_once():
+    """The targets of a program were listed with the program's absolute folder on every row: the folder once in
+    the caption, each row its file and line."""
+    from denavit import compensation as cp
+
+    kr5 = dv.load_robot("kr5")
+    q = np.random.default_rng(5).uniform(kr5.lower, kr5.upper, (3, 6)) * 0.5
+    c = cp.compensate(kr5.model(), kr5.model(), dv.fk_batch(kr5.model(), q), q_nominal=q)
+    where = ["/robots/cell 4/prog.dat:12", "/robots/cell 4/prog.dat:15", "/robots/cell 4/sub.dat:3"]
+    text = rep.compensation_report_html(c, kr5, kr5, where=where)
+    cells = [r["cell"]["target"]["text"] for r in Page(text).rows("targets")]
+    assert cells == ["prog.dat:12", "prog.dat:15", "sub.dat:3"]
+    caption = re.search(r'<table id="targets"[^>]*><caption>(.*?)</caption>', text).group(1)
+    assert caption == "Per target; files in /robots/cell 4/."
+    # no common folder: the places as given
+    text = rep.compensation_report_html(c, kr5, kr5, where=["a.csv:2", "b.csv:2", "target 3"])
+    assert [r["cell"]["target"]["text"] for r in Page(text).rows("targets")] == ["a.csv:2", "b.csv:2", "target 3"]

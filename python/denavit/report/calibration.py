@@ -100,7 +100,7 @@ def _misfit_chart(go, res, ls: float, length: str):
     fig.update_layout(
         height=320,
         margin={"l": 70, "r": 10, "t": 40, "b": 40},
-        xaxis={"title": {"text": "fitted pose"}},
+        xaxis={"title": {"text": "fitted pose"}, "zeroline": False},  # x = 0 is pose 0: the zero line had hidden it
         yaxis={"title": {"text": f"tool position misfit [{length}]"}, "exponentformat": "power", "rangemode": "tozero"},
         title={"text": "Misfit of every fitted pose (calibrated model)", "font": {"size": 14}},
     )

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import html
+import os
 from pathlib import Path
 
 import numpy as np
@@ -102,8 +103,12 @@ def _error_chart(go, comp, ls: float, length: str):
 
 
 def _targets_table(comp, where, ls: float, length: str) -> str:
-    """The first :data:`TARGET_ROWS` targets: error without compensation, command shift, solve residual, flags."""
+    """The first :data:`TARGET_ROWS` targets: error without compensation, command shift, solve residual, flags. The
+    folder every target's place shares ("/a/b/prog.dat:13") is said once in the caption, not on every row."""
     n = len(comp)
+    common = os.path.commonprefix([str(w) for w in where])
+    folder = common[: max(common.rfind("/"), common.rfind(os.sep)) + 1]
+    where = [str(w)[len(folder) :] for w in where]
     tgt = np.asarray(comp.targets)[:, :3, 3]
     cmd = np.asarray(comp.commands)[:, :3, 3]
     rows = []
@@ -132,7 +137,8 @@ def _targets_table(comp, where, ls: float, length: str) -> str:
             "flags",
         ],
         rows,
-        f"Per target (first {TARGET_ROWS} of {n})" if n > TARGET_ROWS else "Per target.",
+        (f"Per target (first {TARGET_ROWS} of {n})" if n > TARGET_ROWS else "Per target")
+        + (f"; files in {folder}." if folder else "."),
         "targets",
     )
 

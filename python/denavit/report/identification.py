@@ -284,10 +284,12 @@ def _identification_view(go, result: Identification, ls: float, length: str):
 
 def _residual_chart(go, result: Identification, ls: float, length: str):
     """Every point's residual as a marker (each is the distance of one measurement, not a curve), one colour
-    per joint, each joint's points side by side; outliers as black crosses."""
+    per joint, each joint's points side by side in sweep order; outliers as black crosses. The x axis is labelled
+    per joint, under the middle of its points: its name and how many points it has (it had no tick labels)."""
     names = joint_names(result)
     fig = go.Figure()
     start = 0
+    ticks, labels = [], []
     for s, f in zip(result.sweeps.sweeps, result.fits, strict=True):
         r = np.asarray(f.residuals) / ls
         x = start + np.arange(len(r))
@@ -313,11 +315,20 @@ def _residual_chart(go, result: Identification, ls: float, length: str):
                     name=f"{names[s.joint - 1]} outliers",
                 )
             )
+        ticks.append(start + (len(r) - 1) / 2)
+        labels.append(f"{names[s.joint - 1]}: {len(r)} points")
         start += len(r) + 3
     fig.update_layout(
         height=340,
-        margin={"l": 70, "r": 10, "t": 40, "b": 40},
-        xaxis={"title": {"text": "measured point (joint by joint)"}, "showticklabels": False},
+        margin={"l": 70, "r": 10, "t": 40, "b": 50},
+        xaxis={
+            "title": {"text": "measured point, joint by joint in sweep order"},
+            "tickmode": "array",
+            "tickvals": ticks,
+            "ticktext": labels,
+            "showgrid": False,
+            "zeroline": False,  # x = 0 is the first point, not a zero: the line hid it
+        },
         yaxis={"title": {"text": f"residual [{length}]"}, "exponentformat": "power", "zeroline": True},
         title={"text": "Residual of every measured point", "font": {"size": 14}},
     )
