@@ -294,7 +294,10 @@ def _figure_html(fig, div_id: str, cls: str = "plot") -> str:
     plotly.py template is dropped (plotly.js's defaults look the same and the page is 10 kB lighter)."""
     fig.update_layout(template="none")
     spec = fig.to_json(validate=False, pretty=False).replace("</", "<\\/")
-    return f'<div id="{div_id}" class="{cls}"></div>\n<script type="application/json" class="figure" data-for="{div_id}">{spec}</script>'
+    return (
+        f'<div id="{div_id}" class="{cls}"></div>\n'
+        f'<script type="application/json" class="figure" data-for="{div_id}">{spec}</script>'
+    )
 
 
 # The one loader of a page: inflates the gzip'ed plotly.js bundle with the browser's DecompressionStream (no
@@ -344,11 +347,15 @@ def _page(title: str, meta: str, summary: str, body: str) -> str:
     the compressed plotly.js bundle with its loader (:data:`_LOADER`)."""
     loader = _LOADER % json.dumps(_CONFIG)
     return (
-        f'<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n<meta name="viewport" content="width=device-width, initial-scale=1">\n'
-        f'<title>{html.escape(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n<header><h1>{html.escape(title)}</h1><p class="meta">{meta}</p>'
-        f"{summary}</header>\n{body}\n<footer>Written by denavit {html.escape(__version__)}. Self-contained: the page fetches nothing (plotly.js {PLOTLY_BUNDLE} "
+        '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+        '<meta name="viewport" content="width=device-width, initial-scale=1">\n'
+        f"<title>{html.escape(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n"
+        f'<header><h1>{html.escape(title)}</h1><p class="meta">{meta}</p>'
+        f"{summary}</header>\n{body}\n<footer>Written by denavit {html.escape(__version__)}. "
+        f"Self-contained: the page fetches nothing (plotly.js {PLOTLY_BUNDLE} "
         "is inlined, compressed).</footer>\n"
-        f'<script type="application/octet-stream" id="plotly-bundle">{_bundle_base64()}</script>\n<script>{loader}</script>\n</body>\n</html>\n'
+        f'<script type="application/octet-stream" id="plotly-bundle">{_bundle_base64()}</script>\n'
+        f"<script>{loader}</script>\n</body>\n</html>\n"
     )
 
 
@@ -368,15 +375,17 @@ def _notes_html(notes: Sequence[str]) -> str:
 
 def _view_section(view_html: str, what: str) -> str:
     return (
-        f'<section id="view"><h2>3-D view</h2><p class="hint">{html.escape(what)} Drag to rotate, scroll to zoom, right-drag to pan; '
-        f"click a legend entry to show or hide that joint or convention, double-click to show it alone.</p>\n{view_html}\n</section>"
+        f'<section id="view"><h2>3-D view</h2><p class="hint">{html.escape(what)} Drag to rotate, scroll to zoom, '
+        "right-drag to pan; click a legend entry to show or hide that joint or convention, double-click to show it "
+        f"alone.</p>\n{view_html}\n</section>"
     )
 
 
 def _pairs_table(pairs, ls: float, length: str, angle: str) -> str:
     a = angle_scale(angle)
     rows = [
-        f'<tr data-pair="{p.joint}">{_td("pair", f"{p.joint}-{p.joint + 1}")}{_td("relation", p.relation)}{_td("angle", p.angle / a)}{_td("distance", p.distance / ls)}'
+        f'<tr data-pair="{p.joint}">{_td("pair", f"{p.joint}-{p.joint + 1}")}{_td("relation", p.relation)}'
+        f"{_td('angle', p.angle / a)}{_td('distance', p.distance / ls)}"
         f"{_td('hayati-beta', p.hayati_beta / a)}</tr>"
         for p in pairs
     ]
