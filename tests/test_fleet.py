@@ -18,7 +18,7 @@ from denavit.io.measurements import to_csv
 from denavit.io.sweeps import to_long_csv
 
 ROBOTS = 40
-BAD = {7: "this is not a sweep file\n", 23: "q1,q2,q3,q4,q5,q6,x,y,z\n1,2,3\n"}
+BAD = {8: "this is not a sweep file\n", 23: "q1,q2,q3,q4,q5,q6,x,y,z\n1,2,3\n"}
 
 
 def _manifest(folder) -> str:
@@ -27,14 +27,14 @@ def _manifest(folder) -> str:
     tables = []
     for i in range(ROBOTS):
         rid = f"KR5-{i:03d}"
-        if i % 2 == 0:  # sweeps
+        if i % 4 == 0:  # sweeps (10 robots; the identification takes longer than the calibration)
             name, job = f"{rid}_sweeps.csv", "identify"
             text = to_long_csv(dv.simulate(kr5, noise=2e-5, points_per_sweep=6, ranges="paper30", seed=i))
         else:  # poses
             name, job = f"{rid}_poses.csv", "calibrate"
             text = to_csv(dv.simulate(kr5, q, noise=2e-5, seed=i))
         (folder / name).write_text(BAD.get(i, text))
-        options = 'model = "full"\n' if job == "calibrate" else ""
+        options = 'model = "full"\nconvention = "mdh"\n' if job == "calibrate" else ""
         tables.append(f'[[robot]]\nid = "{rid}"\nnominal = "kr5"\njob = "{job}"\ndata = "{name}"\n{options}')
     path = folder / "fleet.toml"
     path.write_text("\n".join(tables))
@@ -86,7 +86,7 @@ def test_fleet_on_two_workers_matches_serial_survives_a_killed_worker_and_reruns
         entries = reg.entries()
     assert len(entries) == 40 and len({e.robot_id for e in entries}) == 40  # each robot once
     failed = {e.robot_id: e.error for e in entries if e.status == "failed"}
-    assert sorted(failed) == ["KR5-007", "KR5-023"]
+    assert sorted(failed) == ["KR5-008", "KR5-023"]
     for rid, err in failed.items():
         assert "\n" not in err and f"{rid}_" in err  # one line, naming the file as the manifest does
         assert "denavit-job-" not in err  # not the worker's temporary folder

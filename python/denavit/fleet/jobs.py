@@ -129,7 +129,7 @@ def _calibrate(spec: JobSpec, paths: dict) -> Outcome:
 
     cal = calibrate(paths["data"][0], _nominal(spec, paths), **spec.options)
     chosen = cal.model_choice.chosen if cal.model_choice is not None else None
-    out = _registered(cal.robot(), f"least squares ({chosen})" if chosen else "least squares")
+    out = _registered(cal.robot(convention=cal.convention), f"least squares ({chosen})" if chosen else "least squares")
     metrics = {**out.metrics, "rms_m": float(cal.rms), "poses": int(cal.measurements.n), "converged": cal.converged}
     if cal.validation is not None:
         metrics["held_out_rms_m"] = float(cal.validation.after_rms)

@@ -266,5 +266,21 @@ def connect(scheduler: str | None = None, workers: int | None = None):
         ) from None
     if scheduler is not None:
         return Client(scheduler)
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
+    import logging  # noqa: PLC0415
+
+    cluster = LocalCluster(
+        n_workers=workers,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=None,
+        silence_logs=logging.CRITICAL,  # a worker's own log lines (heartbeats at shutdown) are not the user's
+    )
     return Client(cluster)
+
+
+def disconnect(client) -> None:
+    """Close a client of :func:`connect`: a local cluster is shut down with it (scheduler and workers), a remote one
+    left running."""
+    if client.cluster is not None:
+        client.shutdown()
+    client.close()
