@@ -45,7 +45,7 @@ import numpy as np
 
 import denavit as dv
 from denavit import calibration as cal
-from denavit.calibration.parametrization import as_robot
+from denavit.io.robots import as_robot
 from denavit.geometry import kabsch
 
 #: Gravity deflection: rad per (N m per N), i.e. per metre of horizontal lever of a unit load at the tool point.

@@ -172,12 +172,13 @@ def test_reprs_of_recordings_segmentations_and_targets():
 
 
 def test_the_identify_module_function_takes_names_and_says_what_it_reads():
-    """The module's identify (the one dv.identify calls) takes a nominal by name as calibrate does, and a path
-    gets a one-line error naming the function that reads files (it had failed on 'str' has no attribute 'n_joints')."""
+    """dv.identify takes a nominal by name as calibrate does (names are read by the api: issue 35's layering), and a
+    path given to the module's identify (the one dv.identify calls) gets a one-line error naming the function that
+    reads files (it had failed on 'str' has no attribute 'n_joints')."""
     from denavit.identification import identify
 
     s = dv.simulate("kr5", points_per_sweep=8)
-    assert identify(s, nominal="kr5").nominal.name == "kr5"
+    assert dv.identify(s, nominal="kr5").nominal.name == "kr5"
     with pytest.raises(
         dv.DenavitError, match=r"expected a SweepSet, got str: denavit.identify\(path, nominal=...\) reads files"
     ):

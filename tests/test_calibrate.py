@@ -17,7 +17,7 @@ from denavit import calibration as cal
 from denavit import fitting
 from denavit import sweeps as sw
 from denavit.calibration.least_squares import covariance, residuals, weights
-from denavit.calibration.parametrization import as_robot
+from denavit.io.robots import as_robot
 from denavit.io import sweeps as swio
 from denavit.io.measurements import read_measurements, to_csv
 

@@ -65,7 +65,7 @@ def test_dwell_detection_does_not_fire_on_constant_speed_at_controller_rates():
     while a real stop of 60 rows at the same density is still found and left out."""
     import denavit as dv
     from denavit import sweeps as sw
-    from denavit.robot import load
+    from denavit.io.robots import load
 
     kr5 = load("kr5")
     home, ranges = np.radians([0, -90, 90, 0, 45, 0]), np.radians(sw.PAPER_RANGES_DEG[30])
@@ -92,7 +92,7 @@ def test_robot_files_write_arrays_inline_and_read_back_the_same():
     line, a matrix one row a line, and the file reads back to the same robot."""
     import tomllib
 
-    from denavit.calibration.parametrization import as_robot
+    from denavit.io.robots import as_robot
     from denavit.io import robotfile
 
     r = as_robot("kr5")

@@ -10,7 +10,7 @@ import pytest
 import denavit as dv
 from cli import run as run_cli
 from denavit import calibration as cal
-from denavit.calibration.parametrization import as_robot
+from denavit.io.robots import as_robot
 from denavit.io.measurements import read_measurements, to_csv
 
 TOOL = np.array([0.05, 0.03, 0.10])

@@ -14,7 +14,7 @@ from denavit import calibration as cal
 from denavit import compensation as cp
 from denavit.io import programs as pg
 from denavit.io.programs import abb, fanuc, kuka
-from denavit.robot import load
+from denavit.io.robots import load
 
 DATA = Path(__file__).parent / "data" / "programs"
 PROGRAMS = [
@@ -393,7 +393,7 @@ def test_a_saved_calibration_compensates_as_the_in_memory_result(calibration, sa
     else:
         f = tmp_path / f"cal_{save}.toml"
         robotfile.save(c.robot(convention=save), f, "mm", "deg")
-    saved = cp.compensate(kr5, str(f), T, q_nominal=Q)
+    saved = dv.compensate(kr5, str(f), T, q_nominal=Q)  # (a path: read by the api)
     ok = mem.ok & saved.ok
     assert ok.sum() >= 36
     assert np.abs(saved.commands[ok, :3, 3] - mem.commands[ok, :3, 3]).max() < 1e-6

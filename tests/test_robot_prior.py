@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from denavit import calibration as cal
-from denavit.calibration.parametrization import as_robot
+from denavit.io.robots import as_robot
 from denavit.errors import DenavitError
 from denavit.io import robotfile
 

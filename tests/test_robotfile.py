@@ -7,14 +7,13 @@ import numpy as np
 import pytest
 
 import denavit as dv
-from denavit import robot
-from denavit.io import output, robotfile
+from denavit.io import output, robotfile, robots
 from denavit.io.urdf import save_urdf
 
 
 @pytest.mark.parametrize("name", ["kr5", "puma560", "ur5", "tiansui_mdh", "tiansui_edh"])
 def test_builtins_cite_source_and_units(name):
-    path = robot.resolve(name)
+    path = robots.resolve(name)
     text = path.read_text()
     assert "Source" in text or "source" in text
     r = dv.load_robot(name)
@@ -191,7 +190,7 @@ def test_outputs_are_whole_with_ordinary_permissions(tmp_path):
 
 
 def test_a_stray_top_level_key_is_an_error_and_extension_tables_are_kept(tmp_path):
-    text = robot.resolve("kr5").read_text()
+    text = robots.resolve("kr5").read_text()
     f = tmp_path / "typo.toml"
     f.write_text(text.replace("home = ", "hom = ", 1))
     assert "hom = " in f.read_text()

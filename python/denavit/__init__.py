@@ -6,7 +6,7 @@ API by example: docs/python.md.
 
 The workflows are functions of the package, taking paths, built-in names or objects (:mod:`denavit.api`):
 :func:`identify` (circle-point identification), :func:`calibrate`, :func:`plan`, :func:`simulate`,
-:func:`compensate`, :func:`validate` (:mod:`denavit.calibration.validate`). ``denavit.identify`` is the function; the
+:func:`compensate`, :func:`validate`. ``denavit.identify`` is the function; the
 identification's package (its steps, results, JSON) is :mod:`denavit.identification`
 (``from denavit.identification import Identification, to_json``). The workflows and :class:`Robot` load on first use,
 so ``import denavit`` loads the Rust core only.
@@ -58,11 +58,10 @@ __version__ = _core.__version__
 # The workflows and the robot record load on first use (PEP 562), so that `denavit --help` and `import
 # denavit` do not pay for numpy and the Python layers behind them: name -> (module, attribute).
 _LAZY = {
-    **{f: (".api", f) for f in ("calibrate", "compensate", "identify", "plan", "read_sweeps", "simulate")},
-    "validate": (".calibration.validate", "validate"),
+    **{f: (".api", f) for f in ("calibrate", "compensate", "identify", "plan", "read_sweeps", "simulate", "validate")},
     "Robot": (".robot", "Robot"),
-    "builtin_names": (".robot", "builtin_names"),
-    "load_robot": (".robot", "load"),
+    "builtin_names": (".io.robots", "builtin_names"),
+    "load_robot": (".io.robots", "load"),
 }
 
 
@@ -82,7 +81,7 @@ def __dir__() -> list[str]:
 def load_model(name_or_path, *, base_link: str | None = None, tip_link: str | None = None) -> Model:
     """The model of a built-in robot name, a robot file (.toml) or a URDF (``base_link`` / ``tip_link`` pick
     a URDF's chain; by default its single leaf, REP-199's ``tool0``, or the leaf through the most moving joints)."""
-    from .robot import load as load_robot  # noqa: PLC0415
+    from .io.robots import load as load_robot  # noqa: PLC0415
 
     return load_robot(name_or_path, base_link=base_link, tip_link=tip_link).model()
 

@@ -16,7 +16,6 @@ Identification``; ``denavit.identify`` is this module's function), :mod:`denavit
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 import numpy as np
 
@@ -24,6 +23,7 @@ from . import _core
 from .errors import DenavitError
 from .identification import Identification
 from .identification import identify as _identify
+from .io.sniff import input_path, is_measurement_file, is_sweep_file
 from .limits import floats
 from .robot import Robot
 from .sweeps import PAPER_RANGES_DEG, SweepSet
@@ -31,53 +31,10 @@ from .sweeps import PAPER_RANGES_DEG, SweepSet
 
 def _robot(robot) -> Robot:
     """``robot`` (a :class:`Robot`, a :class:`Model`, a built-in name, a robot file or a URDF, as ``str`` or
-    ``os.PathLike``) as a Robot (:func:`denavit.calibration.parametrization.as_robot`)."""
-    from .calibration.parametrization import as_robot  # noqa: PLC0415
+    ``os.PathLike``) as a Robot (:func:`denavit.io.robots.as_robot`)."""
+    from .io.robots import as_robot  # noqa: PLC0415
 
-    return as_robot(os.fspath(robot) if isinstance(robot, os.PathLike) else robot)
-
-
-def _header(path: Path) -> list[str] | None:
-    """The lower-case column names of a delimited file's header (None: binary, or no header)."""
-    from .io.delimited import rows  # noqa: PLC0415
-    from .io.text import decode, read_bytes  # noqa: PLC0415
-
-    try:
-        lines = decode(read_bytes(path, "data file", head=65536), str(path)).splitlines()
-    except DenavitError:  # a binary bag, or UTF-8 cut mid-character by the 64 kB window: not a delimited file of ours
-        return None
-    first = next((k for k, ln in enumerate(lines[:50]) if ln.strip() and not ln.lstrip().startswith("#")), None)
-    if first is None:
-        return None
-    found, _ = rows(lines[: first + 1], str(path))  # the header alone: the 64 kB window may cut the next line
-    return [c.lower() for c in found[0][1]] if found else None
-
-
-def is_sweep_file(p: Path) -> bool:
-    """Our own sweep formats (read by :mod:`denavit.io.sweeps`): a folder of ``jN.csv`` (no ROS 2 bag's
-    ``metadata.yaml``), JSON, or a delimited file whose header has a ``joint`` column; anything else is a recording."""
-    return (
-        p.suffix.lower() == ".json"
-        or (p.is_dir() and not (p / "metadata.yaml").exists())
-        or (p.is_file() and "joint" in (_header(p) or []))
-    )
-
-
-def is_measurement_file(p: Path) -> bool:
-    """Our own measurement formats (read by :func:`denavit.io.measurements.read_measurements`): JSON, or a
-    delimited file whose header has ``q1`` and ``x`` (or a sweep file's ``joint``); anything else is a recording."""
-    if p.suffix.lower() == ".json":
-        return True
-    cols = None if p.is_dir() else (_header(p) or [])
-    return cols is not None and (("q1" in cols and "x" in cols) or "joint" in cols)
-
-
-def input_path(data) -> Path:
-    """``data`` (str or os.PathLike) as a Path that exists, or a one-line error naming it."""
-    p = Path(os.fspath(data))
-    if not p.exists():
-        raise DenavitError(f"{p}: no such file or folder")
-    return p
+    return as_robot(robot)
 
 
 def read_sweeps(
@@ -88,11 +45,12 @@ def read_sweeps(
     length: str | None = None,
     angle: str | None = None,
     home=None,
-    direction=1,
+    direction=None,
     columns: str | None = None,
     sweep: str | None = None,
     target: int | None = None,
     readings=None,
+    inform=None,
 ) -> SweepSet:
     """The sweeps of ``data``: a :class:`SweepSet` as it is, or a path read as the ``identify`` command reads it.
 
@@ -103,9 +61,14 @@ def read_sweeps(
 
     nominal : robot, optional — gives the joint kinds (a prismatic joint's readings are lengths).
     home : array-like, shape (n,), rad / m — the locked configuration (needed by per-joint files, which carry no
-        readings). direction : +1 / -1 (one, or one per joint) — per-joint files: did the joint value increase
-        over the recording? target : 0-based, one target of a multi-target recording (or sweep file) alone;
+        readings). direction : +1 / -1 (one, or one per joint; default +1) — per-joint files and recordings:
+        did the joint value increase over the recording? target : 0-based, one target of a multi-target recording (or sweep file) alone;
         default every target (one fit with shared axes in :func:`identify`) and a recording's 6-DoF orientations.
+    inform : callable(kind, text), optional — told what was found reading a recording: "note" (each reader's
+        note), "clocks" (the alignment with ``readings``), "segments" (the segmentation table, angles in ``angle``).
+
+    An error about an argument names it in its ``what`` (``home``, ``direction``, ``target``; a target out of range
+    has the count per pose in ``expected``), so a caller can say which of its own options gave it.
     """
     if isinstance(data, SweepSet):
         return data if target is None else data.target(target)
@@ -116,29 +79,65 @@ def read_sweeps(
     p = input_path(data)
     robot = None if nominal is None else _robot(nominal)
     kinds = None if robot is None else list(robot.table.kinds)
-    ours = format == "sweeps" or (format == "auto" and readings is None and is_sweep_file(p))
+    ours = readings is None and (format == "sweeps" or (format == "auto" and is_sweep_file(p)))
+    if ours and p.is_dir():
+        if home is None or length is None:
+            raise DenavitError(
+                f"{p}: a folder of per-joint files needs the home configuration (one value per joint) and the files' "
+                "length unit (where they declare none)",
+                what="home",
+            )
+        return swio.read_joint_files(
+            p, home=_files_home(home, kinds, length), length=length, angle="rad", direction=direction or 1, kinds=kinds
+        )
     if ours:
-        if p.is_dir():
-            if home is None or length is None:
+        for name, given in (("home", home), ("direction", direction)):
+            if given is not None:
                 raise DenavitError(
-                    f"{p}: a folder of per-joint files needs home (rad / m, one value per joint) and length (the files' unit if they declare none)"
+                    f"{p} is a sweep file with its joint readings (and its home): {name} applies to a folder of "
+                    "per-joint files or a recording",
+                    what=name,
                 )
-            return swio.read_joint_files(p, home=home, length=length, angle="rad", direction=direction, kinds=kinds)
         s = (
             swio.read_json(p, length=length, angle=angle)
             if p.suffix.lower() == ".json"
             else swio.read_long_csv(p, length=length, angle=angle, kinds=kinds)
         )
+        if target is not None and not 0 <= target < s.n_targets:
+            raise DenavitError(
+                f"{p} has {s.n_targets} target(s) per pose: expected a target 0..{s.n_targets - 1} (0-based), got {target}",
+                what="target",
+                expected=s.n_targets,
+                got=target,
+            )
         return s if target is None else s.target(target)
     from .io.recordings import read_recording  # noqa: PLC0415
     from .recording import align, segment, to_sweepset  # noqa: PLC0415
 
-    rec = read_recording(p, format, columns=columns, length=length, angle=angle, sweep=sweep, kinds=kinds)
+    inform = inform or (lambda kind, text: None)
+    fmt = "auto" if format == "sweeps" else format
+    rec = read_recording(p, fmt, columns=columns, length=length, angle=angle, sweep=sweep, kinds=kinds)
+    for note in rec.notes:
+        inform("note", note)
     if readings is not None:
-        rec, _ = align(
+        rec, al = align(
             rec, read_recording(input_path(readings), "auto", columns=columns, length=length, angle=angle, kinds=kinds)
         )
-    return to_sweepset(rec, segment(rec), target=target, home=home, kinds=kinds, direction=direction)
+        inform("clocks", str(al))
+    seg = segment(rec)
+    inform("segments", seg.table(angle or "deg"))
+    return to_sweepset(rec, seg, target=target, home=home, kinds=kinds, direction=direction or 1)
+
+
+def _files_home(home, kinds, length: str):
+    """``home`` (rad / m) in the units :func:`denavit.io.sweeps.read_joint_files` reads it with ``angle="rad"``: a
+    prismatic joint's value in the files' ``length``."""
+    from .io.units import joint_scale  # noqa: PLC0415
+
+    h = floats(home, "home")
+    if kinds is None or h.shape != (len(kinds),):
+        return h  # all revolute, or a count the reader refuses with its own message
+    return h / joint_scale(kinds, length, "rad")
 
 
 def identify(
@@ -149,7 +148,7 @@ def identify(
     length: str | None = None,
     angle: str | None = None,
     home=None,
-    direction=1,
+    direction=None,
     columns: str | None = None,
     sweep: str | None = None,
     target: int | None = None,
@@ -188,33 +187,28 @@ def identify(
 def _measurements(data, robot: Robot, *, points, poses, format: str, length, angle, columns, target: int | None):
     """The measurements of ``data``; several targets per pose: every one (``target`` None, a TargetMeasurements) or
     the one asked (0-based)."""
-    from .calibration import Measurements  # noqa: PLC0415
-    from .calibration.targets import TargetMeasurements, pick_target, recording_poses  # noqa: PLC0415
+    from .calibration.targets import as_measurements  # noqa: PLC0415
 
-    if isinstance(data, (Measurements, SweepSet, TargetMeasurements)):
-        return pick_target(data, target) if target is not None else data
     kinds = list(robot.table.kinds)
     if isinstance(data, (str, os.PathLike)):
-        p = input_path(data)
-        if format == "measurements" or (format == "auto" and is_measurement_file(p)):
-            from .io.measurements import read_measurements  # noqa: PLC0415
-
-            return pick_target(read_measurements(p, kinds=kinds, length=length, angle=angle), target)
-        from .io.recordings import read_recording  # noqa: PLC0415
-
-        rec = read_recording(p, format, columns=columns, length=length, angle=angle, kinds=kinds)
-        return recording_poses(rec, target, kinds)
-    if points is None and poses is None:
-        raise DenavitError(
-            f"measurements: expected Measurements, a SweepSet, a path, or joint readings q with points= or poses=, got {type(data).__name__}"
+        return _read_measurements(
+            input_path(data), kinds, format=format, length=length, angle=angle, columns=columns, target=target
         )
-    return Measurements(
-        floats(data, "measurements: q"),
-        None if points is None else floats(points, "measurements: points"),
-        None if poses is None else floats(poses, "measurements: poses"),
-        "arrays",
-        kinds=tuple(kinds),
-    )
+    return as_measurements(data, kinds, points=points, poses=poses, target=target)
+
+
+def _read_measurements(p, kinds: list, *, format: str, length, angle, columns, target: int | None):
+    """The measurements of the file ``p``: a measurement CSV or a recording (one pose per pause of the robot)."""
+    from .calibration.targets import pick_target, recording_poses  # noqa: PLC0415
+
+    if format == "measurements" or (format == "auto" and is_measurement_file(p)):
+        from .io.measurements import read_measurements  # noqa: PLC0415
+
+        return pick_target(read_measurements(p, kinds=kinds, length=length, angle=angle), target)
+    from .io.recordings import read_recording  # noqa: PLC0415
+
+    rec = read_recording(p, format, columns=columns, length=length, angle=angle, kinds=kinds)
+    return recording_poses(rec, target, kinds)
 
 
 def calibrate(
@@ -257,8 +251,58 @@ def calibrate(
     return _calibrate(meas, robot, **options)
 
 
-def _protocol_ranges(robot: Robot, ranges) -> np.ndarray:
-    """Sweep ranges: "paper90" / "paper30" (Hayat Table II, a 6-joint revolute arm) or (n, 2) start, end (rad / m)."""
+
+def validate(
+    model,
+    data,
+    *,
+    points=None,
+    poses=None,
+    format: str = "auto",
+    length: str | None = None,
+    angle: str | None = None,
+    columns: str | None = None,
+    target: int | None = None,
+    **options,
+):
+    """Score ``model`` on the measurement session ``data`` (:func:`denavit.calibration.validate.validate`).
+
+    model : Calibration, Identification, Robot, Model, built-in name, robot file or URDF (its base and tool
+        included: the frame it was calibrated in).
+    data : what :func:`calibrate` takes (a path in any format it reads, read as ``format``, ``length``, ``angle``
+        and ``columns`` say; measurement objects; or joint readings with ``points`` / ``poses``).
+    target : several targets per pose: score this one alone (0-based), against the model's tool point.
+    options : those of :func:`denavit.calibration.validate.validate` (``registration``, ``tool``, ``max_sigma``,
+        ``payload``...).
+    """
+    from .calibration.validate import validate as _validate  # noqa: PLC0415
+
+    if isinstance(model, (str, os.PathLike)):
+        model = _robot(model)
+    if isinstance(data, (str, os.PathLike)):
+        kinds = _model_kinds(model)
+        data = _read_measurements(
+            input_path(data), kinds, format=format, length=length, angle=angle, columns=columns, target=target
+        )
+        target = None
+    return _validate(model, data, points=points, poses=poses, target=target, **options)
+
+
+def _model_kinds(model) -> list:
+    """The joint kinds of whatever :func:`validate` scores (a Calibration's nominal robot's, as it reads files)."""
+    robot = getattr(getattr(model, "parametrization", None), "robot", None)
+    if robot is not None:
+        return list(robot.table.kinds)
+    if isinstance(model, Robot):
+        return list(model.table.kinds)
+    km = model if isinstance(model, _core.Model) else model.model()
+    return list(km.kinds)
+
+
+def protocol_ranges(robot: Robot, ranges) -> np.ndarray:
+    """Sweep ranges (n, 2) start, end (rad / m) of ``ranges``: "paper90" / "paper30" (Hayat Table II, a 6-joint
+    revolute arm, any case) or (n, 2) values (rad / m) as they are; used by :func:`plan`, :func:`simulate` and the
+    command line's ``--ranges``."""
     n = len(robot.names)
     if isinstance(ranges, str):
         key = ranges.lower()
@@ -308,7 +352,7 @@ def plan(
         q = floats(q, "plan: q")
     if protocol is None and q is None:
         protocol = Protocol(
-            _home(robot, home), _protocol_ranges(robot, ranges), points_per_sweep, np.asarray(tool_point, dtype=float)
+            _home(robot, home), protocol_ranges(robot, ranges), points_per_sweep, np.asarray(tool_point, dtype=float)
         )
     return _plan(robot, protocol, q=q, **options)
 
@@ -349,7 +393,7 @@ def simulate(
     return _sweeps(
         m,
         home=_home(robot, home),
-        ranges=_protocol_ranges(robot, ranges),
+        ranges=protocol_ranges(robot, ranges),
         points_per_sweep=points_per_sweep,
         tool_point=tool_point,
         noise=noise,
@@ -371,6 +415,7 @@ def compensate(nominal, identified, targets, **options):
     """
     from .compensation import compensate as _compensate  # noqa: PLC0415
 
+    nominal, identified = (_robot(m) if isinstance(m, (str, os.PathLike)) else m for m in (nominal, identified))
     if isinstance(targets, (str, os.PathLike)):
         from .io.programs import compensate_program, detect, read_program  # noqa: PLC0415
 
@@ -396,4 +441,4 @@ def compensate(nominal, identified, targets, **options):
     return _compensate(nominal, identified, targets, **options)
 
 
-__all__ = ["calibrate", "compensate", "identify", "plan", "read_sweeps", "simulate"]
+__all__ = ["calibrate", "compensate", "identify", "plan", "protocol_ranges", "read_sweeps", "simulate"]

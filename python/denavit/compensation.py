@@ -89,18 +89,12 @@ def _model(m, what: str) -> _core.Model:
         return m
     if hasattr(m, "model") and callable(m.model):
         return m.model()
-    raise DenavitError(
-        f"{what}: expected a Model, a Robot, a result with .model(), a built-in name or a robot file, got {type(m).__name__}"
-    )
-
-
-def _loaded(m):
-    """A built-in name or a robot file as its Robot; anything else as given."""
     if isinstance(m, str) or hasattr(m, "__fspath__"):
-        from .robot import load  # noqa: PLC0415
-
-        return load(m)
-    return m
+        raise DenavitError(
+            f"{what}: expected a Model, a Robot or a result with .model(), got the name or path {str(m)!r}: read it"
+            " with denavit.load_robot, or call denavit.compensate (which reads names and files)"
+        )
+    raise DenavitError(f"{what}: expected a Model, a Robot or a result with .model(), got {type(m).__name__}")
 
 
 def reading_model(m) -> tuple | None:
@@ -175,7 +169,6 @@ def compensate(
     ik_options
         Options of the IK solves (``method``, ``tol_position``, ``tol_rotation``, ``restarts``, ...).
     """
-    nominal, identified = _loaded(nominal), _loaded(identified)
     nom, ide = _model(nominal, "nominal"), _model(identified, "identified")
     notes = []
     ide, note = _flange(nominal, nom, identified, ide)
@@ -378,7 +371,6 @@ def flange_model(nominal, identified) -> _core.Model:
     calibrate measured): then its flange is its canonical flange (:func:`canonical_tool`) and it has no tool, the same from the
     in-memory result and from every file saved of it. What to export for a controller that takes a corrected model
     (``io.ur_calibration.save``) so that it and a compensation agree."""
-    nominal, identified = _loaded(nominal), _loaded(identified)
     ide = _flange(nominal, _model(nominal, "nominal"), identified, _model(identified, "identified"))[0]
     if _is_identity(ide.T_flange_tool):
         return ide

@@ -1,16 +1,13 @@
 """The robot record: a model in one convention's table, with the names, limits, home, inertias and provenance
-a robot file or a URDF carries, and where to find robots (:func:`load`, :func:`resolve`, :func:`builtin_names`).
+a robot file or a URDF carries.
 
-The file formats live in the edge layer: TOML robot files in :mod:`denavit.io.robotfile`, URDF in
-:mod:`denavit.io.urdf`. Everything here is SI (m, rad, kg).
+Finding and reading robots (built-in names, robot files, URDFs) is the edge layer's: :mod:`denavit.io.robots`
+(:func:`~denavit.io.robots.load`, :func:`~denavit.io.robots.as_robot`). Everything here is SI (m, rad, kg).
 """
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
-from importlib import resources
-from pathlib import Path
 
 import numpy as np
 
@@ -65,6 +62,10 @@ class Robot:
     """The calibration priors' widths this robot's maker or user states (a robot file's ``[prior]`` table), in the
     grammar of ``calibrate --prior`` with explicit units (``"length=0.5mm, a_5=2mm"``); None: the defaults
     (:mod:`denavit.calibration.priors`). An explicit ``prior=`` / ``--prior`` wins."""
+    training: np.ndarray | None = None
+    """(2, n) the lowest and highest joint values (SI) of the poses the calibration that made this robot was fitted on
+    (a robot file's ``[training]``, written by ``calibrate --save``): :func:`denavit.validate` flags poses outside
+    them; None: not carried."""
     notes: list = field(default_factory=list)
     """What the reader chose on the user's behalf (e.g. a URDF's tip link), one line each, for the user to see."""
 
@@ -137,45 +138,18 @@ def attach_inertials(model: _core.Model, table: _core.Table, inertials: dict) ->
     return model.with_inertias(np.asarray(inertials["masses"], dtype=float), coms, inertias)
 
 
-def builtin_names() -> list[str]:
-    """Names of the built-in robot files."""
-    return sorted(p.name[:-5] for p in resources.files("denavit.models").iterdir() if p.name.endswith(".toml"))
-
-
-def resolve(name_or_path: str | os.PathLike) -> Path:
-    """The file of a built-in name or a path; a clear error listing the built-ins otherwise."""
-    p = Path(name_or_path)
-    if p.suffix and p.exists():
-        return p
-    if p.exists() and p.is_file():
-        return p
-    key = str(name_or_path).lower().replace("-", "_")
-    if key in builtin_names():
-        return Path(str(resources.files("denavit.models").joinpath(key + ".toml")))
-    raise DenavitError(
-        f"unknown model {str(name_or_path)!r}: expected a built-in name ({', '.join(builtin_names())}) or an existing robot file (.toml) or URDF (.urdf)"
-    )
-
-
-def load(
-    name_or_path: str | os.PathLike,
-    *,
-    base_link: str | None = None,
-    tip_link: str | None = None,
-    chain_only: bool = False,
-    locked: dict | None = None,
-) -> Robot:
-    """The :class:`Robot` of a built-in name, a robot file (.toml, :mod:`denavit.io.robotfile`) or a URDF
-    (.urdf, :mod:`denavit.io.urdf`; ``base_link`` / ``tip_link`` pick its chain; the links off it are merged
-    into the chain's dynamics, their movable joints at ``locked`` ({joint: value}, default 0), unless
-    ``chain_only``). SI inside."""
-    path = resolve(name_or_path)
-    if path.suffix.lower() == ".urdf":
-        from .io.urdf import load_urdf  # noqa: PLC0415 (yourdfpy and lxml load only for a URDF)
-
-        return load_urdf(path, base_link=base_link, tip_link=tip_link, chain_only=chain_only, locked=locked)
-    if base_link is not None or tip_link is not None or chain_only or locked:
-        raise DenavitError(f"{path}: base_link/tip_link/chain_only/locked apply to a URDF, got a robot file")
-    from .io.robotfile import read  # noqa: PLC0415
-
-    return read(path)
+def robot_of(nominal) -> Robot:
+    """``nominal`` (a :class:`Robot` or a :class:`denavit.Model`) as a Robot; a Model's table is its ED-H extraction
+    at q = 0. Names and files are read by the edge layer (:func:`denavit.io.robots.as_robot`) or the workflows of
+    :mod:`denavit.api`."""
+    if isinstance(nominal, Robot):
+        return nominal
+    if isinstance(nominal, _core.Model):
+        ex = _core.extract(_core.axes(nominal, np.zeros(nominal.nq)), "edh")
+        return Robot(nominal.name, ex.table, list(nominal.names), np.array(nominal.lower), np.array(nominal.upper))
+    if isinstance(nominal, str) or hasattr(nominal, "__fspath__"):
+        raise DenavitError(
+            f"nominal: expected a Robot or a Model, got the name or path {str(nominal)!r}: read it with"
+            " denavit.load_robot, or call the workflow of the same name in denavit (which reads names and files)"
+        )
+    raise DenavitError(f"nominal: expected a Robot or a Model, got {type(nominal).__name__}")

@@ -367,18 +367,10 @@ def elastic(identified) -> Elastic | None:
 
 
 def elastic_of(model) -> Elastic | None:
-    """:func:`elastic` of whatever a command scores or compensates with: a calibration, a Robot, a built-in name or a
-    robot file (read again; a URDF has no compliances); None for anything else (a Model, an identification)."""
-    import os  # noqa: PLC0415
-
+    """:func:`elastic` of whatever a command scores or compensates with: a calibration or a Robot (a URDF's has no
+    compliances); None for anything else (a Model, an identification)."""
     from ..robot import Robot  # noqa: PLC0415
 
-    if isinstance(model, (str, os.PathLike)):
-        if str(model).lower().endswith(".urdf"):
-            return None
-        from ..robot import load  # noqa: PLC0415
-
-        model = load(model)
     if isinstance(model, Robot) or hasattr(model, "parametrization"):
         return elastic(model)
     return None
@@ -406,12 +398,13 @@ def plan_compliance(
     geometry and the compliances at the nominal (zero compliances), its covariance ``noise^2 (J^T J)^-1`` over the
     identifiable parameters (no priors: what the data alone determine). The two-payload protocol is
     ``payloads=(0, rated)``."""
+    from ..robot import robot_of  # noqa: PLC0415
     from .identifiability import analyze  # noqa: PLC0415
     from .least_squares import covariance, jacobian_rows, weights  # noqa: PLC0415
     from .measurements import Measurements  # noqa: PLC0415
-    from .parametrization import as_robot, parametrize  # noqa: PLC0415
+    from .parametrization import parametrize  # noqa: PLC0415
 
-    robot = as_robot(nominal)
+    robot = robot_of(nominal)
     q = np.atleast_2d(np.asarray(q, dtype=float))
     loads = [float(m) for m in np.atleast_1d(payloads)]
     if not loads or any(not (math.isfinite(m) and m >= 0) for m in loads):

@@ -20,14 +20,13 @@ import math
 from contextlib import contextmanager
 from contextvars import ContextVar
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from .. import _core
 from ..errors import DegenerateError, DenavitError
 from ..geometry import orthonormalize, pose, rotvec_matrix
-from ..robot import Robot, load
+from ..robot import Robot, robot_of
 from .identifiability import analyze
 from .least_squares import fit_parameters
 from .measurements import Measurements
@@ -97,20 +96,6 @@ def remembered():
         yield memo
     finally:
         _MEMO.reset(token)
-
-
-def as_robot(nominal) -> Robot:
-    """``nominal`` (a Robot, a Model, a built-in name or a robot file) as a :class:`Robot`."""
-    if isinstance(nominal, Robot):
-        return nominal
-    if isinstance(nominal, (str, Path)):
-        return load(nominal)
-    if isinstance(nominal, _core.Model):
-        ex = _core.extract(_core.axes(nominal, np.zeros(nominal.nq)), "edh")
-        return Robot(nominal.name, ex.table, list(nominal.names), np.array(nominal.lower), np.array(nominal.upper))
-    raise DenavitError(
-        f"nominal: expected a Robot, a Model, a built-in name or a robot file, got {type(nominal).__name__}"
-    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -273,7 +258,7 @@ def parametrize(
     conv = _core.convention_info(convention)["name"]
     if measure not in ("point", "pose"):
         raise DenavitError(f"measure: expected 'point' or 'pose', got {measure!r}")
-    robot = as_robot(nominal)
+    robot = robot_of(nominal)
     m = robot.model()
     n = m.nq
     ref = robot.table if robot.table.convention == conv else None
@@ -370,7 +355,7 @@ def configurations(nominal, count: int, *, skip: int = 1) -> np.ndarray:
     from .. import limits  # noqa: PLC0415
 
     count = limits.check_count(count, "configurations: count", "poses", what="configurations")
-    robot = as_robot(nominal)
+    robot = robot_of(nominal)
     lo = np.array(robot.lower, dtype=float)
     hi = np.array(robot.upper, dtype=float)
     rev = np.array([k == "revolute" for k in robot.table.kinds])

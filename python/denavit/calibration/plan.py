@@ -17,13 +17,13 @@ from ..fitting import (
     oriented_bounding_box,
 )
 from ..fitting.result import axis_sigmas
+from ..robot import robot_of
 from ..sweeps import PAPER_HOME_DEG, PAPER_RANGES_DEG
 from .identifiability import Identifiability, analyze, rank_reveal
 from .least_squares import covariance, jacobian_rows, residuals, weights
 from .measurements import Measurements, as_array, check_finite
 from .parametrization import (
     Parametrization,
-    as_robot,
     configurations,
     parametrize,
     resolve_fix,
@@ -170,7 +170,7 @@ def plan(
     convention, fix, measure, tool, scale
         As in :func:`calibrate`; ``tool`` defaults to the protocol's tool point.
     """
-    robot = as_robot(nominal)
+    robot = robot_of(nominal)
     if protocol is None and q is None:
         raise DenavitError("plan: give a protocol (sweep ranges) or candidate configurations q")
     if not noise > 0:

@@ -7,8 +7,8 @@ import numpy as np
 from .. import _core, limits
 from ..errors import DenavitError, check_seed
 from ..geometry import rotvec_matrix
+from ..robot import robot_of
 from .measurements import Measurements
-from .parametrization import as_robot
 
 
 def simulate(
@@ -27,7 +27,7 @@ def simulate(
     flange's axes; None: the flange) with Gaussian noise ``noise``
     (m, per coordinate) and ``noise_rot`` (rad, a rotation vector per pose); ``T_world_base`` moves the robot
     in the measurement frame."""
-    m = model if isinstance(model, _core.Model) else as_robot(model).model()
+    m = model if isinstance(model, _core.Model) else robot_of(model).model()
     if T_world_base is not None:
         m = m.with_base(np.asarray(T_world_base, dtype=float))
     if measure not in ("point", "pose"):

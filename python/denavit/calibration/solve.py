@@ -14,7 +14,7 @@ from ..errors import DenavitError, check_seed
 from ..fitting.joint import as_tracker_noise
 from ..fitting.robust import loss_weight
 from ..io.output import json_text, write_text
-from ..robot import Robot
+from ..robot import Robot, robot_of
 from ..sweeps import SweepSet
 from .compliance import robot_compliance, with_compliance, with_payload
 from .identifiability import Identifiability, analyze, parameter_status
@@ -22,7 +22,6 @@ from .least_squares import covariance, fit_parameters, prior_block, residuals, w
 from .measurements import Measurements
 from .parametrization import (
     Parametrization,
-    as_robot,
     configurations,
     parametrize,
     remembered,
@@ -403,7 +402,7 @@ def calibrate(
         meas = Measurements.from_sweeps(meas)
     if not isinstance(meas, Measurements):
         raise DenavitError(f"calibrate: expected Measurements or a SweepSet, got {type(meas).__name__}")
-    robot = as_robot(nominal)
+    robot = robot_of(nominal)
     n = len(robot.names)
     if meas.nq != n:
         raise DenavitError(

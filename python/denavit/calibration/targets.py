@@ -34,10 +34,11 @@ import numpy as np
 from .. import _core
 from ..errors import DenavitError, check_seed
 from ..geometry import kabsch
+from ..robot import robot_of
 from .identifiability import analyze, parameter_status
 from .least_squares import covariance, fit_parameters, residuals, weights
 from .measurements import Measurements, check_finite, joint_kinds
-from .parametrization import Parametrization, as_robot, configurations, parametrize, resolve_fix
+from .parametrization import Parametrization, configurations, parametrize, resolve_fix
 from .registration import register
 
 #: The parameters of target k (1-based) are named ``target{k}_x``, ``_y``, ``_z``.
@@ -211,6 +212,35 @@ def pick_target(meas, target: int | None):
             f"{getattr(meas, 'source', 'data')}: target {target + 1} out of range: the data hold one target per pose"
         )
     return meas
+
+
+def as_measurements(data, kinds, *, points=None, poses=None, target: int | None = None):
+    """The measurements of ``data`` (Measurements, a SweepSet, TargetMeasurements, or joint readings ``q`` (N, n) rad /
+    m with ``points`` (N, 3) m or ``poses`` (N, 4, 4)); several targets per pose: every one (``target`` None, a
+    TargetMeasurements) or the one asked (0-based). Files are read by :mod:`denavit.io` (:func:`denavit.calibrate`
+    and :func:`denavit.validate` take paths)."""
+    from ..limits import floats  # noqa: PLC0415
+    from ..sweeps import SweepSet  # noqa: PLC0415
+
+    if isinstance(data, (Measurements, SweepSet, TargetMeasurements)):
+        return pick_target(data, target) if target is not None else data
+    if isinstance(data, str) or hasattr(data, "__fspath__"):
+        got = f"the path {str(data)!r} (denavit.calibrate and denavit.validate read files)"
+    elif points is None and poses is None:
+        got = type(data).__name__
+    else:
+        got = None
+    if got is not None:
+        raise DenavitError(
+            f"measurements: expected Measurements, a SweepSet, a path, or joint readings q with points= or poses=, got {got}"
+        )
+    return Measurements(
+        floats(data, "measurements: q"),
+        None if points is None else floats(points, "measurements: points"),
+        None if poses is None else floats(poses, "measurements: poses"),
+        "arrays",
+        kinds=None if kinds is None else tuple(kinds),
+    )
 
 
 def recording_poses(rec, target: int | None = None, kinds=None):
@@ -398,7 +428,7 @@ def calibrate_targets(
 
     t0 = time.perf_counter()
     tm = as_target_measurements(meas)
-    robot = as_robot(nominal)
+    robot = robot_of(nominal)
     n, K = len(robot.names), tm.n_targets
     if tm.nq != n:
         raise DenavitError(

@@ -45,9 +45,7 @@ Orientation accuracy (AP_a, AP_b, AP_c) is not computed.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass, field
-from types import SimpleNamespace
 
 import numpy as np
 
@@ -55,9 +53,10 @@ from .. import _core
 from ..errors import DenavitError
 from ..geometry import kabsch, matrix_rotvec, pose, rotvec_matrix
 from ..io.output import json_text, write_text
+from ..robot import robot_of
 from .compliance import elastic_of, with_payload
 from .measurements import Measurements
-from .targets import as_target_measurements, several_targets, sweep_poses
+from .targets import as_measurements, as_target_measurements, several_targets, sweep_poses
 
 #: ``registration`` values: keep the model's base and tool, or re-fit them with the kinematics frozen.
 REGISTRATIONS = ("frozen", "refit")
@@ -163,55 +162,9 @@ class ModelValidation:
         )
 
 
-#: The robot-file table ``calibrate --save`` writes the training poses' joint ranges to (the file's joint units).
-TRAINING_TABLE = "training"
-
-
-def training_table(q, kinds, length: str, angle: str) -> dict:
-    """The ``[training]`` table of a robot file: the joint ranges of the poses a calibration was fitted on (``lower``,
-    ``upper`` in the file's joint units: ``angle`` for a revolute joint, ``length`` for a prismatic one) and their
-    count, so that :func:`validate` flags poses outside them."""
-    from ..io.units import joint_scale  # noqa: PLC0415
-
-    q = np.asarray(q, dtype=float)
-    s = joint_scale(list(kinds), length, angle)
-    return {
-        "poses": len(q),
-        "lower": [float(v) for v in q.min(axis=0) / s],
-        "upper": [float(v) for v in q.max(axis=0) / s],
-    }
-
-
-def _training_of(robot) -> np.ndarray | None:
-    """(2, n) the lower and upper training joint values (SI) of a robot file's ``[training]`` table (its units from
-    the file's ``[units]``), or None."""
-    spec = robot.extra.get(TRAINING_TABLE) if isinstance(robot.extra, dict) else None
-    if not isinstance(spec, dict) or not robot.path or not str(robot.path).lower().endswith(".toml"):
-        return None
-    from ..io.robotfile import tomllib  # noqa: PLC0415 (Python 3.10's tomli where 3.11's tomllib is absent)
-    from ..io.units import joint_scale  # noqa: PLC0415
-
-    where = f"{robot.path}, [{TRAINING_TABLE}]"
-    try:
-        with open(robot.path, "rb") as f:
-            units = tomllib.load(f).get("units") or {}
-        s = joint_scale(list(robot.table.kinds), units.get("length", "m"), units.get("angle", "rad"), where)
-        lo, hi = (np.asarray(spec[k], dtype=float) for k in ("lower", "upper"))
-    except (OSError, ValueError, TypeError, KeyError, tomllib.TOMLDecodeError) as e:
-        raise DenavitError(
-            f"{where}: expected lower = [...] and upper = [...], one joint value each in the file's units ({e})"
-        ) from None
-    if lo.shape != (len(s),) or hi.shape != (len(s),) or not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
-        raise DenavitError(
-            f"{where}: expected lower and upper of {len(s)} finite joint values each, got {lo.tolist()} and {hi.tolist()}"
-        )
-    return np.vstack([lo * s, hi * s])
-
-
 def _model_of(model):
     """(kinematic Model, name, covariance source or None, training readings or None, readings -> joint values) of
-    whatever ``model`` is: a Calibration, an Identification, a Robot, a Model, a built-in name, a robot file or URDF."""
-    from ..robot import Robot  # noqa: PLC0415
+    whatever ``model`` is: a Calibration, an Identification, a Robot or a Model."""
 
     if hasattr(model, "parametrization") and hasattr(model, "covariance"):  # a Calibration
         sc = model.scales
@@ -243,16 +196,12 @@ def _model_of(model):
         )
     if isinstance(model, _core.Model):
         return model, model.name, None, None, lambda q: q
-    if not isinstance(model, Robot):
-        from .parametrization import as_robot  # noqa: PLC0415
-
-        model = as_robot(os.fspath(model) if isinstance(model, os.PathLike) else model)
-    robot = model
+    robot = robot_of(model)
     return (
         robot.model(),
         robot.name,
         robot if robot.covariance is not None else None,
-        _training_of(robot),
+        robot.training,
         robot.joint_values if robot.has_reading_model else (lambda q: q),
     )
 
@@ -371,10 +320,6 @@ def validate(
     repeat_tol: float = REPEAT_TOL,
     points=None,
     poses=None,
-    format: str = "auto",
-    length: str | None = None,
-    angle: str | None = None,
-    columns: str | None = None,
     target: int | None = None,
     payload=None,
 ) -> ModelValidation:
@@ -382,9 +327,10 @@ def validate(
 
     Parameters
     ----------
-    model : Calibration, Identification, Robot, Model, built-in name, robot file or URDF
+    model : Calibration, Identification, Robot or Model (:func:`denavit.validate` also takes a built-in name, a robot
+        file or a URDF)
         The model to score (its base and tool included: the frame it was calibrated in).
-    data : Measurements, SweepSet, TargetMeasurements, a path (any format ``calibrate`` reads), or joint readings ``q``
+    data : Measurements, SweepSet, TargetMeasurements (:func:`denavit.validate` also reads a path), or joint readings ``q``
         (N, n) rad / m with ``points`` (N, 3) m or ``poses`` (N, 4, 4). Several targets per pose with their nest: every
         target is scored at its nest point in the model's tool frame (one row per target); without a nest, target 1.
     registration : {"frozen", "refit"}
@@ -395,9 +341,8 @@ def validate(
         Flag poses whose predicted sigma exceeds this (m); default ``sigma_factor`` x the training poses' median.
     repeat_tol : float
         Readings within this on every joint (rad / m) are one commanded pose (ISO 9283 groups).
-    format, length, angle, columns, target
-        How a path is read (as :func:`denavit.calibrate`; ``target``: several targets per pose, score this one alone,
-        0-based, against the model's tool point).
+    target : int, optional
+        Several targets per pose: score this one alone (0-based), against the model's tool point.
     payload : float, (mass, (x, y, z)) or (N, 4), optional
         The payload (kg; its centre of mass in the flange frame, m) of every pose where the data carry none (a pose
         file's ``payload_mass`` columns): a model with compliant joints (:mod:`denavit.calibration.compliance`) is
@@ -407,7 +352,6 @@ def validate(
     -------
     ModelValidation
     """
-    from ..api import _measurements  # noqa: PLC0415
     from ..sweeps import SweepSet  # noqa: PLC0415
 
     if registration not in REGISTRATIONS:
@@ -419,22 +363,7 @@ def validate(
 
     km, name, cov_source, training, joints = _model_of(model)
     n = km.nq
-    robot = (
-        model.parametrization.robot
-        if hasattr(model, "parametrization")
-        else SimpleNamespace(table=SimpleNamespace(kinds=list(km.kinds)))
-    )  # (the reader needs the kinds)
-    data = _measurements(
-        data,
-        robot,
-        points=points,
-        poses=poses,
-        format=format,
-        length=length,
-        angle=angle,
-        columns=columns,
-        target=target,
-    )
+    data = as_measurements(data, km.kinds, points=points, poses=poses, target=target)
     notes: list[str] = []
     nest_rows = None  # per row, its target's point in the tool frame (several targets with their nest)
     per_pose = 1  # rows per pose (several targets scored: one row each)

@@ -190,7 +190,7 @@ def _core_error_place(message: str, where: str, joint_where: list[str]) -> str:
 
 def read(path: str | os.PathLike) -> Robot:
     """Read a TOML robot file into a :class:`~denavit.robot.Robot` (SI inside); built-in names and URDFs go
-    through :func:`denavit.robot.load`."""
+    through :func:`denavit.io.robots.load`."""
     text = read_text(path, "robot file")
     # the joints counted before the TOML parser reads them all (10^6 joints had taken it minutes)
     limits.check_size(len(re.findall(r"(?m)^[ \t]*\[\[[ \t]*joints[ \t]*\]\]", text)), "joints", str(path), "joints")
@@ -203,6 +203,41 @@ def read(path: str | os.PathLike) -> Robot:
     except RecursionError:
         raise DenavitError(f"{path}: not a readable TOML robot file: arrays or tables nested too deeply") from None
     return from_dict(doc, where=str(path), joint_lines=_joint_lines(text))
+
+
+#: The robot-file table ``calibrate --save`` writes the training poses' joint ranges to (the file's joint units).
+TRAINING_TABLE = "training"
+
+
+def training_table(q, kinds, length: str, angle: str) -> dict:
+    """The ``[training]`` table of a robot file: the joint ranges of the poses a calibration was fitted on (``lower``,
+    ``upper`` in the file's joint units: ``angle`` for a revolute joint, ``length`` for a prismatic one) and their
+    count, so that :func:`denavit.validate` flags poses outside them."""
+    q = np.asarray(q, dtype=float)
+    s = joint_scale(list(kinds), length, angle)
+    return {
+        "poses": len(q),
+        "lower": [float(v) for v in q.min(axis=0) / s],
+        "upper": [float(v) for v in q.max(axis=0) / s],
+    }
+
+
+def _training(spec, kinds, units: dict, where: str) -> np.ndarray | None:
+    """(2, n) the lower and upper training joint values (SI) of a ``[training]`` table in the file's ``units``."""
+    if not isinstance(spec, dict):
+        return None
+    try:
+        s = joint_scale(list(kinds), units.get("length", "m"), units.get("angle", "rad"), where)
+        lo, hi = (np.asarray(spec[k], dtype=float) for k in ("lower", "upper"))
+    except (ValueError, TypeError, KeyError) as e:
+        raise DenavitError(
+            f"{where}: expected lower = [...] and upper = [...], one joint value each in the file's units ({e})"
+        ) from None
+    if lo.shape != (len(s),) or hi.shape != (len(s),) or not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+        raise DenavitError(
+            f"{where}: expected lower and upper of {len(s)} finite joint values each, got {lo.tolist()} and {hi.tolist()}"
+        )
+    return np.vstack([lo * s, hi * s])
 
 
 def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = None) -> Robot:
@@ -353,6 +388,7 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
             spec, kinds, names, inertials is not None, f"{where}, [compliance]"
         )
     prior = _prior(doc["prior"], units, f"{where}, [prior]") if "prior" in doc else None
+    training = _training(doc.get(TRAINING_TABLE), kinds, units, f"{where}, [{TRAINING_TABLE}]")
     return Robot(
         name=_text(doc.get("name", Path(where).stem), f"{where}: name"),
         table=table,
@@ -364,6 +400,7 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         home=home,
         path=where,
         extra={k: v for k, v in doc.items() if k not in known},
+        training=training,
         inertials=inertials,
         coupling=coupling,
         covariance=covariance,

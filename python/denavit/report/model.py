@@ -13,6 +13,7 @@ import numpy as np
 from .. import _core
 from ..errors import DenavitError
 from ..io.output import write_text
+from ..io.robots import load
 from ..io.units import joint_scale, joint_unit, length_scale
 from ..plotting import (
     chain_path,
@@ -21,7 +22,7 @@ from ..plotting import (
     other_convention,
     scene_size,
 )
-from ..robot import Robot, load
+from ..robot import Robot
 from .html import (
     FIGURE_FORMATS,
     VIEW_ID,

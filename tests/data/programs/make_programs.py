@@ -11,7 +11,7 @@ import numpy as np
 
 import denavit as dv
 from denavit.io.programs import abb, fanuc, kuka, matrix_quaternion, matrix_zyx
-from denavit.robot import load
+from denavit.io.robots import load
 
 HERE = Path(__file__).parent
 

@@ -570,7 +570,7 @@ def compensate_program(
 def _robot(r):
     """A built-in name or a robot file as its Robot (a Robot as given)."""
     if isinstance(r, (str, os.PathLike)):
-        from ...robot import load  # noqa: PLC0415
+        from ..robots import load  # noqa: PLC0415
 
         return load(r)
     if not hasattr(r, "table"):
