@@ -8,6 +8,7 @@ joint, JSON) are read and written by :mod:`denavit.io.sweeps`. Everything is SI 
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -202,7 +203,7 @@ def merge_targets(sets: list[SweepSet], nest=None) -> SweepSet:
     return replace(first, sweeps=out, nest=None if nest is None else np.asarray(nest, dtype=float))
 
 
-def simulate(
+def simulation(
     model: _core.Model,
     *,
     home,
@@ -215,18 +216,13 @@ def simulate(
     targets=None,
     poses: bool = False,
     noise_rot: float = 0.0,
-) -> SweepSet:
-    """Simulate sweeps of ``model``: joint j runs from ``ranges[j][0]`` to ``ranges[j][1]`` (rad / m,
-    absolute joint values, as in Hayat Table II) with the others at ``home``; the tool point (m, in the
-    flange frame, i.e. in ``T_flange_tool``'s parent frame: the flange, DH frame n for a DH robot) is recorded with Gaussian
-    noise ``noise`` (m, per coordinate) and the readings with noise ``noise_q`` (rad / m).
-
-    targets : (k, 3) m, optional -- several targets on the last body (flange frame; 2-4 SMRs on a nest), each
-        recorded at every pose with its own noise (the first replaces ``tool_point``); the set's ``nest`` is them
-        (the tool frame being the flange's orientation at the first target).
-    poses : also record each pose's orientation (a 6-DoF probe whose frame is the flange's, at the tool point),
-        with noise ``noise_rot`` (rad, a random rotation vector of that sigma per component).
-    """
+    rows: int | None = None,
+) -> tuple[SweepSet, Iterator[Sweep]]:
+    """:func:`simulate`'s sweeps a piece at a time, to write them as they are made (``denavit simulate``): (the set's
+    shape: its joints, home, kinds and nest, each sweep with no points; the pieces, in order: sweeps of up to
+    ``rows`` consecutive points of one sweep, default a whole sweep, with no ``where``). The same arguments and checks
+    as :func:`simulate`, and the same numbers for a seed whatever ``rows``: a sweep's noise is drawn whole before its
+    pieces, in the order :func:`simulate` has always drawn it (points, readings, orientations)."""
     n = model.nq
     home = limits.floats(home, "simulate: home")
     ranges = limits.floats(ranges, "simulate: ranges")
@@ -258,37 +254,102 @@ def simulate(
         limits.check_noise(noise_q, "simulate: noise_q (prismatic joints)", model, tools)
     limits.check_angle_noise(noise_rot, "simulate: noise_rot")
     flange = model.with_tool(np.eye(4))
-    sweeps = []
-    for j in range(n):
-        qs = np.tile(home, (points_per_sweep, 1))
-        qs[:, j] = np.linspace(ranges[j, 0], ranges[j, 1], points_per_sweep)
-        T = _core.fk_batch(flange, qs)
-        pts = np.stack([T[:, :3, :3] @ tool + T[:, :3, 3] for tool in tools], axis=1)
-        pts = pts + rng.normal(0.0, noise, pts.shape) if noise > 0 else pts
-        readings = qs + rng.normal(0.0, noise_q, qs.shape) if noise_q > 0 else qs
-        rot = None
-        if poses:
-            rot = (
-                T[:, :3, :3]
-                if noise_rot <= 0
-                else rotvec_matrix(rng.normal(0.0, noise_rot, (len(qs), 3))) @ T[:, :3, :3]
-            )
-        sweeps.append(
+    k = len(tools)
+    shape = SweepSet(
+        [
             Sweep(
                 j + 1,
-                np.ascontiguousarray(pts[:, 0]),
-                readings,
-                [f"simulated sweep {j + 1}, point {k}" for k in range(points_per_sweep)],
-                pts if len(tools) > 1 else None,
-                rot,
+                np.zeros((0, 3)),
+                np.zeros((0, n)),
+                [],
+                np.zeros((0, k, 3)) if k > 1 else None,
+                np.zeros((0, 3, 3)) if poses else None,
             )
-        )
-    return SweepSet(
-        sweeps,
+            for j in range(n)
+        ],
         n,
         home,
         list(model.kinds),
         f"simulated {model.name}",
         {"length": "m", "angle": "rad"},
-        tools if len(tools) > 1 else None,
+        tools if k > 1 else None,
     )
+    step = points_per_sweep if rows is None else limits.check_count(rows, "simulate: rows", "points")
+    sigmas = (noise, noise_q, noise_rot if poses else 0.0)
+    return shape, _pieces(flange, home, ranges, points_per_sweep, tools, sigmas, poses, rng, step)
+
+
+def _pieces(flange, home, ranges, m: int, tools, sigmas, poses: bool, rng, step: int) -> Iterator[Sweep]:
+    """The pieces of :func:`simulation` (its docstring): per joint, the sweep's noise drawn whole, then ``step``
+    points at a time their forward kinematics and noise."""
+    n = len(home)
+    noise, noise_q, noise_rot = sigmas
+    for j in range(n):
+        e_p = rng.normal(0.0, noise, (m, len(tools), 3)) if noise > 0 else None
+        e_q = rng.normal(0.0, noise_q, (m, n)) if noise_q > 0 else None
+        e_r = rng.normal(0.0, noise_rot, (m, 3)) if poses and noise_rot > 0 else None
+        moving = np.linspace(ranges[j, 0], ranges[j, 1], m)
+        for a in range(0, m, step):
+            b = min(a + step, m)
+            qs = np.tile(home, (b - a, 1))
+            qs[:, j] = moving[a:b]
+            T = _core.fk_batch(flange, qs)
+            pts = np.stack([T[:, :3, :3] @ tool + T[:, :3, 3] for tool in tools], axis=1)
+            pts = pts + e_p[a:b] if e_p is not None else pts
+            rot = None
+            if poses:
+                rot = T[:, :3, :3] if e_r is None else rotvec_matrix(e_r[a:b]) @ T[:, :3, :3]
+            yield Sweep(
+                j + 1,
+                np.ascontiguousarray(pts[:, 0]),
+                qs + e_q[a:b] if e_q is not None else qs,
+                [],
+                pts if len(tools) > 1 else None,
+                rot,
+            )
+
+
+def simulate(
+    model: _core.Model,
+    *,
+    home,
+    ranges,
+    points_per_sweep: int = 30,
+    tool_point=(0.05, 0.03, 0.10),
+    noise: float = 0.0,
+    noise_q: float = 0.0,
+    seed: int = 0,
+    targets=None,
+    poses: bool = False,
+    noise_rot: float = 0.0,
+) -> SweepSet:
+    """Simulate sweeps of ``model``: joint j runs from ``ranges[j][0]`` to ``ranges[j][1]`` (rad / m,
+    absolute joint values, as in Hayat Table II) with the others at ``home``; the tool point (m, in the
+    flange frame, i.e. in ``T_flange_tool``'s parent frame: the flange, DH frame n for a DH robot) is recorded with Gaussian
+    noise ``noise`` (m, per coordinate) and the readings with noise ``noise_q`` (rad / m).
+
+    targets : (k, 3) m, optional -- several targets on the last body (flange frame; 2-4 SMRs on a nest), each
+        recorded at every pose with its own noise (the first replaces ``tool_point``); the set's ``nest`` is them
+        (the tool frame being the flange's orientation at the first target).
+    poses : also record each pose's orientation (a 6-DoF probe whose frame is the flange's, at the tool point),
+        with noise ``noise_rot`` (rad, a random rotation vector of that sigma per component).
+
+    :func:`simulation` gives the same sweeps a piece at a time.
+    """
+    shape, pieces = simulation(
+        model,
+        home=home,
+        ranges=ranges,
+        points_per_sweep=points_per_sweep,
+        tool_point=tool_point,
+        noise=noise,
+        noise_q=noise_q,
+        seed=seed,
+        targets=targets,
+        poses=poses,
+        noise_rot=noise_rot,
+    )
+    sweeps = [
+        replace(s, where=[f"simulated sweep {s.joint}, point {k}" for k in range(len(s.points))]) for s in pieces
+    ]  # one piece per sweep
+    return replace(shape, sweeps=sweeps)

@@ -17,7 +17,7 @@ import json
 import math
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import replace
 from pathlib import Path
 
@@ -604,17 +604,43 @@ def read(path: str | os.PathLike, **kw) -> SweepSet:
     return read_long_csv(p, **{k: v for k, v in kw.items() if k in ("length", "angle", "kinds")})
 
 
-#: Rows formatted per call of the writer's one ``%`` operation (its arguments held as Python floats meanwhile).
-WRITE_CHUNK = 20_000
+#: Rows formatted per piece of the long-form writer (by Arrow, on a thread of the writer, a few pieces at a time).
+WRITE_ROWS = 100_000
 
 
 def to_long_csv(sweeps: SweepSet, length: str = "mm", angle: str = "deg", header_comment: str = "") -> str:
     """The long-form CSV text of a sweep set (units declared in a comment line; several targets per pose as
     columns x2, y2, z2, ... and their nest as a ``# nest:`` line; 6-DoF poses as a unit quaternion qw, qx, qy, qz).
 
-    Numbers are written with 17 significant digits (``%.17g``), so that reading the file back gives the same
-    doubles (in the file's units); the rows are formatted a chunk at a time by one ``%`` of C-level formatting.
-    """
+    Numbers are written in the shortest form that reads back as the same double (in the file's units; Arrow's
+    formatting, at C speed, :func:`write_long_csv`)."""
+    return b"".join(_long_csv(sweeps, None, length, angle, header_comment)).decode()
+
+
+def write_long_csv(
+    path: str | os.PathLike,
+    sweeps: SweepSet,
+    length: str = "mm",
+    angle: str = "deg",
+    header_comment: str = "",
+    pieces: Iterable[Sweep] | None = None,
+) -> None:
+    """Write :func:`to_long_csv`'s text to ``path`` whole or not at all (:func:`denavit.io.output.atomic_path`), a
+    piece at a time as it is formatted: the sweeps of ``sweeps``, or, given, ``pieces`` (sweeps of consecutive rows in
+    file order, e.g. :func:`denavit.sweeps.simulation`'s, ``sweeps`` then giving the set's shape), never holding
+    the whole text."""
+    from .output import atomic_path  # noqa: PLC0415
+
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        for text in _long_csv(sweeps, pieces, length, angle, header_comment):
+            f.write(text)
+
+
+def _long_csv(sweeps: SweepSet, pieces, length: str, angle: str, header_comment: str) -> Iterator:
+    """The long-form CSV's bytes (bytes-like pieces): its head, then its rows a piece of up to :data:`WRITE_ROWS` at a time, formatted
+    on a pool of threads (one per core) a few pieces ahead of the one written."""
+    from concurrent.futures import ThreadPoolExecutor  # noqa: PLC0415
+
     ls = length_scale(length)
     qscale = joint_scale(sweeps.kinds, length, angle)
     k, rot = sweeps.n_targets, sweeps.has_rotations
@@ -628,18 +654,39 @@ def to_long_csv(sweeps: SweepSet, length: str = "mm", angle: str = "deg", header
     csv.writer(out, lineterminator="\n").writerow(
         ["joint", *[f"q{i}" for i in range(1, sweeps.n_joints + 1)], "x", "y", "z", *extra]
     )
-    row = ",".join(["%d"] + ["%.17g"] * (sweeps.n_joints + 3 + len(extra))) + "\n"
-    for s in sweeps.sweeps:
-        if s.q is None:
-            raise DenavitError("long-form CSV needs joint readings; this sweep set has none")
-        for a in range(0, len(s.points), WRITE_CHUNK):
-            q, p = s.q[a : a + WRITE_CHUNK], s.points[a : a + WRITE_CHUNK]
-            if k > 1:
-                p = s.targets[a : a + WRITE_CHUNK].reshape(len(q), 3 * k)
-            quat = _quaternions(s.rotations[a : a + WRITE_CHUNK]) if rot else np.zeros((len(q), 0))
-            cells = np.column_stack([np.full(len(q), s.joint), q / qscale, p / ls, quat])
-            out.write((row * len(cells)) % tuple(cells.ravel().tolist()))
-    return out.getvalue()
+    yield out.getvalue().encode()
+    threads = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    with ThreadPoolExecutor(max(1, min(8, threads))) as pool:
+        ahead = []
+        for s in sweeps.sweeps if pieces is None else pieces:
+            if s.q is None:
+                raise DenavitError("long-form CSV needs joint readings; this sweep set has none")
+            for a in range(0, len(s.points), WRITE_ROWS):
+                q = s.q[a : a + WRITE_ROWS]
+                p = s.targets[a : a + WRITE_ROWS].reshape(len(q), 3 * k) if k > 1 else s.points[a : a + WRITE_ROWS]
+                quat = _quaternions(s.rotations[a : a + WRITE_ROWS]) if rot else np.zeros((len(q), 0))
+                ahead.append(pool.submit(_rows_text, s.joint, q / qscale, p / ls, quat))
+                while len(ahead) > threads:
+                    yield ahead.pop(0).result()
+        for done in ahead:
+            yield done.result()
+
+
+def _rows_text(joint: int, q: np.ndarray, p: np.ndarray, quat: np.ndarray):
+    """The CSV rows (joint, q..., x, y, z..., quaternion) of one piece, each number in its shortest form that reads
+    back as the same double, by Arrow's CSV writer (its float formatting, the shortest round trip)."""
+    import pyarrow as pa  # noqa: PLC0415 (loaded with the first rows written)
+    from pyarrow import csv as pacsv  # noqa: PLC0415
+
+    cols = [pa.array(np.full(len(q), joint, dtype=np.int64))]
+    cols += [pa.array(np.ascontiguousarray(c[:, i])) for c in (q, p, quat) for i in range(c.shape[1])]
+    sink = pa.BufferOutputStream()
+    pacsv.write_csv(
+        pa.table(cols, names=[f"c{i}" for i in range(len(cols))]),
+        sink,
+        pacsv.WriteOptions(include_header=False, quoting_style="none"),
+    )
+    return sink.getvalue()  # a buffer of the bytes (not copied)
 
 
 def _quaternions(R: np.ndarray) -> np.ndarray:
