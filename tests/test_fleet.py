@@ -103,3 +103,32 @@ def test_a_job_that_fails_for_its_data_returns_its_one_line_error(tmp_path):
     out = run_job(JobSpec("R1", "calibrate", "kr5", (("data", "r1.csv", good),), {"model": "offsets"}))
     assert out.status == "ok" and out.metrics["rms_m"] < 5e-5 and len(out.model_checksum) == 16
     assert np.isfinite(out.metrics["predicted_error_m"])
+
+
+def test_validate_and_check_jobs_score_the_model_the_manifest_just_made(tmp_path):
+    kr5 = dv.load_robot("kr5")
+    for name, skip in (("cal.csv", 5), ("session2.csv", 300)):
+        (tmp_path / name).write_text(
+            to_csv(dv.simulate(kr5, configurations(kr5, 25, skip=skip), noise=2e-5, seed=skip))
+        )
+    (tmp_path / "check.csv").write_text(to_csv(dv.simulate(kr5, configurations(kr5, 8, skip=900), noise=2e-5, seed=9)))
+    head = '[[robot]]\nid = "R1"\nnominal = "kr5"\n'
+    (tmp_path / "m.toml").write_text(
+        head
+        + 'job = "calibrate"\ndata = "cal.csv"\nmodel = "offsets"\n\n'
+        + head
+        + 'job = "validate"\ndata = ["session2.csv", "missing.csv"]\n\n'
+        + head
+        + 'job = "check"\ndata = "check.csv"\nnoise = 2e-5\n'
+    )
+    with Registry(tmp_path / "r.sqlite") as reg:
+        s = run_manifest(tmp_path / "m.toml", reg)
+        assert (s.added_ok, s.added_failed) == (3, 1)
+        entries = reg.entries("R1")
+        assert sorted(e.job for e in entries) == ["calibrate", "check", "validate", "validate"]
+        cal, chk = (next(e for e in entries if e.job == job) for job in ("calibrate", "check"))
+        val, missing = sorted((e for e in entries if e.job == "validate"), key=lambda e: e.status != "ok")
+        assert val.model_checksum == cal.model_checksum == chk.model_checksum  # the model just made, scored
+        assert val.metrics["rms_m"] < 1e-4 and missing.error == "missing.csv: no such file"
+        assert not chk.metrics["changed"] and chk.metrics["dof"] == 24
+        assert run_manifest(tmp_path / "m.toml", reg).added == 0

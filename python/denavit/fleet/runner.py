@@ -71,7 +71,7 @@ def _option_names(job: str) -> set[str]:
         "add": (),
         "identify": (api.identify, run.identify),
         "calibrate": (api.calibrate, solve.calibrate),
-        "validate": (va.validate,),
+        "validate": (api.validate, va.validate),
         "check": (check.drift_check,),
     }[job]
     names = {p for f in functions for p in inspect.signature(f).parameters}
