@@ -491,19 +491,12 @@ def compensate_program(
     ``identified``: each on its own configuration (the one it states; URScript poses: the solution nearest the
     previous position, the first nearest ``q0``, default the nominal's home), flange poses compensated (the
     program's tool and base frames exact, as the controller applies them)."""
-    from dataclasses import replace  # noqa: PLC0415
-
     from ... import compensation as cp  # noqa: PLC0415
     from ...robot import Robot  # noqa: PLC0415
 
     v = program.vendor
     nominal = _robot(nominal)
-    t = nominal.table
-    flange_robot = (
-        replace(nominal, table=_core.Table(t.convention, t.params, t.kinds, t.T_world_base, np.eye(4)))
-        if isinstance(nominal, Robot)
-        else nominal
-    )
+    flange_robot = flange_of(nominal) if isinstance(nominal, Robot) else nominal
     model = flange_robot.model() if isinstance(flange_robot, Robot) else flange_robot.with_tool(np.eye(4))
     home = getattr(nominal, "home", None)
     q_prev = np.asarray(q0 if q0 is not None else (home if home is not None else np.zeros(model.nq)), dtype=float)
@@ -567,6 +560,18 @@ def compensate_program(
     return ProgramCompensation(program, new, c, rows, Q, left, T)
 
 
+def flange_of(robot):
+    """``robot`` at its flange, the frame the vendors' flanges are given in: as it is when its tool is a pure rotation
+    (a model's own flange frame, REP-199's tool0: the kr210's a half turn about its DH frame 6's z), else its tool
+    taken off (a tool with an offset is not the flange; the program's tools are on the flange)."""
+    from dataclasses import replace  # noqa: PLC0415
+
+    t = robot.table
+    if np.allclose(np.asarray(t.T_last_tool)[:3, 3], 0.0, rtol=0.0, atol=1e-12):
+        return robot
+    return replace(robot, table=_core.Table(t.convention, t.params, t.kinds, t.T_world_base, np.eye(4)))
+
+
 def _robot(r):
     """A built-in name or a robot file as its Robot (a Robot as given)."""
     if isinstance(r, (str, os.PathLike)):
@@ -590,14 +595,11 @@ def controller_joints(program: Program, robot, values: dict | None = None, *, q0
     """The joint values (N, n) a nominal controller of ``robot`` runs each position of ``program`` at (its
     configuration honoured: the vendor's bits; URScript poses the solution nearest the previous position), with
     ``values`` ({point index: values}) in place of the program's: what a simulated controller does (tests)."""
-    from dataclasses import replace  # noqa: PLC0415
-
     from ... import compensation as cp  # noqa: PLC0415
 
     v = program.vendor
     robot = _robot(robot)
-    t = robot.table
-    model = replace(robot, table=_core.Table(t.convention, t.params, t.kinds, t.T_world_base, np.eye(4))).model()
+    model = flange_of(robot).model()
     F = v.flange_rotation(robot)
     home = getattr(robot, "home", None)
     q_prev = np.asarray(q0 if q0 is not None else (home if home is not None else np.zeros(model.nq)), dtype=float)

@@ -69,7 +69,8 @@ KNOWN = {
 }
 POSE_KEYS = ("X", "Y", "Z", "A", "B", "C")
 AXIS_KEYS = ("A1", "A2", "A3", "A4", "A5", "A6")
-SIGNS = {"kr5": (-1, 1, 1, -1, 1, -1)}
+#: The built-in KUKA models whose A1, A4 and A6 turn the other way from the controller's (their files' headers).
+SIGNS = {"kr5": (-1, 1, 1, -1, 1, -1), "kr210": (-1, 1, 1, -1, 1, -1)}
 _NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
 _ITEM = re.compile(
     r"([A-Za-z_]\w*(?:\[\])?)\s+('[^']*'|\"[^\"]*\"|#\w+|" + _NUMBER + r"|TRUE|FALSE|\w+)", re.IGNORECASE
