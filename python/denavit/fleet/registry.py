@@ -295,9 +295,8 @@ class Registry:
         if seq is not None:
             hit = [e for e in found if e.seq == seq]
             if not hit:
-                raise DenavitError(
-                    f"robot {robot_id!r}: no entry {seq} in {self.path} (its entries: {', '.join(str(e.seq) for e in found)})"
-                )
+                seqs = ", ".join(str(e.seq) for e in found)
+                raise DenavitError(f"robot {robot_id!r}: no entry {seq} in {self.path} (its entries: {seqs})")
             return hit[0]
         if model:
             found = [e for e in found if e.status == "ok" and e.robot_file and e.job in MODEL_JOBS]
