@@ -244,18 +244,18 @@ def test_save_keeps_the_identified_geometry_and_a_dh_save_states_its_error(tmp_p
     res = dv.identify(s, nominal="kr5")  # convention "dh", the default
     exact = res.model(convention="edh")
     q = np.vstack([HOME, np.random.default_rng(3).uniform(-2.5, 2.5, (200, 6))])
-    res.save(tmp_path / "exact.toml", length="mm")
+    dv.save(res, tmp_path / "exact.toml", length="mm")
     saved = dv.load_robot(tmp_path / "exact.toml")
     assert saved.convention == "edh"
     d = np.linalg.norm(dv.fk_batch(saved.model(), q)[:, :3, 3] - dv.fk_batch(exact, q)[:, :3, 3], axis=1)
     assert d.max() < 1e-9
-    res.save(tmp_path / "dh.toml", convention="dh", length="mm")
+    dv.save(res, tmp_path / "dh.toml", convention="dh", length="mm")
     # a robot file is TOML: another extension is refused (a .json name had received TOML without a word)
     with pytest.raises(
         dv.DenavitError,
         match=r"r.json: expected a robot file name ending in .toml \(or .urdf for a URDF\), got a .json name",
     ):
-        res.save(tmp_path / "r.json")
+        dv.save(res, tmp_path / "r.json")
     assert not (tmp_path / "r.json").exists()
     text = (tmp_path / "dh.toml").read_text()
     lossy = dv.load_robot(tmp_path / "dh.toml")
@@ -365,7 +365,7 @@ def test_an_edh_save_that_drops_a_tilt_does_not_claim_exactness(tmp_path):
     res = dv.identify(s, nominal="kr5", convention="edh")
     err = res.carried_error()[0]
     assert err > 1e-6  # a tilt within the noise, dropped: micrometres, not round-off
-    res.save(tmp_path / "edh.toml", length="mm")
+    dv.save(res, tmp_path / "edh.toml", length="mm")
     head = (tmp_path / "edh.toml").read_text().splitlines()[:2]
     assert head[0].startswith(
         "# The identified geometry, exactly except the tilt of a pair of axes the nominal has parallel"
@@ -374,7 +374,7 @@ def test_an_edh_save_that_drops_a_tilt_does_not_claim_exactness(tmp_path):
     assert any("edh table carries a tool-position error" in n and "exact except the tilt" in n for n in res.notes), (
         res.notes
     )
-    res.save(tmp_path / "poe.toml", convention="poe", length="mm")
+    dv.save(res, tmp_path / "poe.toml", convention="poe", length="mm")
     assert dv.load_robot(tmp_path / "poe.toml").convention == "poe"
     assert res.carried_error("poe")[0] < 1e-9
     assert (tmp_path / "poe.toml").read_text().startswith("# The identified geometry, exactly (its poe table")

@@ -15,6 +15,7 @@ from cli import env as cli_env
 from cli import run as run_cli
 from denavit import calibration as cal
 from denavit import fitting
+from denavit.io import results
 from denavit import sweeps as sw
 from denavit.calibration.least_squares import covariance, residuals, weights
 from denavit.io.robots import as_robot
@@ -556,7 +557,7 @@ def test_files_round_trip_and_json(kr5, tmp_path):
     assert read_measurements(f).sweeps is not None
     res = cal.calibrate(meas, kr5, tool=TOOL, holdout=0.25)
     out = tmp_path / "r.json"
-    cal.write_json(res, out)
+    results.write_json(res, out)
     doc = json.loads(out.read_text())  # strict JSON: no NaN
     assert doc["units"] == {"length": "m", "angle": "rad"}  # SI, as every JSON (docs/cli.md)
     rows = {r["name"]: r for r in doc["parameters"]}

@@ -589,7 +589,7 @@ def test_convert_carries_the_covariance_and_the_reading_model(tmp_path):
 
     res = dv.identify(_scaled_recording(), nominal=dv.load_robot("kr5"), convention="edh")
     src = tmp_path / "id.toml"
-    res.save(src)
+    dv.save(res, src)
     edh = robotfile.read(src)
     Q = program(dv.load_robot("kr5"), 30)
     out = tmp_path / "id_poe.toml"

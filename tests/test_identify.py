@@ -12,7 +12,7 @@ from real_effects import CHI2_99, NEST, axis_chi2, recording, recordings
 import denavit as dv
 from cli import run
 from denavit import sweeps as sw
-from denavit.identification import to_json, write_json
+from denavit.io.results import to_json, write_json
 from denavit.io import sweeps as swio
 
 HOME = np.radians(sw.PAPER_HOME_DEG)

@@ -10,6 +10,7 @@ import pytest
 import denavit as dv
 from cli import run as run_cli
 from denavit import calibration as cal
+from denavit.io import results
 from denavit.io.robots import as_robot
 from denavit.io.measurements import read_measurements, to_csv
 
@@ -107,7 +108,7 @@ def test_priors_keep_a_barely_determined_last_link_near_nominal(kr5):
     assert np.all(res.sigma[est] <= width[est] * (1 + 1e-9)), [
         (pz.names[k], res.sigma[k], width[k]) for k in np.flatnonzero(est)
     ]
-    doc = cal.to_json(res)
+    doc = results.to_json(res)
     row = next(r for r in doc["parameters"] if r["name"] == "a_5")
     assert row["prior_sigma"] == pytest.approx(1e-3)
 

@@ -100,7 +100,7 @@ def test_default_is_isotropic(kr5):
     np.testing.assert_array_equal(a.table.params, b.table.params)
     np.testing.assert_array_equal(a.sigma, b.sigma)
     assert not [n for n in a.notes if "tracker" in n]
-    from denavit.identification import to_json
+    from denavit.io.results import to_json
 
     assert to_json(a, box=False)["tracker_noise"] is None
 

@@ -33,7 +33,7 @@ from .measurements import Measurements
 from .parametrization import Parametrization, configurations, parametrize
 from .plan import Plan, Protocol, axis_lines, plan, select_poses
 from .simulate import simulate
-from .solve import Calibration, Validation, calibrate, to_json, write_json
+from .solve import Calibration, Validation, calibrate
 from .targets import TargetMeasurements
 
 __all__ = [
@@ -53,6 +53,4 @@ __all__ = [
     "plan",
     "select_poses",
     "simulate",
-    "to_json",
-    "write_json",
 ]

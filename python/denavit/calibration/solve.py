@@ -13,7 +13,6 @@ from .. import _core
 from ..errors import DenavitError, check_seed
 from ..fitting.joint import as_tracker_noise
 from ..fitting.robust import loss_weight
-from ..io.output import json_text, write_text
 from ..robot import Robot, robot_of
 from ..sweeps import SweepSet
 from .compliance import robot_compliance, with_compliance, with_payload
@@ -731,90 +730,3 @@ def _circle_start(
     xs, _ = fit_parameters(pz, x, free, target, np.ones(6), "linear", None)
     notes.append(f"started from the circle-point identification (global fit, residual rms {res.rms * 1e3:.4g} mm)")
     return xs
-
-
-def to_json(cal: Calibration) -> dict:
-    """The JSON document of a calibration, in SI with the unit in every scalar key's name (docs/cli.md,
-    "--json"); a parameter row's ``unit`` (m, rad or 1) is that of its ``nominal``, ``value`` and ``sigma``."""
-    pz = cal.parametrization
-    rows = []
-    for c, nm in enumerate(cal.names):
-        rows.append(
-            {
-                "name": nm,
-                "unit": {"length": "m", "angle": "rad", "ratio": "1"}.get(pz.units[c], pz.units[c]),
-                "nominal": float(cal.nominal[c]),
-                "value": float(cal.values[c]),
-                "sigma": None if not np.isfinite(cal.sigma[c]) else float(cal.sigma[c]),
-                "status": cal.status[c],
-                "prior_sigma": None
-                if cal.prior_sigma is None or not np.isfinite(cal.prior_sigma[c])
-                else float(cal.prior_sigma[c]),
-            }
-        )
-    ana = cal.identifiability
-    m = cal.model()
-    v = cal.validation
-    return {
-        "units": {"length": "m", "angle": "rad"},
-        "frame": "measurement",
-        "source": cal.measurements.source,
-        "nominal": pz.robot.name,
-        "convention": cal.convention,
-        "measure": pz.measure,
-        "n_poses": cal.measurements.n,
-        "loss": cal.loss,
-        "parameters": rows,
-        "identifiability": {
-            "rank": ana.rank,
-            "candidates": ana.candidates,
-            "base_parameters": ana.base_parameters,
-            "condition_number": ana.condition_number,
-            "observability": ana.observability,
-            "unidentifiable": [
-                {"name": u.name, "structural": u.structural, "reason": u.reason, "combination": u.combination}
-                for u in ana.unidentifiable
-            ],
-        },
-        "covariance": {"names": cal.free_names, "matrix_si": _finite_or_none(cal.covariance)},
-        "correlation": _finite_or_none(cal.correlation),
-        "residuals": {
-            "rms_m": cal.rms,
-            "max_m": float(np.max(np.linalg.norm(cal.residuals[:, :3], axis=1))) if cal.residuals.size else 0.0,
-            "rms_rotation_rad": None if math.isnan(cal.rms_rotation) else cal.rms_rotation,
-            "noise_estimate_m": cal.noise,
-            "outliers": [cal.measurements.where[i] for i in cal.outliers],
-        },
-        "model_choice": None if cal.model_choice is None else cal.model_choice.to_json(),
-        "validation": None
-        if v is None
-        else {
-            "n_train": v.n_train,
-            "n_test": v.n_test,
-            "before_rms_m": v.before_rms,
-            "before_max_m": v.before_max,
-            "after_rms_m": v.after_rms,
-            "after_max_m": v.after_max,
-        },
-        "model": {
-            "T_world_base": np.asarray(m.T_world_base).tolist(),
-            "T_last_flange": np.asarray(m.T_last_flange).tolist(),
-            "T_flange_tool": np.asarray(m.T_flange_tool).tolist(),
-            "placements": np.asarray(m.placements).tolist(),
-            "offsets": np.asarray(m.offsets, dtype=float).tolist(),
-        },
-        "converged": cal.converged,
-        "evaluations": cal.evaluations,
-        "elapsed_s": cal.elapsed,
-        "notes": cal.notes,
-    }
-
-
-def _finite_or_none(a: np.ndarray) -> list:
-    """A nested list with non-finite entries as None (JSON has no NaN)."""
-    return [[float(v) if math.isfinite(v) else None for v in row] for row in np.asarray(a, dtype=float)]
-
-
-def write_json(cal: Calibration, path, *, force: bool = False) -> None:
-    """Write the calibration as JSON in SI (whole or not at all; ``force``: replace a read-only file, write through one with several hard links (:func:`denavit.io.output.write_text`))."""
-    write_text(path, json_text(to_json(cal)), force=force)

@@ -52,7 +52,6 @@ import numpy as np
 from .. import _core
 from ..errors import DenavitError
 from ..geometry import kabsch, matrix_rotvec, pose, rotvec_matrix
-from ..io.output import json_text, write_text
 from ..robot import robot_of
 from .compliance import elastic_of, with_payload
 from .measurements import Measurements
@@ -517,76 +516,11 @@ def validate(
     )
 
 
-def to_json(v: ModelValidation) -> dict:
-    """The JSON document of a validation (SI, docs/cli.md "validate")."""
-    per = []
-    for i in range(v.n):
-        per.append(
-            {
-                "where": v.where[i],
-                "q": v.q[i].tolist(),
-                "error_m": float(v.errors[i]),
-                "error_xyz_m": v.error_vectors[i].tolist(),
-                **({"rotation_error_rad": float(v.rotation_errors[i])} if v.rotation_errors is not None else {}),
-                "sigma_predicted_m": None if v.sigma is None else float(v.sigma[i]),
-                "flags": list(v.flags[i]),
-                "outside_joints": [v.joint_names[j] for j in v.outside[i]],
-            }
-        )
-    iso = None
-    if v.groups:
-        iso = {
-            "n_poses": len(v.groups),
-            "ap_max_m": max(g.ap for g in v.groups),
-            "rp_max_m": max(g.rp for g in v.groups),
-            "poses": [
-                {
-                    "n_poses": g.n,
-                    "where": [v.where[i] for i in g.indices],
-                    "ap_m": g.ap,
-                    "rp_m": g.rp,
-                    "barycentre_m": g.barycentre.tolist(),
-                    "commanded_m": g.commanded.tolist(),
-                }
-                for g in v.groups
-            ],
-        }
-    return {
-        "units": {"length": "m", "angle": "rad"},
-        "model": v.model_name,
-        "source": v.source,
-        "measure": v.measure,
-        "registration": v.registration,
-        "n_poses": v.n,
-        "rms_m": v.rms,
-        "max_m": v.max,
-        "percentiles_m": {f"p{p}_m": e for p, e in v.percentiles.items()},
-        "rms_rotation_rad": v.rms_rotation,
-        "flagged": v.n_flagged,
-        "sigma_limit_m": v.sigma_limit,
-        "training_range": None
-        if v.training_lower is None
-        else {"lower": v.training_lower.tolist(), "upper": v.training_upper.tolist()},
-        "T_world_base": v.T_world_base.tolist(),
-        "T_flange_tool": v.T_flange_tool.tolist(),
-        "iso9283": iso,
-        "per_pose": per,
-        "notes": list(v.notes),
-    }
-
-
-def write_json(v: ModelValidation, path) -> None:
-    """Write the validation as JSON in SI (whole or not at all)."""
-    write_text(path, json_text(to_json(v)))
-
-
 __all__ = [
     "ModelValidation",
     "PoseGroup",
     "iso9283",
     "refit_registration",
     "repeat_groups",
-    "to_json",
     "validate",
-    "write_json",
 ]

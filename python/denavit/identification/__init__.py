@@ -9,12 +9,12 @@ propagated to every parameter, no absurd offsets on near-parallel axes (docs/con
 minimum-volume bounding box of the measured points (paper Table IV; :attr:`Identification.box`, computed
 when first asked for).
 
-The package: :func:`identify` (``denavit.identify`` is the same function), :class:`Identification` and its JSON
-(:func:`to_json`, :func:`write_json`); the steps in :mod:`.prepare`, :mod:`.choice`, :mod:`.frames`, :mod:`.run`.
+The package: :func:`identify` (``denavit.identify`` is the same function) and :class:`Identification` (saved and
+written as JSON by :mod:`denavit.io.results`); the steps in :mod:`.prepare`, :mod:`.choice`, :mod:`.frames`, :mod:`.run`.
 """
 
 from .prepare import decoupled, sweep_where
-from .result import EXACT, METHODS, Identification, to_json, write_json
+from .result import EXACT, METHODS, Identification
 from .run import identify
 
-__all__ = ["EXACT", "METHODS", "Identification", "decoupled", "identify", "sweep_where", "to_json", "write_json"]
+__all__ = ["EXACT", "METHODS", "Identification", "decoupled", "identify", "sweep_where"]

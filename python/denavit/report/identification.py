@@ -609,7 +609,7 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
     """The HTML text of :func:`write_report`: the summary, the 3-D view, the identified parameters and their chart,
     the joint axes with the residuals and the consecutive-axis relations, the measuring volume, the accuracy
     (with a nominal model) and the notes."""
-    from ..identification import to_json  # noqa: PLC0415
+    from ..io.results import to_json  # noqa: PLC0415
 
     go, make_subplots = _plotly()
     ls = length_scale(length)
