@@ -15,12 +15,12 @@ from cli import env as cli_env
 from cli import run as run_cli
 from denavit import calibration as cal
 from denavit import fitting
-from denavit.io import results
 from denavit import sweeps as sw
 from denavit.calibration.least_squares import covariance, residuals, weights
-from denavit.io.robots import as_robot
+from denavit.io import results
 from denavit.io import sweeps as swio
 from denavit.io.measurements import read_measurements, to_csv
+from denavit.io.robots import as_robot
 
 NOISE = 2e-5  # 0.02 mm per coordinate
 TOOL = np.array([0.05, 0.03, 0.10])

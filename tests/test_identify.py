@@ -12,8 +12,8 @@ from real_effects import CHI2_99, NEST, axis_chi2, recording, recordings
 import denavit as dv
 from cli import run
 from denavit import sweeps as sw
-from denavit.io.results import to_json, write_json
 from denavit.io import sweeps as swio
+from denavit.io.results import to_json, write_json
 
 HOME = np.radians(sw.PAPER_HOME_DEG)
 

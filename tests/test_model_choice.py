@@ -11,8 +11,8 @@ import denavit as dv
 from cli import run as run_cli
 from denavit import calibration as cal
 from denavit.io import results
-from denavit.io.robots import as_robot
 from denavit.io.measurements import read_measurements, to_csv
+from denavit.io.robots import as_robot
 
 TOOL = np.array([0.05, 0.03, 0.10])
 HOME = np.radians([0, -90, 90, 0, 45, 0])
