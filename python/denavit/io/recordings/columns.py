@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import DenavitError
-from ..delimited import number
+from ..delimited import number, numeric_table
 from ..text import read_text
 from ..units import input_units, joint_scale, length_scale, parse_declaration, time_scale
 
@@ -65,8 +65,17 @@ def data_lines(text: str) -> list[tuple[int, str]]:
 
 
 def numbers(rows: list[tuple[int, list[str]]], cols: list[int], names: list[str], path: str) -> np.ndarray:
-    """(m, len(cols)) floats of the given columns; a bad cell names the file, line and column."""
+    """(m, len(cols)) floats of the given columns: column-wise at C speed when every cell is a plain number
+    (:func:`~denavit.io.delimited.numeric_table`, the values :func:`~denavit.io.delimited.number` gives), else row by
+    row, the first bad cell naming the file, line and column."""
     out = np.empty((len(rows), len(cols)))
+    for c, k in enumerate(cols):
+        fast = numeric_table("\n".join(cs[k] for _, cs in rows).encode(), ",", 1) if rows else None
+        if fast is None or len(fast) != len(rows):
+            break
+        out[:, c] = fast[:, 0]
+    else:
+        return out
     for r, (ln, cells) in enumerate(rows):
         for c, (k, name) in enumerate(zip(cols, names)):
             out[r, c] = number(cells[k], f"{path}:{ln}", name)
