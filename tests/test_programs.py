@@ -555,3 +555,120 @@ def test_the_python_api_takes_a_program():
     r = load("kr5")
     pc = dv.compensate(r, perturbed(r), str(DATA / "abb" / "DemoKR5.mod"))
     assert isinstance(pc, pg.ProgramCompensation) and len(pc.new_values) == 16 and not pc.left
+
+
+# -- real programs from public sources (tests/data/programs/README.md: their repositories, commits and licenses) -----
+# Each is mapped onto a built-in robot as the README says: the KRL program's one E6AXIS (A1 -156.9 deg, beyond the
+# KR5's +-155) on the kr210 (A1 +-185); the TP program's UF 1 / UT 1 (frames of the controller it was taught on, not in
+# the file) given as a user frame 500 mm in front of, 200 mm right of and 200 mm above the KR5's base and a 150 mm
+# straight torch, which puts its weld seam in the KR5's workspace.
+FANUC_FRAMES = {
+    ("base", 1): pg.pose_matrix(np.array([0.5, -0.2, 0.2]), np.eye(3)),
+    ("tool", 1): pg.pose_matrix(np.array([0.0, 0.0, 0.15]), np.eye(3)),
+}
+FANUC_FLAGS = ["--frame", "base 1=500,-200,200,0,0,0", "--frame", "tool 1=0,0,150,0,0,0"]
+REAL = [
+    ("real/kuka_experimental/ros_krlptp.src", "kr210", {}, []),
+    ("real/fanuc_ls_vscode/SCHWEISS1.LS", "kr5", FANUC_FRAMES, ["P[9]"]),  # P[9]: taught, no line of /MN moves to it
+]
+
+
+@pytest.mark.parametrize(("name", "model", "frames", "unused"), REAL)
+def test_a_real_program_round_trips_byte_identical(name, model, frames, unused, tmp_path):
+    """A program from a public repository, read and written with the nominal model as the identified one: the same
+    bytes (its license header, folds, tabs, the spacing of its numbers); only its unused positions are listed."""
+    r = load(model)
+    prog = pg.read_program(DATA / name, r, frames=frames)
+    pc = pg.compensate_program(prog, r, r)
+    assert [w for w, _ in pc.left] == [p.where for p in prog.points if p.name in unused]
+    paths = pg.write_program(prog, tmp_path / Path(name).name, pc.new_values)
+    for p, src in zip(paths, prog.sources, strict=True):
+        assert Path(p).read_bytes() == Path(src.path).read_bytes()
+
+
+@pytest.mark.parametrize(("name", "model", "frames", "unused"), REAL)
+def test_a_real_program_compensated_changes_only_its_positions_and_reaches_the_targets(
+    name, model, frames, unused, tmp_path
+):
+    """The true robot (0.5 mm / 0.05 deg errors) runs the compensated real program on a nominal controller that keeps
+    each position's configuration: within 0.1 mm RMS of the targets, >= 10x better than the program as written; the
+    files differ from the originals in their position fields only."""
+    r = load(model)
+    true = perturbed(r)
+    path = copy_program(DATA / name, tmp_path)
+    prog = pg.read_program(path, r, frames=frames)
+    pc = pg.compensate_program(prog, r, true)
+    moved = [k for k, p in enumerate(prog.points) if p.name not in unused]
+    assert sorted(pc.new_values) == moved
+    (tmp_path / "out").mkdir()
+    paths = pg.write_program(prog, tmp_path / "out" / path.name, pc.new_values)
+    back = pg.read_program(paths[0], r, frames=frames)
+    assert _without_positions(back) == _without_positions(prog)
+    assert any(Path(p).read_bytes() != Path(s.path).read_bytes() for p, s in zip(paths, prog.sources, strict=True))
+    F = prog.vendor.flange_rotation(r)
+    fm, tm = pg.flange_of(r).model(), pg.flange_of(true).model()
+    Q_program, Q_comp = pg.controller_joints(prog, r)[moved], pg.controller_joints(back, r)[moved]
+    pts = [prog.points[k] for k in moved]
+    target = pg.tool_poses(replace(prog, points=pts), fm, Q_program, F)[:, :3, 3]
+    before = np.linalg.norm(pg.tool_poses(replace(prog, points=pts), tm, Q_program, F)[:, :3, 3] - target, axis=1)
+    after = np.linalg.norm(pg.tool_poses(replace(back, points=pts), tm, Q_comp, F)[:, :3, 3] - target, axis=1)
+    rms_before, rms_after = np.sqrt(np.mean(before**2)), np.sqrt(np.mean(after**2))
+    assert rms_after < 1e-4 and rms_before > 10 * rms_after, (rms_before, rms_after)
+
+
+@pytest.mark.parametrize("save", SAVES)
+def test_a_saved_calibration_compensates_a_real_program_as_the_in_memory_result(calibration, save, tmp_path):
+    """The TP program from a public repository compensated from each saved format of a calibration (robot file in
+    each convention, URDF) and from the result in memory: the same commands within 1 um."""
+    from denavit.io import robotfile, urdf
+
+    kr5, c = calibration
+    name = DATA / REAL[1][0]
+    mem = dv.compensate(kr5, c, str(name), frames=FANUC_FRAMES)
+    if save == "urdf":
+        f = tmp_path / "cal.urdf"
+        urdf.save_urdf(c.robot().model(), f, c.robot())
+    else:
+        f = tmp_path / f"cal_{save}.toml"
+        robotfile.save(c.robot(convention=save), f, "mm", "deg")
+    saved = dv.compensate(kr5, str(f), str(name), frames=FANUC_FRAMES)
+    assert sorted(mem.new_values) == sorted(saved.new_values) == [0, 1, 2, 3]
+    a, b = mem.compensation, saved.compensation
+    assert np.abs(a.commands[:, :3, 3] - b.commands[:, :3, 3]).max() < 1e-6
+    assert np.abs(a.commands[:, :3, :3] - b.commands[:, :3, :3]).max() < 1e-6
+    for k in mem.new_values:
+        assert np.abs(mem.new_values[k][:3] - saved.new_values[k][:3]).max() < 1e-3  # mm
+
+
+@pytest.mark.parametrize(
+    ("name", "edit", "flags", "message"),
+    [
+        (REAL[1][0], None, [], r"SCHWEISS1\.LS:\d+: P\[1\]: UF : 1 is the controller's user frame 1"),
+        (
+            REAL[1][0],
+            lambda t: t.replace("'N U T, 0, 0, 0'", "'N D B, 0, 0, 0'", 1),
+            FANUC_FLAGS,
+            r"SCHWEISS1\.LS:38: P\[1\]: the configuration 'N D B, 0, 0, 0' is not reachable on the nominal kr5",
+        ),
+        (
+            REAL[0][0],
+            lambda t: t.replace("DECL PDAT ROS_Pdat", "DECL PDATA ROS_Pdat"),
+            [],
+            r"ros_krlptp\.dat:9: unknown declaration type 'PDATA'",
+        ),
+    ],
+)
+def test_a_bad_real_program_gives_a_one_line_error_and_writes_nothing(tmp_path, name, edit, flags, message):
+    from cli import run
+
+    path = copy_program(DATA / name, tmp_path)
+    if edit is not None:
+        target = path.with_suffix(".dat") if name.endswith(".src") else path
+        target.write_bytes(edit(target.read_bytes().decode()).encode())
+    out = tmp_path / "out" / path.name
+    out.parent.mkdir()
+    model = "kr210" if name.endswith(".src") else "kr5"
+    p = run("compensate", path, "--nominal", model, "--identified", model, *flags, "-o", out, ok=False)
+    assert p.returncode == 2 and re.search(message, p.stderr), p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1
+    assert not any(out.parent.iterdir())

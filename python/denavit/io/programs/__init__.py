@@ -486,11 +486,15 @@ def compensate_program(
     branch_tol: float = np.radians(5.0),
     result=None,
     predict: bool = True,
+    payload=None,
 ) -> ProgramCompensation:
     """Compensate every position of ``program`` for a controller that keeps ``nominal`` (a Robot) while the robot is
     ``identified``: each on its own configuration (the one it states; URScript poses: the solution nearest the
     previous position, the first nearest ``q0``, default the nominal's home), flange poses compensated (the
-    program's tool and base frames exact, as the controller applies them)."""
+    program's tool and base frames exact, as the controller applies them). ``payload``: the payload on the flange for
+    every position (kg, or (kg, (x, y, z)) its centre of mass in the model's flange frame, m; or (N, 4) one per
+    compensated position): with an identified robot of compliant joints the commands are those that deflect onto
+    the targets under it (:func:`denavit.compensation.compensate`)."""
     from ... import compensation as cp  # noqa: PLC0415
     from ...robot import Robot  # noqa: PLC0415
 
@@ -531,7 +535,16 @@ def compensate_program(
     Q = np.array(qs).reshape(-1, model.nq)
     if not rows:
         return ProgramCompensation(program, {}, None, [], Q, left, T)
-    c = cp.compensate(flange_robot, identified, T, q_nominal=Q, branch_tol=branch_tol, result=result, predict=predict)
+    c = cp.compensate(
+        flange_robot,
+        identified,
+        T,
+        q_nominal=Q,
+        branch_tol=branch_tol,
+        result=result,
+        predict=predict,
+        payload=payload,
+    )
     new = {}
     for i, k in enumerate(rows):
         p = program.points[k]
@@ -551,7 +564,7 @@ def compensate_program(
         if p.kind == "joints":
             new[k] = v.joint_readings(nominal, qc, p)
             continue
-        if p.config is not None and not v.matches(p.config, v.configuration(model, qc, cache)):
+        if p.config is not None and not _keeps(v, model, p.config, qc, cache):
             left.append(
                 (p.where, f"the compensated command leaves {v.describe(p.config)} (near a configuration boundary)")
             )
@@ -570,6 +583,21 @@ def flange_of(robot):
     if np.allclose(np.asarray(t.T_last_tool)[:3, 3], 0.0, rtol=0.0, atol=1e-12):
         return robot
     return replace(robot, table=_core.Table(t.convention, t.params, t.kinds, t.T_world_base, np.eye(4)))
+
+
+def _keeps(v, model, config, q, cache: dict) -> bool:
+    """Whether the joint values ``q`` or the same arm a whole turn of some revolute joints away (within the limits: the
+    controller's solution of the same pose) have the configuration ``config``: a command at a turn boundary (a
+    program's J4 at -180 deg, turn 0, compensated to -180.01) is the arm at 179.99 deg, turn 0, for the controller."""
+    if v.matches(config, v.configuration(model, q, cache)):
+        return True
+    lo, hi = np.asarray(model.lower, dtype=float), np.asarray(model.upper, dtype=float)
+    choices = []
+    for j, kind in enumerate(model.kinds):
+        shifts = [q[j] + 2 * np.pi * k for k in (-1, 1)] if kind == "revolute" else []
+        choices.append([q[j]] + [x for x in shifts if lo[j] - 1e-9 <= x <= hi[j] + 1e-9])
+    grids = np.meshgrid(*choices, indexing="ij")
+    return any(v.matches(config, v.configuration(model, qq, cache)) for qq in np.stack([g.ravel() for g in grids], 1))
 
 
 def _robot(r):

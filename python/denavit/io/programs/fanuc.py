@@ -24,7 +24,8 @@ match the controller's UT 0). UF 0 is the robot's world frame (its base); UF / U
 live in the controller), else a one-line error.
 
 Supported subset: ``/PROG``, ``/ATTR``, ``/APPL``, ``/MN``, ``/POS``, ``/END`` sections; ``P[n]`` positions of group 1
-(Cartesian with a CONFIG, or joint). Position registers (``PR[n]``) are not in the program: listed.
+(Cartesian with a CONFIG, or joint). Position registers (``PR[n]``) are not in the program: listed. A ``P[n]`` no
+line of ``/MN`` names (a position taught and no longer used) is left as it is and listed.
 """
 
 from __future__ import annotations
@@ -63,6 +64,7 @@ def read(path, robot, *, frames: dict) -> Program:
     points: list[Point] = []
     notes: list[str] = []
     mn = re.search(r"(?ms)^/MN\s*$(.*?)^/(POS|END)", text)
+    used = {int(m.group(1)) for m in re.finditer(r"\bP\[(\d+)", mn.group(1))} if mn else set()
     if mn:
         for m in re.finditer(r"\bPR\[(\d+)", mn.group(1)):
             notes.append(
@@ -107,6 +109,8 @@ def read(path, robot, *, frames: dict) -> Program:
                 )
             config = _parse_config(cfg.group(1), where, name)
         pt = Point(name, where, "pose" if cart else "joints", nums, config)
+        if int(m.group(1)) not in used:
+            pt.problem = "no instruction of /MN moves to it: left as it is"
         for kind, mt in (("base", uf), ("tool", ut)):
             if mt is None:
                 continue
