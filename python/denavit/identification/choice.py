@@ -225,10 +225,10 @@ def _reading_scales(
     (``full``); whether they err at all by the evidence (:func:`_scale_evidence`: the marginal likelihood of the
     scales as a population N(0, tau^2) against exact scales, one hyperparameter, by Schwarz's criterion,
     :func:`_scale_penalty`); when they do, the joints' spread tau from those estimates (:func:`_scale_spread`), then
-    every scale refitted with the prior N(0, tau^2) (:func:`~denavit.fitting.joint.fit_sweeps`' ``scale_prior``): a scale the
-    data show (sigma << tau) keeps its value, one they cannot show (sigma >> tau) stays near zero with about tau of
-    uncertainty in its axis, continuously (no joint-by-joint choice: a chance 2.9-sigma scale on exact readings no
-    longer moves its axis by 2.9 of its full sigmas).
+    every scale refitted with the prior N(0, tau^2) (:func:`~denavit.fitting.joint.fit_sweeps`' ``scale_prior``):
+    a scale the data show (sigma << tau) keeps its value, one they cannot show (sigma >> tau) stays near zero with
+    about tau of uncertainty in its axis, continuously (no joint-by-joint choice: a chance 2.9-sigma scale on exact
+    readings no longer moves its axis by 2.9 of its full sigmas).
 
     (Before, any tau > 0 fitted the scales: the median-unbiased tau is positive in about half of all runs with exact
     readings, and on 30 degree arcs, where a scale trades with its axis's radial position (the arc's curvature alone
@@ -261,6 +261,132 @@ def _scale_list(g: dict, n: int) -> str:
     )
 
 
+class _Refits:
+    """The further joint fits of auto's choice, on the same sweeps, motions, loss and noise models as the first."""
+
+    def __init__(self, sweeps: SweepSet, dqs: list, loss: str, rotation_noise, tracker, n_res: int):
+        self.sweeps, self.dqs, self.loss, self.n_res = sweeps, dqs, loss, n_res
+        self.models = {"rotation_sigma": rotation_noise, "tracker": tracker}
+
+    def _fit(self, base: dict, **kw) -> dict:
+        """A joint fit started from ``base``'s lines, home point, offsets and orientation."""
+        return fit_sweeps(
+            self.sweeps,
+            self.dqs,
+            list(zip(base["points"], base["directions"], strict=True)),
+            base["home"].mean(axis=0),
+            loss=self.loss,
+            where=self.sweeps.source,
+            offsets0=base["offsets"],
+            rotation0=base["rotation"],
+            **self.models,
+            **kw,
+        )
+
+    def richer(self, base: dict, **kw):
+        """(fit on base's weights, its BIC against base), or (None, -inf) when it does not converge."""
+        try:
+            r = self._fit(base, gamma=base["gamma"], **kw)
+        except NotConvergedError:  # (e.g. a home per sweep on arcs too short to hold one)
+            return None, -math.inf
+        return r, _bic(base, r, r["n_params"] - base["n_params"], self.n_res)
+
+    def refit(self, r: dict, strict: bool = False, **kw):
+        """r refitted with its own weights (the simpler model's tangential misfit held the effect too); r itself, or
+        with ``strict`` None, when that does not converge."""
+        try:
+            return self._fit(r, **kw)
+        except NotConvergedError:
+            return None if strict else r
+
+
+def _first_fit(sweeps: SweepSet, fits: list, dqs: list, homes0, R0, loss: str, rotation_noise, tracker) -> dict:
+    """The joint fit with one home point, from the per-sweep start lines; on no convergence, says why when the arcs
+    are short (a 1 degree protocol had ended on "no convergence")."""
+    starts = [(f.point, f.direction) for f in fits]
+    try:
+        start = {
+            "offsets0": homes0[1:] - homes0[0],
+            "rotation0": R0,
+            "rotation_sigma": rotation_noise,
+            "tracker": tracker,
+        }
+        return fit_sweeps(sweeps, dqs, starts, homes0[0], loss=loss, where=sweeps.source, **start)
+    except NotConvergedError as e:
+        short = [
+            (s.joint, f.arc)
+            for s, f in zip(sweeps.sweeps, fits, strict=True)
+            if sweeps.kinds[s.joint - 1] == "revolute" and f.arc < SHORT_ARC
+        ]
+        if not short:
+            raise
+        raise NotConvergedError(
+            f"{e} (the arcs are too short: {len(short)} sweeps under {math.degrees(SHORT_ARC):g} deg, down to "
+            f"{math.degrees(min(a for _, a in short)):.3g} deg on joint {min(short, key=lambda x: x[1])[0]}: "
+            "sweep longer arcs)"
+        ) from None
+
+
+def _choose_drift(refits: _Refits, g: dict, sq: list, notes: list[str]):
+    """One home point or one per sweep, by the BIC of the two on the same weights. Returns (the chosen fit, method,
+    the axes' covariance)."""
+    d, bic = refits.richer(g, per_sweep_home=True)
+    if bic > 0:
+        g = refits.refit(d, per_sweep_home=True)
+        cov, sd = _with_drift(refits.sweeps, g)
+        notes.append(
+            f"auto: readings (a home point per sweep) over global (one home point): BIC lower by {bic:.3g}; the home "
+            f"tool point moves {sd * 1e3:.3g} mm (1 sigma per coordinate) between sweeps, added to every axis's "
+            "uncertainty"
+        )
+        return g, "readings", cov
+    why = f"BIC lower by {-bic:.3g}" if d is not None else "a home point per sweep does not converge on these arcs"
+    notes.append(
+        f"auto: global (one home point) over readings (a home point per sweep): {why}; estimated reading error "
+        f"{', '.join(sq)} arcsec per sweep, point noise {g['sigma'] * 1e3:.3g} mm"
+    )
+    return g, "global", g["cov"]
+
+
+def _drift_again(refits: _Refits, g_global: dict, tau: float, notes: list[str]) -> bool:
+    """With the reading scales fitted, whether a home point per sweep still pays for itself (the BIC, on the same
+    weights): the drift was chosen before the scales, and unmodelled scale errors look like a drift. False notes
+    that one home point holds again."""
+    prior = (tau, g_global["sigma"])
+    gs = refits.refit(g_global, scales=True, scale_prior=prior, strict=True)
+    dd, bic_d = (
+        refits.richer(gs, per_sweep_home=True, scales=True, scale_prior=prior) if gs is not None else (None, math.inf)
+    )
+    if not bic_d <= 0:
+        return True
+    why = (
+        f"BIC higher by {-bic_d:.3g}" if dd is not None else "a home point per sweep does not converge with the scales"
+    )
+    notes.append(f"auto: with the reading scales fitted, one home point again ({why}): the drift was the scale errors")
+    return False
+
+
+def _scales_note(post, full, tau: float, evidence: str, g: dict, n: int) -> str:
+    """auto's note on the readings' scale errors: fitted (``post``, the fit with their prior) or not, and why."""
+    if post is not None:
+        return (
+            f"auto: the readings' scale errors fitted (the evidence shows them as a population: {evidence}; the "
+            f"joints' scales scatter by tau = {tau * 1e6:.3g} ppm beyond their sigmas, each fitted with that spread as "
+            f"its prior: one the data cannot show stays near zero): {_scale_list(g, n)}"
+        )
+    why = (
+        "n/a: no convergence"
+        if full is None or tau > 0
+        # (tau > 0 without a fit: the one with the prior did not converge)
+        else f"the evidence does not show them: {evidence}; the joints' scale estimates: {_scale_list(full, n)}; "
+        "taken as exact in scale"
+    )
+    return (
+        f"auto: no reading scale errors fitted ({why}); a scale error the data cannot show moves each axis radially by "
+        "about the scale times the arc's radius"
+    )
+
+
 def _choose(
     sweeps: SweepSet,
     fits: list,
@@ -276,145 +402,35 @@ def _choose(
     readings are worth nothing, else one home point or one per sweep by the BIC, and the readings' scale errors as a
     population when the evidence shows them (:func:`_reading_scales`); with scales fitted, a home point per sweep must
     win again). ``homes0`` (k, 3) the start home points of the targets, ``R0`` the start orientation at home
-    (6-DoF poses) or None. Returns (method, fits, cov, tool point, rms, the joint fit's result or None, scales): ``scales`` None, or
-    when fitted (values (n,), their covariance with [c_1, n_1, ..., p] (6n+3, n), their covariance (n, n)); zeros
-    where a joint's scale was not fitted. ``tracker`` the tracker's range/angle noise model, or None (isotropic)."""
+    (6-DoF poses) or None. Returns (method, fits, cov, tool point, rms, the joint fit's result or None, scales):
+    ``scales`` None, or when fitted (values (n,), their covariance with [c_1, n_1, ..., p] (6n+3, n), their
+    covariance (n, n)); zeros where a joint's scale was not fitted. ``tracker`` the tracker's range/angle noise
+    model, or None (isotropic)."""
     dqs = _motions(sweeps, notes)
-    starts = [(f.point, f.direction) for f in fits]
-    try:
-        start = {
-            "offsets0": homes0[1:] - homes0[0],
-            "rotation0": R0,
-            "rotation_sigma": rotation_noise,
-            "tracker": tracker,
-        }
-        g = fit_sweeps(sweeps, dqs, starts, homes0[0], loss=loss, where=sweeps.source, **start)
-    except (
-        NotConvergedError
-    ) as e:  # say why when the arcs are short (a 1 degree protocol had ended on "no convergence")
-        short = [
-            (s.joint, f.arc)
-            for s, f in zip(sweeps.sweeps, fits, strict=True)
-            if sweeps.kinds[s.joint - 1] == "revolute" and f.arc < SHORT_ARC
-        ]
-        if not short:
-            raise
-        raise NotConvergedError(
-            f"{e} (the arcs are too short: {len(short)} sweeps under {math.degrees(SHORT_ARC):g} deg, down to "
-            f"{math.degrees(min(a for _, a in short)):.3g} deg on joint {min(short, key=lambda x: x[1])[0]}: sweep longer arcs)"
-        ) from None
+    g = _first_fit(sweeps, fits, dqs, homes0, R0, loss, rotation_noise, tracker)
     method, cov, drift, scales = "global", g["cov"], None, None
     if chosen == "auto":
         sq = [f"{math.degrees(v) * 3600:.3g}" for v in g["reading_sigma"]]
         if np.all(g["gamma"] < READINGS_WORTHLESS):
             notes.append(
-                f"auto: geometric (per-sweep circles): the readings are worth nothing against the points (estimated reading error {', '.join(sq)} arcsec per sweep)"
+                "auto: geometric (per-sweep circles): the readings are worth nothing against the points (estimated "
+                f"reading error {', '.join(sq)} arcsec per sweep)"
             )
             return "geometric", None, None, None, math.nan, None, None
         n_res = g["components"] * sum(len(s.points) for s in sweeps.sweeps)
-
-        def richer(base, **kw):
-            """(fit on base's weights, its BIC against base), or (None, -inf) when it does not converge."""
-            try:
-                r = fit_sweeps(
-                    sweeps,
-                    dqs,
-                    list(zip(base["points"], base["directions"], strict=True)),
-                    base["home"].mean(axis=0),
-                    loss=loss,
-                    gamma=base["gamma"],
-                    where=sweeps.source,
-                    offsets0=base["offsets"],
-                    rotation0=base["rotation"],
-                    rotation_sigma=rotation_noise,
-                    tracker=tracker,
-                    **kw,
-                )
-            except NotConvergedError:  # (e.g. a home per sweep on arcs too short to hold one)
-                return None, -math.inf
-            return r, _bic(base, r, r["n_params"] - base["n_params"], n_res)
-
-        def refit(r, strict=False, **kw):
-            """r refitted with its own weights (the simpler model's tangential misfit held the effect too); r itself, or
-            with ``strict`` None, when that does not converge."""
-            try:
-                return fit_sweeps(
-                    sweeps,
-                    dqs,
-                    list(zip(r["points"], r["directions"], strict=True)),
-                    r["home"].mean(axis=0),
-                    loss=loss,
-                    where=sweeps.source,
-                    offsets0=r["offsets"],
-                    rotation0=r["rotation"],
-                    rotation_sigma=rotation_noise,
-                    tracker=tracker,
-                    **kw,
-                )
-            except NotConvergedError:
-                return None if strict else r
-
+        refits = _Refits(sweeps, dqs, loss, rotation_noise, tracker, n_res)
         g_global = g
-        d, bic = richer(g, per_sweep_home=True)
-        if bic > 0:
-            g, method = refit(d, per_sweep_home=True), "readings"
-            cov, sd = _with_drift(sweeps, g)
-            notes.append(
-                f"auto: readings (a home point per sweep) over global (one home point): BIC lower by {bic:.3g}; the home tool point "
-                f"moves {sd * 1e3:.3g} mm (1 sigma per coordinate) between sweeps, added to every axis's uncertainty"
-            )
-        else:
-            why = (
-                f"BIC lower by {-bic:.3g}"
-                if d is not None
-                else "a home point per sweep does not converge on these arcs"
-            )
-            notes.append(
-                f"auto: global (one home point) over readings (a home point per sweep): {why}; estimated reading error "
-                f"{', '.join(sq)} arcsec per sweep, point noise {g['sigma'] * 1e3:.3g} mm"
-            )
+        g, method, cov = _choose_drift(refits, g, sq, notes)
         drift = method == "readings"
-        post, full, tau, evidence = _reading_scales(richer, refit, g, drift, n_res)
-        if drift and post is not None:
-            # the drift was chosen before the scales: unmodelled scale errors look like a drift; with the scales
-            # fitted, a home point per sweep must pay for itself again (the BIC, on the same weights)
-            gs = refit(g_global, scales=True, scale_prior=(tau, g_global["sigma"]), strict=True)
-            dd, bic_d = (
-                richer(gs, per_sweep_home=True, scales=True, scale_prior=(tau, g_global["sigma"]))
-                if gs is not None
-                else (None, math.inf)
-            )
-            if bic_d <= 0:
-                why = (
-                    f"BIC higher by {-bic_d:.3g}"
-                    if dd is not None
-                    else "a home point per sweep does not converge with the scales"
-                )
-                notes.append(
-                    f"auto: with the reading scales fitted, one home point again ({why}): the drift was the scale errors"
-                )
-                method, drift, cov, g = "global", False, g_global["cov"], g_global
-                post, full, tau, evidence = _reading_scales(richer, refit, g, drift, n_res)
+        post, full, tau, evidence = _reading_scales(refits.richer, refits.refit, g, drift, n_res)
+        if drift and post is not None and not _drift_again(refits, g_global, tau, notes):
+            method, drift, cov, g = "global", False, g_global["cov"], g_global
+            post, full, tau, evidence = _reading_scales(refits.richer, refits.refit, g, drift, n_res)
         if post is not None:
             g = post
             cov = _with_drift(sweeps, g)[0] if drift else g["cov"]
             scales = (g["scales"].copy(), _scale_cross(g, sweeps.n_joints), g["scale_cov"])
-            notes.append(
-                f"auto: the readings' scale errors fitted (the evidence shows them as a population: {evidence}; the joints' scales scatter "
-                f"by tau = {tau * 1e6:.3g} ppm beyond their sigmas, each fitted with that spread as its prior: one the data cannot show stays "
-                f"near zero): {_scale_list(g, sweeps.n_joints)}"
-            )
-        else:
-            why = (
-                "n/a: no convergence"
-                if full is None or tau > 0
-                # (tau > 0 without a fit: the one with the prior did not converge)
-                else f"the evidence does not show them: {evidence}; the joints' scale estimates: {_scale_list(full, sweeps.n_joints)}; taken as exact in scale"
-            )
-            notes.append(
-                f"auto: no reading scale errors fitted ({why}); a scale error the data cannot show moves each axis radially by about the "
-                "scale times the arc's radius"
-            )
+        notes.append(_scales_note(post, full, tau, evidence, g, sweeps.n_joints))
     mis = np.concatenate(g["misfit"])
     return (
         method,

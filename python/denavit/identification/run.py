@@ -100,14 +100,96 @@ def identify(
     progress : called with a short message as each stage starts (the CLI shows it).
     """
     progress = progress or (lambda _msg: None)
+    nominal, convention, tracker = _checked(sweeps, method, nominal, loss, max_sigma, convention, tracker_noise)
+    coupling = coupling if coupling is not None else (nominal.coupling if nominal is not None else None)
+    if coupling is not None:
+        sweeps = decoupled(sweeps, coupling)
+    check_sweep_labels(sweeps, [sweep_where(x, sweeps.source) for x in sweeps.sweeps])
+    notes = _locked_notes(sweeps)
+    if not keep_dwell:
+        sweeps = _drop_dwell(sweeps, notes)
+    method, fits, cov, p_home, rms, joint, scales = _fit_axes(
+        sweeps, method, loss, max_sigma, rotation_noise, tracker, notes, progress
+    )
+    _noise_model_notes(sweeps, method, joint, tracker, notes)
+    base = np.eye(4) if T_world_base is None else np.asarray(T_world_base, dtype=float)
+    if T_world_base is not None and nominal is not None:  # the nominal's base frame is the robot base given
+        t = nominal.table
+        nominal = replace(nominal, table=_core.Table(t.convention, t.params, t.kinds, base, t.T_last_tool))
+    nominal_table = nominal_convention_table(nominal, convention, sweeps.home)
+    orientation, rot_cov, cov_full, target_points = _tool_orientation(sweeps, joint, nominal, cov, notes)
+    if nominal is not None and not sweeps.has_readings:
+        fits = _oriented_by_nominal(sweeps, fits, nominal, notes)
+    x = np.concatenate([np.concatenate([f.point, f.direction]) for f in fits] + [p_home])
+    tol = _edh_parallel_tol(fits, nominal, sweeps.home, parallel_tol) if convention == "edh" else parallel_tol
+    opts = {"parallel_tol": tol, "nominal": nominal_table, "origins": origins(nominal_table, convention, sweeps.home)}
+    if intersect_tol is not None:
+        opts["intersect_tol"] = intersect_tol
+    lower = nominal.lower if nominal is not None else None
+    upper = nominal.upper if nominal is not None else None
+    ax = _axes_from(x, sweeps, orientation[1], base, lower, upper)
+    ex = _core.extract(ax, convention, **opts)
+    short = _short_arc_notes(sweeps, fits, notes)
+    misfit_notes(sweeps, fits, [sweep_where(x, sweeps.source) for x in sweeps.sweeps], notes)
+    if nominal is not None:
+        nominal_plausibility(
+            ex,
+            fits,
+            nominal,
+            sweeps.home,
+            nominal.names,
+            sweeps.source,
+            notes,
+            short,
+            SHORT_ARC_SIGMA,
+            allow_implausible,
+            lone_axis=not sweeps.has_readings,
+        )
+    p_ref = ex.table.params
+    full_cov, cov_all = _with_scales(cov, cov_full, scales)
+    progress(f"{convention} parameters and their sigmas")
+    param_cov = _parameter_cov(x, cov_all, ax, sweeps, convention, opts, p_ref, n_rot=len(cov_full) - len(cov))
+    sigma = np.sqrt(np.clip(np.diag(param_cov), 0, None))[: p_ref.size].reshape(p_ref.shape)
+    _parallel_notes(ex, convention, notes)
+    result = Identification(
+        method,
+        convention,
+        ax,
+        fits,
+        ex,
+        sigma,
+        cov,
+        p_home,
+        sweeps,
+        nominal,
+        nominal_table,
+        rms,
+        notes,
+        param_cov,
+        reading_scale=None if scales is None else scales[0],
+        axis_scale_cov=full_cov,
+        coupling=coupling,
+        tool_orientation=orientation[0],
+        tool_rotation_cov=rot_cov,
+        target_points=target_points,
+        tracker_noise=tracker if joint is not None or method == "geometric" else None,
+    )
+    _carried_note(result, convention, notes)
+    return result
+
+
+def _checked(sweeps, method: str, nominal, loss: str, max_sigma, convention: str, tracker_noise):
+    """identify's arguments checked (a one-line error on bad input): (the nominal as a Robot or None, the
+    convention's name, the tracker noise model or None)."""
     if not isinstance(sweeps, SweepSet):
         raise DenavitError(
-            f"identify: expected a SweepSet, got {type(sweeps).__name__}: denavit.identify(path, nominal=...) reads files and names"
+            f"identify: expected a SweepSet, got {type(sweeps).__name__}: denavit.identify(path, nominal=...) reads "
+            "files and names"
         )
     if nominal is not None and not isinstance(nominal, Robot):
-        from ..calibration.parametrization import as_robot  # noqa: PLC0415
+        from ..robot import robot_of  # noqa: PLC0415
 
-        nominal = as_robot(nominal)  # a built-in name, a robot file or a Model, as calibrate takes
+        nominal = robot_of(nominal)  # a Model, as calibrate takes
     if method not in METHODS:
         raise DenavitError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
     check_loss(loss, None, "identify")
@@ -117,13 +199,13 @@ def identify(
     n = sweeps.n_joints
     if nominal is not None and len(nominal.names) != n:
         raise DenavitError(f"nominal model {nominal.name} has {len(nominal.names)} joints, the data has {n}")
-    coupling = coupling if coupling is not None else (nominal.coupling if nominal is not None else None)
-    if coupling is not None:
-        sweeps = decoupled(sweeps, coupling)
-    check_sweep_labels(sweeps, [sweep_where(x, sweeps.source) for x in sweeps.sweeps])
-    notes = _locked_notes(sweeps)
-    if not keep_dwell:
-        sweeps = _drop_dwell(sweeps, notes)
+    return nominal, convention, tracker
+
+
+def _fit_axes(sweeps: SweepSet, method: str, loss: str, max_sigma, rotation_noise, tracker, notes, progress):
+    """The axes: the per-sweep fits, and with readings the joint fit (auto's choice, :func:`_choose`). Returns
+    (method, fits, cov of [c_1, n_1, ..., p], the tool point at home, rms, the joint fit's result or None, scales)."""
+    n = sweeps.n_joints
     chosen = method
     if method == "auto":
         method = "global" if sweeps.has_readings else "geometric"
@@ -149,8 +231,9 @@ def identify(
             for s, f in zip(sweeps.sweeps, fits, strict=True):
                 if max_sigma is not None and f.sigma_point_perp > max_sigma:
                     raise DegenerateError(
-                        f"{sweep_where(s, sweeps.source)}: predicted axis-position uncertainty {f.sigma_point_perp * 1e3:.3g} mm (1 sigma) "
-                        f"exceeds the requested {max_sigma * 1e3:.3g} mm; the sweep covers {np.degrees(f.arc):.1f} deg: sweep a longer arc or measure more points"
+                        f"{sweep_where(s, sweeps.source)}: predicted axis-position uncertainty "
+                        f"{f.sigma_point_perp * 1e3:.3g} mm (1 sigma) exceeds the requested {max_sigma * 1e3:.3g} mm; "
+                        f"the sweep covers {np.degrees(f.arc):.1f} deg: sweep a longer arc or measure more points"
                     )
     if cov is None:
         cov = np.zeros((6 * n + 3, 6 * n + 3))
@@ -161,33 +244,44 @@ def identify(
             np.eye(3) * float(np.mean([f.rms for f in fits])) ** 2 / max(sum(f.n_points for f in fits), 1)
         )
         rms = float(math.sqrt(np.mean([f.rms**2 for f in fits])))
+    return method, fits, cov, p_home, rms, joint, scales
+
+
+def _noise_model_notes(sweeps: SweepSet, method: str, joint, tracker, notes: list[str]) -> None:
+    """Notes on what weights the points (the tracker's noise model) and on the targets and poses a per-sweep fit
+    leaves out."""
     if tracker is not None:
         model = (
-            f"the tracker's noise model (range {tracker.sigma_range * 1e6:.3g} um, angles {math.degrees(tracker.sigma_angle) * 3600:.3g} arcsec, "
-            f"tracker at {', '.join(f'{v:.4g}' for v in tracker.position)} m)"
+            f"the tracker's noise model (range {tracker.sigma_range * 1e6:.3g} um, angles "
+            f"{math.degrees(tracker.sigma_angle) * 3600:.3g} arcsec, tracker at "
+            f"{', '.join(f'{v:.4g}' for v in tracker.position)} m)"
         )
         if joint is not None:
             notes.append(
-                f"{model} weights the points (its shape; the scale from the data): point noise {joint['sigma'] * 1e3:.3g} mm RMS per "
-                f"coordinate, {joint['sigma'] / math.sqrt(joint['tracker_ref2']):.3g} times the declared"
+                f"{model} weights the points (its shape; the scale from the data): point noise "
+                f"{joint['sigma'] * 1e3:.3g} mm RMS per coordinate, "
+                f"{joint['sigma'] / math.sqrt(joint['tracker_ref2']):.3g} times the declared"
             )
         elif method == "geometric":
             notes.append(f"{model} weights each circle's points (its shape; the scale from the data)")
         else:
             notes.append(
-                f"{model} is used by the joint fit (method global or auto, with readings) and the geometric circles; the {method} fit takes the "
-                "points as isotropic"
+                f"{model} is used by the joint fit (method global or auto, with readings) and the geometric circles; "
+                f"the {method} fit takes the points as isotropic"
             )
     if joint is None and (sweeps.n_targets > 1 or sweeps.has_rotations):
         notes.append(
             f"the {method} fit uses the first target's points alone: {sweeps.n_targets} targets per pose"
-            f"{' and 6-DoF poses' if sweeps.has_rotations else ''} are one fit with shared axes in the joint fit (method global or auto, with readings)"
+            f"{' and 6-DoF poses' if sweeps.has_rotations else ''} are one fit with shared axes in the joint fit "
+            "(method global or auto, with readings)"
         )
-    base = np.eye(4) if T_world_base is None else np.asarray(T_world_base, dtype=float)
-    if T_world_base is not None and nominal is not None:  # the nominal's base frame is the robot base given
-        t = nominal.table
-        nominal = replace(nominal, table=_core.Table(t.convention, t.params, t.kinds, base, t.T_last_tool))
-    nominal_table = nominal_convention_table(nominal, convention, sweeps.home)
+
+
+def _tool_orientation(sweeps: SweepSet, joint, nominal, cov: np.ndarray, notes: list[str]):
+    """The tool frame at home and, from the joint fit, the tool rotation's covariance. Returns ((the tool
+    orientation, its rotation tool_R), the rotation's covariance or None, the covariance of [axes, tool point (, tool
+    rotation)], the targets' home points or None)."""
+    n = sweeps.n_joints
     if nominal is not None:  # the nominal flange orientation at home
         tool_R = _core.fk(nominal.model().with_tool(np.eye(4)), sweeps.home)[:3, :3]
     else:
@@ -197,9 +291,9 @@ def identify(
     if joint is not None and sweeps.n_targets > 1:
         ph = joint["home"].mean(axis=0)
         target_points = np.vstack([ph, ph + joint["offsets"]])
-    if (
-        G_rot is not None
-    ):  # the covariance of [axes, tool point, tool rotation]: the chosen cov, and the rotation's from the joint fit
+    full = cov
+    if G_rot is not None:
+        # the covariance of [axes, tool point, tool rotation]: the chosen cov, and the rotation's from the joint fit
         ca = joint["cov_all"]
         n6, H = 6 * n, joint["n_homes"]
         Gf = np.zeros((n6 + 6, ca.shape[0]))
@@ -210,91 +304,45 @@ def identify(
         full = Gf @ ca @ Gf.T
         full[: n6 + 3, : n6 + 3] = cov
         rot_cov = full[n6 + 3 :, n6 + 3 :]
-    lower = nominal.lower if nominal is not None else None
-    upper = nominal.upper if nominal is not None else None
-    if nominal is not None and not sweeps.has_readings:
-        fits = _oriented_by_nominal(sweeps, fits, nominal, notes)
-    x = np.concatenate([np.concatenate([f.point, f.direction]) for f in fits] + [p_home])
-    cov_full = cov if rot_cov is None else full
-    tol = _edh_parallel_tol(fits, nominal, sweeps.home, parallel_tol) if convention == "edh" else parallel_tol
-    opts = {"parallel_tol": tol, "nominal": nominal_table, "origins": origins(nominal_table, convention, sweeps.home)}
-    if intersect_tol is not None:
-        opts["intersect_tol"] = intersect_tol
-    ax = _axes_from(x, sweeps, tool_R, base, lower, upper)
-    ex = _core.extract(ax, convention, **opts)
-    short = _short_arc_notes(sweeps, fits, notes)
-    misfit_notes(sweeps, fits, [sweep_where(x, sweeps.source) for x in sweeps.sweeps], notes)
-    if nominal is not None:
-        nominal_plausibility(
-            ex,
-            fits,
-            nominal,
-            sweeps.home,
-            nominal.names,
-            sweeps.source,
-            notes,
-            short,
-            SHORT_ARC_SIGMA,
-            allow_implausible,
-            lone_axis=not sweeps.has_readings,
-        )
-    p_ref = ex.table.params
-    full_cov = None
-    if scales is not None:  # [axes, tool point, reading scales]: the scales' covariance with the axes kept
-        full_cov = np.block([[cov, scales[1]], [scales[1].T, scales[2]]])
-    # [axes, tool point (, tool rotation) (, reading scales)]: the tool rotation's covariance with the scales is not
-    # carried (the scales come from the same fit; their cross terms with the rotation are dropped)
-    cov_all = cov_full
-    if scales is not None:
-        n_r = len(cov_full) - len(cov)
-        cross = np.vstack([scales[1], np.zeros((n_r, scales[1].shape[1]))])
-        cov_all = np.block([[cov_full, cross], [cross.T, scales[2]]])
-    progress(f"{convention} parameters and their sigmas")
-    param_cov = _parameter_cov(x, cov_all, ax, sweeps, convention, opts, p_ref, n_rot=len(cov_full) - len(cov))
-    sigma = np.sqrt(np.clip(np.diag(param_cov), 0, None))[: p_ref.size].reshape(p_ref.shape)
+    return (orientation, tool_R), rot_cov, full, target_points
+
+
+def _with_scales(cov: np.ndarray, cov_full: np.ndarray, scales):
+    """(the covariance of [axes, tool point, reading scales] or None, that of [axes, tool point (, tool rotation)
+    (, reading scales)]): the scales' covariance with the axes kept; the tool rotation's with the scales is not
+    carried (the scales come from the same fit; their cross terms with the rotation are dropped)."""
+    if scales is None:
+        return None, cov_full
+    full_cov = np.block([[cov, scales[1]], [scales[1].T, scales[2]]])
+    n_r = len(cov_full) - len(cov)
+    cross = np.vstack([scales[1], np.zeros((n_r, scales[1].shape[1]))])
+    return full_cov, np.block([[cov_full, cross], [cross.T, scales[2]]])
+
+
+def _parallel_notes(ex, convention: str, notes: list[str]) -> None:
+    """A note per pair of axes taken as parallel whose misalignment DH and MDH cannot represent."""
     for pd in ex.pairs:
         if pd.relation == "parallel" and abs(pd.hayati_beta) > 0 and convention in ("dh", "mdh"):
             notes.append(
-                f"axes {pd.joint}-{pd.joint + 1} treated as parallel: misalignment {math.degrees(pd.hayati_beta):.2e} deg (Hayati beta) is not representable in {convention}"
+                f"axes {pd.joint}-{pd.joint + 1} treated as parallel: misalignment {math.degrees(pd.hayati_beta):.2e} "
+                f"deg (Hayati beta) is not representable in {convention}"
             )
-    result = Identification(
-        method,
-        convention,
-        ax,
-        fits,
-        ex,
-        sigma,
-        cov,
-        p_home,
-        sweeps,
-        nominal,
-        nominal_table,
-        rms,
-        notes,
-        param_cov,
-        reading_scale=None if scales is None else scales[0],
-        axis_scale_cov=full_cov,
-        coupling=coupling,
-        tool_orientation=orientation,
-        tool_rotation_cov=rot_cov,
-        target_points=target_points,
-        tracker_noise=tracker if joint is not None or method == "geometric" else None,
-    )
-    if convention in (
-        "dh",
-        "mdh",
-        "edh",
-    ):  # what the table carries, measured as --save states it (Identification.carried_error)
-        carried = result.carried_error()[0] if convention == "edh" else result.carried_error(convention)[0]
-        if carried > 1e-6:
-            edh = carried if convention == "edh" else result.carried_error("edh")[0]
-            if convention != "edh":
-                exact = "POE is exact; " + (
-                    f"ED-H carries {edh * 1e3:.4f} mm: it is exact except {_DROPPED_TILT}"
-                    if edh > ROUND_OFF
-                    else "ED-H is exact"
-                )
-            else:
-                exact = f"it is exact except {_DROPPED_TILT}; POE is exact"
-            notes.append(f"the {convention} table carries a tool-position error up to {carried * 1e3:.4f} mm ({exact})")
-    return result
+
+
+def _carried_note(result: Identification, convention: str, notes: list[str]) -> None:
+    """What the table carries, measured as --save states it (Identification.carried_error): a note when the
+    convention's table carries a tool-position error."""
+    if convention not in ("dh", "mdh", "edh"):
+        return
+    carried = result.carried_error()[0] if convention == "edh" else result.carried_error(convention)[0]
+    if carried > 1e-6:
+        edh = carried if convention == "edh" else result.carried_error("edh")[0]
+        if convention != "edh":
+            exact = "POE is exact; " + (
+                f"ED-H carries {edh * 1e3:.4f} mm: it is exact except {_DROPPED_TILT}"
+                if edh > ROUND_OFF
+                else "ED-H is exact"
+            )
+        else:
+            exact = f"it is exact except {_DROPPED_TILT}; POE is exact"
+        notes.append(f"the {convention} table carries a tool-position error up to {carried * 1e3:.4f} mm ({exact})")
