@@ -23,6 +23,7 @@ from denavit import recording as rc
 from denavit import sweeps as sw
 from denavit.identification import identify
 from denavit.io.recordings import read_recording
+from denavit.io.recordings.segmentation import segmentation_table
 
 DATA = Path(__file__).parent / "data" / "recordings"
 HOME = np.radians(sw.PAPER_HOME_DEG)
@@ -287,7 +288,7 @@ def assert_axes_match_truth(res, k=6.0):
 
 def identify_recording(rec, **kw):
     seg = rc.segment(rec)
-    assert [s.joint for s in seg.sweeps] == [1, 2, 3, 4, 5, 6], seg.table()
+    assert [s.joint for s in seg.sweeps] == [1, 2, 3, 4, 5, 6], segmentation_table(seg)
     res = identify(rc.to_sweepset(rec, seg, **kw), nominal=dv.load_robot("kr5"))
     assert_axes_match_truth(res)
     return seg, res
@@ -486,7 +487,7 @@ def test_segmentation_without_readings_leaves_out_only_what_the_noise_hides():
     for seed in range(21, 61):
         rec, truth, P = continuous(False, seed=seed)
         seg = rc.segment(rec)
-        assert [s.joint for s in seg.sweeps] == [1, 2, 3, 4, 5, 6], (seed, seg.table())
+        assert [s.joint for s in seg.sweeps] == [1, 2, 3, 4, 5, 6], (seed, segmentation_table(seg))
         assert all(t0 < s.t_start and s.t_stop < t1 for s, (_, t0, t1) in zip(seg.sweeps, truth)), seed
         worst = max(worst, max(d for _, d in left_out(seg, truth, P, rec.time)))
     assert worst < LEFT_OUT, worst
@@ -515,7 +516,7 @@ def test_segmentation_splits_motions_of_two_joints_however_short_the_pause(dwell
     )
     seg = rc.segment(rec)
     assert seg.method == ("geometry" if readings is None else "readings")
-    assert [s.joint for s in seg.sweeps] == [1, 2, 3, 4, 5, 6], seg.table()
+    assert [s.joint for s in seg.sweeps] == [1, 2, 3, 4, 5, 6], segmentation_table(seg)
     for s, (j, t0, t1) in zip(seg.sweeps, truth):
         # it holds at least 97 % of its joint's true sweep (the ends of a slow start and stop are within the noise)
         held = (t >= max(t0, s.t_start)) & (t <= min(t1, s.t_stop))
@@ -547,13 +548,13 @@ def test_segmentation_finds_the_paper_sweeps_with_and_without_readings(with_read
     rec, truth, P = continuous(with_readings)
     seg = rc.segment(rec)
     assert seg.method == ("readings" if with_readings else "geometry")
-    assert [s.joint for s in seg.sweeps] == [1, 2, 3, 4, 5, 6], seg.table()
+    assert [s.joint for s in seg.sweeps] == [1, 2, 3, 4, 5, 6], segmentation_table(seg)
     for s, (j, t0, t1) in zip(seg.sweeps, truth):
         assert t0 < s.t_start and s.t_stop < t1, (j, s, t0, t1)
         if with_readings:
             assert s.t_start < t0 + 0.15 and t1 - 0.15 < s.t_stop, (j, s, t0, t1)
     assert all(d < LEFT_OUT for _, d in left_out(seg, truth, P, rec.time)), left_out(seg, truth, P, rec.time)
-    table = seg.table()
+    table = segmentation_table(seg)
     assert sum(" sweep " in line for line in table.splitlines()) == 6 and "dwell rows excluded" in table
     s = rc.to_sweepset(rec, seg, max_points=300, **({} if with_readings else {"home": HOME, "direction": DIRECTION}))
     assert_axes_match_truth(identify(s, nominal=dv.load_robot("kr5")))

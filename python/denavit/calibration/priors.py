@@ -155,7 +155,7 @@ def as_prior(prior) -> Prior | None:
     if isinstance(prior, Prior):
         return prior
     if isinstance(prior, str):
-        return parse_prior(prior, "m", "rad", "prior")
+        return parse_prior(prior, 1.0, 1.0, "prior")
     if isinstance(prior, dict):
         widths = dict(DEFAULT_WIDTHS)
         over = []
@@ -178,12 +178,14 @@ def as_prior(prior) -> Prior | None:
 _ITEM = re.compile(r"\s*([A-Za-z_*?\[\]0-9]+)\s*=\s*([-+0-9.eE]+)\s*([A-Za-z%]*)\s*")
 
 
-def parse_prior(text: str, length: str = "mm", angle: str = "deg", where: str = "--prior") -> Prior | None:
+def parse_prior(
+    text: str, length: float = 1e-3, angle: float = math.pi / 180, where: str = "--prior"
+) -> Prior | None:
     """``"length=1mm, angle=0.1deg, offset=0.05deg, scale=100ppm, a_5=2mm"`` as a :class:`Prior` (kinds not given
     keep their defaults), ``"none"`` as None (no prior: least squares). A value's unit is one of
-    :data:`WIDTH_UNITS`; a bare number is in ``length`` / ``angle`` for a length / angle kind and a ratio for
-    ``scale``, and so for a parameter name by the parameter's unit."""
-    from ..io.units import angle_scale, length_scale  # noqa: PLC0415
+    :data:`WIDTH_UNITS`; a bare number is in the unit of ``length`` metres / ``angle`` radians (default mm and deg,
+    the command line's: its ``--length`` / ``--angle`` scales, :func:`denavit.io.units.length_scale`) for a length /
+    angle kind and a ratio for ``scale``, and so for a parameter name by the parameter's unit."""
 
     s = text.strip()
     if s.lower() in ("none", "off", "no"):
@@ -221,17 +223,17 @@ def parse_prior(text: str, length: str = "mm", angle: str = "deg", where: str = 
                 raise DenavitError(
                     f"{where}: compliance is the joints' deflection under their largest torque, an angle, got a width in {unit}"
                 )
-            comp = v * (angle_scale(angle) if dim is None else 1.0)
+            comp = v * (angle if dim is None else 1.0)
         elif key in widths:
             want = _KIND_DIMENSION[key]
             if dim is None:
-                v *= length_scale(length) if want == "length" else angle_scale(angle) if want == "angle" else 1.0
+                v *= length if want == "length" else angle if want == "angle" else 1.0
             elif dim != want:
                 raise DenavitError(f"{where}: {key} is a{'n' if want == 'angle' else ''} {want}, got a width in {unit}")
             widths[key] = v
         else:
             over.append((key, (v, dim)))
-    return Prior(widths, tuple(over), (length_scale(length), angle_scale(angle)), comp)
+    return Prior(widths, tuple(over), (length, angle), comp)
 
 
 def prior_weights(sigma: np.ndarray, s2: float) -> np.ndarray:

@@ -436,7 +436,7 @@ def _prior(spec, units: dict, where: str) -> str:
                 f"only for a kind: {', '.join(bare)}, in the file's [units])"
             )
     text = ", ".join(items)
-    parse_prior(text, "m", "rad", where)  # its one-line errors, at this table
+    parse_prior(text, 1.0, 1.0, where)  # its one-line errors, at this table
     return text
 
 

@@ -60,29 +60,6 @@ class Segmentation:
     def __repr__(self) -> str:
         return f"Segmentation({self.source}, {self.method}: {len(self.sweeps)} sweeps, {len(self.segments)} motions, {self.dwell_rows} dwell rows excluded)"
 
-    def table(self, angle: str = "deg") -> str:
-        """The motions as a table the user can check (times in s, joint values in ``angle`` / mm)."""
-        from ..io.units import angle_scale  # noqa: PLC0415
-
-        a = angle_scale(angle)
-        lines = [
-            f"segmentation of {self.source} ({self.method}): {len(self.sweeps)} sweeps, {len(self.segments)} motions, {self.dwell_rows} dwell rows excluded",
-            f"{'#':>3} {'joint':>5} {'role':<8} {'rows':>13} {'time (s)':>19} {'from':>10} {'to':>10} {'arc':>9} {'points':>7}",
-        ]
-        for k, s in enumerate(self.segments, 1):
-            prism = self.kinds is not None and self.kinds[s.joint - 1] == "prismatic"
-            sc = 1e3 if prism else 1.0 / a
-            fr = f"{s.q_from * sc:.3f}" if math.isfinite(s.q_from) else "-"
-            to = f"{s.q_to * sc:.3f}" if math.isfinite(s.q_to) else "-"
-            arc = f"{math.degrees(s.arc):.2f}" if math.isfinite(s.arc) else "-"
-            lines.append(
-                f"{k:>3} {s.joint:>5} {s.role:<8} {f'{s.start + 1}-{s.stop}':>13} {f'{s.t_start:.3f}-{s.t_stop:.3f}':>19} {fr:>10} {to:>10} {arc:>9} {s.stop - s.start:>7}"
-            )
-        lines.append(
-            f"(joint values in {angle}, mm for prismatic joints; arc in deg; rows 1-based; dwell excluded from every motion)"
-        )
-        return "\n".join(lines)
-
 
 DWELL_ROWS = 50
 
