@@ -15,7 +15,10 @@ wrist centre behind axis 1 (its x in the axis-1 frame, the base frame turned wit
 wrist centre behind the lower arm (on the other side of the line through axes 2 and 3 from the side the axis-1
 frame's x faces when that line points up) and ``negative`` axis 5 < 0 (the manual's table: 0 in front of axis 1,
 in front of the lower arm, axis 5 positive; 1 the same with axis 5 negative; ...; 7 behind, behind, negative).
-The axes' senses are the model's (ABB's tool0: z out of the flange, the model's flange).
+The axes' senses are the model's (ABB's tool0: z out of the flange, the model's flange). The quadrants are checked
+against the older "RAPID Reference Manual", data type confdata ("quadrant 0 is the first quarter revolution, 0-90
+deg, in a positive direction from the zero position; quadrant 1 is the next revolution, 90-180 deg, etc. Quadrant -1
+is the revolution 0 deg - (-90 deg)"); the cfx table's text was not reachable here (unverified, docs/compensation.md).
 
 Frames: a named target's tool and work object are those of the move instructions that use it (MoveJ, MoveL,
 MoveC, MoveAbsJ and their DO/AO/GO/Sync forms; ``tool0`` / ``wobj0`` the flange and the base frame); a

@@ -15,7 +15,12 @@ The configuration (the same manual, "Configuration"): ``'F|N U|D T|B, t1, t4, t6
 - ``N`` (no flip) / ``F`` (flip): ``J5 <= 0`` / ``J5 > 0`` in FANUC's J5 sense (J5 = -90 deg points the faceplate
   down with the forearm level, taught ``N U T``; ROS-Industrial's FANUC descriptions turn J5 about -y);
 - ``t1``, ``t4``, ``t6``: the turn numbers of J1, J4, J6: ``floor((J + 180 deg) / 360 deg)`` (0 for -180 to 180 deg,
-  1 for 180 to 540).
+  1 for 180 to 540); KAREL's ``CONFIG`` holds them per axis (``CFG_TURN_NO1`` .. ``CFG_TURN_NO6``). A command a hair
+  past a boundary (J4 -180.01 deg in a position stated turn 0) is the same arm at 179.99 deg, turn 0, for the
+  controller: kept (:func:`denavit.io.programs.compensate_program`).
+
+No FANUC manual text was reachable to check the letters against: the flip sense is the one the ``N U T`` of a level
+forearm with the faceplate down implies, and secondary summaries disagree on it (unverified, docs/compensation.md).
 
 The axes' senses are the model's (a model of a FANUC arm turns its joints as the controller does); a robot with a
 J2/J3 coupling (a robot file's ``[couplings]``) has its J values read through it. The tool frame UT 0 is the

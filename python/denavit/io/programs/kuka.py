@@ -18,6 +18,12 @@ The configuration (the same manuals, "Status" and "Turn"):
 - ``T`` (Turn) bit i (0..5): axis A(i+1) < 0 (1) or >= 0 (0): with S it picks the solution, A4 or A6 beyond
   +-180 deg included (A6 = 170 and -190 deg have the same pose and different T).
 
+Checked against: bit 0 as KUKA's "Expert Programming" manual words it (quoted on the KUKA robot forum: "if the
+x-value of the wrist root point, expressed in the A1 coordinate system, is negative, the robot is in the overhead
+area"); bit 2 and T as above. Bit 1's sense is not settled by the sources reachable here (a secondary summary gives
+1 for "A3 below phi"): ``A3 >= phi`` is 1 here, which gives the ``S 2`` ('B010') that KUKA- and RoboDK-written
+programs carry for the upright home and the arm in front of itself (docs/compensation.md).
+
 A point without S and T runs, as on the controller, on the configuration the previous one left (here: the
 solution nearest the previous point, the first nearest ``q0``). The axes' senses: the built-in ``kr5`` turns A1,
 A4 and A6 the other way from KUKA's controller (its file's header, after ROS-Industrial's ``kr5_arc`` URDF), so its
