@@ -8,8 +8,9 @@ of that process, MB, imports included; ``OPENBLAS_NUM_THREADS=1``):
 2. Reading that file: :func:`denavit.read_sweeps` (the sweeps, SI, checked column-wise) beside the raw readers of
    its numbers: Arrow's CSV reader (``pyarrow.csv.read_csv``, multi-threaded, a table of float64 columns) and
    numpy's C reader (``numpy.loadtxt``; only up to ``--numpy-max`` points per sweep, it is the slowest).
-3. The growth exponent of each from the smallest to the largest N (1: linear), of the time and of the memory above
-   the process's baseline (the peak of importing the reader alone).
+3. The growth exponent of each from the smallest to the largest N (1: linear): of the wall time, of the CPU time
+   (the wall time of a shared machine counts the waits for a core) and of the memory above the process's baseline
+   (its peak after importing the reader alone).
 4. :func:`denavit.io.measurements.read_measurements` of a calibration CSV (``q1..q6,x,y,z``) of 10^5 and 10^6 rows
    and the growth exponent of its CPU time.
 
@@ -161,15 +162,18 @@ def main() -> None:
             if args.only != "read":
                 s0, s1 = sim[lo], sim[hi]
                 print(
-                    f"simulate growth {lo} -> {hi} points per sweep: time exponent {exponent(s0[0], s1[0], lo, hi):.2f}"
+                    f"simulate growth {lo} -> {hi} points per sweep: exponent of the wall time "
+                    f"{exponent(s0[0], s1[0], lo, hi):.2f}, of the CPU time {exponent(s0[1], s1[1], lo, hi):.2f}"
                 )
             for name, r in reads.items():
                 if lo in r and max(r) > lo:
                     top = max(r)
                     t = exponent(r[lo][0], r[top][0], lo, top)
+                    c = exponent(r[lo][1], r[top][1], lo, top)
                     m = exponent(r[lo][2] - r[lo][3], r[top][2] - r[top][3], lo, top)
                     print(
-                        f"{name} growth {lo} -> {top} points per sweep: time exponent {t:.2f}, memory exponent {m:.2f}"
+                        f"{name} growth {lo} -> {top} points per sweep: exponent of the wall time {t:.2f}, "
+                        f"of the CPU time {c:.2f}, of the memory above the baseline {m:.2f}"
                     )
 
 

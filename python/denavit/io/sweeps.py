@@ -605,7 +605,7 @@ def read(path: str | os.PathLike, **kw) -> SweepSet:
 
 
 #: Rows formatted per piece of the long-form writer (by Arrow, on a thread of the writer, a few pieces at a time).
-WRITE_ROWS = 100_000
+WRITE_ROWS = 50_000
 
 
 def to_long_csv(sweeps: SweepSet, length: str = "mm", angle: str = "deg", header_comment: str = "") -> str:
