@@ -264,12 +264,18 @@ def plain_columns(
     Up to :data:`ARROW_BYTES` of rows are read whole by :func:`numeric_table`; more are read from a memory map in
     pieces, each parsed by Arrow's CSV reader on a thread of this call (one per core) straight into the arrays,
     without holding the file's text (its pages are given back as the pieces are read)."""
+    from .. import limits  # noqa: PLC0415
+
     try:
         size = os.stat(path).st_size - head.offset
         if size <= ARROW_BYTES:
             with open(path, "rb") as f:
                 f.seek(head.offset)
-                table = numeric_table(f.read(), delim, ncols)
+                data = f.read()
+            ends = np.flatnonzero(np.frombuffer(data, np.uint8) == 10)
+            if len(data) and np.diff(ends, prepend=-1, append=len(data)).max() - 1 > limits.size("line_bytes"):
+                return None  # a line beyond the limit: the whole-file reader says so
+            table = numeric_table(data, delim, ncols)
             return None if table is None else [np.ascontiguousarray(table[:, g]) for g in groups]
         return _mapped_columns(path, head.offset, delim, ncols, groups)
     except OSError:
