@@ -1,4 +1,4 @@
-"""The command line, run as a user would (a subprocess each)."""
+"""The command line, run as a user would (in-process, as the entry point runs it; a few as a subprocess)."""
 
 import json
 import subprocess
@@ -10,13 +10,7 @@ import pytest
 
 import denavit as dv
 from cli import env as cli_env
-
-
-def run(*args, ok=True):
-    p = subprocess.run([sys.executable, "-m", "denavit.cli", *args], capture_output=True, text=True, env=cli_env())
-    if ok:
-        assert p.returncode == 0, p.stderr
-    return p
+from cli import run
 
 
 def test_models_lists_builtins():
@@ -187,7 +181,8 @@ def test_help_imports_neither_scipy_nor_numpy(args):
     ]
     assert "denavit.cli" in mods and heavy == []
     own = [f"denavit.cli.{COMMANDS[args[0]][0]}"] if args[0] in COMMANDS else []
-    assert [m for m in mods if m.startswith("denavit.cli.") and m != "denavit.cli.common"] == own
+    shared = {f"denavit.cli.{m}" for m in ("common", "options", "console", "outputs", "values")}  # common, by concern
+    assert [m for m in mods if m.startswith("denavit.cli.") and m not in shared] == own
     p = subprocess.run(
         [sys.executable, "-X", "importtime", "-c", "import denavit"], capture_output=True, text=True, env=cli_env()
     )
@@ -371,3 +366,17 @@ def test_a_missing_plot_extra_is_refused_before_any_work_with_a_command_that_wor
         line
     )
     assert "pip install" in line and "[plot]" in line
+
+
+def test_the_entry_point_end_to_end_exit_codes_and_streams():
+    """`python -m denavit.cli` as a user's shell runs it (the other tests run the same entry point in-process): exit
+    0 with the result on standard output and nothing on stderr, 1 for a goal not met, 2 for bad input with one
+    error line on stderr and nothing on standard output."""
+    from cli import run_process
+
+    p = run_process("fk", "kr5", "--json")
+    assert p.returncode == 0 and json.loads(p.stdout)["model"] == "kr5" and p.stderr == ""
+    p = run_process("ik", "kr5", "--pose", "5000,0,0,0,0,0", "--restarts", "0", ok=False)
+    assert p.returncode == 1 and "not solved" in p.stdout
+    p = run_process("fk", "kr5", "--q", "1,2", ok=False)
+    assert p.returncode == 2 and p.stdout == "" and p.stderr.startswith("error: --q: expected 6 joint values")

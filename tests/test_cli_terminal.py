@@ -178,7 +178,7 @@ def test_slow_steps_say_what_they_are_doing(monkeypatch):
     import io
     import time
 
-    from denavit.cli import common
+    from denavit.cli import console as common
 
     buf = io.StringIO()
     monkeypatch.setattr(common.err_console, "file", buf)

@@ -319,7 +319,7 @@ def test_json_outputs_are_strict_and_tables_show_nan():
     plain); a NaN cell prints as 'nan', not 0.000000."""
     import numpy as np
 
-    from denavit.cli.common import fmt
+    from denavit.cli.console import fmt
     from denavit.io.output import json_text
 
     doc = json.loads(

@@ -13,12 +13,14 @@ import os
 import signal
 import sys
 import warnings
+from collections.abc import Sequence
 
 from ..errors import DenavitError
 from ..io.output import guard_stdout
-from .common import app, say
+from .common import app
+from .console import say
 
-__all__ = ["app", "main"]
+__all__ = ["app", "execute", "main"]
 
 
 def threading_main() -> bool:
@@ -53,44 +55,52 @@ def _flush_stdout() -> None:
             raise OSError(e.errno, e.strerror, "standard output") from None
 
 
+def execute(args: Sequence[str] | None = None) -> int:
+    """Run ``denavit ARGS`` (default: the process's arguments) and return its exit code: every DenavitError, and any
+    error of the operating system (a file, a folder, the disk), becomes a one-line message and exit code 2; anything
+    else, a defect of denavit, a one-line message and exit code 3 (``DENAVIT_TRACEBACK=1`` shows its traceback, for a
+    report). A warning raised by the library (e.g. a URDF's massless link with an inertia) is printed as one
+    ``warning:`` line like the commands' own, without Python's file, line and source. The process's set-up (signals,
+    a closed standard output) is :func:`main`'s; the tests run commands in-process through this function."""
+    with warnings.catch_warnings():
+        warnings.showwarning = _one_line_warning
+        try:
+            try:
+                app(args=None if args is None else list(map(str, args)), prog_name="denavit")
+            except SystemExit as e:
+                _flush_stdout()  # what is still buffered: an error writing it (a full disk) is exit 2, not Python's 120
+                return e.code if isinstance(e.code, int) else (0 if e.code is None else 1)
+        except Interrupted:
+            say("bold red", "interrupted", "", err=True)
+            return 130
+        except DenavitError as e:
+            say("bold red", "error:", f" {e}", err=True)
+            return 2
+        except OSError as e:
+            where = f"{e.filename}: " if e.filename else ""
+            say("bold red", "error:", f" {where}{e.strerror or e}", err=True)
+            return 2
+        except Exception as e:  # noqa: BLE001 (the last resort: no traceback reaches a user)
+            if os.environ.get("DENAVIT_TRACEBACK"):
+                raise
+            say(
+                "bold red",
+                "error:",
+                f" internal error, please report it with the command line: {type(e).__name__}: {e} "
+                "(DENAVIT_TRACEBACK=1 shows where)",
+                err=True,
+            )
+            return 3
+    return 0
+
+
 def main() -> None:
-    """Entry point: every DenavitError, and any error of the operating system (a file, a folder, the disk), becomes
-    a one-line message and exit code 2; anything else, a defect of denavit, a one-line message and exit code 3
-    (``DENAVIT_TRACEBACK=1`` shows its traceback, for a report). A warning raised by the library (e.g. a URDF's
-    massless link with an inertia) is printed as one ``warning:`` line like the commands' own, without Python's
-    file, line and source."""
-    warnings.showwarning = _one_line_warning
-    if hasattr(signal, "SIGPIPE"):  # a reader that stops (`denavit fk kr5 | head -1`) ends the command as it ends cat,
-        signal.signal(
-            signal.SIGPIPE, signal.SIG_DFL
-        )  # by the signal (shell status 141), not click's exit 1, which says "not met"
+    """Entry point: the process's set-up, then :func:`execute`. A reader that stops (`denavit fk kr5 | head -1`)
+    ends the command by SIGPIPE as it ends cat; Ctrl-C is exit 130; a closed standard output is an error when
+    written to."""
+    if hasattr(signal, "SIGPIPE"):  # the shell's status 141, not click's exit 1, which says "not met"
+        signal.signal(signal.SIGPIPE, signal.SIG_DFL)
     if threading_main():
         signal.signal(signal.SIGINT, _interrupt)  # Ctrl-C: exit 130 as a shell reports a command ended by SIGINT
     guard_stdout()  # a closed standard output (`denavit show kr5 >&-`) is an error when written to, not exit 0
-    try:
-        try:
-            app(prog_name="denavit")
-        except SystemExit:
-            _flush_stdout()  # what is still buffered: an error writing it (a full disk) is exit 2, not Python's 120
-            raise
-    except Interrupted:
-        say("bold red", "interrupted", "", err=True)
-        sys.exit(130)
-    except DenavitError as e:
-        say("bold red", "error:", f" {e}", err=True)
-        sys.exit(2)
-    except OSError as e:
-        where = f"{e.filename}: " if e.filename else ""
-        say("bold red", "error:", f" {where}{e.strerror or e}", err=True)
-        sys.exit(2)
-    except Exception as e:  # noqa: BLE001 (the last resort: no traceback reaches a user)
-        if os.environ.get("DENAVIT_TRACEBACK"):
-            raise
-        say(
-            "bold red",
-            "error:",
-            f" internal error, please report it with the command line: {type(e).__name__}: {e} "
-            "(DENAVIT_TRACEBACK=1 shows where)",
-            err=True,
-        )
-        sys.exit(3)
+    sys.exit(execute())

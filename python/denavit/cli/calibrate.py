@@ -11,172 +11,190 @@ import typer
 
 from ..errors import DenavitError
 from ..io.units import angle_scale, length_scale
-from .common import (
-    BaseLinkOpt,
-    JsonOpt,
-    TipLinkOpt,
-    calib_unit,
-    check_noises,
-    check_outputs,
-    commands,
-    console,
-    convention_name,
-    emit_json,
-    fail,
-    json_target,
-    load_robot,
-    num,
-    parse_point,
-    print_rows,
-    require_plot_extra,
-    say,
-    spread,
-    status,
-    wrote,
-)
+from .common import commands
+from .console import console, fail, num, print_rows, say, spread, status, wrote
+from .options import BaseLinkOpt, JsonOpt, TipLinkOpt, VerboseOpt
+from .outputs import check_outputs, emit_json, json_target, require_plot_extra
+from .values import calib_unit, check_noises, convention_name, load_robot, parse_point
+
+DataArg = Annotated[
+    Path,
+    typer.Argument(
+        help="Measurements: CSV 'q1..qn,x,y,z[,rx,ry,rz]' (several targets per pose: 'q1..qn,x,y,z,x2,y2,z2,...'), a long-form sweep CSV (with 'joint'), JSON, or a recording."
+    ),
+]
+
+NominalOpt = Annotated[str, typer.Option("--nominal", help="Nominal model (built-in name, robot file or URDF).")]
+
+ConventionOpt = Annotated[
+    str, typer.Option("--convention", help="edh | mdh (Hayati angle where axes are near-parallel) | dh")
+]
+
+FixOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--fix",
+        help="Parameters to hold at their nominal values: names or patterns, comma-separated (e.g. 'base_*,tool_z').",
+    ),
+]
+
+SaveOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--save",
+        help="Write the calibrated robot file (.toml, ED-H, with its \\[covariance]: compensate predicts the error after) to this path.",
+    ),
+]
+
+UrdfOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--urdf", help="Write the calibrated robot as URDF, with a URDF nominal's meshes, inertials and limits."
+    ),
+]
+
+ReportOpt = Annotated[
+    Path | None, typer.Option("--report", help="Write a self-contained HTML report (summary, 3-D view, tables).")
+]
+
+LossOpt = Annotated[str, typer.Option("--loss", help="linear | soft_l1 | huber | cauchy | arctan (robust loss)")]
+
+StartOpt = Annotated[str, typer.Option("--start", help="nominal | circles (circle-point identification of sweep data)")]
+
+HoldoutOpt = Annotated[float, typer.Option("--holdout", help="Fraction of the poses held out to validate the fit.")]
+
+ScaleOpt = Annotated[bool, typer.Option("--scale", help="Also estimate a scale per joint.")]
+
+ToolOpt = Annotated[
+    str | None,
+    typer.Option("--tool", help="Tool point in the flange frame, --length units (default: the nominal model's tool)."),
+]
+
+NoiseOpt = Annotated[
+    float | None,
+    typer.Option(
+        "--noise", help="Known point noise (1 sigma per coordinate), --length units (default: from the residuals)."
+    ),
+]
+
+TrackerNoiseOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--tracker-noise",
+        help="The tracker's range/angle noise (1 sigma), as identify's: e.g. \"5 um, 1 arcsec\"; each point's residual is weighted by its covariance (the scale from the residuals; not with --noise).",
+    ),
+]
+
+TrackerPositionOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--tracker-position",
+        help="With --tracker-noise: the tracker's position in the data's frame, x,y,z in --length units (default 0,0,0).",
+    ),
+]
+
+LengthOpt = Annotated[
+    str,
+    typer.Option(
+        "--length",
+        help="Length unit of what is typed and printed, and of the data where they declare none: mm | m | cm | um | in. JSON stays SI.",
+    ),
+]
+
+AngleOpt = Annotated[
+    str,
+    typer.Option(
+        "--angle",
+        help="Angle unit of what is typed and printed, and of the data where they declare none: deg | rad. JSON stays SI.",
+    ),
+]
+
+SeedOpt = Annotated[int, typer.Option("--seed", help="Seed of the held-out split.")]
+
+ModelOpt = Annotated[
+    str,
+    typer.Option(
+        "--model",
+        help="What is free: auto (chosen by leave-one-pose-out prediction error), base-tool, offsets, full (every identifiable parameter, least squares), full-prior (with the priors), full-prior-no-beta or full-prior-no-last (docs/cli.md)",
+    ),
+]
+
+PriorOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--prior",
+        help='Prior widths (1 sigma) about the nominal, by kind or parameter name: e.g. "length=1mm, angle=0.1deg, offset=0.1deg, scale=100ppm, a_5=2mm" (these are the defaults; bare numbers in --length / --angle), or none.',
+    ),
+]
+
+CouplingOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--coupling",
+        help="Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; robot-files.md in docs); default: the robot file's \\[couplings].",
+    ),
+]
+
+DataFormatOpt = Annotated[
+    str,
+    typer.Option(
+        "--format",
+        help="measurements (q1..qn,x,y,z CSV, sweep CSV, JSON) | tracker | rtde | rsi | bag | columns | auto (from the content).",
+    ),
+]
+
+ColumnsOpt = Annotated[
+    str | None, typer.Option("--columns", help='Column map of a delimited recording, e.g. "t,q1..q6,x,y,z".')
+]
+
+TargetOpt = Annotated[
+    int | None,
+    typer.Option(
+        "--target",
+        help="Data with several targets per pose (markers, SMRs on a nest): fit this one alone, 1-based (default: every target, one fit with each target's point in the flange frame).",
+    ),
+]
+
+PayloadOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--payload",
+        help="The payload on the flange for every pose where the data give none (a pose file's payload_mass, payload_x, payload_y, payload_z columns): its mass with a unit (kg, g) and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\" (--length units without one). With a payload the joints' compliance under gravity is a candidate of --model auto (it needs the nominal's link masses).",
+    ),
+]
 
 
 @commands.command()
 def calibrate(
-    data: Annotated[
-        Path,
-        typer.Argument(
-            help="Measurements: CSV 'q1..qn,x,y,z[,rx,ry,rz]' (several targets per pose: 'q1..qn,x,y,z,x2,y2,z2,...'), a long-form sweep CSV (with 'joint'), JSON, or a recording."
-        ),
-    ],
-    nominal: Annotated[str, typer.Option("--nominal", help="Nominal model (built-in name, robot file or URDF).")],
-    convention: Annotated[
-        str, typer.Option("--convention", help="edh | mdh (Hayati angle where axes are near-parallel) | dh")
-    ] = "edh",
-    fix: Annotated[
-        str | None,
-        typer.Option(
-            "--fix",
-            help="Parameters to hold at their nominal values: names or patterns, comma-separated (e.g. 'base_*,tool_z').",
-        ),
-    ] = None,
+    data: DataArg,
+    nominal: NominalOpt,
+    convention: ConventionOpt = "edh",
+    fix: FixOpt = None,
     json_path: JsonOpt = None,
-    save: Annotated[
-        Path | None,
-        typer.Option(
-            "--save",
-            help="Write the calibrated robot file (.toml, ED-H, with its \\[covariance]: compensate predicts the error after) to this path.",
-        ),
-    ] = None,
-    urdf: Annotated[
-        Path | None,
-        typer.Option(
-            "--urdf", help="Write the calibrated robot as URDF, with a URDF nominal's meshes, inertials and limits."
-        ),
-    ] = None,
-    report: Annotated[
-        Path | None, typer.Option("--report", help="Write a self-contained HTML report (summary, 3-D view, tables).")
-    ] = None,
-    loss: Annotated[
-        str, typer.Option("--loss", help="linear | soft_l1 | huber | cauchy | arctan (robust loss)")
-    ] = "linear",
-    start: Annotated[
-        str, typer.Option("--start", help="nominal | circles (circle-point identification of sweep data)")
-    ] = "nominal",
-    holdout: Annotated[
-        float, typer.Option("--holdout", help="Fraction of the poses held out to validate the fit.")
-    ] = 0.2,
-    scale: Annotated[bool, typer.Option("--scale", help="Also estimate a scale per joint.")] = False,
-    tool: Annotated[
-        str | None,
-        typer.Option(
-            "--tool", help="Tool point in the flange frame, --length units (default: the nominal model's tool)."
-        ),
-    ] = None,
-    noise: Annotated[
-        float | None,
-        typer.Option(
-            "--noise", help="Known point noise (1 sigma per coordinate), --length units (default: from the residuals)."
-        ),
-    ] = None,
-    tracker_noise: Annotated[
-        str | None,
-        typer.Option(
-            "--tracker-noise",
-            help="The tracker's range/angle noise (1 sigma), as identify's: e.g. \"5 um, 1 arcsec\"; each point's residual is weighted by its covariance (the scale from the residuals; not with --noise).",
-        ),
-    ] = None,
-    tracker_position: Annotated[
-        str | None,
-        typer.Option(
-            "--tracker-position",
-            help="With --tracker-noise: the tracker's position in the data's frame, x,y,z in --length units (default 0,0,0).",
-        ),
-    ] = None,
-    length: Annotated[
-        str,
-        typer.Option(
-            "--length",
-            help="Length unit of what is typed and printed, and of the data where they declare none: mm | m | cm | um | in. JSON stays SI.",
-        ),
-    ] = "mm",
-    angle: Annotated[
-        str,
-        typer.Option(
-            "--angle",
-            help="Angle unit of what is typed and printed, and of the data where they declare none: deg | rad. JSON stays SI.",
-        ),
-    ] = "deg",
-    verbose: Annotated[
-        bool,
-        typer.Option(
-            "--verbose",
-            help="Every parameter the data cannot identify, with the reason (default: their names in a few lines).",
-        ),
-    ] = False,
-    seed: Annotated[int, typer.Option("--seed", help="Seed of the held-out split.")] = 0,
-    model: Annotated[
-        str,
-        typer.Option(
-            "--model",
-            help="What is free: auto (chosen by leave-one-pose-out prediction error), base-tool, offsets, full (every identifiable parameter, least squares), full-prior (with the priors), full-prior-no-beta or full-prior-no-last (docs/cli.md)",
-        ),
-    ] = "auto",
-    prior: Annotated[
-        str | None,
-        typer.Option(
-            "--prior",
-            help='Prior widths (1 sigma) about the nominal, by kind or parameter name: e.g. "length=1mm, angle=0.1deg, offset=0.1deg, scale=100ppm, a_5=2mm" (these are the defaults; bare numbers in --length / --angle), or none.',
-        ),
-    ] = None,
-    coupling: Annotated[
-        str | None,
-        typer.Option(
-            "--coupling",
-            help="Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; robot-files.md in docs); default: the robot file's \\[couplings].",
-        ),
-    ] = None,
-    data_format: Annotated[
-        str,
-        typer.Option(
-            "--format",
-            help="measurements (q1..qn,x,y,z CSV, sweep CSV, JSON) | tracker | rtde | rsi | bag | columns | auto (from the content).",
-        ),
-    ] = "auto",
-    columns: Annotated[
-        str | None, typer.Option("--columns", help='Column map of a delimited recording, e.g. "t,q1..q6,x,y,z".')
-    ] = None,
-    target: Annotated[
-        int | None,
-        typer.Option(
-            "--target",
-            help="Data with several targets per pose (markers, SMRs on a nest): fit this one alone, 1-based (default: every target, one fit with each target's point in the flange frame).",
-        ),
-    ] = None,
+    save: SaveOpt = None,
+    urdf: UrdfOpt = None,
+    report: ReportOpt = None,
+    loss: LossOpt = "linear",
+    start: StartOpt = "nominal",
+    holdout: HoldoutOpt = 0.2,
+    scale: ScaleOpt = False,
+    tool: ToolOpt = None,
+    noise: NoiseOpt = None,
+    tracker_noise: TrackerNoiseOpt = None,
+    tracker_position: TrackerPositionOpt = None,
+    length: LengthOpt = "mm",
+    angle: AngleOpt = "deg",
+    verbose: VerboseOpt = False,
+    seed: SeedOpt = 0,
+    model: ModelOpt = "auto",
+    prior: PriorOpt = None,
+    coupling: CouplingOpt = None,
+    data_format: DataFormatOpt = "auto",
+    columns: ColumnsOpt = None,
+    target: TargetOpt = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
-    payload: Annotated[
-        str | None,
-        typer.Option(
-            "--payload",
-            help="The payload on the flange for every pose where the data give none (a pose file's payload_mass, payload_x, payload_y, payload_z columns): its mass with a unit (kg, g) and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\" (--length units without one). With a payload the joints' compliance under gravity is a candidate of --model auto (it needs the nominal's link masses).",
-        ),
-    ] = None,
+    payload: PayloadOpt = None,
 ) -> None:
     """Calibrate the whole model from measured points or poses at known joint readings (one least-squares fit)."""
     require_plot_extra(report=report)  # before any work: the plot extra's modules
@@ -237,7 +255,7 @@ def calibrate(
 
     if model not in MODELS:
         fail(f"--model: expected one of {', '.join(MODELS)}, got {model!r}")
-    prior_spec = None if prior is None else parse_prior(prior, length, angle) or False
+    prior_spec = None if prior is None else parse_prior(prior, length_scale(length), angle_scale(angle)) or False
     from ..io.payload import parse_payload  # noqa: PLC0415
 
     pl = None if payload is None else parse_payload(payload, length)
@@ -262,12 +280,14 @@ def calibrate(
             payload=pl,
         )
     if json_path:
-        emit_json(cal.to_json(res), json_path)
+        from ..io.results import to_json  # noqa: PLC0415
+
+        emit_json(to_json(res), json_path)
     if json_path != "-":
         print_calibration(res, length, angle, verbose)
     _refuse_jumps(res, robot, length, angle)
     if save:
-        from ..calibration.validate import TRAINING_TABLE, training_table  # noqa: PLC0415
+        from ..io.robotfile import TRAINING_TABLE, training_table  # noqa: PLC0415
         from ..io.robotfile import save as save_file  # noqa: PLC0415
 
         saved = res.robot()  # with the training poses' joint ranges: validate flags poses outside them

@@ -10,107 +10,108 @@ import typer
 
 from ..errors import DenavitError
 from ..io.units import length_scale
-from .common import (
-    SI_UNITS,
-    AngleOpt,
-    BaseLinkOpt,
-    JsonOpt,
-    LengthOpt,
-    TipLinkOpt,
-    check_outputs,
-    commands,
-    console,
-    emit_json,
-    json_target,
-    load_robot,
-    parse_joint_values,
-    positive,
-    require_plot_extra,
-    say,
-    spread,
-    status,
-    wrote,
-)
+from .common import commands
+from .console import console, say, spread, status, wrote
+from .options import AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, TipLinkOpt
+from .outputs import SI_UNITS, check_outputs, emit_json, json_target, require_plot_extra
+from .values import load_robot, parse_joint_values, positive
+
+TargetsArg = Annotated[
+    str,
+    typer.Argument(
+        help="The program: a CSV of tool poses 'x,y,z,rx,ry,rz' (rotation vector) and/or joint rows 'q1..qn', with a '# units:' line; or a robot program (KUKA .src with its .dat, ABB .mod, FANUC .ls, URScript .script), written back with only its positions changed."
+    ),
+]
+
+NominalOpt = Annotated[
+    str, typer.Option("--nominal", help="The controller's model: a built-in name, a robot file or a URDF.")
+]
+
+IdentifiedOpt = Annotated[
+    str,
+    typer.Option(
+        "--identified",
+        help="The identified robot (e.g. from identify/calibrate --save), in the same robot base frame.",
+    ),
+]
+
+OutputOpt = Annotated[
+    str | None,
+    typer.Option(
+        "-o",
+        "--output",
+        help="Write the compensated program (CSV: commands, their joint values, flags, errors before and predicted after per row); '-' for stdout.",
+    ),
+]
+
+PathOpt = Annotated[
+    bool, typer.Option("--path", help="The targets form a path: warm-start along it and flag branch jumps.")
+]
+
+BranchTolOpt = Annotated[
+    float | None,
+    typer.Option(
+        "--branch-tol",
+        help="Largest joint change from the program's solution that keeps its branch, in --angle (revolute) units (default 0.1 rad = 5.7 deg whatever the unit, as in Python).",
+    ),
+]
+
+ReportOpt = Annotated[
+    Path | None,
+    typer.Option("--report", help="Write a self-contained HTML report (summary, 3-D view, per-target errors)."),
+]
+
+FrameOpt = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--frame",
+        metavar="FRAME",
+        help="A numbered frame a robot program uses that lives in the controller: 'tool N=X,Y,Z,R1,R2,R3' or 'base N=...' (FANUC UT / UF, KUKA TOOL_DATA / BASE_DATA), mm and degrees in the program's own convention (KUKA A,B,C; FANUC W,P,R); repeatable.",
+    ),
+]
+
+Q0Opt = Annotated[
+    str | None,
+    typer.Option(
+        "--q0",
+        help="Rows without a configuration (poses without joint columns) are compensated on the nominal's solution nearest this, one value per joint in --angle units (prismatic: --length); default the nominal's home, else zeros.",
+    ),
+]
+
+PayloadOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--payload",
+        help='The payload on the flange for every row: its mass with a unit (kg, g) and optionally its centre of mass in the flange frame, e.g. "5 kg @ 0,0,80 mm" (--length units without one). With an identified robot of compliant joints (a robot file\'s [compliance]) the commands are those that deflect onto the targets under it.',
+    ),
+]
 
 
 @commands.command()
 def compensate(
-    targets: Annotated[
-        str,
-        typer.Argument(
-            help="The program: a CSV of tool poses 'x,y,z,rx,ry,rz' (rotation vector) and/or joint rows 'q1..qn', with a '# units:' line; or a robot program (KUKA .src with its .dat, ABB .mod, FANUC .ls, URScript .script), written back with only its positions changed."
-        ),
-    ],
-    nominal: Annotated[
-        str, typer.Option("--nominal", help="The controller's model: a built-in name, a robot file or a URDF.")
-    ],
-    identified: Annotated[
-        str,
-        typer.Option(
-            "--identified",
-            help="The identified robot (e.g. from identify/calibrate --save), in the same robot base frame.",
-        ),
-    ],
-    output: Annotated[
-        str | None,
-        typer.Option(
-            "-o",
-            "--output",
-            help="Write the compensated program (CSV: commands, their joint values, flags, errors before and predicted after per row); '-' for stdout.",
-        ),
-    ] = None,
-    path: Annotated[
-        bool, typer.Option("--path", help="The targets form a path: warm-start along it and flag branch jumps.")
-    ] = False,
-    branch_tol: Annotated[
-        float | None,
-        typer.Option(
-            "--branch-tol",
-            help="Largest joint change from the program's solution that keeps its branch, in --angle (revolute) units (default 0.1 rad = 5.7 deg whatever the unit, as in Python).",
-        ),
-    ] = None,
+    targets: TargetsArg,
+    nominal: NominalOpt,
+    identified: IdentifiedOpt,
+    output: OutputOpt = None,
+    path: PathOpt = False,
+    branch_tol: BranchTolOpt = None,
     length: LengthOpt = "mm",
     angle: AngleOpt = "deg",
     json_out: JsonOpt = None,
-    report: Annotated[
-        Path | None,
-        typer.Option("--report", help="Write a self-contained HTML report (summary, 3-D view, per-target errors)."),
-    ] = None,
+    report: ReportOpt = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
-    frame: Annotated[
-        list[str] | None,
-        typer.Option(
-            "--frame",
-            metavar="FRAME",
-            help="A numbered frame a robot program uses that lives in the controller: 'tool N=X,Y,Z,R1,R2,R3' or 'base N=...' (FANUC UT / UF, KUKA TOOL_DATA / BASE_DATA), mm and degrees in the program's own convention (KUKA A,B,C; FANUC W,P,R); repeatable.",
-        ),
-    ] = None,
-    q0: Annotated[
-        str | None,
-        typer.Option(
-            "--q0",
-            help="Rows without a configuration (poses without joint columns) are compensated on the nominal's solution nearest this, one value per joint in --angle units (prismatic: --length); default the nominal's home, else zeros.",
-        ),
-    ] = None,
-    payload: Annotated[
-        str | None,
-        typer.Option(
-            "--payload",
-            help='The payload on the flange for every row: its mass with a unit (kg, g) and optionally its centre of mass in the flange frame, e.g. "5 kg @ 0,0,80 mm" (--length units without one). With an identified robot of compliant joints (a robot file\'s [compliance]) the commands are those that deflect onto the targets under it.',
-        ),
-    ] = None,
+    frame: FrameOpt = None,
+    q0: Q0Opt = None,
+    payload: PayloadOpt = None,
 ) -> None:
     """Compensate a program (RoboDK's "filtering"): for each target, the joint values that reach it on the
     identified robot (on the program's branch) and the pose T' = FK_nominal(q) to send to a controller that keeps
     its nominal model. Flagged rows (unreachable, branch changed, path jump) are marked, never silently kept;
     exit code 1 when any row is flagged."""
     require_plot_extra(report=report)  # before any work: the plot extra's modules
-    import numpy as np  # noqa: PLC0415
 
-    from .. import _core  # noqa: PLC0415
     from .. import compensation as cp  # noqa: PLC0415
-    from ..io.targets import read_targets, write_compensated  # noqa: PLC0415
     from ..io.units import angle_scale  # noqa: PLC0415
 
     check_outputs(**{"-o": output, "--json": json_out})
@@ -125,7 +126,6 @@ def compensate(
     nom, ide = nom_robot.model(), id_robot.model()
     if nom.nq != ide.nq:
         raise DenavitError(f"--identified {identified}: {ide.nq} joints, but the nominal {nom_robot.name} has {nom.nq}")
-    kinds = list(nom.kinds)
     q0v = parse_joint_values(q0, "--q0", nom_robot, length, angle, default=nom_robot.home)
     from ..io.programs import detect  # noqa: PLC0415
 
@@ -136,10 +136,6 @@ def compensate(
     if fmt is None and frame:
         raise DenavitError(
             f"--frame: {targets} is a CSV of targets in the robot base frame: expected no --frame (it names a robot program's numbered frames)"
-        )
-    if fmt is not None and pl is not None:
-        raise DenavitError(
-            f"--payload: {targets} is a robot program; the payload applies to a CSV of targets (give the program's positions as a CSV)"
         )
     if fmt is not None:
         if path:
@@ -158,6 +154,7 @@ def compensate(
             json_out,
             length,
             _frames(frame or [], fmt),
+            pl,
         )
         if report and pc.compensation is not None:
             from ..report import write_compensation_report  # noqa: PLC0415
@@ -177,6 +174,37 @@ def compensate(
         if pc.left:
             raise typer.Exit(1)
         return
+    flagged = _compensate_targets(
+        targets,
+        nom_robot,
+        id_robot,
+        output=output,
+        path=path,
+        branch_tol=positive(branch_tol, "--branch-tol", angle_scale(angle), cp.BRANCH_TOL, angle),
+        q0v=q0v,
+        payload=pl,
+        json_out=json_out,
+        report=report,
+        length=length,
+        angle=angle,
+    )
+    if flagged:
+        raise typer.Exit(1)
+
+
+def _compensate_targets(
+    targets, nom_robot, id_robot, *, output, path, branch_tol, q0v, payload, json_out, report, length, angle
+) -> list:
+    """A targets CSV compensated: read, checked against the robot's reach, compensated, written (-o, --json, --report)
+    and summarised; the flagged rows (where, why) returned."""
+    import numpy as np  # noqa: PLC0415
+
+    from .. import _core  # noqa: PLC0415
+    from .. import compensation as cp  # noqa: PLC0415
+    from ..io.targets import read_targets, write_compensated  # noqa: PLC0415
+
+    nom = nom_robot.model()
+    kinds = list(nom.kinds)
     prog = read_targets(targets, kinds, length=length, angle=angle)
     poses = prog.poses if prog.poses is not None else _core.fk_batch(nom, prog.q)
     # a target beyond any reach is a unit slip, not a target to flag: say so at its row
@@ -198,12 +226,11 @@ def compensate(
             q_nominal=prog.q,
             q0=q0v,
             path=path,
-            branch_tol=positive(branch_tol, "--branch-tol", angle_scale(angle), cp.BRANCH_TOL, angle),
-            payload=pl,
+            branch_tol=branch_tol,
+            payload=payload,
         )
     for n in c.notes:
         say("yellow", "note:", f" {n}")
-    ls = length_scale(length)
     flagged = [
         (w, why)
         for w, ok, r, b, j in zip(prog.where, c.ok, c.reached, c.branch_changed, c.path_jump, strict=True)
@@ -225,6 +252,25 @@ def compensate(
             q0=q0v,
         )
         wrote(output, f" ({len(c)} rows, {len(flagged)} flagged)")
+    summary = _summary(c, prog, kinds, q0v, flagged, before_rms, predicted)
+    emit_json(summary, json_out)
+    if json_out != "-" and output != "-":
+        _print_summary(c, prog, nom_robot, id_robot, summary, flagged, before_rms, predicted, q0v, length, angle)
+    if report:
+        from ..report import write_compensation_report  # noqa: PLC0415
+
+        with status("writing the report ..."):
+            write_compensation_report(
+                c, nom_robot, id_robot, report, source=str(targets), where=prog.where, length=length, angle=angle
+            )
+        wrote(report)
+    return flagged
+
+
+def _summary(c, prog, kinds, q0v, flagged, before_rms: float, predicted) -> dict:
+    """The --json document (SI): the totals, the flagged rows, and the compensated program row by row."""
+    import numpy as np  # noqa: PLC0415
+
     summary = {
         "targets": len(c),
         "flagged": len(flagged),
@@ -265,55 +311,48 @@ def compensate(
         }
         for k in range(len(c))
     ]
-    emit_json(summary, json_out)
-    if json_out != "-" and output != "-":
-        left_out = (
-            f" (over the {int(c.ok.sum())} rows that can be sent: the {len(flagged)} flagged left out)"
-            if flagged
-            else ""
-        )
-        gain = (
-            f"; error without compensation {spread(before_rms / ls)} {length} RMS, max {spread(summary['before_max_m'] / ls)} {length}{left_out}"
-            if c.ok.any()
-            else "; no target can be sent (is the identified robot a calibration of the nominal?)"
-        )
-        say("bold", f"{nom_robot.name} -> {id_robot.name}:", f" {len(c)} targets, {len(flagged)} flagged{gain}")
-        if c.assumed.any():
-            from ..io.units import joint_scale  # noqa: PLC0415
+    return summary
 
-            js = joint_scale(kinds, length, angle)
-            say(
-                "yellow",
-                "configuration:",
-                f" {int(c.assumed.sum())} of {len(c)} rows had none (no joint columns): each compensated on the nominal's solution "
-                f"nearest --q0 ({', '.join(f'{v:.6g}' for v in q0v / js)} {angle}); that configuration is each row's q1..q{len(kinds)} "
-                "('configuration' per row in --json). Give the program's joint values as q columns to keep its own",
-            )
-        if predicted is not None and c.ok.any():
-            say(
-                "bold",
-                "Predicted error after compensation",
-                f" (1 sigma, from {id_robot.name}'s covariance): rms {summary['predicted_after_rms_m'] / ls:.4g} {length}, "
-                f"max {float(predicted[c.ok].max()) / ls:.4g} {length}"
-                + (" (per row in --json)" if len(c) > 20 else ""),
-            )
-            if len(c) <= 20:
-                for w, p in zip(prog.where, predicted, strict=True):
-                    console.print(f"  {w}: {p / ls:.4g} {length}")
-        for w, why in flagged[:20]:
-            console.print(f"  {w}: {why}")
-        if len(flagged) > 20:
-            console.print(f"  ... and {len(flagged) - 20} more (all in the output's 'ok' column)")
-    if report:
-        from ..report import write_compensation_report  # noqa: PLC0415
 
-        with status("writing the report ..."):
-            write_compensation_report(
-                c, nom_robot, id_robot, report, source=str(targets), where=prog.where, length=length, angle=angle
-            )
-        wrote(report)
-    if flagged:
-        raise typer.Exit(1)
+def _print_summary(c, prog, nom_robot, id_robot, summary, flagged, before_rms, predicted, q0v, length, angle) -> None:
+    """The compensation in a few lines: targets and flags, the error without compensation, the configurations
+    assumed, the predicted error after, the flagged rows."""
+    kinds = list(nom_robot.table.kinds)
+    ls = length_scale(length)
+    left_out = (
+        f" (over the {int(c.ok.sum())} rows that can be sent: the {len(flagged)} flagged left out)" if flagged else ""
+    )
+    gain = (
+        f"; error without compensation {spread(before_rms / ls)} {length} RMS, max {spread(summary['before_max_m'] / ls)} {length}{left_out}"
+        if c.ok.any()
+        else "; no target can be sent (is the identified robot a calibration of the nominal?)"
+    )
+    say("bold", f"{nom_robot.name} -> {id_robot.name}:", f" {len(c)} targets, {len(flagged)} flagged{gain}")
+    if c.assumed.any():
+        from ..io.units import joint_scale  # noqa: PLC0415
+
+        js = joint_scale(kinds, length, angle)
+        say(
+            "yellow",
+            "configuration:",
+            f" {int(c.assumed.sum())} of {len(c)} rows had none (no joint columns): each compensated on the nominal's solution "
+            f"nearest --q0 ({', '.join(f'{v:.6g}' for v in q0v / js)} {angle}); that configuration is each row's q1..q{len(kinds)} "
+            "('configuration' per row in --json). Give the program's joint values as q columns to keep its own",
+        )
+    if predicted is not None and c.ok.any():
+        say(
+            "bold",
+            "Predicted error after compensation",
+            f" (1 sigma, from {id_robot.name}'s covariance): rms {summary['predicted_after_rms_m'] / ls:.4g} {length}, "
+            f"max {float(predicted[c.ok].max()) / ls:.4g} {length}" + (" (per row in --json)" if len(c) > 20 else ""),
+        )
+        if len(c) <= 20:
+            for w, p in zip(prog.where, predicted, strict=True):
+                console.print(f"  {w}: {p / ls:.4g} {length}")
+    for w, why in flagged[:20]:
+        console.print(f"  {w}: {why}")
+    if len(flagged) > 20:
+        console.print(f"  ... and {len(flagged) - 20} more (all in the output's 'ok' column)")
 
 
 def _frames(texts: list[str], fmt: str) -> dict:
@@ -344,7 +383,9 @@ def _frames(texts: list[str], fmt: str) -> dict:
     return out
 
 
-def _compensate_program(path, fmt, nom_robot, id_robot, output, q0v, branch_tol, json_out, length, frames=None):
+def _compensate_program(
+    path, fmt, nom_robot, id_robot, output, q0v, branch_tol, json_out, length, frames=None, payload=None
+):
     """A robot program (KUKA .src/.dat, ABB .mod, FANUC .ls, URScript .script): read, every position compensated on
     its own configuration, written back with only the positions changed (docs/compensation.md)."""
     import numpy as np  # noqa: PLC0415
@@ -353,7 +394,7 @@ def _compensate_program(path, fmt, nom_robot, id_robot, output, q0v, branch_tol,
 
     prog = pg.read_program(path, nom_robot, fmt=fmt, frames=frames)
     with status(f"compensating {len(prog.points)} positions of {path} ..."):
-        pc = pg.compensate_program(prog, nom_robot, id_robot, q0=q0v, branch_tol=branch_tol)
+        pc = pg.compensate_program(prog, nom_robot, id_robot, q0=q0v, branch_tol=branch_tol, payload=payload)
     c = pc.compensation
     if c is not None:
         for n in c.notes:

@@ -11,30 +11,11 @@ import typer
 
 from ..errors import DenavitError
 from ..io.units import angle_scale, length_scale
-from .common import (
-    SI_UNITS,
-    AngleOpt,
-    BaseLinkOpt,
-    ChainOnlyOpt,
-    JsonOpt,
-    LengthOpt,
-    ModelArg,
-    TipLinkOpt,
-    check_outputs,
-    commands,
-    console,
-    emit_json,
-    fail,
-    json_target,
-    load_robot,
-    num,
-    print_rows,
-    print_table,
-    say,
-    spread,
-    table_rows,
-    wrote,
-)
+from .common import commands
+from .console import console, fail, num, print_rows, print_table, say, spread, table_rows, wrote
+from .options import AngleOpt, BaseLinkOpt, ChainOnlyOpt, JsonOpt, LengthOpt, ModelArg, TipLinkOpt
+from .outputs import SI_UNITS, check_outputs, emit_json, json_target
+from .values import load_robot
 
 
 @commands.command()

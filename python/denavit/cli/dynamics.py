@@ -6,26 +6,11 @@ from typing import Annotated
 
 import typer
 
-from .common import (
-    SI_UNITS,
-    AngleOpt,
-    BaseLinkOpt,
-    ChainOnlyOpt,
-    JsonOpt,
-    LengthOpt,
-    ModelArg,
-    TipLinkOpt,
-    commands,
-    emit_json,
-    fail,
-    fmt,
-    json_target,
-    load_robot,
-    parse_joint_values,
-    parse_numbers,
-    print_rows,
-    say,
-)
+from .common import commands
+from .console import fail, fmt, print_rows, say
+from .options import AngleOpt, BaseLinkOpt, ChainOnlyOpt, JsonOpt, LengthOpt, ModelArg, TipLinkOpt
+from .outputs import SI_UNITS, emit_json, json_target
+from .values import load_robot, parse_joint_values, parse_numbers
 
 
 @commands.command()

@@ -7,24 +7,11 @@ from typing import Annotated
 import typer
 
 from ..io.units import length_scale
-from .common import (
-    SI_UNITS,
-    AngleOpt,
-    BaseLinkOpt,
-    JsonOpt,
-    LengthOpt,
-    ModelArg,
-    TipLinkOpt,
-    commands,
-    emit_json,
-    json_target,
-    load_robot,
-    num,
-    parse_joint_values,
-    pose_rows,
-    print_rows,
-    say,
-)
+from .common import commands
+from .console import num, print_rows, say
+from .options import AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, ModelArg, TipLinkOpt
+from .outputs import SI_UNITS, emit_json, json_target, pose_rows
+from .values import load_robot, parse_joint_values
 
 
 @commands.command()

@@ -9,29 +9,11 @@ from rich.text import Text
 
 from ..errors import DenavitError
 from ..io.units import angle_scale, joint_unit, length_scale
-from .common import (
-    SI_UNITS,
-    AngleOpt,
-    BaseLinkOpt,
-    JsonOpt,
-    LengthOpt,
-    ModelArg,
-    TipLinkOpt,
-    commands,
-    console,
-    emit_json,
-    fail,
-    joint_values_out,
-    json_target,
-    load_robot,
-    num,
-    parse_joint_values,
-    parse_pose,
-    pose_rows,
-    positive,
-    print_rows,
-    spread,
-)
+from .common import commands
+from .console import console, fail, num, print_rows, spread
+from .options import AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, ModelArg, TipLinkOpt
+from .outputs import SI_UNITS, emit_json, json_target, pose_rows
+from .values import joint_values_out, load_robot, parse_joint_values, parse_pose, positive
 
 
 @commands.command()
@@ -104,7 +86,7 @@ def ik(
             respect_limits=not no_limits,
         )
     except DenavitError as e:  # the core names the target T_target (the error's `what`): say which option gave it
-        if str(getattr(e, "what", "") or "").startswith("T_target"):
+        if e.what == "T_target":
             fail(f"--pose: {e}")
         raise
     if json_out:

@@ -7,7 +7,8 @@ from typing import Annotated
 
 import typer
 
-from .common import commands, console
+from .common import commands
+from .console import console
 
 
 @commands.command()
@@ -50,4 +51,6 @@ def inspect(
     # as identify reads it: an angle the file does not declare is --angle's, deg by default (docs/cli.md)
     rec = read_recording(recording, data_format, columns=columns, length=length, angle=angle or "deg", sweep=sweep)
     console.print(rec.describe(), soft_wrap=True)
-    console.print(segment(rec).table(angle or "deg"), soft_wrap=True)
+    from ..io.recordings.segmentation import segmentation_table  # noqa: PLC0415
+
+    console.print(segmentation_table(segment(rec), angle or "deg"), soft_wrap=True)

@@ -8,33 +8,20 @@ from typing import Annotated
 import typer
 
 from ..io.units import angle_scale, length_scale
-from .common import (
-    SI_UNITS,
-    AngleOpt,
-    BaseLinkOpt,
-    JsonOpt,
-    LengthOpt,
-    ModelArg,
-    TipLinkOpt,
+from .common import commands
+from .console import console, fail, num, print_rows, say, spread, status
+from .options import AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, ModelArg, TipLinkOpt, VerboseOpt
+from .outputs import SI_UNITS, emit_json, json_target
+from .values import (
     calib_unit,
     check_noises,
-    commands,
-    console,
     convention_name,
     count,
-    emit_json,
-    fail,
-    json_target,
     load_robot,
-    num,
     parse_joint_values,
     parse_point,
     parse_ranges,
     positive,
-    print_rows,
-    say,
-    spread,
-    status,
 )
 
 #: Physical defaults (SI): a tool point 50, 30, 100 mm from the flange, a tracker's 0.02 mm noise.
@@ -42,71 +29,94 @@ TOOL_M = (0.05, 0.03, 0.1)
 NOISE_M = 2e-5
 
 
+RangesOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--ranges",
+        help="Sweeps: per-joint start,end pairs in --angle units (prismatic: --length), or 'paper30' / 'paper90' (Hayat Table II).",
+    ),
+]
+
+HomeOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--home",
+        help="Home configuration of the sweeps in --angle units, prismatic joints in --length (default: the model file's home, else zeros).",
+    ),
+]
+
+PointsOpt = Annotated[int, typer.Option("--points", help="Points per sweep.")]
+
+ToolOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--tool", help="Tool point in the flange frame, in --length units (default 50,30,100 mm whatever the unit)."
+    ),
+]
+
+NoiseOpt = Annotated[
+    float | None,
+    typer.Option(
+        "--noise",
+        help="Point noise (1 sigma per coordinate), in --length units (default 0.02 mm whatever the unit).",
+    ),
+]
+
+ConventionOpt = Annotated[str, typer.Option("--convention", help="edh | mdh | dh")]
+
+FixOpt = Annotated[
+    str | None, typer.Option("--fix", help="Parameters held fixed (names or patterns, comma-separated).")
+]
+
+RandomOpt = Annotated[
+    int | None,
+    typer.Option("--random", help="Plan N configurations spread over the joint limits instead of sweeps."),
+]
+
+CandidatesOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--candidates",
+        help="CSV of candidate configurations (header q1..qn, --angle / --length units unless a '# units:' line declares them).",
+    ),
+]
+
+SelectOpt = Annotated[
+    int | None,
+    typer.Option("--select", help="Pick this many most informative poses from the candidates (D-optimal)."),
+]
+
+PayloadOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--payload",
+        help="Also predict the joints' compliances' sigmas for the planned poses measured twice, without payload and with this one: its mass with a unit and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\" (needs the model's link masses).",
+    ),
+]
+
+
 @commands.command()
 def plan(
     model: ModelArg,
-    ranges: Annotated[
-        str | None,
-        typer.Option(
-            "--ranges",
-            help="Sweeps: per-joint start,end pairs in --angle units (prismatic: --length), or 'paper30' / 'paper90' (Hayat Table II).",
-        ),
-    ] = None,
-    home: Annotated[
-        str | None,
-        typer.Option(
-            "--home",
-            help="Home configuration of the sweeps in --angle units, prismatic joints in --length (default: the model file's home, else zeros).",
-        ),
-    ] = None,
-    points: Annotated[int, typer.Option("--points", help="Points per sweep.")] = 30,
-    tool: Annotated[
-        str | None,
-        typer.Option(
-            "--tool", help="Tool point in the flange frame, in --length units (default 50,30,100 mm whatever the unit)."
-        ),
-    ] = None,
-    noise: Annotated[
-        float | None,
-        typer.Option(
-            "--noise",
-            help="Point noise (1 sigma per coordinate), in --length units (default 0.02 mm whatever the unit).",
-        ),
-    ] = None,
-    convention: Annotated[str, typer.Option("--convention", help="edh | mdh | dh")] = "edh",
-    fix: Annotated[
-        str | None, typer.Option("--fix", help="Parameters held fixed (names or patterns, comma-separated).")
-    ] = None,
-    random: Annotated[
-        int | None,
-        typer.Option("--random", help="Plan N configurations spread over the joint limits instead of sweeps."),
-    ] = None,
-    candidates: Annotated[
-        Path | None,
-        typer.Option(
-            "--candidates",
-            help="CSV of candidate configurations (header q1..qn, --angle / --length units unless a '# units:' line declares them).",
-        ),
-    ] = None,
-    select: Annotated[
-        int | None,
-        typer.Option("--select", help="Pick this many most informative poses from the candidates (D-optimal)."),
-    ] = None,
+    ranges: RangesOpt = None,
+    home: HomeOpt = None,
+    points: PointsOpt = 30,
+    tool: ToolOpt = None,
+    noise: NoiseOpt = None,
+    convention: ConventionOpt = "edh",
+    fix: FixOpt = None,
+    random: RandomOpt = None,
+    candidates: CandidatesOpt = None,
+    select: SelectOpt = None,
     length: LengthOpt = "mm",
     angle: AngleOpt = "deg",
     json_out: JsonOpt = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
-    payload: Annotated[
-        str | None,
-        typer.Option(
-            "--payload",
-            help="Also predict the joints' compliances' sigmas for the planned poses measured twice, without payload and with this one: its mass with a unit and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\" (needs the model's link masses).",
-        ),
-    ] = None,
+    payload: PayloadOpt = None,
+    verbose: VerboseOpt = False,
 ) -> None:
     """Predict every parameter's sigma (Cramer-Rao bound) and the measuring volume of a protocol, before measuring."""
-    import numpy as np  # noqa: PLC0415
 
     from .. import calibration as cal  # noqa: PLC0415
     from ..io.configurations import read_configurations  # noqa: PLC0415
@@ -118,7 +128,7 @@ def plan(
         count(points, "--points", "points", least=3, counted="points per sweep")
     robot = load_robot(model, base_link, tip_link)
     n = len(robot.names)
-    ls, as_ = length_scale(length), angle_scale(angle)
+    ls = length_scale(length)
     convention = convention_name(convention)
     tp = parse_point(tool, "--tool", ls, TOOL_M)
     sigma = positive(noise, "--noise", ls, NOISE_M, length)
@@ -139,7 +149,6 @@ def plan(
     fixes = [f.strip() for f in (fix or "").split(",") if f.strip()]
     with status("planning..."):
         p = cal.plan(robot, protocol, q=q, noise=sigma, convention=convention, fix=fixes, tool=tp, select=select)
-    pz = p.parametrization
     cp = None
     if payload is not None:  # the two-payload protocol's compliances (calibration/compliance.py)
         from ..calibration.compliance import plan_compliance  # noqa: PLC0415
@@ -148,58 +157,7 @@ def plan(
         mass, com = parse_payload(payload, length)
         cp = plan_compliance(robot, p.q, (0.0, mass), com=com, noise=sigma, tool=tp, convention=convention)
     if json_out:
-        emit_json(
-            {
-                "model": robot.name,
-                "convention": pz.convention,
-                "units": SI_UNITS,
-                "noise_m": sigma,
-                "n_poses": len(p.q),
-                "parameters": [
-                    {
-                        "name": nm,
-                        "unit": calib_unit(pz.units[k], "m", "rad")[0],
-                        "sigma": None if not np.isfinite(p.sigma[k]) else float(p.sigma[k]),
-                    }
-                    for k, nm in enumerate(p.names)
-                ],
-                "axis_sigma": [
-                    {
-                        "joint": nm,
-                        "position_m": a[0],
-                        "direction_rad": a[1],
-                        **({"per_circle_position_m": c[0], "per_circle_direction_rad": c[1]} if c is not None else {}),
-                    }
-                    for nm, a, c in zip(
-                        robot.names,
-                        p.axis_sigma.tolist(),
-                        p.per_circle_sigma.tolist() if p.per_circle_sigma is not None else [None] * n,
-                    )
-                ],
-                "bounding_box": {"lengths_m": p.box.lengths.tolist(), "volume_m3": p.box.volume},
-                "identifiability": {
-                    "rank": p.identifiability.rank,
-                    "condition_number": p.identifiability.condition_number,
-                    "observability": p.identifiability.observability,
-                    "unidentifiable": [
-                        {"name": u.name, "structural": u.structural, "reason": u.reason}
-                        for u in p.identifiability.unidentifiable
-                    ],
-                },
-                "selected": None if p.selected is None else p.selected.tolist(),
-                "compliance": None
-                if cp is None
-                else [
-                    {
-                        "name": nm,
-                        "unit": "rad/(N m)" if k == "revolute" else "m/N",
-                        "sigma": None if not np.isfinite(s_) else float(s_),
-                    }
-                    for nm, k, s_ in zip(cp.names, robot.table.kinds, cp.sigma, strict=True)
-                ],
-            },
-            json_out,
-        )
+        emit_json(_plan_json(p, robot, sigma, cp), json_out)
         if json_out == "-":
             return
     what = (
@@ -207,6 +165,70 @@ def plan(
         if protocol is None
         else f"sweeps of {points} points"
     )
+    _print_plan(p, robot, cp, what, sigma, length, angle, verbose)
+
+
+def _plan_json(p, robot, sigma: float, cp) -> dict:
+    """The --json document of a plan (SI)."""
+    import numpy as np  # noqa: PLC0415
+
+    pz, n = p.parametrization, len(robot.names)
+    return {
+        "model": robot.name,
+        "convention": pz.convention,
+        "units": SI_UNITS,
+        "noise_m": sigma,
+        "n_poses": len(p.q),
+        "parameters": [
+            {
+                "name": nm,
+                "unit": calib_unit(pz.units[k], "m", "rad")[0],
+                "sigma": None if not np.isfinite(p.sigma[k]) else float(p.sigma[k]),
+            }
+            for k, nm in enumerate(p.names)
+        ],
+        "axis_sigma": [
+            {
+                "joint": nm,
+                "position_m": a[0],
+                "direction_rad": a[1],
+                **({"per_circle_position_m": c[0], "per_circle_direction_rad": c[1]} if c is not None else {}),
+            }
+            for nm, a, c in zip(
+                robot.names,
+                p.axis_sigma.tolist(),
+                p.per_circle_sigma.tolist() if p.per_circle_sigma is not None else [None] * n,
+            )
+        ],
+        "bounding_box": {"lengths_m": p.box.lengths.tolist(), "volume_m3": p.box.volume},
+        "identifiability": {
+            "rank": p.identifiability.rank,
+            "condition_number": p.identifiability.condition_number,
+            "observability": p.identifiability.observability,
+            "unidentifiable": [
+                {"name": u.name, "structural": u.structural, "reason": u.reason}
+                for u in p.identifiability.unidentifiable
+            ],
+        },
+        "selected": None if p.selected is None else p.selected.tolist(),
+        "compliance": None
+        if cp is None
+        else [
+            {
+                "name": nm,
+                "unit": "rad/(N m)" if k == "revolute" else "m/N",
+                "sigma": None if not np.isfinite(s_) else float(s_),
+            }
+            for nm, k, s_ in zip(cp.names, robot.table.kinds, cp.sigma, strict=True)
+        ],
+    }
+
+
+def _print_plan(p, robot, cp, what: str, sigma: float, length: str, angle: str, verbose: bool) -> None:
+    """A plan's tables: every parameter's sigma, the joint axes', the measuring volume, what the protocol cannot
+    identify (the redundant parameters by name, with their reasons under --verbose), the compliances."""
+    pz = p.parametrization
+    ls, as_ = length_scale(length), angle_scale(angle)
     say(
         "bold",
         f"Plan for {robot.name}",
@@ -238,10 +260,15 @@ def plan(
         f"Measuring volume (minimum oriented bounding box): {' x '.join(num(v / ls, length) for v in b.lengths)} {length}, {b.volume:.4g} m^3"
     )
     console.print(f"Identifiability: {p.identifiability.summary()}")
-    red = [u.name for u in p.identifiability.unidentifiable if u.structural]
-    if red:
+    red = [u for u in p.identifiability.unidentifiable if u.structural]
+    if red and verbose:
+        console.print(f"Redundant in the {pz.convention} parametrisation (held at nominal):")
+        for u in red:
+            console.print(f"  redundant: {u.name}: {u.reason}")
+    elif red:
         console.print(
-            f"Redundant in the {pz.convention} parametrisation (held at nominal; reasons with --json): {', '.join(red)}"
+            f"Redundant in the {pz.convention} parametrisation (held at nominal; reasons with --verbose): "
+            + ", ".join(u.name for u in red)
         )
     for u in p.identifiability.unidentifiable:
         if not u.structural:

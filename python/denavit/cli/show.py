@@ -7,30 +7,11 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from .common import (
-    SI_UNITS,
-    AngleOpt,
-    BaseLinkOpt,
-    ChainOnlyOpt,
-    JsonOpt,
-    LengthOpt,
-    ModelArg,
-    TipLinkOpt,
-    commands,
-    console,
-    emit_json,
-    fail,
-    json_target,
-    load_robot,
-    parse_joint_values,
-    print_rows,
-    print_table,
-    require_plot_extra,
-    say,
-    status,
-    table_rows,
-    wrote,
-)
+from .common import commands
+from .console import console, fail, print_rows, print_table, say, status, table_rows, wrote
+from .options import AngleOpt, BaseLinkOpt, ChainOnlyOpt, JsonOpt, LengthOpt, ModelArg, TipLinkOpt
+from .outputs import SI_UNITS, emit_json, json_target, require_plot_extra
+from .values import load_robot, parse_joint_values
 
 if TYPE_CHECKING:
     from ..robot import Robot
@@ -39,7 +20,7 @@ if TYPE_CHECKING:
 @commands.command()
 def models(json_out: JsonOpt = None) -> None:
     """List the built-in robots (names and descriptions: no units)."""
-    from ..robot import builtin_names, load  # noqa: PLC0415
+    from ..io.robots import builtin_names, load  # noqa: PLC0415
 
     json_out = json_target(json_out)
     rows = []

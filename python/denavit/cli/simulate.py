@@ -9,25 +9,11 @@ from typing import Annotated
 import typer
 
 from ..io.units import angle_scale, length_scale
-from .common import (
-    AngleOpt,
-    BaseLinkOpt,
-    LengthOpt,
-    ModelArg,
-    TipLinkOpt,
-    check_noises,
-    commands,
-    count,
-    fail,
-    load_robot,
-    parse_joint_values,
-    parse_point,
-    parse_ranges,
-    positive,
-    spread,
-    wrote,
-)
+from .common import commands
+from .console import fail, spread, wrote
+from .options import AngleOpt, BaseLinkOpt, LengthOpt, ModelArg, TipLinkOpt
 from .plan import NOISE_M, TOOL_M
+from .values import check_noises, count, load_robot, parse_joint_values, parse_point, parse_ranges, positive
 
 #: The default orientation noise of simulated 6-DoF poses (rad): 0.005 deg, a 6-DoF probe's (T-Mac class) order.
 NOISE_ROT_RAD = math.radians(0.005)
@@ -101,12 +87,13 @@ def simulate(
     tip_link: TipLinkOpt = None,
 ) -> None:
     """Simulate joint sweeps of a model (for planning a measurement and for tests); writes the long-form CSV."""
+    from dataclasses import replace  # noqa: PLC0415
+
     import numpy as np  # noqa: PLC0415
 
     from .. import sweeps as sw  # noqa: PLC0415
-    from ..io.output import write_text  # noqa: PLC0415
     from ..io.robotfile import parse_coupling  # noqa: PLC0415
-    from ..io.sweeps import to_long_csv  # noqa: PLC0415
+    from ..io.sweeps import WRITE_ROWS, write_long_csv  # noqa: PLC0415
 
     count(points, "--points", "points", least=3, counted="points per sweep")
     robot = load_robot(model, base_link, tip_link)
@@ -133,7 +120,7 @@ def simulate(
         ("--noise-rot", sigma_rot, "angle"),
         ("--noise-q", sigma_q, "joint"),
     )
-    s = sw.simulate(
+    s, pieces = sw.simulation(  # written a piece at a time as it is made (issue 41)
         m,
         home=h,
         ranges=r,
@@ -145,20 +132,21 @@ def simulate(
         targets=nest,
         poses=poses,
         noise_rot=sigma_rot,
+        rows=WRITE_ROWS,
     )
     C = parse_coupling(coupling, list(m.kinds), "--coupling") if coupling else robot.coupling
     if C is not None:  # the controller reports readings r = C^-1 q
         from ..identification import decoupled  # noqa: PLC0415
 
-        s = decoupled(s, np.linalg.inv(C))
-    write_text(
+        R = np.linalg.inv(C)
+        s, pieces = decoupled(s, R), (replace(p, q=p.q @ R.T) for p in pieces)  # each piece as decoupled does
+    write_long_csv(
         output,
-        to_long_csv(
-            s,
-            length,
-            angle,
-            f"simulated sweeps of {robot.name}: seed {seed}, noise {spread(sigma / ls)} {length}, readings noise {spread(sigma_q / as_)} {angle}",
-        ),
+        s,
+        length,
+        angle,
+        f"simulated sweeps of {robot.name}: seed {seed}, noise {spread(sigma / ls)} {length}, readings noise {spread(sigma_q / as_)} {angle}",
+        pieces,
     )
     what = (f", {len(nest)} targets per pose" if nest is not None and len(nest) > 1 else "") + (
         ", 6-DoF poses" if poses else ""

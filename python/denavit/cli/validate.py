@@ -8,27 +8,11 @@ from typing import Annotated
 import typer
 
 from ..io.units import angle_scale, length_scale
-from .common import (
-    AngleOpt,
-    BaseLinkOpt,
-    JsonOpt,
-    LengthOpt,
-    TipLinkOpt,
-    check_outputs,
-    commands,
-    console,
-    emit_json,
-    json_target,
-    load_robot,
-    parse_point,
-    positive,
-    print_rows,
-    require_plot_extra,
-    say,
-    spread,
-    status,
-    wrote,
-)
+from .common import commands
+from .console import console, print_rows, say, spread, status, wrote
+from .options import AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, TipLinkOpt
+from .outputs import check_outputs, emit_json, json_target, require_plot_extra
+from .values import load_robot, parse_point, positive
 
 #: Sessions of at most this many poses print every pose; larger ones the worst and the flagged ones up to it.
 ROWS = 30
@@ -148,7 +132,8 @@ def validate(
             payload=_payload(payload, length),
         )
     if json_path:
-        emit_json(va.to_json(res), json_path)
+        from ..io.results import to_json  # noqa: PLC0415
+        emit_json(to_json(res), json_path)
     if json_path != "-":
         print_validation(res, length, angle, ls, as_)
     if report or plot:

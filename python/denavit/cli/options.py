@@ -1,0 +1,77 @@
+"""The options several commands share, declared once as typed annotations (``Annotated[..., typer.Option(...)]``):
+the same name, meaning and default in every command (docs/cli.md, "Options by command")."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import typer
+
+ModelArg = Annotated[
+    str, typer.Argument(help="A built-in name (see `denavit models`), a robot file (.toml) or a URDF.")
+]
+
+
+LengthOpt = Annotated[
+    str,
+    typer.Option(
+        "--length", help="Length unit of what is typed and printed: mm (default) | m | cm | um | in. JSON stays SI."
+    ),
+]
+
+
+AngleOpt = Annotated[
+    str, typer.Option("--angle", help="Angle unit of what is typed and printed: deg (default) | rad. JSON stays SI.")
+]
+
+
+JsonOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--json",
+        metavar="[PATH]",
+        help="Write the result as JSON (SI: m, rad) to PATH; '-' or no PATH: standard output, instead of the tables.",
+    ),
+]
+
+
+BaseLinkOpt = Annotated[
+    str | None, typer.Option("--base-link", help="URDF model: the chain's base link (default: the root link).")
+]
+
+
+TipLinkOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--tip-link",
+        help="URDF model: the chain's tip link (default: the single leaf, REP-199's tool0, or the leaf through the most moving joints; echoed).",
+    ),
+]
+
+
+ChainOnlyOpt = Annotated[
+    bool,
+    typer.Option(
+        "--chain-only",
+        help="URDF model: the chain alone, without the links off it (in the dynamics and in a URDF written).",
+    ),
+]
+
+
+ForceOpt = Annotated[
+    bool,
+    typer.Option(
+        "--force",
+        help="Replace an output file that is read-only, and write through one with several hard links (in place: every name "
+        "gets the new content); without it both are refused. A replaced file keeps its owner and mode.",
+    ),
+]
+
+VerboseOpt = Annotated[
+    bool,
+    typer.Option(
+        "--verbose",
+        help="Every parameter the data (or the protocol) cannot identify, with the reason, and the fit's choices in "
+        "full (default: their names in a few lines).",
+    ),
+]
