@@ -806,3 +806,63 @@ def test_file_lines_are_a_sequence_of_places():
         len(w) == 3 and w[0] == "f.csv:3" and w[-1] == "f.csv:7" and list(w[::-1]) == ["f.csv:7", "f.csv:4", "f.csv:3"]
     )
     assert list(w[np.array([2, 0])]) == ["f.csv:7", "f.csv:3"] and bool(w) and not swio.FileLines("f.csv", [])
+
+
+def test_the_memory_mapped_pieces_read_what_the_row_by_row_reader_reads(tmp_path, monkeypatch):
+    """A file beyond ARROW_BYTES is read from a memory map in pieces (made tiny here: many pieces, a row across
+    each cut) by Arrow on threads: the same sweeps and places as the row-by-row reader; a bad cell deep in it, a
+    lone carriage return or a blank line send it to that reader, which names the line."""
+    monkeypatch.setattr(dl, "ARROW_BYTES", 1000)
+    monkeypatch.setattr(dl, "PIECE_BYTES", 4096)
+    _, f = _long_file(tmp_path, "s.csv", points=300)
+    text = f.read_text()
+    slow = tmp_path / "slow.csv"
+    slow.write_text(text + "# the end\n")
+    head = dl.plain_head(f, "sweep file")
+    assert head is not None and dl.plain_columns(f, head, ",", 10, [[0], [7, 8, 9]]) is not None
+    a, b = swio.read_long_csv(f), swio.read_long_csv(slow)
+    assert np.array_equal(a.home, b.home)
+    for x, y in zip(a.sweeps, b.sweeps, strict=True):
+        assert np.array_equal(x.points, y.points) and np.array_equal(x.q, y.q)
+        assert list(x.where) == [w.replace("slow.csv", "s.csv") for w in y.where]
+    lines = text.splitlines()
+    f.write_text("\n".join(lines[:1200] + [lines[1200][:-3] + "x1"] + lines[1201:]) + "\n")
+    assert dl.plain_columns(f, head, ",", 10, [[0], [7, 8, 9]]) is None
+    assert dl.plain_columns(f, head, ",", 10, [[0]]) is not None  # a column not asked for is split, not converted
+    with pytest.raises(dv.DenavitError, match=r"s.csv:1201: column 'z' must be a number, got '"):
+        swio.read_long_csv(f)
+    f.write_text("\n".join(lines[:1000]) + "\r" + "\n".join(lines[1000:]) + "\n")
+    assert dl.plain_columns(f, head, ",", 10, [[0]]) is None  # a lone \r: rows and lines would part
+    f.write_text("\n".join(lines[:1000]) + "\n\n" + "\n".join(lines[1000:]) + "\n")
+    assert dl.plain_columns(f, head, ",", 10, [[0]]) is None
+    assert swio.read_long_csv(f).sweeps[5].where[-1] == f"{f}:{len(lines) + 1}"
+
+
+def test_simulation_gives_simulate_s_sweeps_a_piece_at_a_time(tmp_path):
+    """The pieces of sweeps.simulation, whatever their size, are simulate's sweeps (the same noise for the seed),
+    and write_long_csv streaming them writes the bytes to_long_csv gives."""
+    kr5 = dv.load_robot("kr5").model()
+    kw = dict(
+        home=np.radians(sw.PAPER_HOME_DEG),
+        ranges=np.radians(sw.PAPER_RANGES_DEG[30]),
+        points_per_sweep=23,
+        noise=2e-5,
+        noise_q=1e-5,
+        seed=5,
+        targets=[[0.05, 0.03, 0.1], [0.0, 0.0, 0.12]],
+        poses=True,
+        noise_rot=1e-4,
+    )
+    whole = sw.simulate(kr5, **kw)
+    shape, pieces = sw.simulation(kr5, rows=5, **kw)
+    pieces = list(pieces)
+    assert [len(p.points) for p in pieces[:5]] == [5, 5, 5, 5, 3] and len(pieces) == 30
+    for s in whole.sweeps:
+        mine = [p for p in pieces if p.joint == s.joint]
+        for name in ("points", "q", "targets", "rotations"):
+            assert np.array_equal(getattr(s, name), np.concatenate([getattr(p, name) for p in mine])), name
+    f = tmp_path / "w.csv"
+    swio.write_long_csv(f, shape, "mm", "deg", "a comment", iter(pieces))
+    assert f.read_text() == swio.to_long_csv(whole, "mm", "deg", "a comment")
+    back = swio.read_long_csv(f)
+    assert all(np.array_equal(a.q, b.q / (np.pi / 180) * (np.pi / 180)) for a, b in zip(back.sweeps, whole.sweeps))
