@@ -866,3 +866,13 @@ def test_simulation_gives_simulate_s_sweeps_a_piece_at_a_time(tmp_path):
     assert f.read_text() == swio.to_long_csv(whole, "mm", "deg", "a comment")
     back = swio.read_long_csv(f)
     assert all(np.array_equal(a.q, b.q / (np.pi / 180) * (np.pi / 180)) for a, b in zip(back.sweeps, whole.sweeps))
+
+
+def test_a_blank_line_after_the_header_keeps_the_line_numbers(tmp_path):
+    """A blank line between the header and the first row is not a row: numpy's reader would skip it and the rows'
+    line numbers would slip by one; the row-by-row reader reads such a file and names the right lines."""
+    assert dl.numeric_table(b"\n1,2,3\n", ",", 3) is None and dl.numeric_table(b"\r\n1,2,3\n", ",", 3) is None
+    _, f = _long_file(tmp_path, "s.csv", points=10)
+    lines = f.read_text().splitlines()
+    f.write_text("\n".join(lines[:4] + [""] + lines[4:]) + "\n")
+    assert swio.read_long_csv(f).sweeps[0].where[0] == f"{f}:6"

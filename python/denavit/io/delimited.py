@@ -139,6 +139,7 @@ def numeric_table(data: bytes, delim: str, ncols: int) -> np.ndarray | None:
         end -= 1
     if (
         not end
+        or data[:1] in (b"\n", b"\r")  # a blank line before the first row
         or data.find(b"\n\n", 0, end) >= 0
         or (b"\r" in data and (data.count(b"\r") != data.count(b"\r\n") or data.find(b"\n\r\n", 0, end) >= 0))
     ):
