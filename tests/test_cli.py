@@ -380,3 +380,40 @@ def test_the_entry_point_end_to_end_exit_codes_and_streams():
     assert p.returncode == 1 and "not solved" in p.stdout
     p = run_process("fk", "kr5", "--q", "1,2", ok=False)
     assert p.returncode == 2 and p.stdout == "" and p.stderr.startswith("error: --q: expected 6 joint values")
+
+
+def test_fk_prints_the_pose_that_ik_reads_round_trip():
+    """One pose format (issue 40): fk prints x,y,z and the rotation vector, ik --goal reads that line as printed,
+    in mm/deg and in m/rad, and lands on the same tool pose; fk --json gives the matrix and the vector."""
+    m = dv.load_model("kr5")
+    q = np.radians([10, -30, 40, 20, 35, -15])
+    for units, q_text, q0 in (
+        ([], "10,-30,40,20,35,-15", "5,-25,35,15,30,-10"),
+        (["--length", "m", "--angle", "rad"], ",".join(map(str, q.tolist())), ",".join(map(str, (q - 0.08).tolist()))),
+    ):
+        out = run("fk", "kr5", "--q", q_text, *units).stdout
+        goal = next(ln for ln in out.splitlines() if ln.startswith("pose")).split(": ", 1)[1]
+        doc = json.loads(run("ik", "kr5", "--goal", goal, "--q0", q0, "--json", *units).stdout)
+        assert doc["success"]
+        np.testing.assert_allclose(dv.fk(m, doc["q"]), dv.fk(m, q), atol=1e-8)
+    doc = json.loads(run("fk", "kr5", "--q", "10,-30,40,20,35,-15", "--json").stdout)
+    T, v = np.array(doc["T_world_tool"]), np.array(doc["pose"]["rotvec_rad"])
+    theta = np.linalg.norm(v)
+    k = v / theta
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    np.testing.assert_allclose(np.eye(3) + np.sin(theta) * K + (1 - np.cos(theta)) * K @ K, T[:3, :3], atol=1e-12)
+    np.testing.assert_allclose(doc["pose"]["xyz_m"], T[:3, 3], atol=1e-15)
+
+
+def test_ik_pose_is_a_deprecated_alias_read_as_roll_pitch_yaw():
+    """--pose (x,y,z,roll,pitch,yaw) keeps working, with one warning line; --goal 'rpy: ...' names the convention."""
+    m = dv.load_model("kr5")
+    T = dv.fk(m, np.radians([10, -30, 40, 20, 35, -15]))
+    from denavit.geometry import matrix_rpy
+
+    text = ",".join(repr(float(v)) for v in [*(T[:3, 3] * 1e3), *np.degrees(matrix_rpy(T[:3, :3]))])
+    old = run("ik", "kr5", "--pose", text, "--q0", "5,-25,35,15,30,-10", "--json")
+    new = run("ik", "kr5", "--goal", f"rpy: {text}", "--q0", "5,-25,35,15,30,-10", "--json")
+    assert old.stderr.count("warning: --pose x,y,z,roll,pitch,yaw is deprecated") == 1 and new.stderr == ""
+    np.testing.assert_allclose(json.loads(old.stdout)["q"], json.loads(new.stdout)["q"], atol=1e-12)
+    np.testing.assert_allclose(dv.fk(m, json.loads(new.stdout)["q"]), T, atol=1e-9)

@@ -11,7 +11,7 @@ from .common import commands
 from .console import num, print_rows, say
 from .options import AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, ModelArg, TipLinkOpt
 from .outputs import SI_UNITS, emit_json, json_target, pose_rows
-from .values import load_robot, parse_joint_values
+from .values import load_robot, parse_joint_values, pose_text
 
 
 @commands.command()
@@ -32,6 +32,7 @@ def fk(
 ) -> None:
     """Forward kinematics: the tool pose and every joint frame (T_world_joint)."""
     from .. import _core  # noqa: PLC0415
+    from ..geometry import matrix_rotvec  # noqa: PLC0415
 
     json_out = json_target(json_out)
     robot = load_robot(model, base_link, tip_link)
@@ -48,6 +49,7 @@ def fk(
                 "q": qv.tolist(),
                 "joint_units": ["rad" if k == "revolute" else "m" for k in robot.table.kinds],
                 "T_world_tool": pose_rows(T, 1.0),
+                "pose": {"xyz_m": T[:3, 3].tolist(), "rotvec_rad": matrix_rotvec(T[:3, :3]).tolist()},
                 "T_world_joint": {n: pose_rows(F, 1.0) for n, F in zip(robot.names, frames)},
             },
             json_out,
@@ -55,6 +57,11 @@ def fk(
         if json_out == "-":
             return
     say("bold", robot.name, f" ({robot.description})")
+    say(
+        "bold",
+        "pose",
+        f" (x,y,z [{length}], rotation vector [{angle}]; ik --goal reads it): {pose_text(T, length, angle)}",
+    )
     print_rows(
         "T_world_tool",
         ["", "x [1]", "y [1]", "z [1]", f"p [{length}]"],

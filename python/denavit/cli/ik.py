@@ -13,19 +13,29 @@ from .common import commands
 from .console import console, fail, num, print_rows, spread
 from .options import AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, ModelArg, TipLinkOpt
 from .outputs import SI_UNITS, emit_json, json_target, pose_rows
-from .values import joint_values_out, load_robot, parse_joint_values, parse_pose, positive
+from .values import deprecated, joint_values_out, load_robot, parse_joint_values, parse_numbers, parse_pose, positive
 
 
 @commands.command()
 def ik(
     model: ModelArg,
+    goal: Annotated[
+        str | None,
+        typer.Option(
+            "--goal",
+            help="The tool pose to reach (T_world_tool), as fk prints it: x, y, z, rx, ry, rz (--length units, then the "
+            "rotation vector in --angle units); 'rpy: x, y, z, roll, pitch, yaw' names roll, pitch, yaw instead (R = "
+            "Rz(yaw) Ry(pitch) Rx(roll)); or the rows of the 4x4 pose, 16 (or 12) numbers, the translation in --length "
+            "units.",
+        ),
+    ] = None,
     pose: Annotated[
-        str,
+        str | None,
         typer.Option(
             "--pose",
-            help="Target T_world_tool: x, y, z, roll, pitch, yaw (six numbers separated by commas) (--length and --angle units; R = Rz(yaw) Ry(pitch) Rx(roll)) or the rows of the 4x4 pose, 16 (or 12) numbers, the translation in --length units.",
+            help="Deprecated: --goal; six numbers here are x, y, z, roll, pitch, yaw (R = Rz(yaw) Ry(pitch) Rx(roll)).",
         ),
-    ],
+    ] = None,
     q0: Annotated[
         str | None,
         typer.Option(
@@ -69,7 +79,11 @@ def ik(
     robot = load_robot(model, base_link, tip_link)
     m = robot.model()
     ls, as_ = length_scale(length), angle_scale(angle)
-    T = parse_pose(pose, angle, ls)
+    if (goal is None) == (pose is None):
+        fail("give the tool pose to reach: --goal x,y,z,rx,ry,rz (as fk prints it)")
+    T = parse_pose(goal, angle, ls, "--goal", six="rotvec") if goal is not None else parse_pose(pose, angle, ls)
+    if pose is not None and len(parse_numbers(pose, "--pose")) == 6 and not pose.strip().lower().startswith("rpy"):
+        deprecated("--pose x,y,z,roll,pitch,yaw", "--goal 'rpy: x,y,z,roll,pitch,yaw' (or --goal x,y,z,rx,ry,rz)")
     start = parse_joint_values(q0, "--q0", robot, length, angle)
     tp = positive(tol_position, "--tol-position", ls, 1e-10, length)
     tr = positive(tol_rotation, "--tol-rotation", as_, 1e-10, angle)
@@ -87,7 +101,7 @@ def ik(
         )
     except DenavitError as e:  # the core names the target T_target (the error's `what`): say which option gave it
         if e.what == "T_target":
-            fail(f"--pose: {e}")
+            fail(f"{'--goal' if goal is not None else '--pose'}: {e}")
         raise
     if json_out:
         emit_json(

@@ -151,16 +151,21 @@ def parse_ranges(text: str | None, robot: Robot, length: str, angle: str, defaul
     return protocol_ranges(robot, r)
 
 
-def parse_pose(text: str, angle: str, ls: float, what: str = "--pose") -> np.ndarray:
-    """A pose from the command line: 16 (or 12) numbers, the rows of the 4x4 matrix, or 6 numbers
-    x,y,z,roll,pitch,yaw with R = Rz(yaw) Ry(pitch) Rx(roll) (URDF's rpy); positions scaled by ``ls``
-    (metres per unit), angles in ``angle``."""
+def parse_pose(text: str, angle: str, ls: float, what: str = "--pose", six: str = "rpy") -> np.ndarray:
+    """A pose from the command line, SI out: 16 (or 12) numbers, the rows of the 4x4 matrix; or 6 numbers, the
+    position x,y,z and the orientation: a rotation vector rx,ry,rz (the pose format ``fk`` prints and the targets
+    files hold) when ``six`` is "rotvec", roll,pitch,yaw with R = Rz(yaw) Ry(pitch) Rx(roll) (URDF's rpy) when it is
+    "rpy"; a text starting ``rpy:`` or ``rotvec:`` names its convention whatever ``six`` says. Positions scaled by
+    ``ls`` (metres per unit), angles in ``angle``."""
     import numpy as np  # noqa: PLC0415
 
     from .. import limits  # noqa: PLC0415
-    from ..geometry import xyz_rpy_pose  # noqa: PLC0415
+    from ..geometry import pose, rotvec_matrix, xyz_rpy_pose  # noqa: PLC0415
     from ..io.units import angle_scale  # noqa: PLC0415
 
+    head, sep, rest = text.partition(":")
+    if sep and head.strip().lower() in ("rpy", "rotvec"):
+        six, text = head.strip().lower(), rest
     v = parse_numbers(text, what)
     unit = _length_unit(ls)
     if len(v) in (12, 16):
@@ -169,14 +174,26 @@ def parse_pose(text: str, angle: str, ls: float, what: str = "--pose") -> np.nda
         T[:3, 3] *= ls
         limits.check_lengths(T[:3, 3], f"{what}: position", unit, ls)
         return T
+    names = "roll, pitch, yaw" if six == "rpy" else "rotation vector"
     if len(v) == 6:
         limits.check_lengths(np.array(v[:3]) * ls, f"{what}: position", unit, ls)
-        limits.check_angles(
-            np.array(v[3:]) * angle_scale(angle), f"{what}: roll, pitch, yaw", angle, angle_scale(angle)
-        )
-        return xyz_rpy_pose(np.array(v[:3]) * ls, np.array(v[3:]) * angle_scale(angle))
-    fail(f"{what}: expected 16 or 12 numbers (rows of the 4x4 pose) or 6 (x,y,z,roll,pitch,yaw), got {len(v)}")
+        a = np.array(v[3:]) * angle_scale(angle)
+        limits.check_angles(a, f"{what}: {names}", angle, angle_scale(angle))
+        xyz = np.array(v[:3]) * ls
+        return xyz_rpy_pose(xyz, a) if six == "rpy" else pose(rotvec_matrix(a), xyz)
+    fail(
+        f"{what}: expected 16 or 12 numbers (rows of the 4x4 pose) or 6 (x,y,z,{names.replace(', ', ',')}), got {len(v)}"
+    )
     raise AssertionError
+
+
+def pose_text(T: np.ndarray, length: str, angle: str) -> str:
+    """The pose format: x,y,z (``length``) and the rotation vector rx,ry,rz (``angle``), ten significant digits, as
+    ``ik --goal`` reads it."""
+    from ..geometry import matrix_rotvec  # noqa: PLC0415
+
+    v = [*(T[:3, 3] / length_scale(length)), *(matrix_rotvec(T[:3, :3]) / angle_scale(angle))]
+    return ",".join(f"{x:.10g}" if abs(x) >= 1e-12 else "0" for x in v)
 
 
 def parse_point(text: str | None, what: str, ls: float, default_si: Sequence[float]) -> np.ndarray:
@@ -246,3 +263,15 @@ def calib_unit(unit: str, length: str, angle: str) -> tuple[str, float]:
     if unit in ("rad/(N m)", "m/N"):  # a joint compliance (calibration/compliance.py)
         return ("urad/(N m)" if unit == "rad/(N m)" else "um/N"), 1e-6
     return "1", 1.0
+
+
+def deprecated(old: str, new: str) -> None:
+    """One ``warning:`` line on stderr, once per command run, that the spelling ``old`` is deprecated for ``new``
+    (docs/cli.md, "Deprecated spellings"); the old spelling keeps working."""
+    import click  # noqa: PLC0415
+
+    ctx = click.get_current_context(silent=True)
+    seen = ctx.meta.setdefault("denavit.deprecated", set()) if ctx is not None else set()
+    if old not in seen:
+        seen.add(old)
+        say("bold yellow", "warning:", f" {old} is deprecated: use {new}", err=True)
