@@ -221,7 +221,7 @@ def compensate(
     elif predict and isinstance(identified, Robot) and identified.covariance is not None:
         predicted = table_sigma(identified, q)  # e.g. a robot file's [covariance]
     if predict and el is not None:
-        predicted = el.predicted(predicted, qc, pl)
+        predicted = compliant_sigma(el, predicted, qc, pl)
     commands, q_cmd, before, before_rot = r.commands, q, r.before_position, r.before_rotation
     if el is not None:
         q_cmd, commands = qc, _core.fk_batch(nom, qc)
@@ -474,6 +474,20 @@ def predicted_sigma(result, q) -> np.ndarray:
     raise DenavitError(
         f"result: expected an identification or a calibration result with a covariance, got {type(result).__name__}"
     )
+
+
+def compliant_sigma(el, geometric, q, payload=None) -> np.ndarray | None:
+    """The predicted tool-position error (1 sigma, m) at the commanded readings ``q`` of a robot with compliant joints
+    (``el``, a :class:`denavit.calibration.compliance.Elastic`): from the calibration's full covariance when it came
+    from one (geometry and compliances with their correlations), else ``geometric`` (N,) (the geometry's prediction,
+    or None) and the compliances' own part in quadrature."""
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    if el.calibration is not None:
+        return predicted_sigma(el.calibration, np.hstack([q, el.torques(q, payload)]))
+    if geometric is None and el.covariance is None:
+        return None
+    g = np.zeros(len(q)) if geometric is None else np.asarray(geometric, dtype=float)
+    return np.sqrt(g**2 + el.sigma(q, payload) ** 2)
 
 
 def _scaled(q: np.ndarray, scale, reference, theta_scale: np.ndarray) -> np.ndarray:

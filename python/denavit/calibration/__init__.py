@@ -32,8 +32,9 @@ from .identifiability import Identifiability, Unidentifiable
 from .measurements import Measurements
 from .parametrization import Parametrization, configurations, parametrize
 from .plan import Plan, Protocol, axis_lines, plan, select_poses
+from .result import Calibration, Validation
 from .simulate import simulate
-from .solve import Calibration, Validation, calibrate
+from .solve import calibrate
 from .targets import TargetMeasurements
 
 __all__ = [

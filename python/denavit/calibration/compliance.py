@@ -324,20 +324,6 @@ class Elastic:
             out[i] = math.sqrt(max(float(np.trace(A @ self.covariance @ A.T)), 0.0))
         return out
 
-    def predicted(self, geometric, q, payload=None) -> np.ndarray | None:
-        """The predicted tool-position error (1 sigma, m) at the commanded readings ``q`` with the compliances: from
-        the calibration's full covariance when it came from one (geometry and compliances with their correlations),
-        else ``geometric`` (N,) (the geometry's prediction, or None) and the compliances' own part in quadrature."""
-        q = np.atleast_2d(np.asarray(q, dtype=float))
-        if self.calibration is not None:
-            from ..compensation import predicted_sigma  # noqa: PLC0415 (compensation imports this module)
-
-            return predicted_sigma(self.calibration, np.hstack([q, self.torques(q, payload)]))
-        if geometric is None and self.covariance is None:
-            return None
-        g = np.zeros(len(q)) if geometric is None else np.asarray(geometric, dtype=float)
-        return np.sqrt(g**2 + self.sigma(q, payload) ** 2)
-
 
 def elastic(identified) -> Elastic | None:
     """The :class:`Elastic` of an identified robot whose joints are compliant (a Robot with a ``[compliance]``, a

@@ -1,11 +1,11 @@
-"""The calibration itself: one least-squares fit of the whole kinematic model (:func:`calibrate`), its result
-(:class:`Calibration`) and its JSON document."""
+"""The calibration itself: one least-squares fit of the whole kinematic model (:func:`calibrate`; its result is
+:class:`~denavit.calibration.result.Calibration`)."""
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
 import numpy as np
 
@@ -15,8 +15,8 @@ from ..fitting.joint import as_tracker_noise
 from ..fitting.robust import loss_weight
 from ..robot import Robot, robot_of
 from ..sweeps import SweepSet
-from .compliance import robot_compliance, with_compliance, with_payload
-from .identifiability import Identifiability, analyze, parameter_status
+from .compliance import with_compliance, with_payload
+from .identifiability import analyze, parameter_status
 from .least_squares import covariance, fit_parameters, prior_block, residuals, weights
 from .measurements import Measurements
 from .parametrization import (
@@ -28,265 +28,12 @@ from .parametrization import (
 )
 from .priors import PRIOR_DOMINATED, as_prior
 from .registration import register
-from .selection import MODELS, ModelChoice, select_model
+from .result import OUTLIER_SIGMAS, Calibration, Validation, strong_correlations
+from .selection import MODELS, select_model
 from .targets import calibrate_targets, several_targets, sweep_poses
 
 #: scipy.optimize.least_squares' robust losses (per residual coordinate).
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
-#: Points whose 3-D misfit exceeds this many robust sigmas are flagged (4-sigma tail of a 1-D deviation for a
-#: 3-D misfit, as :data:`denavit.fitting.robust.CHI_4SIGMA` [3]).
-OUTLIER_SIGMAS = 4.70
-
-
-@dataclass(frozen=True)
-class Validation:
-    """Tool-position errors (m) on held-out poses, before (nominal geometry, base and tool fitted on the
-    training poses) and after calibration."""
-
-    n_train: int
-    n_test: int
-    before_rms: float
-    before_max: float
-    after_rms: float
-    after_max: float
-    test_indices: np.ndarray
-
-    def __repr__(self) -> str:
-        return (
-            f"Validation({self.n_test} held-out of {self.n_train + self.n_test} poses: tool-position error rms {self.before_rms * 1e3:.4g} -> "
-            f"{self.after_rms * 1e3:.4g} mm, max {self.before_max * 1e3:.4g} -> {self.after_max * 1e3:.4g} mm)"
-        )
-
-
-@dataclass(frozen=True, eq=False)
-class Calibration:
-    """The result of :func:`calibrate` (SI inside; ``world`` = the measurement frame).
-
-    ``values`` / ``sigma`` / ``status`` are per parameter (``names``); ``sigma`` is NaN for parameters not
-    estimated (``status`` "fixed" by the user or the parametrisation, or "unidentifiable": see
-    ``identifiability.unidentifiable`` for the reason). ``covariance`` and ``correlation`` are over
-    ``free_names`` (in that order).
-    """
-
-    parametrization: Parametrization
-    names: list
-    values: np.ndarray
-    sigma: np.ndarray
-    status: list
-    nominal: np.ndarray
-    start: np.ndarray
-    free_names: list
-    covariance: np.ndarray
-    correlation: np.ndarray
-    identifiability: Identifiability
-    residuals: np.ndarray
-    rms: float
-    rms_rotation: float
-    outliers: np.ndarray
-    validation: Validation | None
-    measurements: Measurements
-    loss: str
-    converged: bool
-    evaluations: int
-    elapsed: float
-    noise: float
-    notes: list = field(default_factory=list)
-    #: the candidate models scored by leave-one-pose-out prediction error and the one chosen (:mod:`~denavit.calibration.selection`)
-    model_choice: ModelChoice | None = None
-    #: the prior width of every parameter (SI; inf: no prior) when the chosen model is maximum a posteriori, else None
-    prior_sigma: np.ndarray | None = None
-
-    @property
-    def convention(self) -> str:
-        return self.parametrization.convention
-
-    def __repr__(self) -> str:
-        est = int(np.count_nonzero(np.isfinite(self.sigma)))
-        v = self.validation
-        held = "" if v is None else f"; held-out error rms {v.before_rms * 1e3:.4g} -> {v.after_rms * 1e3:.4g} mm"
-        return (
-            f"Calibration({self.parametrization.robot.name}, {self.convention}, {self.measurements.n} {self.measurements.kind}s of {self.measurements.source}, "
-            f"{est} of {len(self.names)} parameters estimated, {'converged' if self.converged else 'NOT converged'})\n"
-            f"  rms {self.rms * 1e3:.4g} mm{held}; {len(self.notes)} notes"
-            + ("" if self.model_choice is None else f"\n  {self.model_choice.short()}")
-        )
-
-    def value(self, name: str) -> tuple[float, float]:
-        """(value, sigma) of one parameter (SI)."""
-        k = self.parametrization.index(name)
-        return float(self.values[k]), float(self.sigma[k])
-
-    @property
-    def scales(self) -> dict:
-        """Joint scale corrections (``q -> q (1 + scale)``), when estimated."""
-        return {n: float(v) for n, v in zip(self.names, self.values, strict=True) if n.startswith("scale_")}
-
-    def model(self, name: str | None = None) -> _core.Model:
-        """The calibrated kinematic model (world = the measurement frame)."""
-        return self.parametrization.model(self.values, name or f"{self.parametrization.robot.name} calibrated")
-
-    def table(self, convention: str | None = None) -> _core.Table:
-        """The calibrated model as a parameter table (default: the calibration convention; an MDH table
-        cannot hold Hayati angles: prefer ``edh`` or :meth:`model` then)."""
-        conv = self.convention if convention is None else _core.convention_info(convention)["name"]
-        m = self.model()
-        return _core.extract(_core.axes(m, np.zeros(m.nq)), conv, **self._extract_options(conv)).table
-
-    def _extract_options(self, convention: str) -> dict:
-        """The extraction of a ``convention`` table against the nominal's own table in that convention (and, for
-        ED-H, the nominal's frame origins on the body): without that reference a pair of axes that is parallel on
-        the nominal takes the common normal of its small tilt, which slides along the axes with the noise (a KR5's
-        b_2, b_3 and theta_2 had sigmas of 2.5 m and 1.5 rad in the saved covariance)."""
-        from ..identification.frames import nominal_convention_table, origins  # noqa: PLC0415 (identify imports this package)
-
-        robot = self.parametrization.robot
-        home = np.zeros(len(robot.names))
-        ref = nominal_convention_table(robot, convention, home)
-        opts = {"nominal": ref, "origins": origins(ref, convention, home)}
-        if convention == "edh":
-            opts["parallel_tol"] = self._edh_parallel_tol()
-        return opts
-
-    def _edh_parallel_tol(self) -> float:
-        """ED-H's ``parallel_tol`` against the nominal, as identify's (``identify.EDH_PARALLEL_SIGMAS`` sigmas of the
-        tilt of the pairs of axes the nominal has parallel, at least 1e-9): only a tilt the data cannot tell from zero
-        is dropped. The tilt ``z_i x z_(i+1)`` and its covariance from this calibration's, by central differences."""
-        from ..identification.frames import EDH_PARALLEL_SIGMAS  # noqa: PLC0415
-
-        pz = self.parametrization
-        nom = pz.robot.model()
-        z = np.asarray(_core.axes(nom, np.zeros(nom.nq)).directions)
-        pairs = [k for k in range(len(z) - 1) if np.linalg.norm(np.cross(z[k], z[k + 1])) < 1e-9]
-        if not pairs:
-            return 1e-3
-
-        def tilts(x):
-            m = pz.model(x)
-            d = np.asarray(_core.axes(m, np.zeros(m.nq)).directions)
-            return np.concatenate([np.cross(d[k], d[k + 1]) for k in pairs])
-
-        free = [pz.index(k) for k in self.free_names]
-        J = np.zeros((3 * len(pairs), len(free)))
-        for c, i in enumerate(free):
-            e = np.zeros_like(self.values)
-            e[i] = 1e-7
-            J[:, c] = (tilts(self.values + e) - tilts(self.values - e)) / 2e-7
-        C = J @ np.asarray(self.covariance) @ J.T
-        sig = [math.sqrt(max(np.trace(C[3 * k : 3 * k + 3, 3 * k : 3 * k + 3]), 0.0)) for k in range(len(pairs))]
-        sig = [v for v in sig if math.isfinite(v)]
-        return min(1e-3, max(EDH_PARALLEL_SIGMAS * max(sig, default=0.0), 1e-9))
-
-    def robot(self, name: str | None = None, convention: str = "edh") -> Robot:
-        """A :class:`Robot` of the calibrated model (for :func:`denavit.io.robotfile.save` and
-        :func:`denavit.io.urdf.save_urdf`): the nominal's names, limits, home and extras (a URDF nominal's meshes,
-        inertials and limits ride along), and the joint scales when estimated (``reading_scale``, about zero: what
-        compensate applies to the readings)."""
-        r = self.parametrization.robot
-        table = self.table(convention)
-        carried = self.carried_error(table)
-        comp = _compliance_fields(self, r, table)
-        lossy = (
-            f"; the {table.convention} table carries a tool-position error up to {carried * 1e3:.3g} mm (a tilt of axes the nominal has parallel, within 3 sigma of zero, dropped)"
-            if carried > 1e-9
-            else ""
-        )
-        return Robot(
-            name or f"{r.name}_calibrated",
-            table,
-            list(r.names),
-            r.lower,
-            r.upper,
-            description=f"{r.name} calibrated from {self.measurements.source} ({self.convention}, {self.measurements.n} poses{lossy})",
-            source=self.measurements.source,
-            home=r.home,
-            extra=dict(r.extra),
-            inertials=comp.pop("inertials", r.inertials if r.convention == convention else None),
-            reading_scale=np.array([self.scales.get(f"scale_{j + 1}", 0.0) for j in range(len(r.names))])
-            if self.scales
-            else None,
-            covariance=self.table_covariance(table),
-            **comp,
-        )
-
-    def carried_error(self, table: _core.Table) -> float:
-        """The largest tool-position difference (m) between ``table`` and the calibrated model over 256 configurations
-        within the limits (``configurations``, deterministic) and the zero configuration."""
-        m = self.model()
-        q = np.vstack([np.zeros(m.nq), configurations(self.parametrization.robot, 256)])
-        r = self.parametrization.robot
-        tm = table.to_model("table", list(r.names), r.lower, r.upper)
-        return float(np.max(np.linalg.norm(_core.fk_batch(tm, q)[:, :3, 3] - _core.fk_batch(m, q)[:, :3, 3], axis=1)))
-
-    def table_covariance(self, table: _core.Table) -> np.ndarray | None:
-        """The SI covariance of [``table``'s parameters (row-major), its tool translation in the last frame (, the
-        joint scales, when estimated)], the robot file's ``[covariance]``: :attr:`covariance` of the free parameters
-        mapped through this calibration's model and the core's extraction of ``table`` (``J C J^T``, ``J`` by central
-        differences; angles wrapped about ``table``'s). The base registration is left out (it is where the measurement
-        frame stands, not the robot's geometry: targets are given in the robot base frame, as ``compensate`` assumes)."""
-        pz = self.parametrization
-        opts = self._extract_options(table.convention)
-        n = len(pz.robot.names)
-        free = [pz.index(k) for k in self.free_names]
-        keep = [i for i, k in enumerate(self.free_names) if not k.startswith("base_")]
-        p_ref = np.asarray(table.params)
-        angle_cols = np.array(table.angle_columns)
-        scale_idx = [pz.index(f"scale_{j + 1}") if f"scale_{j + 1}" in self.names else None for j in range(n)]
-        has_scales = bool(self.scales)
-
-        def converted(x):
-            m = pz.model(x)
-            new = _core.extract(_core.axes(m, np.zeros(m.nq)), table.convention, fidelity=False, **opts).table
-            d = np.asarray(new.params) - p_ref
-            d[:, angle_cols] = (d[:, angle_cols] + np.pi) % (2 * np.pi) - np.pi
-            sc = [x[i] if i is not None else 0.0 for i in scale_idx] if has_scales else []
-            return np.concatenate([(p_ref + d).ravel(), np.asarray(new.T_last_tool)[:3, 3], sc])
-
-        y0 = converted(self.values)
-        J = np.zeros((len(y0), len(keep)))
-        for c, i in enumerate(keep):
-            e = np.zeros_like(self.values)
-            e[free[i]] = 1e-7
-            J[:, c] = (converted(self.values + e) - converted(self.values - e)) / 2e-7
-        C = np.asarray(self.covariance)[np.ix_(keep, keep)]
-        out = J @ C @ J.T
-        return (out + out.T) / 2 if np.all(np.isfinite(out)) else None  # (None: no [covariance], a fit without one)
-
-
-def _compliance_fields(cal: Calibration, r: Robot, table) -> dict:
-    """The saved robot's compliances and their covariance (compliance.py), with the nominal's inertials re-expressed in
-    ``table``'s frames when the conventions differ (the compliances need them)."""
-    k, cov = robot_compliance(cal)
-    if k is None:
-        return {}
-    out = {"compliance": k, "compliance_covariance": cov}
-    if r.inertials is not None:
-        # each link's centre of mass and inertia carried from the nominal table's frame i to the saved table's, body by
-        # body at q = 0 in the base frame (the bodies coincide within millimetres; their frames may not: a calibrated
-        # table of near-parallel axes places them otherwise)
-        z = np.zeros(len(r.names))
-        Fn = (
-            np.linalg.inv(np.asarray(r.table.T_world_base)) @ np.asarray(r.table.frames(z))[1:]
-        )  # (frames 0..n: frame i is link i's)
-        Ft = np.linalg.inv(np.asarray(table.T_world_base)) @ np.asarray(table.frames(z))[1:]
-        M = np.linalg.inv(Ft) @ Fn  # nominal frame i in saved frame i
-        R, p = M[:, :3, :3], M[:, :3, 3]
-        ins = r.inertials
-        out["inertials"] = {
-            "masses": np.array(ins["masses"], dtype=float),
-            "coms": np.einsum("nij,nj->ni", R, np.asarray(ins["coms"], dtype=float)) + p,
-            "inertias": R @ np.asarray(ins["inertias"], dtype=float) @ R.transpose(0, 2, 1),
-        }
-    # the mechanical flange (where a payload's centre of mass is given) in the saved table's last frame
-    m = cal.model()
-    z = np.zeros(m.nq)
-    F = (
-        np.linalg.inv(np.asarray(table.frames(z))[-1])
-        @ np.asarray(_core.joint_frames(m, z))[-1]
-        @ np.asarray(m.T_last_flange)
-    )
-    if not np.allclose(F, np.eye(4), rtol=0, atol=1e-12):
-        out["compliance_flange"] = F
-    return out
 
 
 def _table_residuals(res: np.ndarray, measure: str) -> np.ndarray:
@@ -660,7 +407,7 @@ def calibrate(
         notes.append(
             f"parameters moved by more than 10 x the measured volume ({', '.join(far)}): the fit may have diverged; check the nominal model and the units"
         )
-    strong = _strong_correlations(corr, [pz.names[c] for c in free])
+    strong = strong_correlations(corr, [pz.names[c] for c in free])
     if strong:
         notes.append(
             "strongly correlated (their combination is far better determined than either): "
@@ -698,15 +445,6 @@ def calibrate(
         choice,
         None if prior_rows is None else prior_spec.sigma(pz),
     )
-
-
-def _strong_correlations(corr: np.ndarray, names: list, limit: float = 0.999) -> list:
-    out = []
-    for i in range(len(names)):
-        for j in range(i + 1, len(names)):
-            if abs(corr[i, j]) > limit:
-                out.append((names[i], names[j], float(corr[i, j])))
-    return sorted(out, key=lambda t: -abs(t[2]))[:5]
 
 
 def _circle_start(

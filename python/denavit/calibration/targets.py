@@ -40,6 +40,7 @@ from .least_squares import covariance, fit_parameters, residuals, weights
 from .measurements import Measurements, check_finite, joint_kinds
 from .parametrization import Parametrization, configurations, parametrize, resolve_fix
 from .registration import register
+from .result import OUTLIER_SIGMAS, Calibration, Validation, strong_correlations
 
 #: The parameters of target k (1-based) are named ``target{k}_x``, ``_y``, ``_z``.
 TARGET_PREFIX = "target"
@@ -424,7 +425,6 @@ def calibrate_targets(
     point (``where`` names the target).
     """
     from ..fitting.joint import as_tracker_noise  # noqa: PLC0415
-    from .solve import OUTLIER_SIGMAS, Calibration, Validation, _strong_correlations  # noqa: PLC0415
 
     t0 = time.perf_counter()
     tm = as_target_measurements(meas)
@@ -585,7 +585,7 @@ def calibrate_targets(
         )
     if sol is not None and sol.status <= 0:
         notes.append(f"the least-squares solver stopped without meeting its tolerances ({sol.message})")
-    strong = _strong_correlations(corr, [pz.names[c] for c in free])
+    strong = strong_correlations(corr, [pz.names[c] for c in free])
     if strong:
         notes.append(
             "strongly correlated (their combination is far better determined than either): "

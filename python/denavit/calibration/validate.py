@@ -442,7 +442,9 @@ def validate(
         try:
             sigma = _predicted_sigma(cov_source, readings, q)
             if el is not None:
-                sigma = el.predicted(sigma, readings, meas.payload)
+                from ..compensation import compliant_sigma  # noqa: PLC0415
+
+                sigma = compliant_sigma(el, sigma, readings, meas.payload)
         except DenavitError as e:
             notes.append(f"no predicted sigma: {e}")
         if sigma is not None:

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import _core
-from ..calibration.solve import Calibration
+from ..calibration.result import Calibration
 from ..calibration.validate import ModelValidation
 from ..errors import DenavitError
 from ..fitting import BoundingBox
