@@ -16,7 +16,7 @@ from ..fitting.robust import loss_weight
 from ..robot import Robot, robot_of
 from ..sweeps import SweepSet
 from .compliance import with_compliance, with_payload
-from .identifiability import analyze, parameter_status
+from .identifiability import Identifiability, analyze, parameter_status
 from .least_squares import covariance, fit_parameters, prior_block, residuals, weights
 from .measurements import Measurements
 from .parametrization import (
@@ -126,9 +126,7 @@ def calibrate(
     Calibration
     """
     t0 = time.perf_counter()
-    if several_targets(
-        meas
-    ):  # marker clusters, SMR nests: one fit with every target's point in the flange (targets.py)
+    if several_targets(meas):  # marker clusters, SMR nests: one fit with every target's point in the flange
         return calibrate_targets(
             meas,
             nominal,
@@ -149,6 +147,161 @@ def calibrate(
     if not isinstance(meas, Measurements):
         raise DenavitError(f"calibrate: expected Measurements or a SweepSet, got {type(meas).__name__}")
     robot = robot_of(nominal)
+    _check_options(meas, robot, loss, holdout, model, start, noise, noise_rot)
+    prior_spec = as_prior(robot.prior if prior is None and robot.prior else prior)  # an explicit prior wins
+    run = _Run(meas, robot, convention, tool, scale, noise, noise_rot, tracker_noise, payload, compliance, fix)
+    run.split(holdout, seed)
+    run.register()
+    run.identifiability()
+    run.fit(start, convention)
+    run.choose(model, prior_spec)
+    return run.result(loss, f_scale, t0)
+
+
+class _Run:
+    """One calibration's steps, in :func:`calibrate`'s order; each sets the attributes the next ones use."""
+
+    def __init__(self, meas, robot, convention, tool, scale, noise, noise_rot, tracker_noise, payload, compliance, fix):
+        self.robot, self.noise, self.noise_rot = robot, noise, noise_rot
+        self.notes: list[str] = []
+        meas, ref = _tracker_weighting(meas, tracker_noise, noise, self.notes)
+        pz = parametrize(robot, convention, measure=meas.kind, tool=tool, scale=scale)
+        if payload is not None and getattr(meas, "payload", None) is None:
+            meas = with_payload(meas, payload)
+        pz, comp_notes = with_compliance(pz, meas, robot, compliance)  # k_i free in the +compliance candidates only
+        self.notes += comp_notes
+        self.meas, self.pz = meas, pz
+        self.x, self.user_fixed, self.candidates, self.comp = _free_candidates(pz, fix)
+        # weights (1/sigma); pose data without declared noise: re-estimated after a first fit
+        self.sig_p = noise if noise is not None else ref if ref is not None else 1e-5
+        sig_r = noise_rot if noise_rot is not None else 1e-5
+        self.w = weights(pz.measure, self.sig_p, sig_r)
+        self.known = noise is not None and (pz.measure == "point" or noise_rot is not None)
+
+    def split(self, holdout: float, seed: int) -> None:
+        """The training poses and the held-out ones."""
+        self.train, self.test_idx = _holdout_split(self.meas, holdout, seed, len(self.candidates), self.notes)
+
+    def register(self) -> None:
+        """Register the measurement frame, then fit base and tool only: the nominal geometry at its best."""
+        pz, c, train = self.pz, self.candidates, self.train
+        base_idx = [k for k in c if pz.names[k].startswith("base_")]
+        tool_idx = [k for k in c if pz.names[k].startswith("tool_")]
+        pz, x, reg_notes = register(pz, self.x, train, base_free=len(base_idx) == 6, tool_free=tool_idx)
+        self.notes += reg_notes
+        reg_free = [k for k in c if pz.names[k].startswith(("base_", "tool_"))]
+        self.reg = analyze(pz, x, train, reg_free, self.w, explain=False)
+        self.x_reg, _ = fit_parameters(pz, x, self.reg.kept_idx, train, self.w, "linear", None)
+        self.pz, self.x = pz, x
+
+    def identifiability(self) -> None:
+        """Structural (configurations over the joint limits) and of these data."""
+        self.structural, self.ana = _identifiability(
+            self.pz, self.robot, self.x_reg, self.meas, self.train, self.candidates, self.w
+        )
+
+    def fit(self, start: str, convention: str) -> None:
+        """The least-squares fit of every identifiable parameter from the start asked."""
+        self.x_start = self.x_reg.copy()
+        if start == "circles":
+            self.x_start = _circle_start(
+                self.pz, self.x_reg, self.meas, self.robot, convention, self.ana.kept_idx, self.notes
+            )
+        self.x_hat, self.sol, r, self.w, self.sig_p = _first_fit(
+            self.pz, self.x_start, self.ana.kept_idx, self.train, self.w, self.noise, self.noise_rot, self.sig_p
+        )
+        # weighs the priors against the data
+        self.s2_full = 1.0 if self.known else float(np.sum(r**2)) / max(len(r) - len(self.ana.kept_idx), 1)
+
+    def choose(self, model: str, prior_spec) -> None:
+        """What is free: the candidate models scored by leave-one-pose-out prediction (selection.py)."""
+        self.prior_spec = prior_spec
+        self.choice = select_model(
+            model,
+            self.pz,
+            self.train,
+            self.w,
+            prior=prior_spec,
+            s2=self.s2_full,
+            candidates=self.candidates,
+            kept=self.ana.kept_idx,
+            reg_kept=self.reg.kept_idx,
+            x_reg=self.x_reg,
+            x_full=self.x_hat,
+            sol_full=self.sol,
+            compliance=self.comp,
+        )
+
+    def result(self, loss: str, f_scale, t0: float) -> Calibration:
+        """The chosen model refitted with the loss, its covariance, statuses, misfits, held-out errors and notes."""
+        pz, meas, train, w, won = self.pz, self.meas, self.train, self.w, self.choice.winner
+        free, prior_rows = won.free, won.prior
+        x_hat, sol, r, wt, robust_s2 = _robust_fit(pz, won.x, free, won.sol, train, w, loss, f_scale, prior_rows)
+        cov, s2 = _posterior(pz, x_hat, free, train, w, r, wt, self.known, robust_s2, self.s2_full, prior_rows)
+        sd = np.sqrt(np.clip(np.diag(cov), 0, None))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            corr = cov / np.outer(sd, sd)
+        sigma = np.full(pz.n_params, np.nan)
+        sigma[free] = sd
+        status = parameter_status(
+            pz,
+            free,
+            self.user_fixed,
+            self.structural,
+            {u.name for u in self.ana.unidentifiable},
+            held=set(won.prior_fixed),
+            model_fixed=[*self.candidates, *self.comp],
+        )
+        res_si, rms, rms_rot, outliers = _misfits(pz, x_hat, meas, r, w)
+        validation = _held_out(pz, meas, train, self.test_idx, self.x_reg, x_hat)
+        converged = sol is None or sol.status > 0
+        _fit_notes(self.notes, pz, meas, x_hat, free, corr, rms, self.noise, won, converged, sol, outliers)
+        noise_est = math.sqrt(s2) * self.sig_p if not self.known else self.sig_p
+        return Calibration(
+            pz,
+            list(pz.names),
+            x_hat,
+            sigma,
+            status,
+            pz.x0,
+            self.x_start,
+            [pz.names[c] for c in free],
+            cov,
+            corr,
+            self.ana,
+            res_si,
+            rms,
+            rms_rot,
+            outliers,
+            validation,
+            meas,
+            loss,
+            converged,
+            0 if sol is None else int(sol.nfev),
+            time.perf_counter() - t0,
+            float(noise_est),
+            self.notes,
+            self.choice,
+            None if prior_rows is None else self.prior_spec.sigma(pz),
+        )
+
+
+def _misfits(pz, x_hat, meas, r, w):
+    """(the training residuals in SI (N, 3 or 6), the position and rotation RMS over every pose, the poses whose
+    misfit is beyond :data:`OUTLIER_SIGMAS` robust sigmas)."""
+    res_si = _table_residuals(r, pz.measure) / w[: (6 if pz.measure == "pose" else 3)]
+    full_r, _, _ = residuals(pz, x_hat, replace(meas, whitening=None), np.ones(6), jacobian=False)
+    full_r = _table_residuals(full_r, pz.measure)
+    pos = np.linalg.norm(full_r[:, :3], axis=1)
+    rms = float(np.sqrt(np.mean(pos**2)))
+    rms_rot = float(np.sqrt(np.mean(np.sum(full_r[:, 3:] ** 2, axis=1)))) if pz.measure == "pose" else math.nan
+    mis = np.linalg.norm(res_si[:, :3], axis=1)
+    robust = float(np.median(mis)) / math.sqrt(2.366) if mis.size else 0.0
+    return res_si, rms, rms_rot, np.flatnonzero(pos > OUTLIER_SIGMAS * max(robust, 1e-300))
+
+
+def _check_options(meas, robot, loss, holdout, model, start, noise, noise_rot) -> None:
+    """One-line errors for data that do not fit the nominal and options out of their ranges."""
     n = len(robot.names)
     if meas.nq != n:
         raise DenavitError(
@@ -167,37 +320,35 @@ def calibrate(
         raise DenavitError(f"holdout: expected a fraction in [0, 0.9), got {holdout}")
     if model not in MODELS:
         raise DenavitError(f"model: expected one of {', '.join(MODELS)}, got {model!r}")
-    prior_spec = as_prior(
-        robot.prior if prior is None and robot.prior else prior
-    )  # an explicit prior wins over the robot file's
     if start not in ("nominal", "circles"):
         raise DenavitError(f"start: expected 'nominal' or 'circles', got {start!r}")
     for what, v, unit in (("noise", noise, "m"), ("noise_rot", noise_rot, "rad")):
         if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
             raise DenavitError(f"{what}: expected the known one-sigma noise, a finite value > 0 ({unit}), got {v!r}")
-    notes: list[str] = []
+
+
+def _tracker_weighting(meas: Measurements, tracker_noise, noise, notes: list) -> tuple[Measurements, float | None]:
+    """The measurements whitened by the tracker's noise model (and its mean per-coordinate sigma, m), or as given."""
     tracker = as_tracker_noise(tracker_noise)
-    ref = None
-    if tracker is not None:
-        if noise is not None:
-            raise DenavitError(
-                f"noise = {noise!r} and tracker_noise: give one (the tracker's model declares the shape of each point's noise, "
-                "its scale is estimated from the residuals)"
-            )
-        W, ref = tracker.whitening(meas.points)
-        meas = replace(meas, whitening=W)
-        notes.append(
-            f"points weighted by the tracker's noise model (range {tracker.sigma_range * 1e6:.3g} um, angles "
-            f"{math.degrees(tracker.sigma_angle) * 3600:.3g} arcsec, tracker at {', '.join(f'{v:.4g}' for v in tracker.position)} m; "
-            f"{ref * 1e3:.3g} mm per coordinate on average), the scale estimated from the residuals"
+    if tracker is None:
+        return meas, None
+    if noise is not None:
+        raise DenavitError(
+            f"noise = {noise!r} and tracker_noise: give one (the tracker's model declares the shape of each point's noise, "
+            "its scale is estimated from the residuals)"
         )
-    pz = parametrize(robot, convention, measure=meas.kind, tool=tool, scale=scale)
-    if payload is not None and getattr(meas, "payload", None) is None:
-        meas = with_payload(meas, payload)
-    pz, comp_notes = with_compliance(
-        pz, meas, robot, compliance
-    )  # the joints' compliances k_i (compliance.py), free in the +compliance candidates only
-    notes += comp_notes
+    W, ref = tracker.whitening(meas.points)
+    notes.append(
+        f"points weighted by the tracker's noise model (range {tracker.sigma_range * 1e6:.3g} um, angles "
+        f"{math.degrees(tracker.sigma_angle) * 3600:.3g} arcsec, tracker at {', '.join(f'{v:.4g}' for v in tracker.position)} m; "
+        f"{ref * 1e3:.3g} mm per coordinate on average), the scale estimated from the residuals"
+    )
+    return replace(meas, whitening=W), ref
+
+
+def _free_candidates(pz: Parametrization, fix) -> tuple[np.ndarray, dict, list, list]:
+    """(start values with the user's held values, the user's fixed {index: value or None}, the candidate free
+    parameters, the compliances among them)."""
     x = pz.x0.copy()
     user_fixed = resolve_fix(pz, fix)
     for k, v in user_fixed.items():
@@ -206,37 +357,24 @@ def calibrate(
     rule_fixed = {pz.index(nm) for nm in pz.rules}
     candidates = [c for c in range(pz.n_params) if c not in user_fixed and c not in rule_fixed]
     comp = [c for c in candidates if c in set(getattr(pz, "compliance_idx", ()))]
-    candidates = [c for c in candidates if c not in comp]
+    return x, user_fixed, [c for c in candidates if c not in comp], comp
 
-    # held-out split
-    test_idx = np.zeros(0, dtype=int)
-    train = meas
+
+def _holdout_split(meas: Measurements, holdout: float, seed: int, n_candidates: int, notes: list):
+    """(the training poses, the held-out poses' indices) of a ``holdout`` fraction drawn with ``seed``."""
     if holdout > 0:
         n_test = int(round(holdout * meas.n))
         perm = np.random.default_rng(check_seed(seed)).permutation(meas.n)
-        if n_test >= 1 and 3 * (meas.n - n_test) > len(candidates) + 1:
-            test_idx = np.sort(perm[:n_test])
-            train = meas.subset(np.sort(perm[n_test:]))
-        else:
-            notes.append(f"holdout {holdout} skipped: {meas.n} poses are too few to hold any out")
+        if n_test >= 1 and 3 * (meas.n - n_test) > n_candidates + 1:
+            return meas.subset(np.sort(perm[n_test:])), np.sort(perm[:n_test])
+        notes.append(f"holdout {holdout} skipped: {meas.n} poses are too few to hold any out")
+    return meas, np.zeros(0, dtype=int)
 
-    # weights (1/sigma); pose data without declared noise: re-estimated after a first fit
-    sig_p = noise if noise is not None else ref if ref is not None else 1e-5
-    sig_r = noise_rot if noise_rot is not None else 1e-5
-    w = weights(pz.measure, sig_p, sig_r)
 
-    # 1) register the measurement frame, then fit base and tool only: the nominal geometry at its best
-    base_idx = [c for c in candidates if pz.names[c].startswith("base_")]
-    tool_idx = [c for c in candidates if pz.names[c].startswith("tool_")]
-    pz, x, reg_notes = register(
-        pz, x, train, base_free=len(base_idx) == 6, tool_free=tool_idx
-    )  # closed form (registration.py)
-    notes += reg_notes
-    reg_free = [c for c in candidates if pz.names[c].startswith(("base_", "tool_"))]
-    reg = analyze(pz, x, train, reg_free, w, explain=False)
-    x_reg, _ = fit_parameters(pz, x, reg.kept_idx, train, w, "linear", None)
-
-    # 2) identifiability: structural (configurations over the joint limits) and of these data
+def _identifiability(pz, robot, x_reg, meas, train, candidates, w) -> tuple[set, Identifiability]:
+    """(the structurally unidentifiable parameters' names, the analysis of the training data), with one-line errors
+    when the data are too few or a joint never moves where that leaves parameters undetermined."""
+    n = len(robot.names)
     rich = Measurements(
         configurations(robot, max(2 * pz.n_params, 60)),
         np.zeros((max(2 * pz.n_params, 60), 3)),
@@ -268,13 +406,13 @@ def calibrate(
             f"the data cannot identify {', '.join(data_only)} (beyond the parameters redundant in any case); move the joint(s), "
             f"or hold these fixed: fix={[u.name for u in ana.unidentifiable]}"
         )
+    return structural, ana
 
-    # 3) start
-    x_start = x_reg.copy()
-    if start == "circles":
-        x_start = _circle_start(pz, x_reg, meas, robot, convention, ana.kept_idx, notes)
-    # 4) the fit
-    free = ana.kept_idx
+
+def _first_fit(pz, x_start, free, train, w, noise, noise_rot, sig_p):
+    """The least-squares fit of every identifiable parameter; pose data without a declared noise: the position and
+    rotation noise re-estimated from its residuals and the fit repeated with them. (x, solution, whitened
+    residuals, weights, position sigma)."""
     x_hat, sol = fit_parameters(pz, x_start, free, train, w, "linear", None)
     r = residuals(pz, x_hat, train, w, jacobian=False)[0]
     if pz.measure == "pose" and (noise is None or noise_rot is None):
@@ -290,45 +428,30 @@ def calibrate(
         w = weights(pz.measure, sig_p, sig_r)
         x_hat, sol = fit_parameters(pz, x_hat, free, train, w, "linear", None)
         r = residuals(pz, x_hat, train, w, jacobian=False)[0]
-    known = noise is not None and (pz.measure == "point" or noise_rot is not None)
-    # 5) what is free: the candidate models scored by leave-one-pose-out prediction (selection.py)
-    s2_full = 1.0 if known else float(np.sum(r**2)) / max(len(r) - len(free), 1)  # weighs the priors against the data
-    choice = select_model(
-        model,
-        pz,
-        train,
-        w,
-        prior=prior_spec,
-        s2=s2_full,
-        candidates=candidates,
-        kept=ana.kept_idx,
-        reg_kept=reg.kept_idx,
-        x_reg=x_reg,
-        x_full=x_hat,
-        sol_full=sol,
-        compliance=comp,
-    )
-    won = choice.winner
-    x_hat, free, sol, prior_rows = won.x, won.free, won.sol, won.prior
+    return x_hat, sol, r, w, sig_p
+
+
+def _robust_fit(pz, x_hat, free, sol, train, w, loss, f_scale, prior_rows):
+    """The chosen model refitted with a robust ``loss`` (as given for "linear"): (x, solution, whitened residuals,
+    the loss's weights per residual, the robust variance or None)."""
     r = residuals(pz, x_hat, train, w, jacobian=False)[0]
-    wt = np.ones_like(r)
-    robust_s2 = None
-    if loss != "linear":
-        # f_scale: 3 robust sigmas of the misfits, re-estimated once from the robust fit (the first estimate,
-        # from the linear fit, is inflated by the outliers' pull)
-        for _ in range(2 if f_scale is None else 1):
-            mis = np.linalg.norm(_table_residuals(r, pz.measure)[:, :3], axis=1)
-            robust = (
-                float(np.median(mis)) / math.sqrt(2.366) if mis.size else 1.0
-            )  # weighted units; median of chi_3 = sqrt(2.366)
-            fs = f_scale * w[0] if f_scale is not None else 3 * robust
-            x_hat, sol = fit_parameters(pz, x_hat, free, train, w, loss, fs, prior=prior_rows)
-            r = residuals(pz, x_hat, train, w, jacobian=False)[0]
+    if loss == "linear":
+        return x_hat, sol, r, np.ones_like(r), None
+    # f_scale: 3 robust sigmas of the misfits, re-estimated once from the robust fit (the first estimate,
+    # from the linear fit, is inflated by the outliers' pull)
+    for _ in range(2 if f_scale is None else 1):
         mis = np.linalg.norm(_table_residuals(r, pz.measure)[:, :3], axis=1)
-        robust_s2 = (float(np.median(mis)) / math.sqrt(2.366)) ** 2
-        wt = loss_weight(loss, (r / fs) ** 2)
-    converged = sol is None or sol.status > 0
-    nfev = 0 if sol is None else int(sol.nfev)
+        robust = float(np.median(mis)) / math.sqrt(2.366) if mis.size else 1.0  # median of chi_3 = sqrt(2.366)
+        fs = f_scale * w[0] if f_scale is not None else 3 * robust
+        x_hat, sol = fit_parameters(pz, x_hat, free, train, w, loss, fs, prior=prior_rows)
+        r = residuals(pz, x_hat, train, w, jacobian=False)[0]
+    mis = np.linalg.norm(_table_residuals(r, pz.measure)[:, :3], axis=1)
+    robust_s2 = (float(np.median(mis)) / math.sqrt(2.366)) ** 2
+    return x_hat, sol, r, loss_weight(loss, (r / fs) ** 2), robust_s2
+
+
+def _posterior(pz, x_hat, free, train, w, r, wt, known, robust_s2, s2_full, prior_rows):
+    """(the free parameters' covariance, the variance of unit weight it was scaled with)."""
     Jf = residuals(pz, x_hat, train, w, columns=free)[1]
     Jf *= np.sqrt(wt)[:, None]
     m_eq, p = Jf.shape
@@ -336,50 +459,30 @@ def calibrate(
     if prior_rows is not None:  # the posterior covariance: the prior rows weigh in at the noise they were fitted with
         s2 = 1.0 if known else s2_full
         Jf = np.vstack([Jf, prior_block(prior_rows, free)])
-    cov = covariance(Jf, s2)
-    sd = np.sqrt(np.clip(np.diag(cov), 0, None))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        corr = cov / np.outer(sd, sd)
-    sigma = np.full(pz.n_params, np.nan)
-    sigma[free] = sd
-    status = parameter_status(
-        pz,
-        free,
-        user_fixed,
-        structural,
-        {u.name for u in ana.unidentifiable},
-        held=set(won.prior_fixed),
-        model_fixed=[*candidates, *comp],
+    return covariance(Jf, s2), s2
+
+
+def _held_out(pz, meas, train, test_idx, x_reg, x_hat) -> Validation | None:
+    """The tool-position errors on the held-out poses before (the registered nominal) and after calibration."""
+    if not test_idx.size:
+        return None
+    test = meas.subset(test_idx)
+    before = np.linalg.norm(residuals(pz, x_reg, test, np.ones(6), jacobian=False)[2][:, :3, 3] - test.points, axis=1)
+    after = np.linalg.norm(residuals(pz, x_hat, test, np.ones(6), jacobian=False)[2][:, :3, 3] - test.points, axis=1)
+    return Validation(
+        train.n,
+        test.n,
+        float(np.sqrt(np.mean(before**2))),
+        float(before.max()),
+        float(np.sqrt(np.mean(after**2))),
+        float(after.max()),
+        test_idx,
     )
-    res_si = _table_residuals(r, pz.measure) / w[: (6 if pz.measure == "pose" else 3)]
-    full_r, _, _ = residuals(pz, x_hat, replace(meas, whitening=None), np.ones(6), jacobian=False)
-    full_r = _table_residuals(full_r, pz.measure)
-    pos = np.linalg.norm(full_r[:, :3], axis=1)
-    rms = float(np.sqrt(np.mean(pos**2)))
-    rms_rot = float(np.sqrt(np.mean(np.sum(full_r[:, 3:] ** 2, axis=1)))) if pz.measure == "pose" else math.nan
-    mis = np.linalg.norm(res_si[:, :3], axis=1)
-    robust = float(np.median(mis)) / math.sqrt(2.366) if mis.size else 0.0
-    outliers = np.flatnonzero(pos > OUTLIER_SIGMAS * max(robust, 1e-300))
-    # validation
-    validation = None
-    if test_idx.size:
-        test = meas.subset(test_idx)
-        before = np.linalg.norm(
-            residuals(pz, x_reg, test, np.ones(6), jacobian=False)[2][:, :3, 3] - test.points, axis=1
-        )
-        after = np.linalg.norm(
-            residuals(pz, x_hat, test, np.ones(6), jacobian=False)[2][:, :3, 3] - test.points, axis=1
-        )
-        validation = Validation(
-            train.n,
-            test.n,
-            float(np.sqrt(np.mean(before**2))),
-            float(before.max()),
-            float(np.sqrt(np.mean(after**2))),
-            float(after.max()),
-            test_idx,
-        )
-    # notes
+
+
+def _fit_notes(notes, pz, meas, x_hat, free, corr, rms, noise, won, converged, sol, outliers) -> None:
+    """What the user should know about the fit, added to ``notes``: a misfit far beyond the volume or the declared
+    noise first, then parameters held by their prior, the solver, divergence, correlations and outliers."""
     size = max(float(np.max(np.linalg.norm(meas.points - meas.points.mean(axis=0), axis=1))), 1e-3)
     if rms > 0.01 * size:
         notes.insert(
@@ -417,34 +520,6 @@ def calibrate(
         notes.append(
             f"{outliers.size} pose(s) with a tool-position misfit above {OUTLIER_SIGMAS} robust sigmas: {', '.join(meas.where[i] for i in outliers[:5])}{' ...' if outliers.size > 5 else ''}"
         )
-    noise_est = math.sqrt(s2) * sig_p if not known else sig_p
-    return Calibration(
-        pz,
-        list(pz.names),
-        x_hat,
-        sigma,
-        status,
-        pz.x0,
-        x_start,
-        [pz.names[c] for c in free],
-        cov,
-        corr,
-        ana,
-        res_si,
-        rms,
-        rms_rot,
-        outliers,
-        validation,
-        meas,
-        loss,
-        converged,
-        nfev,
-        time.perf_counter() - t0,
-        float(noise_est),
-        notes,
-        choice,
-        None if prior_rows is None else prior_spec.sigma(pz),
-    )
 
 
 def _circle_start(
