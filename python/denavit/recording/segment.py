@@ -216,39 +216,9 @@ def segment(
     """
     N = len(rec)
     if spans is not None:
-        t = rec.time if rec.time is not None else np.arange(N, dtype=float)
-        segs = []
-        for j, t0, t1 in spans:
-            rows = np.flatnonzero((t >= t0) & (t <= t1))
-            if len(rows) < 3:
-                raise DenavitError(
-                    f"{rec.source}: the sweep of joint {j} at {t0:g}-{t1:g} s holds {len(rows)} rows: expected at least 3 (the recording spans {t[0]:g}-{t[-1]:g} s)"
-                )
-            a, b = int(rows[0]), int(rows[-1]) + 1
-            qf, qt = (float(rec.q[a, j - 1]), float(rec.q[b - 1, j - 1])) if rec.q is not None else (math.nan, math.nan)
-            segs.append(Segment(int(j), a, b, float(t[a]), float(t[b - 1]), "sweep", qf, qt))
-        return Segmentation(
-            segs, "given", n_joints or rec.n_joints or max(s.joint for s in segs), 0, rec.source, rec.kinds
-        )
+        return _given(rec, spans, n_joints)
     if rec.joint is not None:
-        segs = []
-        cuts = np.flatnonzero(np.diff(rec.joint) != 0) + 1
-        for a, b in zip(np.r_[0, cuts], np.r_[cuts, N]):
-            j = int(rec.joint[a])
-            if j <= 0:
-                continue
-            t0, t1 = (float(rec.time[a]), float(rec.time[b - 1])) if rec.time is not None else (float(a), float(b - 1))
-            qf, qt = (float(rec.q[a, j - 1]), float(rec.q[b - 1, j - 1])) if rec.q is not None else (math.nan, math.nan)
-            segs.append(Segment(j, int(a), int(b), t0, t1, "sweep", qf, qt))
-        n = n_joints or (rec.n_joints or max(s.joint for s in segs))
-        seen = [s.joint for s in segs]
-        dup = sorted({j for j in seen if seen.count(j) > 1})
-        if dup:
-            second = [s for s in segs if s.joint == dup[0]][1]
-            raise DenavitError(
-                f"{rec.where[second.start]}: a second block of joint {dup[0]}'s rows: expected each joint's sweep in one block"
-            )
-        return Segmentation(segs, "labels", n, 0, rec.source, rec.kinds)
+        return _labelled(rec, n_joints)
     if N < 3 * min_points:
         raise DenavitError(f"{rec.source}: {N} rows: too few to segment (expected at least {3 * min_points})")
     t, x, with_q, runs, lim, speed = _motions(
@@ -263,98 +233,174 @@ def segment(
         raise DenavitError(
             f"{rec.source}: nothing moves beyond the noise (speed threshold {float(np.max(lim)):.3g}): expected sweeps"
         )
-    dwell = N - sum(b - a for a, b in runs)
-    segs = []
     if with_q:
-        n = n_joints or rec.n_joints
-        for a, b in runs:
-            d = np.abs(rec.q[b - 1] - rec.q[a])
-            score = (speed[a:b] > lim).sum(axis=0)
-            j = int(np.argmax(score))
-            others = [i for i in range(rec.n_joints) if i != j and score[i] > 0.5 * (b - a)]
-            if others:
-                raise DenavitError(
-                    f"{rec.where[a]} .. {rec.where[b - 1]}: joints {j + 1} and {', '.join(str(i + 1) for i in others)} move together: expected one joint at a time"
-                )
-            segs.append(
-                Segment(
-                    j + 1,
-                    a,
-                    b,
-                    float(t[a]),
-                    float(t[b - 1]),
-                    "transit",
-                    float(rec.q[a, j]),
-                    float(rec.q[b - 1, j]),
-                    float(speed[a:b, j].max()),
-                    float(d[j]),
-                )
-            )
+        segs = _by_readings(rec, t, runs, lim, speed)
+        n, dwell = n_joints or rec.n_joints, N - sum(b - a for a, b in runs)
     else:
-        from ..fitting import fit_axis  # noqa: PLC0415
+        segs, n, dwell = _by_circles(rec, t, x, runs, speed, min_dwell, n_joints, joints)
+    segs = _pick_sweeps(segs, None if ranges is None or not with_q else ranges, speed, with_q)
+    return Segmentation(segs, "readings" if with_q else "geometry", int(n), int(dwell), rec.source, rec.kinds)
 
-        def circle(a, b):
-            try:
-                return fit_axis(x[a:b], None, "kasa", where=f"{rec.where[a]} .. {rec.where[b - 1]}")
-            except DenavitError:
-                return None  # a straight, too short or out-and-back move: no circle
 
-        def same_circle(f, g):
-            return (
-                abs(float(f.direction @ g.direction)) > math.cos(math.radians(3.0))
-                and np.linalg.norm(np.cross(f.point - g.point, g.direction)) < 0.05 * max(f.radius, g.radius) + 1e-3
-            )
-
-        # _motions did not join motions across short still spans: pieces of one circle turning one way with a
-        # still span shorter than min_dwell between them are one motion (a stutter); the motions of two joints,
-        # or a joint turning back, stay apart however short the pause between them
-        still = np.ones(N, bool)
-        for a, b in runs:
-            still[a:b] = False
-        gap = max(1, int(round(min_dwell / float(np.median(np.diff(t))))))
-        merged: list[tuple[int, int, object]] = []
-        for a, b in runs:
-            f = circle(a, b)
-            if f is None:
-                continue
-            if merged:
-                a0, b0, g = merged[-1]
-                if still[b0:a].sum() < gap and same_circle(f, g) and float(f.direction @ g.direction) > 0:
-                    whole = circle(a0, b)
-                    if whole is not None:
-                        merged[-1] = (a0, b, whole)
-                        continue
-            merged.append((a, b, f))
-        dwell = N - sum(b - a for a, b, _ in merged)
-        group, axis = 0, None
-        for a, b, f in merged:
-            if axis is None or not same_circle(f, axis):
-                group, axis = group + 1, f
-            segs.append(
-                Segment(
-                    group,
-                    a,
-                    b,
-                    float(t[a]),
-                    float(t[b - 1]),
-                    "transit",
-                    peak_speed=float(speed[a:b, 0].max()),
-                    arc=float(f.arc),
-                )
-            )
-        if not segs:
+def _given(rec: Recording, spans, n_joints: int | None) -> Segmentation:
+    """:func:`segment` of the user's sweeps ``spans`` [(joint, t_start, t_stop), ...] (s): method "given"."""
+    N = len(rec)
+    t = rec.time if rec.time is not None else np.arange(N, dtype=float)
+    segs = []
+    for j, t0, t1 in spans:
+        rows = np.flatnonzero((t >= t0) & (t <= t1))
+        if len(rows) < 3:
             raise DenavitError(
-                f"{rec.source}: no motion of the points follows a circle ({len(runs)} motions): expected sweeps of one joint at a time"
+                f"{rec.source}: the sweep of joint {j} at {t0:g}-{t1:g} s holds {len(rows)} rows: "
+                f"expected at least 3 (the recording spans {t[0]:g}-{t[-1]:g} s)"
             )
-        n = n_joints or group
-        if joints is not None:
-            if len(joints) != group:
-                raise DenavitError(
-                    f"{rec.source}: {group} distinct circles found but {len(joints)} joints given: expected one joint per circle in recorded order"
-                )
-            segs = [replace(s, joint=int(joints[s.joint - 1])) for s in segs]
+        a, b = int(rows[0]), int(rows[-1]) + 1
+        qf, qt = (float(rec.q[a, j - 1]), float(rec.q[b - 1, j - 1])) if rec.q is not None else (math.nan, math.nan)
+        segs.append(Segment(int(j), a, b, float(t[a]), float(t[b - 1]), "sweep", qf, qt))
+    return Segmentation(segs, "given", n_joints or rec.n_joints or max(s.joint for s in segs), 0, rec.source, rec.kinds)
+
+
+def _labelled(rec: Recording, n_joints: int | None) -> Segmentation:
+    """:func:`segment` of the rows labelled by the file (``rec.joint``), used as they are: method "labels"."""
+    N = len(rec)
+    segs = []
+    cuts = np.flatnonzero(np.diff(rec.joint) != 0) + 1
+    for a, b in zip(np.r_[0, cuts], np.r_[cuts, N]):
+        j = int(rec.joint[a])
+        if j <= 0:
+            continue
+        t0, t1 = (float(rec.time[a]), float(rec.time[b - 1])) if rec.time is not None else (float(a), float(b - 1))
+        qf, qt = (float(rec.q[a, j - 1]), float(rec.q[b - 1, j - 1])) if rec.q is not None else (math.nan, math.nan)
+        segs.append(Segment(j, int(a), int(b), t0, t1, "sweep", qf, qt))
+    n = n_joints or (rec.n_joints or max(s.joint for s in segs))
+    seen = [s.joint for s in segs]
+    dup = sorted({j for j in seen if seen.count(j) > 1})
+    if dup:
+        second = [s for s in segs if s.joint == dup[0]][1]
+        raise DenavitError(
+            f"{rec.where[second.start]}: a second block of joint {dup[0]}'s rows: "
+            "expected each joint's sweep in one block"
+        )
+    return Segmentation(segs, "labels", n, 0, rec.source, rec.kinds)
+
+
+def _by_readings(rec: Recording, t: np.ndarray, runs, lim: np.ndarray, speed: np.ndarray) -> list[Segment]:
+    """The motions ``runs`` of a recording with readings, each of the joint that moves most in it (all transits)."""
+    segs = []
+    for a, b in runs:
+        d = np.abs(rec.q[b - 1] - rec.q[a])
+        score = (speed[a:b] > lim).sum(axis=0)
+        j = int(np.argmax(score))
+        others = [i for i in range(rec.n_joints) if i != j and score[i] > 0.5 * (b - a)]
+        if others:
+            raise DenavitError(
+                f"{rec.where[a]} .. {rec.where[b - 1]}: joints {j + 1} and "
+                f"{', '.join(str(i + 1) for i in others)} move together: expected one joint at a time"
+            )
+        segs.append(
+            Segment(
+                j + 1,
+                a,
+                b,
+                float(t[a]),
+                float(t[b - 1]),
+                "transit",
+                float(rec.q[a, j]),
+                float(rec.q[b - 1, j]),
+                float(speed[a:b, j].max()),
+                float(d[j]),
+            )
+        )
+    return segs
+
+
+def _by_circles(
+    rec: Recording,
+    t: np.ndarray,
+    x: np.ndarray,
+    runs,
+    speed: np.ndarray,
+    min_dwell: float,
+    n_joints: int | None,
+    joints: Sequence[int] | None,
+) -> tuple[list[Segment], int, int]:
+    """The motions ``runs`` of a recording without readings that follow a circle, pieces of one circle turning one
+    way joined, numbered by distinct circle in recorded order (or by ``joints``): (segments, n_joints, dwell rows)."""
+    from ..fitting import fit_axis  # noqa: PLC0415
+
+    N = len(rec)
+
+    def circle(a, b):
+        try:
+            return fit_axis(x[a:b], None, "kasa", where=f"{rec.where[a]} .. {rec.where[b - 1]}")
+        except DenavitError:
+            return None  # a straight, too short or out-and-back move: no circle
+
+    def same_circle(f, g):
+        return (
+            abs(float(f.direction @ g.direction)) > math.cos(math.radians(3.0))
+            and np.linalg.norm(np.cross(f.point - g.point, g.direction)) < 0.05 * max(f.radius, g.radius) + 1e-3
+        )
+
+    # _motions did not join motions across short still spans: pieces of one circle turning one way with a
+    # still span shorter than min_dwell between them are one motion (a stutter); the motions of two joints,
+    # or a joint turning back, stay apart however short the pause between them
+    still = np.ones(N, bool)
+    for a, b in runs:
+        still[a:b] = False
+    gap = max(1, int(round(min_dwell / float(np.median(np.diff(t))))))
+    merged: list[tuple[int, int, object]] = []
+    for a, b in runs:
+        f = circle(a, b)
+        if f is None:
+            continue
+        if merged:
+            a0, b0, g = merged[-1]
+            if still[b0:a].sum() < gap and same_circle(f, g) and float(f.direction @ g.direction) > 0:
+                whole = circle(a0, b)
+                if whole is not None:
+                    merged[-1] = (a0, b, whole)
+                    continue
+        merged.append((a, b, f))
+    dwell = N - sum(b - a for a, b, _ in merged)
+    segs = []
+    group, axis = 0, None
+    for a, b, f in merged:
+        if axis is None or not same_circle(f, axis):
+            group, axis = group + 1, f
+        segs.append(
+            Segment(
+                group,
+                a,
+                b,
+                float(t[a]),
+                float(t[b - 1]),
+                "transit",
+                peak_speed=float(speed[a:b, 0].max()),
+                arc=float(f.arc),
+            )
+        )
+    if not segs:
+        raise DenavitError(
+            f"{rec.source}: no motion of the points follows a circle ({len(runs)} motions): "
+            "expected sweeps of one joint at a time"
+        )
+    n = n_joints or group
+    if joints is not None:
+        if len(joints) != group:
+            raise DenavitError(
+                f"{rec.source}: {group} distinct circles found but {len(joints)} joints given: "
+                "expected one joint per circle in recorded order"
+            )
+        segs = [replace(s, joint=int(joints[s.joint - 1])) for s in segs]
+    return segs, n, dwell
+
+
+def _pick_sweeps(segs: list[Segment], ranges, speed: np.ndarray, with_q: bool) -> list[Segment]:
+    """``segs`` with one sweep per joint, the rest transits: the motion whose end readings are closest to the
+    joint's ``ranges`` row (with readings), else the slowest."""
     out = []
-    ranges = None if ranges is None or not with_q else np.asarray(ranges, dtype=float)
+    ranges = None if ranges is None else np.asarray(ranges, dtype=float)
     for j in sorted({s.joint for s in segs}):
         mine = [k for k, s in enumerate(segs) if s.joint == j]
         if ranges is not None and j <= len(ranges):
@@ -368,8 +414,7 @@ def segment(
                 key=lambda k: float(np.median(speed[segs[k].start : segs[k].stop, segs[k].joint - 1 if with_q else 0])),
             )
         out.append(pick)
-    segs = [replace(s, role="sweep" if k in out else "transit") for k, s in enumerate(segs)]
-    return Segmentation(segs, "readings" if with_q else "geometry", int(n), int(dwell), rec.source, rec.kinds)
+    return [replace(s, role="sweep" if k in out else "transit") for k, s in enumerate(segs)]
 
 
 def _motions(
