@@ -54,6 +54,7 @@ from __future__ import annotations
 import os
 import re
 import sys
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -240,111 +241,10 @@ def _training(spec, kinds, units: dict, where: str) -> np.ndarray | None:
     return np.vstack([lo * s, hi * s])
 
 
-def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = None) -> Robot:
-    """Build a :class:`Robot` from the parsed TOML structure (see the module docstring)."""
-    try:  # the core's one parser of convention names (dh, sdh, mdh, craig, modified-dh, edh, poe; any case)
-        info = _core.convention_info(doc["convention"]) if isinstance(doc.get("convention"), str) else None
-    except DenavitError:
-        info = None
-    if info is None:
-        raise DenavitError(
-            f"{where}: 'convention' must be one of {', '.join(_core.conventions())}, got {doc.get('convention')!r} (aliases: sdh, craig, modified-dh, in any case)"
-        )
-    conv = info["name"]
-    units = doc.get("units")
-    if not isinstance(units, dict) or "length" not in units or "angle" not in units:
-        raise DenavitError(
-            f"{where}: a [units] table with 'length' and 'angle' is required (e.g. length = \"mm\", angle = \"deg\"), got {units!r}"
-        )
-    _check_keys(units, UNIT_KEYS, f"{where}, [units]")
-    ls = length_scale(units["length"], f"{where}, [units] length")
-    as_ = angle_scale(units["angle"], f"{where}, [units] angle")
-    joints = doc.get("joints")
-    if not isinstance(joints, list) or not joints:
-        raise DenavitError(f"{where}: expected one or more [[joints]] tables, got none")
-    limits.check_size(len(joints), "joints", where, "joints")
-    cols = list(info["columns"])
-    rows, kinds, names, lower, upper = [], [], [], [], []
-    inert: list[tuple[float, list[float], np.ndarray] | None] = []
-    joint_where = []
-    for i, j in enumerate(joints):
-        line = f" (line {joint_lines[i]})" if joint_lines and i < len(joint_lines) else ""
-        jw = f"{where}, joint {i + 1}{line}"
-        joint_where.append(jw)
-        if not isinstance(j, dict):
-            raise DenavitError(f"{jw}: expected a [[joints]] table, got {j!r}")
-        _check_keys(j, ["name", "type", *(["w", "v"] if conv == "poe" else cols), "limits", "inertia"], jw)
-        inert.append(_inertia(j["inertia"], jw, units, where, ls) if "inertia" in j else None)
-        kind = _text(j.get("type", "revolute"), f"{jw}: type").lower()
-        if kind not in ("revolute", "prismatic"):
-            raise DenavitError(f"{jw}: type must be 'revolute' or 'prismatic', got {j.get('type')!r}")
-        kinds.append(kind)
-        names.append(_text(j.get("name", f"j{i + 1}"), f"{jw}: name"))
-        if conv == "poe":
-            w = np.array(_numbers(j.get("w", [0, 0, 0]), 3, f"{jw}: w (poe joints need w and v with 3 values each)"))
-            v = np.array(_numbers(j.get("v", [0, 0, 0]), 3, f"{jw}: v (poe joints need w and v with 3 values each)"))
-            rows.append([*w, *v])
-        else:
-            missing = [c for c in cols if c not in j]
-            if missing:
-                raise DenavitError(
-                    f"{jw}: missing parameter(s) {', '.join(missing)} of a {conv} table (columns {', '.join(cols)})"
-                )
-            rows.append([_number(j[c], f"{jw}: parameter {c}") for c in cols])
-        lim = j.get("limits")
-        scale = joint_scale([kind], units["length"], units["angle"], jw)[0]
-        if lim is None:
-            lo, hi = _core.default_limits(kind)
-        else:
-            raw_lim = _numbers(lim, 2, f"{jw}: limits", finite=False)
-            if kind == "revolute":
-                _plausible_angles(raw_lim, scale, f"{jw}: limits", joint=True)
-            else:
-                limits.check_lengths(
-                    [v * scale for v in raw_lim if np.isfinite(v)], f"{jw}: limits", _unit(scale), scale
-                )
-            lo, hi = (v * scale for v in raw_lim)
-            if lo > hi:
-                raise DenavitError(f"{jw}: limits must be [lower, upper] with lower <= upper, got {lim!r}")
-        lower.append(lo)
-        upper.append(hi)
-    first = {}
-    for i, nm in enumerate(names):  # (the core refuses it too, but without the file's place)
-        if nm in first:
-            raise DenavitError(
-                f"{joint_where[i]}: name {nm!r} is joint {first[nm] + 1}'s already: expected names unique within the robot"
-            )
-        first[nm] = i
-    base = _pose(doc["base"], ls, as_, f"{where}, [base]") if "base" in doc else np.eye(4)
-    tool = _pose(doc["tool"], ls, as_, f"{where}, [tool]") if "tool" in doc else np.eye(4)
-    # the rows in the file's units -> SI, cell by cell (io.units.cell_scale: angles, lengths, unitless POE directions)
-    raw = _core.Table(conv, np.asarray(rows, dtype=float).reshape(len(rows), len(cols)), kinds)
-    si = [
-        [cell_scale(raw, i, k, units["length"], units["angle"])[0] for k in range(len(cols))] for i in range(len(rows))
-    ]
-    _plausible_table(raw, si, as_, joint_where)
-    try:  # the core's checks of the table and of its model (a POE screw, a non-rigid tool), said at their place
-        table = _core.Table(conv, raw.params * np.asarray(si).reshape(raw.params.shape), kinds, base, tool)
-        table.to_model("check")
-    except DenavitError as e:
-        raise DenavitError(f"{_core_error_place(str(e), where, joint_where)}: {e}") from None
-    home = doc.get("home")
-    if home is not None:
-        home = np.asarray(_numbers(home, len(joints), f"{where}: home"))
-        rev = np.array([k == "revolute" for k in kinds])
-        _plausible_angles(home[rev], as_, f"{where}: home", joint=True)
-        home = home * joint_scale(kinds, units["length"], units["angle"], where)
-        limits.check_lengths(home[~rev], f"{where}: home", _unit(ls), ls)
-    coupling = parse_coupling(doc["couplings"], kinds, f"{where}, [couplings]") if "couplings" in doc else None
-    scale, reference = (
-        _readings(doc["readings"], kinds, units, f"{where}, [readings]") if "readings" in doc else (None, None)
-    )
-    covariance = (
-        _covariance(doc["covariance"], table, units, f"{where}, [covariance]", scale is not None)
-        if "covariance" in doc
-        else None
-    )
-    known = {
+#: The top-level keys of a robot file: its other tables (e.g. [urdf], written by `convert` from a URDF) are carried
+#: as :attr:`~denavit.robot.Robot.extra`.
+_TOP_KEYS = frozenset(
+    {
         "name",
         "description",
         "source",
@@ -360,46 +260,50 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         "compliance",
         "prior",
     }
-    # other tables (e.g. [urdf], written by `convert` from a URDF) are carried as extra; a stray plain key is
-    # most likely a typo ("hom" for "home")
-    _check_keys({k: v for k, v in doc.items() if not isinstance(v, dict)}, sorted(known), f"{where} (top level)")
-    inertials = None
-    if any(x is not None for x in inert):
-        zero = (0.0, [0.0, 0.0, 0.0], np.zeros((3, 3)))
-        full = [x if x is not None else zero for x in inert]
-        inertials = {
-            "masses": np.array([x[0] for x in full]),
-            "coms": np.array([x[1] for x in full]),
-            "inertias": np.array([x[2] for x in full]),
-        }
-        try:  # the core's physical checks, reported at the joint's line
-            attach_inertials(table.to_model("check"), table, inertials)
-        except DenavitError as e:
-            joint = getattr(e, "joint", None)  # the core error names the link it is about
-            at = joint_where[joint - 1] if joint else where
-            raise DenavitError(f"{at}: inertia: {e}") from None
-    compliance, compliance_cov, compliance_flange = None, None, None
-    if "compliance" in doc:
-        spec = doc["compliance"]
-        if isinstance(spec, dict) and "flange" in spec:
-            compliance_flange = _pose(spec["flange"], ls, as_, f"{where}, [compliance] flange")
-            spec = {k: v for k, v in spec.items() if k != "flange"}
-        compliance, compliance_cov = read_compliance(
-            spec, kinds, names, inertials is not None, f"{where}, [compliance]"
-        )
+)
+
+
+def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = None) -> Robot:
+    """Build a :class:`Robot` from the parsed TOML structure (see the module docstring): one step per table, in
+    the order their errors are said."""
+    info = _convention(doc, where)
+    units, ls, as_ = _units(doc, where)
+    joints = _joints(doc, info, units, ls, where, joint_lines)
+    kinds, names = joints.kinds, joints.names
+    base = _pose(doc["base"], ls, as_, f"{where}, [base]") if "base" in doc else np.eye(4)
+    tool = _pose(doc["tool"], ls, as_, f"{where}, [tool]") if "tool" in doc else np.eye(4)
+    table = _table(info, joints, units, as_, base, tool, where)
+    home = _home(doc.get("home"), kinds, units, ls, as_, where)
+    coupling = parse_coupling(doc["couplings"], kinds, f"{where}, [couplings]") if "couplings" in doc else None
+    scale, reference = (
+        _readings(doc["readings"], kinds, units, f"{where}, [readings]") if "readings" in doc else (None, None)
+    )
+    covariance = (
+        _covariance(doc["covariance"], table, units, f"{where}, [covariance]", scale is not None)
+        if "covariance" in doc
+        else None
+    )
+    # a stray plain key is most likely a typo ("hom" for "home")
+    _check_keys({k: v for k, v in doc.items() if not isinstance(v, dict)}, sorted(_TOP_KEYS), f"{where} (top level)")
+    inertials = _inertials(joints, table, where)
+    compliance, compliance_cov, compliance_flange = (
+        _compliance(doc["compliance"], kinds, names, inertials is not None, ls, as_, where)
+        if "compliance" in doc
+        else (None, None, None)
+    )
     prior = _prior(doc["prior"], units, f"{where}, [prior]") if "prior" in doc else None
     training = _training(doc.get(TRAINING_TABLE), kinds, units, f"{where}, [{TRAINING_TABLE}]")
     return Robot(
         name=_text(doc.get("name", Path(where).stem), f"{where}: name"),
         table=table,
         names=names,
-        lower=np.array(lower),
-        upper=np.array(upper),
+        lower=np.array(joints.lower),
+        upper=np.array(joints.upper),
         description=_text(doc.get("description", ""), f"{where}: description"),
         source=_text(doc.get("source", ""), f"{where}: source"),
         home=home,
         path=where,
-        extra={k: v for k, v in doc.items() if k not in known},
+        extra={k: v for k, v in doc.items() if k not in _TOP_KEYS},
         training=training,
         inertials=inertials,
         coupling=coupling,
@@ -411,6 +315,178 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         compliance_flange=compliance_flange,
         prior=prior,
     )
+
+
+def _convention(doc: dict, where: str) -> dict:
+    """The core's description of the file's ``convention`` (its one parser of convention names: dh, sdh, mdh, craig,
+    modified-dh, edh, poe; any case)."""
+    try:
+        info = _core.convention_info(doc["convention"]) if isinstance(doc.get("convention"), str) else None
+    except DenavitError:
+        info = None
+    if info is None:
+        raise DenavitError(
+            f"{where}: 'convention' must be one of {', '.join(_core.conventions())}, got {doc.get('convention')!r} "
+            "(aliases: sdh, craig, modified-dh, in any case)"
+        )
+    return info
+
+
+def _units(doc: dict, where: str) -> tuple[dict, float, float]:
+    """The ``[units]`` table, its length and angle scales (SI per file unit)."""
+    units = doc.get("units")
+    if not isinstance(units, dict) or "length" not in units or "angle" not in units:
+        raise DenavitError(
+            f"{where}: a [units] table with 'length' and 'angle' is required "
+            f'(e.g. length = "mm", angle = "deg"), got {units!r}'
+        )
+    _check_keys(units, UNIT_KEYS, f"{where}, [units]")
+    ls = length_scale(units["length"], f"{where}, [units] length")
+    as_ = angle_scale(units["angle"], f"{where}, [units] angle")
+    return units, ls, as_
+
+
+@dataclass
+class _Joints:
+    """The ``[[joints]]`` tables read, one entry per joint: its row of parameters (file units), type, name, limits
+    (SI), inertia (SI, or None) and place in the file."""
+
+    rows: list[list[float]] = field(default_factory=list)
+    kinds: list[str] = field(default_factory=list)
+    names: list[str] = field(default_factory=list)
+    lower: list[float] = field(default_factory=list)
+    upper: list[float] = field(default_factory=list)
+    inertia: list[tuple[float, list[float], np.ndarray] | None] = field(default_factory=list)
+    where: list[str] = field(default_factory=list)
+
+
+def _joints(doc: dict, info: dict, units: dict, ls: float, where: str, joint_lines: list[int] | None) -> _Joints:
+    """The ``[[joints]]`` tables, each checked for its keys, type, parameters and limits, and their names unique."""
+    joints = doc.get("joints")
+    if not isinstance(joints, list) or not joints:
+        raise DenavitError(f"{where}: expected one or more [[joints]] tables, got none")
+    limits.check_size(len(joints), "joints", where, "joints")
+    conv, cols = info["name"], list(info["columns"])
+    out = _Joints()
+    for i, j in enumerate(joints):
+        line = f" (line {joint_lines[i]})" if joint_lines and i < len(joint_lines) else ""
+        jw = f"{where}, joint {i + 1}{line}"
+        out.where.append(jw)
+        if not isinstance(j, dict):
+            raise DenavitError(f"{jw}: expected a [[joints]] table, got {j!r}")
+        _check_keys(j, ["name", "type", *(["w", "v"] if conv == "poe" else cols), "limits", "inertia"], jw)
+        out.inertia.append(_inertia(j["inertia"], jw, units, where, ls) if "inertia" in j else None)
+        kind = _text(j.get("type", "revolute"), f"{jw}: type").lower()
+        if kind not in ("revolute", "prismatic"):
+            raise DenavitError(f"{jw}: type must be 'revolute' or 'prismatic', got {j.get('type')!r}")
+        out.kinds.append(kind)
+        out.names.append(_text(j.get("name", f"j{i + 1}"), f"{jw}: name"))
+        out.rows.append(_joint_row(j, conv, cols, jw))
+        lo, hi = _joint_limits(j.get("limits"), kind, units, jw)
+        out.lower.append(lo)
+        out.upper.append(hi)
+    first = {}
+    for i, nm in enumerate(out.names):  # (the core refuses it too, but without the file's place)
+        if nm in first:
+            raise DenavitError(
+                f"{out.where[i]}: name {nm!r} is joint {first[nm] + 1}'s already: "
+                "expected names unique within the robot"
+            )
+        first[nm] = i
+    return out
+
+
+def _joint_row(j: dict, conv: str, cols: list[str], jw: str) -> list[float]:
+    """A joint's row of parameters in the file's units: ``w``, ``v`` of a POE joint, else the convention's columns."""
+    if conv == "poe":
+        w = np.array(_numbers(j.get("w", [0, 0, 0]), 3, f"{jw}: w (poe joints need w and v with 3 values each)"))
+        v = np.array(_numbers(j.get("v", [0, 0, 0]), 3, f"{jw}: v (poe joints need w and v with 3 values each)"))
+        return [*w, *v]
+    missing = [c for c in cols if c not in j]
+    if missing:
+        raise DenavitError(
+            f"{jw}: missing parameter(s) {', '.join(missing)} of a {conv} table (columns {', '.join(cols)})"
+        )
+    return [_number(j[c], f"{jw}: parameter {c}") for c in cols]
+
+
+def _joint_limits(lim, kind: str, units: dict, jw: str) -> tuple[float, float]:
+    """A joint's ``limits`` (SI; the core's defaults for its type when not given)."""
+    scale = joint_scale([kind], units["length"], units["angle"], jw)[0]
+    if lim is None:
+        return _core.default_limits(kind)
+    raw_lim = _numbers(lim, 2, f"{jw}: limits", finite=False)
+    if kind == "revolute":
+        _plausible_angles(raw_lim, scale, f"{jw}: limits", joint=True)
+    else:
+        limits.check_lengths([v * scale for v in raw_lim if np.isfinite(v)], f"{jw}: limits", _unit(scale), scale)
+    lo, hi = (v * scale for v in raw_lim)
+    if lo > hi:
+        raise DenavitError(f"{jw}: limits must be [lower, upper] with lower <= upper, got {lim!r}")
+    return lo, hi
+
+
+def _table(
+    info: dict, joints: _Joints, units: dict, as_: float, base: np.ndarray, tool: np.ndarray, where: str
+) -> _core.Table:
+    """The joints' rows in SI with ``base`` and ``tool``, checked by the core (a POE screw, a non-rigid tool) and
+    its errors said at their place in the file."""
+    conv, cols, rows, kinds = info["name"], list(info["columns"]), joints.rows, joints.kinds
+    # the rows in the file's units -> SI, cell by cell (io.units.cell_scale: angles, lengths, unitless POE directions)
+    raw = _core.Table(conv, np.asarray(rows, dtype=float).reshape(len(rows), len(cols)), kinds)
+    si = [
+        [cell_scale(raw, i, k, units["length"], units["angle"])[0] for k in range(len(cols))] for i in range(len(rows))
+    ]
+    _plausible_table(raw, si, as_, joints.where)
+    try:
+        table = _core.Table(conv, raw.params * np.asarray(si).reshape(raw.params.shape), kinds, base, tool)
+        table.to_model("check")
+    except DenavitError as e:
+        raise DenavitError(f"{_core_error_place(str(e), where, joints.where)}: {e}") from None
+    return table
+
+
+def _home(home, kinds: list[str], units: dict, ls: float, as_: float, where: str) -> np.ndarray | None:
+    """The ``home`` joint values (SI), or None when not given."""
+    if home is None:
+        return None
+    home = np.asarray(_numbers(home, len(kinds), f"{where}: home"))
+    rev = np.array([k == "revolute" for k in kinds])
+    _plausible_angles(home[rev], as_, f"{where}: home", joint=True)
+    home = home * joint_scale(kinds, units["length"], units["angle"], where)
+    limits.check_lengths(home[~rev], f"{where}: home", _unit(ls), ls)
+    return home
+
+
+def _inertials(joints: _Joints, table: _core.Table, where: str) -> dict | None:
+    """The links' inertial parameters (a link without ``inertia`` has none) checked by the core for physics and its
+    errors said at the joint's line; None when no joint gives one."""
+    if all(x is None for x in joints.inertia):
+        return None
+    zero = (0.0, [0.0, 0.0, 0.0], np.zeros((3, 3)))
+    full = [x if x is not None else zero for x in joints.inertia]
+    inertials = {
+        "masses": np.array([x[0] for x in full]),
+        "coms": np.array([x[1] for x in full]),
+        "inertias": np.array([x[2] for x in full]),
+    }
+    try:
+        attach_inertials(table.to_model("check"), table, inertials)
+    except DenavitError as e:
+        joint = getattr(e, "joint", None)  # the core error names the link it is about
+        at = joints.where[joint - 1] if joint else where
+        raise DenavitError(f"{at}: inertia: {e}") from None
+    return inertials
+
+
+def _compliance(spec, kinds: list[str], names: list[str], inertial: bool, ls: float, as_: float, where: str):
+    """(compliance, its covariance, the flange pose or None) of a ``[compliance]`` table (:mod:`denavit.io.payload`)."""
+    flange = None
+    if isinstance(spec, dict) and "flange" in spec:
+        flange = _pose(spec["flange"], ls, as_, f"{where}, [compliance] flange")
+        spec = {k: v for k, v in spec.items() if k != "flange"}
+    compliance, cov = read_compliance(spec, kinds, names, inertial, f"{where}, [compliance]")
+    return compliance, cov, flange
 
 
 def _prior(spec, units: dict, where: str) -> str:
