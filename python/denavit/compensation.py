@@ -181,6 +181,51 @@ def compensate(
         home = getattr(nominal, "home", None)
         q0 = np.zeros(nom.nq) if home is None else np.asarray(home, dtype=float)
     q0 = np.asarray(q0, dtype=float)
+    q_nominal, assumed, unreachable = _configurations(nom, T, q_nominal, q0, path, ik_options)
+    r = _core.compensate(nom, ide, T, q_nominal, q0, path=path, branch_tol=branch_tol, **ik_options)
+    q = r.q
+    # compliant joints (calibration/compliance.py): the commanded readings deflect to q under gravity and the payload
+    el = elastic(identified)
+    pl = None if el is None else as_payload(payload, len(T))
+    qc = q if el is None else el.command(q, pl)
+    predicted = _predicted(identified, result, q, el, qc, pl) if predict else None
+    commands, q_cmd, before, before_rot = r.commands, q, r.before_position, r.before_rotation
+    if el is not None:
+        q_cmd, commands = qc, _core.fk_batch(nom, qc)
+        # the program run as written, the joints deflected
+        before, before_rot = _errors(T, _core.fk_batch(ide, el.deflected(r.q_nominal, pl)))
+    through = _through_readings(nominal, identified, nom, ide, T, r.q_nominal, qc, el, pl)
+    if through is not None:
+        q_cmd, commands, before, before_rot = through
+    if assumed.any():
+        notes.append(
+            f"{int(assumed.sum())} of {len(T)} rows without a configuration: "
+            "compensated on the nominal's solution nearest q0 "
+            f"({', '.join(f'{v:.4g}' for v in q0)} rad / m){' warm-started along the path' if path else ''}"
+            + (f"; {int(unreachable.sum())} of them unreachable on the nominal" if unreachable.any() else "")
+        )
+    return Compensation(
+        T,
+        commands,
+        q,
+        r.q_nominal,
+        r.reached & ~unreachable,
+        r.branch_changed,
+        r.path_jump,
+        r.position_error,
+        r.rotation_error,
+        before,
+        before_rot,
+        predicted,
+        q_cmd,
+        tuple(notes),
+        assumed,
+    )
+
+
+def _configurations(nom: _core.Model, T: np.ndarray, q_nominal, q0: np.ndarray, path: bool, ik_options: dict):
+    """(the program's configurations for the core, which rows had none (assumed), which of those the nominal cannot
+    reach): outside path mode, a row without one takes the nominal's solution nearest ``q0``."""
     qarr = None if q_nominal is None else np.asarray(q_nominal, dtype=float)
     if qarr is not None and qarr.shape != (len(T), nom.nq):  # (the core says what is wrong)
         assumed = np.zeros(len(T), dtype=bool)
@@ -206,75 +251,56 @@ def compensate(
             raise DenavitError(
                 "q_nominal: path mode takes a configuration for every row or for none (rows of NaN among given ones)"
             )
-    r = _core.compensate(nom, ide, T, q_nominal, q0, path=path, branch_tol=branch_tol, **ik_options)
-    q = r.q
-    el = elastic(
-        identified
-    )  # compliant joints (calibration/compliance.py): the commanded readings deflect to q under gravity and the payload
-    pl = None if el is None else as_payload(payload, len(T))
-    qc = q if el is None else el.command(q, pl)
+    return q_nominal, assumed, unreachable
+
+
+def _predicted(identified, result, q: np.ndarray, el, qc: np.ndarray, pl) -> np.ndarray | None:
+    """``predicted_after``: the predicted error at the compensated joint values ``q`` (from ``result``, else from
+    ``identified``'s own covariance), with the compliances' at the commands ``qc`` when the joints are compliant."""
     predicted = None
-    if predict and result is not None:
+    if result is not None:
         predicted = predicted_sigma(result, q)
-    elif predict and (hasattr(identified, "axis_cov") or hasattr(identified, "parametrization")):
+    elif hasattr(identified, "axis_cov") or hasattr(identified, "parametrization"):
         predicted = predicted_sigma(identified, q)  # an identification or a calibration: its own covariance
-    elif predict and isinstance(identified, Robot) and identified.covariance is not None:
+    elif isinstance(identified, Robot) and identified.covariance is not None:
         predicted = table_sigma(identified, q)  # e.g. a robot file's [covariance]
-    if predict and el is not None:
-        predicted = compliant_sigma(el, predicted, qc, pl)
-    commands, q_cmd, before, before_rot = r.commands, q, r.before_position, r.before_rotation
     if el is not None:
-        q_cmd, commands = qc, _core.fk_batch(nom, qc)
-        exe = _core.fk_batch(ide, el.deflected(r.q_nominal, pl))  # the program run as written, the joints deflected
-        before = np.linalg.norm(exe[:, :3, 3] - T[:, :3, 3], axis=1)
-        before_rot = _angle(np.swapaxes(T[:, :3, :3], 1, 2) @ exe[:, :3, :3])
-    # the readings: the controller turns the nominal's joint values into readings (its coupling), the identified
-    # robot turns readings into its joint values (its coupling, else the nominal's; its reading scales)
+        predicted = compliant_sigma(el, predicted, qc, pl)
+    return predicted
+
+
+def _errors(T: np.ndarray, exe: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(position error m, rotation error rad) of the executed poses ``exe`` from the targets ``T``."""
+    before = np.linalg.norm(exe[:, :3, 3] - T[:, :3, 3], axis=1)
+    return before, _angle(np.swapaxes(T[:, :3, :3], 1, 2) @ exe[:, :3, :3])
+
+
+def _through_readings(nominal, identified, nom: _core.Model, ide: _core.Model, T, q_program, qc, el, pl):
+    """(commanded joint values, commanded poses, position and rotation errors before) when the nominal and the
+    identified robot read their joints differently, else None: the controller turns the nominal's joint values into
+    readings (its coupling), the identified robot turns readings into its joint values (its coupling, else the
+    nominal's; its reading scales). ``q_program``: the program's nominal joint values; ``qc``: the commands."""
     rm_nom = reading_model(nominal)
     rm_id = reading_model(identified)
     if rm_id is not None and rm_id[0] is None and rm_nom is not None:
         rm_id = (rm_nom[0], *rm_id[1:])
     rm_id = rm_nom if rm_id is None else rm_id
-    if not _same_readings(rm_nom, rm_id):
+    if _same_readings(rm_nom, rm_id):
+        return None
 
-        def to_nominal(qi):
-            rd = readings(qi, *rm_id) if rm_id is not None else qi
-            return joint_values(rd, *rm_nom) if rm_nom is not None else rd
+    def to_nominal(qi):
+        rd = readings(qi, *rm_id) if rm_id is not None else qi
+        return joint_values(rd, *rm_nom) if rm_nom is not None else rd
 
-        def to_identified(qn):
-            rd = readings(qn, *rm_nom) if rm_nom is not None else qn
-            return joint_values(rd, *rm_id) if rm_id is not None else rd
+    def to_identified(qn):
+        rd = readings(qn, *rm_nom) if rm_nom is not None else qn
+        return joint_values(rd, *rm_id) if rm_id is not None else rd
 
-        q_cmd = to_nominal(qc)
-        commands = _core.fk_batch(nom, q_cmd)
-        exe = _core.fk_batch(
-            ide, to_identified(r.q_nominal) if el is None else el.deflected(to_identified(r.q_nominal), pl)
-        )  # the program run as written
-        before = np.linalg.norm(exe[:, :3, 3] - T[:, :3, 3], axis=1)
-        before_rot = _angle(np.swapaxes(T[:, :3, :3], 1, 2) @ exe[:, :3, :3])
-    if assumed.any():
-        notes.append(
-            f"{int(assumed.sum())} of {len(T)} rows without a configuration: compensated on the nominal's solution nearest q0 "
-            f"({', '.join(f'{v:.4g}' for v in q0)} rad / m){' warm-started along the path' if path else ''}"
-            + (f"; {int(unreachable.sum())} of them unreachable on the nominal" if unreachable.any() else "")
-        )
-    return Compensation(
-        T,
-        commands,
-        q,
-        r.q_nominal,
-        r.reached & ~unreachable,
-        r.branch_changed,
-        r.path_jump,
-        r.position_error,
-        r.rotation_error,
-        before,
-        before_rot,
-        predicted,
-        q_cmd,
-        tuple(notes),
-        assumed,
-    )
+    q_cmd = to_nominal(qc)
+    commands = _core.fk_batch(nom, q_cmd)
+    q_run = to_identified(q_program)
+    exe = _core.fk_batch(ide, q_run if el is None else el.deflected(q_run, pl))  # the program run as written
+    return (q_cmd, commands, *_errors(T, exe))
 
 
 def _valid_poses(T: np.ndarray) -> bool:
