@@ -424,28 +424,11 @@ def calibrate_targets(
     declared). Returns a :class:`~denavit.calibration.Calibration` whose ``measurements`` hold one row per measured
     point (``where`` names the target).
     """
-    from ..fitting.joint import as_tracker_noise  # noqa: PLC0415
-
     t0 = time.perf_counter()
     tm = as_target_measurements(meas)
     robot = robot_of(nominal)
     n, K = len(robot.names), tm.n_targets
-    if tm.nq != n:
-        raise DenavitError(
-            f"{tm.source}: the data has {tm.nq} joint readings per pose but the nominal model {robot.name} has {n} joints ({', '.join(robot.names)})"
-        )
-    if tm.kinds is not None and tuple(tm.kinds) != tuple(robot.table.kinds):
-        raise DenavitError(
-            f"{tm.source}: joint kinds {list(tm.kinds)} differ from the nominal {robot.name}'s {list(robot.table.kinds)}"
-        )
-    if loss != "linear" or start != "nominal":
-        raise DenavitError(
-            f"{tm.source}: several targets per pose are fitted with loss 'linear' from start 'nominal', got loss {loss!r}, start {start!r}"
-        )
-    if not 0.0 <= holdout < 0.9:
-        raise DenavitError(f"holdout: expected a fraction in [0, 0.9), got {holdout}")
-    if noise is not None and not (isinstance(noise, (int, float)) and math.isfinite(noise) and noise > 0):
-        raise DenavitError(f"noise: expected the known one-sigma noise, a finite value > 0 (m), got {noise!r}")
+    _check_target_options(tm, robot, loss, start, holdout, noise)
     notes = [
         f"{tm.n} poses x {K} targets: one fit with every target's point in the flange frame (target{{k}}_x, _y, _z)"
     ]
@@ -454,19 +437,7 @@ def calibrate_targets(
         notes.append(
             "the poses' orientations (qw, qx, qy, qz) are not used: the targets' points determine the flange's orientation at every pose"
         )
-    m_nom = robot.model()
-    T_tool_nom = np.asarray(m_nom.T_flange_tool, dtype=float)
-    if tool is not None:
-        t = np.asarray(tool, dtype=float)
-        if t.shape not in ((3,), (K, 3)) or not np.all(np.isfinite(t)):
-            raise DenavitError(
-                f"tool: expected the targets' start in the flange frame, a point (3,) or ({K}, 3) (m), got shape {t.shape}"
-            )
-        start_pts = np.broadcast_to(t, (K, 3)).copy()
-    elif tm.nest is not None:
-        start_pts = tm.nest @ T_tool_nom[:3, :3].T + T_tool_nom[:3, 3]
-    else:
-        start_pts = np.tile(T_tool_nom[:3, 3], (K, 1))
+    start_pts = _start_points(tm, robot, tool)
     pz = TargetParametrization.build(robot, convention, K, start_pts, scale, tm.nest)
     x = pz.x0.copy()
     user_fixed = resolve_fix(pz, fix)
@@ -475,25 +446,8 @@ def calibrate_targets(
             x[c] = v
     rule_fixed = {pz.index(nm) for nm in pz.rules}
     candidates = [c for c in range(pz.n_params) if c not in user_fixed and c not in rule_fixed]
-    tracker = as_tracker_noise(tracker_noise)
-    Wh, ref = (None, None)
-    if tracker is not None:
-        if noise is not None:
-            raise DenavitError(
-                f"noise = {noise!r} and tracker_noise: give one (the tracker's model declares the shape of each point's noise, its scale is estimated from the residuals)"
-            )
-        Wh, ref = tracker.whitening(tm.targets.reshape(-1, 3))
-        Wh = Wh.reshape(tm.n, K, 3, 3)
-    # held-out split: whole poses
-    test_idx = np.zeros(0, dtype=int)
-    train_idx = np.arange(tm.n)
-    if holdout > 0:
-        n_test = int(round(holdout * tm.n))
-        perm = np.random.default_rng(check_seed(seed)).permutation(tm.n)
-        if n_test >= 1 and 3 * K * (tm.n - n_test) > len(candidates) + 1:
-            test_idx, train_idx = np.sort(perm[:n_test]), np.sort(perm[n_test:])
-        else:
-            notes.append(f"holdout {holdout} skipped: {tm.n} poses are too few to hold any out")
+    Wh, ref = _target_whitening(tm, tracker_noise, noise)
+    train_idx, test_idx = _pose_split(tm, holdout, seed, len(candidates), notes)
 
     def rows(idx):
         sub = tm.subset(idx)
@@ -547,22 +501,135 @@ def calibrate_targets(
     rms = float(np.sqrt(np.mean(pos**2)))
     robust = float(np.median(np.linalg.norm(res_si, axis=1))) / math.sqrt(2.366)
     outliers = train_rows[np.flatnonzero(pos > OUTLIER_SIGMAS * max(robust, 1e-300))]
-    validation = None
-    if test_idx.size:
-        test = rows(test_idx)
-        before = np.linalg.norm(pz.evaluate(x_reg, test.q, False)[0][:, :3, 3] - test.points, axis=1)
-        after = np.linalg.norm(pz.evaluate(x_hat, test.q, False)[0][:, :3, 3] - test.points, axis=1)
-        test_rows = (test_idx[:, None] * K + np.arange(K)).ravel()
-        validation = Validation(
-            train.n,
-            test.n,
-            float(np.sqrt(np.mean(before**2))),
-            float(before.max()),
-            float(np.sqrt(np.mean(after**2))),
-            float(after.max()),
-            test_rows,
+    validation = _target_validation(pz, tm, rows, train.n, test_idx, x_reg, x_hat)
+    _target_notes(notes, pz, x_hat, everything, rms, sol, corr, free, outliers)
+    shown = Measurements(
+        np.repeat(tm.q, K, axis=0), everything.points, None, tm.source, everything.where, tm.units, None, tm.kinds
+    )
+    noise_est = math.sqrt(s2) * sig_p if not known else sig_p
+    return Calibration(
+        pz,
+        list(pz.names),
+        x_hat,
+        sigma,
+        status,
+        pz.x0,
+        x_reg,
+        [pz.names[c] for c in free],
+        cov,
+        corr,
+        ana,
+        res_si,
+        rms,
+        math.nan,
+        outliers,
+        validation,
+        shown,
+        loss,
+        sol is None or sol.status > 0,
+        0 if sol is None else int(sol.nfev),
+        time.perf_counter() - t0,
+        float(noise_est),
+        notes,
+    )
+
+
+def _check_target_options(tm, robot, loss: str, start: str, holdout: float, noise) -> None:
+    """One-line errors for data that do not fit the nominal and options the several-targets fit does not take."""
+    n = len(robot.names)
+    if tm.nq != n:
+        raise DenavitError(
+            f"{tm.source}: the data has {tm.nq} joint readings per pose but the nominal model {robot.name} has {n} joints ({', '.join(robot.names)})"
         )
-    T_tool, frm = pz.tool(x_hat)
+    if tm.kinds is not None and tuple(tm.kinds) != tuple(robot.table.kinds):
+        raise DenavitError(
+            f"{tm.source}: joint kinds {list(tm.kinds)} differ from the nominal {robot.name}'s {list(robot.table.kinds)}"
+        )
+    if loss != "linear" or start != "nominal":
+        raise DenavitError(
+            f"{tm.source}: several targets per pose are fitted with loss 'linear' from start 'nominal', got loss {loss!r}, start {start!r}"
+        )
+    if not 0.0 <= holdout < 0.9:
+        raise DenavitError(f"holdout: expected a fraction in [0, 0.9), got {holdout}")
+    if noise is not None and not (isinstance(noise, (int, float)) and math.isfinite(noise) and noise > 0):
+        raise DenavitError(f"noise: expected the known one-sigma noise, a finite value > 0 (m), got {noise!r}")
+
+
+def _start_points(tm, robot, tool) -> np.ndarray:
+    """(K, 3) the targets' start points in the flange frame: ``tool`` as given, else the nest in the nominal's tool
+    frame, else the nominal's tool point for every target."""
+    K = tm.n_targets
+    m_nom = robot.model()
+    T_tool_nom = np.asarray(m_nom.T_flange_tool, dtype=float)
+    if tool is not None:
+        t = np.asarray(tool, dtype=float)
+        if t.shape not in ((3,), (K, 3)) or not np.all(np.isfinite(t)):
+            raise DenavitError(
+                f"tool: expected the targets' start in the flange frame, a point (3,) or ({K}, 3) (m), got shape {t.shape}"
+            )
+        start_pts = np.broadcast_to(t, (K, 3)).copy()
+    elif tm.nest is not None:
+        start_pts = tm.nest @ T_tool_nom[:3, :3].T + T_tool_nom[:3, 3]
+    else:
+        start_pts = np.tile(T_tool_nom[:3, 3], (K, 1))
+    return start_pts
+
+
+def _target_whitening(tm, tracker_noise, noise):
+    """(each point's whitening (N, K, 3, 3) from the tracker's noise model, its mean per-coordinate sigma, m), or
+    (None, None) without one."""
+    from ..fitting.joint import as_tracker_noise  # noqa: PLC0415
+
+    tracker = as_tracker_noise(tracker_noise)
+    if tracker is None:
+        return None, None
+    if noise is not None:
+        raise DenavitError(
+            f"noise = {noise!r} and tracker_noise: give one (the tracker's model declares the shape of each point's noise, its scale is estimated from the residuals)"
+        )
+    Wh, ref = tracker.whitening(tm.targets.reshape(-1, 3))
+    Wh = Wh.reshape(tm.n, tm.n_targets, 3, 3)
+    return Wh, ref
+
+
+def _pose_split(tm, holdout: float, seed: int, n_candidates: int, notes: list):
+    """(the training poses' indices, the held-out poses' indices): whole poses, every target with its pose."""
+    K = tm.n_targets
+    test_idx = np.zeros(0, dtype=int)
+    train_idx = np.arange(tm.n)
+    if holdout > 0:
+        n_test = int(round(holdout * tm.n))
+        perm = np.random.default_rng(check_seed(seed)).permutation(tm.n)
+        if n_test >= 1 and 3 * K * (tm.n - n_test) > n_candidates + 1:
+            test_idx, train_idx = np.sort(perm[:n_test]), np.sort(perm[n_test:])
+        else:
+            notes.append(f"holdout {holdout} skipped: {tm.n} poses are too few to hold any out")
+    return train_idx, test_idx
+
+
+def _target_validation(pz, tm, rows, n_train: int, test_idx, x_reg, x_hat) -> Validation | None:
+    """The held-out poses' point errors before (the registered nominal) and after calibration."""
+    K = tm.n_targets
+    if not test_idx.size:
+        return None
+    test = rows(test_idx)
+    before = np.linalg.norm(pz.evaluate(x_reg, test.q, False)[0][:, :3, 3] - test.points, axis=1)
+    after = np.linalg.norm(pz.evaluate(x_hat, test.q, False)[0][:, :3, 3] - test.points, axis=1)
+    test_rows = (test_idx[:, None] * K + np.arange(K)).ravel()
+    return Validation(
+        n_train,
+        test.n,
+        float(np.sqrt(np.mean(before**2))),
+        float(before.max()),
+        float(np.sqrt(np.mean(after**2))),
+        float(after.max()),
+        test_rows,
+    )
+
+
+def _target_notes(notes, pz, x_hat, everything, rms, sol, corr, free, outliers) -> None:
+    """What the user should know about the several-targets fit, added to ``notes``."""
+    _, frm = pz.tool(x_hat)
     notes.append(
         "tool frame: "
         + (
@@ -595,35 +662,6 @@ def calibrate_targets(
         notes.append(
             f"{outliers.size} point(s) with a misfit above {OUTLIER_SIGMAS} robust sigmas: {', '.join(everything.where[i] for i in outliers[:5])}{' ...' if outliers.size > 5 else ''}"
         )
-    shown = Measurements(
-        np.repeat(tm.q, K, axis=0), everything.points, None, tm.source, everything.where, tm.units, None, tm.kinds
-    )
-    noise_est = math.sqrt(s2) * sig_p if not known else sig_p
-    return Calibration(
-        pz,
-        list(pz.names),
-        x_hat,
-        sigma,
-        status,
-        pz.x0,
-        x_reg,
-        [pz.names[c] for c in free],
-        cov,
-        corr,
-        ana,
-        res_si,
-        rms,
-        math.nan,
-        outliers,
-        validation,
-        shown,
-        loss,
-        sol is None or sol.status > 0,
-        0 if sol is None else int(sol.nfev),
-        time.perf_counter() - t0,
-        float(noise_est),
-        notes,
-    )
 
 
 __all__ = [
