@@ -81,3 +81,52 @@ def test_joint_fit_by_moments_is_the_per_point_fit(kr5, monkeypatch, loss):
     # (the parameters' sigmas pass through central differences of step 1e-7: round-off of the axes shows at 1e-9)
     np.testing.assert_allclose(fast.sigma[free], slow.sigma[free], rtol=1e-7)
     np.testing.assert_allclose([f.scale for f in fast.fits], [f.scale for f in slow.fits], rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("seed", [8, 11])
+def test_long_sweeps_choose_on_a_subsample_then_fit_all_points_once(kr5, monkeypatch, seed):
+    """Sweeps longer than joint.SUBSAMPLE points (here lowered to 1,000, for sweeps of 4,000): auto chooses its
+    measurement model (a home per sweep, the reading scales), with its variance components and robust weights, on
+    every k-th pose, then fits the chosen model once on all points (issue 41). The choices are those made on all
+    points (seed 8: a drift of 0.2 mm and scale errors, both kept; seed 11: scale errors first taken for a drift), the
+    axes agree within 0.05 of their sigmas (both are the fit of one model on all points; they differ by the stop,
+    1e-3 sigma, and by the scales' prior tau, estimated from a quarter of the points) and the sigmas within 1 %; the
+    Jacobian passes over the points are fewer than half."""
+    s = recording(
+        kr5.model(),
+        HOME,
+        np.radians(sw.PAPER_RANGES_DEG[90]),
+        points=4000,
+        seed=seed,
+        reading_arcsec=(30, 200) if seed == 8 else (30, 60),
+        offset_deg=0.05 if seed == 8 else 0.0,
+        scale=3e-4 if seed == 8 else 1e-3,
+        drift=2e-4 if seed == 8 else 0.0,
+    )
+    passes = {}
+    chain = joint._chain
+
+    def counted(cs, ns, kinds, p, dq, active, jac, moving=None, **kw):
+        if jac:
+            passes[case] += len(dq)
+        return chain(cs, ns, kinds, p, dq, active, jac, moving, **kw)
+
+    monkeypatch.setattr(joint, "_chain", counted)
+    res = {}
+    for case, limit in (("all", joint.SUBSAMPLE), ("subsample", 1000)):
+        monkeypatch.setattr(joint, "SUBSAMPLE", limit)
+        passes[case] = 0
+        res[case] = dv.identify(s, nominal=kr5)
+
+    def choices(r):
+        return [n.split(":")[1].split("(")[0].strip() for n in r.notes if n.startswith("auto:") and "k-th" not in n]
+
+    full, sub = res["all"], res["subsample"]
+    assert any("found on every k-th pose (k = 4: 1000 of 4000" in n for n in sub.notes), sub.notes
+    assert sub.method == full.method and choices(sub) == choices(full), (choices(sub), choices(full))
+    assert any(c.startswith("the readings' scale errors fitted") for c in choices(full)), full.notes
+    free = full.sigma > 1e-12
+    off = np.abs(sub.table.params - full.table.params)[free] / full.sigma[free]
+    assert off.max() < 0.05, off.max()
+    np.testing.assert_allclose(sub.sigma[free], full.sigma[free], rtol=1e-2)
+    assert passes["subsample"] < passes["all"] / 2, passes

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -16,6 +17,7 @@ from .circle import (
     in_plane_angles,
     net_turn,
 )
+from .joint import stride
 from .line import fit_line
 from .readings import fit_axis_with_readings
 from .result import AxisFit, flipped
@@ -119,11 +121,15 @@ def axis_start(points, q, where: str = "") -> AxisFit:
     (which makes its own covariance and flags)."""
     p = check_points(points, 3, "circle fit", where)
     qa = check_q(q, p.shape[0], where)
+    m, k = len(p), stride(len(p))
+    if k > 1:  # a long sweep: the start circle of every k-th point and the last (the arc whole)
+        rows = np.unique(np.r_[0:m:k, m - 1])
+        p, qa = p[rows], qa[rows]
     fit = hyper_start(p, where)
     phi = in_plane_angles(p, fit.point, fit.direction)
     if net_turn(phi[np.argsort(qa, kind="stable")]) < 0:  # orient by the readings (sorted by q), as fit_axis
         fit = flipped(fit)
-    return fit
+    return fit if k == 1 else replace(fit, n_points=m)
 
 
 def _check_one_way(net: float, span: float, motion: str, extent: str, scale: float, unit: str, where: str) -> None:

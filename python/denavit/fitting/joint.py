@@ -60,8 +60,6 @@ from .robust import loss_dweight, loss_weight, misfit_variance, robust_sigma
 from .tracker import TrackerNoise as TrackerNoise  # (the joint fit's noise model, named here too)
 from .tracker import _whiten, _whitener, as_tracker_noise
 
-#: A locked reading whose correlation with the swept joint's reading exceeds this (and which moves) is coupled.
-COUPLED_CORRELATION = 0.99
 #: Points of a sweep per step of the joint fit's normal equations (their Jacobian rows, a few MB, are not kept).
 CHUNK = 8192
 #: The joint fit stops at a step of at most this many of its own sigmas (Mahalanobis length under the covariance),
@@ -71,40 +69,16 @@ GAMMA_TOL = 1e-3
 SCALE_TOL = 1e-4
 #: Round-off of a misfit, in units of eps times the largest coordinate (the chain of rotations of the home point).
 COST_ROUNDOFF = 16.0
+#: Points of a sweep above which the choices around the joint fit are made on every k-th point, at most this many:
+#: its start (the circles, the home point), the point noise of the dwell check, and auto's measurement model with its
+#: variance components and robust weights (issue 41); the chosen model is then fitted once on all points. Up to it,
+#: every step sees every point.
+SUBSAMPLE = 50_000
 
 
-def locked_motion(q: np.ndarray, joint: int, home: np.ndarray, tol: np.ndarray):
-    """Per-point joint motion from home (m, n) used by the fit, and the locked joints coupled to the swept one.
-
-    The swept joint (0-based ``joint``) moves by its readings; a locked joint by the straight-line (time) fit of
-    its readings, minus home; a locked reading that moves (range beyond ``tol``) in lock-step with the swept
-    joint (correlation above ``COUPLED_CORRELATION``) is a coupling of the readings: taken as locked at home
-    and returned in ``coupled`` as (joint, slope of its reading against the swept one).
-    """
-    m, n = q.shape
-    dq = np.zeros((m, n))
-    dq[:, joint] = q[:, joint] - home[joint]
-    t = np.arange(m, dtype=float) - (m - 1) / 2
-    coupled = []
-    sw = q[:, joint] - q[:, joint].mean()
-    for i in range(n):
-        if i == joint:
-            continue
-        qi = q[:, i]
-        if np.ptp(qi) > tol[i] and np.std(sw) > 0 and np.std(qi) > 0:
-            r = float(np.corrcoef(qi, sw)[0, 1])
-            if abs(r) > COUPLED_CORRELATION:
-                coupled.append((i, float(np.polyfit(sw, qi, 1)[0])))
-                continue
-        # offset and creep from home, each kept only where it exceeds three of its standard errors (else noise)
-        off = qi.mean() - home[i]
-        slope = float(t @ (qi - qi.mean()) / (t @ t)) if m > 2 else 0.0
-        rest = qi - qi.mean() - slope * t
-        se = math.sqrt(float(rest @ rest) / (m - 2)) if m > 2 else 0.0
-        off = off if abs(off) > max(3 * se / math.sqrt(m), 1e-12) else 0.0  # (1e-12 rad / m: round-off)
-        slope = slope if m > 2 and abs(slope) * m > max(3 * se * m / math.sqrt(t @ t), 1e-12) else 0.0
-        dq[:, i] = off + slope * t
-    return dq, coupled
+def stride(m: int) -> int:
+    """k of every k-th point of a sweep of ``m`` points that its choices see (:data:`SUBSAMPLE`): 1 up to it."""
+    return -(-m // SUBSAMPLE)
 
 
 def _pinv_sym(a: np.ndarray) -> np.ndarray:
@@ -132,20 +106,22 @@ def start_homes(sweeps, starts) -> tuple[np.ndarray, np.ndarray | None]:
     est = [[] for _ in range(K)]
     rots = []
     for s, (c, nv) in zip(sweeps.sweeps, starts, strict=True):
+        rows = slice(None, None, stride(len(s.points)))  # (a start: every k-th point of a long sweep)
         j = s.joint - 1
-        d = sweeps.home[j] - s.q[:, j]
-        pts = [s.points] if s.targets is None else [s.targets[:, t] for t in range(K)]
+        d = sweeps.home[j] - s.q[rows, j]
+        pts = [s.points[rows]] if s.targets is None else [s.targets[rows, t] for t in range(K)]
+        meas_R = None if s.rotations is None else s.rotations[rows]
         if sweeps.kinds[j] == "prismatic":
             for t, p in enumerate(pts):
                 est[t].append(p + np.outer(d, nv))
-            if s.rotations is not None:
-                rots.append(s.rotations)
+            if meas_R is not None:
+                rots.append(meas_R)
         else:
             turn = _turn(np.asarray(nv, dtype=float), d)
             for t, p in enumerate(pts):
                 est[t].append(c + _rotate(turn, p.T - c[:, None]).T)
-            if s.rotations is not None:
-                rots.append(axis_angle_matrices(nv, d) @ s.rotations)
+            if meas_R is not None:
+                rots.append(axis_angle_matrices(nv, d) @ meas_R)
     homes = np.array([np.mean(np.vstack(e), axis=0) for e in est])
     return homes, (_chordal_mean(np.vstack(rots)) if rots else None)
 
@@ -166,10 +142,11 @@ def fit_sweeps(
     rotation0=None,
     rotation_sigma=None,
     tracker=None,
+    weights0=None,
     where: str = "",
 ):
-    """The joint fit of all sweeps (module docstring). ``dqs`` per sweep (m, n) joint motions from home
-    (:func:`locked_motion`), ``starts`` per joint (point, direction) start lines, ``p0`` the start home point (of
+    """The joint fit of all sweeps (module docstring). ``dqs`` per sweep (m, n) joint motions from home (arrays, or
+    :class:`~denavit.fitting.motion.Motion` from :func:`~denavit.fitting.motion.locked_motion`), ``starts`` per joint (point, direction) start lines, ``p0`` the start home point (of
     the first target); with several targets ``offsets0`` (k - 1, 3) the start offsets of the other targets' home
     points from it, with 6-DoF poses ``rotation0`` (3, 3) the start orientation at home (both by default from
     :func:`start_homes`) and ``rotation_sigma`` (rad) the declared orientation noise (default: estimated).
@@ -180,7 +157,9 @@ def fit_sweeps(
     points as ``(sigma / tau)^2``, ``sigma`` the point noise of the caller's simpler fit), so the fit is the posterior
     mode and its covariance the posterior's (:func:`denavit.identification.choice._reading_scales`). ``tracker`` a
     :class:`TrackerNoise` (or (sigma_range m, sigma_angle rad[, position m])): the points' covariances take its
-    range/angle shape (module docstring); None: isotropic.
+    range/angle shape (module docstring); None: isotropic. ``weights0``: None, or (gamma per sweep, robust scale or
+    None) of the same model fitted on a subsample (:func:`stride`): the variance components and the robust scale
+    start there instead of at one and none, and are estimated as ever (the first pass then steps at once).
 
     Returns a dict: ``points`` (n, 3) feet of the home point on each axis, ``directions`` (n, 3), ``home``
     (S, 3) home point per sweep (all equal without ``per_sweep_home``), ``cov`` of [c_1, n_1, ..., c_n, n_n,
@@ -193,8 +172,8 @@ def fit_sweeps(
     ``cov``, n) and ``scale_cov`` (n, n) their covariance with those parameters and among themselves (zeros where not
     fitted), ``misfit`` per sweep (m,) 3-D distances (RMS over the targets of a pose), ``weights`` per sweep (m,)
     robust weights, ``whitened`` per sweep (m,) misfits in point-noise units (norms of ``components`` components),
-    ``sigma`` the point
-    noise, ``reading_sigma`` per sweep, ``ss`` the whitened sum of squares and ``n_params``; ``tracker_ref2`` the
+    ``sigma`` the point noise, ``reading_sigma`` per sweep, ``ss`` the whitened sum of squares and ``n_params``;
+    ``robust_scale`` the robust loss's scale (m, of the whitened misfits; None with "linear"); ``tracker_ref2`` the
     tracker model's reference variance (m^2: ``sigma / sqrt(tracker_ref2)`` is the point noise over the declared; nan
     without a model).
     """
@@ -213,6 +192,7 @@ def fit_sweeps(
         rotation0=rotation0,
         rotation_sigma=rotation_sigma,
         tracker=tracker,
+        weights0=weights0,
         where=where,
     )
     fit.solve()
@@ -244,9 +224,10 @@ class _JointFit:
         rotation0,
         rotation_sigma,
         tracker,
+        weights0,
         where,
     ):
-        self.sweeps, self.dqs, self.loss, self.where = sweeps, dqs, loss, where
+        self.sweeps, self.dqs, self.loss, self.where, self.weights0 = (sweeps, dqs, loss, where, weights0)
         self.per_sweep_home, self.noise_sigma, self.gamma, self.rotation_sigma = (
             per_sweep_home,
             noise_sigma,
@@ -287,7 +268,8 @@ class _JointFit:
             float(np.sqrt(np.mean(np.sum((s.points - s.points.mean(axis=0)) ** 2, axis=1)))) for s in sweeps.sweeps
         )
         self.floor = 1e-12 * self.size
-        self.gam = np.ones(S) if gamma is None else np.array(gamma, dtype=float)
+        g0 = gamma if gamma is not None else (None if weights0 is None else weights0[0])
+        self.gam = np.ones(S) if g0 is None else np.array(g0, dtype=float)
         self.ws = [np.ones(len(s.points)) for s in sweeps.sweeps]
         self.tracker = tracker = as_tracker_noise(tracker)
         self.ref2 = self.lref = None
@@ -298,7 +280,7 @@ class _JointFit:
             shapes = [tracker.shape(self.measured(s, slice(None), t)) for s in sweeps.sweeps for t in range(K)]
             self.ref2 = float(np.mean(np.concatenate([(va + 2 * vb) / 3 for _, va, vb in shapes])))
             self.wmax = math.sqrt(self.ref2 / min(float(np.min(np.minimum(va, vb))) for _, va, vb in shapes))
-        # (sweep, first row of a chunk): (the scales of its active joints, {joint: _trig of its motion}, the motion)
+        # (sweep, first row of a chunk): (the scales of its active joints, {joint: _trig of its motion})
         self.trig = {}
         # a pose one point, isotropic: the Jacobian of one turning joint by moments
         self.simple = tracker is None and not rot and K == 1
@@ -326,10 +308,10 @@ class _JointFit:
             # the chunk's joint motions and their cosines and sines, kept while the reading scales they were made
             # with hold
             key = tuple(float(sc_[i]) for i in active)
+            dqc = dq[rows] * (1 + sc_)
             if trig.get((k, a), (None,))[0] != key:
-                dqc = dq[rows] * (1 + sc_)
-                trig[(k, a)] = (key, {i: _trig(dqc[:, i]) for i in active if kinds[i] == "revolute"}, dqc)
-            _, tc, dqc = trig[(k, a)]
+                trig[(k, a)] = (key, {i: _trig(dqc[:, i]) for i in active if kinds[i] == "revolute"})
+            tc = trig[(k, a)][1]
             mc = len(dqc)
             rs, mvs, Js = [], [], []
             dist = None if self.tracker is None else np.zeros(mc)
@@ -421,9 +403,10 @@ class _JointFit:
     def normal_eq(self, cs, ns, homes_, offs_, R_, sc_, wr, f=None, bread=False):
         """Normal matrix, its robust sandwich part (with ``bread``, the final pass; else the normal matrix again),
         gradient, whitened cost, and per sweep (indices, Gram matrix of the weighted tangential rows, tangential
-        residuals, levers, whitened residuals and misfits (D, m), Gram matrix of the orientation rows across the
-        swept axis, their squares), accumulated sweep by sweep and CHUNK poses at a
-        time (memory linear in the points, small per point). Whitening scales the
+        residuals, levers, squared norms of the whitened residuals and of the misfits (m,), Gram matrix of the
+        orientation rows across the swept axis, their squares, the 3-D misfits with a tracker model (m,) or None, the
+        squared norms of the points' misfits (m,)), accumulated sweep by sweep and CHUNK poses at a time (memory
+        linear in the points, a few numbers per point: no Jacobian rows kept). Whitening scales the
         component along the tangent t by gamma: J_w^T J_w = J^T J - (1 - gamma^2) (t^T J)^T (t^T J), J_w^T r_w
         likewise. With the robust scale ``f`` the robust weights ``ws`` are those of this point's whitened misfits
         (z = |r_w|^2 / f^2; iteratively reweighted least squares, one pass per step); without it they stay. With
@@ -441,7 +424,8 @@ class _JointFit:
             Gt = np.zeros((len(idx), len(idx)))
             Gr = np.zeros((len(idx), len(idx))) if rot else None
             m = len(self.dqs[k])
-            rt_k, lever_k, rw_k, r_k, rr_k = np.empty(m), np.empty(m), np.empty((D, m)), np.empty((D, m)), np.zeros(m)
+            rt_k, lever_k, rw2_k, r2_k, rr_k = (np.empty(m), np.empty(m), np.empty(m), np.empty(m), np.zeros(m))
+            rp2_k = r2_k if D == 3 * self.K else np.empty(m)
             dist_k = None if self.tracker is None else np.empty(m)
             for rows, r, mv, J, dist in self.chunks(k, cs, ns, homes_, offs_, R_, sc_, wr, True):
                 t, lever = self.tangent(mv)
@@ -481,10 +465,17 @@ class _JointFit:
                     ) * g * rt * jt  # J_w^T r_w per point
                     c = 2 * loss_dweight(loss, np.sum(rw**2, axis=0) / f**2) / f**2
                     Bd[np.ix_(idx, idx)] += (gw * c) @ gw.T
-                rt_k[rows], lever_k[rows], rw_k[:, rows], r_k[:, rows] = rt, lever, rw, r
+                rt_k[rows], lever_k[rows], rw2_k[rows], r2_k[rows] = (
+                    rt,
+                    lever,
+                    np.sum(rw**2, axis=0),
+                    np.sum(r**2, axis=0),
+                )
+                if rp2_k is not r2_k:
+                    rp2_k[rows] = np.sum(r[: 3 * self.K] ** 2, axis=0)
                 if dist_k is not None:
                     dist_k[rows] = dist
-            parts.append((idx, Gt, rt_k, lever_k, rw_k, r_k, Gr, rr_k, dist_k))
+            parts.append((idx, Gt, rt_k, lever_k, rw2_k, r2_k, Gr, rr_k, dist_k, rp2_k))
         if self.prior_w:  # the scales' prior: the pseudo-observations s_j / tau, at the points' weight
             for M_ in (A, A2) if A2 is not None else (A,):
                 M_[self.i_prior, self.i_prior] += self.prior_w
@@ -572,7 +563,7 @@ class _JointFit:
                     for k in range(S)
                 ]
             )
-        self.f, self.first = None, 0
+        self.f, self.first = (None if self.weights0 is None else self.weights0[1]), 0
         if self.gamma is not None and not self.rot and self.loss != "linear":
             # the variance components are given: the first pass would only give the first robust scale (its normal
             # equations, on weights of one, make way for those of that scale), from the start's whitened misfits alone
@@ -594,7 +585,7 @@ class _JointFit:
         lev_t = [float(np.sum(A_inv[np.ix_(p[0], p[0])] * p[1])) for p in parts]
         # (robust losses: the weighted residuals w r, bounded for outliers, over the weighted counts sum(w^2))
         ss_t = [float(np.sum(ws[k] ** 2 * p[2] ** 2)) for k, p in enumerate(parts)]
-        ss_o = sum(float(np.sum(ws[k] ** 2 * (np.sum(parts[k][5] ** 2, axis=0) - parts[k][2] ** 2))) for k in range(S))
+        ss_o = sum(float(np.sum(ws[k] ** 2 * (parts[k][5] - parts[k][2] ** 2))) for k in range(S))
         m_w = [float(np.sum(w**2)) for w in ws]
         red_o = (D - 1) * sum(m_w) - (float(np.trace(A_inv @ A)) - sum(lev_t))
         sigma2 = max(ss_o / red_o if red_o > 0 else 0.0, (self.noise_sigma or 0.0) ** 2, self.floor**2)
@@ -626,7 +617,7 @@ class _JointFit:
             f_next = (
                 3.0
                 * math.sqrt(D / 3)
-                * max(robust_sigma(np.concatenate([np.linalg.norm(p[4], axis=0) for p in parts]), D), self.floor)
+                * max(robust_sigma(np.concatenate([np.sqrt(p[4]) for p in parts]), D), self.floor)
             )
         # how far the variance components and f moved at this pass, in units of their tolerances (after 100
         # passes they are frozen)
@@ -651,6 +642,7 @@ class _JointFit:
         fresh = True
         for it in range(self.first, 300):
             if fresh:
+                parts = None  # (the last pass's per-point parts go before the next pass makes its own)
                 A, _, b, ss, parts = self.normal_eq(*x, self.wr, self.f)
                 D_ = np.diag(A).copy()
                 D_[D_ <= 0] = 1.0
@@ -695,7 +687,7 @@ class _JointFit:
         A, A2, b, ss, parts = self.normal_eq(
             cs, ns, homes, self.offs, self.R0, self.sc, self.wr, self.f, bread=self.loss != "linear"
         )
-        psi2 = sum(float(np.sum(w**2 * np.sum(p[4] ** 2, axis=0))) for w, p in zip(ws, parts, strict=True))
+        psi2 = sum(float(np.sum(w**2 * p[4])) for w, p in zip(ws, parts, strict=True))
         dof = self.D * sum(float(np.sum(w**2)) for w in ws) - npar
         s2 = misfit_variance(np.sqrt(psi2) * np.ones(1), dof, math.sqrt(sigma2))
         A_inv = _pinv_sym(A)
@@ -727,7 +719,7 @@ class _JointFit:
         reading_sigma = [
             math.sqrt(max(sigma2 / g**2 - sigma2, 0.0)) / max(lv, 1e-300) for g, lv in zip(gam, levers, strict=True)
         ]
-        misfit = [np.sqrt(np.sum(p[5][: 3 * K] ** 2, axis=0) / K) if p[8] is None else p[8] for p in parts]
+        misfit = [np.sqrt(p[9] / K) if p[8] is None else p[8] for p in parts]
         return {
             "points": np.array(feet),
             "directions": np.array(ns),
@@ -741,13 +733,14 @@ class _JointFit:
             "n_homes": H,
             "misfit": misfit,
             "weights": ws,
-            "whitened": [np.linalg.norm(p[4], axis=0) / sigma for p in parts],
+            "whitened": [np.sqrt(p[4]) / sigma for p in parts],
             "sigma": sigma,
             "reading_sigma": reading_sigma,
             "ss": ss / sigma2,
             "ss_m": ss,
             "n_params": npar,
             "gamma": gam,
+            "robust_scale": self.f,
             "scales": self.sc,
             "scale_sigma": scale_sigma,
             "scale_cross": scale_cross,

@@ -10,7 +10,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import NotConvergedError
-from ..fitting.joint import TrackerNoise, fit_sweeps
+from ..fitting.joint import TrackerNoise, fit_sweeps, stride
 from ..fitting.readings import READINGS_WORTHLESS
 from ..fitting.result import axis_sigmas
 from ..fitting.robust import _Levels, flag_outliers
@@ -387,6 +387,44 @@ def _scales_note(post, full, tau: float, evidence: str, g: dict, n: int) -> str:
     )
 
 
+def _decide(sweeps: SweepSet, fits: list, dqs: list, homes0, R0, loss: str, notes: list[str], chosen: str, models):
+    """auto's measurement model by the evidence (:func:`_choose`) on ``sweeps`` and their motions ``dqs``: None when
+    the readings are worth nothing, else (method, the chosen joint fit, its axes' covariance, drift, the scales'
+    prior (tau, sigma) or None, the words of the scales' note: (full, tau, evidence))."""
+    g = _first_fit(sweeps, fits, dqs, homes0, R0, loss, *models)
+    if chosen != "auto":
+        return "global", g, g["cov"], False, None, None
+    sq = [f"{math.degrees(v) * 3600:.3g}" for v in g["reading_sigma"]]
+    if np.all(g["gamma"] < READINGS_WORTHLESS):
+        notes.append(
+            "auto: geometric (per-sweep circles): the readings are worth nothing against the points (estimated "
+            f"reading error {', '.join(sq)} arcsec per sweep)"
+        )
+        return None
+    n_res = g["components"] * sum(len(s.points) for s in sweeps.sweeps)
+    refits = _Refits(sweeps, dqs, loss, *models, n_res)
+    g_global = g
+    g, method, cov = _choose_drift(refits, g, sq, notes)
+    drift = method == "readings"
+    base = g
+    post, full, tau, evidence = _reading_scales(refits.richer, refits.refit, g, drift, n_res)
+    if drift and post is not None and not _drift_again(refits, g_global, tau, notes):
+        method, drift, cov, g = "global", False, g_global["cov"], g_global
+        base = g
+        post, full, tau, evidence = _reading_scales(refits.richer, refits.refit, g, drift, n_res)
+    prior = None
+    if post is not None:
+        g, prior = post, (tau, base["sigma"])
+        cov = _with_drift(sweeps, g)[0] if drift else g["cov"]
+    return method, g, cov, drift, prior, (full, tau, evidence)
+
+
+def _every(sweeps: SweepSet, dqs: list, k: int) -> tuple[SweepSet, list]:
+    """Every k-th pose of each sweep (views, no copies), and their motions."""
+    rows = slice(None, None, k)
+    return replace(sweeps, sweeps=[s.take(rows) for s in sweeps.sweeps]), [dq[rows] for dq in dqs]
+
+
 def _choose(
     sweeps: SweepSet,
     fits: list,
@@ -405,32 +443,36 @@ def _choose(
     (6-DoF poses) or None. Returns (method, fits, cov, tool point, rms, the joint fit's result or None, scales):
     ``scales`` None, or when fitted (values (n,), their covariance with [c_1, n_1, ..., p] (6n+3, n), their
     covariance (n, n)); zeros where a joint's scale was not fitted. ``tracker`` the tracker's range/angle noise
-    model, or None (isotropic)."""
+    model, or None (isotropic).
+
+    Sweeps longer than :data:`~denavit.fitting.joint.SUBSAMPLE` poses: the choice, with its variance components and
+    robust weights, on every k-th pose (:func:`_every`; auto's up to five joint fits had each passed over every point
+    about six times), then one fit of the chosen model on all points from the subsample's answer, with a note."""
     dqs = _motions(sweeps, notes)
-    g = _first_fit(sweeps, fits, dqs, homes0, R0, loss, rotation_noise, tracker)
-    method, cov, drift, scales = "global", g["cov"], None, None
-    if chosen == "auto":
-        sq = [f"{math.degrees(v) * 3600:.3g}" for v in g["reading_sigma"]]
-        if np.all(g["gamma"] < READINGS_WORTHLESS):
-            notes.append(
-                "auto: geometric (per-sweep circles): the readings are worth nothing against the points (estimated "
-                f"reading error {', '.join(sq)} arcsec per sweep)"
-            )
-            return "geometric", None, None, None, math.nan, None, None
-        n_res = g["components"] * sum(len(s.points) for s in sweeps.sweeps)
-        refits = _Refits(sweeps, dqs, loss, rotation_noise, tracker, n_res)
-        g_global = g
-        g, method, cov = _choose_drift(refits, g, sq, notes)
-        drift = method == "readings"
-        post, full, tau, evidence = _reading_scales(refits.richer, refits.refit, g, drift, n_res)
-        if drift and post is not None and not _drift_again(refits, g_global, tau, notes):
-            method, drift, cov, g = "global", False, g_global["cov"], g_global
-            post, full, tau, evidence = _reading_scales(refits.richer, refits.refit, g, drift, n_res)
-        if post is not None:
-            g = post
-            cov = _with_drift(sweeps, g)[0] if drift else g["cov"]
-            scales = (g["scales"].copy(), _scale_cross(g, sweeps.n_joints), g["scale_cov"])
-        notes.append(_scales_note(post, full, tau, evidence, g, sweeps.n_joints))
+    models = (rotation_noise, tracker)
+    k = stride(max(len(s.points) for s in sweeps.sweeps))
+    work, wdqs = (sweeps, dqs) if k == 1 else _every(sweeps, dqs, k)
+    decided = _decide(work, fits, wdqs, homes0, R0, loss, notes, chosen, models)
+    if decided is None:
+        return "geometric", None, None, None, math.nan, None, None
+    method, g, cov, drift, prior, scale_words = decided
+    if k > 1:  # the chosen model once on all points, from the subsample's answer
+        g = _Refits(sweeps, dqs, loss, *models, 0)._fit(
+            g,
+            per_sweep_home=drift,
+            scales=prior is not None,
+            scale_prior=prior,
+            weights0=(g["gamma"], g["robust_scale"]),
+        )
+        cov = _with_drift(sweeps, g)[0] if drift else g["cov"]
+        notes.append(
+            f"{chosen}: the joint fit's model, variance components and robust weights found on every k-th pose "
+            f"(k = {k}: {len(work.sweeps[0].points)} of {len(sweeps.sweeps[0].points)} in the first sweep), then the "
+            "fit refined once on all points"
+        )
+    scales = None if prior is None else (g["scales"].copy(), _scale_cross(g, sweeps.n_joints), g["scale_cov"])
+    if scale_words is not None:
+        notes.append(_scales_note(g if prior else None, *scale_words, g, sweeps.n_joints))
     mis = np.concatenate(g["misfit"])
     return (
         method,

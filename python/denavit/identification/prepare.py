@@ -12,7 +12,8 @@ from ..errors import DenavitError
 from ..fitting import fit_axis
 from ..fitting.axis import axis_start
 from ..fitting.circle import circle_misfit, robust_circle
-from ..fitting.joint import TrackerNoise, locked_motion
+from ..fitting.joint import TrackerNoise, stride
+from ..fitting.motion import locked_motion
 from ..fitting.robust import rms_spread, robust_sigma
 from ..sweeps import SweepSet
 
@@ -81,20 +82,22 @@ def _dwell_rows(p: np.ndarray, noise: float) -> tuple[int, int]:
 
 def _drop_dwell(sweeps: SweepSet, notes: list[str]) -> SweepSet:
     """The sweeps without their dwell rows (found by :func:`_dwell_rows`, the noise from a trimmed circle or line
-    fit), with a note per sweep that had some (how many, which rows)."""
+    fit, of every k-th point of a long sweep: :func:`~denavit.fitting.joint.stride`), with a note per sweep that had
+    some (how many, which rows)."""
     out = []
     for s in sweeps.sweeps:
         p = s.points
         if sweeps.kinds[s.joint - 1] == "prismatic" or len(p) < 8:
             out.append(s)
             continue
+        sub = p[:: stride(len(p))]  # (the noise of a long sweep from every k-th point)
         try:
-            c, nv, r, _ = robust_circle(p, "dwell check", sweep_where(s, sweeps.source))
+            c, nv, r, _ = robust_circle(sub, "dwell check", sweep_where(s, sweeps.source))
         except DenavitError:
             out.append(s)
             continue
-        e = circle_misfit(p, c, nv, r)[0]
-        noise = max(robust_sigma(e, 2), 1e-12 * rms_spread(p))
+        e = circle_misfit(sub, c, nv, r)[0]
+        noise = max(robust_sigma(e, 2), 1e-12 * rms_spread(sub))
         a, b = _dwell_rows(p, noise)
         if a + b == 0:
             out.append(s)
@@ -186,8 +189,8 @@ def _tool_point_geometric(sweeps: SweepSet, fits: list) -> np.ndarray:
     return np.asarray(best)
 
 
-def _motions(sweeps: SweepSet, notes: list[str]) -> list[np.ndarray]:
-    """Per sweep the joint motions from home the joint fit uses (:func:`~denavit.fitting.joint.locked_motion`),
+def _motions(sweeps: SweepSet, notes: list[str]) -> list:
+    """Per sweep the joint motions from home the joint fit uses (:func:`~denavit.fitting.motion.locked_motion`),
     noting each locked reading that moves in lock-step with the swept joint (a coupling to declare)."""
     tol = np.array([LOCKED_TOL[k] / 100 for k in sweeps.kinds])
     out = []
