@@ -67,7 +67,28 @@ _LAZY = {
 }
 
 
+#: The subpackages and modules reachable as attributes (``dv.calibration.Measurements``), imported on first use as
+#: scipy's are.
+_SUBMODULES = (
+    "api",
+    "calibration",
+    "compensation",
+    "fitting",
+    "geometry",
+    "identification",
+    "io",
+    "limits",
+    "plotting",
+    "recording",
+    "report",
+    "robot",
+    "sweeps",
+)
+
+
 def __getattr__(name: str):
+    if name in _SUBMODULES:
+        return import_module(f".{name}", __name__)
     if name not in _LAZY:
         raise AttributeError(f"module 'denavit' has no attribute {name!r}")
     module, attr = _LAZY[name]
@@ -77,7 +98,7 @@ def __getattr__(name: str):
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *_LAZY})
+    return sorted({*globals(), *_LAZY, *_SUBMODULES})
 
 
 def load_model(name_or_path, *, base_link: str | None = None, tip_link: str | None = None) -> Model:
