@@ -52,7 +52,7 @@ import numpy as np
 from .. import _core
 from ..errors import DenavitError
 from ..geometry import kabsch, matrix_rotvec, pose, rotvec_matrix
-from ..robot import robot_of
+from ..robot import Robot, robot_of
 from .compliance import elastic_of, with_payload
 from .measurements import Measurements
 from .targets import as_measurements, as_target_measurements, several_targets, sweep_poses
@@ -207,7 +207,6 @@ def _model_of(model):
 
 def _predicted_sigma(source, readings: np.ndarray, q: np.ndarray) -> np.ndarray:
     from ..compensation import predicted_sigma, table_sigma  # noqa: PLC0415
-    from ..robot import Robot  # noqa: PLC0415
 
     if isinstance(source, Robot):
         return table_sigma(source, q)
@@ -351,36 +350,18 @@ def validate(
     -------
     ModelValidation
     """
-    from ..sweeps import SweepSet  # noqa: PLC0415
 
     if registration not in REGISTRATIONS:
         raise DenavitError(f"registration: expected 'frozen' or 'refit', got {registration!r}")
     for what, v in (("max_sigma", max_sigma), ("sigma_factor", sigma_factor), ("repeat_tol", repeat_tol)):
         if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
             raise DenavitError(f"{what}: expected a finite value > 0, got {v!r}")
-    from ..robot import Robot  # noqa: PLC0415
 
     km, name, cov_source, training, joints = _model_of(model)
     n = km.nq
     data = as_measurements(data, km.kinds, points=points, poses=poses, target=target)
     notes: list[str] = []
-    nest_rows = None  # per row, its target's point in the tool frame (several targets with their nest)
-    per_pose = 1  # rows per pose (several targets scored: one row each)
-    if several_targets(data):
-        tm = as_target_measurements(data)
-        if tm.nest is not None:
-            meas, nest_rows, per_pose = tm.expanded(with_index=False), np.tile(tm.nest, (tm.n, 1)), tm.n_targets
-            notes.append(
-                f"{tm.n} poses x {tm.n_targets} targets: every target scored, predicted at its nest point in the model's tool frame"
-            )
-        else:
-            meas = Measurements(tm.q, tm.targets[:, 0], None, tm.source, tm.where, tm.units, kinds=tm.kinds)
-            notes.append(
-                f"{tm.n_targets} targets per pose and no nest declared: target 1 scored (the tool frame's origin of a calibration of several targets)"
-            )
-    else:
-        data = sweep_poses(data)  # 6-DoF sweeps: poses (the orientations scored too)
-        meas = Measurements.from_sweeps(data) if isinstance(data, SweepSet) else data
+    meas, nest_rows, per_pose = _scored_rows(data, notes)
     if meas.nq != n:
         raise DenavitError(
             f"{meas.source}: the data has {meas.nq} joint readings per pose but the model {name} has {n} joints ({', '.join(km.names)})"
@@ -402,21 +383,7 @@ def validate(
     T_tool = _tool_transform(km, tool)
     T_base = np.array(km.T_world_base, dtype=float)
     if registration == "refit":
-        if meas.n < 4:
-            raise DenavitError(
-                f"{meas.source}: re-fitting the registration (base 6 + tool 3 parameters) needs at least 4 poses, got {meas.n}"
-            )
-        F = _core.fk_batch(km.with_base(np.eye(4)).with_tool(np.eye(4)), q)
-        if nest_rows is not None:  # each row's target, fixed in the tool frame: the tool's origin is what is re-fitted
-            F[:, :3, 3] += np.einsum("nij,nj->ni", F[:, :3, :3], nest_rows @ T_tool[:3, :3].T)
-        W, T_tool = refit_registration(F, meas, T_tool)
-        moved = np.linalg.norm(W[:3, 3] - T_base[:3, 3])
-        turn = np.linalg.norm(matrix_rotvec((W[:3, :3].T @ T_base[:3, :3])[None])[0])
-        notes.append(
-            f"registration re-fitted with the kinematics frozen: the base moved {moved * 1e3:.4g} mm and turned {math.degrees(turn):.4g} deg from the model's; "
-            f"9 of the {3 * meas.n} position residuals absorbed (expected rms {math.sqrt(max(3 * meas.n - 9, 0) / meas.n):.3g} sigma, not {math.sqrt(3):.3g})"
-        )
-        T_base = W
+        T_base, T_tool = _refit(km, q, meas, nest_rows, T_tool, T_base, notes)
     pm = km.with_base(T_base).with_tool(T_tool)
     P = _core.fk_batch(pm, q)
     if nest_rows is not None:
@@ -427,9 +394,96 @@ def validate(
     rot = None
     if meas.poses is not None:
         rot = np.linalg.norm(matrix_rotvec(np.einsum("nji,njk->nik", P[:, :3, :3], meas.poses[:, :3, :3])), axis=1)
-    # extrapolation
+    lo, hi, outside = _outside(training, joints, q, meas.n)
+    sigma, limit = _sigmas(cov_source, readings, q, el, meas, max_sigma, sigma_factor, training, joints, name, notes)
+    flags = []
+    for i in range(meas.n):
+        f = []
+        if outside[i]:
+            f.append("outside_training_range")
+        if sigma is not None and limit is not None and sigma[i] > limit:
+            f.append("large_predicted_sigma")
+        flags.append(tuple(f))
+    if training is None:
+        notes.append(
+            f"no training joint ranges: the model {name} does not carry its training poses (a calibration, an identification, or a robot file "
+            "from calibrate --save with its [training] table does)"
+        )
+    groups = _iso_groups(readings, per_pose, repeat_tol, measured, P, notes)
+    return ModelValidation(
+        name,
+        meas.source,
+        meas.kind,
+        registration,
+        q,
+        list(meas.where),
+        measured,
+        P[:, :3, 3].copy(),
+        errors,
+        vec,
+        rot,
+        sigma,
+        limit,
+        flags,
+        outside,
+        lo,
+        hi,
+        groups,
+        T_base,
+        T_tool,
+        list(km.names),
+        notes,
+    )
+
+
+def _scored_rows(data, notes: list):
+    """(the measurements scored, one row per point; per row its target's point in the tool frame or None; rows per
+    pose): several targets with their nest, every target; without a nest, target 1; sweeps of poses as poses."""
+    from ..sweeps import SweepSet  # noqa: PLC0415
+
+    nest_rows = None  # per row, its target's point in the tool frame (several targets with their nest)
+    per_pose = 1  # rows per pose (several targets scored: one row each)
+    if several_targets(data):
+        tm = as_target_measurements(data)
+        if tm.nest is not None:
+            meas, nest_rows, per_pose = tm.expanded(with_index=False), np.tile(tm.nest, (tm.n, 1)), tm.n_targets
+            notes.append(
+                f"{tm.n} poses x {tm.n_targets} targets: every target scored, predicted at its nest point in the model's tool frame"
+            )
+        else:
+            meas = Measurements(tm.q, tm.targets[:, 0], None, tm.source, tm.where, tm.units, kinds=tm.kinds)
+            notes.append(
+                f"{tm.n_targets} targets per pose and no nest declared: target 1 scored (the tool frame's origin of a calibration of several targets)"
+            )
+    else:
+        data = sweep_poses(data)  # 6-DoF sweeps: poses (the orientations scored too)
+        meas = Measurements.from_sweeps(data) if isinstance(data, SweepSet) else data
+    return meas, nest_rows, per_pose
+
+
+def _refit(km, q, meas, nest_rows, T_tool, T_base, notes: list):
+    """(base, tool) re-fitted to the measurements with the kinematics frozen (:func:`refit_registration`)."""
+    if meas.n < 4:
+        raise DenavitError(
+            f"{meas.source}: re-fitting the registration (base 6 + tool 3 parameters) needs at least 4 poses, got {meas.n}"
+        )
+    F = _core.fk_batch(km.with_base(np.eye(4)).with_tool(np.eye(4)), q)
+    if nest_rows is not None:  # each row's target, fixed in the tool frame: the tool's origin is what is re-fitted
+        F[:, :3, 3] += np.einsum("nij,nj->ni", F[:, :3, :3], nest_rows @ T_tool[:3, :3].T)
+    W, T_tool = refit_registration(F, meas, T_tool)
+    moved = np.linalg.norm(W[:3, 3] - T_base[:3, 3])
+    turn = np.linalg.norm(matrix_rotvec((W[:3, :3].T @ T_base[:3, :3])[None])[0])
+    notes.append(
+        f"registration re-fitted with the kinematics frozen: the base moved {moved * 1e3:.4g} mm and turned {math.degrees(turn):.4g} deg from the model's; "
+        f"9 of the {3 * meas.n} position residuals absorbed (expected rms {math.sqrt(max(3 * meas.n - 9, 0) / meas.n):.3g} sigma, not {math.sqrt(3):.3g})"
+    )
+    return W, T_tool
+
+
+def _outside(training, joints, q, n: int):
+    """(the training poses' lowest and highest joint values or None, per row the joints outside them)."""
     lo = hi = None
-    outside = [[] for _ in range(meas.n)]
+    outside = [[] for _ in range(n)]
     if training is not None and len(training):
         tq = joints(np.asarray(training, dtype=float))
         lo, hi = tq.min(axis=0), tq.max(axis=0)
@@ -437,6 +491,11 @@ def validate(
         eps = 1e-9 + 1e-9 * span
         out = (q < lo - eps) | (q > hi + eps)
         outside = [list(np.flatnonzero(r)) for r in out]
+    return lo, hi, outside
+
+
+def _sigmas(cov_source, readings, q, el, meas, max_sigma, sigma_factor, training, joints, name, notes: list):
+    """(per row the predicted error's sigma (m) or None, the flag's limit (m) or None)."""
     sigma = limit = None
     if cov_source is not None:
         try:
@@ -466,20 +525,11 @@ def validate(
         notes.append(
             f"max_sigma ignored: the model {name} carries no covariance (a calibration, an identification, or a robot file with [covariance])"
         )
-    flags = []
-    for i in range(meas.n):
-        f = []
-        if outside[i]:
-            f.append("outside_training_range")
-        if sigma is not None and limit is not None and sigma[i] > limit:
-            f.append("large_predicted_sigma")
-        flags.append(tuple(f))
-    if training is None:
-        notes.append(
-            f"no training joint ranges: the model {name} does not carry its training poses (a calibration, an identification, or a robot file "
-            "from calibrate --save with its [training] table does)"
-        )
-    # ISO 9283
+    return sigma, limit
+
+
+def _iso_groups(readings, per_pose: int, repeat_tol: float, measured, P, notes: list) -> list:
+    """ISO 9283's accuracy and repeatability per commanded pose visited more than once."""
     groups = []
     for first in repeat_groups(
         readings[::per_pose], repeat_tol
@@ -492,30 +542,7 @@ def validate(
             f"ISO 9283 over {len(groups)} repeated poses of {min(g.n for g in groups)}-{max(g.n for g in groups)} visits (the standard cycles each pose {ISO_CYCLES} times: "
             "fewer give the same statistics with more scatter)"
         )
-    return ModelValidation(
-        name,
-        meas.source,
-        meas.kind,
-        registration,
-        q,
-        list(meas.where),
-        measured,
-        P[:, :3, 3].copy(),
-        errors,
-        vec,
-        rot,
-        sigma,
-        limit,
-        flags,
-        outside,
-        lo,
-        hi,
-        groups,
-        T_base,
-        T_tool,
-        list(km.names),
-        notes,
-    )
+    return groups
 
 
 __all__ = [
