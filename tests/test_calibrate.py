@@ -1,30 +1,20 @@
 """Whole-model calibration: statistics against the Cramér-Rao bound, the joint fit against per-circle fits,
-planning, near-parallel axes, identifiability reports and bad input (denavit.calibration, denavit.io.measurements)."""
+planning, near-parallel axes, identifiability reports and bad input (denavit.calibration; the measurement files in
+test_calibrate_measurements.py, the commands in test_calibrate_cli.py)."""
 
 import ast
-import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
+from calibrate_cases import HOME, NOISE, TOOL
 from scipy.spatial.transform import Rotation
 
 import denavit as dv
-from cli import env as cli_env
-from cli import run as run_cli
 from denavit import calibration as cal
 from denavit import fitting
 from denavit import sweeps as sw
 from denavit.calibration.least_squares import covariance, residuals, weights
-from denavit.io import results
-from denavit.io import sweeps as swio
-from denavit.io.measurements import read_measurements, to_csv
 from denavit.io.robots import as_robot
-
-NOISE = 2e-5  # 0.02 mm per coordinate
-TOOL = np.array([0.05, 0.03, 0.10])
-HOME = np.radians(sw.PAPER_HOME_DEG)
 
 
 def perturbed(robot, names, seed, convention="edh", length=5e-4, angle=1e-3, extra=None):
@@ -448,62 +438,6 @@ def test_a_joint_that_never_moves_is_named(kr5):
     assert all(res.status[res.parametrization.index(n)] == "fixed" for n in names) and res.rms < 1e-9
 
 
-def test_nan_and_mismatched_joint_counts(kr5, tmp_path):
-    q = cal.configurations(kr5, 20)
-    p = cal.simulate(kr5, q).points
-    q_bad = q.copy()
-    q_bad[7, 2] = np.nan
-    with pytest.raises(
-        dv.DenavitError, match=r"measurements, row 8: q \(joint readings\) must be finite, got nan \(joint 3\)"
-    ):
-        cal.Measurements(q_bad, p)
-    p_bad = p.copy()
-    p_bad[2, 1] = np.inf
-    with pytest.raises(dv.DenavitError, match=r"measurements, row 3: points must be finite, got inf \(column y\)"):
-        cal.Measurements(q, p_bad)
-    with pytest.raises(dv.DenavitError, match=r"points must have shape \(20, 3\)"):
-        cal.Measurements(q, p[:19])
-    with pytest.raises(
-        dv.DenavitError, match=r"the data has 5 joint readings per pose but the nominal model kr5 has 6 joints \(A1, A2"
-    ):
-        cal.calibrate(cal.Measurements(q[:, :5], p), kr5)
-    f = tmp_path / "m.csv"
-    text = to_csv(cal.Measurements(q, p), "mm", "deg").splitlines()
-    cells = text[5].split(",")
-    cells[7] = "nan"
-    text[5] = ",".join(cells)
-    f.write_text("\n".join(text) + "\n")
-    with pytest.raises(dv.DenavitError, match=r"m.csv:6: column 'y' must be finite, got 'nan'"):
-        read_measurements(f)
-    f.write_text("q1,q2,x,y,z\n1,2,3,4,5\n")
-    with pytest.raises(dv.DenavitError, match="units not declared"):
-        read_measurements(f)
-
-
-def test_declared_units_win_over_the_callers(kr5, tmp_path):
-    """Regression: a file's own '#units:' line (no space after '#') was ignored and the caller's length/angle
-    used instead (the CLI's default mm/deg), so metres were read as millimetres; what the file declares wins,
-    the caller's units only fill in, and a second, conflicting declaration is an error naming both lines."""
-    q = cal.configurations(kr5, 12)
-    meas = cal.simulate(kr5, q, tool=TOOL)
-    text = to_csv(meas, "m", "rad").replace("# units: length=m angle=rad", "#units: length=m angle=rad")
-    f = tmp_path / "m.csv"
-    f.write_text(text)
-    back = read_measurements(f, length="mm", angle="deg")
-    np.testing.assert_allclose(back.points, meas.points, atol=1e-12)
-    np.testing.assert_allclose(back.q, meas.q, atol=1e-12)
-    f.write_text(text.replace("#units: length=m angle=rad", "#units: length=m"))
-    np.testing.assert_allclose(read_measurements(f, length="mm", angle="rad").points, meas.points, atol=1e-12)
-    f.write_text("# units: length=mm angle=deg\n" + text)
-    with pytest.raises(dv.DenavitError, match=r"m.csv:2: length=m contradicts length=mm declared at line 1"):
-        read_measurements(f)
-    j = tmp_path / "m.json"
-    j.write_text(
-        json.dumps({"units": {"length": "m", "angle": "rad"}, "q": meas.q.tolist(), "points": meas.points.tolist()})
-    )
-    np.testing.assert_allclose(read_measurements(j, length="mm", angle="deg").points, meas.points, atol=1e-12)
-
-
 def test_calibration_convention_aliases_are_the_cores(kr5):
     """Regression: calibrate(..., convention="craig") / "ED-H" were unknown calibration conventions; every
     convention name (here and in Calibration.table) goes through the core's parser (_core.convention_info).
@@ -539,261 +473,12 @@ def test_configurations_are_the_unscrambled_halton_sequence(kr5):
     np.testing.assert_array_equal(Q, np.array(expected))
 
 
-def test_files_round_trip_and_json(kr5, tmp_path):
-    q = cal.configurations(kr5, 40)
-    meas = cal.simulate(kr5, q, tool=TOOL, noise=NOISE)
-    f = tmp_path / "m.csv"
-    f.write_text(to_csv(meas, "mm", "deg"))
-    back = read_measurements(f)
-    np.testing.assert_allclose(back.q, meas.q, atol=1e-10)
-    np.testing.assert_allclose(back.points, meas.points, atol=1e-12)
-    poses = cal.simulate(kr5, q, tool=np.eye(4), measure="pose")
-    f.write_text(to_csv(poses, "mm", "deg"))
-    np.testing.assert_allclose(read_measurements(f).poses, poses.poses, atol=1e-10)
-    s = sw.simulate(
-        kr5.model(), home=HOME, ranges=np.radians(sw.PAPER_RANGES_DEG[90]), points_per_sweep=8, tool_point=TOOL
-    )
-    f.write_text(swio.to_long_csv(s))
-    assert read_measurements(f).sweeps is not None
-    res = cal.calibrate(meas, kr5, tool=TOOL, holdout=0.25)
-    out = tmp_path / "r.json"
-    results.write_json(res, out)
-    doc = json.loads(out.read_text())  # strict JSON: no NaN
-    assert doc["units"] == {"length": "m", "angle": "rad"}  # SI, as every JSON (docs/cli.md)
-    rows = {r["name"]: r for r in doc["parameters"]}
-    assert (
-        rows["a_1"]["unit"] == "m"
-        and rows["a_1"]["value"] == pytest.approx(0.180, abs=1e-4)
-        and rows["c_5"]["sigma"] is None
-        and rows["c_5"]["status"] == "redundant"
-    )
-    assert doc["identifiability"]["rank"] == 27 and doc["validation"]["n_test"] == 10
-    assert {u["name"] for u in doc["identifiability"]["unidentifiable"]} >= {"c_5", "offset_6"}
-
-
-def test_cli_calibrate_and_plan(kr5, tmp_path):
-    q = cal.configurations(kr5, 60)
-    f = tmp_path / "m.csv"
-    f.write_text(to_csv(cal.simulate(kr5, q, tool=TOOL, noise=NOISE), "mm", "deg"))
-    env = cli_env(160)
-    out = tmp_path / "r.json"
-    p = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "denavit.cli",
-            "calibrate",
-            str(f),
-            "--nominal",
-            "kr5",
-            "--tool",
-            "50,30,100",
-            "--json",
-            str(out),
-            "--save",
-            str(tmp_path / "cal.toml"),
-        ],
-        capture_output=True,
-        text=True,
-        env=env,
-    )
-    assert p.returncode == 0, p.stderr
-    assert "Held-out validation" in p.stdout and "c_5" in p.stdout
-    assert json.loads(out.read_text())["convention"] == "edh"
-    assert dv.load_robot(tmp_path / "cal.toml").convention == "edh"
-    p = subprocess.run(
-        [sys.executable, "-m", "denavit.cli", "plan", "kr5", "--ranges", "paper30", "--json"],
-        capture_output=True,
-        text=True,
-        env=env,
-    )
-    assert p.returncode == 0, p.stderr
-    doc = json.loads(p.stdout)
-    assert doc["axis_sigma"][0]["per_circle_position_m"] / doc["axis_sigma"][0]["position_m"] > 5
-    p = subprocess.run(
-        [sys.executable, "-m", "denavit.cli", "calibrate", str(f), "--nominal", "kr5", "--convention", "dh"],
-        capture_output=True,
-        text=True,
-        env=env,
-    )
-    assert p.returncode == 2 and "standard DH cannot calibrate kr5" in p.stderr
-
-
 def test_an_unknown_tool_point_is_found_from_a_zero_start(kr5):
     """No tool given: the nominal tool is the flange origin (the KR5's wrist centre); the tool point is fitted."""
     meas = cal.simulate(kr5, cal.configurations(kr5, 60), tool=TOOL, noise=NOISE, seed=6)
     res = cal.calibrate(meas, kr5)
     np.testing.assert_allclose([res.value(n)[0] for n in ("tool_x", "tool_y", "tool_z")], TOOL, atol=2e-5)
     assert res.rms < 2 * NOISE
-
-
-def test_json_kinds_of_another_length_than_q_is_an_error(kr5, tmp_path):
-    """A JSON 'kinds' list must have one entry per column of q; a mismatch had skipped the unit scaling of q."""
-    q = np.degrees(cal.configurations(kr5, 12))
-    p = cal.simulate(kr5, np.radians(q)).points * 1e3
-    f = tmp_path / "m.json"
-    f.write_text(
-        json.dumps(
-            {
-                "units": {"length": "mm", "angle": "deg"},
-                "kinds": ["revolute"] * 5,
-                "q": q.tolist(),
-                "points": p.tolist(),
-            }
-        )
-    )
-    with pytest.raises(
-        dv.DenavitError, match=r"m.json: 'kinds': expected 6 joint kinds \(one per joint reading\), got 5"
-    ):
-        read_measurements(f)
-    f.write_text(
-        json.dumps(
-            {
-                "units": {"length": "mm", "angle": "deg"},
-                "kinds": ["revolute"] * 5 + ["rotary"],
-                "q": q.tolist(),
-                "points": p.tolist(),
-            }
-        )
-    )
-    with pytest.raises(
-        dv.DenavitError, match=r"m.json: 'kinds': joint 6: expected 'revolute' or 'prismatic', got 'rotary'"
-    ):
-        read_measurements(f)
-    f.write_text(
-        json.dumps(
-            {
-                "units": {"length": "mm", "angle": "deg"},
-                "kinds": ["revolute"] * 6,
-                "q": q.tolist(),
-                "points": p.tolist(),
-            }
-        )
-    )
-    np.testing.assert_allclose(read_measurements(f).q, np.radians(q), atol=1e-12)
-
-
-def test_prismatic_readings_take_the_length_unit(tmp_path):
-    """Readings of a prismatic joint are in the file's length unit (they had been scaled by the angle unit:
-    100 mm became 1.745 m); without the joint kinds, calibrate refuses a robot with a prismatic joint."""
-    params = np.array(
-        [[0.3, 0.0, 0.1, np.pi / 2], [0.2, 0.3, 0.0, -np.pi / 2], [0.0, 0.2, 0.25, np.pi / 3], [0.1, 0.0, 0.0, 0.0]]
-    )
-    kinds = ["revolute", "prismatic", "revolute", "revolute"]
-    model = dv.Table("dh", params, kinds=kinds).to_model("rprr", lower=[-3, -0.1, -3, -3], upper=[3, 0.4, 3, 3])
-    robot = as_robot(model)
-    meas = cal.simulate(model, cal.configurations(robot, 40), tool=TOOL, noise=NOISE)
-    f = tmp_path / "m.csv"
-    f.write_text(to_csv(meas, "mm", "deg"))
-    back = read_measurements(f, kinds=kinds)
-    np.testing.assert_allclose(back.q, meas.q, atol=1e-10)
-    assert back.kinds == tuple(kinds)
-    res = cal.calibrate(back, robot, tool=TOOL)
-    assert res.rms < 2 * NOISE
-    with pytest.raises(
-        dv.DenavitError,
-        match=r"m.csv: joint 2 \(j2\) of rprr is prismatic, but its readings were read as revolute \(in deg\): pass kinds=",
-    ):
-        cal.calibrate(read_measurements(f), robot, tool=TOOL)
-    with pytest.raises(
-        dv.DenavitError, match=r"m.csv: kinds given: expected 4 joint kinds \(one per joint reading\), got 3"
-    ):
-        read_measurements(f, kinds=kinds[:3])
-    j = tmp_path / "m.json"
-    j.write_text(
-        json.dumps(
-            {"units": {"length": "mm", "angle": "deg"}, "kinds": kinds, "q": [[0, 100, 0, 0]], "points": [[1, 2, 3]]}
-        )
-    )
-    np.testing.assert_allclose(read_measurements(j).q, [[0, 0.1, 0, 0]])
-    with pytest.raises(
-        dv.DenavitError,
-        match=r"m.json: 'kinds' \['revolute', 'prismatic', 'revolute', 'revolute'\] differ from the kinds given",
-    ):
-        read_measurements(j, kinds=["revolute"] * 4)
-
-
-def test_cli_calibrate_reads_prismatic_readings_in_the_length_unit(tmp_path):
-    """A robot file with a prismatic joint: the CLI reads that joint's readings in mm (not deg) and the fit
-    finds the simulated truth."""
-    f = tmp_path / "rprr.toml"
-    f.write_text(
-        'name = "rprr"\nconvention = "dh"\n[units]\nlength = "mm"\nangle = "deg"\n'
-        '[[joints]]\nname = "j1"\nd = 300\ntheta = 0\na = 100\nalpha = 90\nlimits = [-170, 170]\n'
-        '[[joints]]\nname = "j2"\ntype = "prismatic"\nd = 200\ntheta = 90\na = 0\nalpha = -90\nlimits = [0, 300]\n'
-        '[[joints]]\nname = "j3"\nd = 0\ntheta = 0\na = 250\nalpha = 60\nlimits = [-170, 170]\n'
-        '[[joints]]\nname = "j4"\nd = 100\ntheta = 0\na = 0\nalpha = 0\nlimits = [-170, 170]\n'
-    )
-    robot = dv.load_robot(f)
-    m = tmp_path / "m.csv"
-    m.write_text(
-        to_csv(cal.simulate(robot, cal.configurations(robot, 60), tool=(0.03, 0.02, 0.05), noise=NOISE), "mm", "deg")
-    )
-    assert float(m.read_text().splitlines()[-1].split(",")[1]) > 5  # the prismatic reading is in mm, not metres
-    out = tmp_path / "r.json"
-    p = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "denavit.cli",
-            "calibrate",
-            str(m),
-            "--nominal",
-            str(f),
-            "--tool",
-            "30,20,50",
-            "--json",
-            str(out),
-        ],
-        capture_output=True,
-        text=True,
-        env=cli_env(160),
-    )
-    assert p.returncode == 0, p.stderr
-    doc = json.loads(out.read_text())
-    assert doc["validation"]["after_rms_m"] < 3 * NOISE * np.sqrt(3), doc[
-        "validation"
-    ]  # m: the noise, not a unit error (it had compared m with mm)
-
-
-def test_bad_noise_and_a_fit_that_explains_nothing(kr5, tmp_path):
-    """--noise 0 had raised ZeroDivisionError, nan 'converged' with 'noise estimate nan', a negative noise was
-    taken; degrees read as radians gave rms 814 mm with no word. Now: one-line errors, and a note."""
-    q = cal.configurations(kr5, 40)
-    meas = cal.simulate(kr5, q, tool=TOOL, noise=NOISE)
-    f = tmp_path / "m.csv"
-    f.write_text(to_csv(meas, "mm", "deg"))
-    for bad in ("0", "nan", "-1", "inf"):
-        p = subprocess.run(
-            [
-                sys.executable,
-                "-m",
-                "denavit.cli",
-                "calibrate",
-                str(f),
-                "--nominal",
-                "kr5",
-                "--tool",
-                "50,30,100",
-                "--noise",
-                bad,
-            ],
-            capture_output=True,
-            text=True,
-            env=cli_env(160),
-        )
-        assert (
-            p.returncode == 2
-            and "--noise: expected the known one-sigma point noise, a finite value > 0 in mm" in p.stderr
-        ), p.stderr
-    with pytest.raises(dv.DenavitError, match="noise: expected the known one-sigma noise"):
-        cal.calibrate(meas, kr5, tool=TOOL, noise=float("nan"))
-    wrong = cal.Measurements(np.degrees(meas.q), meas.points, None, "degrees read as radians")
-    res = cal.calibrate(wrong, kr5, tool=TOOL, holdout=0)
-    assert res.notes[0].startswith("the fit explains little of the data: rms")
-    res = cal.calibrate(meas, kr5, tool=TOOL, noise=NOISE / 100, holdout=0)
-    assert "x what the declared noise" in res.notes[0]
-    assert not any("explains" in n for n in cal.calibrate(meas, kr5, tool=TOOL, noise=NOISE, holdout=0).notes)
 
 
 @pytest.mark.parametrize("convention", ["edh", "mdh"])
@@ -881,96 +566,6 @@ def test_a_calibration_remembers_what_it_has_evaluated_and_gets_the_same_result(
         assert memo.built == 1
     _, J0 = pz.evaluate(x, q, True, rows=3, columns=[7, 4])
     assert np.array_equal(J2, J0) and J2.flags.writeable
-
-
-def test_a_measurement_csv_reads_the_same_on_the_c_reader_and_row_by_row(kr5, tmp_path):
-    """A comment line at the end sends the file row by row: the same readings, points, poses and places; a bad
-    cell deep in the file is still named by its line and column."""
-    T_ft = np.eye(4)
-    T_ft[:3, 3] = TOOL
-    for measure, tool in (("point", TOOL), ("pose", T_ft)):
-        meas = cal.simulate(
-            kr5,
-            cal.configurations(kr5, 300, skip=9),
-            tool=tool,
-            noise=NOISE,
-            noise_rot=1e-5 if measure == "pose" else 0.0,
-            measure=measure,
-            seed=1,
-        )
-        fast, slow = tmp_path / f"{measure}.csv", tmp_path / f"{measure}_slow.csv"
-        fast.write_text(to_csv(meas))
-        slow.write_text(to_csv(meas) + "# end\n")
-        a, b = read_measurements(fast), read_measurements(slow)
-        assert (
-            np.array_equal(a.q, b.q)
-            and [w.replace("_slow", "") for w in b.where] == list(a.where)
-            and a.where[0].endswith(":3")
-        )
-        assert np.array_equal(a.points, b.points) if measure == "point" else np.array_equal(a.poses, b.poses)
-    lines = fast.read_text().splitlines()
-    lines[200] = lines[200].rsplit(",", 1)[0] + ",abc"
-    fast.write_text("\n".join(lines) + "\n")
-    with pytest.raises(dv.DenavitError, match=r"pose.csv:201: column 'rz' must be a number, got 'abc'"):
-        read_measurements(fast)
-
-
-def test_cli_calibrate_refuses_a_jump_and_honours_a_coupling(tmp_path):
-    """Readings of a Fanuc (J3 read relative to the horizontal) calibrated against the plain nominal: the fit moved
-    b_2 by 1.1 m and exited 0 with no note; now it is refused (exit 2) naming the parameter and the coupling to
-    declare, and with --coupling "q3=r3+r2" it fits to the noise."""
-    kr5 = dv.load_robot("kr5")
-    q = cal.configurations(kr5, 60)
-    meas = cal.simulate(kr5.model(), q, tool=np.array([0.05, 0.03, 0.1]), noise=2e-5, seed=1)
-    r = q.copy()
-    r[:, 2] -= q[:, 1]
-    lines = ["# units: length=mm angle=deg", "q1,q2,q3,q4,q5,q6,x,y,z"]
-    lines += [
-        ",".join([*(f"{v:.8f}" for v in np.degrees(a)), *(f"{v:.6f}" for v in p * 1e3)])
-        for a, p in zip(r, meas.points, strict=True)
-    ]
-    f = tmp_path / "fanuc.csv"
-    f.write_text("\n".join(lines) + "\n")
-    bad = run_cli("calibrate", f, "--nominal", "kr5", "--tool", "50,30,100", ok=False)
-    assert (
-        bad.returncode == 2
-        and "by more than the robot's size" in bad.stderr + bad.stdout
-        and "--coupling" in bad.stderr + bad.stdout
-    )
-    good = run_cli(
-        "calibrate",
-        f,
-        "--nominal",
-        "kr5",
-        "--tool",
-        "50,30,100",
-        "--coupling",
-        "q3=r3+r2",
-        "--json",
-        tmp_path / "c.json",
-    )
-    assert good.returncode == 0
-    assert (
-        json.loads((tmp_path / "c.json").read_text())["residuals"]["rms_m"] < 5e-5
-    )  # m (0.02 mm noise; it had compared m with 0.05 "mm")
-
-
-def test_cli_calibrate_writes_a_report(tmp_path):
-    """`calibrate --report`: the calibration's self-contained HTML report (what it draws: test_report's browser test)."""
-    kr5 = dv.load_robot("kr5")
-    q = cal.configurations(kr5, 30)
-    meas = cal.simulate(kr5.model(), q, tool=np.array([0.05, 0.03, 0.1]), noise=2e-5, seed=2)
-    lines = ["# units: length=mm angle=deg", "q1,q2,q3,q4,q5,q6,x,y,z"]
-    lines += [
-        ",".join([*(f"{v:.8f}" for v in np.degrees(a)), *(f"{v:.6f}" for v in p * 1e3)])
-        for a, p in zip(q, meas.points, strict=True)
-    ]
-    f = tmp_path / "m.csv"
-    f.write_text("\n".join(lines) + "\n")
-    page = tmp_path / "cal.html"
-    run_cli("calibrate", f, "--nominal", "kr5", "--tool", "50,30,100", "--report", page)
-    html = page.read_text()
-    assert html.startswith("<!DOCTYPE html>") and "kr5" in html and len(html) < 2e6
 
 
 def test_a_non_finite_joint_value_is_named_by_row_and_index():
