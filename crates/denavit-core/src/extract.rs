@@ -183,6 +183,55 @@ fn col(t: &Pose, k: usize) -> Vector3<f64> {
 /// ```
 pub fn extract(ax: &JointAxes, convention: Convention, opt: &ExtractOptions) -> Result<Extraction> {
     let n = ax.nq();
+    check_options(ax, convention, opt)?;
+    let base_origin = ax.t_world_base.translation.vector;
+    let tool_origin = ax.t_world_tool.translation.vector;
+    let size = ax.points.iter().chain(std::iter::once(&tool_origin)).map(|p| (p - base_origin).norm()).fold(0.0_f64, f64::max);
+    let max_offset = opt.max_offset.unwrap_or(2.0 * size + 1e-3);
+    let (p, z) = (&ax.points, &ax.directions);
+    let geoms: Vec<PairGeom> = (0..n.saturating_sub(1)).map(|k| analyze(&p[k], &z[k], &p[k + 1], &z[k + 1], opt, max_offset)).collect();
+    let nominal_frames = match &opt.nominal {
+        Some(t) => Some(t.frames(&ax.q_ref)?),
+        None => None,
+    };
+    let steps = FrameSteps { ax, opt, geoms: &geoms, nominal_frames: nominal_frames.as_deref() };
+    let mut betas = vec![0.0; n.saturating_sub(1)];
+
+    let table = match convention {
+        Convention::Poe => poe_from_axes(ax, opt)?,
+        _ if n == 0 => {
+            Table::new(convention, DMatrix::zeros(0, convention.columns().len()), vec![], ax.t_world_base, ax.t_world_base.inverse() * ax.t_world_tool)?
+        }
+        Convention::Mdh => {
+            let frames = steps.mdh_frames(&mut betas);
+            Table::new(convention, mdh_params(ax, &frames), ax.kinds.clone(), frames[0], frames[n].inverse() * ax.t_world_tool)?
+        }
+        Convention::Dh => {
+            let frames = steps.dh_frames(&mut betas);
+            Table::new(convention, dh_params(ax, &frames), ax.kinds.clone(), frames[0], frames[n].inverse() * ax.t_world_tool)?
+        }
+        Convention::Edh => edh_from_axes(ax, opt, &geoms, nominal_frames.as_deref())?,
+    };
+
+    let pairs = geoms
+        .iter()
+        .enumerate()
+        .map(|(k, g)| PairDiagnostic {
+            joint: k + 1,
+            relation: g.relation,
+            angle: g.angle,
+            distance: g.distance,
+            hayati_beta: if matches!(convention, Convention::Dh | Convention::Mdh) { betas[k] } else { 0.0 },
+        })
+        .collect();
+    let (max_position_error, max_rotation_error) = if opt.fidelity { fidelity(ax, &table, opt)? } else { (f64::NAN, f64::NAN) };
+    Ok(Extraction { table, pairs, max_position_error, max_rotation_error })
+}
+
+/// The options checked against the axes and the convention: tolerances >= 0, `parallel_tol` the sine of an
+/// angle, a nominal of the same convention and joint count, one finite ED-H origin per axis.
+fn check_options(ax: &JointAxes, convention: Convention, opt: &ExtractOptions) -> Result<()> {
+    let n = ax.nq();
     for (what, v) in [("parallel_tol", Some(opt.parallel_tol)), ("intersect_tol", Some(opt.intersect_tol)), ("max_offset", opt.max_offset)] {
         if let Some(v) = v.filter(|v| v.is_nan() || *v < 0.0) {
             return Err(Error::InvalidArgument { what: what.into(), expected: "a value >= 0".into(), got: v.to_string() });
@@ -212,166 +261,177 @@ pub fn extract(ax: &JointAxes, convention: Convention, opt: &ExtractOptions) -> 
             check_finite(&format!("ED-H origin {}", i + 1), p.as_slice())?;
         }
     }
-    let base_origin = ax.t_world_base.translation.vector;
-    let tool_origin = ax.t_world_tool.translation.vector;
-    let size = ax.points.iter().chain(std::iter::once(&tool_origin)).map(|p| (p - base_origin).norm()).fold(0.0_f64, f64::max);
-    let max_offset = opt.max_offset.unwrap_or(2.0 * size + 1e-3);
-    let (p, z) = (&ax.points, &ax.directions);
-    let geoms: Vec<PairGeom> = (0..n.saturating_sub(1)).map(|k| analyze(&p[k], &z[k], &p[k + 1], &z[k + 1], opt, max_offset)).collect();
-    let nominal_frames = match &opt.nominal {
-        Some(t) => Some(t.frames(&ax.q_ref)?),
-        None => None,
-    };
-    let nom_x = |k: usize| nominal_frames.as_ref().map(|f| col(&f[k], 0));
-    let (base_x, base_y) = (col(&ax.t_world_base, 0), col(&ax.t_world_base, 1));
-    let (tool_x, tool_y) = (col(&ax.t_world_tool, 0), col(&ax.t_world_tool, 1));
-    let perp_or = |v: &Vector3<f64>, fallback: &Vector3<f64>, zz: &Vector3<f64>| {
-        perpendicular(v, zz).or_else(|| perpendicular(fallback, zz)).unwrap_or_else(|| any_perpendicular(zz))
-    };
-    let tol = opt.intersect_tol;
-    // offset along the axis the nominal table gives to an otherwise free origin (row k, column col), with
-    // the joint's reference value added for prismatic joints
-    let nominal_d = |k: usize, column: usize| {
-        opt.nominal.as_ref().map_or(0.0, |t| t.params[(k, column)] + if ax.kinds[k] == JointKind::Prismatic { ax.q_ref[k] } else { 0.0 })
-    };
-    let mut betas = vec![0.0; n.saturating_sub(1)];
+    Ok(())
+}
 
-    let table = match convention {
-        Convention::Poe => poe_from_axes(ax, opt)?,
-        _ if n == 0 => {
-            Table::new(convention, DMatrix::zeros(0, convention.columns().len()), vec![], ax.t_world_base, ax.t_world_base.inverse() * ax.t_world_tool)?
-        }
-        Convention::Mdh => {
-            // frames F_0..F_n; F_k (k >= 1) on axis k
-            let x0 = perp_or(&nom_x(0).unwrap_or(base_x), &base_y, &z[0]);
-            let (f0, _) = frame(&project(&base_origin, &p[0], &z[0]), &x0, &z[0]);
-            let mut frames = vec![f0];
-            for k in 0..n {
-                let prev = frames[k];
-                let h = project(&prev.translation.vector, &p[k], &z[k]);
-                let (o, x) = if k + 1 < n {
-                    let g = &geoms[k];
-                    match g.relation {
-                        Relation::Intersecting if opt.nominal.is_none() => {
-                            let x = normal_direction(&z[k], &z[k + 1]).normalize();
-                            (g.foot0, smaller_angle(x, &col(&prev, 0), &z[k], ax.kinds[k], ax.q_ref[k]))
-                        }
-                        Relation::Skew | Relation::Intersecting => {
-                            let x = normal_direction(&z[k], &z[k + 1]).normalize();
-                            (g.foot0, orient(x, nom_x(k + 1).as_ref(), &(g.foot1 - g.foot0), tol))
-                        }
-                        Relation::Parallel => {
-                            let o = h + z[k] * nominal_d(k, 3);
-                            let x = perp_or(&(p[k + 1] - o), &col(&prev, 0), &z[k]);
-                            (o, orient(x, nom_x(k + 1).as_ref(), &(p[k + 1] - o), tol))
-                        }
-                        Relation::Coincident => {
-                            (h + z[k] * nominal_d(k, 3), orient(perp_or(&col(&prev, 0), &base_x, &z[k]), nom_x(k + 1).as_ref(), &Vector3::zeros(), tol))
-                        }
-                    }
-                } else {
-                    let d_last = opt.nominal.as_ref().map_or(0.0, |t| t.params[(n - 1, 3)]);
-                    let d_last = if ax.kinds[k] == JointKind::Prismatic { d_last + ax.q_ref[k] } else { d_last };
-                    (h + z[k] * d_last, perp_or(&nom_x(n).unwrap_or(tool_x), &tool_y, &z[k]))
-                };
-                let (f, _) = frame(&o, &x, &z[k]);
-                if k + 1 < n {
-                    betas[k] = x.dot(&z[k + 1]).asin();
-                }
-                frames.push(f);
-            }
-            let mut params = DMatrix::zeros(n, 4);
-            for k in 1..=n {
-                let (fp, fc) = (&frames[k - 1], &frames[k]);
-                let (xp, zp, xc, zc) = (col(fp, 0), col(fp, 2), col(fc, 0), col(fc, 2));
-                let delta = fc.translation.vector - fp.translation.vector;
-                let alpha = zp.cross(&zc).dot(&xp).atan2(zp.dot(&zc));
-                let theta = signed_angle(&xp, &xc, &zc);
-                let (mut th, mut d) = (theta, delta.dot(&zc));
-                match ax.kinds[k - 1] {
-                    JointKind::Revolute => th = wrap_angle(theta - ax.q_ref[k - 1]),
-                    JointKind::Prismatic => d -= ax.q_ref[k - 1],
-                }
-                params.set_row(k - 1, &nalgebra::RowVector4::new(alpha, delta.dot(&xp), th, d).columns(0, 4));
-            }
-            Table::new(convention, params, ax.kinds.clone(), frames[0], frames[n].inverse() * ax.t_world_tool)?
-        }
-        Convention::Dh => {
-            // frames D_0..D_n; D_{k-1} has z along axis k; D_n along axis n
-            let x0 = perp_or(&nom_x(0).unwrap_or(base_x), &base_y, &z[0]);
-            let (d0, _) = frame(&project(&base_origin, &p[0], &z[0]), &x0, &z[0]);
-            let mut frames = vec![d0];
-            for k in 1..=n {
-                let prev = frames[k - 1];
-                let (op, xp, zp) = (prev.translation.vector, col(&prev, 0), col(&prev, 2));
-                let (o, x, zt) = if k < n {
-                    let g = &geoms[k - 1];
-                    match g.relation {
-                        Relation::Intersecting if opt.nominal.is_none() => {
-                            let x = normal_direction(&z[k - 1], &z[k]).normalize();
-                            (g.foot1, smaller_angle(x, &xp, &zp, ax.kinds[k - 1], ax.q_ref[k - 1]), z[k])
-                        }
-                        Relation::Skew | Relation::Intersecting => {
-                            let x = normal_direction(&z[k - 1], &z[k]).normalize();
-                            (g.foot1, orient(x, nom_x(k).as_ref(), &(g.foot1 - g.foot0), tol), z[k])
-                        }
-                        Relation::Parallel => {
-                            let on = op + zp * nominal_d(k - 1, 0);
-                            let o = project(&on, &p[k], &z[k]);
-                            let x = perp_or(&(o - on), &xp, &zp);
-                            (o, orient(x, nom_x(k).as_ref(), &(o - on), tol), z[k])
-                        }
-                        Relation::Coincident => {
-                            let o = project(&(op + zp * nominal_d(k - 1, 0)), &p[k], &z[k]);
-                            (o, orient(perp_or(&xp, &base_x, &zp), nom_x(k).as_ref(), &Vector3::zeros(), tol), z[k])
-                        }
-                    }
-                } else {
-                    let (d_n, a_n, alpha_n) =
-                        opt.nominal.as_ref().map_or((0.0, 0.0, 0.0), |t| (t.params[(n - 1, 0)], t.params[(n - 1, 2)], t.params[(n - 1, 3)]));
-                    let d_n = if ax.kinds[n - 1] == JointKind::Prismatic { d_n + ax.q_ref[n - 1] } else { d_n };
-                    let x = perp_or(&nom_x(n).unwrap_or(tool_x), &tool_y, &zp);
-                    let y = zp.cross(&x);
-                    (op + zp * d_n + x * a_n, x, zp * alpha_n.cos() - y * alpha_n.sin())
-                };
-                let (f, beta) = frame(&o, &x, &zt);
-                if k < n {
-                    betas[k - 1] = beta;
-                }
-                frames.push(f);
-            }
-            let mut params = DMatrix::zeros(n, 4);
-            for k in 1..=n {
-                let (fp, fc) = (&frames[k - 1], &frames[k]);
-                let (xp, zp, xc, zc) = (col(fp, 0), col(fp, 2), col(fc, 0), col(fc, 2));
-                let delta = fc.translation.vector - fp.translation.vector;
-                let theta = signed_angle(&xp, &xc, &zp);
-                let alpha = zp.cross(&zc).dot(&xc).atan2(zp.dot(&zc));
-                let (mut th, mut d) = (theta, delta.dot(&zp));
-                match ax.kinds[k - 1] {
-                    JointKind::Revolute => th = wrap_angle(theta - ax.q_ref[k - 1]),
-                    JointKind::Prismatic => d -= ax.q_ref[k - 1],
-                }
-                params.set_row(k - 1, &nalgebra::RowVector4::new(d, th, delta.dot(&xc), alpha).columns(0, 4));
-            }
-            Table::new(convention, params, ax.kinds.clone(), frames[0], frames[n].inverse() * ax.t_world_tool)?
-        }
-        Convention::Edh => edh_from_axes(ax, opt, &geoms, nominal_frames.as_deref())?,
-    };
+/// The part of `v` perpendicular to `z`, else of `fallback`, else any perpendicular (unit).
+fn perp_or(v: &Vector3<f64>, fallback: &Vector3<f64>, z: &Vector3<f64>) -> Vector3<f64> {
+    perpendicular(v, z).or_else(|| perpendicular(fallback, z)).unwrap_or_else(|| any_perpendicular(z))
+}
 
-    let pairs = geoms
-        .iter()
-        .enumerate()
-        .map(|(k, g)| PairDiagnostic {
-            joint: k + 1,
-            relation: g.relation,
-            angle: g.angle,
-            distance: g.distance,
-            hayati_beta: if matches!(convention, Convention::Dh | Convention::Mdh) { betas[k] } else { 0.0 },
-        })
-        .collect();
-    let (max_position_error, max_rotation_error) = if opt.fidelity { fidelity(ax, &table, opt)? } else { (f64::NAN, f64::NAN) };
-    Ok(Extraction { table, pairs, max_position_error, max_rotation_error })
+/// What the DH and MDH frame constructions share: the axes, the options, the geometry of each pair of
+/// consecutive axes and the nominal's frames at `q_ref` (which break sign ties).
+struct FrameSteps<'a> {
+    ax: &'a JointAxes,
+    opt: &'a ExtractOptions,
+    geoms: &'a [PairGeom],
+    nominal_frames: Option<&'a [Pose]>,
+}
+
+impl FrameSteps<'_> {
+    /// The nominal's frame k's x axis.
+    fn nom_x(&self, k: usize) -> Option<Vector3<f64>> {
+        self.nominal_frames.map(|f| col(&f[k], 0))
+    }
+
+    /// Offset along the axis the nominal table gives to an otherwise free origin (row k, column `column`),
+    /// with the joint's reference value added for prismatic joints.
+    fn nominal_d(&self, k: usize, column: usize) -> f64 {
+        let ax = self.ax;
+        self.opt.nominal.as_ref().map_or(0.0, |t| t.params[(k, column)] + if ax.kinds[k] == JointKind::Prismatic { ax.q_ref[k] } else { 0.0 })
+    }
+
+    /// The first frame, on axis 1 (both DH and MDH): its origin the base origin's foot on the axis, its x the
+    /// nominal's (else the base's) made perpendicular to the axis.
+    fn first_frame(&self) -> Pose {
+        let (ax, z) = (self.ax, &self.ax.directions);
+        let (base_x, base_y) = (col(&ax.t_world_base, 0), col(&ax.t_world_base, 1));
+        let x0 = perp_or(&self.nom_x(0).unwrap_or(base_x), &base_y, &z[0]);
+        frame(&project(&ax.t_world_base.translation.vector, &ax.points[0], &z[0]), &x0, &z[0]).0
+    }
+
+    /// MDH frames F_0..F_n; F_k (k >= 1) on axis k. Writes each pair's Hayati tilt into `betas`.
+    fn mdh_frames(&self, betas: &mut [f64]) -> Vec<Pose> {
+        let (ax, opt, tol) = (self.ax, self.opt, self.opt.intersect_tol);
+        let (n, p, z) = (ax.nq(), &ax.points, &ax.directions);
+        let base_x = col(&ax.t_world_base, 0);
+        let (tool_x, tool_y) = (col(&ax.t_world_tool, 0), col(&ax.t_world_tool, 1));
+        let mut frames = vec![self.first_frame()];
+        for k in 0..n {
+            let prev = frames[k];
+            let h = project(&prev.translation.vector, &p[k], &z[k]);
+            let (o, x) = if k + 1 < n {
+                let g = &self.geoms[k];
+                match g.relation {
+                    Relation::Intersecting if opt.nominal.is_none() => {
+                        let x = normal_direction(&z[k], &z[k + 1]).normalize();
+                        (g.foot0, smaller_angle(x, &col(&prev, 0), &z[k], ax.kinds[k], ax.q_ref[k]))
+                    }
+                    Relation::Skew | Relation::Intersecting => {
+                        let x = normal_direction(&z[k], &z[k + 1]).normalize();
+                        (g.foot0, orient(x, self.nom_x(k + 1).as_ref(), &(g.foot1 - g.foot0), tol))
+                    }
+                    Relation::Parallel => {
+                        let o = h + z[k] * self.nominal_d(k, 3);
+                        let x = perp_or(&(p[k + 1] - o), &col(&prev, 0), &z[k]);
+                        (o, orient(x, self.nom_x(k + 1).as_ref(), &(p[k + 1] - o), tol))
+                    }
+                    Relation::Coincident => {
+                        (h + z[k] * self.nominal_d(k, 3), orient(perp_or(&col(&prev, 0), &base_x, &z[k]), self.nom_x(k + 1).as_ref(), &Vector3::zeros(), tol))
+                    }
+                }
+            } else {
+                let d_last = opt.nominal.as_ref().map_or(0.0, |t| t.params[(n - 1, 3)]);
+                let d_last = if ax.kinds[k] == JointKind::Prismatic { d_last + ax.q_ref[k] } else { d_last };
+                (h + z[k] * d_last, perp_or(&self.nom_x(n).unwrap_or(tool_x), &tool_y, &z[k]))
+            };
+            let (f, _) = frame(&o, &x, &z[k]);
+            if k + 1 < n {
+                betas[k] = x.dot(&z[k + 1]).asin();
+            }
+            frames.push(f);
+        }
+        frames
+    }
+
+    /// DH frames D_0..D_n; D_{k-1} has z along axis k; D_n along axis n. Writes each pair's Hayati tilt into
+    /// `betas`.
+    fn dh_frames(&self, betas: &mut [f64]) -> Vec<Pose> {
+        let (ax, opt, tol) = (self.ax, self.opt, self.opt.intersect_tol);
+        let (n, p, z) = (ax.nq(), &ax.points, &ax.directions);
+        let base_x = col(&ax.t_world_base, 0);
+        let (tool_x, tool_y) = (col(&ax.t_world_tool, 0), col(&ax.t_world_tool, 1));
+        let mut frames = vec![self.first_frame()];
+        for k in 1..=n {
+            let prev = frames[k - 1];
+            let (op, xp, zp) = (prev.translation.vector, col(&prev, 0), col(&prev, 2));
+            let (o, x, zt) = if k < n {
+                let g = &self.geoms[k - 1];
+                match g.relation {
+                    Relation::Intersecting if opt.nominal.is_none() => {
+                        let x = normal_direction(&z[k - 1], &z[k]).normalize();
+                        (g.foot1, smaller_angle(x, &xp, &zp, ax.kinds[k - 1], ax.q_ref[k - 1]), z[k])
+                    }
+                    Relation::Skew | Relation::Intersecting => {
+                        let x = normal_direction(&z[k - 1], &z[k]).normalize();
+                        (g.foot1, orient(x, self.nom_x(k).as_ref(), &(g.foot1 - g.foot0), tol), z[k])
+                    }
+                    Relation::Parallel => {
+                        let on = op + zp * self.nominal_d(k - 1, 0);
+                        let o = project(&on, &p[k], &z[k]);
+                        let x = perp_or(&(o - on), &xp, &zp);
+                        (o, orient(x, self.nom_x(k).as_ref(), &(o - on), tol), z[k])
+                    }
+                    Relation::Coincident => {
+                        let o = project(&(op + zp * self.nominal_d(k - 1, 0)), &p[k], &z[k]);
+                        (o, orient(perp_or(&xp, &base_x, &zp), self.nom_x(k).as_ref(), &Vector3::zeros(), tol), z[k])
+                    }
+                }
+            } else {
+                let (d_n, a_n, alpha_n) = opt.nominal.as_ref().map_or((0.0, 0.0, 0.0), |t| (t.params[(n - 1, 0)], t.params[(n - 1, 2)], t.params[(n - 1, 3)]));
+                let d_n = if ax.kinds[n - 1] == JointKind::Prismatic { d_n + ax.q_ref[n - 1] } else { d_n };
+                let x = perp_or(&self.nom_x(n).unwrap_or(tool_x), &tool_y, &zp);
+                let y = zp.cross(&x);
+                (op + zp * d_n + x * a_n, x, zp * alpha_n.cos() - y * alpha_n.sin())
+            };
+            let (f, beta) = frame(&o, &x, &zt);
+            if k < n {
+                betas[k - 1] = beta;
+            }
+            frames.push(f);
+        }
+        frames
+    }
+}
+
+/// The MDH rows (alpha, a, theta, d) between consecutive frames F_0..F_n, less the joints' reference values.
+fn mdh_params(ax: &JointAxes, frames: &[Pose]) -> DMatrix<f64> {
+    let n = ax.nq();
+    let mut params = DMatrix::zeros(n, 4);
+    for k in 1..=n {
+        let (fp, fc) = (&frames[k - 1], &frames[k]);
+        let (xp, zp, xc, zc) = (col(fp, 0), col(fp, 2), col(fc, 0), col(fc, 2));
+        let delta = fc.translation.vector - fp.translation.vector;
+        let alpha = zp.cross(&zc).dot(&xp).atan2(zp.dot(&zc));
+        let theta = signed_angle(&xp, &xc, &zc);
+        let (mut th, mut d) = (theta, delta.dot(&zc));
+        match ax.kinds[k - 1] {
+            JointKind::Revolute => th = wrap_angle(theta - ax.q_ref[k - 1]),
+            JointKind::Prismatic => d -= ax.q_ref[k - 1],
+        }
+        params.set_row(k - 1, &nalgebra::RowVector4::new(alpha, delta.dot(&xp), th, d).columns(0, 4));
+    }
+    params
+}
+
+/// The DH rows (d, theta, a, alpha) between consecutive frames D_0..D_n, less the joints' reference values.
+fn dh_params(ax: &JointAxes, frames: &[Pose]) -> DMatrix<f64> {
+    let n = ax.nq();
+    let mut params = DMatrix::zeros(n, 4);
+    for k in 1..=n {
+        let (fp, fc) = (&frames[k - 1], &frames[k]);
+        let (xp, zp, xc, zc) = (col(fp, 0), col(fp, 2), col(fc, 0), col(fc, 2));
+        let delta = fc.translation.vector - fp.translation.vector;
+        let theta = signed_angle(&xp, &xc, &zp);
+        let alpha = zp.cross(&zc).dot(&xc).atan2(zp.dot(&zc));
+        let (mut th, mut d) = (theta, delta.dot(&zp));
+        match ax.kinds[k - 1] {
+            JointKind::Revolute => th = wrap_angle(theta - ax.q_ref[k - 1]),
+            JointKind::Prismatic => d -= ax.q_ref[k - 1],
+        }
+        params.set_row(k - 1, &nalgebra::RowVector4::new(d, th, delta.dot(&xc), alpha).columns(0, 4));
+    }
+    params
 }
 
 fn edh_from_axes(ax: &JointAxes, opt: &ExtractOptions, geoms: &[PairGeom], nominal_frames: Option<&[Pose]>) -> Result<Table> {
@@ -385,9 +445,6 @@ fn edh_from_axes(ax: &JointAxes, opt: &ExtractOptions, geoms: &[PairGeom], nomin
     let base_origin = ax.t_world_base.translation.vector;
     let (base_x, base_y) = (col(&ax.t_world_base, 0), col(&ax.t_world_base, 1));
     let (tool_x, tool_y) = (col(&ax.t_world_tool, 0), col(&ax.t_world_tool, 1));
-    let perp_or = |v: &Vector3<f64>, fallback: &Vector3<f64>, zz: &Vector3<f64>| {
-        perpendicular(v, zz).or_else(|| perpendicular(fallback, zz)).unwrap_or_else(|| any_perpendicular(zz))
-    };
     let x0 = perp_or(&nom_x(0).unwrap_or(base_x), &base_y, &z[0]);
     let mut frames = vec![frame(&base_origin, &x0, &z[0]).0];
     for k in 0..n {
