@@ -272,3 +272,30 @@ def test_a_written_file_holds_the_shortest_numbers_that_read_back_exactly(name, 
     )
     if name == "kr5":
         assert [j["limits"] for j in doc["joints"]][2] == [-15.0, 158.0]
+
+
+def test_a_core_error_about_one_joint_is_said_at_that_joint_from_its_structured_field(tmp_path):
+    """Issue 35: the core's error carries the joint it is about (``e.joint``), and the reader places it at that
+    joint's table in the file without reading the message back: a POE screw that is not a pure rotation at A3."""
+    res = dv.identify(dv.simulate("kr5", points_per_sweep=8), nominal="kr5")
+    good = tmp_path / "poe.toml"
+    dv.save(res, good, convention="poe", length="mm")
+    text = good.read_text()
+    at = text.index('name = "A3"')
+    w_line = text.index("w = [", at)
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text[:w_line] + "w = [0.0, 0.0, 0.0]" + text[text.index("\n", w_line) :])
+    with pytest.raises(dv.DenavitError) as e:
+        robotfile.read(bad)
+    msg = str(e.value)
+    place = msg.split(": invalid poe screw")[0]
+    line = int(place.split("(line ")[1].rstrip(")"))
+    assert place.startswith(f"{bad}, joint 3 (line "), msg
+    assert text[:at].count("\n") - 1 <= line <= text[:w_line].count("\n") + 1, (line, msg)  # A3's table
+    assert "poe screw of revolute joint 3" in msg
+    with pytest.raises(dv.DenavitError) as core:
+        table = dv.load_robot(good).table
+        params = np.array(table.params)
+        params[2, :3] = 0.0
+        dv.Table("poe", params, list(table.kinds)).to_model("bad")
+    assert core.value.joint == 3 and core.value.kind == "InvalidArgument"

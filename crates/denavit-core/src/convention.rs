@@ -256,7 +256,8 @@ impl Table {
                             what: format!("poe screw of revolute joint {}", i + 1),
                             expected: "|w| = 1 and w . v = 0 (a pure rotation)".into(),
                             got: format!("|w| = {wn}, w . v = {}", w.dot(&v)),
-                        });
+                        }
+                        .at_joint(i + 1));
                     }
                     let z = w / wn;
                     let origin = z.cross(&v);
@@ -271,7 +272,8 @@ impl Table {
                             what: format!("poe screw of prismatic joint {}", i + 1),
                             expected: "w = 0 and |v| = 1 (a pure translation, v a unit direction)".into(),
                             got: format!("|w| = {}, |v| = {vn}", w.norm()),
-                        });
+                        }
+                        .at_joint(i + 1));
                     }
                     let z = v / vn;
                     frame_from_zx(&prev_origin, &z, &Vector3::x(), &Vector3::y())

@@ -38,6 +38,32 @@ pub enum Error {
     /// The computation was stopped by [`crate::parallel::interrupt`] (Ctrl-C in the binding).
     #[error("interrupted")]
     Interrupted,
+    /// An error about one joint (1-based `joint`) of a model or table; the message is `source`'s, which names it.
+    #[error("{source}")]
+    AtJoint { joint: usize, source: Box<Error> },
+}
+
+impl Error {
+    /// This error as one about joint `joint` (1-based), so that a caller reads the joint instead of the message.
+    pub(crate) fn at_joint(self, joint: usize) -> Self {
+        Error::AtJoint { joint, source: Box::new(self) }
+    }
+
+    /// The joint (1-based) the error is about, when known.
+    ///
+    /// ```
+    /// use denavit_core::{Convention, JointKind, Table, spatial::Pose};
+    /// use nalgebra::DMatrix;
+    /// let zero_screw = DMatrix::zeros(1, 6);
+    /// let bad = Table::new(Convention::Poe, zero_screw, vec![JointKind::Revolute], Pose::identity(), Pose::identity());
+    /// assert_eq!(bad.unwrap().to_model("bad").unwrap_err().joint(), Some(1));
+    /// ```
+    pub fn joint(&self) -> Option<usize> {
+        match self {
+            Error::AtJoint { joint, .. } => Some(*joint),
+            _ => None,
+        }
+    }
 }
 
 /// Result alias of the core.

@@ -23,6 +23,9 @@ macro_rules! fields {
 /// The exception of a core error, its message prefixed with `context` when given; `joint` (1-based) when the
 /// binding knows which joint or link the error is about.
 fn exception(e: &Error, context: Option<&str>, joint: Option<usize>) -> PyErr {
+    if let Error::AtJoint { joint: j, source } = e {
+        return exception(source, context, joint.or(Some(*j)));
+    }
     Python::with_gil(|py| {
         let built = || -> PyResult<PyErr> {
             let d = PyDict::new(py);

@@ -176,15 +176,14 @@ def _inertia(spec, jw: str, units: dict | None, where: str, ls: float) -> tuple[
     return vals["mass"] * ms, [c * ls for c in com], I * iscale
 
 
-def _core_error_place(message: str, where: str, joint_where: list[str]) -> str:
-    """Where in the file a core error about the whole table is: the joint its message names ("... of revolute
-    joint 2 ..."), the [tool] or [base] pose, else the file."""
-    m = re.search(r"\bjoint (\d+)\b", message)
-    if m and 1 <= int(m.group(1)) <= len(joint_where):
-        return joint_where[int(m.group(1)) - 1]
-    if message.startswith("T_last_tool"):
+def _core_error_place(e: DenavitError, where: str, joint_where: list[str]) -> str:
+    """Where in the file a core error about the whole table is: the joint it is about (its ``joint`` field), the
+    [tool] or [base] pose (the transform it names, ``what``), else the file."""
+    if e.joint is not None and 1 <= e.joint <= len(joint_where):
+        return joint_where[e.joint - 1]
+    if e.what == "T_last_tool":
         return f"{where}, [tool]"
-    if message.startswith("T_world_base"):
+    if e.what == "T_world_base":
         return f"{where}, [base]"
     return where
 
@@ -442,7 +441,7 @@ def _table(
         table = _core.Table(conv, raw.params * np.asarray(si).reshape(raw.params.shape), kinds, base, tool)
         table.to_model("check")
     except DenavitError as e:
-        raise DenavitError(f"{_core_error_place(str(e), where, joints.where)}: {e}") from None
+        raise DenavitError(f"{_core_error_place(e, where, joints.where)}: {e}") from None
     return table
 
 
