@@ -62,7 +62,7 @@ def run(*args, ok: bool = True, columns: int = 120) -> SimpleNamespace:
 
     out, err = _stream(), _stream()
     consoles = (terminal.console, terminal.err_console)
-    saved_consoles = [(c._file, c.width) for c in consoles]  # noqa: SLF001 (rich keeps an explicit file there)
+    widths = [c.width for c in consoles]
     saved_env = {k: os.environ.get(k) for k in ("COLUMNS", "LINES", "TERMINAL_WIDTH", "FORCE_COLOR", "NO_COLOR")}
     os.environ["COLUMNS"] = str(columns)
     for k in ("LINES", "TERMINAL_WIDTH", "FORCE_COLOR", "NO_COLOR"):
@@ -76,8 +76,8 @@ def run(*args, ok: bool = True, columns: int = 120) -> SimpleNamespace:
                 warnings.simplefilter(action, category or Warning)
             code = execute([str(a) for a in args])
     finally:
-        for c, (f, w) in zip(consoles, saved_consoles):
-            c.file, c.width = f, w
+        for c, w in zip(consoles, widths):
+            c.file, c.width = None, w  # None: the streams of the moment, as when the module was imported
         for k, v in saved_env.items():
             if v is None:
                 os.environ.pop(k, None)

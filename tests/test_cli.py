@@ -51,8 +51,8 @@ def test_identify_length_flag_sets_the_output_unit_of_a_file_that_declares_its_o
     """The example declares mm: --length m changes only the printed unit, not how the data are read; the
     JSON is SI either way."""
     mm, m = tmp_path / "mm.json", tmp_path / "m.json"
-    a_out = run("identify", "--example", "kr5", "--json", str(mm)).stdout
-    b_out = run("identify", "--example", "kr5", "--length", "m", "--json", str(m)).stdout
+    a_out = run("identify", "--example", "kr5", "--convention", "dh", "--json", str(mm)).stdout
+    b_out = run("identify", "--example", "kr5", "--convention", "dh", "--length", "m", "--json", str(m)).stdout
     a, b = json.loads(mm.read_text()), json.loads(m.read_text())
     assert a["units"] == b["units"] == {"length": "m", "angle": "rad"}
     d_mm, d_m = [r["d"] for r in a["parameters"]], [r["d"] for r in b["parameters"]]
@@ -88,7 +88,7 @@ def test_identify_in_a_tracker_frame_with_the_base_given(tmp_path):
         )
     )
     out = tmp_path / "r.json"
-    run("identify", str(csv), "--nominal", "kr5", "--base", "1200,-400,300,2,-3,35", "--json", str(out))
+    run("identify", "kr5", str(csv), "--convention", "dh", "--base", "1200,-400,300,2,-3,35", "--json", str(out))
     doc = json.loads(out.read_text())
     table_iii = {
         "d": [400, 0, 0, 620, 0, 0],
@@ -117,7 +117,7 @@ def test_identify_in_a_tracker_frame_with_the_base_given(tmp_path):
     T = np.array(doc["T_world_base"])
     np.testing.assert_allclose(T[:3, :3], B[:3, :3], atol=1e-12)
     np.testing.assert_allclose(T[:3, 3], B[:3, 3], atol=1e-12)
-    run("identify", str(csv), "--nominal", "kr5", "--json", str(out))
+    run("identify", str(csv), "--nominal", "kr5", "--convention", "dh", "--json", str(out))
     assert abs(json.loads(out.read_text())["parameters"][0]["d"] - 0.4) > 1e-3
     p = run("identify", str(csv), "--base", "1,2,3", ok=False)
     assert p.returncode == 2 and "--base: expected 16 or 12 numbers" in p.stderr
@@ -125,7 +125,7 @@ def test_identify_in_a_tracker_frame_with_the_base_given(tmp_path):
 
 def test_identify_example_and_json(tmp_path):
     out = tmp_path / "r.json"
-    p = run("identify", "--example", "kr5", "--json", str(out))
+    p = run("identify", "--example", "kr5", "--convention", "dh", "--json", str(out))
     assert "Identified DH parameters" in p.stdout and "Measuring volume" in p.stdout
     doc = json.loads(out.read_text())
     assert doc["units"] == {"length": "m", "angle": "rad"}

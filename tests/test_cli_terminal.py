@@ -145,7 +145,7 @@ def test_long_paths_stand_on_their_own_line(tmp_path, files):
     deep = tmp_path / ("a_rather_long_folder_name_" * 3) / "sweeps_of_the_kr5_measured_on_tuesday.csv"
     deep.parent.mkdir(parents=True)
     deep.write_bytes(files["sweeps"].read_bytes())
-    out = run("identify", deep, "--nominal", "kr5", columns=60).stdout
+    out = run("identify", "kr5", deep, "--convention", "dh", columns=60).stdout
     assert f"  data: {deep}" in out.splitlines()
     assert re.search(r"^Identified DH parameters \(method \w+\)$", out, re.M)
 
@@ -181,7 +181,7 @@ def test_slow_steps_say_what_they_are_doing(monkeypatch):
     from denavit.cli import console as common
 
     buf = io.StringIO()
-    monkeypatch.setattr(common.err_console, "file", buf)
+    monkeypatch.setattr(common.err_console, "_file", buf)  # (the attribute rich reads: undone to None)
     with common.status("drawing the figures into out/ ..."):
         time.sleep(common.PATIENCE + 0.5)
     with common.status("a quick step"):
@@ -195,7 +195,9 @@ def test_slow_steps_say_what_they_are_doing(monkeypatch):
 def test_metre_tables_show_significant_figures_not_zeros():
     """`sigma 0.000` and `difference -0.000` with metre data: digits follow the unit, spreads show 3
     significant figures, a tiny negative is 0."""
-    out = run("identify", "--example", "kr5", "--length", "m", "--angle", "rad", columns=200).stdout
+    out = run(
+        "identify", "--example", "kr5", "--convention", "dh", "--length", "m", "--angle", "rad", columns=200
+    ).stdout
     sig = [ln.split("│")[6].strip() for ln in out.splitlines() if ln.startswith("│") and ln.count("│") == 8]
     assert sig and all(s in ("-", "0") or (float(s) > 0 and not re.fullmatch(r"0\.0+", s)) for s in sig), (
         sig

@@ -150,7 +150,7 @@ def test_a_sweep_csv_with_a_bom_reads(tmp_path):
     f = tmp_path / "s.csv"
     f.write_bytes(b"\xef\xbb\xbf# units: length=mm angle=deg\n" + _sweeps_csv().encode())
     out = tmp_path / "r.json"
-    run("identify", f, "--json", out)
+    run("identify", f, "--convention", "dh", "--json", out)
     assert json.loads(out.read_text())["parameters"][0]["d"] == pytest.approx(0.4, abs=1e-6)  # m: JSON is SI
 
 
@@ -162,7 +162,7 @@ def test_a_units_line_without_a_space_is_honoured_by_identify(tmp_path):
     f = tmp_path / "s.csv"
     f.write_text("#units: length=mm angle=deg\n" + _sweeps_csv())
     out = tmp_path / "r.json"
-    run("identify", f, "--length", "m", "--json", out)
+    run("identify", f, "--convention", "dh", "--length", "m", "--json", out)
     doc = json.loads(out.read_text())
     assert doc["units"]["length"] == "m"
     assert doc["parameters"][0]["d"] == pytest.approx(0.4, abs=1e-6)

@@ -139,7 +139,7 @@ def test_cli_show_report_and_plot(tmp_path):
 
 
 def test_cli_identify_report(tmp_path):
-    cli("identify", "--example", "kr5-30", "--report", str(tmp_path / "r.html"))
+    cli("identify", "--example", "kr5-30", "--convention", "dh", "--report", str(tmp_path / "r.html"))
     page = Page((tmp_path / "r.html").read_text(encoding="utf-8"))
     rows = page.rows("parameters")
     d1 = next(r for r in rows if r["attrs"] == {"data-joint": "A1", "data-param": "d"})

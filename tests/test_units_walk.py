@@ -304,7 +304,7 @@ def test_simulate_then_identify_with_a_prismatic_joint(rpr, tmp_path):
     first = None
     for data, length in ((mm, "mm"), (m, "m"), (mm, "m")):
         out = tmp_path / f"{data.stem}_{length}.json"
-        run("identify", data, "--nominal", rpr, "--length", length, "--json", out)
+        run("identify", data, "--nominal", rpr, "--convention", "dh", "--length", length, "--json", out)
         doc = json.loads(out.read_text())
         k = 1e3 if length == "mm" else 1.0
         np.testing.assert_allclose(_display(doc["home"], length), [10, 100 * k / 1e3, 20], atol=1e-6)
@@ -329,7 +329,22 @@ def test_simulate_then_identify_with_a_prismatic_joint(rpr, tmp_path):
                 "x,y,z\n" + "".join(",".join(repr(float(v)) for v in p) + "\n" for p in rows[:, 4:])
             )
         out = tmp_path / f"folder_{length}.json"
-        run("identify", folder, "--nominal", rpr, "--home", home, "--length", length, "--angle", angle, "--json", out)
+        run(
+            "identify",
+            folder,
+            "--nominal",
+            rpr,
+            "--convention",
+            "dh",
+            "--home",
+            home,
+            "--length",
+            length,
+            "--angle",
+            angle,
+            "--json",
+            out,
+        )
         doc = json.loads(out.read_text())
         k = 1e3 if length == "mm" else 1.0
         np.testing.assert_allclose(_display(doc["home"], length), [10, 100 * k / 1e3, 20], atol=1e-6)

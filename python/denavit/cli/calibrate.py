@@ -13,22 +13,27 @@ from ..errors import DenavitError
 from ..io.units import angle_scale, length_scale
 from .common import commands
 from .console import console, fail, num, print_rows, say, spread, status, wrote
-from .options import BaseLinkOpt, JsonOpt, TipLinkOpt, VerboseOpt
+from .options import CONVENTION, BaseLinkOpt, ConventionOpt, JsonOpt, NominalAliasOpt, TargetOpt, TipLinkOpt, VerboseOpt
 from .outputs import check_outputs, emit_json, json_target, require_plot_extra
-from .values import calib_unit, check_noises, convention_name, load_robot, parse_point
+from .values import calib_unit, check_noises, convention_name, load_robot, model_first, parse_point
 
-DataArg = Annotated[
-    Path,
+ModelArg = Annotated[
+    str,
     typer.Argument(
-        help="Measurements: CSV 'q1..qn,x,y,z[,rx,ry,rz]' (several targets per pose: 'q1..qn,x,y,z,x2,y2,z2,...'), a long-form sweep CSV (with 'joint'), JSON, or a recording."
+        metavar="MODEL",
+        help="The nominal model (built-in name, robot file or URDF), then DATA. (`DATA --nominal MODEL`: deprecated.)",
     ),
 ]
 
-NominalOpt = Annotated[str, typer.Option("--nominal", help="Nominal model (built-in name, robot file or URDF).")]
-
-ConventionOpt = Annotated[
-    str, typer.Option("--convention", help="edh | mdh (Hayati angle where axes are near-parallel) | dh")
+DataArg = Annotated[
+    Path | None,
+    typer.Argument(
+        metavar="DATA",
+        help="Measurements: CSV 'q1..qn,x,y,z[,rx,ry,rz]' (several targets per pose: 'q1..qn,x,y,z,x2,y2,z2,...'), "
+        "a long-form sweep CSV (with 'joint'), JSON, or a recording.",
+    ),
 ]
+
 
 FixOpt = Annotated[
     str | None,
@@ -147,13 +152,6 @@ ColumnsOpt = Annotated[
     str | None, typer.Option("--columns", help='Column map of a delimited recording, e.g. "t,q1..q6,x,y,z".')
 ]
 
-TargetOpt = Annotated[
-    int | None,
-    typer.Option(
-        "--target",
-        help="Data with several targets per pose (markers, SMRs on a nest): fit this one alone, 1-based (default: every target, one fit with each target's point in the flange frame).",
-    ),
-]
 
 PayloadOpt = Annotated[
     str | None,
@@ -166,9 +164,10 @@ PayloadOpt = Annotated[
 
 @commands.command()
 def calibrate(
-    data: DataArg,
-    nominal: NominalOpt,
-    convention: ConventionOpt = "edh",
+    first: ModelArg,
+    data: DataArg = None,
+    nominal: NominalAliasOpt = None,
+    convention: ConventionOpt = CONVENTION,
     fix: FixOpt = None,
     json_path: JsonOpt = None,
     save: SaveOpt = None,
@@ -207,7 +206,9 @@ def calibrate(
 
     check_outputs(**{"--save": save, "--json": json_path})
     json_path = json_target(json_path)
-    robot = load_robot(nominal, base_link, tip_link, "--nominal")
+    nominal, data = model_first(first, data, nominal, "calibrate")
+    data = Path(data)
+    robot = load_robot(nominal, base_link, tip_link, "MODEL")
     convention = convention_name(convention)
     # the reader applies the one units rule (denavit.io.units.input_units): what the file declares wins
     if data_format == "measurements" or (data_format == "auto" and is_measurement_file(input_path(data))):

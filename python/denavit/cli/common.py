@@ -28,6 +28,7 @@ from ..io.units import angle_scale, length_scale
 from .console import console
 from .options import ForceOpt
 from .outputs import STDOUT, json_argv
+from .values import say_deprecated
 
 
 def _reflow(text: str | None) -> str | None:
@@ -85,12 +86,20 @@ class Command(TyperCommand):
         with forcing(bool(ctx.params.pop("force", False))):  # --force reaches every write of the command
             _check_units(ctx)
             _check_outputs(ctx)
+            say_deprecated(done=False)
+            done = False
             try:
-                return super().invoke(ctx)
+                result = super().invoke(ctx)
+                done = True
+            except typer.Exit as e:
+                done = e.exit_code in (0, 1)  # done (1: the goal not met): the deprecated spellings used, said last
+                raise
             finally:
                 console.file = (
                     None  # back to standard output after a --json - run (json_target), for the next in-process call
                 )
+                say_deprecated(done)
+            return result
 
 
 def force_option():  # noqa: ANN201 (typer's click option)

@@ -12,19 +12,27 @@ from ..errors import DenavitError
 from ..io.units import length_scale
 from .common import commands
 from .console import console, say, spread, status, wrote
-from .options import AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, TipLinkOpt
+from .options import AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, NominalAliasOpt, TipLinkOpt
 from .outputs import SI_UNITS, check_outputs, emit_json, json_target, require_plot_extra
-from .values import load_robot, parse_joint_values, positive
+from .values import load_robot, model_first, parse_joint_values, positive
 
-TargetsArg = Annotated[
+ModelArg = Annotated[
     str,
     typer.Argument(
-        help="The program: a CSV of tool poses 'x,y,z,rx,ry,rz' (rotation vector) and/or joint rows 'q1..qn', with a '# units:' line; or a robot program (KUKA .src with its .dat, ABB .mod, FANUC .ls, URScript .script), written back with only its positions changed."
+        metavar="MODEL",
+        help="The controller's model (built-in name, robot file or URDF), then TARGETS. (`TARGETS --nominal MODEL`: "
+        "deprecated.)",
     ),
 ]
 
-NominalOpt = Annotated[
-    str, typer.Option("--nominal", help="The controller's model: a built-in name, a robot file or a URDF.")
+TargetsArg = Annotated[
+    str | None,
+    typer.Argument(
+        metavar="TARGETS",
+        help="The program: a CSV of tool poses 'x,y,z,rx,ry,rz' (rotation vector) and/or joint rows 'q1..qn', with a "
+        "'# units:' line; or a robot program (KUKA .src with its .dat, ABB .mod, FANUC .ls, URScript .script), "
+        "written back with only its positions changed.",
+    ),
 ]
 
 IdentifiedOpt = Annotated[
@@ -89,9 +97,10 @@ PayloadOpt = Annotated[
 
 @commands.command()
 def compensate(
-    targets: TargetsArg,
-    nominal: NominalOpt,
+    model: ModelArg,
     identified: IdentifiedOpt,
+    targets: TargetsArg = None,
+    nominal: NominalAliasOpt = None,
     output: OutputOpt = None,
     path: PathOpt = False,
     branch_tol: BranchTolOpt = None,
@@ -116,7 +125,8 @@ def compensate(
 
     check_outputs(**{"-o": output, "--json": json_out})
     json_out = json_target(json_out)
-    nom_robot = load_robot(nominal, base_link, tip_link, "--nominal")
+    nominal, targets = model_first(model, targets, nominal, "compensate", "TARGETS")
+    nom_robot = load_robot(nominal, base_link, tip_link, "MODEL")
     id_robot = load_robot(
         identified,
         base_link if str(identified).lower().endswith(".urdf") else None,

@@ -12,9 +12,19 @@ from ..errors import DenavitError
 from ..io.units import angle_scale, cell_scale, length_scale
 from .common import commands
 from .console import console, fail, num, print_rows, say, spread, status, wrote
-from .options import BaseLinkOpt, JsonOpt, TipLinkOpt
+from .options import CONVENTION, BaseLinkOpt, ConventionOpt, JsonOpt, NominalAliasOpt, TargetOpt, TipLinkOpt
 from .outputs import check_outputs, emit_json, json_target, require_plot_extra
-from .values import convention_name, load_robot, parse_numbers, parse_point, parse_pose, positive, warn_limits
+from .values import (
+    convention_name,
+    deprecated,
+    load_robot,
+    model_first,
+    parse_numbers,
+    parse_point,
+    parse_pose,
+    positive,
+    warn_limits,
+)
 
 EXAMPLES = {"kr5": "kr5_90deg.csv", "kr5-90": "kr5_90deg.csv", "kr5-30": "kr5_30deg.csv"}
 
@@ -28,23 +38,28 @@ def example_path(name: str) -> Path:
     return Path(str(resources.files("denavit.data").joinpath(EXAMPLES[key])))
 
 
-DataArg = Annotated[Path | None, typer.Argument(help="Sweeps: long-form CSV, JSON, or a folder of j1.csv..jN.csv.")]
+DataArg = Annotated[
+    Path | None,
+    typer.Argument(
+        metavar="MODEL",
+        help="The nominal model (built-in name, robot file or URDF: signs, free origins, names, limits, joint kinds), "
+        "then DATA; one argument alone is DATA, identified without a nominal.",
+    ),
+]
+MoreDataArg = Annotated[
+    Path | None,
+    typer.Argument(metavar="DATA", help="The sweeps: long-form CSV, JSON, a folder of j1.csv..jN.csv, or a recording."),
+]
+
 ExampleOpt = Annotated[
     str | None,
     typer.Option(
         "--example",
         help="Run on data shipped with the package: kr5 (90 deg protocol), kr5-30; the nominal is then the built-in kr5 "
-        "unless --nominal says otherwise.",
-    ),
-]
-NominalOpt = Annotated[
-    str | None,
-    typer.Option(
-        "--nominal", help="Nominal model (built-in name or file): signs, free origins, names, limits, joint kinds."
+        "unless MODEL says otherwise.",
     ),
 ]
 MethodOpt = Annotated[str, typer.Option("--method", help="auto | kasa | hyper | geometric | readings | global")]
-ConventionOpt = Annotated[str, typer.Option("--convention", help="dh | mdh | edh | poe (or an alias: sdh, craig, ...)")]
 DataLengthOpt = Annotated[
     str | None,
     typer.Option(
@@ -97,17 +112,16 @@ SaveOpt = Annotated[
     Path | None,
     typer.Option(
         "--save",
-        help="Write the identified robot as a robot file (.toml, in the output units): the identified geometry (ED-H: "
-        "exact except the tilt of a pair the nominal has parallel when within 3 sigma of zero, its noise; POE with "
-        "--convention poe: exact), its carried error stated in the file.",
+        help="Write the identified robot as a robot file (.toml, in the output units), in --convention: ED-H (exact "
+        "except the tilt of a pair the nominal has parallel when within 3 sigma of zero, its noise), POE (exact), DH "
+        "or MDH (lossy where axes are near-parallel); the error it carries stated in the file.",
     ),
 ]
 SaveConventionOpt = Annotated[
     str | None,
     typer.Option(
         "--save-convention",
-        help="--save a table of this convention instead (dh | mdh: lossy where axes are near-parallel; the file states "
-        "the error it carries).",
+        help="Deprecated: --convention sets the table --save writes. (--save a table of this convention instead.)",
     ),
 ]
 BaseOpt = Annotated[
@@ -145,14 +159,6 @@ SweepOpt = Annotated[
         "--sweep",
         help="Tracker export: where each point's sweep comes from: 'group' or a point-name pattern such as "
         "'J{joint}_{index}'.",
-    ),
-]
-TargetOpt = Annotated[
-    int | None,
-    typer.Option(
-        "--target",
-        help="Data with several targets per pose (SMRs on a nest): fit this one alone, 1-based (default: every target, "
-        "one fit with shared axes).",
     ),
 ]
 TrackerNoiseOpt = Annotated[
@@ -201,7 +207,7 @@ AllowImplausibleOpt = Annotated[
     bool,
     typer.Option(
         "--allow-implausible",
-        help="Keep a fit that is implausible against --nominal (mirror image, two joints exchanged, most axes far: a "
+        help="Keep a fit that is implausible against the nominal MODEL (mirror image, two joints exchanged, most axes far: a "
         "unit slip or the wrong robot), with a note, instead of the error.",
     ),
 ]
@@ -218,10 +224,11 @@ ReadingsOpt = Annotated[
 @commands.command()
 def identify(
     data: DataArg = None,
+    more: MoreDataArg = None,
     example: ExampleOpt = None,
-    nominal: NominalOpt = None,
+    nominal: NominalAliasOpt = None,
     method: MethodOpt = "auto",
-    convention: ConventionOpt = "dh",
+    convention: ConventionOpt = CONVENTION,
     json_path: JsonOpt = None,
     length: DataLengthOpt = None,
     angle: DataAngleOpt = None,
@@ -257,7 +264,12 @@ def identify(
     check_outputs(**{"--save": save_model, "--urdf": urdf, "--json": json_path})
     json_path = json_target(json_path)
     out_len, out_ang = length or "mm", angle or "deg"
+    nominal, data = model_first(data, more, nominal, "identify", required=False)
     if example:
+        if data is not None and nominal is None:  # `identify MODEL --example kr5`: the argument is the model
+            nominal, data = str(data), None
+        if data is not None:
+            fail(f"--example {example}: the data are the example's; give MODEL alone, got {data}")
         data = example_path(example)
         nominal = nominal or "kr5"
     if data is None:
@@ -267,7 +279,7 @@ def identify(
         if not save_model:
             fail(f"--save-convention {save_convention}: it sets the table --save writes; give --save FILE too")
         convention_name(save_convention)
-    nom = load_robot(nominal, base_link, tip_link, "--nominal") if nominal else None
+    nom = load_robot(str(nominal), base_link, tip_link, "MODEL") if nominal else None
     with status("reading sweeps..."):
         sweeps = read_sweeps(
             data,
@@ -302,7 +314,10 @@ def identify(
         print_identification(to_json(result), result, out_len, out_ang)
         if nom is not None:
             print_accuracy(result, out_len)
-    write_outputs(result, save_model, save_convention, urdf, report, plot, out_len, out_ang)
+    if save_convention is not None:
+        deprecated("--save-convention", "--convention, which sets the table --save writes")
+    saved_as = convention_name(save_convention) if save_convention is not None else convention
+    write_outputs(result, save_model, saved_as, urdf, report, plot, out_len, out_ang)
 
 
 def read_sweeps(
@@ -330,7 +345,10 @@ def read_sweeps(
         else:
             say("dim", f"{kind}:", f" {text}")
 
-    options = {"home": "--home", "direction": "--direction", "home, length": "--home and --length"}
+    options = {
+        "home": "--home" + (f" {home}" if home else ""),
+        "direction": "--direction" + (f" {direction}" if direction else ""),
+    }
     try:
         sweeps = api_read_sweeps(
             data,
@@ -400,12 +418,14 @@ def print_accuracy(result, length: str) -> None:
     )
 
 
-def write_outputs(result, save_model, save_convention, urdf, report, plot, length: str, angle: str) -> None:
-    """--save (the ED-H / POE geometry unless a lossy table is asked for, its carried error written in the file),
+def write_outputs(result, save_model, convention: str, urdf, report, plot, length: str, angle: str) -> None:
+    """--save (in ``convention``: the identified ED-H / POE geometry, or a DH / MDH table, its carried error written
+    in the file),
     --urdf (the ED-H geometry, frames on the body; a URDF nominal's meshes and limits ride along), --plot, --report."""
     if save_model:
         from ..io.results import save  # noqa: PLC0415
-        save(result, save_model, None if save_convention is None else convention_name(save_convention), length, angle)
+
+        save(result, save_model, convention if convention in ("dh", "mdh") else None, length, angle)
         wrote(save_model)
     if urdf:
         from ..io.urdf import save_urdf  # noqa: PLC0415

@@ -75,3 +75,30 @@ VerboseOpt = Annotated[
         "full (default: their names in a few lines).",
     ),
 ]
+
+#: The one default parametrisation of every command that fits or plans (identify, calibrate, plan).
+CONVENTION = "edh"
+
+ConventionOpt = Annotated[
+    str,
+    typer.Option(
+        "--convention",
+        help="The parametrisation fitted, printed and saved: edh (exact: a near-parallel pair's tilt is a parameter of "
+        "its own) | dh | mdh (lossy where axes are near-parallel, the error carried stated) | poe (identify only); "
+        "aliases: sdh, craig, modified-dh.",
+    ),
+]
+
+TargetOpt = Annotated[
+    int | None,
+    typer.Option(
+        "--target",
+        help="Data with several targets per pose (markers, SMRs on a nest): this target alone, 1-based (default: every "
+        "target in one fit; validate without a nest: target 1).",
+    ),
+]
+
+NominalAliasOpt = Annotated[
+    str | None,
+    typer.Option("--nominal", help="Deprecated: the nominal MODEL is the first argument (`COMMAND MODEL DATA`)."),
+]

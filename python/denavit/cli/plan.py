@@ -10,7 +10,17 @@ import typer
 from ..io.units import angle_scale, length_scale
 from .common import commands
 from .console import console, fail, num, print_rows, say, spread, status
-from .options import AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, ModelArg, TipLinkOpt, VerboseOpt
+from .options import (
+    CONVENTION,
+    AngleOpt,
+    BaseLinkOpt,
+    ConventionOpt,
+    JsonOpt,
+    LengthOpt,
+    ModelArg,
+    TipLinkOpt,
+    VerboseOpt,
+)
 from .outputs import SI_UNITS, emit_json, json_target
 from .values import (
     calib_unit,
@@ -62,7 +72,6 @@ NoiseOpt = Annotated[
     ),
 ]
 
-ConventionOpt = Annotated[str, typer.Option("--convention", help="edh | mdh | dh")]
 
 FixOpt = Annotated[
     str | None, typer.Option("--fix", help="Parameters held fixed (names or patterns, comma-separated).")
@@ -103,7 +112,7 @@ def plan(
     points: PointsOpt = 30,
     tool: ToolOpt = None,
     noise: NoiseOpt = None,
-    convention: ConventionOpt = "edh",
+    convention: ConventionOpt = CONVENTION,
     fix: FixOpt = None,
     random: RandomOpt = None,
     candidates: CandidatesOpt = None,

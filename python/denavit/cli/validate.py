@@ -10,7 +10,7 @@ import typer
 from ..io.units import angle_scale, length_scale
 from .common import commands
 from .console import console, print_rows, say, spread, status, wrote
-from .options import AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, TipLinkOpt
+from .options import AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, TargetOpt, TipLinkOpt
 from .outputs import check_outputs, emit_json, json_target, require_plot_extra
 from .values import load_robot, parse_point, positive
 
@@ -71,13 +71,7 @@ def validate(
     columns: Annotated[
         str | None, typer.Option("--columns", help='Column map of a delimited recording, e.g. "t,q1..q6,x,y,z".')
     ] = None,
-    target: Annotated[
-        int | None,
-        typer.Option(
-            "--target",
-            help="Data with several targets per pose: score this one alone, 1-based, against the model's tool point (default: every target at its nest point, or target 1 without a nest).",
-        ),
-    ] = None,
+    target: TargetOpt = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
     payload: Annotated[
@@ -133,6 +127,7 @@ def validate(
         )
     if json_path:
         from ..io.results import to_json  # noqa: PLC0415
+
         emit_json(to_json(res), json_path)
     if json_path != "-":
         print_validation(res, length, angle, ls, as_)

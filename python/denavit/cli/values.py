@@ -265,13 +265,44 @@ def calib_unit(unit: str, length: str, angle: str) -> tuple[str, float]:
     return "1", 1.0
 
 
-def deprecated(old: str, new: str) -> None:
-    """One ``warning:`` line on stderr, once per command run, that the spelling ``old`` is deprecated for ``new``
-    (docs/cli.md, "Deprecated spellings"); the old spelling keeps working."""
-    import click  # noqa: PLC0415
+#: The deprecated spellings of the command being run: those said, and those to say when it is done
+#: (:func:`deprecated`; :class:`~.common.Command` starts and ends each run with :func:`say_deprecated`).
+_deprecations: dict = {"seen": set(), "last": []}
 
-    ctx = click.get_current_context(silent=True)
-    seen = ctx.meta.setdefault("denavit.deprecated", set()) if ctx is not None else set()
-    if old not in seen:
-        seen.add(old)
+
+def deprecated(old: str, new: str, last: bool = False) -> None:
+    """One ``warning:`` line on stderr, once per command run, that the spelling ``old`` is deprecated for ``new``
+    (docs/cli.md, "One grammar"); the old spelling keeps working. With ``last`` the line comes after the command's
+    work, when it is done (:func:`say_deprecated`): an error stays the one line of a failed run."""
+    if old in _deprecations["seen"]:
+        return
+    _deprecations["seen"].add(old)
+    if last:
+        _deprecations["last"].append((old, new))
+    else:
         say("bold yellow", "warning:", f" {old} is deprecated: use {new}", err=True)
+
+
+def say_deprecated(done: bool = True) -> None:
+    """The deprecated spellings a finished command used (``done``), one ``warning:`` line each (:func:`deprecated`
+    ``last``); then a clean slate for the next run."""
+    pending = _deprecations["last"] if done else []
+    _deprecations["seen"], _deprecations["last"] = set(), []
+    for old, new in pending:
+        say("bold yellow", "warning:", f" {old} is deprecated: use {new}", err=True)
+
+
+def model_first(first, second, nominal: str | None, command: str, data: str = "DATA", required: bool = True):
+    """(MODEL, DATA) of ``COMMAND MODEL DATA``, the nominal model first as in every command (docs/cli.md, "One
+    grammar"), or of the deprecated ``COMMAND DATA --nominal MODEL`` (a warning when done). Without ``required`` a
+    single argument is DATA alone (``identify DATA``: no nominal)."""
+    if nominal is not None:
+        if second is not None:
+            fail(f"--nominal {nominal}: MODEL is the first argument ({first}): give it once")
+        deprecated("--nominal MODEL", f"MODEL as the first argument: denavit {command} MODEL {data}", last=True)
+        return nominal, first
+    if second is None:
+        if required and first is not None:
+            fail(f"give MODEL {data}: the nominal model first, then {data} (denavit {command} MODEL {data}), got one")
+        return None, first
+    return first, second
