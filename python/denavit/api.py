@@ -83,8 +83,8 @@ def read_sweeps(
     if ours and p.is_dir():
         if home is None or length is None:
             raise DenavitError(
-                f"{p}: a folder of per-joint files needs the home configuration (one value per joint) and the files' "
-                "length unit (where they declare none)",
+                f"{p}: a folder of per-joint files needs home (the configuration, one value per joint) and length "
+                "(the files' unit where they declare none)",
                 what="home",
             )
         return swio.read_joint_files(
