@@ -299,3 +299,16 @@ def test_a_core_error_about_one_joint_is_said_at_that_joint_from_its_structured_
         params[2, :3] = 0.0
         dv.Table("poe", params, list(table.kinds)).to_model("bad")
     assert core.value.joint == 3 and core.value.kind == "InvalidArgument"
+
+
+@pytest.mark.parametrize("convention", ["edh", "poe", "dh"])
+def test_an_identification_of_exact_data_saves_and_reads_back(tmp_path, convention):
+    """Regression: the covariance of an identification from noise-free sweeps (every entry at round-off) was written
+    and then refused on reading as not symmetric (an element-wise relative test on entries near zero)."""
+    res = dv.identify(dv.simulate("kr5", points_per_sweep=8), nominal="kr5")
+    f = tmp_path / f"exact_{convention}.toml"
+    dv.save(res, f, convention=convention, length="mm")
+    robot = dv.load_robot(f)
+    assert robot.covariance is not None and np.all(np.isfinite(robot.covariance))
+    C = np.asarray(res.robot(convention=convention).covariance)
+    np.testing.assert_allclose(robot.covariance, C, rtol=1e-12, atol=1e-15 * np.abs(np.diag(C)).max())

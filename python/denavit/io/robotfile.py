@@ -561,9 +561,10 @@ def _covariance(spec, table: _core.Table, units: dict, where: str, scales: bool 
             f"{where}: matrix: expected {len(s)} rows ({what}), got {len(rows) if isinstance(rows, list) else rows!r}"
         )
     C = np.array([_numbers(r, len(s), f"{where}: matrix row {i + 1}") for i, r in enumerate(rows)]) * np.outer(s, s)
-    if not np.allclose(C, C.T, rtol=1e-9, atol=0) or np.linalg.eigvalsh((C + C.T) / 2).min() < -1e-9 * max(
-        np.abs(np.diag(C)).max(), 1e-300
-    ):
+    # symmetric and positive semi-definite to round-off of the largest variance (an element-wise relative test
+    # refused the round-off of the near-zero covariances of exact data)
+    scale = max(np.abs(np.diag(C)).max(), 1e-300)
+    if np.abs(C - C.T).max() > 1e-9 * scale or np.linalg.eigvalsh((C + C.T) / 2).min() < -1e-9 * scale:
         raise DenavitError(f"{where}: matrix: expected a symmetric positive semi-definite covariance")
     return C
 
