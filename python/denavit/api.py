@@ -197,7 +197,35 @@ def _measurements(data, robot: Robot, *, points, poses, format: str, length, ang
     return as_measurements(data, kinds, points=points, poses=poses, target=target)
 
 
-def _read_measurements(p, kinds: list, *, format: str, length, angle, columns, target: int | None):
+def read_measurements(
+    data,
+    nominal,
+    *,
+    format: str = "auto",
+    length: str | None = None,
+    angle: str | None = None,
+    columns: str | None = None,
+    target: int | None = None,
+    inform=None,
+):
+    """The measurements of the file ``data`` as :func:`calibrate` reads them: a measurement CSV or JSON
+    (``q1..qn,x,y,z[,rx,ry,rz]``, several targets per pose ``x2,y2,z2,...``; a sweep CSV) or a recording, one pose per
+    pause of the robot. nominal : robot (the joint kinds). target : 0-based, one target alone (default every one).
+    inform : callable(kind, text), optional — told what a recording's reader found ("note")."""
+    robot = _robot(nominal)
+    return _read_measurements(
+        input_path(data),
+        list(robot.table.kinds),
+        format=format,
+        length=length,
+        angle=angle,
+        columns=columns,
+        target=target,
+        inform=inform,
+    )
+
+
+def _read_measurements(p, kinds: list, *, format: str, length, angle, columns, target: int | None, inform=None):
     """The measurements of the file ``p``: a measurement CSV or a recording (one pose per pause of the robot)."""
     from .calibration.targets import pick_target, recording_poses  # noqa: PLC0415
 
@@ -208,7 +236,12 @@ def _read_measurements(p, kinds: list, *, format: str, length, angle, columns, t
     from .io.recordings import read_recording  # noqa: PLC0415
 
     rec = read_recording(p, format, columns=columns, length=length, angle=angle, kinds=kinds)
-    return recording_poses(rec, target, kinds)
+    inform = inform or (lambda kind, text: None)
+    for note in rec.notes:
+        inform("note", note)
+    meas = recording_poses(rec, target, kinds)
+    inform("note", f"{meas.n} poses where the robot stood still (the median of each pause)")
+    return meas
 
 
 def calibrate(
@@ -249,7 +282,6 @@ def calibrate(
         target=target,
     )
     return _calibrate(meas, robot, **options)
-
 
 
 def validate(
@@ -441,4 +473,13 @@ def compensate(nominal, identified, targets, **options):
     return _compensate(nominal, identified, targets, **options)
 
 
-__all__ = ["calibrate", "compensate", "identify", "plan", "protocol_ranges", "read_sweeps", "simulate"]
+__all__ = [
+    "calibrate",
+    "compensate",
+    "identify",
+    "plan",
+    "protocol_ranges",
+    "read_measurements",
+    "read_sweeps",
+    "simulate",
+]

@@ -200,9 +200,7 @@ def calibrate(
     import numpy as np  # noqa: PLC0415
 
     from .. import calibration as cal  # noqa: PLC0415
-    from ..api import input_path, is_measurement_file  # noqa: PLC0415
-    from ..calibration.targets import pick_target, recording_poses  # noqa: PLC0415
-    from ..io.measurements import read_measurements  # noqa: PLC0415
+    from ..api import read_measurements  # noqa: PLC0415
 
     check_outputs(**{"--save": save, "--json": json_path})
     json_path = json_target(json_path)
@@ -210,28 +208,18 @@ def calibrate(
     data = Path(data)
     robot = load_robot(nominal, base_link, tip_link, "MODEL")
     convention = convention_name(convention)
-    # the reader applies the one units rule (denavit.io.units.input_units): what the file declares wins
-    if data_format == "measurements" or (data_format == "auto" and is_measurement_file(input_path(data))):
-        # several targets per pose: every one (a TargetMeasurements), or the one asked
-        meas = pick_target(
-            read_measurements(data, kinds=list(robot.table.kinds), length=length, angle=angle),
-            None if target is None else target - 1,
-        )
-    else:  # a recording (tracker export, controller log, bag...): one pose per pause of the robot
-        from ..io.recordings import read_recording  # noqa: PLC0415
-
-        rec = read_recording(
-            data,
-            "auto" if data_format == "auto" else data_format,
-            columns=columns,
-            length=length,
-            angle=angle,
-            kinds=list(robot.table.kinds),
-        )
-        for note in rec.notes:
-            say("dim", "note:", f" {note}")
-        meas = recording_poses(rec, None if target is None else target - 1, robot.table.kinds)
-        say("dim", "note:", f" {meas.n} poses where the robot stood still (the median of each pause)")
+    # the reader applies the one units rule (denavit.io.units.input_units): what the file declares wins; several
+    # targets per pose: every one (a TargetMeasurements), or the one asked
+    meas = read_measurements(
+        data,
+        robot,
+        format=data_format,
+        length=length,
+        angle=angle,
+        columns=columns,
+        target=None if target is None else target - 1,
+        inform=lambda kind, text: say("dim", f"{kind}:", f" {text}"),
+    )
     from ..io.robotfile import parse_coupling  # noqa: PLC0415
 
     C = parse_coupling(coupling, list(robot.table.kinds), "--coupling") if coupling else robot.coupling
