@@ -400,11 +400,14 @@ def _compensate_program(
     its own configuration, written back with only the positions changed (docs/compensation.md)."""
     import numpy as np  # noqa: PLC0415
 
+    from ..api import compensate as compensate_targets  # noqa: PLC0415
     from ..io import programs as pg  # noqa: PLC0415
 
-    prog = pg.read_program(path, nom_robot, fmt=fmt, frames=frames)
-    with status(f"compensating {len(prog.points)} positions of {path} ..."):
-        pc = pg.compensate_program(prog, nom_robot, id_robot, q0=q0v, branch_tol=branch_tol, payload=payload)
+    with status(f"compensating the positions of {path} ..."):
+        pc = compensate_targets(
+            nom_robot, id_robot, path, frames=frames, q0=q0v, branch_tol=branch_tol, payload=payload
+        )  # (read_program and compensate_program, as a Python user's call does)
+    prog = pc.program
     c = pc.compensation
     if c is not None:
         for n in c.notes:
