@@ -224,7 +224,7 @@ ReadingsOpt = Annotated[
 @commands.command()
 def identify(
     data: DataArg = None,
-    more: MoreDataArg = None,
+    sweep_data: MoreDataArg = None,
     example: ExampleOpt = None,
     nominal: NominalAliasOpt = None,
     method: MethodOpt = "auto",
@@ -264,7 +264,7 @@ def identify(
     check_outputs(**{"--save": save_model, "--urdf": urdf, "--json": json_path})
     json_path = json_target(json_path)
     out_len, out_ang = length or "mm", angle or "deg"
-    nominal, data = model_first(data, more, nominal, "identify", required=False)
+    nominal, data = model_first(data, sweep_data, nominal, "identify", required=False)
     if example:
         if data is not None and nominal is None:  # `identify MODEL --example kr5`: the argument is the model
             nominal, data = str(data), None
