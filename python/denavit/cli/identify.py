@@ -129,8 +129,8 @@ BaseOpt = Annotated[
     typer.Option(
         "--base",
         help="The robot's base frame in the measurement frame, x, y, z, roll, pitch, yaw (six numbers separated by "
-        "commas) (R = Rz(yaw) Ry(pitch) Rx(roll); --length and --angle units) or the 16 numbers of the 4x4 matrix "
-        "(default: the measurement frame).",
+        "commas) (R = Rz(yaw) Ry(pitch) Rx(roll); --length and --angle units), 'rotvec: x,y,z,rx,ry,rz' (the pose "
+        "format fk prints) or the 16 numbers of the 4x4 matrix (default: the measurement frame).",
     ),
 ]
 UrdfOpt = Annotated[
