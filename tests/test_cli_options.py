@@ -57,14 +57,23 @@ def test_the_options_table_in_docs_is_the_parsers():
 
 def test_the_shared_options_mean_the_same_in_every_command():
     """One grammar: an option several commands take is declared once (cli/options.py), with one default and one
-    help: --convention (edh), --target, --verbose, the deprecated --nominal. (--loss keeps a default per command,
+    help: --convention (edh), --target, --verbose, --columns, --tracker-noise, --tracker-position, the deprecated
+    --nominal. (--loss keeps a default per command,
     for the reason docs/cli.md gives.)"""
     from denavit.cli.common import COMMANDS, build_command
 
     seen: dict[str, dict] = {}
     for name in COMMANDS:
         for p in build_command(name).params:
-            if p.param_type_name == "option" and p.name in ("convention", "verbose", "target", "nominal"):
+            if p.param_type_name == "option" and p.name in (
+                "convention",
+                "verbose",
+                "target",
+                "nominal",
+                "columns",
+                "tracker_noise",
+                "tracker_position",
+            ):
                 seen.setdefault(p.name, {})[name] = (p.default, p.help)
     assert {c for c in seen["convention"]} >= {"identify", "calibrate", "plan"}
     assert {d for d, _ in seen["convention"].values()} == {"edh"}

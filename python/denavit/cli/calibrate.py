@@ -13,7 +13,20 @@ from ..errors import DenavitError
 from ..io.units import angle_scale, length_scale
 from .common import commands
 from .console import console, fail, num, print_rows, say, spread, status, wrote
-from .options import CONVENTION, BaseLinkOpt, ConventionOpt, JsonOpt, NominalAliasOpt, TargetOpt, TipLinkOpt, VerboseOpt
+from .options import (
+    CONVENTION,
+    BaseLinkOpt,
+    ColumnsOpt,
+    ConventionOpt,
+    CouplingOpt,
+    JsonOpt,
+    NominalAliasOpt,
+    TargetOpt,
+    TipLinkOpt,
+    TrackerNoiseOpt,
+    TrackerPositionOpt,
+    VerboseOpt,
+)
 from .outputs import check_outputs, emit_json, json_target, require_plot_extra
 from .values import calib_unit, check_noises, convention_name, load_robot, model_first, parse_point
 
@@ -82,21 +95,6 @@ NoiseOpt = Annotated[
     ),
 ]
 
-TrackerNoiseOpt = Annotated[
-    str | None,
-    typer.Option(
-        "--tracker-noise",
-        help="The tracker's range/angle noise (1 sigma), as identify's: e.g. \"5 um, 1 arcsec\"; each point's residual is weighted by its covariance (the scale from the residuals; not with --noise).",
-    ),
-]
-
-TrackerPositionOpt = Annotated[
-    str | None,
-    typer.Option(
-        "--tracker-position",
-        help="With --tracker-noise: the tracker's position in the data's frame, x,y,z in --length units (default 0,0,0).",
-    ),
-]
 
 LengthOpt = Annotated[
     str,
@@ -132,13 +130,6 @@ PriorOpt = Annotated[
     ),
 ]
 
-CouplingOpt = Annotated[
-    str | None,
-    typer.Option(
-        "--coupling",
-        help="Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; robot-files.md in docs); default: the robot file's \\[couplings].",
-    ),
-]
 
 DataFormatOpt = Annotated[
     str,
@@ -146,10 +137,6 @@ DataFormatOpt = Annotated[
         "--format",
         help="measurements (q1..qn,x,y,z CSV, sweep CSV, JSON) | tracker | rtde | rsi | bag | columns | auto (from the content).",
     ),
-]
-
-ColumnsOpt = Annotated[
-    str | None, typer.Option("--columns", help='Column map of a delimited recording, e.g. "t,q1..q6,x,y,z".')
 ]
 
 

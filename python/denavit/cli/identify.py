@@ -12,7 +12,19 @@ from ..errors import DenavitError
 from ..io.units import angle_scale, cell_scale, length_scale
 from .common import commands
 from .console import console, fail, num, print_rows, say, spread, status, wrote
-from .options import CONVENTION, BaseLinkOpt, ConventionOpt, JsonOpt, NominalAliasOpt, TargetOpt, TipLinkOpt
+from .options import (
+    CONVENTION,
+    BaseLinkOpt,
+    ColumnsOpt,
+    ConventionOpt,
+    CouplingOpt,
+    JsonOpt,
+    NominalAliasOpt,
+    TargetOpt,
+    TipLinkOpt,
+    TrackerNoiseOpt,
+    TrackerPositionOpt,
+)
 from .outputs import check_outputs, emit_json, json_target, require_plot_extra
 from .values import (
     convention_name,
@@ -149,10 +161,6 @@ FormatOpt = Annotated[
         help="sweeps (long CSV, JSON, jN.csv folder) | tracker | rtde | rsi | bag | columns | auto (from the content).",
     ),
 ]
-ColumnsOpt = Annotated[
-    str | None,
-    typer.Option("--columns", help='Column map of a delimited recording, e.g. "t,q1..q6,x,y,z" (--format columns).'),
-]
 SweepOpt = Annotated[
     str | None,
     typer.Option(
@@ -161,38 +169,12 @@ SweepOpt = Annotated[
         "'J{joint}_{index}'.",
     ),
 ]
-TrackerNoiseOpt = Annotated[
-    str | None,
-    typer.Option(
-        "--tracker-noise",
-        help="The tracker's range/angle noise (1 sigma): the distance's, then each angle's, e.g. \"5 um, 1 arcsec\" (a "
-        "number without a unit is in --length / --angle units; angles also in arcsec): the joint fit weights each "
-        "point by its covariance (noise along the line of sight from the tracker, angle x range across it), the "
-        "scale estimated from the data. Default: isotropic point noise.",
-    ),
-]
-TrackerPositionOpt = Annotated[
-    str | None,
-    typer.Option(
-        "--tracker-position",
-        help="With --tracker-noise: the tracker's position in the data's frame, x,y,z in --length units (default "
-        "0,0,0: a tracker export's own frame).",
-    ),
-]
 RotationNoiseOpt = Annotated[
     float | None,
     typer.Option(
         "--rotation-noise",
         help="6-DoF poses: the orientation noise (1 sigma per component), in --angle units, weighting the "
         "orientations against the points (default: estimated).",
-    ),
-]
-CouplingOpt = Annotated[
-    str | None,
-    typer.Option(
-        "--coupling",
-        help="Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; "
-        "robot-files.md in docs); default: the robot file's \\[couplings].",
     ),
 ]
 KeepDwellOpt = Annotated[

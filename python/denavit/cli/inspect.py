@@ -9,6 +9,7 @@ import typer
 
 from .common import commands
 from .console import console
+from .options import ColumnsOpt
 
 
 @commands.command()
@@ -22,9 +23,7 @@ def inspect(
     data_format: Annotated[
         str, typer.Option("--format", help="auto (from the content) | tracker | rtde | rsi | bag | columns")
     ] = "auto",
-    columns: Annotated[
-        str | None, typer.Option("--columns", help='Column map of a delimited file, e.g. "t,q1..q6,x,y,z".')
-    ] = None,
+    columns: ColumnsOpt = None,
     sweep: Annotated[
         str | None,
         typer.Option("--sweep", help="Tracker export: 'group' or a point-name pattern such as 'J{joint}_{index}'."),

@@ -102,3 +102,37 @@ NominalAliasOpt = Annotated[
     str | None,
     typer.Option("--nominal", help="Deprecated: the nominal MODEL is the first argument (`COMMAND MODEL DATA`)."),
 ]
+
+ColumnsOpt = Annotated[
+    str | None,
+    typer.Option("--columns", help='Column map of a delimited recording, e.g. "t,q1..q6,x,y,z" (--format columns).'),
+]
+
+CouplingOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--coupling",
+        help="Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; "
+        "robot-files.md in docs); default: the robot file's \\[couplings].",
+    ),
+]
+
+TrackerNoiseOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--tracker-noise",
+        help="The tracker's range/angle noise (1 sigma): the distance's, then each angle's, e.g. \"5 um, 1 arcsec\" (a "
+        "number without a unit is in --length / --angle units; angles also in arcsec): each point is weighted by its "
+        "covariance (noise along the line of sight from the tracker, angle x range across it), the scale estimated "
+        "from the data (calibrate: not with --noise). Default: isotropic point noise.",
+    ),
+]
+
+TrackerPositionOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--tracker-position",
+        help="With --tracker-noise: the tracker's position in the data's frame, x,y,z in --length units (default "
+        "0,0,0: a tracker export's own frame).",
+    ),
+]

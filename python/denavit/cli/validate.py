@@ -10,7 +10,7 @@ import typer
 from ..io.units import angle_scale, length_scale
 from .common import commands
 from .console import console, print_rows, say, spread, status, wrote
-from .options import AngleOpt, BaseLinkOpt, JsonOpt, LengthOpt, TargetOpt, TipLinkOpt
+from .options import AngleOpt, BaseLinkOpt, ColumnsOpt, JsonOpt, LengthOpt, TargetOpt, TipLinkOpt
 from .outputs import check_outputs, emit_json, json_target, require_plot_extra
 from .values import load_robot, parse_point, positive
 
@@ -68,9 +68,7 @@ def validate(
             help="measurements (q1..qn,x,y,z CSV, sweep CSV, JSON) | tracker | rtde | rsi | bag | columns | auto (from the content).",
         ),
     ] = "auto",
-    columns: Annotated[
-        str | None, typer.Option("--columns", help='Column map of a delimited recording, e.g. "t,q1..q6,x,y,z".')
-    ] = None,
+    columns: ColumnsOpt = None,
     target: TargetOpt = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
