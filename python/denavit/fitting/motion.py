@@ -57,11 +57,12 @@ def locked_motion(q: np.ndarray, joint: int, home: np.ndarray, tol: np.ndarray):
     t = np.arange(m, dtype=float) - (m - 1) / 2
     coupled = []
     sw = q[:, joint] - q[:, joint].mean()
+    sw_moves = np.std(sw) > 0
     for i in range(n):
         if i == joint:
             continue
         qi = q[:, i]
-        if np.ptp(qi) > tol[i] and np.std(sw) > 0 and np.std(qi) > 0:
+        if np.ptp(qi) > tol[i] and sw_moves and np.std(qi) > 0:
             r = float(np.corrcoef(qi, sw)[0, 1])
             if abs(r) > COUPLED_CORRELATION:
                 coupled.append((i, float(np.polyfit(sw, qi, 1)[0])))

@@ -58,11 +58,20 @@ def _dwell_rows(p: np.ndarray, noise: float) -> tuple[int, int]:
     tol = DWELL_SIGMAS * noise
 
     def lead(x):
-        m = len(x)
-        run_mean = np.cumsum(x, axis=0) / np.arange(1, m + 1)[:, None]
-        k = np.arange(1, m)  # the mean of k points has noise sigma / sqrt(k) of its own
-        far = np.linalg.norm(x[1:] - run_mean[:-1], axis=1) > tol * np.sqrt(1 + 1 / k)
-        return int(np.argmax(far)) + 1 if far.any() else m  # the first row that moved: rows 1..k-1 stand with row 0
+        # the first row that moved (rows 1..k-1 stand with row 0), looked for in leading pieces of growing length
+        # (a run's test needs only the rows before it: a long sweep that moves at once is not scanned whole)
+        n = 1024
+        while True:
+            y = x[: min(n, len(x))]
+            m = len(y)
+            run_mean = np.cumsum(y, axis=0) / np.arange(1, m + 1)[:, None]
+            k = np.arange(1, m)  # the mean of k points has noise sigma / sqrt(k) of its own
+            far = np.linalg.norm(y[1:] - run_mean[:-1], axis=1) > tol * np.sqrt(1 + 1 / k)
+            if far.any():
+                return int(np.argmax(far)) + 1
+            if m == len(x):
+                return m
+            n *= 8
 
     a = lead(p) - 1
     b = lead(p[::-1]) - 1
