@@ -428,7 +428,7 @@ def cases(d: Path, readonly: Path | None):
         (
             "ik: a scaled --pose",
             ["ik", "kr5", "--pose", "2,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1"],
-            "--pose: T_target is not a rigid transform",
+            "--pose: T_goal is not a rigid transform",
         ),
         # a negative seed had reached numpy (an internal error, exit 3)
         (

@@ -167,13 +167,13 @@ def test_bad_input_raises_denavit_error_with_expected_and_got():
         dv.ik(m, T, np.zeros(5))
     bad = T.copy()
     bad[0, 3] = np.nan
-    with pytest.raises(dv.DenavitError, match=r"T_target\[0, 3\] must be finite, got NaN at index 3"):
+    with pytest.raises(dv.DenavitError, match=r"T_goal\[0, 3\] must be finite, got NaN at index 3"):
         dv.ik(m, bad)
     skew = T.copy()
     skew[0, 1] += 0.1
-    with pytest.raises(dv.DenavitError, match=r"T_target is not a rigid transform \(SE\(3\)\).*orthonormal"):
+    with pytest.raises(dv.DenavitError, match=r"T_goal is not a rigid transform \(SE\(3\)\).*orthonormal"):
         dv.ik(m, skew)
-    with pytest.raises(dv.DenavitError, match=r"T_target: expected an array of shape \(4, 4\), got shape \(3, 4\)"):
+    with pytest.raises(dv.DenavitError, match=r"T_goal: expected an array of shape \(4, 4\), got shape \(3, 4\)"):
         dv.ik(m, T[:3])
     with pytest.raises(dv.DenavitError, match="q0 must be finite"):
         dv.ik(m, T, [0, 0, np.inf, 0, 0, 0])
@@ -183,16 +183,16 @@ def test_bad_input_raises_denavit_error_with_expected_and_got():
         dv.ik(m, T, max_iterations=0)
     with pytest.raises(dv.DenavitError, match=r"tol_position \(m\): expected a finite value >= 0, got -1"):
         dv.ik(m, T, tol_position=-1.0)
-    with pytest.raises(dv.DenavitError, match=r"targets: expected an array of shape \(N, 4, 4\), got shape \(4, 4\)"):
+    with pytest.raises(dv.DenavitError, match=r"goals: expected an array of shape \(N, 4, 4\), got shape \(4, 4\)"):
         dv.ik_batch(m, T)
-    with pytest.raises(dv.DenavitError, match=r"targets\[1\]\[0, 3\] must be finite"):
+    with pytest.raises(dv.DenavitError, match=r"goals\[1\]\[0, 3\] must be finite"):
         dv.ik_path(m, np.stack([T, bad]))
     with pytest.raises(
-        dv.DenavitError, match=r"wrong size of q0s \(n values, or N\*n for N targets\): expected 12, got 18"
+        dv.DenavitError, match=r"wrong size of q0s \(n values, or N\*n for N goals\): expected 12, got 18"
     ):
         dv.ik_batch(m, np.stack([T, T]), np.zeros((3, 6)))
     with pytest.raises(
-        dv.DenavitError, match=r"wrong size of q0s \(n values, or N\*n for N targets\): expected 12, got 7"
+        dv.DenavitError, match=r"wrong size of q0s \(n values, or N\*n for N goals\): expected 12, got 7"
     ):
         dv.ik_batch(m, np.stack([T, T]), np.zeros(7))
     q0s = np.zeros((2, 6))

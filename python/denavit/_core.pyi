@@ -301,7 +301,7 @@ class IkResult:
 class IkBatchResult:
     """Results of ik_path / ik_batch as arrays; also a sequence of IkResult."""
     def __init__(self, results: Sequence[IkResult], nq: int) -> None:
-        """results: the IkResult of each target, in order; nq: joints (the width of `q` when there are none)."""
+        """results: the IkResult of each goal, in order; nq: joints (the width of `q` when there are none)."""
     @property
     def q(self) -> NDArray[np.float64]: ...
     @property
@@ -320,7 +320,7 @@ class IkBatchResult:
 
 def ik(
     model: Model,
-    T_target: ArrayLike,
+    T_goal: ArrayLike,
     q0: ArrayLike | None = None,
     *,
     method: str = "lm",
@@ -334,7 +334,7 @@ def ik(
 ) -> IkResult: ...
 def ik_path(
     model: Model,
-    targets: ArrayLike,
+    goals: ArrayLike,
     q0: ArrayLike | None = None,
     *,
     method: str = "lm",
@@ -348,7 +348,7 @@ def ik_path(
 ) -> IkBatchResult: ...
 def ik_batch(
     model: Model,
-    targets: ArrayLike,
+    goals: ArrayLike,
     q0s: ArrayLike | None = None,
     *,
     method: str = "lm",

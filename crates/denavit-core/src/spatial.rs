@@ -58,7 +58,7 @@ pub fn trans(a: f64, b: f64, c: f64) -> Pose {
     Pose::from_parts(Translation3::new(a, b, c), Rotation3::identity())
 }
 
-/// The one tolerance of a rigid transform given by a user (a 4x4 matrix, a target pose, a model's fixed
+/// The one tolerance of a rigid transform given by a user (a 4x4 matrix, an IK goal, a model's fixed
 /// poses): `max |R^T R - I| <= SE3_TOL` and `|det R - 1| <= SE3_TOL` (docs/conventions.md, "Rigid
 /// transforms"). Files carry 6 to 17 significant digits, so 1e-9 accepts every honest matrix and rejects
 /// scaled or sheared ones.
@@ -126,7 +126,7 @@ pub fn pose_from_row_major(v: &[f64; 16], what: &str) -> Result<Pose> {
 
 /// Check that a [`Pose`] built elsewhere is a rigid transform: finite, rotation within [`SE3_TOL`] (the
 /// check of [`pose_from_matrix`], without changing the pose). `what` names the pose in the error and is
-/// formatted only for it (a batch passes `format_args!("IK target {i}")`: a String per target had cost a few
+/// formatted only for it (a batch passes `format_args!("IK goal {i}")`: a String per target had cost a few
 /// percent of a solve).
 ///
 /// ```
@@ -221,7 +221,7 @@ mod tests {
     use super::*;
     use crate::{Joint, JointKind, Model};
 
-    /// One check for every rigid transform: a 4x4, a target pose and a model's fixed poses accept and
+    /// One check for every rigid transform: a 4x4, an IK goal and a model's fixed poses accept and
     /// reject alike (a model used to accept any finite matrix as a placement, e.g. a scaled rotation).
     #[test]
     fn one_rigid_transform_check() {

@@ -210,7 +210,7 @@ fn bad_input_is_an_error_naming_what_was_expected() {
     assert!(matches!(ik(&m, &t, &[0.0, f64::NAN, 0.0, 0.0, 0.0, 0.0], &o).unwrap_err(), Error::NonFinite { index: 1, .. }));
     let nan = Pose::from_parts(Translation3::new(f64::NAN, 0.0, 0.0), Rotation3::identity());
     let e = ik(&m, &nan, &[0.0; 6], &o).unwrap_err();
-    assert!(matches!(e, Error::NonFinite { .. }) && e.to_string().contains("IK target"), "{e}");
+    assert!(matches!(e, Error::NonFinite { .. }) && e.to_string().contains("IK goal"), "{e}");
     // a target whose rotation is not orthonormal
     let skew = Pose::from_parts(
         Translation3::new(0.5, 0.0, 0.5),
@@ -231,7 +231,7 @@ fn bad_input_is_an_error_naming_what_was_expected() {
     let e = ik_batch(&m, &[t, t], &[0.0; 7], &o).unwrap_err();
     assert!(matches!(e, Error::SizeMismatch { expected: 12, got: 7, .. }), "{e}");
     let e = ik_path(&m, &[t, nan], &[0.0; 6], &o).unwrap_err();
-    assert!(e.to_string().contains("IK target 1"), "{e}");
+    assert!(e.to_string().contains("IK goal 1"), "{e}");
     assert!(IkMethod::parse("bfgs").unwrap_err().to_string().contains("expected one of newton, lm"));
 }
 

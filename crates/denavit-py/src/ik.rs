@@ -47,12 +47,12 @@ impl PyIkResult {
     fn restarts(&self) -> usize {
         self.inner.restarts
     }
-    /// |p_tool(q) - p_target| in m, measured at q.
+    /// |p_tool(q) - p_goal| in m, measured at q.
     #[getter]
     fn position_error(&self) -> f64 {
         self.inner.position_error
     }
-    /// Rotation angle between R_tool(q) and R_target in rad, measured at q.
+    /// Rotation angle between R_tool(q) and R_goal in rad, measured at q.
     #[getter]
     fn rotation_error(&self) -> f64 {
         self.inner.rotation_error
@@ -87,7 +87,7 @@ impl PyIkBatchResult {
 
 #[pymethods]
 impl PyIkBatchResult {
-    /// results : the IkResult of each target, in order; nq : joints (the width of `q` when there are none).
+    /// results : the IkResult of each goal, in order; nq : joints (the width of `q` when there are none).
     #[new]
     fn new(results: Vec<PyIkResult>, nq: usize) -> PyResult<Self> {
         for (i, r) in results.iter().enumerate() {
@@ -111,12 +111,12 @@ impl PyIkBatchResult {
     fn success(&self, py: Python<'_>) -> Py<PyArray1<bool>> {
         self.column(py, |r| r.success)
     }
-    /// (N,) Jacobian evaluations per target.
+    /// (N,) Jacobian evaluations per goal.
     #[getter]
     fn iterations(&self, py: Python<'_>) -> Py<PyArray1<i64>> {
         self.column(py, |r| r.iterations as i64)
     }
-    /// (N,) restarts used per target.
+    /// (N,) restarts used per goal.
     #[getter]
     fn restarts(&self, py: Python<'_>) -> Py<PyArray1<i64>> {
         self.column(py, |r| r.restarts as i64)
@@ -188,29 +188,29 @@ pub(crate) fn options(
     Ok(opts)
 }
 
-/// Whether solving `targets` targets with `opts` runs interruptibly ([`crate::signals`]): when the budget
-/// may take about a second (at about 0.2 us per joint and iteration: an unreachable target runs all of it),
-/// or the targets are many enough that a thread start costs little beside even quick solves (about 1.5 us
-/// each). The default budget of one target (5,100 iterations) is not long.
-pub(crate) fn long_solve(model: &denavit_core::Model, opts: &IkOptions, targets: usize) -> bool {
-    let worst_ns = 0.2e3 * (opts.max_iterations as f64) * (opts.restarts as f64 + 1.0) * (targets as f64) * (model.nq().max(1) as f64);
-    targets >= 1000 || crate::signals::long(worst_ns / 500.0)
+/// Whether solving `goals` goals with `opts` runs interruptibly ([`crate::signals`]): when the budget
+/// may take about a second (at about 0.2 us per joint and iteration: an unreachable goal runs all of it),
+/// or the goals are many enough that a thread start costs little beside even quick solves (about 1.5 us
+/// each). The default budget of one goal (5,100 iterations) is not long.
+pub(crate) fn long_solve(model: &denavit_core::Model, opts: &IkOptions, goals: usize) -> bool {
+    let worst_ns = 0.2e3 * (opts.max_iterations as f64) * (opts.restarts as f64 + 1.0) * (goals as f64) * (model.nq().max(1) as f64);
+    goals >= 1000 || crate::signals::long(worst_ns / 500.0)
 }
 
 pub(crate) fn start(model: &PyModel, q0: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Vec<f64>> {
     Ok(opt_vector(what, q0)?.unwrap_or_else(|| vec![0.0; model.inner.nq()]))
 }
 
-/// Inverse kinematics of one target T_world_tool (4, 4) from q0 (n,) in rad / m (default zeros).
+/// Inverse kinematics of one goal T_world_tool (4, 4) from q0 (n,) in rad / m (default zeros).
 ///
 /// Success is decided from the measured final position and rotation errors against tol_position (m) and
 /// tol_rotation (rad). method: "lm" (Levenberg-Marquardt) or "newton" (Newton-Raphson).
 #[pyfunction]
-#[pyo3(signature = (model, T_target, q0=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=Int(Ok(100)), restarts=Int(Ok(50)), seed=Int(Ok(0)), respect_limits=true, damping=0.1))]
+#[pyo3(signature = (model, T_goal, q0=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=Int(Ok(100)), restarts=Int(Ok(50)), seed=Int(Ok(0)), respect_limits=true, damping=0.1))]
 #[allow(non_snake_case, clippy::too_many_arguments)]
 pub fn ik(
     model: &PyModel,
-    T_target: &Bound<'_, PyAny>,
+    T_goal: &Bound<'_, PyAny>,
     q0: Option<&Bound<'_, PyAny>>,
     method: &str,
     tol_position: f64,
@@ -222,25 +222,25 @@ pub fn ik(
     damping: f64,
 ) -> PyResult<PyIkResult> {
     let opts = options(method, tol_position, tol_rotation, max_iterations, restarts, seed, respect_limits, damping)?;
-    let target = pose("T_target", T_target)?;
+    let goal = pose("T_goal", T_goal)?;
     let q0 = start(model, q0, "q0")?;
     let m: &denavit_core::Model = &model.inner;
-    // an unreachable target runs every restart (up to a millisecond by default): let other threads run
+    // an unreachable goal runs every restart (up to a millisecond by default): let other threads run
     // meanwhile, and let Ctrl-C stop a long budget
     let long = long_solve(m, &opts, 1);
-    let r = crate::signals::without_gil(T_target.py(), long, || core_ik::ik(m, &target, &q0, &opts))?;
+    let r = crate::signals::without_gil(T_goal.py(), long, || core_ik::ik(m, &goal, &q0, &opts))?;
     Ok(PyIkResult { inner: r.py()? })
 }
 
-/// Solve targets (N, 4, 4) in order, each warm-started from the previous solution (the first from q0).
+/// Solve goals (N, 4, 4) in order, each warm-started from the previous solution (the first from q0).
 /// Releases the GIL.
 #[pyfunction]
-#[pyo3(signature = (model, targets, q0=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=Int(Ok(100)), restarts=Int(Ok(50)), seed=Int(Ok(0)), respect_limits=true, damping=0.1))]
+#[pyo3(signature = (model, goals, q0=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=Int(Ok(100)), restarts=Int(Ok(50)), seed=Int(Ok(0)), respect_limits=true, damping=0.1))]
 #[allow(clippy::too_many_arguments)]
 pub fn ik_path(
     py: Python<'_>,
     model: &PyModel,
-    targets: &Bound<'_, PyAny>,
+    goals: &Bound<'_, PyAny>,
     q0: Option<&Bound<'_, PyAny>>,
     method: &str,
     tol_position: f64,
@@ -252,23 +252,23 @@ pub fn ik_path(
     damping: f64,
 ) -> PyResult<PyIkBatchResult> {
     let opts = options(method, tol_position, tol_rotation, max_iterations, restarts, seed, respect_limits, damping)?;
-    let targets = poses("targets", targets)?;
+    let goals = poses("goals", goals)?;
     let q0 = start(model, q0, "q0")?;
     let m = model.inner.clone();
-    let long = long_solve(&m, &opts, targets.len());
-    let results = crate::signals::without_gil(py, long, move || core_ik::ik_path(&m, &targets, &q0, &opts))?.py()?;
+    let long = long_solve(&m, &opts, goals.len());
+    let results = crate::signals::without_gil(py, long, move || core_ik::ik_path(&m, &goals, &q0, &opts))?.py()?;
     Ok(PyIkBatchResult { results, n: model.inner.nq() })
 }
 
-/// Solve independent targets (N, 4, 4) from q0s ((N, n), or (n,) for all; default zeros) on every core,
-/// without the GIL. Target i's restarts are seeded from (seed, i): the results do not depend on threads.
+/// Solve independent goals (N, 4, 4) from q0s ((N, n), or (n,) for all; default zeros) on every core,
+/// without the GIL. Goal i's restarts are seeded from (seed, i): the results do not depend on threads.
 #[pyfunction]
-#[pyo3(signature = (model, targets, q0s=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=Int(Ok(100)), restarts=Int(Ok(50)), seed=Int(Ok(0)), respect_limits=true, damping=0.1, threads=None))]
+#[pyo3(signature = (model, goals, q0s=None, *, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=Int(Ok(100)), restarts=Int(Ok(50)), seed=Int(Ok(0)), respect_limits=true, damping=0.1, threads=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn ik_batch(
     py: Python<'_>,
     model: &PyModel,
-    targets: &Bound<'_, PyAny>,
+    goals: &Bound<'_, PyAny>,
     q0s: Option<&Bound<'_, PyAny>>,
     method: &str,
     tol_position: f64,
@@ -282,9 +282,9 @@ pub fn ik_batch(
 ) -> PyResult<PyIkBatchResult> {
     let threads = threads_of(threads);
     let opts = options(method, tol_position, tol_rotation, max_iterations, restarts, seed, respect_limits, damping)?;
-    let targets = poses("targets", targets)?;
+    let goals = poses("goals", goals)?;
     let n = model.inner.nq();
-    // (n,) for every target or (N, n): the core tells them apart by length
+    // (n,) for every goal or (N, n): the core tells them apart by length
     let q0s = match q0s {
         Some(a) => {
             let (v, shape) = read("q0s", a)?;
@@ -296,9 +296,9 @@ pub fn ik_batch(
         None => vec![0.0; n],
     };
     let m = model.inner.clone();
-    let long = long_solve(&m, &opts, targets.len());
+    let long = long_solve(&m, &opts, goals.len());
     let results = crate::signals::without_gil(py, long, move || {
-        denavit_core::parallel::with_threads(threads, || core_ik::ik_batch(&m, &targets, &q0s, &opts)).and_then(|r| r)
+        denavit_core::parallel::with_threads(threads, || core_ik::ik_batch(&m, &goals, &q0s, &opts)).and_then(|r| r)
     })?
     .py()?;
     Ok(PyIkBatchResult { results, n })

@@ -99,8 +99,8 @@ def ik(
             seed=seed,
             respect_limits=not no_limits,
         )
-    except DenavitError as e:  # the core names the target T_target (the error's `what`): say which option gave it
-        if e.what == "T_target":
+    except DenavitError as e:  # the core names the goal T_goal (the error's `what`): say which option gave it
+        if e.what == "T_goal":
             fail(f"{'--goal' if goal is not None else '--pose'}: {e}")
         raise
     if json_out:

@@ -20,7 +20,7 @@ impl SplitMix64 {
     }
 }
 
-/// Seed of target `index` of a batch or path.
+/// Seed of goal `index` of a batch or path.
 pub(crate) fn mix_seed(seed: u64, index: u64) -> u64 {
     SplitMix64(seed ^ index.wrapping_mul(0xD1B5_4A32_D192_ED03)).next_u64()
 }

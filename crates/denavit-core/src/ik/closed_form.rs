@@ -4,7 +4,7 @@
 //! The chain is written as a product of exponentials (Brockett 1984; Murray, Li & Sastry 1994, ch. 3) about the
 //! joint axis lines at `q = 0` (point `p_i`, unit direction `h_i` in `world`):
 //! `T_world_tool(q) = e_1(q_1) ... e_6(q_6) T_world_tool(0)`, `e_i(θ) x = p_i + R(h_i, θ) (x - p_i)`, so a
-//! target `T*` gives `G = T* T_world_tool(0)^-1 = e_1 ... e_6`, solved by geometric subproblems on the lines
+//! goal `T*` gives `G = T* T_world_tool(0)^-1 = e_1 ... e_6`, solved by geometric subproblems on the lines
 //! (Paden 1986, Kahan; the decompositions of Elias & Wen 2022, "IK-Geo", arXiv 2211.05737):
 //! * **SP1**: the rotation `θ` about `k` that takes `a` to `b` (`R(k, θ) a = b`);
 //! * **SP4**: the rotations `θ` about `k` with `h^T R(k, θ) p = d` (0, 1 or 2; SP3, a rotation to a given
@@ -26,8 +26,8 @@
 //! and [`DISTANCE_TOL`] times its size) is solved on the *nearest ideal structure*: parallel directions
 //! replaced by their mean, meeting lines by the point nearest to them; the branches are then seeds that
 //! the caller polishes on the true model. An equation without an exact solution gives its nearest angle (the
-//! arm stretched towards the target) when it misses by a relative 1e-6 at most (rounding at a stretched arm or
-//! wrist), else no branch (a target out of reach); a joint left free by a
+//! arm stretched towards the goal) when it misses by a relative 1e-6 at most (rounding at a stretched arm or
+//! wrist), else no branch (a goal out of reach); a joint left free by a
 //! singularity (q1 with the wrist centre on axis 1, q4 / q6 with the wrist axes aligned) takes its value in
 //! the start configuration.
 //!
@@ -339,11 +339,11 @@ impl ClosedForm {
             .then(|| make(Structure::ThreeParallel, &[1, 2, 3], hp, sense, &[4, 5], c))
     }
 
-    /// The branches of `target` (`T_world_tool`) on the ideal structure into `out`, their number returned
+    /// The branches of `goal` (`T_world_tool`) on the ideal structure into `out`, their number returned
     /// (up to [`MAX_BRANCHES`]); `start` gives the joints left free by a singularity.
-    pub(crate) fn branches(&self, target: &Pose, start: &[f64], out: &mut [[Cs; 6]; MAX_BRANCHES]) -> usize {
+    pub(crate) fn branches(&self, goal: &Pose, start: &[f64], out: &mut [[Cs; 6]; MAX_BRANCHES]) -> usize {
         let mut parts = [Partial::EMPTY; MAX_PARTIALS];
-        let np = self.partials(target, start, &mut parts);
+        let np = self.partials(goal, start, &mut parts);
         let mut n = 0;
         for part in &parts[..np] {
             let mut leaves = [[Cs::ZERO; 6]; 2];
@@ -362,10 +362,10 @@ impl ClosedForm {
         }
     }
 
-    /// The first level of the branches of `target` (up to [`MAX_PARTIALS`]): the spherical wrist's arm
+    /// The first level of the branches of `goal` (up to [`MAX_PARTIALS`]): the spherical wrist's arm
     /// (q1, q2, q3), or q1, q5, q6 of three parallel axes; each [`Self::complete`]s to up to 2 branches.
-    pub(crate) fn partials(&self, target: &Pose, start: &[f64], out: &mut [Partial; MAX_PARTIALS]) -> usize {
-        let g = target * self.t0_inv;
+    pub(crate) fn partials(&self, goal: &Pose, start: &[f64], out: &mut [Partial; MAX_PARTIALS]) -> usize {
+        let g = goal * self.t0_inv;
         match self.structure {
             Structure::SphericalWrist => self.arms(&g, start, out),
             Structure::ThreeParallel => self.outer(&g, start, out),
@@ -395,12 +395,12 @@ impl ClosedForm {
         let flat = |u: V3| u - hp * hp.dot(&u);
         let u = flat(x - self.p[2]);
         let c = flat(self.p[1] - self.p[2]);
-        let target = flat(v - self.p[1]);
-        // |R(h3, q3) u - c| = |target|: SP3 as SP4
-        let (q3s, n) = angles(sp4(&c, h3, &u, (u.norm_squared() + c.norm_squared() - target.norm_squared()) / 2.0), free.1);
+        let goal = flat(v - self.p[1]);
+        // |R(h3, q3) u - c| = |goal|: SP3 as SP4
+        let (q3s, n) = angles(sp4(&c, h3, &u, (u.norm_squared() + c.norm_squared() - goal.norm_squared()) / 2.0), free.1);
         for k in 0..n {
             let moved = rot(h3, q3s[k], &u) - c; // e_3 x - p_2, flattened
-            let q2 = sp1(h2, &moved, &target).unwrap_or_else(|| Cs::of(free.0));
+            let q2 = sp1(h2, &moved, &goal).unwrap_or_else(|| Cs::of(free.0));
             out[k] = [q2, q3s[k]];
         }
         n

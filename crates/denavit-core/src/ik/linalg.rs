@@ -45,16 +45,16 @@ pub(super) fn log_with_angle(r: &Matrix3<f64>, theta: f64) -> Vector3<f64> {
     if a.dot(&v) < 0.0 { -a * theta } else { a * theta }
 }
 
-/// Error twist and measured errors of a current pose against the target.
+/// Error twist and measured errors of a current pose against the goal.
 #[inline]
-pub(super) fn twist(cur: &Pose, target: &Pose, e: &mut [f64; 6]) -> (f64, f64) {
-    let dp = target.translation.vector - cur.translation.vector;
-    let rel: Rotation3<f64> = cur.rotation.inverse() * target.rotation; // as in spatial::pose_error
+pub(super) fn twist(cur: &Pose, goal: &Pose, e: &mut [f64; 6]) -> (f64, f64) {
+    let dp = goal.translation.vector - cur.translation.vector;
+    let rel: Rotation3<f64> = cur.rotation.inverse() * goal.rotation; // as in spatial::pose_error
     let theta = rotation_angle(&rel);
     let w = cur.rotation * log_with_angle(rel.matrix(), theta);
     e[..3].copy_from_slice(dp.as_slice());
     e[3..].copy_from_slice(w.as_slice());
-    ((cur.translation.vector - target.translation.vector).norm(), theta)
+    ((cur.translation.vector - goal.translation.vector).norm(), theta)
 }
 
 /// Solve `a x = b` in place by nalgebra's Cholesky factorisation, `a` (n x n, symmetric positive definite,

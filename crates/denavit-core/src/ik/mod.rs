@@ -1,8 +1,8 @@
 //! Inverse kinematics: Newton-Raphson (as used by Guo et al., sec. V) and damped least squares /
-//! Levenberg-Marquardt with joint limits; a path solver that warm-starts each target from the previous
+//! Levenberg-Marquardt with joint limits; a path solver that warm-starts each goal from the previous
 //! solution, and a batch solver on every core.
 //!
-//! **Error.** At the current configuration `q` with tool pose `T_world_tool(q) = (R, p)` and a target
+//! **Error.** At the current configuration `q` with tool pose `T_world_tool(q) = (R, p)` and a goal
 //! `(R*, p*)`, the error twist in `world` is `e = [p* - p ; R · log(R^T R*)]` (position difference in m,
 //! rotation vector in rad; `log` is the SO(3) logarithm). It is driven to zero with the world-frame
 //! geometric Jacobian of [`crate::kinematics::jacobian`] (`J dq ≈ e`, exact to first order).
@@ -38,7 +38,7 @@
 //! (one attempt on the Puma 560: Newton 73.2 -> 81.8 %, LM 77.6 -> 82.4 %). What is still outside is clamped (the start and LM, whose active set holds joints at a limit) or, in Newton's trial
 //! points, mirrored at the limit it crossed and then clamped (reflective Newton methods for bounds: Coleman
 //! & Li 1996): a clamped Newton iterate tends to stay at the limit, converging towards an IK branch outside
-//! the range; the mirrored one moves back inside. One attempt, random reachable targets
+//! the range; the mirrored one moves back inside. One attempt, random reachable goals
 //! (benchmarks/bench_kinematics.py): KR5 87.0 -> 92.2 %, Puma 560 68.6 -> 73.2 % (for LM, mirroring lowered
 //! the Puma's rate, 77.6 -> 65.8 %, so LM keeps clamping).
 //!
@@ -59,7 +59,7 @@
 //! first attempt: the method is the iteration of the fallback and the restarts; success is still judged
 //! from the measured error alone. One iterative attempt could not reach another IK branch (the KR5 and Puma
 //! converging to a branch outside the limits) or stalled at the stretched elbow (UR5, TianSui); one attempt on
-//! random reachable targets (benchmarks/bench_kinematics.py --ik-one-attempt), Newton / LM: KR5 92.2 / 65.8 ->
+//! random reachable goals (benchmarks/bench_kinematics.py --ik-one-attempt), Newton / LM: KR5 92.2 / 65.8 ->
 //! 100 / 100 %, UR5 91.6 / 91.4 -> 100 / 100 %, Puma 560 81.8 / 82.4 -> 100 / 100 %, TianSui 87.0 / 90.2 ->
 //! 100 / 100 %.
 //!
@@ -69,9 +69,9 @@
 //! `respect_limits`, else within ±π of `q0_7`), the 6R left by each sample is solved in closed form (up to 8
 //! branches by subproblems SP3, SP4, SP1) and the branches are tried nearest to `q0` first, best-first over the
 //! samples, checked by FK and polished by Newton as the 6R seeds are, within attempt 0's `max_iterations`; when
-//! every branch of the samples fails (none within the limits, or a target whose q7 must lie in a narrow
+//! every branch of the samples fails (none within the limits, or a goal whose q7 must lie in a narrow
 //! interval), the samples halfway between them are solved, down to 0.1 rad apart. One attempt from q0 = 0.3 rad
-//! (clipped into the limits) on 1,000 random reachable targets, Newton / LM, before -> after (a core here, mean
+//! (clipped into the limits) on 1,000 random reachable goals, Newton / LM, before -> after (a core here, mean
 //! per solve): Panda within its limits 87.2 / 60.2 % (10 / 24 us) -> 99.8 / 100 % (2.2 us), without limits 97.6 /
 //! 85.1 % -> 100 / 100 % (2 us); iiwa 14 within its limits 93.7 / 99.1 % -> 100 / 100 % (2.7 us), without limits
 //! 100 / 100 % (5 us) -> 100 / 100 % (2.5 us). Other chains (prismatic joints, other geometries) are solved as
@@ -79,8 +79,8 @@
 //!
 //! **Restarts** are deterministic: attempt 0 starts from `q0`, attempt k >= 1 from a configuration drawn
 //! uniformly within the limits (intersected with [-π, π] for revolute and [-1, 1] m for prismatic joints)
-//! by a SplitMix64 generator seeded from `seed`, k and the target's index in a batch or path (0 for a single
-//! solve, so a single solve and a batch or path of that one target give the same answer).
+//! by a SplitMix64 generator seeded from `seed`, k and the goal's index in a batch or path (0 for a single
+//! solve, so a single solve and a batch or path of that one goal give the same answer).
 //!
 //! **Cost.** An [`IkSolver`] allocates its workspace once; an iteration allocates nothing: one pass of
 //! forward kinematics and Jacobian, and for n = 6 fixed-size, fully unrolled 6 x 6 solves (Cholesky for LM,
@@ -123,8 +123,8 @@ fn rename(e: Error, what: &str) -> Error {
     }
 }
 
-/// Inverse kinematics of one target `T_world_tool` from `q0` (rad / m); see the module docs for the
-/// error, the methods and the success rule. `Err` only for bad input; an unreachable target gives
+/// Inverse kinematics of one goal `T_world_tool` from `q0` (rad / m); see the module docs for the
+/// error, the methods and the success rule. `Err` only for bad input; an unreachable goal gives
 /// `Ok` with `success == false` and the measured residual.
 ///
 /// ```
@@ -135,8 +135,8 @@ fn rename(e: Error, what: &str) -> Error {
 /// let far = ik(&m, &trans(3.0, 0.0, 0.0), &[0.0, 0.5], &IkOptions::default()).unwrap();
 /// assert!(!far.success && (far.position_error - 1.0).abs() < 1e-6); // 3 m away, reach 2 m
 /// ```
-pub fn ik(model: &Model, target: &Pose, q0: &[f64], opts: &IkOptions) -> Result<IkResult> {
-    IkSolver::new(model, opts.clone())?.solve(target, q0)
+pub fn ik(model: &Model, goal: &Pose, q0: &[f64], opts: &IkOptions) -> Result<IkResult> {
+    IkSolver::new(model, opts.clone())?.solve(goal, q0)
 }
 
 /// The structure of `model` that IK solves in closed form for the seeds of its first attempt (module docs,
@@ -150,43 +150,43 @@ pub fn closed_form_structure(model: &Model) -> Option<Structure> {
     model.derived::<Bounds>().closed_form.as_ref().map(|c| c.structure)
 }
 
-/// Every closed-form branch of `target` (`T_world_tool`) on the ideal structure nearest to `model`'s axes
+/// Every closed-form branch of `goal` (`T_world_tool`) on the ideal structure nearest to `model`'s axes
 /// (up to 8; each joint wrapped to (-π, π], limits not applied; a joint left free by a singularity is 0), or
 /// `None` when the model has no recognised [`Structure`]. On a model with the exact structure each branch
-/// reproduces the target (a reachable one); on an identified model they are the seeds that IK polishes.
-pub fn closed_form_branches(model: &Model, target: &Pose) -> Result<Option<Vec<Vec<f64>>>> {
-    check_pose("IK target", target)?;
+/// reproduces the goal (a reachable one); on an identified model they are the seeds that IK polishes.
+pub fn closed_form_branches(model: &Model, goal: &Pose) -> Result<Option<Vec<Vec<f64>>>> {
+    check_pose("IK goal", goal)?;
     let Some(cf) = model.derived::<Bounds>().closed_form.as_ref() else { return Ok(None) };
     let mut b = [[Cs::ZERO; 6]; MAX_BRANCHES];
-    let count = cf.branches(target, &[0.0; 6], &mut b);
+    let count = cf.branches(goal, &[0.0; 6], &mut b);
     Ok(Some(b[..count].iter().map(|q| q.iter().map(|a| a.angle()).collect()).collect()))
 }
 
-fn check_targets(targets: &[Pose]) -> Result<()> {
-    for (i, t) in targets.iter().enumerate() {
-        check_pose(format_args!("IK target {i}"), t)?;
+fn check_goals(goals: &[Pose]) -> Result<()> {
+    for (i, t) in goals.iter().enumerate() {
+        check_pose(format_args!("IK goal {i}"), t)?;
     }
     Ok(())
 }
 
-/// Solve a sequence of targets, each warm-started from the previous solution (from `q0` for the first,
-/// and from the last successful solution after a failure). Target `i` uses restart seed
+/// Solve a sequence of goals, each warm-started from the previous solution (from `q0` for the first,
+/// and from the last successful solution after a failure). Goal `i` uses restart seed
 /// `mix(seed, i)`, so results do not depend on the length of the path.
 ///
 /// ```
 /// use denavit_core::{builtin_planar2, kinematics::tool_pose, ik::{ik_path, IkOptions}};
 /// let m = builtin_planar2(1.0, 1.0);
-/// let targets: Vec<_> = (0..10).map(|k| tool_pose(&m, &[0.3 + 0.01 * k as f64, 1.2]).unwrap()).collect();
-/// let r = ik_path(&m, &targets, &[0.3, 1.2], &IkOptions::default()).unwrap();
+/// let goals: Vec<_> = (0..10).map(|k| tool_pose(&m, &[0.3 + 0.01 * k as f64, 1.2]).unwrap()).collect();
+/// let r = ik_path(&m, &goals, &[0.3, 1.2], &IkOptions::default()).unwrap();
 /// assert!(r.iter().all(|x| x.success && x.restarts == 0));
 /// ```
-pub fn ik_path(model: &Model, targets: &[Pose], q0: &[f64], opts: &IkOptions) -> Result<Vec<IkResult>> {
-    check_targets(targets)?;
+pub fn ik_path(model: &Model, goals: &[Pose], q0: &[f64], opts: &IkOptions) -> Result<Vec<IkResult>> {
+    check_goals(goals)?;
     model.check_q(q0).map_err(|e| rename(e, "q0"))?;
     let mut s = IkSolver::new(model, opts.clone())?;
     let mut start = q0.to_vec();
-    let mut out = Vec::with_capacity(targets.len());
-    for (i, t) in targets.iter().enumerate() {
+    let mut out = Vec::with_capacity(goals.len());
+    for (i, t) in goals.iter().enumerate() {
         crate::parallel::check_interrupt()?;
         let r = s.solve_unchecked(t, &start, mix_seed(opts.seed, i as u64));
         if r.success {
@@ -197,24 +197,24 @@ pub fn ik_path(model: &Model, targets: &[Pose], q0: &[f64], opts: &IkOptions) ->
     Ok(out)
 }
 
-/// Solve independent targets on every core (rayon's pool, or as [`crate::parallel::with_threads`] says). `q0s` holds either one start for all (n values) or
-/// one per target (N x n, row-major). Target `i` uses restart seed `mix(seed, i)`: the results are the
+/// Solve independent goals on every core (rayon's pool, or as [`crate::parallel::with_threads`] says). `q0s` holds either one start for all (n values) or
+/// one per goal (N x n, row-major). Goal `i` uses restart seed `mix(seed, i)`: the results are the
 /// same whatever the number of threads.
 ///
 /// ```
 /// use denavit_core::{builtin_planar2, kinematics::tool_pose, ik::{ik_batch, IkOptions}};
 /// let m = builtin_planar2(1.0, 1.0);
-/// let targets: Vec<_> = (0..50).map(|k| tool_pose(&m, &[0.05 * k as f64, 1.0]).unwrap()).collect();
-/// let r = ik_batch(&m, &targets, &[0.0, 0.5], &IkOptions::default()).unwrap();
+/// let goals: Vec<_> = (0..50).map(|k| tool_pose(&m, &[0.05 * k as f64, 1.0]).unwrap()).collect();
+/// let r = ik_batch(&m, &goals, &[0.0, 0.5], &IkOptions::default()).unwrap();
 /// assert!(r.iter().all(|x| x.success));
 /// ```
-pub fn ik_batch(model: &Model, targets: &[Pose], q0s: &[f64], opts: &IkOptions) -> Result<Vec<IkResult>> {
+pub fn ik_batch(model: &Model, goals: &[Pose], q0s: &[f64], opts: &IkOptions) -> Result<Vec<IkResult>> {
     let n = model.nq();
-    check_targets(targets)?;
+    check_goals(goals)?;
     opts.check()?;
     let shared = q0s.len() == n;
     if !shared {
-        check_len("q0s (n values, or N*n for N targets)", targets.len() * n, q0s.len())?;
+        check_len("q0s (n values, or N*n for N goals)", goals.len() * n, q0s.len())?;
     }
     if shared {
         check_finite("q0s", q0s)?;
@@ -227,10 +227,10 @@ pub fn ik_batch(model: &Model, targets: &[Pose], q0s: &[f64], opts: &IkOptions) 
     };
     let results = if crate::parallel::serial() {
         let mut s = IkSolver::new(model, opts.clone())?;
-        targets.iter().enumerate().map(|x| solve(&mut s, x)).collect()
+        goals.iter().enumerate().map(|x| solve(&mut s, x)).collect()
     } else {
         crate::parallel::in_pool(|| {
-            targets.par_iter().enumerate().map_init(|| IkSolver::new(model, opts.clone()).expect("options checked above"), solve).collect()
+            goals.par_iter().enumerate().map_init(|| IkSolver::new(model, opts.clone()).expect("options checked above"), solve).collect()
         })?
     };
     crate::parallel::check_interrupt()?;

@@ -36,7 +36,7 @@ impl IkMethod {
 }
 
 /// The most iterations one IK attempt may take (docs/cli.md, Limits): far beyond convergence (LM and Newton
-/// converge in tens), and a budget that still ends (an unreachable target of a 6R arm, 1 us an iteration).
+/// converge in tens), and a budget that still ends (an unreachable goal of a 6R arm, 1 us an iteration).
 pub const MAX_ITERATIONS: usize = 1_000_000;
 /// The most restarts one IK solve may take (docs/cli.md, Limits).
 pub const MAX_RESTARTS: usize = 1_000_000;
@@ -54,9 +54,9 @@ pub const MAX_RESTARTS: usize = 1_000_000;
 pub struct IkOptions {
     /// The iterative method.
     pub method: IkMethod,
-    /// Largest accepted distance between the tool origin and the target position (m).
+    /// Largest accepted distance between the tool origin and the goal position (m).
     pub tol_position: f64,
-    /// Largest accepted rotation angle between the tool and the target orientation (rad).
+    /// Largest accepted rotation angle between the tool and the goal orientation (rad).
     pub tol_rotation: f64,
     /// Jacobian evaluations per attempt (attempt 0's include the polish of the closed-form seeds).
     pub max_iterations: usize,
@@ -116,9 +116,9 @@ pub struct IkResult {
     pub iterations: usize,
     /// Restarts used (0 when the attempt from `q0` succeeded).
     pub restarts: usize,
-    /// `|p_tool(q) - p_target|` (m).
+    /// `|p_tool(q) - p_goal|` (m).
     pub position_error: f64,
-    /// Rotation angle between `R_tool(q)` and `R_target` (rad).
+    /// Rotation angle between `R_tool(q)` and `R_goal` (rad).
     pub rotation_error: f64,
 }
 

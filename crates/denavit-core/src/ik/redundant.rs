@@ -5,7 +5,7 @@
 //! kinematics for Franka Emika Panda", taking q7 as the redundancy parameter): for a fixed `q7` the rest is a 6R
 //! chain solved in closed form by the subproblems of [`super::closed_form`] (Elias & Wen 2022, "IK-Geo"). Axes 1,
 //! 2, 3 meet in the shoulder `S`, axes 5 and 6 in the point `W`; written as a product of exponentials about the
-//! axis lines at `q = 0` (module `closed_form`), a target gives `G' = G e_7(q7)^-1 = e_1 ... e_6` and
+//! axis lines at `q = 0` (module `closed_form`), a goal gives `G' = G e_7(q7)^-1 = e_1 ... e_6` and
 //! * `e_5`, `e_6` keep `W` and `e_1 e_2 e_3` rotate about `S`, so `|G' W - S| = |e_4(q4) W - S|` (SP3: q4, 2
 //!   branches);
 //! * `R_G'^T (G' W - S) = R_6^T R_5^T R_4^T (e_4 W - S)` (SP4 then SP1: q5, q6, 2 branches);
@@ -43,7 +43,7 @@ pub(crate) struct Redundant {
     t0_inv: Pose,
 }
 
-/// What the samples of one target share: `G = T* T_world_tool(0)^-1`.
+/// What the samples of one goal share: `G = T* T_world_tool(0)^-1`.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Target7 {
     rg: Matrix3<f64>,
@@ -91,13 +91,13 @@ impl Redundant {
         Some(Self { p, h, s, w, x3: any_perpendicular(&h[2]), t0_inv: t0.inverse() })
     }
 
-    /// `G` of `target`.
-    pub(crate) fn target(&self, target: &Pose) -> Target7 {
-        let g = target * self.t0_inv;
+    /// `G` of `goal`.
+    pub(crate) fn goal(&self, goal: &Pose) -> Target7 {
+        let g = goal * self.t0_inv;
         Target7 { rg: *g.rotation.matrix(), tg: g.translation.vector }
     }
 
-    /// The branches (up to [`MAX_BRANCHES7`]) of the target with `q7` fixed, into `out` (`out[k][6]` is `q7`);
+    /// The branches (up to [`MAX_BRANCHES7`]) of the goal with `q7` fixed, into `out` (`out[k][6]` is `q7`);
     /// `start` gives the joints left free by a singularity.
     pub(crate) fn branches(&self, g: &Target7, q7: f64, start: &[f64], out: &mut [[Cs; 7]; MAX_BRANCHES7]) -> usize {
         let (p, h, s, w) = (&self.p, &self.h, &self.s, &self.w);

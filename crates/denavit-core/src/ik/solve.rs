@@ -25,7 +25,7 @@ pub(super) type MetSeed = ([f64; 7], f64, f64);
 pub(super) const STEP7: f64 = 1.6;
 
 /// Times the samples of q7 are refined (the values halfway between the previous ones) when no branch of the coarser
-/// ones meets the tolerance: down to 0.1 rad apart. One attempt on 1,000 random reachable targets of the Panda
+/// ones meets the tolerance: down to 0.1 rad apart. One attempt on 1,000 random reachable goals of the Panda
 /// (tests/ik.rs, within the limits): steps of 0.1 rad from the start 998 solved at a mean 35 us, of 1.6 rad
 /// refined 4 times 998 at 2.2 us, of 3.2 rad refined 3 times (down to 0.4 rad) 995 at 2.1 us.
 pub(super) const REFINE7: u32 = 4;
@@ -103,10 +103,10 @@ pub(super) fn score(pos: f64, rot: f64, o: &IkOptions) -> f64 {
 /// ```
 /// use denavit_core::{builtin_planar2, kinematics::tool_pose, ik::{IkSolver, IkOptions}};
 /// let m = builtin_planar2(1.0, 1.0);
-/// let target = tool_pose(&m, &[0.4, 0.9]).unwrap();
-/// // a planar arm cannot meet an arbitrary orientation, but this target is reachable
+/// let goal = tool_pose(&m, &[0.4, 0.9]).unwrap();
+/// // a planar arm cannot meet an arbitrary orientation, but this goal is reachable
 /// let mut s = IkSolver::new(&m, IkOptions::default()).unwrap();
-/// let r = s.solve(&target, &[0.0, 0.5]).unwrap();
+/// let r = s.solve(&goal, &[0.0, 0.5]).unwrap();
 /// assert!(r.success && r.position_error <= 1e-10 && r.rotation_error <= 1e-10);
 /// ```
 #[derive(Debug, Clone)]
@@ -175,38 +175,38 @@ impl<'m> IkSolver<'m> {
         &self.opts
     }
 
-    /// Solve for `target` (`T_world_tool`) from `q0`; `Err` only for bad input (size, NaN, non-SE(3)).
-    pub fn solve(&mut self, target: &Pose, q0: &[f64]) -> Result<IkResult> {
-        check_pose("IK target", target)?;
+    /// Solve for `goal` (`T_world_tool`) from `q0`; `Err` only for bad input (size, NaN, non-SE(3)).
+    pub fn solve(&mut self, goal: &Pose, q0: &[f64]) -> Result<IkResult> {
+        check_pose("IK goal", goal)?;
         self.model.check_q(q0).map_err(|e| rename(e, "q0"))?;
-        let r = self.solve_unchecked(target, q0, mix_seed(self.opts.seed, 0));
+        let r = self.solve_unchecked(goal, q0, mix_seed(self.opts.seed, 0));
         crate::parallel::check_interrupt()?;
         Ok(r)
     }
 
     /// Jacobian and error at `q`.
     #[inline]
-    pub(super) fn evaluate(&mut self, which_trial: bool, target: &Pose, e: &mut [f64; 6]) -> (f64, f64) {
+    pub(super) fn evaluate(&mut self, which_trial: bool, goal: &Pose, e: &mut [f64; 6]) -> (f64, f64) {
         let q = if which_trial { &self.q_trial } else { &self.q };
         let tool = tool_pose_and_jacobian(self.model, q, &mut self.jac_eval);
-        twist(&tool, target, e)
+        twist(&tool, goal, e)
     }
 
     /// One attempt from `self.q`; leaves the attempt's best configuration in `self.q`.
     /// `last`: no attempt follows, so this one uses its whole iteration budget (a stalled attempt is
     /// abandoned early only when a restart can take over).
     /// `budget`: the Jacobian evaluations it may use (`max_iterations`, less what the seeds used in attempt 0).
-    pub(super) fn attempt(&mut self, target: &Pose, last: bool, budget: usize) -> (usize, f64, f64) {
+    pub(super) fn attempt(&mut self, goal: &Pose, last: bool, budget: usize) -> (usize, f64, f64) {
         match self.opts.method {
-            IkMethod::Lm => self.attempt_lm(target, last, budget),
-            IkMethod::Newton => self.attempt_newton(target, last, budget),
+            IkMethod::Lm => self.attempt_lm(goal, last, budget),
+            IkMethod::Newton => self.attempt_newton(goal, last, budget),
         }
     }
 
-    pub(super) fn attempt_lm(&mut self, target: &Pose, last: bool, budget: usize) -> (usize, f64, f64) {
+    pub(super) fn attempt_lm(&mut self, goal: &Pose, last: bool, budget: usize) -> (usize, f64, f64) {
         let n = self.model.nq();
         let mut e = [0.0; 6];
-        let (mut pos, mut rot) = self.evaluate(false, target, &mut e);
+        let (mut pos, mut rot) = self.evaluate(false, goal, &mut e);
         let mut it = 1;
         if score(pos, rot, &self.opts) <= 1.0 || n == 0 {
             return (it, pos, rot);
@@ -254,7 +254,7 @@ impl<'m> IkSolver<'m> {
                 self.bounds.project(&mut self.q_trial, false);
             }
             let mut et = [0.0; 6];
-            let (p, r) = self.evaluate(true, target, &mut et);
+            let (p, r) = self.evaluate(true, goal, &mut et);
             it += 1;
             let cost_t: f64 = et.iter().map(|v| v * v).sum();
             // predicted decrease of |e|^2: 2 L(0) - 2 L(h) = h^T (lambda h + J^T e)
@@ -362,10 +362,10 @@ impl<'m> IkSolver<'m> {
         }
     }
 
-    pub(super) fn attempt_newton(&mut self, target: &Pose, last: bool, budget: usize) -> (usize, f64, f64) {
+    pub(super) fn attempt_newton(&mut self, goal: &Pose, last: bool, budget: usize) -> (usize, f64, f64) {
         let n = self.model.nq();
         let mut e = [0.0; 6];
-        let (mut pos, mut rot) = self.evaluate(false, target, &mut e);
+        let (mut pos, mut rot) = self.evaluate(false, goal, &mut e);
         let mut it = 1;
         let mut best = (score(pos, rot, &self.opts), pos, rot);
         if best.0 <= 1.0 || n == 0 {
@@ -394,7 +394,7 @@ impl<'m> IkSolver<'m> {
                     break 'attempt;
                 }
                 let mut et = [0.0; 6];
-                let (p, r) = self.evaluate(true, target, &mut et);
+                let (p, r) = self.evaluate(true, goal, &mut et);
                 it += 1;
                 let cost_t: f64 = et.iter().map(|v| v * v).sum();
                 if cost_t < cost {
@@ -450,14 +450,14 @@ impl<'m> IkSolver<'m> {
     /// branches', is below that of every branch found so far, so the branches of arms far from `q0` are not
     /// computed. Distances come from the angles to 3e-7 rad ([`closed_form::Cs::angle_approx`]: `atan2` costs
     /// about as much as the closed form of a branch); a branch is tried with its exact angles.
-    pub(super) fn attempt_seeds(&mut self, target: &Pose, q0: &[f64]) -> Option<(usize, f64, Option<MetSeed>)> {
+    pub(super) fn attempt_seeds(&mut self, goal: &Pose, q0: &[f64]) -> Option<(usize, f64, Option<MetSeed>)> {
         let bounds: &'m Bounds = self.bounds;
         let cf = bounds.closed_form.as_ref()?;
         let respect = self.opts.respect_limits;
         let (first, second) = cf.levels();
         // the first levels within the limits, by their distance from q0
         let mut parts = [Partial::EMPTY; MAX_PARTIALS];
-        let np = cf.partials(target, q0, &mut parts);
+        let np = cf.partials(goal, q0, &mut parts);
         let mut part_order = [(0.0f64, 0); MAX_PARTIALS];
         let mut kept = 0;
         'parts: for (k, part) in parts[..np].iter().enumerate() {
@@ -523,7 +523,7 @@ impl<'m> IkSolver<'m> {
             }
             // an exact seed is checked by the verdict's own measurement (forward kinematics alone, counted as one
             // evaluation), which then stands as the verdict
-            match self.try_seed(target, &q, budget, &mut total, &mut best) {
+            match self.try_seed(goal, &q, budget, &mut total, &mut best) {
                 Seeded::Met(pos, rot) => {
                     let mut met = [0.0; 7];
                     met[..6].copy_from_slice(&q);
@@ -543,12 +543,12 @@ impl<'m> IkSolver<'m> {
     /// within the tolerance as they are, each try counted in attempt 0's `max_iterations`. Best-first: a sample
     /// is solved only while its distance from `q0_7` is below that of every untried branch found so far. When
     /// every branch of the samples has been tried (none within the limits, or none met), the samples halfway
-    /// between are solved, [`REFINE7`] times at most (a target whose q7 must lie in a narrow interval).
-    pub(super) fn attempt_seeds7(&mut self, target: &Pose, q0: &[f64]) -> Option<(usize, f64, Option<MetSeed>)> {
+    /// between are solved, [`REFINE7`] times at most (a goal whose q7 must lie in a narrow interval).
+    pub(super) fn attempt_seeds7(&mut self, goal: &Pose, q0: &[f64]) -> Option<(usize, f64, Option<MetSeed>)> {
         let bounds: &'m Bounds = self.bounds;
         let rf = bounds.redundant.as_ref()?;
         let respect = self.opts.respect_limits;
-        let g = rf.target(target);
+        let g = rf.goal(goal);
         let (mut lo, mut hi) = (q0[6] - PI, q0[6] + PI);
         let mut centre = q0[6];
         if respect {
@@ -620,7 +620,7 @@ impl<'m> IkSolver<'m> {
             if !placed {
                 continue;
             }
-            match self.try_seed(target, &q, budget, &mut total, &mut best) {
+            match self.try_seed(goal, &q, budget, &mut total, &mut best) {
                 Seeded::Met(pos, rot) => return Some((total + 1, 1.0, Some((q, pos, rot)))),
                 Seeded::Polished(true) => break,
                 Seeded::Polished(false) => {}
@@ -634,14 +634,14 @@ impl<'m> IkSolver<'m> {
     /// tolerance: `Met`), else polished by Newton within `budget`, its evaluations added to `total` and a better
     /// score kept in `best` and `q_best` (`Polished(true)`: the polish met the tolerance, the search stops).
     #[inline]
-    fn try_seed(&mut self, target: &Pose, q: &[f64], budget: usize, total: &mut usize, best: &mut f64) -> Seeded {
-        let (pos, rot) = pose_error(&tool_pose_unchecked(self.model, q), target);
+    fn try_seed(&mut self, goal: &Pose, q: &[f64], budget: usize, total: &mut usize, best: &mut f64) -> Seeded {
+        let (pos, rot) = pose_error(&tool_pose_unchecked(self.model, q), goal);
         if score(pos, rot, &self.opts) <= 1.0 {
             return Seeded::Met(pos, rot);
         }
         self.workspace();
         self.q.copy_from_slice(q);
-        let (it, pos, rot) = self.attempt_newton(target, false, budget);
+        let (it, pos, rot) = self.attempt_newton(goal, false, budget);
         *total += it;
         let s = score(pos, rot, &self.opts);
         if s < *best {
@@ -653,14 +653,14 @@ impl<'m> IkSolver<'m> {
     }
 
     /// Solve without checking the input; `seed` drives the restarts.
-    pub(crate) fn solve_unchecked(&mut self, target: &Pose, q0: &[f64], seed: u64) -> IkResult {
+    pub(crate) fn solve_unchecked(&mut self, goal: &Pose, q0: &[f64], seed: u64) -> IkResult {
         let n = self.model.nq();
         let mut total = 0;
         let mut best_score = f64::INFINITY;
         let mut restarts = 0;
         let mut seeded = false;
-        let seeds = match self.attempt_seeds(target, q0) {
-            None => self.attempt_seeds7(target, q0),
+        let seeds = match self.attempt_seeds(goal, q0) {
+            None => self.attempt_seeds7(goal, q0),
             some => some,
         };
         if let Some((it, s, exact)) = seeds {
@@ -691,7 +691,7 @@ impl<'m> IkSolver<'m> {
             if budget == 0 {
                 continue; // the seeds used attempt 0's budget
             }
-            let (it, pos, rot) = self.attempt(target, attempt == self.opts.restarts, budget);
+            let (it, pos, rot) = self.attempt(goal, attempt == self.opts.restarts, budget);
             total += it;
             restarts = attempt;
             let s = score(pos, rot, &self.opts);
@@ -705,7 +705,7 @@ impl<'m> IkSolver<'m> {
         }
         // the honest verdict: measure the returned configuration with the public FK and error functions
         let q = self.q_best[..n].to_vec();
-        let (position_error, rotation_error) = pose_error(&tool_pose_unchecked(self.model, &q), target);
+        let (position_error, rotation_error) = pose_error(&tool_pose_unchecked(self.model, &q), goal);
         let within = !self.opts.respect_limits || self.bounds.within(&q);
         let success = position_error <= self.opts.tol_position && rotation_error <= self.opts.tol_rotation && within;
         IkResult { q, success, iterations: total, restarts, position_error, rotation_error }
