@@ -160,6 +160,27 @@ def compliance_units(kinds) -> list:
     return ["rad/(N m)" if k == "revolute" else "m/N" for k in kinds]
 
 
+def checked_compliance(robot) -> np.ndarray | None:
+    """A Robot's compliances (n,) SI, checked as a robot file's ``[compliance]`` is (a Robot built in Python too): one
+    per joint, finite and >= 0 (a joint gives way under its torque); None for rigid joints."""
+    if robot.compliance is None:
+        return None
+    k = np.asarray(robot.compliance, dtype=float)
+    kinds = list(robot.table.kinds)
+    if k.shape != (len(kinds),):
+        raise DenavitError(
+            f"{robot.name}: compliance: expected {len(kinds)} values (one per joint), got shape {k.shape}"
+        )
+    bad = np.flatnonzero(~(k >= 0) | ~np.isfinite(k))
+    if bad.size:
+        j = bad[0]
+        raise DenavitError(
+            f"{robot.name}: compliance: joint {j + 1} ({robot.names[j]}): expected a compliance >= 0 "
+            f"(a joint gives way under its torque), got {k[j]:g} {compliance_units(kinds)[j]}"
+        )
+    return k
+
+
 def considered(meas, robot, compliance) -> tuple[bool, str | None]:
     """(whether the calibration models joint compliance, the one-line note why not where it was asked or implied)."""
     if compliance is False:
@@ -192,7 +213,8 @@ def with_compliance(pz: Parametrization, meas, robot, compliance) -> tuple[Param
     tmax = np.max(np.abs(tau), axis=0)
     P = pz.n_params
     show = [j for j in range(n) if tmax[j] > TORQUE_FLOOR * max(tmax.max(), 1e-300)]
-    k0 = np.zeros(n) if robot.compliance is None else np.asarray(robot.compliance, dtype=float)
+    k0 = checked_compliance(robot)
+    k0 = np.zeros(n) if k0 is None else k0
     names = list(pz.names) + [f"k_{j + 1}" for j in range(n)]
     units = list(pz.units) + compliance_units(kinds)
     scales = [pz.names.index(f"scale_{j + 1}") if f"scale_{j + 1}" in pz.names else -1 for j in range(n)]
@@ -331,14 +353,15 @@ def elastic(identified) -> Elastic | None:
     from ..robot import Robot  # noqa: PLC0415
 
     if isinstance(identified, Robot):
-        if identified.compliance is None or not np.any(np.asarray(identified.compliance) > 0):
+        k = checked_compliance(identified)
+        if k is None or not np.any(k > 0):
             return None
         if identified.inertials is None:
             raise DenavitError(
                 f"{identified.name}: joint compliances without the links' inertial parameters: no gravity torques to deflect under"
             )
         return Elastic(
-            np.asarray(identified.compliance, dtype=float),
+            k,
             identified.model(),
             identified.compliance_covariance,
             None,

@@ -49,7 +49,10 @@ def read_measurements(
       frame on a ``# nest: x1,y1,z1; x2,y2,z2; ...`` line (length unit), read as a
       :class:`~denavit.calibration.targets.TargetMeasurements` (calibrate fits them in one, validate scores them).
     * JSON: ``{"units": {...}, "q": [[...]], "points": [[x, y, z]...]}`` (or ``"poses"``: 4x4 matrices with
-      translations in length units), or a sweep JSON (``"sweeps"``).
+      translations in length units), or a sweep JSON (``"sweeps"``). A payload (the CSV's payload columns):
+      ``"payload_mass"`` (one number, or one per pose, in ``"units"``' ``"mass"``, which must then be declared) and
+      ``"payload_com"`` (``[x, y, z]`` in the flange frame, or one per pose, length unit):
+      :func:`denavit.io.sweeps.json_payload`.
     """
     p = Path(path)
     if p.suffix.lower() == ".json":
@@ -71,6 +74,7 @@ def read_measurements(
             return _from_sweep_file(p, length, angle, kinds)
     ls, as_, need, idx, hline = lay.ls, lay.as_, lay.need, lay.idx, lay.hline
     qn, rot, extra, pay = lay.qn, lay.rot, lay.extra, lay.pay
+    mu = lay.units.get("mass", "kg")  # the payload's mass unit: the file's declared, else kg
     if got is not None:
         table = got[0]  # the columns of `need`, in its order
         where = sw.FileLines(str(p), head.line + np.arange(len(table)))
@@ -83,7 +87,7 @@ def read_measurements(
             dl.far(pts[r, c], f"{where[r]}: column {'xyz'[c]!r}")
         rv = table[:, [at[c] for c in ("rx", "ry", "rz")]] * as_ if rot else []
         more = table[:, [at[c] for c in extra]] * ls if extra else None
-        payload = payload_from_columns(table, {c: at[c] for c in pay}, ls, where) if pay else None
+        payload = payload_from_columns(table, {c: at[c] for c in pay}, ls, where, mu) if pay else None
         if extra and (np.abs(more) > dl.MAX_LENGTH).any():
             r, c = np.argwhere(np.abs(more) > dl.MAX_LENGTH)[0]
             dl.far(more[r, c], f"{where[r]}: column {extra[c]!r}")
@@ -106,7 +110,11 @@ def read_measurements(
             where.append(w)
         payload = (
             payload_from_columns(
-                np.asarray(pays, dtype=float).reshape(len(pays), len(pay)), {c: k for k, c in enumerate(pay)}, ls, where
+                np.asarray(pays, dtype=float).reshape(len(pays), len(pay)),
+                {c: k for k, c in enumerate(pay)},
+                ls,
+                where,
+                mu,
             )
             if pay and pays
             else None
@@ -216,16 +224,22 @@ def _layout(p: Path, lines: list[str], length, angle, kinds) -> _Layout:
     )
 
 
+#: The keys of a measurement JSON file (:func:`read_measurements`).
+JSON_KEYS = ("units", "kinds", "q", "points", "poses", *sw.PAYLOAD_KEYS)
+
+
 def _read_json(p: Path, text: str, length: str | None, angle: str | None, kinds) -> Measurements:
     doc = sw.load_json(text, str(p))
     if not isinstance(doc, dict):
         raise DenavitError(f"{p}: expected a JSON object with 'q' and 'points' or 'poses', got {type(doc).__name__}")
     if "sweeps" in doc:
         return Measurements.from_sweeps(sw.read_json(p, length=length, angle=angle))  # its own "kinds"
-    unknown = [k for k in doc if k not in ("units", "kinds", "q", "points", "poses")]
+    unknown = [k for k in doc if k not in JSON_KEYS]
     if unknown:
+        pay = ", payload_mass, payload_com" if sw.about_payload(doc, unknown) else ""
         raise DenavitError(
-            f"{p}: unknown key(s) {', '.join(map(repr, unknown))[:80]}: expected units, kinds, q, and points or poses"
+            f"{p}: unknown key(s) {', '.join(map(repr, unknown))[:80]}: "
+            f"expected units, kinds, q, and points or poses{pay}"
         )
     declared = doc.get("units") or {}
     if not isinstance(declared, dict):
@@ -248,16 +262,37 @@ def _read_json(p: Path, text: str, length: str | None, angle: str | None, kinds)
     if "poses" in doc:
         T = sw.json_array(doc["poses"], 4, 3, f"{p}: poses")
         T[:, :3, 3] = sw.json_lengths(T[:, :3, 3], ls, f"{p}: poses' translations")
-        return Measurements(q, None, T, str(p), [], units, kinds=kinds)
-    return Measurements(
-        q,
-        sw.json_lengths(sw.json_array(doc.get("points"), 3, 2, f"{p}: points"), ls, f"{p}: points"),
-        None,
-        str(p),
-        [],
-        units,
-        kinds=kinds,
-    )
+        pts = None
+    else:
+        T, pts = None, sw.json_lengths(sw.json_array(doc.get("points"), 3, 2, f"{p}: points"), ls, f"{p}: points")
+    payload = sw.json_payload(doc, len(q), units, ls, f"{p}: ")
+    return Measurements(q, pts, T, str(p), [], units, kinds=kinds, payload=payload)
+
+
+def to_json(meas: Measurements, length: str = "mm", angle: str = "deg") -> dict:
+    """The JSON document of measurements (:func:`read_measurements`; write it with ``json.dumps``, whose numbers read
+    back as the same doubles in the file's units): units, kinds, ``q`` (prismatic joints' readings in the length
+    unit), ``points`` or ``poses`` (4x4, translations in the length unit), the payload as ``payload_mass`` (kg,
+    declared) and ``payload_com`` (length unit; :func:`denavit.io.sweeps.json_payload_doc`)."""
+    if meas.kind not in ("point", "pose") or getattr(meas, "targets", None) is not None:
+        raise DenavitError(
+            f"{meas.source}: measurements of several targets per pose have no JSON form: write them with to_csv"
+        )
+    ls = length_scale(length)
+    qs = joint_scale(meas.kinds or ("revolute",) * meas.nq, length, angle)
+    doc: dict = {"units": {"length": length, "angle": angle}, "kinds": list(meas.kinds or ("revolute",) * meas.nq)}
+    doc["q"] = (np.asarray(meas.q) / qs).tolist()
+    if meas.kind == "pose":
+        T = np.array(meas.poses, dtype=float)
+        T[:, :3, 3] /= ls
+        doc["poses"] = T.tolist()
+    else:
+        doc["points"] = (np.asarray(meas.points) / ls).tolist()
+    pl = getattr(meas, "payload", None)
+    if pl is not None:
+        doc["units"]["mass"] = "kg"
+        doc.update(sw.json_payload_doc(pl, ls))
+    return doc
 
 
 def to_csv(meas: Measurements, length: str = "mm", angle: str = "deg", comment: str = "") -> str:
@@ -285,4 +320,4 @@ def to_csv(meas: Measurements, length: str = "mm", angle: str = "deg", comment: 
     return "\n".join(out) + "\n"
 
 
-__all__ = ["read_measurements", "to_csv"]
+__all__ = ["read_measurements", "to_csv", "to_json"]

@@ -31,7 +31,9 @@ REVOLUTE_UNITS = ("rad", "mrad", "urad", "deg")
 PRISMATIC_UNITS = ("m", "mm", "um")
 #: The mass units of a payload (:data:`denavit.io.units.MASS`).
 MASS_UNITS = ("kg", "g")
-#: The payload columns of a pose file: mass in kg, the centre of mass in the flange frame in the file's length unit.
+#: The payload columns of a pose file: the mass (kg, or the file's declared ``mass`` unit), the centre of mass in the
+#: flange frame in the file's length unit. JSON files carry ``payload_mass`` and ``payload_com`` (``[x, y, z]``)
+#: instead (:func:`denavit.io.sweeps.json_payload`).
 PAYLOAD_COLUMNS = ("payload_mass", "payload_x", "payload_y", "payload_z")
 
 
@@ -192,12 +194,13 @@ def payload_rows(mass: float, com, n: int) -> np.ndarray:
     return np.tile(np.r_[float(mass), np.asarray(com, dtype=float).reshape(3)], (n, 1))
 
 
-def payload_from_columns(table: np.ndarray, cols: dict, ls: float, where) -> np.ndarray:
-    """(N, 4) SI payload rows from a numeric table and ``cols`` (a payload column name -> its index): mass in kg,
-    the centre of mass in the file's length unit (``ls`` m per unit; missing coordinates 0). A negative mass is an
-    error naming its line (``where[i]``)."""
+def payload_from_columns(table: np.ndarray, cols: dict, ls: float, where, mass_unit: str = "kg") -> np.ndarray:
+    """(N, 4) SI payload rows from a numeric table and ``cols`` (a payload column name -> its index): the mass in
+    ``mass_unit`` (the file's declared ``mass``, else kg), the centre of mass in the file's length unit (``ls`` m per
+    unit; missing coordinates 0). A negative mass is an error naming its line (``where[i]``)."""
+    ms = mass_scale(mass_unit, "units: mass")
     out = np.zeros((len(table), 4))
-    out[:, 0] = table[:, cols["payload_mass"]]
+    out[:, 0] = table[:, cols["payload_mass"]] * ms
     for k, c in enumerate(PAYLOAD_COLUMNS[1:], 1):
         if c in cols:
             out[:, k] = table[:, cols[c]] * ls
@@ -205,6 +208,7 @@ def payload_from_columns(table: np.ndarray, cols: dict, ls: float, where) -> np.
     if bad.size:
         i = bad[0]
         raise DenavitError(
-            f"{where[i]}: payload_mass: expected a mass >= 0 kg and a finite centre of mass, got {out[i, 0]:g} kg at {(out[i, 1:] / ls).tolist()}"
+            f"{where[i]}: payload_mass: expected a mass >= 0 {mass_unit} and a finite centre of mass, "
+            f"got {out[i, 0] / ms:g} {mass_unit} at {(out[i, 1:] / ls).tolist()}"
         )
     return out

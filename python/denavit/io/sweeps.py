@@ -28,7 +28,7 @@ from ..sweeps import Sweep, SweepSet
 from . import delimited as dl
 from .payload import PAYLOAD_COLUMNS, payload_from_columns
 from .text import decode, read_bytes, read_text
-from .units import input_units, joint_scale, length_scale, parse_declaration
+from .units import input_units, joint_scale, length_scale, mass_scale, parse_declaration
 
 KINDS = ("revolute", "prismatic")
 
@@ -195,7 +195,13 @@ def read_long_csv(
             )
         rot = poses_of(np.zeros((len(quats), 3)), quats, "quaternion", where)[:, :3, :3]
     payload = (
-        payload_from_columns(pays, {c: i for i, c in enumerate(need[len(need) - npay :])}, ls, FileLines(where, line))
+        payload_from_columns(
+            pays,
+            {c: i for i, c in enumerate(need[len(need) - npay :])},
+            ls,
+            FileLines(where, line),
+            units.get("mass", "kg"),
+        )
         if npay
         else None
     )
@@ -469,13 +475,81 @@ def json_lengths(values: np.ndarray, scale: float, where: str) -> np.ndarray:
     return out
 
 
-def _check_keys(obj: dict, expected: tuple, where: str) -> None:
-    """An object's keys must be expected ones: a misspelt key ("Q" for "q") must not be skipped."""
-    unknown = [k for k in obj if k not in expected]
-    if unknown:
+def json_payload(obj: dict, m: int, units: dict, ls: float, at: str, rows: str = "pose") -> np.ndarray | None:
+    """(m, 4) SI payload rows ``[mass kg, x, y, z m]`` of a JSON object's ``payload_mass`` and ``payload_com``
+    (issue 37), or None without them. ``payload_mass``: one number for all ``m`` rows or a list of one per row, in
+    the declared ``units["mass"]`` (required with a payload: a JSON number has no unit); ``payload_com``: the centre
+    of mass in the flange frame in the length unit (``ls`` m per unit), one ``[x, y, z]`` for all rows or a list of
+    one per row; default the flange origin. ``at`` prefixes the keys in errors (``"s.json: "``, ``"s.json: sweeps[2]."``)."""
+    if "payload_mass" not in obj:
+        if "payload_com" in obj:
+            raise DenavitError(f"{at}payload_com without payload_mass: give the payload's mass with its centre of mass")
+        return None
+    if "mass" not in units:
         raise DenavitError(
-            f"{where}: unknown key(s) {', '.join(map(repr, unknown))[:80]}: expected {', '.join(expected)}"
+            f'{at}payload_mass: the mass unit is not declared: expected "units": {{"mass": "kg"}} (kg or g) '
+            f"with a payload"
         )
+    unit = units["mass"]
+    ms = mass_scale(unit, f"{at}payload_mass: units")
+    value = obj["payload_mass"]
+    if isinstance(value, list):
+        if len(value) != m:
+            raise DenavitError(
+                f"{at}payload_mass: expected one number for every {rows} or a list of {m} (one per {rows}), "
+                f"got {_show(value)}"
+            )
+        mass = np.array([dl.as_number(v, f"{at}payload_mass[{i}]") for i, v in enumerate(value)])
+    else:
+        mass = np.full(m, dl.as_number(value, f"{at}payload_mass"))
+    bad = np.flatnonzero(~(mass >= 0))
+    if bad.size:
+        place = f"payload_mass[{bad[0]}]" if isinstance(value, list) else "payload_mass"
+        raise DenavitError(f"{at}{place}: expected a mass >= 0 {unit}, got {mass[bad[0]]:g} {unit}")
+    out = np.zeros((m, 4))
+    out[:, 0] = mass * ms
+    com = obj.get("payload_com")
+    if com is not None:
+        per_row = isinstance(com, list) and bool(com) and isinstance(com[0], list)
+        if per_row and len(com) != m:
+            raise DenavitError(
+                f"{at}payload_com: expected one [x, y, z] for every {rows} or a list of {m} (one per {rows}), "
+                f"got {_show(com)}"
+            )
+        c = json_array(com, 3, 2 if per_row else 1, f"{at}payload_com")
+        out[:, 1:] = json_lengths(c.reshape(-1, 3), ls, f"{at}payload_com")
+    return out
+
+
+def json_payload_doc(payload: np.ndarray, ls: float) -> dict:
+    """The ``payload_mass`` (kg) and ``payload_com`` (length unit, ``ls`` m per unit) keys of (m, 4) SI payload rows
+    (:func:`json_payload`): each one value for all rows when it is the same in all, else one per row; no
+    ``payload_com`` at the flange origin."""
+    pl = np.asarray(payload, dtype=float)
+    mass, com = pl[:, 0], pl[:, 1:] / ls
+    d: dict = {"payload_mass": float(mass[0]) if np.all(mass == mass[0]) else mass.tolist()}
+    if np.any(com != 0):
+        d["payload_com"] = com[0].tolist() if np.all(com == com[0]) else com.tolist()
+    return d
+
+
+#: The payload's keys of a JSON pose or sweep object (:func:`json_payload`).
+PAYLOAD_KEYS = ("payload_mass", "payload_com")
+
+
+def about_payload(obj: dict, unknown: list) -> bool:
+    """Whether an unknown-key message should name :data:`PAYLOAD_KEYS` too: the object gives a payload, or an unknown
+    key is about one (``"payload_mas"``); other objects' messages list only the keys they use."""
+    return any(k in obj for k in PAYLOAD_KEYS) or any("payload" in str(k).lower() for k in unknown)
+
+
+def _check_keys(obj: dict, expected: tuple, where: str, optional: tuple = ()) -> None:
+    """An object's keys must be expected ones (or ``optional``, named where :func:`about_payload`): a misspelt key
+    ("Q" for "q") must not be skipped."""
+    unknown = [k for k in obj if k not in expected + optional]
+    if unknown:
+        named = expected + (optional if about_payload(obj, unknown) else ())
+        raise DenavitError(f"{where}: unknown key(s) {', '.join(map(repr, unknown))[:80]}: expected {', '.join(named)}")
 
 
 def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str | None = None) -> SweepSet:
@@ -486,7 +560,9 @@ def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str 
     One sweep per joint; ``"targets"`` instead of ``"points"`` when 2-4 targets are measured per pose (the same number
     in every sweep; ``"nest"`` their positions in the tool frame, one per target), ``"quaternions"`` a 6-DoF pose's
     orientation per row (unit, scalar first; in every sweep or in none): what the long-form CSV carries as x2..zk,
-    ``# nest:`` and qw..qz. Every number finite; errors name the file and the place (e.g. ``sweeps[2].q[3][1]``).
+    ``# nest:`` and qw..qz. The payload (the CSV's payload_mass, payload_x..z; in every sweep or in none):
+    ``"payload_mass"`` in ``"units"``' ``"mass"`` and ``"payload_com"`` in the length unit, for the sweep or per point
+    (:func:`json_payload`). Every number finite; errors name the file and the place (e.g. ``sweeps[2].q[3][1]``).
     ``"units"`` wins; ``length`` / ``angle`` fill what it does not give.
     """
     where = str(path)
@@ -520,12 +596,12 @@ def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str 
         )
     rows: dict[int, Sweep] = {}
     first: dict[int, int] = {}
-    k_first = poses_first = None  # (targets per pose, sweep index), (has quaternions, sweep index) of sweeps[0]
+    k_first = poses_first = pay_first = None  # (targets per pose / has quaternions / has a payload, sweep index)
     for k, s in enumerate(sweeps):
         at = f"{where}: sweeps[{k}]"
         if not isinstance(s, dict):
             raise DenavitError(f'{at}: expected an object {{"joint": ..., "points": ...}}, got {_show(s)}')
-        _check_keys(s, ("joint", "points", "targets", "q", "quaternions"), at)
+        _check_keys(s, ("joint", "points", "targets", "q", "quaternions"), at, PAYLOAD_KEYS)
         j = s.get("joint")
         if isinstance(j, bool) or not isinstance(j, int) or not 1 <= j <= n:
             raise DenavitError(f"{at}: joint index out of range: expected an integer 1..{n}, got {_show(j)}")
@@ -579,8 +655,17 @@ def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str 
             from .recordings.columns import poses_of  # noqa: PLC0415 (scipy's rotations)
 
             rot = poses_of(np.zeros((m, 3)), quat, "quaternion", at)[:, :3, :3]
+        pay_first = ("payload_mass" in s, k) if pay_first is None else pay_first
+        if ("payload_mass" in s) != pay_first[0]:
+            has, hasnt = (k, pay_first[1]) if "payload_mass" in s else (pay_first[1], k)
+            raise DenavitError(
+                f"{at}: sweeps[{has}] has 'payload_mass', sweeps[{hasnt}] has none: "
+                "expected the payload in every sweep or in none"
+            )
+        payload = json_payload(s, m, units, ls, f"{at}.", "point")
         pts = np.ascontiguousarray(tg[:, 0])
-        rows[j] = Sweep(j, pts, q, [f"{at}.{key}[{i}]" for i in range(m)], tg if tg.shape[1] > 1 else None, rot)
+        where_k = [f"{at}.{key}[{i}]" for i in range(m)]
+        rows[j] = Sweep(j, pts, q, where_k, tg if tg.shape[1] > 1 else None, rot, payload)
         first[j] = k
     nest = None
     if doc.get("nest") is not None:
@@ -610,7 +695,8 @@ WRITE_ROWS = 50_000
 
 def to_long_csv(sweeps: SweepSet, length: str = "mm", angle: str = "deg", header_comment: str = "") -> str:
     """The long-form CSV text of a sweep set (units declared in a comment line; several targets per pose as
-    columns x2, y2, z2, ... and their nest as a ``# nest:`` line; 6-DoF poses as a unit quaternion qw, qx, qy, qz).
+    columns x2, y2, z2, ... and their nest as a ``# nest:`` line; 6-DoF poses as a unit quaternion qw, qx, qy, qz;
+    a payload on every sweep as payload_mass (kg), payload_x, payload_y, payload_z).
 
     Numbers are written in the shortest form that reads back as the same double (in the file's units; Arrow's
     formatting, at C speed, :func:`write_long_csv`)."""
@@ -650,7 +736,9 @@ def _long_csv(sweeps: SweepSet, pieces, length: str, angle: str, header_comment:
     out.write(f"# units: length={length} angle={angle}\n")
     if sweeps.nest is not None:
         out.write("# nest: " + "; ".join(",".join(f"{v:.17g}" for v in p / ls) for p in sweeps.nest) + "\n")
+    pay = bool(sweeps.sweeps) and all(s.payload is not None for s in sweeps.sweeps)  # kg: the declared default
     extra = [f"{a}{t}" for t in range(2, k + 1) for a in "xyz"] + list(QUATERNION if rot else ())
+    extra += list(PAYLOAD_COLUMNS if pay else ())
     csv.writer(out, lineterminator="\n").writerow(
         ["joint", *[f"q{i}" for i in range(1, sweeps.n_joints + 1)], "x", "y", "z", *extra]
     )
@@ -665,6 +753,9 @@ def _long_csv(sweeps: SweepSet, pieces, length: str, angle: str, header_comment:
                 q = s.q[a : a + WRITE_ROWS]
                 p = s.targets[a : a + WRITE_ROWS].reshape(len(q), 3 * k) if k > 1 else s.points[a : a + WRITE_ROWS]
                 quat = _quaternions(s.rotations[a : a + WRITE_ROWS]) if rot else np.zeros((len(q), 0))
+                if pay:  # the payload's columns after the quaternion's
+                    pl = s.payload[a : a + WRITE_ROWS]
+                    quat = np.hstack([quat, pl[:, :1], pl[:, 1:] / ls])
                 ahead.append(pool.submit(_rows_text, s.joint, q / qscale, p / ls, quat))
                 while len(ahead) > threads:
                     yield ahead.pop(0).result()
@@ -699,7 +790,8 @@ def _quaternions(R: np.ndarray) -> np.ndarray:
 def to_json(sweeps: SweepSet, length: str = "mm", angle: str = "deg") -> dict:
     """The sweep JSON document of a sweep set (:func:`read_json`; write it with ``json.dumps``, whose numbers read back
     as the same doubles in the file's units): its units, home, kinds, nest; per sweep the points (several targets per
-    pose: ``"targets"``), the joint readings when recorded, a 6-DoF pose's orientation as ``"quaternions"``."""
+    pose: ``"targets"``), the joint readings when recorded, a 6-DoF pose's orientation as ``"quaternions"``, the
+    payload as ``"payload_mass"`` (kg, declared) and ``"payload_com"`` (:func:`json_payload_doc`)."""
     ls = length_scale(length)
     qscale = joint_scale(sweeps.kinds, length, angle)
     doc = {
@@ -720,6 +812,9 @@ def to_json(sweeps: SweepSet, length: str = "mm", angle: str = "deg") -> dict:
             d["q"] = (s.q / qscale).tolist()
         if s.rotations is not None:
             d["quaternions"] = _quaternions(s.rotations).tolist()
+        if s.payload is not None:
+            d.update(json_payload_doc(s.payload, ls))
+            doc["units"]["mass"] = "kg"
         out.append(d)
     doc["sweeps"] = out
     return doc
