@@ -74,7 +74,7 @@ pub(crate) fn with_flag<R>(flag: &'static std::thread::LocalKey<Cell<bool>>, f: 
 
 /// The most threads a call may ask for: 4 per core of this machine (more only adds threads waiting for a core;
 /// every count asked for keeps its pool for the life of the process). The core count is read once: on Linux
-/// `available_parallelism` reads the cgroup files, about 25 us a call.
+/// `available_parallelism` reads the cgroup files at every call.
 pub fn max_threads() -> usize {
     static MAX: OnceLock<usize> = OnceLock::new();
     *MAX.get_or_init(|| 4 * std::thread::available_parallelism().map_or(1, |n| n.get()))

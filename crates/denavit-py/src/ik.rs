@@ -188,10 +188,10 @@ pub(crate) fn options(
     Ok(opts)
 }
 
-/// Whether solving `goals` goals with `opts` runs interruptibly ([`crate::signals`]): when the budget
-/// may take about a second (at about 0.2 us per joint and iteration: an unreachable goal runs all of it),
-/// or the goals are many enough that a thread start costs little beside even quick solves (about 1.5 us
-/// each). The default budget of one goal (5,100 iterations) is not long.
+/// Whether solving `goals` IK goals with `opts` runs interruptibly ([`crate::signals`]): when the budget may take
+/// about a second (an unreachable goal runs all of it; the cost per joint and iteration is in docs/speed.md), or
+/// the goals are many enough that a thread start costs little beside even quick solves. The default budget of
+/// one goal (5,100 iterations) is not long.
 pub(crate) fn long_solve(model: &denavit_core::Model, opts: &IkOptions, goals: usize) -> bool {
     let worst_ns = 0.2e3 * (opts.max_iterations as f64) * (opts.restarts as f64 + 1.0) * (goals as f64) * (model.nq().max(1) as f64);
     goals >= 1000 || crate::signals::long(worst_ns / 500.0)

@@ -6,8 +6,7 @@
 //! taking the GIL back every [`POLL`] to run the handlers (`PyErr_CheckSignals`). When a handler raises,
 //! the core is asked to stop (`denavit_core::parallel::interrupt`: every batch and solve checks at each
 //! chunk or iteration), the helper is joined, and the handler's exception (KeyboardInterrupt) is raised.
-//! A short call runs on the calling thread as before: a thread start (about 20 us) would cost more than the
-//! call itself.
+//! A short call runs on the calling thread as before: a thread start would cost more than the call itself.
 
 use pyo3::prelude::*;
 use std::sync::mpsc::{sync_channel, RecvTimeoutError};

@@ -129,8 +129,8 @@ def dumps(model: _core.Model, nominal: _core.Table) -> str:
     return "\n".join(lines) + "\n"
 
 
-#: The largest kinematics-parameters file read (characters): the one ur_calibration writes is about 1 kB; a
-#: 3.4 MB fuzzed file had taken over 10 s of CPU in PyYAML's pure-Python loader (libyaml's overflows the C stack).
+#: The largest kinematics-parameters file read (characters): the one ur_calibration writes is about 1 kB; PyYAML's
+#: pure-Python loader is slow on fuzzed files of megabytes (docs/speed.md) and libyaml's overflows the C stack.
 MAX_CHARS = 1_000_000
 
 

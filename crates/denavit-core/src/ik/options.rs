@@ -36,7 +36,7 @@ impl IkMethod {
 }
 
 /// The most iterations one IK attempt may take (docs/cli.md, Limits): far beyond convergence (LM and Newton
-/// converge in tens), and a budget that still ends (an unreachable goal of a 6R arm, 1 us an iteration).
+/// converge in tens), and a budget that still ends in seconds on an unreachable goal of a 6R arm (docs/speed.md).
 pub const MAX_ITERATIONS: usize = 1_000_000;
 /// The most restarts one IK solve may take (docs/cli.md, Limits).
 pub const MAX_RESTARTS: usize = 1_000_000;

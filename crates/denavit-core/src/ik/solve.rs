@@ -25,9 +25,8 @@ pub(super) type MetSeed = ([f64; 7], f64, f64);
 pub(super) const STEP7: f64 = 1.6;
 
 /// Times the samples of q7 are refined (the values halfway between the previous ones) when no branch of the coarser
-/// ones meets the tolerance: down to 0.1 rad apart. One attempt on 1,000 random reachable goals of the Panda
-/// (tests/ik.rs, within the limits): steps of 0.1 rad from the start 998 solved at a mean 35 us, of 1.6 rad
-/// refined 4 times 998 at 2.2 us, of 3.2 rad refined 3 times (down to 0.4 rad) 995 at 2.1 us.
+/// ones meets the tolerance: down to 0.1 rad apart, which solves as many goals as sampling every 0.1 rad from the
+/// start at a small part of its cost (docs/speed.md).
 pub(super) const REFINE7: u32 = 4;
 
 /// Most branches of a 7R arm's samples held at once, ranked by their distance from `q0`.

@@ -153,7 +153,7 @@ def _precheck(path: Path, root) -> _Where:
         raise DenavitError(f"{path}: <robot> (line {root.sourceline}) has no name attribute")
     from ... import limits  # noqa: PLC0415
 
-    for tag in ("link", "joint"):  # counted before yourdfpy builds its objects (2 x 10^4 links had taken 12 s)
+    for tag in ("link", "joint"):  # counted before yourdfpy builds its objects (slow on huge files: docs/speed.md)
         limits.check_size(sum(1 for _ in root.iterchildren(tag)), "urdf_links", str(path), f"<{tag}> elements")
     where = _Where(path, root)
     seen: dict[tuple[str, str], int] = {}
