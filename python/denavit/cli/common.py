@@ -181,7 +181,12 @@ COMMANDS = {
         "calibrate",
         "Calibrate the whole model from measured points or poses at known joint readings (one least-squares fit).",
     ),
-    "check": ("check", "Check a robot against its registered model with a few measured poses (chi-square test)."),
+    "check": (
+        "check",
+        "Check a robot against its registered model with a few measured poses: a chi-square test of the residuals "
+        "against the model's own covariance and the tracker noise, at a stated false-alarm rate. Exit code 1 when the "
+        "robot has changed. A registered robot's check is recorded in the registry.",
+    ),
     "compensate": (
         "compensate",
         'Compensate a program (RoboDK\'s "filtering"): for each target, the joint values that reach it on the '
@@ -194,7 +199,10 @@ COMMANDS = {
         "dynamics",
         "Inverse dynamics (recursive Newton-Euler): the joint torques (N m) / forces (N) for q, qd, qdd.",
     ),
-    "fleet": ("fleet", "Every robot's calibrations in one registry: fleet add | run | status | diff | export."),
+    "fleet": (
+        "fleet",
+        "Every robot's calibrations in one registry: fleet add | run | status | diff | export (fleet --help).",
+    ),
     "fk": ("fk", "Forward kinematics: the tool pose and every joint frame (T_world_joint)."),
     "identify": (
         "identify",
