@@ -344,6 +344,7 @@ def select_model(
     x_full,
     sol_full,
     compliance: list = (),
+    progress=None,
 ) -> ModelChoice:
     """Fit the candidate models (``model="auto"``) or the one asked for, score each by its leave-one-pose-out
     tool-position error, and choose (module docstring).
@@ -353,7 +354,8 @@ def select_model(
     ``sol_full``: the least-squares fit of ``kept``; ``s2``: the noise variance in the whitened units (1 when
     known), which weighs the priors against the data; ``compliance``: the joint compliances the data may show
     (indices; :mod:`~denavit.calibration.compliance`): with them ``auto`` fits the ``+compliance`` family too
-    (:func:`choose_families`).
+    (:func:`choose_families`); ``progress``: called as ``progress(name, k, count)`` before candidate ``k`` of
+    ``count`` is fitted.
     """
     if model not in MODELS:
         raise DenavitError(f"model: expected one of {', '.join(MODELS)}, got {model!r}")
@@ -377,7 +379,9 @@ def select_model(
     out = []
     x_map = None
     fitted = {}
-    for name in want:
+    for k, name in enumerate(want):
+        if progress is not None:
+            progress(name, k, len(want))
         if name.endswith(COMPLIANCE):
             c = _fit_compliant(name, pz, train, w, sets, fitted, compliance, x_reg, x_full, sigma, s2)
             if c is not None:

@@ -61,6 +61,7 @@ def calibrate(
     prior=None,
     payload=None,
     compliance=None,
+    progress=None,
 ) -> Calibration:
     """Fit the whole kinematic model to measured tool points or poses (one least-squares problem).
 
@@ -120,6 +121,9 @@ def calibrate(
         when the data declare a payload, True always (both need the nominal's link inertials: without them a note
         says why), False never. Considered, ``auto`` also fits the ``+compliance`` candidates, which must predict
         better by more than a paired standard error to be chosen.
+    progress : callable, optional
+        Called as ``progress(message, fraction)`` as each stage starts: a short message and the fraction of the work
+        done before it (0 to 1), as :func:`denavit.identification.identify`'s.
 
     Returns
     -------
@@ -149,13 +153,20 @@ def calibrate(
     robot = robot_of(nominal)
     _check_options(meas, robot, loss, holdout, model, start, noise, noise_rot)
     prior_spec = as_prior(robot.prior if prior is None and robot.prior else prior)  # an explicit prior wins
+    report = progress or (lambda _msg, _fraction: None)
     run = _Run(meas, robot, convention, tool, scale, noise, noise_rot, tracker_noise, payload, compliance, fix)
     run.split(holdout, seed)
+    report(f"registering the measurement frame ({meas.n} poses)", 0.0)
     run.register()
+    report("which parameters the data identify", 0.1)
     run.identifiability()
+    report("fitting every identifiable parameter", 0.2)
     run.fit(start, convention)
-    run.choose(model, prior_spec)
-    return run.result(loss, f_scale, t0)
+    run.choose(model, prior_spec, report)
+    report("covariance, held-out errors and notes", 0.9)
+    result = run.result(loss, f_scale, t0)
+    report("done", 1.0)
+    return result
 
 
 class _Run:
@@ -213,8 +224,9 @@ class _Run:
         # weighs the priors against the data
         self.s2_full = 1.0 if self.known else float(np.sum(r**2)) / max(len(r) - len(self.ana.kept_idx), 1)
 
-    def choose(self, model: str, prior_spec) -> None:
-        """What is free: the candidate models scored by leave-one-pose-out prediction (selection.py)."""
+    def choose(self, model: str, prior_spec, report) -> None:
+        """What is free: the candidate models scored by leave-one-pose-out prediction (selection.py); ``report``
+        (message, fraction) says which candidate is fitted, from 0.35 to 0.9 of the work."""
         self.prior_spec = prior_spec
         self.choice = select_model(
             model,
@@ -230,6 +242,7 @@ class _Run:
             x_full=self.x_hat,
             sol_full=self.sol,
             compliance=self.comp,
+            progress=lambda name, k, count: report(f"model {name} ({k + 1} of {count})", 0.35 + 0.55 * k / count),
         )
 
     def result(self, loss: str, f_scale, t0: float) -> Calibration:

@@ -237,10 +237,11 @@ def calibrate(
     pl = None if payload is None else parse_payload(payload, length)
     with status(
         f"calibrating {robot.name} ({convention}) from {meas.n} {'poses' if meas.kind == 'pose' else 'points'}..."
-    ):
+    ) as st:
         res = cal.calibrate(
             meas,
             robot,
+            progress=st.update,
             convention=convention,
             fix=fixes,
             loss=loss,

@@ -52,30 +52,60 @@ PATIENCE = 1.0
 
 @contextmanager
 def status(message: str) -> Iterator:
-    """Say what a step that takes more than :data:`PATIENCE` is doing, on stderr: a spinner on a terminal (its
-    ``update(text)`` shows progress), else one line once the step has lasted that long (a quick step, or an
-    error found at once, prints nothing but its result)."""
+    """Say what a step that takes more than :data:`PATIENCE` is doing, on stderr. Its ``update(text, fraction)``
+    (the ``progress`` callback of :func:`denavit.identify` and :func:`denavit.calibrate`) shows the stage and, given
+    the fraction of the work done, a bar with the percentage and the time left on a terminal (a spinner until
+    then); elsewhere one line, with the percentage, once the step has lasted that long (a quick step, or an error
+    found at once, prints nothing but its result)."""
     if err_console.is_terminal:
-        with err_console.status(message) as s:
-            yield s
+        from rich.progress import (  # noqa: PLC0415
+            BarColumn,
+            Progress,
+            SpinnerColumn,
+            TaskProgressColumn,
+            TextColumn,
+            TimeRemainingColumn,
+        )
+
+        columns = (SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), TaskProgressColumn())
+        with Progress(*columns, TimeRemainingColumn(), console=err_console, transient=True) as bar:
+            yield _Bar(bar, bar.add_task(message, total=None), message)
         return
-    import threading  # noqa: PLC0415
-
-    class _Line:
-        def __init__(self) -> None:
-            self.text = message
-            self.timer = threading.Timer(PATIENCE, lambda: err_console.print(self.text, soft_wrap=True))
-            self.timer.daemon = True
-
-        def update(self, text, *_a, **_k) -> None:
-            self.text = f"{message} {text}" if text else message
-
-    line = _Line()
+    line = _Line(message)
     line.timer.start()
     try:
         yield line
     finally:
         line.timer.cancel()
+
+
+class _Bar:
+    """:func:`status` on a terminal: a rich progress bar, indeterminate until a fraction comes."""
+
+    def __init__(self, bar, task, message: str) -> None:
+        self.bar, self.task, self.message = bar, task, message
+
+    def update(self, text: str = "", fraction: float | None = None) -> None:
+        described = f"{self.message} {text}" if text else self.message
+        if fraction is None:
+            self.bar.update(self.task, description=described)
+        else:
+            self.bar.update(self.task, description=described, total=1.0, completed=min(max(fraction, 0.0), 1.0))
+
+
+class _Line:
+    """:func:`status` elsewhere: one line once the step has lasted :data:`PATIENCE`."""
+
+    def __init__(self, message: str) -> None:
+        import threading  # noqa: PLC0415
+
+        self.message = self.text = message
+        self.timer = threading.Timer(PATIENCE, lambda: err_console.print(self.text, soft_wrap=True))
+        self.timer.daemon = True
+
+    def update(self, text: str = "", fraction: float | None = None) -> None:
+        done = "" if fraction is None else f" ({100 * min(max(fraction, 0.0), 1.0):.0f} %)"
+        self.text = (f"{self.message} {text}" if text else self.message) + done
 
 
 def fmt(v: float, nd: int = 6) -> str:

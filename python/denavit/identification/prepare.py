@@ -22,6 +22,11 @@ from ..sweeps import SweepSet
 LOCKED_TOL = {"revolute": math.radians(0.1), "prismatic": 1e-4}
 
 
+#: The share of an identification's work (for its progress) the per-sweep circle fits take before a joint fit of
+#: every sweep, which takes most of the rest.
+PER_SWEEP_SHARE = 0.3
+
+
 def _locked_notes(sweeps: SweepSet) -> list[str]:
     """Notes on locked joints whose readings leave home beyond ``LOCKED_TOL`` (the fits use only the moving
     joint's readings and assume the others stayed at home)."""
@@ -149,13 +154,17 @@ def _per_sweep(
     method: str,
     loss: str,
     max_sigma: float | None,
-    progress: Callable[[str], None],
+    progress: Callable[[str, float], None],
     tracker: TrackerNoise | None = None,
 ) -> list:
     fits = []
+    share = PER_SWEEP_SHARE if method == "global" else 0.85  # of the work: the joint fit follows, or the parameters
     for k, s in enumerate(sweeps.sweeps):
         where = sweep_where(s, sweeps.source)
-        progress(f"fitting sweep {k + 1} of {len(sweeps.sweeps)} (joint {s.joint}, {len(s.points)} points, {method})")
+        progress(
+            f"fitting sweep {k + 1} of {len(sweeps.sweeps)} (joint {s.joint}, {len(s.points)} points, {method})",
+            share * k / len(sweeps.sweeps),
+        )
         q = s.moving
         if sweeps.kinds[s.joint - 1] == "prismatic":
             fm = "line"

@@ -27,7 +27,15 @@ from .frames import (
     nominal_convention_table,
     origins,
 )
-from .prepare import _drop_dwell, _locked_notes, _per_sweep, _tool_point_geometric, decoupled, sweep_where
+from .prepare import (
+    PER_SWEEP_SHARE,
+    _drop_dwell,
+    _locked_notes,
+    _per_sweep,
+    _tool_point_geometric,
+    decoupled,
+    sweep_where,
+)
 from .result import _DROPPED_TILT, METHODS, ROUND_OFF, Identification
 
 
@@ -47,7 +55,7 @@ def identify(
     rotation_noise: float | None = None,
     tracker_noise: TrackerNoise | tuple | None = None,
     allow_implausible: bool = False,
-    progress: Callable[[str], None] | None = None,
+    progress: Callable[[str, float], None] | None = None,
 ) -> Identification:
     """Identify the joint axes and the parameter table of ``convention`` from ``sweeps``.
 
@@ -97,9 +105,10 @@ def identify(
     allow_implausible : keep a fit that is implausible against the nominal (the axes its mirror image, matching it
         with two joints exchanged, or most pairs of axes far from its: a unit slip, the wrong robot), with a note;
         by default it is an error (issue 16: such fits had come back with small sigmas and no word).
-    progress : called with a short message as each stage starts (the CLI shows it).
+    progress : called as ``progress(message, fraction)`` as each stage starts: a short message and the fraction of
+        the work done before it (0 to 1; the CLI shows a bar with the percentage and the time left).
     """
-    progress = progress or (lambda _msg: None)
+    progress = progress or (lambda _msg, _fraction: None)
     nominal, convention, tracker = _checked(sweeps, method, nominal, loss, max_sigma, convention, tracker_noise)
     coupling = coupling if coupling is not None else (nominal.coupling if nominal is not None else None)
     if coupling is not None:
@@ -147,7 +156,7 @@ def identify(
         )
     p_ref = ex.table.params
     full_cov, cov_all = _with_scales(cov, cov_full, scales)
-    progress(f"{convention} parameters and their sigmas")
+    progress(f"{convention} parameters and their sigmas", 0.9)
     param_cov = _parameter_cov(x, cov_all, ax, sweeps, convention, opts, p_ref, n_rot=len(cov_full) - len(cov))
     sigma = np.sqrt(np.clip(np.diag(param_cov), 0, None))[: p_ref.size].reshape(p_ref.shape)
     _parallel_notes(ex, convention, notes)
@@ -175,6 +184,7 @@ def identify(
         tracker_noise=tracker if joint is not None or method == "geometric" else None,
     )
     _carried_note(result, convention, notes)
+    progress("done", 1.0)
     return result
 
 
@@ -218,7 +228,8 @@ def _fit_axes(sweeps: SweepSet, method: str, loss: str, max_sigma, rotation_nois
     if method == "global":
         what = f"{sweeps.n_targets} targets per pose" if sweeps.n_targets > 1 else "shared tool point"
         progress(
-            f"one fit of all {len(sweeps.sweeps)} sweeps ({what}{', 6-DoF poses' if sweeps.has_rotations else ''})"
+            f"one fit of all {len(sweeps.sweeps)} sweeps ({what}{', 6-DoF poses' if sweeps.has_rotations else ''})",
+            PER_SWEEP_SHARE,
         )
         method, gfits, gcov, gp, grms, joint, scales = _choose(
             sweeps, fits, homes0, R0, loss, notes, chosen, rotation_noise, tracker
