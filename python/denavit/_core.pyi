@@ -413,7 +413,7 @@ def parametrize(
 ) -> dict: ...
 
 class Compensation:
-    """The compensation of N targets: per target the identified and nominal joint values, the command, the flags."""
+    """The compensation of N positions: per position the identified and nominal joint values, the command, the flags."""
     def __init__(
         self,
         q: ArrayLike,
@@ -455,7 +455,7 @@ class Compensation:
 def compensate(
     nominal: Model,
     identified: Model,
-    targets: ArrayLike,
+    positions: ArrayLike,
     q_nominal: ArrayLike | None = None,
     q0: ArrayLike | None = None,
     *,

@@ -1,12 +1,13 @@
-//! Compensation ("filtering" of targets): put an identified model to work on a robot whose controller
+//! Compensation ("filtering" of positions): put an identified model to work on a robot whose controller
 //! keeps its nominal model.
 //!
-//! For a target tool pose `T` (in the robot base's world frame), the identified model tells which joint
-//! values `q` really reach it: `FK_identified(q) = T`. A controller that keeps its nominal model must then
-//! be sent the pose it would compute for those joint values, `T' = FK_nominal(q)`: solving its nominal
-//! inverse kinematics for `T'` it commands `q` (on the same branch), and the robot reaches `T`.
+//! For a position (a row of a robot program: a tool pose `T` in the robot base's world frame), the
+//! identified model tells which joint values `q` really reach it: `FK_identified(q) = T`. A controller
+//! that keeps its nominal model must then be sent the pose it would compute for those joint values,
+//! `T' = FK_nominal(q)`: solving its nominal inverse kinematics for `T'` it commands `q` (on the same
+//! branch), and the robot reaches `T`.
 //!
-//! Each identified solve starts from the nominal solution of the same target (the branch the program was
+//! Each identified solve starts from the nominal solution of the same position (the branch the program was
 //! written for); a solution that leaves it by more than `branch_tol` on any joint is flagged, never kept
 //! silently. In `path` mode the nominal solutions are warm-started along the program ([`ik_path`]), and a
 //! joint step between consecutive nominal solutions larger than `path_jump` is flagged as a branch flip.
@@ -18,13 +19,13 @@ use crate::model::Model;
 use crate::spatial::{Pose, pose_error};
 use rayon::prelude::*;
 
-/// Options of [`compensate`]. `Default`: the IK defaults, independent targets, `branch_tol` 0.1 (rad or m),
+/// Options of [`compensate`]. `Default`: the IK defaults, independent positions, `branch_tol` 0.1 (rad or m),
 /// `path_jump` pi/4.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CompensateOptions {
     /// Options of every IK solve (nominal and identified).
     pub ik: IkOptions,
-    /// Targets form a path: warm-start each nominal solve from the previous solution, flag jumps.
+    /// The positions form a path: warm-start each nominal solve from the previous solution, flag jumps.
     pub path: bool,
     /// Largest `|q_identified - q_nominal|` on any joint (rad / m) that is still the same branch.
     pub branch_tol: f64,
@@ -38,12 +39,12 @@ impl Default for CompensateOptions {
     }
 }
 
-/// The compensation of one target.
+/// The compensation of one position.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Compensation {
-    /// Joint values that reach the target on the identified model (rad / m).
+    /// Joint values that reach the position on the identified model (rad / m).
     pub q: Vec<f64>,
-    /// Joint values of the nominal model for the target (given, or solved).
+    /// Joint values of the nominal model for the position (given, or solved).
     pub q_nominal: Vec<f64>,
     /// `T' = FK_nominal(q)`: the pose to send to a controller that keeps its nominal model.
     pub command: Pose,
@@ -53,13 +54,14 @@ pub struct Compensation {
     pub nominal_reached: bool,
     /// `q` left the nominal solution's branch (some joint differs by more than `branch_tol`).
     pub branch_changed: bool,
-    /// Path mode: the nominal solution jumped from the previous target's by more than `path_jump`.
+    /// Path mode: the nominal solution jumped from the previous position's by more than `path_jump`.
     pub path_jump: bool,
-    /// `|p_identified(q) - p_target|` (m) and the rotation angle (rad): the residual of the identified solve.
+    /// `|p_identified(q) - p|` (m, `p` the position's translation) and the rotation angle (rad): the residual
+    /// of the identified solve.
     pub position_error: f64,
     /// See `position_error`.
     pub rotation_error: f64,
-    /// What the robot would miss without compensation: `FK_identified(q_nominal)` against the target (m).
+    /// What the robot would miss without compensation: `FK_identified(q_nominal)` against the position (m).
     pub before_position: f64,
     /// See `before_position` (rad).
     pub before_rotation: f64,
@@ -79,8 +81,8 @@ fn check_models(nominal: &Model, identified: &Model) -> Result<()> {
     Ok(())
 }
 
-/// Compensate `targets` (`T_world_tool`, world of both models): see the module docs. `q_nominal`: the
-/// nominal joint values of each target (N x n, row-major), when the program was given as joint rows;
+/// Compensate `positions` (`T_world_tool`, world of both models): see the module docs. `q_nominal`: the
+/// nominal joint values of each position (N x n, row-major), when the program was given as joint rows;
 /// otherwise they are solved on the nominal model from `q0` (n values).
 ///
 /// ```
@@ -101,7 +103,7 @@ fn check_models(nominal: &Model, identified: &Model) -> Result<()> {
 pub fn compensate(
     nominal: &Model,
     identified: &Model,
-    targets: &[Pose],
+    positions: &[Pose],
     q_nominal: Option<&[f64]>,
     q0: &[f64],
     opts: &CompensateOptions,
@@ -118,23 +120,23 @@ pub fn compensate(
     check_finite("q0", q0)?;
     let (qn, nominal_ok): (Vec<f64>, Vec<bool>) = match q_nominal {
         Some(q) => {
-            check_len("q_nominal (N x n values)", targets.len() * n, q.len())?;
+            check_len("q_nominal (N x n values)", positions.len() * n, q.len())?;
             check_finite("q_nominal", q)?;
-            (q.to_vec(), vec![true; targets.len()])
+            (q.to_vec(), vec![true; positions.len()])
         }
         None => {
-            let r = if opts.path { ik_path(nominal, targets, q0, &opts.ik)? } else { ik_batch(nominal, targets, q0, &opts.ik)? };
+            let r = if opts.path { ik_path(nominal, positions, q0, &opts.ik)? } else { ik_batch(nominal, positions, q0, &opts.ik)? };
             (r.iter().flat_map(|x| x.q.iter().copied()).collect(), r.iter().map(|x| x.success).collect())
         }
     };
-    for (i, t) in targets.iter().enumerate() {
-        crate::spatial::check_pose(format_args!("target {i}"), t)?;
+    for (i, t) in positions.iter().enumerate() {
+        crate::spatial::check_pose(format_args!("position {i}"), t)?;
     }
     // the identified solve from the nominal solution: no restarts first (stay on its branch), then the
     // options' restarts if that fails
     let first = IkOptions { restarts: 0, ..opts.ik.clone() };
     let out: Vec<Compensation> = crate::parallel::in_pool(|| {
-        targets
+        positions
             .par_iter()
             .enumerate()
             .map_init(
@@ -146,7 +148,7 @@ pub fn compensate(
                 },
                 |(quick, full), (i, t)| {
                     let qn_i = &qn[i * n..(i + 1) * n];
-                    // (targets and q checked above; as IkSolver::solve)
+                    // (positions and q checked above; as IkSolver::solve)
                     let seed = crate::ik::mix_seed(opts.ik.seed, 0);
                     let mut r = quick.solve_unchecked(t, qn_i, seed);
                     if !r.success && opts.ik.restarts > 0 {

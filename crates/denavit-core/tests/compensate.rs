@@ -1,5 +1,5 @@
-//! Compensation: exact models leave targets unchanged, a known error model is undone to 1e-9 m, and
-//! unreachable targets, branch changes and path jumps are flagged.
+//! Compensation: exact models leave positions unchanged, a known error model is undone to 1e-9 m, and
+//! unreachable positions, branch changes and path jumps are flagged.
 
 #![allow(clippy::unwrap_used)] // tests: a failed unwrap is a failed test
 
@@ -37,13 +37,13 @@ fn kr5_pair() -> (Model, Model) {
 }
 
 #[test]
-fn exact_models_leave_targets_unchanged() {
+fn exact_models_leave_positions_unchanged() {
     let (m, _) = kr5_pair();
     let qs = configurations(6, 40);
-    let targets: Vec<Pose> = qs.iter().map(|q| tool_pose(&m, q).unwrap()).collect();
+    let positions: Vec<Pose> = qs.iter().map(|q| tool_pose(&m, q).unwrap()).collect();
     let flat: Vec<f64> = qs.concat();
-    let out = compensate(&m, &m, &targets, Some(&flat), &[0.0; 6], &CompensateOptions::default()).unwrap();
-    for (c, (t, q)) in out.iter().zip(targets.iter().zip(&qs)) {
+    let out = compensate(&m, &m, &positions, Some(&flat), &[0.0; 6], &CompensateOptions::default()).unwrap();
+    for (c, (t, q)) in out.iter().zip(positions.iter().zip(&qs)) {
         assert!(c.reached && !c.branch_changed && !c.path_jump);
         let (dp, dr) = pose_error(&c.command, t);
         assert!(dp < 1e-12 && dr < 1e-12, "{dp} {dr}");
@@ -55,17 +55,17 @@ fn exact_models_leave_targets_unchanged() {
 #[test]
 fn a_known_error_model_is_undone() {
     let (nominal, identified) = kr5_pair();
-    // a program given as the nominal joint values of each target (independent targets), and a smooth path
+    // a program given as the nominal joint values of each position (independent positions), and a smooth path
     // solved on the nominal model along the way
     let rows = configurations(6, 60);
     let path: Vec<Vec<f64>> = (0..60).map(|k| (0..6).map(|j| 0.3 + 0.8 * ((k as f64) * 0.02 + j as f64).sin()).collect()).collect();
     for (qs, is_path) in [(&rows, false), (&path, true)] {
-        let targets: Vec<Pose> = qs.iter().map(|q| tool_pose(&nominal, q).unwrap()).collect();
+        let positions: Vec<Pose> = qs.iter().map(|q| tool_pose(&nominal, q).unwrap()).collect();
         let flat = qs.concat();
         let given = if is_path { None } else { Some(flat.as_slice()) };
         let opts = CompensateOptions { path: is_path, ..Default::default() };
-        let out = compensate(&nominal, &identified, &targets, given, &qs[0], &opts).unwrap();
-        for (c, t) in out.iter().zip(&targets) {
+        let out = compensate(&nominal, &identified, &positions, given, &qs[0], &opts).unwrap();
+        for (c, t) in out.iter().zip(&positions) {
             assert!(c.reached && c.nominal_reached && !c.branch_changed && !c.path_jump, "{c:?}");
             assert!(c.before_position > 1e-4, "the error model moves the tool: {}", c.before_position);
             // the robot (= identified) runs what a nominal controller makes of the command
@@ -78,7 +78,7 @@ fn a_known_error_model_is_undone() {
 }
 
 #[test]
-fn unreachable_targets_and_branch_changes_are_flagged() {
+fn unreachable_positions_and_branch_changes_are_flagged() {
     let nominal = builtin_planar2(1.0, 1.0);
     let reach = tool_pose(&nominal, &[0.3, 0.8]).unwrap();
     let far = trans(5.0, 0.0, 0.0) * reach;

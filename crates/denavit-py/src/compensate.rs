@@ -1,4 +1,4 @@
-//! Compensation of targets (denavit_core::compensate): batch, without the GIL, on every core.
+//! Compensation of positions (denavit_core::compensate): batch, without the GIL, on every core.
 
 use crate::convert::{check_len, out, poses, poses_out, shaped, Int};
 use crate::error::IntoPy;
@@ -9,7 +9,7 @@ use numpy::{PyArray1, PyArray2, PyArray3};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 
-/// The compensation of N targets (denavit_core::compensate): per target the identified model's joint
+/// The compensation of N positions (denavit_core::compensate): per position the identified model's joint
 /// values, the nominal ones, the pose to send to a nominal controller, and the flags.
 #[pyclass(module = "denavit._core", name = "Compensation", frozen)]
 pub struct PyCompensation {
@@ -32,7 +32,7 @@ impl PyCompensation {
 
 #[pymethods]
 impl PyCompensation {
-    /// The per-target arrays of the getters, N rows each (q, q_nominal (N, n); commands (N, 4, 4); the rest (N,)).
+    /// The per-position arrays of the getters, N rows each (q, q_nominal (N, n); commands (N, 4, 4); the rest (N,)).
     #[new]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -52,11 +52,11 @@ impl PyCompensation {
         let (count, n) = (qs[0], qs[1]);
         let (qn, _) = shaped("q_nominal", q_nominal, &[Some(count), Some(n)])?;
         let commands = poses("commands", commands)?;
-        check_len("commands (one per target)", count, commands.len())?;
+        check_len("commands (one per position)", count, commands.len())?;
         for (what, len) in
             [("reached", reached.len()), ("nominal_reached", nominal_reached.len()), ("branch_changed", branch_changed.len()), ("path_jump", path_jump.len())]
         {
-            check_len(&format!("{what} (one per target)"), count, len)?;
+            check_len(&format!("{what} (one per position)"), count, len)?;
         }
         for (what, len) in [
             ("position_error", position_error.len()),
@@ -64,7 +64,7 @@ impl PyCompensation {
             ("before_position", before_position.len()),
             ("before_rotation", before_rotation.len()),
         ] {
-            check_len(&format!("{what} (one per target)"), count, len)?;
+            check_len(&format!("{what} (one per position)"), count, len)?;
         }
         let rows = (0..count)
             .map(|i| core_comp::Compensation {
@@ -106,12 +106,12 @@ impl PyCompensation {
     fn __len__(&self) -> usize {
         self.rows.len()
     }
-    /// (N, n) joint values that reach each target on the identified model (rad / m).
+    /// (N, n) joint values that reach each position on the identified model (rad / m).
     #[getter]
     fn q<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         self.joints(py, |r| &r.q)
     }
-    /// (N, n) the nominal model's joint values of each target (given or solved).
+    /// (N, n) the nominal model's joint values of each position (given or solved).
     #[getter]
     fn q_nominal<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         self.joints(py, |r| &r.q_nominal)
@@ -136,7 +136,7 @@ impl PyCompensation {
     fn branch_changed<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<bool>> {
         self.flags(py, |r| r.branch_changed)
     }
-    /// (N,) path mode: the nominal solution jumped by more than path_jump from the previous target's.
+    /// (N,) path mode: the nominal solution jumped by more than path_jump from the previous position's.
     #[getter]
     fn path_jump<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<bool>> {
         self.flags(py, |r| r.path_jump)
@@ -151,7 +151,7 @@ impl PyCompensation {
     fn rotation_error<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
         self.floats(py, |r| r.rotation_error)
     }
-    /// (N,) what the robot would miss uncompensated: |p_identified(q_nominal) - p_target| (m).
+    /// (N,) what the robot would miss uncompensated: |p_identified(q_nominal) - p| (m, p the position's translation).
     #[getter]
     fn before_position<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
         self.floats(py, |r| r.before_position)
@@ -163,23 +163,23 @@ impl PyCompensation {
     }
     fn __repr__(&self) -> String {
         let bad = self.rows.iter().filter(|r| !r.reached || r.branch_changed || r.path_jump).count();
-        format!("Compensation({} targets, {} flagged)", self.rows.len(), bad)
+        format!("Compensation({} positions, {} flagged)", self.rows.len(), bad)
     }
 }
 
-/// Compensate targets (N, 4, 4) `T_world_tool` for a controller that keeps `nominal` while the robot is
+/// Compensate positions (N, 4, 4) `T_world_tool` for a controller that keeps `nominal` while the robot is
 /// `identified` (denavit_core::compensate). `q_nominal` (N, n): the program's nominal joint values, if it
 /// was given as joint rows (else solved on the nominal model from q0). `path`: warm-start along the program
 /// and flag jumps larger than `path_jump`; `branch_tol` (rad / m): largest joint change that keeps the branch.
 /// IK options as in `ik_batch`. Releases the GIL; every core.
 #[pyfunction]
-#[pyo3(signature = (nominal, identified, targets, q_nominal=None, q0=None, *, path=false, branch_tol=0.1, path_jump=std::f64::consts::FRAC_PI_4, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=Int(Ok(100)), restarts=Int(Ok(50)), seed=Int(Ok(0)), respect_limits=true, damping=0.1))]
+#[pyo3(signature = (nominal, identified, positions, q_nominal=None, q0=None, *, path=false, branch_tol=0.1, path_jump=std::f64::consts::FRAC_PI_4, method="lm", tol_position=1e-10, tol_rotation=1e-10, max_iterations=Int(Ok(100)), restarts=Int(Ok(50)), seed=Int(Ok(0)), respect_limits=true, damping=0.1))]
 #[allow(clippy::too_many_arguments)]
 pub fn compensate(
     py: Python<'_>,
     nominal: &PyModel,
     identified: &PyModel,
-    targets: &Bound<'_, PyAny>,
+    positions: &Bound<'_, PyAny>,
     q_nominal: Option<&Bound<'_, PyAny>>,
     q0: Option<&Bound<'_, PyAny>>,
     path: bool,
@@ -195,14 +195,14 @@ pub fn compensate(
     damping: f64,
 ) -> PyResult<PyCompensation> {
     let ik = options(method, tol_position, tol_rotation, max_iterations, restarts, seed, respect_limits, damping)?;
-    let targets = poses("targets", targets)?;
+    let positions = poses("positions", positions)?;
     let n = nominal.inner.nq();
-    let qn = q_nominal.map(|a| shaped("q_nominal", a, &[Some(targets.len()), Some(n)]).map(|(v, _)| v)).transpose()?;
+    let qn = q_nominal.map(|a| shaped("q_nominal", a, &[Some(positions.len()), Some(n)]).map(|(v, _)| v)).transpose()?;
     let q0 = start(nominal, q0, "q0")?;
     let (a, b) = (nominal.inner.clone(), identified.inner.clone());
     let opts = CompensateOptions { ik, path, branch_tol, path_jump };
-    let long = crate::ik::long_solve(&b, &opts.ik, 2 * targets.len());
-    let rows = crate::signals::without_gil(py, long, move || core_comp::compensate(&a, &b, &targets, qn.as_deref(), &q0, &opts))?.py()?;
+    let long = crate::ik::long_solve(&b, &opts.ik, 2 * positions.len());
+    let rows = crate::signals::without_gil(py, long, move || core_comp::compensate(&a, &b, &positions, qn.as_deref(), &q0, &opts))?.py()?;
     Ok(PyCompensation { rows, n })
 }
 
