@@ -186,7 +186,8 @@ def print_rows(
 
         # the widths are decided here (rich would shrink columns by cutting them): headers wrapped between
         # words to their column's width, cells never wrapped but prose
-        t = RichTable(title=title, caption=caption)
+        t = RichTable(title=title)  # the caption printed below it at the console's width, not the table's
+
         for k, h in enumerate(headers):
             t.add_column(
                 textwrap.fill(h, width[k], break_long_words=False),
@@ -202,6 +203,8 @@ def print_rows(
                 *([r[0] if first else "", *r[1:]] if group else r), end_section=group and last and i + 1 < len(rows)
             )
         console.print(t)
+        if caption:
+            console.print(caption, style="table.caption", soft_wrap=False)
         return
     if title:
         say("bold", title)
