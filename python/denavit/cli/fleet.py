@@ -195,8 +195,10 @@ def diff(
                 "CHANGED" if d.changed[k] else "",
             ]
         )
+    conv = f"{d.a.convention}" + (f", B converted from {d.converted_from}" if d.converted_from else "")
     print_rows(
-        f"{robot_id}: entry {d.a.seq} ({d.a.model_checksum}) -> {d.b.seq} ({d.b.model_checksum}), {angle} / {length}",
+        f"{robot_id}: entry {d.a.seq} ({d.a.model_checksum}) -> {d.b.seq} ({d.b.model_checksum}), {conv}, "
+        f"{angle} / {length}",
         ["parameter", "A", "B", "change", "sigma", f"> {CHANGE_SIGMAS:g} sigma"],
         rows,
         left=(5,),

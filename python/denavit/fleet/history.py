@@ -53,7 +53,8 @@ class Diff:
     """The parameter changes from entry ``a`` to entry ``b`` of one robot: per parameter its name, the values (SI),
     the change and its sigma (independent calibrations: ``sqrt(sigma_a^2 + sigma_b^2)``; NaN where either model carries
     no covariance or did not estimate it), and whether it changed beyond :data:`CHANGE_SIGMAS` sigmas (and beyond
-    :data:`RESOLUTION`; a parameter without a sigma is never flagged)."""
+    :data:`RESOLUTION`; a parameter without a sigma is never flagged). Entries of different conventions compare in
+    ``a``'s: ``b`` converted (:func:`in_convention`) from ``converted_from``."""
 
     robot_id: str
     a: Entry
@@ -63,6 +64,7 @@ class Diff:
     value_a: np.ndarray
     value_b: np.ndarray
     sigma: np.ndarray
+    converted_from: str | None = None
 
     @property
     def change(self) -> np.ndarray:
@@ -77,6 +79,8 @@ class Diff:
             "robot": self.robot_id,
             "a": self.a.summary(),
             "b": self.b.summary(),
+            "convention": self.a.convention,
+            "b_converted_from": self.converted_from,
             "parameters": [
                 {
                     "name": n,
@@ -122,14 +126,34 @@ def diff(registry: Registry, robot_id: str, a: int | None = None, b: int | None 
     else:
         ea, eb = registry.entry(robot_id, a), registry.entry(robot_id, b)
     ra, rb = robot_of(ea), robot_of(eb)
-    if ra.convention != rb.convention or np.shape(ra.table.params) != np.shape(rb.table.params):
+    if list(ra.table.kinds) != list(rb.table.kinds):
         raise DenavitError(
-            f"robot {robot_id!r}: entries {ea.seq} ({ra.convention}) and {eb.seq} ({rb.convention}) are tables of "
-            "different conventions; their parameters compare in one convention only (calibrate both in one)"
+            f"robot {robot_id!r}: entries {ea.seq} ({''.join(k[0].upper() for k in ra.table.kinds)}) and {eb.seq} "
+            f"({''.join(k[0].upper() for k in rb.table.kinds)}): expected the same joints, got different chains"
         )
+    converted = None
+    if rb.convention != ra.convention:
+        converted = rb.convention
+        rb = in_convention(rb, ra.table)
     names, angle, va, sa = _values(ra)
     _, _, vb, sb = _values(rb)
-    return Diff(robot_id, ea, eb, names, angle, va, vb, np.sqrt(sa**2 + sb**2))
+    vb[angle] = va[angle] + (vb[angle] - va[angle] + np.pi) % (2 * np.pi) - np.pi  # one turn is no change
+    return Diff(robot_id, ea, eb, names, angle, va, vb, np.sqrt(sa**2 + sb**2), converted)
+
+
+def in_convention(robot, reference):
+    """``robot`` re-expressed in the convention of the table ``reference`` (the core's extraction from its joint
+    axes at q = 0, following ``reference``'s frame choices), its covariance converted with it
+    (:func:`denavit.compensation.converted_covariance`)."""
+    import dataclasses  # noqa: PLC0415
+
+    from .. import _core  # noqa: PLC0415
+    from ..compensation import converted_covariance  # noqa: PLC0415
+
+    m = robot.model()
+    table = _core.extract(_core.axes(m, np.zeros(m.nq)), reference.convention, nominal=reference).table
+    cov = None if robot.covariance is None else converted_covariance(robot, table, nominal=reference)
+    return dataclasses.replace(robot, table=table, covariance=cov)
 
 
 def add_model(registry: Registry, robot_id: str, model: str | os.PathLike, family: str | None = None) -> tuple:
