@@ -273,7 +273,9 @@ def calibrate(
             extra={**saved.extra, TRAINING_TABLE: training_table(res.measurements.q, robot.table.kinds, length, angle)},
         )
         save_file(saved, save, length, angle)
-        wrote(save)
+        from ..fleet.checksum import saved_checksum  # noqa: PLC0415
+
+        wrote(save, f" (model checksum {saved_checksum(save, saved)})")
     if urdf:
         from ..io.urdf import save_urdf  # noqa: PLC0415
 

@@ -47,6 +47,7 @@ def convert(
     import numpy as np  # noqa: PLC0415
 
     from .. import _core  # noqa: PLC0415
+    from ..fleet.checksum import model_checksum, saved_checksum  # noqa: PLC0415
     from ..robot import Robot, inertials_for_table  # noqa: PLC0415
 
     check_outputs(**{"-o": output, "--json": json_out})
@@ -54,7 +55,8 @@ def convert(
     to = to.lower()
     if not (math.isfinite(parallel_tol) and 0.0 <= parallel_tol < 1.0):
         fail(
-            f"--parallel-tol {parallel_tol}: expected the sine of an angle, 0 <= value < 1 (default 1e-3, about 0.057 deg)"
+            f"--parallel-tol {parallel_tol}: expected the sine of an angle, 0 <= value < 1 "
+            "(default 1e-3, about 0.057 deg)"
         )
     robot = load_robot(model, base_link, tip_link, chain_only=chain_only)
     m = robot.model()
@@ -63,19 +65,22 @@ def convert(
 
         if json_out:  # it had been ignored without a word
             fail(
-                "--json: --to urdf writes URDF (XML), which has no JSON form; the JSON table is of a convention (--to dh | mdh | edh | poe)"
+                "--json: --to urdf writes URDF (XML), which has no JSON form; the JSON table is of a convention "
+                "(--to dh | mdh | edh | poe)"
             )
 
         if output is None:
             print(dumps_urdf(m, robot))
+            say("dim", f"model checksum {model_checksum(m)}", err=True)
         else:
             save_urdf(m, output, robot)
-            wrote(output)
+            wrote(output, f" (model checksum {saved_checksum(output)})")
         return
     to = _core.convention_info(to)["name"]
     nominal = robot.table if robot.convention == to else None
     ex = _core.extract(_core.axes(m, np.zeros(m.nq)), to, parallel_tol=parallel_tol, nominal=nominal)
-    # the readings' model does not depend on the table; the covariance follows the table (compensation.converted_covariance)
+    # the readings' model does not depend on the table; the covariance follows the table
+    # (compensation.converted_covariance)
     cov = None
     if robot.covariance is not None:
         from ..compensation import converted_covariance  # noqa: PLC0415
@@ -127,6 +132,7 @@ def convert(
                 ],
                 "max_tool_position_error_m": ex.max_position_error,
                 "max_tool_rotation_error_rad": ex.max_rotation_error,
+                "model_checksum": model_checksum(new),
             },
             json_out,
         )
@@ -134,7 +140,7 @@ def convert(
         from ..io.robotfile import save  # noqa: PLC0415
 
         save(new, output, length, angle)
-        wrote(output)
+        wrote(output, f" (model checksum {saved_checksum(output, new)})")
         return
     if json_out == "-":
         return
@@ -156,5 +162,7 @@ def convert(
         labels=2,
     )
     console.print(
-        f"FK parity: max tool error {spread(ex.max_position_error / ls)} {length}, {spread(ex.max_rotation_error / as_)} {angle}"
+        f"FK parity: max tool error {spread(ex.max_position_error / ls)} {length}, "
+        f"{spread(ex.max_rotation_error / as_)} {angle}"
     )
+    console.print(f"Model checksum {model_checksum(new)} (of the geometry, the same in any convention)")

@@ -49,7 +49,10 @@ def models(json_out: JsonOpt = None) -> None:
 
 
 def robot_json(robot: Robot) -> dict:
-    """A robot as JSON, SI: its table's rows keyed by column (m, rad; POE w and a prismatic v unitless), kinds, limits, home."""
+    """A robot as JSON, SI: its table's rows keyed by column (m, rad; POE w and a prismatic v unitless), kinds, limits,
+    home, its model checksum."""
+    from ..fleet.checksum import model_checksum  # noqa: PLC0415
+
     si = ["rad" if k == "revolute" else "m" for k in robot.table.kinds]
     return {
         "model": robot.name,
@@ -66,6 +69,7 @@ def robot_json(robot: Robot) -> dict:
         "joint_units": si,
         "home": None if robot.home is None else [float(v) for v in robot.home],
         "compliance": _compliance_rows(robot),
+        "model_checksum": model_checksum(robot),
     }
 
 
@@ -103,14 +107,16 @@ def show(
         str | None,
         typer.Option(
             "--compare",
-            help="Drawn beside the robot in --report/--plot: a convention (dh|mdh|edh|poe) or another robot (built-in name or file). Default edh (mdh for an ED-H robot).",
+            help="Drawn beside the robot in --report/--plot: a convention (dh|mdh|edh|poe) or another robot "
+            "(built-in name or file). Default edh (mdh for an ED-H robot).",
         ),
     ] = None,
     q: Annotated[
         str | None,
         typer.Option(
             "--q",
-            help="Configuration drawn in --report/--plot, one value per joint in --angle units (prismatic: --length); default the file's home, else zeros.",
+            help="Configuration drawn in --report/--plot, one value per joint in --angle units (prismatic: --length); "
+            "default the file's home, else zeros.",
         ),
     ] = None,
     json_out: JsonOpt = None,
@@ -118,6 +124,8 @@ def show(
     tip_link: TipLinkOpt = None,
 ) -> None:
     """Print a robot file's table as read (with units); optionally draw its frames beside another convention's."""
+    from ..fleet.checksum import model_checksum  # noqa: PLC0415
+
     require_plot_extra(report=report, plot=plot)  # before any work: the plot extra's modules
     json_out = json_target(json_out)
     for given, flag in ((compare, "--compare"), (q, "--q")):
@@ -132,6 +140,7 @@ def show(
         if robot.source:
             console.print(f"  source: {robot.source}", soft_wrap=True)
         print_table(robot.table, robot.names, length, angle, f"{robot.name} in {robot.convention}")
+        console.print(f"Model checksum {model_checksum(robot)} (of the geometry, the same in any convention)")
         if robot.compliance is not None:
             console.print(
                 "Joint compliances (urad/(N m), um/N for a prismatic joint): "
@@ -164,18 +173,23 @@ def export_cmd(
         Path | None,
         typer.Option(
             "--ur-kinematics",
-            help="Write Universal Robots' kinematics-parameters YAML (what ur_description's kinematics_params_file reads) instead of a robot file ('-': standard output).",
+            help="Write Universal Robots' kinematics-parameters YAML (what ur_description's kinematics_params_file "
+            "reads) instead of a robot file ('-': standard output).",
         ),
     ] = None,
     ur_nominal: Annotated[
         str,
         typer.Option(
             "--ur-nominal",
-            help="With --ur-kinematics: the nominal UR arm (a standard DH robot file or built-in) whose link frames the file follows.",
+            help="With --ur-kinematics: the nominal UR arm (a standard DH robot file or built-in) whose link frames "
+            "the file follows.",
         ),
     ] = "ur5",
 ) -> None:
-    """Print a robot file (TOML) in --length / --angle units (or, with --json, the robot as JSON in SI), or write a UR kinematics-parameters file."""
+    """Print a robot file (TOML) in --length / --angle units (or, with --json, the robot as JSON in SI), or write a UR
+    kinematics-parameters file."""
+    from ..fleet.checksum import model_checksum  # noqa: PLC0415
+
     json_out = json_target(json_out)
     robot = load_robot(model, base_link, tip_link, chain_only=chain_only)
     if ur_kinematics is not None:
@@ -184,8 +198,9 @@ def export_cmd(
 
         nominal = load_robot(ur_nominal, what="--ur-nominal")
         # the flange compensate uses (a calibration's measured point as its tool: its canonical flange, whichever file)
-        save(ur_kinematics, flange_model(nominal, robot), nominal.table)
-        wrote(ur_kinematics)
+        flange = flange_model(nominal, robot)
+        save(ur_kinematics, flange, nominal.table)
+        wrote(ur_kinematics, f" (model checksum {model_checksum(flange)})")
         return
     if json_out:
         emit_json(robot_json(robot), json_out)
@@ -193,3 +208,4 @@ def export_cmd(
     from ..io.robotfile import dumps  # noqa: PLC0415
 
     print(dumps(robot, length, angle), end="")
+    say("dim", f"model checksum {model_checksum(robot)}", err=True)

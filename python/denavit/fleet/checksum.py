@@ -59,3 +59,13 @@ def model_checksum(model) -> str:
     anything with ``.model()`` (a Robot, a Calibration, an Identification)."""
     m = model if isinstance(model, _core.Model) else model.model()
     return hashlib.sha256(canonical_bytes(m)).hexdigest()[:DIGITS]
+
+
+def saved_checksum(path, robot=None) -> str:
+    """The model checksum of a model just written to ``path`` (a robot file or URDF), read back: that of the digits
+    the file holds. ``robot`` (a Robot or Model): the model written when ``path`` is ``-`` (standard output)."""
+    if str(path) == "-":
+        return model_checksum(robot)
+    from ..io.robots import load  # noqa: PLC0415
+
+    return model_checksum(load(path))
