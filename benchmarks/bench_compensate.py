@@ -17,16 +17,16 @@ Two routes identify it:
   degree protocol (``--protocols 30,90``; 90,000 points per sweep at 1 kHz, minutes) only when asked for;
 - calibrate: 100 quasi-random poses, 0.02 mm tracker noise, the readings, ED-H least squares with a scale
   parameter per joint.
-Then 1,000 random reachable targets (tool poses of random configurations, nominal joint values known, as
+Then 1,000 random reachable positions (tool poses of random configurations, nominal joint values known, as
 an offline-programmed job) are compensated with each result (``compensate(nominal, result, ...)``: its model,
 and its reading model: the scales it estimated, about the sweeps' home for identify, about zero for
 calibrate); a controller that keeps the nominal model turns each command into readings (its own IK from the
 program's configuration), and the true robot's joints turn by those readings times (1 + scale). Printed:
 tool-position error RMS / max before (nominal commands) and after, next to the RMS the result's covariance
-predicts (its parameters and reading scales), the flagged rows, and the time per target beside ``ik_batch``.
-Targets: after <= 0.05 mm RMS and within 1.5x of the prediction.
+predicts (its parameters and reading scales), the flagged rows, and the time per position beside ``ik_batch``.
+Aims: after <= 0.05 mm RMS and within 1.5x of the prediction.
 
-Run: ``python benchmarks/bench_compensate.py [--targets 1000] [--seed 1] [--rate-hz 1000] [--also-rate-hz 100] [--protocols 30,90] [--speed-deg-s 1]``.
+Run: ``python benchmarks/bench_compensate.py [--positions 1000] [--seed 1] [--rate-hz 1000] [--also-rate-hz 100] [--protocols 30,90] [--speed-deg-s 1]``.
 """
 
 from __future__ import annotations
@@ -94,7 +94,7 @@ TOOL = np.array([0.05, 0.03, 0.10])
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--targets", type=int, default=1000)
+    ap.add_argument("--positions", type=int, default=1000)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--noise-mm", type=float, default=0.02)
     ap.add_argument("--reading-arcsec", type=float, default=10.0)
@@ -143,12 +143,12 @@ def main() -> None:
     meas = cal.Measurements(readings(q), meas.points, None, "simulated, readings with errors")
     car = cal.calibrate(meas, kr5, tool=TOOL, scale=True)
 
-    # the job: random reachable targets with their nominal joint values
-    Q = rng.uniform(kr5.lower, kr5.upper, (args.targets, 6)) * 0.9
+    # the job: random reachable positions with their nominal joint values
+    Q = rng.uniform(kr5.lower, kr5.upper, (args.positions, 6)) * 0.9
     T = dv.fk_batch(nominal, Q)
     print(
         f"KR5 with 0.5 mm / 0.05 deg errors per DH parameter, reading scale errors 2e-4 (J2, J3) and {args.reading_arcsec:g} arcsec noise, {args.noise_mm} mm tracker noise; "
-        f"sweeps at {args.speed_deg_s:g} deg/s; {args.targets} targets"
+        f"sweeps at {args.speed_deg_s:g} deg/s; {args.positions} positions"
     )
     for prot, rate, pts, r, dt in runs:
         if r.method != "geometric":
@@ -165,7 +165,7 @@ def main() -> None:
             )
     print(f"  calibrate: scales (ppm) {', '.join(f'{k} {v * 1e6:+.0f}' for k, v in car.scales.items())}")
     print(
-        f"{'route':<40} {'flagged':>7} {'before RMS':>11} {'before max':>11} {'after RMS':>10} {'after max':>10} {'predicted':>10} {'ratio':>6} {'us/target':>10}"
+        f"{'route':<40} {'flagged':>7} {'before RMS':>11} {'before max':>11} {'after RMS':>10} {'after max':>10} {'predicted':>10} {'ratio':>6} {'us/position':>12}"
     )
     routes = [(f"identify ({p} deg, {rate:g} Hz, {r.method})", r) for p, rate, _, r, _ in runs]
     routes.append(("calibrate (100 poses, ED-H)", car))
@@ -189,14 +189,14 @@ def main() -> None:
         rms = float(np.sqrt(np.mean(after**2)))
         print(
             f"{label:<40} {int((~ok).sum()):>7d} {np.sqrt(np.mean(before**2)) * 1e3:>8.4f} mm {before.max() * 1e3:>8.4f} mm "
-            f"{rms * 1e3:>7.4f} mm {after.max() * 1e3:>7.4f} mm {pred * 1e3:>7.4f} mm {rms / pred:>6.2f} {t_comp / args.targets * 1e6:>10.2f}"
+            f"{rms * 1e3:>7.4f} mm {after.max() * 1e3:>7.4f} mm {pred * 1e3:>7.4f} mm {rms / pred:>6.2f} {t_comp / args.positions * 1e6:>12.2f}"
         )
     identified_2 = car.model()
     t_ik = median_time(lambda: dv.ik_batch(identified_2, T, Q))
     print(
-        f"{'ik_batch (identified, from the program)':<40} {'':>7} {'':>11} {'':>11} {'':>10} {'':>10} {'':>10} {'':>6} {t_ik / args.targets * 1e6:>10.2f}"
+        f"{'ik_batch (identified, from the program)':<40} {'':>7} {'':>11} {'':>11} {'':>10} {'':>10} {'':>10} {'':>6} {t_ik / args.positions * 1e6:>12.2f}"
     )
-    print("targets: after <= 0.05 mm RMS; after / predicted <= 1.5")
+    print("aims: after <= 0.05 mm RMS; after / predicted <= 1.5")
 
 
 if __name__ == "__main__":

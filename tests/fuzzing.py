@@ -82,7 +82,7 @@ def _sweeps_json_targets_poses() -> str:
     return json.dumps(swio.to_json(s, "mm", "deg"))
 
 
-def _targets_csv() -> str:
+def _positions_csv() -> str:
     Q = np.radians(np.array([[10, -80, 90, 0, 45, 0], [20, -70, 80, 10, 40, 5], [30, -60, 70, 20, 35, 10]]))
     return "# units: length=mm angle=deg\nq1,q2,q3,q4,q5,q6\n" + "".join(
         ",".join(f"{v:.6f}" for v in np.degrees(q)) + "\n" for q in Q
@@ -122,8 +122,8 @@ def seeds() -> dict[str, tuple[str, str, Callable[[Path], object]]]:
     from denavit.io import sweeps as swio
     from denavit.io.configurations import read_configurations
     from denavit.io.measurements import read_measurements
+    from denavit.io.positions import read_positions
     from denavit.io.recordings import read_recording
-    from denavit.io.targets import read_targets
     from denavit.io.urdf import load_urdf
 
     kr5_toml = (Path(dv.__file__).parent / "models" / "kr5.toml").read_text()
@@ -155,8 +155,8 @@ def seeds() -> dict[str, tuple[str, str, Callable[[Path], object]]]:
             ),
             lambda p: nums(_joint_file(p)),
         ),
-        "candidates": (".csv", _targets_csv(), lambda p: nums(read_configurations(p, six))),
-        "targets": (".csv", _targets_csv(), lambda p: nums(read_targets(p, six).q)),
+        "candidates": (".csv", _positions_csv(), lambda p: nums(read_configurations(p, six))),
+        "positions": (".csv", _positions_csv(), lambda p: nums(read_positions(p, six).q)),
         "ur kinematics": (".yaml", _ur_yaml(), lambda p: nums(ur_calibration.read(p))),
         "rtde": (".csv", (DATA / "recordings" / "rtde.csv").read_text(), lambda p: nums(read_recording(p, "rtde").q)),
         "rsi": (".xml", (DATA / "recordings" / "rsi.xml").read_text(), lambda p: nums(read_recording(p, "rsi").q)),

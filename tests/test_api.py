@@ -88,12 +88,12 @@ def test_calibrate_plan_simulate_compensate_take_names_paths_and_arrays(tmp_path
     assert p.q.shape == (180, 6)  # Hayat Table II's 30 deg protocol, 30 points per sweep
     c = dv.compensate("kr5", kr5, dv.fk_batch(kr5.model(), q[:3]))
     assert c.ok.all() and np.abs(c.before).max() < 1e-9
-    targets = tmp_path / "targets.csv"
-    targets.write_text(
+    positions = tmp_path / "positions.csv"
+    positions.write_text(
         "# units: length=mm angle=deg\nq1,q2,q3,q4,q5,q6\n"
         + "".join(",".join(f"{v:.17g}" for v in np.degrees(row)) + "\n" for row in q[:3])
     )
-    c2 = dv.compensate("kr5", kr5, targets)
+    c2 = dv.compensate("kr5", kr5, positions)
     np.testing.assert_allclose(c2.q, q[:3], atol=1e-7)
     with pytest.raises(
         dv.DenavitError, match="nominal: expected a Robot, a Model, a built-in name or a robot file, got int"
@@ -138,8 +138,8 @@ def test_reprs_are_short_and_carry_the_key_numbers():
             assert part in text, (type(obj).__name__, part, text)
 
 
-def test_reprs_of_recordings_segmentations_and_targets():
-    from denavit.io.targets import Targets
+def test_reprs_of_recordings_segmentations_and_positions():
+    from denavit.io.positions import Positions
     from denavit.recording import Recording, Segment, Segmentation
 
     n = 1000
@@ -159,7 +159,7 @@ def test_reprs_of_recordings_segmentations_and_targets():
         12,
         "log.csv",
     )
-    tg = Targets(None, np.zeros((3, 6)), ["t.csv:2", "t.csv:3", "t.csv:4"], {"length": "mm", "angle": "deg"})
+    tg = Positions(None, np.zeros((3, 6)), ["t.csv:2", "t.csv:3", "t.csv:4"], {"length": "mm", "angle": "deg"})
     for obj, parts in (
         (rec, ["1000 rows", "250 Hz", "rtde"]),
         (seg, ["1 sweeps, 2 motions", "12 dwell rows"]),

@@ -248,26 +248,26 @@ def test_auto_leaves_compliance_out_of_rigid_data(seed):
 
 def test_compensation_at_a_payload_the_calibration_never_saw():
     """Calibrated at 0 and 5 kg, compensated at 2.5 kg: the error after is within 1.5x the prediction (RMS over 150
-    targets), and well below the geometry-only calibration's."""
+    positions), and well below the geometry-only calibration's."""
     robot, m_true, train, rng = two_payloads(4, K_TRUE)
     res = calibrate(train, robot, tool=TOOL)
     el = elastic(res)
     assert el is not None
     q = draw(robot, 150, rng)
     half = np.tile(np.r_[RATED / 2, COM], (len(q), 1))
-    targets = _core.fk_batch(m_true, q)
+    positions = _core.fk_batch(m_true, q)
     nominal = robot.model().with_tool(pose(p=TOOL))  # the controller knows the tool
-    c = compensate(nominal, res, targets, q_nominal=q, payload=(RATED / 2, COM))
+    c = compensate(nominal, res, positions, q_nominal=q, payload=(RATED / 2, COM))
     ok = c.ok  # (a row whose identified solution leaves the program's branch is flagged, not compensated)
     assert ok.mean() > 0.95 and c.predicted_after is not None
     reached = _core.fk_batch(m_true, c.q_command - K_TRUE * gravity_torques(robot.model(), c.q_command, half))
-    err = np.linalg.norm(reached[:, :3, 3] - targets[:, :3, 3], axis=1)[ok]
+    err = np.linalg.norm(reached[:, :3, 3] - positions[:, :3, 3], axis=1)[ok]
     rms, pred = math.sqrt(np.mean(err**2)), math.sqrt(np.mean(c.predicted_after[ok] ** 2))
     assert rms < 1.5 * pred, (rms, pred)
     geo = calibrate(train, robot, tool=TOOL, compliance=False)
-    g = compensate(nominal, geo, targets, q_nominal=q)
+    g = compensate(nominal, geo, positions, q_nominal=q)
     reached = _core.fk_batch(m_true, g.q_command - K_TRUE * gravity_torques(robot.model(), g.q_command, half))
-    assert rms < 0.5 * math.sqrt(np.mean(np.linalg.norm(reached[:, :3, 3] - targets[:, :3, 3], axis=1)[ok] ** 2))
+    assert rms < 0.5 * math.sqrt(np.mean(np.linalg.norm(reached[:, :3, 3] - positions[:, :3, 3], axis=1)[ok] ** 2))
 
 
 def test_a_saved_calibration_carries_its_compliances_and_validate_uses_them(tmp_path):

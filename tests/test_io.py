@@ -638,7 +638,7 @@ def test_coordinates_beyond_a_billion_metres_are_not_measurements(tmp_path):
     """A 1e308 mm coordinate had overflowed calibrate's residuals to a traceback (and identify's to RuntimeWarnings)."""
     from denavit.io import sweeps as swio
     from denavit.io.delimited import MAX_LENGTH
-    from denavit.io.targets import read_targets
+    from denavit.io.positions import read_positions
 
     doc = _sweeps_json_doc()
     doc["sweeps"][1]["points"][4][2] = 1e300
@@ -651,9 +651,9 @@ def test_coordinates_beyond_a_billion_metres_are_not_measurements(tmp_path):
     t = tmp_path / "t.csv"
     t.write_text("# units: length=mm angle=deg\nx,y,z,rx,ry,rz\n100,0,2e12,0,0,0\n")
     with pytest.raises(dv.DenavitError, match=r"t.csv:3: column 'z': a coordinate of 2e\+09 m"):
-        read_targets(t, ["revolute"] * 6)
+        read_positions(t, ["revolute"] * 6)
     t.write_text("# units: length=mm angle=deg\nx,y,z,rx,ry,rz\n100,0,1e7,0,0,0\n")  # 10 km: a survey frame
-    assert read_targets(t, ["revolute"] * 6).poses[0, 2, 3] == pytest.approx(1e4) and MAX_LENGTH == 1e9
+    assert read_positions(t, ["revolute"] * 6).poses[0, 2, 3] == pytest.approx(1e4) and MAX_LENGTH == 1e9
 
 
 @pytest.mark.parametrize(

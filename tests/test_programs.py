@@ -77,10 +77,10 @@ def _without_positions(prog) -> list[str]:
 
 
 @pytest.mark.parametrize(("name", "model"), PROGRAMS)
-def test_compensation_changes_only_the_positions_and_the_true_robot_reaches_the_targets(name, model, tmp_path):
+def test_compensation_changes_only_the_positions_and_the_true_robot_reaches_them(name, model, tmp_path):
     """A "true" robot (the model's table with 0.5 mm / 0.05 deg errors) runs the compensated program on a nominal
     controller that honours each position's configuration (its bits; URScript: the solution nearest the previous
-    position): its tool reaches the program's targets within 0.1 mm RMS, >= 10x better than the program as written.
+    position): its tool reaches the program's positions within 0.1 mm RMS, >= 10x better than the program as written.
     Only the position fields differ, each number in its original form with at least its decimals."""
     r = load(model)
     true = perturbed(r)
@@ -447,7 +447,7 @@ def test_a_saved_ur_kinematics_file_compensates_as_the_in_memory_result(tmp_path
 def test_krl_inline_positions_and_a_tool_assigned_in_the_src(tmp_path):
     """A .src that sets $TOOL and $BASE literally and moves to inline aggregates (an E6POS with S and T, an E6AXIS, a
     POS without S and T: nearest the previous position): read with those frames, compensated in place, the rest of
-    the line kept; a true robot reaches the targets."""
+    the line kept; a true robot reaches the positions."""
     r = load("kr5")
     m = r.model().with_tool(np.eye(4))
     cache = {"signs": kuka.signs(r)}
@@ -587,11 +587,9 @@ def test_a_real_program_round_trips_byte_identical(name, model, frames, unused, 
 
 
 @pytest.mark.parametrize(("name", "model", "frames", "unused"), REAL)
-def test_a_real_program_compensated_changes_only_its_positions_and_reaches_the_targets(
-    name, model, frames, unused, tmp_path
-):
+def test_a_real_program_compensated_changes_only_its_positions_and_reaches_them(name, model, frames, unused, tmp_path):
     """The true robot (0.5 mm / 0.05 deg errors) runs the compensated real program on a nominal controller that keeps
-    each position's configuration: within 0.1 mm RMS of the targets, >= 10x better than the program as written; the
+    each position's configuration: within 0.1 mm RMS of the positions, >= 10x better than the program as written; the
     files differ from the originals in their position fields only."""
     r = load(model)
     true = perturbed(r)
@@ -677,7 +675,7 @@ def test_a_bad_real_program_gives_a_one_line_error_and_writes_nothing(tmp_path, 
 def test_a_program_compensated_under_a_payload(tmp_path):
     """Issue 37's payload for programs: a UR5 whose joints give way under gravity (compliances of 2-4e-5 rad/N m: about
     1 mm at the tool with 5 kg) runs the URScript program compensated with the payload (5 kg, 80 mm out of the
-    flange) on a nominal controller: within 0.1 mm RMS of the targets, >= 10x better than as written and >= 3x better
+    flange) on a nominal controller: within 0.1 mm RMS of the positions, >= 10x better than as written and >= 3x better
     than compensated for the links' own weight alone; `compensate PROGRAM --payload` writes the same program."""
     from cli import run
     from denavit.calibration.compliance import elastic

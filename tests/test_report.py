@@ -163,16 +163,16 @@ def test_each_choice_of_auto_is_named_once_and_no_notes_is_not_a_warning(report_
     assert '<p class="none" id="notes">none</p>' in notes and "<li>" not in notes[: notes.index("</section>")]
 
 
-def test_the_compensation_error_figure_has_whole_target_numbers():
-    """A program of a few targets had got x ticks at 1, 1.5, 2 (issue 40, item 11): ticks are whole numbers, one per
-    target up to 20 targets."""
+def test_the_compensation_error_figure_has_whole_position_numbers():
+    """A program of a few positions had got x ticks at 1, 1.5, 2 (issue 40, item 11): ticks are whole numbers, one per
+    position up to 20 positions."""
     from denavit import compensation as cp
 
     kr5 = dv.load_robot("kr5")
     q = np.random.default_rng(5).uniform(kr5.lower, kr5.upper, (3, 6)) * 0.5
     c = cp.compensate(kr5.model(), kr5.model(), dv.fk_batch(kr5.model(), q), q_nominal=q)
     flat = re.sub(r"\s", "", rep.compensation_report_html(c, kr5, kr5))
-    axis = flat[flat.index('"xaxis":{"title":{"text":"target"}') :][:120]
+    axis = flat[flat.index('"xaxis":{"title":{"text":"position"}') :][:120]
     assert '"tickformat":"d"' in axis and '"dtick":1' in axis, axis
 
 
@@ -208,8 +208,8 @@ def test_the_calibration_report_shows_no_notes_as_a_plain_none(calibrated):
         assert text.count("<li>", text.index('id="notes-section"')) == len(res.notes)
 
 
-def test_the_compensation_targets_table_names_their_folder_once():
-    """The targets of a program were listed with the program's absolute folder on every row: the folder once in
+def test_the_compensation_positions_table_names_their_folder_once():
+    """The positions of a program were listed with the program's absolute folder on every row: the folder once in
     the caption, each row its file and line."""
     from denavit import compensation as cp
 
@@ -218,13 +218,13 @@ def test_the_compensation_targets_table_names_their_folder_once():
     c = cp.compensate(kr5.model(), kr5.model(), dv.fk_batch(kr5.model(), q), q_nominal=q)
     where = ["/robots/cell 4/prog.dat:12", "/robots/cell 4/prog.dat:15", "/robots/cell 4/sub.dat:3"]
     text = rep.compensation_report_html(c, kr5, kr5, where=where)
-    cells = [r["cell"]["target"]["text"] for r in Page(text).rows("targets")]
+    cells = [r["cell"]["position"]["text"] for r in Page(text).rows("positions")]
     assert cells == ["prog.dat:12", "prog.dat:15", "sub.dat:3"]
-    caption = re.search(r'<table id="targets"[^>]*><caption>(.*?)</caption>', text).group(1)
-    assert caption == "Per target; files in /robots/cell 4/."
+    caption = re.search(r'<table id="positions"[^>]*><caption>(.*?)</caption>', text).group(1)
+    assert caption == "Per position; files in /robots/cell 4/."
     # no common folder: the places as given
-    text = rep.compensation_report_html(c, kr5, kr5, where=["a.csv:2", "b.csv:2", "target 3"])
-    assert [r["cell"]["target"]["text"] for r in Page(text).rows("targets")] == ["a.csv:2", "b.csv:2", "target 3"]
+    text = rep.compensation_report_html(c, kr5, kr5, where=["a.csv:2", "b.csv:2", "position 3"])
+    assert [r["cell"]["position"]["text"] for r in Page(text).rows("positions")] == ["a.csv:2", "b.csv:2", "position 3"]
 
 
 # ------------------------------------------------------------------------------------------------ every report type

@@ -435,31 +435,31 @@ def simulate(
     )
 
 
-def compensate(nominal, identified, targets, **options):
+def compensate(nominal, identified, positions, **options):
     """The commands a controller that keeps ``nominal`` must be sent so that the ``identified`` robot reaches
-    ``targets`` (:func:`denavit.compensation.compensate`).
+    ``positions`` (:func:`denavit.compensation.compensate`).
 
     nominal, identified : built-in name, robot file, URDF, Robot, Model, or a result with ``.model()``
-        (Identification, Calibration). targets : (N, 4, 4) tool poses (m), or a targets file (poses and/or joint
-        rows, units declared), read by :func:`denavit.io.targets.read_targets`, or a robot program (KUKA .src with
+        (Identification, Calibration). positions : (N, 4, 4) tool poses (m), or a positions file (poses and/or joint
+        rows, units declared), read by :func:`denavit.io.positions.read_positions`, or a robot program (KUKA .src with
         its .dat, ABB .mod, FANUC .ls, URScript .script): then a :class:`denavit.io.programs.ProgramCompensation`
         (write it with :func:`denavit.io.programs.write_program`; ``frames=`` its numbered controller frames).
     """
     from .compensation import compensate as _compensate  # noqa: PLC0415
 
     nominal, identified = (_robot(m) if isinstance(m, (str, os.PathLike)) else m for m in (nominal, identified))
-    if isinstance(targets, (str, os.PathLike)):
+    if isinstance(positions, (str, os.PathLike)):
         from .io.programs import compensate_program, detect, read_program  # noqa: PLC0415
 
-        if detect(input_path(targets)) is not None:  # a robot program: each position on its own configuration
+        if detect(input_path(positions)) is not None:  # a robot program: each position on its own configuration
             robot = nominal if hasattr(nominal, "table") else _robot(nominal)
             return compensate_program(
-                read_program(input_path(targets), robot, frames=options.pop("frames", None)),
+                read_program(input_path(positions), robot, frames=options.pop("frames", None)),
                 robot,
                 identified,
                 **options,
             )
-        from .io.targets import read_targets  # noqa: PLC0415
+        from .io.positions import read_positions  # noqa: PLC0415
 
         nominal = (
             nominal
@@ -467,10 +467,10 @@ def compensate(nominal, identified, targets, **options):
             else _robot(nominal)
         )  # (a Robot keeps its coupling)
         nom = nominal if isinstance(nominal, _core.Model) else nominal.model()
-        prog = read_targets(input_path(targets), list(nom.kinds))
+        prog = read_positions(input_path(positions), list(nom.kinds))
         poses = prog.poses if prog.poses is not None else _core.fk_batch(nom, prog.q)
         return _compensate(nominal, identified, poses, q_nominal=prog.q, **options)
-    return _compensate(nominal, identified, targets, **options)
+    return _compensate(nominal, identified, positions, **options)
 
 
 __all__ = [

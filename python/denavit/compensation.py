@@ -1,7 +1,7 @@
 """Compensation: put an identified model to work on a robot whose controller keeps its nominal model.
 
-For each target tool pose ``T`` (robot base frame), :func:`compensate` finds the joint values ``q`` that
-reach it on the identified model, solved from the nominal solution's branch, and the pose
+For each position (a row of a program: a tool pose ``T``, robot base frame), :func:`compensate` finds the joint
+values ``q`` that reach it on the identified model, solved from the nominal solution's branch, and the pose
 ``T' = FK_nominal(q')`` to send to the controller: its nominal inverse kinematics turns ``T'`` into ``q'``,
 and the robot reaches ``T`` (RoboDK calls this "filtering" a program). ``q' = q`` unless the identified robot
 reads its joints otherwise than the nominal does (its reading model: a coupling, the reading scale errors that
@@ -33,9 +33,9 @@ BRANCH_TOL = 0.1
 
 @dataclass(frozen=True)
 class Compensation:
-    """The compensation of N targets (SI: m, rad). Per target:
+    """The compensation of N positions (SI: m, rad). Per position:
 
-    ``targets`` (N, 4, 4) as given; ``commands`` (N, 4, 4) ``T' = FK_nominal(q_command)``, the poses to send;
+    ``positions`` (N, 4, 4) as given; ``commands`` (N, 4, 4) ``T' = FK_nominal(q_command)``, the poses to send;
     ``q`` (N, n) the identified model's joint values; ``q_nominal`` (N, n) the program's nominal ones;
     ``q_command`` (N, n) the nominal model's joint values of the commands (the joint rows to send: ``q`` itself
     unless the identified robot's readings differ from the nominal's, by its reading scales or coupling);
@@ -46,7 +46,7 @@ class Compensation:
     the compensation assumed (e.g. the flange compensated when only the identified robot has a tool).
     """
 
-    targets: np.ndarray
+    positions: np.ndarray
     commands: np.ndarray
     q: np.ndarray
     q_nominal: np.ndarray
@@ -68,7 +68,7 @@ class Compensation:
         if self.q_command is None:
             object.__setattr__(self, "q_command", self.q)
         if self.assumed is None:
-            object.__setattr__(self, "assumed", np.zeros(len(self.targets), dtype=bool))
+            object.__setattr__(self, "assumed", np.zeros(len(self.positions), dtype=bool))
 
     @property
     def ok(self) -> np.ndarray:
@@ -76,12 +76,12 @@ class Compensation:
         return self.reached & ~self.branch_changed & ~self.path_jump
 
     def __len__(self) -> int:
-        return len(self.targets)
+        return len(self.positions)
 
     def __repr__(self) -> str:
         flagged = int((~self.ok).sum())
         before = float(np.sqrt(np.mean(self.before**2))) if len(self) else float("nan")
-        return f"Compensation({len(self)} targets, {flagged} flagged, error before {before * 1e3:.4g} mm RMS)"
+        return f"Compensation({len(self)} positions, {flagged} flagged, error before {before * 1e3:.4g} mm RMS)"
 
 
 def _model(m, what: str) -> _core.Model:
@@ -126,7 +126,7 @@ def _angle(R: np.ndarray) -> np.ndarray:
 def compensate(
     nominal,
     identified,
-    targets,
+    positions,
     *,
     q_nominal=None,
     q0=None,
@@ -137,14 +137,14 @@ def compensate(
     payload=None,
     **ik_options,
 ) -> Compensation:
-    """Compensate ``targets`` for a controller that keeps ``nominal`` while the robot is ``identified``.
+    """Compensate ``positions`` for a controller that keeps ``nominal`` while the robot is ``identified``.
 
     Parameters
     ----------
     nominal, identified : Model, Robot, Identification, Calibration, built-in name or robot file
         The controller's model and the robot's identified model (same joints; both in the robot base frame).
-    targets : array-like, shape (N, 4, 4)
-        Target tool poses ``T_world_tool`` (m).
+    positions : array-like, shape (N, 4, 4)
+        The tool poses ``T_world_tool`` to reach (m): a program's rows.
     q_nominal : array-like, shape (N, n), optional
         The program's configuration: its nominal joint values (rad / m), when it was written as joint rows or
         its configuration is known (e.g. a controller's configuration bits); a row of NaN: none. Rows without one
@@ -153,7 +153,7 @@ def compensate(
         The configuration the rows without one are nearest to; default the nominal's home (a Robot's ``home``),
         else zeros.
     path : bool
-        The targets form a path: nominal solutions are warm-started along it (from ``q0``) and jumps are flagged.
+        The positions form a path: nominal solutions are warm-started along it (from ``q0``) and jumps are flagged.
     result : Identification or Calibration, optional
         Gives ``predicted_after`` (:func:`predicted_sigma` at the compensated joint values); default ``identified``
         itself when it is one, or its ``covariance`` when it is a Robot that has one (:func:`table_sigma`).
@@ -174,7 +174,7 @@ def compensate(
     ide, note = _flange(nominal, nom, identified, ide)
     if note:
         notes.append(note)
-    T = np.asarray(targets, dtype=float)
+    T = np.asarray(positions, dtype=float)
     if T.ndim == 2:
         T = T[None]
     if q0 is None:
@@ -270,7 +270,7 @@ def _predicted(identified, result, q: np.ndarray, el, qc: np.ndarray, pl) -> np.
 
 
 def _errors(T: np.ndarray, exe: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(position error m, rotation error rad) of the executed poses ``exe`` from the targets ``T``."""
+    """(position error m, rotation error rad) of the executed poses ``exe`` from the positions ``T``."""
     before = np.linalg.norm(exe[:, :3, 3] - T[:, :3, 3], axis=1)
     return before, _angle(np.swapaxes(T[:, :3, :3], 1, 2) @ exe[:, :3, :3])
 
@@ -304,7 +304,7 @@ def _through_readings(nominal, identified, nom: _core.Model, ide: _core.Model, T
 
 
 def _valid_poses(T: np.ndarray) -> bool:
-    """Every target a finite rigid pose (else the core's check says which is not)."""
+    """Every position a finite rigid pose (else the core's check says which is not)."""
     R = T[:, :3, :3]
     return bool(
         np.all(np.isfinite(T))
@@ -313,14 +313,14 @@ def _valid_poses(T: np.ndarray) -> bool:
     )
 
 
-def nearest_solutions(model, targets, q_ref, *, seeds: int = 24, **ik_options) -> tuple[np.ndarray, np.ndarray]:
-    """The inverse kinematics of ``targets`` (N, 4, 4) on ``model`` nearest ``q_ref`` ((n,) or (N, n)): among the
+def nearest_solutions(model, positions, q_ref, *, seeds: int = 24, **ik_options) -> tuple[np.ndarray, np.ndarray]:
+    """The inverse kinematics of ``positions`` (N, 4, 4) on ``model`` nearest ``q_ref`` ((n,) or (N, n)): among the
     solutions found from ``q_ref`` and from ``seeds`` fixed configurations spread over the joint limits (local
     solves, no restarts: one per branch they fall into), each revolute joint moved by whole turns to the value within
     its limits nearest ``q_ref``'s, the one nearest ``q_ref`` (Euclidean, rad / m). Returns ``q`` (N, n) and
     ``found`` (N,); a row not found keeps ``q_ref``."""
     m = _model(model, "model")
-    T = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
+    T = np.asarray(positions, dtype=float).reshape(-1, 4, 4)
     N, n = len(T), m.nq
     ref = np.broadcast_to(np.asarray(q_ref, dtype=float), (N, n))
     if N == 0:
@@ -378,7 +378,7 @@ def _flange(nominal, nom: _core.Model, identified, ide: _core.Model) -> tuple[_c
     if np.linalg.norm(off) <= TOOL_FRACTION * robot_size(nom, np.zeros(nom.nq)):
         return ide, None
     # identify's tool is the point it measured (a reflector on the flange), not the controller's tool: with a nominal
-    # that has none, the targets and the commands are the flange's, and so is the identified robot. Its flange is
+    # that has none, the positions and the commands are the flange's, and so is the identified robot. Its flange is
     # placed on its last body as the nominal's is on the nominal's (canonical_tool): where a table puts its last frame
     # along the last axis (the split of d6 and the tool's z, which no measurement of one point tells apart) is each
     # convention's own, and a file saved in another convention would compensate another flange
@@ -481,7 +481,7 @@ def predicted_sigma(result, q) -> np.ndarray:
     ``result`` identified, at configurations ``q`` (N, n), from its covariance ``C``.
 
     result : a calibration (:class:`denavit.calibration.Calibration`: the analytic identification Jacobian of
-        its chain over the estimated parameters, base registration excluded since targets live in the robot
+        its chain over the estimated parameters, base registration excluded since positions live in the robot
         base frame) or an identification (:class:`denavit.identification.Identification`: the covariance of the
         axis lines and the tool point, propagated to the tool by central differences through the exact ED-H
         model of the axes).

@@ -31,7 +31,7 @@ the command for the installation at hand
 Units: lengths in ``length`` (default mm, as in Hayat et al.), angles in ``angle`` (default deg), SI inside."""
 
 from .calibration import calibration_report_html, write_calibration_report
-from .compensation import TARGET_ROWS, compensation_report_html, write_compensation_report
+from .compensation import POSITION_ROWS, compensation_report_html, write_compensation_report
 from .html import DECIMALS, FIGURE_FORMATS, PLOTLY_BUNDLE, PLOTLY_JS_VERSION, VIEW_ID, fmt_value
 from .identification import _parameter_chart, _residual_chart, report_html, write_figures, write_report  # noqa: F401 (the charts drawn alone by tests/test_plotting.py)
 from .model import model_report_html, write_model_figures, write_model_report
@@ -42,7 +42,7 @@ __all__ = [
     "FIGURE_FORMATS",
     "PLOTLY_BUNDLE",
     "PLOTLY_JS_VERSION",
-    "TARGET_ROWS",
+    "POSITION_ROWS",
     "VIEW_ID",
     "calibration_report_html",
     "compensation_report_html",

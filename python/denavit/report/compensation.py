@@ -25,17 +25,17 @@ from .html import (
     _view_section,
 )
 
-#: Rows of the compensation report's target table (all of them are in the program written by ``compensate``).
-TARGET_ROWS = 500
+#: Rows of the compensation report's position table (all of them are in the program written by ``compensate``).
+POSITION_ROWS = 500
 
 
 def _compensation_view(go, comp, nominal: Robot, identified: Robot, where, ls: float, length: str) -> str:
-    """The 3-D view: the program's targets (flagged ones red), the shift from each target to the command sent, the
-    nominal robot at the first target; the identified robot (when it reaches the first target) in the legend."""
+    """The 3-D view: the program's positions (flagged ones red), the shift from each position to the command sent,
+    the nominal robot at the first position; the identified robot (when it reaches the first position) in the legend."""
     ok = np.asarray(comp.ok, dtype=bool)
-    tgt = np.asarray(comp.targets)[:, :3, 3]
+    tgt = np.asarray(comp.positions)[:, :3, 3]
     cmd = np.asarray(comp.commands)[:, :3, 3]
-    groups = ((ok, "targets", "#1f77b4"), (~ok, "flagged targets", "#d62728"))
+    groups = ((ok, "positions", "#1f77b4"), (~ok, "flagged positions", "#d62728"))
 
     def hover(i: int) -> str:
         return f"{where[i]}: error without compensation {comp.before[i] / ls:.4f} {length}"
@@ -48,16 +48,16 @@ def _compensation_view(go, comp, nominal: Robot, identified: Robot, where, ls: f
                 [np.array([a, b]) for a, b in zip(tgt[ok], cmd[ok], strict=True)],
                 ls,
                 line={"color": "#ff7f0e", "width": 3},
-                name="target -> command sent",
+                name="position -> command sent",
                 legendgroup="commands",
             )
         )
     q0 = np.asarray(comp.q_nominal[0], dtype=float)
     q1 = np.asarray(comp.q[0], dtype=float)
-    shown = SceneRobot(f"nominal {nominal.name} at target 1", "frames-nominal", nominal.table, q0, nominal.names)
+    shown = SceneRobot(f"nominal {nominal.name} at position 1", "frames-nominal", nominal.table, q0, nominal.names)
     other = (
         SceneRobot(
-            f"identified {identified.name} at target 1", "frames-identified", identified.table, q1, identified.names
+            f"identified {identified.name} at position 1", "frames-identified", identified.table, q1, identified.names
         )
         if np.all(np.isfinite(q1))
         else None
@@ -66,7 +66,7 @@ def _compensation_view(go, comp, nominal: Robot, identified: Robot, where, ls: f
 
 
 def _error_chart(go, comp, ls: float, length: str):
-    """The error of every target the robot can be sent, without compensation and predicted with it."""
+    """The error at every position the robot can be sent, without compensation and predicted with it."""
     ok = np.asarray(comp.ok, dtype=bool)
     n = len(comp)
     idx = np.arange(n)
@@ -94,25 +94,25 @@ def _error_chart(go, comp, ls: float, length: str):
     fig.update_layout(
         height=320,
         margin={"l": 70, "r": 10, "t": 40, "b": 40},
-        # targets are numbered 1, 2, ...: whole-number ticks (a few targets had got ticks at 1, 1.5, 2; issue 40)
-        xaxis={"title": {"text": "target"}, "tickformat": "d", **({"dtick": 1} if n <= 20 else {})},
+        # positions are numbered 1, 2, ...: whole-number ticks (a few positions had got ticks at 1, 1.5, 2; issue 40)
+        xaxis={"title": {"text": "position"}, "tickformat": "d", **({"dtick": 1} if n <= 20 else {})},
         yaxis={"title": {"text": f"tool position error [{length}]"}, "exponentformat": "power", "rangemode": "tozero"},
-        title={"text": "Position error of every target the robot can be sent", "font": {"size": 14}},
+        title={"text": "Tool position error at every position the robot can be sent", "font": {"size": 14}},
     )
     return fig
 
 
-def _targets_table(comp, where, ls: float, length: str) -> str:
-    """The first :data:`TARGET_ROWS` targets: error without compensation, command shift, solve residual, flags. The
-    folder every target's place shares ("/a/b/prog.dat:13") is said once in the caption, not on every row."""
+def _positions_table(comp, where, ls: float, length: str) -> str:
+    """The first :data:`POSITION_ROWS` positions: error without compensation, command shift, solve residual, flags.
+    The folder every position's place shares ("/a/b/prog.dat:13") is said once in the caption, not on every row."""
     n = len(comp)
     common = os.path.commonprefix([str(w) for w in where])
     folder = common[: max(common.rfind("/"), common.rfind(os.sep)) + 1]
     where = [str(w)[len(folder) :] for w in where]
-    tgt = np.asarray(comp.targets)[:, :3, 3]
+    tgt = np.asarray(comp.positions)[:, :3, 3]
     cmd = np.asarray(comp.commands)[:, :3, 3]
     rows = []
-    for i in range(min(n, TARGET_ROWS)):
+    for i in range(min(n, POSITION_ROWS)):
         flags = ", ".join(
             x
             for x, f in (
@@ -124,22 +124,22 @@ def _targets_table(comp, where, ls: float, length: str) -> str:
         )
         shift = float(np.linalg.norm(cmd[i] - tgt[i])) / ls
         rows.append(
-            f'<tr data-target="{i + 1}">{_td("target", where[i])}{_td("before", float(comp.before[i]) / ls)}'
+            f'<tr data-position="{i + 1}">{_td("position", where[i])}{_td("before", float(comp.before[i]) / ls)}'
             f"{_td('shift', shift)}{_td('residual', float(comp.residual[i]) / ls)}{_td('flags', flags or 'ok')}</tr>"
         )
     return _table(
-        "targets",
+        "positions",
         [
-            "target",
+            "position",
             f"error without compensation [{length}]",
             f"command shift [{length}]",
             f"solve residual [{length}]",
             "flags",
         ],
         rows,
-        (f"Per target (first {TARGET_ROWS} of {n})" if n > TARGET_ROWS else "Per target")
+        (f"Per position (first {POSITION_ROWS} of {n})" if n > POSITION_ROWS else "Per position")
         + (f"; files in {folder}." if folder else "."),
-        "targets",
+        "positions",
     )
 
 
@@ -160,12 +160,12 @@ def _compensation_summary(comp, nominal: Robot, identified: Robot, source: str, 
             f"{np.asarray(comp.residual)[ok].max() / ls:.3g} {length}" + predicted
         )
     else:
-        accuracy = "no target can be sent"
+        accuracy = "no position can be sent"
     return _summary(
         [
             (
                 "program",
-                f"{n} targets"
+                f"{n} positions"
                 + (f" from {source}" if source else "")
                 + f"; {int((~ok).sum())} flagged (unreachable, branch changed or path jump)",
             ),
@@ -190,22 +190,22 @@ def compensation_report_html(
     go, _ = _plotly()
     ls = length_scale(length)
     n = len(comp)
-    where = list(where) if where is not None else [f"target {i + 1}" for i in range(n)]
+    where = list(where) if where is not None else [f"position {i + 1}" for i in range(n)]
     view = _compensation_view(go, comp, nominal, identified, where, ls, length)
     errors = _figure_html(_error_chart(go, comp, ls, length), "errors-chart")
-    targets_t = _targets_table(comp, where, ls, length)
+    positions_t = _positions_table(comp, where, ls, length)
     summary = _compensation_summary(comp, nominal, identified, source, ls, length)
     title = title or "denavit compensation" + (f": {source}" if source else "")
-    meta = html.escape(f"{n} targets; lengths in {length}, angles in {angle}, robot base frame.")
+    meta = html.escape(f"{n} positions; lengths in {length}, angles in {angle}, robot base frame.")
     body = "\n".join(
         [
             _view_section(
                 view,
-                "The program's targets (flagged ones red), the shift from each target to the command sent (orange), "
-                "the nominal robot at the first target; the identified robot is in the legend.",
+                "The program's positions (flagged ones red), the shift from each position to the command sent "
+                "(orange), the nominal robot at the first position; the identified robot is in the legend.",
             ),
             f'<section id="errors"><h2>Errors</h2>{errors}</section>',
-            f'<section id="targets-section"><h2>Targets</h2><div class="scroll">{targets_t}</div></section>',
+            f'<section id="positions-section"><h2>Positions</h2><div class="scroll">{positions_t}</div></section>',
         ]
     )
     return _page(title, meta, summary, body)
@@ -225,9 +225,9 @@ def write_compensation_report(
     force: bool = False,
 ) -> Path:
     """Write the self-contained HTML report of a :class:`denavit.compensation.Compensation` (of ``nominal`` ->
-    ``identified`` robots) to ``path``: a summary (targets, flagged ones, the error without compensation and
-    after it), the targets and the commands in 3-D with the robot, the error of every target, the table of
-    targets (``where``: a label per target, e.g. "file:line"). Returns the path."""
+    ``identified`` robots) to ``path``: a summary (positions, flagged ones, the error without compensation and
+    after it), the positions and the commands in 3-D with the robot, the error at every position, the table of
+    positions (``where``: a label per position, e.g. "file:line"). Returns the path."""
     write_text(
         path,
         compensation_report_html(

@@ -73,7 +73,7 @@ class Point:
     """A position of the program.
 
     ``name`` (its declaration's, or the instruction's for an inline one), ``where`` (file:line), ``kind`` "pose"
-    (a Cartesian target in the program's base frame at its tool) or "joints" (the controller's axis values),
+    (a Cartesian pose in the program's base frame at its tool) or "joints" (the controller's axis values),
     ``numbers`` its position fields (pose: position then orientation, the vendor's order; joints: one per axis),
     ``config`` the configuration it states (the vendor's, or None: nearest the previous point, URScript), ``base``
     and ``tool`` (4x4, m) the frames it is taught in, ``problem`` why it is not compensated (kept, listed)."""
@@ -460,7 +460,7 @@ class ProgramCompensation:
     rows: list
     q_program: np.ndarray
     left: list
-    targets: np.ndarray
+    positions: np.ndarray
 
 
 def configuration_solution(
@@ -494,7 +494,7 @@ def compensate_program(
     program's tool and base frames exact, as the controller applies them). ``payload``: the payload on the flange for
     every position (kg, or (kg, (x, y, z)) its centre of mass in the model's flange frame, m; or (N, 4) one per
     compensated position): with an identified robot of compliant joints the commands are those that deflect onto
-    the targets under it (:func:`denavit.compensation.compensate`)."""
+    the positions under it (:func:`denavit.compensation.compensate`)."""
     from ... import compensation as cp  # noqa: PLC0415
     from ...robot import Robot  # noqa: PLC0415
 
@@ -505,7 +505,7 @@ def compensate_program(
     home = getattr(nominal, "home", None)
     q_prev = np.asarray(q0 if q0 is not None else (home if home is not None else np.zeros(model.nq)), dtype=float)
     F = v.flange_rotation(nominal)
-    rows, targets, qs, left = [], [], [], []
+    rows, positions, qs, left = [], [], [], []
     cache: dict = {"signs": v.signs(nominal)}
     for k, p in enumerate(program.points):
         if p.problem:
@@ -528,10 +528,10 @@ def compensate_program(
                     f"{getattr(nominal, 'name', 'model')} (expected a pose its configuration reaches within the joint limits)"
                 )
         rows.append(k)
-        targets.append(Tf)
+        positions.append(Tf)
         qs.append(q)
         q_prev = q
-    T = np.array(targets).reshape(-1, 4, 4)
+    T = np.array(positions).reshape(-1, 4, 4)
     Q = np.array(qs).reshape(-1, model.nq)
     if not rows:
         return ProgramCompensation(program, {}, None, [], Q, left, T)

@@ -20,16 +20,16 @@ against the older "RAPID Reference Manual", data type confdata ("quadrant 0 is t
 deg, in a positive direction from the zero position; quadrant 1 is the next revolution, 90-180 deg, etc. Quadrant -1
 is the revolution 0 deg - (-90 deg)"); the cfx table's text was not reachable here (unverified, docs/compensation.md).
 
-Frames: a named target's tool and work object are those of the move instructions that use it (MoveJ, MoveL,
+Frames: a named position's tool and work object are those of the move instructions that use it (MoveJ, MoveL,
 MoveC, MoveAbsJ and their DO/AO/GO/Sync forms; ``tool0`` / ``wobj0`` the flange and the base frame); a
 ``tooldata`` (``robhold`` TRUE) or ``wobjdata`` (``robhold`` FALSE, ``ufprog`` TRUE, no ``ufmec``: user frame then
 object frame) declared in the module is honoured; one declared elsewhere, a stationary tool, a moving work
-object, or a target used with two different frames is a one-line error. A named target no move uses is left as
+object, or a position used with two different frames is a one-line error. A named position no move uses is left as
 it is (its frames unknown) and listed.
 
 Supported subset: CONST, PERS, VAR, LOCAL and TASK declarations of robtarget and jointtarget (one value each;
-arrays are listed, not compensated); targets named or written inline in the move instructions above; functions of
-targets (``Offs(p10, ...)``) are not rewritten, the targets they name are.
+arrays are listed, not compensated); positions named or written inline in the move instructions above; functions of
+positions (``Offs(p10, ...)``) are not rewritten, the positions they name are.
 """
 
 from __future__ import annotations
@@ -274,8 +274,8 @@ def read(path, robot, *, frames: dict) -> Program:
         names = {u[1][2] for u in uses}
         if len(names) > 1:
             raise DenavitError(
-                f"{uses[0][0]}: {pt.name} is used with {' and '.join('/'.join(n) for n in sorted(names))}: a target taught in several frames "
-                "is unsupported (expected one tool and work object per target)"
+                f"{uses[0][0]}: {pt.name} is used with {' and '.join('/'.join(n) for n in sorted(names))}: "
+                "a position taught in several frames is unsupported (expected one tool and work object per position)"
             )
         pt.tool, pt.base = uses[0][1][0], uses[0][1][1]
     points.sort(key=lambda p: (int(p.where.rsplit(":", 1)[1]), p.numbers[0].start))

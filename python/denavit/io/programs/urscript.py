@@ -10,9 +10,9 @@ The configuration: a pose has none; the controller moves to the inverse kinemati
 position it starts from (``movel``, ``movep``, and ``movej`` of a pose alike), here the previous position of the
 script (in the text's order), the first nearest ``q0``. Joint positions are the configuration.
 
-Supported subset: moves whose target is a literal (``movel(p[...], a=1.2, v=0.25)``, ``movej([...])``) or a
+Supported subset: moves whose position is a literal (``movel(p[...], a=1.2, v=0.25)``, ``movej([...])``) or a
 variable assigned a literal (``p1 = p[...]``, ``global p1 = p[...]``), compensated where the literal is written;
-``set_tcp(p[...])`` or of such a variable. A target computed by a function (``pose_trans``, ``pose_add``,
+``set_tcp(p[...])`` or of such a variable. A position computed by a function (``pose_trans``, ``pose_add``,
 ``get_inverse_kin``, ...) or a ``set_tcp`` of one is listed, not compensated (one-line error for ``set_tcp``: the
 frame of every move after it would be unknown); a feature frame is not supported (poses are in the base frame).
 """
@@ -158,7 +158,7 @@ def read(path, robot, *, frames: dict) -> Program:
                 pt = _literal_point(src, clean, lit, arg, at, n)
                 seen[key] = pt
             else:
-                notes.append(f"{where}: {kind}({arg[:40]}): a computed target: not compensated")
+                notes.append(f"{where}: {kind}({arg[:40]}): a computed position: not compensated")
                 continue
             pt.tool = tcp.copy()
             if kind in ("movej",) and pt.kind == "pose":

@@ -1,4 +1,4 @@
-"""Programs of targets for compensation: tool poses and/or joint rows, one row per target.
+"""Positions files for compensation: tool poses and/or joint rows, one row per position.
 
 CSV (``,`` or ``;``), a header and a ``# units: length=mm angle=deg`` line (else the caller's units)::
 
@@ -29,8 +29,8 @@ POSE = ("x", "y", "z", "rx", "ry", "rz")
 
 
 @dataclass(frozen=True)
-class Targets:
-    """A program: ``poses`` (N, 4, 4) (m) or None, ``q`` (N, n) nominal joint values (rad / m) or None,
+class Positions:
+    """A positions file's rows: ``poses`` (N, 4, 4) (m) or None, ``q`` (N, n) nominal joint values (rad / m) or None,
     ``where`` (N,) "file:line" of each row, ``units`` the file's units."""
 
     poses: np.ndarray | None
@@ -40,13 +40,13 @@ class Targets:
 
     def __repr__(self) -> str:
         what = " and ".join(w for w, a in (("poses", self.poses), ("joint rows", self.q)) if a is not None)
-        return f"Targets({len(self.where)} rows of {what}, file units {' '.join(f'{k}={v}' for k, v in self.units.items())})"
+        return f"Positions({len(self.where)} rows of {what}, file units {' '.join(f'{k}={v}' for k, v in self.units.items())})"
 
 
-def read_targets(path: str | os.PathLike, kinds, *, length: str | None = None, angle: str | None = None) -> Targets:
-    """Read a program of targets (module docstring) for a robot with joint ``kinds``."""
+def read_positions(path: str | os.PathLike, kinds, *, length: str | None = None, angle: str | None = None) -> Positions:
+    """Read a positions file (module docstring) for a robot with joint ``kinds``."""
     where = str(path)
-    lines = read_text(path, "targets file", lines=True).splitlines()
+    lines = read_text(path, "positions file", lines=True).splitlines()
     units = input_units(parse_declaration(lines, where), length, angle, where)
     data, _ = dl.rows(lines, where)
     if not data:
@@ -90,7 +90,7 @@ def read_targets(path: str | os.PathLike, kinds, *, length: str | None = None, a
         poses[:, :3, 3] = vals[:, [col[c] for c in "xyz"]]
         poses[:, :3, :3] = rotvec_matrix(vals[:, [col[c] for c in ("rx", "ry", "rz")]] * as_)
     q = vals[:, [col[c] for c in qcols]] * joint_scale(kinds, units["length"], units["angle"], where) if has_q else None
-    return Targets(poses, q, places, units)
+    return Positions(poses, q, places, units)
 
 
 def write_compensated(
