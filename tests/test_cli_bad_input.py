@@ -183,7 +183,7 @@ def cases(d: Path, readonly: Path | None):
         ("show: missing robot", ["show", d / "nosuch.toml"], "unknown model"),
         ("plan: missing candidates", ["plan", "kr5", "--candidates", d / "nosuch.csv"], "nosuch.csv: no such"),
         (
-            "compensate: missing targets",
+            "compensate: missing positions",
             ["compensate", d / "nosuch.csv", "--nominal", "kr5", "--identified", "kr5"],
             "nosuch.csv",
         ),
@@ -288,7 +288,7 @@ def cases(d: Path, readonly: Path | None):
             "unknown column(s) note",
         ),
         (
-            "compensate: 1_000 in a target",
+            "compensate: 1_000 in a position",
             ["compensate", d / "t_underscore.csv", "--nominal", "kr5", "--identified", "kr5"],
             "column 'q1' must be a number, got '1_000'",
         ),

@@ -21,7 +21,7 @@ UNITLESS = {
     "n_points",
     "n_train",
     "n_test",
-    "targets",
+    "positions",
     "flagged",
     "iterations",
     "restarts",

@@ -83,7 +83,7 @@ def test_the_shared_options_mean_the_same_in_every_command():
 
 def test_the_model_is_the_first_argument_of_every_command_that_takes_one():
     """MODEL has one place: the first argument (`fk MODEL`, `identify MODEL DATA`, `calibrate MODEL DATA`,
-    `compensate MODEL TARGETS`, `validate MODEL DATA`)."""
+    `compensate MODEL POSITIONS`, `validate MODEL DATA`)."""
     from denavit.cli.common import COMMANDS, build_command
 
     takes = set()

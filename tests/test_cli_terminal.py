@@ -25,9 +25,9 @@ def files(tmp_path_factory):
     d = tmp_path_factory.mktemp("terminal")
     sweeps = d / "s.csv"
     run("simulate", "kr5", "-o", sweeps, "--points", "8", "--ranges", "paper30")
-    targets = d / "t.csv"
-    targets.write_text("q1,q2,q3,q4,q5,q6\n10,-80,70,5,60,20\n20,-70,60,-5,50,10\n")
-    return {"sweeps": sweeps, "targets": targets}
+    positions = d / "t.csv"
+    positions.write_text("q1,q2,q3,q4,q5,q6\n10,-80,70,5,60,20\n20,-70,60,-5,50,10\n")
+    return {"sweeps": sweeps, "positions": positions}
 
 
 def commands(files) -> dict:
@@ -43,7 +43,7 @@ def commands(files) -> dict:
         "plan": ["plan", "kr5", "--points", "8"],
         "identify": ["identify", files["sweeps"], "--nominal", "kr5"],
         "calibrate": ["calibrate", files["sweeps"], "--nominal", "kr5", "--tool", "50,30,100", "--holdout", "0"],
-        "compensate": ["compensate", files["targets"], "--nominal", "kr5", "--identified", "kr5"],
+        "compensate": ["compensate", files["positions"], "--nominal", "kr5", "--identified", "kr5"],
         "inspect": ["inspect", HERE / "data" / "recordings" / "rtde.csv"],
     }
 

@@ -1,4 +1,4 @@
-"""Compensation (denavit.compensation, core compensate.rs): targets in, commands for a nominal controller out."""
+"""Compensation (denavit.compensation, core compensate.rs): positions in, commands for a nominal controller out."""
 
 import numpy as np
 import pytest
@@ -29,7 +29,7 @@ def program(kr5, count, seed=5):
     """``count`` configurations over 0.8 of the joint limits, kept 10 deg clear of the KR5's singularities as a
     program is: the wrist (A5 = 0) and the stretched arm (the wrist centre in line with A2 and A3, at
     A3 = atan(a3 / d4) = 10.95 deg, KUKA's zero being the forearm in line with the upper arm). Near them the
-    identified robot reaches a target only on the other branch (a row 2.3 deg from both had been flagged)."""
+    identified robot reaches a position only on the other branch (a row 2.3 deg from both had been flagged)."""
     rng = np.random.default_rng(seed)
     out = []
     while len(out) < count:
@@ -39,7 +39,7 @@ def program(kr5, count, seed=5):
     return np.array(out)
 
 
-def test_exact_models_return_the_targets():
+def test_exact_models_return_the_positions():
     kr5, nominal, _ = kr5_pair()
     Q = program(kr5, 200)
     T = dv.fk_batch(nominal, Q)
@@ -78,7 +78,7 @@ def test_flags_and_the_path_mode():
 
 
 def test_a_branch_change_at_a_wrist_singularity_is_flagged():
-    """At q5 = 1e-5 rad (the wrist stretched) the identified model reaches the target only by swinging J4 and J6 by
+    """At q5 = 1e-5 rad (the wrist stretched) the identified model reaches the position only by swinging J4 and J6 by
     radians: the row is flagged ``branch_changed`` (not ok); the same program row with q5 = 0.6 rad is not."""
     kr5, nominal, true = kr5_pair()
     q = np.array([[0.3, -1.2, 1.0, 0.5, 0.6, 0.2], [0.3, -1.2, 1.0, 0.5, 1e-5, 0.2]])
@@ -113,7 +113,7 @@ def test_bad_input():
         cp.compensate(nominal, dv.Table("dh", np.array([[0, 0, 1.0, 0], [0, 0, 1.0, 0]])).to_model(), T)
     bad = T.copy()
     bad[1, :3, :3] *= 1.1
-    with pytest.raises(dv.DenavitError, match=r"targets\[1\]"):
+    with pytest.raises(dv.DenavitError, match=r"positions\[1\]"):
         cp.compensate(nominal, nominal, bad)
     with pytest.raises(dv.DenavitError, match="q_nominal"):
         cp.compensate(nominal, nominal, T, q_nominal=np.zeros((2, 5)))
@@ -127,7 +127,7 @@ def write_program(path, rows, header, units="length=mm angle=deg"):
 
 def test_cli_compensates_joint_rows_and_poses(tmp_path):
     """`denavit compensate` on joint rows (deg) and on poses (m, rotation vector): every written row reaches its
-    target on the identified robot, and the joint rows keep the program's branch."""
+    position on the identified robot, and the joint rows keep the program's branch."""
     from cli import run
     from denavit.geometry import matrix_rotvec
     from denavit.io import robotfile
@@ -167,8 +167,8 @@ def test_cli_compensates_joint_rows_and_poses(tmp_path):
 def test_cli_identify_save_then_compensate_against_the_builtin_nominal(tmp_path):
     """`identify --example kr5 --save` then `compensate --nominal kr5`: the identified robot carries the measured
     point as its tool, the built-in nominal has none, and every row had been flagged 'branch changed' (its IK
-    solved for the flange target with the point 116 mm off). The flange is compensated now, with a note: no row
-    flagged, and each command's joint values put the identified flange on its target."""
+    solved for the flange position with the point 116 mm off). The flange is compensated now, with a note: no row
+    flagged, and each command's joint values put the identified flange on its position."""
     from cli import run
 
     kr5 = dv.load_robot("kr5")
@@ -196,14 +196,16 @@ def test_cli_compensate_bad_input(tmp_path):
     p = run("compensate", tmp_path / "q.csv", "--nominal", "kr5", "--identified", "puma560x", ok=False)
     assert p.returncode == 2 and "unknown model 'puma560x'" in p.stderr and len(p.stderr.strip().splitlines()) == 1
     p = run("compensate", tmp_path / "q.csv", "--nominal", "kr5", "--identified", "ur5", ok=False)
-    assert p.returncode == 1 and "no target can be sent" in p.stdout
+    assert p.returncode == 1 and "no position can be sent" in p.stdout
     T = dv.fk_batch(dv.load_model("kr5"), Q)
     # positions in mm under a file that says metres
     write_program(
         tmp_path / "p.csv", [[*(Ti[:3, 3] * 1e3), 0, 0, 0] for Ti in T], "x,y,z,rx,ry,rz", "length=m angle=rad"
     )
     p = run("compensate", tmp_path / "p.csv", "--nominal", "kr5", "--identified", "kr5", ok=False)
-    assert p.returncode == 2 and "p.csv:3: the target is" in p.stderr and "is the file's length unit right?" in p.stderr
+    assert (
+        p.returncode == 2 and "p.csv:3: the position is" in p.stderr and "is the file's length unit right?" in p.stderr
+    )
     write_program(tmp_path / "bad.csv", [[1, 2, 3]], "q1,q2,q3")
     p = run("compensate", tmp_path / "bad.csv", "--nominal", "kr5", "--identified", "kr5", ok=False)
     assert p.returncode == 2 and "bad.csv:2: header must be 'x,y,z,rx,ry,rz' and/or 'q1,...,q6' (6 joints)" in p.stderr
@@ -325,7 +327,7 @@ def test_the_reading_model_is_undone_through_a_nominal_controller():
     """A robot whose joints turn (1 + s) times their readings' motion from a reference h (identify's scales act about
     the sweeps' home), and whose controller couples J3 to J2 (a Fanuc): compensating with a Robot that carries that
     reading model, the nominal controller's IK of the commands gives readings with which the true robot reaches the
-    targets to 1e-9 m; without the reading model (the bare model) it misses them by the scales' effect."""
+    positions to 1e-9 m; without the reading model (the bare model) it misses them by the scales' effect."""
     from dataclasses import replace
 
     from denavit.io.robotfile import parse_coupling
@@ -456,7 +458,7 @@ def test_identify_save_carries_the_reading_scales_and_the_cli_applies_them(tmp_p
     """`identify --save` (a DH result saved as its exact ED-H geometry) writes the readings' scale errors auto fitted
     ([readings], about the sweeps' home) and the covariance of the ED-H parameters, tool and scales; `compensate -o`
     with that file writes commands whose joint values, read by the nominal controller, put the identified robot
-    (its reading model) on the targets to 1e-9 m, and a predicted_after column equal to the JSON's per-row sigma."""
+    (its reading model) on the positions to 1e-9 m, and a predicted_after column equal to the JSON's per-row sigma."""
     import json
 
     from cli import run
@@ -661,9 +663,9 @@ def test_calibrate_save_of_a_robot_with_parallel_axes_keeps_a_bounded_covariance
 def test_cli_a_poe_save_compensates_like_the_edh_save(tmp_path):
     """`identify --convention poe --save` then `compensate --nominal kr5`: POE has no flange of its own (its home
     pose M is the measured point, its tool the identity), so the rule 'the nominal has no tool, the identified robot
-    has one: compensate the flange' never fired and the measured point was solved onto the flange targets: every
+    has one: compensate the flange' never fired and the measured point was solved onto the flange positions: every
     row flagged 'branch changed', commands off by up to 9 deg. Now the POE file's commands put the ED-H file's
-    flange on its targets to within how far the two files' tool points differ."""
+    flange on its positions to within how far the two files' tool points differ."""
     from cli import run
 
     kr5 = dv.load_robot("kr5")
@@ -687,8 +689,8 @@ def test_cli_a_poe_save_compensates_like_the_edh_save(tmp_path):
 
 
 def test_cli_json_holds_the_compensated_program_and_the_summary_says_what_it_leaves_out(tmp_path):
-    """`compensate --json` had the summary only (targets, flagged, before_rms_m, ...): not the commands. Now `rows`
-    holds each target's joint row and pose to send, flags and errors in SI. And the printed 'error without
+    """`compensate --json` had the summary only (counts, flagged, before_rms_m, ...): not the commands. Now `rows`
+    holds each position's joint row and pose to send, flags and errors in SI. And the printed 'error without
     compensation ... max' is over the rows that can be sent: with a row flagged it now says the flagged are left out."""
     import json
 
@@ -718,7 +720,7 @@ def test_cli_json_holds_the_compensated_program_and_the_summary_says_what_it_lea
     )  # the pose to send is the nominal's at the joint row
     flange = dv.load_model(saved).with_tool(
         np.eye(4)
-    )  # the identified flange at the commands reaches the program's targets
+    )  # the identified flange at the commands reaches the program's positions
     np.testing.assert_allclose(
         dv.fk_batch(flange, q[:2])[:, :3, 3], dv.fk_batch(kr5.model(), Q[:2])[:, :3, 3], atol=1e-9
     )

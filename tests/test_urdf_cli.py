@@ -139,8 +139,8 @@ def test_every_command_runs_on_the_urdf(name, tip, default, tmp_path):
     for qq in qs[:5]:
         np.testing.assert_allclose(dv.fk(m_cal, qq)[:3, 3], dv.fk(truth, qq)[:3, 3], atol=1e-6)
     # compensate a joint program with the calibrated robot
-    targets = tmp_path / "targets.csv"
-    targets.write_text(
+    positions = tmp_path / "positions.csv"
+    positions.write_text(
         "# units: length=mm angle=deg\n"
         + ",".join(f"q{k + 1}" for k in range(n))
         + "\n"
@@ -148,7 +148,7 @@ def test_every_command_runs_on_the_urdf(name, tip, default, tmp_path):
         + "\n"
     )
     # the calibrated URDF's own default tip is its `tcp` where the file has no tool0: name the nominal's tip for both
-    run("compensate", targets, "--nominal", f, "--identified", calibrated, "--tip-link", tip or default)
+    run("compensate", positions, "--nominal", f, "--identified", calibrated, "--tip-link", tip or default)
 
 
 def test_a_library_warning_is_one_warning_line(tmp_path):

@@ -189,7 +189,7 @@ COMMANDS = {
     ),
     "compensate": (
         "compensate",
-        'Compensate a program (RoboDK\'s "filtering"): for each target, the joint values that reach it on the '
+        'Compensate a program (RoboDK\'s "filtering"): for each position, the joint values that reach it on the '
         "identified robot (on the program's branch) and the pose T' = FK_nominal(q) to send to a controller that keeps "
         "its nominal model. Flagged rows (unreachable, branch changed, path jump) are marked, never silently kept; exit "
         "code 1 when any row is flagged.",

@@ -1,4 +1,4 @@
-"""``compensate``: turn a program's targets into the commands a nominal controller must be sent."""
+"""``compensate``: turn a program's positions into the commands a nominal controller must be sent."""
 
 from __future__ import annotations
 
@@ -20,15 +20,15 @@ ModelArg = Annotated[
     str,
     typer.Argument(
         metavar="MODEL",
-        help="The controller's model (built-in name, robot file or URDF), then TARGETS. (`TARGETS --nominal MODEL`: "
-        "deprecated.)",
+        help="The controller's model (built-in name, robot file or URDF), then POSITIONS. "
+        "(`POSITIONS --nominal MODEL`: deprecated.)",
     ),
 ]
 
-TargetsArg = Annotated[
+PositionsArg = Annotated[
     str | None,
     typer.Argument(
-        metavar="TARGETS",
+        metavar="POSITIONS",
         help="The program: a CSV of tool poses 'x,y,z,rx,ry,rz' (rotation vector) and/or joint rows 'q1..qn', with a "
         "'# units:' line; or a robot program (KUKA .src with its .dat, ABB .mod, FANUC .ls, URScript .script), "
         "written back with only its positions changed.",
@@ -53,7 +53,7 @@ OutputOpt = Annotated[
 ]
 
 PathOpt = Annotated[
-    bool, typer.Option("--path", help="The targets form a path: warm-start along it and flag branch jumps.")
+    bool, typer.Option("--path", help="The positions form a path: warm-start along it and flag branch jumps.")
 ]
 
 BranchTolOpt = Annotated[
@@ -66,7 +66,7 @@ BranchTolOpt = Annotated[
 
 ReportOpt = Annotated[
     Path | None,
-    typer.Option("--report", help="Write a self-contained HTML report (summary, 3-D view, per-target errors)."),
+    typer.Option("--report", help="Write a self-contained HTML report (summary, 3-D view, per-position errors)."),
 ]
 
 FrameOpt = Annotated[
@@ -90,7 +90,10 @@ PayloadOpt = Annotated[
     str | None,
     typer.Option(
         "--payload",
-        help='The payload on the flange for every row: its mass with a unit (kg, g) and optionally its centre of mass in the flange frame, e.g. "5 kg @ 0,0,80 mm" (--length units without one). With an identified robot of compliant joints (a robot file\'s [compliance]) the commands are those that deflect onto the targets under it.',
+        help="The payload on the flange for every row: its mass with a unit (kg, g) and optionally its centre of mass "
+        'in the flange frame, e.g. "5 kg @ 0,0,80 mm" (--length units without one). With an identified robot of '
+        "compliant joints (a robot file's [compliance]) the commands are those that deflect onto the positions "
+        "under it.",
     ),
 ]
 
@@ -99,7 +102,7 @@ PayloadOpt = Annotated[
 def compensate(
     model: ModelArg,
     identified: IdentifiedOpt,
-    targets: TargetsArg = None,
+    positions: PositionsArg = None,
     nominal: NominalAliasOpt = None,
     output: OutputOpt = None,
     path: PathOpt = False,
@@ -114,7 +117,7 @@ def compensate(
     q0: Q0Opt = None,
     payload: PayloadOpt = None,
 ) -> None:
-    """Compensate a program (RoboDK's "filtering"): for each target, the joint values that reach it on the
+    """Compensate a program (RoboDK's "filtering"): for each position, the joint values that reach it on the
     identified robot (on the program's branch) and the pose T' = FK_nominal(q) to send to a controller that keeps
     its nominal model. Flagged rows (unreachable, branch changed, path jump) are marked, never silently kept;
     exit code 1 when any row is flagged."""
@@ -125,7 +128,7 @@ def compensate(
 
     check_outputs(**{"-o": output, "--json": json_out})
     json_out = json_target(json_out)
-    nominal, targets = model_first(model, targets, nominal, "compensate", "TARGETS")
+    nominal, positions = model_first(model, positions, nominal, "compensate", "POSITIONS")
     nom_robot = load_robot(nominal, base_link, tip_link, "MODEL")
     id_robot = load_robot(
         identified,
@@ -139,22 +142,23 @@ def compensate(
     q0v = parse_joint_values(q0, "--q0", nom_robot, length, angle, default=nom_robot.home)
     from ..io.programs import detect  # noqa: PLC0415
 
-    fmt = detect(targets)
+    fmt = detect(positions)
     from ..io.payload import parse_payload  # noqa: PLC0415
 
     pl = None if payload is None else parse_payload(payload, length)
     if fmt is None and frame:
         raise DenavitError(
-            f"--frame: {targets} is a CSV of targets in the robot base frame: expected no --frame (it names a robot program's numbered frames)"
+            f"--frame: {positions} is a CSV of positions in the robot base frame: expected no --frame "
+            "(it names a robot program's numbered frames)"
         )
     if fmt is not None:
         if path:
             raise DenavitError(
-                f"--path: {targets} is a robot program, whose positions each state their configuration (URScript poses: nearest the "
-                "previous one): expected no --path"
+                f"--path: {positions} is a robot program, whose positions each state their configuration "
+                "(URScript poses: nearest the previous one): expected no --path"
             )
         pc = _compensate_program(
-            targets,
+            positions,
             fmt,
             nom_robot,
             id_robot,
@@ -175,7 +179,7 @@ def compensate(
                     nom_robot,
                     id_robot,
                     report,
-                    source=str(targets),
+                    source=str(positions),
                     where=[pc.program.points[k].where for k in pc.rows],
                     length=length,
                     angle=angle,
@@ -184,8 +188,8 @@ def compensate(
         if pc.left:
             raise typer.Exit(1)
         return
-    flagged = _compensate_targets(
-        targets,
+    flagged = _compensate_positions(
+        positions,
         nom_robot,
         id_robot,
         output=output,
@@ -202,32 +206,34 @@ def compensate(
         raise typer.Exit(1)
 
 
-def _compensate_targets(
-    targets, nom_robot, id_robot, *, output, path, branch_tol, q0v, payload, json_out, report, length, angle
+def _compensate_positions(
+    positions, nom_robot, id_robot, *, output, path, branch_tol, q0v, payload, json_out, report, length, angle
 ) -> list:
-    """A targets CSV compensated: read, checked against the robot's reach, compensated, written (-o, --json, --report)
+    """A positions CSV compensated: read, checked against the robot's reach, compensated, written (-o, --json, --report)
     and summarised; the flagged rows (where, why) returned."""
     import numpy as np  # noqa: PLC0415
 
     from .. import _core  # noqa: PLC0415
     from .. import compensation as cp  # noqa: PLC0415
-    from ..io.targets import read_targets, write_compensated  # noqa: PLC0415
+    from ..io.positions import read_positions, write_compensated  # noqa: PLC0415
 
     nom = nom_robot.model()
     kinds = list(nom.kinds)
-    prog = read_targets(targets, kinds, length=length, angle=angle)
+    prog = read_positions(positions, kinds, length=length, angle=angle)
     poses = prog.poses if prog.poses is not None else _core.fk_batch(nom, prog.q)
-    # a target beyond any reach is a unit slip, not a target to flag: say so at its row
+    # a position beyond any reach is a unit slip, not a position to flag: say so at its row
     reach = float(np.linalg.norm(_core.fk_batch(nom, _sample(nom))[:, :3, 3] - nom.T_world_base[:3, 3], axis=1).max())
     dist = np.linalg.norm(poses[:, :3, 3] - nom.T_world_base[:3, 3], axis=1)
     far = np.flatnonzero(dist > 1.5 * reach)
     if len(far):
         k = int(far[0])
         raise DenavitError(
-            f"{prog.where[k]}: the target is {dist[k] / length_scale(prog.units['length']):.6g} {prog.units['length']} from the base but {nom_robot.name} "
-            f"reaches about {reach / length_scale(prog.units['length']):.4g} {prog.units['length']} ({len(far)} such rows): is the file's length unit right?"
+            f"{prog.where[k]}: the position is {dist[k] / length_scale(prog.units['length']):.6g} "
+            f"{prog.units['length']} from the base but {nom_robot.name} reaches about "
+            f"{reach / length_scale(prog.units['length']):.4g} {prog.units['length']} ({len(far)} such rows): "
+            "is the file's length unit right?"
         )
-    with status(f"compensating {len(poses)} targets ..."):
+    with status(f"compensating {len(poses)} positions ..."):
         # (the robots, not their models: the identified robot's reading model, [couplings] and [readings], applies)
         c = cp.compensate(
             nom_robot,
@@ -257,7 +263,7 @@ def _compensate_targets(
             kinds,
             length=length,
             angle=angle,
-            comment=f"compensated for {nom_robot.name} -> {id_robot.name} from {targets}",
+            comment=f"compensated for {nom_robot.name} -> {id_robot.name} from {positions}",
             predicted_after=predicted,
             q0=q0v,
         )
@@ -271,7 +277,7 @@ def _compensate_targets(
 
         with status("writing the report ..."):
             write_compensation_report(
-                c, nom_robot, id_robot, report, source=str(targets), where=prog.where, length=length, angle=angle
+                c, nom_robot, id_robot, report, source=str(positions), where=prog.where, length=length, angle=angle
             )
         wrote(report)
     return flagged
@@ -282,7 +288,7 @@ def _summary(c, prog, kinds, q0v, flagged, before_rms: float, predicted) -> dict
     import numpy as np  # noqa: PLC0415
 
     summary = {
-        "targets": len(c),
+        "positions": len(c),
         "flagged": len(flagged),
         "units": SI_UNITS,
         "before_rms_m": before_rms,
@@ -325,7 +331,7 @@ def _summary(c, prog, kinds, q0v, flagged, before_rms: float, predicted) -> dict
 
 
 def _print_summary(c, prog, nom_robot, id_robot, summary, flagged, before_rms, predicted, q0v, length, angle) -> None:
-    """The compensation in a few lines: targets and flags, the error without compensation, the configurations
+    """The compensation in a few lines: positions and flags, the error without compensation, the configurations
     assumed, the predicted error after, the flagged rows."""
     kinds = list(nom_robot.table.kinds)
     ls = length_scale(length)
@@ -335,9 +341,9 @@ def _print_summary(c, prog, nom_robot, id_robot, summary, flagged, before_rms, p
     gain = (
         f"; error without compensation {spread(before_rms / ls)} {length} RMS, max {spread(summary['before_max_m'] / ls)} {length}{left_out}"
         if c.ok.any()
-        else "; no target can be sent (is the identified robot a calibration of the nominal?)"
+        else "; no position can be sent (is the identified robot a calibration of the nominal?)"
     )
-    say("bold", f"{nom_robot.name} -> {id_robot.name}:", f" {len(c)} targets, {len(flagged)} flagged{gain}")
+    say("bold", f"{nom_robot.name} -> {id_robot.name}:", f" {len(c)} positions, {len(flagged)} flagged{gain}")
     if c.assumed.any():
         from ..io.units import joint_scale  # noqa: PLC0415
 
@@ -400,11 +406,11 @@ def _compensate_program(
     its own configuration, written back with only the positions changed (docs/compensation.md)."""
     import numpy as np  # noqa: PLC0415
 
-    from ..api import compensate as compensate_targets  # noqa: PLC0415
+    from ..api import compensate as compensate_positions  # noqa: PLC0415
     from ..io import programs as pg  # noqa: PLC0415
 
     with status(f"compensating the positions of {path} ..."):
-        pc = compensate_targets(
+        pc = compensate_positions(
             nom_robot, id_robot, path, frames=frames, q0=q0v, branch_tol=branch_tol, payload=payload
         )  # (read_program and compensate_program, as a Python user's call does)
     prog = pc.program
@@ -436,7 +442,7 @@ def _compensate_program(
         "program": str(path),
         "format": fmt,
         "units": SI_UNITS,
-        "targets": len(prog.points),
+        "positions": len(prog.points),
         "flagged": len(pc.left),
         "left": [{"where": w, "why": why} for w, why in pc.left],
         "notes": list(prog.notes) + (list(c.notes) if c is not None else []),
