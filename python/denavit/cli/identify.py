@@ -24,6 +24,7 @@ from .options import (
     TipLinkOpt,
     TrackerNoiseOpt,
     TrackerPositionOpt,
+    VerboseOpt,
 )
 from .outputs import check_outputs, emit_json, json_target, require_plot_extra
 from .values import (
@@ -38,16 +39,34 @@ from .values import (
     warn_limits,
 )
 
-EXAMPLES = {"kr5": "kr5_90deg.csv", "kr5-90": "kr5_90deg.csv", "kr5-30": "kr5_30deg.csv"}
+#: The sweeps shipped with the package: --example name -> (file in denavit.data, Hayat Table II protocol in deg). All
+#: are simulated from :data:`TRUE_ROBOT` (examples/make_kr5_example.py), not measured.
+EXAMPLES = {"kr5": ("kr5_90deg.csv", 90), "kr5-90": ("kr5_90deg.csv", 90), "kr5-30": ("kr5_30deg.csv", 30)}
+#: The simulated "true" robot the examples were measured from (a robot file beside them; its [simulation] table says
+#: how: the nominal, its designed tool point in mm, the noise).
+TRUE_ROBOT = "kr5_true.toml"
+
+
+def _data_file(name: str) -> Path:
+    from importlib import resources  # noqa: PLC0415
+
+    return Path(str(resources.files("denavit.data").joinpath(name)))
 
 
 def example_path(name: str) -> Path:
-    from importlib import resources  # noqa: PLC0415
-
+    """The sweep file of the shipped example ``name`` (one of :data:`EXAMPLES`)."""
     key = name.lower()
     if key not in EXAMPLES:
         fail(f"--example: unknown example {name!r}: expected one of {', '.join(EXAMPLES)}")
-    return Path(str(resources.files("denavit.data").joinpath(EXAMPLES[key])))
+    return _data_file(EXAMPLES[key][0])
+
+
+def example_truth():
+    """The robot the examples were simulated from (:data:`TRUE_ROBOT`, a :class:`~denavit.Robot`, SI), its
+    ``extra["simulation"]`` saying how."""
+    from ..io.robots import load  # noqa: PLC0415
+
+    return load(_data_file(TRUE_ROBOT))
 
 
 DataArg = Annotated[
@@ -67,8 +86,8 @@ ExampleOpt = Annotated[
     str | None,
     typer.Option(
         "--example",
-        help="Run on data shipped with the package: kr5 (90 deg protocol), kr5-30; the nominal is then the built-in kr5 "
-        "unless MODEL says otherwise.",
+        help='Run on sweeps shipped with the package, simulated from a "true" KR5 (kr5_true.toml beside them): kr5 '
+        "(90 deg protocol), kr5-30; the nominal is then the built-in kr5 unless MODEL says otherwise.",
     ),
 ]
 MethodOpt = Annotated[str, typer.Option("--method", help="auto | kasa | hyper | geometric | readings | global")]
@@ -189,8 +208,8 @@ AllowImplausibleOpt = Annotated[
     bool,
     typer.Option(
         "--allow-implausible",
-        help="Keep a fit that is implausible against the nominal MODEL (mirror image, two joints exchanged, most axes far: a "
-        "unit slip or the wrong robot), with a note, instead of the error.",
+        help="Keep a fit that is implausible against the nominal MODEL (mirror image, two joints exchanged, most axes "
+        "far: a unit slip or the wrong robot), with a note, instead of the error.",
     ),
 ]
 ReadingsOpt = Annotated[
@@ -237,6 +256,7 @@ def identify(
     readings: ReadingsOpt = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
+    verbose: VerboseOpt = False,
 ) -> None:
     """Identify the joint axes and parameters from joint sweeps (Hayat et al.), beside the nominal values."""
     require_plot_extra(report=report, plot=plot)  # before any work: the plot extra's modules
@@ -292,14 +312,19 @@ def identify(
         )
     if json_path:
         emit_json(to_json(result), json_path)
+    truth = example_truth() if example else None
     if json_path != "-":
-        print_identification(to_json(result), result, out_len, out_ang)
+        doc = to_json(result)
+        print_measured(doc, result, out_len, out_ang, example, truth)
+        print_identification(doc, result, out_len, out_ang, verbose)
         if nom is not None:
-            print_accuracy(result, out_len)
+            print_accuracy(result, out_len, truth)
     if save_convention is not None:
         deprecated("--save-convention", "--convention, which sets the table --save writes")
     saved_as = convention_name(save_convention) if save_convention is not None else convention
     write_outputs(result, save_model, saved_as, urdf, report, plot, out_len, out_ang)
+    if json_path != "-":
+        print_next(example, nominal, save_model, verbose)
 
 
 def read_sweeps(
@@ -383,21 +408,107 @@ def fit_options(
     }
 
 
-def print_accuracy(result, length: str) -> None:
-    """The predicted accuracy over the joint limits: the nominal model's error and the identified model's 1 sigma."""
+def print_measured(doc: dict, result, length: str, angle: str, example: str | None, truth) -> None:
+    """What was measured: the sweeps, their points and arcs about the home, the fit's residual; for a shipped example
+    also how it was made (the protocol, the "true" robot it was simulated from, the noise)."""
+    from ..io.units import joint_scale  # noqa: PLC0415
+
+    sweeps = result.sweeps
+    counts = [len(s.points) for s in sweeps.sweeps]
+    each = f"{counts[0]} points each" if len(set(counts)) == 1 else f"{min(counts)}-{max(counts)} points"
+    arcs = ", ".join(
+        f"{j['arc_rad'] / angle_scale(angle):.3g}" if j["arc_rad"] is not None else "-" for j in doc["joints"]
+    )
+    js = joint_scale(list(sweeps.kinds), length, angle)
+    home = ", ".join(f"{round(v / k, 2) + 0.0:g}" for v, k in zip(sweeps.home, js))  # readings: noise below 0.01
+    say(
+        "bold",
+        "Measured",
+        f": {len(counts)} sweeps, one joint each about the home {home} {angle}, {each} ({sum(counts)} in all), "
+        f"arcs {arcs} {angle}; residual rms {spread(doc['rms_m'] / length_scale(length))} {length}",
+    )
+    console.print(f"  data: {doc['source']}", soft_wrap=True)
+    if truth is None:
+        return
+    sim, ls = truth.extra.get("simulation", {}), length_scale(length)
+    tool = ", ".join(num(v / ls, length) for v in truth.table.T_last_tool[:3, 3])
+    design = ", ".join(f"{v * 1e-3 / ls:g}" for v in sim["nominal_tool_mm"])
+    say(
+        "yellow",
+        "  simulated, not measured:",
+        f' Hayat et al.\'s {EXAMPLES[example.lower()][1]} deg protocol (Table II) on a "true" KR5 that differs from '
+        f"the nominal by {sim['errors']}, a point {tool} {length} off its flange (designed {design}), tracker noise "
+        f"{sim['tracker_noise_mm'] * 1e-3 / ls:g} {length}, joint-reading noise "
+        f"{math.radians(sim['reading_noise_deg']) / angle_scale(angle):g} {angle}",
+    )
+    console.print(f"  true robot: {truth.path}", soft_wrap=True)
+
+
+def print_accuracy(result, length: str, truth=None) -> None:
+    """How accurate the models are at the tool point over configurations spread within the joint limits
+    (:func:`denavit.compensation.identification_accuracy`): the identified model's predicted 1 sigma and the
+    nominal model's error as the identified model sees it; with ``truth`` (the robot a shipped example was simulated
+    from) the true error of the nominal model (its designed tool point, the measurement frame its base) and of the
+    identified model (its table, as --save writes it) at the same configurations."""
+    import numpy as np  # noqa: PLC0415
+
+    from .. import _core  # noqa: PLC0415
     from ..compensation import identification_accuracy  # noqa: PLC0415
 
     with status("predicting the accuracy over the joint limits ..."):
-        s = identification_accuracy(result).summary()
-    ls = length_scale(length)
+        acc = identification_accuracy(result)
+    s, ls = acc.summary(), length_scale(length)
+
+    def line(what: str, e) -> list[str]:
+        rms, worst = float(np.sqrt(np.mean(e**2))) / ls, float(np.max(e)) / ls
+        return [what, f"{spread(rms)} {length} (max {spread(worst)})"]
+
+    ident = result.robot(convention=result.convention)
+    q_ident = ident.joint_values(acc.q) if ident.has_reading_model else acc.q
+    name, rows = result.nominal.name, []
+    if truth is not None:
+        p_true = _core.fk_batch(truth.model(), acc.q)[:, :3, 3]
+        design = np.eye(4)
+        design[:3, 3] = np.asarray(truth.extra["simulation"]["nominal_tool_mm"], dtype=float) * 1e-3
+        p_nom = _core.fk_batch(result.nominal.model().with_tool(design), acc.q)[:, :3, 3]
+        p_id = _core.fk_batch(ident.model(), q_ident)[:, :3, 3]
+        rows += [
+            line(
+                f"nominal model ({name}, tool as designed) against the true robot:",
+                np.linalg.norm(p_nom - p_true, axis=1),
+            ),
+            line(
+                f"identified model ({result.convention.upper()} table) against the true robot:",
+                np.linalg.norm(p_id - p_true, axis=1),
+            ),
+        ]
+    else:
+        rows.append(line(f"nominal model ({name}) against the identified one:", acc.nominal))
+    rows.append(line("identified model, predicted (1 sigma):", acc.identified))
     say(
         "bold",
         "Accuracy",
-        f" over {s['configurations']} configurations within the limits: nominal model error rms "
-        f"{spread(s['nominal']['rms'] / ls)} {length} (max {spread(s['nominal']['max'] / ls)}); identified model, "
-        f"predicted 1 sigma: rms {spread(s['identified']['rms'] / ls)} {length} "
-        f"(max {spread(s['identified']['max'] / ls)})",
+        f" at the tool point, rms (max) over {s['configurations']} configurations spread within the joint limits" + ":",
     )
+    width = max(len(r[0]) for r in rows)
+    for what, value in rows:
+        console.print(f"  {what:<{width}} {value}", soft_wrap=True)
+
+
+def print_next(example: str | None, nominal, save_model, verbose: bool) -> None:
+    """One next step: keep the identified robot (--save), or, kept, correct a program's positions with it."""
+    if save_model and nominal and str(save_model) != "-":
+        step = (
+            f"denavit compensate {nominal} PROGRAM --identified {save_model}  (PROGRAM: a robot program or a CSV of "
+            "positions; the commands that bring the real robot to them: docs/compensation.md)"
+        )
+    elif example:
+        step = f"denavit identify --example {example} --save {example}_identified.toml  (keeps the identified robot)"
+    else:
+        step = "run again with --save ROBOT.toml to keep the identified robot (then denavit compensate)"
+    say("bold", "Next:", f" {step}")
+    if not verbose:
+        say("dim", "(--verbose: the joint axes, the measuring volume and the fit's choices)")
 
 
 def write_outputs(result, save_model, convention: str, urdf, report, plot, length: str, angle: str) -> None:
@@ -405,10 +516,13 @@ def write_outputs(result, save_model, convention: str, urdf, report, plot, lengt
     in the file),
     --urdf (the ED-H geometry, frames on the body; a URDF nominal's meshes and limits ride along), --plot, --report."""
     if save_model:
+        from ..fleet.checksum import saved_checksum  # noqa: PLC0415
         from ..io.results import save  # noqa: PLC0415
 
-        save(result, save_model, convention if convention in ("dh", "mdh") else None, length, angle)
-        wrote(save_model)
+        table = convention if convention in ("dh", "mdh") else None
+        save(result, save_model, table, length, angle)
+        written = result.robot(None, table) if str(save_model) == "-" else None
+        wrote(save_model, f" (model checksum {saved_checksum(save_model, written)})")
     if urdf:
         from ..io.urdf import save_urdf  # noqa: PLC0415
 
@@ -447,8 +561,8 @@ def parse_tracker_noise(text: str | None, position: str | None, length: str, ang
             fail("--tracker-position: needs --tracker-noise (the tracker's range and angle noise)")
         return None
     expected = (
-        f"--tracker-noise: expected the range and the angle noise (1 sigma), two values separated by a comma, each a number > 0 with an "
-        f'optional unit, e.g. "5 um, 1 arcsec" (bare numbers in {length} and {angle})'
+        "--tracker-noise: expected the range and the angle noise (1 sigma), two values separated by a comma, each a "
+        f'number > 0 with an optional unit, e.g. "5 um, 1 arcsec" (bare numbers in {length} and {angle})'
     )
     items = text.split(",")
     if len(items) != 2:
@@ -477,15 +591,51 @@ def parse_tracker_noise(text: str | None, position: str | None, length: str, ang
     )
 
 
-def print_identification(doc: dict, result, length: str, angle: str) -> None:
-    """The identified table beside the nominal, the joint axes and the measuring volume, in ``length`` / ``angle``
-    (``doc``: the result's SI document, :func:`denavit.identification.to_json`)."""
+#: The notes that are the fit's choices in the statistics' words (the model choice by BIC and marginal likelihood,
+#: scale estimates in ppm, a DH table's Hayati beta): shown with --verbose.
+DETAIL_NOTES = ("auto:", "Hayati")
+
+
+def print_identification(doc: dict, result, length: str, angle: str, verbose: bool = False) -> None:
+    """The identified table beside the nominal and, with ``verbose``, the joint axes and the measuring volume, in
+    ``length`` / ``angle`` (``doc``: the result's SI document, :func:`denavit.identification.to_json`); the notes
+    (those of :data:`DETAIL_NOTES` with ``verbose``)."""
+    print_parameters(doc, result, length, angle)
+    if verbose:
+        print_axes(doc, length, angle)
+    tf = doc["tool_frame"]
+    as_, ls = angle_scale(angle), length_scale(length)
+    if tf["orientation_from"] != "nominal":
+        rpy = ", ".join(f"{v / as_:.6g}" for v in tf["rpy_rad"])
+        say(
+            "bold",
+            "Tool frame",
+            f" at home (measurement frame): orientation from {tf['orientation_from']} ({tf['how']}): roll, pitch, yaw "
+            f"{rpy} {angle} (R = Rz Ry Rx), 1 sigma {spread(tf['sigma_rad'] / as_)} {angle}"
+            + (
+                f"; {tf['angle_from_nominal_flange_rad'] / as_:.4g} {angle} from the nominal flange's"
+                if tf["angle_from_nominal_flange_rad"] is not None
+                else ""
+            ),
+        )
+    if doc.get("targets_home_m"):
+        console.print(
+            f"  targets at home [{length}]: "
+            + "; ".join(", ".join(num(v / ls, length) for v in p) for p in doc["targets_home_m"]),
+            soft_wrap=True,
+        )
+    for note in doc["notes"]:
+        if verbose or not any(word in note for word in DETAIL_NOTES):
+            say("yellow", "note:", f" {note}")
+
+
+def print_parameters(doc: dict, result, length: str, angle: str) -> None:
+    """The identified table beside the nominal (``doc``: the result's SI document)."""
     import numpy as np  # noqa: PLC0415
 
     nt = result.nominal_table
-    ls, as_ = length_scale(length), angle_scale(angle)
+    as_ = angle_scale(angle)
     say("bold", f"Identified {doc['convention'].upper()} parameters", f" (method {doc['method']})")
-    console.print(f"  data: {doc['source']}", soft_wrap=True)
     cols = result.table.columns
     rows = []
     for i, row in enumerate(doc["parameters"]):
@@ -516,6 +666,11 @@ def print_identification(doc: dict, result, length: str, angle: str) -> None:
         group=True,
         caption="sigma = one standard deviation propagated from the fits; difference = identified - nominal",
     )
+
+
+def print_axes(doc: dict, length: str, angle: str) -> None:
+    """The joint axes' fits (radius, arc, residuals, sigmas, outliers, readings) and the measuring volume."""
+    ls, as_ = length_scale(length), angle_scale(angle)
     scaled = any(j["reading_scale"] is not None for j in doc["joints"])
     heads = [
         "joint",
@@ -548,30 +703,9 @@ def print_identification(doc: dict, result, length: str, angle: str) -> None:
     print_rows("Joint axes (measurement frame)", heads, arows)
     b = doc["bounding_box"]
     console.print(
-        f"Measuring volume (minimum oriented bounding box, Hayat Table IV): {' x '.join(num(v / ls, length) for v in b['lengths_m'])} {length}, {b['volume_m3']:.4g} m^3; "
+        "Measuring volume (minimum oriented bounding box, Hayat Table IV): "
+        f"{' x '.join(num(v / ls, length) for v in b['lengths_m'])} {length}, {b['volume_m3']:.4g} m^3; "
         "orientation (columns = box axes):"
     )
     for row in b["orientation"]:
         console.print("  " + "  ".join(f"{v:7.3f}" for v in row))
-    tf = doc["tool_frame"]
-    if tf["orientation_from"] != "nominal":
-        rpy = ", ".join(f"{v / as_:.6g}" for v in tf["rpy_rad"])
-        say(
-            "bold",
-            "Tool frame",
-            f" at home (measurement frame): orientation from {tf['orientation_from']} ({tf['how']}): roll, pitch, yaw {rpy} {angle} "
-            f"(R = Rz Ry Rx), 1 sigma {spread(tf['sigma_rad'] / as_)} {angle}"
-            + (
-                f"; {tf['angle_from_nominal_flange_rad'] / as_:.4g} {angle} from the nominal flange's"
-                if tf["angle_from_nominal_flange_rad"] is not None
-                else ""
-            ),
-        )
-    if doc.get("targets_home_m"):
-        console.print(
-            f"  targets at home [{length}]: "
-            + "; ".join(", ".join(num(v / ls, length) for v in p) for p in doc["targets_home_m"]),
-            soft_wrap=True,
-        )
-    for note in doc["notes"]:
-        say("yellow", "note:", f" {note}")
