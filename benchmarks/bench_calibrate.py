@@ -62,7 +62,8 @@ def median_time(f, repeats):
 def table_time(kr5, repeats):
     print("\n1. Time of calibrate (KR5, ED-H, points, 0.02 mm noise; median / min over repeats)")
     print(
-        f"{'poses':>6} {'calibrate [ms]':>15} {'min [ms]':>9} {'+ holdout 0.2 [ms]':>19} {'Jacobian [us]':>14} {'evaluations':>12} {'rank':>5}"
+        f"{'poses':>6} {'calibrate [ms]':>15} {'min [ms]':>9} {'+ holdout 0.2 [ms]':>19} {'Jacobian [us]':>14}"
+        f" {'evaluations':>12} {'rank':>5}"
     )
     pz = cal.parametrize(kr5, "edh", tool=TOOL)
     for n in (50, 100, 200, 500):
@@ -74,13 +75,15 @@ def table_time(kr5, repeats):
         res = cal.calibrate(meas, kr5, tool=TOOL)
         flag = "  <- 6R from 100 poses" if n == 100 else ""
         print(
-            f"{n:>6} {med * 1e3:>15.1f} {mn * 1e3:>9.1f} {medh * 1e3:>19.1f} {jac * 1e6:>14.0f} {res.evaluations:>12} {res.identifiability.rank:>5}{flag}"
+            f"{n:>6} {med * 1e3:>15.1f} {mn * 1e3:>9.1f} {medh * 1e3:>19.1f} {jac * 1e6:>14.0f} {res.evaluations:>12}"
+            f" {res.identifiability.rank:>5}{flag}"
         )
 
 
 def table_scale(kr5, repeats):
     print(
-        "\n1b. Scale of calibrate and of plan --select (KR5, ED-H, points; median over repeats; run with OPENBLAS_NUM_THREADS=1 on a loaded machine)"
+        "\n1b. Scale of calibrate and of plan --select (KR5, ED-H, points; median over repeats; run with"
+        " OPENBLAS_NUM_THREADS=1 on a loaded machine)"
     )
     print(f"{'case':<34} {'wall [s]':>9} {'cpu [s]':>9} {'growth (cpu)':>13} {'over a decade':>14}")
 
@@ -113,7 +116,8 @@ def table_scale(kr5, repeats):
 def table_statistics(kr5, runs):
     print(f"\n2. Monte Carlo against the Cramér-Rao bound ({runs} runs, 0.02 mm noise)")
     print(
-        f"{'data':<22} {'free':>5} {'RMSE/CRB med':>13} {'max':>6} {'pooled':>7} {'sigma/spread med':>17} {'min':>6} {'max':>6} {'plan/spread med':>16} {'min':>6} {'max':>6} {'ms/run':>7}"
+        f"{'data':<22} {'free':>5} {'RMSE/CRB med':>13} {'max':>6} {'pooled':>7} {'sigma/spread med':>17} {'min':>6}"
+        f" {'max':>6} {'plan/spread med':>16} {'min':>6} {'max':>6} {'ms/run':>7}"
     )
     for data in ("100 random poses", "30 deg sweeps"):
         if data.startswith("100"):
@@ -155,8 +159,9 @@ def table_statistics(kr5, runs):
         r2 = sig.mean(axis=0) / spread
         r3 = pl.sigma[idx] / spread
         print(
-            f"{data:<22} {len(idx):>5} {np.median(r1):>13.3f} {r1.max():>6.3f} {pooled:>7.3f} {np.median(r2):>17.3f} {r2.min():>6.3f} {r2.max():>6.3f} "
-            f"{np.median(r3):>16.3f} {r3.min():>6.3f} {r3.max():>6.3f} {dt * 1e3:>7.1f}"
+            f"{data:<22} {len(idx):>5} {np.median(r1):>13.3f} {r1.max():>6.3f} {pooled:>7.3f} {np.median(r2):>17.3f}"
+            f" {r2.min():>6.3f} {r2.max():>6.3f} {np.median(r3):>16.3f} {r3.min():>6.3f} {r3.max():>6.3f}"
+            f" {dt * 1e3:>7.1f}"
         )
 
 
@@ -178,8 +183,8 @@ def table_accuracy(kr5, runs, protocols):
         prot = cal.Protocol.paper(protocol, points_per_sweep=30, tool_point=TOOL)
         pl = cal.plan(kr5, prot, noise=NOISE)
         print(
-            f"\n3. Paper protocol {protocol} deg (Hayat Table II), 30 points per sweep, {runs} runs: RMS axis-position error per joint [um], "
-            f"tool-position RMS over 1,000 configurations [um], time per call [ms]"
+            f"\n3. Paper protocol {protocol} deg (Hayat Table II), 30 points per sweep, {runs} runs: RMS axis-position"
+            " error per joint [um], tool-position RMS over 1,000 configurations [um], time per call [ms]"
         )
         print(f"{'method':<24}" + "".join(f"{'A' + str(j + 1):>8}" for j in range(6)) + f"{'tool':>9}{'ms':>8}")
         rows = {m: ([], [], 0.0) for m in [*METHODS, "calibrate (edh)", "calibrate, 100 poses"]}
@@ -228,7 +233,8 @@ def table_accuracy(kr5, runs, protocols):
         print(f"{'bound ratio':<24}" + "".join(f"{v:>8.2f}" for v in pl.per_circle_sigma[:, 0] / pl.axis_sigma[:, 0]))
         b = pl.box
         print(
-            f"measuring volume (plan): {b.lengths[0] * 1e3:.0f} x {b.lengths[1] * 1e3:.0f} x {b.lengths[2] * 1e3:.0f} mm, {b.volume:.4f} m^3"
+            f"measuring volume (plan): {b.lengths[0] * 1e3:.0f} x {b.lengths[1] * 1e3:.0f} x {b.lengths[2] * 1e3:.0f}"
+            f" mm, {b.volume:.4f} m^3"
         )
 
 
@@ -247,7 +253,8 @@ def main() -> None:
         args.runs, args.accuracy_runs, args.repeats = 20, 3, 10
     kr5 = dv.load_robot("kr5")
     print(
-        f"denavit {dv.__version__}: whole-model calibration benchmark (KR5, Hayat et al. Table III; noise {NOISE * 1e3} mm per coordinate)"
+        f"denavit {dv.__version__}: whole-model calibration benchmark (KR5, Hayat et al. Table III; noise {NOISE * 1e3}"
+        " mm per coordinate)"
     )
     if args.scale_only:
         table_scale(kr5, 3)

@@ -14,7 +14,8 @@ tool 1 mm from where the nominal says. The joints are compliant: joint i sits at
 gravity torque with the links and the payload (the truth's torques from the nominal's inertials, as the model's). The
 compliances are ``k_i = c / max |tau_i|`` (every joint twisting alike under its largest torque), ``c`` set per robot so
 that the tool (the payload's centre of mass) deflects by 1 mm RMS over the joint ranges at the rated payload (printed:
-5-95 % 0.26-1.8 mm on the KR 210, 0.26-1.95 mm on the UR5, medians 0.8 and 0.7 mm). Tracker noise 0.02 mm per coordinate. Training: 50 poses (uniform in the joint limits, revolute joints
+5-95 % 0.26-1.8 mm on the KR 210, 0.26-1.95 mm on the UR5, medians 0.8 and 0.7 mm). Tracker noise 0.02 mm per
+coordinate. Training: 50 poses (uniform in the joint limits, revolute joints
 within +-180 deg), each measured at no payload and at the rated payload (100 measurements: the two-payload protocol of
 docs/cli.md, "Joint compliance, payload and gravity"). Test: 300 other poses at half the rated payload.
 
@@ -191,8 +192,9 @@ def main() -> None:
         PATTERN[name] = stiffness_pattern(dv.load_robot(name), rated, com)
         k, d = PATTERN[name]
         print(
-            f"\n== {name}: rated payload {rated:g} kg at {np.round(com * 1e3, 1).tolist()} mm; tool deflection at the rated payload: "
-            f"p5 {d[0] * 1e3:.2f}, median {d[1] * 1e3:.2f}, p95 {d[2] * 1e3:.2f}, max {d[3] * 1e3:.2f} mm"
+            f"\n== {name}: rated payload {rated:g} kg at {np.round(com * 1e3, 1).tolist()} mm; tool deflection at the"
+            f" rated payload: p5 {d[0] * 1e3:.2f}, median {d[1] * 1e3:.2f}, p95 {d[2] * 1e3:.2f}, max"
+            f" {d[3] * 1e3:.2f} mm"
         )
         rows = {"nominal": [], "geometry only": [], "geometry + compliance": []}
         z = []
@@ -208,7 +210,8 @@ def main() -> None:
             z.append([(v - t) / sd if np.isfinite(sd) and sd > 0 else np.nan for v, sd, t in kk])
             first = first or kk
         print(
-            f"held-out tool-position error, 300 poses at {rated / 2:g} kg (training at 0 and {rated:g} kg), mean over {seeds} seeds [mm]; noise floor {floor * 1e3:.4f} mm"
+            f"held-out tool-position error, 300 poses at {rated / 2:g} kg (training at 0 and {rated:g} kg), mean over"
+            f" {seeds} seeds [mm]; noise floor {floor * 1e3:.4f} mm"
         )
         print(f"  {'model':24s} {'rms':>8s} {'max':>8s}")
         for key, v in rows.items():
@@ -216,11 +219,12 @@ def main() -> None:
             print(f"  {key:24s} {a[:, 0].mean() * 1e3:8.4f} {a[:, 1].mean() * 1e3:8.4f}")
         gc, go = np.array(rows["geometry + compliance"])[:, 0], np.array(rows["geometry only"])[:, 0]
         print(
-            f"  geometry + compliance / noise floor: {gc.mean() / floor:.3f} (target <= 1.5; worst seed {gc.max() / floor:.3f}); "
-            f"/ geometry only: {gc.mean() / go.mean():.3f} (target <= 0.5)"
+            f"  geometry + compliance / noise floor: {gc.mean() / floor:.3f} (target <= 1.5; worst seed"
+            f" {gc.max() / floor:.3f}); / geometry only: {gc.mean() / go.mean():.3f} (target <= 0.5)"
         )
         print(
-            f"  auto chose a +compliance model in {sum(c.endswith(COMPLIANCE) for c in chosen)} of {seeds} seeds ({', '.join(sorted(set(chosen)))})"
+            f"  auto chose a +compliance model in {sum(c.endswith(COMPLIANCE) for c in chosen)} of {seeds} seeds"
+            f" ({', '.join(sorted(set(chosen)))})"
         )
         rms = {
             key: np.array([math.sqrt(np.mean(c[key] ** 2)) for c in comp]) for key in ("before", "after", "predicted")
@@ -239,7 +243,8 @@ def main() -> None:
         print(f"  targets flagged (branch left), not compensated: {sum(c['flagged'] for c in comp)} of {300 * seeds}")
         unit = "urad/(N m)"
         print(
-            f"compliances, seed 0 [{unit}]   and over {seeds} seeds: std and mean of (estimate - truth) / sigma (target std 0.8-1.25)"
+            f"compliances, seed 0 [{unit}]   and over {seeds} seeds: std and mean of (estimate - truth) / sigma (target"
+            " std 0.8-1.25)"
         )
         Z = np.array(z)
         for j, (v, sd, t) in enumerate(first):
@@ -260,8 +265,9 @@ def main() -> None:
         n_c = sum(c.endswith(COMPLIANCE) for c, _, _ in rigid)
         diff = np.array([a / b for _, a, b in rigid])
         print(
-            f"rigid joints (no compliance in the data): auto freed the compliances in {n_c} of {seeds} runs ({100 * n_c / seeds:.0f} %, target <= 5 %); "
-            f"held-out rms chosen / geometric choice: mean {diff.mean():.4f}, max {diff.max():.4f}"
+            f"rigid joints (no compliance in the data): auto freed the compliances in {n_c} of {seeds} runs"
+            f" ({100 * n_c / seeds:.0f} %, target <= 5 %); held-out rms chosen / geometric choice: mean"
+            f" {diff.mean():.4f}, max {diff.max():.4f}"
         )
     print(f"\n({time.perf_counter() - t0:.0f} s)")
 

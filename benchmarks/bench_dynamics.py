@@ -167,8 +167,8 @@ def main() -> None:
     cols = ["rnea", "mass matrix", "aba", "batch rnea"]
     units = {"rnea": 1e3, "mass matrix": 1e3, "aba": 1e3, "batch rnea": 1e6}
     print(
-        f"TianSui-One (6 revolute joints), median of {R} repeats; single calls in us, batch of {args.states:,} states in ms; "
-        f"{os.cpu_count()} cores"
+        f"TianSui-One (6 revolute joints), median of {R} repeats; single calls in us, batch of {args.states:,} states"
+        f" in ms; {os.cpu_count()} cores"
     )
     print(f"{'library':<18}" + "".join(f"{c + (' (ms)' if c == 'batch rnea' else ' (us)'):>18}" for c in cols))
     for lib, r in rows.items():

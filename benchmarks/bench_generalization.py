@@ -11,7 +11,8 @@ Three robots:
 
 Each case (``--seeds`` seeds per robot): the truth is the nominal's ED-H calibration chain with every link parameter
 moved (lengths 0.5 mm, angles and joint offsets 0.05 deg, one sigma; ``kr5-offsets``: the KR5 with its joint offsets
-moved only, a robot of accurate geometry where the simpler models should win), seen by a tracker 5-20 m away (a random base
+moved only, a robot of accurate geometry where the simpler models should win), seen by a tracker 5-20 m away (a random
+base
 pose), the target 1 mm from where the nominal tool says. ``--train`` (30) training poses drawn in a limited range
 (revolute joints +-30 deg about a home, the lift over 0.2 m), 200 test poses: 100 in that range and 100 in +-90 deg
 (the lift over its whole stroke) with at least one joint outside it. Point noise ``--noise`` mm (0.03) per
@@ -45,8 +46,8 @@ import numpy as np
 
 import denavit as dv
 from denavit import calibration as cal
-from denavit.io.robots import as_robot
 from denavit.geometry import kabsch
+from denavit.io.robots import as_robot
 
 #: Gravity deflection: rad per (N m per N), i.e. per metre of horizontal lever of a unit load at the tool point.
 K_DEFLECT = 2e-4
@@ -212,10 +213,11 @@ def main() -> None:
     args = ap.parse_args()
     seeds = 3 if args.quick else args.seeds
     print(
-        f"Held-out tool-position error (mm) of small-data calibrations: {args.train} training poses in +-30 deg, 100 test poses in that range "
-        f"and 100 outside it (+-90 deg), {args.noise} mm tracker noise, tracker 5-20 m away, true link errors 0.5 mm / 0.05 deg, gravity "
-        f"deflection {K_DEFLECT:g} rad/m and +-{math.degrees(HYSTERESIS) * 60:.2g} arcmin reading hysteresis the model does not hold; "
-        f"means over {seeds} seeds"
+        f"Held-out tool-position error (mm) of small-data calibrations: {args.train} training poses in +-30 deg, 100"
+        f" test poses in that range and 100 outside it (+-90 deg), {args.noise} mm tracker noise, tracker 5-20 m away,"
+        f" true link errors 0.5 mm / 0.05 deg, gravity deflection {K_DEFLECT:g} rad/m and"
+        f" +-{math.degrees(HYSTERESIS) * 60:.2g} arcmin reading hysteresis the model does not hold; means over {seeds}"
+        " seeds"
     )
     verdicts = []
     t0 = time.perf_counter()
@@ -240,7 +242,10 @@ def main() -> None:
                     ]
                 )
         print(
-            f"\n{name}{'' if links else ' (only the joint offsets are off: a recently mastered robot of accurate geometry)'} ({len(robot.names)} joints: {', '.join(robot.table.kinds)}); auto chose: {', '.join(f'{k} {v}x' for k, v in picks.most_common())}"
+            f"\n{name}"
+            f"{'' if links else ' (only the joint offsets are off: a recently mastered robot of accurate geometry)'}"
+            f" ({len(robot.names)} joints: {', '.join(robot.table.kinds)}); auto chose:"
+            f" {', '.join(f'{k} {v}x' for k, v in picks.most_common())}"
         )
         print(f"{'model':<12} {'in rms':>8} {'in max':>8} {'out rms':>8} {'out max':>8} {'all rms':>8} {'all max':>8}")
         mean = {label: np.mean(v, axis=0) * 1e3 for label, v in acc.items()}
@@ -251,7 +256,8 @@ def main() -> None:
         ok = ratio_best <= 1.05 and ratio_full <= 1.0
         verdicts.append(ok)
         print(
-            f"auto / best {ratio_best:.3f} (target <= 1.05), auto / full {ratio_full:.3f} (target <= 1): {'met' if ok else 'NOT met'}"
+            f"auto / best {ratio_best:.3f} (target <= 1.05), auto / full {ratio_full:.3f} (target <= 1):"
+            f" {'met' if ok else 'NOT met'}"
         )
     print(f"\n{sum(verdicts)} of {len(verdicts)} robots meet the targets; {time.perf_counter() - t0:.1f} s")
 

@@ -43,7 +43,13 @@ import denavit as dv
 from denavit import sweeps as sw
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from real_effects import ARCSEC, CHI2_99, NEST, axis_chi2, recordings  # noqa: E402 (the simulator of real effects the tests use)
+from real_effects import (  # noqa: E402 (the simulator of real effects the tests use)
+    ARCSEC,
+    CHI2_99,
+    NEST,
+    axis_chi2,
+    recordings,
+)
 
 from denavit.fitting.joint import TrackerNoise  # noqa: E402
 from denavit.geometry import matrix_rotvec  # noqa: E402
@@ -85,20 +91,24 @@ def tracker_mc(runs: int, points: int, tracker: TrackerNoise, reading_arcsec, pr
         err, sig, err_iso, sig_iso = map(np.array, (err, sig, err_iso, sig_iso))
         rms, rms_iso = np.sqrt(np.mean(err**2, axis=0)), np.sqrt(np.mean(err_iso**2, axis=0))
         print(
-            f"\n=== tracker noise {tracker.sigma_range * 1e6:g} um, {tracker.sigma_angle / ARCSEC:g} arcsec at {tracker.position} m, {protocol} degree "
-            f"protocol, {points} points per sweep, readings {str(reading_arcsec) + ' arcsec' if reading_arcsec else 'exact'}, {runs} runs ({time.perf_counter() - t0:.1f} s)"
+            f"\n=== tracker noise {tracker.sigma_range * 1e6:g} um, {tracker.sigma_angle / ARCSEC:g} arcsec at"
+            f" {tracker.position} m, {protocol} degree protocol, {points} points per sweep, readings"
+            f" {str(reading_arcsec) + ' arcsec' if reading_arcsec else 'exact'}, {runs} runs"
+            f" ({time.perf_counter() - t0:.1f} s)"
         )
         print(
-            "joint   rms err model [um]   err / sigma model   rms err isotropic [um]   err / sigma isotropic   gain (isotropic / model)"
+            "joint   rms err model [um]   err / sigma model   rms err isotropic [um]   err / sigma isotropic   gain"
+            " (isotropic / model)"
         )
         for j in range(6):
             print(
-                f"{j + 1:5d}   {rms[j] * 1e6:20.3g}   {rms[j] / sig[:, j].mean():17.3f}   {rms_iso[j] * 1e6:22.3g}   {rms_iso[j] / sig_iso[:, j].mean():21.3f}   "
-                f"{rms_iso[j] / rms[j]:24.3f}"
+                f"{j + 1:5d}   {rms[j] * 1e6:20.3g}   {rms[j] / sig[:, j].mean():17.3f}   {rms_iso[j] * 1e6:22.3g}  "
+                f" {rms_iso[j] / sig_iso[:, j].mean():21.3f}   {rms_iso[j] / rms[j]:24.3f}"
             )
         print(
-            f"pooled err / sigma: model {np.sqrt(np.mean((err / sig) ** 2)):.3f}, isotropic {np.sqrt(np.mean((err_iso / sig_iso) ** 2)):.3f}; "
-            f"gain geometric mean {math.exp(np.mean(np.log(rms_iso / rms))):.3f}"
+            f"pooled err / sigma: model {np.sqrt(np.mean((err / sig) ** 2)):.3f}, isotropic"
+            f" {np.sqrt(np.mean((err_iso / sig_iso) ** 2)):.3f}; gain geometric mean"
+            f" {math.exp(np.mean(np.log(rms_iso / rms))):.3f}"
         )
 
 
@@ -164,7 +174,8 @@ def main() -> None:
     p_true = dv.fk_batch(truth_tool, qs)[:, :3, 3]
     names = ["d", "theta", "a", "alpha"]
     print(
-        f"KR5 (Hayat Table III), {args.points} points per sweep, {args.noise_mm} mm noise, {args.runs} Monte Carlo runs per cell"
+        f"KR5 (Hayat Table III), {args.points} points per sweep, {args.noise_mm} mm noise, {args.runs} Monte Carlo runs"
+        " per cell"
     )
     for protocol in [int(p) for p in args.protocols.split(",")]:
         ranges = np.radians(sw.PAPER_RANGES_DEG[protocol])
@@ -234,7 +245,8 @@ def main() -> None:
                     + "".join(f"{v:9.3f}" for v in rows[m]["param_rms"][:, k] * scale)
                 )
         print(
-            "Tool-position RMS error over 1,000 random configurations (mm), and reported sigma / Monte Carlo spread (median over parameters; 1 = honest):"
+            "Tool-position RMS error over 1,000 random configurations (mm), and reported sigma / Monte Carlo spread"
+            " (median over parameters; 1 = honest):"
         )
         print(f"{'method':<10}{'DH model':>10}{'ED-H model':>12}{'sigma/spread':>14}{'within 20%':>12}")
         for m in methods:
@@ -274,11 +286,13 @@ def realistic(runs: int, points: int, methods: list, targets: int = 3, protocols
     for protocol in protocols:
         ranges = np.radians(sw.PAPER_RANGES_DEG[protocol])
         print(
-            f"\n=== realistic recordings, {protocol} degree protocol, {points} points per sweep, 0.02 mm tracker noise, {runs} runs, "
-            f"{targets} targets ==="
+            f"\n=== realistic recordings, {protocol} degree protocol, {points} points per sweep, 0.02 mm tracker noise,"
+            f" {runs} runs, {targets} targets ==="
         )
         print(
-            f"{'case':<40}{'method':<11}{'axis err mm':>12}{'vs kasa':>8}{'sigma/spread':>14}{'in 0.8-1.25':>13}{'targets agree':>15}   auto chose; out of the band"
+            f"{'case':<40}{'method':<11}{'axis err mm':>12}{'vs kasa':>8}{'sigma/spread':>14}{'in 0.8-1.25':>13}"
+            f"{'targets agree':>15}"
+            "   auto chose; out of the band"
         )
         shared_rows = []
         for case, kw in CASES.items():
@@ -332,8 +346,10 @@ def realistic(runs: int, points: int, methods: list, targets: int = 3, protocols
                 ratio = np.sqrt(np.mean(sig**2, axis=0))[free] / spread[free]
                 pos = 1e3 * math.sqrt(np.mean(np.array(pe) ** 2))
                 shared_rows.append(
-                    f"{case:<40}{label:<18}{pos:12.4f}{np.median(ratio):14.2f}{100 * np.mean((ratio >= 0.8) & (ratio <= 1.25)):12.0f}%"
-                    f"{100 * np.mean(within):13.0f}%{100 * np.mean(rot_c2):12.0f}%{math.degrees(math.sqrt(np.mean(rot_e))) * 3600:10.3g}"
+                    f"{case:<40}{label:<18}{pos:12.4f}{np.median(ratio):14.2f}"
+                    f"{100 * np.mean((ratio >= 0.8) & (ratio <= 1.25)):12.0f}%"
+                    f"{100 * np.mean(within):13.0f}%{100 * np.mean(rot_c2):12.0f}"
+                    f"%{math.degrees(math.sqrt(np.mean(rot_e))) * 3600:10.3g}"
                     f"{math.degrees(np.mean(rot_s)) * 3600:10.3g}   " + ", ".join(f"{k} {v}" for k, v in chose.items())
                 )
             for method in methods:
@@ -388,8 +404,9 @@ def realistic(runs: int, points: int, methods: list, targets: int = 3, protocols
             continue
         print(f"shared fits (one fit with shared axes; tool orientation identified), {protocol} degree protocol:")
         print(
-            f"{'case':<40}{'data':<18}{'axis err mm':>12}{'sigma/spread':>14}{'in 0.8-1.25':>13}{'axes in 99%':>14}{'tool in 99%':>13}"
-            f"{'tool err':>10}{'sigma':>10}   auto chose   (tool orientation error and mean sigma in arcsec)"
+            f"{'case':<40}{'data':<18}{'axis err mm':>12}{'sigma/spread':>14}{'in 0.8-1.25':>13}{'axes in 99%':>14}"
+            f"{'tool in 99%':>13}{'tool err':>10}{'sigma':>10}"
+            "   auto chose   (tool orientation error and mean sigma in arcsec)"
         )
         for row in shared_rows:
             print(row)

@@ -212,18 +212,20 @@ def main() -> None:
         ("200 ppm on J2, J3, 90 deg arcs", RANGES90, sc, 0),
     ]
     print(
-        f"UR5, home {np.round(np.degrees(HOME), 2).tolist()} deg, {args.points} points per sweep, 0.02 mm noise, tool {TOOL} m, {args.runs} seeds per case"
+        f"UR5, home {np.round(np.degrees(HOME), 2).tolist()} deg, {args.points} points per sweep, 0.02 mm noise, tool"
+        f" {TOOL} m, {args.runs} seeds per case"
     )
     print(
-        "Scales fitted: by auto (ln n, n the residual count), by the old rule, and by the same evidence with the BIC's n the count of scales (ln k)."
-        " Found: fitted, both scales nearer 200 ppm than 0."
+        "Scales fitted: by auto (ln n, n the residual count), by the old rule, and by the same evidence with the BIC's"
+        " n the count of scales (ln k). Found: fitted, both scales nearer 200 ppm than 0."
     )
     print(
-        "Agrees: among the runs where the old rule fitted the scales, how often the choice is the model nearer the truth on the axes."
+        "Agrees: among the runs where the old rule fitted the scales, how often the choice is the model nearer the"
+        " truth on the axes."
     )
     print(
-        f"{'case':<32}{'fitted':>7}{'old':>6}{'ln k':>6}{'found':>7} | auto/global axis error: p50   p90   p95   max <=1.5x | "
-        f"{'RMS um: auto':>12}{'global':>7}{'old':>6} | scales nearer  agrees: auto  ln k"
+        f"{'case':<32}{'fitted':>7}{'old':>6}{'ln k':>6}{'found':>7} | auto/global axis error: p50   p90   p95   max"
+        f" <=1.5x | {'RMS um: auto':>12}{'global':>7}{'old':>6} | scales nearer  agrees: auto  ln k"
     )
     results = {}
     for name, ranges, scale, seed0 in cases:
@@ -241,10 +243,13 @@ def main() -> None:
             else "   -   "
         )
         print(
-            f"{name:<32}{100 * np.mean(res['fit']):6.0f}%{100 * np.mean(res['fit_old']):5.0f}%{100 * np.mean(alt):5.0f}%{found} | "
-            f"{'':>22}{p[0]:5.2f} {p[1]:5.2f} {p[2]:5.2f} {p[3]:5.2f} {100 * np.mean(ratio <= 1.5):4.0f}% | "
-            f"{1e6 * np.sqrt(np.mean(res['e_auto'] ** 2)):12.1f}{1e6 * np.sqrt(np.mean(res['e_glob'] ** 2)):7.1f}{1e6 * np.sqrt(np.mean(res['e_old'] ** 2)):6.1f} | "
-            f"{nearer:>13}  {agreement(res, res['fit']):>12}  {agreement(res, alt)}   ({time.perf_counter() - t0:.0f} s)"
+            f"{name:<32}{100 * np.mean(res['fit']):6.0f}%{100 * np.mean(res['fit_old']):5.0f}"
+            f"%{100 * np.mean(alt):5.0f}%{found}"
+            f" | {'':>22}{p[0]:5.2f} {p[1]:5.2f} {p[2]:5.2f} {p[3]:5.2f} {100 * np.mean(ratio <= 1.5):4.0f}% |"
+            f" {1e6 * np.sqrt(np.mean(res['e_auto'] ** 2)):12.1f}{1e6 * np.sqrt(np.mean(res['e_glob'] ** 2)):7.1f}"
+            f"{1e6 * np.sqrt(np.mean(res['e_old'] ** 2)):6.1f}"
+            f" | {nearer:>13}  {agreement(res, res['fit']):>12}  {agreement(res, alt)}  "
+            f" ({time.perf_counter() - t0:.0f} s)"
         )
     print("\nSigma honesty (mean reported sigma / RMS error about the truth, per DH parameter that varies):")
     for name in results:
@@ -252,8 +257,8 @@ def main() -> None:
             for label, fit in (("auto", ""), ("global", "_g")):
                 med, lo, hi, share, off = honesty(results[name], fit)
                 print(
-                    f"  {name:<30} {label:<7} median {med:.2f}, range {lo:.2f}-{hi:.2f}, {100 * share:.0f}% within 0.8-1.25"
-                    + (f"; outside: {off}" if off else "")
+                    f"  {name:<30} {label:<7} median {med:.2f}, range {lo:.2f}-{hi:.2f}, {100 * share:.0f}% within"
+                    " 0.8-1.25" + (f"; outside: {off}" if off else "")
                 )
     if args.save:
         np.savez(args.save, **{f"{i}_{k}": v for i, res in enumerate(results.values()) for k, v in res.items()})

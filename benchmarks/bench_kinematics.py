@@ -203,7 +203,8 @@ def ik_one_attempt(models, n, have_rtb, have_pin, tol=1e-9, respect_limits=True)
     (slimit=1: one search from the same q0, ilimit=100, joint_limits=True) and pinocchio's CLIK (a Python loop
     over its C++ calls). With `respect_limits=False` no solver is held to the limits nor judged on them, and q0 is
     0.3 rad at every joint (with the limits, q0 is clipped into them: the Panda's q4 <= -0.07 rad). rtb gets the
-    same targets and start on the same chain, built from denavit's table (its own models.DH.Puma560 / UR5 / KR5 are other robots: a 0.672 m base height, d1 = 89.459 mm and +-180 deg
+    same targets and start on the same chain, built from denavit's table (its own models.DH.Puma560 / UR5 / KR5 are
+    other robots: a 0.672 m base height, d1 = 89.459 mm and +-180 deg
     limits, other axis senses; checked here by FK at 5 configurations). denavit's first attempt starts from the
     closed-form branches of the 6R built-ins (within the limits, nearest q0 first, polished by Newton) whatever
     the method; the 7-joint arms (Panda, iiwa) start from the semi-analytic seeds (q7 sampled from q0's outwards,
@@ -259,7 +260,8 @@ def ik_one_attempt(models, n, have_rtb, have_pin, tol=1e-9, respect_limits=True)
                 between.append(time.perf_counter() - t)
                 judge(r.q, T)
             cells.append(
-                f"{100 * ok / n:.1f} %, {np.median(times) * 1e6:.2f} us ({np.median(between) * 1e6:.2f} us between other work)"
+                f"{100 * ok / n:.1f} %, {np.median(times) * 1e6:.2f} us ({np.median(between) * 1e6:.2f} us between"
+                " other work)"
             )
         for solver in ("ik_NR", "ik_LM") if have_rtb else ():
             robot = rtb_robot_with_limits(m)
@@ -304,9 +306,10 @@ def timed(targets, solve):
 
 def print_one_attempt(rows, have_rtb):
     print(
-        "IK, one attempt (restarts=0, 100 iterations) from q0 = 0.3 rad, random reachable targets, pose error <= 1e-9 "
-        "and within limits (rows 'no limits': limits neither enforced nor judged): success rate, median time per solve, solves back to back, judged afterwards (denavit's: in brackets, "
-        "each solve judged before the next) (target: >= 97 %, <= 5 us, never below rtb)"
+        "IK, one attempt (restarts=0, 100 iterations) from q0 = 0.3 rad, random reachable targets, pose error <= 1e-9"
+        " and within limits (rows 'no limits': limits neither enforced nor judged): success rate, median time per"
+        " solve, solves back to back, judged afterwards (denavit's: in brackets, each solve judged before the next)"
+        " (target: >= 97 %, <= 5 us, never below rtb)"
     )
     head = (
         "robot",
@@ -412,8 +415,10 @@ def main():
             worst = max(res.position_error.max(), res.rotation_error.max())
             rows.append(
                 (
-                    f"Guo trajectory {name}, {method}: 100 warm-started solves, tol 1e-10 "
-                    f"({'all solved' if ok else 'FAILURES'}, worst error {worst:.1e})",
+                    (
+                        f"Guo trajectory {name}, {method}: 100 warm-started solves, tol 1e-10 "
+                        f"({'all solved' if ok else 'FAILURES'}, worst error {worst:.1e})"
+                    ),
                     ms(t),
                     r_txt,
                     p_txt,

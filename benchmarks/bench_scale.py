@@ -9,7 +9,8 @@ repeats on the default threads, then the median CPU time of the process with thr
 loaded machine the wall time also counts the waits for a core), and the growth exponent: the slope of log t
 against log N fitted over N >= 10^4 (1.0 = linear).
 Kernel rows: batch FK 100,000 on one core (threads=1; wall and process CPU time) and on two (threads=2), batch
-Jacobian 100,000, FK 10^7 with out=, a single FK call from Python next to the binding's floor (an empty call: the `Model.nq` getter), and
+Jacobian 100,000, FK 10^7 with out=, a single FK call from Python next to the binding's floor (an empty call: the
+`Model.nq` getter), and
 IK with one attempt (success rate and median, from benchmarks/bench_kinematics.py). pinocchio has no batch API:
 its column is a Python loop over its C++ calls (pin.forwardKinematics / computeJointJacobians / rnea) on the
 same chain, timed on fewer configurations and scaled per configuration.
@@ -32,7 +33,15 @@ import json  # noqa: E402
 import time  # noqa: E402
 
 import numpy as np  # noqa: E402
-from bench_kinematics import ik_one_attempt, once, per_call, pin, pin_model_with_tool, rtb, rtb_robot_with_limits  # noqa: E402
+from bench_kinematics import (  # noqa: E402
+    ik_one_attempt,
+    once,
+    per_call,
+    pin,
+    pin_model_with_tool,
+    rtb,
+    rtb_robot_with_limits,
+)
 
 import denavit as dv  # noqa: E402
 
@@ -105,11 +114,12 @@ def main():
     gflops, gbs = machine_floor(rep)
     scale = ISSUE_GFLOPS / gflops
     print(
-        f"denavit {dv.__version__}; {os.cpu_count()} cores; KR5; medians of {rep} runs; load average {os.getloadavg()[0]:.1f}"
+        f"denavit {dv.__version__}; {os.cpu_count()} cores; KR5; medians of {rep} runs; load average"
+        f" {os.getloadavg()[0]:.1f}"
     )
     print(
-        f"this machine, one core: {gflops:.1f} GFLOP/s (DGEMM), {gbs:.1f} GB/s (copy); the issue's: {ISSUE_GFLOPS:.0f} GFLOP/s, "
-        f"23-35 GB/s; compute-bound targets scaled by {scale:.2f}"
+        f"this machine, one core: {gflops:.1f} GFLOP/s (DGEMM), {gbs:.1f} GB/s (copy); the issue's: {ISSUE_GFLOPS:.0f}"
+        f" GFLOP/s, 23-35 GB/s; compute-bound targets scaled by {scale:.2f}"
     )
     fig["machine"] = {"gflops": gflops, "copy_gbs": gbs, "target_scale": scale}
 
@@ -119,7 +129,10 @@ def main():
     for label, threads, clock in (
         ("wall time, threads = default (RAYON_NUM_THREADS or every core)", None, time.perf_counter),
         (
-            "CPU time of the process, threads=1 (leaves out waiting for a core on a loaded machine; a long call runs on a helper thread that Ctrl-C can stop, so the calling thread alone would miss it)",
+            (
+                "CPU time of the process, threads=1 (leaves out waiting for a core on a loaded machine; a long call"
+                " runs on a helper thread that Ctrl-C can stop, so the calling thread alone would miss it)"
+            ),
             1,
             time.process_time,
         ),
@@ -246,7 +259,10 @@ def main():
         )
     rows.append(
         (
-            "single FK from Python (returns the 4x4 array), wall (thread CPU); the binding's floor (an empty call, Model.nq)",
+            (
+                "single FK from Python (returns the 4x4 array), wall (thread CPU); the binding's floor (an empty call,"
+                " Model.nq)"
+            ),
             f"{fmt(t_fk)} ({fmt(c_fk)}); floor {fmt(t_empty)}",
             p_one,
             "-",

@@ -74,7 +74,8 @@ def main() -> None:
     common = importlib.util.find_spec("denavit.cli.common").origin
     cached = os.path.exists(importlib.util.cache_from_source(common))
     print(
-        f"denavit from {os.path.dirname(os.path.dirname(common))}, bytecode {'cached' if cached else 'NOT cached (compiled at every run)'}\n"
+        f"denavit from {os.path.dirname(os.path.dirname(common))}, bytecode"
+        f" {'cached' if cached else 'NOT cached (compiled at every run)'}\n"
     )
     print(f"| case | CPU median [s] ({a.repeats} runs) | imports | target |")
     print("|---|---|---|---|")

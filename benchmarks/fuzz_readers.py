@@ -28,7 +28,8 @@ def main() -> None:
     print(f"{'reader':<32} {'cases':>7} {'clean errors':>13} {'accepted':>9} {'other exceptions':>17} {'hangs':>6}")
     for name, c in res.items():
         print(
-            f"{name:<32} {c['cases']:>7} {c['clean errors']:>13} {c['accepted']:>9} {c['other exceptions']:>17} {c['hangs']:>6}"
+            f"{name:<32} {c['cases']:>7} {c['clean errors']:>13} {c['accepted']:>9} {c['other exceptions']:>17}"
+            f" {c['hangs']:>6}"
         )
         for f in sorted(set(c["failures"]))[:5]:
             print(f"    {f[:200]}")

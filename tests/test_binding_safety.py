@@ -117,7 +117,10 @@ def test_out_at_every_offset_is_filled_exactly_or_refused(name):
         else:
             with pytest.raises(
                 dv.DenavitError,
-                match=r"^invalid out: expected a C-contiguous, writeable float64 numpy array of shape .* whose data is 8-byte aligned, got an array whose data starts at an address not a multiple of 8",
+                match=(
+                    r"^invalid out: expected a C-contiguous, writeable float64 numpy array of shape .* whose data is"
+                    r" 8-byte aligned, got an array whose data starts at an address not a multiple of 8"
+                ),
             ):
                 fn(m, *inputs, out=out)
 
@@ -243,8 +246,14 @@ def test_a_child_process_computes_after_the_parent_ran_the_pool(method):
 # --- Ctrl-C -----------------------------------------------------------------------------------------------
 
 LONG_CALLS = {
-    "ik": "dv.ik(m, np.array([[1, 0, 0, 5.0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]), restarts=10**6, max_iterations=10**6)",
-    "ik_batch": "dv.ik_batch(m, np.repeat(np.array([[[1, 0, 0, 5.0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]]), 4, 0), restarts=10**6)",
+    "ik": (
+        "dv.ik(m, np.array([[1, 0, 0, 5.0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]), restarts=10**6,"
+        " max_iterations=10**6)"
+    ),
+    "ik_batch": (
+        "dv.ik_batch(m, np.repeat(np.array([[[1, 0, 0, 5.0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]]), 4, 0),"
+        " restarts=10**6)"
+    ),
     "forward_dynamics_batch": "q = np.zeros((3_000_000, 6)); dv.forward_dynamics_batch(p, q, q, q, threads=1)",
 }
 
@@ -280,13 +289,11 @@ def test_ctrl_c_stops_a_long_call_within_a_second(call):
 
 def test_after_an_interrupt_calls_run_again():
     code = (
-        "import numpy as np, signal, threading, os, denavit as dv\n"
-        "m = dv.load_model('kr5')\n"
-        "T = np.array([[1, 0, 0, 5.0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])\n"
-        "threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT)).start()\n"
-        "try:\n    dv.ik(m, T, restarts=10**6)\nexcept KeyboardInterrupt:\n    print('interrupted')\n"
-        "q = np.full(6, 0.3)\n"
-        "print(dv.ik(m, dv.fk(m, q), q + 0.01).success, np.array_equal(dv.fk_batch(m, np.tile(q, (300000, 1)))[-1], dv.fk(m, q)))\n"
+        "import numpy as np, signal, threading, os, denavit as dv\nm = dv.load_model('kr5')\nT = np.array([[1, 0, 0,"
+        " 5.0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])\nthreading.Timer(0.3, lambda: os.kill(os.getpid(),"
+        " signal.SIGINT)).start()\ntry:\n    dv.ik(m, T, restarts=10**6)\nexcept KeyboardInterrupt:\n   "
+        " print('interrupted')\nq = np.full(6, 0.3)\nprint(dv.ik(m, dv.fk(m, q), q + 0.01).success,"
+        " np.array_equal(dv.fk_batch(m, np.tile(q, (300000, 1)))[-1], dv.fk(m, q)))\n"
     )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert r.stdout.split() == ["interrupted", "True", "True"], r.stderr

@@ -417,7 +417,10 @@ def test_too_few_poses_for_the_free_parameters(kr5):
     meas = cal.simulate(kr5, cal.configurations(kr5, 8), tool=TOOL)
     with pytest.raises(
         dv.DenavitError,
-        match=r"too few measurements: 8 points give 24 equations for the 27 parameters this model can identify \(base_tx.*need at least 10 points",
+        match=(
+            r"too few measurements: 8 points give 24 equations for the 27 parameters this model can identify"
+            r" \(base_tx.*need at least 10 points"
+        ),
     ):
         cal.calibrate(meas, kr5, tool=TOOL)
 
@@ -430,7 +433,10 @@ def test_a_joint_that_never_moves_is_named(kr5):
     meas = cal.simulate(kr5, q, tool=TOOL)
     with pytest.raises(
         dv.DenavitError,
-        match=r"joint\(s\) 4 \(A4\) never move in the data \(q4 = 0.25 rad in all 60 poses\): the data cannot identify (\w+, )*\w+ .*hold these fixed: fix=\[",
+        match=(
+            r"joint\(s\) 4 \(A4\) never move in the data \(q4 = 0.25 rad in all 60 poses\): the data cannot identify"
+            r" (\w+, )*\w+ .*hold these fixed: fix=\["
+        ),
     ) as e:
         cal.calibrate(meas, kr5, tool=TOOL)
     names = ast.literal_eval(str(e.value).split("fix=")[1])

@@ -188,7 +188,8 @@ def test_cli_calibrate_refuses_a_jump_and_honours_a_coupling(tmp_path):
 
 
 def test_cli_calibrate_writes_a_report(tmp_path):
-    """`calibrate --report`: the calibration's self-contained HTML report (what it draws: test_report's browser test)."""
+    """`calibrate --report`: the calibration's self-contained HTML report (what it draws: test_report's browser
+    test)."""
     kr5 = dv.load_robot("kr5")
     q = cal.configurations(kr5, 30)
     meas = cal.simulate(kr5.model(), q, tool=np.array([0.05, 0.03, 0.1]), noise=2e-5, seed=2)

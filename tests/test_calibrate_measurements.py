@@ -169,7 +169,10 @@ def test_prismatic_readings_take_the_length_unit(tmp_path):
     assert res.rms < 2 * NOISE
     with pytest.raises(
         dv.DenavitError,
-        match=r"m.csv: joint 2 \(j2\) of rprr is prismatic, but its readings were read as revolute \(in deg\): pass kinds=",
+        match=(
+            r"m.csv: joint 2 \(j2\) of rprr is prismatic, but its readings were read as revolute \(in deg\): pass"
+            r" kinds="
+        ),
     ):
         cal.calibrate(read_measurements(f), robot, tool=TOOL)
     with pytest.raises(

@@ -72,7 +72,8 @@ def test_four_markers_per_pose_recover_the_model_and_predict_better_than_one(kr5
     assert c.converged and c.measurements.n == 120 and c.rms < 3 * NOISE * np.sqrt(3)
     assert any("base registered in closed form" in n for n in c.notes)
     assert [c.status[c.names.index(n)] for n in MOVED] == ["free"] * len(MOVED)
-    # the moved parameters and the targets' points within their sigmas, jointly (chi-square of 30 terms: mean 1, sd 0.26)
+    # the moved parameters and the targets' points within their sigmas, jointly (chi-square of 30 terms: mean 1, sd
+    # 0.26)
     kin = [c.names.index(n) for n in MOVED]
     tgt = [c.names.index(f"target{k + 1}_{a}") for k in range(4) for a in "xyz"]
     idx = kin + tgt

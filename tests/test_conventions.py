@@ -160,7 +160,10 @@ def test_near_parallel_never_absurd(kr5):
         ),
         (
             lambda m: dv.Table("dh", np.zeros((2, 5))),
-            r"params of a dh table \(columns d, theta, a, alpha\): expected an array of shape \(N, 4\), got shape \(2, 5\)",
+            (
+                r"params of a dh table \(columns d, theta, a, alpha\): expected an array of shape \(N, 4\), got shape"
+                r" \(2, 5\)"
+            ),
         ),
         (
             lambda m: dv.JointAxes(np.zeros((2, 3)), [[0, 0, 1], [0, 0, 0]]),

@@ -269,7 +269,10 @@ def test_bad_inertias_are_rejected_with_clear_messages():
         m.with_inertias(ok_m, ok_c, ok_i, frame="tool")
     with pytest.raises(
         dv.DenavitError,
-        match=r"^invalid frame: expected 'dh' only for a model built from a DH table .*, got 'dh' for model 'tiansui_edh', which has no DH link frames$",
+        match=(
+            r"^invalid frame: expected 'dh' only for a model built from a DH table .*, got 'dh' for model"
+            r" 'tiansui_edh', which has no DH link frames$"
+        ),
     ):
         tiansui_edh().with_inertias(ok_m, ok_c, ok_i, frame="dh")
     with pytest.raises(dv.DenavitError, match=r"mass \(kg\) of link 1 must be finite, got NaN"):
@@ -487,7 +490,10 @@ def test_robot_file_inertia_units_frames_and_round_trip(tmp_path):
             9000,
             "g mm^2",
             False,
-            r"joint 1 \(line 9\): inertia: invalid inertia tensor of link 1: expected principal moments satisfying the triangle inequality",
+            (
+                r"joint 1 \(line 9\): inertia: invalid inertia tensor of link 1: expected principal moments satisfying"
+                r" the triangle inequality"
+            ),
         ),
         (5, 2000, "kg furlong^2", False, r"unknown length unit 'furlong'"),
         (5, 2000, "stone", False, r"unknown inertia unit 'stone'"),
@@ -625,7 +631,10 @@ def test_rates_and_results_beyond_double_precision_are_refused_not_nan():
     for name, f in single.items():
         with pytest.raises(
             dv.DenavitError,
-            match=r"^invalid qd at joint 2: expected joint rates whose squares are finite \(\|qd\| <= 1.3408e154 rad/s or m/s\), got 1e160$",
+            match=(
+                r"^invalid qd at joint 2: expected joint rates whose squares are finite \(\|qd\| <= 1.3408e154 rad/s or"
+                r" m/s\), got 1e160$"
+            ),
         ) as e:
             f()
         assert e.value.kind == "InvalidArgument" and e.value.what == "qd at joint 2", name
@@ -653,7 +662,10 @@ def test_rates_and_results_beyond_double_precision_are_refused_not_nan():
     }.items():
         with pytest.raises(
             dv.DenavitError,
-            match=r"is not finite \(.* at (joint \d|entry \(\d, \d\)|the chain)\): the inputs are moderate: the model's parameters",
+            match=(
+                r"is not finite \(.* at (joint \d|entry \(\d, \d\)|the chain)\): the inputs are moderate: the model's"
+                r" parameters"
+            ),
         ) as e:
             f()
         assert e.value.kind == "Overflow" and e.value.cause.startswith("the inputs are moderate"), name

@@ -75,7 +75,8 @@ def test_exact_readings_on_short_arcs_get_no_reading_scales(truth):
         if not fitted[-1]:  # the exact-scale global fit itself (its axes compared once)
             assert any(
                 n.startswith(
-                    "auto: no reading scale errors fitted (the evidence does not show them: 2 ln(marginal likelihood ratio)"
+                    "auto: no reading scale errors fitted (the evidence does not show them: 2 ln(marginal likelihood"
+                    " ratio)"
                 )
                 for n in res.notes
             ), res.notes

@@ -141,7 +141,10 @@ def write_csv(tmp_path, body, units="# units: length=mm angle=deg\n"):
         (
             "1,0,0,0,0,0\n1,5,0,1,0,0\n1,10,0,2,0,0\n2,0,0,1,0,0\n2,0,5,1,0.1,0\n2,0,10,1,0.2,0.1\n",
             None,
-            r"joint 1: .*collinear points \(RMS spread about their centroid 0.816 mm along the line, 0 and 0 mm across it",
+            (
+                r"joint 1: .*collinear points \(RMS spread about their centroid 0.816 mm along the line, 0 and 0 mm"
+                r" across it"
+            ),
         ),
         ("1,0,0,1,0,nan\n", None, r"bad.csv:3: column 'z' must be finite"),
         ("3,0,0,1,0,0\n", None, r"bad.csv:3: joint index out of range: expected 1..2, got 3"),
@@ -200,7 +203,10 @@ def json_doc(s, **change):
             lambda d: {
                 **d,
                 "sweeps": [
-                    {**d["sweeps"][0], "points": d["sweeps"][0]["points"][:2] + [[1, 2]] + d["sweeps"][0]["points"][3:]}
+                    {
+                        **d["sweeps"][0],
+                        "points": d["sweeps"][0]["points"][:2] + [[1, 2]] + d["sweeps"][0]["points"][3:],
+                    }
                 ]
                 + d["sweeps"][1:],
             },
@@ -217,9 +223,9 @@ def json_doc(s, **change):
         (
             lambda d: {
                 **d,
-                "sweeps": d["sweeps"][:1]
-                + [{**d["sweeps"][1], "q": [r[:] for r in d["sweeps"][1]["q"]]}]
-                + d["sweeps"][2:],
+                "sweeps": (
+                    d["sweeps"][:1] + [{**d["sweeps"][1], "q": [r[:] for r in d["sweeps"][1]["q"]]}] + d["sweeps"][2:]
+                ),
             },
             None,
         ),
@@ -272,7 +278,10 @@ def test_joint_files_comments_headers_and_names(kr5, tmp_path):
         (
             "",
             {"direction": [1, -1]},
-            r"--direction: expected \+1 or -1, one for all joints or 6 \(one per joint, from --home\), got \[1.0, -1.0\]",
+            (
+                r"--direction: expected \+1 or -1, one for all joints or 6 \(one per joint, from --home\), got \[1.0,"
+                r" -1.0\]"
+            ),
         ),
         ("", {"direction": "up"}, r"--direction: expected \+1 or -1"),
         ("", {"home": [90, -90, float("nan"), 0, 90, 0]}, r"--home: expected one finite number per joint"),

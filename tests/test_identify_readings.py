@@ -93,7 +93,8 @@ def test_locked_joint_drift_is_noted(kr5):
     notes = [n for n in dv.identify(drift, nominal=kr5).notes if "locked" in n]
     assert len(notes) == 1
     assert re.search(
-        r"joint 1: locked joint 2 reads -90 .. -35 deg, up to 55 deg from its home -90 deg at simulated sweep 1, point 11 \(tolerance 0.1 deg\)",
+        r"joint 1: locked joint 2 reads -90 .. -35 deg, up to 55 deg from its home -90 deg at simulated sweep 1, point"
+        r" 11 \(tolerance 0.1 deg\)",
         notes[0],
     ), notes
 
@@ -172,7 +173,8 @@ def test_cli_coupling_in_simulate_and_identify(tmp_path):
 
 def test_dwell_rows_are_found_noted_and_left_out(kr5):
     """Each sweep stands still for 8 rows at both ends (the robot waiting): a note per sweep names the 16 rows, the
-    fits use the 40 moving rows (plus the two ends), and keep_dwell=True keeps all 56; data without dwell gets no note."""
+    fits use the 40 moving rows (plus the two ends), and keep_dwell=True keeps all 56; data without dwell gets no note.
+    """
     m = kr5.model()
     ranges = np.radians(sw.PAPER_RANGES_DEG[90])
     s = recording(m, HOME, ranges, dwell=8, seed=6)
@@ -180,7 +182,8 @@ def test_dwell_rows_are_found_noted_and_left_out(kr5):
     notes = [n for n in res.notes if "dwell rows" in n]
     assert len(notes) == 6, res.notes
     assert re.search(
-        r"joint 1: 16 dwell rows .*: 8 at the start \(recording sweep 1, row 2 \.\. recording sweep 1, row 9\) and 8 at the end "
+        r"joint 1: 16 dwell rows .*: 8 at the start \(recording sweep 1, row 2 \.\. recording sweep 1, row 9\) and 8 at"
+        r" the end "
         r"\(recording sweep 1, row 48 \.\. recording sweep 1, row 55\)",
         notes[0],
     ), notes[0]

@@ -104,7 +104,8 @@ def test_the_fast_and_the_row_by_row_reader_read_the_same(tmp_path):
     for x, y in zip(a.sweeps, b.sweeps, strict=True):
         assert x.joint == y.joint and np.array_equal(x.points, y.points) and np.array_equal(x.q, y.q)
         assert list(x.where) == [w.replace("slow.csv", "fast.csv") for w in y.where]
-    # (rows 0, 2, 4, ... of every sweep, then rows 1, 3, ...: sweep 1 at lines 5, 6, ... and 155, ...; sweep 2 from line 30)
+    # (rows 0, 2, 4, ... of every sweep, then rows 1, 3, ...: sweep 1 at lines 5, 6, ... and 155, ...; sweep 2 from line
+    # 30)
     assert (
         list(a.sweeps[0].where[:2]) == [f"{fast}:5", f"{fast}:6"]
         and a.sweeps[0].where[25] == f"{fast}:155"

@@ -274,7 +274,10 @@ def test_threads_argument():
     for bad in (0, -1, most + 1, 10**12, 2**64, -(2**63) - 1):  # the last two beyond 64 bits
         with pytest.raises(
             dv.DenavitError,
-            match=rf"^invalid threads: expected None \(RAYON_NUM_THREADS, else every core\) or a count 1\.\.={most} \(4 per core\), got {bad}$",
+            match=(
+                rf"^invalid threads: expected None \(RAYON_NUM_THREADS, else every core\) or a count 1\.\.={most} \(4"
+                rf" per core\), got {bad}$"
+            ),
         ):
             dv.fk_batch(m, np.zeros((2, 6)), threads=bad)
     assert dv.fk_batch(m, np.zeros((2, 6)), threads=most).shape == (2, 4, 4)
@@ -376,7 +379,8 @@ def test_bad_input_raises_denavit_error_with_expected_and_got():
 @pytest.mark.parametrize(
     "q, published",
     [
-        # Corke, Robotics, Vision and Control (2nd ed. 2017) sec. 7.1.1, p560.fkine(qz) and p560.fkine(qn), printed to 4 decimals
+        # Corke, Robotics, Vision and Control (2nd ed. 2017) sec. 7.1.1, p560.fkine(qz) and p560.fkine(qn), printed to 4
+        # decimals
         ([0, 0, 0, 0, 0, 0], [[1, 0, 0, 0.4521], [0, 1, 0, -0.1500], [0, 0, 1, 0.4318]]),
         ([0, np.pi / 4, np.pi, 0, np.pi / 4, 0], [[0, 0, 1, 0.5963], [0, 1, 0, -0.1501], [-1, 0, 0, -0.0144]]),
     ],

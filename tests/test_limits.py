@@ -212,7 +212,10 @@ CLI_CASES = [
     ),
     (
         ["show", "{d}/rpy.urdf"],
-        r"joint 'j1' \(line \d+\): <origin> rpy: expected a finite angle within ±25\.1327 rad \(4 turns\), got 1e\+300 rad",
+        (
+            r"joint 'j1' \(line \d+\): <origin> rpy: expected a finite angle within ±25\.1327 rad \(4 turns\), got"
+            r" 1e\+300 rad"
+        ),
     ),
     (
         ["show", "{d}/links_1e4.urdf"],
@@ -250,7 +253,10 @@ CLI_CASES = [
     (["inspect", "{d}/line.csv"], r"line\.csv: line 2 of the recording is longer than the limit of 4,194,304 bytes"),
     (
         ["identify", "{d}/huge.csv"],
-        r"huge\.csv: 2,000,000,000 bytes in the sweep file is beyond the limit of 1,073,741,824 \(set DENAVIT_MAX_FILE_BYTES",
+        (
+            r"huge\.csv: 2,000,000,000 bytes in the sweep file is beyond the limit of 1,073,741,824 \(set"
+            r" DENAVIT_MAX_FILE_BYTES"
+        ),
     ),
     (["inspect", "{d}/huge.csv"], r"huge\.csv: 2,000,000,000 bytes in the recording is beyond the limit"),
     (

@@ -335,7 +335,10 @@ def _edit(doc, k, key, value):
         ),
         (
             lambda d: _edit(d, 1, "targets", [t[:2] if i == 3 else t for i, t in enumerate(d["sweeps"][1]["targets"])]),
-            r"s\.json: sweeps\[1\]\.targets\[3\]: rows of different lengths \(2 here, 3 in the first row\): expected a rectangular array$",
+            (
+                r"s\.json: sweeps\[1\]\.targets\[3\]: rows of different lengths \(2 here, 3 in the first row\):"
+                r" expected a rectangular array$"
+            ),
         ),
         (
             lambda d: _edit(
@@ -345,11 +348,17 @@ def _edit(doc, k, key, value):
         ),
         (
             lambda d: _edit(d, 3, "quaternions", None),
-            r"s\.json: sweeps\[3\]: sweeps\[0\] has 'quaternions', sweeps\[3\] has none: expected 6-DoF poses in every sweep or in none$",
+            (
+                r"s\.json: sweeps\[3\]: sweeps\[0\] has 'quaternions', sweeps\[3\] has none: expected 6-DoF poses in"
+                r" every sweep or in none$"
+            ),
         ),
         (
             lambda d: _edit(d, 1, "quaternions", [[0.9, 0, 0, 0]] * 6),
-            r"s\.json: sweeps\[1\]\.quaternions\[0\]: quaternion norm 0\.9: expected a unit quaternion \(qw, qx, qy, qz\)$",
+            (
+                r"s\.json: sweeps\[1\]\.quaternions\[0\]: quaternion norm 0\.9: expected a unit quaternion \(qw, qx,"
+                r" qy, qz\)$"
+            ),
         ),
         (
             lambda d: _edit(d, 1, "quaternions", [[1, 0, 0]] * 6),

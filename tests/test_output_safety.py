@@ -305,7 +305,10 @@ def test_a_symlink_into_proc_is_named_as_such(tmp_path):
     link.symlink_to("/proc/self/status")
     with pytest.raises(
         dv.DenavitError,
-        match=r"status: cannot write the output: /proc/\d+/status is a file of the kernel's proc filesystem, not a regular file",
+        match=(
+            r"status: cannot write the output: /proc/\d+/status is a file of the kernel's proc filesystem, not a"
+            r" regular file"
+        ),
     ):
         output.write_text(link, "x")
     link2 = tmp_path / "new"

@@ -167,8 +167,10 @@ def test_a_json_sweep_file_s_bad_payload_is_one_line(tmp_path):
         (lambda d: d["units"].pop("mass"), 'sweeps[0].payload_mass: the mass unit is not declared: expected "units"'),
         (
             lambda d: d["sweeps"][2].__setitem__("payload_cm", [0, 0, 1]),
-            "sweeps[2]: unknown key(s) 'payload_cm': expected joint, points, targets, q, quaternions, payload_mass, "
-            "payload_com",
+            (
+                "sweeps[2]: unknown key(s) 'payload_cm': expected joint, points, targets, q, quaternions, payload_mass,"
+                " payload_com"
+            ),
         ),
     ):
         bad = json.loads(json.dumps(doc))

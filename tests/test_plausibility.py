@@ -52,7 +52,10 @@ def test_points_x1000_are_refused(kr5, readings):
     s = rebuilt(realistic(kr5, readings), lambda x: sw.Sweep(x.joint, x.points * 1000, x.q, x.where))
     with pytest.raises(
         dv.DenavitError,
-        match=r"1[0-5] of 15 pairs of axes \(\d of 5 consecutive\) differ from the nominal kr5's .*points in another unit\?.*--allow-implausible",
+        match=(
+            r"1[0-5] of 15 pairs of axes \(\d of 5 consecutive\) differ from the nominal kr5's .*points in another"
+            r" unit\?.*--allow-implausible"
+        ),
     ):
         dv.identify(s, nominal=kr5)
 
@@ -63,8 +66,11 @@ def test_a_target_on_the_wrist_axes_is_named_as_the_cause(kr5):
     s = sw.simulate(kr5.model(), home=HOME, ranges=RANGES, points_per_sweep=12, noise=2e-5, tool_point=(0.0, 0.0, 0.0))
     with pytest.raises(
         dv.DenavitError,
-        match=r"joint A6's points lie on a circle of radius 0\.0\d+ mm: the target is on or next to th(at axis|ose axes); "
-        r"put it off every joint's axis\)",
+        match=(
+            r"joint A6's points lie on a circle of radius 0\.0\d+ mm: the target is on or next to th(at axis|ose"
+            r" axes); "
+            r"put it off every joint's axis\)"
+        ),
     ):
         dv.identify(s, nominal=kr5)
 
@@ -176,13 +182,15 @@ def ellipse(s: sw.SweepSet, joint: int, kr5, e: float = 0.05) -> sw.SweepSet:
 @pytest.mark.parametrize("readings", [True, False], ids=["readings", "no readings"])
 @pytest.mark.parametrize("joint", [1, 4])
 def test_an_ellipse_instead_of_a_circle_gets_a_note(kr5, readings, joint):
-    """5 % ellipticity, no declared noise: the fit's misfit (0.15-0.34 mm on the standing KR5) is over 3 x the point-to-point noise of
+    """5 % ellipticity, no declared noise: the fit's misfit (0.15-0.34 mm on the standing KR5) is over 3 x the
+    point-to-point noise of
     its points (the von Neumann estimate from successive differences, which a smooth misfit leaves out); one note
     names the sweep. The other sweeps, and the unaltered recording, get none."""
     res = dv.identify(ellipse(realistic(kr5, readings), joint, kr5), nominal=kr5)
     notes = [n for n in res.notes if "systematically" in n]
     assert len(notes) == 1 and re.search(
-        rf"row 40, joint {joint}: the points leave the fitted circle systematically, rms [0-9.]+ mm against a point-to-point noise of [0-9.]+ mm \(([0-9.]+) x\)",
+        rf"row 40, joint {joint}: the points leave the fitted circle systematically, rms [0-9.]+ mm against a"
+        r" point-to-point noise of [0-9.]+ mm \(([0-9.]+) x\)",
         notes[0],
     ), res.notes
     assert float(re.search(r"\(([0-9.]+) x\)", notes[0]).group(1)) > 2

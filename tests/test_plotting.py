@@ -217,7 +217,8 @@ def test_accuracy_figure_shows_the_nominal_error_and_the_prediction(result):
     np.testing.assert_allclose(amap.collections[0].get_offsets(), acc.points[:, :2] / MM)
 
 
-# ------------------------------------------------------------------------------------------------ issue 17: figures that explain themselves
+# ------------------------------------------------------------------------------------------------ issue 17: figures
+# that explain themselves
 
 
 def test_scene_view_frames_a_tall_robot_without_squashing_an_axis():
@@ -353,9 +354,11 @@ def test_undetermined_parameters_are_not_charted(near_parallel_edh):
     chart, caption = rep._parameter_chart(go, make_subplots, res, "mm", "deg")
     # every bar drawn is of a determined parameter (below the chart's limit, in mm / deg): none of a metre or 100 deg
     lim = [
-        np.degrees(plotting.UNDETERMINED_ANGLE)
-        if res.table.angle_columns[k]
-        else plotting.UNDETERMINED_LENGTH * extent * 1e3
+        (
+            np.degrees(plotting.UNDETERMINED_ANGLE)
+            if res.table.angle_columns[k]
+            else plotting.UNDETERMINED_LENGTH * extent * 1e3
+        )
         for k in range(len(res.table.columns))
     ]
     assert all(max(np.abs(tr.error_y.array)) < lim[int(tr.xaxis[1:] or 1) - 1] for tr in chart.data)

@@ -131,8 +131,8 @@ def write_rsi(path, step_ms=48):
         A, B, C = np.degrees([yaw, pitch, roll])
         ax = " ".join(f'A{i + 1}="{math.degrees(v):.4f}"' for i, v in enumerate(q[k]))
         lines.append(
-            f'<Rob Type="KUKA">\n  <RIst X="{p[k, 0]:.4f}" Y="{p[k, 1]:.4f}" Z="{p[k, 2]:.4f}" A="{A:.4f}" B="{B:.4f}" C="{C:.4f}"/>\n'
-            f'  <AIPos {ax}/>\n  <Delay D="0"/>\n  <IPOC>{ipoc[k]}</IPOC>\n</Rob>'
+            f'<Rob Type="KUKA">\n  <RIst X="{p[k, 0]:.4f}" Y="{p[k, 1]:.4f}" Z="{p[k, 2]:.4f}" A="{A:.4f}" B="{B:.4f}"'
+            f' C="{C:.4f}"/>\n  <AIPos {ax}/>\n  <Delay D="0"/>\n  <IPOC>{ipoc[k]}</IPOC>\n</Rob>'
         )
     Path(path).write_text("\n".join(lines) + "\n")
 
@@ -301,7 +301,8 @@ def test_committed_text_files_are_the_generators(name, tmp_path):
 
 
 def test_rtde_log_identifies_the_truth():
-    """UR RTDE: space-separated, timestamp, actual_q (rad), actual_TCP_pose (m + rotation vector); extra columns ignored."""
+    """UR RTDE: space-separated, timestamp, actual_q (rad), actual_TCP_pose (m + rotation vector); extra columns
+    ignored."""
     rec = read_recording(DATA / "rtde.csv")
     assert rec.format == "rtde" and "detected" in rec.notes[0] and "UR RTDE" in rec.notes[0]
     assert rec.poses is not None and rec.q.shape[1] == 6 and abs(rec.rate - 20.0) < 1e-6
@@ -319,7 +320,8 @@ def test_rsi_log_identifies_the_truth():
 
 
 def test_tracker_export_with_three_smrs_per_pose_identifies_the_truth():
-    """Point names J1_001_A...: sweeps from the groups (guessed and echoed), three targets per pose, each one a sweep set."""
+    """Point names J1_001_A...: sweeps from the groups (guessed and echoed), three targets per pose, each one a sweep
+    set."""
     rec = read_recording(DATA / "tracker.csv")
     assert rec.format == "tracker" and rec.points.shape == (54, 3, 3) and rec.q is None
     assert any("Group column (guessed)" in n for n in rec.notes) and any("3 targets" in n for n in rec.notes)
@@ -621,7 +623,10 @@ def test_bag_without_a_joint_state_topic(tmp_path):
     write_bag(tmp_path / "nojs", "mcap", with_joints=False)
     with pytest.raises(
         dv.DenavitError,
-        match=r"nojs: no sensor_msgs/JointState topic: expected one of type sensor_msgs/msg/JointState \(topics: /tracker/point \(geometry_msgs/msg/PointStamped\)\)",
+        match=(
+            r"nojs: no sensor_msgs/JointState topic: expected one of type sensor_msgs/msg/JointState \(topics:"
+            r" /tracker/point \(geometry_msgs/msg/PointStamped\)\)"
+        ),
     ) as e:
         read_recording(tmp_path / "nojs")
     one_line(e)
@@ -672,20 +677,26 @@ def test_time_that_goes_backwards(tmp_path):
     f.write_text("\n".join(lines) + "\n")
     with pytest.raises(
         dv.DenavitError,
-        match=r"rtde.csv:7: timestamp goes backwards or repeats: .* s at .*rtde.csv:6: expected strictly increasing times",
+        match=(
+            r"rtde.csv:7: timestamp goes backwards or repeats: .* s at .*rtde.csv:6: expected strictly increasing times"
+        ),
     ) as e:
         read_recording(f)
     one_line(e)
 
 
 def test_clocks_that_cannot_be_aligned():
-    """Readings of another motion (the joints in the other order, other speeds and pauses) do not correlate with the points."""
+    """Readings of another motion (the joints in the other order, other speeds and pauses) do not correlate with the
+    points."""
     pts, rd, _, _ = streams(points_hz=200.0)
     moves, _, _ = plan(sweep_speed=40.0, transit_speed=20.0, dwell=1.5, ranges=RANGES[::-1])
     other = rc.Recording(rd.time, q_at(rd.time - 5.0, moves), None, rd.where, "controller", "sim", {})
     with pytest.raises(
         dv.DenavitError,
-        match=r"tracker and controller: cannot align clocks: the speed profiles correlate at .* expected at least 0.5: are both recordings of the same motion\?",
+        match=(
+            r"tracker and controller: cannot align clocks: the speed profiles correlate at .* expected at least 0.5:"
+            r" are both recordings of the same motion\?"
+        ),
     ) as e:
         rc.align(pts, other)
     one_line(e)

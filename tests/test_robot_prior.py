@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from denavit import calibration as cal
-from denavit.io.robots import as_robot
 from denavit.errors import DenavitError
 from denavit.io import robotfile
+from denavit.io.robots import as_robot
 
 TOOL = np.array([0.05, 0.03, 0.10])
 HOME = np.radians([0, -90, 90, 0, 45, 0])

@@ -87,7 +87,11 @@ def test_base_and_tool_poses(tmp_path):
             r"joint 1 \(line 5\): missing parameter\(s\) alpha of a dh table",
         ),
         (
-            'convention = "dh"\n[units]\nlength="m"\nangle="rad"\n[[joints]]\nd=0\ntheta=0\na=0\nalpha=0\n\n[[joints]]\nd="x"\ntheta=0\na=0\nalpha=0\n',
+            (
+                "convention ="
+                ' "dh"\n[units]\nlength="m"\nangle="rad"\n[[joints]]\nd=0\ntheta=0\na=0\nalpha=0\n\n'
+                '[[joints]]\nd="x"\ntheta=0\na=0\nalpha=0\n'
+            ),
             r"joint 2 \(line 11\): parameter d: expected a number, got 'x'",
         ),
         ('convention = "dh"\n[units]\nlength="parsec"\nangle="rad"\n', r"unknown length unit 'parsec'"),
@@ -96,7 +100,10 @@ def test_base_and_tool_poses(tmp_path):
             r"type must be 'revolute' or 'prismatic', got 'ball'",
         ),
         (
-            'convention = "dh"\n[units]\nlength="m"\nangle="rad"\n[[joints]]\nd=0\ntheta=0\na=0\nalpha=0\nlimits=[1, -1]\n',
+            (
+                "convention ="
+                ' "dh"\n[units]\nlength="m"\nangle="rad"\n[[joints]]\nd=0\ntheta=0\na=0\nalpha=0\nlimits=[1, -1]\n'
+            ),
             r"limits must be \[lower, upper\] with lower <= upper",
         ),
         ('convention = "dh"\n[units\n', r"not a valid TOML robot file"),
@@ -120,7 +127,10 @@ JOINT = "[[joints]]\nd = 0\ntheta = 0\na = 100\nalpha = 0\n"
         # 'kind' is not the reader's 'type': it had loaded as revolute, its limits [-100, 100] as +-1.745 rad
         (
             f'convention = "dh"\n{UNITS}\n{JOINT}\n{JOINT}kind = "prismatic"\nlimits = [-100, 100]\n',
-            r"bad.toml, joint 2 \(line 12\): unknown keys \['kind'\]: expected name, type, d, theta, a, alpha, limits, inertia$",
+            (
+                r"bad.toml, joint 2 \(line 12\): unknown keys \['kind'\]: expected name, type, d, theta, a, alpha,"
+                r" limits, inertia$"
+            ),
         ),
         (
             f'convention = "dh"\n{UNITS}\n{JOINT}limit = [-10, 10]\n',

@@ -159,7 +159,10 @@ def test_identify_takes_the_model_as_a_tuple_and_says_so(kr5):
         ((5e-6, 1e-5, (1.0, 2.0)), r"position must be 3 finite values \(x, y, z in m\), got \(1.0, 2.0\)"),
         (
             (5e-6,),
-            r"expected a TrackerNoise or \(sigma_range m, sigma_angle rad\[, position \(x, y, z\) m\]\), got \(5e-06,\)",
+            (
+                r"expected a TrackerNoise or \(sigma_range m, sigma_angle rad\[, position \(x, y, z\) m\]\), got"
+                r" \(5e-06,\)"
+            ),
         ),
         ("abc", "expected a TrackerNoise or"),
     ],

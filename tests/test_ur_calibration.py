@@ -76,11 +76,13 @@ def test_bad_input():
         urc.kinematics(dv.load_model("kr5"), r.table)
     with pytest.raises(dv.DenavitError, match="kinematics.forearm: expected x, y, z, roll, pitch, yaw"):
         urc.loads(
-            "kinematics:\n  shoulder: {x: 0, y: 0, z: 0, roll: 0, pitch: 0, yaw: 0}\n  upper_arm: {x: 0, y: 0, z: 0, roll: 0, pitch: 0, yaw: 0}\n"
+            "kinematics:\n  shoulder: {x: 0, y: 0, z: 0, roll: 0, pitch: 0, yaw: 0}\n  upper_arm: {x: 0, y: 0, z: 0,"
+            " roll: 0, pitch: 0, yaw: 0}\n"
         )
     with pytest.raises(dv.DenavitError, match="top-level 'kinematics'"):
         urc.loads("- 1\n- 2\n")
-    # a file of megabytes is not a kinematics file (PyYAML's pure-Python loader had spent over 10 s on a fuzzed 3.4 MB one)
+    # a file of megabytes is not a kinematics file (PyYAML's pure-Python loader had spent over 10 s on a fuzzed 3.4 MB
+    # one)
     big = "kinematics:\n" + "  hash: calib_1\n" * 80_000
     with pytest.raises(dv.DenavitError, match=r"1\.\d+ MB: expected a UR kinematics-parameters file of a few kB"):
         urc.loads(big)

@@ -150,7 +150,7 @@ PARALLEL = """<robot name="planar">
   <link name="link_2"><visual><origin xyz="0.1 0.02 0.01"/><geometry><mesh filename="link_2.stl"/></geometry></visual></link>
   <joint name="j1" type="revolute"><parent link="base_link"/><child link="link_1"/><origin xyz="0.05 0.02 0.3" rpy="0.1 0 0"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="10" velocity="1"/></joint>
   <joint name="j2" type="revolute"><parent link="link_1"/><child link="link_2"/><origin xyz="0.4 0 0.07"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="10" velocity="1"/></joint>
-</robot>"""
+</robot>"""  # noqa: E501 (a URDF, one element per line)
 
 
 @pytest.mark.parametrize("conv", ["dh", "mdh", "edh", "poe"])

@@ -126,7 +126,10 @@ def test_negative_urdf_mass_names_the_link(tmp_path):
     p.write_text(UR.read_text().replace('<mass value="2.275"/>', '<mass value="-2.275"/>'))
     with pytest.warns(
         dv.DenavitWarning,
-        match="forearm_link.*-2.275.*expected a finite mass >= 0 kg .*that body is loaded without mass, the others keep theirs",
+        match=(
+            "forearm_link.*-2.275.*expected a finite mass >= 0 kg .*that body is loaded without mass, the others keep"
+            " theirs"
+        ),
     ):
         masses = U.load_urdf(p).inertials["masses"]
     # as any unphysical inertial (docs/urdf.md): that body alone is massless (it had dropped every body's mass)

@@ -194,11 +194,17 @@ def test_every_command_picks_the_chain():
         ("malformed_xml.urdf", r"malformed_xml.urdf: malformed XML at line 10.*child line 7 and joint"),
         (
             "missing_link.urdf",
-            r"missing_link.urdf: joint 'j2' \(line 12\): child link 'link_2' is not defined \(links: base_link, link_1\)",
+            (
+                r"missing_link.urdf: joint 'j2' \(line 12\): child link 'link_2' is not defined \(links: base_link,"
+                r" link_1\)"
+            ),
         ),
         (
             "two_arms.urdf",
-            r"two_arms.urdf: the tree below 'base_link' has 2 tip links \('left' \(1 moving joints\), 'right' \(1 moving joints\)\).*tip_link",
+            (
+                r"two_arms.urdf: the tree below 'base_link' has 2 tip links \('left' \(1 moving joints\), 'right' \(1"
+                r" moving joints\)\).*tip_link"
+            ),
         ),
         (
             "floating_joint.urdf",
@@ -217,7 +223,7 @@ ARM = """<robot name="arm">
   <joint name="j1" type="revolute"><parent link="base_link"/><child link="link_1"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="0" velocity="0"/></joint>
   <joint name="j2" type="{type}"><parent link="link_1"/><child link="link_2"/><origin xyz="0.3 0 0"/>{axis}{extra}</joint>
   {more}
-</robot>"""
+</robot>"""  # noqa: E501 (a URDF, one element per line)
 
 
 @pytest.mark.parametrize(
@@ -257,13 +263,18 @@ ARM = """<robot name="arm">
                 "type": "continuous",
                 "more": '<link name="x"/><joint name="self" type="fixed"><parent link="x"/><child link="x"/></joint>',
             },
-            r"joint 'self' \(line 5\): its child link 'x' \(parent 'x'\) is on a loop of joints: kinematic loops are not supported",
+            (
+                r"joint 'self' \(line 5\): its child link 'x' \(parent 'x'\) is on a loop of joints: kinematic loops"
+                r" are not supported"
+            ),
         ),
         (
             {
                 "type": "continuous",
-                "more": '<link name="x"/><link name="y"/><joint name="xy" type="fixed"><parent link="x"/><child link="y"/></joint>'
-                '<joint name="yx" type="fixed"><parent link="y"/><child link="x"/></joint>',
+                "more": (
+                    '<link name="x"/><link name="y"/><joint name="xy" type="fixed"><parent link="x"/><child'
+                    ' link="y"/></joint><joint name="yx" type="fixed"><parent link="y"/><child link="x"/></joint>'
+                ),
             },
             r"joint 'xy' \(line 5\): its child link 'y' \(parent 'x'\) is on a loop",
         ),

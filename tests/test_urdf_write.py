@@ -246,9 +246,11 @@ def test_no_limit_is_invented(tmp_path):
 def all_joint_values(u: yourdfpy.URDF, robot, q, rng):
     """A configuration of every actuated joint of the tree: the chain's at ``q``, the others random."""
     cfg = {
-        j.name: rng.uniform(max(j.limit.lower, -1.0), min(j.limit.upper, 1.0))
-        if j.limit is not None and j.limit.lower is not None and j.type != "continuous"
-        else rng.uniform(-1, 1)
+        j.name: (
+            rng.uniform(max(j.limit.lower, -1.0), min(j.limit.upper, 1.0))
+            if j.limit is not None and j.limit.lower is not None and j.type != "continuous"
+            else rng.uniform(-1, 1)
+        )
         for j in u.actuated_joints
     }
     cfg.update(zip(robot.names, q))

@@ -96,7 +96,10 @@ def random_urdf(seed: int) -> str:
         '<robot name="random">',
         '<link name="l0"/>',
         '<link name="l1"/>',
-        f'<joint name="mount" type="fixed"><parent link="l0"/><child link="l1"/><origin xyz="{r(rng.uniform(-1, 1, 3))}" rpy="{r(rng.uniform(-3, 3, 3))}"/></joint>',
+        (
+            '<joint name="mount" type="fixed"><parent link="l0"/><child link="l1"/><origin'
+            f' xyz="{r(rng.uniform(-1, 1, 3))}" rpy="{r(rng.uniform(-3, 3, 3))}"/></joint>'
+        ),
     ]
     link = 1
     special = [[0, 0, 1], [0, 0, -1], [1, 0, 0], [0, -1, 0]]
@@ -111,13 +114,20 @@ def random_urdf(seed: int) -> str:
         )
         lines += [
             f'<link name="l{link + 1}"/>',
-            f'<joint name="j{k + 1}" type="{kind}"><parent link="l{link}"/><child link="l{link + 1}"/><origin xyz="{r(rng.uniform(-0.4, 0.4, 3))}" rpy="{r(rng.uniform(-3, 3, 3))}"/><axis xyz="{r(a)}"/>{lim}</joint>',
+            (
+                f'<joint name="j{k + 1}" type="{kind}"><parent link="l{link}"/><child link="l{link + 1}"/><origin'
+                f' xyz="{r(rng.uniform(-0.4, 0.4, 3))}" rpy="{r(rng.uniform(-3, 3, 3))}"/><axis'
+                f' xyz="{r(a)}"/>{lim}</joint>'
+            ),
         ]
         link += 1
         if rng.random() < 0.5:
             lines += [
                 f'<link name="l{link + 1}"/>',
-                f'<joint name="f{k + 1}" type="fixed"><parent link="l{link}"/><child link="l{link + 1}"/><origin xyz="{r(rng.uniform(-0.2, 0.2, 3))}" rpy="{r(rng.uniform(-3, 3, 3))}"/></joint>',
+                (
+                    f'<joint name="f{k + 1}" type="fixed"><parent link="l{link}"/><child link="l{link + 1}"/><origin'
+                    f' xyz="{r(rng.uniform(-0.2, 0.2, 3))}" rpy="{r(rng.uniform(-3, 3, 3))}"/></joint>'
+                ),
             ]
             link += 1
     lines.append("</robot>")

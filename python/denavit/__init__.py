@@ -8,7 +8,8 @@ The workflows are functions of the package, taking paths, built-in names or obje
 :func:`identify` (circle-point identification), :func:`calibrate`, :func:`plan`, :func:`simulate`,
 :func:`compensate`, :func:`validate`. ``denavit.identify`` is the function; the
 identification's package (its steps, results, JSON) is :mod:`denavit.identification`
-(``from denavit.identification import Identification``); :func:`save` writes an identification as a robot file or URDF, and
+(``from denavit.identification import Identification``); :func:`save` writes an identification as a robot file or URDF,
+and
 :mod:`denavit.io.results` holds the results' JSON. The workflows and :class:`Robot` load on first use,
 so ``import denavit`` loads the Rust core only.
 """

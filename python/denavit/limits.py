@@ -90,7 +90,8 @@ def check_size(count, name: str, where: str, what: str | None = None) -> int:
     if count > limit:
         shown = f"{count:,}" if isinstance(count, int) else str(count)
         raise DenavitError(
-            f'{where}: {shown} {what or SIZES[name].what} is beyond the limit of {limit:,} ({raise_hint(name)}; docs/cli.md, "Limits")'
+            f"{where}: {shown} {what or SIZES[name].what} is beyond the limit of {limit:,} ({raise_hint(name)};"
+            ' docs/cli.md, "Limits")'
         )
     return count
 
@@ -109,7 +110,8 @@ def check_lengths(values, where: str, unit: str = "m", scale: float = 1.0) -> No
     if not worst <= MAX_LENGTH_M:
         shown = np.asarray(values, dtype=float).ravel()[k] / scale
         raise DenavitError(
-            f"{where}: expected a finite length within {MAX_LENGTH_M / scale:.6g} {unit} (1 km: no robot is larger), got {shown:.6g} {unit}"
+            f"{where}: expected a finite length within {MAX_LENGTH_M / scale:.6g} {unit} (1 km: no robot is larger),"
+            f" got {shown:.6g} {unit}"
         )
 
 
@@ -123,12 +125,14 @@ def check_angles(values, where: str, unit: str = "rad", scale: float = 1.0, join
         shown = np.asarray(values, dtype=float).ravel()[k] / scale
         what = "joint value" if joint else "angle"
         raise DenavitError(
-            f"{where}: expected a finite {what} within ±{limit / scale:.6g} {unit} ({turns:g} turns), got {shown:.6g} {unit}"
+            f"{where}: expected a finite {what} within ±{limit / scale:.6g} {unit} ({turns:g} turns), got {shown:.6g}"
+            f" {unit}"
         )
 
 
 def check_joint_values(values, kinds, where: str) -> None:
-    """Joint values (SI, (..., n)): revolute within :data:`MAX_JOINT_TURNS` turns, prismatic within :data:`MAX_LENGTH_M`."""
+    """Joint values (SI, (..., n)): revolute within :data:`MAX_JOINT_TURNS` turns, prismatic within
+    :data:`MAX_LENGTH_M`."""
     v = np.asarray(values, dtype=float)
     if v.size == 0:
         return
@@ -178,8 +182,9 @@ def check_noise(value, where: str, model, tool=None, unit: str = "m", scale: flo
     s = robot_size(model, tool)
     if v >= s:
         raise DenavitError(
-            f"{where}: a noise of {v / scale:.6g} {unit} (one sigma) is not below the robot's size, {s / scale:.6g} {unit} "
-            "(its chain's length, travel and tool point): expected a measuring noise, a small fraction of it (a wrong unit?)"
+            f"{where}: a noise of {v / scale:.6g} {unit} (one sigma) is not below the robot's size, {s / scale:.6g}"
+            f" {unit} (its chain's length, travel and tool point): expected a measuring noise, a small fraction of it"
+            " (a wrong unit?)"
         )
 
 
@@ -188,8 +193,8 @@ def check_angle_noise(value, where: str, unit: str = "rad", scale: float = 1.0) 
     v = float(value)
     if not (math.isfinite(v) and 0 <= v < MAX_ANGLE_NOISE):
         raise DenavitError(
-            f"{where}: expected a finite angular noise >= 0 and below half a turn ({MAX_ANGLE_NOISE / scale:.6g} {unit}; "
-            f"beyond it a rotation wraps around), got {v / scale:.6g} {unit}"
+            f"{where}: expected a finite angular noise >= 0 and below half a turn ({MAX_ANGLE_NOISE / scale:.6g}"
+            f" {unit}; beyond it a rotation wraps around), got {v / scale:.6g} {unit}"
         )
 
 
@@ -218,6 +223,7 @@ def floats(value, where: str) -> np.ndarray:
         )
     if kind in "mM":
         raise DenavitError(
-            f"{where}: expected numbers (rad / m), got numpy {'dates (datetime64)' if kind == 'M' else 'durations (timedelta64)'}"
+            f"{where}: expected numbers (rad / m), got numpy"
+            f" {'dates (datetime64)' if kind == 'M' else 'durations (timedelta64)'}"
         )
     return np.array(a, dtype=float)

@@ -71,7 +71,10 @@ class Robot:
 
     def __repr__(self) -> str:
         dyn = "inertial parameters" if self.inertials is not None else "no inertial parameters"
-        return f"Robot({self.name!r}, {self.convention}, {len(self.names)} joints {', '.join(self.names)}; {dyn}; source {self.source or self.path or '-'})"
+        return (
+            f"Robot({self.name!r}, {self.convention}, {len(self.names)} joints {', '.join(self.names)}; {dyn}; source"
+            f" {self.source or self.path or '-'})"
+        )
 
     @property
     def convention(self) -> str:
@@ -110,7 +113,8 @@ def joint_values(r, coupling=None, scale=None, reference=None) -> np.ndarray:
 
 
 def readings(q, coupling=None, scale=None, reference=None) -> np.ndarray:
-    """The readings that give the joint values ``q`` (N, n) under a reading model: the inverse of :func:`joint_values`."""
+    """The readings that give the joint values ``q`` (N, n) under a reading model: the inverse of
+    :func:`joint_values`."""
     r = np.array(q, dtype=float)
     if scale is not None:
         ref = 0.0 if reference is None else np.asarray(reference, dtype=float)

@@ -75,7 +75,10 @@ class Sweep:
         return None if self.q is None else self.q[:, self.joint - 1]
 
     def __repr__(self) -> str:
-        return f"Sweep(joint {self.joint}, {len(self.points)} points, {'with' if self.q is not None else 'no'} joint readings)"
+        return (
+            f"Sweep(joint {self.joint}, {len(self.points)} points, {'with' if self.q is not None else 'no'} joint"
+            " readings)"
+        )
 
 
 @dataclass(frozen=True)
@@ -104,7 +107,8 @@ class SweepSet:
         what = "; ".join(f"{k} {', '.join(map(str, v))}" for k, v in wrong.items() if v)
         if what:
             raise DenavitError(
-                f"{self.source or 'sweeps'}: {what}: every joint 1..{self.n_joints} needs one sweep (got joints {joints})"
+                f"{self.source or 'sweeps'}: {what}: every joint 1..{self.n_joints} needs one sweep (got joints"
+                f" {joints})"
             )
         if joints != sorted(
             joints
@@ -113,7 +117,8 @@ class SweepSet:
         k = {s.n_targets for s in self.sweeps}
         if len(k) > 1:
             raise DenavitError(
-                f"{self.source or 'sweeps'}: sweeps with different numbers of targets per pose ({sorted(k)}): expected the same targets at every pose"
+                f"{self.source or 'sweeps'}: sweeps with different numbers of targets per pose ({sorted(k)}): expected"
+                " the same targets at every pose"
             )
         for s in self.sweeps:
             if s.targets is not None and (
@@ -123,19 +128,23 @@ class SweepSet:
                 or not np.array_equal(s.targets[:, 0], s.points)
             ):
                 raise DenavitError(
-                    f"{self.source or 'sweeps'}, joint {s.joint}: targets of shape {s.targets.shape}: expected ({len(s.points)}, k, 3) with the first target the points"
+                    f"{self.source or 'sweeps'}, joint {s.joint}: targets of shape {s.targets.shape}: expected"
+                    f" ({len(s.points)}, k, 3) with the first target the points"
                 )
             if s.rotations is not None and s.rotations.shape != (len(s.points), 3, 3):
                 raise DenavitError(
-                    f"{self.source or 'sweeps'}, joint {s.joint}: rotations of shape {s.rotations.shape}: expected ({len(s.points)}, 3, 3)"
+                    f"{self.source or 'sweeps'}, joint {s.joint}: rotations of shape {s.rotations.shape}: expected"
+                    f" ({len(s.points)}, 3, 3)"
                 )
         if len({s.rotations is None for s in self.sweeps}) > 1:
             raise DenavitError(
-                f"{self.source or 'sweeps'}: only some sweeps carry orientations: expected 6-DoF poses in every sweep or in none"
+                f"{self.source or 'sweeps'}: only some sweeps carry orientations: expected 6-DoF poses in every sweep"
+                " or in none"
             )
         if self.nest is not None and np.shape(self.nest) != (self.n_targets, 3):
             raise DenavitError(
-                f"{self.source or 'sweeps'}: nest of shape {np.shape(self.nest)}: expected ({self.n_targets}, 3), one point per target"
+                f"{self.source or 'sweeps'}: nest of shape {np.shape(self.nest)}: expected ({self.n_targets}, 3), one"
+                " point per target"
             )
 
     def __repr__(self) -> str:
@@ -144,8 +153,8 @@ class SweepSet:
         )
         n_pts = sum(len(s.points) for s in self.sweeps)
         return (
-            f"SweepSet({self.n_joints} joints, {len(self.sweeps)} sweeps, {n_pts} points, {'with' if self.has_readings else 'no'} joint readings, "
-            f"home [{home}] deg, source {self.source or '-'})"
+            f"SweepSet({self.n_joints} joints, {len(self.sweeps)} sweeps, {n_pts} points,"
+            f" {'with' if self.has_readings else 'no'} joint readings, home [{home}] deg, source {self.source or '-'})"
         )
 
     def sweep(self, joint: int) -> Sweep:
@@ -173,7 +182,8 @@ class SweepSet:
         return bool(self.sweeps) and all(s.rotations is not None for s in self.sweeps)
 
     def target(self, k: int) -> SweepSet:
-        """The sweeps of target ``k`` (0-based) alone, as a one-target set (the per-target fits of the consistency check)."""
+        """The sweeps of target ``k`` (0-based) alone, as a one-target set (the per-target fits of the consistency
+        check)."""
         if not 0 <= k < self.n_targets:
             raise DenavitError(f"{self.source or 'sweeps'}: target {k + 1} out of range: expected 1..{self.n_targets}")
         if self.n_targets == 1:
@@ -325,7 +335,8 @@ def simulate(
 ) -> SweepSet:
     """Simulate sweeps of ``model``: joint j runs from ``ranges[j][0]`` to ``ranges[j][1]`` (rad / m,
     absolute joint values, as in Hayat Table II) with the others at ``home``; the tool point (m, in the
-    flange frame, i.e. in ``T_flange_tool``'s parent frame: the flange, DH frame n for a DH robot) is recorded with Gaussian
+    flange frame, i.e. in ``T_flange_tool``'s parent frame: the flange, DH frame n for a DH robot) is recorded with
+    Gaussian
     noise ``noise`` (m, per coordinate) and the readings with noise ``noise_q`` (rad / m).
 
     targets : (k, 3) m, optional -- several targets on the last body (flange frame; 2-4 SMRs on a nest), each

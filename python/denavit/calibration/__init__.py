@@ -23,7 +23,8 @@ What is free is chosen by leave-one-pose-out prediction error among nested model
 Modules: :mod:`~denavit.calibration.parametrization` (the chain), :mod:`~denavit.calibration.identifiability`
 (rank, base parameters, observability), :mod:`~denavit.calibration.least_squares` (residuals, solver,
 covariance), :mod:`~denavit.calibration.selection` (the candidate models, the hat-matrix leave-one-out, the
-rule), :mod:`~denavit.calibration.priors`, :mod:`~denavit.calibration.solve` (:func:`calibrate`), :mod:`~denavit.calibration.plan`,
+rule), :mod:`~denavit.calibration.priors`, :mod:`~denavit.calibration.solve` (:func:`calibrate`),
+:mod:`~denavit.calibration.plan`,
 :mod:`~denavit.calibration.simulate`, :mod:`~denavit.calibration.measurements` (the data; files:
 :mod:`denavit.io.measurements`).
 """

@@ -34,7 +34,8 @@ from .. import _core
 from ..errors import DenavitError
 from .parametrization import Parametrization, make_chain
 
-#: Gravity (m/s^2), down along the base frame's -z: the core's default (``_core.gravity_torques``), for the links and the payload alike.
+#: Gravity (m/s^2), down along the base frame's -z: the core's default (``_core.gravity_torques``), for the links and
+#: the payload alike.
 GRAVITY = np.array([0.0, 0.0, -9.81])
 #: A joint whose largest gravity torque in the data is below this fraction of the largest joint's has no compliance
 #: parameter (a vertical axis holds no gravity torque).
@@ -44,7 +45,8 @@ TORQUE_FLOOR = 1e-6
 def gravity_torques(model: _core.Model, q, payload=None, flange=None) -> np.ndarray:
     """(N, n) the torques (N m; N for a prismatic joint) the joints hold at rest at readings ``q`` (N, n) against the
     links' weight (``model``'s inertials) and the payload's: ``payload`` (N, 4) ``[mass kg, x, y, z m]`` per pose, its
-    centre of mass in the flange frame (None: no payload; ``flange`` (4, 4): that frame in the model's flange frame, default
+    centre of mass in the flange frame (None: no payload; ``flange`` (4, 4): that frame in the model's flange frame,
+    default
     the same); gravity :data:`GRAVITY` in the model's world frame."""
     q = np.atleast_2d(np.asarray(q, dtype=float))
     g = GRAVITY
@@ -98,7 +100,8 @@ class CompliantParametrization(Parametrization):
         return self.compliance_idx
 
     def torques(self, q, payload) -> np.ndarray:
-        """(N, n) gravity torques of readings ``q`` with ``payload`` (:func:`gravity_torques`), remembered per data set."""
+        """(N, n) gravity torques of readings ``q`` with ``payload`` (:func:`gravity_torques`), remembered per data
+        set."""
         q = np.asarray(q, dtype=float)
         key = (
             q.shape,
@@ -189,9 +192,12 @@ def considered(meas, robot, compliance) -> tuple[bool, str | None]:
     if not asked:
         return False, None
     if robot.inertials is None or not np.any(np.asarray(robot.inertials["masses"]) > 0):
-        return False, (
-            f"joint compliance not modelled: {robot.name} carries no link masses ([joints.inertia] in a robot file, <inertial> in a URDF) "
-            "to give the gravity torques the joints twist under"
+        return (
+            False,
+            (
+                f"joint compliance not modelled: {robot.name} carries no link masses ([joints.inertia] in a robot file,"
+                " <inertial> in a URDF) to give the gravity torques the joints twist under"
+            ),
         )
     return True, None
 
@@ -242,7 +248,8 @@ def with_compliance(pz: Parametrization, meas, robot, compliance) -> tuple[Param
     still = [j for j in range(n) if j not in show]
     if still:
         notes.append(
-            f"no compliance for joint(s) {', '.join(f'{j + 1} ({robot.names[j]})' for j in still)}: they hold no gravity torque in these poses"
+            f"no compliance for joint(s) {', '.join(f'{j + 1} ({robot.names[j]})' for j in still)}: they hold no"
+            " gravity torque in these poses"
         )
     return out, notes
 
@@ -358,7 +365,8 @@ def elastic(identified) -> Elastic | None:
             return None
         if identified.inertials is None:
             raise DenavitError(
-                f"{identified.name}: joint compliances without the links' inertial parameters: no gravity torques to deflect under"
+                f"{identified.name}: joint compliances without the links' inertial parameters: no gravity torques to"
+                " deflect under"
             )
         return Elastic(
             k,

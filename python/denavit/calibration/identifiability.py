@@ -1,4 +1,5 @@
-"""Identifiability of a calibration model: the (weighted) identification Jacobian ``J`` with unit-norm columns is reduced by a greedy
+"""Identifiability of a calibration model: the (weighted) identification Jacobian ``J`` with unit-norm columns is
+reduced by a greedy
 Gram-Schmidt in a fixed preference order (base, tool, link geometry, joint offsets, scales, translations along
 joint axes last): a parameter whose column is (numerically) a combination of the columns kept before it is
 *not identifiable*; it is named with that combination, fixed at its start value and reported, never returned
@@ -83,8 +84,8 @@ class Identifiability:
     def summary(self) -> str:
         o = self.observability
         return (
-            f"rank {self.rank} of {len(self.candidates)} candidate parameters over {self.n_poses} poses; condition number {self.condition_number:.3g}; "
-            + ", ".join(f"{k} {v:.3g}" for k, v in o.items())
+            f"rank {self.rank} of {len(self.candidates)} candidate parameters over {self.n_poses} poses; condition"
+            f" number {self.condition_number:.3g}; " + ", ".join(f"{k} {v:.3g}" for k, v in o.items())
         )
 
 
@@ -228,8 +229,8 @@ def _reason(pz: Parametrization, name: str, zero: bool, comb: dict, structural: 
     if name.startswith("offset_") and pz.convention == "edh" and f"beta_{int(name.split('_')[1]) - 1}" in pz.names:
         i = int(name.split("_")[1])
         hints.append(
-            f"axes {i - 1} and {i} are near-parallel, so the direction of x_{i - 1} (their common normal) is a free choice, "
-            f"which offset_{i - 1} and the translations of link {i} absorb"
+            f"axes {i - 1} and {i} are near-parallel, so the direction of x_{i - 1} (their common normal) is a free"
+            f" choice, which offset_{i - 1} and the translations of link {i} absorb"
         )
     lead = (
         "redundant in the " + pz.convention + " parametrisation (no data can identify it)"
@@ -248,18 +249,26 @@ def parameter_status(pz: Parametrization, free, user_fixed, structural, dropped,
     else ``"fixed"``."""
     free, user_fixed, model_fixed = set(free), set(user_fixed), set(model_fixed)
     return [
-        "free"
-        if c in free
-        else "fixed"
-        if c in user_fixed
-        else "fixed (parametrisation)"
-        if nm in pz.rules
-        else ("redundant" if nm in structural else "unidentifiable")
-        if nm in dropped
-        else "fixed (prior)"
-        if nm in held
-        else "fixed (model)"
-        if c in model_fixed
-        else "fixed"
+        (
+            "free"
+            if c in free
+            else (
+                "fixed"
+                if c in user_fixed
+                else (
+                    "fixed (parametrisation)"
+                    if nm in pz.rules
+                    else (
+                        ("redundant" if nm in structural else "unidentifiable")
+                        if nm in dropped
+                        else "fixed (prior)"
+                        if nm in held
+                        else "fixed (model)"
+                        if c in model_fixed
+                        else "fixed"
+                    )
+                )
+            )
+        )
         for c, nm in enumerate(pz.names)
     ]

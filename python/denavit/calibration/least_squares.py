@@ -64,7 +64,8 @@ def jacobian_rows(
 def residuals(pz: Parametrization, x, meas: Measurements, w: np.ndarray, jacobian: bool = True, columns=None):
     """(weighted residuals (3N or 6N,), weighted Jacobian rows (3N or 6N, P) or None, predicted poses (N, 4, 4)) at x.
 
-    Position residuals are whitened by ``meas.whitening`` where it is given (the tracker's noise model). Rotation residuals are the rotation vectors of ``R_pred R_meas^T`` (rad). ``columns``: the parameters
+    Position residuals are whitened by ``meas.whitening`` where it is given (the tracker's noise model). Rotation
+    residuals are the rotation vectors of ``R_pred R_meas^T`` (rad). ``columns``: the parameters
     (indices) whose Jacobian columns are returned (default all; :func:`jacobian_rows`).
     """
     q = pz.inputs(meas)  # the readings (with the gravity torques for a compliant chain)

@@ -82,7 +82,8 @@ class Measurements:
             bad = np.flatnonzero((err > 1e-6) | (np.abs(poses[:, 3] - [0, 0, 0, 1]).max(axis=1) > 0))
             if bad.size:
                 raise DenavitError(
-                    f"{row_where(self.source, self.where, bad[0])}: pose is not a rigid transform (|R^T R - I| = {err[bad[0]]:.2e}, last row {poses[bad[0], 3].tolist()})"
+                    f"{row_where(self.source, self.where, bad[0])}: pose is not a rigid transform (|R^T R - I| ="
+                    f" {err[bad[0]]:.2e}, last row {poses[bad[0], 3].tolist()})"
                 )
             points = poses[:, :3, 3].copy()
         elif points is not None:
@@ -104,7 +105,8 @@ class Measurements:
             pl = as_array(self.payload, "payload", self.source)
             if pl.shape != (n, 4) or not np.all(np.isfinite(pl)) or np.any(pl[:, 0] < 0):
                 raise DenavitError(
-                    f"{self.source}: payload must have shape ({n}, 4), [mass kg >= 0, x, y, z m] per pose, finite; got shape {pl.shape}"
+                    f"{self.source}: payload must have shape ({n}, 4), [mass kg >= 0, x, y, z m] per pose, finite; got"
+                    f" shape {pl.shape}"
                 )
             object.__setattr__(self, "payload", pl)
 
@@ -144,14 +146,15 @@ class Measurements:
         """The points of every sweep with their joint readings (all joints recorded at every point)."""
         if not sweeps.has_readings:
             raise DenavitError(
-                f"{sweeps.source}: calibration needs the joint readings of every point; these sweeps have none (per-joint files): use denavit.identify"
+                f"{sweeps.source}: calibration needs the joint readings of every point; these sweeps have none"
+                " (per-joint files): use denavit.identify"
             )
         q = np.vstack([s.q for s in sweeps.sweeps])
         p = np.vstack([s.points for s in sweeps.sweeps])
         where = [
             w
             for s in sweeps.sweeps
-            for w in (s.where or [f"sweep {s.joint}, point {k + 1}" for k in range(len(s.points))])
+            for w in s.where or [f"sweep {s.joint}, point {k + 1}" for k in range(len(s.points))]
         ]
         pays = [getattr(s, "payload", None) for s in sweeps.sweeps]
         payload = (
@@ -206,5 +209,6 @@ def check_finite(a: np.ndarray, what: str, source: str, where: list, cols: str |
             else (f"column {'xyz'[j]}" if cols == "xyz" and j < 3 else f"entry {j}")
         )
         raise DenavitError(
-            f"{row_where(source, where, i)}: {what} must be finite, got {a[i, j]} ({col}); {len(bad)} non-finite value(s) in all"
+            f"{row_where(source, where, i)}: {what} must be finite, got {a[i, j]} ({col}); {len(bad)} non-finite"
+            " value(s) in all"
         )

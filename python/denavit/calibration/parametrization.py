@@ -35,7 +35,9 @@ from .measurements import Measurements
 class _Memo:
     """The last evaluations of calibration chains (see :func:`remembered`): the poses of the last
     :attr:`POSES` and the Jacobians of the last :attr:`JACOBIANS`, each keyed by its chain, x and the readings'
-    values (compared whole). A Jacobian whose rows and weights match and whose columns include those asked for serves them."""
+    values (compared whole). A Jacobian whose rows and weights match and whose columns include those asked for serves
+    them.
+    """
 
     POSES, JACOBIANS = 4, 1
 
@@ -250,7 +252,8 @@ def parametrize(
     measure : {"point", "pose"}
         Measured tool points (tool = 3 translations) or full tool poses (tool = 6 parameters).
     tool : array_like, optional
-        Point: the tool point (3,) in the flange frame (docs/conventions.md "Frames": DH frame n for a DH robot), metres; pose: ``T_flange_tool``
+        Point: the tool point (3,) in the flange frame (docs/conventions.md "Frames": DH frame n for a DH robot),
+        metres; pose: ``T_flange_tool``
         (4, 4). Default: the nominal model's tool.
     scale : bool
         Add a scale parameter per joint (``q -> q (1 + scale)``).
@@ -341,7 +344,8 @@ def parametrize(
         err = np.abs(pred[:, :3, 3] - truth[:, :3, 3]).max()
         if err > 1e-8:
             raise DegenerateError(
-                f"the {conv} calibration chain cannot reproduce the nominal model {robot.name}: tool error {err * 1e3:.3g} mm after fitting it; use convention 'edh'"
+                f"the {conv} calibration chain cannot reproduce the nominal model {robot.name}: tool error"
+                f" {err * 1e3:.3g} mm after fitting it; use convention 'edh'"
             )
     return pz
 
@@ -377,7 +381,8 @@ def resolve_fix(pz: Parametrization, fix) -> dict:
         hits = [c for c, nm in enumerate(pz.names) if fnmatch.fnmatchcase(nm, pat)]
         if not hits:
             raise DenavitError(
-                f"fix: {pat!r} matches no parameter of the {pz.convention} model of {pz.robot.name}: expected names or patterns of {', '.join(pz.names)}"
+                f"fix: {pat!r} matches no parameter of the {pz.convention} model of {pz.robot.name}: expected names or"
+                f" patterns of {', '.join(pz.names)}"
             )
         for c in hits:
             out[c] = None if value is None else float(value)

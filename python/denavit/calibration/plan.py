@@ -43,7 +43,11 @@ class Protocol:
 
     def __repr__(self) -> str:
         r = np.asarray(self.ranges, dtype=float)
-        return f"Protocol({len(r)} sweeps of {self.points_per_sweep} points, ranges {', '.join(f'{a:.4g}..{b:.4g}' for a, b in r)} (rad / m), tool point [{', '.join(f'{v * 1e3:.4g}' for v in self.tool_point)}] mm)"
+        return (
+            f"Protocol({len(r)} sweeps of {self.points_per_sweep} points, ranges"
+            f" {', '.join(f'{a:.4g}..{b:.4g}' for a, b in r)} (rad / m), tool point"
+            f" [{', '.join(f'{v * 1e3:.4g}' for v in self.tool_point)}] mm)"
+        )
 
     @classmethod
     def paper(cls, degrees: int = 30, points_per_sweep: int = 30, tool_point=(0.05, 0.03, 0.10)) -> Protocol:
@@ -125,9 +129,10 @@ class Plan:
     def __repr__(self) -> str:
         est = int(np.count_nonzero(np.isfinite(self.sigma)))
         return (
-            f"Plan({self.parametrization.robot.name}, {self.parametrization.convention}, {len(self.q)} poses, noise {self.noise * 1e3:.3g} mm, "
-            f"{est} of {len(self.names)} parameters identifiable)\n"
-            f"  worst axis sigma {np.nanmax(self.axis_sigma[:, 0]) * 1e3:.3g} mm across, {np.degrees(np.nanmax(self.axis_sigma[:, 1])):.3g} deg; {len(self.notes)} notes"
+            f"Plan({self.parametrization.robot.name}, {self.parametrization.convention}, {len(self.q)} poses, noise"
+            f" {self.noise * 1e3:.3g} mm, {est} of {len(self.names)} parameters identifiable)\n  worst axis sigma"
+            f" {np.nanmax(self.axis_sigma[:, 0]) * 1e3:.3g} mm across,"
+            f" {np.degrees(np.nanmax(self.axis_sigma[:, 1])):.3g} deg; {len(self.notes)} notes"
         )
 
     @cached_property

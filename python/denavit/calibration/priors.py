@@ -103,14 +103,15 @@ class Prior:
             hits = [c for c, nm in enumerate(pz.names) if fnmatch.fnmatchcase(nm, pat)]
             if not hits:
                 raise DenavitError(
-                    f"prior: {pat!r} matches no parameter of the {pz.convention} model of {pz.robot.name}: expected a kind "
-                    f"({', '.join(DEFAULT_WIDTHS)}) or names or patterns of {', '.join(pz.names)}"
+                    f"prior: {pat!r} matches no parameter of the {pz.convention} model of {pz.robot.name}: expected a"
+                    f" kind ({', '.join(DEFAULT_WIDTHS)}) or names or patterns of {', '.join(pz.names)}"
                 )
             for c in hits:
                 want = _UNIT_DIMENSION[pz.units[c]]
                 if dim is not None and dim != want:
                     raise DenavitError(
-                        f"prior: {pz.names[c]} is a{'n' if want == 'angle' else ''} {want}, got a width in {dim} units for {pat!r}"
+                        f"prior: {pz.names[c]} is a{'n' if want == 'angle' else ''} {want}, got a width in {dim} units"
+                        f" for {pat!r}"
                     )
                 out[c] = (
                     v
@@ -178,9 +179,7 @@ def as_prior(prior) -> Prior | None:
 _ITEM = re.compile(r"\s*([A-Za-z_*?\[\]0-9]+)\s*=\s*([-+0-9.eE]+)\s*([A-Za-z%]*)\s*")
 
 
-def parse_prior(
-    text: str, length: float = 1e-3, angle: float = math.pi / 180, where: str = "--prior"
-) -> Prior | None:
+def parse_prior(text: str, length: float = 1e-3, angle: float = math.pi / 180, where: str = "--prior") -> Prior | None:
     """``"length=1mm, angle=0.1deg, offset=0.05deg, scale=100ppm, a_5=2mm"`` as a :class:`Prior` (kinds not given
     keep their defaults), ``"none"`` as None (no prior: least squares). A value's unit is one of
     :data:`WIDTH_UNITS`; a bare number is in the unit of ``length`` metres / ``angle`` radians (default mm and deg,
@@ -194,8 +193,10 @@ def parse_prior(
     over = []
     comp = COMPLIANCE_WIDTH
     expected = (
-        f"{where}: expected KIND=WIDTH pairs separated by commas, KIND one of {', '.join(DEFAULT_WIDTHS)} or a parameter name "
-        f'or pattern, WIDTH a number > 0 with a unit ({", ".join(WIDTH_UNITS)}), e.g. "length=1mm, angle=0.1deg, scale=100ppm", or "none"'
+        f"{where}: expected KIND=WIDTH pairs separated by commas, KIND one of {', '.join(DEFAULT_WIDTHS)} or a"
+        " parameter name "
+        f'or pattern, WIDTH a number > 0 with a unit ({", ".join(WIDTH_UNITS)}), e.g. "length=1mm, angle=0.1deg,'
+        ' scale=100ppm", or "none"'
     )
     for item in s.split(","):
         if not item.strip():
@@ -221,7 +222,8 @@ def parse_prior(
         if key == "compliance":  # the deflection under the largest torque: an angle (bare in --angle)
             if dim not in (None, "angle"):
                 raise DenavitError(
-                    f"{where}: compliance is the joints' deflection under their largest torque, an angle, got a width in {unit}"
+                    f"{where}: compliance is the joints' deflection under their largest torque, an angle, got a width"
+                    f" in {unit}"
                 )
             comp = v * (angle if dim is None else 1.0)
         elif key in widths:

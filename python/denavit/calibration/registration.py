@@ -90,16 +90,16 @@ def register(
                 pz, x = cand_pz, cand_x
                 dist = float(np.linalg.norm(pz.base_pose(x)[:3, 3]))
                 notes.append(
-                    f"base registered in closed form (Kabsch{', alternated with the tool point' if trans else ''}): the robot's base stands {dist:.4g} m from "
-                    "the measurement frame's origin; "
-                    f"the nominal model's tool points miss the data by {before * 1e3:.4g} mm rms before, {after * 1e3:.4g} mm after"
+                    f"base registered in closed form (Kabsch{', alternated with the tool point' if trans else ''}): the"
+                    f" robot's base stands {dist:.4g} m from the measurement frame's origin; the nominal model's tool"
+                    f" points miss the data by {before * 1e3:.4g} mm rms before, {after * 1e3:.4g} mm after"
                 )
     if pz.measure == "pose" and len(rots) == 3 and meas.poses is not None:
         pz, x, angle = _register_tool_rotation(pz, x, meas, rots)
         if angle > 0:
             notes.append(
-                f"tool orientation registered in closed form: {np.degrees(angle):.4g} deg from the nominal's (chordal mean over the poses); "
-                "tool_rx, tool_ry, tool_rz are small rotations about it"
+                f"tool orientation registered in closed form: {np.degrees(angle):.4g} deg from the nominal's (chordal"
+                " mean over the poses); tool_rx, tool_ry, tool_rz are small rotations about it"
             )
     return pz, x, notes
 

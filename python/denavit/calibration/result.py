@@ -36,8 +36,9 @@ class Validation:
 
     def __repr__(self) -> str:
         return (
-            f"Validation({self.n_test} held-out of {self.n_train + self.n_test} poses: tool-position error rms {self.before_rms * 1e3:.4g} -> "
-            f"{self.after_rms * 1e3:.4g} mm, max {self.before_max * 1e3:.4g} -> {self.after_max * 1e3:.4g} mm)"
+            f"Validation({self.n_test} held-out of {self.n_train + self.n_test} poses: tool-position error rms"
+            f" {self.before_rms * 1e3:.4g} -> {self.after_rms * 1e3:.4g} mm, max {self.before_max * 1e3:.4g} ->"
+            f" {self.after_max * 1e3:.4g} mm)"
         )
 
 
@@ -74,7 +75,8 @@ class Calibration:
     elapsed: float
     noise: float
     notes: list = field(default_factory=list)
-    #: the candidate models scored by leave-one-pose-out prediction error and the one chosen (:mod:`~denavit.calibration.selection`)
+    #: the candidate models scored by leave-one-pose-out prediction error and the one chosen
+    #: (:mod:`~denavit.calibration.selection`)
     model_choice: ModelChoice | None = None
     #: the prior width of every parameter (SI; inf: no prior) when the chosen model is maximum a posteriori, else None
     prior_sigma: np.ndarray | None = None
@@ -88,10 +90,10 @@ class Calibration:
         v = self.validation
         held = "" if v is None else f"; held-out error rms {v.before_rms * 1e3:.4g} -> {v.after_rms * 1e3:.4g} mm"
         return (
-            f"Calibration({self.parametrization.robot.name}, {self.convention}, {self.measurements.n} {self.measurements.kind}s of {self.measurements.source}, "
-            f"{est} of {len(self.names)} parameters estimated, {'converged' if self.converged else 'NOT converged'})\n"
-            f"  rms {self.rms * 1e3:.4g} mm{held}; {len(self.notes)} notes"
-            + ("" if self.model_choice is None else f"\n  {self.model_choice.short()}")
+            f"Calibration({self.parametrization.robot.name}, {self.convention}, {self.measurements.n}"
+            f" {self.measurements.kind}s of {self.measurements.source}, {est} of {len(self.names)} parameters"
+            f" estimated, {'converged' if self.converged else 'NOT converged'})\n  rms {self.rms * 1e3:.4g} mm{held};"
+            f" {len(self.notes)} notes" + ("" if self.model_choice is None else f"\n  {self.model_choice.short()}")
         )
 
     def value(self, name: str) -> tuple[float, float]:
@@ -120,7 +122,8 @@ class Calibration:
         ED-H, the nominal's frame origins on the body): without that reference a pair of axes that is parallel on
         the nominal takes the common normal of its small tilt, which slides along the axes with the noise (a KR5's
         b_2, b_3 and theta_2 had sigmas of 2.5 m and 1.5 rad in the saved covariance)."""
-        from ..identification.frames import nominal_convention_table, origins  # noqa: PLC0415 (identify imports this package)
+        # (identify imports this package)
+        from ..identification.frames import nominal_convention_table, origins  # noqa: PLC0415
 
         robot = self.parametrization.robot
         home = np.zeros(len(robot.names))
@@ -169,7 +172,8 @@ class Calibration:
         carried = self.carried_error(table)
         comp = _compliance_fields(self, r, table)
         lossy = (
-            f"; the {table.convention} table carries a tool-position error up to {carried * 1e3:.3g} mm (a tilt of axes the nominal has parallel, within 3 sigma of zero, dropped)"
+            f"; the {table.convention} table carries a tool-position error up to {carried * 1e3:.3g} mm (a tilt of axes"
+            " the nominal has parallel, within 3 sigma of zero, dropped)"
             if carried > 1e-9
             else ""
         )
@@ -179,14 +183,17 @@ class Calibration:
             list(r.names),
             r.lower,
             r.upper,
-            description=f"{r.name} calibrated from {self.measurements.source} ({self.convention}, {self.measurements.n} poses{lossy})",
+            description=(
+                f"{r.name} calibrated from {self.measurements.source} ({self.convention}, {self.measurements.n}"
+                f" poses{lossy})"
+            ),
             source=self.measurements.source,
             home=r.home,
             extra=dict(r.extra),
             inertials=comp.pop("inertials", r.inertials if r.convention == convention else None),
-            reading_scale=np.array([self.scales.get(f"scale_{j + 1}", 0.0) for j in range(len(r.names))])
-            if self.scales
-            else None,
+            reading_scale=(
+                np.array([self.scales.get(f"scale_{j + 1}", 0.0) for j in range(len(r.names))]) if self.scales else None
+            ),
             covariance=self.table_covariance(table),
             **comp,
         )
@@ -205,7 +212,8 @@ class Calibration:
         joint scales, when estimated)], the robot file's ``[covariance]``: :attr:`covariance` of the free parameters
         mapped through this calibration's model and the core's extraction of ``table`` (``J C J^T``, ``J`` by central
         differences; angles wrapped about ``table``'s). The base registration is left out (it is where the measurement
-        frame stands, not the robot's geometry: targets are given in the robot base frame, as ``compensate`` assumes)."""
+        frame stands, not the robot's geometry: targets are given in the robot base frame, as ``compensate`` assumes).
+        """
         pz = self.parametrization
         opts = self._extract_options(table.convention)
         n = len(pz.robot.names)

@@ -88,7 +88,8 @@ class Candidate:
 
     ``free``: the indices of its free parameters; ``prior``: (centre, weight) of its prior rows or None;
     ``prior_fixed``: the parameters held at their nominal values because the data do not determine them beyond
-    their prior, name -> posterior sigma / prior width when they were free; ``loo``: (N,) leave-one-pose-out tool-position errors (m); ``cv_rms`` their RMS (m) and ``cv_se`` its
+    their prior, name -> posterior sigma / prior width when they were free; ``loo``: (N,) leave-one-pose-out
+    tool-position errors (m); ``cv_rms`` their RMS (m) and ``cv_se`` its
     standard error (m, from that of the mean square); ``dof``: the effective number of parameters ``trace(H)``.
     """
 
@@ -363,7 +364,8 @@ def select_model(
         raise DenavitError(f"model {model!r} needs priors: got prior=False / --prior none")
     if model.endswith(COMPLIANCE) and not compliance:
         raise DenavitError(
-            f"model {model!r}: the joint compliances are not modelled here (they need a payload declared with the data and the nominal's link inertials)"
+            f"model {model!r}: the joint compliances are not modelled here (they need a payload declared with the data"
+            " and the nominal's link inertials)"
         )
     want = (CANDIDATES + (COMPLIANCE_CANDIDATES if compliance else ())) if model == "auto" else (model,)
     offsets_kept = []
@@ -388,15 +390,14 @@ def select_model(
                 out.append(c)
             elif model != "auto":
                 raise DenavitError(
-                    f"model {name!r}: its geometric part is not a model of these data: expected one of {', '.join(k + COMPLIANCE for k in sets)}"
+                    f"model {name!r}: its geometric part is not a model of these data: expected one of"
+                    f" {', '.join(k + COMPLIANCE for k in sets)}"
                 )
             continue
         if name not in sets:
             if model != "auto":
-                raise DenavitError(
-                    f"model {name!r}: {'no Hayati tilt is free in this model' if 'beta' in name else 'no last-link parameter is free'}: expected one of "
-                    f"{', '.join(k for k in sets)}"
-                )
+                why = "no Hayati tilt is free in this model" if "beta" in name else "no last-link parameter is free"
+                raise DenavitError(f"model {name!r}: {why}: expected one of {', '.join(k for k in sets)}")
             continue
         free = sets[name]
         if name == "full":
@@ -444,7 +445,8 @@ def _fit_compliant(
     sigma,
     s2: float,
 ) -> Candidate | None:
-    """A ``+compliance`` candidate: its geometric part's free parameters with the compliances the data identify beside them, from its geometric fit (compliances at their nominal), with the
+    """A ``+compliance`` candidate: its geometric part's free parameters with the compliances the data identify beside
+    them, from its geometric fit (compliances at their nominal), with the
     geometric part's priors (and the compliances' own) or none; None when the geometric part is not a candidate here."""
     base = name[: -len(COMPLIANCE)]
     if base not in sets:

@@ -38,7 +38,8 @@ def simulate(
     tool_point = np.zeros(3) if tool is None else np.asarray(tool, dtype=float)
     if tool_point.shape not in ((3,), (4, 4)):
         raise DenavitError(
-            f"simulate: tool: expected a point (3,) in the flange frame, a pose (4, 4) or None, got shape {tool_point.shape}"
+            "simulate: tool: expected a point (3,) in the flange frame, a pose (4, 4) or None, got shape"
+            f" {tool_point.shape}"
         )
     if measure == "point" and tool_point.shape == (4, 4):
         tool_point = tool_point[:3, 3]

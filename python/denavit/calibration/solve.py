@@ -13,6 +13,7 @@ from .. import _core
 from ..errors import DenavitError, check_seed
 from ..fitting.joint import as_tracker_noise
 from ..fitting.robust import loss_weight
+from ..progress import Stage
 from ..robot import Robot, robot_of
 from ..sweeps import SweepSet
 from .compliance import with_compliance, with_payload
@@ -91,7 +92,8 @@ def calibrate(
         Tool point (3,) in the flange frame, m (points), or ``T_flange_tool`` (4, 4) (poses); default nominal.
     noise, noise_rot : float, optional
         Known one-sigma noise per coordinate (m) and of the rotation (rad); default: estimated from the residuals.
-    tracker_noise : :class:`~denavit.fitting.joint.TrackerNoise` or (sigma_range m, sigma_angle rad[, position (3,) m]), optional
+    tracker_noise : :class:`~denavit.fitting.joint.TrackerNoise` or (sigma_range m, sigma_angle rad[, position (3,) m]),
+    optional
         The tracker's range/angle noise model (as :func:`denavit.identification.identify`'s): each point's position
         residual is whitened by its covariance's shape (noise ``sigma_range`` along the line of sight from the
         tracker, ``sigma_angle`` times the range across it), the scale estimated from the residuals (so not with
@@ -122,8 +124,8 @@ def calibrate(
         says why), False never. Considered, ``auto`` also fits the ``+compliance`` candidates, which must predict
         better by more than a paired standard error to be chosen.
     progress : callable, optional
-        Called as ``progress(message, fraction)`` as each stage starts: a short message and the fraction of the work
-        done before it (0 to 1), as :func:`denavit.identification.identify`'s.
+        Called with a short message as each stage starts, a :class:`denavit.progress.Stage` (a ``str``) whose
+        ``fraction`` is the share of the work done before it, as :func:`denavit.identification.identify`'s.
 
     Returns
     -------
@@ -153,7 +155,11 @@ def calibrate(
     robot = robot_of(nominal)
     _check_options(meas, robot, loss, holdout, model, start, noise, noise_rot)
     prior_spec = as_prior(robot.prior if prior is None and robot.prior else prior)  # an explicit prior wins
-    report = progress or (lambda _msg, _fraction: None)
+    say = progress or (lambda _stage: None)
+
+    def report(message: str, fraction: float) -> None:
+        say(Stage(message, fraction))
+
     run = _Run(meas, robot, convention, tool, scale, noise, noise_rot, tracker_noise, payload, compliance, fix)
     run.split(holdout, seed)
     report(f"registering the measurement frame ({meas.n} poses)", 0.0)
@@ -164,9 +170,7 @@ def calibrate(
     run.fit(start, convention)
     run.choose(model, prior_spec, report)
     report("covariance, held-out errors and notes", 0.9)
-    result = run.result(loss, f_scale, t0)
-    report("done", 1.0)
-    return result
+    return run.result(loss, f_scale, t0)
 
 
 class _Run:
@@ -318,13 +322,15 @@ def _check_options(meas, robot, loss, holdout, model, start, noise, noise_rot) -
     n = len(robot.names)
     if meas.nq != n:
         raise DenavitError(
-            f"{meas.source}: the data has {meas.nq} joint readings per pose but the nominal model {robot.name} has {n} joints ({', '.join(robot.names)})"
+            f"{meas.source}: the data has {meas.nq} joint readings per pose but the nominal model {robot.name} has {n}"
+            f" joints ({', '.join(robot.names)})"
         )
     for j, (got, want) in enumerate(zip(meas.kinds or robot.table.kinds, robot.table.kinds, strict=True)):
         if got != want:
             unit = meas.units.get("angle" if got == "revolute" else "length", "?")
             raise DenavitError(
-                f"{meas.source}: joint {j + 1} ({robot.names[j]}) of {robot.name} is {want}, but its readings were read as {got} (in {unit}): "
+                f"{meas.source}: joint {j + 1} ({robot.names[j]}) of {robot.name} is {want}, but its readings were read"
+                f" as {got} (in {unit}): "
                 f'pass kinds={list(robot.table.kinds)} to read_measurements (or state "kinds" in a JSON file)'
             )
     if loss not in LOSSES:
@@ -347,14 +353,15 @@ def _tracker_weighting(meas: Measurements, tracker_noise, noise, notes: list) ->
         return meas, None
     if noise is not None:
         raise DenavitError(
-            f"noise = {noise!r} and tracker_noise: give one (the tracker's model declares the shape of each point's noise, "
-            "its scale is estimated from the residuals)"
+            f"noise = {noise!r} and tracker_noise: give one (the tracker's model declares the shape of each point's"
+            " noise, its scale is estimated from the residuals)"
         )
     W, ref = tracker.whitening(meas.points)
     notes.append(
-        f"points weighted by the tracker's noise model (range {tracker.sigma_range * 1e6:.3g} um, angles "
-        f"{math.degrees(tracker.sigma_angle) * 3600:.3g} arcsec, tracker at {', '.join(f'{v:.4g}' for v in tracker.position)} m; "
-        f"{ref * 1e3:.3g} mm per coordinate on average), the scale estimated from the residuals"
+        f"points weighted by the tracker's noise model (range {tracker.sigma_range * 1e6:.3g} um, angles"
+        f" {math.degrees(tracker.sigma_angle) * 3600:.3g} arcsec, tracker at"
+        f" {', '.join(f'{v:.4g}' for v in tracker.position)} m; {ref * 1e3:.3g} mm per coordinate on average), the"
+        " scale estimated from the residuals"
     )
     return replace(meas, whitening=W), ref
 
@@ -406,18 +413,20 @@ def _identifiability(pz, robot, x_reg, meas, train, candidates, w) -> tuple[set,
     if n_eq <= struct.rank:
         per = 6 if pz.measure == "pose" else 3
         raise DenavitError(
-            f"{meas.source}: too few measurements: {train.n} {'poses' if per == 6 else 'points'} give {n_eq} equations for the {struct.rank} parameters "
-            f"this model can identify ({', '.join(struct.base_parameters)}); need at least {struct.rank // per + 1} "
-            f"{'poses' if per == 6 else 'points'} (many more to average the noise), or fix parameters"
+            f"{meas.source}: too few measurements: {train.n} {'poses' if per == 6 else 'points'} give {n_eq} equations"
+            f" for the {struct.rank} parameters this model can identify ({', '.join(struct.base_parameters)}); need at"
+            f" least {struct.rank // per + 1} {'poses' if per == 6 else 'points'} (many more to average the noise), or"
+            " fix parameters"
         )
     if still and data_only:
         vals = ", ".join(
             f"q{j + 1} = {train.q[0, j]:.6g} {'m' if robot.table.kinds[j] == 'prismatic' else 'rad'}" for j in still
         )  # SI, labelled
         raise DenavitError(
-            f"{meas.source}: joint(s) {', '.join(f'{j + 1} ({robot.names[j]})' for j in still)} never move in the data ({vals} in all {train.n} poses): "
-            f"the data cannot identify {', '.join(data_only)} (beyond the parameters redundant in any case); move the joint(s), "
-            f"or hold these fixed: fix={[u.name for u in ana.unidentifiable]}"
+            f"{meas.source}: joint(s) {', '.join(f'{j + 1} ({robot.names[j]})' for j in still)} never move in the data"
+            f" ({vals} in all {train.n} poses): the data cannot identify {', '.join(data_only)} (beyond the parameters"
+            " redundant in any case); move the joint(s), or hold these fixed:"
+            f" fix={[u.name for u in ana.unidentifiable]}"
         )
     return structural, ana
 
@@ -500,19 +509,21 @@ def _fit_notes(notes, pz, meas, x_hat, free, corr, rms, noise, won, converged, s
     if rms > 0.01 * size:
         notes.insert(
             0,
-            f"the fit explains little of the data: rms {rms * 1e3:.4g} mm against a measured volume of {size * 1e3:.4g} mm radius "
-            "(are the joint readings in the units declared, the joints in the nominal's order, the nominal the right robot?)",
+            f"the fit explains little of the data: rms {rms * 1e3:.4g} mm against a measured volume of {size * 1e3:.4g}"
+            " mm radius (are the joint readings in the units declared, the joints in the nominal's order, the nominal"
+            " the right robot?)",
         )
     elif noise is not None and rms > 10 * noise * math.sqrt(3):
         notes.insert(
             0,
-            f"the residual (rms {rms * 1e3:.4g} mm) is {rms / (noise * math.sqrt(3)):.3g} x what the declared noise ({noise * 1e3:.3g} mm per "
-            "coordinate) explains: the model or the data has errors the noise does not cover",
+            f"the residual (rms {rms * 1e3:.4g} mm) is {rms / (noise * math.sqrt(3)):.3g} x what the declared noise"
+            f" ({noise * 1e3:.3g} mm per coordinate) explains: the model or the data has errors the noise does not"
+            " cover",
         )
     if won.prior_fixed:
         notes.append(
-            f"not determined by the data beyond their prior (posterior sigma above {PRIOR_DOMINATED:g} of the prior width: the data alone would give "
-            "more than 2 prior widths), held at their nominal values: "
+            f"not determined by the data beyond their prior (posterior sigma above {PRIOR_DOMINATED:g} of the prior"
+            " width: the data alone would give more than 2 prior widths), held at their nominal values: "
             + ", ".join(f"{k} ({v:.3g} of its prior width)" for k, v in won.prior_fixed.items())
         )
     if not converged:
@@ -521,7 +532,8 @@ def _fit_notes(notes, pz, meas, x_hat, free, corr, rms, noise, won, converged, s
     far = [pz.names[c] for c in lengths if abs(x_hat[c] - pz.x0[c]) > 10 * size]
     if far:
         notes.append(
-            f"parameters moved by more than 10 x the measured volume ({', '.join(far)}): the fit may have diverged; check the nominal model and the units"
+            f"parameters moved by more than 10 x the measured volume ({', '.join(far)}): the fit may have diverged;"
+            " check the nominal model and the units"
         )
     strong = strong_correlations(corr, [pz.names[c] for c in free])
     if strong:
@@ -531,7 +543,8 @@ def _fit_notes(notes, pz, meas, x_hat, free, corr, rms, noise, won, converged, s
         )
     if outliers.size:
         notes.append(
-            f"{outliers.size} pose(s) with a tool-position misfit above {OUTLIER_SIGMAS} robust sigmas: {', '.join(meas.where[i] for i in outliers[:5])}{' ...' if outliers.size > 5 else ''}"
+            f"{outliers.size} pose(s) with a tool-position misfit above {OUTLIER_SIGMAS} robust sigmas:"
+            f" {', '.join(meas.where[i] for i in outliers[:5])}{' ...' if outliers.size > 5 else ''}"
         )
 
 
@@ -540,11 +553,13 @@ def _circle_start(
 ) -> np.ndarray:
     """Start values from the circle-point identification (global fit of the sweeps): the chain is fitted to
     the identified model's predictions at the measured configurations."""
-    from ..identification import identify  # noqa: PLC0415 (identify imports the fitting package: loaded for start="circles" only)
+    # (identify imports the fitting package: loaded for start="circles" only)
+    from ..identification import identify  # noqa: PLC0415
 
     if meas.sweeps is None:
         raise DenavitError(
-            f"{meas.source}: start='circles' needs sweep data (Measurements.from_sweeps); these are arbitrary poses: use start='nominal'"
+            f"{meas.source}: start='circles' needs sweep data (Measurements.from_sweeps); these are arbitrary poses:"
+            " use start='nominal'"
         )
     if pz.measure != "point":
         raise DenavitError("start='circles' works with measured points (sweeps), not poses")

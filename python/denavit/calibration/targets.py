@@ -15,7 +15,8 @@ alternated), so the tracker may stand anywhere; held-out validation leaves whole
 
 The tool frame of the result (``Calibration.model()``'s ``T_flange_tool``): the nest's frame when the nest is
 declared (the targets in the tool frame: the rigid transform that best puts the nest onto the fitted points,
-Kabsch), else its origin at target 1 and its orientation from the targets' points (x from target 1 to target 2, z across the plane of targets
+Kabsch), else its origin at target 1 and its orientation from the targets' points (x from target 1 to target 2, z across
+the plane of targets
 1-3), else (two targets) the flange's, as identify's tool frame at home. Small rotations about the current
 estimate parametrise nothing here: the targets' points are translations, free of any singularity.
 
@@ -65,7 +66,8 @@ class TargetMeasurements:
         t = np.asarray(self.targets, dtype=float)
         if q.ndim != 2 or t.ndim != 3 or t.shape[0] != q.shape[0] or t.shape[2] != 3 or t.shape[1] < 2:
             raise DenavitError(
-                f"{self.source}: expected q (N, n) and targets (N, K, 3) with K >= 2 targets per pose, got shapes {q.shape} and {t.shape}"
+                f"{self.source}: expected q (N, n) and targets (N, K, 3) with K >= 2 targets per pose, got shapes"
+                f" {q.shape} and {t.shape}"
             )
         check_finite(q, "q (joint readings)", self.source, self.where, cols="joint")
         check_finite(t.reshape(len(t), -1), "targets", self.source, self.where)
@@ -131,14 +133,15 @@ class TargetMeasurements:
         """The targets of every sweep point with their joint readings."""
         if not sweeps.has_readings:
             raise DenavitError(
-                f"{sweeps.source}: calibration needs the joint readings of every point; these sweeps have none (per-joint files): use denavit.identify"
+                f"{sweeps.source}: calibration needs the joint readings of every point; these sweeps have none"
+                " (per-joint files): use denavit.identify"
             )
         q = np.vstack([s.q for s in sweeps.sweeps])
         t = np.concatenate([s.targets for s in sweeps.sweeps])
         where = [
             w
             for s in sweeps.sweeps
-            for w in (s.where or [f"sweep {s.joint}, point {k + 1}" for k in range(len(s.points))])
+            for w in s.where or [f"sweep {s.joint}, point {k + 1}" for k in range(len(s.points))]
         ]
         return cls(
             q,
@@ -233,7 +236,8 @@ def as_measurements(data, kinds, *, points=None, poses=None, target: int | None 
         got = None
     if got is not None:
         raise DenavitError(
-            f"measurements: expected Measurements, a SweepSet, a path, or joint readings q with points= or poses=, got {got}"
+            "measurements: expected Measurements, a SweepSet, a path, or joint readings q with points= or poses=, got"
+            f" {got}"
         )
     return Measurements(
         floats(data, "measurements: q"),
@@ -435,7 +439,8 @@ def calibrate_targets(
     sweeps = meas if hasattr(meas, "has_rotations") else getattr(meas, "sweeps", None)
     if sweeps is not None and getattr(sweeps, "has_rotations", False):
         notes.append(
-            "the poses' orientations (qw, qx, qy, qz) are not used: the targets' points determine the flange's orientation at every pose"
+            "the poses' orientations (qw, qx, qy, qz) are not used: the targets' points determine the flange's"
+            " orientation at every pose"
         )
     start_pts = _start_points(tm, robot, tool)
     pz = TargetParametrization.build(robot, convention, K, start_pts, scale, tm.nest)
@@ -475,8 +480,8 @@ def calibrate_targets(
     ana = analyze(pz, x_reg, train, candidates, w, struct, hint)
     if 3 * train.n <= struct.rank:
         raise DenavitError(
-            f"{tm.source}: too few measurements: {train.n} points give {3 * train.n} equations for the {struct.rank} parameters this model can identify; "
-            f"need at least {struct.rank // 3 + 1} points, or fix parameters"
+            f"{tm.source}: too few measurements: {train.n} points give {3 * train.n} equations for the {struct.rank}"
+            f" parameters this model can identify; need at least {struct.rank // 3 + 1} points, or fix parameters"
         )
     # 3) the fit
     free = ana.kept_idx
@@ -539,15 +544,18 @@ def _check_target_options(tm, robot, loss: str, start: str, holdout: float, nois
     n = len(robot.names)
     if tm.nq != n:
         raise DenavitError(
-            f"{tm.source}: the data has {tm.nq} joint readings per pose but the nominal model {robot.name} has {n} joints ({', '.join(robot.names)})"
+            f"{tm.source}: the data has {tm.nq} joint readings per pose but the nominal model {robot.name} has {n}"
+            f" joints ({', '.join(robot.names)})"
         )
     if tm.kinds is not None and tuple(tm.kinds) != tuple(robot.table.kinds):
         raise DenavitError(
-            f"{tm.source}: joint kinds {list(tm.kinds)} differ from the nominal {robot.name}'s {list(robot.table.kinds)}"
+            f"{tm.source}: joint kinds {list(tm.kinds)} differ from the nominal {robot.name}'s"
+            f" {list(robot.table.kinds)}"
         )
     if loss != "linear" or start != "nominal":
         raise DenavitError(
-            f"{tm.source}: several targets per pose are fitted with loss 'linear' from start 'nominal', got loss {loss!r}, start {start!r}"
+            f"{tm.source}: several targets per pose are fitted with loss 'linear' from start 'nominal', got loss"
+            f" {loss!r}, start {start!r}"
         )
     if not 0.0 <= holdout < 0.9:
         raise DenavitError(f"holdout: expected a fraction in [0, 0.9), got {holdout}")
@@ -565,7 +573,8 @@ def _start_points(tm, robot, tool) -> np.ndarray:
         t = np.asarray(tool, dtype=float)
         if t.shape not in ((3,), (K, 3)) or not np.all(np.isfinite(t)):
             raise DenavitError(
-                f"tool: expected the targets' start in the flange frame, a point (3,) or ({K}, 3) (m), got shape {t.shape}"
+                f"tool: expected the targets' start in the flange frame, a point (3,) or ({K}, 3) (m), got shape"
+                f" {t.shape}"
             )
         start_pts = np.broadcast_to(t, (K, 3)).copy()
     elif tm.nest is not None:
@@ -585,7 +594,8 @@ def _target_whitening(tm, tracker_noise, noise):
         return None, None
     if noise is not None:
         raise DenavitError(
-            f"noise = {noise!r} and tracker_noise: give one (the tracker's model declares the shape of each point's noise, its scale is estimated from the residuals)"
+            f"noise = {noise!r} and tracker_noise: give one (the tracker's model declares the shape of each point's"
+            " noise, its scale is estimated from the residuals)"
         )
     Wh, ref = tracker.whitening(tm.targets.reshape(-1, 3))
     Wh = Wh.reshape(tm.n, tm.n_targets, 3, 3)
@@ -647,8 +657,9 @@ def _target_notes(notes, pz, x_hat, everything, rms, sol, corr, free, outliers) 
     if rms > 0.01 * size:
         notes.insert(
             0,
-            f"the fit explains little of the data: rms {rms * 1e3:.4g} mm against a measured volume of {size * 1e3:.4g} mm radius "
-            "(are the joint readings in the units declared, the joints in the nominal's order, the targets in the same order at every pose?)",
+            f"the fit explains little of the data: rms {rms * 1e3:.4g} mm against a measured volume of {size * 1e3:.4g}"
+            " mm radius (are the joint readings in the units declared, the joints in the nominal's order, the targets"
+            " in the same order at every pose?)",
         )
     if sol is not None and sol.status <= 0:
         notes.append(f"the least-squares solver stopped without meeting its tolerances ({sol.message})")
@@ -660,7 +671,8 @@ def _target_notes(notes, pz, x_hat, everything, rms, sol, corr, free, outliers) 
         )
     if outliers.size:
         notes.append(
-            f"{outliers.size} point(s) with a misfit above {OUTLIER_SIGMAS} robust sigmas: {', '.join(everything.where[i] for i in outliers[:5])}{' ...' if outliers.size > 5 else ''}"
+            f"{outliers.size} point(s) with a misfit above {OUTLIER_SIGMAS} robust sigmas:"
+            f" {', '.join(everything.where[i] for i in outliers[:5])}{' ...' if outliers.size > 5 else ''}"
         )
 
 

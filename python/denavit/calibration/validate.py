@@ -151,13 +151,15 @@ class ModelValidation:
 
     def __repr__(self) -> str:
         iso = (
-            f"; ISO 9283 over {len(self.groups)} repeated poses: AP max {max(g.ap for g in self.groups) * 1e3:.4g} mm, RP max {max(g.rp for g in self.groups) * 1e3:.4g} mm"
+            f"; ISO 9283 over {len(self.groups)} repeated poses: AP max {max(g.ap for g in self.groups) * 1e3:.4g} mm,"
+            f" RP max {max(g.rp for g in self.groups) * 1e3:.4g} mm"
             if self.groups
             else ""
         )
         return (
-            f"ModelValidation({self.model_name} on {self.n} {self.measure}s of {self.source}, registration {self.registration}: tool-position error rms "
-            f"{self.rms * 1e3:.4g} mm, max {self.max * 1e3:.4g} mm, {self.n_flagged} flagged{iso})"
+            f"ModelValidation({self.model_name} on {self.n} {self.measure}s of {self.source}, registration"
+            f" {self.registration}: tool-position error rms {self.rms * 1e3:.4g} mm, max {self.max * 1e3:.4g} mm,"
+            f" {self.n_flagged} flagged{iso})"
         )
 
 
@@ -328,7 +330,8 @@ def validate(
     model : Calibration, Identification, Robot or Model (:func:`denavit.validate` also takes a built-in name, a robot
         file or a URDF)
         The model to score (its base and tool included: the frame it was calibrated in).
-    data : Measurements, SweepSet, TargetMeasurements (:func:`denavit.validate` also reads a path), or joint readings ``q``
+    data : Measurements, SweepSet, TargetMeasurements (:func:`denavit.validate` also reads a path), or joint readings
+    ``q``
         (N, n) rad / m with ``points`` (N, 3) m or ``poses`` (N, 4, 4). Several targets per pose with their nest: every
         target is scored at its nest point in the model's tool frame (one row per target); without a nest, target 1.
     registration : {"frozen", "refit"}
@@ -364,7 +367,8 @@ def validate(
     meas, nest_rows, per_pose = _scored_rows(data, notes)
     if meas.nq != n:
         raise DenavitError(
-            f"{meas.source}: the data has {meas.nq} joint readings per pose but the model {name} has {n} joints ({', '.join(km.names)})"
+            f"{meas.source}: the data has {meas.nq} joint readings per pose but the model {name} has {n} joints"
+            f" ({', '.join(km.names)})"
         )
     if meas.kinds is not None and tuple(meas.kinds) != tuple(km.kinds):
         raise DenavitError(
@@ -378,7 +382,9 @@ def validate(
     if el is not None:
         q = el.deflected(q, meas.payload)
         notes.append(
-            f"joints deflected under gravity{' and the payload' if meas.payload is not None else ' (no payload declared)'} by the model's compliances"
+            "joints deflected under"
+            f" gravity{' and the payload' if meas.payload is not None else ' (no payload declared)'} by the model's"
+            " compliances"
         )
     T_tool = _tool_transform(km, tool)
     T_base = np.array(km.T_world_base, dtype=float)
@@ -406,8 +412,8 @@ def validate(
         flags.append(tuple(f))
     if training is None:
         notes.append(
-            f"no training joint ranges: the model {name} does not carry its training poses (a calibration, an identification, or a robot file "
-            "from calibrate --save with its [training] table does)"
+            f"no training joint ranges: the model {name} does not carry its training poses (a calibration, an"
+            " identification, or a robot file from calibrate --save with its [training] table does)"
         )
     groups = _iso_groups(readings, per_pose, repeat_tol, measured, P, notes)
     return ModelValidation(
@@ -448,12 +454,14 @@ def _scored_rows(data, notes: list):
         if tm.nest is not None:
             meas, nest_rows, per_pose = tm.expanded(with_index=False), np.tile(tm.nest, (tm.n, 1)), tm.n_targets
             notes.append(
-                f"{tm.n} poses x {tm.n_targets} targets: every target scored, predicted at its nest point in the model's tool frame"
+                f"{tm.n} poses x {tm.n_targets} targets: every target scored, predicted at its nest point in the"
+                " model's tool frame"
             )
         else:
             meas = Measurements(tm.q, tm.targets[:, 0], None, tm.source, tm.where, tm.units, kinds=tm.kinds)
             notes.append(
-                f"{tm.n_targets} targets per pose and no nest declared: target 1 scored (the tool frame's origin of a calibration of several targets)"
+                f"{tm.n_targets} targets per pose and no nest declared: target 1 scored (the tool frame's origin of a"
+                " calibration of several targets)"
             )
     else:
         data = sweep_poses(data)  # 6-DoF sweeps: poses (the orientations scored too)
@@ -465,7 +473,8 @@ def _refit(km, q, meas, nest_rows, T_tool, T_base, notes: list):
     """(base, tool) re-fitted to the measurements with the kinematics frozen (:func:`refit_registration`)."""
     if meas.n < 4:
         raise DenavitError(
-            f"{meas.source}: re-fitting the registration (base 6 + tool 3 parameters) needs at least 4 poses, got {meas.n}"
+            f"{meas.source}: re-fitting the registration (base 6 + tool 3 parameters) needs at least 4 poses, got"
+            f" {meas.n}"
         )
     F = _core.fk_batch(km.with_base(np.eye(4)).with_tool(np.eye(4)), q)
     if nest_rows is not None:  # each row's target, fixed in the tool frame: the tool's origin is what is re-fitted
@@ -474,8 +483,9 @@ def _refit(km, q, meas, nest_rows, T_tool, T_base, notes: list):
     moved = np.linalg.norm(W[:3, 3] - T_base[:3, 3])
     turn = np.linalg.norm(matrix_rotvec((W[:3, :3].T @ T_base[:3, :3])[None])[0])
     notes.append(
-        f"registration re-fitted with the kinematics frozen: the base moved {moved * 1e3:.4g} mm and turned {math.degrees(turn):.4g} deg from the model's; "
-        f"9 of the {3 * meas.n} position residuals absorbed (expected rms {math.sqrt(max(3 * meas.n - 9, 0) / meas.n):.3g} sigma, not {math.sqrt(3):.3g})"
+        f"registration re-fitted with the kinematics frozen: the base moved {moved * 1e3:.4g} mm and turned"
+        f" {math.degrees(turn):.4g} deg from the model's; 9 of the {3 * meas.n} position residuals absorbed (expected"
+        f" rms {math.sqrt(max(3 * meas.n - 9, 0) / meas.n):.3g} sigma, not {math.sqrt(3):.3g})"
     )
     return W, T_tool
 
@@ -523,7 +533,8 @@ def _sigmas(cov_source, readings, q, el, meas, max_sigma, sigma_factor, training
                 notes.append(f"large predicted sigma: above {sigma_factor:g} x {what} median ({limit * 1e3:.3g} mm)")
     elif max_sigma is not None:
         notes.append(
-            f"max_sigma ignored: the model {name} carries no covariance (a calibration, an identification, or a robot file with [covariance])"
+            f"max_sigma ignored: the model {name} carries no covariance (a calibration, an identification, or a robot"
+            " file with [covariance])"
         )
     return sigma, limit
 
@@ -539,8 +550,9 @@ def _iso_groups(readings, per_pose: int, repeat_tol: float, measured, P, notes: 
         groups.append(PoseGroup(idx, bary, P[idx, :3, 3].mean(axis=0), ap, rp))
     if groups and min(g.n for g in groups) < ISO_CYCLES:
         notes.append(
-            f"ISO 9283 over {len(groups)} repeated poses of {min(g.n for g in groups)}-{max(g.n for g in groups)} visits (the standard cycles each pose {ISO_CYCLES} times: "
-            "fewer give the same statistics with more scatter)"
+            f"ISO 9283 over {len(groups)} repeated poses of {min(g.n for g in groups)}-{max(g.n for g in groups)}"
+            f" visits (the standard cycles each pose {ISO_CYCLES} times: fewer give the same statistics with more"
+            " scatter)"
         )
     return groups
 

@@ -30,7 +30,8 @@ def threading_main() -> bool:
     return threading.current_thread() is threading.main_thread()
 
 
-def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:  # noqa: ARG001 (warnings.showwarning's signature)
+# (warnings.showwarning's signature)
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:  # noqa: ARG001
     say("bold yellow", "warning:", f" {message}", err=True)
 
 

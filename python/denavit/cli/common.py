@@ -162,7 +162,8 @@ def _check_outputs(ctx) -> None:  # noqa: ANN001 (click's context)
             if _is_file(out) and os.path.samefile(out, inp):
                 name = param.opts[-1] if param.opts[-1].startswith("-") else param.name.upper()
                 raise DenavitError(
-                    f"{opt} {out}: is the input file {inp} ({name}): an output never replaces an input; name another file"
+                    f"{opt} {out}: is the input file {inp} ({name}): an output never replaces an input; name another"
+                    " file"
                 )
 
 
@@ -183,16 +184,20 @@ COMMANDS = {
     ),
     "check": (
         "check",
-        "Check a robot against its registered model with a few measured poses: a chi-square test of the residuals "
-        "against the model's own covariance and the tracker noise, at a stated false-alarm rate. Exit code 1 when the "
-        "robot has changed. A registered robot's check is recorded in the registry.",
+        (
+            "Check a robot against its registered model with a few measured poses: a chi-square test of the residuals"
+            " against the model's own covariance and the tracker noise, at a stated false-alarm rate. Exit code 1 when"
+            " the robot has changed. A registered robot's check is recorded in the registry."
+        ),
     ),
     "compensate": (
         "compensate",
-        'Compensate a program (RoboDK\'s "filtering"): for each position, the joint values that reach it on the '
-        "identified robot (on the program's branch) and the pose T' = FK_nominal(q) to send to a controller that keeps "
-        "its nominal model. Flagged rows (unreachable, branch changed, path jump) are marked, never silently kept; exit "
-        "code 1 when any row is flagged.",
+        (
+            'Compensate a program (RoboDK\'s "filtering"): for each position, the joint values that reach it on'
+            " the identified robot (on the program's branch) and the pose T' = FK_nominal(q) to send to a controller"
+            " that keeps its nominal model. Flagged rows (unreachable, branch changed, path jump) are marked, never"
+            " silently kept; exit code 1 when any row is flagged."
+        ),
     ),
     "convert": ("convert", "Express a robot in another convention through its joint axes, with the FK-parity check."),
     "dynamics": (
@@ -210,12 +215,17 @@ COMMANDS = {
     ),
     "ik": (
         "ik",
-        "Inverse kinematics: joint values that put the tool at --pose, judged from the measured final error against the tolerances.",
+        (
+            "Inverse kinematics: joint values that put the tool at --pose, judged from the measured final error against"
+            " the tolerances."
+        ),
     ),
     "inspect": (
         "inspect",
-        "Print what a recording holds: the reader used, joints, targets, rates and units, and the sweeps the segmentation "
-        "finds (joint, rows, start and end, dwell left out), for checking before `identify`.",
+        (
+            "Print what a recording holds: the reader used, joints, targets, rates and units, and the sweeps the"
+            " segmentation finds (joint, rows, start and end, dwell left out), for checking before `identify`."
+        ),
     ),
     "plan": (
         "plan",
@@ -228,8 +238,10 @@ COMMANDS = {
     ),
     "export": (
         "show",
-        "Print a robot file (TOML) in --length / --angle units (or, with --json, the robot as JSON in SI), or write a UR "
-        "kinematics-parameters file.",
+        (
+            "Print a robot file (TOML) in --length / --angle units (or, with --json, the robot as JSON in SI), or write"
+            " a UR kinematics-parameters file."
+        ),
     ),
     "simulate": (
         "simulate",
@@ -237,9 +249,11 @@ COMMANDS = {
     ),
     "validate": (
         "validate",
-        "Score a saved model on another measurement session: per-pose tool-position errors, RMS, max and percentiles, "
-        "extrapolation flags (outside the training joint ranges, large predicted sigma), ISO 9283 pose accuracy and repeatability "
-        "of repeated poses.",
+        (
+            "Score a saved model on another measurement session: per-pose tool-position errors, RMS, max and"
+            " percentiles, extrapolation flags (outside the training joint ranges, large predicted sigma), ISO 9283"
+            " pose accuracy and repeatability of repeated poses."
+        ),
     ),
 }
 
@@ -340,8 +354,10 @@ app = App(
     cls=Group,
     add_completion=False,
     no_args_is_help=True,
-    help="Find the true kinematic geometry of serial robots and compute with it. Lengths in mm and angles in degrees "
-    "unless --length/--angle say otherwise; JSON always in SI (docs/cli.md).",
+    help=(
+        "Find the true kinematic geometry of serial robots and compute with it. Lengths in mm and angles in degrees "
+        "unless --length/--angle say otherwise; JSON always in SI (docs/cli.md)."
+    ),
     pretty_exceptions_enable=False,
 )
 

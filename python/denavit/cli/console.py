@@ -52,11 +52,11 @@ PATIENCE = 1.0
 
 @contextmanager
 def status(message: str) -> Iterator:
-    """Say what a step that takes more than :data:`PATIENCE` is doing, on stderr. Its ``update(text, fraction)``
-    (the ``progress`` callback of :func:`denavit.identify` and :func:`denavit.calibrate`) shows the stage and, given
-    the fraction of the work done, a bar with the percentage and the time left on a terminal (a spinner until
-    then); elsewhere one line, with the percentage, once the step has lasted that long (a quick step, or an error
-    found at once, prints nothing but its result)."""
+    """Say what a step that takes more than :data:`PATIENCE` is doing, on stderr. Its ``update(text)`` (the
+    ``progress`` callback of :func:`denavit.identify` and :func:`denavit.calibrate`) shows the stage and, given
+    the fraction of the work done (a :class:`denavit.progress.Stage`'s, or ``fraction``), a bar with the
+    percentage and the time left on a terminal (a spinner until then); elsewhere one line, with the percentage, once
+    the step has lasted that long (a quick step, or an error found at once, prints nothing but its result)."""
     if err_console.is_terminal:
         from rich.progress import (  # noqa: PLC0415
             BarColumn,
@@ -86,6 +86,7 @@ class _Bar:
         self.bar, self.task, self.message = bar, task, message
 
     def update(self, text: str = "", fraction: float | None = None) -> None:
+        fraction = getattr(text, "fraction", fraction)  # a denavit.progress.Stage carries it
         described = f"{self.message} {text}" if text else self.message
         if fraction is None:
             self.bar.update(self.task, description=described)
@@ -104,6 +105,7 @@ class _Line:
         self.timer.daemon = True
 
     def update(self, text: str = "", fraction: float | None = None) -> None:
+        fraction = getattr(text, "fraction", fraction)  # a denavit.progress.Stage carries it
         done = "" if fraction is None else f" ({100 * min(max(fraction, 0.0), 1.0):.0f} %)"
         self.text = (f"{self.message} {text}" if text else self.message) + done
 

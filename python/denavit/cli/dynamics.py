@@ -40,7 +40,10 @@ def dynamics(
         str | None,
         typer.Option(
             "--f-ext",
-            help='Wrench on the tool by the environment, "fx,fy,fz,nx,ny,nz" in N and N m (SI), tool-frame axes, moment about the tool origin.',
+            help=(
+                'Wrench on the tool by the environment, "fx,fy,fz,nx,ny,nz" in N and N m (SI), tool-frame axes, moment'
+                " about the tool origin."
+            ),
         ),
     ] = None,
     json_out: JsonOpt = None,
@@ -122,5 +125,6 @@ def _check_rates(qd, robot, length: str, angle: str) -> None:
         if abs(v) > bound:
             u = joint_unit(robot.table.kinds[j], length, angle)
             fail(
-                f"--qd: joint {robot.names[j]} = {v / sc[j]:.6g} {u}/s: expected |qd| <= {bound / sc[j]:.5g} {u}/s (rates whose squares are finite)"
+                f"--qd: joint {robot.names[j]} = {v / sc[j]:.6g} {u}/s: expected |qd| <= {bound / sc[j]:.5g} {u}/s"
+                " (rates whose squares are finite)"
             )

@@ -21,7 +21,10 @@ def fk(
         str | None,
         typer.Option(
             "--q",
-            help='Joint values, one per joint, in --angle units (default deg; prismatic: --length, default mm), e.g. "90,-90,90,0,90,0" (default zeros); beyond the limits: a warning.',
+            help=(
+                "Joint values, one per joint, in --angle units (default deg; prismatic: --length, default mm), e.g."
+                ' "90,-90,90,0,90,0" (default zeros); beyond the limits: a warning.'
+            ),
         ),
     ] = None,
     length: LengthOpt = "mm",

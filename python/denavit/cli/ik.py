@@ -23,10 +23,14 @@ def ik(
         str | None,
         typer.Option(
             "--goal",
-            help="The tool pose to reach (T_world_tool), as fk prints it: x, y, z, rx, ry, rz (--length units, then the "
-            "rotation vector in --angle units); 'rpy: x, y, z, roll, pitch, yaw' names roll, pitch, yaw instead (R = "
-            "Rz(yaw) Ry(pitch) Rx(roll)); or the rows of the 4x4 pose, 16 (or 12) numbers, the translation in --length "
-            "units.",
+            help=(
+                "The tool pose to reach (T_world_tool), as fk prints it: x, y, z, rx, ry, rz (--length units, then the "
+                "rotation vector in --angle units); 'rpy: x, y, z, roll, pitch, yaw' names roll, pitch, yaw instead"
+                " (R = "
+                "Rz(yaw) Ry(pitch) Rx(roll)); or the rows of the 4x4 pose, 16 (or 12) numbers, the translation in"
+                " --length "
+                "units."
+            ),
         ),
     ] = None,
     pose: Annotated[
@@ -69,7 +73,8 @@ def ik(
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
 ) -> None:
-    """Inverse kinematics: joint values that put the tool at --pose, judged from the measured final error against the tolerances.
+    """Inverse kinematics: joint values that put the tool at --pose, judged from the measured final error against the
+    tolerances.
 
     Exit code 1 when the target is not met (the residual is printed).
     """
@@ -126,8 +131,8 @@ def ik(
                 (robot.name, "bold"),
                 " — ",
                 verdict,
-                f": position error {spread(r.position_error / ls)} {length}, "
-                f"rotation error {spread(r.rotation_error / as_)} {angle} ({r.iterations} iterations, {r.restarts} restarts)",
+                f": position error {spread(r.position_error / ls)} {length}, rotation error"
+                f" {spread(r.rotation_error / as_)} {angle} ({r.iterations} iterations, {r.restarts} restarts)",
             )
         )
         q_out = joint_values_out(r.q, robot, length, angle)

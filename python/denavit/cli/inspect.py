@@ -38,7 +38,10 @@ def inspect(
         str | None,
         typer.Option(
             "--angle",
-            help="Angle unit of the file where it declares none, and of the joint values printed (default deg): deg | rad.",
+            help=(
+                "Angle unit of the file where it declares none, and of the joint values printed (default deg): deg |"
+                " rad."
+            ),
         ),
     ] = None,
 ) -> None:

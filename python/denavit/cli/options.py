@@ -44,7 +44,10 @@ TipLinkOpt = Annotated[
     str | None,
     typer.Option(
         "--tip-link",
-        help="URDF model: the chain's tip link (default: the single leaf, REP-199's tool0, or the leaf through the most moving joints; echoed).",
+        help=(
+            "URDF model: the chain's tip link (default: the single leaf, REP-199's tool0, or the leaf through the most"
+            " moving joints; echoed)."
+        ),
     ),
 ]
 
@@ -62,8 +65,10 @@ ForceOpt = Annotated[
     bool,
     typer.Option(
         "--force",
-        help="Replace an output file that is read-only, and write through one with several hard links (in place: every name "
-        "gets the new content); without it both are refused. A replaced file keeps its owner and mode.",
+        help=(
+            "Replace an output file that is read-only, and write through one with several hard links (in place: every"
+            " name gets the new content); without it both are refused. A replaced file keeps its owner and mode."
+        ),
     ),
 ]
 
@@ -71,8 +76,10 @@ VerboseOpt = Annotated[
     bool,
     typer.Option(
         "--verbose",
-        help="Every parameter the data (or the protocol) cannot identify, with the reason, and the fit's choices in "
-        "full (default: their names in a few lines).",
+        help=(
+            "Every parameter the data (or the protocol) cannot identify, with the reason, and the fit's choices in "
+            "full (default: their names in a few lines)."
+        ),
     ),
 ]
 
@@ -83,9 +90,11 @@ ConventionOpt = Annotated[
     str,
     typer.Option(
         "--convention",
-        help="The parametrisation fitted, printed and saved: edh (exact: a near-parallel pair's tilt is a parameter of "
-        "its own) | dh | mdh (lossy where axes are near-parallel, the error carried stated) | poe (identify only); "
-        "aliases: sdh, craig, modified-dh.",
+        help=(
+            "The parametrisation fitted, printed and saved: edh (exact: a near-parallel pair's tilt is a parameter of "
+            "its own) | dh | mdh (lossy where axes are near-parallel, the error carried stated) | poe (identify only); "
+            "aliases: sdh, craig, modified-dh."
+        ),
     ),
 ]
 
@@ -93,8 +102,10 @@ TargetOpt = Annotated[
     int | None,
     typer.Option(
         "--target",
-        help="Data with several targets per pose (markers, SMRs on a nest): this target alone, 1-based (default: every "
-        "target in one fit; validate without a nest: target 1).",
+        help=(
+            "Data with several targets per pose (markers, SMRs on a nest): this target alone, 1-based (default: every "
+            "target in one fit; validate without a nest: target 1)."
+        ),
     ),
 ]
 
@@ -112,8 +123,10 @@ CouplingOpt = Annotated[
     str | None,
     typer.Option(
         "--coupling",
-        help="Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; "
-        "robot-files.md in docs); default: the robot file's \\[couplings].",
+        help=(
+            "Joint values from the controller's readings, e.g. \"q3=r3+r2\" (a Fanuc's J3; ';' between joints; "
+            "robot-files.md in docs); default: the robot file's \\[couplings]."
+        ),
     ),
 ]
 
@@ -121,10 +134,12 @@ TrackerNoiseOpt = Annotated[
     str | None,
     typer.Option(
         "--tracker-noise",
-        help="The tracker's range/angle noise (1 sigma): the distance's, then each angle's, e.g. \"5 um, 1 arcsec\" (a "
-        "number without a unit is in --length / --angle units; angles also in arcsec): each point is weighted by its "
-        "covariance (noise along the line of sight from the tracker, angle x range across it), the scale estimated "
-        "from the data (calibrate: not with --noise). Default: isotropic point noise.",
+        help=(
+            "The tracker's range/angle noise (1 sigma): the distance's, then each angle's, e.g. \"5 um, 1 arcsec\" (a"
+            " number without a unit is in --length / --angle units; angles also in arcsec): each point is weighted by"
+            " its covariance (noise along the line of sight from the tracker, angle x range across it), the scale"
+            " estimated from the data (calibrate: not with --noise). Default: isotropic point noise."
+        ),
     ),
 ]
 
@@ -132,7 +147,9 @@ TrackerPositionOpt = Annotated[
     str | None,
     typer.Option(
         "--tracker-position",
-        help="With --tracker-noise: the tracker's position in the data's frame, x,y,z in --length units (default "
-        "0,0,0: a tracker export's own frame).",
+        help=(
+            "With --tracker-noise: the tracker's position in the data's frame, x,y,z in --length units (default "
+            "0,0,0: a tracker export's own frame)."
+        ),
     ),
 ]

@@ -27,14 +27,20 @@ def simulate(
         str | None,
         typer.Option(
             "--home",
-            help="Home configuration in --angle units, prismatic joints in --length (default: the model file's home, else zeros).",
+            help=(
+                "Home configuration in --angle units, prismatic joints in --length (default: the model file's home,"
+                " else zeros)."
+            ),
         ),
     ] = None,
     ranges: Annotated[
         str | None,
         typer.Option(
             "--ranges",
-            help="Per-joint start,end pairs in --angle units (prismatic: --length), or 'paper90' (the default) / 'paper30' (Hayat Table II).",
+            help=(
+                "Per-joint start,end pairs in --angle units (prismatic: --length), or 'paper90' (the default) /"
+                " 'paper30' (Hayat Table II)."
+            ),
         ),
     ] = None,
     points: Annotated[int, typer.Option("--points", help="Points per sweep.")] = 30,
@@ -59,28 +65,40 @@ def simulate(
         str | None,
         typer.Option(
             "--targets",
-            help="Several targets per pose (2-4 SMRs on a nest): their points in the flange frame, \"x,y,z; x,y,z; ...\" in --length units (replaces --tool; written as columns x2,y2,z2,... and a '# nest:' line).",
+            help=(
+                'Several targets per pose (2-4 SMRs on a nest): their points in the flange frame, "x,y,z; x,y,z; ..."'
+                " in --length units (replaces --tool; written as columns x2,y2,z2,... and a '# nest:' line)."
+            ),
         ),
     ] = None,
     poses: Annotated[
         bool,
         typer.Option(
             "--poses",
-            help="6-DoF poses: also write each pose's orientation (the flange's, at the tool point) as a quaternion qw,qx,qy,qz.",
+            help=(
+                "6-DoF poses: also write each pose's orientation (the flange's, at the tool point) as a quaternion"
+                " qw,qx,qy,qz."
+            ),
         ),
     ] = False,
     noise_rot: Annotated[
         float | None,
         typer.Option(
             "--noise-rot",
-            help="Orientation noise of --poses (1 sigma per component of a rotation vector), in --angle units (default 0.005 deg whatever the unit).",
+            help=(
+                "Orientation noise of --poses (1 sigma per component of a rotation vector), in --angle units (default"
+                " 0.005 deg whatever the unit)."
+            ),
         ),
     ] = None,
     coupling: Annotated[
         str | None,
         typer.Option(
             "--coupling",
-            help="The readings written are a controller's whose joint values are, e.g., \"q3=r3+r2\" (a Fanuc's J3; docs/robot-files.md); default: the robot file's \\[couplings].",
+            help=(
+                "The readings written are a controller's whose joint values are, e.g., \"q3=r3+r2\" (a Fanuc's J3;"
+                " docs/robot-files.md); default: the robot file's \\[couplings]."
+            ),
         ),
     ] = None,
     base_link: BaseLinkOpt = None,
@@ -145,7 +163,8 @@ def simulate(
         s,
         length,
         angle,
-        f"simulated sweeps of {robot.name}: seed {seed}, noise {spread(sigma / ls)} {length}, readings noise {spread(sigma_q / as_)} {angle}",
+        f"simulated sweeps of {robot.name}: seed {seed}, noise {spread(sigma / ls)} {length}, readings noise"
+        f" {spread(sigma_q / as_)} {angle}",
         pieces,
     )
     what = (f", {len(nest)} targets per pose" if nest is not None and len(nest) > 1 else "") + (

@@ -23,20 +23,29 @@ def validate(
     model: Annotated[
         str,
         typer.Argument(
-            help="The model to score: a robot file (e.g. from calibrate --save, with its \\[covariance] and \\[training]), a URDF or a built-in name."
+            help=(
+                "The model to score: a robot file (e.g. from calibrate --save, with its \\[covariance] and"
+                " \\[training]), a URDF or a built-in name."
+            )
         ),
     ],
     data: Annotated[
         Path,
         typer.Argument(
-            help="Another measurement session, in any format calibrate reads (CSV 'q1..qn,x,y,z[,rx,ry,rz]' or with further targets 'x2,y2,z2,...', sweep CSV, JSON, a recording)."
+            help=(
+                "Another measurement session, in any format calibrate reads (CSV 'q1..qn,x,y,z[,rx,ry,rz]' or with"
+                " further targets 'x2,y2,z2,...', sweep CSV, JSON, a recording)."
+            )
         ),
     ],
     refit_registration: Annotated[
         bool,
         typer.Option(
             "--refit-registration",
-            help="Re-fit base and tool (the kinematics frozen): data from another placement of the tracker. Default: the model's registration is kept (the data are in the frame it was calibrated in).",
+            help=(
+                "Re-fit base and tool (the kinematics frozen): data from another placement of the tracker. Default: the"
+                " model's registration is kept (the data are in the frame it was calibrated in)."
+            ),
         ),
     ] = False,
     tool: Annotated[
@@ -47,7 +56,10 @@ def validate(
         float | None,
         typer.Option(
             "--max-sigma",
-            help="Flag poses whose predicted error (1 sigma, from the model's covariance) exceeds this, --length units (default: 3 x the median).",
+            help=(
+                "Flag poses whose predicted error (1 sigma, from the model's covariance) exceeds this, --length units"
+                " (default: 3 x the median)."
+            ),
         ),
     ] = None,
     json_path: JsonOpt = None,
@@ -65,7 +77,10 @@ def validate(
         str,
         typer.Option(
             "--format",
-            help="measurements (q1..qn,x,y,z CSV, sweep CSV, JSON) | tracker | rtde | rsi | bag | columns | auto (from the content).",
+            help=(
+                "measurements (q1..qn,x,y,z CSV, sweep CSV, JSON) | tracker | rtde | rsi | bag | columns | auto (from"
+                " the content)."
+            ),
         ),
     ] = "auto",
     columns: ColumnsOpt = None,
@@ -76,7 +91,12 @@ def validate(
         str | None,
         typer.Option(
             "--payload",
-            help="The payload on the flange for every pose where the data give none (a pose file's payload_mass, payload_x,payload_y,payload_z columns): its mass with a unit (kg, g, lb) and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\" (--length units without one). A model with compliant joints (a robot file's [compliance]) is predicted with its joints deflected under it.",
+            help=(
+                "The payload on the flange for every pose where the data give none (a pose file's payload_mass,"
+                " payload_x,payload_y,payload_z columns): its mass with a unit (kg, g, lb) and optionally its centre of"
+                ' mass in the flange frame, e.g. "5 kg @ 0,0,80 mm" (--length units without one). A model with'
+                " compliant joints (a robot file's [compliance]) is predicted with its joints deflected under it."
+            ),
         ),
     ] = None,
 ) -> None:
@@ -189,8 +209,9 @@ def print_validation(res, length: str, angle: str, ls: float, as_: float) -> Non
         rms_in = float(np.sqrt(np.mean(np.delete(res.errors, flagged) ** 2))) if len(flagged) < res.n else float("nan")
         rms_out = float(np.sqrt(np.mean(res.errors[flagged] ** 2)))
         console.print(
-            f"Extrapolation: {len(flagged)} of {res.n} poses flagged ({n_range} outside the training joint ranges, {n_sigma} with a large predicted sigma): "
-            f"rms {spread(rms_out / ls)} {length} there, {spread(rms_in / ls)} {length} elsewhere"
+            f"Extrapolation: {len(flagged)} of {res.n} poses flagged ({n_range} outside the training joint ranges,"
+            f" {n_sigma} with a large predicted sigma): rms {spread(rms_out / ls)} {length} there,"
+            f" {spread(rms_in / ls)} {length} elsewhere"
         )
     if res.groups:
         grows = [
@@ -206,7 +227,10 @@ def print_validation(res, length: str, angle: str, ls: float, as_: float) -> Non
             "ISO 9283 (repeated poses)",
             ["pose", "visits", f"AP [{length}]", f"RP [{length}]"],
             grows[:ROWS],
-            caption="AP: distance from the barycentre of the attained positions to the commanded (the model's); RP = l_bar + 3 S_l (clause 7.2)",
+            caption=(
+                "AP: distance from the barycentre of the attained positions to the commanded (the model's); RP = l_bar"
+                " + 3 S_l (clause 7.2)"
+            ),
         )
     for note in res.notes:
         say("yellow", "note:", f" {note}")

@@ -59,7 +59,8 @@ def parse_numbers(text: str | None, what: str) -> list[float]:
     bad = next((t for t in tokens if not NUMBER.fullmatch(t)), None)
     if bad is not None:
         fail(
-            f"{what}: expected numbers (ASCII decimal, e.g. -90 or 1.5e-3) separated by commas or spaces, got {bad[:40]!r}"
+            f"{what}: expected numbers (ASCII decimal, e.g. -90 or 1.5e-3) separated by commas or spaces, got"
+            f" {bad[:40]!r}"
         )
     values = [float(t) for t in tokens]
     if not all(math.isfinite(v) for v in values):
@@ -117,7 +118,8 @@ def warn_limits(q, robot: Robot, what: str, length: str, angle: str) -> None:
         say(
             "bold yellow",
             "warning:",
-            f" {what}: joint {robot.names[j]} = {q[j] / sc[j]:.6g} {u} is beyond its limits [{lo[j] / sc[j]:.6g}, {hi[j] / sc[j]:.6g}] {u}",
+            f" {what}: joint {robot.names[j]} = {q[j] / sc[j]:.6g} {u} is beyond its limits [{lo[j] / sc[j]:.6g},"
+            f" {hi[j] / sc[j]:.6g}] {u}",
             err=True,
         )
     if bad and angle == "rad" and all(k == "revolute" for k in robot.table.kinds):
@@ -182,7 +184,8 @@ def parse_pose(text: str, angle: str, ls: float, what: str = "--pose", six: str 
         xyz = np.array(v[:3]) * ls
         return xyz_rpy_pose(xyz, a) if six == "rpy" else pose(rotvec_matrix(a), xyz)
     fail(
-        f"{what}: expected 16 or 12 numbers (rows of the 4x4 pose) or 6 (x,y,z,{names.replace(', ', ',')}), got {len(v)}"
+        f"{what}: expected 16 or 12 numbers (rows of the 4x4 pose) or 6 (x,y,z,{names.replace(', ', ',')}), got"
+        f" {len(v)}"
     )
     raise AssertionError
 

@@ -60,7 +60,8 @@ Modules
 :mod:`~denavit.fitting.circle` (Kasa, hyper, geometric), :mod:`~denavit.fitting.readings` (with joint readings),
 :mod:`~denavit.fitting.line` (prismatic axes), :mod:`~denavit.fitting.axis` (dispatch),
 :mod:`~denavit.fitting.joint` (all sweeps in one fit), :mod:`~denavit.fitting.chain` (its chain of joint
-motions and Jacobian), :mod:`~denavit.fitting.tracker` (a laser tracker's range/angle noise), :mod:`~denavit.fitting.motion` (a
+motions and Jacobian), :mod:`~denavit.fitting.tracker` (a laser tracker's range/angle noise),
+:mod:`~denavit.fitting.motion` (a
 sweep's joint motions from home),
 :mod:`~denavit.fitting.robust` (robust sigma, outliers, IRLS, weighted covariance),
 :mod:`~denavit.fitting.box` (bounding box), :mod:`~denavit.fitting.result` (:class:`AxisFit`),

@@ -41,7 +41,10 @@ class BoundingBox:
     volume: float
 
     def __repr__(self) -> str:
-        return f"BoundingBox({' x '.join(f'{v * 1e3:.5g}' for v in self.lengths)} mm, {self.volume:.4g} m^3, centre [{', '.join(f'{v * 1e3:.5g}' for v in self.center)}] mm)"
+        return (
+            f"BoundingBox({' x '.join(f'{v * 1e3:.5g}' for v in self.lengths)} mm, {self.volume:.4g} m^3, centre"
+            f" [{', '.join(f'{v * 1e3:.5g}' for v in self.center)}] mm)"
+        )
 
     def __post_init__(self):
         for name in ("center", "axes", "lengths"):

@@ -40,7 +40,8 @@ def check_points(points, min_points: int, what: str, where: str) -> np.ndarray:
     bad = np.flatnonzero(~np.isfinite(p).all(axis=1))
     if bad.size:
         raise DenavitError(
-            f"{pre}{what} expects finite coordinates, got NaN/inf in {bad.size} row(s), first at index {bad[:5].tolist()}"
+            f"{pre}{what} expects finite coordinates, got NaN/inf in {bad.size} row(s), first at index"
+            f" {bad[:5].tolist()}"
         )
     spread = np.max(np.linalg.norm(p - p.mean(axis=0), axis=1))
     if spread <= COINCIDENT_TOL:
@@ -102,11 +103,14 @@ def check_sweep_labels(sweeps, wheres: list[str]) -> None:
             pa, pb = ss[a].points, ss[b].points
             qa, qb = ss[a].q, ss[b].q
             if qa is not None and qb is not None and qa.shape == qb.shape and not np.array_equal(qa, qb):
-                continue  # each its own readings: two coaxial joints at home (a wrist's 4 and 6, a Panda's 1 and 3) trace one circle
+                # each its own readings: two coaxial joints at home (a wrist's 4 and 6, a Panda's 1 and 3) trace one
+                # circle
+                continue
             if pa.shape == pb.shape and np.all(np.abs(pa - pb) <= DUPLICATE_TOL):
                 raise DenavitError(
-                    f"{wheres[b]}: the sweep repeats the {len(pa)} points of {wheres[a]} (within {DUPLICATE_TOL * 1e3:g} mm): "
-                    f"expected a recording of joint {ss[b].joint} moving (a file copied over another?)"
+                    f"{wheres[b]}: the sweep repeats the {len(pa)} points of {wheres[a]} (within"
+                    f" {DUPLICATE_TOL * 1e3:g} mm): expected a recording of joint {ss[b].joint} moving (a file copied"
+                    " over another?)"
                 )
     for s, w in zip(ss, wheres, strict=True):
         if s.q is None or not np.isfinite(s.q).all():
@@ -126,7 +130,8 @@ def check_sweep_labels(sweeps, wheres: list[str]) -> None:
 
 #: A pair of consecutive identified axes whose angle or distance differs from the nominal pair's by more than this
 #: (rad; fraction of the robot's size) and ``PLAUSIBLE_SIGMAS`` of its uncertainty gets a note; when more than
-#: half of all pairs of axes, or of the consecutive ones, differ by more than ``IMPLAUSIBLE`` the fit is an error. Pairs are compared, not the
+#: half of all pairs of axes, or of the consecutive ones, differ by more than ``IMPLAUSIBLE`` the fit is an error. Pairs
+#: are compared, not the
 #: axes themselves, so that data in another frame (a tracker's, without --base) is not suspect; the axes
 #: themselves are compared after the rigid motion that best carries them onto the nominal's
 #: (:func:`register_axes`), which shows joints swapped (the pairs cannot: two parallel axes exchanged keep every
@@ -301,36 +306,40 @@ def nominal_plausibility(
     if swap:
         (a, b), dev = swap
         refuse(
-            f"the axes match the nominal {nominal.name}'s with joints {names[a]} and {names[b]} exchanged: in the order given {names[a]} is "
-            f"{dev[a, 1] * 1e3:.4g} mm and {math.degrees(dev[a, 0]):.3g} deg off its nominal, {names[b]} {dev[b, 1] * 1e3:.4g} mm and "
-            f"{math.degrees(dev[b, 0]):.3g} deg (after the best rigid fit of all axes); exchanged, every axis is within "
-            f"{PLAUSIBLE[1] * size * 1e3:.3g} mm and {math.degrees(PLAUSIBLE[0]):g} deg (the files of joints {a + 1} and {b + 1} exchanged, "
-            "or the joints misnumbered?)"
+            f"the axes match the nominal {nominal.name}'s with joints {names[a]} and {names[b]} exchanged: in the order"
+            f" given {names[a]} is {dev[a, 1] * 1e3:.4g} mm and {math.degrees(dev[a, 0]):.3g} deg off its nominal,"
+            f" {names[b]} {dev[b, 1] * 1e3:.4g} mm and {math.degrees(dev[b, 0]):.3g} deg (after the best rigid fit of"
+            f" all axes); exchanged, every axis is within {PLAUSIBLE[1] * size * 1e3:.3g} mm and"
+            f" {math.degrees(PLAUSIBLE[0]):g} deg (the files of joints {a + 1} and {b + 1} exchanged, or the joints"
+            " misnumbered?)"
         )
         return
     mirror = _mirrored(fits, npts, ndirs, kinds, size)
     if mirror:
         refuse(
-            f"the identified axes are the mirror image of the nominal {nominal.name}'s ({mirror[0]} of {mirror[1]} skew pairs have their common "
-            "normal's distance flipped): expected a right-handed measurement frame (x and y swapped? a left-handed tracker export? a "
-            "joint's readings reversed?)"
+            f"the identified axes are the mirror image of the nominal {nominal.name}'s ({mirror[0]} of {mirror[1]} skew"
+            " pairs have their common normal's distance flipped): expected a right-handed measurement frame (x and y"
+            " swapped? a left-handed tracker export? a joint's readings reversed?)"
         )
     else:
         lines = _mirrored_lines(fits, npts, ndirs, kinds, size, sig_a, sig_d)
         if lines:
             refuse(
-                f"the identified axes are the mirror image of the nominal {nominal.name}'s (after the best rigid fit {lines[0]} of {len(fits)} "
-                f"axes are far from their nominal, up to {lines[1] * 1e3:.4g} mm and {math.degrees(lines[2]):.3g} deg; after the best "
-                "reflection none): expected a right-handed measurement frame (x and y swapped? a left-handed tracker export?)"
+                f"the identified axes are the mirror image of the nominal {nominal.name}'s (after the best rigid fit"
+                f" {lines[0]} of {len(fits)} axes are far from their nominal, up to {lines[1] * 1e3:.4g} mm and"
+                f" {math.degrees(lines[2]):.3g} deg; after the best reflection none): expected a right-handed"
+                " measurement frame (x and y swapped? a left-handed tracker export?)"
             )
     lost = _lost_axes(fits, npts, ndirs, kinds, size, sig_a, sig_d) if lone_axis else None
     if lost:
         k, dev, others = lost
         refuse(
-            f"the axis of joint {names[k]} is {dev[1] * 1e3:.5g} mm and {math.degrees(dev[0]):.3g} deg from its nominal after the best rigid fit of "
-            f"all axes onto the nominal {nominal.name}'s, the others within {others[1] * 1e3:.3g} mm and {math.degrees(others[0]):.3g} deg: expected the "
-            f"same robot within {IMPLAUSIBLE[1]:g} robot sizes ({IMPLAUSIBLE[1] * size * 1e3:.4g} mm) and {math.degrees(IMPLAUSIBLE[0]):g} deg (that joint's "
-            "points in another unit? the points of another joint or target?)"
+            f"the axis of joint {names[k]} is {dev[1] * 1e3:.5g} mm and {math.degrees(dev[0]):.3g} deg from its nominal"
+            f" after the best rigid fit of all axes onto the nominal {nominal.name}'s, the others within"
+            f" {others[1] * 1e3:.3g} mm and {math.degrees(others[0]):.3g} deg: expected the same robot within"
+            f" {IMPLAUSIBLE[1]:g} robot sizes ({IMPLAUSIBLE[1] * size * 1e3:.4g} mm) and"
+            f" {math.degrees(IMPLAUSIBLE[0]):g} deg (that joint's points in another unit? the points of another joint"
+            " or target?)"
         )
     far_next = 0  # consecutive pairs (the table's links) beyond IMPLAUSIBLE
     for pi, pn in zip(ex.pairs, nom, strict=True):
@@ -342,9 +351,10 @@ def nominal_plausibility(
         far_next += da > IMPLAUSIBLE[0] or dd > IMPLAUSIBLE[1] * size
         if _far(da, dd, sa, sd, size):
             notes.append(
-                f"axes {names[k]}-{names[k + 1]}: {math.degrees(pi.angle):.4g} deg apart and {pi.distance * 1e3:.5g} mm apart, the nominal's "
-                f"{math.degrees(pn.angle):.4g} deg and {pn.distance * 1e3:.5g} mm (off by {da / max(sa, 1e-300):.3g} and "
-                f"{dd / max(sd, 1e-300):.3g} sigma, {dd / size:.2g} robot sizes): check the joint order, the units and the nominal"
+                f"axes {names[k]}-{names[k + 1]}: {math.degrees(pi.angle):.4g} deg apart and {pi.distance * 1e3:.5g} mm"
+                f" apart, the nominal's {math.degrees(pn.angle):.4g} deg and {pn.distance * 1e3:.5g} mm (off by"
+                f" {da / max(sa, 1e-300):.3g} and {dd / max(sd, 1e-300):.3g} sigma, {dd / size:.2g} robot sizes): check"
+                " the joint order, the units and the nominal"
             )
     # every pair of axes, not only consecutive ones: a wrong robot can match some links by chance
     n = len(fits)
@@ -380,13 +390,15 @@ def nominal_plausibility(
                 + ", ".join(
                     f"joint {names[k]}'s points lie on a circle of radius {fits[k].radius * 1e3:.3g} mm" for k in specks
                 )
-                + f": the target is on or next to {'that axis' if len(specks) == 1 else 'those axes'}; put it off every joint's axis)"
+                + f": the target is on or next to {'that axis' if len(specks) == 1 else 'those axes'}; put it off every"
+                " joint's axis)"
             )
         else:
             cause = "(points in another unit? joints swapped or misnumbered? the wrong robot?)"
         refuse(
-            f"{far} of {pairs} pairs of axes ({far_next} of {n - 1} consecutive) differ from the nominal {nominal.name}'s by more than {math.degrees(IMPLAUSIBLE[0]):g} deg or "
-            f"{IMPLAUSIBLE[1]:g} robot sizes ({IMPLAUSIBLE[1] * size * 1e3:.4g} mm): expected the same robot " + cause
+            f"{far} of {pairs} pairs of axes ({far_next} of {n - 1} consecutive) differ from the nominal"
+            f" {nominal.name}'s by more than {math.degrees(IMPLAUSIBLE[0]):g} deg or {IMPLAUSIBLE[1]:g} robot sizes"
+            f" ({IMPLAUSIBLE[1] * size * 1e3:.4g} mm): expected the same robot " + cause
         )
 
 
@@ -497,7 +509,8 @@ def systematic_misfit(points, centre, direction) -> tuple[float, float]:
     the radial and axial offsets from their means, in order along the arc. The noise is the von Neumann estimate
     from successive differences (``sqrt(sum |e_k+1 - e_k|^2 / (2 (m - 1)))``), which a misfit that varies smoothly
     along the arc (an ellipse, a deflection) leaves out: white noise gives a ratio near 1, a shape other than a
-    circle a ratio far above it (von Neumann 1941, the ratio of the mean square successive difference to the variance)."""
+    circle a ratio far above it (von Neumann 1941, the ratio of the mean square successive difference to the variance).
+    """
     p = np.asarray(points, dtype=float) - np.asarray(centre, dtype=float)
     n = np.asarray(direction, dtype=float)
     h = p @ n
@@ -530,7 +543,8 @@ def misfit_notes(sweeps, fits: list, wheres: list[str], notes: list[str]) -> Non
         z = (1.0 - (noise / rms) ** 2) * math.sqrt(len(s.points)) if rms > 0 else 0.0
         if rms > SYSTEMATIC_FLOOR and rms > SYSTEMATIC_RATIO * noise and z > SYSTEMATIC_Z:
             notes.append(
-                f"{w}: the points leave the fitted circle systematically, rms {rms * 1e3:.3g} mm against a point-to-point noise of "
-                f"{noise * 1e3:.2g} mm ({rms / max(noise, 1e-300):.3g} x), varying smoothly along the arc: not a circle (an ellipse? "
-                f"the arm deflecting under load? a loose joint?; {z:.3g} sigma from white noise): the axis and its sigmas assume a circle"
+                f"{w}: the points leave the fitted circle systematically, rms {rms * 1e3:.3g} mm against a"
+                f" point-to-point noise of {noise * 1e3:.2g} mm ({rms / max(noise, 1e-300):.3g} x), varying smoothly"
+                f" along the arc: not a circle (an ellipse? the arm deflecting under load? a loose joint?; {z:.3g}"
+                " sigma from white noise): the axis and its sigmas assume a circle"
             )

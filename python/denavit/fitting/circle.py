@@ -42,9 +42,10 @@ def _plane(p: np.ndarray, what: str, where: str, length: float = 1.0):
     if s[1] <= COLLINEAR_TOL * s[0]:
         spread = s / math.sqrt(len(p)) * length * 1e3  # RMS extent along each principal direction, mm
         raise DegenerateError(
-            f"{prefix(where)}{what} needs points spanning a plane, got collinear points (RMS spread about their centroid "
-            f"{spread[0]:.3g} mm along the line, {spread[1]:.3g} and {spread[2]:.3g} mm across it: "
-            f"sigma2/sigma1 = {s[1] / s[0]:.1e} <= {COLLINEAR_TOL:g}); if the joint is prismatic, declare it so (a line fit)"
+            f"{prefix(where)}{what} needs points spanning a plane, got collinear points (RMS spread about their"
+            f" centroid {spread[0]:.3g} mm along the line, {spread[1]:.3g} and {spread[2]:.3g} mm across it:"
+            f" sigma2/sigma1 = {s[1] / s[0]:.1e} <= {COLLINEAR_TOL:g}); if the joint is prismatic, declare it so (a"
+            " line fit)"
         )
     v = vt.T.copy()
     v[:, 2] = np.cross(v[:, 0], v[:, 1])  # right-handed; v3 is the normal (eq. 4's third row)

@@ -146,7 +146,8 @@ def fit_sweeps(
     where: str = "",
 ):
     """The joint fit of all sweeps (module docstring). ``dqs`` per sweep (m, n) joint motions from home (arrays, or
-    :class:`~denavit.fitting.motion.Motion` from :func:`~denavit.fitting.motion.locked_motion`), ``starts`` per joint (point, direction) start lines, ``p0`` the start home point (of
+    :class:`~denavit.fitting.motion.Motion` from :func:`~denavit.fitting.motion.locked_motion`), ``starts`` per joint
+    (point, direction) start lines, ``p0`` the start home point (of
     the first target); with several targets ``offsets0`` (k - 1, 3) the start offsets of the other targets' home
     points from it, with 6-DoF poses ``rotation0`` (3, 3) the start orientation at home (both by default from
     :func:`start_homes`) and ``rotation_sigma`` (rad) the declared orientation noise (default: estimated).

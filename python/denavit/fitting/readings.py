@@ -45,7 +45,8 @@ def fit_axis_with_readings(
     of the circle, ``r`` the radius; the "effective variance" errors-in-variables model). Both variances are
     estimated: ``sigma`` from the free (hyper) circle's misfit, which does not depend on the readings (a declared
     ``noise_sigma`` is its floor), ``tau^2 = sigma^2 + (r sigma_q)^2`` from the misfit along the tangent over its
-    redundancy (a variance-component step), iterated with the weights ``1/sigma``, ``1/tau`` to a fixed point. With exact readings ``tau = sigma`` and
+    redundancy (a variance-component step), iterated with the weights ``1/sigma``, ``1/tau`` to a fixed point. With
+    exact readings ``tau = sigma`` and
     this is the plain readings fit, which fixes the radius -- hence the axis position -- far better than a circle
     on short arcs; as the readings get worse their weight goes to zero and the fit becomes the geometric circle
     (below ``READINGS_WORTHLESS`` it is the geometric circle). The readings are never refused.
@@ -92,7 +93,8 @@ def _readings_model(c, n, p0, delta):
 
 
 def _tangents(c, n, pred):
-    """Unit tangents (m, 3) of the circle about (c, n) at the predicted points (the direction a reading error moves them)."""
+    """Unit tangents (m, 3) of the circle about (c, n) at the predicted points (the direction a reading error moves
+    them)."""
     t = np.cross(n, pred - c)
     return t / np.maximum(np.linalg.norm(t, axis=1), 1e-300)[:, None]
 

@@ -97,13 +97,15 @@ class AxisFit:
             else "line"
         )
         return (
-            f"AxisFit({self.method}, {self.n_points} points, {shape}, rms {self.rms * 1e3:.3g} mm, sigma {self.sigma_point_perp * 1e3:.3g} mm across / "
-            f"{math.degrees(self.sigma_direction):.3g} deg, {int(np.count_nonzero(self.outliers))} outliers)"
+            f"AxisFit({self.method}, {self.n_points} points, {shape}, rms {self.rms * 1e3:.3g} mm, sigma"
+            f" {self.sigma_point_perp * 1e3:.3g} mm across / {math.degrees(self.sigma_direction):.3g} deg,"
+            f" {int(np.count_nonzero(self.outliers))} outliers)"
         )
 
 
 def axis_sigmas(cov6: np.ndarray, n: np.ndarray) -> tuple[float, float]:
-    """(``sigma_point_perp``, ``sigma_direction``) of :class:`AxisFit` from the (6, 6) covariance of [point, direction]."""
+    """(``sigma_point_perp``, ``sigma_direction``) of :class:`AxisFit` from the (6, 6) covariance of [point,
+    direction]."""
     proj = np.eye(3) - np.outer(n, n)
     sp = float(np.sqrt(max(np.trace(proj @ cov6[:3, :3] @ proj), 0.0))) if np.isfinite(cov6).all() else math.nan
     sd = float(np.sqrt(max(np.trace(cov6[3:, 3:]), 0.0))) if np.isfinite(cov6).all() else math.nan
@@ -111,7 +113,8 @@ def axis_sigmas(cov6: np.ndarray, n: np.ndarray) -> tuple[float, float]:
 
 
 def check_sigma(fit: AxisFit, max_sigma_point, where: str) -> AxisFit:
-    """``fit``, or a :class:`DegenerateError` when its ``sigma_point_perp`` exceeds ``max_sigma_point`` (m, None: no check)."""
+    """``fit``, or a :class:`DegenerateError` when its ``sigma_point_perp`` exceeds ``max_sigma_point`` (m, None: no
+    check)."""
     if max_sigma_point is None:
         return fit
     s = fit.sigma_point_perp

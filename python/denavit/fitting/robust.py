@@ -148,7 +148,8 @@ def misfit_variance(psi: np.ndarray, dof: float, noise_sigma=None) -> float:
 
 
 def cov_from_jacobian(j: np.ndarray, r: np.ndarray, w: np.ndarray, n_params: int, noise_sigma, what: str, where: str):
-    """:func:`~denavit.fitting.robust.weighted_cov`, or a clear error when the Jacobian is singular (the axis is not identifiable)."""
+    """:func:`~denavit.fitting.robust.weighted_cov`, or a clear error when the Jacobian is singular (the axis is not
+    identifiable)."""
     cov, sv = weighted_cov(j, r, w, n_params, noise_sigma)
     if sv[-1] <= 1e-13 * sv[0]:
         raise DegenerateError(

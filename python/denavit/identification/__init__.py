@@ -10,7 +10,8 @@ minimum-volume bounding box of the measured points (paper Table IV; :attr:`Ident
 when first asked for).
 
 The package: :func:`identify` (``denavit.identify`` is the same function) and :class:`Identification` (saved and
-written as JSON by :mod:`denavit.io.results`); the steps in :mod:`.prepare`, :mod:`.choice`, :mod:`.frames`, :mod:`.run`.
+written as JSON by :mod:`denavit.io.results`); the steps in :mod:`.prepare`, :mod:`.choice`, :mod:`.frames`,
+:mod:`.run`.
 """
 
 from .prepare import decoupled, sweep_where

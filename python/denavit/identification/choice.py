@@ -378,8 +378,10 @@ def _scales_note(post, full, tau: float, evidence: str, g: dict, n: int) -> str:
         "n/a: no convergence"
         if full is None or tau > 0
         # (tau > 0 without a fit: the one with the prior did not converge)
-        else f"the evidence does not show them: {evidence}; the joints' scale estimates: {_scale_list(full, n)}; "
-        "taken as exact in scale"
+        else (
+            f"the evidence does not show them: {evidence}; the joints' scale estimates: {_scale_list(full, n)}; "
+            "taken as exact in scale"
+        )
     )
     return (
         f"auto: no reading scale errors fitted ({why}); a scale error the data cannot show moves each axis radially by "

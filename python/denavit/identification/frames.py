@@ -18,8 +18,13 @@ from .prepare import sweep_where
 TOOL_ORIENTATION = {
     "nominal": "the nominal's flange orientation at home (not identified: one target per pose has no orientation)",
     "poses": "the 6-DoF poses: the probe's frame at home, fitted with the axes",
-    "nest": "the targets' points at home against the declared nest (their positions in the tool frame): the best rotation (Kabsch)",
-    "targets": "the targets' points at home: x from target 1 to target 2, z across the plane of targets 1-3 (no nest declared)",
+    "nest": (
+        "the targets' points at home against the declared nest (their positions in the tool frame): the best rotation"
+        " (Kabsch)"
+    ),
+    "targets": (
+        "the targets' points at home: x from target 1 to target 2, z across the plane of targets 1-3 (no nest declared)"
+    ),
 }
 
 
@@ -50,8 +55,8 @@ def _tool_frame(
     nest = sweeps.nest
     if nest is None and K < 3:
         notes.append(
-            "tool frame: two targets per pose fix its orientation only up to a turn about the line through them; the nominal's is kept "
-            "(declare the nest, the targets' positions in the tool frame, for the rest)"
+            "tool frame: two targets per pose fix its orientation only up to a turn about the line through them; the"
+            " nominal's is kept (declare the nest, the targets' positions in the tool frame, for the rest)"
         )
         return R_nominal, "nominal", None
 
@@ -81,12 +86,13 @@ def _tool_frame(
     how = "nest" if nest is not None else "targets"
     if how == "nest" and K == 2:
         notes.append(
-            "tool frame: two targets fix its orientation up to a turn about the line through them: that turn is the nominal's"
+            "tool frame: two targets fix its orientation up to a turn about the line through them: that turn is the"
+            " nominal's"
         )
     if how == "targets":
         notes.append(
-            "tool frame: no nest declared (the targets' positions in the tool frame): its orientation is the frame of the targets' "
-            "points (x from target 1 to 2, z across the plane of targets 1-3)"
+            "tool frame: no nest declared (the targets' positions in the tool frame): its orientation is the frame of"
+            " the targets' points (x from target 1 to 2, z across the plane of targets 1-3)"
         )
     return R, how, G
 
@@ -106,9 +112,9 @@ def _short_arc_notes(sweeps: SweepSet, fits: list, notes: list[str]) -> list[str
     for s, f in zip(sweeps.sweeps, fits, strict=True):
         if sweeps.kinds[s.joint - 1] == "revolute" and not f.sigma_point_perp <= SHORT_ARC_SIGMA and f.arc < SHORT_ARC:
             short.append(
-                f"{sweep_where(s, sweeps.source)}: the {np.degrees(f.arc):.3g} deg arc gives a predicted axis-position sigma of "
-                f"{f.sigma_point_perp * 1e3:.3g} mm (above {SHORT_ARC_SIGMA * 1e3:g} mm): sweep a longer arc or measure more points "
-                "(--max-sigma makes this an error)"
+                f"{sweep_where(s, sweeps.source)}: the {np.degrees(f.arc):.3g} deg arc gives a predicted axis-position"
+                f" sigma of {f.sigma_point_perp * 1e3:.3g} mm (above {SHORT_ARC_SIGMA * 1e3:g} mm): sweep a longer arc"
+                " or measure more points (--max-sigma makes this an error)"
             )
     notes.extend(short)
     return short

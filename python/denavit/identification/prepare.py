@@ -1,4 +1,5 @@
-"""The sweeps made ready for the fits: locked joints, dwell rows, couplings undone, the per-sweep circle fits, the motions."""
+"""The sweeps made ready for the fits: locked joints, dwell rows, couplings undone, the per-sweep circle fits, the
+motions."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ from ..fitting.circle import circle_misfit, robust_circle
 from ..fitting.joint import TrackerNoise, stride
 from ..fitting.motion import locked_motion
 from ..fitting.robust import rms_spread, robust_sigma
+from ..progress import Stage
 from ..sweeps import SweepSet
 
 #: A locked joint whose reading leaves home by more than this during another joint's sweep gets a note
@@ -42,9 +44,10 @@ def _locked_notes(sweeps: SweepSet) -> list[str]:
             scale, unit = (math.degrees(1), "deg") if kind == "revolute" else (1e3, "mm")
             at = f" at {s.where[k]}" if s.where else ""
             notes.append(
-                f"{sweep_where(s, sweeps.source)}: locked joint {i + 1} reads {s.q[:, i].min() * scale:.4g} .. {s.q[:, i].max() * scale:.4g} {unit}, "
-                f"up to {abs(dev[k]) * scale:.3g} {unit} from its home {sweeps.home[i] * scale:.4g} {unit}{at} (tolerance {LOCKED_TOL[kind] * scale:g} {unit}); "
-                "the global fit follows the recorded readings (per-sweep fits use only the moving joint's): check the recording"
+                f"{sweep_where(s, sweeps.source)}: locked joint {i + 1} reads {s.q[:, i].min() * scale:.4g} .."
+                f" {s.q[:, i].max() * scale:.4g} {unit}, up to {abs(dev[k]) * scale:.3g} {unit} from its home"
+                f" {sweeps.home[i] * scale:.4g} {unit}{at} (tolerance {LOCKED_TOL[kind] * scale:g} {unit}); the global"
+                " fit follows the recorded readings (per-sweep fits use only the moving joint's): check the recording"
             )
     return notes
 
@@ -122,8 +125,9 @@ def _drop_dwell(sweeps: SweepSet, notes: list[str]) -> SweepSet:
             [f"{b} at the end ({name[len(p) - 1 - b]} .. {name[len(p) - 2]})"] if b else []
         )
         notes.append(
-            f"{sweep_where(s, sweeps.source)}: {a + b} dwell rows (the motion stopped within {DWELL_SIGMAS:g} sigma of the "
-            f"point noise, {noise * 1e3:.2g} mm): {' and '.join(parts)}; left out of the fit (keep_dwell keeps them)"
+            f"{sweep_where(s, sweeps.source)}: {a + b} dwell rows (the motion stopped within {DWELL_SIGMAS:g} sigma of"
+            f" the point noise, {noise * 1e3:.2g} mm): {' and '.join(parts)}; left out of the fit (keep_dwell keeps"
+            " them)"
         )
         out.append(s.take(keep))
     return replace(sweeps, sweeps=out)
@@ -154,17 +158,15 @@ def _per_sweep(
     method: str,
     loss: str,
     max_sigma: float | None,
-    progress: Callable[[str, float], None],
+    progress: Callable[[str], None],
     tracker: TrackerNoise | None = None,
 ) -> list:
     fits = []
     share = PER_SWEEP_SHARE if method == "global" else 0.85  # of the work: the joint fit follows, or the parameters
     for k, s in enumerate(sweeps.sweeps):
         where = sweep_where(s, sweeps.source)
-        progress(
-            f"fitting sweep {k + 1} of {len(sweeps.sweeps)} (joint {s.joint}, {len(s.points)} points, {method})",
-            share * k / len(sweeps.sweeps),
-        )
+        what = f"fitting sweep {k + 1} of {len(sweeps.sweeps)} (joint {s.joint}, {len(s.points)} points, {method})"
+        progress(Stage(what, share * k / len(sweeps.sweeps)))
         q = s.moving
         if sweeps.kinds[s.joint - 1] == "prismatic":
             fm = "line"
@@ -179,7 +181,8 @@ def _per_sweep(
         robust = {"loss": loss} if fm in ("geometric", "readings") else {}
         if fm == "geometric" and tracker is not None:  # the tracker's noise model (the other per-sweep fits: isotropic)
             robust["tracker"] = tracker
-        # oriented by the readings when there are some (increasing joint value, right-hand rule), else by the point order
+        # oriented by the readings when there are some (increasing joint value, right-hand rule), else by the point
+        # order
         if (
             method == "global" and fm == "hyper"
         ):  # the joint fit's start: its own covariance and outlier flags replace the circle's
@@ -216,10 +219,16 @@ def _motions(sweeps: SweepSet, notes: list[str]) -> list:
         dq, coupled = locked_motion(s.q, s.joint - 1, sweeps.home, tol)
         for i, slope in coupled:
             notes.append(
-                f"{sweep_where(s, sweeps.source)}: the reading of joint {i + 1} moves in lock-step with joint {s.joint}'s "
-                f"({slope:+.3f} per unit): a coupling of the controller's readings to declare (as Fanuc controllers report J3: "
-                f'--coupling "q{i + 1}=r{i + 1}{"+" if slope < 0 else "-"}{format(abs(slope), ".4g") + "*" if abs(abs(slope) - 1) > 0.01 else ""}r{s.joint}", or the robot file\'s '
-                f'[couplings] q{i + 1} = "r{i + 1} {"+" if slope < 0 else "-"} r{s.joint}"); the fit takes joint {i + 1} as held at home'
+                f"{sweep_where(s, sweeps.source)}: the reading of joint {i + 1} moves in lock-step with joint"
+                f" {s.joint}'s "
+                f"({slope:+.3f} per unit): a coupling of the controller's readings to declare (as Fanuc controllers"
+                " report J3: "
+                "--coupling"
+                f' "q{i + 1}=r{i + 1}{"+" if slope < 0 else "-"}'
+                f'{format(abs(slope), ".4g") + "*" if abs(abs(slope) - 1) > 0.01 else ""}r{s.joint}",'
+                " or the robot file's "
+                f'[couplings] q{i + 1} = "r{i + 1} {"+" if slope < 0 else "-"} r{s.joint}"); the fit takes joint'
+                f" {i + 1} as held at home"
             )
         out.append(dq)
     return out

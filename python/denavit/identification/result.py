@@ -23,7 +23,8 @@ from .frames import (
 )
 
 METHODS = ("auto", "kasa", "hyper", "geometric", "readings", "global")
-#: The conventions whose tables hold any pair of joint axes exactly (docs/conventions.md): what :meth:`Identification.save` writes by default.
+#: The conventions whose tables hold any pair of joint axes exactly (docs/conventions.md): what
+#: :meth:`Identification.save` writes by default.
 #: Against a nominal, ED-H drops the tilt of a pair the nominal has parallel when it is within ``EDH_PARALLEL_SIGMAS``
 #: of zero (its carried error says how much); POE is exact always.
 EXACT = ("edh", "poe")
@@ -49,7 +50,8 @@ class Identification:
     rms: float = 0.0
     notes: list[str] = field(default_factory=list)
     param_cov: np.ndarray | None = (
-        None  # (n k + 3 [+ n],) covariance of the table's parameters (row-major), the tool translation (, the reading scales)
+        # (n k + 3 [+ n],) covariance of the table's parameters (row-major), the tool translation (, the reading scales)
+        None
     )
     reading_scale: np.ndarray | None = (
         None  # (n,) the readings' scale errors when auto fitted them (0 where not fitted), about the home
@@ -60,9 +62,12 @@ class Identification:
     coupling: np.ndarray | None = (
         None  # (n, n) joint values from the readings (q = coupling @ reading) the sweeps were decoupled with
     )
-    tool_orientation: str = "nominal"  # where the tool frame's orientation came from: "nominal", "poses", "nest" or "targets" (TOOL_ORIENTATION)
+    # where the tool frame's orientation came from: "nominal", "poses", "nest" or "targets" (TOOL_ORIENTATION)
+    tool_orientation: str = "nominal"
     tool_rotation_cov: np.ndarray | None = (
-        None  # (3, 3) rad^2: covariance of the tool frame's orientation at home (a small rotation in world), None if from the nominal
+        # (3, 3) rad^2: covariance of the tool frame's orientation at home (a small rotation in world), None if from the
+        # nominal
+        None
     )
     target_points: np.ndarray | None = None  # (k, 3) m: each target's point at home in world (several targets per pose)
     tracker_noise: TrackerNoise | None = (
@@ -82,8 +87,9 @@ class Identification:
         name = self.nominal.name if self.nominal else "no nominal"
         err = self.extraction.max_position_error
         return (
-            f"Identification({self.convention}, method {self.method}, {self.axes.nq} joints, {n_pts} points of {self.sweeps.source or 'sweeps'}, nominal {name})\n"
-            f"  rms {self.rms * 1e3:.4g} mm; the {self.convention} table carries a tool error up to {err * 1e3:.3g} mm; {len(self.notes)} notes"
+            f"Identification({self.convention}, method {self.method}, {self.axes.nq} joints, {n_pts} points of"
+            f" {self.sweeps.source or 'sweeps'}, nominal {name})\n  rms {self.rms * 1e3:.4g} mm; the {self.convention}"
+            f" table carries a tool error up to {err * 1e3:.3g} mm; {len(self.notes)} notes"
         )
 
     @cached_property
@@ -192,4 +198,7 @@ class Identification:
 
 
 #: What an ED-H table against the nominal leaves out (docs/conventions.md, "ED-H").
-_DROPPED_TILT = f"the tilt of a pair of axes the nominal has parallel, dropped when within {EDH_PARALLEL_SIGMAS:g} sigma of zero, its noise"
+_DROPPED_TILT = (
+    f"the tilt of a pair of axes the nominal has parallel, dropped when within {EDH_PARALLEL_SIGMAS:g} sigma of zero,"
+    " its noise"
+)

@@ -12,6 +12,7 @@ from .. import _core
 from ..errors import DegenerateError, DenavitError
 from ..fitting.checks import check_loss, check_positive, check_sweep_labels, misfit_notes, nominal_plausibility
 from ..fitting.joint import TrackerNoise, as_tracker_noise, start_homes
+from ..progress import Stage
 from ..robot import Robot
 from ..sweeps import SweepSet
 from .choice import _choose
@@ -55,7 +56,7 @@ def identify(
     rotation_noise: float | None = None,
     tracker_noise: TrackerNoise | tuple | None = None,
     allow_implausible: bool = False,
-    progress: Callable[[str, float], None] | None = None,
+    progress: Callable[[str], None] | None = None,
 ) -> Identification:
     """Identify the joint axes and the parameter table of ``convention`` from ``sweeps``.
 
@@ -105,10 +106,10 @@ def identify(
     allow_implausible : keep a fit that is implausible against the nominal (the axes its mirror image, matching it
         with two joints exchanged, or most pairs of axes far from its: a unit slip, the wrong robot), with a note;
         by default it is an error (issue 16: such fits had come back with small sigmas and no word).
-    progress : called as ``progress(message, fraction)`` as each stage starts: a short message and the fraction of
-        the work done before it (0 to 1; the CLI shows a bar with the percentage and the time left).
+    progress : called with a short message as each stage starts, a :class:`denavit.progress.Stage` (a ``str``) whose
+        ``fraction`` is the share of the work done before it (the CLI shows a bar with the percentage and time left).
     """
-    progress = progress or (lambda _msg, _fraction: None)
+    progress = progress or (lambda _stage: None)
     nominal, convention, tracker = _checked(sweeps, method, nominal, loss, max_sigma, convention, tracker_noise)
     coupling = coupling if coupling is not None else (nominal.coupling if nominal is not None else None)
     if coupling is not None:
@@ -156,7 +157,7 @@ def identify(
         )
     p_ref = ex.table.params
     full_cov, cov_all = _with_scales(cov, cov_full, scales)
-    progress(f"{convention} parameters and their sigmas", 0.9)
+    progress(Stage(f"{convention} parameters and their sigmas", 0.9))
     param_cov = _parameter_cov(x, cov_all, ax, sweeps, convention, opts, p_ref, n_rot=len(cov_full) - len(cov))
     sigma = np.sqrt(np.clip(np.diag(param_cov), 0, None))[: p_ref.size].reshape(p_ref.shape)
     _parallel_notes(ex, convention, notes)
@@ -184,7 +185,6 @@ def identify(
         tracker_noise=tracker if joint is not None or method == "geometric" else None,
     )
     _carried_note(result, convention, notes)
-    progress("done", 1.0)
     return result
 
 
@@ -227,10 +227,8 @@ def _fit_axes(sweeps: SweepSet, method: str, loss: str, max_sigma, rotation_nois
     cov, joint, scales = None, None, None
     if method == "global":
         what = f"{sweeps.n_targets} targets per pose" if sweeps.n_targets > 1 else "shared tool point"
-        progress(
-            f"one fit of all {len(sweeps.sweeps)} sweeps ({what}{', 6-DoF poses' if sweeps.has_rotations else ''})",
-            PER_SWEEP_SHARE,
-        )
+        poses = ", 6-DoF poses" if sweeps.has_rotations else ""
+        progress(Stage(f"one fit of all {len(sweeps.sweeps)} sweeps ({what}{poses})", PER_SWEEP_SHARE))
         method, gfits, gcov, gp, grms, joint, scales = _choose(
             sweeps, fits, homes0, R0, loss, notes, chosen, rotation_noise, tracker
         )

@@ -63,7 +63,8 @@ def far(value_m: float, where: str) -> float:
     """``value_m`` (metres) if within :data:`MAX_LENGTH`, else a one-line error naming ``where``."""
     if abs(value_m) > MAX_LENGTH:
         raise DenavitError(
-            f"{where}: a coordinate of {value_m:.3g} m is beyond {MAX_LENGTH:.0e} m: not a measured point (a wrong unit?)"
+            f"{where}: a coordinate of {value_m:.3g} m is beyond {MAX_LENGTH:.0e} m: not a measured point (a wrong"
+            " unit?)"
         )
     return value_m
 
@@ -105,7 +106,8 @@ def as_number(value, where: str, *, finite: bool = True) -> float:
         v = float(value)
     except OverflowError:
         raise DenavitError(
-            f"{where}: expected a number in the float range, got an integer of about {int(value.bit_length() * math.log10(2)) + 1} digits"
+            f"{where}: expected a number in the float range, got an integer of about"
+            f" {int(value.bit_length() * math.log10(2)) + 1} digits"
         ) from None
     if math.isnan(v) or (finite and math.isinf(v)):
         raise DenavitError(f"{where}: expected a finite number, got {'NaN' if math.isnan(v) else v}")

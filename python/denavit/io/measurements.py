@@ -130,7 +130,8 @@ def read_measurements(
         targets = np.concatenate([pts[:, None], np.asarray(more, dtype=float).reshape(len(q), k_t - 1, 3)], axis=1)
         if pay:
             raise DenavitError(
-                f"{p}:{hline}: payload columns with several targets per pose are not supported: give one target (x,y,z) per pose"
+                f"{p}:{hline}: payload columns with several targets per pose are not supported: give one target (x,y,z)"
+                " per pose"
             )
         return TargetMeasurements(q, targets, sw.parse_nest(lines, k_t, ls, str(p)), str(p), where, units, kinds=kinds)
     if rot:
@@ -164,7 +165,8 @@ def _layout(p: Path, lines: list[str], length, angle, kinds) -> _Layout:
     ls, as_ = length_scale(units["length"], str(p)), angle_scale(units["angle"], str(p))
     if not data:
         raise DenavitError(
-            f"{p}: no header and no data: expected a header 'q1,...,qn,x,y,z' (optionally ',rx,ry,rz'), or a sweep file with a 'joint' column"
+            f"{p}: no header and no data: expected a header 'q1,...,qn,x,y,z' (optionally ',rx,ry,rz'), or a sweep file"
+            " with a 'joint' column"
         )
     hline, names = data[0]
     cols = dl.header(names, f"{p}:{hline}")
@@ -195,12 +197,13 @@ def _layout(p: Path, lines: list[str], length, angle, kinds) -> _Layout:
             else f"unknown column(s) {', '.join(unknown)}"
         )
         raise DenavitError(
-            f"{p}:{hline}: header must be 'q1,...,qn,x,y,z' (optionally ',rx,ry,rz', or further targets ',x2,y2,z2,...'), or a sweep file with a "
-            f"'joint' column; {what}, got {delim.join(names)!r}"
+            f"{p}:{hline}: header must be 'q1,...,qn,x,y,z' (optionally ',rx,ry,rz', or further targets"
+            f" ',x2,y2,z2,...'), or a sweep file with a 'joint' column; {what}, got {delim.join(names)!r}"
         )
     if rot and extra:
         raise DenavitError(
-            f"{p}:{hline}: a pose's rotation (rx,ry,rz) and further targets (x2,y2,z2,...) in one file: give one or the other, got {delim.join(names)!r}"
+            f"{p}:{hline}: a pose's rotation (rx,ry,rz) and further targets (x2,y2,z2,...) in one file: give one or the"
+            f" other, got {delim.join(names)!r}"
         )
     kinds = joint_kinds(kinds, len(qcols), f"{p}: kinds given") or ("revolute",) * len(qcols)
     return _Layout(

@@ -120,7 +120,8 @@ def _target(path: str | os.PathLike) -> tuple[Path, str, os.stat_result | None]:
         fs = _filesystem(st.st_dev)
         if fs in KERNEL_FILESYSTEMS:
             raise DenavitError(
-                f"{path}: cannot write the output: {real} is a file of the kernel's {fs} filesystem, not a regular file; name a file on an ordinary filesystem"
+                f"{path}: cannot write the output: {real} is a file of the kernel's {fs} filesystem, not a regular"
+                " file; name a file on an ordinary filesystem"
             )
         return real, "replace", st
     if stat.S_ISFIFO(st.st_mode) or stat.S_ISCHR(st.st_mode):
@@ -128,11 +129,13 @@ def _target(path: str | os.PathLike) -> tuple[Path, str, os.stat_result | None]:
     kind = (
         "a directory"
         if stat.S_ISDIR(st.st_mode)
-        else "a block device"
-        if stat.S_ISBLK(st.st_mode)
-        else "a socket"
-        if stat.S_ISSOCK(st.st_mode)
-        else "a special file"
+        else (
+            "a block device"
+            if stat.S_ISBLK(st.st_mode)
+            else "a socket"
+            if stat.S_ISSOCK(st.st_mode)
+            else "a special file"
+        )
     )
     raise DenavitError(
         f"{path}: cannot write the output: it is {kind}, expected a regular file, a FIFO, a character device or '-'"
@@ -159,8 +162,9 @@ def _admit(path, st: os.stat_result, force: bool) -> str:
     if st.st_nlink > 1:
         if not force:
             raise DenavitError(
-                f"{path}: has {st.st_nlink} hard links: replacing it would split them (the other names would keep the old content); "
-                f"{FORCE_HINT} write through it in place (every name gets the new content), or write another file"
+                f"{path}: has {st.st_nlink} hard links: replacing it would split them (the other names would keep the"
+                f" old content); {FORCE_HINT} write through it in place (every name gets the new content), or write"
+                " another file"
             )
         return "through"
     return "replace"
@@ -176,8 +180,9 @@ def _keep(fd: int, path, st: os.stat_result | None, mode: int | None = None) -> 
                 os.fchown(fd, st.st_uid, st.st_gid)
             except PermissionError:
                 raise DenavitError(
-                    f"{path}: cannot keep its owner (uid {st.st_uid}, gid {st.st_gid}): this user (uid {os.geteuid()}) may not give "
-                    "a file away, and replacing it would make it this user's; write it as its owner, or write another file"
+                    f"{path}: cannot keep its owner (uid {st.st_uid}, gid {st.st_gid}): this user (uid {os.geteuid()})"
+                    " may not give a file away, and replacing it would make it this user's; write it as its owner, or"
+                    " write another file"
                 ) from None
     if mode is not None:
         os.fchmod(fd, mode)
@@ -258,7 +263,10 @@ def _why_not(parent: Path, e: OSError) -> str:
         return f"{parent} is not a directory"
     fs = _filesystem(st.st_dev)
     if fs in KERNEL_FILESYSTEMS:
-        return f"its directory {parent} is on the kernel's {fs} filesystem, where no file can be created; expected a directory on an ordinary filesystem"
+        return (
+            f"its directory {parent} is on the kernel's {fs} filesystem, where no file can be created; expected a"
+            " directory on an ordinary filesystem"
+        )
     return f"cannot create a file in the directory {parent}: {e.strerror or e}"
 
 
@@ -343,7 +351,8 @@ def check_writable(path: str | os.PathLike, *, force: bool = False) -> None:
 
 def _closed_stdout() -> DenavitError:
     return DenavitError(
-        "standard output: cannot write: it is closed; expected an open standard output (redirect it to a file, or to /dev/null to discard it)"
+        "standard output: cannot write: it is closed; expected an open standard output (redirect it to a file, or to"
+        " /dev/null to discard it)"
     )
 
 

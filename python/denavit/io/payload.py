@@ -74,18 +74,20 @@ def _numbers(value, n: int, where: str) -> list[float]:
 def read_compliance(
     spec, kinds: list, names: list, has_inertials: bool, where: str
 ) -> tuple[np.ndarray, np.ndarray | None]:
-    """(compliances (n,) SI, covariance (n, n) SI or None) of a robot file's ``[compliance]`` table (module docstring)."""
+    """(compliances (n,) SI, covariance (n, n) SI or None) of a robot file's ``[compliance]`` table (module
+    docstring)."""
     if not isinstance(spec, dict):
         raise DenavitError(f"{where}: expected a table with 'unit' and 'values', got {spec!r}"[:200])
     unknown = [k for k in spec if k not in ("unit", "prismatic_unit", "values", "covariance")]
     if unknown:
         raise DenavitError(
-            f"{where}: unknown key(s) {', '.join(map(repr, unknown))}: expected unit, prismatic_unit, values, covariance"
+            f"{where}: unknown key(s) {', '.join(map(repr, unknown))}: expected unit, prismatic_unit, values,"
+            " covariance"
         )
     if not has_inertials:
         raise DenavitError(
-            f"{where}: joint compliances need the links' inertial parameters ([joints.inertia]) to give the gravity torques the joints twist under; "
-            "the file gives none"
+            f"{where}: joint compliances need the links' inertial parameters ([joints.inertia]) to give the gravity"
+            " torques the joints twist under; the file gives none"
         )
     n = len(kinds)
     scale = np.ones(n)
@@ -103,15 +105,16 @@ def read_compliance(
     if bad.size:
         j = bad[0]
         raise DenavitError(
-            f"{where}: values: joint {j + 1} ({names[j]}): expected a compliance >= 0 (a joint gives way under its torque), got {raw[j]:g} "
-            f"{spec.get('unit' if kinds[j] == 'revolute' else 'prismatic_unit')}"
+            f"{where}: values: joint {j + 1} ({names[j]}): expected a compliance >= 0 (a joint gives way under its"
+            f" torque), got {raw[j]:g} {spec.get('unit' if kinds[j] == 'revolute' else 'prismatic_unit')}"
         )
     cov = None
     if "covariance" in spec:
         rows = spec["covariance"]
         if not isinstance(rows, list) or len(rows) != n:
             raise DenavitError(
-                f"{where}: covariance: expected {n} rows of {n} numbers (in the units' products), got {len(rows) if isinstance(rows, list) else rows!r}"
+                f"{where}: covariance: expected {n} rows of {n} numbers (in the units' products), got"
+                f" {len(rows) if isinstance(rows, list) else rows!r}"
             )
         cov = np.array([_numbers(r, n, f"{where}: covariance row {i + 1}") for i, r in enumerate(rows)]) * np.outer(
             scale, scale
@@ -150,13 +153,17 @@ def parse_payload(text: str, length: str = "mm", where: str = "--payload") -> tu
     """``"5 kg @ 0,0,80 mm"`` as (mass kg, centre of mass (3,) m in the flange frame). The mass needs its unit (kg,
     g); the centre of mass defaults to the flange origin, its numbers in their own unit or ``length``."""
     m = _PAYLOAD.fullmatch(str(text))
-    expected = f'{where}: expected a mass with its unit and optionally its centre of mass in the flange frame, e.g. "5 kg @ 0,0,80 mm"'
+    expected = (
+        f'{where}: expected a mass with its unit and optionally its centre of mass in the flange frame, e.g. "5 kg @'
+        ' 0,0,80 mm"'
+    )
     if m is None:
         raise DenavitError(f"{expected}; got {text!r}")
     num, unit, com = m.groups()
     if not unit:
         raise DenavitError(
-            f'{where}: the payload\'s mass {num} has no unit: expected one of {", ".join(MASS_UNITS)}, e.g. "5 kg @ 0,0,80 mm"'
+            f"{where}: the payload's mass {num} has no unit: expected one of {', '.join(MASS_UNITS)}, e.g. \"5 kg @"
+            ' 0,0,80 mm"'
         )
     if unit not in MASS_UNITS:
         raise DenavitError(f"{where}: unknown mass unit {unit!r}: expected one of {', '.join(MASS_UNITS)}")
@@ -173,7 +180,8 @@ def parse_payload(text: str, length: str = "mm", where: str = "--payload") -> tu
         cm = re.fullmatch(r"\s*([-+0-9.eE]+)\s*,\s*([-+0-9.eE]+)\s*,\s*([-+0-9.eE]+)\s*([A-Za-z]*)\s*", com)
         if cm is None:
             raise DenavitError(
-                f"{where}: expected the centre of mass as x,y,z with an optional length unit after '@', got {com.strip()!r}"
+                f"{where}: expected the centre of mass as x,y,z with an optional length unit after '@', got"
+                f" {com.strip()!r}"
             )
         ls = length_scale(cm.group(4) or length, where)
         try:

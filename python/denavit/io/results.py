@@ -23,7 +23,9 @@ from .robotfile import dumps
 
 def to_json(result, **options) -> dict:
     """The JSON document of an :class:`~denavit.identification.Identification` (``box``: with its bounding box,
-    default True), a :class:`~denavit.calibration.Calibration` or a :class:`~denavit.calibration.validate.ModelValidation`."""
+    default True), a :class:`~denavit.calibration.Calibration` or a
+    :class:`~denavit.calibration.validate.ModelValidation`.
+    """
     if isinstance(result, Identification):
         return _identification_json(result, **options)
     if options:
@@ -56,9 +58,11 @@ def save(
     force: bool = False,
 ) -> None:
     """Write an identification's robot as a robot file (.toml; :mod:`denavit.io.robotfile`), by default the ED-H or POE
-    geometry (:meth:`Identification.robot`: POE exact, ED-H exact except a near-parallel pair's tilt within its noise, which it drops
+    geometry (:meth:`Identification.robot`: POE exact, ED-H exact except a near-parallel pair's tilt within its noise,
+    which it drops
     against the nominal), a lossy DH / MDH table only when ``convention`` asks for one. The file states in a comment
-    whether it is exact and the tool-position error its table carries against the identified geometry (:meth:`Identification.carried_error`).
+    whether it is exact and the tool-position error its table carries against the identified geometry
+    (:meth:`Identification.carried_error`).
 
     A path ending in ``.urdf`` gets the URDF of the ED-H geometry instead (frames on the body; a URDF
     nominal's meshes and limits ride along; :func:`denavit.io.urdf.save_urdf`), in SI as URDF requires.
@@ -76,7 +80,8 @@ def save(
 
         if convention is not None and _core.convention_info(convention)["name"] != "edh":
             raise DenavitError(
-                f"{path}: a URDF holds the exact geometry (ED-H frames on the body), got convention {convention!r}: save a robot file (.toml) for a {convention} table"
+                f"{path}: a URDF holds the exact geometry (ED-H frames on the body), got convention {convention!r}:"
+                f" save a robot file (.toml) for a {convention} table"
             )
         save_urdf(result.model(convention="edh"), path, result.robot(name), force=force)
         return
@@ -87,10 +92,13 @@ def save(
     elif robot.convention in EXACT:
         how = f"exactly except {_DROPPED_TILT}; save as poe for the exact geometry"
     else:
-        how = f"in a {robot.convention} table, which cannot hold a near-parallel pair's tilt (save as poe for the exact geometry)"
+        how = (
+            f"in a {robot.convention} table, which cannot hold a near-parallel pair's tilt (save as poe for the exact"
+            " geometry)"
+        )
     note = (
-        f"# The identified geometry, {how}.\n# Carried error: max tool-position deviation {err * 1e3:.3g} mm from the identified geometry "
-        f"over {count} configurations (the home and {count - 1} spread over the joint limits).\n"
+        f"# The identified geometry, {how}.\n# Carried error: max tool-position deviation {err * 1e3:.3g} mm from the"
+        f" identified geometry over {count} configurations (the home and {count - 1} spread over the joint limits).\n"
     )
     write_text(path, note + dumps(robot, length, angle), force=force)
 
@@ -171,9 +179,11 @@ def _identification_json(result: Identification, *, box: bool = True) -> dict:
         **({"bounding_box": _box_json(result.box)} if box else {}),
         "rms_m": result.rms,
         # the tracker's range/angle noise model the joint fit weighted the points by (null: isotropic point noise)
-        "tracker_noise": None
-        if (tn := result.tracker_noise) is None
-        else {"sigma_range_m": tn.sigma_range, "sigma_angle_rad": tn.sigma_angle, "position_m": list(tn.position)},
+        "tracker_noise": (
+            None
+            if (tn := result.tracker_noise) is None
+            else {"sigma_range_m": tn.sigma_range, "sigma_angle_rad": tn.sigma_angle, "position_m": list(tn.position)}
+        ),
         "notes": result.notes,
     }
 
@@ -223,9 +233,11 @@ def _calibration_json(cal: Calibration) -> dict:
                 "value": float(cal.values[c]),
                 "sigma": None if not np.isfinite(cal.sigma[c]) else float(cal.sigma[c]),
                 "status": cal.status[c],
-                "prior_sigma": None
-                if cal.prior_sigma is None or not np.isfinite(cal.prior_sigma[c])
-                else float(cal.prior_sigma[c]),
+                "prior_sigma": (
+                    None
+                    if cal.prior_sigma is None or not np.isfinite(cal.prior_sigma[c])
+                    else float(cal.prior_sigma[c])
+                ),
             }
         )
     ana = cal.identifiability
@@ -262,16 +274,18 @@ def _calibration_json(cal: Calibration) -> dict:
             "outliers": [cal.measurements.where[i] for i in cal.outliers],
         },
         "model_choice": None if cal.model_choice is None else cal.model_choice.to_json(),
-        "validation": None
-        if v is None
-        else {
-            "n_train": v.n_train,
-            "n_test": v.n_test,
-            "before_rms_m": v.before_rms,
-            "before_max_m": v.before_max,
-            "after_rms_m": v.after_rms,
-            "after_max_m": v.after_max,
-        },
+        "validation": (
+            None
+            if v is None
+            else {
+                "n_train": v.n_train,
+                "n_test": v.n_test,
+                "before_rms_m": v.before_rms,
+                "before_max_m": v.before_max,
+                "after_rms_m": v.after_rms,
+                "after_max_m": v.after_max,
+            }
+        ),
         "model": {
             "T_world_base": np.asarray(m.T_world_base).tolist(),
             "T_last_flange": np.asarray(m.T_last_flange).tolist(),
@@ -338,9 +352,11 @@ def _validation_json(v: ModelValidation) -> dict:
         "rms_rotation_rad": v.rms_rotation,
         "flagged": v.n_flagged,
         "sigma_limit_m": v.sigma_limit,
-        "training_range": None
-        if v.training_lower is None
-        else {"lower": v.training_lower.tolist(), "upper": v.training_upper.tolist()},
+        "training_range": (
+            None
+            if v.training_lower is None
+            else {"lower": v.training_lower.tolist(), "upper": v.training_upper.tolist()}
+        ),
         "T_world_base": v.T_world_base.tolist(),
         "T_flange_tool": v.T_flange_tool.tolist(),
         "iso9283": iso,

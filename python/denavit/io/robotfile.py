@@ -99,7 +99,8 @@ def _pose(spec: dict, ls: float, as_: float, where: str) -> np.ndarray:
 
 def _plausible_angles(values, as_: float, where: str, joint: bool = False) -> None:
     """Angles written in a robot file (its angle unit: ``as_`` rad each), finite ones within the turns allowed
-    (:func:`denavit.limits.check_angles`; ``joint``: joint values, limits or home); in a file that declares radians, a value beyond 2 pi is degrees written
+    (:func:`denavit.limits.check_angles`; ``joint``: joint values, limits or home); in a file that declares radians, a
+    value beyond 2 pi is degrees written
     under ``angle = "rad"``: an error that says so."""
     v = np.asarray(values, dtype=float).ravel()
     v = v[np.isfinite(v)]
@@ -108,7 +109,8 @@ def _plausible_angles(values, as_: float, where: str, joint: bool = False) -> No
     worst = float(v[np.argmax(np.abs(v))])
     if as_ == 1.0 and abs(worst) > 2 * np.pi + 1e-9:
         raise DenavitError(
-            f'{where}: {worst:.6g} is beyond 2 pi, yet [units] angle = "rad": degrees written? (declare angle = "deg", or give radians)'
+            f'{where}: {worst:.6g} is beyond 2 pi, yet [units] angle = "rad": degrees written? (declare angle = "deg",'
+            " or give radians)"
         )
     limits.check_angles(v * as_, where, "rad" if as_ == 1.0 else "deg", as_, joint)
 
@@ -159,7 +161,8 @@ def _inertia(spec, jw: str, units: dict | None, where: str, ls: float) -> tuple[
         raise DenavitError(f"{jw}: inertia: missing {', '.join(missing)}")
     if not isinstance(units, dict) or "mass" not in units or "inertia" not in units:
         raise DenavitError(
-            f"{where}: [units] must declare 'mass' and 'inertia' (e.g. mass = \"kg\", inertia = \"kg m^2\") when a joint gives an inertia"
+            f"{where}: [units] must declare 'mass' and 'inertia' (e.g. mass = \"kg\", inertia = \"kg m^2\") when a"
+            " joint gives an inertia"
         )
     ms = mass_scale(units["mass"], f"{where}, [units] mass")
     iscale = inertia_scale(units["inertia"], f"{where}, [units] inertia")
@@ -235,7 +238,8 @@ def _training(spec, kinds, units: dict, where: str) -> np.ndarray | None:
         ) from None
     if lo.shape != (len(s),) or hi.shape != (len(s),) or not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
         raise DenavitError(
-            f"{where}: expected lower and upper of {len(s)} finite joint values each, got {lo.tolist()} and {hi.tolist()}"
+            f"{where}: expected lower and upper of {len(s)} finite joint values each, got {lo.tolist()} and"
+            f" {hi.tolist()}"
         )
     return np.vstack([lo * s, hi * s])
 
@@ -527,7 +531,8 @@ def _readings(spec, kinds: list[str], units: dict, where: str) -> tuple[np.ndarr
     bad = np.flatnonzero(np.abs(scale) >= 0.1)
     if len(bad):
         raise DenavitError(
-            f"{where}: scale: joint {bad[0] + 1}'s scale error {scale[bad[0]]:.6g} is not a small correction (expected |scale| < 0.1: the joint turns 1 + scale times its reading)"
+            f"{where}: scale: joint {bad[0] + 1}'s scale error {scale[bad[0]]:.6g} is not a small correction (expected"
+            " |scale| < 0.1: the joint turns 1 + scale times its reading)"
         )
     ref = None
     if "reference" in spec:
@@ -611,7 +616,8 @@ def parse_coupling(spec, kinds: list[str], where: str) -> np.ndarray:
                 raise DenavitError(f"{where}: {lhs}: reading r{k + 1} of a robot with {n} joints")
             if kinds[k] != kinds[i]:
                 raise DenavitError(
-                    f"{where}: {lhs}: reading r{k + 1} is of a {kinds[k]} joint, q{i + 1} of a {kinds[i]} one (coefficients are unitless)"
+                    f"{where}: {lhs}: reading r{k + 1} is of a {kinds[k]} joint, q{i + 1} of a {kinds[i]} one"
+                    " (coefficients are unitless)"
                 )
             row[k] += (-1.0 if t.group(1) == "-" else 1.0) * (float(t.group(2)) if t.group(2) else 1.0)
             pos = t.end()
@@ -622,7 +628,8 @@ def parse_coupling(spec, kinds: list[str], where: str) -> np.ndarray:
 
 
 def coupling_text(C: np.ndarray) -> dict:
-    """The ``[couplings]`` table of ``C`` (rows that differ from the identity), the inverse of :func:`parse_coupling`."""
+    """The ``[couplings]`` table of ``C`` (rows that differ from the identity), the inverse of
+    :func:`parse_coupling`."""
     out = {}
     for i, row in enumerate(np.asarray(C)):
         if np.array_equal(row, np.eye(len(row))[i]):
@@ -738,8 +745,8 @@ def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
         s = _covariance_scales(t, length, angle, robot.reading_scale is not None)
         if np.shape(robot.covariance) != (len(s), len(s)):
             raise DenavitError(
-                f"{robot.name}: covariance of shape {np.shape(robot.covariance)}, expected ({len(s)}, {len(s)}) for its table"
-                + (" and reading scales" if robot.reading_scale is not None else "")
+                f"{robot.name}: covariance of shape {np.shape(robot.covariance)}, expected ({len(s)}, {len(s)}) for its"
+                " table" + (" and reading scales" if robot.reading_scale is not None else "")
             )
         doc["covariance"] = {
             "matrix": [[float(v) for v in row] for row in np.asarray(robot.covariance) / np.outer(s, s)]
@@ -777,5 +784,6 @@ def _inline_arrays(text: str) -> str:
 
 
 def save(robot: Robot, path: str | os.PathLike, length: str = "m", angle: str = "rad", *, force: bool = False) -> None:
-    """Write a robot file (whole or not at all; ``force``: replace a read-only file, write through one with several hard links (:func:`denavit.io.output.write_text`))."""
+    """Write a robot file (whole or not at all; ``force``: replace a read-only file, write through one with several hard
+    links (:func:`denavit.io.output.write_text`))."""
     write_text(path, dumps(robot, length, angle), force=force)

@@ -28,7 +28,8 @@ def resolve(name_or_path: str | os.PathLike) -> Path:
     if key in builtin_names():
         return Path(str(resources.files("denavit.models").joinpath(key + ".toml")))
     raise DenavitError(
-        f"unknown model {str(name_or_path)!r}: expected a built-in name ({', '.join(builtin_names())}) or an existing robot file (.toml) or URDF (.urdf)"
+        f"unknown model {str(name_or_path)!r}: expected a built-in name ({', '.join(builtin_names())}) or an existing"
+        " robot file (.toml) or URDF (.urdf)"
     )
 
 

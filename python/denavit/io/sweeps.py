@@ -78,7 +78,8 @@ def _long_header(rows: list, where: str) -> tuple[list[str], int, list[str], int
     pay = [c for c in PAYLOAD_COLUMNS if c in cols]  # a payload per point (issue 37), after everything else
     if pay and "payload_mass" not in pay:
         raise DenavitError(
-            f"{where}:{hline}: {', '.join(pay)} without payload_mass: give the payload's mass (kg) with its centre of mass"
+            f"{where}:{hline}: {', '.join(pay)} without payload_mass: give the payload's mass (kg) with its centre of"
+            " mass"
         )
     need = [
         "joint",
@@ -99,8 +100,9 @@ def _long_header(rows: list, where: str) -> tuple[list[str], int, list[str], int
             else f"unknown column(s) {', '.join(unknown)}"
         )
         raise DenavitError(
-            f"{where}:{hline}: header must be 'joint,q1,...,qn,x,y,z' (optional 'time'; further targets x2,y2,z2,...; a pose's "
-            f"orientation qw,qx,qy,qz; a payload payload_mass[,payload_x,payload_y,payload_z]); {what}, got {','.join(header)!r}"
+            f"{where}:{hline}: header must be 'joint,q1,...,qn,x,y,z' (optional 'time'; further targets x2,y2,z2,...; a"
+            f" pose's orientation qw,qx,qy,qz; a payload payload_mass[,payload_x,payload_y,payload_z]); {what}, got"
+            f" {','.join(header)!r}"
         )
     return cols, n, need, k, quat
 
@@ -121,11 +123,13 @@ def parse_nest(lines, k: int, ls: float, where: str):
             pts = np.array([[float(v) for v in p.replace(",", " ").split()] for p in parts], dtype=float)
         except ValueError:
             raise DenavitError(
-                f"{here}: nest: expected 'x1,y1,z1; x2,y2,z2; ...' (numbers, the file's length unit), got {m.group(1).strip()[:60]!r}"
+                f"{here}: nest: expected 'x1,y1,z1; x2,y2,z2; ...' (numbers, the file's length unit), got"
+                f" {m.group(1).strip()[:60]!r}"
             ) from None
         if pts.shape != (k, 3) or not np.isfinite(pts).all():
             raise DenavitError(
-                f"{here}: nest: expected {k} points of 3 coordinates (one per target of the header), got {m.group(1).strip()[:60]!r}"
+                f"{here}: nest: expected {k} points of 3 coordinates (one per target of the header), got"
+                f" {m.group(1).strip()[:60]!r}"
             )
         return pts * ls
     return None
@@ -191,7 +195,8 @@ def read_long_csv(
         bad = np.flatnonzero(np.abs(np.linalg.norm(quats, axis=1) - 1) > 1e-6)
         if bad.size:
             raise DenavitError(
-                f"{where}:{line[bad[0]]}: quaternion norm {np.linalg.norm(quats[bad[0]]):.6g}: expected a unit quaternion (qw, qx, qy, qz)"
+                f"{where}:{line[bad[0]]}: quaternion norm {np.linalg.norm(quats[bad[0]]):.6g}: expected a unit"
+                " quaternion (qw, qx, qy, qz)"
             )
         rot = poses_of(np.zeros((len(quats), 3)), quats, "quaternion", where)[:, :3, :3]
     payload = (
@@ -387,7 +392,8 @@ def read_joint_files(
         ) from None
     if dirs.ndim != 1 or dirs.size not in (1, n) or not np.all(np.abs(dirs) == 1):
         raise DenavitError(
-            f"--direction: expected +1 or -1, one for all joints or {n} (one per joint, from --home), got {dirs.tolist()}"
+            f"--direction: expected +1 or -1, one for all joints or {n} (one per joint, from --home), got"
+            f" {dirs.tolist()}"
         )
     dirs = np.broadcast_to(dirs, (n,))
     sweeps = {}
@@ -451,7 +457,8 @@ def json_array(value, n: int | None, depth: int, where: str) -> np.ndarray:
         return np.array([dl.as_number(v, f"{where}[{i}]") for i, v in enumerate(value)])
     if not isinstance(value, list) or not value:
         raise DenavitError(
-            f"{where}: expected a list of rows{f' of {n} numbers' if n is not None and depth == 2 else ''}, got {_show(value)}"
+            f"{where}: expected a list of rows{f' of {n} numbers' if n is not None and depth == 2 else ''}, got"
+            f" {_show(value)}"
         )
     rows = [json_array(v, n, depth - 1, f"{where}[{i}]") for i, v in enumerate(value)]
     bad = next((i for i, r in enumerate(rows) if r.shape != rows[0].shape), None)
@@ -480,7 +487,9 @@ def json_payload(obj: dict, m: int, units: dict, ls: float, at: str, rows: str =
     (issue 37), or None without them. ``payload_mass``: one number for all ``m`` rows or a list of one per row, in
     the declared ``units["mass"]`` (required with a payload: a JSON number has no unit); ``payload_com``: the centre
     of mass in the flange frame in the length unit (``ls`` m per unit), one ``[x, y, z]`` for all rows or a list of
-    one per row; default the flange origin. ``at`` prefixes the keys in errors (``"s.json: "``, ``"s.json: sweeps[2]."``)."""
+    one per row; default the flange origin. ``at`` prefixes the keys in errors (``"s.json: "``, ``"s.json:
+    sweeps[2]."``).
+    """
     if "payload_mass" not in obj:
         if "payload_com" in obj:
             raise DenavitError(f"{at}payload_com without payload_mass: give the payload's mass with its centre of mass")
@@ -488,7 +497,7 @@ def json_payload(obj: dict, m: int, units: dict, ls: float, at: str, rows: str =
     if "mass" not in units:
         raise DenavitError(
             f'{at}payload_mass: the mass unit is not declared: expected "units": {{"mass": "kg"}} (kg or g) '
-            f"with a payload"
+            "with a payload"
         )
     unit = units["mass"]
     ms = mass_scale(unit, f"{at}payload_mass: units")
@@ -554,7 +563,8 @@ def _check_keys(obj: dict, expected: tuple, where: str, optional: tuple = ()) ->
 
 def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str | None = None) -> SweepSet:
     """Read sweeps from JSON: ``{"units": {"length": "mm", "angle": "deg"}, "home": [...], "kinds": [...] (optional),
-    "nest": [[x, y, z], ...] (optional), "sweeps": [{"joint": 1, "points": [[x, y, z], ...] or "targets": [[[x1, y1, z1],
+    "nest": [[x, y, z], ...] (optional), "sweeps": [{"joint": 1, "points": [[x, y, z], ...] or "targets": [[[x1, y1,
+    z1],
     [x2, y2, z2], ...], ...], "q": [[q1..qn], ...] (optional), "quaternions": [[qw, qx, qy, qz], ...] (optional)}]}``.
 
     One sweep per joint; ``"targets"`` instead of ``"points"`` when 2-4 targets are measured per pose (the same number
@@ -592,7 +602,8 @@ def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str 
     sweeps = doc.get("sweeps")
     if not isinstance(sweeps, list) or not sweeps:
         raise DenavitError(
-            f'{where}: sweeps: expected a list of sweeps {{"joint": 1, "points": [[x, y, z], ...]}}, got {_show(sweeps)}'
+            f'{where}: sweeps: expected a list of sweeps {{"joint": 1, "points": [[x, y, z], ...]}}, got'
+            f" {_show(sweeps)}"
         )
     rows: dict[int, Sweep] = {}
     first: dict[int, int] = {}
@@ -620,7 +631,8 @@ def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str 
         k_first = (tg.shape[1], k) if k_first is None else k_first
         if tg.shape[1] != k_first[0]:
             raise DenavitError(
-                f"{at}.{key}: {tg.shape[1]} target(s) per pose, but sweeps[{k_first[1]}] has {k_first[0]}: expected the same targets at every pose"
+                f"{at}.{key}: {tg.shape[1]} target(s) per pose, but sweeps[{k_first[1]}] has {k_first[0]}: expected the"
+                " same targets at every pose"
             )
         tg = tg * ls
         far = np.argwhere(np.abs(tg[:, 0] if key == "points" else tg) > dl.MAX_LENGTH)
@@ -640,7 +652,8 @@ def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str 
         if ("quaternions" in s) != poses_first[0]:
             has, hasnt = (k, poses_first[1]) if "quaternions" in s else (poses_first[1], k)
             raise DenavitError(
-                f"{at}: sweeps[{has}] has 'quaternions', sweeps[{hasnt}] has none: expected 6-DoF poses in every sweep or in none"
+                f"{at}: sweeps[{has}] has 'quaternions', sweeps[{hasnt}] has none: expected 6-DoF poses in every sweep"
+                " or in none"
             )
         rot = None
         if "quaternions" in s:
@@ -650,7 +663,8 @@ def read_json(path: str | os.PathLike, *, length: str | None = None, angle: str 
             bad = np.flatnonzero(np.abs(np.linalg.norm(quat, axis=1) - 1) > 1e-6)
             if bad.size:
                 raise DenavitError(
-                    f"{at}.quaternions[{bad[0]}]: quaternion norm {np.linalg.norm(quat[bad[0]]):.6g}: expected a unit quaternion (qw, qx, qy, qz)"
+                    f"{at}.quaternions[{bad[0]}]: quaternion norm {np.linalg.norm(quat[bad[0]]):.6g}: expected a unit"
+                    " quaternion (qw, qx, qy, qz)"
                 )
             from .recordings.columns import poses_of  # noqa: PLC0415 (scipy's rotations)
 
@@ -723,7 +737,8 @@ def write_long_csv(
 
 
 def _long_csv(sweeps: SweepSet, pieces, length: str, angle: str, header_comment: str) -> Iterator:
-    """The long-form CSV's bytes (bytes-like pieces): its head, then its rows a piece of up to :data:`WRITE_ROWS` at a time, formatted
+    """The long-form CSV's bytes (bytes-like pieces): its head, then its rows a piece of up to :data:`WRITE_ROWS` at a
+    time, formatted
     on a pool of threads (one per core) a few pieces ahead of the one written."""
     from concurrent.futures import ThreadPoolExecutor  # noqa: PLC0415
 

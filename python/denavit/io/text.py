@@ -48,7 +48,8 @@ def read_bytes(path: str | os.PathLike, what: str = "file", *, lines: bool = Fal
             else:
                 return b"".join(chunks)
             raise DenavitError(
-                f"{p}: line {line} of the {what} is longer than the limit of {longest:,} bytes: not a delimited file of "
+                f"{p}: line {line} of the {what} is longer than the limit of {longest:,} bytes: not a delimited"
+                " file of "
                 f'rows? ({limits.raise_hint("line_bytes")}; docs/cli.md, "Limits")'
             )
     except FileNotFoundError:

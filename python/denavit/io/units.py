@@ -69,7 +69,8 @@ def inertia_scale(unit: str, where: str = "") -> float:
     m = re.fullmatch(r"\s*([a-zA-Z]+)\s*[* ]\s*([a-zA-Z]+)\s*(\^2|\*\*2|2)\s*", str(unit))
     if not m:
         raise DenavitError(
-            f'{_pre(where)}unknown inertia unit {unit!r}: expected a mass unit times a squared length unit, e.g. "kg m^2" or "g mm^2"'
+            f'{_pre(where)}unknown inertia unit {unit!r}: expected a mass unit times a squared length unit, e.g. "kg'
+            ' m^2" or "g mm^2"'
         )
     return mass_scale(m.group(1), where) * length_scale(m.group(2), where) ** 2
 
@@ -137,7 +138,8 @@ def parse_declaration(lines: Iterable[str], where: str = "") -> dict[str, str]:
             part = part.strip().strip(",;").strip()
             if "=" not in part:
                 raise DenavitError(
-                    f"{here}: units declaration part {part[:40]!r} is not key=value: expected e.g. '# units: length=mm angle=deg'"
+                    f"{here}: units declaration part {part[:40]!r} is not key=value: expected e.g. '# units: length=mm"
+                    " angle=deg'"
                 )
             key, value = (s.strip() for s in part.split("=", 1))
             key = key.lower()
@@ -149,7 +151,8 @@ def parse_declaration(lines: Iterable[str], where: str = "") -> dict[str, str]:
             value = value.lower() if key != "inertia" else value
             if key in out and out[key] != value:
                 raise DenavitError(
-                    f"{here}: {key}={value} contradicts {key}={out[key]} declared at line {at[key]}: a file has one set of units"
+                    f"{here}: {key}={value} contradicts {key}={out[key]} declared at line {at[key]}: a file has one set"
+                    " of units"
                 )
             out[key], at[key] = value, ln
     return out
@@ -179,7 +182,8 @@ def input_units(
     missing = [k for k in need if k not in units]
     if missing:
         raise DenavitError(
-            f"{where}: units not declared ({', '.join(missing)}): add a line '# units: length=mm angle=deg' or pass --length/--angle"
+            f"{where}: units not declared ({', '.join(missing)}): add a line '# units: length=mm angle=deg' or pass"
+            " --length/--angle"
         )
     return units
 

@@ -47,7 +47,8 @@ def _nominal_link_frames(nominal: _core.Table) -> np.ndarray:
     """(6, 4, 4) the nominal UR link frames at q = 0 in the base frame: DH frame i-1 · Rz(theta_i) Tz(d_i)."""
     if nominal.convention != "dh" or nominal.params.shape[0] != 6 or any(k != "revolute" for k in nominal.kinds):
         raise DenavitError(
-            f"nominal: expected the standard DH table of a six-revolute UR arm, got a {nominal.params.shape[0]}-joint {nominal.convention} table"
+            f"nominal: expected the standard DH table of a six-revolute UR arm, got a {nominal.params.shape[0]}-joint"
+            f" {nominal.convention} table"
         )
     F = inverse(nominal.T_world_base) @ nominal.frames(np.zeros(6))
     out = np.empty((6, 4, 4))
@@ -76,8 +77,8 @@ def link_frames(model: _core.Model, nominal: _core.Table, tol: float = 1e-9) -> 
         off = float(np.linalg.norm(np.cross(Fn[:3, 3] - points[i], dirs[i])))
         if tilt > 5.0 or off > 0.05:
             raise DenavitError(
-                f"model: axis {i + 1} is {tilt:.3g} deg and {off * 1e3:.4g} mm from the nominal's: expected a calibration of the nominal UR arm "
-                "(within 5 deg and 50 mm per axis)"
+                f"model: axis {i + 1} is {tilt:.3g} deg and {off * 1e3:.4g} mm from the nominal's: expected a"
+                " calibration of the nominal UR arm (within 5 deg and 50 mm per axis)"
             )
         z = dirs[i] if dirs[i] @ Fn[:3, 2] >= 0 else -dirs[i]
         x = Fn[:3, 0] - (Fn[:3, 0] @ z) * z
@@ -90,8 +91,9 @@ def link_frames(model: _core.Model, nominal: _core.Table, tol: float = 1e-9) -> 
     off = np.linalg.norm(np.cross(tool0[:3, 3] - points[5], dirs[5]))
     if off > tol or abs(abs(tool0[:3, 2] @ dirs[5]) - 1.0) > tol:
         raise DenavitError(
-            f"model: its flange (tool0) must sit on axis 6 with z along it: it is {off * 1e3:.3g} mm off the axis "
-            f"and {np.degrees(np.arccos(min(1.0, abs(tool0[:3, 2] @ dirs[5])))):.3g} deg off its direction: not a UR arm's flange"
+            f"model: its flange (tool0) must sit on axis 6 with z along it: it is {off * 1e3:.3g} mm off the axis and"
+            f" {np.degrees(np.arccos(min(1.0, abs(tool0[:3, 2] @ dirs[5])))):.3g} deg off its direction: not a UR arm's"
+            " flange"
         )
     out[5] = tool0
     return out
@@ -143,7 +145,8 @@ def loads(text: str, where: str = "kinematics file") -> np.ndarray:
 
     if len(text) > MAX_CHARS:  # PyYAML's pure-Python loader reads about 0.3 MB a second
         raise DenavitError(
-            f"{where}: {len(text) / 1e6:.3g} MB: expected a UR kinematics-parameters file of a few kB (6 joints, 6 numbers each)"
+            f"{where}: {len(text) / 1e6:.3g} MB: expected a UR kinematics-parameters file of a few kB (6 joints, 6"
+            " numbers each)"
         )
     try:
         doc = yaml.load(text, Loader=_strict_loader(yaml, where))  # noqa: S506 (a SafeLoader, numbers narrowed)
@@ -188,7 +191,8 @@ def _strict_loader(yaml, where: str):
             twice = sorted(k for k, c in counts.items() if c > 1)
             if twice:
                 raise DenavitError(
-                    f"{where}:{node.start_mark.line + 1}: key(s) {', '.join(twice)[:80]} given twice in one mapping: expected each once"
+                    f"{where}:{node.start_mark.line + 1}: key(s) {', '.join(twice)[:80]} given twice in one mapping:"
+                    " expected each once"
                 )
             return super().construct_mapping(node, deep=deep)
 
@@ -205,5 +209,6 @@ def read(path: str | os.PathLike) -> np.ndarray:
 
 
 def save(path: str | os.PathLike, model: _core.Model, nominal: _core.Table, *, force: bool = False) -> None:
-    """Write the kinematics-parameters file of ``model`` (whole or not at all; ``force``: replace a read-only file, write through one with several hard links (:func:`denavit.io.output.write_text`))."""
+    """Write the kinematics-parameters file of ``model`` (whole or not at all; ``force``: replace a read-only file,
+    write through one with several hard links (:func:`denavit.io.output.write_text`))."""
     write_text(path, dumps(model, nominal), force=force)

@@ -17,7 +17,8 @@ e.g. 2-4 SMRs on one nest) or a 6-DoF pose. SI inside; each reader converts the 
   so dwell -- standing still within the noise -- is excluded from every motion. With readings the moving
   joint is the one whose reading changes, and a motion is one joint turning one way: a still span shorter than
   ``min_dwell`` is bridged only inside such a motion, and a motion ends where the moving joint changes or turns
-  back, however short the pause (none at all: the cut falls where both are slowest); without, consecutive motions about one circle (same plane normal
+  back, however short the pause (none at all: the cut falls where both are slowest); without, consecutive motions about
+  one circle (same plane normal
   and centre) belong to one joint and a change of circle starts the next joint. Among a joint's motions the
   sweep is the one matching the given range, else the slowest (transits to and from home run at travel
   speed, a sweep at measuring speed).

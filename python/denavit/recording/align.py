@@ -44,7 +44,8 @@ def _corr(a: np.ndarray, b: np.ndarray) -> float:
 
 @dataclass(frozen=True)
 class Alignment:
-    """Clock relation of a readings stream to a points stream: ``t_readings = t_points + offset + drift (t_points - t_ref)``.
+    """Clock relation of a readings stream to a points stream: ``t_readings = t_points + offset + drift (t_points -
+    t_ref)``.
 
     offset, sigma : s; drift, drift_sigma : s/s (0 when the data does not ask for one); t_ref : s (points clock);
     peak : correlation coefficient of the speed profiles at the offset; windows : number of window estimates;
@@ -68,7 +69,10 @@ class Alignment:
         )
 
     def __str__(self) -> str:
-        s = f"clock offset {self.offset * 1e3:.3f} ms +- {self.sigma * 1e3:.3f} ms (readings minus points, {self.windows} windows, correlation {self.peak:.3f})"
+        s = (
+            f"clock offset {self.offset * 1e3:.3f} ms +- {self.sigma * 1e3:.3f} ms (readings minus points,"
+            f" {self.windows} windows, correlation {self.peak:.3f})"
+        )
         if self.drift:
             s += f", drift {self.drift * 1e6:.1f} +- {self.drift_sigma * 1e6:.1f} ppm"
         return s + (f"; {self.dropped} point rows outside the readings dropped" if self.dropped else "")
@@ -90,7 +94,8 @@ def estimate_offset(
 
     points : a Recording with points (or poses) and time; readings : a Recording with joint readings and time.
     max_offset : s, optional bound on |offset| (default: any). window : s, length of the windows whose lag
-    estimates give the uncertainty and the drift (None: no windows, the uncertainty is the grid step's). drift : True to always fit one, False never, None (default)
+    estimates give the uncertainty and the drift (None: no windows, the uncertainty is the grid step's). drift : True to
+    always fit one, False never, None (default)
     when the window lags show a slope beyond 3 sigma.
     """
     from scipy.interpolate import make_interp_spline  # noqa: PLC0415
@@ -100,7 +105,8 @@ def estimate_offset(
     for rec, what in ((points, "points"), (readings, "joint readings")):
         if rec.time is None or len(rec) < 10:
             raise DenavitError(
-                f"{rec.source}: cannot align clocks: the {what} need a time column and at least 10 rows, got {len(rec)} rows{' without time' if rec.time is None else ''}"
+                f"{rec.source}: cannot align clocks: the {what} need a time column and at least 10 rows, got {len(rec)}"
+                f" rows{' without time' if rec.time is None else ''}"
             )
     if readings.q is None:
         raise DenavitError(f"{readings.source}: cannot align clocks: expected joint readings, the recording has none")
@@ -122,7 +128,8 @@ def estimate_offset(
         ok &= np.abs(shifts) <= max_offset
     if not ok.any():
         raise DenavitError(
-            f"{points.source} and {readings.source}: cannot align clocks: the recordings do not overlap by half of the shorter one within the allowed offset"
+            f"{points.source} and {readings.source}: cannot align clocks: the recordings do not overlap by half of the"
+            " shorter one within the allowed offset"
         )
     score = np.where(ok, c / np.maximum(overlap, 1.0), -np.inf)
     coarse = float(shifts[int(np.argmax(score))])
@@ -148,8 +155,9 @@ def estimate_offset(
     tau, peak = refine(coarse)
     if peak < MIN_CORRELATION:
         raise DenavitError(
-            f"{points.source} and {readings.source}: cannot align clocks: the speed profiles correlate at {peak:.2f} at best (offset {coarse * 1e3:.1f} ms), "
-            f"expected at least {MIN_CORRELATION}: are both recordings of the same motion?"
+            f"{points.source} and {readings.source}: cannot align clocks: the speed profiles correlate at {peak:.2f} at"
+            f" best (offset {coarse * 1e3:.1f} ms), expected at least {MIN_CORRELATION}: are both recordings of the"
+            " same motion?"
         )
     # windows: the scatter of local lags gives the uncertainty, their trend the drift
     edges = np.arange(gp[0], gp[-1] + 1e-12, window) if window else []
@@ -195,8 +203,9 @@ def _merge(points: Recording, readings: Recording, al: Alignment) -> Recording:
     keep = (t_r >= readings.time[0]) & (t_r <= readings.time[-1])
     if keep.sum() < 3:
         raise DenavitError(
-            f"{points.source} and {readings.source}: cannot align clocks: at offset {al.offset * 1e3:.1f} ms only {int(keep.sum())} point rows fall within the readings' time span "
-            f"({readings.time[0]:.3f}-{readings.time[-1]:.3f} s)"
+            f"{points.source} and {readings.source}: cannot align clocks: at offset {al.offset * 1e3:.1f} ms only"
+            f" {int(keep.sum())} point rows fall within the readings' time span"
+            f" ({readings.time[0]:.3f}-{readings.time[-1]:.3f} s)"
         )
     q = CubicSpline(readings.time, readings.q, axis=0)(t_r[keep])
     idx = np.flatnonzero(keep)
@@ -315,7 +324,8 @@ def align(
         )
     if readings.q is None or readings.time is None:
         raise DenavitError(
-            f"{readings.source}: expected timed joint readings, the recording has {'no readings' if readings.q is None else 'no time'}"
+            f"{readings.source}: expected timed joint readings, the recording has"
+            f" {'no readings' if readings.q is None else 'no time'}"
         )
     if points.time is None:
         raise DenavitError(f"{points.source}: cannot align: the points have no time column")
@@ -329,17 +339,20 @@ def align(
     merged = _merge(points, readings, al)
     dropped = len(points) - len(merged)
     al = Alignment(al.offset, al.sigma, al.drift, al.drift_sigma, al.t_ref, al.peak, al.windows, dropped)
-    return Recording(
-        merged.time,
-        merged.q,
-        merged.points,
-        merged.where,
-        merged.source,
-        merged.format,
-        merged.units,
-        merged.poses,
-        merged.kinds,
-        merged.joint,
-        merged.names,
-        [*merged.notes, str(al)],
-    ), al
+    return (
+        Recording(
+            merged.time,
+            merged.q,
+            merged.points,
+            merged.where,
+            merged.source,
+            merged.format,
+            merged.units,
+            merged.poses,
+            merged.kinds,
+            merged.joint,
+            merged.names,
+            [*merged.notes, str(al)],
+        ),
+        al,
+    )

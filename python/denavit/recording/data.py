@@ -81,7 +81,8 @@ def check_time(t: np.ndarray, where: Sequence[str], what: str = "time") -> None:
     if bad.size:
         i = int(bad[0]) + 1
         raise DenavitError(
-            f"{where[i]}: {what} goes backwards or repeats: {t[i]:.9g} s after {t[i - 1]:.9g} s at {where[i - 1]}: expected strictly increasing times"
+            f"{where[i]}: {what} goes backwards or repeats: {t[i]:.9g} s after {t[i - 1]:.9g} s at {where[i - 1]}:"
+            " expected strictly increasing times"
         )
 
 

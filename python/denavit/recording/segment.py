@@ -58,7 +58,10 @@ class Segmentation:
         return [s for s in self.segments if s.role == "sweep"]
 
     def __repr__(self) -> str:
-        return f"Segmentation({self.source}, {self.method}: {len(self.sweeps)} sweeps, {len(self.segments)} motions, {self.dwell_rows} dwell rows excluded)"
+        return (
+            f"Segmentation({self.source}, {self.method}: {len(self.sweeps)} sweeps, {len(self.segments)} motions,"
+            f" {self.dwell_rows} dwell rows excluded)"
+        )
 
 
 DWELL_ROWS = 50
@@ -81,6 +84,7 @@ def _ends(
 
         def off(row, level):
             return bool(np.max(np.abs(row - level) / s) > k)
+
     else:
         kd = math.sqrt(float(chi2.isf(2 * norm.sf(k), x.shape[1])))
 
@@ -174,7 +178,8 @@ def _dips(runs: list[tuple[int, int]], speed: np.ndarray, lim: float, depth: flo
 
 
 def _runs(moving: np.ndarray, min_gap: int, min_len: int) -> list[tuple[int, int]]:
-    """[start, stop) of the runs of True, gaps shorter than ``min_gap`` closed, runs shorter than ``min_len`` dropped."""
+    """[start, stop) of the runs of True, gaps shorter than ``min_gap`` closed, runs shorter than ``min_len``
+    dropped."""
     from scipy.ndimage import label  # noqa: PLC0415
 
     lab, k = label(_closed(moving, min_gap))
@@ -541,7 +546,8 @@ def to_sweepset(
     missing = [j for j in range(1, n + 1) if j not in picked]
     if missing:
         raise DenavitError(
-            f"{rec.source}: no sweep of joint(s) {', '.join(map(str, missing))} found: expected one sweep of each joint 1..{n} (found joints {sorted(picked)})"
+            f"{rec.source}: no sweep of joint(s) {', '.join(map(str, missing))} found: expected one sweep of each joint"
+            f" 1..{n} (found joints {sorted(picked)})"
         )
     if rec.poses is not None and tool_point is not None:
         tp = np.asarray(tool_point, dtype=float)
@@ -558,7 +564,8 @@ def to_sweepset(
     dirs = np.atleast_1d(np.asarray(direction, dtype=float))
     if dirs.ndim != 1 or dirs.size not in (1, n):
         raise DenavitError(
-            f"{rec.source}: direction: expected 1 or {n} values (one per joint of the segmentation, {seg.method}), got {dirs.size}"
+            f"{rec.source}: direction: expected 1 or {n} values (one per joint of the segmentation, {seg.method}), got"
+            f" {dirs.size}"
         )
     dirs = np.broadcast_to(dirs, (n,))
     sweeps = []

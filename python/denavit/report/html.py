@@ -320,7 +320,7 @@ _LOADER = """(async () => {
 })().catch(e => {
   console.error('denavit report: the figures could not be drawn: ' + e);
   document.body.insertAdjacentHTML('afterbegin', '<p class="error">The figures could not be drawn (' + e + '); the tables below are complete.</p>');
-});"""
+});"""  # noqa: E501 (the page's script, its lines whole)
 
 
 _CSS = """
@@ -339,7 +339,7 @@ dl.summary { display: grid; grid-template-columns: max-content auto; gap: 2px 16
 dl.summary dt { color: #555; } dl.summary dd { margin: 0; }
 ul.notes li { color: #8a5a00; }
 footer { margin-top: 32px; color: #888; font-size: 0.85em; }
-"""
+"""  # noqa: E501 (the style sheet, one rule per line)
 
 
 def _page(title: str, meta: str, summary: str, body: str) -> str:

@@ -641,8 +641,10 @@ def report_html(result: Identification, *, length: str = "mm", angle: str = "deg
                 "them on in the legend).",
             ),
             f'<section id="results"><h2>Identified parameters</h2><div class="scroll">{params}</div>{pchart}</section>',
-            f'<section id="fits"><h2>Joint axes and fits</h2><div class="scroll">{axes_t}</div>{resid}{pairs}'
-            "</section>",
+            (
+                f'<section id="fits"><h2>Joint axes and fits</h2><div class="scroll">{axes_t}</div>{resid}{pairs}'
+                "</section>"
+            ),
             f'<section id="box"><h2>Measuring volume</h2>{_box_tables(doc, ls, length)}</section>',
             acc_html,
             f'<section id="notes-section"><h2>Notes</h2>{_notes_html(doc["notes"])}</section>',

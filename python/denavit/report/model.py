@@ -207,7 +207,8 @@ def model_report_html(
     for (label, _), F in zip(tables, Fs, strict=True):
         for i, T in enumerate(F):
             frows.append(
-                f'<tr data-convention="{html.escape(label)}" data-frame="{i}">{_td("convention", label)}{_td("frame", str(i))}'
+                f'<tr data-convention="{html.escape(label)}"'
+                f' data-frame="{i}">{_td("convention", label)}{_td("frame", str(i))}'
                 + "".join(_td(f"origin-{x}", v / ls) for x, v in zip("xyz", T[:3, 3], strict=True))
                 + "".join(_td(f"z-{x}", v) for x, v in zip("xyz", T[:3, 2], strict=True))
                 + "</tr>"
@@ -245,7 +246,10 @@ def model_report_html(
             ("configuration drawn", ", ".join(f"{v:.4g}" for v in shown_q) + f" ({' / '.join(units)})"),
             (
                 "FK agreement",
-                f"max tool-position difference {dmax / ls:.3g} {length} over q and 64 random configurations within the limits",
+                (
+                    f"max tool-position difference {dmax / ls:.3g} {length} over q and 64 random configurations within"
+                    " the limits"
+                ),
             ),
         ]
     )
@@ -255,8 +259,9 @@ def model_report_html(
         [
             _view_section(
                 view,
-                "Joint axes (coloured), the frames of both conventions along the chain (x red, y green, z blue; the second dashed; Guo et al. Figs. 6-7); "
-                "the path of every frame origin while a joint moves over its limits (Guo et al. Fig. 3) is in the legend.",
+                "Joint axes (coloured), the frames of both conventions along the chain (x red, y green, z blue; the"
+                " second dashed; Guo et al. Figs. 6-7); the path of every frame origin while a joint moves over its"
+                " limits (Guo et al. Fig. 3) is in the legend.",
             ),
             f'<section id="tables"><h2>Parameters</h2>{"".join(parts)}{extra}</section>',
             f'<section id="frames-section"><h2>Frames</h2>{frames_t}</section>',

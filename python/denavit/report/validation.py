@@ -87,7 +87,8 @@ def validation_report_html(v, *, length: str = "mm", title: str | None = None) -
     iso = ""
     if v.groups:
         grows = [
-            f"<tr>{_td('pose', ', '.join(v.where[i] for i in g.indices[:3]) + (' ...' if g.n > 3 else ''))}{_td('visits', str(g.n))}"
+            f"<tr>{_td('pose', ', '.join(v.where[i] for i in g.indices[:3]) + (' ...' if g.n > 3 else ''))}"
+            f"{_td('visits', str(g.n))}"
             f"{_td('ap', g.ap / ls)}{_td('rp', g.rp / ls)}</tr>"
             for g in v.groups
         ]
@@ -95,8 +96,9 @@ def validation_report_html(v, *, length: str = "mm", title: str | None = None) -
             "iso9283",
             ["pose", "visits", f"AP [{length}]", f"RP [{length}]"],
             grows,
-            "ISO 9283 clause 7.2: AP, the distance from the barycentre of the attained positions to the commanded one (the model's prediction); "
-            "RP = l_bar + 3 S_l, l_j the distances of the attained positions to their barycentre.",
+            "ISO 9283 clause 7.2: AP, the distance from the barycentre of the attained positions to the commanded one"
+            " (the model's prediction); RP = l_bar + 3 S_l, l_j the distances of the attained positions to their"
+            " barycentre.",
             "iso9283",
         )
     rows = []
@@ -122,9 +124,11 @@ def validation_report_html(v, *, length: str = "mm", title: str | None = None) -
             ("session", f"{v.n} {'poses' if v.measure == 'pose' else 'tool points'} from {v.source}"),
             (
                 "registration",
-                "kept as the model has it (frozen)"
-                if v.registration == "frozen"
-                else "base and tool re-fitted, the kinematics frozen (refit)",
+                (
+                    "kept as the model has it (frozen)"
+                    if v.registration == "frozen"
+                    else "base and tool re-fitted, the kinematics frozen (refit)"
+                ),
             ),
             (
                 "accuracy",
@@ -135,7 +139,10 @@ def validation_report_html(v, *, length: str = "mm", title: str | None = None) -
                 [
                     (
                         "ISO 9283",
-                        f"{len(v.groups)} repeated poses: AP max {max(g.ap for g in v.groups) / ls:.4g} {length}, RP max {max(g.rp for g in v.groups) / ls:.4g} {length}",
+                        (
+                            f"{len(v.groups)} repeated poses: AP max {max(g.ap for g in v.groups) / ls:.4g} {length},"
+                            f" RP max {max(g.rp for g in v.groups) / ls:.4g} {length}"
+                        ),
                     )
                 ]
                 if v.groups
@@ -148,7 +155,11 @@ def validation_report_html(v, *, length: str = "mm", title: str | None = None) -
     meta = html.escape(f"{len(v.joint_names)} joints; lengths in {length}; measurement frame of the session.")
     body = "\n".join(
         [
-            f'<section id="errors"><h2>Errors</h2>{_figure_html(efig, "errors-chart")}{_figure_html(hfig, "histogram-chart")}</section>',
+            (
+                "<section"
+                f' id="errors"><h2>Errors</h2>{_figure_html(efig, "errors-chart")}'
+                f"{_figure_html(hfig, 'histogram-chart')}</section>"
+            ),
             *([f'<section id="iso"><h2>ISO 9283</h2><div class="scroll">{iso}</div></section>'] if iso else []),
             f'<section id="poses-section"><h2>Poses</h2><div class="scroll">{poses}</div></section>',
             f'<section id="notes-section"><h2>Notes</h2><ul class="notes" id="notes">{notes}</ul></section>',

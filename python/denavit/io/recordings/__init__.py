@@ -43,8 +43,8 @@ def detect(path: str | os.PathLike, *, columns: str | None = None) -> tuple[str,
     lines = data_lines(text)
     if not lines:
         raise DenavitError(
-            f"{p}: an empty file (no data lines): expected a recording (a tracker export, a UR RTDE log, a KUKA RSI log, "
-            "a ROS bag, or a delimited file with --columns)"
+            f"{p}: an empty file (no data lines): expected a recording (a tracker export, a UR RTDE log, a KUKA RSI"
+            " log, a ROS bag, or a delimited file with --columns)"
         )
     header = lines[0][1]
     if re.search(r"(^|[\s,;])joint([\s,;]|$)", header.strip().lower()) and not columns:
@@ -61,9 +61,9 @@ def detect(path: str | os.PathLike, *, columns: str | None = None) -> tuple[str,
     if columns:
         return "columns", f"the column map {columns!r}"
     raise DenavitError(
-        f"{p}: unknown recording format: expected a tracker export (header with Point/Group and X, Y, Z), a UR RTDE log "
-        f"(header 'timestamp actual_q_0 ...'), a KUKA RSI log (<Rob> records), a ROS bag, or a delimited file with --columns "
-        f"(first line {header.strip()[:60]!r})"
+        f"{p}: unknown recording format: expected a tracker export (header with Point/Group and X, Y, Z), a UR RTDE log"
+        " (header 'timestamp actual_q_0 ...'), a KUKA RSI log (<Rob> records), a ROS bag, or a delimited file with"
+        f" --columns (first line {header.strip()[:60]!r})"
     )
 
 

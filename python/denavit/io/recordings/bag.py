@@ -116,7 +116,8 @@ def read(
                 miss = [n for n in names if n not in pos]
                 if miss:
                     raise DenavitError(
-                        f"{path}: {jt} message {len(tq) + 1}: no position of joint(s) {', '.join(miss)}: expected {', '.join(names)}"
+                        f"{path}: {jt} message {len(tq) + 1}: no position of joint(s) {', '.join(miss)}: expected"
+                        f" {', '.join(names)}"
                     )
                 tq.append(_stamp(msg.header, t_bag))
                 q.append([pos[n] for n in names])
@@ -139,7 +140,8 @@ def read(
             wp.append(f"{path} {pt} #{len(tp)}")
         if mtype_is_tf(topics[pt]) and child_frame is None and len(frames) > 1:
             raise DenavitError(
-                f"{path}: {pt} carries several frames ({', '.join(sorted(frames))}): expected one; name it (child_frame)"
+                f"{path}: {pt} carries several frames ({', '.join(sorted(frames))}): expected one; name it"
+                " (child_frame)"
             )
     finally:
         reader.close()
@@ -147,7 +149,8 @@ def read(
         raise DenavitError(f"{path}: topic {jt} has no messages: expected joint readings")
     if not tp:
         raise DenavitError(
-            f"{path}: topic {pt} has no {'messages' if child_frame is None else f'transforms of frame {child_frame}'}: expected measured points"
+            f"{path}: topic {pt} has no {'messages' if child_frame is None else f'transforms of frame {child_frame}'}:"
+            " expected measured points"
         )
     tq, tp = np.array(tq), np.array(tp)
     check_time(tq, wq, "header.stamp")

@@ -100,7 +100,8 @@ def expand(spec: str, where: str = "--columns") -> list[str]:
     bad = [c for c in out if not known.fullmatch(c)]
     if bad:
         raise DenavitError(
-            f"{where}: unknown column name {bad[0]!r}: expected t, q1..qn, x,y,z (or x1,y1,z1,...), qw,qx,qy,qz or rx,ry,rz, or - to skip"
+            f"{where}: unknown column name {bad[0]!r}: expected t, q1..qn, x,y,z (or x1,y1,z1,...), qw,qx,qy,qz or"
+            " rx,ry,rz, or - to skip"
         )
     dup = sorted({c for c in out if out.count(c) > 1 and c not in "-_"})
     if dup:
@@ -116,11 +117,13 @@ def pose_columns(names: list[str], where: str) -> str | None:
         raise DenavitError(f"{where}: both a quaternion and a rotation vector: expected one orientation")
     if quat and len(quat) != 4:
         raise DenavitError(
-            f"{where}: a quaternion needs qw, qx, qy, qz: missing {', '.join(c for c in ('qw', 'qx', 'qy', 'qz') if c not in quat)}"
+            f"{where}: a quaternion needs qw, qx, qy, qz: missing"
+            f" {', '.join(c for c in ('qw', 'qx', 'qy', 'qz') if c not in quat)}"
         )
     if rv and len(rv) != 3:
         raise DenavitError(
-            f"{where}: a rotation vector needs rx, ry, rz: missing {', '.join(c for c in ('rx', 'ry', 'rz') if c not in rv)}"
+            f"{where}: a rotation vector needs rx, ry, rz: missing"
+            f" {', '.join(c for c in ('rx', 'ry', 'rz') if c not in rv)}"
         )
     return "quaternion" if quat else "rotvec" if rv else None
 
@@ -181,7 +184,8 @@ def read(
     for ln, cells in rows:
         if len(cells) != len(names):
             raise DenavitError(
-                f"{path}:{ln}: expected {len(names)} values ({columns[:60]}) separated by {delim or 'whitespace'!r}, got {len(cells)}"
+                f"{path}:{ln}: expected {len(names)} values ({columns[:60]}) separated by {delim or 'whitespace'!r},"
+                f" got {len(cells)}"
             )
     if not rows:
         raise DenavitError(f"{path}: a header but no data rows")

@@ -48,7 +48,8 @@ def read(path: str | os.PathLike, *, text: str | None = None, joints: str = "act
     if missing:
         shown = " ".join(names)[:80]
         raise DenavitError(
-            f"{path}:{hln}: RTDE header lacks {', '.join(missing)}: expected 'timestamp {joints}_0 .. {joints}_5' (got {shown!r})"
+            f"{path}:{hln}: RTDE header lacks {', '.join(missing)}: expected 'timestamp {joints}_0 .. {joints}_5' (got"
+            f" {shown!r})"
         )
     pn = [f"{pose}_{i}" for i in range(6)]
     has_pose = all(c in col for c in pn)

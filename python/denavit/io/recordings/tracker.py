@@ -107,7 +107,8 @@ def read(
     missing = [c.upper() for c in "xyz" if c not in roles]
     if missing or not any(r in roles for r in ("name", "group")):
         raise DenavitError(
-            f"{path}:{hln}: tracker header lacks {', '.join(missing) or 'a Point/Name or Group column'}: expected e.g. 'Collection,Group,Point,X,Y,Z' (got {header.strip()[:80]!r})"
+            f"{path}:{hln}: tracker header lacks {', '.join(missing) or 'a Point/Name or Group column'}: expected e.g."
+            f" 'Collection,Group,Point,X,Y,Z' (got {header.strip()[:80]!r})"
         )
     lunits = {named[r] for r in "xyz" if r in named}
     if len(lunits) > 1:
@@ -156,7 +157,9 @@ def read(
     if incomplete:
         i = incomplete[0]
         raise DenavitError(
-            f"{path}:{rows[first[i]][0]}: joint {keys[i][0]} pose {keys[i][1]} lacks target(s) {', '.join(t for c, t in enumerate(targets) if np.isnan(P[i, c, 0]))}: expected all of {', '.join(targets)}"
+            f"{path}:{rows[first[i]][0]}: joint {keys[i][0]} pose {keys[i][1]} lacks target(s)"
+            f" {', '.join(t for c, t in enumerate(targets) if np.isnan(P[i, c, 0]))}: expected all of"
+            f" {', '.join(targets)}"
         )
     where = [f"{path}:{rows[r][0]}" for r in first]
     if k > 1:
@@ -204,7 +207,8 @@ def _labels(path, rows, names, groups, sweep, notes):
         return joint, index, target
     if names is None:
         raise DenavitError(
-            f"{path}: no point names to take the sweeps from and the groups name no joint: expected a Point column such as J1_001 or groups J1, J2, ..."
+            f"{path}: no point names to take the sweeps from and the groups name no joint: expected a Point column such"
+            " as J1_001 or groups J1, J2, ..."
         )
     pattern = sweep or NAME_PATTERN
     try:
@@ -213,14 +217,16 @@ def _labels(path, rows, names, groups, sweep, notes):
         raise DenavitError(f"--sweep: not a regular expression: {pattern[:60]!r}: {e}") from None
     if "joint" not in rx.groupindex:
         raise DenavitError(
-            f"--sweep: the pattern {pattern[:60]!r} has no group (?P<joint>...): expected e.g. 'J(?P<joint>\\d+)_(?P<index>\\d+)'"
+            f"--sweep: the pattern {pattern[:60]!r} has no group (?P<joint>...): expected e.g."
+            " 'J(?P<joint>\\d+)_(?P<index>\\d+)'"
         )
     joint, index, target = [], [], []
     for r, ((ln, _), name) in enumerate(zip(rows, names)):
         m = rx.match(name)
         if not m:
             raise DenavitError(
-                f"{path}:{ln}: point name {name[:40]!r} does not match the sweep pattern {pattern[:60]!r}: expected e.g. J1_001 or A2-17"
+                f"{path}:{ln}: point name {name[:40]!r} does not match the sweep pattern {pattern[:60]!r}: expected"
+                " e.g. J1_001 or A2-17"
             )
         joint.append(int(m.group("joint")))
         index.append(int(m.group("index")) if "index" in rx.groupindex and m.group("index") else r)

@@ -96,7 +96,8 @@ def _check_numbers(el, attr: str, n: int, what: str, finite: bool = True) -> Non
         )
     if len(parts) != n or (finite and not all(math.isfinite(float(t)) for t in parts)):
         raise DenavitError(
-            f"{what}: {el.tag} {attr}={text[:60]!r}: expected {n} finite number{'s' if n > 1 else ''}, got {len(parts)} value(s)"
+            f"{what}: {el.tag} {attr}={text[:60]!r}: expected {n} finite number{'s' if n > 1 else ''}, got {len(parts)}"
+            " value(s)"
         )
 
 
@@ -211,7 +212,8 @@ def _read(path: str | os.PathLike) -> tuple[yourdfpy.URDF, _Where, object]:
     if fatal or tree.getroot() is None:
         e = fatal[0] if fatal else None
         raise DenavitError(
-            f"{path}: malformed XML at line {e.line if e else 1}, column {e.column if e else 0}: {' '.join(e.message.split()) if e else 'no root element'}"
+            f"{path}: malformed XML at line {e.line if e else 1}, column {e.column if e else 0}:"
+            f" {' '.join(e.message.split()) if e else 'no root element'}"
         )
     where = _precheck(path, tree.getroot())
     import logging  # noqa: PLC0415
@@ -277,7 +279,8 @@ def _select_chain(
         if j.child in parent_of:
             other = parent_of[j.child].name
             raise DenavitError(
-                f"{where('link', j.child)} is the child of joint {other!r} and of joint {j.name!r}: kinematic loops are not supported"
+                f"{where('link', j.child)} is the child of joint {other!r} and of joint {j.name!r}: kinematic loops are"
+                " not supported"
             )
         parent_of[j.child] = j
         children[j.parent].append(j)
@@ -296,7 +299,8 @@ def _select_chain(
     if looped:
         j = looped[0]
         raise DenavitError(
-            f"{where('joint', j.name)}: its child link {j.child!r} (parent {j.parent!r}) is on a loop of joints: kinematic loops are not supported"
+            f"{where('joint', j.name)}: its child link {j.child!r} (parent {j.parent!r}) is on a loop of joints:"
+            " kinematic loops are not supported"
         )
 
     def names(ls):
@@ -327,7 +331,8 @@ def _select_chain(
         raise DenavitError(f"{path}: tip link {tip_link!r} is not defined (links: {', '.join(sorted(links))})")
     elif tip_link not in seen:
         raise DenavitError(
-            f"{path}: tip link {tip_link!r} is not below base link {base_link!r} (links below it: {names(sorted(below))})"
+            f"{path}: tip link {tip_link!r} is not below base link {base_link!r} (links below it:"
+            f" {names(sorted(below))})"
         )
     chain = []
     ln = tip_link
@@ -372,7 +377,10 @@ def _default_tip(path, base_link: str, below: list, children: dict, parent_of: d
     if len(top) == 1:
         return (
             top[0],
-            f"tip link {top[0]!r}, the leaf reached through the most moving joints ({best}) of {len(leaves)} leaves; choose another with tip_link (CLI: --tip-link)",
+            (
+                f"tip link {top[0]!r}, the leaf reached through the most moving joints ({best}) of {len(leaves)}"
+                " leaves; choose another with tip_link (CLI: --tip-link)"
+            ),
         )
     listing = ", ".join(f"{ln!r} ({counts[ln]} moving joints)" for ln in sorted(leaves, key=lambda x: (-counts[x], x)))
     raise DenavitError(
@@ -405,8 +413,8 @@ def _attached(
     unknown = sorted(set(locked) - set(off))
     if unknown:
         raise DenavitError(
-            f"{where.path}: locked joint{'s' if len(unknown) > 1 else ''} {', '.join(map(repr, unknown))}: expected off-chain movable joints "
-            f"({', '.join(map(repr, sorted(off))) or 'none'})"
+            f"{where.path}: locked joint{'s' if len(unknown) > 1 else ''} {', '.join(map(repr, unknown))}: expected"
+            f" off-chain movable joints ({', '.join(map(repr, sorted(off))) or 'none'})"
         )
 
     def value(j) -> float:
@@ -505,17 +513,20 @@ def read_chain(
         else:
             if j.limit is None:
                 raise DenavitError(
-                    f'{w}: a {jtype} joint needs a <limit lower=... upper=... effort=... velocity=.../> (use type="continuous" for an unlimited revolute joint)'
+                    f"{w}: a {jtype} joint needs a <limit lower=... upper=... effort=... velocity=.../> (use"
+                    ' type="continuous" for an unlimited revolute joint)'
                 )
             if j.limit.lower is None or j.limit.upper is None:
                 # urdfdom would default a missing bound to 0, a joint that cannot move: say so instead
                 raise DenavitError(
-                    f"{w}: <limit> lacks {'lower' if j.limit.lower is None else 'upper'}: a {jtype} joint needs both bounds (urdfdom reads a missing one as 0)"
+                    f"{w}: <limit> lacks {'lower' if j.limit.lower is None else 'upper'}: a {jtype} joint needs both"
+                    " bounds (urdfdom reads a missing one as 0)"
                 )
             lo, hi = float(j.limit.lower), float(j.limit.upper)
             if not (math.isfinite(lo) and math.isfinite(hi)):
                 raise DenavitError(
-                    f'{w}: limit lower={lo} upper={hi} must be finite (use type="continuous" for an unlimited revolute joint)'
+                    f'{w}: limit lower={lo} upper={hi} must be finite (use type="continuous" for an unlimited revolute'
+                    " joint)"
                 )
             if lo > hi:
                 raise DenavitError(f"{w}: limit lower={lo} is above upper={hi}")
@@ -542,7 +553,8 @@ def read_chain(
         body_links.append(j.child)
     if not names:
         raise DenavitError(
-            f"{path}: no revolute, continuous or prismatic joint between base link {base_link!r} and tip link {tip_link!r}"
+            f"{path}: no revolute, continuous or prismatic joint between base link {base_link!r} and tip link"
+            f" {tip_link!r}"
         )
     path_links = [base_link] + [j.child for j in chain]
     attached, used = _attached(urdf, where, path_links, body_of, T_path, children, dict(locked or {}))
@@ -553,7 +565,10 @@ def read_chain(
         ln = j.parent
     xml = etree.tostring(xml_root, encoding="unicode")
     extra = {
-        "note": "kept from the URDF for export: SI units (m, rad, kg); T_world_link = each link at q = 0 in the base link's frame",
+        "note": (
+            "kept from the URDF for export: SI units (m, rad, kg); T_world_link = each link at q = 0 in the base link's"
+            " frame"
+        ),
         "robot": urdf.robot.name,
         "file": str(path),
         "base_link": base_link,
@@ -650,8 +665,9 @@ def load_urdf(
         kg = sum(ld["inertial"]["mass"] for ld in merged)
         shown = ", ".join(ld["name"] for ld in merged[:4]) + (", ..." if len(merged) > 4 else "")
         notes.append(
-            f"{Path(ch.path).name}: merged {kg:.4g} kg of {len(merged)} off-chain link{'s' if len(merged) > 1 else ''} ({shown}) into the chain's bodies, "
-            "off-chain joints locked; chain_only (CLI: --chain-only) leaves them out"
+            f"{Path(ch.path).name}: merged {kg:.4g} kg of {len(merged)} off-chain link{'s' if len(merged) > 1 else ''}"
+            f" ({shown}) into the chain's bodies, off-chain joints locked; chain_only (CLI: --chain-only) leaves"
+            " them out"
         )
     return Robot(
         name=ch.name,
@@ -687,8 +703,8 @@ def _body_inertials_in_world(
         ]
         if bad:  # as any unphysical inertial: that body alone is left massless (a negative mass had dropped them all)
             warnings.warn(
-                f'{ch.path}: link {bad[0][0]!r}: <mass value="{bad[0][1]}"/>: expected a finite mass >= 0 kg (the body moved by joint '
-                f"{ch.names[i]!r}); that body is loaded without mass, the others keep theirs",
+                f'{ch.path}: link {bad[0][0]!r}: <mass value="{bad[0][1]}"/>: expected a finite mass >= 0 kg (the body'
+                f" moved by joint {ch.names[i]!r}); that body is loaded without mass, the others keep theirs",
                 DenavitWarning,
                 stacklevel=3,
             )
@@ -714,8 +730,9 @@ def _body_inertials_in_world(
             except DenavitError as e:
                 # that body alone is left massless (pinocchio would keep it); the rest of the robot keeps its dynamics
                 warnings.warn(
-                    f"{ch.path}: the <inertial> of link{'s' if len(links) > 1 else ''} {', '.join(map(repr, links))} (the body moved by joint "
-                    f"{ch.names[i]!r}) is not physical ({e}); that body is loaded without mass, the others keep theirs",
+                    f"{ch.path}: the <inertial> of link{'s' if len(links) > 1 else ''} {', '.join(map(repr, links))}"
+                    f" (the body moved by joint {ch.names[i]!r}) is not physical ({e}); that body is loaded without"
+                    " mass, the others keep theirs",
                     DenavitWarning,
                     stacklevel=3,
                 )
@@ -727,8 +744,9 @@ def _body_inertials_in_world(
         ]
         if massless:
             warnings.warn(
-                f"{ch.path}: link{'s' if len(massless) > 1 else ''} {', '.join(map(repr, massless))} give{'' if len(massless) > 1 else 's'} an <inertia> "
-                'but <mass value="0"/>: the inertia of a massless link is left out',
+                f"{ch.path}: link{'s' if len(massless) > 1 else ''} {', '.join(map(repr, massless))}"
+                f' give{"" if len(massless) > 1 else "s"} an <inertia> but <mass value="0"/>: the inertia of a'
+                " massless link is left out",
                 DenavitWarning,
                 stacklevel=3,
             )

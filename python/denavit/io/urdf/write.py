@@ -272,7 +272,8 @@ def _dumps_tree(model: _core.Model, info: dict) -> str:
         _add_fixed(root, _unique(f"{tip}-{tool}", names), tip, tool, inverse(L[tip]) @ T_tool)
     _comment(
         root,
-        "the links and joints of the URDF read (docs/urdf.md); only the chain's joint origins, axes and limits follow the model",
+        "the links and joints of the URDF read (docs/urdf.md); only the chain's joint origins, axes and limits follow"
+        " the model",
     )
     return etree.tostring(root, pretty_print=True, xml_declaration=True, encoding="UTF-8").decode("utf-8")
 
@@ -325,8 +326,8 @@ def _dumps_model(model: _core.Model, name: str) -> str:
     _add_fixed(root, _unique(f"{flange}-{tool}", joint_names), flange, tool, model.T_flange_tool)
     _comment(
         root,
-        "link i is the model's joint frame i (docs/urdf.md): every joint moves about the z axis of its link, joint values equal "
-        "the model's q; effort and velocity limits unknown (0, urdfdom's unset value)",
+        "link i is the model's joint frame i (docs/urdf.md): every joint moves about the z axis of its link, joint"
+        " values equal the model's q; effort and velocity limits unknown (0, urdfdom's unset value)",
     )
     return etree.tostring(root, pretty_print=True, xml_declaration=True, encoding="UTF-8").decode("utf-8")
 
@@ -341,7 +342,8 @@ def dumps_urdf(model: _core.Model, robot: Robot | None = None) -> str:
     moved from the nominal onto the model's axes (module docstring, "Identified robots"), so only the chain
     joints' origins, axes and limits change, and only where they differ from the URDF's by more than
     :data:`SAME`: for the unchanged model the text is the URDF's own. A ``world`` root is added when the
-    model's world is not the URDF's root (a model identified in a tracker's frame), a ``tcp`` frame (fixed to the tip link)
+    model's world is not the URDF's root (a model identified in a tracker's frame), a ``tcp`` frame (fixed to the tip
+    link)
     when the model's tool is not the tip link (an identified tool point).
 
     Otherwise link *i* is the model's joint frame *i* (``base_link``, ``link_1`` ... ``link_n``, then
@@ -356,5 +358,6 @@ def dumps_urdf(model: _core.Model, robot: Robot | None = None) -> str:
 
 
 def save_urdf(model: _core.Model, path: str | os.PathLike, robot: Robot | None = None, *, force: bool = False) -> None:
-    """Write :func:`dumps_urdf` to ``path`` (whole or not at all; ``force``: replace a read-only file, write through one with several hard links (:func:`denavit.io.output.write_text`))."""
+    """Write :func:`dumps_urdf` to ``path`` (whole or not at all; ``force``: replace a read-only file, write through one
+    with several hard links (:func:`denavit.io.output.write_text`))."""
     write_text(path, dumps_urdf(model, robot), force=force)
