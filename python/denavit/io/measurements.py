@@ -19,6 +19,7 @@ from ..calibration.measurements import Measurements, joint_kinds
 from ..errors import DenavitError
 from ..geometry import matrix_rotvec, rotvec_matrix
 from . import delimited as dl
+from . import json_values as jv
 from . import sweeps as sw
 from .payload import PAYLOAD_COLUMNS, payload_from_columns
 from .text import decode, read_bytes, read_text
@@ -52,7 +53,7 @@ def read_measurements(
       translations in length units), or a sweep JSON (``"sweeps"``). A payload (the CSV's payload columns):
       ``"payload_mass"`` (one number, or one per pose, in ``"units"``' ``"mass"``, which must then be declared) and
       ``"payload_com"`` (``[x, y, z]`` in the flange frame, or one per pose, length unit):
-      :func:`denavit.io.sweeps.json_payload`.
+      :func:`denavit.io.json_values.json_payload`.
     """
     p = Path(path)
     if p.suffix.lower() == ".json":
@@ -228,18 +229,18 @@ def _layout(p: Path, lines: list[str], length, angle, kinds) -> _Layout:
 
 
 #: The keys of a measurement JSON file (:func:`read_measurements`).
-JSON_KEYS = ("units", "kinds", "q", "points", "poses", *sw.PAYLOAD_KEYS)
+JSON_KEYS = ("units", "kinds", "q", "points", "poses", *jv.PAYLOAD_KEYS)
 
 
 def _read_json(p: Path, text: str, length: str | None, angle: str | None, kinds) -> Measurements:
-    doc = sw.load_json(text, str(p))
+    doc = jv.load_json(text, str(p))
     if not isinstance(doc, dict):
         raise DenavitError(f"{p}: expected a JSON object with 'q' and 'points' or 'poses', got {type(doc).__name__}")
     if "sweeps" in doc:
         return Measurements.from_sweeps(sw.read_json(p, length=length, angle=angle))  # its own "kinds"
     unknown = [k for k in doc if k not in JSON_KEYS]
     if unknown:
-        pay = ", payload_mass, payload_com" if sw.about_payload(doc, unknown) else ""
+        pay = ", payload_mass, payload_com" if jv.about_payload(doc, unknown) else ""
         raise DenavitError(
             f"{p}: unknown key(s) {', '.join(map(repr, unknown))[:80]}: "
             f"expected units, kinds, q, and points or poses{pay}"
@@ -250,12 +251,12 @@ def _read_json(p: Path, text: str, length: str | None, angle: str | None, kinds)
             f'{p}: \'units\' must be an object like {{"length": "mm", "angle": "deg"}}, got {declared!r}'
         )
     if not all(isinstance(v, str) for v in declared.values()):
-        raise DenavitError(f"{p}: 'units' values must be unit names such as \"mm\", got {sw._show(declared)}")
+        raise DenavitError(f"{p}: 'units' values must be unit names such as \"mm\", got {jv.show_value(declared)}")
     units = input_units(declared, length, angle, str(p))
     ls = length_scale(units["length"], str(p))
     if "q" not in doc:
         raise DenavitError(f"{p}: expected 'q' (joint readings, one row per pose) and 'points' or 'poses'")
-    q = sw.json_array(doc["q"], None, 2, f"{p}: q")
+    q = jv.json_array(doc["q"], None, 2, f"{p}: q")
     given = joint_kinds(kinds, q.shape[1], f"{p}: kinds given")
     stated = joint_kinds(doc.get("kinds"), q.shape[1], f"{p}: 'kinds'")
     if given and stated and given != stated:
@@ -263,12 +264,12 @@ def _read_json(p: Path, text: str, length: str | None, angle: str | None, kinds)
     kinds = stated or given or ("revolute",) * q.shape[1]
     q = q * joint_scale(kinds, units["length"], units["angle"], str(p))
     if "poses" in doc:
-        T = sw.json_array(doc["poses"], 4, 3, f"{p}: poses")
-        T[:, :3, 3] = sw.json_lengths(T[:, :3, 3], ls, f"{p}: poses' translations")
+        T = jv.json_array(doc["poses"], 4, 3, f"{p}: poses")
+        T[:, :3, 3] = jv.json_lengths(T[:, :3, 3], ls, f"{p}: poses' translations")
         pts = None
     else:
-        T, pts = None, sw.json_lengths(sw.json_array(doc.get("points"), 3, 2, f"{p}: points"), ls, f"{p}: points")
-    payload = sw.json_payload(doc, len(q), units, ls, f"{p}: ")
+        T, pts = None, jv.json_lengths(jv.json_array(doc.get("points"), 3, 2, f"{p}: points"), ls, f"{p}: points")
+    payload = jv.json_payload(doc, len(q), units, ls, f"{p}: ")
     return Measurements(q, pts, T, str(p), [], units, kinds=kinds, payload=payload)
 
 
@@ -276,7 +277,7 @@ def to_json(meas: Measurements, length: str = "mm", angle: str = "deg") -> dict:
     """The JSON document of measurements (:func:`read_measurements`; write it with ``json.dumps``, whose numbers read
     back as the same doubles in the file's units): units, kinds, ``q`` (prismatic joints' readings in the length
     unit), ``points`` or ``poses`` (4x4, translations in the length unit), the payload as ``payload_mass`` (kg,
-    declared) and ``payload_com`` (length unit; :func:`denavit.io.sweeps.json_payload_doc`)."""
+    declared) and ``payload_com`` (length unit; :func:`denavit.io.json_values.json_payload_doc`)."""
     if meas.kind not in ("point", "pose") or getattr(meas, "targets", None) is not None:
         raise DenavitError(
             f"{meas.source}: measurements of several targets per pose have no JSON form: write them with to_csv"
@@ -294,7 +295,7 @@ def to_json(meas: Measurements, length: str = "mm", angle: str = "deg") -> dict:
     pl = getattr(meas, "payload", None)
     if pl is not None:
         doc["units"]["mass"] = "kg"
-        doc.update(sw.json_payload_doc(pl, ls))
+        doc.update(jv.json_payload_doc(pl, ls))
     return doc
 
 
