@@ -40,7 +40,7 @@ def test_tables_and_messages_print_their_units_and_brackets_as_written(tmp_path)
         assert head in out, head
     poe = run("convert", "ur5", "--to", "poe").stdout
     assert "wx [1]" in poe and "vx [mm]" in poe  # screw directions are unitless
-    axes = run("identify", "--example", "kr5").stdout
+    axes = run("identify", "--example", "kr5", "--verbose").stdout  # the joint axes: with --verbose (issue 40)
     assert "radius [mm]" in axes and "sigma dir [deg]" in axes
     bad = tmp_path / "odd [v2].toml"
     p = run("show", str(bad), ok=False)
@@ -51,8 +51,10 @@ def test_identify_length_flag_sets_the_output_unit_of_a_file_that_declares_its_o
     """The example declares mm: --length m changes only the printed unit, not how the data are read; the
     JSON is SI either way."""
     mm, m = tmp_path / "mm.json", tmp_path / "m.json"
-    a_out = run("identify", "--example", "kr5", "--convention", "dh", "--json", str(mm)).stdout
-    b_out = run("identify", "--example", "kr5", "--convention", "dh", "--length", "m", "--json", str(m)).stdout
+    a_out = run("identify", "--example", "kr5", "--convention", "dh", "--json", str(mm), "--verbose").stdout
+    b_out = run(
+        "identify", "--example", "kr5", "--convention", "dh", "--length", "m", "--json", str(m), "--verbose"
+    ).stdout
     a, b = json.loads(mm.read_text()), json.loads(m.read_text())
     assert a["units"] == b["units"] == {"length": "m", "angle": "rad"}
     d_mm, d_m = [r["d"] for r in a["parameters"]], [r["d"] for r in b["parameters"]]
@@ -124,8 +126,10 @@ def test_identify_in_a_tracker_frame_with_the_base_given(tmp_path):
 
 
 def test_identify_example_and_json(tmp_path):
-    out = tmp_path / "r.json"
-    p = run("identify", "--example", "kr5", "--convention", "dh", "--json", str(out))
+    out, nominal = tmp_path / "r.json", tmp_path / "kr5_nominal.csv"
+    # the example before issue 40: the nominal kr5's own sweeps (the shipped example is now a "true" KR5's)
+    run("simulate", "kr5", "-o", nominal, "--ranges", "paper90", "--points", "40", "--noise", "0.02", "--seed", "90")
+    p = run("identify", "kr5", nominal, "--convention", "dh", "--json", str(out), "--verbose")
     assert "Identified DH parameters" in p.stdout and "Measuring volume" in p.stdout
     doc = json.loads(out.read_text())
     assert doc["units"] == {"length": "m", "angle": "rad"}

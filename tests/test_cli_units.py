@@ -239,8 +239,8 @@ def test_identify_prints_and_saves_in_the_units_asked(sweeps_mm, tmp_path):
     np.testing.assert_allclose(dv.load_robot(a_toml).table.params, dv.load_robot(b_toml).table.params, atol=1e-9)
     assert 'length = "m"' in b_toml.read_text()
     mm, m = (
-        run("identify", sweeps_mm, "--nominal", "kr5").stdout,
-        run("identify", sweeps_mm, "--nominal", "kr5", *SI).stdout,
+        run("identify", sweeps_mm, "--nominal", "kr5", "--verbose").stdout,  # the joint axes: with --verbose
+        run("identify", sweeps_mm, "--nominal", "kr5", "--verbose", *SI).stdout,
     )
     np.testing.assert_allclose(np.array(column(mm, "radius [mm]")) * 1e-3, column(m, "radius [m]"), atol=1e-6)
     np.testing.assert_allclose(np.radians(column(mm, "arc [deg]")), column(m, "arc [rad]"), rtol=1e-3)

@@ -139,7 +139,12 @@ def test_cli_show_report_and_plot(tmp_path):
 
 
 def test_cli_identify_report(tmp_path):
-    cli("identify", "--example", "kr5-30", "--convention", "dh", "--report", str(tmp_path / "r.html"))
+    # the nominal kr5's own sweeps (the example before issue 40; the shipped one is now a "true" KR5's)
+    sweeps = tmp_path / "kr5_nominal_30deg.csv"
+    cli(
+        "simulate", "kr5", "-o", str(sweeps), "--ranges", "paper30", "--points", "40", "--noise", "0.02", "--seed", "30"
+    )
+    cli("identify", "kr5", str(sweeps), "--convention", "dh", "--report", str(tmp_path / "r.html"))
     page = Page((tmp_path / "r.html").read_text(encoding="utf-8"))
     rows = page.rows("parameters")
     d1 = next(r for r in rows if r["attrs"] == {"data-joint": "A1", "data-param": "d"})
