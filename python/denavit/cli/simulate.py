@@ -120,12 +120,7 @@ def simulate(
     h = parse_joint_values(home, "--home", robot, length, angle, default=robot.home)
     r = parse_ranges(ranges, robot, length, angle, "paper90")
     tp = parse_point(tool, "--tool", ls, TOOL_M)
-    nest = None
-    if targets is not None:
-        parts = [p for p in targets.split(";") if p.strip()]
-        nest = np.array([parse_point(p, f"--targets (target {k + 1})", ls, TOOL_M) for k, p in enumerate(parts)])
-        if not 1 <= len(nest) <= 16:
-            fail(f"--targets: expected 1 to 16 points 'x,y,z' separated by ';', got {len(nest)}")
+    nest = _nest(targets, ls)
     sigma_rot = positive(noise_rot, "--noise-rot", as_, NOISE_ROT_RAD, angle)
     sigma = positive(noise, "--noise", ls, NOISE_M, length)
     sigma_q = positive(noise_q, "--noise-q", as_, 0.0, angle)
@@ -171,3 +166,16 @@ def simulate(
         ", 6-DoF poses" if poses else ""
     )
     wrote(output, f": {m.nq} sweeps x {points} points{what}")
+
+
+def _nest(targets: str | None, ls: float):
+    """``--targets``' points (K, 3) m, or None."""
+    import numpy as np  # noqa: PLC0415
+
+    if targets is None:
+        return None
+    parts = [p for p in targets.split(";") if p.strip()]
+    nest = np.array([parse_point(p, f"--targets (target {k + 1})", ls, TOOL_M) for k, p in enumerate(parts)])
+    if not 1 <= len(nest) <= 16:
+        fail(f"--targets: expected 1 to 16 points 'x,y,z' separated by ';', got {len(nest)}")
+    return nest

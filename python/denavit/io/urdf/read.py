@@ -442,6 +442,21 @@ def _attached(
     return out, used
 
 
+def _joint_type(j, w: str) -> str:
+    """The type of a chain's joint ``j`` (at ``w``), one the chain supports, else a one-line error."""
+    jtype = (j.type or "").strip()
+    if jtype in UNSUPPORTED_JOINTS:
+        raise DenavitError(
+            f"{w} is a {jtype} joint, which is not supported: expected revolute, continuous, prismatic or fixed "
+            "(to import the arm alone, choose a base_link below it)"
+        )
+    if jtype not in SUPPORTED_JOINTS:
+        raise DenavitError(f"{w}: unknown joint type {j.type!r}: expected one of {', '.join(SUPPORTED_JOINTS)}")
+    if j.mimic is not None and jtype != "fixed":  # urdfdom ignores a fixed joint's <mimic>, and so do we
+        raise DenavitError(f"{w} mimics joint {j.mimic.joint!r}: mimic joints (coupled joint values) are not supported")
+    return jtype
+
+
 def read_chain(
     path: str | os.PathLike, base_link: str | None = None, tip_link: str | None = None, *, locked: dict | None = None
 ) -> UrdfChain:
@@ -473,18 +488,7 @@ def read_chain(
     )
     for j in chain:
         w = where("joint", j.name)
-        jtype = (j.type or "").strip()
-        if jtype in UNSUPPORTED_JOINTS:
-            raise DenavitError(
-                f"{w} is a {jtype} joint, which is not supported: expected revolute, continuous, prismatic or fixed "
-                "(to import the arm alone, choose a base_link below it)"
-            )
-        if jtype not in SUPPORTED_JOINTS:
-            raise DenavitError(f"{w}: unknown joint type {j.type!r}: expected one of {', '.join(SUPPORTED_JOINTS)}")
-        if j.mimic is not None and jtype != "fixed":  # urdfdom ignores a fixed joint's <mimic>, and so do we
-            raise DenavitError(
-                f"{w} mimics joint {j.mimic.joint!r}: mimic joints (coupled joint values) are not supported"
-            )
+        jtype = _joint_type(j, w)
         O = np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)
         T_world_link = T_world_link @ O
         T_path[j.child] = T_world_link
