@@ -54,14 +54,12 @@ def check(
     """Check a robot against its registered model with a few measured poses: a chi-square test of the residuals
     against the model's own covariance and the tracker noise, at a stated false-alarm rate. Exit code 1 when the
     robot has changed. A registered robot's check is recorded in the registry."""
-    import numpy as np  # noqa: PLC0415
-
     from ..fleet import check as ck  # noqa: PLC0415
     from ..fleet.history import record_check, robot_of  # noqa: PLC0415
     from ..fleet.registry import Registry  # noqa: PLC0415
-    from ..io.units import angle_scale, length_scale  # noqa: PLC0415
+    from ..io.units import length_scale  # noqa: PLC0415
 
-    ls, as_ = length_scale(length), angle_scale(angle)
+    ls = length_scale(length)
     if not noise > 0:
         raise typer.BadParameter(f"expected the tracker's noise > 0 {length}, got {noise}", param_hint="--noise")
     json_out = json_target(json_out)
@@ -74,19 +72,7 @@ def check(
 
         model = load_robot(robot)
     if design is not None:
-        Q = ck.design(model, design, noise=noise * ls)
-        scale = np.array([as_ if k == "revolute" else ls for k in model.table.kinds])
-        header = ",".join(f"q{j + 1}" for j in range(Q.shape[1]))
-        text = f"# units: length={length} angle={angle}\n{header}\n" + "".join(
-            ",".join(f"{v:.6f}" for v in row) + "\n" for row in Q / scale
-        )
-        if output is None:
-            console.print(text, end="", highlight=False, soft_wrap=True)
-        else:
-            from ..io.output import write_text  # noqa: PLC0415
-
-            write_text(output, text)
-            wrote(output, f" ({design} poses for the drift check of {model.name})")
+        write_design(model, design, noise * ls, false_alarm, output, length, angle)
         return
     if data is None:
         raise typer.BadParameter("expected the measured poses (or --design N)", param_hint="DATA")
@@ -118,3 +104,40 @@ def check(
             say("dim", f"{'recorded in' if added else 'recorded already in'} {registry}", err=True)
     if result.changed:
         raise typer.Exit(1)
+
+
+def write_design(model, count: int, noise: float, false_alarm: float, output, length: str, angle: str) -> None:
+    """The drift check's ``count`` poses for ``model`` (:func:`denavit.fleet.check.design`; ``noise`` m) as a CSV of
+    joint readings in ``length`` / ``angle`` units, written to ``output`` or printed, and the check's power against a
+    0.01 degree change of each joint's offset (on stderr when the CSV went to standard output). ``check --design``
+    and ``plan --check-poses``."""
+    import numpy as np  # noqa: PLC0415
+
+    from ..fleet import check as ck  # noqa: PLC0415
+    from ..io.units import angle_scale, length_scale  # noqa: PLC0415
+
+    ls, as_ = length_scale(length), angle_scale(angle)
+    Q = ck.design(model, count, noise=noise)
+    scale = np.array([as_ if k == "revolute" else ls for k in model.table.kinds])
+    header = ",".join(f"q{j + 1}" for j in range(Q.shape[1]))
+    text = f"# units: length={length} angle={angle}\n{header}\n" + "".join(
+        ",".join(f"{v:.6f}" for v in row) + "\n" for row in Q / scale
+    )
+    if output is None:
+        console.print(text, end="", highlight=False, soft_wrap=True)
+    else:
+        from ..io.output import write_text  # noqa: PLC0415
+
+        write_text(output, text)
+        wrote(output, f" ({count} poses for the drift check of {model.name})")
+    offset = np.radians(ck.DESIGN_OFFSET_DEG)
+    powers = [
+        ck.power(ck.noncentrality(model, Q, d, noise), 3 * len(Q), false_alarm)
+        for d in ck.offset_changes(model, Q, offset)
+    ]
+    say(
+        "dim",
+        f"power at false alarms {false_alarm:g} against a {ck.DESIGN_OFFSET_DEG:g} deg change of one joint's offset:",
+        " " + ", ".join(f"{n} {100 * p:.3g} %" for n, p in zip(model.names, powers, strict=True)),
+        err=output is None,
+    )

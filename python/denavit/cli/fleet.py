@@ -12,7 +12,7 @@ import typer
 from ..fleet.registry import DEFAULT_PATH
 from .common import commands
 from .console import console, print_rows, say, wrote
-from .options import AngleOpt, JsonOpt, LengthOpt
+from .options import AngleOpt, JsonOpt, LengthOpt, SchedulerOpt, WorkersOpt
 from .outputs import emit_json, json_target
 
 RegistryOpt = Annotated[
@@ -70,14 +70,8 @@ def add(
 @app.command()
 def run(
     manifest: Annotated[Path, typer.Argument(help="The manifest (TOML, [[robot]] tables: docs/fleet.md).")],
-    scheduler: Annotated[
-        str | None,
-        typer.Option("--scheduler", help="A running Dask scheduler, e.g. tcp://HOST:8786 (default: a local cluster)."),
-    ] = None,
-    workers: Annotated[
-        int | None,
-        typer.Option("--workers", help="Worker processes of the local cluster (default: one per core; 0: no cluster)."),
-    ] = None,
+    scheduler: SchedulerOpt = None,
+    workers: WorkersOpt = None,
     registry: RegistryOpt = Path(DEFAULT_PATH),
 ) -> None:
     """Run a manifest's jobs as Dask tasks and register their results (a rerun adds nothing)."""
@@ -86,9 +80,7 @@ def run(
     from ..fleet.runner import connect, disconnect, run_manifest  # noqa: PLC0415
     from .console import err_console  # noqa: PLC0415
 
-    if workers is not None and workers < 0:
-        raise typer.BadParameter(f"expected 0 or more worker processes, got {workers}", param_hint="--workers")
-    client = None if workers == 0 and scheduler is None else connect(scheduler, workers)
+    client = connect(scheduler, workers)
     try:
         with _open(registry) as reg, Progress(console=err_console, transient=True) as bar:
             task = bar.add_task("jobs", total=None)
@@ -96,8 +88,7 @@ def run(
                 manifest, reg, client=client, progress=lambda d, t: bar.update(task, completed=d, total=t)
             )
     finally:
-        if client is not None:
-            disconnect(client)
+        disconnect(client)
     say(
         "bold",
         f"{summary.added} entries added",

@@ -153,3 +153,19 @@ TrackerPositionOpt = Annotated[
         ),
     ),
 ]
+
+#: Where batches of independent jobs run (fleet run, plan --monte-carlo; docs/fleet.md): a Dask cluster.
+SchedulerOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--scheduler", help="A running Dask scheduler, e.g. tcp://HOST:8786 (default: a local cluster of processes)."
+    ),
+]
+
+WorkersOpt = Annotated[
+    int | None,
+    typer.Option(
+        "--workers",
+        help="Worker processes of the local Dask cluster (default: one per core; 0: no cluster, in this process).",
+    ),
+]

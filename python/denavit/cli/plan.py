@@ -18,8 +18,10 @@ from .options import (
     JsonOpt,
     LengthOpt,
     ModelArg,
+    SchedulerOpt,
     TipLinkOpt,
     VerboseOpt,
+    WorkersOpt,
 )
 from .outputs import SI_UNITS, emit_json, json_target
 from .values import (
@@ -43,7 +45,8 @@ RangesOpt = Annotated[
     str | None,
     typer.Option(
         "--ranges",
-        help="Sweeps: per-joint start,end pairs in --angle units (prismatic: --length), or 'paper30' / 'paper90' (Hayat Table II).",
+        help="Sweeps: per-joint start,end pairs in --angle units (prismatic: --length), or 'paper30' / 'paper90' "
+        "(Hayat Table II).",
     ),
 ]
 
@@ -51,7 +54,8 @@ HomeOpt = Annotated[
     str | None,
     typer.Option(
         "--home",
-        help="Home configuration of the sweeps in --angle units, prismatic joints in --length (default: the model file's home, else zeros).",
+        help="Home configuration of the sweeps in --angle units, prismatic joints in --length (default: the model "
+        "file's home, else zeros).",
     ),
 ]
 
@@ -86,7 +90,8 @@ CandidatesOpt = Annotated[
     Path | None,
     typer.Option(
         "--candidates",
-        help="CSV of candidate configurations (header q1..qn, --angle / --length units unless a '# units:' line declares them).",
+        help="CSV of candidate configurations (header q1..qn, --angle / --length units unless a '# units:' line "
+        "declares them).",
     ),
 ]
 
@@ -99,8 +104,34 @@ PayloadOpt = Annotated[
     str | None,
     typer.Option(
         "--payload",
-        help="Also predict the joints' compliances' sigmas for the planned poses measured twice, without payload and with this one: its mass with a unit and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\" (needs the model's link masses).",
+        help="Also predict the joints' compliances' sigmas for the planned poses measured twice, without payload "
+        "and with this one: its mass with a unit and optionally its centre of mass in the flange frame, e.g. "
+        '"5 kg @ 0,0,80 mm" (needs the model\'s link masses).',
     ),
+]
+
+MonteCarloOpt = Annotated[
+    int | None,
+    typer.Option(
+        "--monte-carlo",
+        help="Also calibrate the plan N times on simulated data (the model with fresh noise) and compare each "
+        "parameter's spread with its predicted sigma; the runs are Dask tasks (--scheduler, --workers).",
+    ),
+]
+
+SeedOpt = Annotated[int, typer.Option("--seed", help="With --monte-carlo: run k's noise is drawn from seed + k.")]
+
+CheckPosesOpt = Annotated[
+    int | None,
+    typer.Option(
+        "--check-poses",
+        help="Instead: choose the drift check's N poses (denavit check) for the highest power against a change of "
+        "any joint's offset; MODEL with its [covariance] (calibrate --save).",
+    ),
+]
+
+OutputOpt = Annotated[
+    Path | None, typer.Option("-o", "--output", help="With --check-poses: write the poses' CSV here (default: print).")
 ]
 
 
@@ -123,6 +154,12 @@ def plan(
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
     payload: PayloadOpt = None,
+    monte_carlo: MonteCarloOpt = None,
+    seed: SeedOpt = 0,
+    scheduler: SchedulerOpt = None,
+    workers: WorkersOpt = None,
+    check_poses: CheckPosesOpt = None,
+    output: OutputOpt = None,
     verbose: VerboseOpt = False,
 ) -> None:
     """Predict every parameter's sigma (Cramer-Rao bound) and the measuring volume of a protocol, before measuring."""
@@ -142,6 +179,17 @@ def plan(
     tp = parse_point(tool, "--tool", ls, TOOL_M)
     sigma = positive(noise, "--noise", ls, NOISE_M, length)
     check_noises(robot.model(), tp, length, angle, ("--noise", sigma, "length"))
+    if check_poses is not None:
+        from ..fleet.check import FALSE_ALARM  # noqa: PLC0415
+        from .check import write_design  # noqa: PLC0415
+
+        count(check_poses, "--check-poses", "poses", counted="poses")
+        write_design(robot, check_poses, sigma, FALSE_ALARM, output, length, angle)
+        return
+    if output is not None:
+        fail(f"-o {output}: it writes the poses of --check-poses; give --check-poses N too")
+    if monte_carlo is not None and monte_carlo < 2:
+        fail(f"--monte-carlo: expected 2 runs or more (a spread needs two), got {monte_carlo}")
     protocol, q = None, None
     if candidates is not None or random is not None:
         if candidates is not None:
@@ -165,8 +213,9 @@ def plan(
 
         mass, com = parse_payload(payload, length)
         cp = plan_compliance(robot, p.q, (0.0, mass), com=com, noise=sigma, tool=tp, convention=convention)
+    mc = None if monte_carlo is None else _monte_carlo(robot, p, monte_carlo, tp, fixes, seed, scheduler, workers)
     if json_out:
-        emit_json(_plan_json(p, robot, sigma, cp), json_out)
+        emit_json({**_plan_json(p, robot, sigma, cp), "monte_carlo": _study_json(mc)}, json_out)
         if json_out == "-":
             return
     what = (
@@ -175,6 +224,85 @@ def plan(
         else f"sweeps of {points} points"
     )
     _print_plan(p, robot, cp, what, sigma, length, angle, verbose)
+    if mc is not None:
+        _print_study(mc, p, length, angle)
+
+
+def _monte_carlo(robot, p, runs: int, tool, fix, seed: int, scheduler, workers):
+    """The plan's Monte Carlo study (:func:`denavit.fleet.montecarlo.study`) on a Dask cluster (a local one by default
+    when Dask is installed) or in this process, with a progress bar of its tasks on stderr."""
+    from rich.progress import Progress  # noqa: PLC0415
+
+    from ..fleet.montecarlo import study  # noqa: PLC0415
+    from ..fleet.runner import connect, disconnect  # noqa: PLC0415
+    from .console import err_console  # noqa: PLC0415
+
+    with status("starting the Dask cluster..."):
+        client = connect(scheduler, workers, required=False)
+    try:
+        with Progress(console=err_console, transient=True) as bar:
+            task = bar.add_task(f"Monte Carlo, {runs} runs", total=None)
+            return study(
+                robot,
+                p,
+                runs,
+                tool=tool,
+                fix=fix,
+                seed=seed,
+                client=client,
+                progress=lambda d, t: bar.update(task, completed=d, total=t),
+            )
+    finally:
+        disconnect(client)
+
+
+def _study_json(mc) -> dict | None:
+    """The --json document's ``monte_carlo`` (SI), or None without --monte-carlo."""
+    if mc is None:
+        return None
+
+    def f(v):
+        return float(v) if v == v else None
+
+    return {
+        "runs": mc.runs,
+        "seed": mc.seed,
+        "failed": mc.failed,
+        "parameters": [
+            {"name": n, "planned_sigma": f(pl), "spread": f(sp), "ratio": f(r), "bias": f(b)}
+            for n, pl, sp, r, b in zip(mc.names, mc.planned, mc.spread, mc.ratio, mc.bias, strict=True)
+        ],
+    }
+
+
+def _print_study(mc, p, length: str, angle: str) -> None:
+    """The Monte Carlo table: every estimated parameter's planned sigma beside the spread of its estimates."""
+    import numpy as np  # noqa: PLC0415
+
+    units = p.parametrization.units
+    rows = []
+    for k, nm in enumerate(mc.names):
+        if not np.isfinite(mc.planned[k]):
+            continue
+        u, s = calib_unit(units[k], length, angle)
+        rows.append(
+            [nm, u, spread(mc.planned[k] / s), spread(mc.spread[k] / s), f"{mc.ratio[k]:.3g}", spread(mc.bias[k] / s)]
+        )
+    print_rows(
+        f"Monte Carlo: {mc.runs} calibrations of simulated data (seed {mc.seed}), {mc.runs - mc.failed} converged",
+        ["parameter", "unit", "planned sigma", "spread", "spread / planned", "bias"],
+        rows,
+        left=(1,),
+        caption="spread: standard deviation of the estimates; bias: their mean error (1 / sqrt(runs) of a sigma is "
+        "chance); the model itself is the truth",
+    )
+    r = mc.ratio[np.isfinite(mc.ratio)]
+    if len(r):
+        console.print(
+            f"spread / planned sigma: median {np.median(r):.3g}, {r.min():.3g} to {r.max():.3g} over {len(r)} "
+            f"parameters (the spread of {mc.runs - mc.failed} runs is uncertain by "
+            f"{100 / np.sqrt(2 * max(mc.runs - mc.failed - 1, 1)):.2g} %)"
+        )
 
 
 def _plan_json(p, robot, sigma: float, cp) -> dict:
@@ -266,7 +394,8 @@ def _print_plan(p, robot, cp, what: str, sigma: float, length: str, angle: str, 
     print_rows("Joint axes at home: predicted sigma across the axis and of its direction", heads, arows)
     b = p.box
     console.print(
-        f"Measuring volume (minimum oriented bounding box): {' x '.join(num(v / ls, length) for v in b.lengths)} {length}, {b.volume:.4g} m^3"
+        f"Measuring volume (minimum oriented bounding box): {' x '.join(num(v / ls, length) for v in b.lengths)} "
+        f"{length}, {b.volume:.4g} m^3"
     )
     console.print(f"Identifiability: {p.identifiability.summary()}")
     red = [u for u in p.identifiability.unidentifiable if u.structural]
@@ -296,7 +425,8 @@ def _print_plan(p, robot, cp, what: str, sigma: float, length: str, angle: str, 
             ["compliance", "unit", "sigma", "largest torque [N m / N]"],
             crow,
             left=(1,),
-            caption="Cramer-Rao bound (one sigma) with the geometry fitted alongside; '-': no parameter (the joint holds no gravity torque)",
+            caption="Cramer-Rao bound (one sigma) with the geometry fitted alongside; '-': no parameter (the joint "
+            "holds no gravity torque)",
         )
         for note in cp.notes:
             say("yellow", "note:", f" {note}")

@@ -33,6 +33,8 @@ from ..errors import DenavitError
 FALSE_ALARM = 0.01
 #: The tracker's noise per coordinate when none is given (m): a laser tracker at a few metres.
 NOISE_M = 2e-5
+#: The change of one joint's offset :func:`design` chooses the poses to see (deg): 0.1-0.2 mm at a KR5's tool.
+DESIGN_OFFSET_DEG = 0.01
 
 
 @dataclass(frozen=True)
@@ -219,7 +221,12 @@ def offset_changes(robot, readings: np.ndarray, offset: float) -> np.ndarray:
 
 
 def design(
-    robot, count: int = 10, *, offset: float = np.radians(0.01), noise: float = NOISE_M, candidates: int = 200
+    robot,
+    count: int = 10,
+    *,
+    offset: float = np.radians(DESIGN_OFFSET_DEG),
+    noise: float = NOISE_M,
+    candidates: int = 200,
 ) -> np.ndarray:
     """(count, n) the check's joint readings (rad / m) among ``candidates`` configurations within the limits
     (:func:`denavit.calibration.parametrization.configurations`), chosen greedily to maximise the smallest

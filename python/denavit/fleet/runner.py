@@ -255,14 +255,21 @@ def run_manifest(
     return summary
 
 
-def connect(scheduler: str | None = None, workers: int | None = None):
+def connect(scheduler: str | None = None, workers: int | None = None, *, required: bool = True):
     """A Dask client: to the scheduler at ``scheduler`` (``tcp://HOST:8786``), else of a new local cluster of
-    ``workers`` processes (default: one per core), one thread each. Needs ``denavit[fleet]``."""
+    ``workers`` processes (default: one per core), one thread each; None (run in this process) for ``workers=0``,
+    and without Dask installed unless ``required`` or a cluster was asked for. Needs ``denavit[fleet]``."""
+    if workers is not None and workers < 0:
+        raise DenavitError(f"--workers: expected 0 or more worker processes, got {workers}")
+    if workers == 0 and scheduler is None:
+        return None
     try:
         from dask.distributed import Client, LocalCluster  # noqa: PLC0415
     except ImportError:
+        if not required and scheduler is None and workers is None:
+            return None
         raise DenavitError(
-            "fleet runs on Dask: install the extra with pip install 'denavit[fleet]' (or --workers 0: in this process)"
+            "this runs on Dask: install the extra with pip install 'denavit[fleet]' (or --workers 0: in this process)"
         ) from None
     if scheduler is not None:
         return Client(scheduler)
@@ -280,7 +287,9 @@ def connect(scheduler: str | None = None, workers: int | None = None):
 
 def disconnect(client) -> None:
     """Close a client of :func:`connect`: a local cluster is shut down with it (scheduler and workers), a remote one
-    left running."""
+    left running (None: nothing to close)."""
+    if client is None:
+        return
     if client.cluster is not None:
         client.shutdown()
     client.close()
