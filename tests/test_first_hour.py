@@ -2,10 +2,15 @@
 
 In-process (typer's CliRunner on denavit.cli's app)."""
 
+import importlib.util
+import re
+from pathlib import Path
+
 import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+import denavit as dv
 from denavit.cli import app
 from denavit.errors import DenavitError
 
@@ -48,7 +53,8 @@ def test_inspect_names_a_sweep_file_and_an_empty_file(tmp_path):
     assert invoke("simulate", "kr5", "-o", sweeps, "--points", "20").exit_code == 0
     with pytest.raises(
         DenavitError,
-        match=r"s\.csv: a sweep file \(denavit's long-form CSV with a 'joint' column.*`denavit identify .*s\.csv --nominal MODEL` reads it as it is$",
+        match=r"s\.csv: a sweep file \(denavit's long-form CSV with a 'joint' column.*"
+        r"`denavit identify .*s\.csv --nominal MODEL` reads it as it is$",
     ):
         invoke("inspect", sweeps)
     empty = tmp_path / "empty.csv"
@@ -92,8 +98,8 @@ def test_robot_files_write_arrays_inline_and_read_back_the_same():
     line, a matrix one row a line, and the file reads back to the same robot."""
     import tomllib
 
-    from denavit.io.robots import as_robot
     from denavit.io import robotfile
+    from denavit.io.robots import as_robot
 
     r = as_robot("kr5")
     text = robotfile.dumps(r, "mm", "deg")
@@ -110,3 +116,128 @@ def test_robot_files_write_arrays_inline_and_read_back_the_same():
         cov / np.outer(*[robotfile._covariance_scales(r.table, "mm", "deg", False)] * 2),
         rtol=1e-15,
     )
+
+
+# The README's main job, `denavit identify --example kr5`, on sweeps simulated from a "true" KR5 (issue 40, item 1)
+
+DATA = Path(dv.__file__).parent / "data"
+#: The design tool point of the example (README, examples/make_kr5_example.py), m in the flange frame.
+DESIGN_TOOL = np.array([0.05, 0.03, 0.10])
+
+
+def load_script():
+    """examples/make_kr5_example.py as a module."""
+    path = Path(__file__).resolve().parents[1] / "examples" / "make_kr5_example.py"
+    spec = importlib.util.spec_from_file_location("make_kr5_example", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_shipped_example_is_what_its_script_makes():
+    """The true robot file is the script's, byte for byte; each sweep file has the script's comments and columns and
+    its numbers (to the last bits the CPU's floating point may change: 1e-9 mm, 1e-12 deg)."""
+    made = load_script().make()
+    assert sorted(made) == ["kr5_30deg.csv", "kr5_90deg.csv", "kr5_true.toml"]
+    assert (DATA / "kr5_true.toml").read_text(encoding="utf-8") == made["kr5_true.toml"]
+    for name in ("kr5_90deg.csv", "kr5_30deg.csv"):
+        shipped = (DATA / name).read_text(encoding="utf-8").splitlines()
+        ours = made[name].splitlines()
+        assert [ln for ln in shipped if ln.startswith("#") or ln[:1].isalpha()] == [
+            ln for ln in ours if ln.startswith("#") or ln[:1].isalpha()
+        ]
+        a, b = (np.loadtxt([ln for ln in t if ln[:1].isdigit()], delimiter=",", ndmin=2) for t in (shipped, ours))
+        assert a.shape == b.shape == (240, 10)
+        np.testing.assert_allclose(a[:, 1:7], b[:, 1:7], rtol=0, atol=1e-12)  # deg
+        np.testing.assert_allclose(a[:, 7:], b[:, 7:], rtol=0, atol=1e-9)  # mm
+
+
+def test_the_true_robot_differs_from_the_nominal_by_the_errors_stated():
+    """kr5_true.toml is the built-in kr5 with every DH length off by 0.3-1 mm and every angle by 0.02-0.1 deg, the tool
+    point 0.2-0.6 mm off its design 50, 30, 100 mm per coordinate (as the README and the file's comment say)."""
+    true, nominal = dv.load_robot(DATA / "kr5_true.toml"), dv.load_robot("kr5")
+    assert true.convention == nominal.convention == "dh" and true.table.columns == ["d", "theta", "a", "alpha"]
+    diff = np.abs(true.table.params - nominal.table.params)
+    lengths, angles = diff[:, [0, 2]] * 1e3, np.degrees(diff[:, [1, 3]])
+    assert np.all((lengths >= 0.3 - 1e-9) & (lengths <= 1.0 + 1e-9)), lengths
+    assert np.all((angles >= 0.02 - 1e-9) & (angles <= 0.1 + 1e-9)), angles
+    tool = np.abs(true.table.T_last_tool[:3, 3] - DESIGN_TOOL) * 1e3
+    assert np.all((tool >= 0.2 - 1e-9) & (tool <= 0.6 + 1e-9)), tool
+    assert true.extra["simulation"]["nominal_tool_mm"] == list(DESIGN_TOOL * 1e3)
+    np.testing.assert_array_equal(true.lower, nominal.lower)
+
+
+def accuracy(output: str) -> dict:
+    """The accuracy lines of identify's first screen: {'nominal' / 'identified' / 'predicted': (rms, max) in mm}."""
+    found = {}
+    for key, pattern in (
+        ("nominal", r"nominal model \(kr5, tool as designed\) against the true robot:"),
+        ("identified", r"identified model \(EDH table\) against the true robot:"),
+        ("predicted", r"identified model, predicted \(1 sigma\):"),
+    ):
+        m = re.search(pattern + r"\s+([0-9.e+-]+) mm \(max ([0-9.e+-]+)\)", output)
+        assert m is not None, (key, output)
+        found[key] = (float(m.group(1)), float(m.group(2)))
+    return found
+
+
+def true_errors(identified) -> dict:
+    """The position errors (rms, max, mm) of the nominal kr5 with its design tool and of the ``identified`` robot
+    against the true robot file, at 1000 configurations spread within the joint limits (a Halton sequence, A4 and
+    A6 within +-180 deg), computed here from the files alone."""
+    from scipy.stats import qmc
+
+    true, nominal = dv.load_robot(DATA / "kr5_true.toml"), dv.load_robot("kr5")
+    lo, hi = np.maximum(nominal.lower, -np.pi), np.minimum(nominal.upper, np.pi)
+    q = qmc.scale(qmc.Halton(d=6, scramble=False).random(1001)[1:], lo, hi)
+    tool = np.eye(4)
+    tool[:3, 3] = DESIGN_TOOL
+    p_true = np.array([dv.fk(true.model(), x)[:3, 3] for x in q])
+    p_nom = np.array([dv.fk(nominal.model().with_tool(tool), x)[:3, 3] for x in q])
+    q_id = identified.joint_values(q) if identified.has_reading_model else q
+    p_id = np.array([dv.fk(identified.model(), x)[:3, 3] for x in q_id])
+    out = {}
+    for key, p in (("nominal", p_nom), ("identified", p_id)):
+        e = np.linalg.norm(p - p_true, axis=1) * 1e3
+        out[key] = (np.sqrt(np.mean(e**2)), e.max())
+    return out
+
+
+def test_the_main_job_says_what_was_measured_found_how_accurate_and_what_next(tmp_path):
+    """`denavit identify --example kr5` (the README's main job): its first screen says what was measured (simulated
+    from the true robot, the protocol and the noise), the parameters found, each model's true error beside the
+    predicted one, and one next step, without the fit's statistics (BIC, Hayati beta, ppm): those come with
+    --verbose. The errors it prints are the ones computed here from the true robot file and the model it saves:
+    the identified model misses the true robot by far less than the nominal (a gain over 20x), and by about what
+    was predicted."""
+    r = invoke("identify", "--example", "kr5")
+    assert r.exit_code == 0, r.output
+    out = r.output
+    for word in ("BIC", "Hayati", "ppm", "marginal likelihood", "auto:"):
+        assert word not in out, word
+    heads = [
+        "Measured: 6 sweeps",
+        "simulated, not measured: Hayat et al.'s 90 deg protocol",
+        "Identified EDH parameters",
+        "Accuracy at the tool point",
+        "Next: denavit identify --example kr5 --save kr5_identified.toml",
+    ]
+    at = [out.find(h) for h in heads]
+    assert all(k >= 0 for k in at) and at == sorted(at), list(zip(heads, at))
+    assert "40 points each (240 in all)" in out and "tracker noise 0.02 mm, joint-reading noise 0.001 deg" in out
+    assert len(out.splitlines()) <= 60  # one screen
+    printed = accuracy(out)
+
+    saved = tmp_path / "kr5_identified.toml"
+    r = invoke("identify", "--example", "kr5", "--save", saved, "--verbose")
+    assert r.exit_code == 0, r.output
+    assert "BIC" in r.output and "Joint axes" in r.output  # moved behind --verbose, not dropped
+    assert accuracy(r.output) == printed
+    assert f"Next: denavit compensate kr5 PROGRAM --identified {saved}" in " ".join(r.output.split())
+    computed = true_errors(dv.load_robot(saved))
+    for key in ("nominal", "identified"):
+        np.testing.assert_allclose(printed[key], computed[key], rtol=6e-3, err_msg=key)  # 3 significant figures
+    nominal, identified, predicted = printed["nominal"][0], printed["identified"][0], printed["predicted"][0]
+    assert 1.0 < nominal < 6.0  # the stated errors (0.3-1 mm, 0.02-0.1 deg on a 1.2 m arm) miss by millimetres
+    assert identified < nominal / 20
+    assert 0.5 < identified / predicted < 2.0, (identified, predicted)
