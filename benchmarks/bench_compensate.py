@@ -26,7 +26,8 @@ tool-position error RMS / max before (nominal commands) and after, next to the R
 predicts (its parameters and reading scales), the flagged rows, and the time per position beside ``ik_batch``.
 Aims: after <= 0.05 mm RMS and within 1.5x of the prediction.
 
-Run: ``python benchmarks/bench_compensate.py [--positions 1000] [--seed 1] [--rate-hz 1000] [--also-rate-hz 100] [--protocols 30,90] [--speed-deg-s 1]``.
+Run: ``python benchmarks/bench_compensate.py [--positions 1000] [--seed 1] [--rate-hz 1000] [--also-rate-hz 100]
+[--protocols 30,90] [--speed-deg-s 1]``.
 """
 
 from __future__ import annotations
@@ -147,8 +148,9 @@ def main() -> None:
     Q = rng.uniform(kr5.lower, kr5.upper, (args.positions, 6)) * 0.9
     T = dv.fk_batch(nominal, Q)
     print(
-        f"KR5 with 0.5 mm / 0.05 deg errors per DH parameter, reading scale errors 2e-4 (J2, J3) and {args.reading_arcsec:g} arcsec noise, {args.noise_mm} mm tracker noise; "
-        f"sweeps at {args.speed_deg_s:g} deg/s; {args.positions} positions"
+        "KR5 with 0.5 mm / 0.05 deg errors per DH parameter, reading scale errors 2e-4 (J2, J3) and"
+        f" {args.reading_arcsec:g} arcsec noise, {args.noise_mm} mm tracker noise; sweeps at {args.speed_deg_s:g}"
+        f" deg/s; {args.positions} positions"
     )
     for prot, rate, pts, r, dt in runs:
         if r.method != "geometric":
@@ -161,11 +163,13 @@ def main() -> None:
                     for j, (v, e, f) in enumerate(zip(r.reading_scale, rms, r.fits))
                 )
             print(
-                f"  identify {prot} deg at {rate:g} Hz: {pts} points, {dt:.1f} s; {r.method}; reading scales (ppm; * left out): {scales}"
+                f"  identify {prot} deg at {rate:g} Hz: {pts} points, {dt:.1f} s; {r.method}; reading scales (ppm; *"
+                f" left out): {scales}"
             )
     print(f"  calibrate: scales (ppm) {', '.join(f'{k} {v * 1e6:+.0f}' for k, v in car.scales.items())}")
     print(
-        f"{'route':<40} {'flagged':>7} {'before RMS':>11} {'before max':>11} {'after RMS':>10} {'after max':>10} {'predicted':>10} {'ratio':>6} {'us/position':>12}"
+        f"{'route':<40} {'flagged':>7} {'before RMS':>11} {'before max':>11} {'after RMS':>10} {'after max':>10}"
+        f" {'predicted':>10} {'ratio':>6} {'us/position':>12}"
     )
     routes = [(f"identify ({p} deg, {rate:g} Hz, {r.method})", r) for p, rate, _, r, _ in runs]
     routes.append(("calibrate (100 poses, ED-H)", car))
@@ -188,13 +192,15 @@ def main() -> None:
         pred = float(np.sqrt(np.mean(res.predicted_after[ok] ** 2)))
         rms = float(np.sqrt(np.mean(after**2)))
         print(
-            f"{label:<40} {int((~ok).sum()):>7d} {np.sqrt(np.mean(before**2)) * 1e3:>8.4f} mm {before.max() * 1e3:>8.4f} mm "
-            f"{rms * 1e3:>7.4f} mm {after.max() * 1e3:>7.4f} mm {pred * 1e3:>7.4f} mm {rms / pred:>6.2f} {t_comp / args.positions * 1e6:>12.2f}"
+            f"{label:<40} {int((~ok).sum()):>7d} {np.sqrt(np.mean(before**2)) * 1e3:>8.4f} mm"
+            f" {before.max() * 1e3:>8.4f} mm {rms * 1e3:>7.4f} mm {after.max() * 1e3:>7.4f} mm {pred * 1e3:>7.4f} mm"
+            f" {rms / pred:>6.2f} {t_comp / args.positions * 1e6:>12.2f}"
         )
     identified_2 = car.model()
     t_ik = median_time(lambda: dv.ik_batch(identified_2, T, Q))
     print(
-        f"{'ik_batch (identified, from the program)':<40} {'':>7} {'':>11} {'':>11} {'':>10} {'':>10} {'':>10} {'':>6} {t_ik / args.positions * 1e6:>12.2f}"
+        f"{'ik_batch (identified, from the program)':<40} {'':>7} {'':>11} {'':>11} {'':>10} {'':>10} {'':>10} {'':>6}"
+        f" {t_ik / args.positions * 1e6:>12.2f}"
     )
     print("aims: after <= 0.05 mm RMS; after / predicted <= 1.5")
 

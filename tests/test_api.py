@@ -397,7 +397,9 @@ def test_simulate_poses_with_the_default_tool_point_and_none():
     np.testing.assert_allclose(dv.simulate("kr5", q=q, tool_point=None).points, T[:, :3, 3], atol=1e-15)
     with pytest.raises(
         dv.DenavitError,
-        match=r"^simulate: tool: expected a point \(3,\) in the flange frame, a pose \(4, 4\) or None, got shape \(2,\)$",
+        match=(
+            r"^simulate: tool: expected a point \(3,\) in the flange frame, a pose \(4, 4\) or None, got shape \(2,\)$"
+        ),
     ):
         dv.simulate("kr5", q=q, tool_point=[1, 2])
     with pytest.raises(dv.DenavitError, match=r"^simulate: measure: expected 'point' or 'pose', got 'xyz'$"):

@@ -104,7 +104,8 @@ def test_identify_in_a_tracker_frame_with_the_base_given(tmp_path):
         "theta": np.add(table_iii["theta"], [0, 0, -90, 0, 0, 0]),
     }
     for k, v in table_iii.items():  # the JSON is SI: m, rad
-        # the CSV holds 10 significant digits (1e-6 mm at 1.2 m from the tracker): 1e-4 (mm, deg) is that rounding, amplified
+        # the CSV holds 10 significant digits (1e-6 mm at 1.2 m from the tracker): 1e-4 (mm, deg) is that rounding,
+        # amplified
         si = np.radians(v) if k in ("alpha", "theta") else np.array(v) * 1e-3
         got = np.array([r[k] for r in doc["parameters"]])
         tol = np.radians(1e-4) if k in ("alpha", "theta") else 1e-7
@@ -227,10 +228,10 @@ def test_the_help_formatter_loads_markdown_and_tracebacks_on_first_use():
     """typer's help formatter is imported without rich.markdown and rich.traceback (which help in rich markup
     never uses); its Markdown and Traceback still make the real ones, imported then."""
     code = (
-        "import sys; from denavit.cli.common import import_rich_utils; import_rich_utils(); import typer.rich_utils as ru; "
-        "before = [m for m in ('rich.markdown', 'rich.traceback', 'pygments') if m in sys.modules]; "
-        "import rich.markdown, rich.traceback; md = ru.Markdown('**x**'); "
-        "print(before, type(md) is rich.markdown.Markdown, ru.Traceback.from_exception == rich.traceback.Traceback.from_exception)"
+        "import sys; from denavit.cli.common import import_rich_utils; import_rich_utils(); import typer.rich_utils as"
+        " ru; before = [m for m in ('rich.markdown', 'rich.traceback', 'pygments') if m in sys.modules]; import"
+        " rich.markdown, rich.traceback; md = ru.Markdown('**x**'); print(before, type(md) is rich.markdown.Markdown,"
+        " ru.Traceback.from_exception == rich.traceback.Traceback.from_exception)"
     )
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=cli_env())
     assert p.stdout.split() == ["[]", "True", "True"], p.stdout + p.stderr
@@ -260,8 +261,8 @@ def test_import_denavit_loads_no_scipy():
     """`import denavit` stays light (scipy had been 88 % of it): scipy, matplotlib, plotly, yourdfpy, lxml and
     trimesh load only in the functions that need them."""
     code = (
-        "import sys, denavit; heavy = [m for m in ('scipy', 'matplotlib', 'plotly', 'yourdfpy', 'lxml', 'trimesh', 'typer', 'rich') "
-        "if m in sys.modules]; print(','.join(heavy))"
+        "import sys, denavit; heavy = [m for m in ('scipy', 'matplotlib', 'plotly', 'yourdfpy', 'lxml', 'trimesh',"
+        " 'typer', 'rich') if m in sys.modules]; print(','.join(heavy))"
     )
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=cli_env())
     assert p.returncode == 0 and p.stdout.strip() == "", p.stdout + p.stderr
@@ -351,15 +352,11 @@ def test_a_missing_plot_extra_is_refused_before_any_work_with_a_command_that_wor
     from denavit.plotting import install_hint
 
     code = (
-        "import sys, importlib.abc\n"
-        "class Hide(importlib.abc.MetaPathFinder):\n"
-        "    def find_spec(self, name, path=None, target=None):\n"
-        "        if name.split('.')[0] in ('plotly', 'matplotlib'):\n"
-        "            raise ModuleNotFoundError(name)\n"
-        "sys.meta_path.insert(0, Hide())\n"
-        "from denavit.cli import main\n"
-        f"sys.argv = ['denavit', 'identify', '--example', 'kr5', '--report', {str(tmp_path / 'x.html')!r}, '--plot', {str(tmp_path)!r}]\n"
-        "main()\n"
+        "import sys, importlib.abc\nclass Hide(importlib.abc.MetaPathFinder):\n    def find_spec(self, name,"
+        " path=None, target=None):\n        if name.split('.')[0] in ('plotly', 'matplotlib'):\n            raise"
+        " ModuleNotFoundError(name)\nsys.meta_path.insert(0, Hide())\nfrom denavit.cli import main\nsys.argv ="
+        f" ['denavit', 'identify', '--example', 'kr5', '--report', {str(tmp_path / 'x.html')!r}, '--plot',"
+        f" {str(tmp_path)!r}]\nmain()\n"
     )
     t0 = time.monotonic()
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=cli_env())

@@ -61,7 +61,9 @@ def offenders(doc, path="", parent=None) -> list[str]:
         for k, v in doc.items():
             p = f"{path}.{k}"
             if k.startswith(("T_", "R_")) or k in POSES or (k in UNITLESS and (numeric(v) or flat(v))):
-                continue  # poses (a dict of poses by joint name included); unitless numbers, or a flat dict of them (observability, combination)
+                # poses (a dict of poses by joint name included); unitless numbers, or a flat dict of them
+                # (observability, combination)
+                continue
             if numeric(v):
                 ok = (
                     k.endswith(SUFFIXES)
@@ -158,7 +160,8 @@ def test_every_number_in_every_command_json_has_a_unit_from_its_key(documents):
 
 
 def test_identify_json_is_si_whatever_the_units_printed(documents):
-    """The KR5 example: the joint axes' numbers in m and rad (a 600 mm upper arm is 0.6, a 30-90 degree arc below pi)."""
+    """The KR5 example: the joint axes' numbers in m and rad (a 600 mm upper arm is 0.6, a 30-90 degree arc below
+    pi)."""
     d = documents["identify dh"]
     a2 = next(r for r in d["parameters"] if r["joint"] == "A2")
     assert a2["a"] == pytest.approx(0.6, abs=1e-3)  # Hayat Table III: a2 = 600 mm

@@ -123,8 +123,8 @@ def test_help_sentences_are_not_broken_mid_way():
     against ..."): each paragraph is one line, wrapped by the terminal's width only."""
     p = run("--help", columns=250)
     assert (
-        "Inverse kinematics: joint values that put the tool at --pose, judged from the measured final error against the tolerances."
-        in p.stdout
+        "Inverse kinematics: joint values that put the tool at --pose, judged from the measured final error against the"
+        " tolerances." in p.stdout
     )
     lines = [ln.strip("│ ") for ln in p.stdout.splitlines()]
     compensate = next(ln for ln in lines if ln.startswith("compensate"))

@@ -141,7 +141,9 @@ def test_one_line_errors(tmp_path):
     # a pose file's payload columns: kg and the file's length unit; a negative mass names its line
     f = tmp_path / "m.csv"
     f.write_text(
-        "# units: length=mm angle=deg\nq1,q2,q3,q4,q5,q6,x,y,z,payload_mass,payload_z\n0,-90,90,0,90,0,100,200,300,5,80\n0,-80,90,0,90,0,1,2,3,-1,0\n"
+        "# units: length=mm"
+        " angle=deg\nq1,q2,q3,q4,q5,q6,x,y,z,payload_mass,payload_z\n0,-90,90,0,90,0,100,200,300,5,80\n"
+        "0,-80,90,0,90,0,1,2,3,-1,0\n"
     )
     from denavit.io.measurements import read_measurements
 
@@ -149,7 +151,8 @@ def test_one_line_errors(tmp_path):
         read_measurements(f)
     assert f"{f}:4" in _one_line(e) and "payload_mass" in str(e.value)
     f.write_text(
-        "# units: length=mm angle=deg\nq1,q2,q3,q4,q5,q6,x,y,z,payload_mass,payload_z\n0,-90,90,0,90,0,100,200,300,5,80\n"
+        "# units: length=mm"
+        " angle=deg\nq1,q2,q3,q4,q5,q6,x,y,z,payload_mass,payload_z\n0,-90,90,0,90,0,100,200,300,5,80\n"
     )
     assert np.allclose(read_measurements(f).payload, [[5, 0, 0, 0.08]])
     # a sweep file's too: per point, carried into the measurements calibrate reads
@@ -160,9 +163,11 @@ def test_one_line_errors(tmp_path):
         simulate(ur5().model(), home=np.zeros(6), ranges=np.tile([-0.5, 0.5], (6, 1)), points_per_sweep=4)
     ).splitlines()
     rows = [
-        ln
-        if ln.startswith("#")
-        else ln + (",payload_mass,payload_x" if ln.startswith("joint") else f",{2.5 * (i % 2)},{10 * (i % 2)}")
+        (
+            ln
+            if ln.startswith("#")
+            else ln + (",payload_mass,payload_x" if ln.startswith("joint") else f",{2.5 * (i % 2)},{10 * (i % 2)}")
+        )
         for i, ln in enumerate(lines)
     ]
     s = tmp_path / "s.csv"

@@ -64,7 +64,8 @@ def find_chromium() -> str:
     exe = shutil.which("chromium") or shutil.which("chromium-browser")
     if exe is None:
         pytest.skip(
-            "no chromium (or chromium-browser) on PATH: install Debian's chromium (apt-get install chromium; .ci/run does) to run the browser tests"
+            "no chromium (or chromium-browser) on PATH: install Debian's chromium (apt-get install chromium; .ci/run"
+            " does) to run the browser tests"
         )
     return exe
 
@@ -312,14 +313,16 @@ def test_identification_report_in_browser(tab, report_path, result):
     check_parameter_table(Page(tab.eval("document.documentElement.outerHTML")), result)
     # a real click on joint 2's legend entry hides joint 2 (its orange leaves the picture), not joint 5
     entries = tab.eval(
-        f"Array.from(document.querySelectorAll('#{rep.VIEW_ID} .legend .traces')).map(e => {{const r = e.getBoundingClientRect(); return [e.textContent, r.x, r.y, r.height];}})"
+        f"Array.from(document.querySelectorAll('#{rep.VIEW_ID} .legend .traces')).map(e => {{const r ="
+        " e.getBoundingClientRect(); return [e.textContent, r.x, r.y, r.height];})"
     )
     name, x, y, h = next(e for e in entries if e[0].startswith("A2"))
     tab.click(x + 40, y + h / 2)
     deadline = time.monotonic() + 10
     while (
         tab.eval(
-            f"document.getElementById('{rep.VIEW_ID}').data.filter(t => t.legendgroup === 'joint-2').every(t => t.visible === 'legendonly')"
+            f"document.getElementById('{rep.VIEW_ID}').data.filter(t => t.legendgroup === 'joint-2').every(t =>"
+            " t.visible === 'legendonly')"
         )
         is not True
     ):
@@ -370,7 +373,7 @@ PROJECTED = """(() => {
   const L = gd._fullLayout.scene, corners = [];
   for (const a of L.xaxis.range) for (const b of L.yaxis.range) for (const c of L.zaxis.range) corners.push([a, b, c]);
   return JSON.stringify({traces: box(pts), corners: box(corners)});
-})()"""
+})()"""  # noqa: E501 (the page script, its lines whole)
 
 
 def projected(tab) -> dict:
@@ -391,7 +394,8 @@ def test_every_report_type_in_browser(tab, every_report, kind):
     assert tab.problems() == []
     assert [u for u in tab.requests() if not u.startswith(("file:", "data:", "blob:"))] == []
     figures = tab.eval(
-        "Array.from(document.querySelectorAll('script.figure')).map(s => document.getElementById(s.dataset.for).dataset.rendered)"
+        "Array.from(document.querySelectorAll('script.figure')).map(s =>"
+        " document.getElementById(s.dataset.for).dataset.rendered)"
     )
     assert figures and all(f == "true" for f in figures), figures
     shot = tab.screenshot(tab.rect(f"#{rep.VIEW_ID} canvas"))

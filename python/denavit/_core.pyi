@@ -73,12 +73,14 @@ class Model:
     ) -> Model:
         """A copy with link inertial parameters: masses (n,) kg, coms (n, 3) m, inertias (n, 3, 3) kg m^2 about each
         centre of mass (about="com") or the frame origin (about="origin"); frame="link": link i in joint frame i
-        (dv.joint_frames), frame="dh": link i in standard-DH frame i (joint frame i @ Tz(d) Tx(a) Rx(alpha), the frame of
+        (dv.joint_frames), frame="dh": link i in standard-DH frame i (joint frame i @ Tz(d) Tx(a) Rx(alpha), the frame
+        of
         published DH inertia tables; a model built from a DH table), frame="world": in world with the robot at q_ref
         (default zeros). An error about one link sets e.joint."""
     @property
     def inertias(self) -> dict[str, NDArray[np.float64]]:
-        """{"masses": (n,), "coms": (n, 3), "inertias": (n, 3, 3)}, link i in joint frame i, about each centre of mass."""
+        """{"masses": (n,), "coms": (n, 3), "inertias": (n, 3, 3)}, link i in joint frame i, about each centre of
+        mass."""
 
 class Table:
     """A parameter table of one convention: dh (d, theta, a, alpha), mdh (alpha, a, theta, d),

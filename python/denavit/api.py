@@ -62,7 +62,8 @@ def read_sweeps(
     nominal : robot, optional — gives the joint kinds (a prismatic joint's readings are lengths).
     home : array-like, shape (n,), rad / m — the locked configuration (needed by per-joint files, which carry no
         readings). direction : +1 / -1 (one, or one per joint; default +1) — per-joint files and recordings:
-        did the joint value increase over the recording? target : 0-based, one target of a multi-target recording (or sweep file) alone;
+        did the joint value increase over the recording? target : 0-based, one target of a multi-target recording (or
+        sweep file) alone;
         default every target (one fit with shared axes in :func:`identify`) and a recording's 6-DoF orientations.
     inform : callable(kind, text), optional — told what was found reading a recording: "note" (each reader's
         note), "clocks" (the alignment with ``readings``), "segments" (the segmentation table, angles in ``angle``).
@@ -105,13 +106,15 @@ def read_sweeps(
         )
         if target is not None and not 0 <= target < s.n_targets:
             raise DenavitError(
-                f"{p} has {s.n_targets} target(s) per pose: expected a target 0..{s.n_targets - 1} (0-based), got {target}",
+                f"{p} has {s.n_targets} target(s) per pose: expected a target 0..{s.n_targets - 1} (0-based), got"
+                f" {target}",
                 what="target",
                 expected=s.n_targets,
                 got=target,
             )
         return s if target is None else s.target(target)
     from .io.recordings import read_recording  # noqa: PLC0415
+    from .io.recordings.segmentation import segmentation_table  # noqa: PLC0415
     from .recording import align, segment, to_sweepset  # noqa: PLC0415
 
     inform = inform or (lambda kind, text: None)
@@ -125,7 +128,7 @@ def read_sweeps(
         )
         inform("clocks", str(al))
     seg = segment(rec)
-    inform("segments", seg.table(angle or "deg"))
+    inform("segments", segmentation_table(seg, angle or "deg"))
     return to_sweepset(rec, seg, target=target, home=home, kinds=kinds, direction=direction or 1)
 
 
@@ -259,7 +262,8 @@ def calibrate(
 ):
     """One least-squares fit of the whole kinematic model (:func:`denavit.calibration.calibrate`).
 
-    data : Measurements, SweepSet, TargetMeasurements, a path (measurement CSV ``q1..qn,x,y,z[,rx,ry,rz]`` or with several
+    data : Measurements, SweepSet, TargetMeasurements, a path (measurement CSV ``q1..qn,x,y,z[,rx,ry,rz]`` or with
+    several
         targets ``q1..qn,x,y,z,x2,y2,z2,...``, sweep CSV, JSON, or a
         recording: one pose per pause of the robot), or joint readings ``q`` (N, n) rad / m with ``points``
         (N, 3) m or ``poses`` (N, 4, 4).
@@ -344,7 +348,8 @@ def protocol_ranges(robot: Robot, ranges) -> np.ndarray:
             )
         if n != 6 or "prismatic" in robot.table.kinds:
             raise DenavitError(
-                f"ranges {ranges!r} are Hayat Table II for a 6-joint revolute robot; {robot.name} needs ({n}, 2) start, end values (rad / m)"
+                f"ranges {ranges!r} are Hayat Table II for a 6-joint revolute robot; {robot.name} needs ({n}, 2) start,"
+                " end values (rad / m)"
             )
         return np.radians(np.array(PAPER_RANGES_DEG[int(key[-2:])]))
     r = floats(ranges, "ranges")

@@ -384,17 +384,22 @@ def _flange(nominal, nom: _core.Model, identified, ide: _core.Model) -> tuple[_c
     # convention's own, and a file saved in another convention would compensate another flange
     canon = canonical_tool(nom, ide, home) @ np.linalg.inv(canonical_tool(nom, nom, home))
     at = "the identified tool point (its covariance is of that point, as the result's own)"
-    return ide.with_tool(np.asarray(ide.T_flange_tool) @ np.linalg.inv(canon)), (
-        f"the nominal {getattr(nominal, 'name', 'model')} has no tool and the identified robot has one ({np.linalg.norm(off) * 1e3:.4g} mm from the "
-        f"flange: the point it was measured at): the flange compensated (the identified flange placed on its last body as the nominal's is), "
-        f"the prediction after it at {at}; give the nominal a tool to compensate tool poses"
+    return (
+        ide.with_tool(np.asarray(ide.T_flange_tool) @ np.linalg.inv(canon)),
+        (
+            f"the nominal {getattr(nominal, 'name', 'model')} has no tool and the identified robot has one"
+            f" ({np.linalg.norm(off) * 1e3:.4g} mm from the flange: the point it was measured at): the flange"
+            " compensated (the identified flange placed on its last body as the nominal's is), the prediction after it"
+            f" at {at}; give the nominal a tool to compensate tool poses"
+        ),
     )
 
 
 def flange_model(nominal, identified) -> _core.Model:
     """The identified model as :func:`compensate` uses it against ``nominal``: as it is, unless the nominal has no tool
     and the identified robot has one farther than :data:`TOOL_FRACTION` of the robot's size (the point identify or
-    calibrate measured): then its flange is its canonical flange (:func:`canonical_tool`) and it has no tool, the same from the
+    calibrate measured): then its flange is its canonical flange (:func:`canonical_tool`) and it has no tool, the same
+    from the
     in-memory result and from every file saved of it. What to export for a controller that takes a corrected model
     (``io.ur_calibration.save``) so that it and a compensation agree."""
     ide = _flange(nominal, _model(nominal, "nominal"), identified, _model(identified, "identified"))[0]
@@ -417,13 +422,15 @@ def flange_model(nominal, identified) -> _core.Model:
 def canonical_tool(nom: _core.Model, ide: _core.Model, home=None) -> np.ndarray:
     """The tool of the identified model ``ide`` in its canonical flange: the flange of its exact ED-H table extracted
     as identify extracts one (frames on the nominal's bodies: the nominal's ED-H frame origins at ``home``, the
-    nominal's home, else zeros, projected on the axes: identify's sweeps start at the nominal's home). Where a table puts its last frame along the last axis (the
+    nominal's home, else zeros, projected on the axes: identify's sweeps start at the nominal's home). Where a table
+    puts its last frame along the last axis (the
     split of d6 and the tool's z, which no measurement of one point tells apart) is each convention's own: a DH
     file, a URDF or a UR kinematics file of one result would each compensate another flange; this one is the same
     for all of them, for the ED-H file identify and calibrate save, and for the in-memory result. A POE model has no
     flange of its own (its home pose ``M``, identify's measured point, is its flange, its tool the identity)."""
     home = np.zeros(nom.nq) if home is None else np.asarray(home, dtype=float)
-    from .identification.frames import origins  # noqa: PLC0415 (identify and its fits load only when an identified tool is compensated)
+    # (identify and its fits load only when an identified tool is compensated)
+    from .identification.frames import origins  # noqa: PLC0415
 
     nt = _core.extract(_core.axes(nom, np.zeros(nom.nq)), "edh").table
     ex = _core.extract(
@@ -523,8 +530,9 @@ def _scaled(q: np.ndarray, scale, reference, theta_scale: np.ndarray) -> np.ndar
     return ref + (q - ref) / (1 + np.asarray(scale, dtype=float)) * (1 + theta_scale)
 
 
-def _unit_screws(P: np.ndarray, kinds) -> np.ndarray:
-    """POE rows ``[w, v]`` made valid screws again: revolute ``|w| = 1``, ``w . v = 0``; prismatic ``w = 0``, ``|v| = 1``."""
+def unit_screws(P: np.ndarray, kinds) -> np.ndarray:
+    """POE rows ``[w, v]`` made valid screws again: revolute ``|w| = 1``, ``w . v = 0``; prismatic ``w = 0``, ``|v| =
+    1``."""
     P = np.array(P, dtype=float)
     for i, k in enumerate(kinds):
         w, v = P[i, :3], P[i, 3:]
@@ -551,7 +559,7 @@ def converted_covariance(robot, table: _core.Table, **extract_options) -> np.nda
     def converted(theta):
         P = theta[:n].reshape(t.params.shape)
         if t.convention == "poe":
-            P = _unit_screws(P, t.kinds)
+            P = unit_screws(P, t.kinds)
         T = np.array(t.T_last_tool)
         T[:3, 3] = theta[n : n + 3]
         m = _core.Table(t.convention, P, t.kinds, t.T_world_base, T).to_model()
@@ -583,8 +591,8 @@ def table_sigma(robot, q) -> np.ndarray:
     )
     if C.shape != (len(theta0), len(theta0)):
         raise DenavitError(
-            f"{robot.name}: covariance of shape {C.shape}, expected ({len(theta0)}, {len(theta0)}) (the table's parameters and the tool's x, y, z"
-            + (", then the reading scales)" if rscale is not None else ")")
+            f"{robot.name}: covariance of shape {C.shape}, expected ({len(theta0)}, {len(theta0)}) (the table's"
+            " parameters and the tool's x, y, z" + (", then the reading scales)" if rscale is not None else ")")
         )
     q = np.atleast_2d(np.asarray(q, dtype=float))
     n = t.params.size
@@ -595,7 +603,7 @@ def table_sigma(robot, q) -> np.ndarray:
         qs = q if rscale is None else _scaled(q, rscale, robot.reading_reference, theta[n + 3 :])
         P = theta[:n].reshape(t.params.shape)
         if t.convention == "poe":  # back onto unit screws (first order: the covariance lies in their tangent space)
-            P = _unit_screws(P, t.kinds)
+            P = unit_screws(P, t.kinds)
         return _core.fk_batch(_core.Table(t.convention, P, t.kinds, t.T_world_base, T).to_model(), qs)[:, :3, 3]
 
     scale = np.sqrt(np.maximum(np.diag(C), 0.0))
@@ -661,8 +669,9 @@ class AccuracyMap:
     def __repr__(self) -> str:
         s = self.summary()
         return (
-            f"AccuracyMap({s['configurations']} configurations: nominal model error rms {s['nominal']['rms'] * 1e3:.4g} mm (max {s['nominal']['max'] * 1e3:.4g}), "
-            f"identified 1 sigma rms {s['identified']['rms'] * 1e3:.4g} mm (max {s['identified']['max'] * 1e3:.4g}))"
+            f"AccuracyMap({s['configurations']} configurations: nominal model error rms {s['nominal']['rms'] * 1e3:.4g}"
+            f" mm (max {s['nominal']['max'] * 1e3:.4g}), identified 1 sigma rms {s['identified']['rms'] * 1e3:.4g} mm"
+            f" (max {s['identified']['max'] * 1e3:.4g}))"
         )
 
     def summary(self) -> dict:

@@ -42,8 +42,10 @@ DataArg = Annotated[
     Path | None,
     typer.Argument(
         metavar="DATA",
-        help="Measurements: CSV 'q1..qn,x,y,z[,rx,ry,rz]' (several targets per pose: 'q1..qn,x,y,z,x2,y2,z2,...'), "
-        "a long-form sweep CSV (with 'joint'), JSON, or a recording.",
+        help=(
+            "Measurements: CSV 'q1..qn,x,y,z[,rx,ry,rz]' (several targets per pose: 'q1..qn,x,y,z,x2,y2,z2,...'), "
+            "a long-form sweep CSV (with 'joint'), JSON, or a recording."
+        ),
     ),
 ]
 
@@ -60,7 +62,10 @@ SaveOpt = Annotated[
     Path | None,
     typer.Option(
         "--save",
-        help="Write the calibrated robot file (.toml, ED-H, with its \\[covariance]: compensate predicts the error after) to this path.",
+        help=(
+            "Write the calibrated robot file (.toml, ED-H, with its \\[covariance]: compensate predicts the error"
+            " after) to this path."
+        ),
     ),
 ]
 
@@ -100,7 +105,10 @@ LengthOpt = Annotated[
     str,
     typer.Option(
         "--length",
-        help="Length unit of what is typed and printed, and of the data where they declare none: mm | m | cm | um | in. JSON stays SI.",
+        help=(
+            "Length unit of what is typed and printed, and of the data where they declare none: mm | m | cm | um | in."
+            " JSON stays SI."
+        ),
     ),
 ]
 
@@ -108,7 +116,10 @@ AngleOpt = Annotated[
     str,
     typer.Option(
         "--angle",
-        help="Angle unit of what is typed and printed, and of the data where they declare none: deg | rad. JSON stays SI.",
+        help=(
+            "Angle unit of what is typed and printed, and of the data where they declare none: deg | rad. JSON"
+            " stays SI."
+        ),
     ),
 ]
 
@@ -118,7 +129,11 @@ ModelOpt = Annotated[
     str,
     typer.Option(
         "--model",
-        help="What is free: auto (chosen by leave-one-pose-out prediction error), base-tool, offsets, full (every identifiable parameter, least squares), full-prior (with the priors), full-prior-no-beta or full-prior-no-last (docs/cli.md)",
+        help=(
+            "What is free: auto (chosen by leave-one-pose-out prediction error), base-tool, offsets, full (every"
+            " identifiable parameter, least squares), full-prior (with the priors), full-prior-no-beta or"
+            " full-prior-no-last (docs/cli.md)"
+        ),
     ),
 ]
 
@@ -126,7 +141,11 @@ PriorOpt = Annotated[
     str | None,
     typer.Option(
         "--prior",
-        help='Prior widths (1 sigma) about the nominal, by kind or parameter name: e.g. "length=1mm, angle=0.1deg, offset=0.1deg, scale=100ppm, a_5=2mm" (these are the defaults; bare numbers in --length / --angle), or none.',
+        help=(
+            'Prior widths (1 sigma) about the nominal, by kind or parameter name: e.g. "length=1mm, angle=0.1deg,'
+            ' offset=0.1deg, scale=100ppm, a_5=2mm" (these are the defaults; bare numbers in --length / --angle), or'
+            " none."
+        ),
     ),
 ]
 
@@ -135,7 +154,10 @@ DataFormatOpt = Annotated[
     str,
     typer.Option(
         "--format",
-        help="measurements (q1..qn,x,y,z CSV, sweep CSV, JSON) | tracker | rtde | rsi | bag | columns | auto (from the content).",
+        help=(
+            "measurements (q1..qn,x,y,z CSV, sweep CSV, JSON) | tracker | rtde | rsi | bag | columns | auto (from the"
+            " content)."
+        ),
     ),
 ]
 
@@ -144,7 +166,12 @@ PayloadOpt = Annotated[
     str | None,
     typer.Option(
         "--payload",
-        help="The payload on the flange for every pose where the data give none (a pose file's payload_mass, payload_x, payload_y, payload_z columns): its mass with a unit (kg, g) and optionally its centre of mass in the flange frame, e.g. \"5 kg @ 0,0,80 mm\" (--length units without one). With a payload the joints' compliance under gravity is a candidate of --model auto (it needs the nominal's link masses).",
+        help=(
+            "The payload on the flange for every pose where the data give none (a pose file's payload_mass, payload_x,"
+            " payload_y, payload_z columns): its mass with a unit (kg, g) and optionally its centre of mass in the"
+            ' flange frame, e.g. "5 kg @ 0,0,80 mm" (--length units without one). With a payload the joints\''
+            " compliance under gravity is a candidate of --model auto (it needs the nominal's link masses)."
+        ),
     ),
 ]
 
@@ -223,7 +250,8 @@ def calibrate(
     tn = parse_tracker_noise(tracker_noise, tracker_position, length, angle)
     if tn is not None and sigma is not None:
         fail(
-            "--noise and --tracker-noise: give one (the tracker's model declares each point's noise shape; its scale is estimated from the residuals)"
+            "--noise and --tracker-noise: give one (the tracker's model declares each point's noise shape; its scale is"
+            " estimated from the residuals)"
         )
     fixes = [f.strip() for f in (fix or "").split(",") if f.strip()]
     from ..calibration.priors import parse_prior  # noqa: PLC0415
@@ -327,15 +355,17 @@ def _refuse_jumps(res, robot, length: str, angle: str) -> None:
         say(
             "yellow",
             "note:",
-            f" {', '.join(f'{name} moves {d / ls:.4g} {length}' for name, d in moves[:4])} from the nominal, more than {FLAG_SIZE:g} of the robot's size "
-            f"({size / ls:.4g} {length}): a calibration moves parameters by millimetres; check for coupled readings (--coupling), the units and the nominal",
+            f" {', '.join(f'{name} moves {d / ls:.4g} {length}' for name, d in moves[:4])} from the nominal, more than"
+            f" {FLAG_SIZE:g} of the robot's size ({size / ls:.4g} {length}): a calibration moves parameters by"
+            " millimetres; check for coupled readings (--coupling), the units and the nominal",
         )
     if jumps:
         worst = ", ".join(f"{name} by {d / ls:.4g} {length}" for name, d in sorted(jumps, key=lambda x: -x[1])[:4])
         raise DenavitError(
-            f"{res.measurements.source}: the calibration moves {len(jumps)} parameter(s) from the nominal {robot.name}'s by more than the robot's size "
-            f"({size / ls:.4g} {length}): {worst}; expected a calibration of this robot (readings coupled, as a Fanuc's J3? declare --coupling "
-            '"q3=r3+r2" or [couplings]; points in another unit? the wrong nominal?)'
+            f"{res.measurements.source}: the calibration moves {len(jumps)} parameter(s) from the nominal"
+            f" {robot.name}'s by more than the robot's size ({size / ls:.4g} {length}): {worst}; expected a calibration"
+            ' of this robot (readings coupled, as a Fanuc\'s J3? declare --coupling "q3=r3+r2" or [couplings]; points'
+            " in another unit? the wrong nominal?)"
         )
 
 
@@ -359,21 +389,26 @@ def print_calibration(res, length: str, angle: str, verbose: bool = False) -> No
         ["parameter", "unit", "nominal", "calibrated", "sigma", "change", "status"],
         rows,
         left=(1, 6),
-        caption="sigma: one standard deviation (covariance of the fit; with priors the posterior's, prior included); change: calibrated - nominal",
+        caption=(
+            "sigma: one standard deviation (covariance of the fit; with priors the posterior's, prior included);"
+            " change: calibrated - nominal"
+        ),
     )
     ana = res.identifiability
     console.print(f"Identifiability: {ana.summary()}")
     structural = [u for u in ana.unidentifiable if u.structural]
     if structural and not verbose:
         console.print(
-            f"Redundant in the {res.convention} parametrisation (held at their start values; reasons with --verbose): {', '.join(u.name for u in structural)}"
+            f"Redundant in the {res.convention} parametrisation (held at their start values; reasons with --verbose):"
+            f" {', '.join(u.name for u in structural)}"
         )
     for u in ana.unidentifiable:
         if verbose or not u.structural:
             say("yellow", "not identifiable:" if not u.structural else "redundant:", f" {u.name}: {u.reason}")
     ls = length_scale(length)
     console.print(
-        f"Residuals: rms {spread(res.rms / ls)} {length} (noise estimate {spread(res.noise / ls)} {length} per coordinate)"
+        f"Residuals: rms {spread(res.rms / ls)} {length} (noise estimate {spread(res.noise / ls)} {length} per"
+        " coordinate)"
         + (f", rotation rms {spread(res.rms_rotation / angle_scale(angle))} {angle}" if meas.kind == "pose" else "")
     )
     if getattr(res, "model_choice", None) is not None:
@@ -381,8 +416,9 @@ def print_calibration(res, length: str, angle: str, verbose: bool = False) -> No
     v = res.validation
     if v is not None:
         console.print(
-            f"Held-out validation ({v.n_test} of {v.n_train + v.n_test} poses): tool-position error rms {spread(v.before_rms / ls)} -> {spread(v.after_rms / ls)} {length}, "
-            f"max {spread(v.before_max / ls)} -> {spread(v.after_max / ls)} {length} (before: nominal geometry with base and tool fitted)"
+            f"Held-out validation ({v.n_test} of {v.n_train + v.n_test} poses): tool-position error rms"
+            f" {spread(v.before_rms / ls)} -> {spread(v.after_rms / ls)} {length}, max {spread(v.before_max / ls)} ->"
+            f" {spread(v.after_max / ls)} {length} (before: nominal geometry with base and tool fitted)"
         )
     for note in res.notes:
         say("yellow", "note:", f" {note}")

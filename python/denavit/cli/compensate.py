@@ -20,8 +20,10 @@ ModelArg = Annotated[
     str,
     typer.Argument(
         metavar="MODEL",
-        help="The controller's model (built-in name, robot file or URDF), then POSITIONS. "
-        "(`POSITIONS --nominal MODEL`: deprecated.)",
+        help=(
+            "The controller's model (built-in name, robot file or URDF), then POSITIONS. "
+            "(`POSITIONS --nominal MODEL`: deprecated.)"
+        ),
     ),
 ]
 
@@ -29,9 +31,11 @@ PositionsArg = Annotated[
     str | None,
     typer.Argument(
         metavar="POSITIONS",
-        help="The program: a CSV of tool poses 'x,y,z,rx,ry,rz' (rotation vector) and/or joint rows 'q1..qn', with a "
-        "'# units:' line; or a robot program (KUKA .src with its .dat, ABB .mod, FANUC .ls, URScript .script), "
-        "written back with only its positions changed.",
+        help=(
+            "The program: a CSV of tool poses 'x,y,z,rx,ry,rz' (rotation vector) and/or joint rows 'q1..qn', with a "
+            "'# units:' line; or a robot program (KUKA .src with its .dat, ABB .mod, FANUC .ls, URScript .script), "
+            "written back with only its positions changed."
+        ),
     ),
 ]
 
@@ -48,7 +52,10 @@ OutputOpt = Annotated[
     typer.Option(
         "-o",
         "--output",
-        help="Write the compensated program (CSV: commands, their joint values, flags, errors before and predicted after per row); '-' for stdout.",
+        help=(
+            "Write the compensated program (CSV: commands, their joint values, flags, errors before and predicted after"
+            " per row); '-' for stdout."
+        ),
     ),
 ]
 
@@ -60,7 +67,10 @@ BranchTolOpt = Annotated[
     float | None,
     typer.Option(
         "--branch-tol",
-        help="Largest joint change from the program's solution that keeps its branch, in --angle (revolute) units (default 0.1 rad = 5.7 deg whatever the unit, as in Python).",
+        help=(
+            "Largest joint change from the program's solution that keeps its branch, in --angle (revolute) units"
+            " (default 0.1 rad = 5.7 deg whatever the unit, as in Python)."
+        ),
     ),
 ]
 
@@ -74,7 +84,11 @@ FrameOpt = Annotated[
     typer.Option(
         "--frame",
         metavar="FRAME",
-        help="A numbered frame a robot program uses that lives in the controller: 'tool N=X,Y,Z,R1,R2,R3' or 'base N=...' (FANUC UT / UF, KUKA TOOL_DATA / BASE_DATA), mm and degrees in the program's own convention (KUKA A,B,C; FANUC W,P,R); repeatable.",
+        help=(
+            "A numbered frame a robot program uses that lives in the controller: 'tool N=X,Y,Z,R1,R2,R3' or 'base"
+            " N=...' (FANUC UT / UF, KUKA TOOL_DATA / BASE_DATA), mm and degrees in the program's own convention (KUKA"
+            " A,B,C; FANUC W,P,R); repeatable."
+        ),
     ),
 ]
 
@@ -82,7 +96,11 @@ Q0Opt = Annotated[
     str | None,
     typer.Option(
         "--q0",
-        help="Rows without a configuration (poses without joint columns) are compensated on the nominal's solution nearest this, one value per joint in --angle units (prismatic: --length); default the nominal's home, else zeros.",
+        help=(
+            "Rows without a configuration (poses without joint columns) are compensated on the nominal's solution"
+            " nearest this, one value per joint in --angle units (prismatic: --length); default the nominal's home,"
+            " else zeros."
+        ),
     ),
 ]
 
@@ -90,10 +108,12 @@ PayloadOpt = Annotated[
     str | None,
     typer.Option(
         "--payload",
-        help="The payload on the flange for every row: its mass with a unit (kg, g) and optionally its centre of mass "
-        'in the flange frame, e.g. "5 kg @ 0,0,80 mm" (--length units without one). With an identified robot of '
-        "compliant joints (a robot file's [compliance]) the commands are those that deflect onto the positions "
-        "under it.",
+        help=(
+            "The payload on the flange for every row: its mass with a unit (kg, g) and optionally its centre of mass "
+            'in the flange frame, e.g. "5 kg @ 0,0,80 mm" (--length units without one). With an identified robot of '
+            "compliant joints (a robot file's [compliance]) the commands are those that deflect onto the positions "
+            "under it."
+        ),
     ),
 ]
 
@@ -339,7 +359,8 @@ def _print_summary(c, prog, nom_robot, id_robot, summary, flagged, before_rms, p
         f" (over the {int(c.ok.sum())} rows that can be sent: the {len(flagged)} flagged left out)" if flagged else ""
     )
     gain = (
-        f"; error without compensation {spread(before_rms / ls)} {length} RMS, max {spread(summary['before_max_m'] / ls)} {length}{left_out}"
+        f"; error without compensation {spread(before_rms / ls)} {length} RMS, max"
+        f" {spread(summary['before_max_m'] / ls)} {length}{left_out}"
         if c.ok.any()
         else "; no position can be sent (is the identified robot a calibration of the nominal?)"
     )
@@ -351,9 +372,10 @@ def _print_summary(c, prog, nom_robot, id_robot, summary, flagged, before_rms, p
         say(
             "yellow",
             "configuration:",
-            f" {int(c.assumed.sum())} of {len(c)} rows had none (no joint columns): each compensated on the nominal's solution "
-            f"nearest --q0 ({', '.join(f'{v:.6g}' for v in q0v / js)} {angle}); that configuration is each row's q1..q{len(kinds)} "
-            "('configuration' per row in --json). Give the program's joint values as q columns to keep its own",
+            f" {int(c.assumed.sum())} of {len(c)} rows had none (no joint columns): each compensated on the nominal's"
+            f" solution nearest --q0 ({', '.join(f'{v:.6g}' for v in q0v / js)} {angle}); that configuration is each"
+            f" row's q1..q{len(kinds)} ('configuration' per row in --json). Give the program's joint values as q"
+            " columns to keep its own",
         )
     if predicted is not None and c.ok.any():
         say(
@@ -425,15 +447,19 @@ def _compensate_program(
     if output:
         if output == "-" and len(prog.sources) > 1:
             raise DenavitError(
-                f"-o -: {path} is a program of {len(prog.sources)} files ({', '.join(Path(s.path).name for s in prog.sources)}): expected a path"
+                f"-o -: {path} is a program of {len(prog.sources)} files"
+                f" ({', '.join(Path(s.path).name for s in prog.sources)}): expected a path"
             )
         written = pg.write_program(prog, output, pc.new_values)
         for w in written:
             wrote(
                 w,
-                f" ({len(pc.new_values)} of {len(prog.points)} positions compensated, {len(pc.left)} left as they were)"
-                if w == written[0]
-                else "",
+                (
+                    f" ({len(pc.new_values)} of {len(prog.points)} positions compensated, {len(pc.left)} left as they"
+                    " were)"
+                    if w == written[0]
+                    else ""
+                ),
             )
     ok = c.ok if c is not None else np.zeros(0, dtype=bool)
     ls = length_scale(length)
@@ -454,9 +480,9 @@ def _compensate_program(
                 "name": prog.points[k].name,
                 "kind": prog.points[k].kind,
                 "configuration": {
-                    "source": "program"
-                    if prog.points[k].config is not None or prog.points[k].kind == "joints"
-                    else "assumed",
+                    "source": (
+                        "program" if prog.points[k].config is not None or prog.points[k].kind == "joints" else "assumed"
+                    ),
                     "stated": None if prog.points[k].config is None else prog.vendor.describe(prog.points[k].config),
                     "q": [float(v) for v in pc.q_program[i]],
                 },
@@ -477,7 +503,8 @@ def _compensate_program(
         say(
             "bold",
             f"{nom_robot.name} -> {id_robot.name}:",
-            f" {len(prog.points)} positions ({fmt}), {len(pc.new_values)} compensated, {len(pc.left)} left as they were{gain}",
+            f" {len(prog.points)} positions ({fmt}), {len(pc.new_values)} compensated, {len(pc.left)} left as they"
+            f" were{gain}",
         )
         for w, why in pc.left[:20]:
             console.print(f"  {w}: {why}")

@@ -40,7 +40,10 @@ class Positions:
 
     def __repr__(self) -> str:
         what = " and ".join(w for w, a in (("poses", self.poses), ("joint rows", self.q)) if a is not None)
-        return f"Positions({len(self.where)} rows of {what}, file units {' '.join(f'{k}={v}' for k, v in self.units.items())})"
+        return (
+            f"Positions({len(self.where)} rows of {what}, file units"
+            f" {' '.join(f'{k}={v}' for k, v in self.units.items())})"
+        )
 
 
 def read_positions(path: str | os.PathLike, kinds, *, length: str | None = None, angle: str | None = None) -> Positions:
@@ -67,7 +70,8 @@ def read_positions(path: str | os.PathLike, kinds, *, length: str | None = None,
         or (any(c in cols for c in qcols) and not has_q)
     ):
         raise DenavitError(
-            f"{where}:{hline}: header must be 'x,y,z,rx,ry,rz' and/or 'q1,...,q{n}' ({n} joints), got {','.join(hcells)[:200]!r}"
+            f"{where}:{hline}: header must be 'x,y,z,rx,ry,rz' and/or 'q1,...,q{n}' ({n} joints), got"
+            f" {','.join(hcells)[:200]!r}"
         )
     if len(data) < 2:
         raise DenavitError(f"{where}: no rows after the header")
@@ -111,8 +115,10 @@ def write_compensated(
     ``branch_changed``, ``path_jump`` (0/1), ``before`` (the position error the robot makes without compensation,
     by the identified model), ``residual`` (of the identified solve) and, when ``predicted_after`` (N,) is given
     (or the compensation has it), ``predicted_after`` (the predicted position error after compensation, 1 sigma,
-    from the identified parameters' covariance), in the length unit (a ``# columns:`` line says so). Whole or not at all;
-    ``force``: replace a read-only file, write through one with several hard links (:func:`denavit.io.output.write_text`).
+    from the identified parameters' covariance), in the length unit (a ``# columns:`` line says so). Whole or not at
+    all;
+    ``force``: replace a read-only file, write through one with several hard links
+    (:func:`denavit.io.output.write_text`).
     Rows that came without a configuration (``comp.assumed``) are said on the first comment line: their q1..qn are
     on the nominal's solution nearest ``q0`` (SI, for the line)."""
     ls, as_ = length_scale(length), angle_scale(angle)
@@ -136,17 +142,25 @@ def write_compensated(
         which = (
             "every row"
             if assumed.all()
-            else f"{int(assumed.sum())} rows ({', '.join(str(k + 1) for k in np.flatnonzero(assumed)[:20])}{' ...' if assumed.sum() > 20 else ''})"
+            else (
+                f"{int(assumed.sum())} rows"
+                f" ({', '.join(str(k + 1) for k in np.flatnonzero(assumed)[:20])}"
+                f"{' ...' if assumed.sum() > 20 else ''})"
+            )
         )
-        comment = (f"{comment}; " if comment else "") + (
-            f"configuration: {which} without one in the program: assumed the nominal's solution nearest q0{at}, "
+        comment = (
+            (f"{comment}; " if comment else "")
+            + f"configuration: {which} without one in the program: assumed the nominal's solution nearest q0{at}, "
             f"the branch of the row's q1..q{n}"
         )
     out = [f"# {comment}"] if comment else []
     out += [
         f"# units: length={length} angle={angle}",
-        f"# columns: x,y,z {length}, rx,ry,rz (rotation vector) {angle}, q1..q{n} in {angle} (revolute) / {length} (prismatic); "
-        f"before, residual{', predicted_after (1 sigma)' if pred is not None else ''}: tool-position errors in {length}",
+        (
+            f"# columns: x,y,z {length}, rx,ry,rz (rotation vector) {angle}, q1..q{n} in {angle} (revolute) / {length}"
+            f" (prismatic); before, residual{', predicted_after (1 sigma)' if pred is not None else ''}: tool-position"
+            f" errors in {length}"
+        ),
     ]
     out.append(",".join(head))
     rv = matrix_rotvec(comp.commands[:, :3, :3]) / as_

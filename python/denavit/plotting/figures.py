@@ -329,7 +329,8 @@ def plot_origin_paths(
         ax.legend(loc="upper left", fontsize=7)
     fig.suptitle(
         title
-        or f"Frame origins while joint {joint} moves from {limits[0] / sc:.4g} to {limits[1] / sc:.4g} {unit} (Guo et al. Fig. 3)",
+        or f"Frame origins while joint {joint} moves from {limits[0] / sc:.4g} to {limits[1] / sc:.4g} {unit}"
+        " (Guo et al. Fig. 3)",
         fontsize=11,
     )
     return fig

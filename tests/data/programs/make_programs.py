@@ -103,24 +103,30 @@ def kuka_programs():
             if i % 4 == 0:
                 a = np.degrees(q * kuka.signs(r))
                 dat.append(
-                    f"DECL E6AXIS XP{i}={{A1 {a[0]:.5f},A2 {a[1]:.5f},A3 {a[2]:.5f},A4 {a[3]:.5f},A5 {a[4]:.5f},A6 {a[5]:.5f},E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0}}"
+                    f"DECL E6AXIS XP{i}={{A1 {a[0]:.5f},A2 {a[1]:.5f},A3 {a[2]:.5f},A4 {a[3]:.5f},A5 {a[4]:.5f},A6"
+                    f" {a[5]:.5f},E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0}}"
                 )
             else:
                 p, abc = T[:3, 3] * 1e3, np.degrees(matrix_zyx(T[:3, :3]))
                 dat.append(
-                    f"DECL E6POS XP{i}={{X {p[0]:.4f},Y {p[1]:.4f},Z {p[2]:.4f},A {abc[0]:.4f},B {abc[1]:.4f},C {abc[2]:.4f},S {S},T {Tt},"
-                    "E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0}"
+                    f"DECL E6POS XP{i}={{X {p[0]:.4f},Y {p[1]:.4f},Z {p[2]:.4f},A {abc[0]:.4f},B {abc[1]:.4f},C"
+                    f" {abc[2]:.4f},S {S},T {Tt},E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0}}"
                 )
             dat.append(
                 f'DECL FDAT FP{i}={{TOOL_NO {tool_no},BASE_NO {tool_no},IPO_FRAME #BASE,POINT2[] " ",TQ_STATE FALSE}}'
             )
             dat.append(
-                f"DECL {'P' if i % 2 else 'L'}DAT {'P' if i % 2 else 'L'}PDAT{i}={{VEL {'100.0' if i % 2 else '2.0'},ACC 100.0,APO_DIST 100.0,APO_MODE #CDIS}}"
+                f"DECL {'P' if i % 2 else 'L'}DAT {'P' if i % 2 else 'L'}PDAT{i}={{VEL"
+                f" {'100.0' if i % 2 else '2.0'},ACC 100.0,APO_DIST 100.0,APO_MODE #CDIS}}"
             )
             motion = "PTP" if i % 2 or i % 4 == 0 else "LIN"
             src += [
-                f";FOLD {motion} P{i} CONT Vel={'100 %' if motion == 'PTP' else '2 m/s'} {'P' if i % 2 else 'L'}PDAT{i} Tool[{tool_no}] Base[{tool_no}];%{{PE}}"
-                f"%R 8.3.44,%MKUKATPBASIS,%CMOVE,%V{motion},%P 1:{motion}, 2:P{i}, 3:C_DIS, 5:100, 7:{'P' if i % 2 else 'L'}PDAT{i}",
+                (
+                    f";FOLD {motion} P{i} CONT Vel={'100 %' if motion == 'PTP' else '2 m/s'}"
+                    f" {'P' if i % 2 else 'L'}PDAT{i} Tool[{tool_no}] Base[{tool_no}];%{{PE}}%R"
+                    f" 8.3.44,%MKUKATPBASIS,%CMOVE,%V{motion},%P 1:{motion}, 2:P{i}, 3:C_DIS, 5:100,"
+                    f" 7:{'P' if i % 2 else 'L'}PDAT{i}"
+                ),
                 "$BWDSTART=FALSE",
                 f"{'P' if i % 2 else 'L'}DAT_ACT={'P' if i % 2 else 'L'}PDAT{i}",
                 f"FDAT_ACT=FP{i}",
@@ -156,8 +162,14 @@ def kuka_programs():
                         "DEFDAT  $CONFIG",
                         "",
                         ";FOLD TOOL/BASE DATA (an excerpt: the frames kr5_tool uses)",
-                        f"TOOL_DATA[1]={{X {tool[0, 3] * 1e3:.3f},Y {tool[1, 3] * 1e3:.3f},Z {tool[2, 3] * 1e3:.3f},A {t_abc[0]:.4f},B {t_abc[1]:.4f},C {t_abc[2]:.4f}}}",
-                        f"BASE_DATA[1]={{X {base[0, 3] * 1e3:.3f},Y {base[1, 3] * 1e3:.3f},Z {base[2, 3] * 1e3:.3f},A {b_abc[0]:.4f},B {b_abc[1]:.4f},C {b_abc[2]:.4f}}}",
+                        (
+                            f"TOOL_DATA[1]={{X {tool[0, 3] * 1e3:.3f},Y {tool[1, 3] * 1e3:.3f},Z"
+                            f" {tool[2, 3] * 1e3:.3f},A {t_abc[0]:.4f},B {t_abc[1]:.4f},C {t_abc[2]:.4f}}}"
+                        ),
+                        (
+                            f"BASE_DATA[1]={{X {base[0, 3] * 1e3:.3f},Y {base[1, 3] * 1e3:.3f},Z"
+                            f" {base[2, 3] * 1e3:.3f},A {b_abc[0]:.4f},B {b_abc[1]:.4f},C {b_abc[2]:.4f}}}"
+                        ),
                         ";ENDFOLD",
                         "",
                         "ENDDAT",
@@ -187,10 +199,18 @@ def abb_program():
         "",
         "MODULE DemoKR5",
         "  ! positions over the KR5's workspace, see README.md",
-        f"  PERS tooldata tGripper:=[TRUE,[[{tool[0, 3] * 1e3:.1f},{tool[1, 3] * 1e3:.1f},{tool[2, 3] * 1e3:.1f}],[{tq[0]:.7f},{tq[1]:.7f},{tq[2]:.7f},{tq[3]:.7f}]],"
-        "[1.5,[0,0,80],[1,0,0,0],0,0,0]];",
-        f'  TASK PERS wobjdata wTable:=[FALSE,TRUE,"",[[{wobj[0, 3] * 1e3:.1f},{wobj[1, 3] * 1e3:.1f},{wobj[2, 3] * 1e3:.1f}],[{wq[0]:.7f},{wq[1]:.7f},{wq[2]:.7f},{wq[3]:.7f}]],'
-        "[[0,0,0],[1,0,0,0]]];",
+        (
+            "  PERS tooldata"
+            f" tGripper:=[TRUE,[[{tool[0, 3] * 1e3:.1f},{tool[1, 3] * 1e3:.1f},{tool[2, 3] * 1e3:.1f}],[{tq[0]:.7f}"
+            f",{tq[1]:.7f},{tq[2]:.7f},{tq[3]:.7f}]],"
+            "[1.5,[0,0,80],[1,0,0,0],0,0,0]];"
+        ),
+        (
+            "  TASK PERS wobjdata"
+            f' wTable:=[FALSE,TRUE,"",[[{wobj[0, 3] * 1e3:.1f},{wobj[1, 3] * 1e3:.1f},{wobj[2, 3] * 1e3:.1f}'
+            f"],[{wq[0]:.7f},{wq[1]:.7f},{wq[2]:.7f},{wq[3]:.7f}]],"
+            "[[0,0,0],[1,0,0,0]]];"
+        ),
     ]
     body = ["", "  PROC main()", "    ConfJ \\On;", "    ConfL \\On;"]
     for i, q in enumerate(Q, 1):
@@ -200,12 +220,17 @@ def abb_program():
         if use_tool:
             T = np.linalg.inv(wobj) @ T
         p, qu = T[:3, 3] * 1e3, matrix_quaternion(T[:3, :3])
-        lit = f"[[{p[0]:.2f},{p[1]:.2f},{p[2]:.2f}],[{qu[0]:.8f},{qu[1]:.8f},{qu[2]:.8f},{qu[3]:.8f}],[{cf[0]},{cf[1]},{cf[2]},{cf[3]}],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]]"
+        lit = (
+            f"[[{p[0]:.2f},{p[1]:.2f},{p[2]:.2f}],[{qu[0]:.8f},{qu[1]:.8f},{qu[2]:.8f},{qu[3]:.8f}],"
+            f"[{cf[0]},{cf[1]},{cf[2]},{cf[3]}],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]]"
+        )
         frames = "tGripper\\WObj:=wTable" if use_tool else "tool0"
         if i % 5 == 0:
             a = np.degrees(q)
             lines.append(
-                f"  CONST jointtarget jpos{i}:=[[{a[0]:.4f},{a[1]:.4f},{a[2]:.4f},{a[3]:.4f},{a[4]:.4f},{a[5]:.4f}],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]];"
+                "  CONST jointtarget"
+                f" jpos{i}:=[[{a[0]:.4f},{a[1]:.4f},{a[2]:.4f},{a[3]:.4f},{a[4]:.4f},{a[5]:.4f}"
+                f"],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]];"
             )
             body.append(f"    MoveAbsJ jpos{i}\\NoEOffs, v1000, z50, {frames};")
         elif i % 4 == 0:
@@ -213,7 +238,8 @@ def abb_program():
         else:
             lines.append(f"  CONST robtarget p{i * 10}:={lit};")
             body.append(
-                f"    Move{'J' if i % 2 else 'L'} p{i * 10}, v{'1000' if i % 2 else '500'}, {'z50' if i % 2 else 'fine'}, {frames};"
+                f"    Move{'J' if i % 2 else 'L'} p{i * 10}, v{'1000' if i % 2 else '500'},"
+                f" {'z50' if i % 2 else 'fine'}, {frames};"
             )
     body += ["  ENDPROC", "ENDMODULE", ""]
     d = HERE / "abb"
@@ -229,7 +255,8 @@ def fanuc_program():
     mn, pos = [], []
     for i, q in enumerate(Q, 1):
         mn.append(
-            f"{i:4d}:{'J' if i % 2 else 'L'} P[{i}] {'100%' if i % 2 else '500mm/sec'} {'FINE' if i % 3 == 0 else 'CNT100'}    ;"
+            f"{i:4d}:{'J' if i % 2 else 'L'} P[{i}] {'100%' if i % 2 else '500mm/sec'}"
+            f" {'FINE' if i % 3 == 0 else 'CNT100'}    ;"
         )
         if i % 4 == 0:
             a = np.degrees(q)

@@ -1,4 +1,5 @@
-"""Robot programs in controller languages: read, compensate, write back the same program with only its positions changed.
+"""Robot programs in controller languages: read, compensate, write back the same program with only its positions
+changed.
 
 One module per vendor: :mod:`.kuka` (KRL ``.src`` / ``.dat`` pairs), :mod:`.abb` (RAPID ``.mod``), :mod:`.fanuc`
 (TP ``.ls``), :mod:`.urscript` (URScript ``.script``). Each reads a program into a :class:`Program`: its texts, as
@@ -109,7 +110,10 @@ class Program:
 
     def __repr__(self) -> str:
         kinds = {k: sum(p.kind == k for p in self.points) for k in ("pose", "joints")}
-        return f"Program({self.format}, {', '.join(s.path for s in self.sources)}: {kinds['pose']} poses, {kinds['joints']} joint positions)"
+        return (
+            f"Program({self.format}, {', '.join(s.path for s in self.sources)}: {kinds['pose']} poses,"
+            f" {kinds['joints']} joint positions)"
+        )
 
 
 def vendor(fmt: str):
@@ -250,7 +254,8 @@ def write_program(program: Program, output: str | os.PathLike, new_values: dict,
     for p, src in zip(paths, program.sources, strict=True):
         if Path(p).resolve() == Path(src.path).resolve():
             raise DenavitError(
-                f"{p}: is the program read; write the compensated program to another path (input files are never modified)"
+                f"{p}: is the program read; write the compensated program to another path (input files are never"
+                " modified)"
             )
     for p, b in zip(paths, data, strict=True):
         with atomic_path(p, force=force) as tmp:
@@ -524,8 +529,9 @@ def compensate_program(
                 q = configuration_solution(v, model, p, Tf, q_prev, cache)
             if q is None:
                 raise DenavitError(
-                    f"{p.where}: {p.name}: {v.describe(p.config) if p.config is not None else 'the pose'} is not reachable on the nominal "
-                    f"{getattr(nominal, 'name', 'model')} (expected a pose its configuration reaches within the joint limits)"
+                    f"{p.where}: {p.name}: {v.describe(p.config) if p.config is not None else 'the pose'} is not"
+                    f" reachable on the nominal {getattr(nominal, 'name', 'model')} (expected a pose its configuration"
+                    " reaches within the joint limits)"
                 )
         rows.append(k)
         positions.append(Tf)
@@ -608,7 +614,8 @@ def _robot(r):
         return load(r)
     if not hasattr(r, "table"):
         raise DenavitError(
-            f"nominal: expected a Robot, a built-in name or a robot file (the program's axis senses and frames need its table), got {type(r).__name__}"
+            "nominal: expected a Robot, a built-in name or a robot file (the program's axis senses and frames need its"
+            f" table), got {type(r).__name__}"
         )
     return r
 

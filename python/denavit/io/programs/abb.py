@@ -236,7 +236,8 @@ def read(path, robot, *, frames: dict) -> Program:
         n_targets = 2 if instr.upper().startswith("MOVEC") else 1
         if len(args) < n_targets + 3:
             raise DenavitError(
-                f"{where}: {instr}: expected {'CirPoint, ToPoint' if n_targets == 2 else 'ToPoint'}, Speed, Zone, Tool; got {len(args)} arguments"
+                f"{where}: {instr}: expected {'CirPoint, ToPoint' if n_targets == 2 else 'ToPoint'}, Speed, Zone, Tool;"
+                f" got {len(args)} arguments"
             )
         tool_arg = clean[args[n_targets + 2][0] : args[n_targets + 2][1]]
         tool_name = re.match(r"\s*(\w+)", tool_arg)
@@ -286,8 +287,8 @@ def _lookup(table: dict, name: str, what: str, where: str) -> np.ndarray:
     v = table.get(name.upper())
     if v is None:
         raise DenavitError(
-            f"{where}: {what} {name} is not declared in the module: unsupported (expected it declared in the program module, or "
-            f"{'tool0' if what == 'tooldata' else 'wobj0'})"
+            f"{where}: {what} {name} is not declared in the module: unsupported (expected it declared in the program"
+            f" module, or {'tool0' if what == 'tooldata' else 'wobj0'})"
         )
     if isinstance(v, tuple):
         kind, at = v

@@ -63,7 +63,8 @@ def read(path, robot, *, frames: dict) -> Program:
     for m in re.finditer(r"(?m)^/(\w+)", text):
         if m.group(1).upper() not in ("PROG", "ATTR", "APPL", "MN", "POS", "END", "APPL_DATA"):
             raise DenavitError(
-                f"{src.where(m.start())}: unknown section /{m.group(1)} (expected /PROG, /ATTR, /APPL, /MN, /POS or /END)"
+                f"{src.where(m.start())}: unknown section /{m.group(1)} (expected /PROG, /ATTR, /APPL, /MN, /POS or"
+                " /END)"
             )
     pos = re.search(r"(?m)^/POS\s*$", text)
     points: list[Point] = []
@@ -73,7 +74,8 @@ def read(path, robot, *, frames: dict) -> Program:
     if mn:
         for m in re.finditer(r"\bPR\[(\d+)", mn.group(1)):
             notes.append(
-                f"{src.where(mn.start(1) + m.start())}: PR[{m.group(1)}]: a position register (in the controller, not the program): not compensated"
+                f"{src.where(mn.start(1) + m.start())}: PR[{m.group(1)}]: a position register (in the controller, not"
+                " the program): not compensated"
             )
     if not pos:
         return Program("fanuc", [src], points, notes)
@@ -128,8 +130,10 @@ def read(path, robot, *, frames: dict) -> Program:
             if k:
                 if (kind, k) not in frames:
                     raise DenavitError(
-                        f"{where}: {name}: {'UF' if kind == 'base' else 'UT'} : {k} is the controller's {'user' if kind == 'base' else 'tool'} frame {k} "
-                        f"(not in the program, not given): unsupported (expected --frame '{kind} {k}=X,Y,Z,W,P,R', or {'UF' if kind == 'base' else 'UT'} : 0)"
+                        f"{where}: {name}: {'UF' if kind == 'base' else 'UT'} : {k} is the controller's"
+                        f" {'user' if kind == 'base' else 'tool'} frame {k} (not in the program, not given):"
+                        f" unsupported (expected --frame '{kind} {k}=X,Y,Z,W,P,R', or"
+                        f" {'UF' if kind == 'base' else 'UT'} : 0)"
                     )
                 setattr(pt, kind, frames[(kind, k)])
         points.append(pt)

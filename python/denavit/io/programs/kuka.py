@@ -39,7 +39,8 @@ beside the program, else of ``frames``; else a one-line error (unsupported, neve
 
 Supported subset: DEFDAT data lists of the standard types (INT, REAL, BOOL, CHAR, FRAME, POS, E6POS, AXIS, E6AXIS,
 FDAT, PDAT, LDAT, SIGNAL, STRUC, ENUM and the types they declare); positions declared in the ``.dat`` (in the frames
-of the motion or FDAT that uses them; one neither uses is left as it is and listed) and inline aggregates of motion instructions in the ``.src`` (``PTP {A1 ...}``, ``LIN {X ...}``).
+of the motion or FDAT that uses them; one neither uses is left as it is and listed) and inline aggregates of motion
+instructions in the ``.src`` (``PTP {A1 ...}``, ``LIN {X ...}``).
 Relative motions (``PTP_REL``, ``LIN_REL``) are listed, not compensated. Positions declared elsewhere (``XHOME``
 in ``$config.dat``) are not part of the program: noted.
 """
@@ -156,10 +157,12 @@ def read(path, robot, *, frames: dict) -> Program:
     text = dat.text
     if not re.search(r"(?im)^\s*DEFDAT\s+\w+", text):
         raise DenavitError(
-            f"{dat.path}:1: expected 'DEFDAT name' (a KRL data list), got {text.strip().splitlines()[0][:60] if text.strip() else 'an empty file'!r}"
+            f"{dat.path}:1: expected 'DEFDAT name' (a KRL data list), got"
+            f" {text.strip().splitlines()[0][:60] if text.strip() else 'an empty file'!r}"
         )
     for m in re.finditer(
-        r"(?im)^[ \t]*(DECL[ \t]+)?(GLOBAL[ \t]+)?(CONST[ \t]+)?([A-Za-z_$]\w*)[ \t]+([A-Za-z_$]\w*(?:\[[^\]]*\])?)[ \t]*(=[ \t]*(\{[^}\n]*\}|[^;\n]*))?",
+        r"(?im)^[ \t]*(DECL[ \t]+)?(GLOBAL[ \t]+)?(CONST[ \t]+)?([A-Za-z_$]\w*)[ \t]+([A-Za-z_$]\w*(?:\[[^\]]*\])?)["
+        r" \t]*(=[ \t]*(\{[^}\n]*\}|[^;\n]*))?",
         text,
     ):
         decl, typ, name = m.group(1), m.group(4).upper(), m.group(5)
@@ -182,7 +185,8 @@ def read(path, robot, *, frames: dict) -> Program:
         where = dat.where(m.start())
         if typ not in known:
             raise DenavitError(
-                f"{where}: unknown declaration type {m.group(4)!r} (expected one of {', '.join(sorted(KNOWN))} or a STRUC/ENUM declared in the program)"
+                f"{where}: unknown declaration type {m.group(4)!r} (expected one of {', '.join(sorted(KNOWN))} or a"
+                " STRUC/ENUM declared in the program)"
             )
         if typ in ("POS", "E6POS", "AXIS", "E6AXIS", "FDAT"):
             if not m.group(7) or not m.group(7).startswith("{"):
@@ -211,7 +215,8 @@ def read(path, robot, *, frames: dict) -> Program:
                 num = int(k.group(2)) if k else None
                 if num is None and value.upper() not in ("$NULLFRAME", "NULLFRAME"):
                     raise DenavitError(
-                        f"{where}: ${kind.upper()} = {value[:40]}: unsupported (expected a literal frame, TOOL_DATA[k] / BASE_DATA[k] or $NULLFRAME)"
+                        f"{where}: ${kind.upper()} = {value[:40]}: unsupported (expected a literal frame, TOOL_DATA[k]"
+                        " / BASE_DATA[k] or $NULLFRAME)"
                     )
                 cur[kind] = np.eye(4) if not num else _numbered(numbered, kind, num, where)
             continue
@@ -235,7 +240,8 @@ def read(path, robot, *, frames: dict) -> Program:
                 typ = "E6POS" if "X" in agg else "E6AXIS"
                 if not all(k in agg for k in (POSE_KEYS if typ == "E6POS" else AXIS_KEYS)):
                     notes.append(
-                        f"{where}: {instr} {tok[:40]}: a partial aggregate (some coordinates taken from the previous position): not compensated"
+                        f"{where}: {instr} {tok[:40]}: a partial aggregate (some coordinates taken from the previous"
+                        " position): not compensated"
                     )
                     continue
                 pt = _point(src, 0, f"{instr} (inline)", typ, agg, where)
@@ -261,7 +267,8 @@ def read(path, robot, *, frames: dict) -> Program:
     for name, uses in used.items():
         if not any(p.name.upper() == name for p in points):
             notes.append(
-                f"{uses[0][0]}: {name}: not declared in {dat.path} (e.g. $config.dat's XHOME): not part of the program, not compensated"
+                f"{uses[0][0]}: {name}: not declared in {dat.path} (e.g. $config.dat's XHOME): not part of the program,"
+                " not compensated"
             )
     return Program("kuka", [src, dat], points, notes)
 
@@ -271,8 +278,9 @@ def _numbered(numbered: dict, kind: str, num: int, where: str) -> np.ndarray:
         return numbered[(kind, num)]
     data = "TOOL_DATA" if kind == "tool" else "BASE_DATA"
     raise DenavitError(
-        f"{where}: {kind.upper()} {num} is the controller's {data}[{num}] (in its $config.dat, not beside the program, nor given): unsupported "
-        f"(expected a $config.dat beside the program declaring {data}[{num}], --frame '{kind} {num}=X,Y,Z,A,B,C', or {kind} 0)"
+        f"{where}: {kind.upper()} {num} is the controller's {data}[{num}] (in its $config.dat, not beside the program,"
+        f" nor given): unsupported (expected a $config.dat beside the program declaring {data}[{num}], --frame '{kind}"
+        f" {num}=X,Y,Z,A,B,C', or {kind} 0)"
     )
 
 

@@ -74,7 +74,8 @@ def _literal_point(src, clean: str, m: re.Match, name: str, where: str, n: int) 
     ]
     if len(nums) != (6 if pose else n):
         raise DenavitError(
-            f"{where}: {name}: expected {'p[x, y, z, rx, ry, rz]' if pose else f'{n} joint values'}, got {len(nums)} values"
+            f"{where}: {name}: expected {'p[x, y, z, rx, ry, rz]' if pose else f'{n} joint values'}, got {len(nums)}"
+            " values"
         )
     return Point(name, where, "pose" if pose else "joints", nums)
 
@@ -125,7 +126,8 @@ def read(path, robot, *, frames: dict) -> Program:
                 lit = variables[arg][0][0]
             if lit is None or lit.group(1) != "p":
                 raise DenavitError(
-                    f"{where}: set_tcp({arg[:40]}): unsupported (expected a literal pose p[...] or a variable assigned one once)"
+                    f"{where}: set_tcp({arg[:40]}): unsupported (expected a literal pose p[...] or a variable assigned"
+                    " one once)"
                 )
             v = [float(x) for x in re.findall(_NUMBER, lit.group(2))]
             tcp = pose_matrix(np.array(v[:3]), rotvec_matrix(np.array(v[3:])[None])[0])
