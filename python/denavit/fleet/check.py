@@ -104,18 +104,20 @@ def _parameters(robot) -> tuple[np.ndarray, np.ndarray]:
 def tool_points(robot, theta: np.ndarray, readings: np.ndarray) -> np.ndarray:
     """(N, 3) tool points (m, world) of ``robot`` with its parameters replaced by ``theta`` (the covariance's order)
     at the controller's ``readings`` (N, n)."""
-    from ..compensation import _scaled, _unit_screws  # noqa: PLC0415 (table_sigma's parameter map, shared)
+    from ..compensation import unit_screws  # noqa: PLC0415 (table_sigma's parameter map, shared)
+    from ..robot import joint_values  # noqa: PLC0415
 
     t = robot.table
     n = t.params.size
     T = np.array(t.T_last_tool)
     T[:3, 3] = theta[n : n + 3]
-    q = robot.joint_values(readings)
     if robot.reading_scale is not None:  # the scales as theta has them, the readings fixed
-        q = _scaled(q, robot.reading_scale, robot.reading_reference, theta[n + 3 :])
+        q = joint_values(readings, robot.coupling, theta[n + 3 :], robot.reading_reference)
+    else:
+        q = robot.joint_values(readings)
     P = theta[:n].reshape(t.params.shape)
     if t.convention == "poe":
-        P = _unit_screws(P, t.kinds)
+        P = unit_screws(P, t.kinds)
     return _core.fk_batch(_core.Table(t.convention, P, t.kinds, t.T_world_base, T).to_model(), q)[:, :3, 3]
 
 
