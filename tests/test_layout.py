@@ -99,7 +99,7 @@ def test_no_rust_source_file_is_over_800_lines():
 #: (io/: every file, format and unit); what presents results (reports, figures); the front door (api); fleets of
 #: jobs on the api; the command line on top. The package's own ``__init__`` (lazy names) stands outside.
 PY_LAYERS = [
-    ("_core", "errors", "geometry", "progress", "data", "models"),
+    ("_core", "errors", "geometry", "message", "progress", "data", "models"),
     ("robot", "limits", "sweeps", "fitting", "identification", "calibration", "compensation", "recording"),
     ("io",),
     ("report", "plotting"),

@@ -49,3 +49,22 @@ def test_the_command_lines_status_shows_a_percentage_on_a_terminal_and_in_a_log(
         st.update("sweep 5 of 6", np.float64(0.7))  # (or the fraction given beside a plain message)
         time.sleep(0.3)
     assert "fitting sweep 5 of 6 (70 %)" in log.getvalue(), log.getvalue()
+
+
+def test_identify_notes_say_their_lengths_in_the_units_asked(tmp_path):
+    """Issue 35: a note's lengths follow --length (a denavit.message.Message keeps its quantities in SI); the note
+    as a str still reads in mm, as it always has."""
+    from cli import run
+    from denavit.message import Message
+
+    csv = tmp_path / "s.csv"
+    run("simulate", "kr5", "-o", csv, "--points", "12", "--noise", "0.02", "--seed", "3")
+    res = dv.identify(str(csv), nominal="kr5", convention="dh")
+    carried = [n for n in res.notes if isinstance(n, Message) and "carries a tool-position error" in n]
+    assert carried and " mm " in carried[0]
+    out = run("identify", "kr5", csv, "--convention", "dh", "--length", "m").stdout
+    lines = [ln for ln in out.splitlines() if "carries a tool-position error" in ln]
+    assert lines and " m (" in lines[0] and " mm" not in lines[0], lines
+    value_m = float(lines[0].split("error up to ")[1].split(" m ")[0])
+    value_mm = float(carried[0].split("error up to ")[1].split(" mm ")[0])
+    assert abs(value_m * 1e3 - value_mm) <= 1e-4 * max(value_mm, 1e-9) + 5e-4, (value_m, value_mm)

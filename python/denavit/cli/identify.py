@@ -624,9 +624,12 @@ def print_identification(doc: dict, result, length: str, angle: str, verbose: bo
             + "; ".join(", ".join(num(v / ls, length) for v in p) for p in doc["targets_home_m"]),
             soft_wrap=True,
         )
-    for note in doc["notes"]:
-        if verbose or not any(word in note for word in DETAIL_NOTES):
-            say("yellow", "note:", f" {note}")
+    from ..message import render  # noqa: PLC0415
+
+    for note in result.notes:  # in --length / --angle (a denavit.message.Message), the same as doc["notes"] else
+        text = render(note, (ls, length), (as_, angle))
+        if verbose or not any(word in text for word in DETAIL_NOTES):
+            say("yellow", "note:", f" {text}")
 
 
 def print_parameters(doc: dict, result, length: str, angle: str) -> None:

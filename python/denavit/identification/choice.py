@@ -14,6 +14,7 @@ from ..fitting.joint import TrackerNoise, fit_sweeps, stride
 from ..fitting.readings import READINGS_WORTHLESS
 from ..fitting.result import axis_sigmas
 from ..fitting.robust import _Levels, flag_outliers
+from ..message import Length, Message
 from ..sweeps import SweepSet
 from .frames import SHORT_ARC
 from .prepare import _motions
@@ -300,7 +301,9 @@ class _Refits:
             return None if strict else r
 
 
-def _first_fit(sweeps: SweepSet, fits: list, dqs: list, homes0, R0, loss: str, rotation_noise, tracker) -> dict:
+def _first_fit(
+    sweeps: SweepSet, fits: list, dqs: list, homes0, R0, loss: str, rotation_noise, tracker, torques=None
+) -> dict:
     """The joint fit with one home point, from the per-sweep start lines; on no convergence, says why when the arcs
     are short (a 1 degree protocol had ended on "no convergence")."""
     starts = [(f.point, f.direction) for f in fits]
@@ -310,6 +313,7 @@ def _first_fit(sweeps: SweepSet, fits: list, dqs: list, homes0, R0, loss: str, r
             "rotation0": R0,
             "rotation_sigma": rotation_noise,
             "tracker": tracker,
+            "torques": torques,
         }
         return fit_sweeps(sweeps, dqs, starts, homes0[0], loss=loss, where=sweeps.source, **start)
     except NotConvergedError as e:
@@ -335,15 +339,24 @@ def _choose_drift(refits: _Refits, g: dict, sq: list, notes: list[str]):
         g = refits.refit(d, per_sweep_home=True)
         cov, sd = _with_drift(refits.sweeps, g)
         notes.append(
-            f"auto: readings (a home point per sweep) over global (one home point): BIC lower by {bic:.3g}; the home "
-            f"tool point moves {sd * 1e3:.3g} mm (1 sigma per coordinate) between sweeps, added to every axis's "
-            "uncertainty"
+            Message(
+                "auto: readings (a home point per sweep) over global (one home point): BIC lower by {bic:.3g}; the"
+                " home tool point moves {sd:.3g} (1 sigma per coordinate) between sweeps, added to every axis's"
+                " uncertainty",
+                bic=bic,
+                sd=Length(sd),
+            )
         )
         return g, "readings", cov
     why = f"BIC lower by {-bic:.3g}" if d is not None else "a home point per sweep does not converge on these arcs"
     notes.append(
-        f"auto: global (one home point) over readings (a home point per sweep): {why}; estimated reading error "
-        f"{', '.join(sq)} arcsec per sweep, point noise {g['sigma'] * 1e3:.3g} mm"
+        Message(
+            "auto: global (one home point) over readings (a home point per sweep): {why}; estimated reading error"
+            " {sq} arcsec per sweep, point noise {sigma:.3g}",
+            why=why,
+            sq=", ".join(sq),
+            sigma=Length(g["sigma"]),
+        )
     )
     return g, "global", g["cov"]
 
@@ -389,11 +402,14 @@ def _scales_note(post, full, tau: float, evidence: str, g: dict, n: int) -> str:
     )
 
 
-def _decide(sweeps: SweepSet, fits: list, dqs: list, homes0, R0, loss: str, notes: list[str], chosen: str, models):
+def _decide(
+    sweeps: SweepSet, fits: list, dqs: list, homes0, R0, loss: str, notes: list[str], chosen: str, models, tq=None
+):
     """auto's measurement model by the evidence (:func:`_choose`) on ``sweeps`` and their motions ``dqs``: None when
     the readings are worth nothing, else (method, the chosen joint fit, its axes' covariance, drift, the scales'
-    prior (tau, sigma) or None, the words of the scales' note: (full, tau, evidence))."""
-    g = _first_fit(sweeps, fits, dqs, homes0, R0, loss, *models)
+    prior (tau, sigma) or None, the words of the scales' note: (full, tau, evidence)). ``tq``: the poses' gravity
+    torques from home (:func:`_torques`) when the joints' compliance is considered (:func:`_compliance`), else None."""
+    g = _first_fit(sweeps, fits, dqs, homes0, R0, loss, *models, torques=None if chosen == "auto" else tq)
     if chosen != "auto":
         return "global", g, g["cov"], False, None, None
     sq = [f"{math.degrees(v) * 3600:.3g}" for v in g["reading_sigma"]]
@@ -418,7 +434,44 @@ def _decide(sweeps: SweepSet, fits: list, dqs: list, homes0, R0, loss: str, note
     if post is not None:
         g, prior = post, (tau, base["sigma"])
         cov = _with_drift(sweeps, g)[0] if drift else g["cov"]
+    if tq is not None:
+        g, cov = _compliance(refits, g, cov, drift, prior, tq, notes)
     return method, g, cov, drift, prior, (full, tau, evidence)
+
+
+def _compliance(refits: _Refits, g: dict, cov, drift: bool, prior, tq: list, notes: list[str]):
+    """auto's choice of the joints' compliance (issue 37): the chosen model with a compliance per joint whose gravity
+    torque changes, nested in it, by the BIC on the same weights, as the drift (:func:`_bic`). Returns (the chosen fit,
+    its axes' covariance)."""
+    kw = {"per_sweep_home": drift, "scales": prior is not None, "scale_prior": prior}
+    c, bic = refits.richer(g, torques=tq, **kw)
+    if c is not None and bic > 0:
+        c = refits.refit(c, torques=tq, **kw)
+        notes.append(f"auto: joint compliance fitted (BIC lower by {bic:.3g}): {_compliance_list(c)}")
+        return c, (_with_drift(refits.sweeps, c)[0] if drift else c["cov"])
+    why = f"BIC higher by {-bic:.3g}" if c is not None else "the fit with them does not converge"
+    notes.append(f"auto: no joint compliance fitted ({why}): the joints taken as rigid")
+    return g, cov
+
+
+def _compliance_list(g: dict) -> str:
+    return ", ".join(
+        f"k_{j + 1} {g['compliance'][j] * 1e6:.4g} +/- {g['compliance_sigma'][j] * 1e6:.2g} urad/(N m)"
+        for j in range(len(g["compliance"]))
+        if np.isfinite(g["compliance_sigma"][j])
+    )
+
+
+def _torques(sweeps: SweepSet, dqs: list, model) -> list:
+    """Per sweep (m, n) the gravity torques (N m; N for a prismatic joint) the joints hold at each pose (home plus the
+    joint fit's motion, with the pose's payload; :func:`denavit.calibration.compliance.gravity_torques`, ``model``'s
+    inertials) less those they hold at home without a payload."""
+    from ..calibration.compliance import gravity_torques  # noqa: PLC0415
+
+    ref = gravity_torques(model, sweeps.home[None])[0]
+    return [
+        gravity_torques(model, sweeps.home + dq[:], s.payload) - ref for s, dq in zip(sweeps.sweeps, dqs, strict=True)
+    ]
 
 
 def _every(sweeps: SweepSet, dqs: list, k: int) -> tuple[SweepSet, list]:
@@ -437,6 +490,7 @@ def _choose(
     chosen: str,
     rotation_noise=None,
     tracker: TrackerNoise | None = None,
+    torque_model=None,
 ):
     """The joint fit(s) with readings: ``chosen`` "global", or "auto" (evidence: the per-sweep fits when the
     readings are worth nothing, else one home point or one per sweep by the BIC, and the readings' scale errors as a
@@ -445,7 +499,8 @@ def _choose(
     (6-DoF poses) or None. Returns (method, fits, cov, tool point, rms, the joint fit's result or None, scales):
     ``scales`` None, or when fitted (values (n,), their covariance with [c_1, n_1, ..., p] (6n+3, n), their
     covariance (n, n)); zeros where a joint's scale was not fitted. ``tracker`` the tracker's range/angle noise
-    model, or None (isotropic).
+    model, or None (isotropic). ``torque_model``: the nominal's model with its links' inertials when the joints'
+    compliance is considered (fitted with "global", chosen by the evidence with "auto": :func:`_compliance`), else None.
 
     Sweeps longer than :data:`~denavit.fitting.joint.SUBSAMPLE` poses: the choice, with its variance components and
     robust weights, on every k-th pose (:func:`_every`; auto's up to five joint fits had each passed over every point
@@ -454,7 +509,9 @@ def _choose(
     models = (rotation_noise, tracker)
     k = stride(max(len(s.points) for s in sweeps.sweeps))
     work, wdqs = (sweeps, dqs) if k == 1 else _every(sweeps, dqs, k)
-    decided = _decide(work, fits, wdqs, homes0, R0, loss, notes, chosen, models)
+    tq = None if torque_model is None else _torques(sweeps, dqs, torque_model)
+    wtq = None if tq is None or k == 1 else [t[::k] for t in tq]
+    decided = _decide(work, fits, wdqs, homes0, R0, loss, notes, chosen, models, tq if k == 1 else wtq)
     if decided is None:
         return "geometric", None, None, None, math.nan, None, None
     method, g, cov, drift, prior, scale_words = decided
@@ -465,6 +522,7 @@ def _choose(
             scales=prior is not None,
             scale_prior=prior,
             weights0=(g["gamma"], g["robust_scale"]),
+            torques=tq if np.any(np.isfinite(g["compliance_sigma"])) else None,
         )
         cov = _with_drift(sweeps, g)[0] if drift else g["cov"]
         notes.append(

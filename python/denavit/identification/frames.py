@@ -10,6 +10,7 @@ import numpy as np
 from .. import _core
 from ..fitting.result import flipped
 from ..geometry import matrix_rotvec, rotvec_matrix
+from ..message import Angle, Length, Message
 from ..robot import Robot
 from ..sweeps import SweepSet
 from .prepare import sweep_where
@@ -112,9 +113,14 @@ def _short_arc_notes(sweeps: SweepSet, fits: list, notes: list[str]) -> list[str
     for s, f in zip(sweeps.sweeps, fits, strict=True):
         if sweeps.kinds[s.joint - 1] == "revolute" and not f.sigma_point_perp <= SHORT_ARC_SIGMA and f.arc < SHORT_ARC:
             short.append(
-                f"{sweep_where(s, sweeps.source)}: the {np.degrees(f.arc):.3g} deg arc gives a predicted axis-position"
-                f" sigma of {f.sigma_point_perp * 1e3:.3g} mm (above {SHORT_ARC_SIGMA * 1e3:g} mm): sweep a longer arc"
-                " or measure more points (--max-sigma makes this an error)"
+                Message(
+                    "{where}: the {arc:.3g} arc gives a predicted axis-position sigma of {sigma:.3g} (above"
+                    " {limit:g}): sweep a longer arc or measure more points (--max-sigma makes this an error)",
+                    where=sweep_where(s, sweeps.source),
+                    arc=Angle(f.arc),
+                    sigma=Length(f.sigma_point_perp),
+                    limit=Length(SHORT_ARC_SIGMA),
+                )
             )
     notes.extend(short)
     return short

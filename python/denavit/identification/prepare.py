@@ -16,6 +16,7 @@ from ..fitting.circle import circle_misfit, robust_circle
 from ..fitting.joint import TrackerNoise, stride
 from ..fitting.motion import locked_motion
 from ..fitting.robust import rms_spread, robust_sigma
+from ..message import Length, Message
 from ..progress import Stage
 from ..sweeps import SweepSet
 
@@ -125,9 +126,15 @@ def _drop_dwell(sweeps: SweepSet, notes: list[str]) -> SweepSet:
             [f"{b} at the end ({name[len(p) - 1 - b]} .. {name[len(p) - 2]})"] if b else []
         )
         notes.append(
-            f"{sweep_where(s, sweeps.source)}: {a + b} dwell rows (the motion stopped within {DWELL_SIGMAS:g} sigma of"
-            f" the point noise, {noise * 1e3:.2g} mm): {' and '.join(parts)}; left out of the fit (keep_dwell keeps"
-            " them)"
+            Message(
+                "{where}: {count} dwell rows (the motion stopped within {sigmas:g} sigma of the point noise,"
+                " {noise:.2g}): {parts}; left out of the fit (keep_dwell keeps them)",
+                where=sweep_where(s, sweeps.source),
+                count=a + b,
+                sigmas=DWELL_SIGMAS,
+                noise=Length(noise),
+                parts=" and ".join(parts),
+            )
         )
         out.append(s.take(keep))
     return replace(sweeps, sweeps=out)

@@ -12,6 +12,7 @@ from .. import _core
 from ..errors import DegenerateError, DenavitError
 from ..fitting.checks import check_loss, check_positive, check_sweep_labels, misfit_notes, nominal_plausibility
 from ..fitting.joint import TrackerNoise, as_tracker_noise, start_homes
+from ..message import Length, Message
 from ..progress import Stage
 from ..robot import Robot
 from ..sweeps import SweepSet
@@ -56,6 +57,8 @@ def identify(
     rotation_noise: float | None = None,
     tracker_noise: TrackerNoise | tuple | None = None,
     allow_implausible: bool = False,
+    compliance=None,
+    payload=None,
     progress: Callable[[str], None] | None = None,
 ) -> Identification:
     """Identify the joint axes and the parameter table of ``convention`` from ``sweeps``.
@@ -106,6 +109,14 @@ def identify(
     allow_implausible : keep a fit that is implausible against the nominal (the axes its mirror image, matching it
         with two joints exchanged, or most pairs of axes far from its: a unit slip, the wrong robot), with a note;
         by default it is an error (issue 16: such fits had come back with small sigmas and no word).
+    compliance : None (considered when the sweeps carry a payload, or ``payload`` is given), True (considered), False:
+        the joints' compliance under gravity (issue 37; :mod:`denavit.calibration.compliance`), one ``k_i`` per joint
+        whose gravity torque changes in the data, in the joint fit: fitted with "global", chosen by the evidence with
+        "auto" (:func:`~denavit.identification.choice._compliance`). It needs the nominal's link inertials (without
+        them, when asked, one note says why). The axes are then those of the arm at home under its own weight (no
+        payload), and the result's ``compliance`` holds the compliances and the torques at home.
+    payload : the payload of every pose whose sweep carries none (a mass in kg at the flange, ``(kg, (x, y, z) m)``,
+        or (4,) ``[kg, m, m, m]``; :func:`denavit.calibration.compliance.as_payload`).
     progress : called with a short message as each stage starts, a :class:`denavit.progress.Stage` (a ``str``) whose
         ``fraction`` is the share of the work done before it (the CLI shows a bar with the percentage and time left).
     """
@@ -118,8 +129,9 @@ def identify(
     notes = _locked_notes(sweeps)
     if not keep_dwell:
         sweeps = _drop_dwell(sweeps, notes)
+    sweeps, torque_model = _elastic(sweeps, nominal, compliance, payload, notes)
     method, fits, cov, p_home, rms, joint, scales = _fit_axes(
-        sweeps, method, loss, max_sigma, rotation_noise, tracker, notes, progress
+        sweeps, method, loss, max_sigma, rotation_noise, tracker, notes, progress, torque_model
     )
     _noise_model_notes(sweeps, method, joint, tracker, notes)
     base = np.eye(4) if T_world_base is None else np.asarray(T_world_base, dtype=float)
@@ -183,6 +195,7 @@ def identify(
         tool_rotation_cov=rot_cov,
         target_points=target_points,
         tracker_noise=tracker if joint is not None or method == "geometric" else None,
+        compliance=_compliance_of(joint, sweeps, torque_model),
     )
     _carried_note(result, convention, notes)
     return result
@@ -212,7 +225,57 @@ def _checked(sweeps, method: str, nominal, loss: str, max_sigma, convention: str
     return nominal, convention, tracker
 
 
-def _fit_axes(sweeps: SweepSet, method: str, loss: str, max_sigma, rotation_noise, tracker, notes, progress):
+def _elastic(sweeps: SweepSet, nominal, compliance, payload, notes: list[str]):
+    """(the sweeps with ``payload`` on every sweep without its own, the nominal's model whose inertials give the gravity
+    torques when the joints' compliance is considered, else None), with the one-line note why not where it was asked."""
+    from ..calibration.compliance import as_payload  # noqa: PLC0415
+
+    if compliance not in (None, True, False):
+        raise DenavitError(f"identify: compliance: expected None, True or False, got {compliance!r}")
+    if payload is not None:
+        sweeps = replace(
+            sweeps,
+            sweeps=[
+                s if s.payload is not None else replace(s, payload=as_payload(payload, len(s.points)))
+                for s in sweeps.sweeps
+            ],
+        )
+    asked = compliance is True or (compliance is None and any(s.payload is not None for s in sweeps.sweeps))
+    if not asked:
+        return sweeps, None
+    if nominal is None or nominal.inertials is None or not np.any(np.asarray(nominal.inertials["masses"]) > 0):
+        name = "no nominal robot" if nominal is None else f"{nominal.name} carries no link masses"
+        notes.append(
+            f"joint compliance not modelled: {name} ([joints.inertia] in a robot file, <inertial> in a URDF) to give "
+            "the gravity torques the joints twist under"
+        )
+        return sweeps, None
+    if not sweeps.has_readings:
+        notes.append("joint compliance not modelled: it needs the joint fit, and the sweeps carry no joint readings")
+        return sweeps, None
+    return sweeps, nominal.model()
+
+
+def _compliance_of(joint, sweeps: SweepSet, torque_model) -> dict | None:
+    """The identified compliances (the joint fit's, where it fitted them): ``k`` (n,) rad/(N m) (m/N prismatic; 0
+    where not fitted), ``sigma`` (n,) (nan where not fitted), ``cov`` (n, n), ``torque_home`` (n,) N m the gravity
+    torques at home without a payload (the axes are the arm's under them: joint i's link sits at
+    ``q_i - k_i (tau_i(q, payload) - torque_home_i)``); None when not fitted."""
+    if joint is None or torque_model is None or not np.any(np.isfinite(joint["compliance_sigma"])):
+        return None
+    from ..calibration.compliance import gravity_torques  # noqa: PLC0415
+
+    return {
+        "k": np.array(joint["compliance"], dtype=float),
+        "sigma": joint["compliance_sigma"],
+        "cov": joint["compliance_cov"],
+        "torque_home": gravity_torques(torque_model, sweeps.home[None])[0],
+    }
+
+
+def _fit_axes(
+    sweeps: SweepSet, method: str, loss: str, max_sigma, rotation_noise, tracker, notes, progress, torque_model=None
+):
     """The axes: the per-sweep fits, and with readings the joint fit (auto's choice, :func:`_choose`). Returns
     (method, fits, cov of [c_1, n_1, ..., p], the tool point at home, rms, the joint fit's result or None, scales)."""
     n = sweeps.n_joints
@@ -230,7 +293,7 @@ def _fit_axes(sweeps: SweepSet, method: str, loss: str, max_sigma, rotation_nois
         poses = ", 6-DoF poses" if sweeps.has_rotations else ""
         progress(Stage(f"one fit of all {len(sweeps.sweeps)} sweeps ({what}{poses})", PER_SWEEP_SHARE))
         method, gfits, gcov, gp, grms, joint, scales = _choose(
-            sweeps, fits, homes0, R0, loss, notes, chosen, rotation_noise, tracker
+            sweeps, fits, homes0, R0, loss, notes, chosen, rotation_noise, tracker, torque_model
         )
         if gfits is None:  # the readings are worthless: the per-sweep geometric circles
             fits = _per_sweep(sweeps, method, loss, max_sigma, progress, tracker)
@@ -267,9 +330,13 @@ def _noise_model_notes(sweeps: SweepSet, method: str, joint, tracker, notes: lis
         )
         if joint is not None:
             notes.append(
-                f"{model} weights the points (its shape; the scale from the data): point noise "
-                f"{joint['sigma'] * 1e3:.3g} mm RMS per coordinate, "
-                f"{joint['sigma'] / math.sqrt(joint['tracker_ref2']):.3g} times the declared"
+                Message(
+                    "{model} weights the points (its shape; the scale from the data): point noise {sigma:.3g} RMS per"
+                    " coordinate, {times:.3g} times the declared",
+                    model=model,
+                    sigma=Length(joint["sigma"]),
+                    times=joint["sigma"] / math.sqrt(joint["tracker_ref2"]),
+                )
             )
         elif method == "geometric":
             notes.append(f"{model} weights each circle's points (its shape; the scale from the data)")
@@ -348,10 +415,15 @@ def _carried_note(result: Identification, convention: str, notes: list[str]) -> 
         edh = carried if convention == "edh" else result.carried_error("edh")[0]
         if convention != "edh":
             exact = "POE is exact; " + (
-                f"ED-H carries {edh * 1e3:.4f} mm: it is exact except {_DROPPED_TILT}"
-                if edh > ROUND_OFF
-                else "ED-H is exact"
+                "ED-H carries {edh:.4g}: it is exact except " + _DROPPED_TILT if edh > ROUND_OFF else "ED-H is exact"
             )
         else:
             exact = f"it is exact except {_DROPPED_TILT}; POE is exact"
-        notes.append(f"the {convention} table carries a tool-position error up to {carried * 1e3:.4f} mm ({exact})")
+        notes.append(
+            Message(
+                "the {convention} table carries a tool-position error up to {carried:.4g} (" + exact + ")",
+                convention=convention,
+                carried=Length(carried),
+                edh=Length(edh),
+            )
+        )
