@@ -211,7 +211,7 @@ def test_cli_keep_dwell_and_reading_sigmas(kr5, tmp_path):
     _write_long_csv(
         recording(kr5.model(), HOME, np.radians(sw.PAPER_RANGES_DEG[90]), dwell=8, reading_arcsec=(30, 200), seed=6), f
     )
-    out = run("identify", f, "--nominal", "kr5", "--json", tmp_path / "a.json", columns=250).stdout
+    out = run("identify", f, "--nominal", "kr5", "--json", tmp_path / "a.json", "--verbose", columns=250).stdout
     assert "reading sigma [arcsec]" in out and "dwell rows" in out
     doc = json.loads((tmp_path / "a.json").read_text())
     arcsec = [np.degrees(j["reading_sigma_rad"]) * 3600 for j in doc["joints"]]
