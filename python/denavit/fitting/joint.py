@@ -143,6 +143,7 @@ def fit_sweeps(
     rotation_sigma=None,
     tracker=None,
     weights0=None,
+    torques=None,
     where: str = "",
 ):
     """The joint fit of all sweeps (module docstring). ``dqs`` per sweep (m, n) joint motions from home (arrays, or
@@ -161,6 +162,10 @@ def fit_sweeps(
     range/angle shape (module docstring); None: isotropic. ``weights0``: None, or (gamma per sweep, robust scale or
     None) of the same model fitted on a subsample (:func:`stride`): the variance components and the robust scale
     start there instead of at one and none, and are estimated as ever (the first pass then steps at once).
+    ``torques``: None, or per sweep (m, n) the gravity torques each joint holds at each pose less those it holds at
+    home (N m; N for a prismatic joint): every joint whose torque changes gets a compliance ``k_i`` (rad/(N m), m/N),
+    its link turning by ``dq_i - k_i dtau_i`` (:mod:`denavit.calibration.compliance`'s model; the axes are those of
+    the arm at home under its own weight), fitted unconstrained.
 
     Returns a dict: ``points`` (n, 3) feet of the home point on each axis, ``directions`` (n, 3), ``home``
     (S, 3) home point per sweep (all equal without ``per_sweep_home``), ``cov`` of [c_1, n_1, ..., c_n, n_n,
@@ -176,7 +181,8 @@ def fit_sweeps(
     ``sigma`` the point noise, ``reading_sigma`` per sweep, ``ss`` the whitened sum of squares and ``n_params``;
     ``robust_scale`` the robust loss's scale (m, of the whitened misfits; None with "linear"); ``tracker_ref2`` the
     tracker model's reference variance (m^2: ``sigma / sqrt(tracker_ref2)`` is the point noise over the declared; nan
-    without a model).
+    without a model); ``compliance`` (n,) the compliances (zeros where not fitted), ``compliance_sigma`` (n,) (nan where
+    not fitted) and ``compliance_cov`` (n, n).
     """
     fit = _JointFit(
         sweeps,
@@ -194,6 +200,7 @@ def fit_sweeps(
         rotation_sigma=rotation_sigma,
         tracker=tracker,
         weights0=weights0,
+        torques=torques,
         where=where,
     )
     fit.solve()
@@ -206,7 +213,8 @@ class _JointFit:
     variance components (:meth:`variance_components`), the Levenberg-Marquardt steps (:meth:`solve`) and the
     result with its covariance (:meth:`result`). The parameters are [per joint (a, b) the direction's tilt in its
     tangent basis and (s, t) the point across the axis; the home points; the further targets' offsets; the home
-    orientation's rotation; the fitted scales]."""
+    orientation's rotation; the fitted scales; the fitted compliances]. ``sc`` holds the reading scales (n,), then with
+    ``torques`` the compliances (n,)."""
 
     def __init__(
         self,
@@ -226,6 +234,7 @@ class _JointFit:
         rotation_sigma,
         tracker,
         weights0,
+        torques,
         where,
     ):
         self.sweeps, self.dqs, self.loss, self.where, self.weights0 = (sweeps, dqs, loss, where, weights0)
@@ -255,16 +264,23 @@ class _JointFit:
             if scales is not False and scales is not None
             else []
         )
-        self.sc = np.zeros(n)
+        self.tq = torques
+        tmax = np.zeros(n) if torques is None else np.max([np.max(np.abs(t), axis=0) for t in torques], axis=0)
+        self.kj = [i for i in range(n) if tmax[i] > 1e-6 * max(tmax.max(), 1e-300)]  # (TORQUE_FLOOR's rule)
+        self.sc = np.zeros(2 * n if torques is not None else n)
         self.H = H = len(self.homes)
         self.i_off = 4 * n + 3 * H  # the first offset's index, then the home rotation's, then the scales'
         self.i_rot = self.i_off + 3 * (K - 1)
         self.i_sc = self.i_rot + (3 if rot else 0)
-        self.npar = self.i_sc + len(swept)
+        self.i_k = self.i_sc + len(swept)
+        self.npar = self.i_k + len(self.kj)
         self.prior_w = 0.0 if scale_prior is None or not swept else (scale_prior[1] / scale_prior[0]) ** 2
-        self.i_prior = np.arange(self.i_sc, self.npar)
+        self.i_prior = np.arange(self.i_sc, self.i_k)
         self.D = 3 * K + (3 if rot else 0)  # residual components per pose
-        self.active = [[i for i in range(n) if np.any(dq[:, i] != 0)] for dq in dqs]
+        self.active = [
+            [i for i in range(n) if np.any(dq[:, i] != 0) or (i in self.kj and np.any(self.tq[k][:, i] != 0))]
+            for k, dq in enumerate(dqs)
+        ]
         self.size = max(
             float(np.sqrt(np.mean(np.sum((s.points - s.points.mean(axis=0)) ** 2, axis=1)))) for s in sweeps.sweeps
         )
@@ -284,7 +300,7 @@ class _JointFit:
         # (sweep, first row of a chunk): (the scales of its active joints, {joint: _trig of its motion})
         self.trig = {}
         # a pose one point, isotropic: the Jacobian of one turning joint by moments
-        self.simple = tracker is None and not rot and K == 1
+        self.simple = tracker is None and not rot and K == 1 and not self.kj
 
     def home_of(self, k):
         return self.homes[k] if self.per_sweep_home else self.homes[0]
@@ -303,13 +319,14 @@ class _JointFit:
         K, active, kinds, swept, trig = self.K, self.active[k], self.kinds, self.swept, self.trig
         j = s.joint - 1
         h = homes_[k] if self.per_sweep_home else homes_[0]
-        npl = len(self.local(k))
+        npl, n = len(self.local(k)), self.n
         for a in range(0, len(dq), CHUNK):
             rows = slice(a, a + CHUNK)
             # the chunk's joint motions and their cosines and sines, kept while the reading scales they were made
             # with hold
-            key = tuple(float(sc_[i]) for i in active)
-            dqc = dq[rows] * (1 + sc_)
+            key = tuple(float(sc_[i]) for i in active) + tuple(sc_[n:])
+            dqe = dq[rows] if self.tq is None else dq[rows] - sc_[n:] * self.tq[k][rows]  # the links' motion
+            dqc = dqe * (1 + sc_[:n])
             if trig.get((k, a), (None,))[0] != key:
                 trig[(k, a)] = (key, {i: _trig(dqc[:, i]) for i in active if kinds[i] == "revolute"})
             tc = trig[(k, a)][1]
@@ -348,7 +365,8 @@ class _JointFit:
                         [blocks[i] for i in active]
                         + [jp, jo]
                         + ([np.zeros((3, 3, mc))] if self.rot else [])
-                        + ([(dpdq[j] * dq[rows, j])[None]] if j in swept else [])
+                        + ([(dpdq[j] * dqe[:, j])[None]] if j in swept else [])
+                        + self.k_columns(k, rows, sc_, dpdq)
                     )
                     Js.append(J_t if self.tracker is None else _whiten(w_t, J_t))
             if self.rot:
@@ -361,7 +379,8 @@ class _JointFit:
                         * np.concatenate(
                             [blocks[i] for i in active]
                             + [np.zeros((3 + 3 * (K - 1), 3, mc)), jr]
-                            + ([(dpdq[j] * dq[rows, j])[None]] if j in swept else [])
+                            + ([(dpdq[j] * dqe[:, j])[None]] if j in swept else [])
+                            + self.k_columns(k, rows, sc_, dpdq)
                         )
                     )
             one = len(rs) == 1
@@ -372,6 +391,11 @@ class _JointFit:
                 (Js[0] if one else np.concatenate(Js, axis=1)) if jac else None,
                 None if dist is None else np.sqrt(dist),
             )
+
+    def k_columns(self, k, rows, sc_, dpdq) -> list:
+        """The compliances' Jacobian columns (1, 3, m) each: d pred / d k_i = -dtau_i (1 + s_i) d pred / d q_i."""
+        zero = np.zeros((1, 3, len(self.tq[k][rows])))
+        return [-(self.tq[k][rows, i] * (1 + sc_[i]))[None, None] * dpdq[i] if i in dpdq else zero for i in self.kj]
 
     @staticmethod
     def tangent(mv):
@@ -399,6 +423,7 @@ class _JointFit:
             [np.arange(4 * i, 4 * i + 4) for i in self.active[k]]
             + [np.arange(h0, h0 + 3), np.arange(self.i_off, self.i_sc)]
             + ([[self.i_sc + self.swept.index(j)]] if j in self.swept else [])
+            + [np.arange(self.i_k, self.npar)]
         ).astype(int)
 
     def normal_eq(self, cs, ns, homes_, offs_, R_, sc_, wr, f=None, bread=False):
@@ -496,7 +521,8 @@ class _JointFit:
             new_ns.append(nv / np.linalg.norm(nv))
             new_cs.append(x_cs[i] + (B @ delta[4 * i + 2 : 4 * i + 4] if self.kinds[i] == "revolute" else 0.0))
         new_sc = x_sc.copy()
-        new_sc[self.swept] += delta[i_sc:]
+        new_sc[self.swept] += delta[i_sc : self.i_k]
+        new_sc[[n + i for i in self.kj]] += delta[self.i_k :]
         new_R = (
             axis_angle_matrices(
                 delta[i_rot:i_sc] / max(np.linalg.norm(delta[i_rot:i_sc]), 1e-300), [np.linalg.norm(delta[i_rot:i_sc])]
@@ -710,11 +736,16 @@ class _JointFit:
         M[n_out:, i_off:i_sc] = np.eye(i_sc - i_off)
         cov_all = M @ cov_x @ M.T
         scale_sigma = np.full(n, math.nan)
-        scale_sigma[swept] = np.sqrt(np.clip(np.diag(cov_x)[i_sc:], 0, None))
+        scale_sigma[swept] = np.sqrt(np.clip(np.diag(cov_x)[i_sc : self.i_k], 0, None))
         # the scales' covariance with [c_j, n_j, ..., p] and among themselves (n columns, zero where not fitted)
         Ms = np.zeros((n, npar))
         Ms[swept, i_sc + np.arange(len(swept))] = 1.0
         scale_cross, scale_cov = (M @ cov_x @ Ms.T)[:n_out], Ms @ cov_x @ Ms.T
+        Mk = np.zeros((n, npar))  # the compliances' (zero where not fitted)
+        Mk[self.kj, self.i_k + np.arange(len(self.kj))] = 1.0
+        k_cov = Mk @ cov_x @ Mk.T
+        k_sigma = np.full(n, math.nan)
+        k_sigma[self.kj] = np.sqrt(np.clip(np.diag(k_cov)[self.kj], 0, None))
         sigma = math.sqrt(sigma2)
         levers = [float(np.mean(p[3])) for p in parts] if lref is None else lref
         reading_sigma = [
@@ -742,9 +773,12 @@ class _JointFit:
             "n_params": npar,
             "gamma": gam,
             "robust_scale": self.f,
-            "scales": self.sc,
+            "scales": self.sc[:n],
             "scale_sigma": scale_sigma,
             "scale_cross": scale_cross,
             "scale_cov": scale_cov,
             "tracker_ref2": math.nan if self.ref2 is None else self.ref2,
+            "compliance": self.sc[n:] if self.tq is not None else np.zeros(n),
+            "compliance_sigma": k_sigma,
+            "compliance_cov": k_cov,
         }
