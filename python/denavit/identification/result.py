@@ -73,6 +73,8 @@ class Identification:
     tracker_noise: TrackerNoise | None = (
         None  # the tracker's range/angle noise model the joint fit weighted the points by (None: isotropic)
     )
+    # the joints' compliances when the joint fit freed them (issue 37; identify's compliance, run._compliance_of)
+    compliance: dict | None = None
 
     @property
     def tool_rotation_sigma(self) -> float:
