@@ -697,8 +697,11 @@ def test_cli_json_holds_the_compensated_program_and_the_summary_says_what_it_lea
     from cli import run
 
     kr5 = dv.load_robot("kr5")
-    saved = tmp_path / "id.toml"
-    run("identify", "--example", "kr5", "--save", saved)
+    saved, sweeps = tmp_path / "id.toml", tmp_path / "kr5_nominal.csv"
+    # the nominal kr5's own sweeps (the example before issue 40; the shipped one is now a "true" KR5's, whose
+    # compensation moves joints by tenths of a degree)
+    run("simulate", "kr5", "-o", sweeps, "--ranges", "paper90", "--points", "40", "--noise", "0.02", "--seed", "90")
+    run("identify", "kr5", sweeps, "--save", saved)
     Q = np.radians(
         [[90, -90, 90, 0, 90, 0], [80, -80, 100, 10, 70, 5], [10, -60, 80, 0, 0, 0]]
     )  # the last at the wrist singularity
