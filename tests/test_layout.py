@@ -58,6 +58,23 @@ def _core_module_graph():
     return graph
 
 
+def _assert_acyclic(graph: dict, what: str) -> None:
+    """No cycle in ``graph`` ({node: the nodes it names}): a depth-first search meets no node still on its path."""
+    state: dict = {}
+
+    def visit(m, path):
+        state[m] = "open"
+        for n in sorted(graph.get(m, ())):
+            assert state.get(n) != "open", f"a cycle among {what}: {' -> '.join([*path, m, n])}"
+            if n not in state:
+                visit(n, [*path, m])
+        state[m] = "done"
+
+    for m in sorted(graph):
+        if m not in state:
+            visit(m, [])
+
+
 def test_the_cores_modules_are_layered_without_cycles():
     """pinocchio's layering (issue 35): spatial types (with the link inertia) at the bottom, then the model, which
     depends on no algorithm, then the algorithms; no module reaches, directly or not, back to itself."""
@@ -68,20 +85,7 @@ def test_the_cores_modules_are_layered_without_cycles():
     assert graph["spatial"] <= {"error"}
     assert graph["inertia"] <= {"error", "spatial"}
     assert graph["model"] <= {"error", "spatial", "inertia"}, graph["model"]
-    # no cycle: a depth-first search meets no module still on its path
-    state = {}
-
-    def visit(m, path):
-        state[m] = "open"
-        for n in sorted(graph.get(m, ())):
-            assert state.get(n) != "open", f"a cycle among the core's modules: {' -> '.join([*path, m, n])}"
-            if n not in state:
-                visit(n, [*path, m])
-        state[m] = "done"
-
-    for m in sorted(graph):
-        if m not in state:
-            visit(m, [])
+    _assert_acyclic(graph, "the core's modules")
 
 
 def test_no_rust_source_file_is_over_800_lines():
@@ -173,19 +177,7 @@ def test_the_python_modules_are_layered_without_cycles():
         if d != "denavit" and _py_layer(d) > _py_layer(m)
     )
     assert not upward, upward
-    state: dict = {}
-
-    def visit(m, path):
-        state[m] = "open"
-        for n in sorted(graph.get(m, ())):
-            assert state.get(n) != "open", f"an import cycle: {' -> '.join([*path, m, n])}"
-            if n not in state:
-                visit(n, [*path, m])
-        state[m] = "done"
-
-    for m in sorted(graph):
-        if m not in state:
-            visit(m, [])
+    _assert_acyclic(graph, "python/denavit's modules")
 
 
 def test_no_python_source_file_is_over_800_lines_nor_function_over_150():

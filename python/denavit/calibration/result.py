@@ -287,3 +287,14 @@ def strong_correlations(corr: np.ndarray, names: list, limit: float = 0.999) -> 
             if abs(corr[i, j]) > limit:
                 out.append((names[i], names[j], float(corr[i, j])))
     return sorted(out, key=lambda t: -abs(t[2]))[:5]
+
+
+def correlation_notes(corr: np.ndarray, names: list) -> list[str]:
+    """The note on the most strongly correlated pairs of free parameters (:func:`strong_correlations`), if any."""
+    strong = strong_correlations(corr, names)
+    if not strong:
+        return []
+    return [
+        "strongly correlated (their combination is far better determined than either): "
+        + ", ".join(f"{a} / {b} (rho {rho:+.5f})" for a, b, rho in strong)
+    ]

@@ -29,7 +29,7 @@ from .parametrization import (
 )
 from .priors import PRIOR_DOMINATED, as_prior
 from .registration import register
-from .result import OUTLIER_SIGMAS, Calibration, Validation, strong_correlations
+from .result import OUTLIER_SIGMAS, Calibration, Validation, correlation_notes
 from .selection import MODELS, select_model
 from .targets import calibrate_targets, several_targets, sweep_poses
 
@@ -535,12 +535,7 @@ def _fit_notes(notes, pz, meas, x_hat, free, corr, rms, noise, won, converged, s
             f"parameters moved by more than 10 x the measured volume ({', '.join(far)}): the fit may have diverged;"
             " check the nominal model and the units"
         )
-    strong = strong_correlations(corr, [pz.names[c] for c in free])
-    if strong:
-        notes.append(
-            "strongly correlated (their combination is far better determined than either): "
-            + ", ".join(f"{a} / {b} (rho {rho:+.5f})" for a, b, rho in strong)
-        )
+    notes.extend(correlation_notes(corr, [pz.names[c] for c in free]))
     if outliers.size:
         notes.append(
             f"{outliers.size} pose(s) with a tool-position misfit above {OUTLIER_SIGMAS} robust sigmas:"

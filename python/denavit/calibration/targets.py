@@ -41,7 +41,7 @@ from .least_squares import covariance, fit_parameters, residuals, weights
 from .measurements import Measurements, check_finite, joint_kinds
 from .parametrization import Parametrization, configurations, parametrize, resolve_fix
 from .registration import register
-from .result import OUTLIER_SIGMAS, Calibration, Validation, strong_correlations
+from .result import OUTLIER_SIGMAS, Calibration, Validation, correlation_notes
 
 #: The parameters of target k (1-based) are named ``target{k}_x``, ``_y``, ``_z``.
 TARGET_PREFIX = "target"
@@ -663,12 +663,7 @@ def _target_notes(notes, pz, x_hat, everything, rms, sol, corr, free, outliers) 
         )
     if sol is not None and sol.status <= 0:
         notes.append(f"the least-squares solver stopped without meeting its tolerances ({sol.message})")
-    strong = strong_correlations(corr, [pz.names[c] for c in free])
-    if strong:
-        notes.append(
-            "strongly correlated (their combination is far better determined than either): "
-            + ", ".join(f"{a} / {b} (rho {rho:+.5f})" for a, b, rho in strong)
-        )
+    notes.extend(correlation_notes(corr, [pz.names[c] for c in free]))
     if outliers.size:
         notes.append(
             f"{outliers.size} point(s) with a misfit above {OUTLIER_SIGMAS} robust sigmas:"
