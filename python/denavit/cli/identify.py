@@ -505,7 +505,9 @@ def print_next(example: str | None, nominal, save_model, verbose: bool) -> None:
     elif example:
         step = f"denavit identify --example {example} --save {example}_identified.toml  (keeps the identified robot)"
     else:
-        step = "run again with --save ROBOT.toml to keep the identified robot (then denavit compensate)"
+        step = "run again with --save ROBOT.toml to keep the identified robot" + (
+            " (then denavit compensate)" if nominal else ""
+        )
     say("bold", "Next:", f" {step}")
     if not verbose:
         say("dim", "(--verbose: the joint axes, the measuring volume and the fit's choices)")
