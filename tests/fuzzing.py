@@ -255,9 +255,10 @@ def mutate(text: str, rng: random.Random) -> tuple[bytes, bool]:
         if r < 0.9 or not lines:
             return data + data[data.find(b"\n") + 1 :] * rng.randint(2, 50), False
         last = next((ln for ln in reversed(lines) if ln.strip()), "\n")
-        return data + (last if last.endswith("\n") else last + "\n").encode() * rng.choice(
-            [1_000, 10_000, 100_000]
-        ), False
+        return (
+            data + (last if last.endswith("\n") else last + "\n").encode() * rng.choice([1_000, 10_000, 100_000]),
+            False,
+        )
     if kind == 5:  # meaning kept: a byte-order mark
         return b"\xef\xbb\xbf" + data, True
     if kind == 6:  # meaning kept: CRLF line ends

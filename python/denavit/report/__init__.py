@@ -33,7 +33,9 @@ Units: lengths in ``length`` (default mm, as in Hayat et al.), angles in ``angle
 from .calibration import calibration_report_html, write_calibration_report
 from .compensation import POSITION_ROWS, compensation_report_html, write_compensation_report
 from .html import DECIMALS, FIGURE_FORMATS, PLOTLY_BUNDLE, PLOTLY_JS_VERSION, VIEW_ID, fmt_value
-from .identification import _parameter_chart, _residual_chart, report_html, write_figures, write_report  # noqa: F401 (the charts drawn alone by tests/test_plotting.py)
+
+# (the charts drawn alone by tests/test_plotting.py)
+from .identification import _parameter_chart, _residual_chart, report_html, write_figures, write_report  # noqa: F401
 from .model import model_report_html, write_model_figures, write_model_report
 from .validation import validation_report_html, write_validation_figures, write_validation_report
 
