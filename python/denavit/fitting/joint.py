@@ -394,6 +394,8 @@ class _JointFit:
 
     def k_columns(self, k, rows, sc_, dpdq) -> list:
         """The compliances' Jacobian columns (1, 3, m) each: d pred / d k_i = -dtau_i (1 + s_i) d pred / d q_i."""
+        if not self.kj:
+            return []
         zero = np.zeros((1, 3, len(self.tq[k][rows])))
         return [-(self.tq[k][rows, i] * (1 + sc_[i]))[None, None] * dpdq[i] if i in dpdq else zero for i in self.kj]
 
