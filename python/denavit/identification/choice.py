@@ -462,14 +462,14 @@ def _compliance_list(g: dict) -> str:
     )
 
 
-def _torques(sweeps: SweepSet, dqs: list, model) -> list:
-    """Per sweep (m, n) the gravity torques (N m; N for a prismatic joint) the joints hold at each pose (home plus the
-    joint fit's motion, with the pose's payload; :func:`denavit.calibration.compliance.gravity_torques`, ``model``'s
-    inertials) less those they hold at home without a payload."""
+def _torques(sweeps: SweepSet, dqs: list, model) -> tuple[np.ndarray, list]:
+    """(the gravity torques (N m; N for a prismatic joint) the joints hold at home without a payload (n,), per sweep
+    (m, n) those they hold at each pose (home plus the joint fit's motion, with the pose's payload) less those at home):
+    :func:`denavit.calibration.compliance.gravity_torques` with ``model``'s inertials."""
     from ..calibration.compliance import gravity_torques  # noqa: PLC0415
 
     ref = gravity_torques(model, sweeps.home[None])[0]
-    return [
+    return ref, [
         gravity_torques(model, sweeps.home + dq[:], s.payload) - ref for s, dq in zip(sweeps.sweeps, dqs, strict=True)
     ]
 
@@ -509,7 +509,7 @@ def _choose(
     models = (rotation_noise, tracker)
     k = stride(max(len(s.points) for s in sweeps.sweeps))
     work, wdqs = (sweeps, dqs) if k == 1 else _every(sweeps, dqs, k)
-    tq = None if torque_model is None else _torques(sweeps, dqs, torque_model)
+    ref, tq = (None, None) if torque_model is None else _torques(sweeps, dqs, torque_model)
     wtq = None if tq is None or k == 1 else [t[::k] for t in tq]
     decided = _decide(work, fits, wdqs, homes0, R0, loss, notes, chosen, models, tq if k == 1 else wtq)
     if decided is None:
@@ -531,6 +531,7 @@ def _choose(
             "fit refined once on all points"
         )
     scales = None if prior is None else (g["scales"].copy(), _scale_cross(g, sweeps.n_joints), g["scale_cov"])
+    g = g if ref is None else {**g, "torque_home": ref}
     if scale_words is not None:
         notes.append(_scales_note(g if prior else None, *scale_words, g, sweeps.n_joints))
     mis = np.concatenate(g["misfit"])

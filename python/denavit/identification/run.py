@@ -109,14 +109,7 @@ def identify(
     allow_implausible : keep a fit that is implausible against the nominal (the axes its mirror image, matching it
         with two joints exchanged, or most pairs of axes far from its: a unit slip, the wrong robot), with a note;
         by default it is an error (issue 16: such fits had come back with small sigmas and no word).
-    compliance : None (considered when the sweeps carry a payload, or ``payload`` is given), True (considered), False:
-        the joints' compliance under gravity (issue 37; :mod:`denavit.calibration.compliance`), one ``k_i`` per joint
-        whose gravity torque changes in the data, in the joint fit: fitted with "global", chosen by the evidence with
-        "auto" (:func:`~denavit.identification.choice._compliance`). It needs the nominal's link inertials (without
-        them, when asked, one note says why). The axes are then those of the arm at home under its own weight (no
-        payload), and the result's ``compliance`` holds the compliances and the torques at home.
-    payload : the payload of every pose whose sweep carries none (a mass in kg at the flange, ``(kg, (x, y, z) m)``,
-        or (4,) ``[kg, m, m, m]``; :func:`denavit.calibration.compliance.as_payload`).
+    compliance, payload : the joints' compliance under gravity in the joint fit (issue 37; :func:`_elastic`).
     progress : called with a short message as each stage starts, a :class:`denavit.progress.Stage` (a ``str``) whose
         ``fraction`` is the share of the work done before it (the CLI shows a bar with the percentage and time left).
     """
@@ -129,9 +122,8 @@ def identify(
     notes = _locked_notes(sweeps)
     if not keep_dwell:
         sweeps = _drop_dwell(sweeps, notes)
-    sweeps, torque_model = _elastic(sweeps, nominal, compliance, payload, notes)
     method, fits, cov, p_home, rms, joint, scales = _fit_axes(
-        sweeps, method, loss, max_sigma, rotation_noise, tracker, notes, progress, torque_model
+        sweeps, method, loss, max_sigma, rotation_noise, tracker, notes, progress, (nominal, compliance, payload)
     )
     _noise_model_notes(sweeps, method, joint, tracker, notes)
     base = np.eye(4) if T_world_base is None else np.asarray(T_world_base, dtype=float)
@@ -195,7 +187,7 @@ def identify(
         tool_rotation_cov=rot_cov,
         target_points=target_points,
         tracker_noise=tracker if joint is not None or method == "geometric" else None,
-        compliance=_compliance_of(joint, sweeps, torque_model),
+        compliance=_compliance_of(joint),
     )
     _carried_note(result, convention, notes)
     return result
@@ -227,7 +219,14 @@ def _checked(sweeps, method: str, nominal, loss: str, max_sigma, convention: str
 
 def _elastic(sweeps: SweepSet, nominal, compliance, payload, notes: list[str]):
     """(the sweeps with ``payload`` on every sweep without its own, the nominal's model whose inertials give the gravity
-    torques when the joints' compliance is considered, else None), with the one-line note why not where it was asked."""
+    torques when the joints' compliance is considered, else None), with the one-line note why not where it was asked.
+
+    ``compliance``: None (considered when the sweeps carry a payload, or ``payload`` is given), True (considered),
+    False. One ``k_i`` per joint whose gravity torque changes in the data, in the joint fit: fitted with "global",
+    chosen by the evidence with "auto" (:func:`~denavit.identification.choice._compliance`). It needs the nominal's
+    link inertials. The axes are then those of the arm at home under its own weight (no payload); the result's
+    ``compliance`` (:func:`_compliance_of`) holds the compliances and the torques at home. ``payload``: a mass in kg at
+    the flange, ``(kg, (x, y, z) m)`` or (4,) ``[kg, m, m, m]`` (:func:`denavit.calibration.compliance.as_payload`)."""
     from ..calibration.compliance import as_payload  # noqa: PLC0415
 
     if compliance not in (None, True, False):
@@ -256,28 +255,26 @@ def _elastic(sweeps: SweepSet, nominal, compliance, payload, notes: list[str]):
     return sweeps, nominal.model()
 
 
-def _compliance_of(joint, sweeps: SweepSet, torque_model) -> dict | None:
+def _compliance_of(joint) -> dict | None:
     """The identified compliances (the joint fit's, where it fitted them): ``k`` (n,) rad/(N m) (m/N prismatic; 0
     where not fitted), ``sigma`` (n,) (nan where not fitted), ``cov`` (n, n), ``torque_home`` (n,) N m the gravity
     torques at home without a payload (the axes are the arm's under them: joint i's link sits at
     ``q_i - k_i (tau_i(q, payload) - torque_home_i)``); None when not fitted."""
-    if joint is None or torque_model is None or not np.any(np.isfinite(joint["compliance_sigma"])):
+    if joint is None or not np.any(np.isfinite(joint["compliance_sigma"])):
         return None
-    from ..calibration.compliance import gravity_torques  # noqa: PLC0415
-
     return {
         "k": np.array(joint["compliance"], dtype=float),
         "sigma": joint["compliance_sigma"],
         "cov": joint["compliance_cov"],
-        "torque_home": gravity_torques(torque_model, sweeps.home[None])[0],
+        "torque_home": joint["torque_home"],
     }
 
 
-def _fit_axes(
-    sweeps: SweepSet, method: str, loss: str, max_sigma, rotation_noise, tracker, notes, progress, torque_model=None
-):
-    """The axes: the per-sweep fits, and with readings the joint fit (auto's choice, :func:`_choose`). Returns
-    (method, fits, cov of [c_1, n_1, ..., p], the tool point at home, rms, the joint fit's result or None, scales)."""
+def _fit_axes(sweeps: SweepSet, method: str, loss: str, max_sigma, rotation_noise, tracker, notes, progress, elastic):
+    """The axes: the per-sweep fits, and with readings the joint fit (auto's choice, :func:`_choose`; ``elastic`` (the
+    nominal, compliance, payload): the joints' compliance, :func:`_elastic`). Returns (method, fits, cov of [c_1, n_1,
+    ..., p], the tool point at home, rms, the joint fit's result or None, scales)."""
+    sweeps, torque_model = _elastic(sweeps, *elastic, notes)
     n = sweeps.n_joints
     chosen = method
     if method == "auto":
