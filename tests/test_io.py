@@ -80,7 +80,10 @@ def test_cli_writers_follow_symlinks_and_stream_to_stdout(tmp_path):
 
 # -- input decoding (denavit.io.text), at every text reader ------------------------------------------------
 
-ROBOT = 'name = "one"\nconvention = "dh"\n[units]\nlength = "mm"\nangle = "deg"\n[[joints]]\nd = 100\ntheta = 0\na = 0\nalpha = 0\n'
+ROBOT = (
+    'name = "one"\nconvention = "dh"\n[units]\nlength = "mm"\nangle = "deg"\n[[joints]]\nd = 100\ntheta = 0\na ='
+    " 0\nalpha = 0\n"
+)
 
 
 def _sweeps_csv() -> str:
@@ -244,7 +247,10 @@ def test_a_robot_file_with_an_unknown_convention_names_the_core_list(tmp_path):
     f.write_text(ROBOT.replace('"dh"', '"hayati"'))
     with pytest.raises(
         dv.DenavitError,
-        match=r"r.toml: 'convention' must be one of dh, mdh, edh, poe, got 'hayati' \(aliases: sdh, craig, modified-dh, in any case\)",
+        match=(
+            r"r.toml: 'convention' must be one of dh, mdh, edh, poe, got 'hayati' \(aliases: sdh, craig, modified-dh,"
+            r" in any case\)"
+        ),
     ):
         dv.load_robot(f)
 
@@ -296,9 +302,12 @@ def test_a_urdf_in_latin1_without_an_encoding_declaration_is_one_line(tmp_path):
         dv.load_robot(f)
 
 
-def test_identify_poe_table_prints_the_nominal_w_unitless():
+def test_identify_poe_table_prints_the_nominal_w_unitless(tmp_path):
     """The POE terminal table had printed the nominal w scaled by 1000 (wz = 1000.000 beside 1.000)."""
-    out = run("identify", "--example", "kr5", "--convention", "poe").stdout
+    # the nominal kr5's own sweeps (the example before issue 40; the shipped one is now a "true" KR5's)
+    sweeps = tmp_path / "kr5_nominal.csv"
+    run("simulate", "kr5", "-o", sweeps, "--ranges", "paper90", "--points", "40", "--noise", "0.02", "--seed", "90")
+    out = run("identify", "kr5", sweeps, "--convention", "poe").stdout
     rows = [ln.replace("│", " ").split() for ln in out.splitlines() if ln.strip("│ ").split()[:1] in (["wz"], ["A1"])]
     wz = [r for r in rows if "wz" in r]
     assert len(wz) == 6
