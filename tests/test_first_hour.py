@@ -241,3 +241,59 @@ def test_the_main_job_says_what_was_measured_found_how_accurate_and_what_next(tm
     assert 1.0 < nominal < 6.0  # the stated errors (0.3-1 mm, 0.02-0.1 deg on a 1.2 m arm) miss by millimetres
     assert identified < nominal / 20
     assert 0.5 < identified / predicted < 2.0, (identified, predicted)
+
+
+def test_the_first_workflow_simulate_identify_save_compensate_report_makes_the_true_robot_accurate(tmp_path):
+    """The docs' first workflow (README: simulate, identify, save, compensate, report) on a robot that is not its
+    nominal (the shipped "true" KR5): the compensated commands, run on the true robot, reach the positions at least
+    10x better than the positions sent as they are; judged by forward kinematics of the true robot file, which the
+    workflow never reads."""
+    true = Path(dv.__file__).parent / "data" / "kr5_true.toml"
+    sweeps, saved, report = tmp_path / "s.csv", tmp_path / "kr5_identified.toml", tmp_path / "r.html"
+    invoke("simulate", true, "-o", sweeps, "--ranges", "paper90", "--points", "40", "--noise", "0.02", "--seed", "7")
+    r = invoke("identify", "kr5", sweeps, "--save", saved)
+    assert r.exit_code == 0 and saved.exists(), r.output
+    nominal, real = dv.load_robot("kr5"), dv.load_robot(true)
+    rng = np.random.default_rng(11)
+    q = rng.uniform(nominal.lower * 0.6, nominal.upper * 0.6, (25, 6))
+    positions = tmp_path / "positions.csv"
+    positions.write_text(
+        "# units: length=mm angle=deg\nq1,q2,q3,q4,q5,q6\n"
+        + "".join(",".join(f"{v:.12g}" for v in np.degrees(row)) + "\n" for row in q)
+    )
+    # the nominal with the point simulate measured as its tool (50, 30, 100 mm in the flange frame, simulate's
+    # default): the positions are that point's, as a program's positions are its tool's
+    from dataclasses import replace
+
+    from denavit.io import robotfile
+
+    point = np.eye(4)
+    point[:3, 3] = (0.05, 0.03, 0.10)
+    t = nominal.table
+    with_tool = tmp_path / "kr5_tool.toml"
+    robotfile.save(
+        replace(nominal, table=dv.Table(t.convention, t.params, list(t.kinds), t.T_world_base, point)), with_tool
+    )
+    out, doc = tmp_path / "commands.csv", tmp_path / "c.json"
+    args = ("compensate", with_tool, positions, "--identified", saved, "-o", out, "--json", doc)
+    r = invoke(*args, "--report", report) if importlib.util.find_spec("plotly") else invoke(*args)
+    assert r.exit_code in (0, 1) and out.exists(), r.output  # 1: a row flagged (e.g. its branch changed)
+    import json
+
+    rows = json.loads(doc.read_text())["rows"]
+    ok = np.array([row["ok"] for row in rows])
+    assert ok.sum() >= 20, ok
+    # the point on the nominal at the program's joint values, and on the true robot at the values sent
+    goal = dv.fk_batch(nominal.model().with_tool(point), q)[:, :3, 3]
+    true_model = real.model().with_tool(point)
+    sent_as_is = dv.fk_batch(true_model, q)[:, :3, 3]
+    commands = np.array([row["q"] for row in rows])
+    compensated = dv.fk_batch(true_model, commands)[:, :3, 3]
+    before = np.linalg.norm(sent_as_is - goal, axis=1)[ok]
+    after = np.linalg.norm(compensated - goal, axis=1)[ok]
+    print(
+        f"true error before {np.sqrt(np.mean(before**2)) * 1e3:.3f} mm, after {np.sqrt(np.mean(after**2)) * 1e3:.4f} mm RMS"
+    )
+    assert np.sqrt(np.mean(after**2)) < 0.1 * np.sqrt(np.mean(before**2)), (before, after)
+    if importlib.util.find_spec("plotly"):
+        assert report.exists() and report.stat().st_size > 10_000
