@@ -291,9 +291,6 @@ def test_the_first_workflow_simulate_identify_save_compensate_report_makes_the_t
     compensated = dv.fk_batch(true_model, commands)[:, :3, 3]
     before = np.linalg.norm(sent_as_is - goal, axis=1)[ok]
     after = np.linalg.norm(compensated - goal, axis=1)[ok]
-    print(
-        f"true error before {np.sqrt(np.mean(before**2)) * 1e3:.3f} mm, after {np.sqrt(np.mean(after**2)) * 1e3:.4f} mm RMS"
-    )
     assert np.sqrt(np.mean(after**2)) < 0.1 * np.sqrt(np.mean(before**2)), (before, after)
     if importlib.util.find_spec("plotly"):
         assert report.exists() and report.stat().st_size > 10_000
