@@ -15,7 +15,7 @@ import pytest
 
 import denavit as dv
 from denavit import _core
-from denavit.calibration.compliance import gravity_torques
+from denavit.calibration.compliance import elastic, gravity_torques
 from denavit.errors import DenavitError
 from denavit.sweeps import simulate
 
@@ -141,3 +141,42 @@ def test_payload_for_the_whole_data_and_bad_option(compliant):
     assert np.all(np.abs((idf.compliance["k"][1:3] - k[1:3]) / idf.compliance["sigma"][1:3]) < 3)
     with pytest.raises(DenavitError, match="compliance: expected None, True or False, got 'yes'"):
         dv.identify(train, nominal=ROBOT, compliance="yes")
+
+
+def saved_rms(robot, ss):
+    """RMS 3-D error of the points of ``ss`` predicted as calibrate's model does: FK of ``robot`` at the readings less
+    the deflection ``k tau(q, payload)`` under its compliances (:class:`~denavit.calibration.compliance.Elastic`)."""
+    el = elastic(robot)
+    m = robot.model()
+    errs = [
+        np.linalg.norm(np.asarray(_core.fk_batch(m, el.deflected(s.q, s.payload)))[:, :3, 3] - s.points, axis=1)
+        for s in ss.sweeps
+    ]
+    return float(np.sqrt(np.mean(np.square(np.concatenate(errs)))))
+
+
+def test_saved_robot_with_its_compliances_predicts_as_the_result(compliant, tmp_path):
+    """The saved table's offsets are the undeflected arm's (the home less k tau(home)): the robot file's model plus its
+    [compliance] predicts the held-out sweeps at another payload as the in-memory result does."""
+    _, train, test = compliant
+    idf = dv.identify(train, nominal=ROBOT, compliance=True)
+    path = tmp_path / "kr210_identified.toml"
+    dv.save(idf, path)
+    assert "[compliance]" in path.read_text()
+    saved = dv.load_robot(str(path))
+    c = idf.compliance
+    np.testing.assert_allclose(saved.compliance, np.clip(c["k"], 0, None), rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(saved.compliance_covariance, c["cov"], rtol=1e-9, atol=1e-24)
+    memory = held_out_rms(idf, test)
+    assert abs(saved_rms(saved, test) - memory) < 0.02 * memory
+    # without the offsets folded (the table at the readings' home) the same compliances predict visibly worse
+    unfolded = replace(saved, table=dv.identify(train, nominal=ROBOT, compliance=False).robot().table)
+    assert saved_rms(unfolded, test) > 3 * memory
+
+
+def test_rigid_result_saves_no_compliance(tmp_path):
+    idf = dv.identify(sweeps_of(np.zeros(6), 100.0, seed=11), nominal=ROBOT, compliance=False)
+    path = tmp_path / "rigid.toml"
+    dv.save(idf, path)
+    assert "[compliance]" not in path.read_text()
+    assert dv.load_robot(str(path)).compliance is None

@@ -190,8 +190,10 @@ def _edh_parallel_tol(fits: list, nominal: Robot | None, home: np.ndarray, paral
 
 
 def _axes_from(
-    x: np.ndarray, sweeps: SweepSet, tool_R: np.ndarray, T_world_base: np.ndarray, lower, upper
+    x: np.ndarray, sweeps: SweepSet, tool_R: np.ndarray, T_world_base: np.ndarray, lower, upper, q_ref=None
 ) -> _core.JointAxes:
+    """The joint axes of ``x`` ([c_1, n_1, ..., tool point]) at the joint values ``q_ref`` (default the sweeps' home;
+    with compliant joints the links' values there, :func:`denavit.identification.run._link_home`)."""
     n = sweeps.n_joints
     pts = np.array([x[6 * j : 6 * j + 3] for j in range(n)])
     dirs = np.array([x[6 * j + 3 : 6 * j + 6] for j in range(n)])
@@ -202,7 +204,7 @@ def _axes_from(
         pts,
         dirs,
         kinds=sweeps.kinds,
-        q_ref=sweeps.home,
+        q_ref=sweeps.home if q_ref is None else q_ref,
         T_world_base=T_world_base,
         T_world_tool=T,
         lower=lower,
@@ -231,7 +233,7 @@ def _parameter_cov(
 
     def params_of(xv):
         R = rotvec_matrix(xv[n6 : n6 + n_rot]) @ tool_R if n_rot else tool_R
-        a = _axes_from(xv[:n6], sweeps, R, base, ax.lower, ax.upper)
+        a = _axes_from(xv[:n6], sweeps, R, base, ax.lower, ax.upper, ax.q_ref)
         t = _core.extract(a, convention, fidelity=False, **opts).table  # the tool-error check: once, by the caller
         d = t.params - p_ref
         d[:, angle_cols] = (d[:, angle_cols] + np.pi) % (2 * np.pi) - np.pi

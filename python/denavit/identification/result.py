@@ -11,7 +11,7 @@ import numpy as np
 from .. import _core
 from ..fitting import AxisFit, BoundingBox, oriented_bounding_box
 from ..fitting.joint import TrackerNoise
-from ..robot import Robot
+from ..robot import Robot, inertials_for_table
 from ..sweeps import SweepSet
 from .frames import (
     EDH_PARALLEL_SIGMAS,
@@ -163,11 +163,27 @@ class Identification:
         limits = np.array([_core.default_limits(k) for k in self.sweeps.kinds])
         lower = self.nominal.lower if self.nominal else limits[:, 0]
         upper = self.nominal.upper if self.nominal else limits[:, 1]
+        table = self._extraction(conv).table
+        c = self.compliance
+        # the compliances (bounded at 0: a joint gives way under its torque) with the nominal's link inertials in the
+        # convention's link frames i, put on the identified table's (its offsets the undeflected arm's:
+        # run._link_home), as a robot file's [compliance]
+        inertials = (
+            inertials_for_table(
+                self.nominal.model(),
+                nominal_convention_table(self.nominal, conv, self.sweeps.home),
+                names,
+                lower,
+                upper,
+            )
+            if c is not None and self.nominal.inertials is not None
+            else None
+        )
         # compensate predicts the error after compensation from the covariance, and commands the readings through
         # the coupling and the reading scales (about the sweeps' home, where the identified offsets hold)
         return Robot(
             name=name or f"{self.nominal.name if self.nominal else 'robot'}_identified",
-            table=self._extraction(conv).table,
+            table=table,
             names=names,
             lower=lower,
             upper=upper,
@@ -179,6 +195,9 @@ class Identification:
             coupling=self.coupling,
             reading_scale=self.reading_scale,
             reading_reference=None if self.reading_scale is None else np.asarray(self.sweeps.home, dtype=float),
+            inertials=inertials,
+            compliance=None if inertials is None else np.clip(c["k"], 0.0, None),
+            compliance_covariance=None if inertials is None else np.asarray(c["cov"], dtype=float),
         )
 
     def carried_error(self, convention: str | None = None, count: int = 256) -> tuple[float, int]:

@@ -139,9 +139,9 @@ def identify(
     opts = {"parallel_tol": tol, "nominal": nominal_table, "origins": origins(nominal_table, convention, sweeps.home)}
     if intersect_tol is not None:
         opts["intersect_tol"] = intersect_tol
-    lower = nominal.lower if nominal is not None else None
-    upper = nominal.upper if nominal is not None else None
-    ax = _axes_from(x, sweeps, orientation[1], base, lower, upper)
+    lower, upper = (nominal.lower, nominal.upper) if nominal is not None else (None, None)
+    elastic = _compliance_of(joint, sweeps, nominal, notes)
+    ax = _axes_from(x, sweeps, orientation[1], base, lower, upper, _link_home(sweeps, elastic))
     ex = _core.extract(ax, convention, **opts)
     short = _short_arc_notes(sweeps, fits, notes)
     misfit_notes(sweeps, fits, [sweep_where(x, sweeps.source) for x in sweeps.sweeps], notes)
@@ -187,7 +187,7 @@ def identify(
         tool_rotation_cov=rot_cov,
         target_points=target_points,
         tracker_noise=tracker if joint is not None or method == "geometric" else None,
-        compliance=_compliance_of(joint),
+        compliance=elastic,
     )
     _carried_note(result, convention, notes)
     return result
@@ -255,19 +255,34 @@ def _elastic(sweeps: SweepSet, nominal, compliance, payload, notes: list[str]):
     return sweeps, nominal.model()
 
 
-def _compliance_of(joint) -> dict | None:
+def _compliance_of(joint, sweeps: SweepSet, nominal, notes: list[str]) -> dict | None:
     """The identified compliances (the joint fit's, where it fitted them): ``k`` (n,) rad/(N m) (m/N prismatic; 0
     where not fitted), ``sigma`` (n,) (nan where not fitted), ``cov`` (n, n), ``torque_home`` (n,) N m the gravity
-    torques at home without a payload (the axes are the arm's under them: joint i's link sits at
-    ``q_i - k_i (tau_i(q, payload) - torque_home_i)``); None when not fitted."""
+    torques at home without a payload (the axes fitted are the arm's under them: joint i's link sits at
+    ``q_i - k_i (tau_i(q, payload) - torque_home_i)`` about them); None when not fitted. A note for each compliance
+    negative beyond 2 sigma (a joint gives way under its torque: the data or the torque model are off); the robot
+    (:meth:`Identification.robot`) carries them bounded at 0."""
     if joint is None or not np.any(np.isfinite(joint["compliance_sigma"])):
         return None
-    return {
-        "k": np.array(joint["compliance"], dtype=float),
-        "sigma": joint["compliance_sigma"],
-        "cov": joint["compliance_cov"],
-        "torque_home": joint["torque_home"],
-    }
+    k, sigma = np.array(joint["compliance"], dtype=float), joint["compliance_sigma"]
+    names = nominal.names if nominal is not None else [f"j{j + 1}" for j in range(len(k))]
+    units = ["rad/(N m)" if kind == "revolute" else "m/N" for kind in sweeps.kinds]
+    for j in np.flatnonzero(np.isfinite(sigma) & (k < -2 * sigma)):
+        notes.append(
+            f"joint {j + 1} ({names[j]}): fitted compliance {k[j]:.3g} {units[j]}, negative by {-k[j] / sigma[j]:.1f}"
+            " sigma "
+            "(a joint gives way under its torque): check the payload and the nominal's inertials; the robot carries 0"
+        )
+    return {"k": k, "sigma": sigma, "cov": joint["compliance_cov"], "torque_home": joint["torque_home"]}
+
+
+def _link_home(sweeps: SweepSet, elastic: dict | None) -> np.ndarray:
+    """The links' joint values at the readings' home: the home itself for rigid joints; with compliances the home
+    less each joint's deflection under the arm's own weight there, ``q_home - k tau(q_home)``, so that the table's
+    offsets are those of the undeflected arm and its model plus the compliances predicts as calibrate's does
+    (:class:`denavit.calibration.compliance.Elastic`: the link at ``q - k tau(q, payload)``)."""
+    home = np.asarray(sweeps.home, dtype=float)
+    return home if elastic is None else home - elastic["k"] * elastic["torque_home"]
 
 
 def _fit_axes(sweeps: SweepSet, method: str, loss: str, max_sigma, rotation_noise, tracker, notes, progress, elastic):
