@@ -180,3 +180,28 @@ def test_rigid_result_saves_no_compliance(tmp_path):
     dv.save(idf, path)
     assert "[compliance]" not in path.read_text()
     assert dv.load_robot(str(path)).compliance is None
+
+
+def test_cli_payload_and_the_choice_behind_verbose(compliant, tmp_path):
+    """identify MODEL DATA --payload: the sweeps' payload for the whole file; the compliance choice with --verbose,
+    one note otherwise; --save writes the [compliance]."""
+    from cli import run
+    from denavit.io import sweeps as ios
+
+    k, train, _ = compliant
+    bare = replace(train, sweeps=[replace(s, payload=None) for s in train.sweeps])
+    data = tmp_path / "sweeps.csv"
+    data.write_text(ios.to_long_csv(bare, "mm", "deg"))
+    saved = tmp_path / "id.toml"
+    payload = "100 kg @ 50,0,250 mm"
+    p = run("identify", "kr210", data, "--payload", payload, "--save", saved)
+    assert "auto: joint compliance fitted" not in p.stdout
+    assert "compliance under gravity fitted at joints 2 (" in " ".join(p.stdout.split())
+    robot = dv.load_robot(str(saved))
+    assert np.all(np.abs((robot.compliance[1:3] - k[1:3]) / np.sqrt(np.diag(robot.compliance_covariance))[1:3]) < 3)
+    v = run("identify", "kr210", data, "--payload", payload, "--verbose")
+    assert "auto: joint compliance fitted" in " ".join(v.stdout.split())
+    rigid = run("identify", "kr210", data)
+    assert "compliance" not in rigid.stdout
+    bad = run("identify", "kr210", data, "--payload", "100 @ 0,0,0", ok=False)
+    assert bad.returncode != 0 and "--payload" in bad.stderr and "\n" not in bad.stderr.strip()

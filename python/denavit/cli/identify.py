@@ -220,6 +220,18 @@ ReadingsOpt = Annotated[
         "export): aligned from the motion.",
     ),
 ]
+PayloadOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--payload",
+        help=(
+            "The payload on the flange for every sweep where the data give none (a sweep file's payload_mass,"
+            " payload_x, payload_y, payload_z columns): its mass with a unit (kg, g) and optionally its centre of mass"
+            ' in the flange frame, e.g. "5 kg @ 0,0,80 mm" (--length units without one). With a payload the joints\''
+            " compliance under gravity is a candidate of the joint fit (it needs the nominal's link masses)."
+        ),
+    ),
+]
 
 
 @commands.command()
@@ -256,6 +268,7 @@ def identify(
     readings: ReadingsOpt = None,
     base_link: BaseLinkOpt = None,
     tip_link: TipLinkOpt = None,
+    payload: PayloadOpt = None,
     verbose: VerboseOpt = False,
 ) -> None:
     """Identify the joint axes and parameters from joint sweeps (Hayat et al.), beside the nominal values."""
@@ -282,6 +295,9 @@ def identify(
             fail(f"--save-convention {save_convention}: it sets the table --save writes; give --save FILE too")
         convention_name(save_convention)
     nom = load_robot(str(nominal), base_link, tip_link, "MODEL") if nominal else None
+    from ..io.payload import parse_payload  # noqa: PLC0415
+
+    pl = None if payload is None else parse_payload(payload, out_len)
     with status("reading sweeps..."):
         sweeps = read_sweeps(
             data,
@@ -306,6 +322,7 @@ def identify(
             progress=st.update,
             keep_dwell=keep_dwell,
             allow_implausible=allow_implausible,
+            payload=pl,
             **fit_options(
                 sweeps, out_len, out_ang, coupling, max_sigma, base, rotation_noise, tracker_noise, tracker_position
             ),
@@ -632,6 +649,24 @@ def print_identification(doc: dict, result, length: str, angle: str, verbose: bo
         text = render(note, (ls, length), (as_, angle))
         if verbose or not any(word in text for word in DETAIL_NOTES):
             say("yellow", "note:", f" {text}")
+    if not verbose:
+        _compliance_note(result)
+
+
+def _compliance_note(result) -> None:
+    """Without --verbose, one note in place of the joint fit's choice of the joints' compliance (issue 37)."""
+    chose = any("joint compliance fitted" in str(n) for n in result.notes)
+    if result.compliance is not None:
+        fitted = [j for j, s in enumerate(result.compliance["sigma"]) if s == s]  # not NaN: fitted
+        names = (
+            result.nominal.names
+            if result.nominal is not None
+            else [f"j{i + 1}" for i in range(len(result.compliance["k"]))]
+        )
+        joints = ", ".join(f"{j + 1} ({names[j]})" for j in fitted)
+        say("yellow", "note:", f" the joints' compliance under gravity fitted at joints {joints} (--verbose: why)")
+    elif chose:
+        say("yellow", "note:", " the joints taken as rigid: their compliance under gravity not fitted (--verbose: why)")
 
 
 def print_parameters(doc: dict, result, length: str, angle: str) -> None:
