@@ -205,3 +205,18 @@ def test_cli_payload_and_the_choice_behind_verbose(compliant, tmp_path):
     assert "compliance" not in rigid.stdout
     bad = run("identify", "kr210", data, "--payload", "100 @ 0,0,0", ok=False)
     assert bad.returncode != 0 and "--payload" in bad.stderr and "\n" not in bad.stderr.strip()
+
+
+def test_a_negative_compliance_gets_a_note_and_the_robot_carries_zero():
+    """Data whose joints stiffen under load (a wrong payload or torque model): the fitted compliances negative beyond 2
+    sigma are named in a note; the robot (its [compliance] must be >= 0) carries 0 for them."""
+    k = true_compliance()
+    idf = dv.identify(sweeps_of(-k, 100.0, seed=5), nominal=ROBOT, compliance=True)
+    c = idf.compliance
+    negative = np.flatnonzero(np.isfinite(c["sigma"]) & (c["k"] < -2 * c["sigma"]))
+    assert {1, 2} <= set(negative)
+    said = [n for n in idf.notes if "negative by" in n]
+    assert len(said) == len(negative) and all("\n" not in n for n in said)
+    assert said[0].startswith(f"joint {negative[0] + 1} ({ROBOT.names[negative[0]]}): fitted compliance -")
+    robot = idf.robot()
+    assert np.all(robot.compliance >= 0) and np.all(robot.compliance[negative] == 0)
