@@ -88,7 +88,9 @@ def ik(
         fail("give the tool pose to reach: --goal x,y,z,rx,ry,rz (as fk prints it)")
     T = parse_pose(goal, angle, ls, "--goal", six="rotvec") if goal is not None else parse_pose(pose, angle, ls)
     if pose is not None and len(parse_numbers(pose, "--pose")) == 6 and not pose.strip().lower().startswith("rpy"):
-        deprecated("--pose x,y,z,roll,pitch,yaw", "--goal 'rpy: x,y,z,roll,pitch,yaw' (or --goal x,y,z,rx,ry,rz)")
+        deprecated(
+            "--pose x,y,z,roll,pitch,yaw", "--goal 'rpy: x,y,z,roll,pitch,yaw' (or --goal x,y,z,rx,ry,rz)", last=True
+        )
     start = parse_joint_values(q0, "--q0", robot, length, angle)
     tp = positive(tol_position, "--tol-position", ls, 1e-10, length)
     tr = positive(tol_rotation, "--tol-rotation", as_, 1e-10, angle)
