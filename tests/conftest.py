@@ -1,7 +1,14 @@
-import numpy as np
-import pytest
+import os
 
-import denavit as dv
+# pytest -n auto runs a test process per core: BLAS's own threads on top would oversubscribe the cores (a test of
+# many small solves ran 10x slower beside another process); one BLAS thread per test process (before numpy loads)
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+import denavit as dv  # noqa: E402
 
 
 @pytest.fixture(scope="session")
