@@ -6,7 +6,7 @@ use criterion::{BatchSize, Criterion, black_box, criterion_group, criterion_main
 use denavit_core::{
     Convention, Data, JointKind, Table,
     ik::{IkMethod, IkOptions, IkSolver, ik_path},
-    kinematics::{JacobianFrame, jacobian, tool_pose, tool_pose_batch},
+    kinematics::{JacobianFrame, fk, fk_batch, jacobian},
     spatial::{Pose, nearest_rotation, trans},
 };
 use nalgebra::{DMatrix, Matrix3, Translation3};
@@ -40,20 +40,20 @@ fn bench(c: &mut Criterion) {
     let m = tiansui();
     let q = [0.3, -0.2, 0.5, 0.1, 0.4, -0.3];
     let mut data = Data::new(&m);
-    c.bench_function("fk", |b| b.iter(|| tool_pose(&m, black_box(&q)).unwrap()));
+    c.bench_function("fk", |b| b.iter(|| fk(&m, black_box(&q)).unwrap()));
     c.bench_function("jacobian", |b| b.iter(|| jacobian(&m, &mut data, black_box(&q), JacobianFrame::LocalWorldAligned).unwrap()));
 
     let qs = random_qs(100_000, 1);
     let mut out = vec![0.0; 16 * 100_000];
     let mut g = c.benchmark_group("batch");
     g.sample_size(20);
-    g.bench_function("fk_batch 100k", |b| b.iter(|| tool_pose_batch(&m, black_box(&qs), &mut out).unwrap()));
+    g.bench_function("fk_batch 100k", |b| b.iter(|| fk_batch(&m, black_box(&qs), &mut out).unwrap()));
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
-    g.bench_function("fk_batch 100k, 1 thread", |b| b.iter(|| one.install(|| tool_pose_batch(&m, black_box(&qs), &mut out).unwrap())));
+    g.bench_function("fk_batch 100k, 1 thread", |b| b.iter(|| one.install(|| fk_batch(&m, black_box(&qs), &mut out).unwrap())));
     g.finish();
 
     // IK of random reachable targets from q0 = 0.3 rad, to 1e-9
-    let targets: Vec<Pose> = random_qs(1000, 7).chunks(6).map(|q| tool_pose(&m, q).unwrap()).collect();
+    let targets: Vec<Pose> = random_qs(1000, 7).chunks(6).map(|q| fk(&m, q).unwrap()).collect();
     let mut solver = IkSolver::new(&m, IkOptions { tol_position: 1e-9, tol_rotation: 1e-9, ..Default::default() }).unwrap();
     let mut k = 0;
     c.bench_function("ik random target (lm)", |b| {

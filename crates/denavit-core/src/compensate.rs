@@ -14,7 +14,7 @@
 
 use crate::error::{Error, Result, check_finite, check_len};
 use crate::ik::{IkOptions, IkSolver, ik_batch, ik_path};
-use crate::kinematics::tool_pose_unchecked;
+use crate::kinematics::fk_unchecked;
 use crate::model::Model;
 use crate::spatial::{Pose, pose_error};
 use rayon::prelude::*;
@@ -86,7 +86,7 @@ fn check_models(nominal: &Model, identified: &Model) -> Result<()> {
 /// otherwise they are solved on the nominal model from `q0` (n values).
 ///
 /// ```
-/// use denavit_core::{Joint, JointKind, Model, kinematics::tool_pose, spatial::{trans, Pose}};
+/// use denavit_core::{Joint, JointKind, Model, kinematics::fk, spatial::{trans, Pose}};
 /// use denavit_core::compensate::{compensate, CompensateOptions};
 /// // a planar 3R arm (it reaches a planar pose: x, y and the angle) and the same arm 1 mm longer in link 1
 /// let arm = |l1: f64| {
@@ -95,10 +95,10 @@ fn check_models(nominal: &Model, identified: &Model) -> Result<()> {
 ///     Model::new("planar3", Pose::identity(), j, trans(0.5, 0.0, 0.0), Pose::identity()).unwrap()
 /// };
 /// let (nominal, identified) = (arm(1.0), arm(1.001));
-/// let t = tool_pose(&nominal, &[0.3, 0.8, -0.4]).unwrap();
+/// let t = fk(&nominal, &[0.3, 0.8, -0.4]).unwrap();
 /// let c = &compensate(&nominal, &identified, &[t], None, &[0.3, 0.8, -0.4], &CompensateOptions::default()).unwrap()[0];
 /// assert!(c.reached && !c.branch_changed && c.before_position > 1e-4);
-/// assert!((tool_pose(&identified, &c.q).unwrap().translation.vector - t.translation.vector).norm() < 1e-9);
+/// assert!((fk(&identified, &c.q).unwrap().translation.vector - t.translation.vector).norm() < 1e-9);
 /// ```
 pub fn compensate(
     nominal: &Model,
@@ -156,9 +156,9 @@ pub fn compensate(
                     }
                     let branch_changed = r.q.iter().zip(qn_i).any(|(a, b)| (a - b).abs() > opts.branch_tol);
                     let path_jump = opts.path && i > 0 && qn_i.iter().zip(&qn[(i - 1) * n..i * n]).any(|(a, b)| (a - b).abs() > opts.path_jump);
-                    let (bp, br) = pose_error(&tool_pose_unchecked(identified, qn_i), t);
+                    let (bp, br) = pose_error(&fk_unchecked(identified, qn_i), t);
                     Compensation {
-                        command: tool_pose_unchecked(nominal, &r.q),
+                        command: fk_unchecked(nominal, &r.q),
                         q_nominal: qn_i.to_vec(),
                         reached: r.success,
                         nominal_reached: nominal_ok[i],

@@ -107,12 +107,12 @@ impl Table {
     /// The model this table describes, with default joint names `j1..jn`, default limits.
     ///
     /// ```
-    /// use denavit_core::{Convention, Table, JointKind, spatial::Pose, kinematics::tool_pose};
+    /// use denavit_core::{Convention, Table, JointKind, spatial::Pose, kinematics::fk};
     /// // a planar 2R arm in standard DH: rows (d, theta, a, alpha)
     /// let p = nalgebra::DMatrix::from_row_slice(2, 4, &[0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
     /// let t = Table::new(Convention::Dh, p, vec![JointKind::Revolute; 2], Pose::identity(), Pose::identity()).unwrap();
     /// let m = t.to_model("planar").unwrap();
-    /// assert!((tool_pose(&m, &[0.0, 0.0]).unwrap().translation.x - 2.0).abs() < 1e-15);
+    /// assert!((fk(&m, &[0.0, 0.0]).unwrap().translation.x - 2.0).abs() < 1e-15);
     /// ```
     pub fn to_model(&self, name: &str) -> Result<Model> {
         let joints: Vec<Joint> = self

@@ -4,7 +4,7 @@
 use crate::axes::JointAxes;
 use crate::convention::{Convention, Table};
 use crate::error::{Error, Result, check_finite, check_len};
-use crate::kinematics::tool_pose_unchecked;
+use crate::kinematics::fk_unchecked;
 use crate::model::JointKind;
 use crate::spatial::{Pose, any_perpendicular, perpendicular, pose_error, rx, signed_angle, wrap_angle};
 use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
@@ -545,7 +545,7 @@ pub fn sample_configurations(lower: &[f64], upper: &[f64], count: usize) -> Vec<
 /// the axes (over the sampled configurations).
 fn fidelity(ax: &JointAxes, table: &Table, opt: &ExtractOptions) -> Result<(f64, f64)> {
     let model = table.to_model("candidate")?;
-    let at_ref = pose_error(&tool_pose_unchecked(&model, &ax.q_ref), &ax.t_world_tool);
+    let at_ref = pose_error(&fk_unchecked(&model, &ax.q_ref), &ax.t_world_tool);
     let (mut ep, mut er) = at_ref;
     // every convention, ED-H too: against a nominal with on-body origins, ED-H drops a near-parallel pair's
     // tilt (below parallel_tol), and the error that leaves away from q_ref is the one to report
@@ -555,7 +555,7 @@ fn fidelity(ax: &JointAxes, table: &Table, opt: &ExtractOptions) -> Result<(f64,
         .collect();
     let exact = edh_from_axes(ax, &plain, &geoms, None)?.to_model("exact")?;
     for q in sample_configurations(&ax.lower, &ax.upper, FIDELITY_SAMPLES) {
-        let (p, r) = pose_error(&tool_pose_unchecked(&model, &q), &tool_pose_unchecked(&exact, &q));
+        let (p, r) = pose_error(&fk_unchecked(&model, &q), &fk_unchecked(&exact, &q));
         ep = ep.max(p);
         er = er.max(r);
     }

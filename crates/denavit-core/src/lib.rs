@@ -4,9 +4,9 @@
 //! Conventions, factor orders and sign rules: `docs/conventions.md` (the single source of truth).
 //!
 //! ```
-//! use denavit_core::{builtin_planar2, kinematics::tool_pose};
+//! use denavit_core::{builtin_planar2, kinematics::fk};
 //! let m = builtin_planar2(1.0, 1.0);
-//! assert!((tool_pose(&m, &[0.0, 0.0]).unwrap().translation.x - 2.0).abs() < 1e-15);
+//! assert!((fk(&m, &[0.0, 0.0]).unwrap().translation.x - 2.0).abs() < 1e-15);
 //! ```
 
 pub mod axes;

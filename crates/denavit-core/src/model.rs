@@ -247,9 +247,9 @@ impl Model {
     /// A copy with another tool `T_flange_tool` (in the flange; the flange and the link inertias are kept).
     ///
     /// ```
-    /// use denavit_core::{builtin_planar2, kinematics::tool_pose, spatial::{trans, Pose}};
+    /// use denavit_core::{builtin_planar2, kinematics::fk, spatial::{trans, Pose}};
     /// let m = builtin_planar2(1.0, 1.0).with_tool(trans(0.0, 0.5, 0.0)).unwrap();
-    /// let p = tool_pose(&m, &[0.0, 0.0]).unwrap().translation.vector;
+    /// let p = fk(&m, &[0.0, 0.0]).unwrap().translation.vector;
     /// assert_eq!((p.x, p.y), (2.0, 0.5));
     /// assert_eq!(*m.with_tool(Pose::identity()).unwrap().t_last_tool(), trans(1.0, 0.0, 0.0));
     /// ```

@@ -1,7 +1,7 @@
 //! Where the batch kernels run: [`with_threads`] picks the default pool, the calling thread, or a pool of k
 //! threads (built once per k and kept for the life of the process, so a call costs no thread start).
 //!
-//! The batch functions `kinematics::tool_pose_batch`, `kinematics::jacobian_batch`, the `dynamics::*_batch`,
+//! The batch functions `kinematics::fk_batch`, `kinematics::jacobian_batch`, the `dynamics::*_batch`,
 //! `ik::ik_batch`, compensation and the calibration chain iterate through [`try_for_each_chunk_init`] or
 //! [`in_pool`], so one call of [`with_threads`] around them decides. Results never depend on the number of
 //! threads (each row is computed alone).
@@ -86,12 +86,12 @@ pub fn max_threads() -> usize {
 /// first use and cached.
 ///
 /// ```
-/// use denavit_core::{builtin_planar2, kinematics::tool_pose_batch, parallel::with_threads};
+/// use denavit_core::{builtin_planar2, kinematics::fk_batch, parallel::with_threads};
 /// let m = builtin_planar2(1.0, 1.0);
 /// let qs = vec![0.3; 2 * 1000];
 /// let (mut a, mut b) = (vec![0.0; 16 * 1000], vec![0.0; 16 * 1000]);
-/// with_threads(Some(1), || tool_pose_batch(&m, &qs, &mut a)).unwrap().unwrap();
-/// with_threads(Some(2), || tool_pose_batch(&m, &qs, &mut b)).unwrap().unwrap();
+/// with_threads(Some(1), || fk_batch(&m, &qs, &mut a)).unwrap().unwrap();
+/// with_threads(Some(2), || fk_batch(&m, &qs, &mut b)).unwrap().unwrap();
 /// assert_eq!(a, b);
 /// assert!(with_threads(Some(0), || ()).is_err());
 /// assert!(with_threads(Some(denavit_core::parallel::max_threads() + 1), || ()).is_err());

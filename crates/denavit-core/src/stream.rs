@@ -29,11 +29,11 @@ thread_local! {
 /// plain: 100,000 configurations 28.6 / 16.9, 10^6 45.0 / 33.5).
 ///
 /// ```
-/// use denavit_core::{builtin_planar2, kinematics::tool_pose_batch, stream::with_plain_stores};
+/// use denavit_core::{builtin_planar2, kinematics::fk_batch, stream::with_plain_stores};
 /// let m = builtin_planar2(1.0, 1.0);
 /// let qs = vec![0.3; 2 * 1000];
 /// let mut out = vec![0.0; 16 * 1000];
-/// with_plain_stores(|| tool_pose_batch(&m, &qs, &mut out)).unwrap();
+/// with_plain_stores(|| fk_batch(&m, &qs, &mut out)).unwrap();
 /// ```
 pub fn with_plain_stores<R>(f: impl FnOnce() -> R) -> R {
     crate::parallel::with_flag(&PLAIN, f)

@@ -5,7 +5,7 @@
 mod common;
 
 use denavit_core::calibration::{CalibrationChain, CalibrationFactor, JacobianOut, Motion};
-use denavit_core::kinematics::tool_pose;
+use denavit_core::kinematics::fk;
 use denavit_core::spatial::{Pose, rx, rz, trans};
 use denavit_core::{Error, JointKind};
 use nalgebra::{Matrix3, Matrix6xX, Vector3};
@@ -83,7 +83,7 @@ fn edh_chain_reproduces_the_model() {
         let (chain, x) = edh_chain(&t, false);
         for k in 0..20 {
             let q: Vec<f64> = (0..6).map(|i| ((k * 7 + i * 3) as f64 * 0.37).sin() * 2.0).collect();
-            let a = tool_pose(&m, &q).unwrap();
+            let a = fk(&m, &q).unwrap();
             let b = chain.pose(&x, &q).unwrap();
             assert!((a.to_homogeneous() - b.to_homogeneous()).amax() < 1e-12);
         }
@@ -258,7 +258,7 @@ fn parametrize_reproduces_the_table_model() {
                 for k in 0..20 {
                     let q: Vec<f64> = (0..t.nq()).map(|j| ((k * 7 + j * 3) as f64 * 0.37).sin() * 2.0).collect();
                     let a = chain.pose(&x, &q).unwrap();
-                    let b = tool_pose(&model, &q).unwrap();
+                    let b = fk(&model, &q).unwrap();
                     assert!((a.to_homogeneous() - b.to_homogeneous()).amax() < 1e-12, "{conv:?} {measure:?}");
                 }
             }

@@ -7,7 +7,7 @@ mod common;
 
 use denavit_core::compensate::{CompensateOptions, compensate};
 use denavit_core::ik::{IkOptions, ik};
-use denavit_core::kinematics::tool_pose;
+use denavit_core::kinematics::fk;
 use denavit_core::spatial::{Pose, pose_error, trans};
 use denavit_core::{Joint, Model, Table, builtin_planar2};
 
@@ -17,7 +17,7 @@ fn configurations(n: usize, count: usize) -> Vec<Vec<f64>> {
     let m = common::kr5_dh().to_model("kr5").unwrap();
     (0..)
         .map(|k| (0..n).map(|j| ((k * 13 + j * 7 + 1) as f64 * 0.61).sin() * 1.2).collect::<Vec<f64>>())
-        .filter(|q| tool_pose(&m, q).unwrap().translation.vector.xy().norm() > 0.1)
+        .filter(|q| fk(&m, q).unwrap().translation.vector.xy().norm() > 0.1)
         .take(count)
         .collect()
 }
@@ -40,7 +40,7 @@ fn kr5_pair() -> (Model, Model) {
 fn exact_models_leave_positions_unchanged() {
     let (m, _) = kr5_pair();
     let qs = configurations(6, 40);
-    let positions: Vec<Pose> = qs.iter().map(|q| tool_pose(&m, q).unwrap()).collect();
+    let positions: Vec<Pose> = qs.iter().map(|q| fk(&m, q).unwrap()).collect();
     let flat: Vec<f64> = qs.concat();
     let out = compensate(&m, &m, &positions, Some(&flat), &[0.0; 6], &CompensateOptions::default()).unwrap();
     for (c, (t, q)) in out.iter().zip(positions.iter().zip(&qs)) {
@@ -60,7 +60,7 @@ fn a_known_error_model_is_undone() {
     let rows = configurations(6, 60);
     let path: Vec<Vec<f64>> = (0..60).map(|k| (0..6).map(|j| 0.3 + 0.8 * ((k as f64) * 0.02 + j as f64).sin()).collect()).collect();
     for (qs, is_path) in [(&rows, false), (&path, true)] {
-        let positions: Vec<Pose> = qs.iter().map(|q| tool_pose(&nominal, q).unwrap()).collect();
+        let positions: Vec<Pose> = qs.iter().map(|q| fk(&nominal, q).unwrap()).collect();
         let flat = qs.concat();
         let given = if is_path { None } else { Some(flat.as_slice()) };
         let opts = CompensateOptions { path: is_path, ..Default::default() };
@@ -71,7 +71,7 @@ fn a_known_error_model_is_undone() {
             // the robot (= identified) runs what a nominal controller makes of the command
             let q_cmd = ik(&nominal, &c.command, &c.q, &IkOptions { restarts: 0, ..Default::default() }).unwrap();
             assert!(q_cmd.success);
-            let (dp, dr) = pose_error(&tool_pose(&identified, &q_cmd.q).unwrap(), t);
+            let (dp, dr) = pose_error(&fk(&identified, &q_cmd.q).unwrap(), t);
             assert!(dp < 1e-9 && dr < 1e-9, "{dp} {dr}");
         }
     }
@@ -80,7 +80,7 @@ fn a_known_error_model_is_undone() {
 #[test]
 fn unreachable_positions_and_branch_changes_are_flagged() {
     let nominal = builtin_planar2(1.0, 1.0);
-    let reach = tool_pose(&nominal, &[0.3, 0.8]).unwrap();
+    let reach = fk(&nominal, &[0.3, 0.8]).unwrap();
     let far = trans(5.0, 0.0, 0.0) * reach;
     let opts = CompensateOptions { ik: IkOptions { restarts: 5, ..Default::default() }, ..Default::default() };
     let out = compensate(&nominal, &nominal, &[reach, far], None, &[0.3, 0.8], &opts).unwrap();
@@ -96,7 +96,7 @@ fn unreachable_positions_and_branch_changes_are_flagged() {
     };
     let (nominal3, identified3) = (planar3(-std::f64::consts::PI), planar3(0.0));
     let elbow_down = [0.9, -0.8, 0.4];
-    let t = tool_pose(&nominal3, &elbow_down).unwrap();
+    let t = fk(&nominal3, &elbow_down).unwrap();
     let out = compensate(
         &nominal3,
         &identified3,
@@ -110,7 +110,7 @@ fn unreachable_positions_and_branch_changes_are_flagged() {
     assert!(out[0].q[1] > 0.0);
     // a path whose nominal solutions jump
     let q = [0.3, 0.8, 0.35, 0.8, 0.35 + 1.6, -0.8];
-    let ts: Vec<Pose> = q.chunks(2).map(|c| tool_pose(&nominal, c).unwrap()).collect();
+    let ts: Vec<Pose> = q.chunks(2).map(|c| fk(&nominal, c).unwrap()).collect();
     let out = compensate(&nominal, &nominal, &ts, Some(&q), &[0.0, 0.0], &CompensateOptions { path: true, ..opts }).unwrap();
     assert_eq!(out.iter().map(|c| c.path_jump).collect::<Vec<_>>(), [false, false, true]);
 }
@@ -119,7 +119,7 @@ fn unreachable_positions_and_branch_changes_are_flagged() {
 fn bad_input_is_an_error() {
     let (m, _) = kr5_pair();
     let two = builtin_planar2(1.0, 1.0);
-    let t = tool_pose(&m, &[0.0; 6]).unwrap();
+    let t = fk(&m, &[0.0; 6]).unwrap();
     let e = compensate(&m, &two, &[t], None, &[0.0; 6], &CompensateOptions::default()).unwrap_err();
     assert!(e.to_string().contains("expected 6, got 2"), "{e}");
     let e = compensate(&m, &m, &[t], None, &[0.0; 6], &CompensateOptions { branch_tol: -1.0, ..Default::default() }).unwrap_err();

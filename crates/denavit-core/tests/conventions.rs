@@ -6,7 +6,7 @@ use denavit_core::{
     Convention, Data, Joint, JointKind, Model, Table,
     axes::axes,
     extract::{ExtractOptions, FIDELITY_SAMPLES, NEAR_PARALLEL_SIN, Relation, extract, sample_configurations},
-    kinematics::{forward_kinematics, tool_pose},
+    kinematics::{fk, forward_kinematics},
     spatial::{Pose, pose_error, rx, ry, rz, trans},
 };
 use nalgebra::Vector3;
@@ -15,7 +15,7 @@ use proptest::prelude::*;
 fn max_err(a: &Model, b: &Model, qs: &[Vec<f64>]) -> f64 {
     qs.iter()
         .map(|q| {
-            let (p, r) = pose_error(&tool_pose(a, q).unwrap(), &tool_pose(b, q).unwrap());
+            let (p, r) = pose_error(&fk(a, q).unwrap(), &fk(b, q).unwrap());
             p.max(r)
         })
         .fold(0.0, f64::max)
@@ -62,7 +62,7 @@ fn kr5_dh_home_position() {
     // At the KR5 zero configuration the DH chain of Hayat Table III puts the flange at
     // x = a1 + a2·0 ... computed by hand: frame chain with all theta = 0.
     let m = kr5_dh().to_model("kr5").unwrap();
-    let t = tool_pose(&m, &[0.0; 6]).unwrap();
+    let t = fk(&m, &[0.0; 6]).unwrap();
     // Rz(0)Tz(.4)Tx(.18)Rx(90) · Tx(.6) · Tx(.12)Rx(90) · Tz(.62)Rx(90) · Rx(90)
     // x = 0.18 + 0.6 + 0.12 = 0.9; after Rx(90) twice the z of link 4 points along -y... : y = -0.62·(-1)? see below
     let expected = trans(0.0, 0.0, 0.4)
@@ -139,7 +139,7 @@ proptest! {
                     // the reported error is the measured one, on the configurations the report names
                     let mut samples = sample_configurations(&ax.lower, &ax.upper, FIDELITY_SAMPLES);
                     samples.push(ax.q_ref.clone());
-                    let measured = samples.iter().map(|q| pose_error(&tool_pose(&model, q).unwrap(), &tool_pose(&back, q).unwrap()).0).fold(0.0, f64::max);
+                    let measured = samples.iter().map(|q| pose_error(&fk(&model, q).unwrap(), &fk(&back, q).unwrap()).0).fold(0.0, f64::max);
                     prop_assert!((measured - ex.max_position_error).abs() < 1e-12, "{} measured {measured:e} reported {:e}", conv.name(), ex.max_position_error);
                     // offsets stay within the robot's size
                     // offsets stay within the robot's size for near-parallel pairs, and within size / NEAR_PARALLEL_SIN
@@ -257,9 +257,9 @@ fn flange_is_dh_frame_n_and_the_tool_is_in_the_flange() {
             let (dp, dr) = pose_error(a, b);
             assert!(dp < 1e-15 && dr < 1e-15, "{dp:e} m {dr:e} rad at {q:?}");
         };
-        close(&tool_pose(&bare, &q).unwrap(), &flange);
-        close(&tool_pose(&m, &q).unwrap(), &(flange * tool));
-        let at = tool_pose(&pointed, &q).unwrap().translation.vector;
+        close(&fk(&bare, &q).unwrap(), &flange);
+        close(&fk(&m, &q).unwrap(), &(flange * tool));
+        let at = fk(&pointed, &q).unwrap().translation.vector;
         assert!((at - flange.transform_point(&p.into()).coords).norm() < 1e-15);
     }
 }
@@ -276,7 +276,7 @@ fn flange_of_every_convention() {
     let poe = extract(&axes(&dh.to_model("kr5").unwrap(), &[0.0; 6]).unwrap(), Convention::Poe, &ExtractOptions::default()).unwrap().table;
     let m = poe.to_model("poe").unwrap();
     assert_eq!(*m.t_flange_tool(), Pose::identity());
-    let (dp, dr) = pose_error(&tool_pose(&m, &[0.0; 6]).unwrap(), &(poe.t_world_base * poe.t_last_tool));
+    let (dp, dr) = pose_error(&fk(&m, &[0.0; 6]).unwrap(), &(poe.t_world_base * poe.t_last_tool));
     assert!(dp < 1e-15 && dr < 1e-15);
 }
 
@@ -350,7 +350,7 @@ fn edh_against_a_nominal_reports_the_tool_error_of_the_dropped_tilt() {
     let back = ex.table.to_model("back").unwrap();
     let mut samples = sample_configurations(&ax.lower, &ax.upper, FIDELITY_SAMPLES);
     samples.push(ax.q_ref.clone());
-    let measured = samples.iter().map(|q| pose_error(&tool_pose(&tilted, q).unwrap(), &tool_pose(&back, q).unwrap()).0).fold(0.0, f64::max);
+    let measured = samples.iter().map(|q| pose_error(&fk(&tilted, q).unwrap(), &fk(&back, q).unwrap()).0).fold(0.0, f64::max);
     assert!(measured > 1e-5, "the dropped tilt moves the tool by {measured:e} m");
     assert!((measured - ex.max_position_error).abs() < 1e-12, "measured {measured:e}, reported {:e}", ex.max_position_error);
 }

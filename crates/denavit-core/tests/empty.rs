@@ -7,7 +7,7 @@ use denavit_core::{
     dynamics::{self, DynamicsData},
     extract::{ExtractOptions, convert, extract},
     ik::{IkMethod, IkOptions, IkSolver, ik, ik_batch, ik_path},
-    kinematics::{JacobianFrame, forward_kinematics, jacobian, jacobian_batch, jacobian_row_major_unchecked, tool_pose, tool_pose_batch},
+    kinematics::{JacobianFrame, fk, fk_batch, forward_kinematics, jacobian, jacobian_batch, jacobian_row_major_unchecked},
     spatial::{Pose, rx, trans},
 };
 use nalgebra::{DMatrix, Vector3, Vector6};
@@ -19,7 +19,7 @@ fn empty() -> Model {
 #[test]
 fn kinematics_of_a_model_without_joints() {
     let m = empty();
-    let t = tool_pose(&m, &[]).unwrap();
+    let t = fk(&m, &[]).unwrap();
     assert_eq!(t, *m.t_world_base() * m.t_last_tool());
     let mut d = Data::new(&m);
     forward_kinematics(&m, &mut d, &[]).unwrap();
@@ -32,8 +32,8 @@ fn kinematics_of_a_model_without_joints() {
         jacobian_batch(&m, &[], frame, None, &mut out).unwrap();
     }
     let mut out = vec![];
-    tool_pose_batch(&m, &[], &mut out).unwrap();
-    assert!(tool_pose(&m, &[0.0]).is_err());
+    fk_batch(&m, &[], &mut out).unwrap();
+    assert!(fk(&m, &[0.0]).is_err());
 }
 
 #[test]
@@ -42,17 +42,17 @@ fn conventions_of_a_model_without_joints() {
     // no axes: the model's axes are empty, and extracting every convention from them gives an empty table
     // with the same tool pose (a user cannot build empty axes: JointAxes::new asks for one)
     let ax = axes(&m, &[]).unwrap();
-    assert_eq!((ax.nq(), ax.t_world_tool), (0, tool_pose(&m, &[]).unwrap()));
+    assert_eq!((ax.nq(), ax.t_world_tool), (0, fk(&m, &[]).unwrap()));
     assert!(JointAxes::new(Pose::identity(), vec![], vec![], vec![], vec![], Pose::identity(), vec![], vec![]).is_err());
     for c in Convention::ALL {
         let e = extract(&ax, c, &ExtractOptions::default()).unwrap();
         assert_eq!(e.table.nq(), 0);
-        assert_eq!(tool_pose(&e.table.to_model("back").unwrap(), &[]).unwrap(), ax.t_world_tool, "{}", c.name());
+        assert_eq!(fk(&e.table.to_model("back").unwrap(), &[]).unwrap(), ax.t_world_tool, "{}", c.name());
     }
     for c in Convention::ALL {
         let t = Table::new(c, DMatrix::zeros(0, c.columns().len()), vec![], trans(0.1, 0.2, 0.3), trans(0.0, 0.0, 0.1)).unwrap();
         let m = t.to_model("empty").unwrap();
-        assert_eq!(tool_pose(&m, &[]).unwrap(), trans(0.1, 0.2, 0.4), "{}", c.name());
+        assert_eq!(fk(&m, &[]).unwrap(), trans(0.1, 0.2, 0.4), "{}", c.name());
         assert!(t.link_frames().is_empty());
         assert_eq!(t.frames(&[]).unwrap(), vec![t.t_world_base]);
         assert!(t.to_model_with("empty", &[], &[], &[]).is_ok());
@@ -95,7 +95,7 @@ fn dynamics_of_a_model_without_joints() {
 #[test]
 fn ik_of_a_model_without_joints() {
     let m = empty();
-    let reached = tool_pose(&m, &[]).unwrap();
+    let reached = fk(&m, &[]).unwrap();
     let elsewhere = trans(1.0, 0.0, 0.0) * reached;
     for method in [IkMethod::Lm, IkMethod::Newton] {
         let o = IkOptions { method, ..Default::default() };

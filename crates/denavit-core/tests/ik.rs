@@ -6,7 +6,7 @@ use common::*;
 use denavit_core::{
     Error, Joint, JointKind, Model,
     ik::{IkMethod, IkOptions, IkSolver, Structure, closed_form_branches, closed_form_structure, ik, ik_batch, ik_path, log_rotation},
-    kinematics::tool_pose,
+    kinematics::fk,
     spatial::{Pose, nearest_rotation, pose_error, rx, rz, trans},
 };
 use nalgebra::{Matrix4, Rotation3, Translation3, Vector3};
@@ -81,7 +81,7 @@ proptest! {
     ) {
         let m = if which == 2 { kr5_limited() } else { models().swap_remove(which) };
         // a reachable target, or one moved off the workspace / rotated away
-        let mut target = tool_pose(&m, &q_target).unwrap();
+        let mut target = fk(&m, &q_target).unwrap();
         if far {
             target = trans(perturb[0] * 10.0, perturb[1] * 10.0, perturb[2] * 10.0) * target * rz(perturb[3]);
         }
@@ -92,7 +92,7 @@ proptest! {
             max_iterations, restarts, seed, respect_limits, ..Default::default()
         };
         let r = ik(&m, &target, &q0, &opts).unwrap();
-        let (p, a) = pose_error(&tool_pose(&m, &r.q).unwrap(), &target);
+        let (p, a) = pose_error(&fk(&m, &r.q).unwrap(), &target);
         prop_assert_eq!(r.position_error, p);
         prop_assert_eq!(r.rotation_error, a);
         if r.success {
@@ -131,7 +131,7 @@ fn reachable_targets_are_solved_to_1e_10() {
             let qs = lcg_qs(6, 300, 99, PI);
             let mut ok = 0;
             for q in &qs {
-                let t = tool_pose(&m, q).unwrap();
+                let t = fk(&m, q).unwrap();
                 let r = s.solve(&t, &[0.3; 6]).unwrap();
                 if r.success {
                     ok += 1;
@@ -154,7 +154,7 @@ fn unreachable_target_reports_failure_with_the_measured_residual() {
         let opts = IkOptions { method, restarts: 3, ..Default::default() };
         let r = ik(&m, &target, &[0.3; 6], &opts).unwrap();
         assert!(!r.success);
-        let (p, a) = pose_error(&tool_pose(&m, &r.q).unwrap(), &target);
+        let (p, a) = pose_error(&fk(&m, &r.q).unwrap(), &target);
         assert_eq!((r.position_error, r.rotation_error), (p, a));
         assert!(p > 3.0, "residual {p}");
         assert_eq!(r.restarts, 3);
@@ -174,7 +174,7 @@ fn joint_limits_are_respected_when_asked() {
     // a configuration outside the limits of joint 2 (lower -1.5, upper 0.5): its pose may still be
     // reachable within the limits by another branch, so check q, not success
     let q_out = [0.2, 1.2, 0.3, 0.1, 0.4, 0.2];
-    let target = tool_pose(&m, &q_out).unwrap();
+    let target = fk(&m, &q_out).unwrap();
     let free = ik(&m, &target, &[0.2, 1.0, 0.3, 0.1, 0.4, 0.2], &IkOptions { respect_limits: false, ..Default::default() }).unwrap();
     assert!(free.success);
     let held = ik(&m, &target, &[0.2, 1.0, 0.3, 0.1, 0.4, 0.2], &IkOptions::default()).unwrap();
@@ -184,7 +184,7 @@ fn joint_limits_are_respected_when_asked() {
     let mut solved = 0;
     for (k, u) in lcg_qs(6, 100, 5, 0.5).iter().enumerate() {
         let q: Vec<f64> = u.iter().zip(&lim).map(|(u, (lo, hi))| lo + (u + 0.5) * (hi - lo)).collect();
-        let t = tool_pose(&m, &q).unwrap();
+        let t = fk(&m, &q).unwrap();
         let r = ik(&m, &t, &[0.0; 6], &IkOptions { seed: k as u64, ..Default::default() }).unwrap();
         assert!(within_limits(&m, &r.q));
         solved += r.success as usize;
@@ -192,7 +192,7 @@ fn joint_limits_are_respected_when_asked() {
     assert!(solved >= 98, "{solved}/100");
     // a revolute angle outside the limits but 2 pi away from a valid one is wrapped, not clamped
     let q0 = [0.2 + 2.0 * PI, -0.5, 0.3, 0.1, 0.4, 0.2];
-    let t = tool_pose(&m, &[0.2, -0.5, 0.3, 0.1, 0.4, 0.2]).unwrap();
+    let t = fk(&m, &[0.2, -0.5, 0.3, 0.1, 0.4, 0.2]).unwrap();
     let r = ik(&m, &t, &q0, &IkOptions::default()).unwrap();
     assert!(r.success && r.restarts == 0 && (r.q[0] - 0.2).abs() < 1e-9, "{:?}", r);
 }
@@ -201,7 +201,7 @@ fn joint_limits_are_respected_when_asked() {
 fn bad_input_is_an_error_naming_what_was_expected() {
     let m = kr5_dh().to_model("kr5").unwrap();
     let o = IkOptions::default();
-    let t = tool_pose(&m, &[0.1; 6]).unwrap();
+    let t = fk(&m, &[0.1; 6]).unwrap();
     // wrong q0 length
     let e = ik(&m, &t, &[0.0; 5], &o).unwrap_err();
     assert_eq!(e, Error::SizeMismatch { what: "q0".into(), expected: 6, got: 5 });
@@ -261,7 +261,7 @@ fn guo_trajectory_mdh_and_edh() {
                 prev = r.q.clone();
             }
             // the last pose is 100 mm above 0T
-            let last = tool_pose(m, &path[99].q).unwrap();
+            let last = fk(m, &path[99].q).unwrap();
             assert!((last.translation.vector - t0.translation.vector - Vector3::new(0.0, 0.0, 0.1)).norm() < 1e-10);
             sols.push(path);
         }
@@ -275,7 +275,7 @@ fn guo_trajectory_mdh_and_edh() {
 #[test]
 fn batch_matches_path_free_solves_and_is_deterministic() {
     let m = tiansui_mdh().to_model("mdh").unwrap();
-    let targets: Vec<Pose> = lcg_qs(6, 200, 3, PI).iter().map(|q| tool_pose(&m, q).unwrap()).collect();
+    let targets: Vec<Pose> = lcg_qs(6, 200, 3, PI).iter().map(|q| fk(&m, q).unwrap()).collect();
     let opts = IkOptions { tol_position: 1e-9, tol_rotation: 1e-9, ..Default::default() };
     let a = ik_batch(&m, &targets, &[0.3; 6], &opts).unwrap();
     let one_thread = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
@@ -298,14 +298,14 @@ fn redundant_and_deficient_chains() {
     let mut joints = k.joints().to_vec();
     joints.push(Joint::new("j7", JointKind::Revolute, trans(0.0, 0.05, 0.1) * rx(0.7)));
     let m7 = Model::new("kr5+1", *k.t_world_base(), joints, *k.t_last_flange(), *k.t_flange_tool()).unwrap();
-    let t = tool_pose(&m7, &[0.3, -0.4, 0.5, 0.2, 0.6, -0.3, 0.4]).unwrap();
+    let t = fk(&m7, &[0.3, -0.4, 0.5, 0.2, 0.6, -0.3, 0.4]).unwrap();
     for method in [IkMethod::Newton, IkMethod::Lm] {
         let r = ik(&m7, &t, &[0.2, -0.3, 0.4, 0.1, 0.5, -0.2, 0.3], &IkOptions { method, ..Default::default() }).unwrap();
         assert!(r.success, "{method:?} {r:?}");
     }
     // 2 joints: a planar arm reaches in-plane targets with their in-plane orientation
     let p = denavit_core::builtin_planar2(0.7, 0.5);
-    let t = tool_pose(&p, &[0.9, -1.4]).unwrap();
+    let t = fk(&p, &[0.9, -1.4]).unwrap();
     for method in [IkMethod::Newton, IkMethod::Lm] {
         let r = ik(&p, &t, &[0.5, -1.0], &IkOptions { method, ..Default::default() }).unwrap();
         assert!(r.success && (r.q[0] - 0.9).abs() < 1e-9, "{method:?} {r:?}");
@@ -329,7 +329,7 @@ fn restarts_are_deterministic_and_seeded() {
 #[ignore]
 fn workload() {
     let m = tiansui_mdh().to_model("mdh").unwrap();
-    let targets: Vec<Pose> = lcg_qs(6, 2000, 17, PI).iter().map(|q| tool_pose(&m, q).unwrap()).collect();
+    let targets: Vec<Pose> = lcg_qs(6, 2000, 17, PI).iter().map(|q| fk(&m, q).unwrap()).collect();
     let mut s = IkSolver::new(&m, IkOptions { tol_position: 1e-9, tol_rotation: 1e-9, ..Default::default() }).unwrap();
     let (mut its, t0) = (0, std::time::Instant::now());
     for t in &targets {
@@ -348,7 +348,7 @@ fn workload_fk_batch() {
     let mut out = vec![0.0; 16 * 100_000];
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
     let t0 = std::time::Instant::now();
-    one.install(|| denavit_core::kinematics::tool_pose_batch(&m, &qs, &mut out).unwrap());
+    one.install(|| denavit_core::kinematics::fk_batch(&m, &qs, &mut out).unwrap());
     println!("fk batch 100k, 1 thread: {:.2} ms", t0.elapsed().as_secs_f64() * 1e3);
 }
 
@@ -412,11 +412,11 @@ fn closed_form_branches_reproduce_the_target() {
         let mut eight = 0;
         let qs = qs_within(&m, 200, 11);
         for q in &qs {
-            let t = tool_pose(&m, q).unwrap();
+            let t = fk(&m, q).unwrap();
             let branches = closed_form_branches(&m, &t).unwrap().unwrap();
             assert!(!branches.is_empty() && branches.len() <= 8);
             for b in &branches {
-                let (p, a) = pose_error(&tool_pose(&m, b).unwrap(), &t);
+                let (p, a) = pose_error(&fk(&m, b).unwrap(), &t);
                 assert!(p < 1e-12 && a < 1e-12, "{}: branch {b:?} of {q:?} is off by {p:e} m, {a:e} rad", m.name());
             }
             assert!(distinct(&[branches.clone(), vec![q.clone()]].concat()) == distinct(&branches), "{}: {q:?} not among its branches", m.name());
@@ -424,7 +424,7 @@ fn closed_form_branches_reproduce_the_target() {
         }
         // a generic pose, where the arm can reach the wrist from behind its shoulder too
         let q = [0.4, 1.0, -2.0, 0.5, 0.8, -0.3];
-        let b = closed_form_branches(&m, &tool_pose(&m, &q).unwrap()).unwrap().unwrap();
+        let b = closed_form_branches(&m, &fk(&m, &q).unwrap()).unwrap().unwrap();
         assert_eq!(distinct(&b), 8, "{}: {b:?}", m.name());
         println!("{}: {eight}/200 random configurations with 8 distinct branches", m.name());
         assert!(eight >= 100, "{}: {eight}/200 with 8 branches", m.name()); // 119 to 200 of 200 seen
@@ -443,7 +443,7 @@ fn closed_form_branches_reproduce_the_target() {
 fn one_attempt_returns_the_branch_nearest_q0() {
     for (m, _) in builtins_6r() {
         for (k, q) in qs_within(&m, 50, 3).iter().enumerate() {
-            let t = tool_pose(&m, q).unwrap();
+            let t = fk(&m, q).unwrap();
             let q0: Vec<f64> = lcg_qs(6, 1, k as u64, 2.0)[0].iter().zip(m.joints()).map(|(v, j)| v.clamp(j.lower, j.upper)).collect();
             // every placement of each branch by multiples of 2 pi within the limits: the nearest to q0
             let mut best: Option<(f64, Vec<f64>)> = None;
@@ -483,9 +483,9 @@ fn one_attempt_success_on_builtins() {
             let qs = qs_within(&m, 500, 7);
             let mut ok = 0;
             for q in &qs {
-                let t = tool_pose(&m, q).unwrap();
+                let t = fk(&m, q).unwrap();
                 let r = s.solve(&t, &q0).unwrap();
-                let (p, a) = pose_error(&tool_pose(&m, &r.q).unwrap(), &t);
+                let (p, a) = pose_error(&fk(&m, &r.q).unwrap(), &t);
                 assert_eq!(r.success, p <= 1e-9 && a <= 1e-9 && within_limits(&m, &r.q));
                 ok += r.success as usize;
             }
@@ -522,10 +522,10 @@ fn identified_robots_solve_from_seeds_and_polish() {
         let mut seeds_off = 0.0f64;
         let qs = qs_within(&id, 300, 5);
         for q in &qs {
-            let t = tool_pose(&id, q).unwrap();
+            let t = fk(&id, q).unwrap();
             // the seeds are near, not at, a solution
             for b in closed_form_branches(&id, &t).unwrap().unwrap() {
-                seeds_off = seeds_off.max(pose_error(&tool_pose(&id, &b).unwrap(), &t).0);
+                seeds_off = seeds_off.max(pose_error(&fk(&id, &b).unwrap(), &t).0);
             }
             let opts = IkOptions { method: IkMethod::Newton, restarts: 0, tol_position: 1e-10, tol_rotation: 1e-10, ..Default::default() };
             let r = ik(&id, &t, &q0, &opts).unwrap();
@@ -545,12 +545,12 @@ fn identified_robots_solve_from_seeds_and_polish() {
 #[test]
 fn unreachable_targets_fail_honestly_with_a_closed_form() {
     for (m, _) in builtins_6r() {
-        let t = tool_pose(&m, &[0.3; 6]).unwrap();
+        let t = fk(&m, &[0.3; 6]).unwrap();
         let far = trans(3.0, 0.0, 0.0) * t;
         assert_eq!(closed_form_branches(&m, &far).unwrap(), Some(vec![]), "{}", m.name());
         let r = ik(&m, &far, &[0.3; 6], &IkOptions { method: IkMethod::Newton, restarts: 0, ..Default::default() }).unwrap();
         assert!(!r.success && r.position_error > 1.0, "{}: {r:?}", m.name());
-        assert_eq!(r.position_error, pose_error(&tool_pose(&m, &r.q).unwrap(), &far).0);
+        assert_eq!(r.position_error, pose_error(&fk(&m, &r.q).unwrap(), &far).0);
     }
 }
 
@@ -620,9 +620,9 @@ fn one_attempt_success_on_7r_arms() {
                 let mut s = IkSolver::new(&m, opts).unwrap();
                 let mut ok = 0;
                 for q in &qs {
-                    let t = tool_pose(&m, q).unwrap();
+                    let t = fk(&m, q).unwrap();
                     let r = s.solve(&t, &q0).unwrap();
-                    let (p, a) = pose_error(&tool_pose(&m, &r.q).unwrap(), &t);
+                    let (p, a) = pose_error(&fk(&m, &r.q).unwrap(), &t);
                     assert_eq!(r.success, p <= 1e-9 && a <= 1e-9 && (!respect_limits || within_limits(&m, &r.q)));
                     assert!(r.iterations <= 100 && r.restarts == 0);
                     ok += r.success as usize;
@@ -658,9 +658,9 @@ fn identified_7r_arms_solve_from_seeds_and_polish() {
         let mut s = IkSolver::new(&id, opts).unwrap();
         let (mut ok, mut quick) = (0, 0);
         for q in &qs {
-            let t = tool_pose(&id, q).unwrap();
+            let t = fk(&id, q).unwrap();
             let r = s.solve(&t, &q0).unwrap();
-            let (p, a) = pose_error(&tool_pose(&id, &r.q).unwrap(), &t);
+            let (p, a) = pose_error(&fk(&id, &r.q).unwrap(), &t);
             assert_eq!(r.success, p <= 1e-10 && a <= 1e-10 && within_limits(&id, &r.q));
             ok += r.success as usize;
             quick += (r.success && r.iterations <= 10) as usize;
@@ -680,7 +680,7 @@ fn unreachable_targets_fail_honestly_on_7r_arms() {
             let opts = IkOptions { method: IkMethod::Newton, restarts: 0, respect_limits, ..Default::default() };
             let t = trans(2.0, 0.5, 0.4);
             let r = ik(&m, &t, &[0.3, 0.3, 0.3, -0.3, 0.3, 0.3, 0.3], &opts).unwrap();
-            let (p, a) = pose_error(&tool_pose(&m, &r.q).unwrap(), &t);
+            let (p, a) = pose_error(&fk(&m, &r.q).unwrap(), &t);
             assert!(!r.success && r.position_error == p && r.rotation_error == a && p > 0.5, "{} {r:?}", m.name());
             assert!(r.iterations <= 100);
         }

@@ -3,7 +3,7 @@
 #![allow(clippy::unwrap_used)]
 
 use denavit_core::ik::{IkOptions, ik};
-use denavit_core::kinematics::tool_pose_batch;
+use denavit_core::kinematics::fk_batch;
 use denavit_core::parallel::{clear_interrupt, interrupt, with_threads};
 use denavit_core::spatial::trans;
 use denavit_core::{Error, builtin_planar2};
@@ -17,14 +17,14 @@ fn an_interrupt_stops_batches_and_solves_until_cleared() {
     let far = trans(3.0, 0.0, 0.0);
     interrupt();
     for threads in [Some(1), Some(2), None] {
-        let r = with_threads(threads, || tool_pose_batch(&m, &qs, &mut out)).unwrap();
+        let r = with_threads(threads, || fk_batch(&m, &qs, &mut out)).unwrap();
         assert_eq!(r, Err(Error::Interrupted), "threads {threads:?}");
     }
     let opts = IkOptions { restarts: 1_000_000, ..IkOptions::default() };
     assert_eq!(ik(&m, &far, &[0.0, 0.5], &opts), Err(Error::Interrupted));
     clear_interrupt();
-    with_threads(Some(2), || tool_pose_batch(&m, &qs, &mut out)).unwrap().unwrap();
+    with_threads(Some(2), || fk_batch(&m, &qs, &mut out)).unwrap().unwrap();
     assert!(out.iter().all(|v| v.is_finite()));
-    let near = denavit_core::kinematics::tool_pose(&m, &[0.3, 1.2]).unwrap();
+    let near = denavit_core::kinematics::fk(&m, &[0.3, 1.2]).unwrap();
     assert!(ik(&m, &near, &[0.0, 0.5], &IkOptions::default()).unwrap().success);
 }

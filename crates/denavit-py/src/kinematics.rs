@@ -33,7 +33,7 @@ fn joint_of(model: &denavit_core::Model, joint: Option<&Bound<'_, PyAny>>) -> Py
 #[pyfunction]
 pub fn fk<'py>(py: Python<'py>, model: &PyModel, q: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let mut buf = [0.0; 16];
-    pose_out(py, &kinematics::tool_pose(&model.inner, &configuration("q", q, &mut buf)?).py()?)
+    pose_out(py, &kinematics::fk(&model.inner, &configuration("q", q, &mut buf)?).py()?)
 }
 
 /// Joint frames T_world_joint (n, 4, 4) at q.
@@ -81,7 +81,7 @@ pub fn fk_batch<'py>(
     let m: &denavit_core::Model = &model.inner;
     let (q, count) = rows("qs", qs, m.nq())?;
     let q = q.slice();
-    batch_out(py, Dim([count, 4, 4]), out, threads, &[("qs", q)], 1.0, |o| kinematics::tool_pose_batch(m, q, o))
+    batch_out(py, Dim([count, 4, 4]), out, threads, &[("qs", q)], 1.0, |o| kinematics::fk_batch(m, q, o))
 }
 
 /// Jacobians (N, 6, n) for configurations qs (N, n) (frame, joint as in `jacobian`), into `out` when given.

@@ -317,7 +317,7 @@ impl PyModel {
     fn __repr__(&self) -> String {
         let m = &self.inner;
         let kinds: String = m.joints().iter().map(|j| if j.kind == JointKind::Revolute { 'R' } else { 'P' }).collect();
-        let tool = denavit_core::kinematics::tool_pose_unchecked(m, &vec![0.0; m.nq()]).translation.vector * 1e3;
+        let tool = denavit_core::kinematics::fk_unchecked(m, &vec![0.0; m.nq()]).translation.vector * 1e3;
         let mass: f64 = m.inertias().iter().map(|i| i.mass()).sum();
         let mass = if mass > 0.0 { format!(", {mass:.4} kg") } else { String::new() };
         format!(

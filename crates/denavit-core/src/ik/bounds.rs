@@ -181,11 +181,11 @@ pub(super) fn wrist_flips(model: &Model) -> Vec<usize> {
                     for v in q.iter_mut() {
                         *v = PI * (2.0 * rng.uniform() - 1.0);
                     }
-                    let before = tool_pose_unchecked(model, &q);
+                    let before = fk_unchecked(model, &q);
                     q[i] += PI;
                     q[i + 1] = -q[i + 1] - 2.0 * joints[i + 1].offset;
                     q[i + 2] += PI;
-                    let (dp, dr) = pose_error(&tool_pose_unchecked(model, &q), &before);
+                    let (dp, dr) = pose_error(&fk_unchecked(model, &q), &before);
                     dp <= 1e-12 * size && dr <= 1e-12
                 })
         })

@@ -38,7 +38,7 @@
 //! into angles by the caller (48 `atan2` for 8 branches would cost more than their closed form).
 
 use crate::axes::axes;
-use crate::kinematics::tool_pose_unchecked;
+use crate::kinematics::fk_unchecked;
 use crate::model::{JointKind, Model};
 use crate::spatial::{Pose, any_perpendicular};
 use nalgebra::{Matrix3, Point3, Vector3};
@@ -281,7 +281,7 @@ impl ClosedForm {
         }
         let q0 = [0.0; 6];
         let ax = axes(model, &q0).ok()?;
-        let t0 = tool_pose_unchecked(model, &q0);
+        let t0 = fk_unchecked(model, &q0);
         let p: [V3; 6] = std::array::from_fn(|i| ax.points[i]);
         let h: [V3; 6] = std::array::from_fn(|i| ax.directions[i]);
         let size = (1..6).map(|i| (p[i] - p[i - 1]).norm()).sum::<f64>() + (t0.translation.vector - p[5]).norm();

@@ -8,7 +8,7 @@
 //! geometric Jacobian of [`crate::kinematics::jacobian`] (`J dq ≈ e`, exact to first order).
 //!
 //! **Success** is decided only from the *measured* final error, never from an internal flag: the tool pose
-//! is recomputed from the returned `q` with [`crate::kinematics::tool_pose`] and compared with
+//! is recomputed from the returned `q` with [`crate::kinematics::fk`] and compared with
 //! [`crate::spatial::pose_error`]; `success` is `position_error <= tol_position && rotation_error <=
 //! tol_rotation` (and every `q_i` within its limits when `respect_limits`). The reported errors are those
 //! measured values, so `success` implies the errors are within the tolerance the user asked for.
@@ -88,7 +88,7 @@
 #![allow(clippy::needless_range_loop)] // index loops mirror the formulas (and unroll)
 
 use crate::error::{Error, Result, check_finite, check_finite_rows, check_len};
-use crate::kinematics::{tool_pose_and_jacobian, tool_pose_unchecked};
+use crate::kinematics::{fk_and_jacobian, fk_unchecked};
 use crate::model::{JointKind, Model};
 use crate::spatial::{Pose, check_pose, pose_error, rotation_angle};
 use nalgebra::{DMatrix, DVectorViewMut, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
@@ -125,9 +125,9 @@ fn rename(e: Error, what: &str) -> Error {
 /// `Ok` with `success == false` and the measured residual.
 ///
 /// ```
-/// use denavit_core::{builtin_planar2, kinematics::tool_pose, ik::{ik, IkOptions}, spatial::trans};
+/// use denavit_core::{builtin_planar2, kinematics::fk, ik::{ik, IkOptions}, spatial::trans};
 /// let m = builtin_planar2(1.0, 1.0);
-/// let r = ik(&m, &tool_pose(&m, &[0.3, 1.2]).unwrap(), &[0.0, 0.5], &IkOptions::default()).unwrap();
+/// let r = ik(&m, &fk(&m, &[0.3, 1.2]).unwrap(), &[0.0, 0.5], &IkOptions::default()).unwrap();
 /// assert!(r.success && r.position_error <= 1e-10);
 /// let far = ik(&m, &trans(3.0, 0.0, 0.0), &[0.0, 0.5], &IkOptions::default()).unwrap();
 /// assert!(!far.success && (far.position_error - 1.0).abs() < 1e-6); // 3 m away, reach 2 m
@@ -171,9 +171,9 @@ fn check_goals(goals: &[Pose]) -> Result<()> {
 /// `mix(seed, i)`, so results do not depend on the length of the path.
 ///
 /// ```
-/// use denavit_core::{builtin_planar2, kinematics::tool_pose, ik::{ik_path, IkOptions}};
+/// use denavit_core::{builtin_planar2, kinematics::fk, ik::{ik_path, IkOptions}};
 /// let m = builtin_planar2(1.0, 1.0);
-/// let goals: Vec<_> = (0..10).map(|k| tool_pose(&m, &[0.3 + 0.01 * k as f64, 1.2]).unwrap()).collect();
+/// let goals: Vec<_> = (0..10).map(|k| fk(&m, &[0.3 + 0.01 * k as f64, 1.2]).unwrap()).collect();
 /// let r = ik_path(&m, &goals, &[0.3, 1.2], &IkOptions::default()).unwrap();
 /// assert!(r.iter().all(|x| x.success && x.restarts == 0));
 /// ```
@@ -199,9 +199,9 @@ pub fn ik_path(model: &Model, goals: &[Pose], q0: &[f64], opts: &IkOptions) -> R
 /// same whatever the number of threads.
 ///
 /// ```
-/// use denavit_core::{builtin_planar2, kinematics::tool_pose, ik::{ik_batch, IkOptions}};
+/// use denavit_core::{builtin_planar2, kinematics::fk, ik::{ik_batch, IkOptions}};
 /// let m = builtin_planar2(1.0, 1.0);
-/// let goals: Vec<_> = (0..50).map(|k| tool_pose(&m, &[0.05 * k as f64, 1.0]).unwrap()).collect();
+/// let goals: Vec<_> = (0..50).map(|k| fk(&m, &[0.05 * k as f64, 1.0]).unwrap()).collect();
 /// let r = ik_batch(&m, &goals, &[0.0, 0.5], &IkOptions::default()).unwrap();
 /// assert!(r.iter().all(|x| x.success));
 /// ```
@@ -339,7 +339,7 @@ mod tests {
         b.project(&mut p, false);
         let flipped = [0.2, 1.0, 2.0 - 0.8, 0.5 + PI - TAU];
         assert!(p.iter().zip(flipped).all(|(a, b)| (a - b).abs() < 1e-15), "{p:?}");
-        let (dp, dr) = pose_error(&tool_pose_unchecked(&m, &p), &tool_pose_unchecked(&m, &q));
+        let (dp, dr) = pose_error(&fk_unchecked(&m, &p), &fk_unchecked(&m, &q));
         assert!(dp < 1e-14 && dr < 1e-14);
     }
 }

@@ -17,7 +17,7 @@
 
 use super::closed_form::{Cs, DISTANCE_TOL, NOT_PARALLEL, angles, meeting_point, rot, sp1, sp4};
 use crate::axes::axes;
-use crate::kinematics::tool_pose_unchecked;
+use crate::kinematics::fk_unchecked;
 use crate::model::{JointKind, Model};
 use crate::spatial::{Pose, any_perpendicular};
 use nalgebra::{Matrix3, Vector3};
@@ -59,7 +59,7 @@ impl Redundant {
         }
         let q0 = [0.0; 7];
         let ax = axes(model, &q0).ok()?;
-        let t0 = tool_pose_unchecked(model, &q0);
+        let t0 = fk_unchecked(model, &q0);
         let mut p: [V3; 7] = std::array::from_fn(|i| ax.points[i]);
         let h: [V3; 7] = std::array::from_fn(|i| ax.directions[i]);
         let size = (1..7).map(|i| (p[i] - p[i - 1]).norm()).sum::<f64>() + (t0.translation.vector - p[6]).norm();

@@ -100,9 +100,9 @@ pub(super) fn score(pos: f64, rot: f64, o: &IkOptions) -> f64 {
 /// A reusable IK workspace for one model (no allocation in the iterations).
 ///
 /// ```
-/// use denavit_core::{builtin_planar2, kinematics::tool_pose, ik::{IkSolver, IkOptions}};
+/// use denavit_core::{builtin_planar2, kinematics::fk, ik::{IkSolver, IkOptions}};
 /// let m = builtin_planar2(1.0, 1.0);
-/// let goal = tool_pose(&m, &[0.4, 0.9]).unwrap();
+/// let goal = fk(&m, &[0.4, 0.9]).unwrap();
 /// // a planar arm cannot meet an arbitrary orientation, but this goal is reachable
 /// let mut s = IkSolver::new(&m, IkOptions::default()).unwrap();
 /// let r = s.solve(&goal, &[0.0, 0.5]).unwrap();
@@ -187,7 +187,7 @@ impl<'m> IkSolver<'m> {
     #[inline]
     pub(super) fn evaluate(&mut self, which_trial: bool, goal: &Pose, e: &mut [f64; 6]) -> (f64, f64) {
         let q = if which_trial { &self.q_trial } else { &self.q };
-        let tool = tool_pose_and_jacobian(self.model, q, &mut self.jac_eval);
+        let tool = fk_and_jacobian(self.model, q, &mut self.jac_eval);
         twist(&tool, goal, e)
     }
 
@@ -634,7 +634,7 @@ impl<'m> IkSolver<'m> {
     /// score kept in `best` and `q_best` (`Polished(true)`: the polish met the tolerance, the search stops).
     #[inline]
     fn try_seed(&mut self, goal: &Pose, q: &[f64], budget: usize, total: &mut usize, best: &mut f64) -> Seeded {
-        let (pos, rot) = pose_error(&tool_pose_unchecked(self.model, q), goal);
+        let (pos, rot) = pose_error(&fk_unchecked(self.model, q), goal);
         if score(pos, rot, &self.opts) <= 1.0 {
             return Seeded::Met(pos, rot);
         }
@@ -704,7 +704,7 @@ impl<'m> IkSolver<'m> {
         }
         // the honest verdict: measure the returned configuration with the public FK and error functions
         let q = self.q_best[..n].to_vec();
-        let (position_error, rotation_error) = pose_error(&tool_pose_unchecked(self.model, &q), goal);
+        let (position_error, rotation_error) = pose_error(&fk_unchecked(self.model, &q), goal);
         let within = !self.opts.respect_limits || self.bounds.within(&q);
         let success = position_error <= self.opts.tol_position && rotation_error <= self.opts.tol_rotation && within;
         IkResult { q, success, iterations: total, restarts, position_error, rotation_error }

@@ -1,4 +1,4 @@
-//! The batch kernels ([`tool_pose_batch`], [`jacobian_batch`]): rows in blocks of [`BLOCK`] configurations
+//! The batch kernels ([`fk_batch`], [`jacobian_batch`]): rows in blocks of [`BLOCK`] configurations
 //! in structure-of-arrays form, chunks of [`CHUNK`] rows in parallel ([`crate::parallel`]), the last rows and
 //! small batches through the single-configuration path.
 
@@ -254,14 +254,14 @@ pub(super) fn write_block_streamed(c: &Frames, out: &mut [f64]) {
 /// Tool poses of the rows of one chunk (`q`: rows x n, `out`: rows x 16), a block at a time, the last
 /// block padded.
 #[inline(never)]
-pub(super) fn tool_pose_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], w: &mut Block, out: &mut [f64]) -> bool {
+pub(super) fn fk_chunk<const N: usize>(model: &Model, chain: &Chain, q: &[f64], w: &mut Block, out: &mut [f64]) -> bool {
     let n = model.nq();
     let tool = &chain.factors[n - 1];
     let mut padded = Vec::new();
     let mut writer = Writer::new(out, w.stream);
     for (k, qb) in q.chunks(BLOCK * n).enumerate() {
         let (row, rows) = (k * BLOCK, qb.len() / n);
-        let qb = match block_of(qb, n, &mut padded, &mut out[16 * row..16 * (row + rows)], |qr, o| write_pose(&tool_pose_unchecked(model, qr), o)) {
+        let qb = match block_of(qb, n, &mut padded, &mut out[16 * row..16 * (row + rows)], |qr, o| write_pose(&fk_unchecked(model, qr), o)) {
             Rows::Block(qb) => qb,
             Rows::Written => continue,
             Rows::NotFinite => return false,
@@ -368,28 +368,28 @@ pub(super) fn non_finite(qs: &[f64], n: usize) -> Error {
 /// Runs on rayon's pool (or as [`crate::parallel::with_threads`] says), [`BLOCK`] configurations at a time
 /// in structure-of-arrays form so that every operation is a SIMD one, with fused multiply-adds. Values must
 /// be finite (checked block by block in the pass that reads them; after an error `out` is partly written).
-/// Same values as [`tool_pose`] up to the sign of zeros.
+/// Same values as [`fk`] up to the sign of zeros.
 ///
 /// ```
-/// use denavit_core::{builtin_planar2, kinematics::{tool_pose, tool_pose_batch}};
+/// use denavit_core::{builtin_planar2, kinematics::{fk, fk_batch}};
 /// let m = builtin_planar2(1.0, 1.0);
 /// let qs: Vec<f64> = (0..40).map(|k| 0.1 * k as f64).collect(); // 20 configurations
 /// let mut out = vec![0.0; 20 * 16];
-/// tool_pose_batch(&m, &qs, &mut out).unwrap();
-/// assert_eq!(out[16 * 7 + 3], tool_pose(&m, &qs[14..16]).unwrap().translation.x);
+/// fk_batch(&m, &qs, &mut out).unwrap();
+/// assert_eq!(out[16 * 7 + 3], fk(&m, &qs[14..16]).unwrap().translation.x);
 /// ```
-pub fn tool_pose_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<()> {
+pub fn fk_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<()> {
     let n = model.nq();
     let count = qs.len().checked_div(n).unwrap_or(out.len() / 16);
     check_len("q batch (N*n values)", count * n, qs.len())?;
     check_len("output (N*16 values)", count * 16, out.len())?;
     if n == 0 {
-        let t = tool_pose_unchecked(model, &[]);
+        let t = fk_unchecked(model, &[]);
         out.chunks_exact_mut(16).for_each(|o| write_pose(&t, o));
         return Ok(());
     }
     if count <= TAIL_ROWS {
-        return small_batch(qs, n, out, 16, |q, o| write_pose(&tool_pose_unchecked(model, q), o));
+        return small_batch(qs, n, out, 16, |q, o| write_pose(&fk_unchecked(model, q), o));
     }
     let chain = model.derived::<Chain>();
     let stream = crate::stream::wanted(out);
@@ -400,9 +400,9 @@ pub fn tool_pose_batch(model: &Model, qs: &[f64], out: &mut [f64]) -> Result<()>
         |w, k, o| {
             let q = &qs[k * CHUNK * n..(k * CHUNK + o.len() / 16) * n];
             let finite = match n {
-                6 => tool_pose_chunk::<6>(model, chain, q, w, o),
-                7 => tool_pose_chunk::<7>(model, chain, q, w, o),
-                _ => tool_pose_chunk::<0>(model, chain, q, w, o),
+                6 => fk_chunk::<6>(model, chain, q, w, o),
+                7 => fk_chunk::<7>(model, chain, q, w, o),
+                _ => fk_chunk::<0>(model, chain, q, w, o),
             };
             if stream {
                 crate::stream::fence();
@@ -510,7 +510,7 @@ pub(super) fn jacobian_chunk<const N: usize>(
 
 /// Batch Jacobians of the tool (`joint = None`) or of joint frame `joint` (0-based): `out` holds N row-major
 /// 6 x n matrices (N x 6n), in `frame`; the values of [`jacobian_row_major_unchecked`] (up to the sign of
-/// zeros), [`BLOCK`] configurations at a time as in [`tool_pose_batch`].
+/// zeros), [`BLOCK`] configurations at a time as in [`fk_batch`].
 ///
 /// ```
 /// use denavit_core::{builtin_planar2, kinematics::{jacobian_batch, jacobian_row_major_unchecked, JacobianFrame}};
@@ -584,11 +584,7 @@ mod tests {
                 assert!(!crate::stream::wanted(plain));
                 assert!(!crate::stream::with_plain_stores(|| crate::stream::wanted(streamed)));
                 let run = |out: &mut [f64]| {
-                    if per == 16 {
-                        super::tool_pose_batch(&m, &qs, out)
-                    } else {
-                        super::jacobian_batch(&m, &qs, super::JacobianFrame::LocalWorldAligned, None, out)
-                    }
+                    if per == 16 { super::fk_batch(&m, &qs, out) } else { super::jacobian_batch(&m, &qs, super::JacobianFrame::LocalWorldAligned, None, out) }
                 };
                 crate::parallel::with_threads(Some(2), || run(streamed)).unwrap().unwrap();
                 crate::parallel::with_threads(Some(1), || run(plain)).unwrap().unwrap();
@@ -641,21 +637,21 @@ mod tests {
                             qs[n * 70 + 1] = 3.0e5;
                         }
                         let mut out = vec![0.0; 16 * count];
-                        crate::parallel::with_threads(Some(1), || super::tool_pose_batch(&m, &qs, &mut out)).unwrap().unwrap();
+                        crate::parallel::with_threads(Some(1), || super::fk_batch(&m, &qs, &mut out)).unwrap().unwrap();
                         // the same values at every offset from a cache line (whole lines cut from two matrices' values)
                         let mut shifted = vec![f64::NAN; 16 * count + 8];
                         for offset in 0..8 {
                             let o = &mut shifted[offset..offset + 16 * count];
-                            crate::parallel::with_threads(Some(1), || super::tool_pose_batch(&m, &qs, o)).unwrap().unwrap();
+                            crate::parallel::with_threads(Some(1), || super::fk_batch(&m, &qs, o)).unwrap().unwrap();
                             assert_eq!(o, &out, "{convention:?} n = {n} prismatic {prismatic}: the output {offset} values into the buffer");
                         }
                         for (q, o) in qs.chunks(n).zip(out.chunks(16)) {
                             let mut one = [0.0; 16];
                             // the joint-by-joint path (every product of every placement), and the single call
-                            super::write_pose(&super::tool_pose_walk(&m, q), &mut one);
+                            super::write_pose(&super::fk_walk(&m, q), &mut one);
                             assert_eq!(o, &one, "{convention:?} n = {n} prismatic {prismatic} q = {q:?}");
                             let mut single = [0.0; 16];
-                            super::write_pose(&super::tool_pose(&m, q).unwrap(), &mut single);
+                            super::write_pose(&super::fk(&m, q).unwrap(), &mut single);
                             assert_eq!(single, one, "{convention:?} n = {n} prismatic {prismatic} q = {q:?}");
                         }
                         // the Jacobians (the one-pass kernel for the tool of a revolute chain, the joint-by-joint
@@ -695,7 +691,7 @@ mod tests {
         let mut d = Data::new(&m);
         super::jacobian(&m, &mut d, &q, super::JacobianFrame::LocalWorldAligned).unwrap();
         let mut jac = vec![0.0; 18];
-        let t = super::tool_pose_and_jacobian(&m, &q, &mut jac);
+        let t = super::fk_and_jacobian(&m, &q, &mut jac);
         assert_eq!(jac.as_slice(), d.jacobian.as_slice());
         assert_eq!(t, d.t_world_tool);
         // the row-major form of the bindings, in both frames

@@ -8,7 +8,7 @@ mod chain;
 mod lanes;
 
 use batch::*;
-pub use batch::{jacobian_batch, tool_pose_batch};
+pub use batch::{fk_batch, jacobian_batch};
 pub(crate) use chain::Chain;
 use chain::*;
 use lanes::*;
@@ -256,7 +256,7 @@ fn joint_angles(joints: &[Joint], q: &[f64]) -> ([f64; 8], [f64; 8], [f64; 8]) {
 
 /// Tool pose `T_world_tool(q)` without filling a [`Data`]; `q` must have `model.nq()` entries (unchecked here).
 #[inline]
-pub fn tool_pose_unchecked(model: &Model, q: &[f64]) -> Pose {
+pub fn fk_unchecked(model: &Model, q: &[f64]) -> Pose {
     let (chain, n) = (model.derived::<Chain>(), model.nq());
     if chain.about_x && (1..=8).contains(&n) {
         // the batch kernels' one-pass chain on one configuration: only the products the placements need
@@ -265,36 +265,36 @@ pub fn tool_pose_unchecked(model: &Model, q: &[f64]) -> Pose {
         let c = frame.map(|v| [v[0][0], v[1][0], v[2][0], 0.0]);
         return Frame { c }.mul(model.t_last_tool()).pose();
     }
-    tool_pose_walk(model, q)
+    fk_walk(model, q)
 }
 
-/// [`tool_pose_unchecked`] joint by joint ([`walk`]): any chain, every product of every placement.
-fn tool_pose_walk(model: &Model, q: &[f64]) -> Pose {
+/// [`fk_unchecked`] joint by joint ([`walk`]): any chain, every product of every placement.
+fn fk_walk(model: &Model, q: &[f64]) -> Pose {
     walk(model, q, model.nq(), |_, _| {}).mul(model.t_last_tool()).pose()
 }
 
 /// Tool pose `T_world_tool(q)`.
 ///
 /// ```
-/// use denavit_core::{builtin_planar2, kinematics::tool_pose};
+/// use denavit_core::{builtin_planar2, kinematics::fk};
 /// let m = builtin_planar2(1.0, 1.0);
-/// let t = tool_pose(&m, &[std::f64::consts::FRAC_PI_2, 0.0]).unwrap();
+/// let t = fk(&m, &[std::f64::consts::FRAC_PI_2, 0.0]).unwrap();
 /// assert!((t.translation.vector - nalgebra::Vector3::new(0.0, 2.0, 0.0)).norm() < 1e-15);
 /// ```
-pub fn tool_pose(model: &Model, q: &[f64]) -> Result<Pose> {
+pub fn fk(model: &Model, q: &[f64]) -> Result<Pose> {
     model.check_q(q)?;
-    Ok(tool_pose_unchecked(model, q))
+    Ok(fk_unchecked(model, q))
 }
 
 /// Forward kinematics: fill `data.t_world_joint` and `data.t_world_tool` for configuration `q`.
 pub fn forward_kinematics(model: &Model, data: &mut Data, q: &[f64]) -> Result<()> {
     model.check_q(q)?;
-    fk_unchecked(model, data, q);
+    forward_kinematics_unchecked(model, data, q);
     Ok(())
 }
 
 #[inline]
-pub(crate) fn fk_unchecked(model: &Model, data: &mut Data, q: &[f64]) {
+pub(crate) fn forward_kinematics_unchecked(model: &Model, data: &mut Data, q: &[f64]) {
     let frames = &mut data.t_world_joint;
     let t = walk(model, q, model.nq(), |i, t| frames[i] = t.pose());
     data.t_world_tool = t.mul(model.t_last_tool()).pose();
@@ -318,7 +318,7 @@ pub fn jacobian(model: &Model, data: &mut Data, q: &[f64], frame: JacobianFrame)
 
 #[inline]
 pub(crate) fn jacobian_unchecked(model: &Model, data: &mut Data, q: &[f64], frame: JacobianFrame) {
-    fk_unchecked(model, data, q);
+    forward_kinematics_unchecked(model, data, q);
     let tool = Frame::of(&data.t_world_tool);
     let axes = axes_of(model, frame, &tool);
     let jac = data.jacobian.as_mut_slice(); // column-major 6 x n
@@ -331,7 +331,7 @@ pub(crate) fn jacobian_unchecked(model: &Model, data: &mut Data, q: &[f64], fram
 /// Tool pose and `LocalWorldAligned` Jacobian in one pass, without a [`Data`] (the inner loop of IK):
 /// `jac` (column-major 6 x n) receives the columns of [`jacobian`] with [`JacobianFrame::LocalWorldAligned`].
 #[inline]
-pub(crate) fn tool_pose_and_jacobian(model: &Model, q: &[f64], jac: &mut [f64]) -> Pose {
+pub(crate) fn fk_and_jacobian(model: &Model, q: &[f64], jac: &mut [f64]) -> Pose {
     // park each joint's origin and z axis in its column; the tool origin is known only at the end
     let t = walk(model, q, model.nq(), |i, t| {
         jac[6 * i..6 * i + 3].copy_from_slice(&t.p());
