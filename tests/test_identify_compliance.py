@@ -220,3 +220,26 @@ def test_a_negative_compliance_gets_a_note_and_the_robot_carries_zero():
     assert said[0].startswith(f"joint {negative[0] + 1} ({ROBOT.names[negative[0]]}): fitted compliance -")
     robot = idf.robot()
     assert np.all(robot.compliance >= 0) and np.all(robot.compliance[negative] == 0)
+
+
+def test_the_json_carries_the_compliances_with_their_units_and_strict_numbers(compliant):
+    """identify's JSON (io.results.to_json) holds the compliances the joint fit freed, each with its unit and sigma
+    (null where not fitted: strict JSON has no NaN), and null for a rigid fit."""
+    import json
+
+    from denavit.io.results import to_json
+
+    k, train, _ = compliant
+    idf = dv.identify(train, nominal=ROBOT, compliance=True)
+    doc = json.loads(json.dumps(to_json(idf, box=False), allow_nan=False))
+    joints = doc["compliance"]["joints"]
+    assert [j["unit"] for j in joints] == ["rad/(N m)"] * 6
+    assert joints[0]["sigma"] is None and all(j["sigma"] > 0 for j in joints[1:])
+    np.testing.assert_allclose([j["value"] for j in joints[1:]], idf.compliance["k"][1:])
+    assert [j["joint"] for j in joints] == list(ROBOT.names)
+    assert len(doc["compliance"]["covariance_si"]) == 6 and len(doc["compliance"]["torque_home_si"]) == 6
+    from test_cli_json import offenders
+
+    assert offenders(doc) == []  # every number's unit known from its key (docs/cli.md, "--json")
+    rigid = dv.identify(train, nominal=ROBOT, compliance=False)
+    assert to_json(rigid, box=False)["compliance"] is None

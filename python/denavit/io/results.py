@@ -184,7 +184,32 @@ def _identification_json(result: Identification, *, box: bool = True) -> dict:
             if (tn := result.tracker_noise) is None
             else {"sigma_range_m": tn.sigma_range, "sigma_angle_rad": tn.sigma_angle, "position_m": list(tn.position)}
         ),
+        "compliance": _compliance_json(result),
         "notes": result.notes,
+    }
+
+
+def _compliance_json(result: Identification) -> dict | None:
+    """The joints' compliances the joint fit freed (issue 37): a row per joint with its ``unit`` (rad/(N m) revolute,
+    m/N prismatic), ``value`` and ``sigma`` (null where not fitted), the covariance over every joint (SI), the gravity
+    torques at home (SI: N m); null for a rigid fit."""
+    c = result.compliance
+    if c is None:
+        return None
+    kinds = result.sweeps.kinds
+    names = result.nominal.names if result.nominal is not None else [f"j{j + 1}" for j in range(len(c["k"]))]
+    return {
+        "joints": [
+            {
+                "joint": names[j],
+                "unit": "rad/(N m)" if kinds[j] == "revolute" else "m/N",
+                "value": float(c["k"][j]),
+                "sigma": _finite(c["sigma"][j]),
+            }
+            for j in range(len(c["k"]))
+        ],
+        "covariance_si": [[_finite(v) for v in row] for row in np.asarray(c["cov"], dtype=float)],
+        "torque_home_si": [float(v) for v in c["torque_home"]],
     }
 
 
