@@ -158,6 +158,31 @@ def detect(path: str | os.PathLike) -> str | None:
     return None
 
 
+def blank_comments(text: str, quotes: str, comment: str) -> str:
+    """``text`` with its strings (between any of ``quotes``) and its comments (``comment`` to the end of the line,
+    outside strings) blanked, every position and line break kept: the text a program's statements are searched in."""
+    out = list(text)
+    i, n = 0, len(text)
+    while i < n:
+        c = text[i]
+        if c in quotes:
+            j = text.find(c, i + 1)
+            j = n - 1 if j < 0 else j
+            for k in range(i + 1, j):
+                if out[k] != "\n":
+                    out[k] = " "
+            i = j + 1
+        elif c == comment:
+            j = text.find("\n", i)
+            j = n if j < 0 else j
+            for k in range(i, j):
+                out[k] = " "
+            i = j
+        else:
+            i += 1
+    return "".join(out)
+
+
 def read_source(path: str | os.PathLike, what: str = "program") -> Source:
     """A file's text decoded once (UTF-8, else Latin-1 as KRL and RAPID files often are), its BOM kept aside."""
     data = read_bytes(path, what)

@@ -39,7 +39,17 @@ import re
 import numpy as np
 
 from ...errors import DenavitError
-from . import Number, Point, Program, arm, matrix_quaternion, pose_matrix, quaternion_matrix, read_source
+from . import (
+    Number,
+    Point,
+    Program,
+    arm,
+    blank_comments,
+    matrix_quaternion,
+    pose_matrix,
+    quaternion_matrix,
+    read_source,
+)
 
 _NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
 MOVES = re.compile(r"\b(Move(?:J|L|C|AbsJ)(?:DO|AO|GO|Sync)?)\b", re.IGNORECASE)
@@ -51,30 +61,6 @@ def signs(robot) -> np.ndarray:
 
 def flange_rotation(robot) -> np.ndarray:
     return np.eye(3)
-
-
-def _blank_comments(text: str) -> str:
-    """``text`` with comments (``!`` to the end of the line, outside strings) and strings blanked, positions kept."""
-    out = list(text)
-    i, n = 0, len(text)
-    while i < n:
-        c = text[i]
-        if c == '"':
-            j = text.find('"', i + 1)
-            j = n - 1 if j < 0 else j
-            for k in range(i + 1, j):
-                if out[k] != "\n":
-                    out[k] = " "
-            i = j + 1
-        elif c == "!":
-            j = text.find("\n", i)
-            j = n if j < 0 else j
-            for k in range(i, j):
-                out[k] = " "
-            i = j
-        else:
-            i += 1
-    return "".join(out)
 
 
 def _literal(text: str, start: int, where: str):
@@ -161,9 +147,9 @@ def _frame(lit, where, what) -> np.ndarray:
 def read(path, robot, *, frames: dict) -> Program:
     src = read_source(path)
     text = src.text
-    if not re.search(r"(?im)^\s*MODULE\s+\w+", _blank_comments(text)):
+    clean = blank_comments(text, '"', "!")
+    if not re.search(r"(?im)^\s*MODULE\s+\w+", clean):
         raise DenavitError(f"{path}:1: expected 'MODULE name' (a RAPID program module)")
-    clean = _blank_comments(text)
     points: list[Point] = []
     named: dict = {}
     tools = {"TOOL0": np.eye(4)}

@@ -25,7 +25,7 @@ import numpy as np
 
 from ...errors import DenavitError
 from ...geometry import matrix_rotvec, rotvec_matrix
-from . import Number, Point, Program, pose_matrix, read_source
+from . import Number, Point, Program, blank_comments, pose_matrix, read_source
 
 _NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
 _NUM = re.compile(_NUMBER)
@@ -40,30 +40,6 @@ def signs(robot) -> np.ndarray:
 
 def flange_rotation(robot) -> np.ndarray:
     return np.eye(3)
-
-
-def _blank(text: str) -> str:
-    """Comments (``#`` to the end of the line) and strings blanked, positions kept."""
-    out = list(text)
-    i, n = 0, len(text)
-    while i < n:
-        c = text[i]
-        if c in "\"'":
-            j = text.find(c, i + 1)
-            j = n - 1 if j < 0 else j
-            for k in range(i + 1, j):
-                if out[k] != "\n":
-                    out[k] = " "
-            i = j + 1
-        elif c == "#":
-            j = text.find("\n", i)
-            j = n if j < 0 else j
-            for k in range(i, j):
-                out[k] = " "
-            i = j
-        else:
-            i += 1
-    return "".join(out)
 
 
 def _literal_point(src, clean: str, m: re.Match, name: str, where: str, n: int) -> Point:
@@ -98,7 +74,7 @@ def _first_arg(clean: str, start: int) -> tuple[int, int]:
 
 def read(path, robot, *, frames: dict) -> Program:
     src = read_source(path)
-    clean = _blank(src.text)
+    clean = blank_comments(src.text, "\"'", "#")
     n = len(robot.names)
     variables: dict = {}
     for m in _ASSIGN.finditer(clean):
