@@ -299,3 +299,42 @@ def test_a_saved_calibration_carries_its_compliances_and_validate_uses_them(tmp_
         res, replace(session, payload=None), payload=0.0
     )  # the links' weight only: the payload's deflection unexplained
     assert rigid.rms > 3 * v.rms
+
+
+def test_the_predicted_error_in_the_measurement_frame_and_its_rms_bound_match_sampled_parameter_errors():
+    """The prediction propagates the calibration's covariance through its Jacobian: checked against the model itself
+    at 1000 parameter vectors drawn from that covariance (the compliant chain at the commands, each row's torques). With
+    ``registration=True`` (positions located in the measurement frame) the base registration's draws move the tool
+    too; without, they are left out (the robot base frame). Every row's error comes from one draw, so the RMS over the
+    rows scatters as a generalised chi-square: ``predicted_rms_bound(0.95)`` is exceeded in about 5 % of the draws."""
+    robot, m_true, train, rng = two_payloads(4, K_TRUE)
+    res = calibrate(train, robot, tool=TOOL)
+    q = draw(robot, 60, rng)
+    nominal = robot.model().with_tool(pose(p=TOOL)).with_base(res.model().T_world_base)
+    positions = _core.fk_batch(nominal, q)
+    pz, free = res.parametrization, [res.parametrization.index(n) for n in res.free_names]
+    base = np.array([n.startswith("base_") for n in res.free_names])
+    L = np.linalg.cholesky(np.asarray(res.covariance))
+    dx = rng.standard_normal((1000, len(free))) @ L.T
+    for registration in (True, False):
+        c = compensate(nominal, res, positions, q_nominal=q, payload=(RATED / 2, COM), registration=registration)
+        ok = c.ok
+        assert ok.mean() > 0.8 and math.isclose(c.predicted_rms, math.sqrt(np.mean(c.predicted_after[ok] ** 2)))
+        half = np.tile(np.r_[RATED / 2, COM], (ok.sum(), 1))
+        inputs = np.hstack([c.q_command[ok], gravity_torques(robot.model(), c.q_command[ok], half)])
+        p0 = pz.evaluate(res.values, inputs, False)[0][:, :3, 3]
+        e2 = np.empty((len(dx), ok.sum()))
+        for i, d in enumerate(dx):
+            x = res.values.copy()
+            x[free] += d if registration else np.where(base, 0.0, d)
+            e2[i] = np.sum((pz.evaluate(x, inputs, False)[0][:, :3, 3] - p0) ** 2, axis=1)
+        # each row's mean square error over the draws is its predicted sigma^2 (1000 draws: 5 % on a 3-D error)
+        assert np.allclose(e2.mean(axis=0) / c.predicted_after[ok] ** 2, 1.0, atol=0.2)
+        rms2 = e2.mean(axis=1)
+        assert abs(rms2.mean() / c.predicted_rms**2 - 1) < 0.06
+        beyond = np.mean(np.sqrt(rms2) > c.predicted_rms_bound(0.95))
+        assert 0.03 < beyond < 0.075, beyond
+        assert 5 < c.predicted_dof < len(free)
+    # a robot file's [covariance] has no registration to include
+    with pytest.raises(dv.DenavitError, match="carries no base registration"):
+        compensate(nominal, res.robot(), positions, q_nominal=q, payload=(RATED / 2, COM), registration=True)

@@ -44,6 +44,10 @@ class Compensation:
     position error the robot makes without compensation (m); ``predicted_after`` (N,) the predicted
     position error after it (1 sigma, m) when a result with a covariance was given, else None; ``notes`` what
     the compensation assumed (e.g. the flange compensated when only the identified robot has a tool).
+
+    With a prediction, over the ``ok`` rows: ``predicted_rms`` (m) and ``predicted_dof``, the effective degrees of
+    freedom of the RMS's spread (every row's error comes from one error of the parameters: a generalised chi-square,
+    not an average of independent errors; :meth:`predicted_rms_bound`).
     """
 
     positions: np.ndarray
@@ -63,12 +67,30 @@ class Compensation:
     assumed: np.ndarray | None = None
     """(N,) the rows that came without a configuration: ``q_nominal`` is the one assumed for them (the nominal's
     solution nearest ``q0``), and ``branch_changed`` compares with it; the others' ``q_nominal`` is the program's."""
+    predicted_rms: float | None = None
+    predicted_dof: float | None = None
 
     def __post_init__(self):
         if self.q_command is None:
             object.__setattr__(self, "q_command", self.q)
         if self.assumed is None:
             object.__setattr__(self, "assumed", np.zeros(len(self.positions), dtype=bool))
+
+    def predicted_rms_bound(self, level: float = 0.95) -> float | None:
+        """The ``level`` quantile (m) of the RMS position error after over the ``ok`` rows (None without a
+        prediction): the mean square error is ``sum_j lambda_j chi2_1`` (``lambda`` the eigenvalues of ``C G``, ``C``
+        the parameters' covariance, ``G`` the mean over the rows of ``J_i^T J_i``), taken as Satterthwaite's scaled
+        chi-square of the same mean and variance, ``predicted_dof = (tr CG)^2 / tr((CG)^2)`` degrees of freedom
+        (Satterthwaite 1946, Biometrics Bulletin 2(6), 110-114; a test checks the 95 % bound against sampled errors).
+        """
+        if self.predicted_rms is None:
+            return None
+        if not 0 < level < 1:
+            raise DenavitError(f"level: expected a probability between 0 and 1, got {level!r}")
+        from scipy.stats import chi2  # noqa: PLC0415
+
+        nu = self.predicted_dof
+        return float(self.predicted_rms * np.sqrt(chi2.ppf(level, nu) / nu)) if nu > 0 else 0.0
 
     @property
     def ok(self) -> np.ndarray:
@@ -135,6 +157,7 @@ def compensate(
     predict: bool = True,
     branch_tol: float = BRANCH_TOL,
     payload=None,
+    registration: bool = False,
     **ik_options,
 ) -> Compensation:
     """Compensate ``positions`` for a controller that keeps ``nominal`` while the robot is ``identified``.
@@ -166,6 +189,11 @@ def compensate(
         joints (a robot file's ``[compliance]``, a calibration that freed them: :mod:`denavit.calibration.compliance`):
         the commands are the readings that the joints, deflected under gravity and this payload, turn into ``q``;
         ``predicted_after`` includes the compliances' covariance. None: no payload (the links' own weight only).
+    registration : bool
+        False: ``predicted_after`` is the error in the robot base frame (positions given relative to the robot). True:
+        in ``world``, a calibration's measurement frame, its base registration's covariance included (positions located
+        by the tracker: a fixture, a part it measured). An identification's prediction is ``world``'s either way (its
+        axes are lines measured there); a robot file's ``[covariance]`` carries no registration (an error).
     ik_options
         Options of the IK solves (``method``, ``tol_position``, ``tol_rotation``, ``restarts``, ...).
     """
@@ -188,7 +216,10 @@ def compensate(
     el = elastic(identified)
     pl = None if el is None else as_payload(payload, len(T))
     qc = q if el is None else el.command(q, pl)
-    predicted = _predicted(identified, result, q, el, qc, pl) if predict else None
+    prop = _predicted(identified, result, q, el, qc, pl, registration) if predict else None
+    predicted = None if prop is None else _sigma(*prop)
+    ok = r.reached & ~unreachable & ~r.branch_changed & ~r.path_jump
+    rms_dof = (None, None) if prop is None else _rms_dof(prop[0][ok], prop[1])
     commands, q_cmd, before, before_rot = r.commands, q, r.before_position, r.before_rotation
     if el is not None:
         q_cmd, commands = qc, _core.fk_batch(nom, qc)
@@ -220,6 +251,7 @@ def compensate(
         q_cmd,
         tuple(notes),
         assumed,
+        *rms_dof,
     )
 
 
@@ -254,19 +286,35 @@ def _configurations(nom: _core.Model, T: np.ndarray, q_nominal, q0: np.ndarray, 
     return q_nominal, assumed, unreachable
 
 
-def _predicted(identified, result, q: np.ndarray, el, qc: np.ndarray, pl) -> np.ndarray | None:
-    """``predicted_after``: the predicted error at the compensated joint values ``q`` (from ``result``, else from
-    ``identified``'s own covariance), with the compliances' at the commands ``qc`` when the joints are compliant."""
-    predicted = None
+def _predicted(identified, result, q: np.ndarray, el, qc: np.ndarray, pl, registration: bool):
+    """(J (N, 3, P), C (P, P)) of ``predicted_after`` (:func:`_propagation`) at the compensated joint values ``q``
+    (from ``result``, else from ``identified``'s own covariance), with the compliances' at the commands ``qc`` when the
+    joints are compliant; None without a covariance."""
+    prop = None
     if result is not None:
-        predicted = predicted_sigma(result, q)
+        prop = _propagation(result, q, registration)
     elif hasattr(identified, "axis_cov") or hasattr(identified, "parametrization"):
-        predicted = predicted_sigma(identified, q)  # an identification or a calibration: its own covariance
+        prop = _propagation(identified, q, registration)  # an identification or a calibration: its own covariance
     elif isinstance(identified, Robot) and identified.covariance is not None:
-        predicted = table_sigma(identified, q)  # e.g. a robot file's [covariance]
+        prop = _table_propagation(identified, q, registration)  # e.g. a robot file's [covariance]
     if el is not None:
-        predicted = compliant_sigma(el, predicted, qc, pl)
-    return predicted
+        prop = _compliant_propagation(el, prop, qc, pl, registration)
+    return prop
+
+
+def _sigma(J: np.ndarray, C: np.ndarray) -> np.ndarray:
+    """(N,) ``sqrt(trace(J_i C J_i^T))``."""
+    return np.sqrt(np.maximum(np.einsum("nij,jk,nik->n", J, C, J), 0.0))
+
+
+def _rms_dof(J: np.ndarray, C: np.ndarray) -> tuple[float | None, float | None]:
+    """(predicted RMS over the rows of ``J``, its effective degrees of freedom ``(tr CG)^2 / tr((CG)^2)``, ``G`` the
+    mean of ``J_i^T J_i``: :meth:`Compensation.predicted_rms_bound`); (None, None) without rows."""
+    if not len(J):
+        return None, None
+    CG = C @ (np.einsum("nip,niq->pq", J, J) / len(J))
+    t1, t2 = float(np.trace(CG)), float(np.sum(CG * CG.T))
+    return float(np.sqrt(max(t1, 0.0))), (t1 * t1 / t2 if t2 > 0 else 0.0)
 
 
 def _errors(T: np.ndarray, exe: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -483,44 +531,66 @@ def _same_readings(a, b) -> bool:
     return eq(ca, cb, eye) and eq(sa, sb, 0.0) and (sa is None or eq(ra, rb, 0.0))
 
 
-def predicted_sigma(result, q) -> np.ndarray:
+def predicted_sigma(result, q, *, registration: bool = False) -> np.ndarray:
     """(N,) predicted tool-position error (1 sigma, 3-D RMS: ``sqrt(trace(J C J^T))``, m) of the model that
     ``result`` identified, at configurations ``q`` (N, n), from its covariance ``C``.
 
     result : a calibration (:class:`denavit.calibration.Calibration`: the analytic identification Jacobian of
-        its chain over the estimated parameters, base registration excluded since positions live in the robot
-        base frame) or an identification (:class:`denavit.identification.Identification`: the covariance of the
-        axis lines and the tool point, propagated to the tool by central differences through the exact ED-H
-        model of the axes).
+        its chain over the estimated parameters) or an identification (:class:`denavit.identification.Identification`:
+        the covariance of the axis lines and the tool point, propagated to the tool by central differences through the
+        exact ED-H model of the axes).
+    registration : a calibration's base registration (``base_*``) included: the error in ``world``, the measurement
+        frame, for positions located there (default: left out, the error in the robot base frame, for positions given
+        relative to the robot). An identification's axes are lines in ``world``: its prediction is world's either way.
     """
+    return _sigma(*_propagation(result, q, registration))
+
+
+def _propagation(result, q, registration: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """(J (N, 3, P), C (P, P)) of :func:`predicted_sigma`: the tool point's derivatives at ``q`` and the covariance of
+    the P parameters they are taken in."""
     q = np.atleast_2d(np.asarray(q, dtype=float))
     if hasattr(result, "parametrization") and hasattr(result, "covariance"):
         pz = result.parametrization
         free = [pz.index(n) for n in result.free_names]
-        keep = [k for k, name in enumerate(result.free_names) if not name.startswith("base_")]  # (the registration)
-        _, J = pz.evaluate(result.values, q, True)
-        Jp = J[:, :3, :][:, :, [free[k] for k in keep]]
-        C = np.asarray(result.covariance)[np.ix_(keep, keep)]
-        return np.sqrt(np.maximum(np.einsum("nij,jk,nik->n", Jp, C, Jp), 0.0))
+        keep = [k for k, name in enumerate(result.free_names) if registration or not name.startswith("base_")]
+        _, J = pz.evaluate(result.values, q, True, rows=3, columns=[free[k] for k in keep])
+        return J, np.asarray(result.covariance)[np.ix_(keep, keep)]
     if hasattr(result, "axis_cov") and hasattr(result, "axes"):
-        return _axes_sigma(result, q)
+        return _axes_propagation(result, q)
     raise DenavitError(
         f"result: expected an identification or a calibration result with a covariance, got {type(result).__name__}"
     )
 
 
-def compliant_sigma(el, geometric, q, payload=None) -> np.ndarray | None:
+def compliant_sigma(el, geometric, q, payload=None, *, registration: bool = False) -> np.ndarray | None:
     """The predicted tool-position error (1 sigma, m) at the commanded readings ``q`` of a robot with compliant joints
     (``el``, a :class:`denavit.calibration.compliance.Elastic`): from the calibration's full covariance when it came
-    from one (geometry and compliances with their correlations), else ``geometric`` (N,) (the geometry's prediction,
-    or None) and the compliances' own part in quadrature."""
+    from one (geometry and compliances with their correlations; ``registration`` as :func:`predicted_sigma`'s), else
+    ``geometric`` (N,) (the geometry's prediction, or None) and the compliances' own part in quadrature."""
     q = np.atleast_2d(np.asarray(q, dtype=float))
     if el.calibration is not None:
-        return predicted_sigma(el.calibration, np.hstack([q, el.torques(q, payload)]))
+        return predicted_sigma(el.calibration, np.hstack([q, el.torques(q, payload)]), registration=registration)
     if geometric is None and el.covariance is None:
         return None
     g = np.zeros(len(q)) if geometric is None else np.asarray(geometric, dtype=float)
     return np.sqrt(g**2 + el.sigma(q, payload) ** 2)
+
+
+def _compliant_propagation(el, geometric, q, payload, registration: bool):
+    """:func:`compliant_sigma`'s (J, C) (:func:`_propagation`): the calibration's own, else the geometry's
+    ``geometric`` (J, C) or None beside the compliances' (``-J_q diag(tau)``, their covariance), independent."""
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    if el.calibration is not None:
+        return _propagation(el.calibration, np.hstack([q, el.torques(q, payload)]), registration)
+    if el.covariance is None:
+        return geometric
+    A, Ck = el.jacobian(q, payload), np.asarray(el.covariance, dtype=float)
+    if geometric is None:
+        return A, Ck
+    from scipy.linalg import block_diag  # noqa: PLC0415
+
+    return np.concatenate([geometric[0], A], axis=2), block_diag(geometric[1], Ck)
 
 
 def _scaled(q: np.ndarray, scale, reference, theta_scale: np.ndarray) -> np.ndarray:
@@ -582,6 +652,16 @@ def table_sigma(robot, q) -> np.ndarray:
     ``covariance`` (of its table's parameters, tool translation and, with ``reading_scale``, its reading scales,
     e.g. read from a robot file's ``[covariance]``) is known: ``sqrt(trace(J C J^T))``, ``J`` by central differences
     of the forward kinematics (a scale at the readings of ``q``: the commanded readings are fixed)."""
+    return _sigma(*_table_propagation(robot, q))
+
+
+def _table_propagation(robot, q, registration: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`table_sigma`'s (J, C) (:func:`_propagation`)."""
+    if registration:
+        raise DenavitError(
+            f"{robot.name}: registration: a robot file's [covariance] carries no base registration (calibrate leaves it"
+            " out): predict with the Calibration itself for positions in its measurement frame"
+        )
     C = np.asarray(robot.covariance, dtype=float)
     t = robot.table
     rscale = getattr(robot, "reading_scale", None)
@@ -612,10 +692,10 @@ def table_sigma(robot, q) -> np.ndarray:
         e = np.zeros_like(theta0)
         e[k] = scale[k]
         J[:, :, k] = (tool_points(theta0 + e) - tool_points(theta0 - e)) / (2 * scale[k])
-    return np.sqrt(np.maximum(np.einsum("nij,jk,nik->n", J, C, J), 0.0))
+    return J, C
 
 
-def _axes_sigma(ident, q: np.ndarray) -> np.ndarray:
+def _axes_propagation(ident, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     ax = ident.axes
     n = ax.nq
     rscale = getattr(ident, "reading_scale", None)
@@ -651,7 +731,7 @@ def _axes_sigma(ident, q: np.ndarray) -> np.ndarray:
         e = np.zeros_like(theta0)
         e[k] = h
         J[:, :, k] = (tool_points(theta0 + e) - tool_points(theta0 - e)) / (2 * h)
-    return np.sqrt(np.maximum(np.einsum("nij,jk,nik->n", J, C, J), 0.0))
+    return J, C
 
 
 @dataclass(frozen=True)

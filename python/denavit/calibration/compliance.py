@@ -332,26 +332,22 @@ class Elastic:
                 break
         return q
 
+    def jacobian(self, q, payload=None) -> np.ndarray:
+        """(N, 3, n) the tool position's derivatives by the compliances at readings ``q``: ``-J_q diag(tau)``, ``J_q``
+        the position rows of the joints' Jacobian at the deflected joints."""
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        tau = self.torques(q, payload)
+        qd = q - self.k * tau
+        return np.stack([-np.asarray(_core.jacobian(self.torque_model, qd[i]))[:3] * tau[i] for i in range(len(q))])
+
     def sigma(self, q, payload=None) -> np.ndarray:
         """(N,) the tool-position sigma (m, 3-D) the compliances' own covariance adds at readings ``q``:
-        ``sqrt(trace(A C A^T))``, ``A = -J_q diag(tau)`` (zeros without a covariance)."""
+        ``sqrt(trace(A C A^T))``, ``A`` :meth:`jacobian` (zeros without a covariance)."""
         q = np.atleast_2d(np.asarray(q, dtype=float))
         if self.covariance is None:
             return np.zeros(len(q))
-        tau = self.torques(q, payload)
-        out = np.empty(len(q))
-        for i in range(len(q)):
-            A = (
-                -np.asarray(
-                    _core.jacobian(
-                        self.torque_model,
-                        self.deflected(q[i : i + 1], None if payload is None else np.asarray(payload)[i : i + 1])[0],
-                    )
-                )[:3]
-                * tau[i]
-            )
-            out[i] = math.sqrt(max(float(np.trace(A @ self.covariance @ A.T)), 0.0))
-        return out
+        A = self.jacobian(q, payload)
+        return np.sqrt(np.maximum(np.einsum("nij,jk,nik->n", A, np.asarray(self.covariance), A), 0.0))
 
 
 def elastic(identified) -> Elastic | None:
