@@ -548,7 +548,7 @@ def compensate_program(
         else:
             Tf = flange_pose(p, v.to_pose(p.values), F)
             if p.config is None:
-                q, found = cp.nearest_solutions(model, Tf[None], q_prev)
+                q, found = cp.nearest_solutions(model, Tf[None], _near(v, nominal, p, q_prev))
                 q = q[0] if found[0] else None
             else:
                 q = configuration_solution(v, model, p, Tf, q_prev, cache)
@@ -602,6 +602,13 @@ def compensate_program(
             continue
         new[k] = v.pose_values(program_pose(p, c.commands[i], F), p)
     return ProgramCompensation(program, new, c, rows, Q, left, T)
+
+
+def _near(v, robot, point: Point, q_prev: np.ndarray) -> np.ndarray:
+    """The joint values a pose without a configuration is solved nearest: the program's own hint (URScript's
+    ``get_inverse_kin(x, qnear)``), else the previous position."""
+    hint = point.extra.get("qnear")
+    return q_prev if hint is None else v.joint_values(robot, hint)
 
 
 def flange_of(robot):
@@ -674,7 +681,7 @@ def controller_joints(program: Program, robot, values: dict | None = None, *, q0
         else:
             Tf = flange_pose(p, v.to_pose(vals), F)
             if p.config is None:
-                qq, found = cp.nearest_solutions(model, Tf[None], q_prev)
+                qq, found = cp.nearest_solutions(model, Tf[None], _near(v, robot, p, q_prev))
                 q = qq[0] if found[0] else np.full(model.nq, np.nan)
             else:
                 q = configuration_solution(v, model, p, Tf, q_prev, cache)

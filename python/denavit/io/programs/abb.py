@@ -21,7 +21,12 @@ deg, in a positive direction from the zero position; quadrant 1 is the next revo
 is the revolution 0 deg - (-90 deg)"); the cfx table's text was not reachable here (unverified, docs/compensation.md).
 
 Frames: a named position's tool and work object are those of the move instructions that use it (MoveJ, MoveL,
-MoveC, MoveAbsJ and their DO/AO/GO/Sync forms; ``tool0`` / ``wobj0`` the flange and the base frame); a
+MoveC, MoveAbsJ and their DO/AO/GO/Sync forms; EGMMoveL and EGMMoveC, the moves of EGM path correction, ABB's
+"Application manual - Externally Guided Motion" (3HAC073318-001, its text not reachable here): the EGM identity,
+then MoveL's or MoveC's arguments, as RobotStudio programs write them, ``EGMMoveL egmID1,Target_60,v10,z100,tool0``;
+the sensor corrects the path to the programmed position, compensated as a MoveL's; ``tool0`` the flange, ``wobj0``
+the world frame, RAPID's default work object: the model's world, the robot's base where the model's ``T_world_base``
+puts it, the base itself for the built-in models); a
 ``tooldata`` (``robhold`` TRUE) or ``wobjdata`` (``robhold`` FALSE, ``ufprog`` TRUE, no ``ufmec``: user frame then
 object frame) declared in the module is honoured; one declared elsewhere, a stationary tool, a moving work
 object, or a position used with two different frames is a one-line error. A named position no move uses is left as
@@ -52,7 +57,7 @@ from . import (
 )
 
 _NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
-MOVES = re.compile(r"\b(Move(?:J|L|C|AbsJ)(?:DO|AO|GO|Sync)?)\b", re.IGNORECASE)
+MOVES = re.compile(r"\b((?:EGM)?Move(?:J|L|C|AbsJ)(?:DO|AO|GO|Sync)?)\b", re.IGNORECASE)
 
 
 def signs(robot) -> np.ndarray:
@@ -219,11 +224,17 @@ def read(path, robot, *, frames: dict) -> Program:
         args = [
             a for a in args if not clean[a[0] : a[1]].strip().startswith("\\")
         ] or args  # (\Conc and other switches first)
-        n_targets = 2 if instr.upper().startswith("MOVEC") else 1
+        kind = instr.upper()
+        if kind.startswith("EGM"):  # EGMMoveL / EGMMoveC: the EGM identity first, then as MoveL / MoveC
+            if kind not in ("EGMMOVEL", "EGMMOVEC"):
+                continue
+            kind, args = kind[3:], args[1:]
+        n_targets = 2 if kind.startswith("MOVEC") else 1
         if len(args) < n_targets + 3:
             raise DenavitError(
-                f"{where}: {instr}: expected {'CirPoint, ToPoint' if n_targets == 2 else 'ToPoint'}, Speed, Zone, Tool;"
-                f" got {len(args)} arguments"
+                f"{where}: {instr}: expected {'EGMid, ' if kind != instr.upper() else ''}"
+                f"{'CirPoint, ToPoint' if n_targets == 2 else 'ToPoint'}, Speed, Zone, Tool; got"
+                f" {len(args) + (kind != instr.upper())} arguments"
             )
         tool_arg = clean[args[n_targets + 2][0] : args[n_targets + 2][1]]
         tool_name = re.match(r"\s*(\w+)", tool_arg)
@@ -242,7 +253,7 @@ def read(path, robot, *, frames: dict) -> Program:
                 lit, _ = _literal(clean, s, where)
                 pt = (
                     _joint_point(f"{instr} (inline)", where, lit, 0)
-                    if instr.upper().startswith("MOVEABSJ")
+                    if kind.startswith("MOVEABSJ")
                     else _pose_point(f"{instr} (inline)", where, lit, 0)
                 )
                 pt.tool, pt.base = frames_of[0], frames_of[1]

@@ -72,6 +72,56 @@ def _first_arg(clean: str, start: int) -> tuple[int, int]:
     return start, i
 
 
+_IK = re.compile(r"get_inverse_kin\s*\(")
+
+
+def _resolve(text: str, variables: dict, pose: bool):
+    """The numbers of a literal list (``p[...]`` when ``pose``) or of a variable assigned one once; None: neither."""
+    lit = _LIST.fullmatch(text)
+    if lit is None and text in variables and len(variables[text]) == 1:
+        lit = variables[text][0][0]
+    if lit is None or (lit.group(1) == "p") != pose:
+        return None
+    return np.array([float(x) for x in re.findall(_NUMBER, lit.group(2))])
+
+
+def _ik_call(clean: str, start: int, variables: dict, where: str):
+    """The arguments of ``get_inverse_kin(x, qnear, maxPositionError, maxOrientationError, tcp)`` ("The URScript
+    Programming Language", get_inverse_kin) from ``start`` (after its parenthesis): (x as written, the joint values
+    of qnear (rad) or None, the tcp's 4x4 or None), or why it is not compensated."""
+    args, i = [], start
+    while True:
+        s, e = _first_arg(clean, i)
+        if clean[s:e].strip():
+            args.append(clean[s:e].strip())
+        if e >= len(clean) or clean[e] == ")":
+            break
+        i = e + 1
+    names = ["x", "qnear", "maxPositionError", "maxOrientationError", "tcp"]
+    given: dict = {}
+    for k, a in enumerate(args):
+        kw = re.match(r"([A-Za-z_]\w*)\s*=(?!=)\s*", a)
+        if kw and kw.group(1) in names:
+            given[kw.group(1)] = a[kw.end() :].strip()
+        elif k < len(names):
+            given[names[k]] = a
+    x = given.get("x", "")
+    if _resolve(x, variables, pose=True) is None:
+        return f"{x} is assigned several times" if len(variables.get(x, [])) > 1 else "a computed pose"
+    hint = None
+    if "qnear" in given and given["qnear"] != "get_actual_joint_positions()":
+        hint = _resolve(given["qnear"], variables, pose=False)
+        if hint is None:
+            return f"qnear={given['qnear'][:40]}: a computed joint position"
+    tool = None
+    if "tcp" in given:
+        v = _resolve(given["tcp"], variables, pose=True)
+        if v is None:
+            return f"tcp={given['tcp'][:40]}: a computed TCP"
+        tool = pose_matrix(v[:3], rotvec_matrix(v[3:][None])[0])
+    return x, hint, tool
+
+
 def read(path, robot, *, frames: dict) -> Program:
     src = read_source(path)
     clean = blank_comments(src.text, "\"'", "#")
@@ -119,8 +169,29 @@ def read(path, robot, *, frames: dict) -> Program:
             arg = clean[s:e].strip()
             off = s + (len(clean[s:e]) - len(clean[s:e].lstrip()))
             lit = _LIST.match(clean, off)
-            if lit and lit.end() - off == len(arg):
+            ik = _IK.match(clean, off)
+            hint = None
+            if ik:  # Polyscope's waypoint: movej(get_inverse_kin(Waypoint_1_p, qnear=Waypoint_1_q), ...)
+                call = _ik_call(clean, ik.end(), variables, where)
+                if isinstance(call, str):
+                    notes.append(f"{where}: {kind}({arg[:60]}): {call}: not compensated")
+                    continue
+                arg, hint, tool = call
+                if tool is not None and not np.allclose(tool, tcp):
+                    notes.append(
+                        f"{where}: {kind}({arg[:40]}): get_inverse_kin(..., tcp=) other than the active TCP: not"
+                        " compensated (expected the TCP set by set_tcp)"
+                    )
+                    continue
+                lit = _LIST.fullmatch(arg) if arg not in variables else None
+                if lit is not None:
+                    off = clean.index(arg, off)
+                    lit = _LIST.match(clean, off)
+            if lit and (ik or lit.end() - off == len(arg)):
                 pt = _literal_point(src, clean, lit, f"{kind} (inline)", where, n)
+                if pt.kind != "pose" and ik:
+                    notes.append(f"{where}: {kind}: get_inverse_kin of a joint list: not compensated")
+                    continue
             elif arg in variables:
                 if len(variables[arg]) > 1:
                     notes.append(f"{where}: {kind}({arg}): {arg} is assigned several times: not compensated")
@@ -134,6 +205,9 @@ def read(path, robot, *, frames: dict) -> Program:
                     continue
                 lit, at = variables[arg][0]
                 pt = _literal_point(src, clean, lit, arg, at, n)
+                if ik and pt.kind != "pose":
+                    notes.append(f"{where}: {kind}: get_inverse_kin of the joint list {arg}: not compensated")
+                    continue
                 seen[key] = pt
             else:
                 notes.append(f"{where}: {kind}({arg[:40]}): a computed position: not compensated")
@@ -141,6 +215,8 @@ def read(path, robot, *, frames: dict) -> Program:
             pt.tool = tcp.copy()
             if kind in ("movej",) and pt.kind == "pose":
                 pt.extra["movej"] = True
+            if hint is not None:
+                pt.extra["qnear"] = hint
             points.append(pt)
     return Program("urscript", [src], points, notes)
 
