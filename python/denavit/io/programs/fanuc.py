@@ -6,21 +6,33 @@ position of the tool frame UT in the user frame UF, mm, its orientation ``Rz(R) 
 x, P about y, R about z), degrees; or ``J1 = ... deg, ..., J6`` axis values. Other groups (``GP2``: external axes)
 are kept as they are.
 
-The configuration (the same manual, "Configuration"): ``'F|N U|D T|B, t1, t4, t6'``:
+The configuration (the same manual, "Configuration"; its text was not reachable here, the letters are defined as
+the two independent implementations below compute them from joint values, docs/compensation.md):
+``'F|N U|D T|B, t1, t4, t6'``:
 
-- ``T`` (toward) / ``B`` (back): the wrist centre (the point of J5 nearest J4) in front of or behind the J1 axis (its
-  x in the J1 frame, the base frame turned with J1, >= 0 / < 0);
-- ``U`` / ``D``: the elbow (the J3 axis) above or below the line from the J2 axis to the wrist centre (above: the
-  line's normal in the arm plane with a positive world z);
-- ``N`` (no flip) / ``F`` (flip): ``J5 <= 0`` / ``J5 > 0`` in FANUC's J5 sense (J5 = -90 deg points the faceplate
+- ``T`` / ``B`` (front / back): the wrist centre (the point of J5 nearest J4) in front of or behind the J1 axis (its
+  x in the J1 frame, the base frame turned with J1, >= 0 / < 0); ABB's cfx 4 and KUKA's Status bit 0;
+- ``U`` / ``D`` (up / down): the wrist centre in front of or behind the lower arm (the line through the J2 and J3
+  axes; in front: the side the J1 frame's x faces when that line points up), the arm's own side, not the world's:
+  ABB's cfx 2 and KUKA's Status bit 1 (``D`` = cfx 2 = Status bit 1 clear). At ``T`` with the wrist in front of
+  the J2 axis this is the elbow above the line from the J2 axis to the wrist centre; behind the J2 axis (every
+  ``B`` position) the two differ, and the lower arm's side is the one both sources write;
+- ``N`` / ``F`` (no flip / flip): ``J5 < 0`` / ``J5 >= 0`` in FANUC's J5 sense (J5 = -90 deg points the faceplate
   down with the forearm level, taught ``N U T``; ROS-Industrial's FANUC descriptions turn J5 about -y);
 - ``t1``, ``t4``, ``t6``: the turn numbers of J1, J4, J6: ``floor((J + 180 deg) / 360 deg)`` (0 for -180 to 180 deg,
   1 for 180 to 540); KAREL's ``CONFIG`` holds them per axis (``CFG_TURN_NO1`` .. ``CFG_TURN_NO6``). A command a hair
   past a boundary (J4 -180.01 deg in a position stated turn 0) is the same arm at 179.99 deg, turn 0, for the
   controller: kept (:func:`denavit.io.programs.compensate_program`).
 
-No FANUC manual text was reachable to check the letters against: the flip sense is the one the ``N U T`` of a level
-forearm with the faceplate down implies, and secondary summaries disagree on it (unverified, docs/compensation.md).
+Sources: RoboDK's FANUC post-processor (``Fanuc_R30iA.py``, ros-industrial-attic/robodk_postprocessors at
+08ec3d305acae7155ced8cf15babf1d2c151e165, ``add_target_cartesian``: ``'F'`` for its flip flag, "F means axis 5 >= 0,
+N means axis 5 < 0", ``'D'`` for its lower-arm flag, the flag its ABB post writes as cfx 2 and its KUKA post as
+Status bit 1 clear, ``'B'`` for its rear flag; ``'N U T'`` the default) and visose/Robots (MIT;
+``src/Robots/Manufacturers/Fanuc/FanucPostProcessor.cs`` and ``Fanuc.cs`` at
+086a36a553f5168010aaa3bfc89b5b8e139f0f40: ``F`` for the OPW wrist branch, which its FANUC joint mapping makes J5 > 0
+and its ABB mapping axis 5 < 0; ``D`` for the elbow branch XOR the shoulder branch, the same expression its RAPID
+post writes as cfx 2; ``B`` for the shoulder branch). At J5 = 0 exactly (the wrist singularity) RoboDK's comment
+says F.
 
 The axes' senses are the model's (a model of a FANUC arm turns its joints as the controller does); a robot with a
 J2/J3 coupling (a robot file's ``[couplings]``) has its J values read through it. The tool frame UT 0 is the
@@ -187,8 +199,8 @@ def configuration(model, q, cache: dict) -> tuple:
         return int(np.floor((v + 180.0) / 360.0))
 
     return (
-        "F" if a[4] > 0 else "N",
-        "U" if g.elbow_up > 0 else "D",
+        "F" if a[4] >= 0 else "N",
+        "U" if g.lower_arm > 0 else "D",
         "T" if g.front >= 0 else "B",
         turn(a[0]),
         turn(a[3]),

@@ -11,8 +11,10 @@ The configuration (the same manuals, "Status" and "Turn"):
 
 - ``S`` (Status) bit 0: the wrist root point (the intersection of the wrist axes; here the point of A5 nearest A4)
   in the A1 coordinate system (``$ROBROOT`` turned with A1): x >= 0 basic area (0), x < 0 overhead area (1);
-  bit 1: ``A3 < phi`` (0), ``A3 >= phi`` (1), ``phi`` the A3 value at which the wrist root point lies on the
-  extension of the line through A2 and A3 (the arm stretched: 10.95 deg on the KR5, ``atan(a3 / d4)``);
+  bit 1: the wrist root point behind (0) or in front of (1) the line through A2 and A3, the arm's own side (in
+  front: the side the A1 frame's x faces when that line points up): ``A3 < phi`` (0), ``A3 >= phi`` (1), ``phi``
+  the A3 value at which the wrist root point lies on that line (the arm stretched: 0 for a robot whose A3 and A4
+  axes intersect, ``atan(a3 / d4)`` = 10.95 deg on the KR5);
   bit 2: ``0 <= A5 < 180`` or ``A5 < -180`` (0), ``-180 <= A5 < 0`` or ``A5 >= 180`` (1). Bits 3 and 4 (unused,
   "taught on an absolutely accurate robot") are kept and not compared.
 - ``T`` (Turn) bit i (0..5): axis A(i+1) < 0 (1) or >= 0 (0): with S it picks the solution, A4 or A6 beyond
@@ -20,9 +22,20 @@ The configuration (the same manuals, "Status" and "Turn"):
 
 Checked against: bit 0 as KUKA's "Expert Programming" manual words it (quoted on the KUKA robot forum: "if the
 x-value of the wrist root point, expressed in the A1 coordinate system, is negative, the robot is in the overhead
-area"); bit 2 and T as above. Bit 1's sense is not settled by the sources reachable here (a secondary summary gives
-1 for "A3 below phi"): ``A3 >= phi`` is 1 here, which gives the ``S 2`` ('B010') that KUKA- and RoboDK-written
-programs carry for the upright home and the arm in front of itself (docs/compensation.md).
+area"). Bit 1 as two controllers that take KUKA's Status and Turn define it: Siemens, SINUMERIK One "Programming
+Manual, NC programming" 12/2019 (6FC5398-2EP40-0BA0), section 3.9 "Transformations", the STAT address (p. 710): "Bit
+1 Position of axis 3 [...] The following applies to robots whose axes 3 and 4 intersect: = 0 A3 < 0 deg (elbow
+down), = 1 A3 >= 0 deg (elbow up). [...] For robots with an offset between axes 3 and 4, the angle at which the
+value of bit 1 changes depends on the magnitude of this offset"; ISG's CNC kernel, "Status & Turn (IS, IT)"
+(isg-stuttgart.de, kernel-html en-GB/814171275.html): "If the wrist is in front of the straight line through axes A2
+and A3, decimal 2 or binary 10 is added". The same sense in RoboDK's KUKA post-processor
+(ros-industrial-attic/robodk_postprocessors, ``scripts/postprocessors/KUKA_KRC4_Config.py`` at
+f7672aed5ae73d1fd729a0ce977f914e98ab7b4a, ``conf_2_str``: bit 1 set when its lower-arm flag is clear, the elbow up;
+``'B010'`` when no configuration is given) and in programs taught on controllers (``DECL E6POS ... S 6,T 50``, the
+common case: bit 1 set with T bit 2 clear, A3 >= 0). The SINUMERIK page gives bit 2 and T as above (bit 2 = 1 for A5
+< 0, "handflip"; T bit i for a negative axis i+1, as ISG's page; ISG counts its legacy bit 2 for A5 > 0, in its own
+axis senses). A secondary summary that gives bit 1 = 1 for "A3 below phi" (industrialmonitordirect.com) cites no
+source and disagrees with all of these.
 
 A point without S and T runs, as on the controller, on the configuration the previous one left (here: the
 solution nearest the previous point, the first nearest ``q0``). The axes' senses: the built-in ``kr5`` turns A1,

@@ -70,7 +70,7 @@ P[5]{
 };
 P[6]{
    GP1:
-	UF : 0, UT : 0,		CONFIG : 'N D T, 0, 1, 0',
+	UF : 0, UT : 0,		CONFIG : 'N U T, 0, 1, 0',
 	X =    60.341  mm,	Y =   -39.391  mm,	Z =  1381.510  mm,
 	W =    77.617 deg,	P =   -26.748 deg,	R =   126.219 deg
 };
@@ -118,7 +118,7 @@ P[13]{
 };
 P[14]{
    GP1:
-	UF : 0, UT : 0,		CONFIG : 'F D B, 0, 0, -1',
+	UF : 0, UT : 0,		CONFIG : 'F U B, 0, 0, -1',
 	X =  -199.402  mm,	Y =   -79.419  mm,	Z =  1482.548  mm,
 	W =   -50.401 deg,	P =     9.279 deg,	R =  -117.573 deg
 };
