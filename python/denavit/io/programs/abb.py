@@ -18,7 +18,19 @@ in front of the lower arm, axis 5 positive; 1 the same with axis 5 negative; ...
 The axes' senses are the model's (ABB's tool0: z out of the flange, the model's flange). The quadrants are checked
 against the older "RAPID Reference Manual", data type confdata ("quadrant 0 is the first quarter revolution, 0-90
 deg, in a positive direction from the zero position; quadrant 1 is the next revolution, 90-180 deg, etc. Quadrant -1
-is the revolution 0 deg - (-90 deg)"); the cfx table's text was not reachable here (unverified, docs/compensation.md).
+is the revolution 0 deg - (-90 deg)"). The cfx table (columns "wrist center relative to axis 1", "wrist center
+relative to lower arm", "axis 5 angle"; rows 0 in front of, in front of, positive to 7 behind, behind, negative) as
+CEAD-group/py-opw-kinematics reproduces it (``AXIS_CONFIGURATION.md`` at 2f70958369876562a7d75cfe9a2e0a49040ef903):
+weights 4, 2 and 1 as coded; the same weights in RoboDK's ABB post-processor (ros-industrial-attic/
+robodk_postprocessors, ``ABB_RAPID_IRC5.py`` at 05c5ca88b1d12518013610edece30d07cb82c919: ``cfx = 4*REAR +
+2*LOWERARM + FLIP``) and in visose/Robots (MIT, ``src/Robots/Manufacturers/ABB/Rapid.cs`` at
+086a36a553f5168010aaa3bfc89b5b8e139f0f40: 1 its wrist branch, axis 5 negative in its ABB joint mapping; 2 its elbow
+branch XOR its shoulder branch, the lower arm's own side; 4 its shoulder branch). py-opw-kinematics' IRB 1660ID cases
+(``src/axis_configuration.rs``, same commit: behind axis 1 and in front of the lower arm, the elbow below the line
+from axis 2 to the wrist centre in the world) give its cfx 4 and 5 here (tests/test_program_conventions.py). The
+confdata RobotStudio wrote for a real module's seven robtargets (tests/data/programs/real/abb_robot_client) is the
+configuration of one inverse kinematics solution of each on the IRB 1200 it was taught on, and no other solution's:
+cf1, cf4, cf6 and cfx's axis-5 bit checked (its other two bits 0 in all seven; tests/test_programs_real.py).
 
 Frames: a named position's tool and work object are those of the move instructions that use it (MoveJ, MoveL,
 MoveC, MoveAbsJ and their DO/AO/GO/Sync forms; EGMMoveL and EGMMoveC, the moves of EGM path correction, ABB's
