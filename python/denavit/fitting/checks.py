@@ -528,23 +528,35 @@ def systematic_misfit(points, centre, direction) -> tuple[float, float]:
     return rms, noise
 
 
-def misfit_notes(sweeps, fits: list, wheres: list[str], notes: list[str]) -> None:
+def misfit_notes(sweeps, fits: list, wheres: list[str], notes: list[str], deflections: list | None = None) -> None:
     """A note (one line) per circle fit whose misfit is systematic and far above the noise the points show: the
-    data is not a circle about the fitted axis, and the axis and its sigmas (which assume one) are not to be trusted."""
-    for s, f, w in zip(sweeps.sweeps, fits, wheres, strict=True):
+    data is not a circle about the fitted axis, and the axis and its sigmas (which assume one) are not to be trusted.
+    ``deflections``: None, or per sweep (m, 3) m the displacement of each point by the joints' compliances the joint fit
+    modelled (identify's, issue 37): the points less it are checked, and the note names what is left beyond that
+    model (a deflection under load is no longer a guess the note can offer: it is fitted)."""
+    for i, (s, f, w) in enumerate(zip(sweeps.sweeps, fits, wheres, strict=True)):
         if (
             sweeps.kinds[s.joint - 1] == "prismatic"
             or not np.isfinite(f.radius)
             or len(s.points) < SYSTEMATIC_MIN_POINTS
         ):
             continue
-        rms, noise = systematic_misfit(s.points, f.point, f.direction)
+        points = s.points if deflections is None else s.points - deflections[i]
+        rms, noise = systematic_misfit(points, f.point, f.direction)
         # white noise: (noise / rms)^2, half the von Neumann ratio, is 1 with a standard deviation of about 1 / sqrt(m)
         z = (1.0 - (noise / rms) ** 2) * math.sqrt(len(s.points)) if rms > 0 else 0.0
         if rms > SYSTEMATIC_FLOOR and rms > SYSTEMATIC_RATIO * noise and z > SYSTEMATIC_Z:
+            less, what = (
+                ("", "an ellipse? the arm deflecting under load? a loose joint?")
+                if deflections is None
+                else (
+                    ", less the deflection the fitted compliances model,",
+                    "an ellipse? a loose joint? a payload or link masses other than declared?",
+                )
+            )
             notes.append(
-                f"{w}: the points leave the fitted circle systematically, rms {rms * 1e3:.3g} mm against a"
+                f"{w}: the points{less} leave the fitted circle systematically, rms {rms * 1e3:.3g} mm against a"
                 f" point-to-point noise of {noise * 1e3:.2g} mm ({rms / max(noise, 1e-300):.3g} x), varying smoothly"
-                f" along the arc: not a circle (an ellipse? the arm deflecting under load? a loose joint?; {z:.3g}"
-                " sigma from white noise): the axis and its sigmas assume a circle"
+                f" along the arc: not a circle ({what}; {z:.3g} sigma from white noise): the axis and its sigmas assume"
+                " a circle"
             )

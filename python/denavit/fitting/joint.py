@@ -165,7 +165,7 @@ def fit_sweeps(
     ``torques``: None, or per sweep (m, n) the gravity torques each joint holds at each pose less those it holds at
     home (N m; N for a prismatic joint): every joint whose torque changes gets a compliance ``k_i`` (rad/(N m), m/N),
     its link turning by ``dq_i - k_i dtau_i`` (:mod:`denavit.calibration.compliance`'s model; the axes are those of
-    the arm at home under its own weight), fitted unconstrained.
+    the arm at home under its own weight), fitted with ``k_i >= 0`` (:meth:`_JointFit.bound_compliances`).
 
     Returns a dict: ``points`` (n, 3) feet of the home point on each axis, ``directions`` (n, 3), ``home``
     (S, 3) home point per sweep (all equal without ``per_sweep_home``), ``cov`` of [c_1, n_1, ..., c_n, n_n,
@@ -182,7 +182,8 @@ def fit_sweeps(
     ``robust_scale`` the robust loss's scale (m, of the whitened misfits; None with "linear"); ``tracker_ref2`` the
     tracker model's reference variance (m^2: ``sigma / sqrt(tracker_ref2)`` is the point noise over the declared; nan
     without a model); ``compliance`` (n,) the compliances (zeros where not fitted), ``compliance_sigma`` (n,) (nan where
-    not fitted) and ``compliance_cov`` (n, n).
+    not fitted) and ``compliance_cov`` (n, n), ``compliance_held`` (n,) those held at their bound 0 (still with their
+    sigmas) and ``compliance_negative`` (n,) the value each held one had in the fit that held it (0 elsewhere).
     """
     fit = _JointFit(
         sweeps,
@@ -204,6 +205,7 @@ def fit_sweeps(
         where=where,
     )
     fit.solve()
+    fit.bound_compliances()
     return fit.result()
 
 
@@ -238,12 +240,8 @@ class _JointFit:
         where,
     ):
         self.sweeps, self.dqs, self.loss, self.where, self.weights0 = (sweeps, dqs, loss, where, weights0)
-        self.per_sweep_home, self.noise_sigma, self.gamma, self.rotation_sigma = (
-            per_sweep_home,
-            noise_sigma,
-            gamma,
-            rotation_sigma,
-        )
+        self.per_sweep_home, self.noise_sigma = per_sweep_home, noise_sigma
+        self.gamma, self.rotation_sigma = gamma, rotation_sigma
         self.kinds = sweeps.kinds
         self.n, self.S = n, S = sweeps.n_joints, len(sweeps.sweeps)
         self.K = K = sweeps.n_targets
@@ -266,21 +264,17 @@ class _JointFit:
         )
         self.tq = torques
         tmax = np.zeros(n) if torques is None else np.max([np.max(np.abs(t), axis=0) for t in torques], axis=0)
-        self.kj = [i for i in range(n) if tmax[i] > 1e-6 * max(tmax.max(), 1e-300)]  # (TORQUE_FLOOR's rule)
+        kj = [i for i in range(n) if tmax[i] > 1e-6 * max(tmax.max(), 1e-300)]  # (TORQUE_FLOOR's rule)
+        self.held, self.negative = [], np.zeros(n)  # the compliances held at k = 0 (bound_compliances)
         self.sc = np.zeros(2 * n if torques is not None else n)
         self.H = H = len(self.homes)
         self.i_off = 4 * n + 3 * H  # the first offset's index, then the home rotation's, then the scales'
         self.i_rot = self.i_off + 3 * (K - 1)
         self.i_sc = self.i_rot + (3 if rot else 0)
         self.i_k = self.i_sc + len(swept)
-        self.npar = self.i_k + len(self.kj)
         self.prior_w = 0.0 if scale_prior is None or not swept else (scale_prior[1] / scale_prior[0]) ** 2
         self.i_prior = np.arange(self.i_sc, self.i_k)
         self.D = 3 * K + (3 if rot else 0)  # residual components per pose
-        self.active = [
-            [i for i in range(n) if np.any(dq[:, i] != 0) or (i in self.kj and np.any(self.tq[k][:, i] != 0))]
-            for k, dq in enumerate(dqs)
-        ]
         self.size = max(
             float(np.sqrt(np.mean(np.sum((s.points - s.points.mean(axis=0)) ** 2, axis=1)))) for s in sweeps.sweeps
         )
@@ -299,8 +293,31 @@ class _JointFit:
             self.wmax = math.sqrt(self.ref2 / min(float(np.min(np.minimum(va, vb))) for _, va, vb in shapes))
         # (sweep, first row of a chunk): (the scales of its active joints, {joint: _trig of its motion})
         self.trig = {}
+        self.free_compliances(kj)
+
+    def free_compliances(self, kj: list) -> None:
+        """The compliances of joints ``kj`` (0-based) are parameters (the others stay at their values): the layout."""
+        self.kj, self.npar = list(kj), self.i_k + len(kj)
+        self.active = [
+            [i for i in range(self.n) if np.any(dq[:, i] != 0) or (i in kj and np.any(self.tq[k][:, i] != 0))]
+            for k, dq in enumerate(self.dqs)
+        ]
         # a pose one point, isotropic: the Jacobian of one turning joint by moments
-        self.simple = tracker is None and not rot and K == 1 and not self.kj
+        self.simple = self.tracker is None and not self.rot and self.K == 1 and not kj
+
+    def bound_compliances(self) -> None:
+        """k >= 0 (a joint gives way under its torque), as calibrate (:mod:`denavit.calibration.compliance`): those
+        fitted negative are held at 0 and the fit repeated until none is (an active set). Held, they are parameters
+        again for the covariance (their sigmas, the others' too, the data's: not zero); ``negative``: their values."""
+        n = self.n
+        while neg := [i for i in self.kj if self.sc[n + i] < 0]:
+            self.negative[neg] = self.sc[[n + i for i in neg]]
+            self.sc[[n + i for i in neg]] = 0.0
+            self.held += neg
+            self.free_compliances([i for i in self.kj if i not in neg])
+            self.solve()
+        if self.held:
+            self.free_compliances(sorted(self.kj + self.held))
 
     def home_of(self, k):
         return self.homes[k] if self.per_sweep_home else self.homes[0]
@@ -525,14 +542,8 @@ class _JointFit:
         new_sc = x_sc.copy()
         new_sc[self.swept] += delta[i_sc : self.i_k]
         new_sc[[n + i for i in self.kj]] += delta[self.i_k :]
-        new_R = (
-            axis_angle_matrices(
-                delta[i_rot:i_sc] / max(np.linalg.norm(delta[i_rot:i_sc]), 1e-300), [np.linalg.norm(delta[i_rot:i_sc])]
-            )[0]
-            @ x_R
-            if self.rot
-            else None
-        )
+        v, ang = delta[i_rot:i_sc], np.linalg.norm(delta[i_rot:i_sc])  # (the home orientation's turn)
+        new_R = axis_angle_matrices(v / max(ang, 1e-300), [ang])[0] @ x_R if self.rot else None
         return (
             new_cs,
             new_ns,
@@ -717,7 +728,7 @@ class _JointFit:
             cs, ns, homes, self.offs, self.R0, self.sc, self.wr, self.f, bread=self.loss != "linear"
         )
         psi2 = sum(float(np.sum(w**2 * p[4])) for w, p in zip(ws, parts, strict=True))
-        dof = self.D * sum(float(np.sum(w**2)) for w in ws) - npar
+        dof = self.D * sum(float(np.sum(w**2)) for w in ws) - (npar - len(self.held))
         s2 = misfit_variance(np.sqrt(psi2) * np.ones(1), dof, math.sqrt(sigma2))
         A_inv = _pinv_sym(A)
         cov_x = s2 * A_inv @ A2 @ A_inv
@@ -772,7 +783,7 @@ class _JointFit:
             "reading_sigma": reading_sigma,
             "ss": ss / sigma2,
             "ss_m": ss,
-            "n_params": npar,
+            "n_params": npar - len(self.held),  # (the free ones: a compliance held at 0 is no parameter of the fit)
             "gamma": gam,
             "robust_scale": self.f,
             "scales": self.sc[:n],
@@ -783,4 +794,6 @@ class _JointFit:
             "compliance": self.sc[n:] if self.tq is not None else np.zeros(n),
             "compliance_sigma": k_sigma,
             "compliance_cov": k_cov,
+            "compliance_held": np.isin(np.arange(n), self.held),
+            "compliance_negative": self.negative,
         }

@@ -10,6 +10,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import NotConvergedError
+from ..fitting.chain import _chain
 from ..fitting.joint import TrackerNoise, fit_sweeps, stride
 from ..fitting.readings import READINGS_WORTHLESS
 from ..fitting.result import axis_sigmas
@@ -441,15 +442,26 @@ def _decide(
 
 def _compliance(refits: _Refits, g: dict, cov, drift: bool, prior, tq: list, notes: list[str]):
     """auto's choice of the joints' compliance (issue 37): the chosen model with a compliance per joint whose gravity
-    torque changes, nested in it, by the BIC on the same weights, as the drift (:func:`_bic`). Returns (the chosen fit,
-    its axes' covariance)."""
+    torque changes, nested in it, by the BIC on the same weights, as the drift (:func:`_bic`); the compliances held at
+    their bound 0 (fitted negative) count no parameter, and with all of them held the model is the rigid one. Returns
+    (the chosen fit, its axes' covariance)."""
     kw = {"per_sweep_home": drift, "scales": prior is not None, "scale_prior": prior}
     c, bic = refits.richer(g, torques=tq, **kw)
-    if c is not None and bic > 0:
+    if c is not None and c["n_params"] > g["n_params"] and bic > 0:
         c = refits.refit(c, torques=tq, **kw)
         notes.append(f"auto: joint compliance fitted (BIC lower by {bic:.3g}): {_compliance_list(c)}")
         return c, (_with_drift(refits.sweeps, c)[0] if drift else c["cov"])
-    why = f"BIC higher by {-bic:.3g}" if c is not None else "the fit with them does not converge"
+    if c is None:
+        why = "the fit with them does not converge"
+    elif c["n_params"] == g["n_params"]:
+        z = {j: -c["compliance_negative"][j] / c["compliance_sigma"][j] for j in np.flatnonzero(c["compliance_held"])}
+        why = (
+            "every one fitted negative and held at 0 (a joint gives way under its torque): "
+            + ", ".join(f"k_{j + 1} {v:.2g} sigma below 0" for j, v in z.items())
+            + ("; check the payload and the nominal's inertials" if max(z.values()) > 2 else "")
+        )
+    else:
+        why = f"BIC higher by {-bic:.3g}"
     notes.append(f"auto: no joint compliance fitted ({why}): the joints taken as rigid")
     return g, cov
 
@@ -457,8 +469,21 @@ def _compliance(refits: _Refits, g: dict, cov, drift: bool, prior, tq: list, not
 def _compliance_list(g: dict) -> str:
     return ", ".join(
         f"k_{j + 1} {g['compliance'][j] * 1e6:.4g} +/- {g['compliance_sigma'][j] * 1e6:.2g} urad/(N m)"
+        + (" (held at 0)" if g["compliance_held"][j] else "")
         for j in range(len(g["compliance"]))
         if np.isfinite(g["compliance_sigma"][j])
+    )
+
+
+def _held_note(j: int, name: str, kind: str, value: float, sigma: float) -> str:
+    """The note on joint ``j``'s (0-based) compliance held at its bound 0 (k >= 0), fitted at ``value`` < 0 with
+    ``sigma`` (SI)."""
+    unit = "rad/(N m)" if kind == "revolute" else "m/N"
+    z = -value / sigma if sigma > 0 else math.inf
+    why = "check the payload and the nominal's inertials" if z > 2 else "within the noise of 0"
+    return (
+        f"joint {j + 1} ({name}): compliance held at 0 (k >= 0: a joint gives way under its torque); fitted free it "
+        f"came to {value:.3g} {unit}, {z:.1f} sigma below 0: {why}"
     )
 
 
@@ -472,6 +497,20 @@ def _torques(sweeps: SweepSet, dqs: list, model) -> tuple[np.ndarray, list]:
     return ref, [
         gravity_torques(model, sweeps.home + dq[:], s.payload) - ref for s, dq in zip(sweeps.sweeps, dqs, strict=True)
     ]
+
+
+def _deflections(sweeps: SweepSet, dqs: list, tq: list, g: dict) -> list:
+    """Per sweep (m, 3) the displacement of each point by the compliances of the joint fit ``g``: the chain of its axes
+    from its home point at the links' motion (the readings' less ``k dtau``, ``tq``) less at the readings'; the points
+    less it are the undeflected arm's, on circles about the axes (:func:`~denavit.fitting.checks.misfit_notes`)."""
+    n, kinds, s = sweeps.n_joints, sweeps.kinds, 1 + g["scales"]
+    cs, ns, every = list(g["points"]), list(g["directions"]), list(range(sweeps.n_joints))
+    out = []
+    for k, (dq, t) in enumerate(zip(dqs, tq, strict=True)):
+        dq, h = np.asarray(dq[:], dtype=float), g["home"][k]
+        links = _chain(cs, ns, kinds, h, (dq - g["compliance"][:n] * t) * s, every, False)[0]
+        out.append((links - _chain(cs, ns, kinds, h, dq * s, every, False)[0]).T)
+    return out
 
 
 def _every(sweeps: SweepSet, dqs: list, k: int) -> tuple[SweepSet, list]:
@@ -531,7 +570,10 @@ def _choose(
             "fit refined once on all points"
         )
     scales = None if prior is None else (g["scales"].copy(), _scale_cross(g, sweeps.n_joints), g["scale_cov"])
-    g = g if ref is None else {**g, "torque_home": ref}
+    if ref is not None:
+        g = {**g, "torque_home": ref}
+        if np.any(np.isfinite(g["compliance_sigma"])):
+            g["deflection"] = _deflections(sweeps, dqs, tq, g)
     if scale_words is not None:
         notes.append(_scales_note(g if prior else None, *scale_words, g, sweeps.n_joints))
     mis = np.concatenate(g["misfit"])

@@ -165,7 +165,7 @@ class Identification:
         upper = self.nominal.upper if self.nominal else limits[:, 1]
         table = self._extraction(conv).table
         c = self.compliance
-        # the compliances (bounded at 0: a joint gives way under its torque) with the nominal's link inertials in the
+        # the compliances (>= 0: the joint fit's bound, run._compliance_of) with the nominal's link inertials in the
         # convention's link frames i, put on the identified table's (its offsets the undeflected arm's:
         # run._link_home), as a robot file's [compliance]
         inertials = (
@@ -196,9 +196,19 @@ class Identification:
             reading_scale=self.reading_scale,
             reading_reference=None if self.reading_scale is None else np.asarray(self.sweeps.home, dtype=float),
             inertials=inertials,
-            compliance=None if inertials is None else np.clip(c["k"], 0.0, None),
+            compliance=None if inertials is None else np.asarray(c["k"], dtype=float),
             compliance_covariance=None if inertials is None else np.asarray(c["cov"], dtype=float),
+            compliance_flange=None if inertials is None else self._flange(table),
         )
+
+    def _flange(self, table) -> np.ndarray | None:
+        """The mechanical flange (where a payload's centre of mass is given: the nominal's) in ``table``'s last frame,
+        at the links' home (run._link_home), as calibrate --save writes it (a robot file's ``[compliance] flange``);
+        None where they coincide."""
+        q = self.sweeps.home - self.compliance["k"] * self.compliance["torque_home"]
+        m = self.nominal.model()
+        F = np.linalg.inv(np.asarray(table.frames(q))[-1]) @ np.asarray(_core.joint_frames(m, q))[-1] @ m.T_last_flange
+        return None if np.allclose(F, np.eye(4), rtol=0, atol=1e-12) else F
 
     def carried_error(self, convention: str | None = None, count: int = 256) -> tuple[float, int]:
         """(max tool-position deviation in m, configurations checked) of the table :meth:`robot` writes in

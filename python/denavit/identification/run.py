@@ -16,7 +16,7 @@ from ..message import Length, Message
 from ..progress import Stage
 from ..robot import Robot
 from ..sweeps import SweepSet
-from .choice import _choose
+from .choice import _choose, _held_note
 from .frames import (
     PARALLEL_TOL,
     SHORT_ARC_SIGMA,
@@ -126,6 +126,7 @@ def identify(
         sweeps, method, loss, max_sigma, rotation_noise, tracker, notes, progress, (nominal, compliance, payload)
     )
     _noise_model_notes(sweeps, method, joint, tracker, notes)
+    elastic = _compliance_of(joint, sweeps, nominal, T_world_base, notes)
     base = np.eye(4) if T_world_base is None else np.asarray(T_world_base, dtype=float)
     if T_world_base is not None and nominal is not None:  # the nominal's base frame is the robot base given
         t = nominal.table
@@ -140,11 +141,10 @@ def identify(
     if intersect_tol is not None:
         opts["intersect_tol"] = intersect_tol
     lower, upper = (nominal.lower, nominal.upper) if nominal is not None else (None, None)
-    elastic = _compliance_of(joint, sweeps, nominal, notes)
     ax = _axes_from(x, sweeps, orientation[1], base, lower, upper, _link_home(sweeps, elastic))
     ex = _core.extract(ax, convention, **opts)
     short = _short_arc_notes(sweeps, fits, notes)
-    misfit_notes(sweeps, fits, [sweep_where(x, sweeps.source) for x in sweeps.sweeps], notes)
+    _misfit_notes(sweeps, fits, joint, notes)
     if nominal is not None:
         nominal_plausibility(
             ex,
@@ -255,25 +255,52 @@ def _elastic(sweeps: SweepSet, nominal, compliance, payload, notes: list[str]):
     return sweeps, nominal.model()
 
 
-def _compliance_of(joint, sweeps: SweepSet, nominal, notes: list[str]) -> dict | None:
+def _compliance_of(joint, sweeps: SweepSet, nominal, T_world_base, notes: list[str]) -> dict | None:
     """The identified compliances (the joint fit's, where it fitted them): ``k`` (n,) rad/(N m) (m/N prismatic; 0
-    where not fitted), ``sigma`` (n,) (nan where not fitted), ``cov`` (n, n), ``torque_home`` (n,) N m the gravity
-    torques at home without a payload (the axes fitted are the arm's under them: joint i's link sits at
-    ``q_i - k_i (tau_i(q, payload) - torque_home_i)`` about them); None when not fitted. A note for each compliance
-    negative beyond 2 sigma (a joint gives way under its torque: the data or the torque model are off); the robot
-    (:meth:`Identification.robot`) carries them bounded at 0."""
+    where not fitted; >= 0), ``sigma`` (n,) (nan where not fitted), ``cov`` (n, n), ``held`` (n,) those fitted negative
+    and held at the bound 0 (with their sigmas: :meth:`~denavit.fitting.joint._JointFit.bound_compliances`),
+    ``torque_home`` (n,) N m the gravity torques at home without a payload (the axes fitted are the arm's under them:
+    joint i's link sits at ``q_i - k_i (tau_i(q, payload) - torque_home_i)`` about them); None when not fitted. A note
+    for each compliance held at 0, saying how far below it the fit had put it (beyond 2 sigma: the data or the torque
+    model are off), and one when ``T_world_base`` turns the base from the nominal's vertical (:func:`_tilt_note`)."""
     if joint is None or not np.any(np.isfinite(joint["compliance_sigma"])):
         return None
     k, sigma = np.array(joint["compliance"], dtype=float), joint["compliance_sigma"]
+    held = np.asarray(joint["compliance_held"], dtype=bool)
     names = nominal.names if nominal is not None else [f"j{j + 1}" for j in range(len(k))]
-    units = ["rad/(N m)" if kind == "revolute" else "m/N" for kind in sweeps.kinds]
-    for j in np.flatnonzero(np.isfinite(sigma) & (k < -2 * sigma)):
+    for j in np.flatnonzero(held):
+        notes.append(_held_note(j, names[j], sweeps.kinds[j], joint["compliance_negative"][j], sigma[j]))
+    if T_world_base is not None:
+        _tilt_note(nominal, np.asarray(T_world_base, dtype=float), notes)
+    return {"k": k, "sigma": sigma, "cov": joint["compliance_cov"], "held": held, "torque_home": joint["torque_home"]}
+
+
+#: The angle (rad) between the measurement frame's z and the robot base's vertical above which the saved robot's
+#: gravity (-z of its world, docs/cli.md "Joint compliance, payload and gravity") gets a note: 0.1 deg (its torques
+#: then off by 0.17 % of their size across the tilt).
+TILT_NOTE = math.radians(0.1)
+
+
+def _tilt_note(nominal, T_world_base: np.ndarray, notes: list[str]) -> None:
+    """A note when the measurement frame is not level: the joint fit's gravity torques are the nominal's (gravity along
+    -z of its world, the robot base's vertical), but the saved robot stands on ``T_world_base`` in the measurement
+    frame and its torques take gravity along that frame's -z."""
+    up = np.asarray(nominal.table.T_world_base, dtype=float)[2, :3]  # the nominal world's z in its base frame
+    saved = T_world_base[2, :3]  # the measurement frame's z in the base frame
+    tilt = math.acos(min(max(float(up @ saved), -1.0), 1.0))
+    if tilt > TILT_NOTE:
         notes.append(
-            f"joint {j + 1} ({names[j]}): fitted compliance {k[j]:.3g} {units[j]}, negative by {-k[j] / sigma[j]:.1f}"
-            " sigma "
-            "(a joint gives way under its torque): check the payload and the nominal's inertials; the robot carries 0"
+            f"the measurement frame's z is {math.degrees(tilt):.3g} deg from the robot base's vertical (--base): the "
+            "compliances were fitted with gravity down the base's vertical, but the saved robot's torques take it "
+            "along -z of its world, the measurement frame (compensate, validate at a payload): level the tracker"
         )
-    return {"k": k, "sigma": sigma, "cov": joint["compliance_cov"], "torque_home": joint["torque_home"]}
+
+
+def _misfit_notes(sweeps: SweepSet, fits: list, joint, notes: list[str]) -> None:
+    """The circle check's notes (:func:`~denavit.fitting.checks.misfit_notes`), on the points less the deflection the
+    joint fit's compliances model where it fitted them."""
+    wheres = [sweep_where(s, sweeps.source) for s in sweeps.sweeps]
+    misfit_notes(sweeps, fits, wheres, notes, None if joint is None else joint.get("deflection"))
 
 
 def _link_home(sweeps: SweepSet, elastic: dict | None) -> np.ndarray:

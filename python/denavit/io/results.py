@@ -191,8 +191,9 @@ def _identification_json(result: Identification, *, box: bool = True) -> dict:
 
 def _compliance_json(result: Identification) -> dict | None:
     """The joints' compliances the joint fit freed (issue 37): a row per joint with its ``unit`` (rad/(N m) revolute,
-    m/N prismatic), ``value`` and ``sigma`` (null where not fitted), the covariance over every joint (SI), the gravity
-    torques at home (SI: N m); null for a rigid fit."""
+    m/N prismatic), ``value`` and ``sigma`` (null where not fitted), ``held`` (fitted negative, held at its bound 0;
+    its sigma still the data's), the covariance over every joint (SI), the gravity torques at home (SI: N m); null for a
+    rigid fit."""
     c = result.compliance
     if c is None:
         return None
@@ -205,6 +206,7 @@ def _compliance_json(result: Identification) -> dict | None:
                 "unit": "rad/(N m)" if kinds[j] == "revolute" else "m/N",
                 "value": float(c["k"][j]),
                 "sigma": _finite(c["sigma"][j]),
+                "held": bool(c["held"][j]),
             }
             for j in range(len(c["k"]))
         ],
