@@ -519,12 +519,12 @@ def compensate_program(
     payload=None,
 ) -> ProgramCompensation:
     """Compensate every position of ``program`` for a controller that keeps ``nominal`` (a Robot) while the robot is
-    ``identified``: each on its own configuration (the one it states; URScript poses: the solution nearest the
-    previous position, the first nearest ``q0``, default the nominal's home), flange poses compensated (the
-    program's tool and base frames exact, as the controller applies them). ``payload``: the payload on the flange for
-    every position (kg, or (kg, (x, y, z)) its centre of mass in the model's flange frame, m; or (N, 4) one per
-    compensated position): with an identified robot of compliant joints the commands are those that deflect onto
-    the positions under it (:func:`denavit.compensation.compensate`)."""
+    ``identified``: each on its own configuration (the one it states; URScript poses: the solution nearest their
+    ``get_inverse_kin`` ``qnear``, else nearest the previous position, the first nearest ``q0``, default the
+    nominal's home), flange poses compensated (the program's tool and base frames exact, as the controller applies
+    them). ``payload``: the payload on the flange for every position (kg, or (kg, (x, y, z)) its centre of mass in the
+    model's flange frame, m; or (N, 4) one per compensated position): with an identified robot of compliant joints
+    the commands are those that deflect onto the positions under it (:func:`denavit.compensation.compensate`)."""
     from ... import compensation as cp  # noqa: PLC0415
     from ...robot import Robot  # noqa: PLC0415
 
@@ -660,8 +660,9 @@ def _tool_in_flange(F_rot: np.ndarray, tool: np.ndarray) -> np.ndarray:
 
 def controller_joints(program: Program, robot, values: dict | None = None, *, q0=None) -> np.ndarray:
     """The joint values (N, n) a nominal controller of ``robot`` runs each position of ``program`` at (its
-    configuration honoured: the vendor's bits; URScript poses the solution nearest the previous position), with
-    ``values`` ({point index: values}) in place of the program's: what a simulated controller does (tests)."""
+    configuration honoured: the vendor's bits; URScript poses the solution nearest their ``qnear``, else nearest the
+    previous position), with ``values`` ({point index: values}) in place of the program's: what a simulated
+    controller does (tests)."""
     from ... import compensation as cp  # noqa: PLC0415
 
     v = program.vendor

@@ -8,13 +8,19 @@ set one (each move at the TCP set last before it in the text).
 
 The configuration: a pose has none; the controller moves to the inverse kinematics solution nearest the joint
 position it starts from (``movel``, ``movep``, and ``movej`` of a pose alike), here the previous position of the
-script (in the text's order), the first nearest ``q0``. Joint positions are the configuration.
+script (in the text's order), the first nearest ``q0``. Joint positions are the configuration. PolyScope writes a
+MoveJ waypoint as ``movej(get_inverse_kin(Waypoint_1_p, qnear=Waypoint_1_q), ...)`` (``get_inverse_kin(x, qnear,
+maxPositionError, maxOrientationError, tcp)``: the solution of ``x`` nearest ``qnear``): the pose is the position,
+solved nearest its ``qnear``, the configuration the program states (kept as written: a hint of the branch, not a
+target); without ``qnear``, or with ``get_actual_joint_positions()``, nearest the previous position.
 
 Supported subset: moves whose position is a literal (``movel(p[...], a=1.2, v=0.25)``, ``movej([...])``) or a
-variable assigned a literal (``p1 = p[...]``, ``global p1 = p[...]``), compensated where the literal is written;
-``set_tcp(p[...])`` or of such a variable. A position computed by a function (``pose_trans``, ``pose_add``,
-``get_inverse_kin``, ...) or a ``set_tcp`` of one is listed, not compensated (one-line error for ``set_tcp``: the
-frame of every move after it would be unknown); a feature frame is not supported (poses are in the base frame).
+variable assigned a literal (``p1 = p[...]``, ``global p1 = p[...]``), or ``get_inverse_kin`` of such a pose with
+such a ``qnear``, compensated where the literal is written; ``set_tcp(p[...])`` or of such a variable. A position
+computed by a function (``pose_trans``, ``pose_add``, ...), a ``get_inverse_kin`` of one or with a computed
+``qnear``, or whose ``tcp=`` is not the TCP set, is listed, not compensated; a ``set_tcp`` of a computed pose is a
+one-line error (the frame of every move after it would be unknown); a feature frame is not supported (poses are in
+the base frame).
 """
 
 from __future__ import annotations
