@@ -193,7 +193,7 @@ def test_a_frame_the_real_program_refers_to_unsupported_is_one_line_and_writes_n
         nominal = "ur5"
     out = tmp_path / "out" / src.name
     out.parent.mkdir()
-    p = run("compensate", src, "--nominal", nominal, "--identified", nominal, "-o", out, ok=False)
+    p = run("compensate", nominal, src, "--identified", nominal, "-o", out, ok=False)
     assert p.returncode == 2 and re.search(message, p.stderr), p.stderr
     assert len(p.stderr.strip().splitlines()) == 1
     assert not any(out.parent.iterdir())
