@@ -62,11 +62,14 @@ def test_round_trip_is_byte_identical(name, model, tmp_path):
         assert Path(p).read_bytes() == Path(src.path).read_bytes()
 
 
-def _without_positions(prog) -> list[str]:
-    """Each file's text with its position fields cut out."""
+def _without_positions(prog, relabelled=()) -> list[str]:
+    """Each file's text with its position fields cut out, and the configuration fields of the points ``relabelled``
+    (indices)."""
     out = []
     for i, src in enumerate(prog.sources):
-        spans = sorted((n.start, n.end) for p in prog.points for n in p.numbers if n.source == i)
+        nums = [n for p in prog.points for n in p.numbers]
+        nums += [n for k in relabelled for n in prog.points[k].config_fields]
+        spans = sorted((n.start, n.end) for n in nums if n.source == i)
         text, last, parts = src.text, 0, []
         for s, e in spans:
             parts.append(text[last:s])

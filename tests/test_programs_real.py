@@ -4,7 +4,6 @@ a RobotStudio module on the arm it was taught on (the IRB 1200-5/0.9 of ROS-Indu
 model is an ABB arm) and a PolyScope program on the built-in ur5 in UR's base frame."""
 
 import re
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -72,36 +71,49 @@ def _at_a_quadrant_boundary(prog, r, k) -> bool:
 @pytest.mark.parametrize(("path", "robot"), REAL)
 def test_a_real_program_compensated_changes_only_its_positions_and_reaches_them(path, robot, tmp_path):
     """The true robot (0.5 mm / 0.05 deg errors) runs the compensated program on a nominal controller that keeps each
-    position's configuration (RAPID: its confdata; PolyScope: the solution nearest the waypoint's qnear): within
-    0.1 mm RMS of the positions, >= 10x better than as written; only the position fields differ. The RobotStudio
-    positions with the tool straight down have axis 4 at -0.0000 deg (cf4 -1): a compensated command crossing to
-    +0.00x deg leaves the stated quadrant, so those are left as written and listed, no other."""
+    position's configuration as the written file states it (RAPID: its confdata; PolyScope: the solution nearest the
+    waypoint's qnear): every position within 0.1 mm RMS, >= 10x better than as written; only the position fields
+    differ. The three RobotStudio positions with the tool straight down have axis 4 at -0.0000 deg (cf4 -1): their
+    compensated commands cross to +0.07-0.09 deg, the same arm in quadrant 0, so their confdata is written cf4 0 (the
+    only configuration field that changes, listed as rewritten) and the controller runs the commands; with cf4 left
+    at -1 it would find no solution of the compensated poses."""
     r = robot()
     true = perturbed(r)
     src = copy_program(path, tmp_path)
     prog = pg.read_program(src, r)
     pc = pg.compensate_program(prog, r, true)
-    left = {w for w, _ in pc.left}
-    for _, why in pc.left:
-        assert "leaves the configuration" in why, why
-    moved = [k for k, p in enumerate(prog.points) if p.where not in left]
-    assert sorted(pc.new_values) == moved and len(moved) >= (4 if path == MODULE else 2)
-    assert all(_at_a_quadrant_boundary(prog, r, k) for k, p in enumerate(prog.points) if p.where in left)
+    assert not pc.left and sorted(pc.new_values) == list(range(len(prog.points)))
+    relabelled = sorted(pc.configs)
+    assert [w for w, _ in pc.relabelled] == [prog.points[k].where for k in relabelled]
+    if path == MODULE:
+        assert [prog.points[k].name for k in relabelled] == ["Target_50", "Target_60", "Target_70"]
+        for k, (_, why) in zip(relabelled, pc.relabelled, strict=True):
+            stated, written = prog.points[k].config, pc.configs[k]
+            assert stated[1] == -1 and written == (stated[0], 0, stated[2], stated[3]), (stated, written)
+            assert _at_a_quadrant_boundary(prog, r, k)
+            assert "cf4 -1 -> 0 (axis 4 -0.0000 -> +0.0" in why and "quadrant boundary at 0 deg" in why, why
+    else:
+        assert not relabelled
     (tmp_path / "out").mkdir()
-    paths = pg.write_program(prog, tmp_path / "out" / src.name, pc.new_values)
+    paths = pc.write(tmp_path / "out" / src.name)
     back = pg.read_program(paths[0], r)
-    assert _without_positions(back) == _without_positions(prog)
+    assert _without_positions(back, relabelled) == _without_positions(prog, relabelled)
+    assert [p.config for p in back.points] == [pc.configs.get(k, p.config) for k, p in enumerate(prog.points)]
     assert Path(paths[0]).read_bytes() != src.read_bytes()
     F = prog.vendor.flange_rotation(r)
     fm, tm = pg.flange_of(r).model(), pg.flange_of(true).model()
-    Q_program, Q_comp = pg.controller_joints(prog, r)[moved], pg.controller_joints(back, r)[moved]
-    pts = [prog.points[k] for k in moved]
-    target = pg.tool_poses(replace(prog, points=pts), fm, Q_program, F)[:, :3, 3]
-    before = np.linalg.norm(pg.tool_poses(replace(prog, points=pts), tm, Q_program, F)[:, :3, 3] - target, axis=1)
-    after = np.linalg.norm(pg.tool_poses(replace(back, points=pts), tm, Q_comp, F)[:, :3, 3] - target, axis=1)
+    Q_program, Q_comp = pg.controller_joints(prog, r), pg.controller_joints(back, r)
+    np.testing.assert_allclose(Q_comp, pc.compensation.q_command, atol=1e-6)  # the commands, as written
+    target = pg.tool_poses(prog, fm, Q_program, F)[:, :3, 3]
+    before = np.linalg.norm(pg.tool_poses(prog, tm, Q_program, F)[:, :3, 3] - target, axis=1)
+    after = np.linalg.norm(pg.tool_poses(back, tm, Q_comp, F)[:, :3, 3] - target, axis=1)
     rms_before, rms_after = np.sqrt(np.mean(before**2)), np.sqrt(np.mean(after**2))
     assert rms_after < 1e-4 and rms_before > 10 * rms_after, (rms_before, rms_after)
     assert np.abs(Q_comp - Q_program).max() < np.radians(5)  # the same branches
+    if relabelled:  # the positions written with the stated configuration: no solution of the compensated poses has it
+        stale = pg.controller_joints(prog, r, pc.new_values)
+        assert np.isnan(stale[relabelled]).all()
+        assert np.isfinite(np.delete(stale, relabelled, axis=0)).all()
 
 
 def test_egm_moves_give_their_positions_frames():
@@ -197,3 +209,32 @@ def test_a_frame_the_real_program_refers_to_unsupported_is_one_line_and_writes_n
     assert p.returncode == 2 and re.search(message, p.stderr), p.stderr
     assert len(p.stderr.strip().splitlines()) == 1
     assert not any(out.parent.iterdir())
+
+
+def test_cli_names_the_positions_whose_configuration_it_rewrote(tmp_path):
+    """`denavit compensate irb1200.toml Module1.mod --identified true.toml -o OUT --json J`: exit 0, all seven
+    compensated; the summary and the JSON name the three robtargets whose confdata was rewritten (cf4 -1 -> 0, at a
+    quadrant boundary) and each row says the configuration written; the file holds it."""
+    import json
+
+    from cli import run
+    from denavit.io import robotfile
+
+    r = irb1200()
+    robotfile.save(r, tmp_path / "irb1200.toml", "mm", "deg")
+    robotfile.save(perturbed(r), tmp_path / "true.toml", "mm", "deg")
+    src = copy_program(MODULE, tmp_path)
+    out, js = tmp_path / "out.mod", tmp_path / "c.json"
+    p = run(
+        "compensate", tmp_path / "irb1200.toml", src, "--identified", tmp_path / "true.toml", "-o", out, "--json", js
+    )
+    text = " ".join(p.stdout.split())
+    assert "7 positions (abb), 7 compensated (3 with their configuration rewritten), 0 left as they were" in text, text
+    for line in (12, 13, 14):
+        assert re.search(rf"Module1\.mod:{line}: configuration rewritten as the compensated command's, \[-?\d,0,", text)
+    assert text.count("across its quadrant boundary at 0 deg") == 3
+    d = json.loads(js.read_text())
+    assert [x["where"].rsplit(":", 1)[1] for x in d["relabelled"]] == ["12", "13", "14"] and not d["left"]
+    written = [row["configuration"]["written"] for row in d["rows"]]
+    assert written[:4] == [None] * 4 and all("[-1,0,-1,0]" in w or "[0,0,0,0]" in w for w in written[4:])
+    assert [p.config for p in pg.read_program(out, r).points][4:] == [(-1, 0, -1, 0), (-1, 0, -1, 0), (0, 0, 0, 0)]

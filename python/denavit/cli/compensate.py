@@ -429,7 +429,6 @@ def _compensate_program(
     import numpy as np  # noqa: PLC0415
 
     from ..api import compensate as compensate_positions  # noqa: PLC0415
-    from ..io import programs as pg  # noqa: PLC0415
 
     with status(f"compensating the positions of {path} ..."):
         pc = compensate_positions(
@@ -450,13 +449,14 @@ def _compensate_program(
                 f"-o -: {path} is a program of {len(prog.sources)} files"
                 f" ({', '.join(Path(s.path).name for s in prog.sources)}): expected a path"
             )
-        written = pg.write_program(prog, output, pc.new_values)
+        written = pc.write(output)
         for w in written:
             wrote(
                 w,
                 (
-                    f" ({len(pc.new_values)} of {len(prog.points)} positions compensated, {len(pc.left)} left as they"
-                    " were)"
+                    f" ({len(pc.new_values)} of {len(prog.points)} positions compensated"
+                    f"{f', {len(pc.configs)} with their configuration rewritten' if pc.configs else ''},"
+                    f" {len(pc.left)} left as they were)"
                     if w == written[0]
                     else ""
                 ),
@@ -471,6 +471,7 @@ def _compensate_program(
         "positions": len(prog.points),
         "flagged": len(pc.left),
         "left": [{"where": w, "why": why} for w, why in pc.left],
+        "relabelled": [{"where": w, "why": why} for w, why in pc.relabelled],
         "notes": list(prog.notes) + (list(c.notes) if c is not None else []),
         "before_rms_m": float(np.sqrt(np.mean(before**2))) if len(before) else None,
         "outputs": written,
@@ -484,6 +485,7 @@ def _compensate_program(
                         "program" if prog.points[k].config is not None or prog.points[k].kind == "joints" else "assumed"
                     ),
                     "stated": None if prog.points[k].config is None else prog.vendor.describe(prog.points[k].config),
+                    "written": prog.vendor.describe(pc.configs[k]) if k in pc.configs else None,
                     "q": [float(v) for v in pc.q_program[i]],
                 },
                 "compensated": k in pc.new_values,
@@ -503,9 +505,14 @@ def _compensate_program(
         say(
             "bold",
             f"{nom_robot.name} -> {id_robot.name}:",
-            f" {len(prog.points)} positions ({fmt}), {len(pc.new_values)} compensated, {len(pc.left)} left as they"
-            f" were{gain}",
+            f" {len(prog.points)} positions ({fmt}), {len(pc.new_values)} compensated"
+            f"{f' ({len(pc.configs)} with their configuration rewritten)' if pc.configs else ''}, {len(pc.left)} left"
+            f" as they were{gain}",
         )
+        for w, why in pc.relabelled[:20]:
+            console.print(f"  {w}: {why}")
+        if len(pc.relabelled) > 20:
+            console.print(f"  ... and {len(pc.relabelled) - 20} more (all in --json's 'relabelled')")
         for w, why in pc.left[:20]:
             console.print(f"  {w}: {why}")
         if len(pc.left) > 20:

@@ -12,9 +12,12 @@ and the frames it is taught in (base and tool, honoured or refused with a one-li
 with the configuration's nominal solution as ``q_nominal``) and :func:`render` writes the program back: every byte
 but the compensated position fields as it was, each rewritten number in its original form (sign, leading zero,
 exponent) with its original decimals or, when fewer, enough to carry the compensation (``MIN_DECIMALS``: 1 um,
-1e-3 deg). A point that cannot be compensated (unreachable, a branch change near a singularity, a configuration
-the compensated command would leave) is left as it was and listed with its line. Reading with the nominal model as
-the identified one writes the program byte-identical: a number is rewritten only when the compensation moves it
+1e-3 deg). A point that cannot be compensated (unreachable, a branch change near a singularity, a shoulder, elbow
+or wrist-flip configuration the compensated command would leave) is left as it was and listed with its line. A
+command that leaves its stated configuration only across the boundary of an axis's value (ABB's cf1, cf4, cf6
+quadrants, KUKA's T bits: the sign of an axis), the same arm a hair from the nominal solution, is compensated with
+its configuration written as the command's (:func:`relabelled`) and listed as such. Reading with the nominal model
+as the identified one writes the program byte-identical: a number is rewritten only when the compensation moves it
 by more than its resolution.
 """
 
@@ -22,7 +25,7 @@ from __future__ import annotations
 
 import os
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +37,11 @@ from ..text import read_bytes
 
 #: The fewest decimals a rewritten number gets, by unit (its original decimals when more).
 MIN_DECIMALS = {"mm": 3, "m": 6, "deg": 3, "rad": 6, "quaternion": 6, "": 6}
+
+#: An axis this close to a boundary of its value (a quadrant's, a sign's; deg) is on it: either side's configuration
+#: states it (a position taught at A4 = 0.000 deg and written with T bit 3 clear solves, from its rounded numbers, at
+#: -1e-6 deg as often as at +1e-6). The resolution a rewritten angle keeps (:data:`MIN_DECIMALS`).
+ON_BOUNDARY_DEG = 1e-3
 
 FORMATS = ("kuka", "abb", "fanuc", "urscript")
 
@@ -77,7 +85,9 @@ class Point:
     (a Cartesian pose in the program's base frame at its tool) or "joints" (the controller's axis values),
     ``numbers`` its position fields (pose: position then orientation, the vendor's order; joints: one per axis),
     ``config`` the configuration it states (the vendor's, or None: nearest the previous point, URScript), ``base``
-    and ``tool`` (4x4, m) the frames it is taught in, ``problem`` why it is not compensated (kept, listed)."""
+    and ``tool`` (4x4, m) the frames it is taught in, ``problem`` why it is not compensated (kept, listed),
+    ``config_fields`` the tokens (:class:`Number`) its configuration is written in (ABB's cf1, cf4, cf6, cfx; KUKA's
+    S and T), rewritten when its configuration is (:func:`relabelled`)."""
 
     name: str
     where: str
@@ -88,6 +98,7 @@ class Point:
     tool: np.ndarray = field(default_factory=lambda: np.eye(4))
     problem: str | None = None
     extra: dict = field(default_factory=dict)
+    config_fields: list = field(default_factory=list)
 
     @property
     def values(self) -> np.ndarray:
@@ -241,14 +252,20 @@ def resolution(token: str, unit: str) -> float:
     return 0.5 * 10.0 ** (-dec) * scale
 
 
-def render(program: Program, new_values: dict) -> list[bytes]:
+def render(program: Program, new_values: dict, configs: dict | None = None) -> list[bytes]:
     """The program's files as bytes with the points in ``new_values`` ({point index: values in the program's
-    units}) rewritten; every other byte as read."""
+    units}) rewritten, and the configurations in ``configs`` ({point index: the vendor's configuration},
+    :attr:`ProgramCompensation.configs`) written in their fields' own number forms; every other byte as read."""
     edits: dict[int, list] = {}
     for k, vals in new_values.items():
         for num, v in zip(program.points[k].numbers, vals, strict=True):
             if abs(v - num.value) > resolution(num.token, num.unit):
                 edits.setdefault(num.source, []).append((num.start, num.end, format_like(v, num.token, num.unit)))
+    for k, config in (configs or {}).items():
+        p = program.points[k]
+        for num, token in zip(p.config_fields, program.vendor.config_tokens(config, p), strict=True):
+            if token != num.token:
+                edits.setdefault(num.source, []).append((num.start, num.end, token))
     out = []
     for i, src in enumerate(program.sources):
         text = src.text
@@ -271,10 +288,13 @@ def output_paths(program: Program, output: str | os.PathLike) -> list[str]:
     return paths
 
 
-def write_program(program: Program, output: str | os.PathLike, new_values: dict, *, force: bool = False) -> list[str]:
-    """Write the program with ``new_values`` to ``output`` (:func:`output_paths`): every file made whole in memory
-    first, each written whole or not at all. Returns the paths written."""
-    data = render(program, new_values)
+def write_program(
+    program: Program, output: str | os.PathLike, new_values: dict, *, configs: dict | None = None, force: bool = False
+) -> list[str]:
+    """Write the program with ``new_values`` and ``configs`` (:func:`render`; a compensation's are
+    :meth:`ProgramCompensation.write`'s) to ``output`` (:func:`output_paths`): every file made whole in memory first,
+    each written whole or not at all. Returns the paths written."""
+    data = render(program, new_values, configs)
     paths = output_paths(program, output)
     for p, src in zip(paths, program.sources, strict=True):
         if Path(p).resolve() == Path(src.path).resolve():
@@ -482,7 +502,9 @@ class ProgramCompensation:
     """The compensation of a program: ``program``, ``new_values`` ({point index: values}, the points rewritten),
     ``compensation`` (:class:`denavit.compensation.Compensation` of the points compensated, in ``rows``'s order),
     ``rows`` (point indices), ``q_program`` (N, n) each row's configuration on the nominal, ``left`` [(where, why)]
-    the points left as they were."""
+    the points left as they were, ``configs`` ({point index: the vendor's configuration}) the points whose
+    configuration is rewritten with their position (:func:`relabelled`), ``relabelled`` [(where, why)] the same,
+    listed."""
 
     program: Program
     new_values: dict
@@ -491,20 +513,42 @@ class ProgramCompensation:
     q_program: np.ndarray
     left: list
     positions: np.ndarray
+    configs: dict = field(default_factory=dict)
+    relabelled: list = field(default_factory=list)
+
+    def write(self, output: str | os.PathLike, *, force: bool = False) -> list[str]:
+        """Write the compensated program to ``output`` (:func:`write_program` with its ``new_values`` and
+        ``configs``). Returns the paths written."""
+        return write_program(self.program, output, self.new_values, configs=self.configs, force=force)
 
 
 def configuration_solution(
     v, model, point: Point, T_flange: np.ndarray, q_near: np.ndarray, arm_cache: dict
 ) -> np.ndarray | None:
-    """The nominal solution of a pose on the configuration ``point`` states (the vendor's ``matches``), nearest
-    ``q_near``; None when no solution has it."""
+    """The nominal solution of a pose on the configuration ``point`` states (the vendor's ``matches``, or an axis the
+    configuration puts on one side of a boundary of its value within :data:`ON_BOUNDARY_DEG` of it on the other),
+    nearest ``q_near``; None when no solution has it."""
     best, dist = None, np.inf
     for q in candidates(model, T_flange):
-        if v.matches(point.config, v.configuration(model, q, arm_cache)):
+        if states(v, model, point.config, q, arm_cache):
             d = float(np.linalg.norm(q - q_near))
             if d < dist:
                 best, dist = q, d
     return best
+
+
+def states(v, model, config, q, cache: dict) -> bool:
+    """Whether the configuration ``config`` states the joint values ``q``: ``q``'s own (the vendor's ``matches``), or
+    one that differs from it only in fields that are boundaries of an axis's value (the vendor's ``relabel``) with
+    each such axis within :data:`ON_BOUNDARY_DEG` of its boundary."""
+    computed = v.configuration(model, q, cache)
+    if v.matches(config, computed):
+        return True
+    r = v.relabel(config, computed)
+    if r is None:
+        return False
+    a = np.degrees(np.asarray(q, dtype=float) * cache.get("signs", 1.0))
+    return all(abs(a[j] - b) <= ON_BOUNDARY_DEG for _, j, b, _ in r[1])
 
 
 def compensate_program(
@@ -576,7 +620,7 @@ def compensate_program(
         predict=predict,
         payload=payload,
     )
-    new = {}
+    new, configs, relabels = {}, {}, []
     for i, k in enumerate(rows):
         p = program.points[k]
         if not c.ok[i]:
@@ -596,12 +640,61 @@ def compensate_program(
             new[k] = v.joint_readings(nominal, qc, p)
             continue
         if p.config is not None and not _keeps(v, model, p.config, qc, cache):
-            left.append(
-                (p.where, f"the compensated command leaves {v.describe(p.config)} (near a configuration boundary)")
-            )
-            continue
+            r = relabelled(v, model, p.config, Q[i], qc, cache, branch_tol)
+            if r is None:
+                left.append(
+                    (
+                        p.where,
+                        f"the compensated command leaves {v.describe(p.config)} for"
+                        f" {v.describe(v.configuration(model, qc, cache)).removeprefix('the configuration ')} (near a"
+                        " configuration boundary, not only of an axis's value: a branch)",
+                    )
+                )
+                continue
+            configs[k] = r[0]
+            relabels.append((p.where, r[1]))
         new[k] = v.pose_values(program_pose(p, c.commands[i], F), p)
-    return ProgramCompensation(program, new, c, rows, Q, left, T)
+    return ProgramCompensation(program, new, c, rows, Q, left, T, configs, relabels)
+
+
+def relabelled(v, model, config, q_nominal: np.ndarray, q_command: np.ndarray, cache: dict, tol: float):
+    """The configuration a position stated ``config`` is written with when its compensated command ``q_command``
+    (rad) has another: ``(configuration, why)``, or None (the position is left as it was).
+
+    The configuration data is part of the position: what the controller's inverse kinematics is held to. A command
+    that is the same physical arm as the nominal solution ``q_nominal`` of ``config`` (every joint within ``tol``
+    of it, as compensate's branch check) and whose configuration differs from ``config`` only in fields that are
+    boundaries of an axis's value, each such axis having crossed its boundary between the two (ABB's cf1, cf4, cf6
+    quadrants; KUKA's T bits, an axis's sign: the vendor's ``relabel``), is written with the configuration the
+    controller records for it (what RobotStudio or the KUKA HMI writes when the arm is jogged there), and only when
+    that configuration has no other solution of the command's pose: the controller, honouring it, runs the command.
+    A shoulder, elbow or wrist-flip field (ABB's cfx, KUKA's S bits 0-2, FANUC's F/N U/D T/B) is a branch: never
+    rewritten. Axis 5 at 0 deg, where the flip bit changes, is the wrist singularity (axes 4 and 6 aligned: the pose
+    fixes only their sum), where the nominal solution of the other flip is half a turn of axes 4 and 6 away and the
+    compensation is ill-conditioned: listed, not rewritten."""
+    qn, qc = np.asarray(q_nominal, dtype=float), np.asarray(q_command, dtype=float)
+    if np.abs(qc - qn).max() > tol:
+        return None
+    r = v.relabel(config, v.configuration(model, qc, cache))
+    if r is None:
+        return None
+    new, fields = r
+    sg = cache.get("signs", 1.0)
+    an, ac = np.degrees(qn * sg), np.degrees(qc * sg)
+    if not all(
+        min(an[j], ac[j]) - ON_BOUNDARY_DEG <= b <= max(an[j], ac[j]) + ON_BOUNDARY_DEG for _, j, b, _ in fields
+    ):
+        return None
+    T = _core.fk(model, qc)
+    others = [q for q in candidates(model, T) if v.matches(new, v.configuration(model, q, cache))]
+    if not others or any(np.abs(q - qc).max() > 1e-6 for q in others):
+        return None
+    why = ", ".join(
+        f"{name} (axis {j + 1} {an[j]:+.4f} -> {ac[j]:+.4f} deg, across its {what} at {b:g} deg)"
+        for name, j, b, what in fields
+    )
+    written = v.describe(new).removeprefix("the configuration ")
+    return new, f"configuration rewritten as the compensated command's, {written}: {why}; the same arm"
 
 
 def _near(v, robot, point: Point, q_prev: np.ndarray) -> np.ndarray:
@@ -615,8 +708,6 @@ def flange_of(robot):
     """``robot`` at its flange, the frame the vendors' flanges are given in: as it is when its tool is a pure rotation
     (a model's own flange frame, REP-199's tool0: the kr210's a half turn about its DH frame 6's z), else its tool
     taken off (a tool with an offset is not the flange; the program's tools are on the flange)."""
-    from dataclasses import replace  # noqa: PLC0415
-
     t = robot.table
     if np.allclose(np.asarray(t.T_last_tool)[:3, 3], 0.0, rtol=0.0, atol=1e-12):
         return robot
@@ -658,11 +749,14 @@ def _tool_in_flange(F_rot: np.ndarray, tool: np.ndarray) -> np.ndarray:
     return F @ tool
 
 
-def controller_joints(program: Program, robot, values: dict | None = None, *, q0=None) -> np.ndarray:
+def controller_joints(
+    program: Program, robot, values: dict | None = None, *, configs: dict | None = None, q0=None
+) -> np.ndarray:
     """The joint values (N, n) a nominal controller of ``robot`` runs each position of ``program`` at (its
     configuration honoured: the vendor's bits; URScript poses the solution nearest their ``qnear``, else nearest the
-    previous position), with ``values`` ({point index: values}) in place of the program's: what a simulated
-    controller does (tests)."""
+    previous position), with ``values`` ({point index: values}) and ``configs`` ({point index: configuration}) in
+    place of the program's: what a simulated controller does (tests). A position no solution of which has its
+    configuration is NaN."""
     from ... import compensation as cp  # noqa: PLC0415
 
     v = program.vendor
@@ -685,6 +779,8 @@ def controller_joints(program: Program, robot, values: dict | None = None, *, q0
                 qq, found = cp.nearest_solutions(model, Tf[None], _near(v, robot, p, q_prev))
                 q = qq[0] if found[0] else np.full(model.nq, np.nan)
             else:
+                if configs and k in configs:
+                    p = replace(p, config=configs[k])
                 q = configuration_solution(v, model, p, Tf, q_prev, cache)
                 q = np.full(model.nq, np.nan) if q is None else q
         out.append(q)

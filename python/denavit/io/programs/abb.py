@@ -144,7 +144,7 @@ def _pose_point(name, where, lit, src_index) -> Point:
     for n in nums:
         _num((n.token, 0, 0), where, f"robtarget {name}")
     cf = tuple(int(_num(x, where, f"robtarget {name} confdata")) for x in lit[2])
-    return Point(name, where, "pose", nums, cf)
+    return Point(name, where, "pose", nums, cf, config_fields=[Number(src_index, s, e, t, "") for t, s, e in lit[2]])
 
 
 def _joint_point(name, where, lit, src_index) -> Point:
@@ -358,3 +358,33 @@ def matches(stated, computed) -> bool:
 
 def describe(config) -> str:
     return f"the configuration [{','.join(str(c) for c in config)}] (cf1, cf4, cf6, cfx)"
+
+
+#: The confdata fields that are boundaries of an axis's value: (index, name, axis index).
+QUADRANTS = ((0, "cf1", 0), (1, "cf4", 3), (2, "cf6", 5))
+
+
+def relabel(stated, computed):
+    """The confdata a position stated ``stated`` is written with for a command whose own is ``computed``, when the
+    two differ only in quadrants (cf1, cf4, cf6: where an axis's value is, not a branch): ``(confdata, fields)``,
+    ``fields`` [(name, axis index, the boundary between the stated quadrant and the command's (deg), what it is)];
+    None when they are equal or cfx differs (behind axis 1, behind the lower arm, axis 5's sign: branches;
+    :func:`denavit.io.programs.relabelled`)."""
+    if tuple(stated) == tuple(computed) or stated[3] != computed[3]:
+        return None
+    fields = [
+        (
+            f"{name} {stated[i]} -> {computed[i]}",
+            j,
+            90.0 * (stated[i] + 1 if computed[i] > stated[i] else stated[i]),
+            "quadrant boundary",
+        )
+        for i, name, j in QUADRANTS
+        if stated[i] != computed[i]
+    ]
+    return (computed[0], computed[1], computed[2], stated[3]), fields
+
+
+def config_tokens(config, point: Point) -> list[str]:
+    """The confdata's four integers as written: a field that keeps its value keeps its token."""
+    return [n.token if float(n.token) == c else str(int(c)) for n, c in zip(point.config_fields, config, strict=True)]

@@ -214,3 +214,10 @@ def matches(stated, computed) -> bool:
 
 def describe(config) -> str:
     return f"the configuration '{config[0]} {config[1]} {config[2]}, {config[3]}, {config[4]}, {config[5]}'"
+
+
+def relabel(stated, computed):
+    """None: no field of a CONFIG is rewritten. F/N (J5's sign, at the wrist singularity), U/D and T/B are branches;
+    the turn numbers' boundaries at +-180 deg are the same arm a whole turn away, kept as stated
+    (:func:`denavit.io.programs.compensate_program`)."""
+    return None

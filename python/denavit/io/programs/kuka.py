@@ -326,10 +326,11 @@ def _point(source, index: int, name: str, typ: str, agg: dict, where: str) -> Po
         except ValueError:
             raise DenavitError(f"{where}: {name}: {k} {v!r}: expected a number") from None
         nums.append(Number(index, s, e, v, ("mm" if k in "XYZ" else "deg") if pose else "deg"))
-    config = None
+    config, fields = None, []
     if pose and "S" in agg and "T" in agg:
         config = (_int(agg["S"][0]), _int(agg["T"][0]))
-    pt = Point(name, where, "pose" if pose else "joints", nums, config)
+        fields = [Number(index, agg[k][1], agg[k][2], agg[k][0], "") for k in ("S", "T")]
+    pt = Point(name, where, "pose" if pose else "joints", nums, config, config_fields=fields)
     pt.extra["source"] = index
     return pt
 
@@ -406,3 +407,35 @@ def matches(stated, computed) -> bool:
 
 def describe(config) -> str:
     return f"the configuration S {config[0]} ('B{config[0]:03b}'), T {config[1]} ('B{config[1]:06b}')"
+
+
+def relabel(stated, computed):
+    """The (S, T) a position stated ``stated`` is written with for a command whose own is ``computed``, when the two
+    differ only in T bits (an axis's sign: where its value is, not a branch): ``(config, fields)``, ``fields``
+    [(name, axis index, 0 deg: the boundary, what it is)], S and T's bits beyond 5 as stated; None when they are
+    equal or S bits 0-2 differ (overhead area, A3 against phi, A5's sign: branches; A5 crossing 0 changes S bit 2
+    with its T bit 4; :func:`denavit.io.programs.relabelled`)."""
+    s, t = stated[0] & 7, stated[1] & 63
+    if s != computed[0] & 7 or t == computed[1] & 63:
+        return None
+    diff = t ^ (computed[1] & 63)
+    fields = [
+        (f"T bit {i} {t >> i & 1} -> {computed[1] >> i & 1}", i, 0.0, "sign boundary")
+        for i in range(6)
+        if diff >> i & 1
+    ]
+    return (stated[0], (stated[1] & ~63) | (computed[1] & 63)), fields
+
+
+def config_tokens(config, point: Point) -> list[str]:
+    """S and T as written: decimal (``T 35``) or binary (``T 'B100011'``, its quotes, its B's case and at least its
+    digits); a field that keeps its value keeps its token."""
+    out = []
+    for n, v in zip(point.config_fields, config, strict=True):
+        tok = n.token
+        if _int(tok) == v:
+            out.append(tok)
+            continue
+        b = re.fullmatch(r"(['\"]?)([Bb])([01]+)(['\"]?)", tok)
+        out.append(f"{b.group(1)}{b.group(2)}{v:0{len(b.group(3))}b}{b.group(4)}" if b else str(int(v)))
+    return out
