@@ -100,3 +100,33 @@ def test_a_tool_turned_90_degrees_is_no_gimbal_lock(kr5):
     assert np.linalg.norm(T[:3, 3] - TOOL) < 2e-5
     assert np.linalg.norm(Rotation.from_matrix(T[:3, :3].T @ T_tool[:3, :3]).as_rotvec()) < 1e-4
     assert res.rms < 5e-5
+
+
+def test_the_saved_table_does_not_depend_on_where_the_tracker_stood(kr5, tmp_path):
+    """A calibration's ED-H table, covariance and saved robot file are the robot's, not the tracker's: the frame origins
+    are the nominal's on the body where the calibration registered the robot (they had been taken where the nominal's
+    own world puts them, so a tracker 2 m away gave b's of -2 m and a tool 2.1 m along the last axis, exact but
+    meaningless, and sigmas of that parametrization). `denavit.save` writes a calibration (it had raised an
+    AttributeError) with its [training] ranges, as `calibrate --save` does."""
+    import denavit as dv
+    from denavit.io.robots import load
+
+    near, far = _near_and_far(kr5)
+    a, b = (cal.calibrate(m, kr5, tool=TOOL, model="full") for m in (near, far))
+    ta, tb = a.table("edh"), b.table("edh")
+    sig = np.sqrt(np.diag(a.table_covariance(ta)))
+    pa = np.concatenate([np.ravel(ta.params), np.asarray(ta.T_last_tool)[:3, 3]])
+    pb = np.concatenate([np.ravel(tb.params), np.asarray(tb.T_last_tool)[:3, 3]])
+    assert np.all(np.abs(pa - pb) <= 1e-4 * sig[: pa.size] + 1e-12)
+    np.testing.assert_allclose(np.sqrt(np.diag(b.table_covariance(tb))), sig, rtol=1e-4, atol=1e-12)
+    assert np.linalg.norm(np.asarray(tb.T_last_tool)[:3, 3] - TOOL) < 1e-3  # on the body, as the nominal's
+    for path in (tmp_path / "far.toml", tmp_path / "far.urdf"):
+        written = dv.save(b, path)
+        back = load(path)
+        q = cal.configurations(kr5, 20)
+        got = dv.fk_batch(back.model(), q)[:, :3, 3]
+        want = dv.fk_batch(b.model(), q)[:, :3, 3]
+        assert np.abs(got - want).max() < 1e-8, path
+        assert written.name == back.name
+    text = (tmp_path / "far.toml").read_text()
+    assert "[training]" in text and "# The calibrated geometry" in text

@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -127,6 +127,11 @@ class Calibration:
 
         robot = self.parametrization.robot
         home = np.zeros(len(robot.names))
+        # the nominal where the calibration registered the robot (the measurement frame's base, as identify's --base):
+        # its frame origins on the body, not where the nominal's own world puts them (a tracker 2 m away)
+        t = robot.table
+        base = np.asarray(self.model().T_world_base)
+        robot = replace(robot, table=_core.Table(t.convention, t.params, t.kinds, base, t.T_last_tool))
         ref = nominal_convention_table(robot, convention, home)
         opts = {"nominal": ref, "origins": origins(ref, convention, home)}
         if convention == "edh":
@@ -169,7 +174,7 @@ class Calibration:
         compensate applies to the readings)."""
         r = self.parametrization.robot
         table = self.table(convention)
-        carried = self.carried_error(table)
+        carried = self._carried(table)
         comp = _compliance_fields(self, r, table)
         lossy = (
             f"; the {table.convention} table carries a tool-position error up to {carried * 1e3:.3g} mm (a tilt of axes"
@@ -198,12 +203,16 @@ class Calibration:
             **comp,
         )
 
-    def carried_error(self, table: _core.Table) -> float:
-        """The largest tool-position difference (m) between ``table`` and the calibrated model over 256 configurations
-        within the limits (``configurations``, deterministic) and the zero configuration."""
-        m = self.model()
-        q = np.vstack([np.zeros(m.nq), configurations(self.parametrization.robot, 256)])
-        r = self.parametrization.robot
+    def carried_error(self, convention: str = "edh", count: int = 256) -> tuple[float, int]:
+        """(max tool-position deviation in m, configurations checked) of the table :meth:`robot` writes in
+        ``convention`` from the calibrated model: over the home (zeros without one) and ``count`` configurations spread
+        over the joint limits (``configurations``, deterministic), as :meth:`Identification.carried_error`."""
+        return self._carried(self.table(convention), count), count + 1
+
+    def _carried(self, table: _core.Table, count: int = 256) -> float:
+        m, r = self.model(), self.parametrization.robot
+        home = np.zeros(m.nq) if r.home is None else np.asarray(r.home, dtype=float)
+        q = np.vstack([home, configurations(r, count)])
         tm = table.to_model("table", list(r.names), r.lower, r.upper)
         return float(np.max(np.linalg.norm(_core.fk_batch(tm, q)[:, :3, 3] - _core.fk_batch(m, q)[:, :3, 3], axis=1)))
 

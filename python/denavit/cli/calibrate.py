@@ -292,15 +292,9 @@ def calibrate(
         print_calibration(res, length, angle, verbose)
     _refuse_jumps(res, robot, length, angle)
     if save:
-        from ..io.robotfile import TRAINING_TABLE, training_table  # noqa: PLC0415
-        from ..io.robotfile import save as save_file  # noqa: PLC0415
+        from ..io.results import save as save_result  # noqa: PLC0415
 
-        saved = res.robot()  # with the training poses' joint ranges: validate flags poses outside them
-        saved = replace(
-            saved,
-            extra={**saved.extra, TRAINING_TABLE: training_table(res.measurements.q, robot.table.kinds, length, angle)},
-        )
-        save_file(saved, save, length, angle)
+        saved = save_result(res, save, length=length, angle=angle)  # with [training]: validate flags poses outside
         from ..fleet.checksum import saved_checksum  # noqa: PLC0415
 
         wrote(save, f" (model checksum {saved_checksum(save, saved)})")

@@ -1,10 +1,11 @@
-"""Results in files: an identification saved as a robot file or URDF (:func:`save`), and the JSON documents of
-identifications, calibrations and validations (:func:`to_json`, :func:`write_json`), in SI with the unit in every
-scalar key's name (docs/cli.md, "--json"). Written whole or not at all (:mod:`denavit.io.output`)."""
+"""Results in files: an identification or a calibration saved as a robot file or URDF (:func:`save`), and the JSON
+documents of identifications, calibrations and validations (:func:`to_json`, :func:`write_json`), in SI with the unit
+in every scalar key's name (docs/cli.md, "--json"). Written whole or not at all (:mod:`denavit.io.output`)."""
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +19,7 @@ from ..geometry import matrix_rotvec
 from ..identification.frames import TOOL_ORIENTATION
 from ..identification.result import _DROPPED_TILT, EXACT, ROUND_OFF, Identification
 from .output import json_text, write_text
-from .robotfile import dumps
+from .robotfile import TRAINING_TABLE, dumps, training_table
 
 
 def to_json(result, **options) -> dict:
@@ -48,7 +49,7 @@ def write_json(result, path, *, force: bool = False, **options) -> None:
 
 
 def save(
-    result: Identification,
+    result: Identification | Calibration,
     path,
     convention: str | None = None,
     length: str = "m",
@@ -56,13 +57,14 @@ def save(
     name: str | None = None,
     *,
     force: bool = False,
-) -> None:
-    """Write an identification's robot as a robot file (.toml; :mod:`denavit.io.robotfile`), by default the ED-H or POE
-    geometry (:meth:`Identification.robot`: POE exact, ED-H exact except a near-parallel pair's tilt within its noise,
-    which it drops
+):
+    """Write an identification's or a calibration's robot as a robot file (.toml; :mod:`denavit.io.robotfile`) and
+    return the :class:`~denavit.robot.Robot` written. By default the ED-H geometry (an identification's POE when it
+    was identified in POE: exact; ED-H exact except a near-parallel pair's tilt within its noise, which it drops
     against the nominal), a lossy DH / MDH table only when ``convention`` asks for one. The file states in a comment
-    whether it is exact and the tool-position error its table carries against the identified geometry
-    (:meth:`Identification.carried_error`).
+    whether it is exact and the tool-position error its table carries against the identified or calibrated geometry
+    (``carried_error``). A calibration's file carries its covariance, compliances and the training poses' joint ranges
+    (``[training]``: :func:`denavit.validate` flags poses outside them), as ``calibrate --save`` writes it.
 
     A path ending in ``.urdf`` gets the URDF of the ED-H geometry instead (frames on the body; a URDF
     nominal's meshes and limits ride along; :func:`denavit.io.urdf.save_urdf`), in SI as URDF requires.
@@ -70,6 +72,8 @@ def save(
     The file is written whole or not at all, keeping the owner and mode of a file it replaces; ``force``:
     replace a read-only file, write through one with several hard links (:mod:`denavit.io.output`).
     """
+    if not isinstance(result, (Identification, Calibration)):
+        raise DenavitError(f"save: expected an Identification or a Calibration, got {type(result).__name__}")
     suffix = Path(str(path)).suffix.lower()
     if str(path) != "-" and suffix not in ("", ".toml", ".urdf"):  # a .json name had received TOML without a word
         raise DenavitError(
@@ -83,10 +87,21 @@ def save(
                 f"{path}: a URDF holds the exact geometry (ED-H frames on the body), got convention {convention!r}:"
                 f" save a robot file (.toml) for a {convention} table"
             )
-        save_urdf(result.model(convention="edh"), path, result.robot(name), force=force)
-        return
-    robot = result.robot(name, convention)
-    err, count = result.carried_error(convention)
+        robot = result.robot(name, "edh")
+        model = result.model(convention="edh") if isinstance(result, Identification) else result.model()
+        save_urdf(model, path, robot, force=force)
+        return robot
+    if isinstance(result, Calibration):
+        robot = result.robot(name, convention or "edh")
+        r = result.parametrization.robot
+        training = training_table(result.measurements.q, r.table.kinds, length, angle)
+        robot = replace(robot, extra={**robot.extra, TRAINING_TABLE: training})
+        err, count = result.carried_error(robot.convention)
+        what = "calibrated"
+    else:
+        robot = result.robot(name, convention)
+        err, count = result.carried_error(convention)
+        what = "identified"
     if robot.convention in EXACT and err <= ROUND_OFF:
         how = f"exactly (its {robot.convention} table holds any pair of joint axes)"
     elif robot.convention in EXACT:
@@ -97,10 +112,11 @@ def save(
             " geometry)"
         )
     note = (
-        f"# The identified geometry, {how}.\n# Carried error: max tool-position deviation {err * 1e3:.3g} mm from the"
-        f" identified geometry over {count} configurations (the home and {count - 1} spread over the joint limits).\n"
+        f"# The {what} geometry, {how}.\n# Carried error: max tool-position deviation {err * 1e3:.3g} mm from the"
+        f" {what} geometry over {count} configurations (the home and {count - 1} spread over the joint limits).\n"
     )
     write_text(path, note + dumps(robot, length, angle), force=force)
+    return robot
 
 
 def _finite(v: float) -> float | None:
