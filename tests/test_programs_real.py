@@ -57,8 +57,8 @@ def test_a_real_program_round_trips_byte_identical(path, robot, tmp_path):
     prog = pg.read_program(path, r)
     assert len(prog.points) == (7 if path == MODULE else 2) and not prog.notes
     pc = pg.compensate_program(prog, r, r)
-    assert not pc.left and sorted(pc.new_values) == list(range(len(prog.points)))
-    paths = pg.write_program(prog, tmp_path / path.name, pc.new_values)
+    assert not pc.left and sorted(pc.new_values) == list(range(len(prog.points))) and not pc.configs
+    paths = pc.write(tmp_path / path.name)
     assert Path(paths[0]).read_bytes() == path.read_bytes()
 
 

@@ -448,7 +448,8 @@ def compensate(nominal, identified, positions, **options):
         (Identification, Calibration). positions : (N, 4, 4) tool poses (m), or a positions file (poses and/or joint
         rows, units declared), read by :func:`denavit.io.positions.read_positions`, or a robot program (KUKA .src with
         its .dat, ABB .mod, FANUC .ls, URScript .script): then a :class:`denavit.io.programs.ProgramCompensation`
-        (write it with :func:`denavit.io.programs.write_program`; ``frames=`` its numbered controller frames).
+        (write it with its ``write(OUT)``: the positions and the configurations it rewrote; ``frames=`` its numbered
+        controller frames).
     """
     from .compensation import compensate as _compensate  # noqa: PLC0415
 

@@ -517,8 +517,7 @@ class ProgramCompensation:
     relabelled: list = field(default_factory=list)
 
     def write(self, output: str | os.PathLike, *, force: bool = False) -> list[str]:
-        """Write the compensated program to ``output`` (:func:`write_program` with its ``new_values`` and
-        ``configs``). Returns the paths written."""
+        """Write the program compensated to ``output`` (:func:`write_program`: ``new_values``, ``configs``)."""
         return write_program(self.program, output, self.new_values, configs=self.configs, force=force)
 
 
@@ -668,10 +667,9 @@ def relabelled(v, model, config, q_nominal: np.ndarray, q_command: np.ndarray, c
     quadrants; KUKA's T bits, an axis's sign: the vendor's ``relabel``), is written with the configuration the
     controller records for it (what RobotStudio or the KUKA HMI writes when the arm is jogged there), and only when
     that configuration has no other solution of the command's pose: the controller, honouring it, runs the command.
-    A shoulder, elbow or wrist-flip field (ABB's cfx, KUKA's S bits 0-2, FANUC's F/N U/D T/B) is a branch: never
-    rewritten. Axis 5 at 0 deg, where the flip bit changes, is the wrist singularity (axes 4 and 6 aligned: the pose
-    fixes only their sum), where the nominal solution of the other flip is half a turn of axes 4 and 6 away and the
-    compensation is ill-conditioned: listed, not rewritten."""
+    A shoulder, elbow or wrist-flip field (ABB's cfx, KUKA's S bits 0-2, FANUC's F/N U/D T/B) is a branch, never
+    rewritten: axis 5 at 0 deg, where the flip changes, is the wrist singularity (axes 4 and 6 aligned, the other
+    flip's solution half a turn of both away, the compensation ill-conditioned)."""
     qn, qc = np.asarray(q_nominal, dtype=float), np.asarray(q_command, dtype=float)
     if np.abs(qc - qn).max() > tol:
         return None

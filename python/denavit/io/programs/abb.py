@@ -32,6 +32,10 @@ confdata RobotStudio wrote for a real module's seven robtargets (tests/data/prog
 configuration of one inverse kinematics solution of each on the IRB 1200 it was taught on, and no other solution's:
 cf1, cf4, cf6 and cfx's axis-5 bit checked (its other two bits 0 in all seven; tests/test_programs_real.py).
 
+cf1, cf4 and cf6 are where an axis's value lies, not branches: a position on a quadrant boundary (the tool straight
+down, axis 4 at -0.0000 deg, cf4 -1) whose compensated command crosses it, the same arm, is written with the
+command's quadrant (:func:`relabel`, :func:`denavit.io.programs.relabelled`); cfx is never rewritten.
+
 Frames: a named position's tool and work object are those of the move instructions that use it (MoveJ, MoveL,
 MoveC, MoveAbsJ and their DO/AO/GO/Sync forms; EGMMoveL and EGMMoveC, the moves of EGM path correction, ABB's
 "Application manual - Externally Guided Motion" (3HAC073318-001, its text not reachable here): the EGM identity,

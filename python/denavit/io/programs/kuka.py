@@ -37,6 +37,11 @@ common case: bit 1 set with T bit 2 clear, A3 >= 0). The SINUMERIK page gives bi
 axis senses). A secondary summary that gives bit 1 = 1 for "A3 below phi" (industrialmonitordirect.com) cites no
 source and disagrees with all of these.
 
+The T bits are where an axis's value lies, not branches: a position on an axis's 0 (A4 or A6 taught at 0.0) whose
+compensated command crosses it, the same arm, is written with the command's T (:func:`relabel`,
+:func:`denavit.io.programs.relabelled`); S is never rewritten (its bits' boundaries are the shoulder, elbow and wrist
+singularities).
+
 A point without S and T runs, as on the controller, on the configuration the previous one left (here: the
 solution nearest the previous point, the first nearest ``q0``). The axes' senses: the built-in ``kr5`` turns A1,
 A4 and A6 the other way from KUKA's controller (its file's header, after ROS-Industrial's ``kr5_arc`` URDF), so its
