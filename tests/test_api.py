@@ -111,7 +111,7 @@ REPR_LIMIT = 400  # characters: a few lines
 def test_reprs_are_short_and_carry_the_key_numbers():
     """Regression: repr(Identification) was 55 kB (every array of every fit)."""
     from denavit import calibration as cal
-    from denavit.compensation import identification_accuracy
+    from denavit.accuracy import identification_accuracy
 
     res = dv.identify(EXAMPLE, nominal="kr5")
     c = dv.calibrate(EXAMPLE, "kr5", holdout=0.2)

@@ -6,6 +6,7 @@ import pytest
 import denavit as dv
 from denavit import calibration as cal
 from denavit import compensation as cp
+from denavit.accuracy import accuracy_map, identification_accuracy
 
 TOOL = np.array([0.05, 0.03, 0.10])
 
@@ -101,7 +102,7 @@ def test_predicted_error_after_matches_the_real_one():
     after = np.linalg.norm(dv.fk_batch(true, ctrl.q)[:, :3, 3] - T[ok, :3, 3], axis=1)
     ratio = np.sqrt(np.mean(after**2)) / np.sqrt(np.mean(res.predicted_after[ok] ** 2))
     assert 1 / 1.5 < ratio < 1.5, ratio
-    am = cp.accuracy_map(nominal, c, c, count=200)
+    am = accuracy_map(nominal, c, c, count=200)
     s = am.summary()
     assert s["nominal"]["rms"] > 20 * s["identified"]["rms"]
 
@@ -557,7 +558,7 @@ def test_the_covariance_follows_the_table_into_any_convention():
 
 
 def test_identification_accuracy_is_calibrated_by_monte_carlo():
-    """compensation.identification_accuracy on the shipped example's protocol (the KR5 simulated from its nominal,
+    """accuracy.identification_accuracy on the shipped example's protocol (the KR5 simulated from its nominal,
     90 degree ranges, 40 points per sweep, 0.02 mm noise: the nominal is the truth, so the "nominal" error is the
     identified model's true error): over 10 runs the RMS true error is within 0.8-1.25 of the RMS predicted 1 sigma.
     (One run's ratio varies 0.7-1.3: the example's 0.061 mm against 0.089 mm predicted is one draw.)"""
@@ -575,7 +576,7 @@ def test_identification_accuracy_is_calibrated_by_monte_carlo():
             noise=2e-5,
             seed=1000 + seed,
         )
-        su = cp.identification_accuracy(dv.identify(s, nominal=kr5), count=200).summary()
+        su = identification_accuracy(dv.identify(s, nominal=kr5), count=200).summary()
         actual.append(su["nominal"]["rms"] ** 2)
         predicted.append(su["identified"]["rms"] ** 2)
     ratio = np.sqrt(np.mean(actual) / np.mean(predicted))

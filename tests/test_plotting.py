@@ -206,7 +206,7 @@ def test_core_does_not_import_the_plotting_libraries():
 def test_accuracy_figure_shows_the_nominal_error_and_the_prediction(result):
     """The accuracy map (issue 14): histograms of the nominal model's error and of the identified model's
     predicted error, and the nominal error over the tool positions; the numbers are the map's."""
-    from denavit.compensation import identification_accuracy
+    from denavit.accuracy import identification_accuracy
 
     acc = identification_accuracy(result, count=200)
     assert acc is not None and acc.nominal.shape == acc.identified.shape == (200,)

@@ -1,18 +1,18 @@
 """Compensation: put an identified model to work on a robot whose controller keeps its nominal model.
 
-For each position (a row of a program: a tool pose ``T``, robot base frame), :func:`compensate` finds the joint
-values ``q`` that reach it on the identified model, solved from the nominal solution's branch, and the pose
-``T' = FK_nominal(q')`` to send to the controller: its nominal inverse kinematics turns ``T'`` into ``q'``,
-and the robot reaches ``T`` (RoboDK calls this "filtering" a program). ``q' = q`` unless the identified robot
-reads its joints otherwise than the nominal does (its reading model: a coupling, the reading scale errors that
-identify or calibrate estimated, :func:`denavit.robot.joint_values`): then ``q'`` is the nominal's joint values of
-the readings that put the identified joints at ``q``. The solves run in the Rust core
-(``denavit._core.compensate``), without the GIL, on every core.
+For each position (a row of a program: a tool pose ``T``, robot base frame), :func:`compensate` finds the joint values
+``q`` that reach it on the identified model, solved from the nominal solution's branch, and the pose ``T' =
+FK_nominal(q')`` to send to the controller: its nominal inverse kinematics turns ``T'`` into ``q'``, and the robot
+reaches ``T`` (RoboDK calls this "filtering" a program). ``q' = q`` unless the identified robot reads its joints
+otherwise than the nominal does (its reading model: a coupling, the reading scale errors that identify or calibrate
+estimated, :func:`denavit.robot.joint_values`): then ``q'`` is the nominal's joint values of the readings that put the
+identified joints at ``q``. The solves run in the Rust core (``denavit._core.compensate``), without the GIL, on every
+core.
 
-:func:`predicted_sigma` gives the predicted tool-position error (1 sigma, 3-D RMS) of an identified model
-at given configurations from the covariance of an identification or calibration result;
-:func:`accuracy_map` compares, over the workspace or a program, the error of the nominal model (how far the
-robot is from where the nominal model says) with that prediction.
+:func:`predicted_sigma` gives the predicted tool-position error (1 sigma, 3-D RMS) of an identified model at given
+configurations from the covariance of an identification or calibration result; :func:`denavit.accuracy.accuracy_map`
+compares, over the workspace or a program, the error of the nominal model (how far the robot is from where the nominal
+model says) with that prediction.
 """
 
 from __future__ import annotations
@@ -30,20 +30,24 @@ from .robot import Robot, joint_values, readings
 #: The largest joint change (rad; m for a prismatic joint) that keeps a row's branch (5.7 deg), the CLI's default too.
 BRANCH_TOL = 0.1
 
+#: An identified base farther than this fraction of the robot's size or this angle (rad) from the nominal's is where a
+#: tracker in a frame of its own saw the robot; compensate takes the nominal's base then (:func:`compensate`).
+BASE_FRACTION, BASE_ANGLE = 0.1, np.radians(5.0)
+
 
 @dataclass(frozen=True)
 class Compensation:
     """The compensation of N positions (SI: m, rad). Per position:
 
-    ``positions`` (N, 4, 4) as given; ``commands`` (N, 4, 4) ``T' = FK_nominal(q_command)``, the poses to send;
-    ``q`` (N, n) the identified model's joint values; ``q_nominal`` (N, n) the program's nominal ones;
-    ``q_command`` (N, n) the nominal model's joint values of the commands (the joint rows to send: ``q`` itself
-    unless the identified robot's readings differ from the nominal's, by its reading scales or coupling);
-    ``reached``, ``branch_changed``, ``path_jump`` flags (never silently kept: a row with a flag is not a
-    valid command); ``residual`` (N,) position residual of the identified solve (m); ``before`` (N,) the
-    position error the robot makes without compensation (m); ``predicted_after`` (N,) the predicted
-    position error after it (1 sigma, m) when a result with a covariance was given, else None; ``notes`` what
-    the compensation assumed (e.g. the flange compensated when only the identified robot has a tool).
+    ``positions`` (N, 4, 4) as given; ``commands`` (N, 4, 4) ``T' = FK_nominal(q_command)``, the poses to send; ``q``
+    (N, n) the identified model's joint values; ``q_nominal`` (N, n) the program's nominal ones; ``q_command`` (N, n)
+    the nominal model's joint values of the commands (the joint rows to send: ``q`` itself unless the identified robot's
+    readings differ from the nominal's, by its reading scales or coupling); ``reached``, ``branch_changed``,
+    ``path_jump`` flags (never silently kept: a row with a flag is not a valid command); ``residual`` (N,) position
+    residual of the identified solve (m); ``before`` (N,) the position error the robot makes without compensation (m);
+    ``predicted_after`` (N,) the predicted position error after it (1 sigma, m) when a result with a covariance was
+    given, else None; ``notes`` what the compensation assumed (e.g. the flange compensated when only the identified
+    robot has a tool).
 
     With a prediction, over the ``ok`` rows: ``predicted_rms`` (m) and ``predicted_dof``, the effective degrees of
     freedom of the RMS's spread (every row's error comes from one error of the parameters: a generalised chi-square,
@@ -165,7 +169,9 @@ def compensate(
     Parameters
     ----------
     nominal, identified : Model, Robot, Identification, Calibration, built-in name or robot file
-        The controller's model and the robot's identified model (same joints; both in the robot base frame).
+        The controller's model and the robot's identified model (same joints; both in the robot base frame: an
+        identified base far from the nominal's, where a tracker in a frame of its own saw it, is taken as the
+        nominal's and a note says so, unless ``registration``).
     positions : array-like, shape (N, 4, 4)
         The tool poses ``T_world_tool`` to reach (m): a program's rows.
     q_nominal : array-like, shape (N, n), optional
@@ -198,10 +204,7 @@ def compensate(
         Options of the IK solves (``method``, ``tol_position``, ``tol_rotation``, ``restarts``, ...).
     """
     nom, ide = _model(nominal, "nominal"), _model(identified, "identified")
-    notes = []
-    ide, note = _flange(nominal, nom, identified, ide)
-    if note:
-        notes.append(note)
+    ide, notes = _flange(nominal, nom, identified, ide, registration)
     T = np.asarray(positions, dtype=float)
     if T.ndim == 2:
         T = T[None]
@@ -410,10 +413,24 @@ def _is_identity(T) -> bool:
     return bool(np.allclose(np.asarray(T, dtype=float), np.eye(4), rtol=0.0, atol=1e-12))
 
 
-def _flange(nominal, nom: _core.Model, identified, ide: _core.Model) -> tuple[_core.Model, str | None]:
-    """The identified model compensate uses (:func:`flange_model`) and the note that says so (None: as it is)."""
+def _flange(nominal, nom: _core.Model, identified, ide: _core.Model, registration=False) -> tuple[_core.Model, list]:
+    """The identified model compensate uses (:func:`flange_model`) and the notes that say so (none: as it is). Unless
+    ``registration``, a model whose base is farther from the nominal's than :data:`BASE_FRACTION` of the robot's size
+    or :data:`BASE_ANGLE` stands where the nominal stands: its base is where a tracker in a frame of its own saw the
+    robot (a calibration's registration), and positions are in the robot base frame. Nearer, the measurement frame
+    is the robot base frame (a tracker registered to it): the base's small error is the robot's and is kept."""
+    notes = []
+    d = np.asarray(ide.T_world_base) @ np.linalg.inv(np.asarray(nom.T_world_base))
+    far = np.linalg.norm(d[:3, 3]) > BASE_FRACTION * robot_size(nom, np.zeros(nom.nq))
+    if not registration and (far or _angle(d[None, :3, :3])[0] > BASE_ANGLE):
+        ide = ide.with_base(nom.T_world_base)
+        notes.append(
+            f"the identified robot's base (where it was measured: {np.linalg.norm(d[:3, 3]) * 1e3:.4g} mm,"
+            f" {np.degrees(_angle(d[None, :3, :3])[0]):.3g} deg from the nominal's) taken as the nominal's: the"
+            " positions are in the robot base frame (registration=True: in the measurement frame)"
+        )
     if not _is_identity(nom.T_flange_tool):
-        return ide, None
+        return ide, notes
     home = getattr(nominal, "home", None)
     # its tool as the nominal's flange sees it (a POE table has no flange of its own: its home pose M is its tool)
     try:
@@ -421,25 +438,25 @@ def _flange(nominal, nom: _core.Model, identified, ide: _core.Model) -> tuple[_c
     except DenavitError:
         if getattr(identified, "convention", None) == "poe":
             raise
-        return ide, None
+        return ide, notes
     off = canon[:3, 3]
     if np.linalg.norm(off) <= TOOL_FRACTION * robot_size(nom, np.zeros(nom.nq)):
-        return ide, None
+        return ide, notes
     # identify's tool is the point it measured (a reflector on the flange), not the controller's tool: with a nominal
     # that has none, the positions and the commands are the flange's, and so is the identified robot. Its flange is
     # placed on its last body as the nominal's is on the nominal's (canonical_tool): where a table puts its last frame
     # along the last axis (the split of d6 and the tool's z, which no measurement of one point tells apart) is each
     # convention's own, and a file saved in another convention would compensate another flange
-    canon = canonical_tool(nom, ide, home) @ np.linalg.inv(canonical_tool(nom, nom, home))
     at = "the identified tool point (its covariance is of that point, as the result's own)"
     return (
         ide.with_tool(np.asarray(ide.T_flange_tool) @ np.linalg.inv(canon)),
-        (
+        notes
+        + [
             f"the nominal {getattr(nominal, 'name', 'model')} has no tool and the identified robot has one"
             f" ({np.linalg.norm(off) * 1e3:.4g} mm from the flange: the point it was measured at): the flange"
             " compensated (the identified flange placed on its last body as the nominal's is), the prediction after it"
             f" at {at}; give the nominal a tool to compensate tool poses"
-        ),
+        ],
     )
 
 
@@ -447,9 +464,8 @@ def flange_model(nominal, identified) -> _core.Model:
     """The identified model as :func:`compensate` uses it against ``nominal``: as it is, unless the nominal has no tool
     and the identified robot has one farther than :data:`TOOL_FRACTION` of the robot's size (the point identify or
     calibrate measured): then its flange is its canonical flange (:func:`canonical_tool`) and it has no tool, the same
-    from the
-    in-memory result and from every file saved of it. What to export for a controller that takes a corrected model
-    (``io.ur_calibration.save``) so that it and a compensation agree."""
+    from the in-memory result and from every file saved of it. What to export for a controller that takes a corrected
+    model (``io.ur_calibration.save``) so that it and a compensation agree."""
     ide = _flange(nominal, _model(nominal, "nominal"), identified, _model(identified, "identified"))[0]
     if _is_identity(ide.T_flange_tool):
         return ide
@@ -732,69 +748,3 @@ def _axes_propagation(ident, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         e[k] = h
         J[:, :, k] = (tool_points(theta0 + e) - tool_points(theta0 - e)) / (2 * h)
     return J, C
-
-
-@dataclass(frozen=True)
-class AccuracyMap:
-    """The accuracy of the nominal and of the identified model at configurations ``q`` (N, n):
-    ``nominal`` (N,) the position error of the nominal model (|p_identified - p_nominal|, m: what the robot
-    misses when commanded with the nominal model), ``identified`` (N,) the predicted 1-sigma position error
-    of the identified model (m), ``points`` (N, 3) the tool positions (m)."""
-
-    q: np.ndarray
-    points: np.ndarray
-    nominal: np.ndarray
-    identified: np.ndarray
-
-    def __repr__(self) -> str:
-        s = self.summary()
-        return (
-            f"AccuracyMap({s['configurations']} configurations: nominal model error rms {s['nominal']['rms'] * 1e3:.4g}"
-            f" mm (max {s['nominal']['max'] * 1e3:.4g}), identified 1 sigma rms {s['identified']['rms'] * 1e3:.4g} mm"
-            f" (max {s['identified']['max'] * 1e3:.4g}))"
-        )
-
-    def summary(self) -> dict:
-        """RMS, median, 95th percentile and maximum of both, in metres."""
-
-        def stats(v):
-            return {
-                "rms": float(np.sqrt(np.mean(v**2))),
-                "median": float(np.median(v)),
-                "p95": float(np.percentile(v, 95)),
-                "max": float(v.max()),
-            }
-
-        return {"nominal": stats(self.nominal), "identified": stats(self.identified), "configurations": len(self.q)}
-
-
-def accuracy_map(nominal, identified, result, q=None, *, count: int = 1000) -> AccuracyMap:
-    """:class:`AccuracyMap` over ``q`` (N, n; a program's joint values) or, by default, ``count``
-    quasi-random configurations within the nominal's joint limits (a Halton sequence)."""
-    nom, ide = _model(nominal, "nominal"), _model(identified, "identified")
-    if q is None:
-        from scipy.stats import qmc  # noqa: PLC0415
-
-        lo, hi = np.asarray(nom.lower, dtype=float), np.asarray(nom.upper, dtype=float)
-        rev = np.array([k == "revolute" for k in nom.kinds])
-        lo, hi = np.where(rev, np.maximum(lo, -np.pi), lo), np.where(rev, np.minimum(hi, np.pi), hi)
-        q = qmc.scale(qmc.Halton(d=nom.nq, scramble=False).random(count + 1)[1:], lo, hi)
-    q = np.atleast_2d(np.asarray(q, dtype=float))
-    p_nom = _core.fk_batch(nom, q)[:, :3, 3]
-    p_id = _core.fk_batch(ide, q)[:, :3, 3]
-    return AccuracyMap(q, p_id, np.linalg.norm(p_id - p_nom, axis=1), predicted_sigma(result, q))
-
-
-def identification_accuracy(result, *, count: int = 1000) -> AccuracyMap | None:
-    """The :class:`AccuracyMap` of an identification against its nominal (None without one): the nominal
-    model placed as the identification placed it (its base) with the measured tool point attached so that both
-    agree at the home configuration, the identified model's ED-H geometry (exact except a near-parallel pair's
-    tilt within its noise, as identify's ED-H table), the prediction from the axes' covariance."""
-    if result.nominal is None:
-        return None
-    ident = result.model(convention="edh")
-    home = np.asarray(result.sweeps.home, dtype=float)
-    flange = result.nominal.model().with_tool(np.eye(4))
-    tool = np.linalg.inv(_core.fk(flange, home)) @ _core.fk(ident, home)
-    nominal = flange.with_tool(tool)
-    return accuracy_map(nominal, ident, result, count=count)

@@ -463,14 +463,14 @@ def print_measured(doc: dict, result, length: str, angle: str, example: str | No
 
 def print_accuracy(result, length: str, truth=None) -> None:
     """How accurate the models are at the tool point over configurations spread within the joint limits
-    (:func:`denavit.compensation.identification_accuracy`): the identified model's predicted 1 sigma and the
+    (:func:`denavit.accuracy.identification_accuracy`): the identified model's predicted 1 sigma and the
     nominal model's error as the identified model sees it; with ``truth`` (the robot a shipped example was simulated
     from) the true error of the nominal model (its designed tool point, the measurement frame its base) and of the
     identified model (its table, as --save writes it) at the same configurations."""
     import numpy as np  # noqa: PLC0415
 
     from .. import _core  # noqa: PLC0415
-    from ..compensation import identification_accuracy  # noqa: PLC0415
+    from ..accuracy import identification_accuracy  # noqa: PLC0415
 
     with status("predicting the accuracy over the joint limits ..."):
         acc = identification_accuracy(result)

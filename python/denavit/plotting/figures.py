@@ -337,7 +337,7 @@ def plot_origin_paths(
 
 
 def plot_accuracy(acc, *, length: str = "mm") -> Figure:
-    """An :class:`denavit.compensation.AccuracyMap`: the distribution of the nominal model's position error and of
+    """An :class:`denavit.accuracy.AccuracyMap`: the distribution of the nominal model's position error and of
     the identified model's predicted error (gid ``accuracy-histogram``, log-spaced bins), and the nominal error
     over the tool positions seen from above (gid ``accuracy-map``)."""
     fig = _figure(figsize=(10.0, 4.2), layout="constrained")
@@ -410,6 +410,6 @@ def figures_for(
 
 
 def _accuracy(result: Identification):
-    from ..compensation import identification_accuracy  # noqa: PLC0415
+    from ..accuracy import identification_accuracy  # noqa: PLC0415
 
     return identification_accuracy(result)

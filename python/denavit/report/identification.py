@@ -417,9 +417,9 @@ def _step_histogram(go, values, bins, name: str, colour: str):
 
 def _accuracy_section(go, result: Identification, length: str) -> tuple[str, dict | None]:
     """Accuracy before and after: the nominal model's error and the identified model's predicted error over the
-    workspace (denavit.compensation.identification_accuracy), a table and a histogram. Also returns the
+    workspace (denavit.accuracy.identification_accuracy), a table and a histogram. Also returns the
     summary numbers (display units) or None."""
-    from ..compensation import identification_accuracy  # noqa: PLC0415
+    from ..accuracy import identification_accuracy  # noqa: PLC0415
 
     acc = identification_accuracy(result)
     if acc is None:
