@@ -120,6 +120,9 @@ def test_the_saved_table_does_not_depend_on_where_the_tracker_stood(kr5, tmp_pat
     assert np.all(np.abs(pa - pb) <= 1e-4 * sig[: pa.size] + 1e-12)
     np.testing.assert_allclose(np.sqrt(np.diag(b.table_covariance(tb))), sig, rtol=1e-4, atol=1e-12)
     assert np.linalg.norm(np.asarray(tb.T_last_tool)[:3, 3] - TOOL) < 1e-3  # on the body, as the nominal's
+    for conv in ("mdh", "dh"):  # the tracker's turn is the base's, not joint 1's zero (theta_1 had taken its 30 deg)
+        np.testing.assert_allclose(b.table(conv).params, a.table(conv).params, rtol=0, atol=1e-6)
+        assert abs(a.table(conv).params[0][2 if conv == "mdh" else 1]) < 1e-3
     for path in (tmp_path / "far.toml", tmp_path / "far.urdf"):
         written = dv.save(b, path)
         back = load(path)

@@ -151,6 +151,8 @@ def in_convention(robot, reference):
     from ..compensation import converted_covariance  # noqa: PLC0415
 
     m = robot.model()
+    r = reference  # placed where the robot is (its base: a calibration's registration), as calibrate extracts
+    reference = _core.Table(r.convention, r.params, r.kinds, m.T_world_base, r.T_last_tool)
     table = _core.extract(_core.axes(m, np.zeros(m.nq)), reference.convention, nominal=reference).table
     cov = None if robot.covariance is None else converted_covariance(robot, table, nominal=reference)
     return dataclasses.replace(robot, table=table, covariance=cov)
