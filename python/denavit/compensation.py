@@ -427,7 +427,7 @@ def _flange(nominal, nom: _core.Model, identified, ide: _core.Model, registratio
         notes.append(
             f"the identified robot's base (where it was measured: {np.linalg.norm(d[:3, 3]) * 1e3:.4g} mm,"
             f" {np.degrees(_angle(d[None, :3, :3])[0]):.3g} deg from the nominal's) taken as the nominal's: the"
-            " positions are in the robot base frame (registration=True: in the measurement frame)"
+            " positions are in the robot base frame (positions in the measurement frame: registration=True, in Python)"
         )
     if not _is_identity(nom.T_flange_tool):
         return ide, notes
