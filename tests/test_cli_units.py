@@ -365,3 +365,161 @@ def test_models_has_no_units_and_json_everywhere_goes_where_asked(tmp_path):
     p = run("identify", "--example", "kr5", "--json")
     assert json.loads(p.stdout)["units"] == {"length": "m", "angle": "rad"}
     assert not (tmp_path / "-").exists()
+
+
+# -- a file's units declaration: one form, one parser; a comment that looks like one is refused, not ignored -------
+
+KR5 = ["revolute"] * 6
+LOOKALIKE = "# length: mm\n# angle: rad\n"  # the issue's positions file: these had been ignored, rad read as deg
+LOOKALIKE_SAYS = "looks like a units declaration but is not in its form: expected '# units: length=mm angle=rad'"
+
+
+def _rows(values) -> str:
+    return "".join(csv(r) + "\n" for r in values)
+
+
+def _poses_mm_rad(n=20) -> np.ndarray:
+    """kr5's tool poses at n configurations as x,y,z (mm), rx,ry,rz (rad), from the forward kinematics."""
+    from denavit import calibration as cal
+    from denavit.geometry import matrix_rotvec
+
+    kr5 = dv.load_robot("kr5")
+    T = [dv.fk(kr5.model(), q) for q in cal.configurations(kr5, n) * 0.5]
+    return np.array([[*(t[:3, 3] * 1e3), *matrix_rotvec(t[:3, :3])] for t in T])
+
+
+def _reader_files(tmp_path) -> dict:
+    """One file per reader kind that takes a '# units:' declaration, each with the look-alike lines; the CLI
+    command that reads it and the Python call."""
+    from denavit.io.configurations import read_configurations
+    from denavit.io.measurements import read_measurements
+    from denavit.io.positions import read_positions
+    from denavit.io.recordings import read_recording
+    from denavit.io.sweeps import read_joint_files, read_long_csv
+
+    q = np.zeros((3, 6)) + [10, -80, 70, 5, 60, 20]
+    files = {
+        "positions": ("pos.csv", "x,y,z,rx,ry,rz\n" + _rows(_poses_mm_rad(3))),
+        "measurements": ("m.csv", "q1,q2,q3,q4,q5,q6,x,y,z\n" + _rows(np.c_[q, np.ones((3, 3))])),
+        "sweeps": ("s.csv", "joint,q1,q2,q3,q4,q5,q6,x,y,z\n" + _rows(np.c_[np.ones(3), q, np.ones((3, 3))])),
+        "joint files": ("j/j1.csv", "x,y,z\n" + _rows(np.eye(3))),
+        "candidates": ("c.csv", "q1,q2,q3,q4,q5,q6\n" + _rows(q)),
+        "columns": ("r.txt", _rows(np.c_[np.arange(3), q])),
+        "tracker": ("t.csv", "Collection,Group,Point,X,Y,Z\nS,J1,J1_001,1,2,3\nS,J1,J1_002,1,2,4\n"),
+    }
+    out = {}
+    for kind, (name, body) in files.items():
+        f = tmp_path / name
+        f.parent.mkdir(exist_ok=True)
+        f.write_text(LOOKALIKE + body)
+        cli = {
+            "positions": ("compensate", "kr5", f, "--identified", "kr5", "-o", tmp_path / "o.csv"),
+            "measurements": ("calibrate", "kr5", f),
+            "sweeps": ("identify", f),
+            "joint files": ("identify", f.parent, "--home", "0,0,0,0,0,0", "--length", "mm"),
+            "candidates": ("plan", "kr5", "--candidates", f),
+            "columns": ("inspect", f, "--columns", "t,q1..q6"),
+            "tracker": ("inspect", f),
+        }[kind]
+        py = {
+            "positions": lambda f=f: read_positions(f, KR5),
+            "measurements": lambda f=f: read_measurements(f, kinds=KR5),
+            "sweeps": lambda f=f: read_long_csv(f),
+            "joint files": lambda f=f: read_joint_files(f.parent, home=np.zeros(6), length="mm"),
+            "candidates": lambda f=f: read_configurations(f, KR5),
+            "columns": lambda f=f: read_recording(f, columns="t,q1..q6"),
+            "tracker": lambda f=f: read_recording(f),
+        }[kind]
+        out[kind] = (f, cli, py)
+    return out
+
+
+def test_every_reader_refuses_a_comment_that_looks_like_a_units_declaration(tmp_path):
+    """The issue: '# length: mm' and '# angle: rad' were comments to every reader; compensate read the rotation
+    vectors (rad) as degrees (6 of 20 rows 'unreachable', the rest wrong), read_positions said 'units not
+    declared'. Now each reader, by the command line and in Python, names the file, the line, what came and the
+    form it accepts."""
+    files = _reader_files(tmp_path)
+    assert len(files) == 7
+    for kind, (f, cli, py) in files.items():
+        p = run(*cli, ok=False)
+        said = " ".join(p.stderr.split())
+        assert p.returncode == 2 and f"{f}:1: '# length: mm' {LOOKALIKE_SAYS}" in said, (kind, p.stderr)
+        with pytest.raises(dv.DenavitError, match=re.escape(f"{f}:1: '# length: mm' {LOOKALIKE_SAYS}")):
+            py()
+
+
+def test_the_json_units_object_refuses_a_misspelt_key(tmp_path):
+    """A JSON file's "units" is the same declaration: {"lengths": "m"} had been ignored and the caller's mm used."""
+    from denavit.io.measurements import read_measurements
+
+    f = tmp_path / "m.json"
+    f.write_text(json.dumps({"units": {"lengths": "m", "angle": "rad"}, "q": [[0] * 6] * 3, "points": [[1, 2, 3]] * 3}))
+    said = f"{f}: unknown key 'lengths' in the units declaration: expected length, angle, mass, inertia, time"
+    with pytest.raises(dv.DenavitError, match=re.escape(said)):
+        read_measurements(f, kinds=KR5, length="mm", angle="deg")
+    p = run("calibrate", "kr5", f, ok=False)
+    assert p.returncode == 2 and said in " ".join(p.stderr.split())
+
+
+@pytest.mark.parametrize(
+    "line, expected",
+    [
+        ("# units: length=mm angle=rad", {"length": "mm", "angle": "rad"}),  # the one form
+        ("#UNITS:length=M,angle=RAD", {"length": "m", "angle": "rad"}),
+        ("# angle of the tool: 30 deg", {}),  # prose: a quantity, but no unit right after its name
+        ("# Time: 12:00:05", {}),  # a tracker export's clock
+        ("# unit test data, 3 m cable", {}),
+        ("# length: mm", "'# units: length=mm'"),
+        ("# angle = rad", "'# units: angle=rad'"),
+        ("# angles: deg", "'# units: angle=deg'"),
+        ("# unit: m", "'# units: length=m'"),
+        ("#units length=mm", "'# units: length=mm'"),
+        ("## units: length=mm", "'# units: length=mm'"),
+        ("# Lengths in MM, angles in DEG", "'# units: length=mm angle=deg'"),
+        ("# length_unit = mm", "'# units: length=mm'"),
+        ("# Length [mm]", "'# units: length=mm'"),
+        ("# units: mm, rad", "'# units: length=mm angle=rad'"),  # the form, but without keys
+        ("# length: millimetres", "'# units: length=mm angle=deg'"),  # a name it does not take: the example
+    ],
+)
+def test_the_declaration_rule(line, expected):
+    from denavit.io.units import parse_declaration
+
+    if isinstance(expected, dict):
+        assert parse_declaration([line, "x,y,z"], "f.csv") == expected
+    else:
+        with pytest.raises(dv.DenavitError, match=r"^f\.csv:1: .*expected " + re.escape(expected)):
+            parse_declaration([line, "x,y,z"], "f.csv")
+
+
+def test_the_issues_positions_file_declared_right_reads_the_rotations_in_radians(tmp_path):
+    """With the form the error gives, the issue's file compensates every row (kr5 against itself: the positions
+    come back unchanged; read as degrees, 0.5 rad rotations had been 0.5 deg ones)."""
+    poses = _poses_mm_rad()
+    f, o = tmp_path / "pos.csv", tmp_path / "out.csv"
+    f.write_text("# units: length=mm angle=rad\nx,y,z,rx,ry,rz\n" + _rows(poses))
+    d = doc("compensate", "kr5", f, "--identified", "kr5", "-o", o)
+    assert d["flagged"] == 0 and len(d["rows"]) == 20
+    lines = [ln.split(",") for ln in o.read_text().splitlines() if not ln.startswith("#")]
+    back = np.array([[float(c) for c in r[:6]] for r in lines[1:]])
+    assert lines[0][:6] == ["x", "y", "z", "rx", "ry", "rz"]
+    np.testing.assert_allclose(back[:, :3], poses[:, :3], atol=1e-6)  # mm
+    np.testing.assert_allclose(np.radians(back[:, 3:]), poses[:, 3:], atol=1e-8)  # written in --angle deg
+
+
+def test_a_typed_unit_that_disagrees_with_the_files_is_a_warning_and_the_file_wins(tmp_path):
+    """docs/cli.md: what a file declares wins for reading it; --length / --angle set what is printed and written.
+    Typed and different, it is said (a default is not: the user asked nothing)."""
+    poses = _poses_mm_rad(6)
+    f = tmp_path / "pos.csv"
+    f.write_text("# units: length=mm angle=rad\nx,y,z,rx,ry,rz\n" + _rows(poses))
+    args = ("compensate", "kr5", f, "--identified", "kr5", "--json")
+    base = run(*args)
+    typed = run(*args, "--angle", "deg", "--length", "m")
+    assert "warning" not in base.stderr and "warning" not in run(*args, "--angle", "rad").stderr
+    said = " ".join(typed.stderr.split())
+    assert f"warning: {f}: declares angle=rad: read in rad, not in --angle deg (which sets what is printed" in said
+    assert f"warning: {f}: declares length=mm: read in mm, not in --length m (which sets what is printed" in said
+    a, b = json.loads(base.stdout), json.loads(typed.stdout)
+    np.testing.assert_allclose([r["T_command"] for r in a["rows"]], [r["T_command"] for r in b["rows"]], atol=1e-12)

@@ -82,8 +82,12 @@ class Command(TyperCommand):
 
     def invoke(self, ctx):  # noqa: ANN001, ANN201 (click's signature)
         from ..io.output import forcing  # noqa: PLC0415
+        from ..io.units import typed_units  # noqa: PLC0415
 
-        with forcing(bool(ctx.params.pop("force", False))):  # --force reaches every write of the command
+        with (
+            forcing(bool(ctx.params.pop("force", False))),  # --force reaches every write of the command
+            typed_units(_typed(ctx)),  # a file declaring other units than --length / --angle typed: a warning
+        ):
             _check_units(ctx)
             _check_outputs(ctx)
             say_deprecated(done=False)
@@ -132,6 +136,17 @@ def _check_units(ctx) -> None:  # noqa: ANN001 (click's context)
         value = ctx.params.get(name)
         if isinstance(value, str):
             check(value)
+
+
+def _typed(ctx) -> dict[str, str]:  # noqa: ANN001 (click's context)
+    """The ``--length`` / ``--angle`` the user typed (not their defaults): ``{"angle": "rad"}``. (The source by its
+    name: typer may run its own copy of click, whose ParameterSource is not click's.)"""
+    return {
+        name: value
+        for name in ("length", "angle")
+        if isinstance(value := ctx.params.get(name), str)
+        and getattr(ctx.get_parameter_source(name), "name", None) == "COMMANDLINE"
+    }
 
 
 def _check_outputs(ctx) -> None:  # noqa: ANN001 (click's context)
