@@ -292,12 +292,13 @@ def calibrate(
         print_calibration(res, length, angle, verbose)
     _refuse_jumps(res, robot, length, angle)
     if save:
-        from ..io.results import save as save_result  # noqa: PLC0415
-
-        saved = save_result(res, save, length=length, angle=angle)  # with [training]: validate flags poses outside
         from ..fleet.checksum import saved_checksum  # noqa: PLC0415
+        from ..io.results import save as save_result  # noqa: PLC0415
+        from ..io.results import saved_robot  # noqa: PLC0415
 
-        wrote(save, f" (model checksum {saved_checksum(save, saved)})")
+        save_result(res, save, length=length, angle=angle)  # with [training]: validate flags poses outside them
+        written = saved_robot(res, length=length, angle=angle) if str(save) == "-" else None  # (read back if a file)
+        wrote(save, f" (model checksum {saved_checksum(save, written)})")
     if urdf:
         from ..io.urdf import save_urdf  # noqa: PLC0415
 

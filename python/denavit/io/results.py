@@ -57,9 +57,9 @@ def save(
     name: str | None = None,
     *,
     force: bool = False,
-):
-    """Write an identification's or a calibration's robot as a robot file (.toml; :mod:`denavit.io.robotfile`) and
-    return the :class:`~denavit.robot.Robot` written. By default the ED-H geometry (an identification's POE when it
+) -> None:
+    """Write an identification's or a calibration's robot as a robot file (.toml; :mod:`denavit.io.robotfile`): the
+    :class:`~denavit.robot.Robot` of :func:`saved_robot`. By default the ED-H geometry (an identification's POE when it
     was identified in POE: exact; ED-H exact except a near-parallel pair's tilt within its noise, which it drops
     against the nominal), a lossy DH / MDH table only when ``convention`` asks for one. The file states in a comment
     whether it is exact and the tool-position error its table carries against the identified or calibrated geometry
@@ -87,21 +87,12 @@ def save(
                 f"{path}: a URDF holds the exact geometry (ED-H frames on the body), got convention {convention!r}:"
                 f" save a robot file (.toml) for a {convention} table"
             )
-        robot = result.robot(name, "edh")
         model = result.model(convention="edh") if isinstance(result, Identification) else result.model()
-        save_urdf(model, path, robot, force=force)
-        return robot
-    if isinstance(result, Calibration):
-        robot = result.robot(name, convention or "edh")
-        r = result.parametrization.robot
-        training = training_table(result.measurements.q, r.table.kinds, length, angle)
-        robot = replace(robot, extra={**robot.extra, TRAINING_TABLE: training})
-        err, count = result.carried_error(robot.convention)
-        what = "calibrated"
-    else:
-        robot = result.robot(name, convention)
-        err, count = result.carried_error(convention)
-        what = "identified"
+        save_urdf(model, path, result.robot(name, "edh"), force=force)
+        return
+    robot = saved_robot(result, name, convention, length, angle)
+    err, count = result.carried_error(robot.convention)
+    what = "calibrated" if isinstance(result, Calibration) else "identified"
     if robot.convention in EXACT and err <= ROUND_OFF:
         how = f"exactly (its {robot.convention} table holds any pair of joint axes)"
     elif robot.convention in EXACT:
@@ -116,7 +107,17 @@ def save(
         f" {what} geometry over {count} configurations (the home and {count - 1} spread over the joint limits).\n"
     )
     write_text(path, note + dumps(robot, length, angle), force=force)
-    return robot
+
+
+def saved_robot(result: Identification | Calibration, name=None, convention=None, length="m", angle="deg"):
+    """The :class:`~denavit.robot.Robot` :func:`save` writes to a robot file: the result's robot in ``convention``
+    (default ED-H; an identification's own exact one), a calibration's with its ``[training]`` joint ranges in the
+    file's units ``length`` and ``angle``."""
+    if isinstance(result, Identification):
+        return result.robot(name, convention)
+    robot = result.robot(name, convention or "edh")
+    training = training_table(result.measurements.q, result.parametrization.robot.table.kinds, length, angle)
+    return replace(robot, extra={**robot.extra, TRAINING_TABLE: training})
 
 
 def _finite(v: float) -> float | None:
