@@ -338,3 +338,22 @@ def test_the_predicted_error_in_the_measurement_frame_and_its_rms_bound_match_sa
     # a robot file's [covariance] has no registration to include
     with pytest.raises(dv.DenavitError, match="carries no base registration"):
         compensate(nominal, res.robot(), positions, q_nominal=q, payload=(RATED / 2, COM), registration=True)
+
+
+def test_a_compliance_fitted_negative_is_held_at_0_with_the_sigma_the_data_give_it():
+    """k >= 0 in calibrate as in identify: a rigid wrist joint's compliance fitted below zero is held at its bound 0,
+    keeps the sigma the data give it (the covariance with it free at 0: it had been saved with none, as if known to be
+    exactly 0), and a note says so; the saved robot file carries that variance into every prediction."""
+    from denavit.calibration.solve import AT_BOUND
+
+    k = K_TRUE.copy()
+    k[4] = 0.0  # joint 5 rigid: its estimate falls below 0 about half the time (seed 3: it does)
+    robot, _, train, _ = two_payloads(3, k)
+    res = calibrate(train, robot, tool=TOOL, model=f"full-prior{COMPLIANCE}")
+    c = res.names.index("k_5")
+    assert res.status[c] == AT_BOUND and res.values[c] == 0.0
+    v, s = res.value("k_5")
+    assert v == 0.0 and np.isfinite(s) and 1e-5 < s < 1e-3, s  # the free fit's sigma on these poses: 6.6e-5
+    assert any(n.startswith("k_5: compliance held at 0") for n in res.notes), res.notes
+    saved = res.robot()
+    assert saved.compliance[4] == 0.0 and math.isclose(math.sqrt(saved.compliance_covariance[4, 4]), s, rel_tol=1e-9)

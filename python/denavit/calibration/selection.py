@@ -88,9 +88,10 @@ class Candidate:
 
     ``free``: the indices of its free parameters; ``prior``: (centre, weight) of its prior rows or None;
     ``prior_fixed``: the parameters held at their nominal values because the data do not determine them beyond
-    their prior, name -> posterior sigma / prior width when they were free; ``loo``: (N,) leave-one-pose-out
-    tool-position errors (m); ``cv_rms`` their RMS (m) and ``cv_se`` its
-    standard error (m, from that of the mean square); ``dof``: the effective number of parameters ``trace(H)``.
+    their prior, name -> posterior sigma / prior width when they were free; ``at_bound``: the compliances fitted
+    negative and held at their bound 0 (``k >= 0``), name -> the value they had been fitted at; ``loo``: (N,)
+    leave-one-pose-out tool-position errors (m); ``cv_rms`` their RMS (m) and ``cv_se`` its standard error (m, from
+    that of the mean square); ``dof``: the effective number of parameters ``trace(H)``.
     """
 
     name: str
@@ -101,6 +102,7 @@ class Candidate:
     loo: np.ndarray
     dof: float
     sol: object = field(default=None, repr=False)
+    at_bound: dict = field(default_factory=dict)
 
     @property
     def mse(self) -> float:
@@ -252,10 +254,12 @@ def _fit(
     nonneg = set(
         getattr(pz, "nonnegative", ())
     )  # compliances: k >= 0, one fitted negative held at zero and the fit repeated
+    at_bound = {}
     for _ in range(len(nonneg)):
         neg = [c for c in free if c in nonneg and x[c] < 0]
         if not neg:
             break
+        at_bound.update({pz.names[c]: float(x[c]) for c in neg})
         free = [c for c in free if c not in neg]
         x = x.copy()
         x[neg] = 0.0
@@ -263,7 +267,7 @@ def _fit(
     r, J, _ = residuals(pz, x, train, w, columns=free)
     k = 6 if pz.measure == "pose" else 3
     E, dof = loo_residuals(J, r, k, prior_block(prior, free) if prior is not None else None)
-    return Candidate(name, free, x, prior, held, position_errors(E, train, w), dof, sol)
+    return Candidate(name, free, x, prior, held, position_errors(E, train, w), dof, sol, at_bound)
 
 
 def _map_cost(pz: Parametrization, x, train: Measurements, w: np.ndarray, free: list, weight: np.ndarray) -> float:

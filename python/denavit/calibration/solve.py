@@ -254,6 +254,9 @@ class _Run:
         pz, meas, train, w, won = self.pz, self.meas, self.train, self.w, self.choice.winner
         free, prior_rows = won.free, won.prior
         x_hat, sol, r, wt, robust_s2 = _robust_fit(pz, won.x, free, won.sol, train, w, loss, f_scale, prior_rows)
+        # a compliance held at its bound 0 keeps the sigma the data give it (the covariance with it free there)
+        bound = [pz.index(k) for k in won.at_bound]
+        free = [*free, *bound]
         cov, s2 = _posterior(pz, x_hat, free, train, w, r, wt, self.known, robust_s2, self.s2_full, prior_rows)
         sd = np.sqrt(np.clip(np.diag(cov), 0, None))
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -269,6 +272,9 @@ class _Run:
             held=set(won.prior_fixed),
             model_fixed=[*self.candidates, *self.comp],
         )
+        for c in bound:
+            status[c] = AT_BOUND
+            self.notes.append(_bound_note(pz, c, won.at_bound[pz.names[c]], sigma[c]))
         res_si, rms, rms_rot, outliers = _misfits(pz, x_hat, meas, r, w)
         validation = _held_out(pz, meas, train, self.test_idx, self.x_reg, x_hat)
         converged = sol is None or sol.status > 0
@@ -470,6 +476,20 @@ def _robust_fit(pz, x_hat, free, sol, train, w, loss, f_scale, prior_rows):
     mis = np.linalg.norm(_table_residuals(r, pz.measure)[:, :3], axis=1)
     robust_s2 = (float(np.median(mis)) / math.sqrt(2.366)) ** 2
     return x_hat, sol, r, loss_weight(loss, (r / fs) ** 2), robust_s2
+
+
+#: The status of a compliance fitted negative and held at its bound (``k >= 0``): estimated, at 0, with its sigma.
+AT_BOUND = "held at 0 (k >= 0)"
+
+
+def _bound_note(pz, c: int, value: float, sigma: float) -> str:
+    """The note on compliance ``c`` held at its bound 0, fitted at ``value`` < 0 with ``sigma`` (SI), as identify's."""
+    z = -value / sigma if sigma > 0 else math.inf
+    why = "check the payload and the nominal's inertials" if z > 2 else "within the noise of 0"
+    return (
+        f"{pz.names[c]}: compliance held at 0 (k >= 0: a joint gives way under its torque), its sigma {sigma:.3g} from"
+        f" the data; fitted free it came to {value:.3g} {pz.units[c]}, {z:.2g} sigma below 0: {why}"
+    )
 
 
 def _posterior(pz, x_hat, free, train, w, r, wt, known, robust_s2, s2_full, prior_rows):
