@@ -429,8 +429,10 @@ def _flange(nominal, nom: _core.Model, identified, ide: _core.Model, registratio
             f" {np.degrees(_angle(d[None, :3, :3])[0]):.3g} deg from the nominal's) taken as the nominal's: the"
             " positions are in the robot base frame (positions in the measurement frame: registration=True, in Python)"
         )
-    if not _is_identity(nom.T_flange_tool):
-        return ide, notes
+    if not np.allclose(np.asarray(nom.T_flange_tool)[:3, 3], 0.0, rtol=0.0, atol=1e-12):
+        return ide, notes  # a tool with an offset: the positions are its poses, the identified robot's tool is one
+    # (a tool that is a pure rotation is the flange frame the model names its own, REP-199's tool0: the kr210's half
+    # turn about its DH frame 6's z; the identified robot's flange is then placed as that frame is, below)
     home = getattr(nominal, "home", None)
     # its tool as the nominal's flange sees it (a POE table has no flange of its own: its home pose M is its tool)
     try:
@@ -462,8 +464,9 @@ def _flange(nominal, nom: _core.Model, identified, ide: _core.Model, registratio
 
 def flange_model(nominal, identified) -> _core.Model:
     """The identified model as :func:`compensate` uses it against ``nominal``: as it is, unless the nominal has no tool
-    and the identified robot has one farther than :data:`TOOL_FRACTION` of the robot's size (the point identify or
-    calibrate measured): then its flange is its canonical flange (:func:`canonical_tool`) and it has no tool, the same
+    (or one that is a pure rotation: its own flange frame, the kr210's tool0) and the identified robot has one farther
+    than :data:`TOOL_FRACTION` of the robot's size (the point identify or calibrate measured): then its flange is its
+    canonical flange (:func:`canonical_tool`) and it has no tool, the same
     from the in-memory result and from every file saved of it. What to export for a controller that takes a corrected
     model (``io.ur_calibration.save``) so that it and a compensation agree."""
     ide = _flange(nominal, _model(nominal, "nominal"), identified, _model(identified, "identified"))[0]
