@@ -2,10 +2,13 @@
 kr210's flange is a pure rotation of its DH frame 6, REP-199's tool0), and the command line's words for it."""
 
 import numpy as np
+from scipy.spatial.transform import Rotation
+from typer.testing import CliRunner
 
 import denavit as dv
 from denavit import _core
 from denavit import compensation as cp
+from denavit.cli import app
 from denavit.sweeps import simulate
 
 HOME = np.radians([0, -90, 90, 0, 30, 0])
@@ -30,3 +33,49 @@ def test_identify_then_compensate_on_an_arm_whose_flange_is_a_turned_frame():
     assert np.degrees(np.abs(c.q_command - q)).max() < 2.0
     after = np.linalg.norm(_core.fk_batch(nom, c.q_command)[:, :3, 3] - T[:, :3, 3], axis=1)
     assert np.sqrt(np.mean(after**2)) < 5e-4
+
+
+def invoke(*args):
+    r = CliRunner().invoke(app, [str(a) for a in args], env={"COLUMNS": "400"})
+    if r.exception is not None and not isinstance(r.exception, SystemExit):
+        raise r.exception
+    return r
+
+
+def test_the_payload_help_names_the_robot_files_compliance_section():
+    """'[compliance]' had been read as console markup and dropped: "(a robot file's ) the commands ..."."""
+    for command in ("compensate", "validate"):
+        out = " ".join(invoke(command, "--help").output.split())
+        assert "a robot file's [compliance])" in out, command
+        assert "(kg, g)" in out and "lb" not in out  # the mass units the parser takes
+
+
+def test_a_positions_file_without_configurations_is_told_in_the_units_asked(tmp_path):
+    """The note on the rows without a configuration had given --q0 in rad / m beside the summary's deg."""
+    robot = dv.load_robot("kr5")
+    q = HOME + np.radians(np.random.default_rng(2).uniform(-30, 30, (4, 6)))
+    T = _core.fk_batch(robot.model(), q)
+    rows = [np.r_[t[:3, 3] * 1e3, np.degrees(Rotation.from_matrix(t[:3, :3]).as_rotvec())] for t in T]
+    path = tmp_path / "pos.csv"
+    path.write_text(
+        "# units: length=mm angle=deg\nx,y,z,rx,ry,rz\n" + "".join(",".join(map(str, r)) + "\n" for r in rows)
+    )
+    r = invoke("compensate", "kr5", path, "--identified", "kr5", "--payload", "5 kg @ 0,0,80 mm")
+    assert r.exit_code == 0, r.output
+    assert "rad / m" not in r.output and "4 of 4 rows had none" in r.output and " deg);" in r.output
+    # a payload with a rigid identified robot is said to change nothing, never silently taken
+    assert "the payload changes nothing: kr5 has no joint compliances" in " ".join(r.output.split())
+    v = invoke("validate", "kr5", _measured(tmp_path, robot), "--payload", "5 kg")
+    assert v.exit_code == 0, v.output
+    assert "the payload changes nothing: kr5 has no joint compliances" in " ".join(v.output.split())
+
+
+def _measured(tmp_path, robot):
+    q = HOME + np.radians(np.random.default_rng(3).uniform(-30, 30, (5, 6)))
+    p = _core.fk_batch(robot.model(), q)[:, :3, 3] * 1e3
+    path = tmp_path / "meas.csv"
+    path.write_text(
+        "# units: length=mm angle=deg\nq1,q2,q3,q4,q5,q6,x,y,z\n"
+        + "".join(",".join(map(str, np.r_[np.degrees(a), b])) + "\n" for a, b in zip(q, p, strict=True))
+    )
+    return path

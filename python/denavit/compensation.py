@@ -231,6 +231,11 @@ def compensate(
     through = _through_readings(nominal, identified, nom, ide, T, r.q_nominal, qc, el, pl)
     if through is not None:
         q_cmd, commands, before, before_rot = through
+    if el is None and payload is not None:
+        notes.append(
+            f"the payload changes nothing: {getattr(identified, 'name', 'the identified robot')} has no joint"
+            " compliances (a robot file's [compliance], a calibration that freed them): the commands are a rigid arm's"
+        )
     if assumed.any():
         notes.append(
             f"{int(assumed.sum())} of {len(T)} rows without a configuration: "

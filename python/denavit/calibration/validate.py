@@ -386,6 +386,11 @@ def validate(
             f" gravity{' and the payload' if meas.payload is not None else ' (no payload declared)'} by the model's"
             " compliances"
         )
+    elif payload is not None or meas.payload is not None:
+        notes.append(
+            f"the payload changes nothing: {name} has no joint compliances (a robot file's [compliance], a calibration"
+            " that freed them): predicted as a rigid arm"
+        )
     T_tool = _tool_transform(km, tool)
     T_base = np.array(km.T_world_base, dtype=float)
     if registration == "refit":

@@ -111,7 +111,7 @@ PayloadOpt = Annotated[
         help=(
             "The payload on the flange for every row: its mass with a unit (kg, g) and optionally its centre of mass "
             'in the flange frame, e.g. "5 kg @ 0,0,80 mm" (--length units without one). With an identified robot of '
-            "compliant joints (a robot file's [compliance]) the commands are those that deflect onto the positions "
+            "compliant joints (a robot file's \\[compliance]) the commands are those that deflect onto the positions "
             "under it."
         ),
     ),
@@ -266,7 +266,8 @@ def _compensate_positions(
             payload=payload,
         )
     for n in c.notes:
-        say("yellow", "note:", f" {n}")
+        if "rows without a configuration" not in n:  # (the summary's configuration line says it, in --angle)
+            say("yellow", "note:", f" {n}")
     flagged = [
         (w, why)
         for w, ok, r, b, j in zip(prog.where, c.ok, c.reached, c.branch_changed, c.path_jump, strict=True)
@@ -375,7 +376,12 @@ def _print_summary(c, prog, nom_robot, id_robot, summary, flagged, before_rms, p
             f" {int(c.assumed.sum())} of {len(c)} rows had none (no joint columns): each compensated on the nominal's"
             f" solution nearest --q0 ({', '.join(f'{v:.6g}' for v in q0v / js)} {angle}); that configuration is each"
             f" row's q1..q{len(kinds)} ('configuration' per row in --json). Give the program's joint values as q"
-            " columns to keep its own",
+            " columns to keep its own"
+            + "".join(
+                f" ({n.split('; ', 1)[1]})"
+                for n in c.notes
+                if "rows without a configuration" in n and "unreachable on the nominal" in n
+            ),
         )
     if predicted is not None and c.ok.any():
         say(

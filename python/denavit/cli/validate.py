@@ -93,9 +93,9 @@ def validate(
             "--payload",
             help=(
                 "The payload on the flange for every pose where the data give none (a pose file's payload_mass,"
-                " payload_x,payload_y,payload_z columns): its mass with a unit (kg, g, lb) and optionally its centre of"
+                " payload_x,payload_y,payload_z columns): its mass with a unit (kg, g) and optionally its centre of"
                 ' mass in the flange frame, e.g. "5 kg @ 0,0,80 mm" (--length units without one). A model with'
-                " compliant joints (a robot file's [compliance]) is predicted with its joints deflected under it."
+                " compliant joints (a robot file's \\[compliance]) is predicted with its joints deflected under it."
             ),
         ),
     ] = None,
