@@ -1,14 +1,15 @@
 """Issues 37 and 38 as a newcomer meets them: identify, then compensate with the result, on every built-in arm (the
 kr210's flange is a pure rotation of its DH frame 6, REP-199's tool0), and the command line's words for it."""
 
+from types import SimpleNamespace
+
 import numpy as np
 from scipy.spatial.transform import Rotation
-from typer.testing import CliRunner
 
 import denavit as dv
+from cli import run
 from denavit import _core
 from denavit import compensation as cp
-from denavit.cli import app
 from denavit.sweeps import simulate
 
 HOME = np.radians([0, -90, 90, 0, 30, 0])
@@ -36,10 +37,10 @@ def test_identify_then_compensate_on_an_arm_whose_flange_is_a_turned_frame():
 
 
 def invoke(*args):
-    r = CliRunner().invoke(app, [str(a) for a in args], env={"COLUMNS": "400"})
-    if r.exception is not None and not isinstance(r.exception, SystemExit):
-        raise r.exception
-    return r
+    """``denavit ARGS...`` in this process as a user runs it (the entry point's error handling): ``exit_code`` and
+    ``output`` (stdout and stderr)."""
+    r = run(*args, ok=False, columns=400)
+    return SimpleNamespace(exit_code=r.returncode, output=r.stdout + r.stderr)
 
 
 def test_the_payload_help_names_the_robot_files_compliance_section():
@@ -79,3 +80,43 @@ def _measured(tmp_path, robot):
         + "".join(",".join(map(str, np.r_[np.degrees(a), b])) + "\n" for a, b in zip(q, p, strict=True))
     )
     return path
+
+
+def test_a_report_or_a_kinematics_file_given_as_the_robot_says_what_it_is(tmp_path):
+    """calibrate's --json and export --ur-kinematics had been read as TOML robot files: 'Invalid statement'."""
+    for name, text, expected in (
+        ("cal.json", '{"units": {"length": "m"}}', "a JSON file is not a robot model"),
+        ("cal.yaml", "kinematics:\n  shoulder: {x: 0}\n", "a YAML file is not a robot model here"),
+    ):
+        path = tmp_path / name
+        path.write_text(text)
+        r = invoke("compensate", "kr5", _measured(tmp_path, dv.load_robot("kr5")), "--identified", path)
+        assert r.exit_code == 2 and expected in r.output and "TOML" not in r.output, r.output
+
+
+def test_a_urdf_of_compliant_joints_says_it_leaves_them_out(tmp_path):
+    """A calibration with free compliances written --urdf: the URDF has no place for them, and compensating with it
+    is the rigid arm's (0.30 mm against 0.018 mm from the robot file, on a UR5 at 2.5 kg), said where it is written."""
+    from denavit.calibration import parametrize
+    from denavit.calibration.compliance import gravity_torques
+
+    robot = dv.load_robot("ur5")
+    rng = np.random.default_rng(7)
+    pz = parametrize(robot, "edh", tool=TOOL)
+    m_true = pz.model(pz.x0 + np.array([0.0 if n.startswith(("base_", "tool_")) else 3e-4 for n in pz.names]))
+    k = np.array([0.0, 1.2e-5, 2.5e-5, 1.0e-4, 1.2e-4, 0.0])
+    q = np.column_stack([rng.uniform(-3, 3, 40), rng.uniform(-2.8, -0.3, 40), rng.uniform(-3, 3, (40, 4))])
+    rows = []
+    for mass in (0.0, 5.0):
+        pl = np.tile([mass, 0.02, 0.0, 0.06], (len(q), 1))
+        p = _core.fk_batch(m_true, q - k * gravity_torques(robot.model(), q, pl))[:, :3, 3]
+        p = p + rng.normal(0, 2e-5, p.shape)
+        rows += [np.r_[np.degrees(a), b * 1e3, c[0], c[1:] * 1e3] for a, b, c in zip(q, p, pl, strict=True)]
+    data = tmp_path / "poses.csv"
+    data.write_text(
+        "# units: length=mm angle=deg\nq1,q2,q3,q4,q5,q6,x,y,z,payload_mass,payload_x,payload_y,payload_z\n"
+        + "".join(",".join(map(str, r)) + "\n" for r in rows)
+    )
+    r = invoke("calibrate", "ur5", data, "--model", "full+compliance", "--urdf", tmp_path / "cal.urdf")
+    assert r.exit_code == 0, r.output
+    assert "cal.urdf: a URDF carries no joint compliances" in " ".join(r.output.split())

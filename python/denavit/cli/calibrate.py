@@ -27,7 +27,7 @@ from .options import (
     TrackerPositionOpt,
     VerboseOpt,
 )
-from .outputs import check_outputs, emit_json, json_target, require_plot_extra
+from .outputs import check_outputs, emit_json, json_target, require_plot_extra, save_urdf_of
 from .values import calib_unit, check_noises, convention_name, load_robot, model_first, parse_point
 
 ModelArg = Annotated[
@@ -299,13 +299,8 @@ def calibrate(
         save_result(res, save, length=length, angle=angle)  # with [training]: validate flags poses outside them
         written = saved_robot(res, length=length, angle=angle) if str(save) == "-" else None  # (read back if a file)
         wrote(save, f" (model checksum {saved_checksum(save, written)})")
-    if urdf:
-        from ..io.urdf import save_urdf  # noqa: PLC0415
-
-        save_urdf(
-            res.model(), urdf, res.robot()
-        )  # the calibrated geometry, with a URDF nominal's meshes, inertials and limits
-        wrote(urdf)
+    if urdf:  # the calibrated geometry, with a URDF nominal's meshes, inertials and limits
+        save_urdf_of(res.model(), urdf, res.robot())
     if report:
         from ..report import write_calibration_report  # noqa: PLC0415
 

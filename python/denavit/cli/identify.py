@@ -26,7 +26,7 @@ from .options import (
     TrackerPositionOpt,
     VerboseOpt,
 )
-from .outputs import check_outputs, emit_json, json_target, require_plot_extra
+from .outputs import check_outputs, emit_json, json_target, require_plot_extra, save_urdf_of
 from .values import (
     convention_name,
     deprecated,
@@ -543,10 +543,7 @@ def write_outputs(result, save_model, convention: str, urdf, report, plot, lengt
         written = result.robot(None, table) if str(save_model) == "-" else None
         wrote(save_model, f" (model checksum {saved_checksum(save_model, written)})")
     if urdf:
-        from ..io.urdf import save_urdf  # noqa: PLC0415
-
-        save_urdf(result.model(convention="edh"), urdf, result.robot())
-        wrote(urdf)
+        save_urdf_of(result.model(convention="edh"), urdf, result.robot())
     if report or plot:
         from .. import report as rep  # noqa: PLC0415
 

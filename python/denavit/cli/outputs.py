@@ -8,7 +8,7 @@ import sys
 from typing import TYPE_CHECKING
 
 from ..errors import DenavitError
-from .console import console, fail, wrote
+from .console import console, fail, say, wrote
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -112,3 +112,20 @@ def require_plot_extra(report=None, plot=None) -> None:
 
         what = ", ".join(f"{opt} needs {mod}" for opt, mod in missing)
         raise DenavitError(f"{what}, which is not installed: {install_hint()}")
+
+
+def save_urdf_of(model, path, robot) -> None:
+    """``--urdf``: the model as URDF (:func:`denavit.io.urdf.save_urdf`), and a note when the robot's joints are
+    compliant (issue 37): a URDF has no place for the compliances, so compensating with it is the rigid arm's."""
+    from ..io.urdf import save_urdf  # noqa: PLC0415
+
+    save_urdf(model, path, robot)
+    wrote(path)
+    k = getattr(robot, "compliance", None)
+    if k is not None and any(v > 0 for v in k):
+        say(
+            "yellow",
+            "note:",
+            f" {path}: a URDF carries no joint compliances (the robot file of --save does): compensate or validate"
+            " with it and the joints are taken as rigid",
+        )

@@ -52,6 +52,17 @@ def load(
         return load_urdf(path, base_link=base_link, tip_link=tip_link, chain_only=chain_only, locked=locked)
     if base_link is not None or tip_link is not None or chain_only or locked:
         raise DenavitError(f"{path}: base_link/tip_link/chain_only/locked apply to a URDF, got a robot file")
+    if path.suffix.lower() == ".json":  # (a robot file is TOML: read as one, it had been 'Invalid statement')
+        raise DenavitError(
+            f"{path}: a JSON file is not a robot model (calibrate's and identify's --json is their report): expected a"
+            " robot file (.toml, e.g. from --save) or a URDF"
+        )
+    if path.suffix.lower() in (".yaml", ".yml"):
+        raise DenavitError(
+            f"{path}: a YAML file is not a robot model here (a UR kinematics file, export --ur-kinematics, is a bare"
+            " chain: denavit.io.ur_calibration.read in Python, with its nominal): expected a robot file (.toml) or a"
+            " URDF"
+        )
     from .robotfile import read  # noqa: PLC0415
 
     return read(path)
