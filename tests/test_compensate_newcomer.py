@@ -120,3 +120,40 @@ def test_a_urdf_of_compliant_joints_says_it_leaves_them_out(tmp_path):
     r = invoke("calibrate", "ur5", data, "--model", "full+compliance", "--urdf", tmp_path / "cal.urdf")
     assert r.exit_code == 0, r.output
     assert "cal.urdf: a URDF carries no joint compliances" in " ".join(r.output.split())
+
+
+def test_a_positions_file_carries_its_payload_per_row(tmp_path):
+    """Issue 37's 'the same columns in compensate's inputs': payload_mass, payload_x, payload_y, payload_z had been
+    refused ('header must be ...'). A row's columns compensate as --payload does for every row."""
+    from dataclasses import replace
+
+    from denavit.io import robotfile as rf
+
+    robot = dv.load_robot("ur5")
+    stiff = tmp_path / "ur5c.toml"
+    stiff.write_text(rf.dumps(replace(robot, compliance=np.array([0, 1e-5, 2e-5, 8e-5, 1e-4, 0])), "mm", "deg"))
+    q = np.radians([[10, -80, 70, -60, -90, 20], [-30, -120, 100, -20, 60, 0], [60, -60, 40, -100, -80, 45]])
+    T = _core.fk_batch(robot.model(), q)
+    rows = [np.r_[t[:3, 3] * 1e3, np.degrees(Rotation.from_matrix(t[:3, :3]).as_rotvec())] for t in T]
+    head = "# units: length=mm angle=deg\nx,y,z,rx,ry,rz"
+    loads = ([5, 0, 0, 80], [0, 0, 0, 0], [5, 0, 0, 80])
+    with_columns = tmp_path / "pl.csv"
+    with_columns.write_text(
+        head
+        + ",payload_mass,payload_x,payload_y,payload_z\n"
+        + "".join(",".join(map(str, [*r, *p])) + "\n" for r, p in zip(rows, loads, strict=True))
+    )
+    plain = tmp_path / "plain.csv"
+    plain.write_text(head + "\n" + "".join(",".join(map(str, r)) + "\n" for r in rows))
+    outs = {}
+    for name, args in (
+        ("columns", [with_columns]),
+        ("loaded", [plain, "--payload", "5 kg @ 0,0,80 mm"]),
+        ("empty", [plain]),
+    ):
+        r = invoke("compensate", "ur5", *args, "--identified", stiff, "-o", tmp_path / f"{name}.csv")
+        assert r.exit_code == 0, r.output
+        outs[name] = np.loadtxt(tmp_path / f"{name}.csv", delimiter=",", comments="#", skiprows=4)[:, 6:12]
+    assert np.allclose(outs["columns"][[0, 2]], outs["loaded"][[0, 2]], rtol=0, atol=1e-9)
+    assert np.allclose(outs["columns"][1], outs["empty"][1], rtol=0, atol=1e-9)
+    assert np.abs(outs["loaded"] - outs["empty"]).max() > 1e-3  # deg: the payload does change the commands

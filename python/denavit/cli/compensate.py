@@ -109,7 +109,8 @@ PayloadOpt = Annotated[
     typer.Option(
         "--payload",
         help=(
-            "The payload on the flange for every row: its mass with a unit (kg, g) and optionally its centre of mass "
+            "The payload on the flange for every row where the positions file gives none (its payload_mass, "
+            "payload_x, payload_y, payload_z columns): its mass with a unit (kg, g) and optionally its centre of mass "
             'in the flange frame, e.g. "5 kg @ 0,0,80 mm" (--length units without one). With an identified robot of '
             "compliant joints (a robot file's \\[compliance]) the commands are those that deflect onto the positions "
             "under it."
@@ -263,7 +264,7 @@ def _compensate_positions(
             q0=q0v,
             path=path,
             branch_tol=branch_tol,
-            payload=payload,
+            payload=payload if prog.payload is None else prog.payload,  # the file's rows win, as calibrate's
         )
     for n in c.notes:
         if "rows without a configuration" not in n:  # (the summary's configuration line says it, in --angle)

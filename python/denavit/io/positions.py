@@ -7,6 +7,10 @@ CSV (``,`` or ``;``), a header and a ``# units: length=mm angle=deg`` line (else
     q1,...,qn                 # or joint rows computed offline with the nominal model
     x,y,z,rx,ry,rz,q1,...,qn  # or both (the rows' nominal joint values keep the program's branches)
 
+and optionally a payload per row (issue 37): ``payload_mass`` (kg, or the file's declared ``mass`` unit) and
+``payload_x,payload_y,payload_z`` (its centre of mass in the flange frame, in the file's length unit; default 0), as
+calibrate's pose files carry it.
+
 Joint values follow the per-joint-kind rule (angle unit for revolute joints, length unit for prismatic ones).
 :func:`write_compensated` writes the compensated program in the same form, with per-row flags and errors.
 """
@@ -22,6 +26,7 @@ from ..errors import DenavitError
 from ..geometry import matrix_rotvec, rotvec_matrix
 from . import delimited as dl
 from .output import write_text
+from .payload import PAYLOAD_COLUMNS, payload_from_columns
 from .text import read_text
 from .units import angle_scale, input_units, joint_scale, length_scale, parse_declaration
 
@@ -31,12 +36,14 @@ POSE = ("x", "y", "z", "rx", "ry", "rz")
 @dataclass(frozen=True)
 class Positions:
     """A positions file's rows: ``poses`` (N, 4, 4) (m) or None, ``q`` (N, n) nominal joint values (rad / m) or None,
-    ``where`` (N,) "file:line" of each row, ``units`` the file's units."""
+    ``where`` (N,) "file:line" of each row, ``units`` the file's units, ``payload`` (N, 4) ``[mass kg, x, y, z m]`` of
+    each row's payload (its columns) or None."""
 
     poses: np.ndarray | None
     q: np.ndarray | None
     where: list
     units: dict
+    payload: np.ndarray | None = None
 
     def __repr__(self) -> str:
         what = " and ".join(w for w, a in (("poses", self.poses), ("joint rows", self.q)) if a is not None)
@@ -62,15 +69,18 @@ def read_positions(path: str | os.PathLike, kinds, *, length: str | None = None,
     qcols = [f"q{i}" for i in range(1, n + 1)]
     has_pose = all(c in cols for c in POSE)
     has_q = all(c in cols for c in qcols)
-    extra = [c for c in cols if c not in POSE and c not in qcols]
+    pay = [c for c in PAYLOAD_COLUMNS if c in cols]
+    extra = [c for c in cols if c not in POSE and c not in qcols and c not in pay]
     if (
         not (has_pose or has_q)
         or extra
+        or (pay and "payload_mass" not in pay)
         or (any(c in cols for c in POSE) and not has_pose)
         or (any(c in cols for c in qcols) and not has_q)
     ):
         raise DenavitError(
-            f"{where}:{hline}: header must be 'x,y,z,rx,ry,rz' and/or 'q1,...,q{n}' ({n} joints), got"
+            f"{where}:{hline}: header must be 'x,y,z,rx,ry,rz' and/or 'q1,...,q{n}' ({n} joints), optionally with"
+            f" {','.join(PAYLOAD_COLUMNS)} (payload_mass with any of them), got"
             f" {','.join(hcells)[:200]!r}"
         )
     if len(data) < 2:
@@ -94,7 +104,8 @@ def read_positions(path: str | os.PathLike, kinds, *, length: str | None = None,
         poses[:, :3, 3] = vals[:, [col[c] for c in "xyz"]]
         poses[:, :3, :3] = rotvec_matrix(vals[:, [col[c] for c in ("rx", "ry", "rz")]] * as_)
     q = vals[:, [col[c] for c in qcols]] * joint_scale(kinds, units["length"], units["angle"], where) if has_q else None
-    return Positions(poses, q, places, units)
+    payload = payload_from_columns(vals, {c: col[c] for c in pay}, ls, places, units.get("mass", "kg")) if pay else None
+    return Positions(poses, q, places, units, payload)
 
 
 def write_compensated(
