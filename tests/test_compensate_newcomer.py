@@ -157,3 +157,5 @@ def test_a_positions_file_carries_its_payload_per_row(tmp_path):
     assert np.allclose(outs["columns"][[0, 2]], outs["loaded"][[0, 2]], rtol=0, atol=1e-9)
     assert np.allclose(outs["columns"][1], outs["empty"][1], rtol=0, atol=1e-9)
     assert np.abs(outs["loaded"] - outs["empty"]).max() > 1e-3  # deg: the payload does change the commands
+    c = dv.compensate("ur5", stiff, with_columns)  # Python reads the same columns
+    assert np.allclose(np.degrees(c.q_command), outs["columns"], rtol=0, atol=1e-9)

@@ -475,6 +475,8 @@ def compensate(nominal, identified, positions, **options):
         nom = nominal if isinstance(nominal, _core.Model) else nominal.model()
         prog = read_positions(input_path(positions), list(nom.kinds))
         poses = prog.poses if prog.poses is not None else _core.fk_batch(nom, prog.q)
+        if prog.payload is not None:  # the file's payload columns win over payload=, as calibrate's
+            options["payload"] = prog.payload
         return _compensate(nominal, identified, poses, q_nominal=prog.q, **options)
     return _compensate(nominal, identified, positions, **options)
 
