@@ -159,3 +159,22 @@ def test_a_positions_file_carries_its_payload_per_row(tmp_path):
     assert np.abs(outs["loaded"] - outs["empty"]).max() > 1e-3  # deg: the payload does change the commands
     c = dv.compensate("ur5", stiff, with_columns)  # Python reads the same columns
     assert np.allclose(np.degrees(c.q_command), outs["columns"], rtol=0, atol=1e-9)
+
+
+def test_a_payload_python_cannot_read_is_one_line():
+    """payload='5 kg @ 0,0,80 mm' (the command line's text) had raised numpy's 'could not convert string to float';
+    a negative or NaN mass had been taken."""
+    import pytest
+
+    from denavit.calibration.compliance import as_payload
+
+    for bad, match in (
+        ("5 kg @ 0,0,80 mm", "got the text '5 kg @ 0,0,80 mm'"),
+        (-5.0, "expected a mass >= 0 kg"),
+        ((5.0, (0.0, 0.0, float("nan"))), "finite centre of mass"),
+        ({"mass": 5}, "got dict"),
+    ):
+        with pytest.raises(dv.DenavitError, match=match) as e:
+            as_payload(bad, 3)
+        assert "\n" not in str(e.value)
+    assert np.array_equal(as_payload((5.0, (0.0, 0.0, 0.08)), 2), [[5.0, 0.0, 0.0, 0.08]] * 2)

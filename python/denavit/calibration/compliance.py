@@ -277,16 +277,25 @@ def as_payload(payload, n: int) -> np.ndarray | None:
     """``payload`` as (n, 4) SI rows: None; a mass (kg) at the flange; ``(mass, (x, y, z))``; or (n, 4) / (4,) rows."""
     if payload is None:
         return None
-    if isinstance(payload, (int, float)):
-        return np.tile([float(payload), 0.0, 0.0, 0.0], (n, 1))
-    if isinstance(payload, tuple) and len(payload) == 2 and np.ndim(payload[1]) == 1:
-        return np.tile(np.r_[float(payload[0]), np.asarray(payload[1], dtype=float)], (n, 1))
-    a = np.asarray(payload, dtype=float)
-    if a.shape == (4,):
-        return np.tile(a, (n, 1))
+    expected = "expected a mass (kg), (mass, (x, y, z)) or (N, 4) rows [kg, m, m, m]"
+    if isinstance(payload, (str, bytes)):  # (the command line's text: denavit.io.payload.parse_payload reads it)
+        raise DenavitError(f"payload: {expected}, got the text {payload!r} (parse_payload of denavit.io.payload)")
+    try:
+        if isinstance(payload, (int, float)):
+            a = np.tile([float(payload), 0.0, 0.0, 0.0], (n, 1))
+        elif isinstance(payload, tuple) and len(payload) == 2 and np.ndim(payload[1]) == 1:
+            a = np.tile(np.r_[float(payload[0]), np.asarray(payload[1], dtype=float)], (n, 1))
+        else:
+            a = np.asarray(payload, dtype=float)
+            a = np.tile(a, (n, 1)) if a.shape == (4,) else a
+    except (TypeError, ValueError):
+        raise DenavitError(f"payload: {expected}, got {type(payload).__name__} {str(payload)[:80]!r}") from None
     if a.shape != (n, 4):
+        raise DenavitError(f"payload: {expected}, got shape {a.shape}")
+    bad = np.flatnonzero(~(a[:, 0] >= 0) | ~np.all(np.isfinite(a), axis=1))
+    if bad.size:
         raise DenavitError(
-            f"payload: expected a mass (kg), (mass, (x, y, z)) or (N, 4) rows [kg, m, m, m], got shape {a.shape}"
+            f"payload: row {bad[0]}: expected a mass >= 0 kg and a finite centre of mass, got {a[bad[0]].tolist()}"
         )
     return a
 
