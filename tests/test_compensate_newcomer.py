@@ -178,3 +178,31 @@ def test_a_payload_python_cannot_read_is_one_line():
             as_payload(bad, 3)
         assert "\n" not in str(e.value)
     assert np.array_equal(as_payload((5.0, (0.0, 0.0, 0.08)), 2), [[5.0, 0.0, 0.0, 0.08]] * 2)
+
+
+def test_a_program_is_written_under_its_own_extension(tmp_path):
+    """`-o out.csv` for an ABB module had written RAPID text into a .csv without a word, and a KUKA `-o res.txt` had
+    become res.txt.src + res.txt.dat: the output's name ends as the program's (the controller reads it by its
+    extension), one line naming what came, nothing written; `-o` on the program's own .dat names both files."""
+    import shutil
+
+    data = __import__("pathlib").Path(__file__).parent / "data" / "programs"
+    for prog, out, want in (
+        (data / "abb" / "DemoKR5.mod", tmp_path / "out.csv", "ending in .mod"),
+        (data / "kuka" / "kr5_demo.src", tmp_path / "res.txt", "ending in .src"),
+    ):
+        r = invoke("compensate", "kr5", str(prog), "--identified", "kr5", "-o", str(out))
+        assert r.exit_code == 2 and want in r.output and len(r.output.strip().splitlines()) == 1, r.output
+        assert not list(tmp_path.iterdir())
+    src = tmp_path / "kr5_demo.src"
+    for f in ("kr5_demo.src", "kr5_demo.dat"):
+        shutil.copy(data / "kuka" / f, tmp_path / f)
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    r = invoke("compensate", "kr5", str(src), "--identified", "kr5", "-o", str(tmp_path / "kr5_demo.dat"))
+    assert r.exit_code == 2 and "kr5_demo.dat: would replace" in r.output and "the program read" in r.output, r.output
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+    ok = invoke("compensate", "kr5", str(src), "--identified", "kr5", "-o", str(tmp_path / "out" / "c.src"))
+    assert ok.exit_code == 2  # (a folder that does not exist: its own one line)
+    (tmp_path / "out").mkdir()
+    ok = invoke("compensate", "kr5", str(src), "--identified", "kr5", "-o", str(tmp_path / "out" / "c"))
+    assert ok.exit_code == 0 and sorted(p.name for p in (tmp_path / "out").iterdir()) == ["c.dat", "c.src"], ok.output

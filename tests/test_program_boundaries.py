@@ -13,6 +13,7 @@ from test_programs import _without_positions, perturbed
 import denavit as dv
 from denavit.io import programs as pg
 from denavit.io.programs import abb, fanuc, kuka
+from denavit.io.programs.rotations import matrix_zyx
 from denavit.io.robots import load
 
 # KR5 positions in KUKA's axis senses (deg): A4 exactly 0, A6 exactly 0 (both taught on the boundary, their T bit
@@ -50,7 +51,7 @@ def _krl(tmp_path, r, axes, forms):
     for k, (a, form) in enumerate(zip(axes, forms, strict=True)):
         q = np.radians(a) * sg
         T = dv.fk(fm, q) @ F
-        x = np.concatenate([T[:3, 3] * 1e3, np.degrees(pg.matrix_zyx(T[:3, :3]))])
+        x = np.concatenate([T[:3, 3] * 1e3, np.degrees(matrix_zyx(T[:3, :3]))])
         s, t = kuka.configuration(fm, q, {"signs": sg})
         st = f"S 'B{s:03b}',T 'B{t:06b}'" if form == "binary" else f"S {s},T {t}"
         xyz = ",".join(f"{n} {v:.6f}" for n, v in zip("XYZABC", x, strict=True))

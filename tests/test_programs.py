@@ -14,6 +14,7 @@ from denavit import calibration as cal
 from denavit import compensation as cp
 from denavit.io import programs as pg
 from denavit.io.programs import abb, fanuc, kuka
+from denavit.io.programs.rotations import matrix_zyx, pose_matrix
 from denavit.io.robots import load
 
 DATA = Path(__file__).parent / "data" / "programs"
@@ -466,7 +467,7 @@ def test_krl_inline_positions_and_a_tool_assigned_in_the_src(tmp_path):
     ]
     for k, q in enumerate(qs):
         T = np.linalg.inv(base) @ dv.fk(m, q) @ F @ tool
-        x = np.concatenate([T[:3, 3] * 1e3, np.degrees(pg.matrix_zyx(T[:3, :3]))])
+        x = np.concatenate([T[:3, 3] * 1e3, np.degrees(matrix_zyx(T[:3, :3]))])
         if k == 1:
             a = np.degrees(q * kuka.signs(r))
             lines.append(
@@ -566,8 +567,8 @@ def test_the_python_api_takes_a_program():
 # the file) given as a user frame 500 mm in front of, 200 mm right of and 200 mm above the KR5's base and a 150 mm
 # straight torch, which puts its weld seam in the KR5's workspace.
 FANUC_FRAMES = {
-    ("base", 1): pg.pose_matrix(np.array([0.5, -0.2, 0.2]), np.eye(3)),
-    ("tool", 1): pg.pose_matrix(np.array([0.0, 0.0, 0.15]), np.eye(3)),
+    ("base", 1): pose_matrix(np.array([0.5, -0.2, 0.2]), np.eye(3)),
+    ("tool", 1): pose_matrix(np.array([0.0, 0.0, 0.15]), np.eye(3)),
 }
 FANUC_FLAGS = ["--frame", "base 1=500,-200,200,0,0,0", "--frame", "tool 1=0,0,150,0,0,0"]
 REAL = [

@@ -436,7 +436,10 @@ def _compensate_program(
     import numpy as np  # noqa: PLC0415
 
     from ..api import compensate as compensate_positions  # noqa: PLC0415
+    from ..io.programs import check_output_name  # noqa: PLC0415
 
+    if output:
+        check_output_name(path, fmt, output)  # before the work
     with status(f"compensating the positions of {path} ..."):
         pc = compensate_positions(
             nom_robot, id_robot, path, frames=frames, q0=q0v, branch_tol=branch_tol, payload=payload

@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 
 import denavit as dv
-from denavit.io.programs import abb, fanuc, kuka, matrix_quaternion, matrix_zyx
+from denavit.io.programs import abb, fanuc, kuka
+from denavit.io.programs.rotations import matrix_quaternion, matrix_zyx
 from denavit.io.robots import load
 
 HERE = Path(__file__).parent

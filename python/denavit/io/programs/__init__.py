@@ -275,17 +275,36 @@ def render(program: Program, new_values: dict, configs: dict | None = None) -> l
     return out
 
 
+def check_output_name(path: str | os.PathLike, fmt: str, output: str | os.PathLike) -> None:
+    """Refuse an ``output`` name for the program at ``path`` of format ``fmt`` that does not end as the program's
+    (the controller reads a program by its extension): a single file's own extension; a KUKA pair's .src, .dat or
+    none (its .src there, the .dat beside it). ``-`` (standard output) passes."""
+    given = Path(output).suffix.lower()
+    if str(output) == "-":
+        return
+    if fmt == "kuka":
+        if given not in ("", ".src", ".dat"):
+            raise DenavitError(
+                f"{output}: expected an output name ending in .src (the .dat is written beside it) or without an"
+                f" extension for a KUKA .src / .dat pair, got {given}"
+            )
+        return
+    ext = Path(path).suffix
+    if given != ext.lower():
+        raise DenavitError(
+            f"{output}: expected an output name ending in {ext or 'no extension'} (a compensated {fmt} program, read"
+            f" by its extension on the controller), got {given or 'no extension'}"
+        )
+
+
 def output_paths(program: Program, output: str | os.PathLike) -> list[str]:
-    """Where each of the program's files goes for ``output``: a single-file program there; a KUKA pair at
-    ``output`` (its .src) and beside it with the .dat's suffix."""
+    """Where each of the program's files goes for ``output`` (:func:`check_output_name`): a single-file program
+    there; a KUKA pair at ``output`` (its .src) and beside it with the .dat's suffix."""
+    check_output_name(program.sources[0].path, program.format, output)
     out = Path(output)
     if len(program.sources) == 1:
         return [str(out)]
-    paths = []
-    for src in program.sources:
-        ext = Path(src.path).suffix
-        paths.append(str(out.with_suffix(ext)) if out.suffix.lower() in (".src", ".dat") else str(out) + ext)
-    return paths
+    return [str(out.with_suffix(Path(src.path).suffix)) for src in program.sources]
 
 
 def write_program(
@@ -299,88 +318,13 @@ def write_program(
     for p, src in zip(paths, program.sources, strict=True):
         if Path(p).resolve() == Path(src.path).resolve():
             raise DenavitError(
-                f"{p}: is the program read; write the compensated program to another path (input files are never"
-                " modified)"
+                f"{output}: would replace {src.path}, the program read; write the compensated program to another path"
+                " (input files are never modified)"
             )
     for p, b in zip(paths, data, strict=True):
         with atomic_path(p, force=force) as tmp:
             tmp.write_bytes(b)
     return paths
-
-
-# -- rotations ----------------------------------------------------------------------------------------------
-
-
-def rot(axis: str, a: float) -> np.ndarray:
-    c, s = np.cos(a), np.sin(a)
-    if axis == "x":
-        return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
-    if axis == "y":
-        return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
-    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
-
-
-def zyx_matrix(a: float, b: float, c: float) -> np.ndarray:
-    """``Rz(a) Ry(b) Rx(c)`` (rad): KUKA's A, B, C; FANUC's R, P, W."""
-    return rot("z", a) @ rot("y", b) @ rot("x", c)
-
-
-def matrix_zyx(R: np.ndarray, near=None) -> np.ndarray:
-    """(a, b, c) with ``R = Rz(a) Ry(b) Rx(c)``, of the two solutions (b within +-90 deg, or beyond) the one nearest
-    ``near`` (each angle wrapped to within half a turn of ``near``'s), rad."""
-    b = np.arctan2(-R[2, 0], np.hypot(R[0, 0], R[1, 0]))
-    if abs(np.cos(b)) < 1e-12:  # gimbal lock: c kept (the nearest's, else 0), the rest in a
-        c = 0.0 if near is None else float(near[2])
-        sols = [np.array([_gimbal(R, b, c), b, c])]
-    else:
-        a = np.arctan2(R[1, 0], R[0, 0])
-        c = np.arctan2(R[2, 1], R[2, 2])
-        sols = [np.array([a, b, c]), np.array([a + np.pi, np.pi - b, c + np.pi])]
-    if near is None:
-        return _wrap(sols[0], np.zeros(3))
-    near = np.asarray(near, dtype=float)
-    sols = [_wrap(s, near) for s in sols]
-    return min(sols, key=lambda s: float(np.abs(s - near).sum()))
-
-
-def _gimbal(R, b, c):
-    # R = Rz(a) Ry(+-90) Rx(c): find a by removing Rx(c)
-    M = R @ rot("x", c).T @ rot("y", b).T
-    return float(np.arctan2(M[1, 0], M[0, 0]))
-
-
-def _wrap(v, near):
-    return near + (np.asarray(v) - near + np.pi) % (2 * np.pi) - np.pi
-
-
-def quaternion_matrix(q) -> np.ndarray:
-    """Rotation of a unit quaternion ``(w, x, y, z)`` (ABB's q1..q4), normalised."""
-    w, x, y, z = np.asarray(q, dtype=float) / np.linalg.norm(q)
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
-
-
-def matrix_quaternion(R: np.ndarray, near=None) -> np.ndarray:
-    """``(w, x, y, z)`` of ``R``, the sign nearest ``near``'s."""
-    from ...geometry import matrix_rotvec  # noqa: PLC0415
-
-    v = matrix_rotvec(np.asarray(R)[None])[0]
-    a = np.linalg.norm(v)
-    q = np.array([1.0, 0, 0, 0]) if a < 1e-300 else np.concatenate([[np.cos(a / 2)], np.sin(a / 2) * v / a])
-    if near is not None and float(np.dot(q, near)) < 0:
-        q = -q
-    return q
-
-
-def pose_matrix(p, R) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, :3], T[:3, 3] = R, p
-    return T
 
 
 # -- configurations -----------------------------------------------------------------------------------------

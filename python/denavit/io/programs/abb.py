@@ -60,17 +60,8 @@ import re
 import numpy as np
 
 from ...errors import DenavitError
-from . import (
-    Number,
-    Point,
-    Program,
-    arm,
-    blank_comments,
-    matrix_quaternion,
-    pose_matrix,
-    quaternion_matrix,
-    read_source,
-)
+from . import Number, Point, Program, arm, blank_comments, read_source
+from .rotations import matrix_quaternion, pose_matrix, quaternion_matrix
 
 _NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
 MOVES = re.compile(r"\b((?:EGM)?Move(?:J|L|C|AbsJ)(?:DO|AO|GO|Sync)?)\b", re.IGNORECASE)

@@ -52,7 +52,8 @@ import re
 import numpy as np
 
 from ...errors import DenavitError
-from . import Number, Point, Program, arm, matrix_zyx, pose_matrix, read_source, zyx_matrix
+from . import Number, Point, Program, arm, read_source
+from .rotations import matrix_zyx, pose_matrix, zyx_matrix
 
 CART = ("X", "Y", "Z", "W", "P", "R")
 JOINTS = ("J1", "J2", "J3", "J4", "J5", "J6")

@@ -71,7 +71,8 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import DenavitError
-from . import Number, Point, Program, arm, matrix_zyx, pose_matrix, read_source, rot, zyx_matrix
+from . import Number, Point, Program, arm, read_source
+from .rotations import matrix_zyx, pose_matrix, rot, zyx_matrix
 
 KNOWN = {
     "INT",

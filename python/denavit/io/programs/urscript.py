@@ -31,7 +31,8 @@ import numpy as np
 
 from ...errors import DenavitError
 from ...geometry import matrix_rotvec, rotvec_matrix
-from . import Number, Point, Program, blank_comments, pose_matrix, read_source
+from . import Number, Point, Program, blank_comments, read_source
+from .rotations import pose_matrix
 
 _NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
 _NUM = re.compile(_NUMBER)
