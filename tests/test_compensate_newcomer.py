@@ -206,3 +206,27 @@ def test_a_program_is_written_under_its_own_extension(tmp_path):
     (tmp_path / "out").mkdir()
     ok = invoke("compensate", "kr5", str(src), "--identified", "kr5", "-o", str(tmp_path / "out" / "c"))
     assert ok.exit_code == 0 and sorted(p.name for p in (tmp_path / "out").iterdir()) == ["c.dat", "c.src"], ok.output
+
+
+def test_the_summary_counts_one_row_and_predicts_only_rows_sent(tmp_path):
+    """'over the 1 rows' and a predicted sigma printed for a row that is not sent (unreachable): the summary counts in
+    the singular and lists a flagged row once, with why, not with a prediction."""
+    from denavit import calibration as cal
+
+    kr5 = dv.load_robot("kr5")
+    res = cal.calibrate(cal.simulate(kr5.model(), cal.configurations(kr5, 30), noise=2e-5, seed=1), kr5)
+    robot_file = tmp_path / "cal.toml"
+    dv.save(res, robot_file)
+    q = np.radians([[10, -80, 80, 10, 40, 10], [10, -80, 80, 10, 40, 10]])
+    T = _core.fk_batch(kr5.model(), q)
+    rows = np.hstack([np.degrees(q), T[:, :3, 3] * 1e3, np.degrees(Rotation.from_matrix(T[:, :3, :3]).as_rotvec())])
+    rows[1, 6] += 300.0  # 0.3 m farther out: beyond the arm's reach
+    path = tmp_path / "pos.csv"
+    path.write_text(
+        "# units: length=mm angle=deg\nq1,q2,q3,q4,q5,q6,x,y,z,rx,ry,rz\n"
+        + "".join(",".join(map(str, row)) + "\n" for row in rows)
+    )
+    r = invoke("compensate", "kr5", path, "--identified", robot_file, "-o", tmp_path / "out.csv")
+    assert r.exit_code == 1 and "over the 1 row that can be sent" in r.output, r.output
+    row4 = [line for line in r.output.splitlines() if line.strip().startswith(f"{path}:4")]  # (line 4: the 2nd row)
+    assert len(row4) == 1 and "unreachable" in row4[0], r.output

@@ -251,7 +251,8 @@ def _compensate_positions(
         raise DenavitError(
             f"{prog.where[k]}: the position is {dist[k] / length_scale(prog.units['length']):.6g} "
             f"{prog.units['length']} from the base but {nom_robot.name} reaches about "
-            f"{reach / length_scale(prog.units['length']):.4g} {prog.units['length']} ({len(far)} such rows): "
+            f"{reach / length_scale(prog.units['length']):.4g} {prog.units['length']}"
+            f" ({len(far)} such row{'s' if len(far) != 1 else ''}): "
             "is the file's length unit right?"
         )
     with status(f"compensating {len(poses)} positions ..."):
@@ -357,8 +358,11 @@ def _print_summary(c, prog, nom_robot, id_robot, summary, flagged, before_rms, p
     assumed, the predicted error after, the flagged rows."""
     kinds = list(nom_robot.table.kinds)
     ls = length_scale(length)
+    sent = int(c.ok.sum())
     left_out = (
-        f" (over the {int(c.ok.sum())} rows that can be sent: the {len(flagged)} flagged left out)" if flagged else ""
+        f" (over the {sent} row{'s' if sent != 1 else ''} that can be sent: the {len(flagged)} flagged left out)"
+        if flagged
+        else ""
     )
     gain = (
         f"; error without compensation {spread(before_rms / ls)} {length} RMS, max"
@@ -391,9 +395,10 @@ def _print_summary(c, prog, nom_robot, id_robot, summary, flagged, before_rms, p
             f" (1 sigma, from {id_robot.name}'s covariance): rms {summary['predicted_after_rms_m'] / ls:.4g} {length}, "
             f"max {float(predicted[c.ok].max()) / ls:.4g} {length}" + (" (per row in --json)" if len(c) > 20 else ""),
         )
-        if len(c) <= 20:
-            for w, p in zip(prog.where, predicted, strict=True):
-                console.print(f"  {w}: {p / ls:.4g} {length}")
+        if len(c) <= 20:  # (a flagged row is not sent: its line below says why)
+            for w, p, ok in zip(prog.where, predicted, c.ok, strict=True):
+                if ok:
+                    console.print(f"  {w}: {p / ls:.4g} {length}")
     for w, why in flagged[:20]:
         console.print(f"  {w}: {why}")
     if len(flagged) > 20:
