@@ -54,6 +54,10 @@ class Robot:
     robot file's ``[compliance]``); None: rigid joints."""
     compliance_covariance: np.ndarray | None = None
     """(n, n) SI covariance of :attr:`compliance` (a robot file's ``[compliance] covariance``); None: not carried."""
+    compliance_cross: np.ndarray | None = None
+    """(len(covariance), n) SI covariance of :attr:`covariance`'s entries (rows, in its order) with the compliances
+    (columns), from the calibration that fitted them together (a robot file's ``[compliance] cross_covariance``); None:
+    taken as uncorrelated (a file written before it was carried)."""
     compliance_flange: np.ndarray | None = None
     """(4, 4) the frame a payload's centre of mass is given in (the robot's mechanical flange), in the model's flange
     frame (a robot file's ``[compliance] flange``, written by calibrate --save where its table's last frame is not the

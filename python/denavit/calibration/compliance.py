@@ -319,6 +319,9 @@ class Elastic:
     calibration: object = None
     #: (4, 4) the flange (where a payload's centre of mass is given) in the model's flange frame, or None: the same
     flange: np.ndarray | None = None
+    #: (P, n) the covariance of the robot's geometric parameters (its ``covariance``'s entries) with the compliances,
+    #: or None: uncorrelated (:attr:`denavit.robot.Robot.compliance_cross`)
+    cross: np.ndarray | None = None
 
     def torques(self, q, payload=None) -> np.ndarray:
         return gravity_torques(self.torque_model, q, payload, self.flange)
@@ -361,7 +364,7 @@ class Elastic:
 
 def elastic(identified) -> Elastic | None:
     """The :class:`Elastic` of an identified robot whose joints are compliant (a Robot with a ``[compliance]``, a
-    calibration that freed its compliances), else None."""
+    calibration that freed its compliances, an identification whose joint fit did: its saved robot's), else None."""
     from ..robot import Robot  # noqa: PLC0415
 
     if isinstance(identified, Robot):
@@ -373,13 +376,12 @@ def elastic(identified) -> Elastic | None:
                 f"{identified.name}: joint compliances without the links' inertial parameters: no gravity torques to"
                 " deflect under"
             )
+        m = identified.model()
         return Elastic(
-            k,
-            identified.model(),
-            identified.compliance_covariance,
-            None,
-            identified.compliance_flange,
+            k, m, identified.compliance_covariance, None, _model_flange(identified, m), identified.compliance_cross
         )
+    if isinstance(getattr(identified, "compliance", None), dict) and hasattr(identified, "axis_cov"):
+        return elastic(identified.robot())  # an identification whose joint fit freed them: as its saved robot
     pz = getattr(identified, "parametrization", None)
     if isinstance(pz, CompliantParametrization) and any(
         n.startswith("k_") for n in getattr(identified, "free_names", ())
@@ -388,12 +390,23 @@ def elastic(identified) -> Elastic | None:
     return None
 
 
+def _model_flange(robot, model: _core.Model) -> np.ndarray | None:
+    """A Robot's ``compliance_flange`` (in its table's last frame; None: that frame itself) in its model's flange frame,
+    where :func:`gravity_torques` takes it (None: the same). They differ for a POE table, whose model's flange frame
+    is its home pose ``M``'s (a payload's centre of mass had been taken 0.29 m off on a UR5's)."""
+    z = np.zeros(model.nq)
+    last = np.asarray(robot.table.frames(z))[-1]
+    F = np.eye(4) if robot.compliance_flange is None else np.asarray(robot.compliance_flange, dtype=float)
+    F = np.linalg.inv(np.asarray(_core.joint_frames(model, z))[-1] @ np.asarray(model.T_last_flange)) @ last @ F
+    return None if np.allclose(F, np.eye(4), rtol=0, atol=1e-12) else F
+
+
 def elastic_of(model) -> Elastic | None:
-    """:func:`elastic` of whatever a command scores or compensates with: a calibration or a Robot (a URDF's has no
-    compliances); None for anything else (a Model, an identification)."""
+    """:func:`elastic` of whatever a command scores or compensates with: a calibration, an identification or a Robot
+    (a URDF's has no compliances); None for anything else (a Model)."""
     from ..robot import Robot  # noqa: PLC0415
 
-    if isinstance(model, Robot) or hasattr(model, "parametrization"):
+    if isinstance(model, Robot) or hasattr(model, "parametrization") or hasattr(model, "axis_cov"):
         return elastic(model)
     return None
 

@@ -176,6 +176,9 @@ class Calibration:
         table = self.table(convention)
         carried = self._carried(table)
         comp = _compliance_fields(self, r, table)
+        cov, cross = self._table_covariances(table, "compliance" in comp)
+        if cross is not None and comp.get("compliance_covariance") is not None:
+            comp["compliance_cross"] = cross  # (one covariance of the geometry and the compliances: the file's too)
         lossy = (
             f"; the {table.convention} table carries a tool-position error up to {carried * 1e3:.3g} mm (a tilt of axes"
             " the nominal has parallel, within 3 sigma of zero, dropped)"
@@ -199,7 +202,7 @@ class Calibration:
             reading_scale=(
                 np.array([self.scales.get(f"scale_{j + 1}", 0.0) for j in range(len(r.names))]) if self.scales else None
             ),
-            covariance=self.table_covariance(table),
+            covariance=cov,
             **comp,
         )
 
@@ -223,6 +226,12 @@ class Calibration:
         differences; angles wrapped about ``table``'s). The base registration is left out (it is where the measurement
         frame stands, not the robot's geometry: targets are given in the robot base frame, as ``compensate`` assumes).
         """
+        return self._table_covariances(table)[0]
+
+    def _table_covariances(self, table: _core.Table, compliance: bool = False) -> tuple:
+        """(:meth:`table_covariance`, with ``compliance`` its cross-covariance (P, n) with the joints' compliances
+        (zero rows and columns for those not free; the robot file's ``[compliance] cross_covariance``), else None):
+        the compliances' rows of the same ``J`` select them."""
         pz = self.parametrization
         opts = self._extract_options(table.convention)
         n = len(pz.robot.names)
@@ -239,7 +248,8 @@ class Calibration:
             d = np.asarray(new.params) - p_ref
             d[:, angle_cols] = (d[:, angle_cols] + np.pi) % (2 * np.pi) - np.pi
             sc = [x[i] if i is not None else 0.0 for i in scale_idx] if has_scales else []
-            return np.concatenate([(p_ref + d).ravel(), np.asarray(new.T_last_tool)[:3, 3], sc])
+            k = pz.compliance_of(x) if compliance else []
+            return np.concatenate([(p_ref + d).ravel(), np.asarray(new.T_last_tool)[:3, 3], sc, k])
 
         y0 = converted(self.values)
         J = np.zeros((len(y0), len(keep)))
@@ -249,7 +259,11 @@ class Calibration:
             J[:, c] = (converted(self.values + e) - converted(self.values - e)) / 2e-7
         C = np.asarray(self.covariance)[np.ix_(keep, keep)]
         out = J @ C @ J.T
-        return (out + out.T) / 2 if np.all(np.isfinite(out)) else None  # (None: no [covariance], a fit without one)
+        if not np.all(np.isfinite(out)):
+            return None, None  # (no [covariance]: a fit without one)
+        out = (out + out.T) / 2
+        P = len(y0) - (n if compliance else 0)
+        return out[:P, :P], (out[:P, P:] if compliance else None)
 
 
 def _compliance_fields(cal: Calibration, r: Robot, table) -> dict:

@@ -514,11 +514,13 @@ def _sigmas(cov_source, readings, q, el, meas, max_sigma, sigma_factor, training
     sigma = limit = None
     if cov_source is not None:
         try:
-            sigma = _predicted_sigma(cov_source, readings, q)
-            if el is not None:
-                from ..compensation import compliant_sigma  # noqa: PLC0415
+            from ..compensation import compliant_sigma  # noqa: PLC0415
 
-                sigma = compliant_sigma(el, sigma, readings, meas.payload)
+            if el is not None and isinstance(cov_source, Robot):  # its geometry's and compliances' covariance together
+                sigma = compliant_sigma(el, cov_source, readings, meas.payload)
+            else:
+                sigma = _predicted_sigma(cov_source, readings, q)
+                sigma = sigma if el is None else compliant_sigma(el, sigma, readings, meas.payload)
         except DenavitError as e:
             notes.append(f"no predicted sigma: {e}")
         if sigma is not None:

@@ -11,6 +11,8 @@ A robot file's section (values in the units it declares; ``prismatic_unit`` only
     prismatic_unit = "um/N"      # prismatic joints: m/N, mm/N, um/N
     values = [0, 1.5, 2.2, 4, 5, 5]
     covariance = [[...], ...]    # optional: n x n, in the units' products (written by calibrate --save)
+    cross_covariance = [[...], ...]   # optional (calibrate --save): each [covariance] entry's (rows, in its order)
+                                 # with each compliance (n columns), in the products of their units
     flange = {xyz = [0, 0, 82.3], rpy = [0, 0, 0]}   # optional: where a payload's centre of mass is given, in the
                                  # table's last frame (length / angle units; default that frame)
 """
@@ -72,17 +74,18 @@ def _numbers(value, n: int, where: str) -> list[float]:
 
 
 def read_compliance(
-    spec, kinds: list, names: list, has_inertials: bool, where: str
-) -> tuple[np.ndarray, np.ndarray | None]:
-    """(compliances (n,) SI, covariance (n, n) SI or None) of a robot file's ``[compliance]`` table (module
-    docstring)."""
+    spec, kinds: list, names: list, has_inertials: bool, where: str, geometry=None
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """(compliances (n,) SI, covariance (n, n) SI or None, cross-covariance (P, n) SI or None) of a robot file's
+    ``[compliance]`` table (module docstring). ``geometry``: (the file's ``[covariance]`` (P, P) SI, SI per file unit
+    of each of its P entries), or None without one."""
     if not isinstance(spec, dict):
         raise DenavitError(f"{where}: expected a table with 'unit' and 'values', got {spec!r}"[:200])
-    unknown = [k for k in spec if k not in ("unit", "prismatic_unit", "values", "covariance")]
+    unknown = [k for k in spec if k not in ("unit", "prismatic_unit", "values", "covariance", "cross_covariance")]
     if unknown:
         raise DenavitError(
             f"{where}: unknown key(s) {', '.join(map(repr, unknown))}: expected unit, prismatic_unit, values,"
-            " covariance"
+            " covariance, cross_covariance"
         )
     if not has_inertials:
         raise DenavitError(
@@ -123,7 +126,39 @@ def read_compliance(
             np.abs(np.diag(cov)).max(), 1e-300
         ):
             raise DenavitError(f"{where}: covariance: expected a symmetric positive semi-definite matrix")
-    return raw * scale, cov
+    return raw * scale, cov, _cross(spec.get("cross_covariance"), cov, scale, geometry, where)
+
+
+def _cross(rows, cov, scale: np.ndarray, geometry, where: str) -> np.ndarray | None:
+    """The ``cross_covariance`` (P, n) SI of a ``[compliance]`` table (None: not given): each ``[covariance]`` entry's
+    covariance with each compliance, in the products of their units; the joint matrix positive semi-definite."""
+    if rows is None:
+        return None
+    if geometry is None or cov is None:
+        missing = " and ".join(w for w, v in (("the [covariance]", geometry), ("the covariance", cov)) if v is None)
+        raise DenavitError(
+            f"{where}: cross_covariance: expected it beside the file's [covariance] and this table's covariance (it"
+            f" holds their entries' covariances with each other), got it without {missing}"
+        )
+    C, s = geometry
+    n = len(scale)
+    if not isinstance(rows, list) or len(rows) != len(s):
+        raise DenavitError(
+            f"{where}: cross_covariance: expected {len(s)} rows (one per [covariance] entry) of {n} numbers (one per"
+            f" joint), got {len(rows) if isinstance(rows, list) else rows!r}"
+        )
+    X = np.array([_numbers(r, n, f"{where}: cross_covariance row {i + 1}") for i, r in enumerate(rows)])
+    X = X * np.outer(s, scale)
+    full = np.block([[C, X], [X.T, cov]])
+    d = np.sqrt(np.abs(np.diag(full)))
+    d[d == 0] = 1.0
+    # (as correlations: the entries' units differ by orders of magnitude, m^2 beside (rad/(N m))^2)
+    if np.linalg.eigvalsh((full + full.T) / 2 / np.outer(d, d)).min() < -1e-8:
+        raise DenavitError(
+            f"{where}: cross_covariance: expected the covariance of [covariance]'s entries and the compliances"
+            " together positive semi-definite (a correlation beyond 1)"
+        )
+    return X
 
 
 def compliance_spec(
@@ -132,8 +167,10 @@ def compliance_spec(
     kinds: list,
     unit: str = "urad/(N m)",
     prismatic_unit: str = "um/N",
+    cross=None,
 ) -> dict:
-    """The ``[compliance]`` table of compliances (SI) in ``unit`` / ``prismatic_unit``."""
+    """The ``[compliance]`` table of compliances (SI) in ``unit`` / ``prismatic_unit``; ``cross``: (the cross-covariance
+    (P, n) SI of the ``[covariance]`` entries with them, SI per file unit of each entry), or None."""
     scale = np.array([compliance_unit(unit if k == "revolute" else prismatic_unit, k, "compliance") for k in kinds])
     out: dict = {"unit": unit}
     if "prismatic" in kinds:
@@ -143,6 +180,14 @@ def compliance_spec(
         out["covariance"] = [
             [float(v) for v in row] for row in np.asarray(covariance, dtype=float) / np.outer(scale, scale)
         ]
+    if cross is not None:
+        X, s = cross
+        if np.shape(X) != (len(s), len(kinds)):
+            raise DenavitError(
+                f"compliance_cross: expected shape ({len(s)}, {len(kinds)}) (one row per covariance entry, one column"
+                f" per joint), got {np.shape(X)}"
+            )
+        out["cross_covariance"] = [[float(v) for v in row] for row in np.asarray(X, dtype=float) / np.outer(s, scale)]
     return out
 
 

@@ -32,7 +32,7 @@ Format (see docs/robot-files.md and the built-in files in ``denavit/models``)::
     reference = [90, -90, ...]   # where joint value = reading (angle / length units; default 0)
     [compliance]                 # optional (issue 37; needs [joints.inertia]): joint i sits at q_i - k_i tau_i under
     unit = "urad/(N m)"          # its gravity torque tau_i; revolute joints' unit (prismatic_unit = "um/N" if any)
-    values = [0, 1.5, ...]       # k_i >= 0 (denavit.io.payload); optional covariance = [[...]] in the units' products
+    values = [0, 1.5, ...]       # k_i >= 0 (denavit.io.payload); optional covariance, cross_covariance
     [prior]                      # optional: calibrate's prior widths (--prior's grammar; --prior wins): a kind
     length = "0.5 mm"            # (length, angle, offset, scale, compliance) or a parameter name or pattern =
     a_5 = "2 mm"                 # a width with its unit, or a number in [units] (kinds only; scale a ratio)
@@ -281,18 +281,19 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
     scale, reference = (
         _readings(doc["readings"], kinds, units, f"{where}, [readings]") if "readings" in doc else (None, None)
     )
-    covariance = (
+    covariance, entries = (  # (and SI per file unit of each entry: [compliance] cross_covariance's rows)
         _covariance(doc["covariance"], table, units, f"{where}, [covariance]", scale is not None)
         if "covariance" in doc
-        else None
+        else (None, None)
     )
     # a stray plain key is most likely a typo ("hom" for "home")
     _check_keys({k: v for k, v in doc.items() if not isinstance(v, dict)}, sorted(_TOP_KEYS), f"{where} (top level)")
     inertials = _inertials(joints, table, where)
-    compliance, compliance_cov, compliance_flange = (
-        _compliance(doc["compliance"], kinds, names, inertials is not None, ls, as_, where)
+    geometry = None if covariance is None else (covariance, entries)
+    compliance, compliance_cov, compliance_cross, compliance_flange = (
+        _compliance(doc["compliance"], kinds, names, inertials is not None, ls, as_, where, geometry)
         if "compliance" in doc
-        else (None, None, None)
+        else (None, None, None, None)
     )
     prior = _prior(doc["prior"], units, f"{where}, [prior]") if "prior" in doc else None
     training = _training(doc.get(TRAINING_TABLE), kinds, units, f"{where}, [{TRAINING_TABLE}]")
@@ -315,6 +316,7 @@ def from_dict(doc: dict, where: str = "robot", joint_lines: list[int] | None = N
         reading_reference=reference,
         compliance=compliance,
         compliance_covariance=compliance_cov,
+        compliance_cross=compliance_cross,
         compliance_flange=compliance_flange,
         prior=prior,
     )
@@ -482,14 +484,14 @@ def _inertials(joints: _Joints, table: _core.Table, where: str) -> dict | None:
     return inertials
 
 
-def _compliance(spec, kinds: list[str], names: list[str], inertial: bool, ls: float, as_: float, where: str):
-    """(compliance, its covariance, the flange pose or None) of a ``[compliance]`` table (:mod:`denavit.io.payload`)."""
+def _compliance(spec, kinds: list, names: list, inertial: bool, ls: float, as_: float, where: str, geometry=None):
+    """(compliance, its covariance, its cross-covariance with the ``[covariance]``'s entries, the flange pose or None)
+    of a ``[compliance]`` table (:mod:`denavit.io.payload`; ``geometry``: :func:`~.payload.read_compliance`'s)."""
     flange = None
     if isinstance(spec, dict) and "flange" in spec:
         flange = _pose(spec["flange"], ls, as_, f"{where}, [compliance] flange")
         spec = {k: v for k, v in spec.items() if k != "flange"}
-    compliance, cov = read_compliance(spec, kinds, names, inertial, f"{where}, [compliance]")
-    return compliance, cov, flange
+    return (*read_compliance(spec, kinds, names, inertial, f"{where}, [compliance]", geometry), flange)
 
 
 def _prior(spec, units: dict, where: str) -> str:
@@ -550,7 +552,9 @@ def _covariance_scales(table: _core.Table, length: str, angle: str, scales: bool
     return np.array(cells + [length_scale(length)] * 3 + ([1.0] * n if scales else []))
 
 
-def _covariance(spec, table: _core.Table, units: dict, where: str, scales: bool = False) -> np.ndarray:
+def _covariance(
+    spec, table: _core.Table, units: dict, where: str, scales: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
     if not isinstance(spec, dict):
         raise DenavitError(f"{where}: expected a table with 'matrix', got {spec!r}")
     _check_keys(spec, ["matrix"], where)
@@ -571,7 +575,7 @@ def _covariance(spec, table: _core.Table, units: dict, where: str, scales: bool 
     scale = max(np.abs(np.diag(C)).max(), 1e-300)
     if np.abs(C - C.T).max() > 1e-9 * scale or np.linalg.eigvalsh((C + C.T) / 2).min() < -1e-9 * scale:
         raise DenavitError(f"{where}: matrix: expected a symmetric positive semi-definite covariance")
-    return C
+    return C, s
 
 
 _TERM = re.compile(r"\s*([+-]?)\s*(?:(\d+(?:\.\d*)?(?:[eE][+-]?\d+)?|\.\d+(?:[eE][+-]?\d+)?)\s*\*?\s*)?r(\d+)\s*")
@@ -752,7 +756,10 @@ def to_dict(robot: Robot, length: str = "m", angle: str = "rad") -> dict:
             "matrix": [[float(v) for v in row] for row in np.asarray(robot.covariance) / np.outer(s, s)]
         }
     if robot.compliance is not None:
-        doc["compliance"] = compliance_spec(robot.compliance, robot.compliance_covariance, list(t.kinds))
+        cross = None
+        if robot.compliance_cross is not None and robot.covariance is not None:
+            cross = (robot.compliance_cross, _covariance_scales(t, length, angle, robot.reading_scale is not None))
+        doc["compliance"] = compliance_spec(robot.compliance, robot.compliance_covariance, list(t.kinds), cross=cross)
         if robot.compliance_flange is not None:
             doc["compliance"]["flange"] = _pose_spec(np.asarray(robot.compliance_flange), ls, as_)
     if robot.prior:
