@@ -155,7 +155,8 @@ def in_convention(robot, reference):
     reference = _core.Table(r.convention, r.params, r.kinds, m.T_world_base, r.T_last_tool)
     table = _core.extract(_core.axes(m, np.zeros(m.nq)), reference.convention, nominal=reference).table
     cov = None if robot.covariance is None else converted_covariance(robot, table, nominal=reference)
-    return dataclasses.replace(robot, table=table, covariance=cov)
+    # (the compliances' cross-covariance is with the old table's entries: not carried, as a file without it)
+    return dataclasses.replace(robot, table=table, covariance=cov, compliance_cross=None)
 
 
 def add_model(registry: Registry, robot_id: str, model: str | os.PathLike, family: str | None = None) -> tuple:
