@@ -43,7 +43,7 @@ the comparison, and takes the simpler one where the data cannot tell them apart.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -103,6 +103,8 @@ class Candidate:
     dof: float
     sol: object = field(default=None, repr=False)
     at_bound: dict = field(default_factory=dict)
+    #: the compliances the data do not determine beside its geometric part (``identifiability.Unidentifiable``)
+    unidentifiable: tuple = ()
 
     @property
     def mse(self) -> float:
@@ -349,6 +351,7 @@ def select_model(
     x_full,
     sol_full,
     compliance: list = (),
+    bounds=None,
     progress=None,
 ) -> ModelChoice:
     """Fit the candidate models (``model="auto"``) or the one asked for, score each by its leave-one-pose-out
@@ -359,7 +362,9 @@ def select_model(
     ``sol_full``: the least-squares fit of ``kept``; ``s2``: the noise variance in the whitened units (1 when
     known), which weighs the priors against the data; ``compliance``: the joint compliances the data may show
     (indices; :mod:`~denavit.calibration.compliance`): with them ``auto`` fits the ``+compliance`` family too
-    (:func:`choose_families`); ``progress``: called as ``progress(name, k, count)`` before candidate ``k`` of
+    (:func:`choose_families`); ``bounds``: the plausible sizes of the parameters' errors (SI;
+    :func:`~denavit.calibration.identifiability.plausible_sigmas`): a parameter the data give a larger sigma in a
+    candidate is not freed there; ``progress``: called as ``progress(name, k, count)`` before candidate ``k`` of
     ``count`` is fitted.
     """
     if model not in MODELS:
@@ -376,7 +381,9 @@ def select_model(
     if "offsets" in want or f"offsets{COMPLIANCE}" in want:
         offs = [c for c in candidates if pz.names[c].startswith("offset_")]
         offsets_kept = (
-            analyze(pz, x_reg, train, list(reg_kept) + offs, w, explain=False).kept_idx if offs else list(reg_kept)
+            analyze(pz, x_reg, train, list(reg_kept) + offs, w, explain=False, bounds=bounds, s2=s2).kept_idx
+            if offs
+            else list(reg_kept)
         )
     sets = candidate_sets(pz, kept, reg_kept, offsets_kept, prior is not None)
     if model == "auto" and set(sets["offsets"]) == set(sets["base-tool"]):
@@ -389,7 +396,7 @@ def select_model(
         if progress is not None:
             progress(name, k, len(want))
         if name.endswith(COMPLIANCE):
-            c = _fit_compliant(name, pz, train, w, sets, fitted, compliance, x_reg, x_full, sigma, s2)
+            c = _fit_compliant(name, pz, train, w, sets, fitted, compliance, x_reg, x_full, sigma, s2, bounds)
             if c is not None:
                 out.append(c)
             elif model != "auto":
@@ -448,6 +455,7 @@ def _fit_compliant(
     x_full,
     sigma,
     s2: float,
+    bounds=None,
 ) -> Candidate | None:
     """A ``+compliance`` candidate: its geometric part's free parameters with the compliances the data identify beside
     them, from its geometric fit (compliances at their nominal), with the
@@ -461,6 +469,7 @@ def _fit_compliant(
     )  # (what the geometric fit's prior held is judged again: with the compliances the data may determine it)
     x0 = np.array(geo.x if geo is not None else (x_full if base.startswith("full") else x_reg))
     x0[list(compliance)] = pz.x0[list(compliance)]
-    kept = analyze(pz, x0, train, free + list(compliance), w, explain=False).kept_idx
-    comp = [c for c in kept if c in set(compliance)]
-    return _fit(name, pz, train, w, free + comp, x0, sigma if base == "full-prior" else None, s2)
+    ana = analyze(pz, x0, train, free + list(compliance), w, bounds=bounds, s2=s2)
+    comp = [c for c in ana.kept_idx if c in set(compliance)]
+    fit = _fit(name, pz, train, w, free + comp, x0, sigma if base == "full-prior" else None, s2)
+    return replace(fit, unidentifiable=tuple(u for u in ana.unidentifiable if pz.index(u.name) in set(compliance)))

@@ -17,7 +17,7 @@ from ..progress import Stage
 from ..robot import Robot, robot_of
 from ..sweeps import SweepSet
 from .compliance import with_compliance, with_payload
-from .identifiability import Identifiability, analyze, parameter_status
+from .identifiability import analyze, parameter_status, plausible_sigmas
 from .least_squares import covariance, fit_parameters, prior_block, residuals, weights
 from .measurements import Measurements
 from .parametrization import (
@@ -186,6 +186,7 @@ class _Run:
         pz, comp_notes = with_compliance(pz, meas, robot, compliance)  # k_i free in the +compliance candidates only
         self.notes += comp_notes
         self.meas, self.pz = meas, pz
+        self.bounds = plausible_sigmas(pz)  # a parameter the data give a larger sigma is not determined by them
         self.x, self.user_fixed, self.candidates, self.comp = _free_candidates(pz, fix)
         # weights (1/sigma); pose data without declared noise: re-estimated after a first fit
         self.sig_p = noise if noise is not None else ref if ref is not None else 1e-5
@@ -211,22 +212,46 @@ class _Run:
 
     def identifiability(self) -> None:
         """Structural (configurations over the joint limits) and of these data."""
-        self.structural, self.ana = _identifiability(
-            self.pz, self.robot, self.x_reg, self.meas, self.train, self.candidates, self.w
+        self.struct, self.structural, self.ana, self.hint = _identifiability(
+            self.pz, self.robot, self.x_reg, self.meas, self.train, self.candidates, self.w, self.bounds
         )
 
     def fit(self, start: str, convention: str) -> None:
-        """The least-squares fit of every identifiable parameter from the start asked."""
+        """The least-squares fit of every identifiable parameter from the start asked; then, with the noise the fit
+        estimates, the parameters it leaves beyond their plausible size are dropped too (the analysis at the fit,
+        where the measured point is) and the fit repeated without them."""
         self.x_start = self.x_reg.copy()
         if start == "circles":
             self.x_start = _circle_start(
                 self.pz, self.x_reg, self.meas, self.robot, convention, self.ana.kept_idx, self.notes
             )
-        self.x_hat, self.sol, r, self.w, self.sig_p = _first_fit(
-            self.pz, self.x_start, self.ana.kept_idx, self.train, self.w, self.noise, self.noise_rot, self.sig_p
-        )
-        # weighs the priors against the data
-        self.s2_full = 1.0 if self.known else float(np.sum(r**2)) / max(len(r) - len(self.ana.kept_idx), 1)
+        for _ in range(3):
+            kept = self.ana.kept_idx
+            self.x_hat, self.sol, r, self.w, self.sig_p = _first_fit(
+                self.pz, self.x_start, kept, self.train, self.w, self.noise, self.noise_rot, self.sig_p
+            )
+            # weighs the priors against the data
+            self.s2_full = 1.0 if self.known else float(np.sum(r**2)) / max(len(r) - len(kept), 1)
+            self.explains = _explains(self.pz, self.x_hat, self.train)
+            if not self.explains:  # the residuals are no noise estimate: no sigma is judged by them
+                break
+            again = analyze(
+                self.pz,
+                self.x_hat,
+                self.train,
+                kept,
+                self.w,
+                self.struct,
+                self.hint,
+                bounds=self.bounds,
+                s2=self.s2_full,
+            )
+            if again.rank == len(kept):
+                break
+            # what the first analysis dropped stays dropped (with its reasons); the fit restarts without the rest
+            self.ana = replace(
+                again, candidates=self.ana.candidates, unidentifiable=[*self.ana.unidentifiable, *again.unidentifiable]
+            )
 
     def choose(self, model: str, prior_spec, report) -> None:
         """What is free: the candidate models scored by leave-one-pose-out prediction (selection.py); ``report``
@@ -246,6 +271,7 @@ class _Run:
             x_full=self.x_hat,
             sol_full=self.sol,
             compliance=self.comp,
+            bounds=self.bounds if self.explains else None,
             progress=lambda name, k, count: report(f"model {name} ({k + 1} of {count})", 0.35 + 0.55 * k / count),
         )
 
@@ -263,6 +289,8 @@ class _Run:
             corr = cov / np.outer(sd, sd)
         sigma = np.full(pz.n_params, np.nan)
         sigma[free] = sd
+        if won.unidentifiable:  # compliances the data do not determine beside the chosen geometry: reported as such
+            self.ana = replace(self.ana, unidentifiable=[*self.ana.unidentifiable, *won.unidentifiable])
         status = parameter_status(
             pz,
             free,
@@ -397,9 +425,11 @@ def _holdout_split(meas: Measurements, holdout: float, seed: int, n_candidates: 
     return meas, np.zeros(0, dtype=int)
 
 
-def _identifiability(pz, robot, x_reg, meas, train, candidates, w) -> tuple[set, Identifiability]:
-    """(the structurally unidentifiable parameters' names, the analysis of the training data), with one-line errors
-    when the data are too few or a joint never moves where that leaves parameters undetermined."""
+def _identifiability(pz, robot, x_reg, meas, train, candidates, w, bounds) -> tuple:
+    """(the structural analysis, the structurally unidentifiable parameters' names, the analysis of the training data
+    (``bounds``: the plausible sizes of the parameters' errors, the noise as ``w`` declares it), the hint on joints
+    that never move), with one-line errors when the data are too few or a joint never moves where that leaves
+    parameters undetermined."""
     n = len(robot.names)
     rich = Measurements(
         configurations(robot, max(2 * pz.n_params, 60)),
@@ -413,8 +443,8 @@ def _identifiability(pz, robot, x_reg, meas, train, candidates, w) -> tuple[set,
     structural = {u.name for u in struct.unidentifiable}
     still = [j for j in range(n) if np.ptp(train.q[:, j]) < 1e-9]
     hint = "".join(f"; joint {j + 1} ({robot.names[j]}) never moves in the data" for j in still)
-    ana = analyze(pz, x_reg, train, candidates, w, struct, hint)
-    data_only = [u.name for u in ana.unidentifiable if not u.structural]
+    ana = analyze(pz, x_reg, train, candidates, w, struct, hint, bounds=bounds)
+    data_only = [u.name for u in ana.unidentifiable if not u.structural and u.sigma is None]
     n_eq = train.n * (6 if pz.measure == "pose" else 3)
     if n_eq <= struct.rank:
         per = 6 if pz.measure == "pose" else 3
@@ -434,7 +464,7 @@ def _identifiability(pz, robot, x_reg, meas, train, candidates, w) -> tuple[set,
             " redundant in any case); move the joint(s), or hold these fixed:"
             f" fix={[u.name for u in ana.unidentifiable]}"
         )
-    return structural, ana
+    return struct, structural, ana, hint
 
 
 def _first_fit(pz, x_start, free, train, w, noise, noise_rot, sig_p):
@@ -522,11 +552,28 @@ def _held_out(pz, meas, train, test_idx, x_reg, x_hat) -> Validation | None:
     )
 
 
+#: A fit whose tool-position misfit (rms) exceeds this fraction of the measured volume's radius explains little of the
+#: data (a note says so; its residuals are then no estimate of the noise).
+EXPLAINS = 0.01
+
+
+def _volume(meas: Measurements) -> float:
+    """The measured volume's radius (m): the farthest measured point from their centroid (at least 1 mm)."""
+    return max(float(np.max(np.linalg.norm(meas.points - meas.points.mean(axis=0), axis=1))), 1e-3)
+
+
+def _explains(pz: Parametrization, x, meas: Measurements) -> bool:
+    """Whether the model at ``x`` explains ``meas``: its tool-position misfit within :data:`EXPLAINS` of the volume."""
+    pred = residuals(pz, x, meas, np.ones(6), jacobian=False)[2][:, :3, 3]
+    rms = float(np.sqrt(np.mean(np.sum((pred - meas.points) ** 2, axis=1))))
+    return rms <= EXPLAINS * _volume(meas)
+
+
 def _fit_notes(notes, pz, meas, x_hat, free, corr, rms, noise, won, converged, sol, outliers) -> None:
     """What the user should know about the fit, added to ``notes``: a misfit far beyond the volume or the declared
     noise first, then parameters held by their prior, the solver, divergence, correlations and outliers."""
-    size = max(float(np.max(np.linalg.norm(meas.points - meas.points.mean(axis=0), axis=1))), 1e-3)
-    if rms > 0.01 * size:
+    size = _volume(meas)
+    if rms > EXPLAINS * size:
         notes.insert(
             0,
             f"the fit explains little of the data: rms {rms * 1e3:.4g} mm against a measured volume of {size * 1e3:.4g}"

@@ -263,6 +263,11 @@ def _box_json(b: BoundingBox) -> dict:
     }
 
 
+def _json_unit(unit: str) -> str:
+    """A calibration parameter's unit as its JSON row names it: m, rad, 1, or a compliance's own."""
+    return {"length": "m", "angle": "rad", "ratio": "1"}.get(unit, unit)
+
+
 def _calibration_json(cal: Calibration) -> dict:
     """The JSON document of a calibration, in SI with the unit in every scalar key's name (docs/cli.md,
     "--json"); a parameter row's ``unit`` (m, rad or 1) is that of its ``nominal``, ``value`` and ``sigma``."""
@@ -272,7 +277,7 @@ def _calibration_json(cal: Calibration) -> dict:
         rows.append(
             {
                 "name": nm,
-                "unit": {"length": "m", "angle": "rad", "ratio": "1"}.get(pz.units[c], pz.units[c]),
+                "unit": _json_unit(pz.units[c]),
                 "nominal": float(cal.nominal[c]),
                 "value": float(cal.values[c]),
                 "sigma": None if not np.isfinite(cal.sigma[c]) else float(cal.sigma[c]),
@@ -304,7 +309,15 @@ def _calibration_json(cal: Calibration) -> dict:
             "condition_number": ana.condition_number,
             "observability": ana.observability,
             "unidentifiable": [
-                {"name": u.name, "structural": u.structural, "reason": u.reason, "combination": u.combination}
+                {
+                    "name": u.name,
+                    "structural": u.structural,
+                    "reason": u.reason,
+                    "combination": u.combination,
+                    # the sigma the data would give it (beyond the plausible size of its error), in its row's unit
+                    "unit": _json_unit(pz.units[pz.index(u.name)]),
+                    "sigma": u.sigma,
+                }
                 for u in ana.unidentifiable
             ],
         },
