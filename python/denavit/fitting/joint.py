@@ -665,9 +665,9 @@ class _JointFit:
         if self.rot:
             dg = max(dg, abs(new_wr - wr) / wr)
         df = 0.0 if f_next is None else math.inf if f is None else abs(f_next - f) / f
-        moved = max(dg / GAMMA_TOL, df / SCALE_TOL) if it < 100 else 0.0
-        gross = it < 100 and max(dg, df) > 0.1
-        return sigma2, new_gam, new_wr, f_next, moved, gross
+        if it >= 100:  # frozen: the fit settles on the weights it has (a slow fixed point had crept on to pass 300)
+            return sigma2, gam, wr, f, 0.0, False
+        return sigma2, new_gam, new_wr, f_next, max(dg / GAMMA_TOL, df / SCALE_TOL), max(dg, df) > 0.1
 
     def solve(self):
         """Levenberg-Marquardt steps on the whitened, robustly weighted cost, one pass over the points per step; the
@@ -709,7 +709,7 @@ class _JointFit:
             if (settled and moved <= 1) or lam > 1e8:
                 break
             if accepted or settled:
-                self.gam, self.f, fresh = new_gam, self.f_next, True
+                self.gam, self.wr, self.f, fresh = new_gam, new_wr, self.f_next, True
         else:
             raise NotConvergedError(
                 f"{self.where}: global fit: no convergence in 300 steps "

@@ -65,7 +65,7 @@ def identify(
 
     method : "auto" (chosen by the evidence, with a note saying which and why: without readings "geometric";
         with readings the joint fit with one home point ("global") or one per sweep ("readings": the home
-        drifted, and the drift is added to the sigmas) by the BIC of the two on the same weights, or the
+        drifted, and the drift is added to the sigmas) by the BIC in its Wald form (:func:`_drift_wald`), or the
         "geometric" circles when the readings are worth nothing against the points; then the readings' scale
         errors, fitted as one population only when the evidence shows them: :func:`_reading_scales`), "kasa" (the
         paper's eq. 1-9), "hyper" (Al-Sharadqah & Chernov 2009), "geometric" (orthogonal distance),
