@@ -212,8 +212,17 @@ class _Run:
 
     def identifiability(self) -> None:
         """Structural (configurations over the joint limits) and of these data."""
+        # the sigmas are judged against the plausible sizes here only with the noise declared (an assumed 10 um would
+        # drop what a finer instrument determines); else at the fit, with the noise its residuals give (fit)
         self.struct, self.structural, self.ana, self.hint = _identifiability(
-            self.pz, self.robot, self.x_reg, self.meas, self.train, self.candidates, self.w, self.bounds
+            self.pz,
+            self.robot,
+            self.x_reg,
+            self.meas,
+            self.train,
+            self.candidates,
+            self.w,
+            self.bounds if self.known else None,
         )
 
     def fit(self, start: str, convention: str) -> None:
@@ -427,8 +436,8 @@ def _holdout_split(meas: Measurements, holdout: float, seed: int, n_candidates: 
 
 def _identifiability(pz, robot, x_reg, meas, train, candidates, w, bounds) -> tuple:
     """(the structural analysis, the structurally unidentifiable parameters' names, the analysis of the training data
-    (``bounds``: the plausible sizes of the parameters' errors, the noise as ``w`` declares it), the hint on joints
-    that never move), with one-line errors when the data are too few or a joint never moves where that leaves
+    (``bounds``: the plausible sizes of the parameters' errors, the noise as ``w`` declares it; or None), the hint on
+    joints that never move), with one-line errors when the data are too few or a joint never moves where that leaves
     parameters undetermined."""
     n = len(robot.names)
     rich = Measurements(
