@@ -45,9 +45,9 @@ class Compensation:
     readings differ from the nominal's, by its reading scales or coupling); ``reached``, ``branch_changed``,
     ``path_jump`` flags (never silently kept: a row with a flag is not a valid command); ``residual`` (N,) position
     residual of the identified solve (m); ``before`` (N,) the position error the robot makes without compensation (m);
-    ``predicted_after`` (N,) the predicted position error after it (1 sigma, m) when a result with a covariance was
-    given, else None; ``notes`` what the compensation assumed (e.g. the flange compensated when only the identified
-    robot has a tool).
+    ``predicted_after`` (N,) the predicted position error after it (1 sigma, m; at the flange with ``flange``, its
+    position along the last axis left out) when a result with a covariance was given, else None; ``notes`` what the
+    compensation assumed (e.g. the flange compensated when only the identified robot has a tool).
 
     With a prediction, over the ``ok`` rows: ``predicted_rms`` (m) and ``predicted_dof``, the effective degrees of
     freedom of the RMS's spread (every row's error comes from one error of the parameters: a generalised chi-square,
@@ -73,6 +73,8 @@ class Compensation:
     solution nearest ``q0``), and ``branch_changed`` compares with it; the others' ``q_nominal`` is the program's."""
     predicted_rms: float | None = None
     predicted_dof: float | None = None
+    flange: bool = False
+    """The flange compensated, and ``predicted_after`` there (an identified robot measured at one point: ``notes``)."""
 
     def __post_init__(self):
         if self.q_command is None:
@@ -184,8 +186,9 @@ def compensate(
     path : bool
         The positions form a path: nominal solutions are warm-started along it (from ``q0``) and jumps are flagged.
     result : Identification or Calibration, optional
-        Gives ``predicted_after`` (:func:`predicted_sigma` at the compensated joint values); default ``identified``
-        itself when it is one, or its ``covariance`` when it is a Robot that has one (:func:`table_sigma`).
+        Gives ``predicted_after`` (:func:`predicted_sigma` at the compensated joint values, at the flange when that is
+        compensated); default ``identified`` itself when it is one, or its ``covariance`` when it is a Robot that has
+        one (:func:`table_sigma`).
     predict : bool
         False: no ``predicted_after`` (its central differences cost more than the solves).
     branch_tol : float
@@ -204,7 +207,7 @@ def compensate(
         Options of the IK solves (``method``, ``tol_position``, ``tol_rotation``, ``restarts``, ...).
     """
     nom, ide = _model(nominal, "nominal"), _model(identified, "identified")
-    ide, notes = _flange(nominal, nom, identified, ide, registration)
+    ide, notes, place = _flange(nominal, nom, identified, ide, registration)
     T = np.asarray(positions, dtype=float)
     if T.ndim == 2:
         T = T[None]
@@ -219,7 +222,7 @@ def compensate(
     el = elastic(identified)
     pl = None if el is None else as_payload(payload, len(T))
     qc = q if el is None else el.command(q, pl)
-    prop = _predicted(identified, result, q, el, qc, pl, registration) if predict else None
+    prop = _predicted(identified, result, q, el, qc, pl, registration, place, ide) if predict else None
     predicted = None if prop is None else _sigma(*prop)
     ok = r.reached & ~unreachable & ~r.branch_changed & ~r.path_jump
     rms_dof = (None, None) if prop is None else _rms_dof(prop[0][ok], prop[1])
@@ -231,6 +234,15 @@ def compensate(
     through = _through_readings(nominal, identified, nom, ide, T, r.q_nominal, qc, el, pl)
     if through is not None:
         q_cmd, commands, before, before_rot = through
+    if place is not None:  # what no measurement of one point tells; its scale: the robot's error before
+        notes.append(
+            "the flange's position along the last axis is the nominal's, not measured: one measured point cannot tell"
+            " it from the tool's length, so a constant error along the flange's z is in neither the compensation nor"
+            " the prediction, as large as the robot's errors before compensation can be"
+            f" ({np.sqrt(np.mean(before[ok] ** 2)) * 1e3 if ok.any() else np.nan:.3g} mm RMS here; its centring on the"
+            " axis is the nominal's too); only where the point sits on the flange tells it (a nest of known height:"
+            " give the nominal that tool, compensate its poses)"
+        )
     if el is None and payload is not None:
         notes.append(
             f"the payload changes nothing: {getattr(identified, 'name', 'the identified robot')} has no joint"
@@ -260,6 +272,7 @@ def compensate(
         tuple(notes),
         assumed,
         *rms_dof,
+        place is not None,
     )
 
 
@@ -294,20 +307,21 @@ def _configurations(nom: _core.Model, T: np.ndarray, q_nominal, q0: np.ndarray, 
     return q_nominal, assumed, unreachable
 
 
-def _predicted(identified, result, q: np.ndarray, el, qc: np.ndarray, pl, registration: bool):
+def _predicted(identified, result, q: np.ndarray, el, qc: np.ndarray, pl, registration: bool, place=None, ide=None):
     """(J (N, 3, P), C (P, P)) of ``predicted_after`` (:func:`_propagation`) at the compensated joint values ``q``
     (from ``result``, else from ``identified``'s own covariance), with the compliances' at the commands ``qc`` when the
-    joints are compliant; None without a covariance."""
+    joints are compliant; None without a covariance. At the compensated point: the flange of ``place`` (a model of the
+    robot turned into the one compensated, :func:`_flange`) when it is given, ``ide`` that model."""
     prop = None
     if result is not None:
-        prop = _propagation(result, q, registration)
+        prop = _propagation(result, q, registration, place)
     elif hasattr(identified, "axis_cov") or hasattr(identified, "parametrization"):
-        prop = _propagation(identified, q, registration)  # an identification or a calibration: its own covariance
+        prop = _propagation(identified, q, registration, place)  # an identification or a calibration: its own
     elif isinstance(identified, Robot) and identified.covariance is not None:
-        prop = _table_propagation(identified, q, registration)  # e.g. a robot file's [covariance]
+        prop = _table_propagation(identified, q, registration, place)  # e.g. a robot file's [covariance]
     if el is not None:
         el = el if result is None else replace(el, cross=None)  # (its cross-covariance is with its own covariance)
-        prop = _compliant_propagation(el, prop, qc, pl, registration)
+        prop = _compliant_propagation(el, prop, qc, pl, registration, place, None if place is None else ide)
     return prop
 
 
@@ -419,53 +433,57 @@ def _is_identity(T) -> bool:
     return bool(np.allclose(np.asarray(T, dtype=float), np.eye(4), rtol=0.0, atol=1e-12))
 
 
-def _flange(nominal, nom: _core.Model, identified, ide: _core.Model, registration=False) -> tuple[_core.Model, list]:
-    """The identified model compensate uses (:func:`flange_model`) and the notes that say so (none: as it is). Unless
-    ``registration``, a model whose base is farther from the nominal's than :data:`BASE_FRACTION` of the robot's size
-    or :data:`BASE_ANGLE` stands where the nominal stands: its base is where a tracker in a frame of its own saw the
-    robot (a calibration's registration), and positions are in the robot base frame. Nearer, the measurement frame
-    is the robot base frame (a tracker registered to it): the base's small error is the robot's and is kept."""
-    notes = []
+def _flange(nominal, nom: _core.Model, identified, ide: _core.Model, registration=False):
+    """(the identified model compensate uses (:func:`flange_model`), the notes that say so, ``place``: what turns any
+    model of the identified robot into it, or None: as it is). Unless ``registration``, a model whose base is farther
+    from the nominal's than :data:`BASE_FRACTION` of the robot's size or :data:`BASE_ANGLE` stands where the nominal
+    stands: its base is where a tracker in a frame of its own saw the robot (a calibration's registration), and
+    positions are in the robot base frame. Nearer, the measurement frame is the robot base frame (a tracker registered
+    to it): the base's small error is the robot's and is kept."""
+    notes, orig, base = [], ide, None
     d = np.asarray(ide.T_world_base) @ np.linalg.inv(np.asarray(nom.T_world_base))
     far = np.linalg.norm(d[:3, 3]) > BASE_FRACTION * robot_size(nom, np.zeros(nom.nq))
     if not registration and (far or _angle(d[None, :3, :3])[0] > BASE_ANGLE):
-        ide = ide.with_base(nom.T_world_base)
+        ide, base = ide.with_base(nom.T_world_base), np.asarray(nom.T_world_base)
         notes.append(
             f"the identified robot's base (where it was measured: {np.linalg.norm(d[:3, 3]) * 1e3:.4g} mm,"
             f" {np.degrees(_angle(d[None, :3, :3])[0]):.3g} deg from the nominal's) taken as the nominal's: the"
             " positions are in the robot base frame (positions in the measurement frame: registration=True, in Python)"
         )
     if not np.allclose(np.asarray(nom.T_flange_tool)[:3, 3], 0.0, rtol=0.0, atol=1e-12):
-        return ide, notes  # a tool with an offset: the positions are its poses, the identified robot's tool is one
+        return ide, notes, None  # a tool with an offset: the positions are its poses, the identified robot's tool one
     # (a tool that is a pure rotation is the flange frame the model names its own, REP-199's tool0: the kr210's half
     # turn about its DH frame 6's z; the identified robot's flange is then placed as that frame is, below)
     home = getattr(nominal, "home", None)
     # its tool as the nominal's flange sees it (a POE table has no flange of its own: its home pose M is its tool)
     try:
-        canon = canonical_tool(nom, ide, home) @ np.linalg.inv(canonical_tool(nom, nom, home))
+        nom_tool = canonical_tool(nom, nom, home)
+        canon = canonical_tool(nom, ide, home) @ np.linalg.inv(nom_tool)
     except DenavitError:
         if getattr(identified, "convention", None) == "poe":
             raise
-        return ide, notes
+        return ide, notes, None
     off = canon[:3, 3]
     if np.linalg.norm(off) <= TOOL_FRACTION * robot_size(nom, np.zeros(nom.nq)):
-        return ide, notes
+        return ide, notes, None
     # identify's tool is the point it measured (a reflector on the flange), not the controller's tool: with a nominal
-    # that has none, the positions and the commands are the flange's, and so is the identified robot. Its flange is
-    # placed on its last body as the nominal's is on the nominal's (canonical_tool): where a table puts its last frame
-    # along the last axis (the split of d6 and the tool's z, which no measurement of one point tells apart) is each
-    # convention's own, and a file saved in another convention would compensate another flange
-    at = "the identified tool point (its covariance is of that point, as the result's own)"
-    return (
-        ide.with_tool(np.asarray(ide.T_flange_tool) @ np.linalg.inv(canon)),
-        notes
-        + [
-            f"the nominal {getattr(nominal, 'name', 'model')} has no tool and the identified robot has one"
-            f" ({np.linalg.norm(off) * 1e3:.4g} mm from the flange: the point it was measured at): the flange"
-            " compensated (the identified flange placed on its last body as the nominal's is), the prediction after it"
-            f" at {at}; give the nominal a tool to compensate tool poses"
-        ],
+    # that has none, the flange is compensated, placed on its last body as the nominal's is (canonical_tool: where a
+    # table puts its last frame along the last axis, the split of d6 and the tool's z that no measurement of one point
+    # tells apart, is each convention's own, and a file saved in another would compensate another flange)
+
+    def place(m: _core.Model) -> _core.Model:
+        m = m if base is None else m.with_base(base)
+        return m.with_tool(np.asarray(m.T_flange_tool) @ nom_tool @ np.linalg.inv(canonical_tool(nom, m, home)))
+
+    ide = place(orig)
+    notes.append(
+        f"the nominal {getattr(nominal, 'name', 'model')} has no tool and the identified robot has one"
+        f" ({np.linalg.norm(off) * 1e3:.4g} mm from the flange: the point it was measured at): the flange compensated"
+        " (the identified flange placed on its last body as the nominal's is), the prediction after it at the flange"
+        " (the measured point's error and its orientation's over that lever); give the nominal a tool to compensate"
+        " tool poses"
     )
+    return ide, notes, place
 
 
 def flange_model(nominal, identified) -> _core.Model:
@@ -512,26 +530,6 @@ def canonical_tool(nom: _core.Model, ide: _core.Model, home=None) -> np.ndarray:
     return np.asarray(ex.table.to_model().T_flange_tool)
 
 
-def _without_tool(robot: Robot, tool_flange=None) -> Robot:
-    """``robot`` with its tool taken off (the flange its tool frame); its covariance (if any) without the tool's
-    translation (its rows and columns zero: the flange's position does not depend on it). A POE robot (its tool
-    the home pose ``M``, the flange's) gets ``M @ tool_flange`` instead (the flange in its tool frame) and keeps
-    its covariance (``M``'s translation moves the flange as much)."""
-    t = robot.table
-    if tool_flange is not None:
-        return replace(
-            robot,
-            table=_core.Table(t.convention, t.params, t.kinds, t.T_world_base, np.asarray(t.T_last_tool) @ tool_flange),
-        )
-    C = robot.covariance
-    if C is not None:
-        C = np.array(C, dtype=float)
-        k = np.asarray(t.params).size
-        C[k : k + 3, :] = 0.0
-        C[:, k : k + 3] = 0.0
-    return replace(robot, table=_core.Table(t.convention, t.params, t.kinds, t.T_world_base, np.eye(4)), covariance=C)
-
-
 def _same_readings(a, b) -> bool:
     """Two reading models map readings to joint values alike."""
 
@@ -569,18 +567,36 @@ def predicted_sigma(result, q, *, registration: bool = False) -> np.ndarray:
     return _sigma(*_propagation(result, q, registration))
 
 
-def _propagation(result, q, registration: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """(J (N, 3, P), C (P, P)) of :func:`predicted_sigma`: the tool point's derivatives at ``q`` and the covariance of
-    the P parameters they are taken in."""
+def _propagation(result, q, registration: bool = False, place=None) -> tuple[np.ndarray, np.ndarray]:
+    """(J (N, 3, P), C (P, P)) of :func:`predicted_sigma`: the tool point's derivatives at ``q`` (of ``place(model)``
+    with ``place``: the flange compensated, :func:`_flange`) and the covariance of the P parameters they are in."""
     q = np.atleast_2d(np.asarray(q, dtype=float))
     if hasattr(result, "parametrization") and hasattr(result, "covariance"):
         pz = result.parametrization
         free = [pz.index(n) for n in result.free_names]
         keep = [k for k, name in enumerate(result.free_names) if registration or not name.startswith("base_")]
-        _, J = pz.evaluate(result.values, q, True, rows=3, columns=[free[k] for k in keep])
-        return J, np.asarray(result.covariance)[np.ix_(keep, keep)]
+        cols, C = [free[k] for k in keep], np.asarray(result.covariance)[np.ix_(keep, keep)]
+        T, J = pz.evaluate(result.values, q, True, rows=3 if place is None else 6, columns=cols)
+        if place is None:
+            return J, C
+
+        # the placed point is c(x) in the tool frame: its error is the tool point's, the tool's rotation over the
+        # lever R c (J's rotation rows w: dR = [w] R) and R dc (c by central differences through the placement)
+        def c_of(x):
+            m = pz.model(x)
+            return (np.linalg.inv(np.asarray(m.T_flange_tool)) @ np.asarray(place(m).T_flange_tool))[:3, 3]
+
+        x0, h, E = np.asarray(result.values, dtype=float), np.sqrt(np.maximum(np.diag(C), 0.0)), np.eye(pz.n_params)
+        geo = getattr(pz, "n_geometric", pz.n_params)  # (a compliance moves no frame of the chain)
+        dc = np.zeros((3, len(cols)))
+        for i, k in enumerate(cols):
+            if h[i] > 0 and k < geo:
+                dc[:, i] = (c_of(x0 + h[i] * E[k]) - c_of(x0 - h[i] * E[k])) / (2 * h[i])
+        R = np.asarray(T)[:, :3, :3]
+        lever = np.cross(J[:, 3:], (R @ c_of(x0))[:, :, None], axisa=1, axisb=1, axisc=1)
+        return J[:, :3] + lever + np.einsum("nij,jp->nip", R, dc), C
     if hasattr(result, "axis_cov") and hasattr(result, "axes"):
-        return _axes_propagation(result, q)
+        return _axes_propagation(result, q, place)
     raise DenavitError(
         f"result: expected an identification or a calibration result with a covariance, got {type(result).__name__}"
     )
@@ -606,15 +622,19 @@ def compliant_sigma(el, geometric, q, payload=None, *, registration: bool = Fals
     return np.sqrt(g**2 + el.sigma(q, payload) ** 2)
 
 
-def _compliant_propagation(el, geometric, q, payload, registration: bool):
+def _compliant_propagation(el, geometric, q, payload, registration: bool, place=None, point=None):
     """:func:`compliant_sigma`'s (J, C) (:func:`_propagation`): the calibration's own, else the geometry's
-    ``geometric`` (J, C) or None beside the compliances' (``-J_q diag(tau)``, their covariance), independent."""
+    ``geometric`` (J, C) or None beside the compliances' (``-J_q diag(tau)``, their covariance), independent. With
+    ``place`` (:func:`_flange`), at the flange compensated: of ``point``, that model."""
     q = np.atleast_2d(np.asarray(q, dtype=float))
     if el.calibration is not None:
-        return _propagation(el.calibration, np.hstack([q, el.torques(q, payload)]), registration)
+        return _propagation(el.calibration, np.hstack([q, el.torques(q, payload)]), registration, place)
     if el.covariance is None:
         return geometric
     A, Ck = el.jacobian(q, payload), np.asarray(el.covariance, dtype=float)
+    if point is not None:  # at the flange compensated: the joints' Jacobian there
+        tau = el.torques(q, payload)
+        A = -np.stack([np.asarray(_core.jacobian(point, x))[:3] for x in q - el.k * tau]) * tau[:, None, :]
     if geometric is None:
         return A, Ck
     Cg, X = geometric[1], el.cross  # (the robot's covariance with its compliances, when carried: one covariance)
@@ -686,8 +706,8 @@ def table_sigma(robot, q) -> np.ndarray:
     return _sigma(*_table_propagation(robot, q))
 
 
-def _table_propagation(robot, q, registration: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`table_sigma`'s (J, C) (:func:`_propagation`)."""
+def _table_propagation(robot, q, registration: bool = False, place=None) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`table_sigma`'s (J, C) (:func:`_propagation`; ``place`` as there)."""
     if registration:
         raise DenavitError(
             f"{robot.name}: registration: a robot file's [covariance] carries no base registration (calibrate leaves it"
@@ -715,12 +735,13 @@ def _table_propagation(robot, q, registration: bool = False) -> tuple[np.ndarray
         P = theta[:n].reshape(t.params.shape)
         if t.convention == "poe":  # back onto unit screws (first order: the covariance lies in their tangent space)
             P = unit_screws(P, t.kinds)
-        return _core.fk_batch(_core.Table(t.convention, P, t.kinds, t.T_world_base, T).to_model(), qs)[:, :3, 3]
+        m = _core.Table(t.convention, P, t.kinds, t.T_world_base, T).to_model()
+        return _core.fk_batch(m if place is None else place(m), qs)[:, :3, 3]
 
     return _derivatives(tool_points, theta0, C, len(q)), C
 
 
-def _axes_propagation(ident, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _axes_propagation(ident, q: np.ndarray, place=None) -> tuple[np.ndarray, np.ndarray]:
     ax = ident.axes
     n = ax.nq
     rscale = getattr(ident, "reading_scale", None)
@@ -747,7 +768,8 @@ def _axes_propagation(ident, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             upper=ax.upper,
         )
         qs = q if len(theta) == 6 * n + 3 else _scaled(q, rscale, ident.sweeps.home, theta[6 * n + 3 :])
-        return _core.fk_batch(_core.extract(a, "edh", fidelity=False).table.to_model(), qs)[:, :3, 3]
+        m = _core.extract(a, "edh", fidelity=False).table.to_model()
+        return _core.fk_batch(m if place is None else place(m), qs)[:, :3, 3]
 
     return _derivatives(tool_points, theta0, C, len(q)), C
 

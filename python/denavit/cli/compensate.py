@@ -389,11 +389,13 @@ def _print_summary(c, prog, nom_robot, id_robot, summary, flagged, before_rms, p
             ),
         )
     if predicted is not None and c.ok.any():
+        at = "; at the flange, its position along the last axis left out: see the note" if c.flange else ""
         say(
             "bold",
             "Predicted error after compensation",
-            f" (1 sigma, from {id_robot.name}'s covariance): rms {summary['predicted_after_rms_m'] / ls:.4g} {length}, "
-            f"max {float(predicted[c.ok].max()) / ls:.4g} {length}" + (" (per row in --json)" if len(c) > 20 else ""),
+            f" (1 sigma, from {id_robot.name}'s covariance{at}): rms {summary['predicted_after_rms_m'] / ls:.4g}"
+            f" {length}, max {float(predicted[c.ok].max()) / ls:.4g} {length}"
+            + (" (per row in --json)" if len(c) > 20 else ""),
         )
         if len(c) <= 20:  # (a flagged row is not sent: its line below says why)
             for w, p, ok in zip(prog.where, predicted, c.ok, strict=True):
