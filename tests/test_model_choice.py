@@ -99,7 +99,7 @@ def test_priors_keep_a_barely_determined_last_link_near_nominal(kr5):
     last = [pz.index(n) for n in ("alpha_5", "a_5", "b_5")]
     ls = cal.calibrate(meas, kr5, tool=tool, model="full")
     # the data alone do not hold it: least squares moves it by more than 2 prior widths (0.1 deg, 1 mm); offset_5, which
-    # they would give a sigma of hundreds of degrees (it had moved by 67 deg, a_5 by 52 mm), is unidentifiable
+    # they would give a sigma of hundreds of degrees (it had moved by 35 deg, a_5 by 35 mm), is unidentifiable
     widths = {"alpha_5": math.radians(0.1), "a_5": 1e-3, "b_5": 1e-3}
     assert max(abs(ls.values[k] - pz.x0[k]) / widths[pz.names[k]] for k in last) > 2
     assert ls.status[pz.index("offset_5")] == "unidentifiable"
