@@ -512,10 +512,10 @@ def flange_model(nominal, identified) -> _core.Model:
 
 def canonical_tool(nom: _core.Model, ide: _core.Model, home=None) -> np.ndarray:
     """The tool of the identified model ``ide`` in its canonical flange: the flange of its exact ED-H table extracted
-    as identify extracts one (frames on the nominal's bodies: the nominal's ED-H frame origins at ``home``, the
-    nominal's home, else zeros, projected on the axes: identify's sweeps start at the nominal's home). Where a table
-    puts its last frame along the last axis (the
-    split of d6 and the tool's z, which no measurement of one point tells apart) is each convention's own: a DH
+    as identify extracts one (the nominal's ED-H frame origins at ``home``, the nominal's home, else zeros, projected
+    on the axes), the last origin at the nominal's distance from the wrist (the last axis's common normal with the one
+    before). Where a table puts its last frame along the last axis (the split of d6 and the tool's z, which no
+    measurement of one point tells apart) is each convention's own: a DH
     file, a URDF or a UR kinematics file of one result would each compensate another flange; this one is the same
     for all of them, for the ED-H file identify and calibrate save, and for the in-memory result. A POE model has no
     flange of its own (its home pose ``M``, identify's measured point, is its flange, its tool the identity)."""
@@ -524,9 +524,8 @@ def canonical_tool(nom: _core.Model, ide: _core.Model, home=None) -> np.ndarray:
     from .identification.frames import origins  # noqa: PLC0415
 
     nt = _core.extract(_core.axes(nom, np.zeros(nom.nq)), "edh").table
-    ex = _core.extract(
-        _core.axes(ide, home), "edh", nominal=nt, origins=origins(nt, "edh", home), parallel_tol=1e-9, fidelity=False
-    )
+    ia = _core.axes(ide, home)
+    ex = _core.extract(ia, "edh", nominal=nt, origins=origins(nt, "edh", home, ia), parallel_tol=1e-9, fidelity=False)
     return np.asarray(ex.table.to_model().T_flange_tool)
 
 

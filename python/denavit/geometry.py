@@ -109,6 +109,17 @@ def rotation_between(u, v) -> np.ndarray:
     return np.eye(3) + K + K @ K / (1.0 + float(np.dot(u, v)))
 
 
+def closest_point(p1, d1, p2, d2) -> np.ndarray:
+    """The point of the line through ``p1`` along ``d1`` nearest the line through ``p2`` along ``d2`` (the foot of
+    their common normal on the first; ``p1`` for parallel lines)."""
+    p1, d1, p2, d2 = (np.asarray(v, dtype=float) for v in (p1, d1, p2, d2))
+    n = np.cross(d1, d2)
+    nn = n @ n
+    if nn < 1e-18:
+        return p1
+    return p1 + (np.cross(p2 - p1, d2) @ n / nn) * d1
+
+
 def kabsch(P, M) -> np.ndarray:
     """The rigid transform W (4, 4) minimising ``sum |W p_k - m_k|^2`` over point pairs ``P``, ``M`` (k, 3)
     (Kabsch / Umeyama without scale, through scipy's ``Rotation.align_vectors``)."""

@@ -133,7 +133,7 @@ class Calibration:
         base = np.asarray(self.model().T_world_base)
         robot = replace(robot, table=_core.Table(t.convention, t.params, t.kinds, base, t.T_last_tool))
         ref = nominal_convention_table(robot, convention, home)
-        opts = {"nominal": ref, "origins": origins(ref, convention, home)}
+        opts = {"nominal": ref, "origins": origins(ref, convention, home, _core.axes(self.model(), home))}
         if convention == "edh":
             opts["parallel_tol"] = self._edh_parallel_tol()
         return opts

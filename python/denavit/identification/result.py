@@ -127,7 +127,8 @@ class Identification:
             if convention == "edh"
             else PARALLEL_TOL
         )
-        return {"nominal": nominal, "origins": origins(nominal, convention, self.sweeps.home), "parallel_tol": tol}
+        o = origins(nominal, convention, self.sweeps.home, self.axes)
+        return {"nominal": nominal, "origins": o, "parallel_tol": tol}
 
     def parameter_covariance(self, convention: str | None = None) -> np.ndarray:
         """The SI covariance of [the ``convention`` table's parameters (row-major), the tool's translation in its last

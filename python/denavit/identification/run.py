@@ -129,19 +129,18 @@ def identify(
     elastic = _compliance_of(joint, sweeps, nominal, T_world_base, notes)
     base = np.eye(4) if T_world_base is None else np.asarray(T_world_base, dtype=float)
     if T_world_base is not None and nominal is not None:  # the nominal's base frame is the robot base given
-        t = nominal.table
-        nominal = replace(nominal, table=_core.Table(t.convention, t.params, t.kinds, base, t.T_last_tool))
+        nominal = _standing_at(nominal, base)
     nominal_table = nominal_convention_table(nominal, convention, sweeps.home)
     orientation, rot_cov, cov_full, target_points = _tool_orientation(sweeps, joint, nominal, cov, notes)
     if nominal is not None and not sweeps.has_readings:
         fits = _oriented_by_nominal(sweeps, fits, nominal, notes)
     x = np.concatenate([np.concatenate([f.point, f.direction]) for f in fits] + [p_home])
     tol = _edh_parallel_tol(fits, nominal, sweeps.home, parallel_tol) if convention == "edh" else parallel_tol
-    opts = {"parallel_tol": tol, "nominal": nominal_table, "origins": origins(nominal_table, convention, sweeps.home)}
-    if intersect_tol is not None:
-        opts["intersect_tol"] = intersect_tol
     lower, upper = (nominal.lower, nominal.upper) if nominal is not None else (None, None)
     ax = _axes_from(x, sweeps, orientation[1], base, lower, upper, _link_home(sweeps, elastic))
+    opts = dict(parallel_tol=tol, nominal=nominal_table, origins=origins(nominal_table, convention, sweeps.home, ax))
+    if intersect_tol is not None:
+        opts["intersect_tol"] = intersect_tol
     ex = _core.extract(ax, convention, **opts)
     short = _short_arc_notes(sweeps, fits, notes)
     _misfit_notes(sweeps, fits, joint, notes)
@@ -191,6 +190,12 @@ def identify(
     )
     _carried_note(result, convention, notes)
     return result
+
+
+def _standing_at(robot: Robot, base: np.ndarray) -> Robot:
+    """``robot`` with its base at ``base`` (T_world_base)."""
+    t = robot.table
+    return replace(robot, table=_core.Table(t.convention, t.params, t.kinds, base, t.T_last_tool))
 
 
 def _checked(sweeps, method: str, nominal, loss: str, max_sigma, convention: str, tracker_noise):

@@ -32,6 +32,7 @@ import numpy as np
 
 from ... import _core
 from ...errors import DenavitError
+from ...geometry import closest_point
 from ..output import atomic_path
 from ..text import read_bytes
 
@@ -343,21 +344,11 @@ class Arm:
     elbow_up: float
 
 
-def _closest(p1, d1, p2, d2):
-    """The point of line 1 nearest line 2 (parallel lines: p1)."""
-    n = np.cross(d1, d2)
-    nn = n @ n
-    if nn < 1e-18:
-        return p1
-    t = np.cross(p2 - p1, d2) @ n / nn
-    return p1 + t * d1
-
-
 def arm(model, q) -> Arm:
     ax = _core.axes(model, np.asarray(q, dtype=float))
     P, D = np.asarray(ax.points), np.asarray(ax.directions)
-    w = _closest(P[4], D[4], P[3], D[3])
-    w = 0.5 * (w + _closest(P[3], D[3], P[4], D[4]))
+    w = closest_point(P[4], D[4], P[3], D[3])
+    w = 0.5 * (w + closest_point(P[3], D[3], P[4], D[4]))
     x1 = _turn(D[0], q[0]) @ np.array([1.0, 0.0, 0.0])  # the axis-1 frame: the world's at joint 1 = 0, turned with it
     front = float((w - P[0]) @ x1)
     # the line through axes 2 and 3 (parallel): p2 the foot of axis 2 nearest axis 3's point, u along it
