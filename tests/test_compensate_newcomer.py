@@ -29,6 +29,7 @@ def test_identify_then_compensate_on_an_arm_whose_flange_is_a_turned_frame():
     T = _core.fk_batch(nom, q)
     c = cp.compensate(robot, idf, T, q_nominal=q)
     assert c.ok.all(), f"{int((~c.ok).sum())} of {len(q)} rows flagged"
+    assert any("kr210 has its flange frame (a rotation) as its only tool" in n for n in c.notes), c.notes  # not "none"
     # the identified robot is the nominal within the noise: the commands stay on the program's arm, a degree at most
     # (near the wrist's singularity), and the nominal run at them is within the flange's identification error
     assert np.degrees(np.abs(c.q_command - q)).max() < 2.0

@@ -476,12 +476,13 @@ def _flange(nominal, nom: _core.Model, identified, ide: _core.Model, registratio
         return m.with_tool(np.asarray(m.T_flange_tool) @ nom_tool @ np.linalg.inv(canonical_tool(nom, m, home)))
 
     ide = place(orig)
+    has = "has no tool" if _is_identity(nom.T_flange_tool) else "has its flange frame (a rotation) as its only tool"
     notes.append(
-        f"the nominal {getattr(nominal, 'name', 'model')} has no tool and the identified robot has one"
+        f"the nominal {getattr(nominal, 'name', 'model')} {has} and the identified robot has one"
         f" ({np.linalg.norm(off) * 1e3:.4g} mm from the flange: the point it was measured at): the flange compensated"
         " (the identified flange placed on its last body as the nominal's is), the prediction after it at the flange"
-        " (the measured point's error and its orientation's over that lever); give the nominal a tool to compensate"
-        " tool poses"
+        " (the measured point's error and its orientation's over that lever); for tool poses give the nominal its"
+        " tool (a program's own tool frames are applied as its controller applies them)"
     )
     return ide, notes, place
 
