@@ -467,3 +467,41 @@ def _entry_units(table) -> list:
     angle = np.array(table.angle_columns)
     cells = ["angle" if angle[c] else "length" for _ in range(len(table.params)) for c in range(len(angle))]
     return cells + ["length"] * 3
+
+
+def test_convert_carries_the_compliances_with_their_flange(tmp_path):
+    """`denavit convert` had dropped [compliance] (a converted calibration compensated as a rigid arm), and fleet diff's
+    conversion kept the compliances' flange in the old table's last frame: now both carry the compliances, their
+    covariance and cross block (through the conversion's Jacobian) and the flange into the new last frame, and the
+    converted robot deflects under a payload as the original does."""
+    from typer.testing import CliRunner
+
+    from denavit.cli import app
+    from denavit.conversion import converted_robot
+
+    robot, _, train, rng = two_payloads(5, K_TRUE)
+    saved = calibrate(train, robot, tool=TOOL).robot()
+    src = tmp_path / "cal.toml"
+    rf.save(saved, src, "mm", "deg")
+    q = draw(robot, 20, rng)
+    pl = (RATED, COM)
+    T = dv.fk_batch(saved.model(), q)
+    want = compensate(saved, saved, T, q_nominal=q, payload=pl)
+    out = tmp_path / "cal_poe.toml"
+    r = CliRunner().invoke(app, ["convert", str(src), "--to", "poe", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    back = rf.read(out)
+    assert back.compliance is not None and np.allclose(back.compliance, saved.compliance, rtol=1e-9, atol=0)
+    assert back.compliance_cross is not None
+    got = compensate(saved, back, T, q_nominal=q, payload=pl)  # the same deflection: the same commands
+    assert np.abs(got.q_command - want.q_command).max() < 1e-6
+    assert np.allclose(got.predicted_after, want.predicted_after, rtol=0.02)
+    # a table that cannot hold the axes (MDH: the UR5's parallel shoulder and elbow tilted) carries no inertias, and
+    # then no compliances: said, not silently kept in frames they no longer fit
+    r = CliRunner().invoke(app, ["convert", str(src), "--to", "mdh", "-o", str(tmp_path / "cal_mdh.toml")])
+    assert r.exit_code == 0 and "nor the joints' compliances" in " ".join(r.output.split()), r.output
+    # fleet diff's route (Python): the compliances' flange follows the new last frame
+    conv = converted_robot(saved, _core.extract(_core.axes(saved.model(), np.zeros(6)), "poe").table)[0]
+    F, G = (np.asarray(r.table.frames(np.zeros(6)))[-1] @ r.compliance_flange for r in (conv, saved))
+    np.testing.assert_allclose(F, G, atol=1e-9)
+    assert not np.allclose(conv.compliance_flange, saved.compliance_flange, atol=1e-3)  # (other last frames)

@@ -104,7 +104,18 @@ def test_no_rust_source_file_is_over_800_lines():
 #: jobs on the api; the command line on top. The package's own ``__init__`` (lazy names) stands outside.
 PY_LAYERS = [
     ("_core", "errors", "geometry", "message", "progress", "data", "models"),
-    ("robot", "limits", "sweeps", "fitting", "identification", "calibration", "compensation", "accuracy", "recording"),
+    (
+        "robot",
+        "limits",
+        "sweeps",
+        "fitting",
+        "identification",
+        "calibration",
+        "compensation",
+        "accuracy",
+        "conversion",
+        "recording",
+    ),
     ("io",),
     ("report", "plotting"),
     ("api",),

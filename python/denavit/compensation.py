@@ -668,8 +668,14 @@ def unit_screws(P: np.ndarray, kinds) -> np.ndarray:
 def converted_covariance(robot, table: _core.Table, **extract_options) -> np.ndarray:
     """The covariance of ``table`` (``robot``'s geometry in another convention, extracted from its joint axes at
     q = 0 with ``extract_options``) from ``robot.covariance`` (its table's parameters, tool translation and reading
-    scales, which pass through): ``J C J^T`` with ``J`` the conversion's Jacobian, by central differences through the
-    core's table builder and extraction (angles wrapped about ``table``'s)."""
+    scales, which pass through): ``J C J^T``, ``J`` the :func:`conversion_jacobian`."""
+    J = conversion_jacobian(robot, table, **extract_options)
+    return J @ np.asarray(robot.covariance, dtype=float) @ J.T
+
+
+def conversion_jacobian(robot, table: _core.Table, **extract_options) -> np.ndarray:
+    """d(``table``'s entries) / d(``robot``'s ``[covariance]`` entries) of :func:`converted_covariance`, by central
+    differences through the core's table builder and extraction (angles wrapped about ``table``'s)."""
     t = robot.table
     C = np.asarray(robot.covariance, dtype=float)
     n = t.params.size
@@ -695,7 +701,7 @@ def converted_covariance(robot, table: _core.Table, **extract_options) -> np.nda
         e = np.zeros_like(theta0)
         e[k] = 1e-7
         J[:, k] = (converted(theta0 + e) - converted(theta0 - e)) / 2e-7
-    return J @ C @ J.T
+    return J
 
 
 def table_sigma(robot, q) -> np.ndarray:

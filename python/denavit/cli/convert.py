@@ -9,7 +9,6 @@ from typing import Annotated
 
 import typer
 
-from ..errors import DenavitError
 from ..io.units import angle_scale, length_scale
 from .common import commands
 from .console import console, fail, num, print_rows, print_table, say, spread, table_rows, wrote
@@ -48,7 +47,6 @@ def convert(
 
     from .. import _core  # noqa: PLC0415
     from ..fleet.checksum import model_checksum, saved_checksum  # noqa: PLC0415
-    from ..robot import Robot, inertials_for_table  # noqa: PLC0415
 
     check_outputs(**{"-o": output, "--json": json_out})
     json_out = json_target(json_out)
@@ -79,40 +77,14 @@ def convert(
     to = _core.convention_info(to)["name"]
     nominal = robot.table if robot.convention == to else None
     ex = _core.extract(_core.axes(m, np.zeros(m.nq)), to, parallel_tol=parallel_tol, nominal=nominal)
-    # the readings' model does not depend on the table; the covariance follows the table
-    # (compensation.converted_covariance)
-    cov = None
-    if robot.covariance is not None:
-        from ..compensation import converted_covariance  # noqa: PLC0415
+    # the readings' model, the compliances and the prior do not depend on the table; the covariance, the compliances'
+    # flange and the link inertias follow it (conversion.converted_robot)
+    from ..conversion import converted_robot  # noqa: PLC0415
 
-        cov = converted_covariance(robot, ex.table, parallel_tol=parallel_tol, nominal=nominal)
-    new = Robot(
-        name=robot.name,
-        table=ex.table,
-        names=robot.names,
-        lower=robot.lower,
-        upper=robot.upper,
-        description=f"{robot.description} -> {to}",
-        source=robot.source,
-        home=robot.home,
-        extra=robot.extra,
-        coupling=robot.coupling,
-        reading_scale=robot.reading_scale,
-        reading_reference=robot.reading_reference,
-        covariance=cov,
-    )
-    if robot.inertials is not None:
-        try:  # the same physical links, re-expressed in the new convention's frames
-            new = dataclasses.replace(
-                new, inertials=inertials_for_table(m, ex.table, robot.names, robot.lower, robot.upper)
-            )
-        except DenavitError as e:
-            say(
-                "bold yellow",
-                "warning:",
-                f" link inertias not carried over (the {to} table does not reproduce the joint axes exactly): {e}",
-                err=True,
-            )
+    new, warning = converted_robot(robot, ex.table, parallel_tol=parallel_tol, nominal=nominal)
+    new = dataclasses.replace(new, description=f"{robot.description} -> {to}")
+    if warning:
+        say("bold yellow", "warning:", f" {warning}", err=True)
     if json_out:  # (also beside -o: the table as written, in SI)
         emit_json(
             {

@@ -144,19 +144,15 @@ def diff(registry: Registry, robot_id: str, a: int | None = None, b: int | None 
 def in_convention(robot, reference):
     """``robot`` re-expressed in the convention of the table ``reference`` (the core's extraction from its joint
     axes at q = 0, following ``reference``'s frame choices), its covariance converted with it
-    (:func:`denavit.compensation.converted_covariance`)."""
-    import dataclasses  # noqa: PLC0415
-
+    (:func:`denavit.conversion.converted_robot`)."""
     from .. import _core  # noqa: PLC0415
-    from ..compensation import converted_covariance  # noqa: PLC0415
+    from ..conversion import converted_robot  # noqa: PLC0415
 
     m = robot.model()
     r = reference  # placed where the robot is (its base: a calibration's registration), as calibrate extracts
     reference = _core.Table(r.convention, r.params, r.kinds, m.T_world_base, r.T_last_tool)
     table = _core.extract(_core.axes(m, np.zeros(m.nq)), reference.convention, nominal=reference).table
-    cov = None if robot.covariance is None else converted_covariance(robot, table, nominal=reference)
-    # (the compliances' cross-covariance is with the old table's entries: not carried, as a file without it)
-    return dataclasses.replace(robot, table=table, covariance=cov, compliance_cross=None)
+    return converted_robot(robot, table, nominal=reference)[0]
 
 
 def add_model(registry: Registry, robot_id: str, model: str | os.PathLike, family: str | None = None) -> tuple:
