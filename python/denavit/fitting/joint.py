@@ -56,6 +56,7 @@ import numpy as np
 from ..errors import NotConvergedError
 from ..geometry import axis_angle_matrices, matrix_rotvec, perpendicular_basis
 from .chain import _Basis, _chain, _chain_rotation, _one_turn, _rotate, _trig, _turn
+from .elastic import _Compliances
 from .robust import loss_dweight, loss_weight, misfit_variance, robust_sigma
 from .tracker import TrackerNoise as TrackerNoise  # (the joint fit's noise model, named here too)
 from .tracker import _whiten, _whitener, as_tracker_noise
@@ -144,6 +145,7 @@ def fit_sweeps(
     tracker=None,
     weights0=None,
     torques=None,
+    start=None,
     where: str = "",
 ):
     """The joint fit of all sweeps (module docstring). ``dqs`` per sweep (m, n) joint motions from home (arrays, or
@@ -157,15 +159,17 @@ def fit_sweeps(
     (0-based) whose scale is one. ``scale_prior``: None, or ``(tau, sigma)``: every fitted scale is drawn from a
     zero-mean normal population of standard deviation ``tau`` (a pseudo-observation ``s_j / tau`` weighted against the
     points as ``(sigma / tau)^2``, ``sigma`` the point noise of the caller's simpler fit), so the fit is the posterior
-    mode and its covariance the posterior's (:func:`denavit.identification.choice._reading_scales`). ``tracker`` a
+    mode and its covariance the posterior's (:func:`denavit.identification.choice._with_scale_prior`). ``tracker`` a
     :class:`TrackerNoise` (or (sigma_range m, sigma_angle rad[, position m])): the points' covariances take its
     range/angle shape (module docstring); None: isotropic. ``weights0``: None, or (gamma per sweep, robust scale or
     None) of the same model fitted on a subsample (:func:`stride`): the variance components and the robust scale
-    start there instead of at one and none, and are estimated as ever (the first pass then steps at once).
-    ``torques``: None, or per sweep (m, n) the gravity torques each joint holds at each pose less those it holds at
-    home (N m; N for a prismatic joint): every joint whose torque changes gets a compliance ``k_i`` (rad/(N m), m/N),
-    its link turning by ``dq_i - k_i dtau_i`` (:mod:`denavit.calibration.compliance`'s model; the axes are those of
-    the arm at home under its own weight), fitted with ``k_i >= 0`` (:meth:`_JointFit.bound_compliances`).
+    start there instead of at one and none, and are estimated as ever (the first pass then steps at once). ``start``:
+    None, or a result of this function on the same sweeps: the home points, reading scales and compliances start at
+    its values where this fit frees them (else at p0 and zeros). ``torques``: None, or per sweep (m, n) the gravity
+    torques each joint holds at each pose less those it holds at home (N m; N for a prismatic joint): every joint whose
+    torque changes gets a compliance ``k_i`` (rad/(N m), m/N), its link turning by ``dq_i - k_i dtau_i``
+    (:mod:`denavit.calibration.compliance`'s model; the axes are those of the arm at home under its own weight),
+    fitted with ``k_i >= 0`` (:meth:`~denavit.fitting.elastic._Compliances.bound_compliances`).
 
     Returns a dict: ``points`` (n, 3) feet of the home point on each axis, ``directions`` (n, 3), ``home``
     (S, 3) home point per sweep (all equal without ``per_sweep_home``), ``cov`` of [c_1, n_1, ..., c_n, n_n,
@@ -202,6 +206,7 @@ def fit_sweeps(
         tracker=tracker,
         weights0=weights0,
         torques=torques,
+        start=start,
         where=where,
     )
     fit.solve()
@@ -209,7 +214,7 @@ def fit_sweeps(
     return fit.result()
 
 
-class _JointFit:
+class _JointFit(_Compliances):
     """One joint fit (:func:`fit_sweeps`) as named steps: the parameters' layout and start (``__init__``), a sweep's
     misfits and Jacobian CHUNK poses at a time (:meth:`chunks`), the normal equations (:meth:`normal_eq`), the
     variance components (:meth:`variance_components`), the Levenberg-Marquardt steps (:meth:`solve`) and the
@@ -237,6 +242,7 @@ class _JointFit:
         tracker,
         weights0,
         torques,
+        start,
         where,
     ):
         self.sweeps, self.dqs, self.loss, self.where, self.weights0 = (sweeps, dqs, loss, where, weights0)
@@ -294,30 +300,10 @@ class _JointFit:
         # (sweep, first row of a chunk): (the scales of its active joints, {joint: _trig of its motion})
         self.trig = {}
         self.free_compliances(kj)
-
-    def free_compliances(self, kj: list) -> None:
-        """The compliances of joints ``kj`` (0-based) are parameters (the others stay at their values): the layout."""
-        self.kj, self.npar = list(kj), self.i_k + len(kj)
-        self.active = [
-            [i for i in range(self.n) if np.any(dq[:, i] != 0) or (i in kj and np.any(self.tq[k][:, i] != 0))]
-            for k, dq in enumerate(self.dqs)
-        ]
-        # a pose one point, isotropic: the Jacobian of one turning joint by moments
-        self.simple = self.tracker is None and not self.rot and self.K == 1 and not kj
-
-    def bound_compliances(self) -> None:
-        """k >= 0 (a joint gives way under its torque), as calibrate (:mod:`denavit.calibration.compliance`): those
-        fitted negative are held at 0 and the fit repeated until none is (an active set). Held, they are parameters
-        again for the covariance (their sigmas, the others' too, the data's: not zero); ``negative``: their values."""
-        n = self.n
-        while neg := [i for i in self.kj if self.sc[n + i] < 0]:
-            self.negative[neg] = self.sc[[n + i for i in neg]]
-            self.sc[[n + i for i in neg]] = 0.0
-            self.held += neg
-            self.free_compliances([i for i in self.kj if i not in neg])
-            self.solve()
-        if self.held:
-            self.free_compliances(sorted(self.kj + self.held))
+        if start is not None:  # (a fit of the same sweeps: its home points, scales and compliances where freed here)
+            self.homes = start["home"].copy() if per_sweep_home and len(start["home"]) == S else self.homes
+            self.sc[swept] = start["scales"][swept]
+            self.sc[[n + i for i in kj]] = start["compliance"][kj]
 
     def home_of(self, k):
         return self.homes[k] if self.per_sweep_home else self.homes[0]
@@ -408,13 +394,6 @@ class _JointFit:
                 (Js[0] if one else np.concatenate(Js, axis=1)) if jac else None,
                 None if dist is None else np.sqrt(dist),
             )
-
-    def k_columns(self, k, rows, sc_, dpdq) -> list:
-        """The compliances' Jacobian columns (1, 3, m) each: d pred / d k_i = -dtau_i (1 + s_i) d pred / d q_i."""
-        if not self.kj:
-            return []
-        zero = np.zeros((1, 3, len(self.tq[k][rows])))
-        return [-(self.tq[k][rows, i] * (1 + sc_[i]))[None, None] * dpdq[i] if i in dpdq else zero for i in self.kj]
 
     @staticmethod
     def tangent(mv):

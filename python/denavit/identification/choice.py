@@ -1,10 +1,10 @@
-"""The measurement model ``auto`` chooses: the global joint fit with or without a home drift and reading scales, by
-the evidence (Schwarz's criterion; the scales' marginal likelihood, Wakefield's approximate Bayes factor)."""
+"""The measurement model ``auto`` chooses: the global joint fit with or without a home drift, reading scales and the
+joints' compliances, by the evidence (Schwarz's criterion; the scales' marginal likelihood, Wakefield's approximate
+Bayes factor), one rule for the three effects: each tested in the fit that frees it with the others chosen."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -97,8 +97,8 @@ def _wald(theta: np.ndarray, C: np.ndarray) -> float:
 def _drift_wald(d: dict) -> tuple[float, int]:
     """(the Wald statistic of a home point per sweep, its degrees): the differences of each sweep's home point from
     the first's (3 (S - 1)) against their covariance in the fit ``d`` with them, from that one fit on its own weights.
-    Schwarz's criterion (:func:`_schwarz`) in this form, as the compliances' (:func:`_compliance`): a difference of two
-    fits' sums of squares needs both on one weighting, and with 6-DoF poses each fit weighs the orientations by its
+    Schwarz's criterion (:func:`_schwarz`) in this form, as the compliances' (:func:`_compliance_test`): a difference of
+    two fits' sums of squares needs both on one weighting, and with 6-DoF poses each fit weighs the orientations by its
     own noise estimate. benchmarks/bench_identify_choice_poses.py (20 seeds, 50 poses per sweep, UR5 and KR5): on rigid
     poses that difference less 15 ln n came to a median of -286 and -272 where its expected value is 15 - 15 ln n =
     -97 (now -100 and -98; on points -88 and -87 against -87, as before), and a home moving 8 um per coordinate between
@@ -113,14 +113,15 @@ def _drift_wald(d: dict) -> tuple[float, int]:
     return _wald(T @ homes.reshape(-1), T @ d["cov"][n6:, n6:] @ T.T), 3 * (S - 1)
 
 
-def _schwarz(chi2: float, k: int, n_res: int, what: str) -> tuple[bool, str]:
+def _schwarz(chi2: float, k: int, n_res: int, what: str) -> tuple[float, str]:
     """Schwarz's criterion in its Wald form (the likelihood ratio's large-sample equal, from the richer fit alone):
     ``chi2`` of ``k`` extra parameters (``what``, for the notes) against ``k ln n``, n the residual count ``n_res``.
-    Returns (the richer model wins, the test in words). The AIC's 2 per parameter had picked a drift on exact 30
-    degree data in 3 % of runs (a home per sweep trades with the tilt of an axis about its arc's tangent)."""
+    Returns (chi2 less that penalty: positive, the richer model wins; the test in words). The AIC's 2 per parameter
+    had picked a drift on exact 30 degree data in 3 % of runs (a home per sweep trades with the tilt of an axis about
+    its arc's tangent)."""
     pen = k * math.log(max(n_res, 1))
     return (
-        chi2 > pen,
+        chi2 - pen,
         f"BIC, Wald form: chi^2 {chi2:.3g} of {what} {'>' if chi2 > pen else '<='} {k} ln {n_res} = {pen:.3g}",
     )
 
@@ -250,41 +251,6 @@ def _scale_penalty(k: int, n_res: int) -> tuple[float, str]:
     return math.log(max(n_res, 1)), f"ln {n_res}"
 
 
-def _reading_scales(
-    richer: Callable, refit: Callable, base: dict, drift: bool, n_res: int
-) -> tuple[dict | None, dict | None, float, str]:
-    """The readings' scale errors as a population (empirical Bayes): every swept joint's scale fitted once freely
-    (``full``); whether they err at all by the evidence (:func:`_scale_evidence`: the marginal likelihood of the
-    scales as a population N(0, tau^2) against exact scales, one hyperparameter, by Schwarz's criterion,
-    :func:`_scale_penalty`); when they do, the joints' spread tau from those estimates (:func:`_scale_spread`), then
-    every scale refitted with the prior N(0, tau^2) (:func:`~denavit.fitting.joint.fit_sweeps`' ``scale_prior``):
-    a scale the data show (sigma << tau) keeps its value, one they cannot show (sigma >> tau) stays near zero with
-    about tau of uncertainty in its axis, continuously (no joint-by-joint choice: a chance 2.9-sigma scale on exact
-    readings no longer moves its axis by 2.9 of its full sigmas).
-
-    (Before, any tau > 0 fitted the scales: the median-unbiased tau is positive in about half of all runs with exact
-    readings, and on 30 degree arcs, where a scale trades with its axis's radial position (the arc's curvature alone
-    tells them apart), the fitted scales then moved the axes by up to 10x their error with exact scales: issue 36.)
-    Readings whose scales the evidence does not show are taken as exact in scale. Returns (the fit with the prior or
-    None when the scales are not shown or a fit does not converge, the free fit or None, tau (nan without the free
-    fit; 0 when not shown), the evidence in words for the notes)."""
-    full = richer(base, per_sweep_home=drift, scales=True)
-    if full is None:
-        return None, None, math.nan, ""
-    on = np.isfinite(full["scale_sigma"])
-    lr, _ = _scale_evidence(full["scales"][on], full["scale_cov"][np.ix_(on, on)])
-    pen, name = _scale_penalty(int(np.sum(on)), n_res)
-    evidence = f"2 ln(marginal likelihood ratio) {lr:.3g} {'>' if lr > pen else '<='} {name} = {pen:.3g}"
-    tau = math.sqrt(_scale_spread(full["scales"][on], full["scale_sigma"][on]))
-    if lr > pen and not tau > 0:  # (the diagonal Q-profile against the full covariance's likelihood: rare)
-        evidence += ", but the joints' scales scatter within their sigmas (tau = 0)"
-    if not (tau > 0 and lr > pen):
-        return None, full, 0.0, evidence
-    # (with its own weights: the variance components estimated with the scales, as a refit would)
-    post = refit(full, per_sweep_home=drift, scales=True, scale_prior=(tau, base["sigma"]), strict=True)
-    return post, full, tau, evidence
-
-
 def _scale_list(g: dict, n: int) -> str:
     return ", ".join(
         f"joint {j + 1} {g['scales'][j] * 1e6:+.4g} +/- {g['scale_sigma'][j] * 1e6:.2g} ppm"
@@ -293,55 +259,164 @@ def _scale_list(g: dict, n: int) -> str:
     )
 
 
-class _Refits:
-    """The further joint fits of auto's choice, on the same sweeps, motions, loss and noise models as the first."""
+#: The effects auto weighs against the joint fit with one home point, exact reading scales and rigid joints, in the
+#: order a fit with them that does not converge gives them up (a home point per sweep first: short arcs cannot hold
+#: one), with their names in the notes.
+EFFECTS = {
+    "drift": "a home point per sweep",
+    "scales": "the reading scales",
+    "compliance": "the joints' compliances",
+}
 
-    def __init__(self, sweeps: SweepSet, dqs: list, loss: str, rotation_noise, tracker, n_res: int):
-        self.sweeps, self.dqs, self.loss, self.n_res = sweeps, dqs, loss, n_res
+
+def _drift_test(d: dict, n_res: int) -> tuple[float, str, float]:
+    """A home point per sweep in the fit ``d`` that frees one (:func:`_drift_wald`, :func:`_schwarz`)."""
+    return (*_schwarz(*_drift_wald(d), n_res, "the home points' differences"), math.nan)
+
+
+def _scales_test(d: dict, n_res: int) -> tuple[float, str, float]:
+    """The readings' scale errors as a population in the fit ``d`` that frees every swept joint's scale: the evidence
+    that they err at all (:func:`_scale_evidence`, the marginal likelihood of the scales as N(0, tau^2) against exact
+    scales, one hyperparameter) less its penalty (:func:`_scale_penalty`), the evidence in words, and the joints'
+    spread tau from those estimates (:func:`_scale_spread`; not shown at tau = 0)."""
+    on = np.isfinite(d["scale_sigma"])
+    lr, _ = _scale_evidence(d["scales"][on], d["scale_cov"][np.ix_(on, on)])
+    pen, name = _scale_penalty(int(np.sum(on)), n_res)
+    evidence = f"2 ln(marginal likelihood ratio) {lr:.3g} {'>' if lr > pen else '<='} {name} = {pen:.3g}"
+    tau = math.sqrt(_scale_spread(d["scales"][on], d["scale_sigma"][on]))
+    if lr > pen and not tau > 0:  # (the diagonal Q-profile against the full covariance's likelihood: rare)
+        evidence += ", but the joints' scales scatter within their sigmas (tau = 0)"
+    return (lr - pen if tau > 0 else min(lr - pen, 0.0)), evidence, tau
+
+
+def _compliance_test(d: dict, n_res: int) -> tuple[float, str, float]:
+    """The joints' compliances in the fit ``d`` that frees them (those held at their bound 0 among them): ``k^T C^-1
+    k`` against ``ln n`` per free one (:func:`_schwarz`). With every one held at 0 the model is the rigid one (-inf)."""
+    on = np.isfinite(d["compliance_sigma"])
+    free = int(np.sum(on & ~d["compliance_held"]))
+    if free:
+        chi2 = _wald(d["compliance"][on], d["compliance_cov"][np.ix_(on, on)])
+        return (*_schwarz(chi2, free, n_res, "the compliances"), math.nan)
+    z = {j: -d["compliance_negative"][j] / d["compliance_sigma"][j] for j in np.flatnonzero(d["compliance_held"])}
+    if not z:
+        return -math.inf, "no joint's gravity torque changes in the data", math.nan
+    why = (
+        "every one fitted negative and held at 0 (a joint gives way under its torque): "
+        + ", ".join(f"k_{j + 1} {v:.2g} sigma below 0" for j, v in z.items())
+        + ("; check the payload and the nominal's inertials" if max(z.values()) > 2 else "")
+    )
+    return -math.inf, why, math.nan
+
+
+_TESTS = {"drift": _drift_test, "scales": _scales_test, "compliance": _compliance_test}
+#: Each effect's words when the fit with it does not converge.
+_NO_CONVERGENCE = {
+    "drift": "a home point per sweep does not converge on these arcs",
+    "scales": "n/a: no convergence",
+    "compliance": "the fit with them does not converge",
+}
+
+
+def _fit_from(sweeps: SweepSet, dqs: list, loss: str, models: dict, base: dict, **kw) -> dict:
+    """A joint fit started from ``base``'s lines, home point, offsets and orientation."""
+    return fit_sweeps(
+        sweeps,
+        dqs,
+        list(zip(base["points"], base["directions"], strict=True)),
+        base["home"].mean(axis=0),
+        loss=loss,
+        where=sweeps.source,
+        offsets0=base["offsets"],
+        rotation0=base["rotation"],
+        **models,
+        **kw,
+    )
+
+
+class _Models:
+    """The joint fits of auto's choice, one per set of effects (:data:`EFFECTS`; kept once fitted): each from the
+    first fit ``g``'s lines, home point, offsets and orientation, on its own weights (the variance components and the
+    robust scale start at ``g``'s and are estimated with the effects: the simpler model's tangential misfit held the
+    effect too), or on ``g``'s when that does not converge; None when neither does. ``tq``: the gravity torques that
+    the compliances' fits carry (:func:`_torques`)."""
+
+    def __init__(self, sweeps: SweepSet, dqs: list, loss: str, rotation_noise, tracker, g: dict, tq):
+        self.sweeps, self.dqs, self.loss, self.g, self.tq = sweeps, dqs, loss, g, tq
         self.models = {"rotation_sigma": rotation_noise, "tracker": tracker}
-        self.torques = None  # the gravity torques of every fit once the compliances are chosen (_compliance)
+        self.n_res = g["components"] * sum(len(s.points) for s in sweeps.sweeps)
+        self.cache = {frozenset(): g}
 
-    def _fit(self, base: dict, **kw) -> dict:
-        """A joint fit started from ``base``'s lines, home point, offsets and orientation."""
-        kw.setdefault("torques", self.torques)
-        return fit_sweeps(
-            self.sweeps,
-            self.dqs,
-            list(zip(base["points"], base["directions"], strict=True)),
-            base["home"].mean(axis=0),
-            loss=self.loss,
-            where=self.sweeps.source,
-            offsets0=base["offsets"],
-            rotation0=base["rotation"],
-            **self.models,
-            **kw,
-        )
+    def options(self, effects: frozenset) -> dict:
+        return {
+            "per_sweep_home": "drift" in effects,
+            "scales": "scales" in effects,
+            "torques": self.tq if "compliance" in effects else None,
+        }
 
-    def richer(self, base: dict, **kw):
-        """The fit on base's weights (its gammas), or None when it does not converge."""
-        try:
-            return self._fit(base, gamma=base["gamma"], **kw)
-        except NotConvergedError:
-            return None
+    def fit(self, base: dict, effects: frozenset, **kw) -> dict:
+        return _fit_from(self.sweeps, self.dqs, self.loss, self.models, base, **self.options(effects), **kw)
 
-    def drifting(self, base: dict, **kw) -> tuple[dict | None, bool, str]:
-        """(the fit with a home point per sweep, or None when it does not converge (arcs too short to hold one); whether
-        its home points differ by Schwarz's criterion (:func:`_drift_wald`); the test in words). The fit on base's
-        weights, then refitted on its own (the simpler model's tangential misfit held the drift too; kept on base's
-        when that does not converge)."""
-        d = self.richer(base, per_sweep_home=True, **kw)
-        if d is None:
-            return None, False, "a home point per sweep does not converge on these arcs"
-        d = self.refit(d, per_sweep_home=True, **kw)
-        return d, *_schwarz(*_drift_wald(d), self.n_res, "the home points' differences")
+    def __getitem__(self, effects: frozenset) -> dict | None:
+        if effects not in self.cache:
+            g, out = self.g, None
+            for weights in ({"weights0": (g["gamma"], g["robust_scale"])}, {"gamma": g["gamma"]}):
+                try:
+                    out = self.fit(g, effects, **weights)
+                    break
+                except NotConvergedError:
+                    continue
+            self.cache[effects] = out
+        return self.cache[effects]
 
-    def refit(self, r: dict, strict: bool = False, **kw):
-        """r refitted with its own weights (the simpler model's tangential misfit held the effect too); r itself, or
-        with ``strict`` None, when that does not converge."""
-        try:
-            return self._fit(r, **kw)
-        except NotConvergedError:
-            return None if strict else r
+
+def _select(models: _Models, candidates: list) -> tuple[frozenset, dict, dict]:
+    """auto's effects, one rule for all (stepwise, by Schwarz's criterion): every candidate effect not yet chosen is
+    tested in the fit that frees it with those chosen, by its criterion less its penalty (:data:`_TESTS`: the
+    drift's and the compliances' Schwarz criterion in its Wald form, the scales' marginal likelihood ratio against ln
+    n; each about 2 ln of the Bayes factor for the effect); the one that gains most, if any gains, is chosen, and every
+    chosen effect is then tested again in the fit with all chosen (one that no longer pays, the furthest below first,
+    is dropped), until no candidate gains. So an effect is chosen only when it pays for itself in the presence of the
+    others chosen, and of two that could be taken for each other the one that explains the data better comes first
+    and holds the other out. A fit that does not converge gives its effect up.
+
+    (Chosen one after another, each tested alone against the model without the rest, an effect took another's place:
+    with a 5 kg payload declared on a rigid UR5 the compliances, chosen first, took 200 ppm reading scale errors on
+    two joints in 20 of 20 runs on points (the scales found in none) and 5 of 20 on 6-DoF poses, a 30 um drift in 13
+    and 2 of 20: benchmarks/bench_identify_choice_poses.py. Nor does one fit that frees every effect decide: there a
+    compliance and a scale error on joints 2 and 3 trade so closely that neither shows (both below their penalties in
+    18 of 20 of those runs), and dropping the weaker of the two from it kept the compliances in 5 of 20, while the
+    scales alone gain 16-90 where the compliances alone gain 8-36.)
+
+    Returns (the effects chosen, their fit, per candidate (chosen, (criterion less penalty, the test in words, tau of
+    the scales), the other effects free in the fit that tested it last, that fit or None when it did not converge))."""
+    n_res, order = models.n_res, list(EFFECTS)
+    chosen = frozenset()
+    for _ in range(2 * len(order) + 1):  # (a guard: each pass chooses one; a drop is never taken back at once)
+        trials = {}
+        for e in (e for e in order if e in candidates and e not in chosen):
+            f = models[chosen | {e}]
+            trials[e] = (f, (math.nan, _NO_CONVERGENCE[e], math.nan) if f is None else _TESTS[e](f, n_res))
+        gains = [(t[0], -order.index(e), e) for e, (f, t) in trials.items() if f is not None and t[0] > 0]
+        if not gains:
+            break
+        chosen |= {max(gains)[2]}
+        while len(chosen) > 1:  # every chosen effect with the others chosen
+            tests = {e: _TESTS[e](models[chosen], n_res) for e in chosen}
+            worst = min(chosen, key=lambda e: (tests[e][0], order.index(e)))
+            if tests[worst][0] > 0 or models[chosen - {worst}] is None:
+                break
+            chosen -= {worst}
+    f = models[chosen]
+    decided = {e: (True, _TESTS[e](f, n_res), chosen - {e}, f) for e in chosen}
+    decided.update({e: (False, t, chosen, fe) for e, (fe, t) in trials.items()})
+    return chosen, f, decided
+
+
+def _beside(others: frozenset) -> str:
+    """The words for the other effects free in the fit that tested one."""
+    if not others:
+        return ""
+    return "; tested with " + " and ".join(EFFECTS[e] for e in EFFECTS if e in others) + " free"
 
 
 def _first_fit(
@@ -374,48 +449,6 @@ def _first_fit(
         ) from None
 
 
-def _choose_drift(refits: _Refits, g: dict, sq: list, notes: list[str]):
-    """One home point or one per sweep, by Schwarz's criterion in its Wald form (:func:`_drift_wald`). Returns (the
-    chosen fit, method, the axes' covariance)."""
-    d, wins, why = refits.drifting(g)
-    if wins:
-        cov, sd = _with_drift(refits.sweeps, d)
-        notes.append(
-            Message(
-                "auto: readings (a home point per sweep) over global (one home point): {why}; the home tool point"
-                " moves {sd:.3g} (1 sigma per coordinate) between sweeps, added to every axis's uncertainty",
-                why=why,
-                sd=Length(sd),
-            )
-        )
-        return d, "readings", cov
-    notes.append(
-        Message(
-            "auto: global (one home point) over readings (a home point per sweep): {why}; estimated reading error"
-            " {sq} arcsec per sweep, point noise {sigma:.3g}",
-            why=why,
-            sq=", ".join(sq),
-            sigma=Length(g["sigma"]),
-        )
-    )
-    return g, "global", g["cov"]
-
-
-def _drift_again(refits: _Refits, g_global: dict, tau: float, notes: list[str]) -> bool:
-    """With the reading scales fitted, whether a home point per sweep still pays for itself (:meth:`_Refits.drifting`
-    with the scales): the drift was chosen before the scales, and unmodelled scale errors look like a drift. False
-    notes that one home point holds again."""
-    prior = (tau, g_global["sigma"])
-    gs = refits.refit(g_global, scales=True, scale_prior=prior, strict=True)
-    if gs is None:  # (the drift stands as chosen)
-        return True
-    _, wins, why = refits.drifting(gs, scales=True, scale_prior=prior)
-    if wins:
-        return True
-    notes.append(f"auto: with the reading scales fitted, one home point again ({why}): the drift was the scale errors")
-    return False
-
-
 def _scales_note(post, full, tau: float, evidence: str, g: dict, n: int) -> str:
     """auto's note on the readings' scale errors: fitted (``post``, the fit with their prior) or not, and why."""
     if post is not None:
@@ -439,77 +472,91 @@ def _scales_note(post, full, tau: float, evidence: str, g: dict, n: int) -> str:
     )
 
 
+def _drift_note(sweeps: SweepSet, g: dict, decided: tuple) -> Message | str:
+    """auto's note on the home drift: a home point per sweep (``decided`` kept) or one, and why."""
+    kept, (_, why, _), others, _ = decided
+    why += _beside(others)
+    if kept:
+        return Message(
+            "auto: readings (a home point per sweep) over global (one home point): {why}; the home tool point"
+            " moves {sd:.3g} (1 sigma per coordinate) between sweeps, added to every axis's uncertainty",
+            why=why,
+            sd=Length(_with_drift(sweeps, g)[1]),
+        )
+    sq = ", ".join(f"{math.degrees(v) * 3600:.3g}" for v in g["reading_sigma"])
+    return Message(
+        "auto: global (one home point) over readings (a home point per sweep): {why}; estimated reading error"
+        " {sq} arcsec per sweep, point noise {sigma:.3g}",
+        why=why,
+        sq=sq,
+        sigma=Length(g["sigma"]),
+    )
+
+
+def _compliance_note(g: dict, decided: tuple) -> str:
+    """auto's note on the joints' compliance (issue 37): fitted (``decided`` kept; ``g`` the chosen fit) or not, and
+    why."""
+    kept, (_, why, _), others, _ = decided
+    if kept:
+        return f"auto: joint compliance fitted ({why}{_beside(others)}): {_compliance_list(g)}"
+    return f"auto: no joint compliance fitted ({why}{_beside(others)}): the joints taken as rigid"
+
+
 def _decide(
     sweeps: SweepSet, fits: list, dqs: list, homes0, R0, loss: str, notes: list[str], chosen: str, models, tq=None
 ):
     """auto's measurement model by the evidence (:func:`_choose`) on ``sweeps`` and their motions ``dqs``: None when
     the readings are worth nothing, else (method, the chosen joint fit, its axes' covariance, drift, the scales'
-    prior (tau, sigma) or None, the words of the scales' note: (full, tau, evidence)). ``tq``: the poses' gravity
-    torques from home (:func:`_torques`) when the joints' compliance is considered (:func:`_compliance`), else None."""
+    prior (tau, sigma) or None, the words of the scales' note: (full, tau, evidence)). The effects (a home point per
+    sweep, the reading scales and, with ``tq`` the poses' gravity torques from home (:func:`_torques`), the joints'
+    compliances) stepwise, each in the presence of the others chosen (:func:`_select`); reading scales chosen are
+    refitted with the prior of their spread tau (:func:`_with_scale_prior`)."""
     g = _first_fit(sweeps, fits, dqs, homes0, R0, loss, *models, torques=None if chosen == "auto" else tq)
     if chosen != "auto":
         return "global", g, g["cov"], False, None, None
-    sq = [f"{math.degrees(v) * 3600:.3g}" for v in g["reading_sigma"]]
     if np.all(g["gamma"] < READINGS_WORTHLESS):
+        sq = [f"{math.degrees(v) * 3600:.3g}" for v in g["reading_sigma"]]
         notes.append(
             "auto: geometric (per-sweep circles): the readings are worth nothing against the points (estimated "
             f"reading error {', '.join(sq)} arcsec per sweep)"
         )
         return None
-    n_res = g["components"] * sum(len(s.points) for s in sweeps.sweeps)
-    refits = _Refits(sweeps, dqs, loss, *models, n_res)
-    if tq is not None:  # first: a deflection is no drift nor scale error, the choices after it see it modelled
-        g = _compliance(refits, g, tq, notes)
-        sq = [f"{math.degrees(v) * 3600:.3g}" for v in g["reading_sigma"]]
-    g_global = g
-    g, method, cov = _choose_drift(refits, g, sq, notes)
-    drift = method == "readings"
-    base = g
-    post, full, tau, evidence = _reading_scales(refits.richer, refits.refit, g, drift, n_res)
-    if drift and post is not None and not _drift_again(refits, g_global, tau, notes):
-        method, drift, cov, g = "global", False, g_global["cov"], g_global
-        base = g
-        post, full, tau, evidence = _reading_scales(refits.richer, refits.refit, g, drift, n_res)
-    prior = None
-    if post is not None:
-        g, prior = post, (tau, base["sigma"])
-        cov = _with_drift(sweeps, g)[0] if drift else g["cov"]
-    return method, g, cov, drift, prior, (full, tau, evidence)
+    fits_ = _Models(sweeps, dqs, loss, *models, g, tq)
+    effects, d, decided = _select(fits_, [e for e in EFFECTS if e != "compliance" or tq is not None])
+    post, prior = None, None
+    if "scales" in effects:
+        post, prior = _with_scale_prior(fits_, d, effects, decided["scales"][1][2])
+        if post is None:  # (given up: the fit without them)
+            effects = effects - {"scales"}
+            d = fits_[effects]
+            effects, d = (effects, d) if d is not None else (frozenset(), g)
+    g = d if post is None else post
+    drift = "drift" in effects
+    if tq is not None:
+        notes.append(_compliance_note(g, decided["compliance"]))
+    notes.append(_drift_note(sweeps, g, decided["drift"]))
+    kept, (_, evidence, tau), others, full = decided["scales"]
+    scale_words = (full, tau if kept else (math.nan if full is None else 0.0), evidence + _beside(others))
+    cov = _with_drift(sweeps, g)[0] if drift else g["cov"]
+    return "readings" if drift else "global", g, cov, drift, prior, scale_words
 
 
-def _compliance(refits: _Refits, g: dict, tq: list, notes: list[str]) -> dict:
-    """auto's choice of the joints' compliance (issue 37), before the drift and the reading scales (a deflection that
-    changes along a sweep had passed for reading errors and scale errors, which then took the compliances' place): the
-    first fit with a compliance per joint whose gravity torque changes, on its own weights, and Schwarz's criterion in
-    its Wald form, ``k^T C^-1 k`` of the compliances (those held at their bound 0 among them) against ``ln n`` per free
-    one (the likelihood ratio's large-sample equal, from one fit: the two fits' sums of squares, compared as the drift's
-    on the first fit's weights, had missed 0.35 mm deflections in 6-DoF poses in 3 of 5 runs, each fit weighing the
-    orientations by its own noise estimate). With every compliance held at 0 the model is the rigid one. Chosen, every
-    later fit of ``refits`` carries them. Returns the fit."""
+def _with_scale_prior(fits_: _Models, full: dict, effects: frozenset, tau: float) -> tuple[dict | None, tuple | None]:
+    """The reading scales kept by the evidence, as a population (empirical Bayes): every scale refitted with the prior
+    N(0, tau^2) (:func:`~denavit.fitting.joint.fit_sweeps`' ``scale_prior``), tau their spread in the fit ``full`` that
+    freed them (the model ``effects``), the point noise that fit's: a scale the data show (sigma << tau) keeps its
+    value, one they cannot show (sigma >> tau) stays near zero with about tau of uncertainty in its axis,
+    continuously (no joint-by-joint choice: a chance 2.9-sigma scale on exact readings no longer moves its axis by 2.9
+    of its full sigmas). (Before issue 36 any tau > 0 fitted the scales: the median-unbiased tau is positive in about
+    half of all runs with exact readings, and on 30 degree arcs, where a scale trades with its axis's radial position,
+    the fitted scales then moved the axes by up to 10x their error with exact scales.) Returns (the fit, its prior
+    (tau, sigma)), or (None, None) when it does not converge."""
+    prior = (tau, full["sigma"])
     try:
-        c = refits._fit(g, torques=tq)
+        weights0 = (full["gamma"], full["robust_scale"])
+        return fits_.fit(full, effects, scale_prior=prior, weights0=weights0, start=full), prior
     except NotConvergedError:
-        c = None
-    free, why = 0, "the fit with them does not converge"
-    if c is not None:
-        on = np.isfinite(c["compliance_sigma"])
-        free = int(np.sum(on & ~c["compliance_held"]))
-        chi2 = _wald(c["compliance"][on], c["compliance_cov"][np.ix_(on, on)])
-        wins, test = _schwarz(chi2, free, refits.n_res, "the compliances")
-        if free and wins:
-            refits.torques = tq
-            notes.append(f"auto: joint compliance fitted ({test}): {_compliance_list(c)}")
-            return c
-        why = test
-    if c is not None and not free:
-        z = {j: -c["compliance_negative"][j] / c["compliance_sigma"][j] for j in np.flatnonzero(c["compliance_held"])}
-        why = (
-            "every one fitted negative and held at 0 (a joint gives way under its torque): "
-            + ", ".join(f"k_{j + 1} {v:.2g} sigma below 0" for j, v in z.items())
-            + ("; check the payload and the nominal's inertials" if max(z.values()) > 2 else "")
-        )
-    notes.append(f"auto: no joint compliance fitted ({why}): the joints taken as rigid")
-    return g
+        return None, None
 
 
 def _compliance_list(g: dict) -> str:
@@ -578,14 +625,15 @@ def _choose(
     torque_model=None,
 ):
     """The joint fit(s) with readings: ``chosen`` "global", or "auto" (evidence: the per-sweep fits when the
-    readings are worth nothing, else one home point or one per sweep by the BIC (:func:`_drift_wald`), and the
-    readings' scale errors as a population when the evidence shows them (:func:`_reading_scales`); with scales fitted,
-    a home point per sweep must win again). ``homes0`` (k, 3) the start home points of the targets, ``R0`` the start
+    readings are worth nothing, else the joint fit with the effects that pay for themselves, each tested with the
+    others free (:func:`_select`): a home point per sweep (:func:`_drift_wald`), the readings' scale errors as a
+    population (:func:`_scales_test`, then fitted with their spread as a prior) and the joints' compliances
+    (:func:`_compliance_test`)). ``homes0`` (k, 3) the start home points of the targets, ``R0`` the start
     orientation at home (6-DoF poses) or None. Returns (method, fits, cov, tool point, rms, the joint fit's result or
     None, scales): ``scales`` None, or when fitted (values (n,), their covariance with [c_1, n_1, ..., p] (6n+3, n),
     their covariance (n, n)); zeros where a joint's scale was not fitted. ``tracker`` the tracker's range/angle noise
     model, or None (isotropic). ``torque_model``: the nominal's model with its links' inertials when the joints'
-    compliance is considered (fitted with "global", chosen by the evidence with "auto": :func:`_compliance`), else None.
+    compliance is considered (fitted with "global", chosen by the evidence with "auto": :func:`_select`), else None.
 
     Sweeps longer than :data:`~denavit.fitting.joint.SUBSAMPLE` poses: the choice, with its variance components and
     robust weights, on every k-th pose (:func:`_every`; auto's up to five joint fits had each passed over every point
@@ -601,12 +649,17 @@ def _choose(
         return "geometric", None, None, None, math.nan, None, None
     method, g, cov, drift, prior, scale_words = decided
     if k > 1:  # the chosen model once on all points, from the subsample's answer
-        g = _Refits(sweeps, dqs, loss, *models, 0)._fit(
+        g = _fit_from(
+            sweeps,
+            dqs,
+            loss,
+            {"rotation_sigma": models[0], "tracker": models[1]},
             g,
             per_sweep_home=drift,
             scales=prior is not None,
             scale_prior=prior,
             weights0=(g["gamma"], g["robust_scale"]),
+            start=g,
             torques=tq if np.any(np.isfinite(g["compliance_sigma"])) else None,
         )
         cov = _with_drift(sweeps, g)[0] if drift else g["cov"]

@@ -64,12 +64,12 @@ def identify(
     """Identify the joint axes and the parameter table of ``convention`` from ``sweeps``.
 
     method : "auto" (chosen by the evidence, with a note saying which and why: without readings "geometric";
-        with readings the joint fit with one home point ("global") or one per sweep ("readings": the home
-        drifted, and the drift is added to the sigmas) by the BIC in its Wald form (:func:`_drift_wald`), or the
-        "geometric" circles when the readings are worth nothing against the points; then the readings' scale
-        errors, fitted as one population only when the evidence shows them: :func:`_reading_scales`), "kasa" (the
-        paper's eq. 1-9), "hyper" (Al-Sharadqah & Chernov 2009), "geometric" (orthogonal distance),
-        "readings" (per sweep, points as rotations of one rigid point by the recorded angles), "global".
+        with readings the joint fit with one home point ("global") or one per sweep ("readings": the home drifted,
+        the drift added to the sigmas), the readings' scale errors (one population) and the joints' compliances each
+        only where it pays for itself with the others chosen (:func:`~denavit.identification.choice._select`), or the
+        "geometric" circles when the readings are worth nothing against the points), "kasa" (the paper's eq. 1-9),
+        "hyper" (Al-Sharadqah & Chernov 2009), "geometric" (orthogonal distance), "readings" (per sweep, points as
+        rotations of one rigid point by the recorded angles), "global".
     nominal : a robot of any convention; breaks sign ties, fixes free origins and the last frame
         (docs/conventions.md), gives names and limits.
     T_world_base : (4, 4) base frame in the measurement frame (default: the measurement frame itself). When
@@ -228,7 +228,7 @@ def _elastic(sweeps: SweepSet, nominal, compliance, payload, notes: list[str]):
 
     ``compliance``: None (considered when the sweeps carry a payload, or ``payload`` is given), True (considered),
     False. One ``k_i`` per joint whose gravity torque changes in the data, in the joint fit: fitted with "global",
-    chosen by the evidence with "auto" (:func:`~denavit.identification.choice._compliance`). It needs the nominal's
+    chosen by the evidence with "auto" (:func:`~denavit.identification.choice._select`). It needs the nominal's
     link inertials. The axes are then those of the arm at home under its own weight (no payload); the result's
     ``compliance`` (:func:`_compliance_of`) holds the compliances and the torques at home. ``payload``: a mass in kg at
     the flange, ``(kg, (x, y, z) m)`` or (4,) ``[kg, m, m, m]`` (:func:`denavit.calibration.compliance.as_payload`)."""
@@ -263,7 +263,7 @@ def _elastic(sweeps: SweepSet, nominal, compliance, payload, notes: list[str]):
 def _compliance_of(joint, sweeps: SweepSet, nominal, T_world_base, notes: list[str]) -> dict | None:
     """The identified compliances (the joint fit's, where it fitted them): ``k`` (n,) rad/(N m) (m/N prismatic; 0
     where not fitted; >= 0), ``sigma`` (n,) (nan where not fitted), ``cov`` (n, n), ``held`` (n,) those fitted negative
-    and held at the bound 0 (with their sigmas: :meth:`~denavit.fitting.joint._JointFit.bound_compliances`),
+    and held at the bound 0 (with their sigmas: :meth:`~denavit.fitting.elastic._Compliances.bound_compliances`),
     ``torque_home`` (n,) N m the gravity torques at home without a payload (the axes fitted are the arm's under them:
     joint i's link sits at ``q_i - k_i (tau_i(q, payload) - torque_home_i)`` about them); None when not fitted. A note
     for each compliance held at 0, saying how far below it the fit had put it (beyond 2 sigma: the data or the torque
