@@ -340,10 +340,10 @@ def test_the_json_carries_the_compliances_with_their_units_and_strict_numbers(co
 
 def recovered_and_predicting(train, test, **kw):
     """identify with and without the compliances on ``train``: the fitted compliances within 3 of their sigmas of the
-    truth (true_compliance), no reading scale errors beside them (the readings are exact: auto chooses the compliances
-    before the scales, which had taken the deflection for scale errors in 8 of 12 runs of points, 5 of 5 of 6-DoF
-    poses), and the compliant fit predicting ``test`` (no payload, other joint ranges) below half the rigid fit's error
-    and within 3 x the point noise. Returns the compliant result."""
+    truth (true_compliance), no reading scale errors beside them (the readings are exact: the compliances explain the
+    deflection better and hold the scales out; chosen after them, the scales had taken the deflection for scale errors
+    in 8 of 12 runs of points, 5 of 5 of 6-DoF poses), and the compliant fit predicting ``test`` (no payload, other
+    joint ranges) below half the rigid fit's error and within 3 x the point noise. Returns the compliant result."""
     k = true_compliance()
     idf = dv.identify(train, nominal=ROBOT, compliance=True, **kw)
     assert not any(n.startswith("auto: the readings' scale errors fitted") for n in idf.notes)

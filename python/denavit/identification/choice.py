@@ -259,9 +259,8 @@ def _scale_list(g: dict, n: int) -> str:
     )
 
 
-#: The effects auto weighs against the joint fit with one home point, exact reading scales and rigid joints, in the
-#: order a fit with them that does not converge gives them up (a home point per sweep first: short arcs cannot hold
-#: one), with their names in the notes.
+#: The effects auto weighs (:func:`_select`; this order breaks a tie) against the joint fit with one home point,
+#: exact reading scales and rigid joints, with their names in the notes.
 EFFECTS = {
     "drift": "a home point per sweep",
     "scales": "the reading scales",
@@ -382,10 +381,14 @@ def _select(models: _Models, candidates: list) -> tuple[frozenset, dict, dict]:
     (Chosen one after another, each tested alone against the model without the rest, an effect took another's place:
     with a 5 kg payload declared on a rigid UR5 the compliances, chosen first, took 200 ppm reading scale errors on
     two joints in 20 of 20 runs on points (the scales found in none) and 5 of 20 on 6-DoF poses, a 30 um drift in 13
-    and 2 of 20: benchmarks/bench_identify_choice_poses.py. Nor does one fit that frees every effect decide: there a
-    compliance and a scale error on joints 2 and 3 trade so closely that neither shows (both below their penalties in
-    18 of 20 of those runs), and dropping the weaker of the two from it kept the compliances in 5 of 20, while the
-    scales alone gain 16-90 where the compliances alone gain 8-36.)
+    and 2 of 20 (on a KR 210 at 100 kg: scale errors 20 and 20 of 20, a drift 12 and 11): benchmarks/
+    bench_identify_choice_poses.py; now in none, the scales and the drift found as without a payload, the compliances
+    of a KR 210 in 20 of 20 at full and 0.4x size, with the same held-out error. Nor does one fit that frees every
+    effect decide: there the compliances and the scale errors on joints 2 and 3 trade so closely that neither shows
+    (both below their penalties in all 20 of those UR5 runs), and dropping the weaker of the two from it kept the
+    compliances in 5 of 20, while the scales alone gain 16-90 where the compliances alone gain 8-36. Where the data
+    cannot tell them apart, the UR5's compliances at 0.4x size on points (each alone gains 4-26), the two are taken
+    about equally often: 10 of 20.)
 
     Returns (the effects chosen, their fit, per candidate (chosen, (criterion less penalty, the test in words, tau of
     the scales), the other effects free in the fit that tested it last, that fit or None when it did not converge))."""
