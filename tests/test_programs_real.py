@@ -96,6 +96,10 @@ def test_a_real_program_compensated_changes_only_its_positions_and_reaches_them(
         assert not relabelled
     (tmp_path / "out").mkdir()
     paths = pc.write(tmp_path / "out" / src.name)
+    # the rewrites alone carry their configurations (written without configs=, cf4 had stayed -1: a stale label)
+    (tmp_path / "alone").mkdir()
+    alone = pg.write_program(prog, tmp_path / "alone" / src.name, pc.new_values)
+    assert Path(alone[0]).read_bytes() == Path(paths[0]).read_bytes()
     back = pg.read_program(paths[0], r)
     assert _without_positions(back, relabelled) == _without_positions(prog, relabelled)
     assert [p.config for p in back.points] == [pc.configs.get(k, p.config) for k, p in enumerate(prog.points)]

@@ -253,10 +253,24 @@ def resolution(token: str, unit: str) -> float:
     return 0.5 * 10.0 ** (-dec) * scale
 
 
+class Rewrites(dict):
+    """{point index: values in the program's units}, the points a compensation rewrites, with ``configs`` ({point
+    index: the vendor's configuration}) those whose configuration is written with them: passed alone to
+    :func:`render` / :func:`write_program`, they carry their configurations along."""
+
+    configs: dict
+
+    def __init__(self, values=(), configs=None):
+        super().__init__(values)
+        self.configs = dict(configs or {})
+
+
 def render(program: Program, new_values: dict, configs: dict | None = None) -> list[bytes]:
     """The program's files as bytes with the points in ``new_values`` ({point index: values in the program's
     units}) rewritten, and the configurations in ``configs`` ({point index: the vendor's configuration},
-    :attr:`ProgramCompensation.configs`) written in their fields' own number forms; every other byte as read."""
+    :attr:`ProgramCompensation.configs`; default a :class:`Rewrites`' own) written in their fields' own number forms;
+    every other byte as read."""
+    configs = getattr(new_values, "configs", None) if configs is None else configs
     edits: dict[int, list] = {}
     for k, vals in new_values.items():
         for num, v in zip(program.points[k].numbers, vals, strict=True):
@@ -588,7 +602,7 @@ def compensate_program(
             configs[k] = r[0]
             relabels.append((p.where, r[1]))
         new[k] = v.pose_values(program_pose(p, c.commands[i], F), p)
-    return ProgramCompensation(program, new, c, rows, Q, left, T, configs, relabels)
+    return ProgramCompensation(program, Rewrites(new, configs), c, rows, Q, left, T, configs, relabels)
 
 
 def relabelled(v, model, config, q_nominal: np.ndarray, q_command: np.ndarray, cache: dict, tol: float):
