@@ -320,7 +320,7 @@ def _predicted(identified, result, q: np.ndarray, el, qc: np.ndarray, pl, regist
     elif isinstance(identified, Robot) and identified.covariance is not None:
         prop = _table_propagation(identified, q, registration, place)  # e.g. a robot file's [covariance]
     if el is not None:
-        el = el if result is None else replace(el, cross=None)  # (its cross-covariance is with its own covariance)
+        el = el if result is None else replace(el, cross=None, torque_reference=None)  # (both of its own covariance)
         prop = _compliant_propagation(el, prop, qc, pl, registration, place, None if place is None else ide)
     return prop
 
@@ -606,15 +606,17 @@ def compliant_sigma(el, geometric, q, payload=None, *, registration: bool = Fals
     """The predicted tool-position error (1 sigma, m) at the commanded readings ``q`` of a robot with compliant joints
     (``el``, a :class:`denavit.calibration.compliance.Elastic`): from the calibration's full covariance when it came
     from one (geometry and compliances with their correlations; ``registration`` as :func:`predicted_sigma`'s); else
-    ``geometric``: the Robot ``el`` is of, its ``covariance`` at the links' joint values and the compliances' with
-    their cross-covariance (``compliance_cross``: a saved calibration predicts as it did), or (N,) the geometry's
-    prediction (or None) and the compliances' own part in quadrature."""
+    ``geometric``: the Robot or identification ``el`` is of, its covariance at the links' joint values and the
+    compliances' with their cross-covariance (``el.cross``: a saved calibration or identification predicts as it did),
+    or (N,) the geometry's prediction (or None) and the compliances' own part in quadrature."""
     q = np.atleast_2d(np.asarray(q, dtype=float))
     if el.calibration is not None:
         return predicted_sigma(el.calibration, np.hstack([q, el.torques(q, payload)]), registration=registration)
-    if isinstance(geometric, Robot):  # (the joint values of the readings, deflected: where its geometry is evaluated)
-        q = geometric.joint_values(q) if geometric.has_reading_model else q
-        prop = _table_propagation(geometric, el.deflected(q, payload), registration)
+    if isinstance(geometric, Robot) or hasattr(geometric, "axis_cov"):  # (a robot file, an identification: its own)
+        rm = reading_model(geometric)  # (the joint values of the readings, deflected: where its geometry is evaluated)
+        q = q if rm is None else joint_values(q, *rm)
+        qd, of = el.deflected(q, payload), isinstance(geometric, Robot)
+        prop = _table_propagation(geometric, qd, registration) if of else _axes_propagation(geometric, qd)
         return _sigma(*_compliant_propagation(el, prop, q, payload, registration))
     if geometric is None and el.covariance is None:
         return None
@@ -631,10 +633,10 @@ def _compliant_propagation(el, geometric, q, payload, registration: bool, place=
         return _propagation(el.calibration, np.hstack([q, el.torques(q, payload)]), registration, place)
     if el.covariance is None:
         return geometric
-    A, Ck = el.jacobian(q, payload), np.asarray(el.covariance, dtype=float)
+    A, Ck, tau = el.jacobian(q, payload), np.asarray(el.covariance, dtype=float), el.torques(q, payload)
     if point is not None:  # at the flange compensated: the joints' Jacobian there
-        tau = el.torques(q, payload)
-        A = -np.stack([np.asarray(_core.jacobian(point, x))[:3] for x in q - el.k * tau]) * tau[:, None, :]
+        dt = (tau if el.torque_reference is None else tau - el.torque_reference)[:, None, :]  # (Elastic.jacobian's)
+        A = -np.stack([np.asarray(_core.jacobian(point, x))[:3] for x in q - el.k * tau]) * dt
     if geometric is None:
         return A, Ck
     Cg, X = geometric[1], el.cross  # (the robot's covariance with its compliances, when carried: one covariance)

@@ -322,6 +322,10 @@ class Elastic:
     #: (P, n) the covariance of the robot's geometric parameters (its ``covariance``'s entries) with the compliances,
     #: or None: uncorrelated (:attr:`denavit.robot.Robot.compliance_cross`)
     cross: np.ndarray | None = None
+    #: (n,) N m the torques at which the geometry's covariance holds the links, or None: none. An identification's
+    #: axes are the arm's at home under its own weight, so a compliance's error turns its link by its torque from there
+    #: (:meth:`jacobian`), as in its joint fit.
+    torque_reference: np.ndarray | None = None
 
     def torques(self, q, payload=None) -> np.ndarray:
         return gravity_torques(self.torque_model, q, payload, self.flange)
@@ -346,11 +350,12 @@ class Elastic:
 
     def jacobian(self, q, payload=None) -> np.ndarray:
         """(N, 3, n) the tool position's derivatives by the compliances at readings ``q``: ``-J_q diag(tau)``, ``J_q``
-        the position rows of the joints' Jacobian at the deflected joints."""
+        the position rows of the joints' Jacobian at the deflected joints (``tau`` less :attr:`torque_reference`)."""
         q = np.atleast_2d(np.asarray(q, dtype=float))
         tau = self.torques(q, payload)
         qd = q - self.k * tau
-        return np.stack([-np.asarray(_core.jacobian(self.torque_model, qd[i]))[:3] * tau[i] for i in range(len(q))])
+        dt = tau - (0.0 if self.torque_reference is None else self.torque_reference)
+        return np.stack([-np.asarray(_core.jacobian(self.torque_model, qd[i]))[:3] * dt[i] for i in range(len(q))])
 
     def sigma(self, q, payload=None) -> np.ndarray:
         """(N,) the tool-position sigma (m, 3-D) the compliances' own covariance adds at readings ``q``:
@@ -381,7 +386,14 @@ def elastic(identified) -> Elastic | None:
             k, m, identified.compliance_covariance, None, _model_flange(identified, m), identified.compliance_cross
         )
     if isinstance(getattr(identified, "compliance", None), dict) and hasattr(identified, "axis_cov"):
-        return elastic(identified.robot())  # an identification whose joint fit freed them: as its saved robot
+        # an identification whose joint fit freed them: as its saved robot, but beside its own covariance (of the axes
+        # at home: compensation's _axes_propagation) with the compliances' cross-covariance with it, as the fit's
+        el = elastic(identified.robot())
+        c, n = identified.compliance, len(identified.compliance["k"])
+        full, scale = getattr(identified, "axis_scale_cov", None), getattr(identified, "reading_scale", None)
+        rows = 6 * n + 3 if full is None or scale is None else len(full)
+        cross = None if c.get("cross") is None else np.asarray(c["cross"], dtype=float)[:rows]
+        return None if el is None else replace(el, cross=cross, torque_reference=np.asarray(c["torque_home"]))
     pz = getattr(identified, "parametrization", None)
     if isinstance(pz, CompliantParametrization) and any(
         n.startswith("k_") for n in getattr(identified, "free_names", ())

@@ -516,7 +516,8 @@ def _sigmas(cov_source, readings, q, el, meas, max_sigma, sigma_factor, training
         try:
             from ..compensation import compliant_sigma  # noqa: PLC0415
 
-            if el is not None and isinstance(cov_source, Robot):  # its geometry's and compliances' covariance together
+            if el is not None and (isinstance(cov_source, Robot) or hasattr(cov_source, "axis_cov")):
+                # (a robot file, an identification: its geometry's and compliances' covariance together)
                 sigma = compliant_sigma(el, cov_source, readings, meas.payload)
             else:
                 sigma = _predicted_sigma(cov_source, readings, q)

@@ -186,7 +186,8 @@ def fit_sweeps(
     ``robust_scale`` the robust loss's scale (m, of the whitened misfits; None with "linear"); ``tracker_ref2`` the
     tracker model's reference variance (m^2: ``sigma / sqrt(tracker_ref2)`` is the point noise over the declared; nan
     without a model); ``compliance`` (n,) the compliances (zeros where not fitted), ``compliance_sigma`` (n,) (nan where
-    not fitted) and ``compliance_cov`` (n, n), ``compliance_held`` (n,) those held at their bound 0 (still with their
+    not fitted) and ``compliance_cov`` (n, n), ``compliance_cross`` (rows of ``cov``, then the n scales; n) their
+    covariance with those (zeros where not fitted), ``compliance_held`` (n,) those held at their bound 0 (with their
     sigmas) and ``compliance_negative`` (n,) the value each held one had in the fit that held it (0 elsewhere).
     """
     fit = _JointFit(
@@ -736,6 +737,7 @@ class _JointFit(_Compliances):
         Mk = np.zeros((n, npar))  # the compliances' (zero where not fitted)
         Mk[self.kj, self.i_k + np.arange(len(self.kj))] = 1.0
         k_cov = Mk @ cov_x @ Mk.T
+        k_cross = np.vstack([(M @ cov_x @ Mk.T)[:n_out], Ms @ cov_x @ Mk.T])  # (rows of cov, then the scales)
         k_sigma = np.full(n, math.nan)
         k_sigma[self.kj] = np.sqrt(np.clip(np.diag(k_cov)[self.kj], 0, None))
         sigma = math.sqrt(sigma2)
@@ -773,6 +775,7 @@ class _JointFit(_Compliances):
             "compliance": self.sc[n:] if self.tq is not None else np.zeros(n),
             "compliance_sigma": k_sigma,
             "compliance_cov": k_cov,
+            "compliance_cross": k_cross,
             "compliance_held": np.isin(np.arange(n), self.held),
             "compliance_negative": self.negative,
         }

@@ -239,24 +239,53 @@ def _parameter_cov(
     translation (, the reading scales)] from the covariance ``cov`` of [c_1, n_1, ..., tool point (, the tool's small
     rotation in world: ``n_rot`` = 3) (, scales)] at ``x`` (the scales pass through), by central differences through
     the core's extraction with ``opts``."""
+    J = _parameter_jacobian(x, len(cov), ax, sweeps, convention, opts, p_ref, n_rot)
+    return J @ cov @ J.T
+
+
+def _parameter_jacobian(
+    x: np.ndarray,
+    size: int,
+    ax: _core.JointAxes,
+    sweeps: SweepSet,
+    convention: str,
+    opts: dict,
+    p_ref: np.ndarray,
+    n_rot: int = 0,
+    torque_home: np.ndarray | None = None,
+) -> np.ndarray:
+    """:func:`_parameter_cov`'s Jacobian, by [c_1, n_1, ..., tool point (, rotation) (, scales)] (``size`` of them)
+    and, with ``torque_home`` (n,) N m, the joints' compliances after them: the links' values at home ``ax.q_ref``
+    are the home less ``k torque_home`` (run._link_home), so a compliance turns its joint's offset in the table (an
+    identification's axes are the arm's at home under its own weight)."""
     n6 = 6 * sweeps.n_joints + 3
+    nk = 0 if torque_home is None else sweeps.n_joints
     tool_R, base = np.asarray(ax.T_world_tool)[:3, :3], np.asarray(ax.T_world_base)
     angle_cols = np.array(_core.Table(convention, p_ref, list(ax.kinds)).angle_columns)
-    xs = np.concatenate([x, np.zeros(len(cov) - n6)])
+    xs = np.concatenate([x, np.zeros(size - n6 + nk)])
+    k_home = np.zeros(sweeps.n_joints) if torque_home is None else np.asarray(torque_home, dtype=float)
 
     def params_of(xv):
         R = rotvec_matrix(xv[n6 : n6 + n_rot]) @ tool_R if n_rot else tool_R
-        a = _axes_from(xv[:n6], sweeps, R, base, ax.lower, ax.upper, ax.q_ref)
+        q_ref = np.asarray(ax.q_ref) - (K_STEP * xv[size:] * k_home if nk else 0.0)
+        a = _axes_from(xv[:n6], sweeps, R, base, ax.lower, ax.upper, q_ref)
         t = _core.extract(a, convention, fidelity=False, **opts).table  # the tool-error check: once, by the caller
         d = t.params - p_ref
         d[:, angle_cols] = (d[:, angle_cols] + np.pi) % (2 * np.pi) - np.pi
-        return np.concatenate([(p_ref + d).ravel(), np.asarray(t.T_last_tool)[:3, 3], xv[n6 + n_rot :]])
+        return np.concatenate([(p_ref + d).ravel(), np.asarray(t.T_last_tool)[:3, 3], xv[n6 + n_rot : size]])
 
-    return _propagate(xs, cov, params_of)
+    J = _jacobian(xs, params_of)
+    J[:, size:] /= K_STEP  # (by the compliances themselves)
+    return J
 
 
-def _propagate(x: np.ndarray, cov: np.ndarray, f) -> np.ndarray:
-    """The covariance of f(x) (a flat vector, angles wrapped) from the covariance of x, by central differences."""
+#: The compliances' columns of :func:`_parameter_jacobian` step by this times its 1e-7 (rad/(N m)): a joint holding
+#: 5000 N m at home turns by 5e-7 rad (the extraction's linear range).
+K_STEP = 1e-3
+
+
+def _jacobian(x: np.ndarray, f) -> np.ndarray:
+    """The Jacobian of f(x) (a flat vector, angles wrapped) at x, by central differences."""
     y0 = f(x)
     J = np.zeros((len(y0), len(x)))
     for i in range(len(x)):
@@ -266,4 +295,4 @@ def _propagate(x: np.ndarray, cov: np.ndarray, f) -> np.ndarray:
         xm[i] -= h
         d = f(xp) - f(xm)
         J[:, i] = d / (2 * h)
-    return J @ cov @ J.T
+    return J

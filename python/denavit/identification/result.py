@@ -18,6 +18,7 @@ from .frames import (
     PARALLEL_TOL,
     _edh_parallel_tol,
     _parameter_cov,
+    _parameter_jacobian,
     nominal_convention_table,
     origins,
 )
@@ -180,6 +181,7 @@ class Identification:
             if c is not None and self.nominal.inertials is not None
             else None
         )
+        cov, cross = self._compliant_covariance(conv, table) if inertials is not None else (None, None)
         # compensate predicts the error after compensation from the covariance, and commands the readings through
         # the coupling and the reading scales (about the sweeps' home, where the identified offsets hold)
         return Robot(
@@ -192,15 +194,39 @@ class Identification:
             source=str(self.sweeps.source),
             home=self.sweeps.home,
             extra=dict(self.nominal.extra) if self.nominal else {},
-            covariance=self.parameter_covariance(conv),
+            covariance=self.parameter_covariance(conv) if cov is None else cov,
             coupling=self.coupling,
             reading_scale=self.reading_scale,
             reading_reference=None if self.reading_scale is None else np.asarray(self.sweeps.home, dtype=float),
             inertials=inertials,
             compliance=None if inertials is None else np.asarray(c["k"], dtype=float),
             compliance_covariance=None if inertials is None else np.asarray(c["cov"], dtype=float),
+            compliance_cross=cross,
             compliance_flange=None if inertials is None else self._flange(table),
         )
+
+    def _compliant_covariance(self, conv: str, table) -> tuple[np.ndarray, np.ndarray | None]:
+        """(the covariance of ``table``'s entries, their cross-covariance with the compliances) of :meth:`robot`: the
+        joint fit's covariance of the axes (and reading scales) with the compliances (``compliance["cross"]``), through
+        the extraction's Jacobian, by the compliances too: the table's offsets are the links' at home, the home less
+        ``k`` times the torques there (run._link_home). (None for the cross when the result does not carry it.)"""
+        c = self.compliance
+        base = self.parameter_covariance(conv)
+        if c.get("cross") is None:
+            return base, None
+        n = self.axes.nq
+        cov = self.axis_cov if self.axis_scale_cov is None else self.axis_scale_cov
+        x = np.concatenate(
+            [np.concatenate([self.axes.points[j], self.axes.directions[j]]) for j in range(n)] + [self.tool_point]
+        )
+        opts = self._extract_options(conv)
+        J = _parameter_jacobian(
+            x, len(cov), self.axes, self.sweeps, conv, opts, table.params, torque_home=c["torque_home"]
+        )
+        Ja, Jk = J[:, : len(cov)], J[:, len(cov) :]
+        X, Ck = np.asarray(c["cross"], dtype=float)[: len(cov)], np.asarray(c["cov"], dtype=float)
+        JX = Ja @ X
+        return base + JX @ Jk.T + Jk @ JX.T + Jk @ Ck @ Jk.T, JX + Jk @ Ck
 
     def _flange(self, table) -> np.ndarray | None:
         """The mechanical flange (where a payload's centre of mass is given: the nominal's) in ``table``'s last frame,

@@ -262,7 +262,9 @@ def _elastic(sweeps: SweepSet, nominal, compliance, payload, notes: list[str]):
 
 def _compliance_of(joint, sweeps: SweepSet, nominal, T_world_base, notes: list[str]) -> dict | None:
     """The identified compliances (the joint fit's, where it fitted them): ``k`` (n,) rad/(N m) (m/N prismatic; 0
-    where not fitted; >= 0), ``sigma`` (n,) (nan where not fitted), ``cov`` (n, n), ``held`` (n,) those fitted negative
+    where not fitted; >= 0), ``sigma`` (n,) (nan where not fitted), ``cov`` (n, n), ``cross`` (6n+3+n, n) their
+    covariance with [c_1, n_1, ..., tool point, reading scales] (the joint fit's: zero rows for scales not fitted; the
+    tool rotation's not carried), ``held`` (n,) those fitted negative
     and held at the bound 0 (with their sigmas: :meth:`~denavit.fitting.elastic._Compliances.bound_compliances`),
     ``torque_home`` (n,) N m the gravity torques at home without a payload (the axes fitted are the arm's under them:
     joint i's link sits at ``q_i - k_i (tau_i(q, payload) - torque_home_i)`` about them); None when not fitted. A note
@@ -277,7 +279,17 @@ def _compliance_of(joint, sweeps: SweepSet, nominal, T_world_base, notes: list[s
         notes.append(_held_note(j, names[j], sweeps.kinds[j], joint["compliance_negative"][j], sigma[j]))
     if T_world_base is not None:
         _tilt_note(nominal, np.asarray(T_world_base, dtype=float), notes)
-    return {"k": k, "sigma": sigma, "cov": joint["compliance_cov"], "held": held, "torque_home": joint["torque_home"]}
+    n6, X = 6 * len(k), np.asarray(joint["compliance_cross"], dtype=float)
+    H = (len(X) - n6 - len(k)) // 3  # (its home points averaged, as in the axes' covariance; the scales' rows last)
+    cross = np.vstack([X[:n6], X[n6 : n6 + 3 * H].reshape(H, 3, -1).mean(axis=0), X[n6 + 3 * H :]])
+    return {
+        "k": k,
+        "sigma": sigma,
+        "cov": joint["compliance_cov"],
+        "cross": cross,
+        "held": held,
+        "torque_home": joint["torque_home"],
+    }
 
 
 #: The angle (rad) between the measurement frame's z and the robot base's vertical above which the saved robot's
