@@ -626,8 +626,8 @@ def compliant_sigma(el, geometric, q, payload=None, *, registration: bool = Fals
 
 def _compliant_propagation(el, geometric, q, payload, registration: bool, place=None, point=None):
     """:func:`compliant_sigma`'s (J, C) (:func:`_propagation`): the calibration's own, else the geometry's
-    ``geometric`` (J, C) or None beside the compliances' (``-J_q diag(tau)``, their covariance), independent. With
-    ``place`` (:func:`_flange`), at the flange compensated: of ``point``, that model."""
+    ``geometric`` (J, C) or None beside the compliances' (``-J_q diag(tau)``, their covariance), correlated by their
+    cross block when it is carried. With ``place`` (:func:`_flange`), at the flange compensated: of ``point``."""
     q = np.atleast_2d(np.asarray(q, dtype=float))
     if el.calibration is not None:
         return _propagation(el.calibration, np.hstack([q, el.torques(q, payload)]), registration, place)
