@@ -163,6 +163,17 @@ def compliance_units(kinds) -> list:
     return ["rad/(N m)" if k == "revolute" else "m/N" for k in kinds]
 
 
+def held_note(label: str, unit: str, value: float, sigma: float) -> str:
+    """The note on a compliance (``label``, e.g. ``k_5`` or ``joint 2 (A2)``) held at its bound 0 (``k >= 0``), fitted
+    free at ``value`` < 0 (``unit``) with ``sigma``: calibrate's and identify's."""
+    z = -value / sigma if sigma > 0 else math.inf
+    why = "check the payload and the nominal's inertials" if z > 2 else "within the noise of 0"
+    return (
+        f"{label}: compliance held at 0 (k >= 0: a joint gives way under its torque), its sigma {sigma:.3g} from the"
+        f" data; fitted free it came to {value:.3g} {unit}, {z:.2g} sigma below 0: {why}"
+    )
+
+
 def checked_compliance(robot) -> np.ndarray | None:
     """A Robot's compliances (n,) SI, checked as a robot file's ``[compliance]`` is (a Robot built in Python too): one
     per joint, finite and >= 0 (a joint gives way under its torque); None for rigid joints."""

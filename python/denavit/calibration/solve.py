@@ -16,7 +16,7 @@ from ..fitting.robust import loss_weight
 from ..progress import Stage
 from ..robot import Robot, robot_of
 from ..sweeps import SweepSet
-from .compliance import with_compliance, with_payload
+from .compliance import held_note, with_compliance, with_payload
 from .identifiability import analyze, parameter_status, plausible_sigmas
 from .least_squares import covariance, fit_parameters, prior_block, residuals, weights
 from .measurements import Measurements
@@ -311,7 +311,7 @@ class _Run:
         )
         for c in bound:
             status[c] = AT_BOUND
-            self.notes.append(_bound_note(pz, c, won.at_bound[pz.names[c]], sigma[c]))
+            self.notes.append(held_note(pz.names[c], pz.units[c], won.at_bound[pz.names[c]], sigma[c]))
         res_si, rms, rms_rot, outliers = _misfits(pz, x_hat, meas, r, w)
         validation = _held_out(pz, meas, train, self.test_idx, self.x_reg, x_hat)
         converged = sol is None or sol.status > 0
@@ -519,16 +519,6 @@ def _robust_fit(pz, x_hat, free, sol, train, w, loss, f_scale, prior_rows):
 
 #: The status of a compliance fitted negative and held at its bound (``k >= 0``): estimated, at 0, with its sigma.
 AT_BOUND = "held at 0 (k >= 0)"
-
-
-def _bound_note(pz, c: int, value: float, sigma: float) -> str:
-    """The note on compliance ``c`` held at its bound 0, fitted at ``value`` < 0 with ``sigma`` (SI), as identify's."""
-    z = -value / sigma if sigma > 0 else math.inf
-    why = "check the payload and the nominal's inertials" if z > 2 else "within the noise of 0"
-    return (
-        f"{pz.names[c]}: compliance held at 0 (k >= 0: a joint gives way under its torque), its sigma {sigma:.3g} from"
-        f" the data; fitted free it came to {value:.3g} {pz.units[c]}, {z:.2g} sigma below 0: {why}"
-    )
 
 
 def _posterior(pz, x_hat, free, train, w, r, wt, known, robust_s2, s2_full, prior_rows):

@@ -571,18 +571,6 @@ def _compliance_list(g: dict) -> str:
     )
 
 
-def _held_note(j: int, name: str, kind: str, value: float, sigma: float) -> str:
-    """The note on joint ``j``'s (0-based) compliance held at its bound 0 (k >= 0), fitted at ``value`` < 0 with
-    ``sigma`` (SI)."""
-    unit = "rad/(N m)" if kind == "revolute" else "m/N"
-    z = -value / sigma if sigma > 0 else math.inf
-    why = "check the payload and the nominal's inertials" if z > 2 else "within the noise of 0"
-    return (
-        f"joint {j + 1} ({name}): compliance held at 0 (k >= 0: a joint gives way under its torque); fitted free it "
-        f"came to {value:.3g} {unit}, {z:.1f} sigma below 0: {why}"
-    )
-
-
 def _torques(sweeps: SweepSet, dqs: list, model) -> tuple[np.ndarray, list]:
     """(the gravity torques (N m; N for a prismatic joint) the joints hold at home without a payload (n,), per sweep
     (m, n) those they hold at each pose (home plus the joint fit's motion, with the pose's payload) less those at home):

@@ -16,7 +16,7 @@ from ..message import Length, Message
 from ..progress import Stage
 from ..robot import Robot
 from ..sweeps import SweepSet
-from .choice import _choose, _held_note
+from .choice import _choose
 from .frames import (
     PARALLEL_TOL,
     SHORT_ARC_SIGMA,
@@ -275,8 +275,11 @@ def _compliance_of(joint, sweeps: SweepSet, nominal, T_world_base, notes: list[s
     k, sigma = np.array(joint["compliance"], dtype=float), joint["compliance_sigma"]
     held = np.asarray(joint["compliance_held"], dtype=bool)
     names = nominal.names if nominal is not None else [f"j{j + 1}" for j in range(len(k))]
+    from ..calibration.compliance import compliance_units, held_note  # noqa: PLC0415
+
+    units = compliance_units(sweeps.kinds)
     for j in np.flatnonzero(held):
-        notes.append(_held_note(j, names[j], sweeps.kinds[j], joint["compliance_negative"][j], sigma[j]))
+        notes.append(held_note(f"joint {j + 1} ({names[j]})", units[j], joint["compliance_negative"][j], sigma[j]))
     if T_world_base is not None:
         _tilt_note(nominal, np.asarray(T_world_base, dtype=float), notes)
     n6, X = 6 * len(k), np.asarray(joint["compliance_cross"], dtype=float)
