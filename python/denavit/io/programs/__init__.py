@@ -448,26 +448,29 @@ def program_pose(point: Point, T_flange: np.ndarray, flange_rot: np.ndarray) -> 
 
 @dataclass
 class ProgramCompensation:
-    """The compensation of a program: ``program``, ``new_values`` ({point index: values}, the points rewritten),
-    ``compensation`` (:class:`denavit.compensation.Compensation` of the points compensated, in ``rows``'s order),
-    ``rows`` (point indices), ``q_program`` (N, n) each row's configuration on the nominal, ``left`` [(where, why)]
-    the points left as they were, ``configs`` ({point index: the vendor's configuration}) the points whose
-    configuration is rewritten with their position (:func:`relabelled`), ``relabelled`` [(where, why)] the same,
-    listed."""
+    """The compensation of a program: ``program``, ``new_values`` (:class:`Rewrites`: {point index: values}, the points
+    rewritten, with their configurations), ``compensation`` (:class:`denavit.compensation.Compensation` of the points
+    compensated, in ``rows``'s order), ``rows`` (point indices), ``q_program`` (N, n) each row's configuration on the
+    nominal, ``left`` [(where, why)] the points left as they were, ``relabelled`` [(where, why)] the points whose
+    configuration is rewritten with their position (:func:`relabelled`), listed; :attr:`configs` those."""
 
     program: Program
-    new_values: dict
+    new_values: Rewrites
     compensation: object
     rows: list
     q_program: np.ndarray
     left: list
     positions: np.ndarray
-    configs: dict = field(default_factory=dict)
     relabelled: list = field(default_factory=list)
 
+    @property
+    def configs(self) -> dict:
+        """{point index: the vendor's configuration} of the points whose configuration is rewritten."""
+        return self.new_values.configs
+
     def write(self, output: str | os.PathLike, *, force: bool = False) -> list[str]:
-        """Write the program compensated to ``output`` (:func:`write_program`: ``new_values``, ``configs``)."""
-        return write_program(self.program, output, self.new_values, configs=self.configs, force=force)
+        """Write the program compensated to ``output`` (:func:`write_program`)."""
+        return write_program(self.program, output, self.new_values, force=force)
 
 
 def configuration_solution(
@@ -557,7 +560,7 @@ def compensate_program(
     T = np.array(positions).reshape(-1, 4, 4)
     Q = np.array(qs).reshape(-1, model.nq)
     if not rows:
-        return ProgramCompensation(program, {}, None, [], Q, left, T)
+        return ProgramCompensation(program, Rewrites(), None, [], Q, left, T)
     c = cp.compensate(
         flange_robot,
         identified,
@@ -602,7 +605,7 @@ def compensate_program(
             configs[k] = r[0]
             relabels.append((p.where, r[1]))
         new[k] = v.pose_values(program_pose(p, c.commands[i], F), p)
-    return ProgramCompensation(program, Rewrites(new, configs), c, rows, Q, left, T, configs, relabels)
+    return ProgramCompensation(program, Rewrites(new, configs), c, rows, Q, left, T, relabels)
 
 
 def relabelled(v, model, config, q_nominal: np.ndarray, q_command: np.ndarray, cache: dict, tol: float):
