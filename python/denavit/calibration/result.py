@@ -129,11 +129,10 @@ class Calibration:
         home = np.zeros(len(robot.names))
         # the nominal where the calibration registered the robot (the measurement frame's base, as identify's --base):
         # its frame origins on the body, not where the nominal's own world puts them (a tracker 2 m away)
-        t = robot.table
-        base = np.asarray(self.model().T_world_base)
-        robot = replace(robot, table=_core.Table(t.convention, t.params, t.kinds, base, t.T_last_tool))
+        t, m = robot.table, self.model()
+        robot = replace(robot, table=_core.Table(t.convention, t.params, t.kinds, m.T_world_base, t.T_last_tool))
         ref = nominal_convention_table(robot, convention, home)
-        opts = {"nominal": ref, "origins": origins(ref, convention, home, _core.axes(self.model(), home))}
+        opts = {"nominal": ref, "origins": origins(ref, convention, home, _core.axes(m, home))}
         if convention == "edh":
             opts["parallel_tol"] = self._edh_parallel_tol()
         return opts
